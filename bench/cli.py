@@ -1,0 +1,60 @@
+"""The ``bench`` command line: a thin dispatcher over the stage packages.
+
+Each subcommand lives in its own module exposing ``add_arguments(parser)`` and
+``run(args) -> int``; this file only wires them up, imports them lazily and
+turns :class:`bench.errors.InputError` into a clear message and exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from bench.errors import InputError
+
+#: subcommand -> (module, one-line help)
+SUBCOMMANDS: dict[str, tuple[str, str]] = {
+    "synth": ("bench.synth.cli", "generate a deterministic synthetic bench campaign"),
+    "ingest": ("bench.ingest.cli", "ingest bench logs into the Parquet store"),
+    "fit": ("fitting.cli", "efficiency map, power model fit, model selection, export"),
+    "optimize": ("optimize.cli", "periodic pumping-cycle optimization over a wind grid"),
+    "report": ("reports.cli", "render the self-contained HTML report"),
+    "run": ("bench.run_cli", "ingest, fit, optimize and report in one go"),
+}
+
+
+def _load(module_name: str):
+    return importlib.import_module(module_name)
+
+
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """Build the top-level parser; only the requested subcommand's module is imported."""
+    parser = argparse.ArgumentParser(
+        prog="bench",
+        description="drivebench: from winch-drive bench logs to electrically optimal AWE cycles",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    wanted = next((a for a in (argv or []) if not a.startswith("-")), None)
+    for name, (module_name, help_text) in SUBCOMMANDS.items():
+        sp = sub.add_parser(name, help=help_text, description=help_text)
+        if name == wanted:
+            _load(module_name).add_arguments(sp)
+            sp.set_defaults(_module=module_name)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``bench`` console script."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(argv)
+    args = parser.parse_args(argv)
+    try:
+        return int(_load(args._module).run(args) or 0)
+    except InputError as exc:
+        print(f"bench {args.command}: error: {exc.describe()}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

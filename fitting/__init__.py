@@ -1,0 +1,1 @@
+"""drivebench stage package: fitting."""
