@@ -1,3 +1,3 @@
-"""drivebench: bench logs of a winch drive -> Parquet store (this package: CLI, ingestion, store)."""
+"""drivebench: winch-drive bench logs -> Parquet store (CLI, ingestion, store)."""
 
 __version__ = "0.1.0"
