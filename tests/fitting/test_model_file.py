@@ -1,0 +1,216 @@
+"""Power model file: round trip, CasADi = numpy, REFERENCE sanity values, refusals."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from bench.errors import InputError
+from fitting.model_file import (
+    PAPER_MODEL_PATH,
+    PowerModel,
+    load_power_model,
+    paper_model,
+    save_power_model,
+)
+
+
+def _odd_model() -> PowerModel:
+    """A model with an unusual term list (high and mixed orders) and a covariance."""
+    terms = ((0, 0), (1, 0), (0, 1), (3, 1), (2, 2), (0, 4), (6, 0), (1, 3))
+    rng = np.random.default_rng(7)
+    coefs = tuple(rng.normal(size=len(terms)) * 10.0 ** -np.arange(len(terms)))
+    a = rng.normal(size=(len(terms), len(terms)))
+    cov = a @ a.T * 1e-6
+    return PowerModel(
+        terms=terms,
+        coefficients_rpm=coefs,
+        covariance_rpm=tuple(map(tuple, cov)),
+        nominal_power_w=8200.0,
+        name="odd",
+        domain={"motor": [[0.0, 0.0], [1500.0, 0.0], [1500.0, 78.0]]},
+        masking={"mech_frac": 0.01},
+        statistics={"r2": 0.99},
+        provenance={"command": "test"},
+    )
+
+
+def test_reference_sanity_values():
+    # REFERENCE.md §1: at -1500 rpm, 78 N m the drive delivers 11.04 kW of 12.25 kW
+    # shaft power; at -50 rpm, 78 N m it still draws about +279 W. The reference
+    # quotes 4 significant digits, hence rtol 1e-3 (and 1 W for the 279 W value).
+    m = paper_model()
+    assert m.p_elec_w(-1500.0, 78.0) == pytest.approx(-11040.0, rel=1e-3)
+    p_mech = -1500.0 * 2 * math.pi / 60 * 78.0
+    assert p_mech == pytest.approx(-12250.0, rel=1e-3)
+    assert m.p_elec_w(-50.0, 78.0) == pytest.approx(279.0, abs=1.0)
+    assert m.nominal_power_w == 8200.0
+    assert m.terms == ((0, 0), (2, 0), (0, 2), (1, 1))
+    assert PAPER_MODEL_PATH.name == "paper_drive_model.json"
+
+
+def test_si_evaluation_equals_rpm_evaluation():
+    # Same physical point in both unit systems: must agree to rounding (rtol 1e-12).
+    m = _odd_model()
+    rpm = np.linspace(-3000, 1500, 7)
+    t = np.linspace(0, 78, 7)
+    np.testing.assert_allclose(
+        m.p_elec_w_si(rpm * 2 * np.pi / 60, t), m.p_elec_w(rpm, t), rtol=1e-12, atol=1e-9
+    )
+    # covariance transforms like the coefficients: var(c_si) = var(c_rpm) * s**2
+    s = (60 / (2 * np.pi)) ** np.array([i for i, _ in m.terms])
+    np.testing.assert_allclose(np.diag(m.covariance_si), np.diag(m.covariance_rpm) * s**2,
+                               rtol=1e-12)
+
+
+def test_numpy_broadcasting():
+    m = paper_model()
+    out = m.p_elec_w(np.array([[-1500.0], [0.0], [1500.0]]), np.array([0.0, 39.0, 78.0]))
+    assert out.shape == (3, 3)
+    # hand calculation at 0 rpm, 39 N m: a0 + a2 * 39^2
+    assert out[1, 1] == pytest.approx(293.5816373499238 + 0.0665919381751 * 39.0**2, rel=1e-14)
+
+
+@pytest.mark.parametrize("model_fn", [paper_model, _odd_model])
+@pytest.mark.parametrize("sym", [ca.SX, ca.MX])
+def test_casadi_equals_numpy(model_fn, sym):
+    # Independent evaluation paths (numpy arrays vs a CasADi graph); only
+    # floating-point rounding differs, so rtol 1e-12.
+    m = model_fn()
+    w = sym.sym("w")
+    t = sym.sym("t")
+    f = ca.Function("p", [w, t], [m.casadi_p_elec_w(w, t)])
+    rng = np.random.default_rng(0)
+    speeds = rng.uniform(-3000, 1500, 50)
+    torques = rng.uniform(0, 78, 50)
+    got = np.array([float(f(a, b)) for a, b in zip(speeds, torques, strict=True)])
+    np.testing.assert_allclose(got, m.p_elec_w(speeds, torques), rtol=1e-12)
+    # DM and float inputs work too
+    assert float(m.casadi_p_elec_w(ca.DM(-50.0), 78.0)) == pytest.approx(
+        float(m.p_elec_w(-50.0, 78.0)), rel=1e-12
+    )
+    fs = ca.Function("ps", [w, t], [m.casadi_p_elec_w_si(w, t)])
+    assert float(fs(-1500 * 2 * np.pi / 60, 78.0)) == pytest.approx(
+        float(m.p_elec_w(-1500.0, 78.0)), rel=1e-12
+    )
+
+
+def test_round_trip(tmp_path):
+    m = _odd_model()
+    path = save_power_model(m, tmp_path / "power_model.json")
+    back = load_power_model(path)
+    assert back == m
+    assert back.sha256 == m.sha256
+    data = json.loads(path.read_text())
+    assert data["units"]["speed"] == {"rpm": "rpm", "si": "rad/s"}
+    assert "negative" in data["sign_convention"]
+    assert len(data["coefficients"]["si"]) == len(m.terms)
+    # no temp files left beside it
+    assert [p.name for p in tmp_path.iterdir()] == ["power_model.json"]
+
+
+def test_sha256_changes_with_content():
+    m = paper_model()
+    other = PowerModel(
+        terms=m.terms,
+        coefficients_rpm=(m.coefficients_rpm[0] + 1.0,) + m.coefficients_rpm[1:],
+        covariance_rpm=None,
+        nominal_power_w=m.nominal_power_w,
+        name=m.name,
+        domain=m.domain,
+        provenance=m.provenance,
+    )
+    assert len(m.sha256) == 64
+    assert other.sha256 != m.sha256
+
+
+def _paper_dict() -> dict:
+    return json.loads(PAPER_MODEL_PATH.read_text())
+
+
+def _mutations():
+    def drop(key):
+        def f(d):
+            del d[key]
+        return f
+
+    def setter(path, value):
+        def f(d):
+            target = d
+            for k in path[:-1]:
+                target = target[k]
+            target[path[-1]] = value
+        return f
+
+    return [
+        ("schema", setter(["schema"], "drivebench.something_else")),
+        ("schema_version", setter(["schema_version"], 2)),
+        ("terms", drop("terms")),
+        ("coefficients", drop("coefficients")),
+        ("nominal_power_w", drop("nominal_power_w")),
+        ("provenance", drop("provenance")),
+        ("coefficients.rpm", setter(["coefficients", "rpm"], [1.0, 2.0, 3.0])),
+        ("coefficients.si", setter(["coefficients", "si"], [1.0, 2.0, 3.0, 4.0])),
+        ("terms[1]", setter(["terms", 1], [-2, 0])),
+        ("terms[0]", setter(["terms", 0], [0, 0.5])),
+        ("terms[2]", setter(["terms", 2], [0, 2, 1])),
+        ("covariance", setter(["covariance"], [[1.0]])),
+        ("covariance.rpm", setter(["covariance"], {"rpm": [[1.0] * 4] * 3, "si": [[1.0] * 4] * 4})),
+        ("nominal_power_w", setter(["nominal_power_w"], -1.0)),
+        ("bogus", setter(["bogus"], 1)),
+        ("units", setter(["units"], {"speed": "rad/s", "torque": "N m", "power": "kW"})),
+        ("domain", setter(["domain"], [1, 2])),
+    ]
+
+
+@pytest.mark.parametrize("field,mutate", _mutations(), ids=[m[0] for m in _mutations()])
+def test_malformed_fields_refused(tmp_path, field, mutate):
+    d = _paper_dict()
+    mutate(d)
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(d))
+    with pytest.raises(InputError) as err:
+        load_power_model(path)
+    msg = err.value.describe()
+    assert str(path) in msg
+    assert field in msg
+
+
+def test_non_finite_refused(tmp_path):
+    text = PAPER_MODEL_PATH.read_text().replace("293.5816373499238", "NaN", 1)
+    path = tmp_path / "nan.json"
+    path.write_text(text)
+    with pytest.raises(InputError, match="non-finite"):
+        load_power_model(path)
+    d = _paper_dict()
+    d["coefficients"]["rpm"][0] = 1e400  # json.loads turns this into inf
+    path.write_text(json.dumps(d).replace("Infinity", "1e400"))
+    with pytest.raises(InputError, match="coefficients.rpm"):
+        load_power_model(path)
+
+
+def test_not_json_and_missing_file_refused(tmp_path):
+    path = tmp_path / "broken.json"
+    path.write_text('{"schema": "drivebench.power_model",\n  "terms": [[0, 0]')
+    with pytest.raises(InputError) as err:
+        load_power_model(path)
+    assert "not valid JSON" in err.value.describe()
+    assert err.value.line == 2
+    with pytest.raises(InputError, match="file not found"):
+        load_power_model(tmp_path / "nope.json")
+    path.write_text("[1, 2]")
+    with pytest.raises(InputError, match="not a JSON object"):
+        load_power_model(path)
+
+
+def test_constructor_rejects_bad_model():
+    with pytest.raises(ValueError, match="negative"):
+        PowerModel(terms=((-1, 0),), coefficients_rpm=(1.0,), covariance_rpm=None,
+                   nominal_power_w=1.0, name="x")
+    with pytest.raises(ValueError, match="coefficients"):
+        PowerModel(terms=((0, 0),), coefficients_rpm=(1.0, 2.0), covariance_rpm=None,
+                   nominal_power_w=1.0, name="x")
