@@ -1,0 +1,222 @@
+"""Executors for the sweep: a local process pool or a Dask cluster, plus progress.
+
+Any :class:`concurrent.futures.Executor` runs the sweep; each chain is one task.
+:func:`open_executor` makes the two supported ones:
+
+* a :class:`~concurrent.futures.ProcessPoolExecutor` with ``workers`` processes
+  (``spawn`` start method: CasADi/IPOPT and the tqdm thread of the parent are
+  not fork-safe);
+* with ``scheduler`` given, the executor of a ``distributed.Client`` connected to
+  that Dask scheduler address (optional extra ``drivebench[dask]``). Start the
+  Dask workers with ``--nthreads 1``: one solve at a time per process.
+
+Workers report progress through a *channel*: an object with ``put(dict)`` that
+is shipped with the task, and ``drain()`` on the driver side. A
+``multiprocessing`` manager queue serves the process pool, a
+``distributed.Queue`` the Dask cluster, a plain queue in-process executors.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import queue
+import uuid
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Executor, Future, ProcessPoolExecutor, wait
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any
+
+from bench.errors import InputError
+
+
+class LocalChannel:
+    """Progress channel for executors that share the driver's memory (threads)."""
+
+    def __init__(self) -> None:
+        self._queue: queue.Queue = queue.Queue()
+
+    def put(self, item: dict) -> None:
+        """Called by a task: report one event."""
+        self._queue.put(item)
+
+    def drain(self) -> list[dict]:
+        """Called by the driver: every event reported so far."""
+        items = []
+        while True:
+            try:
+                items.append(self._queue.get_nowait())
+            except queue.Empty:
+                return items
+
+
+class ManagerChannel:
+    """Progress channel over a ``multiprocessing`` manager queue (picklable proxy)."""
+
+    def __init__(self, proxy: Any) -> None:
+        self._queue = proxy
+
+    def put(self, item: dict) -> None:
+        """Called by a task in a worker process."""
+        self._queue.put(item)
+
+    def drain(self) -> list[dict]:
+        """Called by the driver."""
+        items = []
+        while True:
+            try:
+                items.append(self._queue.get_nowait())
+            except queue.Empty:
+                return items
+
+
+class DaskChannel:
+    """Progress channel over a named ``distributed.Queue`` (re-attached on each worker)."""
+
+    def __init__(self, name: str, client: Any = None) -> None:
+        self.name = name
+        self._client = client
+
+    def __getstate__(self) -> dict:
+        return {"name": self.name}
+
+    def __setstate__(self, state: dict) -> None:
+        self.name = state["name"]
+        self._client = None
+
+    def _queue(self) -> Any:
+        from distributed import Queue
+
+        return Queue(self.name, client=self._client)
+
+    def put(self, item: dict) -> None:
+        """Called by a task on a Dask worker."""
+        self._queue().put(item)
+
+    def drain(self) -> list[dict]:
+        """Called by the driver."""
+        q = self._queue()
+        return list(q.get(batch=True)) if q.qsize() else []
+
+
+@dataclass
+class ExecutorHandle:
+    """An open executor with its progress channel.
+
+    Attributes
+    ----------
+    executor : Executor
+    channel : LocalChannel or ManagerChannel or DaskChannel
+    description : str
+        For logs and the manifest, e.g. ``"process pool, 2 workers"``.
+    n_workers : int
+        Number of tasks that can run at the same time.
+    """
+
+    executor: Executor
+    channel: Any
+    description: str
+    n_workers: int
+
+
+def _dask_client(scheduler: str) -> Any:
+    try:
+        from distributed import Client
+    except ImportError as exc:
+        raise InputError(
+            None,
+            f"--scheduler {scheduler!r}: the Dask extra is not installed",
+            expected="pip install 'drivebench[dask]'",
+        ) from exc
+    try:
+        return Client(scheduler, timeout="20s")
+    except (OSError, TimeoutError) as exc:
+        raise InputError(
+            None,
+            f"--scheduler {scheduler!r}: cannot connect ({exc})",
+            expected="the address of a running Dask scheduler, e.g. tcp://host:8786",
+        ) from exc
+
+
+@contextmanager
+def open_executor(workers: int = 2, scheduler: str | None = None) -> Iterator[ExecutorHandle]:
+    """Open the sweep's executor; closes it (and its channel) on exit.
+
+    Parameters
+    ----------
+    workers : int
+        Size of the local process pool (ignored with ``scheduler``); >= 1.
+    scheduler : str, optional
+        Address of a running Dask scheduler (``tcp://host:8786``).
+
+    Yields
+    ------
+    ExecutorHandle
+
+    Raises
+    ------
+    InputError
+        If ``workers`` < 1, the Dask extra is missing or the scheduler is unreachable.
+    """
+    if scheduler:
+        client = _dask_client(scheduler)
+        try:
+            n = max(1, sum(client.nthreads().values()))
+            channel = DaskChannel(f"drivebench-progress-{uuid.uuid4().hex}", client)
+            description = f"dask scheduler {scheduler}, {n} slots"
+            yield ExecutorHandle(client.get_executor(pure=False), channel, description, n)
+        finally:
+            client.close()
+        return
+    if workers < 1:
+        raise InputError(None, f"--workers {workers}: not >= 1", expected="a positive integer")
+    ctx = multiprocessing.get_context("spawn")
+    with ctx.Manager() as manager, ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as ex:
+        plural = "s" if workers > 1 else ""
+        yield ExecutorHandle(
+            ex, ManagerChannel(manager.Queue()), f"process pool, {workers} worker{plural}", workers
+        )
+
+
+def run_tasks(
+    executor: Executor,
+    fn: Callable[..., Any],
+    tasks: Sequence[Any],
+    channel: Any = None,
+    on_event: Callable[[dict], None] | None = None,
+    poll_s: float = 0.25,
+) -> list[Future]:
+    """Submit ``fn(task, progress=channel)`` for every task; relay progress until all finish.
+
+    Parameters
+    ----------
+    executor : Executor
+        Any ``concurrent.futures`` executor.
+    fn : callable
+        Module-level (picklable) function run on the worker.
+    tasks : sequence
+        One argument per task.
+    channel : optional
+        Progress channel passed to ``fn`` as ``progress``; drained every
+        ``poll_s`` seconds into ``on_event``.
+    on_event : callable, optional
+        Receives each progress event (a dict) in the driver.
+    poll_s : float
+        Polling period [s].
+
+    Returns
+    -------
+    list of Future
+        In task order, all done; a task's exception stays in its future.
+    """
+    futures = [executor.submit(fn, task, progress=channel) for task in tasks]
+    pending = set(futures)
+    while pending:
+        _, pending = wait(pending, timeout=poll_s)
+        if channel is not None and on_event is not None:
+            for event in channel.drain():
+                on_event(event)
+    if channel is not None and on_event is not None:
+        for event in channel.drain():
+            on_event(event)
+    return futures

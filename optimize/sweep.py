@@ -1,0 +1,295 @@
+"""The scenario sweep: wind grid, scenario kinds, continuation order and chain planning.
+
+A sweep is every selected scenario *kind* (objective x drive limits, e.g.
+``elec-lim``) at every wind speed of a grid. Solving each of them cold (homotopy)
+would be slow, so the sweep is planned as *chains* of warm-started solves:
+
+* each chain starts with one cold start at the middle wind speed of its first
+  kind, then continues along the wind grid outwards from that middle speed,
+  every solve warm-started from its inner neighbour;
+* the next kind of the same chain starts at the middle speed from the previous
+  kind's middle solution (an objective or limit switch), then goes outwards again;
+* every step also lists fallback sources (other already-solved neighbours);
+  when all of them fail the runner falls back to a fresh cold start.
+
+Chains are independent of one another, so they run in parallel, one chain per
+task (a warm-start chain never leaves its worker). Kinds are grouped so that the
+chains have equal numbers of solves: with two workers the default 20-scenario
+sweep splits into ``elec-lim + elec-free`` and ``mech-lim + mech-free``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from bench.errors import InputError
+
+#: scenario kind -> (objective, drive limits on)
+KINDS: dict[str, tuple[str, bool]] = {
+    "elec-lim": ("electrical", True),
+    "elec-free": ("electrical", False),
+    "mech-lim": ("mechanical", True),
+    "mech-free": ("mechanical", False),
+}
+DEFAULT_WIND_GRID = "4:10:1.5"
+DEFAULT_KINDS = "elec-lim,elec-free,mech-lim,mech-free"
+#: a generous bound on the number of wind speeds (each is one solve per kind)
+MAX_WIND_SPEEDS = 200
+
+
+def scenario_name(kind: str, wind_speed_m_s: float) -> str:
+    """Name of a scenario, e.g. ``"elec-lim-7.0"`` (kind, then wind speed [m/s])."""
+    return (
+        f"{kind}-{wind_speed_m_s:.1f}"
+        if round(wind_speed_m_s, 1) == wind_speed_m_s
+        else (f"{kind}-{wind_speed_m_s:g}")
+    )
+
+
+def _bad_grid(spec: str, problem: str) -> InputError:
+    return InputError(
+        None,
+        f"--wind-grid {spec!r}: {problem}",
+        expected="START:STOP:STEP (endpoints included, e.g. 4:10:1.5), "
+        "a comma list (4,5.5,7) or one speed, in m/s, all > 0",
+    )
+
+
+def _number(spec: str, text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise _bad_grid(spec, f"{text.strip()!r} is not a number") from None
+    if not math.isfinite(value):
+        raise _bad_grid(spec, f"{text.strip()!r} is not finite")
+    return value
+
+
+def parse_wind_grid(spec: str) -> tuple[float, ...]:
+    """Parse a wind grid specification into sorted wind speeds [m/s].
+
+    Parameters
+    ----------
+    spec : str
+        ``START:STOP:STEP`` with both endpoints included (``4:10:1.5`` ->
+        4, 5.5, 7, 8.5, 10); ``STOP - START`` must be a whole multiple of
+        ``STEP``. Or a comma-separated list (``4,5.5,7``), or one speed.
+
+    Returns
+    -------
+    tuple of float
+        Strictly increasing wind speeds at 100 m altitude [m/s].
+
+    Raises
+    ------
+    InputError
+        On anything else: non-numbers, speeds <= 0, a step <= 0, a stop below
+        the start, a stop that is not on the grid, duplicates, or more than
+        :data:`MAX_WIND_SPEEDS` speeds.
+    """
+    text = spec.strip()
+    if not text:
+        raise _bad_grid(spec, "empty")
+    if ":" in text:
+        parts = text.split(":")
+        if len(parts) != 3:
+            raise _bad_grid(spec, f"{len(parts)} fields separated by ':'")
+        start, stop, step = (_number(spec, p) for p in parts)
+        if step <= 0:
+            raise _bad_grid(spec, f"step {step:g} is not > 0")
+        if stop < start:
+            raise _bad_grid(spec, f"stop {stop:g} is below start {start:g}")
+        n_steps = (stop - start) / step
+        if n_steps + 1 > MAX_WIND_SPEEDS:
+            raise _bad_grid(spec, f"{math.floor(n_steps) + 1} speeds, more than {MAX_WIND_SPEEDS}")
+        n_whole = round(n_steps)
+        if abs(n_steps - n_whole) > 1e-9 * max(1.0, n_steps):
+            raise _bad_grid(
+                spec, f"stop {stop:g} is not start {start:g} plus a whole number of steps {step:g}"
+            )
+        winds = [round(start + i * step, 9) for i in range(n_whole + 1)]
+        winds[-1] = stop
+    else:
+        winds = [_number(spec, p) for p in text.split(",")]
+        if len(winds) > MAX_WIND_SPEEDS:
+            raise _bad_grid(spec, f"{len(winds)} speeds, more than {MAX_WIND_SPEEDS}")
+    bad = [w for w in winds if w <= 0]
+    if bad:
+        raise _bad_grid(spec, f"wind speed {bad[0]:g} is not > 0")
+    ordered = sorted(winds)
+    dupes = [a for a, b in zip(ordered, ordered[1:], strict=False) if a == b]
+    if dupes:
+        raise _bad_grid(spec, f"wind speed {dupes[0]:g} appears twice")
+    return tuple(ordered)
+
+
+def parse_kinds(spec: str) -> tuple[str, ...]:
+    """Parse ``--scenarios`` (comma list of kinds of :data:`KINDS`) into kinds, in given order.
+
+    Raises
+    ------
+    InputError
+        On an unknown or repeated kind, or an empty list.
+    """
+    kinds = tuple(k.strip() for k in spec.split(",") if k.strip())
+    expected = "a comma list of " + ", ".join(KINDS)
+    if not kinds:
+        raise InputError(None, f"--scenarios {spec!r}: no scenario kind given", expected=expected)
+    for k in kinds:
+        if k not in KINDS:
+            raise InputError(None, f"--scenarios {spec!r}: unknown kind {k!r}", expected=expected)
+    if len(set(kinds)) != len(kinds):
+        raise InputError(None, f"--scenarios {spec!r}: a kind appears twice", expected=expected)
+    return kinds
+
+
+def middle_index(winds: tuple[float, ...]) -> int:
+    """Index of the middle wind speed (the lower middle for an even count)."""
+    return (len(winds) - 1) // 2
+
+
+def continuation_order(winds: tuple[float, ...]) -> list[tuple[float, float | None]]:
+    """Order the wind speeds outwards from the middle one, alternating above and below.
+
+    Returns
+    -------
+    list of (wind, source)
+        ``source`` is the inner neighbour [m/s] the solve is warm-started from;
+        ``None`` for the middle speed (where a chain starts). For 4:10:1.5:
+        ``[(7, None), (8.5, 7), (5.5, 7), (10, 8.5), (4, 5.5)]``.
+    """
+    mid = middle_index(winds)
+    order: list[tuple[float, float | None]] = [(winds[mid], None)]
+    up, down = mid + 1, mid - 1
+    while up < len(winds) or down >= 0:
+        if up < len(winds):
+            order.append((winds[up], winds[up - 1]))
+            up += 1
+        if down >= 0:
+            order.append((winds[down], winds[down + 1]))
+            down -= 1
+    return order
+
+
+@dataclass(frozen=True)
+class Step:
+    """One solve of a chain.
+
+    Attributes
+    ----------
+    kind : str
+        Scenario kind (key of :data:`KINDS`).
+    wind_speed_m_s : float
+        Wind speed at 100 m [m/s].
+    warm_from : str or None
+        Name of the scenario (solved earlier in the same chain) whose primal and
+        dual solution warm-starts this one; ``None`` means a cold start (homotopy).
+    fallbacks : tuple of str
+        Other earlier scenarios to warm-start from, in order, when the primary
+        source failed or its solve fails. A cold start is the last resort.
+    """
+
+    kind: str
+    wind_speed_m_s: float
+    warm_from: str | None
+    fallbacks: tuple[str, ...] = ()
+
+    @property
+    def name(self) -> str:
+        """Scenario name, e.g. ``"elec-lim-7.0"``."""
+        return scenario_name(self.kind, self.wind_speed_m_s)
+
+    @property
+    def objective(self) -> str:
+        """``"electrical"`` or ``"mechanical"``."""
+        return KINDS[self.kind][0]
+
+    @property
+    def drive_limits(self) -> bool:
+        """Whether the drive limits (|rpm| <= 1500, torque <= 78 N m) apply."""
+        return KINDS[self.kind][1]
+
+
+@dataclass(frozen=True)
+class Chain:
+    """A sequence of warm-started solves that runs on one worker."""
+
+    index: int
+    steps: tuple[Step, ...]
+
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        """The scenario kinds of this chain, in solve order."""
+        return tuple(dict.fromkeys(s.kind for s in self.steps))
+
+
+def group_kinds(kinds: tuple[str, ...], n_chains: int) -> list[tuple[str, ...]]:
+    """Split kinds into at most ``n_chains`` groups of near-equal size.
+
+    Kinds of the same objective are put next to each other first (so a chain
+    switches limits on/off rather than the objective where it can), then the
+    list is cut into contiguous groups whose sizes differ by at most one.
+    """
+    if n_chains < 1:
+        raise ValueError(f"n_chains must be >= 1, got {n_chains}")
+    objectives = list(dict.fromkeys(KINDS[k][0] for k in kinds))
+    ordered = [k for obj in objectives for k in kinds if KINDS[k][0] == obj]
+    n = min(n_chains, len(ordered))
+    base, extra = divmod(len(ordered), n)
+    groups, start = [], 0
+    for i in range(n):
+        size = base + (1 if i < extra else 0)
+        groups.append(tuple(ordered[start : start + size]))
+        start += size
+    return groups
+
+
+def _chain_steps(kinds: tuple[str, ...], winds: tuple[float, ...]) -> tuple[Step, ...]:
+    order = continuation_order(winds)
+    mid_wind = order[0][0]
+    steps: list[Step] = []
+    solved: list[tuple[str, float]] = []  # (kind, wind) solved earlier in this chain
+
+    def fallbacks(kind: str, wind: float, primary: str | None) -> tuple[str, ...]:
+        # nearest wind first; at equal distance the same kind first
+        ranked = sorted(solved, key=lambda kw: (abs(kw[1] - wind), kw[0] != kind))
+        names = [scenario_name(k, w) for k, w in ranked]
+        return tuple(n for n in names if n != primary)[:2]
+
+    for i, kind in enumerate(kinds):
+        for wind, source_wind in order:
+            if source_wind is not None:
+                primary = scenario_name(kind, source_wind)
+            elif i > 0:
+                primary = scenario_name(kinds[i - 1], mid_wind)
+            else:
+                primary = None
+            steps.append(Step(kind, wind, primary, fallbacks(kind, wind, primary)))
+            solved.append((kind, wind))
+    return tuple(steps)
+
+
+def plan_chains(
+    winds: tuple[float, ...], kinds: tuple[str, ...], n_chains: int
+) -> tuple[Chain, ...]:
+    """Plan the sweep as independent warm-start chains.
+
+    Parameters
+    ----------
+    winds : tuple of float
+        Wind speeds [m/s], increasing (from :func:`parse_wind_grid`).
+    kinds : tuple of str
+        Scenario kinds (from :func:`parse_kinds`).
+    n_chains : int
+        Wanted number of chains (normally the number of workers); fewer are
+        made when there are fewer kinds.
+
+    Returns
+    -------
+    tuple of Chain
+        Every (kind, wind) exactly once; each chain starts with a cold start.
+    """
+    return tuple(
+        Chain(i, _chain_steps(group, winds)) for i, group in enumerate(group_kinds(kinds, n_chains))
+    )

@@ -1,0 +1,321 @@
+"""Sweep planning, chain execution and executors, driven by a cheap exact stand-in solver.
+
+The stand-in replaces the kite OCP by a problem with a known answer: for a
+scenario at wind speed w, solve ``x**3 + x = w`` by Newton's method (unique
+real root, x increasing in w). Its "average electrical power" is
+``P(w) = SCALE * (x(w_c) - x(w))`` with a chosen cut-in speed ``w_c`` per
+kind, so the drive consumes below w_c and generates above it: the cut-in
+search must recover w_c. A cold start begins Newton at x = 0, a warm start at
+the source's root, so warm starts need fewer iterations, as with IPOPT.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from functools import partial
+
+import numpy as np
+import pytest
+
+from bench.errors import InputError
+from optimize.chains import (
+    MAX_WARM_ATTEMPTS,
+    Problem,
+    find_cut_in,
+    make_tasks,
+    run_chain,
+    run_sweep,
+    solve_step,
+)
+from optimize.executors import LocalChannel, open_executor, run_tasks
+from optimize.sweep import (
+    Step,
+    continuation_order,
+    group_kinds,
+    parse_kinds,
+    parse_wind_grid,
+    plan_chains,
+    scenario_name,
+)
+
+CUT_IN_M_S = {"elec-lim": 4.8, "mech-lim": 5.5, "elec-free": 4.6, "mech-free": 20.0}
+SCALE_W = 1000.0
+WINDS = (4.0, 5.5, 7.0, 8.5, 10.0)
+KINDS = ("elec-lim", "elec-free", "mech-lim", "mech-free")
+
+
+def exact_root(w: float) -> float:
+    """Real root of x**3 + x - w, independently of Newton (numpy companion matrix)."""
+    roots = np.roots([1.0, 0.0, 1.0, -w])
+    return float(roots[np.argmin(np.abs(roots.imag))].real)
+
+
+@dataclass(frozen=True)
+class Result:
+    status: str
+    success: bool
+    iterations: int
+    wall_time_s: float
+    avg_p_elec_w: float
+    warm: float
+
+
+@dataclass(frozen=True)
+class NewtonBackend:
+    """Exact stand-in solver; ``fail_warm`` scenarios fail every warm start (not cold)."""
+
+    fail_warm: tuple[str, ...] = ()
+    max_iter: int = 100
+
+    def build(self, problem: Problem) -> str:
+        return problem.key
+
+    def _newton(self, kind: str, w: float, x: float) -> Result:
+        for it in range(1, self.max_iter + 1):
+            step = (x**3 + x - w) / (3 * x**2 + 1)
+            x -= step
+            if abs(step) < 1e-13:
+                p = SCALE_W * (exact_root(CUT_IN_M_S[kind]) - x)
+                return Result("Solve_Succeeded", True, it, 1e-3, p, x)
+        return Result("Maximum_Iterations_Exceeded", False, self.max_iter, 1e-3, math.nan, x)
+
+    def solve(self, ocp: str, kind: str, w: float, warm: float) -> Result:
+        if scenario_name(kind, w) in self.fail_warm:
+            return Result("Infeasible_Problem_Detected", False, 7, 1e-3, math.nan, warm)
+        return self._newton(kind, w, warm)
+
+    def cold_start(self, ocp: str, kind: str, w: float) -> Result:
+        return self._newton(kind, w, 0.0)
+
+
+PROBLEM = Problem(params=None, drive_model=None, options=None, key="stand-in")
+
+
+# ----------------------------------------------------------------- wind grid and kinds
+def test_wind_grid_includes_both_endpoints():
+    # the paper's grid: 4 to 10 m/s in steps of 1.5 (section V), 5 speeds
+    assert parse_wind_grid("4:10:1.5") == WINDS
+    assert parse_wind_grid(" 7 ") == (7.0,)
+    assert parse_wind_grid("7,4,5.5") == (4.0, 5.5, 7.0)
+    # 0.1 steps accumulate float error; values must still be exact to 1e-9
+    grid = parse_wind_grid("4:5:0.1")
+    assert len(grid) == 11 and grid[-1] == 5.0
+    assert np.allclose(grid, np.linspace(4, 5, 11), rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    "spec, fragment",
+    [
+        ("", "empty"),
+        ("4:10", "2 fields"),
+        ("4:10:0", "step 0 is not > 0"),
+        ("10:4:1.5", "below start"),
+        ("4:10:1.4", "whole number of steps"),
+        ("4:x:1", "'x' is not a number"),
+        ("-1,4", "is not > 0"),
+        ("4,4", "appears twice"),
+        ("4:nan:1", "not finite"),
+        ("1:1000:1", "more than"),
+    ],
+)
+def test_bad_wind_grid_is_an_input_error(spec, fragment):
+    with pytest.raises(InputError) as err:
+        parse_wind_grid(spec)
+    assert fragment in str(err.value) and "--wind-grid" in str(err.value)
+
+
+def test_parse_kinds():
+    assert parse_kinds("mech-free, elec-lim") == ("mech-free", "elec-lim")
+    for bad in ("", "elec", "elec-lim,elec-lim"):
+        with pytest.raises(InputError, match="--scenarios"):
+            parse_kinds(bad)
+
+
+# ----------------------------------------------------------------- planning
+def test_continuation_goes_outwards_from_the_middle():
+    assert continuation_order(WINDS) == [
+        (7.0, None),
+        (8.5, 7.0),
+        (5.5, 7.0),
+        (10.0, 8.5),
+        (4.0, 5.5),
+    ]
+    # even count: lower middle, still every speed once from its inner neighbour
+    assert continuation_order((1.0, 2.0, 3.0, 4.0)) == [
+        (2.0, None),
+        (3.0, 2.0),
+        (1.0, 2.0),
+        (4.0, 3.0),
+    ]
+
+
+def test_two_chains_split_the_paper_sweep_evenly_by_objective():
+    chains = plan_chains(WINDS, KINDS, 2)
+    assert [c.kinds for c in chains] == [("elec-lim", "elec-free"), ("mech-lim", "mech-free")]
+    assert [len(c.steps) for c in chains] == [10, 10]
+    names = [s.name for c in chains for s in c.steps]
+    assert len(names) == len(set(names)) == 20
+    for chain in chains:
+        first, *rest = chain.steps
+        assert first.warm_from is None and first.wind_speed_m_s == 7.0  # one cold start, middle
+        done = {first.name}
+        for step in rest:
+            # every warm source, primary or fallback, is solved earlier on the same chain
+            assert step.warm_from in done and set(step.fallbacks) <= done
+            assert step.warm_from not in step.fallbacks
+            done.add(step.name)
+    # the kind switch happens at the middle speed, from the previous kind's middle solve
+    assert chains[0].steps[5] == Step(
+        "elec-free", 7.0, "elec-lim-7.0", ("elec-lim-8.5", "elec-lim-5.5")
+    )
+    # and elec-free-8.5 can fall back to elec-lim-8.5 (same wind, other limits)
+    assert chains[0].steps[6].fallbacks[0] == "elec-lim-8.5"
+
+
+def test_group_kinds_balances_and_caps_chains():
+    assert group_kinds(KINDS, 1) == [KINDS]
+    assert group_kinds(KINDS, 3) == [("elec-lim", "elec-free"), ("mech-lim",), ("mech-free",)]
+    assert group_kinds(("mech-lim", "elec-lim", "mech-free"), 8) == [
+        ("mech-lim",),
+        ("mech-free",),
+        ("elec-lim",),
+    ]
+
+
+# ----------------------------------------------------------------- running chains
+def test_chain_solves_every_scenario_exactly_with_cheap_warm_starts():
+    (chain,) = plan_chains(WINDS, KINDS, 1)
+    task = make_tasks((chain,), PROBLEM, cut_in_kinds=("elec-lim", "mech-lim"))[0]
+    out = run_chain(task, backend=NewtonBackend())
+    assert len(out.outcomes) == 20 and all(o.success for o in out.outcomes)
+    for o in out.outcomes:
+        # Newton converges quadratically: 1e-9 relative is far above its round-off
+        want = SCALE_W * (exact_root(CUT_IN_M_S[o.kind]) - exact_root(o.wind_speed_m_s))
+        assert o.result.avg_p_elec_w == pytest.approx(want, rel=1e-9, abs=1e-9)
+    cold = [o for o in out.outcomes if o.warm_source == "cold start"]
+    assert [o.name for o in cold] == ["elec-lim-7.0"]  # exactly one homotopy
+    warm_iters = [o.attempts[-1].iterations for o in out.outcomes if o not in cold]
+    assert max(warm_iters) < cold[0].attempts[-1].iterations
+
+
+def test_cut_in_bisection_finds_the_known_crossing():
+    (chain,) = plan_chains(WINDS, KINDS, 1)
+    task = make_tasks((chain,), PROBLEM, cut_in_kinds=KINDS, cut_in_tol_m_s=0.05)[0]
+    out = run_chain(task, backend=NewtonBackend())
+    found = {c.kind: c for c in out.cut_ins}
+    for kind in ("elec-lim", "mech-lim", "elec-free"):
+        c = found[kind]
+        assert c.status == "found"
+        assert c.bracket_hi_m_s - c.bracket_lo_m_s <= 0.05
+        assert c.bracket_lo_m_s <= CUT_IN_M_S[kind] <= c.bracket_hi_m_s
+        # interpolation inside a 0.05 m/s bracket of a smooth curve: far better than the width
+        assert c.cut_in_m_s == pytest.approx(CUT_IN_M_S[kind], abs=0.01)
+        # 1.5 m/s bracket halved to <= 0.05 m/s: ceil(log2(30)) = 5 probes
+        assert len(c.probes) == 5
+    # mech-free "cuts in" at 20 m/s: it consumes on the whole grid
+    assert found["mech-free"].status == "never generates on the grid"
+    assert math.isnan(found["mech-free"].cut_in_m_s)
+
+
+def test_cut_in_edge_cases():
+    backend = NewtonBackend()
+    grid = {w: (SCALE_W * (exact_root(3.0) - exact_root(w)), exact_root(w)) for w in WINDS}
+    assert find_cut_in(backend, "", "elec-lim", grid).status == (
+        "generates at every converged grid speed"
+    )
+    assert find_cut_in(backend, "", "elec-lim", {4.0: grid[4.0]}).status == (
+        "too few converged grid speeds"
+    )
+
+
+def test_failed_warm_start_retries_fallback_then_cold_start():
+    step = Step("mech-free", 10.0, "mech-free-8.5", ("mech-lim-10.0", "mech-lim-8.5"))
+    warm = {"mech-free-8.5": exact_root(8.5), "mech-lim-10.0": exact_root(10.0)}
+    # primary fails, fallback converges
+    backend = NewtonBackend(fail_warm=())
+    ok = solve_step(backend, "", step, warm)
+    assert [a.source for a in ok.attempts] == ["mech-free-8.5"] and ok.success
+    # every warm start fails: MAX_WARM_ATTEMPTS warm tries, then one cold start that works
+    backend = NewtonBackend(fail_warm=("mech-free-10.0",))
+    out = solve_step(backend, "", step, warm)
+    assert [a.source for a in out.attempts] == ["mech-free-8.5", "mech-lim-10.0", None]
+    assert MAX_WARM_ATTEMPTS == 2
+    assert out.success and out.warm_source == "cold start"
+    assert out.result.warm == pytest.approx(exact_root(10.0), rel=1e-12)
+    # a source that is not available (its own solve failed) is skipped, not tried
+    out = solve_step(backend, "", step, {"mech-lim-10.0": exact_root(10.0)})
+    assert [a.source for a in out.attempts] == ["mech-lim-10.0", None]
+
+
+def test_failure_is_reported_not_dropped():
+    # Newton capped at 3 iterations: the cold start (from x = 0) cannot converge at 7 m/s
+    (chain,) = plan_chains(WINDS, ("elec-lim",), 1)
+    out = run_chain(make_tasks((chain,), PROBLEM)[0], backend=NewtonBackend(max_iter=3))
+    assert len(out.outcomes) == 5
+    assert not any(o.success for o in out.outcomes)
+    assert {o.status for o in out.outcomes} == {"Maximum_Iterations_Exceeded"}
+
+
+# ----------------------------------------------------------------- executors
+def _check_sweep(result):
+    assert len(result.outcomes) == 20 and all(o.success for o in result.outcomes)
+    assert [o.name for o in result.outcomes[:5]] == [scenario_name("elec-lim", w) for w in WINDS]
+    assert {c.kind for c in result.cut_ins} == {"elec-lim", "mech-lim"}
+
+
+def test_sweep_on_a_thread_pool_with_progress_events():
+    tasks = make_tasks(plan_chains(WINDS, KINDS, 2), PROBLEM, cut_in_kinds=("elec-lim", "mech-lim"))
+    channel = LocalChannel()
+    with ThreadPoolExecutor(2) as ex:
+        result = run_sweep(tasks, ex, channel, "threads", NewtonBackend(), show_progress=False)
+    _check_sweep(result)
+    assert {c.chain for c in result.chains} == {0, 1}
+
+
+def test_sweep_on_a_local_dask_cluster():
+    distributed = pytest.importorskip("distributed")
+    from optimize.executors import DaskChannel
+
+    tasks = make_tasks(plan_chains(WINDS, KINDS, 2), PROBLEM, cut_in_kinds=("elec-lim", "mech-lim"))
+    with (
+        distributed.LocalCluster(
+            n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        executor = client.get_executor(pure=False)
+        seen: list[dict] = []
+        channel = DaskChannel("test-progress", client)
+        futures = run_tasks(
+            executor, partial(run_chain, backend=NewtonBackend()), tasks, channel, seen.append
+        )
+        assert all(f.exception() is None for f in futures)
+        # 20 scenario events and 2 cut-in events came back through the Dask queue
+        assert len([e for e in seen if "name" in e]) == 20
+        assert sorted(e["cut_in"] for e in seen if "cut_in" in e) == ["elec-lim", "mech-lim"]
+        result = run_sweep(tasks, executor, channel, "dask", NewtonBackend(), show_progress=False)
+    _check_sweep(result)
+
+
+def test_process_pool_executor_runs_chains_with_progress():
+    # the real default executor: spawned processes and a manager-queue channel
+    tasks = make_tasks(plan_chains(WINDS, ("elec-lim", "mech-lim"), 2), PROBLEM)
+    seen: list[dict] = []
+    with open_executor(workers=2) as handle:
+        assert handle.description == "process pool, 2 workers"
+        futures = run_tasks(
+            handle.executor,
+            partial(run_chain, backend=NewtonBackend()),
+            tasks,
+            handle.channel,
+            seen.append,
+        )
+    outs = [f.result() for f in futures]
+    assert sorted(e["name"] for e in seen) == sorted(s.name for t in tasks for s in t.chain.steps)
+    assert all(int(o.worker.rsplit(":", 1)[1]) != os.getpid() for o in outs)  # ran in children
+    assert all(o.success for c in outs for o in c.outcomes)
+    with pytest.raises(InputError, match="--workers 0"), open_executor(workers=0):
+        pass
