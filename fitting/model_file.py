@@ -18,8 +18,6 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -28,6 +26,7 @@ import casadi as ca
 import numpy as np
 
 from bench.errors import InputError
+from fitting.outputs import write_text
 
 SCHEMA_NAME = "drivebench.power_model"
 SCHEMA_VERSION = 1
@@ -449,15 +448,7 @@ def save_power_model(model: PowerModel, path: str | Path) -> Path:
     """
     path = Path(path)
     text = json.dumps(model.to_dict(), indent=2, allow_nan=False) + "\n"
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    return write_text(path, text)
 
 
 def paper_model() -> PowerModel:

@@ -1,0 +1,115 @@
+"""``bench fit``: efficiency map, power model fit, model selection, export (issue 3)."""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+
+from bench.errors import InputError
+from fitting.efficiency import MaskingRules
+from fitting.pipeline import WEIGHTINGS, FitOptions, run_fit
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Register the ``bench fit`` options."""
+    parser.add_argument("--store", default="bench_store", help="store written by bench ingest")
+    parser.add_argument("--out", default="fit_out", help="output directory")
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--order", default="2",
+                       help="total order 1..6 of the exported model, or 'auto' to select it; "
+                            "order 2 is the paper's eq. 4 unless --full (default: 2)")
+    group.add_argument("--select", action="store_true", help="same as --order auto")
+    parser.add_argument("--full", action="store_true",
+                        help="with --order 2: the full 6-term quadratic instead of eq. 4")
+    parser.add_argument("--folds", type=int, default=5, help="k of k-fold cross-validation")
+    parser.add_argument("--weighting", choices=WEIGHTINGS, default="quadrant",
+                        help="'quadrant': each quadrant counts equally whatever its point "
+                             "count (default); 'none': plain OLS")
+    parser.add_argument("--mask-mech-frac", type=float, default=MaskingRules.mech_frac,
+                        help="mask efficiencies where |P_mech| < F * nominal power")
+    parser.add_argument("--mask-elec-frac", type=float, default=MaskingRules.elec_frac,
+                        help="mask efficiencies where |P_elec| < F * nominal power")
+
+
+def _order(text: str, select: bool) -> int | None:
+    if select or text.strip().lower() == "auto":
+        return None
+    try:
+        return int(text)
+    except ValueError:
+        raise InputError(None, f"option --order: {text!r} is not an integer",
+                         expected="an order 1..6 or 'auto'") from None
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the fit and print its summary."""
+    try:
+        masking = MaskingRules(mech_frac=args.mask_mech_frac, elec_frac=args.mask_elec_frac)
+    except ValueError as exc:
+        raise InputError(None, f"masking option: {exc}") from None
+    order = _order(args.order, args.select)
+    command = shlex.join([
+        "bench", "fit", "--store", str(args.store), "--out", str(args.out),
+        "--order", "auto" if order is None else str(order), *(["--full"] if args.full else []),
+        "--folds", str(args.folds), "--weighting", args.weighting,
+        "--mask-mech-frac", repr(args.mask_mech_frac),
+        "--mask-elec-frac", repr(args.mask_elec_frac),
+    ])
+    options = FitOptions(order=order, full_order2=args.full, folds=args.folds,
+                         weighting=args.weighting, masking=masking, command=command)
+    summary = run_fit(args.store, args.out, options)
+    print(format_summary(summary, args.out))
+    return 0
+
+
+def format_summary(summary: dict, out) -> str:
+    """The short text summary printed by ``bench fit``."""
+    st = summary["statistics"]
+    lines = [f"model: {summary['model']['name']}  (sha256 {summary['model']['sha256'][:12]})",
+             f"points: {st['n_points']} {st['points_per_quadrant']}  fit: {st['method']}",
+             "",
+             f"{'term':>10} {'coef [rpm, N m, W]':>20} {'std error':>12} {'95 % interval':>29}"]
+    for row in st["coefficients"]:
+        lines.append(f"{row['term']:>10} {row['coef_rpm']:>20.6g} {row['std_error_rpm']:>12.3g} "
+                     f"[{row['ci95_low_rpm']:>12.6g}, {row['ci95_high_rpm']:>12.6g}]")
+    res = st["residuals"]["all"]
+    lines += [
+        "",
+        f"R^2 = {st['r2']:.6f}",
+        f"residuals: mean {res['mean_w']:.2f} W, std {res['std_w']:.1f} W "
+        f"({res['std_pct_nominal']:.2f} % of nominal), max |r| {res['max_abs_w']:.1f} W "
+        f"({res['max_abs_pct_nominal']:.2f} % of nominal)",
+    ]
+    norm = st["normality"]
+    if "dagostino_k2" in norm:
+        lines.append(f"normality: D'Agostino K^2 p = {norm['dagostino_k2']['p_value']:.3g}, "
+                     f"Jarque-Bera p = {norm['jarque_bera']['p_value']:.3g} -> "
+                     + ("consistent with normal" if norm["normal_at_5pct"]
+                        else "not normal at 5 %"))
+    lines += ["", f"{'candidate':>20} {'terms':>5} {'CV RMSE [W]':>12} {'+-SE':>6} "
+              f"{'dBIC':>8}  status"]
+    for row in summary["selection_table"]:
+        if row["status"] == "ok":
+            lines.append(f"{row['candidate']:>20} {row['n_terms']:>5} {row['cv_rmse_w']:>12.1f} "
+                         f"{row['cv_rmse_se_w']:>6.1f} {row['delta_bic']:>8.1f}  "
+                         + ("<- chosen" if row["chosen"] else ""))
+        else:
+            lines.append(f"{row['candidate']:>20} {row['n_terms']:>5}  {row['status']}")
+    sel = st["selection"]
+    lines += [f"selection: {sel['reason']}",
+              f"exported: {sel['exported']} ({sel['exported_because']})"]
+    extra = summary["extra_terms_check"]
+    if "paper_terms" in extra:
+        lines.append("extra terms (fit over w^6 T^4): "
+                     + "; ".join(f"{name}: {r['raw_orders_below_a1']:.1f} orders below a1 "
+                                 f"(raw rpm), {r['rated_orders_below_a1']:.1f} at rated corner"
+                                 for name, r in extra["paper_terms"].items())
+                     + f"; wide vs eq. 4 model differ by at most "
+                       f"{extra['model_difference']['max_abs_w']:.0f} W at the points")
+    for q, peak in summary["efficiency"]["peak"].items():
+        if "map" in peak:
+            m = peak["map"]
+            lines.append(f"peak efficiency {q}: {m['eta']:.3f} at {m['speed_rpm']:.0f} rpm, "
+                         f"{m['torque_nm']:.0f} N m (map)")
+    lines.append(f"outputs in {out}: " + ", ".join(summary["outputs"][:6]) + ", figures/...")
+    return "\n".join(lines)

@@ -1,0 +1,227 @@
+"""``bench fit`` as a library call: store -> power model, maps, selection, loss table, figures.
+
+Writes the outputs of docs/schemas.md §4 into one directory, each file atomically.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from bench.errors import InputError
+from fitting import figures
+from fitting.domain import quadrant_hulls
+from fitting.efficiency import MaskingRules, band_shares, gridded_map, peak_points
+from fitting.loss_table import write_loss_table
+from fitting.model_file import save_power_model
+from fitting.outputs import json_safe, write_json, write_parquet
+from fitting.points import QUADRANTS, load_points
+from fitting.power_fit import check_fit_input, fit_power_model, quadrant_weights
+from fitting.selection import (
+    RULE,
+    Candidate,
+    extra_terms_check,
+    order_candidate,
+    paper_candidate,
+    paper_space_candidate,
+    select_model,
+)
+from fitting.terms import MAX_ORDER, MIN_ORDER, full_polynomial
+
+NOMINAL_POWER_W = 8200.0
+WEIGHTINGS = ("quadrant", "none")
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """Options of one ``bench fit`` run.
+
+    Parameters
+    ----------
+    order : int or None
+        Total order 1..6 of the exported model; None selects it (``--order auto``).
+    full_order2 : bool
+        With ``order == 2``: the full 6-term polynomial instead of the paper's eq. 4.
+    folds : int
+        k of the k-fold cross-validation.
+    weighting : str
+        ``quadrant`` (each quadrant counts equally) or ``none`` (plain OLS).
+    masking : MaskingRules
+    nominal_power_w : float
+        Nominal power of the drive [W].
+    command : str
+        The command line, recorded in the provenance.
+    """
+
+    order: int | None = 2
+    full_order2: bool = False
+    folds: int = 5
+    weighting: str = "quadrant"
+    masking: MaskingRules = MaskingRules()
+    nominal_power_w: float = NOMINAL_POWER_W
+    command: str = "bench fit"
+
+    def __post_init__(self) -> None:
+        if self.order is not None and not MIN_ORDER <= self.order <= MAX_ORDER:
+            raise InputError(None, f"option --order: {self.order} is outside "
+                             f"{MIN_ORDER}..{MAX_ORDER}", expected="an order 1..6 or 'auto'")
+        if self.weighting not in WEIGHTINGS:
+            raise InputError(None, f"option --weighting: {self.weighting!r}",
+                             expected=" or ".join(WEIGHTINGS))
+        if self.folds < 2:
+            raise InputError(None, f"option --folds: {self.folds}", expected="at least 2")
+
+    def candidate(self) -> Candidate | None:
+        """The requested candidate (None: chosen by the selection)."""
+        if self.order is None:
+            return None
+        if self.order == 2 and not self.full_order2:
+            return paper_candidate()
+        return order_candidate(self.order)
+
+
+def run_fit(store: str | Path, out: str | Path, options: FitOptions,
+            progress: bool = True) -> dict:
+    """Fit the store's operating points and write all outputs into ``out``.
+
+    Parameters
+    ----------
+    store : str or Path
+        Store directory written by ``bench ingest``.
+    out : str or Path
+        Output directory (created if missing).
+    options : FitOptions
+    progress : bool
+        Show progress bars.
+
+    Returns
+    -------
+    dict
+        The content of ``fit_summary.json``.
+
+    Raises
+    ------
+    InputError
+        Missing or empty store, NaN values, only one quadrant, too few points,
+        a rank-deficient design.
+    """
+    points = load_points(store)
+    frame = points.frame
+    source = Path(store) / "points"
+    counts = points.counts()
+    missing = [q for q in QUADRANTS if counts[q] == 0]
+    if missing:
+        present = [q for q in QUADRANTS if counts[q]]
+        raise InputError(
+            source,
+            f"only the {present[0]} quadrant is present ({counts[present[0]]} points, "
+            f"no {missing[0]} points); the power model spans both quadrants",
+            expected="motor (p_mech_w > 0) and generator (p_mech_w <= 0) operating points",
+        )
+    speed = frame["speed_rpm"].to_numpy()
+    torque = frame["torque_nm"].to_numpy()
+    p_elec = frame["p_elec_w"].to_numpy()
+    quadrant = frame["quadrant"].to_numpy()
+    weights = (quadrant_weights(quadrant) if options.weighting == "quadrant"
+               else np.ones(len(frame)))
+    requested = options.candidate()
+    if requested is not None:
+        check_fit_input(requested.terms, len(frame), source)
+    else:
+        check_fit_input(full_polynomial(MIN_ORDER), len(frame), source)
+
+    selection = select_model(speed, torque, p_elec, quadrant, weights, folds=options.folds,
+                             nominal_power_w=options.nominal_power_w, source=source,
+                             progress=progress)
+    chosen = requested or selection.chosen
+    fit = fit_power_model(speed, torque, p_elec, chosen.terms, weights=weights,
+                          nominal_power_w=options.nominal_power_w, source=source)
+    try:
+        extra = extra_terms_check(speed, torque, p_elec, weights,
+                                  nominal_power_w=options.nominal_power_w, source=source)
+    except InputError as exc:
+        extra = {"space": paper_space_candidate().name, "skipped": exc.problem}
+
+    motor = quadrant == "motor"
+    statistics = {
+        "method": "weighted least squares (statsmodels WLS)" if options.weighting == "quadrant"
+        else "ordinary least squares (statsmodels OLS)",
+        "weighting": options.weighting,
+        "n_points": fit.n_points,
+        "points_per_quadrant": counts,
+        "r2": fit.r2,
+        "r2_weighted": fit.r2_weighted,
+        "bic": fit.bic,
+        "condition_number_scaled_design": fit.condition_number,
+        "residuals": {"all": fit.residual_stats(), "motor": fit.residual_stats(motor),
+                      "generator": fit.residual_stats(~motor)},
+        "normality": fit.normality(),
+        "coefficients": fit.coefficient_table(),
+        "selection": {"chosen_by_selection": selection.chosen.name, "rule": RULE,
+                      "reason": selection.reason, "exported": chosen.name,
+                      "exported_because": "chosen by the selection" if requested is None
+                      else "requested with --order"},
+    }
+    statistics = json_safe(statistics)
+    provenance = {
+        "points_sha256": points.sha256,
+        "points_files": points.files,
+        "store": str(store),
+        "command": options.command,
+        "software": "drivebench fitting.pipeline",
+    }
+    model = fit.to_power_model(
+        name=f"bench fit: {chosen.name} ({len(chosen.terms)} terms)",
+        domain=quadrant_hulls(frame),
+        masking=options.masking.to_dict(),
+        statistics=statistics,
+        provenance=provenance,
+    )
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "figures").mkdir(exist_ok=True)
+    written = [save_power_model(model, out / "power_model.json")]
+
+    emap = gridded_map(frame, options.masking, model=model)
+    shares = band_shares(emap)
+    peaks = peak_points(emap, frame, options.masking)
+    meta = {"masking": options.masking.to_dict(), "power_model_sha256": model.sha256,
+            "points_sha256": points.sha256}
+    written.append(write_parquet(out / "efficiency_map.parquet", emap, meta))
+    table = selection.table.copy()
+    written.append(write_parquet(out / "selection.parquet", table,
+                                 {"rule": RULE, "weighting": options.weighting,
+                                  "folds": options.folds, "reason": selection.reason}))
+    written.append(write_loss_table(model, out / "loss_table.csv"))
+    fig_dir = out / "figures"
+    written += figures.efficiency_map_figure(emap, fig_dir, options.masking.to_dict())
+    written += figures.power_map_figure(emap, frame, fig_dir)
+    written += figures.residuals_figure(frame, fit.residuals_w, options.nominal_power_w, fig_dir)
+
+    summary = {
+        "schema": "drivebench.fit_summary",
+        "schema_version": 1,
+        "created_at": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        "model": {"name": model.name, "sha256": model.sha256, "terms": [list(t) for t in
+                  model.terms], "coefficients_rpm": list(model.coefficients_rpm),
+                  "coefficients_si": list(model.coefficients_si)},
+        "statistics": statistics,
+        "selection_table": _records(table),
+        "extra_terms_check": extra,
+        "efficiency": {"masking": options.masking.to_dict(), "band_shares": _records(shares),
+                       "peak": peaks},
+        "provenance": provenance,
+        "outputs": sorted(str(p.relative_to(out)) for p in written) + ["fit_summary.json"],
+    }
+    summary = json_safe(summary)
+    write_json(out / "fit_summary.json", summary)
+    return summary
+
+
+def _records(frame) -> list[dict]:
+    """Rows as JSON-safe dicts."""
+    return json_safe(frame.to_dict(orient="records"))

@@ -1,0 +1,342 @@
+"""Model selection over term lists: k-fold cross-validated RMSE and BIC.
+
+Candidates: the paper's eq. (4), full polynomials of total order 1..6, and the
+paper's check space (speed**0..6 x torque**0..4).
+
+Quadrant weighting: every point of quadrant q weighs ``N / (2 n_q)``
+(:func:`fitting.power_fit.quadrant_weights`), in the fits, in the held-out RMSE
+and in the BIC, so each quadrant counts equally whatever its point density.
+Folds are drawn per quadrant, so every fold holds both quadrants.
+
+Choice rule (the "one-standard-error rule"): among the candidates whose
+cross-validated RMSE is within one standard error (over the folds) of the
+lowest, take the one with the fewest terms; break ties by BIC. This prefers
+the simplest model the data cannot tell apart from the best one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from tqdm import tqdm
+
+from bench.errors import InputError
+from fitting.power_fit import (
+    MIN_POINTS,
+    MIN_POINTS_PER_TERM,
+    design_matrix,
+    design_scales,
+    fit_power_model,
+    term_scale,
+)
+from fitting.terms import (
+    MAX_ORDER,
+    MIN_ORDER,
+    PAPER_TERMS,
+    full_polynomial,
+    paper_space,
+    term_label,
+)
+
+RULE = (
+    "one-standard-error rule: fewest terms among candidates whose k-fold CV RMSE "
+    "(quadrant-weighted) is within one standard error of the lowest; ties broken by BIC"
+)
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A candidate term list.
+
+    Parameters
+    ----------
+    name : str
+        Label used in tables and outputs.
+    terms : tuple of (int, int)
+        Exponents (speed, torque).
+    order : int
+        Total order (highest i + j).
+    """
+
+    name: str
+    terms: tuple[tuple[int, int], ...]
+    order: int
+
+
+def paper_candidate() -> Candidate:
+    """The paper's eq. (4)."""
+    return Candidate("paper eq. 4", PAPER_TERMS, 2)
+
+
+def order_candidate(order: int) -> Candidate:
+    """The full polynomial of total order ``order``."""
+    return Candidate(f"order {order}", full_polynomial(order), order)
+
+
+def paper_space_candidate() -> Candidate:
+    """The paper's check space, speed up to ^6 and torque up to ^4."""
+    terms = paper_space()
+    return Candidate("paper space w^6 T^4", terms, max(i + j for i, j in terms))
+
+
+def default_candidates() -> list[Candidate]:
+    """Paper eq. 4, orders 1..6, and the paper's check space."""
+    return (
+        [paper_candidate()]
+        + [order_candidate(n) for n in range(MIN_ORDER, MAX_ORDER + 1)]
+        + [paper_space_candidate()]
+    )
+
+
+def stratified_folds(quadrant: np.ndarray, folds: int, seed: int = 0) -> np.ndarray:
+    """Fold index (0..folds-1) per point, assigned round-robin within each quadrant
+    after a seeded shuffle, so each fold holds a share of every quadrant."""
+    quadrant = np.asarray(quadrant)
+    rng = np.random.default_rng(seed)
+    fold = np.empty(quadrant.size, dtype=int)
+    for q in np.unique(quadrant):
+        idx = np.flatnonzero(quadrant == q)
+        rng.shuffle(idx)
+        fold[idx] = np.arange(idx.size) % folds
+    return fold
+
+
+def _weighted_rmse(r: np.ndarray, w: np.ndarray) -> float:
+    return float(np.sqrt(np.sum(w * r**2) / np.sum(w)))
+
+
+def cross_validate(candidate: Candidate, speed, torque, p, weights, fold) -> dict:
+    """k-fold CV of one candidate (weighted least squares on the scaled design).
+
+    Returns the pooled held-out RMSE, its standard error over the folds, the
+    per-quadrant pooled RMSE is added by the caller. Raises ``np.linalg.LinAlgError``
+    if a training fold's design is rank deficient.
+    """
+    n_folds = int(fold.max()) + 1
+    scales = design_scales(speed, torque)
+    x = design_matrix(candidate.terms, speed, torque, scales)
+    pred = np.empty_like(p)
+    per_fold = []
+    for k in range(n_folds):
+        train, test = fold != k, fold == k
+        sw = np.sqrt(weights[train])
+        xw = x[train] * sw[:, None]
+        if np.linalg.matrix_rank(xw) < x.shape[1]:
+            raise np.linalg.LinAlgError(f"rank-deficient design in fold {k}")
+        beta, *_ = np.linalg.lstsq(xw, p[train] * sw, rcond=None)
+        pred[test] = x[test] @ beta
+        per_fold.append(_weighted_rmse(p[test] - pred[test], weights[test]))
+    per_fold = np.array(per_fold)
+    return {
+        "cv_rmse_w": _weighted_rmse(p - pred, weights),
+        "cv_rmse_se_w": float(np.std(per_fold, ddof=1) / np.sqrt(n_folds)),
+        "residuals": p - pred,
+    }
+
+
+@dataclass(frozen=True, eq=False)
+class SelectionResult:
+    """Candidate table, the chosen candidate and why.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        One row per candidate (see :func:`select_model`).
+    chosen : Candidate
+    reason : str
+    """
+
+    table: pd.DataFrame
+    chosen: Candidate
+    reason: str
+
+
+def select_model(
+    speed_rpm,
+    torque_nm,
+    p_elec_w,
+    quadrant,
+    weights,
+    *,
+    folds: int = 5,
+    candidates: list[Candidate] | None = None,
+    nominal_power_w: float = 8200.0,
+    seed: int = 0,
+    source=None,
+    progress: bool = False,
+) -> SelectionResult:
+    """Compare candidates by k-fold CV RMSE and BIC and choose one (see module docstring).
+
+    Parameters
+    ----------
+    speed_rpm, torque_nm, p_elec_w : numpy.ndarray
+        Operating points [rpm], [N m], [W].
+    quadrant : numpy.ndarray of str
+        ``motor``/``generator`` per point (folds are stratified on it).
+    weights : numpy.ndarray
+        Point weights (mean 1), e.g. :func:`fitting.power_fit.quadrant_weights`.
+    folds : int
+        Number of folds (>= 2).
+    candidates : list of Candidate, optional
+        Defaults to :func:`default_candidates`.
+    nominal_power_w : float
+        For the relative columns [W].
+    seed : int
+        Seed of the fold assignment.
+    source : str or Path, optional
+        Named in errors.
+    progress : bool
+        Show a tqdm bar.
+
+    Returns
+    -------
+    SelectionResult
+        ``table`` columns: ``candidate, order, n_terms, status, cv_rmse_w,
+        cv_rmse_se_w, cv_rmse_pct_nominal, cv_rmse_motor_w, cv_rmse_generator_w,
+        bic, delta_bic, fit_rmse_w, r2, chosen``.
+    """
+    speed = np.asarray(speed_rpm, dtype=float)
+    torque = np.asarray(torque_nm, dtype=float)
+    p = np.asarray(p_elec_w, dtype=float)
+    quadrant = np.asarray(quadrant)
+    weights = np.asarray(weights, dtype=float)
+    if folds < 2:
+        raise InputError(source, f"{folds} folds", expected="at least 2 folds")
+    smallest = min(np.unique(quadrant, return_counts=True)[1])
+    if smallest < folds:
+        raise InputError(source, f"a quadrant has {smallest} points, fewer than {folds} folds",
+                         expected="at least one point per fold in each quadrant")
+    fold = stratified_folds(quadrant, folds, seed)
+    rows = []
+    for cand in tqdm(candidates or default_candidates(), desc="model selection",
+                     disable=not progress, leave=False):
+        row = {"candidate": cand.name, "order": cand.order, "n_terms": len(cand.terms)}
+        n_train_min = int(np.min([np.sum(fold != k) for k in range(folds)]))
+        needed = max(MIN_POINTS, MIN_POINTS_PER_TERM * len(cand.terms))
+        if n_train_min < needed:
+            rows.append(row | {"status": f"skipped: too few points ({n_train_min} < {needed})"})
+            continue
+        try:
+            cv = cross_validate(cand, speed, torque, p, weights, fold)
+            fit = fit_power_model(speed, torque, p, cand.terms, weights=weights,
+                                  nominal_power_w=nominal_power_w, source=source)
+        except (np.linalg.LinAlgError, InputError) as exc:
+            rows.append(row | {"status": f"skipped: {exc}"})
+            continue
+        r = cv["residuals"]
+        row |= {
+            "status": "ok",
+            "cv_rmse_w": cv["cv_rmse_w"],
+            "cv_rmse_se_w": cv["cv_rmse_se_w"],
+            "cv_rmse_pct_nominal": 100.0 * cv["cv_rmse_w"] / nominal_power_w,
+            "cv_rmse_motor_w": float(np.sqrt(np.mean(r[quadrant == "motor"] ** 2)))
+            if np.any(quadrant == "motor") else np.nan,
+            "cv_rmse_generator_w": float(np.sqrt(np.mean(r[quadrant == "generator"] ** 2)))
+            if np.any(quadrant == "generator") else np.nan,
+            "bic": fit.bic,
+            "fit_rmse_w": float(np.sqrt(np.mean(fit.residuals_w**2))),
+            "r2": fit.r2,
+            "condition_number": fit.condition_number,
+        }
+        rows.append(row)
+    table = pd.DataFrame(rows)
+    for col in ("cv_rmse_w", "cv_rmse_se_w", "bic"):
+        if col not in table:
+            table[col] = np.nan
+    ok = table["status"] == "ok"
+    if not ok.any():
+        raise InputError(source, "no candidate model could be fitted",
+                         expected="enough points spread over speed and torque")
+    table["delta_bic"] = table["bic"] - table.loc[ok, "bic"].min()
+    best = table.loc[ok, "cv_rmse_w"].idxmin()
+    limit = table.at[best, "cv_rmse_w"] + table.at[best, "cv_rmse_se_w"]
+    eligible = table[ok & (table["cv_rmse_w"] <= limit)]
+    pick = eligible.sort_values(["n_terms", "bic"]).index[0]
+    table["chosen"] = table.index == pick
+    all_cands = {c.name: c for c in (candidates or default_candidates())}
+    chosen = all_cands[table.at[pick, "candidate"]]
+    bic_best = table.loc[table.loc[ok, "bic"].idxmin(), "candidate"]
+    reason = (
+        f"{chosen.name} ({len(chosen.terms)} terms): CV RMSE "
+        f"{table.at[pick, 'cv_rmse_w']:.1f} W is within one standard error of the lowest "
+        f"({table.at[best, 'candidate']}: {table.at[best, 'cv_rmse_w']:.1f} W "
+        f"+ {table.at[best, 'cv_rmse_se_w']:.1f} W) and it has the fewest terms of the "
+        f"{len(eligible)} such candidates; "
+        + ("BIC agrees (lowest BIC)." if bic_best == chosen.name
+           else f"lowest BIC: {bic_best} (delta BIC of the choice "
+                f"{table.at[pick, 'delta_bic']:.1f}).")
+    )
+    return SelectionResult(table=table, chosen=chosen, reason=reason)
+
+
+def extra_terms_check(
+    speed_rpm, torque_nm, p_elec_w, weights, *, rated_speed_rpm: float = 1500.0,
+    rated_torque_nm: float = 78.0, nominal_power_w: float = 8200.0, source=None,
+) -> dict:
+    """The paper's check: fitted over its space (w^6, T^4), how big are the extra terms?
+
+    Three measures, each with its scaling stated in the result:
+
+    - ``paper_scaling``: raw coefficients in the rpm convention divided by a1 and
+      a2 of the eq. 4 fit, as the paper compares them (unit-dependent);
+    - ``rated_corner``: a term's contribution ``|c_ij| * 1500**i * 78**j`` [W] at
+      the rated corner, against ``a1 * 1500**2`` and ``a2 * 78**2`` of the eq. 4
+      fit (physical, but individual terms of a 35-term fit are collinear and can
+      cancel: see ``wide_fit_condition_number``);
+    - ``model_difference``: the largest and RMS difference between the wide and
+      the eq. 4 model over the measured points [W, % of nominal] (robust to the
+      collinearity: it is what the extra terms change in the power).
+    """
+    speed = np.asarray(speed_rpm, dtype=float)
+    torque = np.asarray(torque_nm, dtype=float)
+    cand = paper_space_candidate()
+    wide = fit_power_model(speed, torque, p_elec_w, cand.terms, weights=weights,
+                           nominal_power_w=nominal_power_w, source=source)
+    base = fit_power_model(speed, torque, p_elec_w, PAPER_TERMS, weights=weights,
+                           nominal_power_w=nominal_power_w, source=source)
+    a1 = abs(base.coefficients_rpm[PAPER_TERMS.index((2, 0))])
+    a2 = abs(base.coefficients_rpm[PAPER_TERMS.index((0, 2))])
+    a1_w, a2_w = a1 * rated_speed_rpm**2, a2 * rated_torque_nm**2
+    contrib = np.abs(wide.coefficients_rpm) / term_scale(
+        cand.terms, (rated_speed_rpm, rated_torque_nm))
+
+    def orders(big: float, small: float) -> float:
+        return float(np.log10(big / small)) if small > 0 else float("inf")
+
+    rows = []
+    for k in np.argsort(-contrib):
+        t = cand.terms[k]
+        if t in PAPER_TERMS:
+            continue
+        c = abs(wide.coefficients_rpm[k])
+        rows.append({
+            "term": term_label(t),
+            "coef_rpm": float(wide.coefficients_rpm[k]),
+            "raw_orders_below_a1": orders(a1, c),
+            "raw_orders_below_a2": orders(a2, c),
+            "contribution_at_rated_w": float(contrib[k]),
+            "rated_orders_below_a1": orders(a1_w, contrib[k]),
+            "rated_orders_below_a2": orders(a2_w, contrib[k]),
+        })
+    named = {r["term"]: r for r in rows}
+    diff = wide.residuals_w - base.residuals_w  # = eq.4 model - wide model at the points
+    return {
+        "space": cand.name,
+        "paper_scaling": "raw rpm-convention coefficients vs a1, a2 of the eq. 4 fit "
+                         "(as the paper compares them; unit-dependent)",
+        "rated_scaling": f"|c_ij| * {rated_speed_rpm:g}^i * {rated_torque_nm:g}^j [W] vs "
+                         f"a1 * {rated_speed_rpm:g}^2 = {a1_w:.1f} W and "
+                         f"a2 * {rated_torque_nm:g}^2 = {a2_w:.1f} W",
+        "wide_fit_condition_number": wide.condition_number,
+        "paper_terms": {name: named[name] for name in ("w^2*T^2", "w^4")},
+        "largest_extra_terms_at_rated": rows[:5],
+        "model_difference": {
+            "max_abs_w": float(np.max(np.abs(diff))),
+            "rms_w": float(np.sqrt(np.mean(diff**2))),
+            "max_abs_pct_nominal": float(100 * np.max(np.abs(diff)) / nominal_power_w),
+        },
+        "wide_fit_rmse_w": float(np.sqrt(np.mean(wide.residuals_w**2))),
+        "eq4_fit_rmse_w": float(np.sqrt(np.mean(base.residuals_w**2))),
+    }
