@@ -1,0 +1,178 @@
+"""Put the power analyzer on the DAQ clock: clock offset, drift and an as-of join.
+
+The two instruments run on their own clocks. The header start times give a
+prior offset; the data refine it: the DAQ's mechanical power ``speed*torque``
+and the analyzer's electrical power step together at every setpoint change,
+so the lag that maximises the cross-correlation of their increments (on a
+common grid, with a parabolic sub-sample peak) is the residual offset. The
+same estimate on the first and the second half of the session gives the drift.
+
+Clock model: ``t_daq = offset_s + (1 + drift_ppm * 1e-6) * t_analyzer``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import signal
+
+#: largest residual offset searched around the header prior [s]
+MAX_LAG_S = 20.0
+
+
+@dataclass(frozen=True)
+class ClockModel:
+    """Affine map from the analyzer clock to the DAQ clock.
+
+    Parameters
+    ----------
+    offset_s : float
+        DAQ time at analyzer time 0 [s].
+    drift_ppm : float
+        Rate difference, ``(d t_daq / d t_analyzer - 1) * 1e6`` [ppm].
+    prior_offset_s : float
+        The offset the header start times alone give [s].
+    correlation : float
+        Normalised cross-correlation at the peak (sign included; near -1 means
+        the mechanical power has the wrong sign) [-].
+    """
+
+    offset_s: float
+    drift_ppm: float
+    prior_offset_s: float
+    correlation: float
+
+    def to_daq(self, t_analyzer_s: np.ndarray) -> np.ndarray:
+        """Analyzer times [s] -> DAQ times [s]."""
+        return self.offset_s + (1.0 + self.drift_ppm * 1e-6) * np.asarray(t_analyzer_s)
+
+
+def _increments(x: np.ndarray) -> np.ndarray:
+    d = np.diff(x)
+    d[~np.isfinite(d)] = 0.0
+    return d
+
+
+def _peak_lag(x: np.ndarray, y: np.ndarray, dt: float, max_lag: float) -> tuple[float, float]:
+    """Lag [s] by which ``y`` must be delayed to match ``x``, and the peak correlation.
+
+    Both series are on the same grid of step ``dt`` [s]; the search spans
+    ``[-max_lag, max_lag]``; the peak is refined by a parabola through its neighbours.
+    """
+    dx, dy = _increments(x), _increments(y)
+    norm = float(np.sqrt(np.sum(dx * dx) * np.sum(dy * dy)))
+    if norm == 0.0:
+        return 0.0, 0.0
+    c = signal.correlate(dx, dy, mode="full", method="fft") / norm
+    lags = signal.correlation_lags(dx.size, dy.size, mode="full")
+    k_max = int(round(max_lag / dt))
+    sel = np.flatnonzero(np.abs(lags) <= k_max)
+    k = sel[np.argmax(np.abs(c[sel]))]
+    frac = 0.0
+    if 0 < k < c.size - 1:
+        y0, y1, y2 = np.abs(c[k - 1]), np.abs(c[k]), np.abs(c[k + 1])
+        den = y0 - 2.0 * y1 + y2
+        if den < 0:
+            frac = 0.5 * (y0 - y2) / den
+    return (lags[k] + frac) * dt, float(c[k])
+
+
+def estimate_clock(
+    grid_t_s: np.ndarray,
+    p_mech_w: np.ndarray,
+    analyzer_t_s: np.ndarray,
+    p_elec_w: np.ndarray,
+    prior_offset_s: float,
+    max_lag_s: float = MAX_LAG_S,
+) -> ClockModel:
+    """Estimate the analyzer->DAQ clock offset and drift from the data.
+
+    Parameters
+    ----------
+    grid_t_s : array
+        Uniform grid on the DAQ clock [s] (bin centres).
+    p_mech_w : array
+        DAQ mechanical power averaged on that grid [W] (NaN for empty bins).
+    analyzer_t_s, p_elec_w : array
+        Analyzer time on its own clock [s] and electrical power [W].
+    prior_offset_s : float
+        Analyzer start minus DAQ start from the file headers [s].
+    max_lag_s : float
+        Search span around the prior [s].
+
+    Returns
+    -------
+    ClockModel
+    """
+    dt = float(grid_t_s[1] - grid_t_s[0])
+    ok = np.isfinite(p_elec_w)
+    ta, pa = analyzer_t_s[ok], p_elec_w[ok]
+
+    def on_grid(offset: float, t: np.ndarray) -> np.ndarray:
+        return np.interp(t, ta + offset, pa, left=np.nan, right=np.nan)
+
+    pm = np.where(np.isfinite(p_mech_w), p_mech_w, np.nan)
+    pm = _fill(pm)
+    lag, corr = _peak_lag(pm, _fill(on_grid(prior_offset_s, grid_t_s)), dt, max_lag_s)
+    offset = prior_offset_s + lag
+    # drift: the same on each half, searched narrowly around the global offset
+    half = grid_t_s.size // 2
+    centres, offsets = [], []
+    for sl in (slice(0, half), slice(half, None)):
+        t = grid_t_s[sl]
+        if t.size < 20:
+            break
+        lag_h, _ = _peak_lag(pm[sl], _fill(on_grid(offset, t)), dt, min(2.0, max_lag_s))
+        centres.append(float(np.mean(t)) - offset)  # on the analyzer clock
+        offsets.append(offset + lag_h)
+    slope = 0.0
+    if len(offsets) == 2 and centres[1] > centres[0]:
+        slope = (offsets[1] - offsets[0]) / (centres[1] - centres[0])
+        offset = offsets[0] - slope * centres[0]
+    return ClockModel(
+        offset_s=float(offset), drift_ppm=float(slope * 1e6),
+        prior_offset_s=float(prior_offset_s), correlation=corr,
+    )
+
+
+def _fill(x: np.ndarray) -> np.ndarray:
+    """Hold the last finite value over NaN gaps (leading NaN take the first value)."""
+    x = np.asarray(x, dtype=np.float64)
+    ok = np.isfinite(x)
+    if not ok.any():
+        return np.zeros_like(x)
+    idx = np.where(ok, np.arange(x.size), 0)
+    np.maximum.accumulate(idx, out=idx)
+    out = x[idx]
+    out[: np.argmax(ok)] = x[np.argmax(ok)]
+    return out
+
+
+def asof_nearest(
+    t_query_s: np.ndarray, t_ref_s: np.ndarray, values: np.ndarray, tolerance_s: float
+) -> np.ndarray:
+    """As-of join on sorted arrays: the value of the nearest reference time within tolerance.
+
+    Parameters
+    ----------
+    t_query_s : array
+        Sorted query times [s] (DAQ samples).
+    t_ref_s : array
+        Sorted reference times [s] (analyzer samples, already on the DAQ clock).
+    values : array
+        Reference values (NaN kept).
+    tolerance_s : float
+        Largest accepted distance [s]; farther queries get NaN.
+
+    Returns
+    -------
+    array
+        One value per query.
+    """
+    j = np.searchsorted(t_ref_s, t_query_s)
+    j0 = np.clip(j - 1, 0, t_ref_s.size - 1)
+    j1 = np.clip(j, 0, t_ref_s.size - 1)
+    pick = np.where(np.abs(t_query_s - t_ref_s[j0]) <= np.abs(t_ref_s[j1] - t_query_s), j0, j1)
+    out = values[pick]
+    return np.where(np.abs(t_ref_s[pick] - t_query_s) <= tolerance_s, out, np.nan)

@@ -1,0 +1,29 @@
+"""``bench ingest PATH... [--store DIR] [--mapping FILE]``: bench logs into the Parquet store."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from bench.ingest.pipeline import ingest
+from bench.ingest.summary import format_summary
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Register the ``ingest`` options."""
+    parser.add_argument("paths", nargs="+", type=Path, metavar="PATH",
+                        help="campaign or session folders (sessions hold a session.toml)")
+    parser.add_argument("--store", type=Path, default=Path("bench_store"),
+                        help="store directory (default: ./bench_store)")
+    parser.add_argument("--mapping", type=Path, default=None,
+                        help="column mapping (TOML or JSON) for sessions without their own")
+    parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Ingest, then print the summary table; InputError propagates to the dispatcher."""
+    result = ingest(args.paths, args.store, mapping_path=args.mapping,
+                    progress=not args.no_progress)
+    print(format_summary(result.ingested, result.unchanged, result.manifest))
+    print(f"store: {result.store_dir}")
+    return 0

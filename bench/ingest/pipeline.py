@@ -1,0 +1,248 @@
+"""Ingest orchestration: discover sessions, skip unchanged ones, process, commit atomically.
+
+Every session is processed into a staging directory inside the store before
+anything in the store changes; only when all sessions succeeded are their files
+moved into place and the manifest rewritten (last). A session whose source
+files hash as recorded in the manifest is not touched, so re-ingesting the same
+files changes no byte of the store.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+from tqdm import tqdm
+
+from bench import store
+from bench.errors import InputError
+from bench.ingest.mapping import EMPTY_MAPPING, Mapping, load_mapping
+from bench.ingest.readers import CHUNK_BYTES, read_points_table
+from bench.ingest.session import Session, discover, load_session
+from bench.ingest.steady import DEFAULT_STEADY, SteadyConfig
+from bench.ingest.timeseries import (
+    SessionOutput,
+    check_torque_sign,
+    points_table,
+    process_timeseries,
+    rejected_table,
+)
+
+RAD_S_PER_RPM = 2.0 * math.pi / 60.0
+
+
+@dataclass
+class IngestResult:
+    """What an ingest did.
+
+    Parameters
+    ----------
+    store_dir : Path
+        The store.
+    ingested : list of str
+        Sessions (re)written.
+    unchanged : list of str
+        Sessions skipped because their files hash as in the manifest.
+    manifest : dict
+        The store's manifest afterwards.
+    """
+
+    store_dir: Path
+    ingested: list[str] = field(default_factory=list)
+    unchanged: list[str] = field(default_factory=list)
+    manifest: dict = field(default_factory=dict)
+
+
+def session_files(
+    session: Session, user_mapping: Path | None
+) -> tuple[dict[str, Path], Path | None]:
+    """Source files of a session (for hashing) and the mapping file that applies to it.
+
+    The session's own mapping (``[points] mapping`` or a ``mapping.toml`` beside
+    ``session.toml``) wins; else the user's ``--mapping`` file applies.
+    """
+    files = {"session.toml": session.path}
+    tables = ("daq", "analyzer") if session.kind == "timeseries" else ("points",)
+    for t in tables:
+        p = session.file(t)
+        files[p.name] = p
+    mapping = None
+    named = session.raw.get("points", {}).get("mapping") if session.kind == "operating_points" \
+        else None
+    if named:
+        mapping = session.folder / named
+        if not mapping.is_file():
+            raise InputError(session.path, f"[points] mapping {named!r} does not exist",
+                             column="points.mapping", expected=f"a file in {session.folder}")
+    elif (session.folder / "mapping.toml").is_file():
+        mapping = session.folder / "mapping.toml"
+    elif (session.folder / "mapping.json").is_file():
+        mapping = session.folder / "mapping.json"
+    if mapping is not None:
+        files[mapping.name] = mapping
+    elif user_mapping is not None:
+        mapping = user_mapping
+    return files, mapping
+
+
+def process_table(session: Session, mapping: Mapping) -> SessionOutput:
+    """Read an operating-point table session into store points (drum frame, SI)."""
+    path = session.file("points")
+    frame, meta = read_points_table(path, mapping)
+    meta.pop("layout")
+    gear = session.gear_ratio if session.measured_side == "motor" else 1.0
+    speed = frame["speed_rpm"].to_numpy() * session.speed_sign / gear
+    torque = frame["torque_nm"].to_numpy() * session.torque_sign * gear
+    p_elec = frame["p_elec_w"].to_numpy()
+    if "p_mech_w" in frame:
+        p_mech = frame["p_mech_w"].to_numpy() * session.speed_sign * session.torque_sign
+    else:
+        p_mech = speed * torque * RAD_S_PER_RPM
+    nan = np.full(len(frame), np.nan)
+    std = {
+        "speed_rpm_std": frame.get("speed_rpm_std", nan) / gear,
+        "torque_nm_std": frame.get("torque_nm_std", nan) * gear,
+        "p_mech_w_std": frame.get("p_mech_w_std", nan),
+        "p_elec_w_std": frame.get("p_elec_w_std", nan),
+    }
+    check_torque_sign(session, p_mech, p_elec, path)
+    ok = np.isfinite(speed) & np.isfinite(torque) & np.isfinite(p_elec) & np.isfinite(p_mech)
+    cols = {"speed_rpm": speed, "torque_nm": torque, "p_mech_w": p_mech, "p_elec_w": p_elec}
+    cols.update({k: np.asarray(v, np.float64) for k, v in std.items()})
+    cols = {k: v[ok] for k, v in cols.items()}
+    n_samples = frame["n_samples"].to_numpy() if "n_samples" in frame else np.zeros(len(frame))
+    n_samples = np.nan_to_num(n_samples[ok]).astype(np.int32)
+    nan_ok = np.full(int(ok.sum()), np.nan)
+    points = points_table(session, cols, n_samples, nan_ok, nan_ok, "operating_point_table")
+    rejected = rejected_table(session.session_id, [(math.nan, math.nan, "invalid samples")]
+                              * int((~ok).sum()))
+    info = {"clock_offset_s": None, "clock_drift_ppm": None,
+            "instruments": {"points": meta}, "n_rows": len(frame)}
+    return SessionOutput(points=points, rejected=rejected, samples_path=None, info=info)
+
+
+def ingest(
+    paths: list[str | Path],
+    store_dir: str | Path,
+    mapping_path: str | Path | None = None,
+    config: SteadyConfig = DEFAULT_STEADY,
+    progress: bool = True,
+    chunk_bytes: int = CHUNK_BYTES,
+) -> IngestResult:
+    """Ingest every session under ``paths`` into the store at ``store_dir``.
+
+    Parameters
+    ----------
+    paths : list of str or Path
+        Campaign or session folders.
+    store_dir : str or Path
+        The store (created when missing).
+    mapping_path : str or Path, optional
+        Mapping file for sessions that have none of their own.
+    config : SteadyConfig
+        Steady-state detection settings.
+    progress : bool
+        Show a tqdm progress bar (bytes of source data).
+    chunk_bytes : int
+        CSV bytes parsed per chunk [B]; bounds memory.
+
+    Returns
+    -------
+    IngestResult
+
+    Raises
+    ------
+    InputError
+        Any bad input; the store is then left exactly as it was.
+    """
+    store_dir = Path(store_dir)
+    user_mapping = Path(mapping_path) if mapping_path is not None else None
+    if user_mapping is not None:
+        load_mapping(user_mapping)  # fail early on a bad --mapping file
+    manifest = store.read_manifest(store_dir)
+    sessions: list[Session] = []
+    seen: dict[str, Path] = {}
+    for folder in discover(paths):
+        s = load_session(folder)
+        if s.session_id in seen:
+            raise InputError(folder, f"session {s.session_id!r} found twice",
+                             expected=f"unique session ids (also in {seen[s.session_id]})")
+        seen[s.session_id] = folder
+        sessions.append(s)
+
+    result = IngestResult(store_dir=store_dir)
+    todo = []
+    for s in sessions:
+        files, mapping_file = session_files(s, user_mapping)
+        hashes = {f"{s.session_id}/{name}": store.file_sha256(p) for name, p in files.items()}
+        if mapping_file is not None and mapping_file not in files.values():
+            hashes[f"--mapping/{mapping_file.name}"] = store.file_sha256(mapping_file)
+        old = manifest["sessions"].get(s.session_id)
+        if old is not None and old.get("files") == hashes:
+            result.unchanged.append(s.session_id)
+        else:
+            todo.append((s, hashes, mapping_file, files))
+    if not todo:
+        result.manifest = manifest
+        return result
+
+    total = sum(p.stat().st_size for _, _, _, files in todo for p in files.values())
+    with store.staging(store_dir) as stage, tqdm(
+        total=total, unit="B", unit_scale=True, desc="ingest", disable=not progress
+    ) as bar:
+        staged: dict[str, dict[str, Path]] = {}
+        entries: dict[str, dict] = {}
+        for s, hashes, mapping_file, files in todo:
+            bar.set_postfix_str(s.session_id)
+            mapping = load_mapping(mapping_file) if mapping_file is not None else EMPTY_MAPPING
+            size = sum(p.stat().st_size for p in files.values())
+            done = [0]
+
+            def tick(n: int, done=done, size=size) -> None:
+                n = min(n, size - done[0])
+                done[0] += n
+                bar.update(n)
+
+            if s.kind == "timeseries":
+                out = process_timeseries(s, mapping, stage, config, chunk_bytes, tick)
+            else:
+                out = process_table(s, mapping)
+            tick(size)
+            staged[s.session_id] = _stage(stage, s.session_id, out)
+            entries[s.session_id] = _entry(s, hashes, out)
+            result.ingested.append(s.session_id)
+        store.commit(store_dir, staged, entries)
+    result.manifest = store.read_manifest(store_dir)
+    return result
+
+
+def _stage(stage: Path, sid: str, out: SessionOutput) -> dict[str, Path]:
+    files = {}
+    for kind, table in (("points", out.points), ("rejected", out.rejected)):
+        p = stage / f"{sid}.{kind}.parquet"
+        pq.write_table(table, p, compression="snappy")
+        files[kind] = p
+    if out.samples_path is not None:
+        files["samples"] = out.samples_path
+    return files
+
+
+def _entry(s: Session, hashes: dict[str, str], out: SessionOutput) -> dict:
+    quadrants = out.points.column("quadrant").to_pylist()
+    reasons = out.rejected.column("reason").to_pylist()
+    entry = {
+        "files": hashes,
+        "kind": s.kind,
+        "mode": s.mode,
+        "n_points": out.points.num_rows,
+        "points_per_quadrant": {q: quadrants.count(q) for q in ("motor", "generator")},
+        "rejected": {r: reasons.count(r) for r in sorted(set(reasons))},
+        "metadata": s.raw,
+        "ingested_at": datetime.now(UTC).isoformat(timespec="seconds"),
+    }
+    entry.update(out.info)
+    return entry

@@ -1,0 +1,527 @@
+"""One reader per source format; each gives ``(data, metadata)``.
+
+- :func:`sniff_csv` / :func:`open_daq_csv`: DAQ CSV, English (``,`` / ``.``) or German
+  (``;`` / ``,`` and a units row), streamed in byte chunks parsed by pyarrow's
+  multithreaded C++ CSV parser with explicit float64 column types.
+- :func:`open_daq_tdms`: NI TDMS through npTDMS, streamed channel chunk by chunk.
+- :func:`read_analyzer`: power-analyzer vendor CSV (``key,value`` header block).
+- :func:`read_points_table`: table of pre-averaged operating points.
+
+Streams yield :class:`Chunk` objects so memory does not grow with file size.
+Values come out in our units (s, rpm, N m, W) with invalid markers as NaN.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.csv as pacsv
+
+from bench.errors import InputError
+from bench.ingest.mapping import EMPTY_MAPPING, Mapping, ResolvedColumn, resolve_columns
+from bench.ingest.scrub import NULL_MARKERS, scrub
+
+#: bytes parsed per chunk; bounds peak memory (about 10 bytes of arrays per byte of CSV)
+CHUNK_BYTES = 32 * 1024 * 1024
+_SNIFF_BYTES = 64 * 1024
+
+
+@dataclass(frozen=True)
+class CsvLayout:
+    """What sniffing found out about a delimited text file.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    sep, decimal : str
+        Field separator and decimal mark.
+    encoding : str
+        Text encoding of the header lines.
+    headers : list of str
+        Column names.
+    units_row : list of str or None
+        The units row under the names (German exports), else None.
+    header_line : int
+        1-based line number of the names row.
+    data_line : int
+        1-based line number of the first data row.
+    data_offset : int
+        Byte offset of the first data row.
+    preamble : dict
+        ``key -> value`` lines before the names row (analyzer header block).
+    """
+
+    path: Path
+    sep: str
+    decimal: str
+    encoding: str
+    headers: list[str]
+    units_row: list[str] | None
+    header_line: int
+    data_line: int
+    data_offset: int
+    preamble: dict[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Chunk:
+    """A block of rows from a stream, in our units.
+
+    Parameters
+    ----------
+    row0 : int
+        0-based index of its first data row within the file.
+    values : dict
+        quantity -> float64 array.
+    nbytes : int
+        Bytes of the source this chunk covers (for progress bars).
+    """
+
+    row0: int
+    values: dict[str, np.ndarray]
+    nbytes: int
+
+
+def _check_text(path: Path, head: bytes) -> str:
+    """Reject empty and binary files; return the text encoding of ``head``."""
+    if not head.strip():
+        raise InputError(path, "file is empty", expected="a text file with a header row and data")
+    ctrl = sum(1 for b in head if b < 32 and b not in (9, 10, 13))
+    if b"\x00" in head or ctrl > 0.01 * len(head):
+        raise InputError(
+            path, "binary file, not a delimited text file", line=1,
+            expected="CSV text (is this a TDMS or spreadsheet file with a .csv name?)",
+        )
+    try:
+        head.decode("utf-8")
+        return "utf-8"
+    except UnicodeDecodeError as exc:
+        if exc.start >= len(head) - 4:  # a character cut by the sniff window
+            return "utf-8"
+        return "cp1252"
+
+
+def _split(line: str, sep: str) -> list[str]:
+    return [f.strip().strip('"') for f in line.rstrip("\r\n").split(sep)]
+
+
+def _is_number(text: str, decimal: str) -> bool:
+    t = text.strip()
+    if decimal == ",":
+        t = t.replace(",", ".")
+    if t.upper() in {m.upper() for m in NULL_MARKERS}:
+        return True
+    try:
+        float(t)
+    except ValueError:
+        return False
+    return True
+
+
+def _guess_sep(line: str) -> str:
+    counts = {s: line.count(s) for s in (";", "\t", ",")}
+    sep = max(counts, key=counts.get)
+    return sep if counts[sep] > 0 else ","
+
+
+def _guess_decimal(sep: str, sample_rows: list[str]) -> str:
+    if sep == ",":
+        return "."
+    joined = "\n".join(sample_rows)
+    return "," if re.search(r"\d,\d", joined) and not re.search(r"\d\.\d", joined) else "."
+
+
+def sniff_csv(path: str | Path, preamble: bool = False) -> CsvLayout:
+    """Sniff separator, decimal mark, names row and optional units row of a CSV file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file. Its name is not trusted: the content decides.
+    preamble : bool
+        True for analyzer exports: ``key,value`` lines and a blank line come
+        before the names row.
+
+    Raises
+    ------
+    InputError
+        Empty or binary file, missing names row, or no data rows.
+    """
+    path = Path(path)
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(_SNIFF_BYTES)
+    except OSError as exc:
+        raise InputError(path, f"cannot read file ({exc})") from exc
+    encoding = _check_text(path, head)
+    raw_lines = head.split(b"\n")
+    if len(head) == _SNIFF_BYTES:
+        raw_lines = raw_lines[:-1]  # the last line may be cut by the sniff window
+    lines = [ln.decode(encoding, errors="replace") for ln in raw_lines]
+    offsets = np.cumsum([0] + [len(ln) + 1 for ln in raw_lines]).tolist()
+
+    idx = 0
+    meta: dict[str, str] = {}
+    if preamble:
+        while idx < len(lines) and lines[idx].strip():
+            sep0 = _guess_sep(lines[idx])
+            parts = _split(lines[idx], sep0)
+            meta[parts[0]] = sep0.join(parts[1:]) if len(parts) > 1 else ""
+            idx += 1
+        if idx >= len(lines):
+            raise InputError(
+                path, "no blank line after the header block", line=idx,
+                expected="'key,value' lines, a blank line, then the column row",
+            )
+    while idx < len(lines) and not lines[idx].strip():
+        idx += 1
+    if idx >= len(lines):
+        raise InputError(path, "no column row", expected="a row of column names")
+    header_idx = idx
+    sep = _guess_sep(lines[header_idx])
+    headers = _split(lines[header_idx], sep)
+    rest = [ln for ln in lines[header_idx + 1 : header_idx + 40] if ln.strip()]
+    decimal = _guess_decimal(sep, rest[1:] if len(rest) > 1 else rest)
+    units_row = None
+    data_idx = header_idx + 1
+    if data_idx < len(lines) and lines[data_idx].strip():
+        cells = _split(lines[data_idx], sep)
+        if not any(c and _is_number(c, decimal) for c in cells):
+            units_row = cells
+            data_idx += 1
+    while data_idx < len(lines) and not lines[data_idx].strip():
+        data_idx += 1
+    if data_idx >= len(lines) or not lines[data_idx].strip():
+        raise InputError(path, "no data rows", line=header_idx + 1,
+                         expected="data under the header")
+    return CsvLayout(
+        path=path, sep=sep, decimal=decimal, encoding=encoding, headers=headers,
+        units_row=units_row, header_line=header_idx + 1, data_line=data_idx + 1,
+        data_offset=offsets[data_idx], preamble=meta,
+    )
+
+
+def _locate_bad_row(
+    layout: CsvLayout, buf: bytes, first_line: int, cols: dict[str, ResolvedColumn]
+) -> InputError:
+    """Find the first malformed row of ``buf`` (slow path, only after a parse error)."""
+    n = len(layout.headers)
+    for k, raw in enumerate(buf.split(b"\n")):
+        line = raw.decode(layout.encoding, errors="replace").rstrip("\r")
+        if not line.strip():
+            continue
+        cells = _split(line, layout.sep)
+        if len(cells) != n:
+            what = "truncated row?" if len(cells) < n else "extra fields"
+            return InputError(
+                layout.path, f"row has {len(cells)} fields ({what})", line=first_line + k,
+                expected=f"{n} fields separated by {layout.sep!r}",
+            )
+        for res in cols.values():
+            cell = cells[res.index]
+            if cell and not _is_number(cell, layout.decimal):
+                return InputError(
+                    layout.path, f"not a number: {cell!r}", line=first_line + k,
+                    column=res.header,
+                    expected=f"a number with decimal mark {layout.decimal!r} or an invalid marker",
+                )
+    return InputError(layout.path, "cannot parse CSV data", line=first_line)
+
+
+def iter_csv(
+    layout: CsvLayout,
+    cols: dict[str, ResolvedColumn],
+    chunk_bytes: int = CHUNK_BYTES,
+) -> Iterator[Chunk]:
+    """Stream the data rows of a sniffed CSV in chunks, converted to our units.
+
+    Parameters
+    ----------
+    layout : CsvLayout
+        From :func:`sniff_csv`.
+    cols : dict
+        quantity -> :class:`ResolvedColumn` (from :func:`resolve_columns`).
+    chunk_bytes : int
+        Approximate bytes per chunk [B].
+
+    Yields
+    ------
+    Chunk
+        Rows with invalid markers turned into NaN.
+
+    Raises
+    ------
+    InputError
+        A row with the wrong number of fields (truncated file) or a cell that is
+        not a number, naming its line.
+    """
+    names = [f"c{i}" for i in range(len(layout.headers))]
+    wanted = {q: names[r.index] for q, r in cols.items()}
+    read_opts = pacsv.ReadOptions(column_names=names, use_threads=True, block_size=1 << 22)
+    parse_opts = pacsv.ParseOptions(delimiter=layout.sep, quote_char='"')
+    conv_opts = pacsv.ConvertOptions(
+        column_types={c: pa.float64() for c in wanted.values()},
+        include_columns=sorted(set(wanted.values())),
+        null_values=list(NULL_MARKERS),
+        strings_can_be_null=True,
+        decimal_point=layout.decimal,
+    )
+    row0 = 0
+    line = layout.data_line
+    with layout.path.open("rb") as fh:
+        fh.seek(layout.data_offset)
+        carry = b""
+        while True:
+            block = fh.read(chunk_bytes)
+            buf = carry + block
+            if not block:
+                carry = b""
+                if not buf.strip():
+                    break
+            else:
+                cut = buf.rfind(b"\n")
+                if cut < 0:
+                    carry = buf
+                    continue
+                buf, carry = buf[: cut + 1], buf[cut + 1 :]
+            if buf.strip():
+                try:
+                    table = pacsv.read_csv(
+                        io.BytesIO(buf), read_options=read_opts,
+                        parse_options=parse_opts, convert_options=conv_opts,
+                    )
+                except (pa.ArrowInvalid, pa.ArrowNotImplementedError) as exc:
+                    raise _locate_bad_row(layout, buf, line, cols) from exc
+                values = {
+                    q: scrub(table.column(c).to_numpy(zero_copy_only=False)) * cols[q].factor
+                    for q, c in wanted.items()
+                }
+                yield Chunk(row0=row0, values=values, nbytes=len(buf))
+                row0 += table.num_rows
+            line += buf.count(b"\n")
+            if not block:
+                break
+
+
+def line_of_row(layout: CsvLayout, row: int) -> int:
+    """1-based line number of 0-based data row ``row`` (skips blank lines; slow path)."""
+    with layout.path.open("rb") as fh:
+        fh.seek(layout.data_offset)
+        seen = -1
+        for k, raw in enumerate(fh):
+            if raw.strip():
+                seen += 1
+                if seen == row:
+                    return layout.data_line + k
+    return layout.data_line + row
+
+
+def csv_columns_meta(cols: dict[str, ResolvedColumn]) -> dict[str, dict[str, str]]:
+    """quantity -> ``{"column": header, "unit": unit}`` for the manifest."""
+    return {q: {"column": r.header, "unit": r.unit} for q, r in cols.items()}
+
+
+@dataclass
+class DaqStream:
+    """An opened DAQ stream: metadata now, chunks on demand.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    metadata : dict
+        Format, separator/decimal or TDMS group, columns and units.
+    size_bytes : int
+        File size, for progress bars.
+    chunks : callable
+        ``chunks() -> Iterator[Chunk]`` with ``time``, ``speed``, ``torque``.
+    line_of_row : callable
+        ``line_of_row(row) -> int or None`` to place errors.
+    """
+
+    path: Path
+    metadata: dict
+    size_bytes: int
+    chunks: object
+    line_of_row: object
+
+
+def open_daq_csv(
+    path: str | Path, mapping: Mapping = EMPTY_MAPPING, chunk_bytes: int = CHUNK_BYTES
+) -> DaqStream:
+    """Open a DAQ CSV (English or German locale) as a chunked stream of time, speed, torque."""
+    layout = sniff_csv(path)
+    cols = resolve_columns(
+        layout.path, layout.headers, layout.units_row, "daq",
+        required=("time", "speed", "torque"), mapping=mapping, header_line=layout.header_line,
+    )
+    meta = {
+        "format": "csv", "separator": layout.sep, "decimal": layout.decimal,
+        "encoding": layout.encoding, "columns": csv_columns_meta(cols),
+    }
+    return DaqStream(
+        path=layout.path, metadata=meta, size_bytes=layout.path.stat().st_size,
+        chunks=lambda: iter_csv(layout, cols, chunk_bytes),
+        line_of_row=lambda row: line_of_row(layout, row),
+    )
+
+
+#: TDMS channel values read per chunk
+TDMS_CHUNK_ROWS = 2_000_000
+
+
+def open_daq_tdms(
+    path: str | Path, group: str, mapping: Mapping = EMPTY_MAPPING,
+    chunk_rows: int = TDMS_CHUNK_ROWS,
+) -> DaqStream:
+    """Open a TDMS DAQ file (npTDMS, streaming) as a chunked stream of time, speed, torque.
+
+    Channels are found by the mapping (``[daq.columns.*] column`` = channel name)
+    or by name (``Time``, ``Speed``, ``Torque``); units come from each channel's
+    ``unit_string`` property unless the mapping gives one.
+    """
+    from nptdms import TdmsFile
+
+    path = Path(path)
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(4)
+    except OSError as exc:
+        raise InputError(path, f"cannot read file ({exc})") from exc
+    if not head:
+        raise InputError(path, "file is empty", expected="a TDMS file")
+    if head != b"TDSm":
+        raise InputError(path, "not a TDMS file (no 'TDSm' lead-in)", expected="an NI TDMS file")
+    with TdmsFile.open(path) as tdms:
+        names = [g.name for g in tdms.groups()]
+        if group not in names:
+            raise InputError(path, f"no TDMS group {group!r}", column=group,
+                             expected="one of " + ", ".join(repr(n) for n in names))
+        channels = tdms[group].channels()
+        headers = [c.name for c in channels]
+        units = [str(c.properties.get("unit_string", "")) for c in channels]
+        lengths = {c.name: len(c) for c in channels}
+    cols = resolve_columns(path, headers, units, "daq", required=("time", "speed", "torque"),
+                           mapping=mapping)
+    n_rows = {lengths[r.header] for r in cols.values()}
+    if len(n_rows) != 1:
+        raise InputError(path, f"channels of group {group!r} differ in length {sorted(n_rows)}",
+                         expected="Time, Speed and Torque of equal length")
+    n = n_rows.pop()
+    if n == 0:
+        raise InputError(path, "TDMS channels hold no data", expected="data samples")
+    size = path.stat().st_size
+
+    def chunks() -> Iterator[Chunk]:
+        with TdmsFile.open(path) as tdms_file:
+            grp = tdms_file[group]
+            for start in range(0, n, chunk_rows):
+                length = min(chunk_rows, n - start)
+                values = {
+                    q: scrub(np.asarray(grp[r.header].read_data(start, length), dtype=np.float64))
+                    * r.factor
+                    for q, r in cols.items()
+                }
+                yield Chunk(row0=start, values=values, nbytes=int(size * length / n))
+
+    meta = {"format": "tdms", "group": group, "columns": csv_columns_meta(cols), "rows": n}
+    return DaqStream(path=path, metadata=meta, size_bytes=size, chunks=chunks,
+                     line_of_row=lambda row: None)
+
+
+def _read_all(layout: CsvLayout, cols: dict[str, ResolvedColumn]) -> dict[str, np.ndarray]:
+    parts = list(iter_csv(layout, cols))
+    return {q: np.concatenate([p.values[q] for p in parts]) for q in cols}
+
+
+_DATE_FORMATS = ("%Y/%m/%d", "%Y-%m-%d", "%d.%m.%Y", "%m/%d/%Y")
+_TIME_FORMATS = ("%H:%M:%S.%f", "%H:%M:%S,%f", "%H:%M:%S")
+
+
+def _parse_wall_time(date: str, time: str) -> datetime | None:
+    for df in _DATE_FORMATS:
+        for tf in _TIME_FORMATS:
+            try:
+                return datetime.strptime(f"{date.strip()} {time.strip()}", f"{df} {tf}")
+            except ValueError:
+                continue
+    return None
+
+
+def read_analyzer(
+    path: str | Path, mapping: Mapping = EMPTY_MAPPING
+) -> tuple[pd.DataFrame, dict]:
+    """Read a power-analyzer vendor CSV export.
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        ``time_s`` (analyzer clock) and ``p_elec_w`` (positive = drawn from grid).
+    metadata : dict
+        The header block (``Model``, ``Serial``, ...), ``start`` (ISO wall time of
+        the analyzer's time 0, or None), separator, decimal and columns.
+    """
+    layout = sniff_csv(path, preamble=True)
+    cols = resolve_columns(
+        layout.path, layout.headers, layout.units_row, "analyzer",
+        required=("time", "p_elec"), mapping=mapping, header_line=layout.header_line,
+    )
+    data = _read_all(layout, cols)
+    pre = {k.strip(): v.strip() for k, v in layout.preamble.items()}
+    start = None
+    if "Start Date" in pre and "Start Time" in pre:
+        start = _parse_wall_time(pre["Start Date"], pre["Start Time"])
+    meta = {
+        "format": "vendor_csv", "header": pre,
+        "start": None if start is None else start.isoformat(),
+        "separator": layout.sep, "decimal": layout.decimal, "columns": csv_columns_meta(cols),
+        "layout": layout,
+    }
+    frame = pd.DataFrame({"time_s": data["time"], "p_elec_w": data["p_elec"]})
+    return frame, meta
+
+
+POINT_OPTIONAL = ("p_mech", "speed_std", "torque_std", "p_elec_std", "p_mech_std", "n_samples")
+
+
+def read_points_table(
+    path: str | Path, mapping: Mapping = EMPTY_MAPPING
+) -> tuple[pd.DataFrame, dict]:
+    """Read a table of pre-averaged operating points (one row per point).
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        Columns ``speed_rpm``, ``torque_nm``, ``p_elec_w`` and, when present,
+        ``p_mech_w``, the ``*_std`` columns and ``n_samples``; logged signs (not
+        yet in the drum frame).
+    metadata : dict
+        Separator, decimal and the columns used with their units.
+    """
+    layout = sniff_csv(path)
+    cols = resolve_columns(
+        layout.path, layout.headers, layout.units_row, "points",
+        required=("speed", "torque", "p_elec"), optional=POINT_OPTIONAL,
+        mapping=mapping, header_line=layout.header_line,
+    )
+    data = _read_all(layout, cols)
+    names = {
+        "speed": "speed_rpm", "torque": "torque_nm", "p_elec": "p_elec_w", "p_mech": "p_mech_w",
+        "speed_std": "speed_rpm_std", "torque_std": "torque_nm_std",
+        "p_elec_std": "p_elec_w_std", "p_mech_std": "p_mech_w_std", "n_samples": "n_samples",
+    }
+    frame = pd.DataFrame({names[q]: v for q, v in data.items()})
+    meta = {
+        "format": "operating_point_table", "separator": layout.sep, "decimal": layout.decimal,
+        "columns": csv_columns_meta(cols), "layout": layout,
+    }
+    return frame, meta

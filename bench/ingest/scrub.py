@@ -1,0 +1,125 @@
+"""Invalid-value markers, and the checks that run on every streamed chunk.
+
+Instruments write ``9.91E+37`` (Yokogawa/Keysight overflow), ``NAN``, ``INF``,
+``---`` or an empty cell for a sample they could not measure. Isolated markers
+become NaN and are skipped when averaging; a run longer than
+:data:`MAX_NAN_RUN` consecutive samples in one column is an error, because it
+means a sensor or channel was lost rather than a sample.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from bench.errors import InputError
+
+#: cell texts read as "no value" (matched exactly by the CSV parser)
+NULL_MARKERS: tuple[str, ...] = (
+    "", "NAN", "NaN", "nan", "-NAN", "-nan", "INF", "+INF", "-INF", "Inf", "-Inf",
+    "inf", "-inf", "---", "--", "-", "#N/A", "N/A",
+)
+
+#: numbers this large are overflow markers (9.91E+37, 9.9E37), never measurements
+MARKER_ABS = 1e30
+
+#: longest tolerated run of consecutive invalid samples in one column [samples]
+MAX_NAN_RUN = 25
+
+
+def scrub(values: np.ndarray) -> np.ndarray:
+    """Return float64 ``values`` with overflow markers and infinities replaced by NaN."""
+    out = np.array(values, dtype=np.float64, copy=True)
+    out[np.abs(out) > MARKER_ABS] = np.nan  # inf > 1e30 too; NaN stays NaN
+    return out
+
+
+class NanRunCheck:
+    """Track runs of NaN in one column across chunks; raise on a run too long.
+
+    Parameters
+    ----------
+    path : Path
+        File being read (for the error).
+    column : str
+        Column header (for the error).
+    line_of_row : callable
+        ``row -> 1-based line`` (or None when the format has no lines).
+    max_run : int
+        Longest tolerated run [samples].
+    """
+
+    def __init__(self, path, column: str, line_of_row: Callable[[int], int | None],
+                 max_run: int = MAX_NAN_RUN) -> None:
+        self.path, self.column, self.line_of_row, self.max_run = path, column, line_of_row, max_run
+        self.open_start = 0  # first row of the run still open at the end of the last chunk
+        self.open_len = 0  # its length so far [samples]
+
+    def feed(self, values: np.ndarray, row0: int) -> None:
+        """Check one chunk whose first row has 0-based index ``row0``."""
+        isnan = np.isnan(values)
+        edges = np.diff(np.concatenate(([0], isnan.view(np.int8), [0])))
+        starts = np.flatnonzero(edges == 1).tolist()
+        ends = np.flatnonzero(edges == -1).tolist()  # exclusive
+        runs = [(row0 + s, e - s) for s, e in zip(starts, ends, strict=True)]
+        if self.open_len:
+            if runs and starts[0] == 0:
+                runs[0] = (self.open_start, self.open_len + runs[0][1])
+            else:
+                runs.insert(0, (self.open_start, self.open_len))
+        self.open_len = 0
+        if runs and (not ends or ends[-1] == len(values)) and len(values) and isnan[-1]:
+            self.open_start, self.open_len = runs.pop()
+        for start, length in runs:
+            if length > self.max_run:
+                self._raise(start, length)
+
+    def finish(self) -> None:
+        """Check a run still open at the end of the file."""
+        if self.open_len > self.max_run:
+            self._raise(self.open_start, self.open_len)
+
+    def _raise(self, start_row: int, length: int) -> None:
+        raise InputError(
+            self.path, f"run of {length} consecutive invalid values (NaN or markers)",
+            line=self.line_of_row(start_row), column=self.column,
+            expected=f"at most {self.max_run} consecutive invalid samples",
+        )
+
+
+class TimeCheck:
+    """Check that time strictly increases across chunks (NaN times are skipped).
+
+    Parameters
+    ----------
+    path : Path
+        File being read.
+    column : str
+        Time column header.
+    line_of_row : callable
+        ``row -> 1-based line`` (or None).
+    """
+
+    def __init__(self, path, column: str, line_of_row: Callable[[int], int | None]) -> None:
+        self.path, self.column, self.line_of_row = path, column, line_of_row
+        self.last: float = -np.inf
+
+    def feed(self, time_s: np.ndarray, row0: int) -> None:
+        """Check one chunk of times [s] whose first row has 0-based index ``row0``."""
+        ok = np.flatnonzero(~np.isnan(time_s))
+        if ok.size == 0:
+            return
+        t = time_s[ok]
+        d = np.diff(np.concatenate(([self.last], t)))
+        bad = np.flatnonzero(d <= 0)
+        if bad.size:
+            k = int(bad[0])
+            prev = self.last if k == 0 else float(t[k - 1])
+            what = "repeats" if d[k] == 0 else "goes backwards"
+            raise InputError(
+                self.path, f"time {what}: {t[k]!r} s after {prev!r} s",
+                line=self.line_of_row(row0 + int(ok[k])), column=self.column,
+                expected="strictly increasing time",
+            )
+        self.last = float(t[-1])

@@ -1,0 +1,162 @@
+"""``session.toml``: the metadata of one bench session (docs/schemas.md section 1)."""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+
+from bench.errors import InputError
+
+SESSION_FILE = "session.toml"
+
+
+@dataclass(frozen=True)
+class Session:
+    """A parsed, validated ``session.toml``.
+
+    Parameters
+    ----------
+    folder : Path
+        The session folder.
+    session_id : str
+        Equals the folder name.
+    kind : str
+        ``"timeseries"`` or ``"operating_points"``.
+    mode : str
+        Intended bench mode, ``"motor"`` or ``"generator"``.
+    gear_ratio : float
+        Motor-shaft speed / drum-shaft speed [-].
+    measured_side : str
+        ``"drum"`` or ``"motor"``.
+    speed_sign, torque_sign : int
+        +1 or -1: logged value times sign = drum frame.
+    ranges : dict
+        Sensor ranges ``speed`` [rpm], ``torque`` [N m], ``power`` [W].
+    raw : dict
+        The whole file, for the manifest.
+    """
+
+    folder: Path
+    session_id: str
+    kind: str
+    mode: str
+    gear_ratio: float
+    measured_side: str
+    speed_sign: int
+    torque_sign: int
+    ranges: dict
+    raw: dict
+
+    @property
+    def path(self) -> Path:
+        """The ``session.toml`` file."""
+        return self.folder / SESSION_FILE
+
+    def table(self, name: str) -> dict:
+        """A sub-table (``daq``, ``analyzer``, ``points``); InputError when missing."""
+        t = self.raw.get(name)
+        if not isinstance(t, dict):
+            raise InputError(self.path, f"missing table [{name}]",
+                             expected=f"a [{name}] table for kind = {self.kind!r}")
+        return t
+
+    def file(self, table: str) -> Path:
+        """The data file a sub-table names, which must exist in the session folder."""
+        name = self.table(table).get("file")
+        if not isinstance(name, str) or not name:
+            raise InputError(self.path, f"[{table}] has no 'file'", column=f"{table}.file",
+                             expected="a file name in the session folder")
+        path = self.folder / name
+        if not path.is_file():
+            raise InputError(self.path, f"[{table}] file {name!r} does not exist",
+                             column=f"{table}.file", expected=f"a file in {self.folder}")
+        return path
+
+    def daq_start(self) -> datetime | None:
+        """Wall time of the DAQ clock's time 0, when given."""
+        text = self.table("daq").get("start")
+        if text is None:
+            return None
+        try:
+            return datetime.fromisoformat(str(text))
+        except ValueError as exc:
+            raise InputError(self.path, f"bad [daq] start {text!r}", column="daq.start",
+                             expected="ISO 8601 date-time, e.g. 2013-04-17T09:12:03.250") from exc
+
+
+def _get(path: Path, raw: dict, key: str, types, allowed=None):
+    if key not in raw:
+        raise InputError(path, f"missing key {key!r}", column=key)
+    value = raw[key]
+    if not isinstance(value, types) or isinstance(value, bool):
+        raise InputError(path, f"bad value {value!r} for {key!r}", column=key,
+                         expected=getattr(types, "__name__", str(types)))
+    if allowed is not None and value not in allowed:
+        raise InputError(path, f"bad value {value!r} for {key!r}", column=key,
+                         expected=" or ".join(repr(a) for a in allowed))
+    return value
+
+
+def load_session(folder: str | Path) -> Session:
+    """Read and validate ``<folder>/session.toml``.
+
+    Raises
+    ------
+    InputError
+        Unparsable TOML, a missing key, a bad value, or a ``session_id`` that is
+        not the folder name.
+    """
+    folder = Path(folder)
+    path = folder / SESSION_FILE
+    try:
+        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(path, f"cannot read ({exc})") from exc
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(path, f"invalid TOML ({exc})") from exc
+    sid = _get(path, raw, "session_id", str)
+    if sid != folder.name:
+        raise InputError(path, f"session_id {sid!r} differs from the folder name",
+                         column="session_id", expected=repr(folder.name))
+    kind = _get(path, raw, "kind", str, ("timeseries", "operating_points"))
+    mode = _get(path, raw, "mode", str, ("motor", "generator"))
+    gear = float(_get(path, raw, "gear_ratio", (int, float)))
+    if not gear > 0:
+        raise InputError(path, f"gear_ratio {gear} is not positive", column="gear_ratio")
+    side = _get(path, raw, "measured_side", str, ("drum", "motor"))
+    ssign = _get(path, raw, "speed_sign", int, (1, -1))
+    tsign = _get(path, raw, "torque_sign", int, (1, -1))
+    sensors = raw.get("sensors", {})
+    ranges = {
+        "speed": float(sensors.get("speed_range_rpm", 3000.0)),
+        "torque": float(sensors.get("torque_range_nm", 100.0)),
+        "power": float(sensors.get("power_range_w", 15000.0)),
+    }
+    return Session(folder=folder, session_id=sid, kind=kind, mode=mode, gear_ratio=gear,
+                   measured_side=side, speed_sign=ssign, torque_sign=tsign, ranges=ranges, raw=raw)
+
+
+def discover(paths: list[str | Path]) -> list[Path]:
+    """Session folders (holding ``session.toml``) at or under each path, sorted, unique.
+
+    Raises
+    ------
+    InputError
+        A path that does not exist, or no session anywhere.
+    """
+    found: set[Path] = set()
+    for p in map(Path, paths):
+        if not p.exists():
+            raise InputError(p, "no such file or directory",
+                             expected="a campaign or session folder")
+        if p.is_file():
+            p = p.parent if p.name == SESSION_FILE else p
+        if (p / SESSION_FILE).is_file():
+            found.add(p.resolve())
+        found.update(s.parent.resolve() for s in p.rglob(SESSION_FILE) if ".staging-" not in str(s))
+    if not found:
+        raise InputError(paths[0] if paths else None, "no session folders found",
+                         expected=f"folders holding a {SESSION_FILE}")
+    return sorted(found)

@@ -1,0 +1,55 @@
+"""The closing summary table of ``bench ingest``."""
+
+from __future__ import annotations
+
+
+def _fmt(value, spec: str) -> str:
+    return "-" if value is None else format(value, spec)
+
+
+def format_summary(ingested: list[str], unchanged: list[str], manifest: dict) -> str:
+    """One row per session of this run, then totals.
+
+    Parameters
+    ----------
+    ingested, unchanged : list of str
+        Session ids written / skipped (unchanged files) by this run.
+    manifest : dict
+        The store manifest after the run.
+
+    Returns
+    -------
+    str
+        A plain-text table: session, status, kind, mode, points per quadrant,
+        rejected windows by reason, clock offset [s] and drift [ppm].
+    """
+    head = ("session", "status", "kind", "mode", "motor", "generator", "offset_s", "drift_ppm",
+            "rejected")
+    rows = []
+    tot = {"motor": 0, "generator": 0}
+    tot_rej: dict[str, int] = {}
+    for sid in sorted(ingested + unchanged):
+        e = manifest["sessions"][sid]
+        q = e["points_per_quadrant"]
+        for k in tot:
+            tot[k] += q.get(k, 0)
+        for r, n in e["rejected"].items():
+            tot_rej[r] = tot_rej.get(r, 0) + n
+        rows.append((
+            sid, "ingested" if sid in ingested else "unchanged", e["kind"], e["mode"],
+            str(q.get("motor", 0)), str(q.get("generator", 0)),
+            _fmt(e.get("clock_offset_s"), ".4f"), _fmt(e.get("clock_drift_ppm"), ".1f"),
+            ", ".join(f"{r}: {n}" for r, n in e["rejected"].items()) or "-",
+        ))
+    rows.append(("total", f"{len(ingested)} new", "", "", str(tot["motor"]),
+                 str(tot["generator"]), "", "",
+                 ", ".join(f"{r}: {n}" for r, n in sorted(tot_rej.items())) or "-"))
+    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(head)]
+    right = {4, 5, 6, 7}
+
+    def line(cells) -> str:
+        return "  ".join(c.rjust(w) if i in right else c.ljust(w)
+                         for i, (c, w) in enumerate(zip(cells, widths, strict=True))).rstrip()
+
+    sep = "  ".join("-" * w for w in widths)
+    return "\n".join([line(head), sep, *(line(r) for r in rows[:-1]), sep, line(rows[-1])])

@@ -1,0 +1,408 @@
+"""One timeseries session: DAQ stream + analyzer -> aligned samples, points, rejections.
+
+Two passes over the DAQ so memory does not grow with the file:
+
+1. Stream the DAQ file in chunks: check time and NaN runs, map into the drum
+   frame, spill time/speed/torque to raw float64 scratch files, and accumulate
+   0.1 s bin sums. Align the analyzer on the bins (:mod:`align`), check the
+   torque sign, detect steady windows (:mod:`steady`).
+2. Stream the scratch files back: as-of join the analyzer power, tag samples
+   with their window, accumulate exact window statistics, and write the samples
+   Parquet file row group by row group.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from bench.errors import InputError
+from bench.ingest import align, steady
+from bench.ingest.mapping import Mapping
+from bench.ingest.readers import CHUNK_BYTES, DaqStream, open_daq_csv, open_daq_tdms, read_analyzer
+from bench.ingest.scrub import NanRunCheck, TimeCheck
+from bench.ingest.session import Session
+from bench.store import POINTS_SCHEMA, REJECTED_SCHEMA, SAMPLES_SCHEMA
+
+RAD_S_PER_RPM = 2.0 * math.pi / 60.0
+
+#: fraction of high-power samples whose p_mech and p_elec signs may disagree
+MAX_SIGN_DISAGREEMENT = 0.5
+
+
+@dataclass
+class SessionOutput:
+    """What a processed session hands to the store.
+
+    Parameters
+    ----------
+    points : pyarrow.Table
+        Operating points (store points schema).
+    rejected : pyarrow.Table
+        Rejected windows.
+    samples_path : Path or None
+        Staged samples Parquet file (timeseries sessions).
+    info : dict
+        Manifest fields: clock offset/drift, instruments, counts.
+    """
+
+    points: pa.Table
+    rejected: pa.Table
+    samples_path: Path | None
+    info: dict
+
+
+class _Bins:
+    """Growing per-bin sums on a fixed grid ``t0 + k * dt``."""
+
+    FIELDS = ("rows", "valid", "speed", "torque", "p_mech")
+
+    def __init__(self, dt: float) -> None:
+        self.dt = dt
+        self.t0: float | None = None
+        self.sums = {f: np.zeros(0) for f in self.FIELDS}
+
+    def add(self, t, speed, torque, p_mech) -> None:
+        if self.t0 is None:
+            self.t0 = float(t[0])
+        k = ((t - self.t0) / self.dt).astype(np.int64)
+        n = int(k[-1]) + 1
+        if n > self.sums["rows"].size:
+            size = max(n, 2 * self.sums["rows"].size)
+            for f in self.FIELDS:
+                grown = np.zeros(size)
+                grown[: self.sums[f].size] = self.sums[f]
+                self.sums[f] = grown
+        ok = np.isfinite(speed) & np.isfinite(torque)
+        kk = k[ok]
+        for f, w in (("rows", None), ("valid", None), ("speed", speed[ok]),
+                     ("torque", torque[ok]), ("p_mech", p_mech[ok])):
+            idx = k if f == "rows" else kk
+            self.sums[f][:n] += np.bincount(idx, weights=w, minlength=n)[:n]
+
+    def means(self, n_bins: int) -> dict[str, np.ndarray]:
+        valid = self.sums["valid"][:n_bins]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out = {f: self.sums[f][:n_bins] / valid for f in ("speed", "torque", "p_mech")}
+            out["valid_frac"] = np.where(self.sums["rows"][:n_bins] > 0,
+                                         valid / self.sums["rows"][:n_bins], 0.0)
+        return out
+
+
+def open_daq(session: Session, mapping: Mapping, chunk_bytes: int) -> DaqStream:
+    """Open the DAQ stream a session names (CSV or TDMS)."""
+    daq = session.table("daq")
+    path = session.file("daq")
+    fmt = daq.get("format", "csv")
+    if fmt == "csv":
+        return open_daq_csv(path, mapping, chunk_bytes)
+    if fmt == "tdms":
+        return open_daq_tdms(path, str(daq.get("tdms_group", "Measurement")), mapping)
+    raise InputError(session.path, f"unknown [daq] format {fmt!r}", column="daq.format",
+                     expected="'csv' or 'tdms'")
+
+
+def _drum_frame(session: Session, speed, torque):
+    speed = speed * session.speed_sign
+    torque = torque * session.torque_sign
+    if session.measured_side == "motor":
+        speed = speed / session.gear_ratio
+        torque = torque * session.gear_ratio
+    return speed, torque
+
+
+def check_torque_sign(session: Session, p_mech_w, p_elec_w, where: Path) -> None:
+    """Raise when p_mech and p_elec disagree in sign where |p_mech| is high.
+
+    The drive's efficiency is high at high power, so there both powers share
+    their sign; if most such samples disagree, the torque (or speed) sign of
+    the session is flipped.
+    """
+    ok = np.isfinite(p_mech_w) & np.isfinite(p_elec_w)
+    if ok.sum() < 10:
+        return
+    pm, pe = p_mech_w[ok], p_elec_w[ok]
+    high = np.abs(pm) > 0.25 * np.percentile(np.abs(pm), 95)
+    high &= np.abs(pm) > 500.0  # W: well above the drive's no-load losses
+    if high.sum() < 5:
+        return
+    disagree = float(np.mean(np.sign(pm[high]) != np.sign(pe[high])))
+    if disagree > MAX_SIGN_DISAGREEMENT:
+        flip = -session.torque_sign
+        raise InputError(
+            session.path,
+            f"torque sign convention looks flipped: at high |p_mech| the signs of p_mech and "
+            f"p_elec disagree in {disagree:.0%} of the samples of {where.name}",
+            column="torque_sign",
+            expected=f"torque_sign = {flip} (or a flipped speed_sign) so that generating "
+            "points have p_mech < 0 and p_elec < 0",
+        )
+
+
+def process_timeseries(
+    session: Session,
+    mapping: Mapping,
+    scratch: Path,
+    config: steady.SteadyConfig = steady.DEFAULT_STEADY,
+    chunk_bytes: int = CHUNK_BYTES,
+    progress: Callable[[int], None] = lambda n: None,
+) -> SessionOutput:
+    """Read, align and average one timeseries session; stage its samples file.
+
+    Parameters
+    ----------
+    session : Session
+        Its metadata.
+    mapping : Mapping
+        Column mapping for foreign names (may be empty).
+    scratch : Path
+        A staging directory for scratch and output files.
+    config : SteadyConfig
+        Steady-state detection settings.
+    chunk_bytes : int
+        CSV bytes per chunk [B].
+    progress : callable
+        Called with the number of source bytes handled.
+
+    Returns
+    -------
+    SessionOutput
+    """
+    sid = session.session_id
+    daq = open_daq(session, mapping, chunk_bytes)
+    apath = session.file("analyzer")
+    analyzer, ameta = read_analyzer(apath, mapping)
+    alayout = ameta.pop("layout")
+    _check_analyzer(apath, analyzer, ameta, alayout)
+
+    # pass 1
+    bins = _Bins(config.bin_s)
+    cols = daq.metadata["columns"]
+    tcheck = TimeCheck(daq.path, cols["time"]["column"], daq.line_of_row)
+    nan_checks = {q: NanRunCheck(daq.path, cols[q]["column"], daq.line_of_row)
+                  for q in ("time", "speed", "torque")}
+    spill = {q: scratch / f"{sid}.{q}.f64" for q in ("time", "speed", "torque")}
+    handles = {q: open(p, "wb") for q, p in spill.items()}
+    n_rows = n_total = 0
+    try:
+        for chunk in daq.chunks():
+            v = chunk.values
+            for q, chk in nan_checks.items():
+                chk.feed(v[q], chunk.row0)
+            tcheck.feed(v["time"], chunk.row0)
+            t = v["time"]
+            speed, torque = _drum_frame(session, v["speed"], v["torque"])
+            n_total += t.size
+            keep = np.isfinite(t)
+            if not keep.all():
+                t, speed, torque = t[keep], speed[keep], torque[keep]
+            if t.size:
+                bins.add(t, speed, torque, speed * torque * RAD_S_PER_RPM)
+                for q, arr in (("time", t), ("speed", speed), ("torque", torque)):
+                    arr.tofile(handles[q])
+                n_rows += t.size
+            progress(chunk.nbytes // 2)
+        for chk in nan_checks.values():
+            chk.finish()
+    finally:
+        for h in handles.values():
+            h.close()
+    if n_rows == 0:
+        raise InputError(daq.path, "no data rows", expected="DAQ samples")
+
+    n_bins = int(np.flatnonzero(bins.sums["rows"])[-1]) + 1
+    means = bins.means(n_bins)
+    t0, dt = bins.t0, config.bin_s
+    centres = t0 + (np.arange(n_bins) + 0.5) * dt
+
+    prior = _prior_offset(session, ameta)
+    clock = align.estimate_clock(centres, means["p_mech"], analyzer["time_s"].to_numpy(),
+                                 analyzer["p_elec_w"].to_numpy(), prior)
+    a_t = clock.to_daq(analyzer["time_s"].to_numpy())
+    a_p = analyzer["p_elec_w"].to_numpy()
+    fin = np.isfinite(a_p)
+    p_elec_bins = np.interp(centres, a_t[fin], a_p[fin], left=np.nan, right=np.nan)
+    check_torque_sign(session, means["p_mech"], p_elec_bins, daq.path)
+
+    win = steady.find_windows(means["speed"], means["torque"], p_elec_bins, means["valid_frac"],
+                              session.ranges, config,
+                              usable=(centres >= a_t[fin][0]) & (centres <= a_t[fin][-1]))
+    w_start = np.array([t0 + a * dt for a, _ in win.accepted])
+    w_end = np.array([t0 + b * dt for _, b in win.accepted])
+    refs = {
+        "speed": np.array([np.nanmean(means["speed"][a:b]) for a, b in win.accepted]),
+        "torque": np.array([np.nanmean(means["torque"][a:b]) for a, b in win.accepted]),
+        "p_mech": np.array([np.nanmean(means["p_mech"][a:b]) for a, b in win.accepted]),
+        "p_elec": np.array([np.nanmean(p_elec_bins[a:b]) for a, b in win.accepted]),
+    }
+    interval = float(np.median(np.diff(analyzer["time_s"].to_numpy())))
+
+    # pass 2
+    samples_path = scratch / f"{sid}.samples.parquet"
+    stats = _WindowStats(len(win.accepted), refs)
+    rows_per_chunk = max(1, chunk_bytes // 8)
+    sid_dict = pa.array([sid], pa.string())
+    with pq.ParquetWriter(samples_path, SAMPLES_SCHEMA, compression="snappy") as writer:
+        fhs = {q: open(p, "rb") for q, p in spill.items()}
+        try:
+            done = 0
+            while done < n_rows:
+                t = np.fromfile(fhs["time"], np.float64, rows_per_chunk)
+                speed = np.fromfile(fhs["speed"], np.float64, rows_per_chunk)
+                torque = np.fromfile(fhs["torque"], np.float64, rows_per_chunk)
+                p_mech = speed * torque * RAD_S_PER_RPM
+                p_elec = align.asof_nearest(t, a_t, a_p, 0.75 * interval)
+                pid = _point_ids(t, w_start, w_end)
+                stats.add(pid, speed, torque, p_mech, p_elec)
+                table = pa.Table.from_arrays([
+                    pa.DictionaryArray.from_arrays(np.zeros(t.size, np.int32), sid_dict),
+                    t, speed, torque, p_mech, p_elec, pid,
+                ], schema=SAMPLES_SCHEMA)
+                writer.write_table(table)
+                done += t.size
+                progress(int(daq.size_bytes * t.size / n_rows) // 2)
+        finally:
+            for h in fhs.values():
+                h.close()
+            for p in spill.values():
+                p.unlink(missing_ok=True)
+
+    points = stats.points_table(session, w_start, w_end)
+    rejected = rejected_table(sid, [(t0 + a * dt, t0 + b * dt, r) for a, b, r in win.rejected])
+    info = {
+        "clock_offset_s": round(clock.offset_s, 6),
+        "clock_drift_ppm": round(clock.drift_ppm, 3),
+        "clock_offset_prior_s": round(clock.prior_offset_s, 6),
+        "clock_correlation": round(clock.correlation, 4),
+        "n_samples": int(n_rows),
+        "n_rows_without_time": int(n_total - n_rows),
+        "steady_tolerances": {k: round(v, 6) for k, v in win.tolerances.items()},
+        "instruments": {"daq": daq.metadata, "analyzer": ameta},
+    }
+    return SessionOutput(points=points, rejected=rejected, samples_path=samples_path, info=info)
+
+
+def _check_analyzer(path: Path, frame, meta: dict, layout) -> None:
+    from bench.ingest.readers import line_of_row
+
+    where = lambda row: line_of_row(layout, row)  # noqa: E731
+    t = frame["time_s"].to_numpy()
+    NanRunCheck(path, meta["columns"]["time"]["column"], where).feed(t, 0)
+    chk = NanRunCheck(path, meta["columns"]["p_elec"]["column"], where)
+    chk.feed(frame["p_elec_w"].to_numpy(), 0)
+    chk.finish()
+    TimeCheck(path, meta["columns"]["time"]["column"], where).feed(t, 0)
+    if np.isnan(t).any():
+        frame.drop(index=frame.index[np.isnan(t)], inplace=True)
+    if len(frame) < 20:
+        raise InputError(path, f"only {len(frame)} analyzer samples", expected="at least 20")
+
+
+def _prior_offset(session: Session, ameta: dict) -> float:
+    from datetime import datetime
+
+    d0 = session.daq_start()
+    a0 = ameta.get("start")
+    if d0 is None or a0 is None:
+        return 0.0
+    return (datetime.fromisoformat(a0) - d0).total_seconds()
+
+
+def _point_ids(t: np.ndarray, w_start: np.ndarray, w_end: np.ndarray) -> np.ndarray:
+    """Window index of each time (``-1`` outside every window); windows ``[start, end)``."""
+    if w_start.size == 0:
+        return np.full(t.size, -1, np.int32)
+    k = np.searchsorted(w_start, t, side="right") - 1
+    inside = (k >= 0) & (t < w_end[np.clip(k, 0, None)])
+    return np.where(inside, k, -1).astype(np.int32)
+
+
+class _WindowStats:
+    """Exact per-window means and standard deviations from streamed samples.
+
+    Sums are taken around a per-window reference value (the bin mean from
+    pass 1), so the variance does not lose digits to large means.
+    """
+
+    Q = ("speed", "torque", "p_mech", "p_elec")
+
+    def __init__(self, n: int, refs: dict[str, np.ndarray]) -> None:
+        self.n = n
+        self.refs = refs
+        self.count = np.zeros(n)
+        self.s1 = {q: np.zeros(n) for q in self.Q}
+        self.s2 = {q: np.zeros(n) for q in self.Q}
+
+    def add(self, pid, speed, torque, p_mech, p_elec) -> None:
+        if self.n == 0:
+            return
+        ok = (pid >= 0) & np.isfinite(speed) & np.isfinite(torque) & np.isfinite(p_elec)
+        k = pid[ok]
+        self.count += np.bincount(k, minlength=self.n)
+        for q, x in zip(self.Q, (speed, torque, p_mech, p_elec), strict=True):
+            d = x[ok] - self.refs[q][k]
+            self.s1[q] += np.bincount(k, weights=d, minlength=self.n)
+            self.s2[q] += np.bincount(k, weights=d * d, minlength=self.n)
+
+    def points_table(self, session: Session, w_start, w_end) -> pa.Table:
+        n = np.maximum(self.count, 1)
+        cols = {}
+        for q, name in zip(self.Q, ("speed_rpm", "torque_nm", "p_mech_w", "p_elec_w"),
+                           strict=True):
+            m = self.s1[q] / n
+            var = np.maximum(self.s2[q] / n - m * m, 0.0) * n / np.maximum(n - 1, 1)
+            cols[name] = self.refs[q] + m
+            cols[name + "_std"] = np.sqrt(var)
+        return points_table(session, cols, self.count.astype(np.int32), w_start, w_end,
+                            "timeseries")
+
+
+def points_table(session: Session, cols: dict, n_samples, t_start, t_end,
+                 source: str) -> pa.Table:
+    """Assemble the points table (store schema) of one session.
+
+    Parameters
+    ----------
+    session : Session
+        Gives ``session_id`` and ``mode``.
+    cols : dict
+        ``speed_rpm``, ``torque_nm``, ``p_mech_w``, ``p_elec_w`` and their ``*_std``
+        arrays in the drum frame [rpm, N m, W].
+    n_samples : array
+        Samples averaged per point.
+    t_start, t_end : array
+        Window bounds on the DAQ clock [s] (NaN for tables).
+    source : str
+        ``"timeseries"`` or ``"operating_point_table"``.
+    """
+    data = {k: np.asarray(v, np.float64) for k, v in cols.items()}
+    m = len(n_samples)
+    arrays = {
+        "session_id": pa.array([session.session_id] * m, pa.string()),
+        "point_id": pa.array(np.arange(m, dtype=np.int32)),
+        "mode": pa.array([session.mode] * m, pa.string()),
+        "quadrant": pa.array(steady.quadrant(data["p_mech_w"]).tolist(), pa.string()),
+        "source": pa.array([source] * m, pa.string()),
+        **{k: pa.array(data[k]) for k in (
+            "speed_rpm", "torque_nm", "p_mech_w", "p_elec_w",
+            "speed_rpm_std", "torque_nm_std", "p_mech_w_std", "p_elec_w_std")},
+        "n_samples": pa.array(np.asarray(n_samples, np.int32)),
+        "t_start_s": pa.array(np.asarray(t_start, np.float64)),
+        "t_end_s": pa.array(np.asarray(t_end, np.float64)),
+    }
+    return pa.table(arrays, schema=POINTS_SCHEMA)
+
+
+def rejected_table(sid: str, rows: list[tuple[float, float, str]]) -> pa.Table:
+    return pa.table({
+        "session_id": pa.array([sid] * len(rows), pa.string()),
+        "t_start_s": pa.array([r[0] for r in rows], pa.float64()),
+        "t_end_s": pa.array([r[1] for r in rows], pa.float64()),
+        "reason": pa.array([r[2] for r in rows], pa.string()),
+    }, schema=REJECTED_SCHEMA)
