@@ -218,3 +218,9 @@ power_range_w = 15000.0
 ''')
     return {"speed_rpm": speed, "torque_nm": torque, "p_elec_w": p, "mapping": mapping,
             "p_mech_w": speed * torque * 2 * math.pi / 60}
+
+
+def store_tree(store: Path) -> dict[str, bytes]:
+    """Relative path -> bytes of every file under ``store`` (to prove it did not change)."""
+    return {p.relative_to(store).as_posix(): p.read_bytes()
+            for p in sorted(store.rglob("*")) if p.is_file()}

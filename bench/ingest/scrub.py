@@ -118,7 +118,7 @@ class TimeCheck:
             prev = self.last if k == 0 else float(t[k - 1])
             what = "repeats" if d[k] == 0 else "goes backwards"
             raise InputError(
-                self.path, f"time {what}: {t[k]!r} s after {prev!r} s",
+                self.path, f"time {what}: {float(t[k]):.9g} s after {prev:.9g} s",
                 line=self.line_of_row(row0 + int(ok[k])), column=self.column,
                 expected="strictly increasing time",
             )
