@@ -4,7 +4,8 @@ The two instruments run on their own clocks. The header start times give a
 prior offset; the data refine it: the DAQ's mechanical power ``speed*torque``
 and the analyzer's electrical power step together at every setpoint change,
 so the lag that maximises the cross-correlation of their increments (on a
-common grid, with a parabolic sub-sample peak) is the residual offset. The
+common grid; then refined continuously by re-interpolating the analyzer at
+sub-sample shifts) is the residual offset. The
 same estimate on the first and the second half of the session gives the drift.
 
 Clock model: ``t_daq = offset_s + (1 + drift_ppm * 1e-6) * t_analyzer``.
@@ -15,10 +16,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
+from scipy import optimize, signal
 
 #: largest residual offset searched around the header prior [s]
 MAX_LAG_S = 20.0
+#: shortest session whose drift is estimated; shorter ones get drift 0 (tens of ppm
+#: over a few minutes are a few ms, below what the 0.1 s grid resolves) [s]
+MIN_DRIFT_SPAN_S = 300.0
+#: smallest |correlation| of a half-session estimate that is trusted for the drift [-]
+MIN_HALF_CORRELATION = 0.5
 
 
 @dataclass(frozen=True)
@@ -112,20 +118,35 @@ def estimate_clock(
     def on_grid(offset: float, t: np.ndarray) -> np.ndarray:
         return np.interp(t, ta + offset, pa, left=np.nan, right=np.nan)
 
-    pm = np.where(np.isfinite(p_mech_w), p_mech_w, np.nan)
-    pm = _fill(pm)
+    pm = _fill(p_mech_w)
+
+    def refine(guess: float, t: np.ndarray, x: np.ndarray) -> float:
+        """Maximise |corr| over a continuous offset within a grid step of ``guess``."""
+        dx = _increments(x)
+
+        def cost(off: float) -> float:
+            dy = _increments(_fill(on_grid(off, t)))
+            return -abs(float(np.dot(dx, dy)) / (float(np.linalg.norm(dy)) or 1.0))
+
+        res = optimize.minimize_scalar(cost, bounds=(guess - 1.5 * dt, guess + 1.5 * dt),
+                                       method="bounded", options={"xatol": 1e-4})
+        return float(res.x)
+
     lag, corr = _peak_lag(pm, _fill(on_grid(prior_offset_s, grid_t_s)), dt, max_lag_s)
-    offset = prior_offset_s + lag
+    offset = refine(prior_offset_s + lag, grid_t_s, pm)
     # drift: the same on each half, searched narrowly around the global offset
     half = grid_t_s.size // 2
     centres, offsets = [], []
+    span = float(grid_t_s[-1] - grid_t_s[0]) if grid_t_s.size else 0.0
     for sl in (slice(0, half), slice(half, None)):
         t = grid_t_s[sl]
-        if t.size < 20:
+        if span < MIN_DRIFT_SPAN_S:
             break
-        lag_h, _ = _peak_lag(pm[sl], _fill(on_grid(offset, t)), dt, min(2.0, max_lag_s))
+        lag_h, corr_h = _peak_lag(pm[sl], _fill(on_grid(offset, t)), dt, min(2.0, max_lag_s))
+        if abs(corr_h) < MIN_HALF_CORRELATION:
+            break
         centres.append(float(np.mean(t)) - offset)  # on the analyzer clock
-        offsets.append(offset + lag_h)
+        offsets.append(refine(offset + lag_h, t, pm[sl]))
     slope = 0.0
     if len(offsets) == 2 and centres[1] > centres[0]:
         slope = (offsets[1] - offsets[0]) / (centres[1] - centres[0])

@@ -6,8 +6,8 @@ Works on short-bin means (default 0.1 s) of speed, torque and power:
    (robust: steps are rare). Tolerance = ``k_tol`` noise sigmas, at least a
    small fraction of the sensor's range.
 2. A bin is *moving* when the mean of the next ``step_lag_s`` differs from the
-   mean of the previous ``step_lag_s`` by more than the tolerance in speed or
-   torque. Runs of non-moving bins are the candidate segments, one per setpoint.
+   mean of the previous ``step_lag_s`` by more than ``k_step`` tolerances in
+   speed or torque. Runs of non-moving bins are the candidate segments, one per setpoint.
 3. Settling: the segment starts after the last bin that is off the segment's
    final level (median of its second half) by more than the tolerance.
 4. Checks, in order, each giving a rejection reason: ``too short`` (under
@@ -37,6 +37,10 @@ class SteadyConfig:
         Shortest accepted window after settling [s].
     k_tol : float
         Tolerance in noise standard deviations of a bin mean [-].
+    k_step : float
+        A setpoint step is a change of the lagged means above ``k_step`` tolerances [-]
+        (larger than 1 so that an oscillating signal stays one segment and is
+        rejected as unstable rather than cut into short pieces).
     floor_frac : float
         Smallest tolerance as a fraction of the sensor range [-].
     max_invalid : float
@@ -49,6 +53,7 @@ class SteadyConfig:
     step_lag_s: float = 0.5
     min_window_s: float = 2.0
     k_tol: float = 5.0
+    k_step: float = 3.0
     floor_frac: float = 0.001
     max_invalid: float = 0.2
     min_report_s: float = 1.0
@@ -137,7 +142,8 @@ def find_windows(
         "power": max(config.k_tol * noise_sigma(p_elec_w), config.floor_frac * ranges["power"]),
     }
     lag = max(1, int(round(config.step_lag_s / config.bin_s)))
-    moving = _moving(speed_rpm, lag, tol["speed"]) | _moving(torque_nm, lag, tol["torque"])
+    moving = _moving(speed_rpm, lag, config.k_step * tol["speed"])
+    moving |= _moving(torque_nm, lag, config.k_step * tol["torque"])
     moving |= ~np.isfinite(speed_rpm) & (valid_frac == 0)  # empty bins split segments
     if usable is not None:
         moving |= ~usable
