@@ -1,0 +1,33 @@
+"""``bench report``: render the self-contained HTML report from the stages' output files."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from reports.render import build_report
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Declare the ``bench report`` options."""
+    parser.add_argument("--store", type=Path, default=Path("bench_store"),
+                        help="store folder written by `bench ingest` (default: ./bench_store)")
+    parser.add_argument("--fit", type=Path, default=Path("fit_out"),
+                        help="output folder of `bench fit` (default: ./fit_out)")
+    parser.add_argument("--optimize", type=Path, default=Path("optimize_out"),
+                        help="output folder of `bench optimize` (default: ./optimize_out)")
+    parser.add_argument("--out", type=Path, default=Path("report.html"),
+                        help="the HTML file to write (default: ./report.html)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Build the report; print its path, size and the wall time."""
+    t0 = time.perf_counter()
+    argv = ["bench", "report", "--store", str(args.store), "--fit", str(args.fit),
+            "--optimize", str(args.optimize), "--out", str(args.out)]
+    out = build_report(args.store, args.fit, args.optimize, args.out, argv)
+    size_mb = out.stat().st_size / 1e6
+    print(f"{out.resolve()}")
+    print(f"bench report: {size_mb:.2f} MB written in {time.perf_counter() - t0:.1f} s")
+    return 0

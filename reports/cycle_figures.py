@@ -1,0 +1,173 @@
+"""Figures of the optimized cycles: Fig. 8 (power vs wind), Fig. 9, Fig. 10, Fig. 3 analogues.
+
+Pure functions of frames read from ``optimize_out``; each returns inline SVG.
+Sign convention as everywhere (positive = drawn from the grid / delivered to
+the shaft) except in :func:`power_vs_wind_figure`, which, like the paper's
+Fig. 8, plots *generated* power (positive = good) and says so on its axis.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from markupsafe import Markup
+
+from reports.drive_figures import _draw_efficiency
+from reports.svg import SCENARIO_COLORS, new_figure, to_svg
+
+KIND_LABELS = {
+    ("elec", True): "elec. optimized, constrained",
+    ("elec", False): "elec. optimized, unconstrained",
+    ("mech", True): "mech. optimized, constrained",
+    ("mech", False): "mech. optimized, unconstrained",
+}
+
+
+def power_vs_wind_figure(summary: pd.DataFrame, power_column: str, name: str,
+                         title: str) -> Markup:
+    """Average generated power against wind speed for the four scenario kinds (Fig. 8a/8b).
+
+    Parameters
+    ----------
+    summary : DataFrame
+        One row per scenario with ``objective_key`` ("elec"/"mech"), ``limits`` (bool),
+        ``wind_speed_m_s`` [m/s], ``ok`` (bool) and ``power_column`` [W] (our sign:
+        negative = generated). Failed scenarios (``ok`` False) are not plotted.
+    power_column : str
+        ``avg_p_elec_w`` or ``avg_p_mech_w``.
+    name, title : str
+        Figure name (unique) and title.
+    """
+    fig = new_figure(6.4, 4.0)
+    ax = fig.add_subplot()
+    for key, label in KIND_LABELS.items():
+        rows = summary[(summary["objective_key"] == key[0]) & (summary["limits"] == key[1])]
+        if rows.empty:
+            continue
+        rows = rows.sort_values("wind_speed_m_s")
+        good = rows[rows["ok"]]
+        n_failed = int((~rows["ok"]).sum())
+        text = label + (f" ({n_failed} failed, not shown)" if n_failed else "")
+        ax.plot(good["wind_speed_m_s"], -good[power_column], marker="o", ms=4,
+                color=SCENARIO_COLORS[key], ls="-" if key[1] else "--", label=text)
+    ax.axhline(0.0, color="k", lw=0.6)
+    ax.set_xlabel("wind speed at 100 m [m/s]")
+    ax.set_ylabel("average GENERATED power [W]\n(positive = delivered, as paper Fig. 8)")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="best")
+    return to_svg(fig, name)
+
+
+def torque_speed_figure(cycles: dict[tuple[str, bool], pd.DataFrame], wind_m_s: float,
+                        grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None) -> Markup:
+    """Torque-speed trajectories of the cycles over the efficiency map (paper Fig. 9).
+
+    Parameters
+    ----------
+    cycles : dict
+        (objective_key, limits) -> trajectory frame with ``speed_rpm`` [rpm] and
+        ``torque_nm`` [N m] at every collocation point.
+    wind_m_s : float
+        The wind speed of the cycles [m/s], for the title.
+    grid : tuple or None
+        (speed_rpm, torque_nm, eta) of the efficiency map, drawn beneath if given.
+    """
+    fig = new_figure(7.0, 4.4)
+    ax = fig.add_subplot()
+    if grid is not None:
+        _draw_efficiency(ax, *grid)
+    for key, traj in cycles.items():
+        ax.plot(traj["speed_rpm"], traj["torque_nm"], marker=".", ms=3, lw=0.6,
+                color=SCENARIO_COLORS[key], label=KIND_LABELS[key])
+    ax.axvline(0.0, color="k", lw=0.6)
+    ax.set_xlabel("drum speed [rpm] (reel-out / generating < 0)")
+    ax.set_ylabel("drum torque [N m]")
+    ax.set_title(f"Torque-speed trajectories at {wind_m_s:g} m/s "
+                 "(one marker per collocation point)", fontsize=10)
+    ax.legend(fontsize=7, loc="upper right")
+    return to_svg(fig, "torque-speed")
+
+
+def power_flow_figure(cycles: dict[tuple[str, bool], pd.DataFrame], wind_m_s: float) -> Markup:
+    """Mechanical and electrical power over one cycle, one panel per cycle (paper Fig. 10).
+
+    Parameters
+    ----------
+    cycles : dict
+        (objective_key, limits) -> trajectory frame with ``time_s`` [s], ``p_mech_w`` [W]
+        and ``p_elec_w`` [W] (positive = drawn from the grid / delivered to the shaft).
+    wind_m_s : float
+        Wind speed [m/s], for the titles.
+    """
+    fig = new_figure(9.0, 3.6)
+    axes = np.atleast_1d(fig.subplots(1, len(cycles), sharey=True))
+    for ax, (key, traj) in zip(axes, cycles.items(), strict=True):
+        t = traj["time_s"].to_numpy(float)
+        ax.plot(t, traj["p_mech_w"] / 1e3, color="0.3", label="P_mech (shaft)")
+        ax.plot(t, traj["p_elec_w"] / 1e3, color=SCENARIO_COLORS[key], label="P_elec (grid)")
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_title(f"{KIND_LABELS[key]}, {wind_m_s:g} m/s", fontsize=9)
+        ax.set_xlabel("time [s]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    axes[0].set_ylabel("power [kW] (+ = drawn from grid)")
+    return to_svg(fig, "power-flows")
+
+
+def cycle_energy(weight: np.ndarray, power_w: np.ndarray, period_s: float) -> np.ndarray:
+    """Cumulative energy [J] over a cycle by the collocation quadrature.
+
+    Parameters
+    ----------
+    weight : (n,) array
+        Quadrature weight of each collocation point as a fraction of the period
+        (the trajectory's ``weight`` column; they sum to 1 over a cycle) [-].
+    power_w : (n,) array
+        Power at the points [W].
+    period_s : float
+        Cycle period [s].
+
+    Returns
+    -------
+    (n,) array
+        Energy [J] up to and including each point; the last value is the net
+        energy of the cycle, ``mean power * period``.
+    """
+    return period_s * np.cumsum(np.asarray(weight, float) * np.asarray(power_w, float))
+
+
+def cycle_figure(traj: pd.DataFrame, period_s: float, label: str) -> Markup:
+    """Tether length, power and energy over one cycle (paper Fig. 3).
+
+    Parameters
+    ----------
+    traj : DataFrame
+        Closed cycle (first row at t = 0) with ``time_s`` [s], ``weight`` [-],
+        ``l_m`` [m], ``p_elec_w``, ``p_mech_w`` [W].
+    period_s : float
+        Cycle period [s].
+    label : str
+        What the cycle is (our constant text, e.g. "elec. optimized, constrained, 5.5 m/s").
+    """
+    t = traj["time_s"].to_numpy(float)
+    fig = new_figure(7.0, 6.0)
+    ax_l, ax_p, ax_e = fig.subplots(3, 1, sharex=True)
+    ax_l.plot(t, traj["l_m"], color="k")
+    ax_l.set_ylabel("tether length [m]")
+    ax_l.set_title(label, fontsize=10)
+    for col, color, name in (("p_elec_w", "tab:blue", "electrical"),
+                             ("p_mech_w", "0.4", "mechanical")):
+        p = traj[col].to_numpy(float)
+        ax_p.plot(t, p / 1e3, color=color, label=f"P {name}")
+        e = cycle_energy(traj["weight"].to_numpy(float), p, period_s)
+        ax_e.plot(t, e, color=color, label=f"E {name}: net {e[-1]:+.0f} J")
+    ax_p.set_ylabel("power [kW]\n(+ = consumed)")
+    ax_e.set_ylabel("energy [J]\n(+ = consumed)")
+    ax_e.set_xlabel("time [s]")
+    for ax in (ax_l, ax_p, ax_e):
+        ax.grid(alpha=0.3)
+    for ax in (ax_p, ax_e):
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.legend(fontsize=7, loc="best")
+    return to_svg(fig, "cycle")

@@ -1,0 +1,177 @@
+"""Section 4 of the report: the optimized cycles (Table II, Figs. 8, 9, 10, 3, claims).
+
+Reads ``optimize_out/summary.parquet`` (one row per scenario, with solver status),
+``trajectories.parquet`` (every collocation point, a ``scenario`` column),
+``manifest.json`` and ``claims.csv`` (docs/schemas.md §5). A scenario that did not
+converge is shown as failed with its status and is never plotted or compared.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from bench.errors import InputError
+from reports import cycle_figures
+from reports.inputs import InputLog
+from reports.tables import fmt, frame_table
+
+SUMMARY_COLUMNS = ("scenario", "kind", "wind_speed_m_s", "status", "success",
+                   "avg_p_elec_w", "avg_p_mech_w")
+TRAJECTORY_COLUMNS = ("scenario", "time_s", "weight", "l_m", "speed_rpm", "torque_nm",
+                      "p_elec_w", "p_mech_w")
+#: scenario kind (optimize.sweep.KINDS) -> (objective key, drive limits on)
+KIND_KEYS = {
+    "elec-lim": ("elec", True),
+    "elec-free": ("elec", False),
+    "mech-lim": ("mech", True),
+    "mech-free": ("mech", False),
+}
+#: Fig. 9/10: unconstrained cycles at the highest wind (paper: 10 m/s).
+FIG9_WIND_M_S = 10.0
+#: Fig. 3: electrically optimized, constrained cycle at 5.5 m/s.
+FIG3_KIND, FIG3_WIND_M_S = "elec-lim", 5.5
+
+
+def normalized_summary(summary: pd.DataFrame, path: Path) -> pd.DataFrame:
+    """Summary with ``objective_key``, ``limits`` and ``ok`` columns added.
+
+    Raises
+    ------
+    InputError
+        On a scenario kind not in :data:`KIND_KEYS`.
+    """
+    out = summary.copy()
+    unknown = sorted(set(out["kind"].astype(str)) - set(KIND_KEYS))
+    if unknown:
+        raise InputError(path, f"unknown scenario kind {unknown[0]!r}", column="kind",
+                         expected=", ".join(KIND_KEYS))
+    out["objective_key"] = [KIND_KEYS[k][0] for k in out["kind"].astype(str)]
+    out["limits"] = [KIND_KEYS[k][1] for k in out["kind"].astype(str)]
+    out["ok"] = out["success"].astype(bool) & np.isfinite(out["avg_p_elec_w"].astype(float))
+    return out
+
+
+def table_ii(summary: pd.DataFrame) -> dict:
+    """Table II analogue: one row per wind speed, P_elec / P_mech [W] per scenario kind.
+
+    Failed scenarios show ``failed (<status>)`` instead of numbers.
+    """
+    kinds = [k for k in KIND_KEYS if k in set(summary["kind"])]
+    rows = []
+    for wind, group in summary.groupby("wind_speed_m_s", sort=True):
+        cells = []
+        for kind in kinds:
+            hit = group[group["kind"] == kind]
+            if hit.empty:
+                cells.append({"elec": "", "mech": "", "failed": None})
+                continue
+            r = hit.iloc[0]
+            if r["ok"]:
+                cells.append({"elec": fmt(r["avg_p_elec_w"], 0), "mech": fmt(r["avg_p_mech_w"], 0),
+                              "failed": None})
+            else:
+                cells.append({"elec": "", "mech": "", "failed": str(r["status"])})
+        rows.append({"wind": fmt(wind, sig=3), "cells": cells})
+    labels = [cycle_figures.KIND_LABELS[KIND_KEYS[k]] for k in kinds]
+    return {"kinds": kinds, "labels": labels, "rows": rows}
+
+
+def closed_cycle(rows: pd.DataFrame) -> pd.DataFrame:
+    """A cycle's collocation points sorted by time, closed at t = 0 by periodicity.
+
+    The points sit at ``time_s`` in ``(0, T]``; the state at 0 equals the state at
+    T, so the last point is repeated at ``time_s = 0`` with quadrature weight 0.
+    """
+    rows = rows.sort_values("time_s")
+    first = rows.iloc[[-1]].copy()
+    first["time_s"] = 0.0
+    first["weight"] = 0.0
+    return pd.concat([first, rows], ignore_index=True)
+
+
+def _trajectory(traj: pd.DataFrame | None, summary: pd.DataFrame, kind: str,
+                wind: float) -> tuple[pd.DataFrame | None, str | None]:
+    """The closed cycle of a converged scenario (:func:`closed_cycle`), or (None, why not)."""
+    hit = summary[(summary["kind"] == kind) & np.isclose(summary["wind_speed_m_s"], wind)]
+    if hit.empty:
+        return None, f"scenario {kind} at {wind:g} m/s was not run"
+    row = hit.iloc[0]
+    if not row["ok"]:
+        return None, f"scenario {row['scenario']} failed ({row['status']})"
+    if traj is None:
+        return None, "trajectories.parquet missing"
+    rows = traj[traj["scenario"] == row["scenario"]]
+    if rows.empty:
+        return None, f"no trajectory rows for scenario {row['scenario']}"
+    return closed_cycle(rows), None
+
+
+def optimization_section(log: InputLog, optimize: Path,
+                         grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None) -> dict:
+    """Section 4 context.
+
+    Parameters
+    ----------
+    log : InputLog
+    optimize : Path
+        The ``bench optimize`` output folder.
+    grid : tuple or None
+        (speed_rpm, torque_nm, eta) of the efficiency map, beneath Fig. 9.
+
+    Returns
+    -------
+    dict
+        ``table_ii``, ``n_failed``, ``scenarios`` (full summary table), ``fig8a``,
+        ``fig8b``, ``fig9``, ``fig10``, ``fig3`` (each markup or None), ``notes``
+        (why a figure is absent), ``claims``, ``manifest``, ``missing``.
+    """
+    start = len(log.missing)
+    optimize = Path(optimize)
+    summary_path = optimize / "summary.parquet"
+    summary = log.parquet(summary_path, SUMMARY_COLUMNS)
+    traj = log.parquet(optimize / "trajectories.parquet", TRAJECTORY_COLUMNS)
+    manifest = log.json(optimize / "manifest.json")
+    claims = log.csv(optimize / "claims.csv")
+    out: dict = {"notes": {"fig9": None, "fig3": None}, "manifest": manifest,
+                 "table_ii": None, "n_failed": 0, "n_scenarios": 0, "scenarios": None,
+                 "fig8a": None, "fig8b": None, "fig9": None, "fig10": None, "fig3": None,
+                 "fig9_periods": []}
+    out["claims"] = frame_table(claims) if claims is not None else None
+    if summary is not None and len(summary):
+        s = normalized_summary(summary, summary_path)
+        out["table_ii"] = table_ii(s)
+        out["n_failed"] = int((~s["ok"]).sum())
+        out["n_scenarios"] = len(s)
+        out["scenarios"] = frame_table(summary)
+        out["fig8a"] = cycle_figures.power_vs_wind_figure(
+            s, "avg_p_elec_w", "fig8a", "Average generated ELECTRICAL power (Fig. 8a)")
+        out["fig8b"] = cycle_figures.power_vs_wind_figure(
+            s, "avg_p_mech_w", "fig8b", "Average generated MECHANICAL power (Fig. 8b)")
+        cycles, notes = {}, []
+        for kind in ("elec-free", "mech-free"):
+            t, why = _trajectory(traj, s, kind, FIG9_WIND_M_S)
+            if t is None:
+                notes.append(why)
+            else:
+                cycles[KIND_KEYS[kind]] = t
+        if cycles:
+            out["fig9"] = cycle_figures.torque_speed_figure(cycles, FIG9_WIND_M_S, grid)
+            out["fig10"] = cycle_figures.power_flow_figure(cycles, FIG9_WIND_M_S)
+            out["fig9_periods"] = [
+                {"label": cycle_figures.KIND_LABELS[k], "period_s": fmt(t["time_s"].max(), 2)}
+                for k, t in cycles.items()]
+        if notes:
+            out["notes"]["fig9"] = "; ".join(notes)
+        t, why = _trajectory(traj, s, FIG3_KIND, FIG3_WIND_M_S)
+        if t is None:
+            out["notes"]["fig3"] = why
+        else:
+            period = float(t["time_s"].max())
+            out["fig3"] = cycle_figures.cycle_figure(
+                t, period, f"electrically optimized, constrained, {FIG3_WIND_M_S:g} m/s, "
+                f"period {period:.2f} s")
+    out["missing"] = list(dict.fromkeys(log.missing[start:]))
+    return out

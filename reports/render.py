@@ -1,0 +1,85 @@
+"""Build the report: read every stage's files, render the Jinja2 template, write atomically."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from datetime import UTC, datetime
+from pathlib import Path
+
+from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
+
+from reports import optimization, provenance, sections
+from reports.inputs import InputLog
+
+
+def environment() -> Environment:
+    """The Jinja2 environment: templates from the package, autoescape on for everything."""
+    return Environment(
+        loader=PackageLoader("reports", "templates"),
+        autoescape=select_autoescape(default=True, default_for_string=True),
+        undefined=StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+    )
+
+
+def build_context(store: Path, fit: Path, optimize: Path, argv: list[str]) -> dict:
+    """Read the stage outputs and return the template context (one dict per section).
+
+    Parameters
+    ----------
+    store, fit, optimize : Path
+        The ``bench ingest``, ``bench fit`` and ``bench optimize`` output folders;
+        any of them may be missing or partial.
+    argv : list of str
+        The report's command line, for provenance.
+    """
+    started = datetime.now(UTC)
+    log = InputLog()
+    campaign = sections.campaign_section(log, store)
+    points, manifest = campaign.pop("points"), campaign.pop("manifest")
+    model = sections.read_model(log, fit)
+    summary = log.json(Path(fit) / "fit_summary.json")
+    efficiency = sections.efficiency_section(log, fit, model, summary)
+    power = sections.power_model_section(log, fit, model, points)
+    opt = optimization.optimization_section(log, optimize, efficiency["grid"])
+    prov = provenance.provenance_section(
+        log, argv, started,
+        {"ingest": manifest, "fit": model.provenance if model else None,
+         "fit summary": summary, "optimize": opt["manifest"]},
+    )
+    return {
+        "title": "drivebench report",
+        "paths": {"store": str(store), "fit": str(fit), "optimize": str(optimize)},
+        "campaign": campaign,
+        "efficiency": efficiency,
+        "power": power,
+        "optimization": opt,
+        "provenance": prov,
+    }
+
+
+def render(context: dict) -> str:
+    """The HTML text of the report for a context from :func:`build_context`."""
+    return environment().get_template("report.html").render(**context)
+
+
+def write_atomic(text: str, out: Path) -> Path:
+    """Write ``text`` to ``out`` via a temp file in the same folder and ``os.replace``."""
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, out)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return out
+
+
+def build_report(store: Path, fit: Path, optimize: Path, out: Path, argv: list[str]) -> Path:
+    """Read the stage outputs, render the report and write it to ``out``; returns ``out``."""
+    return write_atomic(render(build_context(store, fit, optimize, argv)), out)

@@ -1,0 +1,372 @@
+"""The report's drive sections: one function per section, files in, plain context dict out.
+
+Each function reads what its section needs through an :class:`reports.inputs.InputLog`
+and returns a dict for the template. Every dict has ``missing``: the input files that
+were absent, which the template states ("not available: <file> missing"). Strings
+from logs and metadata stay plain strings here; the template escapes them.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from bench.errors import InputError
+from fitting.model_file import PowerModel, paper_model, power_model_from_dict
+from reports import drive_figures
+from reports.inputs import InputLog
+from reports.tables import fmt, frame_table, term_label
+
+POINT_COLUMNS = ("session_id", "quadrant", "speed_rpm", "torque_nm", "p_mech_w", "p_elec_w")
+REJECTED_COLUMNS = ("session_id", "t_start_s", "t_end_s", "reason")
+EFFICIENCY_COLUMNS = ("speed_rpm", "torque_nm", "eta")
+#: efficiency-map node statuses drawn white (fitting.efficiency: near the axes, above max)
+MASKED_STATUSES = ("near_axis", "above_max")
+#: Two-sided 95 % normal quantile, used when the fit summary gives no intervals.
+Z95 = 1.959963984540054
+
+
+def _missing_since(log: InputLog, start: int) -> list[str]:
+    return list(dict.fromkeys(log.missing[start:]))
+
+
+def read_points(log: InputLog, store: Path) -> pd.DataFrame | None:
+    """All operating points of the store (docs/schemas.md §2), or None if there are none."""
+    return log.parquet_dir(Path(store) / "points", POINT_COLUMNS)
+
+
+def campaign_section(log: InputLog, store: Path) -> dict:
+    """Section 1: sessions, instruments and metadata, points per quadrant, rejections, clocks.
+
+    Parameters
+    ----------
+    log : InputLog
+        Records the files read.
+    store : Path
+        The ``bench ingest`` store folder.
+
+    Returns
+    -------
+    dict
+        ``sessions`` (one dict per session), ``totals``, ``rejected_reasons``,
+        ``figure``, ``missing``; and for the other sections ``points`` (the
+        store's operating points or None) and ``manifest`` (decoded or None).
+    """
+    start = len(log.missing)
+    store = Path(store)
+    points = read_points(log, store)
+    manifest = log.json(store / "manifest.json")
+    rejected = log.parquet_dir(store / "rejected", REJECTED_COLUMNS)
+    sessions = []
+    if manifest is not None:
+        entries = manifest.get("sessions")
+        if not isinstance(entries, dict):
+            raise InputError(store / "manifest.json", "field 'sessions' is not an object",
+                             expected="{session_id: {...}}")
+        for sid, entry in sorted(entries.items()):
+            sessions.append(_session_row(str(sid), entry if isinstance(entry, dict) else {}))
+    quadrant_counts = {"motor": 0, "generator": 0}
+    figure = None
+    if points is not None and len(points):
+        counts = points["quadrant"].astype(str).value_counts()
+        quadrant_counts = {q: int(counts.get(q, 0)) for q in ("motor", "generator")}
+        by_session = points.groupby(points["session_id"].astype(str))["quadrant"]
+        for row in sessions:
+            qc = by_session.get_group(row["session_id"]).value_counts() if (
+                row["session_id"] in by_session.groups) else pd.Series(dtype=int)
+            row["store_motor"] = int(qc.get("motor", 0))
+            row["store_generator"] = int(qc.get("generator", 0))
+        figure = drive_figures.operating_points_figure(points)
+    reasons = []
+    if rejected is not None and len(rejected):
+        table = rejected.groupby("reason").size().sort_values(ascending=False)
+        reasons = [{"reason": str(r), "count": int(n)} for r, n in table.items()]
+    elif manifest is not None:
+        agg: dict[str, int] = {}
+        for entry in manifest["sessions"].values():
+            for r, n in (entry.get("rejected") or {}).items():
+                agg[str(r)] = agg.get(str(r), 0) + int(n)
+        reasons = [{"reason": r, "count": n} for r, n in sorted(agg.items(), key=lambda x: -x[1])]
+    return {
+        "sessions": sessions,
+        "totals": {
+            "sessions": len(sessions),
+            "points": int(len(points)) if points is not None else None,
+            **quadrant_counts,
+            "rejected": sum(r["count"] for r in reasons),
+        },
+        "rejected_reasons": reasons,
+        "figure": figure,
+        "missing": _missing_since(log, start),
+        "points": points,
+        "manifest": manifest,
+    }
+
+
+def _session_row(sid: str, entry: dict) -> dict:
+    meta = entry.get("metadata") if isinstance(entry.get("metadata"), dict) else {}
+    ppq = entry.get("points_per_quadrant") or {}
+    rejected = entry.get("rejected") or {}
+    return {
+        "session_id": sid,
+        "kind": entry.get("kind", meta.get("kind", "")),
+        "mode": entry.get("mode", meta.get("mode", "")),
+        "operator": meta.get("operator", ""),
+        "date": meta.get("date", ""),
+        "n_points": entry.get("n_points"),
+        "motor": ppq.get("motor"),
+        "generator": ppq.get("generator"),
+        "rejected": ", ".join(f"{k}: {v}" for k, v in sorted(rejected.items())),
+        "clock_offset_s": fmt(entry.get("clock_offset_s"), 3),
+        "clock_drift_ppm": fmt(entry.get("clock_drift_ppm"), 1),
+        "instruments": _instruments(meta),
+        "metadata": _flatten(meta),
+        "n_files": len(entry.get("files") or {}),
+    }
+
+
+def _instruments(meta: dict) -> str:
+    parts = []
+    for block in ("daq", "analyzer", "points"):
+        b = meta.get(block)
+        if isinstance(b, dict) and b.get("file"):
+            parts.append(f"{block}: {b.get('file')} ({b.get('format', '?')})")
+    sensors = meta.get("sensors")
+    if isinstance(sensors, dict):
+        parts.append("ranges: " + ", ".join(f"{k} = {v}" for k, v in sensors.items()))
+    side = meta.get("measured_side")
+    if side:
+        parts.append(f"measured side: {side}, gear ratio {meta.get('gear_ratio', '?')}")
+    return "; ".join(str(p) for p in parts)
+
+
+def _flatten(data: dict, prefix: str = "") -> list[tuple[str, str]]:
+    """Nested dict as (dotted key, text) pairs; lists of records are skipped (own tables)."""
+    out = []
+    for key, value in data.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            out.extend(_flatten(value, name + "."))
+        elif isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
+            continue
+        else:
+            out.append((name, fmt(value) if isinstance(value, float) else str(value)))
+    return out
+
+
+def read_model(log: InputLog, fit: Path) -> PowerModel | None:
+    """The fitted power model ``fit/power_model.json`` (validated), or None if missing."""
+    path = Path(fit) / "power_model.json"
+    data = log.json(path)
+    return None if data is None else power_model_from_dict(data, path)
+
+
+def efficiency_section(log: InputLog, fit: Path, model: PowerModel | None,
+                       summary: dict | None) -> dict:
+    """Section 2: the efficiency map (paper Fig. 5) and its masking rules.
+
+    Parameters
+    ----------
+    log : InputLog
+    fit : Path
+        The ``bench fit`` output folder (``efficiency_map.parquet``).
+    model : PowerModel or None
+        The fitted model; its ``masking`` holds the rules the map was made with.
+    summary : dict or None
+        ``fit_summary.json`` (band shares and peak points under ``efficiency``).
+
+    Returns
+    -------
+    dict
+        ``figure``, ``grid`` (for Fig. 9), ``masking`` (settings), ``rules``,
+        ``bands``, ``peaks``, ``missing``.
+    """
+    start = len(log.missing)
+    emap = log.parquet(Path(fit) / "efficiency_map.parquet", EFFICIENCY_COLUMNS)
+    figure = grid = None
+    if emap is not None and len(emap):
+        grid = efficiency_grid(emap)
+        figure = drive_figures.efficiency_map_figure(*grid)
+    eff = (summary or {}).get("efficiency") or {}
+    masking = dict((model.masking if model is not None else None) or eff.get("masking") or {})
+    rules = [str(r) for r in masking.pop("rules", []) or []]
+    return {
+        "figure": figure,
+        "grid": grid,
+        "masking": _flatten(masking),
+        "rules": rules,
+        "bands": band_table(eff.get("band_shares") or []),
+        "peaks": peak_rows(eff.get("peak") or {}),
+        "missing": _missing_since(log, start),
+    }
+
+
+def efficiency_grid(emap: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pivot the long efficiency map into ``(speed_rpm (n,), torque_nm (m,), eta (m, n))``.
+
+    Nodes the masking rules masked (``status`` ``near_axis`` or ``above_max``) are
+    set to 0 so they draw white like negative efficiencies (the paper's rule);
+    nodes outside the measured hull stay NaN and are not drawn.
+    """
+    eta = emap["eta"].to_numpy(float).copy()
+    if "status" in emap.columns:
+        masked = emap["status"].astype(str).isin(MASKED_STATUSES).to_numpy()
+        eta[masked] = 0.0
+    frame = pd.DataFrame({"speed_rpm": emap["speed_rpm"], "torque_nm": emap["torque_nm"],
+                          "eta": eta})
+    table = frame.pivot_table(index="torque_nm", columns="speed_rpm", values="eta",
+                              aggfunc="first", dropna=False)
+    return table.columns.to_numpy(float), table.index.to_numpy(float), table.to_numpy(float)
+
+
+def band_table(records: list) -> dict | None:
+    """Area share [%] per efficiency band (rows) and quadrant (columns), or None."""
+    rows = [r for r in records if isinstance(r, dict) and {"quadrant", "band", "area_share"}
+            <= set(r)]
+    if not rows:
+        return None
+    quadrants = list(dict.fromkeys(str(r["quadrant"]) for r in rows))
+    bands = list(dict.fromkeys(str(r["band"]) for r in rows))
+    share = {(str(r["quadrant"]), str(r["band"])): r["area_share"] for r in rows}
+    return {
+        "columns": ["band", *quadrants],
+        "rows": [[b, *(fmt(100.0 * share[(q, b)], 1) + " %" if (q, b) in share else ""
+                       for q in quadrants)] for b in bands],
+        "truncated": 0,
+    }
+
+
+def peak_rows(peaks: dict) -> list[dict]:
+    """Peak-efficiency points per quadrant, on the gridded map and among measured points."""
+    rows = []
+    for quadrant, entry in peaks.items():
+        for where, p in (entry or {}).items():
+            if isinstance(p, dict):
+                rows.append({"quadrant": str(quadrant), "where": str(where),
+                             "speed_rpm": fmt(p.get("speed_rpm"), 0),
+                             "torque_nm": fmt(p.get("torque_nm"), 1),
+                             "eta": fmt(p.get("eta"), 3)})
+    return rows
+
+
+def power_model_section(log: InputLog, fit: Path, model: PowerModel | None,
+                        points: pd.DataFrame | None) -> dict:
+    """Section 3: Table I analogue with intervals, Fig. 6, residuals, model selection.
+
+    Parameters
+    ----------
+    log : InputLog
+    fit : Path
+        The ``bench fit`` output folder.
+    model : PowerModel or None
+        The fitted model (:func:`read_model`).
+    points : DataFrame or None
+        Store operating points; residuals are measured minus model at these.
+
+    Returns
+    -------
+    dict
+        ``name``, ``coefficients`` rows, ``statistics`` (our residual figures),
+        ``fit_statistics`` (as written by the fit), ``power_map``, ``residuals``,
+        ``selection`` table, ``missing``.
+    """
+    start = len(log.missing)
+    lacking = [] if model is not None else [str(Path(fit) / "power_model.json")]
+    if points is None:
+        lacking.append("the store's points/*.parquet")
+    selection = log.parquet(Path(fit) / "selection.parquet")
+    out = {"name": None, "coefficients": [], "interval_note": "", "statistics": [],
+           "fit_statistics": [], "power_map": None, "residuals": None, "selection": None,
+           "selection_note": None}
+    if selection is not None:
+        out["selection"] = frame_table(selection)
+    chosen = ((model.statistics if model is not None else None) or {}).get("selection")
+    if isinstance(chosen, dict):
+        out["selection_note"] = _flatten(chosen)
+    if model is not None:
+        out["name"] = model.name
+        out["n_terms"] = len(model.terms)
+        out["coefficients"], out["interval_note"] = coefficient_rows(model)
+        out["fit_statistics"] = _flatten(model.statistics or {})
+        out["provenance"] = _flatten(model.provenance or {})
+        if points is not None and len(points):
+            measured = points["p_elec_w"].to_numpy(float)
+            residual = measured - model.p_elec_w(points["speed_rpm"].to_numpy(float),
+                                                 points["torque_nm"].to_numpy(float))
+            out["statistics"] = residual_rows(residual, model.nominal_power_w)
+            out["power_map"] = drive_figures.power_map_figure(model, points)
+            out["residuals"] = drive_figures.residual_figure(points, residual,
+                                                             model.nominal_power_w)
+    out["missing"] = lacking + _missing_since(log, start)
+    return out
+
+
+def coefficient_rows(model: PowerModel) -> tuple[list[dict], str]:
+    """Table I analogue: one row per term with std error, 95 % interval and the paper's value.
+
+    The interval is the fit's own (``statistics.coefficients`` of the model file,
+    ``ci95_low_rpm``/``ci95_high_rpm``) when present, else ``c ± 1.96 sqrt(cov_kk)``
+    (normal approximation) from the covariance. The paper value is shown where
+    the term is one of eq. (4)'s (REFERENCE.md §1).
+
+    Returns
+    -------
+    rows : list of dict
+    interval_note : str
+        Where the intervals come from.
+    """
+    paper = paper_model()
+    paper_c = dict(zip(paper.terms, paper.coefficients_rpm, strict=True))
+    names = {(0, 0): "a0", (2, 0): "a1", (0, 2): "a2", (1, 1): "a3"}
+    cov = None if model.covariance_rpm is None else np.array(model.covariance_rpm)
+    stated = {}
+    for r in (model.statistics or {}).get("coefficients") or []:
+        if isinstance(r, dict) and {"speed_exp", "torque_exp", "ci95_low_rpm",
+                                    "ci95_high_rpm"} <= set(r):
+            stated[(int(r["speed_exp"]), int(r["torque_exp"]))] = r
+    use_stated = all(t in stated for t in model.terms)
+    rows = []
+    for k, (term, c) in enumerate(zip(model.terms, model.coefficients_rpm, strict=True)):
+        se = math.sqrt(cov[k, k]) if cov is not None and cov[k, k] >= 0 else None
+        if use_stated:
+            lo, hi = stated[term]["ci95_low_rpm"], stated[term]["ci95_high_rpm"]
+            se = stated[term].get("std_error_rpm", se)
+        elif se is not None:
+            lo, hi = c - Z95 * se, c + Z95 * se
+        pc = paper_c.get(term)
+        rows.append({
+            "symbol": names.get(term, ""),
+            "term": term_label(term),
+            "coef": fmt(c, sig=6),
+            "std_error": fmt(se, sig=3),
+            "ci95": f"[{fmt(lo, sig=5)}, {fmt(hi, sig=5)}]" if se is not None or use_stated
+            else "n/a (no covariance)",
+            "paper": fmt(pc, sig=6) if pc is not None else "",
+            "diff_pct": fmt(100.0 * (c - pc) / pc, 1) if pc else "",
+            "coef_si": fmt(model.coefficients_si[k], sig=6),
+        })
+    note = ("95 % intervals as computed by the fit (power_model.json statistics.coefficients)"
+            if use_stated else
+            "95 % intervals: coefficient ± 1.96 standard errors from the covariance in "
+            "power_model.json (normal approximation)")
+    return rows, note
+
+
+def residual_rows(residual_w: np.ndarray, nominal_power_w: float) -> list[dict]:
+    """Residual mean, standard deviation and max |.| in W and % of nominal, with the paper's."""
+    pct = 100.0 / nominal_power_w
+    mean = float(np.mean(residual_w))
+    sd = float(np.std(residual_w, ddof=1)) if residual_w.size > 1 else float("nan")
+    mx = float(np.max(np.abs(residual_w)))
+    return [
+        {"name": "points", "value": str(residual_w.size), "pct": "", "paper": "> 1000"},
+        {"name": "mean residual", "value": f"{mean:.1f} W", "pct": f"{mean * pct:.2f} %",
+         "paper": "0 W"},
+        {"name": "std of residual", "value": f"{sd:.1f} W", "pct": f"{sd * pct:.2f} %",
+         "paper": "1.6 % of nominal"},
+        {"name": "max |residual|", "value": f"{mx:.1f} W", "pct": f"{mx * pct:.2f} %",
+         "paper": "< 5 % of nominal"},
+    ]

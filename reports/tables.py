@@ -1,0 +1,70 @@
+"""Number formatting and generic tables for the report template."""
+
+from __future__ import annotations
+
+import math
+from numbers import Number
+
+import numpy as np
+import pandas as pd
+
+_SUPERSCRIPT = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def fmt(value, decimals: int | None = None, sig: int | None = None) -> str:
+    """Format a number for a table cell; '' for None, 'n/a' for NaN.
+
+    Parameters
+    ----------
+    value : number or None
+    decimals : int, optional
+        Fixed decimals.
+    sig : int, optional
+        Significant digits (``g`` format); used when ``decimals`` is not given.
+    """
+    if value is None:
+        return ""
+    if isinstance(value, (bool, np.bool_)):
+        return "yes" if value else "no"
+    if not isinstance(value, Number):
+        return str(value)
+    v = float(value)
+    if math.isnan(v):
+        return "n/a"
+    if decimals is not None:
+        return f"{v:.{decimals}f}"
+    return f"{v:.{sig or 4}g}"
+
+
+def term_label(term: tuple[int, int]) -> str:
+    """Readable term label (ω speed, T torque): ``(2, 1)`` -> ``ω²·T``, ``(0, 0)`` -> ``1``."""
+    parts = []
+    for sym, e in (("ω", term[0]), ("T", term[1])):
+        if e == 1:
+            parts.append(sym)
+        elif e > 1:
+            parts.append(sym + str(e).translate(_SUPERSCRIPT))
+    return "·".join(parts) if parts else "1"
+
+
+def frame_table(frame: pd.DataFrame, max_rows: int = 200) -> dict:
+    """A frame as ``{"columns": [...], "rows": [[str, ...], ...], "truncated": int}``.
+
+    Floats get 4 significant digits, booleans yes/no; every cell is a plain
+    string (the template escapes it).
+    """
+    shown = frame.head(max_rows)
+    rows = [[_cell(v) for v in rec] for rec in shown.itertuples(index=False, name=None)]
+    return {
+        "columns": [str(c) for c in frame.columns],
+        "rows": rows,
+        "truncated": max(0, len(frame) - max_rows),
+    }
+
+
+def _cell(value) -> str:
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return ", ".join(_cell(v) for v in value)
+    if isinstance(value, float) and abs(value) >= 1e4 and value == round(value):
+        return f"{value:.0f}"
+    return fmt(value)
