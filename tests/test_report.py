@@ -23,7 +23,7 @@ import pytest
 from bench.cli import main
 from fitting.model_file import PowerModel, paper_model, save_power_model
 from reports import cycle_figures, sections
-from reports.render import build_context, build_report, render
+from reports.render import build_context, build_report, render, write_atomic
 from reports.svg import new_figure, to_svg
 
 NOISE_W = 120.0  # standard deviation of the synthetic measurement noise [W]
@@ -187,13 +187,16 @@ def full_inputs(tmp_path_factory) -> dict:
     points = write_store(root / "store")
     model = write_fit(root / "fit", points)
     summary = write_optimize(root / "opt")
+    dirs = (root / "store", root / "fit", root / "opt")
+    context = build_context(*dirs, ["bench", "report", "--out", "x.html"])
+    report = write_atomic(render(context), root / "report.html")
     return {"root": root, "points": points, "model": model, "summary": summary,
-            "dirs": (root / "store", root / "fit", root / "opt")}
+            "dirs": dirs, "context": context, "report": report}
 
 
 # ---------------------------------------------------------------- unit checks
 def test_campaign_counts_rejections_and_clocks(full_inputs):
-    ctx = build_context(*full_inputs["dirs"], ["bench", "report"])
+    ctx = full_inputs["context"]
     camp = ctx["campaign"]
     pts = full_inputs["points"]
     # exact counts: the report must show what the files hold, no tolerance
@@ -209,7 +212,7 @@ def test_campaign_counts_rejections_and_clocks(full_inputs):
 
 
 def test_table_i_intervals_and_residuals(full_inputs):
-    ctx = build_context(*full_inputs["dirs"], ["bench", "report"])
+    ctx = full_inputs["context"]
     power = ctx["power"]
     a1 = next(r for r in power["coefficients"] if r["symbol"] == "a1")
     c = paper_model().coefficients_rpm[1]
@@ -226,7 +229,7 @@ def test_table_i_intervals_and_residuals(full_inputs):
 
 
 def test_table_ii_shows_failed_and_excludes_it(full_inputs):
-    ctx = build_context(*full_inputs["dirs"], ["bench", "report"])
+    ctx = full_inputs["context"]
     opt = ctx["optimization"]
     assert opt["n_scenarios"] == 20 and opt["n_failed"] == 1
     t2 = opt["table_ii"]
@@ -237,7 +240,7 @@ def test_table_ii_shows_failed_and_excludes_it(full_inputs):
     # elec-lim at 4 m/s: p = -100 * (4 - 5) - 50 = +50 W, p_mech = 2 p - 300 = -200 W
     assert row4["cells"][0] == {"elec": "50", "mech": "-200", "failed": None}
     assert "1 failed, not shown" in str(opt["fig8a"])
-    html = render(ctx)
+    html = full_inputs["report"].read_text(encoding="utf-8")
     assert f"failed ({FAILED_STATUS})" in html
 
 
@@ -247,7 +250,7 @@ def test_cycle_energy_matches_the_analytic_net_energy(full_inputs):
                                    CYCLE_PERIOD_S)
     # point rule on a full period integrates the sine exactly: net = mean * T = -827 J
     assert e[-1] == pytest.approx(-827.0, abs=1e-9)
-    ctx = build_context(*full_inputs["dirs"], ["bench", "report"])
+    ctx = full_inputs["context"]
     assert "net -827 J" in str(ctx["optimization"]["fig3"])
 
 
@@ -276,7 +279,7 @@ def test_svg_escapes_metadata_text():
 
 
 def test_provenance_hashes_every_input(full_inputs):
-    ctx = build_context(*full_inputs["dirs"], ["bench", "report", "--out", "x.html"])
+    ctx = full_inputs["context"]
     prov = ctx["provenance"]
     assert prov["missing"] == []
     for rec in prov["inputs"]:
@@ -319,7 +322,7 @@ def test_bad_manifest_is_an_input_error_and_keeps_the_old_report(tmp_path, capsy
 
 
 def test_report_is_small_and_offline(full_inputs):
-    out = build_report(*full_inputs["dirs"], full_inputs["root"] / "report.html", ["bench"])
+    out = full_inputs["report"]
     html = out.read_text(encoding="utf-8")
     assert out.stat().st_size < 10e6
     # no external resource of any kind: every src/href is a data URI or an in-page anchor
@@ -369,7 +372,7 @@ def _load(browser, path: Path) -> dict:
 
 
 def test_browser_renders_offline_without_errors(browser, full_inputs, tmp_path):
-    out = build_report(*full_inputs["dirs"], tmp_path / "report.html", ["bench"])
+    out = full_inputs["report"]
     seen = _load(browser, out)
     page = seen["page"]
     assert seen["errors"] == []
