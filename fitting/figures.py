@@ -44,8 +44,7 @@ def efficiency_map_figure(map_frame: pd.DataFrame, out_dir: Path, masking: dict)
     speeds, torques, eta = _grid(map_frame, "eta")
     shown = np.ma.masked_where(~np.isfinite(eta) | (eta <= 0), eta)
     fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
-    cmap = plt.get_cmap("viridis").copy()
-    cmap.set_bad("white")
+    cmap = plt.get_cmap("viridis").with_extremes(bad="white")
     mesh = ax.pcolormesh(speeds, torques, shown, cmap=cmap, vmin=0, vmax=1, shading="nearest",
                          rasterized=True)
     levels = [0.5, 0.7, 0.8, 0.85, 0.9]
@@ -73,8 +72,10 @@ def power_map_figure(map_frame: pd.DataFrame, points: pd.DataFrame, out_dir: Pat
     levels = np.arange(lo, hi + 1) * POWER_CONTOUR_STEP_W
     widths = [2.5 if v == 0 else 0.7 for v in levels]
     fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
-    ax.scatter(points["speed_rpm"], points["torque_nm"], s=3, c="0.8", label="operating points")
-    cf = ax.contour(speeds, torques, fit, levels=levels, colors="tab:blue", linewidths=widths)
+    ax.scatter(points["speed_rpm"], points["torque_nm"], s=3, c="0.8", label="operating points",
+               rasterized=True)
+    cf = ax.contour(speeds, torques, fit, levels=levels, colors="tab:blue", linewidths=widths,
+                    negative_linestyles="solid")
     cm = ax.contour(speeds, torques, meas, levels=levels, colors="tab:red", linewidths=widths,
                     linestyles="dashed")
     ax.clabel(cf, levels=levels[::4], fmt="%.0f W", fontsize=6)
@@ -99,7 +100,7 @@ def residuals_figure(points: pd.DataFrame, residuals_w: np.ndarray, nominal_powe
     fig, axes = plt.subplots(1, 3, figsize=(11, 3.6), constrained_layout=True)
     for ax, col, label in ((axes[0], "speed_rpm", "drum speed [rpm]"),
                            (axes[1], "torque_nm", "drum torque [N m]")):
-        ax.scatter(points[col], r, s=3, c=colors)
+        ax.scatter(points[col], r, s=3, c=colors, rasterized=True)
         ax.axhline(0, color="k", lw=0.8)
         for sign in (-1, 1):
             ax.axhline(sign * 5.0 / pct, color="tab:red", lw=0.8, ls=":")

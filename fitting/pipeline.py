@@ -128,17 +128,19 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     weights = (quadrant_weights(quadrant) if options.weighting == "quadrant"
                else np.ones(len(frame)))
     requested = options.candidate()
-    if requested is not None:
-        check_fit_input(requested.terms, len(frame), source)
+    fit = None
+    if requested is not None:  # fit first: its errors (too few points, rank) are the clearest
+        fit = fit_power_model(speed, torque, p_elec, requested.terms, weights=weights,
+                              nominal_power_w=options.nominal_power_w, source=source)
     else:
         check_fit_input(full_polynomial(MIN_ORDER), len(frame), source)
-
     selection = select_model(speed, torque, p_elec, quadrant, weights, folds=options.folds,
                              nominal_power_w=options.nominal_power_w, source=source,
                              progress=progress)
     chosen = requested or selection.chosen
-    fit = fit_power_model(speed, torque, p_elec, chosen.terms, weights=weights,
-                          nominal_power_w=options.nominal_power_w, source=source)
+    if fit is None:
+        fit = fit_power_model(speed, torque, p_elec, chosen.terms, weights=weights,
+                              nominal_power_w=options.nominal_power_w, source=source)
     try:
         extra = extra_terms_check(speed, torque, p_elec, weights,
                                   nominal_power_w=options.nominal_power_w, source=source)

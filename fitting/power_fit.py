@@ -222,7 +222,9 @@ def fit_power_model(
     scales = design_scales(speed, torque)
     x = design_matrix(terms, speed, torque, scales)
     xw = x * np.sqrt(w)[:, None]
-    rank = np.linalg.matrix_rank(xw)
+    sv = np.linalg.svd(xw, compute_uv=False)
+    # numpy's matrix_rank tolerance: sv_max * max(shape) * eps
+    rank = int(np.sum(sv > sv[0] * max(xw.shape) * np.finfo(float).eps))
     if rank < len(terms):
         raise InputError(
             source,
@@ -252,5 +254,5 @@ def fit_power_model(
         residuals_w=resid,
         weights=w,
         nominal_power_w=float(nominal_power_w),
-        condition_number=float(np.linalg.cond(xw)),
+        condition_number=float(sv[0] / sv[-1]),
     )

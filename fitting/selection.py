@@ -123,9 +123,9 @@ def cross_validate(candidate: Candidate, speed, torque, p, weights, fold) -> dic
         train, test = fold != k, fold == k
         sw = np.sqrt(weights[train])
         xw = x[train] * sw[:, None]
-        if np.linalg.matrix_rank(xw) < x.shape[1]:
+        beta, _, rank, _ = np.linalg.lstsq(xw, p[train] * sw, rcond=None)
+        if rank < x.shape[1]:
             raise np.linalg.LinAlgError(f"rank-deficient design in fold {k}")
-        beta, *_ = np.linalg.lstsq(xw, p[train] * sw, rcond=None)
         pred[test] = x[test] @ beta
         per_fold.append(_weighted_rmse(p[test] - pred[test], weights[test]))
     per_fold = np.array(per_fold)
@@ -329,6 +329,8 @@ def extra_terms_check(
         "rated_scaling": f"|c_ij| * {rated_speed_rpm:g}^i * {rated_torque_nm:g}^j [W] vs "
                          f"a1 * {rated_speed_rpm:g}^2 = {a1_w:.1f} W and "
                          f"a2 * {rated_torque_nm:g}^2 = {a2_w:.1f} W",
+        "a1_at_rated_w": float(a1_w),
+        "a2_at_rated_w": float(a2_w),
         "wide_fit_condition_number": wide.condition_number,
         "paper_terms": {name: named[name] for name in ("w^2*T^2", "w^4")},
         "largest_extra_terms_at_rated": rows[:5],
