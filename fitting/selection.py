@@ -110,9 +110,17 @@ def _weighted_rmse(r: np.ndarray, w: np.ndarray) -> float:
 def cross_validate(candidate: Candidate, speed, torque, p, weights, fold) -> dict:
     """k-fold CV of one candidate (weighted least squares on the scaled design).
 
-    Returns the pooled held-out RMSE, its standard error over the folds, the
-    per-quadrant pooled RMSE is added by the caller. Raises ``np.linalg.LinAlgError``
-    if a training fold's design is rank deficient.
+    Returns
+    -------
+    dict
+        ``cv_rmse_w``: weighted RMSE over all held-out predictions [W];
+        ``cv_rmse_se_w``: standard error of the per-fold RMSE [W];
+        ``residuals``: held-out residual of every point [W].
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        If a training fold's design is rank deficient.
     """
     n_folds = int(fold.max()) + 1
     scales = design_scales(speed, torque)

@@ -11,8 +11,11 @@ import pytest
 from fit_synthetic import PAPER_A, paper_quadratic, synthetic_points, write_store
 
 from bench.cli import main
+from bench.errors import InputError
 from fitting.loss_table import read_loss_table
 from fitting.model_file import load_power_model
+from fitting.pipeline import FitOptions
+from fitting.terms import PAPER_TERMS, full_polynomial
 
 
 def test_fit_writes_every_output(paper_store, tmp_path, capsys):
@@ -142,3 +145,22 @@ def test_failed_run_leaves_previous_outputs_untouched(capsys, tmp_path):
     assert rc == 2
     assert (out / "power_model.json").read_text() == "previous"
     assert [p.name for p in out.iterdir()] == ["power_model.json"]
+
+
+def test_bad_masking_fraction(capsys, paper_store, tmp_path):
+    rc, err = _error(capsys, ["fit", "--store", str(paper_store), "--out", str(tmp_path / "o"),
+                              "--mask-mech-frac", "1.5"])
+    assert rc == 2 and "mech_frac" in err and "[0, 1)" in err
+
+
+def test_order_options_map_to_candidates():
+    # --order 2 is the paper's eq. 4 (issue 3 §2); --full gives the 6-term quadratic;
+    # other orders are full polynomials (§3); auto leaves it to the selection
+    assert FitOptions(order=2).candidate().terms == PAPER_TERMS
+    assert FitOptions(order=2, full_order2=True).candidate().terms == full_polynomial(2)
+    assert FitOptions(order=4).candidate().terms == full_polynomial(4)
+    assert FitOptions(order=None).candidate() is None
+    with pytest.raises(InputError, match="outside 1..6"):
+        FitOptions(order=7)
+    with pytest.raises(InputError, match="--folds"):
+        FitOptions(folds=1)
