@@ -60,9 +60,10 @@ class Problem:
 
     Attributes
     ----------
-    params : Any
-        Kite parameters (``optimize.params.KiteParams`` bundle or what
-        ``build_ocp`` takes); ``None`` for the package default.
+    params : tuple or None
+        Arguments of ``optimize.kite_model.kite_dae`` (``KiteParams``,
+        ``AeroCoefficients``, ``WindModel``); ``None`` for the package defaults.
+        Plain data, so the DAE is built in the worker.
     drive_model : Any
         ``fitting.model_file.PowerModel`` (or what the backend takes).
     options : Any
@@ -231,23 +232,26 @@ class OcpBackend:
 
     def build(self, problem: Problem) -> Any:
         """Build the NLP once per process and per :attr:`Problem.key`."""
+        from optimize.kite_model import kite_dae
         from optimize.ocp import build_ocp
 
         key = (problem.key, threading.get_ident())
         if key not in _OCP_CACHE:
-            _OCP_CACHE[key] = build_ocp(problem.params, problem.drive_model, problem.options)
+            dae = kite_dae(*(problem.params or ()))
+            _OCP_CACHE[key] = build_ocp(dae, problem.drive_model, problem.options)
         return _OCP_CACHE[key]
 
     @staticmethod
     def scenario(kind: str, wind_speed_m_s: float) -> Any:
         """The OCP's ``Scenario`` for a kind and wind speed [m/s]."""
-        from optimize.ocp import Scenario
+        from optimize.scenario import Scenario
 
         objective, limits = KINDS[kind]
         return Scenario(wind_speed_m_s=wind_speed_m_s, objective=objective, drive_limits=limits)
 
     def solve(self, ocp: Any, kind: str, wind_speed_m_s: float, warm: Any) -> SolveResult:
-        """Warm-started solve (primal and dual start)."""
+        """Warm-started solve (primal and dual start; on failure ``solve`` retries the same
+        primal point once with cold barrier settings, before the chain's own fallbacks)."""
         from optimize.solve import solve
 
         return solve(ocp, self.scenario(kind, wind_speed_m_s), warm)

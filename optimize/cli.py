@@ -1,0 +1,90 @@
+"""``bench optimize``: the pumping-cycle sweep over a wind grid (issue 4).
+
+Parses the options, calls :func:`optimize.sweep.run_optimize` (plan chains, run
+them on an executor, compare with the paper, write the files) and prints the
+summary, claims and trust figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from pathlib import Path
+
+from bench.errors import InputError
+from optimize.sweep import DEFAULT_KINDS, DEFAULT_WIND_GRID
+
+log = logging.getLogger(__name__)
+
+#: where ``bench fit`` writes its model (docs/schemas.md §4)
+FIT_MODEL_PATH = Path("fit_out") / "power_model.json"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Register the options of ``bench optimize``."""
+    parser.add_argument(
+        "--drive-model",
+        type=Path,
+        default=None,
+        help=f"power model JSON from bench fit (default {FIT_MODEL_PATH} if it exists, else "
+        "the shipped paper Table I model)",
+    )
+    parser.add_argument(
+        "--wind-grid",
+        default=DEFAULT_WIND_GRID,
+        help="wind speeds at 100 m [m/s]: START:STOP:STEP with both ends included, or a "
+        f"comma list (default {DEFAULT_WIND_GRID})",
+    )
+    parser.add_argument(
+        "--scenarios",
+        default=DEFAULT_KINDS,
+        help=f"comma list of scenario kinds (default {DEFAULT_KINDS})",
+    )
+    parser.add_argument("--intervals", type=int, default=40, help="collocation intervals")
+    parser.add_argument("--degree", type=int, default=4, help="Radau collocation degree")
+    parser.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
+    parser.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="run on a Dask cluster at this scheduler address instead (needs drivebench[dask])",
+    )
+    parser.add_argument("--out", type=Path, default=Path("optimize_out"), help="output folder")
+    parser.add_argument(
+        "--no-claims", action="store_true", help="skip the cut-in search and the paper comparison"
+    )
+    parser.add_argument(
+        "--trust",
+        action="store_true",
+        help="also run the trust checks (mesh refinement at 2x intervals, CVODES simulation)",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the sweep; exit code 0 if every scenario converged, 1 otherwise."""
+    from optimize.sweep import SweepRequest, format_summary, run_optimize
+
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    if args.intervals < 2:
+        raise InputError(None, f"--intervals {args.intervals}: too few", expected="an integer >= 2")
+    if not 1 <= args.degree <= 9:
+        raise InputError(None, f"--degree {args.degree}: out of range", expected="1 to 9")
+    if args.out.exists() and not args.out.is_dir():
+        raise InputError(args.out, "exists and is not a folder", expected="an output folder")
+    request = SweepRequest.from_cli(args, FIT_MODEL_PATH)
+    print(request.model_note)
+    outcome = run_optimize(request)
+    print(format_summary(outcome.summary))
+    if outcome.claims is not None:
+        from optimize.claims import format_claims
+
+        print()
+        print(format_claims(outcome.claims))
+    for line in outcome.trust_lines:
+        print(line)
+    n_ok = int(outcome.summary["success"].sum())
+    print(
+        f"\n{n_ok}/{len(outcome.summary)} scenarios converged in {outcome.wall_time_s:.1f} s "
+        f"({outcome.executor}); files in {args.out}"
+    )
+    return 0 if n_ok == len(outcome.summary) else 1

@@ -1,0 +1,264 @@
+"""The files of ``bench optimize`` (docs/schemas.md §5), written atomically.
+
+* ``summary.parquet``: one row per scenario, failed ones included with their
+  solver status and NaN metrics;
+* ``trajectories.parquet``: every collocation point of every converged
+  scenario (states, controls, drive quantities), with the scenario name;
+* ``manifest.json``: wind list, kinds, drive-model hash, options, executor,
+  package versions, command line, cut-in searches, trust checks;
+* ``claims.csv``: the comparison with the paper (:mod:`optimize.claims`).
+
+Every Parquet field carries its unit in the field metadata (``{"unit": ...}``),
+derived from the unit suffix of the column name (:func:`unit_of`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from bench.errors import InputError
+from optimize.chains import ScenarioOutcome
+
+SCHEMA_NAME = "drivebench.optimize"
+SCHEMA_VERSION = 1
+
+#: column-name suffix -> unit, longest suffixes first
+_UNIT_SUFFIXES: tuple[tuple[str, str], ...] = (
+    ("_rad_s2", "rad/s^2"),
+    ("_rad_s", "rad/s"),
+    ("_m_s3", "m/s^3"),
+    ("_m_s2", "m/s^2"),
+    ("_m_s", "m/s"),
+    ("_n_m", "N/m"),
+    ("_m2_s", "m^2/s"),
+    ("_m2", "m^2"),
+    ("_rpm", "rpm"),
+    ("_deg", "deg"),
+    ("_rad", "rad"),
+    ("_nm", "N m"),
+    ("_kg", "kg"),
+    ("_m", "m"),
+    ("_s", "s"),
+    ("_n", "N"),
+    ("_w", "W"),
+    ("_j", "J"),
+)
+
+#: summary columns, in order, with their meaning (unit from the name)
+SUMMARY_COLUMNS: dict[str, str] = {
+    "scenario": "scenario name, kind and wind speed",
+    "kind": "elec-lim | elec-free | mech-lim | mech-free",
+    "objective": "electrical | mechanical (the average power maximized)",
+    "drive_limits": "drive limits |rpm| <= 1500, torque <= 78 N m applied",
+    "wind_speed_m_s": "wind speed at 100 m",
+    "success": "final solve converged",
+    "status": "IPOPT return status of the final solve",
+    "iterations": "IPOPT iterations of the final solve",
+    "wall_time_s": "wall time of the final solve",
+    "attempts": "solver runs (retries included)",
+    "total_wall_time_s": "wall time of all runs of this scenario",
+    "warm_source": "scenario the final solve was warm-started from, or 'cold start'",
+    "chain": "warm-start chain (worker task) index",
+    "period_s": "cycle period",
+    "avg_p_elec_w": "average electrical power (negative = generated)",
+    "avg_p_mech_w": "average mechanical power (negative = generated)",
+    "e_elec_j": "net electrical energy per cycle (negative = generated)",
+    "e_mech_j": "net mechanical energy per cycle (negative = generated)",
+    "peak_speed_rpm": "largest |drum speed|",
+    "peak_torque_nm": "largest drum torque",
+    "p_elec_max_w": "largest electrical power (peak drawn from the grid)",
+    "p_elec_min_w": "smallest electrical power (peak generated, negative)",
+    "tether_length_min_m": "shortest tether length",
+    "tether_length_max_m": "longest tether length",
+    "altitude_min_m": "lowest altitude above ground",
+    "altitude_max_m": "highest altitude above ground",
+    "periodicity_error": "largest scaled residual of the periodicity constraints [-]",
+    "max_violation": "largest scaled constraint violation [-]",
+}
+#: the metric columns (NaN for a failed scenario)
+_METRICS = list(SUMMARY_COLUMNS)[list(SUMMARY_COLUMNS).index("period_s") :]
+
+
+def unit_of(column: str) -> str:
+    """Unit of a column from its name suffix (``torque_nm`` -> ``N m``); ``""`` if none."""
+    if column.startswith("dcm_"):
+        return "1"
+    for suffix, unit in _UNIT_SUFFIXES:
+        if column.endswith(suffix):
+            return unit
+    return ""
+
+
+def _trajectory_metrics(traj: pd.DataFrame) -> dict[str, float]:
+    def col(name: str) -> np.ndarray:
+        return traj[name].to_numpy(dtype=float)
+
+    return {
+        "peak_speed_rpm": float(np.max(np.abs(col("speed_rpm")))),
+        "peak_torque_nm": float(np.max(col("torque_nm"))),
+        "p_elec_max_w": float(np.max(col("p_elec_w"))),
+        "p_elec_min_w": float(np.min(col("p_elec_w"))),
+        "tether_length_min_m": float(np.min(col("l_m"))),
+        "tether_length_max_m": float(np.max(col("l_m"))),
+        "altitude_min_m": float(np.min(col("altitude_m"))),
+        "altitude_max_m": float(np.max(col("altitude_m"))),
+    }
+
+
+def summary_row(o: ScenarioOutcome) -> dict[str, Any]:
+    """One summary row; metrics are NaN unless the scenario converged."""
+    last = o.attempts[-1] if o.attempts else None
+    row: dict[str, Any] = {
+        "scenario": o.name,
+        "kind": o.kind,
+        "objective": o.objective,
+        "drive_limits": o.drive_limits,
+        "wind_speed_m_s": o.wind_speed_m_s,
+        "success": o.success,
+        "status": o.status,
+        "iterations": last.iterations if last else 0,
+        "wall_time_s": last.wall_time_s if last else math.nan,
+        "attempts": len(o.attempts),
+        "total_wall_time_s": o.total_wall_time_s,
+        "warm_source": o.warm_source,
+        "chain": o.chain,
+    }
+    row.update(dict.fromkeys(_METRICS, math.nan))
+    if o.success:
+        r = o.result
+        row.update(
+            period_s=float(r.period_s),
+            avg_p_elec_w=float(r.avg_p_elec_w),
+            avg_p_mech_w=float(r.avg_p_mech_w),
+            e_elec_j=float(r.avg_p_elec_w) * float(r.period_s),
+            e_mech_j=float(r.avg_p_mech_w) * float(r.period_s),
+            periodicity_error=float(getattr(r, "periodicity_error", math.nan)),
+            max_violation=float(getattr(r, "max_violation", math.nan)),
+        )
+        row.update(_trajectory_metrics(r.trajectory))
+    return row
+
+
+def summary_frame(outcomes: Iterable[ScenarioOutcome]) -> pd.DataFrame:
+    """The summary table: one row per scenario, columns :data:`SUMMARY_COLUMNS`."""
+    frame = pd.DataFrame([summary_row(o) for o in outcomes], columns=list(SUMMARY_COLUMNS))
+    return frame.astype(
+        {
+            "success": bool,
+            "drive_limits": bool,
+            "iterations": "int64",
+            "attempts": "int64",
+            "chain": "int64",
+        }
+    )
+
+
+def trajectories_frame(outcomes: Iterable[ScenarioOutcome]) -> pd.DataFrame:
+    """Every collocation point of every converged scenario, with ``scenario``, ``kind``, wind."""
+    parts = []
+    for o in outcomes:
+        if o.success:
+            traj = o.result.trajectory.reset_index(drop=True)
+            head = pd.DataFrame(
+                {"scenario": o.name, "kind": o.kind, "wind_speed_m_s": o.wind_speed_m_s},
+                index=traj.index,
+            )
+            parts.append(pd.concat([head, traj], axis=1))
+    if not parts:
+        return pd.DataFrame({"scenario": [], "kind": [], "wind_speed_m_s": []})
+    return pd.concat(parts, ignore_index=True)
+
+
+# ------------------------------------------------------------------ atomic writers
+def _atomic(path: Path, write: Callable[[str], None]) -> Path:
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    os.close(fd)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def write_parquet(
+    frame: pd.DataFrame, path: Path, descriptions: dict[str, str] | None = None
+) -> Path:
+    """Write ``frame`` with each field's unit (and description, if given) in its metadata."""
+    table = pa.Table.from_pandas(frame, preserve_index=False)
+    fields = []
+    for f in table.schema:
+        meta = {"unit": unit_of(f.name)}
+        if descriptions and f.name in descriptions:
+            meta["description"] = descriptions[f.name]
+        fields.append(f.with_metadata(meta))
+    table = table.cast(pa.schema(fields, metadata=table.schema.metadata))
+    return _atomic(path, lambda tmp: pq.write_table(table, tmp))
+
+
+def write_json(data: dict, path: Path) -> Path:
+    """Write ``data`` as indented JSON (NaN becomes null)."""
+    text = json.dumps(_json_safe(data), indent=2, allow_nan=False) + "\n"
+    return _atomic(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+
+
+def write_csv(frame: pd.DataFrame, path: Path) -> Path:
+    """Write ``frame`` as CSV (no index)."""
+    return _atomic(path, lambda tmp: frame.to_csv(tmp, index=False))
+
+
+def _json_safe(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+# ------------------------------------------------------------------ reading back
+def field_units(path: Path) -> dict[str, str]:
+    """Column -> unit recorded in a Parquet file's field metadata."""
+    schema = pq.read_schema(path)
+    return {f.name: (f.metadata or {}).get(b"unit", b"").decode() for f in schema}
+
+
+def read_summary(path: Path) -> pd.DataFrame:
+    """Read ``summary.parquet`` and check its columns.
+
+    Raises
+    ------
+    InputError
+        If the file is missing, unreadable or lacks a column of :data:`SUMMARY_COLUMNS`.
+    """
+    path = Path(path)
+    try:
+        frame = pd.read_parquet(path)
+    except FileNotFoundError as exc:
+        raise InputError(
+            path, "file not found", expected="bench optimize's summary.parquet"
+        ) from exc
+    except (OSError, pa.ArrowException) as exc:
+        raise InputError(path, f"not a readable Parquet file ({exc})") from exc
+    missing = [c for c in SUMMARY_COLUMNS if c not in frame.columns]
+    if missing:
+        raise InputError(
+            path, "missing summary column", column=missing[0], expected=", ".join(SUMMARY_COLUMNS)
+        )
+    return frame

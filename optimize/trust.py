@@ -1,0 +1,363 @@
+"""Trust checks of an optimal cycle: mesh refinement and an independent simulation.
+
+* **Mesh check** (:func:`mesh_check`): the same scenario on an OCP with twice
+  the intervals, started from the coarse solution interpolated onto the fine
+  grid; reports the relative change of the average electrical and mechanical
+  power. Issue 4 asks for less than 1 %.
+* **Simulation check** (:func:`simulation_check`): the optimal controls
+  (piecewise constant per interval) are integrated with CasADi's CVODES
+  (variable-order BDF, its own error control; nothing shared with the Radau
+  collocation but the model equations) on the explicit ODE of the kite (the
+  algebraic variables solved from the DAE at every right-hand-side call).
+  Two figures: the *interval defect* (each interval integrated from the
+  collocation state at its start; the largest deviation at the Radau points)
+  and the *open-loop* run over a whole period from the initial state, with
+  its *periodicity error* ``|x(T) - x(0)|`` on the periodic states.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from optimize import kite_model as km
+from optimize.homotopy import cold_start, power_weights
+from optimize.ocp import PERIODIC_STATES, Ocp, grid_times
+from optimize.result import OcpResult, Solution, make_result
+from optimize.scenario import Scenario
+
+_POS = [km.IDX[n] for n in ("r_x_m", "r_y_m", "r_z_m")]
+_PER = [km.IDX[n] for n in PERIODIC_STATES]
+
+
+@dataclass(frozen=True)
+class MeshCheck:
+    """Result of :func:`mesh_check`.
+
+    Attributes
+    ----------
+    scenario : str
+    n_intervals, n_intervals_fine : int
+    status : str
+        IPOPT status on the fine mesh.
+    success : bool
+    iterations : int
+    wall_time_s : float
+        Fine-mesh solve wall time [s] (build excluded).
+    route : str
+        ``"interpolated start"`` or ``"cold start"`` (when the first failed).
+    avg_p_elec_w, avg_p_elec_fine_w, avg_p_mech_w, avg_p_mech_fine_w : float
+        Average powers on the coarse and fine mesh [W].
+    period_s, period_fine_s : float
+        Periods [s].
+    rel_change_p_elec, rel_change_p_mech : float
+        ``|fine - coarse| / |coarse|`` [-]; NaN if the fine solve failed.
+    """
+
+    scenario: str
+    n_intervals: int
+    n_intervals_fine: int
+    status: str
+    success: bool
+    iterations: int
+    wall_time_s: float
+    route: str
+    avg_p_elec_w: float
+    avg_p_elec_fine_w: float
+    avg_p_mech_w: float
+    avg_p_mech_fine_w: float
+    period_s: float
+    period_fine_s: float
+    rel_change_p_elec: float
+    rel_change_p_mech: float
+
+
+@dataclass(frozen=True)
+class SimulationCheck:
+    """Result of :func:`simulation_check`.
+
+    Attributes
+    ----------
+    scenario : str
+    integrator : str
+    interval_defect_position_m : float
+        Largest |r_sim - r_coll| at the Radau points, each interval integrated
+        from the collocation state at its start [m].
+    interval_defect_scaled : float
+        Same over all states, each divided by its typical magnitude [-].
+    open_loop_position_m : float
+        Largest |r_sim - r_coll| over one period integrated from x(0) only [m].
+    periodicity_error_scaled : float
+        Largest |x_sim(T) - x(0)| over the periodic states of the open-loop run,
+        each divided by its typical magnitude [-].
+    periodicity_error_position_m : float
+        |r_sim(T) - r(0)| in the periodic position components (y, z) [m].
+    avg_p_mech_sim_w : float
+        Average mechanical power of the open-loop run (trapezoid on the Radau
+        points) [W].
+    wall_time_s : float
+    """
+
+    scenario: str
+    integrator: str
+    interval_defect_position_m: float
+    interval_defect_scaled: float
+    open_loop_position_m: float
+    periodicity_error_scaled: float
+    periodicity_error_position_m: float
+    avg_p_mech_sim_w: float
+    wall_time_s: float
+
+
+def _rel(fine: float, coarse: float) -> float:
+    return abs(fine - coarse) / abs(coarse) if coarse else math.nan
+
+
+def interpolate_solution(coarse: Ocp, warm: Solution, fine: Ocp) -> np.ndarray:
+    """Scaled decision vector of ``fine`` interpolated from a ``coarse`` solution.
+
+    States and algebraic variables are interpolated linearly in time between
+    the coarse grid points (periodic wrap for the algebraic ones); each fine
+    interval takes the control of the coarse interval that contains its
+    midpoint; fictitious forces are zero.
+    """
+    sol = coarse.unpack(warm.w)
+    period = sol["period_s"]
+    t_c = grid_times(coarse, period)
+    t_f = grid_times(fine, period)
+    x = np.vstack([np.interp(t_f, t_c, row) for row in sol["x"]])
+    t_zc = t_c[1:]
+    t_zf = t_f[1:]
+    z = np.vstack([np.interp(t_zf, t_zc, row, period=period) for row in np.asarray(sol["z"])])
+    n_c, n_f = coarse.options.n_intervals, fine.options.n_intervals
+    mid = (np.arange(n_f) + 0.5) / n_f
+    u = np.asarray(sol["u"])[:, np.minimum((mid * n_c).astype(int), n_c - 1)]
+    fict = np.zeros((km.NF, fine.layout.n_coll))
+    return fine.pack(x, z, u, fict, period)
+
+
+def mesh_check(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult) -> MeshCheck:
+    """Re-solve ``scenario`` on ``fine`` (normally twice the intervals) and compare powers.
+
+    Parameters
+    ----------
+    coarse : Ocp
+        The OCP ``result`` was solved on.
+    fine : Ocp
+        The refined OCP (same model, more intervals).
+    scenario : Scenario
+    result : OcpResult
+        The converged coarse solution.
+
+    Returns
+    -------
+    MeshCheck
+        If the interpolated start fails, a cold start (homotopy) on ``fine``
+        is tried; its outcome is reported either way.
+    """
+    w0 = interpolate_solution(coarse, result.warm, fine)
+    bounds = fine.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
+    p = fine.params(scenario.wind_speed_m_s, **power_weights(scenario))
+    raw = fine.run(w0, p, bounds, warm=False)
+    stage = {
+        "stage": "interpolated",
+        "status": raw.status,
+        "success": raw.success,
+        "iterations": raw.iterations,
+        "wall_time_s": raw.wall_time_s,
+    }
+    route = "interpolated start"
+    res = make_result(fine, scenario, raw, p, bounds, [stage])
+    if not res.success:
+        route = "cold start"
+        res = cold_start(fine, scenario)
+    nan = math.nan
+    return MeshCheck(
+        scenario=scenario.name,
+        n_intervals=coarse.options.n_intervals,
+        n_intervals_fine=fine.options.n_intervals,
+        status=res.status,
+        success=res.success,
+        iterations=res.iterations,
+        wall_time_s=res.wall_time_s,
+        route=route,
+        avg_p_elec_w=result.avg_p_elec_w,
+        avg_p_elec_fine_w=res.avg_p_elec_w if res.success else nan,
+        avg_p_mech_w=result.avg_p_mech_w,
+        avg_p_mech_fine_w=res.avg_p_mech_w if res.success else nan,
+        period_s=result.period_s,
+        period_fine_s=res.period_s if res.success else nan,
+        rel_change_p_elec=_rel(res.avg_p_elec_w, result.avg_p_elec_w) if res.success else nan,
+        rel_change_p_mech=_rel(res.avg_p_mech_w, result.avg_p_mech_w) if res.success else nan,
+    )
+
+
+def _interval_integrator(ocp: Ocp, period_s: float) -> ca.Function:
+    x = ca.SX.sym("x", km.NX)
+    u = ca.SX.sym("u", km.NU)
+    wind = ca.SX.sym("wind")
+    ode = ocp.dae.explicit_ode(x, u, wind)
+    h = period_s / ocp.options.n_intervals
+    tgrid = [float(h * t) for t in ocp.coll.tau[1:]]
+    return ca.integrator(
+        "interval",
+        "cvodes",
+        {"x": x, "p": ca.vertcat(u, wind), "ode": ode},
+        0.0,
+        tgrid,
+        {"abstol": 1e-10, "reltol": 1e-10, "max_num_steps": 100000},
+    )
+
+
+def simulation_check(ocp: Ocp, result: OcpResult) -> SimulationCheck:
+    """Integrate the optimal controls with CVODES and compare with the collocation states.
+
+    Parameters
+    ----------
+    ocp : Ocp
+        The OCP ``result`` was solved on.
+    result : OcpResult
+        A converged solution.
+    """
+    t0 = time.perf_counter()
+    sol = ocp.unpack(result.warm.w)
+    x_c, u = np.asarray(sol["x"]), np.asarray(sol["u"])
+    n, d = ocp.options.n_intervals, ocp.coll.degree
+    wind = result.scenario.wind_speed_m_s
+    step = _interval_integrator(ocp, sol["period_s"])
+    scale = km.STATE_SCALE[:, None]
+    defect_pos = defect_scaled = open_pos = 0.0
+    x_open = x_c[:, 0]
+    p_open = []
+    for k in range(n):
+        coll = x_c[:, k * d + 1 : (k + 1) * d + 1]
+        par = np.append(u[:, k], wind)
+        local = np.asarray(step(x0=x_c[:, k * d], p=par)["xf"])
+        defect_pos = max(
+            defect_pos, float(np.max(np.linalg.norm(local[_POS] - coll[_POS], axis=0)))
+        )
+        defect_scaled = max(defect_scaled, float(np.max(np.abs(local - coll) / scale)))
+        run = np.asarray(step(x0=x_open, p=par)["xf"])
+        open_pos = max(open_pos, float(np.max(np.linalg.norm(run[_POS] - coll[_POS], axis=0))))
+        x_open = run[:, -1]
+        p_open.append(run)
+    x_sim = np.hstack([x_c[:, :1], *p_open])
+    u_pts = np.hstack([u[:, :1], np.repeat(u, d, axis=1)])  # control at every grid point
+    z_sim = np.asarray(ocp.dae.solve_z.map(x_sim.shape[1])(x_sim, u_pts, wind))
+    tension = x_sim[km.IDX["l_m"]] * z_sim[km.NZ - 1]
+    p_mech = -tension * x_sim[km.IDX["dl_m_s"]]
+    t = grid_times(ocp, sol["period_s"])
+    avg_p_mech = float(np.trapezoid(p_mech, t) / sol["period_s"])
+    per = (x_open - x_c[:, 0])[_PER] / km.STATE_SCALE[_PER]
+    yz = [km.IDX["r_y_m"], km.IDX["r_z_m"]]
+    return SimulationCheck(
+        scenario=result.scenario.name,
+        integrator="cvodes (abstol = reltol = 1e-10), piecewise-constant controls",
+        interval_defect_position_m=defect_pos,
+        interval_defect_scaled=defect_scaled,
+        open_loop_position_m=open_pos,
+        periodicity_error_scaled=float(np.max(np.abs(per))),
+        periodicity_error_position_m=float(np.linalg.norm(x_open[yz] - x_c[yz, 0])),
+        avg_p_mech_sim_w=avg_p_mech,
+        wall_time_s=time.perf_counter() - t0,
+    )
+
+
+# ------------------------------------------------------------------ running the checks
+def run_mesh_task(task: tuple, progress: Any = None) -> MeshCheck:
+    """Executor task: ``(name, problem, fine_problem, result)`` -> :class:`MeshCheck`.
+
+    Builds (or takes from the per-process cache) the coarse and the fine OCP.
+    """
+    from optimize.chains import OcpBackend
+
+    name, problem, fine_problem, result = task
+    backend = OcpBackend()
+    check = mesh_check(backend.build(problem), backend.build(fine_problem), result.scenario, result)
+    if progress is not None:
+        progress.put({"mesh": name})
+    return dataclasses.replace(check, scenario=name)
+
+
+def run_trust_checks(
+    problem: Any, outcomes: Sequence[Any], winds: tuple[float, ...], handle: Any
+) -> dict:
+    """Mesh check of each kind's middle-wind scenario (on the executor) and simulation
+    check of every converged scenario (here).
+
+    Parameters
+    ----------
+    problem : optimize.chains.Problem
+        The sweep's problem.
+    outcomes : sequence of optimize.chains.ScenarioOutcome
+    winds : tuple of float
+        The wind grid [m/s]; the mesh check uses its middle speed.
+    handle : optimize.executors.ExecutorHandle
+
+    Returns
+    -------
+    dict
+        ``{"mesh": [MeshCheck as dict], "simulation": [SimulationCheck as dict],
+        "lines": [str]}``.
+    """
+    from tqdm import tqdm
+
+    from optimize.chains import OcpBackend, Problem
+    from optimize.executors import run_tasks
+    from optimize.sweep import middle_index
+
+    opts = problem.options
+    fine_opts = dataclasses.replace(opts, n_intervals=2 * opts.n_intervals)
+    fine = Problem(
+        problem.params,
+        problem.drive_model,
+        fine_opts,
+        f"{fine_opts!r}|{problem.drive_model.sha256}",
+    )
+    middle = winds[middle_index(winds)]
+    picks = [o for o in outcomes if o.success and o.wind_speed_m_s == middle]
+    bar = tqdm(total=len(picks), desc="mesh check", unit="solve")
+    futures = run_tasks(
+        handle.executor,
+        run_mesh_task,
+        [(o.name, problem, fine, o.result) for o in picks],
+        handle.channel,
+        lambda event: bar.update(1),
+    )
+    bar.close()
+    mesh, lines = [], []
+    for o, fut in zip(picks, futures, strict=True):
+        if fut.exception() is not None:
+            lines.append(f"mesh check {o.name}: failed to run ({fut.exception()!r})")
+            continue
+        m = fut.result()
+        mesh.append(dataclasses.asdict(m))
+        lines.append(
+            f"mesh check {m.scenario}: N={m.n_intervals} -> {m.n_intervals_fine}: "
+            f"{m.status} ({m.route}, {m.iterations} it, {m.wall_time_s:.0f} s); "
+            f"P_elec {m.avg_p_elec_w:.1f} -> {m.avg_p_elec_fine_w:.1f} W "
+            f"({m.rel_change_p_elec:.2%}), P_mech {m.avg_p_mech_w:.1f} -> "
+            f"{m.avg_p_mech_fine_w:.1f} W ({m.rel_change_p_mech:.2%})"
+        )
+    ocp = OcpBackend().build(problem)
+    sims = []
+    for o in outcomes:
+        if o.success:
+            s = dataclasses.replace(simulation_check(ocp, o.result), scenario=o.name)
+            sims.append(dataclasses.asdict(s))
+    if sims:
+        worst = max(sims, key=lambda s: s["periodicity_error_scaled"])
+        lines.append(
+            f"simulation check ({len(sims)} cycles, CVODES): interval defect <= "
+            f"{max(s['interval_defect_position_m'] for s in sims):.2e} m, open loop <= "
+            f"{max(s['open_loop_position_m'] for s in sims):.2e} m, periodicity error <= "
+            f"{worst['periodicity_error_scaled']:.2e} (scaled, {worst['scenario']})"
+        )
+    return {"mesh": mesh, "simulation": sims, "lines": lines}

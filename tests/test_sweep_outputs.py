@@ -1,0 +1,168 @@
+"""Output files of bench optimize: schema, units metadata, failed rows, atomic writes."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+
+from bench.errors import InputError
+from optimize import kite_model as km
+from optimize.chains import Attempt, ScenarioOutcome
+from optimize.outputs import (
+    SUMMARY_COLUMNS,
+    field_units,
+    read_summary,
+    summary_frame,
+    trajectories_frame,
+    unit_of,
+    write_json,
+    write_parquet,
+)
+from optimize.result import OUTPUT_UNITS
+
+
+@dataclass(frozen=True)
+class FakeResult:
+    """Just the fields the summary reads; the trajectory is hand-made below."""
+
+    period_s: float
+    avg_p_elec_w: float
+    avg_p_mech_w: float
+    periodicity_error: float
+    max_violation: float
+    trajectory: pd.DataFrame
+
+
+def hand_trajectory() -> pd.DataFrame:
+    # 4 points with known extremes: reel-out at -1200 rpm, reel-in at +900 rpm
+    return pd.DataFrame(
+        {
+            "time_s": [1.0, 2.0, 3.0, 4.0],
+            "l_m": [150.0, 180.0, 210.0, 160.0],
+            "speed_rpm": [-1200.0, -800.0, 900.0, 300.0],
+            "torque_nm": [60.0, 78.0, 10.0, 20.0],
+            "p_elec_w": [-6000.0, -5000.0, 1500.0, 900.0],
+            "altitude_m": [80.0, 95.0, 120.0, 70.0],
+        }
+    )
+
+
+def outcomes() -> list[ScenarioOutcome]:
+    ok = ScenarioOutcome(
+        "elec-lim-5.5",
+        "elec-lim",
+        5.5,
+        0,
+        (Attempt("elec-lim-7.0", "Solve_Succeeded", True, 14, 2.5),),
+        FakeResult(6.0, -137.8, -900.0, 1e-9, 2e-8, hand_trajectory()),
+    )
+    failed = ScenarioOutcome(
+        "mech-free-10.0",
+        "mech-free",
+        10.0,
+        1,
+        (
+            Attempt("mech-free-8.5", "Infeasible_Problem_Detected", False, 40, 6.0),
+            Attempt(None, "Maximum_Iterations_Exceeded", False, 1000, 90.0),
+        ),
+        None,
+    )
+    return [ok, failed]
+
+
+def test_summary_metrics_from_a_hand_made_cycle():
+    s = summary_frame(outcomes()).set_index("scenario")
+    row = s.loc["elec-lim-5.5"]
+    # energy per cycle = average power x period: -137.8 W x 6 s = -826.8 J (about Fig. 3)
+    assert row["e_elec_j"] == pytest.approx(-826.8, rel=1e-12)
+    assert row["e_mech_j"] == pytest.approx(-5400.0, rel=1e-12)
+    assert row["peak_speed_rpm"] == 1200.0 and row["peak_torque_nm"] == 78.0
+    assert (row["p_elec_max_w"], row["p_elec_min_w"]) == (1500.0, -6000.0)
+    assert (row["tether_length_min_m"], row["tether_length_max_m"]) == (150.0, 210.0)
+    assert (row["altitude_min_m"], row["altitude_max_m"]) == (70.0, 120.0)
+    assert row["warm_source"] == "elec-lim-7.0" and row["objective"] == "electrical"
+    bad = s.loc["mech-free-10.0"]
+    # a failed scenario is a row with its status, attempts, time, and NaN metrics
+    assert not bad["success"] and bad["status"] == "Maximum_Iterations_Exceeded"
+    assert bad["attempts"] == 2 and bad["total_wall_time_s"] == 96.0
+    assert bad["warm_source"] == "cold start" and not bad["drive_limits"]
+    metrics = list(SUMMARY_COLUMNS)[list(SUMMARY_COLUMNS).index("period_s") :]
+    assert all(math.isnan(bad[c]) for c in metrics)
+
+
+def test_summary_round_trip_keeps_values_and_units(tmp_path):
+    frame = summary_frame(outcomes())
+    path = write_parquet(frame, tmp_path / "summary.parquet", SUMMARY_COLUMNS)
+    back = read_summary(path)
+    pd.testing.assert_frame_equal(back, frame)
+    units = field_units(path)
+    assert units["avg_p_elec_w"] == "W" and units["peak_torque_nm"] == "N m"
+    assert units["wind_speed_m_s"] == "m/s" and units["period_s"] == "s"
+    assert units["e_elec_j"] == "J" and units["peak_speed_rpm"] == "rpm"
+    meta = pq.read_schema(path).field("status").metadata
+    assert meta[b"description"].startswith(b"IPOPT return status")
+    assert not list(tmp_path.glob(".*.tmp"))  # temp file moved into place
+
+
+def test_trajectories_hold_only_converged_scenarios(tmp_path):
+    traj = trajectories_frame(outcomes())
+    assert list(traj["scenario"].unique()) == ["elec-lim-5.5"] and len(traj) == 4
+    path = write_parquet(traj, tmp_path / "trajectories.parquet")
+    assert field_units(path)["torque_nm"] == "N m"
+    assert pd.read_parquet(path)["p_elec_w"].sum() == -8600.0
+
+
+def test_unit_of_agrees_with_the_ocp_tables():
+    # the OCP's own unit table (optimize.result.OUTPUT_UNITS) is the independent truth
+    for name, unit in OUTPUT_UNITS.items():
+        if unit:
+            assert unit_of(name) == unit, name
+    want = {
+        "r_x_m": "m",
+        "v_y_m_s": "m/s",
+        "dcm_21": "1",
+        "omega_z_rad_s": "rad/s",
+        "ddl_m_s2": "m/s^2",
+        "dddl_m_s3": "m/s^3",
+        "daileron_rad_s": "rad/s",
+        "domega_x_rad_s2": "rad/s^2",
+        "nu_n_m": "N/m",
+        "aileron_rad": "rad",
+    }
+    for name in (*km.STATE_NAMES, *km.CONTROL_NAMES, *km.ALGEBRAIC_NAMES):
+        assert unit_of(name) != "", name
+    for name, unit in want.items():
+        assert unit_of(name) == unit
+
+
+def test_read_summary_names_file_and_column(tmp_path):
+    with pytest.raises(InputError, match="file not found"):
+        read_summary(tmp_path / "nope.parquet")
+    path = write_parquet(pd.DataFrame({"scenario": ["x"]}), tmp_path / "s.parquet")
+    with pytest.raises(InputError) as err:
+        read_summary(path)
+    assert "s.parquet" in str(err.value) and "column 'kind'" in str(err.value)
+
+
+def test_failed_write_leaves_the_old_file(tmp_path):
+    path = write_json({"a": 1.0, "b": float("nan"), "c": np.float64(2.5)}, tmp_path / "m.json")
+    assert json.loads(path.read_text()) == {"a": 1.0, "b": None, "c": 2.5}
+    with pytest.raises(TypeError):
+        write_json({"bad": object()}, path)  # fails while serializing, before any write
+    assert json.loads(path.read_text())["a"] == 1.0
+
+    class Boom:
+        pass
+
+    frame = pd.DataFrame({"x_m": [1.0]})
+    write_parquet(frame, tmp_path / "t.parquet")
+    with pytest.raises(Exception):  # noqa: B017 - pyarrow raises its own type
+        write_parquet(pd.DataFrame({"x_m": [Boom()]}), tmp_path / "t.parquet")
+    assert pd.read_parquet(tmp_path / "t.parquet")["x_m"].tolist() == [1.0]
+    assert not list(tmp_path.glob(".*.tmp"))
