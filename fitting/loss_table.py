@@ -42,20 +42,19 @@ def loss_grid(model: PowerModel, speeds_rpm: np.ndarray, torques_nm: np.ndarray)
 
 def default_breakpoints(model: PowerModel, speed_step_rpm: float = 100.0,
                         torque_step_nm: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
-    """Breakpoints spanning the model's domain bounding box (or the rated box without one)."""
+    """Breakpoints [rpm], [N m] spanning the model's domain bounding box (else the rated box)."""
     if model.domain:
         pts = np.array([p for poly in model.domain.values() for p in poly])
         s_lo, s_hi = pts[:, 0].min(), pts[:, 0].max()
         t_lo, t_hi = max(0.0, pts[:, 1].min()), pts[:, 1].max()
     else:
         s_lo, s_hi, t_lo, t_hi = -1500.0, 1500.0, 0.0, 78.0
-    speeds = np.arange(np.floor(s_lo / speed_step_rpm) * speed_step_rpm,
-                       np.ceil(s_hi / speed_step_rpm) * speed_step_rpm + speed_step_rpm / 2,
-                       speed_step_rpm)
-    torques = np.arange(np.floor(t_lo / torque_step_nm) * torque_step_nm,
-                        np.ceil(t_hi / torque_step_nm) * torque_step_nm + torque_step_nm / 2,
-                        torque_step_nm)
-    return speeds, torques
+    # ends rounded to the nearest breakpoint: a hull vertex at -3000.3 rpm (measurement
+    # noise around a -3000 rpm set point) should not add a -3100 rpm row
+    def axis(lo, hi, step):
+        return np.arange(np.round(lo / step) * step, np.round(hi / step) * step + step / 2, step)
+
+    return axis(s_lo, s_hi, speed_step_rpm), axis(t_lo, t_hi, torque_step_nm)
 
 
 def write_loss_table(model: PowerModel, path: str | Path, speeds_rpm=None,
