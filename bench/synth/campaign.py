@@ -377,8 +377,27 @@ def generate(out_dir: Path, seed: int = DEFAULT_SEED, scale: int = 1, *,
         "files": files,
         "sessions": sessions,
     }
-    write_text(out_dir / TRUTH_FILE, json.dumps(truth, indent=1, ensure_ascii=False) + "\n")
+    write_text(out_dir / TRUTH_FILE, truth_json(truth))
     return truth
+
+
+def truth_json(truth: dict) -> str:
+    """``truth`` as JSON: indented, but each session's point columns on one line each.
+
+    (The compact encoder is C-accelerated; at large ``--scale`` the points dominate.)
+    """
+    placeholders = {}
+    shallow = {**truth, "sessions": {}}
+    for sid, info in truth["sessions"].items():
+        key = f"@points:{sid}@"
+        placeholders[json.dumps(key)] = "{" + ",\n  ".join(
+            f"{json.dumps(name)}: {json.dumps(col, separators=(',', ':'))}"
+            for name, col in info["points"].items()) + "}"
+        shallow["sessions"][sid] = {**info, "points": key}
+    text = json.dumps(shallow, indent=1, ensure_ascii=False)
+    for key, value in placeholders.items():
+        text = text.replace(key, value, 1)
+    return text + "\n"
 
 
 def is_complete(out_dir: Path, seed: int, scale: int) -> bool:
