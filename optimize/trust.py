@@ -1,8 +1,8 @@
 """Trust checks of an optimal cycle: mesh refinement and an independent simulation.
 
 * **Mesh check** (:func:`mesh_check`): the same scenario on an OCP with twice
-  the intervals, started from the coarse solution interpolated onto the fine
-  grid; reports the relative change of the average electrical and mechanical
+  the intervals, warm-started from the coarse solution (primal values and
+  bound multipliers) interpolated onto the fine grid; reports the relative change of the average electrical and mechanical
   power. Issue 4 asks for less than 1 %.
 * **Simulation check** (:func:`simulation_check`): the optimal controls
   (piecewise constant per interval) are integrated with CasADi's CVODES
@@ -52,7 +52,7 @@ class MeshCheck:
     wall_time_s : float
         Fine-mesh solve wall time [s] (build excluded).
     route : str
-        ``"interpolated start"`` or ``"cold start"`` (when the first failed).
+        ``"interpolated warm start"`` or ``"cold start"`` (when the first failed).
     avg_p_elec_w, avg_p_elec_fine_w, avg_p_mech_w, avg_p_mech_fine_w : float
         Average powers on the coarse and fine mesh [W].
     period_s, period_fine_s : float
@@ -163,9 +163,15 @@ def mesh_check(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult) ->
         is tried; its outcome is reported either way.
     """
     w0 = interpolate_solution(coarse, result.warm, fine)
+    # the bound multipliers have the layout of w and interpolate the same way; the
+    # constraint multipliers start at zero. Measured at N 20 -> 40 (7 m/s, elec-lim):
+    # 24 iterations, against 50 with all multipliers zero and 274 with cold settings.
+    lam_x0 = interpolate_solution(
+        coarse, dataclasses.replace(result.warm, w=result.warm.lam_x), fine
+    )
     bounds = fine.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
     p = fine.params(scenario.wind_speed_m_s, **power_weights(scenario))
-    raw = fine.run(w0, p, bounds, warm=False)
+    raw = fine.run(w0, p, bounds, warm=True, lam_x0=lam_x0, lam_g0=np.zeros(len(bounds[2])))
     stage = {
         "stage": "interpolated",
         "status": raw.status,
@@ -173,7 +179,7 @@ def mesh_check(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult) ->
         "iterations": raw.iterations,
         "wall_time_s": raw.wall_time_s,
     }
-    route = "interpolated start"
+    route = "interpolated warm start"
     res = make_result(fine, scenario, raw, p, bounds, [stage])
     if not res.success:
         route = "cold start"

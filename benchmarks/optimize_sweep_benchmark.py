@@ -1,0 +1,179 @@
+"""Benchmark of the bench optimize sweep (issue 4 item 8).
+
+Measures, on this machine:
+
+* the cold start (homotopy) at the middle wind speed, in this process;
+* the whole sweep (default 20 scenarios: 4 kinds x 4:10:1.5) with 1 and with 2
+  worker processes, cold starts included, cut-in searches and trust checks
+  excluded;
+* per warm solve: wall time and iterations (median and max), and the number
+  converged.
+
+Goals on a 2-core machine: cold start <= 45 s, median warm solve <= 3 s,
+whole sweep <= 120 s on 2 workers, 20/20 converged. The machine load (other
+processes share the CPU) is recorded before and after, since it inflates
+every timing.
+
+Run::
+
+    .venv/bin/python benchmarks/optimize_sweep_benchmark.py            # full
+    .venv/bin/python benchmarks/optimize_sweep_benchmark.py --workers 2 --repeats 1
+
+Writes ``benchmarks/out/optimize_sweep.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import time
+from pathlib import Path
+
+from fitting.model_file import PAPER_MODEL_PATH, load_power_model
+from optimize.chains import OcpBackend, Problem, make_tasks, run_sweep
+from optimize.executors import open_executor
+from optimize.ocp import OcpOptions
+from optimize.sweep import (
+    DEFAULT_KINDS,
+    DEFAULT_WIND_GRID,
+    middle_index,
+    parse_kinds,
+    parse_wind_grid,
+    plan_chains,
+)
+
+OUT = Path(__file__).resolve().parent / "out"
+GOALS = {"cold_start_s": 45.0, "median_warm_solve_s": 3.0, "sweep_2_workers_s": 120.0}
+
+
+def machine_state() -> dict:
+    """CPU count and load averages (1, 5, 15 min)."""
+    return {"nproc": os.cpu_count(), "loadavg": list(os.getloadavg())}
+
+
+def bench_cold_start(problem: Problem, wind: float, repeats: int) -> list[dict]:
+    """Cold start of elec-lim at ``wind`` [m/s], ``repeats`` times, in this process."""
+    backend = OcpBackend()
+    t0 = time.perf_counter()
+    ocp = backend.build(problem)
+    build_s = time.perf_counter() - t0
+    runs = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        res = backend.cold_start(ocp, "elec-lim", wind)
+        runs.append(
+            {
+                "build_s": build_s,
+                "wall_s": time.perf_counter() - t0,
+                "solver_wall_s": res.wall_time_s,
+                "iterations": res.iterations,
+                "status": res.status,
+                "stages": list(res.stages),
+            }
+        )
+        print(f"cold start: {res.status}, {res.iterations} it, {runs[-1]['wall_s']:.1f} s")
+    return runs
+
+
+def bench_sweep(problem: Problem, winds, kinds, workers: int) -> dict:
+    """The whole sweep on ``workers`` processes; per-solve statistics."""
+    with open_executor(workers) as handle:
+        chains = plan_chains(winds, kinds, handle.n_workers)
+        result = run_sweep(
+            make_tasks(chains, problem), handle.executor, handle.channel, handle.description
+        )
+    warm = [a for o in result.outcomes for a in o.attempts if a.source is not None]
+    cold = [a for o in result.outcomes for a in o.attempts if a.source is None]
+    ok_warm = [a for a in warm if a.success]
+    times = [a.wall_time_s for a in ok_warm] or [float("nan")]
+    iters = [a.iterations for a in ok_warm] or [0]
+    out = {
+        "workers": workers,
+        "chains": [[s.name for s in c.steps] for c in chains],
+        "wall_s": result.wall_time_s,
+        "converged": sum(o.success for o in result.outcomes),
+        "scenarios": len(result.outcomes),
+        "failed": [(o.name, o.status) for o in result.outcomes if not o.success],
+        "retried": [o.name for o in result.outcomes if len(o.attempts) > 1],
+        "warm_solves": len(warm),
+        "warm_failed": len(warm) - len(ok_warm),
+        "warm_wall_s": {"median": statistics.median(times), "max": max(times)},
+        "warm_iterations": {"median": statistics.median(iters), "max": max(iters)},
+        "cold_starts": [
+            {"wall_s": a.wall_time_s, "iterations": a.iterations, "status": a.status} for a in cold
+        ],
+        "build_s": [c.build_time_s for c in result.chains],
+        "per_scenario": [
+            {
+                "name": o.name,
+                "status": o.status,
+                "source": o.warm_source,
+                "wall_s": o.total_wall_time_s,
+                "iterations": o.attempts[-1].iterations,
+                "avg_p_elec_w": getattr(o.result, "avg_p_elec_w", None) if o.success else None,
+                "avg_p_mech_w": getattr(o.result, "avg_p_mech_w", None) if o.success else None,
+                "period_s": getattr(o.result, "period_s", None) if o.success else None,
+            }
+            for o in result.outcomes
+        ],
+    }
+    print(
+        f"sweep on {workers} worker(s): {out['converged']}/{out['scenarios']} converged in "
+        f"{out['wall_s']:.1f} s; warm solve median {out['warm_wall_s']['median']:.2f} s, "
+        f"max {out['warm_wall_s']['max']:.2f} s; iterations median "
+        f"{out['warm_iterations']['median']}, max {out['warm_iterations']['max']}"
+    )
+    return out
+
+
+def main() -> None:
+    """Parse options, run the measurements, write the JSON."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--wind-grid", default=DEFAULT_WIND_GRID)
+    ap.add_argument("--scenarios", default=DEFAULT_KINDS)
+    ap.add_argument("--intervals", type=int, default=40)
+    ap.add_argument("--workers", default="1,2", help="comma list of worker counts to run")
+    ap.add_argument("--repeats", type=int, default=1, help="cold-start repetitions")
+    ap.add_argument("--out", type=Path, default=OUT / "optimize_sweep.json")
+    args = ap.parse_args()
+
+    winds, kinds = parse_wind_grid(args.wind_grid), parse_kinds(args.scenarios)
+    model = load_power_model(PAPER_MODEL_PATH)
+    options = OcpOptions(n_intervals=args.intervals)
+    problem = Problem(None, model, options, f"{options!r}|{model.sha256}")
+    report = {
+        "machine_before": machine_state(),
+        "options": repr(options),
+        "winds_m_s": list(winds),
+        "kinds": list(kinds),
+        "goals": GOALS,
+    }
+    if args.repeats > 0:
+        report["cold_start"] = bench_cold_start(problem, winds[middle_index(winds)], args.repeats)
+    report["sweeps"] = [bench_sweep(problem, winds, kinds, int(w)) for w in args.workers.split(",")]
+    report["machine_after"] = machine_state()
+    two = [s for s in report["sweeps"] if s["workers"] == 2]
+    cold = report.get("cold_start", [])
+    report["verdict"] = {
+        "cold_start_s": min((r["wall_s"] for r in cold), default=None),
+        "median_warm_solve_s": statistics.median(
+            s["warm_wall_s"]["median"] for s in report["sweeps"]
+        ),
+        "sweep_2_workers_s": two[0]["wall_s"] if two else None,
+        "converged": [f"{s['converged']}/{s['scenarios']}" for s in report["sweeps"]],
+    }
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = args.out.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(report, indent=2, default=str) + "\n")
+    os.replace(tmp, args.out)
+    print(json.dumps(report["verdict"], indent=2))
+    print(
+        f"load before {report['machine_before']['loadavg']}, after "
+        f"{report['machine_after']['loadavg']} on {os.cpu_count()} cores; wrote {args.out}"
+    )
+
+
+if __name__ == "__main__":
+    main()
