@@ -1,0 +1,211 @@
+"""Tethered rigid-wing kite DAE in non-minimal coordinates (paper eqs. 6-8, REFERENCE.md §2).
+
+States ``x`` (24): position ``r`` [m] and velocity ``v`` [m/s] of the CG in the
+world NED frame, the body-to-world DCM ``R`` (9 entries, column-major), body
+angular velocity ``omega`` [rad/s], tether length ``l`` [m] and its first two
+derivatives, and the aileron/elevator/rudder deflections [rad].
+Controls ``u`` (4): tether jerk ``dddl`` [m/s^3] and surface rates [rad/s].
+Algebraic ``z`` (7): CG acceleration ``a`` [m/s^2], angular acceleration
+``domega`` [rad/s^2] and the tether multiplier ``nu`` [N/m] of the constraint
+``c = (|r + R [0,0,zt]|^2 - l^2)/2 = 0``; tether tension is ``l * nu``.
+
+The dynamics are implicit (mass-matrix form): the explicit part is
+``xdot = f(x, u, z)`` (kinematics) and the algebraic residual ``g(x, z, ...)``
+states Newton-Euler with the tether multiplier and ``d2c/dt2 = 0``. The
+algebraic residual also takes fictitious forces/moments, used only by the
+initialization homotopy (zero in the physical model).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from optimize.aero import aero_forces_moments, altitude_above_ground, wind_speed
+from optimize.params import AeroCoefficients, KiteParams, WindModel
+
+STATE_NAMES: tuple[str, ...] = (
+    ("r_x_m", "r_y_m", "r_z_m", "v_x_m_s", "v_y_m_s", "v_z_m_s")
+    + tuple(f"dcm_{i}{j}" for j in (1, 2, 3) for i in (1, 2, 3))
+    + ("omega_x_rad_s", "omega_y_rad_s", "omega_z_rad_s")
+    + ("l_m", "dl_m_s", "ddl_m_s2", "aileron_rad", "elevator_rad", "rudder_rad")
+)
+CONTROL_NAMES: tuple[str, ...] = (
+    "dddl_m_s3",
+    "daileron_rad_s",
+    "delevator_rad_s",
+    "drudder_rad_s",
+)
+ALGEBRAIC_NAMES: tuple[str, ...] = (
+    "a_x_m_s2",
+    "a_y_m_s2",
+    "a_z_m_s2",
+    "domega_x_rad_s2",
+    "domega_y_rad_s2",
+    "domega_z_rad_s2",
+    "nu_n_m",
+)
+FICTITIOUS_NAMES: tuple[str, ...] = (
+    "f_fict_x_n", "f_fict_y_n", "f_fict_z_n", "m_fict_x_nm", "m_fict_y_nm", "m_fict_z_nm",
+)
+
+# Typical magnitudes used to scale variables and residual rows (issue 4 feasibility notes).
+STATE_SCALE = np.array(
+    [100.0] * 3 + [30.0] * 3 + [1.0] * 9 + [3.0] * 3 + [100.0, 10.0, 30.0] + [0.2] * 3
+)
+CONTROL_SCALE = np.array([100.0, 2.0, 2.0, 2.0])
+ALGEBRAIC_SCALE = np.array([50.0] * 3 + [10.0] * 3 + [10.0])
+FICTITIOUS_SCALE = np.array([100.0] * 3 + [10.0] * 3)
+#: scale of the algebraic residual rows: force [N], moment [N m], d2c/dt2 [m^2/s^2]
+RESIDUAL_SCALE = np.array([100.0] * 3 + [10.0] * 3 + [1000.0])
+
+NX, NU, NZ, NF = len(STATE_NAMES), len(CONTROL_NAMES), len(ALGEBRAIC_NAMES), 6
+IDX = {name: i for i, name in enumerate(STATE_NAMES)}
+
+
+def _skew(w: ca.SX) -> ca.SX:
+    return ca.vertcat(
+        ca.horzcat(0, -w[2], w[1]), ca.horzcat(w[2], 0, -w[0]), ca.horzcat(-w[1], w[0], 0)
+    )
+
+
+@dataclass(frozen=True)
+class KiteDae:
+    """CasADi functions of the kite DAE (all SX, evaluable numerically or symbolically).
+
+    Attributes
+    ----------
+    ode : Function
+        ``(x, u, z) -> xdot``: kinematics, explicit in the algebraic variables.
+    alg : Function
+        ``(x, u, z, wind_ref_m_s, fict) -> residual (7)``: Newton-Euler rows
+        [N], [N m] and ``d2c/dt2`` [m^2/s^2]; zero on the physical solution.
+    outputs : Function
+        ``(x, u, z, wind_ref_m_s) -> dict`` of named scalar outputs (airspeed,
+        angles, tension, line angle cosine, altitude, invariants, ...).
+    invariants : Function
+        ``x -> (c [m^2], dc/dt [m^2/s], R^T R - I (3x3))``.
+    explicit_ode : Function
+        ``(x, u, wind_ref_m_s) -> xdot`` with ``z`` solved from ``alg`` (for simulation).
+    solve_z : Function
+        ``(x, u, wind_ref_m_s) -> z`` (the physical algebraic variables).
+    """
+
+    kite: KiteParams
+    coeffs: AeroCoefficients
+    wind: WindModel
+    ode: ca.Function
+    alg: ca.Function
+    outputs: ca.Function
+    invariants: ca.Function
+    explicit_ode: ca.Function
+    solve_z: ca.Function
+
+
+def _split_state(x):
+    r, v = x[0:3], x[3:6]
+    dcm = ca.reshape(x[6:15], 3, 3)
+    omega = x[15:18]
+    l, dl, ddl = x[18], x[19], x[20]
+    surf = x[21:24]
+    return r, v, dcm, omega, l, dl, ddl, surf
+
+
+def kite_dae(
+    kite: KiteParams | None = None,
+    coeffs: AeroCoefficients | None = None,
+    wind: WindModel | None = None,
+) -> KiteDae:
+    """Build the kite DAE functions (paper eqs. 6-8 with the aero model of app. B)."""
+    kite = kite or KiteParams()
+    coeffs = coeffs or AeroCoefficients()
+    wind = wind or WindModel()
+    x = ca.SX.sym("x", NX)
+    u = ca.SX.sym("u", NU)
+    z = ca.SX.sym("z", NZ)
+    w_ref = ca.SX.sym("wind_ref_m_s")
+    fict = ca.SX.sym("fict", NF)
+    r, v, dcm, omega, l, dl, ddl, surf = _split_state(x)
+    acc, domega, nu = z[0:3], z[3:6], z[6]
+
+    # kinematics: rdot = v, vdot = a, Rdot = R [omega]x, omega_dot = domega (paper eq. 7)
+    xdot = ca.vertcat(
+        v, acc, ca.reshape(ca.mtimes(dcm, _skew(omega)), 9, 1), domega, dl, ddl, u[0], u[1:4]
+    )
+
+    zt_b = ca.DM([0.0, 0.0, kite.zt_m])
+    r_bridle = r + ca.mtimes(dcm, zt_b)
+    v_bridle = v + ca.mtimes(dcm, ca.cross(omega, zt_b))
+    a_bridle = acc + ca.mtimes(dcm, ca.cross(domega, zt_b) + ca.cross(omega, ca.cross(omega, zt_b)))
+    c = 0.5 * (ca.dot(r_bridle, r_bridle) - l**2)
+    cdot = ca.dot(r_bridle, v_bridle) - l * dl
+    cddot = ca.dot(v_bridle, v_bridle) + ca.dot(r_bridle, a_bridle) - dl**2 - l * ddl
+
+    altitude = altitude_above_ground(r, wind)
+    w_local = wind_speed(altitude, w_ref, wind)
+    v_air = v - ca.vertcat(w_local, 0, 0)
+    aero = aero_forces_moments(dcm, v_air, omega, surf, l, kite, coeffs)
+
+    jmat = ca.DM(
+        [
+            [kite.j1_kg_m2, 0, kite.j31_kg_m2],
+            [0, kite.j2_kg_m2, 0],
+            [kite.j31_kg_m2, 0, kite.j3_kg_m2],
+        ]
+    )
+    gravity = ca.vertcat(0, 0, kite.mass_kg * kite.g_m_s2)
+    # Newton: m a = F_aero + m g e_z - nu * r_bridle (+ fictitious force)
+    res_force = kite.mass_kg * acc + nu * r_bridle - aero.force_n - gravity - fict[0:3]
+    # Euler: J domega + omega x J omega = M_aero - nu * zt x (R^T r) (+ fictitious moment)
+    res_moment = (
+        ca.mtimes(jmat, domega)
+        + ca.cross(omega, ca.mtimes(jmat, omega))
+        + nu * ca.cross(zt_b, ca.mtimes(dcm.T, r))
+        - aero.moment_nm
+        - fict[3:6]
+    )
+    residual = ca.vertcat(res_force, res_moment, cddot)
+
+    tension = l * nu
+    body_z = dcm[:, 2]
+    cos_line = -ca.dot(body_z, r) / ca.norm_2(r)
+    outputs = {
+        "airspeed_m_s": aero.airspeed_m_s,
+        "alpha_rad": aero.alpha_rad,
+        "beta_rad": aero.beta_rad,
+        "sin_beta": ca.sin(aero.beta_rad),
+        "tension_n": tension,
+        "cos_line_angle": cos_line,
+        "altitude_m": altitude,
+        "wind_m_s": w_local,
+        "cl": aero.cl,
+        "cd": aero.cd,
+        "c_m2": c,
+        "cdot_m2_s": cdot,
+    }
+
+    residual_fn = ca.Function("kite_alg", [x, u, z, w_ref, fict], [residual])
+    # The residual is affine in z: z = -A^{-1} residual(z=0) with A = d residual / dz.
+    jac = ca.jacobian(residual, z)
+    res0 = ca.substitute(residual, ca.vertcat(z, fict), ca.DM.zeros(NZ + NF))
+    jac0 = ca.substitute(jac, fict, ca.DM.zeros(NF))
+    z_phys = -ca.solve(jac0, res0)
+    xdot_phys = ca.substitute(xdot, z, z_phys)
+
+    orth = ca.mtimes(dcm.T, dcm) - ca.DM.eye(3)
+    return KiteDae(
+        kite=kite,
+        coeffs=coeffs,
+        wind=wind,
+        ode=ca.Function("kite_ode", [x, u, z], [xdot], ["x", "u", "z"], ["xdot"]),
+        alg=residual_fn,
+        outputs=ca.Function(
+            "kite_outputs", [x, u, z, w_ref], list(outputs.values()),
+            ["x", "u", "z", "wind"], list(outputs.keys()),
+        ),
+        invariants=ca.Function("kite_invariants", [x], [c, cdot, orth]),
+        explicit_ode=ca.Function("kite_explicit_ode", [x, u, w_ref], [xdot_phys]),
+        solve_z=ca.Function("kite_solve_z", [x, u, w_ref], [z_phys]),
+    )

@@ -1,0 +1,515 @@
+"""Periodic pumping-cycle optimal control problem (paper section IV, eq. 5; REFERENCE.md §3).
+
+Direct Radau collocation of the implicit kite DAE with a free period. The NLP
+is built once per (options, drive model) and is solved for any scenario by
+changing only NLP parameters (wind speed, objective weights, homotopy
+weights, reference trajectory) and variable/constraint bounds (drive limits,
+fixed period, fictitious forces switched off). Everything is scaled: each
+decision variable is stored divided by a typical magnitude, each residual row
+is divided by its typical size.
+
+Decision vector (scaled), in this order: period ``T``; states at the
+``N d + 1`` grid points (interval starts and the Radau points; the last Radau
+point of an interval is the start of the next); algebraic variables at the
+``N d`` Radau points; one control per interval; fictitious forces/moments at
+the ``N d`` Radau points (homotopy only; fixed at zero otherwise).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from optimize import kite_model as km
+from optimize.collocation import Collocation, radau
+from optimize.drive import (
+    DriveModel,
+    drum_speed_rpm,
+    drum_torque_nm,
+    max_reel_speed_m_s,
+    mechanical_power_w,
+)
+from optimize.kite_model import KiteDae
+
+log = logging.getLogger(__name__)
+
+PERIOD_SCALE_S = 5.0
+#: power objective unit [W]: the NLP objective is in kW
+POWER_SCALE_W = 1000.0
+#: regularization scales of the controls: tether jerk [m/s^3], surface rates [rad/s]
+CONTROL_SIGMA = np.array([10.0, 1.0, 1.0, 1.0])
+#: periodic state components (REFERENCE.md §3)
+PERIODIC_STATES = (
+    "r_y_m", "r_z_m", "v_y_m_s", "v_z_m_s", "omega_x_rad_s", "omega_y_rad_s",
+    "omega_z_rad_s", "l_m", "dl_m_s", "ddl_m_s2", "aileron_rad", "elevator_rad", "rudder_rad",
+)
+#: NLP parameter layout (before the reference trajectory)
+PARAM_NAMES = ("wind_ref_m_s", "w_elec", "w_mech", "w_reg", "w_track", "w_fict")
+
+
+@dataclass(frozen=True)
+class OcpOptions:
+    """Discretization, physical limits and solver settings of the OCP.
+
+    Parameters
+    ----------
+    n_intervals : int
+        Number of collocation intervals over one period.
+    degree : int
+        Radau collocation degree.
+    tol : float
+        IPOPT convergence tolerance (scaled problem).
+    acceptable_tol : float
+        IPOPT acceptable tolerance.
+    max_iter : int
+        IPOPT iteration limit per solve.
+    regularization : float
+        Weight of the control-rate regularization [kW-equivalent per unit
+        normalized squared rate].
+    period_bounds_s : (float, float)
+        Bounds on the free period [s].
+    max_speed_rpm, max_torque_nm : float
+        Drive limits of the constrained scenarios [rpm], [N m].
+    min_airspeed_m_s : float
+        Lower airspeed bound [m/s].
+    alpha_bounds_deg, beta_bounds_deg : (float, float)
+        Angle-of-attack and sideslip bounds [deg].
+    max_line_angle_deg : float
+        Largest angle between body z axis and tether [deg].
+    surface_bound_deg : float
+        Control-surface deflection bound [deg].
+    surface_rate_bound_rad_s : float
+        Control-surface rate bound [rad/s].
+    warm_mu_init : float
+        Initial barrier parameter of a warm-started solve.
+    linear_solver : str
+        IPOPT linear solver.
+    """
+
+    n_intervals: int = 40
+    degree: int = 4
+    tol: float = 1e-6
+    acceptable_tol: float = 1e-4
+    max_iter: int = 1000
+    regularization: float = 1e-2
+    period_bounds_s: tuple[float, float] = (1.0, 20.0)
+    max_speed_rpm: float = 1500.0
+    max_torque_nm: float = 78.0
+    min_airspeed_m_s: float = 10.0
+    alpha_bounds_deg: tuple[float, float] = (-4.5, 8.5)
+    beta_bounds_deg: tuple[float, float] = (-9.0, 9.0)
+    max_line_angle_deg: float = 65.0
+    surface_bound_deg: float = 10.0
+    surface_rate_bound_rad_s: float = 2.0
+    warm_mu_init: float = 1e-4
+    linear_solver: str = "mumps"
+
+    def __post_init__(self) -> None:
+        if self.n_intervals < 2:
+            raise ValueError(f"n_intervals must be >= 2, got {self.n_intervals}")
+        lo, hi = self.period_bounds_s
+        if not 0 < lo < hi:
+            raise ValueError(
+                f"period_bounds_s must satisfy 0 < lo < hi, got {self.period_bounds_s}"
+            )
+
+
+@dataclass
+class Layout:
+    """Index bookkeeping of the scaled decision and constraint vectors."""
+
+    n_points: int  # grid points with states (N d + 1)
+    n_coll: int  # Radau points (N d)
+    i_period: int
+    i_x: np.ndarray  # (NX, n_points) indices into w
+    i_z: np.ndarray  # (NZ, n_coll)
+    i_u: np.ndarray  # (NU, N)
+    i_f: np.ndarray  # (NF, n_coll)
+    scale_w: np.ndarray  # w_physical = scale_w * w_scaled
+    n_w: int
+    n_g: int
+    g_torque: np.ndarray  # rows of the torque constraint
+    g_periodic: np.ndarray  # rows of the periodicity constraints (states and DCM)
+    n_p: int
+    i_p_ref: np.ndarray  # (NX, n_points) reference trajectory in p
+
+
+@dataclass(frozen=True)
+class RawSolve:
+    """Outcome of one IPOPT call: scaled primal/dual vectors and solver statistics."""
+
+    w: np.ndarray
+    lam_x: np.ndarray
+    lam_g: np.ndarray
+    objective: float
+    status: str
+    success: bool
+    iterations: int
+    wall_time_s: float
+    cpu_time_s: float
+
+
+@dataclass
+class Ocp:
+    """A built OCP: the NLP, its layout, base bounds and IPOPT solvers (cold / warm).
+
+    Build it with :func:`build_ocp`; solve it with :func:`optimize.solve.solve`
+    or :func:`optimize.solve.cold_start`.
+    """
+
+    options: OcpOptions
+    dae: KiteDae
+    coll: Collocation
+    layout: Layout
+    nlp: dict
+    lbw: np.ndarray
+    ubw: np.ndarray
+    lbg: np.ndarray
+    ubg: np.ndarray
+    build_time_s: float
+    drive_model: DriveModel
+    _solvers: dict = field(default_factory=dict, repr=False)
+    _g_fn: ca.Function | None = field(default=None, repr=False)
+
+    def constraint_values(self, w_scaled: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """Scaled constraint vector ``g(w, p)`` (for residual checks)."""
+        if self._g_fn is None:
+            self._g_fn = ca.Function("g", [self.nlp["x"], self.nlp["p"]], [self.nlp["g"]])
+        return np.asarray(self._g_fn(w_scaled, p)).ravel()
+
+    def run(
+        self,
+        w0: np.ndarray,
+        p: np.ndarray,
+        bounds: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+        warm: bool,
+        lam_x0: np.ndarray | None = None,
+        lam_g0: np.ndarray | None = None,
+    ) -> RawSolve:
+        """One IPOPT solve from the scaled primal ``w0`` (and multipliers when ``warm``)."""
+        solver = self.solver(warm)
+        args = {"x0": w0, "p": p, "lbx": bounds[0], "ubx": bounds[1], "lbg": bounds[2],
+                "ubg": bounds[3]}
+        if warm and lam_x0 is not None and lam_g0 is not None:
+            args.update(lam_x0=lam_x0, lam_g0=lam_g0)
+        t0 = time.perf_counter()
+        sol = solver(**args)
+        wall = time.perf_counter() - t0
+        stats = solver.stats()
+        return RawSolve(
+            w=np.asarray(sol["x"]).ravel(),
+            lam_x=np.asarray(sol["lam_x"]).ravel(),
+            lam_g=np.asarray(sol["lam_g"]).ravel(),
+            objective=float(sol["f"]),
+            status=str(stats["return_status"]),
+            success=bool(stats["success"]),
+            iterations=int(stats["iter_count"]),
+            wall_time_s=wall,
+            cpu_time_s=float(stats.get("t_proc_total", np.nan)),
+        )
+
+    def solver(self, warm: bool) -> ca.Function:
+        """IPOPT solver; ``warm`` selects warm-start options (created once, then cached)."""
+        if warm not in self._solvers:
+            t0 = time.perf_counter()
+            o = self.options
+            ipopt = {
+                "linear_solver": o.linear_solver,
+                "tol": o.tol,
+                "acceptable_tol": o.acceptable_tol,
+                "acceptable_iter": 5,
+                "max_iter": o.max_iter,
+                "print_level": 0,
+                "sb": "yes",
+                # the NLP is scaled by construction; MUMPS' own scaling cost time and
+                # iterations in the measurements of benchmarks/optimize_solve.py
+                "mumps_scaling": 0,
+                "mumps_permuting_scaling": 0,
+            }
+            if warm:
+                ipopt.update(
+                    {
+                        "warm_start_init_point": "yes",
+                        "mu_init": o.warm_mu_init,
+                        "warm_start_bound_push": 1e-9,
+                        "warm_start_bound_frac": 1e-9,
+                        "warm_start_slack_bound_push": 1e-9,
+                        "warm_start_slack_bound_frac": 1e-9,
+                        "warm_start_mult_bound_push": 1e-9,
+                    }
+                )
+            self._solvers[warm] = ca.nlpsol(
+                "pumping_cycle",
+                "ipopt",
+                self.nlp,
+                {"ipopt": ipopt, "print_time": False, "error_on_fail": False},
+            )
+            log.debug("created %s IPOPT solver in %.1f s", "warm" if warm else "cold",
+                      time.perf_counter() - t0)
+        return self._solvers[warm]
+
+    def params(
+        self,
+        wind_ref_m_s: float,
+        w_elec: float = 0.0,
+        w_mech: float = 0.0,
+        w_reg: float | None = None,
+        w_track: float = 0.0,
+        w_fict: float = 0.0,
+        x_ref: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """NLP parameter vector; ``x_ref`` (NX, N d + 1) is the tracking reference [SI]."""
+        lay = self.layout
+        p = np.zeros(lay.n_p)
+        w_reg = self.options.regularization if w_reg is None else w_reg
+        p[: len(PARAM_NAMES)] = [wind_ref_m_s, w_elec, w_mech, w_reg, w_track, w_fict]
+        if x_ref is not None:
+            p[lay.i_p_ref] = x_ref / km.STATE_SCALE[:, None]
+        return p
+
+    def bounds(
+        self, drive_limits: bool, fix_fictitious: bool, period_s: float | None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Scaled ``lbx, ubx, lbg, ubg`` for a configuration.
+
+        ``period_s`` fixes the period when given; ``fix_fictitious`` pins the
+        fictitious forces at zero (the physical model).
+        """
+        lay, o = self.layout, self.options
+        lbw, ubw, lbg, ubg = self.lbw.copy(), self.ubw.copy(), self.lbg.copy(), self.ubg.copy()
+        if drive_limits:
+            dl_max = max_reel_speed_m_s(o.max_speed_rpm, self.dae.kite.r_winch_m)
+            idx = lay.i_x[km.IDX["dl_m_s"]]
+            lbw[idx] = -dl_max / km.STATE_SCALE[km.IDX["dl_m_s"]]
+            ubw[idx] = dl_max / km.STATE_SCALE[km.IDX["dl_m_s"]]
+            ubg[lay.g_torque] = o.max_torque_nm / TORQUE_ROW_SCALE_NM
+        if fix_fictitious:
+            lbw[lay.i_f.ravel()] = 0.0
+            ubw[lay.i_f.ravel()] = 0.0
+        if period_s is not None:
+            lbw[lay.i_period] = ubw[lay.i_period] = period_s / PERIOD_SCALE_S
+        return lbw, ubw, lbg, ubg
+
+    def pack(self, x: np.ndarray, z: np.ndarray, u: np.ndarray, fict: np.ndarray,
+             period_s: float) -> np.ndarray:
+        """Scaled decision vector from physical arrays (shapes as in :class:`Layout`)."""
+        lay = self.layout
+        w = np.zeros(lay.n_w)
+        w[lay.i_period] = period_s
+        w[lay.i_x] = x
+        w[lay.i_z] = z
+        w[lay.i_u] = u
+        w[lay.i_f] = fict
+        return w / lay.scale_w
+
+    def unpack(self, w_scaled: np.ndarray) -> dict[str, np.ndarray | float]:
+        """Physical period, states, algebraic variables, controls, fictitious forces."""
+        lay = self.layout
+        w = np.asarray(w_scaled).ravel() * lay.scale_w
+        return {
+            "period_s": float(w[lay.i_period]),
+            "x": w[lay.i_x],
+            "z": w[lay.i_z],
+            "u": w[lay.i_u],
+            "fict": w[lay.i_f],
+        }
+
+
+#: scale of the torque constraint rows [N m]
+TORQUE_ROW_SCALE_NM = 100.0
+
+
+def build_ocp(
+    dae: KiteDae, drive_model: DriveModel, options: OcpOptions | None = None
+) -> Ocp:
+    """Build the scaled collocation NLP once for given options and drive model.
+
+    Parameters
+    ----------
+    dae : KiteDae
+        The kite model (:func:`optimize.kite_model.kite_dae`).
+    drive_model : DriveModel
+        Electrical power model of the drive (``fitting.model_file.PowerModel``).
+    options : OcpOptions, optional
+        Discretization and limits; defaults to :class:`OcpOptions`.
+
+    Returns
+    -------
+    Ocp
+        The NLP with its layout and base bounds (no drive limits, free
+        period, free fictitious forces); IPOPT solvers are created lazily.
+    """
+    t0 = time.perf_counter()
+    o = options or OcpOptions()
+    coll = radau(o.degree)
+    n, d = o.n_intervals, o.degree
+    nx, nz, nu, nf = km.NX, km.NZ, km.NU, km.NF
+    n_points, n_coll = n * d + 1, n * d
+
+    # ---- layout of w
+    counter = iter(range(10**9))
+    i_period = next(counter)
+    i_x = np.array([[next(counter) for _ in range(nx)] for _ in range(n_points)]).T
+    i_z = np.array([[next(counter) for _ in range(nz)] for _ in range(n_coll)]).T
+    i_u = np.array([[next(counter) for _ in range(nu)] for _ in range(n)]).T
+    i_f = np.array([[next(counter) for _ in range(nf)] for _ in range(n_coll)]).T
+    n_w = next(counter)
+    scale_w = np.ones(n_w)
+    scale_w[i_period] = PERIOD_SCALE_S
+    scale_w[i_x] = km.STATE_SCALE[:, None]
+    scale_w[i_z] = km.ALGEBRAIC_SCALE[:, None]
+    scale_w[i_u] = km.CONTROL_SCALE[:, None]
+    scale_w[i_f] = km.FICTITIOUS_SCALE[:, None]
+
+    n_par = len(PARAM_NAMES)
+    n_p = n_par + nx * n_points
+    i_p_ref = n_par + np.arange(nx * n_points).reshape(n_points, nx).T
+
+    w = ca.SX.sym("w", n_w)
+    p = ca.SX.sym("p", n_p)
+    wind, w_elec, w_mech, w_reg, w_track, w_fict = (p[i] for i in range(n_par))
+    ws = w * ca.DM(scale_w)
+    period = ws[i_period]
+    h = period / n
+
+    def col(idx: np.ndarray, k: int) -> ca.SX:
+        return ws[[int(i) for i in idx[:, k]]]
+
+    xs = [col(i_x, k) for k in range(n_points)]
+    zs = [col(i_z, k) for k in range(n_coll)]
+    us = [col(i_u, k) for k in range(n)]
+    fs = [col(i_f, k) for k in range(n_coll)]
+
+    r_w = dae.kite.r_winch_m
+    deg = np.pi / 180
+    g, lbg, ubg = [], [], []
+    g_torque, g_periodic = [], []
+    n_g = 0
+
+    def add(expr, lo, hi, tag=None):
+        nonlocal n_g
+        size = expr.shape[0]
+        g.append(expr)
+        lbg.extend(np.broadcast_to(lo, (size,)).tolist())
+        ubg.extend(np.broadcast_to(hi, (size,)).tolist())
+        if tag is not None:
+            tag.extend(range(n_g, n_g + size))
+        n_g += size
+
+    inv_sx = ca.DM(1.0 / km.STATE_SCALE)
+    inv_res = ca.DM(1.0 / km.RESIDUAL_SCALE)
+    p_elec_avg, p_mech_avg, reg, track, fict_pen = 0, 0, 0, 0, 0
+    for k in range(n):
+        u_k = us[k]
+        reg += ca.sumsqr(u_k / ca.DM(CONTROL_SIGMA)) / n
+        for j in range(1, d + 1):
+            ip = k * d + j  # grid point of this Radau point
+            ic = k * d + j - 1  # Radau point index
+            x_kj, z_kj = xs[ip], zs[ic]
+            xp = sum(coll.deriv[r, j - 1] * xs[k * d + r] for r in range(d + 1))
+            add((xp - h * dae.ode(x_kj, u_k, z_kj)) * inv_sx, 0.0, 0.0)
+            add(dae.alg(x_kj, u_k, z_kj, wind, fs[ic]) * inv_res, 0.0, 0.0)
+            out = dae.outputs(x_kj, u_k, z_kj, wind)
+            airspeed, alpha, beta = out[0], out[1], out[2]
+            cos_line = out[5]
+            add(airspeed / 30.0, o.min_airspeed_m_s / 30.0, np.inf)
+            add(alpha / (10 * deg), o.alpha_bounds_deg[0] / 10, o.alpha_bounds_deg[1] / 10)
+            add(beta / (10 * deg), o.beta_bounds_deg[0] / 10, o.beta_bounds_deg[1] / 10)
+            add(cos_line, np.cos(o.max_line_angle_deg * deg), np.inf)
+            l_kj, dl_kj, nu_kj = x_kj[km.IDX["l_m"]], x_kj[km.IDX["dl_m_s"]], z_kj[6]
+            tension = l_kj * nu_kj
+            torque = drum_torque_nm(tension, r_w)
+            add(torque / TORQUE_ROW_SCALE_NM, -np.inf, np.inf, tag=g_torque)
+            p_mech = mechanical_power_w(tension, dl_kj)
+            p_elec = drive_model.casadi_p_elec_w(drum_speed_rpm(dl_kj, r_w), torque)
+            p_elec_avg += coll.quad[j - 1] * p_elec / n
+            p_mech_avg += coll.quad[j - 1] * p_mech / n
+            fict_pen += ca.sumsqr(fs[ic] / ca.DM(km.FICTITIOUS_SCALE)) / n_coll
+    for k in range(n_points):
+        ref = p[[int(i) for i in i_p_ref[:, k]]]
+        track += ca.sumsqr(xs[k] * inv_sx - ref) / n_points
+
+    # invariants at t = 0 (c, dc/dt, orthonormal R)
+    c0, cdot0, orth0 = dae.invariants(xs[0])
+    add(c0 / 100.0, 0.0, 0.0)
+    add(cdot0 / 1000.0, 0.0, 0.0)
+    add(ca.vertcat(*[orth0[a, b] for a in range(3) for b in range(a, 3)]), 0.0, 0.0)
+    # periodicity
+    per = [km.IDX[name] for name in PERIODIC_STATES]
+    add((xs[-1][per] - xs[0][per]) * ca.DM(1.0 / km.STATE_SCALE[per]), 0.0, 0.0, g_periodic)
+    dcm0 = ca.reshape(xs[0][6:15], 3, 3)
+    dcm_t = ca.reshape(xs[-1][6:15], 3, 3)
+    rel = ca.mtimes(dcm0.T, dcm_t)
+    add(ca.vertcat(rel[0, 1], rel[0, 2], rel[1, 2]), 0.0, 0.0, g_periodic)
+
+    objective = (
+        (w_elec * p_elec_avg + w_mech * p_mech_avg) / POWER_SCALE_W
+        + w_reg * reg
+        + w_track * track
+        + w_fict * fict_pen
+    )
+    nlp = {"x": w, "p": p, "f": objective, "g": ca.vertcat(*g)}
+
+    # ---- base bounds (physical, then scaled)
+    lbw = np.full(n_w, -np.inf)
+    ubw = np.full(n_w, np.inf)
+    lbw[i_period], ubw[i_period] = o.period_bounds_s
+    state_lo = {
+        "r_x_m": -2000, "r_y_m": -2000, "r_z_m": -2000, "v_x_m_s": -200, "v_y_m_s": -200,
+        "v_z_m_s": -200, "omega_x_rad_s": -6 * np.pi, "omega_y_rad_s": -6 * np.pi,
+        "omega_z_rad_s": -6 * np.pi, "l_m": 1.0, "dl_m_s": -100, "ddl_m_s2": -500,
+        "aileron_rad": -o.surface_bound_deg * deg, "elevator_rad": -o.surface_bound_deg * deg,
+        "rudder_rad": -o.surface_bound_deg * deg,
+    }
+    state_hi = {
+        "r_x_m": 2000, "r_y_m": 2000, "r_z_m": 0.0, "v_x_m_s": 200, "v_y_m_s": 200,
+        "v_z_m_s": 200, "omega_x_rad_s": 6 * np.pi, "omega_y_rad_s": 6 * np.pi,
+        "omega_z_rad_s": 6 * np.pi, "l_m": 500.0, "dl_m_s": 100, "ddl_m_s2": 500,
+        "aileron_rad": o.surface_bound_deg * deg, "elevator_rad": o.surface_bound_deg * deg,
+        "rudder_rad": o.surface_bound_deg * deg,
+    }
+    for name in km.STATE_NAMES:
+        i = km.IDX[name]
+        lo, hi = (-1.1, 1.1) if name.startswith("dcm_") else (state_lo[name], state_hi[name])
+        lbw[i_x[i]] = lo
+        ubw[i_x[i]] = hi
+    lbw[i_x[km.IDX["r_y_m"], 0]] = ubw[i_x[km.IDX["r_y_m"], 0]] = 0.0  # r_y(0) = 0
+    lbw[i_z[6]] = 0.0  # tension = l nu >= 0
+    rate = o.surface_rate_bound_rad_s
+    lbw[i_u[0]], ubw[i_u[0]] = -5000.0, 5000.0
+    lbw[i_u[1:]], ubw[i_u[1:]] = -rate, rate
+
+    ocp = Ocp(
+        options=o,
+        dae=dae,
+        coll=coll,
+        layout=Layout(
+            n_points=n_points, n_coll=n_coll, i_period=i_period, i_x=i_x, i_z=i_z, i_u=i_u,
+            i_f=i_f, scale_w=scale_w, n_w=n_w, n_g=n_g, g_torque=np.array(g_torque),
+            g_periodic=np.array(g_periodic), n_p=n_p,
+            i_p_ref=i_p_ref,
+        ),
+        nlp=nlp,
+        lbw=lbw / scale_w,
+        ubw=ubw / scale_w,
+        lbg=np.array(lbg),
+        ubg=np.array(ubg),
+        build_time_s=0.0,
+        drive_model=drive_model,
+    )
+    ocp.build_time_s = time.perf_counter() - t0
+    log.info("built OCP: %d variables, %d constraints, N=%d, degree %d in %.1f s",
+             n_w, n_g, n, d, ocp.build_time_s)
+    return ocp
+
+
+def grid_times(ocp: Ocp, period_s: float) -> np.ndarray:
+    """Times [s] of the ``N d + 1`` state grid points for a period."""
+    n, coll = ocp.options.n_intervals, ocp.coll
+    h = period_s / n
+    t = [0.0] + [h * (k + coll.tau[j]) for k in range(n) for j in range(1, coll.degree + 1)]
+    return np.array(t)

@@ -1,0 +1,133 @@
+"""Physical parameters of the kite, its aerodynamics and the wind (REFERENCE.md §2).
+
+Every field carries its unit and source in ``dataclasses.field(metadata=...)``.
+``from_dict`` builds a parameter set from a plain mapping and rejects unknown
+and missing keys, so a typo in a configuration file cannot silently fall back
+to a default.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any, TypeVar
+
+_SRC_KITE = "REFERENCE.md §2 (rawesome rawe/models/betty_conf.py)"
+_SRC_AERO = "REFERENCE.md §2 (rawesome betty_conf.py; per-degree values times 180/pi)"
+_SRC_WIND = "REFERENCE.md §2 (rawesome crosswind.py wind_shear)"
+
+_DEG = 180.0 / math.pi  # converts a per-degree derivative into a per-radian one
+
+T = TypeVar("T")
+
+
+def _f(default: float, unit: str, source: str) -> Any:
+    return field(default=default, metadata={"unit": unit, "source": source})
+
+
+def _from_dict(cls: type[T], data: dict[str, Any]) -> T:
+    """Build ``cls`` from ``data``; unknown or missing keys raise ``ValueError``."""
+    names = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - names)
+    missing = sorted(names - set(data))
+    if unknown:
+        raise ValueError(f"{cls.__name__}: unknown keys {unknown}; expected {sorted(names)}")
+    if missing:
+        raise ValueError(f"{cls.__name__}: missing keys {missing}")
+    values = {}
+    for key, value in data.items():
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ValueError(f"{cls.__name__}: key {key!r} must be a number, got {value!r}")
+        values[key] = float(value)
+    return cls(**values)
+
+
+@dataclass(frozen=True)
+class KiteParams:
+    """Rigid-wing kite, tether and environment constants.
+
+    Body axes: x forward, y right wing, z down. World frame: NED, z down; the
+    tether leaves the winch at the origin and attaches at ``[0, 0, zt]`` in
+    body axes.
+    """
+
+    mass_kg: float = _f(7.5, "kg", _SRC_KITE)
+    sref_m2: float = _f(0.684, "m^2", _SRC_KITE)
+    bref_m: float = _f(2.904, "m", _SRC_KITE)
+    cref_m: float = _f(0.2512, "m", _SRC_KITE)
+    zt_m: float = _f(0.10, "m", _SRC_KITE + " (bridle point below the CG)")
+    g_m_s2: float = _f(9.81, "m/s^2", _SRC_KITE)
+    rho_kg_m3: float = _f(1.23, "kg/m^3", _SRC_KITE)
+    j1_kg_m2: float = _f(0.565, "kg m^2", _SRC_KITE)
+    j2_kg_m2: float = _f(0.161, "kg m^2", _SRC_KITE)
+    j3_kg_m2: float = _f(0.723, "kg m^2", _SRC_KITE)
+    j31_kg_m2: float = _f(0.0, "kg m^2", _SRC_KITE)
+    tether_cd_per_m: float = _f(
+        0.25 * 0.001, "m (C_D_tether * sref / l)", "REFERENCE.md §2: C_D += 0.25*l*0.001/sref"
+    )
+    r_winch_m: float = _f(0.1, "m", "REFERENCE.md §1 (winch drum radius)")
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> KiteParams:
+        """Build from a mapping with exactly the field names as keys."""
+        return _from_dict(cls, data)
+
+
+@dataclass(frozen=True)
+class AeroCoefficients:
+    """Aerodynamic coefficients; angles, rates and deflections in radians."""
+
+    cl0: float = _f(0.203530, "-", _SRC_AERO)
+    cl_alpha: float = _f(5.786876, "1/rad", _SRC_AERO)
+    cl_elev: float = _f(-0.0105 * _DEG, "1/rad", _SRC_AERO)
+    cd0: float = _f(0.008767, "-", _SRC_AERO)
+    cd_alpha: float = _f(0.018751, "1/rad", _SRC_AERO)
+    cd_alpha2: float = _f(1.529989, "1/rad^2", _SRC_AERO)
+    cd_beta2: float = _f(-0.16247, "1/rad^2", _SRC_AERO)
+    cd_elev2: float = _f(4.19816e-05, "1/rad^2", _SRC_AERO + " (applied in rad as written)")
+    cd_alpha_elev: float = _f(-9.79647e-05, "1/rad^2", _SRC_AERO + " (in rad as written)")
+    cd_elev: float = _f(4.52856e-05, "1/rad", _SRC_AERO + " (in rad as written)")
+    cd_ail2: float = _f(5.60583e-05, "1/rad^2", _SRC_AERO + " (in rad as written)")
+    cd_beta_ail: float = _f(-6.73139e-06, "1/rad^2", _SRC_AERO + " (in rad as written)")
+    cd_rud2: float = _f(2.03105e-05, "1/rad^2", _SRC_AERO + " (in rad as written)")
+    cd_beta_rud: float = _f(5.55453e-05, "1/rad^2", _SRC_AERO + " (in rad as written)")
+    cy_beta: float = _f(-0.239789, "1/rad", _SRC_AERO)
+    cy_rud: float = _f(0.0035 * _DEG, "1/rad", _SRC_AERO)
+    cl_p: float = _f(-0.576, "-", _SRC_AERO + " (per p*b/(2v))")
+    cl_r: float = _f(0.0707, "-", _SRC_AERO + " (per r*b/(2v))")
+    cl_beta: float = _f(-0.051808, "1/rad", _SRC_AERO)
+    cl_alpha_beta: float = _f(-0.208344, "1/rad^2", _SRC_AERO)
+    cl_ail: float = _f(0.0073 * _DEG, "1/rad", _SRC_AERO)
+    cm0: float = _f(0.028980, "-", _SRC_AERO)
+    cm_q: float = _f(-15.5, "-", _SRC_AERO + " (per q*c/(2v))")
+    cm_alpha: float = _f(-0.450643, "1/rad", _SRC_AERO)
+    cm_elev: float = _f(0.0352 * _DEG, "1/rad", _SRC_AERO)
+    cn_p: float = _f(-0.036, "-", _SRC_AERO + " (per p*b/(2v))")
+    cn_r: float = _f(-0.0667, "-", _SRC_AERO + " (per r*b/(2v))")
+    cn_beta: float = _f(0.037183, "1/rad", _SRC_AERO)
+    cn_alpha_beta: float = _f(-0.028933, "1/rad^2", _SRC_AERO)
+    cn_rud: float = _f(0.001176 * _DEG, "1/rad", _SRC_AERO)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> AeroCoefficients:
+        """Build from a mapping with exactly the field names as keys."""
+        return _from_dict(cls, data)
+
+
+@dataclass(frozen=True)
+class WindModel:
+    """Logarithmic wind shear ``w(h) = w_ref ln((h + z0)/z0) / ln(h_ref/z0)``.
+
+    ``h`` is the altitude above ground; the model origin (winch) sits
+    ``origin_altitude_m`` above ground. The wind blows along world +x.
+    """
+
+    reference_altitude_m: float = _f(100.0, "m", _SRC_WIND)
+    roughness_length_m: float = _f(0.1, "m", _SRC_WIND)
+    origin_altitude_m: float = _f(2.0, "m", _SRC_WIND + " (altitude0 = -2)")
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> WindModel:
+        """Build from a mapping with exactly the field names as keys."""
+        return _from_dict(cls, data)

@@ -1,0 +1,43 @@
+"""One optimization scenario: wind speed, objective and whether the drive limits apply."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+Objective = Literal["electrical", "mechanical"]
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A pumping-cycle optimization case (paper section V).
+
+    Parameters
+    ----------
+    wind_speed_m_s : float
+        Wind speed at 100 m altitude [m/s] (log shear below and above).
+    objective : {"electrical", "mechanical"}
+        Maximize the average generated electrical power (through the drive
+        model) or the average generated mechanical power.
+    drive_limits : bool
+        Apply the drive limits (|speed| <= 1500 rpm, torque <= 78 N m).
+    """
+
+    wind_speed_m_s: float
+    objective: Objective
+    drive_limits: bool
+
+    def __post_init__(self) -> None:
+        if self.objective not in ("electrical", "mechanical"):
+            raise ValueError(
+                f"objective must be 'electrical' or 'mechanical', got {self.objective!r}"
+            )
+        if not self.wind_speed_m_s > 0:
+            raise ValueError(f"wind_speed_m_s must be positive, got {self.wind_speed_m_s}")
+
+    @property
+    def name(self) -> str:
+        """Short label, e.g. ``"elec-lim-7.0"`` or ``"mech-nolim-8.5"``."""
+        obj = "elec" if self.objective == "electrical" else "mech"
+        lim = "lim" if self.drive_limits else "nolim"
+        return f"{obj}-{lim}-{self.wind_speed_m_s:.1f}"

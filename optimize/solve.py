@@ -1,0 +1,75 @@
+"""Solve one scenario, warm-started from a neighbouring solution or from scratch.
+
+Typical use (the sweep builds the OCP once and chains warm starts)::
+
+    dae = kite_dae()
+    ocp = build_ocp(dae, load_power_model(path), OcpOptions(n_intervals=40))
+    res = cold_start(ocp, Scenario(7.0, "mechanical", False))
+    res2 = solve(ocp, Scenario(7.0, "electrical", False), res.warm)
+"""
+
+from __future__ import annotations
+
+import logging
+
+from optimize.homotopy import cold_start, power_weights
+from optimize.ocp import Ocp
+from optimize.result import OcpResult, Solution, make_result
+from optimize.scenario import Scenario
+
+log = logging.getLogger(__name__)
+
+__all__ = ["cold_start", "solve"]
+
+
+def solve(
+    ocp: Ocp, scenario: Scenario, warm_start: Solution | None, retry_cold: bool = True
+) -> OcpResult:
+    """Solve ``scenario``; warm-started from ``warm_start`` or by :func:`cold_start`.
+
+    The warm start passes the primal vector and both multiplier vectors with
+    IPOPT's ``warm_start_init_point`` and a small ``mu_init``. If that fails
+    and ``retry_cold`` is set, the same primal point is tried once more with
+    the default (cold) barrier settings; both calls count in the result.
+
+    Parameters
+    ----------
+    ocp : Ocp
+        Built by :func:`optimize.ocp.build_ocp`.
+    scenario : Scenario
+        Wind speed, objective and drive limits.
+    warm_start : Solution or None
+        ``OcpResult.warm`` of a previous solve of the same ``ocp`` layout;
+        ``None`` runs the homotopy.
+    retry_cold : bool
+        Retry a failed warm solve with cold barrier settings.
+
+    Raises
+    ------
+    ValueError
+        If ``warm_start`` comes from a different discretization.
+    """
+    if warm_start is None:
+        return cold_start(ocp, scenario)
+    if (warm_start.n_intervals, warm_start.degree) != (ocp.options.n_intervals, ocp.coll.degree):
+        raise ValueError(
+            f"warm start has N={warm_start.n_intervals}, degree {warm_start.degree}; "
+            f"the OCP has N={ocp.options.n_intervals}, degree {ocp.coll.degree}"
+        )
+    bounds = ocp.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
+    p = ocp.params(scenario.wind_speed_m_s, **power_weights(scenario))
+    raw = ocp.run(warm_start.w, p, bounds, warm=True,
+                  lam_x0=warm_start.lam_x, lam_g0=warm_start.lam_g)
+    stages = [{"stage": "warm", "status": raw.status, "success": raw.success,
+               "iterations": raw.iterations, "wall_time_s": raw.wall_time_s,
+                   "cpu_time_s": raw.cpu_time_s}]
+    log.info("%s warm  %-22s %4d it %6.1f s", scenario.name, raw.status, raw.iterations,
+             raw.wall_time_s)
+    if not raw.success and retry_cold:
+        raw = ocp.run(warm_start.w, p, bounds, warm=False)
+        stages.append({"stage": "retry-cold", "status": raw.status, "success": raw.success,
+                       "iterations": raw.iterations, "wall_time_s": raw.wall_time_s,
+                   "cpu_time_s": raw.cpu_time_s})
+        log.info("%s retry %-22s %4d it %6.1f s", scenario.name, raw.status, raw.iterations,
+                 raw.wall_time_s)
+    return make_result(ocp, scenario, raw, p, bounds, stages)
