@@ -10,6 +10,8 @@ import numpy as np
 import pandas as pd
 from markupsafe import Markup
 from matplotlib.colors import ListedColormap
+from matplotlib.path import Path as MplPath
+from matplotlib.ticker import MaxNLocator
 from matplotlib.tri import Triangulation
 
 from fitting.model_file import PowerModel
@@ -96,8 +98,9 @@ def _draw_efficiency(ax, speed_rpm, torque_nm, eta, colorbar: bool = True):
 def power_map_figure(model: PowerModel, points: pd.DataFrame) -> Markup:
     """Fit against measured power map (paper Fig. 6): 500 W contours, zero line thicker.
 
-    Solid black: the model; dashed red: contours of the measured points
-    (triangulated per quadrant, so no contour crosses the unmeasured gap).
+    Solid black: the model, inside its validity domain (the measured hull per
+    quadrant, when the model file has one); dashed red: contours of the measured
+    points (triangulated per quadrant, so no contour crosses the unmeasured gap).
 
     Parameters
     ----------
@@ -111,8 +114,8 @@ def power_map_figure(model: PowerModel, points: pd.DataFrame) -> Markup:
     s_lo, s_hi = float(points["speed_rpm"].min()), float(points["speed_rpm"].max())
     t_lo, t_hi = 0.0, float(points["torque_nm"].max())
     sg, tg = np.meshgrid(np.linspace(s_lo, s_hi, 241), np.linspace(t_lo, t_hi, 121))
-    pg = model.p_elec_w(sg, tg)
-    all_p = np.concatenate([pg.ravel(), points["p_elec_w"].to_numpy(float)])
+    pg = np.where(_in_domain(model, sg, tg), model.p_elec_w(sg, tg), np.nan)
+    all_p = np.concatenate([pg[np.isfinite(pg)], points["p_elec_w"].to_numpy(float)])
     levels = _levels(all_p)
     ax.scatter(points["speed_rpm"], points["torque_nm"], s=3, color="0.6", alpha=0.5,
                label="measured points")
@@ -141,6 +144,18 @@ def power_map_figure(model: PowerModel, points: pd.DataFrame) -> Markup:
                  "zero line thick (+ = drawn from grid)", fontsize=9)
     ax.legend(loc="upper left", fontsize=7)
     return to_svg(fig, "power-map")
+
+
+def _in_domain(model: PowerModel, speed_rpm: np.ndarray, torque_nm: np.ndarray) -> np.ndarray:
+    """True where (speed, torque) lies in the model's validity domain (all True without one)."""
+    if not model.domain:
+        return np.ones(np.shape(speed_rpm), dtype=bool)
+    xy = np.column_stack([np.ravel(speed_rpm), np.ravel(torque_nm)])
+    inside = np.zeros(len(xy), dtype=bool)
+    for polygon in model.domain.values():
+        if len(polygon) >= 3:
+            inside |= MplPath(np.asarray(polygon, float)).contains_points(xy, radius=1e-9)
+    return inside.reshape(np.shape(speed_rpm))
 
 
 def _levels(values: np.ndarray) -> np.ndarray:
@@ -174,6 +189,7 @@ def residual_figure(points: pd.DataFrame, residual_w: np.ndarray, nominal_power_
             ax.axhline(sign * band, color="tab:red", lw=0.8, ls="--")
         ax.axhline(0.0, color="k", lw=0.6)
         ax.set_xlabel(label)
+        ax.xaxis.set_major_locator(MaxNLocator(4))
         ax.set_ylabel("residual P_elec [W]")
         ax.grid(alpha=0.3)
     axes[0].set_title("dashed: ±5 % of nominal", fontsize=8)

@@ -42,7 +42,7 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str]) -> di
     model = sections.read_model(log, fit)
     summary = log.json(Path(fit) / "fit_summary.json")
     efficiency = sections.efficiency_section(log, fit, model, summary)
-    power = sections.power_model_section(log, fit, model, points)
+    power = sections.power_model_section(log, fit, model, points, summary)
     opt = optimization.optimization_section(log, optimize, efficiency["grid"])
     prov = provenance.provenance_section(
         log, argv, started,

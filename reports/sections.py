@@ -122,25 +122,46 @@ def _session_row(sid: str, entry: dict) -> dict:
         "rejected": ", ".join(f"{k}: {v}" for k, v in sorted(rejected.items())),
         "clock_offset_s": fmt(entry.get("clock_offset_s"), 3),
         "clock_drift_ppm": fmt(entry.get("clock_drift_ppm"), 1),
-        "instruments": _instruments(meta),
+        "clock_offset_prior_s": fmt(entry.get("clock_offset_prior_s"), 3),
+        "clock_correlation": fmt(entry.get("clock_correlation"), 3),
+        "instruments": _instruments(
+            meta, entry["instruments"] if isinstance(entry.get("instruments"), dict) else {}),
         "metadata": _flatten(meta),
         "n_files": len(entry.get("files") or {}),
     }
 
 
-def _instruments(meta: dict) -> str:
-    parts = []
+def _instruments(meta: dict, instruments: dict) -> list[dict]:
+    """The session's instruments, one dict per stream (``stream, file, format, details``).
+
+    ``instruments`` is what ingest recorded about each stream (the analyzer's
+    header block, the column mapping); ``meta`` is the session.toml (files,
+    sensor ranges, measured side).
+    """
+    rows = []
     for block in ("daq", "analyzer", "points"):
-        b = meta.get(block)
-        if isinstance(b, dict) and b.get("file"):
-            parts.append(f"{block}: {b.get('file')} ({b.get('format', '?')})")
+        b = meta.get(block) if isinstance(meta.get(block), dict) else {}
+        seen = instruments.get(block) if isinstance(instruments.get(block), dict) else {}
+        if not (b or seen):
+            continue
+        header = seen.get("header") if isinstance(seen.get("header"), dict) else {}
+        details = [f"{k} {header[k]}" for k in ("Model", "Serial", "Sample Interval", "Wiring")
+                   if k in header]
+        columns = seen.get("columns") if isinstance(seen.get("columns"), dict) else {}
+        names = [str(c.get("column")) for c in columns.values() if isinstance(c, dict)]
+        if names:
+            details.append("columns: " + ", ".join(names))
+        rows.append({"stream": block, "file": str(b.get("file", "")),
+                     "format": str(seen.get("format", b.get("format", ""))),
+                     "details": "; ".join(details)})
     sensors = meta.get("sensors")
-    if isinstance(sensors, dict):
-        parts.append("ranges: " + ", ".join(f"{k} = {v}" for k, v in sensors.items()))
     side = meta.get("measured_side")
+    ranges = [f"{k} = {v}" for k, v in sensors.items()] if isinstance(sensors, dict) else []
     if side:
-        parts.append(f"measured side: {side}, gear ratio {meta.get('gear_ratio', '?')}")
-    return "; ".join(str(p) for p in parts)
+        ranges.append(f"measured side: {side}, gear ratio {meta.get('gear_ratio', '?')}")
+    if ranges:
+        rows.append({"stream": "sensors", "file": "", "format": "", "details": ", ".join(ranges)})
+    return rows
 
 
 def _flatten(data: dict, prefix: str = "") -> list[tuple[str, str]]:
@@ -253,7 +274,7 @@ def peak_rows(peaks: dict) -> list[dict]:
 
 
 def power_model_section(log: InputLog, fit: Path, model: PowerModel | None,
-                        points: pd.DataFrame | None) -> dict:
+                        points: pd.DataFrame | None, summary: dict | None) -> dict:
     """Section 3: Table I analogue with intervals, Fig. 6, residuals, model selection.
 
     Parameters
@@ -265,13 +286,16 @@ def power_model_section(log: InputLog, fit: Path, model: PowerModel | None,
         The fitted model (:func:`read_model`).
     points : DataFrame or None
         Store operating points; residuals are measured minus model at these.
+    summary : dict or None
+        ``fit_summary.json`` (its ``extra_terms_check``: the paper's claim that the
+        largest higher-order terms are orders of magnitude below a1 and a2).
 
     Returns
     -------
     dict
         ``name``, ``coefficients`` rows, ``statistics`` (our residual figures),
         ``fit_statistics`` (as written by the fit), ``power_map``, ``residuals``,
-        ``selection`` table, ``missing``.
+        ``selection`` table, ``extra_terms``, ``missing``.
     """
     start = len(log.missing)
     lacking = [] if model is not None else [str(Path(fit) / "power_model.json")]
@@ -280,9 +304,10 @@ def power_model_section(log: InputLog, fit: Path, model: PowerModel | None,
     selection = log.parquet(Path(fit) / "selection.parquet")
     out = {"name": None, "coefficients": [], "interval_note": "", "statistics": [],
            "fit_statistics": [], "power_map": None, "residuals": None, "selection": None,
-           "selection_note": None}
+           "selection_note": None, "extra_terms": None}
     if selection is not None:
         out["selection"] = frame_table(selection)
+    out["extra_terms"] = extra_terms_rows((summary or {}).get("extra_terms_check"))
     chosen = ((model.statistics if model is not None else None) or {}).get("selection")
     if isinstance(chosen, dict):
         out["selection_note"] = _flatten(chosen)
@@ -302,6 +327,20 @@ def power_model_section(log: InputLog, fit: Path, model: PowerModel | None,
                                                              model.nominal_power_w)
     out["missing"] = lacking + _missing_since(log, start)
     return out
+
+
+def extra_terms_rows(check) -> dict | None:
+    """The fit's check of the paper's largest extra terms (w^2*T^2, w^4) as a table, or None."""
+    terms = check.get("paper_terms") if isinstance(check, dict) else None
+    if not isinstance(terms, dict) or not terms:
+        return None
+    rows = [r for r in terms.values() if isinstance(r, dict)]
+    columns = list(dict.fromkeys(k for r in rows for k in r))
+    return {"columns": columns,
+            "rows": [[fmt(r.get(c), sig=3) if isinstance(r.get(c), float) else str(r.get(c, ""))
+                      for c in columns] for r in rows],
+            "truncated": 0,
+            "notes": [f"{k}: {v}" for k, v in check.items() if isinstance(v, str)]}
 
 
 def coefficient_rows(model: PowerModel) -> tuple[list[dict], str]:

@@ -406,3 +406,29 @@ def test_browser_xss_operator_is_shown_as_text_and_never_runs(browser, tmp_path)
     assert page.evaluate("document.querySelectorAll('script').length") == 0
     assert seen["errors"] == []
     page.close()
+
+
+# ------------------------------------------------------------ with the real fit
+def test_report_reads_the_real_fit_outputs(tmp_path):
+    """`bench fit` on a hand-written store, then the report: the fit's own figures show."""
+    points = write_store(tmp_path / "store")
+    assert main(["fit", "--store", str(tmp_path / "store"), "--out", str(tmp_path / "fit"),
+                 "--folds", "2"]) == 0
+    ctx = build_context(tmp_path / "store", tmp_path / "fit", tmp_path / "opt", ["bench"])
+    fit_summary = json.loads((tmp_path / "fit" / "fit_summary.json").read_text("utf-8"))
+    power, eff = ctx["power"], ctx["efficiency"]
+    assert power["missing"] == [] and eff["missing"] == []
+    assert power["interval_note"].startswith("95 % intervals as computed by the fit")
+    # residual sd at the store's points: ours (measured - model) equals the fit's own figure;
+    # both are the same arithmetic on the same numbers, so only rounding to 0.1 W differs
+    ours = float(next(r for r in power["statistics"] if r["name"] == "std of residual")
+                 ["value"].split()[0])
+    assert ours == pytest.approx(fit_summary["statistics"]["residuals"]["all"]["std_w"], abs=0.06)
+    assert ours == pytest.approx(NOISE_W, rel=0.15)  # and the noise we put in (see above)
+    # the fit recovers the paper's a1 (the truth of the synthetic points) within 5 %
+    a1 = next(r for r in power["coefficients"] if r["symbol"] == "a1")
+    assert abs(float(a1["diff_pct"])) < 5.0
+    assert eff["figure"] is not None and eff["bands"] is not None and eff["peaks"]
+    assert any("negative efficiency" in r for r in eff["rules"])
+    assert power["selection"]["rows"] and power["extra_terms"] is not None
+    assert len(points) == ctx["campaign"]["totals"]["points"]
