@@ -20,22 +20,25 @@ def _fixed_point(values: np.ndarray, decimals: int, decimal_mark: bytes) -> np.n
     """Byte matrix (rows x width) of ``values`` as ``[-]digits[.digits]``, 0 = padding."""
     x = np.asarray(values, dtype=float)
     x = np.where(np.isfinite(x), x, 0.0)
-    scale = 10**decimals
-    v = np.rint(np.abs(x) * scale).astype(np.int64)
-    neg = (x < 0) & (v != 0)
-    ip, fp = np.divmod(v, scale)
-    n_int = max(1, len(str(int(ip.max())))) if ip.size else 1
-    powers = 10 ** np.arange(n_int - 1, -1, -1, dtype=np.int64)
-    digits = (ip[:, None] // powers[None, :]) % 10 + _ZERO
-    leading = ip[:, None] < powers[None, :]
-    leading[:, -1] = False
-    digits[leading] = 0
-    parts = [np.where(neg, ord("-"), 0)[:, None], digits]
-    if decimals > 0:
-        fpow = 10 ** np.arange(decimals - 1, -1, -1, dtype=np.int64)
-        parts.append(np.full((x.size, 1), decimal_mark[0]))
-        parts.append((fp[:, None] // fpow[None, :]) % 10 + _ZERO)
-    return np.concatenate(parts, axis=1).astype(np.uint8)
+    v = np.rint(np.abs(x) * 10.0**decimals).astype(np.int64)
+    n_digits = max(decimals + 1, len(str(int(v.max()))) if v.size else 1)
+    width = 1 + n_digits + (1 if decimals else 0)
+    out = np.zeros((v.size, width), dtype=np.uint8)
+    out[:, 0] = np.where((x < 0) & (v != 0), ord("-"), 0)
+    rem, col = v, width - 1
+    for pos in range(n_digits):  # least significant digit first
+        rem, digit = np.divmod(rem, 10)
+        out[:, col] = digit + _ZERO
+        col -= 1
+        if pos == decimals - 1:
+            out[:, col] = decimal_mark[0]
+            col -= 1
+    # blank the leading zeros of the integer part (its last digit always stays)
+    n_int = n_digits - decimals
+    int_part = v // 10**decimals
+    for j in range(n_int - 1):
+        out[int_part < 10 ** (n_int - 1 - j), 1 + j] = 0
+    return out
 
 
 def format_rows(

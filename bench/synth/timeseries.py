@@ -154,14 +154,26 @@ def build_segments(speed_rpm, torque_nm, times, theta0_c, ambient_c, model: Loss
     )
 
 
-def _step_tail(tau_s, wn, zeta):
-    """Remaining fraction of a unit step of a second-order system, and its derivative."""
-    wd = wn * np.sqrt(1.0 - zeta**2)
-    env = np.exp(-zeta * wn * tau_s)
-    c, s = np.cos(wd * tau_s), np.sin(wd * tau_s)
-    tail = env * (c + zeta / np.sqrt(1.0 - zeta**2) * s)
-    dtail = -env * wn / np.sqrt(1.0 - zeta**2) * s
-    return tail, dtail
+#: a transient is over (and not evaluated) once its envelope is below this fraction
+TAIL_NEGLIGIBLE = 1e-9
+
+
+def _step_tail(tau_s, step, wn, zeta):
+    """What is left of a step ``step`` of a second-order system ``tau_s`` after it, and its rate.
+
+    Evaluated only where the step is non-zero and its envelope not yet below
+    :data:`TAIL_NEGLIGIBLE` (most samples sit in settled segments).
+    """
+    tail = np.zeros_like(tau_s)
+    rate = np.zeros_like(tau_s)
+    live = (step != 0.0) & (tau_s < -np.log(TAIL_NEGLIGIBLE) / (zeta * wn))
+    tau, a = tau_s[live], step[live]
+    root = np.sqrt(1.0 - zeta**2)
+    env = np.exp(-zeta * wn * tau)
+    c, s = np.cos(wn * root * tau), np.sin(wn * root * tau)
+    tail[live] = a * env * (c + zeta / root * s)
+    rate[live] = -a * env * wn / root * s
+    return tail, rate
 
 
 def true_signals(seg: Segments, time_s, model: LossModel, dyn: Dynamics = DEFAULT_DYNAMICS):
@@ -187,13 +199,12 @@ def true_signals(seg: Segments, time_s, model: LossModel, dyn: Dynamics = DEFAUL
     t = np.asarray(time_s, dtype=float)
     k = np.clip(np.searchsorted(seg.t_start_s, t, side="right") - 1, 0, seg.t_start_s.size - 1)
     tau = t - seg.t_start_s[k]
-    tail_n, dtail_n = _step_tail(tau, dyn.speed_wn_rad_s, dyn.speed_zeta)
-    tail_t, _ = _step_tail(tau, dyn.torque_wn_rad_s, dyn.torque_zeta)
-    dn = seg.speed_prev_rpm[k] - seg.speed_rpm[k]
-    speed = seg.speed_rpm[k] + dn * tail_n
-    accel_rpm_s = dn * dtail_n
-    torque = seg.torque_nm[k] + (seg.torque_prev_nm[k] - seg.torque_nm[k]) * tail_t
-    torque = np.maximum(torque, 0.0)
+    tail_n, accel_rpm_s = _step_tail(tau, seg.speed_prev_rpm[k] - seg.speed_rpm[k],
+                                     dyn.speed_wn_rad_s, dyn.speed_zeta)
+    speed = seg.speed_rpm[k] + tail_n
+    tail_t, _ = _step_tail(tau, seg.torque_prev_nm[k] - seg.torque_nm[k],
+                           dyn.torque_wn_rad_s, dyn.torque_zeta)
+    torque = np.maximum(seg.torque_nm[k] + tail_t, 0.0)
     theta = theta_step(seg.theta_start_c[k], seg.loss_w[k], seg.ambient_c, tau, model)
     inertial = dyn.inertia_kg_m2 * speed * accel_rpm_s * RPM_TO_RAD_S**2
     p_elec = true_p_elec_w(speed, torque, theta, model) + inertial
