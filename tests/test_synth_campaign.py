@@ -121,8 +121,10 @@ def _read_daq(folder: Path, meta: dict) -> pd.DataFrame:
     head = (folder / daq["file"]).read_text(encoding="utf-8").splitlines()[:2]
     if ";" in head[0]:
         assert head == ["Zeit;Drehzahl;Drehmoment", "s;U/min;Nm"]
+        # German exports mark invalid cells as NAN, --- or an empty cell
         df = pd.read_csv(folder / daq["file"], sep=";", decimal=",", skiprows=[1],
-                         na_values=MARKERS_NA, keep_default_na=False)
+                         na_values=[*MARKERS_NA, ""], keep_default_na=False)
+        assert df.dtypes.map(pd.api.types.is_float_dtype).all()
     else:
         assert head[0] in ("Time [s],Speed [1/min],Torque [N m]",
                            "Time [s],Speed [rpm],Torque [Nm]")
@@ -138,7 +140,9 @@ def _read_analyzer(path: Path) -> tuple[dict, pd.DataFrame, float]:
     german = sep == ";"
     skip = list(range(blank + 1)) + ([blank + 2] if german else [])
     df = pd.read_csv(path, sep=sep, decimal="," if german else ".", skiprows=skip,
-                     na_values=MARKERS_NA, keep_default_na=False)
+                     na_values=[*MARKERS_NA, ""] if german else MARKERS_NA,
+                     keep_default_na=False)
+    assert df.iloc[:, 1:].dtypes.map(pd.api.types.is_float_dtype).all()
     pcol = df.columns[4]
     factor = 1000.0 if pcol == "P_sigma [kW]" else 1.0
     if german:

@@ -49,7 +49,7 @@ TDMS_GROUP = "Measurement"
 _PLAN, _TIMING, _DAQ, _ANALYZER, _TABLE = range(5)
 
 _DAQ_MARKERS_EN = ("9.91E+37", "NAN", "---")
-_DAQ_MARKERS_DE = ("NAN", "---")
+_DAQ_MARKERS_DE = ("NAN", "---", "")  # German exports: no overflow number, but empty cells
 _TDMS_MARKERS = (np.nan, ins.OVERFLOW)
 
 
@@ -271,6 +271,8 @@ def _round_list(x, decimals: int) -> list[float]:
 def _truth_points(seg: Segments, means: dict) -> dict[str, list]:
     return {
         "point_id": list(range(seg.speed_rpm.size)),
+        "speed_set_rpm": _round_list(seg.speed_rpm, 4),
+        "torque_set_nm": _round_list(seg.torque_nm, 4),
         "speed_rpm": _round_list(means["speed_rpm"], 4),
         "torque_nm": _round_list(means["torque_nm"], 5),
         "p_mech_w": _round_list(means["p_mech_w"], 3),

@@ -26,6 +26,8 @@ def run(args: argparse.Namespace) -> int:
     """Generate (or verify) the campaign; print a one-line summary."""
     if args.scale < 1:
         raise InputError(None, f"--scale {args.scale} is not allowed", expected="an integer >= 1")
+    if args.seed < 0:
+        raise InputError(None, f"--seed {args.seed} is not allowed", expected="an integer >= 0")
     if args.out_dir.exists() and not args.out_dir.is_dir():
         raise InputError(args.out_dir, "exists and is not a directory",
                          expected="a campaign folder")

@@ -17,12 +17,15 @@ def campaign_readme(seed: int, scale: int, sessions: dict, inst: Instruments) ->
         f"bench synth raw_measurements --seed {seed}{scale_arg}",
         "```",
         "",
+        "(any OUT_DIR in place of `raw_measurements`). "
         "Same seed and scale give byte-identical files. The layout and formats are those of",
         "docs/schemas.md section 1; `truth.json` holds the true loss model (a calibrated core",
         "quadratic plus friction, iron loss, gear-mesh loss, a temperature-driven cabinet fan",
         "and copper resistance drifting with the winding temperature), the instruments' error",
         "model, each session's clock offset and drift, and every true operating point",
-        "(setpoints and steady-window means of the true signals, drum frame).",
+        "(setpoints, steady-window bounds on the DAQ clock and the window means of the true",
+        "signals, drum frame). Clock model per session: "
+        "`t_daq_s = offset_s + (1 + drift_ppm * 1e-6) * t_analyzer_s`.",
         "",
         "The drive is the paper's 8.2 kW PMSM with a 1:3 gearbox (Stuyts et al. 2015, section",
         "III-B): motor mode 50..1500 rpm x 1..78 N m, generator mode 30..3000 rpm (drum speed",
