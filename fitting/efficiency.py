@@ -15,8 +15,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 import pandas as pd
-from scipy.interpolate import LinearNDInterpolator
-from scipy.spatial import Delaunay, QhullError
+from scipy.spatial import ConvexHull, Delaunay, QhullError
 
 from fitting.points import QUADRANTS, quadrant_of
 
@@ -132,6 +131,27 @@ def regular_grid(frame, speed_step_rpm: float, torque_step_nm: float):
     return axis(frame["speed_rpm"], speed_step_rpm), axis(frame["torque_nm"], torque_step_nm)
 
 
+def _interpolate_in_hull(tri: Delaunay, values: np.ndarray, query: np.ndarray) -> np.ndarray:
+    """Piecewise-linear interpolation over a triangulation; NaN outside its convex hull.
+
+    (What scipy's LinearNDInterpolator does, without its slow brute-force search
+    for every query point outside the hull.)
+    """
+    out = np.full(len(query), np.nan)
+    # cheap half-plane test first: find_simplex is slow for points outside the hull
+    eq = ConvexHull(tri.points).equations
+    candidate = np.all(query @ eq[:, :2].T + eq[:, 2] <= 1e-12, axis=1)
+    simplex = np.full(len(query), -1)
+    simplex[candidate] = tri.find_simplex(query[candidate])
+    inside = simplex >= 0
+    k = simplex[inside]
+    transform = tri.transform[k]
+    b = np.einsum("ijk,ik->ij", transform[:, :2], query[inside] - transform[:, 2])
+    bary = np.column_stack([b, 1.0 - b.sum(axis=1)])
+    out[inside] = np.einsum("ij,ij->i", values[tri.simplices[k]], bary)
+    return out
+
+
 def gridded_map(
     frame: pd.DataFrame,
     rules: MaskingRules,
@@ -181,8 +201,8 @@ def gridded_map(
             tri = Delaunay(pts)
         except QhullError:
             continue
-        interp = LinearNDInterpolator(tri, sub["p_elec_w"].to_numpy())
-        p_elec[nodes] = interp(np.column_stack([s[nodes] / scales[0], t[nodes] / scales[1]]))
+        query = np.column_stack([s[nodes] / scales[0], t[nodes] / scales[1]])
+        p_elec[nodes] = _interpolate_in_hull(tri, sub["p_elec_w"].to_numpy(), query)
     in_hull = np.isfinite(p_elec)
     eta, status = masked_efficiency(p_mech, p_elec, rules)
     status[~in_hull] = OUTSIDE_HULL
