@@ -319,3 +319,43 @@ def test_process_pool_executor_runs_chains_with_progress():
     assert all(o.success for c in outs for o in c.outcomes)
     with pytest.raises(InputError, match="--workers 0"), open_executor(workers=0):
         pass
+
+
+# ----------------------------------------------------------------- the command line
+def test_cli_rejects_bad_input_with_exit_code_2(tmp_path, capsys):
+    from bench.cli import main
+
+    out = str(tmp_path / "out")
+    assert main(["optimize", "--wind-grid", "4:10:1.4", "--out", out]) == 2
+    assert "--wind-grid '4:10:1.4'" in capsys.readouterr().err
+    assert main(["optimize", "--scenarios", "elec-lim,bogus", "--out", out]) == 2
+    assert "unknown kind 'bogus'" in capsys.readouterr().err
+    missing = tmp_path / "nope.json"
+    assert main(["optimize", "--drive-model", str(missing), "--out", out]) == 2
+    assert f"{missing}: file not found" in capsys.readouterr().err
+    assert main(["optimize", "--intervals", "1", "--out", out]) == 2
+    (tmp_path / "afile").write_text("x")
+    assert main(["optimize", "--out", str(tmp_path / "afile")]) == 2
+    assert "is not a folder" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()  # nothing written on bad input
+
+
+def test_request_falls_back_to_the_paper_model(tmp_path):
+    import argparse
+
+    from fitting.model_file import PAPER_MODEL_PATH, paper_model, save_power_model
+    from optimize.cli import add_arguments
+    from optimize.sweep import SweepRequest
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    args = parser.parse_args(["--wind-grid", "5:6:0.5", "--scenarios", "mech-free"])
+    req = SweepRequest.from_cli(args, tmp_path / "fit_out" / "power_model.json")
+    assert req.drive_model_path == PAPER_MODEL_PATH and "shipped paper model" in req.model_note
+    assert req.winds == (5.0, 5.5, 6.0) and req.kinds == ("mech-free",)
+    assert req.options.n_intervals == 40 and req.options.degree == 4 and req.claims
+    # a fit in fit_out/ takes precedence when it exists
+    fit = tmp_path / "fit_out" / "power_model.json"
+    fit.parent.mkdir()
+    save_power_model(paper_model(), fit)
+    assert SweepRequest.from_cli(args, fit).drive_model_path == fit
