@@ -3,11 +3,19 @@
 from __future__ import annotations
 
 from bench.synth.instruments import Instruments
+from bench.synth.plan import CAMPAIGN
+
+_DAQ = {"csv_en": "CSV (English)", "csv_de": "CSV (German: `;`, decimal comma, units row)",
+        "tdms": "NI TDMS"}
+_ANALYZER = {"en_kw": "vendor CSV, kW", "en_w": "vendor CSV, W",
+             "de_w": "vendor CSV (German: `;`, decimal comma, units row), W"}
 
 
-def campaign_readme(seed: int, scale: int, sessions: dict, inst: Instruments) -> str:
+def campaign_readme(seed: int, scale: int, sessions: dict, calibration: dict,
+                    inst: Instruments) -> str:
     """Describe the campaign, its sessions and the exact command that made it."""
     scale_arg = "" if scale == 1 else f" --scale {scale}"
+    nominal = calibration["nominal_power_w"]
     lines = [
         "# Synthetic bench campaign",
         "",
@@ -17,44 +25,44 @@ def campaign_readme(seed: int, scale: int, sessions: dict, inst: Instruments) ->
         f"bench synth raw_measurements --seed {seed}{scale_arg}",
         "```",
         "",
-        "(any OUT_DIR in place of `raw_measurements`). "
-        "Same seed and scale give byte-identical files. The layout and formats are those of",
-        "docs/schemas.md section 1; `truth.json` holds the true loss model (a calibrated core",
-        "quadratic plus friction, iron loss, gear-mesh loss, a temperature-driven cabinet fan",
-        "and copper resistance drifting with the winding temperature), the instruments' error",
-        "model, each session's clock offset and drift, and every true operating point",
-        "(setpoints, steady-window bounds on the DAQ clock and the window means of the true",
-        "signals, drum frame). Clock model per session: "
-        "`t_daq_s = offset_s + (1 + drift_ppm * 1e-6) * t_analyzer_s`.",
+        "Any output folder in place of `raw_measurements` gets the same bytes: same seed and",
+        "scale give byte-identical files. Layout and formats: docs/schemas.md section 1.",
         "",
         "The drive is the paper's 8.2 kW PMSM with a 1:3 gearbox (Stuyts et al. 2015, section",
         "III-B): motor mode 50..1500 rpm x 1..78 N m, generator mode 30..3000 rpm (drum speed",
         "negative) x 1..78 N m with at most 10 kW of shaft power.",
         "",
-        f"DAQ (speed, torque) at {inst.daq_rate_hz:g} Hz; power analyzer every "
-        f"{inst.analyzer_interval_s * 1000:g} ms on its own clock. Signals carry sensor noise, "
-        f"a torque-flange zero offset of {inst.torque_zero_offset_nm:g} N m (at the measured "
-        "shaft), setpoint transients, and isolated invalid-value markers "
-        "(`9.91E+37`, `NAN`, `---`).",
+        "`truth.json` holds the true loss model (a core quadratic plus friction, iron loss,",
+        "gear-mesh loss, a temperature-driven cabinet fan and copper resistance drifting with",
+        "the winding temperature), the instruments' error model, each session's clock offset",
+        "and drift (`t_daq_s = offset_s + (1 + drift_ppm * 1e-6) * t_analyzer_s`), and every",
+        "true operating point (setpoints, steady-window bounds on the DAQ clock, window means",
+        "of the true signals; drum frame). The core was calibrated so that an OLS fit of the",
+        "paper's quadratic to the true points returns the paper's coefficients; the fit's",
+        f"residual std is {100 * calibration['residual_std_w'] / nominal:.2f} % and its maximum",
+        f"{100 * calibration['residual_max_abs_w'] / nominal:.2f} % of {nominal:g} W.",
         "",
-        "| session | kind | mode | points | notes |",
-        "|---|---|---|---:|---|",
+        f"DAQ (speed, torque) at {inst.daq_rate_hz:g} Hz; power analyzer every "
+        f"{inst.analyzer_interval_s * 1000:g} ms on its own clock.",
+        "Signals carry sensor noise, a torque-flange zero offset of "
+        f"{inst.torque_zero_offset_nm:g} N m (at the measured shaft), setpoint transients, "
+        "and isolated invalid-value markers (`9.91E+37`, `NAN`, `---`, empty cells).",
+        "",
+        "| session | kind | mode | points | files | notes |",
+        "|---|---|---|---:|---|---|",
     ]
+    specs = {s.session_id: s for s in CAMPAIGN}
     for sid, info in sessions.items():
+        spec = specs[sid]
         detail = [f"measured side {info['measured_side']}"]
         if info["speed_sign"] != 1:
             detail.append(f"speed_sign {info['speed_sign']}")
         if info["kind"] == "timeseries":
+            files = f"DAQ {_DAQ[spec.daq_format]}; analyzer {_ANALYZER[spec.analyzer_style]}"
             detail.append(f"{info['daq_rows']} DAQ rows, {info['analyzer_rows']} analyzer rows")
+        else:
+            files = "averaged points, foreign column names, `mapping.toml`"
         lines.append(f"| {sid} | {info['kind']} | {info['mode']} | {info['n_points']} | "
-                     f"{'; '.join(detail)} |")
-    lines += [
-        "",
-        "Formats: `motor_01` English CSV + analyzer in kW; `motor_02` German locale (`;`,",
-        "decimal comma, units row) logged on the motor side of the gearbox; `generator_01`",
-        "DAQ as NI TDMS with the speed logged as a positive magnitude; `generator_02` English",
-        "CSV; `generator_table_03` a table of averaged points with foreign column names read",
-        "through `mapping.toml`.",
-        "",
-    ]
+                     f"{files} | {'; '.join(detail)} |")
+    lines.append("")
     return "\n".join(lines)
