@@ -10,6 +10,7 @@ files changes no byte of the store.
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -176,19 +177,34 @@ def ingest(
 
     result = IngestResult(store_dir=store_dir)
     todo = []
-    for s in sessions:
-        files, mapping_file = session_files(s, user_mapping)
-        hashes = {f"{s.session_id}/{name}": store.file_sha256(p) for name, p in files.items()}
-        if mapping_file is not None and mapping_file not in files.values():
-            hashes[f"--mapping/{mapping_file.name}"] = store.file_sha256(mapping_file)
-        old = manifest["sessions"].get(s.session_id)
-        if old is not None and old.get("files") == hashes:
-            result.unchanged.append(s.session_id)
-        else:
-            todo.append((s, hashes, mapping_file, files))
-    if not todo:
-        result.manifest = manifest
-        return result
+    # hashing runs in a background thread (hashlib releases the GIL); a session already
+    # in the manifest waits for its hashes to decide whether it changed, a new one not
+    hasher = ThreadPoolExecutor(max_workers=1)
+    try:
+        for s in sessions:
+            files, mapping_file = session_files(s, user_mapping)
+            named = {f"{s.session_id}/{name}": p for name, p in files.items()}
+            if mapping_file is not None and mapping_file not in files.values():
+                named[f"--mapping/{mapping_file.name}"] = mapping_file
+            hashes = {k: hasher.submit(store.file_sha256, p) for k, p in named.items()}
+            old = manifest["sessions"].get(s.session_id)
+            if old is not None and old.get("files") == {k: f.result() for k, f in hashes.items()}:
+                result.unchanged.append(s.session_id)
+            else:
+                todo.append((s, hashes, mapping_file, files))
+        if not todo:
+            result.manifest = manifest
+            return result
+        _process(todo, store_dir, config, progress, chunk_bytes, result)
+    finally:
+        hasher.shutdown(cancel_futures=True)
+    result.manifest = store.read_manifest(store_dir)
+    return result
+
+
+def _process(todo, store_dir: Path, config: SteadyConfig, progress: bool, chunk_bytes: int,
+             result: IngestResult) -> None:
+    """Process the changed sessions into a staging dir, then commit them all at once."""
 
     total = sum(p.stat().st_size for _, _, _, files in todo for p in files.values())
     with store.staging(store_dir) as stage, tqdm(
@@ -213,11 +229,9 @@ def ingest(
                 out = process_table(s, mapping)
             tick(size)
             staged[s.session_id] = _stage(stage, s.session_id, out)
-            entries[s.session_id] = _entry(s, hashes, out)
+            entries[s.session_id] = _entry(s, {k: f.result() for k, f in hashes.items()}, out)
             result.ingested.append(s.session_id)
         store.commit(store_dir, staged, entries)
-    result.manifest = store.read_manifest(store_dir)
-    return result
 
 
 def _stage(stage: Path, sid: str, out: SessionOutput) -> dict[str, Path]:

@@ -13,7 +13,6 @@ Values come out in our units (s, rpm, N m, W) with invalid markers as NaN.
 
 from __future__ import annotations
 
-import io
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -276,40 +275,59 @@ def iter_csv(
         decimal_point=layout.decimal,
     )
     row0 = 0
-    line = layout.data_line
+    offset = layout.data_offset  # file offset of the chunk being parsed
+    buf = bytearray(chunk_bytes)
+    view = memoryview(buf)
+    with layout.path.open("rb") as fh:
+        fh.seek(offset)
+        carry = 0  # bytes of an incomplete last line kept at the front of buf
+        while True:
+            if carry == len(buf):  # a single line longer than the buffer
+                buf.extend(bytes(len(buf)))
+                view.release()
+                view = memoryview(buf)
+            got = fh.readinto(view[carry:])
+            filled = carry + got
+            if filled == 0:
+                break
+            end = filled if got == 0 else buf.rfind(b"\n", 0, filled) + 1
+            if end == 0:
+                carry = filled
+                continue
+            try:
+                table = pacsv.read_csv(
+                    pa.py_buffer(view[:end]), read_options=read_opts,
+                    parse_options=parse_opts, convert_options=conv_opts,
+                )
+            except (pa.ArrowInvalid, pa.ArrowNotImplementedError) as exc:
+                raise _locate_bad_row(layout, bytes(view[:end]), _line_at(layout, offset),
+                                      cols) from exc
+            values = {q: _column(table, c, cols[q].factor) for q, c in wanted.items()}
+            del table
+            if values and next(iter(values.values())).size:
+                yield Chunk(row0=row0, values=values, nbytes=end)
+                row0 += next(iter(values.values())).size
+            offset += end
+            carry = filled - end
+            if carry:
+                buf[:carry] = buf[end:filled]
+            if got == 0:
+                break
+    view.release()
+
+
+def _column(table: pa.Table, name: str, factor: float) -> np.ndarray:
+    """A float64 column as numpy in our unit, invalid markers as NaN."""
+    x = scrub(table.column(name).to_numpy(zero_copy_only=False))
+    return x * factor if factor != 1.0 else x
+
+
+def _line_at(layout: CsvLayout, offset: int) -> int:
+    """1-based line number of the line starting at byte ``offset`` (slow path)."""
     with layout.path.open("rb") as fh:
         fh.seek(layout.data_offset)
-        carry = b""
-        while True:
-            block = fh.read(chunk_bytes)
-            buf = carry + block
-            if not block:
-                carry = b""
-                if not buf.strip():
-                    break
-            else:
-                cut = buf.rfind(b"\n")
-                if cut < 0:
-                    carry = buf
-                    continue
-                buf, carry = buf[: cut + 1], buf[cut + 1 :]
-            if buf.strip():
-                try:
-                    table = pacsv.read_csv(
-                        io.BytesIO(buf), read_options=read_opts,
-                        parse_options=parse_opts, convert_options=conv_opts,
-                    )
-                except (pa.ArrowInvalid, pa.ArrowNotImplementedError) as exc:
-                    raise _locate_bad_row(layout, buf, line, cols) from exc
-                values = {
-                    q: scrub(table.column(c).to_numpy(zero_copy_only=False)) * cols[q].factor
-                    for q, c in wanted.items()
-                }
-                yield Chunk(row0=row0, values=values, nbytes=len(buf))
-                row0 += table.num_rows
-            line += buf.count(b"\n")
-            if not block:
-                break
+        n = fh.read(offset - layout.data_offset).count(b"\n")
+    return layout.data_line + n
 
 
 def line_of_row(layout: CsvLayout, row: int) -> int:

@@ -29,9 +29,12 @@ MAX_NAN_RUN = 25
 
 
 def scrub(values: np.ndarray) -> np.ndarray:
-    """Return float64 ``values`` with overflow markers and infinities replaced by NaN."""
-    out = np.array(values, dtype=np.float64, copy=True)
-    out[np.abs(out) > MARKER_ABS] = np.nan  # inf > 1e30 too; NaN stays NaN
+    """Float64 ``values`` with overflow markers and infinities as NaN (copied only if any)."""
+    out = np.asarray(values, dtype=np.float64)
+    bad = np.abs(out) > MARKER_ABS  # inf > 1e30 too; NaN stays NaN
+    if bad.any():
+        out = out.copy()
+        out[bad] = np.nan
     return out
 
 
@@ -59,6 +62,11 @@ class NanRunCheck:
     def feed(self, values: np.ndarray, row0: int) -> None:
         """Check one chunk whose first row has 0-based index ``row0``."""
         isnan = np.isnan(values)
+        if not isnan.any():  # fast path: close an open run, nothing else to do
+            if self.open_len > self.max_run:
+                self._raise(self.open_start, self.open_len)
+            self.open_len = 0
+            return
         edges = np.diff(np.concatenate(([0], isnan.view(np.int8), [0])))
         starts = np.flatnonzero(edges == 1).tolist()
         ends = np.flatnonzero(edges == -1).tolist()  # exclusive

@@ -154,11 +154,14 @@ def find_windows(
     report_bins = int(round(config.min_report_s / config.bin_s))
     accepted: list[tuple[int, int]] = []
     rejected: list[tuple[int, int, str]] = []
+    stds = {"speed": _RangeStd(speed_rpm), "torque": _RangeStd(torque_nm),
+            "power": _RangeStd(p_elec_w)}
+    cum_valid = np.concatenate(([0.0], np.cumsum(valid_frac)))
     for a, b in zip(starts, stops, strict=True):
         if b - a < report_bins:
             continue
         a = _settle(speed_rpm, torque_nm, a, b, tol)
-        reason = _check(speed_rpm, torque_nm, p_elec_w, valid_frac, a, b, tol, min_bins, config)
+        reason = _check(stds, cum_valid, a, b, tol, min_bins, config)
         if reason is None:
             accepted.append((int(a), int(b)))
         else:
@@ -177,17 +180,38 @@ def _settle(speed, torque, a: int, b: int, tol: dict[str, float]) -> int:
     return a + int(bad[-1]) + 1 if bad.size else a
 
 
-def _check(speed, torque, power, valid, a, b, tol, min_bins, config) -> str | None:
+class _RangeStd:
+    """Standard deviation and NaN fraction of any bin range in O(1), from cumulative sums."""
+
+    def __init__(self, x: np.ndarray) -> None:
+        ok = np.isfinite(x)
+        xf = np.where(ok, x, 0.0)
+        self.n = np.concatenate(([0], np.cumsum(ok)))
+        self.s1 = np.concatenate(([0.0], np.cumsum(xf)))
+        self.s2 = np.concatenate(([0.0], np.cumsum(xf * xf)))
+
+    def std(self, a: int, b: int) -> float:
+        n = self.n[b] - self.n[a]
+        if n == 0:
+            return float("nan")
+        m = (self.s1[b] - self.s1[a]) / n
+        return float(np.sqrt(max((self.s2[b] - self.s2[a]) / n - m * m, 0.0)))
+
+    def nan_frac(self, a: int, b: int) -> float:
+        return 1.0 - (self.n[b] - self.n[a]) / (b - a)
+
+
+def _check(stds, cum_valid, a, b, tol, min_bins, config) -> str | None:
+    """Rejection reason of window ``[a, b)``, or None when it is steady."""
     if b - a < min_bins:
         return "too short"
-    if np.mean(valid[a:b]) < 1.0 - config.max_invalid or (
-        np.mean(~np.isfinite(power[a:b])) > config.max_invalid
+    if (cum_valid[b] - cum_valid[a]) / (b - a) < 1.0 - config.max_invalid or (
+        stds["power"].nan_frac(a, b) > config.max_invalid
     ):
         return "invalid samples"
-    for x, name, key in ((speed, "speed", "speed"), (torque, "torque", "torque"),
-                         (power, "power", "power")):
-        if np.nanstd(x[a:b]) > tol[key]:
-            return f"{name} unstable"
+    for key in ("speed", "torque", "power"):
+        if stds[key].std(a, b) > tol[key]:
+            return f"{key} unstable"
     return None
 
 

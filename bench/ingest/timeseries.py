@@ -32,6 +32,9 @@ from bench.store import POINTS_SCHEMA, REJECTED_SCHEMA, SAMPLES_SCHEMA
 
 RAD_S_PER_RPM = 2.0 * math.pi / 60.0
 
+#: Parquet codec of the samples files (lz4: ~2x faster to write than snappy on noisy floats)
+SAMPLES_COMPRESSION = "lz4"
+
 #: fraction of high-power samples whose p_mech and p_elec signs may disagree
 MAX_SIGN_DISAGREEMENT = 0.5
 
@@ -59,20 +62,23 @@ class SessionOutput:
 
 
 class _Bins:
-    """Growing per-bin sums on a fixed grid ``t0 + k * dt``."""
+    """Growing per-bin sums on a fixed grid ``t0 + k * dt`` (time sorted, so bins are runs)."""
 
-    FIELDS = ("rows", "valid", "speed", "torque", "p_mech")
+    FIELDS = ("rows", "valid", "speed", "torque")
 
     def __init__(self, dt: float) -> None:
         self.dt = dt
         self.t0: float | None = None
         self.sums = {f: np.zeros(0) for f in self.FIELDS}
 
-    def add(self, t, speed, torque, p_mech) -> None:
+    def add(self, t: np.ndarray, speed: np.ndarray, torque: np.ndarray) -> None:
+        """Add a chunk of sorted times [s] and drum-frame speed [rpm] and torque [N m]."""
         if self.t0 is None:
             self.t0 = float(t[0])
         k = ((t - self.t0) / self.dt).astype(np.int64)
-        n = int(k[-1]) + 1
+        starts = np.concatenate(([0], np.flatnonzero(np.diff(k)) + 1))
+        ids = k[starts]
+        n = int(ids[-1]) + 1
         if n > self.sums["rows"].size:
             size = max(n, 2 * self.sums["rows"].size)
             for f in self.FIELDS:
@@ -80,18 +86,20 @@ class _Bins:
                 grown[: self.sums[f].size] = self.sums[f]
                 self.sums[f] = grown
         ok = np.isfinite(speed) & np.isfinite(torque)
-        kk = k[ok]
-        for f, w in (("rows", None), ("valid", None), ("speed", speed[ok]),
-                     ("torque", torque[ok]), ("p_mech", p_mech[ok])):
-            idx = k if f == "rows" else kk
-            self.sums[f][:n] += np.bincount(idx, weights=w, minlength=n)[:n]
+        self.sums["rows"][ids] += np.diff(np.append(starts, t.size))
+        self.sums["valid"][ids] += np.add.reduceat(ok, starts, dtype=np.int64)
+        for f, x in (("speed", speed), ("torque", torque)):
+            self.sums[f][ids] += np.add.reduceat(np.where(ok, x, 0.0), starts)
 
     def means(self, n_bins: int) -> dict[str, np.ndarray]:
+        """Bin means of speed and torque, their product as ``p_mech`` [W], valid fraction."""
         valid = self.sums["valid"][:n_bins]
         with np.errstate(invalid="ignore", divide="ignore"):
-            out = {f: self.sums[f][:n_bins] / valid for f in ("speed", "torque", "p_mech")}
+            out = {f: self.sums[f][:n_bins] / valid for f in ("speed", "torque")}
             out["valid_frac"] = np.where(self.sums["rows"][:n_bins] > 0,
                                          valid / self.sums["rows"][:n_bins], 0.0)
+        # product of 0.1 s means: enough for the alignment; points use exact sample means
+        out["p_mech"] = out["speed"] * out["torque"] * RAD_S_PER_RPM
         return out
 
 
@@ -203,7 +211,7 @@ def process_timeseries(
             if not keep.all():
                 t, speed, torque = t[keep], speed[keep], torque[keep]
             if t.size:
-                bins.add(t, speed, torque, speed * torque * RAD_S_PER_RPM)
+                bins.add(t, speed, torque)
                 for q, arr in (("time", t), ("speed", speed), ("torque", torque)):
                     arr.tofile(handles[q])
                 n_rows += t.size
@@ -235,20 +243,15 @@ def process_timeseries(
                               usable=(centres >= a_t[fin][0]) & (centres <= a_t[fin][-1]))
     w_start = np.array([t0 + a * dt for a, _ in win.accepted])
     w_end = np.array([t0 + b * dt for _, b in win.accepted])
-    refs = {
-        "speed": np.array([np.nanmean(means["speed"][a:b]) for a, b in win.accepted]),
-        "torque": np.array([np.nanmean(means["torque"][a:b]) for a, b in win.accepted]),
-        "p_mech": np.array([np.nanmean(means["p_mech"][a:b]) for a, b in win.accepted]),
-        "p_elec": np.array([np.nanmean(p_elec_bins[a:b]) for a, b in win.accepted]),
-    }
     interval = float(np.median(np.diff(analyzer["time_s"].to_numpy())))
 
     # pass 2
     samples_path = scratch / f"{sid}.samples.parquet"
-    stats = _WindowStats(len(win.accepted), refs)
+    stats = _WindowStats(len(win.accepted))
     rows_per_chunk = max(1, chunk_bytes // 8)
     sid_dict = pa.array([sid], pa.string())
-    with pq.ParquetWriter(samples_path, SAMPLES_SCHEMA, compression="snappy") as writer:
+    with pq.ParquetWriter(samples_path, SAMPLES_SCHEMA, compression=SAMPLES_COMPRESSION,
+                          use_dictionary=["session_id"]) as writer:
         fhs = {q: open(p, "rb") for q, p in spill.items()}
         try:
             done = 0
@@ -258,8 +261,9 @@ def process_timeseries(
                 torque = np.fromfile(fhs["torque"], np.float64, rows_per_chunk)
                 p_mech = speed * torque * RAD_S_PER_RPM
                 p_elec = align.asof_nearest(t, a_t, a_p, 0.75 * interval)
-                pid = _point_ids(t, w_start, w_end)
-                stats.add(pid, speed, torque, p_mech, p_elec)
+                lo, hi = np.searchsorted(t, w_start), np.searchsorted(t, w_end)
+                pid = _point_ids(t.size, lo, hi)
+                stats.add(lo, hi, speed, torque, p_mech, p_elec)
                 table = pa.Table.from_arrays([
                     pa.DictionaryArray.from_arrays(np.zeros(t.size, np.int32), sid_dict),
                     t, speed, torque, p_mech, p_elec, pid,
@@ -314,52 +318,68 @@ def _prior_offset(session: Session, ameta: dict) -> float:
     return (datetime.fromisoformat(a0) - d0).total_seconds()
 
 
-def _point_ids(t: np.ndarray, w_start: np.ndarray, w_end: np.ndarray) -> np.ndarray:
-    """Window index of each time (``-1`` outside every window); windows ``[start, end)``."""
-    if w_start.size == 0:
-        return np.full(t.size, -1, np.int32)
-    k = np.searchsorted(w_start, t, side="right") - 1
-    inside = (k >= 0) & (t < w_end[np.clip(k, 0, None)])
-    return np.where(inside, k, -1).astype(np.int32)
+def _point_ids(n: int, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Window index of each of ``n`` samples (``-1`` outside); window k is rows ``[lo_k, hi_k)``.
+
+    Windows are disjoint and sorted, so a cumulative sum of +(k+1) at each start
+    and -(k+1) at each end marks them.
+    """
+    marks = np.zeros(n + 1, np.int64)
+    k = np.arange(lo.size) + 1
+    np.add.at(marks, lo, k)
+    np.add.at(marks, hi, -k)
+    return (np.cumsum(marks[:-1]) - 1).astype(np.int32)
 
 
 class _WindowStats:
     """Exact per-window means and standard deviations from streamed samples.
 
-    Sums are taken around a per-window reference value (the bin mean from
-    pass 1), so the variance does not lose digits to large means.
+    Windows are contiguous row ranges of the time-sorted samples, so one
+    ``np.add.reduceat`` per quantity and chunk gives their sums and sums of
+    squares. (Float64 keeps the variance to ~1e-6 relative even for 8 kW means
+    with 10 W noise over 10^4 samples.)
     """
 
     Q = ("speed", "torque", "p_mech", "p_elec")
 
-    def __init__(self, n: int, refs: dict[str, np.ndarray]) -> None:
+    def __init__(self, n: int) -> None:
         self.n = n
-        self.refs = refs
         self.count = np.zeros(n)
         self.s1 = {q: np.zeros(n) for q in self.Q}
         self.s2 = {q: np.zeros(n) for q in self.Q}
 
-    def add(self, pid, speed, torque, p_mech, p_elec) -> None:
-        if self.n == 0:
+    def add(self, lo, hi, speed, torque, p_mech, p_elec) -> None:
+        """Accumulate one chunk; window k covers its rows ``[lo_k, hi_k)``."""
+        live = np.flatnonzero(hi > lo)
+        if live.size == 0:
             return
-        ok = (pid >= 0) & np.isfinite(speed) & np.isfinite(torque) & np.isfinite(p_elec)
-        k = pid[ok]
-        self.count += np.bincount(k, minlength=self.n)
+        lo, hi = lo[live], hi[live]
+        idx = np.empty(2 * lo.size, np.int64)
+        idx[0::2], idx[1::2] = lo, hi
+        if idx[-1] == speed.size:
+            idx = idx[:-1]  # the last window runs to the end of the chunk
+
+        def window_sums(x: np.ndarray) -> np.ndarray:
+            return np.add.reduceat(x, idx)[0::2]
+
+        ok = np.isfinite(speed) & np.isfinite(torque) & np.isfinite(p_elec)
+        self.count[live] += window_sums(ok.astype(np.float64))
         for q, x in zip(self.Q, (speed, torque, p_mech, p_elec), strict=True):
-            d = x[ok] - self.refs[q][k]
-            self.s1[q] += np.bincount(k, weights=d, minlength=self.n)
-            self.s2[q] += np.bincount(k, weights=d * d, minlength=self.n)
+            d = np.where(ok, x, 0.0)
+            self.s1[q][live] += window_sums(d)
+            self.s2[q][live] += window_sums(d * d)
 
     def points_table(self, session: Session, w_start, w_end) -> pa.Table:
+        """The session's points: window means and sample standard deviations."""
         n = np.maximum(self.count, 1)
         cols = {}
         for q, name in zip(self.Q, ("speed_rpm", "torque_nm", "p_mech_w", "p_elec_w"),
                            strict=True):
             m = self.s1[q] / n
-            var = np.maximum(self.s2[q] / n - m * m, 0.0) * n / np.maximum(n - 1, 1)
-            cols[name] = self.refs[q] + m
+            var = np.maximum(self.s2[q] - n * m * m, 0.0) / np.maximum(n - 1, 1)
+            cols[name] = m
             cols[name + "_std"] = np.sqrt(var)
-        return points_table(session, cols, self.count.astype(np.int32), w_start, w_end,
+        return points_table(session, cols, np.rint(self.count).astype(np.int32), w_start, w_end,
                             "timeseries")
 
 
