@@ -274,3 +274,5 @@ def test_bad_arguments_exit_2(tmp_path, capsys):
     afile = tmp_path / "file"
     afile.write_text("not a folder")
     assert main(["synth", str(afile)]) == 2
+    assert main(["synth", str(afile / "below_a_file")]) == 2  # cannot be created
+    assert "cannot write" in capsys.readouterr().err

@@ -140,8 +140,9 @@ def _session_toml(spec: SessionSpec, files: dict[str, str]) -> str:
 def _analyzer_preamble(spec: SessionSpec, index: int,
                        inst: ins.Instruments) -> tuple[str, float]:
     """Header block and column rows; also the header's start offset from the DAQ start [s]."""
-    start = _wall(spec) + timedelta(seconds=spec.analyzer_delay_s + spec.analyzer_clock_error_s)
-    start = start.replace(microsecond=round(start.microsecond, -3) % 1_000_000)
+    # the header shows milliseconds: round the offset, not the wall time's digits
+    ms = round(1000.0 * (spec.analyzer_delay_s + spec.analyzer_clock_error_s))
+    start = _wall(spec) + timedelta(milliseconds=ms)
     header_offset = (start - _wall(spec)).total_seconds()
     sep = ";" if spec.analyzer_style == "de_w" else ","
     block = [

@@ -35,7 +35,11 @@ def run(args: argparse.Namespace) -> int:
         print(f"bench synth: {args.out_dir} is complete (seed {args.seed}, scale {args.scale})")
         return 0
     t0 = time.perf_counter()
-    truth = generate(args.out_dir, args.seed, args.scale, progress=not args.quiet)
+    try:
+        truth = generate(args.out_dir, args.seed, args.scale, progress=not args.quiet)
+    except OSError as exc:
+        raise InputError(exc.filename or args.out_dir, f"cannot write: {exc.strerror}",
+                         expected="a writable campaign folder") from exc
     points = {"motor": 0, "generator": 0}
     for info in truth["sessions"].values():
         points[info["mode"]] += info["n_points"]
