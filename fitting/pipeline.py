@@ -71,6 +71,9 @@ class FitOptions:
         if self.weighting not in WEIGHTINGS:
             raise InputError(None, f"option --weighting: {self.weighting!r}",
                              expected=" or ".join(WEIGHTINGS))
+        if self.full_order2 and self.order != 2:
+            raise InputError(None, "option --full applies to --order 2 only",
+                             expected="--order 2 --full, or no --full")
         if self.folds < 2:
             raise InputError(None, f"option --folds: {self.folds}", expected="at least 2")
 

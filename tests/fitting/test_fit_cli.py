@@ -162,5 +162,7 @@ def test_order_options_map_to_candidates():
     assert FitOptions(order=None).candidate() is None
     with pytest.raises(InputError, match="outside 1..6"):
         FitOptions(order=7)
+    with pytest.raises(InputError, match="--full applies to --order 2"):
+        FitOptions(order=None, full_order2=True)
     with pytest.raises(InputError, match="--folds"):
         FitOptions(folds=1)
