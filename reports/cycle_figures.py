@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 from markupsafe import Markup
 
-from reports.drive_figures import _draw_efficiency
+from reports.drive_figures import draw_efficiency
 from reports.svg import SCENARIO_COLORS, new_figure, to_svg
 
 KIND_LABELS = {
@@ -59,33 +59,72 @@ def power_vs_wind_figure(summary: pd.DataFrame, power_column: str, name: str,
     return to_svg(fig, name)
 
 
+#: Time between the markers of Fig. 9 [s]: equal spacing, so marker density shows dwell time.
+MARKER_STEP_S = 0.04
+
+
+def equal_time_samples(traj: pd.DataFrame, columns: tuple[str, ...],
+                       step_s: float = MARKER_STEP_S) -> dict[str, np.ndarray]:
+    """Columns of a closed cycle resampled at equal time steps (linear interpolation).
+
+    Parameters
+    ----------
+    traj : DataFrame
+        Closed cycle (first row at t = 0) with ``time_s`` [s] and ``columns``.
+    columns : tuple of str
+        Columns to resample.
+    step_s : float
+        Time step [s].
+    """
+    t = traj["time_s"].to_numpy(float)
+    grid = np.arange(0.0, t[-1], step_s)
+    return {c: np.interp(grid, t, traj[c].to_numpy(float)) for c in columns}
+
+
 def torque_speed_figure(cycles: dict[tuple[str, bool], pd.DataFrame], wind_m_s: float,
                         grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None) -> Markup:
     """Torque-speed trajectories of the cycles over the efficiency map (paper Fig. 9).
 
+    Panel (a) shows all cycles over the map, then one detail panel per cycle.
+    Markers are equally spaced in time (:data:`MARKER_STEP_S`), so where they
+    crowd the cycle dwells, as in the paper.
+
     Parameters
     ----------
     cycles : dict
-        (objective_key, limits) -> trajectory frame with ``speed_rpm`` [rpm] and
-        ``torque_nm`` [N m] at every collocation point.
+        (objective_key, limits) -> closed cycle with ``time_s`` [s], ``speed_rpm``
+        [rpm] and ``torque_nm`` [N m].
     wind_m_s : float
         The wind speed of the cycles [m/s], for the title.
     grid : tuple or None
         (speed_rpm, torque_nm, eta) of the efficiency map, drawn beneath if given.
     """
-    fig = new_figure(7.0, 4.4)
-    ax = fig.add_subplot()
-    if grid is not None:
-        _draw_efficiency(ax, *grid)
-    for key, traj in cycles.items():
-        ax.plot(traj["speed_rpm"], traj["torque_nm"], marker=".", ms=3, lw=0.6,
-                color=SCENARIO_COLORS[key], label=KIND_LABELS[key])
-    ax.axvline(0.0, color="k", lw=0.6)
-    ax.set_xlabel("drum speed [rpm] (reel-out / generating < 0)")
-    ax.set_ylabel("drum torque [N m]")
-    ax.set_title(f"Torque-speed trajectories at {wind_m_s:g} m/s "
-                 "(one marker per collocation point)", fontsize=10)
-    ax.legend(fontsize=7, loc="upper right")
+    fig = new_figure(9.0, 7.0)
+    gs = fig.add_gridspec(2, max(1, len(cycles)))
+    ax_all = fig.add_subplot(gs[0, :])
+    details = [fig.add_subplot(gs[1, k]) for k in range(len(cycles))]
+    samples = {key: equal_time_samples(traj, ("speed_rpm", "torque_nm"))
+               for key, traj in cycles.items()}
+    for k, ax in enumerate([ax_all, *details]):
+        if grid is not None:
+            draw_efficiency(ax, *grid, colorbar=k == 0)
+        keys = list(samples) if k == 0 else [list(samples)[k - 1]]
+        for key in keys:
+            smp = samples[key]
+            ax.plot(smp["speed_rpm"], smp["torque_nm"], marker=".", ms=3, lw=0.5,
+                    color=SCENARIO_COLORS[key], label=KIND_LABELS[key])
+        if k > 0:
+            smp = samples[keys[0]]
+            pad_s = 0.05 * np.ptp(smp["speed_rpm"]) + 10.0
+            pad_t = 0.05 * np.ptp(smp["torque_nm"]) + 1.0
+            ax.set_xlim(smp["speed_rpm"].min() - pad_s, smp["speed_rpm"].max() + pad_s)
+            ax.set_ylim(smp["torque_nm"].min() - pad_t, smp["torque_nm"].max() + pad_t)
+            ax.set_title(f"({chr(ord('a') + k)}) {KIND_LABELS[keys[0]]}", fontsize=9)
+        ax.axvline(0.0, color="k", lw=0.6)
+    ax_all.set_xlabel("drum speed [rpm] (reel-out / generating < 0)")
+    ax_all.set_title(f"(a) torque-speed trajectories at {wind_m_s:g} m/s, a marker every "
+                     f"{MARKER_STEP_S * 1e3:.0f} ms", fontsize=10)
+    ax_all.legend(fontsize=7, loc="upper right")
     return to_svg(fig, "torque-speed")
 
 

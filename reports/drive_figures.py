@@ -77,12 +77,13 @@ def efficiency_map_figure(
     """
     fig = new_figure(7.0, 4.0)
     ax = fig.add_subplot()
-    _draw_efficiency(ax, speed_rpm, torque_nm, eta)
+    draw_efficiency(ax, speed_rpm, torque_nm, eta)
     ax.set_title("Measured efficiency map (masked cells white)")
     return to_svg(fig, name)
 
 
-def _draw_efficiency(ax, speed_rpm, torque_nm, eta, colorbar: bool = True):
+def draw_efficiency(ax, speed_rpm, torque_nm, eta, colorbar: bool = True):
+    """Draw the efficiency grid on ``ax`` (0 white, NaN not drawn); returns the mesh."""
     mesh = ax.pcolormesh(
         speed_rpm, torque_nm, np.ma.masked_invalid(eta), cmap=efficiency_colormap(),
         vmin=0.0, vmax=1.0, shading="nearest", rasterized=True,
