@@ -106,6 +106,13 @@ def format_summary(summary: dict, out) -> str:
                                  for name, r in extra["paper_terms"].items())
                      + f"; wide vs eq. 4 model differ by at most "
                        f"{extra['model_difference']['max_abs_w']:.0f} W at the points")
+    shares: dict[str, list[str]] = {}
+    for row in summary["efficiency"]["band_shares"]:
+        if row["area_share"]:
+            shares.setdefault(row["quadrant"], []).append(
+                f"{row['band']} {100 * row['area_share']:.0f} %")
+    for q, parts in shares.items():
+        lines.append(f"area share per efficiency band, {q}: " + ", ".join(parts))
     for q, peak in summary["efficiency"]["peak"].items():
         if "map" in peak:
             m = peak["map"]
