@@ -270,8 +270,8 @@ def select_model(
         f"{chosen.name} ({len(chosen.terms)} terms): CV RMSE "
         f"{table.at[pick, 'cv_rmse_w']:.1f} W is within one standard error of the lowest "
         f"({table.at[best, 'candidate']}: {table.at[best, 'cv_rmse_w']:.1f} W "
-        f"+ {table.at[best, 'cv_rmse_se_w']:.1f} W) and it has the fewest terms of the "
-        f"{len(eligible)} such candidates; "
+        f"+ {table.at[best, 'cv_rmse_se_w']:.1f} W) and has the fewest terms of the "
+        f"{len(eligible)} candidate(s) within that band; "
         + ("BIC agrees (lowest BIC)." if bic_best == chosen.name
            else f"lowest BIC: {bic_best} (delta BIC of the choice "
                 f"{table.at[pick, 'delta_bic']:.1f}).")
