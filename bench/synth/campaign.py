@@ -181,15 +181,15 @@ def _daq_stream(spec: SessionSpec, path: Path):
 def write_daq(seg: Segments, spec: SessionSpec, path: Path, model: LossModel, seed: int,
               index: int, inst: ins.Instruments, progress: tqdm) -> int:
     """Write the DAQ stream of one session in chunks; returns the number of rows."""
-    rng = _rng(seed, index, _DAQ)
+    rnd = ins.ChunkRandom([seed, index, _DAQ])
     n_rows = int(np.floor(seg.duration_s * inst.daq_rate_hz)) + 1
     writer, kinds = _daq_stream(spec, path)
     ok = False
     try:
         for start in range(0, n_rows, DAQ_CHUNK_ROWS):
             rows = slice(start, min(n_rows, start + DAQ_CHUNK_ROWS))
-            time_s, speed, torque = ins.daq_chunk(seg, rows, spec, model, rng, inst)
-            cells = ins.marker_cells(time_s.size, (1, 2), len(kinds), inst.daq_marker_rate, rng)
+            time_s, speed, torque = ins.daq_chunk(seg, rows, spec, model, rnd, inst)
+            cells = rnd.marker_cells(time_s.size, (1, 2), len(kinds), inst.daq_marker_rate)
             if isinstance(writer, TdmsStream):
                 cols = [time_s, speed, torque]
                 for c, (r, code) in cells.items():
@@ -208,7 +208,7 @@ def write_daq(seg: Segments, spec: SessionSpec, path: Path, model: LossModel, se
 def write_analyzer(seg: Segments, spec: SessionSpec, path: Path, model: LossModel, seed: int,
                    index: int, inst: ins.Instruments) -> tuple[int, float]:
     """Write the power-analyzer export; returns ``(rows, header start offset [s])``."""
-    rng = _rng(seed, index, _ANALYZER)
+    rnd = ins.ChunkRandom([seed, index, _ANALYZER])
     preamble, header_offset = _analyzer_preamble(spec, index, inst)
     german = spec.analyzer_style == "de_w"
     kw = spec.analyzer_style == "en_kw"
@@ -222,11 +222,11 @@ def write_analyzer(seg: Segments, spec: SessionSpec, path: Path, model: LossMode
     try:
         for start in range(0, n_rows, ANALYZER_CHUNK_ROWS):
             rows = slice(start, min(n_rows, start + ANALYZER_CHUNK_ROWS))
-            (time_s, u, i, p, pf), state = ins.analyzer_chunk(seg, rows, spec, model, rng,
+            (time_s, u, i, p, pf), state = ins.analyzer_chunk(seg, rows, spec, model, rnd,
                                                               state, inst)
             store_no = np.arange(rows.start, rows.stop) + 1
-            cells = ins.marker_cells(time_s.size, (2, 3, 4, 5), len(kinds),
-                                     inst.analyzer_marker_rate, rng)
+            cells = rnd.marker_cells(time_s.size, (2, 3, 4, 5), len(kinds),
+                                     inst.analyzer_marker_rate)
             markers = {c: (r, code, kinds) for c, (r, code) in cells.items()}
             writer.write([store_no, time_s, u, i, p / 1000.0 if kw else p, pf], markers)
         ok = True

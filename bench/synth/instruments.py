@@ -78,19 +78,41 @@ class Instruments:
 DEFAULT_INSTRUMENTS = Instruments()
 
 
-def marker_cells(n_rows: int, columns: tuple[int, ...], n_kinds: int, rate: float,
-                 rng: np.random.Generator) -> dict[int, tuple[np.ndarray, np.ndarray]]:
-    """Pick isolated invalid cells: ``{column: (rows, marker codes)}``.
+class ChunkRandom:
+    """Random streams of one instrument file, each consumed in sample order.
 
-    A row holds at most one marker and no two marked rows are adjacent, so an
-    invalid value is always a single sample, never a run.
+    Every quantity draws from its own generator, one value per row, so a file's
+    content does not depend on how it is cut into chunks.
+
+    Parameters
+    ----------
+    seed : sequence of int
+        Entropy for :class:`numpy.random.SeedSequence`.
     """
-    hit = rng.random(n_rows) < rate
-    hit[1:] &= ~hit[:-1]
-    rows = np.flatnonzero(hit)
-    cols = rng.integers(0, len(columns), rows.size)
-    codes = rng.integers(0, n_kinds, rows.size)
-    return {c: (rows[cols == i], codes[cols == i]) for i, c in enumerate(columns)}
+
+    def __init__(self, seed):
+        noise_a, noise_b, hit, pick = (np.random.default_rng(s)
+                                       for s in np.random.SeedSequence(seed).spawn(4))
+        self.noise_a = noise_a  # first noisy channel
+        self.noise_b = noise_b  # second noisy channel
+        self._hit = hit
+        self._pick = pick
+        self._last_hit = False
+
+    def marker_cells(self, n_rows: int, columns: tuple[int, ...], n_kinds: int,
+                     rate: float) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+        """Pick isolated invalid cells of the next ``n_rows``: ``{column: (rows, codes)}``.
+
+        A row holds at most one marker and a row right after a hit is never hit, so
+        an invalid value is always a single sample, never a run.
+        """
+        hit = self._hit.random(n_rows) < rate
+        pick = np.floor(self._pick.random(n_rows) * (len(columns) * n_kinds)).astype(np.int64)
+        after_hit = np.concatenate([[self._last_hit], hit[:-1]])
+        self._last_hit = bool(hit[-1]) if n_rows else self._last_hit
+        rows = np.flatnonzero(hit & ~after_hit)
+        col, code = np.divmod(pick[rows], n_kinds)
+        return {c: (rows[col == i], code[col == i]) for i, c in enumerate(columns)}
 
 
 def logged_speed_torque(speed_rpm, torque_nm, spec: SessionSpec):
@@ -109,7 +131,7 @@ def torque_offset_drum_nm(spec: SessionSpec, inst: Instruments = DEFAULT_INSTRUM
 
 
 def daq_chunk(seg: Segments, rows: slice, spec: SessionSpec, model: LossModel,
-              rng: np.random.Generator, inst: Instruments = DEFAULT_INSTRUMENTS):
+              rnd: ChunkRandom, inst: Instruments = DEFAULT_INSTRUMENTS):
     """DAQ rows ``rows.start .. rows.stop - 1``: time [s], logged speed, logged torque.
 
     The DAQ clock is the reference clock of the truth; its samples sit on an
@@ -119,10 +141,9 @@ def daq_chunk(seg: Segments, rows: slice, spec: SessionSpec, model: LossModel,
     sig = true_signals(seg, time_s, model)
     speed, torque = logged_speed_torque(sig["speed_rpm"], sig["torque_nm"], spec)
     sd = inst.speed_noise_rpm + inst.speed_noise_rel * np.abs(speed)
-    speed = speed + sd * rng.standard_normal(time_s.size)
-    torque = torque + inst.torque_zero_offset_nm + inst.torque_noise_nm * rng.standard_normal(
-        time_s.size
-    )
+    speed = speed + sd * rnd.noise_a.standard_normal(time_s.size)
+    noise = inst.torque_noise_nm * rnd.noise_b.standard_normal(time_s.size)
+    torque = torque + inst.torque_zero_offset_nm + noise
     return time_s, speed, torque
 
 
@@ -133,7 +154,7 @@ def analyzer_rows(seg: Segments, spec: SessionSpec, inst: Instruments = DEFAULT_
 
 
 def analyzer_chunk(seg: Segments, rows: slice, spec: SessionSpec, model: LossModel,
-                   rng: np.random.Generator, state, inst: Instruments = DEFAULT_INSTRUMENTS):
+                   rnd: ChunkRandom, state, inst: Instruments = DEFAULT_INSTRUMENTS):
     """Analyzer records ``rows``: its own time [s], Urms [V], Irms [A], P [W], PF [-].
 
     Each record is the mean true electrical power over the analyzer's interval,
@@ -164,10 +185,10 @@ def analyzer_chunk(seg: Segments, rows: slice, spec: SessionSpec, model: LossMod
         state = signal.lfilter_zi([1.0 - a], [1.0, -a]) * p_true[0]
     p_lag, state = signal.lfilter([1.0 - a], [1.0, -a], p_true, zi=state)
     sd = inst.power_noise_w + inst.power_noise_rel * np.abs(p_lag)
-    p = p_lag + sd * rng.standard_normal(time_s.size)
+    p = p_lag + sd * rnd.noise_a.standard_normal(time_s.size)
     p = np.round(p / inst.power_lsb_w) * inst.power_lsb_w
     u = inst.grid_voltage_v * (1.0 + 0.004 * np.sin(2.0 * np.pi * t_true / 900.0))
-    u = u + 0.05 * rng.standard_normal(time_s.size)
+    u = u + 0.05 * rnd.noise_b.standard_normal(time_s.size)
     q = inst.reactive_power_var + 0.03 * np.abs(p)
     s = np.hypot(p, q)
     irms = s / (np.sqrt(3.0) * u)
