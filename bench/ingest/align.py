@@ -6,7 +6,8 @@ and the analyzer's electrical power step together at every setpoint change,
 so the lag that maximises the cross-correlation of their increments (on a
 common grid; then refined continuously by re-interpolating the analyzer at
 sub-sample shifts) is the residual offset. The
-same estimate on the first and the second half of the session gives the drift.
+same estimate in consecutive segments of the session, fitted with a straight
+line, gives the drift.
 
 Clock model: ``t_daq = offset_s + (1 + drift_ppm * 1e-6) * t_analyzer``.
 """
@@ -23,7 +24,9 @@ MAX_LAG_S = 20.0
 #: shortest session whose drift is estimated; shorter ones get drift 0 (tens of ppm
 #: over a few minutes are a few ms, below what the 0.1 s grid resolves) [s]
 MIN_DRIFT_SPAN_S = 300.0
-#: smallest |correlation| of a half-session estimate that is trusted for the drift [-]
+#: segments whose offsets a straight line is fitted through for the drift [-]
+DRIFT_SEGMENTS = 8
+#: smallest |correlation| of a segment estimate that is trusted for the drift [-]
 MIN_HALF_CORRELATION = 0.5
 
 
@@ -135,23 +138,21 @@ def estimate_clock(
 
     lag, corr = _peak_lag(pm, _fill(on_grid(prior_offset_s, grid_t_s)), dt, max_lag_s)
     offset = refine(prior_offset_s + lag, grid_t_s, pm)
-    # drift: the same on each half, searched narrowly around the global offset
-    half = grid_t_s.size // 2
-    centres, offsets = [], []
+    # drift: the same in consecutive segments, searched narrowly around the global
+    # offset; a straight line through the segment offsets gives offset and drift
     span = float(grid_t_s[-1] - grid_t_s[0]) if grid_t_s.size else 0.0
-    for sl in (slice(0, half), slice(half, None)):
+    n_seg = int(min(DRIFT_SEGMENTS, span // (MIN_DRIFT_SPAN_S / 2)))
+    centres, offsets = [], []
+    for sl in np.array_split(np.arange(grid_t_s.size), n_seg) if n_seg >= 2 else []:
         t = grid_t_s[sl]
-        if span < MIN_DRIFT_SPAN_S:
-            break
         lag_h, corr_h = _peak_lag(pm[sl], _fill(on_grid(offset, t)), dt, min(2.0, max_lag_s))
         if abs(corr_h) < MIN_HALF_CORRELATION:
-            break
+            continue
         centres.append(float(np.mean(t)) - offset)  # on the analyzer clock
         offsets.append(refine(offset + lag_h, t, pm[sl]))
     slope = 0.0
-    if len(offsets) == 2 and centres[1] > centres[0]:
-        slope = (offsets[1] - offsets[0]) / (centres[1] - centres[0])
-        offset = offsets[0] - slope * centres[0]
+    if len(offsets) >= 2:
+        slope, offset = np.polyfit(centres, offsets, 1)
     return ClockModel(
         offset_s=float(offset), drift_ppm=float(slope * 1e6),
         prior_offset_s=float(prior_offset_s), correlation=corr,
