@@ -18,7 +18,7 @@ import pytest
 from nptdms import TdmsFile
 
 from bench.cli import main
-from bench.synth import campaign
+from bench.synth import session_files
 from bench.synth.campaign import DEFAULT_SEED, generate, is_complete, plan_campaign
 from bench.synth.loss_model import PAPER_QUADRATIC, LossModel, fit_quadratic, true_p_elec_w
 
@@ -224,8 +224,8 @@ def test_files_parse_back_and_follow_the_truth(truth):
 def test_files_do_not_depend_on_the_chunk_size(tmp_path, fresh, monkeypatch):
     # large --scale campaigns are written in chunks; cutting scale 1 into ~15 DAQ and
     # ~7 analyzer chunks per session must give the same data (CSV: the same bytes)
-    monkeypatch.setattr(campaign, "DAQ_CHUNK_ROWS", 7001)
-    monkeypatch.setattr(campaign, "ANALYZER_CHUNK_ROWS", 2999)
+    monkeypatch.setattr(session_files, "DAQ_CHUNK_ROWS", 7001)
+    monkeypatch.setattr(session_files, "ANALYZER_CHUNK_ROWS", 2999)
     generate(tmp_path, DEFAULT_SEED, 1, progress=False)
     for rel in ("motor_01/daq.csv", "motor_01/analyzer.csv", "motor_02/daq.csv",
                 "motor_02/analyzer.csv", "generator_02/analyzer.csv"):

@@ -9,6 +9,7 @@ Modules, one concept each:
   steady-window means.
 - :mod:`instruments`: what the DAQ, the power analyzer and the bench software log.
 - :mod:`numfmt`, :mod:`writers`: fast deterministic CSV text, TDMS, atomic writes.
+- :mod:`session_files`: one session's files (session.toml, DAQ, analyzer, point table).
 - :mod:`campaign`: ``generate(out_dir, seed, scale)`` and ``is_complete(out_dir, seed, scale)``.
 - :mod:`readme`, :mod:`cli`: the campaign README and the ``bench synth`` command.
 """
