@@ -85,7 +85,9 @@ def calibrated_model(planned: list[PlannedSession], base: LossModel = DEFAULT_MO
         return tuple(np.concatenate([m[k] for m in means])
                      for k in ("speed_rpm", "torque_nm", "p_elec_w"))
 
-    return calibrate_core(evaluate, base)
+    model = calibrate_core(evaluate, base)
+    # 10 significant digits: far below the fit's scatter, and the same on every platform
+    return model.with_core([float(f"{c:.10g}") for c in model.core])
 
 
 def _sha256(path: Path) -> str:
@@ -193,9 +195,9 @@ def generate(out_dir: Path, seed: int = DEFAULT_SEED, scale: int = 1, *,
             info["points"] = _truth_points(seg, means)
             sessions[spec.session_id] = info
     calibration = {
-        "ols_fit_rpm": [float(c) for c in fit],
-        "residual_std_w": float(resid.std()),
-        "residual_max_abs_w": float(np.abs(resid).max()),
+        "ols_fit_rpm": [float(f"{c:.8g}") for c in fit],
+        "residual_std_w": round(float(resid.std()), 3),
+        "residual_max_abs_w": round(float(np.abs(resid).max()), 3),
         "nominal_power_w": NOMINAL_POWER_W,
     }
     readme = campaign_readme(seed, scale, sessions, calibration, inst)

@@ -38,6 +38,10 @@ class Instruments:
         Torque-sensor white noise [N m] (at the measured shaft).
     torque_zero_offset_nm : float
         Torque-flange zero offset, added to the logged torque [N m].
+    speed_decimals : int
+        DAQ speed resolution, decimals of the logged unit [-] (2: 0.01 rpm).
+    torque_decimals : int
+        DAQ torque resolution, decimals of the logged unit [-] (3: 0.001 N m).
     analyzer_subsamples : int
         Sub-samples averaged over each analyzer interval [-].
     analyzer_tau_s : float
@@ -64,6 +68,8 @@ class Instruments:
     speed_noise_rel: float = 2.0e-4
     torque_noise_nm: float = 0.06
     torque_zero_offset_nm: float = 0.15
+    speed_decimals: int = 2
+    torque_decimals: int = 3
     analyzer_subsamples: int = 4
     analyzer_tau_s: float = 0.2
     power_noise_w: float = 4.0
@@ -144,6 +150,10 @@ def daq_chunk(seg: Segments, rows: slice, spec: SessionSpec, model: LossModel,
     speed = speed + sd * rnd.noise_a.standard_normal(time_s.size)
     noise = inst.torque_noise_nm * rnd.noise_b.standard_normal(time_s.size)
     torque = torque + inst.torque_zero_offset_nm + noise
+    # the DAQ's resolution (this also makes TDMS bytes immune to last-bit differences
+    # of the platform's exp/sin/cos)
+    speed = np.round(speed, inst.speed_decimals)
+    torque = np.round(torque, inst.torque_decimals)
     return time_s, speed, torque
 
 

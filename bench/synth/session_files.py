@@ -89,27 +89,28 @@ def _analyzer_preamble(spec: SessionSpec, index: int,
     return "\n".join(lines) + "\n", header_offset
 
 
-def _daq_stream(spec: SessionSpec, path: Path):
-    """Open the session's DAQ file writer; returns ``(writer, markers or None)``."""
+def _daq_stream(spec: SessionSpec, path: Path, inst: ins.Instruments):
+    """Open the session's DAQ file writer; returns ``(writer, invalid-value markers)``."""
     if spec.daq_format == "tdms":
         channels = [("Time", "s"), ("Speed", "1/min"), ("Torque", "N m")]
         props = {"name": spec.session_id, "Author": spec.operator, "Bench": "drive test bench"}
         return TdmsStream(path, TDMS_GROUP, channels, props), MARKERS_TDMS
+    decimals = (3, inst.speed_decimals, inst.torque_decimals)
     if spec.daq_format == "csv_de":
         pre = "Zeit;Drehzahl;Drehmoment\ns;U/min;Nm\n"
-        return CsvStream(path, pre, (3, 2, 3), sep=";", decimal_mark=","), MARKERS_DE
+        return CsvStream(path, pre, decimals, sep=";", decimal_mark=","), MARKERS_DE
     if spec.mode == "motor":
         pre = "Time [s],Speed [1/min],Torque [N m]\n"
     else:
         pre = "Time [s],Speed [rpm],Torque [Nm]\n"
-    return CsvStream(path, pre, (3, 2, 3)), MARKERS_EN
+    return CsvStream(path, pre, decimals), MARKERS_EN
 
 
 def write_daq(seg: Segments, spec: SessionSpec, path: Path, model: LossModel,
               rnd: ins.ChunkRandom, inst: ins.Instruments, progress: tqdm) -> int:
     """Write the DAQ stream of one session in chunks; returns the number of rows."""
     n_rows = int(np.floor(seg.duration_s * inst.daq_rate_hz)) + 1
-    writer, kinds = _daq_stream(spec, path)
+    writer, kinds = _daq_stream(spec, path, inst)
     ok = False
     try:
         for start in range(0, n_rows, DAQ_CHUNK_ROWS):
