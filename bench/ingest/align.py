@@ -17,7 +17,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize, signal
 
 #: largest residual offset searched around the header prior [s]
 MAX_LAG_S = 20.0
@@ -57,6 +56,21 @@ class ClockModel:
         return self.offset_s + (1.0 + self.drift_ppm * 1e-6) * np.asarray(t_analyzer_s)
 
 
+def _grid_search(cost, centre: float, half_width: float) -> float:
+    """Minimise a 1-D cost on ``centre +- half_width``: a coarse grid, a fine grid around its
+    best point, then a parabola through the fine minimum and its neighbours."""
+    for n in (16, 21):
+        xs = np.linspace(centre - half_width, centre + half_width, n)
+        cs = np.array([cost(x) for x in xs])
+        k = int(np.argmin(cs))
+        centre, half_width = float(xs[k]), float(xs[1] - xs[0])
+    if 0 < k < n - 1:
+        den = cs[k - 1] - 2.0 * cs[k] + cs[k + 1]
+        if den > 0:
+            centre += 0.5 * half_width * (cs[k - 1] - cs[k + 1]) / den
+    return centre
+
+
 def _increments(x: np.ndarray) -> np.ndarray:
     d = np.diff(x)
     d[~np.isfinite(d)] = 0.0
@@ -73,11 +87,14 @@ def _peak_lag(x: np.ndarray, y: np.ndarray, dt: float, max_lag: float) -> tuple[
     norm = float(np.sqrt(np.sum(dx * dx) * np.sum(dy * dy)))
     if norm == 0.0:
         return 0.0, 0.0
-    c = signal.correlate(dx, dy, mode="full", method="fft") / norm
-    lags = signal.correlation_lags(dx.size, dy.size, mode="full")
-    k_max = int(round(max_lag / dt))
-    sel = np.flatnonzero(np.abs(lags) <= k_max)
-    k = sel[np.argmax(np.abs(c[sel]))]
+    # full cross-correlation via FFT: c[lag] = sum_n dx[n + lag] * dy[n]
+    n = dx.size + dy.size - 1
+    nfft = 1 << (n - 1).bit_length()
+    full = np.fft.irfft(np.fft.rfft(dx, nfft) * np.conj(np.fft.rfft(dy, nfft)), nfft)
+    k_max = min(int(round(max_lag / dt)), dx.size - 1, dy.size - 1)
+    lags = np.arange(-k_max, k_max + 1)
+    c = full[lags % nfft] / norm
+    k = int(np.argmax(np.abs(c)))
     frac = 0.0
     if 0 < k < c.size - 1:
         y0, y1, y2 = np.abs(c[k - 1]), np.abs(c[k]), np.abs(c[k + 1])
@@ -132,9 +149,7 @@ def estimate_clock(
             # plain sums, not BLAS dot: no thread pool spin-up on a busy machine
             return -abs(float(np.sum(dx * dy)) / (float(np.sqrt(np.sum(dy * dy))) or 1.0))
 
-        res = optimize.minimize_scalar(cost, bounds=(guess - 1.5 * dt, guess + 1.5 * dt),
-                                       method="bounded", options={"xatol": 5e-4})
-        return float(res.x)
+        return _grid_search(cost, guess, 1.5 * dt)
 
     lag, corr = _peak_lag(pm, _fill(on_grid(prior_offset_s, grid_t_s)), dt, max_lag_s)
     offset = refine(prior_offset_s + lag, grid_t_s, pm)

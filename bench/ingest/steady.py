@@ -9,7 +9,7 @@ Works on short-bin means (default 0.1 s) of speed, torque and power:
    mean of the previous ``step_lag_s`` by more than ``k_step`` tolerances in
    speed or torque. Runs of non-moving bins are the candidate segments, one per setpoint.
 3. Settling: the segment starts after the last bin that is off the segment's
-   final level (median of its second half) by more than the tolerance.
+   final level (mean of its second half) by more than the tolerance.
 4. Checks, in order, each giving a rejection reason: ``too short`` (under
    ``min_window_s``), ``invalid samples`` (more than ``max_invalid`` of the
    samples are NaN), ``speed unstable``, ``torque unstable``, ``power unstable``
@@ -160,7 +160,7 @@ def find_windows(
     for a, b in zip(starts, stops, strict=True):
         if b - a < report_bins:
             continue
-        a = _settle(speed_rpm, torque_nm, a, b, tol)
+        a = _settle(speed_rpm, torque_nm, a, b, tol, stds)
         reason = _check(stds, cum_valid, a, b, tol, min_bins, config)
         if reason is None:
             accepted.append((int(a), int(b)))
@@ -169,14 +169,16 @@ def find_windows(
     return Windows(accepted=accepted, rejected=rejected, tolerances=tol)
 
 
-def _settle(speed, torque, a: int, b: int, tol: dict[str, float]) -> int:
-    """First bin of ``[a, b)`` after which speed and torque stay at their final level."""
+def _settle(speed, torque, a: int, b: int, tol: dict[str, float], stds: dict) -> int:
+    """First bin of ``[a, b)`` after which speed and torque stay at their final level.
+
+    The final level is the mean of the segment's second half.
+    """
     mid = a + (b - a) // 2
-    off = np.zeros(b - a, dtype=bool)
-    for x, t in ((speed, tol["speed"]), (torque, tol["torque"])):
-        ref = np.nanmedian(x[mid:b]) if np.isfinite(x[mid:b]).any() else np.nan
-        off |= np.abs(x[a:b] - ref) > t
-    bad = np.flatnonzero(off[: mid - a])
+    off = np.zeros(mid - a, dtype=bool)
+    for x, key in ((speed, "speed"), (torque, "torque")):
+        off |= np.abs(x[a:mid] - stds[key].mean(mid, b)) > tol[key]
+    bad = np.flatnonzero(off)
     return a + int(bad[-1]) + 1 if bad.size else a
 
 
@@ -189,6 +191,10 @@ class _RangeStd:
         self.n = np.concatenate(([0], np.cumsum(ok)))
         self.s1 = np.concatenate(([0.0], np.cumsum(xf)))
         self.s2 = np.concatenate(([0.0], np.cumsum(xf * xf)))
+
+    def mean(self, a: int, b: int) -> float:
+        n = self.n[b] - self.n[a]
+        return float((self.s1[b] - self.s1[a]) / n) if n else float("nan")
 
     def std(self, a: int, b: int) -> float:
         n = self.n[b] - self.n[a]

@@ -1,0 +1,158 @@
+"""Benchmark ``bench ingest`` against the bare pandas baseline (issue 2 section 5).
+
+Generates (or reuses) a ``bench synth --scale N`` campaign, then measures, each in
+its own child process, wall time and peak RSS of
+
+* **ingest**: the whole ``bench ingest`` pipeline into a fresh store (read, scrub,
+  align, steady windows, points, samples Parquet, manifest), and
+* **baseline**: what a user writes by hand: ``pandas.read_csv`` of every CSV file
+  (with the right separator, decimal mark and header rows, invalid markers as NaN)
+  followed by ``DataFrame.to_parquet``; no alignment, no averaging. The TDMS
+  session is not CSV, so the baseline skips it and its rows are not counted there.
+
+rows/s = data rows read (DAQ + analyzer + point tables) / child wall time. Peak RSS
+is the child's ``ru_maxrss`` from ``os.wait4``. Results: a table on stdout and
+``benchmarks/out/ingest_benchmark.json``.
+
+Usage::
+
+    .venv/bin/python benchmarks/ingest_benchmark.py [--scale 55] [--campaign DIR] [--keep]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "benchmarks" / "out"
+GOAL_SPEEDUP = 3.0
+GOAL_RSS_MIB = 1024.0
+
+INGEST_CHILD = """
+import sys
+from bench.ingest.pipeline import ingest
+r = ingest([sys.argv[1]], sys.argv[2], progress=False)
+assert len(r.ingested) > 0
+"""
+
+BASELINE_CHILD = r"""
+import sys
+from pathlib import Path
+import pandas as pd
+MARKERS = ["NAN", "NaN", "-INF", "INF", "---", "9.91E+37", "9.9E37"]
+camp, out = Path(sys.argv[1]), Path(sys.argv[2])
+out.mkdir(parents=True, exist_ok=True)
+for path in sorted(camp.rglob("*.csv")):
+    with path.open("rb") as fh:
+        head = fh.read(4096).decode("utf-8", "replace").splitlines()
+    skip = head.index("") + 1 if "" in head[:20] else 0   # analyzer header block
+    german = ";" in head[skip]
+    units_row = [skip + 1] if german else []
+    df = pd.read_csv(path, sep=";" if german else ",", decimal="," if german else ".",
+                     skiprows=list(range(skip)) + units_row, na_values=MARKERS)
+    df.columns = [str(c) for c in df.columns]
+    df.to_parquet(out / (path.parent.name + "_" + path.stem + ".parquet"))
+"""
+
+
+def run_child(code: str, *args: str) -> dict:
+    """Run ``python -c code args`` and return its wall time [s] and peak RSS [MiB]."""
+    t0 = time.perf_counter()
+    proc = subprocess.Popen([sys.executable, "-c", code, *args], cwd=ROOT)
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t0
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    if proc.returncode != 0:
+        raise SystemExit(f"child failed with exit code {proc.returncode}")
+    return {"wall_s": wall, "peak_rss_mib": usage.ru_maxrss / 1024.0}  # Linux: KiB
+
+
+def count_rows(campaign: Path) -> dict:
+    """Data rows per kind of file, from the campaign's truth.json and its files."""
+    truth = json.loads((campaign / "truth.json").read_text())
+    daq = daq_csv = analyzer = table = 0
+    for sid, s in truth["sessions"].items():
+        if s["kind"] == "timeseries":
+            daq += s["daq_rows"]
+            analyzer += s["analyzer_rows"]
+            if (campaign / sid / "daq.csv").exists():
+                daq_csv += s["daq_rows"]
+        else:
+            table += s["n_points"]
+    return {"daq": daq, "daq_csv": daq_csv, "analyzer": analyzer, "table": table}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scale", type=int, default=55,
+                    help="bench synth --scale (55 gives >= 20 million DAQ rows)")
+    ap.add_argument("--campaign", type=Path, default=None,
+                    help="reuse (or create here) the campaign instead of a temp dir")
+    ap.add_argument("--keep", action="store_true", help="keep the temp campaign and outputs")
+    args = ap.parse_args()
+
+    work = Path(tempfile.mkdtemp(prefix="ingest_bench_"))
+    campaign = args.campaign or work / "campaign"
+    try:
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "bench.cli", "synth", str(campaign),
+                        "--scale", str(args.scale), "--check"], check=True, cwd=ROOT)
+        synth_s = time.perf_counter() - t0
+        rows = count_rows(campaign)
+        size = sum(p.stat().st_size for p in campaign.rglob("*") if p.is_file())
+        print(f"campaign {campaign}: scale {args.scale}, {rows['daq']:,} DAQ rows "
+              f"({rows['daq_csv']:,} in CSV), {rows['analyzer']:,} analyzer rows, "
+              f"{size / 2**20:.0f} MiB (synth/check {synth_s:.0f} s)")
+
+        ing = run_child(INGEST_CHILD, str(campaign), str(work / "store"))
+        base = run_child(BASELINE_CHILD, str(campaign), str(work / "baseline"))
+        ing_rows = rows["daq"] + rows["analyzer"] + rows["table"]
+        base_rows = rows["daq_csv"] + rows["analyzer"] + rows["table"]
+        ing["rows"], base["rows"] = ing_rows, base_rows
+        ing["rows_per_s"] = ing_rows / ing["wall_s"]
+        base["rows_per_s"] = base_rows / base["wall_s"]
+        speedup = ing["rows_per_s"] / base["rows_per_s"]
+        result = {
+            "scale": args.scale, "campaign_bytes": size, "rows": rows,
+            "ingest": ing, "baseline": base, "speedup": speedup,
+            "goal": {"speedup": GOAL_SPEEDUP, "peak_rss_mib": GOAL_RSS_MIB,
+                     "speedup_met": speedup >= GOAL_SPEEDUP,
+                     "rss_met": ing["peak_rss_mib"] <= GOAL_RSS_MIB},
+            "machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
+                        "load_avg_1min_at_end": os.getloadavg()[0]},
+        }
+        print(f"\n{'':10s} {'rows':>12s} {'wall [s]':>9s} {'rows/s':>12s} {'peak RSS [MiB]':>15s}")
+        for name, r in (("ingest", ing), ("baseline", base)):
+            print(f"{name:10s} {r['rows']:>12,} {r['wall_s']:>9.1f} {r['rows_per_s']:>12,.0f} "
+                  f"{r['peak_rss_mib']:>15.0f}")
+        print(f"\nspeed-up {speedup:.2f}x (goal >= {GOAL_SPEEDUP:.0f}x: "
+              f"{'met' if result['goal']['speedup_met'] else 'NOT met'}); ingest peak RSS "
+              f"{ing['peak_rss_mib']:.0f} MiB (goal <= {GOAL_RSS_MIB:.0f}: "
+              f"{'met' if result['goal']['rss_met'] else 'NOT met'}); "
+              f"load average {result['machine']['load_avg_1min_at_end']:.1f} "
+              f"on {os.cpu_count()} CPUs")
+        OUT.mkdir(parents=True, exist_ok=True)
+        out = OUT / "ingest_benchmark.json"
+        tmp = out.with_suffix(".json.tmp")
+        tmp.write_text(json.dumps(result, indent=1) + "\n")
+        os.replace(tmp, out)
+        print(f"results: {out}")
+    finally:
+        if not args.keep:
+            shutil.rmtree(work, ignore_errors=True)
+        else:
+            print(f"kept {work}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
