@@ -59,7 +59,7 @@ class ClockModel:
 def _grid_search(cost, centre: float, half_width: float) -> float:
     """Minimise a 1-D cost on ``centre +- half_width``: a coarse grid, a fine grid around its
     best point, then a parabola through the fine minimum and its neighbours."""
-    for n in (16, 21):
+    for n in (7, 11):
         xs = np.linspace(centre - half_width, centre + half_width, n)
         cs = np.array([cost(x) for x in xs])
         k = int(np.argmin(cs))
