@@ -21,6 +21,7 @@ from bench.synth import instruments as ins
 from bench.synth import session_files as sf
 from bench.synth.loss_model import (
     DEFAULT_MODEL,
+    FORMULA,
     PAPER_QUADRATIC,
     LossModel,
     calibrate_core,
@@ -212,6 +213,7 @@ def generate(out_dir: Path, seed: int = DEFAULT_SEED, scale: int = 1, *,
         "reference_quadratic_rpm": dict(zip(("a0_w", "a1_w_per_rpm2", "a2_w_per_nm2",
                                              "a3_w_per_rpm_nm"), PAPER_QUADRATIC, strict=True)),
         "calibration": calibration,
+        "loss_model_formula": FORMULA,
         "loss_model": model.to_dict(),
         "dynamics": dataclasses.asdict(DEFAULT_DYNAMICS),
         "instruments": dataclasses.asdict(inst),

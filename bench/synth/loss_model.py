@@ -124,6 +124,14 @@ class LossModel:
 #: the uncalibrated model: core equal to the paper's quadratic
 DEFAULT_MODEL = LossModel(*PAPER_QUADRATIC)
 
+#: the model in one line (n in rpm, omega in rad/s, T in N m, theta in degC, P in W)
+FORMULA = (
+    "p_elec_w = c0 + c1 n^2 + c2 T^2 (1 + alpha_cu copper_share (theta - theta_ref)) + c3 n T"
+    " + friction |omega| + iron |n|^1.6 + gear_loss_fraction |omega T|"
+    " + fan_max clip((theta - fan_start) / (fan_full - fan_start), 0, 1);"
+    " tau_th dtheta/dt = ambient + r_th (p_elec - omega T - fan) - theta"
+)
+
 
 def fan_power_w(theta_c, model: LossModel = DEFAULT_MODEL) -> np.ndarray:
     """Cabinet-fan electrical power at winding temperature ``theta_c`` [degC] -> [W]."""
