@@ -25,6 +25,8 @@ MAX_LAG_S = 20.0
 MIN_DRIFT_SPAN_S = 300.0
 #: segments whose offsets a straight line is fitted through for the drift [-]
 DRIFT_SEGMENTS = 8
+#: longest stretch of data one offset estimate uses [s]
+SEGMENT_SPAN_S = 1200.0
 #: smallest |correlation| of a segment estimate that is trusted for the drift [-]
 MIN_HALF_CORRELATION = 0.5
 
@@ -151,20 +153,30 @@ def estimate_clock(
 
         return _grid_search(cost, guess, 1.5 * dt)
 
-    lag, corr = _peak_lag(pm, _fill(on_grid(prior_offset_s, grid_t_s)), dt, max_lag_s)
-    offset = refine(prior_offset_s + lag, grid_t_s, pm)
-    # drift: the same in consecutive segments, searched narrowly around the global
-    # offset; a straight line through the segment offsets gives offset and drift
+    # global offset from the first SEGMENT_SPAN_S (cost independent of session length)
+    first = slice(0, int(SEGMENT_SPAN_S / dt))
+    lag, corr = _peak_lag(pm[first], _fill(on_grid(prior_offset_s, grid_t_s[first])), dt,
+                          max_lag_s)
+    offset = refine(prior_offset_s + lag, grid_t_s[first], pm[first])
+    # drift: the same in DRIFT_SEGMENTS segments (their central SEGMENT_SPAN_S), each
+    # searched around the offset the segments before it predict (drift over a long
+    # session adds up to seconds); a straight line through them gives offset and drift
     span = float(grid_t_s[-1] - grid_t_s[0]) if grid_t_s.size else 0.0
     n_seg = int(min(DRIFT_SEGMENTS, span // (MIN_DRIFT_SPAN_S / 2)))
+    half = int(SEGMENT_SPAN_S / dt) // 2
     centres, offsets = [], []
-    for sl in np.array_split(np.arange(grid_t_s.size), n_seg) if n_seg >= 2 else []:
+    for idx in np.array_split(np.arange(grid_t_s.size), n_seg) if n_seg >= 2 else []:
+        mid = int(idx[idx.size // 2])
+        sl = slice(max(int(idx[0]), mid - half), min(int(idx[-1]) + 1, mid + half))
         t = grid_t_s[sl]
-        lag_h, corr_h = _peak_lag(pm[sl], _fill(on_grid(offset, t)), dt, min(2.0, max_lag_s))
+        t_a = float(np.mean(t)) - offset  # on the analyzer clock
+        guess = offset if len(offsets) < 2 else float(np.polyval(
+            np.polyfit(centres, offsets, 1), t_a))
+        lag_h, corr_h = _peak_lag(pm[sl], _fill(on_grid(guess, t)), dt, min(2.0, max_lag_s))
         if abs(corr_h) < MIN_HALF_CORRELATION:
             continue
-        centres.append(float(np.mean(t)) - offset)  # on the analyzer clock
-        offsets.append(refine(offset + lag_h, t, pm[sl]))
+        centres.append(t_a)
+        offsets.append(refine(guess + lag_h, t, pm[sl]))
     slope = 0.0
     if len(offsets) >= 2:
         slope, offset = np.polyfit(centres, offsets, 1)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import tomllib
 from dataclasses import dataclass
 from datetime import datetime
@@ -153,9 +154,10 @@ def discover(paths: list[str | Path]) -> list[Path]:
                              expected="a campaign or session folder")
         if p.is_file():
             p = p.parent if p.name == SESSION_FILE else p
-        if (p / SESSION_FILE).is_file():
-            found.add(p.resolve())
-        found.update(s.parent.resolve() for s in p.rglob(SESSION_FILE) if ".staging-" not in str(s))
+        for folder, dirs, names in os.walk(p, followlinks=True):
+            dirs[:] = sorted(d for d in dirs if not d.startswith(".staging-"))
+            if SESSION_FILE in names:
+                found.add(Path(os.path.abspath(folder)))
     if not found:
         raise InputError(paths[0] if paths else None, "no session folders found",
                          expected=f"folders holding a {SESSION_FILE}")

@@ -32,6 +32,9 @@ from bench.store import POINTS_SCHEMA, REJECTED_SCHEMA, SAMPLES_SCHEMA
 
 RAD_S_PER_RPM = 2.0 * math.pi / 60.0
 
+#: samples per chunk in the second pass (about 80 bytes of arrays each) [-]
+PASS2_ROWS = 1_000_000
+
 #: Parquet codec of the samples files (lz4: ~2x faster to write than snappy on noisy floats)
 SAMPLES_COMPRESSION = "lz4"
 
@@ -248,7 +251,7 @@ def process_timeseries(
     # pass 2
     samples_path = scratch / f"{sid}.samples.parquet"
     stats = _WindowStats(len(win.accepted))
-    rows_per_chunk = max(1, chunk_bytes // 8)
+    rows_per_chunk = PASS2_ROWS
     sid_dict = pa.array([sid], pa.string())
     with pq.ParquetWriter(samples_path, SAMPLES_SCHEMA, compression=SAMPLES_COMPRESSION,
                           use_dictionary=["session_id"]) as writer:
