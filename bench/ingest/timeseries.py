@@ -35,8 +35,8 @@ RAD_S_PER_RPM = 2.0 * math.pi / 60.0
 #: samples per chunk in the second pass (about 80 bytes of arrays each) [-]
 PASS2_ROWS = 1_000_000
 
-#: Parquet codec of the samples files (lz4: ~2x faster to write than snappy on noisy floats)
-SAMPLES_COMPRESSION = "lz4"
+#: Parquet codec of the samples files
+SAMPLES_COMPRESSION = "snappy"
 
 #: fraction of high-power samples whose p_mech and p_elec signs may disagree
 MAX_SIGN_DISAGREEMENT = 0.5
