@@ -223,6 +223,10 @@ def asof_nearest(
     n = t_query_s.size
     if t_ref_s.size == 0 or n == 0:
         return np.full(n, np.nan)
+    # only the references near this block of queries matter
+    lo = max(int(np.searchsorted(t_ref_s, t_query_s[0])) - 1, 0)
+    hi = int(np.searchsorted(t_ref_s, t_query_s[-1])) + 1
+    t_ref_s, values = t_ref_s[lo:hi], values[lo:hi]
     # each reference sample owns the queries between the midpoints to its neighbours;
     # searching the few midpoints in the many queries is O(n_ref log n)
     cuts = np.searchsorted(t_query_s, 0.5 * (t_ref_s[1:] + t_ref_s[:-1]))

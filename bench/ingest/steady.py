@@ -152,38 +152,48 @@ def find_windows(
     stops = np.flatnonzero(edges == 1)
     min_bins = int(round(config.min_window_s / config.bin_s))
     report_bins = int(round(config.min_report_s / config.bin_s))
-    accepted: list[tuple[int, int]] = []
-    rejected: list[tuple[int, int, str]] = []
-    stds = {"speed": _RangeStd(speed_rpm), "torque": _RangeStd(torque_nm),
-            "power": _RangeStd(p_elec_w)}
-    cum_valid = np.concatenate(([0.0], np.cumsum(valid_frac)))
-    for a, b in zip(starts, stops, strict=True):
-        if b - a < report_bins:
-            continue
-        a = _settle(speed_rpm, torque_nm, a, b, tol, stds)
-        reason = _check(stds, cum_valid, a, b, tol, min_bins, config)
-        if reason is None:
-            accepted.append((int(a), int(b)))
-        else:
-            rejected.append((int(a), int(b), reason))
+    keep = stops - starts >= report_bins
+    a, b = starts[keep], stops[keep]
+    stats = {"speed": _RangeStats(speed_rpm), "torque": _RangeStats(torque_nm),
+             "power": _RangeStats(p_elec_w)}
+    a = _settle(speed_rpm, torque_nm, a, b, tol, stats)
+    reason = _check(stats, valid_frac, a, b, tol, min_bins, config)
+    ok = reason == ""
+    accepted = [(int(i), int(j)) for i, j in zip(a[ok], b[ok], strict=True)]
+    rejected = [(int(i), int(j), str(r))
+                for i, j, r in zip(a[~ok], b[~ok], reason[~ok], strict=True)]
     return Windows(accepted=accepted, rejected=rejected, tolerances=tol)
 
 
-def _settle(speed, torque, a: int, b: int, tol: dict[str, float], stds: dict) -> int:
-    """First bin of ``[a, b)`` after which speed and torque stay at their final level.
+def _settle(speed, torque, a, b, tol: dict[str, float], stats: dict) -> np.ndarray:
+    """First bin of each ``[a, b)`` after which speed and torque stay at their final level.
 
-    The final level is the mean of the segment's second half.
+    The final level is the mean of the segment's second half; bins of the first
+    half farther from it than the tolerance are still settling.
     """
+    if a.size == 0:
+        return a
     mid = a + (b - a) // 2
-    off = np.zeros(mid - a, dtype=bool)
+    n = speed.size
+    # segment index of every bin in a first half (-1 elsewhere)
+    marks = np.zeros(n + 1, np.int64)
+    k = np.arange(a.size) + 1
+    np.add.at(marks, a, k)
+    np.add.at(marks, mid, -k)
+    seg = np.cumsum(marks[:-1]) - 1
+    inside = seg >= 0
+    off = np.zeros(n, dtype=bool)
     for x, key in ((speed, "speed"), (torque, "torque")):
-        off |= np.abs(x[a:mid] - stds[key].mean(mid, b)) > tol[key]
-    bad = np.flatnonzero(off)
-    return a + int(bad[-1]) + 1 if bad.size else a
+        ref = stats[key].mean(mid, b)
+        off[inside] |= np.abs(x[inside] - ref[seg[inside]]) > tol[key]
+    last = np.full(a.size, -1, np.int64)
+    idx = np.flatnonzero(off)
+    np.maximum.at(last, seg[idx], idx)  # last off bin of each segment's first half
+    return np.where(last >= 0, last + 1, a)
 
 
-class _RangeStd:
-    """Standard deviation and NaN fraction of any bin range in O(1), from cumulative sums."""
+class _RangeStats:
+    """Means, standard deviations and NaN fractions of bin ranges, from cumulative sums."""
 
     def __init__(self, x: np.ndarray) -> None:
         ok = np.isfinite(x)
@@ -192,33 +202,34 @@ class _RangeStd:
         self.s1 = np.concatenate(([0.0], np.cumsum(xf)))
         self.s2 = np.concatenate(([0.0], np.cumsum(xf * xf)))
 
-    def mean(self, a: int, b: int) -> float:
+    def mean(self, a, b) -> np.ndarray:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return (self.s1[b] - self.s1[a]) / (self.n[b] - self.n[a])
+
+    def std(self, a, b) -> np.ndarray:
         n = self.n[b] - self.n[a]
-        return float((self.s1[b] - self.s1[a]) / n) if n else float("nan")
+        with np.errstate(invalid="ignore", divide="ignore"):
+            m = (self.s1[b] - self.s1[a]) / n
+            return np.sqrt(np.maximum((self.s2[b] - self.s2[a]) / n - m * m, 0.0))
 
-    def std(self, a: int, b: int) -> float:
-        n = self.n[b] - self.n[a]
-        if n == 0:
-            return float("nan")
-        m = (self.s1[b] - self.s1[a]) / n
-        return float(np.sqrt(max((self.s2[b] - self.s2[a]) / n - m * m, 0.0)))
-
-    def nan_frac(self, a: int, b: int) -> float:
-        return 1.0 - (self.n[b] - self.n[a]) / (b - a)
+    def nan_frac(self, a, b) -> np.ndarray:
+        return 1.0 - (self.n[b] - self.n[a]) / np.maximum(b - a, 1)
 
 
-def _check(stds, cum_valid, a, b, tol, min_bins, config) -> str | None:
-    """Rejection reason of window ``[a, b)``, or None when it is steady."""
-    if b - a < min_bins:
-        return "too short"
-    if (cum_valid[b] - cum_valid[a]) / (b - a) < 1.0 - config.max_invalid or (
-        stds["power"].nan_frac(a, b) > config.max_invalid
-    ):
-        return "invalid samples"
-    for key in ("speed", "torque", "power"):
-        if stds[key].std(a, b) > tol[key]:
-            return f"{key} unstable"
-    return None
+def _check(stats, valid_frac, a, b, tol, min_bins, config) -> np.ndarray:
+    """Rejection reason of each window ``[a, b)`` (``""`` when it is steady); first one wins."""
+    cum_valid = np.concatenate(([0.0], np.cumsum(valid_frac)))
+    width = np.maximum(b - a, 1)
+    tests = [
+        ("too short", b - a < min_bins),
+        ("invalid samples", ((cum_valid[b] - cum_valid[a]) / width < 1.0 - config.max_invalid)
+         | (stats["power"].nan_frac(a, b) > config.max_invalid)),
+    ] + [(f"{key} unstable", ~(stats[key].std(a, b) <= tol[key]))
+         for key in ("speed", "torque", "power")]
+    reason = np.full(a.size, "", dtype=object)
+    for name, bad in reversed(tests):
+        reason[bad] = name
+    return reason
 
 
 def quadrant(p_mech_w: np.ndarray) -> np.ndarray:

@@ -128,6 +128,15 @@ def _drum_frame(session: Session, speed, torque):
     return speed, torque
 
 
+def _drum_ranges(session: Session) -> dict[str, float]:
+    """Sensor ranges [rpm, N m, W] seen from the drum (ranges are of the measured shaft)."""
+    r = dict(session.ranges)
+    if session.measured_side == "motor":
+        r["speed"] /= session.gear_ratio
+        r["torque"] *= session.gear_ratio
+    return r
+
+
 def check_torque_sign(session: Session, p_mech_w, p_elec_w, where: Path) -> None:
     """Raise when p_mech and p_elec disagree in sign where |p_mech| is high.
 
@@ -242,7 +251,7 @@ def process_timeseries(
     check_torque_sign(session, means["p_mech"], p_elec_bins, daq.path)
 
     win = steady.find_windows(means["speed"], means["torque"], p_elec_bins, means["valid_frac"],
-                              session.ranges, config,
+                              _drum_ranges(session), config,
                               usable=(centres >= a_t[fin][0]) & (centres <= a_t[fin][-1]))
     w_start = np.array([t0 + a * dt for a, _ in win.accepted])
     w_end = np.array([t0 + b * dt for _, b in win.accepted])
@@ -300,10 +309,10 @@ def _check_analyzer(path: Path, frame, meta: dict, layout) -> None:
 
     where = lambda row: line_of_row(layout, row)  # noqa: E731
     t = frame["time_s"].to_numpy()
-    NanRunCheck(path, meta["columns"]["time"]["column"], where).feed(t, 0)
-    chk = NanRunCheck(path, meta["columns"]["p_elec"]["column"], where)
-    chk.feed(frame["p_elec_w"].to_numpy(), 0)
-    chk.finish()
+    for q, x in (("time", t), ("p_elec", frame["p_elec_w"].to_numpy())):
+        chk = NanRunCheck(path, meta["columns"][q]["column"], where)
+        chk.feed(x, 0)
+        chk.finish()
     TimeCheck(path, meta["columns"]["time"]["column"], where).feed(t, 0)
     if np.isnan(t).any():
         frame.drop(index=frame.index[np.isnan(t)], inplace=True)
