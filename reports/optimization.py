@@ -158,7 +158,9 @@ def optimization_section(log: InputLog, optimize: Path,
             else:
                 cycles[KIND_KEYS[kind]] = t
         if cycles:
-            out["fig9"] = cycle_figures.torque_speed_figure(cycles, FIG9_WIND_M_S, grid)
+            # paper order: Fig. 9 (b) mechanical, (c) electrical; Fig. 10 (a) electrical
+            mech_first = dict(sorted(cycles.items(), key=lambda kv: kv[0][0] != "mech"))
+            out["fig9"] = cycle_figures.torque_speed_figure(mech_first, FIG9_WIND_M_S, grid)
             out["fig10"] = cycle_figures.power_flow_figure(cycles, FIG9_WIND_M_S)
             out["fig9_periods"] = [
                 {"label": cycle_figures.KIND_LABELS[k], "period_s": fmt(t["time_s"].max(), 2)}

@@ -73,12 +73,6 @@ def campaign_section(log: InputLog, store: Path) -> dict:
     if points is not None and len(points):
         counts = points["quadrant"].astype(str).value_counts()
         quadrant_counts = {q: int(counts.get(q, 0)) for q in ("motor", "generator")}
-        by_session = points.groupby(points["session_id"].astype(str))["quadrant"]
-        for row in sessions:
-            qc = by_session.get_group(row["session_id"]).value_counts() if (
-                row["session_id"] in by_session.groups) else pd.Series(dtype=int)
-            row["store_motor"] = int(qc.get("motor", 0))
-            row["store_generator"] = int(qc.get("generator", 0))
         figure = drive_figures.operating_points_figure(points)
     reasons = []
     if rejected is not None and len(rejected):
@@ -87,7 +81,8 @@ def campaign_section(log: InputLog, store: Path) -> dict:
     elif manifest is not None:
         agg: dict[str, int] = {}
         for entry in manifest["sessions"].values():
-            for r, n in (entry.get("rejected") or {}).items():
+            for r, n in ((entry.get("rejected") if isinstance(entry, dict) else None)
+                         or {}).items():
                 agg[str(r)] = agg.get(str(r), 0) + int(n)
         reasons = [{"reason": r, "count": n} for r, n in sorted(agg.items(), key=lambda x: -x[1])]
     return {
@@ -127,7 +122,6 @@ def _session_row(sid: str, entry: dict) -> dict:
         "instruments": _instruments(
             meta, entry["instruments"] if isinstance(entry.get("instruments"), dict) else {}),
         "metadata": _flatten(meta),
-        "n_files": len(entry.get("files") or {}),
     }
 
 
