@@ -61,6 +61,7 @@ def make_timeseries_session(
     torque_sign_logged: int = 1,
     markers: bool = True,
     power_unit: str = "kW",
+    hunting_hold: int | None = None,
 ) -> Truth:
     """Write ``root/sid/{session.toml, daq.csv|daq.tdms, analyzer.csv}``; return the truth."""
     rng = np.random.default_rng(seed)
@@ -74,6 +75,9 @@ def make_timeseries_session(
     speed = _response(t, steps, [s for s, _ in setpoints], 0.25)
     torque = _response(t, steps, [q for _, q in setpoints], 0.15)
     speed_log = speed + rng.normal(0, 1.0, t.size)
+    if hunting_hold is not None:  # the speed loop hunts at 1.5 Hz, +-8 rpm, in this hold
+        h = (t >= steps[hunting_hold]) & (t < steps[hunting_hold] + hold_s)
+        speed_log[h] += 8.0 * np.sin(2 * np.pi * 1.5 * t[h])
     torque_log = (torque + rng.normal(0, 0.15, t.size)) * torque_sign_logged
 
     prior = 0.85

@@ -157,3 +157,19 @@ def test_user_mapping_for_foreign_export(tmp_path):
     got = read_points(store).sort_values("point_id")
     np.testing.assert_allclose(got.p_elec_w, truth["p_elec_w"], atol=1e-3)
     assert "--mapping/lab_b.json" in read_manifest(store)["sessions"]["lab_b"]["files"]
+
+
+def test_unstable_window_is_rejected_and_reported(tmp_path, capsys):
+    root = tmp_path / "camp"
+    truth = make_timeseries_session(root, "motor_01", hunting_hold=3)
+    store = tmp_path / "store"
+    assert main(["ingest", str(root), "--store", str(store), "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    rej = read_rejected(store)
+    # the hunting hold (8 rpm amplitude, std 5.7 rpm > the 3 rpm tolerance) is rejected
+    assert rej.reason.tolist() == ["speed unstable"]
+    t0 = truth.step_times_s[3]
+    assert t0 <= rej.t_start_s[0] and rej.t_end_s[0] <= t0 + 6.0
+    assert read_manifest(store)["sessions"]["motor_01"]["rejected"] == {"speed unstable": 1}
+    assert len(read_points(store)) == len(truth.setpoints) - 1
+    assert "speed unstable: 1" in out  # the closing summary table
