@@ -58,6 +58,7 @@ def paper_like() -> pd.DataFrame:
                     "period_s": 6.0,
                     "e_elec_j": P_ELEC[kind][i] * 6.0,
                     "peak_speed_rpm": 1500.0,
+                    "peak_torque_nm": 60.0,
                     "p_elec_max_w": 3000.0,
                 }
             )
@@ -101,6 +102,8 @@ def test_each_broken_statement_flips_only_its_verdict():
         "10ms-mech-peak-rpm": ("mech-free-10.0", "peak_speed_rpm", 2000.0),
         # mech-free generating at 8.5 m/s breaks "consumes at every speed"
         "mech-free-consumes": ("mech-free-8.5", "avg_p_elec_w", -10.0),
+        # mech-free equal to mech-lim in P_mech at 7 m/s: limits not active there
+        "mech-lim-eq-free-mech": ("mech-free-7.0", "avg_p_mech_w", -1200.0),
         # elec-free differing from elec-lim at 5.5 m/s by 50 W (> 1 % and > 5 W)
         "elec-lim-eq-free": ("elec-free-5.5", "avg_p_elec_w", -190.0),
     }
@@ -131,7 +134,12 @@ def test_coincidence_tolerance_is_one_percent_or_five_watts():
     s.loc["elec-free-7.0", "avg_p_elec_w"] = -560.0 - 5.5  # 1 % of 565.5 W is 5.7 W
     assert verdicts(s.reset_index())["elec-lim-eq-free"] == AGREES
     s.loc["elec-free-7.0", "avg_p_elec_w"] = -560.0 - 6.0  # 6 W > 5.66 W
-    assert verdicts(s.reset_index())["elec-lim-eq-free"] == DIFFERS
+    s.loc["elec-lim-7.0", "peak_torque_nm"] = 77.8  # within 0.5 % of the 78 N m limit
+    table = evaluate_claims(s.reset_index(), cut_ins()).set_index("claim_id")
+    assert table.loc["elec-lim-eq-free", "verdict"] == DIFFERS
+    # the note names the wind speed and the limit that is active there
+    note = table.loc["elec-lim-eq-free", "note"]
+    assert "at 7 m/s lim -560 W vs free -566 W" in note and "torque 77.8 N m" in note
     s.loc["elec-free-7.0", "avg_p_elec_w"] = -560.0
     # mech: P_mech still equal at 7 m/s contradicts "coincide up to 5.5 m/s only"
     s.loc["mech-free-7.0", "avg_p_mech_w"] = -1200.0
