@@ -5,8 +5,10 @@ Stages (each one IPOPT call, logged with status, iterations and wall time):
 1. ``track``: follow the circular-loop guess at its fixed period, with free
    fictitious forces and moments initialised to the guess's exact residual
    (so the dynamics hold at the start), lightly penalized.
-2. ``penalize-1``, ``penalize-100``: the same with the fictitious forces
-   penalized with weight 1, then 100 (warm starts).
+2. ``penalize-1``, ``penalize-10``, ``penalize-100``: the same with the
+   fictitious forces penalized with a rising weight (warm starts). The issue's
+   prototype went 1 then 100; the intermediate 10 cut the total iterations
+   at N = 40 from 198 to 173 (mechanical) and 206 to 181 (electrical).
 3. ``power``: fictitious forces fixed at zero, period free, the scenario's
    power objective and drive limits.
 
@@ -29,15 +31,15 @@ log = logging.getLogger(__name__)
 
 #: light penalty of stage 1 (keeps the fictitious forces bounded) and the rising weights
 TRACK_FICT_WEIGHT = 1e-3
-PENALTY_WEIGHTS = (1.0, 100.0)
+PENALTY_WEIGHTS = (1.0, 10.0, 100.0)
 
 
 def _record(stages: list[dict], name: str, raw: RawSolve, scenario: Scenario) -> None:
     stages.append({"stage": name, "status": raw.status, "success": raw.success,
                    "iterations": raw.iterations, "wall_time_s": raw.wall_time_s,
                    "cpu_time_s": raw.cpu_time_s})
-    log.info("%s homotopy %-12s %-22s %4d it %6.1f s", scenario.name, name, raw.status,
-             raw.iterations, raw.wall_time_s)
+    log.info("%s homotopy %-12s %-22s %4d it %6.1f s (cpu %.1f s)", scenario.name, name,
+             raw.status, raw.iterations, raw.wall_time_s, raw.cpu_time_s)
 
 
 def power_weights(scenario: Scenario) -> dict[str, float]:
