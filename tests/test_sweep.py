@@ -276,27 +276,33 @@ def test_sweep_on_a_thread_pool_with_progress_events():
 
 
 def test_sweep_on_a_local_dask_cluster():
+    # open_executor(scheduler=ADDRESS) connects its own client to a running cluster,
+    # as bench optimize --scheduler does; in-process workers see this test module
     distributed = pytest.importorskip("distributed")
-    from optimize.executors import DaskChannel
 
     tasks = make_tasks(plan_chains(WINDS, KINDS, 2), PROBLEM, cut_in_kinds=("elec-lim", "mech-lim"))
     with (
         distributed.LocalCluster(
             n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None
         ) as cluster,
-        distributed.Client(cluster) as client,
+        open_executor(scheduler=cluster.scheduler_address) as handle,
     ):
-        executor = client.get_executor(pure=False)
+        assert handle.n_workers == 2 and handle.description.startswith("dask scheduler")
         seen: list[dict] = []
-        channel = DaskChannel("test-progress", client)
         futures = run_tasks(
-            executor, partial(run_chain, backend=NewtonBackend()), tasks, channel, seen.append
+            handle.executor,
+            partial(run_chain, backend=NewtonBackend()),
+            tasks,
+            handle.channel,
+            seen.append,
         )
         assert all(f.exception() is None for f in futures)
         # 20 scenario events and 2 cut-in events came back through the Dask queue
         assert len([e for e in seen if "name" in e]) == 20
         assert sorted(e["cut_in"] for e in seen if "cut_in" in e) == ["elec-lim", "mech-lim"]
-        result = run_sweep(tasks, executor, channel, "dask", NewtonBackend(), show_progress=False)
+        result = run_sweep(
+            tasks, handle.executor, handle.channel, "dask", NewtonBackend(), show_progress=False
+        )
     _check_sweep(result)
 
 
