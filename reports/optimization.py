@@ -109,8 +109,66 @@ def _trajectory(traj: pd.DataFrame | None, summary: pd.DataFrame, kind: str,
     return closed_cycle(rows), None
 
 
+def run_rows(manifest: dict, fit_model_sha256: str | None) -> list[tuple[str, str]]:
+    """How the sweep ran (executor, wall time, convergence, drive model, options) as pairs.
+
+    The drive model the sweep used is compared with the fitted model of the
+    report's section 3 (canonical SHA-256, docs/schemas.md §3).
+    """
+    rows = []
+    for key in ("executor", "wall_time_s", "converged", "failed"):
+        if key in manifest:
+            value = manifest[key]
+            text = fmt(value, 1) if isinstance(value, float) else (
+                ", ".join(map(str, value)) or "none" if isinstance(value, list) else str(value))
+            rows.append((key, text))
+    drive = manifest.get("drive_model")
+    if isinstance(drive, dict):
+        rows.append(("drive model", f"{drive.get('name', '?')} ({drive.get('path', '?')})"))
+        used = drive.get("model_sha256")
+        if used and fit_model_sha256:
+            same = "yes" if used == fit_model_sha256 else "NO: the sweep used another model"
+            rows.append(("same model as section 3", same))
+    options = manifest.get("options")
+    if isinstance(options, dict):
+        rows.extend((f"option {k}", str(v)) for k, v in options.items())
+    return rows
+
+
+def cut_in_rows(manifest: dict) -> list[dict]:
+    """Cut-in wind speeds (net electrical power crosses zero) found by the sweep's search."""
+    rows = []
+    for c in manifest.get("cut_in") or []:
+        if isinstance(c, dict):
+            lo, hi = c.get("bracket_lo_m_s"), c.get("bracket_hi_m_s")
+            rows.append({"kind": str(c.get("kind", "")),
+                         "label": cycle_figures.KIND_LABELS.get(KIND_KEYS.get(
+                             str(c.get("kind")), ("", False)), ""),
+                         "cut_in": fmt(c.get("cut_in_m_s"), 2),
+                         "bracket": f"{fmt(lo, 3)} - {fmt(hi, 3)}" if lo is not None else "",
+                         "status": str(c.get("status", ""))})
+    return rows
+
+
+def trust_tables(manifest: dict) -> dict:
+    """The sweep's trust checks (mesh refinement, independent simulation) as tables."""
+    trust = manifest.get("trust") if isinstance(manifest.get("trust"), dict) else {}
+    out = {}
+    for name in ("mesh", "simulation"):
+        records = [r for r in trust.get(name) or [] if isinstance(r, dict)]
+        out[name] = frame_table(pd.DataFrame(records)) if records else None
+    return out
+
+
+def claims_rows(claims: pd.DataFrame) -> list[dict]:
+    """Rows of claims.csv (statement, paper, ours, verdict, note) as plain strings."""
+    columns = ("claim_id", "statement", "paper", "ours", "verdict", "note")
+    return [{c: str(r.get(c, "")) for c in columns} for r in claims.to_dict(orient="records")]
+
+
 def optimization_section(log: InputLog, optimize: Path,
-                         grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None) -> dict:
+                         grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
+                         fit_model_sha256: str | None = None) -> dict:
     """Section 4 context.
 
     Parameters
@@ -120,13 +178,16 @@ def optimization_section(log: InputLog, optimize: Path,
         The ``bench optimize`` output folder.
     grid : tuple or None
         (speed_rpm, torque_nm, eta) of the efficiency map, beneath Fig. 9.
+    fit_model_sha256 : str, optional
+        Canonical hash of the fitted model, to check the sweep used it.
 
     Returns
     -------
     dict
         ``table_ii``, ``n_failed``, ``scenarios`` (full summary table), ``fig8a``,
         ``fig8b``, ``fig9``, ``fig10``, ``fig3`` (each markup or None), ``notes``
-        (why a figure is absent), ``claims``, ``manifest``, ``missing``.
+        (why a figure is absent), ``claims``, ``run``, ``cut_in``, ``trust``,
+        ``manifest``, ``missing``.
     """
     start = len(log.missing)
     optimize = Path(optimize)
@@ -134,12 +195,15 @@ def optimization_section(log: InputLog, optimize: Path,
     summary = log.parquet(summary_path, SUMMARY_COLUMNS)
     traj = log.parquet(optimize / "trajectories.parquet", TRAJECTORY_COLUMNS)
     manifest = log.json(optimize / "manifest.json")
-    claims = log.csv(optimize / "claims.csv")
+    claims = log.csv(optimize / "claims.csv", ("statement", "paper", "ours", "verdict"))
     out: dict = {"notes": {"fig9": None, "fig3": None}, "manifest": manifest,
                  "table_ii": None, "n_failed": 0, "n_scenarios": 0, "scenarios": None,
                  "fig8a": None, "fig8b": None, "fig9": None, "fig10": None, "fig3": None,
                  "fig9_periods": []}
-    out["claims"] = frame_table(claims) if claims is not None else None
+    out["claims"] = claims_rows(claims) if claims is not None else None
+    out["run"] = run_rows(manifest, fit_model_sha256) if manifest is not None else []
+    out["cut_in"] = cut_in_rows(manifest) if manifest is not None else []
+    out["trust"] = trust_tables(manifest or {})
     if summary is not None and len(summary):
         s = normalized_summary(summary, summary_path)
         out["table_ii"] = table_ii(s)

@@ -43,7 +43,8 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str]) -> di
     summary = log.json(Path(fit) / "fit_summary.json")
     efficiency = sections.efficiency_section(log, fit, model, summary)
     power = sections.power_model_section(log, fit, model, points, summary)
-    opt = optimization.optimization_section(log, optimize, efficiency["grid"])
+    opt = optimization.optimization_section(log, optimize, efficiency["grid"],
+                                            model.sha256 if model is not None else None)
     prov = provenance.provenance_section(
         log, argv, started,
         {"ingest": manifest, "fit": model.provenance if model else None,

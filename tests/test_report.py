@@ -150,7 +150,7 @@ def _cycle(scenario: str, kind: str, wind: float) -> pd.DataFrame:
     })
 
 
-def write_optimize(opt: Path) -> pd.DataFrame:
+def write_optimize(opt: Path, model_sha256: str = "") -> pd.DataFrame:
     """Optimize outputs (docs/schemas.md §5): 20 scenarios, ``mech-free`` at 8.5 m/s failed."""
     opt.mkdir(parents=True, exist_ok=True)
     rows, trajs = [], []
@@ -172,8 +172,13 @@ def write_optimize(opt: Path) -> pd.DataFrame:
     summary.to_parquet(opt / "summary.parquet", index=False)
     pd.concat(trajs, ignore_index=True).to_parquet(opt / "trajectories.parquet", index=False)
     (opt / "manifest.json").write_text(json.dumps(
-        {"schema": "drivebench.optimize", "winds_m_s": list(WINDS),
-         "command": "bench optimize --wind-grid 4:10:1.5"}), encoding="utf-8")
+        {"schema": "drivebench.optimize", "wind_speeds_m_s": list(WINDS),
+         "command_line": ["bench", "optimize", "--wind-grid", "4:10:1.5"],
+         "drive_model": {"path": "fit/power_model.json", "model_sha256": model_sha256,
+                         "name": "test model"},
+         "cut_in": [{"kind": "elec-lim", "cut_in_m_s": 4.7947, "bracket_lo_m_s": 4.75,
+                     "bracket_hi_m_s": 4.796875, "status": "found"}],
+         "trust": {"mesh": [], "simulation": []}}), encoding="utf-8")
     pd.DataFrame({"claim_id": ["fig3-energy"], "statement": ["Fig. 3 cycle nets +827 J"],
                   "paper": ["827 J"], "ours": ["827 J"], "verdict": ["agrees"], "note": [""]}
                  ).to_csv(opt / "claims.csv", index=False)
@@ -186,7 +191,7 @@ def full_inputs(tmp_path_factory) -> dict:
     root = tmp_path_factory.mktemp("report_inputs")
     points = write_store(root / "store")
     model = write_fit(root / "fit", points)
-    summary = write_optimize(root / "opt")
+    summary = write_optimize(root / "opt", model.sha256)
     dirs = (root / "store", root / "fit", root / "opt")
     context = build_context(*dirs, ["bench", "report", "--out", "x.html"])
     report = write_atomic(render(context), root / "report.html")
@@ -242,6 +247,11 @@ def test_table_ii_shows_failed_and_excludes_it(full_inputs):
     assert "1 failed, not shown" in str(opt["fig8a"])
     html = full_inputs["report"].read_text(encoding="utf-8")
     assert f"failed ({FAILED_STATUS})" in html
+    # the sweep's manifest names the fitted model's canonical hash: the report confirms it
+    assert dict(opt["run"])["same model as section 3"] == "yes"
+    assert opt["cut_in"][0]["cut_in"] == "4.79" and opt["cut_in"][0]["label"] == (
+        "elec. optimized, constrained")
+    assert opt["claims"][0]["verdict"] == "agrees"
 
 
 def test_cycle_energy_matches_the_analytic_net_energy(full_inputs):
