@@ -52,6 +52,7 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str]) -> di
     )
     return {
         "title": "drivebench report",
+        "headline": headline(campaign, power, opt),
         "paths": {"store": str(store), "fit": str(fit), "optimize": str(optimize)},
         "campaign": campaign,
         "efficiency": efficiency,
@@ -59,6 +60,29 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str]) -> di
         "optimization": opt,
         "provenance": prov,
     }
+
+
+def headline(campaign: dict, power: dict, opt: dict) -> list[tuple[str, str]]:
+    """Key results for the top of the report, taken from the section contexts."""
+    rows = []
+    totals = campaign["totals"]
+    if totals["points"] is not None:
+        rows.append(("operating points", f"{totals['points']} ({totals['motor']} motor, "
+                                         f"{totals['generator']} generator quadrant)"))
+    stats = {r["name"]: r for r in power["statistics"]}
+    if stats:
+        rows.append(("power model residual", f"std {stats['std of residual']['pct']}, max "
+                     f"{stats['max |residual|']['pct']} of nominal (paper: 1.6 %, < 5 %)"))
+    if opt["table_ii"] is not None:
+        rows.append(("optimizations", f"{opt['n_scenarios'] - opt['n_failed']} of "
+                                      f"{opt['n_scenarios']} converged"))
+    for c in opt["cut_in"]:
+        rows.append((f"cut-in, {c['label'] or c['kind']}", f"{c['cut_in']} m/s"))
+    if opt["claims"]:
+        verdicts = [c["verdict"] for c in opt["claims"]]
+        rows.append(("paper's statements", ", ".join(
+            f"{verdicts.count(v)} {v}" for v in dict.fromkeys(verdicts))))
+    return rows
 
 
 def render(context: dict) -> str:

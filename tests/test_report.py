@@ -252,6 +252,7 @@ def test_table_ii_shows_failed_and_excludes_it(full_inputs):
     assert opt["cut_in"][0]["cut_in"] == "4.79" and opt["cut_in"][0]["label"] == (
         "elec. optimized, constrained")
     assert opt["claims"][0]["verdict"] == "agrees"
+    assert dict(ctx["headline"])["optimizations"] == "19 of 20 converged"
 
 
 def test_cycle_energy_matches_the_analytic_net_energy(full_inputs):
