@@ -16,7 +16,7 @@ is the child's ``ru_maxrss`` from ``os.wait4``. Results: a table on stdout and
 
 Usage::
 
-    .venv/bin/python benchmarks/ingest_benchmark.py [--scale 55] [--campaign DIR] [--keep]
+    .venv/bin/python benchmarks/ingest_benchmark.py [--scale 55] [--campaign DIR] [--workers 2]
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ GOAL_RSS_MIB = 1024.0
 INGEST_CHILD = """
 import sys
 from bench.ingest.pipeline import ingest
-r = ingest([sys.argv[1]], sys.argv[2], progress=False)
+r = ingest([sys.argv[1]], sys.argv[2], progress=False, workers=int(sys.argv[3]))
 assert len(r.ingested) > 0
 """
 
@@ -97,6 +97,7 @@ def main() -> int:
                     help="bench synth --scale (55 gives >= 20 million DAQ rows)")
     ap.add_argument("--campaign", type=Path, default=None,
                     help="reuse (or create here) the campaign instead of a temp dir")
+    ap.add_argument("--workers", type=int, default=2, help="bench ingest --workers (default 2)")
     ap.add_argument("--keep", action="store_true", help="keep the temp campaign and outputs")
     args = ap.parse_args()
 
@@ -113,7 +114,7 @@ def main() -> int:
               f"({rows['daq_csv']:,} in CSV), {rows['analyzer']:,} analyzer rows, "
               f"{size / 2**20:.0f} MiB (synth/check {synth_s:.0f} s)")
 
-        ing = run_child(INGEST_CHILD, str(campaign), str(work / "store"))
+        ing = run_child(INGEST_CHILD, str(campaign), str(work / "store"), str(args.workers))
         base = run_child(BASELINE_CHILD, str(campaign), str(work / "baseline"))
         ing_rows = rows["daq"] + rows["analyzer"] + rows["table"]
         base_rows = rows["daq_csv"] + rows["analyzer"] + rows["table"]
@@ -122,7 +123,7 @@ def main() -> int:
         base["rows_per_s"] = base_rows / base["wall_s"]
         speedup = ing["rows_per_s"] / base["rows_per_s"]
         result = {
-            "scale": args.scale, "campaign_bytes": size, "rows": rows,
+            "scale": args.scale, "workers": args.workers, "campaign_bytes": size, "rows": rows,
             "ingest": ing, "baseline": base, "speedup": speedup,
             "goal": {"speedup": GOAL_SPEEDUP, "peak_rss_mib": GOAL_RSS_MIB,
                      "speedup_met": speedup >= GOAL_SPEEDUP,

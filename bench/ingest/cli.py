@@ -17,13 +17,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="store directory (default: ./bench_store)")
     parser.add_argument("--mapping", type=Path, default=None,
                         help="column mapping (TOML or JSON) for sessions without their own")
+    parser.add_argument("--workers", type=int, default=2,
+                        help="sessions processed at the same time (default 2)")
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
 
 def run(args: argparse.Namespace) -> int:
     """Ingest, then print the summary table; InputError propagates to the dispatcher."""
     result = ingest(args.paths, args.store, mapping_path=args.mapping,
-                    progress=not args.no_progress)
+                    progress=not args.no_progress, workers=args.workers)
     print(format_summary(result.ingested, result.unchanged, result.manifest))
     print(f"store: {result.store_dir}")
     return 0

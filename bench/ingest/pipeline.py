@@ -10,6 +10,7 @@ files changes no byte of the store.
 from __future__ import annotations
 
 import math
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -133,6 +134,7 @@ def ingest(
     config: SteadyConfig = DEFAULT_STEADY,
     progress: bool = True,
     chunk_bytes: int = CHUNK_BYTES,
+    workers: int = 2,
 ) -> IngestResult:
     """Ingest every session under ``paths`` into the store at ``store_dir``.
 
@@ -150,6 +152,8 @@ def ingest(
         Show a tqdm progress bar (bytes of source data).
     chunk_bytes : int
         CSV bytes parsed per chunk [B]; bounds memory.
+    workers : int
+        Sessions processed at the same time (threads); memory grows with it.
 
     Returns
     -------
@@ -195,7 +199,7 @@ def ingest(
         if not todo:
             result.manifest = manifest
             return result
-        _process(todo, store_dir, config, progress, chunk_bytes, result)
+        _process(todo, store_dir, config, progress, chunk_bytes, workers, result)
     finally:
         hasher.shutdown(cancel_futures=True)
     result.manifest = store.read_manifest(store_dir)
@@ -203,32 +207,48 @@ def ingest(
 
 
 def _process(todo, store_dir: Path, config: SteadyConfig, progress: bool, chunk_bytes: int,
-             result: IngestResult) -> None:
-    """Process the changed sessions into a staging dir, then commit them all at once."""
+             workers: int, result: IngestResult) -> None:
+    """Process the changed sessions into a staging dir, then commit them all at once.
 
+    Sessions run in ``workers`` threads: parsing, numpy and Parquet writing release
+    the GIL, so two sessions use two cores. The first failing session (in session
+    order) raises; nothing has been committed then.
+    """
     total = sum(p.stat().st_size for _, _, _, files in todo for p in files.values())
+    lock = threading.Lock()
     with store.staging(store_dir) as stage, tqdm(
         total=total, unit="B", unit_scale=True, desc="ingest", disable=not progress
     ) as bar:
-        staged: dict[str, dict[str, Path]] = {}
-        entries: dict[str, dict] = {}
-        for s, hashes, mapping_file, files in todo:
-            bar.set_postfix_str(s.session_id)
+
+        def one(item) -> tuple[dict[str, Path], SessionOutput]:
+            s, _, mapping_file, files = item
             mapping = load_mapping(mapping_file) if mapping_file is not None else EMPTY_MAPPING
             size = sum(p.stat().st_size for p in files.values())
             done = [0]
 
-            def tick(n: int, done=done, size=size) -> None:
-                n = min(n, size - done[0])
-                done[0] += n
-                bar.update(n)
+            def tick(n: int) -> None:
+                with lock:
+                    n = min(n, size - done[0])
+                    done[0] += n
+                    bar.update(n)
 
             if s.kind == "timeseries":
                 out = process_timeseries(s, mapping, stage, config, chunk_bytes, tick)
             else:
                 out = process_table(s, mapping)
             tick(size)
-            staged[s.session_id] = _stage(stage, s.session_id, out)
+            return _stage(stage, s.session_id, out), out
+
+        pool = ThreadPoolExecutor(max_workers=max(1, workers))
+        try:
+            futures = [pool.submit(one, item) for item in todo]
+            outputs = [f.result() for f in futures]
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+        staged: dict[str, dict[str, Path]] = {}
+        entries: dict[str, dict] = {}
+        for (s, hashes, _, _), (files, out) in zip(todo, outputs, strict=True):
+            staged[s.session_id] = files
             entries[s.session_id] = _entry(s, {k: f.result() for k, f in hashes.items()}, out)
             result.ingested.append(s.session_id)
         store.commit(store_dir, staged, entries)

@@ -29,7 +29,7 @@ from bench.ingest.mapping import EMPTY_MAPPING, Mapping, ResolvedColumn, resolve
 from bench.ingest.scrub import NULL_MARKERS, scrub
 
 #: bytes parsed per chunk; bounds peak memory (about 10 bytes of arrays per byte of CSV)
-CHUNK_BYTES = 32 * 1024 * 1024
+CHUNK_BYTES = 16 * 1024 * 1024
 _SNIFF_BYTES = 64 * 1024
 
 

@@ -33,7 +33,7 @@ from bench.store import POINTS_SCHEMA, REJECTED_SCHEMA, SAMPLES_SCHEMA
 RAD_S_PER_RPM = 2.0 * math.pi / 60.0
 
 #: samples per chunk in the second pass (about 80 bytes of arrays each) [-]
-PASS2_ROWS = 1_000_000
+PASS2_ROWS = 500_000
 
 #: Parquet codec of the samples files
 SAMPLES_COMPRESSION = "snappy"
