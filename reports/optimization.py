@@ -29,8 +29,6 @@ KIND_KEYS = {
     "mech-lim": ("mech", True),
     "mech-free": ("mech", False),
 }
-#: Fig. 9/10: unconstrained cycles at the highest wind (paper: 10 m/s).
-FIG9_WIND_M_S = 10.0
 #: Fig. 3: electrically optimized, constrained cycle at 5.5 m/s.
 FIG3_KIND, FIG3_WIND_M_S = "elec-lim", 5.5
 
@@ -199,7 +197,7 @@ def optimization_section(log: InputLog, optimize: Path,
     out: dict = {"notes": {"fig9": None, "fig3": None}, "manifest": manifest,
                  "table_ii": None, "n_failed": 0, "n_scenarios": 0, "scenarios": None,
                  "fig8a": None, "fig8b": None, "fig9": None, "fig10": None, "fig3": None,
-                 "fig9_periods": []}
+                 "fig9_periods": [], "fig9_wind": None}
     out["claims"] = claims_rows(claims) if claims is not None else None
     out["run"] = run_rows(manifest, fit_model_sha256) if manifest is not None else []
     out["cut_in"] = cut_in_rows(manifest) if manifest is not None else []
@@ -214,9 +212,13 @@ def optimization_section(log: InputLog, optimize: Path,
             s, "avg_p_elec_w", "fig8a", "Average generated ELECTRICAL power (Fig. 8a)")
         out["fig8b"] = cycle_figures.power_vs_wind_figure(
             s, "avg_p_mech_w", "fig8b", "Average generated MECHANICAL power (Fig. 8b)")
+        # Figs. 9 and 10: unconstrained cycles at the highest wind of the sweep (the
+        # paper's most extreme case, 10 m/s on the default grid)
+        wind = float(s["wind_speed_m_s"].max())
+        out["fig9_wind"] = fmt(wind, sig=3)
         cycles, notes = {}, []
         for kind in ("elec-free", "mech-free"):
-            t, why = _trajectory(traj, s, kind, FIG9_WIND_M_S)
+            t, why = _trajectory(traj, s, kind, wind)
             if t is None:
                 notes.append(why)
             else:
@@ -224,8 +226,8 @@ def optimization_section(log: InputLog, optimize: Path,
         if cycles:
             # paper order: Fig. 9 (b) mechanical, (c) electrical; Fig. 10 (a) electrical
             mech_first = dict(sorted(cycles.items(), key=lambda kv: kv[0][0] != "mech"))
-            out["fig9"] = cycle_figures.torque_speed_figure(mech_first, FIG9_WIND_M_S, grid)
-            out["fig10"] = cycle_figures.power_flow_figure(cycles, FIG9_WIND_M_S)
+            out["fig9"] = cycle_figures.torque_speed_figure(mech_first, wind, grid)
+            out["fig10"] = cycle_figures.power_flow_figure(cycles, wind)
             out["fig9_periods"] = [
                 {"label": cycle_figures.KIND_LABELS[k], "period_s": fmt(t["time_s"].max(), 2)}
                 for k, t in cycles.items()]
