@@ -138,7 +138,7 @@ def estimate_clock(
     ta, pa = analyzer_t_s[ok], p_elec_w[ok]
 
     def on_grid(offset: float, t: np.ndarray) -> np.ndarray:
-        return np.interp(t, ta + offset, pa, left=np.nan, right=np.nan)
+        return np.interp(t - offset, ta, pa, left=np.nan, right=np.nan)
 
     pm = _fill(p_mech_w)
 

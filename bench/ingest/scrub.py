@@ -115,19 +115,21 @@ class TimeCheck:
 
     def feed(self, time_s: np.ndarray, row0: int) -> None:
         """Check one chunk of times [s] whose first row has 0-based index ``row0``."""
-        ok = np.flatnonzero(~np.isnan(time_s))
-        if ok.size == 0:
+        nan = np.isnan(time_s)
+        ok = np.flatnonzero(~nan) if nan.any() else None
+        t = time_s if ok is None else time_s[ok]
+        if t.size == 0:
             return
-        t = time_s[ok]
-        d = np.diff(np.concatenate(([self.last], t)))
-        bad = np.flatnonzero(d <= 0)
+        bad = np.flatnonzero(np.diff(t) <= 0) + 1
+        if t[0] <= self.last:
+            bad = np.concatenate(([0], bad))
         if bad.size:
             k = int(bad[0])
             prev = self.last if k == 0 else float(t[k - 1])
-            what = "repeats" if d[k] == 0 else "goes backwards"
+            what = "repeats" if t[k] == prev else "goes backwards"
             raise InputError(
                 self.path, f"time {what}: {float(t[k]):.9g} s after {prev:.9g} s",
-                line=self.line_of_row(row0 + int(ok[k])), column=self.column,
-                expected="strictly increasing time",
+                line=self.line_of_row(row0 + (k if ok is None else int(ok[k]))),
+                column=self.column, expected="strictly increasing time",
             )
         self.last = float(t[-1])
