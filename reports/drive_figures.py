@@ -19,6 +19,10 @@ from reports.svg import new_figure, plain_label, to_svg
 
 QUADRANT_COLORS = {"motor": "#1f77b4", "generator": "#2ca02c"}
 
+#: Above this many points, scatter layers are embedded as a bitmap inside the SVG, so
+#: the report stays small (< 10 MB) for long ``bench synth --scale`` campaigns.
+RASTER_ABOVE_POINTS = 2000
+
 #: Contour spacing of the power map [W] (paper Fig. 6: a line every 500 W).
 POWER_CONTOUR_STEP_W = 500.0
 
@@ -48,6 +52,7 @@ def operating_points_figure(points: pd.DataFrame) -> Markup:
             group["speed_rpm"], group["torque_nm"], s=6, alpha=0.7,
             color=QUADRANT_COLORS.get(str(quadrant), "grey"),
             label=f"{plain_label(quadrant)} ({len(group)})",
+            rasterized=len(points) > RASTER_ABOVE_POINTS,
         )
     ax.axvline(0.0, color="k", lw=0.6)
     ax.set_xlabel("drum speed [rpm] (reel-out / generating < 0)")
@@ -119,7 +124,7 @@ def power_map_figure(model: PowerModel, points: pd.DataFrame) -> Markup:
     all_p = np.concatenate([pg[np.isfinite(pg)], points["p_elec_w"].to_numpy(float)])
     levels = _levels(all_p)
     ax.scatter(points["speed_rpm"], points["torque_nm"], s=3, color="0.6", alpha=0.5,
-               label="measured points")
+               label="measured points", rasterized=len(points) > RASTER_ABOVE_POINTS)
     cs = ax.contour(sg, tg, pg, levels=levels, colors="k", linewidths=0.7)
     ax.contour(sg, tg, pg, levels=[0.0], colors="k", linewidths=2.2)
     ax.clabel(cs, levels=levels[:: max(1, len(levels) // 8)], fontsize=7, fmt="%.0f")
@@ -180,12 +185,14 @@ def residual_figure(points: pd.DataFrame, residual_w: np.ndarray, nominal_power_
     fig = new_figure(9.0, 3.2)
     axes = fig.subplots(1, 3)
     band = 0.05 * nominal_power_w
-    colors = [QUADRANT_COLORS.get(str(q), "grey") for q in points["quadrant"]]
     for ax, col, label in (
         (axes[0], "speed_rpm", "drum speed [rpm]"),
         (axes[1], "torque_nm", "drum torque [N m]"),
     ):
-        ax.scatter(points[col], residual_w, s=3, c=colors, alpha=0.6)
+        for quadrant, idx in points.groupby("quadrant").indices.items():
+            ax.scatter(points[col].to_numpy(float)[idx], residual_w[idx], s=3, alpha=0.6,
+                       color=QUADRANT_COLORS.get(str(quadrant), "grey"),
+                       rasterized=len(points) > RASTER_ABOVE_POINTS)
         for sign in (-1, 1):
             ax.axhline(sign * band, color="tab:red", lw=0.8, ls="--")
         ax.axhline(0.0, color="k", lw=0.6)
