@@ -23,6 +23,9 @@ QUADRANT_COLORS = {"motor": "#1f77b4", "generator": "#2ca02c"}
 #: the report stays small (< 10 MB) for long ``bench synth --scale`` campaigns.
 RASTER_ABOVE_POINTS = 2000
 
+#: Efficiency levels outlined on the map [-].
+EFFICIENCY_CONTOURS = (0.7, 0.8, 0.9)
+
 #: Contour spacing of the power map [W] (paper Fig. 6: a line every 500 W).
 POWER_CONTOUR_STEP_W = 500.0
 
@@ -83,7 +86,12 @@ def efficiency_map_figure(
     fig = new_figure(7.0, 4.0)
     ax = fig.add_subplot()
     draw_efficiency(ax, speed_rpm, torque_nm, eta)
-    ax.set_title("Measured efficiency map (masked cells white)")
+    if np.isfinite(eta).sum() >= 4 and len(speed_rpm) > 1 and len(torque_nm) > 1:
+        cs = ax.contour(speed_rpm, torque_nm, np.ma.masked_invalid(eta),
+                        levels=EFFICIENCY_CONTOURS, colors="k", linewidths=0.5)
+        ax.clabel(cs, fontsize=7, fmt="%.2f")
+    ax.set_title("Measured efficiency map (masked cells white), contours "
+                 + ", ".join(f"{v:g}" for v in EFFICIENCY_CONTOURS), fontsize=9)
     return to_svg(fig, name)
 
 
