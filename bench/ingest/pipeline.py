@@ -239,12 +239,15 @@ def _process(todo, store_dir: Path, config: SteadyConfig, progress: bool, chunk_
             tick(size)
             return _stage(stage, s.session_id, out), out
 
-        pool = ThreadPoolExecutor(max_workers=max(1, workers))
-        try:
-            futures = [pool.submit(one, item) for item in todo]
-            outputs = [f.result() for f in futures]
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
+        if workers <= 1 or len(todo) == 1:
+            outputs = [one(item) for item in todo]
+        else:
+            pool = ThreadPoolExecutor(max_workers=workers)
+            try:
+                futures = [pool.submit(one, item) for item in todo]
+                outputs = [f.result() for f in futures]
+            finally:
+                pool.shutdown(wait=True, cancel_futures=True)
         staged: dict[str, dict[str, Path]] = {}
         entries: dict[str, dict] = {}
         for (s, hashes, _, _), (files, out) in zip(todo, outputs, strict=True):
