@@ -28,7 +28,7 @@ from bench.errors import InputError
 from bench.ingest.mapping import EMPTY_MAPPING, Mapping, ResolvedColumn, resolve_columns
 from bench.ingest.scrub import NULL_MARKERS, scrub
 
-#: bytes parsed per chunk; bounds peak memory (about 10 bytes of arrays per byte of CSV)
+#: CSV bytes parsed per chunk; bounds the memory of the first pass [B]
 CHUNK_BYTES = 16 * 1024 * 1024
 _SNIFF_BYTES = 64 * 1024
 
@@ -324,9 +324,15 @@ def _column(table: pa.Table, name: str, factor: float) -> np.ndarray:
 
 def _line_at(layout: CsvLayout, offset: int) -> int:
     """1-based line number of the line starting at byte ``offset`` (slow path)."""
+    n, left = 0, offset - layout.data_offset
     with layout.path.open("rb") as fh:
         fh.seek(layout.data_offset)
-        n = fh.read(offset - layout.data_offset).count(b"\n")
+        while left > 0:
+            block = fh.read(min(left, 1 << 20))
+            if not block:
+                break
+            n += block.count(b"\n")
+            left -= len(block)
     return layout.data_line + n
 
 
