@@ -147,3 +147,15 @@ def test_failed_first_ingest_creates_no_store(tmp_path, capsys):
     store = tmp_path / "new_store"
     assert main(["ingest", str(tmp_path / "camp"), "--store", str(store), "--no-progress"]) == 2
     assert not store.exists()
+
+
+def test_analyzer_of_another_run(setup, capsys):
+    good, camp, store = setup
+    import shutil
+
+    other = camp.parent / "other"
+    # a run that held one setpoint: its power has no steps to match the DAQ's
+    make_timeseries_session(other, "x", setpoints=[(900.0, 40.0)] * 6, seed=3)
+    shutil.copy(other / "x" / "analyzer.csv", camp / "bad_01" / "analyzer.csv")
+    _fails(setup, capsys, "bad_01/analyzer.csv", "analyzer power does not follow the DAQ",
+           "expected the power-analyzer record of the same bench run as daq.csv")

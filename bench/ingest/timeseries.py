@@ -38,6 +38,9 @@ PASS2_ROWS = 500_000
 #: Parquet codec of the samples files
 SAMPLES_COMPRESSION = "snappy"
 
+#: smallest |correlation| of analyzer and DAQ power steps that counts as aligned [-]
+MIN_ALIGN_CORRELATION = 0.3
+
 #: fraction of high-power samples whose p_mech and p_elec signs may disagree
 MAX_SIGN_DISAGREEMENT = 0.5
 
@@ -244,6 +247,13 @@ def process_timeseries(
     prior = _prior_offset(session, ameta)
     clock = align.estimate_clock(centres, means["p_mech"], analyzer["time_s"].to_numpy(),
                                  analyzer["p_elec_w"].to_numpy(), prior)
+    if abs(clock.correlation) < MIN_ALIGN_CORRELATION:
+        raise InputError(
+            apath, f"analyzer power does not follow the DAQ's speed x torque (peak correlation "
+            f"{clock.correlation:.2f} within {align.MAX_LAG_S:g} s of the header start times)",
+            expected="the power-analyzer record of the same bench run as "
+            f"{daq.path.name}, overlapping it in time",
+        )
     a_t = clock.to_daq(analyzer["time_s"].to_numpy())
     a_p = analyzer["p_elec_w"].to_numpy()
     fin = np.isfinite(a_p)
