@@ -173,3 +173,15 @@ def test_unstable_window_is_rejected_and_reported(tmp_path, capsys):
     assert read_manifest(store)["sessions"]["motor_01"]["rejected"] == {"speed unstable": 1}
     assert len(read_points(store)) == len(truth.setpoints) - 1
     assert "speed unstable: 1" in out  # the closing summary table
+
+
+def test_other_ingest_version_is_reingested(tmp_path):
+    root = tmp_path / "camp"
+    make_points_session(root, "table_01")
+    store = tmp_path / "store"
+    ingest([root], store, progress=False)
+    man = json.loads((store / "manifest.json").read_text())
+    man["sessions"]["table_01"]["ingest_version"] = 0  # as if stored by an older ingest
+    (store / "manifest.json").write_text(json.dumps(man))
+    assert ingest([root], store, progress=False).ingested == ["table_01"]
+    assert ingest([root], store, progress=False).unchanged == ["table_01"]
