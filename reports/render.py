@@ -90,14 +90,25 @@ def render(context: dict) -> str:
     return environment().get_template("report.html").render(**context)
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def write_atomic(text: str, out: Path) -> Path:
-    """Write ``text`` to ``out`` via a temp file in the same folder and ``os.replace``."""
+    """Write ``text`` to ``out`` via a temp file in the same folder and ``os.replace``.
+
+    The file gets the usual permissions of a new file (0666 minus the umask), not
+    the temp file's private 0600: the report is meant to be opened and sent on.
+    """
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             fh.write(text)
+        os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, out)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

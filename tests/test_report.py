@@ -12,7 +12,9 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
 import re
+import stat
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -309,6 +311,10 @@ def test_partial_inputs_render_and_say_what_is_missing(tmp_path, capsys):
     code = main(["report", "--store", str(tmp_path / "store"), "--fit", str(tmp_path / "nofit"),
                  "--optimize", str(tmp_path / "noopt"), "--out", str(out)])
     assert code == 0
+    umask = os.umask(0)
+    os.umask(umask)
+    # a normal new file (not the temp file's private 0600): the report is meant to be shared
+    assert stat.S_IMODE(out.stat().st_mode) == 0o666 & ~umask
     printed = capsys.readouterr().out
     assert str(out.resolve()) in printed and re.search(r"written in \d+\.\d s", printed)
     html = out.read_text(encoding="utf-8")
