@@ -26,7 +26,6 @@ from pathlib import Path
 
 import pandas as pd
 import pyarrow as pa
-import pyarrow.parquet as pq
 
 from bench.errors import InputError
 
@@ -135,13 +134,6 @@ def file_sha256(path: str | Path) -> str:
         for block in iter(lambda: fh.read(1 << 20), b""):
             h.update(block)
     return h.hexdigest()
-
-
-def write_table(table: pa.Table, path: Path) -> None:
-    """Write a Parquet file to a temp name beside ``path`` and move it into place."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    pq.write_table(table, tmp, compression="snappy")
-    os.replace(tmp, path)
 
 
 def write_json(obj: dict, path: Path) -> None:
