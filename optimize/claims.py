@@ -58,8 +58,8 @@ DIFFERENCE_NOTES: dict[str, str] = {
     "cut-in-mech-lim": MODEL_NOTE,
     "cut-in-elec-lim": MODEL_NOTE,
     "cut-in-order": "a violation means a local optimum near the crossing",
-    "mech-free-consumes": "with our model the mechanical optimum reaches drive operating "
-    "points where the drive model's losses do not exceed the mechanical power; " + MODEL_NOTE,
+    "mech-free-consumes": "the drive losses of that cycle are just below its generated "
+    "mechanical power, so the sign of a small net power is sensitive to the model; " + MODEL_NOTE,
     "elec-lim-eq-free": "the drive limits become active at a different wind speed in our "
     "model; " + MODEL_NOTE,
     "mech-lim-eq-free-elec": "the drive limits become active at a different wind speed in "
@@ -68,8 +68,9 @@ DIFFERENCE_NOTES: dict[str, str] = {
     "our model; " + MODEL_NOTE,
     "10ms-mech-period": MODEL_NOTE,
     "10ms-elec-period": MODEL_NOTE,
-    "10ms-mech-peak-rpm": "peak speed is set by the reel-in phase, which the regularization "
-    "and the period bounds shape; " + MODEL_NOTE,
+    "10ms-mech-peak-rpm": "the peak speed comes from the reel-in phase; a cycle that reels in "
+    "slowly under tension (see its stroke and peak torque) never reaches the paper's speed; "
+    + MODEL_NOTE,
     "10ms-peak-p-elec-gap": "peak power is a single extreme sample of the cycle; " + MODEL_NOTE,
 }
 
@@ -110,7 +111,7 @@ def _rows(summary: pd.DataFrame, kind: str) -> pd.DataFrame:
 def _value(summary: pd.DataFrame, kind: str, wind: float, column: str) -> float:
     rows = _rows(summary, kind)
     hit = rows[np.isclose(rows["wind_speed_m_s"], wind, rtol=0, atol=1e-6)]
-    return float(hit[column].iloc[0]) if len(hit) else math.nan
+    return float(hit[column].iloc[0]) if len(hit) and column in hit else math.nan
 
 
 def _pairs(summary: pd.DataFrame, kind_a: str, kind_b: str, column: str) -> pd.DataFrame:
@@ -124,7 +125,9 @@ def _missing(what: str) -> tuple[str, str]:
     return "n/a", f"needs {what}, which is missing from the sweep or did not converge"
 
 
-def _figure(cid: str, statement: str, paper: float, ours: float, unit: str, what: str) -> Claim:
+def _figure(
+    cid: str, statement: str, paper: float, ours: float, unit: str, what: str, facts: str = ""
+) -> Claim:
     paper_txt = f"{paper:g} {unit}"
     if not math.isfinite(ours):
         txt, note = _missing(what)
@@ -138,7 +141,21 @@ def _figure(cid: str, statement: str, paper: float, ours: float, unit: str, what
         paper_txt,
         ours_txt,
         AGREES if ok else DIFFERS,
-        "" if ok else DIFFERENCE_NOTES[cid],
+        "" if ok else (f"{facts}; " if facts else "") + DIFFERENCE_NOTES[cid],
+    )
+
+
+def _cycle_facts(summary: pd.DataFrame, kind: str, wind: float) -> str:
+    """Shape of one of our cycles, for the notes: period, tether, altitude, peaks."""
+
+    def v(column: str) -> float:
+        return _value(summary, kind, wind, column)
+
+    return (
+        f"our {kind} at {wind:g} m/s: period {v('period_s'):.2f} s, tether "
+        f"{v('tether_length_min_m'):.0f}-{v('tether_length_max_m'):.0f} m, altitude "
+        f"{v('altitude_min_m'):.0f}-{v('altitude_max_m'):.0f} m, peak torque "
+        f"{v('peak_torque_nm'):.0f} N m, peak speed {v('peak_speed_rpm'):.0f} rpm"
     )
 
 
@@ -165,6 +182,7 @@ def _fig3(summary: pd.DataFrame) -> list[Claim]:
             period,
             "s",
             what,
+            _cycle_facts(summary, "elec-lim", 5.5),
         ),
         _figure(
             "fig3-energy",
@@ -173,6 +191,7 @@ def _fig3(summary: pd.DataFrame) -> list[Claim]:
             energy,
             "J generated",
             what,
+            _cycle_facts(summary, "elec-lim", 5.5),
         ),
     ]
 
@@ -328,7 +347,7 @@ def _mech_free_consumes(summary: pd.DataFrame) -> Claim:
     gen = rows[rows["avg_p_elec_w"] <= 0]
     why = "; ".join(
         f"generates at {r.wind_speed_m_s:g} m/s: P_mech {r.avg_p_mech_w:.0f} W, P_elec "
-        f"{r.avg_p_elec_w:.0f} W, peak torque {r.peak_torque_nm:.0f} N m, peak speed "
+        f"{r.avg_p_elec_w:.0f} W (drive losses {r.avg_p_elec_w - r.avg_p_mech_w:.0f} W), peak torque {r.peak_torque_nm:.0f} N m, peak speed "
         f"{r.peak_speed_rpm:.0f} rpm"
         for r in gen.itertuples(index=False)
     )
@@ -401,6 +420,7 @@ def _ten_m_s(summary: pd.DataFrame) -> list[Claim]:
             _value(summary, "mech-free", 10.0, "period_s"),
             "s",
             what_m,
+            _cycle_facts(summary, "mech-free", 10.0),
         ),
         _figure(
             "10ms-elec-period",
@@ -409,6 +429,7 @@ def _ten_m_s(summary: pd.DataFrame) -> list[Claim]:
             _value(summary, "elec-free", 10.0, "period_s"),
             "s",
             what_e,
+            _cycle_facts(summary, "elec-free", 10.0),
         ),
         _figure(
             "10ms-mech-peak-rpm",
@@ -417,6 +438,7 @@ def _ten_m_s(summary: pd.DataFrame) -> list[Claim]:
             _value(summary, "mech-free", 10.0, "peak_speed_rpm"),
             "rpm",
             what_m,
+            _cycle_facts(summary, "mech-free", 10.0),
         ),
         _figure(
             "10ms-peak-p-elec-gap",
@@ -426,6 +448,7 @@ def _ten_m_s(summary: pd.DataFrame) -> list[Claim]:
             gap,
             "W",
             f"{what_m} and {what_e}",
+            _cycle_facts(summary, "mech-free", 10.0),
         ),
     ]
 
