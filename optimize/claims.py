@@ -347,8 +347,8 @@ def _mech_free_consumes(summary: pd.DataFrame) -> Claim:
     gen = rows[rows["avg_p_elec_w"] <= 0]
     why = "; ".join(
         f"generates at {r.wind_speed_m_s:g} m/s: P_mech {r.avg_p_mech_w:.0f} W, P_elec "
-        f"{r.avg_p_elec_w:.0f} W (drive losses {r.avg_p_elec_w - r.avg_p_mech_w:.0f} W), peak torque {r.peak_torque_nm:.0f} N m, peak speed "
-        f"{r.peak_speed_rpm:.0f} rpm"
+        f"{r.avg_p_elec_w:.0f} W (drive losses {r.avg_p_elec_w - r.avg_p_mech_w:.0f} W), "
+        f"peak torque {r.peak_torque_nm:.0f} N m, peak speed {r.peak_speed_rpm:.0f} rpm"
         for r in gen.itertuples(index=False)
     )
     return Claim(
