@@ -7,7 +7,9 @@ Measures, on this machine:
   worker processes, cold starts included, cut-in searches and trust checks
   excluded;
 * per warm solve: wall time and iterations (median and max), and the number
-  converged.
+  converged;
+* after the first sweep, the trust checks (mesh check at 2x intervals of each
+  kind's middle-wind cycle, CVODES simulation of every cycle), untimed.
 
 Goals on a 2-core machine: cold start <= 45 s, median warm solve <= 3 s,
 whole sweep <= 120 s on 2 workers, 20/20 converged. The machine load (other
@@ -43,6 +45,7 @@ from optimize.sweep import (
     parse_wind_grid,
     plan_chains,
 )
+from optimize.trust import run_trust_checks
 
 OUT = Path(__file__).resolve().parent / "out"
 GOALS = {"cold_start_s": 45.0, "median_warm_solve_s": 3.0, "sweep_2_workers_s": 120.0}
@@ -77,13 +80,15 @@ def bench_cold_start(problem: Problem, wind: float, repeats: int) -> list[dict]:
     return runs
 
 
-def bench_sweep(problem: Problem, winds, kinds, workers: int) -> dict:
-    """The whole sweep on ``workers`` processes; per-solve statistics."""
+def bench_sweep(problem: Problem, winds, kinds, workers: int, trust: bool) -> dict:
+    """The whole sweep on ``workers`` processes; per-solve statistics; optional trust checks
+    (after the timed sweep, on the same workers)."""
     with open_executor(workers) as handle:
         chains = plan_chains(winds, kinds, handle.n_workers)
         result = run_sweep(
             make_tasks(chains, problem), handle.executor, handle.channel, handle.description
         )
+        checks = run_trust_checks(problem, result.outcomes, winds, handle) if trust else None
     warm = [a for o in result.outcomes for a in o.attempts if a.source is not None]
     cold = [a for o in result.outcomes for a in o.attempts if a.source is None]
     ok_warm = [a for a in warm if a.success]
@@ -119,6 +124,9 @@ def bench_sweep(problem: Problem, winds, kinds, workers: int) -> dict:
             for o in result.outcomes
         ],
     }
+    if checks is not None:
+        out["trust"] = checks
+        print("\n".join(checks["lines"]))
     print(
         f"sweep on {workers} worker(s): {out['converged']}/{out['scenarios']} converged in "
         f"{out['wall_s']:.1f} s; warm solve median {out['warm_wall_s']['median']:.2f} s, "
@@ -136,6 +144,9 @@ def main() -> None:
     ap.add_argument("--intervals", type=int, default=40)
     ap.add_argument("--workers", default="1,2", help="comma list of worker counts to run")
     ap.add_argument("--repeats", type=int, default=1, help="cold-start repetitions")
+    ap.add_argument(
+        "--no-trust", action="store_true", help="skip the trust checks after the first sweep"
+    )
     ap.add_argument("--out", type=Path, default=OUT / "optimize_sweep.json")
     args = ap.parse_args()
 
@@ -152,7 +163,10 @@ def main() -> None:
     }
     if args.repeats > 0:
         report["cold_start"] = bench_cold_start(problem, winds[middle_index(winds)], args.repeats)
-    report["sweeps"] = [bench_sweep(problem, winds, kinds, int(w)) for w in args.workers.split(",")]
+    report["sweeps"] = [
+        bench_sweep(problem, winds, kinds, int(w), trust=(i == 0 and not args.no_trust))
+        for i, w in enumerate(args.workers.split(","))
+    ]
     report["machine_after"] = machine_state()
     two = [s for s in report["sweeps"] if s["workers"] == 2]
     cold = report.get("cold_start", [])

@@ -61,7 +61,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the sweep; exit code 0 if every scenario converged, 1 otherwise."""
+    """Run the sweep; exit code 0 if any scenario converged (failed ones are reported in the
+    files and the table), 1 if none did, 2 on bad input."""
     from optimize.sweep import SweepRequest, format_summary, run_optimize
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
@@ -87,4 +88,7 @@ def run(args: argparse.Namespace) -> int:
         f"\n{n_ok}/{len(outcome.summary)} scenarios converged in {outcome.wall_time_s:.1f} s "
         f"({outcome.executor}); files in {args.out}"
     )
-    return 0 if n_ok == len(outcome.summary) else 1
+    failed = outcome.summary.loc[~outcome.summary["success"], "scenario"].tolist()
+    if failed:
+        print(f"FAILED (status in summary.parquet, never averaged): {', '.join(failed)}")
+    return 0 if n_ok else 1

@@ -2,8 +2,9 @@
 
 * **Mesh check** (:func:`mesh_check`): the same scenario on an OCP with twice
   the intervals, warm-started from the coarse solution (primal values and
-  bound multipliers) interpolated onto the fine grid; reports the relative change of the average electrical and mechanical
-  power. Issue 4 asks for less than 1 %.
+  bound multipliers) interpolated onto the fine grid; reports the relative
+  change of the average electrical and mechanical power. Issue 4 asks for
+  less than 1 %.
 * **Simulation check** (:func:`simulation_check`): the optimal controls
   (piecewise constant per interval) are integrated with CasADi's CVODES
   (variable-order BDF, its own error control; nothing shared with the Radau
