@@ -434,7 +434,10 @@ def _file_sha256(path: Path) -> str:
 
 
 def run_optimize(
-    request: SweepRequest, command_line: list[str] | None = None, show_progress: bool = True
+    request: SweepRequest,
+    command_line: list[str] | None = None,
+    show_progress: bool = True,
+    backend: Any = None,
 ) -> OptimizeOutcome:
     """Plan, run and record a sweep: the library behind ``bench optimize``.
 
@@ -444,6 +447,8 @@ def run_optimize(
     simulation check of every converged scenario); compare with the paper;
     write ``summary.parquet``, ``trajectories.parquet``, ``claims.csv`` and
     ``manifest.json`` (docs/schemas.md §5) atomically into ``request.out``.
+    ``backend`` replaces the CasADi OCP in the chains (see
+    :class:`optimize.chains.Backend`; the trust checks always use the OCP).
     """
     import dataclasses
     import datetime
@@ -462,7 +467,7 @@ def run_optimize(
         chains = plan_chains(request.winds, request.kinds, handle.n_workers)
         tasks = make_tasks(chains, problem, cut_in_kinds, request.cut_in_tol_m_s)
         result = run_sweep(
-            tasks, handle.executor, handle.channel, handle.description, show_progress=show_progress
+            tasks, handle.executor, handle.channel, handle.description, backend, show_progress
         )
         if request.trust:
             from optimize.trust import run_trust_checks

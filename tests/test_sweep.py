@@ -11,6 +11,7 @@ the source's root, so warm starts need fewer iterations, as with IPOPT.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from concurrent.futures import ThreadPoolExecutor
@@ -365,3 +366,99 @@ def test_request_falls_back_to_the_paper_model(tmp_path):
     fit.parent.mkdir()
     save_power_model(paper_model(), fit)
     assert SweepRequest.from_cli(args, fit).drive_model_path == fit
+
+
+@dataclass(frozen=True)
+class CycleResult(Result):
+    """Stand-in result with the cycle fields the output files need."""
+
+    period_s: float = 5.0
+    avg_p_mech_w: float = 0.0
+    trajectory: object = None
+
+
+@dataclass(frozen=True)
+class CycleBackend(NewtonBackend):
+    """NewtonBackend whose results carry a period and a 3-point trajectory."""
+
+    def _newton(self, kind: str, w: float, x: float) -> CycleResult:
+        import pandas as pd
+
+        r = super()._newton(kind, w, x)
+        traj = pd.DataFrame(
+            {
+                "time_s": [1.0, 2.0, 3.0],
+                "l_m": [100.0, 120.0, 110.0],
+                "speed_rpm": [-100.0 * w, 50.0, 80.0 * w],
+                "torque_nm": [10.0 * w, 5.0, 1.0],
+                "p_elec_w": [r.avg_p_elec_w - 100.0, r.avg_p_elec_w, r.avg_p_elec_w + 100.0],
+                "altitude_m": [30.0, 60.0, 45.0],
+            }
+        )
+        return CycleResult(
+            *vars(r).values(), period_s=4.0 + w, avg_p_mech_w=-100.0 * w, trajectory=traj
+        )
+
+
+def test_run_optimize_writes_every_file(tmp_path):
+    import hashlib
+    import json
+
+    import pandas as pd
+
+    from fitting.model_file import PAPER_MODEL_PATH, paper_model
+    from optimize.ocp import OcpOptions
+    from optimize.outputs import field_units, read_summary
+    from optimize.sweep import SweepRequest, run_optimize
+
+    out = tmp_path / "optimize_out"
+    request = SweepRequest(
+        winds=(4.0, 5.5, 7.0),
+        kinds=("elec-lim", "mech-lim"),
+        drive_model=paper_model(),
+        drive_model_path=PAPER_MODEL_PATH,
+        model_note="paper model",
+        options=OcpOptions(),
+        workers=2,
+        out=out,
+    )
+    done = run_optimize(request, ["bench", "optimize"], show_progress=False, backend=CycleBackend())
+    summary = read_summary(out / "summary.parquet")
+    assert len(summary) == 6 and summary["success"].all()
+    # energy per cycle = average power x period, from the stand-in's exact values
+    row = summary.set_index("scenario").loc["mech-lim-7.0"]
+    assert row["e_mech_j"] == pytest.approx(-700.0 * 11.0, rel=1e-12)
+    assert row["peak_speed_rpm"] == 700.0 and row["peak_torque_nm"] == 70.0
+    traj = pd.read_parquet(out / "trajectories.parquet")
+    assert len(traj) == 18 and field_units(out / "trajectories.parquet")["l_m"] == "m"
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["wind_speeds_m_s"] == [4.0, 5.5, 7.0] and manifest["converged"] == 6
+    assert (
+        manifest["drive_model"]["file_sha256"]
+        == hashlib.sha256(PAPER_MODEL_PATH.read_bytes()).hexdigest()
+    )
+    assert manifest["command_line"] == ["bench", "optimize"]
+    assert manifest["options"]["n_intervals"] == 40 and manifest["package_versions"]["casadi"]
+    assert [len(c["scenarios"]) for c in manifest["chains"]] == [3, 3]
+    # the cut-in search recovered the stand-in's crossings (4.8 and 5.5 m/s) and the
+    # claims table says so
+    cut = {c["kind"]: c["cut_in_m_s"] for c in manifest["cut_in"]}
+    assert cut["elec-lim"] == pytest.approx(4.8, abs=0.01)
+    assert cut["mech-lim"] == pytest.approx(5.5, abs=0.01)
+    claims = pd.read_csv(out / "claims.csv").set_index("claim_id")
+    assert claims.loc["cut-in-elec-lim", "verdict"] == "agrees"
+    assert claims.loc["cut-in-order", "verdict"] == "agrees"
+    assert done.claims is not None and set(done.files) == {
+        "summary",
+        "trajectories",
+        "claims",
+        "manifest",
+    }
+    # without claims the old comparison is removed, not left beside new results
+    run_optimize(
+        dataclasses.replace(request, claims=False, winds=(7.0,)),
+        show_progress=False,
+        backend=CycleBackend(),
+    )
+    assert not (out / "claims.csv").exists()
+    assert len(read_summary(out / "summary.parquet")) == 2
