@@ -16,6 +16,11 @@ Chains are independent of one another, so they run in parallel, one chain per
 task (a warm-start chain never leaves its worker). Kinds are grouped so that the
 chains have equal numbers of solves: with two workers the default 20-scenario
 sweep splits into ``elec-lim + elec-free`` and ``mech-lim + mech-free``.
+
+:func:`run_optimize` is the whole ``bench optimize`` command as a library call:
+plan, run on an executor (:mod:`optimize.chains`, :mod:`optimize.executors`),
+trust checks (:mod:`optimize.trust`), paper comparison (:mod:`optimize.claims`)
+and the files (:mod:`optimize.outputs`).
 """
 
 from __future__ import annotations
