@@ -185,3 +185,17 @@ def test_other_ingest_version_is_reingested(tmp_path):
     (store / "manifest.json").write_text(json.dumps(man))
     assert ingest([root], store, progress=False).ingested == ["table_01"]
     assert ingest([root], store, progress=False).unchanged == ["table_01"]
+
+
+def test_workers_do_not_change_the_store(campaign, tmp_path):
+    root, store, _, _, _ = campaign
+    one = tmp_path / "one"
+    ingest([root], one, progress=False, workers=1)
+    a, b = store_tree(store), store_tree(one)
+    # every data file byte-identical (the manifest differs only in ingested_at)
+    assert {k: v for k, v in a.items() if k != "manifest.json"} == {
+        k: v for k, v in b.items() if k != "manifest.json"}
+    ma, mb = read_manifest(store), read_manifest(one)
+    for e in (*ma["sessions"].values(), *mb["sessions"].values()):
+        e.pop("ingested_at")
+    assert ma == mb
