@@ -66,3 +66,17 @@ def test_noise_sigma_and_quadrant():
     # robust to the two steps: within 5 % of the true 2.0 (6000 samples)
     assert noise_sigma(x) == pytest.approx(2.0, rel=0.05)
     assert quadrant(np.array([1.0, -1.0, 0.0])).tolist() == ["motor", "generator", "generator"]
+
+
+def test_blocks_give_the_same_windows(monkeypatch):
+    import bench.ingest.steady as steady
+
+    rng = np.random.default_rng(5)
+    holds = [(int(rng.integers(70, 120)), float(rng.uniform(100, 1500)),
+              float(rng.uniform(1, 78))) for _ in range(60)]
+    speed, torque, p, valid = _series(holds, rng)
+    whole = find_windows(speed, torque, p, valid, RANGES, CFG)
+    monkeypatch.setattr(steady, "BLOCK_BINS", 400)  # ~10 blocks, cut inside transitions
+    blocked = find_windows(speed, torque, p, valid, RANGES, CFG)
+    assert len(whole.accepted) == len(holds)
+    assert blocked.accepted == whole.accepted and blocked.rejected == whole.rejected

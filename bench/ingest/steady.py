@@ -14,6 +14,9 @@ Works on short-bin means (default 0.1 s) of speed, torque and power:
    ``min_window_s``), ``invalid samples`` (more than ``max_invalid`` of the
    samples are NaN), ``speed unstable``, ``torque unstable``, ``power unstable``
    (standard deviation of the bin means above the tolerance).
+
+Long sessions are handled in blocks of :data:`BLOCK_BINS`, each cut at a moving
+bin, so the result equals the whole-series one while memory stays bounded.
 """
 
 from __future__ import annotations
@@ -60,6 +63,9 @@ class SteadyConfig:
 
 
 DEFAULT_STEADY = SteadyConfig()
+
+#: bins handled at a time (one hour at 0.1 s); bounds memory for long sessions
+BLOCK_BINS = 36_000
 
 
 @dataclass(frozen=True)
@@ -136,17 +142,57 @@ def find_windows(
     Windows
     """
     config = DEFAULT_STEADY if config is None else config
-    tol = {
+    tol = tolerances(speed_rpm, torque_nm, p_elec_w, ranges, config)
+    lag = max(1, int(round(config.step_lag_s / config.bin_s)))
+    series = (speed_rpm, torque_nm, p_elec_w, valid_frac)
+    mask_inputs = (speed_rpm, torque_nm, valid_frac,
+                   np.ones(speed_rpm.size, bool) if usable is None else usable)
+    n = speed_rpm.size
+    accepted: list[tuple[int, int]] = []
+    rejected: list[tuple[int, int, str]] = []
+    start = 0
+    while start < n:
+        # blocks of BLOCK_BINS cut inside a transition, so memory does not grow with
+        # the session's length and no window straddles two blocks
+        end = min(start + BLOCK_BINS, n)
+        if end < n:
+            hi = min(end + BLOCK_BINS // 4, n)
+            lo = end - lag
+            moving = _moving_mask(*(x[lo:hi] for x in mask_inputs), tol, lag, config)
+            after = np.flatnonzero(moving[lag:])
+            end = end + int(after[0]) if after.size else end
+        # the mask needs lag bins of context on each side to equal the whole series'
+        lo, hi = max(start - lag, 0), min(end + lag, n)
+        moving = _moving_mask(*(x[lo:hi] for x in mask_inputs), tol, lag, config)
+        moving = moving[start - lo:start - lo + end - start]
+        acc, rej = _block_windows(moving, *(x[start:end] for x in series), tol, config)
+        accepted += [(a + start, b + start) for a, b in acc]
+        rejected += [(a + start, b + start, r) for a, b, r in rej]
+        start = end
+    return Windows(accepted=accepted, rejected=rejected, tolerances=tol)
+
+
+def tolerances(speed_rpm, torque_nm, p_elec_w, ranges: dict[str, float],
+               config: SteadyConfig) -> dict[str, float]:
+    """Tolerance per signal: ``k_tol`` noise sigmas of a bin mean, at least the range floor."""
+    return {
         "speed": max(config.k_tol * noise_sigma(speed_rpm), config.floor_frac * ranges["speed"]),
         "torque": max(config.k_tol * noise_sigma(torque_nm), config.floor_frac * ranges["torque"]),
         "power": max(config.k_tol * noise_sigma(p_elec_w), config.floor_frac * ranges["power"]),
     }
-    lag = max(1, int(round(config.step_lag_s / config.bin_s)))
-    moving = _moving(speed_rpm, lag, config.k_step * tol["speed"])
-    moving |= _moving(torque_nm, lag, config.k_step * tol["torque"])
-    moving |= ~np.isfinite(speed_rpm) & (valid_frac == 0)  # empty bins split segments
-    if usable is not None:
-        moving |= ~usable
+
+
+def _moving_mask(speed, torque, valid, usable, tol, lag, config) -> np.ndarray:
+    """Bins that belong to no segment: stepping, empty, or not usable."""
+    moving = _moving(speed, lag, config.k_step * tol["speed"])
+    moving |= _moving(torque, lag, config.k_step * tol["torque"])
+    moving |= ~np.isfinite(speed) & (valid == 0)  # empty bins split segments
+    moving |= ~usable
+    return moving
+
+
+def _block_windows(moving, speed, torque, p_elec, valid, tol, config):
+    """Accepted and rejected windows of one block (bin indices within the block)."""
     edges = np.diff(np.concatenate(([1], moving.view(np.int8), [1])))
     starts = np.flatnonzero(edges == -1)
     stops = np.flatnonzero(edges == 1)
@@ -154,15 +200,15 @@ def find_windows(
     report_bins = int(round(config.min_report_s / config.bin_s))
     keep = stops - starts >= report_bins
     a, b = starts[keep], stops[keep]
-    stats = {"speed": _RangeStats(speed_rpm), "torque": _RangeStats(torque_nm),
-             "power": _RangeStats(p_elec_w)}
-    a = _settle(speed_rpm, torque_nm, a, b, tol, stats)
-    reason = _check(stats, valid_frac, a, b, tol, min_bins, config)
+    stats = {"speed": _RangeStats(speed), "torque": _RangeStats(torque),
+             "power": _RangeStats(p_elec)}
+    a = _settle(speed, torque, a, b, tol, stats)
+    reason = _check(stats, valid, a, b, tol, min_bins, config)
     ok = reason == ""
     accepted = [(int(i), int(j)) for i, j in zip(a[ok], b[ok], strict=True)]
     rejected = [(int(i), int(j), str(r))
                 for i, j, r in zip(a[~ok], b[~ok], reason[~ok], strict=True)]
-    return Windows(accepted=accepted, rejected=rejected, tolerances=tol)
+    return accepted, rejected
 
 
 def _settle(speed, torque, a, b, tol: dict[str, float], stats: dict) -> np.ndarray:

@@ -86,7 +86,7 @@ class _Bins:
         ids = k[starts]
         n = int(ids[-1]) + 1
         if n > self.sums["rows"].size:
-            size = max(n, 2 * self.sums["rows"].size)
+            size = max(n, self.sums["rows"].size + self.sums["rows"].size // 4)
             for f in self.FIELDS:
                 grown = np.zeros(size)
                 grown[: self.sums[f].size] = self.sums[f]
