@@ -84,9 +84,10 @@ def make_timeseries_session(
     offset = prior + offset_err_s
     ta = np.arange(0.0, duration - offset - 0.5, 1.0 / analyzer_hz)
     td = offset + (1 + drift_ppm * 1e-6) * ta
-    sp = np.interp(td, t, speed)
-    tq = np.interp(td, t, torque)
-    p = paper_p_elec(sp, tq) + rng.normal(0, 3.0, ta.size)
+    # each record is the mean power over the interval that ends at its time stamp
+    sub = td[:, None] - (np.arange(10) + 0.5)[None, :] / 10 / analyzer_hz
+    p_true = paper_p_elec(np.interp(sub, t, speed), np.interp(sub, t, torque)).mean(axis=1)
+    p = p_true + rng.normal(0, 3.0, ta.size)
 
     folder = root / sid
     folder.mkdir(parents=True)

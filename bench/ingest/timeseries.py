@@ -245,7 +245,11 @@ def process_timeseries(
     centres = t0 + (np.arange(n_bins) + 0.5) * dt
 
     prior = _prior_offset(session, ameta)
-    clock = align.estimate_clock(centres, means["p_mech"], analyzer["time_s"].to_numpy(),
+    # a power analyzer's record is the mean over the update interval that ends at its
+    # time stamp: it stands for the middle of that interval
+    interval = float(np.median(np.diff(analyzer["time_s"].to_numpy())))
+    a_mid = analyzer["time_s"].to_numpy() - 0.5 * interval
+    clock = align.estimate_clock(centres, means["p_mech"], a_mid,
                                  analyzer["p_elec_w"].to_numpy(), prior)
     if abs(clock.correlation) < MIN_ALIGN_CORRELATION:
         raise InputError(
@@ -254,7 +258,7 @@ def process_timeseries(
             expected="the power-analyzer record of the same bench run as "
             f"{daq.path.name}, overlapping it in time",
         )
-    a_t = clock.to_daq(analyzer["time_s"].to_numpy())
+    a_t = clock.to_daq(a_mid)
     a_p = analyzer["p_elec_w"].to_numpy()
     fin = np.isfinite(a_p)
     p_elec_bins = np.interp(centres, a_t[fin], a_p[fin], left=np.nan, right=np.nan)
@@ -265,7 +269,6 @@ def process_timeseries(
                               usable=(centres >= a_t[fin][0]) & (centres <= a_t[fin][-1]))
     w_start = np.array([t0 + a * dt for a, _ in win.accepted])
     w_end = np.array([t0 + b * dt for _, b in win.accepted])
-    interval = float(np.median(np.diff(analyzer["time_s"].to_numpy())))
 
     # pass 2
     samples_path = scratch / f"{sid}.samples.parquet"
