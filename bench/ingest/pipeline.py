@@ -9,32 +9,23 @@ files changes no byte of the store.
 
 from __future__ import annotations
 
-import math
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 
-import numpy as np
 import pyarrow.parquet as pq
 from tqdm import tqdm
 
 from bench import store
 from bench.errors import InputError
-from bench.ingest.mapping import EMPTY_MAPPING, Mapping, load_mapping
-from bench.ingest.readers import CHUNK_BYTES, read_points_table
+from bench.ingest.mapping import EMPTY_MAPPING, load_mapping
+from bench.ingest.readers import CHUNK_BYTES
 from bench.ingest.session import Session, discover, load_session
 from bench.ingest.steady import DEFAULT_STEADY, SteadyConfig
-from bench.ingest.timeseries import (
-    SessionOutput,
-    check_torque_sign,
-    points_table,
-    process_timeseries,
-    rejected_table,
-)
-
-RAD_S_PER_RPM = 2.0 * math.pi / 60.0
+from bench.ingest.table import process_table
+from bench.ingest.timeseries import SessionOutput, process_timeseries
 
 #: bump when ingest would compute different points from the same files; sessions
 #: stored by another version are re-ingested
@@ -93,42 +84,6 @@ def session_files(
     elif user_mapping is not None:
         mapping = user_mapping
     return files, mapping
-
-
-def process_table(session: Session, mapping: Mapping) -> SessionOutput:
-    """Read an operating-point table session into store points (drum frame, SI)."""
-    path = session.file("points")
-    frame, meta = read_points_table(path, mapping)
-    meta.pop("layout")
-    gear = session.gear_ratio if session.measured_side == "motor" else 1.0
-    speed = frame["speed_rpm"].to_numpy() * session.speed_sign / gear
-    torque = frame["torque_nm"].to_numpy() * session.torque_sign * gear
-    p_elec = frame["p_elec_w"].to_numpy()
-    if "p_mech_w" in frame:
-        p_mech = frame["p_mech_w"].to_numpy() * session.speed_sign * session.torque_sign
-    else:
-        p_mech = speed * torque * RAD_S_PER_RPM
-    nan = np.full(len(frame), np.nan)
-    std = {
-        "speed_rpm_std": frame.get("speed_rpm_std", nan) / gear,
-        "torque_nm_std": frame.get("torque_nm_std", nan) * gear,
-        "p_mech_w_std": frame.get("p_mech_w_std", nan),
-        "p_elec_w_std": frame.get("p_elec_w_std", nan),
-    }
-    check_torque_sign(session, p_mech, p_elec, path)
-    ok = np.isfinite(speed) & np.isfinite(torque) & np.isfinite(p_elec) & np.isfinite(p_mech)
-    cols = {"speed_rpm": speed, "torque_nm": torque, "p_mech_w": p_mech, "p_elec_w": p_elec}
-    cols.update({k: np.asarray(v, np.float64) for k, v in std.items()})
-    cols = {k: v[ok] for k, v in cols.items()}
-    n_samples = frame["n_samples"].to_numpy() if "n_samples" in frame else np.zeros(len(frame))
-    n_samples = np.nan_to_num(n_samples[ok]).astype(np.int32)
-    nan_ok = np.full(int(ok.sum()), np.nan)
-    points = points_table(session, cols, n_samples, nan_ok, nan_ok, "operating_point_table")
-    rejected = rejected_table(session.session_id, [(math.nan, math.nan, "invalid samples")]
-                              * int((~ok).sum()))
-    info = {"clock_offset_s": None, "clock_drift_ppm": None,
-            "instruments": {"points": meta}, "n_rows": len(frame)}
-    return SessionOutput(points=points, rejected=rejected, samples_path=None, info=info)
 
 
 def ingest(
