@@ -175,7 +175,6 @@ def kite_dae(
         "airspeed_m_s": aero.airspeed_m_s,
         "alpha_rad": aero.alpha_rad,
         "beta_rad": aero.beta_rad,
-        "sin_beta": ca.sin(aero.beta_rad),
         "tension_n": tension,
         "cos_line_angle": cos_line,
         "altitude_m": altitude,

@@ -124,7 +124,7 @@ class Layout:
 
     n_points: int  # grid points with states (N d + 1)
     n_coll: int  # Radau points (N d)
-    i_period: int
+    i_period: np.ndarray  # (N,) one copy of the period per interval, all equal
     i_x: np.ndarray  # (NX, n_points) indices into w
     i_z: np.ndarray  # (NZ, n_coll)
     i_u: np.ndarray  # (NU, N)
@@ -316,7 +316,9 @@ class Ocp:
             lbw[lay.i_f.ravel()] = 0.0
             ubw[lay.i_f.ravel()] = 0.0
         if period_s is not None:
-            lbw[lay.i_period] = ubw[lay.i_period] = period_s / PERIOD_SCALE_S
+            # fix the first copy only: the copies follow through their equality rows
+            # (fixing all would leave those rows with an empty Jacobian)
+            lbw[lay.i_period[0]] = ubw[lay.i_period[0]] = period_s / PERIOD_SCALE_S
         return lbw, ubw, lbg, ubg
 
     def pack(self, x: np.ndarray, z: np.ndarray, u: np.ndarray, fict: np.ndarray,
@@ -336,7 +338,7 @@ class Ocp:
         lay = self.layout
         w = np.asarray(w_scaled).ravel() * lay.scale_w
         return {
-            "period_s": float(w[lay.i_period]),
+            "period_s": float(w[lay.i_period[0]]),
             "x": w[lay.i_x],
             "z": w[lay.i_z],
             "u": w[lay.i_u],
@@ -377,7 +379,7 @@ def build_ocp(
 
     # ---- layout of w
     counter = iter(range(10**9))
-    i_period = next(counter)
+    i_period = np.array([next(counter) for _ in range(n)])
     i_x = np.array([[next(counter) for _ in range(nx)] for _ in range(n_points)]).T
     i_z = np.array([[next(counter) for _ in range(nz)] for _ in range(n_coll)]).T
     i_u = np.array([[next(counter) for _ in range(nu)] for _ in range(n)]).T
@@ -398,8 +400,6 @@ def build_ocp(
     p = ca.SX.sym("p", n_p)
     wind, w_elec, w_mech, w_reg, w_track, w_fict = (p[i] for i in range(n_par))
     ws = w * ca.DM(scale_w)
-    period = ws[i_period]
-    h = period / n
 
     def col(idx: np.ndarray, k: int) -> ca.SX:
         return ws[[int(i) for i in idx[:, k]]]
@@ -425,11 +425,13 @@ def build_ocp(
             tag.extend(range(n_g, n_g + size))
         n_g += size
 
+    out_names = dae.outputs.name_out()
     inv_sx = ca.DM(1.0 / km.STATE_SCALE)
     inv_res = ca.DM(1.0 / km.RESIDUAL_SCALE)
     p_elec_avg, p_mech_avg, reg, track, fict_pen = 0, 0, 0, 0, 0
     for k in range(n):
         u_k = us[k]
+        h = ws[int(i_period[k])] / n
         reg += ca.sumsqr(u_k / ca.DM(CONTROL_SIGMA)) / n
         for j in range(1, d + 1):
             ip = k * d + j  # grid point of this Radau point
@@ -438,13 +440,13 @@ def build_ocp(
             xp = sum(coll.deriv[r, j - 1] * xs[k * d + r] for r in range(d + 1))
             add((xp - h * dae.ode(x_kj, u_k, z_kj)) * inv_sx, 0.0, 0.0)
             add(dae.alg(x_kj, u_k, z_kj, wind, fs[ic]) * inv_res, 0.0, 0.0)
-            out = dae.outputs(x_kj, u_k, z_kj, wind)
-            airspeed, alpha, beta = out[0], out[1], out[2]
-            cos_line = out[5]
-            add(airspeed / 30.0, o.min_airspeed_m_s / 30.0, np.inf)
-            add(alpha / (10 * deg), o.alpha_bounds_deg[0] / 10, o.alpha_bounds_deg[1] / 10)
-            add(beta / (10 * deg), o.beta_bounds_deg[0] / 10, o.beta_bounds_deg[1] / 10)
-            add(cos_line, np.cos(o.max_line_angle_deg * deg), np.inf)
+            out = dict(zip(out_names, dae.outputs(x_kj, u_k, z_kj, wind), strict=True))
+            add(out["airspeed_m_s"] / 30.0, o.min_airspeed_m_s / 30.0, np.inf)
+            add(out["alpha_rad"] / (10 * deg), o.alpha_bounds_deg[0] / 10,
+                o.alpha_bounds_deg[1] / 10)
+            add(out["beta_rad"] / (10 * deg), o.beta_bounds_deg[0] / 10,
+                o.beta_bounds_deg[1] / 10)
+            add(out["cos_line_angle"], np.cos(o.max_line_angle_deg * deg), np.inf)
             l_kj, dl_kj, nu_kj = x_kj[km.IDX["l_m"]], x_kj[km.IDX["dl_m_s"]], z_kj[6]
             tension = l_kj * nu_kj
             torque = drum_torque_nm(tension, r_w)
@@ -458,6 +460,9 @@ def build_ocp(
         ref = p[[int(i) for i in i_p_ref[:, k]]]
         track += ca.sumsqr(xs[k] * inv_sx - ref) / n_points
 
+    # one period copy per interval keeps the KKT matrix banded (no dense period column)
+    add(ca.vertcat(*[(ws[int(i_period[k + 1])] - ws[int(i_period[k])]) / PERIOD_SCALE_S
+                     for k in range(n - 1)]), 0.0, 0.0)
     # invariants at t = 0 (c, dc/dt, orthonormal R)
     c0, cdot0, orth0 = dae.invariants(xs[0])
     add(c0 / 100.0, 0.0, 0.0)
