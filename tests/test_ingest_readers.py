@@ -128,3 +128,12 @@ def test_mapping_toml_and_json_agree_and_reject_bad_entries(tmp_path):
     bad.write_text('[daq.columns.voltage]\ncolumn = "U"\nunit = "V"\n')
     with pytest.raises(InputError, match=r"unknown quantity \[daq.columns.voltage\]"):
         load_mapping(bad)
+
+
+def test_byte_order_mark_and_crlf(tmp_path):
+    p = tmp_path / "daq.csv"
+    p.write_bytes(b"\xef\xbb\xbfTime [s],Speed [rpm],Torque [N m]\r\n0.0,10,1\r\n0.1,11,2\r\n")
+    meta, v, _ = _read(p)
+    assert meta["columns"]["time"]["column"] == "Time [s]"
+    np.testing.assert_array_equal(v["speed"], [10.0, 11.0])
+    np.testing.assert_array_equal(v["time"], [0.0, 0.1])

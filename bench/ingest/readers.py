@@ -166,6 +166,8 @@ def sniff_csv(path: str | Path, preamble: bool = False) -> CsvLayout:
     if len(head) == _SNIFF_BYTES:
         raw_lines = raw_lines[:-1]  # the last line may be cut by the sniff window
     lines = [ln.decode(encoding, errors="replace") for ln in raw_lines]
+    if lines and lines[0].startswith("\ufeff"):  # a UTF-8 byte-order mark (Excel exports)
+        lines[0] = lines[0][1:]
     offsets = np.cumsum([0] + [len(ln) + 1 for ln in raw_lines]).tolist()
 
     idx = 0
