@@ -88,6 +88,9 @@ def read_manifest(store_dir: str | Path) -> dict:
     InputError
         The file exists but is not a drivebench store manifest.
     """
+    if Path(store_dir).exists() and not Path(store_dir).is_dir():
+        raise InputError(store_dir, "the store is not a directory",
+                         expected="a store directory (created when missing)")
     path = Path(store_dir) / "manifest.json"
     if not path.exists():
         return empty_manifest()

@@ -67,3 +67,10 @@ def test_failed_staging_removes_a_store_it_created(tmp_path):
     with pytest.raises(RuntimeError), staging(store):
         raise RuntimeError("boom")
     assert [p.name for p in store.iterdir()] == ["keep.txt"]
+
+
+def test_store_path_that_is_a_file(tmp_path):
+    f = tmp_path / "store"
+    f.write_text("not a store")
+    with pytest.raises(InputError, match="the store is not a directory"):
+        read_manifest(f)
