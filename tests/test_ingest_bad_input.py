@@ -159,3 +159,18 @@ def test_analyzer_of_another_run(setup, capsys):
     shutil.copy(other / "x" / "analyzer.csv", camp / "bad_01" / "analyzer.csv")
     _fails(setup, capsys, "bad_01/analyzer.csv", "analyzer power does not follow the DAQ",
            "expected the power-analyzer record of the same bench run as daq.csv")
+
+
+@pytest.mark.parametrize(("keep", "problem"), [
+    (0.5, "differ in length"), (100, "TDMS file holds no groups (truncated file?)")])
+def test_truncated_tdms(tmp_path, capsys, keep, problem):
+    good = tmp_path / "good"
+    make_timeseries_session(good, "good_01", markers=False)
+    camp = tmp_path / "camp"
+    make_timeseries_session(camp, "bad_01", daq_format="tdms")
+    p = camp / "bad_01" / "daq.tdms"
+    data = p.read_bytes()
+    p.write_bytes(data[: int(len(data) * keep) if keep < 1 else keep])
+    store = tmp_path / "store"
+    assert main(["ingest", str(good), "--store", str(store), "--no-progress"]) == 0
+    _fails((good, camp, store), capsys, "daq.tdms", problem)

@@ -427,36 +427,49 @@ def open_daq_tdms(
         raise InputError(path, "file is empty", expected="a TDMS file")
     if head != b"TDSm":
         raise InputError(path, "not a TDMS file (no 'TDSm' lead-in)", expected="an NI TDMS file")
-    with TdmsFile.open(path) as tdms:
-        names = [g.name for g in tdms.groups()]
-        if group not in names:
-            raise InputError(path, f"no TDMS group {group!r}", column=group,
-                             expected="one of " + ", ".join(repr(n) for n in names))
-        channels = tdms[group].channels()
-        headers = [c.name for c in channels]
-        units = [str(c.properties.get("unit_string", "")) for c in channels]
-        lengths = {c.name: len(c) for c in channels}
+    try:
+        with TdmsFile.open(path) as tdms:
+            names = [g.name for g in tdms.groups()]
+            if not names:
+                raise InputError(path, "TDMS file holds no groups (truncated file?)",
+                                 expected=f"a group {group!r} with Time, Speed, Torque")
+            if group not in names:
+                raise InputError(path, f"no TDMS group {group!r}", column=group,
+                                 expected="one of " + ", ".join(repr(n) for n in names))
+            channels = tdms[group].channels()
+            headers = [c.name for c in channels]
+            units = [str(c.properties.get("unit_string", "")) for c in channels]
+            lengths = {c.name: len(c) for c in channels}
+    except InputError:
+        raise
+    except Exception as exc:  # npTDMS raises several types for a damaged file
+        raise InputError(path, f"unreadable TDMS file ({exc})",
+                         expected="an NI TDMS file written completely") from exc
     cols = resolve_columns(path, headers, units, "daq", required=("time", "speed", "torque"),
                            mapping=mapping)
     n_rows = {lengths[r.header] for r in cols.values()}
     if len(n_rows) != 1:
-        raise InputError(path, f"channels of group {group!r} differ in length {sorted(n_rows)}",
-                         expected="Time, Speed and Torque of equal length")
+        raise InputError(path, f"channels of group {group!r} differ in length {sorted(n_rows)}"
+                         " (truncated file?)", expected="Time, Speed and Torque of equal length")
     n = n_rows.pop()
     if n == 0:
         raise InputError(path, "TDMS channels hold no data", expected="data samples")
     size = path.stat().st_size
+
+    def read(grp, name: str, start: int, length: int) -> np.ndarray:
+        try:
+            return np.asarray(grp[name].read_data(start, length), dtype=np.float64)
+        except Exception as exc:  # a truncated or damaged data segment
+            raise InputError(path, f"unreadable TDMS data at sample {start} ({exc})",
+                             column=name, expected="an NI TDMS file written completely") from exc
 
     def chunks() -> Iterator[Chunk]:
         with TdmsFile.open(path) as tdms_file:
             grp = tdms_file[group]
             for start in range(0, n, chunk_rows):
                 length = min(chunk_rows, n - start)
-                values = {
-                    q: scrub(np.asarray(grp[r.header].read_data(start, length), dtype=np.float64))
-                    * r.factor
-                    for q, r in cols.items()
-                }
+                values = {q: scrub(read(grp, r.header, start, length)) * r.factor
+                          for q, r in cols.items()}
                 yield Chunk(row0=start, values=values, nbytes=int(size * length / n))
 
     meta = {"format": "tdms", "group": group, "columns": csv_columns_meta(cols), "rows": n}
