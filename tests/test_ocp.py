@@ -10,7 +10,7 @@ from fitting.model_file import paper_model
 from optimize.collocation import radau
 from optimize.drive import drum_speed_rpm, drum_torque_nm, max_reel_speed_m_s, mechanical_power_w
 from optimize.kite_model import kite_dae
-from optimize.ocp import CONTROL_SIGMA, OcpOptions, build_ocp
+from optimize.ocp import OcpOptions, build_ocp
 from optimize.scenario import Scenario
 from optimize.solve import cold_start, solve
 
@@ -86,7 +86,7 @@ def test_objective_in_nlp_equals_numpy_power_of_trajectory(solved):
     traj = elec.trajectory
     u = traj.groupby("interval")[["dddl_m_s3", "daileron_rad_s", "delevator_rad_s",
                                   "drudder_rad_s"]].first().to_numpy()
-    reg = ((u / CONTROL_SIGMA) ** 2).sum() / N_COARSE
+    reg = ((u / np.array(ocp.options.control_sigma)) ** 2).sum() / N_COARSE
     expected = elec.avg_p_elec_w / 1000.0 + ocp.options.regularization * reg
     assert elec.objective == pytest.approx(expected, rel=1e-9)
 
