@@ -1,8 +1,8 @@
 """The committed synthetic campaign (raw_measurements/) and the generator that made it.
 
 Truths used: REFERENCE.md's quadratic and campaign ranges, the paper's fit statistics
-(std 1.6 % of 8.2 kW, max < 5 %), the files' own headers, and a fresh run of the
-generator (determinism).
+(std 1.6 % of 8.2 kW, max < 5 %), the files' own headers, the fault parameters recorded
+in truth.json, and a fresh run of the generator (determinism).
 """
 
 import json
@@ -18,7 +18,7 @@ import pytest
 from nptdms import TdmsFile
 
 from bench.cli import main
-from bench.synth import session_files
+from bench.synth import faults, session_files
 from bench.synth.campaign import DEFAULT_SEED, generate, is_complete, plan_campaign
 from bench.synth.loss_model import PAPER_QUADRATIC, LossModel, fit_quadratic, true_p_elec_w
 
@@ -58,10 +58,12 @@ def test_another_seed_gives_other_data(tmp_path, fresh):
     assert sorted(_files(tmp_path)) == sorted(_files(fresh))
 
 
-def _truth_points(truth) -> pd.DataFrame:
+def _truth_points(truth, good_only: bool = True) -> pd.DataFrame:
+    """The true points; by default only the good ones (the faulty ones an ingest rejects)."""
     frames = [pd.DataFrame(info["points"]).assign(session=sid, mode=info["mode"])
               for sid, info in truth["sessions"].items()]
-    return pd.concat(frames, ignore_index=True)
+    pts = pd.concat(frames, ignore_index=True)
+    return pts[pts.fault == ""] if good_only else pts
 
 
 def _check_paper_fit(coef, resid, tol_a123):
@@ -149,6 +151,61 @@ def _read_analyzer(path: Path) -> tuple[dict, pd.DataFrame, float]:
     return header, df, factor
 
 
+def _daq_drum(folder: Path, meta: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Time [s], drum speed [rpm] and drum torque [N m] of a session's DAQ file."""
+    daq = _read_daq(folder, meta)
+    gear = meta["gear_ratio"] if meta["measured_side"] == "motor" else 1.0
+    return (daq.t.to_numpy(), daq.n.to_numpy() / gear * meta["speed_sign"],
+            daq["T"].to_numpy() * gear * meta["torque_sign"])
+
+
+def test_faults_and_tare_are_in_the_files(truth):
+    cfg = faults.DEFAULT_FAULTS
+    for sid, info in truth["sessions"].items():
+        pts = pd.DataFrame(info["points"])
+        if info["kind"] != "timeseries":
+            assert (pts.fault == "").all() and "tare" not in info
+            continue
+        # per_kind setpoints of each of the mode's faults, never neighbours, never first/last
+        bad = {b["point_id"]: b for b in info["bad_points"]}
+        assert sorted(pts.index[pts.fault != ""]) == sorted(bad)
+        assert sorted(b["fault"] for b in bad.values()) == sorted(
+            faults.KINDS[info["mode"]] * cfg.per_kind)
+        ids = np.array(sorted(bad))
+        assert ids.min() >= 1 and ids.max() <= len(pts) - 2 and np.diff(ids).min() >= 2
+        assert info["n_good_points"] == len(pts) - len(bad)
+        folder = RAW / sid
+        meta = tomllib.loads((folder / "session.toml").read_text(encoding="utf-8"))
+        t, n, torque = _daq_drum(folder, meta)
+        # the tare: standstill (speed noise 0.4 rpm, 15 sigma) and the flange offset alone
+        # (median of >= 400 samples of 0.06 N m noise x gear: 0.05 N m is > 8 sigma)
+        tare = t <= info["tare"]["t_end_s"] - 0.5
+        assert info["tare"]["t_end_s"] >= 8.0 and pts.t_step_s[0] == info["tare"]["t_end_s"]
+        assert np.nanmax(np.abs(n[tare])) < 6.0
+        assert np.nanmedian(torque[tare]) == pytest.approx(info["torque_zero_offset_drum_nm"],
+                                                           abs=0.05)
+        for k, b in bad.items():
+            p = pts.loc[k]
+            inside = (t >= p.t_start_s) & (t < p.t_end_s)
+            if b["fault"] == faults.EARLY:
+                # held for the torque settling time and well under a second more
+                assert p.speed_set_rpm == pts.speed_set_rpm[k - 1]
+                assert p.t_end_s - p.t_step_s == pytest.approx(2.0 + b["steady_s"], abs=1e-3)
+                assert b["steady_s"] < 1.0
+            elif b["fault"] == faults.HUNTING:
+                # a sine of amplitude A has std A/sqrt(2); the sensor adds 0.4 rpm of noise
+                assert info["mode"] == "motor" and abs(p.speed_set_rpm) < 300
+                std = np.nanstd(n[inside])
+                assert std == pytest.approx(b["amplitude_rpm"] / np.sqrt(2), rel=0.1), (sid, k)
+            else:
+                # the torque sags linearly at the recorded rate (line through >= 200 samples
+                # of 0.06-0.18 N m noise: the slope is good to a few 0.01 N m/s)
+                assert p.torque_set_nm >= cfg.drift_min_torque_nm
+                ok = inside & np.isfinite(torque)
+                slope = np.polyfit(t[ok], torque[ok], 1)[0]
+                assert slope == pytest.approx(-b["rate_nm_per_s"], abs=0.05), (sid, k)
+
+
 def _window_means(t, values, t_start, t_end):
     k = np.searchsorted(t_start, t, side="right") - 1
     inside = (k >= 0) & (t < t_end[np.clip(k, 0, None)]) & ~np.isnan(values)
@@ -169,6 +226,7 @@ def test_files_parse_back_and_follow_the_truth(truth):
             assert key in meta
         assert set(meta["sensors"]) == {"torque_range_nm", "speed_range_rpm", "power_range_w"}
         pts = pd.DataFrame(info["points"])
+        pts = pts[pts.fault == ""]  # faulty setpoints: their own test above
         if meta["kind"] == "operating_points":
             mapping = tomllib.loads((folder / meta["points"]["mapping"]).read_text("utf-8"))
             table = pd.read_csv(folder / meta["points"]["file"])

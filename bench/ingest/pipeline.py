@@ -29,7 +29,7 @@ from bench.ingest.timeseries import SessionOutput, process_timeseries
 
 #: bump when ingest would compute different points from the same files; sessions
 #: stored by another version are re-ingested
-INGEST_VERSION = 1
+INGEST_VERSION = 2  # 2: torque zero offset from the tare
 
 
 @dataclass

@@ -21,13 +21,16 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict) ->
     -------
     str
         A plain-text table: session, status, kind, mode, points per quadrant,
-        rejected windows by reason, clock offset [s] and drift [ppm].
+        clock offset [s] and drift [ppm], torque-flange zero offset subtracted
+        [N m] (``none`` without a tare), rejected windows by reason; then one line
+        per session without a tare saying why.
     """
     head = ("session", "status", "kind", "mode", "motor", "generator", "offset_s", "drift_ppm",
-            "rejected")
+            "zero_nm", "rejected")
     rows = []
     tot = {"motor": 0, "generator": 0}
     tot_rej: dict[str, int] = {}
+    no_tare = []
     for sid in sorted(ingested + unchanged):
         e = manifest["sessions"][sid]
         q = e["points_per_quadrant"]
@@ -39,17 +42,23 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict) ->
             sid, "ingested" if sid in ingested else "unchanged", e["kind"], e["mode"],
             str(q.get("motor", 0)), str(q.get("generator", 0)),
             _fmt(e.get("clock_offset_s"), ".4f"), _fmt(e.get("clock_drift_ppm"), ".1f"),
+            "none" if e.get("torque_zero_offset_nm") is None
+            else format(e["torque_zero_offset_nm"], ".3f"),
             ", ".join(f"{r}: {n}" for r, n in e["rejected"].items()) or "-",
         ))
+        if e.get("torque_zero_offset_nm") is None:
+            no_tare.append(f"{sid}: {e.get('torque_zero_note', 'no tare recorded')}")
     rows.append(("total", f"{len(ingested)} new", "", "", str(tot["motor"]),
-                 str(tot["generator"]), "", "",
+                 str(tot["generator"]), "", "", "",
                  ", ".join(f"{r}: {n}" for r, n in sorted(tot_rej.items())) or "-"))
     widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(head)]
-    right = {4, 5, 6, 7}
+    right = {4, 5, 6, 7, 8}
 
     def line(cells) -> str:
         return "  ".join(c.rjust(w) if i in right else c.ljust(w)
                          for i, (c, w) in enumerate(zip(cells, widths, strict=True))).rstrip()
 
     sep = "  ".join("-" * w for w in widths)
-    return "\n".join([line(head), sep, *(line(r) for r in rows[:-1]), sep, line(rows[-1])])
+    notes = [f"no torque-flange tare, torque not zero-corrected: {n}" for n in no_tare]
+    return "\n".join([line(head), sep, *(line(r) for r in rows[:-1]), sep, line(rows[-1]),
+                      *notes])

@@ -50,5 +50,8 @@ def process_table(session: Session, mapping: Mapping) -> SessionOutput:
     rejected = rejected_table(session.session_id, [(math.nan, math.nan, "invalid samples")]
                               * int((~ok).sum()))
     info = {"clock_offset_s": None, "clock_drift_ppm": None,
+            "torque_zero_offset_nm": None, "torque_zero_tare": None,
+            "torque_zero_note": "operating-point table: already averaged, no standstill "
+                                "samples to tare (torque taken as logged)",
             "instruments": {"points": meta}, "n_rows": len(frame)}
     return SessionOutput(points=points, rejected=rejected, samples_path=None, info=info)

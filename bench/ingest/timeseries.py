@@ -4,11 +4,13 @@ Two passes over the DAQ so memory does not grow with the file:
 
 1. Stream the DAQ file in chunks: check time and NaN runs, map into the drum
    frame, spill time/speed/torque to raw float64 scratch files, and accumulate
-   0.1 s bin sums. Align the analyzer on the bins (:mod:`align`), check the
-   torque sign, detect steady windows (:mod:`steady`).
-2. Stream the scratch files back: as-of join the analyzer power, tag samples
-   with their window, accumulate exact window statistics, and write the samples
-   Parquet file row group by row group.
+   0.1 s bin sums, and collect the leading standstill (:mod:`tare`). Subtract
+   the flange zero offset the tare gives from the bin means, align the analyzer
+   on the bins (:mod:`align`), check the torque sign, detect steady windows
+   (:mod:`steady`) after the tare.
+2. Stream the scratch files back: subtract the zero offset, as-of join the
+   analyzer power, tag samples with their window, accumulate exact window
+   statistics, and write the samples Parquet file row group by row group.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from bench.errors import InputError
-from bench.ingest import align, steady
+from bench.ingest import align, steady, tare
 from bench.ingest.mapping import Mapping
 from bench.ingest.readers import CHUNK_BYTES, DaqStream, open_daq_csv, open_daq_tdms, read_analyzer
 from bench.ingest.scrub import NanRunCheck, TimeCheck
@@ -97,11 +99,13 @@ class _Bins:
         for f, x in (("speed", speed), ("torque", torque)):
             self.sums[f][ids] += np.add.reduceat(np.where(ok, x, 0.0), starts)
 
-    def means(self, n_bins: int) -> dict[str, np.ndarray]:
-        """Bin means of speed and torque, their product as ``p_mech`` [W], valid fraction."""
+    def means(self, n_bins: int, torque_offset_nm: float = 0.0) -> dict[str, np.ndarray]:
+        """Bin means of speed and torque (less ``torque_offset_nm``), their product as
+        ``p_mech`` [W], valid fraction."""
         valid = self.sums["valid"][:n_bins]
         with np.errstate(invalid="ignore", divide="ignore"):
             out = {f: self.sums[f][:n_bins] / valid for f in ("speed", "torque")}
+            out["torque"] = out["torque"] - torque_offset_nm
             out["valid_frac"] = np.where(self.sums["rows"][:n_bins] > 0,
                                          valid / self.sums["rows"][:n_bins], 0.0)
         # product of 0.1 s means: enough for the alignment; points use exact sample means
@@ -210,6 +214,8 @@ def process_timeseries(
     tcheck = TimeCheck(daq.path, cols["time"]["column"], daq.line_of_row)
     nan_checks = {q: NanRunCheck(daq.path, cols[q]["column"], daq.line_of_row)
                   for q in ("time", "speed", "torque")}
+    ranges = _drum_ranges(session)
+    tare_finder = tare.TareFinder(ranges["speed"], ranges["torque"])
     spill = {q: scratch / f"{sid}.{q}.f64" for q in ("time", "speed", "torque")}
     handles = {q: open(p, "wb") for q, p in spill.items()}
     n_rows = n_total = 0
@@ -226,6 +232,7 @@ def process_timeseries(
             if not keep.all():
                 t, speed, torque = t[keep], speed[keep], torque[keep]
             if t.size:
+                tare_finder.feed(t, speed, torque)
                 bins.add(t, speed, torque)
                 for q, arr in (("time", t), ("speed", speed), ("torque", torque)):
                     arr.tofile(handles[q])
@@ -240,7 +247,9 @@ def process_timeseries(
         raise InputError(daq.path, "no data rows", expected="DAQ samples")
 
     n_bins = int(np.flatnonzero(bins.sums["rows"])[-1]) + 1
-    means = bins.means(n_bins)
+    zero, no_tare_why = tare_finder.result()
+    offset = zero.offset_nm if zero is not None else 0.0
+    means = bins.means(n_bins, offset)
     t0, dt = bins.t0, config.bin_s
     centres = t0 + (np.arange(n_bins) + 0.5) * dt
 
@@ -264,9 +273,11 @@ def process_timeseries(
     p_elec_bins = np.interp(centres, a_t[fin], a_p[fin], left=np.nan, right=np.nan)
     check_torque_sign(session, means["p_mech"], p_elec_bins, daq.path)
 
+    usable = (centres >= a_t[fin][0]) & (centres <= a_t[fin][-1])
+    if zero is not None:
+        usable &= t0 + np.arange(n_bins) * dt >= zero.t_motion_s  # the tare is no window
     win = steady.find_windows(means["speed"], means["torque"], p_elec_bins, means["valid_frac"],
-                              _drum_ranges(session), config,
-                              usable=(centres >= a_t[fin][0]) & (centres <= a_t[fin][-1]))
+                              ranges, config, usable=usable)
     w_start = np.array([t0 + a * dt for a, _ in win.accepted])
     w_end = np.array([t0 + b * dt for _, b in win.accepted])
 
@@ -283,7 +294,7 @@ def process_timeseries(
             while done < n_rows:
                 t = np.fromfile(fhs["time"], np.float64, rows_per_chunk)
                 speed = np.fromfile(fhs["speed"], np.float64, rows_per_chunk)
-                torque = np.fromfile(fhs["torque"], np.float64, rows_per_chunk)
+                torque = np.fromfile(fhs["torque"], np.float64, rows_per_chunk) - offset
                 p_mech = speed * torque * RAD_S_PER_RPM
                 p_elec = align.asof_nearest(t, a_t, a_p, 0.75 * interval)
                 lo, hi = np.searchsorted(t, w_start), np.searchsorted(t, w_end)
@@ -309,6 +320,9 @@ def process_timeseries(
         "clock_drift_ppm": round(clock.drift_ppm, 3),
         "clock_offset_prior_s": round(clock.prior_offset_s, 6),
         "clock_correlation": round(clock.correlation, 4),
+        "torque_zero_offset_nm": None if zero is None else round(zero.offset_nm, 6),
+        "torque_zero_tare": None if zero is None else zero.manifest(),
+        **({} if zero is not None else {"torque_zero_note": no_tare_why}),
         "n_samples": int(n_rows),
         "n_rows_without_time": int(n_total - n_rows),
         "steady_tolerances": {k: round(v, 6) for k, v in win.tolerances.items()},

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from bench.synth.instruments import Instruments
 from bench.synth.plan import CAMPAIGN
+from bench.synth.timeseries import DEFAULT_DYNAMICS as dyn
 
 _DAQ = {"csv_en": "CSV (English)", "csv_de": "CSV (German: `;`, decimal comma, units row)",
         "tdms": "NI TDMS"}
@@ -47,9 +48,19 @@ def campaign_readme(seed: int, scale: int, sessions: dict, calibration: dict,
         "Signals carry sensor noise, a torque-flange zero offset of "
         f"{inst.torque_zero_offset_nm:g} N m (at the measured shaft), setpoint transients, "
         "and isolated invalid-value markers (`9.91E+37`, `NAN`, `---`, empty cells).",
+        f"Each timeseries session starts with a tare: {dyn.tare_s:g} to "
+        f"{dyn.tare_s + dyn.tare_jitter_s:g} s at standstill without load",
+        "(true torque 0), so the flange's zero offset can be read off before the first step.",
         "",
-        "| session | kind | mode | points | files | notes |",
-        "|---|---|---|---:|---|---|",
+        "A few setpoints of each timeseries session (1 to 3 %) are unusable, as on a real",
+        "bench, and `truth.json` lists them (`bad_points`, and the `fault` column of the",
+        "points): the particle brake hunting at low speed (speed oscillating), the load not",
+        "holding its torque setpoint (torque sagging through the window), and the operator",
+        "stepping to the next setpoint before a steady window was logged. The loss model's",
+        "calibration and the figures above use the good points only.",
+        "",
+        "| session | kind | mode | points | faulty | files | notes |",
+        "|---|---|---|---:|---:|---|---|",
     ]
     specs = {s.session_id: s for s in CAMPAIGN}
     for sid, info in sessions.items():
@@ -62,7 +73,8 @@ def campaign_readme(seed: int, scale: int, sessions: dict, calibration: dict,
             detail.append(f"{info['daq_rows']} DAQ rows, {info['analyzer_rows']} analyzer rows")
         else:
             files = "averaged points, foreign column names, `mapping.toml`"
+        bad = len(info.get("bad_points", []))
         lines.append(f"| {sid} | {info['kind']} | {info['mode']} | {info['n_points']} | "
-                     f"{files} | {'; '.join(detail)} |")
+                     f"{bad} | {files} | {'; '.join(detail)} |")
     lines.append("")
     return "\n".join(lines)

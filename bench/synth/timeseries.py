@@ -7,6 +7,10 @@ segment is the steady window the truth averages over. Everything is a closed-for
 function of time, so any sample range can be evaluated on its own (chunked
 generation); only the winding temperature needs a recurrence, and that one runs
 per segment, not per sample.
+
+A timeseries session starts at standstill with no load (the operator's tare of the
+torque flange) until the first step; the few faulty setpoints of
+:mod:`bench.synth.faults` add their deviations on top of the step responses.
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bench.synth.faults import Faults, speed_torque_offsets
 from bench.synth.loss_model import RPM_TO_RAD_S, LossModel, loss_w, theta_step, true_p_elec_w
 
 
@@ -45,6 +50,10 @@ class Dynamics:
         Minimum steady (averaging) window [s].
     steady_jitter_s : float
         Random extra steady time, uniform in [0, this] [s].
+    tare_s : float
+        Minimum standstill at the start of a timeseries session (flange tare) [s].
+    tare_jitter_s : float
+        Random extra standstill, uniform in [0, this] [s].
     """
 
     speed_wn_rad_s: float = 4.0
@@ -57,6 +66,8 @@ class Dynamics:
     settle_jitter_s: float = 0.5
     steady_s: float = 4.0
     steady_jitter_s: float = 1.0
+    tare_s: float = 8.0
+    tare_jitter_s: float = 2.0
 
 
 DEFAULT_DYNAMICS = Dynamics()
@@ -69,8 +80,11 @@ class Segments:
     Attributes are arrays over segments: ``t_start_s`` (setpoint step), ``t_steady_s``
     (steady window start), ``t_end_s`` (window end = next step), ``speed_rpm`` and
     ``torque_nm`` (setpoints), ``speed_prev_rpm`` and ``torque_prev_nm`` (the
-    setpoints stepped from), ``theta_start_c`` (winding temperature at the step)
-    and ``loss_w`` (heat input held over the segment).
+    values stepped from: the previous setpoints, or what a fault left of them; 0 for
+    the first step of a session that starts at standstill), ``theta_start_c``
+    (winding temperature at the step), ``loss_w`` (heat input held over the
+    segment) and ``faults``. Before ``t_start_s[0]`` the drive stands still
+    without load (the tare; zero length for sessions without one).
     """
 
     t_start_s: np.ndarray
@@ -83,6 +97,7 @@ class Segments:
     theta_start_c: np.ndarray
     loss_w: np.ndarray
     ambient_c: float
+    faults: Faults
 
     @property
     def duration_s(self) -> float:
@@ -90,22 +105,32 @@ class Segments:
         return float(self.t_end_s[-1])
 
 
-def schedule(speed_rpm, torque_nm, rng: np.random.Generator, dyn: Dynamics = DEFAULT_DYNAMICS):
+def schedule(speed_rpm, torque_nm, rng: np.random.Generator, dyn: Dynamics = DEFAULT_DYNAMICS,
+             *, tare: bool = False, early_steady_s=None):
     """Step times of a session: ``(t_start_s, t_steady_s, t_end_s)`` arrays [s].
 
-    The first point is already settled when logging starts, so its segment has no
-    transient; later segments wait longer after a speed step than after a torque step.
+    Without ``tare`` the first point is already settled when logging starts, so its
+    segment has no transient; with it, logging starts with a standstill of
+    ``tare_s`` plus jitter and the first point is a speed step from 0. Later
+    segments wait longer after a speed step than after a torque step.
+    ``early_steady_s`` (NaN where unused) replaces the steady time of the setpoints
+    the operator left early (:mod:`bench.synth.faults`).
     """
     speed = np.asarray(speed_rpm, dtype=float)
-    prev = np.concatenate([speed[:1], speed[:-1]])
+    prev = np.concatenate([[0.0] if tare else speed[:1], speed[:-1]])
     settle = (
         dyn.settle_torque_step_s
         + dyn.settle_speed_step_s * (np.abs(speed - prev) > 0.5)
         + rng.uniform(0.0, dyn.settle_jitter_s, speed.size)
     )
     steady = dyn.steady_s + rng.uniform(0.0, dyn.steady_jitter_s, speed.size)
-    ends = np.cumsum(settle + steady)
-    starts = np.concatenate([[0.0], ends[:-1]])
+    t0 = dyn.tare_s + rng.uniform(0.0, dyn.tare_jitter_s) if tare else 0.0
+    if early_steady_s is not None:
+        early = np.isfinite(early_steady_s)
+        settle[early] = dyn.settle_torque_step_s
+        steady[early] = np.asarray(early_steady_s)[early]
+    ends = t0 + np.cumsum(settle + steady)
+    starts = np.concatenate([[t0], ends[:-1]])
     return starts, starts + settle, ends
 
 
@@ -140,17 +165,27 @@ def thermal_history(segments_time, speed_rpm, torque_nm, theta0_c, ambient_c,
     return theta, loss
 
 
-def build_segments(speed_rpm, torque_nm, times, theta0_c, ambient_c, model: LossModel):
-    """Assemble :class:`Segments` from setpoints, step times and the thermal model."""
+def build_segments(speed_rpm, torque_nm, times, theta0_c, ambient_c, model: LossModel,
+                   faults: Faults | None = None, *, tare: bool = False,
+                   dyn: Dynamics = DEFAULT_DYNAMICS):
+    """Assemble :class:`Segments` from setpoints, step times, faults and the thermal model.
+
+    Each step starts from where the previous segment ended (its setpoints plus
+    what its fault left), from standstill for the first step after a ``tare``.
+    """
     speed = np.asarray(speed_rpm, dtype=float)
     torque = np.asarray(torque_nm, dtype=float)
+    faults = Faults.none(speed.size) if faults is None else faults
     theta, loss = thermal_history(times, speed, torque, theta0_c, ambient_c, model)
+    k = np.arange(speed.size)
+    d_n, _, d_t = speed_torque_offsets(faults, k, times[2] - times[0], dyn.inertia_kg_m2)
+    first = [0.0] if tare else None
     return Segments(
         t_start_s=times[0], t_steady_s=times[1], t_end_s=times[2],
         speed_rpm=speed, torque_nm=torque,
-        speed_prev_rpm=np.concatenate([speed[:1], speed[:-1]]),
-        torque_prev_nm=np.concatenate([torque[:1], torque[:-1]]),
-        theta_start_c=theta, loss_w=loss, ambient_c=float(ambient_c),
+        speed_prev_rpm=np.concatenate([first or speed[:1], (speed + d_n)[:-1]]),
+        torque_prev_nm=np.concatenate([first or torque[:1], (torque + d_t)[:-1]]),
+        theta_start_c=theta, loss_w=loss, ambient_c=float(ambient_c), faults=faults,
     )
 
 
@@ -198,13 +233,17 @@ def true_signals(seg: Segments, time_s, model: LossModel, dyn: Dynamics = DEFAUL
     """
     t = np.asarray(time_s, dtype=float)
     k = np.clip(np.searchsorted(seg.t_start_s, t, side="right") - 1, 0, seg.t_start_s.size - 1)
-    tau = t - seg.t_start_s[k]
+    standstill = t < seg.t_start_s[0]  # before the first step: the tare
+    tau = np.maximum(t - seg.t_start_s[k], 0.0)
     tail_n, accel_rpm_s = _step_tail(tau, seg.speed_prev_rpm[k] - seg.speed_rpm[k],
                                      dyn.speed_wn_rad_s, dyn.speed_zeta)
-    speed = seg.speed_rpm[k] + tail_n
     tail_t, _ = _step_tail(tau, seg.torque_prev_nm[k] - seg.torque_nm[k],
                            dyn.torque_wn_rad_s, dyn.torque_zeta)
-    torque = np.maximum(seg.torque_nm[k] + tail_t, 0.0)
+    d_n, d_accel, d_t = speed_torque_offsets(seg.faults, k, tau, dyn.inertia_kg_m2)
+    speed = seg.speed_rpm[k] + tail_n + d_n
+    accel_rpm_s = accel_rpm_s + d_accel
+    torque = np.maximum(seg.torque_nm[k] + tail_t + d_t, 0.0)
+    speed[standstill] = accel_rpm_s[standstill] = torque[standstill] = 0.0
     theta = theta_step(seg.theta_start_c[k], seg.loss_w[k], seg.ambient_c, tau, model)
     inertial = dyn.inertia_kg_m2 * speed * accel_rpm_s * RPM_TO_RAD_S**2
     p_elec = true_p_elec_w(speed, torque, theta, model) + inertial
