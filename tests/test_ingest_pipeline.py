@@ -173,6 +173,10 @@ def test_unstable_window_is_rejected_and_reported(tmp_path, capsys):
     assert read_manifest(store)["sessions"]["motor_01"]["rejected"] == {"speed unstable": 1}
     assert len(read_points(store)) == len(truth.setpoints) - 1
     assert "speed unstable: 1" in out  # the closing summary table
+    # the fixture logs no tare (it starts at 300 rpm): nothing subtracted, and the summary says so
+    entry = read_manifest(store)["sessions"]["motor_01"]
+    assert entry["torque_zero_offset_nm"] is None and entry["torque_zero_tare"] is None
+    assert "no torque-flange tare, torque not zero-corrected: motor_01: no standstill" in out
 
 
 def test_other_ingest_version_is_reingested(tmp_path):
