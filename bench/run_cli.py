@@ -37,6 +37,7 @@ def stage_commands(args: argparse.Namespace) -> list[list[str]]:
             "--wind-grid", args.wind_grid,
             "--workers", str(args.workers),
             "--out", str(opt),
+            "--trust",  # a report to rely on states the mesh and simulation checks
         ],
         [
             "report",
