@@ -1,0 +1,27 @@
+"""`bench run` chains the stages through their own command lines."""
+
+from pathlib import Path
+
+from bench.cli import build_parser
+from bench.run_cli import stage_commands
+
+
+def test_every_stage_command_parses_with_that_stage_parser():
+    # Truth: each stage's own argparse definition. A renamed or dropped flag in a stage
+    # makes argparse exit (SystemExit), which fails this test.
+    run_args = build_parser(["run", "logs"]).parse_args(["run", "logs", "--out", "o"])
+    commands = stage_commands(run_args)
+    assert [c[0] for c in commands] == ["ingest", "fit", "optimize", "report"]
+    for argv in commands:
+        args = build_parser(argv).parse_args(argv)
+        assert args.command == argv[0]
+
+
+def test_stage_outputs_feed_the_next_stage():
+    run_args = build_parser(["run", "logs"]).parse_args(["run", "logs", "--out", "o"])
+    parsed = [build_parser(a).parse_args(a) for a in stage_commands(run_args)]
+    ingest, fit, optimize, report = parsed
+    assert Path(ingest.store) == Path(fit.store) == Path(report.store) == Path("o/bench_store")
+    assert Path(optimize.drive_model) == Path(fit.out) / "power_model.json"
+    assert Path(report.fit) == Path(fit.out) and Path(report.optimize) == Path(optimize.out)
+    assert optimize.trust
