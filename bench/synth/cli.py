@@ -17,7 +17,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"random seed (default {DEFAULT_SEED})")
     parser.add_argument("--scale", type=int, default=1,
                         help="make the campaign N times longer (default 1); DAQ rows grow "
-                        "by about 370 k per unit, so 54 gives 20 M")
+                        "by about 369 k per unit, so 55 gives 20.3 M")
     parser.add_argument("--check", action="store_true",
                         help="do nothing if OUT_DIR already holds this campaign, complete")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -42,15 +42,18 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(exc.filename or args.out_dir, f"cannot write: {exc.strerror}",
                          expected="a writable campaign folder") from exc
     points = {"motor": 0, "generator": 0}
+    faulty = 0
     for info in truth["sessions"].values():
         points[info["mode"]] += info["n_points"]
+        faulty += len(info.get("bad_points", []))
     size = sum(f["bytes"] for f in truth["files"].values())
     rows = sum(i.get("daq_rows", 0) for i in truth["sessions"].values())
     cal = truth["calibration"]
     nominal = cal["nominal_power_w"]
     print(
         f"bench synth: wrote {args.out_dir} in {time.perf_counter() - t0:.1f} s: "
-        f"{points['motor']} motor + {points['generator']} generator points, "
+        f"{points['motor']} motor + {points['generator']} generator points "
+        f"({faulty} of them faulty), "
         f"{rows} DAQ rows, {size / 1e6:.1f} MB; truth residual std "
         f"{100 * cal['residual_std_w'] / nominal:.2f} %, "
         f"max {100 * cal['residual_max_abs_w'] / nominal:.2f} % of {nominal / 1000:g} kW"
