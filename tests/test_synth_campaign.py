@@ -300,6 +300,11 @@ def test_scale_multiplies_points_and_time():
     for a, b in zip(one, three, strict=True):
         assert b.speed_rpm.size == 3 * a.speed_rpm.size
         assert b.times[2][-1] == pytest.approx(3 * a.times[2][-1], rel=0.05)
+        # and the faults: per_kind of each kind per sweep, never neighbours
+        kinds = faults.KINDS[b.spec.mode] if b.spec.kind == "timeseries" else ()
+        bad = np.flatnonzero(~b.faults.good)
+        assert sorted(b.faults.kind[bad]) == sorted(kinds * (3 * faults.DEFAULT_FAULTS.per_kind))
+        assert bad.size == 0 or np.diff(bad).min() >= 2
 
 
 def test_check_keeps_a_complete_campaign_and_repairs_a_damaged_one(tmp_path, fresh, capsys):
