@@ -80,3 +80,22 @@ def test_blocks_give_the_same_windows(monkeypatch):
     blocked = find_windows(speed, torque, p, valid, RANGES, CFG)
     assert len(whole.accepted) == len(holds)
     assert blocked.accepted == whole.accepted and blocked.rejected == whole.rejected
+
+
+@pytest.mark.parametrize(("amp_rpm", "freq_hz"), [(10.0, 0.5), (10.0, 1.0), (40.0, 1.5),
+                                                  (40.0, 3.0)])
+def test_strong_or_slow_hunting_is_reported_not_lost(amp_rpm, freq_hz):
+    # oscillations whose 0.5 s lagged means swing by more than the step threshold (3 x 3 rpm)
+    # are cut into pieces too short to report; the stretch is still one rejected window
+    rng = np.random.default_rng(2)
+    holds = [(60, 300, 10), (60, 300, 20), (60, 300, 30), (60, 300, 40)]
+    speed, torque, p, valid = _series(holds, rng)
+    k = np.arange(60, 120)
+    speed[k] += amp_rpm * np.sin(2 * np.pi * freq_hz * (k - 60) * 0.1)
+    w = find_windows(speed, torque, p, valid, RANGES, CFG)
+    assert len(w.accepted) == 3
+    assert [r for _, _, r in w.rejected] == ["speed unstable"]
+    a, b, _ = w.rejected[0]
+    # the hunting hold, from 5 bins (the 0.5 s lag) before it to the end of the next step's
+    # transient (10 N m, 5-bin time constant: 3 lags + 5 ln(10 / 0.17) = 35 bins at most)
+    assert 55 <= a < b <= 155 and b - a >= 20

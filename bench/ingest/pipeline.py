@@ -29,7 +29,7 @@ from bench.ingest.timeseries import SessionOutput, process_timeseries
 
 #: bump when ingest would compute different points from the same files; sessions
 #: stored by another version are re-ingested
-INGEST_VERSION = 2  # 2: torque zero offset from the tare
+INGEST_VERSION = 3  # 2: torque zero offset from the tare; 3: oscillations cut into pieces
 
 
 @dataclass

@@ -14,6 +14,12 @@ Works on short-bin means (default 0.1 s) of speed, torque and power:
    ``min_window_s``), ``invalid samples`` (more than ``max_invalid`` of the
    samples are NaN), ``speed unstable``, ``torque unstable``, ``power unstable``
    (standard deviation of the bin means above the tolerance).
+5. An oscillation too strong or too slow to stay one segment (a hunting brake)
+   is cut by step 2 into pieces too short to report. A stretch between two
+   reported segments that is at least ``min_window_s`` long and holds at least
+   ``oscillation_pieces`` such pieces is reported as unstable (the first of
+   speed, torque, power whose standard deviation over it exceeds the tolerance);
+   a setpoint step leaves at most one piece.
 
 Long sessions are handled in blocks of :data:`BLOCK_BINS`, each cut at a moving
 bin, so the result equals the whole-series one while memory stays bounded.
@@ -50,6 +56,9 @@ class SteadyConfig:
         Largest accepted fraction of invalid samples in a window [-].
     min_report_s : float
         Segments shorter than this are transients, not reported as rejected [s].
+    oscillation_pieces : int
+        Unreported pieces between two segments from which the stretch is an
+        oscillation, reported as unstable [-].
     """
 
     bin_s: float = 0.1
@@ -60,6 +69,7 @@ class SteadyConfig:
     floor_frac: float = 0.001
     max_invalid: float = 0.2
     min_report_s: float = 1.0
+    oscillation_pieces: int = 3
 
 
 DEFAULT_STEADY = SteadyConfig()
@@ -208,7 +218,25 @@ def _block_windows(moving, speed, torque, p_elec, valid, tol, config):
     accepted = [(int(i), int(j)) for i, j in zip(a[ok], b[ok], strict=True)]
     rejected = [(int(i), int(j), str(r))
                 for i, j, r in zip(a[~ok], b[~ok], reason[~ok], strict=True)]
-    return accepted, rejected
+    rejected += _oscillations(starts, stops[keep], starts[keep], stats, tol, min_bins, config)
+    return accepted, sorted(rejected)
+
+
+def _oscillations(piece_starts, seg_stops, seg_starts, stats, tol, min_bins,
+                  config) -> list[tuple[int, int, str]]:
+    """Stretches between reported segments cut into many unreported pieces (step 5)."""
+    g0, g1 = seg_stops[:-1], seg_starts[1:]  # gap k lies between segments k and k + 1
+    if g0.size == 0:
+        return []
+    lo, hi = np.searchsorted(piece_starts, g0, side="right"), np.searchsorted(piece_starts, g1)
+    cand = (hi - lo >= config.oscillation_pieces) & (g1 - g0 >= min_bins)
+    out = []
+    for i, j in zip(g0[cand].tolist(), g1[cand].tolist(), strict=True):
+        for key in ("speed", "torque", "power"):
+            if stats[key].std(np.array([i]), np.array([j]))[0] > tol[key]:
+                out.append((i, j, f"{key} unstable"))
+                break
+    return out
 
 
 def _settle(speed, torque, a, b, tol: dict[str, float], stats: dict) -> np.ndarray:
