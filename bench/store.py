@@ -15,7 +15,6 @@ the manifest goes last, atomically. Readers: :func:`read_points`,
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import shutil
@@ -28,6 +27,7 @@ import pandas as pd
 import pyarrow as pa
 
 from bench.errors import InputError
+from bench.files import write_text_atomic
 
 SCHEMA_NAME = "drivebench.store"
 SCHEMA_VERSION = 1
@@ -130,20 +130,9 @@ def read_samples(store_dir: str | Path, session_id: str) -> pd.DataFrame:
     return pd.read_parquet(path)
 
 
-def file_sha256(path: str | Path) -> str:
-    """Hex SHA-256 of a file, read in 1 MiB blocks."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 def write_json(obj: dict, path: Path) -> None:
     """Write JSON (sorted keys, stable bytes) atomically."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(obj, indent=1, sort_keys=True) + "\n", encoding="utf-8")
-    os.replace(tmp, path)
+    write_text_atomic(path, json.dumps(obj, indent=1, sort_keys=True) + "\n")
 
 
 @contextmanager

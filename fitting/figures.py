@@ -16,7 +16,8 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from scipy import stats  # noqa: E402
 
-from fitting.outputs import atomic_write, write_parquet  # noqa: E402
+from bench.files import atomic_write  # noqa: E402
+from fitting.outputs import write_parquet  # noqa: E402
 
 #: Contour spacing of the power map (paper Fig. 6) [W].
 POWER_CONTOUR_STEP_W = 500.0

@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
+from bench.files import write_text_atomic
 from fitting.domain import in_polygon_hull
 from fitting.model_file import PowerModel
-from fitting.outputs import write_text
 
 
 def loss_grid(model: PowerModel, speeds_rpm: np.ndarray, torques_nm: np.ndarray) -> np.ndarray:
@@ -86,7 +86,7 @@ def write_loss_table(model: PowerModel, path: str | Path, speeds_rpm=None,
     buf.write("speed_rpm \\ torque_nm," + ",".join(f"{v:g}" for v in torques_nm) + "\n")
     for k, speed in enumerate(speeds_rpm):
         buf.write(f"{speed:g}," + ",".join(f"{v:.3f}" for v in losses[k]) + "\n")
-    return write_text(path, buf.getvalue())
+    return write_text_atomic(path, buf.getvalue())
 
 
 def read_loss_table(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -26,7 +26,7 @@ import casadi as ca
 import numpy as np
 
 from bench.errors import InputError
-from fitting.outputs import write_text
+from bench.files import write_text_atomic
 
 SCHEMA_NAME = "drivebench.power_model"
 SCHEMA_VERSION = 1
@@ -448,7 +448,7 @@ def save_power_model(model: PowerModel, path: str | Path) -> Path:
     """
     path = Path(path)
     text = json.dumps(model.to_dict(), indent=2, allow_nan=False) + "\n"
-    return write_text(path, text)
+    return write_text_atomic(path, text)
 
 
 def paper_model() -> PowerModel:

@@ -1,52 +1,22 @@
-"""Atomic writers for the fit outputs (temp file in the same directory, then os.replace)."""
+"""Writers for the fit outputs: JSON and Parquet with units, atomically (see bench.files)."""
 
 from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
-from collections.abc import Callable
 from pathlib import Path
 
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-
-def atomic_write(path: str | Path, write: Callable[[Path], None]) -> Path:
-    """Call ``write(tmp_path)`` on a temp path beside ``path``, then move it into place.
-
-    Nothing is left half-written: on any error the temp file is removed and an
-    existing ``path`` is untouched.
-    """
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
-    os.close(fd)
-    try:
-        write(Path(tmp))
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the usual file mode
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-def write_text(path: str | Path, text: str) -> Path:
-    """Write UTF-8 text atomically."""
-    return atomic_write(path, lambda p: p.write_text(text, encoding="utf-8"))
+from bench.files import atomic_write, write_text_atomic
 
 
 def write_json(path: str | Path, data) -> Path:
     """Write JSON (indented, finite numbers only) atomically."""
-    return write_text(path, json.dumps(data, indent=2, allow_nan=False, default=_jsonable) + "\n")
+    text = json.dumps(data, indent=2, allow_nan=False, default=_jsonable) + "\n"
+    return write_text_atomic(path, text)
 
 
 def _jsonable(value):

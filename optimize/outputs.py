@@ -16,9 +16,7 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +26,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from bench.errors import InputError
+from bench.files import atomic_write, write_text_atomic
 from optimize.chains import ScenarioOutcome
 
 SCHEMA_NAME = "drivebench.optimize"
@@ -180,27 +179,6 @@ def trajectories_frame(outcomes: Iterable[ScenarioOutcome]) -> pd.DataFrame:
     return pd.concat(parts, ignore_index=True)
 
 
-# ------------------------------------------------------------------ atomic writers
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-def _atomic(path: Path, write: Callable[[str], None]) -> Path:
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
-        write(tmp)
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the usual file mode
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
-
-
 def write_parquet(
     frame: pd.DataFrame, path: Path, descriptions: dict[str, str] | None = None
 ) -> Path:
@@ -213,18 +191,18 @@ def write_parquet(
             meta["description"] = descriptions[f.name]
         fields.append(f.with_metadata(meta))
     table = table.cast(pa.schema(fields, metadata=table.schema.metadata))
-    return _atomic(path, lambda tmp: pq.write_table(table, tmp))
+    return atomic_write(path, lambda tmp: pq.write_table(table, tmp))
 
 
 def write_json(data: dict, path: Path) -> Path:
     """Write ``data`` as indented JSON (NaN becomes null)."""
     text = json.dumps(_json_safe(data), indent=2, allow_nan=False) + "\n"
-    return _atomic(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+    return write_text_atomic(path, text)
 
 
 def write_csv(frame: pd.DataFrame, path: Path) -> Path:
     """Write ``frame`` as CSV (no index)."""
-    return _atomic(path, lambda tmp: frame.to_csv(tmp, index=False))
+    return atomic_write(path, lambda tmp: frame.to_csv(tmp, index=False))
 
 
 def _json_safe(value: Any) -> Any:

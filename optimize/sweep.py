@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from bench.errors import InputError
+from bench.files import file_sha256
 
 #: scenario kind -> (objective, drive limits on)
 KINDS: dict[str, tuple[str, bool]] = {
@@ -432,12 +433,6 @@ def _package_versions() -> dict[str, str]:
     return versions
 
 
-def _file_sha256(path: Path) -> str:
-    import hashlib
-
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
 def run_optimize(
     request: SweepRequest,
     command_line: list[str] | None = None,
@@ -507,7 +502,7 @@ def run_optimize(
         "scenarios": [o.name for o in result.outcomes],
         "drive_model": {
             "path": str(request.drive_model_path),
-            "file_sha256": _file_sha256(request.drive_model_path),
+            "file_sha256": file_sha256(request.drive_model_path),
             "model_sha256": model.sha256,
             "name": model.name,
             "note": request.model_note,

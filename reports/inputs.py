@@ -8,7 +8,6 @@ A file that is present but unreadable is bad input: :class:`bench.errors.InputEr
 
 from __future__ import annotations
 
-import hashlib
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,6 +17,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from bench.errors import InputError
+from bench.files import file_sha256
 
 
 @dataclass(frozen=True)
@@ -37,15 +37,6 @@ class InputRecord:
     path: str
     sha256: str
     size_bytes: int
-
-
-def file_sha256(path: Path) -> str:
-    """SHA-256 (hex) of a file's bytes, read in 1 MiB chunks."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(chunk)
-    return digest.hexdigest()
 
 
 class InputLog:

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from datetime import UTC, datetime
 from pathlib import Path
 
 from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
 
+from bench.files import write_text_atomic
 from reports import optimization, provenance, sections
 from reports.inputs import InputLog
 
@@ -90,32 +89,6 @@ def render(context: dict) -> str:
     return environment().get_template("report.html").render(**context)
 
 
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-def write_atomic(text: str, out: Path) -> Path:
-    """Write ``text`` to ``out`` via a temp file in the same folder and ``os.replace``.
-
-    The file gets the usual permissions of a new file (0666 minus the umask), not
-    the temp file's private 0600: the report is meant to be opened and sent on.
-    """
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, out)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return out
-
-
 def build_report(store: Path, fit: Path, optimize: Path, out: Path, argv: list[str]) -> Path:
     """Read the stage outputs, render the report and write it to ``out``; returns ``out``."""
-    return write_atomic(render(build_context(store, fit, optimize, argv)), out)
+    return write_text_atomic(out, render(build_context(store, fit, optimize, argv)))

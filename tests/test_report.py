@@ -23,9 +23,10 @@ import pandas as pd
 import pytest
 
 from bench.cli import main
+from bench.files import write_text_atomic
 from fitting.model_file import PowerModel, paper_model, save_power_model
 from reports import cycle_figures, sections
-from reports.render import build_context, build_report, render, write_atomic
+from reports.render import build_context, build_report, render
 from reports.svg import new_figure, to_svg
 
 NOISE_W = 120.0  # standard deviation of the synthetic measurement noise [W]
@@ -196,7 +197,7 @@ def full_inputs(tmp_path_factory) -> dict:
     summary = write_optimize(root / "opt", model.sha256)
     dirs = (root / "store", root / "fit", root / "opt")
     context = build_context(*dirs, ["bench", "report", "--out", "x.html"])
-    report = write_atomic(render(context), root / "report.html")
+    report = write_text_atomic(root / "report.html", render(context))
     return {"root": root, "points": points, "model": model, "summary": summary,
             "dirs": dirs, "context": context, "report": report}
 

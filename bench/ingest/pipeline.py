@@ -20,6 +20,7 @@ from tqdm import tqdm
 
 from bench import store
 from bench.errors import InputError
+from bench.files import file_sha256
 from bench.ingest.mapping import EMPTY_MAPPING, load_mapping
 from bench.ingest.readers import CHUNK_BYTES
 from bench.ingest.session import Session, discover, load_session
@@ -149,7 +150,7 @@ def ingest(
             named = {f"{s.session_id}/{name}": p for name, p in files.items()}
             if mapping_file is not None and mapping_file not in files.values():
                 named[f"--mapping/{mapping_file.name}"] = mapping_file
-            hashes = {k: hasher.submit(store.file_sha256, p) for k, p in named.items()}
+            hashes = {k: hasher.submit(file_sha256, p) for k, p in named.items()}
             old = manifest["sessions"].get(s.session_id)
             if (old is not None and old.get("ingest_version") == INGEST_VERSION
                     and old.get("files") == {k: f.result() for k, f in hashes.items()}):

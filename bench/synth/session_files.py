@@ -14,11 +14,12 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from bench.files import write_text_atomic
 from bench.synth import instruments as ins
 from bench.synth.loss_model import LossModel
 from bench.synth.plan import GEAR_RATIO, SessionSpec
 from bench.synth.timeseries import Segments
-from bench.synth.writers import CsvStream, TdmsStream, toml_document, write_text
+from bench.synth.writers import CsvStream, TdmsStream, toml_document
 
 DAQ_CHUNK_ROWS = 500_000
 ANALYZER_CHUNK_ROWS = 200_000
@@ -192,4 +193,4 @@ def write_table(seg: Segments, means: dict, spec: SessionSpec, folder: Path,
         writer.close(ok)
     mapping = {f"columns.{q}": {"column": col, "unit": unit}
                for col, q, unit, *_ in _TABLE_COLUMNS}
-    write_text(folder / "mapping.toml", toml_document({}, mapping).lstrip("\n"))
+    write_text_atomic(folder / "mapping.toml", toml_document({}, mapping).lstrip("\n"))

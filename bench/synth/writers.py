@@ -7,49 +7,14 @@ half-written file under its final name.
 
 from __future__ import annotations
 
-import contextlib
 import json
-import os
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
 
+from bench.files import commit, discard, temp_path
 from bench.synth.numfmt import format_rows
-
-
-def temp_sibling(path: Path) -> Path:
-    """The temporary path a file is written to before it is moved onto ``path``."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    return path.with_name(f".{path.name}.tmp")
-
-
-def finish(tmp: Path, path: Path, ok: bool) -> None:
-    """Move a complete ``tmp`` onto ``path`` (``ok``) or delete it."""
-    if ok:
-        os.replace(tmp, path)
-    elif tmp.exists():
-        tmp.unlink()
-
-
-@contextlib.contextmanager
-def atomic_path(path: Path) -> Iterator[Path]:
-    """Yield a temporary sibling of ``path``; move it onto ``path`` if the block succeeds."""
-    tmp = temp_sibling(path)
-    ok = False
-    try:
-        yield tmp
-        ok = True
-    finally:
-        finish(tmp, Path(path), ok)
-
-
-def write_text(path: Path, text: str) -> None:
-    """Write UTF-8 text atomically (``\\n`` line ends)."""
-    with atomic_path(path) as tmp:
-        tmp.write_bytes(text.encode("utf-8"))
 
 
 def toml_value(value) -> str:
@@ -90,7 +55,7 @@ class CsvStream:
 
     def __init__(self, path: Path, preamble: str, decimals, sep=",", decimal_mark="."):
         self._path = Path(path)
-        self._tmp = temp_sibling(self._path)
+        self._tmp = temp_path(self._path)
         self._fh = open(self._tmp, "wb")
         self._fh.write(preamble.encode("utf-8"))
         self._decimals = list(decimals)
@@ -107,7 +72,10 @@ class CsvStream:
     def close(self, ok: bool = True) -> None:
         """Finish the file; with ``ok=False`` discard it."""
         self._fh.close()
-        finish(self._tmp, self._path, ok)
+        if ok:
+            commit(self._tmp, self._path)
+        else:
+            discard(self._tmp)
 
 
 class TdmsStream:
@@ -127,7 +95,7 @@ class TdmsStream:
 
     def __init__(self, path: Path, group: str, channels, properties: dict):
         self._path = Path(path)
-        self._tmp = temp_sibling(self._path)
+        self._tmp = temp_path(self._path)
         self._writer = TdmsWriter(str(self._tmp))
         self._writer.open()
         self._group = group
@@ -150,4 +118,7 @@ class TdmsStream:
     def close(self, ok: bool = True) -> None:
         """Finish the file; with ``ok=False`` discard it."""
         self._writer.close()
-        finish(self._tmp, self._path, ok)
+        if ok:
+            commit(self._tmp, self._path)
+        else:
+            discard(self._tmp)
