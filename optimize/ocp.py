@@ -298,7 +298,21 @@ class Ocp:
         w_fict: float = 0.0,
         x_ref: np.ndarray | None = None,
     ) -> np.ndarray:
-        """NLP parameter vector; ``x_ref`` (NX, N d + 1) is the tracking reference [SI]."""
+        """NLP parameter vector.
+
+        Parameters
+        ----------
+        wind_ref_m_s : float
+            Wind speed at 100 m [m/s].
+        w_elec, w_mech : float
+            Weights of the average electrical / mechanical power [per kW].
+        w_reg : float, optional
+            Regularization weight; defaults to ``options.regularization``.
+        w_track, w_fict : float
+            Homotopy weights: state tracking and fictitious-force penalty.
+        x_ref : ndarray (NX, N d + 1), optional
+            Tracking reference at the state grid points [SI].
+        """
         lay = self.layout
         p = np.zeros(lay.n_p)
         w_reg = self.options.regularization if w_reg is None else w_reg
