@@ -3,6 +3,7 @@
 Usage::
 
     .venv/bin/python benchmarks/optimize_solve.py [--intervals 40] [--degree 4] [--repeat 1]
+        [--reference-sigma]
 
 Prints one log line per solver call, then a table of the scenarios (status,
 iterations, wall and CPU time, average P_mech / P_elec, period). CPU time is
@@ -13,6 +14,7 @@ larger than the CPU time.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import logging
 import statistics
@@ -37,9 +39,16 @@ PLAN = [
 ]
 
 
-def run_once(intervals: int, degree: int) -> list[dict]:
+#: control scales of the reference implementation (rawesome pumping_poweropt.py)
+REFERENCE_SIGMA = (10.0, 0.001, 0.8, 0.1)
+
+
+def run_once(intervals: int, degree: int, reference_sigma: bool) -> list[dict]:
     t0 = time.perf_counter()
-    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(n_intervals=intervals, degree=degree))
+    options = OcpOptions(n_intervals=intervals, degree=degree)
+    if reference_sigma:
+        options = dataclasses.replace(options, control_sigma=REFERENCE_SIGMA)
+    ocp = build_ocp(kite_dae(), paper_model(), options)
     ocp.solver(False)
     ocp.solver(True)
     setup = time.perf_counter() - t0
@@ -70,9 +79,13 @@ def main() -> None:
     parser.add_argument("--degree", type=int, default=4)
     parser.add_argument("--repeat", type=int, default=1)
     parser.add_argument("--json", help="also write all rows to this JSON file")
+    parser.add_argument("--reference-sigma", action="store_true",
+                        help=f"regularize with the reference implementation's scales "
+                             f"{REFERENCE_SIGMA}")
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
-    runs = [run_once(args.intervals, args.degree) for _ in range(args.repeat)]
+    runs = [run_once(args.intervals, args.degree, args.reference_sigma)
+            for _ in range(args.repeat)]
     for i, rows in enumerate(runs):
         print(f"\nrun {i + 1}: N={args.intervals}, degree {args.degree}")
         print(f"{'scenario':<16}{'start':<6}{'status':<28}{'it':>5}{'wall s':>8}{'cpu s':>8}"
