@@ -24,7 +24,8 @@ import traceback
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from optimize.sweep import KINDS, Chain, Step, scenario_name
+from optimize.scenario import scenario_name
+from optimize.sweep import KINDS, Chain, Step
 
 #: warm-started attempts per step before the cold-start fallback
 MAX_WARM_ATTEMPTS = 2

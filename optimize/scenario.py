@@ -36,8 +36,19 @@ class Scenario:
             raise ValueError(f"wind_speed_m_s must be positive, got {self.wind_speed_m_s}")
 
     @property
-    def name(self) -> str:
-        """Short label, e.g. ``"elec-lim-7.0"`` or ``"mech-nolim-8.5"``."""
+    def kind(self) -> str:
+        """Objective and limits, e.g. ``"elec-lim"`` or ``"mech-free"``."""
         obj = "elec" if self.objective == "electrical" else "mech"
-        lim = "lim" if self.drive_limits else "nolim"
-        return f"{obj}-{lim}-{self.wind_speed_m_s:.1f}"
+        return f"{obj}-{'lim' if self.drive_limits else 'free'}"
+
+    @property
+    def name(self) -> str:
+        """Short label, e.g. ``"elec-lim-7.0"`` or ``"mech-free-8.5"``."""
+        return scenario_name(self.kind, self.wind_speed_m_s)
+
+
+def scenario_name(kind: str, wind_speed_m_s: float) -> str:
+    """Name of a scenario, e.g. ``"elec-lim-7.0"`` (kind, then wind speed [m/s])."""
+    if round(wind_speed_m_s, 1) == wind_speed_m_s:
+        return f"{kind}-{wind_speed_m_s:.1f}"
+    return f"{kind}-{wind_speed_m_s:g}"

@@ -32,6 +32,7 @@ from typing import Any
 
 from bench.errors import InputError
 from bench.files import file_sha256
+from optimize.scenario import scenario_name
 
 #: scenario kind -> (objective, drive limits on)
 KINDS: dict[str, tuple[str, bool]] = {
@@ -44,15 +45,6 @@ DEFAULT_WIND_GRID = "4:10:1.5"
 DEFAULT_KINDS = "elec-lim,elec-free,mech-lim,mech-free"
 #: a generous bound on the number of wind speeds (each is one solve per kind)
 MAX_WIND_SPEEDS = 200
-
-
-def scenario_name(kind: str, wind_speed_m_s: float) -> str:
-    """Name of a scenario, e.g. ``"elec-lim-7.0"`` (kind, then wind speed [m/s])."""
-    return (
-        f"{kind}-{wind_speed_m_s:.1f}"
-        if round(wind_speed_m_s, 1) == wind_speed_m_s
-        else (f"{kind}-{wind_speed_m_s:g}")
-    )
 
 
 def _bad_grid(spec: str, problem: str) -> InputError:

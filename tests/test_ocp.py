@@ -120,6 +120,14 @@ def test_results_are_plain_data_and_warm_start_checks_grid(solved):
 
 def test_scenario_name_and_validation():
     assert Scenario(7.0, "electrical", True).name == "elec-lim-7.0"
-    assert Scenario(8.5, "mechanical", False).name == "mech-nolim-8.5"
+    assert Scenario(8.5, "mechanical", False).name == "mech-free-8.5"
     with pytest.raises(ValueError, match="objective"):
         Scenario(7.0, "thermal", True)
+
+
+def test_scenario_names_match_the_sweep_kinds():
+    # The sweep's kinds table is the truth for what each label means.
+    from optimize.sweep import KINDS
+
+    for kind, (objective, limits) in KINDS.items():
+        assert Scenario(5.5, objective, limits).name == f"{kind}-5.5"

@@ -32,6 +32,7 @@ from optimize.chains import (
     solve_step,
 )
 from optimize.executors import LocalChannel, open_executor, run_tasks
+from optimize.scenario import scenario_name
 from optimize.sweep import (
     Step,
     continuation_order,
@@ -39,7 +40,6 @@ from optimize.sweep import (
     parse_kinds,
     parse_wind_grid,
     plan_chains,
-    scenario_name,
 )
 
 CUT_IN_M_S = {"elec-lim": 4.8, "mech-lim": 5.5, "elec-free": 4.6, "mech-free": 20.0}
