@@ -1,8 +1,12 @@
 """Periodic OCP: a real coarse solve from the homotopy, warm re-solves, drive limits."""
 
+import ctypes
 import dataclasses
+import os
 import pickle
+from pathlib import Path
 
+import casadi
 import numpy as np
 import pytest
 
@@ -131,3 +135,13 @@ def test_scenario_names_match_the_sweep_kinds():
 
     for kind, (objective, limits) in KINDS.items():
         assert Scenario(5.5, objective, limits).name == f"{kind}-5.5"
+
+
+def test_mumps_blas_runs_the_thread_count_the_environment_names(solved):
+    # Truth: OpenBLAS's own report of its thread count. Without a user setting, building the
+    # solvers (done by the fixture) must have pinned casadi's bundled OpenBLAS to one thread.
+    lib_path = Path(casadi.__file__).parent / "libcasadi-tp-openblas.so.0"
+    if not lib_path.exists():
+        pytest.skip(f"casadi ships no bundled OpenBLAS at {lib_path} on this platform")
+    threads = ctypes.CDLL(str(lib_path)).openblas_get_num_threads()
+    assert threads == int(os.environ["OPENBLAS_NUM_THREADS"])
