@@ -110,6 +110,12 @@ class OcpOptions:
         Initial barrier parameter of a warm-started solve.
     linear_solver : str
         IPOPT linear solver.
+    mumps_pivot_order : int
+        MUMPS fill-reducing ordering (0 AMD, 2 AMF, 4 PORD, 6 QAMD, 7 automatic).
+        AMD halves the cost of an iteration on this NLP against the automatic
+        choice: at 40 intervals, warm solves took 2.2-3.7 s (0.07-0.12 s per
+        iteration) against 4.9-5.7 s (0.16-0.20 s), over three runs of three
+        transitions on 2 idle cores; cold start 26-30 s against 37 s.
     """
 
     n_intervals: int = 40
@@ -130,6 +136,7 @@ class OcpOptions:
     surface_rate_bound_rad_s: float = 2.0
     warm_mu_init: float = 1e-4
     linear_solver: str = "mumps"
+    mumps_pivot_order: int = 0
 
     def __post_init__(self) -> None:
         if self.n_intervals < 2:
@@ -268,6 +275,7 @@ class Ocp:
             o = self.options
             ipopt = {
                 "linear_solver": o.linear_solver,
+                "mumps_pivot_order": o.mumps_pivot_order,
                 "tol": o.tol,
                 "acceptable_tol": o.acceptable_tol,
                 "acceptable_iter": 5,
