@@ -30,38 +30,26 @@ from typing import Any
 from bench.errors import InputError
 
 
-class LocalChannel:
-    """Progress channel for executors that share the driver's memory (threads)."""
+class QueueChannel:
+    """Progress channel over a queue shared by the driver and its tasks.
 
-    def __init__(self) -> None:
-        self._queue: queue.Queue = queue.Queue()
+    Parameters
+    ----------
+    q : queue-like, optional
+        A ``multiprocessing`` manager queue proxy (picklable) for process pools;
+        by default a ``queue.Queue``, for executors that share the driver's
+        memory (threads).
+    """
+
+    def __init__(self, q: Any | None = None) -> None:
+        self._queue = queue.Queue() if q is None else q
 
     def put(self, item: dict) -> None:
-        """Called by a task: report one event."""
+        """Called by a task (in any thread or worker process): report one event."""
         self._queue.put(item)
 
     def drain(self) -> list[dict]:
         """Called by the driver: every event reported so far."""
-        items = []
-        while True:
-            try:
-                items.append(self._queue.get_nowait())
-            except queue.Empty:
-                return items
-
-
-class ManagerChannel:
-    """Progress channel over a ``multiprocessing`` manager queue (picklable proxy)."""
-
-    def __init__(self, proxy: Any) -> None:
-        self._queue = proxy
-
-    def put(self, item: dict) -> None:
-        """Called by a task in a worker process."""
-        self._queue.put(item)
-
-    def drain(self) -> list[dict]:
-        """Called by the driver."""
         items = []
         while True:
             try:
@@ -106,7 +94,7 @@ class ExecutorHandle:
     Attributes
     ----------
     executor : Executor
-    channel : LocalChannel or ManagerChannel or DaskChannel
+    channel : QueueChannel or DaskChannel
     description : str
         For logs and the manifest, e.g. ``"process pool, 2 workers"``.
     n_workers : int
@@ -174,7 +162,7 @@ def open_executor(workers: int = 2, scheduler: str | None = None) -> Iterator[Ex
     with ctx.Manager() as manager, ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as ex:
         plural = "s" if workers > 1 else ""
         yield ExecutorHandle(
-            ex, ManagerChannel(manager.Queue()), f"process pool, {workers} worker{plural}", workers
+            ex, QueueChannel(manager.Queue()), f"process pool, {workers} worker{plural}", workers
         )
 
 

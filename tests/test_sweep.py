@@ -31,7 +31,7 @@ from optimize.chains import (
     run_sweep,
     solve_step,
 )
-from optimize.executors import LocalChannel, open_executor, run_tasks
+from optimize.executors import QueueChannel, open_executor, run_tasks
 from optimize.scenario import scenario_name
 from optimize.sweep import (
     Step,
@@ -269,7 +269,7 @@ def _check_sweep(result):
 
 def test_sweep_on_a_thread_pool_with_progress_events():
     tasks = make_tasks(plan_chains(WINDS, KINDS, 2), PROBLEM, cut_in_kinds=("elec-lim", "mech-lim"))
-    channel = LocalChannel()
+    channel = QueueChannel()
     with ThreadPoolExecutor(2) as ex:
         result = run_sweep(tasks, ex, channel, "threads", NewtonBackend(), show_progress=False)
     _check_sweep(result)
