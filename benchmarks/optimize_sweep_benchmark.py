@@ -33,6 +33,7 @@ import statistics
 import time
 from pathlib import Path
 
+from bench.files import write_text_atomic
 from fitting.model_file import PAPER_MODEL_PATH, load_power_model
 from optimize.chains import OcpBackend, Problem, make_tasks, run_sweep
 from optimize.executors import open_executor
@@ -142,6 +143,7 @@ def main() -> None:
     ap.add_argument("--wind-grid", default=DEFAULT_WIND_GRID)
     ap.add_argument("--scenarios", default=DEFAULT_KINDS)
     ap.add_argument("--intervals", type=int, default=40)
+    ap.add_argument("--tol", type=float, default=OcpOptions.tol, help="IPOPT tolerance")
     ap.add_argument("--workers", default="1,2", help="comma list of worker counts to run")
     ap.add_argument("--repeats", type=int, default=1, help="cold-start repetitions")
     ap.add_argument(
@@ -152,7 +154,7 @@ def main() -> None:
 
     winds, kinds = parse_wind_grid(args.wind_grid), parse_kinds(args.scenarios)
     model = load_power_model(PAPER_MODEL_PATH)
-    options = OcpOptions(n_intervals=args.intervals)
+    options = OcpOptions(n_intervals=args.intervals, tol=args.tol)
     problem = Problem(None, model, options, f"{options!r}|{model.sha256}")
     report = {
         "machine_before": machine_state(),
@@ -178,10 +180,7 @@ def main() -> None:
         "sweep_2_workers_s": two[0]["wall_s"] if two else None,
         "converged": [f"{s['converged']}/{s['scenarios']}" for s in report["sweeps"]],
     }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = args.out.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(report, indent=2, default=str) + "\n")
-    os.replace(tmp, args.out)
+    write_text_atomic(args.out, json.dumps(report, indent=2, default=str) + "\n")
     print(json.dumps(report["verdict"], indent=2))
     print(
         f"load before {report['machine_before']['loadavg']}, after "
