@@ -200,16 +200,6 @@ class Step:
         """Scenario name, e.g. ``"elec-lim-7.0"``."""
         return scenario_name(self.kind, self.wind_speed_m_s)
 
-    @property
-    def objective(self) -> str:
-        """``"electrical"`` or ``"mechanical"``."""
-        return KINDS[self.kind][0]
-
-    @property
-    def drive_limits(self) -> bool:
-        """Whether the drive limits (|rpm| <= 1500, torque <= 78 N m) apply."""
-        return KINDS[self.kind][1]
-
 
 @dataclass(frozen=True)
 class Chain:
