@@ -21,6 +21,7 @@ import statistics
 import time
 
 from fitting.model_file import paper_model
+from optimize.homotopy import HOMOTOPY_BOUND_PUSH
 from optimize.kite_model import kite_dae
 from optimize.ocp import OcpOptions, build_ocp
 from optimize.scenario import Scenario
@@ -51,6 +52,7 @@ def run_once(intervals: int, degree: int, reference_sigma: bool) -> list[dict]:
     ocp = build_ocp(kite_dae(), paper_model(), options)
     ocp.solver(False)
     ocp.solver(True)
+    ocp.solver(True, HOMOTOPY_BOUND_PUSH)
     setup = time.perf_counter() - t0
     logging.info("build + solver creation %.1f s", setup)
     results, rows = [], []

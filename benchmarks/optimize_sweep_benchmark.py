@@ -144,6 +144,8 @@ def main() -> None:
     ap.add_argument("--scenarios", default=DEFAULT_KINDS)
     ap.add_argument("--intervals", type=int, default=40)
     ap.add_argument("--tol", type=float, default=OcpOptions.tol, help="IPOPT tolerance")
+    ap.add_argument("--warm-bound-push", type=float, default=OcpOptions.warm_bound_push,
+                    help="IPOPT warm_start_*bound_push/frac of warm solves")
     ap.add_argument("--workers", default="1,2", help="comma list of worker counts to run")
     ap.add_argument("--repeats", type=int, default=1, help="cold-start repetitions")
     ap.add_argument(
@@ -154,7 +156,8 @@ def main() -> None:
 
     winds, kinds = parse_wind_grid(args.wind_grid), parse_kinds(args.scenarios)
     model = load_power_model(PAPER_MODEL_PATH)
-    options = OcpOptions(n_intervals=args.intervals, tol=args.tol)
+    options = OcpOptions(n_intervals=args.intervals, tol=args.tol,
+                         warm_bound_push=args.warm_bound_push)
     problem = Problem(None, model, options, f"{options!r}|{model.sha256}")
     report = {
         "machine_before": machine_state(),

@@ -108,6 +108,13 @@ class OcpOptions:
         Control-surface rate bound [rad/s].
     warm_mu_init : float
         Initial barrier parameter of a warm-started solve.
+    warm_bound_push : float
+        IPOPT's ``warm_start_bound_push``, ``_bound_frac``, ``_slack_bound_push``,
+        ``_slack_bound_frac`` and ``_mult_bound_push`` of a warm-started solve:
+        how far (scaled units) the warm point and its bound multipliers are moved
+        off their bounds. A neighbouring optimum has other active bounds; left
+        within 1e-9 of them, the fraction-to-the-boundary rule cut the first
+        steps to 1e-7..1e-2 of their length.
     linear_solver : str
         IPOPT linear solver.
     mumps_pivot_order : int
@@ -135,6 +142,7 @@ class OcpOptions:
     surface_bound_deg: float = 10.0
     surface_rate_bound_rad_s: float = 2.0
     warm_mu_init: float = 1e-4
+    warm_bound_push: float = 1e-2
     linear_solver: str = "mumps"
     mumps_pivot_order: int = 0
 
@@ -245,9 +253,13 @@ class Ocp:
         warm: bool,
         lam_x0: np.ndarray | None = None,
         lam_g0: np.ndarray | None = None,
+        bound_push: float | None = None,
     ) -> RawSolve:
-        """One IPOPT solve from the scaled primal ``w0`` (and multipliers when ``warm``)."""
-        solver = self.solver(warm)
+        """One IPOPT solve from the scaled primal ``w0`` (and multipliers when ``warm``).
+
+        ``bound_push`` overrides ``options.warm_bound_push`` of a warm solve.
+        """
+        solver = self.solver(warm, bound_push)
         args = {"x0": w0, "p": p, "lbx": bounds[0], "ubx": bounds[1], "lbg": bounds[2],
                 "ubg": bounds[3]}
         if warm and lam_x0 is not None and lam_g0 is not None:
@@ -268,11 +280,16 @@ class Ocp:
             cpu_time_s=cpu,
         )
 
-    def solver(self, warm: bool) -> ca.Function:
-        """IPOPT solver; ``warm`` selects warm-start options (created once, then cached)."""
-        if warm not in self._solvers:
+    def solver(self, warm: bool, bound_push: float | None = None) -> ca.Function:
+        """IPOPT solver; ``warm`` selects warm-start options (created once, then cached).
+
+        ``bound_push`` overrides ``options.warm_bound_push`` of a warm solver.
+        """
+        o = self.options
+        push = o.warm_bound_push if bound_push is None else bound_push
+        key = (warm, push if warm else None)
+        if key not in self._solvers:
             t0 = time.perf_counter()
-            o = self.options
             ipopt = {
                 "linear_solver": o.linear_solver,
                 "mumps_pivot_order": o.mumps_pivot_order,
@@ -292,15 +309,15 @@ class Ocp:
                     {
                         "warm_start_init_point": "yes",
                         "mu_init": o.warm_mu_init,
-                        "warm_start_bound_push": 1e-9,
-                        "warm_start_bound_frac": 1e-9,
-                        "warm_start_slack_bound_push": 1e-9,
-                        "warm_start_slack_bound_frac": 1e-9,
-                        "warm_start_mult_bound_push": 1e-9,
+                        "warm_start_bound_push": push,
+                        "warm_start_bound_frac": push,
+                        "warm_start_slack_bound_push": push,
+                        "warm_start_slack_bound_frac": push,
+                        "warm_start_mult_bound_push": push,
                     }
                 )
             _single_threaded_blas()
-            self._solvers[warm] = ca.nlpsol(
+            self._solvers[key] = ca.nlpsol(
                 "pumping_cycle",
                 "ipopt",
                 self.nlp,
@@ -309,7 +326,7 @@ class Ocp:
             )
             log.debug("created %s IPOPT solver in %.1f s", "warm" if warm else "cold",
                       time.perf_counter() - t0)
-        return self._solvers[warm]
+        return self._solvers[key]
 
     def params(
         self,
