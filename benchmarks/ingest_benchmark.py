@@ -5,6 +5,10 @@ its own child process, wall time and peak RSS of
 
 * **ingest**: the whole ``bench ingest`` pipeline into a fresh store (read, scrub,
   align, steady windows, points, samples Parquet, manifest), and
+* **floor**: the least work an ingest keeping the store contract must do: hash
+  every source file, parse every DAQ and analyzer file with ingest's readers and
+  write the samples Parquet, two sessions at a time; no checks, no alignment, no
+  averaging. Its rows/s bounds what any speed-up of the rest can reach, and
 * **baseline**: what a user writes by hand: ``pandas.read_csv`` of every CSV file
   (with the right separator, decimal mark and header rows, invalid markers as NaN)
   followed by ``DataFrame.to_parquet``; no alignment, no averaging. The TDMS
@@ -44,6 +48,45 @@ import sys
 from bench.ingest.pipeline import ingest
 r = ingest([sys.argv[1]], sys.argv[2], progress=False, workers=int(sys.argv[3]))
 assert len(r.ingested) > 0
+"""
+
+#: The least work any ingest that keeps the store contract must do: hash every
+#: source file, parse every DAQ and analyzer file with the readers ingest uses,
+#: and write the samples Parquet (same schema and codec), two sessions at a time.
+#: No checks, no clock alignment (p_elec left NaN), no steady windows, no points.
+FLOOR_CHILD = """
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+from bench.files import file_sha256
+from bench.ingest.mapping import EMPTY_MAPPING
+from bench.ingest.readers import read_analyzer
+from bench.ingest.session import discover, load_session
+from bench.ingest.timeseries import SAMPLES_WRITE_OPTIONS, open_daq
+from bench.store import SAMPLES_SCHEMA
+camp, out = Path(sys.argv[1]), Path(sys.argv[2])
+out.mkdir(parents=True, exist_ok=True)
+def one(folder):
+    s = load_session(folder)
+    for f in sorted(folder.iterdir()):
+        file_sha256(f)
+    if s.kind != "timeseries":
+        return
+    read_analyzer(s.file("analyzer"))
+    sid = pa.array([s.session_id], pa.string())
+    with pq.ParquetWriter(out / f"{s.session_id}.parquet", SAMPLES_SCHEMA,
+                          **SAMPLES_WRITE_OPTIONS) as w:
+        for c in open_daq(s, EMPTY_MAPPING, 1 << 24).chunks():
+            t, n, q = c.values["time"], c.values["speed"], c.values["torque"]
+            w.write_table(pa.Table.from_arrays([
+                pa.DictionaryArray.from_arrays(np.zeros(t.size, np.int32), sid), t, n, q,
+                n * q * (np.pi / 30), np.full(t.size, np.nan), np.full(t.size, -1, np.int32),
+            ], schema=SAMPLES_SCHEMA))
+with ThreadPoolExecutor(int(sys.argv[3])) as ex:
+    list(ex.map(one, discover([camp])))
 """
 
 BASELINE_CHILD = r"""
@@ -120,18 +163,22 @@ def main() -> int:
               f"{size / 2**20:.0f} MiB (synth/check {synth_s:.0f} s)")
 
         # alternate the two, several times: other work on the machine shifts wall times
-        runs: dict[str, list[dict]] = {"ingest": [], "baseline": []}
+        runs: dict[str, list[dict]] = {"ingest": [], "floor": [], "baseline": []}
         for k in range(args.repeat):
             store = work / f"store{k}"
             runs["ingest"].append(run_child(INGEST_CHILD, str(campaign), str(store),
                                             str(args.workers)))
+            runs["floor"].append(run_child(FLOOR_CHILD, str(campaign), str(work / f"floor{k}"),
+                                           str(args.workers)))
             runs["baseline"].append(run_child(BASELINE_CHILD, str(campaign),
                                               str(work / f"baseline{k}")))
-            shutil.rmtree(store, ignore_errors=True)
-            shutil.rmtree(work / f"baseline{k}", ignore_errors=True)
+            for d in (store, work / f"floor{k}", work / f"baseline{k}"):
+                shutil.rmtree(d, ignore_errors=True)
             print(f"run {k + 1}/{args.repeat}: ingest {runs['ingest'][-1]['wall_s']:.1f} s, "
+                  f"floor {runs['floor'][-1]['wall_s']:.1f} s, "
                   f"baseline {runs['baseline'][-1]['wall_s']:.1f} s", flush=True)
         n_rows = {"ingest": rows["daq"] + rows["analyzer"] + rows["table"],
+                  "floor": rows["daq"] + rows["analyzer"] + rows["table"],
                   "baseline": rows["daq_csv"] + rows["analyzer"] + rows["table"]}
         summary = {}
         for name, rs in runs.items():
@@ -144,11 +191,13 @@ def main() -> int:
                 "rows_per_cpu_s": n_rows[name] / min(r["cpu_s"] for r in rs),
                 "peak_rss_mib": max(r["peak_rss_mib"] for r in rs), "runs": rs,
             }
-        ing, base = summary["ingest"], summary["baseline"]
+        ing, floor, base = summary["ingest"], summary["floor"], summary["baseline"]
         speedup = ing["rows_per_s"] / base["rows_per_s"]
+        floor_speedup = floor["rows_per_s"] / base["rows_per_s"]
         result = {
             "scale": args.scale, "workers": args.workers, "campaign_bytes": size, "rows": rows,
-            "ingest": ing, "baseline": base, "speedup": speedup,
+            "ingest": ing, "floor": floor, "baseline": base, "speedup": speedup,
+            "floor_speedup": floor_speedup,
             "speedup_median": ing["rows_per_s_median"] / base["rows_per_s_median"],
             "speedup_cpu": ing["rows_per_cpu_s"] / base["rows_per_cpu_s"],
             "goal": {"speedup": GOAL_SPEEDUP, "peak_rss_mib": GOAL_RSS_MIB,
@@ -170,6 +219,8 @@ def main() -> int:
               f"{'met' if result['goal']['rss_met'] else 'NOT met'}); "
               f"load average {result['machine']['load_avg_1min_at_end']:.1f} "
               f"on {os.cpu_count()} CPUs")
+        print(f"floor (hash + parse + samples write only) {floor_speedup:.2f}x the baseline, "
+              f"CPU {floor['rows_per_cpu_s'] / base['rows_per_cpu_s']:.2f}x")
         OUT.mkdir(parents=True, exist_ok=True)
         out = OUT / "ingest_benchmark.json"
         tmp = out.with_suffix(".json.tmp")
