@@ -62,14 +62,14 @@ def solve(
                   lam_x0=warm_start.lam_x, lam_g0=warm_start.lam_g)
     stages = [{"stage": "warm", "status": raw.status, "success": raw.success,
                "iterations": raw.iterations, "wall_time_s": raw.wall_time_s,
-                   "cpu_time_s": raw.cpu_time_s}]
+               "cpu_time_s": raw.cpu_time_s}]
     log.info("%s warm  %-22s %4d it %6.1f s (cpu %.1f s)", scenario.name, raw.status,
              raw.iterations, raw.wall_time_s, raw.cpu_time_s)
     if not raw.success and retry_cold:
         raw = ocp.run(warm_start.w, p, bounds, warm=False)
         stages.append({"stage": "retry-cold", "status": raw.status, "success": raw.success,
                        "iterations": raw.iterations, "wall_time_s": raw.wall_time_s,
-                   "cpu_time_s": raw.cpu_time_s})
+                       "cpu_time_s": raw.cpu_time_s})
         log.info("%s retry %-22s %4d it %6.1f s (cpu %.1f s)", scenario.name, raw.status,
                  raw.iterations, raw.wall_time_s, raw.cpu_time_s)
     return make_result(ocp, scenario, raw, p, bounds, stages)
