@@ -156,6 +156,8 @@ class OcpOptions:
             raise ValueError(
                 f"period_bounds_s must satisfy 0 < lo < hi, got {self.period_bounds_s}"
             )
+        if not 0 < self.warm_bound_push <= 0.5:  # IPOPT's range of warm_start_bound_frac
+            raise ValueError(f"warm_bound_push must be in (0, 0.5], got {self.warm_bound_push}")
 
 
 @dataclass

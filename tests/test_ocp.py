@@ -145,3 +145,9 @@ def test_mumps_blas_runs_the_thread_count_the_environment_names(solved):
         pytest.skip(f"casadi ships no bundled OpenBLAS at {lib_path} on this platform")
     threads = ctypes.CDLL(str(lib_path)).openblas_get_num_threads()
     assert threads == int(os.environ["OPENBLAS_NUM_THREADS"])
+
+
+@pytest.mark.parametrize("push", [0.0, -1e-3, 0.6])
+def test_options_reject_a_warm_bound_push_ipopt_refuses(push):
+    with pytest.raises(ValueError, match="warm_bound_push"):
+        OcpOptions(warm_bound_push=push)

@@ -40,8 +40,8 @@ PASS2_ROWS = 500_000
 #: Parquet writer options of the samples files: snappy, float columns byte-stream
 #: split (their bytes grouped by significance before compression), min/max
 #: statistics only where a reader filters (time, point). Against snappy with
-#: plain encoding and statistics on every column this halves the write CPU time
-#: at 4 % more bytes (benchmarks/README.md)
+#: plain encoding and statistics on every column this cuts the write CPU time by
+#: about 40 % at 3 % more bytes (benchmarks/README.md)
 SAMPLES_WRITE_OPTIONS = {
     "compression": "snappy",
     "use_dictionary": ["session_id"],
