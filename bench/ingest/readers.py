@@ -478,8 +478,11 @@ def open_daq_tdms(
 
 
 def _read_all(layout: CsvLayout, cols: dict[str, ResolvedColumn]) -> dict[str, np.ndarray]:
-    parts = list(iter_csv(layout, cols))
-    return {q: np.concatenate([p.values[q] for p in parts]) for q in cols}
+    parts = [p.values for p in iter_csv(layout, cols)]
+    out = {}
+    for q in cols:  # one column at a time: its chunks are freed before the next is joined
+        out[q] = np.concatenate([p.pop(q) for p in parts])
+    return out
 
 
 _DATE_FORMATS = ("%Y/%m/%d", "%Y-%m-%d", "%d.%m.%Y", "%m/%d/%Y")
@@ -525,7 +528,7 @@ def read_analyzer(
         "separator": layout.sep, "decimal": layout.decimal, "columns": csv_columns_meta(cols),
         "layout": layout,
     }
-    frame = pd.DataFrame({"time_s": data["time"], "p_elec_w": data["p_elec"]})
+    frame = pd.DataFrame({"time_s": data["time"], "p_elec_w": data["p_elec"]}, copy=False)
     return frame, meta
 
 

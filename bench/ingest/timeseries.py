@@ -263,6 +263,7 @@ def process_timeseries(
     offset = zero.offset_nm if zero is not None else 0.0
     means = bins.means(n_bins, offset)
     t0, dt = bins.t0, config.bin_s
+    del bins  # the means are all later steps need
     centres = t0 + (np.arange(n_bins) + 0.5) * dt
 
     prior = _prior_offset(session, ameta)
@@ -270,8 +271,9 @@ def process_timeseries(
     # time stamp: it stands for the middle of that interval
     interval = float(np.median(np.diff(analyzer["time_s"].to_numpy())))
     a_mid = analyzer["time_s"].to_numpy() - 0.5 * interval
-    clock = align.estimate_clock(centres, means["p_mech"], a_mid,
-                                 analyzer["p_elec_w"].to_numpy(), prior)
+    a_p = analyzer["p_elec_w"].to_numpy()
+    del analyzer
+    clock = align.estimate_clock(centres, means["p_mech"], a_mid, a_p, prior)
     if abs(clock.correlation) < MIN_ALIGN_CORRELATION:
         raise InputError(
             apath, f"analyzer power does not follow the DAQ's speed x torque (peak correlation "
@@ -280,12 +282,13 @@ def process_timeseries(
             f"{daq.path.name}, overlapping it in time",
         )
     a_t = clock.to_daq(a_mid)
-    a_p = analyzer["p_elec_w"].to_numpy()
-    fin = np.isfinite(a_p)
+    del a_mid
+    fin = np.flatnonzero(np.isfinite(a_p))
     p_elec_bins = np.interp(centres, a_t[fin], a_p[fin], left=np.nan, right=np.nan)
     check_torque_sign(session, means["p_mech"], p_elec_bins, daq.path)
 
-    usable = (centres >= a_t[fin][0]) & (centres <= a_t[fin][-1])
+    usable = (centres >= a_t[fin[0]]) & (centres <= a_t[fin[-1]])
+    del centres, fin
     if zero is not None:
         usable &= t0 + np.arange(n_bins) * dt >= zero.t_motion_s  # the tare is no window
     win = steady.find_windows(means["speed"], means["torque"], p_elec_bins, means["valid_frac"],
