@@ -4,7 +4,8 @@ Measures, on this machine:
 
 * the cold start (homotopy) at the middle wind speed, in this process;
 * the whole sweep (default 20 scenarios: 4 kinds x 4:10:1.5) with 1 and with 2
-  worker processes, cold starts included, cut-in searches and trust checks
+  worker processes, each chain's start included (from the shipped initial guess,
+  or the homotopy with ``--no-stored-guess``), cut-in searches and trust checks
   excluded;
 * per warm solve: wall time and iterations (median and max), and the number
   converged;
@@ -37,6 +38,7 @@ from bench.files import write_text_atomic
 from fitting.model_file import PAPER_MODEL_PATH, load_power_model
 from optimize.chains import OcpBackend, Problem, make_tasks, run_sweep
 from optimize.executors import open_executor
+from optimize.homotopy import cold_start
 from optimize.ocp import OcpOptions
 from optimize.sweep import (
     DEFAULT_KINDS,
@@ -58,7 +60,8 @@ def machine_state() -> dict:
 
 
 def bench_cold_start(problem: Problem, wind: float, repeats: int) -> list[dict]:
-    """Cold start of elec-lim at ``wind`` [m/s], ``repeats`` times, in this process."""
+    """Cold start (the homotopy, no stored guess) of elec-lim at ``wind`` [m/s], ``repeats``
+    times, in this process."""
     backend = OcpBackend()
     t0 = time.perf_counter()
     ocp = backend.build(problem)
@@ -66,7 +69,7 @@ def bench_cold_start(problem: Problem, wind: float, repeats: int) -> list[dict]:
     runs = []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        res = backend.cold_start(ocp, "elec-lim", wind)
+        res = cold_start(ocp, backend.scenario("elec-lim", wind))
         runs.append(
             {
                 "build_s": build_s,
@@ -91,7 +94,7 @@ def bench_sweep(problem: Problem, winds, kinds, workers: int, trust: bool) -> di
         )
         checks = run_trust_checks(problem, result.outcomes, winds, handle) if trust else None
     warm = [a for o in result.outcomes for a in o.attempts if a.source is not None]
-    cold = [a for o in result.outcomes for a in o.attempts if a.source is None]
+    starts = [(o, a) for o in result.outcomes for a in o.attempts if a.source is None]
     ok_warm = [a for a in warm if a.success]
     times = [a.wall_time_s for a in ok_warm] or [float("nan")]
     iters = [a.iterations for a in ok_warm] or [0]
@@ -107,8 +110,10 @@ def bench_sweep(problem: Problem, winds, kinds, workers: int, trust: bool) -> di
         "warm_failed": len(warm) - len(ok_warm),
         "warm_wall_s": {"median": statistics.median(times), "max": max(times)},
         "warm_iterations": {"median": statistics.median(iters), "max": max(iters)},
-        "cold_starts": [
-            {"wall_s": a.wall_time_s, "iterations": a.iterations, "status": a.status} for a in cold
+        "chain_starts": [
+            {"scenario": o.name, "start": getattr(o.result, "start", None),
+             "wall_s": a.wall_time_s, "iterations": a.iterations, "status": a.status}
+            for o, a in starts
         ],
         "build_s": [c.build_time_s for c in result.chains],
         "per_scenario": [
@@ -146,6 +151,8 @@ def main() -> None:
     ap.add_argument("--tol", type=float, default=OcpOptions.tol, help="IPOPT tolerance")
     ap.add_argument("--warm-bound-push", type=float, default=OcpOptions.warm_bound_push,
                     help="IPOPT warm_start_*bound_push/frac of warm solves")
+    ap.add_argument("--no-stored-guess", action="store_true",
+                    help="start every chain by the homotopy (as before the shipped guess)")
     ap.add_argument("--workers", default="1,2", help="comma list of worker counts to run")
     ap.add_argument("--repeats", type=int, default=1, help="cold-start repetitions")
     ap.add_argument(
@@ -157,7 +164,8 @@ def main() -> None:
     winds, kinds = parse_wind_grid(args.wind_grid), parse_kinds(args.scenarios)
     model = load_power_model(PAPER_MODEL_PATH)
     options = OcpOptions(n_intervals=args.intervals, tol=args.tol,
-                         warm_bound_push=args.warm_bound_push)
+                         warm_bound_push=args.warm_bound_push,
+                         stored_guess=not args.no_stored_guess)
     problem = Problem(None, model, options, f"{options!r}|{model.sha256}")
     report = {
         "machine_before": machine_state(),

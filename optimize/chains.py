@@ -52,7 +52,7 @@ class Backend(Protocol):
         """Solve one scenario warm-started from ``warm`` (a previous result's ``warm``)."""
 
     def cold_start(self, ocp: Any, kind: str, wind_speed_m_s: float) -> SolveResult:
-        """Solve one scenario with no stored solution (homotopy)."""
+        """Solve one scenario with no neighbouring solution (stored guess or homotopy)."""
 
 
 @dataclass(frozen=True)
@@ -137,11 +137,15 @@ class ScenarioOutcome:
 
     @property
     def warm_source(self) -> str:
-        """Warm source of the final attempt (``"cold start"`` for the homotopy)."""
+        """Warm source of the final attempt: a scenario name, ``"stored guess"`` or
+        ``"cold start"`` (the homotopy)."""
         if not self.attempts:
             return ""
         src = self.attempts[-1].source
-        return "cold start" if src is None else src
+        if src is not None:
+            return src
+        return "stored guess" if getattr(self.result, "start", "") == "stored guess" else (
+            "cold start")
 
     @property
     def total_wall_time_s(self) -> float:
@@ -258,10 +262,10 @@ class OcpBackend:
         return solve(ocp, self.scenario(kind, wind_speed_m_s), warm)
 
     def cold_start(self, ocp: Any, kind: str, wind_speed_m_s: float) -> SolveResult:
-        """Homotopy from the circular-loop guess."""
-        from optimize.solve import cold_start
+        """From the stored initial guess when it fits, else the homotopy."""
+        from optimize.solve import start
 
-        return cold_start(ocp, self.scenario(kind, wind_speed_m_s))
+        return start(ocp, self.scenario(kind, wind_speed_m_s))
 
 
 # ------------------------------------------------------------------ the chain runner

@@ -54,6 +54,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--no-claims", action="store_true", help="skip the cut-in search and the paper comparison"
     )
     parser.add_argument(
+        "--no-stored-guess",
+        action="store_true",
+        help="start every chain by the homotopy, not from the shipped initial guess",
+    )
+    parser.add_argument(
         "--trust",
         action="store_true",
         help="also run the trust checks (mesh refinement at 2x intervals, CVODES simulation)",

@@ -93,4 +93,4 @@ def cold_start(ocp: Ocp, scenario: Scenario, guess: LoopGuess | None = None) -> 
     p = ocp.params(wind, **power_weights(scenario))
     raw = ocp.run(raw.w, p, bounds, warm=False)
     _record(stages, "power", raw, scenario)
-    return make_result(ocp, scenario, raw, p, bounds, stages)
+    return make_result(ocp, scenario, raw, p, bounds, stages, start="homotopy")

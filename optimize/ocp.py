@@ -115,6 +115,9 @@ class OcpOptions:
         off their bounds. A neighbouring optimum has other active bounds; left
         within 1e-9 of them, the fraction-to-the-boundary rule cut the first
         steps to 1e-7..1e-2 of their length.
+    stored_guess : bool
+        Start a scenario with no neighbouring solution from the shipped initial
+        guess (:mod:`optimize.initial_guess`) when it fits, instead of the homotopy.
     linear_solver : str
         IPOPT linear solver.
     mumps_pivot_order : int
@@ -143,6 +146,7 @@ class OcpOptions:
     surface_rate_bound_rad_s: float = 2.0
     warm_mu_init: float = 1e-4
     warm_bound_push: float = 1e-2
+    stored_guess: bool = True
     linear_solver: str = "mumps"
     mumps_pivot_order: int = 0
 

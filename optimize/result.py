@@ -71,6 +71,10 @@ class OcpResult:
     stages : tuple of dict
         Per-stage log of a cold start (name, status, iterations, wall_time_s);
         one entry per solver call otherwise.
+    start : str
+        How the final solve was started: ``"warm start"`` (from a neighbouring
+        solution), ``"stored guess"`` (:mod:`optimize.initial_guess`) or
+        ``"homotopy"``.
     """
 
     scenario: Scenario
@@ -87,6 +91,7 @@ class OcpResult:
     trajectory: pd.DataFrame
     warm: Solution
     stages: tuple[dict, ...]
+    start: str = "warm start"
 
 
 def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_ref_m_s: float) -> pd.DataFrame:
@@ -135,6 +140,7 @@ def make_result(
     p: np.ndarray,
     bounds: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     stages: list[dict],
+    start: str = "warm start",
 ) -> OcpResult:
     """Assemble an :class:`OcpResult` from the final solver call and the stage log."""
     traj = trajectory_frame(ocp, raw.w, scenario.wind_speed_m_s)
@@ -161,4 +167,5 @@ def make_result(
             n_intervals=ocp.options.n_intervals, degree=ocp.coll.degree,
         ),
         stages=tuple(stages),
+        start=start,
     )

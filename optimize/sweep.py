@@ -351,7 +351,8 @@ class SweepRequest:
             )
         model = load_power_model(path)
         try:
-            options = OcpOptions(n_intervals=args.intervals, degree=args.degree)
+            options = OcpOptions(n_intervals=args.intervals, degree=args.degree,
+                                 stored_guess=not args.no_stored_guess)
         except ValueError as exc:
             raise InputError(None, f"OCP options: {exc}") from exc
         return cls(

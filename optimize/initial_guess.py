@@ -1,0 +1,113 @@
+"""A shipped solution to start a chain from, in place of the homotopy.
+
+``optimize/data/initial_guess.npz`` holds the scaled primal and dual solution of
+one scenario (:data:`GUESS_SCENARIO`, elec-lim-7.0, solved by the homotopy with
+the paper's Table I drive model at the default discretization), the NLP
+parameters it was solved with and the scaled constraint values ``g(w, p)`` there.
+
+:func:`load` accepts the file for an OCP only if that OCP evaluates the same
+``g`` at the stored point to :data:`MATCH_TOL`. The constraints do not depend on
+the drive model, so the guess serves any fitted model; a changed kite model,
+scaling, collocation or layout makes it stale, and :func:`optimize.solve.start`
+falls back to the homotopy. Regenerate the file with::
+
+    .venv/bin/python -m optimize.initial_guess
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from bench.files import atomic_path
+from optimize.ocp import Ocp
+from optimize.result import OcpResult, Solution
+from optimize.scenario import Scenario
+
+log = logging.getLogger(__name__)
+
+#: the shipped file
+GUESS_PATH = Path(__file__).parent / "data" / "initial_guess.npz"
+#: the scenario it holds: its solution warm-starts both objectives at 7 m/s
+GUESS_SCENARIO = Scenario(wind_speed_m_s=7.0, objective="electrical", drive_limits=True)
+#: largest deviation of the scaled constraint values at the stored point [-]
+MATCH_TOL = 1e-9
+
+
+def write(path: str | Path, ocp: Ocp, result: OcpResult, p: np.ndarray) -> Path:
+    """Store ``result``'s solution with its parameters ``p`` and ``g(w, p)`` (atomic)."""
+    w = result.warm.w
+    with atomic_path(path) as tmp, tmp.open("wb") as fh:
+        np.savez_compressed(
+            fh, w=w, lam_x=result.warm.lam_x, lam_g=result.warm.lam_g, p=p,
+            g=ocp.constraint_values(w, p), n_intervals=ocp.options.n_intervals,
+            degree=ocp.coll.degree, scenario=result.scenario.name,
+        )
+    return Path(path)
+
+
+def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]:
+    """The stored solution if it fits ``ocp``, else ``None``; and why (for the log).
+
+    Parameters
+    ----------
+    ocp : Ocp
+        The OCP to start.
+    path : str or Path
+        The guess file.
+
+    Returns
+    -------
+    solution : Solution or None
+    reason : str
+        What was checked, or why the file does not fit.
+    """
+    path = Path(path)
+    if not path.is_file():
+        return None, f"no stored initial guess at {path}"
+    with np.load(path) as f:
+        data = {k: f[k] for k in f.files}
+    n, d = int(data["n_intervals"]), int(data["degree"])
+    if (n, d) != (ocp.options.n_intervals, ocp.coll.degree):
+        return None, (f"the stored initial guess is for N={n}, degree {d}; this OCP has "
+                      f"N={ocp.options.n_intervals}, degree {ocp.coll.degree}")
+    lay = ocp.layout
+    if (data["w"].size, data["g"].size, data["p"].size) != (lay.n_w, lay.n_g, lay.n_p):
+        return None, "the stored initial guess has another variable or constraint layout"
+    dev = float(np.max(np.abs(ocp.constraint_values(data["w"], data["p"]) - data["g"])))
+    if not dev <= MATCH_TOL:
+        return None, (f"the stored initial guess does not fit this OCP's constraints (largest "
+                      f"deviation {dev:.1e}); regenerate it: python -m optimize.initial_guess")
+    solution = Solution(w=data["w"], lam_x=data["lam_x"], lam_g=data["lam_g"],
+                        n_intervals=n, degree=d)
+    return solution, f"stored initial guess {data['scenario']} fits (deviation {dev:.1e})"
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Solve :data:`GUESS_SCENARIO` by the homotopy and write the guess file."""
+    from fitting.model_file import paper_model
+    from optimize.homotopy import cold_start, power_weights
+    from optimize.kite_model import kite_dae
+    from optimize.ocp import OcpOptions, build_ocp
+
+    ap = argparse.ArgumentParser(description=main.__doc__)
+    ap.add_argument("--out", type=Path, default=GUESS_PATH)
+    args = ap.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions())
+    result = cold_start(ocp, GUESS_SCENARIO)
+    if not result.success:
+        log.error("%s: %s, no guess written", GUESS_SCENARIO.name, result.status)
+        return 1
+    p = ocp.params(GUESS_SCENARIO.wind_speed_m_s, **power_weights(GUESS_SCENARIO))
+    out = write(args.out, ocp, result, p)
+    log.info("wrote %s (%s: P_elec %.1f W, P_mech %.1f W, %d iterations)", out,
+             GUESS_SCENARIO.name, result.avg_p_elec_w, result.avg_p_mech_w, result.iterations)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

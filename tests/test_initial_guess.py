@@ -1,0 +1,59 @@
+"""The shipped initial guess: it fits the current OCP, and it is an optimum of it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fitting.model_file import paper_model
+from optimize import initial_guess
+from optimize.kite_model import kite_dae
+from optimize.ocp import OcpOptions, build_ocp
+from optimize.params import KiteParams
+from optimize.solve import start
+
+
+@pytest.fixture(scope="module")
+def ocp():
+    return build_ocp(kite_dae(), paper_model(), OcpOptions())
+
+
+def test_shipped_guess_fits_the_default_ocp(ocp):
+    # fails when the formulation changes without `python -m optimize.initial_guess`
+    solution, why = initial_guess.load(ocp)
+    assert solution is not None, why
+    assert solution.w.size == ocp.layout.n_w and solution.lam_g.size == ocp.layout.n_g
+
+
+def test_guess_is_refused_for_another_discretization_or_kite():
+    coarse = build_ocp(kite_dae(), paper_model(), OcpOptions(n_intervals=20))
+    solution, why = initial_guess.load(coarse)
+    assert solution is None and "N=40" in why and "N=20" in why
+    # 1 kg more mass changes the dynamics residuals at the stored point
+    heavier = build_ocp(kite_dae(KiteParams(mass_kg=KiteParams().mass_kg + 1.0)), paper_model(),
+                        OcpOptions())
+    solution, why = initial_guess.load(heavier)
+    assert solution is None and "does not fit" in why
+
+
+def test_missing_file_is_refused(ocp, tmp_path):
+    solution, why = initial_guess.load(ocp, tmp_path / "none.npz")
+    assert solution is None and "no stored initial guess" in why
+
+
+def test_start_from_the_guess_stays_at_its_optimum(ocp):
+    # the file holds IPOPT's optimum of elec-lim-7.0 with the paper model: started there,
+    # IPOPT must confirm it in a few dozen iterations (the warm start pushes it 1e-2
+    # off its active bounds first) and leave the point (scaled
+    # variables of order 1) where it is
+    stored, _ = initial_guess.load(ocp)
+    res = start(ocp, initial_guess.GUESS_SCENARIO)
+    assert res.success, res.status
+    assert res.start == "stored guess"
+    assert [s["stage"] for s in res.stages] == ["stored-guess warm"]
+    assert res.iterations <= 30  # the homotopy takes about 220
+    assert np.max(np.abs(res.warm.w - stored.w)) < 1e-3
+    # issue 4's prototype, electrical with limits at 7 m/s: -558 W, 5.6 s (model
+    # differing in details); the same cycle within 5 %
+    assert res.avg_p_elec_w == pytest.approx(-558.0, rel=0.05)
+    assert res.period_s == pytest.approx(5.6, rel=0.1)
