@@ -23,7 +23,10 @@ from pathlib import Path
 import numpy as np
 
 from bench.files import atomic_path
-from optimize.ocp import Ocp
+from fitting.model_file import paper_model
+from optimize.homotopy import cold_start, power_weights
+from optimize.kite_model import kite_dae
+from optimize.ocp import Ocp, OcpOptions, build_ocp
 from optimize.result import OcpResult, Solution
 from optimize.scenario import Scenario
 
@@ -88,11 +91,6 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
 
 def main(argv: list[str] | None = None) -> int:
     """Solve :data:`GUESS_SCENARIO` by the homotopy and write the guess file."""
-    from fitting.model_file import paper_model
-    from optimize.homotopy import cold_start, power_weights
-    from optimize.kite_model import kite_dae
-    from optimize.ocp import OcpOptions, build_ocp
-
     ap = argparse.ArgumentParser(description=main.__doc__)
     ap.add_argument("--out", type=Path, default=GUESS_PATH)
     args = ap.parse_args(argv)
