@@ -144,8 +144,8 @@ class ScenarioOutcome:
         src = self.attempts[-1].source
         if src is not None:
             return src
-        return "stored guess" if getattr(self.result, "start", "") == "stored guess" else (
-            "cold start")
+        stored = getattr(self.result, "start", None) == "stored guess"  # OcpResult.start
+        return "stored guess" if stored else "cold start"
 
     @property
     def total_wall_time_s(self) -> float:
