@@ -232,6 +232,24 @@ def test_cut_in_edge_cases():
     )
 
 
+@dataclass(frozen=True)
+class StoredGuessResult(Result):
+    start: str = "stored guess"  # as optimize.solve.start marks a start from the shipped guess
+
+
+class StoredGuessBackend(NewtonBackend):
+    def cold_start(self, ocp: str, kind: str, w: float) -> Result:
+        return StoredGuessResult(*dataclasses.astuple(self._newton(kind, w, 0.0)))
+
+
+def test_warm_source_tells_a_stored_guess_start_from_a_homotopy():
+    step = Step("elec-lim", 7.0, None, ())
+    out = solve_step(StoredGuessBackend(), "", step, {})
+    assert [a.source for a in out.attempts] == [None] and out.success
+    assert out.warm_source == "stored guess"
+    assert solve_step(NewtonBackend(), "", step, {}).warm_source == "cold start"
+
+
 def test_failed_warm_start_retries_fallback_then_cold_start():
     step = Step("mech-free", 10.0, "mech-free-8.5", ("mech-lim-10.0", "mech-lim-8.5"))
     warm = {"mech-free-8.5": exact_root(8.5), "mech-lim-10.0": exact_root(10.0)}
