@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +39,8 @@ GUESS_PATH = Path(__file__).parent / "data" / "initial_guess.npz"
 GUESS_SCENARIO = Scenario(wind_speed_m_s=7.0, objective="electrical", drive_limits=True)
 #: largest deviation of the scaled constraint values at the stored point [-]
 MATCH_TOL = 1e-9
+#: the arrays of the file besides its scalars
+ARRAYS = ("w", "lam_x", "lam_g", "p", "g")
 
 
 def write(path: str | Path, ocp: Ocp, result: OcpResult, p: np.ndarray) -> Path:
@@ -71,8 +74,11 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
     path = Path(path)
     if not path.is_file():
         return None, f"no stored initial guess at {path}"
-    with np.load(path) as f:
-        data = {k: f[k] for k in f.files}
+    try:
+        with np.load(path) as f:
+            data = {k: f[k] for k in (*ARRAYS, "n_intervals", "degree", "scenario")}
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
+        return None, f"cannot read the stored initial guess {path}: {exc}"
     n, d = int(data["n_intervals"]), int(data["degree"])
     if (n, d) != (ocp.options.n_intervals, ocp.coll.degree):
         return None, (f"the stored initial guess is for N={n}, degree {d}; this OCP has "

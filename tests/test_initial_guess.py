@@ -36,9 +36,17 @@ def test_guess_is_refused_for_another_discretization_or_kite():
     assert solution is None and "does not fit" in why
 
 
-def test_missing_file_is_refused(ocp, tmp_path):
+def test_missing_or_damaged_file_is_refused(ocp, tmp_path):
     solution, why = initial_guess.load(ocp, tmp_path / "none.npz")
     assert solution is None and "no stored initial guess" in why
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"not a zip archive")
+    solution, why = initial_guess.load(ocp, bad)
+    assert solution is None and "cannot read" in why and "bad.npz" in why
+    partial = tmp_path / "partial.npz"
+    np.savez(partial, w=np.zeros(3))
+    solution, why = initial_guess.load(ocp, partial)
+    assert solution is None and "cannot read" in why
 
 
 def test_start_from_the_guess_stays_at_its_optimum(ocp):
