@@ -23,11 +23,12 @@ SECTION_QUANTITIES: dict[str, tuple[str, ...]] = {
     ),
     "daq": ("time", "speed", "torque"),
     "analyzer": ("time", "p_elec"),
+    "log": ("time", "speed", "torque", "p_elec", "p_mech"),
 }
 
 #: header names (unit stripped, lower case) recognised without a mapping
 ALIASES: dict[str, tuple[str, ...]] = {
-    "time": ("time", "zeit", "t", "time_s"),
+    "time": ("time", "zeit", "t", "time_s", "timestamp", "zeitstempel", "uhrzeit", "datetime"),
     "speed": ("speed", "drehzahl", "n", "speed_rpm", "rotational speed"),
     "torque": ("torque", "drehmoment", "m", "torque_nm"),
     "p_elec": ("p_sigma", "p_elec", "p_el", "p", "p_total", "wirkleistung", "p_elec_w"),
@@ -97,16 +98,16 @@ def load_mapping(path: str | Path) -> Mapping:
     sections: dict[str, dict[str, ColumnSpec]] = {}
     if "columns" in raw:
         sections["points"] = _parse_columns(path, "columns", raw["columns"], "points")
-    for name in ("daq", "analyzer"):
+    for name in ("daq", "analyzer", "log"):
         if name in raw:
             if not isinstance(raw[name], dict) or set(raw[name]) != {"columns"}:
                 raise InputError(path, f"section [{name}] must hold only [{name}.columns.*] tables")
             sections[name] = _parse_columns(path, f"{name}.columns", raw[name]["columns"], name)
-    unknown = set(raw) - {"columns", "daq", "analyzer"}
+    unknown = set(raw) - {"columns", "daq", "analyzer", "log"}
     if unknown:
         raise InputError(
             path, f"unknown mapping section(s) {sorted(unknown)}",
-            expected="[columns.*], [daq.columns.*] or [analyzer.columns.*]",
+            expected="[columns.*], [daq.columns.*], [analyzer.columns.*] or [log.columns.*]",
         )
     return Mapping(path=path, sections=sections)
 

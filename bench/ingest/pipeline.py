@@ -30,7 +30,8 @@ from bench.ingest.timeseries import SessionOutput, process_timeseries
 
 #: bump when ingest would compute different points from the same files; sessions
 #: stored by another version are re-ingested
-INGEST_VERSION = 3  # 2: torque zero offset from the tare; 3: oscillations cut into pieces
+INGEST_VERSION = 4  # 2: torque zero offset from the tare; 3: oscillations cut into pieces;
+# 4: bins follow the sample interval (grid centred on the samples), time gaps end windows
 
 
 @dataclass
@@ -64,7 +65,10 @@ def session_files(
     ``session.toml``) wins; else the user's ``--mapping`` file applies.
     """
     files = {"session.toml": session.path}
-    tables = ("daq", "analyzer") if session.kind == "timeseries" else ("points",)
+    if session.kind != "timeseries":
+        tables: tuple[str, ...] = ("points",)
+    else:
+        tables = ("log",) if session.single_stream else ("daq", "analyzer")
     for t in tables:
         p = session.file(t)
         files[p.name] = p
@@ -95,6 +99,7 @@ def ingest(
     progress: bool = True,
     chunk_bytes: int = CHUNK_BYTES,
     workers: int = 2,
+    strict: bool = False,
 ) -> IngestResult:
     """Ingest every session under ``paths`` into the store at ``store_dir``.
 
@@ -114,6 +119,10 @@ def ingest(
         CSV bytes parsed per chunk [B]; bounds memory.
     workers : int
         Sessions processed at the same time (threads); memory grows with it.
+    strict : bool
+        A session that gives no operating point is an error (InputError naming
+        its session.toml and why), and the store is left as it was; without it
+        the manifest and the summary say why.
 
     Returns
     -------
@@ -157,18 +166,29 @@ def ingest(
                 result.unchanged.append(s.session_id)
             else:
                 todo.append((s, hashes, mapping_file, files))
+        if strict:
+            for s in sessions:
+                if s.session_id in result.unchanged:
+                    _strict_check(s, manifest["sessions"][s.session_id])
         if not todo:
             result.manifest = manifest
             return result
-        _process(todo, store_dir, config, progress, chunk_bytes, workers, result)
+        _process(todo, store_dir, config, progress, chunk_bytes, workers, result, strict)
     finally:
         hasher.shutdown(cancel_futures=True)
     result.manifest = store.read_manifest(store_dir)
     return result
 
 
+def _strict_check(s: Session, entry: dict) -> None:
+    """``--strict``: raise when a session's entry has no operating point."""
+    if entry.get("n_points", 0) == 0:
+        raise InputError(s.path, entry.get("no_points_note", "0 points"),
+                         expected="at least one steady operating point (--strict)")
+
+
 def _process(todo, store_dir: Path, config: SteadyConfig, progress: bool, chunk_bytes: int,
-             workers: int, result: IngestResult) -> None:
+             workers: int, result: IngestResult, strict: bool = False) -> None:
     """Process the changed sessions into a staging dir, then commit them all at once.
 
     Sessions run in ``workers`` threads: parsing, numpy and Parquet writing release
@@ -214,6 +234,8 @@ def _process(todo, store_dir: Path, config: SteadyConfig, progress: bool, chunk_
         for (s, hashes, _, _), (files, out) in zip(todo, outputs, strict=True):
             staged[s.session_id] = files
             entries[s.session_id] = _entry(s, {k: f.result() for k, f in hashes.items()}, out)
+            if strict:
+                _strict_check(s, entries[s.session_id])
             result.ingested.append(s.session_id)
         store.commit(store_dir, staged, entries)
 
@@ -244,4 +266,6 @@ def _entry(s: Session, hashes: dict[str, str], out: SessionOutput) -> dict:
         "ingested_at": datetime.now(UTC).isoformat(timespec="seconds"),
     }
     entry.update(out.info)
+    if out.points.num_rows == 0 and "no_points_note" not in entry:
+        entry["no_points_note"] = "0 points: every row of the table is invalid"
     return entry

@@ -21,7 +21,9 @@ _RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
 
 #: quantity -> {normalised unit spelling -> factor to the target unit}
 _FACTORS: dict[str, dict[str, float]] = {
-    "time": {"s": 1.0, "ms": 1e-3},
+    # clock formats (time of day, ISO 8601) are parsed to seconds by bench.ingest.clock
+    "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "μs": 1e-6,
+             "hh:mm:ss": 1.0, "hh:mm:ss.sss": 1.0, "hh:mm:ss,sss": 1.0, "iso8601": 1.0},
     "speed": {
         "rpm": 1.0,
         "1/min": 1.0,
@@ -36,7 +38,7 @@ _FACTORS: dict[str, dict[str, float]] = {
 
 #: the spellings to show in error messages
 ACCEPTED: dict[str, str] = {
-    "time": "s, ms",
+    "time": "s, ms, us, hh:mm:ss (time of day), ISO 8601 (date-time)",
     "speed": "rpm, 1/min, U/min, min^-1, min-1, rad/s",
     "torque": "N m, Nm, N·m, N*m, kNm, kN m",
     "power": "W, kW, MW",
