@@ -138,8 +138,9 @@ class _Bins:
         jumps = np.flatnonzero(np.diff(t, prepend=self.last_t) > self.gap_s)
         if jumps.size:
             after = k[jumps]
-            before = np.where(jumps > 0, k[np.maximum(jumps - 1, 0)],
-                              int((self.last_t - self.t0) / self.dt))
+            before = k[np.maximum(jumps - 1, 0)]
+            if jumps[0] == 0:  # the gap lies between the last chunk and this one
+                before[0] = int((self.last_t - self.t0) / self.dt)
             self.gaps.append(np.column_stack((before + 1, after)))
         self.last_t = float(t[-1])
         starts = np.concatenate(([0], np.flatnonzero(np.diff(k)) + 1))
