@@ -93,10 +93,13 @@ def test_ev_export_single_stream_signed_torque(tmp_path):
         "generator": int((truth.quadrant == "generator").sum())}
     assert (pts.quadrant.to_numpy() == truth.quadrant[k]).all()
     n = pts.n_samples.to_numpy()
-    # noise per sample 3 rpm, 0.5 N m, 40 W: 5 standard errors, plus the settling tail
-    assert np.all(np.abs(pts.speed_rpm - truth.speed_rpm[k]) < 5 * 3.0 / np.sqrt(n) + 0.5)
+    # noise per sample 3 rpm, 0.5 N m, 40 W: 5 standard errors, plus the settling tail: a
+    # window may start while the speed is still within its steady tolerance (5 noise
+    # sigmas, 15 rpm) of the level, up to 300 W of p_mech at 200 N m in the first samples,
+    # some 30 W in the mean of ~50 (0.03 % of these 10-100 kW points)
+    assert np.all(np.abs(pts.speed_rpm - truth.speed_rpm[k]) < 5 * 3.0 / np.sqrt(n) + 1.0)
     assert np.all(np.abs(pts.torque_nm - truth.torque_nm[k]) < 5 * 0.5 / np.sqrt(n) + 0.1)
-    assert np.all(np.abs(pts.p_elec_w - truth.p_elec_w[k]) < 5 * 40.0 / np.sqrt(n) + 20.0)
+    assert np.all(np.abs(pts.p_elec_w - truth.p_elec_w[k]) < 5 * 40.0 / np.sqrt(n) + 40.0)
 
 
 def test_ev_export_without_signed_is_refused(tmp_path):

@@ -6,13 +6,16 @@ import math
 
 import numpy as np
 
+from bench.ingest import steady
 from bench.ingest.mapping import Mapping
 from bench.ingest.readers import read_points_table
 from bench.ingest.session import Session
 from bench.ingest.timeseries import (
     RAD_S_PER_RPM,
     SessionOutput,
+    check_drum_torque,
     check_torque_sign,
+    fold_signed,
     points_table,
     rejected_table,
 )
@@ -38,11 +41,16 @@ def process_table(session: Session, mapping: Mapping) -> SessionOutput:
         "p_mech_w_std": frame.get("p_mech_w_std", nan),
         "p_elec_w_std": frame.get("p_elec_w_std", nan),
     }
+    if session.signed_torque:
+        speed, torque = fold_signed(speed, torque)
     check_torque_sign(session, p_mech, p_elec, path)
     ok = np.isfinite(speed) & np.isfinite(torque) & np.isfinite(p_elec) & np.isfinite(p_mech)
     cols = {"speed_rpm": speed, "torque_nm": torque, "p_mech_w": p_mech, "p_elec_w": p_elec}
     cols.update({k: np.asarray(v, np.float64) for k, v in std.items()})
     cols = {k: v[ok] for k, v in cols.items()}
+    if not session.signed_torque:
+        tol = steady.DEFAULT_STEADY.floor_frac * session.ranges["torque"] * gear
+        check_drum_torque(session, cols["torque_nm"], tol, path)
     n_samples = frame["n_samples"].to_numpy() if "n_samples" in frame else np.zeros(len(frame))
     n_samples = np.nan_to_num(n_samples[ok]).astype(np.int32)
     nan_ok = np.full(int(ok.sum()), np.nan)
