@@ -192,3 +192,42 @@ def test_bad_clock_cell_names_its_line(tmp_path):
     with pytest.raises(InputError) as exc:
         list(stream.chunks())
     assert exc.value.line == 12 and "9h00" in str(exc.value)
+
+
+def _signed_table(root, torque_sign: str) -> tuple[np.ndarray, np.ndarray]:
+    """A point table logged as speed > 0, torque < 0 in generator mode; drum-frame truth."""
+    speed = np.array([500.0, 1000.0, -500.0, -1000.0])  # drum frame
+    torque = np.array([20.0, 40.0, 30.0, 60.0])
+    folder = root / "tab"
+    folder.mkdir(parents=True)
+    rows = ["Speed [rpm],Torque [Nm],P_el [W]"] + [
+        f"{abs(s)},{q if s > 0 else -q},{paper_p_elec(s, q):.3f}"
+        for s, q in zip(speed, torque, strict=True)]
+    (folder / "points.csv").write_text("\n".join(rows) + "\n")
+    (folder / "session.toml").write_text(f'''session_id = "tab"
+kind = "operating_points"
+mode = "motor"
+gear_ratio = 1.0
+measured_side = "drum"
+speed_sign = 1
+torque_sign = {torque_sign}
+
+[points]
+file = "points.csv"
+''')
+    return speed, torque
+
+
+def test_signed_torque_point_table(tmp_path):
+    speed, torque = _signed_table(tmp_path / "c", '"signed"')
+    ingest([tmp_path / "c"], tmp_path / "store", progress=False)
+    pts = read_points(tmp_path / "store").sort_values("point_id")
+    assert pts.speed_rpm.tolist() == speed.tolist() and pts.torque_nm.tolist() == torque.tolist()
+    assert pts.quadrant.tolist() == ["motor", "motor", "generator", "generator"]
+
+
+def test_negative_drum_torque_in_a_table_is_refused(tmp_path):
+    _signed_table(tmp_path / "c", "1")
+    with pytest.raises(InputError) as exc:
+        ingest([tmp_path / "c"], tmp_path / "store", progress=False)
+    assert "points.csv" in str(exc.value) and "2 of 4" in str(exc.value)
