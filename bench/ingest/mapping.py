@@ -352,7 +352,8 @@ def resolve_columns(
                 where = "" if spec.formula is None else f" in {spec.column!r}"
                 raise InputError(
                     mapping.path, f"mapping names column {name!r} for {quantity}{where}, "
-                    f"but {path.name} has no such column", column=name,
+                    f"but {path.name} has no such column"
+                    + _header_hint(found, header_line, section), column=name,
                     expected=closest_columns([name], stripped),
                 )
             sources.append((name, idx))
@@ -366,7 +367,9 @@ def resolve_columns(
         if idx is None:
             if quantity in required:
                 raise InputError(
-                    path, f"missing column for {quantity}", line=header_line, column=quantity,
+                    path, f"missing column for {quantity}" + _header_hint(found, header_line,
+                                                                          section),
+                    line=header_line, column=quantity,
                     expected=f"a column named like {ALIASES[quantity][0].title()!r} with a unit, "
                     f"or a mapping entry [{section}.columns.{quantity}]; "
                     + closest_columns(list(ALIASES[quantity]), stripped),
@@ -391,6 +394,15 @@ def resolve_columns(
                                          sources=((stripped[idx], idx),))
     _check_distinct(path, mapping, found)
     return found
+
+
+def _header_hint(found: dict, header_line: int | None, section: str) -> str:
+    """When nothing of the names row matched, it may be a title or date line above it."""
+    if found or header_line is None:
+        return ""
+    key = "skip_lines" if section == "points" else f"[{section}] skip_lines"
+    return (f" (the column row read is line {header_line}; if lines above the real column row "
+            f"hold a title or a date, skip them with {key} = N in the mapping file)")
 
 
 def _check_distinct(path: Path, mapping: Mapping, found: dict[str, ResolvedColumn]) -> None:
