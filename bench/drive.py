@@ -68,6 +68,22 @@ class DriveRating:
                 f"rpm, torque <= {self.max_torque_nm:g} N m ({self.source})")
 
 
+def drive_toml(rating: DriveRating) -> str:
+    """The ``drive.toml`` text of a rating (read back by :func:`load_drive_file`)."""
+    return ("# Drive rating of this campaign (docs/schemas.md section 1): "
+            "bench ingest records it,\n"
+            "# bench fit writes it into power_model.json, bench optimize takes its limits from "
+            "there.\n"
+            f"nominal_power_w = {rating.nominal_power_w!r}  # [W]\n"
+            f"max_speed_rpm = {rating.max_speed_rpm!r}  # [rpm], drum side\n"
+            f"max_torque_nm = {rating.max_torque_nm!r}  # [N m], drum side\n"
+            f"source = {_toml_string(rating.source)}\n")
+
+
+def _toml_string(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
 def _positive(value) -> bool:
     return (isinstance(value, (int, float)) and not isinstance(value, bool)
             and math.isfinite(value) and value > 0)

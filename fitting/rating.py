@@ -33,7 +33,7 @@ def _from_manifest(store: Path, session_ids: list[str]) -> tuple[dict, dict]:
         for key in DRIVE_KEYS:
             if key not in drive:
                 continue
-            origin = f"{sid}: {(drive.get('sources') or {}).get(key, 'manifest')}"
+            origin = str((drive.get("sources") or {}).get(key, f"manifest, session {sid}"))
             if key in values and values[key] != drive[key]:
                 raise InputError(store / "manifest.json",
                                  f"sessions disagree on the drive rating {key}: "
@@ -81,7 +81,7 @@ def resolve_drive(store: str | Path, frame: pd.DataFrame,
     """
     store = Path(store)
     values, info = _from_manifest(store, sorted(frame["session_id"].astype(str).unique()))
-    origin = {k: f"store manifest ({info['where'][k]})" for k in values}
+    origin = {k: info["where"][k] for k in values}
     for key, value in (overrides or {}).items():
         if value is not None:
             values[key] = float(value)
@@ -94,8 +94,11 @@ def resolve_drive(store: str | Path, frame: pd.DataFrame,
             origin[key] = "measured maximum"
             notes.append(f"no {key} in the campaign (drive.toml or session.toml): the measured "
                          f"maximum {stand_in[key]:.6g} stands in for it")
-    parts = [f"{key}: {origin[key]}" for key in DRIVE_KEYS]
-    source = "; ".join(parts + [f"source: {n}" for n in info["notes"]])
+    by_origin: dict[str, list[str]] = {}
+    for key in DRIVE_KEYS:
+        by_origin.setdefault(origin[key], []).append(key)
+    parts = [f"{', '.join(keys)} from {where}" for where, keys in by_origin.items()]
+    source = "; ".join(parts + info["notes"])
     try:
         rating = DriveRating(**{k: values[k] for k in DRIVE_KEYS}, source=source)
     except ValueError as exc:
