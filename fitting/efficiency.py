@@ -55,6 +55,11 @@ class MaskingRules:
     envelope_band_frac : float
         Speed band width of the measured envelope (:mod:`fitting.domain`), a
         fraction of the quadrant's largest |speed| [-].
+    ceiling_max_noise : float
+        The map's efficiency ceiling is the highest measured efficiency plus its
+        noise, among the points whose efficiency noise is at most this (or, when
+        none is, the least noisy points) [-]: near the axes a small noise in
+        P_elec makes a large one in eta, and such a point says little about the peak.
 
     Notes
     -----
@@ -68,6 +73,7 @@ class MaskingRules:
     elec_frac: float = 0.02
     max_efficiency: float = 1.0
     envelope_band_frac: float = BAND_FRAC
+    ceiling_max_noise: float = 0.005
 
     def __post_init__(self) -> None:
         for name in ("mech_frac", "elec_frac"):
@@ -96,7 +102,8 @@ class MaskingRules:
             "map: the loss P_elec - P_mech is interpolated linearly between measured points "
             "and eta derived from it",
             "map: eta above the quadrant's highest measured eta + its noise -> clipped to that "
-            "ceiling (status 'clipped')",
+            f"ceiling (status 'clipped'); measured eta with a noise above "
+            f"{self.ceiling_max_noise:g} does not set the ceiling",
         ]
         return d
 
@@ -214,8 +221,10 @@ def efficiency_ceilings(frame: pd.DataFrame, rules: MaskingRules,
 
     The noise of a measured efficiency follows from the noise ``sigma`` of its
     electrical power: ``eta * sigma / |P_elec|`` in the motor quadrant (eq. 1),
-    ``sigma / |P_mech|`` in the generator quadrant (eq. 2), at the point of the
-    highest measured efficiency.
+    ``sigma / |P_mech|`` in the generator quadrant (eq. 2). The maximum is taken
+    over the points whose noise is at most ``rules.ceiling_max_noise`` (when no
+    point is that quiet, over the least noisy ones); the ceiling is that maximum
+    plus its own noise.
 
     Parameters
     ----------
@@ -238,18 +247,20 @@ def efficiency_ceilings(frame: pd.DataFrame, rules: MaskingRules,
     eta, status = masked_efficiency(frame["p_mech_w"], frame["p_elec_w"], rules)
     quadrant = frame["quadrant"].to_numpy()
     out = {}
+    p_mech = np.abs(frame["p_mech_w"].to_numpy(dtype=float))
+    p_elec = np.abs(frame["p_elec_w"].to_numpy(dtype=float))
     for q in QUADRANTS:
         sel = np.flatnonzero((quadrant == q) & (status == OK))
         if sel.size == 0:
             continue
-        k = int(sel[np.argmax(eta[sel])])
         sigma = _noise_of(p_elec_noise_w, q)
-        p_mech = abs(float(frame["p_mech_w"].iloc[k]))
-        p_elec = abs(float(frame["p_elec_w"].iloc[k]))
-        noise = eta[k] * sigma / p_elec if q == "motor" else sigma / p_mech
-        out[q] = {"eta": float(min(eta[k] + noise, rules.max_efficiency)),
-                  "eta_max_measured": float(eta[k]), "noise_eta": float(noise),
-                  "p_elec_noise_w": sigma,
+        noise = (eta[sel] * sigma / p_elec[sel] if q == "motor" else sigma / p_mech[sel])
+        quiet = noise <= max(rules.ceiling_max_noise, float(noise.min()) * (1 + 1e-12))
+        j = int(np.flatnonzero(quiet)[np.argmax(eta[sel][quiet])])
+        k = int(sel[j])
+        out[q] = {"eta": float(min(eta[k] + noise[j], rules.max_efficiency)),
+                  "eta_max_measured": float(eta[k]), "noise_eta": float(noise[j]),
+                  "p_elec_noise_w": sigma, "max_noise_counted": rules.ceiling_max_noise,
                   "speed_rpm": float(frame["speed_rpm"].iloc[k]),
                   "torque_nm": float(frame["torque_nm"].iloc[k])}
     return out
@@ -396,7 +407,8 @@ def peak_points(map_frame: pd.DataFrame, frame: pd.DataFrame, rules: MaskingRule
                                  "eta": float(eta_pts[k])}
         if q in ceilings:
             c = ceilings[q]
-            entry["ceiling"] = {"eta": c["eta"], "noise_eta": c["noise_eta"],
+            entry["ceiling"] = {"eta": c["eta"], "eta_max_measured": c["eta_max_measured"],
+                                "noise_eta": c["noise_eta"],
                                 "p_elec_noise_w": c["p_elec_noise_w"],
                                 "n_clipped_nodes": c.get("n_clipped_nodes", 0)}
         if entry:

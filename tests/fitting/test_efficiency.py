@@ -3,8 +3,8 @@
 import numpy as np
 import pandas as pd
 import pytest
-from drive_truth import EV_DRIVE, PAPER_DRIVE, grid_points
 
+from bench.synth.rated_drive import EV_DRIVE, PAPER_DRIVE, grid_points
 from fitting.domain import in_polygon, quadrant_envelopes
 from fitting.efficiency import (
     ABOVE_MAX,

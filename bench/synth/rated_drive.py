@@ -119,3 +119,52 @@ def grid_points(drive: TruthDrive, quadrants=("motor", "generator"), *, n_speeds
             "p_elec_true_w": p_true,
         }))
     return pd.concat(frames, ignore_index=True)
+
+
+def write_table_campaign(folder, drive: TruthDrive, points: pd.DataFrame,
+                         source: str = "synthetic rated drive (bench.synth.rated_drive)") -> None:
+    """Write points as a campaign of operating-point-table sessions plus its ``drive.toml``.
+
+    One session per ``session_id`` of ``points`` (docs/schemas.md §1: ``session.toml``
+    of kind ``operating_points``, ``points.csv`` with foreign column names and units,
+    ``mapping.toml``), sensor ranges 25 % above the drive's rating.
+
+    Parameters
+    ----------
+    folder : str or Path
+        Campaign folder (created).
+    drive : TruthDrive
+    points : pandas.DataFrame
+        As :func:`grid_points` returns.
+    source : str
+        The ``source`` line of ``drive.toml``.
+    """
+    from pathlib import Path
+
+    from bench.drive import DRIVE_FILE, DriveRating, drive_toml
+    from bench.files import write_text_atomic
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    rating = DriveRating(drive.nominal_power_w, drive.max_speed_rpm, drive.max_torque_nm,
+                         source=source)
+    write_text_atomic(folder / DRIVE_FILE, drive_toml(rating))
+    for sid, sub in points.groupby("session_id"):
+        session = folder / str(sid)
+        session.mkdir(exist_ok=True)
+        mode = str(sub["mode"].iloc[0])
+        write_text_atomic(session / "session.toml", "\n".join([
+            f'session_id = "{sid}"', 'kind = "operating_points"', f'mode = "{mode}"',
+            'operator = "bench.synth.rated_drive"', 'date = "2026-01-01"', "gear_ratio = 1.0",
+            'measured_side = "drum"', "speed_sign = 1", "torque_sign = 1", "",
+            "[points]", 'file = "points.csv"', 'mapping = "mapping.toml"', "",
+            "[sensors]", f"torque_range_nm = {1.25 * drive.max_torque_nm!r}",
+            f"speed_range_rpm = {1.25 * drive.max_speed_rpm!r}",
+            f"power_range_w = {1.25 * drive.nominal_power_w!r}", ""]))
+        write_text_atomic(session / "mapping.toml", "\n".join([
+            "[columns.speed]", 'column = "n"', 'unit = "1/min"', "",
+            "[columns.torque]", 'column = "M"', 'unit = "Nm"', "",
+            "[columns.p_elec]", 'column = "P_el"', 'unit = "kW"', ""]))
+        table = pd.DataFrame({"n": sub["speed_rpm"].round(3), "M": sub["torque_nm"].round(4),
+                              "P_el": (sub["p_elec_w"] / 1000.0).round(6)})
+        write_text_atomic(session / "points.csv", table.to_csv(index=False))
