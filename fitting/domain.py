@@ -187,3 +187,51 @@ def in_domain(domain: dict | None, speed_rpm, torque_nm) -> np.ndarray:
     for poly in domain.values():
         inside |= in_polygon(poly, speed, torque)
     return inside
+
+
+def domain_excursion(speed_rpm, torque_nm, weight, domain: dict | None,
+                     scales: tuple[float, float]) -> dict:
+    """How much of a trajectory lies outside a model's validity domain, and its worst point.
+
+    Parameters
+    ----------
+    speed_rpm, torque_nm : array_like
+        The trajectory's drum speed [rpm] and torque [N m] at its points.
+    weight : array_like
+        Each point's share of the cycle time (e.g. quadrature weights) [-, any scale].
+    domain : dict or None
+        ``quadrant -> polygon`` of ``power_model.json``; None means no domain is known.
+    scales : (float, float)
+        Speed [rpm] and torque [N m] that count as distance 1 (e.g. the drive's
+        ``max_speed_rpm`` and ``max_torque_nm``).
+
+    Returns
+    -------
+    dict
+        ``time_fraction_outside`` [-] (NaN without a domain), ``n_points_outside``,
+        and the worst point: ``worst_speed_rpm``, ``worst_torque_nm``,
+        ``worst_distance`` (scaled distance to the nearest domain polygon, 0 when
+        every point is inside).
+    """
+    speed = np.asarray(speed_rpm, dtype=float).ravel()
+    torque = np.asarray(torque_nm, dtype=float).ravel()
+    w = np.broadcast_to(np.asarray(weight, dtype=float), speed.shape)
+    none = {"time_fraction_outside": float("nan"), "n_points_outside": 0,
+            "worst_speed_rpm": float("nan"), "worst_torque_nm": float("nan"),
+            "worst_distance": float("nan")}
+    if not domain or speed.size == 0:
+        return none
+    outside = ~in_domain(domain, speed, torque)
+    distance = np.where(outside, np.inf, 0.0)
+    for poly in domain.values():
+        if len(poly) >= 3:
+            distance = np.where(outside, np.minimum(distance, distance_to_polygon(
+                poly, speed, torque, scales)), 0.0)
+    k = int(np.argmax(distance))
+    total = float(np.sum(w))
+    return {"time_fraction_outside": float(np.sum(w[outside]) / total) if total > 0 else
+            float("nan"),
+            "n_points_outside": int(outside.sum()),
+            "worst_speed_rpm": float(speed[k]) if outside.any() else float("nan"),
+            "worst_torque_nm": float(torque[k]) if outside.any() else float("nan"),
+            "worst_distance": float(distance[k])}

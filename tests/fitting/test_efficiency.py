@@ -218,3 +218,22 @@ def test_coarse_grid_never_invents_efficiency():
     big = shown & (m["p_mech_w"].to_numpy() > 0.1 * drive.nominal_power_w)
     err = np.abs(m["eta"].to_numpy()[big] - drive.eta(m["speed_rpm"][big], m["torque_nm"][big]))
     assert err.max() < 0.02
+
+
+def test_domain_excursion_of_a_trajectory():
+    # motor-only domain: the 100..1500 rpm x 1..78 N m box. A cycle of 4 equal-time
+    # points: two inside, one generating (-1000 rpm, 40 N m: outside, nearest domain
+    # point (100, 40), scaled distance 1100 / 1500), one at (1600, 80): distance
+    # hypot(100 / 1500, 2 / 78).
+    from fitting.domain import domain_excursion
+    box = [[100.0, 1.0], [1500.0, 1.0], [1500.0, 78.0], [100.0, 78.0]]
+    got = domain_excursion([500, 1000, -1000, 1600], [40, 60, 40, 80], [1, 1, 1, 1],
+                           {"motor": box}, (1500.0, 78.0))
+    assert got["time_fraction_outside"] == pytest.approx(0.5)
+    assert got["n_points_outside"] == 2
+    assert (got["worst_speed_rpm"], got["worst_torque_nm"]) == (-1000.0, 40.0)
+    assert got["worst_distance"] == pytest.approx(1100 / 1500, rel=1e-12)
+    inside = domain_excursion([500], [40], [2.0], {"motor": box}, (1500.0, 78.0))
+    assert inside["time_fraction_outside"] == 0.0 and inside["worst_distance"] == 0.0
+    assert np.isnan(domain_excursion([500], [40], [1.0], None, (1.0, 1.0))
+                    ["time_fraction_outside"])
