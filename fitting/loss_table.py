@@ -42,13 +42,22 @@ def loss_grid(model: PowerModel, speeds_rpm: np.ndarray, torques_nm: np.ndarray)
 
 def default_breakpoints(model: PowerModel, speed_step_rpm: float = 100.0,
                         torque_step_nm: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
-    """Breakpoints [rpm], [N m] spanning the model's domain bounding box (else the rated box)."""
+    """Breakpoints [rpm], [N m] spanning the model's domain bounding box (else its drive's box).
+
+    Raises
+    ------
+    ValueError
+        The model has neither a domain nor a drive rating.
+    """
     if model.domain:
         pts = np.array([p for poly in model.domain.values() for p in poly])
         s_lo, s_hi = pts[:, 0].min(), pts[:, 0].max()
         t_lo, t_hi = max(0.0, pts[:, 1].min()), pts[:, 1].max()
+    elif model.drive:
+        s_hi, t_hi = model.drive["max_speed_rpm"], model.drive["max_torque_nm"]
+        s_lo, t_lo = -s_hi, 0.0
     else:
-        s_lo, s_hi, t_lo, t_hi = -1500.0, 1500.0, 0.0, 78.0
+        raise ValueError("the model has no domain and no drive rating: give the breakpoints")
     # ends rounded to the nearest breakpoint: a hull vertex at -3000.3 rpm (measurement
     # noise around a -3000 rpm set point) should not add a -3100 rpm row
     def axis(lo, hi, step):
