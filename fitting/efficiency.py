@@ -57,9 +57,10 @@ class MaskingRules:
         fraction of the quadrant's largest |speed| [-].
     ceiling_max_noise : float
         The map's efficiency ceiling is the highest measured efficiency plus its
-        noise, among the points whose efficiency noise is at most this (or, when
-        none is, the least noisy points) [-]: near the axes a small noise in
-        P_elec makes a large one in eta, and such a point says little about the peak.
+        noise, among the points whose efficiency noise is at most this or twice the
+        smallest efficiency noise of the quadrant, whichever is larger [-]: near the
+        axes a small noise in P_elec makes a large one in eta, and such a point says
+        little about the peak.
 
     Notes
     -----
@@ -222,9 +223,9 @@ def efficiency_ceilings(frame: pd.DataFrame, rules: MaskingRules,
     The noise of a measured efficiency follows from the noise ``sigma`` of its
     electrical power: ``eta * sigma / |P_elec|`` in the motor quadrant (eq. 1),
     ``sigma / |P_mech|`` in the generator quadrant (eq. 2). The maximum is taken
-    over the points whose noise is at most ``rules.ceiling_max_noise`` (when no
-    point is that quiet, over the least noisy ones); the ceiling is that maximum
-    plus its own noise.
+    over the points whose noise is at most ``rules.ceiling_max_noise`` or twice
+    the quadrant's smallest, whichever is larger; the ceiling is that maximum plus
+    its own noise.
 
     Parameters
     ----------
@@ -255,7 +256,7 @@ def efficiency_ceilings(frame: pd.DataFrame, rules: MaskingRules,
             continue
         sigma = _noise_of(p_elec_noise_w, q)
         noise = (eta[sel] * sigma / p_elec[sel] if q == "motor" else sigma / p_mech[sel])
-        quiet = noise <= max(rules.ceiling_max_noise, float(noise.min()) * (1 + 1e-12))
+        quiet = noise <= max(rules.ceiling_max_noise, 2.0 * float(noise.min()))
         j = int(np.flatnonzero(quiet)[np.argmax(eta[sel][quiet])])
         k = int(sel[j])
         out[q] = {"eta": float(min(eta[k] + noise[j], rules.max_efficiency)),
