@@ -25,7 +25,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from bench.errors import InputError
-from bench.ingest import align, steady, tare
+from bench.ingest import align, checks, steady, tare
+from bench.ingest.checks import check_torque_sign
 from bench.ingest.mapping import Mapping
 from bench.ingest.readers import (
     CHUNK_BYTES,
@@ -60,9 +61,6 @@ SAMPLES_WRITE_OPTIONS = {
 
 #: smallest |correlation| of analyzer and DAQ power steps that counts as aligned [-]
 MIN_ALIGN_CORRELATION = 0.3
-
-#: fraction of high-power samples whose p_mech and p_elec signs may disagree
-MAX_SIGN_DISAGREEMENT = 0.5
 
 
 @dataclass
@@ -236,34 +234,6 @@ def _drum_ranges(session: Session) -> dict[str, float]:
     return r
 
 
-def check_torque_sign(session: Session, p_mech_w, p_elec_w, where: Path) -> None:
-    """Raise when p_mech and p_elec disagree in sign where |p_mech| is high.
-
-    The drive's efficiency is high at high power, so there both powers share
-    their sign; if most such samples disagree, the torque (or speed) sign of
-    the session is flipped.
-    """
-    ok = np.isfinite(p_mech_w) & np.isfinite(p_elec_w)
-    if ok.sum() < 10:
-        return
-    pm, pe = p_mech_w[ok], p_elec_w[ok]
-    high = np.abs(pm) > 0.25 * np.percentile(np.abs(pm), 95)
-    high &= np.abs(pm) > 500.0  # W: well above the drive's no-load losses
-    if high.sum() < 5:
-        return
-    disagree = float(np.mean(np.sign(pm[high]) != np.sign(pe[high])))
-    if disagree > MAX_SIGN_DISAGREEMENT:
-        flip = -session.torque_sign
-        raise InputError(
-            session.path,
-            f"torque sign convention looks flipped: at high |p_mech| the signs of p_mech and "
-            f"p_elec disagree in {disagree:.0%} of the samples of {where.name}",
-            column="torque_sign",
-            expected=f"torque_sign = {flip} (or a flipped speed_sign) so that generating "
-            "points have p_mech < 0 and p_elec < 0",
-        )
-
-
 def process_timeseries(
     session: Session,
     mapping: Mapping,
@@ -301,11 +271,14 @@ def process_timeseries(
     sid = session.session_id
     single = session.single_stream
     daq = open_stream(session, mapping, chunk_bytes)
+    sources = checks.sources_from_meta(daq.path, daq.metadata["columns"])
     if not single:
         apath = session.file("analyzer")
         analyzer, ameta = read_analyzer(apath, mapping, day=session.day())
         alayout = ameta.pop("layout")
         _check_analyzer(apath, analyzer, ameta, alayout)
+        sources.update(checks.sources_from_meta(apath, ameta["columns"]))
+        checks.check_signal(sources["p_elec"], "p_elec", analyzer["p_elec_w"].to_numpy(), True)
     # per-sample quantities besides time, speed, torque
     extra = tuple(q for q in ("p_elec", "p_mech") if q in daq.metadata["columns"])
     bin_names = {q: "p_mech_logged" if q == "p_mech" else q for q in extra}
@@ -369,6 +342,7 @@ def process_timeseries(
     if single:
         clock = None
         p_elec_bins = means["p_elec"]
+        checks.check_signal(sources["p_elec"], "p_elec", p_elec_bins, True)
         usable = np.ones(n_bins, bool)
     else:
         prior = _prior_offset(session, ameta, daq)
@@ -398,9 +372,7 @@ def process_timeseries(
         usable &= t0 + np.arange(n_bins) * dt >= zero.t_motion_s  # the tare is no window
     win = steady.find_windows(means["speed"], means["torque"], p_elec_bins, means["valid_frac"],
                               ranges, config, usable=usable, cuts=means["cuts"])
-    if "p_mech" in extra:
-        check_logged_p_mech(daq.path, cols["p_mech"]["column"], win.accepted, means,
-                            ranges["power"])
+    win = _screen_windows(win, means, p_elec_bins, sources, session, daq.path)
     w_start = np.array([t0 + a * dt for a, _ in win.accepted])
     w_end = np.array([t0 + b * dt for _, b in win.accepted])
 
@@ -497,32 +469,35 @@ def check_drum_torque(session: Session, torque_nm: np.ndarray, tol_nm: float,
         )
 
 
-#: a logged p_mech within this fraction of omega*T (or of the power floor) agrees [-]
-P_MECH_RTOL = 0.05
+def _screen_windows(win: steady.Windows, means: dict, p_elec_bins: np.ndarray, sources: dict,
+                    session: Session, where: Path) -> steady.Windows:
+    """Check the accepted windows' means (:func:`checks.check_points`): stop on a systematic
+    error, move the few implausible windows to the rejected ones with their reason."""
+    for q in ("speed", "torque"):
+        checks.check_signal(sources[q], q, means[q], False)
+    if not win.accepted:
+        return win
 
+    a, b = np.array(win.accepted).T
 
-def check_logged_p_mech(where: Path, column: str, windows, means: dict,
-                        power_range_w: float) -> None:
-    """Raise when a mapped p_mech column disagrees with speed x torque on most steady windows.
+    def window_means(x: np.ndarray) -> np.ndarray:
+        fin = np.isfinite(x)
+        s = np.concatenate(([0.0], np.cumsum(np.where(fin, x, 0.0))))
+        c = np.concatenate(([0], np.cumsum(fin)))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return (s[b] - s[a]) / (c[b] - c[a])
 
-    Per window: the mean of the logged p_mech and of omega*T over its bins (both
-    drum frame); they agree within :data:`P_MECH_RTOL` of |omega*T|, at least
-    0.1 % of the power range.
-    """
-    if not windows:
-        return
-    logged = np.array([np.nanmean(means["p_mech_logged"][a:b]) for a, b in windows])
-    omega_t = np.array([np.nanmean(means["p_mech"][a:b]) for a, b in windows])
-    tol = np.maximum(P_MECH_RTOL * np.abs(omega_t), 1e-3 * power_range_w)
-    bad = ~(np.abs(logged - omega_t) <= tol)
-    if bad.mean() > 0.5:
-        k = int(np.flatnonzero(bad)[0])
-        raise InputError(
-            where, f"the mapped p_mech column disagrees with speed x torque on {int(bad.sum())} of "
-            f"{bad.size} steady windows (e.g. {logged[k]:.4g} W against {omega_t[k]:.4g} W)",
-            column=column, expected=f"p_mech = omega * T within {P_MECH_RTOL:.0%}: a swapped or "
-            "mis-scaled column? (map it with its unit, or leave p_mech unmapped)",
-        )
+    values = {"speed": window_means(means["speed"]), "torque": window_means(means["torque"]),
+              "p_elec": window_means(p_elec_bins)}
+    if "p_mech_logged" in means:  # a single-stream log's mapped p_mech, checked against omega*T
+        values["p_mech"] = window_means(means["p_mech_logged"])
+    why = checks.check_points(values, sources, checks.explicit_ranges(session), where)
+    if all(w is None for w in why):
+        return win
+    accepted = [ab for ab, w in zip(win.accepted, why, strict=True) if w is None]
+    rejected = sorted(win.rejected + [(a, b, w) for (a, b), w in zip(win.accepted, why,
+                                                                       strict=True) if w])
+    return steady.Windows(accepted=accepted, rejected=rejected, tolerances=win.tolerances)
 
 
 def _check_analyzer(path: Path, frame, meta: dict, layout) -> None:
