@@ -231,3 +231,13 @@ def test_negative_drum_torque_in_a_table_is_refused(tmp_path):
     with pytest.raises(InputError) as exc:
         ingest([tmp_path / "c"], tmp_path / "store", progress=False)
     assert "points.csv" in str(exc.value) and "2 of 4" in str(exc.value)
+
+
+def test_time_of_day_needs_the_session_date(tmp_path):
+    make_german_logger(tmp_path / "c")
+    toml = tmp_path / "c" / "logger_de" / "session.toml"
+    toml.write_text("\n".join(ln for ln in toml.read_text().splitlines()
+                              if not ln.startswith("date")))
+    with pytest.raises(InputError) as exc:
+        ingest([tmp_path / "c"], tmp_path / "store", progress=False)
+    assert exc.value.column == "date" and "time of day" in str(exc.value)

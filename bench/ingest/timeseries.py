@@ -27,6 +27,7 @@ import pyarrow.parquet as pq
 from bench.errors import InputError
 from bench.ingest import align, checks, steady, tare
 from bench.ingest.checks import check_torque_sign
+from bench.ingest.clock import TIME_OF_DAY
 from bench.ingest.mapping import Mapping
 from bench.ingest.readers import (
     CHUNK_BYTES,
@@ -271,6 +272,10 @@ def process_timeseries(
     sid = session.session_id
     single = session.single_stream
     daq = open_stream(session, mapping, chunk_bytes)
+    if daq.clock is not None and daq.clock.unit == TIME_OF_DAY and session.day() is None:
+        raise InputError(session.path, f"{daq.path.name} gives the time of day only, and "
+                         "session.toml has no date", column="date",
+                         expected='date = "YYYY-MM-DD", the day the log starts')
     sources = checks.sources_from_meta(daq.path, daq.metadata["columns"])
     if not single:
         apath = session.file("analyzer")
