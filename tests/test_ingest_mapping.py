@@ -312,3 +312,16 @@ def test_store_left_alone_by_a_failing_check(tmp_path, capsys):
     rc = main(["ingest", str(tmp_path / "c"), "--store", str(store), "--no-progress"])
     assert rc == 2 and "suspect the torque unit" in capsys.readouterr().err
     assert {p: p.read_bytes() for p in store.rglob("*") if p.is_file()} == before
+
+
+def test_title_line_above_a_daq_header_is_named(tmp_path, capsys):
+    """A DAQ stream whose first line is a title: the error says so and how to skip it;
+    with ``[daq] skip_lines = 1`` the session reads as without the title."""
+    make_timeseries_session(tmp_path / "c", "motor_01", markers=False)
+    daq = tmp_path / "c" / "motor_01" / "daq.csv"
+    daq.write_text("Prüfstand 2 Messung 17.04.2013\n" + daq.read_text(), encoding="utf-8")
+    _cli_fails(tmp_path, capsys, tmp_path / "c", "daq.csv:1", "a title or date line",
+               "skip_lines")
+    (tmp_path / "c" / "motor_01" / "mapping.toml").write_text("[daq]\nskip_lines = 1\n")
+    res = ingest([tmp_path / "c"], tmp_path / "store", progress=False)
+    assert res.manifest["sessions"]["motor_01"]["n_points"] == 6

@@ -213,7 +213,7 @@ def sniff_csv(path: str | Path, preamble: bool = False, skip_lines: int = 0) -> 
         raise InputError(path, "no data rows", line=header_idx + 1,
                          expected="data under the header")
     n_data = len(_split(lines[data_idx], sep))
-    if len(headers) < n_data and (len(headers) == 1 or units_row is not None):
+    if len(headers) == 1 < n_data:  # one field: a title line (extra fields are caught later)
         raise InputError(
             path, f"the column row (line {header_idx + 1}) has {len(headers)} field(s) but the "
             f"data rows have {n_data}: is line {header_idx + 1} a title or date line?",
