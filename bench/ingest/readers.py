@@ -26,7 +26,13 @@ import pyarrow as pa
 import pyarrow.csv as pacsv
 
 from bench.errors import InputError
-from bench.ingest.mapping import EMPTY_MAPPING, Mapping, ResolvedColumn, resolve_columns
+from bench.ingest.mapping import (
+    EMPTY_MAPPING,
+    Mapping,
+    ResolvedColumn,
+    closest_columns,
+    resolve_columns,
+)
 from bench.ingest.scrub import NULL_MARKERS, scrub
 
 #: CSV bytes parsed per chunk; bounds the memory of the first pass [B]
@@ -467,7 +473,7 @@ def open_daq_tdms(
                                  expected=f"a group {group!r} with Time, Speed, Torque")
             if group not in names:
                 raise InputError(path, f"no TDMS group {group!r}", column=group,
-                                 expected="one of " + ", ".join(repr(n) for n in names))
+                                 expected=closest_columns([group], names, what="groups"))
             channels = tdms[group].channels()
             headers = [c.name for c in channels]
             units = [str(c.properties.get("unit_string", "")) for c in channels]
