@@ -10,7 +10,6 @@ import shutil
 import numpy as np
 import pandas as pd
 import pytest
-from export_fixtures import make_dyno_table, make_ev_table
 from ingest_fixtures import make_points_session, make_timeseries_session
 
 from bench.cli import main
@@ -19,6 +18,7 @@ from bench.ingest import expr
 from bench.ingest.mapping import load_mapping
 from bench.ingest.pipeline import ingest
 from bench.ingest.units import unit_factor
+from bench.synth.exports import make_dyno_table, make_ev_table
 
 
 def _points(store, sid):
