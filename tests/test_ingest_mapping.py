@@ -325,3 +325,25 @@ def test_title_line_above_a_daq_header_is_named(tmp_path, capsys):
     (tmp_path / "c" / "motor_01" / "mapping.toml").write_text("[daq]\nskip_lines = 1\n")
     res = ingest([tmp_path / "c"], tmp_path / "store", progress=False)
     assert res.manifest["sessions"]["motor_01"]["n_points"] == 6
+
+
+def test_tdms_channels_combined_by_expr(tmp_path):
+    """``expr`` over TDMS channels: torque from a strain-gauge voltage [mV] and a gain."""
+    from nptdms import ChannelObject, TdmsWriter
+
+    from bench.ingest.readers import open_daq_tdms
+
+    p = tmp_path / "daq.tdms"
+    t = np.arange(10) * 0.01
+    u_mv = np.linspace(1.0, 2.0, 10)
+    with TdmsWriter(p) as w:
+        w.write_segment([
+            ChannelObject("G", "Time", t, properties={"unit_string": "s"}),
+            ChannelObject("G", "Speed", np.full(10, 600.0), properties={"unit_string": "rpm"}),
+            ChannelObject("G", "Bridge", u_mv, properties={"unit_string": "mV"}),
+        ])
+    m = tmp_path / "mapping.toml"
+    m.write_text('[daq.columns.torque]\nexpr = "({Bridge} - 0.5) * 40"\nunit = "N mm"\n')
+    parts = list(open_daq_tdms(p, "G", load_mapping(m), chunk_rows=3).chunks())
+    got = np.concatenate([c.values["torque"] for c in parts])
+    np.testing.assert_allclose(got, (u_mv - 0.5) * 40 * 1e-3, rtol=1e-14)  # N mm -> N m
