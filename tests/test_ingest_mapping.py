@@ -260,10 +260,14 @@ def test_a_single_implausible_point_is_rejected_with_its_reason(tmp_path):
     assert rej.reason.tolist() == ["efficiency above 1"]
 
 
-def test_timeseries_analyzer_watt_column_holding_kilowatts(tmp_path, capsys):
-    make_timeseries_session(tmp_path / "c", "motor_01", power_unit="kW")
-    _set(tmp_path / "c" / "motor_01" / "analyzer.csv", "P_sigma [kW]", "P_sigma [W]")
-    _cli_fails(tmp_path, capsys, tmp_path / "c", "analyzer.csv", "'P_sigma [W]'",
+@pytest.mark.parametrize("mode, words", [("motor", "efficiency above 1"),
+                                         ("generator", "below 5% of |omega*T| at high power")])
+def test_timeseries_analyzer_watt_column_holding_kilowatts(tmp_path, capsys, mode, words):
+    """Motor mode: efficiency in the hundreds; generator mode: efficiency near 0, which
+    losses alone allow, so the session-wide test must catch it."""
+    make_timeseries_session(tmp_path / "c", "s_01", mode=mode, power_unit="kW")
+    _set(tmp_path / "c" / "s_01" / "analyzer.csv", "P_sigma [kW]", "P_sigma [W]")
+    _cli_fails(tmp_path, capsys, tmp_path / "c", "analyzer.csv", "'P_sigma [W]'", words,
                "suspect the p_elec unit", "looks like kW")
 
 
