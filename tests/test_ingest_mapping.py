@@ -351,3 +351,19 @@ def test_tdms_channels_combined_by_expr(tmp_path):
     parts = list(open_daq_tdms(p, "G", load_mapping(m), chunk_rows=3).chunks())
     got = np.concatenate([c.values["torque"] for c in parts])
     np.testing.assert_allclose(got, (u_mv - 0.5) * 40 * 1e-3, rtol=1e-14)  # N mm -> N m
+
+
+def test_mapped_names_match_without_regard_to_case_and_spacing(tmp_path):
+    from pathlib import Path
+
+    from bench.ingest.mapping import resolve_columns
+
+    m = tmp_path / "m.toml"
+    m.write_text('[columns.speed]\ncolumn = "motor  speed [RPM]"\nunit = "rpm"\n'
+                 '[columns.torque]\ncolumn = "torque"\nunit = "N m"\n'
+                 '[columns.p_elec]\nsum = ["p_1 [w]", "P_2 [W]"]\nunit = "W"\n')
+    headers = ["Motor Speed [rpm]", "Torque [Nm]", "P_1 [W]", "P_2 [W]"]
+    got = resolve_columns(Path("x.csv"), headers, None, "points",
+                          ("speed", "torque", "p_elec"), mapping=load_mapping(m))
+    assert got["speed"].index == 0 and got["torque"].index == 1
+    assert got["p_elec"].indices == (2, 3)

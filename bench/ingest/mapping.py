@@ -422,8 +422,12 @@ def _check_distinct(path: Path, mapping: Mapping, found: dict[str, ResolvedColum
 
 
 def _find_mapped(stripped: list[str], bare: list[str], column: str) -> int | None:
-    """Index of a mapped column: exact header first, then the name without its unit."""
+    """Index of a mapped column: the exact header first, then the header without regard to
+    case and spacing, then the name without its unit."""
     if column in stripped:
         return stripped.index(column)
-    low = column.strip().lower()
-    return bare.index(low) if low in bare else None
+    squeeze = " ".join(column.split()).lower()
+    loose = [" ".join(h.split()).lower() for h in stripped]
+    if squeeze in loose:
+        return loose.index(squeeze)
+    return bare.index(squeeze) if squeeze in bare else None
