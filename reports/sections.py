@@ -115,6 +115,7 @@ def _session_row(sid: str, entry: dict) -> dict:
         "motor": ppq.get("motor"),
         "generator": ppq.get("generator"),
         "rejected": ", ".join(f"{k}: {v}" for k, v in sorted(rejected.items())),
+        "no_points_note": entry.get("no_points_note", ""),
         "clock_offset_s": fmt(entry.get("clock_offset_s"), 3),
         "clock_drift_ppm": fmt(entry.get("clock_drift_ppm"), 1),
         "clock_offset_prior_s": fmt(entry.get("clock_offset_prior_s"), 3),
@@ -133,7 +134,7 @@ def _instruments(meta: dict, instruments: dict) -> list[dict]:
     sensor ranges, measured side).
     """
     rows = []
-    for block in ("daq", "analyzer", "points"):
+    for block in ("daq", "analyzer", "log", "points"):
         b = meta.get(block) if isinstance(meta.get(block), dict) else {}
         seen = instruments.get(block) if isinstance(instruments.get(block), dict) else {}
         if not (b or seen):

@@ -40,7 +40,7 @@ STREAM_SECTIONS = ("daq", "analyzer", "log")
 #: none on purpose: a column that merely looks like it (a swapped header) must never
 #: be used unless the mapping names it
 ALIASES: dict[str, tuple[str, ...]] = {
-    "time": ("time", "zeit", "t", "time_s"),
+    "time": ("time", "zeit", "t", "time_s", "timestamp", "zeitstempel", "uhrzeit", "datetime"),
     "speed": ("speed", "drehzahl", "n", "speed_rpm", "rotational speed"),
     "torque": ("torque", "drehmoment", "m", "torque_nm"),
     "p_elec": ("p_sigma", "p_elec", "p_el", "p", "p_total", "wirkleistung", "p_elec_w"),

@@ -32,8 +32,10 @@ from bench.ingest.timeseries import SessionOutput, process_timeseries
 
 #: bump when ingest would compute different points from the same files; sessions
 #: stored by another version are re-ingested
-INGEST_VERSION = 4  # 2: torque zero offset from the tare; 3: oscillations cut into pieces;
-#                    4: the drive rating (drive.toml, session.toml) in the manifest
+INGEST_VERSION = 5  # 2: torque zero offset from the tare; 3: oscillations cut into pieces;
+#                    4: the drive rating (drive.toml, session.toml) in the manifest;
+#                    5: bins follow the sample interval (grid centred on the samples), time
+#                    gaps end windows
 
 
 @dataclass
@@ -67,7 +69,10 @@ def session_files(
     ``session.toml``) wins; else the user's ``--mapping`` file applies.
     """
     files = {"session.toml": session.path}
-    tables = ("daq", "analyzer") if session.kind == "timeseries" else ("points",)
+    if session.kind != "timeseries":
+        tables: tuple[str, ...] = ("points",)
+    else:
+        tables = ("log",) if session.single_stream else ("daq", "analyzer")
     for t in tables:
         p = session.file(t)
         files[p.name] = p
@@ -98,6 +103,7 @@ def ingest(
     progress: bool = True,
     chunk_bytes: int = CHUNK_BYTES,
     workers: int = 2,
+    strict: bool = False,
 ) -> IngestResult:
     """Ingest every session under ``paths`` into the store at ``store_dir``.
 
@@ -117,6 +123,10 @@ def ingest(
         CSV bytes parsed per chunk [B]; bounds memory.
     workers : int
         Sessions processed at the same time (threads); memory grows with it.
+    strict : bool
+        A session that gives no operating point is an error (InputError naming
+        its session.toml and why), and the store is left as it was; without it
+        the manifest and the summary say why.
 
     Returns
     -------
@@ -167,19 +177,31 @@ def ingest(
                 result.unchanged.append(s.session_id)
             else:
                 todo.append((s, hashes, mapping_file, files))
+        if strict:
+            for s in sessions:
+                if s.session_id in result.unchanged:
+                    _strict_check(s, manifest["sessions"][s.session_id])
         if not todo:
             result.manifest = manifest
             return result
         _process(todo, store_dir, config, progress, chunk_bytes, workers, result,
-                 {sid: d for sid, (d, _) in drives.items()})
+                 {sid: d for sid, (d, _) in drives.items()}, strict)
     finally:
         hasher.shutdown(cancel_futures=True)
     result.manifest = store.read_manifest(store_dir)
     return result
 
 
+def _strict_check(s: Session, entry: dict) -> None:
+    """``--strict``: raise when a session's entry has no operating point."""
+    if entry.get("n_points", 0) == 0:
+        raise InputError(s.path, entry.get("no_points_note", "0 points"),
+                         expected="at least one steady operating point (--strict)")
+
+
 def _process(todo, store_dir: Path, config: SteadyConfig, progress: bool, chunk_bytes: int,
-             workers: int, result: IngestResult, drives: dict[str, dict | None]) -> None:
+             workers: int, result: IngestResult, drives: dict[str, dict | None],
+             strict: bool = False) -> None:
     """Process the changed sessions into a staging dir, then commit them all at once.
 
     Sessions run in ``workers`` threads: parsing, numpy and Parquet writing release
@@ -226,6 +248,8 @@ def _process(todo, store_dir: Path, config: SteadyConfig, progress: bool, chunk_
             staged[s.session_id] = files
             entries[s.session_id] = _entry(s, {k: f.result() for k, f in hashes.items()}, out,
                                            drives.get(s.session_id))
+            if strict:
+                _strict_check(s, entries[s.session_id])
             result.ingested.append(s.session_id)
         store.commit(store_dir, staged, entries)
 
@@ -258,4 +282,6 @@ def _entry(s: Session, hashes: dict[str, str], out: SessionOutput,
         "ingested_at": datetime.now(UTC).isoformat(timespec="seconds"),
     }
     entry.update(out.info)
+    if out.points.num_rows == 0 and "no_points_note" not in entry:
+        entry["no_points_note"] = "0 points: every row of the table is invalid"
     return entry

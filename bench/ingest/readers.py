@@ -26,6 +26,7 @@ import pyarrow as pa
 import pyarrow.csv as pacsv
 
 from bench.errors import InputError
+from bench.ingest import clock
 from bench.ingest.mapping import (
     EMPTY_MAPPING,
     Mapping,
@@ -64,6 +65,8 @@ class CsvLayout:
         Byte offset of the first data row.
     preamble : dict
         ``key -> value`` lines before the names row (analyzer header block).
+    samples : list of list of str
+        Cells of the first data rows (to tell clock-time columns from numbers).
     """
 
     path: Path
@@ -76,6 +79,19 @@ class CsvLayout:
     data_line: int
     data_offset: int
     preamble: dict[str, str] = field(default_factory=dict)
+    samples: list[list[str]] = field(default_factory=list)
+
+    def units_with_clock(self) -> list[str] | None:
+        """The units row, with the clock format put in for columns whose data are clock times
+        (None when there is neither)."""
+        units = list(self.units_row) if self.units_row is not None else [""] * len(self.headers)
+        found = False
+        for i in range(len(self.headers)):
+            fmt = clock.detect([r[i] for r in self.samples if i < len(r)])
+            if fmt is not None:
+                units[i] = fmt
+                found = True
+        return units if found or self.units_row is not None else None
 
 
 @dataclass(frozen=True)
@@ -226,10 +242,11 @@ def sniff_csv(path: str | Path, preamble: bool = False, skip_lines: int = 0) -> 
             line=header_idx + 1,
             expected="skip_lines = N in the mapping file (the lines before the column row)",
         )
+    samples = [_split(ln, sep) for ln in lines[data_idx:data_idx + 20] if ln.strip()]
     return CsvLayout(
         path=path, sep=sep, decimal=decimal, encoding=encoding, headers=headers,
         units_row=units_row, header_line=header_idx + 1, data_line=data_idx + 1,
-        data_offset=offsets[data_idx], preamble=meta,
+        data_offset=offsets[data_idx], preamble=meta, samples=samples,
     )
 
 
@@ -260,10 +277,26 @@ def _locate_bad_row(
     return InputError(layout.path, "cannot parse CSV data", line=first_line)
 
 
+def clock_parsers(layout: CsvLayout, cols: dict[str, ResolvedColumn],
+                  day=None) -> dict[str, clock.ClockParser]:
+    """A :class:`clock.ClockParser` for each column that holds clock times (its unit names a
+    clock format, or its first cells are clock times)."""
+    out = {}
+    for q, r in cols.items():
+        if r.formula is not None:
+            continue
+        fmt = clock.normalise_unit(r.unit) or clock.detect(
+            [row[r.index] for row in layout.samples if r.index < len(row)])
+        if fmt is not None:
+            out[q] = clock.ClockParser(fmt, day)
+    return out
+
+
 def iter_csv(
     layout: CsvLayout,
     cols: dict[str, ResolvedColumn],
     chunk_bytes: int = CHUNK_BYTES,
+    clocks: dict[str, clock.ClockParser] | None = None,
 ) -> Iterator[Chunk]:
     """Stream the data rows of a sniffed CSV in chunks, converted to our units.
 
@@ -275,6 +308,9 @@ def iter_csv(
         quantity -> :class:`ResolvedColumn` (from :func:`resolve_columns`).
     chunk_bytes : int
         Approximate bytes per chunk [B].
+    clocks : dict, optional
+        quantity -> :class:`clock.ClockParser` for clock-time columns (read as text,
+        turned into seconds since the first valid time).
 
     Yields
     ------
@@ -291,8 +327,10 @@ def iter_csv(
     read_cols = sorted({names[i] for r in cols.values() for i in r.indices})
     read_opts = pacsv.ReadOptions(column_names=names, use_threads=True, block_size=1 << 22)
     parse_opts = pacsv.ParseOptions(delimiter=layout.sep, quote_char='"')
+    clocks = clocks or {}
+    clock_cols = {names[cols[q].index] for q in clocks}
     conv_opts = pacsv.ConvertOptions(
-        column_types={c: pa.float64() for c in read_cols},
+        column_types={c: pa.string() if c in clock_cols else pa.float64() for c in read_cols},
         include_columns=read_cols,
         null_values=list(NULL_MARKERS),
         strings_can_be_null=True,
@@ -326,7 +364,16 @@ def iter_csv(
             except (pa.ArrowInvalid, pa.ArrowNotImplementedError) as exc:
                 raise _locate_bad_row(layout, bytes(view[:end]), _line_at(layout, offset),
                                       cols) from exc
-            values = quantities(cols, partial(_column_at, table, names))
+            values = quantities({q: r for q, r in cols.items() if q not in clocks},
+                                partial(_column_at, table, names))
+            for q, parse in clocks.items():
+                cells = table.column(names[cols[q].index]).combine_chunks()
+                try:
+                    values[q] = parse(cells)
+                except ValueError as exc:
+                    raise _bad_clock_cell(layout, cells, parse.unit, _line_at(layout, offset),
+                                          cols[q].header) from exc
+            values = {q: values[q] for q in cols}
             del table
             if values and next(iter(values.values())).size:
                 yield Chunk(row0=row0, values=values, nbytes=end)
@@ -338,6 +385,17 @@ def iter_csv(
             if got == 0:
                 break
     view.release()
+
+
+def _bad_clock_cell(layout: CsvLayout, cells: pa.Array, unit: str, first_line: int,
+                    header: str) -> InputError:
+    """The first cell of a chunk that is not a clock time of ``unit`` (slow path)."""
+    for k, cell in enumerate(cells.to_pylist()):
+        if cell is not None and clock.detect([cell]) != unit:
+            return InputError(layout.path, f"not a clock time: {cell!r}", line=first_line + k,
+                              column=header, expected=f"a {unit} time like the rows above")
+    return InputError(layout.path, f"cannot read the {unit} times", line=first_line,
+                      column=header, expected=f"{unit} times")
 
 
 def quantities(
@@ -396,7 +454,7 @@ def csv_columns_meta(cols: dict[str, ResolvedColumn]) -> dict[str, dict[str, str
 
 @dataclass
 class DaqStream:
-    """An opened DAQ stream: metadata now, chunks on demand.
+    """An opened DAQ stream (or single-stream log): metadata now, chunks on demand.
 
     Parameters
     ----------
@@ -407,9 +465,13 @@ class DaqStream:
     size_bytes : int
         File size, for progress bars.
     chunks : callable
-        ``chunks() -> Iterator[Chunk]`` with ``time``, ``speed``, ``torque``.
+        ``chunks() -> Iterator[Chunk]`` with ``time``, ``speed``, ``torque`` (and
+        whatever else the stream was opened for).
     line_of_row : callable
         ``line_of_row(row) -> int or None`` to place errors.
+    clock : clock.ClockParser or None
+        The parser of a clock-time time column; its ``start`` (the wall time of
+        time 0) is known once the first chunk is read.
     """
 
     path: Path
@@ -417,25 +479,44 @@ class DaqStream:
     size_bytes: int
     chunks: object
     line_of_row: object
+    clock: clock.ClockParser | None = None
 
 
 def open_daq_csv(
-    path: str | Path, mapping: Mapping = EMPTY_MAPPING, chunk_bytes: int = CHUNK_BYTES
+    path: str | Path, mapping: Mapping = EMPTY_MAPPING, chunk_bytes: int = CHUNK_BYTES,
+    day=None, section: str = "daq", required: tuple[str, ...] = ("time", "speed", "torque"),
+    optional: tuple[str, ...] = (),
 ) -> DaqStream:
-    """Open a DAQ CSV (English or German locale) as a chunked stream of time, speed, torque."""
-    layout = sniff_csv(path, skip_lines=mapping.skip("daq"))
+    """Open a DAQ CSV (English or German locale) as a chunked stream of time, speed, torque.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    mapping : Mapping
+        Column mapping (section ``section``).
+    chunk_bytes : int
+        Bytes per chunk [B].
+    day : datetime.date, optional
+        The date of a time-of-day time column (the session's ``date``).
+    section, required, optional : str, tuple of str, tuple of str
+        Mapping section and the quantities to read (a single-stream log reads
+        ``p_elec`` too, and ``p_mech`` when mapped).
+    """
+    layout = sniff_csv(path, skip_lines=mapping.skip(section))
     cols = resolve_columns(
-        layout.path, layout.headers, layout.units_row, "daq",
-        required=("time", "speed", "torque"), mapping=mapping, header_line=layout.header_line,
+        layout.path, layout.headers, layout.units_with_clock(), section,
+        required=required, optional=optional, mapping=mapping, header_line=layout.header_line,
     )
+    clocks = clock_parsers(layout, {"time": cols["time"]}, day)
     meta = {
         "format": "csv", "separator": layout.sep, "decimal": layout.decimal,
         "encoding": layout.encoding, "columns": csv_columns_meta(cols),
     }
     return DaqStream(
         path=layout.path, metadata=meta, size_bytes=layout.path.stat().st_size,
-        chunks=lambda: iter_csv(layout, cols, chunk_bytes),
-        line_of_row=lambda row: line_of_row(layout, row),
+        chunks=lambda: iter_csv(layout, cols, chunk_bytes, clocks),
+        line_of_row=lambda row: line_of_row(layout, row), clock=clocks.get("time"),
     )
 
 
@@ -515,8 +596,9 @@ def open_daq_tdms(
                      line_of_row=lambda row: None)
 
 
-def _read_all(layout: CsvLayout, cols: dict[str, ResolvedColumn]) -> dict[str, np.ndarray]:
-    parts = [p.values for p in iter_csv(layout, cols)]
+def _read_all(layout: CsvLayout, cols: dict[str, ResolvedColumn],
+              clocks: dict[str, clock.ClockParser] | None = None) -> dict[str, np.ndarray]:
+    parts = [p.values for p in iter_csv(layout, cols, clocks=clocks)]
     out = {}
     for q in cols:  # one column at a time: its chunks are freed before the next is joined
         out[q] = np.concatenate([p.pop(q) for p in parts])
@@ -538,9 +620,13 @@ def _parse_wall_time(date: str, time: str) -> datetime | None:
 
 
 def read_analyzer(
-    path: str | Path, mapping: Mapping = EMPTY_MAPPING
+    path: str | Path, mapping: Mapping = EMPTY_MAPPING, day=None
 ) -> tuple[pd.DataFrame, dict]:
     """Read a power-analyzer vendor CSV export.
+
+    ``day`` (the session's date) dates a time-of-day time column; the wall
+    times of a clock-time column then give ``start``, else the header block's
+    ``Start Date`` and ``Start Time`` do.
 
     Returns
     -------
@@ -552,13 +638,16 @@ def read_analyzer(
     """
     layout = sniff_csv(path, preamble=True, skip_lines=mapping.skip("analyzer"))
     cols = resolve_columns(
-        layout.path, layout.headers, layout.units_row, "analyzer",
+        layout.path, layout.headers, layout.units_with_clock(), "analyzer",
         required=("time", "p_elec"), mapping=mapping, header_line=layout.header_line,
     )
-    data = _read_all(layout, cols)
+    clocks = clock_parsers(layout, {"time": cols["time"]}, day)
+    data = _read_all(layout, cols, clocks)
     pre = {k.strip(): v.strip() for k, v in layout.preamble.items()}
     start = None
-    if "Start Date" in pre and "Start Time" in pre:
+    if "time" in clocks and (day is not None or clocks["time"].unit == clock.DATETIME):
+        start = clocks["time"].start  # the record's own wall times win over the header
+    elif "Start Date" in pre and "Start Time" in pre:
         start = _parse_wall_time(pre["Start Date"], pre["Start Time"])
     meta = {
         "format": "vendor_csv", "header": pre,
@@ -589,7 +678,7 @@ def read_points_table(
     """
     layout = sniff_csv(path, skip_lines=mapping.skip("points"))
     cols = resolve_columns(
-        layout.path, layout.headers, layout.units_row, "points",
+        layout.path, layout.headers, layout.units_with_clock(), "points",
         required=("speed", "torque", "p_elec"), optional=POINT_OPTIONAL,
         mapping=mapping, header_line=layout.header_line,
     )

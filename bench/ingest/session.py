@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 import tomllib
 from dataclasses import dataclass
-from datetime import datetime
+from datetime import date, datetime
 from pathlib import Path
 
 from bench.errors import InputError
@@ -32,11 +32,15 @@ class Session:
     measured_side : str
         ``"drum"`` or ``"motor"``.
     speed_sign, torque_sign : int
-        +1 or -1: logged value times sign = drum frame.
+        +1 or -1: logged value times sign = drum frame (``torque_sign = "signed"``
+        in the file gives +1 here and ``signed_torque``).
     ranges : dict
         Sensor ranges ``speed`` [rpm], ``torque`` [N m], ``power`` [W].
     raw : dict
         The whole file, for the manifest.
+    signed_torque : bool
+        ``torque_sign = "signed"``: the bench logs torque < 0 in generator mode;
+        speed and torque are flipped where torque < 0 (drum frame: torque >= 0).
     """
 
     folder: Path
@@ -49,6 +53,25 @@ class Session:
     torque_sign: int
     ranges: dict
     raw: dict
+    signed_torque: bool = False
+
+    @property
+    def single_stream(self) -> bool:
+        """A timeseries session with one ``[log]`` file instead of ``[daq]`` + ``[analyzer]``."""
+        return self.kind == "timeseries" and "log" in self.raw
+
+    def day(self) -> date | None:
+        """The session's ``date`` (dates a time-of-day time column), or None."""
+        value = self.raw.get("date")
+        if value is None or isinstance(value, date) and not isinstance(value, datetime):
+            return value
+        if isinstance(value, datetime):
+            return value.date()
+        try:
+            return date.fromisoformat(str(value).strip())
+        except ValueError as exc:
+            raise InputError(self.path, f"bad date {value!r}", column="date",
+                             expected="an ISO date, e.g. 2013-04-17") from exc
 
     @property
     def path(self) -> Path:
@@ -128,7 +151,10 @@ def load_session(folder: str | Path) -> Session:
         raise InputError(path, f"gear_ratio {gear} is not positive", column="gear_ratio")
     side = _get(path, raw, "measured_side", str, ("drum", "motor"))
     ssign = _get(path, raw, "speed_sign", int, (1, -1))
-    tsign = _get(path, raw, "torque_sign", int, (1, -1))
+    signed = raw.get("torque_sign") == "signed"
+    tsign = 1 if signed else _get(path, raw, "torque_sign", int, (1, -1))
+    if kind == "timeseries":
+        _check_streams(path, raw)
     sensors = raw.get("sensors", {})
     ranges = {
         "speed": float(sensors.get("speed_range_rpm", 3000.0)),
@@ -136,7 +162,23 @@ def load_session(folder: str | Path) -> Session:
         "power": float(sensors.get("power_range_w", 15000.0)),
     }
     return Session(folder=folder, session_id=sid, kind=kind, mode=mode, gear_ratio=gear,
-                   measured_side=side, speed_sign=ssign, torque_sign=tsign, ranges=ranges, raw=raw)
+                   measured_side=side, speed_sign=ssign, torque_sign=tsign, ranges=ranges, raw=raw,
+                   signed_torque=signed)
+
+
+def _check_streams(path: Path, raw: dict) -> None:
+    """A timeseries session names either one ``[log]`` or a ``[daq]`` and an ``[analyzer]``."""
+    has = {t for t in ("log", "daq", "analyzer") if t in raw}
+    if has == {"log"} or has == {"daq", "analyzer"}:
+        return
+    if "log" in has:
+        raise InputError(path, f"both [log] and {sorted(has - {'log'})} given", column="log",
+                         expected="either one [log] file (time, speed, torque, p_elec on one "
+                         "clock) or a [daq] and an [analyzer] file")
+    missing = sorted({"daq", "analyzer"} - has)
+    raise InputError(path, f"missing table [{missing[0]}]", column=missing[0],
+                     expected="a [daq] and an [analyzer] table, or one [log] table, "
+                     "for kind = 'timeseries'")
 
 
 def discover(paths: list[str | Path]) -> list[Path]:

@@ -6,13 +6,15 @@ import math
 
 import numpy as np
 
-from bench.ingest import checks
+from bench.ingest import checks, steady
 from bench.ingest.mapping import Mapping
 from bench.ingest.readers import read_points_table
 from bench.ingest.session import Session
 from bench.ingest.timeseries import (
     RAD_S_PER_RPM,
     SessionOutput,
+    check_drum_torque,
+    fold_signed,
     points_table,
     rejected_table,
 )
@@ -30,6 +32,8 @@ def process_table(session: Session, mapping: Mapping) -> SessionOutput:
     gear = session.gear_ratio if session.measured_side == "motor" else 1.0
     speed = frame["speed_rpm"].to_numpy() * session.speed_sign / gear
     torque = frame["torque_nm"].to_numpy() * session.torque_sign * gear
+    if session.signed_torque:  # torque < 0 logged in generator mode: flip speed and torque
+        speed, torque = fold_signed(speed, torque)
     p_elec = frame["p_elec_w"].to_numpy()
     omega_t = speed * torque * RAD_S_PER_RPM
     values = {"speed": speed, "torque": torque, "p_elec": p_elec}
@@ -54,6 +58,9 @@ def process_table(session: Session, mapping: Mapping) -> SessionOutput:
     cols = {"speed_rpm": speed, "torque_nm": torque, "p_mech_w": p_mech, "p_elec_w": p_elec}
     cols.update({k: np.asarray(v, np.float64) for k, v in std.items()})
     cols = {k: v[ok] for k, v in cols.items()}
+    if not session.signed_torque:
+        tol = steady.DEFAULT_STEADY.floor_frac * session.ranges["torque"] * gear
+        check_drum_torque(session, cols["torque_nm"], tol, path)
     n_samples = frame["n_samples"].to_numpy() if "n_samples" in frame else np.zeros(len(frame))
     n_samples = np.nan_to_num(n_samples[ok]).astype(np.int32)
     nan_ok = np.full(int(ok.sum()), np.nan)
