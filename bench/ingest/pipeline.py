@@ -83,10 +83,10 @@ def session_files(
     named = session.raw.get("points", {}).get("mapping") if session.kind == "operating_points" \
         else None
     if named:
-        mapping = session.folder / named
-        if not mapping.is_file():
-            raise InputError(session.path, f"[points] mapping {named!r} does not exist",
-                             column="points.mapping", expected=f"a file in {session.folder}")
+        if not isinstance(named, str):
+            raise InputError(session.path, f"bad value {named!r}", column="points.mapping",
+                             expected="a file name in the session folder")
+        mapping = session.inside(named, "points.mapping")
     elif (session.folder / "mapping.toml").is_file():
         mapping = session.folder / "mapping.toml"
     elif (session.folder / "mapping.json").is_file():

@@ -465,7 +465,7 @@ def points_table(session: Session, cols: dict, n_samples, t_start, t_end,
         **{k: pa.array(data[k]) for k in (
             "speed_rpm", "torque_nm", "p_mech_w", "p_elec_w",
             "speed_rpm_std", "torque_nm_std", "p_mech_w_std", "p_elec_w_std")},
-        "n_samples": pa.array(np.asarray(n_samples, np.int32)),
+        "n_samples": pa.array(np.asarray(n_samples, np.int64)),
         "t_start_s": pa.array(np.asarray(t_start, np.float64)),
         "t_end_s": pa.array(np.asarray(t_end, np.float64)),
     }
