@@ -223,7 +223,7 @@ def process_timeseries(
     # pass 1
     bins = _Bins(config.bin_s)
     cols = daq.metadata["columns"]
-    tcheck = TimeCheck(daq.path, cols["time"]["column"], daq.line_of_row)
+    tcheck = TimeCheck(daq.path, cols["time"]["column"], daq.line_of_row, config.bin_s)
     nan_checks = {q: NanRunCheck(daq.path, cols[q]["column"], daq.line_of_row)
                   for q in ("time", "speed", "torque")}
     ranges = _drum_ranges(session)
@@ -259,6 +259,10 @@ def process_timeseries(
         raise InputError(daq.path, "no data rows", expected="DAQ samples")
 
     n_bins = int(np.flatnonzero(bins.sums["rows"])[-1]) + 1
+    if n_bins * config.bin_s < config.min_window_s:  # nothing to align or average
+        raise InputError(daq.path, f"only {n_rows} data row(s), {n_bins * config.bin_s:g} s "
+                         "of recording", expected=f"a recording longer than the shortest "
+                         f"steady window ({config.min_window_s:g} s)")
     zero, no_tare_why = tare_finder.result()
     offset = zero.offset_nm if zero is not None else 0.0
     means = bins.means(n_bins, offset)
