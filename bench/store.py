@@ -25,7 +25,6 @@ directly in ``<store>/points`` etc.) is still read.
 
 from __future__ import annotations
 
-import errno
 import fcntl
 import json
 import os
@@ -42,7 +41,7 @@ import pandas as pd
 import pyarrow as pa
 
 from bench.errors import InputError
-from bench.files import write_text_atomic
+from bench.files import WRITE_ERRNOS, write_text_atomic
 
 SCHEMA_NAME = "drivebench.store"
 SCHEMA_VERSION = 2
@@ -331,18 +330,19 @@ class StoreWriter:
             if self.store.exists() and not self.store.is_dir():
                 raise InputError(self.store, "the store is not a directory",
                                  expected="a store directory (created when missing)")
-            if not self.store.exists():
-                try:
-                    self.store.mkdir(parents=True)
-                    self.created = True
-                except FileExistsError:
-                    pass
             try:
+                if not self.store.exists():
+                    try:
+                        self.store.mkdir(parents=True)
+                        self.created = True
+                    except FileExistsError:
+                        pass
                 fd = os.open(lock_path, os.O_RDWR | os.O_CREAT, 0o666)
             except FileNotFoundError:  # the store vanished between mkdir and open: retry
                 continue
             except OSError as exc:
-                raise InputError(self.store, f"cannot write to the store ({exc.strerror})",
+                reason = WRITE_ERRNOS.get(exc.errno, exc.strerror or str(exc))
+                raise InputError(self.store, f"cannot write to the store ({reason})",
                                  expected="a writable store directory") from exc
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -389,7 +389,12 @@ class StoreWriter:
                     shutil.rmtree(self.store / kind, ignore_errors=True)
 
     def __enter__(self) -> StoreWriter:
-        self._acquire()
+        try:
+            self._acquire()
+        except BaseException:
+            if self.created:
+                shutil.rmtree(self.store, ignore_errors=True)
+            raise
         try:
             self.manifest = read_manifest(self.store)
             self._clean()
@@ -485,11 +490,4 @@ class StoreWriter:
         self.manifest = new
         self._clean()
         return new
-
-
-def storage_error(path: Path, exc: OSError) -> InputError:
-    """An InputError for a store that cannot be written (read-only, full disk)."""
-    reason = {errno.EROFS: "read-only file system", errno.EACCES: "permission denied",
-              errno.ENOSPC: "no space left on device"}.get(exc.errno, exc.strerror or str(exc))
-    return InputError(path, f"cannot write ({reason})", expected="a writable folder")
 

@@ -6,6 +6,7 @@ import argparse
 import shlex
 
 from bench.errors import InputError
+from bench.files import check_output_dir
 from fitting.efficiency import MaskingRules
 from fitting.pipeline import WEIGHTINGS, FitOptions, run_fit
 
@@ -48,6 +49,7 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise InputError(None, f"masking option: {exc}") from None
     order = _order(args.order, args.select)
+    check_output_dir(args.out)  # before the fit, not after it
     command = shlex.join([
         "bench", "fit", "--store", str(args.store), "--out", str(args.out),
         "--order", "auto" if order is None else str(order), *(["--full"] if args.full else []),

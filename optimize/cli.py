@@ -12,6 +12,7 @@ import logging
 from pathlib import Path
 
 from bench.errors import InputError
+from bench.files import check_output_dir
 from optimize.sweep import DEFAULT_KINDS, DEFAULT_WIND_GRID
 
 log = logging.getLogger(__name__)
@@ -75,8 +76,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(None, f"--intervals {args.intervals}: too few", expected="an integer >= 2")
     if not 1 <= args.degree <= 9:
         raise InputError(None, f"--degree {args.degree}: out of range", expected="1 to 9")
-    if args.out.exists() and not args.out.is_dir():
-        raise InputError(args.out, "exists and is not a folder", expected="an output folder")
+    check_output_dir(args.out)
     request = SweepRequest.from_cli(args, FIT_MODEL_PATH)
     print(request.model_note)
     outcome = run_optimize(request)

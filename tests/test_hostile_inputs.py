@@ -234,3 +234,67 @@ def test_time_value_of_1e9_s(setup, capsys):
     _fails(setup, capsys, f"bad_01/daq.csv:{n}:", "column 'Time [s]'", "time jumps",
            "1e+09 s")
 
+
+
+# -- output folders ----------------------------------------------------------------------
+def _read_only(monkeypatch, folder):
+    """Make ``folder`` unwritable: chmod for a normal user; root ignores modes, so there
+    file creation under it fails as on a read-only mount (EROFS)."""
+    if os.geteuid() != 0:
+        folder.chmod(0o555)
+        return
+    import errno
+    import tempfile
+
+    real = tempfile.mkstemp
+    real_open = os.open
+
+    def mkstemp(*a, dir=None, **kw):
+        if dir is not None and str(dir).startswith(str(folder)):
+            raise OSError(errno.EROFS, "Read-only file system", str(dir))
+        return real(*a, dir=dir, **kw)
+
+    def os_open(path, flags, *a, **kw):
+        if str(path).startswith(str(folder)) and flags & (os.O_WRONLY | os.O_RDWR):
+            raise OSError(errno.EROFS, "Read-only file system", str(path))
+        return real_open(path, flags, *a, **kw)
+
+    monkeypatch.setattr(tempfile, "mkstemp", mkstemp)
+    monkeypatch.setattr(os, "open", os_open)
+
+
+def test_fit_out_naming_an_existing_file(tmp_path, capsys, monkeypatch):
+    """Refused before the fit (was: after the whole fit)."""
+    from fitting import cli as fit_cli
+
+    def no_fit(*a, **kw):
+        raise AssertionError("the fit ran")
+
+    monkeypatch.setattr(fit_cli, "run_fit", no_fit)
+    out = tmp_path / "fit_out"
+    out.write_text("keep me")
+    rc = main(["fit", "--store", str(tmp_path / "store"), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2 and "fit_out: column '--out': exists and is not a folder" in err
+    assert out.read_text() == "keep me"
+
+
+@pytest.mark.parametrize("stage", ["fit", "optimize", "report", "ingest"])
+def test_read_only_output_folder(tmp_path, capsys, monkeypatch, stage):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    camp = tmp_path / "camp"
+    make_timeseries_session(camp, "s_01")
+    _read_only(monkeypatch, ro)
+    argv = {"fit": ["fit", "--store", str(tmp_path), "--out", str(ro / "fit")],
+            "optimize": ["optimize", "--wind-grid", "7", "--out", str(ro / "opt")],
+            "report": ["report", "--out", str(ro / "report.html")],
+            "ingest": ["ingest", str(camp), "--store", str(ro / "store"), "--no-progress"]}
+    rc = main(argv[stage])
+    err = capsys.readouterr().err
+    if os.geteuid() != 0:
+        ro.chmod(0o755)
+    assert rc == 2, err
+    assert "Traceback" not in err and str(ro) in err
+    assert "cannot write" in err
+    assert list(ro.iterdir()) == []
