@@ -69,11 +69,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the sweep; exit code 0 if any scenario converged (failed ones are reported in the
     files and the table), 1 if none did, 2 on bad input."""
+    from optimize.ocp import MAX_INTERVALS
     from optimize.sweep import SweepRequest, format_summary, run_optimize
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    if args.intervals < 2:
-        raise InputError(None, f"--intervals {args.intervals}: too few", expected="an integer >= 2")
+    top = MAX_INTERVALS // 2 if args.trust else MAX_INTERVALS  # --trust solves at 2x
+    if not 2 <= args.intervals <= top:
+        raise InputError(None, f"--intervals {args.intervals}: out of range",
+                         expected=f"an integer from 2 to {top}"
+                                  + (" (--trust refines to twice as many)" if args.trust else ""))
     if not 1 <= args.degree <= 9:
         raise InputError(None, f"--degree {args.degree}: out of range", expected="1 to 9")
     check_output_dir(args.out)

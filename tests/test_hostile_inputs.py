@@ -298,3 +298,25 @@ def test_read_only_output_folder(tmp_path, capsys, monkeypatch, stage):
     assert "Traceback" not in err and str(ro) in err
     assert "cannot write" in err
     assert list(ro.iterdir()) == []
+
+
+# -- optimize options ----------------------------------------------------------------
+@pytest.mark.parametrize(("argv", "words"), [
+    (["--intervals", "100000000"], "--intervals 100000000: out of range"),
+    (["--intervals", "300", "--trust"], "(--trust refines to twice as many)"),
+    (["--wind-grid", "200"], "wind speed 200 m/s is outside the plausible 1 to 25 m/s"),
+    (["--wind-grid", "4:30:2"], "wind speed 26 m/s is outside"),
+])
+def test_optimize_bounds_before_any_solve(tmp_path, capsys, monkeypatch, argv, words):
+    """Refused at once (was: no bound; 13 minutes of failing solves for 200 m/s)."""
+    import optimize.sweep as sweep
+
+    def no_solve(*a, **kw):
+        raise AssertionError("a solve started")
+
+    monkeypatch.setattr(sweep, "run_optimize", no_solve)
+    out = tmp_path / "opt"
+    rc = main(["optimize", "--out", str(out), *argv])
+    err = capsys.readouterr().err
+    assert rc == 2 and words in err, err
+    assert not out.exists()
