@@ -320,3 +320,15 @@ def test_optimize_bounds_before_any_solve(tmp_path, capsys, monkeypatch, argv, w
     err = capsys.readouterr().err
     assert rc == 2 and words in err, err
     assert not out.exists()
+
+
+def test_analyzer_time_value_of_1e9_s(setup, capsys):
+    """An analyzer record at 1e9 s is named, not silently left out of the join."""
+    path = setup[1] / "bad_01" / "analyzer.csv"
+    lines = path.read_text().splitlines()
+    cells = lines[-1].split(",")
+    cells[1] = "1000000000.000"
+    lines[-1] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+    _fails(setup, capsys, f"bad_01/analyzer.csv:{len(lines)}:", "column 'Time [s]'",
+           "time jumps")

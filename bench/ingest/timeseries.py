@@ -358,7 +358,9 @@ def _check_analyzer(path: Path, frame, meta: dict, layout) -> None:
         chk = NanRunCheck(path, meta["columns"][q]["column"], where)
         chk.feed(x, 0)
         chk.finish()
-    TimeCheck(path, meta["columns"]["time"]["column"], where).feed(t, 0)
+    steps = np.diff(t[np.isfinite(t)])
+    typical = float(np.median(steps)) if steps.size and np.median(steps) > 0 else None
+    TimeCheck(path, meta["columns"]["time"]["column"], where, typical).feed(t, 0)
     if np.isnan(t).any():
         frame.drop(index=frame.index[np.isnan(t)], inplace=True)
     if len(frame) < 20:
