@@ -17,6 +17,7 @@ from bench.store import (
     REJECTED_SCHEMA,
     StoreBusy,
     StoreWriter,
+    consistent_read,
     empty_manifest,
     kind_files,
     read_manifest,
@@ -131,3 +132,29 @@ def test_version_1_store_is_read_and_migrated(tmp_path):
     assert not (store / "points").exists()
     assert sorted(read_points(store)["session_id"].unique()) == ["new", "old"]
     assert read_manifest(store)["schema_version"] == 2
+
+
+def test_reader_starts_over_when_a_writer_removes_its_generation(tmp_path):
+    """A reader that read the old manifest, then lost the old generation to a writer's
+    cleanup, re-reads the manifest and returns the new store (never a mix, no error)."""
+    store = tmp_path / "store"
+    _commit(store, "a", 3)
+    calls = []
+
+    def read(manifest):
+        calls.append(manifest["generation"])
+        paths = kind_files(store, "points", manifest)
+        if len(calls) == 1:
+            _commit(store, "b", 2)  # a writer switches generations under the reader
+        return sum(pq.read_metadata(p).num_rows for p in paths.values())
+
+    assert consistent_read(store, read) == 5
+    assert calls == ["gen-000001", "gen-000002"]
+
+
+def test_missing_listed_file_is_a_damaged_store(tmp_path):
+    store = tmp_path / "store"
+    _commit(store, "a", 3)
+    kind_files(store, "points")["a"].unlink()
+    with pytest.raises(InputError, match="damaged store"):
+        read_points(store)
