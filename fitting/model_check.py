@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from bench.errors import InputError
+from fitting.domain import in_polygon
 from fitting.model_file import RPM_PER_RAD_S, PowerModel
 
 #: grid nodes per axis over a quadrant's bounding box, and per polygon edge
@@ -34,20 +35,6 @@ LOSS_TOLERANCE = 0.02
 MAGNITUDE_FACTOR = 10.0
 #: smallest plausible spread of P_elec over the domain, fraction of the nominal power
 MIN_SPREAD = 1e-3
-
-
-def _inside(poly: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Even-odd rule: which points (x, y) lie inside the polygon (vertices in order)."""
-    inside = np.zeros(x.shape, bool)
-    px, py = poly[:, 0], poly[:, 1]
-    for k in range(len(poly)):
-        x1, y1, x2, y2 = px[k - 1], py[k - 1], px[k], py[k]
-        if y1 == y2:
-            continue
-        crosses = (y1 > y) != (y2 > y)
-        x_at = x1 + (y - y1) * (x2 - x1) / (y2 - y1)
-        inside ^= crosses & (x < x_at)
-    return inside
 
 
 def domain_nodes(model: PowerModel, limits: tuple[float, float] | None = None
@@ -81,7 +68,7 @@ def domain_nodes(model: PowerModel, limits: tuple[float, float] | None = None
     for q, poly in polys.items():
         lo, hi = poly.min(axis=0), poly.max(axis=0)
         gx, gy = np.meshgrid(lo[0] + u * (hi[0] - lo[0]), lo[1] + u * (hi[1] - lo[1]))
-        keep = _inside(poly, gx.ravel(), gy.ravel())
+        keep = in_polygon(poly, gx.ravel(), gy.ravel())
         edges = [a + np.outer(u, b - a) for a, b in zip(poly, np.roll(poly, -1, axis=0),
                                                          strict=True)]
         pts = np.vstack([np.column_stack([gx.ravel()[keep], gy.ravel()[keep]]), *edges])

@@ -309,12 +309,12 @@ def test_read_only_output_folder(tmp_path, capsys, monkeypatch, stage):
 ])
 def test_optimize_bounds_before_any_solve(tmp_path, capsys, monkeypatch, argv, words):
     """Refused at once (was: no bound; 13 minutes of failing solves for 200 m/s)."""
-    import optimize.sweep as sweep
+    import optimize.command as command
 
     def no_solve(*a, **kw):
         raise AssertionError("a solve started")
 
-    monkeypatch.setattr(sweep, "run_optimize", no_solve)
+    monkeypatch.setattr(command, "run_optimize", no_solve)
     out = tmp_path / "opt"
     rc = main(["optimize", "--out", str(out), *argv])
     err = capsys.readouterr().err

@@ -10,6 +10,7 @@ files changes no byte of the store.
 
 from __future__ import annotations
 
+import os
 import sys
 import threading
 from collections.abc import Callable
@@ -22,6 +23,7 @@ import pyarrow.parquet as pq
 from tqdm import tqdm
 
 from bench import store
+from bench.drive import find_drive_file, session_drive
 from bench.errors import InputError
 from bench.files import file_sha256
 from bench.ingest.mapping import EMPTY_MAPPING, load_mapping
@@ -33,7 +35,8 @@ from bench.ingest.timeseries import SessionOutput, process_timeseries
 
 #: bump when ingest would compute different points from the same files; sessions
 #: stored by another version are re-ingested
-INGEST_VERSION = 3  # 2: torque zero offset from the tare; 3: oscillations cut into pieces
+INGEST_VERSION = 4  # 2: torque zero offset from the tare; 3: oscillations cut into pieces;
+#                    4: the drive rating (drive.toml, session.toml) in the manifest
 
 
 @dataclass
@@ -154,6 +157,7 @@ def ingest(
     store.read_manifest(store_dir)  # fail early on a path that is no store
     sessions: list[Session] = []
     seen: dict[str, Path] = {}
+    drives: dict[str, tuple[dict | None, Path | None]] = {}  # rating, drive.toml
     for folder in discover(paths):
         s = load_session(folder)
         if s.session_id in seen:
@@ -161,6 +165,9 @@ def ingest(
                              expected=f"unique session ids (also in {seen[s.session_id]})")
         seen[s.session_id] = folder
         sessions.append(s)
+        drive_file = find_drive_file(folder, [Path(p) for p in paths])
+        label = "" if drive_file is None else os.path.relpath(drive_file, folder.parent)
+        drives[s.session_id] = (session_drive(s.raw, s.path, drive_file, label), drive_file)
 
     result = IngestResult(store_dir=store_dir)
     with store.StoreWriter(store_dir, wait=wait, notify=notify) as writer:
@@ -175,6 +182,10 @@ def ingest(
                 named = {f"{s.session_id}/{name}": p for name, p in files.items()}
                 if mapping_file is not None and mapping_file not in files.values():
                     named[f"--mapping/{mapping_file.name}"] = mapping_file
+                drive_file = drives[s.session_id][1]
+                if drive_file is not None:  # a changed drive.toml re-ingests the session
+                    named[f"campaign/{os.path.relpath(drive_file, s.folder.parent)}"] = \
+                        drive_file
                 hashes = {k: hasher.submit(file_sha256, p) for k, p in named.items()}
                 old = manifest["sessions"].get(s.session_id)
                 if (old is not None and old.get("ingest_version") == INGEST_VERSION
@@ -194,7 +205,8 @@ def ingest(
                 notify(f"bench ingest: replacing stored session {sid!r} (from {src}) "
                        f"with {seen[sid]}")
             if todo:
-                _process(todo, writer, config, progress, chunk_bytes, workers, result)
+                _process(todo, writer, config, progress, chunk_bytes, workers, result,
+                         {sid: d for sid, (d, _) in drives.items()})
         finally:
             hasher.shutdown(cancel_futures=True)
         result.manifest = writer.manifest
@@ -202,7 +214,8 @@ def ingest(
 
 
 def _process(todo, writer: store.StoreWriter, config: SteadyConfig, progress: bool,
-             chunk_bytes: int, workers: int, result: IngestResult) -> None:
+             chunk_bytes: int, workers: int, result: IngestResult,
+             drives: dict[str, dict | None]) -> None:
     """Process the changed sessions into the writer's staging dir, then commit them at once.
 
     Sessions run in ``workers`` threads: parsing, numpy and Parquet writing release
@@ -247,7 +260,8 @@ def _process(todo, writer: store.StoreWriter, config: SteadyConfig, progress: bo
     entries: dict[str, dict] = {}
     for (s, hashes, _, _), (files, out) in zip(todo, outputs, strict=True):
         staged[s.session_id] = files
-        entries[s.session_id] = _entry(s, {k: f.result() for k, f in hashes.items()}, out)
+        entries[s.session_id] = _entry(s, {k: f.result() for k, f in hashes.items()}, out,
+                                       drives.get(s.session_id))
         result.ingested.append(s.session_id)
     writer.commit(staged, entries)
 
@@ -263,7 +277,8 @@ def _stage(stage: Path, sid: str, out: SessionOutput) -> dict[str, Path]:
     return files
 
 
-def _entry(s: Session, hashes: dict[str, str], out: SessionOutput) -> dict:
+def _entry(s: Session, hashes: dict[str, str], out: SessionOutput,
+           drive: dict | None) -> dict:
     quadrants = out.points.column("quadrant").to_pylist()
     reasons = out.rejected.column("reason").to_pylist()
     entry = {
@@ -276,6 +291,7 @@ def _entry(s: Session, hashes: dict[str, str], out: SessionOutput) -> dict:
         "rejected": {r: reasons.count(r) for r in sorted(set(reasons))},
         "metadata": s.raw,
         "source": str(s.folder),
+        "drive": drive,
         "ingested_at": datetime.now(UTC).isoformat(timespec="seconds"),
     }
     entry.update(out.info)

@@ -9,7 +9,7 @@ from fit_synthetic import paper_quadratic, synthetic_points
 
 from bench.cli import main
 from bench.errors import InputError
-from fitting.domain import quadrant_hulls
+from fitting.domain import quadrant_envelopes
 from fitting.model_check import check_physics, physics_problems
 from fitting.model_file import paper_model, save_power_model
 from fitting.points import quadrant_of
@@ -37,12 +37,13 @@ def test_paper_model_passes():
 @pytest.mark.parametrize("order", [2, 3, 4])
 def test_fitted_models_pass(order):
     """Full polynomials fitted to noisy points (40 W) around the paper's model, over the
-    hulls of those points as bench fit exports them, are possible drives."""
+    envelopes of those points as bench fit exports them, are possible drives."""
     frame = synthetic_points(paper_quadratic)
     frame["quadrant"] = quadrant_of(frame["p_mech_w"].to_numpy())
     fit = fit_power_model(frame["speed_rpm"].to_numpy(), frame["torque_nm"].to_numpy(),
                           frame["p_elec_w"].to_numpy(), full_polynomial(order))
-    model = fit.to_power_model(f"order {order}", domain=quadrant_hulls(frame))
+    domain = {q: env["polygon"] for q, env in quadrant_envelopes(frame).items()}
+    model = fit.to_power_model(f"order {order}", domain=domain)
     assert physics_problems(model) == []
 
 
