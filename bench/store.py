@@ -25,7 +25,6 @@ directly in ``<store>/points`` etc.) is still read.
 
 from __future__ import annotations
 
-import fcntl
 import json
 import os
 import re
@@ -262,7 +261,7 @@ def write_json(obj: dict, path: Path) -> None:
 
 def _fsync(path: Path) -> None:
     """Flush a file or directory to disk (a power cut then keeps it whole)."""
-    flags = os.O_RDONLY | (os.O_DIRECTORY if path.is_dir() else 0)
+    flags = os.O_RDONLY | (getattr(os, "O_DIRECTORY", 0) if path.is_dir() else 0)
     try:
         fd = os.open(path, flags)
     except OSError:
@@ -280,6 +279,45 @@ def _link_or_copy(src: Path, dest: Path) -> None:
         os.link(src, dest)
     except OSError:
         shutil.copy2(src, dest)
+
+
+def _lock(fd: int, block: bool) -> None:
+    """Exclusive lock on an open file; BlockingIOError when taken and ``block`` is False.
+
+    ``flock`` on POSIX (released when the process ends, however it ends);
+    ``msvcrt.locking`` of the first byte on Windows.
+    """
+    try:
+        import fcntl
+    except ImportError:  # Windows
+        import msvcrt
+        import time as _time
+
+        while True:
+            os.lseek(fd, 0, os.SEEK_SET)
+            try:
+                msvcrt.locking(fd, msvcrt.LK_NBLCK, 1)
+                return
+            except OSError as exc:
+                if not block:
+                    raise BlockingIOError(*exc.args) from exc
+                _time.sleep(0.2)
+    fcntl.flock(fd, fcntl.LOCK_EX | (0 if block else fcntl.LOCK_NB))
+
+
+def _read_at_start(fd: int) -> str:
+    """The text at the start of the lock file (the holder's pid), without the lock."""
+    try:
+        os.lseek(fd, 0, os.SEEK_SET)
+        return os.read(fd, 64).decode("ascii", "replace")
+    except OSError:  # Windows: the locked byte cannot be read
+        return ""
+
+
+def _write_pid(fd: int) -> None:
+    os.ftruncate(fd, 0)
+    os.lseek(fd, 0, os.SEEK_SET)
+    os.write(fd, f"{os.getpid()}\n".encode())
 
 
 class StoreBusy(InputError):
@@ -345,9 +383,9 @@ class StoreWriter:
                 raise InputError(self.store, f"cannot write to the store ({reason})",
                                  expected="a writable store directory") from exc
             try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                _lock(fd, block=False)
             except BlockingIOError as busy:
-                holder = os.pread(fd, 64, 0).decode("ascii", "replace").strip() or "?"
+                holder = _read_at_start(fd).strip() or "?"
                 if not self.wait:
                     os.close(fd)
                     raise StoreBusy(self.store,
@@ -355,7 +393,7 @@ class StoreWriter:
                                     expected="one ingest per store at a time") from busy
                 self.notify(f"bench ingest: waiting for another ingest (pid {holder}) "
                             f"writing {self.store} ...")
-                fcntl.flock(fd, fcntl.LOCK_EX)
+                _lock(fd, block=True)
             # the holder may have removed the store (a failed first ingest): lock again
             try:
                 same = os.fstat(fd).st_ino == os.stat(lock_path).st_ino
@@ -363,8 +401,7 @@ class StoreWriter:
                 same = False
             if same:
                 self._fd = fd
-                os.ftruncate(fd, 0)
-                os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+                _write_pid(fd)
                 return
             os.close(fd)
 

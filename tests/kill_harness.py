@@ -88,7 +88,7 @@ def wrap(mod, name):
     setattr(mod, name, g)
 for mod, name in ((os, "replace"), (os, "rename"), (os, "link"), (os, "fsync"),
                   (os, "unlink"), (os, "mkdir"), (os, "rmdir"), (os, "open"),
-                  (os, "ftruncate"), (os, "pwrite"), (shutil, "rmtree"), (shutil, "copy2")):
+                  (os, "ftruncate"), (os, "write"), (shutil, "rmtree"), (shutil, "copy2")):
     wrap(mod, name)
 from bench.cli import main
 rc = main(sys.argv[2:])
