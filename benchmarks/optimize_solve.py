@@ -21,11 +21,11 @@ import statistics
 import time
 
 from fitting.model_file import paper_model
-from optimize.homotopy import HOMOTOPY_BOUND_PUSH
-from optimize.kite_model import kite_dae
-from optimize.ocp import OcpOptions, build_ocp
-from optimize.scenario import Scenario
-from optimize.solve import cold_start, solve
+from optimize.model.kite_model import kite_dae
+from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.problem.scenario import Scenario
+from optimize.solve.homotopy import HOMOTOPY_BOUND_PUSH
+from optimize.solve.solve import cold_start, solve
 
 #: (label, scenario, index of the warm-start source in this list or None = cold start)
 PLAN = [

@@ -36,11 +36,11 @@ from pathlib import Path
 
 from bench.files import write_text_atomic
 from fitting.model_file import PAPER_MODEL_PATH, load_power_model
-from optimize.chains import OcpBackend, Problem, make_tasks, run_sweep
-from optimize.executors import open_executor
-from optimize.homotopy import cold_start
-from optimize.ocp import OcpOptions
-from optimize.sweep import (
+from optimize.problem.ocp import OcpOptions
+from optimize.solve.homotopy import cold_start
+from optimize.sweep.chains import OcpBackend, Problem, make_tasks, run_sweep
+from optimize.sweep.executors import open_executor
+from optimize.sweep.plan import (
     DEFAULT_KINDS,
     DEFAULT_WIND_GRID,
     middle_index,
@@ -48,7 +48,7 @@ from optimize.sweep import (
     parse_wind_grid,
     plan_chains,
 )
-from optimize.trust import run_trust_checks
+from optimize.sweep.trust import run_trust_checks
 
 OUT = Path(__file__).resolve().parent / "out"
 GOALS = {"cold_start_s": 45.0, "median_warm_solve_s": 3.0, "sweep_2_workers_s": 120.0}

@@ -1,6 +1,6 @@
 """``bench optimize``: the pumping-cycle sweep over a wind grid (issue 4).
 
-Parses the options, calls :func:`optimize.sweep.run_optimize` (plan chains, run
+Parses the options, calls :func:`optimize.command.run_optimize` (plan chains, run
 them on an executor, compare with the paper, write the files) and prints the
 summary, claims and trust figures.
 """
@@ -12,7 +12,7 @@ import logging
 from pathlib import Path
 
 from bench.errors import InputError
-from optimize.sweep import DEFAULT_KINDS, DEFAULT_WIND_GRID
+from optimize.sweep.plan import DEFAULT_KINDS, DEFAULT_WIND_GRID
 
 log = logging.getLogger(__name__)
 
@@ -68,7 +68,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the sweep; exit code 0 if any scenario converged (failed ones are reported in the
     files and the table), 1 if none did, 2 on bad input."""
-    from optimize.sweep import SweepRequest, format_summary, run_optimize
+    from optimize.command import SweepRequest, format_summary, run_optimize
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     if args.intervals < 2:
@@ -82,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
     outcome = run_optimize(request)
     print(format_summary(outcome.summary))
     if outcome.claims is not None:
-        from optimize.claims import format_claims
+        from optimize.analysis.claims import format_claims
 
         print()
         print(format_claims(outcome.claims))

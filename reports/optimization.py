@@ -22,7 +22,7 @@ SUMMARY_COLUMNS = ("scenario", "kind", "wind_speed_m_s", "status", "success",
                    "avg_p_elec_w", "avg_p_mech_w")
 TRAJECTORY_COLUMNS = ("scenario", "time_s", "weight", "l_m", "speed_rpm", "torque_nm",
                       "p_elec_w", "p_mech_w")
-#: scenario kind (optimize.sweep.KINDS) -> (objective key, drive limits on)
+#: scenario kind (optimize.sweep.plan.KINDS) -> (objective key, drive limits on)
 KIND_KEYS = {
     "elec-lim": ("elec", True),
     "elec-free": ("elec", False),

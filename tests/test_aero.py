@@ -6,8 +6,8 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from optimize.aero import aero_forces_moments, wind_speed
-from optimize.params import AeroCoefficients, KiteParams, WindModel
+from optimize.model.aero import aero_forces_moments, wind_speed
+from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 
 KITE = KiteParams()
 COEF = AeroCoefficients()

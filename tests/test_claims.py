@@ -13,8 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from optimize.chains import CutIn
-from optimize.claims import (
+from optimize.analysis.claims import (
     AGREES,
     DIFFERS,
     NOT_COMPARABLE,
@@ -22,6 +21,7 @@ from optimize.claims import (
     evaluate_claims,
     format_claims,
 )
+from optimize.sweep.chains import CutIn
 
 WINDS = (4.0, 5.5, 7.0, 8.5, 10.0)
 # average electrical power [W] per kind and wind (negative = generated), paper-like:

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from fitting.model_file import paper_model
-from optimize import initial_guess
-from optimize.kite_model import kite_dae
-from optimize.ocp import OcpOptions, build_ocp
-from optimize.params import KiteParams
-from optimize.solve import start
+from optimize.model.kite_model import kite_dae
+from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.solve import initial_guess
+from optimize.solve.solve import start
+from optimize.system.params import KiteParams
 
 
 @pytest.fixture(scope="module")
@@ -19,7 +19,7 @@ def ocp():
 
 
 def test_shipped_guess_fits_the_default_ocp(ocp):
-    # fails when the formulation changes without `python -m optimize.initial_guess`
+    # fails when the formulation changes without `python -m optimize.solve.initial_guess`
     solution, why = initial_guess.load(ocp)
     assert solution is not None, why
     assert solution.w.size == ocp.layout.n_w and solution.lam_g.size == ocp.layout.n_g

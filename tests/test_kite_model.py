@@ -4,8 +4,8 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from optimize import kite_model as km
-from optimize.guess import LoopGuess, circular_loop
+from optimize.model import kite_model as km
+from optimize.problem.guess import LoopGuess, circular_loop
 
 
 @pytest.fixture(scope="module")

@@ -11,12 +11,17 @@ import numpy as np
 import pytest
 
 from fitting.model_file import paper_model
-from optimize.collocation import radau
-from optimize.drive import drum_speed_rpm, drum_torque_nm, max_reel_speed_m_s, mechanical_power_w
-from optimize.kite_model import kite_dae
-from optimize.ocp import OcpOptions, build_ocp
-from optimize.scenario import Scenario
-from optimize.solve import cold_start, solve
+from optimize.model.drive import (
+    drum_speed_rpm,
+    drum_torque_nm,
+    max_reel_speed_m_s,
+    mechanical_power_w,
+)
+from optimize.model.kite_model import kite_dae
+from optimize.problem.collocation import radau
+from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.problem.scenario import Scenario
+from optimize.solve.solve import cold_start, solve
 
 N_COARSE = 10  # coarse but converging grid: the whole module runs in ~30 s on 2 busy cores
 
@@ -131,7 +136,7 @@ def test_scenario_name_and_validation():
 
 def test_scenario_names_match_the_sweep_kinds():
     # The sweep's kinds table is the truth for what each label means.
-    from optimize.sweep import KINDS
+    from optimize.sweep.plan import KINDS
 
     for kind, (objective, limits) in KINDS.items():
         assert Scenario(5.5, objective, limits).name == f"{kind}-5.5"

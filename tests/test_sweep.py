@@ -22,7 +22,8 @@ import numpy as np
 import pytest
 
 from bench.errors import InputError
-from optimize.chains import (
+from optimize.problem.scenario import scenario_name
+from optimize.sweep.chains import (
     MAX_WARM_ATTEMPTS,
     Problem,
     find_cut_in,
@@ -31,9 +32,8 @@ from optimize.chains import (
     run_sweep,
     solve_step,
 )
-from optimize.executors import QueueChannel, open_executor, run_tasks
-from optimize.scenario import scenario_name
-from optimize.sweep import (
+from optimize.sweep.executors import QueueChannel, open_executor, run_tasks
+from optimize.sweep.plan import (
     Step,
     continuation_order,
     group_kinds,
@@ -234,7 +234,7 @@ def test_cut_in_edge_cases():
 
 @dataclass(frozen=True)
 class StoredGuessResult(Result):
-    start: str = "stored guess"  # as optimize.solve.start marks a start from the shipped guess
+    start: str = "stored guess"  # as optimize.solve.solve.start marks from the shipped guess
 
 
 class StoredGuessBackend(NewtonBackend):
@@ -370,7 +370,7 @@ def test_request_falls_back_to_the_paper_model(tmp_path):
 
     from fitting.model_file import PAPER_MODEL_PATH, paper_model, save_power_model
     from optimize.cli import add_arguments
-    from optimize.sweep import SweepRequest
+    from optimize.command import SweepRequest
 
     parser = argparse.ArgumentParser()
     add_arguments(parser)
@@ -425,9 +425,9 @@ def test_run_optimize_writes_every_file(tmp_path):
     import pandas as pd
 
     from fitting.model_file import PAPER_MODEL_PATH, paper_model
-    from optimize.ocp import OcpOptions
-    from optimize.outputs import field_units, read_summary
-    from optimize.sweep import SweepRequest, run_optimize
+    from optimize.command import SweepRequest, run_optimize
+    from optimize.problem.ocp import OcpOptions
+    from optimize.sweep.outputs import field_units, read_summary
 
     out = tmp_path / "optimize_out"
     request = SweepRequest(

@@ -12,9 +12,10 @@ import pyarrow.parquet as pq
 import pytest
 
 from bench.errors import InputError
-from optimize import kite_model as km
-from optimize.chains import Attempt, ScenarioOutcome
-from optimize.outputs import (
+from optimize.model import kite_model as km
+from optimize.solve.result import OUTPUT_UNITS
+from optimize.sweep.chains import Attempt, ScenarioOutcome
+from optimize.sweep.outputs import (
     SUMMARY_COLUMNS,
     field_units,
     read_summary,
@@ -24,7 +25,6 @@ from optimize.outputs import (
     write_json,
     write_parquet,
 )
-from optimize.result import OUTPUT_UNITS
 
 
 @dataclass(frozen=True)
@@ -119,7 +119,7 @@ def test_trajectories_hold_only_converged_scenarios(tmp_path):
 
 
 def test_unit_of_agrees_with_the_ocp_tables():
-    # the OCP's own unit table (optimize.result.OUTPUT_UNITS) is the independent truth
+    # the OCP's own unit table (optimize.solve.result.OUTPUT_UNITS) is the independent truth
     for name, unit in OUTPUT_UNITS.items():
         if unit:
             assert unit_of(name) == unit, name

@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 
 from fitting.model_file import paper_model
-from optimize import kite_model as km
-from optimize.guess import LoopGuess, circular_loop
-from optimize.ocp import PERIODIC_STATES, OcpOptions, build_ocp, grid_times
-from optimize.result import Solution
-from optimize.scenario import Scenario
-from optimize.trust import interpolate_solution, simulation_check
+from optimize.model import kite_model as km
+from optimize.problem.guess import LoopGuess, circular_loop
+from optimize.problem.ocp import PERIODIC_STATES, OcpOptions, build_ocp, grid_times
+from optimize.problem.scenario import Scenario
+from optimize.solve.result import Solution
+from optimize.sweep.trust import interpolate_solution, simulation_check
 
 WIND_M_S = 7.0
 PERIOD_S = 0.4

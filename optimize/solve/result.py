@@ -7,10 +7,10 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from optimize import kite_model as km
-from optimize.drive import drum_speed_rpm, drum_torque_nm, mechanical_power_w
-from optimize.ocp import Ocp, RawSolve
-from optimize.scenario import Scenario
+from optimize.model import kite_model as km
+from optimize.model.drive import drum_speed_rpm, drum_torque_nm, mechanical_power_w
+from optimize.problem.ocp import Ocp, RawSolve
+from optimize.problem.scenario import Scenario
 
 #: units of the trajectory columns that are not states/controls/algebraic variables
 OUTPUT_UNITS = {
@@ -25,8 +25,8 @@ OUTPUT_UNITS = {
 class Solution:
     """Scaled primal and dual vectors of a solve, to warm-start the next one.
 
-    Only valid for an :class:`optimize.ocp.Ocp` with the same ``n_intervals``
-    and ``degree`` (checked by :func:`optimize.solve.solve`).
+    Only valid for an :class:`optimize.problem.ocp.Ocp` with the same ``n_intervals``
+    and ``degree`` (checked by :func:`optimize.solve.solve.solve`).
     """
 
     w: np.ndarray
@@ -73,7 +73,7 @@ class OcpResult:
         one entry per solver call otherwise.
     start : str
         How the final solve was started: ``"warm start"`` (from a neighbouring
-        solution), ``"stored guess"`` (:mod:`optimize.initial_guess`) or
+        solution), ``"stored guess"`` (:mod:`optimize.solve.initial_guess`) or
         ``"homotopy"``.
     """
 

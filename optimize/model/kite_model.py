@@ -23,8 +23,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from optimize.aero import aero_forces_moments, altitude_above_ground, wind_speed
-from optimize.params import AeroCoefficients, KiteParams, WindModel
+from optimize.model.aero import aero_forces_moments, altitude_above_ground, wind_speed
+from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 
 STATE_NAMES: tuple[str, ...] = (
     ("r_x_m", "r_y_m", "r_z_m", "v_x_m_s", "v_y_m_s", "v_z_m_s")

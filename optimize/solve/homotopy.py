@@ -22,10 +22,10 @@ import logging
 
 import numpy as np
 
-from optimize.guess import LoopGuess, circular_loop
-from optimize.ocp import Ocp, RawSolve, grid_times
-from optimize.result import OcpResult, make_result
-from optimize.scenario import Scenario
+from optimize.problem.guess import LoopGuess, circular_loop
+from optimize.problem.ocp import Ocp, RawSolve, grid_times
+from optimize.problem.scenario import Scenario
+from optimize.solve.result import OcpResult, make_result
 
 log = logging.getLogger(__name__)
 
@@ -59,7 +59,7 @@ def cold_start(ocp: Ocp, scenario: Scenario, guess: LoopGuess | None = None) -> 
     Parameters
     ----------
     ocp : Ocp
-        Built by :func:`optimize.ocp.build_ocp`.
+        Built by :func:`optimize.problem.ocp.build_ocp`.
     scenario : Scenario
         Wind speed, objective and drive limits of the final stage.
     guess : LoopGuess, optional

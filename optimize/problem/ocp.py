@@ -26,16 +26,16 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from optimize import kite_model as km
-from optimize.collocation import Collocation, radau
-from optimize.drive import (
+from optimize.model import kite_model as km
+from optimize.model.drive import (
     DriveModel,
     drum_speed_rpm,
     drum_torque_nm,
     max_reel_speed_m_s,
     mechanical_power_w,
 )
-from optimize.kite_model import KiteDae
+from optimize.model.kite_model import KiteDae
+from optimize.problem.collocation import Collocation, radau
 
 log = logging.getLogger(__name__)
 
@@ -117,7 +117,7 @@ class OcpOptions:
         steps to 1e-7..1e-2 of their length.
     stored_guess : bool
         Start a scenario with no neighbouring solution from the shipped initial
-        guess (:mod:`optimize.initial_guess`) when it fits, instead of the homotopy.
+        guess (:mod:`optimize.solve.initial_guess`) when it fits, instead of the homotopy.
     linear_solver : str
         IPOPT linear solver.
     mumps_pivot_order : int
@@ -203,8 +203,8 @@ class RawSolve:
 class Ocp:
     """A built OCP: the NLP, its layout, base bounds and IPOPT solvers (cold / warm).
 
-    Build it with :func:`build_ocp`; solve it with :func:`optimize.solve.solve`
-    or :func:`optimize.solve.cold_start`.
+    Build it with :func:`build_ocp`; solve it with :func:`optimize.solve.solve.solve`
+    or :func:`optimize.solve.solve.cold_start`.
     """
 
     options: OcpOptions
@@ -429,7 +429,7 @@ def build_ocp(
     Parameters
     ----------
     dae : KiteDae
-        The kite model (:func:`optimize.kite_model.kite_dae`).
+        The kite model (:func:`optimize.model.kite_model.kite_dae`).
     drive_model : DriveModel
         Electrical power model of the drive (``fitting.model_file.PowerModel``).
     options : OcpOptions, optional

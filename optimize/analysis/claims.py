@@ -28,7 +28,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import pandas as pd
 
-from optimize.chains import CutIn
+from optimize.sweep.chains import CutIn
 
 FIGURE_RTOL = 0.25
 CUT_IN_TOL_M_S = 0.5
@@ -471,7 +471,7 @@ def evaluate_claims(summary: pd.DataFrame, cut_ins: pd.DataFrame) -> pd.DataFram
     Parameters
     ----------
     summary : DataFrame
-        ``summary.parquet`` content (:func:`optimize.outputs.summary_frame`);
+        ``summary.parquet`` content (:func:`optimize.sweep.outputs.summary_frame`);
         only converged rows are used.
     cut_ins : DataFrame
         :func:`cut_in_frame` of the cut-in searches (may be empty).

@@ -28,11 +28,14 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from optimize import kite_model as km
-from optimize.homotopy import cold_start, power_weights
-from optimize.ocp import PERIODIC_STATES, Ocp, grid_times
-from optimize.result import OcpResult, Solution, make_result
-from optimize.scenario import Scenario
+from optimize.model import kite_model as km
+from optimize.problem.ocp import PERIODIC_STATES, Ocp, grid_times
+from optimize.problem.scenario import Scenario
+from optimize.solve.homotopy import cold_start, power_weights
+from optimize.solve.result import OcpResult, Solution, make_result
+from optimize.sweep.chains import OcpBackend, Problem
+from optimize.sweep.executors import run_tasks
+from optimize.sweep.plan import middle_index
 
 _POS = [km.IDX[n] for n in ("r_x_m", "r_y_m", "r_z_m")]
 _PER = [km.IDX[n] for n in PERIODIC_STATES]
@@ -283,8 +286,6 @@ def run_mesh_task(task: tuple, progress: Any = None) -> MeshCheck:
 
     Builds (or takes from the per-process cache) the coarse and the fine OCP.
     """
-    from optimize.chains import OcpBackend
-
     name, problem, fine_problem, result = task
     backend = OcpBackend()
     check = mesh_check(backend.build(problem), backend.build(fine_problem), result.scenario, result)
@@ -301,12 +302,12 @@ def run_trust_checks(
 
     Parameters
     ----------
-    problem : optimize.chains.Problem
+    problem : optimize.sweep.chains.Problem
         The sweep's problem.
-    outcomes : sequence of optimize.chains.ScenarioOutcome
+    outcomes : sequence of optimize.sweep.chains.ScenarioOutcome
     winds : tuple of float
         The wind grid [m/s]; the mesh check uses its middle speed.
-    handle : optimize.executors.ExecutorHandle
+    handle : optimize.sweep.executors.ExecutorHandle
 
     Returns
     -------
@@ -315,10 +316,6 @@ def run_trust_checks(
         "lines": [str]}``.
     """
     from tqdm import tqdm
-
-    from optimize.chains import OcpBackend, Problem
-    from optimize.executors import run_tasks
-    from optimize.sweep import middle_index
 
     opts = problem.options
     fine_opts = dataclasses.replace(opts, n_intervals=2 * opts.n_intervals)

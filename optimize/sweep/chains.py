@@ -1,6 +1,6 @@
 """Run one warm-start chain on a worker: solves, retries and the cut-in search.
 
-A chain (:class:`optimize.sweep.Chain`) is shipped to a worker as one task
+A chain (:class:`optimize.sweep.plan.Chain`) is shipped to a worker as one task
 (:func:`run_chain`). The worker builds the NLP once per process (cached on the
 options and the drive-model hash), then solves the chain's steps in order,
 keeping the primal/dual solution of every converged scenario in memory to
@@ -24,15 +24,15 @@ import traceback
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from optimize.scenario import scenario_name
-from optimize.sweep import KINDS, Chain, Step
+from optimize.problem.scenario import scenario_name
+from optimize.sweep.plan import KINDS, Chain, Step
 
 #: warm-started attempts per step before the cold-start fallback
 MAX_WARM_ATTEMPTS = 2
 
 
 class SolveResult(Protocol):
-    """What the chain runner reads from a solve result (see ``optimize.solve.OcpResult``)."""
+    """What the chain runner reads from a solve result (see ``optimize.solve.result.OcpResult``)."""
 
     status: str
     success: bool
@@ -62,7 +62,7 @@ class Problem:
     Attributes
     ----------
     params : tuple or None
-        Arguments of ``optimize.kite_model.kite_dae`` (``KiteParams``,
+        Arguments of ``optimize.model.kite_model.kite_dae`` (``KiteParams``,
         ``AeroCoefficients``, ``WindModel``); ``None`` for the package defaults.
         Plain data, so the DAE is built in the worker.
     drive_model : Any
@@ -233,12 +233,13 @@ _OCP_CACHE: dict[tuple[str, int], Any] = {}
 
 
 class OcpBackend:
-    """The CasADi/IPOPT OCP of this package (``optimize.ocp`` and ``optimize.solve``)."""
+    """The CasADi/IPOPT OCP of this package (:mod:`optimize.problem.ocp`, solved by
+    :mod:`optimize.solve.solve`)."""
 
     def build(self, problem: Problem) -> Any:
         """Build the NLP once per process and per :attr:`Problem.key`."""
-        from optimize.kite_model import kite_dae
-        from optimize.ocp import build_ocp
+        from optimize.model.kite_model import kite_dae
+        from optimize.problem.ocp import build_ocp
 
         key = (problem.key, threading.get_ident())
         if key not in _OCP_CACHE:
@@ -249,7 +250,7 @@ class OcpBackend:
     @staticmethod
     def scenario(kind: str, wind_speed_m_s: float) -> Any:
         """The OCP's ``Scenario`` for a kind and wind speed [m/s]."""
-        from optimize.scenario import Scenario
+        from optimize.problem.scenario import Scenario
 
         objective, limits = KINDS[kind]
         return Scenario(wind_speed_m_s=wind_speed_m_s, objective=objective, drive_limits=limits)
@@ -257,13 +258,13 @@ class OcpBackend:
     def solve(self, ocp: Any, kind: str, wind_speed_m_s: float, warm: Any) -> SolveResult:
         """Warm-started solve (primal and dual start; on failure ``solve`` retries the same
         primal point once with cold barrier settings, before the chain's own fallbacks)."""
-        from optimize.solve import solve
+        from optimize.solve.solve import solve
 
         return solve(ocp, self.scenario(kind, wind_speed_m_s), warm)
 
     def cold_start(self, ocp: Any, kind: str, wind_speed_m_s: float) -> SolveResult:
         """From the stored initial guess when it fits, else the homotopy."""
-        from optimize.solve import start
+        from optimize.solve.solve import start
 
         return start(ocp, self.scenario(kind, wind_speed_m_s))
 
@@ -504,7 +505,7 @@ def run_sweep(
     tasks : tuple of ChainTask
         From :func:`make_tasks`.
     executor : Executor
-        Any ``concurrent.futures`` executor (see :mod:`optimize.executors`).
+        Any ``concurrent.futures`` executor (see :mod:`optimize.sweep.executors`).
     channel : optional
         Progress channel matching the executor; without it the bar moves
         only when a whole chain finishes.
@@ -525,7 +526,7 @@ def run_sweep(
 
     from tqdm import tqdm
 
-    from optimize.executors import run_tasks
+    from optimize.sweep.executors import run_tasks
 
     total = sum(len(t.chain.steps) + len(t.cut_in_kinds) for t in tasks)
     bar = tqdm(total=total, desc="optimize", unit="solve", disable=not show_progress)

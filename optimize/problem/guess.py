@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from optimize.kite_model import NF, NX, NZ, KiteDae
+from optimize.model.kite_model import NF, NX, NZ, KiteDae
 
 
 @dataclass(frozen=True)

@@ -13,11 +13,11 @@ from __future__ import annotations
 import dataclasses
 import logging
 
-from optimize import initial_guess
-from optimize.homotopy import cold_start, power_weights
-from optimize.ocp import Ocp
-from optimize.result import OcpResult, Solution, make_result
-from optimize.scenario import Scenario
+from optimize.problem.ocp import Ocp
+from optimize.problem.scenario import Scenario
+from optimize.solve import initial_guess
+from optimize.solve.homotopy import cold_start, power_weights
+from optimize.solve.result import OcpResult, Solution, make_result
 
 log = logging.getLogger(__name__)
 
@@ -27,10 +27,10 @@ __all__ = ["cold_start", "solve", "start"]
 def start(ocp: Ocp, scenario: Scenario) -> OcpResult:
     """Solve ``scenario`` with no neighbouring solution at hand.
 
-    Warm-started from the shipped initial guess (:mod:`optimize.initial_guess`)
+    Warm-started from the shipped initial guess (:mod:`optimize.solve.initial_guess`)
     when ``ocp.options.stored_guess`` is set and the guess fits this OCP;
     otherwise, or when that solve fails, by the homotopy
-    (:func:`optimize.homotopy.cold_start`). A failed stored-guess solve stays
+    (:func:`optimize.solve.homotopy.cold_start`). A failed stored-guess solve stays
     in ``stages`` and counts in the iterations and wall time.
     """
     guess, why = (initial_guess.load(ocp) if ocp.options.stored_guess
@@ -64,7 +64,7 @@ def solve(
     Parameters
     ----------
     ocp : Ocp
-        Built by :func:`optimize.ocp.build_ocp`.
+        Built by :func:`optimize.problem.ocp.build_ocp`.
     scenario : Scenario
         Wind speed, objective and drive limits.
     warm_start : Solution or None

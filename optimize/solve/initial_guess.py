@@ -8,10 +8,10 @@ parameters it was solved with and the scaled constraint values ``g(w, p)`` there
 :func:`load` accepts the file for an OCP only if that OCP evaluates the same
 ``g`` at the stored point to :data:`MATCH_TOL`. The constraints do not depend on
 the drive model, so the guess serves any fitted model; a changed kite model,
-scaling, collocation or layout makes it stale, and :func:`optimize.solve.start`
+scaling, collocation or layout makes it stale, and :func:`optimize.solve.solve.start`
 falls back to the homotopy. Regenerate the file with::
 
-    .venv/bin/python -m optimize.initial_guess
+    .venv/bin/python -m optimize.solve.initial_guess
 """
 
 from __future__ import annotations
@@ -25,16 +25,16 @@ import numpy as np
 
 from bench.files import atomic_path
 from fitting.model_file import paper_model
-from optimize.homotopy import cold_start, power_weights
-from optimize.kite_model import kite_dae
-from optimize.ocp import Ocp, OcpOptions, build_ocp
-from optimize.result import OcpResult, Solution
-from optimize.scenario import Scenario
+from optimize.model.kite_model import kite_dae
+from optimize.problem.ocp import Ocp, OcpOptions, build_ocp
+from optimize.problem.scenario import Scenario
+from optimize.solve.homotopy import cold_start, power_weights
+from optimize.solve.result import OcpResult, Solution
 
 log = logging.getLogger(__name__)
 
 #: the shipped file
-GUESS_PATH = Path(__file__).parent / "data" / "initial_guess.npz"
+GUESS_PATH = Path(__file__).resolve().parent.parent / "data" / "initial_guess.npz"
 #: the scenario it holds: its solution warm-starts both objectives at 7 m/s
 GUESS_SCENARIO = Scenario(wind_speed_m_s=7.0, objective="electrical", drive_limits=True)
 #: largest deviation of the scaled constraint values at the stored point [-]
@@ -89,7 +89,8 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
     dev = float(np.max(np.abs(ocp.constraint_values(data["w"], data["p"]) - data["g"])))
     if not dev <= MATCH_TOL:
         return None, (f"the stored initial guess does not fit this OCP's constraints (largest "
-                      f"deviation {dev:.1e}); regenerate it: python -m optimize.initial_guess")
+                      f"deviation {dev:.1e}); regenerate it: "
+                      "python -m optimize.solve.initial_guess")
     solution = Solution(w=data["w"], lam_x=data["lam_x"], lam_g=data["lam_g"],
                         n_intervals=n, degree=d)
     return solution, f"stored initial guess {data['scenario']} fits (deviation {dev:.1e})"

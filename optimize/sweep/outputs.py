@@ -6,7 +6,7 @@
   scenario (states, controls, drive quantities), with the scenario name;
 * ``manifest.json``: wind list, kinds, drive-model hash, options, executor,
   package versions, command line, cut-in searches, trust checks;
-* ``claims.csv``: the comparison with the paper (:mod:`optimize.claims`).
+* ``claims.csv``: the comparison with the paper (:mod:`optimize.analysis.claims`).
 
 Every Parquet field carries its unit in the field metadata (``{"unit": ...}``),
 derived from the unit suffix of the column name (:func:`unit_of`).
@@ -27,7 +27,7 @@ import pyarrow.parquet as pq
 
 from bench.errors import InputError
 from bench.files import atomic_write, write_text_atomic
-from optimize.chains import ScenarioOutcome
+from optimize.sweep.chains import ScenarioOutcome
 
 SCHEMA_NAME = "drivebench.optimize"
 SCHEMA_VERSION = 1

@@ -1,0 +1,1 @@
+"""Analysis of sweep results: the comparison with the paper (not part of the solver)."""

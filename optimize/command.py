@@ -1,0 +1,270 @@
+"""The whole ``bench optimize`` command as a library call: :func:`run_optimize`.
+
+Plan the chains (:mod:`optimize.sweep.plan`), run them on an executor
+(:mod:`optimize.sweep.chains`, :mod:`optimize.sweep.executors`), the trust
+checks (:mod:`optimize.sweep.trust`), the paper comparison
+(:mod:`optimize.analysis.claims`) and the files (:mod:`optimize.sweep.outputs`).
+This module sits above the solver and the analysis; nothing in them imports it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from bench.errors import InputError
+from bench.files import file_sha256
+from optimize.analysis.claims import cut_in_frame, evaluate_claims
+from optimize.sweep import outputs
+from optimize.sweep.chains import Problem, make_tasks, run_sweep
+from optimize.sweep.executors import open_executor
+from optimize.sweep.plan import KINDS, parse_kinds, parse_wind_grid, plan_chains
+from optimize.sweep.trust import run_trust_checks
+
+
+@dataclass(frozen=True)
+class SweepRequest:
+    """Everything ``bench optimize`` was asked to do (see :func:`run_optimize`).
+
+    Attributes
+    ----------
+    winds : tuple of float
+        Wind speeds [m/s].
+    kinds : tuple of str
+        Scenario kinds.
+    drive_model : Any
+        ``fitting.model_file.PowerModel``.
+    drive_model_path : Path
+        Where it was read from.
+    model_note : str
+        One line saying which model is used and why.
+    options : Any
+        ``optimize.problem.ocp.OcpOptions``.
+    workers : int
+        Local worker processes (ignored with ``scheduler``).
+    scheduler : str or None
+        Dask scheduler address.
+    out : Path
+        Output folder.
+    claims : bool
+        Run the cut-in searches and the paper comparison.
+    trust : bool
+        Run the mesh and simulation checks.
+    cut_in_tol_m_s : float
+        Cut-in bisection stops at this bracket width [m/s].
+    """
+
+    winds: tuple[float, ...]
+    kinds: tuple[str, ...]
+    drive_model: Any
+    drive_model_path: Path
+    model_note: str
+    options: Any
+    workers: int = 2
+    scheduler: str | None = None
+    out: Path = Path("optimize_out")
+    claims: bool = True
+    trust: bool = False
+    cut_in_tol_m_s: float = 0.05
+
+    @classmethod
+    def from_cli(cls, args: Any, fit_model_path: Path) -> SweepRequest:
+        """Build the request from ``bench optimize`` arguments; bad values raise InputError."""
+        from fitting.model_file import PAPER_MODEL_PATH, load_power_model
+        from optimize.problem.ocp import OcpOptions
+
+        winds = parse_wind_grid(args.wind_grid)
+        kinds = parse_kinds(args.scenarios)
+        if args.drive_model is not None:
+            path, note = Path(args.drive_model), f"drive model: {args.drive_model}"
+        elif fit_model_path.exists():
+            path, note = fit_model_path, f"drive model: {fit_model_path} (from bench fit)"
+        else:
+            path = PAPER_MODEL_PATH
+            note = (
+                f"drive model: no {fit_model_path} found, using the shipped paper model "
+                f"(Table I) {PAPER_MODEL_PATH}"
+            )
+        model = load_power_model(path)
+        try:
+            options = OcpOptions(n_intervals=args.intervals, degree=args.degree,
+                                 stored_guess=not args.no_stored_guess)
+        except ValueError as exc:
+            raise InputError(None, f"OCP options: {exc}") from exc
+        return cls(
+            winds,
+            kinds,
+            model,
+            path,
+            note,
+            options,
+            args.workers,
+            args.scheduler,
+            Path(args.out),
+            not args.no_claims,
+            args.trust,
+        )
+
+
+@dataclass(frozen=True)
+class OptimizeOutcome:
+    """What :func:`run_optimize` produced (the files are already written).
+
+    Attributes
+    ----------
+    summary : pandas.DataFrame
+        ``summary.parquet`` content.
+    claims : pandas.DataFrame or None
+        ``claims.csv`` content (``None`` with ``claims=False``).
+    cut_ins : pandas.DataFrame
+        Cut-in searches (also in the manifest).
+    trust : dict
+        ``{"mesh": [...], "simulation": [...]}`` records (empty without ``trust``).
+    trust_lines : tuple of str
+        Human-readable trust figures.
+    wall_time_s : float
+        Sweep wall time, cold starts included, trust checks excluded [s].
+    executor : str
+    files : dict
+        Name -> written path.
+    """
+
+    summary: Any
+    claims: Any
+    cut_ins: Any
+    trust: dict
+    trust_lines: tuple[str, ...]
+    wall_time_s: float
+    executor: str
+    files: dict
+
+
+def _package_versions() -> dict[str, str]:
+    import importlib.metadata as md
+    import platform
+
+    versions = {"python": platform.python_version()}
+    for dist in ("drivebench", "casadi", "numpy", "pandas", "pyarrow", "scipy", "distributed"):
+        try:
+            versions[dist] = md.version(dist)
+        except md.PackageNotFoundError:
+            versions[dist] = "not installed"
+    return versions
+
+
+def run_optimize(
+    request: SweepRequest,
+    command_line: list[str] | None = None,
+    show_progress: bool = True,
+    backend: Any = None,
+) -> OptimizeOutcome:
+    """Plan, run and record a sweep: the library behind ``bench optimize``.
+
+    Steps: plan warm-start chains for the executor's worker count; run them
+    (cut-in searches included when ``request.claims``); optionally the trust
+    checks (mesh check of each kind's middle-wind scenario on the executor,
+    simulation check of every converged scenario); compare with the paper;
+    write ``summary.parquet``, ``trajectories.parquet``, ``claims.csv`` and
+    ``manifest.json`` (docs/schemas.md §5) atomically into ``request.out``.
+    ``backend`` replaces the CasADi OCP in the chains (see
+    :class:`optimize.sweep.chains.Backend`; the trust checks always use the OCP).
+    """
+    import dataclasses
+    import datetime
+    import sys
+
+
+    model, options = request.drive_model, request.options
+    problem = Problem(None, model, options, f"{options!r}|{model.sha256}")
+    cut_in_kinds = tuple(k for k in request.kinds if KINDS[k][1]) if request.claims else ()
+    trust: dict = {"mesh": [], "simulation": []}
+    with open_executor(request.workers, request.scheduler) as handle:
+        chains = plan_chains(request.winds, request.kinds, handle.n_workers)
+        tasks = make_tasks(chains, problem, cut_in_kinds, request.cut_in_tol_m_s)
+        result = run_sweep(
+            tasks, handle.executor, handle.channel, handle.description, backend, show_progress
+        )
+        if request.trust:
+            trust = run_trust_checks(problem, result.outcomes, request.winds, handle)
+    summary = outputs.summary_frame(result.outcomes)
+    cut_ins = cut_in_frame(result.cut_ins)
+    claims = evaluate_claims(summary, cut_ins) if request.claims else None
+
+    request.out.mkdir(parents=True, exist_ok=True)
+    files = {
+        "summary": outputs.write_parquet(
+            summary, request.out / "summary.parquet", outputs.SUMMARY_COLUMNS
+        ),
+        "trajectories": outputs.write_parquet(
+            outputs.trajectories_frame(result.outcomes), request.out / "trajectories.parquet"
+        ),
+    }
+    claims_path = request.out / "claims.csv"
+    if claims is not None:
+        files["claims"] = outputs.write_csv(claims, claims_path)
+    else:
+        claims_path.unlink(missing_ok=True)  # never leave a stale comparison beside new results
+    manifest = {
+        "schema": outputs.SCHEMA_NAME,
+        "schema_version": outputs.SCHEMA_VERSION,
+        "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "command_line": list(command_line if command_line is not None else sys.argv),
+        "package_versions": _package_versions(),
+        "wind_speeds_m_s": list(request.winds),
+        "kinds": list(request.kinds),
+        "scenarios": [o.name for o in result.outcomes],
+        "drive_model": {
+            "path": str(request.drive_model_path),
+            "file_sha256": file_sha256(request.drive_model_path),
+            "model_sha256": model.sha256,
+            "name": model.name,
+            "note": request.model_note,
+        },
+        "options": dataclasses.asdict(options),
+        "executor": result.executor,
+        "wall_time_s": result.wall_time_s,
+        "converged": int(summary["success"].sum()),
+        "failed": [o.name for o in result.outcomes if not o.success],
+        "chains": [
+            {
+                "chain": c.chain,
+                "worker": c.worker,
+                "build_time_s": c.build_time_s,
+                "scenarios": [o.name for o in c.outcomes],
+            }
+            for c in result.chains
+        ],
+        "cut_in": [dataclasses.asdict(c) for c in result.cut_ins],
+        "trust": trust,
+        "files": {k: Path(v).name for k, v in files.items()},
+    }
+    files["manifest"] = outputs.write_json(manifest, request.out / "manifest.json")
+    return OptimizeOutcome(
+        summary,
+        claims,
+        cut_ins,
+        trust,
+        tuple(trust.get("lines", ())),
+        result.wall_time_s,
+        result.executor,
+        files,
+    )
+
+
+def format_summary(summary: Any) -> str:
+    """The summary as a plain-text table (the paper's Table II analogue, and more)."""
+    head = (
+        f"{'scenario':<16} {'status':<27} {'it':>4} {'wall s':>6} {'P_elec W':>9} "
+        f"{'P_mech W':>9} {'T s':>5} {'E_elec J':>9} {'rpm max':>7} {'T_q Nm':>6} "
+        f"{'P_el max W':>10}"
+    )
+    lines = [head]
+    for r in summary.itertuples(index=False):
+        lines.append(
+            f"{r.scenario:<16} {r.status[:27]:<27} {r.iterations:>4d} {r.total_wall_time_s:>6.1f} "
+            f"{r.avg_p_elec_w:>9.0f} {r.avg_p_mech_w:>9.0f} {r.period_s:>5.2f} "
+            f"{r.e_elec_j:>9.0f} {r.peak_speed_rpm:>7.0f} {r.peak_torque_nm:>6.1f} "
+            f"{r.p_elec_max_w:>10.0f}"
+        )
+    return "\n".join(lines)

@@ -1,0 +1,1 @@
+"""The optimal control problem: scenario, collocation, initial loop and the NLP."""

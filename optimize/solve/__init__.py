@@ -1,0 +1,1 @@
+"""Solving the problem: homotopy cold start, stored initial guess, warm solves, results."""

@@ -1,0 +1,1 @@
+"""Sweeps of many scenarios: plan, warm-start chains, executors, trust checks, files."""
