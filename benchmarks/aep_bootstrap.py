@@ -37,10 +37,10 @@ from fitting.power_fit import fit_power_model, quadrant_weights
 
 def _setup(model, winds, intervals):
     """Build the OCP for ``model`` and solve elec-lim at each wind (from a cold start)."""
-    from optimize.kite_model import kite_dae
-    from optimize.ocp import OcpOptions, build_ocp
-    from optimize.scenario import Scenario
-    from optimize.solve import solve, start
+    from optimize.model.kite_model import kite_dae
+    from optimize.problem.ocp import OcpOptions, build_ocp
+    from optimize.problem.scenario import Scenario
+    from optimize.solve.solve import solve, start
 
     dae, options = kite_dae(), OcpOptions(n_intervals=intervals)
     ocp = build_ocp(dae, model, options)
@@ -57,9 +57,9 @@ def _setup(model, winds, intervals):
 def _worker(args):
     """Refit on each resample of this worker's share and re-optimize at every wind."""
     model_path, store, winds, intervals, seeds = args
-    from optimize.ocp import build_ocp
-    from optimize.scenario import Scenario
-    from optimize.solve import solve
+    from optimize.problem.ocp import build_ocp
+    from optimize.problem.scenario import Scenario
+    from optimize.solve.solve import solve
 
     model = load_power_model(model_path)
     frame = load_points(store).frame

@@ -9,10 +9,10 @@ import pytest
 
 from energy.bands import basis_averages, sigma
 from fitting.model_file import paper_model
-from optimize.kite_model import kite_dae
-from optimize.ocp import OcpOptions, build_ocp
-from optimize.scenario import Scenario
-from optimize.solve import cold_start, solve
+from optimize.model.kite_model import kite_dae
+from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.problem.scenario import Scenario
+from optimize.solve.solve import cold_start, solve
 
 N_COARSE = 10  # coarse but converging grid: the three solves take ~15 s on 2 busy cores
 
