@@ -94,11 +94,8 @@ def write_outputs(a: Assessment, run: OptimizeRun, out: Path, command_line: list
     curves = a.curves.copy()
     curves["p_elec_ci95_low_w"] = curves["p_elec_w"] - Z95 * curves["p_elec_sigma_w"]
     curves["p_elec_ci95_high_w"] = curves["p_elec_w"] + Z95 * curves["p_elec_sigma_w"]
-    header = (f"# drivebench power curves (bench aep); wind at {reference_height_m:g} m; "
-              "p_* negative = generated; p_elec_sigma_w: one sigma from the power model's "
-              "coefficient covariance (NaN without one)\n")
     files["curves"] = write_text_atomic(out / "power_curves.csv",
-                                        header + curves.to_csv(index=False, float_format="%.6g"))
+                                        curves.to_csv(index=False, float_format="%.6g"))
     altitudes = np.arange(0.0, 501.0, 10.0)
     u = np.array([log_shear_factor(reference_height_m, h, roughness_m) if h > roughness_m
                   else 0.0 for h in altitudes])
