@@ -38,11 +38,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="torque-rating scales of the reference drive, comma list (default "
                              f"{DEFAULT_SCALES}); law in docs/schemas.md §7")
     parser.add_argument("--models", type=Path, nargs="*", default=(),
-                        help="further candidates: power_model.json files (limits from their "
-                             "drive section, else the reference limits)")
+                        help="further candidates: power_model.json files (rated torque and "
+                             "speed limit from their drive section, else the reference ones)")
     parser.add_argument("--rated-torque-nm", type=float, default=None,
                         help="reference drive's continuous (RMS) torque rating [N m] (default: "
-                             f"the model's drive.rated_torque_nm, else {PAPER_RATED_TORQUE_NM:g})")
+                             "the model's drive.max_torque_nm, its nominal torque, else "
+                             f"{PAPER_RATED_TORQUE_NM:g})")
     parser.add_argument("--max-speed-rpm", type=float, default=None,
                         help="speed limit [rpm] (default: the model's drive.max_speed_rpm, else "
                              f"{PAPER_MAX_SPEED_RPM:g})")
@@ -107,7 +108,7 @@ def build_candidates(args: argparse.Namespace) -> tuple[list, Path, list[str]]:
             return default
         return found
 
-    rated = limit(args.rated_torque_nm, "rated_torque_nm", PAPER_RATED_TORQUE_NM,
+    rated = limit(args.rated_torque_nm, "max_torque_nm", PAPER_RATED_TORQUE_NM,
                   "rated torque [N m]")
     speed = limit(args.max_speed_rpm, "max_speed_rpm", PAPER_MAX_SPEED_RPM, "speed limit [rpm]")
     for name, v in (("--rated-torque-nm", rated), ("--max-speed-rpm", speed),
@@ -119,9 +120,8 @@ def build_candidates(args: argparse.Namespace) -> tuple[list, Path, list[str]]:
     candidates = scaled_candidates(base, _scales(args.scales), rated, speed, args.overload)
     for p in args.models:
         m = load_power_model(p)
-        r = _drive_value(p, "rated_torque_nm") or rated
-        candidates.append(Candidate(Path(p).stem, m, r,
-                                    _drive_value(p, "max_torque_nm") or args.overload * r,
+        r = _drive_value(p, "max_torque_nm") or rated
+        candidates.append(Candidate(Path(p).stem, m, r, args.overload * r,
                                     _drive_value(p, "max_speed_rpm") or speed,
                                     _drive_value(p, "nominal_power_w") or m.nominal_power_w))
     return candidates, path, notes

@@ -71,10 +71,16 @@ def scaled_model(base: Any, s: float, name: str | None = None) -> Any:
         cov = tuple(map(tuple, np.array(base.covariance_rpm) * np.outer(f, f)))
     provenance = {"scaled_from": base.sha256, "torque_rating_scale": s,
                   "law": "P_s(n, T) = s P_1(n, T/s): c_ij -> s^(1-j) c_ij"}
+    changes = {}
+    drive = getattr(base, "drive", None)
+    if drive is not None:  # the rating scales with the drive: torque and power, not speed
+        changes["drive"] = {**drive, "nominal_power_w": drive["nominal_power_w"] * s,
+                            "max_torque_nm": drive["max_torque_nm"] * s,
+                            "source": f"{drive.get('source', '')}; scaled x{s:g} (bench size)"}
     return dataclasses.replace(
         base, coefficients_rpm=tuple(np.array(base.coefficients_rpm) * f), covariance_rpm=cov,
         nominal_power_w=base.nominal_power_w * s,
-        name=name or f"{base.name} x{s:g} torque rating", provenance=provenance,
+        name=name or f"{base.name} x{s:g} torque rating", provenance=provenance, **changes,
     )
 
 
