@@ -345,7 +345,19 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
         description = handle.description
     bar.close()
     wall = time.perf_counter() - t0
-    records = [r for f in futures for r in f.result()]
+    records = []
+    for task, f in zip(tasks, futures, strict=True):
+        exc = f.exception()
+        if exc is None:
+            records.extend(f.result())
+            continue
+        # a crashed task fails its candidate (reported, no AEP), never the sweep
+        status = f"worker error: {type(exc).__name__}: {exc}"[:300]
+        records.extend({"key": None, "candidate": task.candidate.name, "wind_speed_m_s": w,
+                        "success": False, "status": status, "avg_p_elec_w": None,
+                        "avg_p_mech_w": None, "period_s": None, "rms_torque_nm": None,
+                        "peak_torque_nm": None, "peak_speed_rpm": None, "wall_time_s": None,
+                        "cached": False} for w in task.winds)
     table, best, chosen = candidate_table(candidates, records, site, tolerance)
     return SizingResult(table, records, best, chosen, wall, description, counts["solved"],
                         counts["cached"])
