@@ -143,8 +143,10 @@ class Assessment:
                 "capacity_factor_mech": k.mech.capacity_factor,
                 "sigma_aep_elec_model_mwh": k.sigma_elec_model_mwh,
                 "sigma_aep_elec_site_mwh": k.sigma_elec_site_mwh,
+                # delivered energy is >= 0: the linear band is cut at 0 near a clipped curve
                 "ci95_aep_elec_low_mwh": (None if k.sigma_elec_mwh is None
-                                          else k.elec.aep_mwh - bands.Z95 * k.sigma_elec_mwh),
+                                          else max(0.0, k.elec.aep_mwh
+                                                   - bands.Z95 * k.sigma_elec_mwh)),
                 "ci95_aep_elec_high_mwh": (None if k.sigma_elec_mwh is None
                                            else k.elec.aep_mwh + bands.Z95 * k.sigma_elec_mwh),
                 "efficiency_loss_mwh": k.efficiency_loss_mwh,
