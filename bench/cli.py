@@ -20,8 +20,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "ingest": ("bench.ingest.cli", "ingest bench logs into the Parquet store"),
     "fit": ("fitting.cli", "efficiency map, power model fit, model selection, export"),
     "optimize": ("optimize.cli", "periodic pumping-cycle optimization over a wind grid"),
+    "aep": ("energy.cli", "annual energy, capacity factor and bands of the power curves at a site"),
+    "size": ("energy.size_cli", "drive sizing: electrical AEP against drive rating"),
     "report": ("reports.cli", "render the self-contained HTML report"),
-    "run": ("bench.run_cli", "ingest, fit, optimize and report in one go"),
+    "run": ("bench.run_cli", "ingest, fit, optimize, aep, size and report in one go"),
 }
 
 
