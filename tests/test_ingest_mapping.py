@@ -18,11 +18,12 @@ from bench.ingest import expr
 from bench.ingest.mapping import load_mapping
 from bench.ingest.pipeline import ingest
 from bench.ingest.units import unit_factor
+from bench.store import kind_files
 from bench.synth.exports import make_dyno_table, make_ev_table
 
 
 def _points(store, sid):
-    pts = pd.read_parquet(store / "points" / f"{sid}.parquet")
+    pts = pd.read_parquet(kind_files(store, "points")[sid])
     return pts.sort_values("point_id").reset_index(drop=True)
 
 
@@ -256,7 +257,7 @@ def test_a_single_implausible_point_is_rejected_with_its_reason(tmp_path):
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     ingest([tmp_path / "c"], tmp_path / "store", progress=False)
     assert len(_points(tmp_path / "store", "dyno_01")) == truth["speed_rpm"].size - 1
-    rej = pd.read_parquet(tmp_path / "store" / "rejected" / "dyno_01.parquet")
+    rej = pd.read_parquet(kind_files(tmp_path / "store", "rejected")["dyno_01"])
     assert rej.reason.tolist() == ["efficiency above 1"]
 
 

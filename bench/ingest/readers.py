@@ -39,6 +39,10 @@ from bench.ingest.scrub import NULL_MARKERS, scrub
 #: CSV bytes parsed per chunk; bounds the memory of the first pass [B]
 CHUNK_BYTES = 16 * 1024 * 1024
 _SNIFF_BYTES = 64 * 1024
+#: longest accepted line (names row or data row) [B]; a longer one is a damaged file
+MAX_LINE_BYTES = 1024 * 1024
+#: lines sniffing wants to see (preamble, names, units, rows for the decimal mark)
+_SNIFF_LINES = 64
 
 
 @dataclass(frozen=True)
@@ -114,9 +118,19 @@ class Chunk:
 
 
 def _check_text(path: Path, head: bytes) -> str:
-    """Reject empty and binary files; return the text encoding of ``head``."""
+    """Reject empty, binary, UTF-16 and CR-only files; return the text encoding of ``head``."""
     if not head.strip():
         raise InputError(path, "file is empty", expected="a text file with a header row and data")
+    even, odd = head[0:4096:2], head[1:4096:2]
+    if head[:2] in (b"\xff\xfe", b"\xfe\xff") or (
+            len(head) > 16 and max(even.count(0), odd.count(0)) > 0.4 * len(odd)):
+        raise InputError(path, "UTF-16 text, not UTF-8 or a single-byte encoding", line=1,
+                         expected="the file re-saved as UTF-8 (e.g. Excel: CSV UTF-8; "
+                                  "iconv -f UTF-16 -t UTF-8)")
+    if b"\r" in head and b"\n" not in head:
+        raise InputError(path, "lines end in CR only (classic Mac line ends)", line=1,
+                         expected="LF or CRLF line ends (re-save the file, or "
+                                  "tr '\\r' '\\n' < in > out)")
     ctrl = sum(1 for b in head if b < 32 and b not in (9, 10, 13))
     if b"\x00" in head or ctrl > 0.01 * len(head):
         raise InputError(
@@ -138,10 +152,12 @@ def _split(line: str, sep: str) -> list[str]:
 
 def _is_number(text: str, decimal: str) -> bool:
     t = text.strip()
-    if decimal == ",":
-        t = t.replace(",", ".")
     if t.upper() in {m.upper() for m in NULL_MARKERS}:
         return True
+    if decimal == ",":
+        if "." in t:  # an English decimal in a German file
+            return False
+        t = t.replace(",", ".")
     try:
         float(t)
     except ValueError:
@@ -182,15 +198,27 @@ def sniff_csv(path: str | Path, preamble: bool = False, skip_lines: int = 0) -> 
         Empty or binary file, missing names row, or no data rows.
     """
     path = Path(path)
+    window = _SNIFF_BYTES
     try:
         with path.open("rb") as fh:
-            head = fh.read(_SNIFF_BYTES)
+            head = fh.read(window)
+            # a long names row (thousands of channels) needs a wider window, up to a bound
+            while len(head) == window and head.count(b"\n") < _SNIFF_LINES \
+                    and window < 4 * MAX_LINE_BYTES:
+                head += fh.read(window)
+                window *= 2
     except OSError as exc:
         raise InputError(path, f"cannot read file ({exc})") from exc
     encoding = _check_text(path, head)
     raw_lines = head.split(b"\n")
-    if len(head) == _SNIFF_BYTES:
+    cut = len(head) == window
+    if cut:
         raw_lines = raw_lines[:-1]  # the last line may be cut by the sniff window
+    too_long = [k for k, ln in enumerate(raw_lines) if len(ln) > MAX_LINE_BYTES]
+    if too_long or (cut and len(head) - sum(len(ln) + 1 for ln in raw_lines) > MAX_LINE_BYTES):
+        k = too_long[0] if too_long else len(raw_lines)
+        raise InputError(path, f"line longer than {MAX_LINE_BYTES // 1024} KiB", line=k + 1,
+                         expected="a delimited text file (a damaged or binary file?)")
     lines = [ln.decode(encoding, errors="replace") for ln in raw_lines]
     if lines and lines[0].startswith("\ufeff"):  # a UTF-8 byte-order mark (Excel exports)
         lines[0] = lines[0][1:]
@@ -344,6 +372,10 @@ def iter_csv(
         fh.seek(offset)
         carry = 0  # bytes of an incomplete last line kept at the front of buf
         while True:
+            if carry >= MAX_LINE_BYTES:  # no line end in that many bytes
+                raise InputError(layout.path, f"line longer than {MAX_LINE_BYTES // 1024} "
+                                 "KiB", line=_line_at(layout, offset),
+                                 expected="a delimited text file (a damaged file?)")
             if carry == len(buf):  # a single line longer than the buffer
                 buf.extend(bytes(len(buf)))
                 view.release()

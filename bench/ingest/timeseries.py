@@ -291,7 +291,7 @@ def process_timeseries(
     # pass 1
     bins = _Bins(config, extra=tuple(bin_names.values()))
     cols = daq.metadata["columns"]
-    tcheck = TimeCheck(daq.path, cols["time"]["column"], daq.line_of_row)
+    tcheck = TimeCheck(daq.path, cols["time"]["column"], daq.line_of_row, config.bin_s)
     nan_checks = {q: NanRunCheck(daq.path, cols[q]["column"], daq.line_of_row)
                   for q in ("time", "speed", "torque") + extra}
     ranges = _drum_ranges(session)
@@ -333,6 +333,10 @@ def process_timeseries(
         raise InputError(daq.path, "no data rows", expected="DAQ samples")
 
     n_bins = int(np.flatnonzero(bins.sums["rows"])[-1]) + 1
+    if n_bins * config.bin_s < config.min_window_s:  # nothing to align or average
+        raise InputError(daq.path, f"only {n_rows} data row(s), {n_bins * config.bin_s:g} s "
+                         "of recording", expected=f"a recording longer than the shortest "
+                         f"steady window ({config.min_window_s:g} s)")
     zero, no_tare_why = tare_finder.result()
     offset = zero.offset_nm if zero is not None else 0.0
     means = bins.means(n_bins, offset)
@@ -514,7 +518,9 @@ def _check_analyzer(path: Path, frame, meta: dict, layout) -> None:
         chk = NanRunCheck(path, meta["columns"][q]["column"], where)
         chk.feed(x, 0)
         chk.finish()
-    TimeCheck(path, meta["columns"]["time"]["column"], where).feed(t, 0)
+    steps = np.diff(t[np.isfinite(t)])
+    typical = float(np.median(steps)) if steps.size and np.median(steps) > 0 else None
+    TimeCheck(path, meta["columns"]["time"]["column"], where, typical).feed(t, 0)
     if np.isnan(t).any():
         frame.drop(index=frame.index[np.isnan(t)], inplace=True)
     if len(frame) < 20:
@@ -625,7 +631,7 @@ def points_table(session: Session, cols: dict, n_samples, t_start, t_end,
         **{k: pa.array(data[k]) for k in (
             "speed_rpm", "torque_nm", "p_mech_w", "p_elec_w",
             "speed_rpm_std", "torque_nm_std", "p_mech_w_std", "p_elec_w_std")},
-        "n_samples": pa.array(np.asarray(n_samples, np.int32)),
+        "n_samples": pa.array(np.asarray(n_samples, np.int64)),
         "t_start_s": pa.array(np.asarray(t_start, np.float64)),
         "t_end_s": pa.array(np.asarray(t_end, np.float64)),
     }
