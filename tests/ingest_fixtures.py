@@ -218,7 +218,7 @@ file = "points.csv"
 {mapping_line}
 [sensors]
 torque_range_nm = 100.0
-speed_range_rpm = 3000.0
+speed_range_rpm = 5000.0  # logged on the motor side: up to 4500 rpm
 power_range_w = 15000.0
 ''')
     return {"speed_rpm": speed, "torque_nm": torque, "p_elec_w": p, "mapping": mapping,
@@ -226,6 +226,9 @@ power_range_w = 15000.0
 
 
 def store_tree(store: Path) -> dict[str, bytes]:
-    """Relative path -> bytes of every file under ``store`` (to prove it did not change)."""
+    """Relative path -> bytes of every file under ``store`` (to prove it did not change).
+
+    The writers' lock file (which holds the last writer's pid) is no store content.
+    """
     return {p.relative_to(store).as_posix(): p.read_bytes()
-            for p in sorted(store.rglob("*")) if p.is_file()}
+            for p in sorted(store.rglob("*")) if p.is_file() and p.name != ".lock"}

@@ -14,9 +14,10 @@ Values come out in our units (s, rpm, N m, W) with invalid markers as NaN.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from datetime import datetime
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -25,12 +26,23 @@ import pyarrow as pa
 import pyarrow.csv as pacsv
 
 from bench.errors import InputError
-from bench.ingest.mapping import EMPTY_MAPPING, Mapping, ResolvedColumn, resolve_columns
+from bench.ingest import clock
+from bench.ingest.mapping import (
+    EMPTY_MAPPING,
+    Mapping,
+    ResolvedColumn,
+    closest_columns,
+    resolve_columns,
+)
 from bench.ingest.scrub import NULL_MARKERS, scrub
 
 #: CSV bytes parsed per chunk; bounds the memory of the first pass [B]
 CHUNK_BYTES = 16 * 1024 * 1024
 _SNIFF_BYTES = 64 * 1024
+#: longest accepted line (names row or data row) [B]; a longer one is a damaged file
+MAX_LINE_BYTES = 1024 * 1024
+#: lines sniffing wants to see (preamble, names, units, rows for the decimal mark)
+_SNIFF_LINES = 64
 
 
 @dataclass(frozen=True)
@@ -57,6 +69,8 @@ class CsvLayout:
         Byte offset of the first data row.
     preamble : dict
         ``key -> value`` lines before the names row (analyzer header block).
+    samples : list of list of str
+        Cells of the first data rows (to tell clock-time columns from numbers).
     """
 
     path: Path
@@ -69,6 +83,19 @@ class CsvLayout:
     data_line: int
     data_offset: int
     preamble: dict[str, str] = field(default_factory=dict)
+    samples: list[list[str]] = field(default_factory=list)
+
+    def units_with_clock(self) -> list[str] | None:
+        """The units row, with the clock format put in for columns whose data are clock times
+        (None when there is neither)."""
+        units = list(self.units_row) if self.units_row is not None else [""] * len(self.headers)
+        found = False
+        for i in range(len(self.headers)):
+            fmt = clock.detect([r[i] for r in self.samples if i < len(r)])
+            if fmt is not None:
+                units[i] = fmt
+                found = True
+        return units if found or self.units_row is not None else None
 
 
 @dataclass(frozen=True)
@@ -91,9 +118,19 @@ class Chunk:
 
 
 def _check_text(path: Path, head: bytes) -> str:
-    """Reject empty and binary files; return the text encoding of ``head``."""
+    """Reject empty, binary, UTF-16 and CR-only files; return the text encoding of ``head``."""
     if not head.strip():
         raise InputError(path, "file is empty", expected="a text file with a header row and data")
+    even, odd = head[0:4096:2], head[1:4096:2]
+    if head[:2] in (b"\xff\xfe", b"\xfe\xff") or (
+            len(head) > 16 and max(even.count(0), odd.count(0)) > 0.4 * len(odd)):
+        raise InputError(path, "UTF-16 text, not UTF-8 or a single-byte encoding", line=1,
+                         expected="the file re-saved as UTF-8 (e.g. Excel: CSV UTF-8; "
+                                  "iconv -f UTF-16 -t UTF-8)")
+    if b"\r" in head and b"\n" not in head:
+        raise InputError(path, "lines end in CR only (classic Mac line ends)", line=1,
+                         expected="LF or CRLF line ends (re-save the file, or "
+                                  "tr '\\r' '\\n' < in > out)")
     ctrl = sum(1 for b in head if b < 32 and b not in (9, 10, 13))
     if b"\x00" in head or ctrl > 0.01 * len(head):
         raise InputError(
@@ -115,10 +152,12 @@ def _split(line: str, sep: str) -> list[str]:
 
 def _is_number(text: str, decimal: str) -> bool:
     t = text.strip()
-    if decimal == ",":
-        t = t.replace(",", ".")
     if t.upper() in {m.upper() for m in NULL_MARKERS}:
         return True
+    if decimal == ",":
+        if "." in t:  # an English decimal in a German file
+            return False
+        t = t.replace(",", ".")
     try:
         float(t)
     except ValueError:
@@ -139,7 +178,7 @@ def _guess_decimal(sep: str, sample_rows: list[str]) -> str:
     return "," if re.search(r"\d,\d", joined) and not re.search(r"\d\.\d", joined) else "."
 
 
-def sniff_csv(path: str | Path, preamble: bool = False) -> CsvLayout:
+def sniff_csv(path: str | Path, preamble: bool = False, skip_lines: int = 0) -> CsvLayout:
     """Sniff separator, decimal mark, names row and optional units row of a CSV file.
 
     Parameters
@@ -149,6 +188,9 @@ def sniff_csv(path: str | Path, preamble: bool = False) -> CsvLayout:
     preamble : bool
         True for analyzer exports: ``key,value`` lines and a blank line come
         before the names row.
+    skip_lines : int
+        Lines at the top to pass over before anything else (a title or date
+        line; the mapping's ``skip_lines``).
 
     Raises
     ------
@@ -156,21 +198,37 @@ def sniff_csv(path: str | Path, preamble: bool = False) -> CsvLayout:
         Empty or binary file, missing names row, or no data rows.
     """
     path = Path(path)
+    window = _SNIFF_BYTES
     try:
         with path.open("rb") as fh:
-            head = fh.read(_SNIFF_BYTES)
+            head = fh.read(window)
+            # a long names row (thousands of channels) needs a wider window, up to a bound
+            while len(head) == window and head.count(b"\n") < _SNIFF_LINES \
+                    and window < 4 * MAX_LINE_BYTES:
+                head += fh.read(window)
+                window *= 2
     except OSError as exc:
         raise InputError(path, f"cannot read file ({exc})") from exc
     encoding = _check_text(path, head)
     raw_lines = head.split(b"\n")
-    if len(head) == _SNIFF_BYTES:
+    cut = len(head) == window
+    if cut:
         raw_lines = raw_lines[:-1]  # the last line may be cut by the sniff window
+    too_long = [k for k, ln in enumerate(raw_lines) if len(ln) > MAX_LINE_BYTES]
+    if too_long or (cut and len(head) - sum(len(ln) + 1 for ln in raw_lines) > MAX_LINE_BYTES):
+        k = too_long[0] if too_long else len(raw_lines)
+        raise InputError(path, f"line longer than {MAX_LINE_BYTES // 1024} KiB", line=k + 1,
+                         expected="a delimited text file (a damaged or binary file?)")
     lines = [ln.decode(encoding, errors="replace") for ln in raw_lines]
     if lines and lines[0].startswith("\ufeff"):  # a UTF-8 byte-order mark (Excel exports)
         lines[0] = lines[0][1:]
     offsets = np.cumsum([0] + [len(ln) + 1 for ln in raw_lines]).tolist()
 
-    idx = 0
+    if skip_lines >= len(lines):
+        raise InputError(path, f"skip_lines = {skip_lines} passes over the whole header "
+                         f"({len(lines)} lines read)", expected="the number of lines before the "
+                         "column row (a title or date line)")
+    idx = skip_lines
     meta: dict[str, str] = {}
     if preamble:
         while idx < len(lines) and lines[idx].strip():
@@ -204,10 +262,19 @@ def sniff_csv(path: str | Path, preamble: bool = False) -> CsvLayout:
     if data_idx >= len(lines) or not lines[data_idx].strip():
         raise InputError(path, "no data rows", line=header_idx + 1,
                          expected="data under the header")
+    n_data = len(_split(lines[data_idx], sep))
+    if len(headers) == 1 < n_data:  # one field: a title line (extra fields are caught later)
+        raise InputError(
+            path, f"the column row (line {header_idx + 1}) has {len(headers)} field(s) but the "
+            f"data rows have {n_data}: is line {header_idx + 1} a title or date line?",
+            line=header_idx + 1,
+            expected="skip_lines = N in the mapping file (the lines before the column row)",
+        )
+    samples = [_split(ln, sep) for ln in lines[data_idx:data_idx + 20] if ln.strip()]
     return CsvLayout(
         path=path, sep=sep, decimal=decimal, encoding=encoding, headers=headers,
         units_row=units_row, header_line=header_idx + 1, data_line=data_idx + 1,
-        data_offset=offsets[data_idx], preamble=meta,
+        data_offset=offsets[data_idx], preamble=meta, samples=samples,
     )
 
 
@@ -227,21 +294,37 @@ def _locate_bad_row(
                 layout.path, f"row has {len(cells)} fields ({what})", line=first_line + k,
                 expected=f"{n} fields separated by {layout.sep!r}",
             )
-        for res in cols.values():
-            cell = cells[res.index]
+        for i in sorted({i for res in cols.values() for i in res.indices}):
+            cell = cells[i]
             if cell and not _is_number(cell, layout.decimal):
                 return InputError(
                     layout.path, f"not a number: {cell!r}", line=first_line + k,
-                    column=res.header,
+                    column=layout.headers[i],
                     expected=f"a number with decimal mark {layout.decimal!r} or an invalid marker",
                 )
     return InputError(layout.path, "cannot parse CSV data", line=first_line)
+
+
+def clock_parsers(layout: CsvLayout, cols: dict[str, ResolvedColumn],
+                  day=None) -> dict[str, clock.ClockParser]:
+    """A :class:`clock.ClockParser` for each column that holds clock times (its unit names a
+    clock format, or its first cells are clock times)."""
+    out = {}
+    for q, r in cols.items():
+        if r.formula is not None:
+            continue
+        fmt = clock.normalise_unit(r.unit) or clock.detect(
+            [row[r.index] for row in layout.samples if r.index < len(row)])
+        if fmt is not None:
+            out[q] = clock.ClockParser(fmt, day)
+    return out
 
 
 def iter_csv(
     layout: CsvLayout,
     cols: dict[str, ResolvedColumn],
     chunk_bytes: int = CHUNK_BYTES,
+    clocks: dict[str, clock.ClockParser] | None = None,
 ) -> Iterator[Chunk]:
     """Stream the data rows of a sniffed CSV in chunks, converted to our units.
 
@@ -253,6 +336,9 @@ def iter_csv(
         quantity -> :class:`ResolvedColumn` (from :func:`resolve_columns`).
     chunk_bytes : int
         Approximate bytes per chunk [B].
+    clocks : dict, optional
+        quantity -> :class:`clock.ClockParser` for clock-time columns (read as text,
+        turned into seconds since the first valid time).
 
     Yields
     ------
@@ -266,12 +352,14 @@ def iter_csv(
         not a number, naming its line.
     """
     names = [f"c{i}" for i in range(len(layout.headers))]
-    wanted = {q: names[r.index] for q, r in cols.items()}
+    read_cols = sorted({names[i] for r in cols.values() for i in r.indices})
     read_opts = pacsv.ReadOptions(column_names=names, use_threads=True, block_size=1 << 22)
     parse_opts = pacsv.ParseOptions(delimiter=layout.sep, quote_char='"')
+    clocks = clocks or {}
+    clock_cols = {names[cols[q].index] for q in clocks}
     conv_opts = pacsv.ConvertOptions(
-        column_types={c: pa.float64() for c in wanted.values()},
-        include_columns=sorted(set(wanted.values())),
+        column_types={c: pa.string() if c in clock_cols else pa.float64() for c in read_cols},
+        include_columns=read_cols,
         null_values=list(NULL_MARKERS),
         strings_can_be_null=True,
         decimal_point=layout.decimal,
@@ -284,6 +372,10 @@ def iter_csv(
         fh.seek(offset)
         carry = 0  # bytes of an incomplete last line kept at the front of buf
         while True:
+            if carry >= MAX_LINE_BYTES:  # no line end in that many bytes
+                raise InputError(layout.path, f"line longer than {MAX_LINE_BYTES // 1024} "
+                                 "KiB", line=_line_at(layout, offset),
+                                 expected="a delimited text file (a damaged file?)")
             if carry == len(buf):  # a single line longer than the buffer
                 buf.extend(bytes(len(buf)))
                 view.release()
@@ -304,7 +396,16 @@ def iter_csv(
             except (pa.ArrowInvalid, pa.ArrowNotImplementedError) as exc:
                 raise _locate_bad_row(layout, bytes(view[:end]), _line_at(layout, offset),
                                       cols) from exc
-            values = {q: _column(table, c, cols[q].factor) for q, c in wanted.items()}
+            values = quantities({q: r for q, r in cols.items() if q not in clocks},
+                                partial(_column_at, table, names))
+            for q, parse in clocks.items():
+                cells = table.column(names[cols[q].index]).combine_chunks()
+                try:
+                    values[q] = parse(cells)
+                except ValueError as exc:
+                    raise _bad_clock_cell(layout, cells, parse.unit, _line_at(layout, offset),
+                                          cols[q].header) from exc
+            values = {q: values[q] for q in cols}
             del table
             if values and next(iter(values.values())).size:
                 yield Chunk(row0=row0, values=values, nbytes=end)
@@ -318,10 +419,37 @@ def iter_csv(
     view.release()
 
 
-def _column(table: pa.Table, name: str, factor: float) -> np.ndarray:
-    """A float64 column as numpy in our unit, invalid markers as NaN."""
-    x = scrub(table.column(name).to_numpy(zero_copy_only=False))
-    return x * factor if factor != 1.0 else x
+def _bad_clock_cell(layout: CsvLayout, cells: pa.Array, unit: str, first_line: int,
+                    header: str) -> InputError:
+    """The first cell of a chunk that is not a clock time of ``unit`` (slow path)."""
+    for k, cell in enumerate(cells.to_pylist()):
+        if cell is not None and clock.detect([cell]) != unit:
+            return InputError(layout.path, f"not a clock time: {cell!r}", line=first_line + k,
+                              column=header, expected=f"a {unit} time like the rows above")
+    return InputError(layout.path, f"cannot read the {unit} times", line=first_line,
+                      column=header, expected=f"{unit} times")
+
+
+def quantities(
+    cols: dict[str, ResolvedColumn], column: Callable[[int], np.ndarray]
+) -> dict[str, np.ndarray]:
+    """Each quantity in our unit from ``column(index)`` (a file column, invalid as NaN).
+
+    Sums and expressions are evaluated here; each file column is read once.
+    """
+    cache: dict[int, np.ndarray] = {}
+
+    def get(i: int) -> np.ndarray:
+        if i not in cache:
+            cache[i] = column(i)
+        return cache[i]
+
+    return {q: r.values(get) for q, r in cols.items()}
+
+
+def _column_at(table: pa.Table, names: list[str], i: int) -> np.ndarray:
+    """File column ``i`` of a parsed chunk as float64 numpy, invalid markers as NaN."""
+    return scrub(table.column(names[i]).to_numpy(zero_copy_only=False))
 
 
 def _line_at(layout: CsvLayout, offset: int) -> int:
@@ -358,7 +486,7 @@ def csv_columns_meta(cols: dict[str, ResolvedColumn]) -> dict[str, dict[str, str
 
 @dataclass
 class DaqStream:
-    """An opened DAQ stream: metadata now, chunks on demand.
+    """An opened DAQ stream (or single-stream log): metadata now, chunks on demand.
 
     Parameters
     ----------
@@ -369,9 +497,13 @@ class DaqStream:
     size_bytes : int
         File size, for progress bars.
     chunks : callable
-        ``chunks() -> Iterator[Chunk]`` with ``time``, ``speed``, ``torque``.
+        ``chunks() -> Iterator[Chunk]`` with ``time``, ``speed``, ``torque`` (and
+        whatever else the stream was opened for).
     line_of_row : callable
         ``line_of_row(row) -> int or None`` to place errors.
+    clock : clock.ClockParser or None
+        The parser of a clock-time time column; its ``start`` (the wall time of
+        time 0) is known once the first chunk is read.
     """
 
     path: Path
@@ -379,25 +511,44 @@ class DaqStream:
     size_bytes: int
     chunks: object
     line_of_row: object
+    clock: clock.ClockParser | None = None
 
 
 def open_daq_csv(
-    path: str | Path, mapping: Mapping = EMPTY_MAPPING, chunk_bytes: int = CHUNK_BYTES
+    path: str | Path, mapping: Mapping = EMPTY_MAPPING, chunk_bytes: int = CHUNK_BYTES,
+    day=None, section: str = "daq", required: tuple[str, ...] = ("time", "speed", "torque"),
+    optional: tuple[str, ...] = (),
 ) -> DaqStream:
-    """Open a DAQ CSV (English or German locale) as a chunked stream of time, speed, torque."""
-    layout = sniff_csv(path)
+    """Open a DAQ CSV (English or German locale) as a chunked stream of time, speed, torque.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    mapping : Mapping
+        Column mapping (section ``section``).
+    chunk_bytes : int
+        Bytes per chunk [B].
+    day : datetime.date, optional
+        The date of a time-of-day time column (the session's ``date``).
+    section, required, optional : str, tuple of str, tuple of str
+        Mapping section and the quantities to read (a single-stream log reads
+        ``p_elec`` too, and ``p_mech`` when mapped).
+    """
+    layout = sniff_csv(path, skip_lines=mapping.skip(section))
     cols = resolve_columns(
-        layout.path, layout.headers, layout.units_row, "daq",
-        required=("time", "speed", "torque"), mapping=mapping, header_line=layout.header_line,
+        layout.path, layout.headers, layout.units_with_clock(), section,
+        required=required, optional=optional, mapping=mapping, header_line=layout.header_line,
     )
+    clocks = clock_parsers(layout, {"time": cols["time"]}, day)
     meta = {
         "format": "csv", "separator": layout.sep, "decimal": layout.decimal,
         "encoding": layout.encoding, "columns": csv_columns_meta(cols),
     }
     return DaqStream(
         path=layout.path, metadata=meta, size_bytes=layout.path.stat().st_size,
-        chunks=lambda: iter_csv(layout, cols, chunk_bytes),
-        line_of_row=lambda row: line_of_row(layout, row),
+        chunks=lambda: iter_csv(layout, cols, chunk_bytes, clocks),
+        line_of_row=lambda row: line_of_row(layout, row), clock=clocks.get("time"),
     )
 
 
@@ -435,7 +586,7 @@ def open_daq_tdms(
                                  expected=f"a group {group!r} with Time, Speed, Torque")
             if group not in names:
                 raise InputError(path, f"no TDMS group {group!r}", column=group,
-                                 expected="one of " + ", ".join(repr(n) for n in names))
+                                 expected=closest_columns([group], names, what="groups"))
             channels = tdms[group].channels()
             headers = [c.name for c in channels]
             units = [str(c.properties.get("unit_string", "")) for c in channels]
@@ -447,7 +598,7 @@ def open_daq_tdms(
                          expected="an NI TDMS file written completely") from exc
     cols = resolve_columns(path, headers, units, "daq", required=("time", "speed", "torque"),
                            mapping=mapping)
-    n_rows = {lengths[r.header] for r in cols.values()}
+    n_rows = {lengths[headers[i]] for r in cols.values() for i in r.indices}
     if len(n_rows) != 1:
         raise InputError(path, f"channels of group {group!r} differ in length {sorted(n_rows)}"
                          " (truncated file?)", expected="Time, Speed and Torque of equal length")
@@ -468,8 +619,8 @@ def open_daq_tdms(
             grp = tdms_file[group]
             for start in range(0, n, chunk_rows):
                 length = min(chunk_rows, n - start)
-                values = {q: scrub(read(grp, r.header, start, length)) * r.factor
-                          for q, r in cols.items()}
+                values = quantities(cols, lambda i, s=start, n=length: scrub(
+                    read(grp, headers[i], s, n)))
                 yield Chunk(row0=start, values=values, nbytes=int(size * length / n))
 
     meta = {"format": "tdms", "group": group, "columns": csv_columns_meta(cols), "rows": n}
@@ -477,8 +628,9 @@ def open_daq_tdms(
                      line_of_row=lambda row: None)
 
 
-def _read_all(layout: CsvLayout, cols: dict[str, ResolvedColumn]) -> dict[str, np.ndarray]:
-    parts = [p.values for p in iter_csv(layout, cols)]
+def _read_all(layout: CsvLayout, cols: dict[str, ResolvedColumn],
+              clocks: dict[str, clock.ClockParser] | None = None) -> dict[str, np.ndarray]:
+    parts = [p.values for p in iter_csv(layout, cols, clocks=clocks)]
     out = {}
     for q in cols:  # one column at a time: its chunks are freed before the next is joined
         out[q] = np.concatenate([p.pop(q) for p in parts])
@@ -500,9 +652,13 @@ def _parse_wall_time(date: str, time: str) -> datetime | None:
 
 
 def read_analyzer(
-    path: str | Path, mapping: Mapping = EMPTY_MAPPING
+    path: str | Path, mapping: Mapping = EMPTY_MAPPING, day=None
 ) -> tuple[pd.DataFrame, dict]:
     """Read a power-analyzer vendor CSV export.
+
+    ``day`` (the session's date) dates a time-of-day time column; the wall
+    times of a clock-time column then give ``start``, else the header block's
+    ``Start Date`` and ``Start Time`` do.
 
     Returns
     -------
@@ -512,15 +668,18 @@ def read_analyzer(
         The header block (``Model``, ``Serial``, ...), ``start`` (ISO wall time of
         the analyzer's time 0, or None), separator, decimal and columns.
     """
-    layout = sniff_csv(path, preamble=True)
+    layout = sniff_csv(path, preamble=True, skip_lines=mapping.skip("analyzer"))
     cols = resolve_columns(
-        layout.path, layout.headers, layout.units_row, "analyzer",
+        layout.path, layout.headers, layout.units_with_clock(), "analyzer",
         required=("time", "p_elec"), mapping=mapping, header_line=layout.header_line,
     )
-    data = _read_all(layout, cols)
+    clocks = clock_parsers(layout, {"time": cols["time"]}, day)
+    data = _read_all(layout, cols, clocks)
     pre = {k.strip(): v.strip() for k, v in layout.preamble.items()}
     start = None
-    if "Start Date" in pre and "Start Time" in pre:
+    if "time" in clocks and (day is not None or clocks["time"].unit == clock.DATETIME):
+        start = clocks["time"].start  # the record's own wall times win over the header
+    elif "Start Date" in pre and "Start Time" in pre:
         start = _parse_wall_time(pre["Start Date"], pre["Start Time"])
     meta = {
         "format": "vendor_csv", "header": pre,
@@ -549,9 +708,9 @@ def read_points_table(
     metadata : dict
         Separator, decimal and the columns used with their units.
     """
-    layout = sniff_csv(path)
+    layout = sniff_csv(path, skip_lines=mapping.skip("points"))
     cols = resolve_columns(
-        layout.path, layout.headers, layout.units_row, "points",
+        layout.path, layout.headers, layout.units_with_clock(), "points",
         required=("speed", "torque", "p_elec"), optional=POINT_OPTIONAL,
         mapping=mapping, header_line=layout.header_line,
     )

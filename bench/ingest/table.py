@@ -6,31 +6,67 @@ import math
 
 import numpy as np
 
+from bench.errors import InputError
+from bench.ingest import checks, steady
 from bench.ingest.mapping import Mapping
-from bench.ingest.readers import read_points_table
+from bench.ingest.readers import line_of_row, read_points_table
 from bench.ingest.session import Session
 from bench.ingest.timeseries import (
     RAD_S_PER_RPM,
     SessionOutput,
-    check_torque_sign,
+    check_drum_torque,
+    fold_signed,
     points_table,
     rejected_table,
 )
+
+#: the largest count stored exactly (float64 integers are exact up to 2**53)
+MAX_COUNT = 2**53
+
+
+def _counts(frame, path, meta: dict, layout) -> np.ndarray:
+    """The table's sample-count column as int64 (0 where it has none or a cell is empty).
+
+    Raises
+    ------
+    InputError
+        A negative, fractional or absurdly large count (naming its line).
+    """
+    if "n_samples" not in frame:
+        return np.zeros(len(frame), np.int64)
+    raw = frame["n_samples"].to_numpy(dtype=float)
+    bad = np.isfinite(raw) & ((raw < 0) | (raw != np.round(raw)) | (raw > MAX_COUNT))
+    bad |= np.isinf(raw)
+    if bad.any():
+        k = int(np.argmax(bad))
+        column = meta.get("columns", {}).get("n_samples", {}).get("column", "n_samples")
+        raise InputError(path, f"bad sample count {raw[k]!r}", line=line_of_row(layout, k),
+                         column=str(column), expected=f"a whole number from 0 to {MAX_COUNT}")
+    return np.nan_to_num(raw).astype(np.int64)
 
 
 def process_table(session: Session, mapping: Mapping) -> SessionOutput:
     """Read an operating-point table session into store points (drum frame, SI)."""
     path = session.file("points")
     frame, meta = read_points_table(path, mapping)
-    meta.pop("layout")
+    layout = meta.pop("layout")
+    sources = checks.sources_from_meta(path, meta["columns"])
+    checks.check_signal(sources["p_elec"], "p_elec", frame["p_elec_w"].to_numpy(), True)
+    for q, name in (("speed", "speed_rpm"), ("torque", "torque_nm")):
+        checks.check_signal(sources[q], q, frame[name].to_numpy(), False)
     gear = session.gear_ratio if session.measured_side == "motor" else 1.0
     speed = frame["speed_rpm"].to_numpy() * session.speed_sign / gear
     torque = frame["torque_nm"].to_numpy() * session.torque_sign * gear
+    if session.signed_torque:  # torque < 0 logged in generator mode: flip speed and torque
+        speed, torque = fold_signed(speed, torque)
     p_elec = frame["p_elec_w"].to_numpy()
-    if "p_mech_w" in frame:
+    omega_t = speed * torque * RAD_S_PER_RPM
+    values = {"speed": speed, "torque": torque, "p_elec": p_elec}
+    if "p_mech_w" in frame:  # only ever a mapped column (bench.ingest.mapping)
         p_mech = frame["p_mech_w"].to_numpy() * session.speed_sign * session.torque_sign
+        values["p_mech"] = p_mech
     else:
-        p_mech = speed * torque * RAD_S_PER_RPM
+        p_mech = omega_t
     nan = np.full(len(frame), np.nan)
     std = {
         "speed_rpm_std": frame.get("speed_rpm_std", nan) / gear,
@@ -38,17 +74,23 @@ def process_table(session: Session, mapping: Mapping) -> SessionOutput:
         "p_mech_w_std": frame.get("p_mech_w_std", nan),
         "p_elec_w_std": frame.get("p_elec_w_std", nan),
     }
-    check_torque_sign(session, p_mech, p_elec, path)
+    checks.check_torque_sign(session, omega_t, p_elec, path)
+    implausible = checks.check_points(values, sources, checks.explicit_ranges(session), path)
     ok = np.isfinite(speed) & np.isfinite(torque) & np.isfinite(p_elec) & np.isfinite(p_mech)
+    reasons = ["invalid samples" if not good else why
+               for good, why in zip(ok, implausible, strict=True)]
+    ok &= np.array([why is None for why in implausible], bool)
     cols = {"speed_rpm": speed, "torque_nm": torque, "p_mech_w": p_mech, "p_elec_w": p_elec}
     cols.update({k: np.asarray(v, np.float64) for k, v in std.items()})
     cols = {k: v[ok] for k, v in cols.items()}
-    n_samples = frame["n_samples"].to_numpy() if "n_samples" in frame else np.zeros(len(frame))
-    n_samples = np.nan_to_num(n_samples[ok]).astype(np.int32)
+    if not session.signed_torque:
+        tol = steady.DEFAULT_STEADY.floor_frac * session.ranges["torque"] * gear
+        check_drum_torque(session, cols["torque_nm"], tol, path)
+    n_samples = _counts(frame, path, meta, layout)[ok]
     nan_ok = np.full(int(ok.sum()), np.nan)
     points = points_table(session, cols, n_samples, nan_ok, nan_ok, "operating_point_table")
-    rejected = rejected_table(session.session_id, [(math.nan, math.nan, "invalid samples")]
-                              * int((~ok).sum()))
+    rejected = rejected_table(session.session_id, [(math.nan, math.nan, why)
+                                                   for why in reasons if why is not None])
     info = {"clock_offset_s": None, "clock_drift_ppm": None,
             "torque_zero_offset_nm": None, "torque_zero_tare": None,
             "torque_zero_note": "operating-point table: already averaged, no standstill "
