@@ -412,6 +412,7 @@ class CycleBackend(NewtonBackend):
                 "torque_nm": [10.0 * w, 5.0, 1.0],
                 "p_elec_w": [r.avg_p_elec_w - 100.0, r.avg_p_elec_w, r.avg_p_elec_w + 100.0],
                 "altitude_m": [30.0, 60.0, 45.0],
+                "weight": [1 / 3, 1 / 3, 1 / 3],
             }
         )
         return CycleResult(
@@ -448,6 +449,8 @@ def test_run_optimize_writes_every_file(tmp_path):
     row = summary.set_index("scenario").loc["mech-lim-7.0"]
     assert row["e_mech_j"] == pytest.approx(-700.0 * 11.0, rel=1e-12)
     assert row["peak_speed_rpm"] == 700.0 and row["peak_torque_nm"] == 70.0
+    # the paper model's domain is the rated box: every stand-in cycle point lies inside
+    assert (summary["outside_domain_time_frac"] == 0.0).all()
     traj = pd.read_parquet(out / "trajectories.parquet")
     assert len(traj) == 18 and field_units(out / "trajectories.parquet")["l_m"] == "m"
     manifest = json.loads((out / "manifest.json").read_text())
