@@ -135,6 +135,9 @@ def run(args: argparse.Namespace) -> int:
 
     site, site_note, _ = site_from_args(args)
     winds = parse_wind_grid(args.wind_grid)
+    if len(winds) < 2:
+        raise InputError(None, f"--wind-grid {args.wind_grid!r}: one wind speed gives no curve "
+                         "to integrate", expected="at least two wind speeds")
     if not 0 <= args.tolerance < 1:
         raise InputError(None, f"--tolerance {args.tolerance}", expected="a share in [0, 1)")
     if args.out.exists() and not args.out.is_dir():

@@ -74,3 +74,17 @@ def test_interrupted_sweep_continues_where_it_stopped(tmp_path):
     assert json.loads((store / f"{victim['key']}.json").read_text())["success"]
     np.testing.assert_allclose(second.table["aep_elec_mwh"], first.table["aep_elec_mwh"],
                                rtol=1e-3)
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [["--wind-grid", "7"], ["--scales", "0,1"], ["--scales", "1,1"], ["--overload", "0.5"],
+     ["--tolerance", "1.5"]],
+)
+def test_bench_size_bad_input_exits_2_before_solving(tmp_path, capsys, extra):
+    from bench.cli import main
+
+    code = main(["size", "--rayleigh-mean", "5.5", "--out", str(tmp_path / "s"), *extra])
+    assert code == 2
+    assert "error" in capsys.readouterr().err
+    assert not (tmp_path / "s").exists()
