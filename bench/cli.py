@@ -12,6 +12,7 @@ import importlib
 import sys
 
 from bench.errors import InputError
+from bench.files import WRITE_ERRNOS
 
 #: subcommand -> (module, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
@@ -55,6 +56,13 @@ def main(argv: list[str] | None = None) -> int:
         return int(_load(args._module).run(args) or 0)
     except InputError as exc:
         print(f"bench {args.command}: error: {exc.describe()}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # a place that cannot be written, found only while writing
+        if exc.errno not in WRITE_ERRNOS:
+            raise
+        where = exc.filename or "<output>"
+        print(f"bench {args.command}: error: {where}: cannot write ({WRITE_ERRNOS[exc.errno]}); "
+              "expected a writable output folder", file=sys.stderr)
         return 2
 
 

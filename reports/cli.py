@@ -6,6 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
+from bench.files import check_output_file
 from reports.render import build_report
 
 
@@ -28,6 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Build the report; print its path, size and the wall time."""
     t0 = time.perf_counter()
+    check_output_file(args.out)
     argv = ["bench", "report", "--store", str(args.store), "--fit", str(args.fit),
             "--optimize", str(args.optimize), "--aep", str(args.aep), "--size", str(args.size),
             "--out", str(args.out)]

@@ -64,6 +64,11 @@ PERIODIC_STATES = (
 PARAM_NAMES = ("wind_ref_m_s", "w_elec", "w_mech", "w_reg", "w_track", "w_fict")
 
 
+#: most collocation intervals per period: the default is 40 and the trust check's mesh
+#: refinement doubles it; 400 already means ~10^5 NLP variables and minutes per solve
+MAX_INTERVALS = 400
+
+
 @dataclass(frozen=True)
 class OcpOptions:
     """Discretization, physical limits and solver settings of the OCP.
@@ -158,8 +163,8 @@ class OcpOptions:
     mumps_pivot_order: int = 0
 
     def __post_init__(self) -> None:
-        if self.n_intervals < 2:
-            raise ValueError(f"n_intervals must be >= 2, got {self.n_intervals}")
+        if not 2 <= self.n_intervals <= MAX_INTERVALS:
+            raise ValueError(f"n_intervals must be 2 to {MAX_INTERVALS}, got {self.n_intervals}")
         lo, hi = self.period_bounds_s
         if len(self.control_sigma) != 4 or min(self.control_sigma) <= 0:
             raise ValueError(f"control_sigma must be 4 positive scales, got {self.control_sigma}")
