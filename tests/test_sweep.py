@@ -412,7 +412,6 @@ class CycleBackend(NewtonBackend):
                 "torque_nm": [10.0 * w, 5.0, 1.0],
                 "p_elec_w": [r.avg_p_elec_w - 100.0, r.avg_p_elec_w, r.avg_p_elec_w + 100.0],
                 "altitude_m": [30.0, 60.0, 45.0],
-                "weight": [1 / 3, 1 / 3, 1 / 3],
             }
         )
         return CycleResult(
