@@ -15,11 +15,17 @@ the largest second difference of the neighbouring points (unknown, so split
 first, at the grid's ends), times the interval's probability. Refinement stops
 when every estimate is below ``tol`` of the AEP, the spacing would drop below
 ``min_step_m_s``, or the grid holds ``max_points``.
+
+Several curves on one grid (the electrical and the mechanical power of the same
+cycles) are refined together: ``power`` returns one value per curve, each
+interval's estimate is taken relative to its own curve's AEP (floored at a tenth
+of the largest curve's AEP, so a curve that delivers almost nothing does not ask
+for every split), and the interval with the largest relative estimate is split.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,10 +41,11 @@ class RefinedGrid:
     Attributes
     ----------
     wind_m_s, p_w : ndarray
-        The final grid [m/s] and powers [W] (failed solves left out).
-    aep_mwh : float
-        AEP of the final grid's curve.
-    history : list of (float, float)
+        The final grid [m/s] and powers [W] (failed solves left out); ``p_w`` has
+        shape ``(n,)`` for one curve, ``(n, n_curves)`` for several.
+    aep_mwh : float or ndarray
+        AEP of the final grid's curve(s).
+    history : list of (float, float or ndarray)
         (wind added, AEP after adding it) in order.
     failed : list of float
         Wind speeds whose solve failed.
@@ -46,20 +53,24 @@ class RefinedGrid:
 
     wind_m_s: np.ndarray
     p_w: np.ndarray
-    aep_mwh: float
-    history: list[tuple[float, float]]
+    aep_mwh: float | np.ndarray
+    history: list[tuple[float, float | np.ndarray]]
     failed: list[float]
 
 
-def refine_grid(power: Callable[[float], float | None], start_m_s: tuple[float, ...],
+Power = float | Sequence[float]
+
+
+def refine_grid(power: Callable[[float], Power | None], start_m_s: tuple[float, ...],
                 site: Distribution, tol: float = 0.002, min_step_m_s: float = 0.25,
-                max_points: int = 40) -> RefinedGrid:
+                max_points: int = 40, known: Mapping[float, Power] | None = None) -> RefinedGrid:
     """Refine a wind grid where the curve bends (see the module text).
 
     Parameters
     ----------
     power : callable
-        ``power(wind) -> P [W]`` (negative = generated), or None when the solve failed.
+        ``power(wind) -> P [W]`` (negative = generated), or a sequence of powers of
+        several curves, or None when the solve failed.
     start_m_s : tuple of float
         The coarse grid [m/s], increasing.
     site : Weibull or Histogram
@@ -69,25 +80,46 @@ def refine_grid(power: Callable[[float], float | None], start_m_s: tuple[float, 
     min_step_m_s : float
         Never split an interval shorter than twice this [m/s].
     max_points : int
-        Hard cap on the grid size.
+        Hard cap on the grid size (failed solves count).
+    known : mapping, optional
+        Wind [m/s] -> power(s) already solved: used as given, never passed to ``power``.
     """
-    pts: dict[float, float] = {}
+    scalar = True
+    pts: dict[float, np.ndarray] = {}
     failed: list[float] = []
+
+    def add(v: float, p: Power | None) -> bool:
+        nonlocal scalar
+        if p is None:
+            failed.append(v)
+            return False
+        scalar = scalar and np.ndim(p) == 0
+        pts[v] = np.atleast_1d(np.asarray(p, dtype=float))
+        return True
+
+    for v, p in (known or {}).items():
+        add(float(v), p)
     for v in start_m_s:
-        p = power(float(v))
-        (failed.append(float(v)) if p is None else pts.__setitem__(float(v), float(p)))
-    history: list[tuple[float, float]] = []
+        if float(v) not in pts:
+            add(float(v), power(float(v)))
+    history: list[tuple[float, float | np.ndarray]] = []
     closed: set[tuple[float, float]] = set()
 
-    def current() -> tuple[np.ndarray, np.ndarray, float]:
+    def current() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         w = np.array(sorted(pts))
-        p = np.array([pts[x] for x in w])
-        return w, p, aep_mwh(w, p, site) if len(w) > 1 else 0.0
+        p = np.array([pts[x] for x in w]).reshape(len(w), -1)
+        aep = (np.array([aep_mwh(w, p[:, q], site) for q in range(p.shape[1])])
+               if len(w) > 1 else np.zeros(p.shape[1]))
+        return w, p, aep
+
+    def out(value: np.ndarray):
+        return float(value[0]) if scalar else value
 
     while len(pts) + len(failed) < max_points:
         w, p, aep = current()
         if len(w) < 2:
             break
+        scale = np.maximum(np.abs(aep), max(0.1 * float(np.max(np.abs(aep))), 1e-12))
         # estimated error of each open interval: chord vs the neighbours' curvature
         scores = []
         for i in range(len(w) - 1):
@@ -100,23 +132,20 @@ def refine_grid(power: Callable[[float], float | None], start_m_s: tuple[float, 
                     x0, x1, x2 = w[j], w[j + 1], w[j + 2]
                     slope_l = (p[j + 1] - p[j]) / (x1 - x0)
                     slope_r = (p[j + 2] - p[j + 1]) / (x2 - x1)
-                    curv.append(abs(slope_r - slope_l) / (x2 - x0))
-            c = max(curv) if curv else np.inf
+                    curv.append(np.abs(slope_r - slope_l) / (x2 - x0))
+            c = np.max(curv, axis=0) if curv else np.full(p.shape[1], np.inf)
             mass = float(site.cdf(b) - site.cdf(a))
             est = c * (b - a) ** 2 / 8 * mass * HOURS_PER_YEAR / 1e6  # chord error bound
-            scores.append((est, a, b))
+            scores.append((float(np.max(est / scale)), a, b))
         if not scores:
             break
-        est, a, b = max(scores)
-        if np.isfinite(est) and est < tol * max(abs(aep), 1e-12):
+        rel, a, b = max(scores)
+        if np.isfinite(rel) and rel < tol:
             break
         mid = round(0.5 * (a + b), 6)
-        pm = power(mid)
-        if pm is None:
-            failed.append(mid)
+        if not add(mid, power(mid)):
             closed.add((a, b))
             continue
-        pts[mid] = float(pm)
-        history.append((mid, current()[2]))
+        history.append((mid, out(current()[2])))
     w, p, aep = current()
-    return RefinedGrid(w, p, aep, history, failed)
+    return RefinedGrid(w, p[:, 0] if scalar else p, out(aep), history, failed)

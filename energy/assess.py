@@ -172,7 +172,8 @@ def model_for_run(run: OptimizeRun, drive_model: Path | None) -> tuple[Path | No
 
 def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
            drive_model: Path | None = None, nominal_power_w: float | None = None,
-           site_uncertainty: SiteUncertainty | None = None) -> Assessment:
+           site_uncertainty: SiteUncertainty | None = None,
+           gradients: dict | None = None) -> Assessment:
     """Annual energy, bands and losses of every scenario kind of ``run`` at ``site``.
 
     Parameters
@@ -191,6 +192,9 @@ def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
         Overrides the model file's nominal power [W].
     site_uncertainty : SiteUncertainty, optional
         One-sigma site-parameter errors (Weibull sites).
+    gradients : dict, optional
+        Scenario -> basis averages of points with no stored trajectory (added by
+        :mod:`energy.refine`).
     """
     from fitting.model_file import power_model_from_dict
 
@@ -227,7 +231,7 @@ def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
         sigma_p = np.full(len(curve.wind_m_s), np.nan)
         sigma_model = None
         if model is not None:
-            grads = bands.curve_gradients(trajectories, curve.scenarios, model.terms)
+            grads = bands.curve_gradients(trajectories, curve.scenarios, model.terms, gradients)
             cov = np.array(model.covariance_rpm)
             _check_consistent(curve, grads, model, notes)
             sigma_p = np.array([bands.sigma(g, cov) for g in grads])
@@ -248,6 +252,7 @@ def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
                 "kind": kind, "scenario": curve.scenarios[i], "wind_speed_m_s": float(v),
                 "p_elec_w": float(curve.p_elec_w[i]), "p_mech_w": float(curve.p_mech_w[i]),
                 "p_elec_sigma_w": float(sigma_p[i]),
+                "added": bool(curve.added[i]) if curve.added else False,
             })
     if not kinds:
         raise InputError(run.folder / "summary.parquet", "no converged scenario",

@@ -21,7 +21,7 @@ and ``sigma_AEP^2 = G^T Sigma G``.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -62,10 +62,17 @@ def sigma(gradient: np.ndarray, covariance: np.ndarray) -> float:
 
 
 def curve_gradients(trajectories: pd.DataFrame, scenarios: Sequence[str],
-                    terms: Sequence[tuple[int, int]]) -> np.ndarray:
-    """``g`` for each scenario of a curve, shape ``(n_scenarios, n_terms)``."""
+                    terms: Sequence[tuple[int, int]],
+                    known: Mapping[str, np.ndarray] | None = None) -> np.ndarray:
+    """``g`` for each scenario of a curve, shape ``(n_scenarios, n_terms)``.
+
+    ``known`` gives ``g`` of scenarios with no trajectory in ``trajectories`` (the
+    points added by ``bench aep --refine``, whose averages were taken at solve time).
+    """
+    known = known or {}
     groups = dict(tuple(trajectories.groupby("scenario", sort=False)))
-    missing = [s for s in scenarios if s not in groups]
+    missing = [s for s in scenarios if s not in groups and s not in known]
     if missing:
         raise KeyError(f"no trajectory for scenarios {missing}")
-    return np.array([basis_averages(groups[s], terms) for s in scenarios])
+    return np.array([np.asarray(known[s], float) if s in known
+                     else basis_averages(groups[s], terms) for s in scenarios])

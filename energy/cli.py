@@ -8,6 +8,7 @@ A thin command line over :func:`energy.site.read_histogram_csv`,
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 from pathlib import Path
@@ -58,6 +59,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "model's drive.nominal_power_w, else its nominal_power_w)")
     parser.add_argument("--out", type=Path, default=Path("aep_out"),
                         help="output folder (default ./aep_out)")
+    g = parser.add_argument_group("adaptive grid (docs/schemas.md §9)")
+    g.add_argument("--refine", action="store_true",
+                   help="solve added wind speeds where each kind's curve bends for this site, "
+                        "until the interpolation error estimate is below --refine-tol; the "
+                        "solves are stored in OUT/solves/ and reused by a re-run")
+    g.add_argument("--refine-tol", type=float, default=None, metavar="SHARE",
+                   help="stop when every interval's estimated error is below this share of "
+                        "the AEP (default 0.002)")
+    g.add_argument("--refine-max-points", type=int, default=25,
+                   help="largest grid per kind, failed solves included (default 25)")
+    g.add_argument("--workers", type=int, default=2,
+                   help="worker processes for --refine (one kind per task; default 2)")
+    g.add_argument("--scheduler", default=None,
+                   help="Dask scheduler address for --refine instead of the local pool")
+    g.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_site_arguments(parser)
 
 
@@ -122,6 +138,28 @@ def site_from_args(args: argparse.Namespace):
     return site, note, unc
 
 
+def _refine(args: argparse.Namespace, run_, site):
+    """Refine every kind's grid (:mod:`energy.refine`) with the sweep's own model."""
+    from energy.assess import model_for_run
+    from energy.refine import DEFAULT_TOL, refine_run
+    from fitting.model_file import power_model_from_dict
+
+    tol = DEFAULT_TOL if args.refine_tol is None else args.refine_tol
+    if not (math.isfinite(tol) and 0 < tol < 1):
+        raise InputError(None, f"--refine-tol {tol}", expected="a share in (0, 1)")
+    if args.refine_max_points < 2 or args.workers < 1:
+        raise InputError(None, "--refine-max-points < 2 or --workers < 1",
+                         expected="--refine-max-points >= 2, --workers >= 1")
+    path, model_json = model_for_run(run_, args.drive_model)
+    if model_json is None:
+        raise InputError(path, "power model file not found (--refine solves with it)",
+                         expected="the sweep's power model, or --drive-model FILE")
+    return refine_run(run_, power_model_from_dict(model_json, path), site,
+                      args.out / "solves", tol=tol, max_points=args.refine_max_points,
+                      workers=args.workers, scheduler=args.scheduler,
+                      show_progress=not args.no_progress)
+
+
 def run(args: argparse.Namespace) -> int:
     """Compute and write the AEP assessment; print the table."""
     from energy.assess import assess
@@ -132,10 +170,30 @@ def run(args: argparse.Namespace) -> int:
     if args.out.exists() and not args.out.is_dir():
         raise InputError(args.out, "exists and is not a folder", expected="an output folder")
     run_ = read_optimize_run(args.optimize)
-    a = assess(run_, site, note, drive_model=args.drive_model,
-               nominal_power_w=args.nominal_power_w, site_uncertainty=unc)
+    refined = _refine(args, run_, site) if args.refine else None
+    a = assess(refined.run if refined else run_, site, note, drive_model=args.drive_model,
+               nominal_power_w=args.nominal_power_w, site_uncertainty=unc,
+               gradients=refined.gradients if refined else None)
+    if refined is not None:
+        from energy.refine import DEFAULT_TOL, refine_document
+
+        tol = DEFAULT_TOL if args.refine_tol is None else args.refine_tol
+        doc = refine_document(refined, site, tol)
+        a = dataclasses.replace(a, notes=a.notes + tuple(
+            k["note"] for k in doc["kinds"].values() if k["note"]))
+        run_ = refined.run
     write_outputs(a, run_, args.out, ["bench", "aep", *sys.argv[2:]], args.reference_height_m,
-                  args.roughness_m)
+                  args.roughness_m, refine=doc if refined else None)
+    if refined is not None:
+        print(f"refined grid ({refined.n_solved} solved, {refined.n_loaded} loaded from "
+              f"{args.out / 'solves'}, {refined.wall_time_s:.0f} s on {refined.executor}):")
+        for kind, k in doc["kinds"].items():
+            added = ", ".join(f"{r['wind_speed_m_s']:g}" + ("" if r["success"]
+                                                            else f" FAILED ({r['status']})")
+                              for r in k["solves"] if r["role"] == "added") or "none"
+            print(f"  {kind:<10} AEP el {k['coarse_aep_elec_mwh']:.4f} -> "
+                  f"{k['aep_elec_mwh']:.4f} MWh/yr, mech {k['coarse_aep_mech_mwh']:.4f} -> "
+                  f"{k['aep_mech_mwh']:.4f}; added {added}")
     print(f"site: {note}")
     print(f"nominal power {a.nominal_power_w:.0f} W ({a.nominal_source})")
     print(format_table(a))

@@ -53,6 +53,9 @@ class PowerCurve:
         curve is interpolated across them.
     cut_in_m_s : float or None
         Cut-in wind speed found by the optimize stage's bisection [m/s], or None.
+    added : tuple of bool
+        Per wind speed: solved by ``bench aep --refine`` (:mod:`energy.refine`), not by
+        the sweep; empty means none.
     """
 
     kind: str
@@ -67,6 +70,7 @@ class PowerCurve:
     scenarios: tuple[str, ...]
     failed: tuple[tuple[float, str], ...] = ()
     cut_in_m_s: float | None = None
+    added: tuple[bool, ...] = ()
 
     def power_w(self, quantity: str) -> np.ndarray:
         """``p_elec_w`` or ``p_mech_w`` by name (``"elec"`` / ``"mech"``)."""

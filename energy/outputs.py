@@ -50,7 +50,7 @@ def _clean(value):
 
 
 def aep_document(a: Assessment, run: OptimizeRun, command_line: list[str],
-                 reference_height_m: float) -> dict:
+                 reference_height_m: float, refine: dict | None = None) -> dict:
     """The ``aep.json`` content (docs/schemas.md §7)."""
     table = a.table()
     return _clean({
@@ -76,6 +76,7 @@ def aep_document(a: Assessment, run: OptimizeRun, command_line: list[str],
             "limits_mech_objective_mech_mwh": a.limit_loss_mwh("mechanical", "mech"),
             "efficiency_by_kind_mwh": {k: v.efficiency_loss_mwh for k, v in a.kinds.items()},
         },
+        "refine": refine,
         "notes": list(a.notes),
         "files": {"curves": "power_curves.csv", "awesio": sorted(_awesio_names(a))},
     })
@@ -86,8 +87,13 @@ def _awesio_names(a: Assessment) -> list[str]:
 
 
 def write_outputs(a: Assessment, run: OptimizeRun, out: Path, command_line: list[str],
-                  reference_height_m: float, roughness_m: float) -> dict[str, Path]:
-    """Write ``aep.json``, ``power_curves.csv`` and the awesIO files into ``out``."""
+                  reference_height_m: float, roughness_m: float,
+                  refine: dict | None = None) -> dict[str, Path]:
+    """Write ``aep.json``, ``power_curves.csv`` and the awesIO files into ``out``.
+
+    ``refine`` is the ``refine`` object of ``aep.json`` (:func:`energy.refine.refine_document`)
+    when the curves were refined; ``run`` then carries the refined curves.
+    """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     files = {}
@@ -109,7 +115,9 @@ def write_outputs(a: Assessment, run: OptimizeRun, out: Path, command_line: list
                             f"{'on' if curve.drive_limits else 'off'})",
                 note=f"average_cycle_power is the {q} power delivered (positive = generated) "
                      f"[W], wind at {reference_height_m:g} m, logarithmic shear z0 = "
-                     f"{roughness_m:g} m. Failed solves are left out.",
+                     f"{roughness_m:g} m. Failed solves are left out"
+                     + ("; wind speeds added by bench aep --refine are in the list."
+                        if any(curve.added) else "."),
                 wind_m_s=curve.wind_m_s, delivered_w=-p, cycle_time_s=curve.period_s,
                 reference_height_m=reference_height_m, altitudes_m=altitudes, u_normalized=u,
                 model_config={"drive_model": model.get("name"),
@@ -120,7 +128,7 @@ def write_outputs(a: Assessment, run: OptimizeRun, out: Path, command_line: list
             files[name] = write_text_atomic(out / name, awesio.dump_yaml(doc) + "\n")
     files["aep"] = write_text_atomic(
         out / "aep.json",
-        json.dumps(aep_document(a, run, command_line, reference_height_m), indent=2,
+        json.dumps(aep_document(a, run, command_line, reference_height_m, refine), indent=2,
                    allow_nan=False) + "\n")
     return files
 

@@ -133,10 +133,16 @@ def scaled_candidates(base: Any, scales: tuple[float, ...], rated_torque_nm: flo
 
 
 def solve_key(candidate: Candidate, options: Any, wind_m_s: float) -> str:
-    """SHA-256 (hex) of everything a sizing solve depends on."""
-    data = {"version": STORE_VERSION, "model": candidate.model.sha256,
+    """SHA-256 (hex) of everything a sizing solve (elec-lim) depends on."""
+    return scenario_key(candidate.model.sha256, options, wind_m_s, "electrical", True)
+
+
+def scenario_key(model_sha256: str, options: Any, wind_m_s: float, objective: str,
+                 drive_limits: bool) -> str:
+    """SHA-256 (hex) of everything one stored solve depends on (the store's file name)."""
+    data = {"version": STORE_VERSION, "model": model_sha256,
             "options": dataclasses.asdict(options), "wind_m_s": float(wind_m_s),
-            "objective": "electrical", "drive_limits": True}
+            "objective": objective, "drive_limits": bool(drive_limits)}
     text = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
     return hashlib.sha256(text.encode()).hexdigest()
 
@@ -165,7 +171,7 @@ def _chain_order(winds: tuple[float, ...]) -> list[float]:
     return order
 
 
-def _load(store: Path, key: str) -> tuple[dict, Any] | None:
+def load_solve(store: Path, key: str) -> tuple[dict, Any] | None:
     """A stored solve (figures, warm start) or None when absent or unreadable."""
     from optimize.solve.result import Solution
 
@@ -184,7 +190,7 @@ def _load(store: Path, key: str) -> tuple[dict, Any] | None:
     return rec, warm
 
 
-def _store(store: Path, key: str, rec: dict, warm: Any) -> None:
+def store_solve(store: Path, key: str, rec: dict, warm: Any) -> None:
     if warm is not None:  # the warm start first: a json without its npz is still usable
         def write_npz(tmp: Path) -> None:
             with open(tmp, "wb") as fh:
@@ -217,7 +223,7 @@ def run_candidate(task: SizingTask, progress: Any = None) -> list[dict]:
         if wind in records:
             return records[wind]
         key = solve_key(c, options, wind)
-        stored = _load(task.store, key)
+        stored = load_solve(task.store, key)
         if stored is not None:
             rec, warm = stored
             records[wind], warms[wind] = {**rec, "cached": True}, warm
@@ -247,7 +253,7 @@ def run_candidate(task: SizingTask, progress: Any = None) -> list[dict]:
                 "peak_speed_rpm": float(traj["speed_rpm"].abs().max()) if ok else None,
                 "wall_time_s": time.perf_counter() - t0,
             }
-            _store(task.store, key, rec, res.warm if ok else None)
+            store_solve(task.store, key, rec, res.warm if ok else None)
             records[wind], warms[wind] = {**rec, "cached": False}, (res.warm if ok else None)
         if progress is not None:
             r = records[wind]

@@ -1,0 +1,341 @@
+"""Refine the optimize stage's power curves for a site: ``bench aep --refine``.
+
+The sweep's fixed wind grid interpolates linearly across the bends of the curve
+(cut-in, a drive limit becoming active). For each scenario kind of an
+``optimize_out/`` folder this module solves the wind speeds that
+:func:`energy.adaptive.refine_grid` asks for, the electrical and the mechanical
+curve of the kind refined together, and returns the curve with those points
+added, each marked with its solve's status.
+
+Solves: the first added speed of a kind is preceded by a re-solve of the nearest
+converged grid point from the stored initial guess (the optimize stage's own cold
+start): it gives the warm start, and it checks that the model and OCP options of
+the manifest reproduce the sweep's power there (:data:`CHECK_REL_TOL`). Every
+later speed is warm-started from the nearest solved one. Each solve is stored
+under the hash of its inputs (:func:`energy.sizing.scenario_key`, same store
+layout as ``bench size``), so a re-run loads it instead of solving it. A failed
+added solve is kept out of the curve and reported, never dropped silently.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bench.errors import InputError
+from energy import bands
+from energy.adaptive import refine_grid
+from energy.curve import OptimizeRun, PowerCurve
+from energy.sizing import load_solve, scenario_key, store_solve
+
+#: the check re-solve must give the sweep's average electrical power within this share
+#: of the curve's largest |P_elec|: IPOPT's tolerance (1e-6 scaled) reproduces the same
+#: local optimum far closer; a larger gap means another optimum, model or option set
+CHECK_REL_TOL = 0.01
+#: default stop criterion: every interval's estimated interpolation error below 0.2 % of
+#: the AEP (leaves margin under the issue's 1 % against a 0.25 m/s grid)
+DEFAULT_TOL = 0.002
+
+
+def options_from_manifest(manifest: dict, path: Path) -> Any:
+    """The sweep's ``OcpOptions`` from its manifest's ``options`` (lists back to tuples)."""
+    from optimize.problem.ocp import OcpOptions
+
+    raw = manifest.get("options")
+    if not isinstance(raw, dict):
+        raise InputError(path, "no OCP options", column="options",
+                         expected="the manifest of `bench optimize` (docs/schemas.md §5)")
+    try:
+        return OcpOptions(**{k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()})
+    except (TypeError, ValueError) as exc:
+        raise InputError(path, f"OCP options not usable: {exc}", column="options") from exc
+
+
+@dataclass(frozen=True)
+class KindTask:
+    """One scenario kind's refinement (one executor task; picklable).
+
+    Attributes
+    ----------
+    kind : str
+    model : fitting.model_file.PowerModel
+    options : optimize.problem.ocp.OcpOptions
+    known : tuple of (float, float, float)
+        The sweep's converged grid points: wind [m/s], P_elec [W], P_mech [W].
+    site : Weibull or Histogram
+    store : Path
+        Folder of the stored solves.
+    tol : float
+    max_points : int
+    """
+
+    kind: str
+    model: Any
+    options: Any
+    known: tuple[tuple[float, float, float], ...]
+    site: Any
+    store: Path
+    tol: float = DEFAULT_TOL
+    max_points: int = 25
+
+
+def refine_kind(task: KindTask, progress: Any = None) -> list[dict]:
+    """Solve the speeds the refinement asks for; returns every solve record (worker side).
+
+    Records: ``key, kind, wind_speed_m_s, role ("check" | "added"), success, status,
+    warm_from, avg_p_elec_w, avg_p_mech_w, period_s, peak_torque_nm, peak_speed_rpm,
+    basis_averages, wall_time_s, cached``.
+    """
+    from optimize.model.kite_model import kite_dae
+    from optimize.problem.ocp import build_ocp
+    from optimize.problem.scenario import Scenario
+    from optimize.solve.solve import solve, start
+    from optimize.sweep.plan import KINDS
+
+    objective, limits = KINDS[task.kind]
+    task.store.mkdir(parents=True, exist_ok=True)
+    known = {w: (pe, pm) for w, pe, pm in task.known}
+    records: dict[float, dict] = {}
+    warms: dict[float, Any] = {}
+    ocp = None
+
+    def solve_at(wind: float, role: str) -> dict:
+        nonlocal ocp
+        key = scenario_key(task.model.sha256, task.options, wind, objective, limits)
+        stored = load_solve(task.store, key)
+        if stored is not None:
+            rec, warm = stored
+            rec = {**rec, "role": role, "cached": True}
+        else:
+            if ocp is None:
+                ocp = build_ocp(kite_dae(), task.model, task.options)
+            scenario = Scenario(wind, objective, limits)
+            t0 = time.perf_counter()
+            res, src = None, None
+            if warms:
+                src = min(warms, key=lambda w: abs(w - wind))
+                res = solve(ocp, scenario, warms[src])
+            if res is None or not res.success:
+                src, res = None, start(ocp, scenario)
+            ok = bool(res.success) and math.isfinite(float(res.avg_p_elec_w))
+            traj = res.trajectory
+            rec = {
+                "key": key, "kind": task.kind, "wind_speed_m_s": wind, "role": role,
+                "success": ok, "status": str(res.status),
+                "warm_from": f"{src:g} m/s" if src is not None else res.start,
+                "avg_p_elec_w": float(res.avg_p_elec_w) if ok else None,
+                "avg_p_mech_w": float(res.avg_p_mech_w) if ok else None,
+                "period_s": float(res.period_s) if ok else None,
+                "peak_torque_nm": float(traj["torque_nm"].max()) if ok else None,
+                "peak_speed_rpm": float(traj["speed_rpm"].abs().max()) if ok else None,
+                "basis_averages": (bands.basis_averages(traj, task.model.terms).tolist()
+                                   if ok else None),
+                "wall_time_s": time.perf_counter() - t0,
+            }
+            warm = res.warm if ok else None
+            store_solve(task.store, key, rec, warm)
+            rec = {**rec, "cached": False}
+        records[wind] = rec
+        if rec["success"] and warm is not None:
+            warms[wind] = warm
+        if progress is not None:
+            progress.put({"kind": task.kind, "wind": wind, "role": role,
+                          "status": rec["status"], "cached": rec["cached"]})
+        return rec
+
+    def power(wind: float) -> tuple[float, float] | None:
+        wind = round(float(wind), 6)
+        if not any(r["role"] == "check" for r in records.values()):
+            solve_at(min(known, key=lambda w: abs(w - wind)), "check")
+        rec = solve_at(wind, "added")
+        return (rec["avg_p_elec_w"], rec["avg_p_mech_w"]) if rec["success"] else None
+
+    refine_grid(power, tuple(sorted(known)), task.site, task.tol, max_points=task.max_points,
+                known=known)
+    return [records[w] for w in sorted(records)]
+
+
+@dataclass(frozen=True)
+class KindRefinement:
+    """The outcome for one kind (driver side).
+
+    Attributes
+    ----------
+    kind : str
+    coarse : PowerCurve
+        The sweep's curve.
+    records : tuple of dict
+        Every solve (see :func:`refine_kind`).
+    gradients : dict
+        Scenario name -> basis averages of each added converged point (for the bands).
+    check_note : str or None
+        Set when the check re-solve failed or differed from the sweep.
+    """
+
+    kind: str
+    coarse: PowerCurve
+    records: tuple[dict, ...]
+    gradients: dict
+    check_note: str | None
+
+    @property
+    def added(self) -> tuple[dict, ...]:
+        """Records of the added speeds (converged and failed)."""
+        return tuple(r for r in self.records if r["role"] == "added")
+
+
+def merged_curve(coarse: PowerCurve, records: tuple[dict, ...]) -> PowerCurve:
+    """The sweep's curve with the converged added points in, the failed ones in ``failed``."""
+    from optimize.problem.scenario import scenario_name
+
+    rows = [(float(w), float(pe), float(pm), float(t), float(n), float(q), s, False)
+            for w, pe, pm, t, n, q, s in zip(coarse.wind_m_s, coarse.p_elec_w, coarse.p_mech_w,
+                                             coarse.period_s, coarse.peak_speed_rpm,
+                                             coarse.peak_torque_nm, coarse.scenarios,
+                                             strict=True)]
+    have = {r[0] for r in rows}
+    failed = list(coarse.failed)
+    for r in records:
+        w = float(r["wind_speed_m_s"])
+        if r["role"] != "added" or w in have:
+            continue
+        if not r["success"]:
+            failed.append((w, f"added by --refine: {r['status']}"))
+            continue
+        rows.append((w, r["avg_p_elec_w"], r["avg_p_mech_w"], r["period_s"],
+                     r["peak_speed_rpm"], r["peak_torque_nm"], scenario_name(coarse.kind, w),
+                     True))
+    rows.sort()
+    col = list(zip(*rows, strict=True))
+    return replace(coarse, wind_m_s=np.array(col[0]), p_elec_w=np.array(col[1]),
+                   p_mech_w=np.array(col[2]), period_s=np.array(col[3]),
+                   peak_speed_rpm=np.array(col[4]), peak_torque_nm=np.array(col[5]),
+                   scenarios=tuple(col[6]), added=tuple(col[7]),
+                   failed=tuple(sorted(failed)))
+
+
+@dataclass(frozen=True)
+class RefinedRun:
+    """The run with refined curves, and what it took."""
+
+    run: OptimizeRun
+    kinds: dict[str, KindRefinement]
+    wall_time_s: float
+    executor: str
+    n_solved: int
+    n_loaded: int
+
+    @property
+    def gradients(self) -> dict:
+        """Scenario -> basis averages of every added converged point."""
+        return {s: g for k in self.kinds.values() for s, g in k.gradients.items()}
+
+
+def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: float = DEFAULT_TOL,
+               max_points: int = 25, workers: int = 2, scheduler: str | None = None,
+               show_progress: bool = True) -> RefinedRun:
+    """Refine every kind's curve of ``run`` for ``site`` (one executor task per kind).
+
+    Raises
+    ------
+    InputError
+        ``model`` is not the sweep's (manifest hash), or the manifest has no options.
+    """
+    from tqdm import tqdm
+
+    from optimize.sweep.executors import open_executor, run_tasks
+
+    manifest_path = run.folder / "manifest.json"
+    if run.drive_model_sha256 and model.sha256 != run.drive_model_sha256:
+        raise InputError(manifest_path, "--refine needs the power model the sweep used (its hash "
+                         "differs from the manifest's drive_model.model_sha256)",
+                         expected="--drive-model omitted or the sweep's own model file")
+    options = options_from_manifest(run.manifest, manifest_path)
+    tasks = [KindTask(k, model, options,
+                      tuple(zip(c.wind_m_s.tolist(), c.p_elec_w.tolist(), c.p_mech_w.tolist(),
+                                strict=True)),
+                      site, Path(store), tol, max_points)
+             for k, c in run.curves.items() if len(c.wind_m_s) >= 2]
+    bar = tqdm(total=0, unit="solve", desc="refine", disable=not show_progress)
+    counts = {"solved": 0, "loaded": 0}
+
+    def on_event(ev: dict) -> None:
+        counts["loaded" if ev["cached"] else "solved"] += 1
+        bar.total += 1
+        bar.set_postfix_str(f"{ev['kind']} {ev['wind']:g} m/s ({ev['role']}): "
+                            f"{'stored' if ev['cached'] else ev['status']}")
+        bar.update(1)
+
+    t0 = time.perf_counter()
+    with open_executor(workers, scheduler) as h:
+        futures = run_tasks(h.executor, refine_kind, tasks, h.channel, on_event)
+        description = h.description
+    bar.close()
+    wall = time.perf_counter() - t0
+    kinds: dict[str, KindRefinement] = {}
+    curves = dict(run.curves)
+    for task, f in zip(tasks, futures, strict=True):
+        coarse = run.curves[task.kind]
+        exc = f.exception()
+        if exc is not None:  # a crashed task keeps the sweep's curve and says so
+            note = f"{task.kind}: refinement failed ({type(exc).__name__}: {exc}); sweep grid used"
+            kinds[task.kind] = KindRefinement(task.kind, coarse, (), {}, note[:400])
+            continue
+        records = tuple(f.result())
+        curve = merged_curve(coarse, records)
+        names = dict(zip(curve.wind_m_s.tolist(), curve.scenarios, strict=True))
+        grads = {names[float(r["wind_speed_m_s"])]: np.array(r["basis_averages"])
+                 for r in records if r["role"] == "added" and r["success"]}
+        kinds[task.kind] = KindRefinement(task.kind, coarse, records, grads,
+                                          _check_note(coarse, records))
+        curves[task.kind] = curve
+    return RefinedRun(replace(run, curves=curves), kinds, wall, description, counts["solved"],
+                      counts["loaded"])
+
+
+def _check_note(coarse: PowerCurve, records: tuple[dict, ...]) -> str | None:
+    check = next((r for r in records if r["role"] == "check"), None)
+    if check is None:
+        return None
+    w = float(check["wind_speed_m_s"])
+    if not check["success"]:
+        return (f"{coarse.kind}: the check re-solve at {w:g} m/s failed ({check['status']}); "
+                "added points were solved without it")
+    ref = float(coarse.p_elec_w[np.flatnonzero(coarse.wind_m_s == w)[0]])
+    gap = abs(check["avg_p_elec_w"] - ref)
+    scale = float(np.max(np.abs(coarse.p_elec_w)))
+    if gap > CHECK_REL_TOL * scale:
+        return (f"{coarse.kind}: re-solving {w:g} m/s gave {check['avg_p_elec_w']:.1f} W, the "
+                f"sweep {ref:.1f} W (gap {gap / scale:.1%} of the curve's scale): the added "
+                "points may sit on another local optimum than the sweep's")
+    return None
+
+
+def refine_document(r: RefinedRun, site: Any, tol: float) -> dict:
+    """The ``refine`` object of ``aep.json`` (docs/schemas.md §7)."""
+    from energy.aep import aep_mwh
+
+    kinds = {}
+    for k, kr in r.kinds.items():
+        c, m = kr.coarse, r.run.curves[k]
+        kinds[k] = {
+            "coarse_aep_elec_mwh": aep_mwh(c.wind_m_s, c.p_elec_w, site, c.cut_in_m_s),
+            "coarse_aep_mech_mwh": aep_mwh(c.wind_m_s, c.p_mech_w, site),
+            "aep_elec_mwh": aep_mwh(m.wind_m_s, m.p_elec_w, site, m.cut_in_m_s),
+            "aep_mech_mwh": aep_mwh(m.wind_m_s, m.p_mech_w, site),
+            "wind_speeds_m_s": m.wind_m_s.tolist(),
+            "solves": [{key: rec.get(key) for key in (
+                "wind_speed_m_s", "role", "success", "status", "warm_from", "avg_p_elec_w",
+                "avg_p_mech_w", "wall_time_s", "cached")} for rec in kr.records],
+            "n_added": sum(rec["success"] for rec in kr.added),
+            "n_added_failed": sum(not rec["success"] for rec in kr.added),
+            "note": kr.check_note,
+        }
+    return {"tol": tol, "wall_time_s": r.wall_time_s, "executor": r.executor,
+            "n_solved": r.n_solved, "n_loaded": r.n_loaded, "store": "solves/",
+            "kinds": kinds}
