@@ -72,6 +72,10 @@ class KindTask:
         Folder of the stored solves.
     tol : float
     max_points : int
+    backend : optimize.sweep.chains.Backend or None
+        The solver (default the CasADi OCP, :class:`optimize.sweep.chains.OcpBackend`);
+        its results need ``success, status, start, avg_p_elec_w, avg_p_mech_w,
+        period_s, trajectory`` (``weight, speed_rpm, torque_nm``) and ``warm``.
     """
 
     kind: str
@@ -82,6 +86,7 @@ class KindTask:
     store: Path
     tol: float = DEFAULT_TOL
     max_points: int = 25
+    backend: Any = None
 
 
 def refine_kind(task: KindTask, progress: Any = None) -> list[dict]:
@@ -91,12 +96,10 @@ def refine_kind(task: KindTask, progress: Any = None) -> list[dict]:
     warm_from, avg_p_elec_w, avg_p_mech_w, period_s, peak_torque_nm, peak_speed_rpm,
     basis_averages, wall_time_s, cached``.
     """
-    from optimize.model.kite_model import kite_dae
-    from optimize.problem.ocp import build_ocp
-    from optimize.problem.scenario import Scenario
-    from optimize.solve.solve import solve, start
+    from optimize.sweep.chains import OcpBackend, Problem
     from optimize.sweep.plan import KINDS
 
+    backend = task.backend or OcpBackend()
     objective, limits = KINDS[task.kind]
     task.store.mkdir(parents=True, exist_ok=True)
     known = {w: (pe, pm) for w, pe, pm in task.known}
@@ -113,15 +116,15 @@ def refine_kind(task: KindTask, progress: Any = None) -> list[dict]:
             rec = {**rec, "role": role, "cached": True}
         else:
             if ocp is None:
-                ocp = build_ocp(kite_dae(), task.model, task.options)
-            scenario = Scenario(wind, objective, limits)
+                ocp = backend.build(Problem(None, task.model, task.options,
+                                            f"{task.options!r}|{task.model.sha256}"))
             t0 = time.perf_counter()
             res, src = None, None
             if warms:
                 src = min(warms, key=lambda w: abs(w - wind))
-                res = solve(ocp, scenario, warms[src])
+                res = backend.solve(ocp, task.kind, wind, warms[src])
             if res is None or not res.success:
-                src, res = None, start(ocp, scenario)
+                src, res = None, backend.cold_start(ocp, task.kind, wind)
             ok = bool(res.success) and math.isfinite(float(res.avg_p_elec_w))
             traj = res.trajectory
             rec = {
@@ -238,8 +241,10 @@ class RefinedRun:
 
 def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: float = DEFAULT_TOL,
                max_points: int = 25, workers: int = 2, scheduler: str | None = None,
-               show_progress: bool = True) -> RefinedRun:
+               show_progress: bool = True, backend: Any = None) -> RefinedRun:
     """Refine every kind's curve of ``run`` for ``site`` (one executor task per kind).
+
+    ``backend`` replaces the CasADi OCP (see :class:`KindTask`; picklable for a process pool).
 
     Raises
     ------
@@ -259,7 +264,7 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
     tasks = [KindTask(k, model, options,
                       tuple(zip(c.wind_m_s.tolist(), c.p_elec_w.tolist(), c.p_mech_w.tolist(),
                                 strict=True)),
-                      site, Path(store), tol, max_points)
+                      site, Path(store), tol, max_points, backend)
              for k, c in run.curves.items() if len(c.wind_m_s) >= 2]
     bar = tqdm(total=0, unit="solve", desc="refine", disable=not show_progress)
     counts = {"solved": 0, "loaded": 0}

@@ -1,0 +1,124 @@
+"""``bench aep --refine`` (energy.refine) on a synthetic solver with kinks of known AEP."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import integrate, stats
+
+from energy.aep import aep_mwh
+from energy.curve import PowerCurve
+from energy.refine import KindTask, merged_curve, refine_kind
+from energy.site import Weibull
+from fitting.model_file import paper_model
+from optimize.problem.ocp import OcpOptions
+from optimize.solve.result import Solution
+
+V_IN, CAP_W = 4.3, 2000.0  # cut-in [m/s]; a drive limit caps the delivered power [W]
+KINKS = (V_IN, (CAP_W * V_IN / 35.0 + V_IN**3) ** (1 / 3), (2.5 * CAP_W / 9.0) ** (1 / 3))  # [m/s]
+COARSE = (4.0, 5.5, 7.0, 8.5, 10.0)
+SITE = Weibull.from_mean(2.0, 5.5)
+
+
+def p_elec(v: float) -> float:
+    """Consumes below V_IN, grows with the cube, capped at CAP_W (at 6.88 m/s)."""
+    return 60.0 * (V_IN - v) if v < V_IN else -min(CAP_W, 35.0 * (v**3 - V_IN**3) / V_IN)
+
+
+def p_mech(v: float) -> float:
+    return -min(2.5 * CAP_W, 9.0 * v**3)
+
+
+def exact_aep(p) -> float:
+    """8760 h x integral over the grid's range of max(-P, 0) f_Weibull (adaptive quadrature
+    split at the kinks): the truth, independent of energy.aep's piecewise-linear formula."""
+    pdf = stats.weibull_min(SITE.k, scale=SITE.scale_m_s).pdf
+    val, _ = integrate.quad(lambda v: max(-p(v), 0.0) * pdf(v), 4.0, 10.0,
+                            points=KINKS, limit=200, epsabs=1e-9)
+    return val * 8760 / 1e6
+
+
+class KinkBackend:
+    """The chain backend protocol with the closed-form curves above; counts its solves."""
+
+    def __init__(self, fail_at=()):
+        self.fail_at, self.calls = set(fail_at), []
+
+    def build(self, problem):
+        return "ocp"
+
+    def _result(self, wind, start):
+        self.calls.append(wind)
+        ok = wind not in self.fail_at
+        traj = pd.DataFrame({"weight": [0.5, 0.5], "speed_rpm": [-100 * wind, 50 * wind],
+                             "torque_nm": [5 * wind, 2.0]})
+        return SimpleNamespace(success=ok, status="Solve_Succeeded" if ok else "Infeasible",
+                               start=start, avg_p_elec_w=p_elec(wind), avg_p_mech_w=p_mech(wind),
+                               period_s=10.0, trajectory=traj,
+                               warm=Solution(np.array([wind]), np.zeros(1), np.zeros(1), 1, 1))
+
+    def solve(self, ocp, kind, wind, warm):
+        assert isinstance(warm, Solution)  # from memory or from the store's npz
+        return self._result(wind, "warm start")
+
+    def cold_start(self, ocp, kind, wind):
+        return self._result(wind, "stored guess")
+
+
+def _task(tmp_path, backend, kind="elec-lim"):
+    known = tuple((v, p_elec(v), p_mech(v)) for v in COARSE)
+    return KindTask(kind, paper_model(), OcpOptions(), known, SITE, tmp_path / "solves",
+                    backend=backend)
+
+
+def _coarse_curve() -> PowerCurve:
+    w = np.array(COARSE)
+    return PowerCurve("elec-lim", "electrical", True, w, np.array([p_elec(v) for v in w]),
+                      np.array([p_mech(v) for v in w]), np.full(5, 10.0), np.ones(5),
+                      np.ones(5), tuple(f"elec-lim-{v:.1f}" for v in w))
+
+
+def test_refined_aep_is_within_1_percent_of_the_exact_one_where_the_sweep_grid_is_not(tmp_path):
+    backend = KinkBackend()
+    records = refine_kind(_task(tmp_path, backend))
+    curve = merged_curve(_coarse_curve(), tuple(records))
+    truth_e, truth_m = exact_aep(p_elec), exact_aep(p_mech)
+    coarse_e = aep_mwh(np.array(COARSE), np.array([p_elec(v) for v in COARSE]), SITE)
+    # the issue's bar: 1 % (of the AEP against a dense grid; here against the exact integral)
+    assert abs(coarse_e / truth_e - 1) > 0.01
+    assert aep_mwh(curve.wind_m_s, curve.p_elec_w, SITE) == pytest.approx(truth_e, rel=0.01)
+    assert aep_mwh(curve.wind_m_s, curve.p_mech_w, SITE) == pytest.approx(truth_m, rel=0.01)
+    added = [r for r in records if r["role"] == "added"]
+    assert added and all(r["success"] for r in added)
+    # fewer solves than a 0.25 m/s grid (25 points), each speed once, one check re-solve
+    assert len(backend.calls) < 25 and len(set(backend.calls)) == len(backend.calls)
+    assert [r["role"] for r in records].count("check") == 1
+    assert sum(curve.added) == len(added)
+    assert all(r["warm_from"].endswith("m/s") for r in added)  # warm-started from a neighbour
+    # the basis averages of an added point are those of its trajectory (for the bands)
+    r = added[0]
+    v = r["wind_speed_m_s"]
+    n, t = np.array([-100 * v, 50 * v]), np.array([5 * v, 2.0])
+    expected = [np.mean(n**i * t**j) for i, j in paper_model().terms]
+    assert r["basis_averages"] == pytest.approx(expected, rel=1e-12)
+
+
+def test_a_rerun_loads_every_solve_from_the_store(tmp_path):
+    first = refine_kind(_task(tmp_path, KinkBackend()))
+    backend = KinkBackend()
+    second = refine_kind(_task(tmp_path, backend))
+    assert backend.calls == []
+    assert [r["wind_speed_m_s"] for r in second] == [r["wind_speed_m_s"] for r in first]
+    assert all(r["cached"] for r in second)
+
+
+def test_a_failed_added_solve_is_reported_not_dropped(tmp_path):
+    records = refine_kind(_task(tmp_path, KinkBackend(fail_at={4.75})))
+    failed = [r for r in records if not r["success"]]
+    assert [r["wind_speed_m_s"] for r in failed] == [4.75]
+    curve = merged_curve(_coarse_curve(), tuple(records))
+    assert 4.75 not in curve.wind_m_s
+    assert (4.75, "added by --refine: Infeasible") in curve.failed
