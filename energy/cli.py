@@ -175,12 +175,11 @@ def run(args: argparse.Namespace) -> int:
                nominal_power_w=args.nominal_power_w, site_uncertainty=unc,
                gradients=refined.gradients if refined else None)
     if refined is not None:
-        from energy.refine import DEFAULT_TOL, refine_document
+        from energy.refine import DEFAULT_TOL, added_list, refine_document, refine_notes
 
         tol = DEFAULT_TOL if args.refine_tol is None else args.refine_tol
         doc = refine_document(refined, site, tol)
-        a = dataclasses.replace(a, notes=a.notes + tuple(
-            k["note"] for k in doc["kinds"].values() if k["note"]))
+        a = dataclasses.replace(a, notes=a.notes + refine_notes(doc))
         run_ = refined.run
     write_outputs(a, run_, args.out, ["bench", "aep", *sys.argv[2:]], args.reference_height_m,
                   args.roughness_m, refine=doc if refined else None)
@@ -188,12 +187,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"refined grid ({refined.n_solved} solved, {refined.n_loaded} loaded from "
               f"{args.out / 'solves'}, {refined.wall_time_s:.0f} s on {refined.executor}):")
         for kind, k in doc["kinds"].items():
-            added = ", ".join(f"{r['wind_speed_m_s']:g}" + ("" if r["success"]
-                                                            else f" FAILED ({r['status']})")
-                              for r in k["solves"] if r["role"] == "added") or "none"
             print(f"  {kind:<10} AEP el {k['coarse_aep_elec_mwh']:.4f} -> "
                   f"{k['aep_elec_mwh']:.4f} MWh/yr, mech {k['coarse_aep_mech_mwh']:.4f} -> "
-                  f"{k['aep_mech_mwh']:.4f}; added {added}")
+                  f"{k['aep_mech_mwh']:.4f}; added {added_list(k)}")
     print(f"site: {note}")
     print(f"nominal power {a.nominal_power_w:.0f} W ({a.nominal_source})")
     print(format_table(a))

@@ -344,3 +344,25 @@ def refine_document(r: RefinedRun, site: Any, tol: float) -> dict:
     return {"tol": tol, "wall_time_s": r.wall_time_s, "executor": r.executor,
             "n_solved": r.n_solved, "n_loaded": r.n_loaded, "store": "solves/",
             "kinds": kinds}
+
+
+def added_list(kind_doc: dict) -> str:
+    """``"4.75, 6.25 FAILED (Infeasible)"``: the added speeds of one kind of the document."""
+    return ", ".join(f"{r['wind_speed_m_s']:g}"
+                     + ("" if r["success"] else f" FAILED ({r['status']})")
+                     for r in kind_doc["solves"] if r["role"] == "added") or "none"
+
+
+def refine_notes(doc: dict) -> tuple[str, ...]:
+    """One line per kind for ``aep.json`` ``notes`` (and the report): what was added, what
+    it changed, the failures and the check re-solve's warning."""
+    lines = []
+    for kind, k in doc["kinds"].items():
+        lines.append(
+            f"{kind}: grid refined for this site (tol {doc['tol']:g}): added {added_list(k)} m/s; "
+            f"AEP el {k['coarse_aep_elec_mwh']:.4f} -> {k['aep_elec_mwh']:.4f}, mech "
+            f"{k['coarse_aep_mech_mwh']:.4f} -> {k['aep_mech_mwh']:.4f} MWh/yr (sweep grid -> "
+            "refined)")
+        if k["note"]:
+            lines.append(k["note"])
+    return tuple(lines)

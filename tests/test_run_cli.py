@@ -26,6 +26,7 @@ def test_stage_outputs_feed_the_next_stage():
     assert Path(report.fit) == Path(fit.out) and Path(report.optimize) == Path(optimize.out)
     assert optimize.trust
     assert Path(aep.optimize) == Path(optimize.out) and Path(report.aep) == Path(aep.out)
+    assert aep.refine  # the demo's AEP comes from the adapted grid (docs/schemas.md §9)
     assert Path(size.drive_model) == Path(fit.out) / "power_model.json"
     assert Path(report.size) == Path(size.out)
     # the demo's site: Weibull k = 2, mean 5.5 m/s at 100 m (the paper's Leuven figure)
