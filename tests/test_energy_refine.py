@@ -122,3 +122,22 @@ def test_a_failed_added_solve_is_reported_not_dropped(tmp_path):
     curve = merged_curve(_coarse_curve(), tuple(records))
     assert 4.75 not in curve.wind_m_s
     assert (4.75, "added by --refine: Infeasible") in curve.failed
+
+
+def test_refine_without_the_sweeps_options_is_a_clear_input_error(tmp_path, capsys):
+    # a folder whose manifest has no OCP options cannot be refined consistently: exit 2,
+    # naming the manifest and the key, and nothing written
+    from energy_fixtures import model_with_covariance, write_optimize_folder
+
+    from bench.cli import main
+
+    folder = write_optimize_folder(tmp_path / "opt", model_with_covariance())
+    out = tmp_path / "aep"
+    code = main(["aep", "--optimize", str(folder), "--out", str(out), "--refine",
+                 "--weibull-k", "2", "--mean-speed", "5.5", "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 2 and "manifest.json" in err and "options" in err
+    assert not (out / "aep.json").exists()
+    code = main(["aep", "--optimize", str(folder), "--out", str(out), "--refine",
+                 "--refine-tol", "0", "--weibull-k", "2", "--mean-speed", "5.5"])
+    assert code == 2 and "--refine-tol" in capsys.readouterr().err
