@@ -21,6 +21,7 @@ from optimize.sweep.chains import Problem, make_tasks, run_sweep
 from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import KINDS, parse_kinds, parse_wind_grid, plan_chains
 from optimize.sweep.trust import run_trust_checks
+from optimize.system.system import System, load_system
 
 
 @dataclass(frozen=True)
@@ -53,6 +54,9 @@ class SweepRequest:
         Run the mesh and simulation checks.
     cut_in_tol_m_s : float
         Cut-in bisection stops at this bracket width [m/s].
+    system : System or None
+        The system (``--system``); ``None`` is the shipped ``highwind.toml``. Its
+        bounds and drive limits replace those of ``options``.
     """
 
     winds: tuple[float, ...]
@@ -67,6 +71,7 @@ class SweepRequest:
     claims: bool = True
     trust: bool = False
     cut_in_tol_m_s: float = 0.05
+    system: System | None = None
 
     @classmethod
     def from_cli(cls, args: Any, fit_model_path: Path) -> SweepRequest:
@@ -87,6 +92,9 @@ class SweepRequest:
                 f"(Table I) {PAPER_MODEL_PATH}"
             )
         model = load_power_model(path)
+        system = load_system(args.system)
+        if args.system is None:
+            note += f"; system: the shipped {system.path}"
         try:
             options = OcpOptions(n_intervals=args.intervals, degree=args.degree,
                                  stored_guess=not args.no_stored_guess)
@@ -104,6 +112,7 @@ class SweepRequest:
             Path(args.out),
             not args.no_claims,
             args.trust,
+            system=system,
         )
 
 
@@ -175,8 +184,10 @@ def run_optimize(
     import sys
 
 
-    model, options = request.drive_model, request.options
-    problem = Problem(None, model, options, f"{options!r}|{model.sha256}")
+    model = request.drive_model
+    system = request.system if request.system is not None else load_system()
+    options = system.ocp_options(request.options, model)
+    problem = Problem.for_system(system, model, options)
     cut_in_kinds = tuple(k for k in request.kinds if KINDS[k][1]) if request.claims else ()
     trust: dict = {"mesh": [], "simulation": []}
     with open_executor(request.workers, request.scheduler) as handle:
@@ -194,10 +205,11 @@ def run_optimize(
     request.out.mkdir(parents=True, exist_ok=True)
     files = {
         "summary": outputs.write_parquet(
-            summary, request.out / "summary.parquet", outputs.SUMMARY_COLUMNS
+            summary, request.out / "summary.parquet", outputs.SUMMARY_COLUMNS, system.record()
         ),
         "trajectories": outputs.write_parquet(
-            outputs.trajectories_frame(result.outcomes), request.out / "trajectories.parquet"
+            outputs.trajectories_frame(result.outcomes), request.out / "trajectories.parquet",
+            system=system.record(),
         ),
     }
     claims_path = request.out / "claims.csv"
@@ -221,6 +233,8 @@ def run_optimize(
             "name": model.name,
             "note": request.model_note,
         },
+        "system": system.record(),
+        "drive_limits": dataclasses.asdict(system.drive_limits(model)),
         "options": dataclasses.asdict(options),
         "executor": result.executor,
         "wall_time_s": result.wall_time_s,
