@@ -4,7 +4,7 @@ From the store's operating points to the drive's electrical power model:
 
 - :mod:`fitting.points`: read and check ``<store>/points/*.parquet``;
 - :mod:`fitting.efficiency`: paper eqs. (1)-(2), masking rules, gridded map (Fig. 5);
-- :mod:`fitting.domain`: convex hull per quadrant (validity domain);
+- :mod:`fitting.domain`: measured envelope per quadrant (validity domain);
 - :mod:`fitting.terms`: term lists (eq. 4, full polynomials, the paper's w^6 T^4 space);
 - :mod:`fitting.power_fit`: (weighted) least squares with statistics;
 - :mod:`fitting.selection`: k-fold CV RMSE + BIC, quadrant weighting, extra-terms check;

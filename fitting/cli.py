@@ -6,7 +6,7 @@ import argparse
 import shlex
 
 from bench.errors import InputError
-from fitting.efficiency import MaskingRules
+from fitting.domain import BAND_FRAC
 from fitting.pipeline import WEIGHTINGS, FitOptions, run_fit
 
 
@@ -25,10 +25,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--weighting", choices=WEIGHTINGS, default="quadrant",
                         help="'quadrant': each quadrant counts equally whatever its point "
                              "count (default); 'none': plain OLS")
-    parser.add_argument("--mask-mech-frac", type=float, default=MaskingRules.mech_frac,
+    parser.add_argument("--mask-mech-frac", type=float, default=FitOptions.mask_mech_frac,
                         help="mask efficiencies where |P_mech| < F * nominal power")
-    parser.add_argument("--mask-elec-frac", type=float, default=MaskingRules.elec_frac,
+    parser.add_argument("--mask-elec-frac", type=float, default=FitOptions.mask_elec_frac,
                         help="mask efficiencies where |P_elec| < F * nominal power")
+    parser.add_argument("--envelope-band-frac", type=float, default=BAND_FRAC,
+                        help="speed band of the measured envelope, a fraction of the largest "
+                             "|speed| (default: %(default)s)")
+    rating = parser.add_argument_group(
+        "drive rating (default: the campaign's drive.toml / session.toml, as ingested)")
+    rating.add_argument("--nominal-power-w", type=float, help="nominal power [W]")
+    rating.add_argument("--max-speed-rpm", type=float, help="largest drum speed [rpm]")
+    rating.add_argument("--max-torque-nm", type=float, help="largest drum torque [N m]")
 
 
 def _order(text: str, select: bool) -> int | None:
@@ -43,20 +51,23 @@ def _order(text: str, select: bool) -> int | None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the fit and print its summary."""
-    try:
-        masking = MaskingRules(mech_frac=args.mask_mech_frac, elec_frac=args.mask_elec_frac)
-    except ValueError as exc:
-        raise InputError(None, f"masking option: {exc}") from None
     order = _order(args.order, args.select)
+    drive = {k: getattr(args, k) for k in ("nominal_power_w", "max_speed_rpm", "max_torque_nm")
+             if getattr(args, k) is not None}
+    rating_args = [a for k, v in drive.items() for a in (f"--{k.replace('_', '-')}", repr(v))]
     command = shlex.join([
         "bench", "fit", "--store", str(args.store), "--out", str(args.out),
         "--order", "auto" if order is None else str(order), *(["--full"] if args.full else []),
         "--folds", str(args.folds), "--weighting", args.weighting,
         "--mask-mech-frac", repr(args.mask_mech_frac),
         "--mask-elec-frac", repr(args.mask_elec_frac),
+        "--envelope-band-frac", repr(args.envelope_band_frac), *rating_args,
     ])
     options = FitOptions(order=order, full_order2=args.full, folds=args.folds,
-                         weighting=args.weighting, masking=masking, command=command)
+                         weighting=args.weighting, mask_mech_frac=args.mask_mech_frac,
+                         mask_elec_frac=args.mask_elec_frac,
+                         envelope_band_frac=args.envelope_band_frac, drive=drive,
+                         command=command)
     summary = run_fit(args.store, args.out, options)
     print(format_summary(summary, args.out))
     return 0
@@ -65,8 +76,12 @@ def run(args: argparse.Namespace) -> int:
 def format_summary(summary: dict, out) -> str:
     """The short text summary printed by ``bench fit``."""
     st = summary["statistics"]
+    d = summary["drive"]
     lines = [f"model: {summary['model']['name']}  (sha256 {summary['model']['sha256'][:12]})",
              f"points: {st['n_points']} {st['points_per_quadrant']}  fit: {st['method']}",
+             f"drive: {d['nominal_power_w']:g} W nominal, |speed| <= {d['max_speed_rpm']:g} rpm, "
+             f"torque <= {d['max_torque_nm']:g} N m ({d['source']})",
+             *(f"note: {n}" for n in summary["notes"]),
              "",
              f"{'term':>10} {'coef [rpm, N m, W]':>20} {'std error':>12} {'95 % interval':>29}"]
     for row in st["coefficients"]:
@@ -116,7 +131,16 @@ def format_summary(summary: dict, out) -> str:
     for q, peak in summary["efficiency"]["peak"].items():
         if "map" in peak:
             m = peak["map"]
-            lines.append(f"peak efficiency {q}: {m['eta']:.3f} at {m['speed_rpm']:.0f} rpm, "
-                         f"{m['torque_nm']:.0f} N m (map)")
+            line = (f"peak efficiency {q}: {m['eta']:.3f} at {m['speed_rpm']:.0f} rpm, "
+                    f"{m['torque_nm']:.0f} N m (map)")
+            if "measured" in peak:
+                line += f"; measured max {peak['measured']['eta']:.3f}"
+            c = peak.get("ceiling")
+            if c:
+                line += (f"; ceiling {c['eta']:.3f} (measured max + noise "
+                         f"{c['noise_eta']:.3f})")
+                if c["n_clipped_nodes"]:
+                    line += f", {c['n_clipped_nodes']} map nodes clipped to it"
+            lines.append(line)
     lines.append(f"outputs in {out}: " + ", ".join(summary["outputs"][:6]) + ", figures/...")
     return "\n".join(lines)

@@ -7,6 +7,13 @@ Motor quadrant (the drive delivers shaft power, P_mech > 0)::
 Generator quadrant (P_mech <= 0)::
 
     eta_gen = (-P_elec) / (-P_mech)                 # paper eq. (2)
+
+The map never invents efficiency: it is drawn only inside each quadrant's
+measured envelope (:mod:`fitting.domain`), it interpolates the measured *loss*
+``P_elec - P_mech`` (smooth, and small against the powers) rather than
+``P_elec``, and no node shows an efficiency above the quadrant's highest
+measured efficiency plus that efficiency's noise (such nodes are clipped to the
+ceiling and flagged ``clipped``).
 """
 
 from __future__ import annotations
@@ -17,11 +24,12 @@ import numpy as np
 import pandas as pd
 from scipy.spatial import ConvexHull, Delaunay, QhullError
 
+from fitting.domain import BAND_FRAC, in_polygon, quadrant_envelopes
 from fitting.points import QUADRANTS, quadrant_of
 
 #: Status of a map node or point after the masking rules.
-OK, NEAR_AXIS, NEGATIVE, ABOVE_MAX, OUTSIDE_HULL = (
-    "ok", "near_axis", "negative", "above_max", "outside_hull"
+OK, NEAR_AXIS, NEGATIVE, ABOVE_MAX, OUTSIDE_DOMAIN, CLIPPED = (
+    "ok", "near_axis", "negative", "above_max", "outside_domain", "clipped"
 )
 
 #: Efficiency band edges for the area shares (the last band includes 1.0).
@@ -34,16 +42,25 @@ class MaskingRules:
 
     Parameters
     ----------
+    nominal_power_w : float
+        Nominal power of the drive [W] (the campaign's drive rating).
     mech_frac : float
         Mask points with ``|P_mech| < mech_frac * nominal_power_w`` (near the axes the
         efficiency divides by a small number) [-].
     elec_frac : float
         Mask points with ``|P_elec| < elec_frac * nominal_power_w`` [-].
-    nominal_power_w : float
-        Nominal power of the drive [W].
     max_efficiency : float
         Efficiencies above this are masked: a drive cannot exceed 1, so such a
         value is a measurement artefact [-].
+    envelope_band_frac : float
+        Speed band width of the measured envelope (:mod:`fitting.domain`), a
+        fraction of the quadrant's largest |speed| [-].
+    ceiling_max_noise : float
+        The map's efficiency ceiling is the highest measured efficiency plus its
+        noise, among the points whose efficiency noise is at most this or twice the
+        smallest efficiency noise of the quadrant, whichever is larger [-]: near the
+        axes a small noise in P_elec makes a large one in eta, and such a point says
+        little about the peak.
 
     Notes
     -----
@@ -52,10 +69,12 @@ class MaskingRules:
     (near-axis, above-max) values become NaN. Both are drawn white.
     """
 
+    nominal_power_w: float
     mech_frac: float = 0.02
     elec_frac: float = 0.02
-    nominal_power_w: float = 8200.0
     max_efficiency: float = 1.0
+    envelope_band_frac: float = BAND_FRAC
+    ceiling_max_noise: float = 0.005
 
     def __post_init__(self) -> None:
         for name in ("mech_frac", "elec_frac"):
@@ -66,6 +85,9 @@ class MaskingRules:
             raise ValueError("nominal_power_w must be a positive power [W]")
         if not self.max_efficiency > 0:
             raise ValueError("max_efficiency must be positive")
+        if not (np.isfinite(self.envelope_band_frac) and 0.0 < self.envelope_band_frac <= 0.5):
+            raise ValueError(f"envelope_band_frac = {self.envelope_band_frac!r}: "
+                             "a fraction in (0, 0.5] expected")
 
     def to_dict(self) -> dict:
         """Settings plus a one-line statement of each rule (written into the outputs)."""
@@ -75,7 +97,14 @@ class MaskingRules:
             f"|P_elec| < {self.elec_frac:g} * {self.nominal_power_w:g} W -> masked (NaN)",
             "negative efficiency -> 0",
             f"efficiency > {self.max_efficiency:g} -> masked (NaN)",
-            "grid nodes outside the quadrant's measured convex hull -> NaN (no extrapolation)",
+            "grid nodes outside the quadrant's measured envelope (highest and lowest measured "
+            f"torque per speed band of {self.envelope_band_frac:g} x max |speed|) -> NaN "
+            "(no extrapolation)",
+            "map: the loss P_elec - P_mech is interpolated linearly between measured points "
+            "and eta derived from it",
+            "map: eta above the quadrant's highest measured eta + its noise -> clipped to that "
+            f"ceiling (status 'clipped'); measured eta with a noise above "
+            f"{self.ceiling_max_noise:g} does not set the ceiling",
         ]
         return d
 
@@ -121,6 +150,34 @@ def masked_efficiency(p_mech_w, p_elec_w, rules: MaskingRules) -> tuple[np.ndarr
     return eta, status
 
 
+def nice_step(raw: float) -> float:
+    """The smallest of 1, 2, 2.5 and 5 times a power of ten that is not below ``raw`` (> 0)."""
+    if not (np.isfinite(raw) and raw > 0):
+        return 1.0
+    exp = np.floor(np.log10(raw))
+    for m in (1.0, 2.0, 2.5, 5.0, 10.0):
+        step = m * 10.0**exp
+        if step >= raw * (1 - 1e-12):
+            return float(step)
+    return float(10.0 ** (exp + 1))  # unreachable: m = 10 always fits
+
+
+#: Default number of map grid steps over the measured speed range and torque range.
+GRID_SPEED_STEPS, GRID_TORQUE_STEPS = 180, 80
+
+
+def grid_steps(frame) -> tuple[float, float]:
+    """Default map spacing [rpm], [N m]: ~180 steps over the speed range, ~80 over the torque range.
+
+    Rounded up to 1, 2, 2.5 or 5 times a power of ten (25 rpm and 1 N m for a
+    -3000..1500 rpm, 0..78 N m campaign), so the map has the same resolution
+    for any drive size.
+    """
+    span_s = float(np.ptp(frame["speed_rpm"])) if len(frame) else 0.0
+    span_t = float(np.max(np.abs(frame["torque_nm"]))) if len(frame) else 0.0
+    return nice_step(span_s / GRID_SPEED_STEPS), nice_step(span_t / GRID_TORQUE_STEPS)
+
+
 def regular_grid(frame, speed_step_rpm: float, torque_step_nm: float):
     """Regular node vectors [rpm], [N m] covering the measured points' bounding box."""
     def axis(values, step):
@@ -152,49 +209,117 @@ def _interpolate_in_hull(tri: Delaunay, values: np.ndarray, query: np.ndarray) -
     return out
 
 
+def _noise_of(p_elec_noise_w, quadrant: str) -> float:
+    if isinstance(p_elec_noise_w, dict):
+        value = p_elec_noise_w.get(quadrant)
+        return 0.0 if value is None or not np.isfinite(value) else float(value)
+    return float(p_elec_noise_w)
+
+
+def efficiency_ceilings(frame: pd.DataFrame, rules: MaskingRules,
+                        p_elec_noise_w: float | dict = 0.0) -> dict[str, dict]:
+    """The highest efficiency the map may show per quadrant: measured maximum plus its noise.
+
+    The noise of a measured efficiency follows from the noise ``sigma`` of its
+    electrical power: ``eta * sigma / |P_elec|`` in the motor quadrant (eq. 1),
+    ``sigma / |P_mech|`` in the generator quadrant (eq. 2). The maximum is taken
+    over the points whose noise is at most ``rules.ceiling_max_noise`` or twice
+    the quadrant's smallest, whichever is larger; the ceiling is that maximum plus
+    its own noise.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Points with ``speed_rpm``, ``torque_nm``, ``p_mech_w``, ``p_elec_w``, ``quadrant``.
+    rules : MaskingRules
+        Only points the rules leave ``ok`` count as measured efficiencies.
+    p_elec_noise_w : float or dict
+        Noise (standard deviation) of one point's electrical power [W], one value or
+        one per quadrant (``bench fit`` uses the fit's residual RMS per quadrant).
+
+    Returns
+    -------
+    dict
+        ``quadrant -> {"eta": ceiling, "eta_max_measured", "noise_eta",
+        "p_elec_noise_w", "speed_rpm", "torque_nm"}`` (the last two: where the
+        maximum was measured), for each quadrant with at least one ``ok`` point.
+        The ceiling never exceeds ``rules.max_efficiency``.
+    """
+    eta, status = masked_efficiency(frame["p_mech_w"], frame["p_elec_w"], rules)
+    quadrant = frame["quadrant"].to_numpy()
+    out = {}
+    p_mech = np.abs(frame["p_mech_w"].to_numpy(dtype=float))
+    p_elec = np.abs(frame["p_elec_w"].to_numpy(dtype=float))
+    for q in QUADRANTS:
+        sel = np.flatnonzero((quadrant == q) & (status == OK))
+        if sel.size == 0:
+            continue
+        sigma = _noise_of(p_elec_noise_w, q)
+        noise = (eta[sel] * sigma / p_elec[sel] if q == "motor" else sigma / p_mech[sel])
+        quiet = noise <= max(rules.ceiling_max_noise, 2.0 * float(noise.min()))
+        j = int(np.flatnonzero(quiet)[np.argmax(eta[sel][quiet])])
+        k = int(sel[j])
+        out[q] = {"eta": float(min(eta[k] + noise[j], rules.max_efficiency)),
+                  "eta_max_measured": float(eta[k]), "noise_eta": float(noise[j]),
+                  "p_elec_noise_w": sigma, "max_noise_counted": rules.ceiling_max_noise,
+                  "speed_rpm": float(frame["speed_rpm"].iloc[k]),
+                  "torque_nm": float(frame["torque_nm"].iloc[k])}
+    return out
+
+
 def gridded_map(
     frame: pd.DataFrame,
     rules: MaskingRules,
     *,
     model=None,
-    speed_step_rpm: float = 25.0,
-    torque_step_nm: float = 1.0,
+    p_elec_noise_w: float | dict = 0.0,
+    speed_step_rpm: float | None = None,
+    torque_step_nm: float | None = None,
 ) -> pd.DataFrame:
     """Efficiency map on a regular speed-torque grid (paper Fig. 5).
 
-    The measured electrical power is interpolated linearly over a Delaunay
-    triangulation of each quadrant's points (in scaled coordinates); the
-    mechanical power of a node is exact (omega * T). Nodes outside the
-    quadrant's convex hull stay NaN: the map is never extrapolated.
+    Per quadrant: nodes outside the measured envelope (:func:`fitting.domain.
+    quadrant_envelopes`) stay NaN (``outside_domain``); inside, the measured loss
+    ``P_elec - P_mech`` is interpolated linearly over a Delaunay triangulation of
+    the quadrant's points (in scaled coordinates), the node's electrical power is
+    its exact ``omega * T`` plus that loss, and the efficiency follows by eqs. 1-2
+    and the masking rules. An efficiency above the quadrant's ceiling
+    (:func:`efficiency_ceilings`) is set to the ceiling and flagged ``clipped``.
 
     Parameters
     ----------
     frame : pandas.DataFrame
-        Points with ``speed_rpm``, ``torque_nm``, ``p_elec_w`` and ``quadrant``.
+        Points with ``speed_rpm``, ``torque_nm``, ``p_mech_w``, ``p_elec_w`` and ``quadrant``.
     rules : MaskingRules
     model : PowerModel, optional
-        If given, adds the model's power and efficiency at each node (inside the hull).
-    speed_step_rpm, torque_step_nm : float
-        Grid spacing [rpm], [N m].
+        If given, adds the model's power and efficiency at each node (inside the domain).
+    p_elec_noise_w : float or dict
+        Noise of one point's electrical power [W] (see :func:`efficiency_ceilings`).
+    speed_step_rpm, torque_step_nm : float, optional
+        Grid spacing [rpm], [N m]; default :func:`grid_steps`.
 
     Returns
     -------
     pandas.DataFrame
-        One row per node: ``speed_rpm, torque_nm, quadrant, in_hull, p_mech_w,
-        p_elec_w, eta, status`` (and ``p_elec_fit_w, eta_fit`` with a model).
+        One row per node: ``speed_rpm, torque_nm, quadrant, in_domain, p_mech_w,
+        loss_w, p_elec_w, eta, status`` (and ``p_elec_fit_w, eta_fit`` with a model).
+        ``attrs["envelopes"]`` and ``attrs["ceilings"]`` hold what the map used.
     """
-    speeds, torques = regular_grid(frame, speed_step_rpm, torque_step_nm)
+    default_s, default_t = grid_steps(frame)
+    speeds, torques = regular_grid(frame, speed_step_rpm or default_s, torque_step_nm or default_t)
     sg, tg = np.meshgrid(speeds, torques, indexing="ij")
     s, t = sg.ravel(), tg.ravel()
     p_mech = s * 2.0 * np.pi / 60.0 * t
     quadrant = quadrant_of(p_mech)
     scales = (float(np.max(np.abs(frame["speed_rpm"]))) or 1.0,
               float(np.max(np.abs(frame["torque_nm"]))) or 1.0)
-    p_elec = np.full(s.shape, np.nan)
-    for q in QUADRANTS:
+    envelopes = quadrant_envelopes(frame, rules.envelope_band_frac)
+    ceilings = efficiency_ceilings(frame, rules, p_elec_noise_w)
+    loss = np.full(s.shape, np.nan)
+    for q, env in envelopes.items():
         sub = frame[frame["quadrant"] == q]
-        nodes = quadrant == q
-        if len(sub) < 3 or not nodes.any():
+        nodes = np.flatnonzero((quadrant == q) & in_polygon(env["polygon"], s, t))
+        if nodes.size == 0:
             continue
         pts = np.column_stack([sub["speed_rpm"] / scales[0], sub["torque_nm"] / scales[1]])
         try:
@@ -202,35 +327,46 @@ def gridded_map(
         except QhullError:
             continue
         query = np.column_stack([s[nodes] / scales[0], t[nodes] / scales[1]])
-        p_elec[nodes] = _interpolate_in_hull(tri, sub["p_elec_w"].to_numpy(), query)
-    in_hull = np.isfinite(p_elec)
+        measured_loss = (sub["p_elec_w"] - sub["p_mech_w"]).to_numpy(dtype=float)
+        loss[nodes] = _interpolate_in_hull(tri, measured_loss, query)
+    in_domain = np.isfinite(loss)
+    p_elec = p_mech + loss
     eta, status = masked_efficiency(p_mech, p_elec, rules)
-    status[~in_hull] = OUTSIDE_HULL
+    status[~in_domain] = OUTSIDE_DOMAIN
+    for q, ceiling in ceilings.items():
+        over = (quadrant == q) & (status == OK) & (eta > ceiling["eta"])
+        eta[over] = ceiling["eta"]
+        status[over] = CLIPPED
+        ceiling["n_clipped_nodes"] = int(over.sum())
     out = pd.DataFrame({
-        "speed_rpm": s, "torque_nm": t, "quadrant": quadrant, "in_hull": in_hull,
-        "p_mech_w": p_mech, "p_elec_w": p_elec, "eta": eta, "status": status.astype(str),
+        "speed_rpm": s, "torque_nm": t, "quadrant": quadrant, "in_domain": in_domain,
+        "p_mech_w": p_mech, "loss_w": loss, "p_elec_w": p_elec, "eta": eta,
+        "status": status.astype(str),
     })
     if model is not None:
         p_fit = np.asarray(model.p_elec_w(s, t), dtype=float)
         eta_fit, _ = masked_efficiency(p_mech, p_fit, rules)
         out["p_elec_fit_w"] = p_fit
-        out["eta_fit"] = np.where(in_hull, eta_fit, np.nan)
+        out["eta_fit"] = np.where(in_domain, eta_fit, np.nan)
+    out.attrs["envelopes"] = envelopes
+    out.attrs["ceilings"] = ceilings
     return out
 
 
 def band_shares(map_frame: pd.DataFrame, edges=BAND_EDGES) -> pd.DataFrame:
-    """Share of each quadrant's hull area per efficiency band (regular grid: node share).
+    """Share of each quadrant's measured domain per efficiency band (regular grid: node share).
 
-    Rows: quadrant x band, where the bands are the intervals of ``edges`` plus
-    ``masked`` (near the axes or above max) and ``negative`` (set to 0).
+    Rows: quadrant x band, where the bands are the intervals of ``edges`` (``ok``
+    and ``clipped`` nodes, by their shown efficiency) plus ``masked`` (near the
+    axes or above max) and ``negative`` (set to 0).
     """
     rows = []
     for q in QUADRANTS:
-        sub = map_frame[(map_frame["quadrant"] == q) & map_frame["in_hull"]]
+        sub = map_frame[(map_frame["quadrant"] == q) & map_frame["in_domain"]]
         n = len(sub)
         if n == 0:
             continue
-        ok = sub[sub["status"] == OK]["eta"].to_numpy()
+        ok = sub[sub["status"].isin((OK, CLIPPED))]["eta"].to_numpy()
         for k in range(len(edges) - 1):
             lo, hi = edges[k], edges[k + 1]
             last = k == len(edges) - 2
@@ -246,22 +382,36 @@ def band_shares(map_frame: pd.DataFrame, edges=BAND_EDGES) -> pd.DataFrame:
 
 
 def peak_points(map_frame: pd.DataFrame, frame: pd.DataFrame, rules: MaskingRules) -> dict:
-    """Peak efficiency per quadrant: on the gridded map and among the measured points."""
+    """Peak efficiency per quadrant: on the gridded map and among the measured points.
+
+    ``map`` is the shown peak (``ok`` or ``clipped`` nodes; ``clipped`` says whether
+    it sits on the ceiling), ``measured`` the highest ``ok`` point, and ``ceiling``
+    the map's ceiling (``map_frame.attrs["ceilings"]``) when known.
+    """
     eta_pts, status_pts = masked_efficiency(frame["p_mech_w"], frame["p_elec_w"], rules)
+    ceilings = map_frame.attrs.get("ceilings", {})
     out = {}
     for q in QUADRANTS:
         entry = {}
-        grid = map_frame[(map_frame["quadrant"] == q) & (map_frame["status"] == OK)]
+        grid = map_frame[(map_frame["quadrant"] == q)
+                         & map_frame["status"].isin((OK, CLIPPED))]
         if len(grid):
             row = grid.loc[grid["eta"].idxmax()]
             entry["map"] = {"speed_rpm": float(row["speed_rpm"]),
-                            "torque_nm": float(row["torque_nm"]), "eta": float(row["eta"])}
+                            "torque_nm": float(row["torque_nm"]), "eta": float(row["eta"]),
+                            "clipped": bool(row["status"] == CLIPPED)}
         sel = (frame["quadrant"].to_numpy() == q) & (status_pts == OK)
         if sel.any():
             k = int(np.flatnonzero(sel)[np.argmax(eta_pts[sel])])
             entry["measured"] = {"speed_rpm": float(frame["speed_rpm"].iloc[k]),
                                  "torque_nm": float(frame["torque_nm"].iloc[k]),
                                  "eta": float(eta_pts[k])}
+        if q in ceilings:
+            c = ceilings[q]
+            entry["ceiling"] = {"eta": c["eta"], "eta_max_measured": c["eta_max_measured"],
+                                "noise_eta": c["noise_eta"],
+                                "p_elec_noise_w": c["p_elec_noise_w"],
+                                "n_clipped_nodes": c.get("n_clipped_nodes", 0)}
         if entry:
             out[q] = entry
     return out

@@ -40,8 +40,13 @@ def _grid(map_frame: pd.DataFrame, column: str):
     return speeds, torques, z.reindex(index=torques, columns=speeds).to_numpy(dtype=float)
 
 
-def efficiency_map_figure(map_frame: pd.DataFrame, out_dir: Path, masking: dict) -> list[Path]:
-    """Efficiency over both quadrants (paper Fig. 5); masked and negative values white."""
+def efficiency_map_figure(map_frame: pd.DataFrame, out_dir: Path, masking: dict,
+                          domain: dict | None = None) -> list[Path]:
+    """Efficiency over the measured quadrants (paper Fig. 5); masked and negative values white.
+
+    ``domain`` (quadrant -> envelope polygon) is outlined; nodes clipped to the
+    quadrant's efficiency ceiling are hatched.
+    """
     speeds, torques, eta = _grid(map_frame, "eta")
     shown = np.ma.masked_where(~np.isfinite(eta) | (eta <= 0), eta)
     fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
@@ -53,10 +58,21 @@ def efficiency_map_figure(map_frame: pd.DataFrame, out_dir: Path, masking: dict)
                     colors="k", linewidths=0.6)
     ax.clabel(cs, fmt="%.2f", fontsize=7)
     ax.axvline(0, color="0.3", lw=0.8)
+    for q, poly in (domain or {}).items():
+        p = np.asarray(poly, dtype=float)
+        ax.plot(np.r_[p[:, 0], p[:1, 0]], np.r_[p[:, 1], p[:1, 1]], color="tab:red", lw=0.8,
+                label=f"measured envelope ({q})" if q == next(iter(domain)) else None)
+    clipped = map_frame[map_frame["status"] == "clipped"]
+    if len(clipped):
+        ax.scatter(clipped["speed_rpm"], clipped["torque_nm"], s=4, marker="x", c="k",
+                   lw=0.5, label=f"clipped to measured max + noise ({len(clipped)} nodes)")
+    if domain or len(clipped):
+        ax.legend(loc="upper left", fontsize=7)
     fig.colorbar(mesh, ax=ax, label="efficiency [-]")
     ax.set_xlabel("drum speed [rpm]  (generator: reel-out < 0 | motor > 0)")
     ax.set_ylabel("drum torque [N m]")
-    ax.set_title("Measured efficiency map (white: negative, near the axes, or unmeasured)\n"
+    ax.set_title("Measured efficiency map (white: negative, near the axes, or outside the "
+                 "measured envelope)\n"
                  f"masked: |P_mech| < {masking['mech_frac']:g} P_nom, "
                  f"|P_elec| < {masking['elec_frac']:g} P_nom", fontsize=9)
     data = map_frame[["speed_rpm", "torque_nm", "quadrant", "eta", "status"]]
@@ -81,7 +97,7 @@ def power_map_figure(map_frame: pd.DataFrame, points: pd.DataFrame, out_dir: Pat
                     linestyles="dashed")
     ax.clabel(cf, levels=levels[::4], fmt="%.0f W", fontsize=6)
     ax.plot([], [], color="tab:blue", label="fit")
-    ax.plot([], [], color="tab:red", ls="--", label="measured (inside hull)")
+    ax.plot([], [], color="tab:red", ls="--", label="measured (inside the envelope)")
     del cm
     ax.legend(loc="upper left", fontsize=7)
     ax.set_xlabel("drum speed [rpm]")

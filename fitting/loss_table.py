@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from bench.files import write_text_atomic
-from fitting.domain import in_polygon_hull
+from fitting.domain import in_domain
 from fitting.model_file import PowerModel
 
 
@@ -42,13 +42,22 @@ def loss_grid(model: PowerModel, speeds_rpm: np.ndarray, torques_nm: np.ndarray)
 
 def default_breakpoints(model: PowerModel, speed_step_rpm: float = 100.0,
                         torque_step_nm: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
-    """Breakpoints [rpm], [N m] spanning the model's domain bounding box (else the rated box)."""
+    """Breakpoints [rpm], [N m] spanning the model's domain bounding box (else its drive's box).
+
+    Raises
+    ------
+    ValueError
+        The model has neither a domain nor a drive rating.
+    """
     if model.domain:
         pts = np.array([p for poly in model.domain.values() for p in poly])
         s_lo, s_hi = pts[:, 0].min(), pts[:, 0].max()
         t_lo, t_hi = max(0.0, pts[:, 1].min()), pts[:, 1].max()
+    elif model.drive:
+        s_hi, t_hi = model.drive["max_speed_rpm"], model.drive["max_torque_nm"]
+        s_lo, t_lo = -s_hi, 0.0
     else:
-        s_lo, s_hi, t_lo, t_hi = -1500.0, 1500.0, 0.0, 78.0
+        raise ValueError("the model has no domain and no drive rating: give the breakpoints")
     # ends rounded to the nearest breakpoint: a hull vertex at -3000.3 rpm (measurement
     # noise around a -3000 rpm set point) should not add a -3100 rpm row
     def axis(lo, hi, step):
@@ -61,7 +70,7 @@ def write_loss_table(model: PowerModel, path: str | Path, speeds_rpm=None,
                      torques_nm=None) -> Path:
     """Write the loss table CSV atomically (layout in the module docstring).
 
-    Every cell holds the model's loss; cells outside the measured hull
+    Every cell holds the model's loss; cells outside the measured domain
     (``model.domain``) are model extrapolation, and their share is stated in
     the header.
     """
@@ -71,9 +80,7 @@ def write_loss_table(model: PowerModel, path: str | Path, speeds_rpm=None,
     torques_nm = np.asarray(torques_nm, dtype=float)
     losses = loss_grid(model, speeds_rpm, torques_nm)
     s, t = np.meshgrid(speeds_rpm, torques_nm, indexing="ij")
-    inside = np.zeros(s.shape, dtype=bool)
-    for poly in (model.domain or {}).values():
-        inside |= in_polygon_hull(poly, s, t)
+    inside = in_domain(model.domain, s, t)
     buf = io.StringIO()
     buf.write(f"# drivebench loss table from power model {model.name!r} (sha256 {model.sha256})\n")
     buf.write("# cells: loss_w = p_elec_w - p_mech_w [W]; rows: drum speed [rpm]; "
@@ -82,7 +89,7 @@ def write_loss_table(model: PowerModel, path: str | Path, speeds_rpm=None,
               "(generating) is negative speed, torque >= 0\n")
     if model.domain:
         buf.write(f"# {100 * (1 - inside.mean()):.1f} % of the cells lie outside the measured "
-                  "hull (power_model.json domain): there the table extrapolates the model\n")
+                  "envelope (power_model.json domain): there the table extrapolates the model\n")
     buf.write("speed_rpm \\ torque_nm," + ",".join(f"{v:g}" for v in torques_nm) + "\n")
     for k, speed in enumerate(speeds_rpm):
         buf.write(f"{speed:g}," + ",".join(f"{v:.3f}" for v in losses[k]) + "\n")

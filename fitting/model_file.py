@@ -25,11 +25,15 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from bench.drive import DRIVE_KEYS
 from bench.errors import InputError
 from bench.files import write_text_atomic
 
 SCHEMA_NAME = "drivebench.power_model"
-SCHEMA_VERSION = 1
+#: Version written; 2 added the ``drive`` object (rating and limits of the drive).
+SCHEMA_VERSION = 2
+#: Versions read: a version-1 file loads with ``drive = None``.
+READ_VERSIONS = (1, 2)
 
 #: Path of the paper's Table I model (REFERENCE.md §1) in this schema.
 PAPER_MODEL_PATH = Path(__file__).resolve().parent.parent / "optimize" / "data" / (
@@ -65,6 +69,8 @@ _REQUIRED_KEYS = (
     "provenance",
 )
 _OPTIONAL_KEYS = ("units", "sign_convention")
+#: Keys of version 2 only.
+_V2_KEYS = ("drive",)
 _QUADRANTS = ("motor", "generator")
 #: Relative tolerance for the derived SI set agreeing with the rpm set on load.
 _SI_RTOL = 1e-9
@@ -88,13 +94,17 @@ class PowerModel:
         Human-readable model name.
     domain : dict or None
         Validity domain: ``{"motor": [[speed_rpm, torque_nm], ...], "generator": [...]}``,
-        the hull polygon of the measured points per quadrant.
+        the measured envelope polygon per quadrant (a quadrant not measured is absent).
     masking : dict or None
         The efficiency-map masking settings the fit was made with.
     statistics : dict or None
         Fit statistics (R^2, residuals, ...).
     provenance : dict or None
         Where the model comes from (input hash, command line, source).
+    drive : dict or None
+        The drive's rating ``{nominal_power_w, max_speed_rpm, max_torque_nm, source}``
+        (:class:`bench.drive.DriveRating`); its nominal power equals
+        ``nominal_power_w``. None for a version-1 file.
     """
 
     terms: tuple[tuple[int, int], ...]
@@ -106,6 +116,7 @@ class PowerModel:
     masking: dict | None = None
     statistics: dict | None = None
     provenance: dict | None = None
+    drive: dict | None = None
 
     def __post_init__(self) -> None:
         terms = tuple((int(i), int(j)) for i, j in self.terms)
@@ -186,6 +197,7 @@ class PowerModel:
             "masking": self.masking,
             "statistics": self.statistics,
             "provenance": self.provenance,
+            "drive": self.drive,
         }
 
     @property
@@ -260,10 +272,23 @@ def _model_problem(model: PowerModel) -> str | None:
         return "nominal_power_w: a finite positive power [W] expected"
     if not isinstance(model.name, str):
         return "name: a string expected"
-    for field in ("domain", "masking", "statistics", "provenance"):
+    for field in ("domain", "masking", "statistics", "provenance", "drive"):
         value = getattr(model, field)
         if value is not None and not isinstance(value, dict):
             return f"{field}: an object or null expected"
+    if model.drive is not None:
+        for key in DRIVE_KEYS:
+            v = model.drive.get(key)
+            if not (_is_finite_number(v) and v > 0):
+                return f"drive.{key}: a finite positive number expected, got {v!r}"
+        if not isinstance(model.drive.get("source", ""), str):
+            return "drive.source: a string expected"
+        unknown = set(model.drive) - {*DRIVE_KEYS, "source"}
+        if unknown:
+            return f"drive: unknown key {sorted(unknown)[0]!r}"
+        if not math.isclose(model.drive["nominal_power_w"], model.nominal_power_w, rel_tol=1e-12):
+            return (f"drive.nominal_power_w {model.drive['nominal_power_w']!r} differs from "
+                    f"nominal_power_w {model.nominal_power_w!r}")
     if model.domain is not None:
         for key, poly in model.domain.items():
             if key not in _QUADRANTS:
@@ -308,14 +333,17 @@ def power_model_from_dict(data: Any, path: str | Path | None = None) -> PowerMod
     if data.get("schema") != SCHEMA_NAME:
         raise bad("schema", f"unknown schema {data.get('schema')!r}", repr(SCHEMA_NAME))
     version = data.get("schema_version")
-    if version != SCHEMA_VERSION or isinstance(version, bool):
-        raise bad("schema_version", f"unsupported version {version!r}", str(SCHEMA_VERSION))
-    for key in _REQUIRED_KEYS:
+    if version not in READ_VERSIONS or isinstance(version, bool):
+        raise bad("schema_version", f"unsupported version {version!r}",
+                  " or ".join(map(str, READ_VERSIONS)))
+    required = _REQUIRED_KEYS + (_V2_KEYS if version >= 2 else ())
+    for key in required:
         if key not in data:
-            raise bad(key, "missing", "all of " + ", ".join(_REQUIRED_KEYS))
+            raise bad(key, "missing", "all of " + ", ".join(required))
     for key in data:
-        if key not in _REQUIRED_KEYS and key not in _OPTIONAL_KEYS:
-            raise bad(key, "unknown field")
+        if key not in required and key not in _OPTIONAL_KEYS:
+            raise bad(key, "unknown field" + (" (a version-2 field in a version-1 file)"
+                                              if key in _V2_KEYS else ""))
     if "units" in data and data["units"] != UNITS:
         raise bad("units", f"unsupported units {data['units']!r}", json.dumps(UNITS))
 
@@ -369,7 +397,8 @@ def power_model_from_dict(data: Any, path: str | Path | None = None) -> PowerMod
     nominal = data["nominal_power_w"]
     if not _is_finite_number(nominal) or nominal <= 0:
         raise bad("nominal_power_w", f"{nominal!r}", "a finite positive power [W]")
-    for key in ("domain", "masking", "statistics", "provenance"):
+    for key in ("domain", "masking", "statistics", "provenance",
+                *(_V2_KEYS if version >= 2 else ())):
         if data[key] is not None and not isinstance(data[key], dict):
             raise bad(key, "not an object", "an object or null")
 
@@ -384,6 +413,7 @@ def power_model_from_dict(data: Any, path: str | Path | None = None) -> PowerMod
             masking=data["masking"],
             statistics=data["statistics"],
             provenance=data["provenance"],
+            drive=data.get("drive"),
         )
     except ValueError as exc:
         raise InputError(path, str(exc)) from exc

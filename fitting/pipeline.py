@@ -6,20 +6,21 @@ Writes the outputs of docs/schemas.md §4 into one directory, each file atomical
 from __future__ import annotations
 
 import datetime as _dt
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from bench.errors import InputError
 from fitting import figures
-from fitting.domain import quadrant_hulls
+from fitting.domain import BAND_FRAC, quadrant_envelopes
 from fitting.efficiency import MaskingRules, band_shares, gridded_map, peak_points
 from fitting.loss_table import write_loss_table
 from fitting.model_file import save_power_model
 from fitting.outputs import json_safe, write_json, write_parquet
 from fitting.points import QUADRANTS, load_points
 from fitting.power_fit import check_fit_input, fit_power_model, quadrant_weights
+from fitting.rating import resolve_drive
 from fitting.selection import (
     RULE,
     Candidate,
@@ -31,7 +32,6 @@ from fitting.selection import (
 )
 from fitting.terms import MAX_ORDER, MIN_ORDER, full_polynomial
 
-NOMINAL_POWER_W = 8200.0
 WEIGHTINGS = ("quadrant", "none")
 
 
@@ -49,9 +49,12 @@ class FitOptions:
         k of the k-fold cross-validation.
     weighting : str
         ``quadrant`` (each quadrant counts equally) or ``none`` (plain OLS).
-    masking : MaskingRules
-    nominal_power_w : float
-        Nominal power of the drive [W].
+    mask_mech_frac, mask_elec_frac, envelope_band_frac : float
+        Masking settings (:class:`fitting.efficiency.MaskingRules`) [-].
+    drive : dict
+        Drive rating keys given on the command line (``nominal_power_w``,
+        ``max_speed_rpm``, ``max_torque_nm``); the others come from the store
+        manifest or the data (:func:`fitting.rating.resolve_drive`).
     command : str
         The command line, recorded in the provenance.
     """
@@ -60,8 +63,10 @@ class FitOptions:
     full_order2: bool = False
     folds: int = 5
     weighting: str = "quadrant"
-    masking: MaskingRules = MaskingRules()
-    nominal_power_w: float = NOMINAL_POWER_W
+    mask_mech_frac: float = 0.02
+    mask_elec_frac: float = 0.02
+    envelope_band_frac: float = BAND_FRAC
+    drive: dict = field(default_factory=dict)
     command: str = "bench fit"
 
     def __post_init__(self) -> None:
@@ -76,6 +81,15 @@ class FitOptions:
                              expected="--order 2 --full, or no --full")
         if self.folds < 2:
             raise InputError(None, f"option --folds: {self.folds}", expected="at least 2")
+
+    def masking(self, nominal_power_w: float) -> MaskingRules:
+        """The masking rules for a drive of this nominal power [W]."""
+        try:
+            return MaskingRules(nominal_power_w, mech_frac=self.mask_mech_frac,
+                                elec_frac=self.mask_elec_frac,
+                                envelope_band_frac=self.envelope_band_frac)
+        except ValueError as exc:
+            raise InputError(None, f"masking option: {exc}") from None
 
     def candidate(self) -> Candidate | None:
         """The requested candidate (None: chosen by the selection)."""
@@ -108,22 +122,23 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     Raises
     ------
     InputError
-        Missing or empty store, NaN values, only one quadrant, too few points,
-        a rank-deficient design.
+        Missing or empty store, NaN values, too few points, a rank-deficient
+        design, sessions that disagree on the drive rating.
+
+    Notes
+    -----
+    A campaign that measured one quadrant only (motor or generator) is fitted on
+    that quadrant; the model's validity domain then holds that quadrant alone,
+    and the summary says so.
     """
     points = load_points(store)
     frame = points.frame
     source = Path(store) / "points"
     counts = points.counts()
-    missing = [q for q in QUADRANTS if counts[q] == 0]
-    if missing:
-        present = [q for q in QUADRANTS if counts[q]]
-        raise InputError(
-            source,
-            f"only the {present[0]} quadrant is present ({counts[present[0]]} points, "
-            f"no {missing[0]} points); the power model spans both quadrants",
-            expected="motor (p_mech_w > 0) and generator (p_mech_w <= 0) operating points",
-        )
+    measured = [q for q in QUADRANTS if counts[q]]
+    drive, drive_notes = resolve_drive(store, frame, options.drive)
+    masking = options.masking(drive.nominal_power_w)
+    nominal = drive.nominal_power_w
     speed = frame["speed_rpm"].to_numpy()
     torque = frame["torque_nm"].to_numpy()
     p_elec = frame["p_elec_w"].to_numpy()
@@ -134,19 +149,21 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     fit = None
     if requested is not None:  # fit first: its errors (too few points, rank) are the clearest
         fit = fit_power_model(speed, torque, p_elec, requested.terms, weights=weights,
-                              nominal_power_w=options.nominal_power_w, source=source)
+                              nominal_power_w=nominal, source=source)
     else:
         check_fit_input(full_polynomial(MIN_ORDER), len(frame), source)
     selection = select_model(speed, torque, p_elec, quadrant, weights, folds=options.folds,
-                             nominal_power_w=options.nominal_power_w, source=source,
+                             nominal_power_w=nominal, source=source,
                              progress=progress)
     chosen = requested or selection.chosen
     if fit is None:
         fit = fit_power_model(speed, torque, p_elec, chosen.terms, weights=weights,
-                              nominal_power_w=options.nominal_power_w, source=source)
+                              nominal_power_w=nominal, source=source)
     try:
         extra = extra_terms_check(speed, torque, p_elec, weights,
-                                  nominal_power_w=options.nominal_power_w, source=source)
+                                  rated_speed_rpm=drive.max_speed_rpm,
+                                  rated_torque_nm=drive.max_torque_nm,
+                                  nominal_power_w=nominal, source=source)
     except InputError as exc:
         extra = {"space": paper_space_candidate().name, "skipped": exc.problem}
 
@@ -157,6 +174,7 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
         "weighting": options.weighting,
         "n_points": fit.n_points,
         "points_per_quadrant": counts,
+        "quadrants_measured": measured,
         "r2": fit.r2,
         "r2_weighted": fit.r2_weighted,
         "bic": fit.bic,
@@ -178,12 +196,16 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
         "command": options.command,
         "software": "drivebench fitting.pipeline",
     }
+    envelopes = quadrant_envelopes(frame, masking.envelope_band_frac)
+    statistics["validity"] = validity_statement(counts, envelopes)
+    only = "" if len(measured) == len(QUADRANTS) else f", {measured[0]} quadrant only"
     model = fit.to_power_model(
-        name=f"bench fit: {chosen.name} ({len(chosen.terms)} terms)",
-        domain=quadrant_hulls(frame),
-        masking=options.masking.to_dict(),
+        name=f"bench fit: {chosen.name} ({len(chosen.terms)} terms{only})",
+        domain={q: env["polygon"] for q, env in envelopes.items()},
+        masking=masking.to_dict(),
         statistics=statistics,
         provenance=provenance,
+        drive=drive.to_dict(),
     )
 
     out = Path(out)
@@ -191,10 +213,13 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     (out / "figures").mkdir(exist_ok=True)
     written = [save_power_model(model, out / "power_model.json")]
 
-    emap = gridded_map(frame, options.masking, model=model)
+    # the noise of one point's P_elec, for the map's efficiency ceiling: the fit's
+    # residual RMS per quadrant (measurement noise plus what the model misses)
+    noise = {q: statistics["residuals"][q].get("rmse_w") for q in QUADRANTS}
+    emap = gridded_map(frame, masking, model=model, p_elec_noise_w=noise)
     shares = band_shares(emap)
-    peaks = peak_points(emap, frame, options.masking)
-    meta = {"masking": options.masking.to_dict(), "power_model_sha256": model.sha256,
+    peaks = peak_points(emap, frame, masking)
+    meta = {"masking": masking.to_dict(), "power_model_sha256": model.sha256,
             "points_sha256": points.sha256}
     written.append(write_parquet(out / "efficiency_map.parquet", emap, meta))
     table = selection.table.copy()
@@ -203,9 +228,9 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
                                   "folds": options.folds, "reason": selection.reason}))
     written.append(write_loss_table(model, out / "loss_table.csv"))
     fig_dir = out / "figures"
-    written += figures.efficiency_map_figure(emap, fig_dir, options.masking.to_dict())
+    written += figures.efficiency_map_figure(emap, fig_dir, masking.to_dict(), model.domain)
     written += figures.power_map_figure(emap, frame, fig_dir)
-    written += figures.residuals_figure(frame, fit.residuals_w, options.nominal_power_w, fig_dir)
+    written += figures.residuals_figure(frame, fit.residuals_w, nominal, fig_dir)
 
     summary = {
         "schema": "drivebench.fit_summary",
@@ -217,14 +242,37 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
         "statistics": statistics,
         "selection_table": _records(table),
         "extra_terms_check": extra,
-        "efficiency": {"masking": options.masking.to_dict(), "band_shares": _records(shares),
-                       "peak": peaks},
+        "drive": drive.to_dict(),
+        "notes": drive_notes + [v["note"] for v in statistics["validity"].values()
+                                if not v["measured"]],
+        "efficiency": {"masking": masking.to_dict(), "band_shares": _records(shares),
+                       "peak": peaks,
+                       "envelope": {q: {"band_width_rpm": env["band_width_rpm"],
+                                        "n_points": env["n_points"],
+                                        "n_vertices": len(env["polygon"])}
+                                    for q, env in envelopes.items()}},
         "provenance": provenance,
         "outputs": sorted(str(p.relative_to(out)) for p in written) + ["fit_summary.json"],
     }
     summary = json_safe(summary)
     write_json(out / "fit_summary.json", summary)
     return summary
+
+
+def validity_statement(counts: dict[str, int], envelopes: dict[str, dict]) -> dict:
+    """Per quadrant: measured or not, points, and what the validity domain is."""
+    out = {}
+    for q in QUADRANTS:
+        if q in envelopes:
+            env = envelopes[q]
+            out[q] = {"measured": True, "n_points": counts[q],
+                      "domain": f"measured envelope ({len(env['polygon'])} vertices, speed "
+                                f"bands of {env['band_width_rpm']:.4g} rpm)"}
+        else:
+            out[q] = {"measured": False, "n_points": counts[q],
+                      "note": f"the {q} quadrant was not measured ({counts[q]} points): the "
+                              "model is not valid there and the map does not show it"}
+    return out
 
 
 def _records(frame) -> list[dict]:

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from bench.errors import InputError
 from bench.files import file_sha256
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
@@ -198,7 +200,8 @@ def run_optimize(
         )
         if request.trust:
             trust = run_trust_checks(problem, result.outcomes, request.winds, handle)
-    summary = outputs.summary_frame(result.outcomes)
+    summary = outputs.summary_frame(result.outcomes, model.domain,
+                                    domain_scales(model, options))
     cut_ins = cut_in_frame(result.cut_ins)
     claims = evaluate_claims(summary, cut_ins) if request.claims else None
 
@@ -266,6 +269,43 @@ def run_optimize(
     )
 
 
+def domain_scales(model: Any, options: Any) -> tuple[float, float]:
+    """Speed [rpm] and torque [N m] of distance 1 outside the validity domain.
+
+    The drive's rating when the model states one, else the OCP's drive limits.
+    """
+    drive = getattr(model, "drive", None) or {}
+    return (float(drive.get("max_speed_rpm", options.max_speed_rpm)),
+            float(drive.get("max_torque_nm", options.max_torque_nm)))
+
+
+def domain_lines(summary: Any) -> list[str]:
+    """One line per converged scenario whose cycle leaves the model's validity domain."""
+    lines = []
+    for r in summary.itertuples(index=False):
+        frac = r.outside_domain_time_frac
+        if r.success and np.isfinite(frac) and frac > 0:
+            lines.append(
+                f"{r.scenario}: {100 * frac:.1f} % of the cycle time outside the drive model's "
+                f"validity domain; worst at {r.outside_worst_speed_rpm:.0f} rpm, "
+                f"{r.outside_worst_torque_nm:.1f} N m (distance {r.outside_worst_distance:.3f} "
+                "of the drive rating)")
+    return lines
+
+
+def bound_lines(summary: Any) -> list[str]:
+    """One line per converged scenario on a bound or with a slack tether."""
+    lines = []
+    for r in summary.itertuples(index=False):
+        slack = r.slack_fraction
+        if r.success and (r.active_bounds or (np.isfinite(slack) and slack > 0)):
+            note = (" BOUND-LIMITED: the optimum is the bound's, not the kite's"
+                    if r.bound_limited else "")
+            lines.append(f"{r.scenario}: on {r.active_bounds or 'no bound'}; slack tether "
+                         f"{100 * slack:.1f} % of the cycle{note}")
+    return lines
+
+
 def format_summary(summary: Any) -> str:
     """The summary as a plain-text table (the paper's Table II analogue, and more)."""
     head = (
@@ -281,4 +321,11 @@ def format_summary(summary: Any) -> str:
             f"{r.e_elec_j:>9.0f} {r.peak_speed_rpm:>7.0f} {r.peak_torque_nm:>6.1f} "
             f"{r.p_elec_max_w:>10.0f}"
         )
+    flagged = bound_lines(summary)
+    if flagged:
+        lines += ["", "optima on a bound or with a slack tether:", *flagged]
+    outside = domain_lines(summary)
+    if outside:
+        lines += ["", "outside the drive model's validity domain (the model extrapolates there):",
+                  *outside]
     return "\n".join(lines)

@@ -52,6 +52,27 @@ def normalized_summary(summary: pd.DataFrame, path: Path) -> pd.DataFrame:
     return out
 
 
+def domain_rows(summary: pd.DataFrame) -> list[str] | None:
+    """Per converged scenario leaving the drive model's validity domain: one line.
+
+    None when the summary has no ``outside_domain_time_frac`` column (an older sweep)
+    or the model had no domain (all NaN); an empty list when every cycle stays inside.
+    """
+    if "outside_domain_time_frac" not in summary.columns:
+        return None
+    ok = summary[summary["success"].astype(bool)]
+    frac = ok["outside_domain_time_frac"].astype(float)
+    if ok.empty or frac.isna().all():
+        return None
+    lines = []
+    for r in ok[frac > 0].itertuples(index=False):
+        lines.append(f"{r.scenario}: {fmt(100 * r.outside_domain_time_frac, 1)} % of the cycle "
+                     f"time outside; worst at {fmt(r.outside_worst_speed_rpm, 0)} rpm, "
+                     f"{fmt(r.outside_worst_torque_nm, 1)} N m (distance "
+                     f"{fmt(r.outside_worst_distance, 3)} of the drive rating)")
+    return lines
+
+
 def table_ii(summary: pd.DataFrame) -> dict:
     """Table II analogue: one row per wind speed, P_elec / P_mech [W] per scenario kind.
 
@@ -203,7 +224,8 @@ def optimization_section(log: InputLog, optimize: Path,
     -------
     dict
         ``table_ii``, ``n_failed``, ``scenarios`` (full summary table), ``fig8a``,
-        ``fig8b``, ``fig9``, ``fig10``, ``fig3`` (each markup or None), ``notes``
+        ``fig8b``, ``fig9``, ``fig10``, ``fig3`` (each markup or None), ``domain``
+        (:func:`domain_rows`), ``notes``
         (why a figure is absent), ``claims``, ``run``, ``cut_in``, ``trust``,
         ``manifest``, ``missing``, ``bounds`` (:func:`bound_rows`), ``system``
         (name, hash and file text from the manifest, or None).
@@ -218,7 +240,8 @@ def optimization_section(log: InputLog, optimize: Path,
     out: dict = {"notes": {"fig9": None, "fig3": None}, "manifest": manifest,
                  "table_ii": None, "n_failed": 0, "n_scenarios": 0, "scenarios": None,
                  "fig8a": None, "fig8b": None, "fig9": None, "fig10": None, "fig3": None,
-                 "fig9_periods": [], "fig9_wind": None, "bounds": []}
+                 "fig9_periods": [], "fig9_wind": None, "bounds": [],
+                 "domain": None}
     out["claims"] = claims_rows(claims) if claims is not None else None
     out["run"] = run_rows(manifest, fit_model_sha256) if manifest is not None else []
     out["cut_in"] = cut_in_rows(manifest) if manifest is not None else []
@@ -231,6 +254,7 @@ def optimization_section(log: InputLog, optimize: Path,
         out["n_scenarios"] = len(s)
         out["scenarios"] = frame_table(summary)
         out["bounds"] = bound_rows(summary)
+        out["domain"] = domain_rows(summary)
         out["fig8a"] = cycle_figures.power_vs_wind_figure(
             s, "avg_p_elec_w", "fig8a", "Average generated ELECTRICAL power (Fig. 8a)")
         out["fig8b"] = cycle_figures.power_vs_wind_figure(

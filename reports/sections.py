@@ -213,10 +213,32 @@ def efficiency_section(log: InputLog, fit: Path, model: PowerModel | None,
         "grid": grid,
         "masking": _flatten(masking),
         "rules": rules,
+        "notes": efficiency_notes(model, summary),
         "bands": band_table(eff.get("band_shares") or []),
         "peaks": peak_rows(eff.get("peak") or {}),
         "missing": _missing_since(log, start),
     }
+
+
+def efficiency_notes(model: PowerModel | None, summary: dict | None) -> list[str]:
+    """Lines about what the map and model stand on: drive rating, quadrants, ceilings."""
+    notes = []
+    drive = (model.drive if model is not None else None) or (summary or {}).get("drive")
+    if isinstance(drive, dict) and {"nominal_power_w", "max_speed_rpm",
+                                    "max_torque_nm"} <= set(drive):
+        notes.append(f"Drive rating: {fmt(drive['nominal_power_w'], 0)} W nominal, |speed| <= "
+                     f"{fmt(drive['max_speed_rpm'], 0)} rpm, torque <= "
+                     f"{fmt(drive['max_torque_nm'], 1)} N m ({drive.get('source', '')}).")
+    notes += [str(n) for n in (summary or {}).get("notes") or []]
+    for q, entry in (((summary or {}).get("efficiency") or {}).get("peak") or {}).items():
+        c = (entry or {}).get("ceiling")
+        if isinstance(c, dict) and c.get("eta") is not None:
+            clipped = c.get("n_clipped_nodes") or 0
+            notes.append(f"{q}: no map node shows an efficiency above {fmt(c['eta'], 3)} (the "
+                         f"highest measured {fmt(c.get('eta_max_measured'), 3)} plus its noise "
+                         f"{fmt(c.get('noise_eta'), 3)})"
+                         + (f"; {clipped} nodes were clipped to it." if clipped else "."))
+    return notes
 
 
 def efficiency_grid(emap: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -259,7 +281,7 @@ def peak_rows(peaks: dict) -> list[dict]:
     rows = []
     for quadrant, entry in peaks.items():
         for where, p in (entry or {}).items():
-            if isinstance(p, dict):
+            if isinstance(p, dict) and where != "ceiling":
                 rows.append({"quadrant": str(quadrant), "where": str(where),
                              "speed_rpm": fmt(p.get("speed_rpm"), 0),
                              "torque_nm": fmt(p.get("torque_nm"), 1),

@@ -218,7 +218,7 @@ file = "points.csv"
 {mapping_line}
 [sensors]
 torque_range_nm = 100.0
-speed_range_rpm = 3000.0
+speed_range_rpm = 5000.0  # logged on the motor side: up to 4500 rpm
 power_range_w = 15000.0
 ''')
     return {"speed_rpm": speed, "torque_nm": torque, "p_elec_w": p, "mapping": mapping,

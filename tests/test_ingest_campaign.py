@@ -168,3 +168,17 @@ def test_point_table_session(ingested):
         np.testing.assert_allclose(got.torque_nm - t["torque_zero_offset_drum_nm"],
                                    want.torque_nm, atol=0.05)
         np.testing.assert_allclose(got.p_elec_w, want.p_elec_w, atol=10.0)
+
+
+def test_drive_rating_recorded_from_drive_toml(ingested):
+    # raw_measurements/drive.toml (bench synth) states the paper's drive: REFERENCE.md §1,
+    # 8.2 kW, |speed| <= 1500 rpm, torque <= 78 N m; every session records it
+    truth, _, man, _ = ingested
+    for sid in truth["sessions"]:
+        drive = man["sessions"][sid]["drive"]
+        assert (drive["nominal_power_w"], drive["max_speed_rpm"], drive["max_torque_nm"]) == (
+            8200.0, 1500.0, 78.0)
+        assert drive["sources"] == dict.fromkeys(
+            ("nominal_power_w", "max_speed_rpm", "max_torque_nm"), "drive.toml")
+        assert "Stuyts" in drive["source"]
+        assert "campaign/drive.toml" in man["sessions"][sid]["files"]

@@ -450,3 +450,20 @@ def test_report_reads_the_real_fit_outputs(tmp_path):
     assert any("negative efficiency" in r for r in eff["rules"])
     assert power["selection"]["rows"] and power["extra_terms"] is not None
     assert len(points) == ctx["campaign"]["totals"]["points"]
+
+
+def test_cycles_outside_the_validity_domain_are_listed():
+    from reports.optimization import domain_rows
+    summary = pd.DataFrame({
+        "scenario": ["elec-lim-5.5", "elec-lim-7.0", "mech-free-8.5"],
+        "success": [True, True, False],
+        "outside_domain_time_frac": [0.5, 0.0, math.nan],
+        "outside_worst_speed_rpm": [-1200.0, math.nan, math.nan],
+        "outside_worst_torque_nm": [60.0, math.nan, math.nan],
+        "outside_worst_distance": [0.8333, 0.0, math.nan]})
+    rows = domain_rows(summary)
+    assert rows == ["elec-lim-5.5: 50.0 % of the cycle time outside; worst at -1200 rpm, "
+                    "60.0 N m (distance 0.833 of the drive rating)"]
+    inside = summary.assign(outside_domain_time_frac=[0.0, 0.0, math.nan])
+    assert domain_rows(inside) == []
+    assert domain_rows(summary.drop(columns="outside_domain_time_frac")) is None

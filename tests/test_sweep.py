@@ -406,6 +406,7 @@ class CycleBackend(NewtonBackend):
         traj = pd.DataFrame(
             {
                 "time_s": [1.0, 2.0, 3.0],
+                "weight": [1 / 3, 1 / 3, 1 / 3],  # quadrature weights, as real trajectories carry
                 "l_m": [100.0, 120.0, 110.0],
                 "speed_rpm": [-100.0 * w, 50.0, 80.0 * w],
                 "torque_nm": [10.0 * w, 5.0, 1.0],

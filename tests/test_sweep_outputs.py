@@ -49,6 +49,7 @@ def hand_trajectory() -> pd.DataFrame:
             "torque_nm": [60.0, 78.0, 10.0, 20.0],
             "p_elec_w": [-6000.0, -5000.0, 1500.0, 900.0],
             "altitude_m": [80.0, 95.0, 120.0, 70.0],
+            "weight": [0.25, 0.25, 0.25, 0.25],
         }
     )
 
@@ -94,6 +95,25 @@ def test_summary_metrics_from_a_hand_made_cycle():
     assert bad["warm_source"] == "cold start" and not bad["drive_limits"]
     metrics = list(SUMMARY_COLUMNS)[list(SUMMARY_COLUMNS).index("period_s") :]
     assert all(math.isnan(bad[c]) for c in metrics)
+
+
+def test_summary_marks_cycle_points_outside_the_validity_domain():
+    # A motor-only model (domain: 50..1500 rpm x 1..78 N m, motor side): the two
+    # reel-out points (-1200 rpm, 60 N m) and (-800 rpm, 78 N m) lie outside, half the
+    # cycle time (equal weights). The farthest is -1200 rpm: nearest domain point
+    # (50, 60), distance 1250 / 1500 in units of the drive rating.
+    box = [[50.0, 1.0], [1500.0, 1.0], [1500.0, 78.0], [50.0, 78.0]]
+    s = summary_frame(outcomes(), {"motor": box}, (1500.0, 78.0)).set_index("scenario")
+    row = s.loc["elec-lim-5.5"]
+    assert row["outside_domain_time_frac"] == pytest.approx(0.5, rel=1e-12)
+    assert (row["outside_worst_speed_rpm"], row["outside_worst_torque_nm"]) == (-1200.0, 60.0)
+    assert row["outside_worst_distance"] == pytest.approx(1250 / 1500, rel=1e-12)
+    # a two-quadrant domain holding the whole cycle: nothing outside
+    gen = [[-1500.0, 1.0], [-40.0, 1.0], [-40.0, 78.0], [-1500.0, 78.0]]
+    inside = summary_frame(outcomes(), {"motor": box, "generator": gen}, (1500.0, 78.0))
+    assert inside.set_index("scenario").loc["elec-lim-5.5", "outside_domain_time_frac"] == 0.0
+    from optimize.command import format_summary
+    assert "50.0 % of the cycle time outside" in format_summary(s.reset_index())
 
 
 def test_summary_round_trip_keeps_values_and_units(tmp_path):

@@ -1,19 +1,26 @@
 """Column mapping: which column of a file holds which of our quantities, in which unit.
 
-A mapping file (TOML or JSON, docs/schemas.md section 1) names foreign columns;
-columns it does not name are recognised from ``Name [unit]`` headers (or a
-units row) by the aliases below, so our own instruments need no mapping file.
+A mapping file (TOML or JSON, docs/schemas.md section 1) names foreign columns,
+combines several (``sum``, ``expr``) and says how many lines to skip before a
+file's header (``skip_lines``). Columns it does not name are recognised from
+``Name [unit]`` headers (or a units row) by the aliases below, so our own
+instruments need no mapping file; p_mech is only ever taken from a mapping.
 """
 
 from __future__ import annotations
 
+import difflib
 import json
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from bench.errors import InputError
-from bench.ingest.units import ACCEPTED, QUANTITY_KIND, split_header, unit_factor
+from bench.ingest import expr
+from bench.ingest.units import ACCEPTED, QUANTITY_KIND, split_header, unit_factor, unit_problem
 
 #: file sections a mapping may describe, and the quantities each may name
 SECTION_QUANTITIES: dict[str, tuple[str, ...]] = {
@@ -23,32 +30,48 @@ SECTION_QUANTITIES: dict[str, tuple[str, ...]] = {
     ),
     "daq": ("time", "speed", "torque"),
     "analyzer": ("time", "p_elec"),
+    "log": ("time", "speed", "torque", "p_elec", "p_mech"),
 }
 
-#: header names (unit stripped, lower case) recognised without a mapping
+#: the sections written as ``[<name>.columns.*]`` (points use top-level ``[columns.*]``)
+STREAM_SECTIONS = ("daq", "analyzer", "log")
+
+#: header names (unit stripped, lower case) recognised without a mapping; p_mech has
+#: none on purpose: a column that merely looks like it (a swapped header) must never
+#: be used unless the mapping names it
 ALIASES: dict[str, tuple[str, ...]] = {
     "time": ("time", "zeit", "t", "time_s"),
     "speed": ("speed", "drehzahl", "n", "speed_rpm", "rotational speed"),
     "torque": ("torque", "drehmoment", "m", "torque_nm"),
     "p_elec": ("p_sigma", "p_elec", "p_el", "p", "p_total", "wirkleistung", "p_elec_w"),
-    "p_mech": ("p_mech", "p_mech_w"),
 }
+
+#: how many column names an error message lists at most
+MAX_LISTED = 6
+
+#: lines ``skip_lines`` may skip at most (a title block, not a file)
+MAX_SKIP_LINES = 1000
 
 
 @dataclass(frozen=True)
 class ColumnSpec:
-    """One mapped column.
+    """One mapped quantity: a column, a sum of columns or an expression over columns.
 
     Parameters
     ----------
     column : str
-        The column name as written in the file.
+        The column name as written in the file; for ``sum`` and ``expr`` entries
+        the expression text (``{P_1 [W]} + {P_2 [W]}``).
     unit : str
-        Its unit (docs/schemas.md unit table; ``""`` for counts).
+        The unit of the column or of the combination's result (docs/schemas.md
+        unit table; ``""`` for counts).
+    formula : expr.Node or None
+        The parsed combination; None for a single column.
     """
 
     column: str
     unit: str
+    formula: expr.Node | None = None
 
 
 @dataclass(frozen=True)
@@ -60,15 +83,22 @@ class Mapping:
     path : Path or None
         Where it was read from (for error messages); None for the empty mapping.
     sections : dict
-        ``{"points"|"daq"|"analyzer": {quantity: ColumnSpec}}``.
+        ``{"points"|"daq"|"analyzer"|"log": {quantity: ColumnSpec}}``.
+    skip_lines : dict
+        ``{section: lines to skip before the file's header}`` (absent: 0).
     """
 
     path: Path | None = None
     sections: dict[str, dict[str, ColumnSpec]] = field(default_factory=dict)
+    skip_lines: dict[str, int] = field(default_factory=dict)
 
     def section(self, name: str) -> dict[str, ColumnSpec]:
         """Entries of one section (empty when the mapping does not mention it)."""
         return self.sections.get(name, {})
+
+    def skip(self, name: str) -> int:
+        """Lines to skip at the top of the file of section ``name`` before its header."""
+        return self.skip_lines.get(name, 0)
 
 
 EMPTY_MAPPING = Mapping()
@@ -80,8 +110,9 @@ def load_mapping(path: str | Path) -> Mapping:
     Raises
     ------
     InputError
-        Unreadable file, unknown section or quantity, missing ``column``/``unit``,
-        or an unknown unit.
+        Unreadable file, unknown section or quantity, an entry without exactly one
+        of ``column``/``sum``/``expr`` and a ``unit``, an expression syntax error
+        (with its position), a bad ``skip_lines``, or an unknown unit.
     """
     path = Path(path)
     try:
@@ -94,21 +125,40 @@ def load_mapping(path: str | Path) -> Mapping:
         raise InputError(
             path, f"not a valid mapping file ({exc})", expected="TOML or JSON"
         ) from exc
+    if not isinstance(raw, dict):
+        raise InputError(path, "a mapping file must be a table", expected="TOML or a JSON object")
     sections: dict[str, dict[str, ColumnSpec]] = {}
+    skip: dict[str, int] = {}
     if "columns" in raw:
         sections["points"] = _parse_columns(path, "columns", raw["columns"], "points")
-    for name in ("daq", "analyzer"):
-        if name in raw:
-            if not isinstance(raw[name], dict) or set(raw[name]) != {"columns"}:
-                raise InputError(path, f"section [{name}] must hold only [{name}.columns.*] tables")
-            sections[name] = _parse_columns(path, f"{name}.columns", raw[name]["columns"], name)
-    unknown = set(raw) - {"columns", "daq", "analyzer"}
+    if "skip_lines" in raw:
+        skip["points"] = _parse_skip(path, "skip_lines", raw["skip_lines"])
+    for name in STREAM_SECTIONS:
+        if name not in raw:
+            continue
+        table = raw[name]
+        if not isinstance(table, dict) or not set(table) <= {"columns", "skip_lines"}:
+            raise InputError(path, f"section [{name}] may hold only [{name}.columns.*] tables "
+                             "and skip_lines", column=name)
+        if "columns" in table:
+            sections[name] = _parse_columns(path, f"{name}.columns", table["columns"], name)
+        if "skip_lines" in table:
+            skip[name] = _parse_skip(path, f"{name}.skip_lines", table["skip_lines"])
+    unknown = set(raw) - {"columns", "skip_lines", *STREAM_SECTIONS}
     if unknown:
         raise InputError(
             path, f"unknown mapping section(s) {sorted(unknown)}",
-            expected="[columns.*], [daq.columns.*] or [analyzer.columns.*]",
+            expected="skip_lines, [columns.*], "
+            + ", ".join(f"[{s}.columns.*]" for s in STREAM_SECTIONS),
         )
-    return Mapping(path=path, sections=sections)
+    return Mapping(path=path, sections=sections, skip_lines=skip)
+
+
+def _parse_skip(path: Path, key: str, value: object) -> int:
+    if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value <= MAX_SKIP_LINES:
+        raise InputError(path, f"bad value {value!r} for {key}", column=key,
+                         expected=f"a whole number of lines from 0 to {MAX_SKIP_LINES}")
+    return value
 
 
 def _parse_columns(path: Path, where: str, table: object, section: str) -> dict[str, ColumnSpec]:
@@ -116,22 +166,61 @@ def _parse_columns(path: Path, where: str, table: object, section: str) -> dict[
         raise InputError(path, f"[{where}] must be a table of quantities")
     out: dict[str, ColumnSpec] = {}
     for quantity, entry in table.items():
+        key = f"{where}.{quantity}"
         if quantity not in SECTION_QUANTITIES[section]:
             raise InputError(
-                path, f"unknown quantity [{where}.{quantity}]",
+                path, f"unknown quantity [{key}]",
                 expected="one of " + ", ".join(SECTION_QUANTITIES[section]),
             )
-        if not isinstance(entry, dict) or set(entry) != {"column", "unit"}:
-            raise InputError(path, f"[{where}.{quantity}] must have exactly 'column' and 'unit'")
-        spec = ColumnSpec(str(entry["column"]), str(entry["unit"]))
-        if quantity != "n_samples" and unit_factor(QUANTITY_KIND[quantity], spec.unit) is None:
+        sources = set(entry) & {"column", "sum", "expr"} if isinstance(entry, dict) else set()
+        if (not isinstance(entry, dict) or len(sources) != 1
+                or set(entry) != sources | {"unit"}):
+            raise InputError(
+                path, f"[{key}] must have a 'unit' and exactly one of 'column', 'sum', 'expr'",
+                column=key, expected='column = "Name", sum = ["A", "B"] or '
+                'expr = "{A} * {B}", and unit = "..."',
+            )
+        unit = entry["unit"]
+        if not isinstance(unit, str):
+            raise InputError(path, f"[{key}] unit must be a string", column=f"{key}.unit")
+        spec = _parse_source(path, key, sources.pop(), entry, unit)
+        if quantity != "n_samples" and unit_factor(QUANTITY_KIND[quantity], unit) is None:
             kind = QUANTITY_KIND[quantity]
             raise InputError(
-                path, f"unknown unit {spec.unit!r} for {quantity}", column=spec.column,
+                path, f"{unit_problem(kind, unit)} for {quantity}", column=f"{key}.unit",
                 expected=ACCEPTED[kind],
             )
         out[quantity] = spec
     return out
+
+
+def _parse_source(path: Path, key: str, how: str, entry: dict, unit: str) -> ColumnSpec:
+    value = entry[how]
+    if how == "column":
+        if not isinstance(value, str) or not value.strip():
+            raise InputError(path, f"[{key}] column must be a column name", column=f"{key}.column")
+        return ColumnSpec(value, unit)
+    if how == "sum":
+        if (not isinstance(value, list) or len(value) < 2
+                or not all(isinstance(v, str) and v.strip() for v in value)):
+            raise InputError(path, f"[{key}] sum must list two or more column names",
+                             column=f"{key}.sum", expected='sum = ["P_1 [W]", "P_2 [W]"]')
+        names = [v.strip() for v in value]
+        return ColumnSpec(" + ".join(f"{{{n}}}" for n in names), unit, expr.sum_of(names))
+    if not isinstance(value, str):
+        raise InputError(path, f"[{key}] expr must be a string", column=f"{key}.expr")
+    try:
+        formula = expr.parse(value)
+    except expr.ExprError as exc:
+        raise InputError(
+            path, f"[{key}] expr: {exc.problem} at position {exc.position + 1}:\n"
+            + expr.pointer(value, exc.position), column=f"{key}.expr",
+            expected="{column names} in braces, numbers, + - * / and parentheses",
+        ) from exc
+    if not expr.columns(formula):
+        raise InputError(path, f"[{key}] expr names no column", column=f"{key}.expr",
+                         expected="at least one {column name} in braces")
+    return ColumnSpec(value.strip(), unit, formula)
 
 
 @dataclass(frozen=True)
@@ -141,19 +230,67 @@ class ResolvedColumn:
     Parameters
     ----------
     index : int
-        0-based column index in the file.
+        0-based index of the column in the file (of the first column a
+        combination reads).
     header : str
-        The column's header as written.
+        The column's header as written (a combination: its expression text).
     unit : str
         The unit as written (or as the mapping says).
     factor : float
         Multiplier to our unit (1.0 for counts).
+    formula : expr.Node or None
+        A combination of columns (``sum``/``expr``); None for a single column.
+    sources : tuple of (str, int)
+        ``(name in the formula, column index)`` of every column a combination
+        reads; ``((header, index),)`` for a single column.
     """
 
     index: int
     header: str
     unit: str
     factor: float
+    formula: expr.Node | None = None
+    sources: tuple[tuple[str, int], ...] = ()
+
+    @property
+    def indices(self) -> tuple[int, ...]:
+        """Every file column this quantity reads, sorted, unique."""
+        return tuple(sorted({i for _, i in self.sources} | {self.index}))
+
+    def values(self, column: Callable[[int], np.ndarray]) -> np.ndarray:
+        """The quantity in our unit: ``column(index)`` gives a file column as float64.
+
+        A single column is scaled by :attr:`factor`; a combination is evaluated
+        first (non-finite results become NaN) and then scaled.
+        """
+        if self.formula is None:
+            x = column(self.index)
+        else:
+            index = dict(self.sources)
+            x = np.asarray(expr.evaluate(self.formula, lambda name: column(index[name])),
+                           dtype=np.float64)
+            x = np.where(np.isfinite(x), x, np.nan)
+        return x * self.factor if self.factor != 1.0 else x
+
+
+def closest_columns(wanted: list[str], headers: list[str], limit: int = MAX_LISTED) -> str:
+    """The few headers most like any of ``wanted`` and the count of the rest (for messages).
+
+    All headers are listed when there are at most ``limit`` of them.
+    """
+    if len(headers) <= limit:
+        return "one of the file's columns: " + ", ".join(repr(h) for h in headers)
+    scored: dict[str, float] = {}
+    lower = {h: split_header(h)[0].lower() for h in headers}
+    for w in wanted:
+        wl = split_header(w)[0].lower()
+        for h in headers:
+            ratio = max(difflib.SequenceMatcher(None, wl, lower[h]).ratio(),
+                        difflib.SequenceMatcher(None, w.lower(), h.lower()).ratio())
+            scored[h] = max(scored.get(h, 0.0), ratio)
+    best = sorted(headers, key=lambda h: -scored[h])[:limit]
+    return (f"closest of the file's {len(headers)} columns: "
+            + ", ".join(repr(h) for h in best) + f" (and {len(headers) - len(best)} more)")
 
 
 def resolve_columns(
@@ -177,11 +314,13 @@ def resolve_columns(
     units_row : list of str or None
         A units row under the names (German exports), else None.
     section : str
-        ``"daq"``, ``"analyzer"`` or ``"points"``.
+        A key of :data:`SECTION_QUANTITIES` (``"daq"``, ``"analyzer"``,
+        ``"log"``, ``"points"``).
     required, optional : tuple of str
-        Quantities that must be found / may be found.
+        Quantities that must be found / may be found. ``p_mech`` is found only
+        when the mapping names it.
     mapping : Mapping
-        Explicit column names; they win over aliases.
+        Explicit columns and combinations; they win over aliases.
     header_line : int, optional
         1-based line of the names row.
 
@@ -193,8 +332,9 @@ def resolve_columns(
     Raises
     ------
     InputError
-        A mapped column that does not exist (names the mapping file), a missing
-        required column, or a column whose unit is missing or unknown.
+        A mapped column that does not exist (names the mapping file and the
+        closest columns), a missing required column, a column whose unit is
+        missing or unknown, or one column taken for two quantities.
     """
     stripped = [h.strip() for h in headers]
     bare = [split_header(h)[0].lower() for h in stripped]
@@ -202,26 +342,37 @@ def resolve_columns(
     for quantity, spec in mapping.section(section).items():
         if quantity not in required + optional:
             continue
-        idx = _find_mapped(stripped, bare, spec.column)
-        if idx is None:
-            raise InputError(
-                mapping.path, f"mapping names column {spec.column!r} for {quantity}, "
-                f"but {path.name} has no such column", column=spec.column,
-                expected="one of the file's columns: " + ", ".join(repr(h) for h in stripped),
-            )
         factor = 1.0 if quantity == "n_samples" else unit_factor(QUANTITY_KIND[quantity], spec.unit)
-        found[quantity] = ResolvedColumn(idx, stripped[idx], spec.unit, float(factor))
+        names = ([c.name for c in expr.columns(spec.formula)] if spec.formula is not None
+                 else [spec.column])
+        sources = []
+        for name in names:
+            idx = _find_mapped(stripped, bare, name)
+            if idx is None:
+                where = "" if spec.formula is None else f" in {spec.column!r}"
+                raise InputError(
+                    mapping.path, f"mapping names column {name!r} for {quantity}{where}, "
+                    f"but {path.name} has no such column"
+                    + _header_hint(found, header_line, section), column=name,
+                    expected=closest_columns([name], stripped),
+                )
+            sources.append((name, idx))
+        header = stripped[sources[0][1]] if spec.formula is None else spec.column
+        found[quantity] = ResolvedColumn(sources[0][1], header, spec.unit, float(factor),
+                                         spec.formula, tuple(sources))
     for quantity in required + optional:
-        if quantity in found:
+        if quantity in found or quantity not in ALIASES:
             continue
-        idx = next((i for i, b in enumerate(bare) if b in ALIASES.get(quantity, ())), None)
+        idx = next((i for i, b in enumerate(bare) if b in ALIASES[quantity]), None)
         if idx is None:
             if quantity in required:
                 raise InputError(
-                    path, f"missing column for {quantity}", line=header_line, column=quantity,
+                    path, f"missing column for {quantity}" + _header_hint(found, header_line,
+                                                                          section),
+                    line=header_line, column=quantity,
                     expected=f"a column named like {ALIASES[quantity][0].title()!r} with a unit, "
-                    f"or a mapping entry [{section}.columns.{quantity}]; found columns: "
-                    + ", ".join(repr(h) for h in stripped),
+                    f"or a mapping entry [{section}.columns.{quantity}]; "
+                    + closest_columns(list(ALIASES[quantity]), stripped),
                 )
             continue
         unit = split_header(stripped[idx])[1]
@@ -236,11 +387,36 @@ def resolve_columns(
         factor = unit_factor(kind, unit)
         if factor is None:
             raise InputError(
-                path, f"unknown unit {unit!r} for {quantity}", line=header_line,
+                path, f"{unit_problem(kind, unit)} for {quantity}", line=header_line,
                 column=stripped[idx], expected=ACCEPTED[kind],
             )
-        found[quantity] = ResolvedColumn(idx, stripped[idx], unit, factor)
+        found[quantity] = ResolvedColumn(idx, stripped[idx], unit, factor,
+                                         sources=((stripped[idx], idx),))
+    _check_distinct(path, mapping, found)
     return found
+
+
+def _header_hint(found: dict, header_line: int | None, section: str) -> str:
+    """When nothing of the names row matched, it may be a title or date line above it."""
+    if found or header_line is None:
+        return ""
+    key = "skip_lines" if section == "points" else f"[{section}] skip_lines"
+    return (f" (the column row read is line {header_line}; if lines above the real column row "
+            f"hold a title or a date, skip them with {key} = N in the mapping file)")
+
+
+def _check_distinct(path: Path, mapping: Mapping, found: dict[str, ResolvedColumn]) -> None:
+    """Refuse one column (or one combination) taken for two quantities."""
+    seen: dict[tuple, str] = {}
+    for quantity, r in found.items():
+        key = (r.header, r.indices) if r.formula is not None else (None, (r.index,))
+        if key in seen:
+            raise InputError(
+                mapping.path or path, f"column {r.header!r} of {path.name} is taken for both "
+                f"{seen[key]} and {quantity}", column=r.header,
+                expected="a different column for each quantity (check the mapping)",
+            )
+        seen[key] = quantity
 
 
 def _find_mapped(stripped: list[str], bare: list[str], column: str) -> int | None:

@@ -9,6 +9,7 @@ files changes no byte of the store.
 
 from __future__ import annotations
 
+import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -19,6 +20,7 @@ import pyarrow.parquet as pq
 from tqdm import tqdm
 
 from bench import store
+from bench.drive import find_drive_file, session_drive
 from bench.errors import InputError
 from bench.files import file_sha256
 from bench.ingest.mapping import EMPTY_MAPPING, load_mapping
@@ -30,7 +32,8 @@ from bench.ingest.timeseries import SessionOutput, process_timeseries
 
 #: bump when ingest would compute different points from the same files; sessions
 #: stored by another version are re-ingested
-INGEST_VERSION = 3  # 2: torque zero offset from the tare; 3: oscillations cut into pieces
+INGEST_VERSION = 4  # 2: torque zero offset from the tare; 3: oscillations cut into pieces;
+#                    4: the drive rating (drive.toml, session.toml) in the manifest
 
 
 @dataclass
@@ -131,6 +134,7 @@ def ingest(
     manifest = store.read_manifest(store_dir)
     sessions: list[Session] = []
     seen: dict[str, Path] = {}
+    drives: dict[str, tuple[dict | None, Path | None]] = {}  # rating, drive.toml
     for folder in discover(paths):
         s = load_session(folder)
         if s.session_id in seen:
@@ -138,6 +142,9 @@ def ingest(
                              expected=f"unique session ids (also in {seen[s.session_id]})")
         seen[s.session_id] = folder
         sessions.append(s)
+        drive_file = find_drive_file(folder, [Path(p) for p in paths])
+        label = "" if drive_file is None else os.path.relpath(drive_file, folder.parent)
+        drives[s.session_id] = (session_drive(s.raw, s.path, drive_file, label), drive_file)
 
     result = IngestResult(store_dir=store_dir)
     todo = []
@@ -150,6 +157,9 @@ def ingest(
             named = {f"{s.session_id}/{name}": p for name, p in files.items()}
             if mapping_file is not None and mapping_file not in files.values():
                 named[f"--mapping/{mapping_file.name}"] = mapping_file
+            drive_file = drives[s.session_id][1]
+            if drive_file is not None:  # a changed drive.toml re-ingests the session
+                named[f"campaign/{os.path.relpath(drive_file, s.folder.parent)}"] = drive_file
             hashes = {k: hasher.submit(file_sha256, p) for k, p in named.items()}
             old = manifest["sessions"].get(s.session_id)
             if (old is not None and old.get("ingest_version") == INGEST_VERSION
@@ -160,7 +170,8 @@ def ingest(
         if not todo:
             result.manifest = manifest
             return result
-        _process(todo, store_dir, config, progress, chunk_bytes, workers, result)
+        _process(todo, store_dir, config, progress, chunk_bytes, workers, result,
+                 {sid: d for sid, (d, _) in drives.items()})
     finally:
         hasher.shutdown(cancel_futures=True)
     result.manifest = store.read_manifest(store_dir)
@@ -168,7 +179,7 @@ def ingest(
 
 
 def _process(todo, store_dir: Path, config: SteadyConfig, progress: bool, chunk_bytes: int,
-             workers: int, result: IngestResult) -> None:
+             workers: int, result: IngestResult, drives: dict[str, dict | None]) -> None:
     """Process the changed sessions into a staging dir, then commit them all at once.
 
     Sessions run in ``workers`` threads: parsing, numpy and Parquet writing release
@@ -213,7 +224,8 @@ def _process(todo, store_dir: Path, config: SteadyConfig, progress: bool, chunk_
         entries: dict[str, dict] = {}
         for (s, hashes, _, _), (files, out) in zip(todo, outputs, strict=True):
             staged[s.session_id] = files
-            entries[s.session_id] = _entry(s, {k: f.result() for k, f in hashes.items()}, out)
+            entries[s.session_id] = _entry(s, {k: f.result() for k, f in hashes.items()}, out,
+                                           drives.get(s.session_id))
             result.ingested.append(s.session_id)
         store.commit(store_dir, staged, entries)
 
@@ -229,7 +241,8 @@ def _stage(stage: Path, sid: str, out: SessionOutput) -> dict[str, Path]:
     return files
 
 
-def _entry(s: Session, hashes: dict[str, str], out: SessionOutput) -> dict:
+def _entry(s: Session, hashes: dict[str, str], out: SessionOutput,
+           drive: dict | None) -> dict:
     quadrants = out.points.column("quadrant").to_pylist()
     reasons = out.rejected.column("reason").to_pylist()
     entry = {
@@ -241,6 +254,7 @@ def _entry(s: Session, hashes: dict[str, str], out: SessionOutput) -> dict:
         "points_per_quadrant": {q: quadrants.count(q) for q in ("motor", "generator")},
         "rejected": {r: reasons.count(r) for r in sorted(set(reasons))},
         "metadata": s.raw,
+        "drive": drive,
         "ingested_at": datetime.now(UTC).isoformat(timespec="seconds"),
     }
     entry.update(out.info)

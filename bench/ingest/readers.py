@@ -14,9 +14,10 @@ Values come out in our units (s, rpm, N m, W) with invalid markers as NaN.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from datetime import datetime
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -139,7 +140,7 @@ def _guess_decimal(sep: str, sample_rows: list[str]) -> str:
     return "," if re.search(r"\d,\d", joined) and not re.search(r"\d\.\d", joined) else "."
 
 
-def sniff_csv(path: str | Path, preamble: bool = False) -> CsvLayout:
+def sniff_csv(path: str | Path, preamble: bool = False, skip_lines: int = 0) -> CsvLayout:
     """Sniff separator, decimal mark, names row and optional units row of a CSV file.
 
     Parameters
@@ -149,6 +150,9 @@ def sniff_csv(path: str | Path, preamble: bool = False) -> CsvLayout:
     preamble : bool
         True for analyzer exports: ``key,value`` lines and a blank line come
         before the names row.
+    skip_lines : int
+        Lines at the top to pass over before anything else (a title or date
+        line; the mapping's ``skip_lines``).
 
     Raises
     ------
@@ -170,7 +174,11 @@ def sniff_csv(path: str | Path, preamble: bool = False) -> CsvLayout:
         lines[0] = lines[0][1:]
     offsets = np.cumsum([0] + [len(ln) + 1 for ln in raw_lines]).tolist()
 
-    idx = 0
+    if skip_lines >= len(lines):
+        raise InputError(path, f"skip_lines = {skip_lines} passes over the whole header "
+                         f"({len(lines)} lines read)", expected="the number of lines before the "
+                         "column row (a title or date line)")
+    idx = skip_lines
     meta: dict[str, str] = {}
     if preamble:
         while idx < len(lines) and lines[idx].strip():
@@ -204,6 +212,14 @@ def sniff_csv(path: str | Path, preamble: bool = False) -> CsvLayout:
     if data_idx >= len(lines) or not lines[data_idx].strip():
         raise InputError(path, "no data rows", line=header_idx + 1,
                          expected="data under the header")
+    n_data = len(_split(lines[data_idx], sep))
+    if len(headers) < n_data and (len(headers) == 1 or units_row is not None):
+        raise InputError(
+            path, f"the column row (line {header_idx + 1}) has {len(headers)} field(s) but the "
+            f"data rows have {n_data}: is line {header_idx + 1} a title or date line?",
+            line=header_idx + 1,
+            expected="skip_lines = N in the mapping file (the lines before the column row)",
+        )
     return CsvLayout(
         path=path, sep=sep, decimal=decimal, encoding=encoding, headers=headers,
         units_row=units_row, header_line=header_idx + 1, data_line=data_idx + 1,
@@ -227,12 +243,12 @@ def _locate_bad_row(
                 layout.path, f"row has {len(cells)} fields ({what})", line=first_line + k,
                 expected=f"{n} fields separated by {layout.sep!r}",
             )
-        for res in cols.values():
-            cell = cells[res.index]
+        for i in sorted({i for res in cols.values() for i in res.indices}):
+            cell = cells[i]
             if cell and not _is_number(cell, layout.decimal):
                 return InputError(
                     layout.path, f"not a number: {cell!r}", line=first_line + k,
-                    column=res.header,
+                    column=layout.headers[i],
                     expected=f"a number with decimal mark {layout.decimal!r} or an invalid marker",
                 )
     return InputError(layout.path, "cannot parse CSV data", line=first_line)
@@ -266,12 +282,12 @@ def iter_csv(
         not a number, naming its line.
     """
     names = [f"c{i}" for i in range(len(layout.headers))]
-    wanted = {q: names[r.index] for q, r in cols.items()}
+    read_cols = sorted({names[i] for r in cols.values() for i in r.indices})
     read_opts = pacsv.ReadOptions(column_names=names, use_threads=True, block_size=1 << 22)
     parse_opts = pacsv.ParseOptions(delimiter=layout.sep, quote_char='"')
     conv_opts = pacsv.ConvertOptions(
-        column_types={c: pa.float64() for c in wanted.values()},
-        include_columns=sorted(set(wanted.values())),
+        column_types={c: pa.float64() for c in read_cols},
+        include_columns=read_cols,
         null_values=list(NULL_MARKERS),
         strings_can_be_null=True,
         decimal_point=layout.decimal,
@@ -304,7 +320,7 @@ def iter_csv(
             except (pa.ArrowInvalid, pa.ArrowNotImplementedError) as exc:
                 raise _locate_bad_row(layout, bytes(view[:end]), _line_at(layout, offset),
                                       cols) from exc
-            values = {q: _column(table, c, cols[q].factor) for q, c in wanted.items()}
+            values = quantities(cols, partial(_column_at, table, names))
             del table
             if values and next(iter(values.values())).size:
                 yield Chunk(row0=row0, values=values, nbytes=end)
@@ -318,10 +334,26 @@ def iter_csv(
     view.release()
 
 
-def _column(table: pa.Table, name: str, factor: float) -> np.ndarray:
-    """A float64 column as numpy in our unit, invalid markers as NaN."""
-    x = scrub(table.column(name).to_numpy(zero_copy_only=False))
-    return x * factor if factor != 1.0 else x
+def quantities(
+    cols: dict[str, ResolvedColumn], column: Callable[[int], np.ndarray]
+) -> dict[str, np.ndarray]:
+    """Each quantity in our unit from ``column(index)`` (a file column, invalid as NaN).
+
+    Sums and expressions are evaluated here; each file column is read once.
+    """
+    cache: dict[int, np.ndarray] = {}
+
+    def get(i: int) -> np.ndarray:
+        if i not in cache:
+            cache[i] = column(i)
+        return cache[i]
+
+    return {q: r.values(get) for q, r in cols.items()}
+
+
+def _column_at(table: pa.Table, names: list[str], i: int) -> np.ndarray:
+    """File column ``i`` of a parsed chunk as float64 numpy, invalid markers as NaN."""
+    return scrub(table.column(names[i]).to_numpy(zero_copy_only=False))
 
 
 def _line_at(layout: CsvLayout, offset: int) -> int:
@@ -385,7 +417,7 @@ def open_daq_csv(
     path: str | Path, mapping: Mapping = EMPTY_MAPPING, chunk_bytes: int = CHUNK_BYTES
 ) -> DaqStream:
     """Open a DAQ CSV (English or German locale) as a chunked stream of time, speed, torque."""
-    layout = sniff_csv(path)
+    layout = sniff_csv(path, skip_lines=mapping.skip("daq"))
     cols = resolve_columns(
         layout.path, layout.headers, layout.units_row, "daq",
         required=("time", "speed", "torque"), mapping=mapping, header_line=layout.header_line,
@@ -447,7 +479,7 @@ def open_daq_tdms(
                          expected="an NI TDMS file written completely") from exc
     cols = resolve_columns(path, headers, units, "daq", required=("time", "speed", "torque"),
                            mapping=mapping)
-    n_rows = {lengths[r.header] for r in cols.values()}
+    n_rows = {lengths[headers[i]] for r in cols.values() for i in r.indices}
     if len(n_rows) != 1:
         raise InputError(path, f"channels of group {group!r} differ in length {sorted(n_rows)}"
                          " (truncated file?)", expected="Time, Speed and Torque of equal length")
@@ -468,8 +500,8 @@ def open_daq_tdms(
             grp = tdms_file[group]
             for start in range(0, n, chunk_rows):
                 length = min(chunk_rows, n - start)
-                values = {q: scrub(read(grp, r.header, start, length)) * r.factor
-                          for q, r in cols.items()}
+                values = quantities(cols, lambda i, s=start, n=length: scrub(
+                    read(grp, headers[i], s, n)))
                 yield Chunk(row0=start, values=values, nbytes=int(size * length / n))
 
     meta = {"format": "tdms", "group": group, "columns": csv_columns_meta(cols), "rows": n}
@@ -512,7 +544,7 @@ def read_analyzer(
         The header block (``Model``, ``Serial``, ...), ``start`` (ISO wall time of
         the analyzer's time 0, or None), separator, decimal and columns.
     """
-    layout = sniff_csv(path, preamble=True)
+    layout = sniff_csv(path, preamble=True, skip_lines=mapping.skip("analyzer"))
     cols = resolve_columns(
         layout.path, layout.headers, layout.units_row, "analyzer",
         required=("time", "p_elec"), mapping=mapping, header_line=layout.header_line,
@@ -549,7 +581,7 @@ def read_points_table(
     metadata : dict
         Separator, decimal and the columns used with their units.
     """
-    layout = sniff_csv(path)
+    layout = sniff_csv(path, skip_lines=mapping.skip("points"))
     cols = resolve_columns(
         layout.path, layout.headers, layout.units_row, "points",
         required=("speed", "torque", "p_elec"), optional=POINT_OPTIONAL,

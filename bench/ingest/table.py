@@ -6,13 +6,13 @@ import math
 
 import numpy as np
 
+from bench.ingest import checks
 from bench.ingest.mapping import Mapping
 from bench.ingest.readers import read_points_table
 from bench.ingest.session import Session
 from bench.ingest.timeseries import (
     RAD_S_PER_RPM,
     SessionOutput,
-    check_torque_sign,
     points_table,
     rejected_table,
 )
@@ -23,14 +23,21 @@ def process_table(session: Session, mapping: Mapping) -> SessionOutput:
     path = session.file("points")
     frame, meta = read_points_table(path, mapping)
     meta.pop("layout")
+    sources = checks.sources_from_meta(path, meta["columns"])
+    checks.check_signal(sources["p_elec"], "p_elec", frame["p_elec_w"].to_numpy(), True)
+    for q, name in (("speed", "speed_rpm"), ("torque", "torque_nm")):
+        checks.check_signal(sources[q], q, frame[name].to_numpy(), False)
     gear = session.gear_ratio if session.measured_side == "motor" else 1.0
     speed = frame["speed_rpm"].to_numpy() * session.speed_sign / gear
     torque = frame["torque_nm"].to_numpy() * session.torque_sign * gear
     p_elec = frame["p_elec_w"].to_numpy()
-    if "p_mech_w" in frame:
+    omega_t = speed * torque * RAD_S_PER_RPM
+    values = {"speed": speed, "torque": torque, "p_elec": p_elec}
+    if "p_mech_w" in frame:  # only ever a mapped column (bench.ingest.mapping)
         p_mech = frame["p_mech_w"].to_numpy() * session.speed_sign * session.torque_sign
+        values["p_mech"] = p_mech
     else:
-        p_mech = speed * torque * RAD_S_PER_RPM
+        p_mech = omega_t
     nan = np.full(len(frame), np.nan)
     std = {
         "speed_rpm_std": frame.get("speed_rpm_std", nan) / gear,
@@ -38,8 +45,12 @@ def process_table(session: Session, mapping: Mapping) -> SessionOutput:
         "p_mech_w_std": frame.get("p_mech_w_std", nan),
         "p_elec_w_std": frame.get("p_elec_w_std", nan),
     }
-    check_torque_sign(session, p_mech, p_elec, path)
+    checks.check_torque_sign(session, omega_t, p_elec, path)
+    implausible = checks.check_points(values, sources, checks.explicit_ranges(session), path)
     ok = np.isfinite(speed) & np.isfinite(torque) & np.isfinite(p_elec) & np.isfinite(p_mech)
+    reasons = ["invalid samples" if not good else why
+               for good, why in zip(ok, implausible, strict=True)]
+    ok &= np.array([why is None for why in implausible], bool)
     cols = {"speed_rpm": speed, "torque_nm": torque, "p_mech_w": p_mech, "p_elec_w": p_elec}
     cols.update({k: np.asarray(v, np.float64) for k, v in std.items()})
     cols = {k: v[ok] for k, v in cols.items()}
@@ -47,8 +58,8 @@ def process_table(session: Session, mapping: Mapping) -> SessionOutput:
     n_samples = np.nan_to_num(n_samples[ok]).astype(np.int32)
     nan_ok = np.full(int(ok.sum()), np.nan)
     points = points_table(session, cols, n_samples, nan_ok, nan_ok, "operating_point_table")
-    rejected = rejected_table(session.session_id, [(math.nan, math.nan, "invalid samples")]
-                              * int((~ok).sum()))
+    rejected = rejected_table(session.session_id, [(math.nan, math.nan, why)
+                                                   for why in reasons if why is not None])
     info = {"clock_offset_s": None, "clock_drift_ppm": None,
             "torque_zero_offset_nm": None, "torque_zero_tare": None,
             "torque_zero_note": "operating-point table: already averaged, no standstill "

@@ -25,7 +25,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from bench.errors import InputError
-from bench.ingest import align, steady, tare
+from bench.ingest import align, checks, steady, tare
+from bench.ingest.checks import check_torque_sign
 from bench.ingest.mapping import Mapping
 from bench.ingest.readers import CHUNK_BYTES, DaqStream, open_daq_csv, open_daq_tdms, read_analyzer
 from bench.ingest.scrub import NanRunCheck, TimeCheck
@@ -54,9 +55,6 @@ SAMPLES_WRITE_OPTIONS = {
 
 #: smallest |correlation| of analyzer and DAQ power steps that counts as aligned [-]
 MIN_ALIGN_CORRELATION = 0.3
-
-#: fraction of high-power samples whose p_mech and p_elec signs may disagree
-MAX_SIGN_DISAGREEMENT = 0.5
 
 
 @dataclass
@@ -156,34 +154,6 @@ def _drum_ranges(session: Session) -> dict[str, float]:
     return r
 
 
-def check_torque_sign(session: Session, p_mech_w, p_elec_w, where: Path) -> None:
-    """Raise when p_mech and p_elec disagree in sign where |p_mech| is high.
-
-    The drive's efficiency is high at high power, so there both powers share
-    their sign; if most such samples disagree, the torque (or speed) sign of
-    the session is flipped.
-    """
-    ok = np.isfinite(p_mech_w) & np.isfinite(p_elec_w)
-    if ok.sum() < 10:
-        return
-    pm, pe = p_mech_w[ok], p_elec_w[ok]
-    high = np.abs(pm) > 0.25 * np.percentile(np.abs(pm), 95)
-    high &= np.abs(pm) > 500.0  # W: well above the drive's no-load losses
-    if high.sum() < 5:
-        return
-    disagree = float(np.mean(np.sign(pm[high]) != np.sign(pe[high])))
-    if disagree > MAX_SIGN_DISAGREEMENT:
-        flip = -session.torque_sign
-        raise InputError(
-            session.path,
-            f"torque sign convention looks flipped: at high |p_mech| the signs of p_mech and "
-            f"p_elec disagree in {disagree:.0%} of the samples of {where.name}",
-            column="torque_sign",
-            expected=f"torque_sign = {flip} (or a flipped speed_sign) so that generating "
-            "points have p_mech < 0 and p_elec < 0",
-        )
-
-
 def process_timeseries(
     session: Session,
     mapping: Mapping,
@@ -219,6 +189,9 @@ def process_timeseries(
     analyzer, ameta = read_analyzer(apath, mapping)
     alayout = ameta.pop("layout")
     _check_analyzer(apath, analyzer, ameta, alayout)
+    sources = {**checks.sources_from_meta(daq.path, daq.metadata["columns"]),
+               **checks.sources_from_meta(apath, ameta["columns"])}
+    checks.check_signal(sources["p_elec"], "p_elec", analyzer["p_elec_w"].to_numpy(), True)
 
     # pass 1
     bins = _Bins(config.bin_s)
@@ -293,6 +266,7 @@ def process_timeseries(
         usable &= t0 + np.arange(n_bins) * dt >= zero.t_motion_s  # the tare is no window
     win = steady.find_windows(means["speed"], means["torque"], p_elec_bins, means["valid_frac"],
                               ranges, config, usable=usable)
+    win = _screen_windows(win, means, p_elec_bins, sources, session, daq.path)
     w_start = np.array([t0 + a * dt for a, _ in win.accepted])
     w_end = np.array([t0 + b * dt for _, b in win.accepted])
 
@@ -343,6 +317,35 @@ def process_timeseries(
         "instruments": {"daq": daq.metadata, "analyzer": ameta},
     }
     return SessionOutput(points=points, rejected=rejected, samples_path=samples_path, info=info)
+
+
+def _screen_windows(win: steady.Windows, means: dict, p_elec_bins: np.ndarray, sources: dict,
+                    session: Session, where: Path) -> steady.Windows:
+    """Check the accepted windows' means (:func:`checks.check_points`): stop on a systematic
+    error, move the few implausible windows to the rejected ones with their reason."""
+    for q in ("speed", "torque"):
+        checks.check_signal(sources[q], q, means[q], False)
+    if not win.accepted:
+        return win
+
+    a, b = np.array(win.accepted).T
+
+    def window_means(x: np.ndarray) -> np.ndarray:
+        fin = np.isfinite(x)
+        s = np.concatenate(([0.0], np.cumsum(np.where(fin, x, 0.0))))
+        c = np.concatenate(([0], np.cumsum(fin)))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return (s[b] - s[a]) / (c[b] - c[a])
+
+    values = {"speed": window_means(means["speed"]), "torque": window_means(means["torque"]),
+              "p_elec": window_means(p_elec_bins)}
+    why = checks.check_points(values, sources, checks.explicit_ranges(session), where)
+    if all(w is None for w in why):
+        return win
+    accepted = [ab for ab, w in zip(win.accepted, why, strict=True) if w is None]
+    rejected = sorted(win.rejected + [(a, b, w) for (a, b), w in zip(win.accepted, why,
+                                                                       strict=True) if w])
+    return steady.Windows(accepted=accepted, rejected=rejected, tolerances=win.tolerances)
 
 
 def _check_analyzer(path: Path, frame, meta: dict, layout) -> None:

@@ -2,6 +2,14 @@
 
 Inside the store speed is in rpm, torque in N m, power in W and time in s; the
 factor returned here multiplies a logged value to give that unit.
+
+Spellings are matched after dropping whitespace and the product signs ``·``,
+``*``, ``.`` and ``-`` between letters (``kN m``, ``kN·m``, ``lbf-ft``), with
+``µ``/``μ`` read as ``u``. Case carries meaning where it must: ``mW`` is a
+milliwatt and ``MW`` a megawatt, ``mNm`` a millinewton metre and ``MNm`` a
+meganewton metre. A spelling in another case (``KW``, ``RPM``, ``NM``) is
+accepted only when every unit it could stand for has the same factor; ``mw`` or
+``MNM`` are refused as ambiguous.
 """
 
 from __future__ import annotations
@@ -18,28 +26,49 @@ TARGET_UNIT: dict[str, str] = {
 }
 
 _RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
+_NM_PER_LBF_FT = 1.3558179483314004  # 1 lbf ft = 0.3048 m * 4.4482216152605 N
+_NM_PER_LBF_IN = _NM_PER_LBF_FT / 12.0
 
-#: quantity -> {normalised unit spelling -> factor to the target unit}
-_FACTORS: dict[str, dict[str, float]] = {
-    "time": {"s": 1.0, "ms": 1e-3},
-    "speed": {
-        "rpm": 1.0,
-        "1/min": 1.0,
-        "u/min": 1.0,
-        "min^-1": 1.0,
-        "min-1": 1.0,
-        "rad/s": _RPM_PER_RAD_S,
-    },
-    "torque": {"nm": 1.0, "n·m": 1.0, "n*m": 1.0, "knm": 1e3},
-    "power": {"w": 1.0, "kw": 1e3, "mw": 1e6},
+#: kind -> [(spelling as shown to users, factor to the target unit)], spellings
+#: in their meaningful case; the first spelling per factor names that unit
+_UNITS: dict[str, list[tuple[str, float]]] = {
+    "time": [("s", 1.0), ("ms", 1e-3), ("us", 1e-6), ("µs", 1e-6)],
+    "speed": [
+        ("rpm", 1.0), ("1/min", 1.0), ("U/min", 1.0), ("r/min", 1.0), ("rev/min", 1.0),
+        ("min^-1", 1.0), ("min-1", 1.0), ("min⁻¹", 1.0), ("krpm", 1e3),
+        ("rad/s", _RPM_PER_RAD_S),
+    ],
+    "torque": [
+        ("N m", 1.0), ("Nm", 1.0), ("N·m", 1.0), ("N*m", 1.0), ("N.m", 1.0),
+        ("mN m", 1e-3), ("mNm", 1e-3),
+        ("N mm", 1e-3), ("Nmm", 1e-3),
+        ("N cm", 1e-2), ("Ncm", 1e-2),
+        ("daN m", 10.0), ("daNm", 10.0),
+        ("kN m", 1e3), ("kNm", 1e3),
+        ("MN m", 1e6), ("MNm", 1e6),
+        ("lbf ft", _NM_PER_LBF_FT), ("lbf-ft", _NM_PER_LBF_FT), ("lb ft", _NM_PER_LBF_FT),
+        ("ft lbf", _NM_PER_LBF_FT), ("ft lb", _NM_PER_LBF_FT),
+        ("lbf in", _NM_PER_LBF_IN), ("lbf-in", _NM_PER_LBF_IN), ("lb in", _NM_PER_LBF_IN),
+        ("in lbf", _NM_PER_LBF_IN), ("in lb", _NM_PER_LBF_IN),
+    ],
+    "power": [("W", 1.0), ("mW", 1e-3), ("kW", 1e3), ("MW", 1e6)],
+}
+
+
+def _compact(unit: str) -> str:
+    """Drop whitespace and product signs, ``µ`` -> ``u`` (case kept)."""
+    u = re.sub(r"\s+", "", unit).replace("µ", "u").replace("μ", "u")
+    return re.sub(r"(?<=[A-Za-z])[·⋅*.\-](?=[A-Za-z])", "", u)
+
+
+#: kind -> {compacted spelling -> factor}
+_EXACT: dict[str, dict[str, float]] = {
+    kind: {_compact(s): f for s, f in spellings} for kind, spellings in _UNITS.items()
 }
 
 #: the spellings to show in error messages
 ACCEPTED: dict[str, str] = {
-    "time": "s, ms",
-    "speed": "rpm, 1/min, U/min, min^-1, min-1, rad/s",
-    "torque": "N m, Nm, N·m, N*m, kNm, kN m",
-    "power": "W, kW, MW",
+    kind: ", ".join(s for s, _ in spellings) for kind, spellings in _UNITS.items()
 }
 
 #: our quantities -> physical kind (std columns share their quantity's unit)
@@ -57,8 +86,14 @@ QUANTITY_KIND: dict[str, str] = {
 
 
 def normalise_unit(unit: str) -> str:
-    """Lower-case a unit and drop all whitespace (``'kN m'`` -> ``'knm'``)."""
-    return re.sub(r"\s+", "", unit).lower()
+    """Lower-case a unit and drop whitespace and product signs (``'kN m'`` -> ``'knm'``)."""
+    return _compact(unit).lower()
+
+
+def _candidates(kind: str, unit: str) -> dict[str, float]:
+    """Spellings of ``kind`` that ``unit`` matches without regard to case."""
+    low = normalise_unit(unit)
+    return {s: f for s, f in _UNITS[kind] if normalise_unit(s) == low}
 
 
 def unit_factor(kind: str, unit: str) -> float | None:
@@ -69,14 +104,46 @@ def unit_factor(kind: str, unit: str) -> float | None:
     kind : str
         Physical kind, a key of :data:`TARGET_UNIT`.
     unit : str
-        The unit as written in the file (case- and whitespace-insensitive).
+        The unit as written in the file (whitespace-insensitive; case-insensitive
+        only where no other unit differs from it by case alone).
 
     Returns
     -------
     float or None
-        The multiplier to our unit, or None when the unit is not recognised.
+        The multiplier to our unit, or None when the unit is unknown or ambiguous.
     """
-    return _FACTORS[kind].get(normalise_unit(unit))
+    exact = _EXACT[kind].get(_compact(unit))
+    if exact is not None:
+        return exact
+    factors = set(_candidates(kind, unit).values())
+    return factors.pop() if len(factors) == 1 else None
+
+
+def unit_problem(kind: str, unit: str) -> str:
+    """Why :func:`unit_factor` refused ``unit``: ``'unknown unit ...'`` or ``'ambiguous ...'``."""
+    names = {}
+    for s, f in _candidates(kind, unit).items():
+        names.setdefault(f, s)
+    if len(names) > 1:
+        spelled = " or ".join(f"{s!r} (x{f:g})" for f, s in sorted(names.items()))
+        return f"ambiguous unit {unit!r}: case tells {spelled} apart"
+    return f"unknown unit {unit!r}"
+
+
+def alternatives(kind: str, unit: str) -> list[tuple[str, float]]:
+    """Other units of ``kind`` with a different factor: ``[(name, factor / factor of unit)]``.
+
+    One name per distinct factor (the first spelling of :data:`_UNITS`); used to
+    suggest which unit a column that fails a plausibility check may really be in.
+    """
+    own = unit_factor(kind, unit)
+    if own is None:
+        return []
+    seen: dict[float, str] = {}
+    for s, f in _UNITS[kind]:
+        if not math.isclose(f, own, rel_tol=1e-9):
+            seen.setdefault(f, s)
+    return [(s, f / own) for f, s in seen.items()]
 
 
 _HEADER_UNIT = re.compile(r"^(?P<name>.*?)\s*[\[(](?P<unit>[^\])]*)[\])]\s*$")

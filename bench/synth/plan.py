@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bench.drive import DriveRating
 from bench.synth.loss_model import RPM_TO_RAD_S
 
 MOTOR_SPEED_RPM = (50.0, 1500.0)
@@ -20,6 +21,16 @@ GENERATOR_SPEED_RPM = (30.0, 3000.0)  # magnitudes; drum speed is negative
 TORQUE_MIN_NM = 1.0  # the lowest brake setting the bench holds steadily
 TORQUE_MAX_NM = 78.0
 GENERATOR_POWER_MAX_W = 10_000.0
+
+#: The campaign's drive (written as drive.toml): the paper's drive and its constraints.
+DRIVE = DriveRating(
+    nominal_power_w=8200.0,
+    max_speed_rpm=MOTOR_SPEED_RPM[1],
+    max_torque_nm=TORQUE_MAX_NM,
+    source="Stuyts et al. 2015, section III-B (REFERENCE.md section 1): 8.2 kW Siemens "
+           "Simotics PMSM with a 1:3 gearbox; the nominal motor torque and the gearbox's "
+           "maximum speed, 78 N m and 1500 rpm on the drum side, are the drive constraints",
+)
 
 
 @dataclass(frozen=True)

@@ -95,6 +95,17 @@ class RatedDrive:
                 f"{self.nominal_power_w:g} W")
 
     @property
+    def drive(self) -> dict:
+        """The ratings, as a power model file's ``drive`` mapping."""
+        return {"max_speed_rpm": self.speed_rpm, "max_torque_nm": self.torque_nm,
+                "nominal_power_w": self.nominal_power_w}
+
+    @property
+    def domain(self) -> None:
+        """No measured validity domain: the rating is a similarity assumption."""
+        return None
+
+    @property
     def sha256(self) -> str:
         """Hash of the base model and the ratings."""
         text = f"{self.base.sha256}|{self.base_speed_rpm!r}|{self.base_torque_nm!r}|" \

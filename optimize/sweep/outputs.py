@@ -27,6 +27,7 @@ import pyarrow.parquet as pq
 
 from bench.errors import InputError
 from bench.files import atomic_write, write_text_atomic
+from fitting.domain import domain_excursion
 from optimize.sweep.chains import ScenarioOutcome
 
 SCHEMA_NAME = "drivebench.optimize"
@@ -90,6 +91,13 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "periodicity_error": "largest scaled residual of the periodicity constraints [-]",
     "max_violation": "largest scaled constraint violation [-]",
     "slack_fraction": "fraction of the cycle time with zero tether tension (slack tether) [-]",
+    "outside_domain_time_frac": "share of the cycle time outside the drive model's validity "
+                                "domain (its measured envelope per quadrant) [-]; NaN when "
+                                "the model has no domain",
+    "outside_worst_speed_rpm": "drum speed of the cycle point farthest outside the domain",
+    "outside_worst_torque_nm": "drum torque of the cycle point farthest outside the domain",
+    "outside_worst_distance": "its distance to the domain in (speed / max_speed_rpm, "
+                              "torque / max_torque_nm) [-]; 0 when the cycle stays inside",
 }
 #: the metric columns (NaN for a failed scenario)
 _METRICS = list(SUMMARY_COLUMNS)[list(SUMMARY_COLUMNS).index("period_s") :]
@@ -130,8 +138,23 @@ def _trajectory_metrics(traj: pd.DataFrame) -> dict[str, float]:
     }
 
 
-def summary_row(o: ScenarioOutcome) -> dict[str, Any]:
-    """One summary row; metrics are NaN unless the scenario converged."""
+def _excursion_metrics(traj: pd.DataFrame, domain: dict | None,
+                       scales: tuple[float, float]) -> dict[str, float]:
+    weight = traj["weight"] if domain else 1.0  # quadrature weights: shares of the cycle time
+    e = domain_excursion(traj["speed_rpm"], traj["torque_nm"], weight, domain, scales)
+    return {"outside_domain_time_frac": e["time_fraction_outside"],
+            "outside_worst_speed_rpm": e["worst_speed_rpm"],
+            "outside_worst_torque_nm": e["worst_torque_nm"],
+            "outside_worst_distance": e["worst_distance"]}
+
+
+def summary_row(o: ScenarioOutcome, domain: dict | None = None,
+                scales: tuple[float, float] = (1.0, 1.0)) -> dict[str, Any]:
+    """One summary row; metrics are NaN unless the scenario converged.
+
+    ``domain`` (the drive model's validity domain) and ``scales`` (speed [rpm] and
+    torque [N m] of distance 1) give the ``outside_*`` columns.
+    """
     last = o.attempts[-1] if o.attempts else None
     row: dict[str, Any] = {
         "scenario": o.name,
@@ -161,6 +184,7 @@ def summary_row(o: ScenarioOutcome) -> dict[str, Any]:
             max_violation=float(getattr(r, "max_violation", math.nan)),
         )
         row.update(_trajectory_metrics(r.trajectory))
+        row.update(_excursion_metrics(r.trajectory, domain, scales))
         active = tuple(getattr(r, "active_bounds", ()))
         row.update(
             active_bounds=",".join(active),
@@ -172,9 +196,20 @@ def summary_row(o: ScenarioOutcome) -> dict[str, Any]:
     return row
 
 
-def summary_frame(outcomes: Iterable[ScenarioOutcome]) -> pd.DataFrame:
-    """The summary table: one row per scenario, columns :data:`SUMMARY_COLUMNS`."""
-    frame = pd.DataFrame([summary_row(o) for o in outcomes], columns=list(SUMMARY_COLUMNS))
+def summary_frame(outcomes: Iterable[ScenarioOutcome], domain: dict | None = None,
+                  scales: tuple[float, float] = (1.0, 1.0)) -> pd.DataFrame:
+    """The summary table: one row per scenario, columns :data:`SUMMARY_COLUMNS`.
+
+    Parameters
+    ----------
+    outcomes : iterable of ScenarioOutcome
+    domain : dict or None
+        The drive model's validity domain (``PowerModel.domain``).
+    scales : (float, float)
+        Speed [rpm] and torque [N m] of distance 1 for ``outside_worst_distance``.
+    """
+    frame = pd.DataFrame([summary_row(o, domain, scales) for o in outcomes],
+                         columns=list(SUMMARY_COLUMNS))
     return frame.astype(
         {
             "success": bool,

@@ -36,6 +36,8 @@ def _odd_model() -> PowerModel:
         masking={"mech_frac": 0.01},
         statistics={"r2": 0.99},
         provenance={"command": "test"},
+        drive={"nominal_power_w": 8200.0, "max_speed_rpm": 3000.0, "max_torque_nm": 100.0,
+               "source": "test"},
     )
 
 
@@ -109,6 +111,7 @@ def test_round_trip(tmp_path):
     assert data["units"]["speed"] == {"rpm": "rpm", "si": "rad/s"}
     assert "negative" in data["sign_convention"]
     assert len(data["coefficients"]["si"]) == len(m.terms)
+    assert data["schema_version"] == 2 and data["drive"]["max_speed_rpm"] == 3000.0
     # no temp files left beside it
     assert [p.name for p in tmp_path.iterdir()] == ["power_model.json"]
 
@@ -148,7 +151,11 @@ def _mutations():
 
     return [
         ("schema", setter(["schema"], "drivebench.something_else")),
-        ("schema_version", setter(["schema_version"], 2)),
+        ("schema_version", setter(["schema_version"], 3)),
+        ("drive", drop("drive")),
+        ("drive.max_speed_rpm", setter(["drive", "max_speed_rpm"], -1500.0)),
+        ("drive.nominal_power_w", setter(["drive", "nominal_power_w"], 8000.0)),
+        ("drive", setter(["drive", "max_power_w"], 1.0)),
         ("terms", drop("terms")),
         ("coefficients", drop("coefficients")),
         ("nominal_power_w", drop("nominal_power_w")),
@@ -178,6 +185,31 @@ def test_malformed_fields_refused(tmp_path, field, mutate):
     msg = err.value.describe()
     assert str(path) in msg
     assert field in msg
+
+
+def test_version_1_file_loads_without_drive(tmp_path):
+    # a file written before the drive rating existed (schema_version 1) still loads,
+    # with drive None; a "drive" key in a version-1 file is refused
+    d = _paper_dict()
+    d["schema_version"] = 1
+    del d["drive"]
+    path = tmp_path / "v1.json"
+    path.write_text(json.dumps(d))
+    m = load_power_model(path)
+    assert m.drive is None and m.nominal_power_w == 8200.0
+    assert m.to_dict()["schema_version"] == 2  # written as the current version
+    d["drive"] = _paper_dict()["drive"]
+    path.write_text(json.dumps(d))
+    with pytest.raises(InputError, match="version-2 field"):
+        load_power_model(path)
+
+
+def test_paper_model_states_its_drive():
+    # REFERENCE.md §1: 8.2 kW, drive constraints |speed| <= 1500 rpm, torque <= 78 N m
+    drive = paper_model().drive
+    assert (drive["nominal_power_w"], drive["max_speed_rpm"], drive["max_torque_nm"]) == (
+        8200.0, 1500.0, 78.0)
+    assert "Stuyts" in drive["source"]
 
 
 def test_non_finite_refused(tmp_path):

@@ -1,0 +1,197 @@
+"""The drive rating of a campaign: nominal power and drum-side speed and torque limits.
+
+A campaign states its drive in a ``drive.toml`` in the campaign folder (or any
+folder between it and the session), and a session may state or override keys
+at the top level of its ``session.toml``::
+
+    nominal_power_w = 8200.0      # [W], the scale of every %-of-nominal figure
+    max_speed_rpm = 1500.0        # [rpm], drum side: the optimizer's default speed limit
+    max_torque_nm = 78.0          # [N m], drum side: the optimizer's default torque limit
+    source = "datasheet / paper section ..."   # drive.toml only: where the numbers come from
+
+``bench ingest`` records what applies to each session in the store manifest;
+``bench fit`` writes it into ``power_model.json`` (``drive``); ``bench optimize``
+takes its default limits from there.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from bench.errors import InputError
+
+#: The rating keys, in drive.toml, session.toml, the manifest and power_model.json.
+DRIVE_KEYS = ("nominal_power_w", "max_speed_rpm", "max_torque_nm")
+DRIVE_FILE = "drive.toml"
+_UNITS = {"nominal_power_w": "W", "max_speed_rpm": "rpm", "max_torque_nm": "N m"}
+
+
+@dataclass(frozen=True)
+class DriveRating:
+    """A drive's rating (docs/schemas.md §1 ``drive.toml``, §3 ``drive``).
+
+    Parameters
+    ----------
+    nominal_power_w : float
+        Nominal power [W].
+    max_speed_rpm : float
+        Largest drum speed magnitude [rpm].
+    max_torque_nm : float
+        Largest drum torque [N m].
+    source : str
+        Where the numbers come from (file, datasheet, or "measured maxima").
+    """
+
+    nominal_power_w: float
+    max_speed_rpm: float
+    max_torque_nm: float
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        for key in DRIVE_KEYS:
+            value = getattr(self, key)
+            if not _positive(value):
+                raise ValueError(f"{key} = {value!r}: a finite positive number "
+                                 f"[{_UNITS[key]}] expected")
+            object.__setattr__(self, key, float(value))
+
+    def to_dict(self) -> dict:
+        """``{nominal_power_w, max_speed_rpm, max_torque_nm, source}``."""
+        return {**{k: getattr(self, k) for k in DRIVE_KEYS}, "source": self.source}
+
+    def line(self) -> str:
+        """One line for summaries and reports."""
+        return (f"drive: {self.nominal_power_w:g} W nominal, |speed| <= {self.max_speed_rpm:g} "
+                f"rpm, torque <= {self.max_torque_nm:g} N m ({self.source})")
+
+
+def drive_toml(rating: DriveRating) -> str:
+    """The ``drive.toml`` text of a rating (read back by :func:`load_drive_file`)."""
+    return ("# Drive rating of this campaign (docs/schemas.md section 1): "
+            "bench ingest records it,\n"
+            "# bench fit writes it into power_model.json, bench optimize takes its limits from "
+            "there.\n"
+            f"nominal_power_w = {rating.nominal_power_w!r}  # [W]\n"
+            f"max_speed_rpm = {rating.max_speed_rpm!r}  # [rpm], drum side\n"
+            f"max_torque_nm = {rating.max_torque_nm!r}  # [N m], drum side\n"
+            f"source = {_toml_string(rating.source)}\n")
+
+
+def _toml_string(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _positive(value) -> bool:
+    return (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value) and value > 0)
+
+
+def rating_keys(table: dict, path: Path | str | None) -> dict[str, float]:
+    """The rating keys a TOML table states, checked (a positive finite number each).
+
+    Raises
+    ------
+    InputError
+        A key with a value that is not a positive finite number (naming file and key).
+    """
+    out = {}
+    for key in DRIVE_KEYS:
+        if key in table:
+            value = table[key]
+            if not _positive(value):
+                raise InputError(path, f"bad value {value!r}", column=key,
+                                 expected=f"a positive number [{_UNITS[key]}]")
+            out[key] = float(value)
+    return out
+
+
+def load_drive_file(path: str | Path) -> dict:
+    """Read a ``drive.toml``: its rating keys and ``source``.
+
+    Raises
+    ------
+    InputError
+        Unreadable or invalid TOML, a bad value, an unknown key, or no rating key.
+    """
+    path = Path(path)
+    try:
+        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(path, f"cannot read ({exc})") from exc
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(path, f"invalid TOML ({exc})") from exc
+    for key in raw:
+        if key not in (*DRIVE_KEYS, "source"):
+            raise InputError(path, f"unknown key {key!r}", column=key,
+                             expected=", ".join((*DRIVE_KEYS, "source")))
+    keys = rating_keys(raw, path)
+    if not keys:
+        raise InputError(path, "no drive rating", expected="at least one of "
+                         + ", ".join(DRIVE_KEYS))
+    source = raw.get("source", "")
+    if not isinstance(source, str):
+        raise InputError(path, f"bad value {source!r}", column="source", expected="a string")
+    return {**keys, "source": source}
+
+
+def find_drive_file(session_folder: Path, roots: list[Path]) -> Path | None:
+    """The nearest ``drive.toml`` at or above a session folder, not above its campaign root.
+
+    Parameters
+    ----------
+    session_folder : Path
+        The session folder (holding ``session.toml``).
+    roots : list of Path
+        The folders ``bench ingest`` was given; the search stops at the one that
+        contains the session (or at the session's parent when none does).
+    """
+    folder = session_folder.resolve()
+    resolved = [r.resolve() for r in roots]
+    stops = [r if r.is_dir() else r.parent for r in resolved]
+    stop = next((r for r in stops if folder == r or r in folder.parents), folder.parent)
+    for candidate in (folder, *folder.parents):
+        if (candidate / DRIVE_FILE).is_file():
+            return candidate / DRIVE_FILE
+        if candidate == stop:
+            break
+    return None
+
+
+def session_drive(session_raw: dict, session_path: Path, drive_file: Path | None,
+                  label: str) -> dict | None:
+    """The drive rating that applies to one session, with where each key came from.
+
+    Parameters
+    ----------
+    session_raw : dict
+        The parsed ``session.toml`` (its top-level rating keys win).
+    session_path : Path
+        The ``session.toml`` file, named in errors.
+    drive_file : Path or None
+        The campaign's ``drive.toml`` (:func:`find_drive_file`).
+    label : str
+        How ``drive_file`` is named in the result (e.g. its path in the campaign).
+
+    Returns
+    -------
+    dict or None
+        ``{key: value, ..., "sources": {key: file}, "source": text}`` for the keys
+        stated anywhere, or None when neither file states any.
+    """
+    out: dict = {}
+    sources: dict[str, str] = {}
+    note = ""
+    if drive_file is not None:
+        data = load_drive_file(drive_file)
+        note = data.pop("source")
+        out.update(data)
+        sources.update(dict.fromkeys(data, label))
+    own = rating_keys(session_raw, session_path)
+    out.update(own)
+    sources.update(dict.fromkeys(own, f"{session_path.parent.name}/{session_path.name}"))
+    if not out:
+        return None
+    return {**out, "sources": sources, "source": note}

@@ -1,0 +1,170 @@
+"""A drive with a known truth for any rating: a power-limited envelope and a loss model.
+
+The envelope is that of a real traction or winch drive: full torque up to the
+base speed, constant power above it (torque ~ 1 / speed), so it is not convex.
+The loss is a smooth function of the normalised speed and torque, scaled with
+the nominal power (friction, iron and copper terms)::
+
+    loss_w = P_nom * (a0 + a1 x + a2 x^2 + a3 y^2),  x = |n| / n_max, y = T / T_max
+
+The drum frame of docs/schemas.md holds: torque >= 0, generating is negative speed,
+``P_elec = P_mech + loss`` in both quadrants.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+RPM_TO_RAD_S = np.pi / 30.0
+
+
+@dataclass(frozen=True)
+class TruthDrive:
+    """A drive rating plus its true loss coefficients (fractions of nominal power).
+
+    Parameters
+    ----------
+    nominal_power_w : float
+        Rated (and constant-power) power [W].
+    max_speed_rpm : float
+        Largest drum speed [rpm].
+    max_torque_nm : float
+        Largest drum torque [N m] (up to the base speed).
+    loss_fracs : tuple of float
+        ``(a0, a1, a2, a3)`` of the loss model [-].
+    """
+
+    nominal_power_w: float
+    max_speed_rpm: float
+    max_torque_nm: float
+    loss_fracs: tuple[float, float, float, float] = (0.004, 0.006, 0.010, 0.030)
+
+    @property
+    def base_speed_rpm(self) -> float:
+        """Speed above which the drive is power limited [rpm]."""
+        return self.nominal_power_w / self.max_torque_nm / RPM_TO_RAD_S
+
+    def torque_limit_nm(self, speed_rpm) -> np.ndarray:
+        """The envelope: ``min(T_max, P_nom / |omega|)`` [N m]."""
+        w = np.abs(np.asarray(speed_rpm, dtype=float)) * RPM_TO_RAD_S
+        with np.errstate(divide="ignore"):
+            return np.minimum(self.max_torque_nm, self.nominal_power_w / w)
+
+    def loss_w(self, speed_rpm, torque_nm) -> np.ndarray:
+        """True loss [W]."""
+        a0, a1, a2, a3 = self.loss_fracs
+        x = np.abs(np.asarray(speed_rpm, dtype=float)) / self.max_speed_rpm
+        y = np.asarray(torque_nm, dtype=float) / self.max_torque_nm
+        return self.nominal_power_w * (a0 + a1 * x + a2 * x**2 + a3 * y**2)
+
+    def p_elec_w(self, speed_rpm, torque_nm) -> np.ndarray:
+        """True electrical power [W] (positive drawn from the grid)."""
+        p_mech = np.asarray(speed_rpm, float) * RPM_TO_RAD_S * np.asarray(torque_nm, float)
+        return p_mech + self.loss_w(speed_rpm, torque_nm)
+
+    def eta(self, speed_rpm, torque_nm) -> np.ndarray:
+        """True efficiency by paper eqs. 1 and 2 [-]."""
+        p_mech = np.asarray(speed_rpm, float) * RPM_TO_RAD_S * np.asarray(torque_nm, float)
+        p_elec = self.p_elec_w(speed_rpm, torque_nm)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(p_mech > 0, p_mech / p_elec, p_elec / p_mech)
+
+
+#: The 150 kW, 12000 rpm class of the EV export (base speed 4000 rpm).
+EV_DRIVE = TruthDrive(150_000.0, 12_000.0, 150_000.0 / (4000.0 * RPM_TO_RAD_S))
+#: The paper's 8.2 kW drive rating with the same loss shape.
+PAPER_DRIVE = TruthDrive(8200.0, 1500.0, 78.0)
+
+
+def grid_points(drive: TruthDrive, quadrants=("motor", "generator"), *, n_speeds: int = 24,
+                n_torques: int = 12, noise_w: float = 0.0, seed: int = 0,
+                min_speed_frac: float = 0.04, min_torque_frac: float = 0.03) -> pd.DataFrame:
+    """Operating points on a jittered set-point grid inside the true envelope.
+
+    At each speed level the torque steps from ``min_torque_frac * T_max`` to the
+    envelope at that speed, as a bench operator does; speeds run from
+    ``min_speed_frac * n_max`` to ``n_max`` (negative in the generator quadrant).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Store-like points (docs/schemas.md §2): ``session_id, point_id, mode,
+        quadrant, source, speed_rpm, torque_nm, p_mech_w, p_elec_w``; the true
+        electrical power is in ``p_elec_true_w``.
+    """
+    rng = np.random.default_rng(seed)
+    frames = []
+    for q in quadrants:
+        step = (1.0 - min_speed_frac) * drive.max_speed_rpm / (n_speeds - 1)
+        levels = min_speed_frac * drive.max_speed_rpm + step * np.arange(n_speeds)
+        levels = np.clip(levels + rng.uniform(-0.1, 0.1, n_speeds) * step,
+                         min_speed_frac * drive.max_speed_rpm, drive.max_speed_rpm)
+        s, t = [], []
+        for n in levels:
+            top = float(drive.torque_limit_nm(n))
+            s.append(np.full(n_torques, n))
+            t.append(np.linspace(min_torque_frac * drive.max_torque_nm, top, n_torques))
+        speed = np.concatenate(s) * (1.0 if q == "motor" else -1.0)
+        torque = np.concatenate(t)
+        p_mech = speed * RPM_TO_RAD_S * torque
+        p_true = drive.p_elec_w(speed, torque)
+        frames.append(pd.DataFrame({
+            "session_id": f"{q}_01", "point_id": np.arange(speed.size, dtype="int32"),
+            "mode": q, "quadrant": q, "source": "operating_point_table",
+            "speed_rpm": speed, "torque_nm": torque, "p_mech_w": p_mech,
+            "p_elec_w": p_true + rng.normal(0.0, noise_w, speed.size),
+            "p_elec_true_w": p_true,
+        }))
+    return pd.concat(frames, ignore_index=True)
+
+
+def write_table_campaign(folder, drive: TruthDrive, points: pd.DataFrame,
+                         source: str = "synthetic rated drive (bench.synth.rated_drive)") -> None:
+    """Write points as a campaign of operating-point-table sessions plus its ``drive.toml``.
+
+    One session per ``session_id`` of ``points`` (docs/schemas.md §1: ``session.toml``
+    of kind ``operating_points``, ``points.csv`` with foreign column names and units,
+    ``mapping.toml``), sensor ranges 25 % above the drive's rating.
+
+    Parameters
+    ----------
+    folder : str or Path
+        Campaign folder (created).
+    drive : TruthDrive
+    points : pandas.DataFrame
+        As :func:`grid_points` returns.
+    source : str
+        The ``source`` line of ``drive.toml``.
+    """
+    from pathlib import Path
+
+    from bench.drive import DRIVE_FILE, DriveRating, drive_toml
+    from bench.files import write_text_atomic
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    rating = DriveRating(drive.nominal_power_w, drive.max_speed_rpm, drive.max_torque_nm,
+                         source=source)
+    write_text_atomic(folder / DRIVE_FILE, drive_toml(rating))
+    for sid, sub in points.groupby("session_id"):
+        session = folder / str(sid)
+        session.mkdir(exist_ok=True)
+        mode = str(sub["mode"].iloc[0])
+        write_text_atomic(session / "session.toml", "\n".join([
+            f'session_id = "{sid}"', 'kind = "operating_points"', f'mode = "{mode}"',
+            'operator = "bench.synth.rated_drive"', 'date = "2026-01-01"', "gear_ratio = 1.0",
+            'measured_side = "drum"', "speed_sign = 1", "torque_sign = 1", "",
+            "[points]", 'file = "points.csv"', 'mapping = "mapping.toml"', "",
+            "[sensors]", f"torque_range_nm = {1.25 * drive.max_torque_nm!r}",
+            f"speed_range_rpm = {1.25 * drive.max_speed_rpm!r}",
+            f"power_range_w = {1.25 * drive.nominal_power_w!r}", ""]))
+        write_text_atomic(session / "mapping.toml", "\n".join([
+            "[columns.speed]", 'column = "n"', 'unit = "1/min"', "",
+            "[columns.torque]", 'column = "M"', 'unit = "Nm"', "",
+            "[columns.p_elec]", 'column = "P_el"', 'unit = "kW"', ""]))
+        table = pd.DataFrame({"n": sub["speed_rpm"].round(3), "M": sub["torque_nm"].round(4),
+                              "P_el": (sub["p_elec_w"] / 1000.0).round(6)})
+        write_text_atomic(session / "points.csv", table.to_csv(index=False))

@@ -1,0 +1,132 @@
+"""Foreign bench exports with a known truth, for the mapping features (issue 10 finding 5).
+
+- :func:`make_dyno_table`: a small dyno's operating-point table: tab separated,
+  a title line and a date line before the header, torque in ``N mm``, both
+  quadrants, read through ``skip_lines`` and a mapping.
+- :func:`make_ev_table`: a production EV-motor bench's operating-point table
+  with about 500 ``Name [unit]`` columns: speed to 12000 rpm, a 150 kW
+  power-limited torque envelope in both quadrants, p_elec as the DC link's
+  ``U * I`` (``expr``) or the sum of three wattmeters (``sum``), p_mech mapped
+  in kW, and many distractor columns (one named like p_mech that is not).
+
+Each writes ``root/<sid>/{session.toml, points file, mapping.toml}`` and returns
+the drum-frame truth of every row.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+RAD_S_PER_RPM = 2.0 * math.pi / 60.0
+
+
+def loss_w(speed_rpm, torque_nm, c0: float, c_speed: float, c_torque: float):
+    """Drive losses [W]: no-load + speed^2 (iron, friction) + torque^2 (copper) terms."""
+    return c0 + c_speed * np.asarray(speed_rpm) ** 2 + c_torque * np.asarray(torque_nm) ** 2
+
+
+def _session_toml(sid: str, mode: str, file: str, sensors: dict[str, float]) -> str:
+    lines = [f'session_id = "{sid}"', 'kind = "operating_points"', f'mode = "{mode}"',
+             'operator = "fixture"', 'date = "2021-03-12"', "gear_ratio = 1.0",
+             'measured_side = "drum"', "speed_sign = 1", "torque_sign = 1", "",
+             "[points]", f'file = "{file}"', 'mapping = "mapping.toml"', "", "[sensors]"]
+    lines += [f"{k} = {v!r}" for k, v in sensors.items()]
+    return "\n".join(lines) + "\n"
+
+
+def make_dyno_table(root: Path, sid: str = "dyno_01", seed: int = 11) -> dict[str, np.ndarray]:
+    """A 2 kW dyno's table: ``N mm`` torque, two preamble lines, tab separated.
+
+    Motor rows at +500..+3000 rpm, generator rows at -500..-3000 rpm, torque
+    0.5..6 N m written in N mm; p_elec = p_mech + losses, printed in W to 0.1 W.
+    """
+    rng = np.random.default_rng(seed)
+    speed = np.array([s * n for s in (1.0, -1.0) for n in (500.0, 1000.0, 2000.0, 3000.0)
+                      for _ in range(4)])
+    torque = rng.uniform(0.5, 6.0, speed.size)
+    p_mech = speed * torque * RAD_S_PER_RPM
+    p_elec = p_mech + loss_w(speed, torque, 15.0, 2e-6, 0.8)
+    folder = root / sid
+    folder.mkdir(parents=True)
+    rows = ["Dyno 3 – efficiency sweep, motor SN 4711", "Date\t12.03.2021",
+            "Nr\tDrehzahl [1/min]\tMoment [N mm]\tP_el [W]\tT_Wicklung [°C]"]
+    rows += [f"{k + 1}\t{s:.1f}\t{q * 1e3:.2f}\t{pe:.1f}\t{40 + k * 0.3:.1f}"
+             for k, (s, q, pe) in enumerate(zip(speed, torque, p_elec, strict=True))]
+    (folder / "points.txt").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    (folder / "mapping.toml").write_text(
+        'skip_lines = 2            # the title and the date line\n\n'
+        '[columns.torque]\ncolumn = "Moment [N mm]"\nunit = "N mm"\n\n'
+        '[columns.p_elec]\ncolumn = "P_el [W]"\nunit = "W"\n', encoding="utf-8")
+    (folder / "session.toml").write_text(_session_toml(
+        sid, "motor", "points.txt",
+        {"torque_range_nm": 10.0, "speed_range_rpm": 4000.0, "power_range_w": 3000.0}))
+    return {"speed_rpm": speed, "torque_nm": torque, "p_elec_w": p_elec, "p_mech_w": p_mech}
+
+
+def ev_envelope_nm(speed_rpm, max_torque_nm: float = 300.0, max_power_w: float = 150e3):
+    """Torque envelope [N m]: constant torque to the base speed, constant power above it."""
+    w = np.abs(np.asarray(speed_rpm)) * RAD_S_PER_RPM
+    with np.errstate(divide="ignore"):
+        return np.minimum(max_torque_nm, max_power_w / w)
+
+
+def make_ev_table(root: Path, sid: str = "ev_01", p_elec_by: str = "expr", n_columns: int = 500,
+                  seed: int = 5) -> dict[str, np.ndarray]:
+    """An EV-motor bench's operating-point export with ``n_columns`` ``Name [unit]`` columns.
+
+    Parameters
+    ----------
+    p_elec_by : str
+        ``"expr"``: p_elec mapped as ``{U_DC [V]} * {I_DC [A]}``; ``"sum"``:
+        as the sum of ``P_1 [kW]``, ``P_2 [kW]``, ``P_3 [kW]`` (three wattmeters,
+        unequal shares).
+    """
+    rng = np.random.default_rng(seed)
+    grid = [(s * n, f) for s in (1.0, -1.0) for n in np.arange(1000.0, 12001.0, 1000.0)
+            for f in (0.15, 0.4, 0.7, 0.95)]
+    speed = np.array([n for n, _ in grid])
+    torque = np.array([f for _, f in grid]) * ev_envelope_nm(speed)
+    p_mech = speed * torque * RAD_S_PER_RPM
+    p_elec = p_mech + loss_w(speed, torque, 400.0, 2e-5, 0.04)
+    u_dc = 400.0 + rng.normal(0.0, 2.0, speed.size)
+    i_dc = p_elec / u_dc
+    share = np.array([0.34, 0.33, 0.33])
+    cols: dict[str, list[str]] = {
+        "Step [-]": [str(k + 1) for k in range(speed.size)],
+        "Speed [rpm]": [f"{x:.2f}" for x in speed],
+        "Torque_Flange [Nm]": [f"{x:.3f}" for x in torque],
+        "P_Mech [kW]": [f"{x / 1e3:.5f}" for x in p_mech],
+        "P_Mech_Setpoint [kW]": [f"{x / 1e3 * 0.9:.3f}" for x in p_mech],  # not p_mech
+        "U_DC [V]": [f"{x:.3f}" for x in u_dc],
+        "I_DC [A]": [f"{x:.4f}" for x in i_dc],
+    }
+    for k in range(3):
+        cols[f"P_{k + 1} [kW]"] = [f"{x / 1e3:.5f}" for x in share[k] * p_elec]
+    filler_units = ("°C", "V", "A", "mWb", "Hz", "bar", "%", "l/min")
+    k = 0
+    while len(cols) < n_columns:
+        unit = filler_units[k % len(filler_units)]
+        cols[f"Aux_{k:03d} [{unit}]"] = [f"{v:.3f}" for v in rng.normal(50.0, 5.0, speed.size)]
+        k += 1
+    folder = root / sid
+    folder.mkdir(parents=True)
+    names = list(cols)
+    lines = [",".join(names)] + [",".join(cols[c][r] for c in names) for r in range(speed.size)]
+    (folder / "export.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    if p_elec_by == "expr":
+        p_elec_entry = 'expr = "{U_DC [V]} * {I_DC [A]}"\nunit = "W"\n'
+    else:
+        p_elec_entry = 'sum = ["P_1 [kW]", "P_2 [kW]", "P_3 [kW]"]\nunit = "kW"\n'
+    (folder / "mapping.toml").write_text(
+        '[columns.speed]\ncolumn = "Speed [rpm]"\nunit = "rpm"\n\n'
+        '[columns.torque]\ncolumn = "Torque_Flange [Nm]"\nunit = "Nm"\n\n'
+        f"[columns.p_elec]\n{p_elec_entry}\n"
+        '[columns.p_mech]\ncolumn = "P_Mech [kW]"\nunit = "kW"\n', encoding="utf-8")
+    (folder / "session.toml").write_text(_session_toml(
+        sid, "motor", "export.csv",
+        {"torque_range_nm": 400.0, "speed_range_rpm": 15000.0, "power_range_w": 200e3}))
+    return {"speed_rpm": speed, "torque_nm": torque, "p_elec_w": p_elec, "p_mech_w": p_mech,
+            "u_dc_v": u_dc}
