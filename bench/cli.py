@@ -12,6 +12,7 @@ import importlib
 import sys
 
 from bench.errors import InputError
+from bench.files import WRITE_ERRNOS
 
 #: subcommand -> (module, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
@@ -19,8 +20,10 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "ingest": ("bench.ingest.cli", "ingest bench logs into the Parquet store"),
     "fit": ("fitting.cli", "efficiency map, power model fit, model selection, export"),
     "optimize": ("optimize.cli", "periodic pumping-cycle optimization over a wind grid"),
+    "aep": ("energy.cli", "annual energy, capacity factor and bands of the power curves at a site"),
+    "size": ("energy.size_cli", "drive sizing: electrical AEP against drive rating"),
     "report": ("reports.cli", "render the self-contained HTML report"),
-    "run": ("bench.run_cli", "ingest, fit, optimize and report in one go"),
+    "run": ("bench.run_cli", "ingest, fit, optimize, aep, size and report in one go"),
 }
 
 
@@ -53,6 +56,13 @@ def main(argv: list[str] | None = None) -> int:
         return int(_load(args._module).run(args) or 0)
     except InputError as exc:
         print(f"bench {args.command}: error: {exc.describe()}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # a place that cannot be written, found only while writing
+        if exc.errno not in WRITE_ERRNOS:
+            raise
+        where = exc.filename or "<output>"
+        print(f"bench {args.command}: error: {where}: cannot write ({WRITE_ERRNOS[exc.errno]}); "
+              "expected a writable output folder", file=sys.stderr)
         return 2
 
 

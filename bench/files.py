@@ -8,11 +8,19 @@ with :func:`os.replace` only once the write succeeded.
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import os
 import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
+
+from bench.errors import InputError
+
+#: OS errors that mean "this place cannot be written", said plainly by the CLI
+WRITE_ERRNOS = {errno.EACCES: "permission denied", errno.EPERM: "operation not permitted",
+                errno.EROFS: "read-only file system", errno.ENOSPC: "no space left on device",
+                errno.EDQUOT: "disk quota exceeded"}
 
 
 def temp_path(path: str | Path) -> Path:
@@ -76,3 +84,48 @@ def file_sha256(path: str | Path) -> str:
         for block in iter(lambda: fh.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
+
+
+def check_output_dir(path: str | Path, option: str = "--out") -> Path:
+    """Fail early, before any long work, if ``path`` cannot become an output folder.
+
+    The folder (or, when missing, its nearest existing parent) must be a folder
+    in which a file can be created: a probe file is created and removed.
+
+    Raises
+    ------
+    InputError
+        ``path`` is an existing file, or the place is read-only, not permitted or full.
+    """
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise InputError(path, "exists and is not a folder", column=option,
+                         expected="an output folder (created when missing)")
+    _probe_write(path, option)
+    return path
+
+
+def check_output_file(path: str | Path, option: str = "--out") -> Path:
+    """Like :func:`check_output_dir` for an output file: not a folder, parent writable."""
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(path, "is a folder", column=option, expected="an output file name")
+    _probe_write(path.parent, option)
+    return path
+
+
+def _probe_write(folder: Path, option: str) -> None:
+    probe = folder
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    if not probe.is_dir():
+        raise InputError(folder, f"{probe} is not a folder", column=option,
+                         expected="a path under a folder")
+    try:
+        fd, tmp = tempfile.mkstemp(dir=probe, prefix=".bench-write-test-")
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError as exc:
+        reason = WRITE_ERRNOS.get(exc.errno, exc.strerror or str(exc))
+        raise InputError(folder, f"cannot write in {probe} ({reason})", column=option,
+                         expected="a writable folder") from exc

@@ -2,36 +2,58 @@
 
 Layout::
 
-    <store>/manifest.json
-    <store>/points/<session_id>.parquet
-    <store>/samples/<session_id>.parquet
-    <store>/rejected/<session_id>.parquet
+    <store>/manifest.json                     names the current generation
+    <store>/.lock                             held by the one ingest writing
+    <store>/gen-<n>/points/<session_id>.parquet
+    <store>/gen-<n>/samples/<session_id>.parquet
+    <store>/gen-<n>/rejected/<session_id>.parquet
 
-Writes are staged in ``<store>/.staging-*`` and only moved into place
-(``os.replace``, same file system) once every session has been processed;
-the manifest goes last, atomically. Readers: :func:`read_points`,
-:func:`read_manifest`, :func:`read_rejected`, :func:`read_samples`.
+A generation directory is written whole in ``<store>/.staging-*`` (new
+sessions' files moved in, unchanged sessions' files hard-linked from the
+current generation), renamed into place, and only then does ``manifest.json``
+switch to it, by one atomic :func:`os.replace`. At every instant the manifest
+names a complete generation: a reader sees the old store or the new one, never
+a mix. Generations the manifest does not name and leftover staging folders are
+removed by the next writer. One writer at a time: :class:`StoreWriter` holds an
+exclusive ``flock`` on ``<store>/.lock``.
+
+Readers: :func:`read_manifest`, :func:`kind_files`, :func:`read_points`,
+:func:`read_rejected`, :func:`read_samples`. They read only the files the
+manifest lists; a store written before generations (schema_version 1, files
+directly in ``<store>/points`` etc.) is still read.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
+import sys
 import tempfile
-from collections.abc import Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
+from datetime import date, time
 from pathlib import Path
+from typing import TypeVar
 
 import pandas as pd
 import pyarrow as pa
 
 from bench.errors import InputError
-from bench.files import write_text_atomic
+from bench.files import WRITE_ERRNOS, write_text_atomic
 
 SCHEMA_NAME = "drivebench.store"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+#: manifests this version reads (1: no generations, files directly in <store>/<kind>)
+READABLE_VERSIONS = (1, 2)
 KINDS = ("points", "samples", "rejected")
+LOCK_FILE = ".lock"
+STAGING_PREFIX = ".staging-"
+GENERATION_RE = re.compile(r"^gen-(\d{6,})$")
+#: times a reader starts over when a writer removed a generation under it
+READ_RETRIES = 5
+
+T = TypeVar("T")
 
 
 def _f(name: str, typ: pa.DataType, unit: str | None = None) -> pa.Field:
@@ -52,7 +74,7 @@ POINTS_SCHEMA = pa.schema([
     _f("torque_nm_std", pa.float64(), "N m"),
     _f("p_mech_w_std", pa.float64(), "W"),
     _f("p_elec_w_std", pa.float64(), "W"),
-    _f("n_samples", pa.int32()),
+    _f("n_samples", pa.int64()),
     _f("t_start_s", pa.float64(), "s"),
     _f("t_end_s", pa.float64(), "s"),
 ])
@@ -74,10 +96,13 @@ REJECTED_SCHEMA = pa.schema([
     _f("reason", pa.string()),
 ])
 
+_SCHEMAS = {"points": POINTS_SCHEMA, "samples": SAMPLES_SCHEMA, "rejected": REJECTED_SCHEMA}
+
 
 def empty_manifest() -> dict:
-    """A manifest with no sessions."""
-    return {"schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION, "sessions": {}}
+    """A manifest with no sessions and no generation."""
+    return {"schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION, "generation": None,
+            "sessions": {}}
 
 
 def read_manifest(store_dir: str | Path) -> dict:
@@ -98,90 +123,408 @@ def read_manifest(store_dir: str | Path) -> dict:
         manifest = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise InputError(path, f"unreadable store manifest ({exc})") from exc
-    if manifest.get("schema") != SCHEMA_NAME or manifest.get("schema_version") != SCHEMA_VERSION:
+    if (not isinstance(manifest, dict) or manifest.get("schema") != SCHEMA_NAME
+            or manifest.get("schema_version") not in READABLE_VERSIONS
+            or not isinstance(manifest.get("sessions"), dict)):
         raise InputError(path, "not a drivebench store manifest",
                          expected=f"schema {SCHEMA_NAME!r} version {SCHEMA_VERSION}")
+    manifest.setdefault("generation", None)
+    gen = manifest["generation"]
+    if gen is not None and not (isinstance(gen, str) and GENERATION_RE.match(gen)):
+        raise InputError(path, f"bad generation {gen!r}", column="generation",
+                         expected="gen-<number>")
     return manifest
 
 
-def _read_dir(store_dir: str | Path, kind: str, schema: pa.Schema) -> pd.DataFrame:
-    folder = Path(store_dir) / kind
-    files = sorted(folder.glob("*.parquet")) if folder.is_dir() else []
-    if not files:
-        return schema.empty_table().to_pandas()
-    return pd.concat([pd.read_parquet(f) for f in files], ignore_index=True)
+def _listed(manifest: dict, kind: str) -> dict[str, str]:
+    """session_id -> file of ``kind`` relative to the store, as the manifest lists it."""
+    out = {}
+    gen = manifest.get("generation")
+    for sid, entry in sorted(manifest["sessions"].items()):
+        files = entry.get("store_files") if isinstance(entry, dict) else None
+        if gen is not None and isinstance(files, dict):
+            if files.get(kind):
+                out[sid] = f"{gen}/{files[kind]}"
+        elif gen is None:  # schema_version 1: <store>/<kind>/<sid>.parquet when present
+            out[sid] = f"{kind}/{sid}.parquet"
+    return out
 
 
-def read_points(store_dir: str | Path) -> pd.DataFrame:
-    """All operating points of the store, one row each (docs/schemas.md section 2)."""
-    return _read_dir(store_dir, "points", POINTS_SCHEMA)
-
-
-def read_rejected(store_dir: str | Path) -> pd.DataFrame:
-    """All rejected steady-state windows with their reasons."""
-    return _read_dir(store_dir, "rejected", REJECTED_SCHEMA)
-
-
-def read_samples(store_dir: str | Path, session_id: str) -> pd.DataFrame:
-    """The aligned time series of one timeseries session."""
-    path = Path(store_dir) / "samples" / f"{session_id}.parquet"
-    if not path.exists():
-        raise InputError(path, f"no samples for session {session_id!r}")
-    return pd.read_parquet(path)
-
-
-def write_json(obj: dict, path: Path) -> None:
-    """Write JSON (sorted keys, stable bytes) atomically."""
-    write_text_atomic(path, json.dumps(obj, indent=1, sort_keys=True) + "\n")
-
-
-@contextmanager
-def staging(store_dir: str | Path) -> Iterator[Path]:
-    """A scratch directory inside the store; removed on exit, and so is a store it created.
-
-    Everything an ingest writes goes here first, so a failure leaves the store
-    exactly as it was.
-    """
-    store = Path(store_dir)
-    created = not store.exists()
-    store.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=".staging-", dir=store))
-    ok = False
-    try:
-        yield tmp
-        ok = True
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-        if created and not ok:
-            shutil.rmtree(store, ignore_errors=True)
-
-
-def commit(
-    store_dir: str | Path, staged: dict[str, dict[str, Path]], entries: dict[str, dict]
-) -> None:
-    """Move staged session files into place, then write the manifest last.
+def kind_files(store_dir: str | Path, kind: str, manifest: dict | None = None) -> dict[str, Path]:
+    """The files of one kind that the store's manifest lists, by session id (sorted).
 
     Parameters
     ----------
     store_dir : str or Path
         The store.
-    staged : dict
-        session_id -> {kind: staged Parquet file}; kinds a session lacks are removed
-        from the store (a session whose kind changed leaves nothing stale).
-    entries : dict
-        session_id -> manifest entry, merged into the existing manifest.
+    kind : str
+        ``"points"``, ``"samples"`` or ``"rejected"``.
+    manifest : dict, optional
+        A manifest already read (default: read it now).
+
+    Returns
+    -------
+    dict
+        session_id -> file path. Files of a generation the manifest does not name
+        (left by an interrupted ingest) are never listed.
     """
     store = Path(store_dir)
-    manifest = read_manifest(store)
-    for kind in KINDS:
-        (store / kind).mkdir(exist_ok=True)
-    for sid, files in staged.items():
+    manifest = read_manifest(store) if manifest is None else manifest
+    paths = {sid: store / rel for sid, rel in _listed(manifest, kind).items()}
+    if manifest.get("generation") is None:  # v1 stores: a session may lack a kind
+        paths = {sid: p for sid, p in paths.items() if p.is_file()}
+    return paths
+
+
+def consistent_read(store_dir: str | Path, read: Callable[[dict], T]) -> T:
+    """Call ``read(manifest)`` on the current manifest; start over if a writer moved on.
+
+    A writer removes the previous generation once the manifest names the new
+    one, so a reader that loses a file under it reads the new manifest and
+    starts again (at most :data:`READ_RETRIES` times).
+
+    Raises
+    ------
+    InputError
+        A file the manifest lists is missing while the manifest did not change
+        (a damaged store), or the store kept changing.
+    """
+    for _ in range(READ_RETRIES):
+        manifest = read_manifest(store_dir)
+        try:
+            return read(manifest)
+        except FileNotFoundError as exc:
+            if read_manifest(store_dir).get("generation") == manifest.get("generation"):
+                raise InputError(exc.filename or store_dir,
+                                 "a file the store manifest lists is missing (damaged store)",
+                                 expected="re-run bench ingest into a new store") from exc
+    raise InputError(store_dir, f"the store changed {READ_RETRIES} times while being read",
+                     expected="no ingest running into it")
+
+
+def _read_kind(store_dir: str | Path, kind: str) -> pd.DataFrame:
+    def read(manifest: dict) -> pd.DataFrame:
+        files = kind_files(store_dir, kind, manifest)
+        frames = [pd.read_parquet(p) for p in files.values()]
+        if not frames:
+            return _SCHEMAS[kind].empty_table().to_pandas()
+        return pd.concat(frames, ignore_index=True)
+
+    return consistent_read(store_dir, read)
+
+
+def read_points(store_dir: str | Path) -> pd.DataFrame:
+    """All operating points of the store, one row each (docs/schemas.md section 2)."""
+    return _read_kind(store_dir, "points")
+
+
+def read_rejected(store_dir: str | Path) -> pd.DataFrame:
+    """All rejected steady-state windows with their reasons."""
+    return _read_kind(store_dir, "rejected")
+
+
+def read_samples(store_dir: str | Path, session_id: str) -> pd.DataFrame:
+    """The aligned time series of one timeseries session."""
+    def read(manifest: dict) -> pd.DataFrame:
+        path = kind_files(store_dir, "samples", manifest).get(session_id)
+        if path is None:
+            raise InputError(Path(store_dir) / "manifest.json",
+                             f"no samples for session {session_id!r}")
+        return pd.read_parquet(path)
+
+    return consistent_read(store_dir, read)
+
+
+def _json_default(obj):
+    """TOML dates and times become ISO 8601 text; anything else is a bug, said plainly."""
+    if isinstance(obj, date | time):
+        return obj.isoformat()
+    raise TypeError(f"cannot store a {type(obj).__name__} in JSON: {obj!r}")
+
+
+def dumps(obj) -> str:
+    """JSON text of a manifest: sorted keys, stable bytes, never NaN or Infinity.
+
+    Raises
+    ------
+    ValueError
+        A non-finite float anywhere in ``obj`` (JSON has none).
+    """
+    return json.dumps(obj, indent=1, sort_keys=True, allow_nan=False,
+                      default=_json_default) + "\n"
+
+
+def write_json(obj: dict, path: Path) -> None:
+    """Write JSON (sorted keys, stable bytes, no NaN) atomically."""
+    write_text_atomic(path, dumps(obj))
+
+
+def _fsync(path: Path) -> None:
+    """Flush a file or directory to disk (a power cut then keeps it whole)."""
+    flags = os.O_RDONLY | (getattr(os, "O_DIRECTORY", 0) if path.is_dir() else 0)
+    try:
+        fd = os.open(path, flags)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:  # some file systems cannot fsync a directory
+        pass
+    finally:
+        os.close(fd)
+
+
+def _link_or_copy(src: Path, dest: Path) -> None:
+    try:
+        os.link(src, dest)
+    except OSError:
+        shutil.copy2(src, dest)
+
+
+def _lock(fd: int, block: bool) -> None:
+    """Exclusive lock on an open file; BlockingIOError when taken and ``block`` is False.
+
+    ``flock`` on POSIX (released when the process ends, however it ends);
+    ``msvcrt.locking`` of the first byte on Windows.
+    """
+    try:
+        import fcntl
+    except ImportError:  # Windows
+        import msvcrt
+        import time as _time
+
+        while True:
+            os.lseek(fd, 0, os.SEEK_SET)
+            try:
+                msvcrt.locking(fd, msvcrt.LK_NBLCK, 1)
+                return
+            except OSError as exc:
+                if not block:
+                    raise BlockingIOError(*exc.args) from exc
+                _time.sleep(0.2)
+    fcntl.flock(fd, fcntl.LOCK_EX | (0 if block else fcntl.LOCK_NB))
+
+
+def _read_at_start(fd: int) -> str:
+    """The text at the start of the lock file (the holder's pid), without the lock."""
+    try:
+        os.lseek(fd, 0, os.SEEK_SET)
+        return os.read(fd, 64).decode("ascii", "replace")
+    except OSError:  # Windows: the locked byte cannot be read
+        return ""
+
+
+def _write_pid(fd: int) -> None:
+    os.ftruncate(fd, 0)
+    os.lseek(fd, 0, os.SEEK_SET)
+    os.write(fd, f"{os.getpid()}\n".encode())
+
+
+class StoreBusy(InputError):
+    """Another ingest holds the store's lock and the caller chose not to wait."""
+
+
+class StoreWriter:
+    """The one writer of a store: lock, scratch space, generation commit, cleanup.
+
+    Use as a context manager::
+
+        with StoreWriter(store_dir) as w:
+            ...write files into w.stage...
+            w.commit(staged, entries)
+
+    Entering takes an exclusive ``flock`` on ``<store>/.lock`` (creating the store
+    when missing), waiting for another writer with a message (or raising
+    :class:`StoreBusy` when ``wait`` is False), then removes what an interrupted
+    writer left: staging folders and generations the manifest does not name.
+    Leaving removes the scratch space; a store this writer created is removed
+    again when nothing was committed.
+
+    Parameters
+    ----------
+    store_dir : str or Path
+        The store.
+    wait : bool
+        Wait for another writer (default) or stop at once.
+    notify : callable
+        Called with one line when waiting (default: print to stderr).
+    """
+
+    def __init__(self, store_dir: str | Path, wait: bool = True,
+                 notify: Callable[[str], None] | None = None) -> None:
+        self.store = Path(store_dir)
+        self.wait = wait
+        self.notify = notify or (lambda msg: print(msg, file=sys.stderr, flush=True))
+        self.created = False
+        self.committed = False
+        self._fd: int | None = None
+        self.stage: Path | None = None
+        self.manifest: dict = empty_manifest()
+
+    # -- lock -------------------------------------------------------------------------
+    def _acquire(self) -> None:
+        lock_path = self.store / LOCK_FILE
+        while True:
+            if self.store.exists() and not self.store.is_dir():
+                raise InputError(self.store, "the store is not a directory",
+                                 expected="a store directory (created when missing)")
+            try:
+                if not self.store.exists():
+                    try:
+                        self.store.mkdir(parents=True)
+                        self.created = True
+                    except FileExistsError:
+                        pass
+                fd = os.open(lock_path, os.O_RDWR | os.O_CREAT, 0o666)
+            except FileNotFoundError:  # the store vanished between mkdir and open: retry
+                continue
+            except OSError as exc:
+                reason = WRITE_ERRNOS.get(exc.errno, exc.strerror or str(exc))
+                raise InputError(self.store, f"cannot write to the store ({reason})",
+                                 expected="a writable store directory") from exc
+            try:
+                _lock(fd, block=False)
+            except BlockingIOError as busy:
+                holder = _read_at_start(fd).strip() or "?"
+                if not self.wait:
+                    os.close(fd)
+                    raise StoreBusy(self.store,
+                                    f"another ingest (pid {holder}) is writing this store",
+                                    expected="one ingest per store at a time") from busy
+                self.notify(f"bench ingest: waiting for another ingest (pid {holder}) "
+                            f"writing {self.store} ...")
+                _lock(fd, block=True)
+            # the holder may have removed the store (a failed first ingest): lock again
+            try:
+                same = os.fstat(fd).st_ino == os.stat(lock_path).st_ino
+            except FileNotFoundError:
+                same = False
+            if same:
+                self._fd = fd
+                _write_pid(fd)
+                return
+            os.close(fd)
+
+    def _release(self) -> None:
+        if self._fd is not None:
+            os.close(self._fd)  # closing drops the flock
+            self._fd = None
+
+    # -- cleanup ----------------------------------------------------------------------
+    def _clean(self) -> None:
+        """Remove staging folders and generations the manifest does not name."""
+        keep = self.manifest.get("generation")
+        for p in self.store.iterdir():
+            if p.name.startswith(STAGING_PREFIX) or (
+                    GENERATION_RE.match(p.name) and p.name != keep):
+                shutil.rmtree(p, ignore_errors=True)
+            elif p.name.startswith(".manifest.json.") and p.name.endswith(".tmp"):
+                p.unlink(missing_ok=True)
+        if keep is not None:  # a v1 store migrated to generations: its old folders go
+            for kind in KINDS:
+                if (self.store / kind).is_dir():
+                    shutil.rmtree(self.store / kind, ignore_errors=True)
+
+    def __enter__(self) -> StoreWriter:
+        try:
+            self._acquire()
+        except BaseException:
+            if self.created:
+                shutil.rmtree(self.store, ignore_errors=True)
+            raise
+        try:
+            self.manifest = read_manifest(self.store)
+            self._clean()
+            self.stage = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=self.store))
+        except BaseException:
+            self._release()
+            raise
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        try:
+            if self.stage is not None:
+                shutil.rmtree(self.stage, ignore_errors=True)
+            if self.created and not self.committed:
+                shutil.rmtree(self.store, ignore_errors=True)
+        finally:
+            self._release()
+
+    # -- commit -----------------------------------------------------------------------
+    def _next_generation(self) -> str:
+        numbers = [int(m.group(1)) for p in self.store.iterdir()
+                   if (m := GENERATION_RE.match(p.name))]
+        cur = self.manifest.get("generation")
+        if cur is not None:
+            numbers.append(int(GENERATION_RE.match(cur).group(1)))
+        return f"gen-{max(numbers, default=0) + 1:06d}"
+
+    def commit(self, staged: dict[str, dict[str, Path]], entries: dict[str, dict]) -> dict:
+        """Write a new generation and switch the manifest to it in one atomic step.
+
+        Parameters
+        ----------
+        staged : dict
+            session_id -> {kind: staged Parquet file} of the sessions (re)written;
+            kinds a session lacks are absent from the new generation.
+        entries : dict
+            session_id -> manifest entry of those sessions; the other sessions of
+            the current manifest are kept (their files hard-linked).
+
+        Returns
+        -------
+        dict
+            The new manifest.
+
+        Raises
+        ------
+        InputError
+            An entry that cannot be written as JSON (e.g. NaN), before anything changed.
+        """
+        assert self.stage is not None, "commit outside the writer's context"
+        old = self.manifest
+        gen = self._next_generation()
+        sessions = {sid: e for sid, e in old["sessions"].items() if sid not in entries}
+        new = {"schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION, "generation": gen,
+               "sessions": {}}
+        build = self.stage / gen
         for kind in KINDS:
-            dest = store / kind / f"{sid}.parquet"
-            if kind in files:
-                os.replace(files[kind], dest)
-            elif dest.exists():
-                dest.unlink()
-    manifest["sessions"].update(entries)
-    manifest["sessions"] = dict(sorted(manifest["sessions"].items()))
-    write_json(manifest, store / "manifest.json")
+            (build / kind).mkdir(parents=True)
+        # kept sessions: hard links to the current generation's files
+        for sid, entry in sessions.items():
+            files = {}
+            for kind in KINDS:
+                src = kind_files(self.store, kind, old).get(sid)
+                if src is not None and src.is_file():
+                    rel = f"{kind}/{sid}.parquet"
+                    _link_or_copy(src, build / rel)
+                    files[kind] = rel
+            new["sessions"][sid] = {**entry, "store_files": files}
+        for sid, entry in entries.items():
+            files = {}
+            for kind in KINDS:
+                if kind in staged.get(sid, {}):
+                    rel = f"{kind}/{sid}.parquet"
+                    os.replace(staged[sid][kind], build / rel)
+                    files[kind] = rel
+            new["sessions"][sid] = {**entry, "store_files": files}
+        new["sessions"] = dict(sorted(new["sessions"].items()))
+        try:
+            text = dumps(new)
+        except (TypeError, ValueError) as exc:
+            raise InputError(self.store / "manifest.json",
+                             f"a session's metadata cannot be stored ({exc})",
+                             expected="finite numbers, text, dates") from exc
+        for kind in KINDS:
+            for p in (build / kind).iterdir():
+                _fsync(p)
+            _fsync(build / kind)
+        os.replace(build, self.store / gen)
+        _fsync(self.store)
+        write_text_atomic(self.store / "manifest.json", text)  # the switch
+        _fsync(self.store)
+        self.committed = True
+        self.manifest = new
+        self._clean()
+        return new
+

@@ -65,7 +65,7 @@ from bench.files import file_sha256
 from bench.ingest.mapping import EMPTY_MAPPING
 from bench.ingest.readers import CHUNK_BYTES, read_analyzer
 from bench.ingest.session import discover, load_session
-from bench.ingest.timeseries import SAMPLES_WRITE_OPTIONS, open_daq
+from bench.ingest.timeseries import SAMPLES_WRITE_OPTIONS, open_stream
 from bench.store import SAMPLES_SCHEMA
 camp, out = Path(sys.argv[1]), Path(sys.argv[2])
 out.mkdir(parents=True, exist_ok=True)
@@ -79,7 +79,7 @@ def one(folder):
     sid = pa.array([s.session_id], pa.string())
     with pq.ParquetWriter(out / f"{s.session_id}.parquet", SAMPLES_SCHEMA,
                           **SAMPLES_WRITE_OPTIONS) as w:
-        for c in open_daq(s, EMPTY_MAPPING, CHUNK_BYTES).chunks():
+        for c in open_stream(s, EMPTY_MAPPING, CHUNK_BYTES).chunks():
             t, n, q = c.values["time"], c.values["speed"], c.values["torque"]
             w.write_table(pa.Table.from_arrays([
                 pa.DictionaryArray.from_arrays(np.zeros(t.size, np.int32), sid), t, n, q,

@@ -6,6 +6,7 @@ import argparse
 import shlex
 
 from bench.errors import InputError
+from bench.files import check_output_dir
 from fitting.domain import BAND_FRAC
 from fitting.pipeline import WEIGHTINGS, FitOptions, run_fit
 
@@ -52,6 +53,7 @@ def _order(text: str, select: bool) -> int | None:
 def run(args: argparse.Namespace) -> int:
     """Run the fit and print its summary."""
     order = _order(args.order, args.select)
+    check_output_dir(args.out)  # before the fit, not after it
     drive = {k: getattr(args, k) for k in ("nominal_power_w", "max_speed_rpm", "max_torque_nm")
              if getattr(args, k) is not None}
     rating_args = [a for k, v in drive.items() for a in (f"--{k.replace('_', '-')}", repr(v))]

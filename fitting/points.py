@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import io
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -10,6 +11,7 @@ import numpy as np
 import pandas as pd
 
 from bench.errors import InputError
+from bench.store import consistent_read, kind_files
 
 #: Columns the fit needs from ``points/*.parquet``.
 REQUIRED_COLUMNS = ("session_id", "point_id", "speed_rpm", "torque_nm", "p_mech_w", "p_elec_w")
@@ -27,7 +29,7 @@ class OperatingPoints:
         One row per point with ``REQUIRED_COLUMNS`` and ``quadrant``
         (recomputed from the sign of ``p_mech_w``, docs/schemas.md §2).
     files : dict
-        ``points/<file> -> sha256`` of every file read.
+        ``<session_id>.parquet -> sha256`` of every points file read.
     sha256 : str
         Hash over the sorted ``(file name, file sha256)`` pairs: the identity of the input.
     """
@@ -48,7 +50,7 @@ def quadrant_of(p_mech_w: np.ndarray) -> np.ndarray:
 
 
 def load_points(store: str | Path) -> OperatingPoints:
-    """Read every ``<store>/points/*.parquet`` file and check it.
+    """Read the points files the store's manifest lists and check them.
 
     Parameters
     ----------
@@ -62,19 +64,19 @@ def load_points(store: str | Path) -> OperatingPoints:
         (naming the file, the column and the point).
     """
     store = Path(store)
-    points_dir = store / "points"
     if not store.is_dir():
         raise InputError(store, "store not found", expected="a directory written by bench ingest")
-    if not points_dir.is_dir():
-        raise InputError(points_dir, "store has no points directory",
-                         expected="points/*.parquet written by bench ingest")
-    paths = sorted(points_dir.glob("*.parquet"))
+
+    def read_bytes(manifest: dict) -> dict[str, tuple[Path, bytes]]:
+        return {f"{sid}.parquet": (p, p.read_bytes())
+                for sid, p in kind_files(store, "points", manifest).items()}
+
+    listed = consistent_read(store, read_bytes)  # only the files the manifest lists
     frames, files = [], {}
-    for path in paths:
-        data = path.read_bytes()
-        files[path.name] = hashlib.sha256(data).hexdigest()
+    for name, (path, data) in listed.items():
+        files[name] = hashlib.sha256(data).hexdigest()
         try:
-            df = pd.read_parquet(path)
+            df = pd.read_parquet(io.BytesIO(data))
         except Exception as exc:  # pyarrow raises several types for a corrupt file
             raise InputError(path, f"not a readable Parquet file ({exc})") from exc
         for col in REQUIRED_COLUMNS:
@@ -96,8 +98,9 @@ def load_points(store: str | Path) -> OperatingPoints:
         if len(df):
             frames.append(df)
     if not frames:
-        raise InputError(points_dir, "store holds no operating points",
-                         expected="at least one non-empty points/*.parquet (run bench ingest)")
+        raise InputError(store, "store holds no operating points",
+                         expected="at least one session with points in its manifest.json "
+                                  "(run bench ingest)")
     frame = pd.concat(frames, ignore_index=True)
     for col in NUMERIC_COLUMNS:
         frame[col] = frame[col].astype(float)

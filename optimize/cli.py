@@ -12,6 +12,7 @@ import logging
 from pathlib import Path
 
 from bench.errors import InputError
+from bench.files import check_output_dir
 from optimize.sweep.plan import DEFAULT_KINDS, DEFAULT_WIND_GRID
 
 log = logging.getLogger(__name__)
@@ -76,14 +77,17 @@ def run(args: argparse.Namespace) -> int:
     """Run the sweep; exit code 0 if any scenario converged (failed ones are reported in the
     files and the table), 1 if none did, 2 on bad input."""
     from optimize.command import SweepRequest, format_summary, run_optimize
+    from optimize.problem.ocp import MAX_INTERVALS
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    if args.intervals < 2:
-        raise InputError(None, f"--intervals {args.intervals}: too few", expected="an integer >= 2")
+    top = MAX_INTERVALS // 2 if args.trust else MAX_INTERVALS  # --trust solves at 2x
+    if not 2 <= args.intervals <= top:
+        raise InputError(None, f"--intervals {args.intervals}: out of range",
+                         expected=f"an integer from 2 to {top}"
+                                  + (" (--trust refines to twice as many)" if args.trust else ""))
     if not 1 <= args.degree <= 9:
         raise InputError(None, f"--degree {args.degree}: out of range", expected="1 to 9")
-    if args.out.exists() and not args.out.is_dir():
-        raise InputError(args.out, "exists and is not a folder", expected="an output folder")
+    check_output_dir(args.out)
     request = SweepRequest.from_cli(args, FIT_MODEL_PATH)
     print(request.model_note)
     outcome = run_optimize(request)

@@ -78,6 +78,7 @@ class SweepRequest:
     @classmethod
     def from_cli(cls, args: Any, fit_model_path: Path) -> SweepRequest:
         """Build the request from ``bench optimize`` arguments; bad values raise InputError."""
+        from fitting.model_check import check_physics
         from fitting.model_file import PAPER_MODEL_PATH, load_power_model
         from optimize.problem.ocp import OcpOptions
 
@@ -102,6 +103,8 @@ class SweepRequest:
                                  stored_guess=not args.no_stored_guess)
         except ValueError as exc:
             raise InputError(None, f"OCP options: {exc}") from exc
+        # an impossible model "converges" to a wrong cycle: refuse it before any solve
+        check_physics(model, path, limits=domain_scales(model, options))
         return cls(
             winds,
             kinds,

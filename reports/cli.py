@@ -6,6 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
+from bench.files import check_output_file
 from reports.render import build_report
 
 
@@ -17,6 +18,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="output folder of `bench fit` (default: ./fit_out)")
     parser.add_argument("--optimize", type=Path, default=Path("optimize_out"),
                         help="output folder of `bench optimize` (default: ./optimize_out)")
+    parser.add_argument("--aep", type=Path, default=Path("aep_out"),
+                        help="output folder of `bench aep` (default: ./aep_out)")
+    parser.add_argument("--size", type=Path, default=Path("size_out"),
+                        help="output folder of `bench size` (default: ./size_out)")
     parser.add_argument("--out", type=Path, default=Path("report.html"),
                         help="the HTML file to write (default: ./report.html)")
 
@@ -24,9 +29,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Build the report; print its path, size and the wall time."""
     t0 = time.perf_counter()
+    check_output_file(args.out)
     argv = ["bench", "report", "--store", str(args.store), "--fit", str(args.fit),
-            "--optimize", str(args.optimize), "--out", str(args.out)]
-    out = build_report(args.store, args.fit, args.optimize, args.out, argv)
+            "--optimize", str(args.optimize), "--aep", str(args.aep), "--size", str(args.size),
+            "--out", str(args.out)]
+    out = build_report(args.store, args.fit, args.optimize, args.out, argv, args.aep, args.size)
     size_mb = out.stat().st_size / 1e6
     print(f"{out.resolve()}")
     print(f"bench report: {size_mb:.2f} MB written in {time.perf_counter() - t0:.1f} s")

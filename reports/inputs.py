@@ -112,14 +112,13 @@ class InputLog:
         self._record(path)
         return frame
 
-    def parquet_dir(self, folder: Path, required: tuple[str, ...] = ()) -> pd.DataFrame | None:
-        """All ``*.parquet`` files of ``folder`` concatenated, or None if there are none."""
-        folder = Path(folder)
-        files = sorted(folder.glob("*.parquet")) if folder.is_dir() else []
+    def parquet_files(self, files: list[Path], label: str,
+                      required: tuple[str, ...] = ()) -> pd.DataFrame | None:
+        """The given Parquet files concatenated, or None (``label`` missing) if there are none."""
         if not files:
-            self.missing.append(str(folder / "*.parquet"))
+            self.missing.append(label)
             return None
-        frames = [self.parquet(f, required) for f in files]
+        frames = [self.parquet(Path(f), required) for f in files]
         return pd.concat(frames, ignore_index=True)
 
     def csv(self, path: Path, required: tuple[str, ...] = ()) -> pd.DataFrame | None:

@@ -8,7 +8,7 @@ from pathlib import Path
 from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
 
 from bench.files import write_text_atomic
-from reports import optimization, provenance, sections
+from reports import energy_section, optimization, provenance, sections
 from reports.inputs import InputLog
 
 
@@ -23,7 +23,8 @@ def environment() -> Environment:
     )
 
 
-def build_context(store: Path, fit: Path, optimize: Path, argv: list[str]) -> dict:
+def build_context(store: Path, fit: Path, optimize: Path, argv: list[str],
+                  aep: Path = Path("aep_out"), size: Path = Path("size_out")) -> dict:
     """Read the stage outputs and return the template context (one dict per section).
 
     Parameters
@@ -31,6 +32,8 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str]) -> di
     store, fit, optimize : Path
         The ``bench ingest``, ``bench fit`` and ``bench optimize`` output folders;
         any of them may be missing or partial.
+    aep, size : Path
+        The ``bench aep`` and ``bench size`` output folders (optional).
     argv : list of str
         The report's command line, for provenance.
     """
@@ -44,6 +47,7 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str]) -> di
     power = sections.power_model_section(log, fit, model, points, summary)
     opt = optimization.optimization_section(log, optimize, efficiency["grid"],
                                             model.sha256 if model is not None else None)
+    energy = energy_section.energy_section(log, aep, size)
     prov = provenance.provenance_section(
         log, argv, started,
         {"ingest": manifest, "fit": model.provenance if model else None,
@@ -51,12 +55,13 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str]) -> di
     )
     return {
         "title": "drivebench report",
-        "headline": headline(campaign, power, opt),
+        "headline": headline(campaign, power, opt) + energy_headline(energy),
         "paths": {"store": str(store), "fit": str(fit), "optimize": str(optimize)},
         "campaign": campaign,
         "efficiency": efficiency,
         "power": power,
         "optimization": opt,
+        "energy": energy,
         "provenance": prov,
     }
 
@@ -84,11 +89,26 @@ def headline(campaign: dict, power: dict, opt: dict) -> list[tuple[str, str]]:
     return rows
 
 
+def energy_headline(energy: dict) -> list[tuple[str, str]]:
+    """Key energy results (AEP of the constrained electrical optimum, the sizing choice)."""
+    rows = []
+    for r in energy["table"]:
+        if r["kind"].startswith("elec-lim"):
+            rows.append(("electrical AEP (elec-lim)",
+                         f"{r['aep_elec']} MWh/yr (95 %: {r['band']}), "
+                         f"capacity factor {r['cf_elec']}"))
+    if energy["sizing"] is not None:
+        rows.append(("drive sizing", f"smallest within {energy['sizing']['tolerance']} of the best "
+                     f"AEP: {energy['sizing']['chosen']}"))
+    return rows
+
+
 def render(context: dict) -> str:
     """The HTML text of the report for a context from :func:`build_context`."""
     return environment().get_template("report.html").render(**context)
 
 
-def build_report(store: Path, fit: Path, optimize: Path, out: Path, argv: list[str]) -> Path:
+def build_report(store: Path, fit: Path, optimize: Path, out: Path, argv: list[str],
+                 aep: Path = Path("aep_out"), size: Path = Path("size_out")) -> Path:
     """Read the stage outputs, render the report and write it to ``out``; returns ``out``."""
-    return write_text_atomic(out, render(build_context(store, fit, optimize, argv)))
+    return write_text_atomic(out, render(build_context(store, fit, optimize, argv, aep, size)))

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from bench.errors import InputError
+from bench.store import kind_files as store_files
 from fitting.model_file import PowerModel, paper_model, power_model_from_dict
 from reports import drive_figures
 from reports.inputs import InputLog
@@ -33,9 +34,14 @@ def _missing_since(log: InputLog, start: int) -> list[str]:
     return list(dict.fromkeys(log.missing[start:]))
 
 
-def read_points(log: InputLog, store: Path) -> pd.DataFrame | None:
-    """All operating points of the store (docs/schemas.md §2), or None if there are none."""
-    return log.parquet_dir(Path(store) / "points", POINT_COLUMNS)
+def _store_kind(log: InputLog, store: Path, kind: str, manifest: dict | None,
+                required: tuple[str, ...]) -> pd.DataFrame | None:
+    """The ``kind`` files the store's manifest lists (never files it does not list)."""
+    try:
+        files = [] if manifest is None else list(store_files(store, kind).values())
+    except InputError:  # not a store manifest: the campaign section says what is missing
+        files = []
+    return log.parquet_files(files, str(Path(store) / kind / "*.parquet"), required)
 
 
 def campaign_section(log: InputLog, store: Path) -> dict:
@@ -57,9 +63,9 @@ def campaign_section(log: InputLog, store: Path) -> dict:
     """
     start = len(log.missing)
     store = Path(store)
-    points = read_points(log, store)
     manifest = log.json(store / "manifest.json")
-    rejected = log.parquet_dir(store / "rejected", REJECTED_COLUMNS)
+    points = _store_kind(log, store, "points", manifest, POINT_COLUMNS)
+    rejected = _store_kind(log, store, "rejected", manifest, REJECTED_COLUMNS)
     sessions = []
     if manifest is not None:
         entries = manifest.get("sessions")
@@ -115,6 +121,7 @@ def _session_row(sid: str, entry: dict) -> dict:
         "motor": ppq.get("motor"),
         "generator": ppq.get("generator"),
         "rejected": ", ".join(f"{k}: {v}" for k, v in sorted(rejected.items())),
+        "no_points_note": entry.get("no_points_note", ""),
         "clock_offset_s": fmt(entry.get("clock_offset_s"), 3),
         "clock_drift_ppm": fmt(entry.get("clock_drift_ppm"), 1),
         "clock_offset_prior_s": fmt(entry.get("clock_offset_prior_s"), 3),
@@ -133,7 +140,7 @@ def _instruments(meta: dict, instruments: dict) -> list[dict]:
     sensor ranges, measured side).
     """
     rows = []
-    for block in ("daq", "analyzer", "points"):
+    for block in ("daq", "analyzer", "log", "points"):
         b = meta.get(block) if isinstance(meta.get(block), dict) else {}
         seen = instruments.get(block) if isinstance(instruments.get(block), dict) else {}
         if not (b or seen):

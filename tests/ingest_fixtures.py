@@ -226,6 +226,9 @@ power_range_w = 15000.0
 
 
 def store_tree(store: Path) -> dict[str, bytes]:
-    """Relative path -> bytes of every file under ``store`` (to prove it did not change)."""
+    """Relative path -> bytes of every file under ``store`` (to prove it did not change).
+
+    The writers' lock file (which holds the last writer's pid) is no store content.
+    """
     return {p.relative_to(store).as_posix(): p.read_bytes()
-            for p in sorted(store.rglob("*")) if p.is_file()}
+            for p in sorted(store.rglob("*")) if p.is_file() and p.name != ".lock"}

@@ -10,7 +10,6 @@ import shutil
 import numpy as np
 import pandas as pd
 import pytest
-from export_fixtures import make_dyno_table, make_ev_table
 from ingest_fixtures import make_points_session, make_timeseries_session
 
 from bench.cli import main
@@ -19,10 +18,12 @@ from bench.ingest import expr
 from bench.ingest.mapping import load_mapping
 from bench.ingest.pipeline import ingest
 from bench.ingest.units import unit_factor
+from bench.store import kind_files
+from bench.synth.exports import make_dyno_table, make_ev_table
 
 
 def _points(store, sid):
-    pts = pd.read_parquet(store / "points" / f"{sid}.parquet")
+    pts = pd.read_parquet(kind_files(store, "points")[sid])
     return pts.sort_values("point_id").reset_index(drop=True)
 
 
@@ -256,14 +257,18 @@ def test_a_single_implausible_point_is_rejected_with_its_reason(tmp_path):
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     ingest([tmp_path / "c"], tmp_path / "store", progress=False)
     assert len(_points(tmp_path / "store", "dyno_01")) == truth["speed_rpm"].size - 1
-    rej = pd.read_parquet(tmp_path / "store" / "rejected" / "dyno_01.parquet")
+    rej = pd.read_parquet(kind_files(tmp_path / "store", "rejected")["dyno_01"])
     assert rej.reason.tolist() == ["efficiency above 1"]
 
 
-def test_timeseries_analyzer_watt_column_holding_kilowatts(tmp_path, capsys):
-    make_timeseries_session(tmp_path / "c", "motor_01", power_unit="kW")
-    _set(tmp_path / "c" / "motor_01" / "analyzer.csv", "P_sigma [kW]", "P_sigma [W]")
-    _cli_fails(tmp_path, capsys, tmp_path / "c", "analyzer.csv", "'P_sigma [W]'",
+@pytest.mark.parametrize("mode, words", [("motor", "efficiency above 1"),
+                                         ("generator", "below 5% of |omega*T| at high power")])
+def test_timeseries_analyzer_watt_column_holding_kilowatts(tmp_path, capsys, mode, words):
+    """Motor mode: efficiency in the hundreds; generator mode: efficiency near 0, which
+    losses alone allow, so the session-wide test must catch it."""
+    make_timeseries_session(tmp_path / "c", "s_01", mode=mode, power_unit="kW")
+    _set(tmp_path / "c" / "s_01" / "analyzer.csv", "P_sigma [kW]", "P_sigma [W]")
+    _cli_fails(tmp_path, capsys, tmp_path / "c", "analyzer.csv", "'P_sigma [W]'", words,
                "suspect the p_elec unit", "looks like kW")
 
 
@@ -312,3 +317,54 @@ def test_store_left_alone_by_a_failing_check(tmp_path, capsys):
     rc = main(["ingest", str(tmp_path / "c"), "--store", str(store), "--no-progress"])
     assert rc == 2 and "suspect the torque unit" in capsys.readouterr().err
     assert {p: p.read_bytes() for p in store.rglob("*") if p.is_file()} == before
+
+
+def test_title_line_above_a_daq_header_is_named(tmp_path, capsys):
+    """A DAQ stream whose first line is a title: the error says so and how to skip it;
+    with ``[daq] skip_lines = 1`` the session reads as without the title."""
+    make_timeseries_session(tmp_path / "c", "motor_01", markers=False)
+    daq = tmp_path / "c" / "motor_01" / "daq.csv"
+    daq.write_text("Prüfstand 2 Messung 17.04.2013\n" + daq.read_text(), encoding="utf-8")
+    _cli_fails(tmp_path, capsys, tmp_path / "c", "daq.csv:1", "a title or date line",
+               "skip_lines")
+    (tmp_path / "c" / "motor_01" / "mapping.toml").write_text("[daq]\nskip_lines = 1\n")
+    res = ingest([tmp_path / "c"], tmp_path / "store", progress=False)
+    assert res.manifest["sessions"]["motor_01"]["n_points"] == 6
+
+
+def test_tdms_channels_combined_by_expr(tmp_path):
+    """``expr`` over TDMS channels: torque from a strain-gauge voltage [mV] and a gain."""
+    from nptdms import ChannelObject, TdmsWriter
+
+    from bench.ingest.readers import open_daq_tdms
+
+    p = tmp_path / "daq.tdms"
+    t = np.arange(10) * 0.01
+    u_mv = np.linspace(1.0, 2.0, 10)
+    with TdmsWriter(p) as w:
+        w.write_segment([
+            ChannelObject("G", "Time", t, properties={"unit_string": "s"}),
+            ChannelObject("G", "Speed", np.full(10, 600.0), properties={"unit_string": "rpm"}),
+            ChannelObject("G", "Bridge", u_mv, properties={"unit_string": "mV"}),
+        ])
+    m = tmp_path / "mapping.toml"
+    m.write_text('[daq.columns.torque]\nexpr = "({Bridge} - 0.5) * 40"\nunit = "N mm"\n')
+    parts = list(open_daq_tdms(p, "G", load_mapping(m), chunk_rows=3).chunks())
+    got = np.concatenate([c.values["torque"] for c in parts])
+    np.testing.assert_allclose(got, (u_mv - 0.5) * 40 * 1e-3, rtol=1e-14)  # N mm -> N m
+
+
+def test_mapped_names_match_without_regard_to_case_and_spacing(tmp_path):
+    from pathlib import Path
+
+    from bench.ingest.mapping import resolve_columns
+
+    m = tmp_path / "m.toml"
+    m.write_text('[columns.speed]\ncolumn = "motor  speed [RPM]"\nunit = "rpm"\n'
+                 '[columns.torque]\ncolumn = "torque"\nunit = "N m"\n'
+                 '[columns.p_elec]\nsum = ["p_1 [w]", "P_2 [W]"]\nunit = "W"\n')
+    headers = ["Motor Speed [rpm]", "Torque [Nm]", "P_1 [W]", "P_2 [W]"]
+    got = resolve_columns(Path("x.csv"), headers, None, "points",
+                          ("speed", "torque", "p_elec"), mapping=load_mapping(m))
+    assert got["speed"].index == 0 and got["torque"].index == 1
+    assert got["p_elec"].indices == (2, 3)

@@ -11,7 +11,7 @@ from ingest_fixtures import make_points_session, make_timeseries_session, store_
 
 from bench.cli import main
 from bench.ingest.pipeline import ingest
-from bench.store import read_manifest, read_points, read_rejected, read_samples
+from bench.store import kind_files, read_manifest, read_points, read_rejected, read_samples
 
 
 @pytest.fixture(scope="module")
@@ -102,10 +102,11 @@ def test_manifest_and_parquet_units(campaign):
     assert e["instruments"]["analyzer"]["header"]["Model"] == "WT1800"
     import pyarrow.parquet as pq
 
-    schema = pq.read_schema(store / "points" / "motor_01.parquet")
+    schema = pq.read_schema(kind_files(store, "points")["motor_01"])
     assert schema.field("torque_nm").metadata == {b"unit": b"N m"}
     assert schema.field("p_elec_w").metadata == {b"unit": b"W"}
-    assert len(pd.read_parquet(store / "points")) == sum(
+    # docs/schemas.md section 2: pandas reads the current generation's folder
+    assert len(pd.read_parquet(store / man["generation"] / "points")) == sum(
         s["n_points"] for s in man["sessions"].values())
     assert read_rejected(store).columns.tolist() == ["session_id", "t_start_s", "t_end_s",
                                                      "reason"]
@@ -125,7 +126,7 @@ def test_changed_file_replaces_session(tmp_path):
     make_timeseries_session(root, "motor_02", seed=5)
     store = tmp_path / "store"
     assert main(["ingest", str(root), "--store", str(store), "--no-progress"]) == 0
-    other = (store / "points" / "motor_02.parquet").read_bytes()
+    other = kind_files(store, "points")["motor_02"].read_bytes()
     old = read_manifest(store)["sessions"]["motor_01"]
     # a new file content (another seed, fewer setpoints) replaces the session
     import shutil
@@ -137,7 +138,7 @@ def test_changed_file_replaces_session(tmp_path):
     new = read_manifest(store)["sessions"]["motor_01"]
     assert new["files"] != old["files"] and new["n_points"] == 2
     assert len(read_points(store).query("session_id == 'motor_01'")) == 2
-    assert (store / "points" / "motor_02.parquet").read_bytes() == other
+    assert kind_files(store, "points")["motor_02"].read_bytes() == other
 
 
 def test_user_mapping_for_foreign_export(tmp_path):

@@ -11,7 +11,7 @@ def test_every_stage_command_parses_with_that_stage_parser():
     # makes argparse exit (SystemExit), which fails this test.
     run_args = build_parser(["run", "logs"]).parse_args(["run", "logs", "--out", "o"])
     commands = stage_commands(run_args)
-    assert [c[0] for c in commands] == ["ingest", "fit", "optimize", "report"]
+    assert [c[0] for c in commands] == ["ingest", "fit", "optimize", "aep", "size", "report"]
     for argv in commands:
         args = build_parser(argv).parse_args(argv)
         assert args.command == argv[0]
@@ -20,8 +20,14 @@ def test_every_stage_command_parses_with_that_stage_parser():
 def test_stage_outputs_feed_the_next_stage():
     run_args = build_parser(["run", "logs"]).parse_args(["run", "logs", "--out", "o"])
     parsed = [build_parser(a).parse_args(a) for a in stage_commands(run_args)]
-    ingest, fit, optimize, report = parsed
+    ingest, fit, optimize, aep, size, report = parsed
     assert Path(ingest.store) == Path(fit.store) == Path(report.store) == Path("o/bench_store")
     assert Path(optimize.drive_model) == Path(fit.out) / "power_model.json"
     assert Path(report.fit) == Path(fit.out) and Path(report.optimize) == Path(optimize.out)
     assert optimize.trust
+    assert Path(aep.optimize) == Path(optimize.out) and Path(report.aep) == Path(aep.out)
+    assert Path(size.drive_model) == Path(fit.out) / "power_model.json"
+    assert Path(report.size) == Path(size.out)
+    # the demo's site: Weibull k = 2, mean 5.5 m/s at 100 m (the paper's Leuven figure)
+    for stage in (aep, size):
+        assert (stage.weibull_k, stage.mean_speed, stage.height_m) == (2.0, 5.5, 100.0)

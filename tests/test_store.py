@@ -1,21 +1,28 @@
-"""The store's readers, atomic commit and staging cleanup."""
+"""The store's readers, generation commit, lock and cleanup (bench/store.py)."""
 
 from __future__ import annotations
 
 import json
+import math
+import os
+from datetime import date
 
 import pyarrow as pa
+import pyarrow.parquet as pq
 import pytest
 
 from bench.errors import InputError
 from bench.store import (
     POINTS_SCHEMA,
     REJECTED_SCHEMA,
-    commit,
+    StoreBusy,
+    StoreWriter,
+    consistent_read,
     empty_manifest,
+    kind_files,
     read_manifest,
     read_points,
-    staging,
+    read_rejected,
 )
 
 
@@ -24,6 +31,16 @@ def _points(sid: str, n: int) -> pa.Table:
     cols.update(session_id=[sid] * n, point_id=list(range(n)), mode=["motor"] * n,
                 quadrant=["motor"] * n, source=["timeseries"] * n, n_samples=[1] * n)
     return pa.table(cols, schema=POINTS_SCHEMA)
+
+
+def _commit(store, sid, n, entry=None):
+    with StoreWriter(store) as w:
+        staged = {}
+        for kind, table in (("points", _points(sid, n)),
+                            ("rejected", REJECTED_SCHEMA.empty_table())):
+            staged[kind] = w.stage / f"{sid}.{kind}.parquet"
+            pq.write_table(table, staged[kind])
+        w.commit({sid: staged}, {sid: entry if entry is not None else {"n_points": n}})
 
 
 def test_empty_store_reads_empty(tmp_path):
@@ -38,39 +55,106 @@ def test_foreign_manifest_is_rejected(tmp_path):
         read_manifest(tmp_path)
 
 
-def test_commit_moves_files_and_merges_manifest(tmp_path):
-    import pyarrow.parquet as pq
-
+def test_commit_writes_a_generation_and_merges_the_manifest(tmp_path):
     store = tmp_path / "store"
-    for sid, n in (("b", 2), ("a", 3)):
-        with staging(store) as stage:
-            staged = {}
-            for kind, table in (("points", _points(sid, n)),
-                                ("rejected", REJECTED_SCHEMA.empty_table())):
-                staged[kind] = stage / f"{sid}.{kind}.parquet"
-                pq.write_table(table, staged[kind])
-            commit(store, {sid: staged}, {sid: {"n_points": n}})
-        assert not list(store.glob(".staging-*"))  # scratch removed
+    _commit(store, "b", 2)
+    _commit(store, "a", 3)
     man = read_manifest(store)
     assert list(man["sessions"]) == ["a", "b"]  # merged, sorted
+    assert man["generation"] == "gen-000002"
     assert len(read_points(store)) == 5
-    assert not (store / "samples" / "a.parquet").exists()
+    # one generation left, nothing staged; the kept session is a hard link, not a copy
+    assert sorted(p.name for p in store.iterdir()) == [".lock", "gen-000002", "manifest.json"]
+    assert os.stat(kind_files(store, "points")["b"]).st_nlink == 1  # old generation removed
+    assert set(kind_files(store, "samples")) == set()
 
 
-def test_failed_staging_removes_a_store_it_created(tmp_path):
+def test_unlisted_files_are_never_read(tmp_path):
+    """A generation an interrupted ingest left (not named by the manifest) is invisible."""
+    store = tmp_path / "store"
+    _commit(store, "a", 3)
+    stray = store / "gen-000007" / "points"
+    stray.mkdir(parents=True)
+    pq.write_table(_points("zz", 4), stray / "zz.parquet")
+    (store / ".staging-x").mkdir()
+    assert len(read_points(store)) == 3
+    _commit(store, "b", 1)  # the next writer cleans the leftovers up
+    assert sorted(p.name for p in store.iterdir()) == [".lock", "gen-000002", "manifest.json"]
+    assert sorted(read_points(store)["session_id"].unique()) == ["a", "b"]
+
+
+def test_failed_writer_removes_a_store_it_created(tmp_path):
     store = tmp_path / "new"
-    with pytest.raises(RuntimeError), staging(store):
+    with pytest.raises(RuntimeError), StoreWriter(store):
         raise RuntimeError("boom")
     assert not store.exists()
     store.mkdir()
     (store / "keep.txt").write_text("x")
-    with pytest.raises(RuntimeError), staging(store):
+    with pytest.raises(RuntimeError), StoreWriter(store):
         raise RuntimeError("boom")
-    assert [p.name for p in store.iterdir()] == ["keep.txt"]
+    assert sorted(p.name for p in store.iterdir()) == [".lock", "keep.txt"]
 
 
-def test_store_path_that_is_a_file(tmp_path):
-    f = tmp_path / "store"
-    f.write_text("not a store")
-    with pytest.raises(InputError, match="the store is not a directory"):
-        read_manifest(f)
+def test_nan_or_date_in_an_entry(tmp_path):
+    """NaN never reaches manifest.json (not JSON); a TOML date is stored as ISO text."""
+    store = tmp_path / "store"
+    _commit(store, "a", 1, {"metadata": {"date": date(2013, 4, 17)}})
+    assert read_manifest(store)["sessions"]["a"]["metadata"]["date"] == "2013-04-17"
+    before = (store / "manifest.json").read_bytes()
+    with pytest.raises(InputError, match="cannot be stored"):
+        _commit(store, "b", 1, {"clock_offset_s": math.nan})
+    assert (store / "manifest.json").read_bytes() == before
+    assert list(read_manifest(store)["sessions"]) == ["a"]
+
+
+def test_second_writer_stops_or_waits(tmp_path):
+    store = tmp_path / "store"
+    _commit(store, "a", 1)
+    messages = []
+    with StoreWriter(store):
+        with pytest.raises(StoreBusy, match=f"pid {os.getpid()}"):
+            with StoreWriter(store, wait=False):
+                pass
+    with StoreWriter(store, wait=False, notify=messages.append):
+        pass
+    assert messages == []
+
+
+def test_version_1_store_is_read_and_migrated(tmp_path):
+    store = tmp_path / "store"
+    (store / "points").mkdir(parents=True)
+    pq.write_table(_points("old", 2), store / "points" / "old.parquet")
+    pq.write_table(_points("gone", 9), store / "points" / "gone.parquet")  # not listed
+    (store / "manifest.json").write_text(json.dumps(
+        {"schema": "drivebench.store", "schema_version": 1, "sessions": {"old": {}}}))
+    assert len(read_points(store)) == 2 and len(read_rejected(store)) == 0
+    _commit(store, "new", 1)
+    assert not (store / "points").exists()
+    assert sorted(read_points(store)["session_id"].unique()) == ["new", "old"]
+    assert read_manifest(store)["schema_version"] == 2
+
+
+def test_reader_starts_over_when_a_writer_removes_its_generation(tmp_path):
+    """A reader that read the old manifest, then lost the old generation to a writer's
+    cleanup, re-reads the manifest and returns the new store (never a mix, no error)."""
+    store = tmp_path / "store"
+    _commit(store, "a", 3)
+    calls = []
+
+    def read(manifest):
+        calls.append(manifest["generation"])
+        paths = kind_files(store, "points", manifest)
+        if len(calls) == 1:
+            _commit(store, "b", 2)  # a writer switches generations under the reader
+        return sum(pq.read_metadata(p).num_rows for p in paths.values())
+
+    assert consistent_read(store, read) == 5
+    assert calls == ["gen-000001", "gen-000002"]
+
+
+def test_missing_listed_file_is_a_damaged_store(tmp_path):
+    store = tmp_path / "store"
+    _commit(store, "a", 3)
+    kind_files(store, "points")["a"].unlink()
+    with pytest.raises(InputError, match="damaged store"):
+        read_points(store)

@@ -20,12 +20,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=2,
                         help="sessions processed at the same time (default 2)")
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    parser.add_argument("--strict", action="store_true",
+                        help="a session that gives no operating point is an error (exit 2)")
+    parser.add_argument("--no-wait", action="store_true",
+                        help="stop when another ingest is writing the store (default: wait)")
+    parser.add_argument("--no-replace", action="store_true",
+                        help="refuse to replace stored sessions of the same id ingested from "
+                             "another folder (default: replace them and say so)")
 
 
 def run(args: argparse.Namespace) -> int:
     """Ingest, then print the summary table; InputError propagates to the dispatcher."""
     result = ingest(args.paths, args.store, mapping_path=args.mapping,
-                    progress=not args.no_progress, workers=args.workers)
+                    progress=not args.no_progress, workers=args.workers,
+                    strict=args.strict, wait=not args.no_wait, replace=not args.no_replace)
     print(format_summary(result.ingested, result.unchanged, result.manifest))
     print(f"store: {result.store_dir}")
     return 0

@@ -40,7 +40,7 @@ STREAM_SECTIONS = ("daq", "analyzer", "log")
 #: none on purpose: a column that merely looks like it (a swapped header) must never
 #: be used unless the mapping names it
 ALIASES: dict[str, tuple[str, ...]] = {
-    "time": ("time", "zeit", "t", "time_s"),
+    "time": ("time", "zeit", "t", "time_s", "timestamp", "zeitstempel", "uhrzeit", "datetime"),
     "speed": ("speed", "drehzahl", "n", "speed_rpm", "rotational speed"),
     "torque": ("torque", "drehmoment", "m", "torque_nm"),
     "p_elec": ("p_sigma", "p_elec", "p_el", "p", "p_total", "wirkleistung", "p_elec_w"),
@@ -273,13 +273,15 @@ class ResolvedColumn:
         return x * self.factor if self.factor != 1.0 else x
 
 
-def closest_columns(wanted: list[str], headers: list[str], limit: int = MAX_LISTED) -> str:
+def closest_columns(wanted: list[str], headers: list[str], limit: int = MAX_LISTED,
+                    what: str = "columns") -> str:
     """The few headers most like any of ``wanted`` and the count of the rest (for messages).
 
-    All headers are listed when there are at most ``limit`` of them.
+    All headers are listed when there are at most ``limit`` of them; ``what``
+    names them (``"columns"``, ``"groups"``).
     """
     if len(headers) <= limit:
-        return "one of the file's columns: " + ", ".join(repr(h) for h in headers)
+        return f"one of the file's {what}: " + ", ".join(repr(h) for h in headers)
     scored: dict[str, float] = {}
     lower = {h: split_header(h)[0].lower() for h in headers}
     for w in wanted:
@@ -289,7 +291,7 @@ def closest_columns(wanted: list[str], headers: list[str], limit: int = MAX_LIST
                         difflib.SequenceMatcher(None, w.lower(), h.lower()).ratio())
             scored[h] = max(scored.get(h, 0.0), ratio)
     best = sorted(headers, key=lambda h: -scored[h])[:limit]
-    return (f"closest of the file's {len(headers)} columns: "
+    return (f"closest of the file's {len(headers)} {what}: "
             + ", ".join(repr(h) for h in best) + f" (and {len(headers) - len(best)} more)")
 
 
@@ -420,8 +422,12 @@ def _check_distinct(path: Path, mapping: Mapping, found: dict[str, ResolvedColum
 
 
 def _find_mapped(stripped: list[str], bare: list[str], column: str) -> int | None:
-    """Index of a mapped column: exact header first, then the name without its unit."""
+    """Index of a mapped column: the exact header first, then the header without regard to
+    case and spacing, then the name without its unit."""
     if column in stripped:
         return stripped.index(column)
-    low = column.strip().lower()
-    return bare.index(low) if low in bare else None
+    squeeze = " ".join(column.split()).lower()
+    loose = [" ".join(h.split()).lower() for h in stripped]
+    if squeeze in loose:
+        return loose.index(squeeze)
+    return bare.index(squeeze) if squeeze in bare else None

@@ -1,8 +1,9 @@
 """Ingest orchestration: discover sessions, skip unchanged ones, process, commit atomically.
 
 Every session is processed into a staging directory inside the store before
-anything in the store changes; only when all sessions succeeded are their files
-moved into place and the manifest rewritten (last). A session whose source
+anything in the store changes; only when all sessions succeeded does the store
+switch to a new generation holding them (:class:`bench.store.StoreWriter`, one
+writer at a time, all or nothing). A session whose source
 files hash as recorded in the manifest is not touched, so re-ingesting the same
 files changes no byte of the store.
 """
@@ -10,7 +11,9 @@ files changes no byte of the store.
 from __future__ import annotations
 
 import os
+import sys
 import threading
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -32,8 +35,10 @@ from bench.ingest.timeseries import SessionOutput, process_timeseries
 
 #: bump when ingest would compute different points from the same files; sessions
 #: stored by another version are re-ingested
-INGEST_VERSION = 4  # 2: torque zero offset from the tare; 3: oscillations cut into pieces;
-#                    4: the drive rating (drive.toml, session.toml) in the manifest
+INGEST_VERSION = 5  # 2: torque zero offset from the tare; 3: oscillations cut into pieces;
+#                    4: the drive rating (drive.toml, session.toml) in the manifest;
+#                    5: bins follow the sample interval (grid centred on the samples), time
+#                    gaps end windows
 
 
 @dataclass
@@ -50,12 +55,20 @@ class IngestResult:
         Sessions skipped because their files hash as in the manifest.
     manifest : dict
         The store's manifest afterwards.
+    replaced : dict
+        session_id -> the folder it had been ingested from, for stored sessions
+        replaced by a session of the same id from another folder.
     """
 
     store_dir: Path
     ingested: list[str] = field(default_factory=list)
     unchanged: list[str] = field(default_factory=list)
     manifest: dict = field(default_factory=dict)
+    replaced: dict[str, str] = field(default_factory=dict)
+
+
+def _stderr(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
 
 
 def session_files(
@@ -67,7 +80,10 @@ def session_files(
     ``session.toml``) wins; else the user's ``--mapping`` file applies.
     """
     files = {"session.toml": session.path}
-    tables = ("daq", "analyzer") if session.kind == "timeseries" else ("points",)
+    if session.kind != "timeseries":
+        tables: tuple[str, ...] = ("points",)
+    else:
+        tables = ("log",) if session.single_stream else ("daq", "analyzer")
     for t in tables:
         p = session.file(t)
         files[p.name] = p
@@ -75,10 +91,10 @@ def session_files(
     named = session.raw.get("points", {}).get("mapping") if session.kind == "operating_points" \
         else None
     if named:
-        mapping = session.folder / named
-        if not mapping.is_file():
-            raise InputError(session.path, f"[points] mapping {named!r} does not exist",
-                             column="points.mapping", expected=f"a file in {session.folder}")
+        if not isinstance(named, str):
+            raise InputError(session.path, f"bad value {named!r}", column="points.mapping",
+                             expected="a file name in the session folder")
+        mapping = session.inside(named, "points.mapping")
     elif (session.folder / "mapping.toml").is_file():
         mapping = session.folder / "mapping.toml"
     elif (session.folder / "mapping.json").is_file():
@@ -98,6 +114,10 @@ def ingest(
     progress: bool = True,
     chunk_bytes: int = CHUNK_BYTES,
     workers: int = 2,
+    strict: bool = False,
+    wait: bool = True,
+    replace: bool = True,
+    notify: Callable[[str], None] = _stderr,
 ) -> IngestResult:
     """Ingest every session under ``paths`` into the store at ``store_dir``.
 
@@ -117,6 +137,19 @@ def ingest(
         CSV bytes parsed per chunk [B]; bounds memory.
     workers : int
         Sessions processed at the same time (threads); memory grows with it.
+    strict : bool
+        A session that gives no operating point is an error (InputError naming
+        its session.toml and why), and the store is left as it was; without it
+        the manifest and the summary say why.
+    wait : bool
+        Wait for another ingest writing the same store (default), else stop with
+        an InputError.
+    replace : bool
+        Replace stored sessions of the same id ingested from another folder
+        (default, and said through ``notify``), else stop with an InputError
+        naming them before anything changes.
+    notify : callable
+        Receives the lines that say what happens besides the summary.
 
     Returns
     -------
@@ -131,7 +164,7 @@ def ingest(
     user_mapping = Path(mapping_path) if mapping_path is not None else None
     if user_mapping is not None:
         load_mapping(user_mapping)  # fail early on a bad --mapping file
-    manifest = store.read_manifest(store_dir)
+    store.read_manifest(store_dir)  # fail early on a path that is no store
     sessions: list[Session] = []
     seen: dict[str, Path] = {}
     drives: dict[str, tuple[dict | None, Path | None]] = {}  # rating, drive.toml
@@ -147,40 +180,64 @@ def ingest(
         drives[s.session_id] = (session_drive(s.raw, s.path, drive_file, label), drive_file)
 
     result = IngestResult(store_dir=store_dir)
-    todo = []
-    # hashing runs in a background thread (hashlib releases the GIL); a session already
-    # in the manifest waits for its hashes to decide whether it changed, a new one not
-    hasher = ThreadPoolExecutor(max_workers=1)
-    try:
-        for s in sessions:
-            files, mapping_file = session_files(s, user_mapping)
-            named = {f"{s.session_id}/{name}": p for name, p in files.items()}
-            if mapping_file is not None and mapping_file not in files.values():
-                named[f"--mapping/{mapping_file.name}"] = mapping_file
-            drive_file = drives[s.session_id][1]
-            if drive_file is not None:  # a changed drive.toml re-ingests the session
-                named[f"campaign/{os.path.relpath(drive_file, s.folder.parent)}"] = drive_file
-            hashes = {k: hasher.submit(file_sha256, p) for k, p in named.items()}
-            old = manifest["sessions"].get(s.session_id)
-            if (old is not None and old.get("ingest_version") == INGEST_VERSION
-                    and old.get("files") == {k: f.result() for k, f in hashes.items()}):
-                result.unchanged.append(s.session_id)
-            else:
+    with store.StoreWriter(store_dir, wait=wait, notify=notify) as writer:
+        manifest = writer.manifest
+        todo = []
+        # hashing runs in a background thread (hashlib releases the GIL); a session
+        # already in the manifest waits for its hashes to decide whether it changed
+        hasher = ThreadPoolExecutor(max_workers=1)
+        try:
+            for s in sessions:
+                files, mapping_file = session_files(s, user_mapping)
+                named = {f"{s.session_id}/{name}": p for name, p in files.items()}
+                if mapping_file is not None and mapping_file not in files.values():
+                    named[f"--mapping/{mapping_file.name}"] = mapping_file
+                drive_file = drives[s.session_id][1]
+                if drive_file is not None:  # a changed drive.toml re-ingests the session
+                    named[f"campaign/{os.path.relpath(drive_file, s.folder.parent)}"] = \
+                        drive_file
+                hashes = {k: hasher.submit(file_sha256, p) for k, p in named.items()}
+                old = manifest["sessions"].get(s.session_id)
+                if (old is not None and old.get("ingest_version") == INGEST_VERSION
+                        and old.get("files") == {k: f.result() for k, f in hashes.items()}):
+                    result.unchanged.append(s.session_id)
+                    continue
+                if old is not None and old.get("source") not in (None, str(s.folder)):
+                    result.replaced[s.session_id] = old["source"]
                 todo.append((s, hashes, mapping_file, files))
-        if not todo:
-            result.manifest = manifest
-            return result
-        _process(todo, store_dir, config, progress, chunk_bytes, workers, result,
-                 {sid: d for sid, (d, _) in drives.items()})
-    finally:
-        hasher.shutdown(cancel_futures=True)
-    result.manifest = store.read_manifest(store_dir)
+            if result.replaced and not replace:
+                lines = "; ".join(f"{sid!r} (stored from {src})"
+                                  for sid, src in sorted(result.replaced.items()))
+                raise InputError(store_dir, f"would replace stored sessions of another "
+                                 f"source: {lines}",
+                                 expected="new session ids, or no --no-replace")
+            for sid, src in sorted(result.replaced.items()):
+                notify(f"bench ingest: replacing stored session {sid!r} (from {src}) "
+                       f"with {seen[sid]}")
+            if strict:
+                for s in sessions:
+                    if s.session_id in result.unchanged:
+                        _strict_check(s, manifest["sessions"][s.session_id])
+            if todo:
+                _process(todo, writer, config, progress, chunk_bytes, workers, result,
+                         {sid: d for sid, (d, _) in drives.items()}, strict)
+        finally:
+            hasher.shutdown(cancel_futures=True)
+        result.manifest = writer.manifest
     return result
 
 
-def _process(todo, store_dir: Path, config: SteadyConfig, progress: bool, chunk_bytes: int,
-             workers: int, result: IngestResult, drives: dict[str, dict | None]) -> None:
-    """Process the changed sessions into a staging dir, then commit them all at once.
+def _strict_check(s: Session, entry: dict) -> None:
+    """``--strict``: raise when a session's entry has no operating point."""
+    if entry.get("n_points", 0) == 0:
+        raise InputError(s.path, entry.get("no_points_note", "0 points"),
+                         expected="at least one steady operating point (--strict)")
+
+
+def _process(todo, writer: store.StoreWriter, config: SteadyConfig, progress: bool,
+             chunk_bytes: int, workers: int, result: IngestResult,
+             drives: dict[str, dict | None], strict: bool = False) -> None:
+    """Process the changed sessions into the writer's staging dir, then commit them at once.
 
     Sessions run in ``workers`` threads: parsing, numpy and Parquet writing release
     the GIL, so two sessions use two cores. The first failing session (in session
@@ -188,9 +245,9 @@ def _process(todo, store_dir: Path, config: SteadyConfig, progress: bool, chunk_
     """
     total = sum(p.stat().st_size for _, _, _, files in todo for p in files.values())
     lock = threading.Lock()
-    with store.staging(store_dir) as stage, tqdm(
-        total=total, unit="B", unit_scale=True, desc="ingest", disable=not progress
-    ) as bar:
+    stage = writer.stage
+    with tqdm(total=total, unit="B", unit_scale=True, desc="ingest",
+              disable=not progress) as bar:
 
         def one(item) -> tuple[dict[str, Path], SessionOutput]:
             s, _, mapping_file, files = item
@@ -220,14 +277,16 @@ def _process(todo, store_dir: Path, config: SteadyConfig, progress: bool, chunk_
                 outputs = [f.result() for f in futures]
             finally:
                 pool.shutdown(wait=True, cancel_futures=True)
-        staged: dict[str, dict[str, Path]] = {}
-        entries: dict[str, dict] = {}
-        for (s, hashes, _, _), (files, out) in zip(todo, outputs, strict=True):
-            staged[s.session_id] = files
-            entries[s.session_id] = _entry(s, {k: f.result() for k, f in hashes.items()}, out,
-                                           drives.get(s.session_id))
-            result.ingested.append(s.session_id)
-        store.commit(store_dir, staged, entries)
+    staged: dict[str, dict[str, Path]] = {}
+    entries: dict[str, dict] = {}
+    for (s, hashes, _, _), (files, out) in zip(todo, outputs, strict=True):
+        staged[s.session_id] = files
+        entries[s.session_id] = _entry(s, {k: f.result() for k, f in hashes.items()}, out,
+                                       drives.get(s.session_id))
+        if strict:
+            _strict_check(s, entries[s.session_id])
+        result.ingested.append(s.session_id)
+    writer.commit(staged, entries)
 
 
 def _stage(stage: Path, sid: str, out: SessionOutput) -> dict[str, Path]:
@@ -254,8 +313,11 @@ def _entry(s: Session, hashes: dict[str, str], out: SessionOutput,
         "points_per_quadrant": {q: quadrants.count(q) for q in ("motor", "generator")},
         "rejected": {r: reasons.count(r) for r in sorted(set(reasons))},
         "metadata": s.raw,
+        "source": str(s.folder),
         "drive": drive,
         "ingested_at": datetime.now(UTC).isoformat(timespec="seconds"),
     }
     entry.update(out.info)
+    if out.points.num_rows == 0 and "no_points_note" not in entry:
+        entry["no_points_note"] = "0 points: every row of the table is invalid"
     return entry

@@ -26,12 +26,23 @@ import pyarrow as pa
 import pyarrow.csv as pacsv
 
 from bench.errors import InputError
-from bench.ingest.mapping import EMPTY_MAPPING, Mapping, ResolvedColumn, resolve_columns
+from bench.ingest import clock
+from bench.ingest.mapping import (
+    EMPTY_MAPPING,
+    Mapping,
+    ResolvedColumn,
+    closest_columns,
+    resolve_columns,
+)
 from bench.ingest.scrub import NULL_MARKERS, scrub
 
 #: CSV bytes parsed per chunk; bounds the memory of the first pass [B]
 CHUNK_BYTES = 16 * 1024 * 1024
 _SNIFF_BYTES = 64 * 1024
+#: longest accepted line (names row or data row) [B]; a longer one is a damaged file
+MAX_LINE_BYTES = 1024 * 1024
+#: lines sniffing wants to see (preamble, names, units, rows for the decimal mark)
+_SNIFF_LINES = 64
 
 
 @dataclass(frozen=True)
@@ -58,6 +69,8 @@ class CsvLayout:
         Byte offset of the first data row.
     preamble : dict
         ``key -> value`` lines before the names row (analyzer header block).
+    samples : list of list of str
+        Cells of the first data rows (to tell clock-time columns from numbers).
     """
 
     path: Path
@@ -70,6 +83,19 @@ class CsvLayout:
     data_line: int
     data_offset: int
     preamble: dict[str, str] = field(default_factory=dict)
+    samples: list[list[str]] = field(default_factory=list)
+
+    def units_with_clock(self) -> list[str] | None:
+        """The units row, with the clock format put in for columns whose data are clock times
+        (None when there is neither)."""
+        units = list(self.units_row) if self.units_row is not None else [""] * len(self.headers)
+        found = False
+        for i in range(len(self.headers)):
+            fmt = clock.detect([r[i] for r in self.samples if i < len(r)])
+            if fmt is not None:
+                units[i] = fmt
+                found = True
+        return units if found or self.units_row is not None else None
 
 
 @dataclass(frozen=True)
@@ -92,9 +118,19 @@ class Chunk:
 
 
 def _check_text(path: Path, head: bytes) -> str:
-    """Reject empty and binary files; return the text encoding of ``head``."""
+    """Reject empty, binary, UTF-16 and CR-only files; return the text encoding of ``head``."""
     if not head.strip():
         raise InputError(path, "file is empty", expected="a text file with a header row and data")
+    even, odd = head[0:4096:2], head[1:4096:2]
+    if head[:2] in (b"\xff\xfe", b"\xfe\xff") or (
+            len(head) > 16 and max(even.count(0), odd.count(0)) > 0.4 * len(odd)):
+        raise InputError(path, "UTF-16 text, not UTF-8 or a single-byte encoding", line=1,
+                         expected="the file re-saved as UTF-8 (e.g. Excel: CSV UTF-8; "
+                                  "iconv -f UTF-16 -t UTF-8)")
+    if b"\r" in head and b"\n" not in head:
+        raise InputError(path, "lines end in CR only (classic Mac line ends)", line=1,
+                         expected="LF or CRLF line ends (re-save the file, or "
+                                  "tr '\\r' '\\n' < in > out)")
     ctrl = sum(1 for b in head if b < 32 and b not in (9, 10, 13))
     if b"\x00" in head or ctrl > 0.01 * len(head):
         raise InputError(
@@ -116,10 +152,12 @@ def _split(line: str, sep: str) -> list[str]:
 
 def _is_number(text: str, decimal: str) -> bool:
     t = text.strip()
-    if decimal == ",":
-        t = t.replace(",", ".")
     if t.upper() in {m.upper() for m in NULL_MARKERS}:
         return True
+    if decimal == ",":
+        if "." in t:  # an English decimal in a German file
+            return False
+        t = t.replace(",", ".")
     try:
         float(t)
     except ValueError:
@@ -160,15 +198,27 @@ def sniff_csv(path: str | Path, preamble: bool = False, skip_lines: int = 0) -> 
         Empty or binary file, missing names row, or no data rows.
     """
     path = Path(path)
+    window = _SNIFF_BYTES
     try:
         with path.open("rb") as fh:
-            head = fh.read(_SNIFF_BYTES)
+            head = fh.read(window)
+            # a long names row (thousands of channels) needs a wider window, up to a bound
+            while len(head) == window and head.count(b"\n") < _SNIFF_LINES \
+                    and window < 4 * MAX_LINE_BYTES:
+                head += fh.read(window)
+                window *= 2
     except OSError as exc:
         raise InputError(path, f"cannot read file ({exc})") from exc
     encoding = _check_text(path, head)
     raw_lines = head.split(b"\n")
-    if len(head) == _SNIFF_BYTES:
+    cut = len(head) == window
+    if cut:
         raw_lines = raw_lines[:-1]  # the last line may be cut by the sniff window
+    too_long = [k for k, ln in enumerate(raw_lines) if len(ln) > MAX_LINE_BYTES]
+    if too_long or (cut and len(head) - sum(len(ln) + 1 for ln in raw_lines) > MAX_LINE_BYTES):
+        k = too_long[0] if too_long else len(raw_lines)
+        raise InputError(path, f"line longer than {MAX_LINE_BYTES // 1024} KiB", line=k + 1,
+                         expected="a delimited text file (a damaged or binary file?)")
     lines = [ln.decode(encoding, errors="replace") for ln in raw_lines]
     if lines and lines[0].startswith("\ufeff"):  # a UTF-8 byte-order mark (Excel exports)
         lines[0] = lines[0][1:]
@@ -213,17 +263,18 @@ def sniff_csv(path: str | Path, preamble: bool = False, skip_lines: int = 0) -> 
         raise InputError(path, "no data rows", line=header_idx + 1,
                          expected="data under the header")
     n_data = len(_split(lines[data_idx], sep))
-    if len(headers) < n_data and (len(headers) == 1 or units_row is not None):
+    if len(headers) == 1 < n_data:  # one field: a title line (extra fields are caught later)
         raise InputError(
             path, f"the column row (line {header_idx + 1}) has {len(headers)} field(s) but the "
             f"data rows have {n_data}: is line {header_idx + 1} a title or date line?",
             line=header_idx + 1,
             expected="skip_lines = N in the mapping file (the lines before the column row)",
         )
+    samples = [_split(ln, sep) for ln in lines[data_idx:data_idx + 20] if ln.strip()]
     return CsvLayout(
         path=path, sep=sep, decimal=decimal, encoding=encoding, headers=headers,
         units_row=units_row, header_line=header_idx + 1, data_line=data_idx + 1,
-        data_offset=offsets[data_idx], preamble=meta,
+        data_offset=offsets[data_idx], preamble=meta, samples=samples,
     )
 
 
@@ -254,10 +305,26 @@ def _locate_bad_row(
     return InputError(layout.path, "cannot parse CSV data", line=first_line)
 
 
+def clock_parsers(layout: CsvLayout, cols: dict[str, ResolvedColumn],
+                  day=None) -> dict[str, clock.ClockParser]:
+    """A :class:`clock.ClockParser` for each column that holds clock times (its unit names a
+    clock format, or its first cells are clock times)."""
+    out = {}
+    for q, r in cols.items():
+        if r.formula is not None:
+            continue
+        fmt = clock.normalise_unit(r.unit) or clock.detect(
+            [row[r.index] for row in layout.samples if r.index < len(row)])
+        if fmt is not None:
+            out[q] = clock.ClockParser(fmt, day)
+    return out
+
+
 def iter_csv(
     layout: CsvLayout,
     cols: dict[str, ResolvedColumn],
     chunk_bytes: int = CHUNK_BYTES,
+    clocks: dict[str, clock.ClockParser] | None = None,
 ) -> Iterator[Chunk]:
     """Stream the data rows of a sniffed CSV in chunks, converted to our units.
 
@@ -269,6 +336,9 @@ def iter_csv(
         quantity -> :class:`ResolvedColumn` (from :func:`resolve_columns`).
     chunk_bytes : int
         Approximate bytes per chunk [B].
+    clocks : dict, optional
+        quantity -> :class:`clock.ClockParser` for clock-time columns (read as text,
+        turned into seconds since the first valid time).
 
     Yields
     ------
@@ -285,8 +355,10 @@ def iter_csv(
     read_cols = sorted({names[i] for r in cols.values() for i in r.indices})
     read_opts = pacsv.ReadOptions(column_names=names, use_threads=True, block_size=1 << 22)
     parse_opts = pacsv.ParseOptions(delimiter=layout.sep, quote_char='"')
+    clocks = clocks or {}
+    clock_cols = {names[cols[q].index] for q in clocks}
     conv_opts = pacsv.ConvertOptions(
-        column_types={c: pa.float64() for c in read_cols},
+        column_types={c: pa.string() if c in clock_cols else pa.float64() for c in read_cols},
         include_columns=read_cols,
         null_values=list(NULL_MARKERS),
         strings_can_be_null=True,
@@ -300,6 +372,10 @@ def iter_csv(
         fh.seek(offset)
         carry = 0  # bytes of an incomplete last line kept at the front of buf
         while True:
+            if carry >= MAX_LINE_BYTES:  # no line end in that many bytes
+                raise InputError(layout.path, f"line longer than {MAX_LINE_BYTES // 1024} "
+                                 "KiB", line=_line_at(layout, offset),
+                                 expected="a delimited text file (a damaged file?)")
             if carry == len(buf):  # a single line longer than the buffer
                 buf.extend(bytes(len(buf)))
                 view.release()
@@ -320,7 +396,16 @@ def iter_csv(
             except (pa.ArrowInvalid, pa.ArrowNotImplementedError) as exc:
                 raise _locate_bad_row(layout, bytes(view[:end]), _line_at(layout, offset),
                                       cols) from exc
-            values = quantities(cols, partial(_column_at, table, names))
+            values = quantities({q: r for q, r in cols.items() if q not in clocks},
+                                partial(_column_at, table, names))
+            for q, parse in clocks.items():
+                cells = table.column(names[cols[q].index]).combine_chunks()
+                try:
+                    values[q] = parse(cells)
+                except ValueError as exc:
+                    raise _bad_clock_cell(layout, cells, parse.unit, _line_at(layout, offset),
+                                          cols[q].header) from exc
+            values = {q: values[q] for q in cols}
             del table
             if values and next(iter(values.values())).size:
                 yield Chunk(row0=row0, values=values, nbytes=end)
@@ -332,6 +417,17 @@ def iter_csv(
             if got == 0:
                 break
     view.release()
+
+
+def _bad_clock_cell(layout: CsvLayout, cells: pa.Array, unit: str, first_line: int,
+                    header: str) -> InputError:
+    """The first cell of a chunk that is not a clock time of ``unit`` (slow path)."""
+    for k, cell in enumerate(cells.to_pylist()):
+        if cell is not None and clock.detect([cell]) != unit:
+            return InputError(layout.path, f"not a clock time: {cell!r}", line=first_line + k,
+                              column=header, expected=f"a {unit} time like the rows above")
+    return InputError(layout.path, f"cannot read the {unit} times", line=first_line,
+                      column=header, expected=f"{unit} times")
 
 
 def quantities(
@@ -390,7 +486,7 @@ def csv_columns_meta(cols: dict[str, ResolvedColumn]) -> dict[str, dict[str, str
 
 @dataclass
 class DaqStream:
-    """An opened DAQ stream: metadata now, chunks on demand.
+    """An opened DAQ stream (or single-stream log): metadata now, chunks on demand.
 
     Parameters
     ----------
@@ -401,9 +497,13 @@ class DaqStream:
     size_bytes : int
         File size, for progress bars.
     chunks : callable
-        ``chunks() -> Iterator[Chunk]`` with ``time``, ``speed``, ``torque``.
+        ``chunks() -> Iterator[Chunk]`` with ``time``, ``speed``, ``torque`` (and
+        whatever else the stream was opened for).
     line_of_row : callable
         ``line_of_row(row) -> int or None`` to place errors.
+    clock : clock.ClockParser or None
+        The parser of a clock-time time column; its ``start`` (the wall time of
+        time 0) is known once the first chunk is read.
     """
 
     path: Path
@@ -411,25 +511,44 @@ class DaqStream:
     size_bytes: int
     chunks: object
     line_of_row: object
+    clock: clock.ClockParser | None = None
 
 
 def open_daq_csv(
-    path: str | Path, mapping: Mapping = EMPTY_MAPPING, chunk_bytes: int = CHUNK_BYTES
+    path: str | Path, mapping: Mapping = EMPTY_MAPPING, chunk_bytes: int = CHUNK_BYTES,
+    day=None, section: str = "daq", required: tuple[str, ...] = ("time", "speed", "torque"),
+    optional: tuple[str, ...] = (),
 ) -> DaqStream:
-    """Open a DAQ CSV (English or German locale) as a chunked stream of time, speed, torque."""
-    layout = sniff_csv(path, skip_lines=mapping.skip("daq"))
+    """Open a DAQ CSV (English or German locale) as a chunked stream of time, speed, torque.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    mapping : Mapping
+        Column mapping (section ``section``).
+    chunk_bytes : int
+        Bytes per chunk [B].
+    day : datetime.date, optional
+        The date of a time-of-day time column (the session's ``date``).
+    section, required, optional : str, tuple of str, tuple of str
+        Mapping section and the quantities to read (a single-stream log reads
+        ``p_elec`` too, and ``p_mech`` when mapped).
+    """
+    layout = sniff_csv(path, skip_lines=mapping.skip(section))
     cols = resolve_columns(
-        layout.path, layout.headers, layout.units_row, "daq",
-        required=("time", "speed", "torque"), mapping=mapping, header_line=layout.header_line,
+        layout.path, layout.headers, layout.units_with_clock(), section,
+        required=required, optional=optional, mapping=mapping, header_line=layout.header_line,
     )
+    clocks = clock_parsers(layout, {"time": cols["time"]}, day)
     meta = {
         "format": "csv", "separator": layout.sep, "decimal": layout.decimal,
         "encoding": layout.encoding, "columns": csv_columns_meta(cols),
     }
     return DaqStream(
         path=layout.path, metadata=meta, size_bytes=layout.path.stat().st_size,
-        chunks=lambda: iter_csv(layout, cols, chunk_bytes),
-        line_of_row=lambda row: line_of_row(layout, row),
+        chunks=lambda: iter_csv(layout, cols, chunk_bytes, clocks),
+        line_of_row=lambda row: line_of_row(layout, row), clock=clocks.get("time"),
     )
 
 
@@ -467,7 +586,7 @@ def open_daq_tdms(
                                  expected=f"a group {group!r} with Time, Speed, Torque")
             if group not in names:
                 raise InputError(path, f"no TDMS group {group!r}", column=group,
-                                 expected="one of " + ", ".join(repr(n) for n in names))
+                                 expected=closest_columns([group], names, what="groups"))
             channels = tdms[group].channels()
             headers = [c.name for c in channels]
             units = [str(c.properties.get("unit_string", "")) for c in channels]
@@ -509,8 +628,9 @@ def open_daq_tdms(
                      line_of_row=lambda row: None)
 
 
-def _read_all(layout: CsvLayout, cols: dict[str, ResolvedColumn]) -> dict[str, np.ndarray]:
-    parts = [p.values for p in iter_csv(layout, cols)]
+def _read_all(layout: CsvLayout, cols: dict[str, ResolvedColumn],
+              clocks: dict[str, clock.ClockParser] | None = None) -> dict[str, np.ndarray]:
+    parts = [p.values for p in iter_csv(layout, cols, clocks=clocks)]
     out = {}
     for q in cols:  # one column at a time: its chunks are freed before the next is joined
         out[q] = np.concatenate([p.pop(q) for p in parts])
@@ -532,9 +652,13 @@ def _parse_wall_time(date: str, time: str) -> datetime | None:
 
 
 def read_analyzer(
-    path: str | Path, mapping: Mapping = EMPTY_MAPPING
+    path: str | Path, mapping: Mapping = EMPTY_MAPPING, day=None
 ) -> tuple[pd.DataFrame, dict]:
     """Read a power-analyzer vendor CSV export.
+
+    ``day`` (the session's date) dates a time-of-day time column; the wall
+    times of a clock-time column then give ``start``, else the header block's
+    ``Start Date`` and ``Start Time`` do.
 
     Returns
     -------
@@ -546,13 +670,16 @@ def read_analyzer(
     """
     layout = sniff_csv(path, preamble=True, skip_lines=mapping.skip("analyzer"))
     cols = resolve_columns(
-        layout.path, layout.headers, layout.units_row, "analyzer",
+        layout.path, layout.headers, layout.units_with_clock(), "analyzer",
         required=("time", "p_elec"), mapping=mapping, header_line=layout.header_line,
     )
-    data = _read_all(layout, cols)
+    clocks = clock_parsers(layout, {"time": cols["time"]}, day)
+    data = _read_all(layout, cols, clocks)
     pre = {k.strip(): v.strip() for k, v in layout.preamble.items()}
     start = None
-    if "Start Date" in pre and "Start Time" in pre:
+    if "time" in clocks and (day is not None or clocks["time"].unit == clock.DATETIME):
+        start = clocks["time"].start  # the record's own wall times win over the header
+    elif "Start Date" in pre and "Start Time" in pre:
         start = _parse_wall_time(pre["Start Date"], pre["Start Time"])
     meta = {
         "format": "vendor_csv", "header": pre,
@@ -583,7 +710,7 @@ def read_points_table(
     """
     layout = sniff_csv(path, skip_lines=mapping.skip("points"))
     cols = resolve_columns(
-        layout.path, layout.headers, layout.units_row, "points",
+        layout.path, layout.headers, layout.units_with_clock(), "points",
         required=("speed", "torque", "p_elec"), optional=POINT_OPTIONAL,
         mapping=mapping, header_line=layout.header_line,
     )

@@ -107,11 +107,23 @@ class TimeCheck:
         Time column header.
     line_of_row : callable
         ``row -> 1-based line`` (or None).
+    grid_s : float, optional
+        Step of the time grid the caller bins the samples on [s]. Then the time
+        span may not need more than ``GRID_PER_ROW`` grid steps per row plus
+        ``GRID_SLACK`` (a pause in the recording): a single wrong time value (1e9 s)
+        is named at its line instead of sizing a grid of billions of steps.
     """
 
-    def __init__(self, path, column: str, line_of_row: Callable[[int], int | None]) -> None:
+    GRID_PER_ROW = 10
+    GRID_SLACK = 1_000_000
+
+    def __init__(self, path, column: str, line_of_row: Callable[[int], int | None],
+                 grid_s: float | None = None) -> None:
         self.path, self.column, self.line_of_row = path, column, line_of_row
         self.last: float = -np.inf
+        self.grid_s = grid_s
+        self.first: float | None = None
+        self.rows = 0
 
     def feed(self, time_s: np.ndarray, row0: int) -> None:
         """Check one chunk of times [s] whose first row has 0-based index ``row0``."""
@@ -132,4 +144,25 @@ class TimeCheck:
                 line=self.line_of_row(row0 + (k if ok is None else int(ok[k]))),
                 column=self.column, expected="strictly increasing time",
             )
+        if self.grid_s is not None:
+            self._check_span(t, row0, ok)
         self.last = float(t[-1])
+
+    def _check_span(self, t: np.ndarray, row0: int, ok: np.ndarray | None) -> None:
+        if self.first is None:
+            self.first = float(t[0])
+        self.rows += t.size
+        span = float(t[-1]) - self.first
+        if span / self.grid_s <= self.GRID_PER_ROW * self.rows + self.GRID_SLACK:
+            return
+        steps = np.diff(t, prepend=self.last if np.isfinite(self.last) else t[0])
+        k = int(np.argmax(steps))
+        prev = float(t[k] - steps[k])
+        raise InputError(
+            self.path, f"time jumps from {prev:.9g} s to {float(t[k]):.9g} s: "
+            f"{span:.4g} s for {self.rows} rows is no single recording (a wrong time value?)",
+            line=self.line_of_row(row0 + (k if ok is None else int(ok[k]))),
+            column=self.column,
+            expected=f"at most {self.GRID_PER_ROW * self.grid_s:g} s per row on average "
+                     f"plus {self.GRID_SLACK * self.grid_s:g} s of pauses",
+        )

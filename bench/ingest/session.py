@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import math
 import os
 import tomllib
 from dataclasses import dataclass
-from datetime import datetime
-from pathlib import Path
+from datetime import date, datetime
+from pathlib import Path, PurePath
 
 from bench.errors import InputError
+from bench.store import STAGING_PREFIX
 
 SESSION_FILE = "session.toml"
 
@@ -32,11 +34,15 @@ class Session:
     measured_side : str
         ``"drum"`` or ``"motor"``.
     speed_sign, torque_sign : int
-        +1 or -1: logged value times sign = drum frame.
+        +1 or -1: logged value times sign = drum frame (``torque_sign = "signed"``
+        in the file gives +1 here and ``signed_torque``).
     ranges : dict
         Sensor ranges ``speed`` [rpm], ``torque`` [N m], ``power`` [W].
     raw : dict
         The whole file, for the manifest.
+    signed_torque : bool
+        ``torque_sign = "signed"``: the bench logs torque < 0 in generator mode;
+        speed and torque are flipped where torque < 0 (drum frame: torque >= 0).
     """
 
     folder: Path
@@ -49,6 +55,25 @@ class Session:
     torque_sign: int
     ranges: dict
     raw: dict
+    signed_torque: bool = False
+
+    @property
+    def single_stream(self) -> bool:
+        """A timeseries session with one ``[log]`` file instead of ``[daq]`` + ``[analyzer]``."""
+        return self.kind == "timeseries" and "log" in self.raw
+
+    def day(self) -> date | None:
+        """The session's ``date`` (dates a time-of-day time column), or None."""
+        value = self.raw.get("date")
+        if value is None or isinstance(value, date) and not isinstance(value, datetime):
+            return value
+        if isinstance(value, datetime):
+            return value.date()
+        try:
+            return date.fromisoformat(str(value).strip())
+        except ValueError as exc:
+            raise InputError(self.path, f"bad date {value!r}", column="date",
+                             expected="an ISO date, e.g. 2013-04-17") from exc
 
     @property
     def path(self) -> Path:
@@ -69,10 +94,31 @@ class Session:
         if not isinstance(name, str) or not name:
             raise InputError(self.path, f"[{table}] has no 'file'", column=f"{table}.file",
                              expected="a file name in the session folder")
-        path = self.folder / name
+        return self.inside(name, f"{table}.file")
+
+    def inside(self, name: str, key: str) -> Path:
+        """A file named in session.toml, which must exist inside the session folder.
+
+        Absolute names, names climbing out (``..``) and symbolic links that lead
+        out of the session folder are refused before the file is opened.
+
+        Raises
+        ------
+        InputError
+            Naming ``key``; the target's content is never read or echoed.
+        """
+        where = f"a file in {self.folder}"
+        rel = PurePath(name)
+        if rel.is_absolute() or rel.drive or ".." in rel.parts or "\\" in name:
+            raise InputError(self.path, f"file {name!r} is outside the session folder",
+                             column=key, expected=f"a plain relative name, {where}")
+        path = self.folder / rel
         if not path.is_file():
-            raise InputError(self.path, f"[{table}] file {name!r} does not exist",
-                             column=f"{table}.file", expected=f"a file in {self.folder}")
+            raise InputError(self.path, f"file {name!r} does not exist", column=key,
+                             expected=where)
+        if not path.resolve().is_relative_to(self.folder.resolve()):
+            raise InputError(self.path, f"file {name!r} is a link out of the session folder",
+                             column=key, expected=where)
         return path
 
     def daq_start(self) -> datetime | None:
@@ -100,6 +146,32 @@ def _get(path: Path, raw: dict, key: str, types, allowed=None):
     return value
 
 
+#: sensor ranges assumed when session.toml gives none [rpm, N m, W]
+DEFAULT_RANGES = {"speed_range_rpm": 3000.0, "torque_range_nm": 100.0, "power_range_w": 15000.0}
+
+
+def _sensor_ranges(path: Path, sensors) -> dict[str, float]:
+    """``[sensors]`` ranges as finite positive floats (defaults for absent keys).
+
+    Raises
+    ------
+    InputError
+        ``sensors`` not a table, or a range that is not a finite positive number.
+    """
+    if not isinstance(sensors, dict):
+        raise InputError(path, f"bad value {sensors!r} for 'sensors'", column="sensors",
+                         expected="a [sensors] table, e.g. torque_range_nm = 100.0")
+    out = {}
+    for key, default in DEFAULT_RANGES.items():
+        value = sensors.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, int | float) \
+                or not math.isfinite(value) or value <= 0:
+            raise InputError(path, f"bad sensor range {value!r}", column=f"sensors.{key}",
+                             expected="a finite positive number (the sensor's full scale)")
+        out[key.split("_")[0]] = float(value)
+    return out
+
+
 def load_session(folder: str | Path) -> Session:
     """Read and validate ``<folder>/session.toml``.
 
@@ -124,23 +196,41 @@ def load_session(folder: str | Path) -> Session:
     kind = _get(path, raw, "kind", str, ("timeseries", "operating_points"))
     mode = _get(path, raw, "mode", str, ("motor", "generator"))
     gear = float(_get(path, raw, "gear_ratio", (int, float)))
-    if not gear > 0:
-        raise InputError(path, f"gear_ratio {gear} is not positive", column="gear_ratio")
+    if not (math.isfinite(gear) and gear > 0):
+        raise InputError(path, f"gear_ratio {gear} is not a finite positive number",
+                         column="gear_ratio", expected="motor-shaft / drum-shaft speed, > 0")
     side = _get(path, raw, "measured_side", str, ("drum", "motor"))
     ssign = _get(path, raw, "speed_sign", int, (1, -1))
-    tsign = _get(path, raw, "torque_sign", int, (1, -1))
-    sensors = raw.get("sensors", {})
-    ranges = {
-        "speed": float(sensors.get("speed_range_rpm", 3000.0)),
-        "torque": float(sensors.get("torque_range_nm", 100.0)),
-        "power": float(sensors.get("power_range_w", 15000.0)),
-    }
+    signed = raw.get("torque_sign") == "signed"
+    tsign = 1 if signed else _get(path, raw, "torque_sign", int, (1, -1))
+    if kind == "timeseries":
+        _check_streams(path, raw)
+    ranges = _sensor_ranges(path, raw.get("sensors", {}))
     return Session(folder=folder, session_id=sid, kind=kind, mode=mode, gear_ratio=gear,
-                   measured_side=side, speed_sign=ssign, torque_sign=tsign, ranges=ranges, raw=raw)
+                   measured_side=side, speed_sign=ssign, torque_sign=tsign, ranges=ranges, raw=raw,
+                   signed_torque=signed)
+
+
+def _check_streams(path: Path, raw: dict) -> None:
+    """A timeseries session names either one ``[log]`` or a ``[daq]`` and an ``[analyzer]``."""
+    has = {t for t in ("log", "daq", "analyzer") if t in raw}
+    if has == {"log"} or has == {"daq", "analyzer"}:
+        return
+    if "log" in has:
+        raise InputError(path, f"both [log] and {sorted(has - {'log'})} given", column="log",
+                         expected="either one [log] file (time, speed, torque, p_elec on one "
+                         "clock) or a [daq] and an [analyzer] file")
+    missing = sorted({"daq", "analyzer"} - has)
+    raise InputError(path, f"missing table [{missing[0]}]", column=missing[0],
+                     expected="a [daq] and an [analyzer] table, or one [log] table, "
+                     "for kind = 'timeseries'")
 
 
 def discover(paths: list[str | Path]) -> list[Path]:
     """Session folders (holding ``session.toml``) at or under each path, sorted, unique.
+
+    Symbolic links are followed only while they stay inside the given path, and
+    each real folder is walked once (a link cycle ends).
 
     Raises
     ------
@@ -154,8 +244,16 @@ def discover(paths: list[str | Path]) -> list[Path]:
                              expected="a campaign or session folder")
         if p.is_file():
             p = p.parent if p.name == SESSION_FILE else p
+        root = p.resolve()
+        visited: set[Path] = set()
         for folder, dirs, names in os.walk(p, followlinks=True):
-            dirs[:] = sorted(d for d in dirs if not d.startswith(".staging-"))
+            real = Path(folder).resolve()
+            # a link out of the campaign, or back to a folder already walked (a cycle)
+            if real in visited or not real.is_relative_to(root):
+                dirs[:] = []
+                continue
+            visited.add(real)
+            dirs[:] = sorted(d for d in dirs if not d.startswith(STAGING_PREFIX))
             if SESSION_FILE in names:
                 found.add(Path(os.path.abspath(folder)))
     if not found:

@@ -1,6 +1,14 @@
 """Steady-state windows: settle after each setpoint step, then keep what is stable.
 
-Works on short-bin means (default 0.1 s) of speed, torque and power:
+Works on short-bin means of speed, torque and power. The bins are
+``bin_s`` wide (0.1 s by default; the caller widens them to the sample
+interval of a slower logger, so that a bin holds about one sample or more).
+Every duration below is in seconds and converted to bins with the bin width,
+so a 0.5 Hz logger and a 10 kHz DAQ give the same windows for the same run.
+An empty bin (no sample fell into it: jitter of a slow logger) or one whose
+samples are all invalid is no break by itself; a *gap* is (``cuts``: a hole
+in the time axis or a run of invalid samples longer than
+:func:`gap_threshold_s`, found by the caller):
 
 1. Noise per bin of each signal from the median absolute bin-to-bin difference
    (robust: steps are rare). Tolerance = ``k_tol`` noise sigmas, at least a
@@ -9,9 +17,12 @@ Works on short-bin means (default 0.1 s) of speed, torque and power:
    mean of the previous ``step_lag_s`` by more than ``k_step`` tolerances in
    speed or torque. Runs of non-moving bins are the candidate segments, one per setpoint.
 3. Settling: the segment starts after the last bin that is off the segment's
-   final level (mean of its second half) by more than the tolerance.
+   final level (mean of its second half) by more than the tolerance in speed
+   or torque; it ends before its last bins (at most ``step_lag_s``) that are
+   off that level in speed, torque or power (the next step already begun).
 4. Checks, in order, each giving a rejection reason: ``too short`` (under
-   ``min_window_s``), ``invalid samples`` (more than ``max_invalid`` of the
+   ``min_window_s``, or data in fewer than ``min_samples`` bins),
+   ``invalid samples`` (more than ``max_invalid`` of the
    samples are NaN), ``speed unstable``, ``torque unstable``, ``power unstable``
    (standard deviation of the bin means above the tolerance).
 5. An oscillation too strong or too slow to stay one segment (a hunting brake)
@@ -59,6 +70,13 @@ class SteadyConfig:
     oscillation_pieces : int
         Unreported pieces between two segments from which the stretch is an
         oscillation, reported as unstable [-].
+    min_samples : int
+        A window also needs data in at least this many bins (so at least as many
+        samples), so that its standard deviation means something: it binds only
+        for loggers slower than ``min_samples / min_window_s`` [-].
+    gap_factor : float
+        A step in the time axis longer than ``gap_factor`` median sample
+        intervals (and longer than one bin) is a gap and ends a window [-].
     """
 
     bin_s: float = 0.1
@@ -70,12 +88,34 @@ class SteadyConfig:
     max_invalid: float = 0.2
     min_report_s: float = 1.0
     oscillation_pieces: int = 3
+    min_samples: int = 3
+    gap_factor: float = 5.0
 
 
 DEFAULT_STEADY = SteadyConfig()
 
 #: bins handled at a time (one hour at 0.1 s); bounds memory for long sessions
 BLOCK_BINS = 36_000
+
+
+def bin_width_s(sample_interval_s: float, config: SteadyConfig) -> float:
+    """Bin width for a logger with this median sample interval [s].
+
+    ``config.bin_s``, widened to the sample interval when the logger is slower,
+    so that no bin is empty on a regular grid.
+    """
+    if not np.isfinite(sample_interval_s) or sample_interval_s <= 0:
+        return config.bin_s
+    return max(config.bin_s, float(sample_interval_s))
+
+
+def gap_threshold_s(sample_interval_s: float, config: SteadyConfig) -> float:
+    """Longest step in the time axis that is not a gap [s].
+
+    ``gap_factor`` median sample intervals, and at least one bin: a shorter
+    hole leaves no bin empty, and the lagged means see across it.
+    """
+    return max(config.gap_factor * sample_interval_s, bin_width_s(sample_interval_s, config))
 
 
 @dataclass(frozen=True)
@@ -131,6 +171,7 @@ def find_windows(
     ranges: dict[str, float],
     config: SteadyConfig | None = None,
     usable: np.ndarray | None = None,
+    cuts: np.ndarray | None = None,
 ) -> Windows:
     """Find the steady-state window of each setpoint in bin-mean series.
 
@@ -139,13 +180,16 @@ def find_windows(
     speed_rpm, torque_nm, p_elec_w : array
         Bin means (NaN for empty bins) [rpm, N m, W].
     valid_frac : array
-        Fraction of valid samples per bin [-].
+        Fraction of valid samples per bin [-] (NaN for an empty bin).
     ranges : dict
         Sensor ranges ``speed``, ``torque``, ``power`` [rpm, N m, W] for the tolerance floors.
     config : SteadyConfig, optional
         Detection settings (default :data:`DEFAULT_STEADY`).
     usable : array of bool, optional
         False for bins no window may cover (e.g. outside the analyzer's record).
+    cuts : array of bool, optional
+        True for the bins of a gap (empty or all invalid) and the first bin
+        after it: no window spans the gap.
 
     Returns
     -------
@@ -154,9 +198,10 @@ def find_windows(
     config = DEFAULT_STEADY if config is None else config
     tol = tolerances(speed_rpm, torque_nm, p_elec_w, ranges, config)
     lag = max(1, int(round(config.step_lag_s / config.bin_s)))
-    series = (speed_rpm, torque_nm, p_elec_w, valid_frac)
+    cuts = np.zeros(speed_rpm.size, bool) if cuts is None else cuts
+    series = (speed_rpm, torque_nm, p_elec_w, valid_frac, cuts)
     mask_inputs = (speed_rpm, torque_nm, valid_frac,
-                   np.ones(speed_rpm.size, bool) if usable is None else usable)
+                   np.ones(speed_rpm.size, bool) if usable is None else usable, cuts)
     n = speed_rpm.size
     accepted: list[tuple[int, int]] = []
     rejected: list[tuple[int, int, str]] = []
@@ -192,28 +237,34 @@ def tolerances(speed_rpm, torque_nm, p_elec_w, ranges: dict[str, float],
     }
 
 
-def _moving_mask(speed, torque, valid, usable, tol, lag, config) -> np.ndarray:
-    """Bins that belong to no segment: stepping, empty, or not usable."""
+def _moving_mask(speed, torque, valid, usable, cuts, tol, lag, config) -> np.ndarray:
+    """Bins that belong to no segment: stepping, inside a gap, or not usable."""
     moving = _moving(speed, lag, config.k_step * tol["speed"])
     moving |= _moving(torque, lag, config.k_step * tol["torque"])
-    moving |= ~np.isfinite(speed) & (valid == 0)  # empty bins split segments
+    moving |= cuts & ~(valid > 0)  # the empty or all-invalid bins of a gap
     moving |= ~usable
     return moving
 
 
-def _block_windows(moving, speed, torque, p_elec, valid, tol, config):
+def _block_windows(moving, speed, torque, p_elec, valid, cuts, tol, config):
     """Accepted and rejected windows of one block (bin indices within the block)."""
     edges = np.diff(np.concatenate(([1], moving.view(np.int8), [1])))
     starts = np.flatnonzero(edges == -1)
     stops = np.flatnonzero(edges == 1)
-    min_bins = int(round(config.min_window_s / config.bin_s))
-    report_bins = int(round(config.min_report_s / config.bin_s))
+    # a gap inside a run of still bins splits it there
+    split = np.flatnonzero(cuts[1:] & ~moving[1:] & ~moving[:-1]) + 1
+    if split.size:
+        starts = np.sort(np.concatenate((starts, split)))
+        stops = np.sort(np.concatenate((stops, split)))
+    min_bins = _bins(config.min_window_s, config.bin_s)
+    report_bins = max(1, _bins(config.min_report_s, config.bin_s))
     keep = stops - starts >= report_bins
     a, b = starts[keep], stops[keep]
     stats = {"speed": _RangeStats(speed), "torque": _RangeStats(torque),
              "power": _RangeStats(p_elec)}
     a = _settle(speed, torque, a, b, tol, stats)
-    reason = _check(stats, valid, a, b, tol, min_bins, config)
+    b = _trim_tail(a, b, stats, tol, max(1, _bins(config.step_lag_s, config.bin_s)))
+    reason = _check(stats, _RangeStats(valid), a, b, tol, min_bins, config)
     ok = reason == ""
     accepted = [(int(i), int(j)) for i, j in zip(a[ok], b[ok], strict=True)]
     rejected = [(int(i), int(j), str(r))
@@ -237,6 +288,34 @@ def _oscillations(piece_starts, seg_stops, seg_starts, stats, tol, min_bins,
                 out.append((i, j, f"{key} unstable"))
                 break
     return out
+
+
+def _trim_tail(a, b, stats: dict, tol: dict[str, float], m: int) -> np.ndarray:
+    """End of each ``[a, b)`` without its last bins (at most ``m``, one ``step_lag_s``) that are
+    already off the segment's level in speed, torque or power.
+
+    Below the lag of the step detection the next step may already have begun in
+    the last bin (a slow logger, or the analyzer's delay); the level is the mean
+    of the segment's second half without those bins.
+    """
+    b = b.copy()
+    for _ in range(m):
+        live = b - a > 2 * m
+        if not live.any():
+            break
+        ref_lo = a + (b - a) // 2
+        last = b - 1
+        off = np.zeros(a.size, bool)
+        for key in ("speed", "torque", "power"):
+            x = stats[key]
+            level = x.mean(ref_lo, np.maximum(b - m, ref_lo + 1))
+            here = x.mean(last, b)
+            off |= np.abs(here - level) > tol[key]
+        cut = live & off
+        if not cut.any():
+            break
+        b[cut] -= 1
+    return b
 
 
 def _settle(speed, torque, a, b, tol: dict[str, float], stats: dict) -> np.ndarray:
@@ -286,18 +365,27 @@ class _RangeStats:
             m = (self.s1[b] - self.s1[a]) / n
             return np.sqrt(np.maximum((self.s2[b] - self.s2[a]) / n - m * m, 0.0))
 
-    def nan_frac(self, a, b) -> np.ndarray:
-        return 1.0 - (self.n[b] - self.n[a]) / np.maximum(b - a, 1)
+    def nan_frac(self, a, b, base: _RangeStats | None = None) -> np.ndarray:
+        """NaN fraction of ``[a, b)``; of the bins finite in ``base`` when given."""
+        total = (b - a) if base is None else base.n[b] - base.n[a]
+        return 1.0 - (self.n[b] - self.n[a]) / np.maximum(total, 1)
 
 
-def _check(stats, valid_frac, a, b, tol, min_bins, config) -> np.ndarray:
-    """Rejection reason of each window ``[a, b)`` (``""`` when it is steady); first one wins."""
-    cum_valid = np.concatenate(([0.0], np.cumsum(valid_frac)))
-    width = np.maximum(b - a, 1)
+def _bins(seconds: float, bin_s: float) -> int:
+    """Bins that cover ``seconds`` (rounded; a hair of float error does not add a bin)."""
+    return int(np.ceil(seconds / bin_s - 1e-6))
+
+
+def _check(stats, valid, a, b, tol, min_bins, config) -> np.ndarray:
+    """Rejection reason of each window ``[a, b)`` (``""`` when it is steady); first one wins.
+
+    ``valid`` holds the valid fraction per bin (NaN for empty bins, which do not count).
+    """
+    with_data = valid.n[b] - valid.n[a]
     tests = [
-        ("too short", b - a < min_bins),
-        ("invalid samples", ((cum_valid[b] - cum_valid[a]) / width < 1.0 - config.max_invalid)
-         | (stats["power"].nan_frac(a, b) > config.max_invalid)),
+        ("too short", (b - a < min_bins) | (with_data < config.min_samples)),
+        ("invalid samples", (valid.mean(a, b) < 1.0 - config.max_invalid)
+         | (stats["power"].nan_frac(a, b, valid) > config.max_invalid)),
     ] + [(f"{key} unstable", ~(stats[key].std(a, b) <= tol[key]))
          for key in ("speed", "torque", "power")]
     reason = np.full(a.size, "", dtype=object)
@@ -309,3 +397,37 @@ def _check(stats, valid_frac, a, b, tol, min_bins, config) -> np.ndarray:
 def quadrant(p_mech_w: np.ndarray) -> np.ndarray:
     """``'motor'`` where the mechanical power is positive, else ``'generator'``."""
     return np.where(np.asarray(p_mech_w) > 0, "motor", "generator")
+
+
+def why_no_windows(windows: Windows, usable_s: float, duration_s: float, bin_s: float,
+                   config: SteadyConfig) -> str:
+    """One line saying why a session gave no steady window.
+
+    Parameters
+    ----------
+    windows : Windows
+        The (empty) result of :func:`find_windows`.
+    usable_s : float
+        Seconds of data a window could cover (after the tare, inside the other
+        instrument's record) [s].
+    duration_s : float
+        Length of the record [s].
+    bin_s : float
+        Bin width used [s].
+    config : SteadyConfig
+        The settings used.
+    """
+    if windows.rejected:
+        counts: dict[str, int] = {}
+        for _, _, r in windows.rejected:
+            counts[r] = counts.get(r, 0) + 1
+        listed = ", ".join(f"{r}: {n}" for r, n in sorted(counts.items(), key=lambda x: -x[1]))
+        tol = windows.tolerances
+        return (f"0 points: all {len(windows.rejected)} candidate windows were rejected "
+                f"({listed}; tolerances speed {tol['speed']:.3g} rpm, torque "
+                f"{tol['torque']:.3g} N m, power {tol['power']:.3g} W)")
+    if usable_s < config.min_window_s:
+        return (f"0 points: only {usable_s:.3g} s of the {duration_s:.3g} s record can hold a "
+                "window (after the tare, inside the power record)")
+    return (f"0 points: no stretch of at least {config.min_window_s:g} s without a setpoint step, "
+            f"gap or invalid bin in {usable_s:.4g} s of usable record ({bin_s:.3g} s bins)")

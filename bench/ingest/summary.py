@@ -23,7 +23,8 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict) ->
         A plain-text table: session, status, kind, mode, points per quadrant,
         clock offset [s] and drift [ppm], torque-flange zero offset subtracted
         [N m] (``none`` without a tare), rejected windows by reason; then one line
-        per session without a tare saying why.
+        per session that gave no operating point saying why, and one per session
+        without a tare saying why.
     """
     head = ("session", "status", "kind", "mode", "motor", "generator", "offset_s", "drift_ppm",
             "zero_nm", "rejected")
@@ -31,6 +32,7 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict) ->
     tot = {"motor": 0, "generator": 0}
     tot_rej: dict[str, int] = {}
     no_tare = []
+    no_points = []
     for sid in sorted(ingested + unchanged):
         e = manifest["sessions"][sid]
         q = e["points_per_quadrant"]
@@ -46,6 +48,8 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict) ->
             else format(e["torque_zero_offset_nm"], ".3f"),
             ", ".join(f"{r}: {n}" for r, n in e["rejected"].items()) or "-",
         ))
+        if e.get("n_points", 0) == 0:
+            no_points.append(f"{sid}: {e.get('no_points_note', '0 points')}")
         if e.get("torque_zero_offset_nm") is None:
             no_tare.append(f"{sid}: {e.get('torque_zero_note', 'no tare recorded')}")
     rows.append(("total", f"{len(ingested)} new", "", "", str(tot["motor"]),
@@ -59,6 +63,7 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict) ->
                          for i, (c, w) in enumerate(zip(cells, widths, strict=True))).rstrip()
 
     sep = "  ".join("-" * w for w in widths)
-    notes = [f"no torque-flange tare, torque not zero-corrected: {n}" for n in no_tare]
+    notes = [f"NO POINTS from {n}" for n in no_points]
+    notes += [f"no torque-flange tare, torque not zero-corrected: {n}" for n in no_tare]
     return "\n".join([line(head), sep, *(line(r) for r in rows[:-1]), sep, line(rows[-1]),
                       *notes])

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -27,8 +27,15 @@ import pyarrow.parquet as pq
 from bench.errors import InputError
 from bench.ingest import align, checks, steady, tare
 from bench.ingest.checks import check_torque_sign
+from bench.ingest.clock import TIME_OF_DAY
 from bench.ingest.mapping import Mapping
-from bench.ingest.readers import CHUNK_BYTES, DaqStream, open_daq_csv, open_daq_tdms, read_analyzer
+from bench.ingest.readers import (
+    CHUNK_BYTES,
+    DaqStream,
+    open_daq_csv,
+    open_daq_tdms,
+    read_analyzer,
+)
 from bench.ingest.scrub import NanRunCheck, TimeCheck
 from bench.ingest.session import Session
 from bench.store import POINTS_SCHEMA, REJECTED_SCHEMA, SAMPLES_SCHEMA
@@ -80,26 +87,67 @@ class SessionOutput:
 
 
 class _Bins:
-    """Growing per-bin sums on a fixed grid ``t0 + k * dt`` (time sorted, so bins are runs)."""
+    """Growing per-bin sums on a grid ``t0 + k * dt`` (time sorted, so bins are runs).
 
-    FIELDS = ("rows", "valid", "speed", "torque")
+    The bin width and the gap threshold follow the stream's median sample
+    interval, taken from its first chunk (:func:`steady.bin_width_s`,
+    :func:`steady.gap_threshold_s`); the grid starts half a sample interval
+    before the first sample, so a regular logger puts its samples mid-bin.
+    Gaps are kept as bin ranges ``[first empty bin, first bin after the gap]``.
 
-    def __init__(self, dt: float) -> None:
-        self.dt = dt
+    Parameters
+    ----------
+    config : SteadyConfig
+        Gives the narrowest bin and the gap factor.
+    extra : tuple of str
+        Further per-sample quantities whose bin means are wanted (``p_elec``,
+        ``p_mech_logged`` of a single-stream log); each has its own valid count.
+        Their bin means come out under the same names.
+    """
+
+    BASE = ("rows", "valid", "speed", "torque")
+
+    def __init__(self, config: steady.SteadyConfig, extra: tuple[str, ...] = ()) -> None:
+        self.config = config
+        self.extra = extra
+        self.fields = self.BASE + extra + tuple(f"{q}_n" for q in extra)
+        self.dt = config.bin_s
+        self.interval_s = math.nan
+        self.gap_s = math.inf
         self.t0: float | None = None
-        self.sums = {f: np.zeros(0) for f in self.FIELDS}
+        self.last_t = math.nan
+        self.gaps: list[np.ndarray] = []
+        self.sums = {f: np.zeros(0) for f in self.fields}
 
-    def add(self, t: np.ndarray, speed: np.ndarray, torque: np.ndarray) -> None:
-        """Add a chunk of sorted times [s] and drum-frame speed [rpm] and torque [N m]."""
+    def _start(self, t: np.ndarray) -> None:
+        d = np.diff(t[:100_000])
+        self.interval_s = float(np.median(d)) if d.size else math.nan
+        self.dt = steady.bin_width_s(self.interval_s, self.config)
+        if d.size:
+            self.gap_s = steady.gap_threshold_s(self.interval_s, self.config)
+        half = 0.5 * min(self.dt, self.interval_s) if d.size else 0.0
+        self.t0 = float(t[0]) - half
+
+    def add(self, t: np.ndarray, speed: np.ndarray, torque: np.ndarray, **extra) -> None:
+        """Add a chunk of sorted times [s] and drum-frame speed [rpm] and torque [N m]
+        (and the ``extra`` quantities by name)."""
         if self.t0 is None:
-            self.t0 = float(t[0])
+            self._start(t)
         k = ((t - self.t0) / self.dt).astype(np.int64)
+        jumps = np.flatnonzero(np.diff(t, prepend=self.last_t) > self.gap_s)
+        if jumps.size:
+            after = k[jumps]
+            before = k[np.maximum(jumps - 1, 0)]
+            if jumps[0] == 0:  # the gap lies between the last chunk and this one
+                before[0] = int((self.last_t - self.t0) / self.dt)
+            self.gaps.append(np.column_stack((before + 1, after)))
+        self.last_t = float(t[-1])
         starts = np.concatenate(([0], np.flatnonzero(np.diff(k)) + 1))
         ids = k[starts]
         n = int(ids[-1]) + 1
         if n > self.sums["rows"].size:
             size = max(n, self.sums["rows"].size + self.sums["rows"].size // 4)
-            for f in self.FIELDS:
+            for f in self.fields:
                 grown = np.zeros(size)
                 grown[: self.sums[f].size] = self.sums[f]
                 self.sums[f] = grown
@@ -108,35 +156,68 @@ class _Bins:
         self.sums["valid"][ids] += np.add.reduceat(ok, starts, dtype=np.int64)
         for f, x in (("speed", speed), ("torque", torque)):
             self.sums[f][ids] += np.add.reduceat(np.where(ok, x, 0.0), starts)
+        for f in self.extra:
+            x = extra[f]
+            fin = np.isfinite(x)
+            self.sums[f][ids] += np.add.reduceat(np.where(fin, x, 0.0), starts)
+            self.sums[f + "_n"][ids] += np.add.reduceat(fin, starts, dtype=np.int64)
 
     def means(self, n_bins: int, torque_offset_nm: float = 0.0) -> dict[str, np.ndarray]:
         """Bin means of speed and torque (less ``torque_offset_nm``), their product as
-        ``p_mech`` [W], valid fraction."""
+        ``p_mech`` [W], the extra quantities, the valid fraction (NaN for empty bins)
+        and ``cuts`` (True for the bins of a gap and the first bin after it; a
+        gap is a hole in the time axis or a run of bins without a valid sample,
+        each longer than the gap threshold)."""
         valid = self.sums["valid"][:n_bins]
+        rows = self.sums["rows"][:n_bins]
         with np.errstate(invalid="ignore", divide="ignore"):
             out = {f: self.sums[f][:n_bins] / valid for f in ("speed", "torque")}
             out["torque"] = out["torque"] - torque_offset_nm
-            out["valid_frac"] = np.where(self.sums["rows"][:n_bins] > 0,
-                                         valid / self.sums["rows"][:n_bins], 0.0)
-        # product of 0.1 s means: enough for the alignment; points use exact sample means
+            out["valid_frac"] = np.where(rows > 0, valid / rows, np.nan)
+            for f in self.extra:
+                out[f] = self.sums[f][:n_bins] / self.sums[f + "_n"][:n_bins]
+        # product of bin means: enough for the alignment; points use exact sample means
         out["p_mech"] = out["speed"] * out["torque"] * RAD_S_PER_RPM
+        # runs of bins without a valid sample longer than the gap threshold are gaps too
+        edges = np.diff(np.concatenate(([0], (valid == 0).astype(np.int8), [0])))
+        r0, r1 = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+        long = (r1 - r0) * self.dt > self.gap_s
+        marks = np.zeros(n_bins + 1, np.int64)
+        for g in [*self.gaps, np.column_stack((r0[long], r1[long]))]:
+            np.add.at(marks, np.minimum(g[:, 0], n_bins), 1)
+            np.add.at(marks, np.minimum(g[:, 1] + 1, n_bins), -1)
+        out["cuts"] = np.cumsum(marks[:-1]) > 0
         return out
 
+    @property
+    def n_gaps(self) -> int:
+        """Gaps found so far."""
+        return sum(g.shape[0] for g in self.gaps)
 
-def open_daq(session: Session, mapping: Mapping, chunk_bytes: int) -> DaqStream:
-    """Open the DAQ stream a session names (CSV or TDMS)."""
-    daq = session.table("daq")
-    path = session.file("daq")
-    fmt = daq.get("format", "csv")
+
+def open_stream(session: Session, mapping: Mapping, chunk_bytes: int) -> DaqStream:
+    """Open the DAQ stream (``[daq]``, CSV or TDMS) or single-stream log (``[log]``, CSV) a
+    session names."""
+    name = "log" if session.single_stream else "daq"
+    table = session.table(name)
+    path = session.file(name)
+    fmt = table.get("format", "csv")
     if fmt == "csv":
-        return open_daq_csv(path, mapping, chunk_bytes)
-    if fmt == "tdms":
-        return open_daq_tdms(path, str(daq.get("tdms_group", "Measurement")), mapping)
-    raise InputError(session.path, f"unknown [daq] format {fmt!r}", column="daq.format",
-                     expected="'csv' or 'tdms'")
+        if name == "log":
+            mapped = mapping.section("log")
+            return open_daq_csv(path, mapping, chunk_bytes, day=session.day(), section="log",
+                                required=("time", "speed", "torque", "p_elec"),
+                                optional=("p_mech",) if "p_mech" in mapped else ())
+        return open_daq_csv(path, mapping, chunk_bytes, day=session.day())
+    if fmt == "tdms" and name == "daq":
+        return open_daq_tdms(path, str(table.get("tdms_group", "Measurement")), mapping)
+    raise InputError(session.path, f"unknown [{name}] format {fmt!r}", column=f"{name}.format",
+                     expected="'csv' or 'tdms'" if name == "daq" else "'csv'")
 
 
 def _drum_frame(session: Session, speed, torque):
+    """Logged speed and torque to the drum shaft (signs, gear); a signed torque is folded
+    later (:func:`fold_signed`), after the zero offset is off."""
     speed = speed * session.speed_sign
     torque = torque * session.torque_sign
     if session.measured_side == "motor":
@@ -164,6 +245,10 @@ def process_timeseries(
 ) -> SessionOutput:
     """Read, align and average one timeseries session; stage its samples file.
 
+    A session is either a DAQ stream plus a power-analyzer record on another
+    clock (``[daq]`` + ``[analyzer]``: aligned here), or one single-stream log
+    (``[log]``) holding time, speed, torque and p_elec on one clock.
+
     Parameters
     ----------
     session : Session
@@ -173,7 +258,8 @@ def process_timeseries(
     scratch : Path
         A staging directory for scratch and output files.
     config : SteadyConfig
-        Steady-state detection settings.
+        Steady-state detection settings (``bin_s`` is the narrowest bin: a
+        slower logger gets bins of its sample interval).
     chunk_bytes : int
         CSV bytes per chunk [B].
     progress : callable
@@ -184,24 +270,34 @@ def process_timeseries(
     SessionOutput
     """
     sid = session.session_id
-    daq = open_daq(session, mapping, chunk_bytes)
-    apath = session.file("analyzer")
-    analyzer, ameta = read_analyzer(apath, mapping)
-    alayout = ameta.pop("layout")
-    _check_analyzer(apath, analyzer, ameta, alayout)
-    sources = {**checks.sources_from_meta(daq.path, daq.metadata["columns"]),
-               **checks.sources_from_meta(apath, ameta["columns"])}
-    checks.check_signal(sources["p_elec"], "p_elec", analyzer["p_elec_w"].to_numpy(), True)
+    single = session.single_stream
+    daq = open_stream(session, mapping, chunk_bytes)
+    if daq.clock is not None and daq.clock.unit == TIME_OF_DAY and session.day() is None:
+        raise InputError(session.path, f"{daq.path.name} gives the time of day only, and "
+                         "session.toml has no date", column="date",
+                         expected='date = "YYYY-MM-DD", the day the log starts')
+    sources = checks.sources_from_meta(daq.path, daq.metadata["columns"])
+    if not single:
+        apath = session.file("analyzer")
+        analyzer, ameta = read_analyzer(apath, mapping, day=session.day())
+        alayout = ameta.pop("layout")
+        _check_analyzer(apath, analyzer, ameta, alayout)
+        sources.update(checks.sources_from_meta(apath, ameta["columns"]))
+        checks.check_signal(sources["p_elec"], "p_elec", analyzer["p_elec_w"].to_numpy(), True)
+    # per-sample quantities besides time, speed, torque
+    extra = tuple(q for q in ("p_elec", "p_mech") if q in daq.metadata["columns"])
+    bin_names = {q: "p_mech_logged" if q == "p_mech" else q for q in extra}
 
     # pass 1
-    bins = _Bins(config.bin_s)
+    bins = _Bins(config, extra=tuple(bin_names.values()))
     cols = daq.metadata["columns"]
-    tcheck = TimeCheck(daq.path, cols["time"]["column"], daq.line_of_row)
+    tcheck = TimeCheck(daq.path, cols["time"]["column"], daq.line_of_row, config.bin_s)
     nan_checks = {q: NanRunCheck(daq.path, cols[q]["column"], daq.line_of_row)
-                  for q in ("time", "speed", "torque")}
+                  for q in ("time", "speed", "torque") + extra}
     ranges = _drum_ranges(session)
     tare_finder = tare.TareFinder(ranges["speed"], ranges["torque"])
-    spill = {q: scratch / f"{sid}.{q}.f64" for q in ("time", "speed", "torque")}
+    spill = {q: scratch / f"{sid}.{q}.f64"
+             for q in ("time", "speed", "torque") + (("p_elec",) if single else ())}
     handles = {q: open(p, "wb") for q, p in spill.items()}
     n_rows = n_total = 0
     try:
@@ -212,15 +308,20 @@ def process_timeseries(
             tcheck.feed(v["time"], chunk.row0)
             t = v["time"]
             speed, torque = _drum_frame(session, v["speed"], v["torque"])
+            more = {q: v[q] for q in extra}
+            if "p_mech" in more:  # logged in the bench's frame: to the drum frame's sign
+                more["p_mech"] = more["p_mech"] * (session.speed_sign * session.torque_sign)
             n_total += t.size
             keep = np.isfinite(t)
             if not keep.all():
                 t, speed, torque = t[keep], speed[keep], torque[keep]
+                more = {q: x[keep] for q, x in more.items()}
             if t.size:
                 tare_finder.feed(t, speed, torque)
-                bins.add(t, speed, torque)
-                for q, arr in (("time", t), ("speed", speed), ("torque", torque)):
-                    arr.tofile(handles[q])
+                bins.add(t, speed, torque, **{bin_names[q]: x for q, x in more.items()})
+                for q, arr in (("time", t), ("speed", speed), ("torque", torque), *more.items()):
+                    if q in handles:
+                        arr.tofile(handles[q])
                 n_rows += t.size
             progress(chunk.nbytes // 2)
         for chk in nan_checks.values():
@@ -232,40 +333,54 @@ def process_timeseries(
         raise InputError(daq.path, "no data rows", expected="DAQ samples")
 
     n_bins = int(np.flatnonzero(bins.sums["rows"])[-1]) + 1
+    if n_bins * config.bin_s < config.min_window_s:  # nothing to align or average
+        raise InputError(daq.path, f"only {n_rows} data row(s), {n_bins * config.bin_s:g} s "
+                         "of recording", expected=f"a recording longer than the shortest "
+                         f"steady window ({config.min_window_s:g} s)")
     zero, no_tare_why = tare_finder.result()
     offset = zero.offset_nm if zero is not None else 0.0
     means = bins.means(n_bins, offset)
-    t0, dt = bins.t0, config.bin_s
+    t0, dt = bins.t0, bins.dt
+    config = replace(config, bin_s=dt)
+    timing = {"sample_interval_s": round(bins.interval_s, 9), "bin_s": round(dt, 9),
+              "gap_threshold_s": round(bins.gap_s, 9) if math.isfinite(bins.gap_s) else None,
+              "n_gaps": bins.n_gaps, "duration_s": round(bins.last_t - t0, 6)}
     del bins  # the means are all later steps need
     centres = t0 + (np.arange(n_bins) + 0.5) * dt
 
-    prior = _prior_offset(session, ameta)
-    # a power analyzer's record is the mean over the update interval that ends at its
-    # time stamp: it stands for the middle of that interval
-    interval = float(np.median(np.diff(analyzer["time_s"].to_numpy())))
-    a_mid = analyzer["time_s"].to_numpy() - 0.5 * interval
-    a_p = analyzer["p_elec_w"].to_numpy()
-    del analyzer
-    clock = align.estimate_clock(centres, means["p_mech"], a_mid, a_p, prior)
-    if abs(clock.correlation) < MIN_ALIGN_CORRELATION:
-        raise InputError(
-            apath, f"analyzer power does not follow the DAQ's speed x torque (peak correlation "
-            f"{clock.correlation:.2f} within {align.MAX_LAG_S:g} s of the header start times)",
-            expected="the power-analyzer record of the same bench run as "
-            f"{daq.path.name}, overlapping it in time",
-        )
-    a_t = clock.to_daq(a_mid)
-    del a_mid
-    fin = np.flatnonzero(np.isfinite(a_p))
-    p_elec_bins = np.interp(centres, a_t[fin], a_p[fin], left=np.nan, right=np.nan)
+    if single:
+        clock = None
+        p_elec_bins = means["p_elec"]
+        checks.check_signal(sources["p_elec"], "p_elec", p_elec_bins, True)
+        usable = np.ones(n_bins, bool)
+    else:
+        prior = _prior_offset(session, ameta, daq)
+        # a power analyzer's record is the mean over the update interval that ends at its
+        # time stamp: it stands for the middle of that interval
+        interval = float(np.median(np.diff(analyzer["time_s"].to_numpy())))
+        a_mid = analyzer["time_s"].to_numpy() - 0.5 * interval
+        a_p = analyzer["p_elec_w"].to_numpy()
+        del analyzer
+        clock = align.estimate_clock(centres, means["p_mech"], a_mid, a_p, prior)
+        if abs(clock.correlation) < MIN_ALIGN_CORRELATION:
+            raise InputError(
+                apath, "analyzer power does not follow the DAQ's speed x torque (peak "
+                f"correlation {clock.correlation:.2f} within {align.MAX_LAG_S:g} s of the header "
+                "start times)", expected="the power-analyzer record of the same bench run as "
+                f"{daq.path.name}, overlapping it in time",
+            )
+        a_t = clock.to_daq(a_mid)
+        del a_mid
+        fin = np.flatnonzero(np.isfinite(a_p))
+        p_elec_bins = np.interp(centres, a_t[fin], a_p[fin], left=np.nan, right=np.nan)
+        usable = (centres >= a_t[fin[0]]) & (centres <= a_t[fin[-1]])
+        del fin
     check_torque_sign(session, means["p_mech"], p_elec_bins, daq.path)
-
-    usable = (centres >= a_t[fin[0]]) & (centres <= a_t[fin[-1]])
-    del centres, fin
+    del centres
     if zero is not None:
         usable &= t0 + np.arange(n_bins) * dt >= zero.t_motion_s  # the tare is no window
     win = steady.find_windows(means["speed"], means["torque"], p_elec_bins, means["valid_frac"],
-                              ranges, config, usable=usable)
+                              ranges, config, usable=usable, cuts=means["cuts"])
     win = _screen_windows(win, means, p_elec_bins, sources, session, daq.path)
     w_start = np.array([t0 + a * dt for a, _ in win.accepted])
     w_end = np.array([t0 + b * dt for _, b in win.accepted])
@@ -283,8 +398,13 @@ def process_timeseries(
                 t = np.fromfile(fhs["time"], np.float64, rows_per_chunk)
                 speed = np.fromfile(fhs["speed"], np.float64, rows_per_chunk)
                 torque = np.fromfile(fhs["torque"], np.float64, rows_per_chunk) - offset
+                if session.signed_torque:
+                    speed, torque = fold_signed(speed, torque)
                 p_mech = speed * torque * RAD_S_PER_RPM
-                p_elec = align.asof_nearest(t, a_t, a_p, 0.75 * interval)
+                if single:
+                    p_elec = np.fromfile(fhs["p_elec"], np.float64, rows_per_chunk)
+                else:
+                    p_elec = align.asof_nearest(t, a_t, a_p, 0.75 * interval)
                 lo, hi = np.searchsorted(t, w_start), np.searchsorted(t, w_end)
                 pid = _point_ids(t.size, lo, hi)
                 stats.add(lo, hi, speed, torque, p_mech, p_elec)
@@ -302,21 +422,60 @@ def process_timeseries(
                 p.unlink(missing_ok=True)
 
     points = stats.points_table(session, w_start, w_end)
+    if not session.signed_torque:
+        check_drum_torque(session, points.column("torque_nm").to_numpy(),
+                          win.tolerances["torque"], daq.path)
     rejected = rejected_table(sid, [(t0 + a * dt, t0 + b * dt, r) for a, b, r in win.rejected])
+    instruments = {"log": daq.metadata} if single else {"daq": daq.metadata, "analyzer": ameta}
     info = {
-        "clock_offset_s": round(clock.offset_s, 6),
-        "clock_drift_ppm": round(clock.drift_ppm, 3),
-        "clock_offset_prior_s": round(clock.prior_offset_s, 6),
-        "clock_correlation": round(clock.correlation, 4),
+        "clock_offset_s": None if clock is None else round(clock.offset_s, 6),
+        "clock_drift_ppm": None if clock is None else round(clock.drift_ppm, 3),
+        "clock_offset_prior_s": None if clock is None else round(clock.prior_offset_s, 6),
+        "clock_correlation": None if clock is None else round(clock.correlation, 4),
         "torque_zero_offset_nm": None if zero is None else round(zero.offset_nm, 6),
         "torque_zero_tare": None if zero is None else zero.manifest(),
         **({} if zero is not None else {"torque_zero_note": no_tare_why}),
         "n_samples": int(n_rows),
         "n_rows_without_time": int(n_total - n_rows),
         "steady_tolerances": {k: round(v, 6) for k, v in win.tolerances.items()},
-        "instruments": {"daq": daq.metadata, "analyzer": ameta},
+        "timing": timing,
+        "instruments": instruments,
     }
+    if daq.clock is not None and daq.clock.start is not None:
+        info["start"] = daq.clock.start.isoformat()
+    if not win.accepted:
+        info["no_points_note"] = steady.why_no_windows(
+            win, float(np.sum(usable)) * dt, timing["duration_s"], dt, config)
     return SessionOutput(points=points, rejected=rejected, samples_path=samples_path, info=info)
+
+
+def fold_signed(speed_rpm: np.ndarray, torque_nm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Signed torque into the drum frame: where torque < 0, flip speed and torque.
+
+    A bench that logs generator mode as speed > 0, torque < 0 then gives
+    torque >= 0 and reel-out (generating) as negative speed; p_mech is unchanged.
+    """
+    neg = torque_nm < 0
+    return np.where(neg, -speed_rpm, speed_rpm), np.where(neg, -torque_nm, torque_nm)
+
+
+def check_drum_torque(session: Session, torque_nm: np.ndarray, tol_nm: float,
+                      where: Path) -> None:
+    """Raise when operating points have negative drum torque (against the drum frame).
+
+    A point counts when its mean torque is below ``-tol_nm`` (the steady tolerance,
+    so a no-load point at 0 +- noise passes).
+    """
+    neg = np.flatnonzero(np.asarray(torque_nm) < -tol_nm)
+    if neg.size:
+        raise InputError(
+            where, f"{neg.size} of {len(torque_nm)} operating points have negative drum torque "
+            f"(down to {float(np.min(torque_nm)):.4g} N m)", column="torque",
+            expected="torque >= 0 in the drum frame: torque_sign = \"signed\" in "
+            f"{session.path.name} when the bench logs generator mode as torque < 0 (speed and "
+            "torque are then flipped where torque < 0), or torque_sign = -1 when every torque "
+            "is logged with the opposite sign",
+        )
 
 
 def _screen_windows(win: steady.Windows, means: dict, p_elec_bins: np.ndarray, sources: dict,
@@ -339,6 +498,8 @@ def _screen_windows(win: steady.Windows, means: dict, p_elec_bins: np.ndarray, s
 
     values = {"speed": window_means(means["speed"]), "torque": window_means(means["torque"]),
               "p_elec": window_means(p_elec_bins)}
+    if "p_mech_logged" in means:  # a single-stream log's mapped p_mech, checked against omega*T
+        values["p_mech"] = window_means(means["p_mech_logged"])
     why = checks.check_points(values, sources, checks.explicit_ranges(session), where)
     if all(w is None for w in why):
         return win
@@ -357,17 +518,19 @@ def _check_analyzer(path: Path, frame, meta: dict, layout) -> None:
         chk = NanRunCheck(path, meta["columns"][q]["column"], where)
         chk.feed(x, 0)
         chk.finish()
-    TimeCheck(path, meta["columns"]["time"]["column"], where).feed(t, 0)
+    steps = np.diff(t[np.isfinite(t)])
+    typical = float(np.median(steps)) if steps.size and np.median(steps) > 0 else None
+    TimeCheck(path, meta["columns"]["time"]["column"], where, typical).feed(t, 0)
     if np.isnan(t).any():
         frame.drop(index=frame.index[np.isnan(t)], inplace=True)
     if len(frame) < 20:
         raise InputError(path, f"only {len(frame)} analyzer samples", expected="at least 20")
 
 
-def _prior_offset(session: Session, ameta: dict) -> float:
+def _prior_offset(session: Session, ameta: dict, daq: DaqStream) -> float:
     from datetime import datetime
 
-    d0 = session.daq_start()
+    d0 = daq.clock.start if daq.clock is not None else session.daq_start()
     a0 = ameta.get("start")
     if d0 is None or a0 is None:
         return 0.0
@@ -468,7 +631,7 @@ def points_table(session: Session, cols: dict, n_samples, t_start, t_end,
         **{k: pa.array(data[k]) for k in (
             "speed_rpm", "torque_nm", "p_mech_w", "p_elec_w",
             "speed_rpm_std", "torque_nm_std", "p_mech_w_std", "p_elec_w_std")},
-        "n_samples": pa.array(np.asarray(n_samples, np.int32)),
+        "n_samples": pa.array(np.asarray(n_samples, np.int64)),
         "t_start_s": pa.array(np.asarray(t_start, np.float64)),
         "t_end_s": pa.array(np.asarray(t_end, np.float64)),
     }

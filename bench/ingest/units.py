@@ -32,7 +32,9 @@ _NM_PER_LBF_IN = _NM_PER_LBF_FT / 12.0
 #: kind -> [(spelling as shown to users, factor to the target unit)], spellings
 #: in their meaningful case; the first spelling per factor names that unit
 _UNITS: dict[str, list[tuple[str, float]]] = {
-    "time": [("s", 1.0), ("ms", 1e-3), ("us", 1e-6), ("µs", 1e-6)],
+    # clock formats (time of day, ISO 8601): parsed to seconds by bench.ingest.clock
+    "time": [("s", 1.0), ("ms", 1e-3), ("us", 1e-6), ("µs", 1e-6),
+             ("hh:mm:ss", 1.0), ("hh:mm:ss.sss", 1.0), ("hh:mm:ss,sss", 1.0), ("ISO 8601", 1.0)],
     "speed": [
         ("rpm", 1.0), ("1/min", 1.0), ("U/min", 1.0), ("r/min", 1.0), ("rev/min", 1.0),
         ("min^-1", 1.0), ("min-1", 1.0), ("min⁻¹", 1.0), ("krpm", 1e3),

@@ -12,4 +12,6 @@ Modules, one concept each:
 - :mod:`session_files`: one session's files (session.toml, DAQ, analyzer, point table).
 - :mod:`campaign`: ``generate(out_dir, seed, scale)`` and ``is_complete(out_dir, seed, scale)``.
 - :mod:`readme`, :mod:`cli`: the campaign README and the ``bench synth`` command.
+- :mod:`exports`: foreign bench exports with a known truth for the mapping features (a
+  dyno table in N mm with title lines; an EV bench's 500-column export with ``expr``/``sum``).
 """

@@ -278,10 +278,10 @@ def truth_json(truth: dict) -> str:
     for sid, info in truth["sessions"].items():
         key = f"@points:{sid}@"
         placeholders[json.dumps(key)] = "{" + ",\n  ".join(
-            f"{json.dumps(name)}: {json.dumps(col, separators=(',', ':'))}"
+            f"{json.dumps(name)}: {json.dumps(col, separators=(',', ':'), allow_nan=False)}"
             for name, col in info["points"].items()) + "}"
         shallow["sessions"][sid] = {**info, "points": key}
-    text = json.dumps(shallow, indent=1, ensure_ascii=False)
+    text = json.dumps(shallow, indent=1, ensure_ascii=False, allow_nan=False)
     for key, value in placeholders.items():
         text = text.replace(key, value, 1)
     return text + "\n"

@@ -64,6 +64,11 @@ PERIODIC_STATES = (
 PARAM_NAMES = ("wind_ref_m_s", "w_elec", "w_mech", "w_reg", "w_track", "w_fict")
 
 
+#: most collocation intervals per period: the default is 40 and the trust check's mesh
+#: refinement doubles it; 400 already means ~10^5 NLP variables and minutes per solve
+MAX_INTERVALS = 400
+
+
 @dataclass(frozen=True)
 class OcpOptions:
     """Discretization, physical limits and solver settings of the OCP.
@@ -105,6 +110,12 @@ class OcpOptions:
         scenarios (rows only when set).
     nominal_power_w : float
         The drive's nominal power [W]: the objective's scale.
+    max_rms_torque_nm : float or None
+        Continuous rating of the drive: the RMS motor torque over the cycle,
+        ``sqrt(mean_t T^2)``, at most this in the constrained scenarios [N m]
+        (``max_torque_nm`` is then the short-time peak). ``None`` (default)
+        leaves the row out of the NLP; it is the last constraint row, so a
+        stored initial guess of the NLP without it still fits.
     min_airspeed_m_s : float
         Lower airspeed bound [m/s].
     alpha_bounds_deg, beta_bounds_deg : (float, float)
@@ -151,6 +162,7 @@ class OcpOptions:
     max_torque_nm: float = 78.0
     max_p_elec_w: float | None = None
     nominal_power_w: float = 8200.0
+    max_rms_torque_nm: float | None = None
     min_airspeed_m_s: float = 10.0
     alpha_bounds_deg: tuple[float, float] = (-4.5, 8.5)
     beta_bounds_deg: tuple[float, float] = (-9.0, 9.0)
@@ -164,8 +176,8 @@ class OcpOptions:
     mumps_pivot_order: int = 0
 
     def __post_init__(self) -> None:
-        if self.n_intervals < 2:
-            raise ValueError(f"n_intervals must be >= 2, got {self.n_intervals}")
+        if not 2 <= self.n_intervals <= MAX_INTERVALS:
+            raise ValueError(f"n_intervals must be 2 to {MAX_INTERVALS}, got {self.n_intervals}")
         lo, hi = self.period_bounds_s
         if len(self.control_sigma) != 4 or min(self.control_sigma) <= 0:
             raise ValueError(f"control_sigma must be 4 positive scales, got {self.control_sigma}")
@@ -173,6 +185,8 @@ class OcpOptions:
             raise ValueError(
                 f"period_bounds_s must satisfy 0 < lo < hi, got {self.period_bounds_s}"
             )
+        if self.max_rms_torque_nm is not None and not self.max_rms_torque_nm > 0:
+            raise ValueError(f"max_rms_torque_nm must be > 0, got {self.max_rms_torque_nm}")
         if not 0 < self.warm_bound_push <= 0.5:  # IPOPT's range of warm_start_bound_frac
             raise ValueError(f"warm_bound_push must be in (0, 0.5], got {self.warm_bound_push}")
 
@@ -196,6 +210,7 @@ class Layout:
     g_periodic: np.ndarray  # rows of the periodicity constraints (states and DCM)
     n_p: int
     i_p_ref: np.ndarray  # (NX, n_points) reference trajectory in p
+    g_rms: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))  # RMS torque row
 
 
 @dataclass(frozen=True)
@@ -406,6 +421,8 @@ class Ocp:
             if o.max_p_elec_w is not None:
                 lbg[lay.g_p_elec] = -o.max_p_elec_w / self.scales.power_w
                 ubg[lay.g_p_elec] = o.max_p_elec_w / self.scales.power_w
+            if lay.g_rms.size:
+                ubg[lay.g_rms] = (o.max_rms_torque_nm / self.scales.torque_nm) ** 2
         if fix_fictitious:
             lbw[lay.i_f.ravel()] = 0.0
             ubw[lay.i_f.ravel()] = 0.0
@@ -527,7 +544,7 @@ def build_ocp(
     inv_sx = ca.DM(1.0 / sc.state)
     inv_res = ca.DM(1.0 / sc.residual)
     v_sc = sc.airspeed_m_s
-    p_elec_avg, p_mech_avg, reg, track, fict_pen = 0, 0, 0, 0, 0
+    p_elec_avg, p_mech_avg, reg, track, fict_pen, torque_sq_avg = 0, 0, 0, 0, 0, 0
     for k in range(n):
         u_k = us[k]
         h = ws[int(i_period[k])] / n
@@ -556,6 +573,7 @@ def build_ocp(
                 add(p_elec / sc.power_w, -np.inf, np.inf, tag=g_p_elec)
             p_elec_avg += coll.quad[j - 1] * p_elec / n
             p_mech_avg += coll.quad[j - 1] * p_mech / n
+            torque_sq_avg += coll.quad[j - 1] * (torque / sc.torque_nm) ** 2 / n
             fict_pen += ca.sumsqr(fs[ic] / ca.DM(sc.fictitious)) / n_coll
     for k in range(n_points):
         ref = p[[int(i) for i in i_p_ref[:, k]]]
@@ -576,6 +594,9 @@ def build_ocp(
     dcm_t = ca.reshape(xs[-1][6:15], 3, 3)
     rel = ca.mtimes(dcm0.T, dcm_t)
     add(ca.vertcat(rel[0, 1], rel[0, 2], rel[1, 2]), 0.0, 0.0, g_periodic)
+    g_rms: list[int] = []
+    if o.max_rms_torque_nm is not None:  # last row: bounded in bounds() with the limits
+        add(torque_sq_avg, -np.inf, np.inf, tag=g_rms)
 
     objective = (
         (w_elec * p_elec_avg + w_mech * p_mech_avg) / sc.power_w
@@ -626,7 +647,7 @@ def build_ocp(
             i_f=i_f, scale_w=scale_w, n_w=n_w, n_g=n_g, g_torque=np.array(g_torque),
             g_p_elec=np.array(g_p_elec, dtype=int),
             g_periodic=np.array(g_periodic), n_p=n_p,
-            i_p_ref=i_p_ref,
+            i_p_ref=i_p_ref, g_rms=np.array(g_rms, dtype=int),
         ),
         nlp=nlp,
         lbw=lbw / scale_w,

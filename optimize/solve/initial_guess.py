@@ -94,14 +94,18 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
         return None, (f"the stored initial guess is for N={n}, degree {d}; this OCP has "
                       f"N={ocp.options.n_intervals}, degree {ocp.coll.degree}")
     lay = ocp.layout
-    if (data["w"].size, data["g"].size, data["p"].size) != (lay.n_w, lay.n_g, lay.n_p):
+    # an RMS torque row (OcpOptions.max_rms_torque_nm) is appended after the guess's rows
+    n_g = lay.n_g - lay.g_rms.size
+    if (data["w"].size, data["g"].size, data["p"].size) != (lay.n_w, n_g, lay.n_p):
         return None, "the stored initial guess has another variable or constraint layout"
-    dev = float(np.max(np.abs(ocp.constraint_values(data["w"], data["p"]) - data["g"])))
+    g_now = ocp.constraint_values(data["w"], data["p"])[:n_g]
+    dev = float(np.max(np.abs(g_now - data["g"])))
     if not dev <= MATCH_TOL:
         return None, (f"the stored initial guess does not fit this OCP's constraints (largest "
                       f"deviation {dev:.1e}); regenerate it: "
                       "python -m optimize.solve.initial_guess")
-    solution = Solution(w=data["w"], lam_x=data["lam_x"], lam_g=data["lam_g"],
+    lam_g = np.concatenate([data["lam_g"], np.zeros(lay.g_rms.size)])
+    solution = Solution(w=data["w"], lam_x=data["lam_x"], lam_g=lam_g,
                         n_intervals=n, degree=d)
     return solution, f"stored initial guess {data['scenario']} fits (deviation {dev:.1e})"
 

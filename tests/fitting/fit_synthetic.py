@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 
@@ -62,7 +64,15 @@ def paper_quadratic(speed_rpm, torque_nm):
 
 
 def write_store(frame: pd.DataFrame, store) -> None:
-    """Write points as ``<store>/points/<session_id>.parquet``."""
+    """Write points as ``<store>/points/<session_id>.parquet`` with a manifest listing them.
+
+    The layout of a schema_version 1 store (docs/schemas.md section 2), which
+    readers still read.
+    """
     (store / "points").mkdir(parents=True, exist_ok=True)
+    sessions = {}
     for sid, sub in frame.groupby("session_id"):
         sub.to_parquet(store / "points" / f"{sid}.parquet", index=False)
+        sessions[str(sid)] = {"n_points": len(sub)}
+    manifest = {"schema": "drivebench.store", "schema_version": 1, "sessions": sessions}
+    (store / "manifest.json").write_text(json.dumps(manifest), encoding="utf-8")

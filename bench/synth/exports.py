@@ -10,7 +10,7 @@
   in kW, and many distractor columns (one named like p_mech that is not).
 
 Each writes ``root/<sid>/{session.toml, points file, mapping.toml}`` and returns
-the drum-frame truth of every row.
+the drum-frame truth of every row and the loss coefficients (:func:`loss_w`).
 """
 
 from __future__ import annotations
@@ -26,6 +26,15 @@ RAD_S_PER_RPM = 2.0 * math.pi / 60.0
 def loss_w(speed_rpm, torque_nm, c0: float, c_speed: float, c_torque: float):
     """Drive losses [W]: no-load + speed^2 (iron, friction) + torque^2 (copper) terms."""
     return c0 + c_speed * np.asarray(speed_rpm) ** 2 + c_torque * np.asarray(torque_nm) ** 2
+
+
+def true_eta(speed_rpm, torque_nm, loss: tuple[float, float, float]) -> np.ndarray:
+    """True efficiency of the fixture drive (paper eqs. 1-2: motor p_mech / p_elec, generator
+    p_elec / p_mech), NaN at zero mechanical power."""
+    p_mech = np.asarray(speed_rpm) * np.asarray(torque_nm) * RAD_S_PER_RPM
+    p_elec = p_mech + loss_w(speed_rpm, torque_nm, *loss)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(p_mech > 0, p_mech / p_elec, np.where(p_mech < 0, p_elec / p_mech, np.nan))
 
 
 def _session_toml(sid: str, mode: str, file: str, sensors: dict[str, float]) -> str:
@@ -63,7 +72,8 @@ def make_dyno_table(root: Path, sid: str = "dyno_01", seed: int = 11) -> dict[st
     (folder / "session.toml").write_text(_session_toml(
         sid, "motor", "points.txt",
         {"torque_range_nm": 10.0, "speed_range_rpm": 4000.0, "power_range_w": 3000.0}))
-    return {"speed_rpm": speed, "torque_nm": torque, "p_elec_w": p_elec, "p_mech_w": p_mech}
+    return {"speed_rpm": speed, "torque_nm": torque, "p_elec_w": p_elec, "p_mech_w": p_mech,
+            "loss": (15.0, 2e-6, 0.8)}
 
 
 def ev_envelope_nm(speed_rpm, max_torque_nm: float = 300.0, max_power_w: float = 150e3):
@@ -129,4 +139,4 @@ def make_ev_table(root: Path, sid: str = "ev_01", p_elec_by: str = "expr", n_col
         sid, "motor", "export.csv",
         {"torque_range_nm": 400.0, "speed_range_rpm": 15000.0, "power_range_w": 200e3}))
     return {"speed_rpm": speed, "torque_nm": torque, "p_elec_w": p_elec, "p_mech_w": p_mech,
-            "u_dc_v": u_dc}
+            "u_dc_v": u_dc, "loss": (400.0, 2e-5, 0.04)}

@@ -1,0 +1,149 @@
+"""Clock-time columns: time of day and ISO 8601 date-times into seconds.
+
+A logger may write its time axis as a number (seconds, ``ms``, ``us``: a unit,
+handled by :mod:`units`) or as a clock reading:
+
+- **time of day** ``hh:mm:ss`` with an optional fraction (``09:12:03.250``, or
+  ``09:12:03,250`` in German locale); the date is the session's ``date``; a
+  step back by more than 12 hours is a midnight rollover (one day added);
+- **ISO 8601 date-time** ``2013-04-17T09:12:03.250`` (``T`` or a space between
+  date and time, optional fraction, optional ``Z`` or ``+hh:mm`` zone; with a
+  zone the times are taken in UTC).
+
+Either becomes seconds since the stream's first valid time (so the stream's own
+clock starts at 0, as a numeric one does) and the wall time of that first
+sample (``start``), which places the stream against another instrument.
+"""
+
+from __future__ import annotations
+
+import re
+from datetime import date, datetime, timedelta
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.compute as pc
+
+#: the two clock formats, as the ``unit`` of a time column
+TIME_OF_DAY = "hh:mm:ss"
+DATETIME = "ISO 8601"
+CLOCK_UNITS = (TIME_OF_DAY, DATETIME)
+
+_TOD = re.compile(r"^\d{1,2}:\d{2}:\d{2}([.,]\d+)?$")
+_ISO = re.compile(r"^\d{4}-\d{2}-\d{2}[T ]\d{2}:\d{2}(:\d{2}([.,]\d+)?)?(Z|[+-]\d{2}:?\d{2})?$")
+_ZONE = re.compile(r"(Z|[+-]\d{2}:?\d{2})$")
+
+#: a time of day this far below the previous one is the next day [s]
+ROLLOVER_S = 12 * 3600.0
+
+
+def detect(cells: list[str]) -> str | None:
+    """The clock format of a column's first data cells, or None when they are not clock times.
+
+    Parameters
+    ----------
+    cells : list of str
+        Cells of the column, first rows of the file (empty ones are skipped);
+        at least 80 % of the others must be clock times of one format.
+    """
+    cells = [c.strip() for c in cells if c.strip()]
+    if not cells:
+        return None
+    for unit, pattern in ((TIME_OF_DAY, _TOD), (DATETIME, _ISO)):
+        # most of them: a damaged cell is then reported with its line when parsed
+        if sum(bool(pattern.match(c)) for c in cells) >= 0.8 * len(cells):
+            return unit
+    return None
+
+
+def normalise_unit(unit: str) -> str | None:
+    """The clock format a written unit names (``hh:mm:ss``, ``hh:mm:ss.sss``, ``ISO 8601``), or
+    None."""
+    u = re.sub(r"\s+", "", unit).lower()
+    if re.fullmatch(r"hh:mm:ss([.,]s+|[.,]f+)?", u):
+        return TIME_OF_DAY
+    if u in ("iso8601", "iso", "datetime"):
+        return DATETIME
+    return None
+
+
+class ClockParser:
+    """Turn chunks of clock-time strings into seconds since the first valid time.
+
+    Parameters
+    ----------
+    unit : str
+        :data:`TIME_OF_DAY` or :data:`DATETIME`.
+    day : datetime.date or None
+        The date of a time-of-day column (the session's ``date``); None leaves
+        ``start`` without a date (1900-01-01).
+
+    Attributes
+    ----------
+    start : datetime or None
+        Wall time of the first valid sample (time 0), once seen.
+    """
+
+    def __init__(self, unit: str, day: date | None = None) -> None:
+        self.unit = unit
+        self.day = day
+        self.start: datetime | None = None
+        self._base: float | None = None  # first valid raw value [s]
+        self._days = 0  # midnight rollovers so far
+        self._last = np.nan  # last valid raw value [s]
+
+    def __call__(self, cells: pa.Array) -> np.ndarray:
+        """Seconds [s] for one chunk of strings (null = invalid -> NaN).
+
+        Raises
+        ------
+        ValueError
+            A cell that is not a clock time of the format (the caller names its line).
+        """
+        if self.unit == TIME_OF_DAY:
+            raw = self._seconds_of_day(cells)
+        else:
+            raw = self._epoch_seconds(cells)
+        ok = np.flatnonzero(np.isfinite(raw))
+        if ok.size == 0:
+            return raw
+        if self._base is None:
+            self._base = float(raw[ok[0]])
+            self.start = self._wall(self._base)
+        if self.unit == TIME_OF_DAY:
+            v = raw[ok]
+            back = np.diff(v, prepend=self._last) < -ROLLOVER_S
+            days = self._days + np.cumsum(back)
+            raw[ok] = v + 86400.0 * days
+            self._days = int(days[-1])
+            self._last = float(v[-1])
+        return raw - self._base
+
+    def _seconds_of_day(self, cells: pa.Array) -> np.ndarray:
+        text = pc.replace_substring(pc.utf8_trim_whitespace(cells), ",", ".")
+        parts = pc.split_pattern(text, ":")
+        n = pc.list_value_length(parts).to_numpy(zero_copy_only=False)
+        if np.any((n != 3) & np.isfinite(n.astype(float))):
+            raise ValueError(f"not a time of day {TIME_OF_DAY}[.fff]")
+        h, m, s = (pc.cast(pc.list_element(parts, i), pa.float64()).to_numpy(zero_copy_only=False)
+                   for i in range(3))
+        if np.any((h > 47) | (m >= 60) | (s >= 61)):  # 24:00:00 and leap seconds pass
+            raise ValueError(f"not a time of day {TIME_OF_DAY}[.fff]")
+        return h * 3600.0 + m * 60.0 + s
+
+    def _epoch_seconds(self, cells: pa.Array) -> np.ndarray:
+        text = pc.replace_substring(pc.utf8_trim_whitespace(cells), ",", ".")
+        first = next((c for c in text.to_pylist() if c), "")
+        zoned = bool(_ZONE.search(first)) and not first.endswith(("-", "+"))
+        ts = pc.cast(text, pa.timestamp("us", tz="UTC" if zoned else None))
+        us = ts.cast(pa.int64()).to_numpy(zero_copy_only=False)
+        out = np.asarray(us, dtype=np.float64) * 1e-6
+        if ts.null_count:
+            out[np.asarray(ts.is_null())] = np.nan
+        return out
+
+    def _wall(self, raw_s: float) -> datetime:
+        if self.unit == TIME_OF_DAY:
+            return datetime.combine(self.day or date(1900, 1, 1), datetime.min.time()) + \
+                timedelta(seconds=raw_s)
+        return datetime(1970, 1, 1) + timedelta(seconds=raw_s)

@@ -1,0 +1,1 @@
+"""From optimal cycles to a drive decision: power curves, annual energy, bands, drive sizing."""

@@ -1,0 +1,271 @@
+"""The annual-energy assessment of one optimize run at one site: the library behind ``bench aep``.
+
+For each scenario kind (objective x drive limits) it gives the electrical and
+mechanical AEP, the capacity factors against the drive's nominal power, the
+95 % band of the electrical AEP from the power model's coefficient covariance
+(:mod:`energy.bands`) and, when given, from the site parameters' uncertainty;
+and the loss split: what the drive's efficiency costs (mechanical minus
+electrical AEP of the same cycles) and what its limits cost (AEP without
+limits minus AEP with them, same objective).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from bench.errors import InputError
+from energy import aep as aep_mod
+from energy import bands
+from energy.curve import OptimizeRun, PowerCurve, read_trajectories
+from energy.site import Distribution, Histogram, Weibull
+
+#: where the nominal power (the capacity factor's rating) is taken from, in this order
+NOMINAL_SOURCES = ("--nominal-power-w", "power_model.json drive.nominal_power_w",
+                   "power_model.json nominal_power_w")
+
+
+@dataclass(frozen=True)
+class SiteUncertainty:
+    """One-sigma uncertainty of the site parameters (Weibull sites only).
+
+    Attributes
+    ----------
+    mean_m_s : float
+        Of the mean wind speed at the reference height [m/s].
+    k : float
+        Of the Weibull shape [-].
+    """
+
+    mean_m_s: float = 0.0
+    k: float = 0.0
+
+
+def nominal_power(model_json: dict, override_w: float | None, path: Path | None) -> tuple[float,
+                                                                                             str]:
+    """The drive's nominal power [W] and where it came from.
+
+    Order: the user's ``override_w``; ``drive.nominal_power_w`` of the power
+    model file; its top-level ``nominal_power_w`` (schema version 1).
+    """
+    if override_w is not None:
+        if not (math.isfinite(override_w) and override_w > 0):
+            raise InputError(None, f"--nominal-power-w {override_w}", expected="a power > 0 W")
+        return float(override_w), NOMINAL_SOURCES[0]
+    drive = model_json.get("drive")
+    if isinstance(drive, dict) and isinstance(drive.get("nominal_power_w"), int | float):
+        return float(drive["nominal_power_w"]), NOMINAL_SOURCES[1]
+    value = model_json.get("nominal_power_w")
+    if isinstance(value, int | float) and value > 0:
+        return float(value), NOMINAL_SOURCES[2]
+    raise InputError(path, "no nominal power (drive.nominal_power_w or nominal_power_w)",
+                     expected="give --nominal-power-w")
+
+
+def _weibull_site_sigma(curve_fn, dist: Weibull, unc: SiteUncertainty) -> float:
+    """One-sigma AEP [MWh/yr] from independent site-parameter errors (central differences)."""
+    var = 0.0
+    mean, k = dist.mean_m_s, dist.k
+    for name, s in (("mean", unc.mean_m_s), ("k", unc.k)):
+        if s <= 0:
+            continue
+        h = 1e-3 * (mean if name == "mean" else k)
+        if name == "mean":
+            hi, lo = Weibull.from_mean(k, mean + h), Weibull.from_mean(k, mean - h)
+        else:
+            hi, lo = Weibull.from_mean(k + h, mean), Weibull.from_mean(k - h, mean)
+        var += ((curve_fn(hi) - curve_fn(lo)) / (2 * h) * s) ** 2
+    return math.sqrt(var)
+
+
+@dataclass(frozen=True)
+class KindEnergy:
+    """Energy figures of one scenario kind at the site (see :func:`assess`)."""
+
+    kind: str
+    objective: str
+    drive_limits: bool
+    elec: aep_mod.CurveEnergy
+    mech: aep_mod.CurveEnergy
+    sigma_elec_model_mwh: float | None
+    sigma_elec_site_mwh: float
+    n_points: int
+    failed: tuple[tuple[float, str], ...]
+
+    @property
+    def efficiency_loss_mwh(self) -> float:
+        """Mechanical minus electrical AEP of the same cycles [MWh/yr]: the drive's losses."""
+        return self.mech.aep_mwh - self.elec.aep_mwh
+
+    @property
+    def sigma_elec_mwh(self) -> float | None:
+        """Combined one-sigma electrical AEP (model and site, independent) [MWh/yr]."""
+        if self.sigma_elec_model_mwh is None:
+            return None
+        return math.hypot(self.sigma_elec_model_mwh, self.sigma_elec_site_mwh)
+
+
+@dataclass(frozen=True)
+class Assessment:
+    """Everything ``bench aep`` computes; :mod:`energy.outputs` writes it."""
+
+    site: Distribution
+    site_note: str
+    nominal_power_w: float
+    nominal_source: str
+    kinds: dict[str, KindEnergy]
+    curves: pd.DataFrame
+    notes: tuple[str, ...] = field(default=())
+
+    def limit_loss_mwh(self, objective: str, quantity: str) -> float | None:
+        """AEP without minus with the drive limits, same objective [MWh/yr], or None."""
+        short = "elec" if objective == "electrical" else "mech"
+        lim, free = self.kinds.get(f"{short}-lim"), self.kinds.get(f"{short}-free")
+        if lim is None or free is None:
+            return None
+        return getattr(free, quantity).aep_mwh - getattr(lim, quantity).aep_mwh
+
+    def table(self) -> pd.DataFrame:
+        """One row per kind: AEP, capacity factor, band, losses (the report's AEP table)."""
+        rows = []
+        for k in self.kinds.values():
+            quantity = "elec" if k.objective == "electrical" else "mech"
+            lim_loss = self.limit_loss_mwh(k.objective, quantity) if k.drive_limits else None
+            rows.append({
+                "kind": k.kind, "objective": k.objective, "drive_limits": k.drive_limits,
+                "aep_elec_mwh": k.elec.aep_mwh, "aep_mech_mwh": k.mech.aep_mwh,
+                "capacity_factor_elec": k.elec.capacity_factor,
+                "capacity_factor_mech": k.mech.capacity_factor,
+                "sigma_aep_elec_model_mwh": k.sigma_elec_model_mwh,
+                "sigma_aep_elec_site_mwh": k.sigma_elec_site_mwh,
+                # delivered energy is >= 0: the linear band is cut at 0 near a clipped curve
+                "ci95_aep_elec_low_mwh": (None if k.sigma_elec_mwh is None
+                                          else max(0.0, k.elec.aep_mwh
+                                                   - bands.Z95 * k.sigma_elec_mwh)),
+                "ci95_aep_elec_high_mwh": (None if k.sigma_elec_mwh is None
+                                           else k.elec.aep_mwh + bands.Z95 * k.sigma_elec_mwh),
+                "efficiency_loss_mwh": k.efficiency_loss_mwh,
+                "limit_loss_mwh": lim_loss,
+                "cut_in_elec_m_s": k.elec.cut_in_m_s, "cut_out_elec_m_s": k.elec.cut_out_m_s,
+                "share_below_grid": k.elec.share_below_grid,
+                "share_above_grid": k.elec.share_above_grid,
+                "n_points": k.n_points,
+            })
+        return pd.DataFrame(rows)
+
+
+def model_for_run(run: OptimizeRun, drive_model: Path | None) -> tuple[Path | None, dict | None]:
+    """The power model file of the sweep (or ``drive_model``) and its decoded JSON."""
+    path = Path(drive_model) if drive_model is not None else run.drive_model_path
+    if path is None or not path.is_file():
+        return path, None
+    try:
+        return path, json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(path, f"not valid JSON ({exc})") from exc
+
+
+def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
+           drive_model: Path | None = None, nominal_power_w: float | None = None,
+           site_uncertainty: SiteUncertainty | None = None) -> Assessment:
+    """Annual energy, bands and losses of every scenario kind of ``run`` at ``site``.
+
+    Parameters
+    ----------
+    run : OptimizeRun
+        From :func:`energy.curve.read_optimize_run`.
+    site : Weibull or Histogram
+        Wind-speed distribution at the optimize stage's reference height.
+    site_note : str
+        How the site was given (for the outputs).
+    drive_model : Path, optional
+        Power model file; default the one the sweep's manifest names. Its
+        covariance gives the model band; it must be the model the sweep used
+        (checked against the manifest's hash), else no band is given.
+    nominal_power_w : float, optional
+        Overrides the model file's nominal power [W].
+    site_uncertainty : SiteUncertainty, optional
+        One-sigma site-parameter errors (Weibull sites).
+    """
+    from fitting.model_file import power_model_from_dict
+
+    notes: list[str] = []
+    path, model_json = model_for_run(run, drive_model)
+    if model_json is None:
+        if nominal_power_w is None:
+            raise InputError(path, "power model file not found (needed for the nominal power)",
+                             expected="--drive-model FILE or --nominal-power-w")
+        nominal, source, model = float(nominal_power_w), NOMINAL_SOURCES[0], None
+        notes.append(f"power model {path} not found: no confidence band")
+    else:
+        nominal, source = nominal_power(model_json, nominal_power_w, path)
+        model = power_model_from_dict(model_json, path)
+        if run.drive_model_sha256 and model.sha256 != run.drive_model_sha256:
+            notes.append(f"{path} is not the model the sweep used (hash differs from the "
+                         "optimize manifest): no confidence band")
+            model = None
+        elif model.covariance_rpm is None:
+            notes.append(f"{path} carries no coefficient covariance: no confidence band")
+            model = None
+    if site_uncertainty and (site_uncertainty.mean_m_s > 0 or site_uncertainty.k > 0) and \
+            isinstance(site, Histogram):
+        raise InputError(None, "site-parameter uncertainty given for a histogram site",
+                         expected="--mean-sigma/--k-sigma only with a Weibull or Rayleigh site")
+    trajectories = read_trajectories(run.folder) if model is not None else None
+
+    kinds: dict[str, KindEnergy] = {}
+    curve_rows = []
+    for kind, curve in run.curves.items():
+        elec = aep_mod.curve_energy(curve.wind_m_s, curve.p_elec_w, site, nominal,
+                                    curve.cut_in_m_s)
+        mech = aep_mod.curve_energy(curve.wind_m_s, curve.p_mech_w, site, nominal, None)
+        sigma_p = np.full(len(curve.wind_m_s), np.nan)
+        sigma_model = None
+        if model is not None:
+            grads = bands.curve_gradients(trajectories, curve.scenarios, model.terms)
+            cov = np.array(model.covariance_rpm)
+            _check_consistent(curve, grads, model, notes)
+            sigma_p = np.array([bands.sigma(g, cov) for g in grads])
+            dA = aep_mod.aep_sensitivity(curve.wind_m_s, curve.p_elec_w, site, curve.cut_in_m_s)
+            sigma_model = bands.sigma(dA @ grads, cov)
+        sigma_site = 0.0
+        if site_uncertainty is not None and isinstance(site, Weibull):
+            sigma_site = _weibull_site_sigma(
+                lambda d, c=curve: aep_mod.aep_mwh(c.wind_m_s, c.p_elec_w, d, c.cut_in_m_s),
+                site, site_uncertainty)
+        if curve.failed:
+            notes.append(f"{kind}: failed solves at {', '.join(f'{w:g}' for w, _ in curve.failed)}"
+                         " m/s are left out; the curve is interpolated across them")
+        kinds[kind] = KindEnergy(kind, curve.objective, curve.drive_limits, elec, mech,
+                                 sigma_model, sigma_site, len(curve.wind_m_s), curve.failed)
+        for i, v in enumerate(curve.wind_m_s):
+            curve_rows.append({
+                "kind": kind, "scenario": curve.scenarios[i], "wind_speed_m_s": float(v),
+                "p_elec_w": float(curve.p_elec_w[i]), "p_mech_w": float(curve.p_mech_w[i]),
+                "p_elec_sigma_w": float(sigma_p[i]),
+            })
+    if not kinds:
+        raise InputError(run.folder / "summary.parquet", "no converged scenario",
+                         expected="at least one converged scenario per curve")
+    above = max(k.elec.share_above_grid for k in kinds.values())
+    if above > 0.01:
+        notes.append(f"{above:.1%} of the hours have wind above the last grid point and count "
+                     "with zero power (cut-out at the grid's end): extend --wind-grid to count "
+                     "them")
+    return Assessment(site, site_note, nominal, source, kinds, pd.DataFrame(curve_rows),
+                      tuple(notes))
+
+
+def _check_consistent(curve: PowerCurve, grads: np.ndarray, model, notes: list[str]) -> None:
+    """The model applied to the basis averages must give the summary's average power."""
+    p = grads @ np.array(model.coefficients_rpm)
+    err = np.max(np.abs(p - curve.p_elec_w))
+    if err > 1e-3 * max(1.0, float(np.max(np.abs(curve.p_elec_w)))):
+        notes.append(f"{curve.kind}: the model on the stored trajectories differs from the "
+                     f"summary's average electrical power by up to {err:.1f} W: the band may "
+                     "belong to another model")

@@ -1,0 +1,71 @@
+"""Confidence bands of the optimal power from the power model's coefficient covariance.
+
+For a power model ``P_elec(n, T) = sum_k a_k phi_k(n, T)`` (``phi_k = n^i T^j``,
+any term set the model file declares), the optimal cycle-average electrical
+power ``P*(a) = min over cycles of mean_t P_elec`` has, by the envelope theorem,
+the gradient
+
+    dP*/da_k = mean over the cycle of phi_k(n(t), T(t))
+
+along the optimal trajectory: the cycle's own change does not contribute to
+first order. So ``sigma_P^2 = g^T Sigma g`` with ``g`` the cycle-time averages
+of the basis terms, no re-solve needed. For a cycle optimized for the
+*mechanical* objective the trajectory does not depend on ``a`` at all, and the
+same formula is exact. (The OCP also carries a control regularization of about
+0.1 W; its derivative is neglected.)
+
+Because every wind speed shares the same coefficients, the errors are fully
+correlated along the curve: the AEP's gradient is ``G = sum_i (dAEP/dP_i) g_i``
+and ``sigma_AEP^2 = G^T Sigma G``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+
+#: two-sided 95 % normal quantile
+Z95 = 1.959963984540054
+
+
+def basis_averages(trajectory: pd.DataFrame, terms: Sequence[tuple[int, int]]) -> np.ndarray:
+    """Cycle-time averages of ``speed_rpm^i * torque_nm^j`` for each term ``(i, j)``.
+
+    Parameters
+    ----------
+    trajectory : DataFrame
+        One scenario's rows of ``trajectories.parquet``: ``weight`` (quadrature
+        weights summing to 1), ``speed_rpm``, ``torque_nm``.
+    terms : sequence of (int, int)
+        The power model's terms.
+
+    Returns
+    -------
+    ndarray (n_terms,)
+        ``g_k`` in the units of the model's ``rpm`` coefficient set [rpm^i N m^j].
+    """
+    w = trajectory["weight"].to_numpy(float)
+    if abs(w.sum() - 1.0) > 1e-6:
+        raise ValueError(f"quadrature weights sum to {w.sum():.8f}, not 1")
+    n = trajectory["speed_rpm"].to_numpy(float)
+    t = trajectory["torque_nm"].to_numpy(float)
+    return np.array([np.sum(w * n**i * t**j) for i, j in terms])
+
+
+def sigma(gradient: np.ndarray, covariance: np.ndarray) -> float:
+    """``sqrt(g^T Sigma g)``: the standard deviation of a linear function of the coefficients."""
+    g = np.asarray(gradient, dtype=float)
+    var = float(g @ np.asarray(covariance, dtype=float) @ g)
+    return float(np.sqrt(max(var, 0.0)))
+
+
+def curve_gradients(trajectories: pd.DataFrame, scenarios: Sequence[str],
+                    terms: Sequence[tuple[int, int]]) -> np.ndarray:
+    """``g`` for each scenario of a curve, shape ``(n_scenarios, n_terms)``."""
+    groups = dict(tuple(trajectories.groupby("scenario", sort=False)))
+    missing = [s for s in scenarios if s not in groups]
+    if missing:
+        raise KeyError(f"no trajectory for scenarios {missing}")
+    return np.array([basis_averages(groups[s], terms) for s in scenarios])

@@ -1,0 +1,141 @@
+"""The files of ``bench aep`` (docs/schemas.md §7), written atomically.
+
+* ``aep.json``: site, nominal power, the AEP table per scenario kind, losses, notes;
+* ``power_curves.csv``: every converged grid point of every kind with its band;
+* ``awesio/<kind>_<electrical|mechanical>.yml``: the curves in awesIO's layout.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from bench.files import write_text_atomic
+from energy import awesio
+from energy.assess import Assessment
+from energy.bands import Z95
+from energy.curve import OptimizeRun
+from energy.site import log_shear_factor
+
+SCHEMA_NAME = "drivebench.aep"
+SCHEMA_VERSION = 1
+SIGN_NOTE = ("AEP and capacity factors are energy delivered (positive MWh/yr): to the grid for "
+             "electrical, by the drum shaft for mechanical. Powers in power_curves.csv keep the "
+             "optimize sign (negative = generated).")
+INTERPOLATION_NOTE = (
+    "Delivered power -P is linear between converged grid points, zero where the optimal cycle "
+    "would draw power (the zero crossing at the optimize stage's bisected cut-in when found), "
+    "and zero below the first and above the last grid point; the expectation over the "
+    "distribution is exact for that curve (CDF and first partial moment)."
+)
+
+
+def _clean(value):
+    if isinstance(value, dict):
+        return {k: _clean(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_clean(v) for v in value]
+    if isinstance(value, float | np.floating):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.bool_):
+        return bool(value)
+    return value
+
+
+def aep_document(a: Assessment, run: OptimizeRun, command_line: list[str],
+                 reference_height_m: float) -> dict:
+    """The ``aep.json`` content (docs/schemas.md §7)."""
+    table = a.table()
+    return _clean({
+        "schema": SCHEMA_NAME,
+        "schema_version": SCHEMA_VERSION,
+        "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "command_line": command_line,
+        "optimize": {"folder": str(run.folder),
+                     "drive_model": run.manifest.get("drive_model"),
+                     "wind_speeds_m_s": run.manifest.get("wind_speeds_m_s")},
+        "site": {**a.site.to_dict(), "note": a.site_note,
+                 "reference_height_m": reference_height_m},
+        "hours_per_year": 8760.0,
+        "nominal_power_w": a.nominal_power_w,
+        "nominal_power_source": a.nominal_source,
+        "sign_convention": SIGN_NOTE,
+        "interpolation": INTERPOLATION_NOTE,
+        "band": f"95 % two-sided normal interval, z = {Z95:.3f}; model and site sigmas combined "
+                "in quadrature; errors fully correlated along the wind grid",
+        "kinds": table.to_dict(orient="records"),
+        "losses": {
+            "limits_elec_objective_mwh": a.limit_loss_mwh("electrical", "elec"),
+            "limits_mech_objective_mech_mwh": a.limit_loss_mwh("mechanical", "mech"),
+            "efficiency_by_kind_mwh": {k: v.efficiency_loss_mwh for k, v in a.kinds.items()},
+        },
+        "notes": list(a.notes),
+        "files": {"curves": "power_curves.csv", "awesio": sorted(_awesio_names(a))},
+    })
+
+
+def _awesio_names(a: Assessment) -> list[str]:
+    return [f"awesio/{k}_{q}.yml" for k in a.kinds for q in ("electrical", "mechanical")]
+
+
+def write_outputs(a: Assessment, run: OptimizeRun, out: Path, command_line: list[str],
+                  reference_height_m: float, roughness_m: float) -> dict[str, Path]:
+    """Write ``aep.json``, ``power_curves.csv`` and the awesIO files into ``out``."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    files = {}
+    curves = a.curves.copy()
+    curves["p_elec_ci95_low_w"] = curves["p_elec_w"] - Z95 * curves["p_elec_sigma_w"]
+    curves["p_elec_ci95_high_w"] = curves["p_elec_w"] + Z95 * curves["p_elec_sigma_w"]
+    files["curves"] = write_text_atomic(out / "power_curves.csv",
+                                        curves.to_csv(index=False, float_format="%.6g"))
+    altitudes = np.arange(0.0, 501.0, 10.0)
+    u = np.array([log_shear_factor(reference_height_m, h, roughness_m) if h > roughness_m
+                  else 0.0 for h in altitudes])
+    model = run.manifest.get("drive_model") or {}
+    for kind, curve in run.curves.items():
+        for q, p in (("electrical", curve.p_elec_w), ("mechanical", curve.p_mech_w)):
+            doc = awesio.power_curve_document(
+                name=f"drivebench {kind} {q}",
+                description=f"Optimal pumping-cycle average {q} power, scenario kind {kind} "
+                            f"({curve.objective} objective, drive limits "
+                            f"{'on' if curve.drive_limits else 'off'})",
+                note=f"average_cycle_power is the {q} power delivered (positive = generated) "
+                     f"[W], wind at {reference_height_m:g} m, logarithmic shear z0 = "
+                     f"{roughness_m:g} m. Failed solves are left out.",
+                wind_m_s=curve.wind_m_s, delivered_w=-p, cycle_time_s=curve.period_s,
+                reference_height_m=reference_height_m, altitudes_m=altitudes, u_normalized=u,
+                model_config={"drive_model": model.get("name"),
+                              "drive_model_sha256": model.get("model_sha256"),
+                              "optimize_folder": str(run.folder)},
+            )
+            name = f"awesio/{kind}_{q}.yml"
+            files[name] = write_text_atomic(out / name, awesio.dump_yaml(doc) + "\n")
+    files["aep"] = write_text_atomic(
+        out / "aep.json",
+        json.dumps(aep_document(a, run, command_line, reference_height_m), indent=2,
+                   allow_nan=False) + "\n")
+    return files
+
+
+def format_table(a: Assessment) -> str:
+    """The AEP table as plain text for the terminal."""
+    t = a.table()
+    lines = [f"{'kind':<10} {'AEP el MWh/yr':>13} {'95% band':>17} {'AEP mech':>9} "
+             f"{'CF el':>6} {'CF mech':>7} {'eff. loss':>9} {'limit loss':>10} {'cut-in':>6}"]
+    for r in t.itertuples(index=False):
+        band = ("n/a" if pd.isna(r.ci95_aep_elec_low_mwh)
+                else f"{r.ci95_aep_elec_low_mwh:.3f}-{r.ci95_aep_elec_high_mwh:.3f}")
+        lim = "" if pd.isna(r.limit_loss_mwh) else f"{r.limit_loss_mwh:.3f}"
+        cut = "" if pd.isna(r.cut_in_elec_m_s) else f"{r.cut_in_elec_m_s:.2f}"
+        lines.append(f"{r.kind:<10} {r.aep_elec_mwh:>13.3f} {band:>17} {r.aep_mech_mwh:>9.3f} "
+                     f"{r.capacity_factor_elec:>6.1%} {r.capacity_factor_mech:>7.1%} "
+                     f"{r.efficiency_loss_mwh:>9.3f} {lim:>10} {cut:>6}")
+    return "\n".join(lines)

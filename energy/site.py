@@ -1,0 +1,287 @@
+"""Wind-speed distributions of a site: Weibull, Rayleigh, or a measured histogram.
+
+Every distribution answers two questions on wind speed ``v`` [m/s] at the
+system's reference height (the height of the optimize stage's wind speeds,
+100 m for today's kite model):
+
+* ``cdf(v)``: the probability that the wind is below ``v``;
+* ``partial_mean(v)``: ``M(v) = integral_0^v u f(u) du`` [m/s], the first
+  partial moment.
+
+With both, the energy of a piecewise-linear power curve is exact (see
+:func:`energy.aep.expected_power_w`): on a segment ``[a, b]`` where
+``P(v) = alpha + beta v``, ``integral P f dv = alpha (F(b) - F(a)) + beta (M(b) - M(a))``.
+
+A site given at another height is moved to the reference height with the
+logarithmic profile ``v(h) ~ ln(h / z0)`` (roughness length ``z0``): a Weibull
+scale scales by the ratio, the shape is unchanged; a histogram's bin speeds
+scale by it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy import special
+
+from bench.errors import InputError
+
+#: hours in a (non-leap) year: the AEP convention of IEC 61400-12-1
+HOURS_PER_YEAR = 8760.0
+
+
+def log_shear_factor(from_height_m: float, to_height_m: float, roughness_m: float) -> float:
+    """Ratio ``v(to) / v(from)`` of the logarithmic wind profile ``v ~ ln(h / z0)``.
+
+    Parameters
+    ----------
+    from_height_m, to_height_m : float
+        Heights above ground [m], both above ``roughness_m``.
+    roughness_m : float
+        Roughness length ``z0`` [m] (0.1 m in the kite model's wind shear).
+    """
+    if not (from_height_m > roughness_m and to_height_m > roughness_m and roughness_m > 0):
+        raise ValueError(
+            f"heights {from_height_m} m, {to_height_m} m must exceed the roughness "
+            f"length {roughness_m} m > 0"
+        )
+    return math.log(to_height_m / roughness_m) / math.log(from_height_m / roughness_m)
+
+
+@dataclass(frozen=True)
+class Weibull:
+    """Weibull distribution ``F(v) = 1 - exp(-(v / c)^k)``.
+
+    Parameters
+    ----------
+    k : float
+        Shape [-], > 0.
+    scale_m_s : float
+        Scale ``c`` [m/s], > 0.
+    """
+
+    k: float
+    scale_m_s: float
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.k) and self.k > 0):
+            raise ValueError(f"Weibull shape k must be finite and > 0, got {self.k}")
+        if not (math.isfinite(self.scale_m_s) and self.scale_m_s > 0):
+            raise ValueError(f"Weibull scale must be finite and > 0 m/s, got {self.scale_m_s}")
+
+    @classmethod
+    def from_mean(cls, k: float, mean_m_s: float) -> Weibull:
+        """Weibull of shape ``k`` with mean ``mean_m_s`` [m/s]: ``c = mean / Gamma(1 + 1/k)``."""
+        if not (math.isfinite(k) and k > 0):
+            raise ValueError(f"Weibull shape k must be finite and > 0, got {k}")
+        return cls(k, mean_m_s / math.gamma(1.0 + 1.0 / k))
+
+    @property
+    def mean_m_s(self) -> float:
+        """Mean wind speed [m/s]."""
+        return self.scale_m_s * math.gamma(1.0 + 1.0 / self.k)
+
+    def cdf(self, v: np.ndarray) -> np.ndarray:
+        """Probability that the wind is below ``v`` [m/s]."""
+        v = np.clip(np.asarray(v, dtype=float), 0.0, None)
+        return -np.expm1(-((v / self.scale_m_s) ** self.k))
+
+    def partial_mean(self, v: np.ndarray) -> np.ndarray:
+        """``integral_0^v u f(u) du`` [m/s] = ``c Gamma(1 + 1/k) P(1 + 1/k, (v/c)^k)``."""
+        v = np.clip(np.asarray(v, dtype=float), 0.0, None)
+        a = 1.0 + 1.0 / self.k
+        return self.mean_m_s * special.gammainc(a, (v / self.scale_m_s) ** self.k)
+
+    def scaled(self, factor: float) -> Weibull:
+        """The distribution of ``factor * v`` (a height change): same shape, scale times factor."""
+        return Weibull(self.k, self.scale_m_s * factor)
+
+    def describe(self) -> str:
+        """One line for reports."""
+        return (f"Weibull k = {self.k:g}, scale {self.scale_m_s:.3f} m/s "
+                f"(mean {self.mean_m_s:.3f} m/s)")
+
+    def to_dict(self) -> dict:
+        """JSON-ready description."""
+        return {"type": "weibull", "k": self.k, "scale_m_s": self.scale_m_s,
+                "mean_m_s": self.mean_m_s}
+
+
+def rayleigh(mean_m_s: float) -> Weibull:
+    """Rayleigh distribution of mean ``mean_m_s`` [m/s]: Weibull k = 2, ``c = 2 mean/sqrt(pi)``."""
+    return Weibull(2.0, 2.0 * mean_m_s / math.sqrt(math.pi))
+
+
+@dataclass(frozen=True)
+class Histogram:
+    """A measured wind-speed histogram: probability spread uniformly inside each bin.
+
+    Parameters
+    ----------
+    edges_m_s : tuple of float
+        Bin edges [m/s], strictly increasing, the first >= 0 (n + 1 values).
+    probabilities : tuple of float
+        Probability of each bin (n values, >= 0, summing to 1).
+    """
+
+    edges_m_s: tuple[float, ...]
+    probabilities: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        e, p = np.asarray(self.edges_m_s, float), np.asarray(self.probabilities, float)
+        if e.ndim != 1 or len(e) < 2 or len(p) != len(e) - 1:
+            raise ValueError("a histogram needs n + 1 edges for n >= 1 probabilities")
+        if not (np.all(np.isfinite(e)) and e[0] >= 0 and np.all(np.diff(e) > 0)):
+            raise ValueError("histogram edges must be finite, >= 0 and strictly increasing")
+        if not (np.all(np.isfinite(p)) and np.all(p >= 0) and abs(p.sum() - 1.0) < 1e-9):
+            raise ValueError("histogram probabilities must be >= 0 and sum to 1")
+
+    @property
+    def mean_m_s(self) -> float:
+        """Mean wind speed [m/s]."""
+        e, p = np.asarray(self.edges_m_s), np.asarray(self.probabilities)
+        return float(np.sum(p * 0.5 * (e[1:] + e[:-1])))
+
+    def cdf(self, v: np.ndarray) -> np.ndarray:
+        """Probability that the wind is below ``v`` [m/s] (linear inside a bin)."""
+        e = np.asarray(self.edges_m_s)
+        cum = np.concatenate([[0.0], np.cumsum(self.probabilities)])
+        return np.interp(np.asarray(v, dtype=float), e, cum, left=0.0, right=1.0)
+
+    def partial_mean(self, v: np.ndarray) -> np.ndarray:
+        """``integral_0^v u f(u) du`` [m/s] with ``f`` constant inside each bin."""
+        e, p = np.asarray(self.edges_m_s), np.asarray(self.probabilities)
+        v = np.asarray(v, dtype=float)
+        lo = np.clip(v[..., None], e[:-1], e[1:])  # the part of each bin below v
+        density = p / np.diff(e)
+        return np.sum(density * 0.5 * (lo**2 - e[:-1] ** 2), axis=-1)
+
+    def scaled(self, factor: float) -> Histogram:
+        """The distribution of ``factor * v``: every edge times ``factor``."""
+        return Histogram(tuple(float(x) * factor for x in self.edges_m_s), self.probabilities)
+
+    def describe(self) -> str:
+        """One line for reports."""
+        e = self.edges_m_s
+        return (f"histogram, {len(self.probabilities)} bins {e[0]:g}-{e[-1]:g} m/s "
+                f"(mean {self.mean_m_s:.3f} m/s)")
+
+    def to_dict(self) -> dict:
+        """JSON-ready description."""
+        return {"type": "histogram", "edges_m_s": list(self.edges_m_s),
+                "probabilities": list(self.probabilities), "mean_m_s": self.mean_m_s}
+
+
+Distribution = Weibull | Histogram
+
+_SPEED_COLUMNS = {
+    "edges": ("v_low_m_s", "v_high_m_s"),
+    "centres": ("v_m_s",),
+}
+_WEIGHT_COLUMNS = ("hours", "probability")
+_HISTOGRAM_EXPECTED = (
+    "a CSV with a header row: either 'v_low_m_s,v_high_m_s' (bin edges) or 'v_m_s' (bin "
+    "centres, evenly spaced or not: edges at the midpoints), and one of 'hours' or "
+    "'probability'; '#' lines are comments"
+)
+
+
+def read_histogram_csv(path: str | Path) -> Histogram:
+    """Read a wind-speed histogram CSV (docs/schemas.md §7).
+
+    Columns: ``v_low_m_s, v_high_m_s`` (bin edges, adjacent bins must share
+    their edge) or ``v_m_s`` (bin centres; the edges are the midpoints between
+    centres, the outer edges half a spacing out, clipped at 0); and ``hours`` or
+    ``probability`` per bin. Hours are normalised by their sum; probabilities
+    must sum to 1 within 1 %, and are then normalised.
+
+    Raises
+    ------
+    InputError
+        Naming the file, line and column of the first bad value.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except OSError as exc:
+        raise InputError(path, f"cannot read: {exc.strerror}",
+                         expected=_HISTOGRAM_EXPECTED) from exc
+    rows = [(n, line) for n, line in enumerate(text.splitlines(), 1)
+            if line.strip() and not line.lstrip().startswith("#")]
+    if not rows:
+        raise InputError(path, "no header row", expected=_HISTOGRAM_EXPECTED)
+    header_line, header = rows[0]
+    names = [c.strip() for c in header.split(",")]
+    if "v_low_m_s" in names or "v_high_m_s" in names:
+        speed_cols = _SPEED_COLUMNS["edges"]
+    elif "v_m_s" in names:
+        speed_cols = _SPEED_COLUMNS["centres"]
+    else:
+        raise InputError(path, f"no wind-speed column in header {names}", line=header_line,
+                         expected=_HISTOGRAM_EXPECTED)
+    weights = [c for c in _WEIGHT_COLUMNS if c in names]
+    if len(weights) != 1:
+        raise InputError(path, f"header {names} has {len(weights)} of 'hours'/'probability'",
+                         line=header_line, expected=_HISTOGRAM_EXPECTED)
+    wanted = (*speed_cols, weights[0])
+    for c in wanted:
+        if c not in names:
+            raise InputError(path, f"column {c!r} missing", line=header_line,
+                             expected=_HISTOGRAM_EXPECTED)
+    index = {c: names.index(c) for c in wanted}
+    values: dict[str, list[float]] = {c: [] for c in wanted}
+    lines: list[int] = []
+    for n, line in rows[1:]:
+        cells = [c.strip() for c in line.split(",")]
+        if len(cells) != len(names):
+            raise InputError(path, f"{len(cells)} fields, the header has {len(names)}", line=n)
+        for c in wanted:
+            try:
+                x = float(cells[index[c]])
+            except ValueError:
+                raise InputError(path, f"{cells[index[c]]!r} is not a number", line=n, column=c,
+                                 expected="a finite number") from None
+            if not math.isfinite(x) or x < 0:
+                raise InputError(path, f"{cells[index[c]]!r} is not a finite number >= 0",
+                                 line=n, column=c, expected="a finite number >= 0")
+            values[c].append(x)
+        lines.append(n)
+    if not lines:
+        raise InputError(path, "no data rows", expected=_HISTOGRAM_EXPECTED)
+
+    if speed_cols == _SPEED_COLUMNS["edges"]:
+        lo, hi = np.array(values["v_low_m_s"]), np.array(values["v_high_m_s"])
+        for k in range(len(lo)):
+            if hi[k] <= lo[k]:
+                raise InputError(path, f"bin {lo[k]:g}-{hi[k]:g} m/s is empty", line=lines[k],
+                                 column="v_high_m_s", expected="v_high_m_s > v_low_m_s")
+            if k and abs(lo[k] - hi[k - 1]) > 1e-9 * max(1.0, hi[k - 1]):
+                raise InputError(path, f"bin starts at {lo[k]:g} m/s, the previous ended at "
+                                 f"{hi[k - 1]:g} m/s", line=lines[k], column="v_low_m_s",
+                                 expected="sorted, adjacent bins (no gaps, no overlaps)")
+        edges = np.concatenate([lo[:1], hi])
+    else:
+        v = np.array(values["v_m_s"])
+        for k in range(1, len(v)):
+            if v[k] <= v[k - 1]:
+                raise InputError(path, f"centre {v[k]:g} m/s is not above the previous "
+                                 f"{v[k - 1]:g} m/s", line=lines[k], column="v_m_s",
+                                 expected="strictly increasing bin centres")
+        if len(v) < 2:
+            raise InputError(path, "one bin centre cannot define a bin width", line=lines[0],
+                             column="v_m_s", expected="at least two bins, or give bin edges")
+        mid = 0.5 * (v[1:] + v[:-1])
+        edges = np.concatenate([[max(0.0, v[0] - (mid[0] - v[0]))], mid,
+                                [v[-1] + (v[-1] - mid[-1])]])
+    w = np.array(values[weights[0]])
+    total = w.sum()
+    if total <= 0:
+        raise InputError(path, f"the {weights[0]} sum to 0", column=weights[0],
+                         expected="some positive weight")
+    if weights[0] == "probability" and abs(total - 1.0) > 0.01:
+        raise InputError(path, f"probabilities sum to {total:.4f}", column="probability",
+                         expected="a sum of 1 (within 1 %); give 'hours' for raw counts")
+    return Histogram(tuple(float(x) for x in edges), tuple(float(x) for x in w / total))

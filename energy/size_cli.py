@@ -1,0 +1,177 @@
+"""``bench size``: electrical AEP against drive rating over candidate drives (issue 12).
+
+A thin command line over :mod:`energy.sizing`; writes ``size_out/sizing.json``,
+``size_out/sizing.csv`` and the resumable solve store ``size_out/solves/``
+(docs/schemas.md §7).
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import math
+import sys
+from pathlib import Path
+
+from bench.errors import InputError
+from energy.cli import add_site_arguments, site_from_args
+
+#: where ``bench fit`` writes its model (docs/schemas.md §4)
+FIT_MODEL_PATH = Path("fit_out") / "power_model.json"
+#: the paper drive's nominal (continuous) torque [N m] and gearbox speed limit [rpm]
+#: (Stuyts et al. 2015, section II): defaults only, when the model file names no rating
+PAPER_RATED_TORQUE_NM = 78.0
+PAPER_MAX_SPEED_RPM = 1500.0
+DEFAULT_SCALES = "0.5,0.75,1,1.5,2"
+DEFAULT_WINDS = "5.5,7,8.5"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Register the options of ``bench size``."""
+    from energy.sizing import DEFAULT_OVERLOAD
+
+    parser.add_argument("--drive-model", type=Path, default=None,
+                        help=f"reference power model (default {FIT_MODEL_PATH} if it exists, "
+                             "else the shipped paper model)")
+    parser.add_argument("--scales", default=DEFAULT_SCALES,
+                        help="torque-rating scales of the reference drive, comma list (default "
+                             f"{DEFAULT_SCALES}); law in docs/schemas.md §7")
+    parser.add_argument("--models", type=Path, nargs="*", default=(),
+                        help="further candidates: power_model.json files (rated torque and "
+                             "speed limit from their drive section, else the reference ones)")
+    parser.add_argument("--rated-torque-nm", type=float, default=None,
+                        help="reference drive's continuous (RMS) torque rating [N m] (default: "
+                             "the model's drive.max_torque_nm, its nominal torque, else "
+                             f"{PAPER_RATED_TORQUE_NM:g})")
+    parser.add_argument("--max-speed-rpm", type=float, default=None,
+                        help="speed limit [rpm] (default: the model's drive.max_speed_rpm, else "
+                             f"{PAPER_MAX_SPEED_RPM:g})")
+    parser.add_argument("--overload", type=float, default=DEFAULT_OVERLOAD,
+                        help="short-time peak torque / rated torque (default "
+                             f"{DEFAULT_OVERLOAD:g}, the paper's 500 %%)")
+    parser.add_argument("--wind-grid", default=DEFAULT_WINDS,
+                        help=f"wind speeds at the reference height [m/s] (default {DEFAULT_WINDS})")
+    parser.add_argument("--tolerance", type=float, default=0.02,
+                        help="choose the smallest drive within this share of the best AEP")
+    parser.add_argument("--intervals", type=int, default=40, help="collocation intervals")
+    parser.add_argument("--degree", type=int, default=4, help="Radau collocation degree")
+    parser.add_argument("--workers", type=int, default=2, help="local worker processes")
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                        help="run on a Dask cluster at this scheduler address")
+    parser.add_argument("--out", type=Path, default=Path("size_out"), help="output folder")
+    add_site_arguments(parser)
+
+
+def _drive_value(path: Path, key: str) -> float | None:
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError, UnicodeDecodeError):
+        return None
+    drive = data.get("drive") if isinstance(data, dict) else None
+    value = drive.get(key) if isinstance(drive, dict) else None
+    return float(value) if isinstance(value, int | float) and value > 0 else None
+
+
+def _scales(spec: str) -> tuple[float, ...]:
+    try:
+        values = tuple(float(x) for x in spec.split(",") if x.strip())
+    except ValueError:
+        raise InputError(None, f"--scales {spec!r}: not numbers",
+                         expected="a comma list of scales > 0") from None
+    if not values or any(not (math.isfinite(v) and v > 0) for v in values) or \
+            len(set(values)) != len(values):
+        raise InputError(None, f"--scales {spec!r}", expected="distinct scales > 0")
+    return values
+
+
+def build_candidates(args: argparse.Namespace) -> tuple[list, Path, list[str]]:
+    """The candidate drives, the reference model's path, and notes on defaults used."""
+    from energy.sizing import Candidate, scaled_candidates
+    from fitting.model_file import PAPER_MODEL_PATH, load_power_model
+
+    notes = []
+    if args.drive_model is not None:
+        path = Path(args.drive_model)
+    elif FIT_MODEL_PATH.exists():
+        path = FIT_MODEL_PATH
+    else:
+        path, _ = PAPER_MODEL_PATH, notes.append(f"no {FIT_MODEL_PATH}: the paper's model")
+    base = load_power_model(path)
+
+    def limit(value, key, default, label):
+        if value is not None:
+            return value
+        found = _drive_value(path, key)
+        if found is None:
+            notes.append(f"{label}: {default:g} (the paper's drive; {path} names none)")
+            return default
+        return found
+
+    rated = limit(args.rated_torque_nm, "max_torque_nm", PAPER_RATED_TORQUE_NM,
+                  "rated torque [N m]")
+    speed = limit(args.max_speed_rpm, "max_speed_rpm", PAPER_MAX_SPEED_RPM, "speed limit [rpm]")
+    for name, v in (("--rated-torque-nm", rated), ("--max-speed-rpm", speed),
+                    ("--overload", args.overload)):
+        if not (math.isfinite(v) and v > 0):
+            raise InputError(None, f"{name} {v}", expected="a value > 0")
+    if args.overload < 1:
+        raise InputError(None, f"--overload {args.overload}", expected="a factor >= 1")
+    candidates = scaled_candidates(base, _scales(args.scales), rated, speed, args.overload)
+    for p in args.models:
+        m = load_power_model(p)
+        r = _drive_value(p, "max_torque_nm") or rated
+        candidates.append(Candidate(Path(p).stem, m, r, args.overload * r,
+                                    _drive_value(p, "max_speed_rpm") or speed,
+                                    _drive_value(p, "nominal_power_w") or m.nominal_power_w))
+    return candidates, path, notes
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run or resume the sizing sweep, print the table, write the files."""
+    from bench.files import write_text_atomic
+    from energy.sizing import run_sizing
+    from optimize.sweep.plan import parse_wind_grid
+
+    site, site_note, _ = site_from_args(args)
+    winds = parse_wind_grid(args.wind_grid)
+    if not 0 <= args.tolerance < 1:
+        raise InputError(None, f"--tolerance {args.tolerance}", expected="a share in [0, 1)")
+    if args.out.exists() and not args.out.is_dir():
+        raise InputError(args.out, "exists and is not a folder", expected="an output folder")
+    candidates, base_path, notes = build_candidates(args)
+    print(f"site: {site_note}")
+    print(f"{len(candidates)} candidates x {len(winds)} wind speeds (elec-lim, RMS torque <= "
+          f"rated); solves stored in {args.out / 'solves'}")
+    res = run_sizing(candidates, winds, site, args.out, args.intervals, args.degree,
+                     workers=args.workers, scheduler=args.scheduler, tolerance=args.tolerance)
+    t = res.table
+    print(t.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
+    print(f"best: {res.best}; smallest within {args.tolerance:.0%} of the best AEP: {res.chosen}")
+    print(f"{res.n_solved} solved, {res.n_cached} loaded from the store, "
+          f"{res.wall_time_s:.1f} s ({res.executor})")
+    for n in notes:
+        print(f"note: {n}")
+    failed = [r for r in res.records if not r["success"]]
+    for r in failed:
+        print(f"FAILED: {r['candidate']} at {r['wind_speed_m_s']:g} m/s: {r['status']} "
+              "(that candidate gets no AEP)")
+    args.out.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(args.out / "sizing.csv", t.to_csv(index=False, float_format="%.6g"))
+    doc = {
+        "schema": "drivebench.sizing", "schema_version": 1,
+        "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "command_line": ["bench", "size", *sys.argv[2:]],
+        "site": {**site.to_dict(), "note": site_note},
+        "reference_model": {"path": str(base_path)},
+        "law": "P_s(n, T) = s P_1(n, T/s): c_ij -> s^(1-j) c_ij; rated torque s T_rated, peak "
+               "overload x rated, same speed limit, nominal power s P_nom",
+        "wind_speeds_m_s": list(winds), "tolerance": args.tolerance,
+        "best": res.best, "chosen": res.chosen,
+        "wall_time_s": res.wall_time_s, "executor": res.executor,
+        "n_solved": res.n_solved, "n_loaded": res.n_cached,
+        "candidates": json.loads(t.to_json(orient="records")),
+        "solves": res.records, "notes": notes,
+    }
+    write_text_atomic(args.out / "sizing.json", json.dumps(doc, indent=1) + "\n")
+    return 0 if res.chosen is not None else 1

@@ -1,0 +1,363 @@
+"""Drive sizing: electrical AEP against drive rating over candidate drives (``bench size``).
+
+A candidate is a power model with its limits: the short-time peak torque and
+speed, and the continuous rating (RMS drum torque over the cycle at most the
+rated torque, :class:`optimize.problem.ocp.OcpOptions` ``max_rms_torque_nm``).
+It is a ``power_model.json`` of its own, or the reference model scaled by a
+torque-rating scale ``s``.
+
+Scaling law
+-----------
+``P_s(n, T) = s P_1(n, T / s)``: a drive of ``s`` times the torque rating at the
+same speed rating behaves like ``s`` reference drives sharing the torque on one
+shaft. For a term ``c n^i T^j`` that is ``c -> s^(1 - j) c``; for paper eq. 4:
+constant losses ``a0 -> s a0`` and speed losses ``a1 n^2 -> s a1 n^2`` grow with
+the active volume, copper losses ``a2 T^2 -> a2 T^2 / s`` fall (current per unit
+torque ~ 1/s, resistance ~ s), and the conversion term ``a3 n T`` is unchanged.
+It is the axial (stack-length) scaling of a permanent-magnet machine with end
+effects neglected (S. Stipetic, D. Zarko, M. Popescu, "Ultra-fast axial and
+radial scaling of synchronous permanent magnet machines", IET Electric Power
+Applications 10(7), 2016; J. Pyrhonen, T. Jokinen, V. Hrabovcova, "Design of
+Rotating Electrical Machines", Wiley 2008, ch. 1: torque ~ rotor volume). The
+covariance scales with the same factors. Limits: rated torque ``s T_rated``,
+peak torque ``overload x`` rated, the same speed limit, nominal power ``s P_nom``.
+
+Resumable sweep
+---------------
+Each solve is stored under the SHA-256 of its inputs (the candidate's model
+hash, the OCP options, the wind speed and objective: :func:`solve_key`) as
+``solves/<key>.json`` (figures) and ``solves/<key>.npz`` (primal and dual
+vectors, the next solve's warm start), each written atomically. A re-run loads
+every stored solve instead of solving it, so an interrupted sweep continues
+where it stopped.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bench.files import atomic_write, write_text_atomic
+
+#: bump when the meaning of a stored solve changes (invalidates every stored solve)
+STORE_VERSION = 1
+#: default short-time peak torque over rated torque: the paper's drive can overload up to
+#: 500 % in torque (Stuyts et al. 2015, section II)
+DEFAULT_OVERLOAD = 5.0
+
+
+def scaled_model(base: Any, s: float, name: str | None = None) -> Any:
+    """The power model of a drive with ``s`` times the torque rating (``c_ij -> s^(1-j) c_ij``).
+
+    Parameters
+    ----------
+    base : fitting.model_file.PowerModel
+    s : float
+        Torque-rating scale, > 0.
+    """
+    if not (math.isfinite(s) and s > 0):
+        raise ValueError(f"scale must be > 0, got {s}")
+    f = np.array([s ** (1 - j) for _, j in base.terms])
+    cov = None
+    if base.covariance_rpm is not None:
+        cov = tuple(map(tuple, np.array(base.covariance_rpm) * np.outer(f, f)))
+    provenance = {"scaled_from": base.sha256, "torque_rating_scale": s,
+                  "law": "P_s(n, T) = s P_1(n, T/s): c_ij -> s^(1-j) c_ij"}
+    changes = {}
+    drive = getattr(base, "drive", None)
+    if drive is not None:  # the rating scales with the drive: torque and power, not speed
+        changes["drive"] = {**drive, "nominal_power_w": drive["nominal_power_w"] * s,
+                            "max_torque_nm": drive["max_torque_nm"] * s,
+                            "source": f"{drive.get('source', '')}; scaled x{s:g} (bench size)"}
+    return dataclasses.replace(
+        base, coefficients_rpm=tuple(np.array(base.coefficients_rpm) * f), covariance_rpm=cov,
+        nominal_power_w=base.nominal_power_w * s,
+        name=name or f"{base.name} x{s:g} torque rating", provenance=provenance, **changes,
+    )
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A drive to size: power model and limits.
+
+    Attributes
+    ----------
+    name : str
+    model : fitting.model_file.PowerModel
+    rated_torque_nm : float
+        Continuous rating: RMS drum torque over the cycle at most this [N m].
+    peak_torque_nm : float
+        Short-time torque limit [N m].
+    max_speed_rpm : float
+        Speed limit [rpm].
+    nominal_power_w : float
+        Rating for the capacity factor and the sizing axis [W].
+    scale : float or None
+        Torque-rating scale when made by :func:`scaled_model`.
+    """
+
+    name: str
+    model: Any
+    rated_torque_nm: float
+    peak_torque_nm: float
+    max_speed_rpm: float
+    nominal_power_w: float
+    scale: float | None = None
+
+    def ocp_options(self, n_intervals: int, degree: int) -> Any:
+        """The OCP options with this drive's limits."""
+        from optimize.problem.ocp import OcpOptions
+
+        return OcpOptions(n_intervals=n_intervals, degree=degree,
+                          max_torque_nm=self.peak_torque_nm, max_speed_rpm=self.max_speed_rpm,
+                          max_rms_torque_nm=self.rated_torque_nm)
+
+
+def scaled_candidates(base: Any, scales: tuple[float, ...], rated_torque_nm: float,
+                      max_speed_rpm: float, overload: float) -> list[Candidate]:
+    """Candidates of the reference drive scaled by each ``s`` (see the module's law)."""
+    out = []
+    for s in scales:
+        m = scaled_model(base, s)
+        out.append(Candidate(f"x{s:g}", m, s * rated_torque_nm, overload * s * rated_torque_nm,
+                             max_speed_rpm, m.nominal_power_w, s))
+    return out
+
+
+def solve_key(candidate: Candidate, options: Any, wind_m_s: float) -> str:
+    """SHA-256 (hex) of everything a sizing solve depends on."""
+    data = {"version": STORE_VERSION, "model": candidate.model.sha256,
+            "options": dataclasses.asdict(options), "wind_m_s": float(wind_m_s),
+            "objective": "electrical", "drive_limits": True}
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+@dataclass(frozen=True)
+class SizingTask:
+    """One candidate's chain of solves over the wind speeds (one executor task)."""
+
+    candidate: Candidate
+    winds: tuple[float, ...]
+    n_intervals: int
+    degree: int
+    store: Path
+
+
+def _chain_order(winds: tuple[float, ...]) -> list[float]:
+    """Middle speed first, then outwards (each solve warm-starts from its inner neighbour)."""
+    mid = (len(winds) - 1) // 2
+    order = [winds[mid]]
+    for k in range(1, len(winds)):
+        if mid + k < len(winds):
+            order.append(winds[mid + k])
+        if mid - k >= 0:
+            order.append(winds[mid - k])
+    return order
+
+
+def _load(store: Path, key: str) -> tuple[dict, Any] | None:
+    """A stored solve (figures, warm start) or None when absent or unreadable."""
+    from optimize.solve.result import Solution
+
+    js, npz = store / f"{key}.json", store / f"{key}.npz"
+    if not js.is_file():
+        return None
+    try:
+        rec = json.loads(js.read_text())
+        warm = None
+        if npz.is_file():
+            with np.load(npz) as f:
+                warm = Solution(f["w"], f["lam_x"], f["lam_g"], int(f["n_intervals"]),
+                                int(f["degree"]))
+    except (OSError, ValueError, KeyError, json.JSONDecodeError):
+        return None
+    return rec, warm
+
+
+def _store(store: Path, key: str, rec: dict, warm: Any) -> None:
+    if warm is not None:  # the warm start first: a json without its npz is still usable
+        def write_npz(tmp: Path) -> None:
+            with open(tmp, "wb") as fh:
+                np.savez(fh, w=warm.w, lam_x=warm.lam_x, lam_g=warm.lam_g,
+                         n_intervals=warm.n_intervals, degree=warm.degree)
+        atomic_write(store / f"{key}.npz", write_npz)
+    write_text_atomic(store / f"{key}.json", json.dumps(rec, indent=1, allow_nan=True))
+
+
+def run_candidate(task: SizingTask, progress: Any = None) -> list[dict]:
+    """Solve (or load) elec-lim at every wind speed for one candidate; returns the records."""
+    from optimize.model.kite_model import kite_dae
+    from optimize.problem.ocp import build_ocp
+    from optimize.problem.scenario import Scenario
+    from optimize.solve.solve import solve, start
+
+    c = task.candidate
+    options = c.ocp_options(task.n_intervals, task.degree)
+    task.store.mkdir(parents=True, exist_ok=True)
+    ocp = None
+    records: dict[float, dict] = {}
+    warms: dict[float, Any] = {}
+    for wind in _chain_order(task.winds):
+        key = solve_key(c, options, wind)
+        stored = _load(task.store, key)
+        if stored is not None:
+            rec, warm = stored
+            records[wind], warms[wind] = {**rec, "cached": True}, warm
+        else:
+            if ocp is None:
+                ocp = build_ocp(kite_dae(), c.model, options)
+            scenario = Scenario(wind, "electrical", True)
+            inner = [w for w in warms if warms[w] is not None]
+            t0 = time.perf_counter()
+            res = None
+            if inner:
+                src = min(inner, key=lambda w: abs(w - wind))
+                res = solve(ocp, scenario, warms[src])
+            if res is None or not res.success:
+                res = start(ocp, scenario)
+            traj = res.trajectory
+            ok = bool(res.success)
+            rec = {
+                "key": key, "candidate": c.name, "wind_speed_m_s": wind,
+                "success": ok, "status": res.status,
+                "avg_p_elec_w": float(res.avg_p_elec_w) if ok else None,
+                "avg_p_mech_w": float(res.avg_p_mech_w) if ok else None,
+                "period_s": float(res.period_s) if ok else None,
+                "rms_torque_nm": (float(np.sqrt(np.sum(traj["weight"] * traj["torque_nm"] ** 2)))
+                                  if ok else None),
+                "peak_torque_nm": float(traj["torque_nm"].max()) if ok else None,
+                "peak_speed_rpm": float(traj["speed_rpm"].abs().max()) if ok else None,
+                "wall_time_s": time.perf_counter() - t0,
+            }
+            _store(task.store, key, rec, res.warm if ok else None)
+            records[wind], warms[wind] = {**rec, "cached": False}, (res.warm if ok else None)
+        if progress is not None:
+            r = records[wind]
+            progress.put({"candidate": c.name, "wind": wind, "status": r["status"],
+                          "cached": r["cached"]})
+    return [records[w] for w in task.winds]
+
+
+@dataclass(frozen=True)
+class SizingResult:
+    """The sweep's outcome: one row per candidate and every solve record."""
+
+    table: Any  # pandas.DataFrame, one row per candidate (see :func:`candidate_table`)
+    records: list[dict]
+    best: str | None
+    chosen: str | None
+    wall_time_s: float
+    executor: str
+    n_solved: int
+    n_cached: int
+
+
+def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
+                    tolerance: float = 0.02) -> tuple[Any, str | None, str | None]:
+    """Electrical AEP per candidate; the best, and the smallest within ``tolerance`` of it.
+
+    Returns
+    -------
+    (DataFrame, str or None, str or None)
+        Rows ``candidate, scale, rated_torque_nm, peak_torque_nm, max_speed_rpm,
+        nominal_power_w, n_converged, n_winds, aep_elec_mwh, capacity_factor_elec,
+        aep_share_of_best, rms_bound_active_at``; the best candidate's name and the chosen one.
+        A candidate with a failed solve gets no AEP (never an AEP from fewer points).
+    """
+    import pandas as pd
+
+    from energy.aep import aep_mwh
+
+    rows = []
+    for c in candidates:
+        recs = sorted((r for r in records if r["candidate"] == c.name),
+                      key=lambda r: r["wind_speed_m_s"])
+        ok = [r for r in recs if r["success"]]
+        aep = None
+        if ok and len(ok) == len(recs):
+            aep = aep_mwh(np.array([r["wind_speed_m_s"] for r in ok]),
+                          np.array([r["avg_p_elec_w"] for r in ok]), site)
+        active = [r["wind_speed_m_s"] for r in ok
+                  if r["rms_torque_nm"] is not None
+                  and r["rms_torque_nm"] >= (1 - 1e-3) * c.rated_torque_nm]
+        rows.append({
+            "candidate": c.name, "scale": c.scale, "rated_torque_nm": c.rated_torque_nm,
+            "peak_torque_nm": c.peak_torque_nm, "max_speed_rpm": c.max_speed_rpm,
+            "nominal_power_w": c.nominal_power_w, "n_converged": len(ok), "n_winds": len(recs),
+            "aep_elec_mwh": aep,
+            "capacity_factor_elec": (None if aep is None
+                                     else aep * 1e6 / 8760.0 / c.nominal_power_w),
+            "rms_bound_active_at": ",".join(f"{w:g}" for w in active),
+        })
+    table = pd.DataFrame(rows).sort_values("rated_torque_nm", kind="stable")
+    valid = table.dropna(subset=["aep_elec_mwh"])
+    if valid.empty:
+        table["aep_share_of_best"] = np.nan
+        return table.reset_index(drop=True), None, None
+    best = valid.loc[valid["aep_elec_mwh"].idxmax()]
+    table["aep_share_of_best"] = table["aep_elec_mwh"] / best["aep_elec_mwh"]
+    within = valid[valid["aep_elec_mwh"] >= (1 - tolerance) * best["aep_elec_mwh"]]
+    chosen = within.sort_values("rated_torque_nm").iloc[0]["candidate"]
+    return table.reset_index(drop=True), str(best["candidate"]), str(chosen)
+
+
+def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any, out: Path,
+               n_intervals: int = 40, degree: int = 4, handle: Any = None, workers: int = 2,
+               scheduler: str | None = None, show_progress: bool = True,
+               tolerance: float = 0.02) -> SizingResult:
+    """Run (or resume) the sizing sweep: one task per candidate on the executor.
+
+    ``handle`` is an open :class:`optimize.sweep.executors.ExecutorHandle`; without it
+    a local process pool of ``workers`` (or the Dask cluster at ``scheduler``) is opened.
+    """
+    from tqdm import tqdm
+
+    from optimize.sweep.executors import open_executor, run_tasks
+
+    store = Path(out) / "solves"
+    tasks = [SizingTask(c, tuple(winds), n_intervals, degree, store) for c in candidates]
+    bar = tqdm(total=len(tasks) * len(winds), unit="solve", desc="size",
+               disable=not show_progress)
+    counts = {"solved": 0, "cached": 0}
+
+    def on_event(ev: dict) -> None:
+        counts["cached" if ev["cached"] else "solved"] += 1
+        bar.set_postfix_str(f"{ev['candidate']} {ev['wind']:g} m/s: "
+                            f"{'stored' if ev['cached'] else ev['status']}")
+        bar.update(1)
+
+    t0 = time.perf_counter()
+    if handle is None:
+        with open_executor(workers, scheduler) as h:
+            futures = run_tasks(h.executor, run_candidate, tasks, h.channel, on_event)
+            description = h.description
+    else:
+        futures = run_tasks(handle.executor, run_candidate, tasks, handle.channel, on_event)
+        description = handle.description
+    bar.close()
+    wall = time.perf_counter() - t0
+    records = []
+    for task, f in zip(tasks, futures, strict=True):
+        exc = f.exception()
+        if exc is None:
+            records.extend(f.result())
+            continue
+        # a crashed task fails its candidate (reported, no AEP), never the sweep
+        status = f"worker error: {type(exc).__name__}: {exc}"[:300]
+        records.extend({"key": None, "candidate": task.candidate.name, "wind_speed_m_s": w,
+                        "success": False, "status": status, "avg_p_elec_w": None,
+                        "avg_p_mech_w": None, "period_s": None, "rms_torque_nm": None,
+                        "peak_torque_nm": None, "peak_speed_rpm": None, "wall_time_s": None,
+                        "cached": False} for w in task.winds)
+    table, best, chosen = candidate_table(candidates, records, site, tolerance)
+    return SizingResult(table, records, best, chosen, wall, description, counts["solved"],
+                        counts["cached"])

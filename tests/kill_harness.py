@@ -1,0 +1,204 @@
+"""Kill ``bench ingest`` (SIGKILL) at random moments; the store must stay old or new.
+
+Shared by tests/test_store_atomic.py (a few dozen kills) and
+benchmarks/store_kill.py (hundreds). A content digest of what the store's readers
+return (manifest entries without their time stamp, points, rejected windows,
+samples) identifies a store state; after every kill it must equal the digest of
+the store before the ingest or of the store a complete ingest writes, and a
+re-ingest must then give the complete one.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import random
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pandas as pd
+from ingest_fixtures import make_points_session, make_timeseries_session
+
+from bench.ingest.pipeline import ingest
+from bench.store import STAGING_PREFIX, read_manifest, read_points, read_rejected, read_samples
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _frame_digest(frame: pd.DataFrame) -> str:
+    frame = frame.reset_index(drop=True)
+    h = hashlib.sha256(json.dumps([list(frame.columns), [str(t) for t in frame.dtypes]])
+                       .encode())
+    h.update(pd.util.hash_pandas_object(frame, index=False).to_numpy().tobytes())
+    return h.hexdigest()
+
+
+def store_digest(store: Path) -> str:
+    """SHA-256 over what the readers return; time stamps and generation names left out."""
+    manifest = read_manifest(store)
+    entries = {sid: {k: v for k, v in e.items() if k != "ingested_at"}
+               for sid, e in manifest["sessions"].items()}
+    h = hashlib.sha256(json.dumps(entries, sort_keys=True).encode())
+    h.update(_frame_digest(read_points(store)).encode())
+    h.update(_frame_digest(read_rejected(store)).encode())
+    for sid, e in sorted(manifest["sessions"].items()):
+        if e.get("kind") == "timeseries":
+            h.update(_frame_digest(read_samples(store, sid)).encode())
+    return h.hexdigest()
+
+
+def make_campaigns(root: Path) -> tuple[Path, Path]:
+    """An old campaign and a new one: one session changed, one kept, one added."""
+    old, new = root / "old", root / "new"
+    make_timeseries_session(old, "motor_01", seed=1)
+    make_timeseries_session(old, "gen_01", mode="generator", seed=2)
+    make_points_session(old, "table_01", seed=3)
+    make_timeseries_session(new, "motor_01", seed=9, setpoints=[(500.0, 20.0), (700.0, 30.0),
+                                                                (900.0, 50.0)])
+    make_timeseries_session(new, "gen_01", mode="generator", seed=2)
+    make_points_session(new, "table_01", seed=3)
+    make_timeseries_session(new, "motor_02", seed=5)
+    return old, new
+
+
+def ingest_command(campaign: Path, store: Path) -> list[str]:
+    """The ``bench ingest`` subprocess that gets killed."""
+    return [sys.executable, "-m", "bench.cli", "ingest", str(campaign), "--store", str(store),
+            "--no-progress"]
+
+
+#: a child ingest that dies (os._exit, as abrupt as SIGKILL: no cleanup, no flush)
+#: just before its k-th file-system call (k = 0: never; the count goes to stderr)
+STEP_CHILD = """
+import os, shutil, sys
+k, n = int(sys.argv[1]), [0]
+def wrap(mod, name):
+    f = getattr(mod, name)
+    def g(*a, **kw):
+        n[0] += 1
+        if n[0] == k:
+            os._exit(137)
+        return f(*a, **kw)
+    setattr(mod, name, g)
+for mod, name in ((os, "replace"), (os, "rename"), (os, "link"), (os, "fsync"),
+                  (os, "unlink"), (os, "mkdir"), (os, "rmdir"), (os, "open"),
+                  (os, "ftruncate"), (os, "write"), (shutil, "rmtree"), (shutil, "copy2")):
+    wrap(mod, name)
+from bench.cli import main
+rc = main(sys.argv[2:])
+print(f"fs-calls {n[0]}", file=sys.stderr)
+sys.exit(rc)
+"""
+
+
+@dataclass
+class KillFigures:
+    """What a kill run saw."""
+
+    tried: int = 0
+    fs_steps: int = 0  # of which: died just before a chosen file-system call
+    killed_old: int = 0  # store still the old one
+    killed_new: int = 0  # the commit had completed
+    finished: int = 0  # ingest ended before the kill
+    neither: int = 0  # store neither old nor new (goal: 0)
+    staging_left: int = 0  # killed while a staging folder existed (processing or commit)
+    two_generations: int = 0  # killed between the new generation's rename and the old one's removal
+    not_converged: int = 0  # re-ingest did not give the new store (goal: 0)
+    leftovers: int = 0  # staging/generation folders left after the re-ingest (goal: 0)
+    full_run_s: float = 0.0
+    problems: list[str] = field(default_factory=list)
+
+
+class _Setup:
+    """The old store, the new campaign and the two digests every kill is checked against."""
+
+    def __init__(self, work: Path) -> None:
+        old_campaign, self.new_campaign = make_campaigns(work / "camp")
+        self.base = work / "old_store"
+        ingest([old_campaign], self.base, progress=False)
+        self.old_digest = store_digest(self.base)
+        ref = work / "ref_store"
+        shutil.copytree(self.base, ref)
+        t0 = time.perf_counter()
+        err = subprocess.run(self.step_command(0, ref), check=True, capture_output=True,
+                             text=True, cwd=REPO).stderr
+        self.full_run_s = time.perf_counter() - t0
+        self.fs_calls = int(err.rsplit("fs-calls ", 1)[1].split()[0])
+        self.new_digest = store_digest(ref)
+        assert self.new_digest != self.old_digest
+
+    def step_command(self, k: int, store: Path) -> list[str]:
+        return [sys.executable, "-c", STEP_CHILD, str(k),
+                *ingest_command(self.new_campaign, store)[3:]]
+
+
+def run_kills(work: Path, n: int, seed: int = 0, steps: int | None = 0,
+              log=lambda msg: None) -> KillFigures:
+    """Kill ``n`` ingests of the new campaign into copies of the old store, then ``steps`` more.
+
+    Half the ``n`` SIGKILL moments are uniform over the whole run (start-up,
+    parsing, processing, commit), half uniform over its last 40 % where the
+    commit is. Then an ingest dies just before its k-th file-system call, for
+    ``steps`` values of k spread evenly over all its calls (None: every k), so
+    every step of the commit is hit, which random timing rarely does.
+    """
+    setup = _Setup(work)
+    base, new_campaign = setup.base, setup.new_campaign
+    old_digest, new_digest = setup.old_digest, setup.new_digest
+    figures = KillFigures(full_run_s=setup.full_run_s)
+    rng = random.Random(seed)
+    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+    total = setup.fs_calls
+    ks = list(range(1, total + 1)) if steps is None else sorted(
+        {1 + round(i * (total - 1) / max(steps - 1, 1)) for i in range(steps)})
+    plan = [("time", None)] * n + [("step", k) for k in ks]
+    for k, (how, step) in enumerate(plan):
+        store = work / f"store_{k}"
+        shutil.copytree(base, store)
+        full = figures.full_run_s
+        delay = rng.uniform(0, full) if k % 2 == 0 else rng.uniform(0.6 * full, 1.05 * full)
+        if how == "time":
+            proc = subprocess.Popen(ingest_command(new_campaign, store), cwd=REPO, env=env,
+                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            time.sleep(delay)
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGKILL)
+        else:
+            delay = float(step)
+            proc = subprocess.Popen(setup.step_command(step, store), cwd=REPO, env=env,
+                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        rc = proc.wait()
+        figures.tried += 1
+        figures.fs_steps += how == "step"
+        digest = store_digest(store)
+        left = [p.name for p in store.iterdir()]
+        figures.staging_left += any(x.startswith(STAGING_PREFIX) for x in left)
+        figures.two_generations += sum(x.startswith("gen-") for x in left) > 1
+        if rc == 0:
+            figures.finished += 1
+        if digest == old_digest:
+            figures.killed_old += rc != 0
+        elif digest == new_digest:
+            figures.killed_new += rc != 0
+        else:
+            figures.neither += 1
+            figures.problems.append(f"kill {k} ({how} {delay:.3f}): store neither old nor new")
+        ingest([new_campaign], store, progress=False, notify=lambda line: None)
+        if store_digest(store) != new_digest:
+            figures.not_converged += 1
+            figures.problems.append(f"kill {k} ({how} {delay:.3f}): re-ingest did not converge")
+        names = sorted(p.name for p in store.iterdir())
+        if any(x.startswith(STAGING_PREFIX) for x in names) or \
+                len([x for x in names if x.startswith("gen-")]) != 1:
+            figures.leftovers += 1
+            figures.problems.append(f"kill {k}: leftovers {names}")
+        shutil.rmtree(store)
+        log(f"kill {k + 1}/{len(plan)} ({how} {delay:.3f}): rc {rc}, "
+            f"{'old' if digest == old_digest else 'new' if digest == new_digest else 'NEITHER'}")
+    return figures

@@ -1,0 +1,90 @@
+"""``bench aep`` end to end on a synthetic optimize folder, and the band against Monte Carlo."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from energy_fixtures import KINDS, model_with_covariance, write_optimize_folder
+
+from bench.cli import main
+from energy.aep import aep_mwh
+from energy.assess import assess
+from energy.curve import read_optimize_run
+from energy.site import Weibull
+
+
+def test_band_equals_monte_carlo_over_the_coefficients(tmp_path):
+    # For fixed cycles P_i = g_i . a exactly, so the AEP's spread under a ~ N(c, Sigma)
+    # is the propagated sigma; 20000 draws estimate a std to about 0.5 % (tolerance 3 %).
+    model = model_with_covariance()
+    run = read_optimize_run(write_optimize_folder(tmp_path / "opt", model))
+    site = Weibull.from_mean(2.0, 5.5)
+    a = assess(run, site, "test")
+    curve = run.curves["elec-lim"]
+    traj = pd.read_parquet(tmp_path / "opt" / "trajectories.parquet")
+    rng = np.random.default_rng(7)
+    draws = rng.multivariate_normal(model.coefficients_rpm, np.array(model.covariance_rpm),
+                                    20000)
+    # the cycle-average power is linear in the coefficients: its row per wind speed is the
+    # model with unit coefficient vectors, averaged over the cycle
+    units = [dataclasses.replace(model, coefficients_rpm=tuple(e), covariance_rpm=None)
+             for e in np.eye(len(model.terms))]
+    rows = traj[traj["kind"] == "elec-lim"].groupby("wind_speed_m_s")
+    basis = np.array([[float(np.sum(g["weight"] * u.p_elec_w(g["speed_rpm"], g["torque_nm"])))
+                       for u in units] for _, g in rows])
+    aeps = [aep_mwh(curve.wind_m_s, p, site) for p in draws @ basis.T]
+    assert a.kinds["elec-lim"].sigma_elec_model_mwh == pytest.approx(np.std(aeps), rel=0.03)
+    assert a.kinds["elec-lim"].elec.aep_mwh == pytest.approx(np.mean(aeps), rel=0.01)
+
+
+def test_bench_aep_writes_every_file(tmp_path, capsys):
+    folder = write_optimize_folder(tmp_path / "opt", model_with_covariance(),
+                                   failed=("elec-lim-8.5",))
+    out = tmp_path / "aep"
+    code = main(["aep", "--optimize", str(folder), "--weibull-k", "2", "--mean-speed", "5.5",
+                 "--height-m", "75", "--mean-sigma", "0.3", "--out", str(out)])
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "elec-lim" in text and "moved to 100 m" in text
+    doc = json.loads((out / "aep.json").read_text())
+    assert doc["schema"] == "drivebench.aep"
+    rows = {r["kind"]: r for r in doc["kinds"]}
+    assert rows["elec-lim"]["n_points"] == 4  # the failed solve is left out ...
+    assert any("8.5" in n for n in doc["notes"])  # ... and said so
+    assert rows["elec-lim"]["sigma_aep_elec_site_mwh"] > 0
+    assert doc["nominal_power_w"] == 8200.0
+    curves = pd.read_csv(out / "power_curves.csv")
+    assert set(curves["kind"]) == set(KINDS)
+    yaml = pytest.importorskip("yaml")
+    for kind in KINDS:
+        for q in ("electrical", "mechanical"):
+            d = yaml.safe_load((out / "awesio" / f"{kind}_{q}.yml").read_text())
+            assert d["metadata"]["schema"] == "power_curves_schema.yml"
+            pts = d["power_curves"][0]["wind_speed_data"]
+            col = "p_elec_w" if q == "electrical" else "p_mech_w"
+            np.testing.assert_allclose([p["performance"]["power"]["average_cycle_power"]
+                                        for p in pts],
+                                       -curves.loc[curves["kind"] == kind, col].to_numpy(),
+                                       rtol=1e-5)
+
+
+@pytest.mark.parametrize(
+    "site_args",
+    [
+        [],
+        ["--weibull-k", "2"],
+        ["--weibull-k", "2", "--mean-speed", "5", "--scale", "6"],
+        ["--rayleigh-mean", "-1"],
+        ["--rayleigh-mean", "5", "--weibull-k", "2", "--mean-speed", "5"],
+    ],
+)
+def test_bench_aep_bad_site_exits_2(tmp_path, capsys, site_args):
+    folder = write_optimize_folder(tmp_path / "opt", model_with_covariance())
+    code = main(["aep", "--optimize", str(folder), "--out", str(tmp_path / "aep"), *site_args])
+    assert code == 2
+    assert "error" in capsys.readouterr().err
+    assert not (tmp_path / "aep").exists()

@@ -1,0 +1,50 @@
+"""The continuous-rating option of the OCP: RMS drum torque over the cycle <= rated torque."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fitting.model_file import paper_model
+from optimize.model.kite_model import kite_dae
+from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.problem.scenario import Scenario
+from optimize.solve import initial_guess
+from optimize.solve.solve import cold_start, solve
+
+N_COARSE = 10
+
+
+def _rms(traj) -> float:
+    return float(np.sqrt(np.sum(traj["weight"] * traj["torque_nm"] ** 2)))
+
+
+def test_rms_torque_bound_binds_and_costs_power():
+    dae = kite_dae()
+    free = build_ocp(dae, paper_model(), OcpOptions(n_intervals=N_COARSE))
+    start = cold_start(free, Scenario(7.0, "mechanical", False))
+    scenario = Scenario(7.0, "electrical", True)
+    ref = solve(free, scenario, start.warm)
+    assert ref.success, ref.status
+    rms_free = _rms(ref.trajectory)
+    # a rating 15 % below the unconstrained cycle's RMS torque, peak limit unchanged
+    rated = 0.85 * rms_free
+    ocp = build_ocp(dae, paper_model(), OcpOptions(n_intervals=N_COARSE, max_rms_torque_nm=rated))
+    assert ocp.layout.g_rms.size == 1
+    warm = ref.warm.__class__(ref.warm.w, ref.warm.lam_x, np.append(ref.warm.lam_g, 0.0),
+                              ref.warm.n_intervals, ref.warm.degree)
+    res = solve(ocp, scenario, warm)
+    assert res.success, res.status
+    # the row is the quadrature mean of T^2 (scaled 1e-4), solved to 1e-6: 0.1 % in RMS
+    assert _rms(res.trajectory) == pytest.approx(rated, rel=1e-3)
+    assert res.avg_p_elec_w > ref.avg_p_elec_w  # less generated (negative = generated)
+    # without drive limits the row is free
+    lo, hi = ocp.bounds(drive_limits=False, fix_fictitious=True, period_s=None)[2:]
+    assert np.isinf(hi[ocp.layout.g_rms]).all()
+
+
+def test_stored_guess_fits_an_ocp_with_the_rms_row():
+    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(max_rms_torque_nm=70.0))
+    guess, why = initial_guess.load(ocp)
+    assert guess is not None, why
+    assert guess.lam_g.size == ocp.layout.n_g
