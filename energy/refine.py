@@ -56,6 +56,34 @@ def options_from_manifest(manifest: dict, path: Path) -> Any:
         raise InputError(path, f"OCP options not usable: {exc}", column="options") from exc
 
 
+def system_from_manifest(manifest: dict, path: Path) -> Any:
+    """The sweep's ``System`` from its manifest's ``system`` record (its own text, so the
+    file may have moved), or None for a sweep made before system files (package defaults).
+
+    Raises
+    ------
+    InputError
+        The record's text does not parse or its hash differs from the record's.
+    """
+    import tomllib
+
+    from optimize.system.system import system_from_dict
+
+    rec = manifest.get("system")
+    if rec is None:
+        return None
+    if not isinstance(rec, dict) or not isinstance(rec.get("text"), str):
+        raise InputError(path, "system record without its text", column="system",
+                         expected="the manifest of `bench optimize` (docs/schemas.md §5)")
+    try:
+        system = system_from_dict(tomllib.loads(rec["text"]), str(rec.get("path")), rec["text"])
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(path, f"system text is not valid TOML: {exc}", column="system") from None
+    if rec.get("sha256") and system.sha256 != rec["sha256"]:
+        raise InputError(path, "system text does not match its recorded sha256", column="system")
+    return system
+
+
 @dataclass(frozen=True)
 class KindTask:
     """One scenario kind's refinement (one executor task; picklable).
@@ -72,6 +100,8 @@ class KindTask:
         Folder of the stored solves.
     tol : float
     max_points : int
+    system : optimize.system.system.System or None
+        The sweep's system (kite, tether, winch, wind); None for the package defaults.
     backend : optimize.sweep.chains.Backend or None
         The solver (default the CasADi OCP, :class:`optimize.sweep.chains.OcpBackend`);
         its results need ``success, status, start, avg_p_elec_w, avg_p_mech_w,
@@ -87,6 +117,7 @@ class KindTask:
     tol: float = DEFAULT_TOL
     max_points: int = 25
     backend: Any = None
+    system: Any = None
 
 
 def refine_kind(task: KindTask, progress: Any = None) -> list[dict]:
@@ -96,7 +127,7 @@ def refine_kind(task: KindTask, progress: Any = None) -> list[dict]:
     warm_from, avg_p_elec_w, avg_p_mech_w, period_s, peak_torque_nm, peak_speed_rpm,
     basis_averages, wall_time_s, cached``.
     """
-    from optimize.sweep.chains import OcpBackend, Problem
+    from optimize.sweep.chains import OcpBackend, Problem, problem_key
     from optimize.sweep.plan import KINDS
 
     backend = task.backend or OcpBackend()
@@ -109,15 +140,19 @@ def refine_kind(task: KindTask, progress: Any = None) -> list[dict]:
 
     def solve_at(wind: float, role: str) -> dict:
         nonlocal ocp
-        key = scenario_key(task.model.sha256, task.options, wind, objective, limits)
+        key = scenario_key(task.model.sha256, task.options, wind, objective, limits,
+                           getattr(task.system, "sha256", None))
         stored = load_solve(task.store, key)
         if stored is not None:
             rec, warm = stored
             rec = {**rec, "role": role, "cached": True}
         else:
             if ocp is None:
-                ocp = backend.build(Problem(None, task.model, task.options,
-                                            f"{task.options!r}|{task.model.sha256}"))
+                ocp = backend.build(
+                    Problem(None, task.model, task.options,
+                            problem_key(task.options, task.model, None))
+                    if task.system is None
+                    else Problem.for_system(task.system, task.model, task.options))
             t0 = time.perf_counter()
             res, src = None, None
             if warms:
@@ -261,10 +296,11 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
                          "differs from the manifest's drive_model.model_sha256)",
                          expected="--drive-model omitted or the sweep's own model file")
     options = options_from_manifest(run.manifest, manifest_path)
+    system = system_from_manifest(run.manifest, manifest_path)
     tasks = [KindTask(k, model, options,
                       tuple(zip(c.wind_m_s.tolist(), c.p_elec_w.tolist(), c.p_mech_w.tolist(),
                                 strict=True)),
-                      site, Path(store), tol, max_points, backend)
+                      site, Path(store), tol, max_points, backend, system)
              for k, c in run.curves.items() if len(c.wind_m_s) >= 2]
     bar = tqdm(total=0, unit="solve", desc="refine", disable=not show_progress)
     counts = {"solved": 0, "loaded": 0}

@@ -138,11 +138,17 @@ def solve_key(candidate: Candidate, options: Any, wind_m_s: float) -> str:
 
 
 def scenario_key(model_sha256: str, options: Any, wind_m_s: float, objective: str,
-                 drive_limits: bool) -> str:
-    """SHA-256 (hex) of everything one stored solve depends on (the store's file name)."""
+                 drive_limits: bool, system_sha256: str | None = None) -> str:
+    """SHA-256 (hex) of everything one stored solve depends on (the store's file name).
+
+    ``system_sha256`` (the kite system's hash) enters the key only when given, so the
+    keys of solves with the package's default system stay what they were.
+    """
     data = {"version": STORE_VERSION, "model": model_sha256,
             "options": dataclasses.asdict(options), "wind_m_s": float(wind_m_s),
             "objective": objective, "drive_limits": bool(drive_limits)}
+    if system_sha256 is not None:
+        data["system"] = system_sha256
     text = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
     return hashlib.sha256(text.encode()).hexdigest()
 
