@@ -141,3 +141,18 @@ def test_refine_without_the_sweeps_options_is_a_clear_input_error(tmp_path, caps
     code = main(["aep", "--optimize", str(folder), "--out", str(out), "--refine",
                  "--refine-tol", "0", "--weibull-k", "2", "--mean-speed", "5.5"])
     assert code == 2 and "--refine-tol" in capsys.readouterr().err
+
+
+def test_the_sweeps_system_is_rebuilt_from_its_manifest_record(tmp_path):
+    from bench.errors import InputError
+    from energy.refine import system_from_manifest
+    from optimize.system.system import load_system
+
+    system = load_system()
+    rebuilt = system_from_manifest({"system": system.record()}, tmp_path / "manifest.json")
+    assert rebuilt.sha256 == system.sha256 and rebuilt.model_params() == system.model_params()
+    assert system_from_manifest({}, tmp_path / "manifest.json") is None  # pre-system sweeps
+    tampered = {**system.record(), "text": system.text.replace("mass_kg", "mass_kg ", 1)
+                + "\n# edited\n", "sha256": "0" * 64}
+    with pytest.raises(InputError, match="sha256"):
+        system_from_manifest({"system": tampered}, tmp_path / "manifest.json")
