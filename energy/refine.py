@@ -154,18 +154,22 @@ def refine_kind(task: KindTask, progress: Any = None) -> list[dict]:
                     if task.system is None
                     else Problem.for_system(task.system, task.model, task.options))
             t0 = time.perf_counter()
-            res, src = None, None
-            if warms:
-                src = min(warms, key=lambda w: abs(w - wind))
-                res = backend.solve(ocp, task.kind, wind, warms[src])
-            if res is None or not res.success:
-                src, res = None, backend.cold_start(ocp, task.kind, wind)
-            ok = bool(res.success) and math.isfinite(float(res.avg_p_elec_w))
-            traj = res.trajectory
+            res, src, crash = None, None, None
+            try:  # a solver crash is a failed solve of this speed, not a failed refinement
+                if warms:
+                    src = min(warms, key=lambda w: abs(w - wind))
+                    res = backend.solve(ocp, task.kind, wind, warms[src])
+                if res is None or not res.success:
+                    src, res = None, backend.cold_start(ocp, task.kind, wind)
+            except Exception as exc:  # noqa: BLE001 - reported in the record's status
+                crash = f"exception: {type(exc).__name__}: {exc}"[:300]
+            ok = crash is None and bool(res.success) and math.isfinite(float(res.avg_p_elec_w))
+            traj = res.trajectory if ok else None
             rec = {
                 "key": key, "kind": task.kind, "wind_speed_m_s": wind, "role": role,
-                "success": ok, "status": str(res.status),
-                "warm_from": f"{src:g} m/s" if src is not None else res.start,
+                "success": ok, "status": crash or str(res.status),
+                "warm_from": (f"{src:g} m/s" if src is not None
+                              else getattr(res, "start", "cold start")),
                 "avg_p_elec_w": float(res.avg_p_elec_w) if ok else None,
                 "avg_p_mech_w": float(res.avg_p_mech_w) if ok else None,
                 "period_s": float(res.period_s) if ok else None,
@@ -176,7 +180,8 @@ def refine_kind(task: KindTask, progress: Any = None) -> list[dict]:
                 "wall_time_s": time.perf_counter() - t0,
             }
             warm = res.warm if ok else None
-            store_solve(task.store, key, rec, warm)
+            if crash is None:  # a crash may be transient: solved again by a re-run
+                store_solve(task.store, key, rec, warm)
             rec = {**rec, "cached": False}
         records[wind] = rec
         if rec["success"] and warm is not None:

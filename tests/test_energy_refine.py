@@ -44,8 +44,8 @@ def exact_aep(p) -> float:
 class KinkBackend:
     """The chain backend protocol with the closed-form curves above; counts its solves."""
 
-    def __init__(self, fail_at=()):
-        self.fail_at, self.calls = set(fail_at), []
+    def __init__(self, fail_at=(), crash_at=()):
+        self.fail_at, self.crash_at, self.calls = set(fail_at), set(crash_at), []
 
     def build(self, problem):
         return "ocp"
@@ -65,6 +65,8 @@ class KinkBackend:
         return self._result(wind, "warm start")
 
     def cold_start(self, ocp, kind, wind):
+        if wind in self.crash_at:
+            raise RuntimeError("solver crashed")
         return self._result(wind, "stored guess")
 
 
@@ -122,6 +124,14 @@ def test_a_failed_added_solve_is_reported_not_dropped(tmp_path):
     curve = merged_curve(_coarse_curve(), tuple(records))
     assert 4.75 not in curve.wind_m_s
     assert (4.75, "added by --refine: Infeasible") in curve.failed
+
+
+def test_a_solver_crash_fails_that_speed_only(tmp_path):
+    records = refine_kind(_task(tmp_path, KinkBackend(fail_at={4.75}, crash_at={4.75})))
+    bad = [r for r in records if not r["success"]]
+    assert [r["wind_speed_m_s"] for r in bad] == [4.75]
+    assert bad[0]["status"] == "exception: RuntimeError: solver crashed"
+    assert sum(r["success"] for r in records if r["role"] == "added") >= 2  # refinement went on
 
 
 def test_refine_without_the_sweeps_options_is_a_clear_input_error(tmp_path, capsys):
