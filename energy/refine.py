@@ -53,7 +53,9 @@ def options_from_manifest(manifest: dict, path: Path) -> Any:
     try:
         return OcpOptions(**{k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()})
     except (TypeError, ValueError) as exc:
-        raise InputError(path, f"OCP options not usable: {exc}", column="options") from exc
+        raise InputError(path, f"OCP options not usable: {exc}", column="options",
+                         expected="a folder written by this version's `bench optimize` (re-run "
+                                  "it; --refine must solve the sweep's own problem)") from exc
 
 
 def system_from_manifest(manifest: dict, path: Path) -> Any:
