@@ -1,0 +1,88 @@
+"""Exports as another lab writes them: found by trying the tool as a new user.
+
+Each builder writes a single-stream ``[log]`` session with a known truth (steady
+holds at chosen speed and torque, p_elec from a plausible loss model); the tests
+check what ingest recovers against that truth.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from bench.ingest.pipeline import ingest
+from bench.store import read_points
+
+
+def _loss_w(speed_rpm, torque_nm):
+    """Plausible drive losses [W]: constant, speed-proportional and copper (T^2) terms."""
+    return 25.0 + 0.05 * np.abs(speed_rpm) + 0.8 * np.asarray(torque_nm) ** 2
+
+
+def make_noisy_fast_log(root: Path, holds: list[tuple[float, float]],
+                        stops_at: tuple[int, ...] = (), rate_hz: float = 2000.0,
+                        hold_s: float = 6.0, lead_s: float = 3.0,
+                        speed_noise_rpm: float = 3.0, seed: int = 1) -> None:
+    """A fast logger whose speed encoder is noisy sample to sample (std ``speed_noise_rpm``).
+
+    The session starts with ``lead_s`` at standstill and, before each hold index in
+    ``stops_at``, stops for ``hold_s``: standstill, not an operating point.
+    """
+    rng = np.random.default_rng(seed)
+    levels = [(0.0, 0.0)]
+    for i, h in enumerate(holds):
+        if i in stops_at:
+            levels.append((0.0, 0.0))
+        levels.append(h)
+    durations = [lead_s] + [hold_s] * (len(levels) - 1)
+    reps = [int(d * rate_hz) for d in durations]
+    n = np.repeat([lv[0] for lv in levels], reps)
+    tq = np.repeat([lv[1] for lv in levels], reps)
+    t = np.arange(n.size) / rate_hz
+    pe = n * np.pi / 30 * tq + _loss_w(n, tq)
+    n = n + rng.normal(0, speed_noise_rpm, n.size)
+    tq = tq + rng.normal(0, 0.05, n.size)
+    pe = pe + rng.normal(0, 5.0, n.size)
+    folder = root / "fast"
+    folder.mkdir(parents=True)
+    (folder / "session.toml").write_text('''session_id = "fast"
+kind = "timeseries"
+mode = "motor"
+operator = "other lab"
+date = "2024-03-05"
+gear_ratio = 1.0
+measured_side = "drum"
+speed_sign = 1
+torque_sign = 1
+
+[log]
+file = "log.csv"
+format = "csv"
+
+[sensors]
+speed_range_rpm = 3000.0
+torque_range_nm = 40.0
+power_range_w = 6000.0
+''')
+    rows = ["Time [s],Speed [rpm],Torque [Nm],P_elec [W]"]
+    rows += [f"{a:.5f},{b:.2f},{c:.3f},{d:.1f}" for a, b, c, d in zip(t, n, tq, pe, strict=True)]
+    (folder / "log.csv").write_text("\n".join(rows) + "\n")
+
+
+def test_standstill_of_a_noisy_fast_logger_is_no_operating_point(tmp_path):
+    # A 2 kHz log with 3 rpm sample noise (0.1 % of a 3000 rpm sensor): single samples
+    # cross the 6 rpm standstill limit, so no tare is found. The leading standstill and a
+    # stop between the holds must still not become operating points (speed 0, torque 0,
+    # its quadrant decided by the noise's sign): 3 holds give exactly 3 points.
+    holds = [(500.0, 10.0), (1200.0, 20.0), (-900.0, 15.0)]
+    make_noisy_fast_log(tmp_path / "c", holds, stops_at=(2,))
+    ingest([tmp_path / "c"], tmp_path / "store", progress=False)
+    pts = read_points(tmp_path / "store").sort_values("t_start_s")
+    assert len(pts) == len(holds)
+    # means: 0.5 rpm, 0.05 N m, 5 W are many standard errors of a 6 s hold at 2 kHz
+    assert np.allclose(pts.speed_rpm, [h[0] for h in holds], atol=0.5)
+    assert np.allclose(pts.torque_nm, [h[1] for h in holds], atol=0.05)
+    truth_pe = [h[0] * np.pi / 30 * h[1] + _loss_w(h[0], h[1]) for h in holds]
+    assert np.allclose(pts.p_elec_w, truth_pe, atol=5.0)
+    assert pts.quadrant.tolist() == ["motor", "motor", "generator"]
