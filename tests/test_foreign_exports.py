@@ -10,7 +10,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
+from bench.errors import InputError
 from bench.ingest.pipeline import ingest
 from bench.store import read_points
 
@@ -86,3 +88,20 @@ def test_standstill_of_a_noisy_fast_logger_is_no_operating_point(tmp_path):
     truth_pe = [h[0] * np.pi / 30 * h[1] + _loss_w(h[0], h[1]) for h in holds]
     assert np.allclose(pts.p_elec_w, truth_pe, atol=5.0)
     assert pts.quadrant.tolist() == ["motor", "motor", "generator"]
+
+
+def test_fit_too_few_points_for_cross_validation_says_so():
+    # A generator-only campaign of 12 points on a 4 x 3 speed-torque grid (well spread)
+    # passes the 12-point minimum of a 4-term fit, but 5-fold CV trains on 9 or 10: every
+    # candidate is skipped. The error must say that, not ask to spread the points.
+    from fitting.selection import select_model
+
+    speed, torque = np.meshgrid([-600.0, -1000.0, -1400.0, -1800.0], [8.0, 15.0, 22.0])
+    speed, torque = speed.ravel(), torque.ravel()
+    p = speed * np.pi / 30 * torque + _loss_w(speed, torque)
+    with pytest.raises(InputError) as err:
+        select_model(speed, torque, p, np.full(speed.size, "generator"), np.ones(speed.size),
+                     folds=5)
+    msg = str(err.value)
+    assert "too few points" in msg and "12 points" in msg, msg
+    assert "spread" not in msg, msg
