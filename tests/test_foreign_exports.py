@@ -105,3 +105,54 @@ def test_fit_too_few_points_for_cross_validation_says_so():
     msg = str(err.value)
     assert "too few points" in msg and "12 points" in msg, msg
     assert "spread" not in msg, msg
+
+
+def _session(folder: Path, file: str) -> None:
+    folder.mkdir(parents=True)
+    (folder / "session.toml").write_text(f'''session_id = "{folder.name}"
+kind = "timeseries"
+mode = "motor"
+operator = "other lab"
+date = "2024-03-05"
+gear_ratio = 1.0
+measured_side = "drum"
+speed_sign = 1
+torque_sign = 1
+
+[log]
+file = "{file}"
+format = "csv"
+
+[sensors]
+speed_range_rpm = 3000.0
+torque_range_nm = 40.0
+power_range_w = 6000.0
+''')
+
+
+@pytest.mark.parametrize("units", [("[s]", "[U/min]", "[Nm]", "[kW]"),
+                                   ("(s)", "(U/min)", "(Nm)", "(kW)")])
+def test_units_row_with_brackets_or_parentheses(tmp_path, units):
+    # German loggers often write the units row as '[s];[U/min];[Nm];[kW]' (or with
+    # parentheses): the same units as the bare row, so the same points.
+    holds = [(500.0, 10.0), (1000.0, 20.0), (-800.0, 15.0)]
+    rate, hold_s, lead_s = 10.0, 10.0, 4.0
+    levels = [(0.0, 0.0)] + holds
+    reps = [int(lead_s * rate)] + [int(hold_s * rate)] * len(holds)
+    n = np.repeat([lv[0] for lv in levels], reps)
+    tq = np.repeat([lv[1] for lv in levels], reps)
+    pe = n * np.pi / 30 * tq + _loss_w(n, tq)
+    t = np.arange(n.size) / rate
+    rows = ["Zeit;Drehzahl;Drehmoment;Wirkleistung", ";".join(units)]
+    rows += [f"{a:.2f};{b:.2f};{c:.3f};{d / 1000:.5f}".replace(".", ",")
+             for a, b, c, d in zip(t, n, tq, pe, strict=True)]
+    folder = tmp_path / "c" / "de_units"
+    _session(folder, "log.csv")
+    (folder / "log.csv").write_text("\n".join(rows) + "\n")
+    ingest([tmp_path / "c"], tmp_path / "store", progress=False)
+    pts = read_points(tmp_path / "store").sort_values("t_start_s")
+    # noise-free holds: the means are the setpoints up to the 5-digit kW rounding (0.005 W)
+    assert np.allclose(pts.speed_rpm, [h[0] for h in holds], atol=1e-6)
+    assert np.allclose(pts.torque_nm, [h[1] for h in holds], atol=1e-6)
+    truth_pe = [h[0] * np.pi / 30 * h[1] + _loss_w(h[0], h[1]) for h in holds]
+    assert np.allclose(pts.p_elec_w, truth_pe, atol=0.01)
