@@ -52,6 +52,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              f"{DEFAULT_OVERLOAD:g}, the paper's 500 %%)")
     parser.add_argument("--wind-grid", default=DEFAULT_WINDS,
                         help=f"wind speeds at the reference height [m/s] (default {DEFAULT_WINDS})")
+    parser.add_argument("--adaptive", action="store_true",
+                        help="refine each candidate's wind grid where its power curve bends "
+                             "(docs/schemas.md §9)")
     parser.add_argument("--tolerance", type=float, default=0.02,
                         help="choose the smallest drive within this share of the best AEP")
     parser.add_argument("--intervals", type=int, default=40, help="collocation intervals")
@@ -135,6 +138,9 @@ def run(args: argparse.Namespace) -> int:
 
     site, site_note, _ = site_from_args(args)
     winds = parse_wind_grid(args.wind_grid)
+    if len(winds) < 2:
+        raise InputError(None, f"--wind-grid {args.wind_grid!r}: one wind speed gives no curve "
+                         "to integrate", expected="at least two wind speeds")
     if not 0 <= args.tolerance < 1:
         raise InputError(None, f"--tolerance {args.tolerance}", expected="a share in [0, 1)")
     if args.out.exists() and not args.out.is_dir():
@@ -144,7 +150,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"{len(candidates)} candidates x {len(winds)} wind speeds (elec-lim, RMS torque <= "
           f"rated); solves stored in {args.out / 'solves'}")
     res = run_sizing(candidates, winds, site, args.out, args.intervals, args.degree,
-                     workers=args.workers, scheduler=args.scheduler, tolerance=args.tolerance)
+                     workers=args.workers, scheduler=args.scheduler, tolerance=args.tolerance,
+                     adaptive=args.adaptive)
     t = res.table
     print(t.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
     print(f"best: {res.best}; smallest within {args.tolerance:.0%} of the best AEP: {res.chosen}")
@@ -166,7 +173,7 @@ def run(args: argparse.Namespace) -> int:
         "reference_model": {"path": str(base_path)},
         "law": "P_s(n, T) = s P_1(n, T/s): c_ij -> s^(1-j) c_ij; rated torque s T_rated, peak "
                "overload x rated, same speed limit, nominal power s P_nom",
-        "wind_speeds_m_s": list(winds), "tolerance": args.tolerance,
+        "wind_speeds_m_s": list(winds), "adaptive": args.adaptive, "tolerance": args.tolerance,
         "best": res.best, "chosen": res.chosen,
         "wall_time_s": res.wall_time_s, "executor": res.executor,
         "n_solved": res.n_solved, "n_loaded": res.n_cached,

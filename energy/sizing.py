@@ -150,6 +150,7 @@ class SizingTask:
     n_intervals: int
     degree: int
     store: Path
+    refine_site: Any = None  # a site distribution: refine the grid adaptively for it
 
 
 def _chain_order(winds: tuple[float, ...]) -> list[float]:
@@ -194,7 +195,11 @@ def _store(store: Path, key: str, rec: dict, warm: Any) -> None:
 
 
 def run_candidate(task: SizingTask, progress: Any = None) -> list[dict]:
-    """Solve (or load) elec-lim at every wind speed for one candidate; returns the records."""
+    """Solve (or load) elec-lim at every wind speed for one candidate; returns the records.
+
+    With ``task.refine_site`` the grid is then refined where the candidate's curve
+    bends (:func:`energy.adaptive.refine_grid`); added speeds are stored like the others.
+    """
     from optimize.model.kite_model import kite_dae
     from optimize.problem.ocp import build_ocp
     from optimize.problem.scenario import Scenario
@@ -206,7 +211,11 @@ def run_candidate(task: SizingTask, progress: Any = None) -> list[dict]:
     ocp = None
     records: dict[float, dict] = {}
     warms: dict[float, Any] = {}
-    for wind in _chain_order(task.winds):
+
+    def solve_at(wind: float) -> dict:
+        nonlocal ocp
+        if wind in records:
+            return records[wind]
         key = solve_key(c, options, wind)
         stored = _load(task.store, key)
         if stored is not None:
@@ -244,7 +253,16 @@ def run_candidate(task: SizingTask, progress: Any = None) -> list[dict]:
             r = records[wind]
             progress.put({"candidate": c.name, "wind": wind, "status": r["status"],
                           "cached": r["cached"]})
-    return [records[w] for w in task.winds]
+        return records[wind]
+
+    for wind in _chain_order(task.winds):
+        solve_at(wind)
+    if task.refine_site is not None:
+        from energy.adaptive import refine_grid
+
+        refine_grid(lambda w: solve_at(round(float(w), 6))["avg_p_elec_w"], task.winds,
+                    task.refine_site)
+    return [records[w] for w in sorted(records)]
 
 
 @dataclass(frozen=True)
@@ -313,24 +331,29 @@ def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
 def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any, out: Path,
                n_intervals: int = 40, degree: int = 4, handle: Any = None, workers: int = 2,
                scheduler: str | None = None, show_progress: bool = True,
-               tolerance: float = 0.02) -> SizingResult:
+               tolerance: float = 0.02, adaptive: bool = False) -> SizingResult:
     """Run (or resume) the sizing sweep: one task per candidate on the executor.
 
     ``handle`` is an open :class:`optimize.sweep.executors.ExecutorHandle`; without it
     a local process pool of ``workers`` (or the Dask cluster at ``scheduler``) is opened.
+    With ``adaptive`` each candidate's grid is refined where its curve bends
+    (:mod:`energy.adaptive`), so candidates may end with different speeds.
     """
     from tqdm import tqdm
 
     from optimize.sweep.executors import open_executor, run_tasks
 
     store = Path(out) / "solves"
-    tasks = [SizingTask(c, tuple(winds), n_intervals, degree, store) for c in candidates]
+    tasks = [SizingTask(c, tuple(winds), n_intervals, degree, store, site if adaptive else None)
+             for c in candidates]
     bar = tqdm(total=len(tasks) * len(winds), unit="solve", desc="size",
                disable=not show_progress)
     counts = {"solved": 0, "cached": 0}
 
     def on_event(ev: dict) -> None:
         counts["cached" if ev["cached"] else "solved"] += 1
+        if bar.n >= bar.total:  # an adaptive grid adds speeds
+            bar.total += 1
         bar.set_postfix_str(f"{ev['candidate']} {ev['wind']:g} m/s: "
                             f"{'stored' if ev['cached'] else ev['status']}")
         bar.update(1)

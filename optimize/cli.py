@@ -31,6 +31,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "the shipped paper Table I model)",
     )
     parser.add_argument(
+        "--system",
+        type=Path,
+        default=None,
+        help="system file (TOML: kite, aero, tether, winch, drive, wind, bounds; "
+        "docs/system_file.md); default the shipped highwind.toml, the paper's kite",
+    )
+    parser.add_argument(
         "--wind-grid",
         default=DEFAULT_WIND_GRID,
         help="wind speeds at 100 m [m/s]: START:STOP:STEP with both ends included, or a "

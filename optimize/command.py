@@ -23,6 +23,7 @@ from optimize.sweep.chains import Problem, make_tasks, run_sweep
 from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import KINDS, parse_kinds, parse_wind_grid, plan_chains
 from optimize.sweep.trust import run_trust_checks
+from optimize.system.system import System, load_system
 
 
 @dataclass(frozen=True)
@@ -55,6 +56,9 @@ class SweepRequest:
         Run the mesh and simulation checks.
     cut_in_tol_m_s : float
         Cut-in bisection stops at this bracket width [m/s].
+    system : System or None
+        The system (``--system``); ``None`` is the shipped ``highwind.toml``. Its
+        bounds and drive limits replace those of ``options``.
     """
 
     winds: tuple[float, ...]
@@ -69,6 +73,7 @@ class SweepRequest:
     claims: bool = True
     trust: bool = False
     cut_in_tol_m_s: float = 0.05
+    system: System | None = None
 
     @classmethod
     def from_cli(cls, args: Any, fit_model_path: Path) -> SweepRequest:
@@ -90,6 +95,9 @@ class SweepRequest:
                 f"(Table I) {PAPER_MODEL_PATH}"
             )
         model = load_power_model(path)
+        system = load_system(args.system)
+        if args.system is None:
+            note += f"; system: the shipped {system.path}"
         try:
             options = OcpOptions(n_intervals=args.intervals, degree=args.degree,
                                  stored_guess=not args.no_stored_guess)
@@ -109,6 +117,7 @@ class SweepRequest:
             Path(args.out),
             not args.no_claims,
             args.trust,
+            system=system,
         )
 
 
@@ -180,8 +189,10 @@ def run_optimize(
     import sys
 
 
-    model, options = request.drive_model, request.options
-    problem = Problem(None, model, options, f"{options!r}|{model.sha256}")
+    model = request.drive_model
+    system = request.system if request.system is not None else load_system()
+    options = system.ocp_options(request.options, model)
+    problem = Problem.for_system(system, model, options)
     cut_in_kinds = tuple(k for k in request.kinds if KINDS[k][1]) if request.claims else ()
     trust: dict = {"mesh": [], "simulation": []}
     with open_executor(request.workers, request.scheduler) as handle:
@@ -200,10 +211,11 @@ def run_optimize(
     request.out.mkdir(parents=True, exist_ok=True)
     files = {
         "summary": outputs.write_parquet(
-            summary, request.out / "summary.parquet", outputs.SUMMARY_COLUMNS
+            summary, request.out / "summary.parquet", outputs.SUMMARY_COLUMNS, system.record()
         ),
         "trajectories": outputs.write_parquet(
-            outputs.trajectories_frame(result.outcomes), request.out / "trajectories.parquet"
+            outputs.trajectories_frame(result.outcomes), request.out / "trajectories.parquet",
+            system=system.record(),
         ),
     }
     claims_path = request.out / "claims.csv"
@@ -227,6 +239,8 @@ def run_optimize(
             "name": model.name,
             "note": request.model_note,
         },
+        "system": system.record(),
+        "drive_limits": dataclasses.asdict(system.drive_limits(model)),
         "options": dataclasses.asdict(options),
         "executor": result.executor,
         "wall_time_s": result.wall_time_s,
@@ -282,6 +296,19 @@ def domain_lines(summary: Any) -> list[str]:
     return lines
 
 
+def bound_lines(summary: Any) -> list[str]:
+    """One line per converged scenario on a bound or with a slack tether."""
+    lines = []
+    for r in summary.itertuples(index=False):
+        slack = r.slack_fraction
+        if r.success and (r.active_bounds or (np.isfinite(slack) and slack > 0)):
+            note = (" BOUND-LIMITED: the optimum is the bound's, not the kite's"
+                    if r.bound_limited else "")
+            lines.append(f"{r.scenario}: on {r.active_bounds or 'no bound'}; slack tether "
+                         f"{100 * slack:.1f} % of the cycle{note}")
+    return lines
+
+
 def format_summary(summary: Any) -> str:
     """The summary as a plain-text table (the paper's Table II analogue, and more)."""
     head = (
@@ -297,6 +324,9 @@ def format_summary(summary: Any) -> str:
             f"{r.e_elec_j:>9.0f} {r.peak_speed_rpm:>7.0f} {r.peak_torque_nm:>6.1f} "
             f"{r.p_elec_max_w:>10.0f}"
         )
+    flagged = bound_lines(summary)
+    if flagged:
+        lines += ["", "optima on a bound or with a slack tether:", *flagged]
     outside = domain_lines(summary)
     if outside:
         lines += ["", "outside the drive model's validity domain (the model extrapolates there):",

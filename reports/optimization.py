@@ -185,6 +185,26 @@ def claims_rows(claims: pd.DataFrame) -> list[dict]:
     return [{c: str(r.get(c, "")) for c in columns} for r in claims.to_dict(orient="records")]
 
 
+def bound_rows(summary: pd.DataFrame) -> list[dict]:
+    """Converged scenarios on a bound or with a slack tether, for the report.
+
+    Reads ``active_bounds``, ``bound_limited`` and ``slack_fraction`` of the summary
+    (absent in summaries written before they existed: then no rows).
+    """
+    if not {"active_bounds", "bound_limited", "slack_fraction"} <= set(summary.columns):
+        return []
+    rows = []
+    for r in summary.itertuples(index=False):
+        if not r.success:
+            continue
+        slack = float(r.slack_fraction)
+        if r.active_bounds or (np.isfinite(slack) and slack > 0):
+            rows.append({"scenario": r.scenario, "active_bounds": r.active_bounds or "none",
+                         "bound_limited": bool(r.bound_limited),
+                         "slack": f"{100 * slack:.1f} %" if np.isfinite(slack) else "n/a"})
+    return rows
+
+
 def optimization_section(log: InputLog, optimize: Path,
                          grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
                          fit_model_sha256: str | None = None) -> dict:
@@ -207,7 +227,8 @@ def optimization_section(log: InputLog, optimize: Path,
         ``fig8b``, ``fig9``, ``fig10``, ``fig3`` (each markup or None), ``domain``
         (:func:`domain_rows`), ``notes``
         (why a figure is absent), ``claims``, ``run``, ``cut_in``, ``trust``,
-        ``manifest``, ``missing``.
+        ``manifest``, ``missing``, ``bounds`` (:func:`bound_rows`), ``system``
+        (name, hash and file text from the manifest, or None).
     """
     start = len(log.missing)
     optimize = Path(optimize)
@@ -219,17 +240,20 @@ def optimization_section(log: InputLog, optimize: Path,
     out: dict = {"notes": {"fig9": None, "fig3": None}, "manifest": manifest,
                  "table_ii": None, "n_failed": 0, "n_scenarios": 0, "scenarios": None,
                  "fig8a": None, "fig8b": None, "fig9": None, "fig10": None, "fig3": None,
-                 "fig9_periods": [], "fig9_wind": None, "domain": None}
+                 "fig9_periods": [], "fig9_wind": None, "bounds": [],
+                 "domain": None}
     out["claims"] = claims_rows(claims) if claims is not None else None
     out["run"] = run_rows(manifest, fit_model_sha256) if manifest is not None else []
     out["cut_in"] = cut_in_rows(manifest) if manifest is not None else []
     out["trust"] = trust_tables(manifest or {})
+    out["system"] = (manifest or {}).get("system")
     if summary is not None and len(summary):
         s = normalized_summary(summary, summary_path)
         out["table_ii"] = table_ii(s)
         out["n_failed"] = int((~s["ok"]).sum())
         out["n_scenarios"] = len(s)
         out["scenarios"] = frame_table(summary)
+        out["bounds"] = bound_rows(summary)
         out["domain"] = domain_rows(summary)
         out["fig8a"] = cycle_figures.power_vs_wind_figure(
             s, "avg_p_elec_w", "fig8a", "Average generated ELECTRICAL power (Fig. 8a)")

@@ -74,3 +74,33 @@ def test_interrupted_sweep_continues_where_it_stopped(tmp_path):
     assert json.loads((store / f"{victim['key']}.json").read_text())["success"]
     np.testing.assert_allclose(second.table["aep_elec_mwh"], first.table["aep_elec_mwh"],
                                rtol=1e-3)
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [["--wind-grid", "7"], ["--scales", "0,1"], ["--scales", "1,1"], ["--overload", "0.5"],
+     ["--tolerance", "1.5"]],
+)
+def test_bench_size_bad_input_exits_2_before_solving(tmp_path, capsys, extra):
+    from bench.cli import main
+
+    code = main(["size", "--rayleigh-mean", "5.5", "--out", str(tmp_path / "s"), *extra])
+    assert code == 2
+    assert "error" in capsys.readouterr().err
+    assert not (tmp_path / "s").exists()
+
+
+def test_adaptive_sizing_adds_speeds_and_resumes_from_the_store(tmp_path):
+    # two speeds give no curvature estimate, so the grid is split (down to 0.25 m/s
+    # steps) until the chord estimate falls below 0.2 % of the AEP; a rerun solves nothing
+    cands = scaled_candidates(paper_model(), (1.0,), 78.0, 1500.0, 5.0)
+    site = Weibull.from_mean(2.0, 5.5)
+    first = run_sizing(cands, (6.0, 7.0), site, tmp_path, n_intervals=10, handle=_handle(),
+                       show_progress=False, adaptive=True)
+    winds = sorted(r["wind_speed_m_s"] for r in first.records)
+    assert len(winds) > 2 and set(winds) >= {6.0, 7.0}
+    assert min(np.diff(winds)) >= 0.25 - 1e-9
+    second = run_sizing(cands, (6.0, 7.0), site, tmp_path, n_intervals=10, handle=_handle(),
+                        show_progress=False, adaptive=True)
+    assert (second.n_solved, second.n_cached) == (0, len(winds))
+    assert second.table.loc[0, "aep_elec_mwh"] == pytest.approx(first.table.loc[0, "aep_elec_mwh"])

@@ -368,3 +368,14 @@ def test_mapped_names_match_without_regard_to_case_and_spacing(tmp_path):
                           ("speed", "torque", "p_elec"), mapping=load_mapping(m))
     assert got["speed"].index == 0 and got["torque"].index == 1
     assert got["p_elec"].indices == (2, 3)
+
+
+@pytest.mark.parametrize("old, new, words", [
+    ('expr = "{U_DC [V]} * {I_DC [A]}"', 'expr = "{U_DC [V]} * * {I_DC [A]}"',
+     ["position 14", "found '*'"]),
+    ('unit = "W"', 'unit = "mw"', ["ambiguous unit 'mw'"]),
+])
+def test_bad_mapping_entries_exit_2_through_the_cli(tmp_path, capsys, old, new, words):
+    make_ev_table(tmp_path / "c")
+    _set(tmp_path / "c" / "ev_01" / "mapping.toml", old, new)
+    _cli_fails(tmp_path, capsys, tmp_path / "c", "mapping.toml", "columns.p_elec", *words)

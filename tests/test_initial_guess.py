@@ -11,6 +11,7 @@ from optimize.problem.ocp import OcpOptions, build_ocp
 from optimize.solve import initial_guess
 from optimize.solve.solve import start
 from optimize.system.params import KiteParams
+from optimize.system.system import load_system, system_from_dict
 
 
 @pytest.fixture(scope="module")
@@ -34,6 +35,25 @@ def test_guess_is_refused_for_another_discretization_or_kite():
                         OcpOptions())
     solution, why = initial_guess.load(heavier)
     assert solution is None and "does not fit" in why
+
+
+def test_guess_is_accepted_for_its_system_and_refused_for_another():
+    # highwind.toml is the guess's system; a copy with only a wider period range has the
+    # same constraints g, so only the system hash tells them apart
+    system, model = load_system(), paper_model()
+    own = build_ocp(kite_dae(*system.model_params()), model,
+                    system.ocp_options(OcpOptions(), model), system=system)
+    solution, why = initial_guess.load(own)
+    assert solution is not None, why
+    import tomllib
+
+    data = tomllib.loads(system.text)
+    data["bounds"]["period_max_s"] = 30.0
+    wider = system_from_dict(data, "wider.toml")
+    other = build_ocp(kite_dae(*wider.model_params()), model,
+                      wider.ocp_options(OcpOptions(), model), system=wider)
+    solution, why = initial_guess.load(other)
+    assert solution is None and "another system" in why
 
 
 def test_missing_or_damaged_file_is_refused(ocp, tmp_path):

@@ -90,13 +90,13 @@ def test_cold_start_converges_to_a_generating_periodic_cycle(solved):
 
 def test_objective_in_nlp_equals_numpy_power_of_trajectory(solved):
     # the NLP evaluates P_elec through the CasADi drive expression; the trajectory through
-    # numpy. objective [kW] = avg P_elec / 1000 + w_reg * mean_k sum (u / sigma)^2.
+    # numpy. objective = (avg P_elec + w_reg [W] * mean_k sum (u / sigma)^2) / power scale.
     ocp, _, elec, _ = solved
     traj = elec.trajectory
     u = traj.groupby("interval")[["dddl_m_s3", "daileron_rad_s", "delevator_rad_s",
                                   "drudder_rad_s"]].first().to_numpy()
     reg = ((u / np.array(ocp.options.control_sigma)) ** 2).sum() / N_COARSE
-    expected = elec.avg_p_elec_w / 1000.0 + ocp.options.regularization * reg
+    expected = (elec.avg_p_elec_w + ocp.options.regularization_w * reg) / ocp.scales.power_w
     assert elec.objective == pytest.approx(expected, rel=1e-9)
 
 

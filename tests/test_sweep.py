@@ -448,6 +448,8 @@ def test_run_optimize_writes_every_file(tmp_path):
     row = summary.set_index("scenario").loc["mech-lim-7.0"]
     assert row["e_mech_j"] == pytest.approx(-700.0 * 11.0, rel=1e-12)
     assert row["peak_speed_rpm"] == 700.0 and row["peak_torque_nm"] == 70.0
+    # the paper model's domain is the rated box: every stand-in cycle point lies inside
+    assert (summary["outside_domain_time_frac"] == 0.0).all()
     traj = pd.read_parquet(out / "trajectories.parquet")
     assert len(traj) == 18 and field_units(out / "trajectories.parquet")["l_m"] == "m"
     manifest = json.loads((out / "manifest.json").read_text())

@@ -92,7 +92,7 @@ def test_simulation_check_reproduces_an_independent_rk4_trajectory(ocp):
     assert check.interval_defect_scaled < 1e-5
     # periodicity error of the open-loop run = |x(T) - x(0)| of the RK4 run (not periodic here)
     per = [km.IDX[n] for n in PERIODIC_STATES]
-    want = np.max(np.abs(x[per, -1] - x[per, 0]) / km.STATE_SCALE[per])
+    want = np.max(np.abs(x[per, -1] - x[per, 0]) / ocp.scales.state[per])
     assert check.periodicity_error_scaled == pytest.approx(want, rel=1e-4)
     yz = [km.IDX["r_y_m"], km.IDX["r_z_m"]]
     assert check.periodicity_error_position_m == pytest.approx(

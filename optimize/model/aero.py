@@ -16,7 +16,10 @@ from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 
 
 def wind_speed(altitude_m: Any, wind_ref_m_s: Any, wind: WindModel) -> Any:
-    """Log-shear wind speed [m/s] at ``altitude_m`` above ground [m]."""
+    """Wind speed [m/s] at ``altitude_m`` above ground [m] (log law, or power law)."""
+    if wind.power_law_exponent > 0:
+        ratio = ca.fmax(altitude_m, 1e-3) / wind.reference_altitude_m
+        return wind_ref_m_s * ratio**wind.power_law_exponent
     z0 = wind.roughness_length_m
     return (
         wind_ref_m_s

@@ -21,7 +21,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import casadi as ca
-import numpy as np
 
 from optimize.model.aero import aero_forces_moments, altitude_above_ground, wind_speed
 from optimize.system.params import AeroCoefficients, KiteParams, WindModel
@@ -50,16 +49,6 @@ ALGEBRAIC_NAMES: tuple[str, ...] = (
 FICTITIOUS_NAMES: tuple[str, ...] = (
     "f_fict_x_n", "f_fict_y_n", "f_fict_z_n", "m_fict_x_nm", "m_fict_y_nm", "m_fict_z_nm",
 )
-
-# Typical magnitudes used to scale variables and residual rows (issue 4 feasibility notes).
-STATE_SCALE = np.array(
-    [100.0] * 3 + [30.0] * 3 + [1.0] * 9 + [3.0] * 3 + [100.0, 10.0, 30.0] + [0.2] * 3
-)
-CONTROL_SCALE = np.array([100.0, 2.0, 2.0, 2.0])
-ALGEBRAIC_SCALE = np.array([50.0] * 3 + [10.0] * 3 + [10.0])
-FICTITIOUS_SCALE = np.array([100.0] * 3 + [10.0] * 3)
-#: scale of the algebraic residual rows: force [N], moment [N m], d2c/dt2 [m^2/s^2]
-RESIDUAL_SCALE = np.array([100.0] * 3 + [10.0] * 3 + [1000.0])
 
 NX, NU, NZ, NF = len(STATE_NAMES), len(CONTROL_NAMES), len(ALGEBRAIC_NAMES), 6
 IDX = {name: i for i, name in enumerate(STATE_NAMES)}

@@ -12,11 +12,21 @@ fictitious forces and moments that would make it one are returned as well
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from optimize.model.kite_model import NF, NX, NZ, KiteDae
+from optimize.system.params import AeroCoefficients, KiteParams, WindModel
+
+#: sine of the bank angle whose lift turns the start loop (53 deg)
+LOOP_SIN_BANK = 0.8
+#: start loop speed in units of the speed at which lift at the largest valid angle of
+#: attack carries the weight (lift about 4 times the weight in the loop)
+LOOP_SPEED_FACTOR = 2.0
+#: cone half angle and lowest cone-axis elevation of the start loop [deg]
+LOOP_CONE_DEG, LOOP_ELEVATION_DEG = 15.0, 30.0
 
 
 @dataclass(frozen=True)
@@ -43,6 +53,60 @@ class LoopGuess:
     elevation_deg: float = 30.0
     cone_half_angle_deg: float = 15.0
     pitch_deg: float = -7.0
+
+
+def start_loop(
+    kite: KiteParams,
+    coeffs: AeroCoefficients,
+    wind: WindModel,
+    alpha_max_deg: float,
+    min_airspeed_m_s: float,
+    period_bounds_s: tuple[float, float],
+    tether_bounds_m: tuple[float, float],
+    min_altitude_m: float,
+) -> LoopGuess:
+    """The circular start loop of a system, inside its bounds.
+
+    The loop radius is the turn radius ``2 (m/S) / (rho C_L sin(phi))`` at the lift
+    coefficient of the largest valid angle of attack and a bank ``phi`` with
+    ``sin(phi)`` = :data:`LOOP_SIN_BANK`; the cone half angle is kept at
+    :data:`LOOP_CONE_DEG`, so the tether length follows the radius. The speed is
+    :data:`LOOP_SPEED_FACTOR` times the speed at which that lift carries the weight
+    (at least 1.5 times the minimum airspeed); the period is one turn at that speed.
+    The tether length and the period are clamped inside their bounds, and the cone
+    axis is raised until the loop's lowest point is half a radius above the
+    lowest allowed altitude.
+
+    Parameters
+    ----------
+    kite, coeffs, wind
+        The system.
+    alpha_max_deg : float
+        Largest valid angle of attack [deg].
+    min_airspeed_m_s : float
+        Lower airspeed bound [m/s].
+    period_bounds_s, tether_bounds_m : (float, float)
+        Period [s] and tether length [m] bounds.
+    min_altitude_m : float
+        Lowest allowed CG altitude above ground [m].
+    """
+    cl = coeffs.cl0 + coeffs.cl_alpha * math.radians(alpha_max_deg)
+    loading = kite.mass_kg / kite.sref_m2
+    cone = math.radians(LOOP_CONE_DEG)
+    radius = 2.0 * loading / (kite.rho_kg_m3 * cl * LOOP_SIN_BANK)
+    length = radius / math.sin(cone)
+    lo, hi = tether_bounds_m
+    length = min(max(length, 1.2 * lo), 0.8 * hi)
+    radius = length * math.sin(cone)
+    speed = max(LOOP_SPEED_FACTOR * math.sqrt(2.0 * kite.g_m_s2 * loading / (kite.rho_kg_m3 * cl)),
+                1.5 * min_airspeed_m_s)
+    t_lo, t_hi = period_bounds_s
+    period = min(max(2.0 * math.pi * radius / speed, t_lo * 1.1), t_hi / 1.1)
+    lowest = min_altitude_m - wind.origin_altitude_m + 0.5 * radius
+    elevation = max(math.radians(LOOP_ELEVATION_DEG),
+                    cone + math.asin(min(max(lowest / length, 0.0), 0.9)))
+    return LoopGuess(period_s=period, tether_length_m=length,
+                     elevation_deg=math.degrees(elevation), cone_half_angle_deg=LOOP_CONE_DEG)
 
 
 def circular_loop(

@@ -22,6 +22,7 @@ import logging
 import os
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -29,13 +30,15 @@ import numpy as np
 from optimize.model import kite_model as km
 from optimize.model.drive import (
     DriveModel,
-    drum_speed_rpm,
-    drum_torque_nm,
     max_reel_speed_m_s,
     mechanical_power_w,
+    motor_speed_rpm,
+    motor_torque_nm,
 )
 from optimize.model.kite_model import KiteDae
 from optimize.problem.collocation import Collocation, radau
+from optimize.problem.guess import LoopGuess, start_loop
+from optimize.problem.scaling import Scales, system_scales
 
 log = logging.getLogger(__name__)
 
@@ -52,9 +55,6 @@ def _single_threaded_blas() -> None:
     """
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-PERIOD_SCALE_S = 5.0
-#: power objective unit [W]: the NLP objective is in kW
-POWER_SCALE_W = 1000.0
 #: periodic state components (REFERENCE.md §3)
 PERIODIC_STATES = (
     "r_y_m", "r_z_m", "v_y_m_s", "v_z_m_s", "omega_x_rad_s", "omega_y_rad_s",
@@ -85,9 +85,9 @@ class OcpOptions:
         IPOPT acceptable tolerance.
     max_iter : int
         IPOPT iteration limit per solve.
-    regularization : float
+    regularization_w : float
         Weight of the control regularization ``mean_k sum_i (u_i / sigma_i)^2``
-        [kW]. The default 1e-4 kW = 0.1 W is the weight of the reference
+        [W]. The default 0.1 W is the weight of the reference
         implementation (rawesome ``pumping_poweropt.py``: 0.1 (u/sigma)^2 in W).
     control_sigma : (float, float, float, float)
         Scales ``sigma`` of tether jerk [m/s^3] and aileron, elevator, rudder
@@ -99,10 +99,19 @@ class OcpOptions:
         the default gives 2.22 s and 3.82 s).
     period_bounds_s : (float, float)
         Bounds on the free period [s].
+    tether_length_bounds_m : (float, float)
+        Bounds on the tether length [m].
+    min_altitude_m : float
+        Lowest CG altitude above ground [m] (the system's ground clearance).
     max_speed_rpm, max_torque_nm : float
-        Drive limits of the constrained scenarios [rpm], [N m].
+        Drive limits of the constrained scenarios at the motor shaft [rpm], [N m].
+    max_p_elec_w : float or None
+        Limit of the electrical power drawn or fed [W] in the constrained
+        scenarios (rows only when set).
+    nominal_power_w : float
+        The drive's nominal power [W]: the objective's scale.
     max_rms_torque_nm : float or None
-        Continuous rating of the drive: the RMS drum torque over the cycle,
+        Continuous rating of the drive: the RMS motor torque over the cycle,
         ``sqrt(mean_t T^2)``, at most this in the constrained scenarios [N m]
         (``max_torque_nm`` is then the short-time peak). ``None`` (default)
         leaves the row out of the NLP; it is the last constraint row, so a
@@ -144,11 +153,15 @@ class OcpOptions:
     tol: float = 1e-6
     acceptable_tol: float = 1e-4
     max_iter: int = 1000
-    regularization: float = 1e-4
+    regularization_w: float = 0.1
     control_sigma: tuple[float, float, float, float] = (10.0, 1.0, 1.0, 1.0)
     period_bounds_s: tuple[float, float] = (1.0, 20.0)
+    tether_length_bounds_m: tuple[float, float] = (1.0, 500.0)
+    min_altitude_m: float = 2.0
     max_speed_rpm: float = 1500.0
     max_torque_nm: float = 78.0
+    max_p_elec_w: float | None = None
+    nominal_power_w: float = 8200.0
     max_rms_torque_nm: float | None = None
     min_airspeed_m_s: float = 10.0
     alpha_bounds_deg: tuple[float, float] = (-4.5, 8.5)
@@ -193,6 +206,7 @@ class Layout:
     n_w: int
     n_g: int
     g_torque: np.ndarray  # rows of the torque constraint
+    g_p_elec: np.ndarray  # rows of the electrical power limit (empty without one)
     g_periodic: np.ndarray  # rows of the periodicity constraints (states and DCM)
     n_p: int
     i_p_ref: np.ndarray  # (NX, n_points) reference trajectory in p
@@ -233,6 +247,9 @@ class Ocp:
     ubg: np.ndarray
     build_time_s: float
     drive_model: DriveModel
+    scales: Scales
+    loop: LoopGuess
+    system: Any = None
     _solvers: dict = field(default_factory=dict, repr=False)
     _g_fn: ca.Function | None = field(default=None, repr=False)
     _derivatives: dict | None = field(default=None, repr=False)
@@ -366,9 +383,10 @@ class Ocp:
         wind_ref_m_s : float
             Wind speed at 100 m [m/s].
         w_elec, w_mech : float
-            Weights of the average electrical / mechanical power [per kW].
+            Weights of the average electrical / mechanical power [per scaled power].
         w_reg : float, optional
-            Regularization weight; defaults to ``options.regularization``.
+            Regularization weight [per scaled power]; defaults to
+            ``options.regularization_w`` over the power scale.
         w_track, w_fict : float
             Homotopy weights: state tracking and fictitious-force penalty.
         x_ref : ndarray (NX, N d + 1), optional
@@ -376,10 +394,11 @@ class Ocp:
         """
         lay = self.layout
         p = np.zeros(lay.n_p)
-        w_reg = self.options.regularization if w_reg is None else w_reg
+        if w_reg is None:
+            w_reg = self.options.regularization_w / self.scales.power_w
         p[: len(PARAM_NAMES)] = [wind_ref_m_s, w_elec, w_mech, w_reg, w_track, w_fict]
         if x_ref is not None:
-            p[lay.i_p_ref] = x_ref / km.STATE_SCALE[:, None]
+            p[lay.i_p_ref] = x_ref / self.scales.state[:, None]
         return p
 
     def bounds(
@@ -393,20 +412,24 @@ class Ocp:
         lay, o = self.layout, self.options
         lbw, ubw, lbg, ubg = self.lbw.copy(), self.ubw.copy(), self.lbg.copy(), self.ubg.copy()
         if drive_limits:
-            dl_max = max_reel_speed_m_s(o.max_speed_rpm, self.dae.kite.r_winch_m)
+            kite = self.dae.kite
+            dl_max = max_reel_speed_m_s(o.max_speed_rpm / kite.gear_ratio, kite.r_winch_m)
             idx = lay.i_x[km.IDX["dl_m_s"]]
-            lbw[idx] = -dl_max / km.STATE_SCALE[km.IDX["dl_m_s"]]
-            ubw[idx] = dl_max / km.STATE_SCALE[km.IDX["dl_m_s"]]
-            ubg[lay.g_torque] = o.max_torque_nm / TORQUE_ROW_SCALE_NM
+            lbw[idx] = -dl_max / self.scales.state[km.IDX["dl_m_s"]]
+            ubw[idx] = dl_max / self.scales.state[km.IDX["dl_m_s"]]
+            ubg[lay.g_torque] = o.max_torque_nm / self.scales.torque_nm
+            if o.max_p_elec_w is not None:
+                lbg[lay.g_p_elec] = -o.max_p_elec_w / self.scales.power_w
+                ubg[lay.g_p_elec] = o.max_p_elec_w / self.scales.power_w
             if lay.g_rms.size:
-                ubg[lay.g_rms] = (o.max_rms_torque_nm / TORQUE_ROW_SCALE_NM) ** 2
+                ubg[lay.g_rms] = (o.max_rms_torque_nm / self.scales.torque_nm) ** 2
         if fix_fictitious:
             lbw[lay.i_f.ravel()] = 0.0
             ubw[lay.i_f.ravel()] = 0.0
         if period_s is not None:
             # fix the first copy only: the copies follow through their equality rows
             # (fixing all would leave those rows with an empty Jacobian)
-            lbw[lay.i_period[0]] = ubw[lay.i_period[0]] = period_s / PERIOD_SCALE_S
+            lbw[lay.i_period[0]] = ubw[lay.i_period[0]] = period_s / self.scales.period_s
         return lbw, ubw, lbg, ubg
 
     def pack(self, x: np.ndarray, z: np.ndarray, u: np.ndarray, fict: np.ndarray,
@@ -434,12 +457,9 @@ class Ocp:
         }
 
 
-#: scale of the torque constraint rows [N m]
-TORQUE_ROW_SCALE_NM = 100.0
-
-
 def build_ocp(
-    dae: KiteDae, drive_model: DriveModel, options: OcpOptions | None = None
+    dae: KiteDae, drive_model: DriveModel, options: OcpOptions | None = None,
+    system: Any = None,
 ) -> Ocp:
     """Build the scaled collocation NLP once for given options and drive model.
 
@@ -451,6 +471,9 @@ def build_ocp(
         Electrical power model of the drive (``fitting.model_file.PowerModel``).
     options : OcpOptions, optional
         Discretization and limits; defaults to :class:`OcpOptions`.
+    system : optimize.system.system.System, optional
+        The system ``dae`` and the limits of ``options`` come from (recorded on
+        the OCP; the stored initial guess is accepted only for its own system).
 
     Returns
     -------
@@ -460,6 +483,11 @@ def build_ocp(
     """
     t0 = time.perf_counter()
     o = options or OcpOptions()
+    deg = np.pi / 180
+    loop = start_loop(dae.kite, dae.coeffs, dae.wind, o.alpha_bounds_deg[1], o.min_airspeed_m_s,
+                      o.period_bounds_s, o.tether_length_bounds_m, o.min_altitude_m)
+    sc = system_scales(dae.kite, loop, o.nominal_power_w, o.max_torque_nm,
+                       o.surface_bound_deg * deg, o.surface_rate_bound_rad_s)
     coll = radau(o.degree)
     n, d = o.n_intervals, o.degree
     nx, nz, nu, nf = km.NX, km.NZ, km.NU, km.NF
@@ -474,11 +502,11 @@ def build_ocp(
     i_f = np.array([[next(counter) for _ in range(nf)] for _ in range(n_coll)]).T
     n_w = next(counter)
     scale_w = np.ones(n_w)
-    scale_w[i_period] = PERIOD_SCALE_S
-    scale_w[i_x] = km.STATE_SCALE[:, None]
-    scale_w[i_z] = km.ALGEBRAIC_SCALE[:, None]
-    scale_w[i_u] = km.CONTROL_SCALE[:, None]
-    scale_w[i_f] = km.FICTITIOUS_SCALE[:, None]
+    scale_w[i_period] = sc.period_s
+    scale_w[i_x] = sc.state[:, None]
+    scale_w[i_z] = sc.algebraic[:, None]
+    scale_w[i_u] = sc.control[:, None]
+    scale_w[i_f] = sc.fictitious[:, None]
 
     n_par = len(PARAM_NAMES)
     n_p = n_par + nx * n_points
@@ -497,10 +525,9 @@ def build_ocp(
     us = [col(i_u, k) for k in range(n)]
     fs = [col(i_f, k) for k in range(n_coll)]
 
-    r_w = dae.kite.r_winch_m
-    deg = np.pi / 180
+    r_w, gear = dae.kite.r_winch_m, dae.kite.gear_ratio
     g, lbg, ubg = [], [], []
-    g_torque, g_periodic = [], []
+    g_torque, g_periodic, g_p_elec = [], [], []
     n_g = 0
 
     def add(expr, lo, hi, tag=None):
@@ -514,8 +541,9 @@ def build_ocp(
         n_g += size
 
     out_names = dae.outputs.name_out()
-    inv_sx = ca.DM(1.0 / km.STATE_SCALE)
-    inv_res = ca.DM(1.0 / km.RESIDUAL_SCALE)
+    inv_sx = ca.DM(1.0 / sc.state)
+    inv_res = ca.DM(1.0 / sc.residual)
+    v_sc = sc.airspeed_m_s
     p_elec_avg, p_mech_avg, reg, track, fict_pen, torque_sq_avg = 0, 0, 0, 0, 0, 0
     for k in range(n):
         u_k = us[k]
@@ -529,7 +557,7 @@ def build_ocp(
             add((xp - h * dae.ode(x_kj, u_k, z_kj)) * inv_sx, 0.0, 0.0)
             add(dae.alg(x_kj, u_k, z_kj, wind, fs[ic]) * inv_res, 0.0, 0.0)
             out = dict(zip(out_names, dae.outputs(x_kj, u_k, z_kj, wind), strict=True))
-            add(out["airspeed_m_s"] / 30.0, o.min_airspeed_m_s / 30.0, np.inf)
+            add(out["airspeed_m_s"] / v_sc, o.min_airspeed_m_s / v_sc, np.inf)
             add(out["alpha_rad"] / (10 * deg), o.alpha_bounds_deg[0] / 10,
                 o.alpha_bounds_deg[1] / 10)
             add(out["beta_rad"] / (10 * deg), o.beta_bounds_deg[0] / 10,
@@ -537,29 +565,31 @@ def build_ocp(
             add(out["cos_line_angle"], np.cos(o.max_line_angle_deg * deg), np.inf)
             l_kj, dl_kj, nu_kj = x_kj[km.IDX["l_m"]], x_kj[km.IDX["dl_m_s"]], z_kj[6]
             tension = l_kj * nu_kj
-            torque = drum_torque_nm(tension, r_w)
-            add(torque / TORQUE_ROW_SCALE_NM, -np.inf, np.inf, tag=g_torque)
+            torque = motor_torque_nm(tension, r_w, gear)
+            add(torque / sc.torque_nm, -np.inf, np.inf, tag=g_torque)
             p_mech = mechanical_power_w(tension, dl_kj)
-            p_elec = drive_model.casadi_p_elec_w(drum_speed_rpm(dl_kj, r_w), torque)
+            p_elec = drive_model.casadi_p_elec_w(motor_speed_rpm(dl_kj, r_w, gear), torque)
+            if o.max_p_elec_w is not None:
+                add(p_elec / sc.power_w, -np.inf, np.inf, tag=g_p_elec)
             p_elec_avg += coll.quad[j - 1] * p_elec / n
             p_mech_avg += coll.quad[j - 1] * p_mech / n
-            torque_sq_avg += coll.quad[j - 1] * (torque / TORQUE_ROW_SCALE_NM) ** 2 / n
-            fict_pen += ca.sumsqr(fs[ic] / ca.DM(km.FICTITIOUS_SCALE)) / n_coll
+            torque_sq_avg += coll.quad[j - 1] * (torque / sc.torque_nm) ** 2 / n
+            fict_pen += ca.sumsqr(fs[ic] / ca.DM(sc.fictitious)) / n_coll
     for k in range(n_points):
         ref = p[[int(i) for i in i_p_ref[:, k]]]
         track += ca.sumsqr(xs[k] * inv_sx - ref) / n_points
 
     # one period copy per interval keeps the KKT matrix banded (no dense period column)
-    add(ca.vertcat(*[(ws[int(i_period[k + 1])] - ws[int(i_period[k])]) / PERIOD_SCALE_S
+    add(ca.vertcat(*[(ws[int(i_period[k + 1])] - ws[int(i_period[k])]) / sc.period_s
                      for k in range(n - 1)]), 0.0, 0.0)
     # invariants at t = 0 (c, dc/dt, orthonormal R)
     c0, cdot0, orth0 = dae.invariants(xs[0])
-    add(c0 / 100.0, 0.0, 0.0)
-    add(cdot0 / 1000.0, 0.0, 0.0)
+    add(c0 / sc.c_m2, 0.0, 0.0)
+    add(cdot0 / sc.cdot_m2_s, 0.0, 0.0)
     add(ca.vertcat(*[orth0[a, b] for a in range(3) for b in range(a, 3)]), 0.0, 0.0)
     # periodicity
     per = [km.IDX[name] for name in PERIODIC_STATES]
-    add((xs[-1][per] - xs[0][per]) * ca.DM(1.0 / km.STATE_SCALE[per]), 0.0, 0.0, g_periodic)
+    add((xs[-1][per] - xs[0][per]) * ca.DM(1.0 / sc.state[per]), 0.0, 0.0, g_periodic)
     dcm0 = ca.reshape(xs[0][6:15], 3, 3)
     dcm_t = ca.reshape(xs[-1][6:15], 3, 3)
     rel = ca.mtimes(dcm0.T, dcm_t)
@@ -569,7 +599,7 @@ def build_ocp(
         add(torque_sq_avg, -np.inf, np.inf, tag=g_rms)
 
     objective = (
-        (w_elec * p_elec_avg + w_mech * p_mech_avg) / POWER_SCALE_W
+        (w_elec * p_elec_avg + w_mech * p_mech_avg) / sc.power_w
         + w_reg * reg
         + w_track * track
         + w_fict * fict_pen
@@ -580,17 +610,20 @@ def build_ocp(
     lbw = np.full(n_w, -np.inf)
     ubw = np.full(n_w, np.inf)
     lbw[i_period], ubw[i_period] = o.period_bounds_s
+    l_lo, l_hi = o.tether_length_bounds_m
+    reach = 4.0 * l_hi  # position bounds: never active, they only keep IPOPT in range
+    z_top = o.min_altitude_m - dae.wind.origin_altitude_m  # r_z <= -(clearance above winch)
     state_lo = {
-        "r_x_m": -2000, "r_y_m": -2000, "r_z_m": -2000, "v_x_m_s": -200, "v_y_m_s": -200,
+        "r_x_m": -reach, "r_y_m": -reach, "r_z_m": -reach, "v_x_m_s": -200, "v_y_m_s": -200,
         "v_z_m_s": -200, "omega_x_rad_s": -6 * np.pi, "omega_y_rad_s": -6 * np.pi,
-        "omega_z_rad_s": -6 * np.pi, "l_m": 1.0, "dl_m_s": -100, "ddl_m_s2": -500,
+        "omega_z_rad_s": -6 * np.pi, "l_m": l_lo, "dl_m_s": -100, "ddl_m_s2": -500,
         "aileron_rad": -o.surface_bound_deg * deg, "elevator_rad": -o.surface_bound_deg * deg,
         "rudder_rad": -o.surface_bound_deg * deg,
     }
     state_hi = {
-        "r_x_m": 2000, "r_y_m": 2000, "r_z_m": 0.0, "v_x_m_s": 200, "v_y_m_s": 200,
+        "r_x_m": reach, "r_y_m": reach, "r_z_m": -z_top, "v_x_m_s": 200, "v_y_m_s": 200,
         "v_z_m_s": 200, "omega_x_rad_s": 6 * np.pi, "omega_y_rad_s": 6 * np.pi,
-        "omega_z_rad_s": 6 * np.pi, "l_m": 500.0, "dl_m_s": 100, "ddl_m_s2": 500,
+        "omega_z_rad_s": 6 * np.pi, "l_m": l_hi, "dl_m_s": 100, "ddl_m_s2": 500,
         "aileron_rad": o.surface_bound_deg * deg, "elevator_rad": o.surface_bound_deg * deg,
         "rudder_rad": o.surface_bound_deg * deg,
     }
@@ -612,6 +645,7 @@ def build_ocp(
         layout=Layout(
             n_points=n_points, n_coll=n_coll, i_period=i_period, i_x=i_x, i_z=i_z, i_u=i_u,
             i_f=i_f, scale_w=scale_w, n_w=n_w, n_g=n_g, g_torque=np.array(g_torque),
+            g_p_elec=np.array(g_p_elec, dtype=int),
             g_periodic=np.array(g_periodic), n_p=n_p,
             i_p_ref=i_p_ref, g_rms=np.array(g_rms, dtype=int),
         ),
@@ -622,6 +656,9 @@ def build_ocp(
         ubg=np.array(ubg),
         build_time_s=0.0,
         drive_model=drive_model,
+        scales=sc,
+        loop=loop,
+        system=system,
     )
     ocp.build_time_s = time.perf_counter() - t0
     log.info("built OCP: %d variables, %d constraints, N=%d, degree %d in %.1f s",

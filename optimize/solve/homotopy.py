@@ -2,7 +2,7 @@
 
 Stages (each one IPOPT call, logged with status, iterations and wall time):
 
-1. ``track``: follow the circular-loop guess at its fixed period, with free
+1. ``track``: follow the circular-loop guess (period free), with free
    fictitious forces and moments initialised to the guess's exact residual
    (so the dynamics hold at the start), lightly penalized.
 2. ``penalize-1``, ``penalize-10``, ``penalize-100``: the same with the
@@ -18,6 +18,7 @@ deliberately absent (it stalled for 400 s in the issue's prototype).
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 
 import numpy as np
@@ -37,6 +38,12 @@ PENALTY_WEIGHTS = (1.0, 10.0, 100.0)
 #: scenario warm solves' 1e-2 the mech-lim-7.0 homotopy ended in a local optimum
 #: 0.36 W worse (benchmarks/README.md)
 HOMOTOPY_BOUND_PUSH = 1e-9
+#: intermediate penalty weights tried, in all, when penalty stages fail
+MAX_INSERTED = 4
+#: the power stage starts only once the RMS of the scaled fictitious forces is below this
+FICT_RMS_MAX = 0.05
+#: the largest penalty weight tried to get there
+MAX_PENALTY_WEIGHT = 1e4
 
 
 def _record(stages: list[dict], name: str, raw: RawSolve, scenario: Scenario) -> None:
@@ -53,8 +60,30 @@ def power_weights(scenario: Scenario) -> dict[str, float]:
     return {"w_elec": 1.0 if elec else 0.0, "w_mech": 0.0 if elec else 1.0}
 
 
+def _failed(ocp: Ocp, scenario: Scenario, raw: RawSolve, p: np.ndarray, bounds: tuple,
+            stages: list[dict], stage: str) -> OcpResult:
+    """A homotopy that stopped at ``stage``: a failed result naming the stage."""
+    res = make_result(ocp, scenario, raw, p, bounds, stages, start="homotopy")
+    return dataclasses.replace(res, success=False,
+                               status=f"homotopy stage {stage}: {raw.status}")
+
+
+def fictitious_rms(ocp: Ocp, w_scaled: np.ndarray) -> float:
+    """Root mean square of the scaled fictitious forces and moments [-]."""
+    return float(np.sqrt(np.mean(np.asarray(w_scaled)[ocp.layout.i_f] ** 2)))
+
+
 def cold_start(ocp: Ocp, scenario: Scenario, guess: LoopGuess | None = None) -> OcpResult:
     """Solve ``scenario`` from the circular-loop guess through the homotopy.
+
+    Stages: ``track`` (period free), ``penalize-W`` for the weights of
+    :data:`PENALTY_WEIGHTS`; when a penalty stage fails, intermediate weights
+    (geometric means with the last good weight, at most :data:`MAX_INSERTED`)
+    are tried from the last good point; further weights (x10, up to
+    :data:`MAX_PENALTY_WEIGHT`) follow while the scaled fictitious forces' RMS
+    exceeds :data:`FICT_RMS_MAX`; then ``power``. A stage that still fails,
+    or fictitious forces that stay large, end the homotopy: the result is a
+    failed solve whose status names the stage.
 
     Parameters
     ----------
@@ -63,7 +92,8 @@ def cold_start(ocp: Ocp, scenario: Scenario, guess: LoopGuess | None = None) -> 
     scenario : Scenario
         Wind speed, objective and drive limits of the final stage.
     guess : LoopGuess, optional
-        Geometry of the initial loop; the default suits 5 to 10 m/s.
+        Geometry of the initial loop; defaults to the system's start loop
+        (``ocp.loop``, :func:`optimize.problem.guess.start_loop`).
 
     Returns
     -------
@@ -71,7 +101,7 @@ def cold_start(ocp: Ocp, scenario: Scenario, guess: LoopGuess | None = None) -> 
         Result of the final (power) stage; ``stages`` lists every stage and
         ``iterations``/``wall_time_s`` are the totals.
     """
-    guess = guess or LoopGuess()
+    guess = guess or ocp.loop
     wind = scenario.wind_speed_m_s
     lay = ocp.layout
     x, z, fict = circular_loop(ocp.dae, guess, grid_times(ocp, guess.period_s), wind)
@@ -79,18 +109,46 @@ def cold_start(ocp: Ocp, scenario: Scenario, guess: LoopGuess | None = None) -> 
     w0 = ocp.pack(x, z[:, 1:], u, fict[:, 1:], guess.period_s)
     stages: list[dict] = []
 
-    track_bounds = ocp.bounds(drive_limits=False, fix_fictitious=False, period_s=guess.period_s)
+    track_bounds = ocp.bounds(drive_limits=False, fix_fictitious=False, period_s=None)
     p = ocp.params(wind, w_track=1.0, w_fict=TRACK_FICT_WEIGHT, x_ref=x)
     raw = ocp.run(w0, p, track_bounds, warm=False)
     _record(stages, "track", raw, scenario)
-    for weight in PENALTY_WEIGHTS:
-        p = ocp.params(wind, w_track=1.0, w_fict=weight, x_ref=x)
-        raw = ocp.run(raw.w, p, track_bounds, warm=True, lam_x0=raw.lam_x, lam_g0=raw.lam_g,
-                      bound_push=HOMOTOPY_BOUND_PUSH)
-        _record(stages, f"penalize-{weight:g}", raw, scenario)
+    if not raw.success:
+        return _failed(ocp, scenario, raw, p, track_bounds, stages, "track")
+
+    def penalize(start: RawSolve, weight: float) -> tuple[RawSolve, np.ndarray]:
+        p_w = ocp.params(wind, w_track=1.0, w_fict=weight, x_ref=x)
+        out = ocp.run(start.w, p_w, track_bounds, warm=True, lam_x0=start.lam_x,
+                      lam_g0=start.lam_g, bound_push=HOMOTOPY_BOUND_PUSH)
+        _record(stages, f"penalize-{weight:g}", out, scenario)
+        return out, p_w
+
+    weights = list(PENALTY_WEIGHTS)
+    last_weight, inserted = TRACK_FICT_WEIGHT, 0
+    while weights:
+        weight = weights.pop(0)
+        trial, p = penalize(raw, weight)
+        if trial.success:
+            raw, last_weight = trial, weight
+        elif inserted < MAX_INSERTED:
+            inserted += 1
+            weights[:0] = [float(np.sqrt(last_weight * weight)), weight]
+            continue
+        else:
+            return _failed(ocp, scenario, trial, p, track_bounds, stages, f"penalize-{weight:g}")
+        if not weights and fictitious_rms(ocp, raw.w) > FICT_RMS_MAX:
+            if weight * 10 > MAX_PENALTY_WEIGHT:
+                raw = dataclasses.replace(
+                    raw, status=f"fictitious forces RMS {fictitious_rms(ocp, raw.w):.2g} "
+                    f"> {FICT_RMS_MAX:g} of their scale")
+                return _failed(ocp, scenario, raw, p, track_bounds, stages,
+                               f"penalize-{weight:g}")
+            weights.append(weight * 10)
 
     bounds = ocp.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
     p = ocp.params(wind, **power_weights(scenario))
     raw = ocp.run(raw.w, p, bounds, warm=False)
     _record(stages, "power", raw, scenario)
+    if not raw.success:
+        return _failed(ocp, scenario, raw, p, bounds, stages, "power")
     return make_result(ocp, scenario, raw, p, bounds, stages, start="homotopy")

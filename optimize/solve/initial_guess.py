@@ -2,11 +2,13 @@
 
 ``optimize/data/initial_guess.npz`` holds the scaled primal and dual solution of
 one scenario (:data:`GUESS_SCENARIO`, elec-lim-7.0, solved by the homotopy with
-the paper's Table I drive model at the default discretization), the NLP
-parameters it was solved with and the scaled constraint values ``g(w, p)`` there.
+the paper's Table I drive model, the shipped ``highwind.toml`` system, at the default
+discretization), the NLP parameters it was solved with, the scaled constraint values
+``g(w, p)`` there and the system's hash.
 
-:func:`load` accepts the file for an OCP only if that OCP evaluates the same
-``g`` at the stored point to :data:`MATCH_TOL`. The constraints do not depend on
+:func:`load` accepts the file for an OCP only if the OCP's system (when it has
+one) is the stored one and it evaluates the same ``g`` at the stored point to
+:data:`MATCH_TOL`. The constraints do not depend on
 the drive model, so the guess serves any fitted model; a changed kite model,
 scaling, collocation or layout makes it stale, and :func:`optimize.solve.solve.start`
 falls back to the homotopy. Regenerate the file with::
@@ -30,6 +32,7 @@ from optimize.problem.ocp import Ocp, OcpOptions, build_ocp
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start, power_weights
 from optimize.solve.result import OcpResult, Solution
+from optimize.system.system import load_system
 
 log = logging.getLogger(__name__)
 
@@ -51,6 +54,7 @@ def write(path: str | Path, ocp: Ocp, result: OcpResult, p: np.ndarray) -> Path:
             fh, w=w, lam_x=result.warm.lam_x, lam_g=result.warm.lam_g, p=p,
             g=ocp.constraint_values(w, p), n_intervals=ocp.options.n_intervals,
             degree=ocp.coll.degree, scenario=result.scenario.name,
+            system_sha256=getattr(ocp.system, "sha256", ""),
         )
     return Path(path)
 
@@ -77,8 +81,14 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
     try:
         with np.load(path) as f:
             data = {k: f[k] for k in (*ARRAYS, "n_intervals", "degree", "scenario")}
+            stored_system = str(f["system_sha256"]) if "system_sha256" in f.files else ""
     except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
         return None, f"cannot read the stored initial guess {path}: {exc}"
+    system = getattr(ocp.system, "sha256", None)
+    if system is not None and system != stored_system:
+        return None, (f"the stored initial guess is for another system (sha256 "
+                      f"{stored_system[:12] or 'not recorded'}); this OCP's system "
+                      f"{ocp.system.name} has {system[:12]}")
     n, d = int(data["n_intervals"]), int(data["degree"])
     if (n, d) != (ocp.options.n_intervals, ocp.coll.degree):
         return None, (f"the stored initial guess is for N={n}, degree {d}; this OCP has "
@@ -106,7 +116,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=GUESS_PATH)
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
-    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions())
+    system, model = load_system(), paper_model()
+    ocp = build_ocp(kite_dae(*system.model_params()), model,
+                    system.ocp_options(OcpOptions(), model), system=system)
     result = cold_start(ocp, GUESS_SCENARIO)
     if not result.success:
         log.error("%s: %s, no guess written", GUESS_SCENARIO.name, result.status)

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 
 from optimize.model import kite_model as km
-from optimize.model.drive import drum_speed_rpm, drum_torque_nm, mechanical_power_w
+from optimize.model.drive import mechanical_power_w, motor_speed_rpm, motor_torque_nm
 from optimize.problem.ocp import Ocp, RawSolve
 from optimize.problem.scenario import Scenario
 
@@ -52,7 +52,7 @@ class OcpResult:
     wall_time_s : float
         Wall time of the solver calls [s], all stages/retries included.
     objective : float
-        NLP objective at the solution [kW + regularization].
+        NLP objective at the solution [power scale, regularization included].
     period_s : float
         Cycle period [s].
     avg_p_elec_w, avg_p_mech_w : float
@@ -71,6 +71,12 @@ class OcpResult:
     stages : tuple of dict
         Per-stage log of a cold start (name, status, iterations, wall_time_s);
         one entry per solver call otherwise.
+    active_bounds : tuple of str
+        Bounds the optimum sits on (:func:`active_bounds`): ``period_min``,
+        ``period_max``, ``tether_length_min``, ``tether_length_max``,
+        ``ground_clearance``, ``speed_limit``, ``torque_limit``, ``p_elec_limit``.
+    slack_fraction : float
+        Fraction of the cycle time with zero tether tension [-] (:func:`slack_fraction`).
     start : str
         How the final solve was started: ``"warm start"`` (from a neighbouring
         solution), ``"stored guess"`` (:mod:`optimize.solve.initial_guess`) or
@@ -92,6 +98,8 @@ class OcpResult:
     warm: Solution
     stages: tuple[dict, ...]
     start: str = "warm start"
+    active_bounds: tuple[str, ...] = ()
+    slack_fraction: float = 0.0
 
 
 def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_ref_m_s: float) -> pd.DataFrame:
@@ -112,11 +120,11 @@ def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_ref_m_s: float) -> pd.
     outputs = ocp.dae.outputs.map(x.shape[1])(x, u, z, wind_ref_m_s)
     names = ocp.dae.outputs.name_out()
     out = {name: np.asarray(val).ravel() for name, val in zip(names, outputs, strict=True)}
-    r_w = ocp.dae.kite.r_winch_m
+    r_w, gear = ocp.dae.kite.r_winch_m, ocp.dae.kite.gear_ratio
     dl = x[km.IDX["dl_m_s"]]
     tension = x[km.IDX["l_m"]] * z[6]
-    frame["speed_rpm"] = drum_speed_rpm(dl, r_w)
-    frame["torque_nm"] = drum_torque_nm(tension, r_w)
+    frame["speed_rpm"] = motor_speed_rpm(dl, r_w, gear)
+    frame["torque_nm"] = motor_torque_nm(tension, r_w, gear)
     frame["tension_n"] = tension
     frame["p_mech_w"] = mechanical_power_w(tension, dl)
     frame["p_elec_w"] = np.asarray(
@@ -131,6 +139,67 @@ def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_ref_m_s: float) -> pd.
     frame["c_m2"] = out["c_m2"]
     frame["cdot_m2_s"] = out["cdot_m2_s"]
     return pd.DataFrame(frame)
+
+
+#: a bound counts as active within this fraction of its value (IPOPT's bound push and
+#: tolerance leave the optimum about 1e-8 to 1e-6 inside)
+ACTIVE_RTOL = 1e-3
+#: tension below this fraction of the kite's weight counts as a slack tether
+SLACK_TENSION_FRACTION = 1e-3
+
+
+def _near(value: np.ndarray, bound: float) -> bool:
+    return bool(np.isfinite(bound)) and bool(
+        np.any(np.abs(value - bound) <= ACTIVE_RTOL * max(abs(bound), 1e-9)))
+
+
+def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: bool,
+                  bounds: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> tuple[str, ...]:
+    """Names of the bounds the solution sits on (period, tether length, ground, drive).
+
+    Parameters
+    ----------
+    ocp : Ocp
+    traj : pandas.DataFrame
+        :func:`trajectory_frame` of the solution.
+    period_s : float
+        Its period [s].
+    drive_limits : bool
+        Whether the drive limits applied.
+    bounds : tuple
+        The scaled ``lbx, ubx, lbg, ubg`` of the solve (a fixed period is not a bound).
+    """
+    o, lay = ocp.options, ocp.layout
+    out = []
+    i = lay.i_period[0]
+    period_fixed = bounds[0][i] == bounds[1][i]
+    if not period_fixed:
+        lo, hi = o.period_bounds_s
+        out += [n for n, b in (("period_min", lo), ("period_max", hi)) if _near(period_s, b)]
+    l_lo, l_hi = o.tether_length_bounds_m
+    length = traj["l_m"].to_numpy()
+    out += [n for n, b in (("tether_length_min", l_lo), ("tether_length_max", l_hi))
+            if _near(length, b)]
+    if _near(traj["altitude_m"].to_numpy(), o.min_altitude_m):
+        out.append("ground_clearance")
+    if drive_limits:
+        speed = np.abs(traj["speed_rpm"].to_numpy())
+        if _near(speed, o.max_speed_rpm):
+            out.append("speed_limit")
+        if _near(traj["torque_nm"].to_numpy(), o.max_torque_nm):
+            out.append("torque_limit")
+        if o.max_p_elec_w is not None and _near(np.abs(traj["p_elec_w"].to_numpy()),
+                                                o.max_p_elec_w):
+            out.append("p_elec_limit")
+    return tuple(out)
+
+
+def slack_fraction(ocp: Ocp, traj: pd.DataFrame) -> float:
+    """Fraction of the cycle time [-] with tension below :data:`SLACK_TENSION_FRACTION`
+    of the kite's weight (quadrature weights of the Radau points)."""
+    kite = ocp.dae.kite
+    slack = traj["tension_n"].to_numpy() < SLACK_TENSION_FRACTION * kite.mass_kg * kite.g_m_s2
+    return float((traj["weight"].to_numpy() * slack).sum())
 
 
 def make_result(
@@ -149,6 +218,7 @@ def make_result(
     viol_g = np.maximum(np.maximum(lbg - g, g - ubg), 0.0)
     viol_x = np.maximum(np.maximum(bounds[0] - raw.w, raw.w - bounds[1]), 0.0)
     per = float(np.max(np.abs(g[ocp.layout.g_periodic])))
+    period_s = float(ocp.unpack(raw.w)["period_s"])
     return OcpResult(
         scenario=scenario,
         status=raw.status,
@@ -156,7 +226,7 @@ def make_result(
         iterations=int(sum(s["iterations"] for s in stages)),
         wall_time_s=float(sum(s["wall_time_s"] for s in stages)),
         objective=raw.objective,
-        period_s=float(ocp.unpack(raw.w)["period_s"]),
+        period_s=period_s,
         avg_p_elec_w=float((traj["weight"] * traj["p_elec_w"]).sum()),
         avg_p_mech_w=float((traj["weight"] * traj["p_mech_w"]).sum()),
         periodicity_error=per,
@@ -168,4 +238,6 @@ def make_result(
         ),
         stages=tuple(stages),
         start=start,
+        active_bounds=active_bounds(ocp, traj, period_s, scenario.drive_limits, bounds),
+        slack_fraction=slack_fraction(ocp, traj),
     )

@@ -70,13 +70,28 @@ class Problem:
     options : Any
         ``OcpOptions`` (interval count, degree, solver settings).
     key : str
-        Cache key of the built NLP: options, parameters and drive-model hash.
+        Cache key of the built NLP: options, system and drive-model hash.
+    system : Any
+        ``optimize.system.system.System`` the parameters come from (``None`` with
+        the package defaults); the built OCP carries it (stored-guess acceptance).
     """
 
     params: Any
     drive_model: Any
     options: Any
     key: str
+    system: Any = None
+
+    @classmethod
+    def for_system(cls, system: Any, drive_model: Any, options: Any) -> Problem:
+        """The problem of a system with its options (already holding the system's limits)."""
+        return cls(system.model_params(), drive_model, options,
+                   problem_key(options, drive_model, system), system)
+
+
+def problem_key(options: Any, drive_model: Any, system: Any) -> str:
+    """NLP cache key: options, drive-model hash and system hash."""
+    return f"{options!r}|{drive_model.sha256}|{getattr(system, 'sha256', 'defaults')}"
 
 
 @dataclass(frozen=True)
@@ -244,7 +259,8 @@ class OcpBackend:
         key = (problem.key, threading.get_ident())
         if key not in _OCP_CACHE:
             dae = kite_dae(*(problem.params or ()))
-            _OCP_CACHE[key] = build_ocp(dae, problem.drive_model, problem.options)
+            _OCP_CACHE[key] = build_ocp(dae, problem.drive_model, problem.options,
+                                        system=problem.system)
         return _OCP_CACHE[key]
 
     @staticmethod

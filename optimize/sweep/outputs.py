@@ -60,7 +60,7 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "scenario": "scenario name, kind and wind speed",
     "kind": "elec-lim | elec-free | mech-lim | mech-free",
     "objective": "electrical | mechanical (the average power maximized)",
-    "drive_limits": "drive limits |rpm| <= 1500, torque <= 78 N m applied",
+    "drive_limits": "the drive's speed and torque limits applied (manifest drive_limits)",
     "wind_speed_m_s": "wind speed at 100 m",
     "success": "final solve converged",
     "status": "IPOPT return status of the final solve",
@@ -70,13 +70,18 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "total_wall_time_s": "wall time of all runs of this scenario",
     "warm_source": "scenario the final solve was warm-started from, or 'cold start'",
     "chain": "warm-start chain (worker task) index",
+    "active_bounds": "bounds the optimum sits on, comma-separated: period_min, period_max, "
+    "tether_length_min, tether_length_max, ground_clearance, speed_limit, torque_limit, "
+    "p_elec_limit ('' for none)",
+    "bound_limited": "an optimum on a bound the system did not mean to bind (period or tether "
+    "length range): the optimum is the bound's, not the kite's",
     "period_s": "cycle period",
     "avg_p_elec_w": "average electrical power (negative = generated)",
     "avg_p_mech_w": "average mechanical power (negative = generated)",
     "e_elec_j": "net electrical energy per cycle (negative = generated)",
     "e_mech_j": "net mechanical energy per cycle (negative = generated)",
-    "peak_speed_rpm": "largest |drum speed|",
-    "peak_torque_nm": "largest drum torque",
+    "peak_speed_rpm": "largest |motor speed| (drum speed times the gear ratio)",
+    "peak_torque_nm": "largest motor torque (drum torque over the gear ratio)",
     "p_elec_max_w": "largest electrical power (peak drawn from the grid)",
     "p_elec_min_w": "smallest electrical power (peak generated, negative)",
     "tether_length_min_m": "shortest tether length",
@@ -85,6 +90,7 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "altitude_max_m": "highest altitude above ground",
     "periodicity_error": "largest scaled residual of the periodicity constraints [-]",
     "max_violation": "largest scaled constraint violation [-]",
+    "slack_fraction": "fraction of the cycle time with zero tether tension (slack tether) [-]",
     "outside_domain_time_frac": "share of the cycle time outside the drive model's validity "
                                 "domain (its measured envelope per quadrant) [-]; NaN when "
                                 "the model has no domain",
@@ -95,6 +101,15 @@ SUMMARY_COLUMNS: dict[str, str] = {
 }
 #: the metric columns (NaN for a failed scenario)
 _METRICS = list(SUMMARY_COLUMNS)[list(SUMMARY_COLUMNS).index("period_s") :]
+#: active bounds the constrained scenarios mean to bind
+DRIVE_BOUNDS = ("speed_limit", "torque_limit", "p_elec_limit")
+#: bounds an optimum may sit on as physics: the drive limits and the ground (a safety
+#: limit); the period and tether-length ranges are search ranges, and an optimum on
+#: one of them is the range's, not the system's
+MEANT_BOUNDS = (*DRIVE_BOUNDS, "ground_clearance")
+#: keys of the Parquet files' schema metadata recording the system
+SYSTEM_META_KEYS = ("drivebench.system_name", "drivebench.system_sha256",
+                    "drivebench.system_toml")
 
 
 def unit_of(column: str) -> str:
@@ -170,6 +185,14 @@ def summary_row(o: ScenarioOutcome, domain: dict | None = None,
         )
         row.update(_trajectory_metrics(r.trajectory))
         row.update(_excursion_metrics(r.trajectory, domain, scales))
+        active = tuple(getattr(r, "active_bounds", ()))
+        row.update(
+            active_bounds=",".join(active),
+            bound_limited=any(b not in MEANT_BOUNDS for b in active),
+            slack_fraction=float(getattr(r, "slack_fraction", math.nan)),
+        )
+    else:
+        row.update(active_bounds="", bound_limited=False)
     return row
 
 
@@ -191,6 +214,8 @@ def summary_frame(outcomes: Iterable[ScenarioOutcome], domain: dict | None = Non
         {
             "success": bool,
             "drive_limits": bool,
+            "bound_limited": bool,
+            "active_bounds": str,
             "iterations": "int64",
             "attempts": "int64",
             "chain": "int64",
@@ -215,9 +240,14 @@ def trajectories_frame(outcomes: Iterable[ScenarioOutcome]) -> pd.DataFrame:
 
 
 def write_parquet(
-    frame: pd.DataFrame, path: Path, descriptions: dict[str, str] | None = None
+    frame: pd.DataFrame, path: Path, descriptions: dict[str, str] | None = None,
+    system: dict | None = None,
 ) -> Path:
-    """Write ``frame`` with each field's unit (and description, if given) in its metadata."""
+    """Write ``frame`` with each field's unit (and description, if given) in its metadata.
+
+    ``system`` (``System.record()``) goes into the schema metadata under
+    :data:`SYSTEM_META_KEYS`: name, hash and the system file's text.
+    """
     table = pa.Table.from_pandas(frame, preserve_index=False)
     fields = []
     for f in table.schema:
@@ -225,7 +255,12 @@ def write_parquet(
         if descriptions and f.name in descriptions:
             meta["description"] = descriptions[f.name]
         fields.append(f.with_metadata(meta))
-    table = table.cast(pa.schema(fields, metadata=table.schema.metadata))
+    meta = dict(table.schema.metadata or {})
+    if system is not None:
+        for key, value in zip(SYSTEM_META_KEYS, (system["name"], system["sha256"],
+                                                 system["text"]), strict=True):
+            meta[key.encode()] = str(value).encode("utf-8")
+    table = table.cast(pa.schema(fields, metadata=meta))
     return atomic_write(path, lambda tmp: pq.write_table(table, tmp))
 
 

@@ -33,7 +33,7 @@ from optimize.problem.ocp import PERIODIC_STATES, Ocp, grid_times
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start, power_weights
 from optimize.solve.result import OcpResult, Solution, make_result
-from optimize.sweep.chains import OcpBackend, Problem
+from optimize.sweep.chains import OcpBackend, Problem, problem_key
 from optimize.sweep.executors import run_tasks
 from optimize.sweep.plan import middle_index
 
@@ -242,7 +242,7 @@ def simulation_check(ocp: Ocp, result: OcpResult) -> SimulationCheck:
     n, d = ocp.options.n_intervals, ocp.coll.degree
     wind = result.scenario.wind_speed_m_s
     step = _interval_integrator(ocp, sol["period_s"])
-    scale = km.STATE_SCALE[:, None]
+    scale = ocp.scales.state[:, None]
     defect_pos = defect_scaled = open_pos = 0.0
     x_open = x_c[:, 0]
     p_open = []
@@ -265,7 +265,7 @@ def simulation_check(ocp: Ocp, result: OcpResult) -> SimulationCheck:
     p_mech = -tension * x_sim[km.IDX["dl_m_s"]]
     t = grid_times(ocp, sol["period_s"])
     avg_p_mech = float(np.trapezoid(p_mech, t) / sol["period_s"])
-    per = (x_open - x_c[:, 0])[_PER] / km.STATE_SCALE[_PER]
+    per = (x_open - x_c[:, 0])[_PER] / ocp.scales.state[_PER]
     yz = [km.IDX["r_y_m"], km.IDX["r_z_m"]]
     return SimulationCheck(
         scenario=result.scenario.name,
@@ -323,7 +323,8 @@ def run_trust_checks(
         problem.params,
         problem.drive_model,
         fine_opts,
-        f"{fine_opts!r}|{problem.drive_model.sha256}",
+        problem_key(fine_opts, problem.drive_model, problem.system),
+        problem.system,
     )
     middle = winds[middle_index(winds)]
     picks = [o for o in outcomes if o.success and o.wind_speed_m_s == middle]

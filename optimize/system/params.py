@@ -67,6 +67,7 @@ class KiteParams:
         0.25 * 0.001, "m (C_D_tether * sref / l)", "REFERENCE.md §2: C_D += 0.25*l*0.001/sref"
     )
     r_winch_m: float = _f(0.1, "m", "REFERENCE.md §1 (winch drum radius)")
+    gear_ratio: float = _f(1.0, "-", "REFERENCE.md §1 (drive on the drum shaft)")
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> KiteParams:
@@ -117,7 +118,8 @@ class AeroCoefficients:
 
 @dataclass(frozen=True)
 class WindModel:
-    """Logarithmic wind shear ``w(h) = w_ref ln((h + z0)/z0) / ln(h_ref/z0)``.
+    """Logarithmic wind shear ``w(h) = w_ref ln((h + z0)/z0) / ln(h_ref/z0)``, or with
+    ``power_law_exponent = a > 0`` the power law ``w(h) = w_ref (h / h_ref)^a``.
 
     ``h`` is the altitude above ground; the model origin (winch) sits
     ``origin_altitude_m`` above ground. The wind blows along world +x.
@@ -126,6 +128,7 @@ class WindModel:
     reference_altitude_m: float = _f(100.0, "m", _SRC_WIND)
     roughness_length_m: float = _f(0.1, "m", _SRC_WIND)
     origin_altitude_m: float = _f(2.0, "m", _SRC_WIND + " (altitude0 = -2)")
+    power_law_exponent: float = _f(0.0, "-", "0 selects the log law")
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> WindModel:

@@ -1,0 +1,104 @@
+"""Cold starts (homotopy, no stored guess) of the shipped systems across the wind range.
+
+Usage::
+
+    .venv/bin/python benchmarks/system_cold_starts.py [--systems highwind,ap2,megawes]
+        [--winds 4,7,10,13] [--kind elec-lim] [--intervals 40] [--degree 4]
+
+For every system (``optimize/data/systems/NAME.toml``) one OCP is built and each
+wind speed is solved from the system's start loop through the homotopy. highwind
+uses the paper's Table I drive model; the other systems a drive of the same
+design rated at the system file's speed, torque and nominal power
+(:class:`optimize.model.drive.RatedDrive`). Prints per run: status, iterations,
+wall time, P_elec, P_mech, period, active bounds and the slack-tether fraction,
+with the load average; writes ``benchmarks/out/system_cold_starts.json``.
+
+Goal (issue 11): 12/12 converged, none with the period or tether on a bound the
+file did not mean to bind, median cold start <= 20 s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import statistics
+import time
+from pathlib import Path
+
+from fitting.model_file import paper_model
+from optimize.model.drive import RatedDrive
+from optimize.model.kite_model import kite_dae
+from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.problem.scenario import Scenario
+from optimize.solve.homotopy import cold_start
+from optimize.sweep.outputs import MEANT_BOUNDS
+from optimize.sweep.plan import KINDS
+from optimize.system.system import load_system, shipped_system_path
+
+#: ratings of the paper's drive, the base of the rated drives (REFERENCE.md §1, §3)
+PAPER_SPEED_RPM, PAPER_TORQUE_NM = 1500.0, 78.0
+
+
+def drive_for(system, paper):
+    """The paper model for highwind, a rated copy of it for the other systems."""
+    if system.name == "highwind":
+        return paper
+    d = system.drive
+    return RatedDrive(paper, PAPER_SPEED_RPM, PAPER_TORQUE_NM, d.max_speed_rpm,
+                      d.max_torque_nm, d.nominal_power_w)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--systems", default="highwind,ap2,megawes")
+    ap.add_argument("--winds", default="4,7,10,13")
+    ap.add_argument("--kind", default="elec-lim", choices=tuple(KINDS))
+    ap.add_argument("--intervals", type=int, default=40)
+    ap.add_argument("--degree", type=int, default=4)
+    args = ap.parse_args()
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    objective, limits = KINDS[args.kind]
+    paper = paper_model()
+    runs = []
+    for name in args.systems.split(","):
+        system = load_system(shipped_system_path(name))
+        model = drive_for(system, paper)
+        options = system.ocp_options(
+            OcpOptions(n_intervals=args.intervals, degree=args.degree, stored_guess=False), model)
+        ocp = build_ocp(kite_dae(*system.model_params()), model, options, system=system)
+        print(f"{name}: start loop {ocp.loop}", flush=True)
+        for wind in (float(w) for w in args.winds.split(",")):
+            load = os.getloadavg()[0]
+            t0 = time.perf_counter()
+            res = cold_start(ocp, Scenario(wind, objective, limits))
+            wall = time.perf_counter() - t0
+            unmeant = [b for b in res.active_bounds if b not in MEANT_BOUNDS]
+            runs.append({
+                "system": name, "wind_m_s": wind, "status": res.status, "success": res.success,
+                "iterations": res.iterations, "wall_time_s": wall, "load_1min": load,
+                "p_elec_w": res.avg_p_elec_w, "p_mech_w": res.avg_p_mech_w,
+                "period_s": res.period_s, "active_bounds": list(res.active_bounds),
+                "unmeant_bounds": unmeant, "slack_fraction": res.slack_fraction,
+                "stages": [{k: s[k] for k in ("stage", "status", "iterations")}
+                           for s in res.stages],
+            })
+            print(f"{name:<9} {wind:5.1f} m/s {res.status[:40]:<40} {res.iterations:4d} it "
+                  f"{wall:6.1f} s (load {load:4.1f})  P_elec {res.avg_p_elec_w:12.1f} W  "
+                  f"P_mech {res.avg_p_mech_w:12.1f} W  T {res.period_s:6.2f} s  "
+                  f"bounds {','.join(res.active_bounds) or '-'}  slack "
+                  f"{100 * res.slack_fraction:.1f} %", flush=True)
+    ok = [r for r in runs if r["success"]]
+    clean = [r for r in ok if not r["unmeant_bounds"]]
+    median = statistics.median(r["wall_time_s"] for r in runs) if runs else float("nan")
+    median_it = statistics.median(r["iterations"] for r in runs) if runs else float("nan")
+    print(f"converged {len(ok)}/{len(runs)}; without an unmeant bound {len(clean)}/{len(runs)}; "
+          f"median cold start {median:.1f} s, {median_it:.0f} iterations")
+    out = Path(__file__).parent / "out"
+    out.mkdir(exist_ok=True)
+    (out / "system_cold_starts.json").write_text(json.dumps(runs, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,443 @@
+"""The system file of ``bench optimize --system FILE``: kite, aero, tether, winch, drive,
+wind and bounds (TOML; docs/system_file.md describes every key).
+
+:func:`load_system` reads and validates a file into a frozen :class:`System`;
+every error (unknown or missing key, wrong type, non-physical value such as a
+negative mass or an inertia that is not positive definite) is an
+:class:`~bench.errors.InputError` naming the file and the key. The shipped
+systems live in ``optimize/data/systems/`` (:func:`shipped_system_path`);
+``highwind.toml`` is the paper's kite and the default.
+
+A :class:`System` turns into the model's parameter sets
+(:meth:`System.kite_params`, :meth:`System.aero_coefficients`,
+:meth:`System.wind_model`) and into the OCP's physical limits
+(:meth:`System.ocp_limits`). It is hashed on its parsed content
+(:attr:`System.sha256`, comments and key order do not count), which is part of
+the NLP cache key and of the stored-guess acceptance.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bench.errors import InputError
+from optimize.system.params import AeroCoefficients, KiteParams, WindModel
+
+#: folder of the shipped system files (package data)
+SYSTEMS_DIR = Path(__file__).resolve().parent.parent / "data" / "systems"
+DEFAULT_SYSTEM = "highwind"
+
+
+def shipped_system_path(name: str = DEFAULT_SYSTEM) -> Path:
+    """Path of a shipped system file by name (``"highwind"``, ``"ap2"``, ``"megawes"``)."""
+    return SYSTEMS_DIR / f"{name}.toml"
+
+
+def _number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+@dataclass(frozen=True)
+class KiteSection:
+    """``[kite]``: rigid wing; body axes x forward, y right wing, z down."""
+
+    mass_kg: float
+    reference_area_m2: float
+    span_m: float
+    chord_m: float
+    bridle_offset_m: float  # bridle point below the CG along body z [m]
+    inertia_xx_kg_m2: float
+    inertia_yy_kg_m2: float
+    inertia_zz_kg_m2: float
+    inertia_xz_kg_m2: float
+
+
+@dataclass(frozen=True)
+class AeroSection:
+    """``[aero]``: the coefficients of :class:`AeroCoefficients` and their validity range."""
+
+    coefficients: AeroCoefficients
+    alpha_min_deg: float
+    alpha_max_deg: float
+    beta_min_deg: float
+    beta_max_deg: float
+
+
+@dataclass(frozen=True)
+class TetherSection:
+    """``[tether]``: the kite sees a quarter of the tether's drag (lumped)."""
+
+    diameter_m: float
+    drag_coefficient: float
+
+
+@dataclass(frozen=True)
+class WinchSection:
+    """``[winch]``: drum and gearbox (motor speed = gear ratio x drum speed)."""
+
+    drum_radius_m: float
+    gear_ratio: float
+
+
+@dataclass(frozen=True)
+class DriveSection:
+    """``[drive]``: limits at the motor shaft; ``None`` = take it from the power model."""
+
+    max_speed_rpm: float | None
+    max_torque_nm: float | None
+    nominal_power_w: float | None
+    max_p_elec_w: float | None
+
+
+@dataclass(frozen=True)
+class WindSection:
+    """``[wind]``: profile ``"log"`` (roughness length) or ``"power"`` (exponent)."""
+
+    profile: str
+    reference_height_m: float
+    roughness_length_m: float | None
+    exponent: float | None
+    winch_height_m: float
+    air_density_kg_m3: float
+    gravity_m_s2: float
+
+
+@dataclass(frozen=True)
+class BoundsSection:
+    """``[bounds]``: the OCP's path and parameter bounds."""
+
+    tether_length_min_m: float
+    tether_length_max_m: float
+    period_min_s: float
+    period_max_s: float
+    min_ground_clearance_m: float
+    min_airspeed_m_s: float
+    max_line_angle_deg: float
+    surface_max_deg: float
+    surface_rate_max_rad_s: float
+
+
+@dataclass(frozen=True)
+class DriveLimits:
+    """The drive limits in force and where each came from."""
+
+    max_speed_rpm: float
+    max_torque_nm: float
+    nominal_power_w: float
+    max_p_elec_w: float | None
+    sources: dict
+
+
+@dataclass(frozen=True)
+class System:
+    """A whole system file, validated.
+
+    Attributes
+    ----------
+    name, description : str
+    kite, aero, tether, winch, drive, wind, bounds
+        The sections.
+    path : str
+        Where it was read from.
+    text : str
+        The file's content as read (recorded in every output).
+    sha256 : str
+        Hash of the parsed content (canonical JSON): the system's identity.
+    """
+
+    name: str
+    description: str
+    kite: KiteSection
+    aero: AeroSection
+    tether: TetherSection
+    winch: WinchSection
+    drive: DriveSection
+    wind: WindSection
+    bounds: BoundsSection
+    path: str
+    text: str
+    sha256: str
+
+    # -------------------------------------------------------------- model parameters
+    def kite_params(self) -> KiteParams:
+        """The kite DAE's :class:`KiteParams`."""
+        k, w = self.kite, self.wind
+        return KiteParams(
+            mass_kg=k.mass_kg, sref_m2=k.reference_area_m2, bref_m=k.span_m, cref_m=k.chord_m,
+            zt_m=k.bridle_offset_m, g_m_s2=w.gravity_m_s2, rho_kg_m3=w.air_density_kg_m3,
+            j1_kg_m2=k.inertia_xx_kg_m2, j2_kg_m2=k.inertia_yy_kg_m2,
+            j3_kg_m2=k.inertia_zz_kg_m2, j31_kg_m2=k.inertia_xz_kg_m2,
+            tether_cd_per_m=0.25 * self.tether.drag_coefficient * self.tether.diameter_m,
+            r_winch_m=self.winch.drum_radius_m, gear_ratio=self.winch.gear_ratio,
+        )
+
+    def aero_coefficients(self) -> AeroCoefficients:
+        """The aerodynamic coefficients."""
+        return self.aero.coefficients
+
+    def wind_model(self) -> WindModel:
+        """The wind profile."""
+        w = self.wind
+        return WindModel(
+            reference_altitude_m=w.reference_height_m,
+            roughness_length_m=w.roughness_length_m if w.profile == "log" else 0.0,
+            origin_altitude_m=w.winch_height_m,
+            power_law_exponent=w.exponent if w.profile == "power" else 0.0,
+        )
+
+    def ground_clearance_m(self) -> float:
+        """Lowest allowed CG altitude above ground [m]: the file's value, at least half the span."""
+        return max(self.bounds.min_ground_clearance_m, 0.5 * self.kite.span_m)
+
+    def drive_limits(self, drive_model: Any = None) -> DriveLimits:
+        """Drive limits: the power model's ``drive`` limits where present, else this file's.
+
+        Parameters
+        ----------
+        drive_model : fitting.model_file.PowerModel, optional
+            Its ``drive`` mapping (keys ``max_speed_rpm``, ``max_torque_nm``,
+            ``nominal_power_w``) takes precedence; its ``nominal_power_w`` is the
+            fallback nominal power.
+
+        Raises
+        ------
+        InputError
+            When a limit is in neither.
+        """
+        keys = ("max_speed_rpm", "max_torque_nm", "nominal_power_w")
+        given = getattr(drive_model, "drive", None) or {}
+        from_model = ({k: given.get(k) for k in keys} if isinstance(given, dict)
+                      else {k: getattr(given, k, None) for k in keys})
+        nominal_model = getattr(drive_model, "nominal_power_w", None)
+        values, sources = {}, {}
+        for key in keys:
+            if _number(from_model[key]) and from_model[key] > 0:
+                values[key], sources[key] = float(from_model[key]), "power model"
+            elif getattr(self.drive, key) is not None:
+                values[key], sources[key] = float(getattr(self.drive, key)), "system file"
+            elif key == "nominal_power_w" and _number(nominal_model) and nominal_model > 0:
+                values[key], sources[key] = float(nominal_model), "power model"
+            else:
+                raise InputError(self.path, f"[drive] {key}: not in the system file and not "
+                                 "in the power model's drive limits",
+                                 expected=f"{key} in [drive] of the system file")
+        sources["max_p_elec_w"] = "system file" if self.drive.max_p_elec_w else "none"
+        return DriveLimits(values["max_speed_rpm"], values["max_torque_nm"],
+                           values["nominal_power_w"], self.drive.max_p_elec_w, sources)
+
+    def ocp_options(self, options: Any, drive_model: Any = None) -> Any:
+        """``options`` (an ``OcpOptions``) with this system's bounds and drive limits.
+
+        Raises
+        ------
+        InputError
+            When a drive limit is neither in the power model nor in the file.
+        """
+        limits = self.drive_limits(drive_model)
+        b, a = self.bounds, self.aero
+        return dataclasses.replace(
+            options,
+            period_bounds_s=(b.period_min_s, b.period_max_s),
+            tether_length_bounds_m=(b.tether_length_min_m, b.tether_length_max_m),
+            min_altitude_m=self.ground_clearance_m(),
+            max_speed_rpm=limits.max_speed_rpm,
+            max_torque_nm=limits.max_torque_nm,
+            max_p_elec_w=limits.max_p_elec_w,
+            nominal_power_w=limits.nominal_power_w,
+            min_airspeed_m_s=b.min_airspeed_m_s,
+            alpha_bounds_deg=(a.alpha_min_deg, a.alpha_max_deg),
+            beta_bounds_deg=(a.beta_min_deg, a.beta_max_deg),
+            max_line_angle_deg=b.max_line_angle_deg,
+            surface_bound_deg=b.surface_max_deg,
+            surface_rate_bound_rad_s=b.surface_rate_max_rad_s,
+        )
+
+    def model_params(self) -> tuple[KiteParams, AeroCoefficients, WindModel]:
+        """Arguments of ``optimize.model.kite_model.kite_dae``."""
+        return self.kite_params(), self.aero_coefficients(), self.wind_model()
+
+    def record(self) -> dict:
+        """What every output records about the system: name, path, hash and content."""
+        return {"name": self.name, "path": self.path, "sha256": self.sha256, "text": self.text}
+
+
+# ------------------------------------------------------------------ parsing
+_SECTIONS = ("system", "kite", "aero", "tether", "winch", "drive", "wind", "bounds")
+_OPTIONAL = {
+    "drive": {"max_speed_rpm", "max_torque_nm", "nominal_power_w", "max_p_elec_w"},
+    "wind": {"roughness_length_m", "exponent"},
+    "system": {"description"},
+}
+
+
+class _Reader:
+    """Pops keys from one section, checking types; raises InputError naming file and key."""
+
+    def __init__(self, path: str, section: str, data: Any):
+        if not isinstance(data, dict):
+            raise InputError(path, f"[{section}]: not a table", expected=f"a [{section}] table")
+        self.path, self.section, self.data = path, section, dict(data)
+
+    def error(self, key: str, problem: str, expected: str) -> InputError:
+        return InputError(self.path, f"[{self.section}] {key}: {problem}", expected=expected)
+
+    def number(self, key: str, lo: float | None = None, strict: bool = True,
+               optional: bool = False) -> float | None:
+        if key not in self.data:
+            if optional:
+                return None
+            raise self.error(key, "missing", "a number")
+        value = self.data.pop(key)
+        if not _number(value):
+            raise self.error(key, f"{value!r} is not a finite number", "a number")
+        if lo is not None and (value <= lo if strict else value < lo):
+            raise self.error(key, f"{value!r} is not physical",
+                             f"a number {'>' if strict else '>='} {lo:g}")
+        return float(value)
+
+    def text(self, key: str, choices: tuple[str, ...] | None = None,
+             optional: bool = False) -> str | None:
+        if key not in self.data:
+            if optional:
+                return None
+            raise self.error(key, "missing", "a string")
+        value = self.data.pop(key)
+        if not isinstance(value, str):
+            raise self.error(key, f"{value!r} is not a string", "a string")
+        if choices is not None and value not in choices:
+            raise self.error(key, f"{value!r} is not allowed", "one of " + ", ".join(choices))
+        return value
+
+    def done(self) -> None:
+        if self.data:
+            key = sorted(self.data)[0]
+            raise self.error(key, "unknown key", "only the keys of docs/system_file.md")
+
+
+def _aero(r: _Reader) -> AeroSection:
+    names = [f.name for f in dataclasses.fields(AeroCoefficients)]
+    coeffs = AeroCoefficients(**{n: r.number(n) for n in names})
+    a_lo, a_hi = r.number("alpha_min_deg"), r.number("alpha_max_deg")
+    b_lo, b_hi = r.number("beta_min_deg"), r.number("beta_max_deg")
+    if not -90 < a_lo < a_hi < 90:
+        raise r.error("alpha_max_deg", f"range [{a_lo:g}, {a_hi:g}]", "-90 < alpha_min < "
+                      "alpha_max < 90 deg")
+    if not -90 < b_lo < b_hi < 90:
+        raise r.error("beta_max_deg", f"range [{b_lo:g}, {b_hi:g}]", "-90 < beta_min < "
+                      "beta_max < 90 deg")
+    if coeffs.cl_alpha <= 0:
+        raise r.error("cl_alpha", f"{coeffs.cl_alpha!r} is not physical", "a lift slope > 0")
+    r.done()
+    return AeroSection(coeffs, a_lo, a_hi, b_lo, b_hi)
+
+
+def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> System:
+    """Validate a parsed system file (see :func:`load_system`)."""
+    if not isinstance(data, dict):
+        raise InputError(path, "not a table of sections", expected="a TOML file")
+    unknown = sorted(set(data) - set(_SECTIONS))
+    if unknown:
+        raise InputError(path, f"[{unknown[0]}]: unknown section",
+                         expected="sections " + ", ".join(_SECTIONS))
+    for s in _SECTIONS:
+        if s not in data:
+            raise InputError(path, f"[{s}]: missing section",
+                             expected="sections " + ", ".join(_SECTIONS))
+    r = _Reader(path, "system", data["system"])
+    name, description = r.text("name"), r.text("description", optional=True) or ""
+    r.done()
+
+    r = _Reader(path, "kite", data["kite"])
+    kite = KiteSection(
+        r.number("mass_kg", 0), r.number("reference_area_m2", 0), r.number("span_m", 0),
+        r.number("chord_m", 0), r.number("bridle_offset_m", 0, strict=False),
+        r.number("inertia_xx_kg_m2", 0), r.number("inertia_yy_kg_m2", 0),
+        r.number("inertia_zz_kg_m2", 0), r.number("inertia_xz_kg_m2"),
+    )
+    r.done()
+    inertia = np.array([[kite.inertia_xx_kg_m2, 0, kite.inertia_xz_kg_m2],
+                        [0, kite.inertia_yy_kg_m2, 0],
+                        [kite.inertia_xz_kg_m2, 0, kite.inertia_zz_kg_m2]])
+    if np.min(np.linalg.eigvalsh(inertia)) <= 0:
+        raise InputError(path, "[kite] inertia_xz_kg_m2: the inertia matrix is not positive "
+                         "definite", expected="inertia_xz_kg_m2^2 < inertia_xx_kg_m2 * "
+                         "inertia_zz_kg_m2")
+
+    aero = _aero(_Reader(path, "aero", data["aero"]))
+
+    r = _Reader(path, "tether", data["tether"])
+    tether = TetherSection(r.number("diameter_m", 0), r.number("drag_coefficient", 0, False))
+    r.done()
+
+    r = _Reader(path, "winch", data["winch"])
+    winch = WinchSection(r.number("drum_radius_m", 0), r.number("gear_ratio", 0))
+    r.done()
+
+    r = _Reader(path, "drive", data["drive"])
+    drive = DriveSection(*(r.number(k, 0, optional=True) for k in
+                           ("max_speed_rpm", "max_torque_nm", "nominal_power_w", "max_p_elec_w")))
+    r.done()
+
+    r = _Reader(path, "wind", data["wind"])
+    profile = r.text("profile", ("log", "power"))
+    ref = r.number("reference_height_m", 0)
+    rough = r.number("roughness_length_m", 0, optional=profile != "log")
+    exponent = r.number("exponent", 0, optional=profile != "power")
+    if profile == "log" and exponent is not None:
+        raise r.error("exponent", "given with profile = \"log\"", "roughness_length_m only")
+    if profile == "power" and rough is not None:
+        raise r.error("roughness_length_m", "given with profile = \"power\"", "exponent only")
+    wind = WindSection(profile, ref, rough, exponent, r.number("winch_height_m", 0, False),
+                       r.number("air_density_kg_m3", 0), r.number("gravity_m_s2", 0))
+    r.done()
+
+    r = _Reader(path, "bounds", data["bounds"])
+    bounds = BoundsSection(
+        r.number("tether_length_min_m", 0), r.number("tether_length_max_m", 0),
+        r.number("period_min_s", 0), r.number("period_max_s", 0),
+        r.number("min_ground_clearance_m", 0, False), r.number("min_airspeed_m_s", 0, False),
+        r.number("max_line_angle_deg", 0), r.number("surface_max_deg", 0),
+        r.number("surface_rate_max_rad_s", 0),
+    )
+    if bounds.tether_length_max_m <= bounds.tether_length_min_m:
+        raise r.error("tether_length_max_m", "not above tether_length_min_m",
+                      "tether_length_min_m < tether_length_max_m")
+    if bounds.period_max_s <= bounds.period_min_s:
+        raise r.error("period_max_s", "not above period_min_s", "period_min_s < period_max_s")
+    if bounds.max_line_angle_deg >= 90:
+        raise r.error("max_line_angle_deg", f"{bounds.max_line_angle_deg:g}", "an angle < 90 deg")
+    r.done()
+
+    canonical = json.dumps(data, sort_keys=True, separators=(",", ":"))
+    return System(name, description, kite, aero, tether, winch, drive, wind, bounds, path,
+                  text, hashlib.sha256(canonical.encode("utf-8")).hexdigest())
+
+
+def load_system(path: str | Path | None = None) -> System:
+    """Read and validate a system file (default: the shipped ``highwind.toml``).
+
+    Raises
+    ------
+    InputError
+        File missing or not TOML, or any key wrong (named with the file).
+    """
+    path = Path(path) if path is not None else shipped_system_path()
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise InputError(path, f"cannot read the system file: {exc.strerror or exc}",
+                         expected="a readable TOML system file") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(path, f"not valid TOML: {exc}", expected="a TOML system file") from None
+    return system_from_dict(data, str(path), text)

@@ -1,0 +1,135 @@
+"""System files (issue 11 §2): the shipped ones load, and every kind of bad input is an
+InputError naming the file and the key."""
+
+from __future__ import annotations
+
+import tomllib
+
+import pytest
+
+from bench.errors import InputError
+from optimize.problem.ocp import OcpOptions
+from optimize.system.params import AeroCoefficients, KiteParams, WindModel
+from optimize.system.system import load_system, shipped_system_path, system_from_dict
+
+SHIPPED = ("highwind", "ap2", "megawes")
+
+
+def _data(name: str = "highwind") -> dict:
+    return tomllib.loads(shipped_system_path(name).read_text())
+
+
+def _error(data: dict) -> str:
+    with pytest.raises(InputError) as info:
+        system_from_dict(data, "my_kite.toml")
+    text = str(info.value)
+    assert "my_kite.toml" in text  # every error names the file
+    return text
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_shipped_systems_load_with_a_positive_definite_inertia(name):
+    system = load_system(shipped_system_path(name))
+    assert system.name == name and len(system.sha256) == 64
+    assert system.text == shipped_system_path(name).read_text()
+    assert system.ground_clearance_m() >= 0.5 * system.kite.span_m
+
+
+def test_highwind_file_is_the_package_defaults():
+    # REFERENCE.md's values, written once as dataclass defaults and once in the file
+    system = load_system()
+    assert system.kite_params() == KiteParams()
+    assert system.aero_coefficients() == AeroCoefficients()
+    assert system.wind_model() == WindModel()
+    assert system.ocp_options(OcpOptions()) == OcpOptions()
+
+
+def test_hash_ignores_comments_and_key_order():
+    text = shipped_system_path().read_text()
+    data = tomllib.loads(text)
+    again = system_from_dict(dict(reversed(list(data.items()))), "x.toml", "# other comments")
+    assert again.sha256 == load_system().sha256
+    changed = _data()
+    changed["kite"]["mass_kg"] = 8.0
+    assert system_from_dict(changed, "x.toml").sha256 != load_system().sha256
+
+
+@pytest.mark.parametrize(("section", "key", "value", "words"), [
+    ("kite", "mass_kg", -7.5, "[kite] mass_kg"),
+    ("kite", "mass_kg", "heavy", "[kite] mass_kg"),
+    ("kite", "mass_kg", True, "[kite] mass_kg"),
+    ("kite", "span_m", 0.0, "[kite] span_m"),
+    ("kite", "inertia_xz_kg_m2", 0.7, "not positive definite"),
+    ("kite", "inertia_yy_kg_m2", -0.1, "[kite] inertia_yy_kg_m2"),
+    ("winch", "drum_radius_m", 0.0, "[winch] drum_radius_m"),
+    ("tether", "diameter_m", -0.001, "[tether] diameter_m"),
+    ("aero", "alpha_max_deg", -10.0, "[aero] alpha_max_deg"),
+    ("aero", "cl_alpha", -1.0, "[aero] cl_alpha"),
+    ("wind", "profile", "linear", "[wind] profile"),
+    ("bounds", "period_max_s", 0.5, "[bounds] period_max_s"),
+    ("bounds", "tether_length_max_m", 0.5, "[bounds] tether_length_max_m"),
+    ("bounds", "max_line_angle_deg", 95.0, "[bounds] max_line_angle_deg"),
+])
+def test_wrong_types_and_non_physical_values_name_the_key(section, key, value, words):
+    data = _data()
+    data[section][key] = value
+    assert words in _error(data)
+
+
+def test_unknown_and_missing_keys_and_sections_are_errors():
+    data = _data()
+    data["kite"]["mass_lb"] = 16.5
+    assert "[kite] mass_lb: unknown key" in _error(data)
+    data = _data()
+    del data["aero"]["cm_q"]
+    assert "[aero] cm_q: missing" in _error(data)
+    data = _data()
+    data["winch2"] = {}
+    assert "[winch2]: unknown section" in _error(data)
+    data = _data()
+    del data["bounds"]
+    assert "[bounds]: missing section" in _error(data)
+    data = _data()
+    data["wind"]["exponent"] = 0.14  # a power-law key with the log law
+    assert "[wind] exponent" in _error(data)
+
+
+def test_power_law_profile_and_optional_drive_keys():
+    data = _data()
+    del data["wind"]["roughness_length_m"]
+    data["wind"].update(profile="power", exponent=0.14)
+    wind = system_from_dict(data, "x.toml").wind_model()
+    assert wind.power_law_exponent == 0.14 and wind.roughness_length_m == 0.0
+    # a drive limit missing from the file and from the power model is an error naming it
+    data = _data()
+    del data["drive"]["max_torque_nm"]
+    system = system_from_dict(data, "x.toml")
+    with pytest.raises(InputError, match=r"\[drive\] max_torque_nm"):
+        system.drive_limits(None)
+
+    class ModelWithLimits:  # a power model file that carries the drive's limits
+        drive = {"max_speed_rpm": 3000.0, "max_torque_nm": 150.0, "nominal_power_w": 20e3}
+        nominal_power_w = 20e3
+
+    limits = system.drive_limits(ModelWithLimits())
+    assert (limits.max_speed_rpm, limits.max_torque_nm) == (3000.0, 150.0)
+    assert limits.sources["max_torque_nm"] == "power model"
+
+
+def test_unreadable_and_non_toml_files(tmp_path):
+    with pytest.raises(InputError, match="cannot read"):
+        load_system(tmp_path / "missing.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[kite\nmass_kg = 1\n")
+    with pytest.raises(InputError, match="not valid TOML"):
+        load_system(bad)
+
+
+def test_cli_exit_code_2_on_a_bad_system_file(tmp_path):
+    from bench.cli import main
+
+    data = shipped_system_path().read_text().replace("mass_kg = 7.5", "mass_kg = -7.5")
+    path = tmp_path / "neg.toml"
+    path.write_text(data)
+    assert main(["optimize", "--system", str(path), "--out", str(tmp_path / "o")]) == 2
+    assert not (tmp_path / "o").exists()
