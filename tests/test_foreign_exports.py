@@ -156,3 +156,29 @@ def test_units_row_with_brackets_or_parentheses(tmp_path, units):
     assert np.allclose(pts.torque_nm, [h[1] for h in holds], atol=1e-6)
     truth_pe = [h[0] * np.pi / 30 * h[1] + _loss_w(h[0], h[1]) for h in holds]
     assert np.allclose(pts.p_elec_w, truth_pe, atol=0.01)
+
+
+def test_generator_log_with_p_elec_as_magnitude_names_the_power_sign(tmp_path):
+    # A generator-only bench logging speed > 0, torque < 0 (torque_sign = "signed") and the
+    # power fed back as a positive number. The signs disagree everywhere; "torque_sign = -1"
+    # would turn off "signed" and then fail on efficiency > 1. The error must name the
+    # p_elec sign as a cause (and, for a signed session, speed_sign as the sign to flip).
+    holds = [(a, -b) for a in (600.0, 1200.0, 1800.0) for b in (8.0, 16.0)]
+    rate, hold_s = 2.0, 20.0
+    reps = [int(6 * rate)] + [int(hold_s * rate)] * len(holds)
+    n = np.repeat([0.0] + [h[0] for h in holds], reps)
+    tq = np.repeat([0.0] + [h[1] for h in holds], reps)
+    fed_w = np.abs(n * np.pi / 30 * tq) - _loss_w(n, tq)  # generated power, logged positive
+    t = np.arange(n.size) / rate
+    folder = tmp_path / "c" / "gen_abs"
+    _session(folder, "log.csv")
+    toml = folder / "session.toml"
+    toml.write_text(toml.read_text().replace("torque_sign = 1", 'torque_sign = "signed"'))
+    rows = ["Time [s],Speed [rpm],Torque [Nm],P_elec [W]"]
+    rows += [f"{a:.1f},{b:.2f},{c:.3f},{d:.1f}" for a, b, c, d in zip(t, n, tq, fed_w, strict=True)]
+    (folder / "log.csv").write_text("\n".join(rows) + "\n")
+    with pytest.raises(InputError) as err:
+        ingest([tmp_path / "c"], tmp_path / "store", progress=False)
+    msg = str(err.value)
+    assert "p_elec" in msg and "positive" in msg and "speed_sign = -1" in msg, msg
+    assert "torque_sign = -1" not in msg, msg
