@@ -34,6 +34,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--drive-model", type=Path, default=None,
                         help=f"reference power model (default {FIT_MODEL_PATH} if it exists, "
                              "else the shipped paper model)")
+    parser.add_argument("--system", type=Path, default=None,
+                        help="system file (kite, tether, winch, wind, bounds; "
+                             "docs/system_file.md); default the shipped highwind.toml")
     parser.add_argument("--scales", default=DEFAULT_SCALES,
                         help="torque-rating scales of the reference drive, comma list (default "
                              f"{DEFAULT_SCALES}); law in docs/schemas.md §7")
@@ -135,6 +138,7 @@ def run(args: argparse.Namespace) -> int:
     from bench.files import write_text_atomic
     from energy.sizing import run_sizing
     from optimize.sweep.plan import parse_wind_grid
+    from optimize.system.system import load_system
 
     site, site_note, _ = site_from_args(args)
     winds = parse_wind_grid(args.wind_grid)
@@ -146,12 +150,14 @@ def run(args: argparse.Namespace) -> int:
     if args.out.exists() and not args.out.is_dir():
         raise InputError(args.out, "exists and is not a folder", expected="an output folder")
     candidates, base_path, notes = build_candidates(args)
+    system = load_system(args.system)
     print(f"site: {site_note}")
+    print(f"system: {system.name} ({system.path})")
     print(f"{len(candidates)} candidates x {len(winds)} wind speeds (elec-lim, RMS torque <= "
           f"rated); solves stored in {args.out / 'solves'}")
     res = run_sizing(candidates, winds, site, args.out, args.intervals, args.degree,
                      workers=args.workers, scheduler=args.scheduler, tolerance=args.tolerance,
-                     adaptive=args.adaptive)
+                     adaptive=args.adaptive, system=system)
     t = res.table
     print(t.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
     print(f"best: {res.best}; smallest within {args.tolerance:.0%} of the best AEP: {res.chosen}")
@@ -171,6 +177,7 @@ def run(args: argparse.Namespace) -> int:
         "command_line": ["bench", "size", *sys.argv[2:]],
         "site": {**site.to_dict(), "note": site_note},
         "reference_model": {"path": str(base_path)},
+        "system": system.record(),
         "law": "P_s(n, T) = s P_1(n, T/s): c_ij -> s^(1-j) c_ij; rated torque s T_rated, peak "
                "overload x rated, same speed limit, nominal power s P_nom",
         "wind_speeds_m_s": list(winds), "adaptive": args.adaptive, "tolerance": args.tolerance,

@@ -112,13 +112,23 @@ class Candidate:
     nominal_power_w: float
     scale: float | None = None
 
-    def ocp_options(self, n_intervals: int, degree: int) -> Any:
-        """The OCP options with this drive's limits."""
+    def ocp_options(self, n_intervals: int, degree: int, system: Any) -> Any:
+        """The OCP options of ``system`` (bounds) with this drive's limits and rating.
+
+        Parameters
+        ----------
+        n_intervals, degree : int
+            Collocation intervals and Radau degree.
+        system : optimize.system.system.System
+            The kite, tether, winch, wind and bounds the candidate is sized for.
+        """
         from optimize.problem.ocp import OcpOptions
 
-        return OcpOptions(n_intervals=n_intervals, degree=degree,
-                          max_torque_nm=self.peak_torque_nm, max_speed_rpm=self.max_speed_rpm,
-                          max_rms_torque_nm=self.rated_torque_nm)
+        base = system.ocp_options(OcpOptions(n_intervals=n_intervals, degree=degree), self.model)
+        return dataclasses.replace(base, max_torque_nm=self.peak_torque_nm,
+                                   max_speed_rpm=self.max_speed_rpm,
+                                   max_rms_torque_nm=self.rated_torque_nm,
+                                   nominal_power_w=self.nominal_power_w)
 
 
 def scaled_candidates(base: Any, scales: tuple[float, ...], rated_torque_nm: float,
@@ -132,9 +142,9 @@ def scaled_candidates(base: Any, scales: tuple[float, ...], rated_torque_nm: flo
     return out
 
 
-def solve_key(candidate: Candidate, options: Any, wind_m_s: float) -> str:
-    """SHA-256 (hex) of everything a sizing solve depends on."""
-    data = {"version": STORE_VERSION, "model": candidate.model.sha256,
+def solve_key(candidate: Candidate, options: Any, wind_m_s: float, system_sha256: str) -> str:
+    """SHA-256 (hex) of everything a sizing solve depends on (the system file's hash too)."""
+    data = {"version": STORE_VERSION, "model": candidate.model.sha256, "system": system_sha256,
             "options": dataclasses.asdict(options), "wind_m_s": float(wind_m_s),
             "objective": "electrical", "drive_limits": True}
     text = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
@@ -151,6 +161,7 @@ class SizingTask:
     degree: int
     store: Path
     refine_site: Any = None  # a site distribution: refine the grid adaptively for it
+    system: Any = None  # optimize.system.system.System; None = the shipped default system
 
 
 def _chain_order(winds: tuple[float, ...]) -> list[float]:
@@ -204,9 +215,11 @@ def run_candidate(task: SizingTask, progress: Any = None) -> list[dict]:
     from optimize.problem.ocp import build_ocp
     from optimize.problem.scenario import Scenario
     from optimize.solve.solve import solve, start
+    from optimize.system.system import load_system
 
     c = task.candidate
-    options = c.ocp_options(task.n_intervals, task.degree)
+    system = task.system if task.system is not None else load_system()
+    options = c.ocp_options(task.n_intervals, task.degree, system)
     task.store.mkdir(parents=True, exist_ok=True)
     ocp = None
     records: dict[float, dict] = {}
@@ -216,14 +229,15 @@ def run_candidate(task: SizingTask, progress: Any = None) -> list[dict]:
         nonlocal ocp
         if wind in records:
             return records[wind]
-        key = solve_key(c, options, wind)
+        key = solve_key(c, options, wind, system.sha256)
         stored = _load(task.store, key)
         if stored is not None:
             rec, warm = stored
             records[wind], warms[wind] = {**rec, "cached": True}, warm
         else:
             if ocp is None:
-                ocp = build_ocp(kite_dae(), c.model, options)
+                ocp = build_ocp(kite_dae(*system.model_params()), c.model, options,
+                                system=system)
             scenario = Scenario(wind, "electrical", True)
             inner = [w for w in warms if warms[w] is not None]
             t0 = time.perf_counter()
@@ -331,21 +345,24 @@ def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
 def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any, out: Path,
                n_intervals: int = 40, degree: int = 4, handle: Any = None, workers: int = 2,
                scheduler: str | None = None, show_progress: bool = True,
-               tolerance: float = 0.02, adaptive: bool = False) -> SizingResult:
+               tolerance: float = 0.02, adaptive: bool = False,
+               system: Any = None) -> SizingResult:
     """Run (or resume) the sizing sweep: one task per candidate on the executor.
 
     ``handle`` is an open :class:`optimize.sweep.executors.ExecutorHandle`; without it
     a local process pool of ``workers`` (or the Dask cluster at ``scheduler``) is opened.
     With ``adaptive`` each candidate's grid is refined where its curve bends
     (:mod:`energy.adaptive`), so candidates may end with different speeds.
+    ``system`` (an :class:`optimize.system.system.System`, default the shipped one)
+    gives the kite, tether, winch, wind and bounds every candidate is sized for.
     """
     from tqdm import tqdm
 
     from optimize.sweep.executors import open_executor, run_tasks
 
     store = Path(out) / "solves"
-    tasks = [SizingTask(c, tuple(winds), n_intervals, degree, store, site if adaptive else None)
-             for c in candidates]
+    tasks = [SizingTask(c, tuple(winds), n_intervals, degree, store,
+                        site if adaptive else None, system) for c in candidates]
     bar = tqdm(total=len(tasks) * len(winds), unit="solve", desc="size",
                disable=not show_progress)
     counts = {"solved": 0, "cached": 0}

@@ -105,6 +105,7 @@ class SweepRequest:
             raise InputError(None, f"OCP options: {exc}") from exc
         # an impossible model "converges" to a wrong cycle: refuse it before any solve
         check_physics(model, path, limits=domain_scales(model, options))
+        note += "\n" + system.drive_limits(model).describe()
         return cls(
             winds,
             kinds,

@@ -9,7 +9,13 @@ import numpy as np
 import pytest
 
 from energy.site import Weibull
-from energy.sizing import candidate_table, run_sizing, scaled_candidates, scaled_model
+from energy.sizing import (
+    candidate_table,
+    run_sizing,
+    scaled_candidates,
+    scaled_model,
+    solve_key,
+)
 from fitting.model_file import paper_model
 from optimize.sweep.executors import ExecutorHandle, QueueChannel
 
@@ -24,6 +30,22 @@ def test_scaled_model_is_s_drives_sharing_the_torque():
         assert m.nominal_power_w == pytest.approx(s * base.nominal_power_w)
     c = scaled_candidates(base, (0.5, 2.0), 78.0, 1500.0, 5.0)
     assert [(x.rated_torque_nm, x.peak_torque_nm) for x in c] == [(39.0, 195.0), (156.0, 780.0)]
+
+
+def test_candidate_options_take_the_system_bounds_and_the_candidate_limits():
+    from optimize.system.system import load_system, shipped_system_path
+
+    base = paper_model()
+    c = scaled_candidates(base, (2.0,), 78.0, 1500.0, 5.0)[0]
+    highwind, ap2 = load_system(), load_system(shipped_system_path("ap2"))
+    opts = c.ocp_options(20, 3, ap2)
+    # the system file's bounds (ap2's tether range), the candidate's drive
+    assert opts.tether_length_bounds_m == (ap2.bounds.tether_length_min_m,
+                                           ap2.bounds.tether_length_max_m)
+    assert (opts.max_torque_nm, opts.max_rms_torque_nm) == (780.0, 156.0)
+    assert opts.nominal_power_w == pytest.approx(2.0 * base.nominal_power_w)
+    # a stored solve of one system is never taken for another's
+    assert solve_key(c, opts, 7.0, highwind.sha256) != solve_key(c, opts, 7.0, ap2.sha256)
 
 
 def test_choice_is_the_smallest_within_tolerance_of_the_best():

@@ -114,6 +114,9 @@ def test_power_law_profile_and_optional_drive_keys():
     limits = system.drive_limits(ModelWithLimits())
     assert (limits.max_speed_rpm, limits.max_torque_nm) == (3000.0, 150.0)
     assert limits.sources["max_torque_nm"] == "power model"
+    # a file value the power model overrides is said, in the sources and the printed line
+    assert "overrides the system file's" in limits.sources["max_speed_rpm"]
+    assert "3000 rpm (power model (overrides the system file's" in limits.describe()
 
 
 def test_unreadable_and_non_toml_files(tmp_path):

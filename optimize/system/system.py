@@ -136,6 +136,15 @@ class DriveLimits:
     max_p_elec_w: float | None
     sources: dict
 
+    def describe(self) -> str:
+        """One line: each limit in force and where it came from."""
+        parts = [f"|speed| <= {self.max_speed_rpm:g} rpm ({self.sources['max_speed_rpm']})",
+                 f"torque <= {self.max_torque_nm:g} N m ({self.sources['max_torque_nm']})",
+                 f"nominal {self.nominal_power_w:g} W ({self.sources['nominal_power_w']})"]
+        if self.max_p_elec_w is not None:
+            parts.append(f"|P_elec| <= {self.max_p_elec_w:g} W (system file)")
+        return "drive limits: " + ", ".join(parts)
+
 
 @dataclass(frozen=True)
 class System:
@@ -222,6 +231,9 @@ class System:
         for key in keys:
             if _number(from_model[key]) and from_model[key] > 0:
                 values[key], sources[key] = float(from_model[key]), "power model"
+                own = getattr(self.drive, key)
+                if own is not None and not math.isclose(own, values[key], rel_tol=1e-9):
+                    sources[key] += f" (overrides the system file's {own:g})"
             elif getattr(self.drive, key) is not None:
                 values[key], sources[key] = float(getattr(self.drive, key)), "system file"
             elif key == "nominal_power_w" and _number(nominal_model) and nominal_model > 0:
