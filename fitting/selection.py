@@ -103,6 +103,21 @@ def stratified_folds(quadrant: np.ndarray, folds: int, seed: int = 0) -> np.ndar
     return fold
 
 
+def _why_none_fitted(table: pd.DataFrame, n_points: int, folds: int) -> tuple[str, str]:
+    """Problem and expectation of the error when every candidate was skipped."""
+    n_train = n_points - -(-n_points // folds)  # the largest fold held out
+    needed = min(max(MIN_POINTS, MIN_POINTS_PER_TERM * n) for n in table["n_terms"])
+    if table["status"].str.startswith("skipped: too few points").all():
+        total = -(-needed * folds // (folds - 1))
+        return (f"no candidate model could be fitted: too few points for {folds}-fold "
+                f"cross-validation: {n_points} points leave {n_train} to train on, the "
+                f"smallest candidate needs {needed}",
+                f"at least {total} points, or fewer folds (--folds)")
+    reasons = "; ".join(dict.fromkeys(table["status"]))
+    return (f"no candidate model could be fitted ({reasons})",
+            "enough points spread over speed and torque")
+
+
 def _weighted_rmse(r: np.ndarray, w: np.ndarray) -> float:
     return float(np.sqrt(np.sum(w * r**2) / np.sum(w)))
 
@@ -255,8 +270,8 @@ def select_model(
             table[col] = np.nan
     ok = table["status"] == "ok"
     if not ok.any():
-        raise InputError(source, "no candidate model could be fitted",
-                         expected="enough points spread over speed and torque")
+        problem, expected = _why_none_fitted(table, speed.size, folds)
+        raise InputError(source, problem, expected=expected)
     table["delta_bic"] = table["bic"] - table.loc[ok, "bic"].min()
     best = table.loc[ok, "cv_rmse_w"].idxmin()
     limit = table.at[best, "cv_rmse_w"] + table.at[best, "cv_rmse_se_w"]

@@ -344,14 +344,17 @@ def check_torque_sign(session, p_mech_w, p_elec_w, where: Path) -> None:
     if disagree <= MAX_SIGN_DISAGREEMENT:
         return
     if disagree >= SIGN_FLIP_FRAC:
-        flip = -session.torque_sign
+        # under "signed" the drum torque is >= 0 whatever torque_sign: only speed_sign flips
+        fix = (f"speed_sign = {-session.speed_sign}" if session.signed_torque else
+               f"torque_sign = {-session.torque_sign} (or a flipped speed_sign)")
         raise InputError(
             session.path,
             f"torque sign convention looks flipped: at high |p_mech| the signs of p_mech and "
             f"p_elec disagree in {disagree:.0%} of the samples of {where.name}",
             column="torque_sign",
-            expected=f"torque_sign = {flip} (or a flipped speed_sign) so that generating "
-            "points have p_mech < 0 and p_elec < 0",
+            expected=f"{fix} so that generating points have p_mech < 0 and p_elec < 0; or, "
+            "if the p_elec column logs generated power as positive, its negative (mapping: "
+            "expr = \"-{column}\")",
         )
     raise InputError(
         session.path,

@@ -381,7 +381,8 @@ def process_timeseries(
         usable &= t0 + np.arange(n_bins) * dt >= zero.t_motion_s  # the tare is no window
     win = steady.find_windows(means["speed"], means["torque"], p_elec_bins, means["valid_frac"],
                               ranges, config, usable=usable, cuts=means["cuts"])
-    win = _screen_windows(win, means, p_elec_bins, sources, session, daq.path)
+    win = _screen_windows(win, means, p_elec_bins, sources, session, daq.path,
+                          tare_finder.limit_rpm)
     w_start = np.array([t0 + a * dt for a, _ in win.accepted])
     w_end = np.array([t0 + b * dt for _, b in win.accepted])
 
@@ -479,9 +480,13 @@ def check_drum_torque(session: Session, torque_nm: np.ndarray, tol_nm: float,
 
 
 def _screen_windows(win: steady.Windows, means: dict, p_elec_bins: np.ndarray, sources: dict,
-                    session: Session, where: Path) -> steady.Windows:
+                    session: Session, where: Path, standstill_rpm: float) -> steady.Windows:
     """Check the accepted windows' means (:func:`checks.check_points`): stop on a systematic
-    error, move the few implausible windows to the rejected ones with their reason."""
+    error, move the few implausible windows to the rejected ones with their reason.
+
+    A window whose mean |speed| is below ``standstill_rpm`` [rpm] (the tare's standstill
+    limit) is the drive at rest, not an operating point: rejected as ``standstill``
+    (a noisy fast logger's leading standstill, where no tare was found, or a stop)."""
     for q in ("speed", "torque"):
         checks.check_signal(sources[q], q, means[q], False)
     if not win.accepted:
@@ -501,6 +506,8 @@ def _screen_windows(win: steady.Windows, means: dict, p_elec_bins: np.ndarray, s
     if "p_mech_logged" in means:  # a single-stream log's mapped p_mech, checked against omega*T
         values["p_mech"] = window_means(means["p_mech_logged"])
     why = checks.check_points(values, sources, checks.explicit_ranges(session), where)
+    why = ["standstill" if abs(v) < standstill_rpm else w
+           for v, w in zip(values["speed"], why, strict=True)]
     if all(w is None for w in why):
         return win
     accepted = [ab for ab, w in zip(win.accepted, why, strict=True) if w is None]

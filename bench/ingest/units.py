@@ -58,8 +58,10 @@ _UNITS: dict[str, list[tuple[str, float]]] = {
 
 
 def _compact(unit: str) -> str:
-    """Drop whitespace and product signs, ``µ`` -> ``u`` (case kept)."""
+    """Drop whitespace, one enclosing pair of brackets or parentheses (a units row's
+    ``[s]`` or ``(Nm)``) and product signs, ``µ`` -> ``u`` (case kept)."""
     u = re.sub(r"\s+", "", unit).replace("µ", "u").replace("μ", "u")
+    u = re.sub(r"^\[([^\[\]()]*)\]$|^\(([^\[\]()]*)\)$", r"\1\2", u)
     return re.sub(r"(?<=[A-Za-z])[·⋅*.\-](?=[A-Za-z])", "", u)
 
 
