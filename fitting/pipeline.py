@@ -129,13 +129,22 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     -----
     A campaign that measured one quadrant only (motor or generator) is fitted on
     that quadrant; the model's validity domain then holds that quadrant alone,
-    and the summary says so.
+    and the summary says so. A quadrant with fewer points than
+    :func:`min_quadrant_points` (too few for the folds or the smallest model) is
+    dropped and treated the same way, its point count stated.
     """
     points = load_points(store)
-    frame = points.frame
     source = Path(store) / "points"
     counts = points.counts()
-    measured = [q for q in QUADRANTS if counts[q]]
+    need = min_quadrant_points(options.folds)
+    measured = [q for q in QUADRANTS if counts[q] >= need]
+    dropped = {q: counts[q] for q in QUADRANTS if 0 < counts[q] < need}
+    if not measured:
+        raise InputError(source, "no quadrant has enough points to fit and cross-validate: "
+                         + ", ".join(f"{q} {counts[q]}" for q in QUADRANTS),
+                         expected=f"at least {need} points in one quadrant "
+                                  f"({options.folds} folds)")
+    frame = points.frame[points.frame["quadrant"].isin(measured)].reset_index(drop=True)
     drive, drive_notes = resolve_drive(store, frame, options.drive)
     masking = options.masking(drive.nominal_power_w)
     nominal = drive.nominal_power_w
@@ -175,6 +184,8 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
         "n_points": fit.n_points,
         "points_per_quadrant": counts,
         "quadrants_measured": measured,
+        "quadrants_dropped": {q: {"n_points": n, "min_points": need} for q, n in
+                              dropped.items()},
         "r2": fit.r2,
         "r2_weighted": fit.r2_weighted,
         "bic": fit.bic,
@@ -197,7 +208,7 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
         "software": "drivebench fitting.pipeline",
     }
     envelopes = quadrant_envelopes(frame, masking.envelope_band_frac)
-    statistics["validity"] = validity_statement(counts, envelopes)
+    statistics["validity"] = validity_statement(counts, envelopes, need)
     only = "" if len(measured) == len(QUADRANTS) else f", {measured[0]} quadrant only"
     model = fit.to_power_model(
         name=f"bench fit: {chosen.name} ({len(chosen.terms)} terms{only})",
@@ -259,11 +270,28 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     return summary
 
 
-def validity_statement(counts: dict[str, int], envelopes: dict[str, dict]) -> dict:
-    """Per quadrant: measured or not, points, and what the validity domain is."""
+def min_quadrant_points(folds: int) -> int:
+    """Fewest points a quadrant needs to be fitted: one per fold, and no fewer than
+    the terms of the smallest candidate model; with fewer it counts as not measured."""
+    return max(folds, len(full_polynomial(MIN_ORDER)))
+
+
+def validity_statement(counts: dict[str, int], envelopes: dict[str, dict],
+                       min_points: int = 1) -> dict:
+    """Per quadrant: measured or not, points, and what the validity domain is.
+
+    A quadrant with points but fewer than ``min_points`` was dropped from the fit
+    and is reported as such (``dropped: true``).
+    """
     out = {}
     for q in QUADRANTS:
-        if q in envelopes:
+        if 0 < counts[q] < min_points:
+            out[q] = {"measured": False, "dropped": True, "n_points": counts[q],
+                      "note": f"the {q} quadrant was dropped: {counts[q]} points, fewer than "
+                              f"the {min_points} needed to fit and cross-validate it; the "
+                              "model is fitted on the other quadrant only, is not valid "
+                              f"in the {q} quadrant and the map does not show it"}
+        elif q in envelopes:
             env = envelopes[q]
             out[q] = {"measured": True, "n_points": counts[q],
                       "domain": f"measured envelope ({len(env['polygon'])} vertices, speed "

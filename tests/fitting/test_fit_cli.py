@@ -142,6 +142,42 @@ def test_single_quadrant_campaign_is_fitted_for_that_quadrant(capsys, tmp_path, 
     assert set(summary["efficiency"]["peak"]) == {quadrant}
 
 
+def test_quadrant_with_too_few_points_is_dropped(capsys, tmp_path):
+    # Issue 10 finding 9: a campaign with many motor points and 2 generator points
+    # (too few for 5 folds) is fitted on the motor quadrant, like a single-quadrant
+    # campaign; the 2 generator points are dropped and the output says so. Truth:
+    # the paper's eq. 4 with 40 W noise; each coefficient within 4 standard errors
+    # of the fit's own covariance (the motor quadrant alone identifies eq. 4).
+    df = synthetic_points(paper_quadratic, n_motor=300, n_generator=50)
+    df = pd.concat([df[df["quadrant"] == "motor"], df[df["quadrant"] == "generator"].head(2)])
+    store = _bad_store(tmp_path, df)
+    out = tmp_path / "o"
+    rc = main(["fit", "--store", str(store), "--out", str(out), "--order", "2"])
+    printed = capsys.readouterr().out
+    assert rc == 0
+    assert "the generator quadrant was dropped: 2 points" in printed
+    model = load_power_model(out / "power_model.json")
+    se = np.sqrt(np.diag(np.array(model.covariance_rpm)))
+    assert np.all(np.abs(np.array(model.coefficients_rpm) - PAPER_A) < 4 * se)
+    assert set(model.domain) == {"motor"}
+    assert "motor quadrant only" in model.name
+    st = model.statistics
+    assert st["quadrants_measured"] == ["motor"]
+    assert st["quadrants_dropped"] == {"generator": {"n_points": 2, "min_points": 5}}
+    assert st["validity"]["generator"]["dropped"]
+    assert st["points_per_quadrant"]["generator"] == 2
+    assert st["n_points"] == int((df["quadrant"] == "motor").sum())
+
+
+def test_no_quadrant_with_enough_points(capsys, tmp_path):
+    df = synthetic_points(paper_quadratic, n_motor=20, n_generator=20)
+    df = pd.concat([df[df["quadrant"] == "motor"].head(3),
+                    df[df["quadrant"] == "generator"].head(2)])
+    store = _bad_store(tmp_path, df)
+    rc, err = _error(capsys, ["fit", "--store", str(store), "--out", str(tmp_path / "o")])
+    assert rc == 2 and "no quadrant has enough points" in err and "motor 3" in err
+
+
 def test_too_few_points(capsys, tmp_path):
     store = _bad_store(tmp_path, synthetic_points(paper_quadratic, n_motor=5, n_generator=5))
     rc, err = _error(capsys, ["fit", "--store", str(store), "--out", str(tmp_path / "o")])
