@@ -17,11 +17,11 @@ takes its default limits from there.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 from bench.errors import InputError
+from bench.files import read_toml
 
 #: The rating keys, in drive.toml, session.toml, the manifest and power_model.json.
 DRIVE_KEYS = ("nominal_power_w", "max_speed_rpm", "max_torque_nm")
@@ -117,12 +117,7 @@ def load_drive_file(path: str | Path) -> dict:
         Unreadable or invalid TOML, a bad value, an unknown key, or no rating key.
     """
     path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(path, f"cannot read ({exc})") from exc
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(path, f"invalid TOML ({exc})") from exc
+    raw = read_toml(path)
     for key in raw:
         if key not in (*DRIVE_KEYS, "source"):
             raise InputError(path, f"unknown key {key!r}", column=key,

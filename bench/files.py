@@ -12,6 +12,7 @@ import errno
 import hashlib
 import os
 import tempfile
+import tomllib
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -75,6 +76,23 @@ def atomic_write(path: str | Path, write: Callable[[Path], object]) -> Path:
 def write_text_atomic(path: str | Path, text: str) -> Path:
     """Write UTF-8 ``text`` to ``path`` atomically, line ends as given on every platform."""
     return atomic_write(path, lambda tmp: tmp.write_bytes(text.encode("utf-8")))
+
+
+def read_toml(path: str | Path) -> dict:
+    """The table of a UTF-8 TOML file.
+
+    Raises
+    ------
+    InputError
+        The file cannot be read, is not UTF-8, or is not valid TOML.
+    """
+    path = Path(path)
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(path, f"cannot read ({exc})") from exc
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(path, f"invalid TOML ({exc})") from exc
 
 
 def file_sha256(path: str | Path) -> str:

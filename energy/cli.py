@@ -15,11 +15,6 @@ from pathlib import Path
 
 from bench.errors import InputError
 
-#: height of the optimize stage's wind speeds [m] (the kite model's wind reference)
-DEFAULT_REFERENCE_HEIGHT_M = 100.0
-#: roughness length of the logarithmic shear [m] (the kite model's wind shear, REFERENCE.md §2)
-DEFAULT_ROUGHNESS_M = 0.1
-
 
 def add_site_arguments(parser: argparse.ArgumentParser) -> None:
     """The site options shared by ``bench aep`` and ``bench size``."""
@@ -36,11 +31,12 @@ def add_site_arguments(parser: argparse.ArgumentParser) -> None:
                    help="wind-speed histogram CSV at --height-m (docs/schemas.md §7)")
     g.add_argument("--height-m", type=float, default=None,
                    help="height [m] the site is given at (default: the reference height)")
-    g.add_argument("--reference-height-m", type=float, default=DEFAULT_REFERENCE_HEIGHT_M,
-                   help="height of the optimize stage's wind speeds [m] (default 100)")
-    g.add_argument("--roughness-m", type=float, default=DEFAULT_ROUGHNESS_M,
-                   help="roughness length of the log shear used to move the site to the "
-                        "reference height [m] (default 0.1, the kite model's)")
+    g.add_argument("--reference-height-m", type=float, default=None,
+                   help="height of the optimize stage's wind speeds [m] (default: the system "
+                        "file's [wind] reference_height_m)")
+    g.add_argument("--roughness-m", type=float, default=None,
+                   help="roughness length of a log shear used to move the site to the "
+                        "reference height [m] (default: the system file's [wind] profile)")
     g.add_argument("--mean-sigma", type=float, default=0.0, metavar="M_S",
                    help="one-sigma uncertainty of the mean speed [m/s] (Weibull/Rayleigh)")
     g.add_argument("--k-sigma", type=float, default=0.0,
@@ -82,8 +78,25 @@ def _positive(name: str, value: float | None) -> None:
         raise InputError(None, f"{name} {value}: not a positive number", expected="a value > 0")
 
 
-def site_from_args(args: argparse.Namespace):
+def shear_from_args(args: argparse.Namespace, system=None):
+    """The wind profile: the system's ``[wind]`` (default the shipped system's), with
+    ``--reference-height-m`` and ``--roughness-m`` (a log profile) over it when given."""
+    from energy.site import Shear
+
+    shear = Shear() if system is None else Shear.from_system(system.wind)
+    if args.reference_height_m is not None:
+        shear = dataclasses.replace(shear, reference_height_m=args.reference_height_m)
+    if args.roughness_m is not None:
+        shear = dataclasses.replace(shear, profile_kind="log", roughness_m=args.roughness_m,
+                                    exponent=None)
+    return shear
+
+
+def site_from_args(args: argparse.Namespace, shear):
     """The site distribution at the reference height, a one-line note, and its uncertainty.
+
+    ``shear`` (:class:`energy.site.Shear`, see :func:`shear_from_args`) moves a site given
+    at ``--height-m`` to the reference height of the optimize stage's wind speeds.
 
     Raises
     ------
@@ -91,7 +104,7 @@ def site_from_args(args: argparse.Namespace):
         No site, more than one, a missing or contradictory parameter, a bad value.
     """
     from energy.assess import SiteUncertainty
-    from energy.site import Weibull, log_shear_factor, rayleigh, read_histogram_csv
+    from energy.site import Weibull, rayleigh, read_histogram_csv
 
     options = (("--weibull-k", args.weibull_k), ("--rayleigh-mean", args.rayleigh_mean),
                ("--histogram", args.histogram))
@@ -109,7 +122,8 @@ def site_from_args(args: argparse.Namespace):
         value = getattr(args, name)
         if not (math.isfinite(value) and value >= 0):
             raise InputError(None, f"--{name.replace('_', '-')} {value}", expected="a value >= 0")
-    height = args.reference_height_m if args.height_m is None else args.height_m
+    ref = shear.reference_height_m
+    height = ref if args.height_m is None else args.height_m
     if given[0] == "--weibull-k":
         if (args.mean_speed is None) == (args.scale is None):
             raise InputError(None, "--weibull-k needs exactly one of --mean-speed, --scale",
@@ -127,14 +141,14 @@ def site_from_args(args: argparse.Namespace):
         site = read_histogram_csv(args.histogram)
     note = f"{site.describe()} at {height:g} m"
     try:
-        factor = log_shear_factor(height, args.reference_height_m, args.roughness_m)
+        factor = shear.profile(ref) / shear.profile(height)
     except ValueError as exc:
-        raise InputError(None, str(exc), expected="heights above the roughness length") from exc
+        raise InputError(None, str(exc), expected="heights above ground") from exc
     unc = SiteUncertainty(args.mean_sigma * factor, args.k_sigma)
     if factor != 1.0:
         site = site.scaled(factor)
-        note += (f"; moved to {args.reference_height_m:g} m by the log profile "
-                 f"(z0 = {args.roughness_m:g} m, factor {factor:.4f}): {site.describe()}")
+        note += (f"; moved to {ref:g} m by the {shear.describe()} (factor {factor:.4f}): "
+                 f"{site.describe()}")
     return site, note, unc
 
 
@@ -165,11 +179,14 @@ def run(args: argparse.Namespace) -> int:
     from energy.assess import assess
     from energy.curve import read_optimize_run
     from energy.outputs import SIGN_NOTE, format_table, write_outputs
+    from energy.refine import system_from_manifest
 
-    site, note, unc = site_from_args(args)
     if args.out.exists() and not args.out.is_dir():
         raise InputError(args.out, "exists and is not a folder", expected="an output folder")
     run_ = read_optimize_run(args.optimize)
+    shear = shear_from_args(args, system_from_manifest(run_.manifest,
+                                                       Path(args.optimize) / "manifest.json"))
+    site, note, unc = site_from_args(args, shear)
     refined = _refine(args, run_, site) if args.refine else None
     a = assess(refined.run if refined else run_, site, note, drive_model=args.drive_model,
                nominal_power_w=args.nominal_power_w, site_uncertainty=unc,
@@ -181,8 +198,8 @@ def run(args: argparse.Namespace) -> int:
         doc = refine_document(refined, site, tol)
         a = dataclasses.replace(a, notes=a.notes + refine_notes(doc))
         run_ = refined.run
-    write_outputs(a, run_, args.out, ["bench", "aep", *sys.argv[2:]], args.reference_height_m,
-                  args.roughness_m, refine=doc if refined else None)
+    write_outputs(a, run_, args.out, ["bench", "aep", *sys.argv[2:]], shear,
+                  refine=doc if refined else None)
     if refined is not None:
         print(f"refined grid ({refined.n_solved} solved, {refined.n_loaded} loaded from "
               f"{args.out / 'solves'}, {refined.wall_time_s:.0f} s on {refined.executor}):")

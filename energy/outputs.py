@@ -20,7 +20,7 @@ from energy import awesio
 from energy.assess import Assessment
 from energy.bands import Z95
 from energy.curve import OptimizeRun
-from energy.site import log_shear_factor
+from energy.site import Shear
 
 SCHEMA_NAME = "drivebench.aep"
 SCHEMA_VERSION = 1
@@ -87,8 +87,7 @@ def _awesio_names(a: Assessment) -> list[str]:
 
 
 def write_outputs(a: Assessment, run: OptimizeRun, out: Path, command_line: list[str],
-                  reference_height_m: float, roughness_m: float,
-                  refine: dict | None = None) -> dict[str, Path]:
+                  shear: Shear, refine: dict | None = None) -> dict[str, Path]:
     """Write ``aep.json``, ``power_curves.csv`` and the awesIO files into ``out``.
 
     ``refine`` is the ``refine`` object of ``aep.json`` (:func:`energy.refine.refine_document`)
@@ -103,8 +102,9 @@ def write_outputs(a: Assessment, run: OptimizeRun, out: Path, command_line: list
     files["curves"] = write_text_atomic(out / "power_curves.csv",
                                         curves.to_csv(index=False, float_format="%.6g"))
     altitudes = np.arange(0.0, 501.0, 10.0)
-    u = np.array([log_shear_factor(reference_height_m, h, roughness_m) if h > roughness_m
-                  else 0.0 for h in altitudes])
+    reference_height_m = shear.reference_height_m
+    v_ref = shear.profile(reference_height_m)
+    u = np.array([shear.profile(h) / v_ref if h > 0 else 0.0 for h in altitudes])
     model = run.manifest.get("drive_model") or {}
     for kind, curve in run.curves.items():
         for q, p in (("electrical", curve.p_elec_w), ("mechanical", curve.p_mech_w)):
@@ -114,8 +114,8 @@ def write_outputs(a: Assessment, run: OptimizeRun, out: Path, command_line: list
                             f"({curve.objective} objective, drive limits "
                             f"{'on' if curve.drive_limits else 'off'})",
                 note=f"average_cycle_power is the {q} power delivered (positive = generated) "
-                     f"[W], wind at {reference_height_m:g} m, logarithmic shear z0 = "
-                     f"{roughness_m:g} m. Failed solves are left out"
+                     f"[W], wind at {reference_height_m:g} m, {shear.describe()}. Failed solves "
+                     "are left out"
                      + ("; wind speeds added by bench aep --refine are in the list."
                         if any(curve.added) else "."),
                 wind_m_s=curve.wind_m_s, delivered_w=-p, cycle_time_s=curve.period_s,

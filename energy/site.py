@@ -33,22 +33,54 @@ from bench.errors import InputError
 HOURS_PER_YEAR = 8760.0
 
 
-def log_shear_factor(from_height_m: float, to_height_m: float, roughness_m: float) -> float:
-    """Ratio ``v(to) / v(from)`` of the logarithmic wind profile ``v ~ ln(h / z0)``.
+@dataclass(frozen=True)
+class Shear:
+    """The wind profile that relates wind speeds at two heights (the system's ``[wind]``).
 
-    Parameters
+    Attributes
     ----------
-    from_height_m, to_height_m : float
-        Heights above ground [m], both above ``roughness_m``.
-    roughness_m : float
-        Roughness length ``z0`` [m] (0.1 m in the kite model's wind shear).
+    reference_height_m : float
+        Height of the optimize stage's wind speeds [m].
+    profile_kind : str
+        ``"log"``: ``v(h) ~ ln((h + z0) / z0)``, the kite model's (docs/system_file.md);
+        ``"power"``: ``v(h) ~ h^exponent``.
+    roughness_m : float or None
+        Roughness length ``z0`` [m] (log profile).
+    exponent : float or None
+        Shear exponent [-] (power profile).
     """
-    if not (from_height_m > roughness_m and to_height_m > roughness_m and roughness_m > 0):
-        raise ValueError(
-            f"heights {from_height_m} m, {to_height_m} m must exceed the roughness "
-            f"length {roughness_m} m > 0"
-        )
-    return math.log(to_height_m / roughness_m) / math.log(from_height_m / roughness_m)
+
+    reference_height_m: float = 100.0
+    profile_kind: str = "log"
+    roughness_m: float | None = 0.1
+    exponent: float | None = None
+
+    @classmethod
+    def from_system(cls, wind) -> Shear:
+        """From a system file's ``[wind]`` section (``optimize.system.system.WindSection``)."""
+        return cls(wind.reference_height_m, wind.profile, wind.roughness_length_m, wind.exponent)
+
+    def describe(self) -> str:
+        """One line: the profile and its parameter."""
+        if self.profile_kind == "log":
+            return f"logarithmic shear z0 = {self.roughness_m:g} m"
+        return f"power-law shear exponent {self.exponent:g}"
+
+    def profile(self, height_m: float) -> float:
+        """``v(h) / v_ref``: the wind at ``height_m`` per unit of the optimize stage's wind
+        speed [-], exactly as the kite model computes it (optimize.model.aero.wind_speed).
+
+        Raises
+        ------
+        ValueError
+            A height at or below ground.
+        """
+        if not height_m > 0:
+            raise ValueError(f"height {height_m} m must be above ground (> 0)")
+        if self.profile_kind == "log":
+            z0 = self.roughness_m
+            return math.log((height_m + z0) / z0) / math.log(self.reference_height_m / z0)
+        return (height_m / self.reference_height_m) ** self.exponent
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 from bench.errors import InputError
-from energy.cli import add_site_arguments, site_from_args
+from energy.cli import add_site_arguments, shear_from_args, site_from_args
 
 #: where ``bench fit`` writes its model (docs/schemas.md §4)
 FIT_MODEL_PATH = Path("fit_out") / "power_model.json"
@@ -140,7 +140,8 @@ def run(args: argparse.Namespace) -> int:
     from optimize.sweep.plan import parse_wind_grid
     from optimize.system.system import load_system
 
-    site, site_note, _ = site_from_args(args)
+    system = load_system(args.system)
+    site, site_note, _ = site_from_args(args, shear_from_args(args, system))
     winds = parse_wind_grid(args.wind_grid)
     if len(winds) < 2:
         raise InputError(None, f"--wind-grid {args.wind_grid!r}: one wind speed gives no curve "
@@ -150,7 +151,6 @@ def run(args: argparse.Namespace) -> int:
     if args.out.exists() and not args.out.is_dir():
         raise InputError(args.out, "exists and is not a folder", expected="an output folder")
     candidates, base_path, notes = build_candidates(args)
-    system = load_system(args.system)
     print(f"site: {site_note}")
     print(f"system: {system.name} ({system.path})")
     print(f"{len(candidates)} candidates x {len(winds)} wind speeds (elec-lim, RMS torque <= "

@@ -10,7 +10,7 @@ from scipy import integrate
 
 from bench.errors import InputError
 from energy.aep import aep_mwh, aep_sensitivity, curve_energy, delivered_knots
-from energy.site import Histogram, Weibull, log_shear_factor, rayleigh, read_histogram_csv
+from energy.site import Histogram, Shear, Weibull, rayleigh, read_histogram_csv
 
 
 def test_flat_curve_under_weibull_has_the_closed_form():
@@ -95,10 +95,15 @@ def test_binned_weibull_histogram_converges_to_the_weibull():
     assert aep_mwh(wind, p, h) == pytest.approx(aep_mwh(wind, p, w), rel=1e-5)
 
 
-def test_log_shear_factor():
-    assert log_shear_factor(50.0, 100.0, 0.1) == pytest.approx(math.log(1000) / math.log(500))
-    w = Weibull(2.0, 5.0).scaled(1.2)
-    assert (w.k, w.scale_m_s) == (2.0, pytest.approx(6.0))
+def test_shear_profile_is_the_kite_models():
+    # v(h) / v_ref of optimize.model.aero.wind_speed, by hand: log ln((h + z0) / z0) / ln(h_ref /
+    # z0), power (h / h_ref)^a
+    log = Shear(100.0, "log", 0.1, None)
+    assert log.profile(50.0) == pytest.approx(math.log(501) / math.log(1000), rel=1e-12)
+    power = Shear(100.0, "power", None, 0.14)
+    assert power.profile(10.0) == pytest.approx(0.1 ** 0.14, rel=1e-12)
+    with pytest.raises(ValueError, match="above ground"):
+        log.profile(0.0)
 
 
 def test_histogram_csv_edges_and_hours(tmp_path):
@@ -139,3 +144,29 @@ def test_histogram_csv_bad_input_names_line_and_column(tmp_path, text, line, col
     assert exc.value.column == column
     assert fragment in exc.value.problem
     assert exc.value.path == f
+
+
+def test_site_height_moves_by_the_systems_wind_profile(tmp_path):
+    import argparse
+
+    from energy.cli import add_site_arguments, shear_from_args, site_from_args
+    from optimize.system.system import load_system, shipped_system_path
+
+    parser = argparse.ArgumentParser()
+    add_site_arguments(parser)
+    args = parser.parse_args(["--weibull-k", "2", "--scale", "6", "--height-m", "10"])
+    # a power-law system: the site's scale moves by (h_ref / 10 m)^a, the kite model's profile
+    text = shipped_system_path().read_text()
+    text = text.replace('profile = "log"', 'profile = "power"')
+    text = "\n".join("exponent = 0.2" if line.startswith("roughness_length_m") else line
+                     for line in text.splitlines())
+    path = tmp_path / "power.toml"
+    path.write_text(text)
+    system = load_system(path)
+    site, note, _ = site_from_args(args, shear_from_args(args, system))
+    h_ref = system.wind.reference_height_m
+    assert site.scale_m_s == pytest.approx(6.0 * (h_ref / 10.0) ** 0.2, rel=1e-12)
+    assert "power-law shear exponent 0.2" in note
+    # the shipped (log) system, unless --roughness-m says otherwise
+    site, _, _ = site_from_args(args, shear_from_args(args, load_system()))
+    assert site.scale_m_s == pytest.approx(6.0 * math.log(1001) / math.log(101), rel=1e-12)

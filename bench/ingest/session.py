@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from dataclasses import dataclass
 from datetime import date, datetime
 from pathlib import Path, PurePath
 
 from bench.errors import InputError
+from bench.files import read_toml
 from bench.store import STAGING_PREFIX
 
 SESSION_FILE = "session.toml"
@@ -183,12 +183,7 @@ def load_session(folder: str | Path) -> Session:
     """
     folder = Path(folder)
     path = folder / SESSION_FILE
-    try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(path, f"cannot read ({exc})") from exc
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(path, f"invalid TOML ({exc})") from exc
+    raw = read_toml(path)
     sid = _get(path, raw, "session_id", str)
     if sid != folder.name:
         raise InputError(path, f"session_id {sid!r} differs from the folder name",
