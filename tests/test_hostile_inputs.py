@@ -16,82 +16,71 @@ from bench.ingest.readers import MAX_LINE_BYTES
 from bench.store import read_manifest, read_points
 
 
-@pytest.fixture
-def setup(tmp_path):
-    """A store holding one good session, and a campaign folder with one more session."""
-    good = tmp_path / "good"
-    make_timeseries_session(good, "good_01", markers=False)
-    store = tmp_path / "store"
-    assert main(["ingest", str(good), "--store", str(store), "--no-progress"]) == 0
-    camp = tmp_path / "camp"
-    make_timeseries_session(camp, "bad_01", seed=7)
-    return good, camp, store
-
-
-def _ingest(setup, capsys, *extra):
-    good, camp, store = setup
+def _ingest(store_and_campaign, capsys, *extra):
+    good, camp, store = store_and_campaign
     rc = main(["ingest", str(good), str(camp), "--store", str(store), "--no-progress",
                *extra])
     out = capsys.readouterr()
     return rc, out.err
 
 
-def _fails(setup, capsys, *fragments, extra=()):
+def _fails(store_and_campaign, capsys, *fragments, extra=()):
     """Exit 2, every fragment in the message, the store untouched."""
-    before = store_tree(setup[2])
-    rc, err = _ingest(setup, capsys, *extra)
+    before = store_tree(store_and_campaign[2])
+    rc, err = _ingest(store_and_campaign, capsys, *extra)
     assert rc == 2, err
     assert "Traceback" not in err
     for f in fragments:
         assert f in err, (f, err)
-    assert store_tree(setup[2]) == before
+    assert store_tree(store_and_campaign[2]) == before
     return err
 
 
-def _toml(setup, old, new):
-    path = setup[1] / "bad_01" / "session.toml"
+def _toml(store_and_campaign, old, new):
+    path = store_and_campaign[1] / "bad_01" / "session.toml"
     text = path.read_text()
     assert old in text
     path.write_text(text.replace(old, new))
 
 
-def _daq(setup):
-    return setup[1] / "bad_01" / "daq.csv"
+def _daq(store_and_campaign):
+    return store_and_campaign[1] / "bad_01" / "daq.csv"
 
 
 # -- session.toml ------------------------------------------------------------------------
-def test_unquoted_toml_date_is_stored_as_iso_text(setup, capsys):
+def test_unquoted_toml_date_is_stored_as_iso_text(store_and_campaign, capsys):
     """TOML has dates; the manifest stores them as ISO 8601 text (was: a traceback after
     the data files had moved)."""
-    _toml(setup, 'date = "2013-04-17"', "date = 2013-04-17\nstart_time = 09:12:03")
-    rc, err = _ingest(setup, capsys)
+    _toml(store_and_campaign, 'date = "2013-04-17"', "date = 2013-04-17\nstart_time = 09:12:03")
+    rc, err = _ingest(store_and_campaign, capsys)
     assert rc == 0, err
-    meta = read_manifest(setup[2])["sessions"]["bad_01"]["metadata"]
+    meta = read_manifest(store_and_campaign[2])["sessions"]["bad_01"]["metadata"]
     assert meta["date"] == "2013-04-17" and meta["start_time"] == "09:12:03"
 
 
-def test_sensors_not_a_table(setup, capsys):
-    _toml(setup, 'session_id = "bad_01"', 'sensors = "none"\nsession_id = "bad_01"')
-    _toml(setup, "[sensors]", "[other]")
-    _fails(setup, capsys, "bad_01/session.toml", "column 'sensors'", "[sensors] table")
+def test_sensors_not_a_table(store_and_campaign, capsys):
+    _toml(store_and_campaign, 'session_id = "bad_01"', 'sensors = "none"\nsession_id = "bad_01"')
+    _toml(store_and_campaign, "[sensors]", "[other]")
+    _fails(store_and_campaign, capsys, "bad_01/session.toml", "column 'sensors'", "[sensors] table")
 
 
 @pytest.mark.parametrize("value", ['"abc"', "0", "-100.0", "nan", "inf", "true"])
-def test_bad_sensor_range(setup, capsys, value):
+def test_bad_sensor_range(store_and_campaign, capsys, value):
     """Zero, negative, NaN, infinite, text: refused before NaN could reach manifest.json."""
-    _toml(setup, "torque_range_nm = 100.0", f"torque_range_nm = {value}")
-    _fails(setup, capsys, "bad_01/session.toml", "column 'sensors.torque_range_nm'",
+    _toml(store_and_campaign, "torque_range_nm = 100.0", f"torque_range_nm = {value}")
+    _fails(store_and_campaign, capsys, "bad_01/session.toml", "column 'sensors.torque_range_nm'",
            "finite positive number")
 
 
-def test_infinite_gear_ratio(setup, capsys):
+def test_infinite_gear_ratio(store_and_campaign, capsys):
     """Blamed on session.toml's key (was: on the analyzer file)."""
-    _toml(setup, "gear_ratio = 3.0", "gear_ratio = inf")
-    _fails(setup, capsys, "bad_01/session.toml", "column 'gear_ratio'", "finite positive")
+    _toml(store_and_campaign, "gear_ratio = 3.0", "gear_ratio = inf")
+    _fails(store_and_campaign, capsys, "bad_01/session.toml", "column 'gear_ratio'",
+           "finite positive")
 
 
 @pytest.mark.parametrize("how", ["absolute", "climbing", "symlink"])
-def test_data_file_outside_the_session_folder(setup, capsys, tmp_path, how):
+def test_data_file_outside_the_session_folder(store_and_campaign, capsys, tmp_path, how):
     """Refused before it is opened; the target's content is never echoed."""
     secret = tmp_path / "secret.txt"
     secret.write_text("SECRET-FIRST-LINE,1,2\n1,2,3\n")
@@ -100,28 +89,28 @@ def test_data_file_outside_the_session_folder(setup, capsys, tmp_path, how):
     elif how == "climbing":
         name = "../../secret.txt"
     else:
-        os.symlink(secret, setup[1] / "bad_01" / "link.csv")
+        os.symlink(secret, store_and_campaign[1] / "bad_01" / "link.csv")
         name = "link.csv"
-    _toml(setup, 'file = "daq.csv"', f'file = "{name}"')
-    err = _fails(setup, capsys, "bad_01/session.toml", "column 'daq.file'",
+    _toml(store_and_campaign, 'file = "daq.csv"', f'file = "{name}"')
+    err = _fails(store_and_campaign, capsys, "bad_01/session.toml", "column 'daq.file'",
                  "outside the session folder" if how != "symlink" else "link out of")
     assert "SECRET" not in err
 
 
-def test_symlink_cycle_and_links_out_of_the_campaign(setup, capsys, tmp_path):
+def test_symlink_cycle_and_links_out_of_the_campaign(store_and_campaign, capsys, tmp_path):
     """Discovery ends on a link cycle and does not follow a link out of the campaign."""
-    good, camp, store = setup
+    good, camp, store = store_and_campaign
     os.symlink(camp, camp / "loop")  # camp/loop -> camp
     outside = tmp_path / "elsewhere"
     make_timeseries_session(outside, "foreign_01", seed=3)
     os.symlink(outside, camp / "out")
-    rc, err = _ingest(setup, capsys)
+    rc, err = _ingest(store_and_campaign, capsys)
     assert rc == 0, err
     assert sorted(read_manifest(store)["sessions"]) == ["bad_01", "good_01"]
 
 
-def test_session_of_another_source_is_named_or_refused(setup, capsys, tmp_path):
-    good, camp, store = setup
+def test_session_of_another_source_is_named_or_refused(store_and_campaign, capsys, tmp_path):
+    good, camp, store = store_and_campaign
     other = tmp_path / "other"
     make_timeseries_session(other, "good_01", seed=11)  # same id, other data and folder
     before = store_tree(store)
@@ -154,69 +143,69 @@ def test_count_column_of_3e9_does_not_wrap(tmp_path, capsys):
     assert "points.csv:3" in err and "column 'N'" in err and "bad sample count" in err
 
 
-def test_manifest_is_strict_json(setup):
+def test_manifest_is_strict_json(store_and_campaign):
     """json.loads with NaN/Infinity refused reads every manifest ingest writes."""
-    text = (setup[2] / "manifest.json").read_text()
+    text = (store_and_campaign[2] / "manifest.json").read_text()
     json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in manifest.json"))
 
 
 # -- DAQ files -------------------------------------------------------------------------
-def test_header_and_one_row(setup, capsys):
-    daq = _daq(setup)
+def test_header_and_one_row(store_and_campaign, capsys):
+    daq = _daq(store_and_campaign)
     daq.write_text("\n".join(daq.read_text().splitlines()[:2]) + "\n")
-    _fails(setup, capsys, "bad_01/daq.csv", "only 1 data row(s)")
+    _fails(store_and_campaign, capsys, "bad_01/daq.csv", "only 1 data row(s)")
 
 
 @pytest.mark.parametrize("line", [2, 500])
-def test_60_mb_cell(setup, capsys, line):
+def test_60_mb_cell(store_and_campaign, capsys, line):
     """A 60 MB cell is named at its line, read only up to the 1 MiB line bound."""
-    daq = _daq(setup)
+    daq = _daq(store_and_campaign)
     lines = daq.read_bytes().split(b"\n")
     lines[line - 1] = b"1" * (60 << 20)
     daq.write_bytes(b"\n".join(lines))
-    _fails(setup, capsys, f"bad_01/daq.csv:{line}:",
+    _fails(store_and_campaign, capsys, f"bad_01/daq.csv:{line}:",
            f"line longer than {MAX_LINE_BYTES // 1024} KiB")
 
 
-def test_german_file_with_one_english_line(setup, capsys, tmp_path):
+def test_german_file_with_one_english_line(store_and_campaign, capsys, tmp_path):
     """The message names the offending line (was: line 3, the first data row)."""
-    shutil.rmtree(setup[1] / "bad_01")
-    make_timeseries_session(setup[1], "bad_01", seed=7, locale="de")
-    daq = _daq(setup)
+    shutil.rmtree(store_and_campaign[1] / "bad_01")
+    make_timeseries_session(store_and_campaign[1], "bad_01", seed=7, locale="de")
+    daq = _daq(store_and_campaign)
     lines = daq.read_text().splitlines()
     assert lines[1].startswith("s;")  # names, units, then data from line 3
     lines[1800] = lines[1800].replace(",", ".")  # line 1801 in English decimals
     daq.write_text("\n".join(lines) + "\n")
-    _fails(setup, capsys, "bad_01/daq.csv:1801:", "not a number", "decimal mark ','")
+    _fails(store_and_campaign, capsys, "bad_01/daq.csv:1801:", "not a number", "decimal mark ','")
 
 
-def test_utf16_file(setup, capsys):
-    daq = _daq(setup)
+def test_utf16_file(store_and_campaign, capsys):
+    daq = _daq(store_and_campaign)
     daq.write_bytes(daq.read_text().encode("utf-16"))
-    _fails(setup, capsys, "bad_01/daq.csv:1:", "UTF-16", "re-saved as UTF-8")
+    _fails(store_and_campaign, capsys, "bad_01/daq.csv:1:", "UTF-16", "re-saved as UTF-8")
 
 
-def test_cr_only_line_ends(setup, capsys):
-    daq = _daq(setup)
+def test_cr_only_line_ends(store_and_campaign, capsys):
+    daq = _daq(store_and_campaign)
     daq.write_bytes(daq.read_bytes().replace(b"\n", b"\r"))
-    _fails(setup, capsys, "bad_01/daq.csv:1:", "CR only", "LF or CRLF")
+    _fails(store_and_campaign, capsys, "bad_01/daq.csv:1:", "CR only", "LF or CRLF")
 
 
-def test_names_row_over_64_kib_is_read(setup, capsys):
+def test_names_row_over_64_kib_is_read(store_and_campaign, capsys):
     """3500 extra channels make an 80 KiB names row (was: "no column row"); the points
     are those of the file without them."""
-    daq = _daq(setup)
+    daq = _daq(store_and_campaign)
     lines = daq.read_bytes().split(b"\n")
     extra_names = b"".join(b",Extra channel %04d [V]" % k for k in range(3500))
     lines = [ln + (extra_names if i == 0 else b",0.5" * 3500) if ln else ln
              for i, ln in enumerate(lines)]
     assert len(lines[0]) > 64 * 1024
     daq.write_bytes(b"\n".join(lines))
-    rc, err = _ingest(setup, capsys)
+    rc, err = _ingest(store_and_campaign, capsys)
     assert rc == 0, err
-    wide = read_points(setup[2]).query("session_id == 'bad_01'").reset_index(drop=True)
-    ref_store = setup[2].parent / "ref"
-    ref = setup[2].parent / "ref_camp"
+    wide = read_points(store_and_campaign[2]).query("session_id == 'bad_01'").reset_index(drop=True)
+    ref_store = store_and_campaign[2].parent / "ref"
+    ref = store_and_campaign[2].parent / "ref_camp"
     make_timeseries_session(ref, "bad_01", seed=7)
     assert main(["ingest", str(ref), "--store", str(ref_store), "--no-progress"]) == 0
     narrow = read_points(ref_store)
@@ -224,14 +213,14 @@ def test_names_row_over_64_kib_is_read(setup, capsys):
         narrow[["speed_rpm", "torque_nm", "p_elec_w"]])
 
 
-def test_time_value_of_1e9_s(setup, capsys):
+def test_time_value_of_1e9_s(store_and_campaign, capsys):
     """Named at its line before any grid is sized (was: allocating 74.5 GiB)."""
-    daq = _daq(setup)
+    daq = _daq(store_and_campaign)
     lines = daq.read_text().splitlines()
     n = len(lines)
     lines[-1] = "1000000000.0," + lines[-1].split(",", 1)[1]
     daq.write_text("\n".join(lines) + "\n")
-    _fails(setup, capsys, f"bad_01/daq.csv:{n}:", "column 'Time [s]'", "time jumps",
+    _fails(store_and_campaign, capsys, f"bad_01/daq.csv:{n}:", "column 'Time [s]'", "time jumps",
            "1e+09 s")
 
 
@@ -322,13 +311,13 @@ def test_optimize_bounds_before_any_solve(tmp_path, capsys, monkeypatch, argv, w
     assert not out.exists()
 
 
-def test_analyzer_time_value_of_1e9_s(setup, capsys):
+def test_analyzer_time_value_of_1e9_s(store_and_campaign, capsys):
     """An analyzer record at 1e9 s is named, not silently left out of the join."""
-    path = setup[1] / "bad_01" / "analyzer.csv"
+    path = store_and_campaign[1] / "bad_01" / "analyzer.csv"
     lines = path.read_text().splitlines()
     cells = lines[-1].split(",")
     cells[1] = "1000000000.000"
     lines[-1] = ",".join(cells)
     path.write_text("\n".join(lines) + "\n")
-    _fails(setup, capsys, f"bad_01/analyzer.csv:{len(lines)}:", "column 'Time [s]'",
+    _fails(store_and_campaign, capsys, f"bad_01/analyzer.csv:{len(lines)}:", "column 'Time [s]'",
            "time jumps")

@@ -11,21 +11,9 @@ from bench.cli import main
 from bench.ingest.scrub import MAX_NAN_RUN
 
 
-@pytest.fixture
-def setup(tmp_path):
-    """A store holding one good session, and a campaign folder to put a bad session in."""
-    good = tmp_path / "good"
-    make_timeseries_session(good, "good_01", markers=False)
-    store = tmp_path / "store"
-    assert main(["ingest", str(good), "--store", str(store), "--no-progress"]) == 0
-    camp = tmp_path / "camp"
-    make_timeseries_session(camp, "bad_01", seed=7)
-    return good, camp, store
-
-
-def _fails(setup, capsys, *fragments, extra=()):
+def _fails(store_and_campaign, capsys, *fragments, extra=()):
     """Ingest good + bad campaign; assert exit 2, message fragments, untouched store."""
-    good, camp, store = setup
+    good, camp, store = store_and_campaign
     before = store_tree(store)
     rc = main(["ingest", str(good), str(camp), "--store", str(store), "--no-progress", *extra])
     err = capsys.readouterr().err
@@ -41,23 +29,23 @@ def _edit_lines(path, fn):
     path.write_text("\n".join(fn(lines)) + "\n")
 
 
-def test_missing_column(setup, capsys):
-    daq = setup[1] / "bad_01" / "daq.csv"
+def test_missing_column(store_and_campaign, capsys):
+    daq = store_and_campaign[1] / "bad_01" / "daq.csv"
     _edit_lines(daq, lambda ls: [",".join(l.split(",")[:2]) for l in ls])
-    _fails(setup, capsys, "daq.csv:1", "column 'torque'", "missing column for torque",
+    _fails(store_and_campaign, capsys, "daq.csv:1", "column 'torque'", "missing column for torque",
            "expected a column named like 'Torque'")
 
 
-def test_unknown_unit(setup, capsys):
-    daq = setup[1] / "bad_01" / "daq.csv"
+def test_unknown_unit(store_and_campaign, capsys):
+    daq = store_and_campaign[1] / "bad_01" / "daq.csv"
     _edit_lines(daq, lambda ls: [ls[0].replace("[1/min]", "[rps]")] + ls[1:])
-    _fails(setup, capsys, "daq.csv:1", "column 'Speed [rps]'", "unknown unit 'rps'",
+    _fails(store_and_campaign, capsys, "daq.csv:1", "column 'Speed [rps]'", "unknown unit 'rps'",
            "expected rpm, 1/min")
 
 
 @pytest.mark.parametrize("what", ["backwards", "repeats"])
-def test_time_not_increasing(setup, capsys, what):
-    daq = setup[1] / "bad_01" / "daq.csv"
+def test_time_not_increasing(store_and_campaign, capsys, what):
+    daq = store_and_campaign[1] / "bad_01" / "daq.csv"
 
     def edit(ls):
         row = ls[500].split(",")
@@ -67,12 +55,12 @@ def test_time_not_increasing(setup, capsys, what):
 
     _edit_lines(daq, edit)
     # line 501 of the file is data row index 499 (one header line)
-    _fails(setup, capsys, "daq.csv:501", "column 'Time [s]'", what,
+    _fails(store_and_campaign, capsys, "daq.csv:501", "column 'Time [s]'", what,
            "expected strictly increasing time")
 
 
-def test_run_of_nan(setup, capsys):
-    daq = setup[1] / "bad_01" / "daq.csv"
+def test_run_of_nan(store_and_campaign, capsys):
+    daq = store_and_campaign[1] / "bad_01" / "daq.csv"
     n = MAX_NAN_RUN + 5
 
     def edit(ls):
@@ -82,12 +70,12 @@ def test_run_of_nan(setup, capsys):
         return ls
 
     _edit_lines(daq, edit)
-    _fails(setup, capsys, "daq.csv:2001", "column 'Torque [N m]'",
+    _fails(store_and_campaign, capsys, "daq.csv:2001", "column 'Torque [N m]'",
            f"run of {n} consecutive invalid values", f"at most {MAX_NAN_RUN}")
 
 
-def test_isolated_markers_are_fine(setup, capsys):
-    daq = setup[1] / "bad_01" / "daq.csv"
+def test_isolated_markers_are_fine(store_and_campaign, capsys):
+    daq = store_and_campaign[1] / "bad_01" / "daq.csv"
 
     def edit(ls):
         for k in range(100, 3000, 97):  # every 97th row, never two in a row
@@ -96,47 +84,47 @@ def test_isolated_markers_are_fine(setup, capsys):
         return ls
 
     _edit_lines(daq, edit)
-    good, camp, store = setup
+    good, camp, store = store_and_campaign
     assert main(["ingest", str(camp), "--store", str(store), "--no-progress"]) == 0
 
 
-def test_truncated_file(setup, capsys):
-    daq = setup[1] / "bad_01" / "daq.csv"
+def test_truncated_file(store_and_campaign, capsys):
+    daq = store_and_campaign[1] / "bad_01" / "daq.csv"
     text = daq.read_text()
     cut = text.rstrip("\n").rfind(",")  # last line cut inside its last field separator
     daq.write_text(text[:cut])
     n_lines = text.count("\n")
-    _fails(setup, capsys, f"daq.csv:{n_lines}", "row has 2 fields (truncated row?)",
+    _fails(store_and_campaign, capsys, f"daq.csv:{n_lines}", "row has 2 fields (truncated row?)",
            "expected 3 fields separated by ','")
 
 
-def test_flipped_torque_sign(setup, capsys):
-    good, camp, store = setup
+def test_flipped_torque_sign(store_and_campaign, capsys):
+    good, camp, store = store_and_campaign
     import shutil
 
     shutil.rmtree(camp / "bad_01")
     make_timeseries_session(camp, "bad_01", torque_sign_logged=-1)
-    _fails(setup, capsys, "session.toml", "column 'torque_sign'",
+    _fails(store_and_campaign, capsys, "session.toml", "column 'torque_sign'",
            "torque sign convention looks flipped", "expected torque_sign = -1")
 
 
-def test_empty_file(setup, capsys):
-    (setup[1] / "bad_01" / "analyzer.csv").write_bytes(b"")
-    _fails(setup, capsys, "analyzer.csv", "file is empty")
+def test_empty_file(store_and_campaign, capsys):
+    (store_and_campaign[1] / "bad_01" / "analyzer.csv").write_bytes(b"")
+    _fails(store_and_campaign, capsys, "analyzer.csv", "file is empty")
 
 
-def test_binary_file_named_csv(setup, capsys):
+def test_binary_file_named_csv(store_and_campaign, capsys):
     rng = np.random.default_rng(0)
-    (setup[1] / "bad_01" / "daq.csv").write_bytes(b"TDSm" + rng.bytes(5000))
-    _fails(setup, capsys, "daq.csv:1", "binary file, not a delimited text file")
+    (store_and_campaign[1] / "bad_01" / "daq.csv").write_bytes(b"TDSm" + rng.bytes(5000))
+    _fails(store_and_campaign, capsys, "daq.csv:1", "binary file, not a delimited text file")
 
 
-def test_mapping_names_missing_column(setup, capsys):
-    good, camp, store = setup
+def test_mapping_names_missing_column(store_and_campaign, capsys):
+    good, camp, store = store_and_campaign
     make_points_session(camp, "table_01")
     mp = camp / "table_01" / "mapping.toml"
     mp.write_text(mp.read_text().replace('"M_mean"', '"M_mittel"'))
-    _fails(setup, capsys, "mapping.toml", "column 'M_mittel'",
+    _fails(store_and_campaign, capsys, "mapping.toml", "column 'M_mittel'",
            "mapping names column 'M_mittel' for torque, but points.csv has no such column",
            "expected one of the file's columns: 'n_mean', 'M_mean'")
 
@@ -149,15 +137,16 @@ def test_failed_first_ingest_creates_no_store(tmp_path, capsys):
     assert not store.exists()
 
 
-def test_analyzer_of_another_run(setup, capsys):
-    good, camp, store = setup
+def test_analyzer_of_another_run(store_and_campaign, capsys):
+    good, camp, store = store_and_campaign
     import shutil
 
     other = camp.parent / "other"
     # a run that held one setpoint: its power has no steps to match the DAQ's
     make_timeseries_session(other, "x", setpoints=[(900.0, 40.0)] * 6, seed=3)
     shutil.copy(other / "x" / "analyzer.csv", camp / "bad_01" / "analyzer.csv")
-    _fails(setup, capsys, "bad_01/analyzer.csv", "analyzer power does not follow the DAQ",
+    _fails(store_and_campaign, capsys, "bad_01/analyzer.csv",
+           "analyzer power does not follow the DAQ",
            "expected the power-analyzer record of the same bench run as daq.csv")
 
 
