@@ -32,7 +32,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Iterable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -304,11 +304,12 @@ def _mech_free_consumes(summary: pd.DataFrame) -> Claim:
     winds = rows["wind_speed_m_s"].to_numpy()
     ours = ", ".join(f"{w:g}: {v:+.0f} W" for w, v in zip(winds, p, strict=True))
     r = rows.iloc[int(np.argmin(p))]  # the decisive speed: the least consumption
-    facts = (f"least consumption at {r.wind_speed_m_s:g} m/s: P_mech {r.avg_p_mech_w:.0f} W, "
-             f"P_elec {r.avg_p_elec_w:.0f} W (drive losses "
-             f"{r.avg_p_elec_w - r.avg_p_mech_w:.0f} W), peak torque {r.peak_torque_nm:.0f} N m, "
-             f"peak speed {r.peak_speed_rpm:.0f} rpm")
+    losses = r.avg_p_elec_w - r.avg_p_mech_w
     value = float(p.min())
+    facts = (f"least consumption at {r.wind_speed_m_s:g} m/s: P_mech {r.avg_p_mech_w:.0f} W, "
+             f"P_elec {r.avg_p_elec_w:.0f} W (drive losses {losses:.0f} W; the sign flips "
+             f"with {-value / losses:+.1%} drive losses on the same cycle), peak torque "
+             f"{r.peak_torque_nm:.0f} N m, peak speed {r.peak_speed_rpm:.0f} rpm")
     return Claim(cid, statement, "P_elec > 0 at all speeds", ours,
                  AGREES if value > 0 else DIFFERS, facts, value, "W", value)
 
@@ -336,7 +337,10 @@ def _coincidence(
     ours = (f"coincide at {_winds(winds[same])} m/s; differ at {_winds(winds[~same])} m/s; "
             f"closest call at {winds[i]:g} m/s: lim {a[i]:.1f} W vs free {b[i]:.1f} W")
     limits = _active_limits(summary, f"{objective}-lim", float(winds[i]))
-    facts = f"drive limits active in {objective}-lim at {winds[i]:g} m/s: {limits}"
+    free = (f"{_value(summary, f'{objective}-free', float(winds[i]), 'peak_torque_nm'):.1f} N m,"
+            f" {_value(summary, f'{objective}-free', float(winds[i]), 'peak_speed_rpm'):.0f} rpm")
+    facts = (f"drive limits active in {objective}-lim at {winds[i]:g} m/s: {limits}; "
+             f"{objective}-free peaks at {free} there")
     ok = bool(np.all(same == expected))
     return Claim(cid, statement, paper, ours, AGREES if ok else DIFFERS, facts,
                  float(gap[i]), "W", float(signed[i]), float(tol[i]))
@@ -454,8 +458,8 @@ def measured_cause(c: Claim, ablation: dict | None) -> str:
         name = max(others, key=lambda n: others[n]["margin"] - base["margin"])
         r = others[name]
         spread = max(abs(o["value"] - base["value"]) for o in others.values())
-        text = (f"measured: none of the {len(others)} differences to the paper's reference "
-                f"implementation makes it agree; the largest move toward the paper is "
+        text = (f"measured: none of the {len(others)} changes of the ablation "
+                f"({', '.join(others)}) makes it agree; the largest move toward the paper is "
                 f"{whats.get(name, name)} ({_num(base['value'], unit)} -> "
                 f"{_num(r['value'], unit)}), and no change moves it by more than "
                 f"{_num(spread, unit)}")
@@ -464,7 +468,7 @@ def measured_cause(c: Claim, ablation: dict | None) -> str:
     if math.isfinite(c.value) and abs(c.value - base["value"]) > max(
             1e-3 * abs(base["value"]), abs(c.margin) if math.isfinite(c.margin) else 0.0, 0.5):
         text += (f" (the ablation's baseline gave {_num(base['value'], unit)}, this run "
-                 f"{_num(c.value, unit)}: another drive model or system)")
+                 f"{_num(c.value, unit)}: another drive model or other options)")
     created = str(ablation.get("created_utc", ""))[:10]
     return f"{text} [{ablation.get('source', 'ablation')}, {created}]"
 
@@ -476,9 +480,7 @@ def _with_margin(c: Claim, ablation: dict | None) -> Claim:
         parts += [c.note, measured_cause(c, ablation)]
     if c.verdict == NOT_COMPARABLE:
         parts = [c.note]
-    note = "; ".join(p for p in parts if p)
-    return Claim(c.claim_id, c.statement, c.paper, c.ours, c.verdict, note, c.value, c.unit,
-                 c.margin, c.tolerance)
+    return replace(c, note="; ".join(p for p in parts if p))
 
 
 def cut_in_frame(cut_ins: Iterable[CutIn]) -> pd.DataFrame:
