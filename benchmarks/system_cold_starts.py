@@ -30,7 +30,8 @@ from pathlib import Path
 from fitting.model_file import paper_model
 from optimize.model.drive import RatedDrive
 from optimize.model.kite_model import kite_dae
-from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.problem.ocp import build_ocp
+from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start
 from optimize.sweep.outputs import MEANT_BOUNDS
@@ -66,7 +67,8 @@ def main() -> None:
         system = load_system(shipped_system_path(name))
         model = drive_for(system, paper)
         options = system.ocp_options(
-            OcpOptions(n_intervals=args.intervals, degree=args.degree, stored_guess=False), model)
+            OcpOptions(Discretization(n_intervals=args.intervals, degree=args.degree),
+                       solver=SolverOptions(stored_guess=False)), model)
         ocp = build_ocp(kite_dae(*system.model_params()), model, options, system=system)
         print(f"{name}: start loop {ocp.loop}", flush=True)
         for wind in (float(w) for w in args.winds.split(",")):

@@ -122,13 +122,13 @@ class Candidate:
         system : optimize.system.system.System
             The kite, tether, winch, wind and bounds the candidate is sized for.
         """
-        from optimize.problem.ocp import OcpOptions
+        from optimize.problem.options import Discretization, OcpOptions
 
-        base = system.ocp_options(OcpOptions(n_intervals=n_intervals, degree=degree), self.model)
-        return dataclasses.replace(base, max_torque_nm=self.peak_torque_nm,
-                                   max_speed_rpm=self.max_speed_rpm,
-                                   max_rms_torque_nm=self.rated_torque_nm,
-                                   nominal_power_w=self.nominal_power_w)
+        base = system.ocp_options(OcpOptions(Discretization(n_intervals, degree)), self.model)
+        return base.replace(limits={"max_torque_nm": self.peak_torque_nm,
+                                    "max_speed_rpm": self.max_speed_rpm,
+                                    "max_rms_torque_nm": self.rated_torque_nm,
+                                    "nominal_power_w": self.nominal_power_w})
 
 
 def scaled_candidates(base: Any, scales: tuple[float, ...], rated_torque_nm: float,

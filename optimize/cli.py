@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the sweep; exit code 0 if any scenario converged (failed ones are reported in the
     files and the table), 1 if none did, 2 on bad input."""
     from optimize.command import SweepRequest, format_summary, run_optimize
-    from optimize.problem.ocp import MAX_INTERVALS
+    from optimize.problem.options import MAX_INTERVALS
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     top = MAX_INTERVALS // 2 if args.trust else MAX_INTERVALS  # --trust solves at 2x

@@ -80,7 +80,7 @@ class SweepRequest:
         """Build the request from ``bench optimize`` arguments; bad values raise InputError."""
         from fitting.model_check import check_physics
         from fitting.model_file import PAPER_MODEL_PATH, load_power_model
-        from optimize.problem.ocp import OcpOptions
+        from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 
         winds = parse_wind_grid(args.wind_grid)
         kinds = parse_kinds(args.scenarios)
@@ -99,8 +99,8 @@ class SweepRequest:
         if args.system is None:
             note += f"; system: the shipped {system.path}"
         try:
-            options = OcpOptions(n_intervals=args.intervals, degree=args.degree,
-                                 stored_guess=not args.no_stored_guess)
+            options = OcpOptions(Discretization(n_intervals=args.intervals, degree=args.degree),
+                                 solver=SolverOptions(stored_guess=not args.no_stored_guess))
         except ValueError as exc:
             raise InputError(None, f"OCP options: {exc}") from exc
         # an impossible model "converges" to a wrong cycle: refuse it before any solve
@@ -242,7 +242,7 @@ def run_optimize(
         },
         "system": system.record(),
         "drive_limits": dataclasses.asdict(system.drive_limits(model)),
-        "options": dataclasses.asdict(options),
+        "options": options.as_dict(),
         "executor": result.executor,
         "wall_time_s": result.wall_time_s,
         "converged": int(summary["success"].sum()),
@@ -279,8 +279,8 @@ def domain_scales(model: Any, options: Any) -> tuple[float, float]:
     The drive's rating when the model states one, else the OCP's drive limits.
     """
     drive = getattr(model, "drive", None) or {}
-    return (float(drive.get("max_speed_rpm", options.max_speed_rpm)),
-            float(drive.get("max_torque_nm", options.max_torque_nm)))
+    return (float(drive.get("max_speed_rpm", options.limits.max_speed_rpm)),
+            float(drive.get("max_torque_nm", options.limits.max_torque_nm)))
 
 
 def domain_lines(summary: Any) -> list[str]:

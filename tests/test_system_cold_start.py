@@ -16,7 +16,8 @@ import pytest
 from fitting.model_file import paper_model
 from optimize.model.drive import RatedDrive
 from optimize.model.kite_model import kite_dae
-from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.problem.ocp import build_ocp
+from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start
 from optimize.sweep.outputs import MEANT_BOUNDS
@@ -31,7 +32,8 @@ def solved():
     d = system.drive
     model = RatedDrive(paper_model(), 1500.0, 78.0, d.max_speed_rpm, d.max_torque_nm,
                        d.nominal_power_w)
-    options = system.ocp_options(OcpOptions(n_intervals=20, degree=3, stored_guess=False),
+    options = system.ocp_options(OcpOptions(Discretization(n_intervals=20, degree=3),
+                                                 solver=SolverOptions(stored_guess=False)),
                                  model)
     ocp = build_ocp(kite_dae(*system.model_params()), model, options, system=system)
     return system, ocp, cold_start(ocp, Scenario(WIND_M_S, "mechanical", True))

@@ -8,7 +8,7 @@ import tomllib
 import pytest
 
 from bench.errors import InputError
-from optimize.problem.ocp import OcpOptions
+from optimize.problem.options import OcpOptions
 from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 from optimize.system.system import load_system, shipped_system_path, system_from_dict
 

@@ -247,7 +247,7 @@ class System:
                            values["nominal_power_w"], self.drive.max_p_elec_w, sources)
 
     def ocp_options(self, options: Any, drive_model: Any = None) -> Any:
-        """``options`` (an ``OcpOptions``) with this system's bounds and drive limits.
+        """``options`` (an ``OcpOptions``) with this system's bounds and drive limits as its limits.
 
         Raises
         ------
@@ -256,8 +256,7 @@ class System:
         """
         limits = self.drive_limits(drive_model)
         b, a = self.bounds, self.aero
-        return dataclasses.replace(
-            options,
+        return options.replace(limits=dict(
             period_bounds_s=(b.period_min_s, b.period_max_s),
             tether_length_bounds_m=(b.tether_length_min_m, b.tether_length_max_m),
             min_altitude_m=self.ground_clearance_m(),
@@ -271,7 +270,7 @@ class System:
             max_line_angle_deg=b.max_line_angle_deg,
             surface_bound_deg=b.surface_max_deg,
             surface_rate_bound_rad_s=b.surface_rate_max_rad_s,
-        )
+        ))
 
     def model_params(self) -> tuple[KiteParams, AeroCoefficients, WindModel]:
         """Arguments of ``optimize.model.kite_model.kite_dae``."""
