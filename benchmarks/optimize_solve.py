@@ -14,7 +14,6 @@ larger than the CPU time.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import logging
 import statistics
@@ -50,7 +49,7 @@ def run_once(intervals: int, degree: int, reference_sigma: bool) -> list[dict]:
     t0 = time.perf_counter()
     options = OcpOptions(Discretization(n_intervals=intervals, degree=degree))
     if reference_sigma:
-        options = dataclasses.replace(options, control_sigma=REFERENCE_SIGMA)
+        options = options.replace(discretization={"control_sigma": REFERENCE_SIGMA})
     ocp = build_ocp(kite_dae(), paper_model(), options)
     backend.solver(ocp, False)
     backend.solver(ocp, True)

@@ -94,7 +94,7 @@ class KindTask:
     ----------
     kind : str
     model : fitting.model_file.PowerModel
-    options : optimize.problem.ocp.OcpOptions
+    options : optimize.problem.options.OcpOptions
     known : tuple of (float, float, float)
         The sweep's converged grid points: wind [m/s], P_elec [W], P_mech [W].
     site : Weibull or Histogram
