@@ -140,3 +140,50 @@ def make_ev_table(root: Path, sid: str = "ev_01", p_elec_by: str = "expr", n_col
         {"torque_range_nm": 400.0, "speed_range_rpm": 15000.0, "power_range_w": 200e3}))
     return {"speed_rpm": speed, "torque_nm": torque, "p_elec_w": p_elec, "p_mech_w": p_mech,
             "u_dc_v": u_dc, "loss": (400.0, 2e-5, 0.04)}
+
+
+def make_two_wattmeter_table(root: Path, sid: str = "aron_01", channels: int = 2, n: int = 240,
+                             seed: int = 17) -> dict[str, np.ndarray]:
+    """A power analyzer's operating-point export in 3V3A (two-wattmeter, Aron) wiring.
+
+    The analyzer logs three elements ``P1 [W]``, ``P2 [W]``, ``P3 [W]``; in 3V3A
+    wiring the total active power is ``P1 + P2`` (for line-to-line voltage ``U``,
+    current ``I`` and phase angle ``phi``: ``U I cos(30° + phi) + U I cos(30° - phi)
+    = sqrt(3) U I cos(phi)``), and the third element reads ``-U I sin(phi)``, a
+    reactive share that belongs in no sum. ``channels = 3`` maps the sum of all
+    three, as for a three-wattmeter (3P4W) export: wrong, by ``-tan(phi)/sqrt(3)``
+    of the power, so points with a leading phase show an efficiency above 1.
+
+    Both quadrants of a 5 kW drive, the phase angle uniform in -35°..+12° (motor;
+    the generator's is 180° off).
+    """
+    if channels not in (2, 3):
+        raise ValueError("channels: 2 (the right 3V3A total) or 3 (a wrong sum)")
+    rng = np.random.default_rng(seed)
+    speed = rng.uniform(300.0, 3000.0, n) * np.where(np.arange(n) % 2 == 0, 1.0, -1.0)
+    torque = rng.uniform(2.0, 16.0, n)
+    p_mech = speed * torque * RAD_S_PER_RPM
+    loss = (60.0, 1e-5, 0.6)
+    p_elec = p_mech + loss_w(speed, torque, *loss)
+    phi = np.deg2rad(rng.uniform(-35.0, 12.0, n)) + np.where(p_elec < 0, np.pi, 0.0)
+    ui = np.abs(p_elec) / (np.sqrt(3.0) * np.abs(np.cos(phi)))  # U * I [W]
+    p1 = ui * np.cos(np.pi / 6 + phi)
+    p2 = ui * np.cos(np.pi / 6 - phi)
+    p3 = -ui * np.sin(phi)
+    folder = root / sid
+    folder.mkdir(parents=True)
+    rows = ["Point,Speed [rpm],Torque [Nm],P1 [W],P2 [W],P3 [W],PF [-]"]
+    rows += [f"{k + 1},{s:.2f},{q:.4f},{a:.3f},{b:.3f},{c:.3f},{np.cos(f):.4f}"
+             for k, (s, q, a, b, c, f) in enumerate(zip(speed, torque, p1, p2, p3, phi,
+                                                         strict=True))]
+    (folder / "analyzer_points.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    summed = ", ".join(f'"P{k + 1} [W]"' for k in range(channels))
+    (folder / "mapping.toml").write_text(
+        '[columns.speed]\ncolumn = "Speed [rpm]"\nunit = "rpm"\n\n'
+        '[columns.torque]\ncolumn = "Torque [Nm]"\nunit = "Nm"\n\n'
+        f'[columns.p_elec]\nsum = [{summed}]\nunit = "W"\n', encoding="utf-8")
+    (folder / "session.toml").write_text(_session_toml(
+        sid, "motor", "analyzer_points.csv",
+        {"torque_range_nm": 20.0, "speed_range_rpm": 4000.0, "power_range_w": 10000.0}))
+    return {"speed_rpm": speed, "torque_nm": torque, "p_elec_w": p_elec, "p_mech_w": p_mech,
+            "p_elec_3_w": p1 + p2 + p3, "loss": loss}
