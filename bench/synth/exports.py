@@ -187,3 +187,46 @@ def make_two_wattmeter_table(root: Path, sid: str = "aron_01", channels: int = 2
         {"torque_range_nm": 20.0, "speed_range_rpm": 4000.0, "power_range_w": 10000.0}))
     return {"speed_rpm": speed, "torque_nm": torque, "p_elec_w": p_elec, "p_mech_w": p_mech,
             "p_elec_3_w": p1 + p2 + p3, "loss": loss}
+
+
+def make_hobby_dyno_table(root: Path, sid: str = "hobby_01", seed: int = 23,
+                          outlier: bool = True) -> dict[str, np.ndarray]:
+    """A hobby dyno's motor-only table: 19 speeds x 18 torques, torque in ``N mm``.
+
+    A 1 kW motor whose losses (no-load 8 W, friction 0.004 W/rpm, iron 1.5e-6
+    W/rpm^2, copper 12 W/(N m)^2) put the peak efficiency (about 0.88) at part
+    load and high speed, 2000-4000 rpm, where a quadratic fit's residuals are
+    largest relative to the power. P_el is noisy (0.5 W) and printed to 0.01 W;
+    the table states no std. With ``outlier``, one row (1811 rpm, 0.0004 N m,
+    322 W) is a logging glitch: about 300 W above the drive's losses there.
+
+    Returns the written rows' truth (``p_elec_w`` as written) and ``outlier_row``
+    (its index, or -1).
+    """
+    rng = np.random.default_rng(seed)
+    speed = np.repeat(np.linspace(500.0, 4000.0, 19), 18)
+    torque = np.tile(np.linspace(0.05, 3.0, 18), 19)
+    speed = speed + rng.normal(0.0, 2.0, speed.size)
+    p_mech = speed * torque * RAD_S_PER_RPM
+    loss = 8.0 + 0.004 * speed + 1.5e-6 * speed**2 + 12.0 * torque**2
+    p_elec = p_mech + loss + rng.normal(0.0, 0.5, speed.size)
+    row = -1
+    if outlier:
+        row = 7 * 18 + 1
+        speed[row], torque[row], p_elec[row] = 1811.0, 0.0004, 322.0
+        p_mech[row] = speed[row] * torque[row] * RAD_S_PER_RPM
+    folder = root / sid
+    folder.mkdir(parents=True)
+    rows = ["Hobby dyno run 7", "Nr\tn [1/min]\tM [N mm]\tP_el [W]"]
+    rows += [f"{k + 1}\t{s:.1f}\t{q * 1e3:.1f}\t{pe:.2f}"
+             for k, (s, q, pe) in enumerate(zip(speed, torque, p_elec, strict=True))]
+    (folder / "points.txt").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    (folder / "mapping.toml").write_text(
+        'skip_lines = 1\n\n[columns.speed]\ncolumn = "n [1/min]"\nunit = "1/min"\n\n'
+        '[columns.torque]\ncolumn = "M [N mm]"\nunit = "N mm"\n\n'
+        '[columns.p_elec]\ncolumn = "P_el [W]"\nunit = "W"\n', encoding="utf-8")
+    (folder / "session.toml").write_text(_session_toml(
+        sid, "motor", "points.txt",
+        {"torque_range_nm": 5.0, "speed_range_rpm": 5000.0, "power_range_w": 2000.0}))
+    return {"speed_rpm": np.round(speed, 1), "torque_nm": np.round(torque * 1e3, 1) / 1e3,
+            "p_elec_w": np.round(p_elec, 2), "outlier_row": row}
