@@ -344,12 +344,69 @@ def gridded_map(
     speeds, torques = regular_grid(frame, speed_step_rpm or default_s, torque_step_nm or default_t)
     sg, tg = np.meshgrid(speeds, torques, indexing="ij")
     s, t = sg.ravel(), tg.ravel()
+    envelopes = quadrant_envelopes(frame, rules.envelope_band_frac)
+    ceilings = efficiency_ceilings(frame, rules)
+    at = map_at(frame, rules, s, t, envelopes, ceilings)
+    p_mech, quadrant, loss, eta, status = (at[k] for k in ("p_mech_w", "quadrant", "loss_w",
+                                                            "eta", "status"))
+    in_domain = np.isfinite(loss)
+    p_elec = p_mech + loss
+    for q, ceiling in ceilings.items():
+        ceiling["n_clipped_nodes"] = int(((quadrant == q) & (status == CLIPPED)).sum())
+    out = pd.DataFrame({
+        "speed_rpm": s, "torque_nm": t, "quadrant": quadrant, "in_domain": in_domain,
+        "p_mech_w": p_mech, "loss_w": loss, "p_elec_w": p_elec, "eta": eta,
+        "status": status.astype(str),
+    })
+    if model is not None:
+        p_fit = np.asarray(model.p_elec_w(s, t), dtype=float)
+        eta_fit, _ = masked_efficiency(p_mech, p_fit, rules)
+        out["p_elec_fit_w"] = p_fit
+        out["eta_fit"] = np.where(in_domain, eta_fit, np.nan)
+    out.attrs["envelopes"] = envelopes
+    out.attrs["ceilings"] = ceilings
+    return out
+
+
+def map_at(frame: pd.DataFrame, rules: MaskingRules, speed_rpm, torque_nm,
+           envelopes: dict | None = None, ceilings: dict | None = None) -> dict[str, np.ndarray]:
+    """The map's loss and efficiency at any speed-torque points (what :func:`gridded_map` draws).
+
+    Per quadrant the measured loss ``P_elec - P_mech`` is interpolated linearly over
+    a Delaunay triangulation of the quadrant's points (in coordinates scaled by the
+    largest |speed| and torque), inside the quadrant's measured envelope only; the
+    efficiency follows from the query's exact ``omega * T`` and that loss (eqs.
+    1-2, masking rules), at most the quadrant's ceiling (``clipped``). At a measured
+    point the interpolant is that point's own loss, so the map shows its efficiency,
+    or the ceiling, which lies within its uncertainty (:func:`efficiency_ceilings`).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The measured points (``speed_rpm``, ``torque_nm``, ``p_mech_w``, ``p_elec_w``,
+        ``quadrant``).
+    rules : MaskingRules
+    speed_rpm, torque_nm : array_like
+        Where to evaluate [rpm], [N m].
+    envelopes, ceilings : dict, optional
+        :func:`fitting.domain.quadrant_envelopes` and :func:`efficiency_ceilings` of
+        ``frame`` (computed when not given).
+
+    Returns
+    -------
+    dict
+        ``p_mech_w``, ``quadrant``, ``loss_w`` (NaN outside the envelope), ``eta``
+        and ``status`` (``outside_domain`` outside it) per query point.
+    """
+    s = np.asarray(speed_rpm, dtype=float).ravel()
+    t = np.asarray(torque_nm, dtype=float).ravel()
+    envelopes = (quadrant_envelopes(frame, rules.envelope_band_frac) if envelopes is None
+                 else envelopes)
+    ceilings = efficiency_ceilings(frame, rules) if ceilings is None else ceilings
     p_mech = s * 2.0 * np.pi / 60.0 * t
     quadrant = quadrant_of(p_mech)
     scales = (float(np.max(np.abs(frame["speed_rpm"]))) or 1.0,
               float(np.max(np.abs(frame["torque_nm"]))) or 1.0)
-    envelopes = quadrant_envelopes(frame, rules.envelope_band_frac)
-    ceilings = efficiency_ceilings(frame, rules)
     loss = np.full(s.shape, np.nan)
     for q, env in envelopes.items():
         sub = frame[frame["quadrant"] == q]
@@ -364,27 +421,37 @@ def gridded_map(
         query = np.column_stack([s[nodes] / scales[0], t[nodes] / scales[1]])
         measured_loss = (sub["p_elec_w"] - sub["p_mech_w"]).to_numpy(dtype=float)
         loss[nodes] = _interpolate_in_hull(tri, measured_loss, query)
-    in_domain = np.isfinite(loss)
-    p_elec = p_mech + loss
-    eta, status = masked_efficiency(p_mech, p_elec, rules)
-    status[~in_domain] = OUTSIDE_DOMAIN
+    eta, status = masked_efficiency(p_mech, p_mech + loss, rules)
+    status[~np.isfinite(loss)] = OUTSIDE_DOMAIN
     for q, ceiling in ceilings.items():
         over = (quadrant == q) & (status == OK) & (eta > ceiling["eta"])
         eta[over] = ceiling["eta"]
         status[over] = CLIPPED
-        ceiling["n_clipped_nodes"] = int(over.sum())
-    out = pd.DataFrame({
-        "speed_rpm": s, "torque_nm": t, "quadrant": quadrant, "in_domain": in_domain,
-        "p_mech_w": p_mech, "loss_w": loss, "p_elec_w": p_elec, "eta": eta,
-        "status": status.astype(str),
-    })
-    if model is not None:
-        p_fit = np.asarray(model.p_elec_w(s, t), dtype=float)
-        eta_fit, _ = masked_efficiency(p_mech, p_fit, rules)
-        out["p_elec_fit_w"] = p_fit
-        out["eta_fit"] = np.where(in_domain, eta_fit, np.nan)
-    out.attrs["envelopes"] = envelopes
-    out.attrs["ceilings"] = ceilings
+    return {"p_mech_w": p_mech, "quadrant": quadrant, "loss_w": loss, "eta": eta,
+            "status": status}
+
+
+def points_against_map(frame: pd.DataFrame, rules: MaskingRules, ceilings: dict) -> dict:
+    """Per quadrant: do the accepted points lie on the map within their uncertainty?
+
+    Returns ``quadrant -> {"n_points", "n_above_map", "max_excess", "n_off_map"}``:
+    the ``ok`` points, those whose efficiency exceeds the map's at that point
+    (:func:`map_at`) by more than their uncertainty (:func:`point_uncertainty`),
+    the largest such excess [-] (0 when none) and the points the map does not
+    cover (on the envelope's edge, where the map is not drawn).
+    """
+    eta, status = masked_efficiency(frame["p_mech_w"], frame["p_elec_w"], rules)
+    u = point_uncertainty(frame, rules)
+    at = map_at(frame, rules, frame["speed_rpm"], frame["torque_nm"], ceilings=ceilings)
+    quadrant = frame["quadrant"].to_numpy()
+    out = {}
+    for q in ceilings:
+        sel = (quadrant == q) & (status == OK)
+        shown = sel & np.isin(at["status"], (OK, CLIPPED))
+        excess = np.where(shown, eta - at["eta"] - np.nan_to_num(u), -np.inf)
+        out[q] = {"n_points": int(sel.sum()), "n_above_map": int((excess > 1e-12).sum()),
+                  "max_excess": float(max(excess.max(initial=0.0), 0.0)),
+                  "n_off_map": int((sel & ~shown).sum())}
     return out
 
 

@@ -14,7 +14,13 @@ import numpy as np
 from bench.errors import InputError
 from fitting import figures
 from fitting.domain import BAND_FRAC, quadrant_envelopes
-from fitting.efficiency import MaskingRules, band_shares, gridded_map, peak_points
+from fitting.efficiency import (
+    MaskingRules,
+    band_shares,
+    gridded_map,
+    peak_points,
+    points_against_map,
+)
 from fitting.loss_table import write_loss_table
 from fitting.model_file import save_power_model
 from fitting.outputs import json_safe, write_json, write_parquet
@@ -264,6 +270,8 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
                                                          outliers["n_flagged"] else []),
         "efficiency": {"masking": masking.to_dict(), "band_shares": _records(shares),
                        "peak": peaks,
+                       "points_against_map": points_against_map(frame, masking,
+                                                                emap.attrs["ceilings"]),
                        "envelope": {q: {"band_width_rpm": env["band_width_rpm"],
                                         "n_points": env["n_points"],
                                         "n_vertices": len(env["polygon"])}

@@ -193,10 +193,11 @@ def make_hobby_dyno_table(root: Path, sid: str = "hobby_01", seed: int = 23,
                           outlier: bool = True) -> dict[str, np.ndarray]:
     """A hobby dyno's motor-only table: 19 speeds x 18 torques, torque in ``N mm``.
 
-    A 1 kW motor whose losses (no-load 8 W, friction 0.004 W/rpm, iron 1.5e-6
-    W/rpm^2, copper 12 W/(N m)^2) put the peak efficiency (about 0.88) at part
-    load and high speed, 2000-4000 rpm, where a quadratic fit's residuals are
-    largest relative to the power. P_el is noisy (0.5 W) and printed to 0.01 W;
+    A 2.5 kW motor whose losses (no-load 4 W, friction 0.002 W/rpm, iron 0.8e-6
+    W/rpm^2, copper 40 W/(N m)^2) put the peak efficiency (about 0.87) at part
+    load (0.5-1.5 N m of 6) and high speed, 2000-4000 rpm, where one point's
+    noise in efficiency is largest; full torque runs at 0.6-0.7. P_el is noisy (0.5 W)
+    and printed to 0.01 W;
     the table states no std. With ``outlier``, one row (1811 rpm, 0.0004 N m,
     322 W) is a logging glitch: about 300 W above the drive's losses there.
 
@@ -205,10 +206,10 @@ def make_hobby_dyno_table(root: Path, sid: str = "hobby_01", seed: int = 23,
     """
     rng = np.random.default_rng(seed)
     speed = np.repeat(np.linspace(500.0, 4000.0, 19), 18)
-    torque = np.tile(np.linspace(0.05, 3.0, 18), 19)
+    torque = np.tile(np.linspace(0.05, 6.0, 18), 19)
     speed = speed + rng.normal(0.0, 2.0, speed.size)
     p_mech = speed * torque * RAD_S_PER_RPM
-    loss = 8.0 + 0.004 * speed + 1.5e-6 * speed**2 + 12.0 * torque**2
+    loss = 4.0 + 0.002 * speed + 0.8e-6 * speed**2 + 40.0 * torque**2
     p_elec = p_mech + loss + rng.normal(0.0, 0.5, speed.size)
     row = -1
     if outlier:
@@ -227,6 +228,6 @@ def make_hobby_dyno_table(root: Path, sid: str = "hobby_01", seed: int = 23,
         '[columns.p_elec]\ncolumn = "P_el [W]"\nunit = "W"\n', encoding="utf-8")
     (folder / "session.toml").write_text(_session_toml(
         sid, "motor", "points.txt",
-        {"torque_range_nm": 5.0, "speed_range_rpm": 5000.0, "power_range_w": 2000.0}))
+        {"torque_range_nm": 10.0, "speed_range_rpm": 5000.0, "power_range_w": 5000.0}))
     return {"speed_rpm": np.round(speed, 1), "torque_nm": np.round(torque * 1e3, 1) / 1e3,
             "p_elec_w": np.round(p_elec, 2), "outlier_row": row}
