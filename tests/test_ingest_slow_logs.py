@@ -83,3 +83,59 @@ def test_drift_line_slope_error_is_the_ols_standard_error():
     # two segments: no residual to judge by, the floor sets it: sqrt(floor^2 / Sxx)
     _, _, sigma2 = drift_line([0.0, 1000.0], [1.0, 1.04], floor_s=0.01)
     assert sigma2 == pytest.approx(0.01 / np.sqrt(2 * 500.0**2), rel=1e-12)
+
+
+def _write_stamped_log(root, ampm: bool, rows_per_s: int = 4):
+    """A log stamped in whole seconds (12-hour clock) at ``rows_per_s`` rows per second,
+    with the columns ``Date/Time``, ``Speed [rpm]``, ``Torque [Nm]``, ``Power [W]``."""
+    from datetime import datetime, timedelta
+
+    from stream_fixtures import _session_toml, _signals, german_setpoints, p_elec_w
+
+    rng = np.random.default_rng(4)
+    t, speed, torque, pe, s_set, q_set, step = _signals(german_setpoints(), 30.0,
+                                                       float(rows_per_s), rng,
+                                                       noise=(1.0, 0.15, 6.0))
+    start = datetime(2024, 3, 5, 11, 58, 40)  # through noon: 11:59:59 AM -> 12:00:00 PM
+    fmt = "%I:%M:%S %p" if ampm else "%H:%M:%S"
+    rows = ["Date/Time,Speed [rpm],Torque [Nm],Power [W]"]
+    rows += [f"{(start + timedelta(seconds=float(np.floor(x)))):{fmt}},{s:.2f},{q:.3f},{p:.1f}"
+             for x, s, q, p in zip(t, speed, torque, pe, strict=True)]
+    folder = root / "stamped"
+    folder.mkdir(parents=True)
+    (folder / "log.csv").write_text("\n".join(rows) + "\n")
+    _session_toml(folder, "stamped", "1", (3000.0, 100.0, 15000.0))
+    return s_set, q_set, p_elec_w(s_set, q_set)
+
+
+@pytest.mark.parametrize("ampm", [True, False])
+def test_whole_second_stamps_at_4hz_are_spread_and_named_columns_found(tmp_path, ampm):
+    speed, torque, p_elec = _write_stamped_log(tmp_path / "c", ampm)
+    ingest([tmp_path / "c"], tmp_path / "store", progress=False)  # no mapping.toml
+    e = json.loads((tmp_path / "store" / "manifest.json").read_text())["sessions"]["stamped"]
+    assert e["timing"]["stamp_rows_spread"] == 4
+    assert e["timing"]["sample_interval_s"] == pytest.approx(0.25)
+    cols = e["instruments"]["log"]["columns"]
+    assert cols["time"]["column"] == "Date/Time" and cols["p_elec"]["column"] == "Power [W]"
+    pts, _ = _stored(tmp_path / "store", "stamped")
+    pts = pts.sort_values("t_start_s")
+    assert len(pts) == len(speed)  # every hold, the one through noon included
+    # holds start every 30 s on the logger's clock: the spread keeps them there
+    k = np.arange(len(speed))
+    assert np.all((pts["t_start_s"] >= 30 * k - 1) & (pts["t_end_s"] <= 30 * (k + 1) + 1))
+    np.testing.assert_allclose(pts["speed_rpm"], speed, atol=1.0)
+    np.testing.assert_allclose(pts["torque_nm"], torque, atol=0.2)
+    np.testing.assert_allclose(pts["p_elec_w"], p_elec, rtol=0.01, atol=10.0)
+
+
+def test_a_duplicated_row_of_a_1hz_log_is_still_an_error(tmp_path, capsys):
+    from bench.cli import main
+
+    make_german_logger(tmp_path / "c")
+    log = tmp_path / "c" / "logger_de" / "log.csv"
+    lines = log.read_text(encoding="cp1252").splitlines()
+    lines.insert(40, lines[40])
+    log.write_text("\n".join(lines) + "\n", encoding="cp1252")
+    rc = main(["ingest", str(tmp_path / "c"), "--store", str(tmp_path / "s"), "--no-progress"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "time repeats" in err and "log.csv:42" in err, err  # the second copy

@@ -449,6 +449,8 @@ def process_timeseries(
     }
     if daq.clock is not None and daq.clock.start is not None:
         info["start"] = daq.clock.start.isoformat()
+    if daq.clock is not None and daq.clock.spread_rows:
+        timing["stamp_rows_spread"] = daq.clock.spread_rows
     if not win.accepted:
         info["no_points_note"] = steady.why_no_windows(
             win, float(np.sum(usable)) * dt, timing["duration_s"], dt, config)
