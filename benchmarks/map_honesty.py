@@ -19,7 +19,8 @@ own loss, clipped to the ceiling: a point is above it by more than its uncertain
 exactly when its efficiency exceeds the ceiling plus that uncertainty) and read
 bilinearly from the grid nodes (with the worst excess, and the points no in-domain
 node surrounds), the measured peak and its uncertainty, the map's peak and
-ceiling, and whether the map peak is within the measured peak's uncertainty.
+ceiling, whether the map peak is within the measured peak's uncertainty, and the
+points the fit flags as outliers (``statistics.outliers``; None where not reported).
 
     .venv/bin/python benchmarks/map_honesty.py [--out DIR] [--campaigns DIR]
 
@@ -146,6 +147,7 @@ def evaluate(name: str, campaign: Path, work: Path) -> list[dict]:
             "map_peak": map_peak, "ceiling": ceiling,
             "ceiling_below_a_point": bool(ceiling < eta[k]),
             "map_peak_within_u": bool(abs(map_peak - eta[k]) <= u[k] + 1e-12),
+            "outliers_flagged": (summary["statistics"].get("outliers") or {}).get("n_flagged"),
         })
     return rows
 
