@@ -5,11 +5,13 @@ Usage::
     .venv/bin/python benchmarks/solver_comparison.py [--solvers ipopt,fatrop] [--workers 2]
         [--wind-grid 4:10:1.5] [--systems highwind,ap2,megawes] [--system-winds 7,10]
 
-1. The paper's 20 scenarios (4 kinds x ``--wind-grid``, the paper's Table I drive model,
+1. Profile: the warm solve of the stored guess's scenario from the stored guess (N = 40),
+   with the solver's own time statistics (function evaluations, and fatrop's split).
+2. The paper's 20 scenarios (4 kinds x ``--wind-grid``, the paper's Table I drive model,
    the shipped highwind system): the whole sweep on ``--workers`` processes with each
    solver, each chain started from the stored guess when it fits (else the homotopy),
    cut-in search and trust checks excluded (as ``optimize_sweep_benchmark.py``).
-2. Each shipped system (``optimize/data/systems/*.toml``) with the drive its file names
+3. Each shipped system (``optimize/data/systems/*.toml``) with the drive its file names
    (:func:`optimize.system.drive.drive_in_force`): the elec-lim start
    at the first of ``--system-winds`` (stored guess when it fits, else the homotopy),
    then warm solves at the others.
@@ -149,6 +151,41 @@ def system_runs(solver: str, systems: list[str], winds: list[float], intervals: 
     return {"solver": solver, "runs": rows, **totals(rows, time.perf_counter() - t_all)}
 
 
+def profile(solver: str, max_iter: int) -> dict:
+    """Where one solve's time goes: the warm solve of the stored guess's own scenario
+    (elec-lim-7.0, N = 40) from the stored guess, with the solver's own statistics."""
+    from optimize.solve import backend, initial_guess
+
+    system = load_system()
+    drive = drive_in_force(system)
+    options = system.ocp_options(
+        OcpOptions(solver=SolverOptions(solver=solver, max_iter=max_iter)), drive.rating)
+    t0, c0 = time.perf_counter(), time.process_time()
+    ocp = build_ocp(kite_dae(*system.model_params()), drive.model, options, system=system)
+    build = (time.perf_counter() - t0, time.process_time() - c0)
+    guess, why = initial_guess.load(ocp)
+    t0, c0 = time.perf_counter(), time.process_time()
+    backend.solver(ocp, True)
+    create = (time.perf_counter() - t0, time.process_time() - c0)
+    res = solve(ocp, initial_guess.GUESS_SCENARIO, guess, retry_cold=False)
+    stats = backend.solver(ocp, True).stats()
+    out = {"solver": solver, "layout": ocp.layout.kind, "variables": ocp.layout.n_w,
+           "rows": ocp.layout.n_g, "build_wall_cpu_s": build, "create_wall_cpu_s": create,
+           "guess": why, **record(initial_guess.GUESS_SCENARIO.name, res),
+           "t_proc_s": {k[7:]: v for k, v in stats.items() if k.startswith("t_proc_")},
+           "t_wall_s": {k[7:]: v for k, v in stats.items() if k.startswith("t_wall_")}}
+    out["cpu_per_iteration_s"] = out["cpu_s"] / max(out["iterations"], 1)
+    if "fatrop" in stats:
+        out["fatrop"] = stats["fatrop"]
+        out["stages"] = {"N": stats["N"], "nx": sorted(set(stats["nx"])),
+                         "nu": sorted(set(stats["nu"])), "ng": sorted(set(stats["ng"]))}
+    print(f"{solver}: warm solve of the stored guess: {res.status}, {res.iterations} it, "
+          f"{out['cpu_s']:.2f} s CPU ({1000 * out['cpu_per_iteration_s']:.0f} ms per "
+          f"iteration), function evaluations {sum(out['t_proc_s'].values()):.2f} s CPU; "
+          f"build {build[1]:.1f} s CPU, solver creation {create[1]:.1f} s CPU", flush=True)
+    return out
+
+
 def differences(ref: list[dict], other: list[dict]) -> dict:
     """Per scenario the differences to the reference; the largest; status mismatches."""
     by_name = {r["scenario"]: r for r in other}
@@ -182,6 +219,8 @@ def main() -> None:
                     help="shipped systems to start and warm-solve ('' skips the part)")
     ap.add_argument("--system-winds", default="7,10")
     ap.add_argument("--no-sweep", action="store_true", help="skip the paper sweep")
+    ap.add_argument("--no-profile", action="store_true",
+                    help="skip the profile of one warm solve from the stored guess")
     ap.add_argument("--max-iter", type=int, default=SolverOptions.max_iter,
                     help="iteration limit per solver call, both solvers")
     ap.add_argument("--out", type=Path, default=OUT / "solver_comparison.json")
@@ -192,8 +231,10 @@ def main() -> None:
     system_winds = [float(w) for w in args.system_winds.split(",")]
     report = {"machine": {"nproc": os.cpu_count(), "load_before": load()}, "goals": GOALS,
               "max_iter": args.max_iter,
-              "solvers": solvers, "sweep": {}, "systems": {}}
+              "solvers": solvers, "sweep": {}, "systems": {}, "profile": {}}
     for solver in solvers:
+        if not args.no_profile:
+            report["profile"][solver] = profile(solver, args.max_iter)
         if not args.no_sweep:
             report["sweep"][solver] = paper_sweep(solver, winds, kinds, args.workers,
                                                   args.intervals, args.max_iter)
