@@ -20,8 +20,8 @@ import logging
 import statistics
 import time
 
-from fitting.model_file import paper_model
 from optimize.model.kite_model import kite_dae
+from optimize.paper_model import paper_model
 from optimize.problem.ocp import OcpOptions, build_ocp
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import HOMOTOPY_BOUND_PUSH

@@ -13,7 +13,7 @@ design rated at the system file's speed, torque and nominal power
 wall time, P_elec, P_mech, period, active bounds and the slack-tether fraction,
 with the load average; writes ``benchmarks/out/system_cold_starts.json``.
 
-Goal (issue 11): 12/12 converged, none with the period or tether on a bound the
+Goal: 12/12 converged, none with the period or tether on a bound the
 file did not mean to bind, median cold start <= 20 s.
 """
 
@@ -27,17 +27,17 @@ import statistics
 import time
 from pathlib import Path
 
-from fitting.model_file import paper_model
+from optimize.kinds import KINDS
 from optimize.model.drive import RatedDrive
 from optimize.model.kite_model import kite_dae
+from optimize.paper_model import paper_model
 from optimize.problem.ocp import OcpOptions, build_ocp
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start
 from optimize.sweep.outputs import MEANT_BOUNDS
-from optimize.sweep.plan import KINDS
 from optimize.system.system import load_system, shipped_system_path
 
-#: ratings of the paper's drive, the base of the rated drives (REFERENCE.md §1, §3)
+#: ratings of the paper's drive, the base of the rated drives (docs/paper_figures.md §1, §3)
 PAPER_SPEED_RPM, PAPER_TORQUE_NM = 1500.0, 78.0
 
 

@@ -1,4 +1,4 @@
-"""``bench aep``: annual energy of the optimal power curves at a site (issue 12).
+"""``bench aep``: annual energy of the optimal power curves at a site.
 
 A thin command line over :func:`energy.site.read_histogram_csv`,
 :func:`energy.curve.read_optimize_run`, :func:`energy.assess.assess` and
@@ -156,7 +156,7 @@ def _refine(args: argparse.Namespace, run_, site):
     """Refine every kind's grid (:mod:`energy.refine`) with the sweep's own model."""
     from energy.assess import model_for_run
     from energy.refine import DEFAULT_TOL, refine_run
-    from fitting.model_file import power_model_from_dict
+    from fitting.model_schema import power_model_from_dict
 
     tol = DEFAULT_TOL if args.refine_tol is None else args.refine_tol
     if not (math.isfinite(tol) and 0 < tol < 1):

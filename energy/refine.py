@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from bench.errors import InputError
+from bench.files import parse_toml
 from energy import bands
 from energy.adaptive import refine_grid
 from energy.curve import OptimizeRun, PowerCurve
@@ -67,8 +68,6 @@ def system_from_manifest(manifest: dict, path: Path) -> Any:
     InputError
         The record's text does not parse or its hash differs from the record's.
     """
-    import tomllib
-
     from optimize.system.system import system_from_dict
 
     rec = manifest.get("system")
@@ -77,10 +76,8 @@ def system_from_manifest(manifest: dict, path: Path) -> Any:
     if not isinstance(rec, dict) or not isinstance(rec.get("text"), str):
         raise InputError(path, "system record without its text", column="system",
                          expected="the manifest of `bench optimize` (docs/schemas.md §5)")
-    try:
-        system = system_from_dict(tomllib.loads(rec["text"]), str(rec.get("path")), rec["text"])
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(path, f"system text is not valid TOML: {exc}", column="system") from None
+    system = system_from_dict(parse_toml(rec["text"], path, what="manifest's system text"),
+                              str(rec.get("path")), rec["text"])
     if rec.get("sha256") and system.sha256 != rec["sha256"]:
         raise InputError(path, "system text does not match its recorded sha256", column="system")
     return system
@@ -93,7 +90,7 @@ class KindTask:
     Attributes
     ----------
     kind : str
-    model : fitting.model_file.PowerModel
+    model : fitting.power_model.PowerModel
     options : optimize.problem.ocp.OcpOptions
     known : tuple of (float, float, float)
         The sweep's converged grid points: wind [m/s], P_elec [W], P_mech [W].
@@ -129,8 +126,8 @@ def refine_kind(task: KindTask, progress: Any = None) -> list[dict]:
     warm_from, avg_p_elec_w, avg_p_mech_w, period_s, peak_torque_nm, peak_speed_rpm,
     basis_averages, wall_time_s, cached``.
     """
+    from optimize.kinds import KINDS
     from optimize.sweep.chains import OcpBackend, Problem, problem_key
-    from optimize.sweep.plan import KINDS
 
     backend = task.backend or OcpBackend()
     objective, limits = KINDS[task.kind]

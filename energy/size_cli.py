@@ -1,8 +1,8 @@
-"""``bench size``: electrical AEP against drive rating over candidate drives (issue 12).
+"""``bench size``: electrical AEP against drive rating over candidate drives.
 
 A thin command line over :mod:`energy.sizing`; writes ``size_out/sizing.json``,
 ``size_out/sizing.csv`` and the resumable solve store ``size_out/solves/``
-(docs/schemas.md §7).
+(docs/schemas.md §8).
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "docs/system_file.md); default the shipped highwind.toml")
     parser.add_argument("--scales", default=DEFAULT_SCALES,
                         help="torque-rating scales of the reference drive, comma list (default "
-                             f"{DEFAULT_SCALES}); law in docs/schemas.md §7")
+                             f"{DEFAULT_SCALES}); law in docs/schemas.md §8")
     parser.add_argument("--models", type=Path, nargs="*", default=(),
                         help="further candidates: power_model.json files (rated torque and "
                              "speed limit from their drive section, else the reference ones)")
@@ -94,7 +94,8 @@ def _scales(spec: str) -> tuple[float, ...]:
 def build_candidates(args: argparse.Namespace) -> tuple[list, Path, list[str]]:
     """The candidate drives, the reference model's path, and notes on defaults used."""
     from energy.sizing import Candidate, scaled_candidates
-    from fitting.model_file import PAPER_MODEL_PATH, load_power_model
+    from fitting.model_file import load_power_model
+    from optimize.paper_model import PAPER_MODEL_PATH
 
     notes = []
     if args.drive_model is not None:
@@ -135,7 +136,7 @@ def build_candidates(args: argparse.Namespace) -> tuple[list, Path, list[str]]:
 
 def run(args: argparse.Namespace) -> int:
     """Run or resume the sizing sweep, print the table, write the files."""
-    from bench.files import write_text_atomic
+    from bench.files import write_json, write_text_atomic
     from energy.sizing import run_sizing
     from optimize.sweep.plan import parse_wind_grid
     from optimize.system.system import load_system
@@ -187,5 +188,5 @@ def run(args: argparse.Namespace) -> int:
         "candidates": json.loads(t.to_json(orient="records")),
         "solves": res.records, "notes": notes,
     }
-    write_text_atomic(args.out / "sizing.json", json.dumps(doc, indent=1) + "\n")
+    write_json(args.out / "sizing.json", doc, indent=1)
     return 0 if res.chosen is not None else 1

@@ -45,7 +45,8 @@ from typing import Any
 
 import numpy as np
 
-from bench.files import atomic_write, write_text_atomic
+from bench.files import atomic_write, write_json
+from optimize.kinds import KINDS
 
 #: bump when the meaning of a stored solve changes (invalidates every stored solve)
 STORE_VERSION = 1
@@ -53,13 +54,16 @@ STORE_VERSION = 1
 #: 500 % in torque (Stuyts et al. 2015, section II)
 DEFAULT_OVERLOAD = 5.0
 
+#: the scenario kind a sizing solves: the electrical objective within the drive's limits
+SIZING_KIND = "elec-lim"
+
 
 def scaled_model(base: Any, s: float, name: str | None = None) -> Any:
     """The power model of a drive with ``s`` times the torque rating (``c_ij -> s^(1-j) c_ij``).
 
     Parameters
     ----------
-    base : fitting.model_file.PowerModel
+    base : fitting.power_model.PowerModel
     s : float
         Torque-rating scale, > 0.
     """
@@ -91,7 +95,7 @@ class Candidate:
     Attributes
     ----------
     name : str
-    model : fitting.model_file.PowerModel
+    model : fitting.power_model.PowerModel
     rated_torque_nm : float
         Continuous rating: RMS drum torque over the cycle at most this [N m].
     peak_torque_nm : float
@@ -145,7 +149,7 @@ def scaled_candidates(base: Any, scales: tuple[float, ...], rated_torque_nm: flo
 def solve_key(candidate: Candidate, options: Any, wind_m_s: float, system_sha256: str) -> str:
     """SHA-256 (hex) of everything a sizing solve (elec-lim) depends on (the system file's
     hash too)."""
-    return scenario_key(candidate.model.sha256, options, wind_m_s, "electrical", True,
+    return scenario_key(candidate.model.sha256, options, wind_m_s, *KINDS[SIZING_KIND],
                         system_sha256)
 
 
@@ -216,7 +220,7 @@ def store_solve(store: Path, key: str, rec: dict, warm: Any) -> None:
                 np.savez(fh, w=warm.w, lam_x=warm.lam_x, lam_g=warm.lam_g,
                          n_intervals=warm.n_intervals, degree=warm.degree)
         atomic_write(store / f"{key}.npz", write_npz)
-    write_text_atomic(store / f"{key}.json", json.dumps(rec, indent=1, allow_nan=True))
+    write_json(store / f"{key}.json", rec, indent=1, non_finite="nan")
 
 
 def run_candidate(task: SizingTask, progress: Any = None) -> list[dict]:
@@ -252,7 +256,7 @@ def run_candidate(task: SizingTask, progress: Any = None) -> list[dict]:
             if ocp is None:
                 ocp = build_ocp(kite_dae(*system.model_params()), c.model, options,
                                 system=system)
-            scenario = Scenario(wind, "electrical", True)
+            scenario = Scenario(wind, *KINDS[SIZING_KIND])
             inner = [w for w in warms if warms[w] is not None]
             t0 = time.perf_counter()
             res = None

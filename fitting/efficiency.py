@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 from scipy.spatial import ConvexHull, Delaunay, QhullError
 
+from bench.units import RPM_PER_RAD_S
 from fitting.domain import BAND_FRAC, in_polygon, quadrant_envelopes
 from fitting.points import QUADRANTS, quadrant_of
 
@@ -309,7 +310,7 @@ def gridded_map(
     speeds, torques = regular_grid(frame, speed_step_rpm or default_s, torque_step_nm or default_t)
     sg, tg = np.meshgrid(speeds, torques, indexing="ij")
     s, t = sg.ravel(), tg.ravel()
-    p_mech = s * 2.0 * np.pi / 60.0 * t
+    p_mech = s / RPM_PER_RAD_S * t
     quadrant = quadrant_of(p_mech)
     scales = (float(np.max(np.abs(frame["speed_rpm"]))) or 1.0,
               float(np.max(np.abs(frame["torque_nm"]))) or 1.0)

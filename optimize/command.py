@@ -16,12 +16,14 @@ from typing import Any
 import numpy as np
 
 from bench.errors import InputError
-from bench.files import file_sha256
+from bench.files import file_sha256, write_csv, write_json, write_parquet
+from bench.versions import package_versions
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
+from optimize.kinds import KINDS
 from optimize.sweep import outputs
 from optimize.sweep.chains import Problem, make_tasks, run_sweep
 from optimize.sweep.executors import open_executor
-from optimize.sweep.plan import KINDS, parse_kinds, parse_wind_grid, plan_chains
+from optimize.sweep.plan import parse_kinds, parse_wind_grid, plan_chains
 from optimize.sweep.trust import run_trust_checks
 from optimize.system.system import System, load_system
 
@@ -37,7 +39,7 @@ class SweepRequest:
     kinds : tuple of str
         Scenario kinds.
     drive_model : Any
-        ``fitting.model_file.PowerModel``.
+        ``fitting.power_model.PowerModel``.
     drive_model_path : Path
         Where it was read from.
     model_note : str
@@ -79,7 +81,8 @@ class SweepRequest:
     def from_cli(cls, args: Any, fit_model_path: Path) -> SweepRequest:
         """Build the request from ``bench optimize`` arguments; bad values raise InputError."""
         from fitting.model_check import check_physics
-        from fitting.model_file import PAPER_MODEL_PATH, load_power_model
+        from fitting.model_file import load_power_model
+        from optimize.paper_model import PAPER_MODEL_PATH
         from optimize.problem.ocp import OcpOptions
 
         winds = parse_wind_grid(args.wind_grid)
@@ -155,19 +158,6 @@ class OptimizeOutcome:
     files: dict
 
 
-def _package_versions() -> dict[str, str]:
-    import importlib.metadata as md
-    import platform
-
-    versions = {"python": platform.python_version()}
-    for dist in ("drivebench", "casadi", "numpy", "pandas", "pyarrow", "scipy", "distributed"):
-        try:
-            versions[dist] = md.version(dist)
-        except md.PackageNotFoundError:
-            versions[dist] = "not installed"
-    return versions
-
-
 def run_optimize(
     request: SweepRequest,
     command_line: list[str] | None = None,
@@ -210,18 +200,17 @@ def run_optimize(
     claims = evaluate_claims(summary, cut_ins) if request.claims else None
 
     request.out.mkdir(parents=True, exist_ok=True)
+    system_meta = outputs.system_metadata(system.record())
     files = {
-        "summary": outputs.write_parquet(
-            summary, request.out / "summary.parquet", outputs.SUMMARY_COLUMNS, system.record()
-        ),
-        "trajectories": outputs.write_parquet(
-            outputs.trajectories_frame(result.outcomes), request.out / "trajectories.parquet",
-            system=system.record(),
-        ),
+        "summary": write_parquet(request.out / "summary.parquet", summary,
+                                 descriptions=outputs.SUMMARY_COLUMNS, metadata=system_meta),
+        "trajectories": write_parquet(request.out / "trajectories.parquet",
+                                      outputs.trajectories_frame(result.outcomes),
+                                      metadata=system_meta),
     }
     claims_path = request.out / "claims.csv"
     if claims is not None:
-        files["claims"] = outputs.write_csv(claims, claims_path)
+        files["claims"] = write_csv(claims_path, claims)
     else:
         claims_path.unlink(missing_ok=True)  # never leave a stale comparison beside new results
     manifest = {
@@ -229,7 +218,7 @@ def run_optimize(
         "schema_version": outputs.SCHEMA_VERSION,
         "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "command_line": list(command_line if command_line is not None else sys.argv),
-        "package_versions": _package_versions(),
+        "package_versions": package_versions(),
         "wind_speeds_m_s": list(request.winds),
         "kinds": list(request.kinds),
         "scenarios": [o.name for o in result.outcomes],
@@ -260,7 +249,7 @@ def run_optimize(
         "trust": trust,
         "files": {k: Path(v).name for k, v in files.items()},
     }
-    files["manifest"] = outputs.write_json(manifest, request.out / "manifest.json")
+    files["manifest"] = write_json(request.out / "manifest.json", manifest)
     return OptimizeOutcome(
         summary,
         claims,

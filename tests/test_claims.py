@@ -1,7 +1,7 @@
 """Paper-comparison verdicts on hand-made summary tables (no solver involved).
 
 The "paper-like" table below is written so that every statement of
-REFERENCE.md §4 holds by construction; each test then breaks one statement
+docs/paper_figures.md §4 holds by construction; each test then breaks one statement
 and checks that exactly that verdict changes.
 """
 

@@ -16,7 +16,7 @@ from energy.sizing import (
     scaled_model,
     solve_key,
 )
-from fitting.model_file import paper_model
+from optimize.paper_model import paper_model
 from optimize.sweep.executors import ExecutorHandle, QueueChannel
 
 

@@ -36,7 +36,8 @@ def test_shipped_systems_load_with_a_positive_definite_inertia(name):
 
 
 def test_highwind_file_is_the_package_defaults():
-    # REFERENCE.md's values, written once as dataclass defaults and once in the file
+    # the paper's values (docs/paper_figures.md §2), written once as dataclass defaults and
+    # once in the file
     system = load_system()
     assert system.kite_params() == KiteParams()
     assert system.aero_coefficients() == AeroCoefficients()

@@ -1,4 +1,4 @@
-"""Comparison with the paper: each statement of REFERENCE.md §4, paper figure, ours, verdict.
+"""Comparison with the paper: each statement of docs/paper_figures.md §4, ours, verdict.
 
 Verdicts are ``agrees``, ``differs`` or ``not comparable`` (a scenario the
 statement needs is missing from the sweep or did not converge). The rules and
@@ -6,7 +6,7 @@ tolerances are module constants, each with the reason for its size:
 
 * a single figure (period, energy, speed, power) *agrees* when ours is within
   :data:`FIGURE_RTOL` of the paper's: the paper's kite model is only partly
-  recoverable (REFERENCE.md §2 comes from the reference code, not the paper),
+  recoverable (docs/paper_figures.md §2 comes from the reference code, not the paper),
   and figures are read off plots, so only the size is comparable, not digits;
 * a cut-in speed agrees within :data:`CUT_IN_TOL_M_S`: the paper reads it off a
   plot with a 1.5 m/s wind grid ("around 5.5", "around 4.8");
@@ -35,7 +35,7 @@ CUT_IN_TOL_M_S = 0.5
 COINCIDE_RTOL = 0.01
 COINCIDE_ATOL_W = 5.0
 ORDER_ATOL_W = 1.0
-#: drive limits of the constrained scenarios (REFERENCE.md §1); a peak within
+#: drive limits of the constrained scenarios (docs/paper_figures.md §1); a peak within
 #: LIMIT_RTOL of a limit counts as the limit being active (IPOPT's bound push)
 MAX_TORQUE_NM, MAX_SPEED_RPM, LIMIT_RTOL = 78.0, 1500.0, 0.005
 
@@ -43,7 +43,8 @@ AGREES, DIFFERS, NOT_COMPARABLE = "agrees", "differs", "not comparable"
 
 #: why ours can differ from the paper, per claim (used in the note when it differs)
 MODEL_NOTE = (
-    "our kite, aero and wind model is REFERENCE.md §2 (the public reference code), not "
+    "our kite, aero and wind model is that of the public code the paper used (ghorn/rawesome, "
+    "docs/paper_figures.md §2), not "
     "necessarily the paper's exact version; regularization, interval count and period "
     "bounds also differ"
 )
@@ -83,7 +84,7 @@ class Claim:
     ----------
     claim_id : str
     statement : str
-        The paper's statement (REFERENCE.md §4), in short.
+        The paper's statement (docs/paper_figures.md §4), in short.
     paper : str
         The paper's figure.
     ours : str
@@ -466,7 +467,7 @@ def cut_in_frame(cut_ins: Iterable[CutIn]) -> pd.DataFrame:
 
 
 def evaluate_claims(summary: pd.DataFrame, cut_ins: pd.DataFrame) -> pd.DataFrame:
-    """Every claim of REFERENCE.md §4 against a sweep.
+    """Every claim of docs/paper_figures.md §4 against a sweep.
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Winch-drive quantities of the kite state (REFERENCE.md §1, paper eq. 4).
+"""Winch-drive quantities of the kite state (docs/paper_figures.md §1, paper eq. 4).
 
 Drum frame: torque >= 0 when the tether pulls, reel-out (generating) is
 negative speed; mechanical power is positive when the drive delivers power to
@@ -13,12 +13,11 @@ from typing import Any, Protocol
 
 import numpy as np
 
-#: conversion of rad/s to rpm
-RPM_PER_RAD_S = 60.0 / (2.0 * np.pi)
+from bench.units import RPM_PER_RAD_S
 
 
 class DriveModel(Protocol):
-    """What the OCP needs from a drive power model (``fitting.model_file.PowerModel``)."""
+    """What the OCP needs from a drive power model (``fitting.power_model.PowerModel``)."""
 
     def casadi_p_elec_w(self, speed_rpm: Any, torque_nm: Any) -> Any:
         """Electrical power drawn from the grid [W] (CasADi expression)."""
