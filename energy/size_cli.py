@@ -136,7 +136,6 @@ def build_candidates(args: argparse.Namespace) -> tuple[list, Path, list[str]]:
 
 def run(args: argparse.Namespace) -> int:
     """Run or resume the sizing sweep, print the table, write the files."""
-    from bench.files import write_json, write_text_atomic
     from energy.sizing import run_sizing
     from optimize.sweep.plan import parse_wind_grid
     from optimize.system.system import load_system
@@ -170,23 +169,36 @@ def run(args: argparse.Namespace) -> int:
     for r in failed:
         print(f"FAILED: {r['candidate']} at {r['wind_speed_m_s']:g} m/s: {r['status']} "
               "(that candidate gets no AEP)")
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(args.out / "sizing.csv", t.to_csv(index=False, float_format="%.6g"))
+    write_sizing(args.out, res, site=site, site_note=site_note, reference_model=str(base_path),
+                 system=system, winds=winds, adaptive=args.adaptive, tolerance=args.tolerance,
+                 notes=notes, command_line=["bench", "size", *sys.argv[2:]])
+    return 0 if res.chosen is not None else 1
+
+
+def write_sizing(out: Path, res, *, site, site_note: str, reference_model: str, system,
+                 winds: tuple[float, ...], adaptive: bool, tolerance: float, notes: list[str],
+                 command_line: list[str]) -> None:
+    """Write ``sizing.csv`` and ``sizing.json`` (docs/schemas.md §8) of a sizing result
+    (:class:`energy.sizing.SizingResult`) into ``out``."""
+    from bench.files import write_json, write_text_atomic
+
+    t = res.table
+    out.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(out / "sizing.csv", t.to_csv(index=False, float_format="%.6g"))
     doc = {
         "schema": "drivebench.sizing", "schema_version": 1,
         "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "command_line": ["bench", "size", *sys.argv[2:]],
+        "command_line": command_line,
         "site": {**site.to_dict(), "note": site_note},
-        "reference_model": {"path": str(base_path)},
+        "reference_model": {"path": reference_model},
         "system": system.record(),
         "law": "P_s(n, T) = s P_1(n, T/s): c_ij -> s^(1-j) c_ij; rated torque s T_rated, peak "
                "overload x rated, same speed limit, nominal power s P_nom",
-        "wind_speeds_m_s": list(winds), "adaptive": args.adaptive, "tolerance": args.tolerance,
+        "wind_speeds_m_s": list(winds), "adaptive": adaptive, "tolerance": tolerance,
         "best": res.best, "chosen": res.chosen,
         "wall_time_s": res.wall_time_s, "executor": res.executor,
         "n_solved": res.n_solved, "n_loaded": res.n_cached,
         "candidates": json.loads(t.to_json(orient="records")),
         "solves": res.records, "notes": notes,
     }
-    write_json(args.out / "sizing.json", doc, indent=1)
-    return 0 if res.chosen is not None else 1
+    write_json(out / "sizing.json", doc, indent=1)

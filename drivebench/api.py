@@ -1,0 +1,294 @@
+"""The stages of the ``bench`` pipeline as Python functions (docs/python_api.md).
+
+Each function does what its ``bench`` command does, writes the same files into
+its output folder (docs/schemas.md) and returns a typed result instead of a
+printed table:
+
+============ ============================== ==========================================
+function     ``bench`` command              returns
+============ ============================== ==========================================
+:func:`ingest`   ``bench ingest``           :class:`fitting.points.OperatingPoints`
+:func:`fit`      ``bench fit``              :class:`fitting.power_model.PowerModel`
+:func:`optimize` ``bench optimize``         :class:`Sweep`
+:func:`aep`      ``bench aep``              :class:`energy.assess.Assessment`
+:func:`size`     ``bench size``             :class:`energy.sizing.SizingResult`
+============ ============================== ==========================================
+
+Bad input raises :class:`bench.errors.InputError` (the command line turns it into
+exit code 2). Nothing here prints; progress bars are off unless asked for.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from bench.errors import InputError
+from optimize.kinds import KINDS
+
+#: the paper's wind grid [m/s] at the reference height
+PAPER_WINDS_M_S = (4.0, 5.5, 7.0, 8.5, 10.0)
+
+
+def ingest(paths: str | Path | Sequence[str | Path], store: str | Path = "bench_store", *,
+           mapping: str | Path | None = None, workers: int = 2, progress: bool = False) -> Any:
+    """Ingest bench campaigns or sessions into the store; the store's operating points.
+
+    Parameters
+    ----------
+    paths : path or list of paths
+        Campaign or session folders (docs/schemas.md §1).
+    store : path
+        The store folder (created when missing; sessions already stored and
+        unchanged are skipped).
+    mapping : path, optional
+        A mapping file for foreign column names (docs/bring_your_own_export.md).
+    workers : int
+        Sessions ingested in parallel.
+    progress : bool
+        Show progress bars.
+
+    Returns
+    -------
+    fitting.points.OperatingPoints
+        Every point of the store (``.frame``: ``speed_rpm``, ``torque_nm``,
+        ``p_mech_w``, ``p_elec_w``, ``quadrant``, ...), checked as ``bench fit`` reads them.
+    """
+    from bench.ingest.pipeline import ingest as ingest_sessions
+    from fitting.points import load_points
+
+    paths = [paths] if isinstance(paths, str | Path) else list(paths)
+    ingest_sessions(paths, store, mapping_path=mapping, progress=progress, workers=workers,
+                    notify=lambda line: None)
+    return load_points(store)
+
+
+def fit(store: str | Path = "bench_store", out: str | Path = "fit_out", *, order: int | None = 2,
+        progress: bool = False, **options: Any) -> Any:
+    """Fit the drive's power model to the store's points and write ``bench fit``'s files.
+
+    Parameters
+    ----------
+    store : path
+        The store of :func:`ingest`.
+    out : path
+        Output folder: ``power_model.json``, the efficiency map, figures (docs/schemas.md §4).
+    order : int or None
+        Total order of the model (2: the paper's eq. 4); None selects it.
+    progress : bool
+        Show progress bars.
+    **options
+        Further fields of :class:`fitting.pipeline.FitOptions` (``folds``, ``weighting``...).
+
+    Returns
+    -------
+    fitting.power_model.PowerModel
+        The fitted model, as written to ``out/power_model.json``.
+    """
+    from fitting.model_file import load_power_model
+    from fitting.pipeline import FitOptions, run_fit
+
+    run_fit(store, out, FitOptions(order=order, command="drivebench.fit", **options),
+            progress=progress)
+    return load_power_model(Path(out) / "power_model.json")
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """The result of :func:`optimize`: the optimal cycles over the wind grid.
+
+    Attributes
+    ----------
+    folder : Path
+        The output folder (``summary.parquet``, ``trajectories.parquet``,
+        ``manifest.json``, ``claims.csv``; docs/schemas.md §5).
+    summary : pandas.DataFrame
+        One row per scenario, failed ones included with their solver status.
+    claims : pandas.DataFrame or None
+        The comparison with the paper (None when not asked for).
+    curves : dict
+        Scenario kind -> :class:`energy.curve.PowerCurve` of its converged scenarios.
+    """
+
+    folder: Path
+    summary: pd.DataFrame
+    claims: pd.DataFrame | None
+    curves: dict
+
+
+def optimize(model: Any = None, *, winds: Sequence[float] = PAPER_WINDS_M_S,
+             kinds: Sequence[str] = tuple(KINDS), system: Any = None,
+             out: str | Path = "optimize_out", n_intervals: int = 40, degree: int = 4,
+             workers: int = 2, scheduler: str | None = None, claims: bool = True,
+             progress: bool = False) -> Sweep:
+    """Optimize the pumping cycle for every scenario kind and wind speed.
+
+    Parameters
+    ----------
+    model : PowerModel or path, optional
+        The drive's power model (:func:`fit`'s result or a ``power_model.json``);
+        default the paper's model. A model object is written to
+        ``out/power_model.json``, which the manifest names.
+    winds : sequence of float
+        Wind speeds at the reference height [m/s].
+    kinds : sequence of str
+        Scenario kinds (keys of :data:`optimize.kinds.KINDS`).
+    system : System or path, optional
+        The system file (kite, tether, winch, wind, bounds); default the shipped
+        ``highwind.toml``.
+    out : path
+        Output folder.
+    n_intervals, degree : int
+        Collocation intervals and polynomial degree of the optimal control problem.
+    workers : int
+        Local worker processes (ignored with ``scheduler``).
+    scheduler : str, optional
+        Address of a Dask scheduler.
+    claims : bool
+        Search the cut-in wind speeds and compare with the paper.
+    progress : bool
+        Show a progress bar.
+    """
+    from energy.curve import read_optimize_run
+    from fitting.model_file import load_power_model, save_power_model
+    from fitting.power_model import PowerModel
+    from optimize.command import SweepRequest, run_optimize
+    from optimize.paper_model import PAPER_MODEL_PATH
+    from optimize.problem.ocp import OcpOptions
+    from optimize.system.system import System, load_system
+
+    out = Path(out)
+    unknown = [k for k in kinds if k not in KINDS]
+    if unknown or not kinds:
+        raise InputError(None, f"scenario kinds {list(kinds)}", expected=", ".join(KINDS))
+    if model is None or isinstance(model, str | Path):
+        path = Path(model) if model is not None else PAPER_MODEL_PATH
+        model = load_power_model(path)
+    elif isinstance(model, PowerModel):
+        out.mkdir(parents=True, exist_ok=True)
+        path = save_power_model(model, out / "power_model.json")
+    else:
+        raise InputError(None, f"model of type {type(model).__name__}",
+                         expected="a PowerModel, a power_model.json path or None")
+    system = system if isinstance(system, System) else load_system(system)
+    request = SweepRequest(
+        tuple(float(w) for w in winds), tuple(kinds), model, path, f"drive model: {path}",
+        OcpOptions(n_intervals=n_intervals, degree=degree), workers, scheduler, out,
+        claims=claims, system=system)
+    outcome = run_optimize(request, ["drivebench.optimize"], show_progress=progress)
+    return Sweep(out, outcome.summary, outcome.claims, read_optimize_run(out).curves)
+
+
+def aep(sweep: Sweep | str | Path, site: Any, *, out: str | Path = "aep_out",
+        nominal_power_w: float | None = None) -> Any:
+    """Annual energy of the sweep's power curves at a site, and ``bench aep``'s files.
+
+    Parameters
+    ----------
+    sweep : Sweep or path
+        :func:`optimize`'s result or a ``bench optimize`` output folder.
+    site : energy.site.Weibull or energy.site.Histogram
+        Wind-speed distribution at the sweep's reference height
+        (:meth:`energy.site.Weibull.from_mean`, :func:`energy.site.rayleigh`,
+        :func:`energy.site.read_histogram_csv`).
+    out : path
+        Output folder (``aep.json``, ``power_curves.csv``, awesIO files; docs/schemas.md §7).
+    nominal_power_w : float, optional
+        Overrides the model's nominal power for the capacity factor [W].
+
+    Returns
+    -------
+    energy.assess.Assessment
+        ``.table()`` gives one row per scenario kind: AEP [MWh/yr], capacity
+        factor, 95 % band, losses.
+    """
+    from energy.assess import assess
+    from energy.curve import read_optimize_run
+    from energy.outputs import write_outputs
+    from energy.refine import system_from_manifest
+    from energy.site import Shear
+
+    folder = Path(sweep.folder if isinstance(sweep, Sweep) else sweep)
+    run = read_optimize_run(folder)
+    system = system_from_manifest(run.manifest, folder / "manifest.json")
+    shear = Shear() if system is None else Shear.from_system(system.wind)
+    note = f"{site.describe()} at {shear.reference_height_m:g} m"
+    assessment = assess(run, site, note, nominal_power_w=nominal_power_w)
+    write_outputs(assessment, run, Path(out), ["drivebench.aep"], shear)
+    return assessment
+
+
+def size(model: Any = None, site: Any = None, *, scales: Sequence[float] = (0.5, 1.0, 2.0),
+         winds: Sequence[float] = PAPER_WINDS_M_S, system: Any = None,
+         out: str | Path = "size_out", rated_torque_nm: float | None = None,
+         max_speed_rpm: float | None = None, overload: float | None = None,
+         tolerance: float = 0.02, n_intervals: int = 40, degree: int = 4, workers: int = 2,
+         scheduler: str | None = None, progress: bool = False) -> Any:
+    """Size the drive: electrical AEP at ``site`` of the reference drive scaled in torque.
+
+    Parameters
+    ----------
+    model : PowerModel or path, optional
+        The reference drive's power model; default the paper's model.
+    site : energy.site.Weibull or energy.site.Histogram
+        Wind-speed distribution at the reference height.
+    scales : sequence of float
+        Torque-rating scales of the candidates (docs/schemas.md §8: the law).
+    winds : sequence of float
+        Wind speeds [m/s] solved per candidate (at least two).
+    system : System or path, optional
+        The system file; default the shipped ``highwind.toml``.
+    out : path
+        Output folder (``sizing.json``, ``sizing.csv``, the resumable ``solves/``).
+    rated_torque_nm, max_speed_rpm : float, optional
+        The reference drive's continuous torque rating [N m] and speed limit
+        [rpm]; default the model's ``drive`` rating.
+    overload : float, optional
+        Short-time peak torque over rated torque [-]; default
+        :data:`energy.sizing.DEFAULT_OVERLOAD`.
+    tolerance : float
+        The chosen drive is the smallest within this share of the best AEP.
+    n_intervals, degree, workers, scheduler, progress
+        As for :func:`optimize`.
+
+    Returns
+    -------
+    energy.sizing.SizingResult
+        ``.table``: one row per candidate (rated torque, AEP, capacity factor...);
+        ``.best``, ``.chosen``: candidate names.
+    """
+    from energy.size_cli import write_sizing
+    from energy.sizing import DEFAULT_OVERLOAD, run_sizing, scaled_candidates
+    from fitting.model_file import load_power_model
+    from optimize.paper_model import PAPER_MODEL_PATH
+    from optimize.system.system import System, load_system
+
+    if site is None:
+        raise InputError(None, "no site given", expected="a Weibull or Histogram site")
+    if len(winds) < 2:
+        raise InputError(None, f"wind speeds {list(winds)}: one gives no curve to integrate",
+                         expected="at least two wind speeds")
+    path = PAPER_MODEL_PATH if model is None else model
+    base = load_power_model(path) if isinstance(path, str | Path) else model
+    drive = base.drive or {}
+    rated = rated_torque_nm if rated_torque_nm is not None else drive.get("max_torque_nm")
+    speed = max_speed_rpm if max_speed_rpm is not None else drive.get("max_speed_rpm")
+    if rated is None or speed is None:
+        raise InputError(None, f"model {base.name!r} has no drive rating",
+                         expected="rated_torque_nm= and max_speed_rpm=")
+    overload = DEFAULT_OVERLOAD if overload is None else overload
+    candidates = scaled_candidates(base, tuple(scales), rated, speed, overload)
+    system = system if isinstance(system, System) else load_system(system)
+    out = Path(out)
+    result = run_sizing(candidates, tuple(float(w) for w in winds), site, out, n_intervals,
+                        degree, workers=workers, scheduler=scheduler, show_progress=progress,
+                        tolerance=tolerance, system=system)
+    write_sizing(out, result, site=site, site_note=site.describe(),
+                 reference_model=str(path if isinstance(path, str | Path) else base.name),
+                 system=system, winds=tuple(winds), adaptive=False, tolerance=tolerance,
+                 notes=[], command_line=["drivebench.size"])
+    return result
