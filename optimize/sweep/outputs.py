@@ -26,6 +26,7 @@ import pyarrow.parquet as pq
 
 from bench.errors import InputError
 from fitting.domain import domain_excursion
+from optimize.service import cycle_metrics
 from optimize.sweep.chains import ScenarioOutcome
 
 SCHEMA_NAME = "drivebench.optimize"
@@ -97,9 +98,10 @@ def _trajectory_metrics(traj: pd.DataFrame) -> dict[str, float]:
     def col(name: str) -> np.ndarray:
         return traj[name].to_numpy(dtype=float)
 
+    peaks = cycle_metrics(traj)
     return {
-        "peak_speed_rpm": float(np.max(np.abs(col("speed_rpm")))),
-        "peak_torque_nm": float(np.max(col("torque_nm"))),
+        "peak_speed_rpm": peaks["peak_speed_rpm"],
+        "peak_torque_nm": peaks["peak_torque_nm"],
         "p_elec_max_w": float(np.max(col("p_elec_w"))),
         "p_elec_min_w": float(np.min(col("p_elec_w"))),
         "tether_length_min_m": float(np.min(col("l_m"))),
