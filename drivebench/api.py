@@ -10,7 +10,7 @@ function     ``bench`` command              returns
 :func:`ingest`   ``bench ingest``           :class:`fitting.points.OperatingPoints`
 :func:`fit`      ``bench fit``              :class:`fitting.power_model.PowerModel`
 :func:`optimize` ``bench optimize``         :class:`Sweep`
-:func:`aep`      ``bench aep``              :class:`energy.assess.Assessment`
+:func:`aep`      ``bench aep``              :class:`AepResult`
 :func:`size`     ``bench size``             :class:`energy.sizing.SizingResult`
 ============ ============================== ==========================================
 
@@ -183,8 +183,38 @@ def optimize(model: Any = None, *, winds: Sequence[float] = PAPER_WINDS_M_S,
     return Sweep(out, outcome.summary, outcome.claims, read_optimize_run(out).curves)
 
 
+@dataclass(frozen=True)
+class AepResult:
+    """The result of :func:`aep`.
+
+    Attributes
+    ----------
+    assessment : energy.assess.Assessment
+        AEP, capacity factor, bands and losses per scenario kind.
+    refined : energy.refine.RefinedRun or None
+        The refined curves and their solves (``refine=True``), else None.
+    refine_document : dict or None
+        The ``refine`` object of ``aep.json``.
+    files : dict
+        Name -> written path.
+    """
+
+    assessment: Any
+    refined: Any
+    refine_document: dict | None
+    files: dict
+
+    def table(self) -> pd.DataFrame:
+        """One row per scenario kind: AEP [MWh/yr], capacity factor, 95 % band, losses."""
+        return self.assessment.table()
+
+
 def aep(sweep: Sweep | str | Path, site: Any, *, out: str | Path = "aep_out",
-        nominal_power_w: float | None = None) -> Any:
+        site_note: str | None = None, site_uncertainty: Any = None, shear: Any = None,
+        drive_model: str | Path | None = None, nominal_power_w: float | None = None,
+        refine: bool = False, refine_tol: float | None = None, refine_max_points: int = 25,
+        workers: int = 2, scheduler: str | None = None, progress: bool = False,
+        command_line: Sequence[str] = ("drivebench.aep",)) -> AepResult:
     """Annual energy of the sweep's power curves at a site, and ``bench aep``'s files.
 
     Parameters
@@ -197,29 +227,78 @@ def aep(sweep: Sweep | str | Path, site: Any, *, out: str | Path = "aep_out",
         :func:`energy.site.read_histogram_csv`).
     out : path
         Output folder (``aep.json``, ``power_curves.csv``, awesIO files; docs/schemas.md §7).
+    site_note : str, optional
+        How the site was given, for the outputs (default its description).
+    site_uncertainty : energy.assess.SiteUncertainty, optional
+        One-sigma errors of a Weibull site's parameters.
+    shear : energy.site.Shear, optional
+        The wind profile (default the sweep's system's ``[wind]``).
+    drive_model : path, optional
+        The power model file (default the one the sweep's manifest names).
     nominal_power_w : float, optional
         Overrides the model's nominal power for the capacity factor [W].
+    refine : bool
+        Solve added wind speeds where each kind's curve bends for this site
+        (:mod:`energy.refine`, through the solve service); ``refine_tol``,
+        ``refine_max_points``, ``workers``, ``scheduler`` and ``progress`` apply to it.
+    command_line : sequence of str
+        Recorded in ``aep.json``.
 
     Returns
     -------
-    energy.assess.Assessment
-        ``.table()`` gives one row per scenario kind: AEP [MWh/yr], capacity
-        factor, 95 % band, losses.
+    AepResult
+        ``.table()`` gives one row per scenario kind.
     """
-    from energy.assess import assess
+    import dataclasses
+    import math
+
+    from energy.assess import assess, model_for_run
     from energy.curve import read_optimize_run
     from energy.outputs import write_outputs
-    from energy.refine import system_from_manifest
+    from energy.refine import (
+        DEFAULT_TOL,
+        refine_document,
+        refine_notes,
+        refine_run,
+        system_from_manifest,
+    )
     from energy.site import Shear
+    from fitting.model_schema import power_model_from_dict
 
     folder = Path(sweep.folder if isinstance(sweep, Sweep) else sweep)
+    out = Path(out)
     run = read_optimize_run(folder)
-    system = system_from_manifest(run.manifest, folder / "manifest.json")
-    shear = Shear() if system is None else Shear.from_system(system.wind)
-    note = f"{site.describe()} at {shear.reference_height_m:g} m"
-    assessment = assess(run, site, note, nominal_power_w=nominal_power_w)
-    write_outputs(assessment, run, Path(out), ["drivebench.aep"], shear)
-    return assessment
+    if shear is None:
+        system = system_from_manifest(run.manifest, folder / "manifest.json")
+        shear = Shear() if system is None else Shear.from_system(system.wind)
+    if site_note is None:
+        site_note = f"{site.describe()} at {shear.reference_height_m:g} m"
+    refined = doc = None
+    if refine:
+        tol = DEFAULT_TOL if refine_tol is None else refine_tol
+        if not (math.isfinite(tol) and 0 < tol < 1):
+            raise InputError(None, f"--refine-tol {tol}", expected="a share in (0, 1)")
+        if refine_max_points < 2 or workers < 1:
+            raise InputError(None, "--refine-max-points < 2 or --workers < 1",
+                             expected="--refine-max-points >= 2, --workers >= 1")
+        path, model_json = model_for_run(run, drive_model)
+        if model_json is None:
+            raise InputError(path, "power model file not found (--refine solves with it)",
+                             expected="the sweep's power model, or --drive-model FILE")
+        refined = refine_run(run, power_model_from_dict(model_json, path), site,
+                             out / "solves", tol=tol, max_points=refine_max_points,
+                             workers=workers, scheduler=scheduler, show_progress=progress)
+        doc = refine_document(refined, site, tol)
+    assessment = assess(refined.run if refined else run, site, site_note,
+                        drive_model=drive_model, nominal_power_w=nominal_power_w,
+                        site_uncertainty=site_uncertainty,
+                        gradients=refined.gradients if refined else None)
+    if refined is not None:
+        assessment = dataclasses.replace(assessment,
+                                         notes=assessment.notes + refine_notes(doc))
+    files = write_outputs(assessment, refined.run if refined else run, out, list(command_line),
+                          shear, refine=doc)
+    return AepResult(assessment, refined, doc, files)
 
 
 def size(model: Any = None, site: Any = None, *, scales: Sequence[float] = (0.5, 1.0, 2.0),
