@@ -8,6 +8,6 @@ returns a typed result and writes the stage's files (docs/python_api.md).
 The functions live in :mod:`drivebench.api`.
 """
 
-from drivebench.api import AepResult, Sweep, aep, fit, ingest, optimize, size
+from drivebench.api import AepResult, SizeResult, Sweep, aep, fit, ingest, optimize, size
 
-__all__ = ["AepResult", "Sweep", "aep", "fit", "ingest", "optimize", "size"]
+__all__ = ["AepResult", "SizeResult", "Sweep", "aep", "fit", "ingest", "optimize", "size"]

@@ -11,7 +11,7 @@ function     ``bench`` command              returns
 :func:`fit`      ``bench fit``              :class:`fitting.power_model.PowerModel`
 :func:`optimize` ``bench optimize``         :class:`Sweep`
 :func:`aep`      ``bench aep``              :class:`AepResult`
-:func:`size`     ``bench size``             :class:`energy.sizing.SizingResult`
+:func:`size`     ``bench size``             :class:`SizeResult`
 ============ ============================== ==========================================
 
 Bad input raises :class:`bench.errors.InputError` (the command line turns it into
@@ -301,73 +301,112 @@ def aep(sweep: Sweep | str | Path, site: Any, *, out: str | Path = "aep_out",
     return AepResult(assessment, refined, doc, files)
 
 
-def size(model: Any = None, site: Any = None, *, scales: Sequence[float] = (0.5, 1.0, 2.0),
-         winds: Sequence[float] = PAPER_WINDS_M_S, system: Any = None,
-         out: str | Path = "size_out", rated_torque_nm: float | None = None,
-         max_speed_rpm: float | None = None, overload: float | None = None,
-         tolerance: float = 0.02, n_intervals: int = 40, degree: int = 4, workers: int = 2,
-         scheduler: str | None = None, progress: bool = False) -> Any:
-    """Size the drive: electrical AEP at ``site`` of the reference drive scaled in torque.
+@dataclass(frozen=True)
+class SizeResult:
+    """The result of :func:`size`.
+
+    Attributes
+    ----------
+    sizing : energy.sizing.SizingResult
+        The candidate table, every solve record, the best and the chosen candidate.
+    drive : optimize.system.drive.DriveInForce
+        The reference drive (rating and losses) the candidates are scaled from.
+    notes : tuple of str
+        What was assumed (a rating the system file does not state).
+    files : dict
+        Name -> written path.
+    """
+
+    sizing: Any
+    drive: Any
+    notes: tuple[str, ...]
+    files: dict
+
+    @property
+    def table(self) -> pd.DataFrame:
+        """One row per candidate: rated torque, AEP [MWh/yr], capacity factor..."""
+        return self.sizing.table
+
+    @property
+    def best(self) -> str | None:
+        """The candidate with the largest electrical AEP."""
+        return self.sizing.best
+
+    @property
+    def chosen(self) -> str | None:
+        """The smallest candidate within the tolerance of the best AEP."""
+        return self.sizing.chosen
+
+
+def size(site: Any, model: Any = None, *, system: Any = None,
+         fit_default: str | Path | None = None, scales: Sequence[float] = (0.5, 1.0, 2.0),
+         models: Sequence[str | Path] = (), winds: Sequence[float] = PAPER_WINDS_M_S,
+         out: str | Path = "size_out", site_note: str | None = None,
+         rated_torque_nm: float | None = None, max_speed_rpm: float | None = None,
+         overload: float | None = None, tolerance: float = 0.02, adaptive: bool = False,
+         n_intervals: int = 40, degree: int = 4, workers: int = 2,
+         scheduler: str | None = None, progress: bool = False,
+         command_line: Sequence[str] = ("drivebench.size",),
+         before_solving: Any = None) -> SizeResult:
+    """Size the drive: electrical AEP at ``site`` of the system's drive scaled in torque.
 
     Parameters
     ----------
-    model : PowerModel or path, optional
-        The reference drive's power model; default the paper's model.
     site : energy.site.Weibull or energy.site.Histogram
         Wind-speed distribution at the reference height.
+    model : PowerModel or path, optional
+        The reference drive's losses; default the system file's, else ``fit_default``
+        when it exists, else the paper's model (:func:`optimize.system.drive.drive_in_force`).
+    system : System or path, optional
+        The system file (its ``[drive]`` is the reference rating); default the shipped
+        ``highwind.toml``.
+    fit_default : path, optional
+        ``bench fit``'s model, used when the system file names no losses.
     scales : sequence of float
         Torque-rating scales of the candidates (docs/schemas.md §8: the law).
+    models : sequence of paths
+        Further candidates: power-model files with their own ``drive`` rating.
     winds : sequence of float
         Wind speeds [m/s] solved per candidate (at least two).
-    system : System or path, optional
-        The system file; default the shipped ``highwind.toml``.
     out : path
         Output folder (``sizing.json``, ``sizing.csv``, the resumable ``solves/``).
-    rated_torque_nm, max_speed_rpm : float, optional
-        The reference drive's continuous torque rating [N m] and speed limit
-        [rpm]; default the model's ``drive`` rating.
-    overload : float, optional
-        Short-time peak torque over rated torque [-]; default
-        :data:`energy.sizing.DEFAULT_OVERLOAD`.
+    rated_torque_nm, max_speed_rpm, overload : float, optional
+        Override the reference rating's continuous torque [N m], speed limit [rpm],
+        peak-over-continuous torque [-].
     tolerance : float
         The chosen drive is the smallest within this share of the best AEP.
+    adaptive : bool
+        Refine each candidate's grid where its curve bends for the site.
     n_intervals, degree, workers, scheduler, progress
         As for :func:`optimize`.
-
-    Returns
-    -------
-    energy.sizing.SizingResult
-        ``.table``: one row per candidate (rated torque, AEP, capacity factor...);
-        ``.best``, ``.chosen``: candidate names.
+    before_solving : callable, optional
+        ``before_solving(drive, n_candidates)``, called once the candidates are made.
     """
-    from energy.size_cli import write_sizing
-    from energy.sizing import DEFAULT_OVERLOAD, run_sizing, scaled_candidates
-    from fitting.model_file import load_power_model
-    from optimize.paper_model import PAPER_MODEL_PATH
+    from energy.size_cli import build_candidates, write_sizing
+    from energy.sizing import run_sizing
+    from fitting.power_model import PowerModel
+    from optimize.system.drive import drive_in_force
     from optimize.system.system import System, load_system
 
-    if site is None:
-        raise InputError(None, "no site given", expected="a Weibull or Histogram site")
     if len(winds) < 2:
         raise InputError(None, f"wind speeds {list(winds)}: one gives no curve to integrate",
                          expected="at least two wind speeds")
-    path = PAPER_MODEL_PATH if model is None else model
-    base = load_power_model(path) if isinstance(path, str | Path) else model
-    drive = base.drive or {}
-    rated = rated_torque_nm if rated_torque_nm is not None else drive.get("max_torque_nm")
-    speed = max_speed_rpm if max_speed_rpm is not None else drive.get("max_speed_rpm")
-    if rated is None or speed is None:
-        raise InputError(None, f"model {base.name!r} has no drive rating",
-                         expected="rated_torque_nm= and max_speed_rpm=")
-    overload = DEFAULT_OVERLOAD if overload is None else overload
-    candidates = scaled_candidates(base, tuple(scales), rated, speed, overload)
+    if not 0 <= tolerance < 1:
+        raise InputError(None, f"--tolerance {tolerance}", expected="a share in [0, 1)")
     system = system if isinstance(system, System) else load_system(system)
+    if isinstance(model, PowerModel):
+        drive = drive_in_force(system, model=model)
+    else:
+        drive = drive_in_force(system, model, fit_default)
+    candidates, notes = build_candidates(drive, tuple(scales), tuple(models), rated_torque_nm,
+                                         max_speed_rpm, overload)
+    if before_solving is not None:
+        before_solving(drive, len(candidates))
     out = Path(out)
     result = run_sizing(candidates, tuple(float(w) for w in winds), site, out, n_intervals,
                         degree, workers=workers, scheduler=scheduler, show_progress=progress,
-                        tolerance=tolerance, system=system)
-    write_sizing(out, result, site=site, site_note=site.describe(),
-                 reference_model=str(path if isinstance(path, str | Path) else base.name),
-                 system=system, winds=tuple(winds), adaptive=False, tolerance=tolerance,
-                 notes=[], command_line=["drivebench.size"])
-    return result
+                        tolerance=tolerance, adaptive=adaptive, system=system)
+    files = write_sizing(out, result, site=site, site_note=site_note or site.describe(),
+                         drive=drive, system=system, winds=tuple(winds), adaptive=adaptive,
+                         tolerance=tolerance, notes=notes, command_line=list(command_line))
+    return SizeResult(result, drive, tuple(notes), files)

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from bench.drive import DRIVE_KEYS
+from bench.drive import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS
 from bench.units import RPM_PER_RAD_S
 
 SCHEMA_NAME = "drivebench.power_model"
@@ -240,13 +240,13 @@ def model_problem(model: PowerModel) -> str | None:
         if value is not None and not isinstance(value, dict):
             return f"{field}: an object or null expected"
     if model.drive is not None:
-        for key in DRIVE_KEYS:
+        for key in (*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS):
             v = model.drive.get(key)
-            if not (is_finite_number(v) and v > 0):
+            if (v is not None or key in DRIVE_KEYS) and not (is_finite_number(v) and v > 0):
                 return f"drive.{key}: a finite positive number expected, got {v!r}"
         if not isinstance(model.drive.get("source", ""), str):
             return "drive.source: a string expected"
-        unknown = set(model.drive) - {*DRIVE_KEYS, "source"}
+        unknown = set(model.drive) - {*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS, "source"}
         if unknown:
             return f"drive: unknown key {sorted(unknown)[0]!r}"
         if not math.isclose(model.drive["nominal_power_w"], model.nominal_power_w, rel_tol=1e-12):
