@@ -132,7 +132,7 @@ def optimize(model: Any = None, *, winds: Sequence[float] = PAPER_WINDS_M_S,
     model : PowerModel or path, optional
         The drive's power model (:func:`fit`'s result or a ``power_model.json``);
         default the paper's model. A model object is written to
-        ``out/power_model.json``, which the manifest names.
+        ``out/given_power_model.json``, which the manifest names.
     winds : sequence of float
         Wind speeds at the reference height [m/s].
     kinds : sequence of str
@@ -170,7 +170,7 @@ def optimize(model: Any = None, *, winds: Sequence[float] = PAPER_WINDS_M_S,
         model = load_power_model(path)
     elif isinstance(model, PowerModel):
         out.mkdir(parents=True, exist_ok=True)
-        path = save_power_model(model, out / "power_model.json")
+        path = save_power_model(model, out / "given_power_model.json")
     else:
         raise InputError(None, f"model of type {type(model).__name__}",
                          expected="a PowerModel, a power_model.json path or None")
