@@ -26,7 +26,8 @@ from fitting.model_file import load_power_model
 from optimize.kinds import KINDS
 from optimize.model.kite_model import kite_dae
 from optimize.paper_model import PAPER_MODEL_PATH
-from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.problem.ocp import build_ocp
+from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.solve import solve, start
 from optimize.sweep.plan import parse_wind_grid
@@ -36,7 +37,7 @@ class Solver:
     """``power(wind)`` for one kind, warm-started from the nearest solved speed; cached."""
 
     def __init__(self, model, kind: str, intervals: int) -> None:
-        self.ocp = build_ocp(kite_dae(), model, OcpOptions(n_intervals=intervals))
+        self.ocp = build_ocp(kite_dae(), model, OcpOptions(Discretization(n_intervals=intervals)))
         self.objective, self.limits = KINDS[kind]
         self.warm: dict[float, object] = {}
         self.cache: dict[float, float | None] = {}

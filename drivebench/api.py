@@ -158,7 +158,7 @@ def optimize(model: Any = None, *, winds: Sequence[float] = PAPER_WINDS_M_S,
     from fitting.power_model import PowerModel
     from optimize.command import SweepRequest, run_optimize
     from optimize.paper_model import PAPER_MODEL_PATH
-    from optimize.problem.ocp import OcpOptions
+    from optimize.problem.options import Discretization, OcpOptions
     from optimize.system.system import System, load_system
 
     out = Path(out)
@@ -177,7 +177,7 @@ def optimize(model: Any = None, *, winds: Sequence[float] = PAPER_WINDS_M_S,
     system = system if isinstance(system, System) else load_system(system)
     request = SweepRequest(
         tuple(float(w) for w in winds), tuple(kinds), model, path, f"drive model: {path}",
-        OcpOptions(n_intervals=n_intervals, degree=degree), workers, scheduler, out,
+        OcpOptions(Discretization(n_intervals=n_intervals, degree=degree)), workers, scheduler, out,
         claims=claims, system=system)
     outcome = run_optimize(request, ["drivebench.optimize"], show_progress=progress)
     return Sweep(out, outcome.summary, outcome.claims, read_optimize_run(out).curves)
