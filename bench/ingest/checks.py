@@ -275,7 +275,7 @@ def check_points(
 def _systematic_test(fails: dict[str, np.ndarray], v: dict[str, np.ndarray]) -> str | None:
     """The first test that fails on too many points to be a few bad points, or None."""
     n = v["speed"].size
-    omega_t = np.abs(v["speed"] * v["torque"]) * RAD_S_PER_RPM
+    omega_t = np.abs(v["speed"] * v["torque"]) / RPM_PER_RAD_S
     big = np.maximum(np.abs(v["p_elec"]), omega_t)
     for test, bad in fails.items():
         if test in (TEST_P_ELEC_SMALL, TEST_ETA_LOW):

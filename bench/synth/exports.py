@@ -161,7 +161,7 @@ def make_two_wattmeter_table(root: Path, sid: str = "aron_01", channels: int = 2
     rng = np.random.default_rng(seed)
     speed = rng.uniform(300.0, 3000.0, n) * np.where(np.arange(n) % 2 == 0, 1.0, -1.0)
     torque = rng.uniform(2.0, 16.0, n)
-    p_mech = speed * torque * RAD_S_PER_RPM
+    p_mech = speed * torque / RPM_PER_RAD_S
     loss = (60.0, 1e-5, 0.6)
     p_elec = p_mech + loss_w(speed, torque, *loss)
     phi = np.deg2rad(rng.uniform(-35.0, 12.0, n)) + np.where(p_elec < 0, np.pi, 0.0)
@@ -207,14 +207,14 @@ def make_hobby_dyno_table(root: Path, sid: str = "hobby_01", seed: int = 23,
     speed = np.repeat(np.linspace(500.0, 4000.0, 19), 18)
     torque = np.tile(np.linspace(0.05, 6.0, 18), 19)
     speed = speed + rng.normal(0.0, 2.0, speed.size)
-    p_mech = speed * torque * RAD_S_PER_RPM
+    p_mech = speed * torque / RPM_PER_RAD_S
     loss = 4.0 + 0.002 * speed + 0.8e-6 * speed**2 + 40.0 * torque**2
     p_elec = p_mech + loss + rng.normal(0.0, 0.5, speed.size)
     row = -1
     if outlier:
         row = 7 * 18 + 1
         speed[row], torque[row], p_elec[row] = 1811.0, 0.0004, 322.0
-        p_mech[row] = speed[row] * torque[row] * RAD_S_PER_RPM
+        p_mech[row] = speed[row] * torque[row] / RPM_PER_RAD_S
     folder = root / sid
     folder.mkdir(parents=True)
     rows = ["Hobby dyno run 7", "Nr\tn [1/min]\tM [N mm]\tP_el [W]"]
