@@ -21,6 +21,7 @@ from fitting.efficiency import (
     gridded_map,
     peak_points,
     points_against_map,
+    repeatability,
 )
 from fitting.loss_table import write_loss_table
 from fitting.model_file import save_power_model
@@ -189,6 +190,7 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
         extra = {"space": paper_space_candidate().name, "skipped": exc.problem}
 
     outliers = outlier_summary(frame, fit, weights, nominal, source)
+    repeats = repeatability(frame, masking)
     motor = quadrant == "motor"
     statistics = {
         "method": "weighted least squares (statsmodels WLS)" if options.weighting == "quadrant"
@@ -266,12 +268,13 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
         "extra_terms_check": extra,
         "drive": drive.to_dict(),
         "notes": drive_notes + [v["note"] for v in statistics["validity"].values()
-                                if not v["measured"]] + ([outliers["note"]] if
-                                                         outliers["n_flagged"] else []),
+                                if not v["measured"]]
+        + [d["note"] for d in (outliers, repeats) if d.get("note")],
         "efficiency": {"masking": masking.to_dict(), "band_shares": _records(shares),
                        "peak": peaks,
                        "points_against_map": points_against_map(frame, masking,
                                                                 emap.attrs["ceilings"]),
+                       "repeatability": repeats,
                        "envelope": {q: {"band_width_rpm": env["band_width_rpm"],
                                         "n_points": env["n_points"],
                                         "n_vertices": len(env["polygon"])}
