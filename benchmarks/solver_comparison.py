@@ -36,6 +36,7 @@ import time
 from pathlib import Path
 
 from bench.files import write_text_atomic
+from optimize.kinds import DEFAULT_KINDS
 from optimize.model.kite_model import kite_dae
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
@@ -43,13 +44,7 @@ from optimize.problem.scenario import Scenario
 from optimize.solve.solve import solve, start
 from optimize.sweep.chains import Problem, make_tasks, run_sweep
 from optimize.sweep.executors import open_executor
-from optimize.sweep.plan import (
-    DEFAULT_KINDS,
-    DEFAULT_WIND_GRID,
-    parse_kinds,
-    parse_wind_grid,
-    plan_chains,
-)
+from optimize.sweep.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_chains
 from optimize.system.drive import drive_in_force
 from optimize.system.system import load_system, shipped_system_path
 

@@ -6,8 +6,8 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from fitting.model_file import paper_model
 from optimize.model.kite_model import kite_dae
+from optimize.paper_model import paper_model
 from optimize.problem.guess import circular_loop
 from optimize.problem.ocp import build_ocp, grid_times, twin
 from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions

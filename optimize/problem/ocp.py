@@ -188,7 +188,7 @@ def build_ocp(
     dae : KiteDae
         The kite model (:func:`optimize.model.kite_model.kite_dae`).
     drive_model : DriveModel
-        Electrical power model of the drive (``fitting.model_file.PowerModel``).
+        Electrical power model of the drive (``fitting.power_model.PowerModel``).
     options : OcpOptions, optional
         Discretization, limits and solver; defaults to :class:`OcpOptions`. Drive
         limits it leaves open are the power model's rating (``drive_model.drive``).

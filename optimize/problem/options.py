@@ -169,10 +169,8 @@ class SolverOptions:
         :func:`optimize.solve.backend.check_linear_solver`.
     mumps_pivot_order : int
         MUMPS fill-reducing ordering (0 AMD, 2 AMF, 4 PORD, 6 QAMD, 7 automatic).
-        AMD halves the cost of an iteration on this NLP against the automatic
-        choice: at 40 intervals, warm solves took 2.2-3.7 s (0.07-0.12 s per
-        iteration) against 4.9-5.7 s (0.16-0.20 s), over three runs of three
-        transitions on 2 idle cores; cold start 26-30 s against 37 s.
+        AMD makes an iteration on this NLP cheaper than the automatic choice
+        (measured by ``benchmarks/optimize_solve.py``, figures in benchmarks/README.md).
     """
 
     solver: str = "ipopt"
