@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 from scipy.spatial import ConvexHull, Delaunay, QhullError
 
+from bench.units import RPM_PER_RAD_S
 from fitting.domain import BAND_FRAC, in_polygon, quadrant_envelopes
 from fitting.points import QUADRANTS, quadrant_of
 
@@ -403,7 +404,7 @@ def map_at(frame: pd.DataFrame, rules: MaskingRules, speed_rpm, torque_nm,
     envelopes = (quadrant_envelopes(frame, rules.envelope_band_frac) if envelopes is None
                  else envelopes)
     ceilings = efficiency_ceilings(frame, rules) if ceilings is None else ceilings
-    p_mech = s * 2.0 * np.pi / 60.0 * t
+    p_mech = s / RPM_PER_RAD_S * t
     quadrant = quadrant_of(p_mech)
     scales = (float(np.max(np.abs(frame["speed_rpm"]))) or 1.0,
               float(np.max(np.abs(frame["torque_nm"]))) or 1.0)

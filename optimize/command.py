@@ -16,12 +16,14 @@ from typing import Any
 import numpy as np
 
 from bench.errors import InputError
-from bench.files import file_sha256
+from bench.files import file_sha256, write_csv, write_json, write_parquet
+from bench.versions import package_versions
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
+from optimize.kinds import KINDS
 from optimize.sweep import outputs
 from optimize.sweep.chains import Problem, make_tasks, run_sweep
 from optimize.sweep.executors import open_executor
-from optimize.sweep.plan import KINDS, parse_kinds, parse_wind_grid, plan_chains
+from optimize.sweep.plan import parse_kinds, parse_wind_grid, plan_chains
 from optimize.sweep.trust import run_trust_checks
 from optimize.system.drive import DriveInForce, drive_in_force
 from optimize.system.system import System, load_system
@@ -38,7 +40,7 @@ class SweepRequest:
     kinds : tuple of str
         Scenario kinds.
     drive_model : Any
-        ``fitting.model_file.PowerModel``.
+        ``fitting.power_model.PowerModel``.
     drive_model_path : Path
         Where it was read from.
     model_note : str
@@ -84,7 +86,7 @@ class SweepRequest:
     def from_cli(cls, args: Any, fit_model_path: Path) -> SweepRequest:
         """Build the request from ``bench optimize`` arguments; bad values raise InputError."""
         from fitting.model_check import check_physics
-        from optimize.problem.options import Discretization, OcpOptions, SolverOptions
+        from optimize.problem.options import Discretization, OcpOptions
 
         winds = parse_wind_grid(args.wind_grid)
         kinds = parse_kinds(args.scenarios)
@@ -95,7 +97,7 @@ class SweepRequest:
         note += "\n" + "\n".join(drive.lines())
         try:
             options = OcpOptions(Discretization(n_intervals=args.intervals, degree=args.degree),
-                                 solver=SolverOptions(stored_guess=not args.no_stored_guess))
+                                 solver=solver_options(args))
         except ValueError as exc:
             raise InputError(None, f"OCP options: {exc}") from exc
         options = system.ocp_options(options, drive.rating)
@@ -151,19 +153,6 @@ class OptimizeOutcome:
     files: dict
 
 
-def _package_versions() -> dict[str, str]:
-    import importlib.metadata as md
-    import platform
-
-    versions = {"python": platform.python_version()}
-    for dist in ("drivebench", "casadi", "numpy", "pandas", "pyarrow", "scipy", "distributed"):
-        try:
-            versions[dist] = md.version(dist)
-        except md.PackageNotFoundError:
-            versions[dist] = "not installed"
-    return versions
-
-
 def run_optimize(
     request: SweepRequest,
     command_line: list[str] | None = None,
@@ -209,14 +198,13 @@ def run_optimize(
                               system_name=system.name) if request.claims else None)
 
     request.out.mkdir(parents=True, exist_ok=True)
+    system_meta = outputs.system_metadata(system.record())
     files = {
-        "summary": outputs.write_parquet(
-            summary, request.out / "summary.parquet", outputs.SUMMARY_COLUMNS, system.record()
-        ),
-        "trajectories": outputs.write_parquet(
-            outputs.trajectories_frame(result.outcomes), request.out / "trajectories.parquet",
-            system=system.record(),
-        ),
+        "summary": write_parquet(request.out / "summary.parquet", summary,
+                                 descriptions=outputs.SUMMARY_COLUMNS, metadata=system_meta),
+        "trajectories": write_parquet(request.out / "trajectories.parquet",
+                                      outputs.trajectories_frame(result.outcomes),
+                                      metadata=system_meta),
     }
     model_path = request.drive_model_path
     if drive.carried:  # the losses the sweep flew with, for bench aep (bands, refine)
@@ -228,7 +216,7 @@ def run_optimize(
         (request.out / "power_model.json").unlink(missing_ok=True)
     claims_path = request.out / "claims.csv"
     if claims is not None:
-        files["claims"] = outputs.write_csv(claims, claims_path)
+        files["claims"] = write_csv(claims_path, claims)
     else:
         claims_path.unlink(missing_ok=True)  # never leave a stale comparison beside new results
     manifest = {
@@ -236,7 +224,7 @@ def run_optimize(
         "schema_version": outputs.SCHEMA_VERSION,
         "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "command_line": list(command_line if command_line is not None else sys.argv),
-        "package_versions": _package_versions(),
+        "package_versions": package_versions(),
         "wind_speeds_m_s": list(request.winds),
         "kinds": list(request.kinds),
         "scenarios": [o.name for o in result.outcomes],
@@ -268,7 +256,7 @@ def run_optimize(
         "trust": trust,
         "files": {k: Path(v).name for k, v in files.items()},
     }
-    files["manifest"] = outputs.write_json(manifest, request.out / "manifest.json")
+    files["manifest"] = write_json(request.out / "manifest.json", manifest)
     return OptimizeOutcome(
         summary,
         claims,
@@ -279,6 +267,28 @@ def run_optimize(
         result.executor,
         files,
     )
+
+
+def solver_options(args: Any) -> Any:
+    """``SolverOptions`` of ``--solver``, ``--linear-solver`` and ``--no-stored-guess``.
+
+    Raises
+    ------
+    ValueError
+        ``--linear-solver`` with fatrop, or a linear solver IPOPT cannot load here
+        (:func:`optimize.solve.backend.check_linear_solver`).
+    """
+    from optimize.problem.options import SolverOptions
+    from optimize.solve.backend import check_linear_solver
+
+    linear = args.linear_solver
+    if linear is not None and args.solver != "ipopt":
+        raise ValueError(f"--linear-solver {linear}: only IPOPT takes a linear solver, not "
+                         f"--solver {args.solver}")
+    if linear is not None:
+        check_linear_solver(linear)
+    return SolverOptions(solver=args.solver, linear_solver=linear or "mumps",
+                         stored_guess=not args.no_stored_guess)
 
 
 def domain_scales(model: Any, options: Any) -> tuple[float, float]:

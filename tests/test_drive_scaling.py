@@ -17,8 +17,8 @@ import pytest
 
 from bench.cli import main
 from bench.errors import InputError
-from fitting.model_file import paper_model
 from optimize.model.drive import RPM_PER_RAD_S, carry_power_model
+from optimize.paper_model import paper_model
 from optimize.system.drive import drive_in_force
 from optimize.system.system import load_system, shipped_system_path, system_from_dict
 

@@ -7,9 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from fitting.model_file import paper_model
 from optimize.model import kite_model as km
 from optimize.model.kite_model import kite_dae
+from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from bench.errors import InputError
-from fitting.model_file import paper_model
+from optimize.paper_model import paper_model
 from optimize.problem.options import OcpOptions, with_drive_rating
 from optimize.system.drive import drive_in_force
 from optimize.system.params import AeroCoefficients, KiteParams, WindModel
@@ -39,7 +39,8 @@ def test_shipped_systems_load_with_a_positive_definite_inertia(name):
 
 
 def test_highwind_file_is_the_package_defaults():
-    # REFERENCE.md's values, written once as dataclass defaults and once in the file
+    # the paper's values (docs/paper_figures.md §2), written once as dataclass defaults and
+    # once in the file
     system = load_system()
     assert system.kite_params() == KiteParams()
     assert system.aero_coefficients() == AeroCoefficients()

@@ -129,7 +129,7 @@ class Limits:
 
 
 #: NLP solvers the OCP can be handed to
-SOLVERS = ("ipopt",)
+SOLVERS = ("ipopt", "fatrop")
 
 
 @dataclass(frozen=True)
@@ -139,7 +139,11 @@ class SolverOptions:
     Parameters
     ----------
     solver : str
-        NLP solver (one of :data:`SOLVERS`).
+        NLP solver (one of :data:`SOLVERS`): ``"ipopt"`` (the default: IPOPT on the
+        general sparse layout) or ``"fatrop"`` (a Riccati-based interior-point solver
+        shipped with CasADi, on the stage-wise layout of the same NLP; it takes no dual
+        warm start, and on this OCP it is slower per iteration and less robust than
+        IPOPT with MUMPS, see ``benchmarks/solver_comparison.py``).
     tol : float
         Convergence tolerance (scaled problem).
     acceptable_tol : float
@@ -159,13 +163,14 @@ class SolverOptions:
         Start a scenario with no neighbouring solution from the shipped initial
         guess (:mod:`optimize.solve.initial_guess`) when it fits, instead of the homotopy.
     linear_solver : str
-        IPOPT linear solver.
+        IPOPT linear solver: ``"mumps"`` (default), ``"spral"``, or one IPOPT loads
+        at run time from the user's library (HSL ``"ma27"``, ``"ma57"``, ``"ma77"``,
+        ``"ma86"``, ``"ma97"`` from ``libhsl.so``; ``"pardiso"``); checked by
+        :func:`optimize.solve.backend.check_linear_solver`.
     mumps_pivot_order : int
         MUMPS fill-reducing ordering (0 AMD, 2 AMF, 4 PORD, 6 QAMD, 7 automatic).
-        AMD halves the cost of an iteration on this NLP against the automatic
-        choice: at 40 intervals, warm solves took 2.2-3.7 s (0.07-0.12 s per
-        iteration) against 4.9-5.7 s (0.16-0.20 s), over three runs of three
-        transitions on 2 idle cores; cold start 26-30 s against 37 s.
+        AMD makes an iteration on this NLP cheaper than the automatic choice
+        (measured by ``benchmarks/optimize_solve.py``, figures in benchmarks/README.md).
     """
 
     solver: str = "ipopt"
