@@ -66,13 +66,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from fitting.model_file import PAPER_MODEL_PATH, load_power_model, paper_model
+from bench.files import write_json
+from fitting.model_file import load_power_model
 from optimize.analysis.claims import ABLATION_PATH, evaluate_claims, load_ablation
 from optimize.command import SweepRequest, run_optimize
 from optimize.model import kite_model as km
+from optimize.paper_model import PAPER_MODEL_PATH, paper_model
 from optimize.problem.ocp import OcpOptions
 from optimize.sweep.chains import OcpBackend
-from optimize.sweep.outputs import read_summary, write_json
+from optimize.sweep.outputs import read_summary
 from optimize.system.system import load_system
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -372,7 +374,7 @@ def main() -> int:
         "statements": table,
         "paper_checks": paper_checks(),
     }
-    write_json(data, args.data)
+    write_json(args.data, data, indent=2)
     print(f"wrote {args.data}")
     return 0
 
