@@ -147,3 +147,38 @@ def _probe_write(folder: Path, option: str) -> None:
         reason = WRITE_ERRNOS.get(exc.errno, exc.strerror or str(exc))
         raise InputError(folder, f"cannot write in {probe} ({reason})", column=option,
                          expected="a writable folder") from exc
+
+
+#: errors of fsync on a directory that mean "not supported here", not "not on disk"
+_DIR_FSYNC_UNSUPPORTED = (errno.EINVAL, errno.ENOTSUP, errno.EBADF, errno.EACCES)
+
+
+def fsync_path(path: str | Path) -> None:
+    """Flush a file or a directory to disk, so that a power cut keeps it whole.
+
+    Raises
+    ------
+    OSError
+        The flush failed (e.g. EIO): the data may not be on disk, so the caller's
+        commit has failed. A directory on a file system that cannot fsync
+        directories (EINVAL, ENOTSUP) is not an error.
+    """
+    path = Path(path)
+    is_dir = path.is_dir()
+    fd = os.open(path, os.O_RDONLY | (getattr(os, "O_DIRECTORY", 0) if is_dir else 0))
+    try:
+        os.fsync(fd)
+    except OSError as exc:
+        if not (is_dir and exc.errno in _DIR_FSYNC_UNSUPPORTED):
+            raise
+    finally:
+        os.close(fd)
+
+
+def write_text_durable(path: str | Path, text: str) -> Path:
+    """Like :func:`write_text_atomic`, the temporary file flushed to disk before the switch."""
+    def write(tmp: Path) -> None:
+        tmp.write_bytes(text.encode("utf-8"))
+        fsync_path(tmp)
+
+    return atomic_write(path, write)

@@ -58,6 +58,9 @@ class IngestResult:
     replaced : dict
         session_id -> the folder it had been ingested from, for stored sessions
         replaced by a session of the same id from another folder.
+    repaired : dict
+        session_id -> the damage found in its stored files (missing, truncated,
+        altered), for sessions re-ingested because of it.
     """
 
     store_dir: Path
@@ -65,6 +68,7 @@ class IngestResult:
     unchanged: list[str] = field(default_factory=list)
     manifest: dict = field(default_factory=dict)
     replaced: dict[str, str] = field(default_factory=dict)
+    repaired: dict[str, list[str]] = field(default_factory=dict)
 
 
 def _stderr(line: str) -> None:
@@ -182,6 +186,10 @@ def ingest(
     result = IngestResult(store_dir=store_dir)
     with store.StoreWriter(store_dir, wait=wait, notify=notify) as writer:
         manifest = writer.manifest
+        damage = writer.damage
+        for line in damage.lines():
+            if not line.startswith("session "):
+                notify(f"bench ingest: store {store_dir}: {line}")
         todo = []
         # hashing runs in a background thread (hashlib releases the GIL); a session
         # already in the manifest waits for its hashes to decide whether it changed
@@ -198,13 +206,20 @@ def ingest(
                         drive_file
                 hashes = {k: hasher.submit(file_sha256, p) for k, p in named.items()}
                 old = manifest["sessions"].get(s.session_id)
-                if (old is not None and old.get("ingest_version") == INGEST_VERSION
+                broken = damage.sessions.get(s.session_id) or (
+                    [damage.generation] if old is not None and damage.generation else [])
+                if broken:
+                    result.repaired[s.session_id] = broken
+                    notify(f"bench ingest: stored files of session {s.session_id!r} are "
+                           f"damaged ({'; '.join(broken)}); re-ingesting it")
+                elif (old is not None and old.get("ingest_version") == INGEST_VERSION
                         and old.get("files") == {k: f.result() for k, f in hashes.items()}):
                     result.unchanged.append(s.session_id)
                     continue
                 if old is not None and old.get("source") not in (None, str(s.folder)):
                     result.replaced[s.session_id] = old["source"]
                 todo.append((s, hashes, mapping_file, files))
+            writer.require_repair(seen)
             if result.replaced and not replace:
                 lines = "; ".join(f"{sid!r} (stored from {src})"
                                   for sid, src in sorted(result.replaced.items()))
