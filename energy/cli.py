@@ -176,13 +176,13 @@ def _refine(args: argparse.Namespace, run_, site):
 
 def run(args: argparse.Namespace) -> int:
     """Compute and write the AEP assessment; print the table."""
+    from bench.output_folder import check_replaceable, output_folder
     from energy.assess import assess
     from energy.curve import read_optimize_run
-    from energy.outputs import SIGN_NOTE, format_table, write_outputs
+    from energy.outputs import AEP_KEEP, AEP_MARKERS, SIGN_NOTE, format_table, write_outputs
     from energy.refine import system_from_manifest
 
-    if args.out.exists() and not args.out.is_dir():
-        raise InputError(args.out, "exists and is not a folder", expected="an output folder")
+    check_replaceable(args.out, "aep", AEP_MARKERS, keep=AEP_KEEP)
     run_ = read_optimize_run(args.optimize)
     shear = shear_from_args(args, system_from_manifest(run_.manifest,
                                                        Path(args.optimize) / "manifest.json"))
@@ -198,8 +198,9 @@ def run(args: argparse.Namespace) -> int:
         doc = refine_document(refined, site, tol)
         a = dataclasses.replace(a, notes=a.notes + refine_notes(doc))
         run_ = refined.run
-    write_outputs(a, run_, args.out, ["bench", "aep", *sys.argv[2:]], shear,
-                  refine=doc if refined else None)
+    with output_folder(args.out, "aep", AEP_MARKERS, keep=AEP_KEEP) as stage:  # all or none
+        write_outputs(a, run_, stage, ["bench", "aep", *sys.argv[2:]], shear,
+                      refine=doc if refined else None)
     if refined is not None:
         print(f"refined grid ({refined.n_solved} solved, {refined.n_loaded} loaded from "
               f"{args.out / 'solves'}, {refined.wall_time_s:.0f} s on {refined.executor}):")

@@ -18,6 +18,7 @@ import pandas as pd
 import pyarrow.parquet as pq
 
 from bench.errors import InputError
+from bench.output_folder import check_output_folder
 
 SUMMARY_COLUMNS = (
     "scenario", "kind", "objective", "drive_limits", "wind_speed_m_s", "success", "status",
@@ -140,10 +141,12 @@ def read_optimize_run(folder: str | Path) -> OptimizeRun:
     Raises
     ------
     InputError
-        A missing file or column; a kind with no converged scenario is kept
-        out of ``curves`` (it is still in ``summary``).
+        A missing file or column, a folder that is not the whole output of one
+        run (:func:`bench.output_folder.check_output_folder`); a kind with no
+        converged scenario is kept out of ``curves`` (it is still in ``summary``).
     """
     folder = Path(folder)
+    check_output_folder(folder)
     summary = _read_parquet(folder / "summary.parquet", SUMMARY_COLUMNS)
     manifest = read_manifest(folder)
     cut_ins = {}

@@ -49,6 +49,11 @@ def _clean(value):
     return value
 
 
+#: files by which an aep output folder written before run ids is known; the resumable
+#: store of ``--refine`` solves kept from run to run
+AEP_MARKERS, AEP_KEEP = ("aep.json",), ("solves",)
+
+
 def aep_document(a: Assessment, run: OptimizeRun, command_line: list[str],
                  reference_height_m: float, refine: dict | None = None) -> dict:
     """The ``aep.json`` content (docs/schemas.md §7)."""

@@ -19,6 +19,9 @@ from energy.cli import add_site_arguments, shear_from_args, site_from_args
 
 #: where ``bench fit`` writes its model (docs/schemas.md §4)
 FIT_MODEL_PATH = Path("fit_out") / "power_model.json"
+#: files by which a size output folder written before run ids is known; the
+#: resumable solve store kept from run to run
+SIZE_MARKERS, SIZE_KEEP = ("sizing.json",), ("solves",)
 #: the paper drive's nominal (continuous) torque [N m] and gearbox speed limit [rpm]
 #: (Stuyts et al. 2015, section II): defaults only, when the model file names no rating
 PAPER_RATED_TORQUE_NM = 78.0
@@ -136,6 +139,7 @@ def build_candidates(args: argparse.Namespace) -> tuple[list, Path, list[str]]:
 def run(args: argparse.Namespace) -> int:
     """Run or resume the sizing sweep, print the table, write the files."""
     from bench.files import write_text_atomic
+    from bench.output_folder import check_replaceable, output_folder
     from energy.sizing import run_sizing
     from optimize.sweep.plan import parse_wind_grid
     from optimize.system.system import load_system
@@ -148,8 +152,7 @@ def run(args: argparse.Namespace) -> int:
                          "to integrate", expected="at least two wind speeds")
     if not 0 <= args.tolerance < 1:
         raise InputError(None, f"--tolerance {args.tolerance}", expected="a share in [0, 1)")
-    if args.out.exists() and not args.out.is_dir():
-        raise InputError(args.out, "exists and is not a folder", expected="an output folder")
+    check_replaceable(args.out, "size", SIZE_MARKERS, keep=SIZE_KEEP)
     candidates, base_path, notes = build_candidates(args)
     print(f"site: {site_note}")
     print(f"system: {system.name} ({system.path})")
@@ -169,8 +172,6 @@ def run(args: argparse.Namespace) -> int:
     for r in failed:
         print(f"FAILED: {r['candidate']} at {r['wind_speed_m_s']:g} m/s: {r['status']} "
               "(that candidate gets no AEP)")
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(args.out / "sizing.csv", t.to_csv(index=False, float_format="%.6g"))
     doc = {
         "schema": "drivebench.sizing", "schema_version": 1,
         "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
@@ -187,5 +188,7 @@ def run(args: argparse.Namespace) -> int:
         "candidates": json.loads(t.to_json(orient="records")),
         "solves": res.records, "notes": notes,
     }
-    write_text_atomic(args.out / "sizing.json", json.dumps(doc, indent=1) + "\n")
+    with output_folder(args.out, "size", SIZE_MARKERS, keep=SIZE_KEEP) as stage:
+        write_text_atomic(stage / "sizing.csv", t.to_csv(index=False, float_format="%.6g"))
+        write_text_atomic(stage / "sizing.json", json.dumps(doc, indent=1) + "\n")
     return 0 if res.chosen is not None else 1

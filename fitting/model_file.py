@@ -28,6 +28,7 @@ import numpy as np
 from bench.drive import DRIVE_KEYS
 from bench.errors import InputError
 from bench.files import write_text_atomic
+from bench.output_folder import check_output_file
 
 SCHEMA_NAME = "drivebench.power_model"
 #: Version written; 2 added the ``drive`` object (rating and limits of the drive).
@@ -248,6 +249,43 @@ def _is_finite_number(x: Any) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
 
 
+#: relative tolerance of the covariance checks (asymmetry, negative eigenvalues of the
+#: correlation matrix): rounding in a fit or a JSON round trip stays far below it
+COVARIANCE_RTOL = 1e-6
+
+
+def covariance_problem(cov: np.ndarray, terms) -> str | None:
+    """What keeps ``cov`` from being a covariance matrix (None: it is one).
+
+    A covariance is symmetric and positive semi-definite: no negative variance,
+    and the correlation matrix ``C_ij / sqrt(C_ii C_jj)`` has no eigenvalue below
+    ``-COVARIANCE_RTOL`` (a zero variance needs zero covariances in its row).
+    """
+    scale = float(np.max(np.abs(cov))) if cov.size else 0.0
+    if scale == 0.0:
+        return None
+    asym = np.abs(cov - cov.T)
+    if np.max(asym) > COVARIANCE_RTOL * scale:
+        i, j = np.unravel_index(int(np.argmax(asym)), cov.shape)
+        return f"not symmetric (entry [{i}][{j}] {cov[i, j]:.6g}, [{j}][{i}] {cov[j, i]:.6g})"
+    var = np.diag(cov)
+    if np.any(var < 0):
+        k = int(np.argmin(var))
+        return (f"negative variance {var[k]:.6g} of term {list(terms[k])} (entry [{k}][{k}]): "
+                "not a covariance")
+    sd = np.sqrt(var)
+    for k in np.flatnonzero(sd == 0):
+        if np.any(np.abs(cov[k]) > COVARIANCE_RTOL * scale):
+            return f"zero variance of term {list(terms[k])} with non-zero covariances"
+    keep = sd > 0
+    corr = cov[np.ix_(keep, keep)] / np.outer(sd[keep], sd[keep])
+    low = float(np.min(np.linalg.eigvalsh((corr + corr.T) / 2))) if keep.any() else 0.0
+    if low < -COVARIANCE_RTOL:
+        return (f"not positive semi-definite (correlation matrix eigenvalue {low:.3g}): "
+                "not a covariance")
+    return None
+
+
 def _model_problem(model: PowerModel) -> str | None:
     """Return a description of what is wrong with a model, or None."""
     n = len(model.terms)
@@ -268,6 +306,9 @@ def _model_problem(model: PowerModel) -> str | None:
             return f"covariance.rpm: shape is not {n} x {n}"
         if not all(math.isfinite(v) for row in cov for v in row):
             return "covariance.rpm: non-finite value"
+        problem = covariance_problem(np.array(cov, float), model.terms)
+        if problem is not None:
+            return f"covariance.rpm: {problem}"
     if not (math.isfinite(model.nominal_power_w) and model.nominal_power_w > 0):
         return "nominal_power_w: a finite positive power [W] expected"
     if not isinstance(model.name, str):
@@ -304,8 +345,21 @@ def _model_problem(model: PowerModel) -> str | None:
 
 
 # ---------------------------------------------------------------------- loader
-def _reject_constant(name: str) -> float:
-    raise ValueError(f"non-finite number {name}")
+def _non_finite_at(value: Any, where: str = "") -> str | None:
+    """The key path (``coefficients.rpm[2]``) of the first non-finite number, or None."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return where or "<top level>"
+    if isinstance(value, dict):
+        items = ((f"{where}.{k}" if where else str(k), v) for k, v in value.items())
+    elif isinstance(value, list):
+        items = ((f"{where}[{k}]", v) for k, v in enumerate(value))
+    else:
+        return None
+    for key, v in items:
+        found = _non_finite_at(v, key)
+        if found is not None:
+            return found
+    return None
 
 
 def power_model_from_dict(data: Any, path: str | Path | None = None) -> PowerModel:
@@ -443,10 +497,13 @@ def load_power_model(path: str | Path) -> PowerModel:
     Raises
     ------
     InputError
-        If the file is missing, is not JSON, or fails validation; the message
-        names the file and the field.
+        If the file is missing, is not JSON, or fails validation, or its folder is
+        a stage output that is not whole (:func:`bench.output_folder.check_output_file`);
+        the message names the file and the field.
     """
     path = Path(path)
+    if path.is_file():
+        check_output_file(path)
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError as exc:
@@ -454,11 +511,15 @@ def load_power_model(path: str | Path) -> PowerModel:
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(path, f"cannot read: {exc}") from exc
     try:
-        data = json.loads(text, parse_constant=_reject_constant)
+        data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise InputError(path, f"not valid JSON: {exc.msg}", line=exc.lineno) from exc
-    except ValueError as exc:
-        raise InputError(path, str(exc), expected="finite numbers only") from exc
+    except ValueError as exc:  # e.g. an integer of more digits than Python converts
+        raise InputError(path, f"not valid JSON: {exc}") from exc
+    where = _non_finite_at(data)
+    if where is not None:
+        raise InputError(path, "non-finite number (NaN or Infinity)", column=where,
+                         expected="finite numbers only")
     return power_model_from_dict(data, path)
 
 

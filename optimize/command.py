@@ -17,6 +17,7 @@ import numpy as np
 
 from bench.errors import InputError
 from bench.files import file_sha256
+from bench.output_folder import check_replaceable, output_folder
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
 from optimize.sweep import outputs
 from optimize.sweep.chains import Problem, make_tasks, run_sweep
@@ -24,6 +25,9 @@ from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import KINDS, parse_kinds, parse_wind_grid, plan_chains
 from optimize.sweep.trust import run_trust_checks
 from optimize.system.system import System, load_system
+
+#: files by which an optimize output folder written before run ids is known
+OPTIMIZE_MARKERS = ("summary.parquet", "manifest.json")
 
 
 @dataclass(frozen=True)
@@ -103,9 +107,11 @@ class SweepRequest:
                                  stored_guess=not args.no_stored_guess)
         except ValueError as exc:
             raise InputError(None, f"OCP options: {exc}") from exc
-        # an impossible model "converges" to a wrong cycle: refuse it before any solve
-        check_physics(model, path, limits=domain_scales(model, options))
-        note += "\n" + system.drive_limits(model).describe()
+        # an impossible model "converges" to a wrong cycle: refuse it before any solve,
+        # checked where the optimizer may take it (the drive limits in force)
+        limits = system.drive_limits(model)
+        check_physics(model, path, limits=(limits.max_speed_rpm, limits.max_torque_nm))
+        note += "\n" + limits.describe()
         return cls(
             winds,
             kinds,
@@ -181,7 +187,8 @@ def run_optimize(
     checks (mesh check of each kind's middle-wind scenario on the executor,
     simulation check of every converged scenario); compare with the paper;
     write ``summary.parquet``, ``trajectories.parquet``, ``claims.csv`` and
-    ``manifest.json`` (docs/schemas.md §5) atomically into ``request.out``.
+    ``manifest.json`` (docs/schemas.md §5) into ``request.out``, all or none
+    (:mod:`bench.output_folder`).
     ``backend`` replaces the CasADi OCP in the chains (see
     :class:`optimize.sweep.chains.Backend`; the trust checks always use the OCP).
     """
@@ -190,6 +197,7 @@ def run_optimize(
     import sys
 
 
+    check_replaceable(request.out, "optimize", OPTIMIZE_MARKERS)  # before the solves
     model = request.drive_model
     system = request.system if request.system is not None else load_system()
     options = system.ocp_options(request.options, model)
@@ -209,58 +217,56 @@ def run_optimize(
     cut_ins = cut_in_frame(result.cut_ins)
     claims = evaluate_claims(summary, cut_ins) if request.claims else None
 
-    request.out.mkdir(parents=True, exist_ok=True)
-    files = {
-        "summary": outputs.write_parquet(
-            summary, request.out / "summary.parquet", outputs.SUMMARY_COLUMNS, system.record()
-        ),
-        "trajectories": outputs.write_parquet(
-            outputs.trajectories_frame(result.outcomes), request.out / "trajectories.parquet",
-            system=system.record(),
-        ),
-    }
-    claims_path = request.out / "claims.csv"
-    if claims is not None:
-        files["claims"] = outputs.write_csv(claims, claims_path)
-    else:
-        claims_path.unlink(missing_ok=True)  # never leave a stale comparison beside new results
-    manifest = {
-        "schema": outputs.SCHEMA_NAME,
-        "schema_version": outputs.SCHEMA_VERSION,
-        "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "command_line": list(command_line if command_line is not None else sys.argv),
-        "package_versions": _package_versions(),
-        "wind_speeds_m_s": list(request.winds),
-        "kinds": list(request.kinds),
-        "scenarios": [o.name for o in result.outcomes],
-        "drive_model": {
-            "path": str(request.drive_model_path),
-            "file_sha256": file_sha256(request.drive_model_path),
-            "model_sha256": model.sha256,
-            "name": model.name,
-            "note": request.model_note,
-        },
-        "system": system.record(),
-        "drive_limits": dataclasses.asdict(system.drive_limits(model)),
-        "options": dataclasses.asdict(options),
-        "executor": result.executor,
-        "wall_time_s": result.wall_time_s,
-        "converged": int(summary["success"].sum()),
-        "failed": [o.name for o in result.outcomes if not o.success],
-        "chains": [
-            {
-                "chain": c.chain,
-                "worker": c.worker,
-                "build_time_s": c.build_time_s,
-                "scenarios": [o.name for o in c.outcomes],
-            }
-            for c in result.chains
-        ],
-        "cut_in": [dataclasses.asdict(c) for c in result.cut_ins],
-        "trust": trust,
-        "files": {k: Path(v).name for k, v in files.items()},
-    }
-    files["manifest"] = outputs.write_json(manifest, request.out / "manifest.json")
+    with output_folder(request.out, "optimize", OPTIMIZE_MARKERS) as stage:  # all or none
+        files = {
+            "summary": outputs.write_parquet(
+                summary, stage / "summary.parquet", outputs.SUMMARY_COLUMNS, system.record()
+            ),
+            "trajectories": outputs.write_parquet(
+                outputs.trajectories_frame(result.outcomes), stage / "trajectories.parquet",
+                system=system.record(),
+            ),
+        }
+        if claims is not None:  # else no stale comparison is left: the folder is replaced
+            files["claims"] = outputs.write_csv(claims, stage / "claims.csv")
+        manifest = {
+            "schema": outputs.SCHEMA_NAME,
+            "schema_version": outputs.SCHEMA_VERSION,
+            "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+            "command_line": list(command_line if command_line is not None else sys.argv),
+            "package_versions": _package_versions(),
+            "wind_speeds_m_s": list(request.winds),
+            "kinds": list(request.kinds),
+            "scenarios": [o.name for o in result.outcomes],
+            "drive_model": {
+                "path": str(request.drive_model_path),
+                "file_sha256": file_sha256(request.drive_model_path),
+                "model_sha256": model.sha256,
+                "name": model.name,
+                "note": request.model_note,
+            },
+            "system": system.record(),
+            "drive_limits": dataclasses.asdict(system.drive_limits(model)),
+            "options": dataclasses.asdict(options),
+            "executor": result.executor,
+            "wall_time_s": result.wall_time_s,
+            "converged": int(summary["success"].sum()),
+            "failed": [o.name for o in result.outcomes if not o.success],
+            "chains": [
+                {
+                    "chain": c.chain,
+                    "worker": c.worker,
+                    "build_time_s": c.build_time_s,
+                    "scenarios": [o.name for o in c.outcomes],
+                }
+                for c in result.chains
+            ],
+            "cut_in": [dataclasses.asdict(c) for c in result.cut_ins],
+            "trust": trust,
+            "files": {k: Path(v).name for k, v in files.items()},
+        }
+        files["manifest"] = outputs.write_json(manifest, stage / "manifest.json")
+    files = {k: request.out / Path(v).relative_to(stage) for k, v in files.items()}
     return OptimizeOutcome(
         summary,
         claims,

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
 
-from bench.files import write_text_atomic
+from bench.files import write_text_durable
 from reports import energy_section, optimization, provenance, sections
 from reports.inputs import InputLog
 
@@ -111,4 +111,4 @@ def render(context: dict) -> str:
 def build_report(store: Path, fit: Path, optimize: Path, out: Path, argv: list[str],
                  aep: Path = Path("aep_out"), size: Path = Path("size_out")) -> Path:
     """Read the stage outputs, render the report and write it to ``out``; returns ``out``."""
-    return write_text_atomic(out, render(build_context(store, fit, optimize, argv, aep, size)))
+    return write_text_durable(out, render(build_context(store, fit, optimize, argv, aep, size)))
