@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import hashlib
+import math
 import os
 import tempfile
 import tomllib
@@ -78,15 +79,27 @@ def write_text_atomic(path: str | Path, text: str) -> Path:
     return atomic_write(path, lambda tmp: tmp.write_bytes(text.encode("utf-8")))
 
 
+def require_regular(path: Path) -> None:
+    """Raise InputError when ``path`` exists but is no regular file (FIFO, device, folder).
+
+    Opening a FIFO waits for a writer forever; a device may never end.
+    """
+    if path.exists() and not path.is_file():
+        raise InputError(path, "not a regular file (a FIFO, device or folder)",
+                         expected="a text file")
+
+
 def read_toml(path: str | Path) -> dict:
     """The table of a UTF-8 TOML file.
 
     Raises
     ------
     InputError
-        The file cannot be read, is not UTF-8, or is not valid TOML.
+        The file cannot be read, is not a regular file (a FIFO would block), is not
+        UTF-8, or is not valid TOML.
     """
     path = Path(path)
+    require_regular(path)
     try:
         return tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError) as exc:
@@ -182,3 +195,32 @@ def write_text_durable(path: str | Path, text: str) -> Path:
         fsync_path(tmp)
 
     return atomic_write(path, write)
+
+
+#: integers beyond this magnitude do not convert to a float
+_FLOAT_MAX = 1.7976931348623157e308
+
+
+def bad_number_at(value, where: str = "") -> tuple[str, str] | None:
+    """The first number of decoded TOML/JSON no float can hold: ``(key path, problem)``.
+
+    Key paths read ``coefficients.rpm[2]``; problems are ``"non-finite number nan"``
+    or ``"integer of 400 digits, too large for a number"``. None when every number
+    is a finite float.
+    """
+    if isinstance(value, float) and not math.isfinite(value):
+        return where or "<top level>", f"non-finite number {value}"
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) > _FLOAT_MAX:
+        return where or "<top level>", (f"integer of {len(str(abs(value)))} digits, too large "
+                                        "for a number")
+    if isinstance(value, dict):
+        items = ((f"{where}.{k}" if where else str(k), v) for k, v in value.items())
+    elif isinstance(value, list):
+        items = ((f"{where}[{k}]", v) for k, v in enumerate(value))
+    else:
+        return None
+    for key, v in items:
+        found = bad_number_at(v, key)
+        if found is not None:
+            return found
+    return None

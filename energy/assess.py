@@ -225,6 +225,12 @@ def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
     kinds: dict[str, KindEnergy] = {}
     curve_rows = []
     for kind, curve in run.curves.items():
+        if len(np.unique(curve.wind_m_s)) < 2:
+            raise InputError(run.folder / "summary.parquet",
+                             f"kind {kind}: a power curve of {len(curve.wind_m_s)} converged "
+                             "wind speed cannot be integrated over the site's wind hours",
+                             expected="a sweep of at least two wind speeds that converge "
+                                      "(bench optimize --wind-grid LO:HI:STEP)")
         elec = aep_mod.curve_energy(curve.wind_m_s, curve.p_elec_w, site, nominal,
                                     curve.cut_in_m_s)
         mech = aep_mod.curve_energy(curve.wind_m_s, curve.p_mech_w, site, nominal, None)

@@ -27,7 +27,7 @@ import numpy as np
 
 from bench.drive import DRIVE_KEYS
 from bench.errors import InputError
-from bench.files import write_text_atomic
+from bench.files import bad_number_at, write_text_atomic
 from bench.output_folder import check_output_file
 
 SCHEMA_NAME = "drivebench.power_model"
@@ -345,23 +345,6 @@ def _model_problem(model: PowerModel) -> str | None:
 
 
 # ---------------------------------------------------------------------- loader
-def _non_finite_at(value: Any, where: str = "") -> str | None:
-    """The key path (``coefficients.rpm[2]``) of the first non-finite number, or None."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return where or "<top level>"
-    if isinstance(value, dict):
-        items = ((f"{where}.{k}" if where else str(k), v) for k, v in value.items())
-    elif isinstance(value, list):
-        items = ((f"{where}[{k}]", v) for k, v in enumerate(value))
-    else:
-        return None
-    for key, v in items:
-        found = _non_finite_at(v, key)
-        if found is not None:
-            return found
-    return None
-
-
 def power_model_from_dict(data: Any, path: str | Path | None = None) -> PowerModel:
     """Validate a decoded power-model file and build the :class:`PowerModel`.
 
@@ -516,10 +499,9 @@ def load_power_model(path: str | Path) -> PowerModel:
         raise InputError(path, f"not valid JSON: {exc.msg}", line=exc.lineno) from exc
     except ValueError as exc:  # e.g. an integer of more digits than Python converts
         raise InputError(path, f"not valid JSON: {exc}") from exc
-    where = _non_finite_at(data)
-    if where is not None:
-        raise InputError(path, "non-finite number (NaN or Infinity)", column=where,
-                         expected="finite numbers only")
+    bad = bad_number_at(data)
+    if bad is not None:
+        raise InputError(path, bad[1], column=bad[0], expected="finite numbers only")
     return power_model_from_dict(data, path)
 
 

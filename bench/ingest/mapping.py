@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from bench.errors import InputError
+from bench.files import require_regular
 from bench.ingest import expr
 from bench.ingest.units import ACCEPTED, QUANTITY_KIND, split_header, unit_factor, unit_problem
 
@@ -115,6 +116,7 @@ def load_mapping(path: str | Path) -> Mapping:
         (with its position), a bad ``skip_lines``, or an unknown unit.
     """
     path = Path(path)
+    require_regular(path)
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:

@@ -25,7 +25,7 @@ from tqdm import tqdm
 from bench import store
 from bench.drive import find_drive_file, session_drive
 from bench.errors import InputError
-from bench.files import file_sha256
+from bench.files import WRITE_ERRNOS, file_sha256
 from bench.ingest.mapping import EMPTY_MAPPING, load_mapping
 from bench.ingest.readers import CHUNK_BYTES
 from bench.ingest.session import Session, discover, load_session
@@ -99,10 +99,11 @@ def session_files(
             raise InputError(session.path, f"bad value {named!r}", column="points.mapping",
                              expected="a file name in the session folder")
         mapping = session.inside(named, "points.mapping")
-    elif (session.folder / "mapping.toml").is_file():
-        mapping = session.folder / "mapping.toml"
-    elif (session.folder / "mapping.json").is_file():
-        mapping = session.folder / "mapping.json"
+    else:  # a mapping beside session.toml, never one a link puts elsewhere
+        beside = [n for n in ("mapping.toml", "mapping.json")
+                  if (session.folder / n).exists() or (session.folder / n).is_symlink()]
+        if beside:
+            mapping = session.inside(beside[0], beside[0])
     if mapping is not None:
         files[mapping.name] = mapping
     elif user_mapping is not None:
@@ -172,7 +173,7 @@ def ingest(
     sessions: list[Session] = []
     seen: dict[str, Path] = {}
     drives: dict[str, tuple[dict | None, Path | None]] = {}  # rating, drive.toml
-    for folder in discover(paths):
+    for folder in discover(paths, notify):
         s = load_session(folder)
         if s.session_id in seen:
             raise InputError(folder, f"session {s.session_id!r} found twice",
@@ -234,8 +235,16 @@ def ingest(
                     if s.session_id in result.unchanged:
                         _strict_check(s, manifest["sessions"][s.session_id])
             if todo:
-                _process(todo, writer, config, progress, chunk_bytes, workers, result,
-                         {sid: d for sid, (d, _) in drives.items()}, strict)
+                try:
+                    _process(todo, writer, config, progress, chunk_bytes, workers, result,
+                             {sid: d for sid, (d, _) in drives.items()}, strict)
+                except OSError as exc:  # writing the store: name it
+                    if exc.errno not in WRITE_ERRNOS:
+                        raise
+                    reason = WRITE_ERRNOS[exc.errno]
+                    raise InputError(store_dir, f"cannot write to the store ({reason}); "
+                                     "nothing was committed",
+                                     expected="free space for the store") from exc
         finally:
             hasher.shutdown(cancel_futures=True)
         result.manifest = writer.manifest
