@@ -194,6 +194,9 @@ def output_folder(target: str | Path, stage: str, markers: tuple[str, ...] = (),
         shutil.rmtree(p, ignore_errors=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.staging-{os.getpid()}-",
                                     dir=target.parent))
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(staging, 0o777 & ~umask)  # a folder's usual permissions, not mkdtemp's 0700
     try:
         yield staging
         for name in keep:
