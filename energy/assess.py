@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from bench.errors import InputError
+from bench.output_folder import check_output_file
 from energy import aep as aep_mod
 from energy import bands
 from energy.curve import OptimizeRun, PowerCurve, read_trajectories
@@ -164,6 +165,7 @@ def model_for_run(run: OptimizeRun, drive_model: Path | None) -> tuple[Path | No
     path = Path(drive_model) if drive_model is not None else run.drive_model_path
     if path is None or not path.is_file():
         return path, None
+    check_output_file(path)  # a fit folder must be the whole output of one run
     try:
         return path, json.loads(path.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:

@@ -3,6 +3,7 @@ output all-or-nothing). benchmarks/output_kill.py runs the kill check at scale."
 
 from __future__ import annotations
 
+import pytest
 from fit_synthetic import paper_quadratic, synthetic_points, write_store
 from kill_harness import run_output_kills
 
@@ -39,3 +40,27 @@ def test_killed_fit_leaves_old_or_new(tmp_path):
     assert figures.tried == 4
     assert figures.mixed == 0 and figures.leftovers == 0, figures.problems
     assert figures.old > 0 and figures.new > 0
+
+
+def test_fit_failing_late_leaves_the_old_output(tmp_path, monkeypatch, capsys):
+    """A fit that fails in its last step (a figure) had already written four outputs;
+    now the earlier output stays whole and unchanged."""
+    from kill_harness import folder_files
+
+    from fitting import figures
+
+    store = tmp_path / "store"
+    write_store(synthetic_points(paper_quadratic, n_motor=40, n_generator=40), store)
+    out = tmp_path / "fit_out"
+    args = ["fit", "--store", str(store), "--out", str(out), "--folds", "3"]
+    assert main([*args, "--order", "1"]) == 0
+    before = folder_files(out)
+
+    def fail(*a, **kw):
+        raise ValueError("Maximum allowed size exceeded")
+
+    monkeypatch.setattr(figures, "residuals_figure", fail)
+    with pytest.raises(ValueError):
+        main([*args, "--order", "2"])
+    assert folder_files(out) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fit_out", "store"]
