@@ -105,7 +105,8 @@ class SweepRequest:
         options = system.ocp_options(options, drive.rating)
         # an impossible model "converges" to a wrong cycle: refuse it before any solve,
         # checked also where the optimizer may take it (the drive limits in force)
-        check_physics(drive.model, drive.model_path, limits=domain_scales(drive.model, options))
+        check_physics(drive.model, drive.model_path,
+                      limits=(options.max_speed_rpm, options.max_torque_nm))
         return cls(
             winds,
             kinds,

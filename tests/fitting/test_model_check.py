@@ -133,14 +133,15 @@ def test_fitted_models_pass_over_the_limits(order):
     """Models fitted on both quadrants (40 W noise) pass over the whole limits box too."""
     frame = synthetic_points(paper_quadratic)
     fit = fit_power_model(frame["speed_rpm"].to_numpy(), frame["torque_nm"].to_numpy(),
-                          frame["p_elec_w"].to_numpy(), full_polynomial(order))
+                          frame["p_elec_w"].to_numpy(), full_polynomial(order),
+                          nominal_power_w=8200.0)
     assert physics_problems(fit.to_power_model(f"order {order}"), limits=LIMITS) == []
 
 
 def test_optimize_refuses_a_motor_only_model_that_generates_energy(tmp_path, capsys):
     bad = tmp_path / "motor_only.json"
     model = _with((A0, A1, A2, 0.2), domain={"motor": paper_model().domain["motor"]})
-    save_power_model(_nominal(model, 1e7), bad)
+    save_power_model(model, bad)
     rc = main(["optimize", "--drive-model", str(bad), "--wind-grid", "7",
                "--out", str(tmp_path / "opt")])
     err = capsys.readouterr().err
