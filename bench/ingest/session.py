@@ -188,9 +188,9 @@ def load_session(folder: str | Path) -> Session:
         raise InputError(path, f"{SESSION_FILE} is a link out of the session folder "
                          f"(to {path.resolve()})", expected=f"a {SESSION_FILE} in {folder}")
     raw = read_toml(path)
-    bad = bad_number_at(raw)
-    if bad is not None:
-        raise InputError(path, bad[1], column=bad[0], expected="finite numbers")
+    bad = bad_number_at(raw)  # NaN, inf, or an integer no float holds, in any key
+    if bad is not None and not bad[1].startswith("non-finite"):
+        raise InputError(path, bad[1], column=bad[0], expected="a number of usual size")
     sid = _get(path, raw, "session_id", str)
     if sid != folder.name:
         raise InputError(path, f"session_id {sid!r} differs from the folder name",
@@ -208,6 +208,8 @@ def load_session(folder: str | Path) -> Session:
     if kind == "timeseries":
         _check_streams(path, raw)
     ranges = _sensor_ranges(path, raw.get("sensors", {}))
+    if bad is not None:  # the keys checked above said so in their own words
+        raise InputError(path, bad[1], column=bad[0], expected="finite numbers")
     return Session(folder=folder, session_id=sid, kind=kind, mode=mode, gear_ratio=gear,
                    measured_side=side, speed_sign=ssign, torque_sign=tsign, ranges=ranges, raw=raw,
                    signed_torque=signed)
