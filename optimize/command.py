@@ -106,7 +106,7 @@ class SweepRequest:
         # an impossible model "converges" to a wrong cycle: refuse it before any solve,
         # checked also where the optimizer may take it (the drive limits in force)
         check_physics(drive.model, drive.model_path,
-                      limits=(options.max_speed_rpm, options.max_torque_nm))
+                      limits=(options.limits.max_speed_rpm, options.limits.max_torque_nm))
         return cls(
             winds,
             kinds,
