@@ -35,7 +35,6 @@ import sys
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from datetime import date, time
 from pathlib import Path
 from typing import TypeVar
 
@@ -44,7 +43,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from bench.errors import InputError
-from bench.files import WRITE_ERRNOS, file_sha256, fsync_path, write_text_durable
+from bench.files import WRITE_ERRNOS, dumps_json, file_sha256, fsync_path, write_text_durable
 
 SCHEMA_NAME = "drivebench.store"
 SCHEMA_VERSION = 2
@@ -391,13 +390,6 @@ def check_store(store_dir: str | Path, manifest: dict | None = None) -> StoreDam
     return damage
 
 
-def _json_default(obj):
-    """TOML dates and times become ISO 8601 text; anything else is a bug, said plainly."""
-    if isinstance(obj, date | time):
-        return obj.isoformat()
-    raise TypeError(f"cannot store a {type(obj).__name__} in JSON: {obj!r}")
-
-
 def dumps(obj) -> str:
     """JSON text of a manifest: sorted keys, stable bytes, never NaN or Infinity.
 
@@ -406,8 +398,7 @@ def dumps(obj) -> str:
     ValueError
         A non-finite float anywhere in ``obj`` (JSON has none).
     """
-    return json.dumps(obj, indent=1, sort_keys=True, allow_nan=False,
-                      default=_json_default) + "\n"
+    return dumps_json(obj, indent=1, sort_keys=True, non_finite="error")
 
 
 def _link_or_copy(src: Path, dest: Path) -> None:

@@ -19,11 +19,8 @@ import pyarrow.parquet as pq
 
 from bench.errors import InputError
 from bench.output_folder import check_output_folder
+from optimize.sweep.outputs import SUMMARY_REQUIRED
 
-SUMMARY_COLUMNS = (
-    "scenario", "kind", "objective", "drive_limits", "wind_speed_m_s", "success", "status",
-    "avg_p_elec_w", "avg_p_mech_w", "period_s", "peak_speed_rpm", "peak_torque_nm",
-)
 TRAJECTORY_COLUMNS = ("scenario", "kind", "wind_speed_m_s", "weight", "speed_rpm", "torque_nm")
 
 
@@ -147,7 +144,7 @@ def read_optimize_run(folder: str | Path) -> OptimizeRun:
     """
     folder = Path(folder)
     check_output_folder(folder)
-    summary = _read_parquet(folder / "summary.parquet", SUMMARY_COLUMNS)
+    summary = _read_parquet(folder / "summary.parquet", SUMMARY_REQUIRED)
     manifest = read_manifest(folder)
     cut_ins = {}
     for c in manifest.get("cut_in") or []:

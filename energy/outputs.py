@@ -8,14 +8,14 @@
 from __future__ import annotations
 
 import datetime
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from bench.files import write_text_atomic
+from bench.files import write_json, write_text_atomic
+from bench.output_folder import output_folder
 from energy import awesio
 from energy.assess import Assessment
 from energy.bands import Z95
@@ -93,6 +93,15 @@ def _awesio_names(a: Assessment) -> list[str]:
 
 def write_outputs(a: Assessment, run: OptimizeRun, out: Path, command_line: list[str],
                   shear: Shear, refine: dict | None = None) -> dict[str, Path]:
+    """:func:`write_files` into ``out``, all or none (:mod:`bench.output_folder`);
+    ``out/solves`` (the ``--refine`` store) is kept."""
+    with output_folder(out, "aep", AEP_MARKERS, keep=AEP_KEEP) as stage:
+        files = write_files(a, run, stage, command_line, shear, refine)
+    return {k: Path(out) / Path(v).relative_to(stage) for k, v in files.items()}
+
+
+def write_files(a: Assessment, run: OptimizeRun, out: Path, command_line: list[str],
+                shear: Shear, refine: dict | None = None) -> dict[str, Path]:
     """Write ``aep.json``, ``power_curves.csv`` and the awesIO files into ``out``.
 
     ``refine`` is the ``refine`` object of ``aep.json`` (:func:`energy.refine.refine_document`)
@@ -131,10 +140,9 @@ def write_outputs(a: Assessment, run: OptimizeRun, out: Path, command_line: list
             )
             name = f"awesio/{kind}_{q}.yml"
             files[name] = write_text_atomic(out / name, awesio.dump_yaml(doc) + "\n")
-    files["aep"] = write_text_atomic(
-        out / "aep.json",
-        json.dumps(aep_document(a, run, command_line, reference_height_m, refine), indent=2,
-                   allow_nan=False) + "\n")
+    files["aep"] = write_json(
+        out / "aep.json", aep_document(a, run, command_line, reference_height_m, refine),
+        non_finite="error")
     return files
 
 

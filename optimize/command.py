@@ -16,19 +16,24 @@ from typing import Any
 import numpy as np
 
 from bench.errors import InputError
-from bench.files import file_sha256
+from bench.files import file_sha256, write_csv, write_json, write_parquet
 from bench.output_folder import check_replaceable, output_folder
+from bench.versions import package_versions
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
+from optimize.kinds import KINDS
 from optimize.sweep import outputs
 from optimize.sweep.chains import Problem, make_tasks, run_sweep
 from optimize.sweep.executors import open_executor
-from optimize.sweep.plan import KINDS, parse_kinds, parse_wind_grid, plan_chains
+from optimize.sweep.plan import parse_kinds, parse_wind_grid, plan_chains
 from optimize.sweep.trust import run_trust_checks
 from optimize.system.drive import DriveInForce, drive_in_force
 from optimize.system.system import System, load_system
 
 #: files by which an optimize output folder written before run ids is known
 OPTIMIZE_MARKERS = ("summary.parquet", "manifest.json")
+#: a model given to the Python API, written beside the outputs before the sweep and
+#: named by its manifest: kept from the folder, not part of the run
+OPTIMIZE_KEEP = ("given_power_model.json",)
 
 
 @dataclass(frozen=True)
@@ -42,7 +47,7 @@ class SweepRequest:
     kinds : tuple of str
         Scenario kinds.
     drive_model : Any
-        ``fitting.model_file.PowerModel``.
+        ``fitting.power_model.PowerModel``.
     drive_model_path : Path
         Where it was read from.
     model_note : str
@@ -157,19 +162,6 @@ class OptimizeOutcome:
     files: dict
 
 
-def _package_versions() -> dict[str, str]:
-    import importlib.metadata as md
-    import platform
-
-    versions = {"python": platform.python_version()}
-    for dist in ("drivebench", "casadi", "numpy", "pandas", "pyarrow", "scipy", "distributed"):
-        try:
-            versions[dist] = md.version(dist)
-        except md.PackageNotFoundError:
-            versions[dist] = "not installed"
-    return versions
-
-
 def run_optimize(
     request: SweepRequest,
     command_line: list[str] | None = None,
@@ -193,7 +185,8 @@ def run_optimize(
     import sys
 
 
-    check_replaceable(request.out, "optimize", OPTIMIZE_MARKERS)  # before the solves
+    check_replaceable(request.out, "optimize", OPTIMIZE_MARKERS,
+                      keep=OPTIMIZE_KEEP)  # before the solves
     system = request.system if request.system is not None else load_system()
     drive = request.drive or drive_in_force(system, request.drive_model_path,
                                             model=request.drive_model)
@@ -216,15 +209,15 @@ def run_optimize(
     claims = (evaluate_claims(summary, cut_ins, paper_system=system.paper_system,
                               system_name=system.name) if request.claims else None)
 
-    with output_folder(request.out, "optimize", OPTIMIZE_MARKERS) as stage:  # all or none
+    with output_folder(request.out, "optimize", OPTIMIZE_MARKERS,
+                       keep=OPTIMIZE_KEEP) as stage:  # all or none
+        system_meta = outputs.system_metadata(system.record())
         files = {
-            "summary": outputs.write_parquet(
-                summary, stage / "summary.parquet", outputs.SUMMARY_COLUMNS, system.record()
-            ),
-            "trajectories": outputs.write_parquet(
-                outputs.trajectories_frame(result.outcomes), stage / "trajectories.parquet",
-                system=system.record(),
-            ),
+            "summary": write_parquet(stage / "summary.parquet", summary,
+                                     descriptions=outputs.SUMMARY_COLUMNS, metadata=system_meta),
+            "trajectories": write_parquet(stage / "trajectories.parquet",
+                                          outputs.trajectories_frame(result.outcomes),
+                                          metadata=system_meta),
         }
         model_path = request.drive_model_path
         if drive.carried:  # the losses the sweep flew with, for bench aep (bands, refine)
@@ -233,18 +226,18 @@ def run_optimize(
             model_path = files["power_model"] = save_power_model(model,
                                                                  stage / "power_model.json")
         if claims is not None:  # else no stale comparison is left: the folder is replaced
-            files["claims"] = outputs.write_csv(claims, stage / "claims.csv")
+            files["claims"] = write_csv(stage / "claims.csv", claims)
         manifest = {
             "schema": outputs.SCHEMA_NAME,
             "schema_version": outputs.SCHEMA_VERSION,
             "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
             "command_line": list(command_line if command_line is not None else sys.argv),
-            "package_versions": _package_versions(),
+            "package_versions": package_versions(),
             "wind_speeds_m_s": list(request.winds),
             "kinds": list(request.kinds),
             "scenarios": [o.name for o in result.outcomes],
             "drive_model": {
-                "path": str(request.out / "power_model.json" if drive.carried
+                "path": str(stage / "power_model.json" if drive.carried
                             else model_path),
                 "file_sha256": file_sha256(model_path),
                 "model_sha256": model.sha256,
@@ -272,7 +265,7 @@ def run_optimize(
             "trust": trust,
             "files": {k: Path(v).name for k, v in files.items()},
         }
-        files["manifest"] = outputs.write_json(manifest, stage / "manifest.json")
+        files["manifest"] = write_json(stage / "manifest.json", manifest)
     files = {k: request.out / Path(v).relative_to(stage) for k, v in files.items()}
     return OptimizeOutcome(
         summary,
