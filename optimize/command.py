@@ -23,6 +23,7 @@ from optimize.sweep.chains import Problem, make_tasks, run_sweep
 from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import KINDS, parse_kinds, parse_wind_grid, plan_chains
 from optimize.sweep.trust import run_trust_checks
+from optimize.system.plausibility import check_drive_holds_kite
 from optimize.system.system import System, load_system
 
 
@@ -105,7 +106,9 @@ class SweepRequest:
             raise InputError(None, f"OCP options: {exc}") from exc
         # an impossible model "converges" to a wrong cycle: refuse it before any solve
         check_physics(model, path, limits=domain_scales(model, options))
-        note += "\n" + system.drive_limits(model).describe()
+        limits = system.drive_limits(model)
+        check_drive_holds_kite(system, limits.max_torque_nm, limits.sources["max_torque_nm"])
+        note += "\n" + limits.describe() + "\n" + system.kite_limits().describe()
         return cls(
             winds,
             kinds,
@@ -242,6 +245,7 @@ def run_optimize(
         },
         "system": system.record(),
         "drive_limits": dataclasses.asdict(system.drive_limits(model)),
+        "kite_limits": dataclasses.asdict(system.kite_limits()),
         "options": dataclasses.asdict(options),
         "executor": result.executor,
         "wall_time_s": result.wall_time_s,

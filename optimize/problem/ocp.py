@@ -118,6 +118,12 @@ class OcpOptions:
         stored initial guess of the NLP without it still fits.
     min_airspeed_m_s : float
         Lower airspeed bound [m/s].
+    max_airspeed_m_s : float or None
+        Upper airspeed bound [m/s] of every scenario kind (the kite's limit);
+        ``None`` leaves the airspeed unbounded above.
+    max_tether_force_n : float or None
+        Largest tether tension [N] of every scenario kind (the kite's and the
+        line's limit, drive limits on or off); ``None``: no limit.
     alpha_bounds_deg, beta_bounds_deg : (float, float)
         Angle-of-attack and sideslip bounds [deg].
     max_line_angle_deg : float
@@ -164,6 +170,8 @@ class OcpOptions:
     nominal_power_w: float = 8200.0
     max_rms_torque_nm: float | None = None
     min_airspeed_m_s: float = 10.0
+    max_airspeed_m_s: float | None = None
+    max_tether_force_n: float | None = None
     alpha_bounds_deg: tuple[float, float] = (-4.5, 8.5)
     beta_bounds_deg: tuple[float, float] = (-9.0, 9.0)
     max_line_angle_deg: float = 65.0
@@ -187,6 +195,10 @@ class OcpOptions:
             )
         if self.max_rms_torque_nm is not None and not self.max_rms_torque_nm > 0:
             raise ValueError(f"max_rms_torque_nm must be > 0, got {self.max_rms_torque_nm}")
+        for name in ("max_airspeed_m_s", "max_tether_force_n"):
+            value = getattr(self, name)
+            if value is not None and not value > 0:
+                raise ValueError(f"{name} must be > 0, got {value}")
         if not 0 < self.warm_bound_push <= 0.5:  # IPOPT's range of warm_start_bound_frac
             raise ValueError(f"warm_bound_push must be in (0, 0.5], got {self.warm_bound_push}")
 
@@ -417,7 +429,8 @@ class Ocp:
             idx = lay.i_x[km.IDX["dl_m_s"]]
             lbw[idx] = -dl_max / self.scales.state[km.IDX["dl_m_s"]]
             ubw[idx] = dl_max / self.scales.state[km.IDX["dl_m_s"]]
-            ubg[lay.g_torque] = o.max_torque_nm / self.scales.torque_nm
+            ubg[lay.g_torque] = np.minimum(ubg[lay.g_torque],
+                                           o.max_torque_nm / self.scales.torque_nm)
             if o.max_p_elec_w is not None:
                 lbg[lay.g_p_elec] = -o.max_p_elec_w / self.scales.power_w
                 ubg[lay.g_p_elec] = o.max_p_elec_w / self.scales.power_w
@@ -544,6 +557,7 @@ def build_ocp(
     inv_sx = ca.DM(1.0 / sc.state)
     inv_res = ca.DM(1.0 / sc.residual)
     v_sc = sc.airspeed_m_s
+    v_top, torque_top = kite_limit_bounds(o, r_w, gear)
     p_elec_avg, p_mech_avg, reg, track, fict_pen, torque_sq_avg = 0, 0, 0, 0, 0, 0
     for k in range(n):
         u_k = us[k]
@@ -557,7 +571,7 @@ def build_ocp(
             add((xp - h * dae.ode(x_kj, u_k, z_kj)) * inv_sx, 0.0, 0.0)
             add(dae.alg(x_kj, u_k, z_kj, wind, fs[ic]) * inv_res, 0.0, 0.0)
             out = dict(zip(out_names, dae.outputs(x_kj, u_k, z_kj, wind), strict=True))
-            add(out["airspeed_m_s"] / v_sc, o.min_airspeed_m_s / v_sc, np.inf)
+            add(out["airspeed_m_s"] / v_sc, o.min_airspeed_m_s / v_sc, v_top / v_sc)
             add(out["alpha_rad"] / (10 * deg), o.alpha_bounds_deg[0] / 10,
                 o.alpha_bounds_deg[1] / 10)
             add(out["beta_rad"] / (10 * deg), o.beta_bounds_deg[0] / 10,
@@ -566,7 +580,7 @@ def build_ocp(
             l_kj, dl_kj, nu_kj = x_kj[km.IDX["l_m"]], x_kj[km.IDX["dl_m_s"]], z_kj[6]
             tension = l_kj * nu_kj
             torque = motor_torque_nm(tension, r_w, gear)
-            add(torque / sc.torque_nm, -np.inf, np.inf, tag=g_torque)
+            add(torque / sc.torque_nm, -np.inf, torque_top / sc.torque_nm, tag=g_torque)
             p_mech = mechanical_power_w(tension, dl_kj)
             p_elec = drive_model.casadi_p_elec_w(motor_speed_rpm(dl_kj, r_w, gear), torque)
             if o.max_p_elec_w is not None:
@@ -664,6 +678,23 @@ def build_ocp(
     log.info("built OCP: %d variables, %d constraints, N=%d, degree %d in %.1f s",
              n_w, n_g, n, d, ocp.build_time_s)
     return ocp
+
+
+def kite_limit_bounds(options: OcpOptions, drum_radius_m: float,
+                      gear_ratio: float) -> tuple[float, float]:
+    """Upper bounds of the airspeed [m/s] and motor-torque [N m] rows in every kind.
+
+    The kite's airspeed limit and its tether-force limit, the latter as the motor
+    torque that holds that tension on the drum (``inf`` where none is given). The
+    drive's torque limit of the constrained kinds comes on top (the smaller wins,
+    :meth:`Ocp.bounds`); the rows are the same, so a stored initial guess of the NLP
+    without kite limits still fits.
+    """
+    o = options
+    v_top = np.inf if o.max_airspeed_m_s is None else o.max_airspeed_m_s
+    torque_top = (np.inf if o.max_tether_force_n is None
+                  else float(motor_torque_nm(o.max_tether_force_n, drum_radius_m, gear_ratio)))
+    return v_top, torque_top
 
 
 def grid_times(ocp: Ocp, period_s: float) -> np.ndarray:
