@@ -260,6 +260,7 @@ def run_optimize(
             }
             for c in result.chains
         ],
+        "local_optima": outputs.resolve_lines(result.outcomes),
         "cut_in": [dataclasses.asdict(c) for c in result.cut_ins],
         "trust": trust,
         "files": {k: Path(v).name for k, v in files.items()},
@@ -314,6 +315,19 @@ def bound_lines(summary: Any) -> list[str]:
     return lines
 
 
+def resolve_lines_of(summary: Any) -> list[str]:
+    """One line per scenario re-solved from a neighbour (summary ``resolved_from``)."""
+    if "resolved_from" not in summary.columns:
+        return []
+    lines = []
+    for r in summary.itertuples(index=False):
+        if r.resolved_from:
+            gain = (f"better by {r.resolve_gain_w:.1f} W, kept" if r.resolve_gain_w > 0
+                    else "no better optimum found")
+            lines.append(f"{r.scenario}: re-solved from {r.resolved_from}: {gain}")
+    return lines
+
+
 def format_summary(summary: Any) -> str:
     """The summary as a plain-text table (the paper's Table II analogue, and more)."""
     head = (
@@ -332,6 +346,10 @@ def format_summary(summary: Any) -> str:
     flagged = bound_lines(summary)
     if flagged:
         lines += ["", "optima on a bound or with a slack tether:", *flagged]
+    resolved = resolve_lines_of(summary)
+    if resolved:
+        lines += ["", "local optima: scenarios off their kind's smooth curve, solved again from "
+                  "a neighbour (the better optimum kept):", *resolved]
     outside = domain_lines(summary)
     if outside:
         lines += ["", "outside the drive model's validity domain (the model extrapolates there):",

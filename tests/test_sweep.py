@@ -530,7 +530,19 @@ def test_a_local_optimum_off_the_curve_is_resolved_from_its_neighbour():
     row = resolve_fields(mid)  # the summary's columns
     assert row["resolved_from"] == "elec-free-5.5"
     assert row["resolve_gain_w"] == pytest.approx(300.0)
-    assert "better optimum, kept" in resolve_lines([mid])[0]
+    assert "better optimum, kept" in resolve_lines([mid])[0]  # the manifest's local_optima
+    import pandas as pd
+
+    from optimize.command import format_summary, resolve_lines_of
+
+    frame = pd.DataFrame([{"scenario": mid.name, **row}])
+    line = "elec-free-7.0: re-solved from elec-free-5.5: better by 300.0 W, kept"
+    assert resolve_lines_of(frame) == [line]
+    assert line in format_summary(frame.assign(
+        status="Solve_Succeeded", iterations=3, total_wall_time_s=0.0, avg_p_elec_w=-4900.0,
+        avg_p_mech_w=0.0, period_s=5.0, e_elec_j=0.0, peak_speed_rpm=0.0, peak_torque_nm=0.0,
+        p_elec_max_w=0.0, slack_fraction=0.0, success=True, active_bounds="",
+        bound_limited=False, outside_domain_time_frac=float("nan")))
     # the neighbours disagreed with the curve too while 7.0 was off it: re-solved from
     # 7.0's local optimum, which does not exist there, so they kept their own
     for name in ("elec-free-5.5", "elec-free-8.5"):
