@@ -210,7 +210,8 @@ def run_optimize(
     summary = outputs.summary_frame(result.outcomes, model.domain,
                                     domain_scales(model, options))
     cut_ins = cut_in_frame(result.cut_ins)
-    claims = evaluate_claims(summary, cut_ins) if request.claims else None
+    claims = (evaluate_claims(summary, cut_ins, paper_system=system.paper_system,
+                              system_name=system.name) if request.claims else None)
 
     request.out.mkdir(parents=True, exist_ok=True)
     files = {

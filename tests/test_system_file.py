@@ -44,6 +44,15 @@ def test_highwind_file_is_the_package_defaults():
     assert system.ocp_options(OcpOptions()) == OcpOptions()
 
 
+def test_only_the_paper_system_says_it_is_the_papers():
+    assert load_system().paper_system is True
+    for name in SHIPPED[1:]:
+        assert load_system(shipped_system_path(name)).paper_system is False
+    data = _data()
+    del data["system"]["paper_system"]  # optional: a system is not the paper's by default
+    assert system_from_dict(data, "x.toml").paper_system is False
+
+
 def test_hash_ignores_comments_and_key_order():
     text = shipped_system_path().read_text()
     data = tomllib.loads(text)
@@ -69,6 +78,7 @@ def test_hash_ignores_comments_and_key_order():
     ("bounds", "period_max_s", 0.5, "[bounds] period_max_s"),
     ("bounds", "tether_length_max_m", 0.5, "[bounds] tether_length_max_m"),
     ("bounds", "max_line_angle_deg", 95.0, "[bounds] max_line_angle_deg"),
+    ("system", "paper_system", "yes", "[system] paper_system"),
 ])
 def test_wrong_types_and_non_physical_values_name_the_key(section, key, value, words):
     data = _data()

@@ -208,6 +208,9 @@ class System:
         The file's content as read (recorded in every output).
     sha256 : str
         Hash of the parsed content (canonical JSON): the system's identity.
+    paper_system : bool
+        Whether this is the system of the paper the product implements
+        (``[system] paper_system``): only then is a sweep compared with the paper.
     """
 
     name: str
@@ -222,6 +225,7 @@ class System:
     path: str
     text: str
     sha256: str
+    paper_system: bool = False
 
     # -------------------------------------------------------------- model parameters
     def kite_params(self) -> KiteParams:
@@ -353,7 +357,7 @@ _OPTIONAL = {
     "wind": {"roughness_length_m", "exponent"},
     "tether": {"max_force_n", "tensile_strength_pa", "safety_factor"},
     "bounds": {"max_airspeed_m_s"},
-    "system": {"description"},
+    "system": {"description", "paper_system"},
 }
 
 
@@ -432,6 +436,9 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
                              expected="sections " + ", ".join(_SECTIONS))
     r = _Reader(path, "system", data["system"])
     name, description = r.text("name"), r.text("description", optional=True) or ""
+    paper_system = r.data.pop("paper_system", False)
+    if not isinstance(paper_system, bool):
+        raise r.error("paper_system", f"{paper_system!r} is not a boolean", "true or false")
     r.done()
 
     r = _Reader(path, "kite", data["kite"])
@@ -509,7 +516,7 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
 
     canonical = json.dumps(data, sort_keys=True, separators=(",", ":"))
     system = System(name, description, kite, aero, tether, winch, drive, wind, bounds, path,
-                    text, hashlib.sha256(canonical.encode("utf-8")).hexdigest())
+                    text, hashlib.sha256(canonical.encode("utf-8")).hexdigest(), paper_system)
     check_system(system)  # well-formed is not enough: refuse what cannot fly, before any solve
     return system
 
