@@ -127,13 +127,18 @@ def test_a_drive_that_cannot_hold_the_weight_is_refused():
         check_drive_holds_kite(system, 7.0, "system file")
 
 
+def _value(v: object) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    return f'"{v}"' if isinstance(v, str) else repr(v)
+
+
 def _toml(data: dict) -> str:
-    """A system file's text (flat sections of numbers and strings)."""
+    """A system file's text (flat sections of numbers, strings and booleans)."""
     out = []
     for section, table in data.items():
         out.append(f"[{section}]")
-        out += [f"{k} = {v!r}" if not isinstance(v, str) else f'{k} = "{v}"'
-                for k, v in table.items()]
+        out += [f"{k} = {_value(v)}" for k, v in table.items()]
     return "\n".join(out) + "\n"
 
 
