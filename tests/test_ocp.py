@@ -19,7 +19,8 @@ from optimize.model.drive import (
 )
 from optimize.model.kite_model import kite_dae
 from optimize.problem.collocation import radau
-from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.problem.ocp import build_ocp
+from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.solve import cold_start, solve
 
@@ -49,7 +50,7 @@ def test_radau_coefficients_integrate_and_differentiate_polynomials():
 
 @pytest.fixture(scope="module")
 def solved():
-    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(n_intervals=N_COARSE))
+    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(Discretization(n_intervals=N_COARSE)))
     mech = cold_start(ocp, Scenario(7.0, "mechanical", False))
     elec = solve(ocp, Scenario(7.0, "electrical", False), mech.warm)
     elec_lim = solve(ocp, Scenario(7.0, "electrical", True), elec.warm)
@@ -95,8 +96,9 @@ def test_objective_in_nlp_equals_numpy_power_of_trajectory(solved):
     traj = elec.trajectory
     u = traj.groupby("interval")[["dddl_m_s3", "daileron_rad_s", "delevator_rad_s",
                                   "drudder_rad_s"]].first().to_numpy()
-    reg = ((u / np.array(ocp.options.control_sigma)) ** 2).sum() / N_COARSE
-    expected = (elec.avg_p_elec_w + ocp.options.regularization_w * reg) / ocp.scales.power_w
+    disc = ocp.options.discretization
+    reg = ((u / np.array(disc.control_sigma)) ** 2).sum() / N_COARSE
+    expected = (elec.avg_p_elec_w + disc.regularization_w * reg) / ocp.scales.power_w
     assert elec.objective == pytest.approx(expected, rel=1e-9)
 
 
@@ -155,7 +157,8 @@ def test_mumps_blas_runs_the_thread_count_the_environment_names(solved):
 @pytest.mark.parametrize("push", [0.0, -1e-3, 0.6])
 def test_options_reject_a_warm_bound_push_ipopt_refuses(push):
     with pytest.raises(ValueError, match="warm_bound_push"):
-        OcpOptions(warm_bound_push=push)
+        SolverOptions(warm_bound_push=push)
+
 
 
 def test_kite_limits_bind_in_a_kind_without_drive_limits(solved):
@@ -167,7 +170,8 @@ def test_kite_limits_bind_in_a_kind_without_drive_limits(solved):
     peak_v = float(elec.trajectory["airspeed_m_s"].max())
     f_max, v_max = 0.85 * peak_n, 0.9 * peak_v
     limited = build_ocp(kite_dae(), paper_model(), OcpOptions(
-        n_intervals=N_COARSE, max_tether_force_n=f_max, max_airspeed_m_s=v_max))
+        Discretization(n_intervals=N_COARSE),
+        limits=Limits(max_tether_force_n=f_max, max_airspeed_m_s=v_max)))
     res = solve(limited, Scenario(7.0, "electrical", False), elec.warm)
     assert res.success, res.status
     # rows solved to IPOPT's 1e-6 (scaled); 1e-3 is the active-bound tolerance
@@ -178,7 +182,7 @@ def test_kite_limits_bind_in_a_kind_without_drive_limits(solved):
     # the tether limit is the torque row's bound in every kind; the drive's adds on top
     free = limited.bounds(drive_limits=False, fix_fictitious=True, period_s=None)[3]
     lim = limited.bounds(drive_limits=True, fix_fictitious=True, period_s=None)[3]
-    rows = limited.layout.g_torque
+    rows = limited.layout.rows_of("torque")
     torque_of_limit = f_max * limited.dae.kite.r_winch_m / limited.dae.kite.gear_ratio
     assert free[rows] * limited.scales.torque_nm == pytest.approx(torque_of_limit)
     assert lim[rows] * limited.scales.torque_nm == pytest.approx(min(78.0, torque_of_limit))
