@@ -87,7 +87,7 @@ class SweepRequest:
     def from_cli(cls, args: Any, fit_model_path: Path) -> SweepRequest:
         """Build the request from ``bench optimize`` arguments; bad values raise InputError."""
         from fitting.model_check import check_physics
-        from optimize.problem.options import Discretization, OcpOptions, SolverOptions
+        from optimize.problem.options import Discretization, OcpOptions
 
         winds = parse_wind_grid(args.wind_grid)
         kinds = parse_kinds(args.scenarios)
@@ -98,7 +98,7 @@ class SweepRequest:
         note += "\n" + "\n".join(drive.lines())
         try:
             options = OcpOptions(Discretization(n_intervals=args.intervals, degree=args.degree),
-                                 solver=SolverOptions(stored_guess=not args.no_stored_guess))
+                                 solver=solver_options(args))
         except ValueError as exc:
             raise InputError(None, f"OCP options: {exc}") from exc
         options = system.ocp_options(options, drive.rating)
@@ -273,6 +273,28 @@ def run_optimize(
         result.executor,
         files,
     )
+
+
+def solver_options(args: Any) -> Any:
+    """``SolverOptions`` of ``--solver``, ``--linear-solver`` and ``--no-stored-guess``.
+
+    Raises
+    ------
+    ValueError
+        ``--linear-solver`` with fatrop, or a linear solver IPOPT cannot load here
+        (:func:`optimize.solve.backend.check_linear_solver`).
+    """
+    from optimize.problem.options import SolverOptions
+    from optimize.solve.backend import check_linear_solver
+
+    linear = args.linear_solver
+    if linear is not None and args.solver != "ipopt":
+        raise ValueError(f"--linear-solver {linear}: only IPOPT takes a linear solver, not "
+                         f"--solver {args.solver}")
+    if linear is not None:
+        check_linear_solver(linear)
+    return SolverOptions(solver=args.solver, linear_solver=linear or "mumps",
+                         stored_guess=not args.no_stored_guess)
 
 
 def domain_scales(model: Any, options: Any) -> tuple[float, float]:

@@ -139,7 +139,7 @@ class Limits:
 
 
 #: NLP solvers the OCP can be handed to
-SOLVERS = ("ipopt",)
+SOLVERS = ("ipopt", "fatrop")
 
 
 @dataclass(frozen=True)
@@ -149,7 +149,11 @@ class SolverOptions:
     Parameters
     ----------
     solver : str
-        NLP solver (one of :data:`SOLVERS`).
+        NLP solver (one of :data:`SOLVERS`): ``"ipopt"`` (the default: IPOPT on the
+        general sparse layout) or ``"fatrop"`` (a Riccati-based interior-point solver
+        shipped with CasADi, on the stage-wise layout of the same NLP; it takes no dual
+        warm start, and on this OCP it is slower per iteration and less robust than
+        IPOPT with MUMPS, see ``benchmarks/solver_comparison.py``).
     tol : float
         Convergence tolerance (scaled problem).
     acceptable_tol : float
@@ -169,7 +173,10 @@ class SolverOptions:
         Start a scenario with no neighbouring solution from the shipped initial
         guess (:mod:`optimize.solve.initial_guess`) when it fits, instead of the homotopy.
     linear_solver : str
-        IPOPT linear solver.
+        IPOPT linear solver: ``"mumps"`` (default), ``"spral"``, or one IPOPT loads
+        at run time from the user's library (HSL ``"ma27"``, ``"ma57"``, ``"ma77"``,
+        ``"ma86"``, ``"ma97"`` from ``libhsl.so``; ``"pardiso"``); checked by
+        :func:`optimize.solve.backend.check_linear_solver`.
     mumps_pivot_order : int
         MUMPS fill-reducing ordering (0 AMD, 2 AMF, 4 PORD, 6 QAMD, 7 automatic).
         AMD makes an iteration on this NLP cheaper than the automatic choice

@@ -46,11 +46,12 @@ class OcpResult:
     ----------
     scenario : Scenario
     status : str
-        IPOPT return status of the final solve (e.g. ``"Solve_Succeeded"``).
+        The solver's own return status of the final solve (IPOPT's, e.g.
+        ``"Solve_Succeeded"``, or fatrop's return flag and its meaning).
     success : bool
-        IPOPT reported success (converged or acceptable level).
+        The solver reported success (converged or acceptable level).
     iterations : int
-        IPOPT iterations, all stages/retries included.
+        Solver iterations, all stages/retries included.
     wall_time_s : float
         Wall time of the solver calls [s], all stages/retries included.
     objective : float
@@ -142,6 +143,29 @@ def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_ref_m_s: float) -> pd.
     frame["c_m2"] = out["c_m2"]
     frame["cdot_m2_s"] = out["cdot_m2_s"]
     return pd.DataFrame(frame)
+
+
+def carry_over(src: Ocp, solution: Solution, dst: Ocp) -> Solution:
+    """A solution of ``src`` in the layout of ``dst`` (the same problem, another
+    transcription, :func:`optimize.problem.ocp.twin`).
+
+    The primal point through the physical variables (``dst`` fills its copies); the
+    multipliers of the variables both layouts have and of the rows with the same name
+    and count; zero for the others.
+    """
+    sol = src.unpack(solution.w)
+    w = dst.pack(sol["x"], sol["z"], sol["u"], sol["fict"], float(sol["period_s"]))
+    s_lay, d_lay = src.layout, dst.layout
+    lam_x = np.zeros(d_lay.n_w)
+    for name in ("i_x", "i_z", "i_u", "i_f"):
+        lam_x[getattr(d_lay, name)] = solution.lam_x[getattr(s_lay, name)]
+    lam_x[d_lay.i_period[0]] = solution.lam_x[s_lay.i_period].sum()
+    lam_g = np.zeros(d_lay.n_g)
+    for name, rows in d_lay.rows.items():
+        if s_lay.rows_of(name).size == rows.size:
+            lam_g[rows] = solution.lam_g[s_lay.rows_of(name)]
+    return Solution(w=w, lam_x=lam_x, lam_g=lam_g, n_intervals=solution.n_intervals,
+                    degree=solution.degree)
 
 
 #: a bound counts as active within this fraction of its value (IPOPT's bound push and
