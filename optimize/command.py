@@ -27,6 +27,7 @@ from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import parse_kinds, parse_wind_grid, plan_chains
 from optimize.sweep.trust import run_trust_checks
 from optimize.system.drive import DriveInForce, drive_in_force
+from optimize.system.plausibility import check_drive_holds_kite
 from optimize.system.system import System, load_system
 
 #: files by which an optimize output folder written before run ids is known
@@ -93,7 +94,7 @@ class SweepRequest:
     def from_cli(cls, args: Any, fit_model_path: Path) -> SweepRequest:
         """Build the request from ``bench optimize`` arguments; bad values raise InputError."""
         from fitting.model_check import check_physics
-        from optimize.problem.options import Discretization, OcpOptions, SolverOptions
+        from optimize.problem.options import Discretization, OcpOptions
 
         winds = parse_wind_grid(args.wind_grid)
         kinds = parse_kinds(args.scenarios)
@@ -104,14 +105,22 @@ class SweepRequest:
         note += "\n" + "\n".join(drive.lines())
         try:
             options = OcpOptions(Discretization(n_intervals=args.intervals, degree=args.degree),
-                                 solver=SolverOptions(stored_guess=not args.no_stored_guess))
+                                 solver=solver_options(args))
         except ValueError as exc:
             raise InputError(None, f"OCP options: {exc}") from exc
         options = system.ocp_options(options, drive.rating)
+<<<<<<< HEAD
         # an impossible model "converges" to a wrong cycle: refuse it before any solve,
         # checked also where the optimizer may take it (the drive limits in force)
         check_physics(drive.model, drive.model_path,
                       limits=(options.limits.max_speed_rpm, options.limits.max_torque_nm))
+=======
+        # an impossible model "converges" to a wrong cycle: refuse it before any solve
+        check_physics(drive.model, drive.model_path, limits=domain_scales(drive.model, options))
+        check_drive_holds_kite(system, drive.rating.max_torque_nm,
+                               drive.rating.source or "the drive in force")
+        note += "\n" + system.kite_limits().describe()
+>>>>>>> main
         return cls(
             winds,
             kinds,
@@ -223,6 +232,7 @@ def run_optimize(
         if drive.carried:  # the losses the sweep flew with, for bench aep (bands, refine)
             from fitting.model_file import save_power_model
 
+<<<<<<< HEAD
             model_path = files["power_model"] = save_power_model(model,
                                                                  stage / "power_model.json")
         if claims is not None:  # else no stale comparison is left: the folder is replaced
@@ -267,6 +277,57 @@ def run_optimize(
         }
         files["manifest"] = write_json(stage / "manifest.json", manifest)
     files = {k: request.out / Path(v).relative_to(stage) for k, v in files.items()}
+=======
+        model_path = files["power_model"] = save_power_model(model, request.out /
+                                                             "power_model.json")
+    else:
+        (request.out / "power_model.json").unlink(missing_ok=True)
+    claims_path = request.out / "claims.csv"
+    if claims is not None:
+        files["claims"] = write_csv(claims_path, claims)
+    else:
+        claims_path.unlink(missing_ok=True)  # never leave a stale comparison beside new results
+    manifest = {
+        "schema": outputs.SCHEMA_NAME,
+        "schema_version": outputs.SCHEMA_VERSION,
+        "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "command_line": list(command_line if command_line is not None else sys.argv),
+        "package_versions": package_versions(),
+        "wind_speeds_m_s": list(request.winds),
+        "kinds": list(request.kinds),
+        "scenarios": [o.name for o in result.outcomes],
+        "drive_model": {
+            "path": str(model_path),
+            "file_sha256": file_sha256(model_path),
+            "model_sha256": model.sha256,
+            "name": model.name,
+            "note": request.model_note,
+        },
+        "system": system.record(),
+        "drive_limits": drive.rating.to_dict(),
+        "drive": drive.record(),
+        "kite_limits": dataclasses.asdict(system.kite_limits()),
+        "options": options.as_dict(),
+        "executor": result.executor,
+        "wall_time_s": result.wall_time_s,
+        "converged": int(summary["success"].sum()),
+        "failed": [o.name for o in result.outcomes if not o.success],
+        "chains": [
+            {
+                "chain": c.chain,
+                "worker": c.worker,
+                "build_time_s": c.build_time_s,
+                "scenarios": [o.name for o in c.outcomes],
+            }
+            for c in result.chains
+        ],
+        "local_optima": outputs.resolve_lines(result.outcomes),
+        "cut_in": [dataclasses.asdict(c) for c in result.cut_ins],
+        "trust": trust,
+        "files": {k: Path(v).name for k, v in files.items()},
+    }
+    files["manifest"] = write_json(request.out / "manifest.json", manifest)
+>>>>>>> main
     return OptimizeOutcome(
         summary,
         claims,
@@ -277,6 +338,28 @@ def run_optimize(
         result.executor,
         files,
     )
+
+
+def solver_options(args: Any) -> Any:
+    """``SolverOptions`` of ``--solver``, ``--linear-solver`` and ``--no-stored-guess``.
+
+    Raises
+    ------
+    ValueError
+        ``--linear-solver`` with fatrop, or a linear solver IPOPT cannot load here
+        (:func:`optimize.solve.backend.check_linear_solver`).
+    """
+    from optimize.problem.options import SolverOptions
+    from optimize.solve.backend import check_linear_solver
+
+    linear = args.linear_solver
+    if linear is not None and args.solver != "ipopt":
+        raise ValueError(f"--linear-solver {linear}: only IPOPT takes a linear solver, not "
+                         f"--solver {args.solver}")
+    if linear is not None:
+        check_linear_solver(linear)
+    return SolverOptions(solver=args.solver, linear_solver=linear or "mumps",
+                         stored_guess=not args.no_stored_guess)
 
 
 def domain_scales(model: Any, options: Any) -> tuple[float, float]:
@@ -316,6 +399,19 @@ def bound_lines(summary: Any) -> list[str]:
     return lines
 
 
+def resolve_lines_of(summary: Any) -> list[str]:
+    """One line per scenario re-solved from a neighbour (summary ``resolved_from``)."""
+    if "resolved_from" not in summary.columns:
+        return []
+    lines = []
+    for r in summary.itertuples(index=False):
+        if r.resolved_from:
+            gain = (f"better by {r.resolve_gain_w:.1f} W, kept" if r.resolve_gain_w > 0
+                    else "no better optimum found")
+            lines.append(f"{r.scenario}: re-solved from {r.resolved_from}: {gain}")
+    return lines
+
+
 def format_summary(summary: Any) -> str:
     """The summary as a plain-text table (the paper's Table II analogue, and more)."""
     head = (
@@ -334,6 +430,10 @@ def format_summary(summary: Any) -> str:
     flagged = bound_lines(summary)
     if flagged:
         lines += ["", "optima on a bound or with a slack tether:", *flagged]
+    resolved = resolve_lines_of(summary)
+    if resolved:
+        lines += ["", "local optima: scenarios off their kind's smooth curve, solved again from "
+                  "a neighbour (the better optimum kept):", *resolved]
     outside = domain_lines(summary)
     if outside:
         lines += ["", "outside the drive model's validity domain (the model extrapolates there):",
