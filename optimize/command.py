@@ -109,18 +109,13 @@ class SweepRequest:
         except ValueError as exc:
             raise InputError(None, f"OCP options: {exc}") from exc
         options = system.ocp_options(options, drive.rating)
-<<<<<<< HEAD
         # an impossible model "converges" to a wrong cycle: refuse it before any solve,
         # checked also where the optimizer may take it (the drive limits in force)
         check_physics(drive.model, drive.model_path,
                       limits=(options.limits.max_speed_rpm, options.limits.max_torque_nm))
-=======
-        # an impossible model "converges" to a wrong cycle: refuse it before any solve
-        check_physics(drive.model, drive.model_path, limits=domain_scales(drive.model, options))
         check_drive_holds_kite(system, drive.rating.max_torque_nm,
                                drive.rating.source or "the drive in force")
         note += "\n" + system.kite_limits().describe()
->>>>>>> main
         return cls(
             winds,
             kinds,
@@ -232,7 +227,6 @@ def run_optimize(
         if drive.carried:  # the losses the sweep flew with, for bench aep (bands, refine)
             from fitting.model_file import save_power_model
 
-<<<<<<< HEAD
             model_path = files["power_model"] = save_power_model(model,
                                                                  stage / "power_model.json")
         if claims is not None:  # else no stale comparison is left: the folder is replaced
@@ -257,6 +251,7 @@ def run_optimize(
             "system": system.record(),
             "drive_limits": drive.rating.to_dict(),
             "drive": drive.record(),
+            "kite_limits": dataclasses.asdict(system.kite_limits()),
             "options": options.as_dict(),
             "executor": result.executor,
             "wall_time_s": result.wall_time_s,
@@ -271,63 +266,13 @@ def run_optimize(
                 }
                 for c in result.chains
             ],
+            "local_optima": outputs.resolve_lines(result.outcomes),
             "cut_in": [dataclasses.asdict(c) for c in result.cut_ins],
             "trust": trust,
             "files": {k: Path(v).name for k, v in files.items()},
         }
         files["manifest"] = write_json(stage / "manifest.json", manifest)
     files = {k: request.out / Path(v).relative_to(stage) for k, v in files.items()}
-=======
-        model_path = files["power_model"] = save_power_model(model, request.out /
-                                                             "power_model.json")
-    else:
-        (request.out / "power_model.json").unlink(missing_ok=True)
-    claims_path = request.out / "claims.csv"
-    if claims is not None:
-        files["claims"] = write_csv(claims_path, claims)
-    else:
-        claims_path.unlink(missing_ok=True)  # never leave a stale comparison beside new results
-    manifest = {
-        "schema": outputs.SCHEMA_NAME,
-        "schema_version": outputs.SCHEMA_VERSION,
-        "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "command_line": list(command_line if command_line is not None else sys.argv),
-        "package_versions": package_versions(),
-        "wind_speeds_m_s": list(request.winds),
-        "kinds": list(request.kinds),
-        "scenarios": [o.name for o in result.outcomes],
-        "drive_model": {
-            "path": str(model_path),
-            "file_sha256": file_sha256(model_path),
-            "model_sha256": model.sha256,
-            "name": model.name,
-            "note": request.model_note,
-        },
-        "system": system.record(),
-        "drive_limits": drive.rating.to_dict(),
-        "drive": drive.record(),
-        "kite_limits": dataclasses.asdict(system.kite_limits()),
-        "options": options.as_dict(),
-        "executor": result.executor,
-        "wall_time_s": result.wall_time_s,
-        "converged": int(summary["success"].sum()),
-        "failed": [o.name for o in result.outcomes if not o.success],
-        "chains": [
-            {
-                "chain": c.chain,
-                "worker": c.worker,
-                "build_time_s": c.build_time_s,
-                "scenarios": [o.name for o in c.outcomes],
-            }
-            for c in result.chains
-        ],
-        "local_optima": outputs.resolve_lines(result.outcomes),
-        "cut_in": [dataclasses.asdict(c) for c in result.cut_ins],
-        "trust": trust,
-        "files": {k: Path(v).name for k, v in files.items()},
-    }
-    files["manifest"] = write_json(request.out / "manifest.json", manifest)
->>>>>>> main
     return OptimizeOutcome(
         summary,
         claims,
