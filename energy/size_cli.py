@@ -58,6 +58,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--adaptive", action="store_true",
                         help="refine each candidate's wind grid where its power curve bends "
                              "(docs/schemas.md §9)")
+    parser.add_argument("--extend", type=int, default=1, metavar="N",
+                        help="when the best drive is the largest or smallest torque-rating "
+                             "scale tried, add one scale beyond it and size again, up to N "
+                             "times (default 1; 0: only flag it)")
     parser.add_argument("--tolerance", type=float, default=0.02,
                         help="choose the smallest drive within this share of the best AEP")
     parser.add_argument("--intervals", type=int, default=40, help="collocation intervals")
@@ -133,10 +137,56 @@ def build_candidates(args: argparse.Namespace) -> tuple[list, Path, list[str]]:
     return candidates, path, notes
 
 
+def grid_hours(site, winds: tuple[float, ...]) -> dict:
+    """The shares of the site's hours below and above the sizing wind grid (counted as zero
+    power in the sizing AEP), with a one-line note."""
+    below = float(site.cdf(min(winds)))
+    above = float(1.0 - site.cdf(max(winds)))
+    note = (f"the sizing grid {min(winds):g}-{max(winds):g} m/s covers "
+            f"{1 - below - above:.1%} of the site's hours; {below:.1%} below and "
+            f"{above:.1%} above it count as zero power in the sizing AEP")
+    return {"share_below_grid": below, "share_above_grid": above, "note": note}
+
+
+def _edge_note(edge: str | None, best: str | None, added: list[float]) -> str | None:
+    """What the edge of the candidate set means for the answer (None: the best is inside)."""
+    tried = f"scales {', '.join(f'x{s:g}' for s in added)} were added beyond the edge" \
+        if added else ""
+    if edge is None:
+        return f"{tried}; the best drive {best} now lies inside the set" if added else None
+    way = "larger" if edge == "largest" else "smaller"
+    return (f"the best drive {best} is the {edge} candidate{' (' + tried + ')' if added else ''}"
+            f": a {way} drive may be better still; add {way} candidates (--scales, --models, "
+            "or a higher --extend)")
+
+
+def _size_extending(args: argparse.Namespace, site, winds, system):
+    """Size the candidates; while the best is a torque-rating scale at the edge of the set,
+    add the next scale beyond it (:func:`energy.sizing.next_scale`), up to ``--extend``
+    times. Solves already made are loaded from the store, not repeated."""
+    from energy.sizing import edge_of_set, next_scale, run_sizing
+
+    scales, added = list(_scales(args.scales)), []
+    while True:
+        candidates, base_path, notes = build_candidates(argparse.Namespace(
+            **{**vars(args), "scales": ",".join(f"{s:g}" for s in scales)}))
+        print(f"{len(candidates)} candidates x {len(winds)} wind speeds (elec-lim, RMS torque "
+              f"<= rated); solves stored in {args.out / 'solves'}")
+        res = run_sizing(candidates, winds, site, args.out, args.intervals, args.degree,
+                         workers=args.workers, scheduler=args.scheduler,
+                         tolerance=args.tolerance, adaptive=args.adaptive, system=system)
+        edge = edge_of_set(res.table, res.best)
+        scaled = {c.name: c.scale for c in candidates if c.scale is not None}
+        if edge is None or len(added) >= args.extend or res.best not in scaled:
+            return res, edge, added, notes, base_path
+        added.append(next_scale(tuple(scales), edge))
+        scales.append(added[-1])
+        print(f"the best drive {res.best} is the {edge} candidate: adding x{added[-1]:g}")
+
+
 def run(args: argparse.Namespace) -> int:
     """Run or resume the sizing sweep, print the table, write the files."""
     from bench.files import write_text_atomic
-    from energy.sizing import run_sizing
     from optimize.sweep.plan import parse_wind_grid
     from optimize.system.system import load_system
 
@@ -150,17 +200,19 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(None, f"--tolerance {args.tolerance}", expected="a share in [0, 1)")
     if args.out.exists() and not args.out.is_dir():
         raise InputError(args.out, "exists and is not a folder", expected="an output folder")
-    candidates, base_path, notes = build_candidates(args)
+    if args.extend < 0:
+        raise InputError(None, f"--extend {args.extend}", expected="an integer >= 0")
     print(f"site: {site_note}")
     print(f"system: {system.name} ({system.path})")
-    print(f"{len(candidates)} candidates x {len(winds)} wind speeds (elec-lim, RMS torque <= "
-          f"rated); solves stored in {args.out / 'solves'}")
-    res = run_sizing(candidates, winds, site, args.out, args.intervals, args.degree,
-                     workers=args.workers, scheduler=args.scheduler, tolerance=args.tolerance,
-                     adaptive=args.adaptive, system=system)
+    res, edge, added, notes, base_path = _size_extending(args, site, winds, system)
     t = res.table
     print(t.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
     print(f"best: {res.best}; smallest within {args.tolerance:.0%} of the best AEP: {res.chosen}")
+    edge_note = _edge_note(edge, res.best, added)
+    hours = grid_hours(site, winds)
+    print(f"hours: {hours['note']}")
+    if edge_note:
+        print(f"{'EDGE' if edge else 'note'}: {edge_note}")
     print(f"{res.n_solved} solved, {res.n_cached} loaded from the store, "
           f"{res.wall_time_s:.1f} s ({res.executor})")
     for n in notes:
@@ -182,6 +234,8 @@ def run(args: argparse.Namespace) -> int:
                "overload x rated, same speed limit, nominal power s P_nom",
         "wind_speeds_m_s": list(winds), "adaptive": args.adaptive, "tolerance": args.tolerance,
         "best": res.best, "chosen": res.chosen,
+        "edge": {"best_at": edge, "added_scales": added, "note": edge_note},
+        "hours": hours,
         "wall_time_s": res.wall_time_s, "executor": res.executor,
         "n_solved": res.n_solved, "n_loaded": res.n_cached,
         "candidates": json.loads(t.to_json(orient="records")),

@@ -356,6 +356,37 @@ def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
     return table.reset_index(drop=True), str(best["candidate"]), str(chosen)
 
 
+def edge_of_set(table: Any, best: str | None) -> str | None:
+    """Whether the best candidate is the largest or smallest drive that got an AEP.
+
+    Returns
+    -------
+    str or None
+        ``"largest"`` or ``"smallest"`` (by rated torque) when the best candidate is at
+        that end of the candidates with an AEP, so a drive beyond it may be better still;
+        None when it lies inside, or no candidate has an AEP.
+    """
+    valid = table.dropna(subset=["aep_elec_mwh"]).sort_values("rated_torque_nm", kind="stable")
+    if best is None or valid.empty:
+        return None
+    if valid.iloc[-1]["candidate"] == best:
+        return "largest"
+    if valid.iloc[0]["candidate"] == best:
+        return "smallest"
+    return None
+
+
+def next_scale(scales: tuple[float, ...], edge: str) -> float:
+    """The torque-rating scale one step beyond the ``edge`` (``"largest"``/``"smallest"``) of
+    ``scales``, continuing the ratio of the two outermost ones (x2 or /2 with one scale),
+    rounded to three significant digits."""
+    ordered = sorted(scales)
+    outer, inner = (ordered[-1], ordered[-2:-1]) if edge == "largest" else (ordered[0],
+                                                                          ordered[1:2])
+    ratio = outer / inner[0] if inner else (2.0 if edge == "largest" else 0.5)
+    return float(f"{outer * ratio:.3g}")
+
+
 def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any, out: Path,
                n_intervals: int = 40, degree: int = 4, handle: Any = None, workers: int = 2,
                scheduler: str | None = None, show_progress: bool = True,
