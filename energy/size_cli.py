@@ -143,8 +143,8 @@ def grid_hours(site, winds: tuple[float, ...]) -> dict:
     below = float(site.cdf(min(winds)))
     above = float(1.0 - site.cdf(max(winds)))
     note = (f"the sizing grid {min(winds):g}-{max(winds):g} m/s covers "
-            f"{1 - below - above:.1%} of the site's hours; {below:.1%} below and "
-            f"{above:.1%} above it count as zero power in the sizing AEP")
+            f"{100 * (1 - below - above):.1f} % of the site's hours; {100 * below:.1f} % below "
+            f"and {100 * above:.1f} % above it count as zero power in the sizing AEP")
     return {"share_below_grid": below, "share_above_grid": above, "note": note}
 
 

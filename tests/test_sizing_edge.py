@@ -82,4 +82,4 @@ def test_sizing_grid_hours_are_the_weibull_tails():
     h = size_cli.grid_hours(SITE, (5.5, 7.0, 8.5))
     assert h["share_below_grid"] == pytest.approx(1 - math.exp(-(5.5 / 6.2) ** 2), rel=1e-12)
     assert h["share_above_grid"] == pytest.approx(math.exp(-(8.5 / 6.2) ** 2), rel=1e-12)
-    assert f"{1 - h['share_below_grid'] - h['share_above_grid']:.1%}" in h["note"]
+    assert f"{100 * (1 - h['share_below_grid'] - h['share_above_grid']):.1f} %" in h["note"]
