@@ -25,47 +25,84 @@ from bench.files import read_toml
 
 #: The rating keys, in drive.toml, session.toml, the manifest and power_model.json.
 DRIVE_KEYS = ("nominal_power_w", "max_speed_rpm", "max_torque_nm")
+#: Optional rating keys (a system file's ``[drive]``; a carried power model's ``drive``).
+OPTIONAL_DRIVE_KEYS = ("continuous_torque_nm", "overload", "max_p_elec_w")
 DRIVE_FILE = "drive.toml"
-_UNITS = {"nominal_power_w": "W", "max_speed_rpm": "rpm", "max_torque_nm": "N m"}
+_UNITS = {"nominal_power_w": "W", "max_speed_rpm": "rpm", "max_torque_nm": "N m",
+          "continuous_torque_nm": "N m", "overload": "-", "max_p_elec_w": "W"}
 
 
 @dataclass(frozen=True)
 class DriveRating:
-    """A drive's rating (docs/schemas.md §1 ``drive.toml``, §3 ``drive``).
+    """A drive's rating (docs/schemas.md §1 ``drive.toml``, §3 ``drive``; docs/system_file.md
+    ``[drive]``): the one type every stage reads the drive's limits from.
+
+    Speed and torque are those of the shaft the power model is written for (the
+    drum, or the motor behind a gearbox: :class:`optimize.system.system.WinchSection`).
 
     Parameters
     ----------
     nominal_power_w : float
-        Nominal power [W].
+        Nominal power [W]: the capacity factor's rating and the scale of %-of-nominal figures.
     max_speed_rpm : float
-        Largest drum speed magnitude [rpm].
+        Largest speed magnitude [rpm].
     max_torque_nm : float
-        Largest drum torque [N m].
+        Largest torque [N m] (the optimizer's torque limit).
     source : str
         Where the numbers come from (file, datasheet, or "measured maxima").
+    continuous_torque_nm : float or None
+        Continuous (thermal) torque rating [N m]: RMS torque over a cycle at most this.
+        None: not stated.
+    overload : float or None
+        Short-time peak torque over the continuous rating [-] (>= 1; ``bench size``
+        candidates' peak torque). None: not stated.
+    max_p_elec_w : float or None
+        Largest electrical power magnitude (grid connection) [W]; None: no limit.
     """
 
     nominal_power_w: float
     max_speed_rpm: float
     max_torque_nm: float
     source: str = ""
+    continuous_torque_nm: float | None = None
+    overload: float | None = None
+    max_p_elec_w: float | None = None
 
     def __post_init__(self) -> None:
-        for key in DRIVE_KEYS:
+        for key in (*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS):
             value = getattr(self, key)
+            if key in OPTIONAL_DRIVE_KEYS and value is None:
+                continue
             if not _positive(value):
                 raise ValueError(f"{key} = {value!r}: a finite positive number "
                                  f"[{_UNITS[key]}] expected")
             object.__setattr__(self, key, float(value))
+        if self.overload is not None and self.overload < 1:
+            raise ValueError(f"overload = {self.overload!r}: a factor >= 1 expected")
 
     def to_dict(self) -> dict:
-        """``{nominal_power_w, max_speed_rpm, max_torque_nm, source}``."""
-        return {**{k: getattr(self, k) for k in DRIVE_KEYS}, "source": self.source}
+        """``{nominal_power_w, max_speed_rpm, max_torque_nm, source}`` and the optional
+        keys that are stated."""
+        optional = {k: getattr(self, k) for k in OPTIONAL_DRIVE_KEYS
+                    if getattr(self, k) is not None}
+        return {**{k: getattr(self, k) for k in DRIVE_KEYS}, **optional, "source": self.source}
+
+    @property
+    def rms_torque_limit_nm(self) -> float | None:
+        """The RMS torque bound it implies [N m]: the continuous rating when below the
+        torque limit (else the torque limit already implies it), else None."""
+        c = self.continuous_torque_nm
+        return c if c is not None and c < self.max_torque_nm else None
 
     def line(self) -> str:
         """One line for summaries and reports."""
+        extra = "".join(
+            f", {label} {getattr(self, key):g} {unit}" for key, label, unit in (
+                ("continuous_torque_nm", "continuous", "N m"), ("overload", "overload", "x"),
+                ("max_p_elec_w", "|P_elec| <=", "W"))
+            if getattr(self, key) is not None)
         return (f"drive: {self.nominal_power_w:g} W nominal, |speed| <= {self.max_speed_rpm:g} "
-                f"rpm, torque <= {self.max_torque_nm:g} N m ({self.source})")
+                f"rpm, torque <= {self.max_torque_nm:g} N m{extra} ({self.source})")
 
 
 def drive_toml(rating: DriveRating) -> str:

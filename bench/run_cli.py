@@ -128,10 +128,15 @@ def stage_commands(args: argparse.Namespace) -> list[list[str]]:
 def run(args: argparse.Namespace) -> int:
     """Run the stages one after the other; return the first non-zero exit code."""
     from bench.cli import main
+    from optimize.cli import EXIT_SOME_FAILED
 
     for argv in stage_commands(args):
         print(f"\n== bench {' '.join(argv)}", flush=True)
         code = main(argv)
+        if argv[0] == "optimize" and code == EXIT_SOME_FAILED:
+            print("bench run: some scenarios failed (listed above); the next stages leave "
+                  "them out and say so")
+            continue
         if code:
             print(f"bench run: stage `{argv[0]}` failed with exit code {code}")
             return code

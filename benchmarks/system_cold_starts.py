@@ -6,10 +6,10 @@ Usage::
         [--winds 4,7,10,13] [--kind elec-lim] [--intervals 40] [--degree 4]
 
 For every system (``optimize/data/systems/NAME.toml``) one OCP is built and each
-wind speed is solved from the system's start loop through the homotopy. highwind
-uses the paper's Table I drive model; the other systems a drive of the same
-design rated at the system file's speed, torque and nominal power
-(:class:`optimize.model.drive.RatedDrive`). Prints per run: status, iterations,
+wind speed is solved from the system's start loop through the homotopy. Each
+system flies the drive its file names (:func:`optimize.system.drive.drive_in_force`):
+highwind the paper's Table I drive, AP2 and MegAWES the paper's drive carried to
+their rating by the similarity law. Prints per run: status, iterations,
 wall time, P_elec, P_mech, period, active bounds and the slack-tether fraction,
 with the load average; writes ``benchmarks/out/system_cold_starts.json``.
 
@@ -27,27 +27,14 @@ import statistics
 import time
 from pathlib import Path
 
-from fitting.model_file import paper_model
-from optimize.model.drive import RatedDrive
 from optimize.model.kite_model import kite_dae
 from optimize.problem.ocp import OcpOptions, build_ocp
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start
 from optimize.sweep.outputs import MEANT_BOUNDS
 from optimize.sweep.plan import KINDS
+from optimize.system.drive import drive_in_force
 from optimize.system.system import load_system, shipped_system_path
-
-#: ratings of the paper's drive, the base of the rated drives (REFERENCE.md §1, §3)
-PAPER_SPEED_RPM, PAPER_TORQUE_NM = 1500.0, 78.0
-
-
-def drive_for(system, paper):
-    """The paper model for highwind, a rated copy of it for the other systems."""
-    if system.name == "highwind":
-        return paper
-    d = system.drive
-    return RatedDrive(paper, PAPER_SPEED_RPM, PAPER_TORQUE_NM, d.max_speed_rpm,
-                      d.max_torque_nm, d.nominal_power_w)
 
 
 def main() -> None:
@@ -60,13 +47,14 @@ def main() -> None:
     args = ap.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     objective, limits = KINDS[args.kind]
-    paper = paper_model()
     runs = []
     for name in args.systems.split(","):
         system = load_system(shipped_system_path(name))
-        model = drive_for(system, paper)
+        drive = drive_in_force(system)
+        model = drive.model
         options = system.ocp_options(
-            OcpOptions(n_intervals=args.intervals, degree=args.degree, stored_guess=False), model)
+            OcpOptions(n_intervals=args.intervals, degree=args.degree, stored_guess=False),
+            drive.rating)
         ocp = build_ocp(kite_dae(*system.model_params()), model, options, system=system)
         print(f"{name}: start loop {ocp.loop}", flush=True)
         for wind in (float(w) for w in args.winds.split(",")):

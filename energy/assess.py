@@ -26,8 +26,9 @@ from energy.curve import OptimizeRun, PowerCurve, read_trajectories
 from energy.site import Distribution, Histogram, Weibull
 
 #: where the nominal power (the capacity factor's rating) is taken from, in this order
-NOMINAL_SOURCES = ("--nominal-power-w", "power_model.json drive.nominal_power_w",
-                   "power_model.json nominal_power_w")
+NOMINAL_SOURCES = ("--nominal-power-w",
+                   "the drive in force (optimize manifest drive_limits.nominal_power_w)",
+                   "power_model.json drive.nominal_power_w", "power_model.json nominal_power_w")
 
 
 @dataclass(frozen=True)
@@ -46,23 +47,34 @@ class SiteUncertainty:
     k: float = 0.0
 
 
-def nominal_power(model_json: dict, override_w: float | None, path: Path | None) -> tuple[float,
-                                                                                             str]:
+def _positive_number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) \
+        and math.isfinite(value) and value > 0
+
+
+def nominal_power(model_json: dict | None, override_w: float | None, path: Path | None,
+                  manifest: dict | None = None) -> tuple[float, str]:
     """The drive's nominal power [W] and where it came from.
 
-    Order: the user's ``override_w``; ``drive.nominal_power_w`` of the power
-    model file; its top-level ``nominal_power_w`` (schema version 1).
+    Order: the user's ``override_w``; the rating in force that the optimize
+    manifest names (``drive_limits.nominal_power_w``: the system's drive);
+    ``drive.nominal_power_w`` of the power model file; its top-level
+    ``nominal_power_w`` (schema version 1).
     """
     if override_w is not None:
         if not (math.isfinite(override_w) and override_w > 0):
             raise InputError(None, f"--nominal-power-w {override_w}", expected="a power > 0 W")
         return float(override_w), NOMINAL_SOURCES[0]
+    in_force = ((manifest or {}).get("drive_limits") or {}).get("nominal_power_w")
+    if _positive_number(in_force):
+        return float(in_force), NOMINAL_SOURCES[1]
+    model_json = model_json or {}
     drive = model_json.get("drive")
-    if isinstance(drive, dict) and isinstance(drive.get("nominal_power_w"), int | float):
-        return float(drive["nominal_power_w"]), NOMINAL_SOURCES[1]
+    if isinstance(drive, dict) and _positive_number(drive.get("nominal_power_w")):
+        return float(drive["nominal_power_w"]), NOMINAL_SOURCES[2]
     value = model_json.get("nominal_power_w")
-    if isinstance(value, int | float) and value > 0:
-        return float(value), NOMINAL_SOURCES[2]
+    if _positive_number(value):
+        return float(value), NOMINAL_SOURCES[3]
     raise InputError(path, "no nominal power (drive.nominal_power_w or nominal_power_w)",
                      expected="give --nominal-power-w")
 
@@ -202,14 +214,11 @@ def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
 
     notes: list[str] = []
     path, model_json = model_for_run(run, drive_model)
+    nominal, source = nominal_power(model_json, nominal_power_w, path, run.manifest)
     if model_json is None:
-        if nominal_power_w is None:
-            raise InputError(path, "power model file not found (needed for the nominal power)",
-                             expected="--drive-model FILE or --nominal-power-w")
-        nominal, source, model = float(nominal_power_w), NOMINAL_SOURCES[0], None
+        model = None
         notes.append(f"power model {path} not found: no confidence band")
     else:
-        nominal, source = nominal_power(model_json, nominal_power_w, path)
         model = power_model_from_dict(model_json, path)
         if run.drive_model_sha256 and model.sha256 != run.drive_model_sha256:
             notes.append(f"{path} is not the model the sweep used (hash differs from the "

@@ -51,8 +51,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="power model JSON (default: the one the sweep used, per its "
                              "manifest)")
     parser.add_argument("--nominal-power-w", type=float, default=None,
-                        help="drive rating for the capacity factor [W] (default: the power "
-                             "model's drive.nominal_power_w, else its nominal_power_w)")
+                        help="drive rating for the capacity factor [W] (default: the drive in "
+                             "force of the sweep, its manifest's drive_limits.nominal_power_w; "
+                             "else the power model's)")
     parser.add_argument("--out", type=Path, default=Path("aep_out"),
                         help="output folder (default ./aep_out)")
     g = parser.add_argument_group("adaptive grid (docs/schemas.md §9)")

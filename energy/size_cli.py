@@ -8,35 +8,33 @@ A thin command line over :mod:`energy.sizing`; writes ``size_out/sizing.json``,
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import datetime
 import json
 import math
 import sys
 from pathlib import Path
+from typing import Any
 
 from bench.errors import InputError
 from energy.cli import add_site_arguments, shear_from_args, site_from_args
 
 #: where ``bench fit`` writes its model (docs/schemas.md §4)
 FIT_MODEL_PATH = Path("fit_out") / "power_model.json"
-#: the paper drive's nominal (continuous) torque [N m] and gearbox speed limit [rpm]
-#: (Stuyts et al. 2015, section II): defaults only, when the model file names no rating
-PAPER_RATED_TORQUE_NM = 78.0
-PAPER_MAX_SPEED_RPM = 1500.0
 DEFAULT_SCALES = "0.5,0.75,1,1.5,2"
 DEFAULT_WINDS = "5.5,7,8.5"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``bench size``."""
-    from energy.sizing import DEFAULT_OVERLOAD
-
     parser.add_argument("--drive-model", type=Path, default=None,
-                        help=f"reference power model (default {FIT_MODEL_PATH} if it exists, "
-                             "else the shipped paper model)")
+                        help="reference drive's losses (power model JSON); default the system "
+                             f"file's [drive] losses, else {FIT_MODEL_PATH} if it exists, else "
+                             "the shipped paper model (the one used is printed)")
     parser.add_argument("--system", type=Path, default=None,
-                        help="system file (kite, tether, winch, wind, bounds; "
-                             "docs/system_file.md); default the shipped highwind.toml")
+                        help="system file (kite, tether, winch, drive, wind, bounds; "
+                             "docs/system_file.md); default the shipped highwind.toml. Its "
+                             "[drive] is the reference drive x1")
     parser.add_argument("--scales", default=DEFAULT_SCALES,
                         help="torque-rating scales of the reference drive, comma list (default "
                              f"{DEFAULT_SCALES}); law in docs/schemas.md §7")
@@ -45,14 +43,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "speed limit from their drive section, else the reference ones)")
     parser.add_argument("--rated-torque-nm", type=float, default=None,
                         help="reference drive's continuous (RMS) torque rating [N m] (default: "
-                             "the model's drive.max_torque_nm, its nominal torque, else "
-                             f"{PAPER_RATED_TORQUE_NM:g})")
+                             "the system's [drive] continuous_torque_nm, else its max_torque_nm)")
     parser.add_argument("--max-speed-rpm", type=float, default=None,
-                        help="speed limit [rpm] (default: the model's drive.max_speed_rpm, else "
-                             f"{PAPER_MAX_SPEED_RPM:g})")
-    parser.add_argument("--overload", type=float, default=DEFAULT_OVERLOAD,
-                        help="short-time peak torque / rated torque (default "
-                             f"{DEFAULT_OVERLOAD:g}, the paper's 500 %%)")
+                        help="speed limit [rpm] (default: the system's [drive] max_speed_rpm)")
+    parser.add_argument("--overload", type=float, default=None,
+                        help="short-time peak torque / continuous torque (default: the "
+                             "system's [drive] overload, else its max_torque_nm / continuous "
+                             "torque)")
     parser.add_argument("--wind-grid", default=DEFAULT_WINDS,
                         help=f"wind speeds at the reference height [m/s] (default {DEFAULT_WINDS})")
     parser.add_argument("--adaptive", action="store_true",
@@ -95,46 +92,50 @@ def _scales(spec: str) -> tuple[float, ...]:
     return values
 
 
-def build_candidates(args: argparse.Namespace) -> tuple[list, Path, list[str]]:
-    """The candidate drives, the reference model's path, and notes on defaults used."""
-    from energy.sizing import Candidate, scaled_candidates
-    from fitting.model_file import PAPER_MODEL_PATH, load_power_model
-
+def reference_rating(rating: Any, args: argparse.Namespace) -> tuple[Any, list[str]]:
+    """The reference drive's rating: the system's drive in force with the command line's
+    overrides; a continuous torque or an overload the system does not state is said."""
     notes = []
-    if args.drive_model is not None:
-        path = Path(args.drive_model)
-    elif FIT_MODEL_PATH.exists():
-        path = FIT_MODEL_PATH
-    else:
-        path, _ = PAPER_MODEL_PATH, notes.append(f"no {FIT_MODEL_PATH}: the paper's model")
-    base = load_power_model(path)
-
-    def limit(value, key, default, label):
-        if value is not None:
-            return value
-        found = _drive_value(path, key)
-        if found is None:
-            notes.append(f"{label}: {default:g} (the paper's drive; {path} names none)")
-            return default
-        return found
-
-    rated = limit(args.rated_torque_nm, "max_torque_nm", PAPER_RATED_TORQUE_NM,
-                  "rated torque [N m]")
-    speed = limit(args.max_speed_rpm, "max_speed_rpm", PAPER_MAX_SPEED_RPM, "speed limit [rpm]")
-    for name, v in (("--rated-torque-nm", rated), ("--max-speed-rpm", speed),
-                    ("--overload", args.overload)):
-        if not (math.isfinite(v) and v > 0):
+    for name, v in (("--rated-torque-nm", args.rated_torque_nm),
+                    ("--max-speed-rpm", args.max_speed_rpm), ("--overload", args.overload)):
+        if v is not None and not (math.isfinite(v) and v > 0):
             raise InputError(None, f"{name} {v}", expected="a value > 0")
-    if args.overload < 1:
+    if args.overload is not None and args.overload < 1:
         raise InputError(None, f"--overload {args.overload}", expected="a factor >= 1")
-    candidates = scaled_candidates(base, _scales(args.scales), rated, speed, args.overload)
+    continuous = args.rated_torque_nm or rating.continuous_torque_nm
+    if continuous is None:
+        continuous = rating.max_torque_nm
+        notes.append(f"the system's [drive] states no continuous_torque_nm: its torque limit "
+                     f"{continuous:g} N m is taken as the continuous rating")
+    overload = args.overload or rating.overload
+    peak = overload * continuous if overload is not None else max(rating.max_torque_nm,
+                                                                   continuous)
+    if overload is None:
+        notes.append(f"the system's [drive] states no overload: peak torque {peak:g} N m")
+    return dataclasses.replace(rating, continuous_torque_nm=continuous, max_torque_nm=peak,
+                               max_speed_rpm=args.max_speed_rpm or rating.max_speed_rpm,
+                               overload=peak / continuous), notes
+
+
+def build_candidates(args: argparse.Namespace, system: Any) -> tuple[list, Any, list[str]]:
+    """The candidate drives, the reference drive in force, and notes on what was assumed."""
+    from bench.drive import DriveRating
+    from energy.sizing import Candidate, scaled_candidates
+    from fitting.model_file import load_power_model
+    from optimize.system.drive import drive_in_force
+
+    drive = drive_in_force(system, args.drive_model, FIT_MODEL_PATH)
+    rating, notes = reference_rating(drive.rating, args)
+    candidates = scaled_candidates(drive.model, rating, _scales(args.scales))
     for p in args.models:
         m = load_power_model(p)
-        r = _drive_value(p, "max_torque_nm") or rated
-        candidates.append(Candidate(Path(p).stem, m, r, args.overload * r,
-                                    _drive_value(p, "max_speed_rpm") or speed,
-                                    _drive_value(p, "nominal_power_w") or m.nominal_power_w))
-    return candidates, path, notes
+        cont = _drive_value(p, "max_torque_nm") or rating.continuous_torque_nm
+        own = DriveRating(_drive_value(p, "nominal_power_w") or m.nominal_power_w,
+                          _drive_value(p, "max_speed_rpm") or rating.max_speed_rpm,
+                          rating.overload * cont, source=str(p), continuous_torque_nm=cont,
+                          overload=rating.overload, max_p_elec_w=rating.max_p_elec_w)
+        candidates.append(Candidate(Path(p).stem, m, own))
+    return candidates, drive, notes
 
 
 def grid_hours(site, winds: tuple[float, ...]) -> dict:
@@ -168,8 +169,11 @@ def _size_extending(args: argparse.Namespace, site, winds, system):
 
     scales, added = list(_scales(args.scales)), []
     while True:
-        candidates, base_path, notes = build_candidates(argparse.Namespace(
-            **{**vars(args), "scales": ",".join(f"{s:g}" for s in scales)}))
+        candidates, drive, notes = build_candidates(argparse.Namespace(
+            **{**vars(args), "scales": ",".join(f"{s:g}" for s in scales)}), system)
+        if not added:
+            for line in drive.lines():
+                print(line)
         print(f"{len(candidates)} candidates x {len(winds)} wind speeds (elec-lim, RMS torque "
               f"<= rated); solves stored in {args.out / 'solves'}")
         res = run_sizing(candidates, winds, site, args.out, args.intervals, args.degree,
@@ -178,7 +182,7 @@ def _size_extending(args: argparse.Namespace, site, winds, system):
         edge = edge_of_set(res.table, res.best)
         scaled = {c.name: c.scale for c in candidates if c.scale is not None}
         if edge is None or len(added) >= args.extend or res.best not in scaled:
-            return res, edge, added, notes, base_path
+            return res, edge, added, notes, drive
         added.append(next_scale(tuple(scales), edge))
         scales.append(added[-1])
         print(f"the best drive {res.best} is the {edge} candidate: adding x{added[-1]:g}")
@@ -204,7 +208,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(None, f"--extend {args.extend}", expected="an integer >= 0")
     print(f"site: {site_note}")
     print(f"system: {system.name} ({system.path})")
-    res, edge, added, notes, base_path = _size_extending(args, site, winds, system)
+    res, edge, added, notes, drive = _size_extending(args, site, winds, system)
     t = res.table
     print(t.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
     print(f"best: {res.best}; smallest within {args.tolerance:.0%} of the best AEP: {res.chosen}")
@@ -228,10 +232,12 @@ def run(args: argparse.Namespace) -> int:
         "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "command_line": ["bench", "size", *sys.argv[2:]],
         "site": {**site.to_dict(), "note": site_note},
-        "reference_model": {"path": str(base_path)},
+        "reference_model": {"path": str(drive.model_path), "note": drive.losses_note},
+        "reference_drive": drive.record(),
         "system": system.record(),
-        "law": "P_s(n, T) = s P_1(n, T/s): c_ij -> s^(1-j) c_ij; rated torque s T_rated, peak "
-               "overload x rated, same speed limit, nominal power s P_nom",
+        "law": "P_s(n, T) = s P_1(n, T/s): c_ij -> s^(1-j) c_ij (the similarity law at the same "
+               "speed); continuous torque s T_cont, peak s T_peak, same speed limit, nominal "
+               "power s P_nom",
         "wind_speeds_m_s": list(winds), "adaptive": args.adaptive, "tolerance": args.tolerance,
         "best": res.best, "chosen": res.chosen,
         "edge": {"best_at": edge, "added_scales": added, "note": edge_note},

@@ -1,26 +1,20 @@
 """Drive sizing: electrical AEP against drive rating over candidate drives (``bench size``).
 
-A candidate is a power model with its limits: the short-time peak torque and
-speed, and the continuous rating (RMS drum torque over the cycle at most the
-rated torque, :class:`optimize.problem.ocp.OcpOptions` ``max_rms_torque_nm``).
-It is a ``power_model.json`` of its own, or the reference model scaled by a
+A candidate is a power model with its rating (:class:`bench.drive.DriveRating`):
+the short-time peak torque and speed limits, and the continuous rating (RMS drum
+torque over the cycle at most the continuous torque,
+:class:`optimize.problem.ocp.OcpOptions` ``max_rms_torque_nm``). It is a
+``power_model.json`` of its own, or the reference drive scaled by a
 torque-rating scale ``s``.
 
 Scaling law
 -----------
-``P_s(n, T) = s P_1(n, T / s)``: a drive of ``s`` times the torque rating at the
-same speed rating behaves like ``s`` reference drives sharing the torque on one
-shaft. For a term ``c n^i T^j`` that is ``c -> s^(1 - j) c``; for paper eq. 4:
-constant losses ``a0 -> s a0`` and speed losses ``a1 n^2 -> s a1 n^2`` grow with
-the active volume, copper losses ``a2 T^2 -> a2 T^2 / s`` fall (current per unit
-torque ~ 1/s, resistance ~ s), and the conversion term ``a3 n T`` is unchanged.
-It is the axial (stack-length) scaling of a permanent-magnet machine with end
-effects neglected (S. Stipetic, D. Zarko, M. Popescu, "Ultra-fast axial and
-radial scaling of synchronous permanent magnet machines", IET Electric Power
-Applications 10(7), 2016; J. Pyrhonen, T. Jokinen, V. Hrabovcova, "Design of
-Rotating Electrical Machines", Wiley 2008, ch. 1: torque ~ rotor volume). The
-covariance scales with the same factors. Limits: rated torque ``s T_rated``,
-peak torque ``overload x`` rated, the same speed limit, nominal power ``s P_nom``.
+The similarity law of :func:`optimize.model.drive.carry_power_model` at the same
+speed rating (``k_n = 1``, ``k_T = s``): ``P_s(n, T) = s P_1(n, T / s)``, a drive
+of ``s`` times the torque rating behaves like ``s`` reference drives sharing the
+torque on one shaft (for a term ``c n^i T^j``: ``c -> s^(1 - j) c``). Rating:
+continuous torque ``s T_cont``, peak torque ``s T_peak``, the same speed limit,
+nominal power ``s P_nom``; the system's other limits are kept.
 
 Resumable sweep
 ---------------
@@ -37,7 +31,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -49,68 +42,47 @@ from bench.files import atomic_write, write_text_atomic
 
 #: bump when the meaning of a stored solve changes (invalidates every stored solve)
 STORE_VERSION = 1
-#: default short-time peak torque over rated torque: the paper's drive can overload up to
-#: 500 % in torque (Stuyts et al. 2015, section II)
-DEFAULT_OVERLOAD = 5.0
-
-
-def scaled_model(base: Any, s: float, name: str | None = None) -> Any:
-    """The power model of a drive with ``s`` times the torque rating (``c_ij -> s^(1-j) c_ij``).
-
-    Parameters
-    ----------
-    base : fitting.model_file.PowerModel
-    s : float
-        Torque-rating scale, > 0.
-    """
-    if not (math.isfinite(s) and s > 0):
-        raise ValueError(f"scale must be > 0, got {s}")
-    f = np.array([s ** (1 - j) for _, j in base.terms])
-    cov = None
-    if base.covariance_rpm is not None:
-        cov = tuple(map(tuple, np.array(base.covariance_rpm) * np.outer(f, f)))
-    provenance = {"scaled_from": base.sha256, "torque_rating_scale": s,
-                  "law": "P_s(n, T) = s P_1(n, T/s): c_ij -> s^(1-j) c_ij"}
-    changes = {}
-    drive = getattr(base, "drive", None)
-    if drive is not None:  # the rating scales with the drive: torque and power, not speed
-        changes["drive"] = {**drive, "nominal_power_w": drive["nominal_power_w"] * s,
-                            "max_torque_nm": drive["max_torque_nm"] * s,
-                            "source": f"{drive.get('source', '')}; scaled x{s:g} (bench size)"}
-    return dataclasses.replace(
-        base, coefficients_rpm=tuple(np.array(base.coefficients_rpm) * f), covariance_rpm=cov,
-        nominal_power_w=base.nominal_power_w * s,
-        name=name or f"{base.name} x{s:g} torque rating", provenance=provenance, **changes,
-    )
-
 
 @dataclass(frozen=True)
 class Candidate:
-    """A drive to size: power model and limits.
+    """A drive to size: power model and rating.
 
     Attributes
     ----------
     name : str
     model : fitting.model_file.PowerModel
-    rated_torque_nm : float
-        Continuous rating: RMS drum torque over the cycle at most this [N m].
-    peak_torque_nm : float
-        Short-time torque limit [N m].
-    max_speed_rpm : float
-        Speed limit [rpm].
-    nominal_power_w : float
-        Rating for the capacity factor and the sizing axis [W].
+    rating : bench.drive.DriveRating
+        Its limits: ``continuous_torque_nm`` (RMS drum torque over the cycle at most
+        this), ``max_torque_nm`` (short-time peak), ``max_speed_rpm``, and
+        ``nominal_power_w`` (the capacity factor's and the sizing axis' rating).
     scale : float or None
-        Torque-rating scale when made by :func:`scaled_model`.
+        Torque-rating scale when made by :func:`scaled_candidates`.
     """
 
     name: str
     model: Any
-    rated_torque_nm: float
-    peak_torque_nm: float
-    max_speed_rpm: float
-    nominal_power_w: float
+    rating: Any
     scale: float | None = None
+
+    @property
+    def rated_torque_nm(self) -> float:
+        """Continuous rating [N m]."""
+        return self.rating.continuous_torque_nm
+
+    @property
+    def peak_torque_nm(self) -> float:
+        """Short-time torque limit [N m]."""
+        return self.rating.max_torque_nm
+
+    @property
+    def max_speed_rpm(self) -> float:
+        """Speed limit [rpm]."""
+        return self.rating.max_speed_rpm
+
+    @property
+    def nominal_power_w(self) -> float:
+        """Nominal power [W]."""
+        return self.rating.nominal_power_w
 
     def ocp_options(self, n_intervals: int, degree: int, system: Any) -> Any:
         """The OCP options of ``system`` (bounds) with this drive's limits and rating.
@@ -124,21 +96,35 @@ class Candidate:
         """
         from optimize.problem.ocp import OcpOptions
 
-        base = system.ocp_options(OcpOptions(n_intervals=n_intervals, degree=degree), self.model)
-        return dataclasses.replace(base, max_torque_nm=self.peak_torque_nm,
-                                   max_speed_rpm=self.max_speed_rpm,
-                                   max_rms_torque_nm=self.rated_torque_nm,
-                                   nominal_power_w=self.nominal_power_w)
+        options = system.ocp_options(OcpOptions(n_intervals=n_intervals, degree=degree),
+                                     self.rating)
+        return dataclasses.replace(options, max_rms_torque_nm=self.rated_torque_nm)
 
 
-def scaled_candidates(base: Any, scales: tuple[float, ...], rated_torque_nm: float,
-                      max_speed_rpm: float, overload: float) -> list[Candidate]:
-    """Candidates of the reference drive scaled by each ``s`` (see the module's law)."""
+def scaled_candidates(base: Any, rating: Any, scales: tuple[float, ...]) -> list[Candidate]:
+    """Candidates of the reference drive scaled by each ``s`` (see the module's law).
+
+    Parameters
+    ----------
+    base : fitting.model_file.PowerModel
+        The reference drive's losses (at ``rating``).
+    rating : bench.drive.DriveRating
+        The reference drive's rating, ``continuous_torque_nm`` stated.
+    scales : tuple of float
+        Torque-rating scales ``s`` > 0.
+    """
+    from optimize.model.drive import carry_power_model
+
     out = []
     for s in scales:
-        m = scaled_model(base, s)
-        out.append(Candidate(f"x{s:g}", m, s * rated_torque_nm, overload * s * rated_torque_nm,
-                             max_speed_rpm, m.nominal_power_w, s))
+        scaled = dataclasses.replace(
+            rating, nominal_power_w=s * rating.nominal_power_w,
+            max_torque_nm=s * rating.max_torque_nm,
+            continuous_torque_nm=s * rating.continuous_torque_nm,
+            source=f"{rating.source}; x{s:g} torque rating (bench size)")
+        model = carry_power_model(base, 1.0, s, drive=scaled.to_dict(),
+                                  name=f"{base.name} x{s:g} torque rating")
+        out.append(Candidate(f"x{s:g}", model, scaled, s))
     return out
 
 

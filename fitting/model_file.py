@@ -25,7 +25,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from bench.drive import DRIVE_KEYS
+from bench.drive import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS
 from bench.errors import InputError
 from bench.files import write_text_atomic
 
@@ -277,13 +277,13 @@ def _model_problem(model: PowerModel) -> str | None:
         if value is not None and not isinstance(value, dict):
             return f"{field}: an object or null expected"
     if model.drive is not None:
-        for key in DRIVE_KEYS:
+        for key in (*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS):
             v = model.drive.get(key)
-            if not (_is_finite_number(v) and v > 0):
+            if (v is not None or key in DRIVE_KEYS) and not (_is_finite_number(v) and v > 0):
                 return f"drive.{key}: a finite positive number expected, got {v!r}"
         if not isinstance(model.drive.get("source", ""), str):
             return "drive.source: a string expected"
-        unknown = set(model.drive) - {*DRIVE_KEYS, "source"}
+        unknown = set(model.drive) - {*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS, "source"}
         if unknown:
             return f"drive: unknown key {sorted(unknown)[0]!r}"
         if not math.isclose(model.drive["nominal_power_w"], model.nominal_power_w, rel_tol=1e-12):

@@ -184,7 +184,7 @@ def fit_power_model(
     terms,
     *,
     weights: np.ndarray | None = None,
-    nominal_power_w: float = 8200.0,
+    nominal_power_w: float,
     source=None,
 ) -> FitResult:
     """Fit ``P_elec = sum c_k speed**i_k torque**j_k`` by (weighted) least squares (statsmodels).

@@ -185,7 +185,7 @@ def select_model(
     *,
     folds: int = 5,
     candidates: list[Candidate] | None = None,
-    nominal_power_w: float = 8200.0,
+    nominal_power_w: float,
     seed: int = 0,
     source=None,
     progress: bool = False,
@@ -295,8 +295,8 @@ def select_model(
 
 
 def extra_terms_check(
-    speed_rpm, torque_nm, p_elec_w, weights, *, rated_speed_rpm: float = 1500.0,
-    rated_torque_nm: float = 78.0, nominal_power_w: float = 8200.0, source=None,
+    speed_rpm, torque_nm, p_elec_w, weights, *, rated_speed_rpm: float,
+    rated_torque_nm: float, nominal_power_w: float, source=None,
 ) -> dict:
     """The paper's check: fitted over its space (w^6, T^4), how big are the extra terms?
 

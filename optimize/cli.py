@@ -19,16 +19,24 @@ log = logging.getLogger(__name__)
 
 #: where ``bench fit`` writes its model (docs/schemas.md §4)
 FIT_MODEL_PATH = Path("fit_out") / "power_model.json"
+#: exit codes of ``bench optimize`` (2, bad input, is every stage's: :mod:`bench.cli`)
+EXIT_ALL_CONVERGED, EXIT_ALL_FAILED, EXIT_SOME_FAILED = 0, 1, 3
+EXIT_CODES = (f"exit codes: {EXIT_ALL_CONVERGED} every scenario converged; {EXIT_SOME_FAILED} "
+              f"some failed (listed after FAILED, their status in summary.parquet; the files "
+              f"are written); {EXIT_ALL_FAILED} all failed; 2 bad input (nothing solved, "
+              "nothing written)")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``bench optimize``."""
+    parser.epilog = EXIT_CODES
     parser.add_argument(
         "--drive-model",
         type=Path,
         default=None,
-        help=f"power model JSON from bench fit (default {FIT_MODEL_PATH} if it exists, else "
-        "the shipped paper Table I model)",
+        help="the drive's losses: a power model JSON (bench fit), overriding the system "
+        f"file's [drive] losses; default those, else {FIT_MODEL_PATH} if it exists, else the "
+        "shipped paper Table I model. The rating in force is the system file's [drive]",
     )
     parser.add_argument(
         "--system",
@@ -74,8 +82,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the sweep; exit code 0 if any scenario converged (failed ones are reported in the
-    files and the table), 1 if none did, 2 on bad input."""
+    """Run the sweep; the exit code says how many scenarios converged (:data:`EXIT_CODES`)."""
     from optimize.command import SweepRequest, format_summary, run_optimize
     from optimize.problem.ocp import MAX_INTERVALS
 
@@ -107,4 +114,11 @@ def run(args: argparse.Namespace) -> int:
     failed = outcome.summary.loc[~outcome.summary["success"], "scenario"].tolist()
     if failed:
         print(f"FAILED (status in summary.parquet, never averaged): {', '.join(failed)}")
-    return 0 if n_ok else 1
+    return exit_code(outcome.summary["success"].tolist())
+
+
+def exit_code(success: list[bool]) -> int:
+    """:data:`EXIT_ALL_CONVERGED`, :data:`EXIT_SOME_FAILED` or :data:`EXIT_ALL_FAILED`."""
+    if all(success):
+        return EXIT_ALL_CONVERGED
+    return EXIT_SOME_FAILED if any(success) else EXIT_ALL_FAILED

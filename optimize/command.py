@@ -23,6 +23,7 @@ from optimize.sweep.chains import Problem, make_tasks, run_sweep
 from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import KINDS, parse_kinds, parse_wind_grid, plan_chains
 from optimize.sweep.trust import run_trust_checks
+from optimize.system.drive import DriveInForce, drive_in_force
 from optimize.system.system import System, load_system
 
 
@@ -59,6 +60,9 @@ class SweepRequest:
     system : System or None
         The system (``--system``); ``None`` is the shipped ``highwind.toml``. Its
         bounds and drive limits replace those of ``options``.
+    drive : optimize.system.drive.DriveInForce or None
+        The drive in force (rating, losses at that rating); ``None``: the system's
+        ``[drive]`` rating with ``drive_model``'s losses.
     """
 
     winds: tuple[float, ...]
@@ -74,43 +78,34 @@ class SweepRequest:
     trust: bool = False
     cut_in_tol_m_s: float = 0.05
     system: System | None = None
+    drive: DriveInForce | None = None
 
     @classmethod
     def from_cli(cls, args: Any, fit_model_path: Path) -> SweepRequest:
         """Build the request from ``bench optimize`` arguments; bad values raise InputError."""
         from fitting.model_check import check_physics
-        from fitting.model_file import PAPER_MODEL_PATH, load_power_model
         from optimize.problem.ocp import OcpOptions
 
         winds = parse_wind_grid(args.wind_grid)
         kinds = parse_kinds(args.scenarios)
-        if args.drive_model is not None:
-            path, note = Path(args.drive_model), f"drive model: {args.drive_model}"
-        elif fit_model_path.exists():
-            path, note = fit_model_path, f"drive model: {fit_model_path} (from bench fit)"
-        else:
-            path = PAPER_MODEL_PATH
-            note = (
-                f"drive model: no {fit_model_path} found, using the shipped paper model "
-                f"(Table I) {PAPER_MODEL_PATH}"
-            )
-        model = load_power_model(path)
         system = load_system(args.system)
-        if args.system is None:
-            note += f"; system: the shipped {system.path}"
+        drive = drive_in_force(system, args.drive_model, fit_model_path)
+        note = f"system: {system.name} ({system.path}" + (
+            ", the shipped default)" if args.system is None else ")")
+        note += "\n" + "\n".join(drive.lines())
         try:
             options = OcpOptions(n_intervals=args.intervals, degree=args.degree,
                                  stored_guess=not args.no_stored_guess)
         except ValueError as exc:
             raise InputError(None, f"OCP options: {exc}") from exc
+        options = system.ocp_options(options, drive.rating)
         # an impossible model "converges" to a wrong cycle: refuse it before any solve
-        check_physics(model, path, limits=domain_scales(model, options))
-        note += "\n" + system.drive_limits(model).describe()
+        check_physics(drive.model, drive.model_path, limits=domain_scales(drive.model, options))
         return cls(
             winds,
             kinds,
-            model,
-            path,
+            drive.model,
+            drive.model_path,
             note,
             options,
             args.workers,
@@ -119,6 +114,7 @@ class SweepRequest:
             not args.no_claims,
             args.trust,
             system=system,
+            drive=drive,
         )
 
 
@@ -190,9 +186,11 @@ def run_optimize(
     import sys
 
 
-    model = request.drive_model
     system = request.system if request.system is not None else load_system()
-    options = system.ocp_options(request.options, model)
+    drive = request.drive or drive_in_force(system, request.drive_model_path,
+                                            model=request.drive_model)
+    model = drive.model
+    options = system.ocp_options(request.options, drive.rating)
     problem = Problem.for_system(system, model, options)
     cut_in_kinds = tuple(k for k in request.kinds if KINDS[k][1]) if request.claims else ()
     trust: dict = {"mesh": [], "simulation": []}
@@ -207,7 +205,8 @@ def run_optimize(
     summary = outputs.summary_frame(result.outcomes, model.domain,
                                     domain_scales(model, options))
     cut_ins = cut_in_frame(result.cut_ins)
-    claims = evaluate_claims(summary, cut_ins) if request.claims else None
+    claims = (evaluate_claims(summary, cut_ins, paper_system=system.paper_system,
+                              system_name=system.name) if request.claims else None)
 
     request.out.mkdir(parents=True, exist_ok=True)
     files = {
@@ -219,6 +218,14 @@ def run_optimize(
             system=system.record(),
         ),
     }
+    model_path = request.drive_model_path
+    if drive.carried:  # the losses the sweep flew with, for bench aep (bands, refine)
+        from fitting.model_file import save_power_model
+
+        model_path = files["power_model"] = save_power_model(model, request.out /
+                                                             "power_model.json")
+    else:
+        (request.out / "power_model.json").unlink(missing_ok=True)
     claims_path = request.out / "claims.csv"
     if claims is not None:
         files["claims"] = outputs.write_csv(claims, claims_path)
@@ -234,14 +241,15 @@ def run_optimize(
         "kinds": list(request.kinds),
         "scenarios": [o.name for o in result.outcomes],
         "drive_model": {
-            "path": str(request.drive_model_path),
-            "file_sha256": file_sha256(request.drive_model_path),
+            "path": str(model_path),
+            "file_sha256": file_sha256(model_path),
             "model_sha256": model.sha256,
             "name": model.name,
             "note": request.model_note,
         },
         "system": system.record(),
-        "drive_limits": dataclasses.asdict(system.drive_limits(model)),
+        "drive_limits": drive.rating.to_dict(),
+        "drive": drive.record(),
         "options": dataclasses.asdict(options),
         "executor": result.executor,
         "wall_time_s": result.wall_time_s,

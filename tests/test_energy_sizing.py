@@ -13,22 +13,34 @@ from energy.sizing import (
     candidate_table,
     run_sizing,
     scaled_candidates,
-    scaled_model,
     solve_key,
 )
 from fitting.model_file import paper_model
 from optimize.sweep.executors import ExecutorHandle, QueueChannel
+from optimize.system.drive import drive_in_force
+from optimize.system.system import load_system
+
+#: the paper drive's rating as highwind.toml states it (continuous 78 N m, overload 5)
+PAPER_RATING = drive_in_force(load_system(), model=paper_model()).rating
 
 
-def test_scaled_model_is_s_drives_sharing_the_torque():
+def _candidates(scales):
+    from dataclasses import replace
+
+    return scaled_candidates(paper_model(), replace(PAPER_RATING, max_torque_nm=390.0), scales)
+
+
+def test_scaled_candidates_are_s_drives_sharing_the_torque():
     # P_s(n, T) = s P_1(n, T/s) at any operating point, for the paper's terms
     base = paper_model()
-    for s in (0.5, 2.0, 3.7):
-        m = scaled_model(base, s)
+    scales = (0.5, 2.0, 3.7)
+    for s, c in zip(scales, _candidates(scales), strict=True):
         n, t = np.array([-1500.0, 300.0, 900.0]), np.array([10.0, 78.0, 150.0])
-        np.testing.assert_allclose(m.p_elec_w(n, t), s * base.p_elec_w(n, t / s), rtol=1e-12)
-        assert m.nominal_power_w == pytest.approx(s * base.nominal_power_w)
-    c = scaled_candidates(base, (0.5, 2.0), 78.0, 1500.0, 5.0)
+        np.testing.assert_allclose(c.model.p_elec_w(n, t), s * base.p_elec_w(n, t / s),
+                                   rtol=1e-12)
+        assert c.model.nominal_power_w == pytest.approx(s * base.nominal_power_w)
+        assert c.max_speed_rpm == PAPER_RATING.max_speed_rpm
+    c = _candidates((0.5, 2.0))
     assert [(x.rated_torque_nm, x.peak_torque_nm) for x in c] == [(39.0, 195.0), (156.0, 780.0)]
 
 
@@ -36,7 +48,7 @@ def test_candidate_options_take_the_system_bounds_and_the_candidate_limits():
     from optimize.system.system import load_system, shipped_system_path
 
     base = paper_model()
-    c = scaled_candidates(base, (2.0,), 78.0, 1500.0, 5.0)[0]
+    c = _candidates((2.0,))[0]
     highwind, ap2 = load_system(), load_system(shipped_system_path("ap2"))
     opts = c.ocp_options(20, 3, ap2)
     # the system file's bounds (ap2's tether range), the candidate's drive
@@ -49,8 +61,7 @@ def test_candidate_options_take_the_system_bounds_and_the_candidate_limits():
 
 
 def test_choice_is_the_smallest_within_tolerance_of_the_best():
-    base = paper_model()
-    cands = scaled_candidates(base, (0.5, 1.0, 2.0), 78.0, 1500.0, 5.0)
+    cands = _candidates((0.5, 1.0, 2.0))
     site = Weibull(2.0, 6.2)
     # AEPs of 1.0 : 1.99 : 2.0 (made-up powers): x1 is within 2 % of the best x2
     recs = []
@@ -71,7 +82,7 @@ def _handle():
 
 
 def test_interrupted_sweep_continues_where_it_stopped(tmp_path):
-    cands = scaled_candidates(paper_model(), (0.6, 1.0), 78.0, 1500.0, 5.0)
+    cands = _candidates((0.6, 1.0))
     site, winds = Weibull(2.0, 6.2), (6.0, 7.0)
     first = run_sizing(cands, winds, site, tmp_path, n_intervals=10, handle=_handle(),
                        show_progress=False)
@@ -115,7 +126,7 @@ def test_bench_size_bad_input_exits_2_before_solving(tmp_path, capsys, extra):
 def test_adaptive_sizing_adds_speeds_and_resumes_from_the_store(tmp_path):
     # two speeds give no curvature estimate, so the grid is split (down to 0.25 m/s
     # steps) until the chord estimate falls below 0.2 % of the AEP; a rerun solves nothing
-    cands = scaled_candidates(paper_model(), (1.0,), 78.0, 1500.0, 5.0)
+    cands = _candidates((1.0,))
     site = Weibull.from_mean(2.0, 5.5)
     first = run_sizing(cands, (6.0, 7.0), site, tmp_path, n_intervals=10, handle=_handle(),
                        show_progress=False, adaptive=True)

@@ -101,7 +101,7 @@ def test_fit_too_few_points_for_cross_validation_says_so():
     p = speed * np.pi / 30 * torque + _loss_w(speed, torque)
     with pytest.raises(InputError) as err:
         select_model(speed, torque, p, np.full(speed.size, "generator"), np.ones(speed.size),
-                     folds=5)
+                     folds=5, nominal_power_w=8200.0)
     msg = str(err.value)
     assert "too few points" in msg and "12 points" in msg, msg
     assert "spread" not in msg, msg

@@ -10,6 +10,7 @@ from optimize.model.kite_model import kite_dae
 from optimize.problem.ocp import OcpOptions, build_ocp
 from optimize.solve import initial_guess
 from optimize.solve.solve import start
+from optimize.system.drive import drive_in_force
 from optimize.system.params import KiteParams
 from optimize.system.system import load_system, system_from_dict
 
@@ -41,8 +42,9 @@ def test_guess_is_accepted_for_its_system_and_refused_for_another():
     # highwind.toml is the guess's system; a copy with only a wider period range has the
     # same constraints g, so only the system hash tells them apart
     system, model = load_system(), paper_model()
+    rating = drive_in_force(system, model=model).rating
     own = build_ocp(kite_dae(*system.model_params()), model,
-                    system.ocp_options(OcpOptions(), model), system=system)
+                    system.ocp_options(OcpOptions(), rating), system=system)
     solution, why = initial_guess.load(own)
     assert solution is not None, why
     import tomllib
@@ -51,7 +53,7 @@ def test_guess_is_accepted_for_its_system_and_refused_for_another():
     data["bounds"]["period_max_s"] = 30.0
     wider = system_from_dict(data, "wider.toml")
     other = build_ocp(kite_dae(*wider.model_params()), model,
-                      wider.ocp_options(OcpOptions(), model), system=wider)
+                      wider.ocp_options(OcpOptions(), rating), system=wider)
     solution, why = initial_guess.load(other)
     assert solution is None and "another system" in why
 

@@ -258,6 +258,23 @@ def test_table_ii_shows_failed_and_excludes_it(full_inputs):
     assert dict(ctx["headline"])["optimizations"] == "19 of 20 converged"
 
 
+def test_report_says_the_paper_comparison_does_not_apply(full_inputs, tmp_path):
+    """A sweep of another system: claims.csv holds only "does not apply" rows (as
+    optimize.analysis.claims writes them); the report says so instead of a table."""
+    import shutil
+
+    store, fit, opt = full_inputs["dirs"]
+    other = shutil.copytree(opt, tmp_path / "opt")
+    note = "system ap2 is not the paper system"
+    pd.DataFrame({"claim_id": ["fig3-energy", "fig3-period"], "statement": ["a", "b"],
+                  "paper": ["827 J", "6 s"], "ours": ["n/a", "n/a"],
+                  "verdict": ["does not apply"] * 2, "note": [note] * 2}
+                 ).to_csv(other / "claims.csv", index=False)
+    html = render(build_context(store, fit, other, ["bench", "report"]))
+    assert f"The paper comparison does not apply: {note}." in html
+    assert '<table id="claims">' not in html
+
+
 def test_cycle_energy_matches_the_analytic_net_energy(full_inputs):
     cyc = _cycle("x", "elec-lim", 5.5)
     e = cycle_figures.cycle_energy(cyc["weight"].to_numpy(), cyc["p_elec_w"].to_numpy(),

@@ -84,3 +84,29 @@ def test_default_wind_grid_covers_all_but_half_a_percent_of_the_site():
     above_one_step_less = math.exp(-(((stop - step) / c) ** 2))
     assert above < 0.005 <= above_one_step_less
     assert stop == 14.5  # c sqrt(ln 200) = 14.29 m/s, rounded up to the grid
+
+
+def test_optimize_exit_codes_and_bench_run_going_on_past_some_failures(monkeypatch, capsys):
+    import bench.cli
+    from bench.run_cli import run
+    from optimize.cli import EXIT_CODES, exit_code
+
+    assert exit_code([True, True]) == 0
+    assert exit_code([True, False]) == 3
+    assert exit_code([False, False]) == 1
+    # the codes are in bench optimize --help
+    help_text = build_parser(["optimize"])._subparsers._group_actions[0].choices[
+        "optimize"].format_help()
+    assert " ".join(EXIT_CODES.split()) in " ".join(help_text.split())
+    # bench run goes on past an optimize with some failed scenarios, stops on any other code
+    calls = []
+
+    def fake_main(argv):
+        calls.append(argv[0])
+        return {"optimize": 3, "size": 1}.get(argv[0], 0)
+
+    monkeypatch.setattr(bench.cli, "main", fake_main)
+    args = build_parser(["run", "logs"]).parse_args(["run", "logs", "--out", "o"])
+    assert run(args) == 1
+    assert calls == ["ingest", "fit", "optimize", "aep", "size"]
+    assert "some scenarios failed" in capsys.readouterr().out

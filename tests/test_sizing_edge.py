@@ -12,8 +12,16 @@ from energy import size_cli, sizing
 from energy.site import Weibull
 from energy.sizing import candidate_table, edge_of_set, next_scale, scaled_candidates
 from fitting.model_file import paper_model
+from optimize.system.drive import drive_in_force
+from optimize.system.system import load_system
 
 SITE = Weibull(2.0, 6.2)
+
+
+def _candidates(scales):
+    system = load_system()
+    return scaled_candidates(paper_model(), drive_in_force(system, model=paper_model()).rating,
+                             scales)
 
 
 def _records(cands, power_of_scale, winds=(5.0, 9.0)):
@@ -29,14 +37,14 @@ def _records(cands, power_of_scale, winds=(5.0, 9.0)):
     (lambda s: 100.0 - (s - 1.0) ** 2, None),     # the best, x1, lies inside
 ])
 def test_edge_of_set_names_the_end_the_best_drive_sits_at(power, edge):
-    cands = scaled_candidates(paper_model(), (0.5, 1.0, 2.0), 78.0, 1500.0, 5.0)
+    cands = _candidates((0.5, 1.0, 2.0))
     table, best, _ = candidate_table(cands, _records(cands, power), SITE)
     assert edge_of_set(table, best) == edge
 
 
 def test_a_candidate_without_aep_does_not_hide_the_edge():
     # x2 failed a solve (no AEP): x1 is then the largest drive with an AEP, and the best
-    cands = scaled_candidates(paper_model(), (0.5, 1.0, 2.0), 78.0, 1500.0, 5.0)
+    cands = _candidates((0.5, 1.0, 2.0))
     recs = _records(cands, lambda s: 100.0 * s)
     recs[-1] = {**recs[-1], "success": False, "avg_p_elec_w": None}
     table, best, _ = candidate_table(cands, recs, SITE)
@@ -59,8 +67,8 @@ def _fake_sizing(power):
 
 def _args(tmp_path, extend):
     return argparse.Namespace(
-        drive_model=None, scales="0.5,1,2", models=(), rated_torque_nm=78.0,
-        max_speed_rpm=1500.0, overload=5.0, intervals=10, degree=2, workers=1,
+        drive_model=None, scales="0.5,1,2", models=(), rated_torque_nm=None,
+        max_speed_rpm=None, overload=None, intervals=10, degree=2, workers=1,
         scheduler=None, tolerance=0.02, adaptive=False, extend=extend, out=tmp_path)
 
 
@@ -69,9 +77,10 @@ def test_bench_size_extends_the_set_beyond_an_edge_optimum(tmp_path, monkeypatch
                                                             added, edge):
     # delivered power peaks at scale 2.5: x2 is best of 0.5, 1, 2 (the largest); with one
     # extension x4 (2 x 2/1) is tried, x2 stays best and now lies inside the set
+    monkeypatch.chdir(tmp_path)  # no fit_out/ here: the system's own drive
     monkeypatch.setattr(sizing, "run_sizing", _fake_sizing(lambda s: 1000.0 - (s - 2.5) ** 2))
     res, got_edge, got_added, _, _ = size_cli._size_extending(_args(tmp_path, extend), SITE,
-                                                              (5.0, 9.0), None)
+                                                              (5.0, 9.0), load_system())
     assert (res.best, got_edge, got_added) == ("x2", edge, added)
     note = size_cli._edge_note(got_edge, res.best, got_added)
     assert ("larger drive may be better" in note) == (edge == "largest")

@@ -1,9 +1,9 @@
 """A cold start (homotopy, no stored guess) of a shipped non-default system: the AP2-size wing.
 
 The start loop, the scales and the bounds all come from ``ap2.toml``; the drive is
-the paper's design rated at the file's limits. Checked against independent truths:
-the solver converged without sitting on a bound the file did not mean to bind, the
-path stays inside the file's bounds, and the mechanical power generated is positive
+the paper's design carried to the file's rating by the similarity law. Checked against
+independent truths: the solver converged without sitting on a bound the file did not mean
+to bind, the path stays inside the file's bounds, and the mechanical power generated is positive
 but below Loyd's crosswind limit for the wing's best lift-to-drag ratio at the
 strongest wind the cycle meets.
 """
@@ -13,13 +13,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fitting.model_file import paper_model
-from optimize.model.drive import RatedDrive
 from optimize.model.kite_model import kite_dae
 from optimize.problem.ocp import OcpOptions, build_ocp
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start
 from optimize.sweep.outputs import MEANT_BOUNDS
+from optimize.system.drive import drive_in_force
 from optimize.system.system import load_system, shipped_system_path
 
 WIND_M_S = 7.0
@@ -28,11 +27,10 @@ WIND_M_S = 7.0
 @pytest.fixture(scope="module")
 def solved():
     system = load_system(shipped_system_path("ap2"))
-    d = system.drive
-    model = RatedDrive(paper_model(), 1500.0, 78.0, d.max_speed_rpm, d.max_torque_nm,
-                       d.nominal_power_w)
+    drive = drive_in_force(system)  # the paper's drive carried to the AP2 rating
+    model = drive.model
     options = system.ocp_options(OcpOptions(n_intervals=20, degree=3, stored_guess=False),
-                                 model)
+                                 drive.rating)
     ocp = build_ocp(kite_dae(*system.model_params()), model, options, system=system)
     return system, ocp, cold_start(ocp, Scenario(WIND_M_S, "mechanical", True))
 

@@ -4,11 +4,14 @@ InputError naming the file and the key."""
 from __future__ import annotations
 
 import tomllib
+from pathlib import Path
 
 import pytest
 
 from bench.errors import InputError
+from fitting.model_file import paper_model
 from optimize.problem.ocp import OcpOptions
+from optimize.system.drive import drive_in_force
 from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 from optimize.system.system import load_system, shipped_system_path, system_from_dict
 
@@ -41,7 +44,17 @@ def test_highwind_file_is_the_package_defaults():
     assert system.kite_params() == KiteParams()
     assert system.aero_coefficients() == AeroCoefficients()
     assert system.wind_model() == WindModel()
-    assert system.ocp_options(OcpOptions()) == OcpOptions()
+    rating = drive_in_force(system, model=paper_model()).rating
+    assert system.ocp_options(OcpOptions(), rating) == OcpOptions()
+
+
+def test_only_the_paper_system_says_it_is_the_papers():
+    assert load_system().paper_system is True
+    for name in SHIPPED[1:]:
+        assert load_system(shipped_system_path(name)).paper_system is False
+    data = _data()
+    del data["system"]["paper_system"]  # optional: a system is not the paper's by default
+    assert system_from_dict(data, "x.toml").paper_system is False
 
 
 def test_hash_ignores_comments_and_key_order():
@@ -69,6 +82,7 @@ def test_hash_ignores_comments_and_key_order():
     ("bounds", "period_max_s", 0.5, "[bounds] period_max_s"),
     ("bounds", "tether_length_max_m", 0.5, "[bounds] tether_length_max_m"),
     ("bounds", "max_line_angle_deg", 95.0, "[bounds] max_line_angle_deg"),
+    ("system", "paper_system", "yes", "[system] paper_system"),
 ])
 def test_wrong_types_and_non_physical_values_name_the_key(section, key, value, words):
     data = _data()
@@ -104,19 +118,23 @@ def test_power_law_profile_and_optional_drive_keys():
     data = _data()
     del data["drive"]["max_torque_nm"]
     system = system_from_dict(data, "x.toml")
-    with pytest.raises(InputError, match=r"\[drive\] max_torque_nm"):
-        system.drive_limits(None)
 
-    class ModelWithLimits:  # a power model file that carries the drive's limits
-        drive = {"max_speed_rpm": 3000.0, "max_torque_nm": 150.0, "nominal_power_w": 20e3}
+    class NoRating:  # a version-1 power model file: no drive rating
+        drive = None
         nominal_power_w = 20e3
 
-    limits = system.drive_limits(ModelWithLimits())
-    assert (limits.max_speed_rpm, limits.max_torque_nm) == (3000.0, 150.0)
-    assert limits.sources["max_torque_nm"] == "power model"
-    # a file value the power model overrides is said, in the sources and the printed line
-    assert "overrides the system file's" in limits.sources["max_speed_rpm"]
-    assert "3000 rpm (power model (overrides the system file's" in limits.describe()
+    with pytest.raises(InputError, match=r"\[drive\] max_torque_nm"):
+        drive_in_force(system, model=NoRating())
+    # a key the file leaves out comes from the power model's rating, and the source says so
+    model = paper_model()
+    rating = drive_in_force(system, Path("paper.json"), model=model).rating
+    assert rating.max_torque_nm == model.drive["max_torque_nm"]
+    assert "max_torque_nm from paper.json" in rating.source
+    # the file's own keys are in force, not the power model's
+    data = _data()
+    data["drive"].update(max_speed_rpm=1200.0, max_torque_nm=70.0)
+    rating = drive_in_force(system_from_dict(data, "x.toml"), model=model).rating
+    assert (rating.max_speed_rpm, rating.max_torque_nm) == (1200.0, 70.0)
 
 
 def test_unreadable_and_non_toml_files(tmp_path):

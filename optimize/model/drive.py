@@ -1,4 +1,5 @@
-"""Winch-drive quantities of the kite state (REFERENCE.md §1, paper eq. 4).
+"""Winch-drive quantities of the kite state (paper eq. 4) and the similarity law that
+carries a drive's power model to another rating.
 
 Drum frame: torque >= 0 when the tether pulls, reel-out (generating) is
 negative speed; mechanical power is positive when the drive delivers power to
@@ -7,8 +8,8 @@ the drum, so a generating cycle has negative mechanical and electrical power.
 
 from __future__ import annotations
 
-import hashlib
-from dataclasses import dataclass
+import dataclasses
+import math
 from typing import Any, Protocol
 
 import numpy as np
@@ -62,67 +63,75 @@ def max_tension_n(max_torque_nm: float, r_winch_m: float) -> float:
     return max_torque_nm / r_winch_m
 
 
-@dataclass(frozen=True)
-class RatedDrive:
-    """A drive of the same design as ``base``, rated at another speed, torque and power.
+#: the similarity law of :func:`carry_power_model`, as recorded in a carried model
+SIMILARITY_LAW = ("P_elec(n, T) = P_mech(n, T) + k_n k_T L_base(n / k_n, T / k_T), "
+                  "L_base = P_elec_base - P_mech_base: c_ij -> k_n^(1-i) k_T^(1-j) c_ij")
 
-    ``P(n, T) = k_P * P_base(n * n_base / n_rated, T * T_base / T_rated)`` with
-    ``k_P = P_rated / P_base``: the base model's efficiency map stretched onto the new
-    ratings (similarity scaling). Serves systems whose drive has no bench fit, such as
-    the shipped AP2- and MegAWES-size systems in the cold-start benchmark.
+
+def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
+                      drive: dict | None = None, name: str | None = None) -> Any:
+    """The power model of a drive of the same design as ``base``, rated ``speed_ratio``
+    times its speed and ``torque_ratio`` times its torque (the similarity law).
+
+    With ``k_n = speed_ratio`` and ``k_T = torque_ratio``::
+
+        P_elec(n, T) = P_mech(n, T) + k_n k_T L_base(n / k_n, T / k_T)
+
+    where ``L_base = P_elec_base - P_mech_base`` is the base drive's loss at the
+    corresponding operating point ``(n / k_n, T / k_T)``. Because ``P_mech = n T``
+    (in consistent units) scales by ``k_n k_T`` too, ``P_elec(n, T) = k_n k_T
+    P_elec_base(n / k_n, T / k_T)``: the efficiency at corresponding points is the
+    base drive's, the losses stay >= 0 where the base's are, and the sign
+    convention is kept (generating: ``|P_elec| < |P_mech|``). For a polynomial
+    term ``c n^i T^j`` that is ``c -> k_n^(1-i) k_T^(1-j) c``; the covariance scales
+    with the same factors and the validity domain by ``k_n`` in speed and ``k_T``
+    in torque. ``k_n = 1`` is the axial (stack-length) scaling of a permanent-magnet
+    machine (torque ~ active volume: S. Stipetic, D. Zarko, M. Popescu, "Ultra-fast
+    axial and radial scaling of synchronous permanent magnet machines", IET Electric
+    Power Applications 10(7), 2016); a speed ratio adds a rewound (or re-geared)
+    machine whose losses grow with its power.
 
     Parameters
     ----------
-    base : DriveModel
-        A power model with ``nominal_power_w`` and ``sha256`` (``PowerModel``).
-    base_speed_rpm, base_torque_nm : float
-        Ratings of the base drive [rpm], [N m].
-    speed_rpm, torque_nm, nominal_power_w : float
-        Ratings of this drive [rpm], [N m], [W].
+    base : fitting.model_file.PowerModel
+    speed_ratio, torque_ratio : float
+        ``k_n``, ``k_T`` > 0 [-].
+    drive : dict, optional
+        The carried drive's rating (``DriveRating.to_dict()``); its
+        ``nominal_power_w`` becomes the model's nominal power. Default: the base
+        rating times the ratios (nominal power times ``k_n k_T``).
+    name : str, optional
+        Model name (default: the base name and the ratios).
+
+    Returns
+    -------
+    fitting.model_file.PowerModel
     """
-
-    base: Any
-    base_speed_rpm: float
-    base_torque_nm: float
-    speed_rpm: float
-    torque_nm: float
-    nominal_power_w: float
-
-    @property
-    def name(self) -> str:
-        """Readable name."""
-        return (f"{self.base.name} rated at {self.speed_rpm:g} rpm, {self.torque_nm:g} N m, "
-                f"{self.nominal_power_w:g} W")
-
-    @property
-    def drive(self) -> dict:
-        """The ratings, as a power model file's ``drive`` mapping."""
-        return {"max_speed_rpm": self.speed_rpm, "max_torque_nm": self.torque_nm,
-                "nominal_power_w": self.nominal_power_w}
-
-    @property
-    def domain(self) -> None:
-        """No measured validity domain: the rating is a similarity assumption."""
-        return None
-
-    @property
-    def sha256(self) -> str:
-        """Hash of the base model and the ratings."""
-        text = f"{self.base.sha256}|{self.base_speed_rpm!r}|{self.base_torque_nm!r}|" \
-               f"{self.speed_rpm!r}|{self.torque_nm!r}|{self.nominal_power_w!r}"
-        return hashlib.sha256(text.encode()).hexdigest()
-
-    def _args(self, speed_rpm: Any, torque_nm: Any) -> tuple[Any, Any, float]:
-        return (speed_rpm * (self.base_speed_rpm / self.speed_rpm),
-                torque_nm * (self.base_torque_nm / self.torque_nm),
-                self.nominal_power_w / self.base.nominal_power_w)
-
-    def casadi_p_elec_w(self, speed_rpm: Any, torque_nm: Any) -> Any:
-        """Electrical power drawn from the grid [W] (CasADi expression)."""
-        n, t, k = self._args(speed_rpm, torque_nm)
-        return k * self.base.casadi_p_elec_w(n, t)
-
-    def p_elec_w(self, speed_rpm: Any, torque_nm: Any) -> np.ndarray:
-        """Electrical power drawn from the grid [W] (numpy)."""
-        n, t, k = self._args(np.asarray(speed_rpm, float), np.asarray(torque_nm, float))
-        return k * np.asarray(self.base.p_elec_w(n, t))
+    k_n, k_t = float(speed_ratio), float(torque_ratio)
+    if not (math.isfinite(k_n) and k_n > 0 and math.isfinite(k_t) and k_t > 0):
+        raise ValueError(f"speed and torque ratios must be > 0, got {speed_ratio}, {torque_ratio}")
+    f = np.array([k_n ** (1 - i) * k_t ** (1 - j) for i, j in base.terms])
+    cov = None
+    if base.covariance_rpm is not None:
+        cov = tuple(map(tuple, np.array(base.covariance_rpm) * np.outer(f, f)))
+    if drive is None and base.drive is not None:
+        drive = {**base.drive, "max_speed_rpm": base.drive["max_speed_rpm"] * k_n,
+                 "max_torque_nm": base.drive["max_torque_nm"] * k_t,
+                 "nominal_power_w": base.drive["nominal_power_w"] * k_n * k_t,
+                 "source": f"{base.drive.get('source', '')}; carried x{k_n:g} in speed, "
+                           f"x{k_t:g} in torque"}
+        for key in ("continuous_torque_nm", "max_p_elec_w"):
+            if drive.get(key) is not None:
+                drive[key] *= k_t if key == "continuous_torque_nm" else k_n * k_t
+    nominal = drive["nominal_power_w"] if drive is not None else base.nominal_power_w * k_n * k_t
+    domain = None
+    if base.domain is not None:
+        domain = {q: [[n * k_n, t * k_t] for n, t in poly] for q, poly in base.domain.items()}
+    provenance = {"carried_from": {"name": base.name, "model_sha256": base.sha256,
+                                   "provenance": base.provenance},
+                  "speed_ratio": k_n, "torque_ratio": k_t, "law": SIMILARITY_LAW}
+    return dataclasses.replace(
+        base, coefficients_rpm=tuple(np.array(base.coefficients_rpm) * f), covariance_rpm=cov,
+        nominal_power_w=nominal, domain=domain, statistics=None, provenance=provenance,
+        drive=drive, name=name or f"{base.name} carried x{k_n:.4g} speed, x{k_t:.4g} torque",
+    )

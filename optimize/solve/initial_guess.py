@@ -32,6 +32,7 @@ from optimize.problem.ocp import Ocp, OcpOptions, build_ocp
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start, power_weights
 from optimize.solve.result import OcpResult, Solution
+from optimize.system.drive import drive_in_force
 from optimize.system.system import load_system
 
 log = logging.getLogger(__name__)
@@ -117,8 +118,9 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     system, model = load_system(), paper_model()
+    rating = drive_in_force(system, model=model).rating
     ocp = build_ocp(kite_dae(*system.model_params()), model,
-                    system.ocp_options(OcpOptions(), model), system=system)
+                    system.ocp_options(OcpOptions(), rating), system=system)
     result = cold_start(ocp, GUESS_SCENARIO)
     if not result.success:
         log.error("%s: %s, no guess written", GUESS_SCENARIO.name, result.status)

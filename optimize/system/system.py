@@ -90,12 +90,18 @@ class WinchSection:
 
 @dataclass(frozen=True)
 class DriveSection:
-    """``[drive]``: limits at the motor shaft; ``None`` = take it from the power model."""
+    """``[drive]``: the drive's rating at the motor shaft and where its losses come from
+    (resolved by :func:`optimize.system.drive.drive_in_force`); ``None`` = not stated."""
 
     max_speed_rpm: float | None
     max_torque_nm: float | None
     nominal_power_w: float | None
     max_p_elec_w: float | None
+    continuous_torque_nm: float | None = None
+    overload: float | None = None
+    losses: str | None = None  # "paper" or a power_model.json path relative to the file
+    scaling: str | None = None  # "similarity" or "none"
+    source: str | None = None
 
 
 @dataclass(frozen=True)
@@ -127,26 +133,6 @@ class BoundsSection:
 
 
 @dataclass(frozen=True)
-class DriveLimits:
-    """The drive limits in force and where each came from."""
-
-    max_speed_rpm: float
-    max_torque_nm: float
-    nominal_power_w: float
-    max_p_elec_w: float | None
-    sources: dict
-
-    def describe(self) -> str:
-        """One line: each limit in force and where it came from."""
-        parts = [f"|speed| <= {self.max_speed_rpm:g} rpm ({self.sources['max_speed_rpm']})",
-                 f"torque <= {self.max_torque_nm:g} N m ({self.sources['max_torque_nm']})",
-                 f"nominal {self.nominal_power_w:g} W ({self.sources['nominal_power_w']})"]
-        if self.max_p_elec_w is not None:
-            parts.append(f"|P_elec| <= {self.max_p_elec_w:g} W (system file)")
-        return "drive limits: " + ", ".join(parts)
-
-
-@dataclass(frozen=True)
 class System:
     """A whole system file, validated.
 
@@ -161,6 +147,9 @@ class System:
         The file's content as read (recorded in every output).
     sha256 : str
         Hash of the parsed content (canonical JSON): the system's identity.
+    paper_system : bool
+        Whether this is the system of the paper the product implements
+        (``[system] paper_system``): only then is a sweep compared with the paper.
     """
 
     name: str
@@ -175,6 +164,7 @@ class System:
     path: str
     text: str
     sha256: str
+    paper_system: bool = False
 
     # -------------------------------------------------------------- model parameters
     def kite_params(self) -> KiteParams:
@@ -207,64 +197,28 @@ class System:
         """Lowest allowed CG altitude above ground [m]: the file's value, at least half the span."""
         return max(self.bounds.min_ground_clearance_m, 0.5 * self.kite.span_m)
 
-    def drive_limits(self, drive_model: Any = None) -> DriveLimits:
-        """Drive limits: the power model's ``drive`` limits where present, else this file's.
+    def ocp_options(self, options: Any, rating: Any) -> Any:
+        """``options`` (an ``OcpOptions``) with this system's bounds and a drive's limits.
 
         Parameters
         ----------
-        drive_model : fitting.model_file.PowerModel, optional
-            Its ``drive`` mapping (keys ``max_speed_rpm``, ``max_torque_nm``,
-            ``nominal_power_w``) takes precedence; its ``nominal_power_w`` is the
-            fallback nominal power.
-
-        Raises
-        ------
-        InputError
-            When a limit is in neither.
+        options : optimize.problem.ocp.OcpOptions
+        rating : bench.drive.DriveRating
+            The drive in force (:func:`optimize.system.drive.drive_in_force`): speed and
+            torque limits, nominal power, the RMS torque bound of its continuous
+            rating (when below the torque limit) and the grid power limit.
         """
-        keys = ("max_speed_rpm", "max_torque_nm", "nominal_power_w")
-        given = getattr(drive_model, "drive", None) or {}
-        from_model = ({k: given.get(k) for k in keys} if isinstance(given, dict)
-                      else {k: getattr(given, k, None) for k in keys})
-        nominal_model = getattr(drive_model, "nominal_power_w", None)
-        values, sources = {}, {}
-        for key in keys:
-            if _number(from_model[key]) and from_model[key] > 0:
-                values[key], sources[key] = float(from_model[key]), "power model"
-                own = getattr(self.drive, key)
-                if own is not None and not math.isclose(own, values[key], rel_tol=1e-9):
-                    sources[key] += f" (overrides the system file's {own:g})"
-            elif getattr(self.drive, key) is not None:
-                values[key], sources[key] = float(getattr(self.drive, key)), "system file"
-            elif key == "nominal_power_w" and _number(nominal_model) and nominal_model > 0:
-                values[key], sources[key] = float(nominal_model), "power model"
-            else:
-                raise InputError(self.path, f"[drive] {key}: not in the system file and not "
-                                 "in the power model's drive limits",
-                                 expected=f"{key} in [drive] of the system file")
-        sources["max_p_elec_w"] = "system file" if self.drive.max_p_elec_w else "none"
-        return DriveLimits(values["max_speed_rpm"], values["max_torque_nm"],
-                           values["nominal_power_w"], self.drive.max_p_elec_w, sources)
-
-    def ocp_options(self, options: Any, drive_model: Any = None) -> Any:
-        """``options`` (an ``OcpOptions``) with this system's bounds and drive limits.
-
-        Raises
-        ------
-        InputError
-            When a drive limit is neither in the power model nor in the file.
-        """
-        limits = self.drive_limits(drive_model)
         b, a = self.bounds, self.aero
         return dataclasses.replace(
             options,
             period_bounds_s=(b.period_min_s, b.period_max_s),
             tether_length_bounds_m=(b.tether_length_min_m, b.tether_length_max_m),
             min_altitude_m=self.ground_clearance_m(),
-            max_speed_rpm=limits.max_speed_rpm,
-            max_torque_nm=limits.max_torque_nm,
-            max_p_elec_w=limits.max_p_elec_w,
-            nominal_power_w=limits.nominal_power_w,
+            max_speed_rpm=rating.max_speed_rpm,
+            max_torque_nm=rating.max_torque_nm,
+            max_p_elec_w=rating.max_p_elec_w,
+            nominal_power_w=rating.nominal_power_w,
+            max_rms_torque_nm=rating.rms_torque_limit_nm,
             min_airspeed_m_s=b.min_airspeed_m_s,
             alpha_bounds_deg=(a.alpha_min_deg, a.alpha_max_deg),
             beta_bounds_deg=(a.beta_min_deg, a.beta_max_deg),
@@ -285,9 +239,10 @@ class System:
 # ------------------------------------------------------------------ parsing
 _SECTIONS = ("system", "kite", "aero", "tether", "winch", "drive", "wind", "bounds")
 _OPTIONAL = {
-    "drive": {"max_speed_rpm", "max_torque_nm", "nominal_power_w", "max_p_elec_w"},
+    "drive": {"max_speed_rpm", "max_torque_nm", "nominal_power_w", "max_p_elec_w",
+              "continuous_torque_nm", "overload", "losses", "scaling", "source"},
     "wind": {"roughness_length_m", "exponent"},
-    "system": {"description"},
+    "system": {"description", "paper_system"},
 }
 
 
@@ -352,6 +307,22 @@ def _aero(r: _Reader) -> AeroSection:
     return AeroSection(coeffs, a_lo, a_hi, b_lo, b_hi)
 
 
+def _drive(r: _Reader) -> DriveSection:
+    from optimize.system.drive import SCALING_CHOICES
+
+    numbers = {k: r.number(k, 0, optional=True) for k in
+               ("max_speed_rpm", "max_torque_nm", "nominal_power_w", "max_p_elec_w",
+                "continuous_torque_nm", "overload")}
+    if numbers["overload"] is not None and numbers["overload"] < 1:
+        raise r.error("overload", f"{numbers['overload']!r}", "a factor >= 1 (peak torque over "
+                      "continuous torque)")
+    drive = DriveSection(**numbers, losses=r.text("losses", optional=True),
+                         scaling=r.text("scaling", SCALING_CHOICES, optional=True),
+                         source=r.text("source", optional=True))
+    r.done()
+    return drive
+
+
 def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> System:
     """Validate a parsed system file (see :func:`load_system`)."""
     if not isinstance(data, dict):
@@ -366,6 +337,9 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
                              expected="sections " + ", ".join(_SECTIONS))
     r = _Reader(path, "system", data["system"])
     name, description = r.text("name"), r.text("description", optional=True) or ""
+    paper_system = r.data.pop("paper_system", False)
+    if not isinstance(paper_system, bool):
+        raise r.error("paper_system", f"{paper_system!r} is not a boolean", "true or false")
     r.done()
 
     r = _Reader(path, "kite", data["kite"])
@@ -394,10 +368,7 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
     winch = WinchSection(r.number("drum_radius_m", 0), r.number("gear_ratio", 0))
     r.done()
 
-    r = _Reader(path, "drive", data["drive"])
-    drive = DriveSection(*(r.number(k, 0, optional=True) for k in
-                           ("max_speed_rpm", "max_torque_nm", "nominal_power_w", "max_p_elec_w")))
-    r.done()
+    drive = _drive(_Reader(path, "drive", data["drive"]))
 
     r = _Reader(path, "wind", data["wind"])
     profile = r.text("profile", ("log", "power"))
@@ -431,7 +402,7 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
 
     canonical = json.dumps(data, sort_keys=True, separators=(",", ":"))
     return System(name, description, kite, aero, tether, winch, drive, wind, bounds, path,
-                  text, hashlib.sha256(canonical.encode("utf-8")).hexdigest())
+                  text, hashlib.sha256(canonical.encode("utf-8")).hexdigest(), paper_system)
 
 
 def load_system(path: str | Path | None = None) -> System:

@@ -40,7 +40,7 @@ def test_recovers_the_campaign_truth(raw_store, weighting):
     frame = load_points(raw_store).frame
     w = quadrant_weights(frame["quadrant"].to_numpy()) if weighting == "quadrant" else None
     fit = fit_power_model(frame["speed_rpm"], frame["torque_nm"], frame["p_elec_w"],
-                          PAPER_TERMS, weights=w)
+                          PAPER_TERMS, weights=w, nominal_power_w=8200.0)
     rel = np.abs(fit.coefficients_rpm / a - 1)
     assert rel[0] < 0.10, rel
     assert np.all(rel[1:] < 0.03), rel

@@ -41,7 +41,8 @@ def test_fitted_models_pass(order):
     frame = synthetic_points(paper_quadratic)
     frame["quadrant"] = quadrant_of(frame["p_mech_w"].to_numpy())
     fit = fit_power_model(frame["speed_rpm"].to_numpy(), frame["torque_nm"].to_numpy(),
-                          frame["p_elec_w"].to_numpy(), full_polynomial(order))
+                          frame["p_elec_w"].to_numpy(), full_polynomial(order),
+                          nominal_power_w=8200.0)
     domain = {q: env["polygon"] for q, env in quadrant_envelopes(frame).items()}
     model = fit.to_power_model(f"order {order}", domain=domain)
     assert physics_problems(model) == []

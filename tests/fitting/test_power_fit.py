@@ -13,7 +13,8 @@ NOISE_W = 0.016 * 8200  # the paper's residual std: 1.6 % of nominal power
 
 def _fit(df, terms=PAPER_TERMS, weights="quadrant"):
     w = quadrant_weights(df["quadrant"].to_numpy()) if weights == "quadrant" else None
-    return fit_power_model(df["speed_rpm"], df["torque_nm"], df["p_elec_w"], terms, weights=w)
+    return fit_power_model(df["speed_rpm"], df["torque_nm"], df["p_elec_w"], terms, weights=w,
+                           nominal_power_w=8200.0)
 
 
 def test_recovers_paper_quadratic():

@@ -26,7 +26,8 @@ def polynomial_truth(order: int, seed: int):
 def _select(df, folds=5):
     return select_model(df["speed_rpm"].to_numpy(), df["torque_nm"].to_numpy(),
                         df["p_elec_w"].to_numpy(), df["quadrant"].to_numpy(),
-                        quadrant_weights(df["quadrant"].to_numpy()), folds=folds)
+                        quadrant_weights(df["quadrant"].to_numpy()), folds=folds,
+                        nominal_power_w=8200.0)
 
 
 @pytest.mark.parametrize("order", [1, 2, 3, 4, 5, 6])
@@ -67,7 +68,8 @@ def test_extra_terms_check_on_a_quadratic_truth():
     # noise: at most ~3 noise std (40 W) at the points.
     df = synthetic_points(paper_quadratic, noise_w=40.0, seed=8)
     w = quadrant_weights(df["quadrant"].to_numpy())
-    out = extra_terms_check(df["speed_rpm"], df["torque_nm"], df["p_elec_w"], w)
+    out = extra_terms_check(df["speed_rpm"], df["torque_nm"], df["p_elec_w"], w,
+                            rated_speed_rpm=1500.0, rated_torque_nm=78.0, nominal_power_w=8200.0)
     assert out["model_difference"]["max_abs_w"] < 3 * 40.0
     assert set(out["paper_terms"]) == {"w^2*T^2", "w^4"}
     # the eq. 4 reference sizes are the truth's a1 * 1500^2 and a2 * 78^2 (the

@@ -1,0 +1,210 @@
+"""The drive in force: which drive flies a system, its rating and its losses.
+
+A system file's ``[drive]`` (docs/system_file.md) states the drive's rating and
+where its losses come from. :func:`drive_in_force` resolves both:
+
+- the **losses** (a power model file): ``--drive-model`` when given, else the
+  file's ``losses`` key (``"paper"`` or a ``power_model.json`` path relative to
+  the system file), else ``fit_out/power_model.json`` of ``bench fit`` when it
+  exists, else the shipped paper model;
+- the **rating** (:class:`bench.drive.DriveRating`): each key of ``[drive]``; a
+  key the file leaves out comes from the power model's own rating (said so);
+- how the losses are **carried** to the rating: ``scaling = "similarity"``
+  (:func:`optimize.model.drive.carry_power_model` with the speed ratio ``k_n`` of
+  the speed ratings and the torque ratio ``k_T`` of the nominal torques, nominal
+  power over rated speed, so ``k_n k_T`` is the ratio of nominal powers) or
+  ``"none"`` (the model as it is). Without the key a model whose rating differs
+  from the system's by more than :data:`RATING_RATIO_LIMIT` in speed, torque or
+  nominal power is refused (exit 2) naming the key.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from bench.drive import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS, DriveRating
+from bench.errors import InputError
+
+#: ``[drive] losses`` value naming the shipped paper model
+LOSSES_PAPER = "paper"
+#: ``[drive] scaling`` values: carry the losses by the similarity law, or use them as they are
+SCALING_CHOICES = ("similarity", "none")
+#: a power model whose speed or torque rating differs from the system's by more than this
+#: factor is not used without a ``[drive] scaling`` key
+RATING_RATIO_LIMIT = 1.5
+
+
+@dataclass(frozen=True)
+class DriveInForce:
+    """The drive a system flies with.
+
+    Attributes
+    ----------
+    rating : DriveRating
+        The limits and nominal power in force.
+    model : fitting.model_file.PowerModel
+        The losses at this rating (the OCP's power model; carried when scaled).
+    model_path : Path
+        The power model file the losses were read from.
+    losses_note : str
+        Why that file.
+    speed_ratio, torque_ratio : float or None
+        The similarity law's ratios when carried, else None.
+    """
+
+    rating: DriveRating
+    model: Any
+    model_path: Path
+    losses_note: str
+    speed_ratio: float | None = None
+    torque_ratio: float | None = None
+
+    @property
+    def carried(self) -> bool:
+        """Whether the losses were carried to the rating by the similarity law."""
+        return self.speed_ratio is not None
+
+    def lines(self) -> list[str]:
+        """What ``bench optimize`` prints about the drive in force."""
+        out = [f"drive in force: {self.rating.line().removeprefix('drive: ')}",
+               f"drive losses: {self.model_path} ({self.losses_note})"]
+        if self.carried:
+            out.append(f"drive losses carried to this rating by the similarity law "
+                       f"(speed x{self.speed_ratio:.4g}, torque x{self.torque_ratio:.4g}; "
+                       "docs/system_file.md)")
+        return out
+
+    def record(self) -> dict:
+        """The manifest's ``drive`` record."""
+        return {"rating": self.rating.to_dict(), "losses_path": str(self.model_path),
+                "losses_note": self.losses_note, "speed_ratio": self.speed_ratio,
+                "torque_ratio": self.torque_ratio, "model_sha256": self.model.sha256}
+
+
+def loss_model_path(system: Any, override: Path | None = None,
+                    fit_default: Path | None = None) -> tuple[Path, str]:
+    """The power model file that gives the losses, and why (see the module docstring)."""
+    from fitting.model_file import PAPER_MODEL_PATH
+
+    if override is not None:
+        return Path(override), "--drive-model"
+    losses = system.drive.losses
+    if losses == LOSSES_PAPER:
+        return PAPER_MODEL_PATH, f"the shipped paper model, [drive] losses of {system.path}"
+    if losses is not None:
+        path = Path(losses)
+        if not path.is_absolute():
+            path = Path(system.path).parent / path
+        return path, f"[drive] losses of {system.path}"
+    if fit_default is not None and Path(fit_default).is_file():
+        return Path(fit_default), f"from bench fit; {system.path} names no [drive] losses"
+    return PAPER_MODEL_PATH, (f"the shipped paper model: no {fit_default} found and "
+                              f"{system.path} names no [drive] losses"
+                              if fit_default is not None else "the shipped paper model")
+
+
+def rating_in_force(system: Any, model: Any, model_path: Path | str) -> DriveRating:
+    """The system's ``[drive]`` rating; a key it leaves out from the power model's rating.
+
+    Raises
+    ------
+    InputError
+        When a rating key is in neither.
+    """
+    d = system.drive
+    given = getattr(model, "drive", None) or {}
+    values, borrowed = {}, []
+    for key in DRIVE_KEYS:
+        own = getattr(d, key)
+        if own is not None:
+            values[key] = own
+        elif given.get(key) is not None:
+            values[key] = float(given[key])
+            borrowed.append(key)
+        elif key == "nominal_power_w":
+            values[key] = float(model.nominal_power_w)
+            borrowed.append(key)
+        else:
+            raise InputError(system.path, f"[drive] {key}: not in the system file and not in "
+                             f"the power model's rating ({model_path})",
+                             expected=f"{key} in [drive] of the system file")
+    source = f"{system.path} [drive]" + (f": {d.source}" if d.source else "")
+    if borrowed:
+        source += f"; {', '.join(borrowed)} from {model_path}"
+    optional = {k: getattr(d, k) for k in OPTIONAL_DRIVE_KEYS}
+    try:
+        return DriveRating(**values, source=source, **optional)
+    except ValueError as exc:
+        raise InputError(system.path, f"[drive]: {exc}") from None
+
+
+def _factor(ratio: float) -> float:
+    """How many times larger or smaller: ``max(ratio, 1 / ratio)``."""
+    return max(ratio, 1.0 / ratio)
+
+
+def drive_in_force(system: Any, override: Path | None = None, fit_default: Path | None = None,
+                   model: Any = None) -> DriveInForce:
+    """Resolve the drive a system flies with (see the module docstring).
+
+    Parameters
+    ----------
+    system : optimize.system.system.System
+    override : Path, optional
+        ``--drive-model``: the losses' file, whatever the system file says.
+    fit_default : Path, optional
+        ``bench fit``'s output, used when it exists and the file names no losses.
+    model : fitting.model_file.PowerModel, optional
+        The losses already loaded (from ``override``; for library callers).
+
+    Raises
+    ------
+    InputError
+        A rating key in neither file, a model that cannot be read, or ratings that
+        differ by more than :data:`RATING_RATIO_LIMIT` without ``[drive] scaling``.
+    """
+    from fitting.model_file import load_power_model
+    from optimize.model.drive import carry_power_model
+
+    if model is not None:
+        path, note = Path(override or "<power model>"), "given"
+    else:
+        path, note = loss_model_path(system, override, fit_default)
+        model = load_power_model(path)
+    rating = rating_in_force(system, model, path)
+    base = getattr(model, "drive", None)
+    scaling = system.drive.scaling
+    if scaling == "none":
+        return DriveInForce(rating, model, path, note)
+    if base is None:
+        if scaling == "similarity":
+            raise InputError(system.path, f'[drive] scaling = "similarity": the power model '
+                             f"{path} states no rating to carry its losses from",
+                             expected='a power model with a "drive" rating, or scaling = "none"')
+        return DriveInForce(rating, model, path, note)
+    base_rating = (float(base["max_speed_rpm"]), float(base["max_torque_nm"]),
+                   float(base["nominal_power_w"]))
+    ratios = {"max_speed_rpm": rating.max_speed_rpm / base_rating[0],
+              "max_torque_nm": rating.max_torque_nm / base_rating[1],
+              "nominal_power_w": rating.nominal_power_w / base_rating[2]}
+    if scaling is None:
+        if max(_factor(r) for r in ratios.values()) > RATING_RATIO_LIMIT:
+            raise InputError(
+                system.path,
+                f"[drive]: this drive ({rating.max_speed_rpm:g} rpm, {rating.max_torque_nm:g} "
+                f"N m, {rating.nominal_power_w:g} W) differs from the rating of its power model "
+                f"{path} ({base_rating[0]:g} rpm, {base_rating[1]:g} N m, {base_rating[2]:g} W) "
+                f"by more than x{RATING_RATIO_LIMIT:g}, and the file does not say how to carry "
+                "the losses over",
+                expected='[drive] scaling = "similarity" (carry the losses to this rating, '
+                         'docs/system_file.md) or scaling = "none" (use them as they are)')
+        return DriveInForce(rating, model, path, note)
+    # the machine's size: speed ratio and ratio of nominal torques (nominal power / speed)
+    k_n = ratios["max_speed_rpm"]
+    k_t = ratios["nominal_power_w"] / k_n
+    carried = carry_power_model(model, k_n, k_t, drive=rating.to_dict(),
+                                name=f"{model.name} carried to {rating.max_speed_rpm:g} rpm, "
+                                     f"{rating.max_torque_nm:g} N m")
+    return DriveInForce(rating, carried, path, note, k_n, k_t)

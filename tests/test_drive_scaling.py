@@ -1,0 +1,152 @@
+"""The similarity law that carries a drive's losses to another rating, and the drive in force.
+
+Truths: the base model evaluated at the corresponding operating point (the law's
+definition, evaluated through the base model, not through the carried
+coefficients), the closed form P_mech = omega T, and the sign convention (a real
+drive draws more than it delivers when motoring, returns less than it receives
+when generating).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bench.cli import main
+from bench.errors import InputError
+from fitting.model_file import paper_model
+from optimize.model.drive import RPM_PER_RAD_S, carry_power_model
+from optimize.system.drive import drive_in_force
+from optimize.system.system import load_system, shipped_system_path, system_from_dict
+
+RATIOS = [(1.0, 1.0), (0.6366, 3.831), (0.3979, 919.5), (2.0, 0.5)]
+
+
+def _p_mech_w(speed_rpm, torque_nm):
+    return speed_rpm / RPM_PER_RAD_S * torque_nm
+
+
+def _box(speed_rpm: float, torque_nm: float):
+    """A grid over both quadrants of a rated box, away from the axes."""
+    n = np.concatenate([np.linspace(-speed_rpm, -0.1 * speed_rpm, 7),
+                        np.linspace(0.1 * speed_rpm, speed_rpm, 7)])
+    t = np.linspace(0.1 * torque_nm, torque_nm, 6)
+    return np.meshgrid(n, t)
+
+
+@pytest.mark.parametrize(("k_n", "k_t"), RATIOS)
+def test_carried_efficiency_at_corresponding_points_is_the_base_machines(k_n, k_t):
+    base = paper_model()
+    carried = carry_power_model(base, k_n, k_t)
+    n, t = _box(1500.0, 78.0)
+    eta_base = _p_mech_w(n, t) / base.p_elec_w(n, t)
+    eta_carried = _p_mech_w(k_n * n, k_t * t) / carried.p_elec_w(k_n * n, k_t * t)
+    np.testing.assert_allclose(eta_carried, eta_base, rtol=1e-12)
+    # losses scale with the machine: k_n k_T times the base loss at the corresponding point
+    loss_base = base.p_elec_w(n, t) - _p_mech_w(n, t)
+    loss = carried.p_elec_w(k_n * n, k_t * t) - _p_mech_w(k_n * n, k_t * t)
+    np.testing.assert_allclose(loss, k_n * k_t * loss_base, rtol=1e-9)
+    assert carried.nominal_power_w == pytest.approx(k_n * k_t * base.nominal_power_w)
+    assert carried.drive["max_speed_rpm"] == pytest.approx(k_n * 1500.0)
+    assert carried.drive["max_torque_nm"] == pytest.approx(k_t * 78.0)
+
+
+def test_carried_model_keeps_the_sign_convention_and_scales_domain_and_covariance():
+    base = paper_model()
+    cov = np.diag([1.0, 2e-8, 1e-4, 1e-6])
+    from dataclasses import replace
+
+    base = replace(base, covariance_rpm=tuple(map(tuple, cov)))
+    k_n, k_t = 0.6366, 3.831
+    carried = carry_power_model(base, k_n, k_t)
+    n, t = _box(k_n * 1500.0, k_t * 78.0)
+    p_mech, p_elec = _p_mech_w(n, t), carried.p_elec_w(n, t)
+    # losses > 0: generating returns less than the shaft gives (where it returns anything;
+    # at low torque and high speed the losses exceed the shaft power), motoring draws more
+    assert np.all(p_elec > p_mech)
+    gen, mot = (n < 0) & (p_elec < 0), n > 0
+    assert gen.sum() > 0.5 * (n < 0).sum()
+    assert np.all(np.abs(p_elec[gen]) < np.abs(p_mech[gen]))
+    assert np.all(np.abs(p_elec[mot]) > np.abs(p_mech[mot]))
+    # the rating's corner: more drawn than delivered when motoring (the old law drew less)
+    corner = carried.p_elec_w(k_n * 1500.0, k_t * 78.0)
+    assert corner > _p_mech_w(k_n * 1500.0, k_t * 78.0)
+    # the validity domain's corners move with the ratios
+    assert [k_n * 1500.0, k_t * 78.0] in [[pytest.approx(a), pytest.approx(b)]
+                                          for a, b in carried.domain["motor"]]
+    # covariance: the same factors k_n^(1-i) k_T^(1-j) on both sides
+    f = np.array([k_n ** (1 - i) * k_t ** (1 - j) for i, j in base.terms])
+    np.testing.assert_allclose(np.array(carried.covariance_rpm), cov * np.outer(f, f))
+
+
+def test_carried_shipped_drives_generate_less_than_the_shaft_and_motor_more():
+    for name in ("ap2", "megawes"):
+        drive = drive_in_force(load_system(shipped_system_path(name)))
+        assert drive.carried
+        r = drive.rating
+        n, t = _box(r.max_speed_rpm, r.max_torque_nm)
+        p_mech, p_elec = _p_mech_w(n, t), drive.model.p_elec_w(n, t)
+        assert np.all(p_elec - p_mech > 0), name  # losses > 0 over the rated box
+        # efficiency at corresponding points: the paper drive's
+        base = paper_model()
+        k_n, k_t = drive.speed_ratio, drive.torque_ratio
+        np.testing.assert_allclose(p_elec / p_mech,
+                                   base.p_elec_w(n / k_n, t / k_t) / _p_mech_w(n / k_n, t / k_t),
+                                   rtol=1e-9)
+        assert k_n * k_t * base.nominal_power_w == pytest.approx(r.nominal_power_w)
+
+
+def _ap2_data() -> dict:
+    return tomllib.loads(shipped_system_path("ap2").read_text())
+
+
+def test_a_drive_far_from_its_power_model_needs_a_scaling_key():
+    data = _ap2_data()
+    del data["drive"]["scaling"]
+    system = system_from_dict(data, "my_kite.toml")
+    with pytest.raises(InputError, match=r'scaling = "similarity"') as err:
+        drive_in_force(system)
+    assert "my_kite.toml" in str(err.value)
+    # "none": the losses as they are, the rating the system's
+    data["drive"]["scaling"] = "none"
+    drive = drive_in_force(system_from_dict(data, "my_kite.toml"))
+    assert not drive.carried and drive.model.sha256 == paper_model().sha256
+    assert drive.rating.max_torque_nm == 360.0
+    # within x1.5 of the model's rating: used as it is, no key needed
+    data = _ap2_data()
+    del data["drive"]["scaling"]
+    data["drive"].update(max_speed_rpm=1400.0, max_torque_nm=100.0, nominal_power_w=9000.0)
+    assert not drive_in_force(system_from_dict(data, "my_kite.toml")).carried
+
+
+def test_bench_optimize_stops_with_exit_2_naming_the_key(tmp_path, capsys):
+    data = _ap2_data()
+    text = shipped_system_path("ap2").read_text().replace('scaling = "similarity"\n', "")
+    assert "scaling" not in tomllib.loads(text)["drive"] and data["drive"]["scaling"]
+    path = tmp_path / "my_kite.toml"
+    path.write_text(text)
+    code = main(["optimize", "--system", str(path), "--wind-grid", "7",
+                 "--out", str(tmp_path / "o")])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "scaling" in err and str(path) in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_losses_path_is_relative_to_the_system_file(tmp_path):
+    from fitting.model_file import save_power_model
+
+    folder = tmp_path / "kite"
+    folder.mkdir()
+    save_power_model(paper_model(), folder / "my_drive.json")
+    data = _ap2_data()
+    data["drive"]["losses"] = "my_drive.json"
+    system = system_from_dict(data, str(folder / "kite.toml"))
+    drive = drive_in_force(system)
+    assert drive.model_path == Path(folder / "my_drive.json") and drive.carried
+    # --drive-model overrides the file's losses
+    other = drive_in_force(system, Path(folder / "my_drive.json"))
+    assert other.losses_note == "--drive-model"
