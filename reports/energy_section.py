@@ -162,8 +162,8 @@ def coverage_note(row: dict) -> str:
     parts = [f"{_pct(above)} above {hi:g} m/s count as zero"]
     if below > 0:
         parts.insert(0, f"{_pct(below)} below {lo:g} m/s "
-                     + ("count as zero" if left > above else "deliver nothing (under the "
-                        f"cut-in, {fmt(row.get('cut_in_elec_m_s'), 2)} m/s)"))
+                     + ("count as zero" if left > above else "deliver nothing, under the "
+                        f"cut-in of {fmt(row.get('cut_in_elec_m_s'), 2)} m/s"))
     verdict = "" if left < 0.01 else "only part of the site's AEP: "
     return (f"{verdict}wind grid {lo:g}-{hi:g} m/s covers {_pct(1.0 - left)} of the site's "
             f"hours ({'; '.join(parts)})")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from energy.aep import curve_energy
@@ -46,3 +47,26 @@ def test_hours_below_a_cut_in_inside_the_grid_are_not_left_out():
     # delivers at 4 m/s: the hours below the grid are lost to it too
     e = curve_energy(v, np.array([-20.0, -100.0, -300.0]), site, 1000.0)
     assert e.share_left_out == pytest.approx(above + below, rel=1e-12)
+
+
+def test_key_results_state_the_share_of_hours_the_aep_covers(tmp_path):
+    from energy_fixtures import WINDS, model_with_covariance, write_optimize_folder
+
+    from bench.cli import main
+    from reports.render import build_context
+
+    folder = write_optimize_folder(tmp_path / "opt", model_with_covariance())
+    assert main(["aep", "--optimize", str(folder), "--rayleigh-mean", "5.5",
+                 "--out", str(tmp_path / "aep")]) == 0
+    none = tmp_path / "none"
+    ctx = build_context(none, none, none, ["bench", "report"], tmp_path / "aep", none)
+    row = dict(ctx["headline"])["electrical AEP (elec-lim)"]
+    # closed form: Rayleigh of mean 5.5 m/s, c = 2 x 5.5 / sqrt(pi), P(v > x) = exp(-(x/c)^2)
+    c = 2 * 5.5 / math.sqrt(math.pi)
+    lo, hi = min(WINDS), max(WINDS)
+    above, below = math.exp(-((hi / c) ** 2)), 1 - math.exp(-((lo / c) ** 2))
+    curves = pd.read_csv(tmp_path / "aep" / "power_curves.csv")
+    first = curves[curves["kind"] == "elec-lim"].sort_values("wind_speed_m_s").iloc[0]
+    left = above + (below if first["p_elec_w"] < 0 else 0.0)  # delivers at the grid's start
+    assert f"wind grid {lo:g}-{hi:g} m/s covers {100 * (1 - left):.1f} %" in row
+    assert ("only part of the site's AEP" in row) == (left >= 0.01)  # 4-10 m/s: 7.5 % above
