@@ -24,7 +24,8 @@ from energy.aep import aep_mwh
 from energy.site import Weibull
 from fitting.model_file import PAPER_MODEL_PATH, load_power_model
 from optimize.model.kite_model import kite_dae
-from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.problem.ocp import build_ocp
+from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.solve import solve, start
 from optimize.sweep.plan import KINDS, parse_wind_grid
@@ -34,7 +35,7 @@ class Solver:
     """``power(wind)`` for one kind, warm-started from the nearest solved speed; cached."""
 
     def __init__(self, model, kind: str, intervals: int) -> None:
-        self.ocp = build_ocp(kite_dae(), model, OcpOptions(n_intervals=intervals))
+        self.ocp = build_ocp(kite_dae(), model, OcpOptions(Discretization(n_intervals=intervals)))
         self.objective, self.limits = KINDS[kind]
         self.warm: dict[float, object] = {}
         self.cache: dict[float, float | None] = {}

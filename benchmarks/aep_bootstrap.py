@@ -38,11 +38,12 @@ from fitting.power_fit import fit_power_model, quadrant_weights
 def _setup(model, winds, intervals):
     """Build the OCP for ``model`` and solve elec-lim at each wind (from a cold start)."""
     from optimize.model.kite_model import kite_dae
-    from optimize.problem.ocp import OcpOptions, build_ocp
+    from optimize.problem.ocp import build_ocp
+    from optimize.problem.options import Discretization, OcpOptions
     from optimize.problem.scenario import Scenario
     from optimize.solve.solve import solve, start
 
-    dae, options = kite_dae(), OcpOptions(n_intervals=intervals)
+    dae, options = kite_dae(), OcpOptions(Discretization(n_intervals=intervals))
     ocp = build_ocp(dae, model, options)
     first = start(ocp, Scenario(7.0, "electrical", True))
     base = {}

@@ -14,7 +14,6 @@ larger than the CPU time.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import logging
 import statistics
@@ -22,8 +21,10 @@ import time
 
 from fitting.model_file import paper_model
 from optimize.model.kite_model import kite_dae
-from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.problem.ocp import build_ocp
+from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
+from optimize.solve import backend
 from optimize.solve.homotopy import HOMOTOPY_BOUND_PUSH
 from optimize.solve.solve import cold_start, solve
 
@@ -46,13 +47,13 @@ REFERENCE_SIGMA = (10.0, 0.001, 0.8, 0.1)
 
 def run_once(intervals: int, degree: int, reference_sigma: bool) -> list[dict]:
     t0 = time.perf_counter()
-    options = OcpOptions(n_intervals=intervals, degree=degree)
+    options = OcpOptions(Discretization(n_intervals=intervals, degree=degree))
     if reference_sigma:
-        options = dataclasses.replace(options, control_sigma=REFERENCE_SIGMA)
+        options = options.replace(discretization={"control_sigma": REFERENCE_SIGMA})
     ocp = build_ocp(kite_dae(), paper_model(), options)
-    ocp.solver(False)
-    ocp.solver(True)
-    ocp.solver(True, HOMOTOPY_BOUND_PUSH)
+    backend.solver(ocp, False)
+    backend.solver(ocp, True)
+    backend.solver(ocp, True, HOMOTOPY_BOUND_PUSH)
     setup = time.perf_counter() - t0
     logging.info("build + solver creation %.1f s", setup)
     results, rows = [], []

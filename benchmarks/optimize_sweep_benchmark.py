@@ -36,7 +36,7 @@ from pathlib import Path
 
 from bench.files import write_text_atomic
 from fitting.model_file import PAPER_MODEL_PATH, load_power_model
-from optimize.problem.ocp import OcpOptions
+from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.solve.homotopy import cold_start
 from optimize.sweep.chains import OcpBackend, Problem, make_tasks, run_sweep
 from optimize.sweep.executors import open_executor
@@ -148,8 +148,8 @@ def main() -> None:
     ap.add_argument("--wind-grid", default=DEFAULT_WIND_GRID)
     ap.add_argument("--scenarios", default=DEFAULT_KINDS)
     ap.add_argument("--intervals", type=int, default=40)
-    ap.add_argument("--tol", type=float, default=OcpOptions.tol, help="IPOPT tolerance")
-    ap.add_argument("--warm-bound-push", type=float, default=OcpOptions.warm_bound_push,
+    ap.add_argument("--tol", type=float, default=SolverOptions.tol, help="IPOPT tolerance")
+    ap.add_argument("--warm-bound-push", type=float, default=SolverOptions.warm_bound_push,
                     help="IPOPT warm_start_*bound_push/frac of warm solves")
     ap.add_argument("--no-stored-guess", action="store_true",
                     help="start every chain by the homotopy (as before the shipped guess)")
@@ -163,9 +163,9 @@ def main() -> None:
 
     winds, kinds = parse_wind_grid(args.wind_grid), parse_kinds(args.scenarios)
     model = load_power_model(PAPER_MODEL_PATH)
-    options = OcpOptions(n_intervals=args.intervals, tol=args.tol,
-                         warm_bound_push=args.warm_bound_push,
-                         stored_guess=not args.no_stored_guess)
+    options = OcpOptions(Discretization(n_intervals=args.intervals),
+                         solver=SolverOptions(tol=args.tol, warm_bound_push=args.warm_bound_push,
+                                              stored_guess=not args.no_stored_guess))
     problem = Problem(None, model, options, f"{options!r}|{model.sha256}")
     report = {
         "machine_before": machine_state(),

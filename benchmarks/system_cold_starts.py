@@ -28,7 +28,8 @@ import time
 from pathlib import Path
 
 from optimize.model.kite_model import kite_dae
-from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.problem.ocp import build_ocp
+from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start
 from optimize.sweep.outputs import MEANT_BOUNDS
@@ -53,8 +54,8 @@ def main() -> None:
         drive = drive_in_force(system)
         model = drive.model
         options = system.ocp_options(
-            OcpOptions(n_intervals=args.intervals, degree=args.degree, stored_guess=False),
-            drive.rating)
+            OcpOptions(Discretization(n_intervals=args.intervals, degree=args.degree),
+                       solver=SolverOptions(stored_guess=False)), drive.rating)
         ocp = build_ocp(kite_dae(*system.model_params()), model, options, system=system)
         print(f"{name}: start loop {ocp.loop}", flush=True)
         for wind in (float(w) for w in args.winds.split(",")):

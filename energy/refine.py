@@ -44,14 +44,14 @@ DEFAULT_TOL = 0.002
 
 def options_from_manifest(manifest: dict, path: Path) -> Any:
     """The sweep's ``OcpOptions`` from its manifest's ``options`` (lists back to tuples)."""
-    from optimize.problem.ocp import OcpOptions
+    from optimize.problem.options import OcpOptions
 
     raw = manifest.get("options")
     if not isinstance(raw, dict):
         raise InputError(path, "no OCP options", column="options",
                          expected="the manifest of `bench optimize` (docs/schemas.md §5)")
     try:
-        return OcpOptions(**{k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()})
+        return OcpOptions.from_dict(raw)
     except (TypeError, ValueError) as exc:
         raise InputError(path, f"OCP options not usable: {exc}", column="options",
                          expected="a folder written by this version's `bench optimize` (re-run "
@@ -94,7 +94,7 @@ class KindTask:
     ----------
     kind : str
     model : fitting.model_file.PowerModel
-    options : optimize.problem.ocp.OcpOptions
+    options : optimize.problem.options.OcpOptions
     known : tuple of (float, float, float)
         The sweep's converged grid points: wind [m/s], P_elec [W], P_mech [W].
     site : Weibull or Histogram

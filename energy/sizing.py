@@ -3,7 +3,7 @@
 A candidate is a power model with its rating (:class:`bench.drive.DriveRating`):
 the short-time peak torque and speed limits, and the continuous rating (RMS drum
 torque over the cycle at most the continuous torque,
-:class:`optimize.problem.ocp.OcpOptions` ``max_rms_torque_nm``). It is a
+:class:`optimize.problem.options.Limits` ``max_rms_torque_nm``). It is a
 ``power_model.json`` of its own, or the reference drive scaled by a
 torque-rating scale ``s``.
 
@@ -94,11 +94,11 @@ class Candidate:
         system : optimize.system.system.System
             The kite, tether, winch, wind and bounds the candidate is sized for.
         """
-        from optimize.problem.ocp import OcpOptions
+        from optimize.problem.options import Discretization, OcpOptions
 
-        options = system.ocp_options(OcpOptions(n_intervals=n_intervals, degree=degree),
+        options = system.ocp_options(OcpOptions(Discretization(n_intervals, degree)),
                                      self.rating)
-        return dataclasses.replace(options, max_rms_torque_nm=self.rated_torque_nm)
+        return options.replace(limits={"max_rms_torque_nm": self.rated_torque_nm})
 
 
 def scaled_candidates(base: Any, rating: Any, scales: tuple[float, ...]) -> list[Candidate]:

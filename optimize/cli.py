@@ -84,7 +84,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the sweep; the exit code says how many scenarios converged (:data:`EXIT_CODES`)."""
     from optimize.command import SweepRequest, format_summary, run_optimize
-    from optimize.problem.ocp import MAX_INTERVALS
+    from optimize.problem.options import MAX_INTERVALS
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     top = MAX_INTERVALS // 2 if args.trust else MAX_INTERVALS  # --trust solves at 2x

@@ -44,7 +44,7 @@ class SweepRequest:
     model_note : str
         One line saying which model is used and why.
     options : Any
-        ``optimize.problem.ocp.OcpOptions``.
+        ``optimize.problem.options.OcpOptions``.
     workers : int
         Local worker processes (ignored with ``scheduler``).
     scheduler : str or None
@@ -84,7 +84,7 @@ class SweepRequest:
     def from_cli(cls, args: Any, fit_model_path: Path) -> SweepRequest:
         """Build the request from ``bench optimize`` arguments; bad values raise InputError."""
         from fitting.model_check import check_physics
-        from optimize.problem.ocp import OcpOptions
+        from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 
         winds = parse_wind_grid(args.wind_grid)
         kinds = parse_kinds(args.scenarios)
@@ -94,8 +94,8 @@ class SweepRequest:
             ", the shipped default)" if args.system is None else ")")
         note += "\n" + "\n".join(drive.lines())
         try:
-            options = OcpOptions(n_intervals=args.intervals, degree=args.degree,
-                                 stored_guess=not args.no_stored_guess)
+            options = OcpOptions(Discretization(n_intervals=args.intervals, degree=args.degree),
+                                 solver=SolverOptions(stored_guess=not args.no_stored_guess))
         except ValueError as exc:
             raise InputError(None, f"OCP options: {exc}") from exc
         options = system.ocp_options(options, drive.rating)
@@ -250,7 +250,7 @@ def run_optimize(
         "system": system.record(),
         "drive_limits": drive.rating.to_dict(),
         "drive": drive.record(),
-        "options": dataclasses.asdict(options),
+        "options": options.as_dict(),
         "executor": result.executor,
         "wall_time_s": result.wall_time_s,
         "converged": int(summary["success"].sum()),
@@ -287,8 +287,8 @@ def domain_scales(model: Any, options: Any) -> tuple[float, float]:
     The drive's rating when the model states one, else the OCP's drive limits.
     """
     drive = getattr(model, "drive", None) or {}
-    return (float(drive.get("max_speed_rpm", options.max_speed_rpm)),
-            float(drive.get("max_torque_nm", options.max_torque_nm)))
+    return (float(drive.get("max_speed_rpm", options.limits.max_speed_rpm)),
+            float(drive.get("max_torque_nm", options.limits.max_torque_nm)))
 
 
 def domain_lines(summary: Any) -> list[str]:

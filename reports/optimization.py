@@ -149,8 +149,10 @@ def run_rows(manifest: dict, fit_model_sha256: str | None) -> list[tuple[str, st
             same = "yes" if used == fit_model_sha256 else "NO: the sweep used another model"
             rows.append(("same model as section 3", same))
     options = manifest.get("options")
-    if isinstance(options, dict):
-        rows.extend((f"option {k}", str(v)) for k, v in options.items())
+    if isinstance(options, dict):  # {group: {option: value}}
+        for group, values in options.items():
+            items = values.items() if isinstance(values, dict) else [(group, values)]
+            rows.extend((f"option {k}", str(v)) for k, v in items)
     return rows
 
 

@@ -10,7 +10,8 @@ import pytest
 from energy.bands import basis_averages, sigma
 from fitting.model_file import paper_model
 from optimize.model.kite_model import kite_dae
-from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.problem.ocp import build_ocp
+from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.solve import cold_start, solve
 
@@ -26,7 +27,7 @@ def test_sigma_equals_finite_difference_re_solve():
     c = np.array(model.coefficients_rpm)
     s = 0.02 * np.abs(c)
     cov = 0.3 * np.outer(s, s) + 0.7 * np.diag(s**2)
-    dae, options = kite_dae(), OcpOptions(n_intervals=N_COARSE)
+    dae, options = kite_dae(), OcpOptions(Discretization(n_intervals=N_COARSE))
     scenario = Scenario(7.0, "electrical", True)
     ocp = build_ocp(dae, model, options)
     base = solve(ocp, scenario, cold_start(ocp, Scenario(7.0, "mechanical", False)).warm)

@@ -14,7 +14,7 @@ from energy.curve import PowerCurve
 from energy.refine import KindTask, merged_curve, refine_kind
 from energy.site import Weibull
 from fitting.model_file import paper_model
-from optimize.problem.ocp import OcpOptions
+from optimize.problem.options import OcpOptions
 from optimize.solve.result import Solution
 
 V_IN, CAP_W = 4.3, 2000.0  # cut-in [m/s]; a drive limit caps the delivered power [W]

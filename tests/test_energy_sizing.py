@@ -51,11 +51,12 @@ def test_candidate_options_take_the_system_bounds_and_the_candidate_limits():
     c = _candidates((2.0,))[0]
     highwind, ap2 = load_system(), load_system(shipped_system_path("ap2"))
     opts = c.ocp_options(20, 3, ap2)
+    lim = opts.limits
     # the system file's bounds (ap2's tether range), the candidate's drive
-    assert opts.tether_length_bounds_m == (ap2.bounds.tether_length_min_m,
+    assert lim.tether_length_bounds_m == (ap2.bounds.tether_length_min_m,
                                            ap2.bounds.tether_length_max_m)
-    assert (opts.max_torque_nm, opts.max_rms_torque_nm) == (780.0, 156.0)
-    assert opts.nominal_power_w == pytest.approx(2.0 * base.nominal_power_w)
+    assert (lim.max_torque_nm, lim.max_rms_torque_nm) == (780.0, 156.0)
+    assert lim.nominal_power_w == pytest.approx(2.0 * base.nominal_power_w)
     # a stored solve of one system is never taken for another's
     assert solve_key(c, opts, 7.0, highwind.sha256) != solve_key(c, opts, 7.0, ap2.sha256)
 

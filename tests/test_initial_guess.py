@@ -7,7 +7,8 @@ import pytest
 
 from fitting.model_file import paper_model
 from optimize.model.kite_model import kite_dae
-from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.problem.ocp import build_ocp
+from optimize.problem.options import Discretization, OcpOptions
 from optimize.solve import initial_guess
 from optimize.solve.solve import start
 from optimize.system.drive import drive_in_force
@@ -28,7 +29,7 @@ def test_shipped_guess_fits_the_default_ocp(ocp):
 
 
 def test_guess_is_refused_for_another_discretization_or_kite():
-    coarse = build_ocp(kite_dae(), paper_model(), OcpOptions(n_intervals=20))
+    coarse = build_ocp(kite_dae(), paper_model(), OcpOptions(Discretization(n_intervals=20)))
     solution, why = initial_guess.load(coarse)
     assert solution is None and "N=40" in why and "N=20" in why
     # 1 kg more mass changes the dynamics residuals at the stored point

@@ -19,7 +19,8 @@ from optimize.model.drive import (
 )
 from optimize.model.kite_model import kite_dae
 from optimize.problem.collocation import radau
-from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.problem.ocp import build_ocp
+from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.solve import cold_start, solve
 
@@ -49,7 +50,7 @@ def test_radau_coefficients_integrate_and_differentiate_polynomials():
 
 @pytest.fixture(scope="module")
 def solved():
-    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(n_intervals=N_COARSE))
+    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(Discretization(n_intervals=N_COARSE)))
     mech = cold_start(ocp, Scenario(7.0, "mechanical", False))
     elec = solve(ocp, Scenario(7.0, "electrical", False), mech.warm)
     elec_lim = solve(ocp, Scenario(7.0, "electrical", True), elec.warm)
@@ -95,8 +96,9 @@ def test_objective_in_nlp_equals_numpy_power_of_trajectory(solved):
     traj = elec.trajectory
     u = traj.groupby("interval")[["dddl_m_s3", "daileron_rad_s", "delevator_rad_s",
                                   "drudder_rad_s"]].first().to_numpy()
-    reg = ((u / np.array(ocp.options.control_sigma)) ** 2).sum() / N_COARSE
-    expected = (elec.avg_p_elec_w + ocp.options.regularization_w * reg) / ocp.scales.power_w
+    disc = ocp.options.discretization
+    reg = ((u / np.array(disc.control_sigma)) ** 2).sum() / N_COARSE
+    expected = (elec.avg_p_elec_w + disc.regularization_w * reg) / ocp.scales.power_w
     assert elec.objective == pytest.approx(expected, rel=1e-9)
 
 
@@ -155,4 +157,4 @@ def test_mumps_blas_runs_the_thread_count_the_environment_names(solved):
 @pytest.mark.parametrize("push", [0.0, -1e-3, 0.6])
 def test_options_reject_a_warm_bound_push_ipopt_refuses(push):
     with pytest.raises(ValueError, match="warm_bound_push"):
-        OcpOptions(warm_bound_push=push)
+        SolverOptions(warm_bound_push=push)

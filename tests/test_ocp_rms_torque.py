@@ -7,7 +7,8 @@ import pytest
 
 from fitting.model_file import paper_model
 from optimize.model.kite_model import kite_dae
-from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.problem.ocp import build_ocp
+from optimize.problem.options import Discretization, Limits, OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve import initial_guess
 from optimize.solve.solve import cold_start, solve
@@ -21,7 +22,7 @@ def _rms(traj) -> float:
 
 def test_rms_torque_bound_binds_and_costs_power():
     dae = kite_dae()
-    free = build_ocp(dae, paper_model(), OcpOptions(n_intervals=N_COARSE))
+    free = build_ocp(dae, paper_model(), OcpOptions(Discretization(n_intervals=N_COARSE)))
     start = cold_start(free, Scenario(7.0, "mechanical", False))
     scenario = Scenario(7.0, "electrical", True)
     ref = solve(free, scenario, start.warm)
@@ -29,8 +30,9 @@ def test_rms_torque_bound_binds_and_costs_power():
     rms_free = _rms(ref.trajectory)
     # a rating 15 % below the unconstrained cycle's RMS torque, peak limit unchanged
     rated = 0.85 * rms_free
-    ocp = build_ocp(dae, paper_model(), OcpOptions(n_intervals=N_COARSE, max_rms_torque_nm=rated))
-    assert ocp.layout.g_rms.size == 1
+    ocp = build_ocp(dae, paper_model(), OcpOptions(Discretization(n_intervals=N_COARSE),
+                                                 Limits(max_rms_torque_nm=rated)))
+    assert ocp.layout.rows_of("rms_torque").size == 1
     warm = ref.warm.__class__(ref.warm.w, ref.warm.lam_x, np.append(ref.warm.lam_g, 0.0),
                               ref.warm.n_intervals, ref.warm.degree)
     res = solve(ocp, scenario, warm)
@@ -40,11 +42,11 @@ def test_rms_torque_bound_binds_and_costs_power():
     assert res.avg_p_elec_w > ref.avg_p_elec_w  # less generated (negative = generated)
     # without drive limits the row is free
     lo, hi = ocp.bounds(drive_limits=False, fix_fictitious=True, period_s=None)[2:]
-    assert np.isinf(hi[ocp.layout.g_rms]).all()
+    assert np.isinf(hi[ocp.layout.rows_of("rms_torque")]).all()
 
 
 def test_stored_guess_fits_an_ocp_with_the_rms_row():
-    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(max_rms_torque_nm=70.0))
+    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(limits=Limits(max_rms_torque_nm=70.0)))
     guess, why = initial_guess.load(ocp)
     assert guess is not None, why
     assert guess.lam_g.size == ocp.layout.n_g

@@ -378,7 +378,8 @@ def test_request_falls_back_to_the_paper_model(tmp_path):
     req = SweepRequest.from_cli(args, tmp_path / "fit_out" / "power_model.json")
     assert req.drive_model_path == PAPER_MODEL_PATH and "shipped paper model" in req.model_note
     assert req.winds == (5.0, 5.5, 6.0) and req.kinds == ("mech-free",)
-    assert req.options.n_intervals == 40 and req.options.degree == 4 and req.claims
+    assert req.options.discretization.n_intervals == 40
+    assert req.options.discretization.degree == 4 and req.claims
     # a fit in fit_out/ takes precedence when it exists
     fit = tmp_path / "fit_out" / "power_model.json"
     fit.parent.mkdir()
@@ -427,7 +428,7 @@ def test_run_optimize_writes_every_file(tmp_path):
 
     from fitting.model_file import PAPER_MODEL_PATH, paper_model
     from optimize.command import SweepRequest, run_optimize
-    from optimize.problem.ocp import OcpOptions
+    from optimize.problem.options import OcpOptions
     from optimize.sweep.outputs import field_units, read_summary
 
     out = tmp_path / "optimize_out"
@@ -459,7 +460,8 @@ def test_run_optimize_writes_every_file(tmp_path):
         == hashlib.sha256(PAPER_MODEL_PATH.read_bytes()).hexdigest()
     )
     assert manifest["command_line"] == ["bench", "optimize"]
-    assert manifest["options"]["n_intervals"] == 40 and manifest["package_versions"]["casadi"]
+    assert manifest["options"]["discretization"]["n_intervals"] == 40
+    assert manifest["package_versions"]["casadi"]
     assert [len(c["scenarios"]) for c in manifest["chains"]] == [3, 3]
     # the cut-in search recovered the stand-in's crossings (4.8 and 5.5 m/s) and the
     # claims table says so

@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from optimize.model.kite_model import kite_dae
-from optimize.problem.ocp import OcpOptions, build_ocp
+from optimize.problem.ocp import build_ocp
+from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start
 from optimize.sweep.outputs import MEANT_BOUNDS
@@ -29,7 +30,8 @@ def solved():
     system = load_system(shipped_system_path("ap2"))
     drive = drive_in_force(system)  # the paper's drive carried to the AP2 rating
     model = drive.model
-    options = system.ocp_options(OcpOptions(n_intervals=20, degree=3, stored_guess=False),
+    options = system.ocp_options(OcpOptions(Discretization(n_intervals=20, degree=3),
+                                            solver=SolverOptions(stored_guess=False)),
                                  drive.rating)
     ocp = build_ocp(kite_dae(*system.model_params()), model, options, system=system)
     return system, ocp, cold_start(ocp, Scenario(WIND_M_S, "mechanical", True))

@@ -10,7 +10,7 @@ import pytest
 
 from bench.errors import InputError
 from fitting.model_file import paper_model
-from optimize.problem.ocp import OcpOptions
+from optimize.problem.options import OcpOptions
 from optimize.system.drive import drive_in_force
 from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 from optimize.system.system import load_system, shipped_system_path, system_from_dict

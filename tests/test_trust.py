@@ -16,8 +16,10 @@ import pytest
 
 from fitting.model_file import paper_model
 from optimize.model import kite_model as km
+from optimize.problem.formulation import PERIODIC_STATES
 from optimize.problem.guess import LoopGuess, circular_loop
-from optimize.problem.ocp import PERIODIC_STATES, OcpOptions, build_ocp, grid_times
+from optimize.problem.ocp import build_ocp, grid_times
+from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.result import Solution
 from optimize.sweep.trust import interpolate_solution, simulation_check
@@ -36,7 +38,7 @@ class FakeResult:
 @pytest.fixture(scope="module")
 def ocp():
     dae = km.kite_dae()
-    return build_ocp(dae, paper_model(), OcpOptions(n_intervals=N, degree=DEGREE))
+    return build_ocp(dae, paper_model(), OcpOptions(Discretization(n_intervals=N, degree=DEGREE)))
 
 
 def controls() -> np.ndarray:
@@ -110,7 +112,8 @@ def test_simulation_check_finds_a_planted_defect(ocp):
 
 
 def test_mesh_interpolation_is_exact_on_linear_states_and_interval_controls(ocp):
-    fine = build_ocp(ocp.dae, paper_model(), OcpOptions(n_intervals=2 * N, degree=DEGREE))
+    fine = build_ocp(ocp.dae, paper_model(),
+                     OcpOptions(Discretization(n_intervals=2 * N, degree=DEGREE)))
     t_c = grid_times(ocp, PERIOD_S)
     slope = np.linspace(-2.0, 3.0, km.NX)[:, None]
     x = 1.0 + slope * t_c[None, :]

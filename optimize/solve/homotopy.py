@@ -24,8 +24,9 @@ import logging
 import numpy as np
 
 from optimize.problem.guess import LoopGuess, circular_loop
-from optimize.problem.ocp import Ocp, RawSolve, grid_times
+from optimize.problem.ocp import Ocp, grid_times
 from optimize.problem.scenario import Scenario
+from optimize.solve.backend import RawSolve, run
 from optimize.solve.result import OcpResult, make_result
 
 log = logging.getLogger(__name__)
@@ -105,20 +106,20 @@ def cold_start(ocp: Ocp, scenario: Scenario, guess: LoopGuess | None = None) -> 
     wind = scenario.wind_speed_m_s
     lay = ocp.layout
     x, z, fict = circular_loop(ocp.dae, guess, grid_times(ocp, guess.period_s), wind)
-    u = np.zeros((lay.i_u.shape[0], ocp.options.n_intervals))
+    u = np.zeros((lay.i_u.shape[0], ocp.n_intervals))
     w0 = ocp.pack(x, z[:, 1:], u, fict[:, 1:], guess.period_s)
     stages: list[dict] = []
 
     track_bounds = ocp.bounds(drive_limits=False, fix_fictitious=False, period_s=None)
     p = ocp.params(wind, w_track=1.0, w_fict=TRACK_FICT_WEIGHT, x_ref=x)
-    raw = ocp.run(w0, p, track_bounds, warm=False)
+    raw = run(ocp, w0, p, track_bounds, warm=False)
     _record(stages, "track", raw, scenario)
     if not raw.success:
         return _failed(ocp, scenario, raw, p, track_bounds, stages, "track")
 
     def penalize(start: RawSolve, weight: float) -> tuple[RawSolve, np.ndarray]:
         p_w = ocp.params(wind, w_track=1.0, w_fict=weight, x_ref=x)
-        out = ocp.run(start.w, p_w, track_bounds, warm=True, lam_x0=start.lam_x,
+        out = run(ocp, start.w, p_w, track_bounds, warm=True, lam_x0=start.lam_x,
                       lam_g0=start.lam_g, bound_push=HOMOTOPY_BOUND_PUSH)
         _record(stages, f"penalize-{weight:g}", out, scenario)
         return out, p_w
@@ -147,7 +148,7 @@ def cold_start(ocp: Ocp, scenario: Scenario, guess: LoopGuess | None = None) -> 
 
     bounds = ocp.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
     p = ocp.params(wind, **power_weights(scenario))
-    raw = ocp.run(raw.w, p, bounds, warm=False)
+    raw = run(ocp, raw.w, p, bounds, warm=False)
     _record(stages, "power", raw, scenario)
     if not raw.success:
         return _failed(ocp, scenario, raw, p, bounds, stages, "power")

@@ -28,7 +28,8 @@ import numpy as np
 from bench.files import atomic_path
 from fitting.model_file import paper_model
 from optimize.model.kite_model import kite_dae
-from optimize.problem.ocp import Ocp, OcpOptions, build_ocp
+from optimize.problem.ocp import Ocp, build_ocp
+from optimize.problem.options import OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start, power_weights
 from optimize.solve.result import OcpResult, Solution
@@ -53,7 +54,7 @@ def write(path: str | Path, ocp: Ocp, result: OcpResult, p: np.ndarray) -> Path:
     with atomic_path(path) as tmp, tmp.open("wb") as fh:
         np.savez_compressed(
             fh, w=w, lam_x=result.warm.lam_x, lam_g=result.warm.lam_g, p=p,
-            g=ocp.constraint_values(w, p), n_intervals=ocp.options.n_intervals,
+            g=ocp.constraint_values(w, p), n_intervals=ocp.n_intervals,
             degree=ocp.coll.degree, scenario=result.scenario.name,
             system_sha256=getattr(ocp.system, "sha256", ""),
         )
@@ -91,12 +92,13 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
                       f"{stored_system[:12] or 'not recorded'}); this OCP's system "
                       f"{ocp.system.name} has {system[:12]}")
     n, d = int(data["n_intervals"]), int(data["degree"])
-    if (n, d) != (ocp.options.n_intervals, ocp.coll.degree):
+    if (n, d) != (ocp.n_intervals, ocp.coll.degree):
         return None, (f"the stored initial guess is for N={n}, degree {d}; this OCP has "
-                      f"N={ocp.options.n_intervals}, degree {ocp.coll.degree}")
+                      f"N={ocp.n_intervals}, degree {ocp.coll.degree}")
     lay = ocp.layout
-    # an RMS torque row (OcpOptions.max_rms_torque_nm) is appended after the guess's rows
-    n_g = lay.n_g - lay.g_rms.size
+    # an RMS torque row (Limits.max_rms_torque_nm) is appended after the guess's rows
+    n_rms = lay.rows_of("rms_torque").size
+    n_g = lay.n_g - n_rms
     if (data["w"].size, data["g"].size, data["p"].size) != (lay.n_w, n_g, lay.n_p):
         return None, "the stored initial guess has another variable or constraint layout"
     g_now = ocp.constraint_values(data["w"], data["p"])[:n_g]
@@ -105,7 +107,7 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
         return None, (f"the stored initial guess does not fit this OCP's constraints (largest "
                       f"deviation {dev:.1e}); regenerate it: "
                       "python -m optimize.solve.initial_guess")
-    lam_g = np.concatenate([data["lam_g"], np.zeros(lay.g_rms.size)])
+    lam_g = np.concatenate([data["lam_g"], np.zeros(n_rms)])
     solution = Solution(w=data["w"], lam_x=data["lam_x"], lam_g=lam_g,
                         n_intervals=n, degree=d)
     return solution, f"stored initial guess {data['scenario']} fits (deviation {dev:.1e})"

@@ -9,8 +9,10 @@ import pandas as pd
 
 from optimize.model import kite_model as km
 from optimize.model.drive import mechanical_power_w, motor_speed_rpm, motor_torque_nm
-from optimize.problem.ocp import Ocp, RawSolve
+from optimize.problem.formulation import X_LENGTH, X_REEL_SPEED, Z_NU
+from optimize.problem.ocp import Ocp
 from optimize.problem.scenario import Scenario
+from optimize.solve.backend import RawSolve
 
 #: units of the trajectory columns that are not states/controls/algebraic variables
 OUTPUT_UNITS = {
@@ -105,7 +107,7 @@ class OcpResult:
 def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_ref_m_s: float) -> pd.DataFrame:
     """Trajectory at every Radau point of a scaled decision vector."""
     sol = ocp.unpack(w_scaled)
-    n, d = ocp.options.n_intervals, ocp.coll.degree
+    n, d = ocp.n_intervals, ocp.coll.degree
     x = sol["x"][:, 1:]  # states at the Radau points
     z = sol["z"]
     u = np.repeat(sol["u"], d, axis=1)
@@ -121,8 +123,8 @@ def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_ref_m_s: float) -> pd.
     names = ocp.dae.outputs.name_out()
     out = {name: np.asarray(val).ravel() for name, val in zip(names, outputs, strict=True)}
     r_w, gear = ocp.dae.kite.r_winch_m, ocp.dae.kite.gear_ratio
-    dl = x[km.IDX["dl_m_s"]]
-    tension = x[km.IDX["l_m"]] * z[6]
+    dl = x[X_REEL_SPEED]
+    tension = x[X_LENGTH] * z[Z_NU]
     frame["speed_rpm"] = motor_speed_rpm(dl, r_w, gear)
     frame["torque_nm"] = motor_torque_nm(tension, r_w, gear)
     frame["tension_n"] = tension
@@ -169,7 +171,7 @@ def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: b
     bounds : tuple
         The scaled ``lbx, ubx, lbg, ubg`` of the solve (a fixed period is not a bound).
     """
-    o, lay = ocp.options, ocp.layout
+    o, lay = ocp.options.limits, ocp.layout
     out = []
     i = lay.i_period[0]
     period_fixed = bounds[0][i] == bounds[1][i]
@@ -217,7 +219,7 @@ def make_result(
     lbg, ubg = bounds[2], bounds[3]
     viol_g = np.maximum(np.maximum(lbg - g, g - ubg), 0.0)
     viol_x = np.maximum(np.maximum(bounds[0] - raw.w, raw.w - bounds[1]), 0.0)
-    per = float(np.max(np.abs(g[ocp.layout.g_periodic])))
+    per = float(np.max(np.abs(g[ocp.layout.rows_of("periodic")])))
     period_s = float(ocp.unpack(raw.w)["period_s"])
     return OcpResult(
         scenario=scenario,
@@ -234,7 +236,7 @@ def make_result(
         trajectory=traj,
         warm=Solution(
             w=raw.w, lam_x=raw.lam_x, lam_g=raw.lam_g,
-            n_intervals=ocp.options.n_intervals, degree=ocp.coll.degree,
+            n_intervals=ocp.n_intervals, degree=ocp.coll.degree,
         ),
         stages=tuple(stages),
         start=start,

@@ -3,7 +3,7 @@
 Typical use (the sweep builds the OCP once and chains warm starts)::
 
     dae = kite_dae()
-    ocp = build_ocp(dae, load_power_model(path), OcpOptions(n_intervals=40))
+    ocp = build_ocp(dae, load_power_model(path), OcpOptions(Discretization(n_intervals=40)))
     res = start(ocp, Scenario(7.0, "mechanical", False))  # stored guess, else homotopy
     res2 = solve(ocp, Scenario(7.0, "electrical", False), res.warm)
 """
@@ -15,7 +15,7 @@ import logging
 
 from optimize.problem.ocp import Ocp
 from optimize.problem.scenario import Scenario
-from optimize.solve import initial_guess
+from optimize.solve import backend, initial_guess
 from optimize.solve.homotopy import cold_start, power_weights
 from optimize.solve.result import OcpResult, Solution, make_result
 
@@ -28,12 +28,12 @@ def start(ocp: Ocp, scenario: Scenario) -> OcpResult:
     """Solve ``scenario`` with no neighbouring solution at hand.
 
     Warm-started from the shipped initial guess (:mod:`optimize.solve.initial_guess`)
-    when ``ocp.options.stored_guess`` is set and the guess fits this OCP;
+    when ``ocp.options.solver.stored_guess`` is set and the guess fits this OCP;
     otherwise, or when that solve fails, by the homotopy
     (:func:`optimize.solve.homotopy.cold_start`). A failed stored-guess solve stays
     in ``stages`` and counts in the iterations and wall time.
     """
-    guess, why = (initial_guess.load(ocp) if ocp.options.stored_guess
+    guess, why = (initial_guess.load(ocp) if ocp.options.solver.stored_guess
                   else (None, "stored initial guess switched off"))
     log.info("%s: %s", scenario.name, why)
     if guess is None:
@@ -80,14 +80,14 @@ def solve(
     """
     if warm_start is None:
         return cold_start(ocp, scenario)
-    if (warm_start.n_intervals, warm_start.degree) != (ocp.options.n_intervals, ocp.coll.degree):
+    if (warm_start.n_intervals, warm_start.degree) != (ocp.n_intervals, ocp.coll.degree):
         raise ValueError(
             f"warm start has N={warm_start.n_intervals}, degree {warm_start.degree}; "
-            f"the OCP has N={ocp.options.n_intervals}, degree {ocp.coll.degree}"
+            f"the OCP has N={ocp.n_intervals}, degree {ocp.coll.degree}"
         )
     bounds = ocp.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
     p = ocp.params(scenario.wind_speed_m_s, **power_weights(scenario))
-    raw = ocp.run(warm_start.w, p, bounds, warm=True,
+    raw = backend.run(ocp, warm_start.w, p, bounds, warm=True,
                   lam_x0=warm_start.lam_x, lam_g0=warm_start.lam_g)
     stages = [{"stage": "warm", "status": raw.status, "success": raw.success,
                "iterations": raw.iterations, "wall_time_s": raw.wall_time_s,
@@ -95,7 +95,7 @@ def solve(
     log.info("%s warm  %-22s %4d it %6.1f s (cpu %.1f s)", scenario.name, raw.status,
              raw.iterations, raw.wall_time_s, raw.cpu_time_s)
     if not raw.success and retry_cold:
-        raw = ocp.run(warm_start.w, p, bounds, warm=False)
+        raw = backend.run(ocp, warm_start.w, p, bounds, warm=False)
         stages.append({"stage": "retry-cold", "status": raw.status, "success": raw.success,
                        "iterations": raw.iterations, "wall_time_s": raw.wall_time_s,
                        "cpu_time_s": raw.cpu_time_s})

@@ -29,7 +29,8 @@ import casadi as ca
 import numpy as np
 
 from optimize.model import kite_model as km
-from optimize.problem.ocp import PERIODIC_STATES, Ocp, grid_times
+from optimize.problem.formulation import PERIODIC_STATES
+from optimize.problem.ocp import Ocp, grid_times
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start, power_weights
 from optimize.solve.result import OcpResult, Solution, make_result
@@ -140,7 +141,7 @@ def interpolate_solution(coarse: Ocp, warm: Solution, fine: Ocp) -> np.ndarray:
     t_zc = t_c[1:]
     t_zf = t_f[1:]
     z = np.vstack([np.interp(t_zf, t_zc, row, period=period) for row in np.asarray(sol["z"])])
-    n_c, n_f = coarse.options.n_intervals, fine.options.n_intervals
+    n_c, n_f = coarse.n_intervals, fine.n_intervals
     mid = (np.arange(n_f) + 0.5) / n_f
     u = np.asarray(sol["u"])[:, np.minimum((mid * n_c).astype(int), n_c - 1)]
     fict = np.zeros((km.NF, fine.layout.n_coll))
@@ -191,8 +192,8 @@ def mesh_check(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult) ->
     nan = math.nan
     return MeshCheck(
         scenario=scenario.name,
-        n_intervals=coarse.options.n_intervals,
-        n_intervals_fine=fine.options.n_intervals,
+        n_intervals=coarse.n_intervals,
+        n_intervals_fine=fine.n_intervals,
         status=res.status,
         success=res.success,
         iterations=res.iterations,
@@ -214,7 +215,7 @@ def _interval_integrator(ocp: Ocp, period_s: float) -> ca.Function:
     u = ca.SX.sym("u", km.NU)
     wind = ca.SX.sym("wind")
     ode = ocp.dae.explicit_ode(x, u, wind)
-    h = period_s / ocp.options.n_intervals
+    h = period_s / ocp.n_intervals
     tgrid = [float(h * t) for t in ocp.coll.tau[1:]]
     return ca.integrator(
         "interval",
@@ -239,7 +240,7 @@ def simulation_check(ocp: Ocp, result: OcpResult) -> SimulationCheck:
     t0 = time.perf_counter()
     sol = ocp.unpack(result.warm.w)
     x_c, u = np.asarray(sol["x"]), np.asarray(sol["u"])
-    n, d = ocp.options.n_intervals, ocp.coll.degree
+    n, d = ocp.n_intervals, ocp.coll.degree
     wind = result.scenario.wind_speed_m_s
     step = _interval_integrator(ocp, sol["period_s"])
     scale = ocp.scales.state[:, None]
@@ -318,7 +319,7 @@ def run_trust_checks(
     from tqdm import tqdm
 
     opts = problem.options
-    fine_opts = dataclasses.replace(opts, n_intervals=2 * opts.n_intervals)
+    fine_opts = opts.replace(discretization={"n_intervals": 2 * opts.discretization.n_intervals})
     fine = Problem(
         problem.params,
         problem.drive_model,

@@ -202,15 +202,14 @@ class System:
 
         Parameters
         ----------
-        options : optimize.problem.ocp.OcpOptions
+        options : optimize.problem.options.OcpOptions
         rating : bench.drive.DriveRating
             The drive in force (:func:`optimize.system.drive.drive_in_force`): speed and
             torque limits, nominal power, the RMS torque bound of its continuous
             rating (when below the torque limit) and the grid power limit.
         """
         b, a = self.bounds, self.aero
-        return dataclasses.replace(
-            options,
+        return options.replace(limits=dict(
             period_bounds_s=(b.period_min_s, b.period_max_s),
             tether_length_bounds_m=(b.tether_length_min_m, b.tether_length_max_m),
             min_altitude_m=self.ground_clearance_m(),
@@ -225,7 +224,7 @@ class System:
             max_line_angle_deg=b.max_line_angle_deg,
             surface_bound_deg=b.surface_max_deg,
             surface_rate_bound_rad_s=b.surface_rate_max_rad_s,
-        )
+        ))
 
     def model_params(self) -> tuple[KiteParams, AeroCoefficients, WindModel]:
         """Arguments of ``optimize.model.kite_model.kite_dae``."""

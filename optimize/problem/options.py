@@ -1,0 +1,229 @@
+"""Options of the cycle OCP in three groups: discretization, limits, solver.
+
+* :class:`Discretization`: how the cycle is transcribed (intervals, collocation
+  degree, the control regularization that keeps the discretized controls smooth).
+* :class:`Limits`: the physical bounds of one system and its drive. They come from
+  the system file (:meth:`optimize.system.system.System.ocp_options`); the defaults
+  here are the shipped ``highwind.toml`` system's values.
+* :class:`SolverOptions`: which NLP solver runs and how (tolerances, warm starts,
+  linear solver, the stored initial guess).
+
+:class:`OcpOptions` holds one of each; ``OcpOptions()`` is the default problem::
+
+    options = OcpOptions(Discretization(n_intervals=20), solver=SolverOptions(tol=1e-8))
+    options.discretization.n_intervals, options.limits.max_torque_nm, options.solver.tol
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+#: most collocation intervals per period: the default is 40 and the trust check's mesh
+#: refinement doubles it; 400 already means ~10^5 NLP variables and minutes per solve
+MAX_INTERVALS = 400
+
+
+@dataclass(frozen=True)
+class Discretization:
+    """How the periodic cycle is transcribed into an NLP.
+
+    Parameters
+    ----------
+    n_intervals : int
+        Number of collocation intervals over one period.
+    degree : int
+        Radau collocation degree.
+    regularization_w : float
+        Weight of the control regularization ``mean_k sum_i (u_i / sigma_i)^2``
+        [W]. The default 0.1 W is the weight of the reference
+        implementation (rawesome ``pumping_poweropt.py``: 0.1 (u/sigma)^2 in W).
+    control_sigma : (float, float, float, float)
+        Scales ``sigma`` of tether jerk [m/s^3] and aileron, elevator, rudder
+        rates [rad/s]. Default (10, 1, 1, 1). The reference implementation
+        used (10, 0.001, 0.8, 0.1), which practically freezes the aileron; at
+        N = 40 and 7 m/s that reproduces the reference prototype's table to the watt
+        (-1528 W / -48 W / 3.36 s mechanical) but leaves the 10 m/s periods
+        further from the paper's (2.39 s and 4.2 s against 2.14 s and 3.89 s;
+        the default gives 2.22 s and 3.82 s).
+    """
+
+    n_intervals: int = 40
+    degree: int = 4
+    regularization_w: float = 0.1
+    control_sigma: tuple[float, float, float, float] = (10.0, 1.0, 1.0, 1.0)
+
+    def __post_init__(self) -> None:
+        if not 2 <= self.n_intervals <= MAX_INTERVALS:
+            raise ValueError(f"n_intervals must be 2 to {MAX_INTERVALS}, got {self.n_intervals}")
+        if not 1 <= self.degree <= 9:
+            raise ValueError(f"degree must be 1 to 9, got {self.degree}")
+        if len(self.control_sigma) != 4 or min(self.control_sigma) <= 0:
+            raise ValueError(f"control_sigma must be 4 positive scales, got {self.control_sigma}")
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Physical bounds of the system and its drive (from the system file).
+
+    Parameters
+    ----------
+    period_bounds_s : (float, float)
+        Bounds on the free period [s].
+    tether_length_bounds_m : (float, float)
+        Bounds on the tether length [m].
+    min_altitude_m : float
+        Lowest CG altitude above ground [m] (the system's ground clearance).
+    max_speed_rpm, max_torque_nm : float
+        Drive limits of the constrained scenarios at the motor shaft [rpm], [N m].
+    max_p_elec_w : float or None
+        Limit of the electrical power drawn or fed [W] in the constrained
+        scenarios (rows only when set).
+    nominal_power_w : float
+        The drive's nominal power [W]: the objective's scale.
+    max_rms_torque_nm : float or None
+        Continuous rating of the drive: the RMS motor torque over the cycle,
+        ``sqrt(mean_t T^2)``, at most this in the constrained scenarios [N m]
+        (``max_torque_nm`` is then the short-time peak). ``None`` (default)
+        leaves the row out of the NLP; it is the last constraint row, so a
+        stored initial guess of the NLP without it still fits.
+    min_airspeed_m_s : float
+        Lower airspeed bound [m/s].
+    alpha_bounds_deg, beta_bounds_deg : (float, float)
+        Angle-of-attack and sideslip bounds [deg].
+    max_line_angle_deg : float
+        Largest angle between body z axis and tether [deg].
+    surface_bound_deg : float
+        Control-surface deflection bound [deg].
+    surface_rate_bound_rad_s : float
+        Control-surface rate bound [rad/s].
+    """
+
+    period_bounds_s: tuple[float, float] = (1.0, 20.0)
+    tether_length_bounds_m: tuple[float, float] = (1.0, 500.0)
+    min_altitude_m: float = 2.0
+    max_speed_rpm: float = 1500.0
+    max_torque_nm: float = 78.0
+    max_p_elec_w: float | None = None
+    nominal_power_w: float = 8200.0
+    max_rms_torque_nm: float | None = None
+    min_airspeed_m_s: float = 10.0
+    alpha_bounds_deg: tuple[float, float] = (-4.5, 8.5)
+    beta_bounds_deg: tuple[float, float] = (-9.0, 9.0)
+    max_line_angle_deg: float = 65.0
+    surface_bound_deg: float = 10.0
+    surface_rate_bound_rad_s: float = 2.0
+
+    def __post_init__(self) -> None:
+        lo, hi = self.period_bounds_s
+        if not 0 < lo < hi:
+            raise ValueError(
+                f"period_bounds_s must satisfy 0 < lo < hi, got {self.period_bounds_s}"
+            )
+        if self.max_rms_torque_nm is not None and not self.max_rms_torque_nm > 0:
+            raise ValueError(f"max_rms_torque_nm must be > 0, got {self.max_rms_torque_nm}")
+
+
+#: NLP solvers the OCP can be handed to
+SOLVERS = ("ipopt",)
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Which NLP solver runs and with which settings.
+
+    Parameters
+    ----------
+    solver : str
+        NLP solver (one of :data:`SOLVERS`).
+    tol : float
+        Convergence tolerance (scaled problem).
+    acceptable_tol : float
+        IPOPT acceptable tolerance.
+    max_iter : int
+        Iteration limit per solve.
+    warm_mu_init : float
+        Initial barrier parameter of a warm-started solve.
+    warm_bound_push : float
+        IPOPT's ``warm_start_bound_push``, ``_bound_frac``, ``_slack_bound_push``,
+        ``_slack_bound_frac`` and ``_mult_bound_push`` of a warm-started solve:
+        how far (scaled units) the warm point and its bound multipliers are moved
+        off their bounds. A neighbouring optimum has other active bounds; left
+        within 1e-9 of them, the fraction-to-the-boundary rule cut the first
+        steps to 1e-7..1e-2 of their length.
+    stored_guess : bool
+        Start a scenario with no neighbouring solution from the shipped initial
+        guess (:mod:`optimize.solve.initial_guess`) when it fits, instead of the homotopy.
+    linear_solver : str
+        IPOPT linear solver.
+    mumps_pivot_order : int
+        MUMPS fill-reducing ordering (0 AMD, 2 AMF, 4 PORD, 6 QAMD, 7 automatic).
+        AMD halves the cost of an iteration on this NLP against the automatic
+        choice: at 40 intervals, warm solves took 2.2-3.7 s (0.07-0.12 s per
+        iteration) against 4.9-5.7 s (0.16-0.20 s), over three runs of three
+        transitions on 2 idle cores; cold start 26-30 s against 37 s.
+    """
+
+    solver: str = "ipopt"
+    tol: float = 1e-6
+    acceptable_tol: float = 1e-4
+    max_iter: int = 1000
+    warm_mu_init: float = 1e-4
+    warm_bound_push: float = 1e-2
+    stored_guess: bool = True
+    linear_solver: str = "mumps"
+    mumps_pivot_order: int = 0
+
+    def __post_init__(self) -> None:
+        if self.solver not in SOLVERS:
+            raise ValueError(f"solver must be one of {', '.join(SOLVERS)}, got {self.solver!r}")
+        if not 0 < self.warm_bound_push <= 0.5:  # IPOPT's range of warm_start_bound_frac
+            raise ValueError(f"warm_bound_push must be in (0, 0.5], got {self.warm_bound_push}")
+
+
+@dataclass(frozen=True)
+class OcpOptions:
+    """All options of the OCP: one :class:`Discretization`, :class:`Limits` and
+    :class:`SolverOptions` each (defaults: the default of each group)."""
+
+    discretization: Discretization = field(default_factory=Discretization)
+    limits: Limits = field(default_factory=Limits)
+    solver: SolverOptions = field(default_factory=SolverOptions)
+
+    def replace(self, **groups: dict[str, Any]) -> OcpOptions:
+        """These options with fields of groups replaced, e.g.
+        ``options.replace(limits={"max_torque_nm": 60.0})``."""
+        unknown = set(groups) - {f.name for f in dataclasses.fields(self)}
+        if unknown:
+            raise TypeError(f"unknown option groups: {', '.join(sorted(unknown))}")
+        return dataclasses.replace(self, **{
+            name: dataclasses.replace(getattr(self, name), **changes)
+            for name, changes in groups.items()})
+
+    def as_dict(self) -> dict[str, dict[str, Any]]:
+        """``{group: {field: value}}`` (JSON-ready; :meth:`from_dict` reads it back)."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, raw: dict[str, Any]) -> OcpOptions:
+        """Options from :meth:`as_dict` output (lists back to tuples).
+
+        Raises
+        ------
+        TypeError, ValueError
+            An unknown group or field, or a value out of range.
+        """
+        if not isinstance(raw, dict):
+            raise TypeError(f"OCP options must be a mapping of groups, got {type(raw).__name__}")
+        types = {f.name: f.default_factory for f in dataclasses.fields(cls)}
+        unknown = set(raw) - set(types)
+        if unknown:
+            raise TypeError(f"unknown option groups: {', '.join(sorted(unknown))}")
+        groups = {}
+        for name, values in raw.items():
+            if not isinstance(values, dict):
+                raise TypeError(f"option group {name}: not a mapping")
+            groups[name] = types[name](**{k: tuple(v) if isinstance(v, list) else v
+                                          for k, v in values.items()})
+        return cls(**groups)
