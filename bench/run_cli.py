@@ -71,8 +71,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "added wind speeds where the curves bend)")
 
 
-def site_wind_grid(args: argparse.Namespace, site_argv: list[str]) -> str:
-    """The optimize wind grid covering the site: ``START:STOP:STEP`` (see the module)."""
+def site_wind_grid(site_argv: list[str]) -> str:
+    """The optimize wind grid covering the site of the ``bench aep`` options ``site_argv``:
+    ``START:STOP:STEP`` (see the module), at most to the 25 m/s cut-out of
+    :data:`optimize.sweep.plan.WIND_RANGE_M_S` (system files state no cut-out)."""
     from energy.cli import shear_from_args, site_from_args
     from energy.site import covering_stop
     from optimize.sweep.plan import WIND_RANGE_M_S, parse_wind_grid
@@ -97,7 +99,7 @@ def stage_commands(args: argparse.Namespace) -> list[list[str]]:
     for dest, (stages, option) in FORWARDED.items():
         for stage in stages if getattr(args, dest) is not None else ():
             given[stage] += [option, str(getattr(args, dest))]
-    wind_grid = args.wind_grid or site_wind_grid(args, site)
+    wind_grid = args.wind_grid or site_wind_grid(site)
     return [
         ["ingest", *map(str, args.paths), "--store", str(store), *given["ingest"]],
         ["fit", "--store", str(store), "--out", str(fit), *given["fit"]],

@@ -168,6 +168,7 @@ def _size_extending(args: argparse.Namespace, site, winds, system):
     from energy.sizing import edge_of_set, next_scale, run_sizing
 
     scales, added = list(_scales(args.scales)), []
+    solved = wall = 0.0
     while True:
         candidates, drive, notes = build_candidates(argparse.Namespace(
             **{**vars(args), "scales": ",".join(f"{s:g}" for s in scales)}), system)
@@ -179,6 +180,11 @@ def _size_extending(args: argparse.Namespace, site, winds, system):
         res = run_sizing(candidates, winds, site, args.out, args.intervals, args.degree,
                          workers=args.workers, scheduler=args.scheduler,
                          tolerance=args.tolerance, adaptive=args.adaptive, system=system)
+        # a later round loads the solves of the earlier ones: count each solve once
+        res = dataclasses.replace(res, n_solved=int(solved) + res.n_solved,
+                                  n_cached=res.n_cached - int(solved),
+                                  wall_time_s=wall + res.wall_time_s)
+        solved, wall = res.n_solved, res.wall_time_s
         edge = edge_of_set(res.table, res.best)
         scaled = {c.name: c.scale for c in candidates if c.scale is not None}
         if edge is None or len(added) >= args.extend or res.best not in scaled:

@@ -58,10 +58,16 @@ def test_next_scale_continues_the_outer_ratio():
 
 
 def _fake_sizing(power):
-    """run_sizing without solves: made-up powers by scale, the real choice rule."""
+    """run_sizing without solves: made-up powers by scale, the real choice rule; a
+    candidate seen before is "loaded from the store", as the real store does."""
+    seen: set[str] = set()
+
     def run(cands, winds, site, *args, **kwargs):
         table, best, chosen = candidate_table(cands, _records(cands, power, winds), site)
-        return sizing.SizingResult(table, [], best, chosen, 0.0, "none", 0, 0)
+        new = [c.name for c in cands if c.name not in seen]
+        seen.update(new)
+        return sizing.SizingResult(table, [], best, chosen, 1.0, "none",
+                                   len(new) * len(winds), (len(cands) - len(new)) * len(winds))
     return run
 
 
@@ -82,6 +88,10 @@ def test_bench_size_extends_the_set_beyond_an_edge_optimum(tmp_path, monkeypatch
     res, got_edge, got_added, _, _ = size_cli._size_extending(_args(tmp_path, extend), SITE,
                                                               (5.0, 9.0), load_system())
     assert (res.best, got_edge, got_added) == ("x2", edge, added)
+    # every solve counted once over the rounds: (3 + added) candidates x 2 speeds, none
+    # loaded from an earlier run; one second per round
+    assert (res.n_solved, res.n_cached, res.wall_time_s) == (2 * (3 + len(added)), 0,
+                                                             1.0 + len(added))
     note = size_cli._edge_note(got_edge, res.best, got_added)
     assert ("larger drive may be better" in note) == (edge == "largest")
 
