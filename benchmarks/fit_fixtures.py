@@ -5,9 +5,9 @@ Each class is a campaign of operating-point tables written by
 constant power above) with its ``drive.toml``, then ``bench ingest`` and
 ``bench fit --order 2``. Printed per class and quadrant: the points ingest
 recovered (against the points written), the map's peak efficiency, the truth's
-peak over the same measured region, the measured maximum (of all points, and of
-those with an efficiency noise <= 0.005, which sets the ceiling), the map's
-ceiling, and the map nodes drawn above the true torque envelope.
+peak over the same measured region, the measured maximum (of all accepted points,
+which sets the ceiling), the map's ceiling (that maximum plus its uncertainty), and
+the map nodes drawn above the true torque envelope.
 
     .venv/bin/python benchmarks/fit_fixtures.py [--out DIR]
 """
@@ -56,7 +56,6 @@ def run_class(name: str, drive, quadrants, noise_w: float, work: Path) -> list[d
             "map_peak_eta": peak["map"]["eta"],
             "truth_peak_eta": float(np.nanmax(truth_eta)),
             "measured_max_eta": peak["measured"]["eta"],
-            "quiet_max_eta": peak["ceiling"]["eta_max_measured"],
             "ceiling_eta": peak["ceiling"]["eta"],
             "nodes_above_true_envelope": int(above.sum()),
             "nodes_shown": len(shown),

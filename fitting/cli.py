@@ -133,16 +133,22 @@ def format_summary(summary: dict, out) -> str:
     for q, peak in summary["efficiency"]["peak"].items():
         if "map" in peak:
             m = peak["map"]
-            line = (f"peak efficiency {q}: {m['eta']:.3f} at {m['speed_rpm']:.0f} rpm, "
-                    f"{m['torque_nm']:.0f} N m (map)")
+            line = (f"peak efficiency {q}: {m['eta']:.3f} at {_num(m['speed_rpm'])} rpm, "
+                    f"{_num(m['torque_nm'])} N m (map)")
             if "measured" in peak:
                 line += f"; measured max {peak['measured']['eta']:.3f}"
             c = peak.get("ceiling")
             if c:
-                line += (f"; ceiling {c['eta']:.3f} (measured max + noise "
+                line += (f"; ceiling {c['eta']:.3f} (measured max + its uncertainty "
                          f"{c['noise_eta']:.3f})")
                 if c["n_clipped_nodes"]:
                     line += f", {c['n_clipped_nodes']} map nodes clipped to it"
             lines.append(line)
     lines.append(f"outputs in {out}: " + ", ".join(summary["outputs"][:6]) + ", figures/...")
     return "\n".join(lines)
+
+
+def _num(x: float) -> str:
+    """A speed or torque for a summary line: 4 significant digits below 1000, whole above
+    (0.32 N m stays 0.32, not 0)."""
+    return f"{x:.4g}" if abs(x) < 1000 else f"{x:.0f}"

@@ -12,8 +12,11 @@ The map never invents efficiency: it is drawn only inside each quadrant's
 measured envelope (:mod:`fitting.domain`), it interpolates the measured *loss*
 ``P_elec - P_mech`` (smooth, and small against the powers) rather than
 ``P_elec``, and no node shows an efficiency above the quadrant's highest
-measured efficiency plus that efficiency's noise (such nodes are clipped to the
-ceiling and flagged ``clipped``).
+measured efficiency plus that point's own uncertainty (such nodes are clipped to
+the ceiling and flagged ``clipped``). Every accepted point counts for the
+ceiling, so the ceiling is never below a measured point, and the map, which
+interpolates the measured losses, passes through every point within its
+uncertainty (:func:`point_uncertainty`).
 """
 
 from __future__ import annotations
@@ -55,12 +58,13 @@ class MaskingRules:
     envelope_band_frac : float
         Speed band width of the measured envelope (:mod:`fitting.domain`), a
         fraction of the quadrant's largest |speed| [-].
-    ceiling_max_noise : float
-        The map's efficiency ceiling is the highest measured efficiency plus its
-        noise, among the points whose efficiency noise is at most this or twice the
-        smallest efficiency noise of the quadrant, whichever is larger [-]: near the
-        axes a small noise in P_elec makes a large one in eta, and such a point says
-        little about the peak.
+    accuracy_frac : float
+        Standard uncertainty of one averaged power reading from the instruments'
+        accuracy, a fraction of the reading [-] (a power analyzer's and a torque
+        flange's accuracy class are 0.05-0.1 % of reading, speed adds less; 0.2 %
+        also covers a table's printed resolution and calibration drift). It is the
+        floor of each point's uncertainty (:func:`point_uncertainty`), which sets
+        the map's ceiling.
 
     Notes
     -----
@@ -74,7 +78,7 @@ class MaskingRules:
     elec_frac: float = 0.02
     max_efficiency: float = 1.0
     envelope_band_frac: float = BAND_FRAC
-    ceiling_max_noise: float = 0.005
+    accuracy_frac: float = 0.002
 
     def __post_init__(self) -> None:
         for name in ("mech_frac", "elec_frac"):
@@ -85,6 +89,9 @@ class MaskingRules:
             raise ValueError("nominal_power_w must be a positive power [W]")
         if not self.max_efficiency > 0:
             raise ValueError("max_efficiency must be positive")
+        if not (np.isfinite(self.accuracy_frac) and 0.0 <= self.accuracy_frac < 0.5):
+            raise ValueError(f"accuracy_frac = {self.accuracy_frac!r}: a fraction in [0, 0.5) "
+                             "expected")
         if not (np.isfinite(self.envelope_band_frac) and 0.0 < self.envelope_band_frac <= 0.5):
             raise ValueError(f"envelope_band_frac = {self.envelope_band_frac!r}: "
                              "a fraction in (0, 0.5] expected")
@@ -102,9 +109,11 @@ class MaskingRules:
             "(no extrapolation)",
             "map: the loss P_elec - P_mech is interpolated linearly between measured points "
             "and eta derived from it",
-            "map: eta above the quadrant's highest measured eta + its noise -> clipped to that "
-            f"ceiling (status 'clipped'); measured eta with a noise above "
-            f"{self.ceiling_max_noise:g} does not set the ceiling",
+            "map: eta above the quadrant's highest measured eta + that point's uncertainty "
+            "-> clipped to that ceiling (status 'clipped'); every accepted point counts; a "
+            "point's power uncertainty is the standard error of its window mean (std / "
+            f"sqrt(n_samples)) and {self.accuracy_frac:g} of the reading (instrument "
+            "accuracy) in quadrature",
         ]
         return d
 
@@ -209,59 +218,88 @@ def _interpolate_in_hull(tri: Delaunay, values: np.ndarray, query: np.ndarray) -
     return out
 
 
-def _noise_of(p_elec_noise_w, quadrant: str) -> float:
-    if isinstance(p_elec_noise_w, dict):
-        value = p_elec_noise_w.get(quadrant)
-        return 0.0 if value is None or not np.isfinite(value) else float(value)
-    return float(p_elec_noise_w)
+def _column(frame: pd.DataFrame, name: str) -> np.ndarray:
+    """A float column of ``frame``, or NaN throughout when it has none."""
+    if name in frame.columns:
+        return pd.to_numeric(frame[name], errors="coerce").to_numpy(dtype=float)
+    return np.full(len(frame), np.nan)
 
 
-def efficiency_ceilings(frame: pd.DataFrame, rules: MaskingRules,
-                        p_elec_noise_w: float | dict = 0.0) -> dict[str, dict]:
-    """The highest efficiency the map may show per quadrant: measured maximum plus its noise.
+def power_uncertainty(frame: pd.DataFrame, power: str, accuracy_frac: float) -> np.ndarray:
+    """Standard uncertainty of each point's mean power [W] (``power``: ``p_elec``/``p_mech``).
 
-    The noise of a measured efficiency follows from the noise ``sigma`` of its
-    electrical power: ``eta * sigma / |P_elec|`` in the motor quadrant (eq. 1),
-    ``sigma / |P_mech|`` in the generator quadrant (eq. 2). The maximum is taken
-    over the points whose noise is at most ``rules.ceiling_max_noise`` or twice
-    the quadrant's smallest, whichever is larger; the ceiling is that maximum plus
-    its own noise.
+    The standard error of the window mean, ``<power>_w_std / sqrt(n_samples)``
+    (the std alone when the point states no sample count, as a table with a std
+    column but no count; 0 when it states no std), and ``accuracy_frac`` of the
+    reading (the instruments' accuracy), added in quadrature.
+    """
+    value = np.abs(_column(frame, f"{power}_w"))
+    std = _column(frame, f"{power}_w_std")
+    n = _column(frame, "n_samples")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        stat = np.where(np.isfinite(n) & (n > 0), std / np.sqrt(n), std)
+    stat = np.where(np.isfinite(stat), stat, 0.0)
+    return np.hypot(stat, accuracy_frac * value)
+
+
+def point_uncertainty(frame: pd.DataFrame, rules: MaskingRules) -> np.ndarray:
+    """Standard uncertainty of each point's efficiency (paper eqs. 1-2) [-].
+
+    Both equations are a ratio of the two powers, so the relative uncertainties
+    of ``P_elec`` and ``P_mech`` (:func:`power_uncertainty`) add in quadrature:
+    ``u_eta = |eta| * sqrt((u_Pe / P_e)**2 + (u_Pm / P_m)**2)``; NaN where a
+    power is 0.
+    """
+    eta = raw_efficiency(frame["p_mech_w"], frame["p_elec_w"])
+    rel = []
+    for power in ("p_elec", "p_mech"):
+        u = power_uncertainty(frame, power, rules.accuracy_frac)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rel.append(u / np.abs(_column(frame, f"{power}_w")))
+    return np.abs(eta) * np.hypot(*rel)
+
+
+def efficiency_ceilings(frame: pd.DataFrame, rules: MaskingRules) -> dict[str, dict]:
+    """The highest efficiency the map may show per quadrant: measured maximum plus its
+    uncertainty.
+
+    The maximum is taken over every point the masking rules leave ``ok`` (none is
+    left out for being noisy, so the ceiling is never below an accepted point);
+    the ceiling is that maximum plus that point's own standard uncertainty
+    (:func:`point_uncertainty`), at most ``rules.max_efficiency``.
 
     Parameters
     ----------
     frame : pandas.DataFrame
-        Points with ``speed_rpm``, ``torque_nm``, ``p_mech_w``, ``p_elec_w``, ``quadrant``.
+        Points with ``speed_rpm``, ``torque_nm``, ``p_mech_w``, ``p_elec_w``, ``quadrant``
+        and, when known, ``p_elec_w_std``, ``p_mech_w_std``, ``n_samples``.
     rules : MaskingRules
         Only points the rules leave ``ok`` count as measured efficiencies.
-    p_elec_noise_w : float or dict
-        Noise (standard deviation) of one point's electrical power [W], one value or
-        one per quadrant (``bench fit`` uses the fit's residual RMS per quadrant).
 
     Returns
     -------
     dict
         ``quadrant -> {"eta": ceiling, "eta_max_measured", "noise_eta",
-        "p_elec_noise_w", "speed_rpm", "torque_nm"}`` (the last two: where the
-        maximum was measured), for each quadrant with at least one ``ok`` point.
-        The ceiling never exceeds ``rules.max_efficiency``.
+        "u_p_elec_w", "u_p_mech_w", "n_points", "speed_rpm", "torque_nm"}`` (the
+        uncertainties and the place are those of the highest point), for each
+        quadrant with at least one ``ok`` point.
     """
     eta, status = masked_efficiency(frame["p_mech_w"], frame["p_elec_w"], rules)
+    u_eta = point_uncertainty(frame, rules)
+    u_pe = power_uncertainty(frame, "p_elec", rules.accuracy_frac)
+    u_pm = power_uncertainty(frame, "p_mech", rules.accuracy_frac)
     quadrant = frame["quadrant"].to_numpy()
     out = {}
-    p_mech = np.abs(frame["p_mech_w"].to_numpy(dtype=float))
-    p_elec = np.abs(frame["p_elec_w"].to_numpy(dtype=float))
     for q in QUADRANTS:
         sel = np.flatnonzero((quadrant == q) & (status == OK))
         if sel.size == 0:
             continue
-        sigma = _noise_of(p_elec_noise_w, q)
-        noise = (eta[sel] * sigma / p_elec[sel] if q == "motor" else sigma / p_mech[sel])
-        quiet = noise <= max(rules.ceiling_max_noise, 2.0 * float(noise.min()))
-        j = int(np.flatnonzero(quiet)[np.argmax(eta[sel][quiet])])
-        k = int(sel[j])
-        out[q] = {"eta": float(min(eta[k] + noise[j], rules.max_efficiency)),
-                  "eta_max_measured": float(eta[k]), "noise_eta": float(noise[j]),
-                  "p_elec_noise_w": sigma, "max_noise_counted": rules.ceiling_max_noise,
+        k = int(sel[np.argmax(eta[sel])])
+        noise = float(u_eta[k]) if np.isfinite(u_eta[k]) else 0.0
+        out[q] = {"eta": float(min(eta[k] + noise, rules.max_efficiency)),
+                  "eta_max_measured": float(eta[k]), "noise_eta": noise,
+                  "u_p_elec_w": float(u_pe[k]), "u_p_mech_w": float(u_pm[k]),
+                  "n_points": int(sel.size),
                   "speed_rpm": float(frame["speed_rpm"].iloc[k]),
                   "torque_nm": float(frame["torque_nm"].iloc[k])}
     return out
@@ -272,7 +310,6 @@ def gridded_map(
     rules: MaskingRules,
     *,
     model=None,
-    p_elec_noise_w: float | dict = 0.0,
     speed_step_rpm: float | None = None,
     torque_step_nm: float | None = None,
 ) -> pd.DataFrame:
@@ -293,8 +330,6 @@ def gridded_map(
     rules : MaskingRules
     model : PowerModel, optional
         If given, adds the model's power and efficiency at each node (inside the domain).
-    p_elec_noise_w : float or dict
-        Noise of one point's electrical power [W] (see :func:`efficiency_ceilings`).
     speed_step_rpm, torque_step_nm : float, optional
         Grid spacing [rpm], [N m]; default :func:`grid_steps`.
 
@@ -309,12 +344,69 @@ def gridded_map(
     speeds, torques = regular_grid(frame, speed_step_rpm or default_s, torque_step_nm or default_t)
     sg, tg = np.meshgrid(speeds, torques, indexing="ij")
     s, t = sg.ravel(), tg.ravel()
+    envelopes = quadrant_envelopes(frame, rules.envelope_band_frac)
+    ceilings = efficiency_ceilings(frame, rules)
+    at = map_at(frame, rules, s, t, envelopes, ceilings)
+    p_mech, quadrant, loss, eta, status = (at[k] for k in ("p_mech_w", "quadrant", "loss_w",
+                                                            "eta", "status"))
+    in_domain = np.isfinite(loss)
+    p_elec = p_mech + loss
+    for q, ceiling in ceilings.items():
+        ceiling["n_clipped_nodes"] = int(((quadrant == q) & (status == CLIPPED)).sum())
+    out = pd.DataFrame({
+        "speed_rpm": s, "torque_nm": t, "quadrant": quadrant, "in_domain": in_domain,
+        "p_mech_w": p_mech, "loss_w": loss, "p_elec_w": p_elec, "eta": eta,
+        "status": status.astype(str),
+    })
+    if model is not None:
+        p_fit = np.asarray(model.p_elec_w(s, t), dtype=float)
+        eta_fit, _ = masked_efficiency(p_mech, p_fit, rules)
+        out["p_elec_fit_w"] = p_fit
+        out["eta_fit"] = np.where(in_domain, eta_fit, np.nan)
+    out.attrs["envelopes"] = envelopes
+    out.attrs["ceilings"] = ceilings
+    return out
+
+
+def map_at(frame: pd.DataFrame, rules: MaskingRules, speed_rpm, torque_nm,
+           envelopes: dict | None = None, ceilings: dict | None = None) -> dict[str, np.ndarray]:
+    """The map's loss and efficiency at any speed-torque points (what :func:`gridded_map` draws).
+
+    Per quadrant the measured loss ``P_elec - P_mech`` is interpolated linearly over
+    a Delaunay triangulation of the quadrant's points (in coordinates scaled by the
+    largest |speed| and torque), inside the quadrant's measured envelope only; the
+    efficiency follows from the query's exact ``omega * T`` and that loss (eqs.
+    1-2, masking rules), at most the quadrant's ceiling (``clipped``). At a measured
+    point the interpolant is that point's own loss, so the map shows its efficiency,
+    or the ceiling, which lies within its uncertainty (:func:`efficiency_ceilings`).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The measured points (``speed_rpm``, ``torque_nm``, ``p_mech_w``, ``p_elec_w``,
+        ``quadrant``).
+    rules : MaskingRules
+    speed_rpm, torque_nm : array_like
+        Where to evaluate [rpm], [N m].
+    envelopes, ceilings : dict, optional
+        :func:`fitting.domain.quadrant_envelopes` and :func:`efficiency_ceilings` of
+        ``frame`` (computed when not given).
+
+    Returns
+    -------
+    dict
+        ``p_mech_w``, ``quadrant``, ``loss_w`` (NaN outside the envelope), ``eta``
+        and ``status`` (``outside_domain`` outside it) per query point.
+    """
+    s = np.asarray(speed_rpm, dtype=float).ravel()
+    t = np.asarray(torque_nm, dtype=float).ravel()
+    envelopes = (quadrant_envelopes(frame, rules.envelope_band_frac) if envelopes is None
+                 else envelopes)
+    ceilings = efficiency_ceilings(frame, rules) if ceilings is None else ceilings
     p_mech = s * 2.0 * np.pi / 60.0 * t
     quadrant = quadrant_of(p_mech)
     scales = (float(np.max(np.abs(frame["speed_rpm"]))) or 1.0,
               float(np.max(np.abs(frame["torque_nm"]))) or 1.0)
-    envelopes = quadrant_envelopes(frame, rules.envelope_band_frac)
-    ceilings = efficiency_ceilings(frame, rules, p_elec_noise_w)
     loss = np.full(s.shape, np.nan)
     for q, env in envelopes.items():
         sub = frame[frame["quadrant"] == q]
@@ -329,27 +421,37 @@ def gridded_map(
         query = np.column_stack([s[nodes] / scales[0], t[nodes] / scales[1]])
         measured_loss = (sub["p_elec_w"] - sub["p_mech_w"]).to_numpy(dtype=float)
         loss[nodes] = _interpolate_in_hull(tri, measured_loss, query)
-    in_domain = np.isfinite(loss)
-    p_elec = p_mech + loss
-    eta, status = masked_efficiency(p_mech, p_elec, rules)
-    status[~in_domain] = OUTSIDE_DOMAIN
+    eta, status = masked_efficiency(p_mech, p_mech + loss, rules)
+    status[~np.isfinite(loss)] = OUTSIDE_DOMAIN
     for q, ceiling in ceilings.items():
         over = (quadrant == q) & (status == OK) & (eta > ceiling["eta"])
         eta[over] = ceiling["eta"]
         status[over] = CLIPPED
-        ceiling["n_clipped_nodes"] = int(over.sum())
-    out = pd.DataFrame({
-        "speed_rpm": s, "torque_nm": t, "quadrant": quadrant, "in_domain": in_domain,
-        "p_mech_w": p_mech, "loss_w": loss, "p_elec_w": p_elec, "eta": eta,
-        "status": status.astype(str),
-    })
-    if model is not None:
-        p_fit = np.asarray(model.p_elec_w(s, t), dtype=float)
-        eta_fit, _ = masked_efficiency(p_mech, p_fit, rules)
-        out["p_elec_fit_w"] = p_fit
-        out["eta_fit"] = np.where(in_domain, eta_fit, np.nan)
-    out.attrs["envelopes"] = envelopes
-    out.attrs["ceilings"] = ceilings
+    return {"p_mech_w": p_mech, "quadrant": quadrant, "loss_w": loss, "eta": eta,
+            "status": status}
+
+
+def points_against_map(frame: pd.DataFrame, rules: MaskingRules, ceilings: dict) -> dict:
+    """Per quadrant: do the accepted points lie on the map within their uncertainty?
+
+    Returns ``quadrant -> {"n_points", "n_above_map", "max_excess", "n_off_map"}``:
+    the ``ok`` points, those whose efficiency exceeds the map's at that point
+    (:func:`map_at`) by more than their uncertainty (:func:`point_uncertainty`),
+    the largest such excess [-] (0 when none) and the points the map does not
+    cover (on the envelope's edge, where the map is not drawn).
+    """
+    eta, status = masked_efficiency(frame["p_mech_w"], frame["p_elec_w"], rules)
+    u = point_uncertainty(frame, rules)
+    at = map_at(frame, rules, frame["speed_rpm"], frame["torque_nm"], ceilings=ceilings)
+    quadrant = frame["quadrant"].to_numpy()
+    out = {}
+    for q in ceilings:
+        sel = (quadrant == q) & (status == OK)
+        shown = sel & np.isin(at["status"], (OK, CLIPPED))
+        excess = np.where(shown, eta - at["eta"] - np.nan_to_num(u), -np.inf)
+        out[q] = {"n_points": int(sel.sum()), "n_above_map": int((excess > 1e-12).sum()),
+                  "max_excess": float(max(excess.max(initial=0.0), 0.0)),
+                  "n_off_map": int((sel & ~shown).sum())}
     return out
 
 
@@ -409,8 +511,8 @@ def peak_points(map_frame: pd.DataFrame, frame: pd.DataFrame, rules: MaskingRule
         if q in ceilings:
             c = ceilings[q]
             entry["ceiling"] = {"eta": c["eta"], "eta_max_measured": c["eta_max_measured"],
-                                "noise_eta": c["noise_eta"],
-                                "p_elec_noise_w": c["p_elec_noise_w"],
+                                "noise_eta": c["noise_eta"], "u_p_elec_w": c["u_p_elec_w"],
+                                "u_p_mech_w": c["u_p_mech_w"], "n_points": c["n_points"],
                                 "n_clipped_nodes": c.get("n_clipped_nodes", 0)}
         if entry:
             out[q] = entry

@@ -14,12 +14,24 @@ import numpy as np
 from bench.errors import InputError
 from fitting import figures
 from fitting.domain import BAND_FRAC, quadrant_envelopes
-from fitting.efficiency import MaskingRules, band_shares, gridded_map, peak_points
+from fitting.efficiency import (
+    MaskingRules,
+    band_shares,
+    gridded_map,
+    peak_points,
+    points_against_map,
+)
 from fitting.loss_table import write_loss_table
 from fitting.model_file import save_power_model
 from fitting.outputs import json_safe, write_json, write_parquet
 from fitting.points import QUADRANTS, load_points
-from fitting.power_fit import check_fit_input, fit_power_model, quadrant_weights
+from fitting.power_fit import (
+    OUTLIER_ALPHA,
+    check_fit_input,
+    fit_power_model,
+    outlier_test,
+    quadrant_weights,
+)
 from fitting.rating import resolve_drive
 from fitting.selection import (
     RULE,
@@ -176,6 +188,7 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     except InputError as exc:
         extra = {"space": paper_space_candidate().name, "skipped": exc.problem}
 
+    outliers = outlier_summary(frame, fit, weights, nominal, source)
     motor = quadrant == "motor"
     statistics = {
         "method": "weighted least squares (statsmodels WLS)" if options.weighting == "quadrant"
@@ -194,6 +207,7 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
                       "generator": fit.residual_stats(~motor)},
         "normality": fit.normality(),
         "coefficients": fit.coefficient_table(),
+        "outliers": outliers,
         "selection": {"chosen_by_selection": selection.chosen.name, "rule": RULE,
                       "reason": selection.reason, "exported": chosen.name,
                       "exported_because": "chosen by the selection" if requested is None
@@ -224,10 +238,7 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     (out / "figures").mkdir(exist_ok=True)
     written = [save_power_model(model, out / "power_model.json")]
 
-    # the noise of one point's P_elec, for the map's efficiency ceiling: the fit's
-    # residual RMS per quadrant (measurement noise plus what the model misses)
-    noise = {q: statistics["residuals"][q].get("rmse_w") for q in QUADRANTS}
-    emap = gridded_map(frame, masking, model=model, p_elec_noise_w=noise)
+    emap = gridded_map(frame, masking, model=model)
     shares = band_shares(emap)
     peaks = peak_points(emap, frame, masking)
     meta = {"masking": masking.to_dict(), "power_model_sha256": model.sha256,
@@ -255,9 +266,12 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
         "extra_terms_check": extra,
         "drive": drive.to_dict(),
         "notes": drive_notes + [v["note"] for v in statistics["validity"].values()
-                                if not v["measured"]],
+                                if not v["measured"]] + ([outliers["note"]] if
+                                                         outliers["n_flagged"] else []),
         "efficiency": {"masking": masking.to_dict(), "band_shares": _records(shares),
                        "peak": peaks,
+                       "points_against_map": points_against_map(frame, masking,
+                                                                emap.attrs["ceilings"]),
                        "envelope": {q: {"band_width_rpm": env["band_width_rpm"],
                                         "n_points": env["n_points"],
                                         "n_vertices": len(env["polygon"])}
@@ -268,6 +282,69 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     summary = json_safe(summary)
     write_json(out / "fit_summary.json", summary)
     return summary
+
+
+def outlier_summary(frame, fit, weights: np.ndarray, nominal_power_w: float, source) -> dict:
+    """Points with an extreme studentized residual (:func:`fitting.power_fit.outlier_test`)
+    and the fit without them, side by side with the exported fit (which keeps them).
+
+    Returns
+    -------
+    dict
+        ``rule``, ``alpha``, ``critical_t``, ``n_flagged``, ``points`` (per flagged
+        point: session, point id, speed, torque, p_elec, residual, studentized
+        residual), and when any is flagged ``without`` (the refit's coefficients,
+        residual statistics, ``max_abs_change_w`` of the model at the kept points and
+        ``max_change_std_errors`` of the coefficients) and a one-line ``note``.
+    """
+    flagged, critical = outlier_test(fit)
+    out = {"rule": "externally studentized residual beyond the Bonferroni critical value "
+                   f"t(1 - alpha / (2 n), n - p - 1), alpha = {OUTLIER_ALPHA:g}; flagged points "
+                   "are kept in the exported fit and shown here with the fit without them",
+           "alpha": OUTLIER_ALPHA, "critical_t": critical, "n_flagged": int(flagged.sum()),
+           "points": []}
+    order = np.flatnonzero(flagged)[np.argsort(-np.abs(fit.studentized[flagged]))]
+    for k in order:
+        out["points"].append({
+            "session_id": str(frame["session_id"].iloc[k]),
+            "point_id": int(frame["point_id"].iloc[k]),
+            "speed_rpm": float(frame["speed_rpm"].iloc[k]),
+            "torque_nm": float(frame["torque_nm"].iloc[k]),
+            "p_elec_w": float(frame["p_elec_w"].iloc[k]),
+            "residual_w": float(fit.residuals_w[k]),
+            "studentized": float(fit.studentized[k])})
+    keep = ~flagged
+    if not flagged.any():
+        return out
+    try:
+        without = fit_power_model(frame["speed_rpm"].to_numpy()[keep],
+                                  frame["torque_nm"].to_numpy()[keep],
+                                  frame["p_elec_w"].to_numpy()[keep], fit.terms,
+                                  weights=weights[keep], nominal_power_w=nominal_power_w,
+                                  source=source)
+    except InputError as exc:
+        out["without"] = {"skipped": exc.problem}
+        return out
+    speed, torque = frame["speed_rpm"].to_numpy()[keep], frame["torque_nm"].to_numpy()[keep]
+    change = np.abs(fit.to_power_model("with").p_elec_w(speed, torque)
+                    - without.to_power_model("without").p_elec_w(speed, torque))
+    shift = np.abs(without.coefficients_rpm - fit.coefficients_rpm) / fit.std_errors_rpm
+    out["without"] = {"n_points": without.n_points, "coefficients": without.coefficient_table(),
+                      "residuals": without.residual_stats(), "r2": without.r2,
+                      "max_abs_change_w": float(change.max()),
+                      "max_change_std_errors": float(np.max(shift))}
+    first = out["points"][0]
+    out["note"] = (
+        f"{out['n_flagged']} outlier point(s) with |studentized residual| > {critical:.3g} "
+        f"(Bonferroni, alpha {OUTLIER_ALPHA:g}), the worst {first['session_id']} point "
+        f"{first['point_id']} at {first['speed_rpm']:.4g} rpm, {first['torque_nm']:.4g} N m, "
+        f"{first['p_elec_w']:.4g} W (residual {first['residual_w']:.4g} W, t = "
+        f"{first['studentized']:.3g}); kept in the exported fit (residual RMS "
+        f"{fit.residual_stats()['rmse_w']:.4g} W); without them RMS "
+        f"{without.residual_stats()['rmse_w']:.4g} W, the model changes by at most "
+        f"{change.max():.4g} W at the other points, the coefficients by at most "
+        f"{np.max(shift):.3g} standard errors")
+    return out
 
 
 def min_quadrant_points(folds: int) -> int:

@@ -53,6 +53,10 @@ class FitResult:
         Scale for the relative statistics [W].
     condition_number : float
         Condition number of the scaled design.
+    studentized : numpy.ndarray
+        Externally studentized residual of each point (its weighted residual over
+        the residual standard deviation of the fit without it, times
+        ``1 / sqrt(1 - h_ii)``; ``h_ii`` the leverage) [-].
     """
 
     terms: tuple[tuple[int, int], ...]
@@ -67,6 +71,7 @@ class FitResult:
     weights: np.ndarray
     nominal_power_w: float
     condition_number: float
+    studentized: np.ndarray
 
     @property
     def n_points(self) -> int:
@@ -240,6 +245,7 @@ def fit_power_model(
     ci = res.conf_int(alpha=0.05) * d[:, None]
     cov = res.cov_params() * np.outer(d, d)
     resid = p - x @ res.params
+    studentized = _studentized(xw, np.sqrt(w) * resid)
     sst = float(np.sum((p - p.mean()) ** 2))
     r2 = 1.0 - float(np.sum(resid**2)) / sst if sst > 0 else float("nan")
     return FitResult(
@@ -255,4 +261,51 @@ def fit_power_model(
         weights=w,
         nominal_power_w=float(nominal_power_w),
         condition_number=float(sv[0] / sv[-1]),
+        studentized=studentized,
     )
+
+
+def _studentized(xw: np.ndarray, ew: np.ndarray) -> np.ndarray:
+    """Externally studentized residuals of a (weighted) least-squares fit.
+
+    ``xw``, ``ew``: the weighted design and residuals (rows times sqrt(weight)).
+    ``t_i = e_i / (s_(i) sqrt(1 - h_ii))`` with the leverage ``h_ii`` (diagonal of
+    the hat matrix, from a thin QR of the design) and ``s_(i)`` the residual
+    standard deviation without point ``i`` (closed form, no refit).
+    """
+    n, p = xw.shape
+    if n - p - 1 <= 0:
+        return np.full(n, np.nan)
+    q, _ = np.linalg.qr(xw)
+    h = np.clip(np.sum(q * q, axis=1), 0.0, 1.0 - 1e-12)
+    sse = float(np.sum(ew * ew))
+    s2_i = np.maximum((sse - ew * ew / (1.0 - h)) / (n - p - 1), 1e-300)
+    return ew / np.sqrt(s2_i * (1.0 - h))
+
+
+#: family-wise false-alarm probability of the outlier test (Bonferroni over the points)
+OUTLIER_ALPHA = 0.05
+
+
+def outlier_test(fit: FitResult, alpha: float = OUTLIER_ALPHA) -> tuple[np.ndarray, float]:
+    """Points whose studentized residual is extreme, and the critical value used.
+
+    Bonferroni outlier test: under the fitted model with normal errors each
+    externally studentized residual follows Student's t with ``n - p - 1``
+    degrees of freedom; a point is flagged when ``|t_i|`` exceeds the
+    ``1 - alpha / (2 n)`` quantile, so a sound campaign of any size has all its
+    points pass with probability ``1 - alpha``.
+
+    Returns
+    -------
+    flagged : numpy.ndarray of bool
+        Per point.
+    critical : float
+        The critical |t| [-].
+    """
+    n, p = fit.n_points, len(fit.terms)
+    dof = n - p - 1
+    if dof <= 0:
+        return np.zeros(n, bool), float("nan")
+    critical = float(stats.t.isf(alpha / (2.0 * n), dof))
+    return np.abs(fit.studentized) > critical, critical

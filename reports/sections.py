@@ -242,7 +242,8 @@ def efficiency_notes(model: PowerModel | None, summary: dict | None) -> list[str
         if isinstance(c, dict) and c.get("eta") is not None:
             clipped = c.get("n_clipped_nodes") or 0
             notes.append(f"{q}: no map node shows an efficiency above {fmt(c['eta'], 3)} (the "
-                         f"highest measured {fmt(c.get('eta_max_measured'), 3)} plus its noise "
+                         f"highest measured {fmt(c.get('eta_max_measured'), 3)} plus its "
+                         "uncertainty "
                          f"{fmt(c.get('noise_eta'), 3)})"
                          + (f"; {clipped} nodes were clipped to it." if clipped else "."))
     return notes

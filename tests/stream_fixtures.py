@@ -182,7 +182,7 @@ def german_setpoints() -> list[tuple[float, float]]:
 
 def make_german_logger(root: Path, sid: str = "logger_de", hold_s: float = 40.0,
                        start: datetime = datetime(2024, 3, 5, 23, 57, 30),
-                       seed: int = 11) -> StreamTruth:
+                       seed: int = 11, noisy_hold: int | None = None) -> StreamTruth:
     """Write ``root/sid/{session.toml, log.csv}``: a 1 Hz German-locale logger.
 
     Tab separated, decimal comma, names row ``Uhrzeit  Drehzahl  Drehmoment
@@ -190,12 +190,18 @@ def make_german_logger(root: Path, sid: str = "logger_de", hold_s: float = 40.0,
     only, from ``start`` (so the log runs through midnight). Two gaps: 12 s
     missing in the middle of hold 2 (it gives two points) and 25 s missing
     around the step from hold 5 to hold 6 (no window may span it). The
-    session date is ``start``'s date.
+    session date is ``start``'s date. ``noisy_hold``: in that hold speed, torque and
+    power scatter 12 times as much as elsewhere (a bench less stiff at high speed).
     """
     rng = np.random.default_rng(seed)
     sp = german_setpoints()
     t, speed, torque, pe, s_set, q_set, step = _signals(sp, hold_s, 1.0, rng,
                                                        noise=(1.0, 0.15, 6.0))
+    if noisy_hold is not None:
+        h = (t >= step[noisy_hold] + 2) & (t < step[noisy_hold] + hold_s)
+        speed[h] += rng.normal(0, 12.0, h.sum())
+        torque[h] += rng.normal(0, 1.8, h.sum())
+        pe[h] += rng.normal(0, 72.0, h.sum())
     keep = np.ones(t.size, bool)
     mid2 = step[2] + hold_s / 2
     keep &= ~((t >= mid2 - 6) & (t < mid2 + 6))

@@ -7,7 +7,11 @@ so the lag that maximises the cross-correlation of their increments (on a
 common grid; then refined continuously by re-interpolating the analyzer at
 sub-sample shifts) is the residual offset. The
 same estimate in consecutive segments of the session, fitted with a straight
-line, gives the drift.
+line, gives the drift and its standard uncertainty (from the line's residuals, at
+least that of segment offsets good to a tenth of a grid step). Where the estimate
+is not above twice its uncertainty (not significant at about 95 %; a slow logger:
+at 1 Hz a drift of tens of ppm over minutes is milliseconds, far below what the
+data resolve), the model falls back to the offset alone and says so.
 
 Clock model: ``t_daq = offset_s + (1 + drift_ppm * 1e-6) * t_analyzer``.
 """
@@ -29,6 +33,11 @@ DRIFT_SEGMENTS = 8
 SEGMENT_SPAN_S = 1200.0
 #: smallest |correlation| of a segment estimate that is trusted for the drift [-]
 MIN_HALF_CORRELATION = 0.5
+#: standard uncertainty of one segment offset, at least this fraction of the grid step
+#: (the sub-sample refinement is good to ~5-10 ms on a 0.1 s grid) [-]
+OFFSET_FLOOR_STEPS = 0.1
+#: a drift is applied only when it exceeds this many of its standard uncertainties [-]
+DRIFT_SIGMAS = 2.0
 
 
 @dataclass(frozen=True)
@@ -46,12 +55,21 @@ class ClockModel:
     correlation : float
         Normalised cross-correlation at the peak (sign included; near -1 means
         the mechanical power has the wrong sign) [-].
+    drift_estimate_ppm, drift_uncertainty_ppm : float
+        The drift the segment offsets give and its standard uncertainty [ppm]
+        (NaN when the session is too short to estimate a drift).
+    drift_note : str or None
+        Why ``drift_ppm`` is 0 although a drift was estimated (the estimate is not
+        above :data:`DRIFT_SIGMAS` uncertainties: offset only), else None.
     """
 
     offset_s: float
     drift_ppm: float
     prior_offset_s: float
     correlation: float
+    drift_estimate_ppm: float = float("nan")
+    drift_uncertainty_ppm: float = float("nan")
+    drift_note: str | None = None
 
     def to_daq(self, t_analyzer_s: np.ndarray) -> np.ndarray:
         """Analyzer times [s] -> DAQ times [s]."""
@@ -177,13 +195,53 @@ def estimate_clock(
             continue
         centres.append(t_a)
         offsets.append(refine(guess + lag_h, t, pm[sl]))
-    slope = 0.0
+    slope, estimate, sigma, note = 0.0, np.nan, np.nan, None
     if len(offsets) >= 2:
-        slope, offset = np.polyfit(centres, offsets, 1)
+        estimate, line_offset, sigma = drift_line(centres, offsets, OFFSET_FLOOR_STEPS * dt)
+        if DRIFT_SIGMAS * sigma < abs(estimate):
+            slope, offset = estimate, line_offset
+        else:  # not resolved: the offset alone, the mean of the segment offsets
+            offset = float(np.mean(offsets))
+            note = (f"clock drift {estimate * 1e6:+.1f} +- {sigma * 1e6:.1f} ppm (1 sigma) not "
+                    f"resolved on a {dt:g} s grid over {span:.0f} s (below "
+                    f"{DRIFT_SIGMAS:g} sigma): offset only, drift 0")
     return ClockModel(
         offset_s=float(offset), drift_ppm=float(slope * 1e6),
         prior_offset_s=float(prior_offset_s), correlation=corr,
+        drift_estimate_ppm=float(estimate * 1e6), drift_uncertainty_ppm=float(sigma * 1e6),
+        drift_note=note,
     )
+
+
+def drift_line(t_s, offsets_s, floor_s: float) -> tuple[float, float, float]:
+    """Straight line through segment offsets: slope, intercept and the slope's standard error.
+
+    Parameters
+    ----------
+    t_s, offsets_s : sequence of float
+        Segment centres on the analyzer clock and their offsets [s] (at least 2).
+    floor_s : float
+        Smallest standard uncertainty of one offset [s].
+
+    Returns
+    -------
+    slope : float
+        Drift [s/s].
+    intercept : float
+        Offset at analyzer time 0 [s].
+    sigma : float
+        Standard error of the slope [s/s]: ``s / sqrt(Sxx)`` with ``s`` the larger
+        of the residual standard deviation (``n - 2`` degrees of freedom, when
+        ``n >= 3``) and ``floor_s``.
+    """
+    x, y = np.asarray(t_s, float), np.asarray(offsets_s, float)
+    slope, intercept = np.polyfit(x, y, 1)
+    sxx = float(np.sum((x - x.mean()) ** 2))
+    s2 = floor_s**2
+    if x.size >= 3:
+        s2 = max(s2, float(np.sum((y - (slope * x + intercept)) ** 2)) / (x.size - 2))
+    sigma = float(np.sqrt(s2 / sxx)) if sxx > 0 else float("inf")
+    return float(slope), float(intercept), sigma
 
 
 def _fill(x: np.ndarray) -> np.ndarray:

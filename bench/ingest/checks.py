@@ -9,10 +9,15 @@ check that catches it:
   point is checked by :func:`check_points` against the session's sensor ranges,
   against physics (losses ``p_elec - p_mech >= 0`` within noise: ``0 < eta <= 1``
   in motor mode, ``eta <= 1`` in generator mode) and, when the mapping names a
-  p_mech column, against ``omega * T``. When many points fail, ingest stops
-  with an error naming the columns and the unit it suspects (the single unit
-  change that would make the points pass); a few failing points are rejected
-  with their reason;
+  p_mech column, against ``omega * T``. When more points fail than isolated
+  outliers explain (:func:`too_many`), the mapping is wrong, not the points:
+  ingest stops with an error naming the columns, the share and the unit it
+  suspects (the single unit change that would make the points pass); a few
+  failing points are rejected with their reason;
+- losses that vanish (``p_elec`` equal to ``omega * T`` within the instruments'
+  accuracy) on most points: the p_elec column holds mechanical power;
+- efficiencies implausibly low on most high-power points (speed in rad/s read as
+  rpm, a torque or power column in the wrong unit): a unit to suspect;
 - a flipped torque or speed sign: :func:`check_torque_sign`.
 
 All arrays are in the drum frame and our units (rpm, N m, W).
@@ -25,6 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.stats import binom
 
 from bench.errors import InputError
 from bench.ingest.units import QUANTITY_KIND, TARGET_UNIT, alternatives
@@ -44,8 +50,15 @@ P_MECH_RTOL = 0.05
 POWER_FLOOR_FRAC = 0.01
 
 #: more than this fraction of failing points is a systematic error (stop), fewer are
-#: rejected one by one [-]
+#: rejected one by one, unless :data:`ISOLATED_RATE` cannot explain their number [-]
 SYSTEMATIC_FRAC = 0.2
+
+#: rate of isolated implausible points (a glitch, a brake slip, a mistyped row) a sound
+#: session may hold [-], and the false-alarm probability of calling a sound session
+#: systematically wrong: more failing points than a binomial draw at this rate gives with
+#: this probability are a wrong mapping, not outliers (:func:`too_many`) [-]
+ISOLATED_RATE = 0.03
+FALSE_ALARM = 1e-3
 
 #: a suspected unit must bring at least this fraction of the sensor range into use [-]
 MIN_RANGE_USE = 0.01
@@ -61,6 +74,18 @@ REASON_P_MECH = "p_mech disagrees with omega*T"
 TEST_P_ELEC_SMALL = "p_elec near zero at high power"
 HIGH_POWER_FRAC = 0.25
 NEAR_ZERO_FRAC = 0.05
+
+#: |p_elec - omega*T| within this fraction of max(|p_elec|, |omega*T|) is a loss the
+#: instruments cannot tell from zero (a power analyzer's and a torque flange's accuracy
+#: are each 0.05-0.1 % of reading): no drive is that efficient on most of its points [-]
+TEST_ZERO_LOSS = "losses zero within the instruments' accuracy"
+ZERO_LOSS_RTOL = 0.002
+
+#: efficiency below LOW_EFFICIENCY on most points above HIGH_POWER_FRAC of the session's
+#: largest power is a unit error (speed in rad/s read as rpm gives 1/9.55 of it): a drive
+#: near its rating converts far more than a quarter of its power [-]
+TEST_ETA_LOW = "efficiency implausibly low at high power"
+LOW_EFFICIENCY = 0.25
 
 #: at high |p_mech| this fraction of sign disagreements with p_elec means a flipped sign
 SIGN_FLIP_FRAC = 0.8
@@ -163,7 +188,34 @@ def _failures(v: dict[str, np.ndarray], ranges: dict[str, float]) -> dict[str, n
     if "p_mech" in v:
         big = np.maximum(np.abs(v["p_mech"]), np.abs(omega_t))
         out[REASON_P_MECH] = np.abs(v["p_mech"] - omega_t) > P_MECH_RTOL * big + floor
+    big = np.maximum(np.abs(v["p_elec"]), np.abs(omega_t))
+    out[TEST_ZERO_LOSS] = (big > 0) & (np.abs(v["p_elec"] - omega_t) <= ZERO_LOSS_RTOL * big)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        eta = np.where(omega_t > 0, omega_t / v["p_elec"], v["p_elec"] / omega_t)
+    high = big >= HIGH_POWER_FRAC * np.nanmax(big, initial=0.0)
+    out[TEST_ETA_LOW] = high & (big > 0) & ~(eta >= LOW_EFFICIENCY)
     return out
+
+
+#: tests that only ever judge a whole session (never reject one point)
+SESSION_TESTS = (TEST_P_ELEC_SMALL, TEST_ZERO_LOSS, TEST_ETA_LOW)
+
+
+def too_many(k: int, n: int) -> bool:
+    """Whether ``k`` failing points of ``n`` are more than isolated outliers explain.
+
+    True when ``k`` exceeds :data:`SYSTEMATIC_FRAC` of ``n``, or when a binomial
+    draw of ``n`` points at the outlier rate :data:`ISOLATED_RATE` gives ``k`` or
+    more with a probability below :data:`FALSE_ALARM`. The share binds for small
+    sessions (1 failing point of 4 is 25 %), the binomial tail for large ones (of
+    2000 points, about 4 % fail at most by chance: 375 failing points are a wrong
+    mapping, not 375 outliers).
+    """
+    if k <= 0 or n <= 0:
+        return False
+    if k > SYSTEMATIC_FRAC * n:
+        return True
+    return bool(binom.sf(k - 1, n, ISOLATED_RATE) < FALSE_ALARM)
 
 
 def check_points(
@@ -194,9 +246,11 @@ def check_points(
     Raises
     ------
     InputError
-        More than :data:`SYSTEMATIC_FRAC` of the points fail one test: the
-        message names the test, the worst point, the columns involved and the
-        unit change that would make the points pass (or says none does).
+        More points fail one test than isolated outliers explain
+        (:func:`too_many`), or a session test fails (losses zero, efficiency
+        implausibly low, p_elec near zero at high power): the message names the
+        test, the share, the worst point, the columns involved and the unit change
+        that would make the points pass (or says none does).
     """
     v = {q: np.asarray(x, np.float64) for q, x in values.items()}
     ok = np.ones(v["speed"].size, bool)
@@ -222,13 +276,18 @@ def check_points(
 def _systematic_test(fails: dict[str, np.ndarray], v: dict[str, np.ndarray]) -> str | None:
     """The first test that fails on too many points to be a few bad points, or None."""
     n = v["speed"].size
+    omega_t = np.abs(v["speed"] * v["torque"]) * RAD_S_PER_RPM
+    big = np.maximum(np.abs(v["p_elec"]), omega_t)
     for test, bad in fails.items():
-        if test == TEST_P_ELEC_SMALL:
-            omega_t = np.abs(v["speed"] * v["torque"])
-            n_high = int((omega_t >= HIGH_POWER_FRAC * np.nanmax(omega_t, initial=0.0)).sum())
+        if test in (TEST_P_ELEC_SMALL, TEST_ETA_LOW):
+            ref = omega_t if test == TEST_P_ELEC_SMALL else big
+            n_high = int((ref >= HIGH_POWER_FRAC * np.nanmax(ref, initial=0.0)).sum())
             if n_high >= 3 and bad.sum() > 0.5 * n_high:
                 return test
-        elif bad.sum() > SYSTEMATIC_FRAC * n:
+        elif test == TEST_ZERO_LOSS:
+            if n >= 3 and bad.sum() > 0.5 * n:
+                return test
+        elif too_many(int(bad.sum()), n):
             return test
     return None
 
@@ -278,26 +337,45 @@ def _systematic(test: str, bad: np.ndarray, v: dict[str, np.ndarray],
                 worst.append(f"{q} up to {m:,.6g} {unit} from {sources[q].describe()}, above "
                              f"the {key} sensor range {ranges[key]:,.6g} {unit}")
                 blamed.append(q)
-        what = f"{int(bad.sum())} of {n} points outside the sensor ranges: " + "; ".join(worst)
-    elif test in (REASON_ETA, TEST_P_ELEC_SMALL):
+        what = (f"{int(bad.sum())} of {n} points ({bad.sum() / n:.0%}) outside the sensor "
+                "ranges: " + "; ".join(worst))
+    elif test in (REASON_ETA, TEST_P_ELEC_SMALL, TEST_ZERO_LOSS, TEST_ETA_LOW):
         motor = omega_t > 0
         with np.errstate(divide="ignore", invalid="ignore"):
             eta = np.where(motor, omega_t / v["p_elec"], v["p_elec"] / omega_t)
         k = int(np.argmax(np.where(bad, np.abs(omega_t), -np.inf)))
         quad = "motor" if motor[k] else "generator"
-        what = ("p_elec is below omega*T (efficiency above 1)" if test == REASON_ETA else
-                f"p_elec is below {NEAR_ZERO_FRAC:.0%} of |omega*T| at high power")
-        what += (f" on {int(bad.sum())} of {n} points, e.g. {quad} point "
-                 f"{v['speed'][k]:.6g} rpm, {v['torque'][k]:.6g} N m: omega*T = "
+        what = {REASON_ETA: "p_elec is below omega*T (efficiency above 1)",
+                TEST_P_ELEC_SMALL: f"p_elec is below {NEAR_ZERO_FRAC:.0%} of |omega*T| at "
+                                   "high power",
+                TEST_ZERO_LOSS: f"p_elec equals omega*T within {ZERO_LOSS_RTOL:.1%} (losses "
+                                "zero within the instruments' accuracy)",
+                TEST_ETA_LOW: f"the efficiency is below {LOW_EFFICIENCY:.0%} at high power "
+                              f"(median {float(np.nanmedian(eta[bad])):.3g})"}[test]
+        what += (f" on {int(bad.sum())} of {n} points ({bad.sum() / n:.0%}), e.g. {quad} "
+                 f"point {v['speed'][k]:.6g} rpm, {v['torque'][k]:.6g} N m: omega*T = "
                  f"{omega_t[k]:,.6g} W, p_elec = {v['p_elec'][k]:,.6g} W, efficiency "
                  f"{eta[k]:.4g}")
+        if test == REASON_ETA:
+            what += (f"; more than isolated outliers (up to {ISOLATED_RATE:.0%} of the points) "
+                     "explain: the mapping, not the points, is wrong")
         blamed = ["p_elec", "torque", "speed"]
+        if test == TEST_ZERO_LOSS:
+            return InputError(
+                sources["p_elec"].path if "p_elec" in sources else where,
+                f"{what}: the electrical power column holds mechanical power (speed x "
+                f"torque), not what the drive draws: {sources['p_elec'].describe()}"
+                if "p_elec" in sources else what,
+                column=sources["p_elec"].column if "p_elec" in sources else None,
+                expected="the electrical power the drive draws from (or feeds into) the "
+                "grid or DC link: a power analyzer's total, or U * I (mapping: expr)")
     else:
         k = int(np.argmax(np.where(bad, np.abs(v["p_mech"] - omega_t), -np.inf)))
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = float(np.nanmedian(v["p_mech"][bad] / omega_t[bad]))
         what = (f"the mapped p_mech disagrees with omega*T by more than {P_MECH_RTOL:.0%} on "
-                f"{int(bad.sum())} of {n} points (median ratio {ratio:.4g}), e.g. "
+                f"{int(bad.sum())} of {n} points ({bad.sum() / n:.0%}; median ratio "
+                f"{ratio:.4g}), e.g. "
                 f"p_mech = {v['p_mech'][k]:,.6g} W against omega*T = {omega_t[k]:,.6g} W at "
                 f"{v['speed'][k]:.6g} rpm, {v['torque'][k]:.6g} N m")
         blamed = ["p_mech", "torque", "speed"]

@@ -4,7 +4,8 @@ A logger may write its time axis as a number (seconds, ``ms``, ``us``: a unit,
 handled by :mod:`units`) or as a clock reading:
 
 - **time of day** ``hh:mm:ss`` with an optional fraction (``09:12:03.250``, or
-  ``09:12:03,250`` in German locale); the date is the session's ``date``; a
+  ``09:12:03,250`` in German locale) and an optional ``AM``/``PM`` (12-hour
+  clock: ``12:00:05 AM`` is 00:00:05); the date is the session's ``date``; a
   step back by more than 12 hours is a midnight rollover (one day added);
 - **ISO 8601 date-time** ``2013-04-17T09:12:03.250`` (``T`` or a space between
   date and time, optional fraction, optional ``Z`` or ``+hh:mm`` zone; with a
@@ -13,6 +14,13 @@ handled by :mod:`units`) or as a clock reading:
 Either becomes seconds since the stream's first valid time (so the stream's own
 clock starts at 0, as a numeric one does) and the wall time of that first
 sample (``start``), which places the stream against another instrument.
+
+A logger that stamps whole seconds while sampling faster (2-5 rows per ``09:12:03``)
+repeats each stamp: the rows of one stamp are spread evenly over that second (row
+``j`` of a stamp at ``+ j / n``, ``n`` the rows per stamp of the first chunk, at
+most ``j / (j + 1)`` so the time stays inside the second) and ``spread_rows`` says
+how many per stamp were found. When the first chunk's median is one row per stamp, a
+repeated stamp is a duplicated row and stays an error.
 """
 
 from __future__ import annotations
@@ -29,7 +37,8 @@ TIME_OF_DAY = "hh:mm:ss"
 DATETIME = "ISO 8601"
 CLOCK_UNITS = (TIME_OF_DAY, DATETIME)
 
-_TOD = re.compile(r"^\d{1,2}:\d{2}:\d{2}([.,]\d+)?$")
+_TOD = re.compile(r"^\d{1,2}:\d{2}:\d{2}([.,]\d+)?(\s*[AaPp]\.?[Mm]\.?)?$")
+_AMPM = re.compile(r"\s*([AaPp])\.?[Mm]\.?$")
 _ISO = re.compile(r"^\d{4}-\d{2}-\d{2}[T ]\d{2}:\d{2}(:\d{2}([.,]\d+)?)?(Z|[+-]\d{2}:?\d{2})?$")
 _ZONE = re.compile(r"(Z|[+-]\d{2}:?\d{2})$")
 
@@ -91,6 +100,8 @@ class ClockParser:
         self._base: float | None = None  # first valid raw value [s]
         self._days = 0  # midnight rollovers so far
         self._last = np.nan  # last valid raw value [s]
+        self.spread_rows: int | None = None  # rows per repeated whole-second stamp
+        self._run = 0  # rows of the current stamp seen so far
 
     def __call__(self, cells: pa.Array) -> np.ndarray:
         """Seconds [s] for one chunk of strings (null = invalid -> NaN).
@@ -110,17 +121,45 @@ class ClockParser:
         if self._base is None:
             self._base = float(raw[ok[0]])
             self.start = self._wall(self._base)
+        v = raw[ok]
         if self.unit == TIME_OF_DAY:
-            v = raw[ok]
             back = np.diff(v, prepend=self._last) < -ROLLOVER_S
             days = self._days + np.cumsum(back)
-            raw[ok] = v + 86400.0 * days
+            v = v + 86400.0 * days
             self._days = int(days[-1])
-            self._last = float(v[-1])
+        raw[ok] = self._spread(v)
         return raw - self._base
+
+    def _spread(self, v: np.ndarray) -> np.ndarray:
+        """Spread the rows of repeated whole-second stamps evenly within their second."""
+        last, self._last = self._last, float(v[-1])
+        if not np.all(v == np.floor(v)):
+            return v  # stamps with a fraction: repeats stay an error (the caller's check)
+        new = np.diff(v, prepend=last) != 0  # first row of each stamp
+        if self.spread_rows is None:
+            starts = np.flatnonzero(new)
+            if starts.size == v.size and np.isfinite(last):
+                return v  # one row per stamp: nothing to spread
+            runs = np.diff(np.concatenate((starts, [v.size])))
+            if runs.size == 0 or np.median(runs) < 2:
+                return v  # a repeat here and there is a duplicated row: the caller's error
+            self.spread_rows = int(np.median(runs))
+        idx = np.arange(v.size)
+        first = np.maximum.accumulate(np.where(new, idx, -1))
+        j = np.where(first >= 0, idx - first, idx + self._run)  # row within its stamp
+        self._run = int(j[-1]) + 1
+        n = max(self.spread_rows or 1, 1)
+        return v + j / np.maximum(n, j + 1.0)
 
     def _seconds_of_day(self, cells: pa.Array) -> np.ndarray:
         text = pc.replace_substring(pc.utf8_trim_whitespace(cells), ",", ".")
+        half = pc.extract_regex(text, r"(?P<ap>[AaPp])\.?[Mm]\.?$")
+        pm = None
+        if pc.any(pc.is_valid(half)).as_py():  # a 12-hour clock: 12 AM is 0 h, 1-11 PM + 12 h
+            ap = pc.utf8_lower(pc.struct_field(half, [0])).to_numpy(zero_copy_only=False)
+            pm = np.array([a == "p" if a is not None else None for a in ap], dtype=object)
+            text = pc.utf8_trim_whitespace(pc.replace_substring_regex(
+                text, r"\s*[AaPp]\.?[Mm]\.?$", ""))
         parts = pc.split_pattern(text, ":")
         n = pc.list_value_length(parts).to_numpy(zero_copy_only=False)
         if np.any((n != 3) & np.isfinite(n.astype(float))):
@@ -129,6 +168,12 @@ class ClockParser:
                    for i in range(3))
         if np.any((h > 47) | (m >= 60) | (s >= 61)):  # 24:00:00 and leap seconds pass
             raise ValueError(f"not a time of day {TIME_OF_DAY}[.fff]")
+        if pm is not None:
+            mixed = np.array([p is None for p in pm]) & np.isfinite(h)
+            if np.any(mixed) or np.any((h < 1) | (h > 12)):
+                raise ValueError(f"not a time of day {TIME_OF_DAY}[.fff] [AM|PM]: a 12-hour "
+                                 "time needs AM or PM on every row and hours 1 to 12")
+            h = np.where(h == 12, 0.0, h) + np.where(pm.astype(bool), 12.0, 0.0)
         return h * 3600.0 + m * 60.0 + s
 
     def _epoch_seconds(self, cells: pa.Array) -> np.ndarray:

@@ -40,11 +40,17 @@ STREAM_SECTIONS = ("daq", "analyzer", "log")
 #: none on purpose: a column that merely looks like it (a swapped header) must never
 #: be used unless the mapping names it
 ALIASES: dict[str, tuple[str, ...]] = {
-    "time": ("time", "zeit", "t", "time_s", "timestamp", "zeitstempel", "uhrzeit", "datetime"),
+    "time": ("time", "zeit", "t", "time_s", "timestamp", "zeitstempel", "uhrzeit", "datetime",
+             "date/time", "date time", "date_time", "datum/zeit", "datum/uhrzeit"),
     "speed": ("speed", "drehzahl", "n", "speed_rpm", "rotational speed"),
     "torque": ("torque", "drehmoment", "m", "torque_nm"),
-    "p_elec": ("p_sigma", "p_elec", "p_el", "p", "p_total", "wirkleistung", "p_elec_w"),
+    "p_elec": ("p_sigma", "p_elec", "p_el", "p", "p_total", "wirkleistung", "p_elec_w",
+               "active power", "electrical power", "input power", "power", "leistung"),
 }
+
+#: aliases a column matches only when no earlier alias of the quantity matches and no
+#: other column has the same name (a plain ``Power`` beside ``P_mech`` may be either)
+WEAK_ALIASES = frozenset({"power", "leistung"})
 
 #: how many column names an error message lists at most
 MAX_LISTED = 6
@@ -365,7 +371,7 @@ def resolve_columns(
     for quantity in required + optional:
         if quantity in found or quantity not in ALIASES:
             continue
-        idx = next((i for i, b in enumerate(bare) if b in ALIASES[quantity]), None)
+        idx = _alias_column(bare, ALIASES[quantity])
         if idx is None:
             if quantity in required:
                 raise InputError(
@@ -396,6 +402,16 @@ def resolve_columns(
                                          sources=((stripped[idx], idx),))
     _check_distinct(path, mapping, found)
     return found
+
+
+def _alias_column(bare: list[str], aliases: tuple[str, ...]) -> int | None:
+    """The column an alias names: the first alias (in the list's order) that a column's
+    bare name equals; a weak alias (:data:`WEAK_ALIASES`) only when one column has it."""
+    for alias in aliases:
+        hits = [i for i, b in enumerate(bare) if b == alias]
+        if hits and (alias not in WEAK_ALIASES or len(hits) == 1):
+            return hits[0]
+    return None
 
 
 def _header_hint(found: dict, header_line: int | None, section: str) -> str:

@@ -142,7 +142,9 @@ class TimeCheck:
             raise InputError(
                 self.path, f"time {what}: {float(t[k]):.9g} s after {prev:.9g} s",
                 line=self.line_of_row(row0 + (k if ok is None else int(ok[k]))),
-                column=self.column, expected="strictly increasing time",
+                column=self.column,
+                expected="strictly increasing time (a time of day hh:mm:ss stamped in whole "
+                "seconds at 2 or more rows per second is spread evenly within each second)",
             )
         if self.grid_s is not None:
             self._check_span(t, row0, ok)

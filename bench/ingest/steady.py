@@ -31,6 +31,16 @@ in the time axis or a run of invalid samples longer than
    ``oscillation_pieces`` such pieces is reported as unstable (the first of
    speed, torque, power whose standard deviation over it exceeds the tolerance);
    a setpoint step leaves at most one piece.
+6. Every stretch of held setpoint is a point or a rejected window: a stretch of
+   usable bins that no window of steps 4-5 covers (``too short`` pieces aside),
+   at least twice ``min_window_s`` and longer than a step's transition (``4
+   step_lag_s`` plus two bins), whose speed and torque end where they began (the
+   medians of its first and last quarter within ``k_step`` tolerances: a hold, not
+   a ramp), checked as in step 4, is one rejected window with that reason,
+   replacing the ``too short`` pieces inside it (when it passes, the pieces stand).
+   This catches a hold whose scatter exceeds the session's noise so much that step
+   2 breaks it up (a slow logger's bins are single samples). Rejected windows that
+   touch and share their reason are one window.
 
 Long sessions are handled in blocks of :data:`BLOCK_BINS`, each cut at a moving
 bin, so the result equals the whole-series one while memory stays bounded.
@@ -199,9 +209,9 @@ def find_windows(
     tol = tolerances(speed_rpm, torque_nm, p_elec_w, ranges, config)
     lag = max(1, int(round(config.step_lag_s / config.bin_s)))
     cuts = np.zeros(speed_rpm.size, bool) if cuts is None else cuts
-    series = (speed_rpm, torque_nm, p_elec_w, valid_frac, cuts)
-    mask_inputs = (speed_rpm, torque_nm, valid_frac,
-                   np.ones(speed_rpm.size, bool) if usable is None else usable, cuts)
+    usable = np.ones(speed_rpm.size, bool) if usable is None else usable
+    series = (speed_rpm, torque_nm, p_elec_w, valid_frac, cuts, usable)
+    mask_inputs = (speed_rpm, torque_nm, valid_frac, usable, cuts)
     n = speed_rpm.size
     accepted: list[tuple[int, int]] = []
     rejected: list[tuple[int, int, str]] = []
@@ -246,7 +256,7 @@ def _moving_mask(speed, torque, valid, usable, cuts, tol, lag, config) -> np.nda
     return moving
 
 
-def _block_windows(moving, speed, torque, p_elec, valid, cuts, tol, config):
+def _block_windows(moving, speed, torque, p_elec, valid, cuts, usable, tol, config):
     """Accepted and rejected windows of one block (bin indices within the block)."""
     edges = np.diff(np.concatenate(([1], moving.view(np.int8), [1])))
     starts = np.flatnonzero(edges == -1)
@@ -270,7 +280,67 @@ def _block_windows(moving, speed, torque, p_elec, valid, cuts, tol, config):
     rejected = [(int(i), int(j), str(r))
                 for i, j, r in zip(a[~ok], b[~ok], reason[~ok], strict=True)]
     rejected += _oscillations(starts, stops[keep], starts[keep], stats, tol, min_bins, config)
-    return accepted, sorted(rejected)
+    lag = max(1, _bins(config.step_lag_s, config.bin_s))
+    free = usable & ~(cuts & ~(valid > 0))  # bins a window may cover
+    for i, j in _held_stretches(free, accepted, rejected, {"speed": speed, "torque": torque},
+                                tol, max(2 * min_bins, 4 * lag + 2), config.k_step):
+        why = str(_check(stats, _RangeStats(valid), np.array([i]), np.array([j]), tol, min_bins,
+                         config)[0])
+        if not why:  # steady as a whole: the detection's own pieces stand
+            continue
+        rejected = [w for w in rejected if not (w[2] == "too short" and i <= w[0] and w[1] <= j)]
+        rejected.append((i, j, why))
+    return accepted, _merge_abutting(sorted(rejected))
+
+
+def _merge_abutting(rejected: list[tuple[int, int, str]]) -> list[tuple[int, int, str]]:
+    """One window for rejected windows that touch and share their reason (sorted input)."""
+    out: list[tuple[int, int, str]] = []
+    for a, b, why in rejected:
+        if out and out[-1][2] == why and out[-1][1] == a:
+            out[-1] = (out[-1][0], b, why)
+        else:
+            out.append((a, b, why))
+    return out
+
+
+def _held_stretches(free, accepted, rejected, signals: dict[str, np.ndarray], tol,
+                    min_bins: int, k_step: float) -> list[tuple[int, int]]:
+    """Stretches of held setpoint no window covers (step 6), as ``(start, stop)`` bins.
+
+    ``free`` marks the bins a window may cover; bins of accepted windows and of
+    rejected windows other than ``too short`` are taken. Each free run loses its
+    leading and trailing bins that are off its median speed or torque by more than
+    ``k_step`` tolerances (the neighbouring steps' transitions); what is left
+    qualifies when it has at least ``min_bins`` bins and the medians of its first
+    and last quarter agree within ``k_step`` tolerances in speed and torque.
+    """
+    taken = np.zeros(free.size + 1, np.int64)
+    for a, b, *why in [(a, b) for a, b in accepted] + list(rejected):
+        if not why or why[0] != "too short":
+            taken[a] += 1
+            taken[b] -= 1
+    open_ = free & (np.cumsum(taken[:-1]) == 0)
+    edges = np.diff(np.concatenate(([0], open_.view(np.int8), [0])))
+    out = []
+    for i, j in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
+        if j - i < min_bins:
+            continue
+        off = np.zeros(j - i, bool)
+        for k in ("speed", "torque"):
+            x = signals[k][i:j]
+            off |= np.abs(x - np.nanmedian(x)) > k_step * tol[k]  # NaN (empty bin): not off
+        on = np.flatnonzero(~off)
+        if on.size == 0:
+            continue
+        i, j = i + int(on[0]), i + int(on[-1]) + 1
+        q = max((j - i) // 4, 1)
+        with np.errstate(invalid="ignore"):
+            held = all(abs(np.nanmedian(signals[k][i:i + q]) - np.nanmedian(signals[k][j - q:j]))
+                       <= k_step * tol[k] for k in ("speed", "torque"))
+        if j - i >= min_bins and held:
+            out.append((int(i), int(j)))
+    return out
 
 
 def _oscillations(piece_starts, seg_stops, seg_starts, stats, tol, min_bins,

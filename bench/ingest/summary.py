@@ -33,6 +33,7 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict) ->
     tot_rej: dict[str, int] = {}
     no_tare = []
     no_points = []
+    no_drift = []
     for sid in sorted(ingested + unchanged):
         e = manifest["sessions"][sid]
         q = e["points_per_quadrant"]
@@ -50,6 +51,8 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict) ->
         ))
         if e.get("n_points", 0) == 0:
             no_points.append(f"{sid}: {e.get('no_points_note', '0 points')}")
+        if e.get("clock_drift_note"):
+            no_drift.append(f"{sid}: {e['clock_drift_note']}")
         if e.get("torque_zero_offset_nm") is None:
             no_tare.append(f"{sid}: {e.get('torque_zero_note', 'no tare recorded')}")
     rows.append(("total", f"{len(ingested)} new", "", "", str(tot["motor"]),
@@ -65,5 +68,6 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict) ->
     sep = "  ".join("-" * w for w in widths)
     notes = [f"NO POINTS from {n}" for n in no_points]
     notes += [f"no torque-flange tare, torque not zero-corrected: {n}" for n in no_tare]
+    notes += no_drift
     return "\n".join([line(head), sep, *(line(r) for r in rows[:-1]), sep, line(rows[-1]),
                       *notes])

@@ -431,6 +431,11 @@ def process_timeseries(
     info = {
         "clock_offset_s": None if clock is None else round(clock.offset_s, 6),
         "clock_drift_ppm": None if clock is None else round(clock.drift_ppm, 3),
+        **({} if clock is None or not np.isfinite(clock.drift_estimate_ppm) else {
+            "clock_drift_estimate_ppm": round(clock.drift_estimate_ppm, 3),
+            "clock_drift_uncertainty_ppm": round(clock.drift_uncertainty_ppm, 3)}),
+        **({} if clock is None or clock.drift_note is None else
+           {"clock_drift_note": clock.drift_note}),
         "clock_offset_prior_s": None if clock is None else round(clock.prior_offset_s, 6),
         "clock_correlation": None if clock is None else round(clock.correlation, 4),
         "torque_zero_offset_nm": None if zero is None else round(zero.offset_nm, 6),
@@ -444,6 +449,8 @@ def process_timeseries(
     }
     if daq.clock is not None and daq.clock.start is not None:
         info["start"] = daq.clock.start.isoformat()
+    if daq.clock is not None and daq.clock.spread_rows:
+        timing["stamp_rows_spread"] = daq.clock.spread_rows
     if not win.accepted:
         info["no_points_note"] = steady.why_no_windows(
             win, float(np.sum(usable)) * dt, timing["duration_s"], dt, config)

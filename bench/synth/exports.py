@@ -140,3 +140,94 @@ def make_ev_table(root: Path, sid: str = "ev_01", p_elec_by: str = "expr", n_col
         {"torque_range_nm": 400.0, "speed_range_rpm": 15000.0, "power_range_w": 200e3}))
     return {"speed_rpm": speed, "torque_nm": torque, "p_elec_w": p_elec, "p_mech_w": p_mech,
             "u_dc_v": u_dc, "loss": (400.0, 2e-5, 0.04)}
+
+
+def make_two_wattmeter_table(root: Path, sid: str = "aron_01", channels: int = 2, n: int = 240,
+                             seed: int = 17) -> dict[str, np.ndarray]:
+    """A power analyzer's operating-point export in 3V3A (two-wattmeter, Aron) wiring.
+
+    The analyzer logs three elements ``P1 [W]``, ``P2 [W]``, ``P3 [W]``; in 3V3A
+    wiring the total active power is ``P1 + P2`` (for line-to-line voltage ``U``,
+    current ``I`` and phase angle ``phi``: ``U I cos(30° + phi) + U I cos(30° - phi)
+    = sqrt(3) U I cos(phi)``), and the third element reads ``-U I sin(phi)``, a
+    reactive share that belongs in no sum. ``channels = 3`` maps the sum of all
+    three, as for a three-wattmeter (3P4W) export: wrong, by ``-tan(phi)/sqrt(3)``
+    of the power, so points with a leading phase show an efficiency above 1.
+
+    Both quadrants of a 5 kW drive, the phase angle uniform in -35°..+12° (motor;
+    the generator's is 180° off).
+    """
+    if channels not in (2, 3):
+        raise ValueError("channels: 2 (the right 3V3A total) or 3 (a wrong sum)")
+    rng = np.random.default_rng(seed)
+    speed = rng.uniform(300.0, 3000.0, n) * np.where(np.arange(n) % 2 == 0, 1.0, -1.0)
+    torque = rng.uniform(2.0, 16.0, n)
+    p_mech = speed * torque * RAD_S_PER_RPM
+    loss = (60.0, 1e-5, 0.6)
+    p_elec = p_mech + loss_w(speed, torque, *loss)
+    phi = np.deg2rad(rng.uniform(-35.0, 12.0, n)) + np.where(p_elec < 0, np.pi, 0.0)
+    ui = np.abs(p_elec) / (np.sqrt(3.0) * np.abs(np.cos(phi)))  # U * I [W]
+    p1 = ui * np.cos(np.pi / 6 + phi)
+    p2 = ui * np.cos(np.pi / 6 - phi)
+    p3 = -ui * np.sin(phi)
+    folder = root / sid
+    folder.mkdir(parents=True)
+    rows = ["Point,Speed [rpm],Torque [Nm],P1 [W],P2 [W],P3 [W],PF [-]"]
+    rows += [f"{k + 1},{s:.2f},{q:.4f},{a:.3f},{b:.3f},{c:.3f},{np.cos(f):.4f}"
+             for k, (s, q, a, b, c, f) in enumerate(zip(speed, torque, p1, p2, p3, phi,
+                                                         strict=True))]
+    (folder / "analyzer_points.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    summed = ", ".join(f'"P{k + 1} [W]"' for k in range(channels))
+    (folder / "mapping.toml").write_text(
+        '[columns.speed]\ncolumn = "Speed [rpm]"\nunit = "rpm"\n\n'
+        '[columns.torque]\ncolumn = "Torque [Nm]"\nunit = "Nm"\n\n'
+        f'[columns.p_elec]\nsum = [{summed}]\nunit = "W"\n', encoding="utf-8")
+    (folder / "session.toml").write_text(_session_toml(
+        sid, "motor", "analyzer_points.csv",
+        {"torque_range_nm": 20.0, "speed_range_rpm": 4000.0, "power_range_w": 10000.0}))
+    return {"speed_rpm": speed, "torque_nm": torque, "p_elec_w": p_elec, "p_mech_w": p_mech,
+            "p_elec_3_w": p1 + p2 + p3, "loss": loss}
+
+
+def make_hobby_dyno_table(root: Path, sid: str = "hobby_01", seed: int = 23,
+                          outlier: bool = True) -> dict[str, np.ndarray]:
+    """A hobby dyno's motor-only table: 19 speeds x 18 torques, torque in ``N mm``.
+
+    A 2.5 kW motor whose losses (no-load 4 W, friction 0.002 W/rpm, iron 0.8e-6
+    W/rpm^2, copper 40 W/(N m)^2) put the peak efficiency (about 0.87) at part
+    load (0.5-1.5 N m of 6) and high speed, 2000-4000 rpm, where one point's
+    noise in efficiency is largest; full torque runs at 0.6-0.7. P_el is noisy (0.5 W)
+    and printed to 0.01 W;
+    the table states no std. With ``outlier``, one row (1811 rpm, 0.0004 N m,
+    322 W) is a logging glitch: about 300 W above the drive's losses there.
+
+    Returns the written rows' truth (``p_elec_w`` as written) and ``outlier_row``
+    (its index, or -1).
+    """
+    rng = np.random.default_rng(seed)
+    speed = np.repeat(np.linspace(500.0, 4000.0, 19), 18)
+    torque = np.tile(np.linspace(0.05, 6.0, 18), 19)
+    speed = speed + rng.normal(0.0, 2.0, speed.size)
+    p_mech = speed * torque * RAD_S_PER_RPM
+    loss = 4.0 + 0.002 * speed + 0.8e-6 * speed**2 + 40.0 * torque**2
+    p_elec = p_mech + loss + rng.normal(0.0, 0.5, speed.size)
+    row = -1
+    if outlier:
+        row = 7 * 18 + 1
+        speed[row], torque[row], p_elec[row] = 1811.0, 0.0004, 322.0
+        p_mech[row] = speed[row] * torque[row] * RAD_S_PER_RPM
+    folder = root / sid
+    folder.mkdir(parents=True)
+    rows = ["Hobby dyno run 7", "Nr\tn [1/min]\tM [N mm]\tP_el [W]"]
+    rows += [f"{k + 1}\t{s:.1f}\t{q * 1e3:.1f}\t{pe:.2f}"
+             for k, (s, q, pe) in enumerate(zip(speed, torque, p_elec, strict=True))]
+    (folder / "points.txt").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    (folder / "mapping.toml").write_text(
+        'skip_lines = 1\n\n[columns.speed]\ncolumn = "n [1/min]"\nunit = "1/min"\n\n'
+        '[columns.torque]\ncolumn = "M [N mm]"\nunit = "N mm"\n\n'
+        '[columns.p_elec]\ncolumn = "P_el [W]"\nunit = "W"\n', encoding="utf-8")
+    (folder / "session.toml").write_text(_session_toml(
+        sid, "motor", "points.txt",
+        {"torque_range_nm": 10.0, "speed_range_rpm": 5000.0, "power_range_w": 5000.0}))
+    return {"speed_rpm": np.round(speed, 1), "torque_nm": np.round(torque * 1e3, 1) / 1e3,
+            "p_elec_w": np.round(p_elec, 2), "outlier_row": row}

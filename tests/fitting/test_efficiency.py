@@ -18,6 +18,7 @@ from fitting.efficiency import (
     gridded_map,
     masked_efficiency,
     peak_points,
+    point_uncertainty,
 )
 from fitting.model_file import paper_model
 from fitting.points import quadrant_of
@@ -155,7 +156,7 @@ def test_non_convex_power_limited_envelope_is_never_filled():
     noise_w = 300.0
     pts = grid_points(drive, n_speeds=24, n_torques=12, noise_w=noise_w, seed=1)
     rules = MaskingRules(drive.nominal_power_w)
-    m = gridded_map(pts, rules, p_elec_noise_w=noise_w)
+    m = gridded_map(pts, rules)
     shown = m["status"].isin((OK, CLIPPED)).to_numpy()
     speed, torque = m["speed_rpm"].to_numpy(), m["torque_nm"].to_numpy()
     # Tolerance: the envelope's upper edge is the chord between neighbouring speed
@@ -181,8 +182,10 @@ def test_non_convex_power_limited_envelope_is_never_filled():
         assert map_peak == pytest.approx(true_peak, abs=0.005)
         qp = (pts["quadrant"] == q).to_numpy()
         k = np.argmax(np.where(qp, eta_pts, -np.inf))
-        noise = (eta_pts[k] * noise_w / abs(pts["p_elec_w"].iloc[k]) if q == "motor"
-                 else noise_w / abs(pts["p_mech_w"].iloc[k]))
+        # the table states no std: the point's uncertainty is the instruments' accuracy
+        # (0.2 % of each power), sqrt(2) * 0.2 % of eta
+        noise = eta_pts[k] * np.sqrt(2.0) * rules.accuracy_frac
+        assert point_uncertainty(pts, rules)[k] == pytest.approx(noise, rel=1e-12)
         assert map_peak <= eta_pts[k] + noise + 1e-12
         # away from the axes (|P_mech| > 10 % of nominal) every node within 4 noise
         # standard deviations (in eta: 300 W / |P_mech|) plus 0.003 (interpolation of

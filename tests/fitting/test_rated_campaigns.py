@@ -19,7 +19,7 @@ from fitting.model_file import load_power_model
 from fitting.pipeline import FitOptions, run_fit
 
 CASES = {
-    # drive, quadrants, P_elec noise [W], peak tolerance [-]
+    # drive, quadrants, P_elec noise [W], tolerance of the true peak [-]
     "motor only": (PAPER_DRIVE, ("motor",), 40.0, 0.02),
     "150 kW": (EV_DRIVE, ("motor", "generator"), 300.0, 0.01),
 }
@@ -57,8 +57,17 @@ def test_rated_campaign(tmp_path, case):
         assert not (shown["torque_nm"] > drive.torque_limit_nm(shown["speed_rpm"]) + 1e-9).any()
         peak = summary["efficiency"]["peak"][q]
         truth = float(np.nanmax(drive.eta(shown["speed_rpm"], shown["torque_nm"])))
-        # tolerance: the ceiling is the highest measured eta among points with an eta
-        # noise <= 0.005, plus that noise: up to ~3 x 0.005 above the truth, hence 0.02 at
-        # 40 W on 8.2 kW; 0.01 at 300 W on 150 kW
-        assert peak["map"]["eta"] == pytest.approx(truth, abs=tol)
+        # the map keeps the true peak (within the interpolation between set points) ...
+        assert peak["map"]["eta"] >= truth - tol
+        # ... and shows what was measured: the highest efficiency of the written points
+        # (noisy: a part-load point's noise in eta is large, and the table states no std),
+        # within that point's uncertainty (0.2 % of each power: sqrt(2) * 0.2 % of eta)
+        floor = 0.02 * drive.nominal_power_w  # the masking rules' near-axis limit
+        mine = ((pts["quadrant"] == q) & (pts["p_mech_w"].abs() >= floor)
+                & (pts["p_elec_w"].abs() >= floor)).to_numpy()
+        eta_w = np.where(pts["p_mech_w"] > 0, pts["p_mech_w"] / pts["p_elec_w"],
+                         pts["p_elec_w"] / pts["p_mech_w"])[mine]
+        top = float(np.max(eta_w[eta_w <= 1.0]))
+        assert peak["measured"]["eta"] == pytest.approx(top, abs=1e-5)  # the file's rounding
+        assert abs(peak["map"]["eta"] - top) <= np.sqrt(2) * 0.002 * top + 1e-9
         assert peak["map"]["eta"] <= peak["ceiling"]["eta"] + 1e-12
