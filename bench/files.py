@@ -1,4 +1,5 @@
-"""Files every stage writes and reads: atomic replacement and content hashes.
+"""Files every stage writes and reads: UTF-8 text and TOML in, JSON, Parquet and
+CSV out by atomic replacement, and content hashes.
 
 A stage never leaves a half-written output: it writes a temporary sibling of
 the target (same directory, so the same file system) and moves it into place
@@ -7,14 +8,20 @@ with :func:`os.replace` only once the write succeeded.
 
 from __future__ import annotations
 
+import codecs
 import contextlib
 import errno
 import hashlib
+import json
+import math
 import os
+import re
 import tempfile
 import tomllib
 from collections.abc import Callable, Iterator
+from datetime import date, time
 from pathlib import Path
+from typing import Any
 
 from bench.errors import InputError
 
@@ -78,21 +85,172 @@ def write_text_atomic(path: str | Path, text: str) -> Path:
     return atomic_write(path, lambda tmp: tmp.write_bytes(text.encode("utf-8")))
 
 
-def read_toml(path: str | Path) -> dict:
+def read_text(path: str | Path, *, what: str = "file") -> str:
+    """The text of a UTF-8 file (a leading byte-order mark is dropped).
+
+    Parameters
+    ----------
+    path : str or Path
+    what : str
+        What the file is, for the error message (``"system file"``, ``"mapping file"``).
+
+    Raises
+    ------
+    InputError
+        The file cannot be read, or is not UTF-8 text: the message names the
+        file, the line of the first undecodable byte and, when it can tell, the
+        encoding the file seems to be in (UTF-16, Latin-1).
+    """
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise InputError(path, f"cannot read the {what} ({exc.strerror or exc})",
+                         expected=f"a readable {what}") from None
+    if data.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
+        raise InputError(path, f"the {what} is UTF-16 text (it starts with a UTF-16 "
+                         "byte-order mark)", line=1, expected=_UTF8_EXPECTED)
+    if b"\x00" in data:
+        line = data[: data.index(b"\x00")].count(b"\n") + 1
+        raise InputError(path, f"the {what} contains NUL bytes (UTF-16 text or binary data?)",
+                         line=line, expected=_UTF8_EXPECTED)
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        byte = data[exc.start]
+        guess = " (Latin-1 or Windows-1252 text?)" if byte >= 0x80 else ""
+        raise InputError(path, f"byte 0x{byte:02x} of the {what} is not UTF-8{guess}",
+                         line=line, expected=_UTF8_EXPECTED) from None
+
+
+_UTF8_EXPECTED = "UTF-8 text (save the file as UTF-8)"
+
+
+def parse_toml(text: str, path: str | Path | None, *, what: str = "file") -> dict:
+    """The table of TOML ``text`` read from ``path`` (named in the error).
+
+    Raises
+    ------
+    InputError
+        ``text`` is not valid TOML (with the line of the error).
+    """
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        found = re.search(r"at line (\d+)", str(exc))
+        raise InputError(path, f"the {what} is not valid TOML ({exc})",
+                         line=int(found.group(1)) if found else None,
+                         expected="TOML (https://toml.io)") from None
+
+
+def read_toml(path: str | Path, *, what: str = "file") -> dict:
     """The table of a UTF-8 TOML file.
 
     Raises
     ------
     InputError
-        The file cannot be read, is not UTF-8, or is not valid TOML.
+        The file cannot be read, is not UTF-8 (see :func:`read_text`), or is
+        not valid TOML; the file, and the line when known, are named.
     """
-    path = Path(path)
-    try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(path, f"cannot read ({exc})") from exc
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(path, f"invalid TOML ({exc})") from exc
+    return parse_toml(read_text(path, what=what), path, what=what)
+
+
+# ------------------------------------------------------------------ JSON and Parquet
+def json_safe(value: Any) -> Any:
+    """Copy of nested dicts/lists/tuples with numpy scalars and arrays as Python
+    values, dates and times as ISO 8601 text, and NaN/inf as ``None``."""
+    if isinstance(value, dict):
+        return {str(k): json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_safe(v) for v in value]
+    if hasattr(value, "tolist") and hasattr(value, "dtype"):  # numpy scalar or array
+        return json_safe(value.tolist())
+    if isinstance(value, date | time):
+        return value.isoformat()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def _json_default(value: Any) -> Any:
+    if hasattr(value, "tolist") and hasattr(value, "dtype"):
+        return value.tolist()
+    if isinstance(value, date | time):
+        return value.isoformat()
+    raise TypeError(f"cannot write a {type(value).__name__} as JSON: {value!r}")
+
+
+def dumps_json(data: Any, *, indent: int = 2, sort_keys: bool = False,
+               non_finite: str = "null") -> str:
+    """JSON text of ``data``, ending in a newline.
+
+    Parameters
+    ----------
+    data : Any
+        Nested dicts, lists and numbers; numpy values and dates are converted.
+    indent : int
+    sort_keys : bool
+        Sorted keys give stable bytes (content hashes of manifests).
+    non_finite : {"null", "error", "nan"}
+        NaN and inf become ``null``, raise :class:`ValueError` (JSON has neither),
+        or are written as ``NaN``/``Infinity`` (Python's extension, for caches
+        read back only by this package).
+    """
+    if non_finite == "null":
+        data = json_safe(data)
+    elif non_finite not in ("error", "nan"):
+        raise ValueError(f"non_finite must be 'null', 'error' or 'nan', not {non_finite!r}")
+    return json.dumps(data, indent=indent, sort_keys=sort_keys,
+                      allow_nan=non_finite == "nan", default=_json_default) + "\n"
+
+
+def write_json(path: str | Path, data: Any, **options: Any) -> Path:
+    """Write ``data`` as JSON to ``path`` atomically (``options``: see :func:`dumps_json`)."""
+    return write_text_atomic(path, dumps_json(data, **options))
+
+
+def write_parquet(path: str | Path, frame: Any, *, descriptions: dict[str, str] | None = None,
+                  metadata: dict[str, Any] | None = None) -> Path:
+    """Write a DataFrame to Parquet atomically, each field carrying its unit.
+
+    Every field's metadata gets ``{"unit": ...}`` (from the column name, see
+    :func:`bench.units.unit_of`; no key when the name has no unit) and, when
+    given, ``{"description": ...}``.
+
+    Parameters
+    ----------
+    path : str or Path
+    frame : pandas.DataFrame
+    descriptions : dict, optional
+        Column -> meaning, written into the field metadata.
+    metadata : dict, optional
+        File-level key/value metadata: ``str`` values are written as they are,
+        anything else JSON-encoded.
+    """
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from bench.units import unit_of
+
+    table = pa.Table.from_pandas(frame, preserve_index=False)
+    fields = []
+    for f in table.schema:
+        meta = {"unit": unit_of(f.name)} if unit_of(f.name) else {}
+        if descriptions and f.name in descriptions:
+            meta["description"] = descriptions[f.name]
+        fields.append(f.with_metadata(meta) if meta else f)
+    file_meta = dict(table.schema.metadata or {})
+    for key, value in (metadata or {}).items():
+        text = value if isinstance(value, str) else json.dumps(value, default=_json_default)
+        file_meta[key.encode()] = text.encode("utf-8")
+    table = pa.Table.from_arrays(table.columns, schema=pa.schema(fields, metadata=file_meta))
+    return atomic_write(path, lambda tmp: pq.write_table(table, tmp))
+
+
+def write_csv(path: str | Path, frame: Any) -> Path:
+    """Write a DataFrame as CSV (no index) atomically."""
+    return atomic_write(path, lambda tmp: frame.to_csv(tmp, index=False))
 
 
 def file_sha256(path: str | Path) -> str:

@@ -32,7 +32,6 @@ import shutil
 import sys
 import tempfile
 from collections.abc import Callable
-from datetime import date, time
 from pathlib import Path
 from typing import TypeVar
 
@@ -40,7 +39,7 @@ import pandas as pd
 import pyarrow as pa
 
 from bench.errors import InputError
-from bench.files import WRITE_ERRNOS, write_text_atomic
+from bench.files import WRITE_ERRNOS, dumps_json, write_text_atomic
 
 SCHEMA_NAME = "drivebench.store"
 SCHEMA_VERSION = 2
@@ -235,13 +234,6 @@ def read_samples(store_dir: str | Path, session_id: str) -> pd.DataFrame:
     return consistent_read(store_dir, read)
 
 
-def _json_default(obj):
-    """TOML dates and times become ISO 8601 text; anything else is a bug, said plainly."""
-    if isinstance(obj, date | time):
-        return obj.isoformat()
-    raise TypeError(f"cannot store a {type(obj).__name__} in JSON: {obj!r}")
-
-
 def dumps(obj) -> str:
     """JSON text of a manifest: sorted keys, stable bytes, never NaN or Infinity.
 
@@ -250,13 +242,7 @@ def dumps(obj) -> str:
     ValueError
         A non-finite float anywhere in ``obj`` (JSON has none).
     """
-    return json.dumps(obj, indent=1, sort_keys=True, allow_nan=False,
-                      default=_json_default) + "\n"
-
-
-def write_json(obj: dict, path: Path) -> None:
-    """Write JSON (sorted keys, stable bytes, no NaN) atomically."""
-    write_text_atomic(path, dumps(obj))
+    return dumps_json(obj, indent=1, sort_keys=True, non_finite="error")
 
 
 def _fsync(path: Path) -> None:

@@ -1,4 +1,4 @@
-"""Adaptive wind grid against a 0.25 m/s grid, with real OCP solves (issue 12, item 4).
+"""Adaptive wind grid against a 0.25 m/s grid, with real OCP solves.
 
 Solves one scenario kind (default elec-lim) on a 0.25 m/s grid over the range
 of the coarse grid (the reference), then refines the coarse grid with
@@ -22,13 +22,15 @@ import numpy as np
 from energy.adaptive import refine_grid
 from energy.aep import aep_mwh
 from energy.site import Weibull
-from fitting.model_file import PAPER_MODEL_PATH, load_power_model
+from fitting.model_file import load_power_model
+from optimize.kinds import KINDS
 from optimize.model.kite_model import kite_dae
+from optimize.paper_model import PAPER_MODEL_PATH
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.solve import solve, start
-from optimize.sweep.plan import KINDS, parse_wind_grid
+from optimize.sweep.plan import parse_wind_grid
 
 
 class Solver:

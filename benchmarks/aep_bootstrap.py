@@ -1,4 +1,4 @@
-"""Bootstrap check of the envelope-theorem band (issue 12, item 2).
+"""Bootstrap check of the envelope-theorem band.
 
 The analytic one-sigma of the optimal cycle-average electrical power is
 ``sqrt(g^T Sigma g)`` (``energy.bands``): ``g`` the cycle-time averages of the

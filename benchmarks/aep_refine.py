@@ -1,4 +1,4 @@
-"""``bench aep --refine`` against a 0.25 m/s grid, per scenario kind (issue 12, adaptive grid).
+"""``bench aep --refine`` against a 0.25 m/s grid, per scenario kind.
 
 Runs ``bench aep --refine`` on an optimize folder (default the demo's), then solves
 each requested kind on a 0.25 m/s grid over the sweep's range with the sweep's own
@@ -27,11 +27,11 @@ from energy.curve import read_optimize_run
 from energy.refine import options_from_manifest
 from energy.site import Weibull
 from fitting.model_file import load_power_model
+from optimize.kinds import KINDS
 from optimize.model.kite_model import kite_dae
 from optimize.problem.ocp import build_ocp
 from optimize.problem.scenario import Scenario
 from optimize.solve.solve import solve, start
-from optimize.sweep.plan import KINDS
 
 
 def reference(ocp, kind: str, winds: np.ndarray) -> dict[float, tuple[float, float] | None]:

@@ -6,7 +6,7 @@ Usage::
 
 Ingests the campaign into DIR/bench_store, runs the full fit (with selection)
 for each quadrant weighting into DIR/fit_<weighting>, and prints the recovered
-eq. 4 coefficients against ``truth.json`` (issue 3 §2: a1..a3 within 3 %, a0
+eq. 4 coefficients against ``truth.json`` (goal: a1..a3 within 3 %, a0
 within 10 %), the paper's fit-quality figures and the selection.
 """
 

@@ -1,4 +1,4 @@
-"""Benchmark ``bench ingest`` against the bare pandas baseline (issue 2 section 5).
+"""Benchmark ``bench ingest`` against the bare pandas baseline.
 
 Generates (or reuses) a ``bench synth --scale N`` campaign, then measures, each in
 its own child process, wall time and peak RSS of
@@ -67,6 +67,7 @@ from bench.ingest.readers import CHUNK_BYTES, read_analyzer
 from bench.ingest.session import discover, load_session
 from bench.ingest.timeseries import SAMPLES_WRITE_OPTIONS, open_stream
 from bench.store import SAMPLES_SCHEMA
+from bench.units import RPM_PER_RAD_S
 camp, out = Path(sys.argv[1]), Path(sys.argv[2])
 out.mkdir(parents=True, exist_ok=True)
 def one(folder):
@@ -83,7 +84,7 @@ def one(folder):
             t, n, q = c.values["time"], c.values["speed"], c.values["torque"]
             w.write_table(pa.Table.from_arrays([
                 pa.DictionaryArray.from_arrays(np.zeros(t.size, np.int32), sid), t, n, q,
-                n * q * (np.pi / 30), np.full(t.size, np.nan), np.full(t.size, -1, np.int32),
+                n * q / RPM_PER_RAD_S, np.full(t.size, np.nan), np.full(t.size, -1, np.int32),
             ], schema=SAMPLES_SCHEMA))
 with ThreadPoolExecutor(int(sys.argv[3])) as ex:
     list(ex.map(one, discover([camp])))

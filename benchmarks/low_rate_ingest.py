@@ -1,5 +1,4 @@
-"""Points ``bench ingest`` finds when a session's DAQ is logged slower or faster (issue 10
-finding 1).
+"""Points ``bench ingest`` finds when a session's DAQ is logged slower or faster.
 
 Copies one timeseries session (default ``raw_measurements/motor_01``), keeps
 every k-th DAQ row so that the DAQ runs at each requested rate (the analyzer

@@ -1,4 +1,4 @@
-"""Benchmark of the bench optimize sweep (issue 4 item 8).
+"""Benchmark of the bench optimize sweep.
 
 Measures, on this machine:
 
@@ -35,13 +35,14 @@ import time
 from pathlib import Path
 
 from bench.files import write_text_atomic
-from fitting.model_file import PAPER_MODEL_PATH, load_power_model
+from fitting.model_file import load_power_model
+from optimize.kinds import DEFAULT_KINDS
+from optimize.paper_model import PAPER_MODEL_PATH
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.solve.homotopy import cold_start
 from optimize.sweep.chains import OcpBackend, Problem, make_tasks, run_sweep
 from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import (
-    DEFAULT_KINDS,
     DEFAULT_WIND_GRID,
     middle_index,
     parse_kinds,

@@ -13,7 +13,7 @@ their rating by the similarity law. Prints per run: status, iterations,
 wall time, P_elec, P_mech, period, active bounds and the slack-tether fraction,
 with the load average; writes ``benchmarks/out/system_cold_starts.json``.
 
-Goal (issue 11): 12/12 converged, none with the period or tether on a bound the
+Goal: 12/12 converged, none with the period or tether on a bound the
 file did not mean to bind, median cold start <= 20 s.
 """
 
@@ -27,13 +27,13 @@ import statistics
 import time
 from pathlib import Path
 
+from optimize.kinds import KINDS
 from optimize.model.kite_model import kite_dae
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start
 from optimize.sweep.outputs import MEANT_BOUNDS
-from optimize.sweep.plan import KINDS
 from optimize.system.drive import drive_in_force
 from optimize.system.system import load_system, shipped_system_path
 

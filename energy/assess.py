@@ -210,7 +210,7 @@ def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
         Scenario -> basis averages of points with no stored trajectory (added by
         :mod:`energy.refine`).
     """
-    from fitting.model_file import power_model_from_dict
+    from fitting.model_schema import power_model_from_dict
 
     notes: list[str] = []
     path, model_json = model_for_run(run, drive_model)

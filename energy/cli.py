@@ -1,8 +1,7 @@
-"""``bench aep``: annual energy of the optimal power curves at a site (issue 12).
+"""``bench aep``: annual energy of the optimal power curves at a site.
 
-A thin command line over :func:`energy.site.read_histogram_csv`,
-:func:`energy.curve.read_optimize_run`, :func:`energy.assess.assess` and
-:func:`energy.outputs.write_outputs`.
+A thin command line over :func:`drivebench.api.aep`: the options here make the
+site (:func:`site_from_args`) and the wind profile (:func:`shear_from_args`).
 """
 
 from __future__ import annotations
@@ -153,58 +152,30 @@ def site_from_args(args: argparse.Namespace, shear):
     return site, note, unc
 
 
-def _refine(args: argparse.Namespace, run_, site):
-    """Refine every kind's grid (:mod:`energy.refine`) with the sweep's own model."""
-    from energy.assess import model_for_run
-    from energy.refine import DEFAULT_TOL, refine_run
-    from fitting.model_file import power_model_from_dict
-
-    tol = DEFAULT_TOL if args.refine_tol is None else args.refine_tol
-    if not (math.isfinite(tol) and 0 < tol < 1):
-        raise InputError(None, f"--refine-tol {tol}", expected="a share in (0, 1)")
-    if args.refine_max_points < 2 or args.workers < 1:
-        raise InputError(None, "--refine-max-points < 2 or --workers < 1",
-                         expected="--refine-max-points >= 2, --workers >= 1")
-    path, model_json = model_for_run(run_, args.drive_model)
-    if model_json is None:
-        raise InputError(path, "power model file not found (--refine solves with it)",
-                         expected="the sweep's power model, or --drive-model FILE")
-    return refine_run(run_, power_model_from_dict(model_json, path), site,
-                      args.out / "solves", tol=tol, max_points=args.refine_max_points,
-                      workers=args.workers, scheduler=args.scheduler,
-                      show_progress=not args.no_progress)
-
-
 def run(args: argparse.Namespace) -> int:
-    """Compute and write the AEP assessment; print the table."""
-    from energy.assess import assess
-    from energy.curve import read_optimize_run
-    from energy.outputs import SIGN_NOTE, format_table, write_outputs
-    from energy.refine import system_from_manifest
+    """Compute and write the AEP assessment (:func:`drivebench.api.aep`); print the table."""
+    from drivebench.api import aep
+    from energy.curve import read_manifest
+    from energy.outputs import SIGN_NOTE, format_table
+    from energy.refine import added_list, system_from_manifest
 
     if args.out.exists() and not args.out.is_dir():
         raise InputError(args.out, "exists and is not a folder", expected="an output folder")
-    run_ = read_optimize_run(args.optimize)
-    shear = shear_from_args(args, system_from_manifest(run_.manifest,
+    manifest = read_manifest(Path(args.optimize))
+    shear = shear_from_args(args, system_from_manifest(manifest,
                                                        Path(args.optimize) / "manifest.json"))
     site, note, unc = site_from_args(args, shear)
-    refined = _refine(args, run_, site) if args.refine else None
-    a = assess(refined.run if refined else run_, site, note, drive_model=args.drive_model,
-               nominal_power_w=args.nominal_power_w, site_uncertainty=unc,
-               gradients=refined.gradients if refined else None)
-    if refined is not None:
-        from energy.refine import DEFAULT_TOL, added_list, refine_document, refine_notes
-
-        tol = DEFAULT_TOL if args.refine_tol is None else args.refine_tol
-        doc = refine_document(refined, site, tol)
-        a = dataclasses.replace(a, notes=a.notes + refine_notes(doc))
-        run_ = refined.run
-    write_outputs(a, run_, args.out, ["bench", "aep", *sys.argv[2:]], shear,
-                  refine=doc if refined else None)
+    result = aep(args.optimize, site, out=args.out, site_note=note, site_uncertainty=unc,
+                 shear=shear, drive_model=args.drive_model,
+                 nominal_power_w=args.nominal_power_w, refine=args.refine,
+                 refine_tol=args.refine_tol, refine_max_points=args.refine_max_points,
+                 workers=args.workers, scheduler=args.scheduler,
+                 progress=not args.no_progress, command_line=["bench", "aep", *sys.argv[2:]])
+    a, refined = result.assessment, result.refined
     if refined is not None:
         print(f"refined grid ({refined.n_solved} solved, {refined.n_loaded} loaded from "
               f"{args.out / 'solves'}, {refined.wall_time_s:.0f} s on {refined.executor}):")
-        for kind, k in doc["kinds"].items():
+        for kind, k in result.refine_document["kinds"].items():
             print(f"  {kind:<10} AEP el {k['coarse_aep_elec_mwh']:.4f} -> "
                   f"{k['aep_elec_mwh']:.4f} MWh/yr, mech {k['coarse_aep_mech_mwh']:.4f} -> "
                   f"{k['aep_mech_mwh']:.4f}; added {added_list(k)}")

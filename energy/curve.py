@@ -18,11 +18,8 @@ import pandas as pd
 import pyarrow.parquet as pq
 
 from bench.errors import InputError
+from optimize.sweep.outputs import SUMMARY_REQUIRED
 
-SUMMARY_COLUMNS = (
-    "scenario", "kind", "objective", "drive_limits", "wind_speed_m_s", "success", "status",
-    "avg_p_elec_w", "avg_p_mech_w", "period_s", "peak_speed_rpm", "peak_torque_nm",
-)
 TRAJECTORY_COLUMNS = ("scenario", "kind", "wind_speed_m_s", "weight", "speed_rpm", "torque_nm")
 
 
@@ -144,7 +141,7 @@ def read_optimize_run(folder: str | Path) -> OptimizeRun:
         out of ``curves`` (it is still in ``summary``).
     """
     folder = Path(folder)
-    summary = _read_parquet(folder / "summary.parquet", SUMMARY_COLUMNS)
+    summary = _read_parquet(folder / "summary.parquet", SUMMARY_REQUIRED)
     manifest = read_manifest(folder)
     cut_ins = {}
     for c in manifest.get("cut_in") or []:

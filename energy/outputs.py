@@ -8,14 +8,13 @@
 from __future__ import annotations
 
 import datetime
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from bench.files import write_text_atomic
+from bench.files import write_json, write_text_atomic
 from energy import awesio
 from energy.assess import Assessment
 from energy.bands import Z95
@@ -126,10 +125,9 @@ def write_outputs(a: Assessment, run: OptimizeRun, out: Path, command_line: list
             )
             name = f"awesio/{kind}_{q}.yml"
             files[name] = write_text_atomic(out / name, awesio.dump_yaml(doc) + "\n")
-    files["aep"] = write_text_atomic(
-        out / "aep.json",
-        json.dumps(aep_document(a, run, command_line, reference_height_m, refine), indent=2,
-                   allow_nan=False) + "\n")
+    files["aep"] = write_json(
+        out / "aep.json", aep_document(a, run, command_line, reference_height_m, refine),
+        non_finite="error")
     return files
 
 

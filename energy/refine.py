@@ -12,14 +12,13 @@ converged grid point from the stored initial guess (the optimize stage's own col
 start): it gives the warm start, and it checks that the model and OCP options of
 the manifest reproduce the sweep's power there (:data:`CHECK_REL_TOL`). Every
 later speed is warm-started from the nearest solved one. Each solve is stored
-under the hash of its inputs (:func:`energy.sizing.scenario_key`, same store
+under the hash of its inputs (:func:`optimize.service.solve_key`, same store
 layout as ``bench size``), so a re-run loads it instead of solving it. A failed
 added solve is kept out of the curve and reported, never dropped silently.
 """
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -28,10 +27,10 @@ from typing import Any
 import numpy as np
 
 from bench.errors import InputError
+from bench.files import parse_toml
 from energy import bands
 from energy.adaptive import refine_grid
 from energy.curve import OptimizeRun, PowerCurve
-from energy.sizing import load_solve, scenario_key, store_solve
 
 #: the check re-solve must give the sweep's average electrical power within this share
 #: of the curve's largest |P_elec|: IPOPT's tolerance (1e-6 scaled) reproduces the same
@@ -67,8 +66,6 @@ def system_from_manifest(manifest: dict, path: Path) -> Any:
     InputError
         The record's text does not parse or its hash differs from the record's.
     """
-    import tomllib
-
     from optimize.system.system import system_from_dict
 
     rec = manifest.get("system")
@@ -77,10 +74,8 @@ def system_from_manifest(manifest: dict, path: Path) -> Any:
     if not isinstance(rec, dict) or not isinstance(rec.get("text"), str):
         raise InputError(path, "system record without its text", column="system",
                          expected="the manifest of `bench optimize` (docs/schemas.md §5)")
-    try:
-        system = system_from_dict(tomllib.loads(rec["text"]), str(rec.get("path")), rec["text"])
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(path, f"system text is not valid TOML: {exc}", column="system") from None
+    system = system_from_dict(parse_toml(rec["text"], path, what="manifest's system text"),
+                              str(rec.get("path")), rec["text"])
     if rec.get("sha256") and system.sha256 != rec["sha256"]:
         raise InputError(path, "system text does not match its recorded sha256", column="system")
     return system
@@ -93,7 +88,7 @@ class KindTask:
     Attributes
     ----------
     kind : str
-    model : fitting.model_file.PowerModel
+    model : fitting.power_model.PowerModel
     options : optimize.problem.options.OcpOptions
     known : tuple of (float, float, float)
         The sweep's converged grid points: wind [m/s], P_elec [W], P_mech [W].
@@ -125,84 +120,36 @@ class KindTask:
 def refine_kind(task: KindTask, progress: Any = None) -> list[dict]:
     """Solve the speeds the refinement asks for; returns every solve record (worker side).
 
-    Records: ``key, kind, wind_speed_m_s, role ("check" | "added"), success, status,
-    warm_from, avg_p_elec_w, avg_p_mech_w, period_s, peak_torque_nm, peak_speed_rpm,
-    basis_averages, wall_time_s, cached``.
+    The solves go through :class:`optimize.service.Solver` (stored, resumable, a
+    crash reported in the record's status). Records: those of the service with
+    ``role`` ``"check"`` (a sweep speed solved again, to check the sweep's figure)
+    or ``"added"``, plus ``basis_averages`` (:func:`energy.bands.basis_averages`).
     """
-    from optimize.sweep.chains import OcpBackend, Problem, problem_key
-    from optimize.sweep.plan import KINDS
+    from optimize.service import Solver
+    from optimize.sweep.chains import Problem, problem_key
 
-    backend = task.backend or OcpBackend()
-    objective, limits = KINDS[task.kind]
-    task.store.mkdir(parents=True, exist_ok=True)
+    problem = (Problem(None, task.model, task.options,
+                       problem_key(task.options, task.model, None))
+               if task.system is None
+               else Problem.for_system(task.system, task.model, task.options))
+
+    def basis(traj: Any) -> dict:
+        averages = None if traj is None else bands.basis_averages(traj, task.model.terms).tolist()
+        return {"basis_averages": averages}
+
+    solver = Solver(problem, task.store, task.backend, progress, extras=basis)
     known = {w: (pe, pm) for w, pe, pm in task.known}
-    records: dict[float, dict] = {}
-    warms: dict[float, Any] = {}
-    ocp = None
-
-    def solve_at(wind: float, role: str) -> dict:
-        nonlocal ocp
-        key = scenario_key(task.model.sha256, task.options, wind, objective, limits,
-                           getattr(task.system, "sha256", None))
-        stored = load_solve(task.store, key)
-        if stored is not None:
-            rec, warm = stored
-            rec = {**rec, "role": role, "cached": True}
-        else:
-            if ocp is None:
-                ocp = backend.build(
-                    Problem(None, task.model, task.options,
-                            problem_key(task.options, task.model, None))
-                    if task.system is None
-                    else Problem.for_system(task.system, task.model, task.options))
-            t0 = time.perf_counter()
-            res, src, crash = None, None, None
-            try:  # a solver crash is a failed solve of this speed, not a failed refinement
-                if warms:
-                    src = min(warms, key=lambda w: abs(w - wind))
-                    res = backend.solve(ocp, task.kind, wind, warms[src])
-                if res is None or not res.success:
-                    src, res = None, backend.cold_start(ocp, task.kind, wind)
-            except Exception as exc:  # noqa: BLE001 - reported in the record's status
-                crash = f"exception: {type(exc).__name__}: {exc}"[:300]
-            ok = crash is None and bool(res.success) and math.isfinite(float(res.avg_p_elec_w))
-            traj = res.trajectory if ok else None
-            rec = {
-                "key": key, "kind": task.kind, "wind_speed_m_s": wind, "role": role,
-                "success": ok, "status": crash or str(res.status),
-                "warm_from": (f"{src:g} m/s" if src is not None
-                              else getattr(res, "start", "cold start")),
-                "avg_p_elec_w": float(res.avg_p_elec_w) if ok else None,
-                "avg_p_mech_w": float(res.avg_p_mech_w) if ok else None,
-                "period_s": float(res.period_s) if ok else None,
-                "peak_torque_nm": float(traj["torque_nm"].max()) if ok else None,
-                "peak_speed_rpm": float(traj["speed_rpm"].abs().max()) if ok else None,
-                "basis_averages": (bands.basis_averages(traj, task.model.terms).tolist()
-                                   if ok else None),
-                "wall_time_s": time.perf_counter() - t0,
-            }
-            warm = res.warm if ok else None
-            if crash is None:  # a crash may be transient: solved again by a re-run
-                store_solve(task.store, key, rec, warm)
-            rec = {**rec, "cached": False}
-        records[wind] = rec
-        if rec["success"] and warm is not None:
-            warms[wind] = warm
-        if progress is not None:
-            progress.put({"kind": task.kind, "wind": wind, "role": role,
-                          "status": rec["status"], "cached": rec["cached"]})
-        return rec
 
     def power(wind: float) -> tuple[float, float] | None:
         wind = round(float(wind), 6)
-        if not any(r["role"] == "check" for r in records.values()):
-            solve_at(min(known, key=lambda w: abs(w - wind)), "check")
-        rec = solve_at(wind, "added")
+        if not any(r["role"] == "check" for r in solver.records.values()):
+            solver.solve(task.kind, min(known, key=lambda w: abs(w - wind)), "check")
+        rec = solver.solve(task.kind, wind, "added")
         return (rec["avg_p_elec_w"], rec["avg_p_mech_w"]) if rec["success"] else None
 
     refine_grid(power, tuple(sorted(known)), task.site, task.tol, max_points=task.max_points,
                 known=known)
-    return [records[w] for w in sorted(records)]
+    return [solver.records[k] for k in sorted(solver.records, key=lambda k: k[1])]
 
 
 @dataclass(frozen=True)

@@ -28,6 +28,7 @@ import numpy as np
 from scipy import special
 
 from bench.errors import InputError
+from bench.files import read_text
 
 #: hours in a (non-leap) year: the AEP convention of IEC 61400-12-1
 HOURS_PER_YEAR = 8760.0
@@ -280,11 +281,7 @@ def read_histogram_csv(path: str | Path) -> Histogram:
         Naming the file, line and column of the first bad value.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except OSError as exc:
-        raise InputError(path, f"cannot read: {exc.strerror}",
-                         expected=_HISTOGRAM_EXPECTED) from exc
+    text = read_text(path, what="histogram file")
     rows = [(n, line) for n, line in enumerate(text.splitlines(), 1)
             if line.strip() and not line.lstrip().startswith("#")]
     if not rows:

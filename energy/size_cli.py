@@ -1,8 +1,8 @@
-"""``bench size``: electrical AEP against drive rating over candidate drives (issue 12).
+"""``bench size``: electrical AEP against drive rating over candidate drives.
 
 A thin command line over :mod:`energy.sizing`; writes ``size_out/sizing.json``,
 ``size_out/sizing.csv`` and the resumable solve store ``size_out/solves/``
-(docs/schemas.md §7).
+(docs/schemas.md §8).
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "[drive] is the reference drive x1")
     parser.add_argument("--scales", default=DEFAULT_SCALES,
                         help="torque-rating scales of the reference drive, comma list (default "
-                             f"{DEFAULT_SCALES}); law in docs/schemas.md §7")
+                             f"{DEFAULT_SCALES}); law in docs/schemas.md §8")
     parser.add_argument("--models", type=Path, nargs="*", default=(),
                         help="further candidates: power_model.json files (rated torque and "
                              "speed limit from their drive section, else the reference ones)")
@@ -92,42 +92,47 @@ def _scales(spec: str) -> tuple[float, ...]:
     return values
 
 
-def reference_rating(rating: Any, args: argparse.Namespace) -> tuple[Any, list[str]]:
-    """The reference drive's rating: the system's drive in force with the command line's
-    overrides; a continuous torque or an overload the system does not state is said."""
+def reference_rating(rating: Any, rated_torque_nm: float | None = None,
+                     max_speed_rpm: float | None = None,
+                     overload: float | None = None) -> tuple[Any, list[str]]:
+    """The reference drive's rating: the system's drive in force with the given
+    overrides (``--rated-torque-nm``, ``--max-speed-rpm``, ``--overload``); a continuous
+    torque or an overload the system does not state is said."""
     notes = []
-    for name, v in (("--rated-torque-nm", args.rated_torque_nm),
-                    ("--max-speed-rpm", args.max_speed_rpm), ("--overload", args.overload)):
+    for name, v in (("--rated-torque-nm", rated_torque_nm),
+                    ("--max-speed-rpm", max_speed_rpm), ("--overload", overload)):
         if v is not None and not (math.isfinite(v) and v > 0):
             raise InputError(None, f"{name} {v}", expected="a value > 0")
-    if args.overload is not None and args.overload < 1:
-        raise InputError(None, f"--overload {args.overload}", expected="a factor >= 1")
-    continuous = args.rated_torque_nm or rating.continuous_torque_nm
+    if overload is not None and overload < 1:
+        raise InputError(None, f"--overload {overload}", expected="a factor >= 1")
+    continuous = rated_torque_nm or rating.continuous_torque_nm
     if continuous is None:
         continuous = rating.max_torque_nm
         notes.append(f"the system's [drive] states no continuous_torque_nm: its torque limit "
                      f"{continuous:g} N m is taken as the continuous rating")
-    overload = args.overload or rating.overload
+    overload = overload or rating.overload
     peak = overload * continuous if overload is not None else max(rating.max_torque_nm,
                                                                    continuous)
     if overload is None:
         notes.append(f"the system's [drive] states no overload: peak torque {peak:g} N m")
     return dataclasses.replace(rating, continuous_torque_nm=continuous, max_torque_nm=peak,
-                               max_speed_rpm=args.max_speed_rpm or rating.max_speed_rpm,
+                               max_speed_rpm=max_speed_rpm or rating.max_speed_rpm,
                                overload=peak / continuous), notes
 
 
-def build_candidates(args: argparse.Namespace, system: Any) -> tuple[list, Any, list[str]]:
-    """The candidate drives, the reference drive in force, and notes on what was assumed."""
+def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
+                     rated_torque_nm: float | None = None, max_speed_rpm: float | None = None,
+                     overload: float | None = None) -> tuple[list, list[str]]:
+    """The candidate drives of the reference drive in force (``drive``,
+    :func:`optimize.system.drive.drive_in_force`) scaled by ``scales``, plus one per
+    power-model file of ``models``; and notes on what was assumed."""
     from bench.drive import DriveRating
     from energy.sizing import Candidate, scaled_candidates
     from fitting.model_file import load_power_model
-    from optimize.system.drive import drive_in_force
 
-    drive = drive_in_force(system, args.drive_model, FIT_MODEL_PATH)
-    rating, notes = reference_rating(drive.rating, args)
-    candidates = scaled_candidates(drive.model, rating, _scales(args.scales))
-    for p in args.models:
+    rating, notes = reference_rating(drive.rating, rated_torque_nm, max_speed_rpm, overload)
+    candidates = scaled_candidates(drive.model, rating, tuple(scales))
+    for p in models:
         m = load_power_model(p)
         cont = _drive_value(p, "max_torque_nm") or rating.continuous_torque_nm
         own = DriveRating(_drive_value(p, "nominal_power_w") or m.nominal_power_w,
@@ -135,7 +140,7 @@ def build_candidates(args: argparse.Namespace, system: Any) -> tuple[list, Any, 
                           rating.overload * cont, source=str(p), continuous_torque_nm=cont,
                           overload=rating.overload, max_p_elec_w=rating.max_p_elec_w)
         candidates.append(Candidate(Path(p).stem, m, own))
-    return candidates, drive, notes
+    return candidates, notes
 
 
 def grid_hours(site, winds: tuple[float, ...]) -> dict:
@@ -149,8 +154,9 @@ def grid_hours(site, winds: tuple[float, ...]) -> dict:
     return {"share_below_grid": below, "share_above_grid": above, "note": note}
 
 
-def _edge_note(edge: str | None, best: str | None, added: list[float]) -> str | None:
-    """What the edge of the candidate set means for the answer (None: the best is inside)."""
+def edge_note(edge: str | None, best: str | None, added: list[float]) -> str | None:
+    """What the edge of the candidate set means for the answer (None: the best is inside
+    and no scale was added)."""
     tried = f"scales {', '.join(f'x{s:g}' for s in added)} were added beyond the edge" \
         if added else ""
     if edge is None:
@@ -161,82 +167,65 @@ def _edge_note(edge: str | None, best: str | None, added: list[float]) -> str | 
             "or a higher --extend)")
 
 
-def _size_extending(args: argparse.Namespace, site, winds, system):
-    """Size the candidates; while the best is a torque-rating scale at the edge of the set,
-    add the next scale beyond it (:func:`energy.sizing.next_scale`), up to ``--extend``
-    times. Solves already made are loaded from the store, not repeated."""
-    from energy.sizing import edge_of_set, next_scale, run_sizing
-
-    scales, added = list(_scales(args.scales)), []
-    solved = wall = 0.0
-    while True:
-        candidates, drive, notes = build_candidates(argparse.Namespace(
-            **{**vars(args), "scales": ",".join(f"{s:g}" for s in scales)}), system)
-        if not added:
-            for line in drive.lines():
-                print(line)
-        print(f"{len(candidates)} candidates x {len(winds)} wind speeds (elec-lim, RMS torque "
-              f"<= rated); solves stored in {args.out / 'solves'}")
-        res = run_sizing(candidates, winds, site, args.out, args.intervals, args.degree,
-                         workers=args.workers, scheduler=args.scheduler,
-                         tolerance=args.tolerance, adaptive=args.adaptive, system=system)
-        # a later round loads the solves of the earlier ones: count each solve once
-        res = dataclasses.replace(res, n_solved=int(solved) + res.n_solved,
-                                  n_cached=res.n_cached - int(solved),
-                                  wall_time_s=wall + res.wall_time_s)
-        solved, wall = res.n_solved, res.wall_time_s
-        edge = edge_of_set(res.table, res.best)
-        scaled = {c.name: c.scale for c in candidates if c.scale is not None}
-        if edge is None or len(added) >= args.extend or res.best not in scaled:
-            return res, edge, added, notes, drive
-        added.append(next_scale(tuple(scales), edge))
-        scales.append(added[-1])
-        print(f"the best drive {res.best} is the {edge} candidate: adding x{added[-1]:g}")
-
-
 def run(args: argparse.Namespace) -> int:
-    """Run or resume the sizing sweep, print the table, write the files."""
-    from bench.files import write_text_atomic
+    """Run or resume the sizing sweep (:func:`drivebench.api.size`), print the table."""
+    from drivebench.api import size
     from optimize.sweep.plan import parse_wind_grid
     from optimize.system.system import load_system
 
     system = load_system(args.system)
     site, site_note, _ = site_from_args(args, shear_from_args(args, system))
     winds = parse_wind_grid(args.wind_grid)
-    if len(winds) < 2:
-        raise InputError(None, f"--wind-grid {args.wind_grid!r}: one wind speed gives no curve "
-                         "to integrate", expected="at least two wind speeds")
-    if not 0 <= args.tolerance < 1:
-        raise InputError(None, f"--tolerance {args.tolerance}", expected="a share in [0, 1)")
     if args.out.exists() and not args.out.is_dir():
         raise InputError(args.out, "exists and is not a folder", expected="an output folder")
     if args.extend < 0:
         raise InputError(None, f"--extend {args.extend}", expected="an integer >= 0")
     print(f"site: {site_note}")
     print(f"system: {system.name} ({system.path})")
-    res, edge, added, notes, drive = _size_extending(args, site, winds, system)
-    t = res.table
-    print(t.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
+    done = size(site, args.drive_model, system=system, fit_default=FIT_MODEL_PATH,
+                scales=_scales(args.scales), models=tuple(args.models), winds=winds,
+                out=args.out, site_note=site_note, rated_torque_nm=args.rated_torque_nm,
+                max_speed_rpm=args.max_speed_rpm, overload=args.overload,
+                tolerance=args.tolerance, extend=args.extend, adaptive=args.adaptive,
+                n_intervals=args.intervals,
+                degree=args.degree, workers=args.workers, scheduler=args.scheduler,
+                progress=True, command_line=["bench", "size", *sys.argv[2:]],
+                before_solving=lambda d, n: _announce(d, n, len(winds), args.out))
+    res = done.sizing
+    print(res.table.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
     print(f"best: {res.best}; smallest within {args.tolerance:.0%} of the best AEP: {res.chosen}")
-    edge_note = _edge_note(edge, res.best, added)
-    hours = grid_hours(site, winds)
-    print(f"hours: {hours['note']}")
-    if edge_note:
-        print(f"{'EDGE' if edge else 'note'}: {edge_note}")
     print(f"{res.n_solved} solved, {res.n_cached} loaded from the store, "
           f"{res.wall_time_s:.1f} s ({res.executor})")
-    for n in notes:
+    for n in done.notes:
         print(f"note: {n}")
-    failed = [r for r in res.records if not r["success"]]
-    for r in failed:
+    for r in (r for r in res.records if not r["success"]):
         print(f"FAILED: {r['candidate']} at {r['wind_speed_m_s']:g} m/s: {r['status']} "
               "(that candidate gets no AEP)")
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(args.out / "sizing.csv", t.to_csv(index=False, float_format="%.6g"))
+    return 0 if res.chosen is not None else 1
+
+
+def _announce(drive: Any, n_candidates: int, n_winds: int, out: Path) -> None:
+    for line in drive.lines():
+        print(line)
+    print(f"{n_candidates} candidates x {n_winds} wind speeds (elec-lim, RMS torque <= "
+          f"rated); solves stored in {out / 'solves'}")
+
+
+def write_sizing(out: Path, res: Any, *, site: Any, site_note: str, drive: Any, system: Any,
+                 winds: tuple[float, ...], adaptive: bool, tolerance: float, notes: list[str],
+                 command_line: list[str], edge: dict | None = None) -> dict[str, Path]:
+    """Write ``sizing.csv`` and ``sizing.json`` (docs/schemas.md §8) of a sizing result
+    (:class:`energy.sizing.SizingResult`) into ``out``; returns name -> path."""
+    from bench.files import write_json, write_text_atomic
+
+    t = res.table
+    out.mkdir(parents=True, exist_ok=True)
+    files = {"csv": write_text_atomic(out / "sizing.csv",
+                                      t.to_csv(index=False, float_format="%.6g"))}
     doc = {
         "schema": "drivebench.sizing", "schema_version": 1,
         "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "command_line": ["bench", "size", *sys.argv[2:]],
+        "command_line": list(command_line),
         "site": {**site.to_dict(), "note": site_note},
         "reference_model": {"path": str(drive.model_path), "note": drive.losses_note},
         "reference_drive": drive.record(),
@@ -244,14 +233,14 @@ def run(args: argparse.Namespace) -> int:
         "law": "P_s(n, T) = s P_1(n, T/s): c_ij -> s^(1-j) c_ij (the similarity law at the same "
                "speed); continuous torque s T_cont, peak s T_peak, same speed limit, nominal "
                "power s P_nom",
-        "wind_speeds_m_s": list(winds), "adaptive": args.adaptive, "tolerance": args.tolerance,
+        "wind_speeds_m_s": list(winds), "adaptive": adaptive, "tolerance": tolerance,
         "best": res.best, "chosen": res.chosen,
-        "edge": {"best_at": edge, "added_scales": added, "note": edge_note},
-        "hours": hours,
+        "edge": edge or {"best_at": None, "added_scales": [], "note": None},
+        "hours": grid_hours(site, winds),
         "wall_time_s": res.wall_time_s, "executor": res.executor,
         "n_solved": res.n_solved, "n_loaded": res.n_cached,
         "candidates": json.loads(t.to_json(orient="records")),
         "solves": res.records, "notes": notes,
     }
-    write_text_atomic(args.out / "sizing.json", json.dumps(doc, indent=1) + "\n")
-    return 0 if res.chosen is not None else 1
+    files["json"] = write_json(out / "sizing.json", doc, indent=1)
+    return files

@@ -18,19 +18,18 @@ nominal power ``s P_nom``; the system's other limits are kept.
 
 Resumable sweep
 ---------------
-Each solve is stored under the SHA-256 of its inputs (the candidate's model
-hash, the OCP options, the wind speed and objective: :func:`solve_key`) as
-``solves/<key>.json`` (figures) and ``solves/<key>.npz`` (primal and dual
-vectors, the next solve's warm start), each written atomically. A re-run loads
-every stored solve instead of solving it, so an interrupted sweep continues
-where it stopped.
+The solves go through the solve service (:mod:`optimize.service`): each is
+stored under the SHA-256 of its inputs (the candidate's model hash, the OCP
+options, the wind speed, objective and the system's hash:
+:func:`optimize.service.solve_key`) as ``solves/<key>.json`` (figures) and
+``solves/<key>.npz`` (primal and dual vectors, the next solve's warm start),
+each written atomically. A re-run loads every stored solve instead of solving
+it, so an interrupted sweep continues where it stopped.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import hashlib
-import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,10 +37,9 @@ from typing import Any
 
 import numpy as np
 
-from bench.files import atomic_write, write_text_atomic
+#: the scenario kind a sizing solves: the electrical objective within the drive's limits
+SIZING_KIND = "elec-lim"
 
-#: bump when the meaning of a stored solve changes (invalidates every stored solve)
-STORE_VERSION = 1
 
 @dataclass(frozen=True)
 class Candidate:
@@ -50,7 +48,7 @@ class Candidate:
     Attributes
     ----------
     name : str
-    model : fitting.model_file.PowerModel
+    model : fitting.power_model.PowerModel
     rating : bench.drive.DriveRating
         Its limits: ``continuous_torque_nm`` (RMS drum torque over the cycle at most
         this), ``max_torque_nm`` (short-time peak), ``max_speed_rpm``, and
@@ -100,13 +98,20 @@ class Candidate:
                                      self.rating)
         return options.replace(limits={"max_rms_torque_nm": self.rated_torque_nm})
 
+    def problem(self, n_intervals: int, degree: int, system: Any) -> Any:
+        """The OCP problem (:class:`optimize.sweep.chains.Problem`) of this drive in ``system``."""
+        from optimize.sweep.chains import Problem
+
+        return Problem.for_system(system, self.model, self.ocp_options(n_intervals, degree,
+                                                                        system))
+
 
 def scaled_candidates(base: Any, rating: Any, scales: tuple[float, ...]) -> list[Candidate]:
     """Candidates of the reference drive scaled by each ``s`` (see the module's law).
 
     Parameters
     ----------
-    base : fitting.model_file.PowerModel
+    base : fitting.power_model.PowerModel
         The reference drive's losses (at ``rating``).
     rating : bench.drive.DriveRating
         The reference drive's rating, ``continuous_torque_nm`` stated.
@@ -126,157 +131,6 @@ def scaled_candidates(base: Any, rating: Any, scales: tuple[float, ...]) -> list
                                   name=f"{base.name} x{s:g} torque rating")
         out.append(Candidate(f"x{s:g}", model, scaled, s))
     return out
-
-
-def solve_key(candidate: Candidate, options: Any, wind_m_s: float, system_sha256: str) -> str:
-    """SHA-256 (hex) of everything a sizing solve (elec-lim) depends on (the system file's
-    hash too)."""
-    return scenario_key(candidate.model.sha256, options, wind_m_s, "electrical", True,
-                        system_sha256)
-
-
-def scenario_key(model_sha256: str, options: Any, wind_m_s: float, objective: str,
-                 drive_limits: bool, system_sha256: str | None = None) -> str:
-    """SHA-256 (hex) of everything one stored solve depends on (the store's file name).
-
-    ``system_sha256`` (the kite system's hash) enters the key when given (always for
-    ``bench size``; ``bench aep --refine`` of a sweep made before system files has none).
-    """
-    data = {"version": STORE_VERSION, "model": model_sha256,
-            "options": dataclasses.asdict(options), "wind_m_s": float(wind_m_s),
-            "objective": objective, "drive_limits": bool(drive_limits)}
-    if system_sha256 is not None:
-        data["system"] = system_sha256
-    text = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
-@dataclass(frozen=True)
-class SizingTask:
-    """One candidate's chain of solves over the wind speeds (one executor task)."""
-
-    candidate: Candidate
-    winds: tuple[float, ...]
-    n_intervals: int
-    degree: int
-    store: Path
-    refine_site: Any = None  # a site distribution: refine the grid adaptively for it
-    system: Any = None  # optimize.system.system.System; None = the shipped default system
-
-
-def _chain_order(winds: tuple[float, ...]) -> list[float]:
-    """Middle speed first, then outwards (each solve warm-starts from its inner neighbour)."""
-    mid = (len(winds) - 1) // 2
-    order = [winds[mid]]
-    for k in range(1, len(winds)):
-        if mid + k < len(winds):
-            order.append(winds[mid + k])
-        if mid - k >= 0:
-            order.append(winds[mid - k])
-    return order
-
-
-def load_solve(store: Path, key: str) -> tuple[dict, Any] | None:
-    """A stored solve (figures, warm start) or None when absent or unreadable."""
-    from optimize.solve.result import Solution
-
-    js, npz = store / f"{key}.json", store / f"{key}.npz"
-    if not js.is_file():
-        return None
-    try:
-        rec = json.loads(js.read_text())
-        warm = None
-        if npz.is_file():
-            with np.load(npz) as f:
-                warm = Solution(f["w"], f["lam_x"], f["lam_g"], int(f["n_intervals"]),
-                                int(f["degree"]))
-    except (OSError, ValueError, KeyError, json.JSONDecodeError):
-        return None
-    return rec, warm
-
-
-def store_solve(store: Path, key: str, rec: dict, warm: Any) -> None:
-    if warm is not None:  # the warm start first: a json without its npz is still usable
-        def write_npz(tmp: Path) -> None:
-            with open(tmp, "wb") as fh:
-                np.savez(fh, w=warm.w, lam_x=warm.lam_x, lam_g=warm.lam_g,
-                         n_intervals=warm.n_intervals, degree=warm.degree)
-        atomic_write(store / f"{key}.npz", write_npz)
-    write_text_atomic(store / f"{key}.json", json.dumps(rec, indent=1, allow_nan=True))
-
-
-def run_candidate(task: SizingTask, progress: Any = None) -> list[dict]:
-    """Solve (or load) elec-lim at every wind speed for one candidate; returns the records.
-
-    With ``task.refine_site`` the grid is then refined where the candidate's curve
-    bends (:func:`energy.adaptive.refine_grid`); added speeds are stored like the others.
-    """
-    from optimize.model.kite_model import kite_dae
-    from optimize.problem.ocp import build_ocp
-    from optimize.problem.scenario import Scenario
-    from optimize.solve.solve import solve, start
-    from optimize.system.system import load_system
-
-    c = task.candidate
-    system = task.system if task.system is not None else load_system()
-    options = c.ocp_options(task.n_intervals, task.degree, system)
-    task.store.mkdir(parents=True, exist_ok=True)
-    ocp = None
-    records: dict[float, dict] = {}
-    warms: dict[float, Any] = {}
-
-    def solve_at(wind: float) -> dict:
-        nonlocal ocp
-        if wind in records:
-            return records[wind]
-        key = solve_key(c, options, wind, system.sha256)
-        stored = load_solve(task.store, key)
-        if stored is not None:
-            rec, warm = stored
-            records[wind], warms[wind] = {**rec, "cached": True}, warm
-        else:
-            if ocp is None:
-                ocp = build_ocp(kite_dae(*system.model_params()), c.model, options,
-                                system=system)
-            scenario = Scenario(wind, "electrical", True)
-            inner = [w for w in warms if warms[w] is not None]
-            t0 = time.perf_counter()
-            res = None
-            if inner:
-                src = min(inner, key=lambda w: abs(w - wind))
-                res = solve(ocp, scenario, warms[src])
-            if res is None or not res.success:
-                res = start(ocp, scenario)
-            traj = res.trajectory
-            ok = bool(res.success)
-            rec = {
-                "key": key, "candidate": c.name, "wind_speed_m_s": wind,
-                "success": ok, "status": res.status,
-                "avg_p_elec_w": float(res.avg_p_elec_w) if ok else None,
-                "avg_p_mech_w": float(res.avg_p_mech_w) if ok else None,
-                "period_s": float(res.period_s) if ok else None,
-                "rms_torque_nm": (float(np.sqrt(np.sum(traj["weight"] * traj["torque_nm"] ** 2)))
-                                  if ok else None),
-                "peak_torque_nm": float(traj["torque_nm"].max()) if ok else None,
-                "peak_speed_rpm": float(traj["speed_rpm"].abs().max()) if ok else None,
-                "wall_time_s": time.perf_counter() - t0,
-            }
-            store_solve(task.store, key, rec, res.warm if ok else None)
-            records[wind], warms[wind] = {**rec, "cached": False}, (res.warm if ok else None)
-        if progress is not None:
-            r = records[wind]
-            progress.put({"candidate": c.name, "wind": wind, "status": r["status"],
-                          "cached": r["cached"]})
-        return records[wind]
-
-    for wind in _chain_order(task.winds):
-        solve_at(wind)
-    if task.refine_site is not None:
-        from energy.adaptive import refine_grid
-
-        refine_grid(lambda w: solve_at(round(float(w), 6))["avg_p_elec_w"], task.winds,
-                    task.refine_site)
-    return [records[w] for w in sorted(records)]
 
 
 @dataclass(frozen=True)
@@ -373,12 +227,42 @@ def next_scale(scales: tuple[float, ...], edge: str) -> float:
     return float(f"{outer * ratio:.3g}")
 
 
+def size_extending(make_candidates: Any, scales: tuple[float, ...], extend: int,
+                   run: Any) -> tuple[SizingResult, str | None, list[float]]:
+    """Size, and while the best drive is a torque-rating scale at the edge of the set, add
+    the next scale beyond it (:func:`next_scale`) and size again, up to ``extend`` times.
+
+    ``make_candidates(scales)`` gives the candidates of those scales (plus any others);
+    ``run(candidates)`` sizes them (:func:`run_sizing`: solves already stored are loaded,
+    so a later round solves only the added scale). Returns the last round's result, with
+    each solve and the wall time counted once over the rounds, the edge the best drive
+    sits at (:func:`edge_of_set`) and the scales added.
+    """
+    scales, added = list(scales), []
+    solved, wall = 0, 0.0
+    while True:
+        candidates = make_candidates(tuple(scales))
+        res = run(candidates)
+        # a later round loads the solves of the earlier ones: count each solve once
+        res = dataclasses.replace(res, n_solved=solved + res.n_solved,
+                                  n_cached=res.n_cached - solved,
+                                  wall_time_s=wall + res.wall_time_s)
+        solved, wall = res.n_solved, res.wall_time_s
+        edge = edge_of_set(res.table, res.best)
+        scaled = {c.name for c in candidates if c.scale is not None}
+        if edge is None or len(added) >= extend or res.best not in scaled:
+            return res, edge, added
+        added.append(next_scale(tuple(scales), edge))
+        scales.append(added[-1])
+
+
 def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any, out: Path,
                n_intervals: int = 40, degree: int = 4, handle: Any = None, workers: int = 2,
                scheduler: str | None = None, show_progress: bool = True,
                tolerance: float = 0.02, adaptive: bool = False,
-               system: Any = None) -> SizingResult:
-    """Run (or resume) the sizing sweep: one task per candidate on the executor.
+               system: Any = None, backend: Any = None) -> SizingResult:
+    """Run (or resume) the sizing sweep through the solve service (:mod:`optimize.service`):
+    one chain of :data:`SIZING_KIND` solves per candidate, stored under ``out/solves``.
 
     ``handle`` is an open :class:`optimize.sweep.executors.ExecutorHandle`; without it
     a local process pool of ``workers`` (or the Dask cluster at ``scheduler``) is opened.
@@ -386,16 +270,20 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
     (:mod:`energy.adaptive`), so candidates may end with different speeds.
     ``system`` (an :class:`optimize.system.system.System`, default the shipped one)
     gives the kite, tether, winch, wind and bounds every candidate is sized for.
+    ``backend`` replaces the CasADi OCP (:class:`optimize.sweep.chains.OcpBackend`).
+    A solver crash fails that solve (status ``exception: ...``) and so its
+    candidate's AEP, never the sweep.
     """
     from tqdm import tqdm
 
-    from optimize.sweep.executors import open_executor, run_tasks
+    from optimize.service import SolveTask, solve_tasks
+    from optimize.system.system import load_system
 
-    store = Path(out) / "solves"
-    tasks = [SizingTask(c, tuple(winds), n_intervals, degree, store,
-                        site if adaptive else None, system) for c in candidates]
-    bar = tqdm(total=len(tasks) * len(winds), unit="solve", desc="size",
-               disable=not show_progress)
+    system = system if system is not None else load_system()
+    tasks = [SolveTask(c.problem(n_intervals, degree, system), SIZING_KIND, float(w),
+                       (("candidate", c.name),))
+             for c in candidates for w in winds]
+    bar = tqdm(total=len(tasks), unit="solve", desc="size", disable=not show_progress)
     counts = {"solved": 0, "cached": 0}
 
     def on_event(ev: dict) -> None:
@@ -408,27 +296,17 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
 
     t0 = time.perf_counter()
     if handle is None:
-        with open_executor(workers, scheduler) as h:
-            futures = run_tasks(h.executor, run_candidate, tasks, h.channel, on_event)
-            description = h.description
+        from optimize.sweep.executors import open_executor
+
+        with open_executor(workers, scheduler) as handle:
+            records = solve_tasks(tasks, Path(out) / "solves", handle=handle, backend=backend,
+                                  refine_site=site if adaptive else None, on_event=on_event)
     else:
-        futures = run_tasks(handle.executor, run_candidate, tasks, handle.channel, on_event)
-        description = handle.description
+        records = solve_tasks(tasks, Path(out) / "solves", handle=handle, backend=backend,
+                              refine_site=site if adaptive else None, on_event=on_event)
+    description = handle.description
     bar.close()
     wall = time.perf_counter() - t0
-    records = []
-    for task, f in zip(tasks, futures, strict=True):
-        exc = f.exception()
-        if exc is None:
-            records.extend(f.result())
-            continue
-        # a crashed task fails its candidate (reported, no AEP), never the sweep
-        status = f"worker error: {type(exc).__name__}: {exc}"[:300]
-        records.extend({"key": None, "candidate": task.candidate.name, "wind_speed_m_s": w,
-                        "success": False, "status": status, "avg_p_elec_w": None,
-                        "avg_p_mech_w": None, "period_s": None, "rms_torque_nm": None,
-                        "peak_torque_nm": None, "peak_speed_rpm": None, "wall_time_s": None,
-                        "cached": False} for w in task.winds)
     table, best, chosen = candidate_table(candidates, records, site, tolerance)
     return SizingResult(table, records, best, chosen, wall, description, counts["solved"],
                         counts["cached"])

@@ -1,4 +1,4 @@
-"""drivebench stage package: fitting (``bench fit``, issue 3).
+"""drivebench stage package: fitting (``bench fit``).
 
 From the store's operating points to the drive's electrical power model:
 
@@ -8,7 +8,9 @@ From the store's operating points to the drive's electrical power model:
 - :mod:`fitting.terms`: term lists (eq. 4, full polynomials, the paper's w^6 T^4 space);
 - :mod:`fitting.power_fit`: (weighted) least squares with statistics;
 - :mod:`fitting.selection`: k-fold CV RMSE + BIC, quadrant weighting, extra-terms check;
-- :mod:`fitting.model_file`: the versioned ``power_model.json`` (docs/schemas.md §3);
-- :mod:`fitting.loss_table`, :mod:`fitting.figures`, :mod:`fitting.outputs`: exports;
+- :mod:`fitting.power_model` (evaluation; :mod:`fitting.power_model_casadi` for the OCP),
+  :mod:`fitting.model_schema` (validation), :mod:`fitting.model_file` (reading, writing):
+  the versioned ``power_model.json`` (docs/schemas.md §3);
+- :mod:`fitting.loss_table`, :mod:`fitting.figures`, exports;
 - :mod:`fitting.pipeline`: all of it as one call; :mod:`fitting.cli`: ``bench fit``.
 """

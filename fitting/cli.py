@@ -1,4 +1,4 @@
-"""``bench fit``: efficiency map, power model fit, model selection, export (issue 3)."""
+"""``bench fit``: efficiency map, power model fit, model selection, export."""
 
 from __future__ import annotations
 

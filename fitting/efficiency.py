@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 from scipy.spatial import ConvexHull, Delaunay, QhullError
 
+from bench.units import RPM_PER_RAD_S
 from fitting.domain import BAND_FRAC, in_polygon, quadrant_envelopes
 from fitting.points import QUADRANTS, quadrant_of
 
@@ -403,7 +404,7 @@ def map_at(frame: pd.DataFrame, rules: MaskingRules, speed_rpm, torque_nm,
     envelopes = (quadrant_envelopes(frame, rules.envelope_band_frac) if envelopes is None
                  else envelopes)
     ceilings = efficiency_ceilings(frame, rules) if ceilings is None else ceilings
-    p_mech = s * 2.0 * np.pi / 60.0 * t
+    p_mech = s / RPM_PER_RAD_S * t
     quadrant = quadrant_of(p_mech)
     scales = (float(np.max(np.abs(frame["speed_rpm"]))) or 1.0,
               float(np.max(np.abs(frame["torque_nm"]))) or 1.0)
@@ -452,6 +453,62 @@ def points_against_map(frame: pd.DataFrame, rules: MaskingRules, ceilings: dict)
         out[q] = {"n_points": int(sel.sum()), "n_above_map": int((excess > 1e-12).sum()),
                   "max_excess": float(max(excess.max(initial=0.0), 0.0)),
                   "n_off_map": int((sel & ~shown).sum())}
+    return out
+
+
+#: points of different sessions closer than this fraction of the largest |speed| and
+#: torque are measurements of one operating point (a repeat) [-]
+REPEAT_FRAC = 0.01
+
+
+def repeatability(frame: pd.DataFrame, rules: MaskingRules) -> dict:
+    """Do repeated measurements of one operating point agree within their uncertainty?
+
+    Pairs of accepted (``ok``) points of one quadrant from different sessions that
+    lie within :data:`REPEAT_FRAC` of the largest |speed| and torque of each other;
+    a pair disagrees when its efficiencies differ by more than twice their combined
+    uncertainty (:func:`point_uncertainty`). The map passes through every point, so
+    where repeats disagree it is rough between them, and their stated uncertainty
+    understates the session-to-session scatter.
+
+    Returns
+    -------
+    dict
+        ``n_pairs``, ``n_disagreeing``, ``median_abs_diff_eta``, ``median_u_eta``
+        (NaN without pairs), and a ``note`` when more than half of at least 5 pairs
+        disagree.
+    """
+    from scipy.spatial import cKDTree
+
+    eta, status = masked_efficiency(frame["p_mech_w"], frame["p_elec_w"], rules)
+    u = point_uncertainty(frame, rules)
+    ok = np.flatnonzero(status == OK)
+    scales = (float(np.max(np.abs(frame["speed_rpm"]))) or 1.0,
+              float(np.max(np.abs(frame["torque_nm"]))) or 1.0)
+    xy = np.column_stack([frame["speed_rpm"].to_numpy()[ok] / scales[0],
+                          frame["torque_nm"].to_numpy()[ok] / scales[1]])
+    pairs = (cKDTree(xy).query_pairs(REPEAT_FRAC, p=np.inf, output_type="ndarray")
+             if ok.size > 1 else np.zeros((0, 2), int))
+    session = (frame["session_id"].to_numpy()[ok] if "session_id" in frame.columns
+               else np.zeros(ok.size))
+    quadrant = frame["quadrant"].to_numpy()[ok]
+    i, j = (pairs[:, 0], pairs[:, 1]) if pairs.size else (np.zeros(0, int), np.zeros(0, int))
+    keep = (session[i] != session[j]) & (quadrant[i] == quadrant[j])
+    i, j = ok[i[keep]], ok[j[keep]]
+    diff = np.abs(eta[i] - eta[j])
+    combined = np.hypot(u[i], u[j])
+    bad = diff > 2.0 * combined
+    out = {"n_pairs": int(i.size), "n_disagreeing": int(bad.sum()),
+           "median_abs_diff_eta": float(np.median(diff)) if i.size else float("nan"),
+           "median_u_eta": float(np.median(combined)) if i.size else float("nan")}
+    if i.size >= 5 and bad.sum() > 0.5 * i.size:
+        out["note"] = (
+            f"repeated operating points disagree: {int(bad.sum())} of {i.size} pairs of points "
+            f"of different sessions within {REPEAT_FRAC:.0%} of the speed and torque range "
+            f"differ by more than twice their stated uncertainty (median |d eta| "
+            f"{out['median_abs_diff_eta']:.3g} against {out['median_u_eta']:.3g}): the map "
+            "passes through each and is rough between them; the sessions do not repeat "
+            "within the instruments' accuracy (tare, temperature, a fault)")
     return out
 
 

@@ -1,7 +1,10 @@
-"""Figures of the fit (matplotlib, Agg): efficiency map, power map, residuals.
+"""Figures of the fit (matplotlib, Agg): efficiency map (paper Fig. 5), power map
+(paper Fig. 6), residuals.
 
-Each figure is written as PNG and SVG, with the data it draws beside it as
-Parquet (``<name>.png``, ``<name>.svg``, ``<name>.parquet``).
+The ``draw_*`` functions draw on axes they are given, so ``bench fit`` (files) and
+``bench report`` (inline SVG, :mod:`reports.drive_figures`) show the same figures.
+The ``*_figure`` functions write a figure as PNG and SVG with the data it draws
+beside it as Parquet (``<name>.png``, ``<name>.svg``, ``<name>.parquet``).
 """
 
 from __future__ import annotations
@@ -11,132 +14,260 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-from scipy import stats  # noqa: E402
+from matplotlib.colors import ListedColormap  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+from matplotlib.ticker import MaxNLocator  # noqa: E402
+from matplotlib.tri import Triangulation  # noqa: E402
 
-from bench.files import atomic_write  # noqa: E402
-from fitting.outputs import write_parquet  # noqa: E402
+from bench.files import atomic_write, write_parquet  # noqa: E402
+from fitting.domain import in_domain  # noqa: E402
+from fitting.efficiency import ABOVE_MAX, CLIPPED, NEAR_AXIS  # noqa: E402
 
-#: Contour spacing of the power map (paper Fig. 6) [W].
+#: Contour spacing of the power map [W] (paper Fig. 6: a line every 500 W).
 POWER_CONTOUR_STEP_W = 500.0
+#: Efficiency levels outlined on the map [-].
+EFFICIENCY_CONTOURS = (0.5, 0.7, 0.8, 0.85, 0.9)
+#: Map nodes the masking rules blank (drawn white like a negative efficiency, as in
+#: the paper); nodes outside the measured envelope are NaN and not drawn.
+MASKED_STATUSES = (NEAR_AXIS, ABOVE_MAX)
+#: Colours of the two quadrants.
+QUADRANT_COLORS = {"motor": "#1f77b4", "generator": "#2ca02c"}
+#: Above this many points, scatter layers are drawn as a bitmap (small SVG files).
+RASTER_ABOVE_POINTS = 2000
+#: Model grid of the power map: nodes in speed and torque.
+POWER_GRID_NODES = (241, 121)
 
 
-def _save(fig, out_dir: Path, name: str, data: pd.DataFrame) -> list[Path]:
-    paths = []
-    for fmt in ("png", "svg"):
-        paths.append(atomic_write(out_dir / f"{name}.{fmt}",
-                                  lambda p, fmt=fmt: fig.savefig(p, format=fmt, dpi=120)))
-    plt.close(fig)
-    paths.append(write_parquet(out_dir / f"{name}.parquet", data))
-    return paths
+def efficiency_colormap() -> ListedColormap:
+    """Viridis with efficiency 0 (masked or negative, paper: white) drawn white."""
+    import matplotlib as mpl
+
+    colors = mpl.colormaps["viridis"].resampled(256)(np.linspace(0, 1, 256))
+    colors[0] = (1.0, 1.0, 1.0, 1.0)
+    return ListedColormap(colors, name="eta_white_zero")
 
 
-def _grid(map_frame: pd.DataFrame, column: str):
-    speeds = np.unique(map_frame["speed_rpm"])
-    torques = np.unique(map_frame["torque_nm"])
-    z = map_frame.pivot(index="torque_nm", columns="speed_rpm", values=column)
-    return speeds, torques, z.reindex(index=torques, columns=speeds).to_numpy(dtype=float)
+def efficiency_grid(map_frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pivot the long efficiency map into ``(speed_rpm (n,), torque_nm (m,), eta (m, n))``.
 
-
-def efficiency_map_figure(map_frame: pd.DataFrame, out_dir: Path, masking: dict,
-                          domain: dict | None = None) -> list[Path]:
-    """Efficiency over the measured quadrants (paper Fig. 5); masked and negative values white.
-
-    ``domain`` (quadrant -> envelope polygon) is outlined; nodes clipped to the
-    quadrant's efficiency ceiling are hatched.
+    Negative efficiencies and nodes of :data:`MASKED_STATUSES` become 0 (white);
+    nodes outside the measured envelope stay NaN.
     """
-    speeds, torques, eta = _grid(map_frame, "eta")
-    shown = np.ma.masked_where(~np.isfinite(eta) | (eta <= 0), eta)
-    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
-    cmap = plt.get_cmap("viridis").with_extremes(bad="white")
-    mesh = ax.pcolormesh(speeds, torques, shown, cmap=cmap, vmin=0, vmax=1, shading="nearest",
+    eta = map_frame["eta"].to_numpy(float).copy()
+    eta[eta < 0] = 0.0
+    if "status" in map_frame.columns:
+        eta[map_frame["status"].astype(str).isin(MASKED_STATUSES).to_numpy()] = 0.0
+    frame = pd.DataFrame({"speed_rpm": map_frame["speed_rpm"],
+                          "torque_nm": map_frame["torque_nm"], "eta": eta})
+    table = frame.pivot_table(index="torque_nm", columns="speed_rpm", values="eta",
+                              aggfunc="first", dropna=False)
+    return table.columns.to_numpy(float), table.index.to_numpy(float), table.to_numpy(float)
+
+
+def draw_efficiency(ax, speed_rpm, torque_nm, eta, colorbar: bool = True):
+    """Draw an efficiency grid on ``ax`` (0 white, NaN not drawn); returns the mesh."""
+    mesh = ax.pcolormesh(speed_rpm, torque_nm, np.ma.masked_invalid(eta),
+                         cmap=efficiency_colormap(), vmin=0.0, vmax=1.0, shading="nearest",
                          rasterized=True)
-    levels = [0.5, 0.7, 0.8, 0.85, 0.9]
-    cs = ax.contour(speeds, torques, np.where(np.isfinite(eta), eta, np.nan), levels=levels,
-                    colors="k", linewidths=0.6)
-    ax.clabel(cs, fmt="%.2f", fontsize=7)
-    ax.axvline(0, color="0.3", lw=0.8)
-    for q, poly in (domain or {}).items():
+    if colorbar:
+        ax.figure.colorbar(mesh, ax=ax, label="efficiency [-] (paper eqs. 1, 2)")
+    ax.axvline(0.0, color="k", lw=0.6)
+    ax.set_xlabel("drum speed [rpm] (generator: reel-out < 0 < motor)")
+    ax.set_ylabel("drum torque [N m]")
+    return mesh
+
+
+def draw_efficiency_map(ax, map_frame: pd.DataFrame, domain: dict | None = None,
+                        masking: dict | None = None) -> None:
+    """The measured efficiency map (paper Fig. 5) on ``ax``.
+
+    Parameters
+    ----------
+    map_frame : DataFrame
+        The long map of ``efficiency_map.parquet``: ``speed_rpm``, ``torque_nm``,
+        ``eta`` and, when present, ``status`` (nodes clipped to the quadrant's
+        efficiency ceiling are marked).
+    domain : dict, optional
+        ``quadrant -> polygon`` of the model's validity domain, outlined.
+    masking : dict, optional
+        The masking rules (``mech_frac``, ``elec_frac`` of nominal power), named in the title.
+    """
+    speeds, torques, eta = efficiency_grid(map_frame)
+    draw_efficiency(ax, speeds, torques, eta)
+    if np.isfinite(eta).sum() >= 4 and len(speeds) > 1 and len(torques) > 1:
+        cs = ax.contour(speeds, torques, np.ma.masked_invalid(eta), levels=EFFICIENCY_CONTOURS,
+                        colors="k", linewidths=0.5)
+        ax.clabel(cs, fontsize=7, fmt="%.2f")
+    for k, poly in enumerate((domain or {}).values()):
         p = np.asarray(poly, dtype=float)
         ax.plot(np.r_[p[:, 0], p[:1, 0]], np.r_[p[:, 1], p[:1, 1]], color="tab:red", lw=0.8,
-                label=f"measured envelope ({q})" if q == next(iter(domain)) else None)
-    clipped = map_frame[map_frame["status"] == "clipped"]
+                label="measured envelope" if k == 0 else None)
+    clipped = (map_frame[map_frame["status"] == CLIPPED] if "status" in map_frame.columns
+               else map_frame.iloc[:0])
     if len(clipped):
         ax.scatter(clipped["speed_rpm"], clipped["torque_nm"], s=4, marker="x", c="k",
                    lw=0.5, label=f"clipped to measured max + noise ({len(clipped)} nodes)")
     if domain or len(clipped):
         ax.legend(loc="upper left", fontsize=7)
-    fig.colorbar(mesh, ax=ax, label="efficiency [-]")
-    ax.set_xlabel("drum speed [rpm]  (generator: reel-out < 0 | motor > 0)")
+    rule = (f"\nmasked: |P_mech| < {masking['mech_frac']:g} P_nom, |P_elec| < "
+            f"{masking['elec_frac']:g} P_nom" if masking else "")
+    ax.set_title("Measured efficiency map (white: negative or masked near the axes; blank: "
+                 "outside the measured envelope), contours "
+                 + ", ".join(f"{v:g}" for v in EFFICIENCY_CONTOURS) + rule, fontsize=9)
+
+
+def power_contour_levels(values: np.ndarray) -> np.ndarray:
+    """Every :data:`POWER_CONTOUR_STEP_W` over the range of ``values`` [W]."""
+    lo = np.floor(np.nanmin(values) / POWER_CONTOUR_STEP_W) * POWER_CONTOUR_STEP_W
+    hi = np.ceil(np.nanmax(values) / POWER_CONTOUR_STEP_W) * POWER_CONTOUR_STEP_W
+    return np.arange(lo, hi + POWER_CONTOUR_STEP_W / 2, POWER_CONTOUR_STEP_W)
+
+
+def power_grid(model, points: pd.DataFrame) -> pd.DataFrame:
+    """The model's electrical power on a grid over the measured points, NaN outside the
+    model's validity domain (:func:`fitting.domain.in_domain`)."""
+    sg, tg = np.meshgrid(
+        np.linspace(float(points["speed_rpm"].min()), float(points["speed_rpm"].max()),
+                    POWER_GRID_NODES[0]),
+        np.linspace(0.0, float(points["torque_nm"].max()), POWER_GRID_NODES[1]))
+    p = np.where(in_domain(model.domain, sg, tg), model.p_elec_w(sg, tg), np.nan)
+    return pd.DataFrame({"speed_rpm": sg.ravel(), "torque_nm": tg.ravel(),
+                         "p_elec_fit_w": np.asarray(p, float).ravel()})
+
+
+def draw_power_map(ax, model, points: pd.DataFrame) -> pd.DataFrame:
+    """Fit against measured electrical power (paper Fig. 6) on ``ax``; returns the model grid.
+
+    Solid black: the model inside its validity domain; dashed red: contours of the
+    measured points, triangulated per quadrant (no contour crosses the unmeasured
+    gap between them). A contour every :data:`POWER_CONTOUR_STEP_W`, the zero line thick.
+
+    Parameters
+    ----------
+    model : fitting.power_model.PowerModel
+    points : DataFrame
+        Operating points (``speed_rpm``, ``torque_nm``, ``p_elec_w``, ``quadrant``).
+    """
+    grid = power_grid(model, points)
+    shape = POWER_GRID_NODES[::-1]
+    sg, tg, pg = (grid[c].to_numpy(float).reshape(shape)
+                  for c in ("speed_rpm", "torque_nm", "p_elec_fit_w"))
+    levels = power_contour_levels(np.concatenate([pg[np.isfinite(pg)],
+                                                  points["p_elec_w"].to_numpy(float)]))
+    ax.scatter(points["speed_rpm"], points["torque_nm"], s=3, color="0.6", alpha=0.5,
+               label="measured points", rasterized=len(points) > RASTER_ABOVE_POINTS)
+    cs = ax.contour(sg, tg, pg, levels=levels, colors="k", linewidths=0.7)
+    ax.contour(sg, tg, pg, levels=[0.0], colors="k", linewidths=2.2)
+    ax.clabel(cs, levels=levels[:: max(1, len(levels) // 8)], fontsize=7, fmt="%.0f")
+    for _, group in points.groupby("quadrant"):
+        if len(group) < 6:
+            continue
+        try:
+            tri = Triangulation(group["speed_rpm"].to_numpy(float),
+                                group["torque_nm"].to_numpy(float))
+        except (ValueError, RuntimeError):
+            continue
+        p = group["p_elec_w"].to_numpy(float)
+        ax.tricontour(tri, p, levels=levels, colors="tab:red", linewidths=0.6,
+                      linestyles="dashed")
+        if p.min() < 0.0 < p.max():
+            ax.tricontour(tri, p, levels=[0.0], colors="tab:red", linewidths=2.0,
+                          linestyles="dashed")
+    ax.plot([], [], color="k", lw=0.7, label="fit (model)")
+    ax.plot([], [], color="tab:red", lw=0.7, ls="--", label="measured (interpolated)")
+    ax.set_xlabel("drum speed [rpm]")
     ax.set_ylabel("drum torque [N m]")
-    ax.set_title("Measured efficiency map (white: negative, near the axes, or outside the "
-                 "measured envelope)\n"
-                 f"masked: |P_mech| < {masking['mech_frac']:g} P_nom, "
-                 f"|P_elec| < {masking['elec_frac']:g} P_nom", fontsize=9)
+    ax.set_title(f"Electrical power [W], a contour every {POWER_CONTOUR_STEP_W:.0f} W, "
+                 "zero line thick (+ = drawn from grid)", fontsize=9)
+    ax.legend(loc="upper left", fontsize=7)
+    return grid
+
+
+def draw_residuals(axes, points: pd.DataFrame, residual_w: np.ndarray,
+                   nominal_power_w: float) -> None:
+    """Residuals (measured minus model) against speed, against torque, and their
+    histogram with the normal of the same mean and standard deviation, on three axes.
+
+    Parameters
+    ----------
+    axes : sequence of 3 Axes
+    points : DataFrame
+        Operating points (``speed_rpm``, ``torque_nm``, ``quadrant``).
+    residual_w : (n,) array
+        Measured minus modelled electrical power per point [W].
+    nominal_power_w : float
+        Nominal power [W]; the band of +-5 % of it (the paper's bound) is drawn.
+    """
+    r = np.asarray(residual_w, dtype=float)
+    band = 0.05 * nominal_power_w
+    for ax, col, label in ((axes[0], "speed_rpm", "drum speed [rpm]"),
+                           (axes[1], "torque_nm", "drum torque [N m]")):
+        for quadrant, idx in points.groupby("quadrant").indices.items():
+            ax.scatter(points[col].to_numpy(float)[idx], r[idx], s=3, alpha=0.6,
+                       color=QUADRANT_COLORS.get(str(quadrant), "grey"), label=str(quadrant),
+                       rasterized=len(points) > RASTER_ABOVE_POINTS)
+        for sign in (-1, 1):
+            ax.axhline(sign * band, color="tab:red", lw=0.8, ls="--")
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_xlabel(label)
+        ax.xaxis.set_major_locator(MaxNLocator(4))
+        ax.set_ylabel("residual P_elec [W]")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7)
+    axes[0].set_title("dashed: ±5 % of nominal power", fontsize=8)
+    ax = axes[2]
+    ax.hist(r, bins=40, density=True, color="0.6")
+    mu, sd = float(np.mean(r)), float(np.std(r, ddof=1)) if r.size > 1 else float("nan")
+    if np.isfinite(sd) and sd > 0:
+        x = np.linspace(mu - 4 * sd, mu + 4 * sd, 200)
+        ax.plot(x, np.exp(-0.5 * ((x - mu) / sd) ** 2) / (sd * np.sqrt(2 * np.pi)), "k-", lw=1,
+                label="normal, same mean and sd")
+        ax.legend(fontsize=7)
+    ax.set_xlabel("residual P_elec [W]")
+    ax.set_ylabel("density [1/W]")
+    ax.set_title(f"mean {mu:.1f} W, sd {100 * sd / nominal_power_w:.2f} % of nominal",
+                 fontsize=8)
+
+
+# ------------------------------------------------------------------ files of bench fit
+def _save(fig: Figure, out_dir: Path, name: str, data: pd.DataFrame) -> list[Path]:
+    paths = [atomic_write(out_dir / f"{name}.{fmt}",
+                          lambda p, fmt=fmt: fig.savefig(p, format=fmt, dpi=120))
+             for fmt in ("png", "svg")]
+    paths.append(write_parquet(out_dir / f"{name}.parquet", data))
+    return paths
+
+
+def efficiency_map_figure(map_frame: pd.DataFrame, out_dir: Path, masking: dict | None = None,
+                          domain: dict | None = None) -> list[Path]:
+    """Write the efficiency map (:func:`draw_efficiency_map`) into ``out_dir``."""
+    fig = Figure(figsize=(8, 4.5), layout="constrained")
+    draw_efficiency_map(fig.add_subplot(), map_frame, domain, masking)
     data = map_frame[["speed_rpm", "torque_nm", "quadrant", "eta", "status"]]
     return _save(fig, out_dir, "efficiency_map", data)
 
 
-def power_map_figure(map_frame: pd.DataFrame, points: pd.DataFrame, out_dir: Path) -> list[Path]:
-    """Electrical power map, fit (solid) against measured (dashed), contours every 500 W,
-    zero line thicker (paper Fig. 6)."""
-    speeds, torques, fit = _grid(map_frame, "p_elec_fit_w")
-    _, _, meas = _grid(map_frame, "p_elec_w")
-    lo = np.floor(np.nanmin([np.nanmin(fit), np.nanmin(meas)]) / POWER_CONTOUR_STEP_W)
-    hi = np.ceil(np.nanmax([np.nanmax(fit), np.nanmax(meas)]) / POWER_CONTOUR_STEP_W)
-    levels = np.arange(lo, hi + 1) * POWER_CONTOUR_STEP_W
-    widths = [2.5 if v == 0 else 0.7 for v in levels]
-    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
-    ax.scatter(points["speed_rpm"], points["torque_nm"], s=3, c="0.8", label="operating points",
-               rasterized=True)
-    cf = ax.contour(speeds, torques, fit, levels=levels, colors="tab:blue", linewidths=widths,
-                    negative_linestyles="solid")
-    cm = ax.contour(speeds, torques, meas, levels=levels, colors="tab:red", linewidths=widths,
-                    linestyles="dashed")
-    ax.clabel(cf, levels=levels[::4], fmt="%.0f W", fontsize=6)
-    ax.plot([], [], color="tab:blue", label="fit")
-    ax.plot([], [], color="tab:red", ls="--", label="measured (inside the envelope)")
-    del cm
-    ax.legend(loc="upper left", fontsize=7)
-    ax.set_xlabel("drum speed [rpm]")
-    ax.set_ylabel("drum torque [N m]")
-    ax.set_title(f"Electrical power [W], contours every {POWER_CONTOUR_STEP_W:.0f} W, "
-                 "zero line thick (positive: drawn from grid)", fontsize=9)
-    data = map_frame[["speed_rpm", "torque_nm", "p_elec_w", "p_elec_fit_w"]]
-    return _save(fig, out_dir, "power_map", data)
+def power_map_figure(model, points: pd.DataFrame, out_dir: Path) -> list[Path]:
+    """Write the power map (:func:`draw_power_map`) into ``out_dir``; its data file holds
+    the model grid it contours."""
+    fig = Figure(figsize=(8, 4.5), layout="constrained")
+    grid = draw_power_map(fig.add_subplot(), model, points)
+    return _save(fig, out_dir, "power_map", grid)
 
 
 def residuals_figure(points: pd.DataFrame, residuals_w: np.ndarray, nominal_power_w: float,
                      out_dir: Path) -> list[Path]:
-    """Residuals (measured - fit) against speed, against torque, and their histogram."""
-    r = np.asarray(residuals_w, dtype=float)
-    pct = 100.0 / nominal_power_w
-    colors = np.where(points["quadrant"].to_numpy() == "motor", "tab:orange", "tab:green")
-    fig, axes = plt.subplots(1, 3, figsize=(11, 3.6), constrained_layout=True)
-    for ax, col, label in ((axes[0], "speed_rpm", "drum speed [rpm]"),
-                           (axes[1], "torque_nm", "drum torque [N m]")):
-        ax.scatter(points[col], r, s=3, c=colors, rasterized=True)
-        ax.axhline(0, color="k", lw=0.8)
-        for sign in (-1, 1):
-            ax.axhline(sign * 5.0 / pct, color="tab:red", lw=0.8, ls=":")
-        ax.set_xlabel(label)
-        ax.set_ylabel("residual P_elec [W]")
-    axes[0].set_title("orange: motor, green: generator; dotted: 5 % of nominal", fontsize=8)
-    ax = axes[2]
-    ax.hist(r, bins=40, density=True, color="0.6")
-    x = np.linspace(r.min(), r.max(), 200)
-    ax.plot(x, stats.norm.pdf(x, r.mean(), r.std(ddof=1)), color="k", lw=1)
-    ax.set_xlabel("residual P_elec [W]")
-    ax.set_ylabel("density [1/W]")
-    ax.set_title(f"mean {r.mean():.1f} W, std {r.std(ddof=1) * pct:.2f} % of nominal", fontsize=8)
+    """Write the residual figure (:func:`draw_residuals`) into ``out_dir``."""
+    fig = Figure(figsize=(11, 3.6), layout="constrained")
+    draw_residuals(fig.subplots(1, 3), points, residuals_w, nominal_power_w)
     data = pd.DataFrame({
         "session_id": points["session_id"].to_numpy(),
         "point_id": points["point_id"].to_numpy(),
         "quadrant": points["quadrant"].to_numpy(),
         "speed_rpm": points["speed_rpm"].to_numpy(),
         "torque_nm": points["torque_nm"].to_numpy(),
-        "residual_w": r,
+        "residual_w": np.asarray(residuals_w, dtype=float),
     })
     return _save(fig, out_dir, "residuals", data)

@@ -20,8 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from bench.files import write_text_atomic
+from bench.units import RPM_PER_RAD_S
 from fitting.domain import in_domain
-from fitting.model_file import PowerModel
+from fitting.power_model import PowerModel
 
 
 def loss_grid(model: PowerModel, speeds_rpm: np.ndarray, torques_nm: np.ndarray) -> np.ndarray:
@@ -36,7 +37,7 @@ def loss_grid(model: PowerModel, speeds_rpm: np.ndarray, torques_nm: np.ndarray)
         Torque breakpoints [N m], drum frame.
     """
     s, t = np.meshgrid(speeds_rpm, torques_nm, indexing="ij")
-    p_mech = s * 2.0 * np.pi / 60.0 * t
+    p_mech = s / RPM_PER_RAD_S * t
     return np.asarray(model.p_elec_w(s, t), dtype=float) - p_mech
 
 

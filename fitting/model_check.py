@@ -1,6 +1,6 @@
 """Is a drive power model physically possible over its validity domain?
 
-A model that passes the schema checks of :mod:`fitting.model_file` can still be
+A model that passes the schema checks of :mod:`fitting.model_schema` can still be
 impossible: a negative ``T^2`` coefficient, an offset of -1 MW, all zeros or a
 coefficient of 1e250 each "converge" in the optimizer to a silently wrong
 cycle. :func:`physics_problems` evaluates the model on a grid over its domain
@@ -23,8 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from bench.errors import InputError
+from bench.units import RPM_PER_RAD_S
 from fitting.domain import in_polygon
-from fitting.model_file import RPM_PER_RAD_S, PowerModel
+from fitting.power_model import PowerModel
 
 #: grid nodes per axis over a quadrant's bounding box, and per polygon edge
 GRID_NODES = 41

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from bench.errors import InputError
+from bench.files import json_safe, write_json, write_parquet
 from fitting import figures
 from fitting.domain import BAND_FRAC, quadrant_envelopes
 from fitting.efficiency import (
@@ -20,10 +21,10 @@ from fitting.efficiency import (
     gridded_map,
     peak_points,
     points_against_map,
+    repeatability,
 )
 from fitting.loss_table import write_loss_table
 from fitting.model_file import save_power_model
-from fitting.outputs import json_safe, write_json, write_parquet
 from fitting.points import QUADRANTS, load_points
 from fitting.power_fit import (
     OUTLIER_ALPHA,
@@ -189,6 +190,7 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
         extra = {"space": paper_space_candidate().name, "skipped": exc.problem}
 
     outliers = outlier_summary(frame, fit, weights, nominal, source)
+    repeats = repeatability(frame, masking)
     motor = quadrant == "motor"
     statistics = {
         "method": "weighted least squares (statsmodels WLS)" if options.weighting == "quadrant"
@@ -243,15 +245,15 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     peaks = peak_points(emap, frame, masking)
     meta = {"masking": masking.to_dict(), "power_model_sha256": model.sha256,
             "points_sha256": points.sha256}
-    written.append(write_parquet(out / "efficiency_map.parquet", emap, meta))
+    written.append(write_parquet(out / "efficiency_map.parquet", emap, metadata=meta))
     table = selection.table.copy()
-    written.append(write_parquet(out / "selection.parquet", table,
-                                 {"rule": RULE, "weighting": options.weighting,
-                                  "folds": options.folds, "reason": selection.reason}))
+    written.append(write_parquet(out / "selection.parquet", table, metadata={
+        "rule": RULE, "weighting": options.weighting, "folds": options.folds,
+        "reason": selection.reason}))
     written.append(write_loss_table(model, out / "loss_table.csv"))
     fig_dir = out / "figures"
     written += figures.efficiency_map_figure(emap, fig_dir, masking.to_dict(), model.domain)
-    written += figures.power_map_figure(emap, frame, fig_dir)
+    written += figures.power_map_figure(model, frame, fig_dir)
     written += figures.residuals_figure(frame, fit.residuals_w, nominal, fig_dir)
 
     summary = {
@@ -266,12 +268,13 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
         "extra_terms_check": extra,
         "drive": drive.to_dict(),
         "notes": drive_notes + [v["note"] for v in statistics["validity"].values()
-                                if not v["measured"]] + ([outliers["note"]] if
-                                                         outliers["n_flagged"] else []),
+                                if not v["measured"]]
+        + [d["note"] for d in (outliers, repeats) if d.get("note")],
         "efficiency": {"masking": masking.to_dict(), "band_shares": _records(shares),
                        "peak": peaks,
                        "points_against_map": points_against_map(frame, masking,
                                                                 emap.attrs["ceilings"]),
+                       "repeatability": repeats,
                        "envelope": {q: {"band_width_rpm": env["band_width_rpm"],
                                         "n_points": env["n_points"],
                                         "n_vertices": len(env["polygon"])}

@@ -15,7 +15,7 @@ import statsmodels.api as sm
 from scipy import stats
 
 from bench.errors import InputError
-from fitting.model_file import PowerModel
+from fitting.power_model import PowerModel
 from fitting.terms import term_label
 
 #: Fewest points per model term a fit accepts (a fit needs more points than

@@ -5,7 +5,7 @@ A term ``(i, j)`` is ``speed**i * torque**j`` (docs/schemas.md §3).
 
 from __future__ import annotations
 
-#: The paper's eq. (4): P_elec = a0 + a1 w^2 + a2 T^2 + a3 w T (REFERENCE.md §1).
+#: The paper's eq. (4): P_elec = a0 + a1 w^2 + a2 T^2 + a3 w T (docs/paper_figures.md §1).
 PAPER_TERMS: tuple[tuple[int, int], ...] = ((0, 0), (2, 0), (0, 2), (1, 1))
 
 #: The paper's higher-order check space: "terms up to T^4 and w^6" (section III-C),

@@ -1,4 +1,4 @@
-"""``bench optimize``: the pumping-cycle sweep over a wind grid (issue 4).
+"""``bench optimize``: the pumping-cycle sweep over a wind grid.
 
 Parses the options, calls :func:`optimize.command.run_optimize` (plan chains, run
 them on an executor, compare with the paper, write the files) and prints the
@@ -13,7 +13,8 @@ from pathlib import Path
 
 from bench.errors import InputError
 from bench.files import check_output_dir
-from optimize.sweep.plan import DEFAULT_KINDS, DEFAULT_WIND_GRID
+from optimize.kinds import DEFAULT_KINDS
+from optimize.sweep.plan import DEFAULT_WIND_GRID
 
 log = logging.getLogger(__name__)
 

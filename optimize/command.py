@@ -16,12 +16,14 @@ from typing import Any
 import numpy as np
 
 from bench.errors import InputError
-from bench.files import file_sha256
+from bench.files import file_sha256, write_csv, write_json, write_parquet
+from bench.versions import package_versions
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
+from optimize.kinds import KINDS
 from optimize.sweep import outputs
 from optimize.sweep.chains import Problem, make_tasks, run_sweep
 from optimize.sweep.executors import open_executor
-from optimize.sweep.plan import KINDS, parse_kinds, parse_wind_grid, plan_chains
+from optimize.sweep.plan import parse_kinds, parse_wind_grid, plan_chains
 from optimize.sweep.trust import run_trust_checks
 from optimize.system.drive import DriveInForce, drive_in_force
 from optimize.system.system import System, load_system
@@ -38,7 +40,7 @@ class SweepRequest:
     kinds : tuple of str
         Scenario kinds.
     drive_model : Any
-        ``fitting.model_file.PowerModel``.
+        ``fitting.power_model.PowerModel``.
     drive_model_path : Path
         Where it was read from.
     model_note : str
@@ -151,19 +153,6 @@ class OptimizeOutcome:
     files: dict
 
 
-def _package_versions() -> dict[str, str]:
-    import importlib.metadata as md
-    import platform
-
-    versions = {"python": platform.python_version()}
-    for dist in ("drivebench", "casadi", "numpy", "pandas", "pyarrow", "scipy", "distributed"):
-        try:
-            versions[dist] = md.version(dist)
-        except md.PackageNotFoundError:
-            versions[dist] = "not installed"
-    return versions
-
-
 def run_optimize(
     request: SweepRequest,
     command_line: list[str] | None = None,
@@ -209,14 +198,13 @@ def run_optimize(
                               system_name=system.name) if request.claims else None)
 
     request.out.mkdir(parents=True, exist_ok=True)
+    system_meta = outputs.system_metadata(system.record())
     files = {
-        "summary": outputs.write_parquet(
-            summary, request.out / "summary.parquet", outputs.SUMMARY_COLUMNS, system.record()
-        ),
-        "trajectories": outputs.write_parquet(
-            outputs.trajectories_frame(result.outcomes), request.out / "trajectories.parquet",
-            system=system.record(),
-        ),
+        "summary": write_parquet(request.out / "summary.parquet", summary,
+                                 descriptions=outputs.SUMMARY_COLUMNS, metadata=system_meta),
+        "trajectories": write_parquet(request.out / "trajectories.parquet",
+                                      outputs.trajectories_frame(result.outcomes),
+                                      metadata=system_meta),
     }
     model_path = request.drive_model_path
     if drive.carried:  # the losses the sweep flew with, for bench aep (bands, refine)
@@ -228,7 +216,7 @@ def run_optimize(
         (request.out / "power_model.json").unlink(missing_ok=True)
     claims_path = request.out / "claims.csv"
     if claims is not None:
-        files["claims"] = outputs.write_csv(claims, claims_path)
+        files["claims"] = write_csv(claims_path, claims)
     else:
         claims_path.unlink(missing_ok=True)  # never leave a stale comparison beside new results
     manifest = {
@@ -236,7 +224,7 @@ def run_optimize(
         "schema_version": outputs.SCHEMA_VERSION,
         "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "command_line": list(command_line if command_line is not None else sys.argv),
-        "package_versions": _package_versions(),
+        "package_versions": package_versions(),
         "wind_speeds_m_s": list(request.winds),
         "kinds": list(request.kinds),
         "scenarios": [o.name for o in result.outcomes],
@@ -268,7 +256,7 @@ def run_optimize(
         "trust": trust,
         "files": {k: Path(v).name for k, v in files.items()},
     }
-    files["manifest"] = outputs.write_json(manifest, request.out / "manifest.json")
+    files["manifest"] = write_json(request.out / "manifest.json", manifest)
     return OptimizeOutcome(
         summary,
         claims,

@@ -12,15 +12,9 @@ import numpy as np
 import pandas as pd
 from markupsafe import Markup
 
-from reports.drive_figures import draw_efficiency
+from fitting.figures import draw_efficiency
+from optimize.kinds import KINDS, LABELS
 from reports.svg import SCENARIO_COLORS, new_figure, to_svg
-
-KIND_LABELS = {
-    ("elec", True): "elec. optimized, constrained",
-    ("elec", False): "elec. optimized, unconstrained",
-    ("mech", True): "mech. optimized, constrained",
-    ("mech", False): "mech. optimized, unconstrained",
-}
 
 
 def power_vs_wind_figure(summary: pd.DataFrame, power_column: str, name: str,
@@ -30,7 +24,7 @@ def power_vs_wind_figure(summary: pd.DataFrame, power_column: str, name: str,
     Parameters
     ----------
     summary : DataFrame
-        One row per scenario with ``objective_key`` ("elec"/"mech"), ``limits`` (bool),
+        One row per scenario with ``kind`` (a key of :data:`optimize.kinds.KINDS`),
         ``wind_speed_m_s`` [m/s], ``ok`` (bool) and ``power_column`` [W] (our sign:
         negative = generated). Failed scenarios (``ok`` False) are not plotted.
     power_column : str
@@ -40,8 +34,8 @@ def power_vs_wind_figure(summary: pd.DataFrame, power_column: str, name: str,
     """
     fig = new_figure(6.4, 4.0)
     ax = fig.add_subplot()
-    for key, label in KIND_LABELS.items():
-        rows = summary[(summary["objective_key"] == key[0]) & (summary["limits"] == key[1])]
+    for key, label in LABELS.items():
+        rows = summary[summary["kind"] == key]
         if rows.empty:
             continue
         rows = rows.sort_values("wind_speed_m_s")
@@ -49,7 +43,7 @@ def power_vs_wind_figure(summary: pd.DataFrame, power_column: str, name: str,
         n_failed = int((~rows["ok"]).sum())
         text = label + (f" ({n_failed} failed, not shown)" if n_failed else "")
         ax.plot(good["wind_speed_m_s"], -good[power_column], marker="o", ms=4,
-                color=SCENARIO_COLORS[key], ls="-" if key[1] else "--", label=text)
+                color=SCENARIO_COLORS[key], ls="-" if KINDS[key].drive_limits else "--", label=text)
     ax.axhline(0.0, color="k", lw=0.6)
     ax.set_xlabel("wind speed at 100 m [m/s]")
     ax.set_ylabel("average GENERATED power [W]\n(positive = delivered, as paper Fig. 8)")
@@ -81,7 +75,7 @@ def equal_time_samples(traj: pd.DataFrame, columns: tuple[str, ...],
     return {c: np.interp(grid, t, traj[c].to_numpy(float)) for c in columns}
 
 
-def torque_speed_figure(cycles: dict[tuple[str, bool], pd.DataFrame], wind_m_s: float,
+def torque_speed_figure(cycles: dict[str, pd.DataFrame], wind_m_s: float,
                         grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None) -> Markup:
     """Torque-speed trajectories of the cycles over the efficiency map (paper Fig. 9).
 
@@ -92,7 +86,7 @@ def torque_speed_figure(cycles: dict[tuple[str, bool], pd.DataFrame], wind_m_s: 
     Parameters
     ----------
     cycles : dict
-        (objective_key, limits) -> closed cycle with ``time_s`` [s], ``speed_rpm``
+        kind key -> closed cycle with ``time_s`` [s], ``speed_rpm``
         [rpm] and ``torque_nm`` [N m].
     wind_m_s : float
         The wind speed of the cycles [m/s], for the title.
@@ -112,14 +106,14 @@ def torque_speed_figure(cycles: dict[tuple[str, bool], pd.DataFrame], wind_m_s: 
         for key in keys:
             smp = samples[key]
             ax.plot(smp["speed_rpm"], smp["torque_nm"], marker=".", ms=3, lw=0.5,
-                    color=SCENARIO_COLORS[key], label=KIND_LABELS[key])
+                    color=SCENARIO_COLORS[key], label=LABELS[key])
         if k > 0:
             smp = samples[keys[0]]
             pad_s = 0.05 * np.ptp(smp["speed_rpm"]) + 10.0
             pad_t = 0.05 * np.ptp(smp["torque_nm"]) + 1.0
             ax.set_xlim(smp["speed_rpm"].min() - pad_s, smp["speed_rpm"].max() + pad_s)
             ax.set_ylim(smp["torque_nm"].min() - pad_t, smp["torque_nm"].max() + pad_t)
-            ax.set_title(f"({chr(ord('a') + k)}) {KIND_LABELS[keys[0]]}", fontsize=9)
+            ax.set_title(f"({chr(ord('a') + k)}) {LABELS[keys[0]]}", fontsize=9)
         ax.axvline(0.0, color="k", lw=0.6)
     ax_all.set_xlabel("drum speed [rpm] (reel-out / generating < 0)")
     ax_all.set_title(f"(a) torque-speed trajectories at {wind_m_s:g} m/s, a marker every "
@@ -128,13 +122,13 @@ def torque_speed_figure(cycles: dict[tuple[str, bool], pd.DataFrame], wind_m_s: 
     return to_svg(fig, "torque-speed")
 
 
-def power_flow_figure(cycles: dict[tuple[str, bool], pd.DataFrame], wind_m_s: float) -> Markup:
+def power_flow_figure(cycles: dict[str, pd.DataFrame], wind_m_s: float) -> Markup:
     """Mechanical and electrical power over one cycle, one panel per cycle (paper Fig. 10).
 
     Parameters
     ----------
     cycles : dict
-        (objective_key, limits) -> trajectory frame with ``time_s`` [s], ``p_mech_w`` [W]
+        kind key -> trajectory frame with ``time_s`` [s], ``p_mech_w`` [W]
         and ``p_elec_w`` [W] (positive = drawn from the grid / delivered to the shaft).
     wind_m_s : float
         Wind speed [m/s], for the titles.
@@ -146,7 +140,7 @@ def power_flow_figure(cycles: dict[tuple[str, bool], pd.DataFrame], wind_m_s: fl
         ax.plot(t, traj["p_mech_w"] / 1e3, color="0.3", label="P_mech (shaft)")
         ax.plot(t, traj["p_elec_w"] / 1e3, color=SCENARIO_COLORS[key], label="P_elec (grid)")
         ax.axhline(0.0, color="k", lw=0.6)
-        ax.set_title(f"{KIND_LABELS[key]}, {wind_m_s:g} m/s", fontsize=9)
+        ax.set_title(f"{LABELS[key]}, {wind_m_s:g} m/s", fontsize=9)
         ax.set_xlabel("time [s]")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)

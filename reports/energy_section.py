@@ -11,19 +11,17 @@ from pathlib import Path
 
 import numpy as np
 
+from optimize.kinds import LABELS
 from reports import svg
 from reports.inputs import InputLog
 from reports.tables import fmt
 
 CURVE_COLUMNS = ("kind", "wind_speed_m_s", "p_elec_w", "p_mech_w", "p_elec_sigma_w")
 Z95 = 1.959963984540054
-_KIND_LABELS = {"elec-lim": "electrical objective, limits", "elec-free": "electrical, no limits",
-                "mech-lim": "mechanical objective, limits", "mech-free": "mechanical, no limits"}
 
 
 def _color(kind: str) -> str:
-    obj, lim = kind.split("-", 1) if "-" in kind else (kind, "lim")
-    return svg.SCENARIO_COLORS.get((obj, lim == "lim"), "#444444")
+    return svg.SCENARIO_COLORS.get(kind, "#444444")
 
 
 def power_curve_figure(curves) -> object:
@@ -98,7 +96,7 @@ def energy_section(log: InputLog, aep: Path, size: Path) -> dict:
                     f"{fmt(r.get('ci95_aep_elec_high_mwh'), 3)}"
                     if r.get("ci95_aep_elec_low_mwh") is not None else "n/a")
             out["table"].append({
-                "kind": f"{r.get('kind')} ({_KIND_LABELS.get(r.get('kind'), '')})",
+                "kind": f"{r.get('kind')} ({LABELS.get(r.get('kind'), '')})",
                 "aep_elec": fmt(r.get("aep_elec_mwh"), 3), "band": band,
                 "aep_mech": fmt(r.get("aep_mech_mwh"), 3),
                 "cf_elec": _pct(r.get("capacity_factor_elec")),

@@ -14,40 +14,31 @@ import numpy as np
 import pandas as pd
 
 from bench.errors import InputError
+from optimize.kinds import KINDS, LABELS
+from optimize.sweep.outputs import SUMMARY_REQUIRED
 from reports import cycle_figures
 from reports.inputs import InputLog
 from reports.tables import fmt, frame_table
 
-SUMMARY_COLUMNS = ("scenario", "kind", "wind_speed_m_s", "status", "success",
-                   "avg_p_elec_w", "avg_p_mech_w")
 TRAJECTORY_COLUMNS = ("scenario", "time_s", "weight", "l_m", "speed_rpm", "torque_nm",
                       "p_elec_w", "p_mech_w")
-#: scenario kind (optimize.sweep.plan.KINDS) -> (objective key, drive limits on)
-KIND_KEYS = {
-    "elec-lim": ("elec", True),
-    "elec-free": ("elec", False),
-    "mech-lim": ("mech", True),
-    "mech-free": ("mech", False),
-}
 #: Fig. 3: electrically optimized, constrained cycle at 5.5 m/s.
 FIG3_KIND, FIG3_WIND_M_S = "elec-lim", 5.5
 
 
 def normalized_summary(summary: pd.DataFrame, path: Path) -> pd.DataFrame:
-    """Summary with ``objective_key``, ``limits`` and ``ok`` columns added.
+    """Summary with an ``ok`` column added (converged with a finite power).
 
     Raises
     ------
     InputError
-        On a scenario kind not in :data:`KIND_KEYS`.
+        On a scenario kind not in :data:`optimize.kinds.KINDS`.
     """
     out = summary.copy()
-    unknown = sorted(set(out["kind"].astype(str)) - set(KIND_KEYS))
+    unknown = sorted(set(out["kind"].astype(str)) - set(KINDS))
     if unknown:
         raise InputError(path, f"unknown scenario kind {unknown[0]!r}", column="kind",
-                         expected=", ".join(KIND_KEYS))
-    out["objective_key"] = [KIND_KEYS[k][0] for k in out["kind"].astype(str)]
-    out["limits"] = [KIND_KEYS[k][1] for k in out["kind"].astype(str)]
+                         expected=", ".join(KINDS))
     out["ok"] = out["success"].astype(bool) & np.isfinite(out["avg_p_elec_w"].astype(float))
     return out
 
@@ -78,7 +69,7 @@ def table_ii(summary: pd.DataFrame) -> dict:
 
     Failed scenarios show ``failed (<status>)`` instead of numbers.
     """
-    kinds = [k for k in KIND_KEYS if k in set(summary["kind"])]
+    kinds = [k for k in KINDS if k in set(summary["kind"])]
     rows = []
     for wind, group in summary.groupby("wind_speed_m_s", sort=True):
         cells = []
@@ -94,7 +85,7 @@ def table_ii(summary: pd.DataFrame) -> dict:
             else:
                 cells.append({"elec": "", "mech": "", "failed": str(r["status"])})
         rows.append({"wind": fmt(wind, sig=3), "cells": cells})
-    labels = [cycle_figures.KIND_LABELS[KIND_KEYS[k]] for k in kinds]
+    labels = [LABELS[k] for k in kinds]
     return {"kinds": kinds, "labels": labels, "rows": rows}
 
 
@@ -163,8 +154,7 @@ def cut_in_rows(manifest: dict) -> list[dict]:
         if isinstance(c, dict):
             lo, hi = c.get("bracket_lo_m_s"), c.get("bracket_hi_m_s")
             rows.append({"kind": str(c.get("kind", "")),
-                         "label": cycle_figures.KIND_LABELS.get(KIND_KEYS.get(
-                             str(c.get("kind")), ("", False)), ""),
+                         "label": LABELS.get(str(c.get("kind")), ""),
                          "cut_in": fmt(c.get("cut_in_m_s"), 2),
                          "bracket": f"{fmt(lo, 3)} - {fmt(hi, 3)}" if lo is not None else "",
                          "status": str(c.get("status", ""))})
@@ -235,7 +225,7 @@ def optimization_section(log: InputLog, optimize: Path,
     start = len(log.missing)
     optimize = Path(optimize)
     summary_path = optimize / "summary.parquet"
-    summary = log.parquet(summary_path, SUMMARY_COLUMNS)
+    summary = log.parquet(summary_path, SUMMARY_REQUIRED)
     traj = log.parquet(optimize / "trajectories.parquet", TRAJECTORY_COLUMNS)
     manifest = log.json(optimize / "manifest.json")
     claims = log.csv(optimize / "claims.csv", ("statement", "paper", "ours", "verdict"))
@@ -271,14 +261,15 @@ def optimization_section(log: InputLog, optimize: Path,
             if t is None:
                 notes.append(why)
             else:
-                cycles[KIND_KEYS[kind]] = t
+                cycles[kind] = t
         if cycles:
             # paper order: Fig. 9 (b) mechanical, (c) electrical; Fig. 10 (a) electrical
-            mech_first = dict(sorted(cycles.items(), key=lambda kv: kv[0][0] != "mech"))
+            mech_first = dict(sorted(cycles.items(),
+                                     key=lambda kv: KINDS[kv[0]].objective != "mechanical"))
             out["fig9"] = cycle_figures.torque_speed_figure(mech_first, wind, grid)
             out["fig10"] = cycle_figures.power_flow_figure(cycles, wind)
             out["fig9_periods"] = [
-                {"label": cycle_figures.KIND_LABELS[k], "period_s": fmt(t["time_s"].max(), 2)}
+                {"label": LABELS[k], "period_s": fmt(t["time_s"].max(), 2)}
                 for k, t in cycles.items()]
         if notes:
             out["notes"]["fig9"] = "; ".join(notes)

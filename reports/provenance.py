@@ -5,26 +5,9 @@ from __future__ import annotations
 import platform
 import shlex
 from datetime import UTC, datetime
-from importlib import metadata
 
+from bench.versions import package_versions
 from reports.inputs import InputLog
-
-#: Distributions whose versions the report lists (those the pipeline's results depend on).
-PACKAGES = (
-    "drivebench", "numpy", "pandas", "scipy", "statsmodels", "pyarrow", "casadi",
-    "matplotlib", "jinja2", "npTDMS",
-)
-
-
-def package_versions() -> list[tuple[str, str]]:
-    """(name, version) of Python and of each of :data:`PACKAGES` ('not installed' if absent)."""
-    rows = [("python", platform.python_version())]
-    for name in PACKAGES:
-        try:
-            rows.append((name, metadata.version(name)))
-        except metadata.PackageNotFoundError:
-            rows.append((name, "not installed"))
-    return rows
 
 
 def _commands(source: str, data) -> list[dict]:
@@ -74,7 +57,7 @@ def provenance_section(log: InputLog, argv: list[str], started: datetime,
     return {
         "date": started.astimezone(UTC).strftime("%Y-%m-%d %H:%M:%S UTC"),
         "commands": commands,
-        "packages": package_versions(),
+        "packages": list(package_versions().items()),
         "platform": f"{platform.system()} {platform.machine()}",
         "inputs": [
             {"path": r.path, "sha256": r.sha256, "size_bytes": r.size_bytes} for r in log.records

@@ -16,7 +16,10 @@ import pandas as pd
 
 from bench.errors import InputError
 from bench.store import kind_files as store_files
-from fitting.model_file import PowerModel, paper_model, power_model_from_dict
+from fitting import figures
+from fitting.model_schema import power_model_from_dict
+from fitting.power_model import PowerModel
+from optimize.paper_model import paper_model
 from reports import drive_figures
 from reports.inputs import InputLog
 from reports.tables import fmt, frame_table, term_label
@@ -24,8 +27,6 @@ from reports.tables import fmt, frame_table, term_label
 POINT_COLUMNS = ("session_id", "quadrant", "speed_rpm", "torque_nm", "p_mech_w", "p_elec_w")
 REJECTED_COLUMNS = ("session_id", "t_start_s", "t_end_s", "reason")
 EFFICIENCY_COLUMNS = ("speed_rpm", "torque_nm", "eta")
-#: efficiency-map node statuses drawn white (fitting.efficiency: near the axes, above max)
-MASKED_STATUSES = ("near_axis", "above_max")
 #: Two-sided 95 % normal quantile, used when the fit summary gives no intervals.
 Z95 = 1.959963984540054
 
@@ -210,8 +211,9 @@ def efficiency_section(log: InputLog, fit: Path, model: PowerModel | None,
     emap = log.parquet(Path(fit) / "efficiency_map.parquet", EFFICIENCY_COLUMNS)
     figure = grid = None
     if emap is not None and len(emap):
-        grid = efficiency_grid(emap)
-        figure = drive_figures.efficiency_map_figure(*grid)
+        grid = figures.efficiency_grid(emap)
+        figure = drive_figures.efficiency_map_figure(
+            emap, model.domain if model is not None else None)
     eff = (summary or {}).get("efficiency") or {}
     masking = dict((model.masking if model is not None else None) or eff.get("masking") or {})
     rules = [str(r) for r in masking.pop("rules", []) or []]
@@ -247,24 +249,6 @@ def efficiency_notes(model: PowerModel | None, summary: dict | None) -> list[str
                          f"{fmt(c.get('noise_eta'), 3)})"
                          + (f"; {clipped} nodes were clipped to it." if clipped else "."))
     return notes
-
-
-def efficiency_grid(emap: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Pivot the long efficiency map into ``(speed_rpm (n,), torque_nm (m,), eta (m, n))``.
-
-    Nodes the masking rules masked (``status`` ``near_axis`` or ``above_max``) are
-    set to 0 so they draw white like negative efficiencies (the paper's rule);
-    nodes outside the measured hull stay NaN and are not drawn.
-    """
-    eta = emap["eta"].to_numpy(float).copy()
-    if "status" in emap.columns:
-        masked = emap["status"].astype(str).isin(MASKED_STATUSES).to_numpy()
-        eta[masked] = 0.0
-    frame = pd.DataFrame({"speed_rpm": emap["speed_rpm"], "torque_nm": emap["torque_nm"],
-                          "eta": eta})
-    table = frame.pivot_table(index="torque_nm", columns="speed_rpm", values="eta",
-                              aggfunc="first", dropna=False)
-    return table.columns.to_numpy(float), table.index.to_numpy(float), table.to_numpy(float)
 
 
 def band_table(records: list) -> dict | None:
@@ -373,7 +357,7 @@ def coefficient_rows(model: PowerModel) -> tuple[list[dict], str]:
     The interval is the fit's own (``statistics.coefficients`` of the model file,
     ``ci95_low_rpm``/``ci95_high_rpm``) when present, else ``c ± 1.96 sqrt(cov_kk)``
     (normal approximation) from the covariance. The paper value is shown where
-    the term is one of eq. (4)'s (REFERENCE.md §1).
+    the term is one of eq. (4)'s (docs/paper_figures.md §1).
 
     Returns
     -------

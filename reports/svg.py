@@ -22,10 +22,10 @@ from matplotlib.figure import Figure  # noqa: E402
 
 #: Colours of the four scenarios, shared by every optimization figure.
 SCENARIO_COLORS = {
-    ("elec", True): "#1f77b4",
-    ("elec", False): "#17becf",
-    ("mech", True): "#d62728",
-    ("mech", False): "#ff7f0e",
+    "elec-lim": "#1f77b4",
+    "elec-free": "#17becf",
+    "mech-lim": "#d62728",
+    "mech-free": "#ff7f0e",
 }
 
 _PROLOGUE = re.compile(r"^.*?(?=<svg)", re.DOTALL)

@@ -8,7 +8,8 @@ import json
 import numpy as np
 import pandas as pd
 
-from fitting.model_file import paper_model, save_power_model
+from fitting.model_file import save_power_model
+from optimize.paper_model import paper_model
 
 WINDS = (4.0, 5.5, 7.0, 8.5, 10.0)
 KINDS = {"elec-lim": ("electrical", True), "mech-free": ("mechanical", False)}

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-# paper Table I (REFERENCE.md section 1): P_elec = a0 + a1 rpm^2 + a2 T^2 + a3 rpm T
+# paper Table I (docs/paper_figures.md §1): P_elec = a0 + a1 rpm^2 + a2 T^2 + a3 rpm T
 A0, A1, A2, A3 = 293.5816373499238, 0.0003931623408, 0.0665919381751, 0.1078628659825
 DAQ_START = datetime(2013, 4, 17, 9, 12, 3, 250000)
 

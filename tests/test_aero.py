@@ -1,4 +1,4 @@
-"""Aerodynamic model against hand calculations (REFERENCE.md §2)."""
+"""Aerodynamic model against hand calculations (docs/paper_figures.md §2)."""
 
 import math
 
@@ -45,7 +45,7 @@ def test_level_flight_hand_calculation():
 
 
 def test_surfaces_use_per_degree_derivatives():
-    # 1 degree of elevator changes C_L by -0.0105 and C_m by 0.0352 (REFERENCE.md §2)
+    # 1 degree of elevator changes C_L by -0.0105 and C_m by 0.0352 (docs/paper_figures.md §2)
     v = np.array([25.0, 0.0, 0.0])
     one_deg = math.radians(1.0)
     _, m0, _, _, cl0, _ = _eval(np.eye(3), v, np.zeros(3), np.zeros(3), 50.0)

@@ -66,3 +66,28 @@ def test_fit_takes_the_manifest_rating_or_says_it_stands_in(tmp_path):
     store2, frame2 = _store(tmp_path / "x", {"a": d, "b": other})
     with pytest.raises(InputError, match="disagree on the drive rating max_speed_rpm"):
         resolve_drive(store2, frame2)
+
+
+def test_sensor_ranges_not_stated_come_from_the_drive_rating_or_stop(tmp_path):
+    from dataclasses import replace
+
+    from bench.ingest.session import RANGE_OVER_RATING, Session, complete_ranges
+
+    stated = {"speed": 3000.0, "torque": None, "power": None}
+    s = Session(folder=tmp_path / "run_01", session_id="run_01", kind="timeseries",
+                mode="motor", gear_ratio=3.0, measured_side="motor", speed_sign=1, torque_sign=1,
+                ranges=stated, raw={})
+    rating = {"nominal_power_w": 8200.0, "max_speed_rpm": 1500.0, "max_torque_nm": 78.0}
+    done, note = complete_ranges(s, rating)
+    # a stated range is kept; the others are the rating's, carried to the motor shaft (1:3)
+    assert done.ranges["speed"] == 3000.0
+    assert done.ranges["torque"] == pytest.approx(RANGE_OVER_RATING * 78.0 / 3.0)
+    assert done.ranges["power"] == pytest.approx(RANGE_OVER_RATING * 8200.0)
+    assert "torque_range_nm" in note and "power_range_w" in note and "speed" not in note
+    # every range stated: nothing to say
+    full = replace(s, ranges={"speed": 1.0, "torque": 2.0, "power": 3.0})
+    assert complete_ranges(full, None) == (full, None)
+    # neither stated nor in a drive rating: said, with the keys to write
+    _, note = complete_ranges(s, None)
+    assert "no sensor range and no drive rating given for torque_range_nm, power_range_w" \
+        in note and "drive.toml" in note

@@ -170,3 +170,15 @@ def test_site_height_moves_by_the_systems_wind_profile(tmp_path):
     # the shipped (log) system, unless --roughness-m says otherwise
     site, _, _ = site_from_args(args, shear_from_args(args, load_system()))
     assert site.scale_m_s == pytest.approx(6.0 * math.log(1001) / math.log(101), rel=1e-12)
+
+
+def test_capacity_factor_rating_is_the_drive_in_force_of_the_sweep():
+    from energy.assess import NOMINAL_SOURCES, nominal_power
+
+    model = {"nominal_power_w": 18923.0, "drive": {"nominal_power_w": 18923.0}}
+    manifest = {"drive_limits": {"nominal_power_w": 18920.0}}
+    # the rating the optimize manifest names wins over the power model's own
+    assert nominal_power(model, None, None, manifest) == (18920.0, NOMINAL_SOURCES[1])
+    # the user's value wins over both; a sweep without the record falls back to the model
+    assert nominal_power(model, 5000.0, None, manifest) == (5000.0, NOMINAL_SOURCES[0])
+    assert nominal_power(model, None, None, {}) == (18923.0, NOMINAL_SOURCES[2])

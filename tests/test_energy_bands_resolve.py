@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from energy.bands import basis_averages, sigma
-from fitting.model_file import paper_model
 from optimize.model.kite_model import kite_dae
+from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario

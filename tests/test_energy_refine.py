@@ -13,7 +13,7 @@ from energy.aep import aep_mwh
 from energy.curve import PowerCurve
 from energy.refine import KindTask, merged_curve, refine_kind
 from energy.site import Weibull
-from fitting.model_file import paper_model
+from optimize.paper_model import paper_model
 from optimize.problem.options import OcpOptions
 from optimize.solve.result import Solution
 

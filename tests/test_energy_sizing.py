@@ -10,12 +10,13 @@ import pytest
 
 from energy.site import Weibull
 from energy.sizing import (
+    SIZING_KIND,
     candidate_table,
     run_sizing,
     scaled_candidates,
-    solve_key,
 )
-from fitting.model_file import paper_model
+from optimize.paper_model import paper_model
+from optimize.service import solve_key
 from optimize.sweep.executors import ExecutorHandle, QueueChannel
 from optimize.system.drive import drive_in_force
 from optimize.system.system import load_system
@@ -58,7 +59,8 @@ def test_candidate_options_take_the_system_bounds_and_the_candidate_limits():
     assert (lim.max_torque_nm, lim.max_rms_torque_nm) == (780.0, 156.0)
     assert lim.nominal_power_w == pytest.approx(2.0 * base.nominal_power_w)
     # a stored solve of one system is never taken for another's
-    assert solve_key(c, opts, 7.0, highwind.sha256) != solve_key(c, opts, 7.0, ap2.sha256)
+    assert (solve_key(c.problem(20, 3, highwind), SIZING_KIND, 7.0)
+            != solve_key(c.problem(20, 3, ap2), SIZING_KIND, 7.0))
 
 
 def test_choice_is_the_smallest_within_tolerance_of_the_best():
@@ -138,3 +140,59 @@ def test_adaptive_sizing_adds_speeds_and_resumes_from_the_store(tmp_path):
                         show_progress=False, adaptive=True)
     assert (second.n_solved, second.n_cached) == (0, len(winds))
     assert second.table.loc[0, "aep_elec_mwh"] == pytest.approx(first.table.loc[0, "aep_elec_mwh"])
+
+
+class CrashingBackend:
+    """A stand-in OCP: cycle power -100 W x wind x scale; its solver crashes at one speed."""
+
+    def __init__(self, crash_at: float):
+        self.crash_at = crash_at
+
+    def build(self, problem):
+        return problem.options.limits.max_rms_torque_nm
+
+    def _result(self, ocp, wind):
+        from types import SimpleNamespace
+
+        import pandas as pd
+
+        from optimize.solve.result import Solution
+
+        if wind == self.crash_at:
+            raise RuntimeError("solver crashed")
+        traj = pd.DataFrame({"weight": [0.5, 0.5], "speed_rpm": [-900.0, 300.0],
+                             "torque_nm": [0.5 * ocp, 0.5 * ocp]})
+        return SimpleNamespace(success=True, status="Solve_Succeeded", start="stored guess",
+                               avg_p_elec_w=-100.0 * wind * ocp / 78.0, avg_p_mech_w=-1.0,
+                               period_s=8.0, trajectory=traj,
+                               warm=Solution(np.array([wind]), np.zeros(1), np.zeros(1), 1, 1))
+
+    def solve(self, ocp, kind, wind, warm):
+        return self._result(ocp, wind)
+
+    def cold_start(self, ocp, kind, wind):
+        return self._result(ocp, wind)
+
+
+def test_a_solver_crash_in_a_sizing_sweep_is_reported_as_refine_reports_it(tmp_path):
+    cands = _candidates((0.5, 1.0))
+    site, winds = Weibull(2.0, 6.2), (6.0, 7.0, 8.0)
+    res = run_sizing(cands, winds, site, tmp_path, n_intervals=10, handle=_handle(),
+                     show_progress=False, backend=CrashingBackend(crash_at=8.0))
+    # every candidate's crashed speed is a failed record with the refine's status text
+    # (tests/test_energy_refine.py), the other speeds solved, the sweep finished
+    bad = [r for r in res.records if not r["success"]]
+    assert sorted((r["candidate"], r["wind_speed_m_s"]) for r in bad) == [("x0.5", 8.0),
+                                                                        ("x1", 8.0)]
+    assert {r["status"] for r in bad} == {"exception: RuntimeError: solver crashed"}
+    assert sum(r["success"] for r in res.records) == 4
+    # a candidate with a failed speed gets no AEP, and none is chosen from fewer points
+    assert res.table["aep_elec_mwh"].isna().all() and res.chosen is None
+    # the figures of a solved speed: the RMS of a constant torque is that torque
+    ok = next(r for r in res.records if r["candidate"] == "x1" and r["wind_speed_m_s"] == 7.0)
+    assert ok["rms_torque_nm"] == pytest.approx(39.0) and ok["peak_speed_rpm"] == 900.0
+    # a crash is not stored: a re-run loads the solved speeds and tries the crashed ones again
+    again = run_sizing(cands, winds, site, tmp_path, n_intervals=10, handle=_handle(),
+                       show_progress=False, backend=CrashingBackend(crash_at=None))
+    assert (again.n_solved, again.n_cached) == (2, 4)
+    assert again.chosen is not None

@@ -178,7 +178,7 @@ def test_point_table_session(ingested):
 
 
 def test_drive_rating_recorded_from_drive_toml(ingested):
-    # raw_measurements/drive.toml (bench synth) states the paper's drive: REFERENCE.md §1,
+    # raw_measurements/drive.toml (bench synth) states the paper's drive: docs/paper_figures.md §1,
     # 8.2 kW, |speed| <= 1500 rpm, torque <= 78 N m; every session records it
     truth, _, man, _ = ingested
     for sid in truth["sessions"]:

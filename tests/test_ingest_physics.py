@@ -118,7 +118,7 @@ def test_plausible_efficiencies_pass_the_session_tests(eta):
     accuracy, are no systematic error."""
     speed = np.linspace(200.0, 1500.0, 20)
     torque = np.full(20, 50.0)
-    omega_t = speed * torque * checks.RAD_S_PER_RPM
+    omega_t = speed * torque * (2 * np.pi / 60)
     values = {"speed": speed, "torque": torque, "p_elec": omega_t / eta}
     src = {q: checks.Source(__import__("pathlib").Path("x.csv"), q, u)
            for q, u in (("speed", "rpm"), ("torque", "Nm"), ("p_elec", "W"))}

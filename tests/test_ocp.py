@@ -10,7 +10,6 @@ import casadi
 import numpy as np
 import pytest
 
-from fitting.model_file import paper_model
 from optimize.model.drive import (
     drum_speed_rpm,
     drum_torque_nm,
@@ -18,6 +17,7 @@ from optimize.model.drive import (
     mechanical_power_w,
 )
 from optimize.model.kite_model import kite_dae
+from optimize.paper_model import paper_model
 from optimize.problem.collocation import radau
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
@@ -28,7 +28,7 @@ N_COARSE = 10  # coarse but converging grid: the whole module runs in ~30 s on 2
 
 
 def test_drive_quantities_match_reference_sanity_values():
-    # REFERENCE.md §1: at -1500 rpm and 78 N m the drive generates 11.04 kW from 12.25 kW
+    # docs/paper_figures.md §1: at -1500 rpm and 78 N m the drive generates 11.04 kW from 12.25 kW
     # of shaft power. -1500 rpm is a reel-out speed of 1500/60*2*pi*0.1 = 15.708 m/s and
     # 78 N m a tension of 780 N.
     dl = max_reel_speed_m_s(1500.0, 0.1)
@@ -75,7 +75,7 @@ def test_cold_start_converges_to_a_generating_periodic_cycle(solved):
     # losses are positive at every point, so P_elec > P_mech pointwise and on average
     assert (traj.p_elec_w > traj.p_mech_w).all()
     assert mech.avg_p_elec_w > mech.avg_p_mech_w
-    # path constraints of REFERENCE.md §3 hold at every collocation point (solver tolerance)
+    # path constraints (docs/paper_figures.md §3) hold at every collocation point (solver tolerance)
     assert traj.airspeed_m_s.min() > 10.0 - 1e-4
     assert traj.alpha_deg.between(-4.5 - 1e-4, 8.5 + 1e-4).all()
     assert traj.beta_deg.between(-9.0 - 1e-4, 9.0 + 1e-4).all()
@@ -138,7 +138,7 @@ def test_scenario_name_and_validation():
 
 def test_scenario_names_match_the_sweep_kinds():
     # The sweep's kinds table is the truth for what each label means.
-    from optimize.sweep.plan import KINDS
+    from optimize.kinds import KINDS
 
     for kind, (objective, limits) in KINDS.items():
         assert Scenario(5.5, objective, limits).name == f"{kind}-5.5"

@@ -7,9 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from fitting.model_file import paper_model
 from optimize.model import kite_model as km
 from optimize.model.kite_model import kite_dae
+from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions
 
@@ -40,7 +40,7 @@ def test_discretization_rejects_out_of_range(bad):
 
 def test_rows_are_found_by_name_and_the_drive_limits_bound_only_their_rows():
     n, d = 4, 3
-    lim = Limits(max_p_elec_w=5000.0, max_rms_torque_nm=50.0)
+    lim = Limits(max_torque_nm=78.0, max_p_elec_w=5000.0, max_rms_torque_nm=50.0)
     ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(Discretization(n, d), lim))
     lay = ocp.layout
     per_point = {"dynamics": km.NX, "algebraic": km.NZ, "airspeed": 1, "alpha": 1, "beta": 1,

@@ -2,7 +2,7 @@
 
 The inputs are small hand-written files that follow docs/schemas.md (§2 store,
 §3 model, §4 fit, §5 optimize), built from known truths so each figure in the
-report can be checked: operating points from the paper's quadratic (REFERENCE.md
+report can be checked: operating points from the paper's quadratic (docs/paper_figures.md
 §1) plus Gaussian noise of known standard deviation, a model file with a known
 covariance, and analytic pumping cycles whose net energy is known exactly.
 """
@@ -24,8 +24,11 @@ import pytest
 
 from bench.cli import main
 from bench.files import write_text_atomic
-from fitting.model_file import PowerModel, paper_model, save_power_model
-from reports import cycle_figures, sections
+from fitting.figures import efficiency_grid
+from fitting.model_file import save_power_model
+from fitting.power_model import PowerModel
+from optimize.paper_model import paper_model
+from reports import cycle_figures
 from reports.render import build_context, build_report, render
 from reports.svg import new_figure, to_svg
 
@@ -168,7 +171,9 @@ def write_optimize(opt: Path, model_sha256: str = "") -> pd.DataFrame:
                          "success": ok, "status": "Solve_Succeeded" if ok else FAILED_STATUS,
                          "iterations": 12, "period_s": CYCLE_PERIOD_S if ok else math.nan,
                          "avg_p_elec_w": p_e if ok else math.nan,
-                         "avg_p_mech_w": 2 * p_e - 300.0 if ok else math.nan})
+                         "avg_p_mech_w": 2 * p_e - 300.0 if ok else math.nan,
+                         "peak_speed_rpm": 900.0 if ok else math.nan,
+                         "peak_torque_nm": 40.0 if ok else math.nan})
             if ok and name in ("elec-free-10.0", "mech-free-10.0", "elec-lim-5.5"):
                 trajs.append(_cycle(name, kind, w))
     summary = pd.DataFrame(rows)
@@ -290,7 +295,7 @@ def test_efficiency_grid_draws_masked_nodes_white():
                          "torque_nm": [1.0, 1.0, 2.0, 2.0],
                          "eta": [np.nan, 0.9, np.nan, 0.5],
                          "status": ["near_axis", "ok", "outside_hull", "ok"]})
-    speed, torque, eta = sections.efficiency_grid(emap)
+    speed, torque, eta = efficiency_grid(emap)
     assert list(speed) == [-10.0, 10.0] and list(torque) == [1.0, 2.0]
     # near-axis -> 0 (white, the paper's rule); outside the hull stays NaN (not drawn)
     assert eta[0, 0] == 0.0 and eta[0, 1] == 0.9

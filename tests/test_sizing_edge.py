@@ -3,15 +3,20 @@ and states the share of the site's hours its wind grid leaves out."""
 
 from __future__ import annotations
 
-import argparse
 import math
 
 import pytest
 
 from energy import size_cli, sizing
 from energy.site import Weibull
-from energy.sizing import candidate_table, edge_of_set, next_scale, scaled_candidates
-from fitting.model_file import paper_model
+from energy.sizing import (
+    candidate_table,
+    edge_of_set,
+    next_scale,
+    scaled_candidates,
+    size_extending,
+)
+from optimize.paper_model import paper_model
 from optimize.system.drive import drive_in_force
 from optimize.system.system import load_system
 
@@ -62,8 +67,8 @@ def _fake_sizing(power):
     candidate seen before is "loaded from the store", as the real store does."""
     seen: set[str] = set()
 
-    def run(cands, winds, site, *args, **kwargs):
-        table, best, chosen = candidate_table(cands, _records(cands, power, winds), site)
+    def run(cands, winds=(5.0, 9.0)):
+        table, best, chosen = candidate_table(cands, _records(cands, power, winds), SITE)
         new = [c.name for c in cands if c.name not in seen]
         seen.update(new)
         return sizing.SizingResult(table, [], best, chosen, 1.0, "none",
@@ -71,28 +76,18 @@ def _fake_sizing(power):
     return run
 
 
-def _args(tmp_path, extend):
-    return argparse.Namespace(
-        drive_model=None, scales="0.5,1,2", models=(), rated_torque_nm=None,
-        max_speed_rpm=None, overload=None, intervals=10, degree=2, workers=1,
-        scheduler=None, tolerance=0.02, adaptive=False, extend=extend, out=tmp_path)
-
-
 @pytest.mark.parametrize(("extend", "added", "edge"), [(0, [], "largest"), (1, [4.0], None)])
-def test_bench_size_extends_the_set_beyond_an_edge_optimum(tmp_path, monkeypatch, extend,
-                                                            added, edge):
+def test_sizing_extends_the_set_beyond_an_edge_optimum(extend, added, edge):
     # delivered power peaks at scale 2.5: x2 is best of 0.5, 1, 2 (the largest); with one
     # extension x4 (2 x 2/1) is tried, x2 stays best and now lies inside the set
-    monkeypatch.chdir(tmp_path)  # no fit_out/ here: the system's own drive
-    monkeypatch.setattr(sizing, "run_sizing", _fake_sizing(lambda s: 1000.0 - (s - 2.5) ** 2))
-    res, got_edge, got_added, _, _ = size_cli._size_extending(_args(tmp_path, extend), SITE,
-                                                              (5.0, 9.0), load_system())
+    res, got_edge, got_added = size_extending(
+        _candidates, (0.5, 1.0, 2.0), extend, _fake_sizing(lambda s: 1000.0 - (s - 2.5) ** 2))
     assert (res.best, got_edge, got_added) == ("x2", edge, added)
     # every solve counted once over the rounds: (3 + added) candidates x 2 speeds, none
     # loaded from an earlier run; one second per round
     assert (res.n_solved, res.n_cached, res.wall_time_s) == (2 * (3 + len(added)), 0,
                                                              1.0 + len(added))
-    note = size_cli._edge_note(got_edge, res.best, got_added)
+    note = size_cli.edge_note(got_edge, res.best, got_added)
     assert ("larger drive may be better" in note) == (edge == "largest")
 
 

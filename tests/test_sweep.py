@@ -368,9 +368,10 @@ def test_cli_rejects_bad_input_with_exit_code_2(tmp_path, capsys):
 def test_request_falls_back_to_the_paper_model(tmp_path):
     import argparse
 
-    from fitting.model_file import PAPER_MODEL_PATH, paper_model, save_power_model
+    from fitting.model_file import save_power_model
     from optimize.cli import add_arguments
     from optimize.command import SweepRequest
+    from optimize.paper_model import PAPER_MODEL_PATH, paper_model
 
     parser = argparse.ArgumentParser()
     add_arguments(parser)
@@ -426,8 +427,8 @@ def test_run_optimize_writes_every_file(tmp_path):
 
     import pandas as pd
 
-    from fitting.model_file import PAPER_MODEL_PATH, paper_model
     from optimize.command import SweepRequest, run_optimize
+    from optimize.paper_model import PAPER_MODEL_PATH, paper_model
     from optimize.problem.options import OcpOptions
     from optimize.sweep.outputs import field_units, read_summary
 

@@ -2,16 +2,16 @@
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 
-import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 
 from bench.errors import InputError
+from bench.files import write_parquet
+from bench.units import unit_of
 from optimize.model import kite_model as km
 from optimize.solve.result import OUTPUT_UNITS
 from optimize.sweep.chains import Attempt, ScenarioOutcome
@@ -21,9 +21,6 @@ from optimize.sweep.outputs import (
     read_summary,
     summary_frame,
     trajectories_frame,
-    unit_of,
-    write_json,
-    write_parquet,
 )
 
 
@@ -118,7 +115,7 @@ def test_summary_marks_cycle_points_outside_the_validity_domain():
 
 def test_summary_round_trip_keeps_values_and_units(tmp_path):
     frame = summary_frame(outcomes())
-    path = write_parquet(frame, tmp_path / "summary.parquet", SUMMARY_COLUMNS)
+    path = write_parquet(tmp_path / "summary.parquet", frame, descriptions=SUMMARY_COLUMNS)
     back = read_summary(path)
     pd.testing.assert_frame_equal(back, frame)
     units = field_units(path)
@@ -133,7 +130,7 @@ def test_summary_round_trip_keeps_values_and_units(tmp_path):
 def test_trajectories_hold_only_converged_scenarios(tmp_path):
     traj = trajectories_frame(outcomes())
     assert list(traj["scenario"].unique()) == ["elec-lim-5.5"] and len(traj) == 4
-    path = write_parquet(traj, tmp_path / "trajectories.parquet")
+    path = write_parquet(tmp_path / "trajectories.parquet", traj)
     assert field_units(path)["torque_nm"] == "N m"
     assert pd.read_parquet(path)["p_elec_w"].sum() == -8600.0
 
@@ -164,25 +161,7 @@ def test_unit_of_agrees_with_the_ocp_tables():
 def test_read_summary_names_file_and_column(tmp_path):
     with pytest.raises(InputError, match="file not found"):
         read_summary(tmp_path / "nope.parquet")
-    path = write_parquet(pd.DataFrame({"scenario": ["x"]}), tmp_path / "s.parquet")
+    path = write_parquet(tmp_path / "s.parquet", pd.DataFrame({"scenario": ["x"]}))
     with pytest.raises(InputError) as err:
         read_summary(path)
     assert "s.parquet" in str(err.value) and "column 'kind'" in str(err.value)
-
-
-def test_failed_write_leaves_the_old_file(tmp_path):
-    path = write_json({"a": 1.0, "b": float("nan"), "c": np.float64(2.5)}, tmp_path / "m.json")
-    assert json.loads(path.read_text()) == {"a": 1.0, "b": None, "c": 2.5}
-    with pytest.raises(TypeError):
-        write_json({"bad": object()}, path)  # fails while serializing, before any write
-    assert json.loads(path.read_text())["a"] == 1.0
-
-    class Boom:
-        pass
-
-    frame = pd.DataFrame({"x_m": [1.0]})
-    write_parquet(frame, tmp_path / "t.parquet")
-    with pytest.raises(Exception):  # noqa: B017 - pyarrow raises its own type
-        write_parquet(pd.DataFrame({"x_m": [Boom()]}), tmp_path / "t.parquet")
-    assert pd.read_parquet(tmp_path / "t.parquet")["x_m"].tolist() == [1.0]
-    assert not list(tmp_path.glob(".*.tmp"))

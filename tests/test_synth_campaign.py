@@ -1,8 +1,8 @@
 """The committed synthetic campaign (raw_measurements/) and the generator that made it.
 
-Truths used: REFERENCE.md's quadratic and campaign ranges, the paper's fit statistics
-(std 1.6 % of 8.2 kW, max < 5 %), the files' own headers, the fault parameters recorded
-in truth.json, and a fresh run of the generator (determinism).
+Truths used: the paper's quadratic and campaign ranges (docs/paper_figures.md §1), its
+fit statistics (std 1.6 % of 8.2 kW, max < 5 %), the files' own headers, the fault
+parameters recorded in truth.json, and a fresh run of the generator (determinism).
 """
 
 import json

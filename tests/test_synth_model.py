@@ -26,7 +26,7 @@ BARE = dataclasses.replace(
 
 
 def test_bare_model_is_the_paper_quadratic():
-    # REFERENCE.md section 1 sanity values, quoted to 3-4 significant digits there
+    # docs/paper_figures.md §1 sanity values, quoted to 3-4 significant digits there
     p_gen = true_p_elec_w(-1500.0, 78.0, model=BARE)
     assert p_gen == pytest.approx(-11040.0, abs=10.0)
     assert true_p_elec_w(-50.0, 78.0, model=BARE) == pytest.approx(279.0, abs=1.0)

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from bench.errors import InputError
-from fitting.model_file import paper_model
-from optimize.problem.options import OcpOptions
+from optimize.paper_model import paper_model
+from optimize.problem.options import OcpOptions, with_drive_rating
 from optimize.system.drive import drive_in_force
 from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 from optimize.system.system import load_system, shipped_system_path, system_from_dict
@@ -39,13 +39,16 @@ def test_shipped_systems_load_with_a_positive_definite_inertia(name):
 
 
 def test_highwind_file_is_the_package_defaults():
-    # REFERENCE.md's values, written once as dataclass defaults and once in the file
+    # the paper's values (docs/paper_figures.md §2), written once as dataclass defaults and
+    # once in the file
     system = load_system()
     assert system.kite_params() == KiteParams()
     assert system.aero_coefficients() == AeroCoefficients()
     assert system.wind_model() == WindModel()
     rating = drive_in_force(system, model=paper_model()).rating
-    assert system.ocp_options(OcpOptions(), rating) == OcpOptions()
+    # the drive limits OcpOptions leaves open are the paper model's rating, the file's
+    assert system.ocp_options(OcpOptions(), rating) == with_drive_rating(OcpOptions(),
+                                                                         paper_model())
 
 
 def test_only_the_paper_system_says_it_is_the_papers():

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from fitting.model_file import paper_model
 from optimize.model import kite_model as km
+from optimize.paper_model import paper_model
 from optimize.problem.formulation import PERIODIC_STATES
 from optimize.problem.guess import LoopGuess, circular_loop
 from optimize.problem.ocp import build_ocp, grid_times

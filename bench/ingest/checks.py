@@ -34,8 +34,7 @@ from scipy.stats import binom
 
 from bench.errors import InputError
 from bench.ingest.units import QUANTITY_KIND, TARGET_UNIT, alternatives
-
-RAD_S_PER_RPM = 2.0 * math.pi / 60.0
+from bench.units import RPM_PER_RAD_S
 
 #: a point may read up to this multiple of a sensor's range (overload) [-]
 RANGE_MARGIN = 1.25
@@ -173,7 +172,7 @@ def explicit_ranges(session) -> dict[str, float]:
 
 def _failures(v: dict[str, np.ndarray], ranges: dict[str, float]) -> dict[str, np.ndarray]:
     """Per test, the points failing it (bool arrays)."""
-    omega_t = v["speed"] * v["torque"] * RAD_S_PER_RPM
+    omega_t = v["speed"] * v["torque"] / RPM_PER_RAD_S
     floor = POWER_FLOOR_FRAC * max(float(np.nanmax(np.abs(omega_t), initial=0.0)), 1e-9)
     out = {}
     over = np.zeros(omega_t.size, bool)
@@ -276,7 +275,7 @@ def check_points(
 def _systematic_test(fails: dict[str, np.ndarray], v: dict[str, np.ndarray]) -> str | None:
     """The first test that fails on too many points to be a few bad points, or None."""
     n = v["speed"].size
-    omega_t = np.abs(v["speed"] * v["torque"]) * RAD_S_PER_RPM
+    omega_t = np.abs(v["speed"] * v["torque"]) / RPM_PER_RAD_S
     big = np.maximum(np.abs(v["p_elec"]), omega_t)
     for test, bad in fails.items():
         if test in (TEST_P_ELEC_SMALL, TEST_ETA_LOW):
@@ -327,7 +326,7 @@ def suspect_units(
 def _systematic(test: str, bad: np.ndarray, v: dict[str, np.ndarray],
                 sources: dict[str, Source], ranges: dict[str, float], where: Path) -> InputError:
     n = bad.size
-    omega_t = v["speed"] * v["torque"] * RAD_S_PER_RPM
+    omega_t = v["speed"] * v["torque"] / RPM_PER_RAD_S
     if test == REASON_RANGE:
         worst, blamed = [], []
         for q, key in (("speed", "speed"), ("torque", "torque"), ("p_elec", "power")):

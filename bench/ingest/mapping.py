@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import difflib
 import json
-import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from bench.errors import InputError
+from bench.files import parse_toml, read_text
 from bench.ingest import expr
 from bench.ingest.units import ACCEPTED, QUANTITY_KIND, split_header, unit_factor, unit_problem
 
@@ -121,16 +121,15 @@ def load_mapping(path: str | Path) -> Mapping:
         (with its position), a bad ``skip_lines``, or an unknown unit.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(path, f"cannot read mapping file ({exc})") from exc
-    try:
-        raw = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
-    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise InputError(
-            path, f"not a valid mapping file ({exc})", expected="TOML or JSON"
-        ) from exc
+    text = read_text(path, what="mapping file")
+    if path.suffix.lower() == ".json":
+        try:
+            raw = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise InputError(path, f"not a valid mapping file ({exc})", line=exc.lineno,
+                             expected="TOML or JSON") from exc
+    else:
+        raw = parse_toml(text, path, what="mapping file")
     if not isinstance(raw, dict):
         raise InputError(path, "a mapping file must be a table", expected="TOML or a JSON object")
     sections: dict[str, dict[str, ColumnSpec]] = {}

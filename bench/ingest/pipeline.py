@@ -28,7 +28,7 @@ from bench.errors import InputError
 from bench.files import file_sha256
 from bench.ingest.mapping import EMPTY_MAPPING, load_mapping
 from bench.ingest.readers import CHUNK_BYTES
-from bench.ingest.session import Session, discover, load_session
+from bench.ingest.session import Session, complete_ranges, discover, load_session
 from bench.ingest.steady import DEFAULT_STEADY, SteadyConfig
 from bench.ingest.table import process_table
 from bench.ingest.timeseries import SessionOutput, process_timeseries
@@ -170,14 +170,18 @@ def ingest(
     drives: dict[str, tuple[dict | None, Path | None]] = {}  # rating, drive.toml
     for folder in discover(paths):
         s = load_session(folder)
+        drive_file = find_drive_file(folder, [Path(p) for p in paths])
+        label = "" if drive_file is None else os.path.relpath(drive_file, folder.parent)
+        rating = session_drive(s.raw, s.path, drive_file, label)
+        s, note = complete_ranges(s, rating)
+        if note is not None:
+            notify(f"bench ingest: {note}")
         if s.session_id in seen:
             raise InputError(folder, f"session {s.session_id!r} found twice",
                              expected=f"unique session ids (also in {seen[s.session_id]})")
         seen[s.session_id] = folder
         sessions.append(s)
-        drive_file = find_drive_file(folder, [Path(p) for p in paths])
-        label = "" if drive_file is None else os.path.relpath(drive_file, folder.parent)
-        drives[s.session_id] = (session_drive(s.raw, s.path, drive_file, label), drive_file)
+        drives[s.session_id] = (rating, drive_file)
 
     result = IngestResult(store_dir=store_dir)
     with store.StoreWriter(store_dir, wait=wait, notify=notify) as writer:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import date, datetime
 from pathlib import Path, PurePath
 
@@ -146,12 +146,20 @@ def _get(path: Path, raw: dict, key: str, types, allowed=None):
     return value
 
 
-#: sensor ranges assumed when session.toml gives none [rpm, N m, W]
-DEFAULT_RANGES = {"speed_range_rpm": 3000.0, "torque_range_nm": 100.0, "power_range_w": 15000.0}
+#: ``[sensors]`` keys and the drive-rating key (drum side) each defaults from
+RANGE_KEYS = {"speed_range_rpm": "max_speed_rpm", "torque_range_nm": "max_torque_nm",
+              "power_range_w": "nominal_power_w"}
+#: a sensor range the session does not state: the drive's rating times this (a sensor
+#: sized a quarter above the rating it measures, as the synthetic rated-drive campaign's)
+RANGE_OVER_RATING = 1.25
+#: the last resort when neither ``[sensors]`` nor a drive rating gives a range: the shipped
+#: synthetic campaign's drum-side sensors [rpm, N m, W], used as scales only (tare
+#: standstill, steady-window floor), never to reject a point, and said by ``bench ingest``
+ASSUMED_RANGES = {"speed": 3000.0, "torque": 100.0, "power": 15000.0}
 
 
-def _sensor_ranges(path: Path, sensors) -> dict[str, float]:
-    """``[sensors]`` ranges as finite positive floats (defaults for absent keys).
+def _sensor_ranges(path: Path, sensors) -> dict[str, float | None]:
+    """``[sensors]`` ranges as finite positive floats (None for an absent key).
 
     Raises
     ------
@@ -162,14 +170,60 @@ def _sensor_ranges(path: Path, sensors) -> dict[str, float]:
         raise InputError(path, f"bad value {sensors!r} for 'sensors'", column="sensors",
                          expected="a [sensors] table, e.g. torque_range_nm = 100.0")
     out = {}
-    for key, default in DEFAULT_RANGES.items():
-        value = sensors.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, int | float) \
-                or not math.isfinite(value) or value <= 0:
+    for key in RANGE_KEYS:
+        value = sensors.get(key)
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int | float)
+                                  or not math.isfinite(value) or value <= 0):
             raise InputError(path, f"bad sensor range {value!r}", column=f"sensors.{key}",
                              expected="a finite positive number (the sensor's full scale)")
-        out[key.split("_")[0]] = float(value)
+        out[key.split("_")[0]] = None if value is None else float(value)
     return out
+
+
+def complete_ranges(session: Session, rating: dict | None) -> tuple[Session, str | None]:
+    """The session with every sensor range: the stated ones, the others from the drive rating.
+
+    A range ``[sensors]`` does not state is :data:`RANGE_OVER_RATING` times the drive's
+    rating (``drive.toml`` or the session's own rating keys; drum side, carried to the
+    measured shaft through the gear ratio).
+
+    Returns
+    -------
+    (Session, str or None)
+        The completed session and a line saying which ranges were derived (None when
+        every range was stated).
+
+    A range neither stated nor in a drive rating is :data:`ASSUMED_RANGES`' (drum side),
+    and the line says that none was given and which keys to write.
+    """
+    ranges = dict(session.ranges)
+    derived, assumed = [], []
+    for key, rating_key in RANGE_KEYS.items():
+        q = key.split("_")[0]
+        if ranges[q] is not None:
+            continue
+        value = (rating or {}).get(rating_key)
+        into = derived if value is not None else assumed
+        if value is None:
+            value = ASSUMED_RANGES[q] / RANGE_OVER_RATING
+        if session.measured_side == "motor" and q == "speed":
+            value *= session.gear_ratio
+        elif session.measured_side == "motor" and q == "torque":
+            value /= session.gear_ratio
+        ranges[q] = RANGE_OVER_RATING * value
+        into.append(f"{key} = {ranges[q]:g}")
+    lines = []
+    if derived:
+        lines.append(f"{', '.join(derived)} taken as {RANGE_OVER_RATING:g} x the drive rating")
+    if assumed:
+        lines.append(f"no sensor range and no drive rating given for "
+                     f"{', '.join(a.split(' =')[0] for a in assumed)}: assumed "
+                     f"{', '.join(assumed)} (scales only, no point is checked against them; "
+                     "write them in [sensors] or the rating in drive.toml)")
+    if not lines:
+        return session, None
+    return (replace(session, ranges=ranges),
+            f"session {session.session_id}: " + "; ".join(lines))
 
 
 def load_session(folder: str | Path) -> Session:

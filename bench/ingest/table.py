@@ -12,13 +12,13 @@ from bench.ingest.mapping import Mapping
 from bench.ingest.readers import line_of_row, read_points_table
 from bench.ingest.session import Session
 from bench.ingest.timeseries import (
-    RAD_S_PER_RPM,
     SessionOutput,
     check_drum_torque,
     fold_signed,
     points_table,
     rejected_table,
 )
+from bench.units import RPM_PER_RAD_S
 
 #: the largest count stored exactly (float64 integers are exact up to 2**53)
 MAX_COUNT = 2**53
@@ -60,7 +60,7 @@ def process_table(session: Session, mapping: Mapping) -> SessionOutput:
     if session.signed_torque:  # torque < 0 logged in generator mode: flip speed and torque
         speed, torque = fold_signed(speed, torque)
     p_elec = frame["p_elec_w"].to_numpy()
-    omega_t = speed * torque * RAD_S_PER_RPM
+    omega_t = speed * torque / RPM_PER_RAD_S
     values = {"speed": speed, "torque": torque, "p_elec": p_elec}
     if "p_mech_w" in frame:  # only ever a mapped column (bench.ingest.mapping)
         p_mech = frame["p_mech_w"].to_numpy() * session.speed_sign * session.torque_sign

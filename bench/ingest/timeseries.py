@@ -39,8 +39,7 @@ from bench.ingest.readers import (
 from bench.ingest.scrub import NanRunCheck, TimeCheck
 from bench.ingest.session import Session
 from bench.store import POINTS_SCHEMA, REJECTED_SCHEMA, SAMPLES_SCHEMA
-
-RAD_S_PER_RPM = 2.0 * math.pi / 60.0
+from bench.units import RPM_PER_RAD_S
 
 #: samples per chunk in the second pass (about 80 bytes of arrays each) [-]
 PASS2_ROWS = 500_000
@@ -177,7 +176,7 @@ class _Bins:
             for f in self.extra:
                 out[f] = self.sums[f][:n_bins] / self.sums[f + "_n"][:n_bins]
         # product of bin means: enough for the alignment; points use exact sample means
-        out["p_mech"] = out["speed"] * out["torque"] * RAD_S_PER_RPM
+        out["p_mech"] = out["speed"] * out["torque"] / RPM_PER_RAD_S
         # runs of bins without a valid sample longer than the gap threshold are gaps too
         edges = np.diff(np.concatenate(([0], (valid == 0).astype(np.int8), [0])))
         r0, r1 = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
@@ -401,7 +400,7 @@ def process_timeseries(
                 torque = np.fromfile(fhs["torque"], np.float64, rows_per_chunk) - offset
                 if session.signed_torque:
                     speed, torque = fold_signed(speed, torque)
-                p_mech = speed * torque * RAD_S_PER_RPM
+                p_mech = speed * torque / RPM_PER_RAD_S
                 if single:
                     p_elec = np.fromfile(fhs["p_elec"], np.float64, rows_per_chunk)
                 else:

@@ -17,6 +17,8 @@ from __future__ import annotations
 import math
 import re
 
+from bench.units import RPM_PER_RAD_S
+
 #: our unit per quantity (the unit in the store's column name)
 TARGET_UNIT: dict[str, str] = {
     "time": "s",
@@ -25,7 +27,6 @@ TARGET_UNIT: dict[str, str] = {
     "power": "W",
 }
 
-_RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
 _NM_PER_LBF_FT = 1.3558179483314004  # 1 lbf ft = 0.3048 m * 4.4482216152605 N
 _NM_PER_LBF_IN = _NM_PER_LBF_FT / 12.0
 
@@ -38,7 +39,7 @@ _UNITS: dict[str, list[tuple[str, float]]] = {
     "speed": [
         ("rpm", 1.0), ("1/min", 1.0), ("U/min", 1.0), ("r/min", 1.0), ("rev/min", 1.0),
         ("min^-1", 1.0), ("min-1", 1.0), ("min⁻¹", 1.0), ("krpm", 1e3),
-        ("rad/s", _RPM_PER_RAD_S),
+        ("rad/s", RPM_PER_RAD_S),
     ],
     "torque": [
         ("N m", 1.0), ("Nm", 1.0), ("N·m", 1.0), ("N*m", 1.0), ("N.m", 1.0),

@@ -1,4 +1,4 @@
-"""Foreign bench exports with a known truth, for the mapping features (issue 10 finding 5).
+"""Foreign bench exports with a known truth, for the mapping features.
 
 - :func:`make_dyno_table`: a small dyno's operating-point table: tab separated,
   a title line and a date line before the header, torque in ``N mm``, both
@@ -15,12 +15,11 @@ the drum-frame truth of every row and the loss coefficients (:func:`loss_w`).
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 
-RAD_S_PER_RPM = 2.0 * math.pi / 60.0
+from bench.units import RPM_PER_RAD_S
 
 
 def loss_w(speed_rpm, torque_nm, c0: float, c_speed: float, c_torque: float):
@@ -31,7 +30,7 @@ def loss_w(speed_rpm, torque_nm, c0: float, c_speed: float, c_torque: float):
 def true_eta(speed_rpm, torque_nm, loss: tuple[float, float, float]) -> np.ndarray:
     """True efficiency of the fixture drive (paper eqs. 1-2: motor p_mech / p_elec, generator
     p_elec / p_mech), NaN at zero mechanical power."""
-    p_mech = np.asarray(speed_rpm) * np.asarray(torque_nm) * RAD_S_PER_RPM
+    p_mech = np.asarray(speed_rpm) * np.asarray(torque_nm) / RPM_PER_RAD_S
     p_elec = p_mech + loss_w(speed_rpm, torque_nm, *loss)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(p_mech > 0, p_mech / p_elec, np.where(p_mech < 0, p_elec / p_mech, np.nan))
@@ -56,7 +55,7 @@ def make_dyno_table(root: Path, sid: str = "dyno_01", seed: int = 11) -> dict[st
     speed = np.array([s * n for s in (1.0, -1.0) for n in (500.0, 1000.0, 2000.0, 3000.0)
                       for _ in range(4)])
     torque = rng.uniform(0.5, 6.0, speed.size)
-    p_mech = speed * torque * RAD_S_PER_RPM
+    p_mech = speed * torque / RPM_PER_RAD_S
     p_elec = p_mech + loss_w(speed, torque, 15.0, 2e-6, 0.8)
     folder = root / sid
     folder.mkdir(parents=True)
@@ -78,7 +77,7 @@ def make_dyno_table(root: Path, sid: str = "dyno_01", seed: int = 11) -> dict[st
 
 def ev_envelope_nm(speed_rpm, max_torque_nm: float = 300.0, max_power_w: float = 150e3):
     """Torque envelope [N m]: constant torque to the base speed, constant power above it."""
-    w = np.abs(np.asarray(speed_rpm)) * RAD_S_PER_RPM
+    w = np.abs(np.asarray(speed_rpm)) / RPM_PER_RAD_S
     with np.errstate(divide="ignore"):
         return np.minimum(max_torque_nm, max_power_w / w)
 
@@ -99,7 +98,7 @@ def make_ev_table(root: Path, sid: str = "ev_01", p_elec_by: str = "expr", n_col
             for f in (0.15, 0.4, 0.7, 0.95)]
     speed = np.array([n for n, _ in grid])
     torque = np.array([f for _, f in grid]) * ev_envelope_nm(speed)
-    p_mech = speed * torque * RAD_S_PER_RPM
+    p_mech = speed * torque / RPM_PER_RAD_S
     p_elec = p_mech + loss_w(speed, torque, 400.0, 2e-5, 0.04)
     u_dc = 400.0 + rng.normal(0.0, 2.0, speed.size)
     i_dc = p_elec / u_dc
@@ -162,7 +161,7 @@ def make_two_wattmeter_table(root: Path, sid: str = "aron_01", channels: int = 2
     rng = np.random.default_rng(seed)
     speed = rng.uniform(300.0, 3000.0, n) * np.where(np.arange(n) % 2 == 0, 1.0, -1.0)
     torque = rng.uniform(2.0, 16.0, n)
-    p_mech = speed * torque * RAD_S_PER_RPM
+    p_mech = speed * torque / RPM_PER_RAD_S
     loss = (60.0, 1e-5, 0.6)
     p_elec = p_mech + loss_w(speed, torque, *loss)
     phi = np.deg2rad(rng.uniform(-35.0, 12.0, n)) + np.where(p_elec < 0, np.pi, 0.0)
@@ -208,14 +207,14 @@ def make_hobby_dyno_table(root: Path, sid: str = "hobby_01", seed: int = 23,
     speed = np.repeat(np.linspace(500.0, 4000.0, 19), 18)
     torque = np.tile(np.linspace(0.05, 6.0, 18), 19)
     speed = speed + rng.normal(0.0, 2.0, speed.size)
-    p_mech = speed * torque * RAD_S_PER_RPM
+    p_mech = speed * torque / RPM_PER_RAD_S
     loss = 4.0 + 0.002 * speed + 0.8e-6 * speed**2 + 40.0 * torque**2
     p_elec = p_mech + loss + rng.normal(0.0, 0.5, speed.size)
     row = -1
     if outlier:
         row = 7 * 18 + 1
         speed[row], torque[row], p_elec[row] = 1811.0, 0.0004, 322.0
-        p_mech[row] = speed[row] * torque[row] * RAD_S_PER_RPM
+        p_mech[row] = speed[row] * torque[row] / RPM_PER_RAD_S
     folder = root / sid
     folder.mkdir(parents=True)
     rows = ["Hobby dyno run 7", "Nr\tn [1/min]\tM [N mm]\tP_el [W]"]

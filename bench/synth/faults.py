@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bench.synth.loss_model import RPM_TO_RAD_S
+from bench.units import RPM_PER_RAD_S
 
 HUNTING = "brake hunting"
 DRIFT = "torque drift"
@@ -200,7 +200,7 @@ def speed_torque_offsets(f: Faults, k: np.ndarray, tau_s: np.ndarray, inertia_kg
         d_speed[hunt] = amp * (1.0 - decay) * np.sin(w * t)
         d_accel[hunt] = amp * (decay / f.config.hunting_rise_s * np.sin(w * t)
                                + (1.0 - decay) * w * np.cos(w * t))
-        d_torque[hunt] = -inertia_kg_m2 * d_accel[hunt] * RPM_TO_RAD_S
+        d_torque[hunt] = -inertia_kg_m2 * d_accel[hunt] / RPM_PER_RAD_S
     drift = f.drift_rate_nm_s[k] > 0.0
     if drift.any():
         d_torque[drift] -= f.drift_rate_nm_s[k[drift]] * np.maximum(

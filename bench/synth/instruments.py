@@ -12,9 +12,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
-from bench.synth.loss_model import RPM_TO_RAD_S, LossModel
+from bench.synth.loss_model import LossModel
 from bench.synth.plan import GEAR_RATIO, SessionSpec
 from bench.synth.timeseries import Segments, true_signals
+from bench.units import RPM_PER_RAD_S
 
 #: the overflow value many instruments write for an invalid reading
 OVERFLOW = 9.91e37
@@ -244,6 +245,6 @@ def averaged_table(seg: Segments, truth: dict, spec: SessionSpec, rng: np.random
         "torque_std_nm": scatter(inst.torque_noise_nm, n_daq),
         "p_elec_w": p_elec,
         "p_elec_std_w": scatter(sd_p, n_an),
-        "p_mech_w": speed * RPM_TO_RAD_S * torque,
+        "p_mech_w": speed / RPM_PER_RAD_S * torque,
         "n_samples": n_daq,
     }

@@ -15,7 +15,7 @@ the winding temperature ``theta`` (alpha_cu = 0.00393 / K for copper). The windi
 temperature follows a first-order thermal model driven by the losses
 (:func:`theta_step`). The core coefficients ``c0..c3`` are calibrated
 (:func:`calibrate_core`) so that an ordinary least-squares fit of the paper's four
-terms to the campaign's operating points returns REFERENCE.md's ``a0..a3``.
+terms to the campaign's operating points returns the paper's ``a0..a3`` (docs/paper_figures.md §1).
 """
 
 from __future__ import annotations
@@ -25,7 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: paper Table I / REFERENCE.md section 1, rpm convention: a0 [W], a1 [W/rpm^2],
+from bench.units import RPM_PER_RAD_S
+
+#: paper Table I (docs/paper_figures.md §1), rpm convention: a0 [W], a1 [W/rpm^2],
 #: a2 [W/(N m)^2], a3 [W/(rpm N m)]
 PAPER_QUADRATIC: tuple[float, float, float, float] = (
     293.5816373499238,
@@ -34,7 +36,6 @@ PAPER_QUADRATIC: tuple[float, float, float, float] = (
     0.1078628659825,
 )
 
-RPM_TO_RAD_S = np.pi / 30.0
 
 
 @dataclass(frozen=True)
@@ -164,7 +165,7 @@ def true_p_elec_w(
     n = np.asarray(speed_rpm, dtype=float)
     t = np.asarray(torque_nm, dtype=float)
     theta = model.theta_ref_c if theta_c is None else np.asarray(theta_c, dtype=float)
-    omega = n * RPM_TO_RAD_S
+    omega = n / RPM_PER_RAD_S
     k_cu = model.alpha_cu_per_k * model.copper_share
     core = (
         model.c0_w
@@ -182,7 +183,7 @@ def true_p_elec_w(
 
 def loss_w(speed_rpm, torque_nm, theta_c, model: LossModel = DEFAULT_MODEL) -> np.ndarray:
     """Heat dissipated in the drive (electrical minus mechanical power, fan excluded) [W]."""
-    omega = np.asarray(speed_rpm, dtype=float) * RPM_TO_RAD_S
+    omega = np.asarray(speed_rpm, dtype=float) / RPM_PER_RAD_S
     p_elec = true_p_elec_w(speed_rpm, torque_nm, theta_c, model)
     return p_elec - omega * np.asarray(torque_nm, dtype=float) - fan_power_w(theta_c, model)
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bench.drive import DriveRating
-from bench.synth.loss_model import RPM_TO_RAD_S
+from bench.units import RPM_PER_RAD_S
 
 MOTOR_SPEED_RPM = (50.0, 1500.0)
 GENERATOR_SPEED_RPM = (30.0, 3000.0)  # magnitudes; drum speed is negative
@@ -27,7 +27,7 @@ DRIVE = DriveRating(
     nominal_power_w=8200.0,
     max_speed_rpm=MOTOR_SPEED_RPM[1],
     max_torque_nm=TORQUE_MAX_NM,
-    source="Stuyts et al. 2015, section III-B (REFERENCE.md section 1): 8.2 kW Siemens "
+    source="Stuyts et al. 2015, section III-B: 8.2 kW Siemens "
            "Simotics PMSM with a 1:3 gearbox; the nominal motor torque and the gearbox's "
            "maximum speed, 78 N m and 1500 rpm on the drum side, are the drive constraints",
 )
@@ -143,7 +143,7 @@ def torque_levels_nm(mode: str, speed_rpm: float, n_torques: int) -> np.ndarray:
     """
     top = TORQUE_MAX_NM
     if mode == "generator":
-        top = min(top, GENERATOR_POWER_MAX_W / (abs(speed_rpm) * RPM_TO_RAD_S))
+        top = min(top, GENERATOR_POWER_MAX_W / (abs(speed_rpm) / RPM_PER_RAD_S))
     return np.linspace(TORQUE_MIN_NM, top, n_torques)
 
 

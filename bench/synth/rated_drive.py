@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-RPM_TO_RAD_S = np.pi / 30.0
+from bench.units import RPM_PER_RAD_S
 
 
 @dataclass(frozen=True)
@@ -45,11 +45,11 @@ class TruthDrive:
     @property
     def base_speed_rpm(self) -> float:
         """Speed above which the drive is power limited [rpm]."""
-        return self.nominal_power_w / self.max_torque_nm / RPM_TO_RAD_S
+        return self.nominal_power_w / self.max_torque_nm * RPM_PER_RAD_S
 
     def torque_limit_nm(self, speed_rpm) -> np.ndarray:
         """The envelope: ``min(T_max, P_nom / |omega|)`` [N m]."""
-        w = np.abs(np.asarray(speed_rpm, dtype=float)) * RPM_TO_RAD_S
+        w = np.abs(np.asarray(speed_rpm, dtype=float)) / RPM_PER_RAD_S
         with np.errstate(divide="ignore"):
             return np.minimum(self.max_torque_nm, self.nominal_power_w / w)
 
@@ -62,19 +62,19 @@ class TruthDrive:
 
     def p_elec_w(self, speed_rpm, torque_nm) -> np.ndarray:
         """True electrical power [W] (positive drawn from the grid)."""
-        p_mech = np.asarray(speed_rpm, float) * RPM_TO_RAD_S * np.asarray(torque_nm, float)
+        p_mech = np.asarray(speed_rpm, float) / RPM_PER_RAD_S * np.asarray(torque_nm, float)
         return p_mech + self.loss_w(speed_rpm, torque_nm)
 
     def eta(self, speed_rpm, torque_nm) -> np.ndarray:
         """True efficiency by paper eqs. 1 and 2 [-]."""
-        p_mech = np.asarray(speed_rpm, float) * RPM_TO_RAD_S * np.asarray(torque_nm, float)
+        p_mech = np.asarray(speed_rpm, float) / RPM_PER_RAD_S * np.asarray(torque_nm, float)
         p_elec = self.p_elec_w(speed_rpm, torque_nm)
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(p_mech > 0, p_mech / p_elec, p_elec / p_mech)
 
 
 #: The 150 kW, 12000 rpm class of the EV export (base speed 4000 rpm).
-EV_DRIVE = TruthDrive(150_000.0, 12_000.0, 150_000.0 / (4000.0 * RPM_TO_RAD_S))
+EV_DRIVE = TruthDrive(150_000.0, 12_000.0, 150_000.0 / (4000.0 / RPM_PER_RAD_S))
 #: The paper's 8.2 kW drive rating with the same loss shape.
 PAPER_DRIVE = TruthDrive(8200.0, 1500.0, 78.0)
 
@@ -109,7 +109,7 @@ def grid_points(drive: TruthDrive, quadrants=("motor", "generator"), *, n_speeds
             t.append(np.linspace(min_torque_frac * drive.max_torque_nm, top, n_torques))
         speed = np.concatenate(s) * (1.0 if q == "motor" else -1.0)
         torque = np.concatenate(t)
-        p_mech = speed * RPM_TO_RAD_S * torque
+        p_mech = speed / RPM_PER_RAD_S * torque
         p_true = drive.p_elec_w(speed, torque)
         frames.append(pd.DataFrame({
             "session_id": f"{q}_01", "point_id": np.arange(speed.size, dtype="int32"),

@@ -20,7 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from bench.synth.faults import Faults, speed_torque_offsets
-from bench.synth.loss_model import RPM_TO_RAD_S, LossModel, loss_w, theta_step, true_p_elec_w
+from bench.synth.loss_model import LossModel, loss_w, theta_step, true_p_elec_w
+from bench.units import RPM_PER_RAD_S
 
 
 @dataclass(frozen=True)
@@ -245,7 +246,7 @@ def true_signals(seg: Segments, time_s, model: LossModel, dyn: Dynamics = DEFAUL
     torque = np.maximum(seg.torque_nm[k] + tail_t + d_t, 0.0)
     speed[standstill] = accel_rpm_s[standstill] = torque[standstill] = 0.0
     theta = theta_step(seg.theta_start_c[k], seg.loss_w[k], seg.ambient_c, tau, model)
-    inertial = dyn.inertia_kg_m2 * speed * accel_rpm_s * RPM_TO_RAD_S**2
+    inertial = dyn.inertia_kg_m2 * speed * accel_rpm_s * RPM_PER_RAD_S**-2
     p_elec = true_p_elec_w(speed, torque, theta, model) + inertial
     return {"speed_rpm": speed, "torque_nm": torque, "theta_c": theta, "p_elec_w": p_elec}
 
@@ -265,6 +266,6 @@ def window_means(seg: Segments, model: LossModel, dyn: Dynamics = DEFAULT_DYNAMI
     sig = true_signals(seg, times.ravel(), model, dyn)
     out = {name: sig[name].reshape(times.shape).mean(axis=1)
            for name in ("speed_rpm", "torque_nm", "p_elec_w", "theta_c")}
-    p_mech = (sig["speed_rpm"] * sig["torque_nm"]).reshape(times.shape) * RPM_TO_RAD_S
+    p_mech = (sig["speed_rpm"] * sig["torque_nm"]).reshape(times.shape) / RPM_PER_RAD_S
     out["p_mech_w"] = p_mech.mean(axis=1)
     return out

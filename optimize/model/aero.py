@@ -1,4 +1,4 @@
-"""Aerodynamic forces and moments of the rigid-wing kite (REFERENCE.md §2, paper app. B).
+"""Aerodynamic forces and moments of the rigid-wing kite (docs/paper_figures.md §2, paper app. B).
 
 Pure functions of CasADi expressions (``SX``/``MX``) or numbers (``DM``). Frames:
 world NED (wind along +x), body x forward, y right wing, z down. ``R`` maps body

@@ -14,12 +14,11 @@ from typing import Any, Protocol
 
 import numpy as np
 
-#: conversion of rad/s to rpm
-RPM_PER_RAD_S = 60.0 / (2.0 * np.pi)
+from bench.units import RPM_PER_RAD_S
 
 
 class DriveModel(Protocol):
-    """What the OCP needs from a drive power model (``fitting.model_file.PowerModel``)."""
+    """What the OCP needs from a drive power model (``fitting.power_model.PowerModel``)."""
 
     def casadi_p_elec_w(self, speed_rpm: Any, torque_nm: Any) -> Any:
         """Electrical power drawn from the grid [W] (CasADi expression)."""
@@ -93,7 +92,7 @@ def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
 
     Parameters
     ----------
-    base : fitting.model_file.PowerModel
+    base : fitting.power_model.PowerModel
     speed_ratio, torque_ratio : float
         ``k_n``, ``k_T`` > 0 [-].
     drive : dict, optional
@@ -105,7 +104,7 @@ def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
 
     Returns
     -------
-    fitting.model_file.PowerModel
+    fitting.power_model.PowerModel
     """
     k_n, k_t = float(speed_ratio), float(torque_ratio)
     if not (math.isfinite(k_n) and k_n > 0 and math.isfinite(k_t) and k_t > 0):

@@ -1,4 +1,6 @@
-"""Tethered rigid-wing kite DAE in non-minimal coordinates (paper eqs. 6-8, REFERENCE.md §2).
+"""Tethered rigid-wing kite DAE in non-minimal coordinates (paper eqs. 6-8).
+
+Parameters and conventions: docs/paper_figures.md §2.
 
 States ``x`` (24): position ``r`` [m] and velocity ``v`` [m/s] of the CG in the
 world NED frame, the body-to-world DCM ``R`` (9 entries, column-major), body

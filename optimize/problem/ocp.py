@@ -26,7 +26,7 @@ from optimize.model.kite_model import KiteDae
 from optimize.problem.collocation import Collocation, radau
 from optimize.problem.formulation import DEG, PARAM_NAMES, Formulation
 from optimize.problem.guess import LoopGuess, start_loop
-from optimize.problem.options import OcpOptions
+from optimize.problem.options import OcpOptions, with_drive_rating
 from optimize.problem.scaling import Scales, system_scales
 from optimize.problem.transcription import Layout, Transcription, radau_collocation
 
@@ -180,9 +180,10 @@ def build_ocp(
     dae : KiteDae
         The kite model (:func:`optimize.model.kite_model.kite_dae`).
     drive_model : DriveModel
-        Electrical power model of the drive (``fitting.model_file.PowerModel``).
+        Electrical power model of the drive (``fitting.power_model.PowerModel``).
     options : OcpOptions, optional
-        Discretization, limits and solver; defaults to :class:`OcpOptions`.
+        Discretization, limits and solver; defaults to :class:`OcpOptions`. Drive
+        limits it leaves open are the power model's rating (``drive_model.drive``).
     system : optimize.system.system.System, optional
         The system ``dae`` and ``options.limits`` come from (recorded on the OCP;
         the stored initial guess is accepted only for its own system).
@@ -193,7 +194,7 @@ def build_ocp(
         The NLP with its layout and base bounds; solvers are created lazily.
     """
     t0 = time.perf_counter()
-    o = options or OcpOptions()
+    o = with_drive_rating(options or OcpOptions(), drive_model)
     lim, disc = o.limits, o.discretization
     loop = start_loop(dae.kite, dae.coeffs, dae.wind, lim.alpha_bounds_deg[1],
                       lim.min_airspeed_m_s, lim.period_bounds_s, lim.tether_length_bounds_m,

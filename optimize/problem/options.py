@@ -4,7 +4,8 @@
   degree, the control regularization that keeps the discretized controls smooth).
 * :class:`Limits`: the physical bounds of one system and its drive. They come from
   the system file (:meth:`optimize.system.system.System.ocp_options`); the defaults
-  here are the shipped ``highwind.toml`` system's values.
+  here are the shipped ``highwind.toml`` system's kite bounds, and the drive's limits
+  default to the power model's own rating (:func:`with_drive_rating`).
 * :class:`SolverOptions`: which NLP solver runs and how (tolerances, warm starts,
   linear solver, the stored initial guess).
 
@@ -75,13 +76,15 @@ class Limits:
         Bounds on the tether length [m].
     min_altitude_m : float
         Lowest CG altitude above ground [m] (the system's ground clearance).
-    max_speed_rpm, max_torque_nm : float
-        Drive limits of the constrained scenarios at the motor shaft [rpm], [N m].
+    max_speed_rpm, max_torque_nm : float or None
+        Drive limits of the constrained scenarios at the motor shaft [rpm], [N m];
+        ``None``: the power model's rating (:func:`with_drive_rating`).
     max_p_elec_w : float or None
         Limit of the electrical power drawn or fed [W] in the constrained
         scenarios (rows only when set).
-    nominal_power_w : float
-        The drive's nominal power [W]: the objective's scale.
+    nominal_power_w : float or None
+        The drive's nominal power [W]: the objective's scale; ``None``: the power
+        model's.
     max_rms_torque_nm : float or None
         Continuous rating of the drive: the RMS motor torque over the cycle,
         ``sqrt(mean_t T^2)``, at most this in the constrained scenarios [N m]
@@ -103,10 +106,10 @@ class Limits:
     period_bounds_s: tuple[float, float] = (1.0, 20.0)
     tether_length_bounds_m: tuple[float, float] = (1.0, 500.0)
     min_altitude_m: float = 2.0
-    max_speed_rpm: float = 1500.0
-    max_torque_nm: float = 78.0
+    max_speed_rpm: float | None = None
+    max_torque_nm: float | None = None
     max_p_elec_w: float | None = None
-    nominal_power_w: float = 8200.0
+    nominal_power_w: float | None = None
     max_rms_torque_nm: float | None = None
     min_airspeed_m_s: float = 10.0
     alpha_bounds_deg: tuple[float, float] = (-4.5, 8.5)
@@ -159,10 +162,8 @@ class SolverOptions:
         IPOPT linear solver.
     mumps_pivot_order : int
         MUMPS fill-reducing ordering (0 AMD, 2 AMF, 4 PORD, 6 QAMD, 7 automatic).
-        AMD halves the cost of an iteration on this NLP against the automatic
-        choice: at 40 intervals, warm solves took 2.2-3.7 s (0.07-0.12 s per
-        iteration) against 4.9-5.7 s (0.16-0.20 s), over three runs of three
-        transitions on 2 idle cores; cold start 26-30 s against 37 s.
+        AMD makes an iteration on this NLP cheaper than the automatic choice
+        (measured by ``benchmarks/optimize_solve.py``, figures in benchmarks/README.md).
     """
 
     solver: str = "ipopt"
@@ -227,3 +228,29 @@ class OcpOptions:
             groups[name] = types[name](**{k: tuple(v) if isinstance(v, list) else v
                                           for k, v in values.items()})
         return cls(**groups)
+
+
+#: the drive limits :class:`Limits` may leave to the power model's rating
+DRIVE_LIMITS = ("max_speed_rpm", "max_torque_nm", "nominal_power_w")
+
+
+def with_drive_rating(options: OcpOptions, drive_model: Any) -> OcpOptions:
+    """``options`` with the drive limits it leaves open (``None``) from the power model's
+    rating (``drive_model.drive``; the nominal power also from ``nominal_power_w``).
+
+    Raises
+    ------
+    ValueError
+        A limit left open that the power model does not state either.
+    """
+    lim = options.limits
+    open_keys = [k for k in DRIVE_LIMITS if getattr(lim, k) is None]
+    if not open_keys:
+        return options
+    rating = dict(getattr(drive_model, "drive", None) or {})
+    rating.setdefault("nominal_power_w", getattr(drive_model, "nominal_power_w", None))
+    missing = [k for k in open_keys if rating.get(k) is None]
+    if missing:
+        raise ValueError(f"drive limits {', '.join(missing)}: not in the OCP options and not "
+                         "in the power model's rating (give the system's drive)")
+    return options.replace(limits={k: float(rating[k]) for k in open_keys})

@@ -6,8 +6,8 @@ lengths from the start loop's tether length ``L``, times from its period
 ``T``, speeds from its flight speed ``V``, forces from the weight ``m g``,
 moments from that times the chord, power from the drive's nominal power,
 torque rows from the torque limit. The dimensionless factors below were chosen
-so that the paper's kite gets the magnitudes it was tuned with (issue 4:
-100 m, 30 m/s, 100 N, 10 N m, 5 s, 1 kW, 100 N m).
+so that the paper's kite gets the magnitudes the first version of this OCP was
+tuned with (100 m, 30 m/s, 100 N, 10 N m, 5 s, 1 kW, 100 N m).
 """
 
 from __future__ import annotations

@@ -20,7 +20,7 @@ class Scenario:
         Maximize the average generated electrical power (through the drive
         model) or the average generated mechanical power.
     drive_limits : bool
-        Apply the drive limits (|speed| <= 1500 rpm, torque <= 78 N m).
+        Apply the drive limits (speed, torque, and the RMS and grid-power limits when set).
     """
 
     wind_speed_m_s: float

@@ -39,10 +39,8 @@ def _single_threaded_blas() -> None:
 
     OpenBLAS reads ``OPENBLAS_NUM_THREADS`` when it loads, which casadi does on the
     first IPOPT solver with MUMPS. On this NLP (about 6,100 variables) a second BLAS
-    thread only spins, and the sweep already runs one solver per core. Measured with
-    ``benchmarks/optimize_sweep_benchmark.py`` on 2 idle cores: the 2-worker sweep went
-    from 111 s to 91 s, the median warm solve from 6.5 s to 4.9 s, and system time
-    from 180 s to 27 s.
+    thread only spins, and the sweep already runs one solver per core (measured with
+    ``benchmarks/optimize_sweep_benchmark.py``, figures in benchmarks/README.md).
     """
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 

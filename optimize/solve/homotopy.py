@@ -1,4 +1,4 @@
-"""Initialization without a stored solution: the homotopy of issue 4.
+"""Initialization without a stored solution: a homotopy from a circular loop.
 
 Stages (each one IPOPT call, logged with status, iterations and wall time):
 
@@ -6,14 +6,14 @@ Stages (each one IPOPT call, logged with status, iterations and wall time):
    fictitious forces and moments initialised to the guess's exact residual
    (so the dynamics hold at the start), lightly penalized.
 2. ``penalize-1``, ``penalize-10``, ``penalize-100``: the same with the
-   fictitious forces penalized with a rising weight (warm starts). The issue's
-   prototype went 1 then 100; the intermediate 10 cut the total iterations
-   at N = 40 from 198 to 173 (mechanical) and 206 to 181 (electrical).
+   fictitious forces penalized with a rising weight (warm starts). Going 1
+   then 100 takes more iterations than with the intermediate 10
+   (benchmarks/README.md).
 3. ``power``: fictitious forces fixed at zero, period free, the scenario's
    power objective and drive limits.
 
 A stage that fixes the fictitious forces at zero while still tracking is
-deliberately absent (it stalled for 400 s in the issue's prototype).
+deliberately absent: it stalls.
 """
 
 from __future__ import annotations

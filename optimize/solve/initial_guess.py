@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from bench.files import atomic_path
-from fitting.model_file import paper_model
 from optimize.model.kite_model import kite_dae
+from optimize.paper_model import paper_model
 from optimize.problem.ocp import Ocp, build_ocp
 from optimize.problem.options import OcpOptions
 from optimize.problem.scenario import Scenario

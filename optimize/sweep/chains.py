@@ -24,8 +24,9 @@ import traceback
 from dataclasses import dataclass
 from typing import Any, Protocol
 
+from optimize.kinds import KINDS
 from optimize.problem.scenario import scenario_name
-from optimize.sweep.plan import KINDS, Chain, Step
+from optimize.sweep.plan import Chain, Step
 
 #: warm-started attempts per step before the cold-start fallback
 MAX_WARM_ATTEMPTS = 2
@@ -66,7 +67,7 @@ class Problem:
         ``AeroCoefficients``, ``WindModel``); ``None`` for the package defaults.
         Plain data, so the DAE is built in the worker.
     drive_model : Any
-        ``fitting.model_file.PowerModel`` (or what the backend takes).
+        ``fitting.power_model.PowerModel`` (or what the backend takes).
     options : Any
         ``OcpOptions`` (interval count, degree, solver settings).
     key : str

@@ -9,12 +9,11 @@
 * ``claims.csv``: the comparison with the paper (:mod:`optimize.analysis.claims`).
 
 Every Parquet field carries its unit in the field metadata (``{"unit": ...}``),
-derived from the unit suffix of the column name (:func:`unit_of`).
+derived from the unit suffix of the column name (:func:`bench.units.unit_of`).
 """
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Iterable
 from pathlib import Path
@@ -26,34 +25,12 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from bench.errors import InputError
-from bench.files import atomic_write, write_text_atomic
 from fitting.domain import domain_excursion
+from optimize.service import cycle_metrics
 from optimize.sweep.chains import ScenarioOutcome
 
 SCHEMA_NAME = "drivebench.optimize"
 SCHEMA_VERSION = 1
-
-#: column-name suffix -> unit, longest suffixes first
-_UNIT_SUFFIXES: tuple[tuple[str, str], ...] = (
-    ("_rad_s2", "rad/s^2"),
-    ("_rad_s", "rad/s"),
-    ("_m_s3", "m/s^3"),
-    ("_m_s2", "m/s^2"),
-    ("_m_s", "m/s"),
-    ("_n_m", "N/m"),
-    ("_m2_s", "m^2/s"),
-    ("_m2", "m^2"),
-    ("_rpm", "rpm"),
-    ("_deg", "deg"),
-    ("_rad", "rad"),
-    ("_nm", "N m"),
-    ("_kg", "kg"),
-    ("_m", "m"),
-    ("_s", "s"),
-    ("_n", "N"),
-    ("_w", "W"),
-    ("_j", "J"),
-)
 
 #: summary columns, in order, with their meaning (unit from the name)
 SUMMARY_COLUMNS: dict[str, str] = {
@@ -99,6 +76,11 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "outside_worst_distance": "its distance to the domain in (speed / max_speed_rpm, "
                               "torque / max_torque_nm) [-]; 0 when the cycle stays inside",
 }
+#: the columns every reader of ``summary.parquet`` relies on (``bench aep``, ``bench size``,
+#: ``bench report``); the others are read where present
+SUMMARY_REQUIRED = ("scenario", "kind", "objective", "drive_limits", "wind_speed_m_s",
+                    "success", "status", "avg_p_elec_w", "avg_p_mech_w", "period_s",
+                    "peak_speed_rpm", "peak_torque_nm")
 #: the metric columns (NaN for a failed scenario)
 _METRICS = list(SUMMARY_COLUMNS)[list(SUMMARY_COLUMNS).index("period_s") :]
 #: active bounds the constrained scenarios mean to bind
@@ -112,23 +94,14 @@ SYSTEM_META_KEYS = ("drivebench.system_name", "drivebench.system_sha256",
                     "drivebench.system_toml")
 
 
-def unit_of(column: str) -> str:
-    """Unit of a column from its name suffix (``torque_nm`` -> ``N m``); ``""`` if none."""
-    if column.startswith("dcm_"):
-        return "1"
-    for suffix, unit in _UNIT_SUFFIXES:
-        if column.endswith(suffix):
-            return unit
-    return ""
-
-
 def _trajectory_metrics(traj: pd.DataFrame) -> dict[str, float]:
     def col(name: str) -> np.ndarray:
         return traj[name].to_numpy(dtype=float)
 
+    peaks = cycle_metrics(traj)
     return {
-        "peak_speed_rpm": float(np.max(np.abs(col("speed_rpm")))),
-        "peak_torque_nm": float(np.max(col("torque_nm"))),
+        "peak_speed_rpm": peaks["peak_speed_rpm"],
+        "peak_torque_nm": peaks["peak_torque_nm"],
         "p_elec_max_w": float(np.max(col("p_elec_w"))),
         "p_elec_min_w": float(np.min(col("p_elec_w"))),
         "tether_length_min_m": float(np.min(col("l_m"))),
@@ -239,52 +212,13 @@ def trajectories_frame(outcomes: Iterable[ScenarioOutcome]) -> pd.DataFrame:
     return pd.concat(parts, ignore_index=True)
 
 
-def write_parquet(
-    frame: pd.DataFrame, path: Path, descriptions: dict[str, str] | None = None,
-    system: dict | None = None,
-) -> Path:
-    """Write ``frame`` with each field's unit (and description, if given) in its metadata.
-
-    ``system`` (``System.record()``) goes into the schema metadata under
-    :data:`SYSTEM_META_KEYS`: name, hash and the system file's text.
-    """
-    table = pa.Table.from_pandas(frame, preserve_index=False)
-    fields = []
-    for f in table.schema:
-        meta = {"unit": unit_of(f.name)}
-        if descriptions and f.name in descriptions:
-            meta["description"] = descriptions[f.name]
-        fields.append(f.with_metadata(meta))
-    meta = dict(table.schema.metadata or {})
-    if system is not None:
-        for key, value in zip(SYSTEM_META_KEYS, (system["name"], system["sha256"],
-                                                 system["text"]), strict=True):
-            meta[key.encode()] = str(value).encode("utf-8")
-    table = table.cast(pa.schema(fields, metadata=meta))
-    return atomic_write(path, lambda tmp: pq.write_table(table, tmp))
-
-
-def write_json(data: dict, path: Path) -> Path:
-    """Write ``data`` as indented JSON (NaN becomes null)."""
-    text = json.dumps(_json_safe(data), indent=2, allow_nan=False) + "\n"
-    return write_text_atomic(path, text)
-
-
-def write_csv(frame: pd.DataFrame, path: Path) -> Path:
-    """Write ``frame`` as CSV (no index)."""
-    return atomic_write(path, lambda tmp: frame.to_csv(tmp, index=False))
-
-
-def _json_safe(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {str(k): _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
+def system_metadata(system: dict | None) -> dict[str, str]:
+    """Parquet schema metadata recording the system (``System.record()``) under
+    :data:`SYSTEM_META_KEYS`: name, hash and the system file's text."""
+    if system is None:
+        return {}
+    return {key: str(system[field]) for key, field in
+            zip(SYSTEM_META_KEYS, ("name", "sha256", "text"), strict=True)}
 
 
 # ------------------------------------------------------------------ reading back
@@ -300,7 +234,7 @@ def read_summary(path: Path) -> pd.DataFrame:
     Raises
     ------
     InputError
-        If the file is missing, unreadable or lacks a column of :data:`SUMMARY_COLUMNS`.
+        If the file is missing, unreadable or lacks a column of :data:`SUMMARY_REQUIRED`.
     """
     path = Path(path)
     try:
@@ -311,9 +245,9 @@ def read_summary(path: Path) -> pd.DataFrame:
         ) from exc
     except (OSError, pa.ArrowException) as exc:
         raise InputError(path, f"not a readable Parquet file ({exc})") from exc
-    missing = [c for c in SUMMARY_COLUMNS if c not in frame.columns]
+    missing = [c for c in SUMMARY_REQUIRED if c not in frame.columns]
     if missing:
         raise InputError(
-            path, "missing summary column", column=missing[0], expected=", ".join(SUMMARY_COLUMNS)
+            path, "missing summary column", column=missing[0], expected=", ".join(SUMMARY_REQUIRED)
         )
     return frame

@@ -26,22 +26,15 @@ import math
 from dataclasses import dataclass
 
 from bench.errors import InputError
+from optimize.kinds import KINDS
 from optimize.problem.scenario import scenario_name
 
-#: scenario kind -> (objective, drive limits on)
-KINDS: dict[str, tuple[str, bool]] = {
-    "elec-lim": ("electrical", True),
-    "elec-free": ("electrical", False),
-    "mech-lim": ("mechanical", True),
-    "mech-free": ("mechanical", False),
-}
 DEFAULT_WIND_GRID = "4:10:1.5"
-DEFAULT_KINDS = "elec-lim,elec-free,mech-lim,mech-free"
 #: a generous bound on the number of wind speeds (each is one solve per kind)
 MAX_WIND_SPEEDS = 200
 #: plausible wind speeds at 100 m [m/s], checked before any solve: from a light air in
 #: which no kite flies to the 25 m/s cut-out wind of IEC 61400-1 that ends wind-energy
-#: operation (the paper sweeps 4 to 10 m/s, REFERENCE.md); a speed outside is a typo
+#: operation (the paper sweeps 4 to 10 m/s); a speed outside is a typo
 #: (200 for 20) that would cost minutes of failing solves
 WIND_RANGE_M_S = (1.0, 25.0)
 

@@ -3,7 +3,7 @@
 * **Mesh check** (:func:`mesh_check`): the same scenario on an OCP with twice
   the intervals, warm-started from the coarse solution (primal values and
   bound multipliers) interpolated onto the fine grid; reports the relative
-  change of the average electrical and mechanical power. Issue 4 asks for
+  change of the average electrical and mechanical power; it should be
   less than 1 %.
 * **Simulation check** (:func:`simulation_check`): the optimal controls
   (piecewise constant per interval) are integrated with CasADi's CVODES

@@ -44,7 +44,7 @@ class DriveInForce:
     ----------
     rating : DriveRating
         The limits and nominal power in force.
-    model : fitting.model_file.PowerModel
+    model : fitting.power_model.PowerModel
         The losses at this rating (the OCP's power model; carried when scaled).
     model_path : Path
         The power model file the losses were read from.
@@ -86,7 +86,7 @@ class DriveInForce:
 def loss_model_path(system: Any, override: Path | None = None,
                     fit_default: Path | None = None) -> tuple[Path, str]:
     """The power model file that gives the losses, and why (see the module docstring)."""
-    from fitting.model_file import PAPER_MODEL_PATH
+    from optimize.paper_model import PAPER_MODEL_PATH
 
     if override is not None:
         return Path(override), "--drive-model"
@@ -156,7 +156,7 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
         ``--drive-model``: the losses' file, whatever the system file says.
     fit_default : Path, optional
         ``bench fit``'s output, used when it exists and the file names no losses.
-    model : fitting.model_file.PowerModel, optional
+    model : fitting.power_model.PowerModel, optional
         The losses already loaded (from ``override``; for library callers).
 
     Raises

@@ -1,4 +1,4 @@
-"""Physical parameters of the kite, its aerodynamics and the wind (REFERENCE.md §2).
+"""Physical parameters of the kite, its aerodynamics and the wind (docs/paper_figures.md §2).
 
 Every field carries its unit and source in ``dataclasses.field(metadata=...)``.
 ``from_dict`` builds a parameter set from a plain mapping and rejects unknown
@@ -13,9 +13,10 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
-_SRC_KITE = "REFERENCE.md §2 (rawesome rawe/models/betty_conf.py)"
-_SRC_AERO = "REFERENCE.md §2 (rawesome betty_conf.py; per-degree values times 180/pi)"
-_SRC_WIND = "REFERENCE.md §2 (rawesome crosswind.py wind_shear)"
+_SRC_KITE = "ghorn/rawesome rawe/models/betty_conf.py (docs/paper_figures.md §2)"
+_SRC_AERO = ("ghorn/rawesome rawe/models/betty_conf.py; per-degree values times 180/pi "
+             "(docs/paper_figures.md §2)")
+_SRC_WIND = "ghorn/rawesome rawe/models/crosswind.py wind_shear (docs/paper_figures.md §2)"
 
 _DEG = 180.0 / math.pi  # converts a per-degree derivative into a per-radian one
 
@@ -64,10 +65,11 @@ class KiteParams:
     j3_kg_m2: float = _f(0.723, "kg m^2", _SRC_KITE)
     j31_kg_m2: float = _f(0.0, "kg m^2", _SRC_KITE)
     tether_cd_per_m: float = _f(
-        0.25 * 0.001, "m (C_D_tether * sref / l)", "REFERENCE.md §2: C_D += 0.25*l*0.001/sref"
+        0.25 * 0.001, "m (C_D_tether * sref / l)",
+        "ghorn/rawesome (docs/paper_figures.md §2): C_D += 0.25*l*0.001/sref"
     )
-    r_winch_m: float = _f(0.1, "m", "REFERENCE.md §1 (winch drum radius)")
-    gear_ratio: float = _f(1.0, "-", "REFERENCE.md §1 (drive on the drum shaft)")
+    r_winch_m: float = _f(0.1, "m", "docs/paper_figures.md §1 (winch drum radius)")
+    gear_ratio: float = _f(1.0, "-", "docs/paper_figures.md §1 (drive on the drum shaft)")
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> KiteParams:

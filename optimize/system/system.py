@@ -10,10 +10,10 @@ systems live in ``optimize/data/systems/`` (:func:`shipped_system_path`);
 
 A :class:`System` turns into the model's parameter sets
 (:meth:`System.kite_params`, :meth:`System.aero_coefficients`,
-:meth:`System.wind_model`) and into the OCP's physical limits
-(:meth:`System.ocp_limits`). It is hashed on its parsed content
-(:attr:`System.sha256`, comments and key order do not count), which is part of
-the NLP cache key and of the stored-guess acceptance.
+:meth:`System.wind_model`), into the drive limits (:meth:`System.drive_limits`)
+and into the OCP's options with the file's bounds (:meth:`System.ocp_options`). It
+is hashed on its parsed content (:attr:`System.sha256`, comments and key order do
+not count), which is part of the NLP cache key and of the stored-guess acceptance.
 """
 
 from __future__ import annotations
@@ -22,7 +22,6 @@ import dataclasses
 import hashlib
 import json
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -30,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from bench.errors import InputError
+from bench.files import parse_toml, read_text
 from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 
 #: folder of the shipped system files (package data)
@@ -410,16 +410,8 @@ def load_system(path: str | Path | None = None) -> System:
     Raises
     ------
     InputError
-        File missing or not TOML, or any key wrong (named with the file).
+        File missing, not UTF-8 or not TOML, or any key wrong (named with the file).
     """
     path = Path(path) if path is not None else shipped_system_path()
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise InputError(path, f"cannot read the system file: {exc.strerror or exc}",
-                         expected="a readable TOML system file") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(path, f"not valid TOML: {exc}", expected="a TOML system file") from None
-    return system_from_dict(data, str(path), text)
+    text = read_text(path, what="system file")
+    return system_from_dict(parse_toml(text, path, what="system file"), str(path), text)

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pandas as pd
 
-#: REFERENCE.md §1, paper Table I: P_elec = a0 + a1 w^2 + a2 T^2 + a3 w T (rpm, N m, W).
+#: docs/paper_figures.md §1, paper Table I: P_elec = a0 + a1 w^2 + a2 T^2 + a3 w T (rpm, N m, W).
 PAPER_A = (293.5816373499238, 0.0003931623408, 0.0665919381751, 0.1078628659825)
 
 

@@ -20,8 +20,8 @@ from fitting.efficiency import (
     peak_points,
     point_uncertainty,
 )
-from fitting.model_file import paper_model
 from fitting.points import quadrant_of
+from optimize.paper_model import paper_model
 
 RULES = MaskingRules(nominal_power_w=8200.0, mech_frac=0.02, elec_frac=0.02)  # 164 W
 
@@ -117,7 +117,7 @@ def test_band_shares_and_peak_on_the_paper_model():
         assert peaks[q]["measured"]["eta"] <= 1.0
         # noise-free points: the ceiling is the measured maximum itself
         assert peaks[q]["map"]["eta"] <= peaks[q]["measured"]["eta"] + 1e-12
-    # REFERENCE.md §1: eta_gen at -1500 rpm, 78 N m about 0.90 (11.04 of 12.25 kW)
+    # docs/paper_figures.md §1: eta_gen at -1500 rpm, 78 N m about 0.90 (11.04 of 12.25 kW)
     node = m[(m["speed_rpm"] == -1500) & (m["torque_nm"] == 78)]
     assert node["eta_fit"].item() == pytest.approx(11.04 / 12.25, abs=0.005)
     assert node["eta"].item() == pytest.approx(11.04 / 12.25, abs=0.005)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from fitting.loss_table import read_loss_table, write_loss_table
-from fitting.model_file import paper_model
+from optimize.paper_model import paper_model
 
 
 def test_loss_table_of_the_paper_model(tmp_path):
@@ -18,12 +18,12 @@ def test_loss_table_of_the_paper_model(tmp_path):
     np.testing.assert_array_equal(torques, np.arange(0, 79, 2))
     a0, a1, a2, a3 = 293.5816373499238, 0.0003931623408, 0.0665919381751, 0.1078628659825
     for s, t in ((-1500, 78), (1500, 78), (0, 0), (-500, 40)):
-        p_elec = a0 + a1 * s**2 + a2 * t**2 + a3 * s * t  # REFERENCE.md §1 by hand
+        p_elec = a0 + a1 * s**2 + a2 * t**2 + a3 * s * t  # docs/paper_figures.md §1 by hand
         p_mech = s * 2 * math.pi / 60 * t
         i, j = np.flatnonzero(speeds == s)[0], np.flatnonzero(torques == t)[0]
         # cells are written with 3 decimals
         assert losses[i, j] == pytest.approx(p_elec - p_mech, abs=1e-3)
-    # REFERENCE.md: at -1500 rpm, 78 N m the drive loses 12.25 - 11.04 = 1.21 kW
+    # docs/paper_figures.md §1: at -1500 rpm, 78 N m the drive loses 12.25 - 11.04 = 1.21 kW
     assert losses[0, -1] == pytest.approx(1215.6, abs=1.0)
     header = [ln for ln in path.read_text().splitlines() if ln.startswith("#")]
     text = "\n".join(header)

@@ -110,3 +110,26 @@ def test_fit_peak_line_keeps_small_torques():
                "efficiency": {"band_shares": [], "peak": {"motor": {"map": {
                    "eta": 0.5, "speed_rpm": 2125.0, "torque_nm": 0.32}}}}}
     assert "at 2125 rpm, 0.32 N m (map)" in format_summary(summary, "out")
+
+
+@pytest.mark.parametrize("shift", [0.0, 0.03])
+def test_repeatability_of_two_sessions_at_the_same_setpoints(shift):
+    from fitting.efficiency import MaskingRules, repeatability
+
+    speed = np.repeat([500.0, 1000.0, 1500.0], 4)
+    torque = np.tile([20.0, 40.0, 60.0, 78.0], 3)
+    p_mech = speed * torque * 2 * np.pi / 60
+    p_elec = p_mech + 300 + 0.05 * torque**2
+    frame = pd.DataFrame({
+        "session_id": ["a"] * 12 + ["b"] * 12,
+        "speed_rpm": np.concatenate([speed, speed + 2.0]),  # 2 rpm apart: one setpoint
+        "torque_nm": np.concatenate([torque, torque]),
+        "p_mech_w": np.concatenate([p_mech, (speed + 2.0) * torque * 2 * np.pi / 60]),
+        "p_elec_w": np.concatenate([p_elec, p_elec * (1 + shift)]),
+        "quadrant": "motor"})
+    out = repeatability(frame, MaskingRules(8200.0))
+    assert out["n_pairs"] == 12  # each setpoint once, across the sessions only
+    # a 3 % higher p_elec lowers eta by ~3 % (> 2 x sqrt(2) x 0.28 % combined u); the
+    # 2 rpm offset alone changes eta by < 0.2 % (within it)
+    assert out["n_disagreeing"] == (12 if shift else 0)
+    assert ("note" in out) == bool(shift)

@@ -11,10 +11,11 @@ from bench.cli import main
 from bench.errors import InputError
 from fitting.domain import quadrant_envelopes
 from fitting.model_check import check_physics, physics_problems
-from fitting.model_file import paper_model, save_power_model
+from fitting.model_file import save_power_model
 from fitting.points import quadrant_of
 from fitting.power_fit import fit_power_model
 from fitting.terms import full_polynomial
+from optimize.paper_model import paper_model
 
 A0, A1, A2, A3 = paper_model().coefficients_rpm
 
@@ -28,7 +29,7 @@ def _with(coefs, domain="keep"):
 
 
 def test_paper_model_passes():
-    """Paper Table I: losses 293.6 W + ... > 0 over the bench range (REFERENCE.md section 1)."""
+    """Paper Table I: losses 293.6 W + ... > 0 over the bench range (docs/paper_figures.md §1)."""
     assert physics_problems(paper_model()) == []
     assert physics_problems(_with(paper_model().coefficients_rpm, domain=None),
                             limits=(1500.0, 78.0)) == []

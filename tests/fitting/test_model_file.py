@@ -10,13 +10,9 @@ import numpy as np
 import pytest
 
 from bench.errors import InputError
-from fitting.model_file import (
-    PAPER_MODEL_PATH,
-    PowerModel,
-    load_power_model,
-    paper_model,
-    save_power_model,
-)
+from fitting.model_file import load_power_model, save_power_model
+from fitting.power_model import PowerModel
+from optimize.paper_model import PAPER_MODEL_PATH, paper_model
 
 
 def _odd_model() -> PowerModel:
@@ -42,7 +38,7 @@ def _odd_model() -> PowerModel:
 
 
 def test_reference_sanity_values():
-    # REFERENCE.md §1: at -1500 rpm, 78 N m the drive delivers 11.04 kW of 12.25 kW
+    # docs/paper_figures.md §1: at -1500 rpm, 78 N m the drive delivers 11.04 kW of 12.25 kW
     # shaft power; at -50 rpm, 78 N m it still draws about +279 W. The reference
     # quotes 4 significant digits, hence rtol 1e-3 (and 1 W for the 279 W value).
     m = paper_model()
@@ -205,7 +201,7 @@ def test_version_1_file_loads_without_drive(tmp_path):
 
 
 def test_paper_model_states_its_drive():
-    # REFERENCE.md §1: 8.2 kW, drive constraints |speed| <= 1500 rpm, torque <= 78 N m
+    # docs/paper_figures.md §1: 8.2 kW, drive constraints |speed| <= 1500 rpm, torque <= 78 N m
     drive = paper_model().drive
     assert (drive["nominal_power_w"], drive["max_speed_rpm"], drive["max_torque_nm"]) == (
         8200.0, 1500.0, 78.0)

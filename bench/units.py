@@ -1,0 +1,53 @@
+"""The units of drivebench's quantities: the rpm <-> rad/s factor and the unit of
+a column from its name.
+
+Columns carry their unit in the name's suffix (``speed_rpm``, ``torque_nm``,
+``p_elec_w``; docs/schemas.md); :func:`unit_of` reads it back for the Parquet
+field metadata every stage writes (:func:`bench.files.write_parquet`).
+"""
+
+from __future__ import annotations
+
+import math
+
+#: rpm per rad/s: ``speed_rpm = speed_rad_s * RPM_PER_RAD_S`` (60 / 2 pi)
+RPM_PER_RAD_S = 30.0 / math.pi
+
+#: column-name suffix -> unit, longest match first where suffixes overlap
+UNIT_SUFFIXES: tuple[tuple[str, str], ...] = (
+    ("_pct_nominal", "% of nominal power"),
+    ("_rad_s2", "rad/s^2"),
+    ("_rad_s", "rad/s"),
+    ("_m_s3", "m/s^3"),
+    ("_m_s2", "m/s^2"),
+    ("_m_s", "m/s"),
+    ("_n_m", "N/m"),
+    ("_m2_s", "m^2/s"),
+    ("_m2", "m^2"),
+    ("_rpm", "rpm"),
+    ("_deg", "deg"),
+    ("_rad", "rad"),
+    ("_nm", "N m"),
+    ("_kg", "kg"),
+    ("_m", "m"),
+    ("_s", "s"),
+    ("_n", "N"),
+    ("_w", "W"),
+    ("_j", "J"),
+)
+#: dimensionless columns whose names carry no suffix
+DIMENSIONLESS = ("eta", "eta_fit", "eta_low", "eta_high", "area_share", "r2")
+
+
+def unit_of(column: str) -> str:
+    """Unit of a column from its name (``torque_nm`` -> ``"N m"``); ``""`` if it has none.
+
+    Direction-cosine entries (``dcm_*``) and the names of :data:`DIMENSIONLESS`
+    are ``"1"``.
+    """
+    if column.startswith("dcm_") or column in DIMENSIONLESS:
+        return "1"
+    for suffix, unit in UNIT_SUFFIXES:
+        if column.endswith(suffix):
+            return unit
+    return ""

@@ -1,0 +1,426 @@
+"""The stages of the ``bench`` pipeline as Python functions (docs/python_api.md).
+
+Each function does what its ``bench`` command does, writes the same files into
+its output folder (docs/schemas.md) and returns a typed result instead of a
+printed table:
+
+============ ============================== ==========================================
+function     ``bench`` command              returns
+============ ============================== ==========================================
+:func:`ingest`   ``bench ingest``           :class:`fitting.points.OperatingPoints`
+:func:`fit`      ``bench fit``              :class:`fitting.power_model.PowerModel`
+:func:`optimize` ``bench optimize``         :class:`Sweep`
+:func:`aep`      ``bench aep``              :class:`AepResult`
+:func:`size`     ``bench size``             :class:`SizeResult`
+============ ============================== ==========================================
+
+Bad input raises :class:`bench.errors.InputError` (the command line turns it into
+exit code 2). Nothing here prints; progress bars are off unless asked for.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from bench.errors import InputError
+from optimize.kinds import KINDS
+
+#: the paper's wind grid [m/s] at the reference height
+PAPER_WINDS_M_S = (4.0, 5.5, 7.0, 8.5, 10.0)
+
+
+def ingest(paths: str | Path | Sequence[str | Path], store: str | Path = "bench_store", *,
+           mapping: str | Path | None = None, workers: int = 2, progress: bool = False) -> Any:
+    """Ingest bench campaigns or sessions into the store; the store's operating points.
+
+    Parameters
+    ----------
+    paths : path or list of paths
+        Campaign or session folders (docs/schemas.md §1).
+    store : path
+        The store folder (created when missing; sessions already stored and
+        unchanged are skipped).
+    mapping : path, optional
+        A mapping file for foreign column names (docs/bring_your_own_export.md).
+    workers : int
+        Sessions ingested in parallel.
+    progress : bool
+        Show progress bars.
+
+    Returns
+    -------
+    fitting.points.OperatingPoints
+        Every point of the store (``.frame``: ``speed_rpm``, ``torque_nm``,
+        ``p_mech_w``, ``p_elec_w``, ``quadrant``, ...), checked as ``bench fit`` reads them.
+    """
+    from bench.ingest.pipeline import ingest as ingest_sessions
+    from fitting.points import load_points
+
+    paths = [paths] if isinstance(paths, str | Path) else list(paths)
+    ingest_sessions(paths, store, mapping_path=mapping, progress=progress, workers=workers,
+                    notify=lambda line: None)
+    return load_points(store)
+
+
+def fit(store: str | Path = "bench_store", out: str | Path = "fit_out", *, order: int | None = 2,
+        progress: bool = False, **options: Any) -> Any:
+    """Fit the drive's power model to the store's points and write ``bench fit``'s files.
+
+    Parameters
+    ----------
+    store : path
+        The store of :func:`ingest`.
+    out : path
+        Output folder: ``power_model.json``, the efficiency map, figures (docs/schemas.md §4).
+    order : int or None
+        Total order of the model (2: the paper's eq. 4); None selects it.
+    progress : bool
+        Show progress bars.
+    **options
+        Further fields of :class:`fitting.pipeline.FitOptions` (``folds``, ``weighting``...).
+
+    Returns
+    -------
+    fitting.power_model.PowerModel
+        The fitted model, as written to ``out/power_model.json``.
+    """
+    from fitting.model_file import load_power_model
+    from fitting.pipeline import FitOptions, run_fit
+
+    run_fit(store, out, FitOptions(order=order, command="drivebench.fit", **options),
+            progress=progress)
+    return load_power_model(Path(out) / "power_model.json")
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """The result of :func:`optimize`: the optimal cycles over the wind grid.
+
+    Attributes
+    ----------
+    folder : Path
+        The output folder (``summary.parquet``, ``trajectories.parquet``,
+        ``manifest.json``, ``claims.csv``; docs/schemas.md §5).
+    summary : pandas.DataFrame
+        One row per scenario, failed ones included with their solver status.
+    claims : pandas.DataFrame or None
+        The comparison with the paper (None when not asked for).
+    curves : dict
+        Scenario kind -> :class:`energy.curve.PowerCurve` of its converged scenarios.
+    """
+
+    folder: Path
+    summary: pd.DataFrame
+    claims: pd.DataFrame | None
+    curves: dict
+
+
+def optimize(model: Any = None, *, winds: Sequence[float] = PAPER_WINDS_M_S,
+             kinds: Sequence[str] = tuple(KINDS), system: Any = None,
+             out: str | Path = "optimize_out", n_intervals: int = 40, degree: int = 4,
+             workers: int = 2, scheduler: str | None = None, claims: bool = True,
+             progress: bool = False) -> Sweep:
+    """Optimize the pumping cycle for every scenario kind and wind speed.
+
+    Parameters
+    ----------
+    model : PowerModel or path, optional
+        The drive's power model (:func:`fit`'s result or a ``power_model.json``);
+        default the paper's model. A model object is written to
+        ``out/given_power_model.json``, which the manifest names.
+    winds : sequence of float
+        Wind speeds at the reference height [m/s].
+    kinds : sequence of str
+        Scenario kinds (keys of :data:`optimize.kinds.KINDS`).
+    system : System or path, optional
+        The system file (kite, tether, winch, wind, bounds); default the shipped
+        ``highwind.toml``.
+    out : path
+        Output folder.
+    n_intervals, degree : int
+        Collocation intervals and polynomial degree of the optimal control problem.
+    workers : int
+        Local worker processes (ignored with ``scheduler``).
+    scheduler : str, optional
+        Address of a Dask scheduler.
+    claims : bool
+        Search the cut-in wind speeds and compare with the paper.
+    progress : bool
+        Show a progress bar.
+    """
+    from energy.curve import read_optimize_run
+    from fitting.model_file import load_power_model, save_power_model
+    from fitting.power_model import PowerModel
+    from optimize.command import SweepRequest, run_optimize
+    from optimize.paper_model import PAPER_MODEL_PATH
+    from optimize.problem.options import Discretization, OcpOptions
+    from optimize.system.system import System, load_system
+
+    out = Path(out)
+    unknown = [k for k in kinds if k not in KINDS]
+    if unknown or not kinds:
+        raise InputError(None, f"scenario kinds {list(kinds)}", expected=", ".join(KINDS))
+    if model is None or isinstance(model, str | Path):
+        path = Path(model) if model is not None else PAPER_MODEL_PATH
+        model = load_power_model(path)
+    elif isinstance(model, PowerModel):
+        out.mkdir(parents=True, exist_ok=True)
+        path = save_power_model(model, out / "given_power_model.json")
+    else:
+        raise InputError(None, f"model of type {type(model).__name__}",
+                         expected="a PowerModel, a power_model.json path or None")
+    system = system if isinstance(system, System) else load_system(system)
+    request = SweepRequest(
+        tuple(float(w) for w in winds), tuple(kinds), model, path, f"drive model: {path}",
+        OcpOptions(Discretization(n_intervals=n_intervals, degree=degree)), workers, scheduler, out,
+        claims=claims, system=system)
+    outcome = run_optimize(request, ["drivebench.optimize"], show_progress=progress)
+    return Sweep(out, outcome.summary, outcome.claims, read_optimize_run(out).curves)
+
+
+@dataclass(frozen=True)
+class AepResult:
+    """The result of :func:`aep`.
+
+    Attributes
+    ----------
+    assessment : energy.assess.Assessment
+        AEP, capacity factor, bands and losses per scenario kind.
+    refined : energy.refine.RefinedRun or None
+        The refined curves and their solves (``refine=True``), else None.
+    refine_document : dict or None
+        The ``refine`` object of ``aep.json``.
+    files : dict
+        Name -> written path.
+    """
+
+    assessment: Any
+    refined: Any
+    refine_document: dict | None
+    files: dict
+
+    def table(self) -> pd.DataFrame:
+        """One row per scenario kind: AEP [MWh/yr], capacity factor, 95 % band, losses."""
+        return self.assessment.table()
+
+
+def aep(sweep: Sweep | str | Path, site: Any, *, out: str | Path = "aep_out",
+        site_note: str | None = None, site_uncertainty: Any = None, shear: Any = None,
+        drive_model: str | Path | None = None, nominal_power_w: float | None = None,
+        refine: bool = False, refine_tol: float | None = None, refine_max_points: int = 25,
+        workers: int = 2, scheduler: str | None = None, progress: bool = False,
+        command_line: Sequence[str] = ("drivebench.aep",)) -> AepResult:
+    """Annual energy of the sweep's power curves at a site, and ``bench aep``'s files.
+
+    Parameters
+    ----------
+    sweep : Sweep or path
+        :func:`optimize`'s result or a ``bench optimize`` output folder.
+    site : energy.site.Weibull or energy.site.Histogram
+        Wind-speed distribution at the sweep's reference height
+        (:meth:`energy.site.Weibull.from_mean`, :func:`energy.site.rayleigh`,
+        :func:`energy.site.read_histogram_csv`).
+    out : path
+        Output folder (``aep.json``, ``power_curves.csv``, awesIO files; docs/schemas.md §7).
+    site_note : str, optional
+        How the site was given, for the outputs (default its description).
+    site_uncertainty : energy.assess.SiteUncertainty, optional
+        One-sigma errors of a Weibull site's parameters.
+    shear : energy.site.Shear, optional
+        The wind profile (default the sweep's system's ``[wind]``).
+    drive_model : path, optional
+        The power model file (default the one the sweep's manifest names).
+    nominal_power_w : float, optional
+        Overrides the model's nominal power for the capacity factor [W].
+    refine : bool
+        Solve added wind speeds where each kind's curve bends for this site
+        (:mod:`energy.refine`, through the solve service); ``refine_tol``,
+        ``refine_max_points``, ``workers``, ``scheduler`` and ``progress`` apply to it.
+    command_line : sequence of str
+        Recorded in ``aep.json``.
+
+    Returns
+    -------
+    AepResult
+        ``.table()`` gives one row per scenario kind.
+    """
+    import dataclasses
+    import math
+
+    from energy.assess import assess, model_for_run
+    from energy.curve import read_optimize_run
+    from energy.outputs import write_outputs
+    from energy.refine import (
+        DEFAULT_TOL,
+        refine_document,
+        refine_notes,
+        refine_run,
+        system_from_manifest,
+    )
+    from energy.site import Shear
+    from fitting.model_schema import power_model_from_dict
+
+    folder = Path(sweep.folder if isinstance(sweep, Sweep) else sweep)
+    out = Path(out)
+    run = read_optimize_run(folder)
+    if shear is None:
+        system = system_from_manifest(run.manifest, folder / "manifest.json")
+        shear = Shear() if system is None else Shear.from_system(system.wind)
+    if site_note is None:
+        site_note = f"{site.describe()} at {shear.reference_height_m:g} m"
+    refined = doc = None
+    if refine:
+        tol = DEFAULT_TOL if refine_tol is None else refine_tol
+        if not (math.isfinite(tol) and 0 < tol < 1):
+            raise InputError(None, f"--refine-tol {tol}", expected="a share in (0, 1)")
+        if refine_max_points < 2 or workers < 1:
+            raise InputError(None, "--refine-max-points < 2 or --workers < 1",
+                             expected="--refine-max-points >= 2, --workers >= 1")
+        path, model_json = model_for_run(run, drive_model)
+        if model_json is None:
+            raise InputError(path, "power model file not found (--refine solves with it)",
+                             expected="the sweep's power model, or --drive-model FILE")
+        refined = refine_run(run, power_model_from_dict(model_json, path), site,
+                             out / "solves", tol=tol, max_points=refine_max_points,
+                             workers=workers, scheduler=scheduler, show_progress=progress)
+        doc = refine_document(refined, site, tol)
+    assessment = assess(refined.run if refined else run, site, site_note,
+                        drive_model=drive_model, nominal_power_w=nominal_power_w,
+                        site_uncertainty=site_uncertainty,
+                        gradients=refined.gradients if refined else None)
+    if refined is not None:
+        assessment = dataclasses.replace(assessment,
+                                         notes=assessment.notes + refine_notes(doc))
+    files = write_outputs(assessment, refined.run if refined else run, out, list(command_line),
+                          shear, refine=doc)
+    return AepResult(assessment, refined, doc, files)
+
+
+@dataclass(frozen=True)
+class SizeResult:
+    """The result of :func:`size`.
+
+    Attributes
+    ----------
+    sizing : energy.sizing.SizingResult
+        The candidate table, every solve record, the best and the chosen candidate.
+    drive : optimize.system.drive.DriveInForce
+        The reference drive (rating and losses) the candidates are scaled from.
+    notes : tuple of str
+        What was assumed (a rating the system file does not state).
+    files : dict
+        Name -> written path.
+    """
+
+    sizing: Any
+    drive: Any
+    notes: tuple[str, ...]
+    files: dict
+
+    @property
+    def table(self) -> pd.DataFrame:
+        """One row per candidate: rated torque, AEP [MWh/yr], capacity factor..."""
+        return self.sizing.table
+
+    @property
+    def best(self) -> str | None:
+        """The candidate with the largest electrical AEP."""
+        return self.sizing.best
+
+    @property
+    def chosen(self) -> str | None:
+        """The smallest candidate within the tolerance of the best AEP."""
+        return self.sizing.chosen
+
+
+def size(site: Any, model: Any = None, *, system: Any = None,
+         fit_default: str | Path | None = None, scales: Sequence[float] = (0.5, 1.0, 2.0),
+         models: Sequence[str | Path] = (), winds: Sequence[float] = PAPER_WINDS_M_S,
+         out: str | Path = "size_out", site_note: str | None = None,
+         rated_torque_nm: float | None = None, max_speed_rpm: float | None = None,
+         overload: float | None = None, tolerance: float = 0.02, extend: int = 1,
+         adaptive: bool = False,
+         n_intervals: int = 40, degree: int = 4, workers: int = 2,
+         scheduler: str | None = None, progress: bool = False,
+         command_line: Sequence[str] = ("drivebench.size",),
+         before_solving: Any = None) -> SizeResult:
+    """Size the drive: electrical AEP at ``site`` of the system's drive scaled in torque.
+
+    Parameters
+    ----------
+    site : energy.site.Weibull or energy.site.Histogram
+        Wind-speed distribution at the reference height.
+    model : PowerModel or path, optional
+        The reference drive's losses; default the system file's, else ``fit_default``
+        when it exists, else the paper's model (:func:`optimize.system.drive.drive_in_force`).
+    system : System or path, optional
+        The system file (its ``[drive]`` is the reference rating); default the shipped
+        ``highwind.toml``.
+    fit_default : path, optional
+        ``bench fit``'s model, used when the system file names no losses.
+    scales : sequence of float
+        Torque-rating scales of the candidates (docs/schemas.md §8: the law).
+    models : sequence of paths
+        Further candidates: power-model files with their own ``drive`` rating.
+    winds : sequence of float
+        Wind speeds [m/s] solved per candidate (at least two).
+    out : path
+        Output folder (``sizing.json``, ``sizing.csv``, the resumable ``solves/``).
+    rated_torque_nm, max_speed_rpm, overload : float, optional
+        Override the reference rating's continuous torque [N m], speed limit [rpm],
+        peak-over-continuous torque [-].
+    tolerance : float
+        The chosen drive is the smallest within this share of the best AEP.
+    extend : int
+        While the best drive is the largest or smallest scale, add one beyond it and size
+        again, up to this many times (:func:`energy.sizing.size_extending`).
+    adaptive : bool
+        Refine each candidate's grid where its curve bends for the site.
+    n_intervals, degree, workers, scheduler, progress
+        As for :func:`optimize`.
+    before_solving : callable, optional
+        ``before_solving(drive, n_candidates)``, called once the candidates are made.
+    """
+    from energy.size_cli import build_candidates, edge_note, grid_hours, write_sizing
+    from energy.sizing import run_sizing, size_extending
+    from fitting.power_model import PowerModel
+    from optimize.system.drive import drive_in_force
+    from optimize.system.system import System, load_system
+
+    if len(winds) < 2:
+        raise InputError(None, f"wind speeds {list(winds)}: one gives no curve to integrate",
+                         expected="at least two wind speeds")
+    if not 0 <= tolerance < 1:
+        raise InputError(None, f"--tolerance {tolerance}", expected="a share in [0, 1)")
+    system = system if isinstance(system, System) else load_system(system)
+    if isinstance(model, PowerModel):
+        drive = drive_in_force(system, model=model)
+    else:
+        drive = drive_in_force(system, model, fit_default)
+    candidates, notes = build_candidates(drive, tuple(scales), tuple(models), rated_torque_nm,
+                                         max_speed_rpm, overload)
+    if before_solving is not None:
+        before_solving(drive, len(candidates))
+    out = Path(out)
+    result, edge, added = size_extending(
+        lambda sc: build_candidates(drive, sc, tuple(models), rated_torque_nm, max_speed_rpm,
+                                    overload)[0],
+        tuple(scales), extend,
+        lambda cands: run_sizing(cands, tuple(float(w) for w in winds), site, out, n_intervals,
+                                 degree, workers=workers, scheduler=scheduler,
+                                 show_progress=progress, tolerance=tolerance,
+                                 adaptive=adaptive, system=system))
+    edge_doc = {"best_at": edge, "added_scales": added,
+                "note": edge_note(edge, result.best, added)}
+    notes = [*notes, grid_hours(site, tuple(winds))["note"],
+             *([edge_doc["note"]] if edge_doc["note"] else [])]
+    files = write_sizing(out, result, site=site, site_note=site_note or site.describe(),
+                         drive=drive, system=system, winds=tuple(winds), adaptive=adaptive,
+                         tolerance=tolerance, notes=notes, command_line=list(command_line),
+                         edge=edge_doc)
+    return SizeResult(result, drive, tuple(notes), files)

@@ -1,0 +1,162 @@
+"""Validation of a decoded power-model file (docs/schemas.md §3) into a
+:class:`~fitting.power_model.PowerModel`, every error naming the file and field."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bench.errors import InputError
+from fitting.power_model import (
+    READ_VERSIONS,
+    SCHEMA_NAME,
+    UNITS,
+    PowerModel,
+    is_finite_number,
+)
+
+_REQUIRED_KEYS = (
+    "schema",
+    "schema_version",
+    "name",
+    "terms",
+    "coefficients",
+    "covariance",
+    "nominal_power_w",
+    "domain",
+    "masking",
+    "statistics",
+    "provenance",
+)
+_OPTIONAL_KEYS = ("units", "sign_convention")
+#: Keys of version 2 only.
+_V2_KEYS = ("drive",)
+#: Relative tolerance for the derived SI set agreeing with the rpm set on load.
+_SI_RTOL = 1e-9
+
+
+def reject_constant(name: str) -> float:
+    raise ValueError(f"non-finite number {name}")
+
+
+def power_model_from_dict(data: Any, path: str | Path | None = None) -> PowerModel:
+    """Validate a decoded power-model file and build the :class:`PowerModel`.
+
+    Parameters
+    ----------
+    data : object
+        The decoded JSON document.
+    path : str or Path, optional
+        The file it came from, named in errors.
+
+    Raises
+    ------
+    InputError
+        Unknown schema or version, missing or unknown fields, wrong shapes,
+        non-finite numbers, negative exponents, inconsistent SI coefficients.
+    """
+
+    def bad(field: str, problem: str, expected: str | None = None) -> InputError:
+        return InputError(path, f"field {field!r}: {problem}", expected=expected)
+
+    if not isinstance(data, dict):
+        raise InputError(path, "top level is not a JSON object", expected="a power model object")
+    if data.get("schema") != SCHEMA_NAME:
+        raise bad("schema", f"unknown schema {data.get('schema')!r}", repr(SCHEMA_NAME))
+    version = data.get("schema_version")
+    if version not in READ_VERSIONS or isinstance(version, bool):
+        raise bad("schema_version", f"unsupported version {version!r}",
+                  " or ".join(map(str, READ_VERSIONS)))
+    required = _REQUIRED_KEYS + (_V2_KEYS if version >= 2 else ())
+    for key in required:
+        if key not in data:
+            raise bad(key, "missing", "all of " + ", ".join(required))
+    for key in data:
+        if key not in required and key not in _OPTIONAL_KEYS:
+            raise bad(key, "unknown field" + (" (a version-2 field in a version-1 file)"
+                                              if key in _V2_KEYS else ""))
+    if "units" in data and data["units"] != UNITS:
+        raise bad("units", f"unsupported units {data['units']!r}", json.dumps(UNITS))
+
+    if not isinstance(data["name"], str):
+        raise bad("name", "not a string", "a string")
+
+    terms = data["terms"]
+    if not isinstance(terms, list) or not terms:
+        raise bad("terms", "not a non-empty list", "a list of [speed exponent, torque exponent]")
+    for k, t in enumerate(terms):
+        if (
+            not isinstance(t, list)
+            or len(t) != 2
+            or not all(isinstance(e, int) and not isinstance(e, bool) for e in t)
+        ):
+            raise bad(f"terms[{k}]", f"{t!r} is not a pair of integers", "[i, j] integers")
+        if t[0] < 0 or t[1] < 0:
+            raise bad(f"terms[{k}]", f"negative exponent in {t!r}", "exponents >= 0")
+    if len({tuple(t) for t in terms}) != len(terms):
+        raise bad("terms", "duplicate term")
+    n = len(terms)
+
+    def vector(field: str, value: Any) -> list[float]:
+        if not isinstance(value, list) or len(value) != n:
+            length = len(value) if isinstance(value, list) else type(value).__name__
+            raise bad(field, f"has {length} entries", f"a list of {n} numbers (one per term)")
+        for k, v in enumerate(value):
+            if not is_finite_number(v):
+                raise bad(f"{field}[{k}]", f"{v!r} is not a finite number", "a finite number")
+        return [float(v) for v in value]
+
+    def matrix(field: str, value: Any) -> list[list[float]]:
+        if not isinstance(value, list) or len(value) != n:
+            raise bad(field, "wrong shape", f"a {n} x {n} matrix")
+        return [vector(f"{field}[{r}]", row) for r, row in enumerate(value)]
+
+    coefs = data["coefficients"]
+    if not isinstance(coefs, dict) or set(coefs) != {"rpm", "si"}:
+        raise bad("coefficients", "not an object with exactly 'rpm' and 'si'", '{"rpm", "si"}')
+    c_rpm = vector("coefficients.rpm", coefs["rpm"])
+    c_si = vector("coefficients.si", coefs["si"])
+
+    cov_rpm = None
+    cov = data["covariance"]
+    if cov is not None:
+        if not isinstance(cov, dict) or set(cov) != {"rpm", "si"}:
+            raise bad("covariance", "not null or an object with 'rpm' and 'si'", '{"rpm", "si"}')
+        cov_rpm = matrix("covariance.rpm", cov["rpm"])
+        cov_si = matrix("covariance.si", cov["si"])
+
+    nominal = data["nominal_power_w"]
+    if not is_finite_number(nominal) or nominal <= 0:
+        raise bad("nominal_power_w", f"{nominal!r}", "a finite positive power [W]")
+    for key in ("domain", "masking", "statistics", "provenance",
+                *(_V2_KEYS if version >= 2 else ())):
+        if data[key] is not None and not isinstance(data[key], dict):
+            raise bad(key, "not an object", "an object or null")
+
+    try:
+        model = PowerModel(
+            terms=tuple(tuple(t) for t in terms),
+            coefficients_rpm=tuple(c_rpm),
+            covariance_rpm=None if cov_rpm is None else tuple(tuple(r) for r in cov_rpm),
+            nominal_power_w=nominal,
+            name=data["name"],
+            domain=data["domain"],
+            masking=data["masking"],
+            statistics=data["statistics"],
+            provenance=data["provenance"],
+            drive=data.get("drive"),
+        )
+    except ValueError as exc:
+        raise InputError(path, str(exc)) from exc
+
+    if not np.allclose(model.coefficients_si, c_si, rtol=_SI_RTOL, atol=0.0):
+        raise bad("coefficients.si", "does not match coefficients.rpm converted to rad/s",
+                  "c_si = c_rpm * (60 / (2 pi))**i")
+    if cov_rpm is not None and not np.allclose(
+        np.array(model.covariance_si), np.array(cov_si), rtol=_SI_RTOL, atol=0.0
+    ):
+        raise bad("covariance.si", "does not match covariance.rpm converted to rad/s")
+    return model

@@ -1,0 +1,266 @@
+"""The drive power model: a polynomial in drum speed and torque (paper eq. 4 generalised)::
+
+    P_elec [W] = sum_k c_k * speed**i_k * torque**j_k
+
+with term ``(i, j)`` meaning ``speed**i * torque**j``, speed in rpm for the
+``rpm`` coefficient set and in rad/s for the ``si`` set, torque in N m, both in
+the drum frame (reel-out = negative speed, torque >= 0). Positive power is drawn
+from the grid; generated power is negative.
+
+The ``rpm`` coefficients are authoritative; the ``si`` set is derived
+(``c_si = c_rpm * (60 / (2 pi))**i``). :class:`PowerModel` evaluates with numpy
+and, for the optimal control problem, as a CasADi expression
+(:mod:`fitting.power_model_casadi`); the file it is stored in is
+:mod:`fitting.model_schema` (validation) and :mod:`fitting.model_file` (reading,
+writing), docs/schemas.md §3.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from bench.drive import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS
+from bench.units import RPM_PER_RAD_S
+
+SCHEMA_NAME = "drivebench.power_model"
+#: Version written; 2 added the ``drive`` object (rating and limits of the drive).
+SCHEMA_VERSION = 2
+#: Versions read: a version-1 file loads with ``drive = None``.
+READ_VERSIONS = (1, 2)
+
+
+UNITS = {
+    "speed": {"rpm": "rpm", "si": "rad/s"},
+    "torque": "N m",
+    "power": "W",
+}
+
+SIGN_CONVENTION = (
+    "Positive electrical power is drawn from the grid; generated power is negative. "
+    "Drum frame: torque >= 0 (tether pulling), reel-out (generating) is negative speed. "
+    "Term [i, j] is speed**i * torque**j."
+)
+
+_QUADRANTS = ("motor", "generator")
+
+
+@dataclass(frozen=True)
+class PowerModel:
+    """Polynomial model of the drive's electrical power (paper eq. 4, generalised).
+
+    Parameters
+    ----------
+    terms : tuple of (int, int)
+        Exponents ``(i, j)`` of ``speed**i * torque**j`` per term.
+    coefficients_rpm : tuple of float
+        One coefficient per term, speed in rpm, torque in N m, power in W.
+    covariance_rpm : tuple of tuple of float or None
+        Covariance of ``coefficients_rpm`` (n_terms x n_terms), or None.
+    nominal_power_w : float
+        Nominal power of the drive [W], the scale of the fit statistics.
+    name : str
+        Human-readable model name.
+    domain : dict or None
+        Validity domain: ``{"motor": [[speed_rpm, torque_nm], ...], "generator": [...]}``,
+        the measured envelope polygon per quadrant (a quadrant not measured is absent).
+    masking : dict or None
+        The efficiency-map masking settings the fit was made with.
+    statistics : dict or None
+        Fit statistics (R^2, residuals, ...).
+    provenance : dict or None
+        Where the model comes from (input hash, command line, source).
+    drive : dict or None
+        The drive's rating ``{nominal_power_w, max_speed_rpm, max_torque_nm, source}``
+        (:class:`bench.drive.DriveRating`); its nominal power equals
+        ``nominal_power_w``. None for a version-1 file.
+    """
+
+    terms: tuple[tuple[int, int], ...]
+    coefficients_rpm: tuple[float, ...]
+    covariance_rpm: tuple[tuple[float, ...], ...] | None
+    nominal_power_w: float
+    name: str
+    domain: dict | None = None
+    masking: dict | None = None
+    statistics: dict | None = None
+    provenance: dict | None = None
+    drive: dict | None = None
+
+    def __post_init__(self) -> None:
+        terms = tuple((int(i), int(j)) for i, j in self.terms)
+        coefs = tuple(float(c) for c in self.coefficients_rpm)
+        object.__setattr__(self, "terms", terms)
+        object.__setattr__(self, "coefficients_rpm", coefs)
+        if self.covariance_rpm is not None:
+            cov = tuple(tuple(float(v) for v in row) for row in self.covariance_rpm)
+            object.__setattr__(self, "covariance_rpm", cov)
+        object.__setattr__(self, "nominal_power_w", float(self.nominal_power_w))
+        problem = model_problem(self)
+        if problem is not None:
+            raise ValueError(f"invalid PowerModel: {problem}")
+
+    # ----------------------------------------------------------------- SI sets
+    @property
+    def _si_scale(self) -> np.ndarray:
+        return np.array([RPM_PER_RAD_S**i for i, _ in self.terms])
+
+    @property
+    def coefficients_si(self) -> tuple[float, ...]:
+        """Coefficients for speed in rad/s (torque N m, power W)."""
+        return tuple(float(v) for v in np.array(self.coefficients_rpm) * self._si_scale)
+
+    @property
+    def covariance_si(self) -> tuple[tuple[float, ...], ...] | None:
+        """Covariance of :attr:`coefficients_si`, or None."""
+        if self.covariance_rpm is None:
+            return None
+        d = self._si_scale
+        cov = np.array(self.covariance_rpm) * np.outer(d, d)
+        return tuple(tuple(float(v) for v in row) for row in cov)
+
+    # -------------------------------------------------------------- evaluation
+    def p_elec_w(self, speed_rpm: Any, torque_nm: Any) -> np.ndarray:
+        """Electrical power [W] at drum speed [rpm] and torque [N m] (numpy, broadcasting)."""
+        return _evaluate_np(self.terms, self.coefficients_rpm, speed_rpm, torque_nm)
+
+    def p_elec_w_si(self, speed_rad_s: Any, torque_nm: Any) -> np.ndarray:
+        """Electrical power [W] at drum speed [rad/s] and torque [N m] (numpy, broadcasting)."""
+        return _evaluate_np(self.terms, self.coefficients_si, speed_rad_s, torque_nm)
+
+    def casadi_p_elec_w(self, speed_rpm: Any, torque_nm: Any) -> Any:
+        """Electrical power [W] as a CasADi expression of speed [rpm] and torque [N m].
+
+        Works for SX, MX, DM or plain floats and any term list; each power of
+        speed and torque is built once by repeated multiplication.
+        """
+        from fitting.power_model_casadi import evaluate
+
+        return evaluate(self.terms, self.coefficients_rpm, speed_rpm, torque_nm)
+
+    def casadi_p_elec_w_si(self, speed_rad_s: Any, torque_nm: Any) -> Any:
+        """Electrical power [W] as a CasADi expression of speed [rad/s] and torque [N m]."""
+        from fitting.power_model_casadi import evaluate
+
+        return evaluate(self.terms, self.coefficients_si, speed_rad_s, torque_nm)
+
+    # --------------------------------------------------------------- the file
+    def to_dict(self) -> dict:
+        """The file content (docs/schemas.md §3) as a JSON-ready dict."""
+        cov = None
+        if self.covariance_rpm is not None:
+            cov = {
+                "rpm": [list(row) for row in self.covariance_rpm],
+                "si": [list(row) for row in self.covariance_si],
+            }
+        return {
+            "schema": SCHEMA_NAME,
+            "schema_version": SCHEMA_VERSION,
+            "name": self.name,
+            "units": UNITS,
+            "sign_convention": SIGN_CONVENTION,
+            "terms": [list(t) for t in self.terms],
+            "coefficients": {
+                "rpm": list(self.coefficients_rpm),
+                "si": list(self.coefficients_si),
+            },
+            "covariance": cov,
+            "nominal_power_w": self.nominal_power_w,
+            "domain": self.domain,
+            "masking": self.masking,
+            "statistics": self.statistics,
+            "provenance": self.provenance,
+            "drive": self.drive,
+        }
+
+    @property
+    def sha256(self) -> str:
+        """SHA-256 (hex) of the canonical JSON of :meth:`to_dict` (sorted keys, no spaces)."""
+        return hashlib.sha256(_canonical_json(self.to_dict()).encode("utf-8")).hexdigest()
+
+
+# --------------------------------------------------------------------- helpers
+def _canonical_json(data: dict) -> str:
+    return json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+def powers(x: Any, n: int, one: Any) -> list:
+    out = [one]
+    for _ in range(n):
+        out.append(x if len(out) == 1 else out[-1] * x)
+    return out
+
+
+def _evaluate_np(terms, coefs, speed, torque) -> np.ndarray:
+    speed = np.asarray(speed, dtype=float)
+    torque = np.asarray(torque, dtype=float)
+    sp = powers(speed, max(i for i, _ in terms), np.ones_like(speed))
+    tq = powers(torque, max(j for _, j in terms), np.ones_like(torque))
+    total = np.zeros(np.broadcast_shapes(speed.shape, torque.shape))
+    for (i, j), c in zip(terms, coefs, strict=True):
+        total = total + c * sp[i] * tq[j]
+    return total
+
+
+def is_finite_number(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def model_problem(model: PowerModel) -> str | None:
+    """Return a description of what is wrong with a model, or None."""
+    n = len(model.terms)
+    if n == 0:
+        return "terms: at least one term expected"
+    for i, j in model.terms:
+        if i < 0 or j < 0:
+            return f"terms: exponent of term [{i}, {j}] is negative"
+    if len(set(model.terms)) != n:
+        return "terms: duplicate term"
+    if len(model.coefficients_rpm) != n:
+        return f"coefficients.rpm: {len(model.coefficients_rpm)} values for {n} terms"
+    if not all(math.isfinite(c) for c in model.coefficients_rpm):
+        return "coefficients.rpm: non-finite value"
+    if model.covariance_rpm is not None:
+        cov = model.covariance_rpm
+        if len(cov) != n or any(len(row) != n for row in cov):
+            return f"covariance.rpm: shape is not {n} x {n}"
+        if not all(math.isfinite(v) for row in cov for v in row):
+            return "covariance.rpm: non-finite value"
+    if not (math.isfinite(model.nominal_power_w) and model.nominal_power_w > 0):
+        return "nominal_power_w: a finite positive power [W] expected"
+    if not isinstance(model.name, str):
+        return "name: a string expected"
+    for field in ("domain", "masking", "statistics", "provenance", "drive"):
+        value = getattr(model, field)
+        if value is not None and not isinstance(value, dict):
+            return f"{field}: an object or null expected"
+    if model.drive is not None:
+        for key in (*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS):
+            v = model.drive.get(key)
+            if (v is not None or key in DRIVE_KEYS) and not (is_finite_number(v) and v > 0):
+                return f"drive.{key}: a finite positive number expected, got {v!r}"
+        if not isinstance(model.drive.get("source", ""), str):
+            return "drive.source: a string expected"
+        unknown = set(model.drive) - {*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS, "source"}
+        if unknown:
+            return f"drive: unknown key {sorted(unknown)[0]!r}"
+        if not math.isclose(model.drive["nominal_power_w"], model.nominal_power_w, rel_tol=1e-12):
+            return (f"drive.nominal_power_w {model.drive['nominal_power_w']!r} differs from "
+                    f"nominal_power_w {model.nominal_power_w!r}")
+    if model.domain is not None:
+        for key, poly in model.domain.items():
+            if key not in _QUADRANTS:
+                return f"domain: unknown quadrant {key!r}"
+            if not isinstance(poly, (list, tuple)) or not all(
+                isinstance(p, (list, tuple))
+                and len(p) == 2
+                and all(is_finite_number(v) for v in p)
+                for p in poly
+            ):
+                return f"domain.{key}: a list of finite [speed_rpm, torque_nm] pairs expected"
+    return None
