@@ -14,6 +14,7 @@ from pathlib import Path
 from bench.errors import InputError
 from bench.files import check_output_dir
 from optimize.kinds import DEFAULT_KINDS
+from optimize.problem.options import SOLVERS
 from optimize.sweep.plan import DEFAULT_WIND_GRID
 
 log = logging.getLogger(__name__)
@@ -69,6 +70,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=Path("optimize_out"), help="output folder")
     parser.add_argument(
         "--no-claims", action="store_true", help="skip the cut-in search and the paper comparison"
+    )
+    parser.add_argument(
+        "--solver",
+        choices=SOLVERS,
+        default="ipopt",
+        help="NLP solver: ipopt (default: IPOPT on the general sparse layout) or fatrop "
+        "(Riccati-based, on a stage-wise layout of the same NLP; see benchmarks/README.md "
+        "for how the two compare here)",
+    )
+    parser.add_argument(
+        "--linear-solver",
+        default=None,
+        metavar="NAME",
+        help="IPOPT's linear solver: mumps (default), spral, or where you installed HSL "
+        "(libhsl.so on LD_LIBRARY_PATH) ma27, ma57, ma77, ma86, ma97, or pardiso "
+        "(libpardiso.so); checked before any solve (exit 2 when IPOPT cannot load it)",
     )
     parser.add_argument(
         "--no-stored-guess",

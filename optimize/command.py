@@ -26,6 +26,7 @@ from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import parse_kinds, parse_wind_grid, plan_chains
 from optimize.sweep.trust import run_trust_checks
 from optimize.system.drive import DriveInForce, drive_in_force
+from optimize.system.plausibility import check_drive_holds_kite
 from optimize.system.system import System, load_system
 
 
@@ -86,7 +87,7 @@ class SweepRequest:
     def from_cli(cls, args: Any, fit_model_path: Path) -> SweepRequest:
         """Build the request from ``bench optimize`` arguments; bad values raise InputError."""
         from fitting.model_check import check_physics
-        from optimize.problem.options import Discretization, OcpOptions, SolverOptions
+        from optimize.problem.options import Discretization, OcpOptions
 
         winds = parse_wind_grid(args.wind_grid)
         kinds = parse_kinds(args.scenarios)
@@ -97,12 +98,15 @@ class SweepRequest:
         note += "\n" + "\n".join(drive.lines())
         try:
             options = OcpOptions(Discretization(n_intervals=args.intervals, degree=args.degree),
-                                 solver=SolverOptions(stored_guess=not args.no_stored_guess))
+                                 solver=solver_options(args))
         except ValueError as exc:
             raise InputError(None, f"OCP options: {exc}") from exc
         options = system.ocp_options(options, drive.rating)
         # an impossible model "converges" to a wrong cycle: refuse it before any solve
         check_physics(drive.model, drive.model_path, limits=domain_scales(drive.model, options))
+        check_drive_holds_kite(system, drive.rating.max_torque_nm,
+                               drive.rating.source or "the drive in force")
+        note += "\n" + system.kite_limits().describe()
         return cls(
             winds,
             kinds,
@@ -238,6 +242,7 @@ def run_optimize(
         "system": system.record(),
         "drive_limits": drive.rating.to_dict(),
         "drive": drive.record(),
+        "kite_limits": dataclasses.asdict(system.kite_limits()),
         "options": options.as_dict(),
         "executor": result.executor,
         "wall_time_s": result.wall_time_s,
@@ -252,6 +257,7 @@ def run_optimize(
             }
             for c in result.chains
         ],
+        "local_optima": outputs.resolve_lines(result.outcomes),
         "cut_in": [dataclasses.asdict(c) for c in result.cut_ins],
         "trust": trust,
         "files": {k: Path(v).name for k, v in files.items()},
@@ -267,6 +273,28 @@ def run_optimize(
         result.executor,
         files,
     )
+
+
+def solver_options(args: Any) -> Any:
+    """``SolverOptions`` of ``--solver``, ``--linear-solver`` and ``--no-stored-guess``.
+
+    Raises
+    ------
+    ValueError
+        ``--linear-solver`` with fatrop, or a linear solver IPOPT cannot load here
+        (:func:`optimize.solve.backend.check_linear_solver`).
+    """
+    from optimize.problem.options import SolverOptions
+    from optimize.solve.backend import check_linear_solver
+
+    linear = args.linear_solver
+    if linear is not None and args.solver != "ipopt":
+        raise ValueError(f"--linear-solver {linear}: only IPOPT takes a linear solver, not "
+                         f"--solver {args.solver}")
+    if linear is not None:
+        check_linear_solver(linear)
+    return SolverOptions(solver=args.solver, linear_solver=linear or "mumps",
+                         stored_guess=not args.no_stored_guess)
 
 
 def domain_scales(model: Any, options: Any) -> tuple[float, float]:
@@ -306,6 +334,19 @@ def bound_lines(summary: Any) -> list[str]:
     return lines
 
 
+def resolve_lines_of(summary: Any) -> list[str]:
+    """One line per scenario re-solved from a neighbour (summary ``resolved_from``)."""
+    if "resolved_from" not in summary.columns:
+        return []
+    lines = []
+    for r in summary.itertuples(index=False):
+        if r.resolved_from:
+            gain = (f"better by {r.resolve_gain_w:.1f} W, kept" if r.resolve_gain_w > 0
+                    else "no better optimum found")
+            lines.append(f"{r.scenario}: re-solved from {r.resolved_from}: {gain}")
+    return lines
+
+
 def format_summary(summary: Any) -> str:
     """The summary as a plain-text table (the paper's Table II analogue, and more)."""
     head = (
@@ -324,6 +365,10 @@ def format_summary(summary: Any) -> str:
     flagged = bound_lines(summary)
     if flagged:
         lines += ["", "optima on a bound or with a slack tether:", *flagged]
+    resolved = resolve_lines_of(summary)
+    if resolved:
+        lines += ["", "local optima: scenarios off their kind's smooth curve, solved again from "
+                  "a neighbour (the better optimum kept):", *resolved]
     outside = domain_lines(summary)
     if outside:
         lines += ["", "outside the drive model's validity domain (the model extrapolates there):",

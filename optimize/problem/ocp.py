@@ -28,7 +28,12 @@ from optimize.problem.formulation import DEG, PARAM_NAMES, Formulation
 from optimize.problem.guess import LoopGuess, start_loop
 from optimize.problem.options import OcpOptions, with_drive_rating
 from optimize.problem.scaling import Scales, system_scales
-from optimize.problem.transcription import Layout, Transcription, radau_collocation
+from optimize.problem.transcription import (
+    Layout,
+    Transcription,
+    radau_collocation,
+    stagewise_collocation,
+)
 
 log = logging.getLogger(__name__)
 
@@ -154,7 +159,10 @@ class Ocp:
         w[lay.i_z] = z
         w[lay.i_u] = u
         w[lay.i_f] = fict
-        return w / lay.scale_w
+        w /= lay.scale_w
+        if lay.complete is not None:  # copies and running integrals of the stage layout
+            w = np.asarray(lay.complete(w)).ravel()
+        return w
 
     def unpack(self, w_scaled: np.ndarray) -> dict[str, np.ndarray | float]:
         """Physical period, states, algebraic variables, controls, fictitious forces."""
@@ -203,13 +211,27 @@ def build_ocp(
                            lim.surface_bound_deg * DEG, lim.surface_rate_bound_rad_s)
     form = Formulation(dae, drive_model, lim, disc, scales)
     coll = radau(disc.degree)
-    tr = radau_collocation(form, disc, coll)
+    transcribe = stagewise_collocation if o.solver.solver == "fatrop" else radau_collocation
+    tr = transcribe(form, disc, coll)
     ocp = Ocp(options=o, formulation=form, coll=coll, transcription=tr, build_time_s=0.0,
               loop=loop, system=system)
     ocp.build_time_s = time.perf_counter() - t0
-    log.info("built OCP: %d variables, %d constraints, N=%d, degree %d in %.1f s",
-             tr.layout.n_w, tr.layout.n_g, disc.n_intervals, disc.degree, ocp.build_time_s)
+    log.info("built OCP (%s layout): %d variables, %d constraints, N=%d, degree %d in %.1f s",
+             tr.layout.kind, tr.layout.n_w, tr.layout.n_g, disc.n_intervals, disc.degree,
+             ocp.build_time_s)
     return ocp
+
+
+def twin(ocp: Ocp, solver: str) -> Ocp:
+    """The same problem transcribed for another solver (built once, cached on ``ocp``)."""
+    if ocp.options.solver.solver == solver:
+        return ocp
+    key = ("twin", solver)
+    if key not in ocp.solvers:
+        ocp.solvers[key] = build_ocp(ocp.dae, ocp.drive_model,
+                                     ocp.options.replace(solver={"solver": solver}),
+                                     system=ocp.system)
+    return ocp.solvers[key]
 
 
 def grid_times(ocp: Ocp, period_s: float) -> np.ndarray:

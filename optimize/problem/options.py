@@ -93,6 +93,12 @@ class Limits:
         stored initial guess of the NLP without it still fits.
     min_airspeed_m_s : float
         Lower airspeed bound [m/s].
+    max_airspeed_m_s : float or None
+        Upper airspeed bound [m/s] of every scenario kind (the kite's limit);
+        ``None`` leaves the airspeed unbounded above.
+    max_tether_force_n : float or None
+        Largest tether tension [N] of every scenario kind (the kite's and the
+        line's limit, drive limits on or off); ``None``: no limit.
     alpha_bounds_deg, beta_bounds_deg : (float, float)
         Angle-of-attack and sideslip bounds [deg].
     max_line_angle_deg : float
@@ -112,6 +118,8 @@ class Limits:
     nominal_power_w: float | None = None
     max_rms_torque_nm: float | None = None
     min_airspeed_m_s: float = 10.0
+    max_airspeed_m_s: float | None = None
+    max_tether_force_n: float | None = None
     alpha_bounds_deg: tuple[float, float] = (-4.5, 8.5)
     beta_bounds_deg: tuple[float, float] = (-9.0, 9.0)
     max_line_angle_deg: float = 65.0
@@ -124,12 +132,14 @@ class Limits:
             raise ValueError(
                 f"period_bounds_s must satisfy 0 < lo < hi, got {self.period_bounds_s}"
             )
-        if self.max_rms_torque_nm is not None and not self.max_rms_torque_nm > 0:
-            raise ValueError(f"max_rms_torque_nm must be > 0, got {self.max_rms_torque_nm}")
+        for name in ("max_rms_torque_nm", "max_airspeed_m_s", "max_tether_force_n"):
+            value = getattr(self, name)
+            if value is not None and not value > 0:
+                raise ValueError(f"{name} must be > 0, got {value}")
 
 
 #: NLP solvers the OCP can be handed to
-SOLVERS = ("ipopt",)
+SOLVERS = ("ipopt", "fatrop")
 
 
 @dataclass(frozen=True)
@@ -139,7 +149,11 @@ class SolverOptions:
     Parameters
     ----------
     solver : str
-        NLP solver (one of :data:`SOLVERS`).
+        NLP solver (one of :data:`SOLVERS`): ``"ipopt"`` (the default: IPOPT on the
+        general sparse layout) or ``"fatrop"`` (a Riccati-based interior-point solver
+        shipped with CasADi, on the stage-wise layout of the same NLP; it takes no dual
+        warm start, and on this OCP it is slower per iteration and less robust than
+        IPOPT with MUMPS, see ``benchmarks/solver_comparison.py``).
     tol : float
         Convergence tolerance (scaled problem).
     acceptable_tol : float
@@ -159,7 +173,10 @@ class SolverOptions:
         Start a scenario with no neighbouring solution from the shipped initial
         guess (:mod:`optimize.solve.initial_guess`) when it fits, instead of the homotopy.
     linear_solver : str
-        IPOPT linear solver.
+        IPOPT linear solver: ``"mumps"`` (default), ``"spral"``, or one IPOPT loads
+        at run time from the user's library (HSL ``"ma27"``, ``"ma57"``, ``"ma77"``,
+        ``"ma86"``, ``"ma97"`` from ``libhsl.so``; ``"pardiso"``); checked by
+        :func:`optimize.solve.backend.check_linear_solver`.
     mumps_pivot_order : int
         MUMPS fill-reducing ordering (0 AMD, 2 AMF, 4 PORD, 6 QAMD, 7 automatic).
         AMD makes an iteration on this NLP cheaper than the automatic choice

@@ -1,25 +1,37 @@
-"""Direct Radau collocation of the cycle OCP into one scaled NLP.
+"""Direct Radau collocation of the cycle OCP into one scaled NLP, in two layouts.
 
 Takes the :class:`optimize.problem.formulation.Formulation` (what is optimized)
 and a :class:`optimize.problem.options.Discretization` (how finely) and lays out
 the decision vector ``w``, the constraint vector ``g`` and the parameters ``p``.
-Each decision variable is stored divided by its typical magnitude.
+Each decision variable is stored divided by its typical magnitude. Both layouts
+give the same NLP (same variables up to copies, same rows up to the rows that tie
+the copies), so they have the same optima:
 
-Decision vector (scaled), in this order: one copy of the period ``T`` per
-interval (tied by equality rows, so no variable couples every interval); states at the
-``N d + 1`` grid points (interval starts and the Radau points; the last Radau
-point of an interval is the start of the next); algebraic variables at the
-``N d`` Radau points; one control per interval; fictitious forces/moments at
-the ``N d`` Radau points (homotopy only; fixed at zero otherwise).
+* :func:`radau_collocation` (``"ipopt"``), for a general sparse solver.
+  Decision vector, in this order: one copy of the period ``T`` per interval (tied
+  by equality rows, so no variable couples every interval); states at the
+  ``N d + 1`` grid points (interval starts and the Radau points; the last Radau
+  point of an interval is the start of the next); algebraic variables at the
+  ``N d`` Radau points; one control per interval; fictitious forces/moments at
+  the ``N d`` Radau points (homotopy only; fixed at zero otherwise). Constraint
+  vector: per Radau point the collocation rows of the dynamics then the
+  formulation's point rows; then the period ties, the start rows, the
+  periodicity rows and the rows on cycle averages.
+* :func:`stagewise_collocation` (``"stagewise"``), for a Riccati-based solver
+  (fatrop): the variables and rows of each interval form one stage, and stages
+  couple only through ``x_{k+1} - F(x_k, u_k) = 0``. The stage state carries,
+  besides the kite state at the interval start, the period and the cycle's start
+  state (constant along the horizon) and the running integral of the squared
+  torque, so that periodicity and the RMS-torque row are constraints of the last
+  stage.
 
-Constraint vector: per Radau point the collocation rows of the dynamics then the
-formulation's point rows; then the period ties, the start rows, the periodicity
-rows and the rows on cycle averages. :attr:`Layout.rows` finds rows by name.
+:attr:`Layout.rows` finds rows by name in either layout.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -47,6 +59,12 @@ class Layout:
     n_p: int
     i_p_ref: np.ndarray  # (NX, n_points) reference trajectory in p
     rows: dict[str, np.ndarray] = field(default_factory=dict)  # name -> indices into g
+    kind: str = "ipopt"  # which transcription: "ipopt" or "stagewise"
+    #: a function of the scaled ``w`` that sets the variables derived from others
+    #: (copies, running integrals); ``None`` when there are none but the period copies
+    complete: ca.Function | None = None
+    #: per row, whether it is an equality in every configuration (lbg == ubg)
+    equality: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
 
     def rows_of(self, name: str) -> np.ndarray:
         """Indices into ``g`` of the rows named ``name`` (empty when the NLP has none)."""
@@ -92,82 +110,77 @@ class _Rows:
         self.index.setdefault(row.name, []).extend(range(self.n, self.n + size))
         self.n += size
 
+    def merge(self, other: _Rows) -> None:
+        """Append the rows of ``other`` (in their order)."""
+        for name, idx in other.index.items():
+            self.index.setdefault(name, []).extend(i + self.n for i in idx)
+        self.exprs += other.exprs
+        self.lo += other.lo
+        self.hi += other.hi
+        self.lo_lim += other.lo_lim
+        self.hi_lim += other.hi_lim
+        self.n += other.n
 
-def radau_collocation(form: Formulation, disc: Discretization, coll: Collocation
-                      ) -> Transcription:
-    """Transcribe ``form`` by Radau collocation on ``disc.n_intervals`` intervals."""
-    sc = form.scales
-    n, d = disc.n_intervals, coll.degree
-    nx, nz, nu, nf = km.NX, km.NZ, km.NU, km.NF
-    n_points, n_coll = n * d + 1, n * d
 
-    # ---- layout of w
-    counter = iter(range(10**9))
-    i_period = np.array([next(counter) for _ in range(n)])
-    i_x = np.array([[next(counter) for _ in range(nx)] for _ in range(n_points)]).T
-    i_z = np.array([[next(counter) for _ in range(nz)] for _ in range(n_coll)]).T
-    i_u = np.array([[next(counter) for _ in range(nu)] for _ in range(n)]).T
-    i_f = np.array([[next(counter) for _ in range(nf)] for _ in range(n_coll)]).T
-    n_w = next(counter)
-    scale_w = np.ones(n_w)
-    scale_w[i_period] = sc.period_s
-    scale_w[i_x] = sc.state[:, None]
-    scale_w[i_z] = sc.algebraic[:, None]
-    scale_w[i_u] = sc.control[:, None]
-    scale_w[i_f] = sc.fictitious[:, None]
+@dataclass
+class _Sums:
+    """Running cycle averages and penalty sums of a transcription (symbolic)."""
 
+    p_elec: Any = 0
+    p_mech: Any = 0
+    torque_sq: Any = 0
+    fict: Any = 0
+    reg: Any = 0
+    track: Any = 0
+
+
+def _interval(form: Formulation, coll: Collocation, n: int, period: Any, xs: list, u: Any,
+              zs: list, fs: list, wind: Any, rows: _Rows, sums: _Sums) -> Any:
+    """Rows of one collocation interval; adds its share to ``sums``.
+
+    ``xs`` are the ``d + 1`` scaled-back states (interval start, then the Radau
+    points), ``zs`` and ``fs`` the ``d`` algebraic variables and fictitious forces.
+    Returns the interval's share of the average squared torque.
+    """
+    d = coll.degree
+    h = period / n
+    inv_sx = ca.DM(1.0 / form.scales.state)
+    sums.reg += form.control_cost(u) / n
+    torque_sq = 0
+    for j in range(1, d + 1):
+        xp = sum(coll.deriv[r, j - 1] * xs[r] for r in range(d + 1))
+        rows.add(Row("dynamics", (xp - h * form.ode(xs[j], u, zs[j - 1])) * inv_sx))
+        point = form.point(xs[j], u, zs[j - 1], fs[j - 1], wind)
+        for row in point.rows:
+            rows.add(row)
+        sums.p_elec += coll.quad[j - 1] * point.p_elec_w / n
+        sums.p_mech += coll.quad[j - 1] * point.p_mech_w / n
+        torque_sq += coll.quad[j - 1] * point.torque_sq / n
+        sums.fict += point.fict_sq / (n * d)
+    sums.torque_sq += torque_sq
+    return torque_sq
+
+
+def _params(n_points: int) -> tuple[ca.SX, dict, int, np.ndarray]:
+    """Parameter vector: :data:`PARAM_NAMES`, then the tracking reference per grid point."""
     n_par = len(PARAM_NAMES)
-    n_p = n_par + nx * n_points
-    i_p_ref = n_par + np.arange(nx * n_points).reshape(n_points, nx).T
-
-    w = ca.SX.sym("w", n_w)
+    n_p = n_par + km.NX * n_points
     p = ca.SX.sym("p", n_p)
     par = dict(zip(PARAM_NAMES, (p[i] for i in range(n_par)), strict=True))
-    ws = w * ca.DM(scale_w)
+    i_p_ref = n_par + np.arange(km.NX * n_points).reshape(n_points, km.NX).T
+    return p, par, n_p, i_p_ref
 
-    def col(idx: np.ndarray, k: int) -> ca.SX:
-        return ws[[int(i) for i in idx[:, k]]]
 
-    xs = [col(i_x, k) for k in range(n_points)]
-    zs = [col(i_z, k) for k in range(n_coll)]
-    us = [col(i_u, k) for k in range(n)]
-    fs = [col(i_f, k) for k in range(n_coll)]
+def _tracking(form: Formulation, p: ca.SX, i_p_ref: np.ndarray, xs: list) -> Any:
+    """Mean squared scaled deviation of the grid-point states from the reference."""
+    inv_sx = ca.DM(1.0 / form.scales.state)
+    return sum(ca.sumsqr(x * inv_sx - p[[int(i) for i in i_p_ref[:, k]]])
+               for k, x in enumerate(xs)) / len(xs)
 
-    rows = _Rows()
-    inv_sx = ca.DM(1.0 / sc.state)
-    p_elec_avg, p_mech_avg, reg, track, fict_pen, torque_sq_avg = 0, 0, 0, 0, 0, 0
-    for k in range(n):
-        u_k = us[k]
-        h = ws[int(i_period[k])] / n
-        reg += form.control_cost(u_k) / n
-        for j in range(1, d + 1):
-            ip = k * d + j  # grid point of this Radau point
-            ic = k * d + j - 1  # Radau point index
-            x_kj, z_kj = xs[ip], zs[ic]
-            xp = sum(coll.deriv[r, j - 1] * xs[k * d + r] for r in range(d + 1))
-            rows.add(Row("dynamics", (xp - h * form.ode(x_kj, u_k, z_kj)) * inv_sx))
-            point = form.point(x_kj, u_k, z_kj, fs[ic], par["wind_ref_m_s"])
-            for row in point.rows:
-                rows.add(row)
-            p_elec_avg += coll.quad[j - 1] * point.p_elec_w / n
-            p_mech_avg += coll.quad[j - 1] * point.p_mech_w / n
-            torque_sq_avg += coll.quad[j - 1] * point.torque_sq / n
-            fict_pen += point.fict_sq / n_coll
-    for k in range(n_points):
-        ref = p[[int(i) for i in i_p_ref[:, k]]]
-        track += ca.sumsqr(xs[k] * inv_sx - ref) / n_points
 
-    # one period copy per interval keeps the KKT matrix banded (no dense period column)
-    rows.add(Row("period_tie", ca.vertcat(*[(ws[int(i_period[k + 1])] - ws[int(i_period[k])])
-                                            / sc.period_s for k in range(n - 1)])))
-    for row in (*form.start_rows(xs[0]), *form.periodicity_rows(xs[0], xs[-1]),
-                *form.average_rows(torque_sq_avg)):
-        rows.add(row)
-
-    objective = form.objective(par, p_elec_avg, p_mech_avg, reg, track, fict_pen)
-    nlp = {"x": w, "p": p, "f": objective, "g": ca.vertcat(*rows.exprs)}
-
-    # ---- base bounds (physical, then scaled)
+def _variable_bounds(form: Formulation, n_w: int, i_period: np.ndarray, i_x: np.ndarray,
+                     i_z: np.ndarray, i_u: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Physical ``lbw, ubw`` without and with the drive limits."""
     lbw, ubw = np.full(n_w, -np.inf), np.full(n_w, np.inf)
     lbw[i_period], ubw[i_period] = form.period_bounds()
     x_lo, x_hi = form.state_bounds()
@@ -181,15 +194,195 @@ def radau_collocation(form: Formulation, disc: Discretization, coll: Collocation
     lbw_lim, ubw_lim = lbw.copy(), ubw.copy()
     for i, (lo, hi) in form.limited_state_bounds().items():
         lbw_lim[i_x[i]], ubw_lim[i_x[i]] = lo, hi
+    return lbw, ubw, lbw_lim, ubw_lim
 
+
+def _scale_w(form: Formulation, n_w: int, i_period: np.ndarray, i_x: np.ndarray,
+             i_z: np.ndarray, i_u: np.ndarray, i_f: np.ndarray) -> np.ndarray:
+    sc = form.scales
+    scale_w = np.ones(n_w)
+    scale_w[i_period] = sc.period_s
+    scale_w[i_x] = sc.state[:, None]
+    scale_w[i_z] = sc.algebraic[:, None]
+    scale_w[i_u] = sc.control[:, None]
+    scale_w[i_f] = sc.fictitious[:, None]
+    return scale_w
+
+
+def _finish(nlp: dict, layout: Layout, rows: _Rows, bounds: tuple[np.ndarray, ...]
+            ) -> Transcription:
+    lbw, ubw, lbw_lim, ubw_lim = (b / layout.scale_w for b in bounds)
+    lbg, ubg = np.array(rows.lo), np.array(rows.hi)
+    lbg_lim, ubg_lim = np.array(rows.lo_lim), np.array(rows.hi_lim)
+    layout.equality = (lbg == ubg) & (lbg_lim == ubg_lim)
+    return Transcription(nlp=nlp, layout=layout, lbw=lbw, ubw=ubw, lbg=lbg, ubg=ubg,
+                         limited=(lbw_lim, ubw_lim, lbg_lim, ubg_lim))
+
+
+def radau_collocation(form: Formulation, disc: Discretization, coll: Collocation
+                      ) -> Transcription:
+    """Transcribe ``form`` by Radau collocation on ``disc.n_intervals`` intervals
+    (the layout for a general sparse solver, see the module docstring)."""
+    sc = form.scales
+    n, d = disc.n_intervals, coll.degree
+    nx, nz, nu, nf = km.NX, km.NZ, km.NU, km.NF
+    n_points, n_coll = n * d + 1, n * d
+
+    counter = iter(range(10**9))
+    i_period = np.array([next(counter) for _ in range(n)])
+    i_x = np.array([[next(counter) for _ in range(nx)] for _ in range(n_points)]).T
+    i_z = np.array([[next(counter) for _ in range(nz)] for _ in range(n_coll)]).T
+    i_u = np.array([[next(counter) for _ in range(nu)] for _ in range(n)]).T
+    i_f = np.array([[next(counter) for _ in range(nf)] for _ in range(n_coll)]).T
+    n_w = next(counter)
+    scale_w = _scale_w(form, n_w, i_period, i_x, i_z, i_u, i_f)
+    p, par, n_p, i_p_ref = _params(n_points)
+    w = ca.SX.sym("w", n_w)
+    ws = w * ca.DM(scale_w)
+
+    def col(idx: np.ndarray, k: int) -> ca.SX:
+        return ws[[int(i) for i in idx[:, k]]]
+
+    xs = [col(i_x, k) for k in range(n_points)]
+    rows, sums = _Rows(), _Sums()
+    for k in range(n):
+        _interval(form, coll, n, ws[int(i_period[k])], xs[k * d: k * d + d + 1], col(i_u, k),
+                  [col(i_z, k * d + j) for j in range(d)],
+                  [col(i_f, k * d + j) for j in range(d)], par["wind_ref_m_s"], rows, sums)
+    sums.track = _tracking(form, p, i_p_ref, xs)
+
+    # one period copy per interval keeps the KKT matrix banded (no dense period column)
+    rows.add(Row("period_tie", ca.vertcat(*[(ws[int(i_period[k + 1])] - ws[int(i_period[k])])
+                                            / sc.period_s for k in range(n - 1)])))
+    for row in (*form.start_rows(xs[0]), *form.periodicity_rows(xs[0], xs[-1]),
+                *form.average_rows(sums.torque_sq)):
+        rows.add(row)
+
+    objective = form.objective(par, sums.p_elec, sums.p_mech, sums.reg, sums.track, sums.fict)
+    nlp = {"x": w, "p": p, "f": objective, "g": ca.vertcat(*rows.exprs)}
     layout = Layout(
         n_points=n_points, n_coll=n_coll, i_period=i_period, i_x=i_x, i_z=i_z, i_u=i_u,
         i_f=i_f, scale_w=scale_w, n_w=n_w, n_g=rows.n, n_p=n_p, i_p_ref=i_p_ref,
         rows={name: np.array(idx, dtype=int) for name, idx in rows.index.items()},
     )
-    return Transcription(
-        nlp=nlp, layout=layout, lbw=lbw / scale_w, ubw=ubw / scale_w,
-        lbg=np.array(rows.lo), ubg=np.array(rows.hi),
-        limited=(lbw_lim / scale_w, ubw_lim / scale_w, np.array(rows.lo_lim),
-                 np.array(rows.hi_lim)),
+    return _finish(nlp, layout, rows, _variable_bounds(form, n_w, i_period, i_x, i_z, i_u))
+
+
+def stagewise_collocation(form: Formulation, disc: Discretization, coll: Collocation
+                          ) -> Transcription:
+    """Transcribe ``form`` by Radau collocation in stages (the layout of a Riccati-based
+    solver such as fatrop, see the module docstring).
+
+    Stage ``k < N``: state ``x_k = (X_k, T_k, S_k[, Q_k])`` (kite state at the interval
+    start, period, the cycle's start state, running integral of the squared scaled
+    torque when the NLP has the RMS-torque row), control ``u_k = (U_k, X_k1..X_kd,
+    Z_k1..Z_kd, F_k1..F_kd)`` (control, states, algebraic variables and fictitious
+    forces at the Radau points). Rows of stage ``k``: first ``x_{k+1} - F(x_k, u_k)``
+    (``X_{k+1} = X_kd``, ``T``, ``S`` and ``Q`` carried), then the interval's rows; stage
+    0 also has the start rows and ``S_0 = X_0``. The last stage ``N`` has only a
+    state and the periodicity (``X_N`` against ``S_N``) and average rows.
+    """
+    n, d = disc.n_intervals, coll.degree
+    nx, nz, nu, nf = km.NX, km.NZ, km.NU, km.NF
+    n_points, n_coll = n * d + 1, n * d
+    rms = form.limits.max_rms_torque_nm is not None
+
+    counter = iter(range(10**9))
+
+    def take(size: int) -> np.ndarray:
+        return np.array([next(counter) for _ in range(size)])
+
+    i_x = np.zeros((nx, n_points), dtype=int)
+    i_z = np.zeros((nz, n_coll), dtype=int)
+    i_u = np.zeros((nu, n), dtype=int)
+    i_f = np.zeros((nf, n_coll), dtype=int)
+    i_start = np.zeros((nx, n + 1), dtype=int)  # S_k
+    i_next = np.zeros((nx, n), dtype=int)  # X_{k+1}, copies of the last Radau point
+    i_period = np.zeros(n + 1, dtype=int)
+    i_q = np.zeros(n + 1, dtype=int)
+    for k in range(n + 1):
+        if k == 0:
+            i_x[:, 0] = take(nx)
+        else:
+            i_next[:, k - 1] = take(nx)
+        i_period[k] = take(1)[0]
+        i_start[:, k] = take(nx)
+        if rms:
+            i_q[k] = take(1)[0]
+        if k == n:
+            break
+        i_u[:, k] = take(nu)
+        for j in range(d):
+            i_x[:, k * d + j + 1] = take(nx)
+        for j in range(d):
+            i_z[:, k * d + j] = take(nz)
+        for j in range(d):
+            i_f[:, k * d + j] = take(nf)
+    n_w = next(counter)
+    scale_w = _scale_w(form, n_w, i_period, i_x, i_z, i_u, i_f)
+    scale_w[i_start] = scale_w[i_x[:, :1]]
+    scale_w[i_next] = scale_w[i_x[:, d::d]]
+    p, par, n_p, i_p_ref = _params(n_points)
+    w = ca.SX.sym("w", n_w)
+    ws = w * ca.DM(scale_w)
+
+    def at(idx: np.ndarray) -> ca.SX:
+        return ws[[int(i) for i in np.atleast_1d(idx)]]
+
+    def stage_x(k: int) -> ca.SX:
+        return at(i_x[:, 0]) if k == 0 else at(i_next[:, k - 1])
+
+    rows, sums = _Rows(), _Sums()
+    derived: dict[int, ca.SX] = {}  # w index -> its value from the other variables (scaled)
+    q_running = 0
+    for k in range(n):
+        x_k, t_k = stage_x(k), ws[int(i_period[k])]
+        xs = [x_k] + [at(i_x[:, k * d + j]) for j in range(1, d + 1)]
+        interval_rows, interval_sums = _Rows(), sums
+        dq = _interval(form, coll, n, t_k, xs, at(i_u[:, k]),
+                       [at(i_z[:, k * d + j]) for j in range(d)],
+                       [at(i_f[:, k * d + j]) for j in range(d)], par["wind_ref_m_s"],
+                       interval_rows, interval_sums)
+        # gap-closing rows first (the identity on x_{k+1}, in the order of x_{k+1})
+        gap = [w[i_next[:, k]] - w[i_x[:, k * d + d]], w[i_period[k + 1]] - w[i_period[k]],
+               w[i_start[:, k + 1]] - w[i_start[:, k]]]
+        if rms:
+            gap.append(w[i_q[k + 1]] - w[i_q[k]] - dq)
+            q_running += dq
+            derived[int(i_q[k + 1])] = q_running
+        rows.add(Row("continuity", ca.vertcat(*gap)))
+        if k == 0:
+            for row in form.start_rows(x_k):
+                rows.add(row)
+            rows.add(Row("start_copy", w[i_start[:, 0]] - w[i_x[:, 0]]))
+        rows.merge(interval_rows)
+    for k in range(n):
+        for i, src in zip(i_next[:, k], i_x[:, k * d + d], strict=True):
+            derived[int(i)] = w[int(src)]
+    for k in range(n + 1):
+        for i, src in zip(i_start[:, k], i_x[:, 0], strict=True):
+            derived[int(i)] = w[int(src)]
+    sums.track = _tracking(form, p, i_p_ref, [at(i_x[:, k]) for k in range(n_points)])
+    x_end, start = stage_x(n), at(i_start[:, n])
+    terminal = [*form.periodicity_rows(start, x_end)]
+    if rms:
+        terminal += form.average_rows(w[int(i_q[n])])
+    for row in terminal:
+        rows.add(row)
+
+    objective = form.objective(par, sums.p_elec, sums.p_mech, sums.reg, sums.track, sums.fict)
+    nlp = {"x": w, "p": p, "f": objective, "g": ca.vertcat(*rows.exprs)}
+    filled = ca.SX(w)
+    for i, expr in derived.items():
+        filled[i] = expr
+    layout = Layout(
+        n_points=n_points, n_coll=n_coll, i_period=i_period, i_x=i_x, i_z=i_z, i_u=i_u,
+        i_f=i_f, scale_w=scale_w, n_w=n_w, n_g=rows.n, n_p=n_p, i_p_ref=i_p_ref,
+        rows={name: np.array(idx, dtype=int) for name, idx in rows.index.items()},
+        kind="stagewise", complete=ca.Function("complete", [w], [filled]),
     )
+    lbw, ubw, lbw_lim, ubw_lim = _variable_bounds(form, n_w, i_period[:1], i_x, i_z, i_u)
+    if rms:
+        for b in (lbw, ubw, lbw_lim, ubw_lim):
+            b[i_q[0]] = 0.0
+    return _finish(nlp, layout, rows, (lbw, ubw, lbw_lim, ubw_lim))

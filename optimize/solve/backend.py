@@ -1,7 +1,10 @@
 """NLP solvers of a built OCP: created once per setting, cached on the OCP, and run.
 
-The solver settings come from ``ocp.options.solver``
-(:class:`optimize.problem.options.SolverOptions`).
+The solver and its settings come from ``ocp.options.solver``
+(:class:`optimize.problem.options.SolverOptions`): IPOPT on the general sparse
+layout, with the linear solver of ``linear_solver`` (MUMPS by default; the HSL
+solvers and Pardiso are loaded by IPOPT from the user's library at run time), or
+fatrop on the stage-wise layout (:func:`optimize.problem.transcription.stagewise_collocation`).
 """
 
 from __future__ import annotations
@@ -69,50 +72,145 @@ def derivatives(ocp: Ocp) -> dict[str, ca.Function]:
     return ocp.solvers["derivatives"]
 
 
+#: linear solvers IPOPT accepts; all but MUMPS and SPRAL are loaded at run time
+IPOPT_LINEAR_SOLVERS = ("mumps", "spral", "ma27", "ma57", "ma77", "ma86", "ma97", "pardiso")
+#: the library IPOPT loads for them (found through the library path, LD_LIBRARY_PATH)
+RUNTIME_LIBRARIES = {**{f"ma{n}": "libhsl.so" for n in (27, 57, 77, 86, 97)},
+                     "pardiso": "libpardiso.so"}
+
+
+def check_linear_solver(name: str) -> None:
+    """Refuse an IPOPT linear solver that is unknown or whose library does not load.
+
+    Solves a two-variable NLP with it (milliseconds), so a missing HSL library is
+    said before any OCP is built.
+
+    Raises
+    ------
+    ValueError
+        Naming the solver, the library IPOPT looked for and how to provide it.
+    """
+    if name not in IPOPT_LINEAR_SOLVERS:
+        raise ValueError(f"unknown IPOPT linear solver {name!r}; one of "
+                         + ", ".join(IPOPT_LINEAR_SOLVERS))
+    x = ca.SX.sym("x", 2)
+    probe = ca.nlpsol("linear_solver_probe", "ipopt",
+                      {"x": x, "f": ca.sumsqr(x - 1), "g": x[0] + x[1]},
+                      {"ipopt": {"linear_solver": name, "print_level": 0, "sb": "yes"},
+                       "print_time": False, "error_on_fail": False})
+    _single_threaded_blas()
+    probe(x0=[0.0, 0.0], lbg=0.0, ubg=1.0)
+    status = str(probe.stats()["return_status"])
+    if not probe.stats()["success"]:
+        lib = RUNTIME_LIBRARIES.get(name, "its library")
+        raise ValueError(
+            f"IPOPT cannot use the linear solver {name!r} here ({status}): it loads {lib} at "
+            f"run time and did not find it. Install the library (HSL: the coinhsl package "
+            f"from licences.stfc.ac.uk) and put its folder on LD_LIBRARY_PATH, or use "
+            f"--linear-solver mumps (the default)")
+
+
 def solver(ocp: Ocp, warm: bool, bound_push: float | None = None) -> ca.Function:
-    """IPOPT solver; ``warm`` selects warm-start options (created once, then cached).
+    """The OCP's NLP solver; ``warm`` selects warm-start options (created once, then
+    cached on the OCP).
 
     ``bound_push`` overrides the solver options' ``warm_bound_push`` of a warm solver.
     """
     o = ocp.options.solver
     push = o.warm_bound_push if bound_push is None else bound_push
-    key = ("ipopt", warm, push if warm else None)
+    key = (o.solver, warm, push if warm else None)
     if key not in ocp.solvers:
         t0 = time.perf_counter()
-        ipopt = {
-            "linear_solver": o.linear_solver,
-            "mumps_pivot_order": o.mumps_pivot_order,
-            "tol": o.tol,
-            "acceptable_tol": o.acceptable_tol,
-            "acceptable_iter": 5,
-            "max_iter": o.max_iter,
-            "print_level": 0,
-            "sb": "yes",
-            # the NLP is scaled by construction; MUMPS' own scaling cost time and
-            # iterations in the measurements of benchmarks/optimize_solve.py
-            "mumps_scaling": 0,
-            "mumps_permuting_scaling": 0,
-        }
-        if warm:
-            ipopt.update(
-                {
-                    "warm_start_init_point": "yes",
-                    "mu_init": o.warm_mu_init,
-                    "warm_start_bound_push": push,
-                    "warm_start_bound_frac": push,
-                    "warm_start_slack_bound_push": push,
-                    "warm_start_slack_bound_frac": push,
-                    "warm_start_mult_bound_push": push,
-                }
-            )
-        _single_threaded_blas()
-        ocp.solvers[key] = ca.nlpsol(
-            "pumping_cycle", "ipopt", ocp.nlp,
-            {"ipopt": ipopt, "print_time": False, "error_on_fail": False, **derivatives(ocp)},
-        )
-        log.debug("created %s IPOPT solver in %.1f s", "warm" if warm else "cold",
+        make = _fatrop if o.solver == "fatrop" else _ipopt
+        ocp.solvers[key] = make(ocp, warm, push)
+        log.debug("created %s %s solver in %.1f s", "warm" if warm else "cold", o.solver,
                   time.perf_counter() - t0)
     return ocp.solvers[key]
+
+
+def _ipopt(ocp: Ocp, warm: bool, push: float) -> ca.Function:
+    """IPOPT with the OCP's linear solver on the general layout."""
+    o = ocp.options.solver
+    ipopt = {
+        "linear_solver": o.linear_solver,
+        "mumps_pivot_order": o.mumps_pivot_order,
+        "tol": o.tol,
+        "acceptable_tol": o.acceptable_tol,
+        "acceptable_iter": 5,
+        "max_iter": o.max_iter,
+        "print_level": 0,
+        "sb": "yes",
+        # the NLP is scaled by construction; MUMPS' own scaling cost time and
+        # iterations in the measurements of benchmarks/optimize_solve.py
+        "mumps_scaling": 0,
+        "mumps_permuting_scaling": 0,
+    }
+    if warm:
+        ipopt.update(
+            {
+                "warm_start_init_point": "yes",
+                "mu_init": o.warm_mu_init,
+                "warm_start_bound_push": push,
+                "warm_start_bound_frac": push,
+                "warm_start_slack_bound_push": push,
+                "warm_start_slack_bound_frac": push,
+                "warm_start_mult_bound_push": push,
+            }
+        )
+    _single_threaded_blas()
+    return ca.nlpsol(
+        "pumping_cycle", "ipopt", ocp.nlp,
+        {"ipopt": ipopt, "print_time": False, "error_on_fail": False, **derivatives(ocp)},
+    )
+
+
+def _fatrop_derivatives(ocp: Ocp) -> dict[str, ca.Function]:
+    """Objective gradient, constraint Jacobian and Lagrangian gradient and (full, symmetric)
+    Hessian in the form the fatrop interface evaluates (built once per OCP)."""
+    if "fatrop_derivatives" not in ocp.solvers:
+        x, p, f, g = ocp.nlp["x"], ocp.nlp["p"], ocp.nlp["f"], ocp.nlp["g"]
+        lam_f = ca.SX.sym("lam_f")
+        lam_g = ca.SX.sym("lam_g", g.shape[0])
+        hess, grad = ca.hessian(lam_f * f + ca.dot(lam_g, g), x)
+        ocp.solvers["fatrop_derivatives"] = {
+            "nlp_grad_f": ca.Function("nlp_grad_f", [x, p], [ca.gradient(f, x)],
+                                      ["x", "p"], ["grad_f_x"]),
+            "nlp_jac_g": ca.Function("nlp_jac_g", [x, p], [g, ca.jacobian(g, x)],
+                                     ["x", "p"], ["g", "jac_g_x"]),
+            "nlp_hess_l": ca.Function("nlp_hess_l", [x, p, lam_f, lam_g], [grad, hess],
+                                      ["x", "p", "lam_f", "lam_g"],
+                                      ["grad_gamma_x", "hess_gamma_x_x"]),
+        }
+    return ocp.solvers["fatrop_derivatives"]
+
+
+def _fatrop(ocp: Ocp, warm: bool, push: float) -> ca.Function:
+    """fatrop on the stage-wise layout, structure detected from the Jacobian."""
+    o = ocp.options.solver
+    opts = {"tol": o.tol, "tol_acceptable": o.acceptable_tol, "acceptable_iter": 5,
+            "max_iter": o.max_iter, "print_level": 0}
+    if warm:  # fatrop takes no multipliers: a warm start is the primal point, a small barrier
+        opts.update({"mu_init": o.warm_mu_init, "bound_push": push, "bound_frac": push})
+    return ca.nlpsol("pumping_cycle", "fatrop", ocp.nlp, {
+        "structure_detection": "auto",
+        "equality": [bool(e) for e in ocp.layout.equality],
+        "fatrop": opts, "print_time": False, "error_on_fail": False,
+        "cache": _fatrop_derivatives(ocp)})
+
+
+#: casadi's unified return status of fatrop, in words
+FATROP_STATUS = {"SOLVER_RET_SUCCESS": "converged", "SOLVER_RET_LIMITED": "iteration limit",
+                 "SOLVER_RET_UNKNOWN": "failed", "SOLVER_RET_EXCEPTION": "exception",
+                 "SOLVER_RET_NAN": "NaN in a function evaluation"}
+
+
+def solver_status(stats: dict) -> str:
+    """The solver's own return status: IPOPT's name, or fatrop's return flag and its meaning."""
+    if "fatrop" in stats:
+        unified = str(stats.get("unified_return_status", ""))
+        return (f"fatrop return flag {stats['fatrop'].get('return_flag')}: "
+                f"{FATROP_STATUS.get(unified, unified)}")
+    return str(stats["return_status"])
 
 
 def run(
@@ -143,7 +241,7 @@ def run(
         lam_x=np.asarray(sol["lam_x"]).ravel(),
         lam_g=np.asarray(sol["lam_g"]).ravel(),
         objective=float(sol["f"]),
-        status=str(stats["return_status"]),
+        status=solver_status(stats),
         success=bool(stats["success"]),
         iterations=int(stats["iter_count"]),
         wall_time_s=wall,

@@ -28,11 +28,11 @@ import numpy as np
 from bench.files import atomic_path
 from optimize.model.kite_model import kite_dae
 from optimize.paper_model import paper_model
-from optimize.problem.ocp import Ocp, build_ocp
+from optimize.problem.ocp import Ocp, build_ocp, twin
 from optimize.problem.options import OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start, power_weights
-from optimize.solve.result import OcpResult, Solution
+from optimize.solve.result import OcpResult, Solution, carry_over
 from optimize.system.drive import drive_in_force
 from optimize.system.system import load_system
 
@@ -64,6 +64,11 @@ def write(path: str | Path, ocp: Ocp, result: OcpResult, p: np.ndarray) -> Path:
 def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]:
     """The stored solution if it fits ``ocp``, else ``None``; and why (for the log).
 
+    The file holds a solution of the general (IPOPT) layout. An OCP of another
+    layout (fatrop's stage-wise one) gets it carried over
+    (:func:`optimize.solve.result.carry_over`) after the check on its general-layout
+    twin (:func:`optimize.problem.ocp.twin`).
+
     Parameters
     ----------
     ocp : Ocp
@@ -77,6 +82,13 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
     reason : str
         What was checked, or why the file does not fit.
     """
+    if ocp.layout.kind != "ipopt":
+        general = twin(ocp, "ipopt")
+        solution, why = load(general, path)
+        if solution is None:
+            return None, why
+        return (carry_over(general, solution, ocp),
+                f"{why}; carried over to the {ocp.layout.kind} layout")
     path = Path(path)
     if not path.is_file():
         return None, f"no stored initial guess at {path}"

@@ -46,11 +46,12 @@ class OcpResult:
     ----------
     scenario : Scenario
     status : str
-        IPOPT return status of the final solve (e.g. ``"Solve_Succeeded"``).
+        The solver's own return status of the final solve (IPOPT's, e.g.
+        ``"Solve_Succeeded"``, or fatrop's return flag and its meaning).
     success : bool
-        IPOPT reported success (converged or acceptable level).
+        The solver reported success (converged or acceptable level).
     iterations : int
-        IPOPT iterations, all stages/retries included.
+        Solver iterations, all stages/retries included.
     wall_time_s : float
         Wall time of the solver calls [s], all stages/retries included.
     objective : float
@@ -76,7 +77,8 @@ class OcpResult:
     active_bounds : tuple of str
         Bounds the optimum sits on (:func:`active_bounds`): ``period_min``,
         ``period_max``, ``tether_length_min``, ``tether_length_max``,
-        ``ground_clearance``, ``speed_limit``, ``torque_limit``, ``p_elec_limit``.
+        ``ground_clearance``, ``airspeed_min``, ``airspeed_max``, ``tether_force_limit``,
+        ``speed_limit``, ``torque_limit``, ``p_elec_limit``.
     slack_fraction : float
         Fraction of the cycle time with zero tether tension [-] (:func:`slack_fraction`).
     start : str
@@ -143,6 +145,29 @@ def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_ref_m_s: float) -> pd.
     return pd.DataFrame(frame)
 
 
+def carry_over(src: Ocp, solution: Solution, dst: Ocp) -> Solution:
+    """A solution of ``src`` in the layout of ``dst`` (the same problem, another
+    transcription, :func:`optimize.problem.ocp.twin`).
+
+    The primal point through the physical variables (``dst`` fills its copies); the
+    multipliers of the variables both layouts have and of the rows with the same name
+    and count; zero for the others.
+    """
+    sol = src.unpack(solution.w)
+    w = dst.pack(sol["x"], sol["z"], sol["u"], sol["fict"], float(sol["period_s"]))
+    s_lay, d_lay = src.layout, dst.layout
+    lam_x = np.zeros(d_lay.n_w)
+    for name in ("i_x", "i_z", "i_u", "i_f"):
+        lam_x[getattr(d_lay, name)] = solution.lam_x[getattr(s_lay, name)]
+    lam_x[d_lay.i_period[0]] = solution.lam_x[s_lay.i_period].sum()
+    lam_g = np.zeros(d_lay.n_g)
+    for name, rows in d_lay.rows.items():
+        if s_lay.rows_of(name).size == rows.size:
+            lam_g[rows] = solution.lam_g[s_lay.rows_of(name)]
+    return Solution(w=w, lam_x=lam_x, lam_g=lam_g, n_intervals=solution.n_intervals,
+                    degree=solution.degree)
+
+
 #: a bound counts as active within this fraction of its value (IPOPT's bound push and
 #: tolerance leave the optimum about 1e-8 to 1e-6 inside)
 ACTIVE_RTOL = 1e-3
@@ -157,7 +182,8 @@ def _near(value: np.ndarray, bound: float) -> bool:
 
 def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: bool,
                   bounds: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> tuple[str, ...]:
-    """Names of the bounds the solution sits on (period, tether length, ground, drive).
+    """Names of the bounds the solution sits on (period, tether length, ground, the kite's
+    airspeed and tether-force limits, drive).
 
     Parameters
     ----------
@@ -184,6 +210,15 @@ def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: b
             if _near(length, b)]
     if _near(traj["altitude_m"].to_numpy(), o.min_altitude_m):
         out.append("ground_clearance")
+    # the kite's own limits, in force in every kind
+    airspeed = traj["airspeed_m_s"].to_numpy()
+    if _near(airspeed, o.min_airspeed_m_s):
+        out.append("airspeed_min")
+    if o.max_airspeed_m_s is not None and _near(airspeed, o.max_airspeed_m_s):
+        out.append("airspeed_max")
+    if o.max_tether_force_n is not None and _near(traj["tension_n"].to_numpy(),
+                                                  o.max_tether_force_n):
+        out.append("tether_force_limit")
     if drive_limits:
         speed = np.abs(traj["speed_rpm"].to_numpy())
         if _near(speed, o.max_speed_rpm):

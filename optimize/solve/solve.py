@@ -57,7 +57,8 @@ def solve(
     """Solve ``scenario``; warm-started from ``warm_start`` or by :func:`cold_start`.
 
     The warm start passes the primal vector and both multiplier vectors with
-    IPOPT's ``warm_start_init_point`` and a small ``mu_init``. If that fails
+    IPOPT's ``warm_start_init_point`` and a small ``mu_init`` (fatrop takes the
+    primal vector and the small ``mu_init``; it starts no multipliers). If that fails
     and ``retry_cold`` is set, the same primal point is tried once more with
     the default (cold) barrier settings; both calls count in the result.
 
@@ -85,6 +86,10 @@ def solve(
             f"warm start has N={warm_start.n_intervals}, degree {warm_start.degree}; "
             f"the OCP has N={ocp.n_intervals}, degree {ocp.coll.degree}"
         )
+    if warm_start.w.size != ocp.layout.n_w:
+        raise ValueError(f"warm start has {warm_start.w.size} variables; the OCP's "
+                         f"{ocp.layout.kind} layout has {ocp.layout.n_w} (carry it over with "
+                         "optimize.solve.result.carry_over)")
     bounds = ocp.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
     p = ocp.params(scenario.wind_speed_m_s, **power_weights(scenario))
     raw = backend.run(ocp, warm_start.w, p, bounds, warm=True,
