@@ -167,6 +167,8 @@ class Assessment:
                 "cut_in_elec_m_s": k.elec.cut_in_m_s, "cut_out_elec_m_s": k.elec.cut_out_m_s,
                 "share_below_grid": k.elec.share_below_grid,
                 "share_above_grid": k.elec.share_above_grid,
+                "grid_min_m_s": k.elec.grid_m_s[0], "grid_max_m_s": k.elec.grid_m_s[1],
+                "share_left_out": k.elec.share_left_out,
                 "n_points": k.n_points,
             })
         return pd.DataFrame(rows)
