@@ -85,6 +85,16 @@ def write_text_atomic(path: str | Path, text: str) -> Path:
     return atomic_write(path, lambda tmp: tmp.write_bytes(text.encode("utf-8")))
 
 
+def require_regular(path: Path) -> None:
+    """Raise InputError when ``path`` exists but is no regular file (FIFO, device, folder).
+
+    Opening a FIFO waits for a writer forever; a device may never end.
+    """
+    if path.exists() and not path.is_file():
+        raise InputError(path, "not a regular file (a FIFO, device or folder)",
+                         expected="a text file")
+
+
 def read_text(path: str | Path, *, what: str = "file") -> str:
     """The text of a UTF-8 file (a leading byte-order mark is dropped).
 
@@ -102,6 +112,7 @@ def read_text(path: str | Path, *, what: str = "file") -> str:
         encoding the file seems to be in (UTF-16, Latin-1).
     """
     path = Path(path)
+    require_regular(path)
     try:
         data = path.read_bytes()
     except OSError as exc:
@@ -305,3 +316,67 @@ def _probe_write(folder: Path, option: str) -> None:
         reason = WRITE_ERRNOS.get(exc.errno, exc.strerror or str(exc))
         raise InputError(folder, f"cannot write in {probe} ({reason})", column=option,
                          expected="a writable folder") from exc
+
+
+#: errors of fsync on a directory that mean "not supported here", not "not on disk"
+_DIR_FSYNC_UNSUPPORTED = (errno.EINVAL, errno.ENOTSUP, errno.EBADF, errno.EACCES)
+
+
+def fsync_path(path: str | Path) -> None:
+    """Flush a file or a directory to disk, so that a power cut keeps it whole.
+
+    Raises
+    ------
+    OSError
+        The flush failed (e.g. EIO): the data may not be on disk, so the caller's
+        commit has failed. A directory on a file system that cannot fsync
+        directories (EINVAL, ENOTSUP) is not an error.
+    """
+    path = Path(path)
+    is_dir = path.is_dir()
+    fd = os.open(path, os.O_RDONLY | (getattr(os, "O_DIRECTORY", 0) if is_dir else 0))
+    try:
+        os.fsync(fd)
+    except OSError as exc:
+        if not (is_dir and exc.errno in _DIR_FSYNC_UNSUPPORTED):
+            raise
+    finally:
+        os.close(fd)
+
+
+def write_text_durable(path: str | Path, text: str) -> Path:
+    """Like :func:`write_text_atomic`, the temporary file flushed to disk before the switch."""
+    def write(tmp: Path) -> None:
+        tmp.write_bytes(text.encode("utf-8"))
+        fsync_path(tmp)
+
+    return atomic_write(path, write)
+
+
+#: integers beyond this magnitude do not convert to a float
+_FLOAT_MAX = 1.7976931348623157e308
+
+
+def bad_number_at(value, where: str = "") -> tuple[str, str] | None:
+    """The first number of decoded TOML/JSON no float can hold: ``(key path, problem)``.
+
+    Key paths read ``coefficients.rpm[2]``; problems are ``"non-finite number nan"``
+    or ``"integer of 400 digits, too large for a number"``. None when every number
+    is a finite float.
+    """
+    if isinstance(value, float) and not math.isfinite(value):
+        return where or "<top level>", f"non-finite number {value}"
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) > _FLOAT_MAX:
+        return where or "<top level>", (f"integer of {len(str(abs(value)))} digits, too large "
+                                        "for a number")
+    if isinstance(value, dict):
+        items = ((f"{where}.{k}" if where else str(k), v) for k, v in value.items())
+    elif isinstance(value, list):
+        items = ((f"{where}[{k}]", v) for k, v in enumerate(value))
+    else:
+        return None
+    for key, v in items:
+        found = bad_number_at(v, key)
+        if found is not None:
+            return found
+    return None

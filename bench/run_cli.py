@@ -1,14 +1,46 @@
-"""``bench run PATH``: ingest, fit, optimize, aep, size and report in one go, with defaults.
+"""``bench run PATH``: ingest, fit, optimize, aep, size and report in one go.
 
 The stages still talk through files only: this command calls each stage's own
 subcommand in turn, with every path under one output folder, and stops at the
-first stage that fails.
+first stage that fails. An option of ``bench run`` that a stage also has is
+passed on only when the user gives it, so each stage keeps its own default (the
+help below reads it from the stage). Two defaults are ``bench run``'s own: the
+site (the paper's Leuven figure) and the optimize wind grid, which starts and
+steps like ``bench optimize``'s default and ends where the site's wind ends
+(:func:`energy.site.covering_stop`: above its last speed lie less than 0.5 % of
+the site's hours).
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 from pathlib import Path
+
+#: the site of ``bench run`` when none is given: Weibull k = 2, mean 5.5 m/s at 100 m
+#: (the paper's Leuven figure)
+DEMO_SITE = {"weibull_k": 2.0, "mean_speed": 5.5, "site_height_m": 100.0}
+#: ``bench run`` option -> (the stages that take it, their option): passed on only when given
+FORWARDED = {
+    "order": (("fit",), "--order"),
+    "workers": (("ingest", "optimize", "aep", "size"), "--workers"),
+    "size_scales": (("size",), "--scales"),
+    "size_wind_grid": (("size",), "--wind-grid"),
+}
+
+
+def stage_parser(stage: str) -> argparse.ArgumentParser:
+    """A parser with exactly the options of ``bench STAGE`` (its own defaults)."""
+    from bench.cli import SUBCOMMANDS
+
+    parser = argparse.ArgumentParser(prog=f"bench {stage}")
+    importlib.import_module(SUBCOMMANDS[stage][0]).add_arguments(parser)
+    return parser
+
+
+def stage_default(stage: str, option: str):
+    """The default of ``bench STAGE OPTION`` as that stage declares it."""
+    return stage_parser(stage).get_default(option.lstrip("-").replace("-", "_"))
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -17,25 +49,43 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--out", type=Path, default=Path("bench_run"), help="output folder (default: ./bench_run)"
     )
-    parser.add_argument("--order", default="2", help="power-model order for `bench fit`")
+    for dest, (stages, option) in FORWARDED.items():
+        parser.add_argument("--" + dest.replace("_", "-"), default=None,
+                            help=f"{option} of `bench {'/'.join(stages)}` (default: the "
+                                 f"stage's, {stage_default(stages[0], option)})")
     parser.add_argument(
-        "--wind-grid", default="4:10:1.5", help="wind grid for `bench optimize` (default 4:10:1.5)"
-    )
-    parser.add_argument("--workers", type=int, default=2, help="optimization worker processes")
-    parser.add_argument("--weibull-k", default="2",
-                        help="site for `bench aep` and `bench size`: Weibull shape (default 2)")
-    parser.add_argument("--mean-speed", default="5.5",
-                        help="site mean wind speed [m/s] at --site-height-m (default 5.5, the "
-                             "paper's Leuven figure)")
-    parser.add_argument("--site-height-m", default="100", help="site height [m] (default 100)")
+        "--wind-grid", default=None,
+        help="wind grid for `bench optimize` (default: from "
+             f"{stage_default('optimize', '--wind-grid')} in the same steps up to the speed "
+             "above which less than 0.5 %% of the site's hours lie)")
+    parser.add_argument("--weibull-k", type=float, default=DEMO_SITE["weibull_k"],
+                        help="site for `bench aep` and `bench size`: Weibull shape "
+                             f"(default {DEMO_SITE['weibull_k']:g})")
+    parser.add_argument("--mean-speed", type=float, default=DEMO_SITE["mean_speed"],
+                        help="site mean wind speed [m/s] at --site-height-m (default "
+                             f"{DEMO_SITE['mean_speed']:g}, the paper's Leuven figure)")
+    parser.add_argument("--site-height-m", type=float, default=DEMO_SITE["site_height_m"],
+                        help=f"site height [m] (default {DEMO_SITE['site_height_m']:g})")
     parser.add_argument("--no-refine", action="store_true",
                         help="`bench aep` on the sweep grid only, without --refine (the "
-                             "added wind speeds where the curves bend; about 1.5 min of solves "
-                             "on 2 workers for the default grid)")
-    parser.add_argument("--size-scales", default="0.5,0.75,1,1.5",
-                        help="torque-rating scales for `bench size` (default 0.5,0.75,1,1.5)")
-    parser.add_argument("--size-wind-grid", default="5.5,7,8.5",
-                        help="wind speeds of the sizing sweep (default 5.5,7,8.5)")
+                             "added wind speeds where the curves bend)")
+
+
+def site_wind_grid(site_argv: list[str]) -> str:
+    """The optimize wind grid covering the site of the ``bench aep`` options ``site_argv``:
+    ``START:STOP:STEP`` (see the module), at most to the 25 m/s cut-out of
+    :data:`optimize.sweep.plan.WIND_RANGE_M_S` (system files state no cut-out)."""
+    from energy.cli import shear_from_args, site_from_args
+    from energy.site import covering_stop
+    from optimize.sweep.plan import WIND_RANGE_M_S, parse_wind_grid
+    from optimize.system.system import load_system
+
+    base = parse_wind_grid(stage_default("optimize", "--wind-grid"))
+    start, step = base[0], base[1] - base[0]
+    site_args = stage_parser("aep").parse_args(site_argv)
+    site, _, _ = site_from_args(site_args, shear_from_args(site_args, load_system()))
+    stop = covering_stop(site, start, step, ceiling_m_s=WIND_RANGE_M_S[1])
+    return f"{start:g}:{stop:g}:{step:g}"
 
 
 def stage_commands(args: argparse.Namespace) -> list[list[str]]:
@@ -43,30 +93,28 @@ def stage_commands(args: argparse.Namespace) -> list[list[str]]:
     out = args.out
     store, fit, opt = out / "bench_store", out / "fit", out / "optimize"
     aep, size = out / "aep", out / "size"
-    site = ["--weibull-k", str(args.weibull_k), "--mean-speed", str(args.mean_speed),
-            "--height-m", str(args.site_height_m)]
+    site = ["--weibull-k", f"{args.weibull_k:g}", "--mean-speed", f"{args.mean_speed:g}",
+            "--height-m", f"{args.site_height_m:g}"]
+    given: dict[str, list[str]] = {s: [] for s in ("ingest", "fit", "optimize", "aep", "size")}
+    for dest, (stages, option) in FORWARDED.items():
+        for stage in stages if getattr(args, dest) is not None else ():
+            given[stage] += [option, str(getattr(args, dest))]
+    wind_grid = args.wind_grid or site_wind_grid(site)
     return [
-        ["ingest", *map(str, args.paths), "--store", str(store)],
-        ["fit", "--store", str(store), "--out", str(fit), "--order", str(args.order)],
+        ["ingest", *map(str, args.paths), "--store", str(store), *given["ingest"]],
+        ["fit", "--store", str(store), "--out", str(fit), *given["fit"]],
         [
             "optimize",
             "--drive-model", str(fit / "power_model.json"),
-            "--wind-grid", args.wind_grid,
-            "--workers", str(args.workers),
+            "--wind-grid", wind_grid,
             "--out", str(opt),
             "--trust",  # a report to rely on states the mesh and simulation checks
+            *given["optimize"],
         ],
         ["aep", "--optimize", str(opt), "--out", str(aep), *site,
-         *([] if args.no_refine else ["--refine", "--workers", str(args.workers)])],
-        [
-            "size",
-            "--drive-model", str(fit / "power_model.json"),
-            "--scales", args.size_scales,
-            "--wind-grid", args.size_wind_grid,
-            "--workers", str(args.workers),
-            "--out", str(size),
-            *site,
-        ],
+         *([] if args.no_refine else ["--refine"]), *given["aep"]],
+        ["size", "--drive-model", str(fit / "power_model.json"), "--out", str(size), *site,
+         *given["size"]],
         [
             "report",
             "--store", str(store),

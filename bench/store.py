@@ -25,6 +25,8 @@ directly in ``<store>/points`` etc.) is still read.
 
 from __future__ import annotations
 
+import hashlib
+import io
 import json
 import os
 import re
@@ -32,14 +34,16 @@ import shutil
 import sys
 import tempfile
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TypeVar
 
 import pandas as pd
 import pyarrow as pa
+import pyarrow.parquet as pq
 
 from bench.errors import InputError
-from bench.files import WRITE_ERRNOS, dumps_json, write_text_atomic
+from bench.files import WRITE_ERRNOS, dumps_json, file_sha256, fsync_path, write_text_durable
 
 SCHEMA_NAME = "drivebench.store"
 SCHEMA_VERSION = 2
@@ -201,10 +205,50 @@ def consistent_read(store_dir: str | Path, read: Callable[[dict], T]) -> T:
                      expected="no ingest running into it")
 
 
+def _check_bytes(path: Path, data: bytes, entry: dict, kind: str) -> None:
+    """Raise InputError when ``data`` differs from the size and hash the manifest records."""
+    rec = (entry.get("store_checks") or {}).get(kind) if isinstance(entry, dict) else None
+    if not isinstance(rec, dict):
+        return  # a store written before the manifest recorded its files' hashes
+    if len(data) != rec.get("bytes") or hashlib.sha256(data).hexdigest() != rec.get("sha256"):
+        raise InputError(path, f"the file differs from what the store manifest records "
+                         f"({len(data)} bytes, {rec.get('bytes')} recorded): damaged store",
+                         expected="run bench store check, then re-run bench ingest")
+
+
+def read_listed_bytes(store_dir: str | Path, kind: str,
+                      manifest: dict) -> dict[str, tuple[Path, bytes]]:
+    """The bytes of the files of one kind the manifest lists, checked against its hashes.
+
+    Raises
+    ------
+    FileNotFoundError
+        A listed file is missing (:func:`consistent_read` tells a damaged store
+        from a writer that moved on).
+    InputError
+        A file whose size or SHA-256 differs from the manifest's record.
+    """
+    out = {}
+    for sid, path in kind_files(store_dir, kind, manifest).items():
+        data = path.read_bytes()
+        _check_bytes(path, data, manifest["sessions"].get(sid), kind)
+        out[sid] = (path, data)
+    return out
+
+
+def parse_parquet(path: Path, data: bytes) -> pd.DataFrame:
+    """A store file's bytes as a frame; InputError naming the file when it is no Parquet."""
+    try:
+        return pd.read_parquet(io.BytesIO(data))
+    except Exception as exc:  # pyarrow raises several types for a corrupt file
+        raise InputError(path, f"not a readable Parquet file ({exc}): damaged store",
+                         expected="run bench store check, then re-run bench ingest") from exc
+
+
 def _read_kind(store_dir: str | Path, kind: str) -> pd.DataFrame:
     def read(manifest: dict) -> pd.DataFrame:
-        files = kind_files(store_dir, kind, manifest)
-        frames = [pd.read_parquet(p) for p in files.values()]
+        frames = [parse_parquet(p, data)
+                  for p, data in read_listed_bytes(store_dir, kind, manifest).values()]
         if not frames:
             return _SCHEMAS[kind].empty_table().to_pandas()
         return pd.concat(frames, ignore_index=True)
@@ -229,9 +273,121 @@ def read_samples(store_dir: str | Path, session_id: str) -> pd.DataFrame:
         if path is None:
             raise InputError(Path(store_dir) / "manifest.json",
                              f"no samples for session {session_id!r}")
-        return pd.read_parquet(path)
+        data = path.read_bytes()
+        _check_bytes(path, data, manifest["sessions"].get(session_id), "samples")
+        return parse_parquet(path, data)
 
     return consistent_read(store_dir, read)
+
+
+@dataclass
+class StoreDamage:
+    """What :func:`check_store` found wrong with a store (empty: healthy).
+
+    Parameters
+    ----------
+    sessions : dict
+        session_id -> problems of its stored files (missing, size or hash differs,
+        not a readable Parquet file), one line each.
+    generation : str or None
+        A problem of the generation the manifest names (its folder is missing).
+    unnamed : list of str
+        Generation folders the manifest does not name (left by an interrupted ingest,
+        or the data of a hand-edited manifest).
+    staging : list of str
+        Staging folders left by an interrupted ingest.
+    """
+
+    sessions: dict[str, list[str]] = field(default_factory=dict)
+    generation: str | None = None
+    unnamed: list[str] = field(default_factory=list)
+    staging: list[str] = field(default_factory=list)
+
+    @property
+    def damaged(self) -> bool:
+        """True when a file the manifest lists cannot be trusted."""
+        return bool(self.sessions) or self.generation is not None
+
+    def lines(self) -> list[str]:
+        """One line per problem, for people."""
+        out = [] if self.generation is None else [self.generation]
+        out += [f"session {sid!r}: {p}" for sid, ps in self.sessions.items() for p in ps]
+        out += [f"{g}: a generation the manifest does not name" for g in self.unnamed]
+        out += [f"{g}: a staging folder left by an interrupted ingest" for g in self.staging]
+        return out
+
+
+def _check_file(path: Path, rec: dict | None, rel: str) -> str | None:
+    """The problem of one stored file, or None when it is as the manifest records."""
+    if not path.is_file():
+        return f"{rel}: missing"
+    if isinstance(rec, dict):
+        size = path.stat().st_size
+        if size != rec.get("bytes"):
+            return f"{rel}: {size} bytes, {rec.get('bytes')} recorded"
+        if file_sha256(path) != rec.get("sha256"):
+            return f"{rel}: content differs from the recorded SHA-256 (bit rot or an edit)"
+        return None
+    try:  # a store written before hashes were recorded: at least a whole Parquet file
+        pq.read_metadata(path)
+    except Exception as exc:  # pyarrow raises several types for a corrupt file
+        return f"{rel}: not a readable Parquet file ({exc})"
+    return None
+
+
+def check_store(store_dir: str | Path, manifest: dict | None = None) -> StoreDamage:
+    """Verify every file the manifest lists: present, its size and SHA-256 as recorded.
+
+    Reads the store and changes nothing. Files of stores written before the
+    manifest recorded hashes are checked for being whole Parquet files.
+
+    Parameters
+    ----------
+    store_dir : str or Path
+        The store.
+    manifest : dict, optional
+        A manifest already read (default: read it now).
+
+    Returns
+    -------
+    StoreDamage
+    """
+    store = Path(store_dir)
+    manifest = read_manifest(store) if manifest is None else manifest
+    damage = StoreDamage()
+    gen = manifest.get("generation")
+    if store.is_dir():
+        for p in sorted(store.iterdir()):
+            if p.name.startswith(STAGING_PREFIX):
+                damage.staging.append(p.name)
+            elif GENERATION_RE.match(p.name) and p.name != gen:
+                damage.unnamed.append(p.name)
+    if gen is not None and not (store / gen).is_dir():
+        damage.generation = (f"the manifest names generation {gen}, which does not exist"
+                             + (f" (found: {', '.join(damage.unnamed)})" if damage.unnamed
+                                else ""))
+    for sid, entry in manifest["sessions"].items():
+        files = entry.get("store_files") if isinstance(entry, dict) else None
+        if gen is not None and not isinstance(files, dict):
+            damage.sessions[sid] = ["the manifest lists no stored files"]
+            continue
+        checks = (entry.get("store_checks") or {}) if isinstance(entry, dict) else {}
+        problems = []
+        for kind in KINDS:
+            rel = _listed(manifest, kind).get(sid)
+            if rel is None or (gen is None and not (store / rel).is_file()):
+                continue
+            problem = _check_file(store / rel, checks.get(kind), rel)
+            if problem is None and kind == "points" and isinstance(entry, dict) \
+                    and isinstance(entry.get("n_points"), int):
+                rows = pq.read_metadata(store / rel).num_rows
+                if rows != entry["n_points"]:
+                    problem = f"{rel}: {rows} points, {entry['n_points']} recorded"
+            if problem is not None:
+                problems.append(problem)
+        if problems:
+            damage.sessions[sid] = problems
+    return damage
 
 
 def dumps(obj) -> str:
@@ -243,21 +399,6 @@ def dumps(obj) -> str:
         A non-finite float anywhere in ``obj`` (JSON has none).
     """
     return dumps_json(obj, indent=1, sort_keys=True, non_finite="error")
-
-
-def _fsync(path: Path) -> None:
-    """Flush a file or directory to disk (a power cut then keeps it whole)."""
-    flags = os.O_RDONLY | (getattr(os, "O_DIRECTORY", 0) if path.is_dir() else 0)
-    try:
-        fd = os.open(path, flags)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:  # some file systems cannot fsync a directory
-        pass
-    finally:
-        os.close(fd)
 
 
 def _link_or_copy(src: Path, dest: Path) -> None:
@@ -346,6 +487,8 @@ class StoreWriter:
         self._fd: int | None = None
         self.stage: Path | None = None
         self.manifest: dict = empty_manifest()
+        #: what :func:`check_store` found when the writer entered
+        self.damage = StoreDamage()
 
     # -- lock -------------------------------------------------------------------------
     def _acquire(self) -> None:
@@ -398,16 +541,19 @@ class StoreWriter:
 
     # -- cleanup ----------------------------------------------------------------------
     def _clean(self) -> None:
-        """Remove staging folders and generations the manifest does not name."""
+        """Remove staging folders; generations the manifest does not name only when the
+        one it names is complete (:attr:`damage`): a generation is never removed unless
+        a complete one supersedes it."""
         keep = self.manifest.get("generation")
+        complete = not self.damage.damaged
         for p in self.store.iterdir():
             if p.name.startswith(STAGING_PREFIX) or (
-                    GENERATION_RE.match(p.name) and p.name != keep):
+                    complete and GENERATION_RE.match(p.name) and p.name != keep):
                 shutil.rmtree(p, ignore_errors=True)
             elif p.name.startswith(".manifest.json.") and p.name.endswith(".tmp"):
                 p.unlink(missing_ok=True)
-        if keep is not None:  # a v1 store migrated to generations: its old folders go
-            for kind in KINDS:
+        if keep is not None and complete:  # a v1 store migrated to generations: its old
+            for kind in KINDS:              # folders go
                 if (self.store / kind).is_dir():
                     shutil.rmtree(self.store / kind, ignore_errors=True)
 
@@ -420,6 +566,7 @@ class StoreWriter:
             raise
         try:
             self.manifest = read_manifest(self.store)
+            self.damage = check_store(self.store, self.manifest)
             self._clean()
             self.stage = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=self.store))
         except BaseException:
@@ -444,6 +591,24 @@ class StoreWriter:
         if cur is not None:
             numbers.append(int(GENERATION_RE.match(cur).group(1)))
         return f"gen-{max(numbers, default=0) + 1:06d}"
+
+    def require_repair(self, rewritten) -> None:
+        """Raise InputError unless every damaged session is among ``rewritten`` (ids).
+
+        A new generation hard-links the sessions it keeps from the current one, so a
+        damaged session can only be kept by ingesting its folder again.
+        """
+        old = self.manifest["sessions"]
+        kept = set(old) - set(rewritten)
+        damaged = sorted(kept if self.damage.generation is not None
+                         else kept & set(self.damage.sessions))
+        if damaged:
+            raise InputError(self.store / "manifest.json",
+                             "stored sessions are damaged and not ingested now: "
+                             + "; ".join(f"{sid!r} (from {old[sid].get('source')})"
+                                         for sid in damaged),
+                             expected="their session folders ingested too (bench store "
+                                      "check lists the damage)")
 
     def commit(self, staged: dict[str, dict[str, Path]], entries: dict[str, dict]) -> dict:
         """Write a new generation and switch the manifest to it in one atomic step.
@@ -471,6 +636,7 @@ class StoreWriter:
         old = self.manifest
         gen = self._next_generation()
         sessions = {sid: e for sid, e in old["sessions"].items() if sid not in entries}
+        self.require_repair(entries)
         new = {"schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION, "generation": gen,
                "sessions": {}}
         build = self.stage / gen
@@ -494,6 +660,12 @@ class StoreWriter:
                     os.replace(staged[sid][kind], build / rel)
                     files[kind] = rel
             new["sessions"][sid] = {**entry, "store_files": files}
+        for sid, entry in new["sessions"].items():  # what check_store verifies later
+            recorded = (entry.get("store_checks") or {}) if sid in sessions else {}
+            entry["store_checks"] = {
+                kind: recorded.get(kind) or {"bytes": (build / rel).stat().st_size,
+                                             "sha256": file_sha256(build / rel)}
+                for kind, rel in entry["store_files"].items()}
         new["sessions"] = dict(sorted(new["sessions"].items()))
         try:
             text = dumps(new)
@@ -501,16 +673,26 @@ class StoreWriter:
             raise InputError(self.store / "manifest.json",
                              f"a session's metadata cannot be stored ({exc})",
                              expected="finite numbers, text, dates") from exc
-        for kind in KINDS:
-            for p in (build / kind).iterdir():
-                _fsync(p)
-            _fsync(build / kind)
-        os.replace(build, self.store / gen)
-        _fsync(self.store)
-        write_text_atomic(self.store / "manifest.json", text)  # the switch
-        _fsync(self.store)
-        self.committed = True
+        try:
+            for kind in KINDS:
+                for p in (build / kind).iterdir():
+                    fsync_path(p)
+                fsync_path(build / kind)
+            fsync_path(build)
+            os.replace(build, self.store / gen)
+            fsync_path(self.store)
+            write_text_durable(self.store / "manifest.json", text)  # the switch
+            self.committed = True
+            fsync_path(self.store)
+        except OSError as exc:
+            if exc.errno in WRITE_ERRNOS:
+                raise
+            raise InputError(exc.filename or self.store,
+                             f"cannot flush the store to disk ({exc.strerror or exc}): "
+                             + ("the manifest names the new generation, but it may not be "
+                                "on disk" if self.committed else "nothing was committed"),
+                             expected="a working disk; run bench ingest again") from exc
         self.manifest = new
+        self.damage = StoreDamage()
         self._clean()
         return new
-

@@ -343,7 +343,8 @@ def size(site: Any, model: Any = None, *, system: Any = None,
          models: Sequence[str | Path] = (), winds: Sequence[float] = PAPER_WINDS_M_S,
          out: str | Path = "size_out", site_note: str | None = None,
          rated_torque_nm: float | None = None, max_speed_rpm: float | None = None,
-         overload: float | None = None, tolerance: float = 0.02, adaptive: bool = False,
+         overload: float | None = None, tolerance: float = 0.02, extend: int = 1,
+         adaptive: bool = False,
          n_intervals: int = 40, degree: int = 4, workers: int = 2,
          scheduler: str | None = None, progress: bool = False,
          command_line: Sequence[str] = ("drivebench.size",),
@@ -375,6 +376,9 @@ def size(site: Any, model: Any = None, *, system: Any = None,
         peak-over-continuous torque [-].
     tolerance : float
         The chosen drive is the smallest within this share of the best AEP.
+    extend : int
+        While the best drive is the largest or smallest scale, add one beyond it and size
+        again, up to this many times (:func:`energy.sizing.size_extending`).
     adaptive : bool
         Refine each candidate's grid where its curve bends for the site.
     n_intervals, degree, workers, scheduler, progress
@@ -382,8 +386,8 @@ def size(site: Any, model: Any = None, *, system: Any = None,
     before_solving : callable, optional
         ``before_solving(drive, n_candidates)``, called once the candidates are made.
     """
-    from energy.size_cli import build_candidates, write_sizing
-    from energy.sizing import run_sizing
+    from energy.size_cli import build_candidates, edge_note, grid_hours, write_sizing
+    from energy.sizing import run_sizing, size_extending
     from fitting.power_model import PowerModel
     from optimize.system.drive import drive_in_force
     from optimize.system.system import System, load_system
@@ -403,10 +407,20 @@ def size(site: Any, model: Any = None, *, system: Any = None,
     if before_solving is not None:
         before_solving(drive, len(candidates))
     out = Path(out)
-    result = run_sizing(candidates, tuple(float(w) for w in winds), site, out, n_intervals,
-                        degree, workers=workers, scheduler=scheduler, show_progress=progress,
-                        tolerance=tolerance, adaptive=adaptive, system=system)
+    result, edge, added = size_extending(
+        lambda sc: build_candidates(drive, sc, tuple(models), rated_torque_nm, max_speed_rpm,
+                                    overload)[0],
+        tuple(scales), extend,
+        lambda cands: run_sizing(cands, tuple(float(w) for w in winds), site, out, n_intervals,
+                                 degree, workers=workers, scheduler=scheduler,
+                                 show_progress=progress, tolerance=tolerance,
+                                 adaptive=adaptive, system=system))
+    edge_doc = {"best_at": edge, "added_scales": added,
+                "note": edge_note(edge, result.best, added)}
+    notes = [*notes, grid_hours(site, tuple(winds))["note"],
+             *([edge_doc["note"]] if edge_doc["note"] else [])]
     files = write_sizing(out, result, site=site, site_note=site_note or site.describe(),
                          drive=drive, system=system, winds=tuple(winds), adaptive=adaptive,
-                         tolerance=tolerance, notes=notes, command_line=list(command_line))
+                         tolerance=tolerance, notes=notes, command_line=list(command_line),
+                         edge=edge_doc)
     return SizeResult(result, drive, tuple(notes), files)

@@ -126,6 +126,12 @@ class CurveEnergy:
     share_below_grid, share_above_grid : float
         Probability of wind below the first / above the last grid point [-]:
         hours counted with zero power.
+    grid_m_s : tuple of float
+        First and last grid speed [m/s].
+    share_left_out : float
+        Probability of the hours the grid leaves out [-]: those above it, and those
+        below it unless the curve delivers nothing at its first speed (below a cut-in
+        inside the grid no power is lost by stopping there).
     """
 
     aep_mwh: float
@@ -135,6 +141,8 @@ class CurveEnergy:
     cut_out_m_s: float | None
     share_below_grid: float
     share_above_grid: float
+    grid_m_s: tuple[float, float]
+    share_left_out: float
 
 
 def curve_energy(wind_m_s, p_w, dist: Distribution, nominal_power_w: float,
@@ -143,6 +151,7 @@ def curve_energy(wind_m_s, p_w, dist: Distribution, nominal_power_w: float,
     kv, kd = delivered_knots(wind_m_s, p_w, cut_in_m_s)
     mean = expected_power_w(kv, kd, dist)
     positive = np.flatnonzero(kd > 0)
+    below, above = float(dist.cdf(kv[0])), float(1.0 - dist.cdf(kv[-1]))
     cut_in = cut_out = None
     if len(positive):
         first, last = positive[0], positive[-1]
@@ -154,6 +163,8 @@ def curve_energy(wind_m_s, p_w, dist: Distribution, nominal_power_w: float,
         capacity_factor=mean / nominal_power_w,
         cut_in_m_s=cut_in,
         cut_out_m_s=cut_out,
-        share_below_grid=float(dist.cdf(kv[0])),
-        share_above_grid=float(1.0 - dist.cdf(kv[-1])),
+        share_below_grid=below,
+        share_above_grid=above,
+        grid_m_s=(float(kv[0]), float(kv[-1])),
+        share_left_out=above + (below if kd[0] > 0 else 0.0),
     )

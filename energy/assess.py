@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from bench.errors import InputError
+from bench.output_folder import check_output_file
 from energy import aep as aep_mod
 from energy import bands
 from energy.curve import OptimizeRun, PowerCurve, read_trajectories
@@ -166,6 +167,8 @@ class Assessment:
                 "cut_in_elec_m_s": k.elec.cut_in_m_s, "cut_out_elec_m_s": k.elec.cut_out_m_s,
                 "share_below_grid": k.elec.share_below_grid,
                 "share_above_grid": k.elec.share_above_grid,
+                "grid_min_m_s": k.elec.grid_m_s[0], "grid_max_m_s": k.elec.grid_m_s[1],
+                "share_left_out": k.elec.share_left_out,
                 "n_points": k.n_points,
             })
         return pd.DataFrame(rows)
@@ -176,6 +179,7 @@ def model_for_run(run: OptimizeRun, drive_model: Path | None) -> tuple[Path | No
     path = Path(drive_model) if drive_model is not None else run.drive_model_path
     if path is None or not path.is_file():
         return path, None
+    check_output_file(path)  # a fit folder must be the whole output of one run
     try:
         return path, json.loads(path.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
@@ -234,6 +238,12 @@ def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
     kinds: dict[str, KindEnergy] = {}
     curve_rows = []
     for kind, curve in run.curves.items():
+        if len(np.unique(curve.wind_m_s)) < 2:
+            raise InputError(run.folder / "summary.parquet",
+                             f"kind {kind}: a power curve of {len(curve.wind_m_s)} converged "
+                             "wind speed cannot be integrated over the site's wind hours",
+                             expected="a sweep of at least two wind speeds that converge "
+                                      "(bench optimize --wind-grid LO:HI:STEP)")
         elec = aep_mod.curve_energy(curve.wind_m_s, curve.p_elec_w, site, nominal,
                                     curve.cut_in_m_s)
         mech = aep_mod.curve_energy(curve.wind_m_s, curve.p_mech_w, site, nominal, None)

@@ -73,6 +73,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_site_arguments(parser)
 
 
+#: plausible upper ends of site parameters: the windiest places measured have annual
+#: mean wind speeds near 20 m/s (e.g. Cape Denison, Antarctica); roughness lengths of
+#: terrain classes end near 2 m (city centres, WMO/Davenport classification)
+MAX_MEAN_WIND_M_S = 30.0
+MAX_ROUGHNESS_M = 5.0
+
+
+def _at_most(name: str, value: float | None, limit: float, what: str) -> None:
+    if value is not None and value > limit:
+        raise InputError(None, f"{name} {value:g}: implausible", expected=f"{what} <= {limit:g}")
+
+
 def _positive(name: str, value: float | None) -> None:
     if value is not None and not (math.isfinite(value) and value > 0):
         raise InputError(None, f"{name} {value}: not a positive number", expected="a value > 0")
@@ -118,6 +130,15 @@ def site_from_args(args: argparse.Namespace, shear):
     for name in ("weibull_k", "mean_speed", "scale", "rayleigh_mean", "height_m",
                  "reference_height_m", "roughness_m"):
         _positive("--" + name.replace("_", "-"), getattr(args, name))
+    for name in ("mean_speed", "scale", "rayleigh_mean"):
+        _at_most("--" + name.replace("_", "-"), getattr(args, name), MAX_MEAN_WIND_M_S,
+                 "a site's wind speed [m/s]")
+    _at_most("--roughness-m", args.roughness_m, MAX_ROUGHNESS_M, "a roughness length [m]")
+    if args.roughness_m is not None and args.roughness_m >= min(
+            shear.reference_height_m, args.height_m or math.inf):
+        raise InputError(None, f"--roughness-m {args.roughness_m:g}: not below the heights "
+                         "of the log profile", expected="a roughness length below "
+                         f"{min(shear.reference_height_m, args.height_m or math.inf):g} m")
     for name in ("mean_sigma", "k_sigma"):
         value = getattr(args, name)
         if not (math.isfinite(value) and value >= 0):

@@ -18,6 +18,7 @@ import pandas as pd
 import pyarrow.parquet as pq
 
 from bench.errors import InputError
+from bench.output_folder import check_output_folder
 from optimize.sweep.outputs import SUMMARY_REQUIRED
 
 TRAJECTORY_COLUMNS = ("scenario", "kind", "wind_speed_m_s", "weight", "speed_rpm", "torque_nm")
@@ -137,10 +138,12 @@ def read_optimize_run(folder: str | Path) -> OptimizeRun:
     Raises
     ------
     InputError
-        A missing file or column; a kind with no converged scenario is kept
-        out of ``curves`` (it is still in ``summary``).
+        A missing file or column, a folder that is not the whole output of one
+        run (:func:`bench.output_folder.check_output_folder`); a kind with no
+        converged scenario is kept out of ``curves`` (it is still in ``summary``).
     """
     folder = Path(folder)
+    check_output_folder(folder)
     summary = _read_parquet(folder / "summary.parquet", SUMMARY_REQUIRED)
     manifest = read_manifest(folder)
     cut_ins = {}

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from bench.files import write_json, write_text_atomic
+from bench.output_folder import output_folder
 from energy import awesio
 from energy.assess import Assessment
 from energy.bands import Z95
@@ -46,6 +47,11 @@ def _clean(value):
     if isinstance(value, np.bool_):
         return bool(value)
     return value
+
+
+#: files by which an aep output folder written before run ids is known; the resumable
+#: store of ``--refine`` solves kept from run to run
+AEP_MARKERS, AEP_KEEP = ("aep.json",), ("solves",)
 
 
 def aep_document(a: Assessment, run: OptimizeRun, command_line: list[str],
@@ -87,6 +93,15 @@ def _awesio_names(a: Assessment) -> list[str]:
 
 def write_outputs(a: Assessment, run: OptimizeRun, out: Path, command_line: list[str],
                   shear: Shear, refine: dict | None = None) -> dict[str, Path]:
+    """:func:`write_files` into ``out``, all or none (:mod:`bench.output_folder`);
+    ``out/solves`` (the ``--refine`` store) is kept."""
+    with output_folder(out, "aep", AEP_MARKERS, keep=AEP_KEEP) as stage:
+        files = write_files(a, run, stage, command_line, shear, refine)
+    return {k: Path(out) / Path(v).relative_to(stage) for k, v in files.items()}
+
+
+def write_files(a: Assessment, run: OptimizeRun, out: Path, command_line: list[str],
+                shear: Shear, refine: dict | None = None) -> dict[str, Path]:
     """Write ``aep.json``, ``power_curves.csv`` and the awesIO files into ``out``.
 
     ``refine`` is the ``refine`` object of ``aep.json`` (:func:`energy.refine.refine_document`)

@@ -128,6 +128,10 @@ class Weibull:
         a = 1.0 + 1.0 / self.k
         return self.mean_m_s * special.gammainc(a, (v / self.scale_m_s) ** self.k)
 
+    def quantile(self, share: float) -> float:
+        """The wind speed [m/s] below which ``share`` of the hours lie: ``c (-ln(1 - q))^(1/k)``."""
+        return self.scale_m_s * (-math.log1p(-share)) ** (1.0 / self.k)
+
     def scaled(self, factor: float) -> Weibull:
         """The distribution of ``factor * v`` (a height change): same shape, scale times factor."""
         return Weibull(self.k, self.scale_m_s * factor)
@@ -192,6 +196,14 @@ class Histogram:
         density = p / np.diff(e)
         return np.sum(density * 0.5 * (lo**2 - e[:-1] ** 2), axis=-1)
 
+    def quantile(self, share: float) -> float:
+        """The wind speed [m/s] below which ``share`` of the hours lie (linear inside a bin)."""
+        e = np.asarray(self.edges_m_s)
+        cum = np.concatenate([[0.0], np.cumsum(self.probabilities)])
+        i = int(np.clip(np.searchsorted(cum, share, side="left"), 1, len(e) - 1))
+        p = cum[i] - cum[i - 1]  # > 0: the first bin whose cumulative share reaches ``share``
+        return float(e[i - 1] + (e[i] - e[i - 1]) * (share - cum[i - 1]) / p)
+
     def scaled(self, factor: float) -> Histogram:
         """The distribution of ``factor * v``: every edge times ``factor``."""
         return Histogram(tuple(float(x) * factor for x in self.edges_m_s), self.probabilities)
@@ -209,6 +221,38 @@ class Histogram:
 
 
 Distribution = Weibull | Histogram
+
+#: the share of the site's hours a wind grid that "covers the site" may leave above its
+#: last speed (:func:`covering_stop`)
+TAIL_SHARE = 0.005
+
+
+def covering_stop(dist: Distribution, start_m_s: float, step_m_s: float,
+                  tail_share: float = TAIL_SHARE, ceiling_m_s: float | None = None) -> float:
+    """The last speed of the grid ``start, start + step, ...`` that covers the site [m/s].
+
+    The first grid speed at or above the one above which less than ``tail_share`` of the
+    hours lie (the ``1 - tail_share`` quantile), at least ``start + step`` (two speeds), and
+    not above ``ceiling_m_s`` (a cut-out) when given: the grid then ends at the last speed
+    at or below it.
+
+    Parameters
+    ----------
+    dist : Weibull or Histogram
+        Site at the grid's reference height.
+    start_m_s, step_m_s : float
+        First speed and spacing of the grid [m/s], ``step_m_s > 0``.
+    tail_share : float
+        Share of the hours the grid may leave above its end, in (0, 1).
+    ceiling_m_s : float, optional
+        Highest speed worth solving [m/s].
+    """
+    if not (step_m_s > 0 and 0 < tail_share < 1):
+        raise ValueError(f"need step > 0 and a tail share in (0, 1), got {step_m_s}, {tail_share}")
+    n = max(1, math.ceil((dist.quantile(1.0 - tail_share) - start_m_s) / step_m_s - 1e-9))
+    if ceiling_m_s is not None:
+        n = max(1, min(n, math.floor((ceiling_m_s - start_m_s) / step_m_s + 1e-9)))
+    return start_m_s + n * step_m_s
 
 _SPEED_COLUMNS = {
     "edges": ("v_low_m_s", "v_high_m_s"),

@@ -21,6 +21,9 @@ from energy.cli import add_site_arguments, shear_from_args, site_from_args
 
 #: where ``bench fit`` writes its model (docs/schemas.md §4)
 FIT_MODEL_PATH = Path("fit_out") / "power_model.json"
+#: files by which a size output folder written before run ids is known; the
+#: resumable solve store kept from run to run
+SIZE_MARKERS, SIZE_KEEP = ("sizing.json",), ("solves",)
 DEFAULT_SCALES = "0.5,0.75,1,1.5,2"
 DEFAULT_WINDS = "5.5,7,8.5"
 
@@ -55,6 +58,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--adaptive", action="store_true",
                         help="refine each candidate's wind grid where its power curve bends "
                              "(docs/schemas.md §9)")
+    parser.add_argument("--extend", type=int, default=1, metavar="N",
+                        help="when the best drive is the largest or smallest torque-rating "
+                             "scale tried, add one scale beyond it and size again, up to N "
+                             "times (default 1; 0: only flag it)")
     parser.add_argument("--tolerance", type=float, default=0.02,
                         help="choose the smallest drive within this share of the best AEP")
     parser.add_argument("--intervals", type=int, default=40, help="collocation intervals")
@@ -139,6 +146,30 @@ def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
     return candidates, notes
 
 
+def grid_hours(site, winds: tuple[float, ...]) -> dict:
+    """The shares of the site's hours below and above the sizing wind grid (counted as zero
+    power in the sizing AEP), with a one-line note."""
+    below = float(site.cdf(min(winds)))
+    above = float(1.0 - site.cdf(max(winds)))
+    note = (f"the sizing grid {min(winds):g}-{max(winds):g} m/s covers "
+            f"{100 * (1 - below - above):.1f} % of the site's hours; {100 * below:.1f} % below "
+            f"and {100 * above:.1f} % above it count as zero power in the sizing AEP")
+    return {"share_below_grid": below, "share_above_grid": above, "note": note}
+
+
+def edge_note(edge: str | None, best: str | None, added: list[float]) -> str | None:
+    """What the edge of the candidate set means for the answer (None: the best is inside
+    and no scale was added)."""
+    tried = f"scales {', '.join(f'x{s:g}' for s in added)} were added beyond the edge" \
+        if added else ""
+    if edge is None:
+        return f"{tried}; the best drive {best} now lies inside the set" if added else None
+    way = "larger" if edge == "largest" else "smaller"
+    return (f"the best drive {best} is the {edge} candidate{' (' + tried + ')' if added else ''}"
+            f": a {way} drive may be better still; add {way} candidates (--scales, --models, "
+            "or a higher --extend)")
+
+
 def run(args: argparse.Namespace) -> int:
     """Run or resume the sizing sweep (:func:`drivebench.api.size`), print the table."""
     from drivebench.api import size
@@ -150,13 +181,16 @@ def run(args: argparse.Namespace) -> int:
     winds = parse_wind_grid(args.wind_grid)
     if args.out.exists() and not args.out.is_dir():
         raise InputError(args.out, "exists and is not a folder", expected="an output folder")
+    if args.extend < 0:
+        raise InputError(None, f"--extend {args.extend}", expected="an integer >= 0")
     print(f"site: {site_note}")
     print(f"system: {system.name} ({system.path})")
     done = size(site, args.drive_model, system=system, fit_default=FIT_MODEL_PATH,
                 scales=_scales(args.scales), models=tuple(args.models), winds=winds,
                 out=args.out, site_note=site_note, rated_torque_nm=args.rated_torque_nm,
                 max_speed_rpm=args.max_speed_rpm, overload=args.overload,
-                tolerance=args.tolerance, adaptive=args.adaptive, n_intervals=args.intervals,
+                tolerance=args.tolerance, extend=args.extend, adaptive=args.adaptive,
+                n_intervals=args.intervals,
                 degree=args.degree, workers=args.workers, scheduler=args.scheduler,
                 progress=True, command_line=["bench", "size", *sys.argv[2:]],
                 before_solving=lambda d, n: _announce(d, n, len(winds), args.out))
@@ -180,15 +214,25 @@ def _announce(drive: Any, n_candidates: int, n_winds: int, out: Path) -> None:
           f"rated); solves stored in {out / 'solves'}")
 
 
-def write_sizing(out: Path, res: Any, *, site: Any, site_note: str, drive: Any, system: Any,
-                 winds: tuple[float, ...], adaptive: bool, tolerance: float, notes: list[str],
-                 command_line: list[str]) -> dict[str, Path]:
+def write_sizing(out: Path, res: Any, **kw: Any) -> dict[str, Path]:
+    """:func:`write_sizing_files` into ``out``, all or none (:mod:`bench.output_folder`);
+    ``out/solves`` (the resumable solve store) is kept."""
+    from bench.output_folder import output_folder
+
+    with output_folder(out, "size", SIZE_MARKERS, keep=SIZE_KEEP) as stage:
+        files = write_sizing_files(stage, res, **kw)
+    return {k: Path(out) / Path(v).relative_to(stage) for k, v in files.items()}
+
+
+def write_sizing_files(out: Path, res: Any, *, site: Any, site_note: str, drive: Any,
+                       system: Any, winds: tuple[float, ...], adaptive: bool, tolerance: float,
+                       notes: list[str], command_line: list[str],
+                       edge: dict | None = None) -> dict[str, Path]:
     """Write ``sizing.csv`` and ``sizing.json`` (docs/schemas.md §8) of a sizing result
     (:class:`energy.sizing.SizingResult`) into ``out``; returns name -> path."""
     from bench.files import write_json, write_text_atomic
 
     t = res.table
-    out.mkdir(parents=True, exist_ok=True)
     files = {"csv": write_text_atomic(out / "sizing.csv",
                                       t.to_csv(index=False, float_format="%.6g"))}
     doc = {
@@ -204,6 +248,8 @@ def write_sizing(out: Path, res: Any, *, site: Any, site_note: str, drive: Any, 
                "power s P_nom",
         "wind_speeds_m_s": list(winds), "adaptive": adaptive, "tolerance": tolerance,
         "best": res.best, "chosen": res.chosen,
+        "edge": edge or {"best_at": None, "added_scales": [], "note": None},
+        "hours": grid_hours(site, winds),
         "wall_time_s": res.wall_time_s, "executor": res.executor,
         "n_solved": res.n_solved, "n_loaded": res.n_cached,
         "candidates": json.loads(t.to_json(orient="records")),

@@ -196,6 +196,66 @@ def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
     return table.reset_index(drop=True), str(best["candidate"]), str(chosen)
 
 
+def edge_of_set(table: Any, best: str | None) -> str | None:
+    """Whether the best candidate is the largest or smallest drive that got an AEP.
+
+    Returns
+    -------
+    str or None
+        ``"largest"`` or ``"smallest"`` (by rated torque) when the best candidate is at
+        that end of the candidates with an AEP, so a drive beyond it may be better still;
+        None when it lies inside, or no candidate has an AEP.
+    """
+    valid = table.dropna(subset=["aep_elec_mwh"]).sort_values("rated_torque_nm", kind="stable")
+    if best is None or valid.empty:
+        return None
+    if valid.iloc[-1]["candidate"] == best:
+        return "largest"
+    if valid.iloc[0]["candidate"] == best:
+        return "smallest"
+    return None
+
+
+def next_scale(scales: tuple[float, ...], edge: str) -> float:
+    """The torque-rating scale one step beyond the ``edge`` (``"largest"``/``"smallest"``) of
+    ``scales``, continuing the ratio of the two outermost ones (x2 or /2 with one scale),
+    rounded to three significant digits."""
+    ordered = sorted(scales)
+    outer, inner = (ordered[-1], ordered[-2:-1]) if edge == "largest" else (ordered[0],
+                                                                          ordered[1:2])
+    ratio = outer / inner[0] if inner else (2.0 if edge == "largest" else 0.5)
+    return float(f"{outer * ratio:.3g}")
+
+
+def size_extending(make_candidates: Any, scales: tuple[float, ...], extend: int,
+                   run: Any) -> tuple[SizingResult, str | None, list[float]]:
+    """Size, and while the best drive is a torque-rating scale at the edge of the set, add
+    the next scale beyond it (:func:`next_scale`) and size again, up to ``extend`` times.
+
+    ``make_candidates(scales)`` gives the candidates of those scales (plus any others);
+    ``run(candidates)`` sizes them (:func:`run_sizing`: solves already stored are loaded,
+    so a later round solves only the added scale). Returns the last round's result, with
+    each solve and the wall time counted once over the rounds, the edge the best drive
+    sits at (:func:`edge_of_set`) and the scales added.
+    """
+    scales, added = list(scales), []
+    solved, wall = 0, 0.0
+    while True:
+        candidates = make_candidates(tuple(scales))
+        res = run(candidates)
+        # a later round loads the solves of the earlier ones: count each solve once
+        res = dataclasses.replace(res, n_solved=solved + res.n_solved,
+                                  n_cached=res.n_cached - solved,
+                                  wall_time_s=wall + res.wall_time_s)
+        solved, wall = res.n_solved, res.wall_time_s
+        edge = edge_of_set(res.table, res.best)
+        scaled = {c.name for c in candidates if c.scale is not None}
+        if edge is None or len(added) >= extend or res.best not in scaled:
+            return res, edge, added
+        added.append(next_scale(tuple(scales), edge))
+        scales.append(added[-1])
+
+
 def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any, out: Path,
                n_intervals: int = 40, degree: int = 4, handle: Any = None, workers: int = 2,
                scheduler: str | None = None, show_progress: bool = True,

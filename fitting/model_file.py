@@ -6,8 +6,9 @@ import json
 from pathlib import Path
 
 from bench.errors import InputError
-from bench.files import read_text, write_json
-from fitting.model_schema import power_model_from_dict, reject_constant
+from bench.files import bad_number_at, read_text, write_json
+from bench.output_folder import check_output_file
+from fitting.model_schema import power_model_from_dict
 from fitting.power_model import PowerModel
 
 
@@ -26,19 +27,25 @@ def load_power_model(path: str | Path) -> PowerModel:
     Raises
     ------
     InputError
-        If the file is missing, is not JSON, or fails validation; the message
-        names the file and the field.
+        If the file is missing, is not JSON, or fails validation, or its folder is
+        a stage output that is not whole (:func:`bench.output_folder.check_output_file`);
+        the message names the file and the field.
     """
     path = Path(path)
     if not path.exists():
         raise InputError(path, "file not found", expected="a power model JSON file")
+    if path.is_file():
+        check_output_file(path)
     text = read_text(path, what="power model file")
     try:
-        data = json.loads(text, parse_constant=reject_constant)
+        data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise InputError(path, f"not valid JSON: {exc.msg}", line=exc.lineno) from exc
-    except ValueError as exc:
-        raise InputError(path, str(exc), expected="finite numbers only") from exc
+    except ValueError as exc:  # e.g. an integer of more digits than Python converts
+        raise InputError(path, f"not valid JSON: {exc}") from exc
+    bad = bad_number_at(data)
+    if bad is not None:
+        raise InputError(path, bad[1], column=bad[0], expected="finite numbers only")
     return power_model_from_dict(data, path)
 
 

@@ -1,6 +1,7 @@
 """``bench fit`` as a library call: store -> power model, maps, selection, loss table, figures.
 
-Writes the outputs of docs/schemas.md §4 into one directory, each file atomically.
+Writes the outputs of docs/schemas.md §4 into one directory, all of them or none
+(:mod:`bench.output_folder`).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import numpy as np
 
 from bench.errors import InputError
 from bench.files import json_safe, write_json, write_parquet
+from bench.output_folder import check_replaceable, output_folder
 from fitting import figures
 from fitting.domain import BAND_FRAC, quadrant_envelopes
 from fitting.efficiency import (
@@ -46,6 +48,8 @@ from fitting.selection import (
 from fitting.terms import MAX_ORDER, MIN_ORDER, full_polynomial
 
 WEIGHTINGS = ("quadrant", "none")
+#: files by which a fit output folder written before run ids is known
+FIT_MARKERS = ("fit_summary.json", "power_model.json")
 
 
 @dataclass(frozen=True)
@@ -146,6 +150,7 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     :func:`min_quadrant_points` (too few for the folds or the smallest model) is
     dropped and treated the same way, its point count stated.
     """
+    check_replaceable(out, "fit", FIT_MARKERS)  # before the work, not after it
     points = load_points(store)
     source = Path(store) / "points"
     counts = points.counts()
@@ -235,55 +240,54 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
         drive=drive.to_dict(),
     )
 
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "figures").mkdir(exist_ok=True)
-    written = [save_power_model(model, out / "power_model.json")]
+    with output_folder(out, "fit", FIT_MARKERS) as stage:  # all files or none
+        (stage / "figures").mkdir()
+        written = [save_power_model(model, stage / "power_model.json")]
 
-    emap = gridded_map(frame, masking, model=model)
-    shares = band_shares(emap)
-    peaks = peak_points(emap, frame, masking)
-    meta = {"masking": masking.to_dict(), "power_model_sha256": model.sha256,
-            "points_sha256": points.sha256}
-    written.append(write_parquet(out / "efficiency_map.parquet", emap, metadata=meta))
-    table = selection.table.copy()
-    written.append(write_parquet(out / "selection.parquet", table, metadata={
-        "rule": RULE, "weighting": options.weighting, "folds": options.folds,
-        "reason": selection.reason}))
-    written.append(write_loss_table(model, out / "loss_table.csv"))
-    fig_dir = out / "figures"
-    written += figures.efficiency_map_figure(emap, fig_dir, masking.to_dict(), model.domain)
-    written += figures.power_map_figure(model, frame, fig_dir)
-    written += figures.residuals_figure(frame, fit.residuals_w, nominal, fig_dir)
+        emap = gridded_map(frame, masking, model=model)
+        shares = band_shares(emap)
+        peaks = peak_points(emap, frame, masking)
+        meta = {"masking": masking.to_dict(), "power_model_sha256": model.sha256,
+                "points_sha256": points.sha256}
+        written.append(write_parquet(stage / "efficiency_map.parquet", emap, metadata=meta))
+        table = selection.table.copy()
+        written.append(write_parquet(stage / "selection.parquet", table, metadata={
+            "rule": RULE, "weighting": options.weighting, "folds": options.folds,
+            "reason": selection.reason}))
+        written.append(write_loss_table(model, stage / "loss_table.csv"))
+        fig_dir = stage / "figures"
+        written += figures.efficiency_map_figure(emap, fig_dir, masking.to_dict(), model.domain)
+        written += figures.power_map_figure(model, frame, fig_dir)
+        written += figures.residuals_figure(frame, fit.residuals_w, nominal, fig_dir)
 
-    summary = {
-        "schema": "drivebench.fit_summary",
-        "schema_version": 1,
-        "created_at": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
-        "model": {"name": model.name, "sha256": model.sha256, "terms": [list(t) for t in
-                  model.terms], "coefficients_rpm": list(model.coefficients_rpm),
-                  "coefficients_si": list(model.coefficients_si)},
-        "statistics": statistics,
-        "selection_table": _records(table),
-        "extra_terms_check": extra,
-        "drive": drive.to_dict(),
-        "notes": drive_notes + [v["note"] for v in statistics["validity"].values()
-                                if not v["measured"]]
-        + [d["note"] for d in (outliers, repeats) if d.get("note")],
-        "efficiency": {"masking": masking.to_dict(), "band_shares": _records(shares),
-                       "peak": peaks,
-                       "points_against_map": points_against_map(frame, masking,
-                                                                emap.attrs["ceilings"]),
-                       "repeatability": repeats,
-                       "envelope": {q: {"band_width_rpm": env["band_width_rpm"],
-                                        "n_points": env["n_points"],
-                                        "n_vertices": len(env["polygon"])}
-                                    for q, env in envelopes.items()}},
-        "provenance": provenance,
-        "outputs": sorted(str(p.relative_to(out)) for p in written) + ["fit_summary.json"],
-    }
-    summary = json_safe(summary)
-    write_json(out / "fit_summary.json", summary)
+        summary = {
+            "schema": "drivebench.fit_summary",
+            "schema_version": 1,
+            "created_at": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+            "model": {"name": model.name, "sha256": model.sha256, "terms": [list(t) for t in
+                      model.terms], "coefficients_rpm": list(model.coefficients_rpm),
+                      "coefficients_si": list(model.coefficients_si)},
+            "statistics": statistics,
+            "selection_table": _records(table),
+            "extra_terms_check": extra,
+            "drive": drive.to_dict(),
+            "notes": drive_notes + [v["note"] for v in statistics["validity"].values()
+                                    if not v["measured"]]
+            + [d["note"] for d in (outliers, repeats) if d.get("note")],
+            "efficiency": {"masking": masking.to_dict(), "band_shares": _records(shares),
+                           "peak": peaks,
+                           "points_against_map": points_against_map(frame, masking,
+                                                                    emap.attrs["ceilings"]),
+                           "repeatability": repeats,
+                           "envelope": {q: {"band_width_rpm": env["band_width_rpm"],
+                                            "n_points": env["n_points"],
+                                            "n_vertices": len(env["polygon"])}
+                                        for q, env in envelopes.items()}},
+            "provenance": provenance,
+            "outputs": sorted(str(p.relative_to(stage)) for p in written) + ["fit_summary.json"],
+        }
+        summary = json_safe(summary)
+        write_json(stage / "fit_summary.json", summary)
     return summary
 
 

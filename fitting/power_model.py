@@ -211,6 +211,43 @@ def is_finite_number(x: Any) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
 
 
+#: relative tolerance of the covariance checks (asymmetry, negative eigenvalues of the
+#: correlation matrix): rounding in a fit or a JSON round trip stays far below it
+COVARIANCE_RTOL = 1e-6
+
+
+def covariance_problem(cov: np.ndarray, terms) -> str | None:
+    """What keeps ``cov`` from being a covariance matrix (None: it is one).
+
+    A covariance is symmetric and positive semi-definite: no negative variance,
+    and the correlation matrix ``C_ij / sqrt(C_ii C_jj)`` has no eigenvalue below
+    ``-COVARIANCE_RTOL`` (a zero variance needs zero covariances in its row).
+    """
+    scale = float(np.max(np.abs(cov))) if cov.size else 0.0
+    if scale == 0.0:
+        return None
+    asym = np.abs(cov - cov.T)
+    if np.max(asym) > COVARIANCE_RTOL * scale:
+        i, j = np.unravel_index(int(np.argmax(asym)), cov.shape)
+        return f"not symmetric (entry [{i}][{j}] {cov[i, j]:.6g}, [{j}][{i}] {cov[j, i]:.6g})"
+    var = np.diag(cov)
+    if np.any(var < 0):
+        k = int(np.argmin(var))
+        return (f"negative variance {var[k]:.6g} of term {list(terms[k])} (entry [{k}][{k}]): "
+                "not a covariance")
+    sd = np.sqrt(var)
+    for k in np.flatnonzero(sd == 0):
+        if np.any(np.abs(cov[k]) > COVARIANCE_RTOL * scale):
+            return f"zero variance of term {list(terms[k])} with non-zero covariances"
+    keep = sd > 0
+    corr = cov[np.ix_(keep, keep)] / np.outer(sd[keep], sd[keep])
+    low = float(np.min(np.linalg.eigvalsh((corr + corr.T) / 2))) if keep.any() else 0.0
+    if low < -COVARIANCE_RTOL:
+        return (f"not positive semi-definite (correlation matrix eigenvalue {low:.3g}): "
+                "not a covariance")
+    return None
+
+
 def model_problem(model: PowerModel) -> str | None:
     """Return a description of what is wrong with a model, or None."""
     n = len(model.terms)
@@ -231,6 +268,9 @@ def model_problem(model: PowerModel) -> str | None:
             return f"covariance.rpm: shape is not {n} x {n}"
         if not all(math.isfinite(v) for row in cov for v in row):
             return "covariance.rpm: non-finite value"
+        problem = covariance_problem(np.array(cov, float), model.terms)
+        if problem is not None:
+            return f"covariance.rpm: {problem}"
     if not (math.isfinite(model.nominal_power_w) and model.nominal_power_w > 0):
         return "nominal_power_w: a finite positive power [W] expected"
     if not isinstance(model.name, str):

@@ -17,6 +17,7 @@ import numpy as np
 
 from bench.errors import InputError
 from bench.files import file_sha256, write_csv, write_json, write_parquet
+from bench.output_folder import check_replaceable, output_folder
 from bench.versions import package_versions
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
 from optimize.kinds import KINDS
@@ -26,7 +27,14 @@ from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import parse_kinds, parse_wind_grid, plan_chains
 from optimize.sweep.trust import run_trust_checks
 from optimize.system.drive import DriveInForce, drive_in_force
+from optimize.system.plausibility import check_drive_holds_kite
 from optimize.system.system import System, load_system
+
+#: files by which an optimize output folder written before run ids is known
+OPTIMIZE_MARKERS = ("summary.parquet", "manifest.json")
+#: a model given to the Python API, written beside the outputs before the sweep and
+#: named by its manifest: kept from the folder, not part of the run
+OPTIMIZE_KEEP = ("given_power_model.json",)
 
 
 @dataclass(frozen=True)
@@ -101,8 +109,13 @@ class SweepRequest:
         except ValueError as exc:
             raise InputError(None, f"OCP options: {exc}") from exc
         options = system.ocp_options(options, drive.rating)
-        # an impossible model "converges" to a wrong cycle: refuse it before any solve
-        check_physics(drive.model, drive.model_path, limits=domain_scales(drive.model, options))
+        # an impossible model "converges" to a wrong cycle: refuse it before any solve,
+        # checked also where the optimizer may take it (the drive limits in force)
+        check_physics(drive.model, drive.model_path,
+                      limits=(options.limits.max_speed_rpm, options.limits.max_torque_nm))
+        check_drive_holds_kite(system, drive.rating.max_torque_nm,
+                               drive.rating.source or "the drive in force")
+        note += "\n" + system.kite_limits().describe()
         return cls(
             winds,
             kinds,
@@ -166,7 +179,8 @@ def run_optimize(
     checks (mesh check of each kind's middle-wind scenario on the executor,
     simulation check of every converged scenario); compare with the paper;
     write ``summary.parquet``, ``trajectories.parquet``, ``claims.csv`` and
-    ``manifest.json`` (docs/schemas.md §5) atomically into ``request.out``.
+    ``manifest.json`` (docs/schemas.md §5) into ``request.out``, all or none
+    (:mod:`bench.output_folder`).
     ``backend`` replaces the CasADi OCP in the chains (see
     :class:`optimize.sweep.chains.Backend`; the trust checks always use the OCP).
     """
@@ -175,6 +189,8 @@ def run_optimize(
     import sys
 
 
+    check_replaceable(request.out, "optimize", OPTIMIZE_MARKERS,
+                      keep=OPTIMIZE_KEEP)  # before the solves
     system = request.system if request.system is not None else load_system()
     drive = request.drive or drive_in_force(system, request.drive_model_path,
                                             model=request.drive_model)
@@ -197,66 +213,66 @@ def run_optimize(
     claims = (evaluate_claims(summary, cut_ins, paper_system=system.paper_system,
                               system_name=system.name) if request.claims else None)
 
-    request.out.mkdir(parents=True, exist_ok=True)
-    system_meta = outputs.system_metadata(system.record())
-    files = {
-        "summary": write_parquet(request.out / "summary.parquet", summary,
-                                 descriptions=outputs.SUMMARY_COLUMNS, metadata=system_meta),
-        "trajectories": write_parquet(request.out / "trajectories.parquet",
-                                      outputs.trajectories_frame(result.outcomes),
-                                      metadata=system_meta),
-    }
-    model_path = request.drive_model_path
-    if drive.carried:  # the losses the sweep flew with, for bench aep (bands, refine)
-        from fitting.model_file import save_power_model
+    with output_folder(request.out, "optimize", OPTIMIZE_MARKERS,
+                       keep=OPTIMIZE_KEEP) as stage:  # all or none
+        system_meta = outputs.system_metadata(system.record())
+        files = {
+            "summary": write_parquet(stage / "summary.parquet", summary,
+                                     descriptions=outputs.SUMMARY_COLUMNS, metadata=system_meta),
+            "trajectories": write_parquet(stage / "trajectories.parquet",
+                                          outputs.trajectories_frame(result.outcomes),
+                                          metadata=system_meta),
+        }
+        model_path = request.drive_model_path
+        if drive.carried:  # the losses the sweep flew with, for bench aep (bands, refine)
+            from fitting.model_file import save_power_model
 
-        model_path = files["power_model"] = save_power_model(model, request.out /
-                                                             "power_model.json")
-    else:
-        (request.out / "power_model.json").unlink(missing_ok=True)
-    claims_path = request.out / "claims.csv"
-    if claims is not None:
-        files["claims"] = write_csv(claims_path, claims)
-    else:
-        claims_path.unlink(missing_ok=True)  # never leave a stale comparison beside new results
-    manifest = {
-        "schema": outputs.SCHEMA_NAME,
-        "schema_version": outputs.SCHEMA_VERSION,
-        "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "command_line": list(command_line if command_line is not None else sys.argv),
-        "package_versions": package_versions(),
-        "wind_speeds_m_s": list(request.winds),
-        "kinds": list(request.kinds),
-        "scenarios": [o.name for o in result.outcomes],
-        "drive_model": {
-            "path": str(model_path),
-            "file_sha256": file_sha256(model_path),
-            "model_sha256": model.sha256,
-            "name": model.name,
-            "note": request.model_note,
-        },
-        "system": system.record(),
-        "drive_limits": drive.rating.to_dict(),
-        "drive": drive.record(),
-        "options": options.as_dict(),
-        "executor": result.executor,
-        "wall_time_s": result.wall_time_s,
-        "converged": int(summary["success"].sum()),
-        "failed": [o.name for o in result.outcomes if not o.success],
-        "chains": [
-            {
-                "chain": c.chain,
-                "worker": c.worker,
-                "build_time_s": c.build_time_s,
-                "scenarios": [o.name for o in c.outcomes],
-            }
-            for c in result.chains
-        ],
-        "cut_in": [dataclasses.asdict(c) for c in result.cut_ins],
-        "trust": trust,
-        "files": {k: Path(v).name for k, v in files.items()},
-    }
-    files["manifest"] = write_json(request.out / "manifest.json", manifest)
+            model_path = files["power_model"] = save_power_model(model,
+                                                                 stage / "power_model.json")
+        if claims is not None:  # else no stale comparison is left: the folder is replaced
+            files["claims"] = write_csv(stage / "claims.csv", claims)
+        manifest = {
+            "schema": outputs.SCHEMA_NAME,
+            "schema_version": outputs.SCHEMA_VERSION,
+            "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+            "command_line": list(command_line if command_line is not None else sys.argv),
+            "package_versions": package_versions(),
+            "wind_speeds_m_s": list(request.winds),
+            "kinds": list(request.kinds),
+            "scenarios": [o.name for o in result.outcomes],
+            "drive_model": {
+                "path": str(stage / "power_model.json" if drive.carried
+                            else model_path),
+                "file_sha256": file_sha256(model_path),
+                "model_sha256": model.sha256,
+                "name": model.name,
+                "note": request.model_note,
+            },
+            "system": system.record(),
+            "drive_limits": drive.rating.to_dict(),
+            "drive": drive.record(),
+            "kite_limits": dataclasses.asdict(system.kite_limits()),
+            "options": options.as_dict(),
+            "executor": result.executor,
+            "wall_time_s": result.wall_time_s,
+            "converged": int(summary["success"].sum()),
+            "failed": [o.name for o in result.outcomes if not o.success],
+            "chains": [
+                {
+                    "chain": c.chain,
+                    "worker": c.worker,
+                    "build_time_s": c.build_time_s,
+                    "scenarios": [o.name for o in c.outcomes],
+                }
+                for c in result.chains
+            ],
+            "local_optima": outputs.resolve_lines(result.outcomes),
+            "cut_in": [dataclasses.asdict(c) for c in result.cut_ins],
+            "trust": trust,
+            "files": {k: Path(v).name for k, v in files.items()},
+        }
+        files["manifest"] = write_json(stage / "manifest.json", manifest)
+    files = {k: request.out / Path(v).relative_to(stage) for k, v in files.items()}
     return OptimizeOutcome(
         summary,
         claims,
@@ -328,6 +344,19 @@ def bound_lines(summary: Any) -> list[str]:
     return lines
 
 
+def resolve_lines_of(summary: Any) -> list[str]:
+    """One line per scenario re-solved from a neighbour (summary ``resolved_from``)."""
+    if "resolved_from" not in summary.columns:
+        return []
+    lines = []
+    for r in summary.itertuples(index=False):
+        if r.resolved_from:
+            gain = (f"better by {r.resolve_gain_w:.1f} W, kept" if r.resolve_gain_w > 0
+                    else "no better optimum found")
+            lines.append(f"{r.scenario}: re-solved from {r.resolved_from}: {gain}")
+    return lines
+
+
 def format_summary(summary: Any) -> str:
     """The summary as a plain-text table (the paper's Table II analogue, and more)."""
     head = (
@@ -346,6 +375,10 @@ def format_summary(summary: Any) -> str:
     flagged = bound_lines(summary)
     if flagged:
         lines += ["", "optima on a bound or with a slack tether:", *flagged]
+    resolved = resolve_lines_of(summary)
+    if resolved:
+        lines += ["", "local optima: scenarios off their kind's smooth curve, solved again from "
+                  "a neighbour (the better optimum kept):", *resolved]
     outside = domain_lines(summary)
     if outside:
         lines += ["", "outside the drive model's validity domain (the model extrapolates there):",

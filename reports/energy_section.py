@@ -105,6 +105,8 @@ def energy_section(log: InputLog, aep: Path, size: Path) -> dict:
                 "limit_loss": fmt(r.get("limit_loss_mwh"), 3),
                 "cut_in": fmt(r.get("cut_in_elec_m_s"), 2),
                 "above": _pct(r.get("share_above_grid")),
+                "left_out": _pct(r.get("share_left_out")),
+                "coverage": coverage_note(r),
             })
         losses = doc.get("losses") or {}
         out["losses"] = [
@@ -139,11 +141,30 @@ def energy_section(log: InputLog, aep: Path, size: Path) -> dict:
                                                          sizing.get("wind_speeds_m_s") or []),
             "wall": fmt(sizing.get("wall_time_s"), 1), "executor": sizing.get("executor"),
             "solved": sizing.get("n_solved"), "loaded": sizing.get("n_loaded"),
+            "edge": (sizing.get("edge") or {}).get("note"),
+            "edge_at": (sizing.get("edge") or {}).get("best_at"),
+            "hours": (sizing.get("hours") or {}).get("note"),
             "figure": sizing_figure(cands, sizing.get("chosen")) if cands else None,
         }
     out["missing"] = list(dict.fromkeys(log.missing[start:]))
     out["not_run"] = not_run
     return out
+
+
+def coverage_note(row: dict) -> str:
+    """Which of the site's hours an ``aep.json`` kind's AEP covers, in one sentence."""
+    left, lo, hi = (row.get(k) for k in ("share_left_out", "grid_min_m_s", "grid_max_m_s"))
+    if left is None or lo is None or hi is None:
+        return "share of the site's hours covered: not recorded (aep.json from an older version)"
+    below, above = row.get("share_below_grid") or 0.0, row.get("share_above_grid") or 0.0
+    parts = [f"{_pct(above)} above {hi:g} m/s count as zero"]
+    if below > 0:
+        parts.insert(0, f"{_pct(below)} below {lo:g} m/s "
+                     + ("count as zero" if left > above else "deliver nothing, under the "
+                        f"cut-in of {fmt(row.get('cut_in_elec_m_s'), 2)} m/s"))
+    verdict = "" if left < 0.01 else "only part of the site's AEP: "
+    return (f"{verdict}wind grid {lo:g}-{hi:g} m/s covers {_pct(1.0 - left)} of the site's "
+            f"hours ({'; '.join(parts)})")
 
 
 def _pct(x) -> str:

@@ -18,6 +18,7 @@ import pyarrow.parquet as pq
 
 from bench.errors import InputError
 from bench.files import file_sha256
+from bench.output_folder import check_output_file
 
 
 @dataclass(frozen=True)
@@ -48,14 +49,21 @@ class InputLog:
         Files read, in order.
     missing : list of str
         Files (or folders) looked for but absent.
+    runs : dict
+        Stage output folder -> its run id (None: written before run ids); each
+        folder is checked to be the whole output of one run before its first file
+        is read (:func:`bench.output_folder.check_output_folder`).
     """
 
     def __init__(self) -> None:
         self.records: list[InputRecord] = []
         self.missing: list[str] = []
+        self.runs: dict[str, str | None] = {}
 
     def _present(self, path: Path) -> bool:
         if path.is_file():
+            if str(path.parent) not in self.runs:
+                self.runs[str(path.parent)] = check_output_file(path)
             return True
         self.missing.append(str(path))
         return False

@@ -197,6 +197,20 @@ def bound_rows(summary: pd.DataFrame) -> list[dict]:
     return rows
 
 
+def kite_limits_line(manifest: dict) -> str | None:
+    """The kite's tether-force and airspeed limits of the sweep, from its manifest."""
+    k = manifest.get("kite_limits")
+    if not isinstance(k, dict):
+        return None
+    force = k.get("max_tether_force_n")
+    top = k.get("max_airspeed_m_s")
+    return ("Kite limits in every scenario kind: "
+            + (f"tether force at most {fmt(force, 0)} N" if force is not None
+               else "no tether-force limit (the system file gives none)")
+            + f"; airspeed from {fmt(k.get('min_airspeed_m_s'), 1)} m/s to "
+            + (f"{fmt(top, 1)} m/s." if top is not None else "no upper limit."))
+
+
 def optimization_section(log: InputLog, optimize: Path,
                          grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
                          fit_model_sha256: str | None = None) -> dict:
@@ -220,7 +234,8 @@ def optimization_section(log: InputLog, optimize: Path,
         (:func:`domain_rows`), ``notes``
         (why a figure is absent), ``claims``, ``run``, ``cut_in``, ``trust``,
         ``manifest``, ``missing``, ``bounds`` (:func:`bound_rows`), ``system``
-        (name, hash and file text from the manifest, or None).
+        (name, hash and file text from the manifest, or None), ``kite_limits``
+        (:func:`kite_limits_line`), ``local_optima`` (the sweep's re-solves, one line each).
     """
     start = len(log.missing)
     optimize = Path(optimize)
@@ -239,6 +254,8 @@ def optimization_section(log: InputLog, optimize: Path,
     out["cut_in"] = cut_in_rows(manifest) if manifest is not None else []
     out["trust"] = trust_tables(manifest or {})
     out["system"] = (manifest or {}).get("system")
+    out["kite_limits"] = kite_limits_line(manifest or {})
+    out["local_optima"] = [str(n) for n in (manifest or {}).get("local_optima") or []]
     if summary is not None and len(summary):
         s = normalized_summary(summary, summary_path)
         out["table_ii"] = table_ii(s)

@@ -42,7 +42,8 @@ def provenance_section(log: InputLog, argv: list[str], started: datetime,
     Returns
     -------
     dict
-        ``date``, ``commands``, ``packages``, ``inputs``, ``raw_files``, ``platform``.
+        ``date``, ``commands``, ``packages``, ``inputs``, ``raw_files``, ``platform``,
+        ``runs`` (stage output folders read and their run ids).
     """
     commands = [{"stage": "report", "command": shlex.join(argv)}]
     for stage, doc in stage_metadata.items():
@@ -64,4 +65,6 @@ def provenance_section(log: InputLog, argv: list[str], started: datetime,
         ],
         "missing": list(dict.fromkeys(log.missing)),
         "raw_files": raw,
+        "runs": [{"folder": folder, "run_id": run_id} for folder, run_id in log.runs.items()
+                 if run_id is not None],
     }

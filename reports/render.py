@@ -7,9 +7,28 @@ from pathlib import Path
 
 from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
 
-from bench.files import write_text_atomic
+from bench.files import write_text_durable
 from reports import energy_section, optimization, provenance, sections
 from reports.inputs import InputLog
+
+#: the report's numbered sections in order: (anchor, title). Each section's heading and
+#: the navigation bar are made from this list (the template's ``section`` macro), so the
+#: two cannot disagree; the number is the position here.
+SECTIONS = (
+    ("campaign", "Bench campaign"),
+    ("efficiency", "Efficiency map (paper Fig. 5)"),
+    ("model", "Power model (paper Table I, eq. 4, Fig. 6)"),
+    ("optimization", "Optimized pumping cycles"),
+    ("energy", "Annual energy and drive sizing"),
+    ("provenance", "Provenance"),
+)
+
+
+def section_list() -> list[dict]:
+    """The sections for the template: ``anchor``, ``number``, ``title`` and ``short`` (the
+    title without its parenthesis, for the navigation)."""
+    return [{"anchor": a, "number": n, "title": t, "short": t.split(" (")[0]}
+            for n, (a, t) in enumerate(SECTIONS, 1)]
 
 
 def environment() -> Environment:
@@ -55,6 +74,7 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str],
     )
     return {
         "title": "drivebench report",
+        "sections": section_list(),
         "headline": headline(campaign, power, opt) + energy_headline(energy),
         "paths": {"store": str(store), "fit": str(fit), "optimize": str(optimize)},
         "campaign": campaign,
@@ -96,10 +116,12 @@ def energy_headline(energy: dict) -> list[tuple[str, str]]:
         if r["kind"].startswith("elec-lim"):
             rows.append(("electrical AEP (elec-lim)",
                          f"{r['aep_elec']} MWh/yr (95 %: {r['band']}), "
-                         f"capacity factor {r['cf_elec']}"))
-    if energy["sizing"] is not None:
-        rows.append(("drive sizing", f"smallest within {energy['sizing']['tolerance']} of the best "
-                     f"AEP: {energy['sizing']['chosen']}"))
+                         f"capacity factor {r['cf_elec']}; {r['coverage']}"))
+    sizing = energy["sizing"]
+    if sizing is not None:
+        rows.append(("drive sizing", "; ".join(x for x in (
+            f"smallest within {sizing['tolerance']} of the best AEP: {sizing['chosen']}",
+            sizing["edge"], sizing["hours"]) if x)))
     return rows
 
 
@@ -111,4 +133,4 @@ def render(context: dict) -> str:
 def build_report(store: Path, fit: Path, optimize: Path, out: Path, argv: list[str],
                  aep: Path = Path("aep_out"), size: Path = Path("size_out")) -> Path:
     """Read the stage outputs, render the report and write it to ``out``; returns ``out``."""
-    return write_text_atomic(out, render(build_context(store, fit, optimize, argv, aep, size)))
+    return write_text_durable(out, render(build_context(store, fit, optimize, argv, aep, size)))

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from bench.errors import InputError
+from bench.store import check_store, read_manifest
 from bench.store import kind_files as store_files
 from fitting import figures
 from fitting.model_schema import power_model_from_dict
@@ -39,9 +40,16 @@ def _store_kind(log: InputLog, store: Path, kind: str, manifest: dict | None,
                 required: tuple[str, ...]) -> pd.DataFrame | None:
     """The ``kind`` files the store's manifest lists (never files it does not list)."""
     try:
-        files = [] if manifest is None else list(store_files(store, kind).values())
+        store_manifest = None if manifest is None else read_manifest(store)
     except InputError:  # not a store manifest: the campaign section says what is missing
-        files = []
+        store_manifest = None
+    files = [] if store_manifest is None else list(store_files(store, kind).values())
+    if files:
+        damage = check_store(store, store_manifest)
+        if damage.damaged:
+            raise InputError(store, "damaged store: " + "; ".join(damage.lines()[:3]),
+                             expected="run bench store check, then bench ingest of the "
+                                      "damaged sessions' folders")
     return log.parquet_files(files, str(Path(store) / kind / "*.parquet"), required)
 
 

@@ -202,3 +202,117 @@ def run_kills(work: Path, n: int, seed: int = 0, steps: int | None = 0,
         log(f"kill {k + 1}/{len(plan)} ({how} {delay:.3f}): rc {rc}, "
             f"{'old' if digest == old_digest else 'new' if digest == new_digest else 'NEITHER'}")
     return figures
+
+
+# -- stage output folders (bench fit, bench optimize, ...) ------------------------------
+
+def folder_files(folder: Path) -> dict[str, str]:
+    """Relative path -> SHA-256 of every file under ``folder`` (empty when it is missing)."""
+    if not folder.is_dir():
+        return {}
+    return {p.relative_to(folder).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@dataclass
+class OutputKillFigures:
+    """What a kill run of a stage writing an output folder saw."""
+
+    tried: int = 0
+    fs_steps: int = 0  # of which: died just before a chosen file-system call
+    old: int = 0  # the folder is byte for byte the old output
+    new: int = 0  # the folder is one whole new output (run.json checks, new run id)
+    finished: int = 0  # the stage ended before the kill
+    mixed: int = 0  # neither (goal: 0)
+    refused_by_readers: int = 0  # of the mixed: check_output_folder refuses them
+    staging_left: int = 0  # killed while a staging folder existed beside the output
+    leftovers: int = 0  # staging folders left after the next complete run (goal: 0)
+    full_run_s: float = 0.0
+    problems: list[str] = field(default_factory=list)
+
+
+def run_output_kills(work: Path, old_args: list[str], new_args: list[str], n: int,
+                     steps: int | None, seed: int = 0,
+                     log=lambda msg: None) -> OutputKillFigures:
+    """Kill a stage (``bench <new_args> --out DIR``) writing over an earlier output.
+
+    ``old_args``/``new_args`` are the stage's command lines without ``--out``; the
+    old one writes the folder first. Then ``n`` SIGKILLs at a moment uniform over the
+    run, and ``steps`` deaths just before the k-th file-system call (None: every k).
+    After each kill the folder must be exactly the old output or one whole new one;
+    the next complete run, in the last folder a kill left a staging folder beside,
+    must remove it.
+    """
+    from bench.output_folder import RUN_FILE, check_output_folder
+
+    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+    base = work / "base" / "out"
+    subprocess.run([sys.executable, "-m", "bench.cli", *old_args, "--out", str(base)],
+                   check=True, capture_output=True, cwd=REPO, env=env)
+    old = folder_files(base)
+    old_run = json.loads((base / RUN_FILE).read_text())["run_id"]
+    ref = work / "ref" / "out"
+    shutil.copytree(base, ref)
+    t0 = time.perf_counter()
+    err = subprocess.run([sys.executable, "-c", STEP_CHILD, "0", *new_args, "--out", str(ref)],
+                         check=True, capture_output=True, text=True, cwd=REPO, env=env).stderr
+    figures = OutputKillFigures(full_run_s=time.perf_counter() - t0)
+    total = int(err.rsplit("fs-calls ", 1)[1].split()[0])
+    new_names = set(folder_files(ref))
+    ks = list(range(1, total + 1)) if steps is None else sorted(
+        {1 + round(i * (total - 1) / max(steps - 1, 1)) for i in range(steps)})
+    rng = random.Random(seed)
+    plan = [("time", None)] * n + [("step", k) for k in ks]
+    dirty = None  # the last output folder a kill left a staging folder beside
+    for i, (how, step) in enumerate(plan):
+        out = work / f"kill_{i}" / "out"
+        shutil.copytree(base, out)
+        if how == "time":
+            delay = rng.uniform(0, 1.05 * figures.full_run_s)
+            proc = subprocess.Popen([sys.executable, "-m", "bench.cli", *new_args, "--out",
+                                     str(out)], cwd=REPO, env=env,
+                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            time.sleep(delay)
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGKILL)
+        else:
+            delay = float(step)
+            proc = subprocess.Popen([sys.executable, "-c", STEP_CHILD, str(step), *new_args,
+                                     "--out", str(out)], cwd=REPO, env=env,
+                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        rc = proc.wait()
+        figures.tried += 1
+        figures.fs_steps += how == "step"
+        figures.finished += rc == 0
+        now = folder_files(out)
+        state = "old" if now == old else "mixed"
+        if state == "mixed" and set(now) == new_names:
+            try:
+                run_id = check_output_folder(out)
+            except Exception:  # noqa: BLE001 - any refusal counts as refused
+                run_id = None
+            state = "new" if run_id not in (None, old_run) else "mixed"
+        if state == "mixed":
+            figures.mixed += 1
+            try:
+                check_output_folder(out)
+            except Exception:  # noqa: BLE001
+                figures.refused_by_readers += 1
+            figures.problems.append(f"kill {i} ({how} {delay:.3f}): folder mixed: "
+                                    f"{sorted(set(now) ^ set(old))[:5]}")
+        else:
+            setattr(figures, state, getattr(figures, state) + 1)
+        if any(p.name.startswith(".out.") for p in out.parent.iterdir()):
+            figures.staging_left += 1
+            dirty = out
+        elif out != dirty:
+            shutil.rmtree(out.parent)
+        log(f"kill {i + 1}/{len(plan)} ({how} {delay:.3f}): rc {rc}, {state}")
+    if dirty is not None:
+        subprocess.run([sys.executable, "-m", "bench.cli", *new_args, "--out", str(dirty)],
+                       check=True, capture_output=True, cwd=REPO, env=env)
+        left = sorted(p.name for p in dirty.parent.iterdir() if p.name != "out")
+        if left:
+            figures.leftovers += 1
+            figures.problems.append(f"after the next run: leftovers {left}")
+    return figures

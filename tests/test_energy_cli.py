@@ -88,3 +88,35 @@ def test_bench_aep_bad_site_exits_2(tmp_path, capsys, site_args):
     assert code == 2
     assert "error" in capsys.readouterr().err
     assert not (tmp_path / "aep").exists()
+
+
+@pytest.mark.parametrize("site_args", [
+    ["--weibull-k", "2", "--mean-speed", "1e6"],
+    ["--weibull-k", "2", "--scale", "500"],
+    ["--rayleigh-mean", "1e6"],
+    ["--weibull-k", "2", "--mean-speed", "6", "--roughness-m", "1000"],
+])
+def test_implausible_site_exits_2(tmp_path, capsys, site_args):
+    """A mean wind speed of 1e6 m/s or a roughness length of 1 km is refused, the option
+    named."""
+    folder = write_optimize_folder(tmp_path / "opt", model_with_covariance())
+    code = main(["aep", "--optimize", str(folder), "--out", str(tmp_path / "aep"), *site_args])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "implausible" in err or "not below" in err
+    assert site_args[-2] in err
+
+
+def test_one_wind_speed_is_refused(tmp_path, capsys):
+    """A curve of one wind speed cannot be integrated: exit 2 naming the kind (before:
+    AEP 0.000 MWh with exit 0)."""
+    folder = write_optimize_folder(tmp_path / "opt", model_with_covariance())
+    summary = pd.read_parquet(folder / "summary.parquet")
+    one = summary[summary["wind_speed_m_s"] == summary["wind_speed_m_s"].min()]
+    one.to_parquet(folder / "summary.parquet")
+    code = main(["aep", "--optimize", str(folder), "--weibull-k", "2", "--mean-speed", "6",
+                 "--out", str(tmp_path / "aep")])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "cannot be integrated" in err and "summary.parquet" in err
+    assert not (tmp_path / "aep").exists()

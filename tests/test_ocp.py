@@ -20,7 +20,7 @@ from optimize.model.kite_model import kite_dae
 from optimize.paper_model import paper_model
 from optimize.problem.collocation import radau
 from optimize.problem.ocp import build_ocp
-from optimize.problem.options import Discretization, OcpOptions, SolverOptions
+from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.solve import cold_start, solve
 
@@ -158,3 +158,31 @@ def test_mumps_blas_runs_the_thread_count_the_environment_names(solved):
 def test_options_reject_a_warm_bound_push_ipopt_refuses(push):
     with pytest.raises(ValueError, match="warm_bound_push"):
         SolverOptions(warm_bound_push=push)
+
+
+
+def test_kite_limits_bind_in_a_kind_without_drive_limits(solved):
+    # the unconstrained electrical optimum at 7 m/s, then the kite's own limits 15 % and
+    # 10 % below its peak tension and airspeed: both must bind, to the value, without
+    # any drive limit (elec-free), and the cycle generates less
+    _, _, elec, _ = solved
+    peak_n = float(elec.trajectory["tension_n"].max())
+    peak_v = float(elec.trajectory["airspeed_m_s"].max())
+    f_max, v_max = 0.85 * peak_n, 0.9 * peak_v
+    limited = build_ocp(kite_dae(), paper_model(), OcpOptions(
+        Discretization(n_intervals=N_COARSE),
+        limits=Limits(max_tether_force_n=f_max, max_airspeed_m_s=v_max)))
+    res = solve(limited, Scenario(7.0, "electrical", False), elec.warm)
+    assert res.success, res.status
+    # rows solved to IPOPT's 1e-6 (scaled); 1e-3 is the active-bound tolerance
+    assert float(res.trajectory["tension_n"].max()) == pytest.approx(f_max, rel=1e-3)
+    assert float(res.trajectory["airspeed_m_s"].max()) == pytest.approx(v_max, rel=1e-3)
+    assert {"tether_force_limit", "airspeed_max"} <= set(res.active_bounds)
+    assert res.avg_p_elec_w > elec.avg_p_elec_w  # less generated (negative = generated)
+    # the tether limit is the torque row's bound in every kind; the drive's adds on top
+    free = limited.bounds(drive_limits=False, fix_fictitious=True, period_s=None)[3]
+    lim = limited.bounds(drive_limits=True, fix_fictitious=True, period_s=None)[3]
+    rows = limited.layout.rows_of("torque")
+    torque_of_limit = f_max * limited.dae.kite.r_winch_m / limited.dae.kite.gear_ratio
+    assert free[rows] * limited.scales.torque_nm == pytest.approx(torque_of_limit)
+    assert lim[rows] * limited.scales.torque_nm == pytest.approx(min(78.0, torque_of_limit))

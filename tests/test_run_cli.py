@@ -1,9 +1,12 @@
 """`bench run` chains the stages through their own command lines."""
 
+import math
 from pathlib import Path
 
+import pytest
+
 from bench.cli import build_parser
-from bench.run_cli import stage_commands
+from bench.run_cli import FORWARDED, stage_commands, stage_parser
 
 
 def test_every_stage_command_parses_with_that_stage_parser():
@@ -32,6 +35,55 @@ def test_stage_outputs_feed_the_next_stage():
     # the demo's site: Weibull k = 2, mean 5.5 m/s at 100 m (the paper's Leuven figure)
     for stage in (aep, size):
         assert (stage.weibull_k, stage.mean_speed, stage.height_m) == (2.0, 5.5, 100.0)
+
+
+#: what `bench run` sets on purpose: the folders that chain the stages, the site, the
+#: optimize wind grid covering it, --trust and --refine
+SET_BY_RUN = {"paths", "store", "out", "fit", "optimize", "aep", "size", "drive_model",
+              "weibull_k", "mean_speed", "height_m", "wind_grid", "trust", "refine"}
+
+
+def test_bench_run_leaves_every_other_option_at_the_stages_default():
+    run_args = build_parser(["run", "logs"]).parse_args(["run", "logs", "--out", "o"])
+    for argv in stage_commands(run_args):
+        stage = argv[0]
+        parsed = vars(stage_parser(stage).parse_args(argv[1:]))
+        defaults = vars(stage_parser(stage).parse_args(
+            [a for a in argv[1:2] if stage == "ingest"]))  # ingest needs its paths
+        differ = {k for k in parsed if parsed[k] != defaults[k]} - SET_BY_RUN
+        assert differ == set(), f"bench run changes bench {stage} {sorted(differ)}"
+    # the size stage's grid and scales are bench size's own (they once were typed again)
+    size = stage_parser("size").parse_args(stage_commands(run_args)[4][1:])
+    assert (size.scales, size.wind_grid) == (stage_parser("size").get_default("scales"),
+                                            stage_parser("size").get_default("wind_grid"))
+
+
+@pytest.mark.parametrize("dest", sorted(FORWARDED))
+def test_an_option_given_to_bench_run_reaches_its_stages(dest):
+    stages, option = FORWARDED[dest]
+    value = {"order": "3", "workers": "1", "size_scales": "1,2",
+             "size_wind_grid": "6,8"}[dest]
+    flag = "--" + dest.replace("_", "-")
+    run_args = build_parser(["run", "logs"]).parse_args(["run", "logs", flag, value])
+    commands = {c[0]: c for c in stage_commands(run_args)}
+    for stage in stages:
+        argv = commands[stage]
+        assert argv[argv.index(option) + 1] == value
+
+
+def test_default_wind_grid_covers_all_but_half_a_percent_of_the_site():
+    run_args = build_parser(["run", "logs"]).parse_args(["run", "logs", "--out", "o"])
+    optimize = stage_commands(run_args)[2]
+    start, stop, step = (float(x) for x in optimize[optimize.index("--wind-grid") + 1].split(":"))
+    # bench optimize's default 4:10:1.5 starts and steps the grid
+    assert (start, step) == (4.0, 1.5)
+    # closed form: Weibull k = 2, mean 5.5 m/s (the site is given at the 100 m reference
+    # height, so unmoved), scale c = 5.5 / Gamma(1.5); P(v > x) = exp(-(x / c)^2)
+    c = 5.5 / math.gamma(1.5)
+    above = math.exp(-((stop / c) ** 2))
+    above_one_step_less = math.exp(-(((stop - step) / c) ** 2))
+    assert above < 0.005 <= above_one_step_less
+    assert stop == 14.5  # c sqrt(ln 200) = 14.29 m/s, rounded up to the grid
 
 
 def test_optimize_exit_codes_and_bench_run_going_on_past_some_failures(monkeypatch, capsys):

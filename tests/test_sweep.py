@@ -25,6 +25,7 @@ from bench.errors import InputError
 from optimize.problem.scenario import scenario_name
 from optimize.sweep.chains import (
     MAX_WARM_ATTEMPTS,
+    ChainTask,
     Problem,
     find_cut_in,
     make_tasks,
@@ -486,3 +487,83 @@ def test_run_optimize_writes_every_file(tmp_path):
     )
     assert not (out / "claims.csv").exists()
     assert len(read_summary(out / "summary.parquet")) == 2
+
+
+# ----------------------------------------------------------------- local optima
+@dataclass(frozen=True)
+class BranchResult(Result):
+    period_s: float = 5.0
+    avg_p_mech_w: float = 0.0
+
+
+@dataclass(frozen=True)
+class BranchBackend:
+    """Two optima per wind: branch "good" (P = -100 w^2, period 5 s) everywhere and a local
+    branch "local" 300 W worse (period 8 s) that exists only between 6 and 8 m/s. A warm
+    start stays on its source's branch where it exists; the cold start lands on "local"."""
+
+    def build(self, problem: Problem) -> str:
+        return problem.key
+
+    @staticmethod
+    def _on(branch: str, w: float) -> BranchResult:
+        branch = branch if branch == "good" or 6.0 <= w <= 8.0 else "good"
+        local = branch == "local"
+        return BranchResult("Solve_Succeeded", True, 3, 1e-3, -100.0 * w**2 + 300.0 * local,
+                            branch, period_s=8.0 if local else 5.0)
+
+    def solve(self, ocp: str, kind: str, w: float, warm: str) -> BranchResult:
+        return self._on(warm, w)
+
+    def cold_start(self, ocp: str, kind: str, w: float) -> BranchResult:
+        return self._on("local", w)
+
+
+def test_a_local_optimum_off_the_curve_is_resolved_from_its_neighbour():
+    from optimize.sweep.outputs import resolve_fields, resolve_lines
+
+    (chain,) = plan_chains(WINDS, ("elec-free",), 1)
+    done = run_chain(ChainTask(chain, PROBLEM), BranchBackend())
+    by_name = {o.name: o for o in done.outcomes}
+    mid = by_name["elec-free-7.0"]  # the cold start: on the local branch, 300 W worse
+    assert mid.result.avg_p_elec_w == pytest.approx(-4900.0)  # the better optimum kept
+    assert mid.result.warm == "good" and mid.attempts[-1].source == "elec-free-5.5"
+    assert [r.kept for r in mid.resolves] == [True]
+    assert mid.resolves[0].before_w == pytest.approx(-4600.0)
+    row = resolve_fields(mid)  # the summary's columns
+    assert row["resolved_from"] == "elec-free-5.5"
+    assert row["resolve_gain_w"] == pytest.approx(300.0)
+    assert "better optimum, kept" in resolve_lines([mid])[0]  # the manifest's local_optima
+    import pandas as pd
+
+    from optimize.command import format_summary, resolve_lines_of
+
+    frame = pd.DataFrame([{"scenario": mid.name, **row}])
+    line = "elec-free-7.0: re-solved from elec-free-5.5: better by 300.0 W, kept"
+    assert resolve_lines_of(frame) == [line]
+    assert line in format_summary(frame.assign(
+        status="Solve_Succeeded", iterations=3, total_wall_time_s=0.0, avg_p_elec_w=-4900.0,
+        avg_p_mech_w=0.0, period_s=5.0, e_elec_j=0.0, peak_speed_rpm=0.0, peak_torque_nm=0.0,
+        p_elec_max_w=0.0, slack_fraction=0.0, success=True, active_bounds="",
+        bound_limited=False, outside_domain_time_frac=float("nan")))
+    # the neighbours disagreed with the curve too while 7.0 was off it: re-solved from
+    # 7.0's local optimum, which does not exist there, so they kept their own
+    for name in ("elec-free-5.5", "elec-free-8.5"):
+        assert not any(r.kept for r in by_name[name].resolves)
+        assert by_name[name].result.avg_p_elec_w == pytest.approx(-100.0 * float(name[-3:])**2)
+    assert all(o.result.warm == "good" for o in done.outcomes)
+
+
+def test_a_smooth_power_curve_is_not_resolved():
+    from optimize.sweep.chains import off_curve
+
+    winds = [4.0 + i for i in range(10)]
+    power = [-3.0 * w**3 + 40 for w in winds]  # cubic in the wind, crossing zero near 2.4 m/s
+    period = [12.0 - 0.5 * w for w in winds]
+    assert off_curve(winds, power, period) == []
+    bumped = list(power)
+    bumped[8] *= 0.95  # 5 % less generated at 12 m/s: the AP2 case (-5673 W for -5974 W)
+    assert 8 in off_curve(winds, bumped, period)
+    jumped = list(period)
+    jumped[7] *= 1.3  # a period jump alone
+    assert 7 in off_curve(winds, power, jumped)

@@ -34,6 +34,7 @@ def run(args: argparse.Namespace) -> int:
     result = ingest(args.paths, args.store, mapping_path=args.mapping,
                     progress=not args.no_progress, workers=args.workers,
                     strict=args.strict, wait=not args.no_wait, replace=not args.no_replace)
-    print(format_summary(result.ingested, result.unchanged, result.manifest))
+    print(format_summary(result.ingested, result.unchanged, result.manifest,
+                         result.repaired))
     print(f"store: {result.store_dir}")
     return 0

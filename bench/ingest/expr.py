@@ -111,10 +111,21 @@ def _tokens(text: str) -> list[_Token]:
     return out
 
 
+#: limits that keep parsing and evaluation far from Python's recursion limit; a
+#: mapping's formula needs a handful of terms and parentheses
+MAX_NESTING = 32
+MAX_TOKENS = 400
+
+
 class _Parser:
     def __init__(self, text: str) -> None:
         self.toks = _tokens(text)
         self.k = 0
+        self.depth = 0
+        if len(self.toks) > MAX_TOKENS:
+            tok = self.toks[MAX_TOKENS]
+            raise ExprError(f"more than {MAX_TOKENS} numbers, columns and operators",
+                            tok.position)
 
     def peek(self) -> _Token:
         return self.toks[self.k]
@@ -139,12 +150,11 @@ class _Parser:
         return node
 
     def unary(self) -> Node:
-        tok = self.peek()
-        if tok.kind == "op" and tok.text in "+-":
-            self.take()
-            operand = self.unary()
-            return Negate(operand) if tok.text == "-" else operand
-        return self.atom()
+        signs = []  # iterative: a run of 1000 signs is no recursion
+        while self.peek().kind == "op" and self.peek().text in "+-":
+            signs.append(self.take().text)
+        node = self.atom()
+        return Negate(node) if signs.count("-") % 2 else node
 
     def atom(self) -> Node:
         tok = self.take()
@@ -153,7 +163,11 @@ class _Parser:
         if tok.kind == "col":
             return Column(tok.text, tok.position)
         if tok.kind == "op" and tok.text == "(":
+            self.depth += 1
+            if self.depth > MAX_NESTING:
+                raise ExprError(f"more than {MAX_NESTING} nested parentheses", tok.position)
             node = self.expr()
+            self.depth -= 1
             close = self.take()
             if not (close.kind == "op" and close.text == ")"):
                 raise ExprError(f"expected ')' {_found(close)}", close.position)

@@ -25,7 +25,7 @@ from tqdm import tqdm
 from bench import store
 from bench.drive import find_drive_file, session_drive
 from bench.errors import InputError
-from bench.files import file_sha256
+from bench.files import WRITE_ERRNOS, file_sha256
 from bench.ingest.mapping import EMPTY_MAPPING, load_mapping
 from bench.ingest.readers import CHUNK_BYTES
 from bench.ingest.session import Session, complete_ranges, discover, load_session
@@ -58,6 +58,9 @@ class IngestResult:
     replaced : dict
         session_id -> the folder it had been ingested from, for stored sessions
         replaced by a session of the same id from another folder.
+    repaired : dict
+        session_id -> the damage found in its stored files (missing, truncated,
+        altered), for sessions re-ingested because of it.
     """
 
     store_dir: Path
@@ -65,6 +68,7 @@ class IngestResult:
     unchanged: list[str] = field(default_factory=list)
     manifest: dict = field(default_factory=dict)
     replaced: dict[str, str] = field(default_factory=dict)
+    repaired: dict[str, list[str]] = field(default_factory=dict)
 
 
 def _stderr(line: str) -> None:
@@ -95,10 +99,11 @@ def session_files(
             raise InputError(session.path, f"bad value {named!r}", column="points.mapping",
                              expected="a file name in the session folder")
         mapping = session.inside(named, "points.mapping")
-    elif (session.folder / "mapping.toml").is_file():
-        mapping = session.folder / "mapping.toml"
-    elif (session.folder / "mapping.json").is_file():
-        mapping = session.folder / "mapping.json"
+    else:  # a mapping beside session.toml, never one a link puts elsewhere
+        beside = [n for n in ("mapping.toml", "mapping.json")
+                  if (session.folder / n).exists() or (session.folder / n).is_symlink()]
+        if beside:
+            mapping = session.inside(beside[0], beside[0])
     if mapping is not None:
         files[mapping.name] = mapping
     elif user_mapping is not None:
@@ -168,7 +173,7 @@ def ingest(
     sessions: list[Session] = []
     seen: dict[str, Path] = {}
     drives: dict[str, tuple[dict | None, Path | None]] = {}  # rating, drive.toml
-    for folder in discover(paths):
+    for folder in discover(paths, notify):
         s = load_session(folder)
         drive_file = find_drive_file(folder, [Path(p) for p in paths])
         label = "" if drive_file is None else os.path.relpath(drive_file, folder.parent)
@@ -186,6 +191,10 @@ def ingest(
     result = IngestResult(store_dir=store_dir)
     with store.StoreWriter(store_dir, wait=wait, notify=notify) as writer:
         manifest = writer.manifest
+        damage = writer.damage
+        for line in damage.lines():
+            if not line.startswith("session "):
+                notify(f"bench ingest: store {store_dir}: {line}")
         todo = []
         # hashing runs in a background thread (hashlib releases the GIL); a session
         # already in the manifest waits for its hashes to decide whether it changed
@@ -202,13 +211,20 @@ def ingest(
                         drive_file
                 hashes = {k: hasher.submit(file_sha256, p) for k, p in named.items()}
                 old = manifest["sessions"].get(s.session_id)
-                if (old is not None and old.get("ingest_version") == INGEST_VERSION
+                broken = damage.sessions.get(s.session_id) or (
+                    [damage.generation] if old is not None and damage.generation else [])
+                if broken:
+                    result.repaired[s.session_id] = broken
+                    notify(f"bench ingest: stored files of session {s.session_id!r} are "
+                           f"damaged ({'; '.join(broken)}); re-ingesting it")
+                elif (old is not None and old.get("ingest_version") == INGEST_VERSION
                         and old.get("files") == {k: f.result() for k, f in hashes.items()}):
                     result.unchanged.append(s.session_id)
                     continue
                 if old is not None and old.get("source") not in (None, str(s.folder)):
                     result.replaced[s.session_id] = old["source"]
                 todo.append((s, hashes, mapping_file, files))
+            writer.require_repair(seen)
             if result.replaced and not replace:
                 lines = "; ".join(f"{sid!r} (stored from {src})"
                                   for sid, src in sorted(result.replaced.items()))
@@ -223,8 +239,16 @@ def ingest(
                     if s.session_id in result.unchanged:
                         _strict_check(s, manifest["sessions"][s.session_id])
             if todo:
-                _process(todo, writer, config, progress, chunk_bytes, workers, result,
-                         {sid: d for sid, (d, _) in drives.items()}, strict)
+                try:
+                    _process(todo, writer, config, progress, chunk_bytes, workers, result,
+                             {sid: d for sid, (d, _) in drives.items()}, strict)
+                except OSError as exc:  # writing the store: name it
+                    if exc.errno not in WRITE_ERRNOS:
+                        raise
+                    reason = WRITE_ERRNOS[exc.errno]
+                    raise InputError(store_dir, f"cannot write to the store ({reason}); "
+                                     "nothing was committed",
+                                     expected="free space for the store") from exc
         finally:
             hasher.shutdown(cancel_futures=True)
         result.manifest = writer.manifest

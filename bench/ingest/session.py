@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from datetime import date, datetime
 from pathlib import Path, PurePath
 
 from bench.errors import InputError
-from bench.files import read_toml
+from bench.files import bad_number_at, read_toml
 from bench.store import STAGING_PREFIX
 
 SESSION_FILE = "session.toml"
@@ -237,7 +238,13 @@ def load_session(folder: str | Path) -> Session:
     """
     folder = Path(folder)
     path = folder / SESSION_FILE
+    if not path.resolve().is_relative_to(folder.resolve()):
+        raise InputError(path, f"{SESSION_FILE} is a link out of the session folder "
+                         f"(to {path.resolve()})", expected=f"a {SESSION_FILE} in {folder}")
     raw = read_toml(path)
+    bad = bad_number_at(raw)  # NaN, inf, or an integer no float holds, in any key
+    if bad is not None and not bad[1].startswith("non-finite"):
+        raise InputError(path, bad[1], column=bad[0], expected="a number of usual size")
     sid = _get(path, raw, "session_id", str)
     if sid != folder.name:
         raise InputError(path, f"session_id {sid!r} differs from the folder name",
@@ -255,6 +262,8 @@ def load_session(folder: str | Path) -> Session:
     if kind == "timeseries":
         _check_streams(path, raw)
     ranges = _sensor_ranges(path, raw.get("sensors", {}))
+    if bad is not None:  # the keys checked above said so in their own words
+        raise InputError(path, bad[1], column=bad[0], expected="finite numbers")
     return Session(folder=folder, session_id=sid, kind=kind, mode=mode, gear_ratio=gear,
                    measured_side=side, speed_sign=ssign, torque_sign=tsign, ranges=ranges, raw=raw,
                    signed_torque=signed)
@@ -275,11 +284,13 @@ def _check_streams(path: Path, raw: dict) -> None:
                      "for kind = 'timeseries'")
 
 
-def discover(paths: list[str | Path]) -> list[Path]:
+def discover(paths: list[str | Path],
+             notify: Callable[[str], None] | None = None) -> list[Path]:
     """Session folders (holding ``session.toml``) at or under each path, sorted, unique.
 
     Symbolic links are followed only while they stay inside the given path, and
-    each real folder is walked once (a link cycle ends).
+    each real folder is walked once (a link cycle ends). A link out of the given
+    path is skipped and ``notify`` told which and where it leads.
 
     Raises
     ------
@@ -299,6 +310,8 @@ def discover(paths: list[str | Path]) -> list[Path]:
             real = Path(folder).resolve()
             # a link out of the campaign, or back to a folder already walked (a cycle)
             if real in visited or not real.is_relative_to(root):
+                if notify is not None and not real.is_relative_to(root):
+                    notify(f"bench ingest: skipped {folder}: a link out of {p} (to {real})")
                 dirs[:] = []
                 continue
             visited.add(real)

@@ -7,7 +7,8 @@ def _fmt(value, spec: str) -> str:
     return "-" if value is None else format(value, spec)
 
 
-def format_summary(ingested: list[str], unchanged: list[str], manifest: dict) -> str:
+def format_summary(ingested: list[str], unchanged: list[str], manifest: dict,
+                   repaired=()) -> str:
     """One row per session of this run, then totals.
 
     Parameters
@@ -16,6 +17,9 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict) ->
         Session ids written / skipped (unchanged files) by this run.
     manifest : dict
         The store manifest after the run.
+    repaired : collection of str
+        Sessions re-ingested because their stored files were damaged (status
+        ``repaired``).
 
     Returns
     -------
@@ -42,7 +46,8 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict) ->
         for r, n in e["rejected"].items():
             tot_rej[r] = tot_rej.get(r, 0) + n
         rows.append((
-            sid, "ingested" if sid in ingested else "unchanged", e["kind"], e["mode"],
+            sid, "unchanged" if sid not in ingested else "repaired" if sid in repaired
+            else "ingested", e["kind"], e["mode"],
             str(q.get("motor", 0)), str(q.get("generator", 0)),
             _fmt(e.get("clock_offset_s"), ".4f"), _fmt(e.get("clock_drift_ppm"), ".1f"),
             "none" if e.get("torque_zero_offset_nm") is None

@@ -234,6 +234,54 @@ def _drum_ranges(session: Session) -> dict[str, float]:
     return r
 
 
+def _disk_full(path: Path, why: str) -> None:
+    raise InputError(path.parent, f"cannot write the session's samples into the store "
+                     f"({why}): the disk is probably full", expected="free space for the store")
+
+
+def _spill(arr: np.ndarray, handle, path: Path) -> None:
+    """Append ``arr`` to a scratch file of the store; a full disk names the store."""
+    try:
+        arr.tofile(handle)
+    except OSError as exc:  # numpy says "N requested and M written", without an errno
+        _disk_full(path, exc.strerror or str(exc))
+
+
+#: a DAQ sample whose |speed x torque| exceeds this many times the 90th percentile of
+#: the binned |P_mech| is a spike (a few such samples dominate a bin's mean)
+SPIKE_FACTOR = 1000.0
+
+
+class _PeakSample:
+    """The DAQ row of the largest |speed x torque|, to tell a spike from a bad analyzer."""
+
+    def __init__(self) -> None:
+        self.value, self.row, self.speed, self.torque = -1.0, -1, math.nan, math.nan
+
+    def feed(self, speed: np.ndarray, torque: np.ndarray, row0: int) -> None:
+        """Take one chunk of drum-frame speed [rpm] and torque [N m], first row ``row0``."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            p = np.abs(speed * torque)
+        if p.size and np.isfinite(p).any():
+            k = int(np.nanargmax(np.where(np.isfinite(p), p, -1.0)))
+            if p[k] > self.value:
+                self.value, self.row = float(p[k]), row0 + k
+                self.speed, self.torque = float(speed[k]), float(torque[k])
+
+    def check(self, daq, p_mech_bins: np.ndarray) -> None:
+        """Raise InputError naming the DAQ file and line when the peak is a spike."""
+        typical = np.nanpercentile(np.abs(p_mech_bins), 90) if np.isfinite(
+            p_mech_bins).any() else 0.0
+        p_mech = self.value * math.pi / 30.0  # rpm x N m -> W
+        if typical > 0 and p_mech > SPIKE_FACTOR * typical:
+            col = daq.metadata["columns"]["torque"]["column"]
+            raise InputError(daq.path, f"a DAQ sample of {self.torque:.4g} N m at "
+                             f"{self.speed:.4g} rpm ({p_mech:.3g} W) is {p_mech / typical:.3g} "
+                             "times the typical speed x torque: a spike that also keeps the "
+                             "analyzer from being aligned", line=daq.line_of_row(self.row),
+                             column=col, expected="plausible torque and speed samples")
+
+
 def process_timeseries(
     session: Session,
     mapping: Mapping,
@@ -298,6 +346,8 @@ def process_timeseries(
     spill = {q: scratch / f"{sid}.{q}.f64"
              for q in ("time", "speed", "torque") + (("p_elec",) if single else ())}
     handles = {q: open(p, "wb") for q, p in spill.items()}
+    peak = _PeakSample()
+    spilled = dict.fromkeys(handles, 0)
     n_rows = n_total = 0
     try:
         for chunk in daq.chunks():
@@ -307,6 +357,7 @@ def process_timeseries(
             tcheck.feed(v["time"], chunk.row0)
             t = v["time"]
             speed, torque = _drum_frame(session, v["speed"], v["torque"])
+            peak.feed(speed, torque, chunk.row0)
             more = {q: v[q] for q in extra}
             if "p_mech" in more:  # logged in the bench's frame: to the drum frame's sign
                 more["p_mech"] = more["p_mech"] * (session.speed_sign * session.torque_sign)
@@ -320,7 +371,8 @@ def process_timeseries(
                 bins.add(t, speed, torque, **{bin_names[q]: x for q, x in more.items()})
                 for q, arr in (("time", t), ("speed", speed), ("torque", torque), *more.items()):
                     if q in handles:
-                        arr.tofile(handles[q])
+                        _spill(arr, handles[q], spill[q])
+                        spilled[q] += arr.nbytes
                 n_rows += t.size
             progress(chunk.nbytes // 2)
         for chk in nan_checks.values():
@@ -328,6 +380,9 @@ def process_timeseries(
     finally:
         for h in handles.values():
             h.close()
+    for q, n in spilled.items():  # a full disk can fail a buffered write without a word
+        if spill[q].stat().st_size != n:
+            _disk_full(spill[q], f"{spill[q].stat().st_size} of {n} bytes written")
     if n_rows == 0:
         raise InputError(daq.path, "no data rows", expected="DAQ samples")
 
@@ -362,6 +417,7 @@ def process_timeseries(
         del analyzer
         clock = align.estimate_clock(centres, means["p_mech"], a_mid, a_p, prior)
         if abs(clock.correlation) < MIN_ALIGN_CORRELATION:
+            peak.check(daq, means["p_mech"])  # a DAQ spike, not the analyzer, may be at fault
             raise InputError(
                 apath, "analyzer power does not follow the DAQ's speed x torque (peak "
                 f"correlation {clock.correlation:.2f} within {align.MAX_LAG_S:g} s of the header "

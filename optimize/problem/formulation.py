@@ -121,6 +121,21 @@ class Formulation:
         """Tether tension [N]."""
         return x[X_LENGTH] * z[Z_NU]
 
+    def kite_limits(self) -> tuple[float, float]:
+        """Upper bounds of the airspeed [m/s] and motor-torque [N m] rows in every kind.
+
+        The kite's airspeed limit and its tether-force limit, the latter as the motor
+        torque that holds that tension on the drum (``inf`` where none is given). The
+        drive's torque limit of the ``*-lim`` kinds comes on top (the smaller wins);
+        the rows are those of the NLP without kite limits, so a stored initial guess
+        still fits.
+        """
+        lim, kite = self.limits, self.dae.kite
+        v_top = np.inf if lim.max_airspeed_m_s is None else lim.max_airspeed_m_s
+        torque_top = (np.inf if lim.max_tether_force_n is None else float(
+            motor_torque_nm(lim.max_tether_force_n, kite.r_winch_m, kite.gear_ratio)))
+        return v_top, torque_top
+
     # ---------------------------------------------------------------- one point
     def point(self, x: Any, u: Any, z: Any, fict: Any, wind: Any) -> Point:
         """Rows and integrands at one collocation point (physical ``x, u, z, fict``)."""
@@ -134,17 +149,19 @@ class Formulation:
         torque = motor_torque_nm(tension, r_w, gear)
         p_elec = self.drive_model.casadi_p_elec_w(motor_speed_rpm(dl, r_w, gear), torque)
         v_sc = sc.airspeed_m_s
+        v_top, torque_top = self.kite_limits()
         rows = [
             Row("algebraic", self.dae.alg(x, u, z, wind, fict) * ca.DM(1.0 / sc.residual)),
-            Row("airspeed", out["airspeed_m_s"] / v_sc, lim.min_airspeed_m_s / v_sc, np.inf),
+            Row("airspeed", out["airspeed_m_s"] / v_sc, lim.min_airspeed_m_s / v_sc,
+                v_top / v_sc),
             Row("alpha", out["alpha_rad"] / (10 * DEG), lim.alpha_bounds_deg[0] / 10,
                 lim.alpha_bounds_deg[1] / 10),
             Row("beta", out["beta_rad"] / (10 * DEG), lim.beta_bounds_deg[0] / 10,
                 lim.beta_bounds_deg[1] / 10),
             Row("line_angle", out["cos_line_angle"], np.cos(lim.max_line_angle_deg * DEG),
                 np.inf),
-            Row("torque", torque / sc.torque_nm, -np.inf, np.inf,
-                limited=(-np.inf, lim.max_torque_nm / sc.torque_nm)),
+            Row("torque", torque / sc.torque_nm, -np.inf, torque_top / sc.torque_nm,
+                limited=(-np.inf, min(lim.max_torque_nm, torque_top) / sc.torque_nm)),
         ]
         if lim.max_p_elec_w is not None:
             p_lim = lim.max_p_elec_w / sc.power_w

@@ -93,6 +93,12 @@ class Limits:
         stored initial guess of the NLP without it still fits.
     min_airspeed_m_s : float
         Lower airspeed bound [m/s].
+    max_airspeed_m_s : float or None
+        Upper airspeed bound [m/s] of every scenario kind (the kite's limit);
+        ``None`` leaves the airspeed unbounded above.
+    max_tether_force_n : float or None
+        Largest tether tension [N] of every scenario kind (the kite's and the
+        line's limit, drive limits on or off); ``None``: no limit.
     alpha_bounds_deg, beta_bounds_deg : (float, float)
         Angle-of-attack and sideslip bounds [deg].
     max_line_angle_deg : float
@@ -112,6 +118,8 @@ class Limits:
     nominal_power_w: float | None = None
     max_rms_torque_nm: float | None = None
     min_airspeed_m_s: float = 10.0
+    max_airspeed_m_s: float | None = None
+    max_tether_force_n: float | None = None
     alpha_bounds_deg: tuple[float, float] = (-4.5, 8.5)
     beta_bounds_deg: tuple[float, float] = (-9.0, 9.0)
     max_line_angle_deg: float = 65.0
@@ -124,8 +132,10 @@ class Limits:
             raise ValueError(
                 f"period_bounds_s must satisfy 0 < lo < hi, got {self.period_bounds_s}"
             )
-        if self.max_rms_torque_nm is not None and not self.max_rms_torque_nm > 0:
-            raise ValueError(f"max_rms_torque_nm must be > 0, got {self.max_rms_torque_nm}")
+        for name in ("max_rms_torque_nm", "max_airspeed_m_s", "max_tether_force_n"):
+            value = getattr(self, name)
+            if value is not None and not value > 0:
+                raise ValueError(f"{name} must be > 0, got {value}")
 
 
 #: NLP solvers the OCP can be handed to

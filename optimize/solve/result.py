@@ -77,7 +77,8 @@ class OcpResult:
     active_bounds : tuple of str
         Bounds the optimum sits on (:func:`active_bounds`): ``period_min``,
         ``period_max``, ``tether_length_min``, ``tether_length_max``,
-        ``ground_clearance``, ``speed_limit``, ``torque_limit``, ``p_elec_limit``.
+        ``ground_clearance``, ``airspeed_min``, ``airspeed_max``, ``tether_force_limit``,
+        ``speed_limit``, ``torque_limit``, ``p_elec_limit``.
     slack_fraction : float
         Fraction of the cycle time with zero tether tension [-] (:func:`slack_fraction`).
     start : str
@@ -181,7 +182,8 @@ def _near(value: np.ndarray, bound: float) -> bool:
 
 def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: bool,
                   bounds: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> tuple[str, ...]:
-    """Names of the bounds the solution sits on (period, tether length, ground, drive).
+    """Names of the bounds the solution sits on (period, tether length, ground, the kite's
+    airspeed and tether-force limits, drive).
 
     Parameters
     ----------
@@ -208,6 +210,15 @@ def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: b
             if _near(length, b)]
     if _near(traj["altitude_m"].to_numpy(), o.min_altitude_m):
         out.append("ground_clearance")
+    # the kite's own limits, in force in every kind
+    airspeed = traj["airspeed_m_s"].to_numpy()
+    if _near(airspeed, o.min_airspeed_m_s):
+        out.append("airspeed_min")
+    if o.max_airspeed_m_s is not None and _near(airspeed, o.max_airspeed_m_s):
+        out.append("airspeed_max")
+    if o.max_tether_force_n is not None and _near(traj["tension_n"].to_numpy(),
+                                                  o.max_tether_force_n):
+        out.append("tether_force_limit")
     if drive_limits:
         speed = np.abs(traj["speed_rpm"].to_numpy())
         if _near(speed, o.max_speed_rpm):

@@ -27,7 +27,7 @@ import pyarrow.parquet as pq
 from bench.errors import InputError
 from fitting.domain import domain_excursion
 from optimize.service import cycle_metrics
-from optimize.sweep.chains import ScenarioOutcome
+from optimize.sweep.chains import ScenarioOutcome, better_margin_w
 
 SCHEMA_NAME = "drivebench.optimize"
 SCHEMA_VERSION = 1
@@ -47,9 +47,14 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "total_wall_time_s": "wall time of all runs of this scenario",
     "warm_source": "scenario the final solve was warm-started from, or 'cold start'",
     "chain": "warm-start chain (worker task) index",
+    "resolved_from": "neighbouring scenarios of the same kind this one was solved again from, "
+    "because its average power or period sat off the kind's smooth curve (comma-separated; "
+    "'' when it did not)",
+    "resolve_gain_w": "how much more power [W] the kept re-solve's objective gives than the "
+    "first optimum (0: the first was the better; NaN: not re-solved)",
     "active_bounds": "bounds the optimum sits on, comma-separated: period_min, period_max, "
-    "tether_length_min, tether_length_max, ground_clearance, speed_limit, torque_limit, "
-    "p_elec_limit ('' for none)",
+    "tether_length_min, tether_length_max, ground_clearance, airspeed_min, airspeed_max, "
+    "tether_force_limit, speed_limit, torque_limit, p_elec_limit ('' for none)",
     "bound_limited": "an optimum on a bound the system did not mean to bind (period or tether "
     "length range): the optimum is the bound's, not the kite's",
     "period_s": "cycle period",
@@ -85,10 +90,12 @@ SUMMARY_REQUIRED = ("scenario", "kind", "objective", "drive_limits", "wind_speed
 _METRICS = list(SUMMARY_COLUMNS)[list(SUMMARY_COLUMNS).index("period_s") :]
 #: active bounds the constrained scenarios mean to bind
 DRIVE_BOUNDS = ("speed_limit", "torque_limit", "p_elec_limit")
-#: bounds an optimum may sit on as physics: the drive limits and the ground (a safety
-#: limit); the period and tether-length ranges are search ranges, and an optimum on
-#: one of them is the range's, not the system's
-MEANT_BOUNDS = (*DRIVE_BOUNDS, "ground_clearance")
+#: the kite's own limits, in force in every kind
+KITE_BOUNDS = ("airspeed_min", "airspeed_max", "tether_force_limit")
+#: bounds an optimum may sit on as physics: the drive and kite limits and the ground (a
+#: safety limit); the period and tether-length ranges are search ranges, and an optimum
+#: on one of them is the range's, not the system's
+MEANT_BOUNDS = (*DRIVE_BOUNDS, *KITE_BOUNDS, "ground_clearance")
 #: keys of the Parquet files' schema metadata recording the system
 SYSTEM_META_KEYS = ("drivebench.system_name", "drivebench.system_sha256",
                     "drivebench.system_toml")
@@ -121,6 +128,32 @@ def _excursion_metrics(traj: pd.DataFrame, domain: dict | None,
             "outside_worst_distance": e["worst_distance"]}
 
 
+def resolve_fields(o: ScenarioOutcome) -> dict[str, Any]:
+    """``resolved_from`` and ``resolve_gain_w`` of a scenario (see :data:`SUMMARY_COLUMNS`)."""
+    if not o.resolves:
+        return {"resolved_from": "", "resolve_gain_w": math.nan}
+    kept = [r for r in o.resolves if r.kept]
+    gain = o.resolves[0].before_w - kept[-1].objective_w if kept else 0.0
+    return {"resolved_from": ",".join(dict.fromkeys(r.attempt.source for r in o.resolves)),
+            "resolve_gain_w": float(gain)}
+
+
+def resolve_lines(outcomes: Iterable[ScenarioOutcome]) -> list[str]:
+    """One line per scenario re-solved from a neighbour: what each re-solve found."""
+    lines = []
+    for o in outcomes:
+        for r in o.resolves:
+            found = (f"{r.objective_w:.1f} W" if r.attempt.success
+                     else f"failed ({r.attempt.status})")
+            verdict = ("a better optimum, kept" if r.kept else
+                       "the same optimum" if r.attempt.success
+                       and abs(r.objective_w - r.before_w) <= better_margin_w(r.before_w)
+                       else "no better optimum, the first kept")
+            lines.append(f"{o.name}: off its kind's smooth curve; re-solved from {r.attempt.source}"
+                         f": {found} against {r.before_w:.1f} W: {verdict}")
+    return lines
+
+
 def summary_row(o: ScenarioOutcome, domain: dict | None = None,
                 scales: tuple[float, float] = (1.0, 1.0)) -> dict[str, Any]:
     """One summary row; metrics are NaN unless the scenario converged.
@@ -143,6 +176,7 @@ def summary_row(o: ScenarioOutcome, domain: dict | None = None,
         "total_wall_time_s": o.total_wall_time_s,
         "warm_source": o.warm_source,
         "chain": o.chain,
+        **resolve_fields(o),
     }
     row.update(dict.fromkeys(_METRICS, math.nan))
     if o.success:
@@ -192,6 +226,8 @@ def summary_frame(outcomes: Iterable[ScenarioOutcome], domain: dict | None = Non
             "iterations": "int64",
             "attempts": "int64",
             "chain": "int64",
+            "resolved_from": str,
+            "resolve_gain_w": float,
         }
     )
 

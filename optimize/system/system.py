@@ -31,6 +31,7 @@ import numpy as np
 from bench.errors import InputError
 from bench.files import parse_toml, read_text
 from optimize.system.params import AeroCoefficients, KiteParams, WindModel
+from optimize.system.plausibility import check_system
 
 #: folder of the shipped system files (package data)
 SYSTEMS_DIR = Path(__file__).resolve().parent.parent / "data" / "systems"
@@ -74,10 +75,25 @@ class AeroSection:
 
 @dataclass(frozen=True)
 class TetherSection:
-    """``[tether]``: the kite sees a quarter of the tether's drag (lumped)."""
+    """``[tether]``: the kite sees a quarter of the tether's drag (lumped).
+
+    The tether-force limit is ``max_force_n``, or the working load of the line
+    ``tensile_strength_pa * pi d^2 / 4 / safety_factor``, or the smaller of the two
+    when both are given; ``None`` each when the file does not give it.
+    """
 
     diameter_m: float
     drag_coefficient: float
+    max_force_n: float | None = None
+    tensile_strength_pa: float | None = None
+    safety_factor: float | None = None
+
+    def working_load_n(self) -> float | None:
+        """The line's working load [N] from its strength and safety factor (or ``None``)."""
+        if self.tensile_strength_pa is None or self.safety_factor is None:
+            return None
+        area_m2 = math.pi * self.diameter_m**2 / 4
+        return self.tensile_strength_pa * area_m2 / self.safety_factor
 
 
 @dataclass(frozen=True)
@@ -130,6 +146,37 @@ class BoundsSection:
     max_line_angle_deg: float
     surface_max_deg: float
     surface_rate_max_rad_s: float
+    max_airspeed_m_s: float | None = None
+
+
+@dataclass(frozen=True)
+class KiteLimits:
+    """The kite's own limits in force in every scenario kind (``None``: none given).
+
+    Attributes
+    ----------
+    max_tether_force_n : float or None
+        Largest tether tension [N].
+    min_airspeed_m_s, max_airspeed_m_s : float, float or None
+        Airspeed range [m/s].
+    sources : dict
+        Where each came from (key of the system file).
+    """
+
+    max_tether_force_n: float | None
+    min_airspeed_m_s: float
+    max_airspeed_m_s: float | None
+    sources: dict
+
+    def describe(self) -> str:
+        """One line: the kite limits in force and where they came from."""
+        force = (f"tether force <= {self.max_tether_force_n:g} N "
+                 f"({self.sources['max_tether_force_n']})" if self.max_tether_force_n
+                 else "no tether-force limit (the system file gives none)")
+        top = (f"{self.max_airspeed_m_s:g} m/s" if self.max_airspeed_m_s is not None
+               else "no upper limit (the system file gives none)")
+        return (f"kite limits (all scenario kinds): {force}, airspeed from "
+                f"{self.min_airspeed_m_s:g} m/s to {top}")
 
 
 @dataclass(frozen=True)
@@ -197,6 +244,21 @@ class System:
         """Lowest allowed CG altitude above ground [m]: the file's value, at least half the span."""
         return max(self.bounds.min_ground_clearance_m, 0.5 * self.kite.span_m)
 
+    def kite_limits(self) -> KiteLimits:
+        """The tether-force and airspeed limits of every scenario kind."""
+        t = self.tether
+        candidates = [(t.max_force_n, "[tether] max_force_n"),
+                      (t.working_load_n(), f"[tether] tensile_strength_pa "
+                       f"{t.tensile_strength_pa or 0:g} Pa on diameter_m {t.diameter_m:g} m "
+                       f"/ safety_factor {t.safety_factor or 0:g}")]
+        given = [(v, src) for v, src in candidates if v is not None]
+        force, source = min(given) if given else (None, "none")
+        return KiteLimits(force, self.bounds.min_airspeed_m_s, self.bounds.max_airspeed_m_s,
+                          {"max_tether_force_n": source,
+                           "min_airspeed_m_s": "[bounds] min_airspeed_m_s",
+                           "max_airspeed_m_s": "[bounds] max_airspeed_m_s"
+                           if self.bounds.max_airspeed_m_s is not None else "none"})
+
     def ocp_options(self, options: Any, rating: Any) -> Any:
         """``options`` (an ``OcpOptions``) with this system's bounds and a drive's limits.
 
@@ -219,6 +281,8 @@ class System:
             nominal_power_w=rating.nominal_power_w,
             max_rms_torque_nm=rating.rms_torque_limit_nm,
             min_airspeed_m_s=b.min_airspeed_m_s,
+            max_airspeed_m_s=b.max_airspeed_m_s,
+            max_tether_force_n=self.kite_limits().max_tether_force_n,
             alpha_bounds_deg=(a.alpha_min_deg, a.alpha_max_deg),
             beta_bounds_deg=(a.beta_min_deg, a.beta_max_deg),
             max_line_angle_deg=b.max_line_angle_deg,
@@ -241,6 +305,8 @@ _OPTIONAL = {
     "drive": {"max_speed_rpm", "max_torque_nm", "nominal_power_w", "max_p_elec_w",
               "continuous_torque_nm", "overload", "losses", "scaling", "source"},
     "wind": {"roughness_length_m", "exponent"},
+    "tether": {"max_force_n", "tensile_strength_pa", "safety_factor"},
+    "bounds": {"max_airspeed_m_s"},
     "system": {"description", "paper_system"},
 }
 
@@ -360,7 +426,16 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
     aero = _aero(_Reader(path, "aero", data["aero"]))
 
     r = _Reader(path, "tether", data["tether"])
-    tether = TetherSection(r.number("diameter_m", 0), r.number("drag_coefficient", 0, False))
+    tether = TetherSection(r.number("diameter_m", 0), r.number("drag_coefficient", 0, False),
+                           r.number("max_force_n", 0, optional=True),
+                           r.number("tensile_strength_pa", 0, optional=True),
+                           r.number("safety_factor", 0, optional=True))
+    if (tether.tensile_strength_pa is None) != (tether.safety_factor is None):
+        missing = "safety_factor" if tether.safety_factor is None else "tensile_strength_pa"
+        raise r.error(missing, "missing", "tensile_strength_pa and safety_factor together "
+                      "(the working load is strength * pi d^2 / 4 / safety factor)")
+    if tether.safety_factor is not None and tether.safety_factor < 1:
+        raise r.error("safety_factor", f"{tether.safety_factor:g} is below 1", "a number >= 1")
     r.done()
 
     r = _Reader(path, "winch", data["winch"])
@@ -388,8 +463,11 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
         r.number("period_min_s", 0), r.number("period_max_s", 0),
         r.number("min_ground_clearance_m", 0, False), r.number("min_airspeed_m_s", 0, False),
         r.number("max_line_angle_deg", 0), r.number("surface_max_deg", 0),
-        r.number("surface_rate_max_rad_s", 0),
+        r.number("surface_rate_max_rad_s", 0), r.number("max_airspeed_m_s", 0, optional=True),
     )
+    if bounds.max_airspeed_m_s is not None and bounds.max_airspeed_m_s <= bounds.min_airspeed_m_s:
+        raise r.error("max_airspeed_m_s", "not above min_airspeed_m_s",
+                      "min_airspeed_m_s < max_airspeed_m_s")
     if bounds.tether_length_max_m <= bounds.tether_length_min_m:
         raise r.error("tether_length_max_m", "not above tether_length_min_m",
                       "tether_length_min_m < tether_length_max_m")
@@ -400,8 +478,10 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
     r.done()
 
     canonical = json.dumps(data, sort_keys=True, separators=(",", ":"))
-    return System(name, description, kite, aero, tether, winch, drive, wind, bounds, path,
-                  text, hashlib.sha256(canonical.encode("utf-8")).hexdigest(), paper_system)
+    system = System(name, description, kite, aero, tether, winch, drive, wind, bounds, path,
+                    text, hashlib.sha256(canonical.encode("utf-8")).hexdigest(), paper_system)
+    check_system(system)  # well-formed is not enough: refuse what cannot fly, before any solve
+    return system
 
 
 def load_system(path: str | Path | None = None) -> System:
