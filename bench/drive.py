@@ -4,9 +4,9 @@ A campaign states its drive in a ``drive.toml`` in the campaign folder (or any
 folder between it and the session), and a session may state or override keys
 at the top level of its ``session.toml``::
 
-    nominal_power_w = 8200.0      # [W], the scale of every %-of-nominal figure
-    max_speed_rpm = 1500.0        # [rpm], drum side: the optimizer's default speed limit
-    max_torque_nm = 78.0          # [N m], drum side: the optimizer's default torque limit
+    nominal_power_w = 15000.0     # [W], the scale of every %-of-nominal figure (example)
+    max_speed_rpm = 3000.0        # [rpm], drum side: the optimizer's default speed limit
+    max_torque_nm = 48.0          # [N m], drum side: the optimizer's default torque limit
     source = "datasheet / paper section ..."   # drive.toml only: where the numbers come from
 
 ``bench ingest`` records what applies to each session in the store manifest;

@@ -27,7 +27,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from ingest_fixtures import make_points_session, make_timeseries_session  # noqa: E402
-from kill_harness import REPO, folder_files, store_digest  # noqa: E402
+from kill_harness import REPO, damage_points_file, folder_files, store_digest  # noqa: E402
 
 from bench.ingest.pipeline import ingest  # noqa: E402
 from bench.store import read_manifest  # noqa: E402
@@ -40,22 +40,14 @@ def _bench(*args: str) -> tuple[int, str]:
 
 
 def _damage(store: Path, how: str) -> str:
+    if how != "manifest edited":
+        path = damage_points_file(store, how)
+        return f"{path.relative_to(store)} {how}"
     gen = read_manifest(store)["generation"]
-    path = store / gen / "points" / "motor_01.parquet"
-    if how == "deleted":
-        path.unlink()
-    elif how == "truncated":
-        path.write_bytes(path.read_bytes()[:-100])
-    elif how == "bit-rotted":
-        data = bytearray(path.read_bytes())
-        data[len(data) // 3] ^= 0x10
-        path.write_bytes(bytes(data))
-    else:
-        manifest = json.loads((store / "manifest.json").read_text())
-        manifest["generation"] = "gen-000099"
-        (store / "manifest.json").write_text(json.dumps(manifest))
-        return f"manifest generation {gen} -> gen-000099"
-    return f"{path.relative_to(store)} {how}"
+    manifest = json.loads((store / "manifest.json").read_text())
+    manifest["generation"] = "gen-000099"
+    (store / "manifest.json").write_text(json.dumps(manifest))
+    return f"manifest generation {gen} -> gen-000099"
 
 
 def main() -> int:

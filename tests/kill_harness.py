@@ -53,6 +53,26 @@ def store_digest(store: Path) -> str:
     return h.hexdigest()
 
 
+def damage_points_file(store: Path, how: str) -> Path:
+    """Damage the listed ``motor_01`` points file of ``store`` as a bad disk would.
+
+    ``how``: ``"deleted"``, ``"truncated"`` (the last 100 bytes cut) or ``"bit-rotted"``
+    (one bit flipped a third of the way in). Returns the damaged file's path.
+    """
+    path = store / read_manifest(store)["generation"] / "points" / "motor_01.parquet"
+    if how == "deleted":
+        path.unlink()
+    elif how == "truncated":
+        path.write_bytes(path.read_bytes()[:-100])
+    elif how == "bit-rotted":
+        data = bytearray(path.read_bytes())
+        data[len(data) // 3] ^= 0x10
+        path.write_bytes(bytes(data))
+    else:
+        raise ValueError(f"unknown damage {how!r}")
+    return path
+
+
 def make_campaigns(root: Path) -> tuple[Path, Path]:
     """An old campaign and a new one: one session changed, one kept, one added."""
     old, new = root / "old", root / "new"

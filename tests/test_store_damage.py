@@ -11,7 +11,7 @@ import shutil
 
 import pytest
 from ingest_fixtures import make_points_session, make_timeseries_session
-from kill_harness import store_digest
+from kill_harness import damage_points_file, store_digest
 
 from bench.cli import main
 from bench.errors import InputError
@@ -30,20 +30,6 @@ def campaign(tmp_path):
     return camp, store
 
 
-def _damage(store, how):
-    gen = read_manifest(store)["generation"]
-    path = store / gen / "points" / "motor_01.parquet"
-    if how == "deleted":
-        path.unlink()
-    elif how == "truncated":
-        path.write_bytes(path.read_bytes()[:-100])
-    elif how == "bitrot":
-        data = bytearray(path.read_bytes())
-        data[len(data) // 3] ^= 0x10
-        path.write_bytes(bytes(data))
-    return path
-
-
 def _edit(session):
     """Change a session's files (a comment in session.toml): it is re-ingested."""
     with open(session / "session.toml", "a") as fh:
@@ -55,7 +41,7 @@ def _tree(store):
                   if p.is_file() and p.name != ".lock")
 
 
-@pytest.mark.parametrize("how", ["deleted", "truncated", "bitrot"])
+@pytest.mark.parametrize("how", ["deleted", "truncated", "bit-rotted"])
 def test_damaged_file_is_found_reported_and_reingested(campaign, how, capsys):
     """A deleted, truncated or bit-rotted points file: store check exits 1 naming the
     session and file and changes nothing; readers refuse with the file named; ingest of
@@ -64,7 +50,7 @@ def test_damaged_file_is_found_reported_and_reingested(campaign, how, capsys):
     camp, store = campaign
     healthy = store_digest(store)
     n_points = read_manifest(store)["sessions"]["motor_01"]["n_points"]
-    path = _damage(store, how)
+    path = damage_points_file(store, how)
     before = _tree(store)
     capsys.readouterr()
     assert main(["store", "check", "--store", str(store)]) == 1
@@ -90,7 +76,7 @@ def test_deleted_file_then_other_session_changes(campaign, tmp_path):
     damaged session is re-ingested with the changed one, the point count stays whole."""
     camp, store = campaign
     n_total = len(read_points(store))
-    _damage(store, "deleted")
+    damage_points_file(store, "deleted")
     _edit(camp / "table_01")
     result = ingest([camp], store, progress=False, notify=lambda line: None)
     assert sorted(result.ingested) == ["motor_01", "table_01"]
@@ -101,7 +87,7 @@ def test_damaged_session_outside_the_ingest_is_refused(campaign, tmp_path):
     """Damage in a session whose folder is not ingested now: exit 2 naming the session
     and its source folder; the store (and its damage) stays as it was."""
     camp, store = campaign
-    _damage(store, "deleted")
+    damage_points_file(store, "deleted")
     other = tmp_path / "other"
     make_timeseries_session(other, "gen_01", mode="generator", seed=2)
     before = _tree(store)
