@@ -30,13 +30,17 @@ def test_readers_refuse_a_mixed_fit_folder(tmp_path):
 def test_killed_fit_leaves_old_or_new(tmp_path):
     """bench fit (order 2) killed over an order-1 output: 1 SIGKILL at a random moment and
     3 deaths before file-system calls spread over the run (benchmarks/output_kill.py runs
-    hundreds); every time the folder is the old output or the whole new one, and the next
-    run removes what a kill left."""
+    hundreds, in fresh processes); every time the folder is the old output or the whole
+    new one, and the next run removes what a kill left. The runs are forked from a
+    process that has imported bench fit, so each skips the imports."""
     store = tmp_path / "store"
     write_store(synthetic_points(paper_quadratic, n_motor=40, n_generator=40), store)
     args = ["fit", "--store", str(store), "--folds", "3"]
     figures = run_output_kills(tmp_path / "k", [*args, "--order", "1"],
-                               [*args, "--order", "2"], n=1, steps=3, seed=3)
+                               [*args, "--order", "2"], n=1, steps=3, seed=3,
+                               preload=["fitting.cli", "fitting.pipeline",
+                                        "matplotlib.backends.backend_agg",
+                                        "matplotlib.backends.backend_svg"])
     assert figures.tried == 4
     assert figures.mixed == 0 and figures.leftovers == 0, figures.problems
     assert figures.old > 0 and figures.new > 0
