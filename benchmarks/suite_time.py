@@ -1,19 +1,20 @@
-"""Time the test suite's slowest tests one by one: wall and CPU seconds per test.
+"""Time the test suite: wall and CPU seconds of every test, and of the whole run.
 
 Usage::
 
-    .venv/bin/python benchmarks/suite_time.py [--repo PATH] [--repeat 1] [NODE ...]
+    .venv/bin/python benchmarks/suite_time.py [--repo PATH] [--top 25] [--out FILE] [PYTEST ARGS]
 
-Each test node (default: the ``SLOW`` list below, the slowest tests of the suite)
-runs in its own ``python -m pytest -q -p no:cacheprovider NODE`` child in ``--repo``
-(default: this checkout; pass an older checkout, e.g. one made with ``git archive
-COMMIT | tar -x -C DIR``, for the "before" column: its tests import its own code).
-For each node it prints the time pytest gives its setup + call + teardown, the child's
-wall time and the child's CPU time (user + system, from ``os.wait4``, which counts the
-processes the test started and waited for: the kill tests' children, the solver's
-workers), and the machine's load average before the run. CPU seconds move far less
-than wall seconds when other jobs share the machine. Writes
-``benchmarks/out/suite_time.json``.
+Runs ``python -m pytest -q -p no:cacheprovider`` in ``--repo`` (default: this
+checkout; for a "before" column pass an older checkout, e.g. one made with ``git
+archive COMMIT | tar -x -C DIR``: its tests import its own code) with this file
+loaded as a pytest plugin. The plugin records, per test (setup + call + teardown),
+the wall time and the CPU time (user + system) of the pytest process and of the
+child processes it waited for (kill tests, solver workers, browsers), and writes
+them as JSON. Prints the whole run's wall and CPU seconds, the load average
+before and after, and the ``--top`` tests by CPU time. CPU seconds move far less
+than wall seconds when other jobs share the machine; pytest-xdist is not used (CI
+has 2 cores and the suite's CPU is what counts). Compare two JSON files with
+``--compare BEFORE.json AFTER.json``.
 """
 
 from __future__ import annotations
@@ -21,66 +22,113 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import re
+import resource
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parents[1]
-
-#: the suite's slowest tests on 584e6e8 (pytest --durations=40, 229 s suite)
-SLOW = [
-    "tests/test_store_atomic.py::test_sigkill_at_random_moments_leaves_old_or_new",
-    "tests/fitting/test_fit_atomic.py::test_killed_fit_leaves_old_or_new",
-    "tests/test_fatrop.py::test_fatrop_confirms_the_stored_optimum_on_the_stage_layout",
-    "tests/test_python_api.py::test_walk_through_runs_as_written",
-    "tests/test_energy_sizing.py::test_interrupted_sweep_continues_where_it_stopped",
-    "tests/fitting/test_fit_atomic.py::test_readers_refuse_a_mixed_fit_folder",
-    "tests/test_energy_bands_resolve.py::test_sigma_equals_finite_difference_re_solve",
-    "tests/test_initial_guess.py::test_start_from_the_guess_stays_at_its_optimum",
-    "tests/test_ocp_rms_torque.py::test_rms_torque_bound_binds_and_costs_power",
-]
+RESULT_ENV = "SUITE_TIME_JSON"
 
 
-def run_node(repo: Path, node: str) -> dict:
-    """One pytest child for ``node``: its test time, wall and CPU seconds."""
-    load = os.getloadavg()[0]
+def _cpu_s() -> float:
+    """CPU seconds of this process and its waited-for children so far."""
+    own, kids = (resource.getrusage(resource.RUSAGE_SELF),
+                 resource.getrusage(resource.RUSAGE_CHILDREN))
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+# -- the pytest plugin (active when this module is loaded with -p suite_time) ------------
+
+_rows: dict[str, dict] = {}
+
+
+def pytest_runtest_logstart(nodeid, location):  # noqa: ARG001 - pytest's hook signature
+    _rows[nodeid] = {"start": (time.perf_counter(), _cpu_s())}
+
+
+def pytest_runtest_logfinish(nodeid, location):  # noqa: ARG001
+    row = _rows.get(nodeid)
+    if row and "start" in row:
+        wall0, cpu0 = row.pop("start")
+        row["wall_s"], row["cpu_s"] = time.perf_counter() - wall0, _cpu_s() - cpu0
+
+
+def pytest_sessionfinish(session, exitstatus):  # noqa: ARG001
+    path = os.environ.get(RESULT_ENV)
+    if path:
+        Path(path).write_text(json.dumps({"tests": _rows, "exitstatus": int(exitstatus)}))
+
+
+# -- the command -----------------------------------------------------------------------
+
+def run_suite(repo: Path, out: Path, pytest_args: list[str]) -> dict:
+    """Run the suite in ``repo`` with the plugin; returns the run's figures."""
+    env = {**os.environ, RESULT_ENV: str(out),
+           "PYTHONPATH": os.pathsep.join([str(HERE / "benchmarks"),
+                                          os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)}
+    load0 = os.getloadavg()
     t0 = time.perf_counter()
     proc = subprocess.Popen([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
-                             "--durations=0", "--durations-min=0", node], cwd=repo,
+                             "-p", "suite_time", *pytest_args], cwd=repo, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    out = proc.stdout.read()
+    text = proc.stdout.read()
     _, status, usage = os.wait4(proc.pid, 0)
-    wall = time.perf_counter() - t0
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    test_s = sum(float(m) for m in re.findall(r"^([\d.]+)s (?:setup|call|teardown) ", out,
-                                              re.MULTILINE))
-    tail = out.strip().splitlines()[-1] if out.strip() else ""
-    return {"node": node, "ok": proc.returncode == 0, "summary": tail, "test_s": test_s,
-            "wall_s": wall, "cpu_s": usage.ru_utime + usage.ru_stime, "load_1min": load}
+    result = json.loads(out.read_text())
+    result.update({"repo": str(repo), "wall_s": time.perf_counter() - t0,
+                   "cpu_s": usage.ru_utime + usage.ru_stime, "load_before": load0,
+                   "load_after": os.getloadavg(), "exit": os.waitstatus_to_exitcode(status),
+                   "summary": text.strip().splitlines()[-1] if text.strip() else ""})
+    out.write_text(json.dumps(result, indent=1))
+    return result
+
+
+def show(result: dict, top: int) -> None:
+    tests = result["tests"]
+    print(f"{result['repo']}: {result['summary']}")
+    print(f"wall {result['wall_s']:.1f} s, CPU {result['cpu_s']:.1f} s (pytest and its "
+          f"children), load {result['load_before'][0]:.2f} before, "
+          f"{result['load_after'][0]:.2f} after; {len(tests)} tests, "
+          f"their CPU {sum(r['cpu_s'] for r in tests.values()):.1f} s")
+    print(f"{'CPU [s]':>8s} {'wall [s]':>9s}  test")
+    for node, r in sorted(tests.items(), key=lambda kv: -kv[1]["cpu_s"])[:top]:
+        print(f"{r['cpu_s']:8.2f} {r['wall_s']:9.2f}  {node}")
+
+
+def compare(before: dict, after: dict, top: int) -> None:
+    b, a = before["tests"], after["tests"]
+    print(f"{'before CPU':>10s} {'after CPU':>10s} {'before wall':>11s} {'after wall':>11s}  test")
+    keys = sorted(set(b) | set(a), key=lambda k: -max(b.get(k, {}).get("cpu_s", 0),
+                                                      a.get(k, {}).get("cpu_s", 0)))
+    for k in keys[:top]:
+        bb, aa = b.get(k, {}), a.get(k, {})
+
+        def f(row, key):
+            return f"{row[key]:.2f}" if key in row else "-"
+        print(f"{f(bb, 'cpu_s'):>10s} {f(aa, 'cpu_s'):>10s} {f(bb, 'wall_s'):>11s} "
+              f"{f(aa, 'wall_s'):>11s}  {k}")
+    for name, r in (("before", before), ("after", after)):
+        print(f"{name}: whole run wall {r['wall_s']:.1f} s, CPU {r['cpu_s']:.1f} s, "
+              f"load {r['load_before'][0]:.2f}/{r['load_after'][0]:.2f}; {r['summary']}")
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("nodes", nargs="*", help="test node ids (default: the SLOW list)")
-    parser.add_argument("--repo", type=Path, default=HERE, help="checkout whose tests run")
-    parser.add_argument("--repeat", type=int, default=1, help="runs per node (best is kept)")
-    args = parser.parse_args()
-    rows = []
-    print(f"{'test':75s} {'test [s]':>9s} {'wall [s]':>9s} {'CPU [s]':>8s} {'load':>5s}")
-    for node in args.nodes or SLOW:
-        runs = [run_node(args.repo, node) for _ in range(args.repeat)]
-        best = min(runs, key=lambda r: r["cpu_s"])
-        rows.append(best)
-        flag = "" if best["ok"] else f"  FAILED: {best['summary']}"
-        print(f"{node[-75:]:75s} {best['test_s']:9.1f} {best['wall_s']:9.1f} "
-              f"{best['cpu_s']:8.1f} {best['load_1min']:5.2f}{flag}", flush=True)
-    out = HERE / "benchmarks" / "out"
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "suite_time.json").write_text(json.dumps({"repo": str(args.repo), "rows": rows},
-                                                    indent=1))
-    return 0 if all(r["ok"] for r in rows) else 1
+    parser.add_argument("--repo", type=Path, default=HERE, help="checkout whose suite runs")
+    parser.add_argument("--top", type=int, default=25, help="slowest tests shown")
+    parser.add_argument("--out", type=Path, default=HERE / "benchmarks" / "out" /
+                        "suite_time.json", help="JSON written")
+    parser.add_argument("--compare", nargs=2, type=Path, metavar=("BEFORE", "AFTER"),
+                        help="compare two JSON files instead of running")
+    args, pytest_args = parser.parse_known_args()
+    if args.compare:
+        compare(*(json.loads(p.read_text()) for p in args.compare), args.top)
+        return 0
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    result = run_suite(args.repo.resolve(), args.out.resolve(), pytest_args)
+    show(result, args.top)
+    return 0 if result["exit"] == 0 else 1
 
 
 if __name__ == "__main__":
