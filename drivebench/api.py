@@ -68,7 +68,8 @@ def ingest(paths: str | Path | Sequence[str | Path], store: str | Path = "bench_
 
 
 def fit(store: str | Path = "bench_store", out: str | Path = "fit_out", *, order: int | None = 2,
-        progress: bool = False, **options: Any) -> Any:
+        progress: bool = False, command: str = "drivebench.fit", report: Any = None,
+        **options: Any) -> Any:
     """Fit the drive's power model to the store's points and write ``bench fit``'s files.
 
     Parameters
@@ -81,19 +82,28 @@ def fit(store: str | Path = "bench_store", out: str | Path = "fit_out", *, order
         Total order of the model (2: the paper's eq. 4); None selects it.
     progress : bool
         Show progress bars.
+    command : str
+        The command line recorded in the outputs.
+    report : callable, optional
+        ``report(summary)`` receives the content of ``fit_summary.json``.
     **options
-        Further fields of :class:`fitting.pipeline.FitOptions` (``folds``, ``weighting``...).
+        Further fields of :class:`fitting.pipeline.FitOptions` (``folds``, ``weighting``,
+        ``full_order2``, ``drive``...).
 
     Returns
     -------
     fitting.power_model.PowerModel
         The fitted model, as written to ``out/power_model.json``.
     """
+    from bench.files import check_output_dir
     from fitting.model_file import load_power_model
     from fitting.pipeline import FitOptions, run_fit
 
-    run_fit(store, out, FitOptions(order=order, command="drivebench.fit", **options),
-            progress=progress)
+    check_output_dir(out)  # before the fit, not after it
+    summary = run_fit(store, out, FitOptions(order=order, command=command, **options),
+                      progress=progress)
+    if report is not None:
+        report(summary)
     return load_power_model(Path(out) / "power_model.json")
 
 
