@@ -1,7 +1,7 @@
 """The whole ``bench optimize`` command as a library call: :func:`run_optimize`.
 
-Plan the chains (:mod:`optimize.sweep.plan`), run them on an executor
-(:mod:`optimize.sweep.chains`, :mod:`optimize.sweep.executors`), the trust
+Plan the chains (:mod:`optimize.sweep.plan`), run them on the solve service
+(:mod:`optimize.service`, on :mod:`optimize.sweep.executors`), the trust
 checks (:mod:`optimize.sweep.trust`), the paper comparison
 (:mod:`optimize.analysis.claims`) and the files (:mod:`optimize.sweep.outputs`).
 This module sits above the solver and the analysis; nothing in them imports it.
@@ -21,8 +21,8 @@ from bench.output_folder import check_replaceable, output_folder
 from bench.versions import package_versions
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
 from optimize.kinds import KINDS
+from optimize.service import Problem, make_tasks, run_sweep
 from optimize.sweep import outputs
-from optimize.sweep.chains import Problem, make_tasks, run_sweep
 from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import parse_kinds, parse_wind_grid, plan_chains
 from optimize.sweep.trust import run_trust_checks
@@ -182,7 +182,7 @@ def run_optimize(
     ``manifest.json`` (docs/schemas.md §5) into ``request.out``, all or none
     (:mod:`bench.output_folder`).
     ``backend`` replaces the CasADi OCP in the chains (see
-    :class:`optimize.sweep.chains.Backend`; the trust checks always use the OCP).
+    :class:`optimize.service.problem.Backend`; the trust checks always use the OCP).
     """
     import dataclasses
     import datetime
@@ -201,10 +201,8 @@ def run_optimize(
     trust: dict = {"mesh": [], "simulation": []}
     with open_executor(request.workers, request.scheduler) as handle:
         chains = plan_chains(request.winds, request.kinds, handle.n_workers)
-        tasks = make_tasks(chains, problem, cut_in_kinds, request.cut_in_tol_m_s)
-        result = run_sweep(
-            tasks, handle.executor, handle.channel, handle.description, backend, show_progress
-        )
+        tasks = make_tasks(chains, problem, cut_in_kinds, request.cut_in_tol_m_s, backend)
+        result = run_sweep(tasks, handle, show_progress)
         if request.trust:
             trust = run_trust_checks(problem, result.outcomes, request.winds, handle)
     summary = outputs.summary_frame(result.outcomes, model.domain,
