@@ -360,17 +360,15 @@ def test_cli_rejects_bad_input_with_exit_code_2(tmp_path, capsys):
 
 
 def test_request_falls_back_to_the_paper_model(tmp_path):
-    import argparse
-
     from fitting.model_file import save_power_model
-    from optimize.cli import add_arguments
-    from optimize.command import SweepRequest
+    from optimize.command import make_request
     from optimize.paper_model import PAPER_MODEL_PATH, paper_model
 
-    parser = argparse.ArgumentParser()
-    add_arguments(parser)
-    args = parser.parse_args(["--wind-grid", "5:6:0.5", "--scenarios", "mech-free"])
-    req = SweepRequest.from_cli(args, tmp_path / "fit_out" / "power_model.json")
+    def request(fit):
+        return make_request(parse_wind_grid("5:6:0.5"), parse_kinds("mech-free"),
+                            fit_default=fit, out=tmp_path / "out")
+
+    req = request(tmp_path / "fit_out" / "power_model.json")
     assert req.drive_model_path == PAPER_MODEL_PATH and "shipped paper model" in req.model_note
     assert req.winds == (5.0, 5.5, 6.0) and req.kinds == ("mech-free",)
     assert req.options.discretization.n_intervals == 40
@@ -379,7 +377,7 @@ def test_request_falls_back_to_the_paper_model(tmp_path):
     fit = tmp_path / "fit_out" / "power_model.json"
     fit.parent.mkdir()
     save_power_model(paper_model(), fit)
-    assert SweepRequest.from_cli(args, fit).drive_model_path == fit
+    assert request(fit).drive_model_path == fit
 
 
 @dataclass(frozen=True)
