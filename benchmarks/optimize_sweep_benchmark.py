@@ -39,8 +39,8 @@ from fitting.model_file import load_power_model
 from optimize.kinds import DEFAULT_KINDS
 from optimize.paper_model import PAPER_MODEL_PATH
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
+from optimize.service import OcpBackend, Problem, make_tasks, run_sweep
 from optimize.solve.homotopy import cold_start
-from optimize.sweep.chains import OcpBackend, Problem, make_tasks, run_sweep
 from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import (
     DEFAULT_WIND_GRID,
@@ -90,9 +90,7 @@ def bench_sweep(problem: Problem, winds, kinds, workers: int, trust: bool) -> di
     (after the timed sweep, on the same workers)."""
     with open_executor(workers) as handle:
         chains = plan_chains(winds, kinds, handle.n_workers)
-        result = run_sweep(
-            make_tasks(chains, problem), handle.executor, handle.channel, handle.description
-        )
+        result = run_sweep(make_tasks(chains, problem), handle)
         checks = run_trust_checks(problem, result.outcomes, winds, handle) if trust else None
     warm = [a for o in result.outcomes for a in o.attempts if a.source is not None]
     starts = [(o, a) for o in result.outcomes for a in o.attempts if a.source is None]

@@ -73,7 +73,7 @@ from optimize.command import SweepRequest, run_optimize
 from optimize.model import kite_model as km
 from optimize.paper_model import PAPER_MODEL_PATH, paper_model
 from optimize.problem.ocp import OcpOptions
-from optimize.sweep.chains import OcpBackend
+from optimize.service.problem import OcpBackend
 from optimize.sweep.outputs import read_summary
 from optimize.system.system import load_system
 

@@ -41,8 +41,8 @@ from optimize.model.kite_model import kite_dae
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
+from optimize.service import Problem, make_tasks, run_sweep
 from optimize.solve.solve import solve, start
-from optimize.sweep.chains import Problem, make_tasks, run_sweep
 from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_chains
 from optimize.system.drive import drive_in_force
@@ -93,8 +93,7 @@ def paper_sweep(solver: str, winds, kinds, workers: int, intervals: int, max_ite
     t0 = time.perf_counter()
     with open_executor(workers) as handle:
         chains = plan_chains(winds, kinds, handle.n_workers)
-        result = run_sweep(make_tasks(chains, problem), handle.executor, handle.channel,
-                           handle.description)
+        result = run_sweep(make_tasks(chains, problem), handle)
     wall = time.perf_counter() - t0
     rows = []
     for o in result.outcomes:

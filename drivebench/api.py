@@ -68,7 +68,8 @@ def ingest(paths: str | Path | Sequence[str | Path], store: str | Path = "bench_
 
 
 def fit(store: str | Path = "bench_store", out: str | Path = "fit_out", *, order: int | None = 2,
-        progress: bool = False, **options: Any) -> Any:
+        progress: bool = False, command: str = "drivebench.fit", report: Any = None,
+        **options: Any) -> Any:
     """Fit the drive's power model to the store's points and write ``bench fit``'s files.
 
     Parameters
@@ -81,19 +82,28 @@ def fit(store: str | Path = "bench_store", out: str | Path = "fit_out", *, order
         Total order of the model (2: the paper's eq. 4); None selects it.
     progress : bool
         Show progress bars.
+    command : str
+        The command line recorded in the outputs.
+    report : callable, optional
+        ``report(summary)`` receives the content of ``fit_summary.json``.
     **options
-        Further fields of :class:`fitting.pipeline.FitOptions` (``folds``, ``weighting``...).
+        Further fields of :class:`fitting.pipeline.FitOptions` (``folds``, ``weighting``,
+        ``full_order2``, ``drive``...).
 
     Returns
     -------
     fitting.power_model.PowerModel
         The fitted model, as written to ``out/power_model.json``.
     """
+    from bench.files import check_output_dir
     from fitting.model_file import load_power_model
     from fitting.pipeline import FitOptions, run_fit
 
-    run_fit(store, out, FitOptions(order=order, command="drivebench.fit", **options),
-            progress=progress)
+    check_output_dir(out)  # before the fit, not after it
+    summary = run_fit(store, out, FitOptions(order=order, command=command, **options),
+                      progress=progress)
+    if report is not None:
+        report(summary)
     return load_power_model(Path(out) / "power_model.json")
 
 
@@ -112,34 +122,51 @@ class Sweep:
         The comparison with the paper (None when not asked for).
     curves : dict
         Scenario kind -> :class:`energy.curve.PowerCurve` of its converged scenarios.
+    note : str
+        The system, the drive in force and the kite's limits the sweep flew with.
+    trust_lines : tuple of str
+        The trust checks' figures (``trust=True``).
+    wall_time_s : float
+        Wall time of the sweep, cold starts included, trust checks excluded [s].
+    executor : str
+        What it ran on (``"process pool, 2 workers"``).
     """
 
     folder: Path
     summary: pd.DataFrame
     claims: pd.DataFrame | None
     curves: dict
+    note: str = ""
+    trust_lines: tuple[str, ...] = ()
+    wall_time_s: float = float("nan")
+    executor: str = ""
 
 
 def optimize(model: Any = None, *, winds: Sequence[float] = PAPER_WINDS_M_S,
              kinds: Sequence[str] = tuple(KINDS), system: Any = None,
              out: str | Path = "optimize_out", n_intervals: int = 40, degree: int = 4,
              workers: int = 2, scheduler: str | None = None, claims: bool = True,
-             progress: bool = False) -> Sweep:
+             trust: bool = False, solver: str = "ipopt", linear_solver: str | None = None,
+             stored_guess: bool = True, fit_default: str | Path | None = None,
+             progress: bool = False, command_line: Sequence[str] = ("drivebench.optimize",),
+             before_solving: Any = None) -> Sweep:
     """Optimize the pumping cycle for every scenario kind and wind speed.
 
     Parameters
     ----------
     model : PowerModel or path, optional
-        The drive's power model (:func:`fit`'s result or a ``power_model.json``);
-        default the paper's model. A model object is written to
-        ``out/given_power_model.json``, which the manifest names.
+        The drive's losses (:func:`fit`'s result or a ``power_model.json``), overriding
+        the system file's; default the system file's, else ``fit_default`` when it
+        exists, else the paper's model (:func:`optimize.system.drive.drive_in_force`).
+        A model object is written to ``out/given_power_model.json``, which the
+        manifest names.
     winds : sequence of float
         Wind speeds at the reference height [m/s].
     kinds : sequence of str
         Scenario kinds (keys of :data:`optimize.kinds.KINDS`).
     system : System or path, optional
-        The system file (kite, tether, winch, wind, bounds); default the shipped
-        ``highwind.toml``.
+        The system file (kite, tether, winch, wind, bounds, drive rating); default the
+        shipped ``highwind.toml``.
     out : path
         Output folder.
     n_intervals, degree : int
@@ -150,37 +177,48 @@ def optimize(model: Any = None, *, winds: Sequence[float] = PAPER_WINDS_M_S,
         Address of a Dask scheduler.
     claims : bool
         Search the cut-in wind speeds and compare with the paper.
+    trust : bool
+        Also run the trust checks (mesh refinement at twice the intervals, simulation).
+    solver, linear_solver, stored_guess
+        NLP solver, IPOPT's linear solver, start chains from the shipped initial guess
+        (:func:`optimize.command.solver_options`).
+    fit_default : path, optional
+        ``bench fit``'s model, used when neither ``model`` nor the system names losses.
     progress : bool
         Show a progress bar.
+    command_line : sequence of str
+        Recorded in the manifest.
+    before_solving : callable, optional
+        ``before_solving(note)``, called with :attr:`Sweep.note` once every input is
+        checked, before the first solve.
     """
     from energy.curve import read_optimize_run
-    from fitting.model_file import load_power_model, save_power_model
+    from fitting.model_file import save_power_model
     from fitting.power_model import PowerModel
-    from optimize.command import SweepRequest, run_optimize
-    from optimize.paper_model import PAPER_MODEL_PATH
-    from optimize.problem.options import Discretization, OcpOptions
-    from optimize.system.system import System, load_system
+    from optimize.command import make_request, run_optimize
 
     out = Path(out)
     unknown = [k for k in kinds if k not in KINDS]
     if unknown or not kinds:
         raise InputError(None, f"scenario kinds {list(kinds)}", expected=", ".join(KINDS))
-    if model is None or isinstance(model, str | Path):
-        path = Path(model) if model is not None else PAPER_MODEL_PATH
-        model = load_power_model(path)
-    elif isinstance(model, PowerModel):
+    if isinstance(model, PowerModel):
         out.mkdir(parents=True, exist_ok=True)
-        path = save_power_model(model, out / "given_power_model.json")
-    else:
+        model = save_power_model(model, out / "given_power_model.json")
+    elif model is not None and not isinstance(model, str | Path):
         raise InputError(None, f"model of type {type(model).__name__}",
                          expected="a PowerModel, a power_model.json path or None")
-    system = system if isinstance(system, System) else load_system(system)
-    request = SweepRequest(
-        tuple(float(w) for w in winds), tuple(kinds), model, path, f"drive model: {path}",
-        OcpOptions(Discretization(n_intervals=n_intervals, degree=degree)), workers, scheduler, out,
-        claims=claims, system=system)
-    outcome = run_optimize(request, ["drivebench.optimize"], show_progress=progress)
-    return Sweep(out, outcome.summary, outcome.claims, read_optimize_run(out).curves)
+    request = make_request(
+        tuple(float(w) for w in winds), tuple(kinds),
+        model=Path(model) if model is not None else None, system=system,
+        fit_default=Path(fit_default) if fit_default is not None else None, out=out,
+        n_intervals=n_intervals, degree=degree, solver=solver, linear_solver=linear_solver,
+        stored_guess=stored_guess, workers=workers, scheduler=scheduler, claims=claims,
+        trust=trust)
+    if before_solving is not None:
+        before_solving(request.model_note)
+    done = run_optimize(request, list(command_line), show_progress=progress)
+    return Sweep(out, done.summary, done.claims, read_optimize_run(out).curves,
+                 request.model_note, done.trust_lines, done.wall_time_s, done.executor)
 
 
 @dataclass(frozen=True)
@@ -386,8 +424,9 @@ def size(site: Any, model: Any = None, *, system: Any = None,
     before_solving : callable, optional
         ``before_solving(drive, n_candidates)``, called once the candidates are made.
     """
-    from energy.size_cli import build_candidates, edge_note, grid_hours, write_sizing
+    from energy.candidates import build_candidates
     from energy.sizing import run_sizing, size_extending
+    from energy.sizing_files import edge_note, grid_hours, write_sizing
     from fitting.power_model import PowerModel
     from optimize.system.drive import drive_in_force
     from optimize.system.system import System, load_system
@@ -397,6 +436,10 @@ def size(site: Any, model: Any = None, *, system: Any = None,
                          expected="at least two wind speeds")
     if not 0 <= tolerance < 1:
         raise InputError(None, f"--tolerance {tolerance}", expected="a share in [0, 1)")
+    if extend < 0:
+        raise InputError(None, f"--extend {extend}", expected="an integer >= 0")
+    if Path(out).exists() and not Path(out).is_dir():
+        raise InputError(Path(out), "exists and is not a folder", expected="an output folder")
     system = system if isinstance(system, System) else load_system(system)
     if isinstance(model, PowerModel):
         drive = drive_in_force(system, model=model)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +30,6 @@ import numpy as np
 from bench.errors import InputError
 from bench.files import parse_toml
 from energy import bands
-from energy.adaptive import refine_grid
 from energy.curve import OptimizeRun, PowerCurve
 
 #: the check re-solve must give the sweep's average electrical power within this share
@@ -81,9 +81,16 @@ def system_from_manifest(manifest: dict, path: Path) -> Any:
     return system
 
 
+def basis_figures(terms: Any, trajectory: Any) -> dict:
+    """``{"basis_averages": [...]}`` of a converged cycle (:func:`energy.bands.basis_averages`,
+    the band's gradient), None for a failed one: the refine solves' extra record figure."""
+    averages = None if trajectory is None else bands.basis_averages(trajectory, terms).tolist()
+    return {"basis_averages": averages}
+
+
 @dataclass(frozen=True)
 class KindTask:
-    """One scenario kind's refinement (one executor task; picklable).
+    """One scenario kind's refinement (one chain of the solve service; picklable).
 
     Attributes
     ----------
@@ -99,8 +106,8 @@ class KindTask:
     max_points : int
     system : optimize.system.system.System or None
         The sweep's system (kite, tether, winch, wind); None for the package defaults.
-    backend : optimize.sweep.chains.Backend or None
-        The solver (default the CasADi OCP, :class:`optimize.sweep.chains.OcpBackend`);
+    backend : optimize.service.problem.Backend or None
+        The solver (default the CasADi OCP, :class:`optimize.service.problem.OcpBackend`);
         its results need ``success, status, start, avg_p_elec_w, avg_p_mech_w,
         period_s, trajectory`` (``weight, speed_rpm, torque_nm``) and ``warm``.
     """
@@ -116,40 +123,30 @@ class KindTask:
     backend: Any = None
     system: Any = None
 
+    def chain(self, index: int = 0) -> Any:
+        """The solve service's chain (:class:`optimize.service.chain.ChainTask`): no planned
+        grid, a refinement of both curves from the known points, after a check re-solve."""
+        from optimize.service.chain import ChainTask, Refinement
+        from optimize.service.problem import Problem
+
+        refine = Refinement(self.kind, self.site, self.tol, self.max_points, self.known,
+                            ("avg_p_elec_w", "avg_p_mech_w"), check=True)
+        return ChainTask(Problem.for_system(self.system, self.model, self.options),
+                         index=index, store=self.store, backend=self.backend, refine=refine,
+                         extras=partial(basis_figures, self.model.terms))
+
 
 def refine_kind(task: KindTask, progress: Any = None) -> list[dict]:
     """Solve the speeds the refinement asks for; returns every solve record (worker side).
 
-    The solves go through :class:`optimize.service.Solver` (stored, resumable, a
-    crash reported in the record's status). Records: those of the service with
-    ``role`` ``"check"`` (a sweep speed solved again, to check the sweep's figure)
-    or ``"added"``, plus ``basis_averages`` (:func:`energy.bands.basis_averages`).
+    Records: those of :class:`optimize.service.solver.Solver` (stored, resumable, a
+    crash reported in the record's status) with ``role`` ``"check"`` (a sweep speed
+    solved again, to check the sweep's figure) or ``"added"``, plus ``basis_averages``
+    (:func:`basis_figures`).
     """
-    from optimize.service import Solver
-    from optimize.sweep.chains import Problem, problem_key
+    from optimize.service.chain import run_chain
 
-    problem = (Problem(None, task.model, task.options,
-                       problem_key(task.options, task.model, None))
-               if task.system is None
-               else Problem.for_system(task.system, task.model, task.options))
-
-    def basis(traj: Any) -> dict:
-        averages = None if traj is None else bands.basis_averages(traj, task.model.terms).tolist()
-        return {"basis_averages": averages}
-
-    solver = Solver(problem, task.store, task.backend, progress, extras=basis)
-    known = {w: (pe, pm) for w, pe, pm in task.known}
-
-    def power(wind: float) -> tuple[float, float] | None:
-        wind = round(float(wind), 6)
-        if not any(r["role"] == "check" for r in solver.records.values()):
-            solver.solve(task.kind, min(known, key=lambda w: abs(w - wind)), "check")
-        rec = solver.solve(task.kind, wind, "added")
-        return (rec["avg_p_elec_w"], rec["avg_p_mech_w"]) if rec["success"] else None
-
-    refine_grid(power, tuple(sorted(known)), task.site, task.tol, max_points=task.max_points,
-                known=known)
-    return [solver.records[k] for k in sorted(solver.records, key=lambda k: k[1])]
+    return list(run_chain(task.chain(), progress).records)
 
 
 @dataclass(frozen=True)
@@ -242,7 +239,7 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
     """
     from tqdm import tqdm
 
-    from optimize.sweep.executors import open_executor, run_tasks
+    from optimize.service.run import run_chains
 
     manifest_path = run.folder / "manifest.json"
     if run.drive_model_sha256 and model.sha256 != run.drive_model_sha256:
@@ -267,21 +264,19 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
         bar.update(1)
 
     t0 = time.perf_counter()
-    with open_executor(workers, scheduler) as h:
-        futures = run_tasks(h.executor, refine_kind, tasks, h.channel, on_event)
-        description = h.description
+    outs, description = run_chains([t.chain(i) for i, t in enumerate(tasks)], workers=workers,
+                                   scheduler=scheduler, on_event=on_event)
     bar.close()
     wall = time.perf_counter() - t0
     kinds: dict[str, KindRefinement] = {}
     curves = dict(run.curves)
-    for task, f in zip(tasks, futures, strict=True):
+    for task, out in zip(tasks, outs, strict=True):
         coarse = run.curves[task.kind]
-        exc = f.exception()
-        if exc is not None:  # a crashed task keeps the sweep's curve and says so
-            note = f"{task.kind}: refinement failed ({type(exc).__name__}: {exc}); sweep grid used"
+        if out.error:  # a crashed task keeps the sweep's curve and says so
+            note = f"{task.kind}: refinement failed ({out.error}); sweep grid used"
             kinds[task.kind] = KindRefinement(task.kind, coarse, (), {}, note[:400])
             continue
-        records = tuple(f.result())
+        records = out.records
         curve = merged_curve(coarse, records)
         names = dict(zip(curve.wind_m_s.tolist(), curve.scenarios, strict=True))
         grads = {names[float(r["wind_speed_m_s"])]: np.array(r["basis_averages"])

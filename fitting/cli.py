@@ -1,4 +1,7 @@
-"""``bench fit``: efficiency map, power model fit, model selection, export."""
+"""``bench fit``: efficiency map, power model fit, model selection, export.
+
+Parses the options, calls :func:`drivebench.api.fit` and prints the fit's summary.
+"""
 
 from __future__ import annotations
 
@@ -6,9 +9,8 @@ import argparse
 import shlex
 
 from bench.errors import InputError
-from bench.files import check_output_dir
 from fitting.domain import BAND_FRAC
-from fitting.pipeline import WEIGHTINGS, FitOptions, run_fit
+from fitting.pipeline import WEIGHTINGS, FitOptions
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -51,9 +53,10 @@ def _order(text: str, select: bool) -> int | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the fit and print its summary."""
+    """Run the fit (:func:`drivebench.api.fit`) and print its summary."""
+    from drivebench.api import fit
+
     order = _order(args.order, args.select)
-    check_output_dir(args.out)  # before the fit, not after it
     drive = {k: getattr(args, k) for k in ("nominal_power_w", "max_speed_rpm", "max_torque_nm")
              if getattr(args, k) is not None}
     rating_args = [a for k, v in drive.items() for a in (f"--{k.replace('_', '-')}", repr(v))]
@@ -65,13 +68,11 @@ def run(args: argparse.Namespace) -> int:
         "--mask-elec-frac", repr(args.mask_elec_frac),
         "--envelope-band-frac", repr(args.envelope_band_frac), *rating_args,
     ])
-    options = FitOptions(order=order, full_order2=args.full, folds=args.folds,
-                         weighting=args.weighting, mask_mech_frac=args.mask_mech_frac,
-                         mask_elec_frac=args.mask_elec_frac,
-                         envelope_band_frac=args.envelope_band_frac, drive=drive,
-                         command=command)
-    summary = run_fit(args.store, args.out, options)
-    print(format_summary(summary, args.out))
+    fit(args.store, args.out, order=order, full_order2=args.full, folds=args.folds,
+        weighting=args.weighting, mask_mech_frac=args.mask_mech_frac,
+        mask_elec_frac=args.mask_elec_frac, envelope_band_frac=args.envelope_band_frac,
+        drive=drive, command=command, progress=True,
+        report=lambda summary: print(format_summary(summary, args.out)))
     return 0
 
 
@@ -144,6 +145,14 @@ def format_summary(summary: dict, out) -> str:
                 if c["n_clipped_nodes"]:
                     line += f", {c['n_clipped_nodes']} map nodes clipped to it"
             lines.append(line)
+    repeat = summary["efficiency"].get("loss_repeatability", {})
+    for q, a in summary["efficiency"].get("points_against_map", {}).items():
+        r = repeat.get(q, {})
+        lines.append(
+            f"map against the points, {q}: {a['n_above_map']} of {a['n_points']} above it "
+            f"by more than their uncertainty, {a.get('n_below_map', 0)} below it, "
+            f"{a['n_off_map']} off the grid; loss repeatability {r.get('loss_w', 0.0):.3g} W "
+            f"({r.get('n_pairs', 0)} repeat pairs, pooled over {r.get('pooled_over', 'none')})")
     lines.append(f"outputs in {out}: " + ", ".join(summary["outputs"][:6]) + ", figures/...")
     return "\n".join(lines)
 

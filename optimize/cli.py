@@ -1,18 +1,17 @@
 """``bench optimize``: the pumping-cycle sweep over a wind grid.
 
-Parses the options, calls :func:`optimize.command.run_optimize` (plan chains, run
-them on an executor, compare with the paper, write the files) and prints the
-summary, claims and trust figures.
+Parses the options, calls :func:`drivebench.api.optimize` (check the inputs, plan
+chains, run them on the solve service, compare with the paper, write the files)
+and prints the summary, claims and trust figures.
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
+import sys
 from pathlib import Path
 
-from bench.errors import InputError
-from bench.files import check_output_dir
 from optimize.kinds import DEFAULT_KINDS
 from optimize.problem.options import SOLVERS
 from optimize.sweep.plan import DEFAULT_WIND_GRID
@@ -100,39 +99,35 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the sweep; the exit code says how many scenarios converged (:data:`EXIT_CODES`)."""
-    from optimize.command import SweepRequest, format_summary, run_optimize
-    from optimize.problem.options import MAX_INTERVALS
+    """Run the sweep (:func:`drivebench.api.optimize`); the exit code says how many
+    scenarios converged (:data:`EXIT_CODES`)."""
+    from drivebench.api import optimize
+    from optimize.command import format_summary
+    from optimize.sweep.plan import parse_kinds, parse_wind_grid
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    top = MAX_INTERVALS // 2 if args.trust else MAX_INTERVALS  # --trust solves at 2x
-    if not 2 <= args.intervals <= top:
-        raise InputError(None, f"--intervals {args.intervals}: out of range",
-                         expected=f"an integer from 2 to {top}"
-                                  + (" (--trust refines to twice as many)" if args.trust else ""))
-    if not 1 <= args.degree <= 9:
-        raise InputError(None, f"--degree {args.degree}: out of range", expected="1 to 9")
-    check_output_dir(args.out)
-    request = SweepRequest.from_cli(args, FIT_MODEL_PATH)
-    print(request.model_note)
-    outcome = run_optimize(request)
-    print(format_summary(outcome.summary))
-    if outcome.claims is not None:
+    sweep = optimize(args.drive_model, winds=parse_wind_grid(args.wind_grid),
+                     kinds=parse_kinds(args.scenarios), system=args.system, out=args.out,
+                     n_intervals=args.intervals, degree=args.degree, workers=args.workers,
+                     scheduler=args.scheduler, claims=not args.no_claims, trust=args.trust,
+                     solver=args.solver, linear_solver=args.linear_solver,
+                     stored_guess=not args.no_stored_guess, fit_default=FIT_MODEL_PATH,
+                     progress=True, command_line=sys.argv, before_solving=print)
+    print(format_summary(sweep.summary))
+    if sweep.claims is not None:
         from optimize.analysis.claims import format_claims
 
         print()
-        print(format_claims(outcome.claims))
-    for line in outcome.trust_lines:
+        print(format_claims(sweep.claims))
+    for line in sweep.trust_lines:
         print(line)
-    n_ok = int(outcome.summary["success"].sum())
-    print(
-        f"\n{n_ok}/{len(outcome.summary)} scenarios converged in {outcome.wall_time_s:.1f} s "
-        f"({outcome.executor}); files in {args.out}"
-    )
-    failed = outcome.summary.loc[~outcome.summary["success"], "scenario"].tolist()
+    n_ok = int(sweep.summary["success"].sum())
+    print(f"\n{n_ok}/{len(sweep.summary)} scenarios converged in {sweep.wall_time_s:.1f} s "
+          f"({sweep.executor}); files in {args.out}")
+    failed = sweep.summary.loc[~sweep.summary["success"], "scenario"].tolist()
     if failed:
         print(f"FAILED (status in summary.parquet, never averaged): {', '.join(failed)}")
-    return exit_code(outcome.summary["success"].tolist())
+    return exit_code(sweep.summary["success"].tolist())
 
 
 def exit_code(success: list[bool]) -> int:

@@ -1,7 +1,7 @@
 """The whole ``bench optimize`` command as a library call: :func:`run_optimize`.
 
-Plan the chains (:mod:`optimize.sweep.plan`), run them on an executor
-(:mod:`optimize.sweep.chains`, :mod:`optimize.sweep.executors`), the trust
+Plan the chains (:mod:`optimize.sweep.plan`), run them on the solve service
+(:mod:`optimize.service`, on :mod:`optimize.sweep.executors`), the trust
 checks (:mod:`optimize.sweep.trust`), the paper comparison
 (:mod:`optimize.analysis.claims`) and the files (:mod:`optimize.sweep.outputs`).
 This module sits above the solver and the analysis; nothing in them imports it.
@@ -16,15 +16,15 @@ from typing import Any
 import numpy as np
 
 from bench.errors import InputError
-from bench.files import file_sha256, write_csv, write_json, write_parquet
+from bench.files import check_output_dir, file_sha256, write_csv, write_json, write_parquet
 from bench.output_folder import check_replaceable, output_folder
 from bench.versions import package_versions
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
 from optimize.kinds import KINDS
+from optimize.service import Problem, make_tasks, run_sweep
 from optimize.sweep import outputs
-from optimize.sweep.chains import Problem, make_tasks, run_sweep
 from optimize.sweep.executors import open_executor
-from optimize.sweep.plan import parse_kinds, parse_wind_grid, plan_chains
+from optimize.sweep.plan import plan_chains
 from optimize.sweep.trust import run_trust_checks
 from optimize.system.drive import DriveInForce, drive_in_force
 from optimize.system.plausibility import check_drive_holds_kite
@@ -90,47 +90,76 @@ class SweepRequest:
     system: System | None = None
     drive: DriveInForce | None = None
 
-    @classmethod
-    def from_cli(cls, args: Any, fit_model_path: Path) -> SweepRequest:
-        """Build the request from ``bench optimize`` arguments; bad values raise InputError."""
-        from fitting.model_check import check_physics
-        from optimize.problem.options import Discretization, OcpOptions
 
-        winds = parse_wind_grid(args.wind_grid)
-        kinds = parse_kinds(args.scenarios)
-        system = load_system(args.system)
-        drive = drive_in_force(system, args.drive_model, fit_model_path)
-        note = f"system: {system.name} ({system.path}" + (
-            ", the shipped default)" if args.system is None else ")")
-        note += "\n" + "\n".join(drive.lines())
-        try:
-            options = OcpOptions(Discretization(n_intervals=args.intervals, degree=args.degree),
-                                 solver=solver_options(args))
-        except ValueError as exc:
-            raise InputError(None, f"OCP options: {exc}") from exc
-        options = system.ocp_options(options, drive.rating)
-        # an impossible model "converges" to a wrong cycle: refuse it before any solve,
-        # checked also where the optimizer may take it (the drive limits in force)
-        check_physics(drive.model, drive.model_path,
-                      limits=(options.limits.max_speed_rpm, options.limits.max_torque_nm))
-        check_drive_holds_kite(system, drive.rating.max_torque_nm,
-                               drive.rating.source or "the drive in force")
-        note += "\n" + system.kite_limits().describe()
-        return cls(
-            winds,
-            kinds,
-            drive.model,
-            drive.model_path,
-            note,
-            options,
-            args.workers,
-            args.scheduler,
-            Path(args.out),
-            not args.no_claims,
-            args.trust,
-            system=system,
-            drive=drive,
-        )
+def make_request(winds: tuple[float, ...], kinds: tuple[str, ...], *,
+                 model: Path | None = None, system: Path | System | None = None,
+                 fit_default: Path | None = None, out: Path = Path("optimize_out"),
+                 n_intervals: int = 40, degree: int = 4, solver: str = "ipopt",
+                 linear_solver: str | None = None, stored_guess: bool = True,
+                 workers: int = 2, scheduler: str | None = None, claims: bool = True,
+                 trust: bool = False) -> SweepRequest:
+    """The request of a sweep, every input checked before any solve.
+
+    Parameters
+    ----------
+    winds, kinds
+        Wind speeds [m/s] and scenario kinds (:func:`optimize.sweep.plan.parse_wind_grid`,
+        :func:`optimize.sweep.plan.parse_kinds`).
+    model : Path, optional
+        The drive's losses (``--drive-model``), overriding the system file's.
+    system : Path or System, optional
+        The system (``--system``); default the shipped ``highwind.toml``.
+    fit_default : Path, optional
+        ``bench fit``'s model, used when it exists and neither ``model`` nor the system
+        file names the losses (:func:`optimize.system.drive.drive_in_force`).
+    out : Path
+        Output folder (must be a folder or absent).
+    n_intervals, degree : int
+        Collocation intervals (2 to :data:`optimize.problem.options.MAX_INTERVALS`, half
+        that with ``trust``, which refines to twice as many) and Radau degree (1 to 9).
+    solver, linear_solver, stored_guess
+        :func:`solver_options`.
+    workers, scheduler, claims, trust
+        As :class:`SweepRequest`.
+
+    Raises
+    ------
+    InputError
+        Any input out of range or unreadable; a drive model that is physically
+        impossible or a drive that cannot hold the kite.
+    """
+    from fitting.model_check import check_physics
+    from optimize.problem.options import MAX_INTERVALS, Discretization, OcpOptions
+
+    top = MAX_INTERVALS // 2 if trust else MAX_INTERVALS  # trust solves at 2x
+    if not 2 <= n_intervals <= top:
+        raise InputError(None, f"--intervals {n_intervals}: out of range",
+                         expected=f"an integer from 2 to {top}"
+                                  + (" (--trust refines to twice as many)" if trust else ""))
+    if not 1 <= degree <= 9:
+        raise InputError(None, f"--degree {degree}: out of range", expected="1 to 9")
+    check_output_dir(out)
+    loaded = system if isinstance(system, System) else load_system(system)
+    drive = drive_in_force(loaded, model, fit_default)
+    note = f"system: {loaded.name} ({loaded.path}" + (
+        ", the shipped default)" if system is None else ")")
+    note += "\n" + "\n".join(drive.lines())
+    try:
+        options = OcpOptions(Discretization(n_intervals=n_intervals, degree=degree),
+                             solver=solver_options(solver, linear_solver, stored_guess))
+    except ValueError as exc:
+        raise InputError(None, f"OCP options: {exc}") from exc
+    options = loaded.ocp_options(options, drive.rating)
+    # an impossible model "converges" to a wrong cycle: refuse it before any solve,
+    # checked also where the optimizer may take it (the drive limits in force)
+    check_physics(drive.model, drive.model_path,
+                  limits=(options.limits.max_speed_rpm, options.limits.max_torque_nm))
+    check_drive_holds_kite(loaded, drive.rating.max_torque_nm,
+                           drive.rating.source or "the drive in force")
+    note += "\n" + loaded.kite_limits().describe()
+    return SweepRequest(tuple(winds), tuple(kinds), drive.model, drive.model_path, note,
+                        options, workers, scheduler, Path(out), claims, trust,
+                        system=loaded, drive=drive)
 
 
 @dataclass(frozen=True)
@@ -182,7 +211,7 @@ def run_optimize(
     ``manifest.json`` (docs/schemas.md §5) into ``request.out``, all or none
     (:mod:`bench.output_folder`).
     ``backend`` replaces the CasADi OCP in the chains (see
-    :class:`optimize.sweep.chains.Backend`; the trust checks always use the OCP).
+    :class:`optimize.service.problem.Backend`; the trust checks always use the OCP).
     """
     import dataclasses
     import datetime
@@ -201,10 +230,8 @@ def run_optimize(
     trust: dict = {"mesh": [], "simulation": []}
     with open_executor(request.workers, request.scheduler) as handle:
         chains = plan_chains(request.winds, request.kinds, handle.n_workers)
-        tasks = make_tasks(chains, problem, cut_in_kinds, request.cut_in_tol_m_s)
-        result = run_sweep(
-            tasks, handle.executor, handle.channel, handle.description, backend, show_progress
-        )
+        tasks = make_tasks(chains, problem, cut_in_kinds, request.cut_in_tol_m_s, backend)
+        result = run_sweep(tasks, handle, show_progress)
         if request.trust:
             trust = run_trust_checks(problem, result.outcomes, request.winds, handle)
     summary = outputs.summary_frame(result.outcomes, model.domain,
@@ -285,7 +312,8 @@ def run_optimize(
     )
 
 
-def solver_options(args: Any) -> Any:
+def solver_options(solver: str = "ipopt", linear_solver: str | None = None,
+                   stored_guess: bool = True) -> Any:
     """``SolverOptions`` of ``--solver``, ``--linear-solver`` and ``--no-stored-guess``.
 
     Raises
@@ -297,14 +325,13 @@ def solver_options(args: Any) -> Any:
     from optimize.problem.options import SolverOptions
     from optimize.solve.backend import check_linear_solver
 
-    linear = args.linear_solver
-    if linear is not None and args.solver != "ipopt":
-        raise ValueError(f"--linear-solver {linear}: only IPOPT takes a linear solver, not "
-                         f"--solver {args.solver}")
-    if linear is not None:
-        check_linear_solver(linear)
-    return SolverOptions(solver=args.solver, linear_solver=linear or "mumps",
-                         stored_guess=not args.no_stored_guess)
+    if linear_solver is not None and solver != "ipopt":
+        raise ValueError(f"--linear-solver {linear_solver}: only IPOPT takes a linear solver, "
+                         f"not --solver {solver}")
+    if linear_solver is not None:
+        check_linear_solver(linear_solver)
+    return SolverOptions(solver=solver, linear_solver=linear_solver or "mumps",
+                         stored_guess=stored_guess)
 
 
 def domain_scales(model: Any, options: Any) -> tuple[float, float]:

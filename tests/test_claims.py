@@ -25,7 +25,7 @@ from optimize.analysis.claims import (
     format_claims,
     load_ablation,
 )
-from optimize.sweep.chains import CutIn
+from optimize.service.outcome import CutIn
 
 WINDS = (4.0, 5.5, 7.0, 8.5, 10.0)
 # average electrical power [W] per kind and wind (negative = generated), paper-like:

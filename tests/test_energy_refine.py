@@ -56,6 +56,7 @@ class KinkBackend:
         traj = pd.DataFrame({"weight": [0.5, 0.5], "speed_rpm": [-100 * wind, 50 * wind],
                              "torque_nm": [5 * wind, 2.0]})
         return SimpleNamespace(success=ok, status="Solve_Succeeded" if ok else "Infeasible",
+                               iterations=5, wall_time_s=1e-3,
                                start=start, avg_p_elec_w=p_elec(wind), avg_p_mech_w=p_mech(wind),
                                period_s=10.0, trajectory=traj,
                                warm=Solution(np.array([wind]), np.zeros(1), np.zeros(1), 1, 1))

@@ -115,7 +115,7 @@ def test_interrupted_sweep_continues_where_it_stopped(tmp_path):
 @pytest.mark.parametrize(
     "extra",
     [["--wind-grid", "7"], ["--scales", "0,1"], ["--scales", "1,1"], ["--overload", "0.5"],
-     ["--tolerance", "1.5"]],
+     ["--tolerance", "1.5"], ["--extend", "-1"]],
 )
 def test_bench_size_bad_input_exits_2_before_solving(tmp_path, capsys, extra):
     from bench.cli import main
@@ -163,6 +163,7 @@ class CrashingBackend:
         traj = pd.DataFrame({"weight": [0.5, 0.5], "speed_rpm": [-900.0, 300.0],
                              "torque_nm": [0.5 * ocp, 0.5 * ocp]})
         return SimpleNamespace(success=True, status="Solve_Succeeded", start="stored guess",
+                               iterations=5, wall_time_s=1e-3,
                                avg_p_elec_w=-100.0 * wind * ocp / 78.0, avg_p_mech_w=-1.0,
                                period_s=8.0, trajectory=traj,
                                warm=Solution(np.array([wind]), np.zeros(1), np.zeros(1), 1, 1))

@@ -254,12 +254,12 @@ def _read_only(monkeypatch, folder):
 
 def test_fit_out_naming_an_existing_file(tmp_path, capsys, monkeypatch):
     """Refused before the fit (was: after the whole fit)."""
-    from fitting import cli as fit_cli
+    from fitting import pipeline
 
     def no_fit(*a, **kw):
         raise AssertionError("the fit ran")
 
-    monkeypatch.setattr(fit_cli, "run_fit", no_fit)
+    monkeypatch.setattr(pipeline, "run_fit", no_fit)
     out = tmp_path / "fit_out"
     out.write_text("keep me")
     rc = main(["fit", "--store", str(tmp_path / "store"), "--out", str(out)])

@@ -16,26 +16,19 @@ import math
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from functools import partial
 
 import numpy as np
 import pytest
 
 from bench.errors import InputError
 from optimize.problem.scenario import scenario_name
-from optimize.sweep.chains import (
-    MAX_WARM_ATTEMPTS,
-    ChainTask,
-    Problem,
-    find_cut_in,
-    make_tasks,
-    run_chain,
-    run_sweep,
-    solve_step,
-)
-from optimize.sweep.executors import QueueChannel, open_executor, run_tasks
+from optimize.service import ChainTask, Problem, Solver, make_tasks, run_chain, run_sweep
+from optimize.service.cut_in import find_cut_in
+from optimize.service.solver import MAX_WARM_ATTEMPTS
+from optimize.sweep.executors import ExecutorHandle, QueueChannel, open_executor, run_tasks
 from optimize.sweep.plan import (
     Step,
+    chain_steps,
     continuation_order,
     group_kinds,
     parse_kinds,
@@ -190,8 +183,9 @@ def test_group_kinds_balances_and_caps_chains():
 # ----------------------------------------------------------------- running chains
 def test_chain_solves_every_scenario_exactly_with_cheap_warm_starts():
     (chain,) = plan_chains(WINDS, KINDS, 1)
-    task = make_tasks((chain,), PROBLEM, cut_in_kinds=("elec-lim", "mech-lim"))[0]
-    out = run_chain(task, backend=NewtonBackend())
+    task = make_tasks((chain,), PROBLEM, cut_in_kinds=("elec-lim", "mech-lim"),
+                      backend=NewtonBackend())[0]
+    out = run_chain(task)
     assert len(out.outcomes) == 20 and all(o.success for o in out.outcomes)
     for o in out.outcomes:
         # Newton converges quadratically: 1e-9 relative is far above its round-off
@@ -205,8 +199,9 @@ def test_chain_solves_every_scenario_exactly_with_cheap_warm_starts():
 
 def test_cut_in_bisection_finds_the_known_crossing():
     (chain,) = plan_chains(WINDS, KINDS, 1)
-    task = make_tasks((chain,), PROBLEM, cut_in_kinds=KINDS, cut_in_tol_m_s=0.05)[0]
-    out = run_chain(task, backend=NewtonBackend())
+    task = make_tasks((chain,), PROBLEM, cut_in_kinds=KINDS, cut_in_tol_m_s=0.05,
+                      backend=NewtonBackend())[0]
+    out = run_chain(task)
     found = {c.kind: c for c in out.cut_ins}
     for kind in ("elec-lim", "mech-lim", "elec-free"):
         c = found[kind]
@@ -223,14 +218,15 @@ def test_cut_in_bisection_finds_the_known_crossing():
 
 
 def test_cut_in_edge_cases():
-    backend = NewtonBackend()
-    grid = {w: (SCALE_W * (exact_root(3.0) - exact_root(w)), exact_root(w)) for w in WINDS}
-    assert find_cut_in(backend, "", "elec-lim", grid).status == (
+    solver = Solver(PROBLEM, backend=NewtonBackend())
+    grid = {w: SCALE_W * (exact_root(3.0) - exact_root(w)) for w in WINDS}
+    assert find_cut_in(solver, "elec-lim", grid).status == (
         "generates at every converged grid speed"
     )
-    assert find_cut_in(backend, "", "elec-lim", {4.0: grid[4.0]}).status == (
+    assert find_cut_in(solver, "elec-lim", {4.0: grid[4.0]}).status == (
         "too few converged grid speeds"
     )
+    assert not solver.records  # decided from the grid alone, nothing solved
 
 
 @dataclass(frozen=True)
@@ -243,37 +239,44 @@ class StoredGuessBackend(NewtonBackend):
         return StoredGuessResult(*dataclasses.astuple(self._newton(kind, w, 0.0)))
 
 
+def _solve_one(backend, sources=(), solved=()):
+    """The outcome of mech-free at 10 m/s from ``sources`` after solving ``solved`` cold."""
+    solver = Solver(PROBLEM, backend=backend)
+    for kind, wind in solved:
+        solver.solve(kind, wind, sources=[])
+    solver.solve("mech-free", 10.0, sources=list(sources))
+    return solver.outcomes["mech-free", 10.0]
+
+
 def test_warm_source_tells_a_stored_guess_start_from_a_homotopy():
-    step = Step("elec-lim", 7.0, None, ())
-    out = solve_step(StoredGuessBackend(), "", step, {})
+    out = _solve_one(StoredGuessBackend())
     assert [a.source for a in out.attempts] == [None] and out.success
     assert out.warm_source == "stored guess"
-    assert solve_step(NewtonBackend(), "", step, {}).warm_source == "cold start"
+    assert _solve_one(NewtonBackend()).warm_source == "cold start"
 
 
 def test_failed_warm_start_retries_fallback_then_cold_start():
-    step = Step("mech-free", 10.0, "mech-free-8.5", ("mech-lim-10.0", "mech-lim-8.5"))
-    warm = {"mech-free-8.5": exact_root(8.5), "mech-lim-10.0": exact_root(10.0)}
-    # primary fails, fallback converges
-    backend = NewtonBackend(fail_warm=())
-    ok = solve_step(backend, "", step, warm)
+    sources = [("mech-free", 8.5), ("mech-lim", 10.0), ("mech-lim", 8.5)]
+    solved = [("mech-free", 8.5), ("mech-lim", 10.0)]
+    # primary converges
+    ok = _solve_one(NewtonBackend(fail_warm=()), sources, solved)
     assert [a.source for a in ok.attempts] == ["mech-free-8.5"] and ok.success
     # every warm start fails: MAX_WARM_ATTEMPTS warm tries, then one cold start that works
     backend = NewtonBackend(fail_warm=("mech-free-10.0",))
-    out = solve_step(backend, "", step, warm)
+    out = _solve_one(backend, sources, solved)
     assert [a.source for a in out.attempts] == ["mech-free-8.5", "mech-lim-10.0", None]
     assert MAX_WARM_ATTEMPTS == 2
     assert out.success and out.warm_source == "cold start"
     assert out.result.warm == pytest.approx(exact_root(10.0), rel=1e-12)
-    # a source that is not available (its own solve failed) is skipped, not tried
-    out = solve_step(backend, "", step, {"mech-lim-10.0": exact_root(10.0)})
+    # a source that is not available (not solved, or its own solve failed) is skipped
+    out = _solve_one(backend, sources, [("mech-lim", 10.0)])
     assert [a.source for a in out.attempts] == ["mech-lim-10.0", None]
 
 
 def test_failure_is_reported_not_dropped():
     # Newton capped at 3 iterations: the cold start (from x = 0) cannot converge at 7 m/s
     (chain,) = plan_chains(WINDS, ("elec-lim",), 1)
-    out = run_chain(make_tasks((chain,), PROBLEM)[0], backend=NewtonBackend(max_iter=3))
+    out = run_chain(make_tasks((chain,), PROBLEM, backend=NewtonBackend(max_iter=3))[0])
     assert len(out.outcomes) == 5
     assert not any(o.success for o in out.outcomes)
     assert {o.status for o in out.outcomes} == {"Maximum_Iterations_Exceeded"}
@@ -287,10 +290,11 @@ def _check_sweep(result):
 
 
 def test_sweep_on_a_thread_pool_with_progress_events():
-    tasks = make_tasks(plan_chains(WINDS, KINDS, 2), PROBLEM, cut_in_kinds=("elec-lim", "mech-lim"))
-    channel = QueueChannel()
+    tasks = make_tasks(plan_chains(WINDS, KINDS, 2), PROBLEM, cut_in_kinds=("elec-lim", "mech-lim"),
+                       backend=NewtonBackend())
     with ThreadPoolExecutor(2) as ex:
-        result = run_sweep(tasks, ex, channel, "threads", NewtonBackend(), show_progress=False)
+        handle = ExecutorHandle(ex, QueueChannel(), "threads", 2)
+        result = run_sweep(tasks, handle, show_progress=False)
     _check_sweep(result)
     assert {c.chain for c in result.chains} == {0, 1}
 
@@ -300,7 +304,8 @@ def test_sweep_on_a_local_dask_cluster():
     # as bench optimize --scheduler does; in-process workers see this test module
     distributed = pytest.importorskip("distributed")
 
-    tasks = make_tasks(plan_chains(WINDS, KINDS, 2), PROBLEM, cut_in_kinds=("elec-lim", "mech-lim"))
+    tasks = make_tasks(plan_chains(WINDS, KINDS, 2), PROBLEM, cut_in_kinds=("elec-lim", "mech-lim"),
+                       backend=NewtonBackend())
     with (
         distributed.LocalCluster(
             n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None
@@ -309,38 +314,26 @@ def test_sweep_on_a_local_dask_cluster():
     ):
         assert handle.n_workers == 2 and handle.description.startswith("dask scheduler")
         seen: list[dict] = []
-        futures = run_tasks(
-            handle.executor,
-            partial(run_chain, backend=NewtonBackend()),
-            tasks,
-            handle.channel,
-            seen.append,
-        )
+        futures = run_tasks(handle.executor, run_chain, tasks, handle.channel, seen.append)
         assert all(f.exception() is None for f in futures)
-        # 20 scenario events and 2 cut-in events came back through the Dask queue
-        assert len([e for e in seen if "name" in e]) == 20
+        # 20 grid solve events, the probes' and 2 cut-in events came back through the Dask queue
+        assert len([e for e in seen if e.get("role") == "grid"]) == 20
+        assert {e["role"] for e in seen if "role" in e} == {"grid", "cut-in"}
         assert sorted(e["cut_in"] for e in seen if "cut_in" in e) == ["elec-lim", "mech-lim"]
-        result = run_sweep(
-            tasks, handle.executor, handle.channel, "dask", NewtonBackend(), show_progress=False
-        )
+        result = run_sweep(tasks, handle, show_progress=False)
     _check_sweep(result)
 
 
 def test_process_pool_executor_runs_chains_with_progress():
     # the real default executor: spawned processes and a manager-queue channel
-    tasks = make_tasks(plan_chains(WINDS, ("elec-lim", "mech-lim"), 2), PROBLEM)
+    tasks = make_tasks(plan_chains(WINDS, ("elec-lim", "mech-lim"), 2), PROBLEM,
+                       backend=NewtonBackend())
     seen: list[dict] = []
     with open_executor(workers=2) as handle:
         assert handle.description == "process pool, 2 workers"
-        futures = run_tasks(
-            handle.executor,
-            partial(run_chain, backend=NewtonBackend()),
-            tasks,
-            handle.channel,
-            seen.append,
-        )
+        futures = run_tasks(handle.executor, run_chain, tasks, handle.channel, seen.append)
     outs = [f.result() for f in futures]
-    assert sorted(e["name"] for e in seen) == sorted(s.name for t in tasks for s in t.chain.steps)
+    assert sorted(e["name"] for e in seen) == sorted(s.name for t in tasks for s in t.steps)
     assert all(int(o.worker.rsplit(":", 1)[1]) != os.getpid() for o in outs)  # ran in children
     assert all(o.success for c in outs for o in c.outcomes)
     with pytest.raises(InputError, match="--workers 0"), open_executor(workers=0):
@@ -367,17 +360,15 @@ def test_cli_rejects_bad_input_with_exit_code_2(tmp_path, capsys):
 
 
 def test_request_falls_back_to_the_paper_model(tmp_path):
-    import argparse
-
     from fitting.model_file import save_power_model
-    from optimize.cli import add_arguments
-    from optimize.command import SweepRequest
+    from optimize.command import make_request
     from optimize.paper_model import PAPER_MODEL_PATH, paper_model
 
-    parser = argparse.ArgumentParser()
-    add_arguments(parser)
-    args = parser.parse_args(["--wind-grid", "5:6:0.5", "--scenarios", "mech-free"])
-    req = SweepRequest.from_cli(args, tmp_path / "fit_out" / "power_model.json")
+    def request(fit):
+        return make_request(parse_wind_grid("5:6:0.5"), parse_kinds("mech-free"),
+                            fit_default=fit, out=tmp_path / "out")
+
+    req = request(tmp_path / "fit_out" / "power_model.json")
     assert req.drive_model_path == PAPER_MODEL_PATH and "shipped paper model" in req.model_note
     assert req.winds == (5.0, 5.5, 6.0) and req.kinds == ("mech-free",)
     assert req.options.discretization.n_intervals == 40
@@ -386,7 +377,7 @@ def test_request_falls_back_to_the_paper_model(tmp_path):
     fit = tmp_path / "fit_out" / "power_model.json"
     fit.parent.mkdir()
     save_power_model(paper_model(), fit)
-    assert SweepRequest.from_cli(args, fit).drive_model_path == fit
+    assert request(fit).drive_model_path == fit
 
 
 @dataclass(frozen=True)
@@ -489,6 +480,44 @@ def test_run_optimize_writes_every_file(tmp_path):
     assert len(read_summary(out / "summary.parquet")) == 2
 
 
+@dataclass(frozen=True)
+class CrashingCycleBackend(CycleBackend):
+    """CycleBackend whose solver raises at one wind speed, warm or cold."""
+
+    crash_at: float = 5.5
+
+    def _newton(self, kind: str, w: float, x: float) -> CycleResult:
+        if w == self.crash_at:
+            raise RuntimeError("solver crashed")
+        return super()._newton(kind, w, x)
+
+
+def test_a_solver_crash_in_an_optimize_sweep_is_reported_as_sizing_and_refine_report_it(tmp_path):
+    import json
+
+    from optimize.command import SweepRequest, run_optimize
+    from optimize.paper_model import PAPER_MODEL_PATH, paper_model
+    from optimize.problem.options import OcpOptions
+    from optimize.service import failure_status
+
+    out = tmp_path / "optimize_out"
+    request = SweepRequest(winds=(4.0, 5.5, 7.0), kinds=("elec-lim",), drive_model=paper_model(),
+                           drive_model_path=PAPER_MODEL_PATH, model_note="paper model",
+                           options=OcpOptions(), workers=1, out=out, claims=False)
+    done = run_optimize(request, ["bench", "optimize"], show_progress=False,
+                        backend=CrashingCycleBackend(crash_at=5.5))
+    rows = done.summary.set_index("scenario")
+    # the status text test_energy_sizing and test_energy_refine assert for their crashes
+    status = "exception: RuntimeError: solver crashed"
+    assert failure_status("exception", RuntimeError("solver crashed")) == status
+    assert rows.loc["elec-lim-5.5", "status"] == status
+    assert not rows.loc["elec-lim-5.5", "success"]
+    assert np.isnan(rows.loc["elec-lim-5.5", "avg_p_elec_w"])  # never a figure of a crash
+    # the sweep goes on: the other speeds converge from cold starts, the crash is listed
+    assert rows.loc[["elec-lim-4.0", "elec-lim-7.0"], "success"].all()
+    assert json.loads((out / "manifest.json").read_text())["failed"] == ["elec-lim-5.5"]
+
+
 # ----------------------------------------------------------------- local optima
 @dataclass(frozen=True)
 class BranchResult(Result):
@@ -522,8 +551,8 @@ class BranchBackend:
 def test_a_local_optimum_off_the_curve_is_resolved_from_its_neighbour():
     from optimize.sweep.outputs import resolve_fields, resolve_lines
 
-    (chain,) = plan_chains(WINDS, ("elec-free",), 1)
-    done = run_chain(ChainTask(chain, PROBLEM), BranchBackend())
+    done = run_chain(ChainTask(PROBLEM, chain_steps(("elec-free",), WINDS),
+                               backend=BranchBackend(), resolve=True))
     by_name = {o.name: o for o in done.outcomes}
     mid = by_name["elec-free-7.0"]  # the cold start: on the local branch, 300 W worse
     assert mid.result.avg_p_elec_w == pytest.approx(-4900.0)  # the better optimum kept
@@ -555,7 +584,7 @@ def test_a_local_optimum_off_the_curve_is_resolved_from_its_neighbour():
 
 
 def test_a_smooth_power_curve_is_not_resolved():
-    from optimize.sweep.chains import off_curve
+    from optimize.service.local_optima import off_curve
 
     winds = [4.0 + i for i in range(10)]
     power = [-3.0 * w**3 + 40 for w in winds]  # cubic in the wind, crossing zero near 2.4 m/s

@@ -13,8 +13,8 @@ from bench.errors import InputError
 from bench.files import write_parquet
 from bench.units import unit_of
 from optimize.model import kite_model as km
+from optimize.service.outcome import Attempt, ScenarioOutcome
 from optimize.solve.result import OUTPUT_UNITS
-from optimize.sweep.chains import Attempt, ScenarioOutcome
 from optimize.sweep.outputs import (
     SUMMARY_COLUMNS,
     field_units,

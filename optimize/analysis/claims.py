@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from optimize.sweep.chains import CutIn
+from optimize.service.outcome import CutIn
 
 #: measured causes of the differences: the ablation's results (benchmarks/paper_ablation.py)
 ABLATION_PATH = Path(__file__).resolve().parent.parent / "data" / "paper_ablation.json"

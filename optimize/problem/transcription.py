@@ -25,11 +25,15 @@ the copies), so they have the same optima:
   torque, so that periodicity and the RMS-torque row are constraints of the last
   stage.
 
-:attr:`Layout.rows` finds rows by name in either layout.
+:attr:`Layout.rows` finds rows by name in either layout. In both, every Radau point's
+rows and integrands come from one :class:`PointFunction`; the ``"ipopt"`` layout
+also records where each point sits (:class:`PointBlocks`), so its derivatives are
+built once per point function rather than over the whole NLP.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -71,6 +75,27 @@ class Layout:
         return self.rows.get(name, np.zeros(0, dtype=int))
 
 
+@dataclass(frozen=True)
+class PointBlocks:
+    """The NLP point by point: what :mod:`optimize.solve.derivatives` builds on.
+
+    For each Radau point ``j``: ``g[rows[:, j]] = rows(w[vars[:, j]], p[i_wind],
+    deriv[:, j])`` of ``point.function``. Its integrands enter the objective and the
+    other rows only through the cycle sums: ``f_s`` and ``g_s`` are ``f`` and ``g``
+    with the symbols ``s`` (``(len(INTEGRANDS), n_coll)``) in place of the integrands
+    (``f = f_s`` and ``g = g_s`` once ``s`` is replaced by the points' integrands).
+    """
+
+    point: PointFunction
+    vars: np.ndarray  # (n_v, n_coll) indices into w
+    rows: np.ndarray  # (n_r, n_coll) indices into g
+    deriv: np.ndarray  # (d + 1, n_coll) the points' columns of Collocation.deriv
+    s: ca.SX
+    f_s: ca.SX
+    g_s: ca.SX
+    i_wind: int  # index of the reference wind speed in p
+
+
 @dataclass
 class Transcription:
     """A transcribed NLP: CasADi problem, layout and scaled base bounds.
@@ -86,6 +111,8 @@ class Transcription:
     lbg: np.ndarray
     ubg: np.ndarray
     limited: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+    #: the per-point structure of the NLP (``None``: derive it from ``nlp`` whole)
+    blocks: PointBlocks | None = None
 
 
 class _Rows:
@@ -134,31 +161,110 @@ class _Sums:
     track: Any = 0
 
 
-def _interval(form: Formulation, coll: Collocation, n: int, period: Any, xs: list, u: Any,
-              zs: list, fs: list, wind: Any, rows: _Rows, sums: _Sums) -> Any:
-    """Rows of one collocation interval; adds its share to ``sums``.
+#: the integrands of the cycle averages a collocation point returns, in this order
+INTEGRANDS = ("p_elec_w", "p_mech_w", "torque_sq", "fict_sq")
 
-    ``xs`` are the ``d + 1`` scaled-back states (interval start, then the Radau
-    points), ``zs`` and ``fs`` the ``d`` algebraic variables and fictitious forces.
-    Returns the interval's share of the average squared torque.
+
+@dataclass(frozen=True)
+class PointFunction:
+    """The rows and integrands of one Radau point as one CasADi function.
+
+    ``function(v, wind, deriv) -> (rows, integrands)``: ``v`` is the point's slice of
+    the scaled decision vector, in :meth:`slice` order (period, state at the point,
+    control, algebraic variables, fictitious forces, then the ``d + 1`` states of the
+    interval; the point's own state appears twice), ``wind`` the reference wind
+    speed [m/s], ``deriv`` the point's column of :attr:`Collocation.deriv`. ``rows``
+    are the dynamics rows then the formulation's point rows (``templates`` gives
+    their names and bounds), ``integrands`` the values of :data:`INTEGRANDS`.
+    Every Radau point of both layouts is this one function, so its derivatives can
+    be built once (:mod:`optimize.solve.derivatives`).
+    """
+
+    function: ca.Function
+    templates: tuple[Row, ...]
+
+    @staticmethod
+    def slice(period: Any, x_point: Any, u: Any, z: Any, f: Any, xs: list) -> Any:
+        """Concatenate a point's variables in the order of ``v``."""
+        return ca.vertcat(period, x_point, u, z, f, *xs)
+
+    def rows_of(self, out: Any) -> list[Row]:
+        """The point's rows with the expressions ``out`` (one call's ``rows``)."""
+        rows, start = [], 0
+        for t in self.templates:
+            size = t.expr.shape[0]
+            rows.append(Row(t.name, out[start:start + size], t.lo, t.hi, t.limited))
+            start += size
+        return rows
+
+
+def point_function(form: Formulation, coll: Collocation, n_intervals: int,
+                   scale_w: dict[str, np.ndarray]) -> PointFunction:
+    """Build the :class:`PointFunction` of ``form`` on ``n_intervals`` intervals.
+
+    ``scale_w`` has the scale of each part of ``v`` (``period, x, u, z, f``).
     """
     d = coll.degree
-    h = period / n
-    inv_sx = ca.DM(1.0 / form.scales.state)
-    sums.reg += form.control_cost(u) / n
-    torque_sq = 0
-    for j in range(1, d + 1):
-        xp = sum(coll.deriv[r, j - 1] * xs[r] for r in range(d + 1))
-        rows.add(Row("dynamics", (xp - h * form.ode(xs[j], u, zs[j - 1])) * inv_sx))
-        point = form.point(xs[j], u, zs[j - 1], fs[j - 1], wind)
-        for row in point.rows:
+    sizes = {"period": 1, "x": km.NX, "u": km.NU, "z": km.NZ, "f": km.NF}
+    v = ca.SX.sym("v", sum(sizes.values()) + (d + 1) * km.NX)
+    parts, start = {}, 0
+    for name, size in sizes.items():
+        parts[name] = v[start:start + size] * ca.DM(scale_w[name])
+        start += size
+    xs = [v[start + r * km.NX: start + (r + 1) * km.NX] * ca.DM(scale_w["x"])
+          for r in range(d + 1)]
+    wind, deriv = ca.SX.sym("wind"), ca.SX.sym("deriv", d + 1)
+    x, u, z = parts["x"], parts["u"], parts["z"]
+    xp = sum(deriv[r] * xs[r] for r in range(d + 1))
+    h = parts["period"] / n_intervals
+    dynamics = Row("dynamics", (xp - h * form.ode(x, u, z)) * ca.DM(1.0 / form.scales.state))
+    point = form.point(x, u, z, parts["f"], wind)
+    templates = (dynamics, *point.rows)
+    integrands = ca.vertcat(point.p_elec_w, point.p_mech_w, point.torque_sq, point.fict_sq)
+    function = ca.Function("radau_point", [v, wind, deriv],
+                           [ca.vertcat(*[t.expr for t in templates]), integrands],
+                           ["v", "wind", "deriv"], ["rows", "integrands"])
+    return PointFunction(function=function, templates=templates)
+
+
+def _point_scales(form: Formulation) -> dict[str, np.ndarray]:
+    sc = form.scales
+    return {"period": np.array([sc.period_s]), "x": sc.state, "u": sc.control,
+            "z": sc.algebraic, "f": sc.fictitious}
+
+
+def _interval(point: PointFunction, coll: Collocation, w: Any, i_period: int,
+              i_xs: list[np.ndarray], i_u: np.ndarray, i_zs: list[np.ndarray],
+              i_fs: list[np.ndarray], wind: Any, rows: _Rows
+              ) -> list[tuple[np.ndarray, np.ndarray, Any]]:
+    """Rows of one collocation interval of the scaled decision vector ``w``.
+
+    ``i_xs`` are the indices of the ``d + 1`` states (interval start, then the Radau
+    points), ``i_zs`` and ``i_fs`` of the ``d`` algebraic variables and fictitious
+    forces. Returns per Radau point the indices of its ``v`` in ``w``, of its rows in
+    ``g`` and its integrands (for the cycle sums, :func:`_add_integrands`).
+    """
+    out = []
+    for j in range(1, coll.degree + 1):
+        idx = np.concatenate([[i_period], i_xs[j], i_u, i_zs[j - 1], i_fs[j - 1], *i_xs])
+        g, integrands = point.function(w[[int(i) for i in idx]], wind,
+                                       ca.DM(coll.deriv[:, j - 1]))
+        first = rows.n
+        for row in point.rows_of(g):
             rows.add(row)
-        sums.p_elec += coll.quad[j - 1] * point.p_elec_w / n
-        sums.p_mech += coll.quad[j - 1] * point.p_mech_w / n
-        torque_sq += coll.quad[j - 1] * point.torque_sq / n
-        sums.fict += point.fict_sq / (n * d)
-    sums.torque_sq += torque_sq
-    return torque_sq
+        out.append((idx, np.arange(first, rows.n), integrands))
+    return out
+
+
+def _add_integrands(sums: _Sums, coll: Collocation, n: int, j: int, s: Any) -> Any:
+    """Add point ``j``'s (1-based) integrands ``s`` (:data:`INTEGRANDS`) to ``sums``;
+    returns its share of the average squared torque."""
+    q = coll.quad[j - 1] / n
+    sums.p_elec += q * s[0]
+    sums.p_mech += q * s[1]
+    sums.torque_sq += q * s[2]
+    sums.fict += s[3] / (n * coll.degree)
+    return q * s[2]
 
 
 def _params(n_points: int) -> tuple[ca.SX, dict, int, np.ndarray]:
@@ -244,11 +350,20 @@ def radau_collocation(form: Formulation, disc: Discretization, coll: Collocation
         return ws[[int(i) for i in idx[:, k]]]
 
     xs = [col(i_x, k) for k in range(n_points)]
+    point = point_function(form, coll, n, _point_scales(form))
     rows, sums = _Rows(), _Sums()
+    # the integrands enter f and g through the symbols s (substituted below), so the
+    # derivatives can be built point by point (optimize.solve.derivatives)
+    s = ca.SX.sym("s", len(INTEGRANDS), n_coll)
+    points = []
     for k in range(n):
-        _interval(form, coll, n, ws[int(i_period[k])], xs[k * d: k * d + d + 1], col(i_u, k),
-                  [col(i_z, k * d + j) for j in range(d)],
-                  [col(i_f, k * d + j) for j in range(d)], par["wind_ref_m_s"], rows, sums)
+        sums.reg += form.control_cost(col(i_u, k)) / n
+        points += _interval(point, coll, w, int(i_period[k]),
+                            [i_x[:, k * d + r] for r in range(d + 1)], i_u[:, k],
+                            [i_z[:, k * d + j] for j in range(d)],
+                            [i_f[:, k * d + j] for j in range(d)], par["wind_ref_m_s"], rows)
+        for j in range(1, d + 1):
+            _add_integrands(sums, coll, n, j, s[:, k * d + j - 1])
     sums.track = _tracking(form, p, i_p_ref, xs)
 
     # one period copy per interval keeps the KKT matrix banded (no dense period column)
@@ -258,14 +373,23 @@ def radau_collocation(form: Formulation, disc: Discretization, coll: Collocation
                 *form.average_rows(sums.torque_sq)):
         rows.add(row)
 
-    objective = form.objective(par, sums.p_elec, sums.p_mech, sums.reg, sums.track, sums.fict)
-    nlp = {"x": w, "p": p, "f": objective, "g": ca.vertcat(*rows.exprs)}
+    f_s = form.objective(par, sums.p_elec, sums.p_mech, sums.reg, sums.track, sums.fict)
+    g_s = ca.vertcat(*rows.exprs)
+    integrands = ca.horzcat(*[pt[2] for pt in points])
+    f, g = ca.substitute([f_s, g_s], [ca.vec(s)], [ca.vec(integrands)])
+    nlp = {"x": w, "p": p, "f": f, "g": g}
+    blocks = PointBlocks(
+        point=point, vars=np.stack([pt[0] for pt in points], axis=1),
+        rows=np.stack([pt[1] for pt in points], axis=1),
+        deriv=np.tile(coll.deriv, (1, n)), s=s, f_s=f_s, g_s=g_s,
+        i_wind=PARAM_NAMES.index("wind_ref_m_s"))
     layout = Layout(
         n_points=n_points, n_coll=n_coll, i_period=i_period, i_x=i_x, i_z=i_z, i_u=i_u,
         i_f=i_f, scale_w=scale_w, n_w=n_w, n_g=rows.n, n_p=n_p, i_p_ref=i_p_ref,
         rows={name: np.array(idx, dtype=int) for name, idx in rows.index.items()},
     )
-    return _finish(nlp, layout, rows, _variable_bounds(form, n_w, i_period, i_x, i_z, i_u))
+    tr = _finish(nlp, layout, rows, _variable_bounds(form, n_w, i_period, i_x, i_z, i_u))
+    return dataclasses.replace(tr, blocks=blocks)
 
 
 def stagewise_collocation(form: Formulation, disc: Discretization, coll: Collocation
@@ -332,17 +456,22 @@ def stagewise_collocation(form: Formulation, disc: Discretization, coll: Colloca
     def stage_x(k: int) -> ca.SX:
         return at(i_x[:, 0]) if k == 0 else at(i_next[:, k - 1])
 
+    point = point_function(form, coll, n, _point_scales(form))
     rows, sums = _Rows(), _Sums()
     derived: dict[int, ca.SX] = {}  # w index -> its value from the other variables (scaled)
     q_running = 0
     for k in range(n):
-        x_k, t_k = stage_x(k), ws[int(i_period[k])]
-        xs = [x_k] + [at(i_x[:, k * d + j]) for j in range(1, d + 1)]
-        interval_rows, interval_sums = _Rows(), sums
-        dq = _interval(form, coll, n, t_k, xs, at(i_u[:, k]),
-                       [at(i_z[:, k * d + j]) for j in range(d)],
-                       [at(i_f[:, k * d + j]) for j in range(d)], par["wind_ref_m_s"],
-                       interval_rows, interval_sums)
+        i_xk = i_x[:, 0] if k == 0 else i_next[:, k - 1]
+        x_k = at(i_xk)
+        interval_rows = _Rows()
+        sums.reg += form.control_cost(at(i_u[:, k])) / n
+        points = _interval(point, coll, w, int(i_period[k]),
+                           [i_xk] + [i_x[:, k * d + j] for j in range(1, d + 1)], i_u[:, k],
+                           [i_z[:, k * d + j] for j in range(d)],
+                           [i_f[:, k * d + j] for j in range(d)], par["wind_ref_m_s"],
+                           interval_rows)
+        dq = sum(_add_integrands(sums, coll, n, j, pt[2])
+                 for j, pt in enumerate(points, start=1))
         # gap-closing rows first (the identity on x_{k+1}, in the order of x_{k+1})
         gap = [w[i_next[:, k]] - w[i_x[:, k * d + d]], w[i_period[k + 1]] - w[i_period[k]],
                w[i_start[:, k + 1]] - w[i_start[:, k]]]

@@ -18,6 +18,7 @@ import casadi as ca
 import numpy as np
 
 from optimize.problem.ocp import Bounds, Ocp
+from optimize.solve.derivatives import nlp_derivatives
 
 log = logging.getLogger(__name__)
 
@@ -52,23 +53,11 @@ def derivatives(ocp: Ocp) -> dict[str, ca.Function]:
     """Objective gradient, constraint Jacobian and Lagrangian Hessian (built once).
 
     Handed to every IPOPT instance, so the warm-start solver costs about a
-    second to create instead of repeating the symbolic differentiation.
+    second to create instead of repeating the differentiation
+    (:func:`optimize.solve.derivatives.nlp_derivatives`).
     """
     if "derivatives" not in ocp.solvers:
-        t0 = time.perf_counter()
-        x, p, f, g = ocp.nlp["x"], ocp.nlp["p"], ocp.nlp["f"], ocp.nlp["g"]
-        lam_f = ca.SX.sym("lam_f")
-        lam_g = ca.SX.sym("lam_g", g.shape[0])
-        hess = ca.triu(ca.hessian(lam_f * f + ca.dot(lam_g, g), x)[0])
-        ocp.solvers["derivatives"] = {
-            "grad_f": ca.Function("nlp_grad_f", [x, p], [f, ca.gradient(f, x)],
-                                  ["x", "p"], ["f", "grad_f_x"]),
-            "jac_g": ca.Function("nlp_jac_g", [x, p], [g, ca.jacobian(g, x)],
-                                 ["x", "p"], ["g", "jac_g_x"]),
-            "hess_lag": ca.Function("nlp_hess_l", [x, p, lam_f, lam_g], [hess],
-                                    ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"]),
-        }
-        log.debug("NLP derivatives in %.1f s", time.perf_counter() - t0)
+        ocp.solvers["derivatives"] = nlp_derivatives(ocp.transcription)
     return ocp.solvers["derivatives"]
 
 

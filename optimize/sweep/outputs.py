@@ -26,8 +26,9 @@ import pyarrow.parquet as pq
 
 from bench.errors import InputError
 from fitting.domain import domain_excursion
-from optimize.service import cycle_metrics
-from optimize.sweep.chains import ScenarioOutcome, better_margin_w
+from optimize.service.local_optima import better_margin_w
+from optimize.service.outcome import ScenarioOutcome
+from optimize.service.solver import cycle_metrics
 
 SCHEMA_NAME = "drivebench.optimize"
 SCHEMA_VERSION = 1

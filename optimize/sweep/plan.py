@@ -17,7 +17,8 @@ task (a warm-start chain never leaves its worker). Kinds are grouped so that the
 chains have equal numbers of solves: with two workers the default 20-scenario
 sweep splits into ``elec-lim + elec-free`` and ``mech-lim + mech-free``.
 
-The whole ``bench optimize`` command is :func:`optimize.command.run_optimize`.
+The chains run on the solve service (:mod:`optimize.service`); the whole
+``bench optimize`` command is :func:`optimize.command.run_optimize`.
 """
 
 from __future__ import annotations
@@ -232,7 +233,10 @@ def group_kinds(kinds: tuple[str, ...], n_chains: int) -> list[tuple[str, ...]]:
     return groups
 
 
-def _chain_steps(kinds: tuple[str, ...], winds: tuple[float, ...]) -> tuple[Step, ...]:
+def chain_steps(kinds: tuple[str, ...], winds: tuple[float, ...]) -> tuple[Step, ...]:
+    """The steps of one chain: each kind along :func:`continuation_order`, the next kind
+    started at the middle speed from the previous kind's middle solve; every step with up
+    to two fallbacks (the nearest solved speeds, the same kind first at equal distance)."""
     order = continuation_order(winds)
     mid_wind = order[0][0]
     steps: list[Step] = []
@@ -278,5 +282,5 @@ def plan_chains(
         Every (kind, wind) exactly once; each chain starts with a cold start.
     """
     return tuple(
-        Chain(i, _chain_steps(group, winds)) for i, group in enumerate(group_kinds(kinds, n_chains))
+        Chain(i, chain_steps(group, winds)) for i, group in enumerate(group_kinds(kinds, n_chains))
     )

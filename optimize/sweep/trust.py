@@ -32,9 +32,9 @@ from optimize.model import kite_model as km
 from optimize.problem.formulation import PERIODIC_STATES
 from optimize.problem.ocp import Ocp, grid_times
 from optimize.problem.scenario import Scenario
+from optimize.service.problem import OcpBackend, Problem, problem_key
 from optimize.solve.homotopy import cold_start, power_weights
 from optimize.solve.result import OcpResult, Solution, make_result
-from optimize.sweep.chains import OcpBackend, Problem, problem_key
 from optimize.sweep.executors import run_tasks
 from optimize.sweep.plan import middle_index
 
@@ -303,9 +303,9 @@ def run_trust_checks(
 
     Parameters
     ----------
-    problem : optimize.sweep.chains.Problem
+    problem : optimize.service.problem.Problem
         The sweep's problem.
-    outcomes : sequence of optimize.sweep.chains.ScenarioOutcome
+    outcomes : sequence of optimize.service.outcome.ScenarioOutcome
     winds : tuple of float
         The wind grid [m/s]; the mesh check uses its middle speed.
     handle : optimize.sweep.executors.ExecutorHandle

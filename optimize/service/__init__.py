@@ -1,0 +1,32 @@
+"""The one solve service: optimal cycles of (system, drive, wind, kind) along warm-start chains.
+
+Every stage that solves the OCP goes through here: ``bench optimize`` (planned
+chains of several kinds, local optima re-solved, cut-in searches), ``bench size``
+(a chain per candidate drive, stored and resumable, optionally refined for the
+site) and ``bench aep --refine`` (the speeds where a sweep's curve bends).
+
+=============================================== ==========================================
+module                                          concept
+=============================================== ==========================================
+:mod:`optimize.service.problem`                 what a worker builds: ``Problem``, backends
+:mod:`optimize.service.solver`                  one problem's solves: warm starts, fallbacks,
+                                                records, the store
+:mod:`optimize.service.store`                   solves stored under the hash of their inputs
+:mod:`optimize.service.local_optima`            re-solve of scenarios off their kind's curve
+:mod:`optimize.service.cut_in`                  cut-in bisection
+:mod:`optimize.service.chain`                   the one chain loop (``run_chain``)
+:mod:`optimize.service.run`                     chains on the process pool or Dask
+:mod:`optimize.service.outcome`                 what it reports; the one failure format
+=============================================== ==========================================
+"""
+
+from optimize.service.chain import ChainTask, Refinement, run_chain
+from optimize.service.outcome import failure_status
+from optimize.service.problem import OcpBackend, Problem, problem_key
+from optimize.service.run import SolveTask, make_tasks, run_chains, run_sweep, solve_tasks
+from optimize.service.solver import Solver, cycle_metrics
+from optimize.service.store import solve_key
+
+__all__ = ["ChainTask", "OcpBackend", "Problem", "Refinement", "SolveTask", "Solver",
+           "cycle_metrics", "failure_status", "make_tasks", "problem_key", "run_chain",
+           "run_chains", "run_sweep", "solve_key", "solve_tasks"]

@@ -1,0 +1,170 @@
+"""The one chain loop: the solves of one problem, in order, on one worker.
+
+A chain (:class:`ChainTask`) is shipped to a worker as one task
+(:func:`run_chain`). The worker's :class:`optimize.service.solver.Solver` solves
+the chain's planned steps in order (:func:`optimize.sweep.plan.chain_steps`: a
+cold start at the middle wind speed, then outwards, each step warm-started from
+its planned source and fallbacks, of any kind of the chain), then, as asked:
+
+* re-solves the planned scenarios that sit off their kind's smooth curve
+  (:func:`optimize.service.local_optima.resolve_local_optima`);
+* searches the cut-in wind speed of some kinds by bisection
+  (:func:`optimize.service.cut_in.find_cut_in`);
+* refines the wind grid of one kind where its power curve bends for a site
+  (:class:`Refinement`, :func:`energy.adaptive.refine_grid`).
+
+``bench optimize``, ``bench size`` and ``bench aep --refine`` all run their
+solves through this loop (:mod:`optimize.service.run`).
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from optimize.service.cut_in import find_cut_in
+from optimize.service.local_optima import resolve_local_optima
+from optimize.service.outcome import ChainOutcome
+from optimize.service.problem import Problem
+from optimize.service.solver import Solver
+from optimize.sweep.plan import Step
+
+
+@dataclass(frozen=True)
+class Refinement:
+    """Add the wind speeds where one kind's power curve bends for a site.
+
+    Attributes
+    ----------
+    kind : str
+    site : Weibull or Histogram
+        The wind distribution (:mod:`energy.site`).
+    tol, max_points : float or None, int or None
+        :func:`energy.adaptive.refine_grid`'s stop criterion and grid cap (None: its
+        defaults).
+    known : tuple of (float, float, ...)
+        Points known without solving: wind [m/s], then one power [W] per curve of
+        ``curves`` (e.g. the sweep's grid); their speeds are not solved.
+    curves : tuple of str
+        Record figures the refinement follows together (``avg_p_elec_w``, ``avg_p_mech_w``).
+    check : bool
+        Before the first added speed, solve again the known speed nearest it (role
+        ``"check"``): the warm start of the added ones, and a check of the known figure.
+    """
+
+    kind: str
+    site: Any
+    tol: float | None = None
+    max_points: int | None = None
+    known: tuple[tuple[float, ...], ...] = ()
+    curves: tuple[str, ...] = ("avg_p_elec_w",)
+    check: bool = False
+
+
+@dataclass(frozen=True)
+class ChainTask:
+    """One chain: a problem, its planned steps and what follows them (all picklable).
+
+    Attributes
+    ----------
+    problem : Problem
+    steps : tuple of Step
+        Planned solves, in order (role ``"grid"``).
+    index : int
+        Chain index, recorded in outcomes and progress events.
+    tag : tuple of (str, Any)
+        Fields added to every record and progress event (e.g. ``("candidate", "x1")``).
+    store : Path or None
+        Folder of the stored solves (resume); None stores nothing.
+    backend : optional
+        The numerical side (:class:`optimize.service.problem.OcpBackend` by default).
+    resolve : bool
+        Re-solve planned scenarios off their kind's smooth curve.
+    cut_in_kinds : tuple of str
+        Kinds whose cut-in speed is searched after the grid.
+    cut_in_tol_m_s : float
+        Bisection stops when the bracket is at most this wide [m/s].
+    refine : Refinement or None
+    extras : callable or None
+        ``extras(trajectory) -> dict`` of further record figures (picklable).
+    """
+
+    problem: Problem
+    steps: tuple[Step, ...] = ()
+    index: int = 0
+    tag: tuple[tuple[str, Any], ...] = ()
+    store: Path | None = None
+    backend: Any = None
+    resolve: bool = False
+    cut_in_kinds: tuple[str, ...] = ()
+    cut_in_tol_m_s: float = 0.05
+    refine: Refinement | None = None
+    extras: Callable[[Any], dict] | None = None
+
+
+def _refine(solver: Solver, r: Refinement, start: tuple[float, ...]) -> None:
+    from energy.adaptive import refine_grid
+
+    known = {float(w): (p[0] if len(p) == 1 else tuple(p)) for w, *p in r.known}
+
+    def power(wind: float) -> Any:
+        wind = round(float(wind), 6)
+        if r.check and known and not any(rec["role"] == "check"
+                                         for rec in solver.records.values()):
+            solver.solve(r.kind, min(known, key=lambda w: abs(w - wind)), "check")
+        rec = solver.solve(r.kind, wind, "added")
+        if not rec["success"]:
+            return None
+        values = tuple(rec[c] for c in r.curves)
+        return values[0] if len(values) == 1 else values
+
+    limits = {k: v for k, v in (("tol", r.tol), ("max_points", r.max_points)) if v is not None}
+    refine_grid(power, start, r.site, known=known, **limits)
+
+
+def run_chain(task: ChainTask, progress: Any = None) -> ChainOutcome:
+    """Run a whole chain on this worker (the function submitted to the executor).
+
+    Parameters
+    ----------
+    task : ChainTask
+    progress : object with ``put(dict)``, optional
+        Receives the solver's event after every solve
+        (:class:`optimize.service.solver.Solver`) and ``{"chain", "cut_in": kind}``
+        after each cut-in search.
+
+    Returns
+    -------
+    ChainOutcome
+    """
+    solver = Solver(task.problem, task.store, task.backend, progress, dict(task.tag),
+                    task.extras, task.index)
+    keys = [(s.kind, s.wind_speed_m_s) for s in task.steps]
+    by_name = {s.name: k for s, k in zip(task.steps, keys, strict=True)}
+    for step, key in zip(task.steps, keys, strict=True):
+        sources = [by_name[n] for n in (step.warm_from, *step.fallbacks) if n is not None]
+        solver.solve(*key, "grid", sources)
+    if task.resolve:
+        resolve_local_optima(solver, [k for k in keys if k in solver.outcomes])
+    cut_ins = []
+    for kind in task.cut_in_kinds:
+        grid = {w: solver.records[k, w]["avg_p_elec_w"] for k, w in keys
+                if k == kind and solver.records[k, w]["success"]}
+        cut_ins.append(find_cut_in(solver, kind, grid, task.cut_in_tol_m_s))
+        if progress is not None:
+            progress.put({"chain": task.index, "cut_in": kind})
+    if task.refine is not None:
+        start = tuple(sorted(w for k, w in keys if k == task.refine.kind))
+        _refine(solver, task.refine, start)
+    return ChainOutcome(
+        task.index,
+        tuple(solver.outcomes[k] for k in keys if k in solver.outcomes),
+        tuple(solver.records[k] for k in sorted(solver.records, key=lambda k: k[1])),
+        tuple(cut_ins),
+        solver.build_time_s,
+        f"{socket.gethostname()}:{os.getpid()}",
+    )

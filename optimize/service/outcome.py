@@ -1,0 +1,192 @@
+"""What the solve service reports: attempts, scenario outcomes, cut-in searches, chains.
+
+Every failure is said one way, :func:`failure_status`: a solver crash is
+``"exception: <type>: <message>"`` (a failed attempt of that speed, never a failed
+sweep), a worker that died is ``"worker error: <type>: <message>"`` for every
+speed of its chain; a solver that ran and did not converge gives its own status.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from optimize.kinds import KINDS
+
+#: failure status prefixes (:func:`failure_status`)
+CRASH, WORKER_ERROR = "exception", "worker error"
+
+
+def failure_status(prefix: str, exc: BaseException) -> str:
+    """``"<prefix>: <type>: <message>"`` (at most 300 characters): the one failure format."""
+    return f"{prefix}: {type(exc).__name__}: {exc}"[:300]
+
+
+@dataclass(frozen=True)
+class Attempt:
+    """One solver run of a scenario: its warm source (``None`` = cold start) and outcome.
+
+    ``source`` is the scenario name (``"elec-lim-7.0"``) whose solution started it.
+    """
+
+    source: str | None
+    status: str
+    success: bool
+    iterations: int
+    wall_time_s: float
+
+
+@dataclass(frozen=True)
+class Resolve:
+    """A re-solve of a scenario off its kind's smooth curve, from a neighbouring optimum.
+
+    Attributes
+    ----------
+    attempt : Attempt
+        The solver run (``source`` is the neighbour it started from).
+    objective_w : float
+        Average power of the objective (electrical or mechanical) it reached [W]
+        (NaN when it failed).
+    before_w : float
+        The scenario's objective power before it [W].
+    kept : bool
+        It converged to a better optimum (by more than
+        :func:`optimize.service.local_optima.better_margin_w`) and replaced the
+        scenario's result.
+    """
+
+    attempt: Attempt
+    objective_w: float
+    before_w: float
+    kept: bool
+
+
+@dataclass(frozen=True)
+class ScenarioOutcome:
+    """The final result of one scenario and how it was reached.
+
+    Attributes
+    ----------
+    name, kind : str
+        Scenario name (``"elec-lim-7.0"``) and kind (``"elec-lim"``).
+    wind_speed_m_s : float
+        Wind speed at 100 m [m/s].
+    chain : int
+        Index of the chain (worker task) that solved it.
+    attempts : tuple of Attempt
+        Every solver run, in order; the last one is the final result.
+    result : Any or None
+        The backend's result of the last attempt (``None`` if it raised).
+    resolves : tuple of Resolve
+        Re-solves from neighbours because the scenario sat off its kind's smooth
+        curve (:func:`optimize.service.local_optima.resolve_local_optima`); a kept
+        one is also the last attempt.
+    """
+
+    name: str
+    kind: str
+    wind_speed_m_s: float
+    chain: int
+    attempts: tuple[Attempt, ...]
+    result: Any | None
+    resolves: tuple[Resolve, ...] = ()
+
+    @property
+    def objective(self) -> str:
+        """``"electrical"`` or ``"mechanical"``."""
+        return KINDS[self.kind][0]
+
+    @property
+    def drive_limits(self) -> bool:
+        """Whether the drive limits applied."""
+        return KINDS[self.kind][1]
+
+    @property
+    def success(self) -> bool:
+        """Whether the final attempt converged."""
+        return bool(self.attempts) and self.attempts[-1].success
+
+    @property
+    def status(self) -> str:
+        """Solver status string of the final attempt."""
+        return self.attempts[-1].status if self.attempts else "not attempted"
+
+    @property
+    def warm_source(self) -> str:
+        """Warm source of the final attempt: a scenario name, ``"stored guess"`` or
+        ``"cold start"`` (the homotopy)."""
+        if not self.attempts:
+            return ""
+        src = self.attempts[-1].source
+        if src is not None:
+            return src
+        stored = getattr(self.result, "start", None) == "stored guess"  # OcpResult.start
+        return "stored guess" if stored else "cold start"
+
+    @property
+    def total_wall_time_s(self) -> float:
+        """Wall time of all attempts together, discarded re-solves included [s]."""
+        return (sum(a.wall_time_s for a in self.attempts)
+                + sum(r.attempt.wall_time_s for r in self.resolves if not r.kept))
+
+
+@dataclass(frozen=True)
+class CutIn:
+    """Cut-in wind speed of one kind: where the average electrical power crosses zero.
+
+    Attributes
+    ----------
+    kind : str
+    cut_in_m_s : float
+        Linear interpolation of the zero crossing inside the final bracket [m/s];
+        NaN when there is no crossing on the grid or the search failed.
+    bracket_lo_m_s, bracket_hi_m_s : float
+        Final bracket [m/s]: the drive consumes at ``lo`` and generates at ``hi``
+        (NaN when not found).
+    status : str
+        ``"found"``, ``"generates at every converged grid speed"``,
+        ``"never generates on the grid"``, ``"too few converged grid speeds"``,
+        ``"probe failed at W m/s"`` (then the bracket is the last good one) or the
+        chain's ``"worker error: ..."``.
+    probes : tuple of (float, float, bool, str)
+        Bisection probes: wind [m/s], average electrical power [W], converged,
+        solver status.
+    """
+
+    kind: str
+    cut_in_m_s: float
+    bracket_lo_m_s: float
+    bracket_hi_m_s: float
+    status: str
+    probes: tuple[tuple[float, float, bool, str], ...] = ()
+
+
+@dataclass(frozen=True)
+class ChainOutcome:
+    """What a worker sends back for one chain.
+
+    Attributes
+    ----------
+    chain : int
+    outcomes : tuple of ScenarioOutcome
+        One per planned step, in solve order (the grid of ``bench optimize``).
+    records : tuple of dict
+        Every solve's record (:meth:`optimize.service.solver.Solver.solve`), sorted by
+        wind speed: planned, added by a refinement, cut-in probes.
+    cut_ins : tuple of CutIn
+    build_time_s : float
+        Time to build the NLP [s]; near zero when the per-process cache had it.
+    worker : str
+        ``host:pid`` of the process that ran the chain.
+    error : str
+        ``"worker error: ..."`` when the chain's task raised (then every planned
+        speed failed with it), else ``""``.
+    """
+
+    chain: int
+    outcomes: tuple[ScenarioOutcome, ...]
+    records: tuple[dict, ...] = ()
+    cut_ins: tuple[CutIn, ...] = ()
+    build_time_s: float = 0.0
+    worker: str = ""
+    error: str = ""

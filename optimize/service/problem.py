@@ -1,0 +1,128 @@
+"""What one solve needs: the problem (system, drive model, options) and the backend.
+
+A :class:`Problem` is everything a worker needs to build the NLP (all
+picklable). The numerical work goes through a *backend*
+(:class:`OcpBackend` by default, the CasADi/IPOPT OCP of this package); anything
+with the same three methods (:class:`Backend`) works, which is how the tests
+drive the solve service with a cheap exact solver.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+from optimize.kinds import KINDS
+
+
+class SolveResult(Protocol):
+    """What the service reads from a solve result (see ``optimize.solve.result.OcpResult``).
+
+    The cycle's figures (``avg_p_mech_w``, ``period_s``, ``trajectory``, ``start``)
+    are read where the result has them.
+    """
+
+    status: str
+    success: bool
+    iterations: int
+    wall_time_s: float
+    avg_p_elec_w: float
+    warm: Any
+
+
+class Backend(Protocol):
+    """The numerical side of the service: build once, then solve warm or cold."""
+
+    def build(self, problem: Problem) -> Any:
+        """Build (or fetch from the per-process cache) the NLP for ``problem``."""
+
+    def solve(self, ocp: Any, kind: str, wind_speed_m_s: float, warm: Any) -> SolveResult:
+        """Solve one scenario warm-started from ``warm`` (a previous result's ``warm``)."""
+
+    def cold_start(self, ocp: Any, kind: str, wind_speed_m_s: float) -> SolveResult:
+        """Solve one scenario with no neighbouring solution (stored guess or homotopy)."""
+
+
+@dataclass(frozen=True)
+class Problem:
+    """Everything a worker needs to build the NLP (all picklable).
+
+    Attributes
+    ----------
+    params : tuple or None
+        Arguments of ``optimize.model.kite_model.kite_dae`` (``KiteParams``,
+        ``AeroCoefficients``, ``WindModel``); ``None`` for the package defaults.
+        Plain data, so the DAE is built in the worker.
+    drive_model : Any
+        ``fitting.power_model.PowerModel`` (or what the backend takes).
+    options : Any
+        ``OcpOptions`` (interval count, degree, solver settings).
+    key : str
+        Cache key of the built NLP: options, system and drive-model hash.
+    system : Any
+        ``optimize.system.system.System`` the parameters come from (``None`` with
+        the package defaults); the built OCP carries it (stored-guess acceptance).
+    """
+
+    params: Any
+    drive_model: Any
+    options: Any
+    key: str
+    system: Any = None
+
+    @classmethod
+    def for_system(cls, system: Any, drive_model: Any, options: Any) -> Problem:
+        """The problem of a system with its options (already holding the system's limits);
+        ``system`` None is the package defaults."""
+        params = None if system is None else system.model_params()
+        return cls(params, drive_model, options, problem_key(options, drive_model, system),
+                   system)
+
+
+def problem_key(options: Any, drive_model: Any, system: Any) -> str:
+    """NLP cache key: options, drive-model hash and system hash."""
+    return f"{options!r}|{drive_model.sha256}|{getattr(system, 'sha256', 'defaults')}"
+
+
+#: per-process NLP cache: (Problem.key, thread id) -> built OCP. Per thread, because
+#: a CasADi solver object must not be used by two threads at once.
+_OCP_CACHE: dict[tuple[str, int], Any] = {}
+
+
+class OcpBackend:
+    """The CasADi/IPOPT OCP of this package (:mod:`optimize.problem.ocp`, solved by
+    :mod:`optimize.solve.solve`)."""
+
+    def build(self, problem: Problem) -> Any:
+        """Build the NLP once per process and per :attr:`Problem.key`."""
+        from optimize.model.kite_model import kite_dae
+        from optimize.problem.ocp import build_ocp
+
+        key = (problem.key, threading.get_ident())
+        if key not in _OCP_CACHE:
+            dae = kite_dae(*(problem.params or ()))
+            _OCP_CACHE[key] = build_ocp(dae, problem.drive_model, problem.options,
+                                        system=problem.system)
+        return _OCP_CACHE[key]
+
+    @staticmethod
+    def scenario(kind: str, wind_speed_m_s: float) -> Any:
+        """The OCP's ``Scenario`` for a kind and wind speed [m/s]."""
+        from optimize.problem.scenario import Scenario
+
+        objective, limits = KINDS[kind]
+        return Scenario(wind_speed_m_s=wind_speed_m_s, objective=objective, drive_limits=limits)
+
+    def solve(self, ocp: Any, kind: str, wind_speed_m_s: float, warm: Any) -> SolveResult:
+        """Warm-started solve (primal and dual start; on failure ``solve`` retries the same
+        primal point once with cold barrier settings, before the service's own fallbacks)."""
+        from optimize.solve.solve import solve
+
+        return solve(ocp, self.scenario(kind, wind_speed_m_s), warm)
+
+    def cold_start(self, ocp: Any, kind: str, wind_speed_m_s: float) -> SolveResult:
+        """From the stored initial guess when it fits, else the homotopy."""
+        from optimize.solve.solve import start
+
+        return start(ocp, self.scenario(kind, wind_speed_m_s))

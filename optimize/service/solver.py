@@ -1,0 +1,238 @@
+"""The solves of one problem on one worker: warm starts, fallbacks, records, the store.
+
+A :class:`Solver` holds one problem (system, drive model, OCP options) on one
+worker. It builds the NLP once (cached per process) and solves each (kind, wind):
+
+* warm-started from the given sources in order (scenarios solved earlier by this
+  solver, of any kind; at most :data:`MAX_WARM_ATTEMPTS` of those that converged),
+  by default from the nearest converged speed of the same kind; then, when none
+  converged, a cold start (the stored initial guess or the homotopy);
+* a solver crash is a failed attempt of that speed (status
+  ``"exception: <type>: <message>"``, :func:`optimize.service.outcome.failure_status`),
+  never a failed sweep;
+* with a store, each finished solve is kept under the hash of its inputs
+  (:func:`optimize.service.store.solve_key`) and a re-run loads it instead of
+  solving it; a crash is not stored (it may be transient: a re-run tries again).
+
+Each solve gives a :class:`optimize.service.outcome.ScenarioOutcome` (attempts,
+the backend's result; kept in memory) and a record (a flat dict of its figures,
+the stored form).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from optimize.problem.scenario import scenario_name
+from optimize.service.outcome import CRASH, Attempt, ScenarioOutcome, failure_status
+from optimize.service.problem import OcpBackend, Problem
+from optimize.service.store import load_solve, solve_key, store_solve
+
+#: warm-started attempts per solve before the cold-start fallback
+MAX_WARM_ATTEMPTS = 2
+#: the cycle figures of a record, None when the solve failed (:func:`cycle_metrics`)
+METRICS = ("peak_speed_rpm", "peak_torque_nm", "rms_torque_nm")
+
+Key = tuple[str, float]  # (kind, wind speed [m/s])
+
+
+def cycle_metrics(trajectory: Any) -> dict[str, float]:
+    """Peak |speed| [rpm], peak torque [N m] and RMS torque [N m] of one cycle.
+
+    ``trajectory`` has ``speed_rpm``, ``torque_nm`` and the quadrature ``weight``
+    (summing to 1 over the cycle), as :attr:`optimize.solve.result.OcpResult.trajectory`.
+    """
+    speed = np.asarray(trajectory["speed_rpm"], dtype=float)
+    torque = np.asarray(trajectory["torque_nm"], dtype=float)
+    weight = np.asarray(trajectory["weight"], dtype=float)
+    return {"peak_speed_rpm": float(np.max(np.abs(speed))),
+            "peak_torque_nm": float(np.max(torque)),
+            "rms_torque_nm": float(np.sqrt(np.sum(weight * torque**2)))}
+
+
+def _figure(result: Any, name: str) -> float | None:
+    value = getattr(result, name, None)
+    return None if value is None else float(value)
+
+
+class Solver:
+    """The solves of one problem on one worker (see the module docstring).
+
+    Parameters
+    ----------
+    problem : Problem
+        System, drive model and OCP options.
+    store : Path or None
+        Folder of the stored solves; None stores nothing.
+    backend : optional
+        The numerical side (:class:`optimize.service.problem.OcpBackend` by default).
+    progress : object with ``put(dict)``, optional
+        Receives, after each solve, ``{tag..., "chain", "name", "kind", "wind", "role",
+        "success", "status", "cached", "wall_time_s"}``.
+    tag : dict, optional
+        Fields added to every record and progress event (e.g. the candidate's name).
+    extras : callable, optional
+        ``extras(trajectory) -> dict`` of further figures of a converged cycle,
+        added to its record (``extras(None)``'s keys with None values when it failed).
+    chain : int
+        Index of the chain this solver runs, recorded in outcomes and events.
+    """
+
+    def __init__(self, problem: Problem, store: Path | None = None, backend: Any = None,
+                 progress: Any = None, tag: dict | None = None,
+                 extras: Callable[[Any], dict] | None = None, chain: int = 0) -> None:
+        self.problem = problem
+        self.store = store
+        self.backend = backend or OcpBackend()
+        self.progress = progress
+        self.tag = dict(tag or {})
+        self.extras = extras
+        self.chain = chain
+        self.records: dict[Key, dict] = {}
+        self.outcomes: dict[Key, ScenarioOutcome] = {}
+        self.build_time_s = 0.0
+        self._warm: dict[Key, Any] = {}
+        self._ocp = None
+
+    @property
+    def ocp(self) -> Any:
+        """The built NLP (built on first use; :attr:`build_time_s` says how long it took)."""
+        if self._ocp is None:
+            t0 = time.perf_counter()
+            self._ocp = self.backend.build(self.problem)
+            self.build_time_s = time.perf_counter() - t0
+        return self._ocp
+
+    def converged(self, kind: str) -> list[float]:
+        """Wind speeds [m/s] of ``kind`` with a converged solution to warm-start from."""
+        return sorted(w for k, w in self._warm if k == kind)
+
+    def attempt(self, kind: str, wind: float, source: Key | None) -> tuple[Attempt, Any]:
+        """One solver run of ``kind`` at ``wind`` [m/s] from the converged ``source``
+        (None: a cold start); a crash is a failed attempt with no result."""
+        ocp = self.ocp
+        name = None if source is None else scenario_name(*source)
+        t0 = time.perf_counter()
+        try:
+            if source is None:
+                result = self.backend.cold_start(ocp, kind, wind)
+            else:
+                result = self.backend.solve(ocp, kind, wind, self._warm[source])
+        except Exception as exc:  # noqa: BLE001 - a crash is this speed's failure, reported
+            return Attempt(name, failure_status(CRASH, exc), False, 0,
+                           time.perf_counter() - t0), None
+        ok = bool(result.success) and math.isfinite(float(result.avg_p_elec_w))
+        return Attempt(name, str(result.status), ok, int(result.iterations),
+                       float(result.wall_time_s)), result
+
+    def solve(self, kind: str, wind: float, role: str = "grid",
+              sources: Sequence[Key] | None = None, cold: bool = True) -> dict:
+        """The record of ``kind`` at ``wind`` [m/s]: loaded, solved earlier, or solved now.
+
+        Parameters
+        ----------
+        kind : str
+        wind : float
+        role : str
+            Why it is solved (``"grid"``, ``"added"``, ``"check"``, ``"cut-in"``), recorded.
+        sources : sequence of (kind, wind), optional
+            Warm sources in order of preference; those not converged are skipped and at
+            most :data:`MAX_WARM_ATTEMPTS` are tried. Default: the nearest converged
+            speed of ``kind``.
+        cold : bool
+            Fall back to a cold start when no warm start converged.
+
+        Returns
+        -------
+        dict
+            Keys: the tag's, ``key`` (of the store, None without one), ``kind,
+            wind_speed_m_s, role, success, status, warm_from, avg_p_elec_w, avg_p_mech_w,
+            period_s, peak_speed_rpm, peak_torque_nm, rms_torque_nm`` (None when
+            failed), the extras,
+            ``wall_time_s, cached``.
+        """
+        wind = float(wind)
+        if (kind, wind) in self.records:
+            return self.records[kind, wind]
+        key = solve_key(self.problem, kind, wind) if self.store is not None else None
+        stored = load_solve(self.store, key) if key is not None else None
+        if stored is not None:
+            rec, warm = stored
+            rec = {**rec, "role": role, "cached": True}
+        else:
+            if sources is None:
+                near = self.converged(kind)
+                sources = [(kind, min(near, key=lambda w: abs(w - wind)))] if near else []
+            tried = [s for s in sources if s in self._warm][:MAX_WARM_ATTEMPTS]
+            attempts, result, src = [], None, None
+            for src in tried:
+                attempt, result = self.attempt(kind, wind, src)
+                attempts.append(attempt)
+                if attempt.success:
+                    break
+            if cold and not (attempts and attempts[-1].success):
+                src = None
+                attempt, result = self.attempt(kind, wind, None)
+                attempts.append(attempt)
+            outcome = ScenarioOutcome(scenario_name(kind, wind), kind, wind, self.chain,
+                                      tuple(attempts), result)
+            self.outcomes[kind, wind] = outcome
+            rec = self.record(key, outcome, role, src)
+            warm = result.warm if outcome.success else None
+            if key is not None and result is not None:  # a crash is not stored
+                store_solve(self.store, key, rec, warm)
+            rec = {**rec, "cached": False}
+        self.records[kind, wind] = rec
+        if rec["success"] and warm is not None:
+            self._warm[kind, wind] = warm
+        if self.progress is not None:
+            self.progress.put({**self.tag, "chain": self.chain, "name": scenario_name(kind, wind),
+                               "kind": kind, "wind": wind, "role": role,
+                               "success": rec["success"], "status": rec["status"],
+                               "cached": rec["cached"], "wall_time_s": rec["wall_time_s"]})
+        return rec
+
+    def replace(self, outcome: ScenarioOutcome, source: Key) -> None:
+        """Make ``outcome`` (a better optimum of a solved scenario, started from
+        ``source``) its result: its record, its warm start and its stored solve."""
+        k = (outcome.kind, outcome.wind_speed_m_s)
+        key = self.records[k]["key"]
+        self.outcomes[k] = outcome
+        rec = self.record(key, outcome, self.records[k]["role"], source)
+        if key is not None:
+            store_solve(self.store, key, rec, outcome.result.warm)
+        self.records[k] = {**rec, "cached": False}
+        self._warm[k] = outcome.result.warm
+
+    def record(self, key: str | None, outcome: ScenarioOutcome, role: str,
+               source: Key | None) -> dict:
+        """The flat record of an outcome whose final attempt started from ``source`` (see
+        :meth:`solve`; the stored form)."""
+        res, ok = outcome.result, outcome.success
+        if source is None:
+            warm_from = getattr(res, "start", "cold start")
+        elif source[0] == outcome.kind:
+            warm_from = f"{source[1]:g} m/s"
+        else:
+            warm_from = scenario_name(*source)
+        trajectory = getattr(res, "trajectory", None) if ok else None
+        metrics = (cycle_metrics(trajectory) if trajectory is not None
+                   else dict.fromkeys(METRICS))
+        extras = {}
+        if self.extras is not None:
+            extras = self.extras(trajectory) if ok else dict.fromkeys(self.extras(None))
+        return {
+            **self.tag, "key": key, "kind": outcome.kind, "wind_speed_m_s": outcome.wind_speed_m_s,
+            "role": role, "success": ok, "status": outcome.status, "warm_from": warm_from,
+            "avg_p_elec_w": _figure(res, "avg_p_elec_w") if ok else None,
+            "avg_p_mech_w": _figure(res, "avg_p_mech_w") if ok else None,
+            "period_s": _figure(res, "period_s") if ok else None,
+            **metrics, **extras,
+            "wall_time_s": outcome.total_wall_time_s,
+        }
