@@ -11,21 +11,24 @@ node losses (``loss_w``) interpolated bilinearly from the four surrounding nodes
 (the in-domain ones, weights renormalised), the efficiency from the point's exact
 omega*T and that loss (paper eqs. 1-2), at most the quadrant's ceiling. A point's
 uncertainty is computed here, independently of ``fitting``: the standard error of
-its window means (``*_w_std / sqrt(n_samples)``) and 0.2 % of each power reading,
-in quadrature, as a relative uncertainty of the efficiency. Printed per campaign
-and quadrant: accepted points, points above the map by more than their
-uncertainty, read from the map's interpolant (which passes through each point's
-own loss, clipped to the ceiling: a point is above it by more than its uncertainty
-exactly when its efficiency exceeds the ceiling plus that uncertainty) and read
-bilinearly from the grid nodes (with the worst excess, and the points no in-domain
-node surrounds), the measured peak and its uncertainty, the map's peak and
-ceiling, whether the map peak is within the measured peak's uncertainty, and the
-points the fit flags as outliers (``statistics.outliers``; None where not reported).
+its window means (``*_w_std / sqrt(n_samples)``) and 0.2 % of each power reading
+(``u_stated``), and the fit's pooled loss repeatability of the quadrant
+(``efficiency.loss_repeatability``, a loss at the point's exact P_mech: relative
+``repeat_w / |P_elec|``), in quadrature, as a relative uncertainty of the
+efficiency. Printed per campaign and quadrant: accepted points, the repeatability,
+points above the map (read bilinearly from the grid nodes) by more than
+``u_stated`` and by more than their full uncertainty (with the worst excess),
+points below it by more than that, the points no in-domain node surrounds, the
+measured peak and its uncertainty, the map's peak and ceiling, whether the map
+peak is within the measured peak's uncertainty, and the points the fit flags as
+outliers (``statistics.outliers``; None where not reported). With ``--before``,
+the earlier run's maps read at the same points with both uncertainties.
 
-    .venv/bin/python benchmarks/map_honesty.py [--out DIR] [--campaigns DIR]
+    .venv/bin/python benchmarks/map_honesty.py [--out DIR] [--campaigns DIR] [--before DIR]
 
 ``--campaigns DIR`` reuses campaigns written by an earlier run (to compare two
-versions of the code on the same inputs: ``PYTHONPATH=<other checkout>``).
+versions of the code on the same inputs: run the old one with ``PYTHONPATH=<other
+checkout>``, then this one with ``--before <its --out>``).
 """
 
 from __future__ import annotations
@@ -71,10 +74,10 @@ def efficiency(p_mech, p_elec) -> np.ndarray:
         return np.where(p_mech > 0, p_mech / p_elec, p_elec / p_mech)
 
 
-def uncertainty(pts: pd.DataFrame, eta: np.ndarray) -> np.ndarray:
+def uncertainty(pts: pd.DataFrame, eta: np.ndarray, repeat_w=0.0) -> np.ndarray:
     """Standard uncertainty of each point's efficiency [-] (see the module docstring)."""
     n = pts["n_samples"].to_numpy(float) if "n_samples" in pts else np.full(len(pts), np.nan)
-    rel = np.zeros(len(pts))
+    rel = (np.asarray(repeat_w, float) / np.abs(pts["p_elec_w"].to_numpy(float))) ** 2
     for p in ("p_elec", "p_mech"):
         value = np.abs(pts[f"{p}_w"].to_numpy(float))
         std = pts[f"{p}_w_std"].to_numpy(float) if f"{p}_w_std" in pts else np.full(len(pts),
@@ -109,8 +112,9 @@ def map_at(emap: pd.DataFrame, speed: np.ndarray, torque: np.ndarray) -> np.ndar
         return np.where(den > 0, num / den, np.nan)
 
 
-def evaluate(name: str, campaign: Path, work: Path) -> list[dict]:
-    """Ingest and fit one campaign; one row per measured quadrant."""
+def evaluate(name: str, campaign: Path, work: Path, before: Path | None = None) -> list[dict]:
+    """Ingest and fit one campaign; one row per measured quadrant (``before``: the work
+    folder of an earlier run, whose map is read with this run's uncertainties too)."""
     from fitting.pipeline import FitOptions, run_fit
 
     store, fit = work / name / "store", work / name / "fit"
@@ -124,8 +128,18 @@ def evaluate(name: str, campaign: Path, work: Path) -> list[dict]:
     eta = efficiency(p_mech, p_elec)
     ok = ((np.abs(p_mech) >= masking["mech_frac"] * nominal)
           & (np.abs(p_elec) >= masking["elec_frac"] * nominal) & (eta > 0) & (eta <= 1.0))
-    u = uncertainty(pts, eta)
+    # the fit's pooled loss repeatability per quadrant (0 from a version without one)
+    repeat = summary["efficiency"].get("loss_repeatability", {})
+    repeat_w = np.where(p_mech > 0, repeat.get("motor", {}).get("loss_w", 0.0),
+                        repeat.get("generator", {}).get("loss_w", 0.0))
+    u_stated = uncertainty(pts, eta)
+    u = uncertainty(pts, eta, repeat_w)
     loss = map_at(emap, pts["speed_rpm"].to_numpy(float), pts["torque_nm"].to_numpy(float))
+    old = before / "runs" / name / "fit" if before else None
+    if old is not None:
+        old_loss = map_at(pd.read_parquet(old / "efficiency_map.parquet"),
+                          pts["speed_rpm"].to_numpy(float), pts["torque_nm"].to_numpy(float))
+        old_peak = json.loads((old / "fit_summary.json").read_text())["efficiency"]["peak"]
     rows = []
     for q, peak in summary["efficiency"]["peak"].items():
         ceiling = peak["ceiling"]["eta"]
@@ -133,15 +147,16 @@ def evaluate(name: str, campaign: Path, work: Path) -> list[dict]:
         eta_map = np.minimum(efficiency(p_mech, p_mech + loss), ceiling)
         covered = sel & np.isfinite(eta_map)
         excess = np.where(covered, eta - eta_map - u, -np.inf)
+        below = np.where(covered, eta_map - eta - u, -np.inf)
         k = int(np.argmax(np.where(sel, eta, -np.inf)))
         map_peak = peak["map"]["eta"]
         rows.append({
             "campaign": name, "quadrant": q, "points_ok": int(sel.sum()),
-            # the map's interpolant passes through each point's own loss, clipped to the
-            # ceiling: a point lies above it by more than u iff eta > ceiling + u
-            "above_interpolant": int((sel & (eta > ceiling + u)).sum()),
+            "repeat_w": float(repeat.get(q, {}).get("loss_w", 0.0)),
+            "above_grid_stated_u": int((covered & (eta - eta_map > u_stated)).sum()),
             "above_grid": int((excess > 0).sum()),
             "worst_grid_excess": float(excess.max()) if (excess > 0).any() else 0.0,
+            "below_grid": int((below > 0).sum()),
             "grid_not_covering": int((sel & ~np.isfinite(eta_map)).sum()),
             "measured_peak": float(eta[k]), "u_peak": float(u[k]),
             "map_peak": map_peak, "ceiling": ceiling,
@@ -149,6 +164,13 @@ def evaluate(name: str, campaign: Path, work: Path) -> list[dict]:
             "map_peak_within_u": bool(abs(map_peak - eta[k]) <= u[k] + 1e-12),
             "outliers_flagged": (summary["statistics"].get("outliers") or {}).get("n_flagged"),
         })
+        if old is not None:  # the earlier map, read with this run's uncertainties
+            old_eta = np.minimum(efficiency(p_mech, p_mech + old_loss),
+                                 old_peak[q]["ceiling"]["eta"])
+            rows[-1]["before_above_grid_stated_u"] = int(
+                (sel & np.isfinite(old_eta) & (eta - old_eta > u_stated)).sum())
+            rows[-1]["before_above_grid"] = int(
+                (sel & np.isfinite(old_eta) & (eta - old_eta > u)).sum())
     return rows
 
 
@@ -157,13 +179,16 @@ def main() -> None:
     parser.add_argument("--out", type=Path, help="work folder (default: a temporary one)")
     parser.add_argument("--campaigns", type=Path,
                         help="campaigns written by an earlier run (default: write them)")
+    parser.add_argument("--before", type=Path,
+                        help="work folder of an earlier run (another version of the code): "
+                             "its maps read with this run's point uncertainties")
     args = parser.parse_args()
     work = args.out or Path(tempfile.mkdtemp(prefix="map_honesty_"))
     campaigns = args.campaigns or work / "campaigns"
     if args.campaigns is None:
         write_campaigns(campaigns)
     rows = [r for c in sorted(p for p in campaigns.iterdir() if p.is_dir())
-            for r in evaluate(c.name, c, work / "runs")]
+            for r in evaluate(c.name, c, work / "runs", args.before)]
     table = pd.DataFrame(rows)
     with pd.option_context("display.width", 250, "display.max_columns", 20,
                            "display.float_format", "{:.4f}".format):

@@ -145,6 +145,14 @@ def format_summary(summary: dict, out) -> str:
                 if c["n_clipped_nodes"]:
                     line += f", {c['n_clipped_nodes']} map nodes clipped to it"
             lines.append(line)
+    repeat = summary["efficiency"].get("loss_repeatability", {})
+    for q, a in summary["efficiency"].get("points_against_map", {}).items():
+        r = repeat.get(q, {})
+        lines.append(
+            f"map against the points, {q}: {a['n_above_map']} of {a['n_points']} above it "
+            f"by more than their uncertainty, {a.get('n_below_map', 0)} below it, "
+            f"{a['n_off_map']} off the grid; loss repeatability {r.get('loss_w', 0.0):.3g} W "
+            f"({r.get('n_pairs', 0)} repeat pairs, pooled over {r.get('pooled_over', 'none')})")
     lines.append(f"outputs in {out}: " + ", ".join(summary["outputs"][:6]) + ", figures/...")
     return "\n".join(lines)
 

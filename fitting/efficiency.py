@@ -14,9 +14,11 @@ measured envelope (:mod:`fitting.domain`), it interpolates the measured *loss*
 ``P_elec``, and no node shows an efficiency above the quadrant's highest
 measured efficiency plus that point's own uncertainty (such nodes are clipped to
 the ceiling and flagged ``clipped``). Every accepted point counts for the
-ceiling, so the ceiling is never below a measured point, and the map, which
-interpolates the measured losses, passes through every point within its
-uncertainty (:func:`point_uncertainty`).
+ceiling, so the ceiling is never below a measured point. A point's uncertainty
+(:func:`point_uncertainty`) holds its window statistics, the instruments'
+accuracy and how well the campaign's sessions repeat an operating point
+(:func:`loss_repeatability`); the map's grid, read bilinearly as a user reads it
+(:func:`read_grid`), shows every accepted point within it (:func:`honour_points`).
 """
 
 from __future__ import annotations
@@ -38,6 +40,17 @@ OK, NEAR_AXIS, NEGATIVE, ABOVE_MAX, OUTSIDE_DOMAIN, CLIPPED = (
 
 #: Efficiency band edges for the area shares (the last band includes 1.0).
 BAND_EDGES = (0.0, 0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.95, 1.0)
+
+#: points of different sessions closer than this fraction of the largest |speed| and
+#: torque are measurements of one operating point (a repeat) [-]
+REPEAT_FRAC = 0.01
+
+#: fewest pairs of repeats that estimate a loss repeatability (per quadrant, else pooled
+#: over the campaign) [-]
+MIN_REPEAT_PAIRS = 5
+
+#: per-point column of the loss repeatability [W] (:func:`loss_repeatability`)
+REPEAT_COLUMN = "loss_repeatability_w"
 
 
 @dataclass(frozen=True)
@@ -114,7 +127,9 @@ class MaskingRules:
             "-> clipped to that ceiling (status 'clipped'); every accepted point counts; a "
             "point's power uncertainty is the standard error of its window mean (std / "
             f"sqrt(n_samples)) and {self.accuracy_frac:g} of the reading (instrument "
-            "accuracy) in quadrature",
+            "accuracy) in quadrature, and its loss the campaign's pooled loss repeatability; "
+            "grid nodes are moved where a bilinear reading would miss a point by more than "
+            "its uncertainty",
         ]
         return d
 
@@ -248,8 +263,11 @@ def point_uncertainty(frame: pd.DataFrame, rules: MaskingRules) -> np.ndarray:
 
     Both equations are a ratio of the two powers, so the relative uncertainties
     of ``P_elec`` and ``P_mech`` (:func:`power_uncertainty`) add in quadrature:
-    ``u_eta = |eta| * sqrt((u_Pe / P_e)**2 + (u_Pm / P_m)**2)``; NaN where a
-    power is 0.
+    ``u_eta = |eta| * sqrt((u_Pe / P_e)**2 + (u_Pm / P_m)**2 + (u_rep / P_e)**2)``;
+    NaN where a power is 0. ``u_rep`` is the point's loss repeatability
+    (column :data:`REPEAT_COLUMN` [W], 0 when absent; :func:`loss_repeatability`):
+    a loss error ``dL`` at the point's exact ``P_mech`` changes eta by
+    ``eta * dL / |P_e|`` in both quadrants.
     """
     eta = raw_efficiency(frame["p_mech_w"], frame["p_elec_w"])
     rel = []
@@ -257,7 +275,10 @@ def point_uncertainty(frame: pd.DataFrame, rules: MaskingRules) -> np.ndarray:
         u = power_uncertainty(frame, power, rules.accuracy_frac)
         with np.errstate(invalid="ignore", divide="ignore"):
             rel.append(u / np.abs(_column(frame, f"{power}_w")))
-    return np.abs(eta) * np.hypot(*rel)
+    repeat = np.nan_to_num(_column(frame, REPEAT_COLUMN))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel.append(repeat / np.abs(_column(frame, "p_elec_w")))
+    return np.abs(eta) * np.sqrt(sum(r**2 for r in rel))
 
 
 def efficiency_ceilings(frame: pd.DataFrame, rules: MaskingRules) -> dict[str, dict]:
@@ -348,8 +369,10 @@ def gridded_map(
     envelopes = quadrant_envelopes(frame, rules.envelope_band_frac)
     ceilings = efficiency_ceilings(frame, rules)
     at = map_at(frame, rules, s, t, envelopes, ceilings)
-    p_mech, quadrant, loss, eta, status = (at[k] for k in ("p_mech_w", "quadrant", "loss_w",
-                                                            "eta", "status"))
+    p_mech, quadrant = at["p_mech_w"], at["quadrant"]
+    loss = honour_points(at["loss_w"].reshape(sg.shape), speeds, torques, quadrant.reshape(
+        sg.shape), frame, rules, ceilings).ravel()
+    eta, status = _shown(p_mech, quadrant, loss, rules, ceilings)
     in_domain = np.isfinite(loss)
     p_elec = p_mech + loss
     for q, ceiling in ceilings.items():
@@ -422,93 +445,323 @@ def map_at(frame: pd.DataFrame, rules: MaskingRules, speed_rpm, torque_nm,
         query = np.column_stack([s[nodes] / scales[0], t[nodes] / scales[1]])
         measured_loss = (sub["p_elec_w"] - sub["p_mech_w"]).to_numpy(dtype=float)
         loss[nodes] = _interpolate_in_hull(tri, measured_loss, query)
+    eta, status = _shown(p_mech, quadrant, loss, rules, ceilings)
+    return {"p_mech_w": p_mech, "quadrant": quadrant, "loss_w": loss, "eta": eta,
+            "status": status}
+
+
+def _shown(p_mech, quadrant, loss, rules: MaskingRules, ceilings: dict):
+    """Efficiency and status the map shows for a loss at an exact ``p_mech`` (eqs. 1-2,
+    masking rules, NaN loss ``outside_domain``, above the ceiling ``clipped``)."""
     eta, status = masked_efficiency(p_mech, p_mech + loss, rules)
     status[~np.isfinite(loss)] = OUTSIDE_DOMAIN
     for q, ceiling in ceilings.items():
         over = (quadrant == q) & (status == OK) & (eta > ceiling["eta"])
         eta[over] = ceiling["eta"]
         status[over] = CLIPPED
-    return {"p_mech_w": p_mech, "quadrant": quadrant, "loss_w": loss, "eta": eta,
-            "status": status}
+    return eta, status
 
 
-def points_against_map(frame: pd.DataFrame, rules: MaskingRules, ceilings: dict) -> dict:
-    """Per quadrant: do the accepted points lie on the map within their uncertainty?
+def _bilinear(speeds, torques, speed_rpm, torque_nm):
+    """Flat node indices ``(n, 4)`` of the cell around each point and their bilinear weights."""
+    s = np.asarray(speed_rpm, dtype=float)
+    t = np.asarray(torque_nm, dtype=float)
+    i = np.clip(np.searchsorted(speeds, s) - 1, 0, max(speeds.size - 2, 0))
+    j = np.clip(np.searchsorted(torques, t) - 1, 0, max(torques.size - 2, 0))
+    i1, j1 = np.minimum(i + 1, speeds.size - 1), np.minimum(j + 1, torques.size - 1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fs = np.nan_to_num(np.clip((s - speeds[i]) / (speeds[i1] - speeds[i]), 0.0, 1.0))
+        ft = np.nan_to_num(np.clip((t - torques[j]) / (torques[j1] - torques[j]), 0.0, 1.0))
+    nt = torques.size
+    idx = np.column_stack([i * nt + j, i1 * nt + j, i * nt + j1, i1 * nt + j1])
+    w = np.column_stack([(1 - fs) * (1 - ft), fs * (1 - ft), (1 - fs) * ft, fs * ft])
+    return idx, w
 
-    Returns ``quadrant -> {"n_points", "n_above_map", "max_excess", "n_off_map"}``:
-    the ``ok`` points, those whose efficiency exceeds the map's at that point
-    (:func:`map_at`) by more than their uncertainty (:func:`point_uncertainty`),
-    the largest such excess [-] (0 when none) and the points the map does not
-    cover (on the envelope's edge, where the map is not drawn).
+
+def read_grid(map_frame: pd.DataFrame, speed_rpm, torque_nm) -> np.ndarray:
+    """The loss a user reads off ``efficiency_map.parquet`` at any points [W].
+
+    Bilinear in the cell of nodes around each point, over its in-domain nodes only
+    (their weights renormalised; NaN when none is in the domain).
+    """
+    speeds = np.unique(map_frame["speed_rpm"].to_numpy(dtype=float))
+    torques = np.unique(map_frame["torque_nm"].to_numpy(dtype=float))
+    grid = np.full(speeds.size * torques.size, np.nan)
+    k = (np.searchsorted(speeds, map_frame["speed_rpm"].to_numpy(dtype=float)) * torques.size
+         + np.searchsorted(torques, map_frame["torque_nm"].to_numpy(dtype=float)))
+    grid[k] = map_frame["loss_w"].to_numpy(dtype=float)
+    idx, w = _bilinear(speeds, torques, speed_rpm, torque_nm)
+    v = grid[idx]
+    w = np.where(np.isfinite(v) & (w > 0), w, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return (w * np.nan_to_num(v)).sum(axis=1) / w.sum(axis=1)
+
+
+#: iterations of the projection that makes the grid honour the points (each a few
+#: vector operations over the points)
+HONOUR_ITERATIONS = 400
+
+
+def loss_band(frame: pd.DataFrame, rules: MaskingRules) -> tuple[np.ndarray, np.ndarray]:
+    """Per point, the losses [W] at which the map shows its efficiency -/+ its uncertainty.
+
+    ``lo`` is the loss of ``eta + u`` and ``hi`` that of ``eta - u`` at the point's exact
+    ``P_mech`` (paper eqs. 1-2 solved for the loss; :func:`point_uncertainty`): a map
+    loss within ``[lo, hi]`` shows the point's efficiency within its uncertainty.
+    """
+    p_mech = _column(frame, "p_mech_w")
+    eta = raw_efficiency(p_mech, _column(frame, "p_elec_w"))
+    u = np.nan_to_num(point_uncertainty(frame, rules))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        motor = p_mech > 0
+        lo = np.where(motor, p_mech / (eta + u) - p_mech, (1.0 - eta - u) * np.abs(p_mech))
+        hi = np.where(motor, np.where(eta - u > 0, p_mech / (eta - u) - p_mech, np.inf),
+                      (1.0 - eta + u) * np.abs(p_mech))
+    return lo, hi
+
+
+def honour_points(loss: np.ndarray, speeds: np.ndarray, torques: np.ndarray,
+                  node_quadrant: np.ndarray, frame: pd.DataFrame, rules: MaskingRules,
+                  ceilings: dict) -> np.ndarray:
+    """Correct the grid's node losses so that, read as a user reads it (:func:`read_grid`),
+    the map shows every accepted point's efficiency within its uncertainty.
+
+    The nodes sample the interpolant of the measured losses, which passes through
+    each point; between nodes a reader interpolates bilinearly, and where the
+    measured loss varies faster than the grid's step (a noisy point, repeats that
+    differ) the reading at a point can differ from its loss by more than its
+    uncertainty. Each such point's reading is projected onto its band
+    (:func:`loss_band`, shrunk by 2 % against round-off) by moving its cell's
+    in-domain nodes in proportion to their weights, simultaneously for all points,
+    each node by the mean of the moves asked of it (Cimmino's method) and kept
+    between the lowest and highest band end of the points it serves (and its own
+    value), until every reading is in its band or :data:`HONOUR_ITERATIONS` pass.
+    Where two points in one cell ask for disjoint bands (repeats that disagree
+    beyond their uncertainty) no node values satisfy both; a last pass then lowers
+    only the readings above a band's upper end, so that no point lies above the
+    map by more than its uncertainty (the other lies below it: counted by
+    :func:`points_against_map`). Nodes no point's cell touches are unchanged.
+
+    Parameters
+    ----------
+    loss : numpy.ndarray
+        Node losses [W], shape ``(speeds.size, torques.size)`` (NaN outside the domain).
+    speeds, torques : numpy.ndarray
+        The grid's node vectors [rpm], [N m].
+    node_quadrant : numpy.ndarray
+        Quadrant of each node, the shape of ``loss``.
+    frame, rules, ceilings
+        The points, the masking rules and :func:`efficiency_ceilings`: points the rules
+        leave ``ok`` in a quadrant with a ceiling are honoured.
+
+    Returns
+    -------
+    numpy.ndarray
+        The corrected node losses, the shape of ``loss``.
+    """
+    out = loss.ravel().copy()
+    _, status = masked_efficiency(frame["p_mech_w"], frame["p_elec_w"], rules)
+    quadrant = frame["quadrant"].to_numpy()
+    sel = (status == OK) & np.isin(quadrant, list(ceilings))
+    if not sel.any() or speeds.size < 2 or torques.size < 2:
+        return out.reshape(loss.shape)
+    idx, w = _bilinear(speeds, torques, frame["speed_rpm"].to_numpy()[sel],
+                       frame["torque_nm"].to_numpy()[sel])
+    w = np.where(np.isfinite(out[idx]) & (node_quadrant.ravel()[idx] == quadrant[sel][:, None])
+                 & (w > 0), w, 0.0)
+    covered = w.sum(axis=1) > 0
+    idx, w = idx[covered], w[covered] / w.sum(axis=1)[covered][:, None]
+    lo, hi = (x[sel][covered] for x in loss_band(frame, rules))
+    target = (_column(frame, "p_elec_w") - _column(frame, "p_mech_w"))[sel][covered]
+    lo, hi = target - 0.98 * (target - lo), target + 0.98 * (hi - target)
+    norm = (w**2).sum(axis=1)
+    # no node leaves the range of its own value and the bands of the points it serves:
+    # a correction never shows an efficiency no nearby point allows
+    touched = idx[w > 0]
+    floor, cap = out.copy(), out.copy()
+    np.minimum.at(floor, touched, np.broadcast_to(lo[:, None], w.shape)[w > 0])
+    np.maximum.at(cap, touched, np.broadcast_to(hi[:, None], w.shape)[w > 0])
+    for one_sided in (False, True):
+        for _ in range(HONOUR_ITERATIONS):
+            reading = (w * np.nan_to_num(out[idx])).sum(axis=1)
+            move = np.where(reading > hi, hi - reading, 0.0)
+            if not one_sided:
+                move = np.where(reading < lo, lo - reading, move)
+            if not move.any():
+                break
+            step = w * (move / norm)[:, None]
+            asked = w * (move != 0)[:, None] > 0
+            total = np.bincount(idx.ravel(), step.ravel(), out.size)
+            count = np.bincount(idx.ravel(), asked.ravel(), out.size)
+            out = np.clip(out + np.where(count > 0, total / np.maximum(count, 1), 0.0),
+                          floor, cap)
+        else:
+            continue
+        break
+    return out.reshape(loss.shape)
+
+
+def points_against_map(frame: pd.DataFrame, rules: MaskingRules, map_frame: pd.DataFrame,
+                       ceilings: dict) -> dict:
+    """Per quadrant: do the accepted points lie on the map, as shipped, within their uncertainty?
+
+    The map is read off its grid as a user reads it (:func:`read_grid`), its
+    efficiency shown as :func:`gridded_map` shows it (at most the ceiling).
+
+    Returns ``quadrant -> {"n_points", "n_above_map", "max_excess", "n_below_map",
+    "n_off_map"}``: the ``ok`` points, those whose efficiency exceeds the map's at
+    that point by more than their uncertainty (:func:`point_uncertainty`), the
+    largest such excess [-] (0 when none), those below the map by more than their
+    uncertainty (where the map is optimistic: a repeat that measured a lower loss
+    nearby), and the points no in-domain node surrounds.
     """
     eta, status = masked_efficiency(frame["p_mech_w"], frame["p_elec_w"], rules)
-    u = point_uncertainty(frame, rules)
-    at = map_at(frame, rules, frame["speed_rpm"], frame["torque_nm"], ceilings=ceilings)
+    u = np.nan_to_num(point_uncertainty(frame, rules))
+    p_mech = _column(frame, "p_mech_w")
     quadrant = frame["quadrant"].to_numpy()
+    loss = read_grid(map_frame, frame["speed_rpm"], frame["torque_nm"])
+    shown, _ = _shown(p_mech, quadrant, loss, rules, ceilings)
     out = {}
     for q in ceilings:
         sel = (quadrant == q) & (status == OK)
-        shown = sel & np.isin(at["status"], (OK, CLIPPED))
-        excess = np.where(shown, eta - at["eta"] - np.nan_to_num(u), -np.inf)
+        on = sel & np.isfinite(loss) & np.isfinite(shown)
+        excess = np.where(on, eta - shown - u, -np.inf)
+        below = np.where(on, shown - eta - u, -np.inf)
         out[q] = {"n_points": int(sel.sum()), "n_above_map": int((excess > 1e-12).sum()),
                   "max_excess": float(max(excess.max(initial=0.0), 0.0)),
-                  "n_off_map": int((sel & ~shown).sum())}
+                  "n_below_map": int((below > 1e-12).sum()),
+                  "n_off_map": int((sel & ~on).sum())}
     return out
 
 
-#: points of different sessions closer than this fraction of the largest |speed| and
-#: torque are measurements of one operating point (a repeat) [-]
-REPEAT_FRAC = 0.01
+def repeat_pairs(frame: pd.DataFrame, rules: MaskingRules) -> tuple[np.ndarray, np.ndarray]:
+    """Repeated measurements of one operating point: pairs ``(i, j)`` of row positions.
+
+    Accepted (``ok``) points of one quadrant from different sessions that lie within
+    :data:`REPEAT_FRAC` of the largest |speed| and torque of each other.
+    """
+    from scipy.spatial import cKDTree
+
+    _, status = masked_efficiency(frame["p_mech_w"], frame["p_elec_w"], rules)
+    ok = np.flatnonzero(status == OK)
+    if ok.size < 2:
+        return np.zeros(0, int), np.zeros(0, int)
+    scales = (float(np.max(np.abs(frame["speed_rpm"]))) or 1.0,
+              float(np.max(np.abs(frame["torque_nm"]))) or 1.0)
+    xy = np.column_stack([frame["speed_rpm"].to_numpy()[ok] / scales[0],
+                          frame["torque_nm"].to_numpy()[ok] / scales[1]])
+    pairs = cKDTree(xy).query_pairs(REPEAT_FRAC, p=np.inf, output_type="ndarray")
+    if pairs.size == 0:
+        return np.zeros(0, int), np.zeros(0, int)
+    session = (frame["session_id"].to_numpy()[ok] if "session_id" in frame.columns
+               else np.zeros(ok.size))
+    quadrant = frame["quadrant"].to_numpy()[ok]
+    i, j = pairs[:, 0], pairs[:, 1]
+    keep = (session[i] != session[j]) & (quadrant[i] == quadrant[j])
+    return ok[i[keep]], ok[j[keep]]
+
+
+def loss_repeatability(frame: pd.DataFrame, rules: MaskingRules) -> dict:
+    """How well the campaign's sessions repeat one operating point, as a loss [W].
+
+    For each pair of repeats (:func:`repeat_pairs`) the losses ``L = P_elec - P_mech``
+    differ by ``d``; the window statistics and the instruments' accuracy
+    (:func:`power_uncertainty`) explain ``u_i**2 + u_j**2`` of ``d**2``. The
+    repeatability is the pooled rest, per point::
+
+        u_rep**2 = max(0, sum(d**2 - u_i**2 - u_j**2) / (2 n_pairs))
+
+    (what a tare, a winding temperature or a fan that differs between sessions adds to
+    one point's loss). It is pooled per quadrant when the quadrant has at least
+    :data:`MIN_REPEAT_PAIRS` pairs, else over the campaign's pairs; with fewer (a
+    campaign without repeated setpoints) it is 0: the fallback, said in a ``note``, so
+    the points' uncertainty is their window statistics and instrument accuracy alone.
+
+    Returns
+    -------
+    dict
+        ``quadrant -> {"loss_w", "n_pairs", "pooled_over"}`` (``pooled_over``:
+        ``quadrant``, ``campaign`` or ``none``) for each quadrant of ``frame``,
+        ``rule``, and a ``note`` when the fallback applies.
+    """
+    i, j = repeat_pairs(frame, rules)
+    loss = (_column(frame, "p_elec_w") - _column(frame, "p_mech_w"))
+    u2 = sum(power_uncertainty(frame, p, rules.accuracy_frac) ** 2
+             for p in ("p_elec", "p_mech"))
+    excess = (loss[i] - loss[j]) ** 2 - u2[i] - u2[j]
+    pair_q = frame["quadrant"].to_numpy()[i]
+
+    def pooled(sel) -> float:
+        return float(np.sqrt(max(0.0, np.sum(excess[sel]) / (2.0 * np.sum(sel)))))
+
+    out: dict = {"rule": (
+        "loss repeatability: pairs of accepted points of different sessions within "
+        f"{REPEAT_FRAC:.0%} of the largest |speed| and torque; u_rep^2 = max(0, sum(d^2 - "
+        "u_i^2 - u_j^2) / (2 n)) of their loss differences d beyond the window statistics "
+        f"and instrument accuracy; per quadrant with >= {MIN_REPEAT_PAIRS} pairs, else "
+        "pooled over the campaign, else 0 (no repeats)")}
+    for q in dict.fromkeys(frame["quadrant"]):
+        mine = pair_q == q
+        if mine.sum() >= MIN_REPEAT_PAIRS:
+            out[q] = {"loss_w": pooled(mine), "n_pairs": int(mine.sum()),
+                      "pooled_over": "quadrant"}
+        elif i.size >= MIN_REPEAT_PAIRS:
+            out[q] = {"loss_w": pooled(np.ones(i.size, bool)), "n_pairs": int(i.size),
+                      "pooled_over": "campaign"}
+        else:
+            out[q] = {"loss_w": 0.0, "n_pairs": int(mine.sum()), "pooled_over": "none"}
+    if i.size < MIN_REPEAT_PAIRS:
+        out["note"] = (
+            f"repeatability not measured: {i.size} pair(s) of repeated operating points "
+            f"across sessions (at least {MIN_REPEAT_PAIRS} needed); each point's uncertainty "
+            "is its window statistics and instrument accuracy alone, which understates it "
+            "when the sessions would not repeat")
+    return out
+
+
+def with_repeatability(frame: pd.DataFrame, repeat: dict) -> pd.DataFrame:
+    """``frame`` with the column :data:`REPEAT_COLUMN`: each point's quadrant's loss
+    repeatability [W] (:func:`loss_repeatability`)."""
+    q = frame["quadrant"].to_numpy()
+    values = np.array([repeat.get(k, {}).get("loss_w", 0.0) for k in q], dtype=float)
+    return frame.assign(**{REPEAT_COLUMN: values})
 
 
 def repeatability(frame: pd.DataFrame, rules: MaskingRules) -> dict:
     """Do repeated measurements of one operating point agree within their uncertainty?
 
-    Pairs of accepted (``ok``) points of one quadrant from different sessions that
-    lie within :data:`REPEAT_FRAC` of the largest |speed| and torque of each other;
-    a pair disagrees when its efficiencies differ by more than twice their combined
-    uncertainty (:func:`point_uncertainty`). The map passes through every point, so
-    where repeats disagree it is rough between them, and their stated uncertainty
-    understates the session-to-session scatter.
+    Pairs of repeats (:func:`repeat_pairs`); a pair disagrees when its efficiencies
+    differ by more than twice their combined uncertainty: ``n_disagreeing_stated``
+    with the window statistics and instrument accuracy alone, ``n_disagreeing`` with
+    the loss repeatability too (:func:`point_uncertainty`, which reads
+    :data:`REPEAT_COLUMN` when ``frame`` has it).
 
     Returns
     -------
     dict
-        ``n_pairs``, ``n_disagreeing``, ``median_abs_diff_eta``, ``median_u_eta``
-        (NaN without pairs), and a ``note`` when more than half of at least 5 pairs
-        disagree.
+        ``n_pairs``, ``n_disagreeing``, ``n_disagreeing_stated``,
+        ``median_abs_diff_eta``, ``median_u_eta`` (with the repeatability; NaN without
+        pairs), and a ``note`` when more than half of at least 5 pairs disagree.
     """
-    from scipy.spatial import cKDTree
-
-    eta, status = masked_efficiency(frame["p_mech_w"], frame["p_elec_w"], rules)
+    eta, _ = masked_efficiency(frame["p_mech_w"], frame["p_elec_w"], rules)
     u = point_uncertainty(frame, rules)
-    ok = np.flatnonzero(status == OK)
-    scales = (float(np.max(np.abs(frame["speed_rpm"]))) or 1.0,
-              float(np.max(np.abs(frame["torque_nm"]))) or 1.0)
-    xy = np.column_stack([frame["speed_rpm"].to_numpy()[ok] / scales[0],
-                          frame["torque_nm"].to_numpy()[ok] / scales[1]])
-    pairs = (cKDTree(xy).query_pairs(REPEAT_FRAC, p=np.inf, output_type="ndarray")
-             if ok.size > 1 else np.zeros((0, 2), int))
-    session = (frame["session_id"].to_numpy()[ok] if "session_id" in frame.columns
-               else np.zeros(ok.size))
-    quadrant = frame["quadrant"].to_numpy()[ok]
-    i, j = (pairs[:, 0], pairs[:, 1]) if pairs.size else (np.zeros(0, int), np.zeros(0, int))
-    keep = (session[i] != session[j]) & (quadrant[i] == quadrant[j])
-    i, j = ok[i[keep]], ok[j[keep]]
+    u_stated = point_uncertainty(frame.drop(columns=REPEAT_COLUMN, errors="ignore"), rules)
+    i, j = repeat_pairs(frame, rules)
     diff = np.abs(eta[i] - eta[j])
     combined = np.hypot(u[i], u[j])
     bad = diff > 2.0 * combined
     out = {"n_pairs": int(i.size), "n_disagreeing": int(bad.sum()),
+           "n_disagreeing_stated": int((diff > 2.0 * np.hypot(u_stated[i], u_stated[j])).sum()),
            "median_abs_diff_eta": float(np.median(diff)) if i.size else float("nan"),
            "median_u_eta": float(np.median(combined)) if i.size else float("nan")}
     if i.size >= 5 and bad.sum() > 0.5 * i.size:
         out["note"] = (
             f"repeated operating points disagree: {int(bad.sum())} of {i.size} pairs of points "
             f"of different sessions within {REPEAT_FRAC:.0%} of the speed and torque range "
-            f"differ by more than twice their stated uncertainty (median |d eta| "
-            f"{out['median_abs_diff_eta']:.3g} against {out['median_u_eta']:.3g}): the map "
-            "passes through each and is rough between them; the sessions do not repeat "
-            "within the instruments' accuracy (tare, temperature, a fault)")
+            f"differ by more than twice their uncertainty (median |d eta| "
+            f"{out['median_abs_diff_eta']:.3g} against {out['median_u_eta']:.3g}): the "
+            "sessions do not repeat within the instruments' accuracy (tare, temperature, a "
+            "fault)")
     return out
 
 

