@@ -139,3 +139,43 @@ def test_a_duplicated_row_of_a_1hz_log_is_still_an_error(tmp_path, capsys):
     rc = main(["ingest", str(tmp_path / "c"), "--store", str(tmp_path / "s"), "--no-progress"])
     err = capsys.readouterr().err
     assert rc == 2 and "time repeats" in err and "log.csv:42" in err, err  # the second copy
+
+
+def test_holds_the_analyzer_did_not_record_are_rejected_windows(tmp_path):
+    # a 1 Hz logger and a 1 Hz analyzer; the analyzer starts late (its first 75 s, the
+    # first two holds and a bit, are cut off) and misses 50 s in the middle (holds 6-7)
+    setpoints = [(s, q) for s in (300.0, 600.0, 900.0, 1200.0) for q in (10.0, 30.0, 50.0, 70.0)]
+    truth = make_timeseries_session(tmp_path / "c", setpoints=setpoints, hold_s=30.0,
+                                    daq_hz=1.0, analyzer_hz=1.0, drift_ppm=0.0, markers=False)
+    path = tmp_path / "c" / "motor_01" / "analyzer.csv"
+    lines = path.read_text().splitlines()
+    head = next(k for k, line in enumerate(lines) if line.startswith("Store No."))
+    cut = [(0.0, 75.0), (200.0, 250.0)]  # analyzer clock [s]
+    keep = [line for line in lines[head + 1:]
+            if not any(a <= float(line.split(",")[1]) < b for a, b in cut)]
+    path.write_text("\n".join(lines[:head + 1] + keep) + "\n")
+    ingest([tmp_path / "c"], tmp_path / "store", progress=False)
+    pts, rej = _stored(tmp_path / "store", "motor_01")
+    missing = rej[rej["reason"].str.startswith("no analyzer samples from ")]
+    # the truth: holds k span [step_k, step_k+1) on the DAQ clock; the analyzer's clock
+    # is offset by truth.offset_s
+    steps = list(truth.step_times_s) + [truth.step_times_s[-1] + 30.0]
+    gaps = [(a + truth.offset_s, b + truth.offset_s) for a, b in cut]
+    for k in range(len(setpoints)):
+        lo, hi = steps[k] + 3.0, steps[k + 1] - 1.0  # the hold without its transitions
+        unrecorded = [(max(lo, a), min(hi, b)) for a, b in gaps if min(hi, b) - max(lo, a) > 2]
+        for a, b in unrecorded:  # each unrecorded part of a hold is a rejected window
+            mine = missing[(missing["t_start_s"] <= a + 3.0) & (missing["t_end_s"] >= b - 3.0)]
+            assert len(mine) == 1, (k, a, b, missing)
+            r = mine.iloc[0]
+            assert r["reason"] == (f"no analyzer samples from {r['t_start_s']:.1f} to "
+                                   f"{r['t_end_s']:.1f} s")
+        if not unrecorded:  # recorded holds are points, as before
+            assert ((pts["t_start_s"] < hi) & (pts["t_end_s"] > lo)).sum() == 1, k
+    # no window claims an unrecorded stretch (beyond one record's 1 s averaging
+    # interval), and the accounting counts them
+    for a, b in gaps:
+        assert not ((pts["t_start_s"] < b - 1.0) & (pts["t_end_s"] > a + 1.0)).any()
+    e = json.loads((tmp_path / "store" / "manifest.json").read_text())["sessions"]["motor_01"]
+    assert sum(n for r, n in e["rejected"].items()
+               if r.startswith("no analyzer samples")) == len(missing) >= 4

@@ -40,7 +40,10 @@ in the time axis or a run of invalid samples longer than
    replacing the ``too short`` pieces inside it (when it passes, the pieces stand).
    This catches a hold whose scatter exceeds the session's noise so much that step
    2 breaks it up (a slow logger's bins are single samples). Rejected windows that
-   touch and share their reason are one window.
+   touch and share their reason are one window. A hold where the DAQ logs but the
+   power analyzer has no samples (before its record begins, after it ends, in a gap
+   of it) is found by :func:`unrecorded_holds` and rejected by the caller with that
+   reason.
 
 Long sessions are handled in blocks of :data:`BLOCK_BINS`, each cut at a moving
 bin, so the result equals the whole-series one while memory stays bounded.
@@ -291,6 +294,24 @@ def _block_windows(moving, speed, torque, p_elec, valid, cuts, usable, tol, conf
         rejected = [w for w in rejected if not (w[2] == "too short" and i <= w[0] and w[1] <= j)]
         rejected.append((i, j, why))
     return accepted, _merge_abutting(sorted(rejected))
+
+
+def unrecorded_holds(speed_rpm: np.ndarray, torque_nm: np.ndarray, valid_frac: np.ndarray,
+                     cuts: np.ndarray, free: np.ndarray, tol: dict[str, float],
+                     config: SteadyConfig) -> list[tuple[int, int]]:
+    """Stretches of held setpoint among the bins ``free`` (the DAQ holds a setpoint where
+    the power analyzer has no samples), as ``(start, stop)`` bins.
+
+    The bins are cut at the setpoint steps (the moving mask of step 2) and at gaps; a
+    still run of ``free`` bins is a hold as in step 6 (its transitions trimmed, first
+    and last quarter agree) when it is at least ``min_window_s`` long.
+    """
+    lag = max(1, _bins(config.step_lag_s, config.bin_s))
+    moving = _moving_mask(speed_rpm, torque_nm, valid_frac, np.ones(free.size, bool), cuts,
+                          tol, lag, config)
+    return _held_stretches(free & ~moving, [], [], {"speed": speed_rpm, "torque": torque_nm},
+                           tol, max(1, _bins(config.min_window_s, config.bin_s)),
+                           config.k_step)
 
 
 def _merge_abutting(rejected: list[tuple[int, int, str]]) -> list[tuple[int, int, str]]:
