@@ -179,3 +179,51 @@ def test_holds_the_analyzer_did_not_record_are_rejected_windows(tmp_path):
     e = json.loads((tmp_path / "store" / "manifest.json").read_text())["sessions"]["motor_01"]
     assert sum(n for r, n in e["rejected"].items()
                if r.startswith("no analyzer samples")) == len(missing) >= 4
+
+
+@pytest.mark.parametrize("form", ["stamp_plus_counter", "counter_alone"])
+def test_a_sample_counter_places_rows_of_repeated_stamps(tmp_path, form):
+    # a 4 Hz logger stamping whole seconds that drops every 7th row: a stamp then holds
+    # 3 rows whose places an even spread cannot know; its sample counter (the row within
+    # the stamp, or a running count) gives them
+    from stream_fixtures import _session_toml, _signals, german_setpoints
+
+    rng = np.random.default_rng(4)
+    t, speed, torque, pe, *_ = _signals(german_setpoints()[:4], 30.0, 4.0, rng,
+                                        noise=(1.0, 0.15, 6.0))
+    keep = np.arange(t.size) % 7 != 3
+    t, speed, torque, pe = t[keep], speed[keep], torque[keep], pe[keep]
+    stamp = np.floor(t)
+    within = np.round((t - stamp) * 4).astype(int)
+    running = np.round(t * 4).astype(int)
+    rows = ["Time [hh:mm:ss],Sample,Speed [rpm],Torque [Nm],Power [W]"]
+    rows += [f"10:{int(x) // 60:02d}:{int(x) % 60:02d},{c if form == 'stamp_plus_counter' else r},"
+             f"{s:.2f},{q:.3f},{p:.1f}"
+             for x, c, r, s, q, p in zip(stamp, within, running, speed, torque, pe, strict=True)]
+    folder = tmp_path / "c" / "counted"
+    folder.mkdir(parents=True)
+    (folder / "log.csv").write_text("\n".join(rows) + "\n")
+    _session_toml(folder, "counted", "1", (3000.0, 100.0, 15000.0))
+    mapping = ('[log.columns.sample_counter]\ncolumn = "Sample"\nrate_hz = 4\n'
+               if form == "stamp_plus_counter" else
+               '[log.columns.time]\nexpr = "{Sample} / 4"\nunit = "s"\n')
+    (folder / "mapping.toml").write_text(mapping)
+    ingest([tmp_path / "c"], tmp_path / "store", progress=False)
+    samples = pd.read_parquet(kind_files(tmp_path / "store", "samples")["counted"])
+    # the truth: each row's own time since the first row, exactly (quarter seconds)
+    np.testing.assert_allclose(np.sort(samples["time_s"].to_numpy()), t - t[0], atol=1e-9)
+    e = json.loads((tmp_path / "store" / "manifest.json").read_text())["sessions"]["counted"]
+    assert "stamp_rows_spread" not in e["timing"]
+    assert e["timing"]["sample_interval_s"] == pytest.approx(0.25)
+    pts, _ = _stored(tmp_path / "store", "counted")
+    assert len(pts) == 4
+
+
+def test_a_bad_sample_counter_entry_names_what_it_needs(tmp_path):
+    from bench.errors import InputError
+    from bench.ingest.mapping import load_mapping
+
+    path = tmp_path / "mapping.toml"
+    path.write_text('[log.columns.sample_counter]\ncolumn = "Sample"\n')
+    with pytest.raises(InputError, match="positive 'rate_hz'"):
+        load_mapping(path)
