@@ -442,9 +442,10 @@ def process_timeseries(
     win = _screen_windows(win, means, p_elec_bins, sources, session, daq.path,
                           tare_finder.limit_rpm)
     if not recorded.all():  # held setpoints the analyzer did not record: rejected, said
-        holds = steady.unrecorded_holds(means["speed"], means["torque"], means["valid_frac"],
-                                        means["cuts"], ~recorded & after_tare, win.tolerances,
-                                        config)
+        gap = means["cuts"] & ~(means["valid_frac"] > 0)
+        holds = steady.held_runs({"speed": means["speed"], "torque": means["torque"]},
+                                 ~recorded & after_tare & ~gap, gap, win.tolerances, config,
+                                 points=win.accepted)
         win = replace(win, rejected=sorted(win.rejected + [
             (a, b, f"no analyzer samples from {t0 + a * dt:.1f} to {t0 + b * dt:.1f} s")
             for a, b in holds]))
