@@ -30,10 +30,14 @@ least 5x lower than IPOPT + MUMPS, the 20-scenario sweep at most 10 s on 2 idle 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
+import tempfile
 import time
 from pathlib import Path
+
+import casadi as ca
 
 from bench.files import write_text_atomic
 from optimize.kinds import DEFAULT_KINDS
@@ -42,6 +46,7 @@ from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.service import Problem, make_tasks, run_sweep
+from optimize.solve.derivatives import nlp_derivatives, whole_derivatives
 from optimize.solve.solve import solve, start
 from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_chains
@@ -145,6 +150,54 @@ def system_runs(solver: str, systems: list[str], winds: list[float], intervals: 
     return {"solver": solver, "runs": rows, **totals(rows, time.perf_counter() - t_all)}
 
 
+IPOPT_TIMERS = {"OverallAlgorithm": "total", "StdAugSystemSolverMultiSolve": "linear_solves",
+                "LinearSystemBackSolve": "back_solves", "Function Evaluations": "functions"}
+
+
+@contextlib.contextmanager
+def ipopt_timing():
+    """IPOPT's own timing statistics of the solves inside the block (CPU s per timer of
+    :data:`IPOPT_TIMERS`, summed): the IPOPT solvers created inside write them to a file.
+
+    ``linear_solves`` is MUMPS (factorization and back solves); ``back_solves`` its
+    back solves alone. Wraps ``casadi.nlpsol`` for the block, so only solvers created
+    inside it are timed.
+    """
+    split: dict[str, float] = {}
+    original = ca.nlpsol
+    with tempfile.TemporaryDirectory() as tmp:
+        logs: list[Path] = []
+
+        def nlpsol(name, plugin, nlp, opts):
+            if plugin == "ipopt":
+                logs.append(Path(tmp) / f"ipopt{len(logs)}.txt")
+                opts = {**opts, "ipopt": {**opts["ipopt"], "print_timing_statistics": "yes",
+                                          "output_file": str(logs[-1]),
+                                          "file_print_level": 3}}
+            return original(name, plugin, nlp, opts)
+
+        ca.nlpsol = nlpsol
+        try:
+            yield split
+        finally:
+            ca.nlpsol = original
+        for log in logs:
+            for line in log.read_text().splitlines():
+                name = line.split(".")[0].strip()
+                if name in IPOPT_TIMERS and ":" in line:
+                    cpu = float(line.split(":")[1].split()[0])
+                    split[IPOPT_TIMERS[name]] = split.get(IPOPT_TIMERS[name], 0.0) + cpu
+
+
+def derivative_build_cpu_s(ocp) -> dict[str, float]:
+    """CPU seconds to build IPOPT's derivative functions point by point and whole."""
+    c0 = time.process_time()
+    nlp_derivatives(ocp.transcription)
+    c1 = time.process_time()
+    whole_derivatives(ocp.nlp)
+    return {"point_by_point": c1 - c0, "whole": time.process_time() - c1}
+
+
 def profile(solver: str, max_iter: int) -> dict:
     """Where one solve's time goes: the warm solve of the stored guess's own scenario
     (elec-lim-7.0, N = 40) from the stored guess, with the solver's own statistics."""
@@ -158,14 +211,17 @@ def profile(solver: str, max_iter: int) -> dict:
     ocp = build_ocp(kite_dae(*system.model_params()), drive.model, options, system=system)
     build = (time.perf_counter() - t0, time.process_time() - c0)
     guess, why = initial_guess.load(ocp)
-    t0, c0 = time.perf_counter(), time.process_time()
-    backend.solver(ocp, True)
-    create = (time.perf_counter() - t0, time.process_time() - c0)
-    res = solve(ocp, initial_guess.GUESS_SCENARIO, guess, retry_cold=False)
+    deriv = derivative_build_cpu_s(ocp) if solver == "ipopt" else {}
+    with ipopt_timing() as split:
+        t0, c0 = time.perf_counter(), time.process_time()
+        backend.solver(ocp, True)
+        create = (time.perf_counter() - t0, time.process_time() - c0)
+        res = solve(ocp, initial_guess.GUESS_SCENARIO, guess, retry_cold=False)
     stats = backend.solver(ocp, True).stats()
     out = {"solver": solver, "layout": ocp.layout.kind, "variables": ocp.layout.n_w,
            "rows": ocp.layout.n_g, "build_wall_cpu_s": build, "create_wall_cpu_s": create,
            "guess": why, **record(initial_guess.GUESS_SCENARIO.name, res),
+           "derivative_build_cpu_s": deriv, "ipopt_timing_cpu_s": split,
            "t_proc_s": {k[7:]: v for k, v in stats.items() if k.startswith("t_proc_")},
            "t_wall_s": {k[7:]: v for k, v in stats.items() if k.startswith("t_wall_")}}
     out["cpu_per_iteration_s"] = out["cpu_s"] / max(out["iterations"], 1)
@@ -177,6 +233,13 @@ def profile(solver: str, max_iter: int) -> dict:
           f"{out['cpu_s']:.2f} s CPU ({1000 * out['cpu_per_iteration_s']:.0f} ms per "
           f"iteration), function evaluations {sum(out['t_proc_s'].values()):.2f} s CPU; "
           f"build {build[1]:.1f} s CPU, solver creation {create[1]:.1f} s CPU", flush=True)
+    if split:
+        it = max(out["iterations"], 1)
+        print(f"{solver}: IPOPT timers per iteration (ms CPU): "
+              + ", ".join(f"{k} {1000 * v / it:.1f}" for k, v in split.items()), flush=True)
+    if deriv:
+        print(f"{solver}: derivatives built point by point {deriv['point_by_point']:.2f} s CPU, "
+              f"whole NLP {deriv['whole']:.2f} s CPU", flush=True)
     return out
 
 

@@ -424,8 +424,9 @@ def size(site: Any, model: Any = None, *, system: Any = None,
     before_solving : callable, optional
         ``before_solving(drive, n_candidates)``, called once the candidates are made.
     """
-    from energy.size_cli import build_candidates, edge_note, grid_hours, write_sizing
+    from energy.candidates import build_candidates
     from energy.sizing import run_sizing, size_extending
+    from energy.sizing_files import edge_note, grid_hours, write_sizing
     from fitting.power_model import PowerModel
     from optimize.system.drive import drive_in_force
     from optimize.system.system import System, load_system
@@ -435,6 +436,10 @@ def size(site: Any, model: Any = None, *, system: Any = None,
                          expected="at least two wind speeds")
     if not 0 <= tolerance < 1:
         raise InputError(None, f"--tolerance {tolerance}", expected="a share in [0, 1)")
+    if extend < 0:
+        raise InputError(None, f"--extend {extend}", expected="an integer >= 0")
+    if Path(out).exists() and not Path(out).is_dir():
+        raise InputError(Path(out), "exists and is not a folder", expected="an output folder")
     system = system if isinstance(system, System) else load_system(system)
     if isinstance(model, PowerModel):
         drive = drive_in_force(system, model=model)

@@ -1,6 +1,7 @@
 """``bench size``: electrical AEP against drive rating over candidate drives.
 
-A thin command line over :mod:`energy.sizing`; writes ``size_out/sizing.json``,
+A thin command line over :func:`drivebench.api.size` (the options here make the
+site, :func:`energy.cli.site_from_args`); it writes ``size_out/sizing.json``,
 ``size_out/sizing.csv`` and the resumable solve store ``size_out/solves/``
 (docs/schemas.md §8).
 """
@@ -8,9 +9,6 @@ A thin command line over :mod:`energy.sizing`; writes ``size_out/sizing.json``,
 from __future__ import annotations
 
 import argparse
-import dataclasses
-import datetime
-import json
 import math
 import sys
 from pathlib import Path
@@ -21,9 +19,6 @@ from energy.cli import add_site_arguments, shear_from_args, site_from_args
 
 #: where ``bench fit`` writes its model (docs/schemas.md §4)
 FIT_MODEL_PATH = Path("fit_out") / "power_model.json"
-#: files by which a size output folder written before run ids is known; the
-#: resumable solve store kept from run to run
-SIZE_MARKERS, SIZE_KEEP = ("sizing.json",), ("solves",)
 DEFAULT_SCALES = "0.5,0.75,1,1.5,2"
 DEFAULT_WINDS = "5.5,7,8.5"
 
@@ -73,16 +68,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_site_arguments(parser)
 
 
-def _drive_value(path: Path, key: str) -> float | None:
-    try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError, UnicodeDecodeError):
-        return None
-    drive = data.get("drive") if isinstance(data, dict) else None
-    value = drive.get(key) if isinstance(drive, dict) else None
-    return float(value) if isinstance(value, int | float) and value > 0 else None
-
-
 def _scales(spec: str) -> tuple[float, ...]:
     try:
         values = tuple(float(x) for x in spec.split(",") if x.strip())
@@ -95,81 +80,6 @@ def _scales(spec: str) -> tuple[float, ...]:
     return values
 
 
-def reference_rating(rating: Any, rated_torque_nm: float | None = None,
-                     max_speed_rpm: float | None = None,
-                     overload: float | None = None) -> tuple[Any, list[str]]:
-    """The reference drive's rating: the system's drive in force with the given
-    overrides (``--rated-torque-nm``, ``--max-speed-rpm``, ``--overload``); a continuous
-    torque or an overload the system does not state is said."""
-    notes = []
-    for name, v in (("--rated-torque-nm", rated_torque_nm),
-                    ("--max-speed-rpm", max_speed_rpm), ("--overload", overload)):
-        if v is not None and not (math.isfinite(v) and v > 0):
-            raise InputError(None, f"{name} {v}", expected="a value > 0")
-    if overload is not None and overload < 1:
-        raise InputError(None, f"--overload {overload}", expected="a factor >= 1")
-    continuous = rated_torque_nm or rating.continuous_torque_nm
-    if continuous is None:
-        continuous = rating.max_torque_nm
-        notes.append(f"the system's [drive] states no continuous_torque_nm: its torque limit "
-                     f"{continuous:g} N m is taken as the continuous rating")
-    overload = overload or rating.overload
-    peak = overload * continuous if overload is not None else max(rating.max_torque_nm,
-                                                                   continuous)
-    if overload is None:
-        notes.append(f"the system's [drive] states no overload: peak torque {peak:g} N m")
-    return dataclasses.replace(rating, continuous_torque_nm=continuous, max_torque_nm=peak,
-                               max_speed_rpm=max_speed_rpm or rating.max_speed_rpm,
-                               overload=peak / continuous), notes
-
-
-def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
-                     rated_torque_nm: float | None = None, max_speed_rpm: float | None = None,
-                     overload: float | None = None) -> tuple[list, list[str]]:
-    """The candidate drives of the reference drive in force (``drive``,
-    :func:`optimize.system.drive.drive_in_force`) scaled by ``scales``, plus one per
-    power-model file of ``models``; and notes on what was assumed."""
-    from bench.drive import DriveRating
-    from energy.sizing import Candidate, scaled_candidates
-    from fitting.model_file import load_power_model
-
-    rating, notes = reference_rating(drive.rating, rated_torque_nm, max_speed_rpm, overload)
-    candidates = scaled_candidates(drive.model, rating, tuple(scales))
-    for p in models:
-        m = load_power_model(p)
-        cont = _drive_value(p, "max_torque_nm") or rating.continuous_torque_nm
-        own = DriveRating(_drive_value(p, "nominal_power_w") or m.nominal_power_w,
-                          _drive_value(p, "max_speed_rpm") or rating.max_speed_rpm,
-                          rating.overload * cont, source=str(p), continuous_torque_nm=cont,
-                          overload=rating.overload, max_p_elec_w=rating.max_p_elec_w)
-        candidates.append(Candidate(Path(p).stem, m, own))
-    return candidates, notes
-
-
-def grid_hours(site, winds: tuple[float, ...]) -> dict:
-    """The shares of the site's hours below and above the sizing wind grid (counted as zero
-    power in the sizing AEP), with a one-line note."""
-    below = float(site.cdf(min(winds)))
-    above = float(1.0 - site.cdf(max(winds)))
-    note = (f"the sizing grid {min(winds):g}-{max(winds):g} m/s covers "
-            f"{100 * (1 - below - above):.1f} % of the site's hours; {100 * below:.1f} % below "
-            f"and {100 * above:.1f} % above it count as zero power in the sizing AEP")
-    return {"share_below_grid": below, "share_above_grid": above, "note": note}
-
-
-def edge_note(edge: str | None, best: str | None, added: list[float]) -> str | None:
-    """What the edge of the candidate set means for the answer (None: the best is inside
-    and no scale was added)."""
-    tried = f"scales {', '.join(f'x{s:g}' for s in added)} were added beyond the edge" \
-        if added else ""
-    if edge is None:
-        return f"{tried}; the best drive {best} now lies inside the set" if added else None
-    way = "larger" if edge == "largest" else "smaller"
-    return (f"the best drive {best} is the {edge} candidate{' (' + tried + ')' if added else ''}"
-            f": a {way} drive may be better still; add {way} candidates (--scales, --models, "
-            "or a higher --extend)")
-
-
 def run(args: argparse.Namespace) -> int:
     """Run or resume the sizing sweep (:func:`drivebench.api.size`), print the table."""
     from drivebench.api import size
@@ -179,10 +89,6 @@ def run(args: argparse.Namespace) -> int:
     system = load_system(args.system)
     site, site_note, _ = site_from_args(args, shear_from_args(args, system))
     winds = parse_wind_grid(args.wind_grid)
-    if args.out.exists() and not args.out.is_dir():
-        raise InputError(args.out, "exists and is not a folder", expected="an output folder")
-    if args.extend < 0:
-        raise InputError(None, f"--extend {args.extend}", expected="an integer >= 0")
     print(f"site: {site_note}")
     print(f"system: {system.name} ({system.path})")
     done = size(site, args.drive_model, system=system, fit_default=FIT_MODEL_PATH,
@@ -214,46 +120,3 @@ def _announce(drive: Any, n_candidates: int, n_winds: int, out: Path) -> None:
           f"rated); solves stored in {out / 'solves'}")
 
 
-def write_sizing(out: Path, res: Any, **kw: Any) -> dict[str, Path]:
-    """:func:`write_sizing_files` into ``out``, all or none (:mod:`bench.output_folder`);
-    ``out/solves`` (the resumable solve store) is kept."""
-    from bench.output_folder import output_folder
-
-    with output_folder(out, "size", SIZE_MARKERS, keep=SIZE_KEEP) as stage:
-        files = write_sizing_files(stage, res, **kw)
-    return {k: Path(out) / Path(v).relative_to(stage) for k, v in files.items()}
-
-
-def write_sizing_files(out: Path, res: Any, *, site: Any, site_note: str, drive: Any,
-                       system: Any, winds: tuple[float, ...], adaptive: bool, tolerance: float,
-                       notes: list[str], command_line: list[str],
-                       edge: dict | None = None) -> dict[str, Path]:
-    """Write ``sizing.csv`` and ``sizing.json`` (docs/schemas.md §8) of a sizing result
-    (:class:`energy.sizing.SizingResult`) into ``out``; returns name -> path."""
-    from bench.files import write_json, write_text_atomic
-
-    t = res.table
-    files = {"csv": write_text_atomic(out / "sizing.csv",
-                                      t.to_csv(index=False, float_format="%.6g"))}
-    doc = {
-        "schema": "drivebench.sizing", "schema_version": 1,
-        "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "command_line": list(command_line),
-        "site": {**site.to_dict(), "note": site_note},
-        "reference_model": {"path": str(drive.model_path), "note": drive.losses_note},
-        "reference_drive": drive.record(),
-        "system": system.record(),
-        "law": "P_s(n, T) = s P_1(n, T/s): c_ij -> s^(1-j) c_ij (the similarity law at the same "
-               "speed); continuous torque s T_cont, peak s T_peak, same speed limit, nominal "
-               "power s P_nom",
-        "wind_speeds_m_s": list(winds), "adaptive": adaptive, "tolerance": tolerance,
-        "best": res.best, "chosen": res.chosen,
-        "edge": edge or {"best_at": None, "added_scales": [], "note": None},
-        "hours": grid_hours(site, winds),
-        "wall_time_s": res.wall_time_s, "executor": res.executor,
-        "n_solved": res.n_solved, "n_loaded": res.n_cached,
-        "candidates": json.loads(t.to_json(orient="records")),
-        "solves": res.records, "notes": notes,
-    }
-    files["json"] = write_json(out / "sizing.json", doc, indent=1)
-    return files

@@ -115,7 +115,7 @@ def test_interrupted_sweep_continues_where_it_stopped(tmp_path):
 @pytest.mark.parametrize(
     "extra",
     [["--wind-grid", "7"], ["--scales", "0,1"], ["--scales", "1,1"], ["--overload", "0.5"],
-     ["--tolerance", "1.5"]],
+     ["--tolerance", "1.5"], ["--extend", "-1"]],
 )
 def test_bench_size_bad_input_exits_2_before_solving(tmp_path, capsys, extra):
     from bench.cli import main

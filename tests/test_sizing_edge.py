@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from energy import size_cli, sizing
+from energy import sizing, sizing_files
 from energy.site import Weibull
 from energy.sizing import (
     candidate_table,
@@ -87,13 +87,13 @@ def test_sizing_extends_the_set_beyond_an_edge_optimum(extend, added, edge):
     # loaded from an earlier run; one second per round
     assert (res.n_solved, res.n_cached, res.wall_time_s) == (2 * (3 + len(added)), 0,
                                                              1.0 + len(added))
-    note = size_cli.edge_note(got_edge, res.best, got_added)
+    note = sizing_files.edge_note(got_edge, res.best, got_added)
     assert ("larger drive may be better" in note) == (edge == "largest")
 
 
 def test_sizing_grid_hours_are_the_weibull_tails():
     # closed form: F(v) = 1 - exp(-(v / c)^k)
-    h = size_cli.grid_hours(SITE, (5.5, 7.0, 8.5))
+    h = sizing_files.grid_hours(SITE, (5.5, 7.0, 8.5))
     assert h["share_below_grid"] == pytest.approx(1 - math.exp(-(5.5 / 6.2) ** 2), rel=1e-12)
     assert h["share_above_grid"] == pytest.approx(math.exp(-(8.5 / 6.2) ** 2), rel=1e-12)
     assert f"{100 * (1 - h['share_below_grid'] - h['share_above_grid']):.1f} %" in h["note"]

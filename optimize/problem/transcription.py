@@ -325,6 +325,20 @@ def _finish(nlp: dict, layout: Layout, rows: _Rows, bounds: tuple[np.ndarray, ..
                          limited=(lbw_lim, ubw_lim, lbg_lim, ubg_lim))
 
 
+def _nlp_and_blocks(w: Any, p: Any, f_s: Any, g_s: Any, s: Any, point: PointFunction,
+                    points: list, deriv: np.ndarray) -> tuple[dict, PointBlocks]:
+    """The NLP, with the points' integrands in place of the symbols ``s``, and its
+    :class:`PointBlocks` (``points`` as :func:`_interval` returns them, in the order
+    of the columns of ``s``)."""
+    integrands = ca.horzcat(*[pt[2] for pt in points])
+    f, g = ca.substitute([f_s, g_s], [ca.vec(s)], [ca.vec(integrands)])
+    blocks = PointBlocks(
+        point=point, vars=np.stack([pt[0] for pt in points], axis=1),
+        rows=np.stack([pt[1] for pt in points], axis=1), deriv=deriv, s=s, f_s=f_s,
+        g_s=g_s, i_wind=PARAM_NAMES.index("wind_ref_m_s"))
+    return {"x": w, "p": p, "f": f, "g": g}, blocks
+
+
 def radau_collocation(form: Formulation, disc: Discretization, coll: Collocation
                       ) -> Transcription:
     """Transcribe ``form`` by Radau collocation on ``disc.n_intervals`` intervals
@@ -374,15 +388,8 @@ def radau_collocation(form: Formulation, disc: Discretization, coll: Collocation
         rows.add(row)
 
     f_s = form.objective(par, sums.p_elec, sums.p_mech, sums.reg, sums.track, sums.fict)
-    g_s = ca.vertcat(*rows.exprs)
-    integrands = ca.horzcat(*[pt[2] for pt in points])
-    f, g = ca.substitute([f_s, g_s], [ca.vec(s)], [ca.vec(integrands)])
-    nlp = {"x": w, "p": p, "f": f, "g": g}
-    blocks = PointBlocks(
-        point=point, vars=np.stack([pt[0] for pt in points], axis=1),
-        rows=np.stack([pt[1] for pt in points], axis=1),
-        deriv=np.tile(coll.deriv, (1, n)), s=s, f_s=f_s, g_s=g_s,
-        i_wind=PARAM_NAMES.index("wind_ref_m_s"))
+    nlp, blocks = _nlp_and_blocks(w, p, f_s, ca.vertcat(*rows.exprs), s, point, points,
+                                  np.tile(coll.deriv, (1, n)))
     layout = Layout(
         n_points=n_points, n_coll=n_coll, i_period=i_period, i_x=i_x, i_z=i_z, i_u=i_u,
         i_f=i_f, scale_w=scale_w, n_w=n_w, n_g=rows.n, n_p=n_p, i_p_ref=i_p_ref,
@@ -460,6 +467,8 @@ def stagewise_collocation(form: Formulation, disc: Discretization, coll: Colloca
     rows, sums = _Rows(), _Sums()
     derived: dict[int, ca.SX] = {}  # w index -> its value from the other variables (scaled)
     q_running = 0
+    s = ca.SX.sym("s", len(INTEGRANDS), n_coll)  # the integrands, as in radau_collocation
+    all_points = []
     for k in range(n):
         i_xk = i_x[:, 0] if k == 0 else i_next[:, k - 1]
         x_k = at(i_xk)
@@ -470,20 +479,22 @@ def stagewise_collocation(form: Formulation, disc: Discretization, coll: Colloca
                            [i_z[:, k * d + j] for j in range(d)],
                            [i_f[:, k * d + j] for j in range(d)], par["wind_ref_m_s"],
                            interval_rows)
-        dq = sum(_add_integrands(sums, coll, n, j, pt[2])
-                 for j, pt in enumerate(points, start=1))
+        dq = sum(_add_integrands(sums, coll, n, j, s[:, k * d + j - 1])
+                 for j in range(1, d + 1))
         # gap-closing rows first (the identity on x_{k+1}, in the order of x_{k+1})
         gap = [w[i_next[:, k]] - w[i_x[:, k * d + d]], w[i_period[k + 1]] - w[i_period[k]],
                w[i_start[:, k + 1]] - w[i_start[:, k]]]
         if rms:
             gap.append(w[i_q[k + 1]] - w[i_q[k]] - dq)
-            q_running += dq
+            q_running += sum(_add_integrands(_Sums(), coll, n, j, pt[2])
+                             for j, pt in enumerate(points, start=1))
             derived[int(i_q[k + 1])] = q_running
         rows.add(Row("continuity", ca.vertcat(*gap)))
         if k == 0:
             for row in form.start_rows(x_k):
                 rows.add(row)
             rows.add(Row("start_copy", w[i_start[:, 0]] - w[i_x[:, 0]]))
+        all_points += [(idx, at_rows + rows.n, integ) for idx, at_rows, integ in points]
         rows.merge(interval_rows)
     for k in range(n):
         for i, src in zip(i_next[:, k], i_x[:, k * d + d], strict=True):
@@ -499,8 +510,9 @@ def stagewise_collocation(form: Formulation, disc: Discretization, coll: Colloca
     for row in terminal:
         rows.add(row)
 
-    objective = form.objective(par, sums.p_elec, sums.p_mech, sums.reg, sums.track, sums.fict)
-    nlp = {"x": w, "p": p, "f": objective, "g": ca.vertcat(*rows.exprs)}
+    f_s = form.objective(par, sums.p_elec, sums.p_mech, sums.reg, sums.track, sums.fict)
+    nlp, blocks = _nlp_and_blocks(w, p, f_s, ca.vertcat(*rows.exprs), s, point, all_points,
+                                  np.tile(coll.deriv, (1, n)))
     filled = ca.SX(w)
     for i, expr in derived.items():
         filled[i] = expr
@@ -514,4 +526,5 @@ def stagewise_collocation(form: Formulation, disc: Discretization, coll: Colloca
     if rms:
         for b in (lbw, ubw, lbw_lim, ubw_lim):
             b[i_q[0]] = 0.0
-    return _finish(nlp, layout, rows, (lbw, ubw, lbw_lim, ubw_lim))
+    tr = _finish(nlp, layout, rows, (lbw, ubw, lbw_lim, ubw_lim))
+    return dataclasses.replace(tr, blocks=blocks)

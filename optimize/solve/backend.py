@@ -157,19 +157,7 @@ def _fatrop_derivatives(ocp: Ocp) -> dict[str, ca.Function]:
     """Objective gradient, constraint Jacobian and Lagrangian gradient and (full, symmetric)
     Hessian in the form the fatrop interface evaluates (built once per OCP)."""
     if "fatrop_derivatives" not in ocp.solvers:
-        x, p, f, g = ocp.nlp["x"], ocp.nlp["p"], ocp.nlp["f"], ocp.nlp["g"]
-        lam_f = ca.SX.sym("lam_f")
-        lam_g = ca.SX.sym("lam_g", g.shape[0])
-        hess, grad = ca.hessian(lam_f * f + ca.dot(lam_g, g), x)
-        ocp.solvers["fatrop_derivatives"] = {
-            "nlp_grad_f": ca.Function("nlp_grad_f", [x, p], [ca.gradient(f, x)],
-                                      ["x", "p"], ["grad_f_x"]),
-            "nlp_jac_g": ca.Function("nlp_jac_g", [x, p], [g, ca.jacobian(g, x)],
-                                     ["x", "p"], ["g", "jac_g_x"]),
-            "nlp_hess_l": ca.Function("nlp_hess_l", [x, p, lam_f, lam_g], [grad, hess],
-                                      ["x", "p", "lam_f", "lam_g"],
-                                      ["grad_gamma_x", "hess_gamma_x_x"]),
-        }
+        ocp.solvers["fatrop_derivatives"] = nlp_derivatives(ocp.transcription, "fatrop")
     return ocp.solvers["fatrop_derivatives"]
 
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import time
+from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
@@ -27,8 +28,56 @@ import numpy as np
 log = logging.getLogger(__name__)
 
 
-def nlp_derivatives(transcription: Any) -> dict[str, ca.Function]:
-    """``grad_f``, ``jac_g`` and ``hess_lag`` of ``transcription.nlp`` (IPOPT's inputs).
+#: the NLP solvers whose derivative functions :func:`nlp_derivatives` builds
+FORMATS = ("ipopt", "fatrop")
+
+
+@dataclass(frozen=True)
+class Derivatives:
+    """Symbolic derivatives of an NLP: inputs ``x, p, lam_f, lam_g``; ``f, grad`` (of
+    ``f``), ``g, jac`` (of ``g``) and ``hess``, the upper triangle of the Hessian of
+    ``lam_f f + lam_g' g``."""
+
+    x: Any
+    p: Any
+    lam_f: Any
+    lam_g: Any
+    f: Any
+    grad: Any
+    g: Any
+    jac: Any
+    hess: Any
+
+    def functions(self, solver: str) -> dict[str, ca.Function]:
+        """The functions ``solver`` (one of :data:`FORMATS`) takes, by its option names:
+        IPOPT the upper triangle, fatrop the full Hessian and the Lagrangian gradient."""
+        x, p, lf, lg = self.x, self.p, self.lam_f, self.lam_g
+        if solver == "ipopt":
+            return {
+                "grad_f": ca.Function("nlp_grad_f", [x, p], [self.f, self.grad], ["x", "p"],
+                                      ["f", "grad_f_x"]),
+                "jac_g": ca.Function("nlp_jac_g", [x, p], [self.g, self.jac], ["x", "p"],
+                                     ["g", "jac_g_x"]),
+                "hess_lag": ca.Function("nlp_hess_l", [x, p, lf, lg], [self.hess],
+                                        ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"]),
+            }
+        if solver == "fatrop":
+            full = self.hess + ca.triu(self.hess, False).T
+            grad_lag = lf * self.grad + ca.mtimes(self.jac.T, lg)
+            return {
+                "nlp_grad_f": ca.Function("nlp_grad_f", [x, p], [self.grad], ["x", "p"],
+                                          ["grad_f_x"]),
+                "nlp_jac_g": ca.Function("nlp_jac_g", [x, p], [self.g, self.jac], ["x", "p"],
+                                         ["g", "jac_g_x"]),
+                "nlp_hess_l": ca.Function("nlp_hess_l", [x, p, lf, lg], [grad_lag, full],
+                                          ["x", "p", "lam_f", "lam_g"],
+                                          ["grad_gamma_x", "hess_gamma_x_x"]),
+            }
+        raise ValueError(f"no derivative format for solver {solver!r}; one of {FORMATS}")
+
+
+def nlp_derivatives(transcription: Any, solver: str = "ipopt") -> dict[str, ca.Function]:
+    """The derivative functions of ``transcription.nlp`` in ``solver``'s format.
 
     Point by point when the transcription has :attr:`blocks` and its sums are linear
     in the integrands; the whole NLP at once otherwise.
@@ -39,27 +88,18 @@ def nlp_derivatives(transcription: Any) -> dict[str, ca.Function]:
     how = "point by point"
     if out is None:
         out, how = whole_derivatives(transcription.nlp), "whole"
+    functions = out.functions(solver)
     log.debug("NLP derivatives (%s) in %.1f s", how, time.perf_counter() - t0)
-    return out
+    return functions
 
 
-def whole_derivatives(nlp: dict) -> dict[str, ca.Function]:
-    """The three derivative functions by differentiating the whole NLP."""
+def whole_derivatives(nlp: dict) -> Derivatives:
+    """The derivatives by differentiating the whole NLP."""
     x, p, f, g = nlp["x"], nlp["p"], nlp["f"], nlp["g"]
     lam_f = ca.SX.sym("lam_f")
     lam_g = ca.SX.sym("lam_g", g.shape[0])
     hess = ca.triu(ca.hessian(lam_f * f + ca.dot(lam_g, g), x)[0])
-    return _functions(x, p, lam_f, lam_g, f, ca.gradient(f, x), g, ca.jacobian(g, x), hess)
-
-
-def _functions(x: Any, p: Any, lam_f: Any, lam_g: Any, f: Any, grad: Any, g: Any, jac: Any,
-               hess: Any) -> dict[str, ca.Function]:
-    return {
-        "grad_f": ca.Function("nlp_grad_f", [x, p], [f, grad], ["x", "p"], ["f", "grad_f_x"]),
-        "jac_g": ca.Function("nlp_jac_g", [x, p], [g, jac], ["x", "p"], ["g", "jac_g_x"]),
-        "hess_lag": ca.Function("nlp_hess_l", [x, p, lam_f, lam_g], [hess],
-                                ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"]),
-    }
+    return Derivatives(x, p, lam_f, lam_g, f, ca.gradient(f, x), g, ca.jacobian(g, x), hess)
 
 
 def _sum_into(shape: tuple[int, int], parts: list[tuple[Any, np.ndarray, np.ndarray]]
@@ -99,7 +139,7 @@ def _local_entries(local: ca.Sparsity, index_of: np.ndarray,
     return rows_of[r].T.ravel(), index_of[c].T.ravel()
 
 
-def _block_derivatives(nlp: dict, b: Any) -> dict[str, ca.Function] | None:
+def _block_derivatives(nlp: dict, b: Any) -> Derivatives | None:
     """The derivative functions point by point, or None when the sums are not linear in
     the integrands (then :func:`whole_derivatives` applies)."""
     w, p, g_all = nlp["x"], nlp["p"], nlp["g"]
@@ -170,4 +210,4 @@ def _block_derivatives(nlp: dict, b: Any) -> dict[str, ca.Function] | None:
     LR = ca.reshape(lg_[[int(i) for i in b.rows.T.ravel()]], n_r, n_pts)
     hess_nz = ca.vec(hess_point(V, wind_, D, LR, MU))
     hess = _sum_into((n_w, n_w), [(hess_nz, hr, hc), _entries(hess_rest)])
-    return _functions(x_, p_, lf_, lg_, f_, grad, g_, jac, hess)
+    return Derivatives(x_, p_, lf_, lg_, f_, grad, g_, jac, hess)
