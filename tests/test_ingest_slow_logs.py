@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 import statsmodels.api as sm
 from ingest_fixtures import make_timeseries_session
-from stream_fixtures import make_german_logger
+from stream_fixtures import cut_analyzer, make_counted_log, make_german_logger
 
 from bench.ingest.align import drift_line
 from bench.ingest.pipeline import ingest
@@ -147,13 +147,8 @@ def test_holds_the_analyzer_did_not_record_are_rejected_windows(tmp_path):
     setpoints = [(s, q) for s in (300.0, 600.0, 900.0, 1200.0) for q in (10.0, 30.0, 50.0, 70.0)]
     truth = make_timeseries_session(tmp_path / "c", setpoints=setpoints, hold_s=30.0,
                                     daq_hz=1.0, analyzer_hz=1.0, drift_ppm=0.0, markers=False)
-    path = tmp_path / "c" / "motor_01" / "analyzer.csv"
-    lines = path.read_text().splitlines()
-    head = next(k for k, line in enumerate(lines) if line.startswith("Store No."))
     cut = [(0.0, 75.0), (200.0, 250.0)]  # analyzer clock [s]
-    keep = [line for line in lines[head + 1:]
-            if not any(a <= float(line.split(",")[1]) < b for a, b in cut)]
-    path.write_text("\n".join(lines[:head + 1] + keep) + "\n")
+    cut_analyzer(tmp_path / "c" / "motor_01" / "analyzer.csv", cut)
     ingest([tmp_path / "c"], tmp_path / "store", progress=False)
     pts, rej = _stored(tmp_path / "store", "motor_01")
     missing = rej[rej["reason"].str.startswith("no analyzer samples from ")]
@@ -194,28 +189,7 @@ def test_a_sample_counter_places_rows_of_repeated_stamps(tmp_path, form):
     # a 4 Hz logger stamping whole seconds that drops every 7th row: a stamp then holds
     # 3 rows whose places an even spread cannot know; its sample counter (the row within
     # the stamp, or a running count) gives them
-    from stream_fixtures import _session_toml, _signals, german_setpoints
-
-    rng = np.random.default_rng(4)
-    t, speed, torque, pe, *_ = _signals(german_setpoints()[:4], 30.0, 4.0, rng,
-                                        noise=(1.0, 0.15, 6.0))
-    keep = np.arange(t.size) % 7 != 3
-    t, speed, torque, pe = t[keep], speed[keep], torque[keep], pe[keep]
-    stamp = np.floor(t)
-    within = np.round((t - stamp) * 4).astype(int)
-    running = np.round(t * 4).astype(int)
-    rows = ["Time [hh:mm:ss],Sample,Speed [rpm],Torque [Nm],Power [W]"]
-    rows += [f"10:{int(x) // 60:02d}:{int(x) % 60:02d},{c if form == 'stamp_plus_counter' else r},"
-             f"{s:.2f},{q:.3f},{p:.1f}"
-             for x, c, r, s, q, p in zip(stamp, within, running, speed, torque, pe, strict=True)]
-    folder = tmp_path / "c" / "counted"
-    folder.mkdir(parents=True)
-    (folder / "log.csv").write_text("\n".join(rows) + "\n")
-    _session_toml(folder, "counted", "1", (3000.0, 100.0, 15000.0))
-    mapping = ('[log.columns.sample_counter]\ncolumn = "Sample"\nrate_hz = 4\n'
-               if form == "stamp_plus_counter" else
-               '[log.columns.time]\nexpr = "{Sample} / 4"\nunit = "s"\n')
-    (folder / "mapping.toml").write_text(mapping)
+    t = make_counted_log(tmp_path / "c", form)
     ingest([tmp_path / "c"], tmp_path / "store", progress=False)
     samples = pd.read_parquet(kind_files(tmp_path / "store", "samples")["counted"])
     # the truth: each row's own time since the first row, exactly (quarter seconds)
