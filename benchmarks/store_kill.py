@@ -15,7 +15,7 @@ nor new (goal 0; compared by a digest of what the store's readers return), how
 many re-ingests did not converge to the new store or left staging folders or
 stale generations (goal 0 each), and where the kills landed. Exit code 1 when
 any goal is missed. The harness is tests/kill_harness.py (also used by
-tests/test_store_atomic.py with 30 kills).
+tests/test_store_atomic.py with about 26 kills of ingests forked after their imports).
 """
 
 from __future__ import annotations

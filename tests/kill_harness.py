@@ -10,10 +10,12 @@ re-ingest must then give the complete one.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
 import random
+import select
 import shutil
 import signal
 import subprocess
@@ -93,28 +95,158 @@ def ingest_command(campaign: Path, store: Path) -> list[str]:
             "--no-progress"]
 
 
-#: a child ingest that dies (os._exit, as abrupt as SIGKILL: no cleanup, no flush)
-#: just before its k-th file-system call (k = 0: never; the count goes to stderr)
-STEP_CHILD = """
+#: os/shutil calls a child counts; it can die just before the k-th of them
+_WRAP = """
 import os, shutil, sys
-k, n = int(sys.argv[1]), [0]
-def wrap(mod, name):
-    f = getattr(mod, name)
-    def g(*a, **kw):
-        n[0] += 1
-        if n[0] == k:
-            os._exit(137)
-        return f(*a, **kw)
-    setattr(mod, name, g)
-for mod, name in ((os, "replace"), (os, "rename"), (os, "link"), (os, "fsync"),
-                  (os, "unlink"), (os, "mkdir"), (os, "rmdir"), (os, "open"),
-                  (os, "ftruncate"), (os, "write"), (shutil, "rmtree"), (shutil, "copy2")):
-    wrap(mod, name)
+def wrap_fs_calls(k, names):
+    def wrap(mod, name):
+        f = getattr(mod, name)
+        def g(*a, **kw):
+            names.append(name)
+            if len(names) == k:
+                os._exit(137)
+            return f(*a, **kw)
+        setattr(mod, name, g)
+    for mod, name in ((os, "replace"), (os, "rename"), (os, "link"), (os, "fsync"),
+                      (os, "unlink"), (os, "mkdir"), (os, "rmdir"), (os, "open"),
+                      (os, "ftruncate"), (os, "write"), (shutil, "rmtree"), (shutil, "copy2")):
+        wrap(mod, name)
+def write_names(path, names):
+    with open(path, "w") as f:  # builtins.open: not one of the counted calls
+        f.write("\\n".join(names))
+"""
+
+#: a fresh interpreter running ``bench ARGS`` that dies (os._exit, as abrupt as SIGKILL:
+#: no cleanup, no flush) just before its k-th file-system call (k = 0: never) and
+#: writes the names of the calls it made to NAMES_FILE: argv = k NAMES_FILE ARGS
+STEP_CHILD = _WRAP + """
+k, names = int(sys.argv[1]), []
+wrap_fs_calls(k, names)
 from bench.cli import main
-rc = main(sys.argv[2:])
-print(f"fs-calls {n[0]}", file=sys.stderr)
+rc = main(sys.argv[3:])
+write_names(sys.argv[2], names)
 sys.exit(rc)
 """
+
+#: a process that imports ``bench.cli`` and the modules named in argv once, then, for each
+#: JSON line ``[k, names_file, args]`` on stdin, forks a child that runs ``bench ARGS`` as
+#: STEP_CHILD does; it says "ready" once, then answers each child's pid and exit code
+FORK_SERVER = _WRAP + """
+import importlib, json
+from bench.cli import main
+for module in sys.argv[1:]:
+    importlib.import_module(module)
+print("ready", flush=True)
+for line in sys.stdin:
+    k, names_file, args = json.loads(line)
+    pid = os.fork()
+    if pid == 0:
+        null = os.open(os.devnull, os.O_RDWR)
+        for fd in (0, 1, 2):
+            os.dup2(null, fd)
+        names, rc = [], 1
+        try:
+            wrap_fs_calls(k, names)
+            rc = main(args)
+            write_names(names_file, names)
+        finally:
+            os._exit(rc if isinstance(rc, int) else 1)
+    print(pid, flush=True)
+    print(os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]), flush=True)
+"""
+
+
+@dataclass
+class ChildRun:
+    """One run of a stage in a child process."""
+
+    rc: int
+    seconds: float  # from the child's start to its end (or death)
+    fs_calls: list[str] | None  # names of its file-system calls (None when it died early)
+
+
+class StageRunner:
+    """Runs ``bench ARGS`` in child processes that can die at a chosen moment.
+
+    ``preload=None``: each run is a fresh interpreter (``python -c STEP_CHILD``), so a
+    kill can also land in its start-up. ``preload=[module, ...]``: one fork server
+    imports ``bench.cli`` and these modules once and forks each run from itself, so the
+    runs skip the imports and a kill lands in the stage's own work; use it as a
+    context manager.
+    """
+
+    def __init__(self, work: Path, preload: list[str] | None = None) -> None:
+        self.work = work
+        self.work.mkdir(parents=True, exist_ok=True)
+        self.env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
+        self.server = None if preload is None else subprocess.Popen(
+            [sys.executable, "-c", FORK_SERVER, *preload], cwd=REPO, env=self.env,
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0)
+        if self.server is not None:
+            assert self._line() == "ready\n"
+        self._count = 0
+
+    def __enter__(self) -> StageRunner:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.server is not None:
+            self.server.stdin.close()
+            self.server.wait(timeout=60)
+
+    def _line(self, timeout: float | None = None) -> str | None:
+        """The server's next line, or None when none came within ``timeout`` seconds."""
+        out, data = self.server.stdout, b""
+        while not data.endswith(b"\n"):
+            if timeout is not None and not select.select([out], [], [], timeout)[0]:
+                assert not data
+                return None
+            chunk = out.read(1)
+            assert chunk, f"fork server ended (exit {self.server.wait()})"
+            data += chunk
+            timeout = None
+        return data.decode()
+
+    def run(self, args: list[str], step: int = 0, kill_after: float | None = None) -> ChildRun:
+        """Run ``bench ARGS``; die before file-system call ``step`` (0: never), or get a
+        SIGKILL ``kill_after`` seconds after the start when still running."""
+        self._count += 1
+        names_file = self.work / f"fs_calls_{self._count}.txt"
+        t0 = time.perf_counter()
+        if self.server is None:
+            proc = subprocess.Popen([sys.executable, "-c", STEP_CHILD, str(step),
+                                     str(names_file), *args], cwd=REPO, env=self.env,
+                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            if kill_after is not None:
+                try:
+                    proc.wait(timeout=kill_after)
+                except subprocess.TimeoutExpired:
+                    proc.send_signal(signal.SIGKILL)
+            rc = proc.wait()
+        else:
+            self.server.stdin.write((json.dumps([step, str(names_file), args]) + "\n").encode())
+            pid = int(self._line())
+            line = None if kill_after is None else self._line(timeout=kill_after)
+            if line is None and kill_after is not None:
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(pid, signal.SIGKILL)
+            rc = int(line if line is not None else self._line())
+        seconds = time.perf_counter() - t0
+        names = names_file.read_text().split("\n") if names_file.exists() else None
+        return ChildRun(rc, seconds, names)
+
+
+def kill_steps(names: list[str], steps: int | None, around_switches: bool) -> list[int]:
+    """File-system calls (1-based) to die before: ``steps`` spread evenly over all of them
+    (None: every one), and with ``around_switches`` the one before and the one after each
+    rename, replace or tree removal, where a write's visible state switches."""
+    total = len(names)
+    ks = set(range(1, total + 1)) if steps is None else {
+        1 + round(i * (total - 1) / max(steps - 1, 1)) for i in range(steps)}
+    if around_switches:
+        ks |= {k + d for k, name in enumerate(names, start=1)
+               if name in ("rename", "replace", "rmtree") for d in (0, 1) if k + d <= total}
+    return sorted(ks)
 
 
 @dataclass
@@ -138,62 +270,60 @@ class KillFigures:
 class _Setup:
     """The old store, the new campaign and the two digests every kill is checked against."""
 
-    def __init__(self, work: Path) -> None:
+    def __init__(self, work: Path, runner: StageRunner) -> None:
         old_campaign, self.new_campaign = make_campaigns(work / "camp")
         self.base = work / "old_store"
         ingest([old_campaign], self.base, progress=False)
         self.old_digest = store_digest(self.base)
         ref = work / "ref_store"
         shutil.copytree(self.base, ref)
-        t0 = time.perf_counter()
-        err = subprocess.run(self.step_command(0, ref), check=True, capture_output=True,
-                             text=True, cwd=REPO).stderr
-        self.full_run_s = time.perf_counter() - t0
-        self.fs_calls = int(err.rsplit("fs-calls ", 1)[1].split()[0])
+        full = runner.run(self.args(ref))
+        assert full.rc == 0, f"uninterrupted ingest: exit {full.rc}"
+        self.full_run_s, self.fs_calls = full.seconds, full.fs_calls
         self.new_digest = store_digest(ref)
         assert self.new_digest != self.old_digest
 
-    def step_command(self, k: int, store: Path) -> list[str]:
-        return [sys.executable, "-c", STEP_CHILD, str(k),
-                *ingest_command(self.new_campaign, store)[3:]]
+    def args(self, store: Path) -> list[str]:
+        return ingest_command(self.new_campaign, store)[3:]
 
 
 def run_kills(work: Path, n: int, seed: int = 0, steps: int | None = 0,
-              log=lambda msg: None) -> KillFigures:
-    """Kill ``n`` ingests of the new campaign into copies of the old store, then ``steps`` more.
+              log=lambda msg: None, fork: bool = False,
+              around_switches: bool = False) -> KillFigures:
+    """Kill ``n`` ingests of the new campaign into copies of the old store, then more.
 
-    Half the ``n`` SIGKILL moments are uniform over the whole run (start-up,
-    parsing, processing, commit), half uniform over its last 40 % where the
-    commit is. Then an ingest dies just before its k-th file-system call, for
-    ``steps`` values of k spread evenly over all its calls (None: every k), so
-    every step of the commit is hit, which random timing rarely does.
+    Half the ``n`` SIGKILL moments are uniform over the whole run, half uniform
+    over its last 40 % where the commit is. Then an ingest dies just before its
+    k-th file-system call, for ``steps`` values of k spread evenly over all its
+    calls (None: every k) and, with ``around_switches``, for the calls just before
+    and after each rename, replace and tree removal, so every step of the commit is
+    hit, which random timing rarely does. ``fork``: the ingests are forked from a
+    process that has imported them (StageRunner), so a SIGKILL lands in the ingest's
+    work rather than in the interpreter's start-up (parsing, processing, commit).
     """
-    setup = _Setup(work)
+    preload = ["bench.ingest.pipeline", "bench.ingest.cli"] if fork else None
+    with StageRunner(work / "runner", preload) as runner:
+        return _kill_ingests(work, runner, n, seed, steps, around_switches, log)
+
+
+def _kill_ingests(work, runner, n, seed, steps, around_switches, log) -> KillFigures:
+    setup = _Setup(work, runner)
     base, new_campaign = setup.base, setup.new_campaign
     old_digest, new_digest = setup.old_digest, setup.new_digest
     figures = KillFigures(full_run_s=setup.full_run_s)
     rng = random.Random(seed)
-    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
-    total = setup.fs_calls
-    ks = list(range(1, total + 1)) if steps is None else sorted(
-        {1 + round(i * (total - 1) / max(steps - 1, 1)) for i in range(steps)})
-    plan = [("time", None)] * n + [("step", k) for k in ks]
+    plan = [("time", None)] * n + [("step", k) for k in kill_steps(setup.fs_calls, steps,
+                                                                   around_switches)]
     for k, (how, step) in enumerate(plan):
         store = work / f"store_{k}"
         shutil.copytree(base, store)
         full = figures.full_run_s
         delay = rng.uniform(0, full) if k % 2 == 0 else rng.uniform(0.6 * full, 1.05 * full)
         if how == "time":
-            proc = subprocess.Popen(ingest_command(new_campaign, store), cwd=REPO, env=env,
-                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-            time.sleep(delay)
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGKILL)
+            rc = runner.run(setup.args(store), kill_after=delay).rc
         else:
             delay = float(step)
-            proc = subprocess.Popen(setup.step_command(step, store), cwd=REPO, env=env,
-                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        rc = proc.wait()
+            rc = runner.run(setup.args(store), step=step).rc
         figures.tried += 1
         figures.fs_steps += how == "step"
         digest = store_digest(store)
@@ -252,55 +382,53 @@ class OutputKillFigures:
 
 
 def run_output_kills(work: Path, old_args: list[str], new_args: list[str], n: int,
-                     steps: int | None, seed: int = 0,
-                     log=lambda msg: None) -> OutputKillFigures:
+                     steps: int | None, seed: int = 0, log=lambda msg: None,
+                     preload: list[str] | None = None,
+                     around_switches: bool = False) -> OutputKillFigures:
     """Kill a stage (``bench <new_args> --out DIR``) writing over an earlier output.
 
     ``old_args``/``new_args`` are the stage's command lines without ``--out``; the
     old one writes the folder first. Then ``n`` SIGKILLs at a moment uniform over the
-    run, and ``steps`` deaths just before the k-th file-system call (None: every k).
-    After each kill the folder must be exactly the old output or one whole new one;
-    the next complete run, in the last folder a kill left a staging folder beside,
-    must remove it.
+    run, and deaths just before the k-th file-system call for ``steps`` values of k
+    spread over all calls (None: every k) and, with ``around_switches``, just before
+    and after each rename, replace and tree removal. After each kill the folder must
+    be exactly the old output or one whole new one; the next complete run, in the
+    last folder a kill left a staging folder beside, must remove it. ``preload``:
+    the runs are forked from a process that has imported these modules
+    (StageRunner), so a SIGKILL lands in the stage's work, not in its start-up.
     """
+    with StageRunner(work / "runner", preload) as runner:
+        return _kill_outputs(work, runner, old_args, new_args, n, steps, seed,
+                             around_switches, log)
+
+
+def _kill_outputs(work, runner, old_args, new_args, n, steps, seed, around_switches,
+                  log) -> OutputKillFigures:
     from bench.output_folder import RUN_FILE, check_output_folder
 
-    env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
     base = work / "base" / "out"
-    subprocess.run([sys.executable, "-m", "bench.cli", *old_args, "--out", str(base)],
-                   check=True, capture_output=True, cwd=REPO, env=env)
+    assert runner.run([*old_args, "--out", str(base)]).rc == 0, "the old output"
     old = folder_files(base)
     old_run = json.loads((base / RUN_FILE).read_text())["run_id"]
     ref = work / "ref" / "out"
     shutil.copytree(base, ref)
-    t0 = time.perf_counter()
-    err = subprocess.run([sys.executable, "-c", STEP_CHILD, "0", *new_args, "--out", str(ref)],
-                         check=True, capture_output=True, text=True, cwd=REPO, env=env).stderr
-    figures = OutputKillFigures(full_run_s=time.perf_counter() - t0)
-    total = int(err.rsplit("fs-calls ", 1)[1].split()[0])
+    full = runner.run([*new_args, "--out", str(ref)])
+    assert full.rc == 0, f"uninterrupted run: exit {full.rc}"
+    figures = OutputKillFigures(full_run_s=full.seconds)
     new_names = set(folder_files(ref))
-    ks = list(range(1, total + 1)) if steps is None else sorted(
-        {1 + round(i * (total - 1) / max(steps - 1, 1)) for i in range(steps)})
     rng = random.Random(seed)
-    plan = [("time", None)] * n + [("step", k) for k in ks]
+    plan = [("time", None)] * n + [("step", k) for k in kill_steps(full.fs_calls, steps,
+                                                                   around_switches)]
     dirty = None  # the last output folder a kill left a staging folder beside
     for i, (how, step) in enumerate(plan):
         out = work / f"kill_{i}" / "out"
         shutil.copytree(base, out)
         if how == "time":
             delay = rng.uniform(0, 1.05 * figures.full_run_s)
-            proc = subprocess.Popen([sys.executable, "-m", "bench.cli", *new_args, "--out",
-                                     str(out)], cwd=REPO, env=env,
-                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-            time.sleep(delay)
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGKILL)
+            rc = runner.run([*new_args, "--out", str(out)], kill_after=delay).rc
         else:
             delay = float(step)
-            proc = subprocess.Popen([sys.executable, "-c", STEP_CHILD, str(step), *new_args,
-                                     "--out", str(out)], cwd=REPO, env=env,
-                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        rc = proc.wait()
+            rc = runner.run([*new_args, "--out", str(out)], step=step).rc
         figures.tried += 1
         figures.fs_steps += how == "step"
         figures.finished += rc == 0
@@ -329,8 +457,7 @@ def run_output_kills(work: Path, old_args: list[str], new_args: list[str], n: in
             shutil.rmtree(out.parent)
         log(f"kill {i + 1}/{len(plan)} ({how} {delay:.3f}): rc {rc}, {state}")
     if dirty is not None:
-        subprocess.run([sys.executable, "-m", "bench.cli", *new_args, "--out", str(dirty)],
-                       check=True, capture_output=True, cwd=REPO, env=env)
+        assert runner.run([*new_args, "--out", str(dirty)]).rc == 0, "the next complete run"
         left = sorted(p.name for p in dirty.parent.iterdir() if p.name != "out")
         if left:
             figures.leftovers += 1

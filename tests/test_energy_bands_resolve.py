@@ -8,17 +8,15 @@ import numpy as np
 import pytest
 
 from energy.bands import basis_averages, sigma
-from optimize.model.kite_model import kite_dae
 from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
-from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
-from optimize.solve.solve import cold_start, solve
+from optimize.solve.solve import solve
 
 N_COARSE = 10  # coarse but converging grid: the three solves take ~15 s on 2 busy cores
 
 
-def test_sigma_equals_finite_difference_re_solve():
+def test_sigma_equals_finite_difference_re_solve(coarse_ocp, coarse_elec_lim):
     # A covariance with correlated 2 % coefficient errors. Along d = Sigma g / sigma the
     # envelope theorem gives dP*/dh = g . d = sigma. Re-optimizing at a +- h d and taking
     # the central difference must give the same slope: the O(h^2) term cancels, the
@@ -27,10 +25,11 @@ def test_sigma_equals_finite_difference_re_solve():
     c = np.array(model.coefficients_rpm)
     s = 0.02 * np.abs(c)
     cov = 0.3 * np.outer(s, s) + 0.7 * np.diag(s**2)
-    dae, options = kite_dae(), OcpOptions(Discretization(n_intervals=N_COARSE))
+    # the base cycle: the coarse paper OCP's elec-lim optimum, shared (conftest.py)
+    dae, options, base = coarse_ocp.dae, coarse_ocp.options, coarse_elec_lim
+    assert options.discretization.n_intervals == N_COARSE
+    assert coarse_ocp.drive_model.coefficients_rpm == model.coefficients_rpm
     scenario = Scenario(7.0, "electrical", True)
-    ocp = build_ocp(dae, model, options)
-    base = solve(ocp, scenario, cold_start(ocp, Scenario(7.0, "mechanical", False)).warm)
     assert base.success, base.status
     g = basis_averages(base.trajectory, model.terms)
     assert float(g @ c) == pytest.approx(base.avg_p_elec_w, rel=1e-9)  # the model on the cycle

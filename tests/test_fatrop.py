@@ -53,14 +53,21 @@ def test_stagewise_layout_evaluates_the_same_objective_and_rows():
     assert not staged.layout.equality[staged.layout.rows_of("torque")].any()
 
 
-def test_fatrop_confirms_the_stored_optimum_on_the_stage_layout():
+@pytest.fixture(scope="module")
+def staged():
+    """The paper's OCP at the default options, stage-wise for fatrop."""
+    return build_ocp(kite_dae(), paper_model(), OcpOptions(solver=SolverOptions(solver="fatrop")))
+
+
+def test_fatrop_confirms_the_stored_optimum_on_the_stage_layout(staged, paper_ocp,
+                                                                 stored_guess_solve):
     # the stored guess is IPOPT's optimum of its scenario: carried over to the stage-wise
-    # layout, fatrop's warm solve stays on it (independent truth: IPOPT's optimum)
-    staged = build_ocp(kite_dae(), paper_model(),
-                       OcpOptions(solver=SolverOptions(solver="fatrop")))
-    general = twin(staged, "ipopt")
+    # layout, fatrop's warm solve stays on it (independent truth: IPOPT's optimum, warm
+    # from the stored guess on the same NLP in the general layout, shared: conftest.py)
+    assert twin(staged, "ipopt").options == paper_ocp.options
     scenario = initial_guess.GUESS_SCENARIO
-    ref = solve(general, scenario, initial_guess.load(general)[0], retry_cold=False)
+    ref = stored_guess_solve
+    assert ref.start == "stored guess"
     res = solve(staged, scenario, initial_guess.load(staged)[0], retry_cold=False)
     assert ref.success and res.success, (ref.status, res.status)
     assert res.status.startswith("fatrop return flag 0")
@@ -72,9 +79,7 @@ def test_fatrop_confirms_the_stored_optimum_on_the_stage_layout():
     assert res.warm.w.size == staged.layout.n_w
 
 
-def test_stored_guess_is_carried_over_to_the_stage_layout():
-    staged = build_ocp(kite_dae(), paper_model(),
-                       OcpOptions(solver=SolverOptions(solver="fatrop")))
+def test_stored_guess_is_carried_over_to_the_stage_layout(staged):
     guess, why = initial_guess.load(staged)
     assert guess is not None and "carried over" in why
     general = twin(staged, "ipopt")

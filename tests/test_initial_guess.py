@@ -10,15 +10,14 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.solve import initial_guess
-from optimize.solve.solve import start
 from optimize.system.drive import drive_in_force
 from optimize.system.params import KiteParams
 from optimize.system.system import load_system, system_from_dict
 
 
 @pytest.fixture(scope="module")
-def ocp():
-    return build_ocp(kite_dae(), paper_model(), OcpOptions())
+def ocp(paper_ocp):
+    return paper_ocp  # the default OCP, shared with other modules (conftest.py)
 
 
 def test_shipped_guess_fits_the_default_ocp(ocp):
@@ -72,13 +71,13 @@ def test_missing_or_damaged_file_is_refused(ocp, tmp_path):
     assert solution is None and "cannot read" in why
 
 
-def test_start_from_the_guess_stays_at_its_optimum(ocp):
+def test_start_from_the_guess_stays_at_its_optimum(ocp, stored_guess_solve):
     # the file holds IPOPT's optimum of elec-lim-7.0 with the paper model: started there,
     # IPOPT must confirm it in a few dozen iterations (the warm start pushes it 1e-2
     # off its active bounds first) and leave the point (scaled
     # variables of order 1) where it is
     stored, _ = initial_guess.load(ocp)
-    res = start(ocp, initial_guess.GUESS_SCENARIO)
+    res = stored_guess_solve  # start(ocp, initial_guess.GUESS_SCENARIO), shared
     assert res.success, res.status
     assert res.start == "stored guess"
     assert [s["stage"] for s in res.stages] == ["stored-guess warm"]

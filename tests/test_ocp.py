@@ -22,7 +22,7 @@ from optimize.problem.collocation import radau
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
-from optimize.solve.solve import cold_start, solve
+from optimize.solve.solve import solve
 
 N_COARSE = 10  # coarse but converging grid: the whole module runs in ~30 s on 2 busy cores
 
@@ -49,9 +49,10 @@ def test_radau_coefficients_integrate_and_differentiate_polynomials():
 
 
 @pytest.fixture(scope="module")
-def solved():
-    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(Discretization(n_intervals=N_COARSE)))
-    mech = cold_start(ocp, Scenario(7.0, "mechanical", False))
+def solved(coarse_ocp, coarse_mechanical):
+    # the coarse OCP and its cold start are shared with other modules (conftest.py)
+    ocp, mech = coarse_ocp, coarse_mechanical
+    assert ocp.n_intervals == N_COARSE
     elec = solve(ocp, Scenario(7.0, "electrical", False), mech.warm)
     elec_lim = solve(ocp, Scenario(7.0, "electrical", True), elec.warm)
     return ocp, mech, elec, elec_lim

@@ -11,7 +11,7 @@ from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, Limits, OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve import initial_guess
-from optimize.solve.solve import cold_start, solve
+from optimize.solve.solve import solve
 
 N_COARSE = 10
 
@@ -20,12 +20,11 @@ def _rms(traj) -> float:
     return float(np.sqrt(np.sum(traj["weight"] * traj["torque_nm"] ** 2)))
 
 
-def test_rms_torque_bound_binds_and_costs_power():
-    dae = kite_dae()
-    free = build_ocp(dae, paper_model(), OcpOptions(Discretization(n_intervals=N_COARSE)))
-    start = cold_start(free, Scenario(7.0, "mechanical", False))
+def test_rms_torque_bound_binds_and_costs_power(coarse_ocp, coarse_elec_lim):
+    # the coarse OCP's elec-lim optimum (warm from its cold start) is shared (conftest.py)
+    dae, ref = coarse_ocp.dae, coarse_elec_lim
+    assert coarse_ocp.n_intervals == N_COARSE and not coarse_ocp.options.limits.max_rms_torque_nm
     scenario = Scenario(7.0, "electrical", True)
-    ref = solve(free, scenario, start.warm)
     assert ref.success, ref.status
     rms_free = _rms(ref.trajectory)
     # a rating 15 % below the unconstrained cycle's RMS torque, peak limit unchanged

@@ -18,11 +18,9 @@ from fitting.pipeline import FitOptions
 from fitting.terms import PAPER_TERMS, full_polynomial
 
 
-def test_fit_writes_every_output(paper_store, tmp_path, capsys):
-    out = tmp_path / "fit_out"
-    rc = main(["fit", "--store", str(paper_store), "--out", str(out), "--order", "2"])
-    assert rc == 0
-    printed = capsys.readouterr().out
+def test_fit_writes_every_output(paper_fits):
+    # bench fit --order 2 of a paper store (run once per session: conftest.py)
+    out, printed = paper_fits[2]
     for text in ("95 % interval", "R^2", "% of nominal", "CV RMSE", "selection:", "exported:"):
         assert text in printed
 
