@@ -232,6 +232,20 @@ def cut_analyzer(path: Path, cut: list[tuple[float, float]]) -> None:
     path.write_text("\n".join(lines[:head + 1] + keep) + "\n")
 
 
+def cut_daq(path: Path, cut: list[tuple[float, float]]) -> None:
+    """Remove the data rows of a DAQ CSV whose time [s] (first field) lies in one of the
+    ``cut`` intervals ``[a, b)`` (the header rows stay)."""
+    def inside(line: str) -> bool:
+        try:
+            t = float(line.split(",")[0])
+        except ValueError:
+            return False
+        return any(a <= t < b for a, b in cut)
+
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join(line for line in lines if not inside(line)) + "\n")
+
+
 def make_counted_log(root: Path, form: str, sid: str = "counted") -> np.ndarray:
     """Write ``root/sid/{session.toml, log.csv, mapping.toml}``: a 4 Hz logger stamping whole
     seconds (``hh:mm:ss``) that drops every 7th row, with a ``Sample`` counter column.

@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 import statsmodels.api as sm
 from ingest_fixtures import make_timeseries_session
-from stream_fixtures import cut_analyzer, make_counted_log, make_german_logger
+from stream_fixtures import cut_analyzer, cut_daq, make_counted_log, make_german_logger
 
 from bench.ingest.align import drift_line
 from bench.ingest.pipeline import ingest
@@ -182,6 +182,31 @@ def test_holds_the_analyzer_did_not_record_are_rejected_windows(tmp_path):
     e = json.loads((tmp_path / "store" / "manifest.json").read_text())["sessions"]["motor_01"]
     assert sum(n for r, n in e["rejected"].items()
                if r.startswith("no analyzer samples")) == len(missing) == 3
+
+
+def test_holds_the_logger_did_not_log_are_rejected_windows(tmp_path):
+    # the other way round: the analyzer records throughout, the 1 Hz DAQ misses 100 s
+    # (holds 6, 7 and 8 whole, the end of hold 5 and the start of hold 9)
+    setpoints = [(s, q) for s in (300.0, 600.0, 900.0, 1200.0) for q in (10.0, 30.0, 50.0, 70.0)]
+    truth = make_timeseries_session(tmp_path / "c", setpoints=setpoints, hold_s=30.0,
+                                    daq_hz=1.0, analyzer_hz=1.0, drift_ppm=0.0, markers=False)
+    cut_daq(tmp_path / "c" / "motor_01" / "daq.csv", [(190.0, 290.0)])
+    ingest([tmp_path / "c"], tmp_path / "store", progress=False)
+    pts, rej = _stored(tmp_path / "store", "motor_01")
+    unlogged = rej[rej["reason"].str.startswith("no logger samples from ")]
+    steps = list(truth.step_times_s) + [truth.step_times_s[-1] + 30.0]
+    for k in (6, 7, 8):  # each unlogged hold is one rejected window, with its reason
+        lo, hi = steps[k] + 3.0, steps[k + 1] - 1.0
+        mine = unlogged[(unlogged["t_start_s"] <= lo) & (unlogged["t_end_s"] >= hi)]
+        assert len(mine) == 1, (k, unlogged)
+        r = mine.iloc[0]
+        assert r["reason"] == (f"no logger samples from {r['t_start_s']:.1f} to "
+                               f"{r['t_end_s']:.1f} s")
+        assert steps[k] - 1.0 <= r["t_start_s"] and r["t_end_s"] <= steps[k + 1] + 1.0
+    assert len(unlogged) == 3  # holds 5 and 9 are points where the DAQ logged them
+    assert len(pts) == len(setpoints) - 3
+    e = json.loads((tmp_path / "store" / "manifest.json").read_text())["sessions"]["motor_01"]
+    assert sum(n for r, n in e["rejected"].items() if r.startswith("no logger samples")) == 3
 
 
 @pytest.mark.parametrize("form", ["stamp_plus_counter", "counter_alone"])

@@ -301,7 +301,8 @@ def held_runs(signals: dict[str, np.ndarray], free: np.ndarray, breaks: np.ndarr
               points: list[tuple[int, int]] = ()) -> list[tuple[int, int]]:
     """Stretches of held setpoint among the bins ``free``, as ``(start, stop)`` bins.
 
-    Used for the bins the power analyzer did not record while the DAQ logs a hold.
+    Used for the bins the power analyzer did not record while the DAQ logs a hold, and
+    for the analyzer's records where the DAQ logged nothing (``signals`` its power).
     The series are cut where a signal steps (the moving test of step 2 on each of
     ``signals``, tolerances ``tol``) and at ``breaks`` (a gap's empty bins); a still
     run of ``free`` bins is a hold as in step 6 (its transitions trimmed, first and
