@@ -12,6 +12,8 @@ Each class is written with a known truth (``bench.synth.exports``, ``tests/*fixt
   second, columns ``Date/Time`` and ``Power [W]`` without a mapping;
 - ``analyzer_late_and_gap_1hz``: DAQ and analyzer at 1 Hz, 16 holds of 30 s; the
   analyzer's first 75 s and 50 s in the middle are missing (holds 0, 1 and 7 unrecorded);
+- ``daq_gap_1hz``: the same 1 Hz pair, the analyzer complete, the DAQ missing 100 s
+  (holds 6, 7 and 8 logged by the analyzer only);
 - ``counter_4hz_dropped_rows``: whole-second stamps at 4 rows per second, every 7th
   row dropped, a ``Sample`` counter within each stamp mapped as ``sample_counter``
   (printed: the largest error of a stored sample time against the row's true time).
@@ -45,6 +47,7 @@ def write_campaigns(folder: Path) -> dict:
     from ingest_fixtures import make_timeseries_session
     from stream_fixtures import (
         cut_analyzer,
+        cut_daq,
         make_counted_log,
         make_ev_export,
         make_german_logger,
@@ -76,6 +79,9 @@ def write_campaigns(folder: Path) -> dict:
                             daq_hz=1.0, analyzer_hz=1.0, drift_ppm=0.0, markers=False)
     cut_analyzer(folder / "analyzer_late_and_gap_1hz" / "motor_01" / "analyzer.csv",
                  [(0.0, 75.0), (200.0, 250.0)])
+    make_timeseries_session(folder / "daq_gap_1hz", setpoints=sp, hold_s=30.0, daq_hz=1.0,
+                            analyzer_hz=1.0, drift_ppm=0.0, markers=False)
+    cut_daq(folder / "daq_gap_1hz" / "motor_01" / "daq.csv", [(190.0, 290.0)])
     t = make_counted_log(folder / "counter_4hz_dropped_rows", "stamp_plus_counter")
     truth["counter_4hz_dropped_rows"] = {"time_s": (t - t[0]).tolist()}
     (folder / "truth.json").write_text(json.dumps(truth))
