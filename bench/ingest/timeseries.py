@@ -428,16 +428,27 @@ def process_timeseries(
         del a_mid
         fin = np.flatnonzero(np.isfinite(a_p))
         p_elec_bins = np.interp(centres, a_t[fin], a_p[fin], left=np.nan, right=np.nan)
-        usable = (centres >= a_t[fin[0]]) & (centres <= a_t[fin[-1]])
+        usable = recorded_bins(centres, a_t[fin], interval * config.gap_factor)
         del fin
     check_torque_sign(session, means["p_mech"], p_elec_bins, daq.path)
     del centres
-    if zero is not None:
-        usable &= t0 + np.arange(n_bins) * dt >= zero.t_motion_s  # the tare is no window
+    recorded = usable
+    # the tare is no window
+    after_tare = (t0 + np.arange(n_bins) * dt >= zero.t_motion_s if zero is not None
+                  else np.ones(n_bins, bool))
+    usable = recorded & after_tare
     win = steady.find_windows(means["speed"], means["torque"], p_elec_bins, means["valid_frac"],
                               ranges, config, usable=usable, cuts=means["cuts"])
     win = _screen_windows(win, means, p_elec_bins, sources, session, daq.path,
                           tare_finder.limit_rpm)
+    if not recorded.all():  # held setpoints the analyzer did not record: rejected, said
+        gap = means["cuts"] & ~(means["valid_frac"] > 0)
+        holds = steady.held_runs({"speed": means["speed"], "torque": means["torque"]},
+                                 ~recorded & after_tare & ~gap, gap, win.tolerances, config,
+                                 points=win.accepted)
+        win = replace(win, rejected=sorted(win.rejected + [
+            (a, b, f"no analyzer samples from {t0 + a * dt:.1f} to {t0 + b * dt:.1f} s")
+            for a, b in holds]))
     w_start = np.array([t0 + a * dt for a, _ in win.accepted])
     w_end = np.array([t0 + b * dt for _, b in win.accepted])
 
@@ -510,6 +521,21 @@ def process_timeseries(
         info["no_points_note"] = steady.why_no_windows(
             win, float(np.sum(usable)) * dt, timing["duration_s"], dt, config)
     return SessionOutput(points=points, rejected=rejected, samples_path=samples_path, info=info)
+
+
+def recorded_bins(centres: np.ndarray, t_records: np.ndarray, max_step_s: float) -> np.ndarray:
+    """Bins the power analyzer recorded: inside its record and not in a gap of it.
+
+    ``t_records``: the analyzer's valid sample times on the DAQ clock (ascending) [s];
+    a bin centre between two records more than ``max_step_s`` apart (a gap) or
+    outside the first and last record is not recorded.
+    """
+    k = np.searchsorted(t_records, centres)
+    inside = (k > 0) & (k < t_records.size)
+    kk = np.clip(k, 1, max(t_records.size - 1, 1))
+    step = t_records[kk] - t_records[kk - 1]
+    on = np.isin(centres, t_records)
+    return (inside & (step <= max_step_s)) | on
 
 
 def fold_signed(speed_rpm: np.ndarray, torque_nm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
