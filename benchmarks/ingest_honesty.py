@@ -9,7 +9,14 @@ Each class is written with a known truth (``bench.synth.exports``, ``tests/*fixt
 - ``noisy_hold_1hz``: a 1 Hz logger whose hold 3 scatters 12 x more than the rest;
 - ``drift_37ppm_1hz``: DAQ and analyzer at 1 Hz, clocks drifting by +37 ppm;
 - ``stamped_4hz_ampm``: whole-second 12-hour stamps (``11:59:59 AM``) at 4 rows per
-  second, columns ``Date/Time`` and ``Power [W]`` without a mapping.
+  second, columns ``Date/Time`` and ``Power [W]`` without a mapping;
+- ``analyzer_late_and_gap_1hz``: DAQ and analyzer at 1 Hz, 16 holds of 30 s; the
+  analyzer's first 75 s and 50 s in the middle are missing (holds 0, 1 and 7 unrecorded);
+- ``daq_gap_1hz``: the same 1 Hz pair, the analyzer complete, the DAQ missing 100 s
+  (holds 6, 7 and 8 logged by the analyzer only);
+- ``counter_4hz_dropped_rows``: whole-second stamps at 4 rows per second, every 7th
+  row dropped, a ``Sample`` counter within each stamp mapped as ``sample_counter``
+  (printed: the largest error of a stored sample time against the row's true time).
 
 Each is ingested in a subprocess (so ``PYTHONPATH=<other checkout>`` compares two
 versions on the same files); printed: the exit code, the error's first 160
@@ -38,7 +45,13 @@ def write_campaigns(folder: Path) -> dict:
     """Write every class into ``folder/<name>/``; return what the report needs of the truth."""
     sys.path.insert(0, str(ROOT / "tests"))
     from ingest_fixtures import make_timeseries_session
-    from stream_fixtures import make_ev_export, make_german_logger
+    from stream_fixtures import (
+        cut_analyzer,
+        cut_daq,
+        make_counted_log,
+        make_ev_export,
+        make_german_logger,
+    )
     from test_ingest_slow_logs import _write_stamped_log
 
     from bench.synth.exports import make_two_wattmeter_table
@@ -62,6 +75,15 @@ def write_campaigns(folder: Path) -> dict:
                                 daq_hz=1.0, analyzer_hz=1.0, drift_ppm=37.0, markers=False)
     truth["drift_37ppm_1hz"] = {"drift_ppm": c.drift_ppm, "offset_s": c.offset_s}
     _write_stamped_log(folder / "stamped_4hz_ampm", ampm=True)
+    make_timeseries_session(folder / "analyzer_late_and_gap_1hz", setpoints=sp, hold_s=30.0,
+                            daq_hz=1.0, analyzer_hz=1.0, drift_ppm=0.0, markers=False)
+    cut_analyzer(folder / "analyzer_late_and_gap_1hz" / "motor_01" / "analyzer.csv",
+                 [(0.0, 75.0), (200.0, 250.0)])
+    make_timeseries_session(folder / "daq_gap_1hz", setpoints=sp, hold_s=30.0, daq_hz=1.0,
+                            analyzer_hz=1.0, drift_ppm=0.0, markers=False)
+    cut_daq(folder / "daq_gap_1hz" / "motor_01" / "daq.csv", [(190.0, 290.0)])
+    t = make_counted_log(folder / "counter_4hz_dropped_rows", "stamp_plus_counter")
+    truth["counter_4hz_dropped_rows"] = {"time_s": (t - t[0]).tolist()}
     (folder / "truth.json").write_text(json.dumps(truth))
     return truth
 
@@ -96,6 +118,11 @@ def run(name: str, campaign: Path, work: Path, truth: dict) -> dict:
         a, b = truth[name]["hold_s"]
         inside = rej[(rej["t_end_s"] > a) & (rej["t_start_s"] < b)]
         row["hold_windows"] = inside[["t_start_s", "t_end_s", "reason"]].values.tolist()
+    if name == "counter_4hz_dropped_rows":
+        got = np.sort(pd.read_parquet(next((gen / "samples").glob("*.parquet")))["time_s"])
+        true = np.asarray(truth[name]["time_s"])
+        row["max_time_error_s"] = (float(np.max(np.abs(got - true))) if got.size == true.size
+                                   else f"{got.size} samples stored of {true.size}")
     e = next(iter(man["sessions"].values()))
     for key in ("clock_drift_ppm", "clock_drift_estimate_ppm", "clock_drift_uncertainty_ppm",
                 "clock_offset_s"):

@@ -2,12 +2,13 @@
 returns a typed result and writes the stage's files (docs/python_api.md).
 
     >>> import drivebench as db
-    >>> points = db.ingest(["raw_measurements"], store="bench_store")   # doctest: +SKIP
+    >>> points = db.ingest(["raw_measurements"], store="bench_store").points  # doctest: +SKIP
     >>> model = db.fit("bench_store", out="fit_out")                     # doctest: +SKIP
 
 The functions live in :mod:`drivebench.api`.
 """
 
-from drivebench.api import AepResult, SizeResult, Sweep, aep, fit, ingest, optimize, size
+from drivebench.api import AepResult, Ingested, SizeResult, Sweep, aep, fit, ingest, optimize, size
 
-__all__ = ["AepResult", "SizeResult", "Sweep", "aep", "fit", "ingest", "optimize", "size"]
+__all__ = ["AepResult", "Ingested", "SizeResult", "Sweep", "aep", "fit", "ingest", "optimize",
+           "size"]

@@ -7,7 +7,7 @@ printed table:
 ============ ============================== ==========================================
 function     ``bench`` command              returns
 ============ ============================== ==========================================
-:func:`ingest`   ``bench ingest``           :class:`fitting.points.OperatingPoints`
+:func:`ingest`   ``bench ingest``           :class:`Ingested` (``.points``)
 :func:`fit`      ``bench fit``              :class:`fitting.power_model.PowerModel`
 :func:`optimize` ``bench optimize``         :class:`Sweep`
 :func:`aep`      ``bench aep``              :class:`AepResult`
@@ -20,8 +20,9 @@ exit code 2). Nothing here prints; progress bars are off unless asked for.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -34,9 +35,34 @@ from optimize.kinds import KINDS
 PAPER_WINDS_M_S = (4.0, 5.5, 7.0, 8.5, 10.0)
 
 
+@dataclass(frozen=True)
+class Ingested:
+    """What :func:`ingest` did, and the store's operating points on demand.
+
+    Attributes
+    ----------
+    run : bench.ingest.pipeline.IngestResult
+        Sessions ingested, left unchanged, repaired or replaced; the store's manifest.
+    """
+
+    run: Any
+
+    @cached_property
+    def points(self) -> Any:
+        """Every point of the store, checked as ``bench fit`` reads them
+        (:class:`fitting.points.OperatingPoints`: ``.frame`` with ``speed_rpm``,
+        ``torque_nm``, ``p_mech_w``, ``p_elec_w``, ``quadrant``, ...; ``.counts()``).
+        Raises InputError when the store holds no point (the run says why)."""
+        from fitting.points import load_points
+
+        return load_points(self.run.store_dir)
+
+
 def ingest(paths: str | Path | Sequence[str | Path], store: str | Path = "bench_store", *,
-           mapping: str | Path | None = None, workers: int = 2, progress: bool = False) -> Any:
-    """Ingest bench campaigns or sessions into the store; the store's operating points.
+           mapping: str | Path | None = None, workers: int = 2, progress: bool = False,
+           strict: bool = False, wait: bool = True, replace: bool = True,
+           notify: Callable[[str], None] | None = None) -> Ingested:
+    """Ingest bench campaigns or sessions into the store.
 
     Parameters
     ----------
@@ -51,20 +77,28 @@ def ingest(paths: str | Path | Sequence[str | Path], store: str | Path = "bench_
         Sessions ingested in parallel.
     progress : bool
         Show progress bars.
+    strict : bool
+        A session that gives no operating point raises InputError.
+    wait : bool
+        Wait for another ingest writing the store (else raise InputError).
+    replace : bool
+        Replace stored sessions of the same id ingested from another folder (and say
+        so through ``notify``); else raise InputError.
+    notify : callable, optional
+        Receives the ingest's one-line notes (repairs, replacements); silent when None.
 
     Returns
     -------
-    fitting.points.OperatingPoints
-        Every point of the store (``.frame``: ``speed_rpm``, ``torque_nm``,
-        ``p_mech_w``, ``p_elec_w``, ``quadrant``, ...), checked as ``bench fit`` reads them.
+    Ingested
+        The run's record; ``.points`` reads the store's points when asked.
     """
     from bench.ingest.pipeline import ingest as ingest_sessions
-    from fitting.points import load_points
 
     paths = [paths] if isinstance(paths, str | Path) else list(paths)
-    ingest_sessions(paths, store, mapping_path=mapping, progress=progress, workers=workers,
-                    notify=lambda line: None)
-    return load_points(store)
+    return Ingested(ingest_sessions(
+        paths, store, mapping_path=mapping, progress=progress, workers=workers,
+        strict=strict, wait=wait, replace=replace,
+        notify=notify if notify is not None else (lambda line: None)))
 
 
 def fit(store: str | Path = "bench_store", out: str | Path = "fit_out", *, order: int | None = 2,

@@ -220,3 +220,57 @@ def make_german_logger(root: Path, sid: str = "logger_de", hold_s: float = 40.0,
     _session_toml(folder, sid, "1", (3000.0, 100.0, 15000.0), day=f"{start:%Y-%m-%d}")
     return StreamTruth(speed_rpm=s_set, torque_nm=q_set, p_elec_w=p_elec_w(s_set, q_set),
                        step_s=step, hold_s=hold_s, split_holds=(2,))
+
+
+def cut_analyzer(path: Path, cut: list[tuple[float, float]]) -> None:
+    """Remove the rows of a vendor-CSV analyzer record whose time [s] (second column, the
+    analyzer's own clock) lies in one of the ``cut`` intervals ``[a, b)``."""
+    lines = path.read_text().splitlines()
+    head = next(k for k, line in enumerate(lines) if line.startswith("Store No."))
+    keep = [line for line in lines[head + 1:]
+            if not any(a <= float(line.split(",")[1]) < b for a, b in cut)]
+    path.write_text("\n".join(lines[:head + 1] + keep) + "\n")
+
+
+def cut_daq(path: Path, cut: list[tuple[float, float]]) -> None:
+    """Remove the data rows of a DAQ CSV whose time [s] (first field) lies in one of the
+    ``cut`` intervals ``[a, b)`` (the header rows stay)."""
+    def inside(line: str) -> bool:
+        try:
+            t = float(line.split(",")[0])
+        except ValueError:
+            return False
+        return any(a <= t < b for a, b in cut)
+
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join(line for line in lines if not inside(line)) + "\n")
+
+
+def make_counted_log(root: Path, form: str, sid: str = "counted") -> np.ndarray:
+    """Write ``root/sid/{session.toml, log.csv, mapping.toml}``: a 4 Hz logger stamping whole
+    seconds (``hh:mm:ss``) that drops every 7th row, with a ``Sample`` counter column.
+
+    ``form``: ``stamp_plus_counter`` (the counter numbers the rows within a stamp;
+    mapped as ``sample_counter``) or ``counter_alone`` (a running count; the time
+    mapped as ``{Sample} / 4`` s). Returns every row's true time [s].
+    """
+    rng = np.random.default_rng(4)
+    t, speed, torque, pe, *_ = _signals(german_setpoints()[:4], 30.0, 4.0, rng,
+                                        noise=(1.0, 0.15, 6.0))
+    keep = np.arange(t.size) % 7 != 3
+    t, speed, torque, pe = t[keep], speed[keep], torque[keep], pe[keep]
+    stamp = np.floor(t)
+    count = (np.round((t - stamp) * 4) if form == "stamp_plus_counter"
+             else np.round(t * 4)).astype(int)
+    rows = ["Time [hh:mm:ss],Sample,Speed [rpm],Torque [Nm],Power [W]"]
+    rows += [f"10:{int(x) // 60:02d}:{int(x) % 60:02d},{c},{s:.2f},{q:.3f},{p:.1f}"
+             for x, c, s, q, p in zip(stamp, count, speed, torque, pe, strict=True)]
+    folder = root / sid
+    folder.mkdir(parents=True)
+    (folder / "log.csv").write_text("\n".join(rows) + "\n")
+    _session_toml(folder, sid, "1", (3000.0, 100.0, 15000.0))
+    (folder / "mapping.toml").write_text(
+        '[log.columns.sample_counter]\ncolumn = "Sample"\nrate_hz = 4\n'
+        if form == "stamp_plus_counter" else
+        '[log.columns.time]\nexpr = "{Sample} / 4"\nunit = "s"\n')
+    return t

@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 import statsmodels.api as sm
 from ingest_fixtures import make_timeseries_session
-from stream_fixtures import make_german_logger
+from stream_fixtures import cut_analyzer, cut_daq, make_counted_log, make_german_logger
 
 from bench.ingest.align import drift_line
 from bench.ingest.pipeline import ingest
@@ -139,3 +139,98 @@ def test_a_duplicated_row_of_a_1hz_log_is_still_an_error(tmp_path, capsys):
     rc = main(["ingest", str(tmp_path / "c"), "--store", str(tmp_path / "s"), "--no-progress"])
     err = capsys.readouterr().err
     assert rc == 2 and "time repeats" in err and "log.csv:42" in err, err  # the second copy
+
+
+def test_holds_the_analyzer_did_not_record_are_rejected_windows(tmp_path):
+    # a 1 Hz logger and a 1 Hz analyzer; the analyzer starts late (its first 75 s, the
+    # first two holds and a bit, are cut off) and misses 50 s in the middle (holds 6-7)
+    setpoints = [(s, q) for s in (300.0, 600.0, 900.0, 1200.0) for q in (10.0, 30.0, 50.0, 70.0)]
+    truth = make_timeseries_session(tmp_path / "c", setpoints=setpoints, hold_s=30.0,
+                                    daq_hz=1.0, analyzer_hz=1.0, drift_ppm=0.0, markers=False)
+    cut = [(0.0, 75.0), (200.0, 250.0)]  # analyzer clock [s]
+    cut_analyzer(tmp_path / "c" / "motor_01" / "analyzer.csv", cut)
+    ingest([tmp_path / "c"], tmp_path / "store", progress=False)
+    pts, rej = _stored(tmp_path / "store", "motor_01")
+    missing = rej[rej["reason"].str.startswith("no analyzer samples from ")]
+    # the truth: holds k span [step_k, step_k+1) on the DAQ clock; the analyzer's clock
+    # is offset by truth.offset_s
+    steps = list(truth.step_times_s) + [truth.step_times_s[-1] + 30.0]
+    gaps = [(a + truth.offset_s, b + truth.offset_s) for a, b in cut]
+    fully_unrecorded = []
+    for k in range(len(setpoints)):
+        lo, hi = steps[k] + 3.0, steps[k + 1] - 1.0  # the hold without its transitions
+        unrecorded = [(max(lo, a), min(hi, b)) for a, b in gaps if min(hi, b) - max(lo, a) > 2]
+        point = ((pts["t_start_s"] < hi) & (pts["t_end_s"] > lo)).sum()
+        if point:  # a setpoint recorded in part is that part's point, and one only
+            assert point == 1, k
+            continue
+        assert unrecorded, k  # recorded holds are points, as before
+        fully_unrecorded.append(k)
+        for a, b in unrecorded:  # the setpoint is a rejected window, with its reason
+            mine = missing[(missing["t_start_s"] <= a + 3.0) & (missing["t_end_s"] >= b - 3.0)]
+            assert len(mine) == 1, (k, a, b, missing)
+            r = mine.iloc[0]
+            assert r["reason"] == (f"no analyzer samples from {r['t_start_s']:.1f} to "
+                                   f"{r['t_end_s']:.1f} s")
+    # holds 0 and 1 lie before the analyzer's record, hold 7 in its gap (hold 6 keeps the
+    # 4 s the analyzer recorded before its gap as a point)
+    assert fully_unrecorded == [0, 1, 7]
+    # no window claims an unrecorded stretch (beyond one record's 1 s averaging
+    # interval), and the accounting counts them
+    for a, b in gaps:
+        assert not ((pts["t_start_s"] < b - 1.0) & (pts["t_end_s"] > a + 1.0)).any()
+    e = json.loads((tmp_path / "store" / "manifest.json").read_text())["sessions"]["motor_01"]
+    assert sum(n for r, n in e["rejected"].items()
+               if r.startswith("no analyzer samples")) == len(missing) == 3
+
+
+def test_holds_the_logger_did_not_log_are_rejected_windows(tmp_path):
+    # the other way round: the analyzer records throughout, the 1 Hz DAQ misses 100 s
+    # (holds 6, 7 and 8 whole, the end of hold 5 and the start of hold 9)
+    setpoints = [(s, q) for s in (300.0, 600.0, 900.0, 1200.0) for q in (10.0, 30.0, 50.0, 70.0)]
+    truth = make_timeseries_session(tmp_path / "c", setpoints=setpoints, hold_s=30.0,
+                                    daq_hz=1.0, analyzer_hz=1.0, drift_ppm=0.0, markers=False)
+    cut_daq(tmp_path / "c" / "motor_01" / "daq.csv", [(190.0, 290.0)])
+    ingest([tmp_path / "c"], tmp_path / "store", progress=False)
+    pts, rej = _stored(tmp_path / "store", "motor_01")
+    unlogged = rej[rej["reason"].str.startswith("no logger samples from ")]
+    steps = list(truth.step_times_s) + [truth.step_times_s[-1] + 30.0]
+    for k in (6, 7, 8):  # each unlogged hold is one rejected window, with its reason
+        lo, hi = steps[k] + 3.0, steps[k + 1] - 1.0
+        mine = unlogged[(unlogged["t_start_s"] <= lo) & (unlogged["t_end_s"] >= hi)]
+        assert len(mine) == 1, (k, unlogged)
+        r = mine.iloc[0]
+        assert r["reason"] == (f"no logger samples from {r['t_start_s']:.1f} to "
+                               f"{r['t_end_s']:.1f} s")
+        assert steps[k] - 1.0 <= r["t_start_s"] and r["t_end_s"] <= steps[k + 1] + 1.0
+    assert len(unlogged) == 3  # holds 5 and 9 are points where the DAQ logged them
+    assert len(pts) == len(setpoints) - 3
+    e = json.loads((tmp_path / "store" / "manifest.json").read_text())["sessions"]["motor_01"]
+    assert sum(n for r, n in e["rejected"].items() if r.startswith("no logger samples")) == 3
+
+
+@pytest.mark.parametrize("form", ["stamp_plus_counter", "counter_alone"])
+def test_a_sample_counter_places_rows_of_repeated_stamps(tmp_path, form):
+    # a 4 Hz logger stamping whole seconds that drops every 7th row: a stamp then holds
+    # 3 rows whose places an even spread cannot know; its sample counter (the row within
+    # the stamp, or a running count) gives them
+    t = make_counted_log(tmp_path / "c", form)
+    ingest([tmp_path / "c"], tmp_path / "store", progress=False)
+    samples = pd.read_parquet(kind_files(tmp_path / "store", "samples")["counted"])
+    # the truth: each row's own time since the first row, exactly (quarter seconds)
+    np.testing.assert_allclose(np.sort(samples["time_s"].to_numpy()), t - t[0], atol=1e-9)
+    e = json.loads((tmp_path / "store" / "manifest.json").read_text())["sessions"]["counted"]
+    assert "stamp_rows_spread" not in e["timing"]
+    assert e["timing"]["sample_interval_s"] == pytest.approx(0.25)
+    pts, _ = _stored(tmp_path / "store", "counted")
+    assert len(pts) == 4
+
+
+def test_a_bad_sample_counter_entry_names_what_it_needs(tmp_path):
+    from bench.errors import InputError
+    from bench.ingest.mapping import load_mapping
+
+    path = tmp_path / "mapping.toml"
+    path.write_text('[log.columns.sample_counter]\ncolumn = "Sample"\n')
+    with pytest.raises(InputError, match="positive 'rate_hz'"):
+        load_mapping(path)

@@ -518,6 +518,31 @@ def test_a_solver_crash_in_an_optimize_sweep_is_reported_as_sizing_and_refine_re
     assert json.loads((out / "manifest.json").read_text())["failed"] == ["elec-lim-5.5"]
 
 
+class DeadWorkerBackend(NewtonBackend):
+    """A backend whose worker dies before any solve (the NLP cannot be built)."""
+
+    def build(self, problem: Problem) -> str:
+        raise RuntimeError("worker died")
+
+
+def test_a_dead_worker_fails_its_chain_the_same_way_in_a_sweep_and_in_solve_tasks():
+    from optimize.service import SolveTask, solve_tasks
+
+    status = "worker error: RuntimeError: worker died"
+    tasks = make_tasks(plan_chains(WINDS, ("elec-lim", "mech-lim"), 2), PROBLEM,
+                       cut_in_kinds=("elec-lim",), backend=DeadWorkerBackend())
+    with ThreadPoolExecutor(2) as ex:
+        handle = ExecutorHandle(ex, QueueChannel(), "threads", 2)
+        result = run_sweep(tasks, handle, show_progress=False)
+        records = solve_tasks([SolveTask(PROBLEM, "elec-lim", w) for w in WINDS], handle=handle,
+                              backend=DeadWorkerBackend())
+    # nothing dropped: every planned scenario and the cut-in search report the chain's death
+    assert len(result.outcomes) == 10 and {o.status for o in result.outcomes} == {status}
+    assert [c.status for c in result.cut_ins] == [status]
+    assert [r["wind_speed_m_s"] for r in records] == list(WINDS)
+    assert {r["status"] for r in records} == {status} and not any(r["success"] for r in records)
+
+
 # ----------------------------------------------------------------- local optima
 @dataclass(frozen=True)
 class BranchResult(Result):

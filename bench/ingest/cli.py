@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from bench.ingest.pipeline import ingest
+from bench.ingest.pipeline import to_stderr
 from bench.ingest.summary import format_summary
 
 
@@ -30,10 +30,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Ingest, then print the summary table; InputError propagates to the dispatcher."""
-    result = ingest(args.paths, args.store, mapping_path=args.mapping,
-                    progress=not args.no_progress, workers=args.workers,
-                    strict=args.strict, wait=not args.no_wait, replace=not args.no_replace)
+    """Ingest (:func:`drivebench.api.ingest`), then print the summary table; InputError
+    propagates to the dispatcher."""
+    from drivebench.api import ingest
+
+    result = ingest(args.paths, args.store, mapping=args.mapping,
+                    progress=not args.no_progress, workers=args.workers, strict=args.strict,
+                    wait=not args.no_wait, replace=not args.no_replace, notify=to_stderr).run
     print(format_summary(result.ingested, result.unchanged, result.manifest,
                          result.repaired))
     print(f"store: {result.store_dir}")

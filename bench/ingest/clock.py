@@ -20,7 +20,9 @@ repeats each stamp: the rows of one stamp are spread evenly over that second (ro
 ``j`` of a stamp at ``+ j / n``, ``n`` the rows per stamp of the first chunk, at
 most ``j / (j + 1)`` so the time stays inside the second) and ``spread_rows`` says
 how many per stamp were found. When the first chunk's median is one row per stamp, a
-repeated stamp is a duplicated row and stays an error.
+repeated stamp is a duplicated row and stays an error. A stream whose mapping names a
+sample counter (``sample_counter``, :mod:`mapping`) is not spread: the reader adds
+counter / rate to each stamp.
 """
 
 from __future__ import annotations
@@ -86,6 +88,9 @@ class ClockParser:
     day : datetime.date or None
         The date of a time-of-day column (the session's ``date``); None leaves
         ``start`` without a date (1900-01-01).
+    spread : bool
+        Spread the rows of repeated whole-second stamps within their second (off
+        when a sample counter places them).
 
     Attributes
     ----------
@@ -93,9 +98,10 @@ class ClockParser:
         Wall time of the first valid sample (time 0), once seen.
     """
 
-    def __init__(self, unit: str, day: date | None = None) -> None:
+    def __init__(self, unit: str, day: date | None = None, spread: bool = True) -> None:
         self.unit = unit
         self.day = day
+        self.spread = spread
         self.start: datetime | None = None
         self._base: float | None = None  # first valid raw value [s]
         self._days = 0  # midnight rollovers so far
@@ -127,7 +133,9 @@ class ClockParser:
             days = self._days + np.cumsum(back)
             v = v + 86400.0 * days
             self._days = int(days[-1])
-        raw[ok] = self._spread(v)
+        raw[ok] = self._spread(v) if self.spread else v
+        if not self.spread:
+            self._last = float(v[-1])
         return raw - self._base
 
     def _spread(self, v: np.ndarray) -> np.ndarray:

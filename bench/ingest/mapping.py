@@ -28,10 +28,14 @@ SECTION_QUANTITIES: dict[str, tuple[str, ...]] = {
         "speed", "torque", "p_elec", "p_mech",
         "speed_std", "torque_std", "p_elec_std", "p_mech_std", "n_samples",
     ),
-    "daq": ("time", "speed", "torque"),
-    "analyzer": ("time", "p_elec"),
-    "log": ("time", "speed", "torque", "p_elec", "p_mech"),
+    "daq": ("time", "speed", "torque", "sample_counter"),
+    "analyzer": ("time", "p_elec", "sample_counter"),
+    "log": ("time", "speed", "torque", "p_elec", "p_mech", "sample_counter"),
 }
+
+#: a stream's optional sample counter: ``column`` and ``rate_hz``; the time is the
+#: stamp plus counter / rate_hz (the counter numbers the rows within a stamp)
+COUNTER = "sample_counter"
 
 #: the sections written as ``[<name>.columns.*]`` (points use top-level ``[columns.*]``)
 STREAM_SECTIONS = ("daq", "analyzer", "log")
@@ -73,11 +77,14 @@ class ColumnSpec:
         unit table; ``""`` for counts).
     formula : expr.Node or None
         The parsed combination; None for a single column.
+    rate_hz : float or None
+        The rows per second a ``sample_counter`` counts [Hz] (None otherwise).
     """
 
     column: str
     unit: str
     formula: expr.Node | None = None
+    rate_hz: float | None = None
 
 
 @dataclass(frozen=True)
@@ -177,6 +184,9 @@ def _parse_columns(path: Path, where: str, table: object, section: str) -> dict[
                 path, f"unknown quantity [{key}]",
                 expected="one of " + ", ".join(SECTION_QUANTITIES[section]),
             )
+        if quantity == COUNTER:
+            out[quantity] = _parse_counter(path, key, entry)
+            continue
         sources = set(entry) & {"column", "sum", "expr"} if isinstance(entry, dict) else set()
         if (not isinstance(entry, dict) or len(sources) != 1
                 or set(entry) != sources | {"unit"}):
@@ -197,6 +207,19 @@ def _parse_columns(path: Path, where: str, table: object, section: str) -> dict[
             )
         out[quantity] = spec
     return out
+
+
+def _parse_counter(path: Path, key: str, entry: object) -> ColumnSpec:
+    """``[<section>.columns.sample_counter]``: ``column`` and ``rate_hz`` (rows per second)."""
+    rate = entry.get("rate_hz") if isinstance(entry, dict) else None
+    if (not isinstance(entry, dict) or set(entry) != {"column", "rate_hz"}
+            or not isinstance(entry["column"], str) or not entry["column"].strip()
+            or isinstance(rate, bool) or not isinstance(rate, int | float)
+            or not (0 < rate < float("inf"))):
+        raise InputError(path, f"[{key}] must have a 'column' and a positive 'rate_hz'",
+                         column=key, expected='column = "Sample", rate_hz = 4.0 (the '
+                         "sample rate of the rows the counter numbers within a time stamp)")
+    return ColumnSpec(entry["column"], f"1/{float(rate):g} s", rate_hz=float(rate))
 
 
 def _parse_source(path: Path, key: str, how: str, entry: dict, unit: str) -> ColumnSpec:
@@ -349,7 +372,8 @@ def resolve_columns(
     for quantity, spec in mapping.section(section).items():
         if quantity not in required + optional:
             continue
-        factor = 1.0 if quantity == "n_samples" else unit_factor(QUANTITY_KIND[quantity], spec.unit)
+        factor = (1.0 if quantity == "n_samples" else 1.0 / spec.rate_hz if quantity == COUNTER
+                  else unit_factor(QUANTITY_KIND[quantity], spec.unit))
         names = ([c.name for c in expr.columns(spec.formula)] if spec.formula is not None
                  else [spec.column])
         sources = []

@@ -71,7 +71,7 @@ class IngestResult:
     repaired: dict[str, list[str]] = field(default_factory=dict)
 
 
-def _stderr(line: str) -> None:
+def to_stderr(line: str) -> None:
     print(line, file=sys.stderr, flush=True)
 
 
@@ -122,7 +122,7 @@ def ingest(
     strict: bool = False,
     wait: bool = True,
     replace: bool = True,
-    notify: Callable[[str], None] = _stderr,
+    notify: Callable[[str], None] = to_stderr,
 ) -> IngestResult:
     """Ingest every session under ``paths`` into the store at ``store_dir``.
 

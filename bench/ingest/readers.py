@@ -28,6 +28,7 @@ import pyarrow.csv as pacsv
 from bench.errors import InputError
 from bench.ingest import clock
 from bench.ingest.mapping import (
+    COUNTER,
     EMPTY_MAPPING,
     Mapping,
     ResolvedColumn,
@@ -307,17 +308,17 @@ def _locate_bad_row(
 
 def clock_parsers(layout: CsvLayout, cols: dict[str, ResolvedColumn],
                   day=None) -> dict[str, clock.ClockParser]:
-    """A :class:`clock.ClockParser` for each column that holds clock times (its unit names a
-    clock format, or its first cells are clock times)."""
-    out = {}
-    for q, r in cols.items():
-        if r.formula is not None:
-            continue
-        fmt = clock.normalise_unit(r.unit) or clock.detect(
-            [row[r.index] for row in layout.samples if r.index < len(row)])
-        if fmt is not None:
-            out[q] = clock.ClockParser(fmt, day)
-    return out
+    """A :class:`clock.ClockParser` for the time column when it holds clock times (its unit
+    names a clock format, or its first cells are clock times); with a sample counter
+    mapped, repeated stamps are not spread (the counter places the rows)."""
+    r = cols["time"]
+    if r.formula is not None:
+        return {}
+    fmt = clock.normalise_unit(r.unit) or clock.detect(
+        [row[r.index] for row in layout.samples if r.index < len(row)])
+    if fmt is None:
+        return {}
+    return {"time": clock.ClockParser(fmt, day, spread=COUNTER not in cols)}
 
 
 def iter_csv(
@@ -405,7 +406,9 @@ def iter_csv(
                 except ValueError as exc:
                     raise _bad_clock_cell(layout, cells, parse.unit, _line_at(layout, offset),
                                           cols[q].header) from exc
-            values = {q: values[q] for q in cols}
+            if COUNTER in values:  # the stamp plus the row's place within it
+                values["time"] = values["time"] + values.pop(COUNTER)
+            values = {q: values[q] for q in cols if q != COUNTER}
             del table
             if values and next(iter(values.values())).size:
                 yield Chunk(row0=row0, values=values, nbytes=end)
@@ -538,9 +541,10 @@ def open_daq_csv(
     layout = sniff_csv(path, skip_lines=mapping.skip(section))
     cols = resolve_columns(
         layout.path, layout.headers, layout.units_with_clock(), section,
-        required=required, optional=optional, mapping=mapping, header_line=layout.header_line,
+        required=required, optional=optional + (COUNTER,), mapping=mapping,
+        header_line=layout.header_line,
     )
-    clocks = clock_parsers(layout, {"time": cols["time"]}, day)
+    clocks = clock_parsers(layout, cols, day)
     meta = {
         "format": "csv", "separator": layout.sep, "decimal": layout.decimal,
         "encoding": layout.encoding, "columns": csv_columns_meta(cols),
@@ -671,9 +675,10 @@ def read_analyzer(
     layout = sniff_csv(path, preamble=True, skip_lines=mapping.skip("analyzer"))
     cols = resolve_columns(
         layout.path, layout.headers, layout.units_with_clock(), "analyzer",
-        required=("time", "p_elec"), mapping=mapping, header_line=layout.header_line,
+        required=("time", "p_elec"), optional=(COUNTER,), mapping=mapping,
+        header_line=layout.header_line,
     )
-    clocks = clock_parsers(layout, {"time": cols["time"]}, day)
+    clocks = clock_parsers(layout, cols, day)
     data = _read_all(layout, cols, clocks)
     pre = {k.strip(): v.strip() for k, v in layout.preamble.items()}
     start = None

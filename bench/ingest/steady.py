@@ -40,7 +40,10 @@ in the time axis or a run of invalid samples longer than
    replacing the ``too short`` pieces inside it (when it passes, the pieces stand).
    This catches a hold whose scatter exceeds the session's noise so much that step
    2 breaks it up (a slow logger's bins are single samples). Rejected windows that
-   touch and share their reason are one window.
+   touch and share their reason are one window. A hold where the DAQ logs but the
+   power analyzer has no samples (before its record begins, after it ends, in a gap
+   of it) is found by :func:`held_runs` and rejected by the caller with that reason,
+   unless the same setpoint is a point where the analyzer recorded it.
 
 Long sessions are handled in blocks of :data:`BLOCK_BINS`, each cut at a moving
 bin, so the result equals the whole-series one while memory stays bounded.
@@ -293,6 +296,32 @@ def _block_windows(moving, speed, torque, p_elec, valid, cuts, usable, tol, conf
     return accepted, _merge_abutting(sorted(rejected))
 
 
+def held_runs(signals: dict[str, np.ndarray], free: np.ndarray, breaks: np.ndarray,
+              tol: dict[str, float], config: SteadyConfig,
+              points: list[tuple[int, int]] = ()) -> list[tuple[int, int]]:
+    """Stretches of held setpoint among the bins ``free``, as ``(start, stop)`` bins.
+
+    Used for the bins the power analyzer did not record while the DAQ logs a hold, and
+    for the analyzer's records where the DAQ logged nothing (``signals`` its power).
+    The series are cut where a signal steps (the moving test of step 2 on each of
+    ``signals``, tolerances ``tol``) and at ``breaks`` (a gap's empty bins); a still
+    run of ``free`` bins is a hold as in step 6 (its transitions trimmed, first and
+    last quarter agree) when it is at least ``min_window_s`` long. A stretch whose
+    setpoint (the still run around it, ``free`` or not) holds one of ``points`` (the
+    accepted windows) is that point's, not a rejected window.
+    """
+    lag = max(1, _bins(config.step_lag_s, config.bin_s))
+    moving = breaks.copy()
+    for k, x in signals.items():
+        moving |= _moving(x, lag, config.k_step * tol[k])
+    stretches = _held_stretches(free & ~moving, [], [], signals, tol,
+                                max(1, _bins(config.min_window_s, config.bin_s)),
+                                config.k_step)
+    run = np.cumsum(moving)  # one id per still run between moving bins
+    taken = {int(run[i]) for a, b in points for i in (a, b - 1) if not moving[i]}
+    return [(i, j) for i, j in stretches if int(run[i]) not in taken]
+
+
 def _merge_abutting(rejected: list[tuple[int, int, str]]) -> list[tuple[int, int, str]]:
     """One window for rejected windows that touch and share their reason (sorted input)."""
     out: list[tuple[int, int, str]] = []
@@ -327,7 +356,7 @@ def _held_stretches(free, accepted, rejected, signals: dict[str, np.ndarray], to
         if j - i < min_bins:
             continue
         off = np.zeros(j - i, bool)
-        for k in ("speed", "torque"):
+        for k in signals:
             x = signals[k][i:j]
             off |= np.abs(x - np.nanmedian(x)) > k_step * tol[k]  # NaN (empty bin): not off
         on = np.flatnonzero(~off)
@@ -337,7 +366,7 @@ def _held_stretches(free, accepted, rejected, signals: dict[str, np.ndarray], to
         q = max((j - i) // 4, 1)
         with np.errstate(invalid="ignore"):
             held = all(abs(np.nanmedian(signals[k][i:i + q]) - np.nanmedian(signals[k][j - q:j]))
-                       <= k_step * tol[k] for k in ("speed", "torque"))
+                       <= k_step * tol[k] for k in signals)
         if j - i >= min_bins and held:
             out.append((int(i), int(j)))
     return out

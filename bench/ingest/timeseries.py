@@ -428,16 +428,29 @@ def process_timeseries(
         del a_mid
         fin = np.flatnonzero(np.isfinite(a_p))
         p_elec_bins = np.interp(centres, a_t[fin], a_p[fin], left=np.nan, right=np.nan)
-        usable = (centres >= a_t[fin[0]]) & (centres <= a_t[fin[-1]])
+        usable = recorded_bins(centres, a_t[fin], interval * config.gap_factor)
         del fin
     check_torque_sign(session, means["p_mech"], p_elec_bins, daq.path)
     del centres
-    if zero is not None:
-        usable &= t0 + np.arange(n_bins) * dt >= zero.t_motion_s  # the tare is no window
+    recorded = usable
+    # the tare is no window
+    after_tare = (t0 + np.arange(n_bins) * dt >= zero.t_motion_s if zero is not None
+                  else np.ones(n_bins, bool))
+    usable = recorded & after_tare
     win = steady.find_windows(means["speed"], means["torque"], p_elec_bins, means["valid_frac"],
                               ranges, config, usable=usable, cuts=means["cuts"])
     win = _screen_windows(win, means, p_elec_bins, sources, session, daq.path,
                           tare_finder.limit_rpm)
+    if not recorded.all():  # held setpoints the analyzer did not record: rejected, said
+        gap = means["cuts"] & ~(means["valid_frac"] > 0)
+        holds = steady.held_runs({"speed": means["speed"], "torque": means["torque"]},
+                                 ~recorded & after_tare & ~gap, gap, win.tolerances, config,
+                                 points=win.accepted)
+        win = replace(win, rejected=sorted(win.rejected + [
+            (a, b, f"no analyzer samples from {t0 + a * dt:.1f} to {t0 + b * dt:.1f} s")
+            for a, b in holds]))
+    unlogged = [] if single else _unlogged_holds(
+        a_t, a_p, interval, t0, dt, means["cuts"] & ~(means["valid_frac"] > 0), win, config)
     w_start = np.array([t0 + a * dt for a, _ in win.accepted])
     w_end = np.array([t0 + b * dt for _, b in win.accepted])
 
@@ -481,7 +494,8 @@ def process_timeseries(
     if not session.signed_torque:
         check_drum_torque(session, points.column("torque_nm").to_numpy(),
                           win.tolerances["torque"], daq.path)
-    rejected = rejected_table(sid, [(t0 + a * dt, t0 + b * dt, r) for a, b, r in win.rejected])
+    rejected = rejected_table(sid, sorted(
+        [(t0 + a * dt, t0 + b * dt, r) for a, b, r in win.rejected] + unlogged))
     instruments = {"log": daq.metadata} if single else {"daq": daq.metadata, "analyzer": ameta}
     info = {
         "clock_offset_s": None if clock is None else round(clock.offset_s, 6),
@@ -510,6 +524,47 @@ def process_timeseries(
         info["no_points_note"] = steady.why_no_windows(
             win, float(np.sum(usable)) * dt, timing["duration_s"], dt, config)
     return SessionOutput(points=points, rejected=rejected, samples_path=samples_path, info=info)
+
+
+def _unlogged_holds(a_t: np.ndarray, a_p: np.ndarray, interval: float, t0: float, dt: float,
+                    gap: np.ndarray, win: steady.Windows,
+                    config: steady.SteadyConfig) -> list[tuple[float, float, str]]:
+    """Holds of the analyzer's power where the DAQ logged nothing (before its first sample,
+    after its last, in a gap of it): rejected windows ``(t_start, t_end, reason)`` [s].
+
+    ``a_t``, ``a_p``: the analyzer's record (middles of its intervals on the DAQ clock
+    [s], power [W]); ``gap``: the DAQ bins of a gap. A hold of power
+    (:func:`steady.held_runs` on the records, the power tolerance of ``win``) that
+    continues an accepted window's setpoint is that point's.
+    """
+    n_bins = gap.size
+    b = np.floor((a_t - t0) / dt).astype(np.int64)
+    unlogged = (b < 0) | (b >= n_bins) | gap[np.clip(b, 0, n_bins - 1)]
+    if not unlogged.any():
+        return []
+    k = np.searchsorted(a_t, t0 + np.array(win.accepted, float).reshape(-1, 2) * dt)
+    points = [(int(i), int(j)) for i, j in np.clip(k, 0, a_t.size) if j > i]
+    holds = steady.held_runs({"power": a_p}, unlogged & np.isfinite(a_p),
+                             np.zeros(a_t.size, bool), {"power": win.tolerances["power"]},
+                             replace(config, bin_s=interval), points=points)
+    return [(float(a_t[i] - interval / 2), float(a_t[j - 1] + interval / 2),
+             f"no logger samples from {a_t[i] - interval / 2:.1f} to "
+             f"{a_t[j - 1] + interval / 2:.1f} s") for i, j in holds]
+
+
+def recorded_bins(centres: np.ndarray, t_records: np.ndarray, max_step_s: float) -> np.ndarray:
+    """Bins the power analyzer recorded: inside its record and not in a gap of it.
+
+    ``t_records``: the analyzer's valid sample times on the DAQ clock (ascending) [s];
+    a bin centre between two records more than ``max_step_s`` apart (a gap) or
+    outside the first and last record is not recorded.
+    """
+    k = np.searchsorted(t_records, centres)
+    inside = (k > 0) & (k < t_records.size)
+    kk = np.clip(k, 1, max(t_records.size - 1, 1))
+    step = t_records[kk] - t_records[kk - 1]
+    on = np.isin(centres, t_records)
+    return (inside & (step <= max_step_s)) | on
 
 
 def fold_signed(speed_rpm: np.ndarray, torque_nm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

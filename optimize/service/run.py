@@ -40,7 +40,9 @@ def failed_chain(task: ChainTask, exc: BaseException) -> ChainOutcome:
     outcomes = tuple(ScenarioOutcome(s.name, s.kind, s.wind_speed_m_s, task.index,
                                      (Attempt(s.warm_from, status, False, 0, 0.0),), None)
                      for s in task.steps)
-    records = tuple({**dict(task.tag), "key": solve_key(task.problem, s.kind, s.wind_speed_m_s),
+    records = tuple({**dict(task.tag),
+                     "key": (solve_key(task.problem, s.kind, s.wind_speed_m_s)
+                             if task.store is not None else None),
                      "kind": s.kind, "wind_speed_m_s": s.wind_speed_m_s, "role": "grid",
                      "success": False, "status": status, "cached": False}
                     for s in sorted(task.steps, key=lambda s: s.wind_speed_m_s))

@@ -1,1 +1,2 @@
-"""Sweeps of many scenarios: plan, warm-start chains, executors, trust checks, files."""
+"""Sweeps of many scenarios: plan (warm-start chains, run by :mod:`optimize.service`),
+executors, trust checks, files."""
