@@ -151,7 +151,7 @@ def test_holds_the_analyzer_did_not_record_are_rejected_windows(tmp_path):
     cut_analyzer(tmp_path / "c" / "motor_01" / "analyzer.csv", cut)
     ingest([tmp_path / "c"], tmp_path / "store", progress=False)
     pts, rej = _stored(tmp_path / "store", "motor_01")
-    missing = rej[rej["reason"].str.startswith("no analyzer samples from ")]
+    missing = rej[rej["reason"] == "no analyzer samples"]
     # the truth: holds k span [step_k, step_k+1) on the DAQ clock; the analyzer's clock
     # is offset by truth.offset_s
     steps = list(truth.step_times_s) + [truth.step_times_s[-1] + 30.0]
@@ -169,9 +169,6 @@ def test_holds_the_analyzer_did_not_record_are_rejected_windows(tmp_path):
         for a, b in unrecorded:  # the setpoint is a rejected window, with its reason
             mine = missing[(missing["t_start_s"] <= a + 3.0) & (missing["t_end_s"] >= b - 3.0)]
             assert len(mine) == 1, (k, a, b, missing)
-            r = mine.iloc[0]
-            assert r["reason"] == (f"no analyzer samples from {r['t_start_s']:.1f} to "
-                                   f"{r['t_end_s']:.1f} s")
     # holds 0 and 1 lie before the analyzer's record, hold 7 in its gap (hold 6 keeps the
     # 4 s the analyzer recorded before its gap as a point)
     assert fully_unrecorded == [0, 1, 7]
@@ -180,8 +177,8 @@ def test_holds_the_analyzer_did_not_record_are_rejected_windows(tmp_path):
     for a, b in gaps:
         assert not ((pts["t_start_s"] < b - 1.0) & (pts["t_end_s"] > a + 1.0)).any()
     e = json.loads((tmp_path / "store" / "manifest.json").read_text())["sessions"]["motor_01"]
-    assert sum(n for r, n in e["rejected"].items()
-               if r.startswith("no analyzer samples")) == len(missing) == 3
+    # one reason, counted together (the window's times are its t_start_s, t_end_s)
+    assert e["rejected"]["no analyzer samples"] == len(missing) == 3
 
 
 def test_holds_the_logger_did_not_log_are_rejected_windows(tmp_path):
@@ -193,20 +190,18 @@ def test_holds_the_logger_did_not_log_are_rejected_windows(tmp_path):
     cut_daq(tmp_path / "c" / "motor_01" / "daq.csv", [(190.0, 290.0)])
     ingest([tmp_path / "c"], tmp_path / "store", progress=False)
     pts, rej = _stored(tmp_path / "store", "motor_01")
-    unlogged = rej[rej["reason"].str.startswith("no logger samples from ")]
+    unlogged = rej[rej["reason"] == "no logger samples"]
     steps = list(truth.step_times_s) + [truth.step_times_s[-1] + 30.0]
     for k in (6, 7, 8):  # each unlogged hold is one rejected window, with its reason
         lo, hi = steps[k] + 3.0, steps[k + 1] - 1.0
         mine = unlogged[(unlogged["t_start_s"] <= lo) & (unlogged["t_end_s"] >= hi)]
         assert len(mine) == 1, (k, unlogged)
         r = mine.iloc[0]
-        assert r["reason"] == (f"no logger samples from {r['t_start_s']:.1f} to "
-                               f"{r['t_end_s']:.1f} s")
         assert steps[k] - 1.0 <= r["t_start_s"] and r["t_end_s"] <= steps[k + 1] + 1.0
     assert len(unlogged) == 3  # holds 5 and 9 are points where the DAQ logged them
     assert len(pts) == len(setpoints) - 3
     e = json.loads((tmp_path / "store" / "manifest.json").read_text())["sessions"]["motor_01"]
-    assert sum(n for r, n in e["rejected"].items() if r.startswith("no logger samples")) == 3
+    assert e["rejected"]["no logger samples"] == 3
 
 
 @pytest.mark.parametrize("form", ["stamp_plus_counter", "counter_alone"])

@@ -447,8 +447,7 @@ def process_timeseries(
                                  ~recorded & after_tare & ~gap, gap, win.tolerances, config,
                                  points=win.accepted)
         win = replace(win, rejected=sorted(win.rejected + [
-            (a, b, f"no analyzer samples from {t0 + a * dt:.1f} to {t0 + b * dt:.1f} s")
-            for a, b in holds]))
+            (a, b, "no analyzer samples") for a, b in holds]))
     unlogged = [] if single else _unlogged_holds(
         a_t, a_p, interval, t0, dt, means["cuts"] & ~(means["valid_frac"] > 0), win, config)
     w_start = np.array([t0 + a * dt for a, _ in win.accepted])
@@ -547,9 +546,8 @@ def _unlogged_holds(a_t: np.ndarray, a_p: np.ndarray, interval: float, t0: float
     holds = steady.held_runs({"power": a_p}, unlogged & np.isfinite(a_p),
                              np.zeros(a_t.size, bool), {"power": win.tolerances["power"]},
                              replace(config, bin_s=interval), points=points)
-    return [(float(a_t[i] - interval / 2), float(a_t[j - 1] + interval / 2),
-             f"no logger samples from {a_t[i] - interval / 2:.1f} to "
-             f"{a_t[j - 1] + interval / 2:.1f} s") for i, j in holds]
+    return [(float(a_t[i] - interval / 2), float(a_t[j - 1] + interval / 2), "no logger samples")
+            for i, j in holds]
 
 
 def recorded_bins(centres: np.ndarray, t_records: np.ndarray, max_step_s: float) -> np.ndarray:
