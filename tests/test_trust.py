@@ -129,3 +129,20 @@ def test_mesh_interpolation_is_exact_on_linear_states_and_interval_controls(ocp)
     # fine intervals 2k and 2k+1 lie inside coarse interval k
     np.testing.assert_array_equal(got["u"], np.repeat(u, 2, axis=1))
     assert not np.any(got["fict"])
+
+
+def test_mesh_check_reaches_the_fine_grids_own_optimum(coarse_ocp, coarse_elec_lim, paper_ocp,
+                                                        stored_guess_solve):
+    """The mesh check re-solves a coarse optimum (N = 10) on the 40-interval grid from
+    its interpolation; the fine optimum it reaches equals the one IPOPT reaches from the
+    shipped initial guess, an independent start on the same grid (0.05 W, 0.01 s)."""
+    from optimize.sweep.trust import mesh_check
+
+    assert coarse_elec_lim.success and stored_guess_solve.success
+    assert stored_guess_solve.scenario == coarse_elec_lim.scenario  # elec-lim at 7 m/s
+    check = mesh_check(coarse_ocp, paper_ocp, coarse_elec_lim.scenario, coarse_elec_lim)
+    assert check.success and check.route == "interpolated warm start", check
+    assert (check.n_intervals, check.n_intervals_fine) == (coarse_ocp.n_intervals, 40)
+    assert check.avg_p_elec_fine_w == pytest.approx(stored_guess_solve.avg_p_elec_w, abs=0.05)
+    assert check.avg_p_mech_fine_w == pytest.approx(stored_guess_solve.avg_p_mech_w, abs=0.05)
+    assert check.period_fine_s == pytest.approx(stored_guess_solve.period_s, abs=0.01)

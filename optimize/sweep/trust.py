@@ -33,6 +33,7 @@ from optimize.problem.formulation import PERIODIC_STATES
 from optimize.problem.ocp import Ocp, grid_times
 from optimize.problem.scenario import Scenario
 from optimize.service.problem import OcpBackend, Problem, problem_key
+from optimize.solve import backend
 from optimize.solve.homotopy import cold_start, power_weights
 from optimize.solve.result import OcpResult, Solution, make_result
 from optimize.sweep.executors import run_tasks
@@ -176,7 +177,8 @@ def mesh_check(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult) ->
     )
     bounds = fine.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
     p = fine.params(scenario.wind_speed_m_s, **power_weights(scenario))
-    raw = fine.run(w0, p, bounds, warm=True, lam_x0=lam_x0, lam_g0=np.zeros(len(bounds[2])))
+    raw = backend.run(fine, w0, p, bounds, warm=True, lam_x0=lam_x0,
+                      lam_g0=np.zeros(len(bounds[2])))
     stage = {
         "stage": "interpolated",
         "status": raw.status,
