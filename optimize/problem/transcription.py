@@ -26,14 +26,13 @@ the copies), so they have the same optima:
   stage.
 
 :attr:`Layout.rows` finds rows by name in either layout. In both, every Radau point's
-rows and integrands come from one :class:`PointFunction`; the ``"ipopt"`` layout
-also records where each point sits (:class:`PointBlocks`), so its derivatives are
-built once per point function rather than over the whole NLP.
+rows and integrands come from one :class:`PointFunction`, and each layout records
+where its points sit (:class:`PointBlocks`), so the derivatives are built once per
+point function rather than over the whole NLP.
 """
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -111,8 +110,8 @@ class Transcription:
     lbg: np.ndarray
     ubg: np.ndarray
     limited: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-    #: the per-point structure of the NLP (``None``: derive it from ``nlp`` whole)
-    blocks: PointBlocks | None = None
+    #: the per-point structure of the NLP (what its derivatives are built from)
+    blocks: PointBlocks
 
 
 class _Rows:
@@ -170,23 +169,19 @@ class PointFunction:
     """The rows and integrands of one Radau point as one CasADi function.
 
     ``function(v, wind, deriv) -> (rows, integrands)``: ``v`` is the point's slice of
-    the scaled decision vector, in :meth:`slice` order (period, state at the point,
-    control, algebraic variables, fictitious forces, then the ``d + 1`` states of the
-    interval; the point's own state appears twice), ``wind`` the reference wind
-    speed [m/s], ``deriv`` the point's column of :attr:`Collocation.deriv`. ``rows``
-    are the dynamics rows then the formulation's point rows (``templates`` gives
-    their names and bounds), ``integrands`` the values of :data:`INTEGRANDS`.
+    the scaled decision vector in this order: period, state at the point, control,
+    algebraic variables, fictitious forces, then the ``d + 1`` states of the interval
+    (the point's own state appears twice; :func:`_interval` lays it out), ``wind``
+    the reference wind speed [m/s], ``deriv`` the point's column of
+    :attr:`Collocation.deriv`. ``rows`` are the dynamics rows then the formulation's
+    point rows (``templates`` gives their names and bounds), ``integrands`` the values
+    of :data:`INTEGRANDS`.
     Every Radau point of both layouts is this one function, so its derivatives can
     be built once (:mod:`optimize.solve.derivatives`).
     """
 
     function: ca.Function
     templates: tuple[Row, ...]
-
-    @staticmethod
-    def slice(period: Any, x_point: Any, u: Any, z: Any, f: Any, xs: list) -> Any:
-        """Concatenate a point's variables in the order of ``v``."""
-        return ca.vertcat(period, x_point, u, z, f, *xs)
 
     def rows_of(self, out: Any) -> list[Row]:
         """The point's rows with the expressions ``out`` (one call's ``rows``)."""
@@ -256,15 +251,21 @@ def _interval(point: PointFunction, coll: Collocation, w: Any, i_period: int,
     return out
 
 
+def _torque_sq_share(coll: Collocation, n: int, j: int, s: Any) -> Any:
+    """Point ``j``'s (1-based) share of the average squared torque, from its integrands
+    ``s`` (:data:`INTEGRANDS`)."""
+    return coll.quad[j - 1] / n * s[2]
+
+
 def _add_integrands(sums: _Sums, coll: Collocation, n: int, j: int, s: Any) -> Any:
     """Add point ``j``'s (1-based) integrands ``s`` (:data:`INTEGRANDS`) to ``sums``;
     returns its share of the average squared torque."""
     q = coll.quad[j - 1] / n
     sums.p_elec += q * s[0]
     sums.p_mech += q * s[1]
-    sums.torque_sq += q * s[2]
+    sums.torque_sq += _torque_sq_share(coll, n, j, s)
     sums.fict += s[3] / (n * coll.degree)
-    return q * s[2]
+    return _torque_sq_share(coll, n, j, s)
 
 
 def _params(n_points: int) -> tuple[ca.SX, dict, int, np.ndarray]:
@@ -315,14 +316,14 @@ def _scale_w(form: Formulation, n_w: int, i_period: np.ndarray, i_x: np.ndarray,
     return scale_w
 
 
-def _finish(nlp: dict, layout: Layout, rows: _Rows, bounds: tuple[np.ndarray, ...]
-            ) -> Transcription:
+def _finish(nlp: dict, blocks: PointBlocks, layout: Layout, rows: _Rows,
+            bounds: tuple[np.ndarray, ...]) -> Transcription:
     lbw, ubw, lbw_lim, ubw_lim = (b / layout.scale_w for b in bounds)
     lbg, ubg = np.array(rows.lo), np.array(rows.hi)
     lbg_lim, ubg_lim = np.array(rows.lo_lim), np.array(rows.hi_lim)
     layout.equality = (lbg == ubg) & (lbg_lim == ubg_lim)
     return Transcription(nlp=nlp, layout=layout, lbw=lbw, ubw=ubw, lbg=lbg, ubg=ubg,
-                         limited=(lbw_lim, ubw_lim, lbg_lim, ubg_lim))
+                         limited=(lbw_lim, ubw_lim, lbg_lim, ubg_lim), blocks=blocks)
 
 
 def _nlp_and_blocks(w: Any, p: Any, f_s: Any, g_s: Any, s: Any, point: PointFunction,
@@ -395,8 +396,8 @@ def radau_collocation(form: Formulation, disc: Discretization, coll: Collocation
         i_f=i_f, scale_w=scale_w, n_w=n_w, n_g=rows.n, n_p=n_p, i_p_ref=i_p_ref,
         rows={name: np.array(idx, dtype=int) for name, idx in rows.index.items()},
     )
-    tr = _finish(nlp, layout, rows, _variable_bounds(form, n_w, i_period, i_x, i_z, i_u))
-    return dataclasses.replace(tr, blocks=blocks)
+    return _finish(nlp, blocks, layout, rows,
+                   _variable_bounds(form, n_w, i_period, i_x, i_z, i_u))
 
 
 def stagewise_collocation(form: Formulation, disc: Discretization, coll: Collocation
@@ -486,7 +487,7 @@ def stagewise_collocation(form: Formulation, disc: Discretization, coll: Colloca
                w[i_start[:, k + 1]] - w[i_start[:, k]]]
         if rms:
             gap.append(w[i_q[k + 1]] - w[i_q[k]] - dq)
-            q_running += sum(_add_integrands(_Sums(), coll, n, j, pt[2])
+            q_running += sum(_torque_sq_share(coll, n, j, pt[2])
                              for j, pt in enumerate(points, start=1))
             derived[int(i_q[k + 1])] = q_running
         rows.add(Row("continuity", ca.vertcat(*gap)))
@@ -526,5 +527,4 @@ def stagewise_collocation(form: Formulation, disc: Discretization, coll: Colloca
     if rms:
         for b in (lbw, ubw, lbw_lim, ubw_lim):
             b[i_q[0]] = 0.0
-    tr = _finish(nlp, layout, rows, (lbw, ubw, lbw_lim, ubw_lim))
-    return dataclasses.replace(tr, blocks=blocks)
+    return _finish(nlp, blocks, layout, rows, (lbw, ubw, lbw_lim, ubw_lim))

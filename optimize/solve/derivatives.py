@@ -79,12 +79,11 @@ class Derivatives:
 def nlp_derivatives(transcription: Any, solver: str = "ipopt") -> dict[str, ca.Function]:
     """The derivative functions of ``transcription.nlp`` in ``solver``'s format.
 
-    Point by point when the transcription has :attr:`blocks` and its sums are linear
-    in the integrands; the whole NLP at once otherwise.
+    Point by point (:attr:`blocks`) when the sums are linear in the integrands; the
+    whole NLP at once otherwise.
     """
     t0 = time.perf_counter()
-    blocks = transcription.blocks
-    out = _block_derivatives(transcription.nlp, blocks) if blocks is not None else None
+    out = _block_derivatives(transcription.nlp, transcription.blocks)
     how = "point by point"
     if out is None:
         out, how = whole_derivatives(transcription.nlp), "whole"
@@ -189,7 +188,8 @@ def _block_derivatives(nlp: dict, b: Any) -> Derivatives | None:
         return None
     rest_hess_fn = ca.Function("rest_hess", [w, p, s, lam_f, lam_g],
                                [ca.triu(ca.hessian(lag_rest, w)[0]), grad_s])
-    fg = ca.Function("fg", [w, p], [nlp["f"], g_all])
+    f_fn = ca.Function("f", [w, p], [nlp["f"]])
+    g_fn = ca.Function("g", [w, p], [g_all])
 
     # the assembly, in MX
     x_, p_ = ca.MX.sym("x", n_w), ca.MX.sym("p", n_p)
@@ -197,7 +197,7 @@ def _block_derivatives(nlp: dict, b: Any) -> Derivatives | None:
     V = ca.reshape(x_[[int(i) for i in b.vars.T.ravel()]], n_v, n_pts)
     wind_, D = p_[b.i_wind], ca.DM(b.deriv)
     s0 = ca.MX.zeros(n_s * n_pts)  # the rest's derivatives do not depend on s (checked)
-    f_, g_ = fg(x_, p_)
+    f_, g_ = f_fn(x_, p_), g_fn(x_, p_)
     jac_rest_w, jac_rest_s_, grad_w, grad_s_f = rest_fn(x_, p_, s0)
     jac_nz = ca.vec(jac_point(V, wind_, D))
     ds = _sum_into((n_s * n_pts, n_w), [(jac_nz, np.where(jr < 0, -1 - jr, -1), jc)])
