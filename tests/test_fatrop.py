@@ -100,23 +100,3 @@ def test_linear_solver_check_names_the_missing_library():
         backend.check_linear_solver("ma57")
     except ValueError as exc:  # no HSL here: the message says what IPOPT looked for
         assert "libhsl.so" in str(exc) and "LD_LIBRARY_PATH" in str(exc)
-
-
-@pytest.mark.parametrize(("argv", "words"), [
-    (["--linear-solver", "ma99"], "unknown IPOPT linear solver 'ma99'"),
-    (["--solver", "fatrop", "--linear-solver", "mumps"], "only IPOPT takes a linear solver"),
-])
-def test_optimize_refuses_a_linear_solver_it_cannot_use(tmp_path, capsys, monkeypatch, argv,
-                                                        words):
-    import optimize.command as command
-    from bench.cli import main
-
-    def no_solve(*a, **kw):
-        raise AssertionError("a solve started")
-
-    monkeypatch.setattr(command, "run_optimize", no_solve)
-    out = tmp_path / "opt"
-    rc = main(["optimize", "--out", str(out), *argv])
-    err = capsys.readouterr().err
-    assert rc == 2 and words in err, err
-    assert not out.exists()

@@ -295,6 +295,8 @@ def test_read_only_output_folder(tmp_path, capsys, monkeypatch, stage):
     (["--intervals", "300", "--trust"], "(--trust refines to twice as many)"),
     (["--wind-grid", "200"], "wind speed 200 m/s is outside the plausible 1 to 25 m/s"),
     (["--wind-grid", "4:30:2"], "wind speed 26 m/s is outside"),
+    (["--linear-solver", "ma99"], "unknown IPOPT linear solver 'ma99'"),
+    (["--solver", "fatrop", "--linear-solver", "mumps"], "only IPOPT takes a linear solver"),
 ])
 def test_optimize_bounds_before_any_solve(tmp_path, capsys, monkeypatch, argv, words):
     """Refused at once (was: no bound; 13 minutes of failing solves for 200 m/s)."""
