@@ -28,6 +28,20 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
+class _VersionAction(argparse.Action):
+    """``--version``: print :func:`bench.versions.version_text` and exit (the solver
+    versions are looked up only when asked for)."""
+
+    def __init__(self, option_strings, dest, **kwargs):
+        super().__init__(option_strings, dest, nargs=0, help=kwargs.get("help"))
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from bench.versions import version_text
+
+        print(version_text())
+        parser.exit()
+
+
 def _load(module_name: str):
     return importlib.import_module(module_name)
 
@@ -38,6 +52,8 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
         prog="bench",
         description="drivebench: from winch-drive bench logs to electrically optimal AWE cycles",
     )
+    parser.add_argument("--version", action=_VersionAction,
+                        help="print the versions of drivebench, CasADi and IPOPT and exit")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     wanted = next((a for a in (argv or []) if not a.startswith("-")), None)
     for name, (module_name, help_text) in SUBCOMMANDS.items():
@@ -53,6 +69,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(argv)
     args = parser.parse_args(argv)
+    args.command_line = ["bench", *argv]  # this stage's own, also when `bench run` calls it
     try:
         return int(_load(args._module).run(args) or 0)
     except InputError as exc:

@@ -222,7 +222,8 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
         "selection": {"chosen_by_selection": selection.chosen.name, "rule": RULE,
                       "reason": selection.reason, "exported": chosen.name,
                       "exported_because": "chosen by the selection" if requested is None
-                      else "requested with --order"},
+                      else f"the order set by --order, {options.order} (default 2), not "
+                           "by the selection"},
     }
     statistics = json_safe(statistics)
     provenance = {

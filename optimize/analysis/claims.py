@@ -576,7 +576,7 @@ def evaluate_claims(summary: pd.DataFrame, cut_ins: pd.DataFrame, *, paper_syste
 def format_claims(claims: pd.DataFrame) -> str:
     """Plain-text table of the claims for the terminal: id, verdict, paper, ours, margin."""
     if len(claims) and (claims["verdict"] == DOES_NOT_APPLY).all():
-        return "paper comparison: does not apply; " + str(claims["note"].iloc[0])
+        return "paper comparison: " + str(claims["note"].iloc[0])  # the note says why not
     lines = [f"{'claim':<24} {'verdict':<15} {'paper':<24} ours"]
     for r in claims.itertuples(index=False):
         margin = margin_text(Claim(r.claim_id, "", "", "", r.verdict, "", r.value, r.unit,

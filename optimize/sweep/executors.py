@@ -20,11 +20,13 @@ from __future__ import annotations
 
 import multiprocessing
 import queue
+import sys
 import uuid
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from bench.errors import InputError
@@ -127,6 +129,29 @@ def _dask_client(scheduler: str) -> Any:
 
 
 @contextmanager
+def _main_not_reimported() -> Iterator[None]:
+    """While open, spawned processes do not re-import a ``__main__`` that is no file.
+
+    A ``spawn`` child runs the parent's ``__main__`` file again (scripts need their
+    ``if __name__ == "__main__":`` guard); code read from standard input or typed at
+    a prompt has no file (``<stdin>``), so the child would fail with FileNotFoundError.
+    The tasks are functions of drivebench's own modules and need nothing from
+    ``__main__``, so a ``__main__`` without a file is left out, as for an interactive
+    session.
+    """
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if path is None or Path(path).is_file():
+        yield
+        return
+    del main.__file__
+    try:
+        yield
+    finally:
+        main.__file__ = path
+
+
+@contextmanager
 def open_executor(workers: int = 2, scheduler: str | None = None) -> Iterator[ExecutorHandle]:
     """Open the sweep's executor; closes it (and its channel) on exit.
 
@@ -159,7 +184,8 @@ def open_executor(workers: int = 2, scheduler: str | None = None) -> Iterator[Ex
     if workers < 1:
         raise InputError(None, f"--workers {workers}: not >= 1", expected="a positive integer")
     ctx = multiprocessing.get_context("spawn")
-    with ctx.Manager() as manager, ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as ex:
+    with _main_not_reimported(), ctx.Manager() as manager, \
+            ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as ex:
         plural = "s" if workers > 1 else ""
         yield ExecutorHandle(
             ex, QueueChannel(manager.Queue()), f"process pool, {workers} worker{plural}", workers
