@@ -8,7 +8,19 @@ returns a typed result and writes the stage's files (docs/python_api.md).
 The functions live in :mod:`drivebench.api`.
 """
 
-from drivebench.api import AepResult, Ingested, SizeResult, Sweep, aep, fit, ingest, optimize, size
+from drivebench.api import (
+    AepResult,
+    Ingested,
+    SizeResult,
+    Sweep,
+    aep,
+    fit,
+    ingest,
+    optimize,
+    plot_efficiency_map,
+    size,
+)
+from reports.plots import plot_aep, plot_cycle, plot_power_curves
 
 __all__ = ["AepResult", "Ingested", "SizeResult", "Sweep", "aep", "fit", "ingest", "optimize",
-           "size"]
+           "plot_aep", "plot_cycle", "plot_efficiency_map", "plot_power_curves", "size"]

@@ -28,6 +28,7 @@ from typing import Any
 
 import pandas as pd
 
+from bench.display import html_view, text_view
 from bench.errors import InputError
 from optimize.kinds import KINDS
 
@@ -46,6 +47,22 @@ class Ingested:
     """
 
     run: Any
+
+    def _view_rows(self) -> list[tuple[str, object]]:
+        r = self.run
+        sessions = (r.manifest or {}).get("sessions") or {}
+        return [("store", r.store_dir), ("sessions in the store", len(sessions)),
+                ("ingested", ", ".join(r.ingested) or "none"),
+                ("unchanged (skipped)", ", ".join(r.unchanged) or "none"),
+                ("repaired", ", ".join(r.repaired) or "none"),
+                ("replaced", ", ".join(r.replaced) or "none")]
+
+    def __repr__(self) -> str:
+        return text_view("Ingested (.run; .points reads the store's points)",
+                         self._view_rows())
+
+    def _repr_html_(self) -> str:
+        return html_view("Ingested", self._view_rows())
 
     @cached_property
     def points(self) -> Any:
@@ -175,6 +192,58 @@ class Sweep:
     wall_time_s: float = float("nan")
     executor: str = ""
 
+    def _view_rows(self) -> list[tuple[str, object]]:
+        s = self.summary
+        ok = s["success"].astype(bool)
+        rows = [("folder", self.folder),
+                ("scenarios", f"{int(ok.sum())} of {len(s)} converged"),
+                ("kinds", ", ".join(dict.fromkeys(s["kind"].astype(str)))),
+                ("wind speeds [m/s]", ", ".join(f"{w:g}" for w in
+                                                sorted(set(s["wind_speed_m_s"].astype(float))))),
+                ("failed", ", ".join(f"{r.scenario} ({r.status})" for r in
+                                     s[~ok].itertuples(index=False)) or "none")]
+        if self.claims is not None and len(self.claims):
+            counts = self.claims["verdict"].value_counts()
+            rows.append(("paper's statements", ", ".join(f"{n} {v}" for v, n in counts.items())))
+        rows += [("ran on", f"{self.executor}, {self.wall_time_s:.1f} s"),
+                 ("system and drive", self.note)]
+        return rows
+
+    def cycles(self, wind_m_s: float) -> dict[str, pd.DataFrame]:
+        """The converged cycles at one wind speed: scenario kind -> the closed cycle
+        (``time_s`` from 0 to the period [s], ``speed_rpm``, ``torque_nm``, ``p_elec_w``,
+        ``p_mech_w``, ...: ``trajectories.parquet``'s columns, docs/schemas.md §5)."""
+        from reports.optimization_section import closed_cycle
+
+        traj = pd.read_parquet(self.folder / "trajectories.parquet")
+        rows = self.summary[self.summary["success"].astype(bool)
+                            & (self.summary["wind_speed_m_s"].astype(float) - wind_m_s).abs()
+                            .lt(1e-9)]
+        return {str(r.kind): closed_cycle(traj[traj["scenario"] == r.scenario])
+                for r in rows.itertuples(index=False)}
+
+    def plot_cycle(self, scenario: str, ax: Any = None) -> Any:
+        """Shaft and grid power over one cycle of ``scenario`` (:func:`plot_cycle`)."""
+        from reports.optimization_section import closed_cycle
+        from reports.plots import plot_cycle
+
+        traj = pd.read_parquet(self.folder / "trajectories.parquet")
+        rows = traj[traj["scenario"] == scenario]
+        if rows.empty:
+            raise InputError(self.folder / "trajectories.parquet",
+                             f"no cycle of scenario {scenario!r}",
+                             expected="a converged scenario of .summary")
+        kind = str(self.summary.set_index("scenario").loc[scenario, "kind"])
+        return plot_cycle(closed_cycle(rows), ax, title=scenario, kind=kind)
+
+    def __repr__(self) -> str:
+        return text_view("Sweep (.summary, .curves, .claims)", self._view_rows())
+
+    def _repr_html_(self) -> str:
+        cols = [c for c in ("scenario", "status", "avg_p_elec_w", "avg_p_mech_w", "period_s")
+                if c in self.summary.columns]
+        return html_view("Sweep", self._view_rows(), [("summary", self.summary[cols])])
+
 
 def optimize(model: Any = None, *, winds: Sequence[float] = PAPER_WINDS_M_S,
              kinds: Sequence[str] = tuple(KINDS), system: Any = None,
@@ -279,6 +348,36 @@ class AepResult:
     def table(self) -> pd.DataFrame:
         """One row per scenario kind: AEP [MWh/yr], capacity factor, 95 % band, losses."""
         return self.assessment.table()
+
+    def _view_rows(self) -> list[tuple[str, object]]:
+        rows: list[tuple[str, object]] = [("site", self.assessment.site_note)]
+        for r in self.table().itertuples(index=False):
+            band = ("" if r.ci95_aep_elec_low_mwh is None or pd.isna(r.ci95_aep_elec_low_mwh)
+                    else f" (95 %: {r.ci95_aep_elec_low_mwh:.3g} to "
+                         f"{r.ci95_aep_elec_high_mwh:.3g})")
+            rows.append((f"AEP {r.kind}", f"electrical {r.aep_elec_mwh:.3g} MWh/yr{band}, "
+                                          f"mechanical {r.aep_mech_mwh:.3g} MWh/yr"))
+        rows.append(("refined", "yes" if self.refined is not None else "no"))
+        rows.append(("files", ", ".join(str(p) for p in self.files.values())))
+        return rows
+
+    def plot_power_curves(self, ax: Any = None) -> Any:
+        """The power curves with their 95 % bands (:func:`plot_power_curves`)."""
+        from reports.plots import plot_power_curves
+
+        return plot_power_curves(self.assessment.curves, ax)
+
+    def plot_aep(self, ax: Any = None) -> Any:
+        """AEP per scenario kind with its band (:func:`plot_aep`)."""
+        from reports.plots import plot_aep
+
+        return plot_aep(self.table(), ax)
+
+    def __repr__(self) -> str:
+        return text_view("AepResult (.table(), .assessment)", self._view_rows())
+
+    def _repr_html_(self) -> str:
+        return html_view("AepResult", self._view_rows(), [("table()", self.table())])
 
 
 def aep(sweep: Sweep | str | Path, site: Any, *, out: str | Path = "aep_out",
@@ -409,6 +508,25 @@ class SizeResult:
         """The smallest candidate within the tolerance of the best AEP."""
         return self.sizing.chosen
 
+    def _view_rows(self) -> list[tuple[str, object]]:
+        t = self.table
+        aep = ", ".join(f"{r.candidate} {r.aep_elec_mwh:.3g}" if pd.notna(r.aep_elec_mwh)
+                        else f"{r.candidate} failed" for r in t.itertuples(index=False))
+        return [("chosen", f"{self.chosen} (smallest within tolerance of the best, "
+                           f"{self.best})"),
+                ("electrical AEP [MWh/yr]", aep),
+                ("solves", f"{self.sizing.n_solved} solved, {self.sizing.n_cached} loaded, "
+                           f"{self.sizing.wall_time_s:.1f} s"),
+                *((f"note {k + 1}", n) for k, n in enumerate(self.notes))]
+
+    def __repr__(self) -> str:
+        return text_view("SizeResult (.table, .chosen, .best)", self._view_rows())
+
+    def _repr_html_(self) -> str:
+        cols = [c for c in ("candidate", "rated_torque_nm", "aep_elec_mwh", "aep_share_of_best",
+                            "n_converged", "n_winds") if c in self.table.columns]
+        return html_view("SizeResult", self._view_rows(), [("table", self.table[cols])])
+
 
 def size(site: Any, model: Any = None, *, system: Any = None,
          fit_default: str | Path | None = None, scales: Sequence[float] = (0.5, 1.0, 2.0),
@@ -501,3 +619,37 @@ def size(site: Any, model: Any = None, *, system: Any = None,
                          tolerance=tolerance, notes=notes, command_line=list(command_line),
                          edge=edge_doc)
     return SizeResult(result, drive, tuple(notes), files)
+
+
+def plot_efficiency_map(fit: str | Path | pd.DataFrame = "fit_out", ax: Any = None, *,
+                        cycles: dict[str, pd.DataFrame] | None = None) -> Any:
+    """The measured efficiency map (paper Fig. 5), with cycles over it (paper Fig. 9).
+
+    Parameters
+    ----------
+    fit : path or DataFrame
+        A ``bench fit`` output folder (its ``efficiency_map.parquet``, and the validity
+        domain of its ``power_model.json``), or the map frame itself.
+    ax : matplotlib Axes, optional
+        Where to draw; default a new figure.
+    cycles : dict, optional
+        Scenario kind -> closed cycle (:meth:`Sweep.cycles`), drawn over the map.
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    from fitting.model_file import load_power_model
+    from reports.plots import plot_efficiency_map as draw
+
+    domain = None
+    if isinstance(fit, pd.DataFrame):
+        frame = fit
+    else:
+        path = Path(fit) / "efficiency_map.parquet"
+        if not path.is_file():
+            raise InputError(path, "missing", expected="the output folder of bench fit")
+        frame = pd.read_parquet(path)
+        if (Path(fit) / "power_model.json").is_file():
+            domain = load_power_model(Path(fit) / "power_model.json").domain
+    return draw(frame, ax, domain=domain, cycles=cycles)

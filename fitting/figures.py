@@ -21,6 +21,7 @@ from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 from matplotlib.tri import Triangulation  # noqa: E402
 
+from bench.figure_text import fit_text  # noqa: E402
 from bench.files import atomic_write, write_parquet  # noqa: E402
 from fitting.domain import in_domain  # noqa: E402
 from fitting.efficiency import ABOVE_MAX, CLIPPED, NEAR_AXIS  # noqa: E402
@@ -233,6 +234,7 @@ def draw_residuals(axes, points: pd.DataFrame, residual_w: np.ndarray,
 
 # ------------------------------------------------------------------ files of bench fit
 def _save(fig: Figure, out_dir: Path, name: str, data: pd.DataFrame) -> list[Path]:
+    fit_text(fig)  # no title or label cut off at the figure's edges
     paths = [atomic_write(out_dir / f"{name}.{fmt}",
                           lambda p, fmt=fmt: fig.savefig(p, format=fmt, dpi=120))
              for fmt in ("png", "svg")]

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from bench.display import html_view, text_view
 from bench.errors import InputError
 from bench.store.manifest import kind_files
 from bench.store.read import consistent_read
@@ -43,6 +44,21 @@ class OperatingPoints:
         """Number of points per quadrant."""
         vc = self.frame["quadrant"].value_counts()
         return {q: int(vc.get(q, 0)) for q in QUADRANTS}
+
+    def _view_rows(self) -> list[tuple[str, object]]:
+        f = self.frame
+        return [("points per quadrant", self.counts()), ("sessions", len(self.files)),
+                ("speed range", f"{f['speed_rpm'].min():.0f} to {f['speed_rpm'].max():.0f} rpm"),
+                ("torque range", f"{f['torque_nm'].min():.1f} to {f['torque_nm'].max():.1f} N m"),
+                ("sha256", self.sha256[:16])]
+
+    def __repr__(self) -> str:
+        return text_view(f"OperatingPoints ({len(self.frame)} points; .frame, .counts())",
+                         self._view_rows())
+
+    def _repr_html_(self) -> str:
+        return html_view(f"OperatingPoints ({len(self.frame)} points)", self._view_rows(),
+                         [("first rows of .frame", self.frame.head(20))])
 
 
 def quadrant_of(p_mech_w: np.ndarray) -> np.ndarray:

@@ -25,8 +25,10 @@ from typing import Any
 
 import numpy as np
 
+from bench.display import html_view, text_view
 from bench.drive import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS
 from bench.units import RPM_PER_RAD_S
+from fitting.terms import Term
 
 SCHEMA_NAME = "drivebench.power_model"
 #: Version written; 2 added the ``drive`` object (rating and limits of the drive).
@@ -93,7 +95,7 @@ class PowerModel:
     drive: dict | None = None
 
     def __post_init__(self) -> None:
-        terms = tuple((int(i), int(j)) for i, j in self.terms)
+        terms = tuple(Term(t) for t in self.terms)
         coefs = tuple(float(c) for c in self.coefficients_rpm)
         object.__setattr__(self, "terms", terms)
         object.__setattr__(self, "coefficients_rpm", coefs)
@@ -104,6 +106,34 @@ class PowerModel:
         problem = model_problem(self)
         if problem is not None:
             raise ValueError(f"invalid PowerModel: {problem}")
+
+    # ------------------------------------------------------------------- views
+    @property
+    def coefficients(self) -> dict[Term, float]:
+        """Term -> coefficient [W per rpm**i (N m)**j] (``{1: 288.2, w^2: ...}``)."""
+        return dict(zip(self.terms, self.coefficients_rpm, strict=True))
+
+    def _view_rows(self) -> list[tuple[str, object]]:
+        rating = self.drive or {}
+        quadrants = ", ".join(self.domain) if self.domain else "none recorded"
+        resid = ((self.statistics or {}).get("residuals") or {}).get("all") or {}
+        rows = [("terms (rpm, N m -> W)", ", ".join(f"{t!r}: {c:.5g}"
+                                                    for t, c in self.coefficients.items())),
+                ("nominal power", f"{self.nominal_power_w:g} W"),
+                ("covariance", "yes" if self.covariance_rpm is not None else "none"),
+                ("validity domain", quadrants)]
+        if rating:
+            rows.append(("drive", f"|speed| <= {rating.get('max_speed_rpm')} rpm, torque <= "
+                                  f"{rating.get('max_torque_nm')} N m"))
+        if resid.get("std_w") is not None:
+            rows.append(("residual std", f"{resid['std_w']:.1f} W"))
+        return rows
+
+    def __repr__(self) -> str:
+        return text_view(f"PowerModel {self.name!r}", self._view_rows())
+
+    def _repr_html_(self) -> str:
+        return html_view(f"PowerModel {self.name!r}", self._view_rows())
 
     # ----------------------------------------------------------------- SI sets
     @property

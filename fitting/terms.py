@@ -5,6 +5,34 @@ A term ``(i, j)`` is ``speed**i * torque**j`` (docs/schemas.md §3).
 
 from __future__ import annotations
 
+
+class Term(tuple):
+    """A term ``(i, j)``: ``speed**i * torque**j``; a tuple that prints as its name.
+
+    Equal to, and hashed as, the plain tuple ``(i, j)``, so either looks up the same
+    entry; ``repr`` gives :func:`term_label` (``Term((2, 1))`` prints ``w^2*T``).
+    """
+
+    def __new__(cls, exponents) -> Term:
+        i, j = (int(e) for e in exponents)
+        return super().__new__(cls, (i, j))
+
+    @property
+    def speed_exp(self) -> int:
+        """Exponent of the drum speed."""
+        return self[0]
+
+    @property
+    def torque_exp(self) -> int:
+        """Exponent of the drum torque."""
+        return self[1]
+
+    def __repr__(self) -> str:
+        return term_label(self)
+
+    def __getnewargs__(self) -> tuple:
+        return (tuple(self),)
+
 #: The paper's eq. (4): P_elec = a0 + a1 w^2 + a2 T^2 + a3 w T (docs/paper_figures.md §1).
 PAPER_TERMS: tuple[tuple[int, int], ...] = ((0, 0), (2, 0), (0, 2), (1, 1))
 

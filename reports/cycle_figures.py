@@ -11,9 +11,10 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 from markupsafe import Markup
+from matplotlib.patches import Rectangle
 
-from fitting.figures import draw_efficiency
 from optimize.kinds import KINDS, LABELS
+from reports import plots
 from reports.svg import SCENARIO_COLORS, new_figure, to_svg
 
 
@@ -53,77 +54,70 @@ def power_vs_wind_figure(summary: pd.DataFrame, power_column: str, name: str,
     return to_svg(fig, name)
 
 
-#: Time between the markers of Fig. 9 [s]: equal spacing, so marker density shows dwell time.
-MARKER_STEP_S = 0.04
+def torque_speed_figure(limited: dict[str, pd.DataFrame], free: dict[str, pd.DataFrame],
+                        wind_m_s: float, drawn_map: dict | None) -> Markup:
+    """Cycles in the torque-speed plane (paper Fig. 9).
 
-
-def equal_time_samples(traj: pd.DataFrame, columns: tuple[str, ...],
-                       step_s: float = MARKER_STEP_S) -> dict[str, np.ndarray]:
-    """Columns of a closed cycle resampled at equal time steps (linear interpolation).
-
-    Parameters
-    ----------
-    traj : DataFrame
-        Closed cycle (first row at t = 0) with ``time_s`` [s] and ``columns``.
-    columns : tuple of str
-        Columns to resample.
-    step_s : float
-        Time step [s].
-    """
-    t = traj["time_s"].to_numpy(float)
-    grid = np.arange(0.0, t[-1], step_s)
-    return {c: np.interp(grid, t, traj[c].to_numpy(float)) for c in columns}
-
-
-def torque_speed_figure(cycles: dict[str, pd.DataFrame], wind_m_s: float,
-                        grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None) -> Markup:
-    """Torque-speed trajectories of the cycles over the efficiency map (paper Fig. 9).
-
-    Panel (a) shows all cycles over the map, then one detail panel per cycle.
-    Markers are equally spaced in time (:data:`MARKER_STEP_S`), so where they
-    crowd the cycle dwells, as in the paper.
+    Panel (a): the cycles with the drive limits over the efficiency map
+    (:func:`reports.plots.plot_efficiency_map`, within the map's axes), where the
+    electrical optimum's move to efficient regions shows. Panel (b): the cycles without
+    limits (the paper's Fig. 9), which leave the measured map, with the map's extent
+    outlined. Markers are equally spaced in time (:data:`reports.plots.MARKER_STEP_S`).
 
     Parameters
     ----------
-    cycles : dict
-        kind key -> closed cycle with ``time_s`` [s], ``speed_rpm``
-        [rpm] and ``torque_nm`` [N m].
+    limited, free : dict
+        kind key -> closed cycle with ``time_s`` [s], ``speed_rpm`` [rpm], ``torque_nm``
+        [N m]; either may be empty (its panel is left out).
     wind_m_s : float
-        The wind speed of the cycles [m/s], for the title.
-    grid : tuple or None
-        (speed_rpm, torque_nm, eta) of the efficiency map, drawn beneath if given.
+        The wind speed of the cycles [m/s], for the titles.
+    drawn_map : dict or None
+        ``map_frame`` (``efficiency_map.parquet``) and ``domain`` of the efficiency map;
+        None: panel (a) draws the cycles without the map.
     """
-    fig = new_figure(9.0, 7.0)
-    gs = fig.add_gridspec(2, max(1, len(cycles)))
-    ax_all = fig.add_subplot(gs[0, :])
-    details = [fig.add_subplot(gs[1, k]) for k in range(len(cycles))]
-    samples = {key: equal_time_samples(traj, ("speed_rpm", "torque_nm"))
-               for key, traj in cycles.items()}
-    for k, ax in enumerate([ax_all, *details]):
-        if grid is not None:
-            draw_efficiency(ax, *grid, colorbar=k == 0)
-        keys = list(samples) if k == 0 else [list(samples)[k - 1]]
-        for key in keys:
-            smp = samples[key]
-            ax.plot(smp["speed_rpm"], smp["torque_nm"], marker=".", ms=3, lw=0.5,
-                    color=SCENARIO_COLORS[key], label=LABELS[key])
-        if k > 0:
-            smp = samples[keys[0]]
-            pad_s = 0.05 * np.ptp(smp["speed_rpm"]) + 10.0
-            pad_t = 0.05 * np.ptp(smp["torque_nm"]) + 1.0
-            ax.set_xlim(smp["speed_rpm"].min() - pad_s, smp["speed_rpm"].max() + pad_s)
-            ax.set_ylim(smp["torque_nm"].min() - pad_t, smp["torque_nm"].max() + pad_t)
-            ax.set_title(f"({chr(ord('a') + k)}) {LABELS[keys[0]]}", fontsize=9)
-        ax.axvline(0.0, color="k", lw=0.6)
-    ax_all.set_xlabel("drum speed [rpm] (reel-out / generating < 0)")
-    ax_all.set_title(f"(a) torque-speed trajectories at {wind_m_s:g} m/s, a marker every "
-                     f"{MARKER_STEP_S * 1e3:.0f} ms", fontsize=10)
-    ax_all.legend(fontsize=7, loc="upper right")
+    panels = [p for p in (limited, free) if p]
+    fig = new_figure(8.0, 3.8 * len(panels))
+    axes = iter(fig.subplots(len(panels), 1, squeeze=False)[:, 0])
+    step = f"a marker every {plots.MARKER_STEP_S * 1e3:.0f} ms"
+    if limited:
+        ax = next(axes)
+        if drawn_map is not None:
+            plots.plot_efficiency_map(drawn_map["map_frame"], ax, domain=drawn_map["domain"],
+                                      cycles=limited)
+            ax.patch.set_gid("fig9-map-axes")  # the SVG id of the map's axes
+        else:
+            _cycles_panel(ax, limited, None)
+        ax.set_title(f"(a) with the drive limits, {wind_m_s:g} m/s, over the measured "
+                     f"efficiency map; {step}", fontsize=9)
+    if free:
+        ax = next(axes)
+        _cycles_panel(ax, free, drawn_map["map_frame"] if drawn_map is not None else None)
+        ax.set_title(f"({'b' if limited else 'a'}) without drive limits (the paper's Fig. 9),"
+                     f" {wind_m_s:g} m/s; {step}", fontsize=9)
     return to_svg(fig, "torque-speed")
 
 
+def _cycles_panel(ax, cycles: dict[str, pd.DataFrame], map_frame: pd.DataFrame | None) -> None:
+    """Cycles in the torque-speed plane on axes that hold them all; the extent of the
+    efficiency map (when given) outlined, dashed."""
+    for key, cycle in cycles.items():
+        smp = plots.equal_time_samples(cycle, ("speed_rpm", "torque_nm"))
+        ax.plot(smp["speed_rpm"], smp["torque_nm"], marker=".", ms=3, lw=0.5,
+                color=SCENARIO_COLORS[key], label=LABELS[key])
+    if map_frame is not None and len(map_frame):
+        s, t = map_frame["speed_rpm"].to_numpy(float), map_frame["torque_nm"].to_numpy(float)
+        ax.add_patch(Rectangle((s.min(), t.min()), np.ptp(s), np.ptp(t), fill=False, ls="--",
+                               lw=0.8, color="0.4", label="extent of the measured map"))
+    ax.axvline(0.0, color="k", lw=0.6)
+    ax.set_xlabel("drum speed [rpm] (reel-out / generating < 0)")
+    ax.set_ylabel("drum torque [N m]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper right")
+
+
 def power_flow_figure(cycles: dict[str, pd.DataFrame], wind_m_s: float) -> Markup:
-    """Mechanical and electrical power over one cycle, one panel per cycle (paper Fig. 10).
+    """Mechanical and electrical power over one cycle, one panel per cycle (paper Fig. 10;
+    each panel :func:`reports.plots.plot_cycle`).
 
     Parameters
     ----------
@@ -135,16 +129,10 @@ def power_flow_figure(cycles: dict[str, pd.DataFrame], wind_m_s: float) -> Marku
     """
     fig = new_figure(9.0, 3.6)
     axes = np.atleast_1d(fig.subplots(1, len(cycles), sharey=True))
-    for ax, (key, traj) in zip(axes, cycles.items(), strict=True):
-        t = traj["time_s"].to_numpy(float)
-        ax.plot(t, traj["p_mech_w"] / 1e3, color="0.3", label="P_mech (shaft)")
-        ax.plot(t, traj["p_elec_w"] / 1e3, color=SCENARIO_COLORS[key], label="P_elec (grid)")
-        ax.axhline(0.0, color="k", lw=0.6)
-        ax.set_title(f"{LABELS[key]}, {wind_m_s:g} m/s", fontsize=9)
-        ax.set_xlabel("time [s]")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
-    axes[0].set_ylabel("power [kW] (+ = drawn from grid)")
+    for k, (ax, (key, traj)) in enumerate(zip(axes, cycles.items(), strict=True)):
+        plots.plot_cycle(traj, ax, title=f"{LABELS[key]}, {wind_m_s:g} m/s", kind=key)
+        if k:
+            ax.set_ylabel("")
     return to_svg(fig, "power-flows")
 
 
@@ -189,18 +177,16 @@ def cycle_figure(traj: pd.DataFrame, period_s: float, label: str) -> Markup:
     ax_l.plot(t, traj["l_m"], color="k")
     ax_l.set_ylabel("tether length [m]")
     ax_l.set_title(label, fontsize=10)
+    plots.plot_cycle(traj, ax_p, kind="elec-lim")
+    ax_p.set_xlabel("")
     for col, color, name in (("p_elec_w", "tab:blue", "electrical"),
-                             ("p_mech_w", "0.4", "mechanical")):
-        p = traj[col].to_numpy(float)
-        ax_p.plot(t, p / 1e3, color=color, label=f"P {name}")
-        e = cycle_energy(traj["weight"].to_numpy(float), p, period_s)
+                             ("p_mech_w", "0.3", "mechanical")):
+        e = cycle_energy(traj["weight"].to_numpy(float), traj[col].to_numpy(float), period_s)
         ax_e.plot(t, e, color=color, label=f"E {name}: net {e[-1]:+.0f} J")
-    ax_p.set_ylabel("power [kW]\n(+ = consumed)")
     ax_e.set_ylabel("energy [J]\n(+ = consumed)")
     ax_e.set_xlabel("time [s]")
-    for ax in (ax_l, ax_p, ax_e):
+    for ax in (ax_l, ax_e):
         ax.grid(alpha=0.3)
-    for ax in (ax_p, ax_e):
-        ax.axhline(0.0, color="k", lw=0.6)
-        ax.legend(fontsize=7, loc="best")
+    ax_e.axhline(0.0, color="k", lw=0.6)
+    ax_e.legend(fontsize=7, loc="best")
     return to_svg(fig, "cycle")

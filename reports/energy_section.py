@@ -10,41 +10,30 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
+from markupsafe import Markup
 
+from energy.refine import refine_notes
 from optimize.kinds import LABELS
-from reports import svg
+from reports import plots, svg
 from reports.inputs import InputLog
 from reports.tables import fmt
 
 CURVE_COLUMNS = ("kind", "wind_speed_m_s", "p_elec_w", "p_mech_w", "p_elec_sigma_w")
-Z95 = 1.959963984540054
 
 
-def _color(kind: str) -> str:
-    return svg.SCENARIO_COLORS.get(kind, "#444444")
-
-
-def power_curve_figure(curves) -> object:
-    """Delivered electrical power per kind with its 95 % band; mechanical power dashed."""
+def power_curve_figure(curves: pd.DataFrame) -> Markup:
+    """The power curves with bands (:func:`reports.plots.plot_power_curves`)."""
     fig = svg.new_figure(7.0, 4.2)
-    ax = fig.add_subplot()
-    for kind, rows in curves.groupby("kind", sort=False):
-        rows = rows.sort_values("wind_speed_m_s")
-        v = rows["wind_speed_m_s"].to_numpy(float)
-        d = -rows["p_elec_w"].to_numpy(float)
-        s = rows["p_elec_sigma_w"].to_numpy(float)
-        c = _color(str(kind))
-        ax.plot(v, d, "o-", color=c, label=f"{svg.plain_label(kind)} electrical")
-        if np.all(np.isfinite(s)):
-            ax.fill_between(v, d - Z95 * s, d + Z95 * s, color=c, alpha=0.25, lw=0)
-        ax.plot(v, -rows["p_mech_w"].to_numpy(float), "--", color=c, lw=1, alpha=0.8)
-    ax.axhline(0, color="k", lw=0.6)
-    ax.set_xlabel("wind speed at the reference height [m/s]")
-    ax.set_ylabel("average power delivered [W]")
-    ax.set_title("Power curves (solid electrical with 95 % band, dashed mechanical)", fontsize=9)
-    ax.legend(fontsize=7)
-    ax.grid(alpha=0.3)
+    plots.plot_power_curves(curves, fig.add_subplot())
     return svg.to_svg(fig, "energy-power-curves")
+
+
+def aep_figure(table: pd.DataFrame) -> Markup:
+    """AEP per scenario kind with bands (:func:`reports.plots.plot_aep`)."""
+    fig = svg.new_figure(6.4, 3.6)
+    plots.plot_aep(table, fig.add_subplot())
+    return svg.to_svg(fig, "energy-aep")
 
 
 def sizing_figure(candidates: list[dict], chosen: str | None) -> object:
@@ -68,13 +57,15 @@ def sizing_figure(candidates: list[dict], chosen: str | None) -> object:
 
 
 def energy_section(log: InputLog, aep: Path, size: Path) -> dict:
-    """Section 5: AEP, bands, losses, sizing.
+    """The energy section's context: AEP, bands, losses, sizing.
 
     Returns
     -------
     dict
-        ``site``, ``nominal``, ``table`` (rows of strings), ``losses``, ``notes``,
-        ``figure``, ``sizing`` (or None), ``missing``, ``not_run``.
+        ``site``, ``nominal``, ``table`` (rows of strings), ``losses``, ``warnings`` and
+        ``notes`` (aep.json's notes: what may be wrong, and what is only said, such as the
+        refinement), ``figure``, ``aep_figure``, ``sizing`` (or None), ``missing``,
+        ``not_run``, ``documents`` (``aep.json`` and ``sizing.json`` decoded, or None).
     """
     start = len(log.missing)
     # optional stages: a folder that does not exist means the stage was not run (said in
@@ -83,72 +74,95 @@ def energy_section(log: InputLog, aep: Path, size: Path) -> dict:
                if not Path(folder).is_dir()]
     doc = log.json(Path(aep) / "aep.json") if Path(aep).is_dir() else None
     curves = log.csv(Path(aep) / "power_curves.csv", CURVE_COLUMNS) if doc is not None else None
-    out: dict = {"site": None, "nominal": None, "table": [], "losses": [], "notes": [],
-                 "figure": None, "sizing": None, "sign": None, "interpolation": None}
-    if doc is not None:
-        site = doc.get("site") or {}
-        out["site"] = site.get("note")
-        out["nominal"] = (f"{fmt(doc.get('nominal_power_w'), 0)} W "
-                          f"({doc.get('nominal_power_source')})")
-        out["sign"], out["interpolation"] = doc.get("sign_convention"), doc.get("interpolation")
-        for r in doc.get("kinds") or []:
-            band = (f"{fmt(r.get('ci95_aep_elec_low_mwh'), 3)} to "
-                    f"{fmt(r.get('ci95_aep_elec_high_mwh'), 3)}"
-                    if r.get("ci95_aep_elec_low_mwh") is not None else "n/a")
-            out["table"].append({
-                "kind": f"{r.get('kind')} ({LABELS.get(r.get('kind'), '')})",
-                "aep_elec": fmt(r.get("aep_elec_mwh"), 3), "band": band,
-                "aep_mech": fmt(r.get("aep_mech_mwh"), 3),
-                "cf_elec": _pct(r.get("capacity_factor_elec")),
-                "cf_mech": _pct(r.get("capacity_factor_mech")),
-                "eff_loss": fmt(r.get("efficiency_loss_mwh"), 3),
-                "limit_loss": fmt(r.get("limit_loss_mwh"), 3),
-                "cut_in": fmt(r.get("cut_in_elec_m_s"), 2),
-                "above": _pct(r.get("share_above_grid")),
-                "left_out": _pct(r.get("share_left_out")),
-                "coverage": coverage_note(r),
-            })
-        losses = doc.get("losses") or {}
-        out["losses"] = [
-            ("lost to the drive limits, electrical objective [MWh/yr]",
-             fmt(losses.get("limits_elec_objective_mwh"), 3)),
-            ("lost to the drive limits, mechanical objective, shaft energy [MWh/yr]",
-             fmt(losses.get("limits_mech_objective_mech_mwh"), 3)),
-        ] + [(f"lost to the drive's efficiency, {k} [MWh/yr]", fmt(v, 3))
-             for k, v in (losses.get("efficiency_by_kind_mwh") or {}).items()]
-        out["notes"] = [str(n) for n in doc.get("notes") or []]
-        if curves is not None and len(curves):
-            for col in CURVE_COLUMNS[2:]:
-                curves[col] = curves[col].astype(float)
-            out["figure"] = power_curve_figure(curves)
+    out = aep_context(doc, curves) if doc is not None else {
+        "site": None, "nominal": None, "table": [], "losses": [], "notes": [], "warnings": [],
+        "figure": None, "aep_figure": None, "sign": None, "interpolation": None}
     sizing = log.json(Path(size) / "sizing.json") if Path(size).is_dir() else None
-    if sizing is not None:
-        cands = sizing.get("candidates") or []
-        out["sizing"] = {
-            "rows": [{"candidate": c.get("candidate"),
-                      "rated": fmt(c.get("rated_torque_nm"), 1),
-                      "peak": fmt(c.get("peak_torque_nm"), 0),
-                      "nominal": fmt(c.get("nominal_power_w"), 0),
-                      "aep": fmt(c.get("aep_elec_mwh"), 3),
-                      "share": _pct(c.get("aep_share_of_best")),
-                      "cf": _pct(c.get("capacity_factor_elec")),
-                      "rms_active": c.get("rms_bound_active_at") or "none",
-                      "converged": f"{c.get('n_converged')}/{c.get('n_winds')}"}
-                     for c in cands],
-            "best": sizing.get("best"), "chosen": sizing.get("chosen"),
-            "tolerance": _pct(sizing.get("tolerance")),
-            "law": sizing.get("law"), "winds": ", ".join(f"{w:g}" for w in
-                                                         sizing.get("wind_speeds_m_s") or []),
-            "wall": fmt(sizing.get("wall_time_s"), 1), "executor": sizing.get("executor"),
-            "solved": sizing.get("n_solved"), "loaded": sizing.get("n_loaded"),
-            "edge": (sizing.get("edge") or {}).get("note"),
-            "edge_at": (sizing.get("edge") or {}).get("best_at"),
-            "hours": (sizing.get("hours") or {}).get("note"),
-            "figure": sizing_figure(cands, sizing.get("chosen")) if cands else None,
-        }
+    out["sizing"] = sizing_context(sizing) if sizing is not None else None
     out["missing"] = list(dict.fromkeys(log.missing[start:]))
     out["not_run"] = not_run
+    out["documents"] = {"aep": doc, "size": sizing}
     return out
+
+
+def aep_context(doc: dict, curves: pd.DataFrame | None) -> dict:
+    """The AEP part of the section from ``aep.json`` and ``power_curves.csv``."""
+    site = doc.get("site") or {}
+    rows = [r for r in doc.get("kinds") or [] if isinstance(r, dict)]
+    informational = set(refine_notes(doc["refine"])) if isinstance(doc.get("refine"),
+                                                                   dict) else set()
+    notes = [str(n) for n in doc.get("notes") or []]
+    out = {"site": site.get("note"),
+           "nominal": f"{fmt(doc.get('nominal_power_w'), 0)} W ({doc.get('nominal_power_source')})",
+           "sign": doc.get("sign_convention"), "interpolation": doc.get("interpolation"),
+           "table": [aep_row(r) for r in rows],
+           "losses": loss_rows(doc.get("losses") or {}),
+           "notes": [n for n in notes if n in informational],
+           "warnings": [n for n in notes if n not in informational],
+           "figure": None, "aep_figure": None}
+    if curves is not None and len(curves):
+        for col in CURVE_COLUMNS[2:]:
+            curves[col] = curves[col].astype(float)
+        out["figure"] = power_curve_figure(curves)
+    if rows and all(r.get("aep_elec_mwh") is not None for r in rows):
+        out["aep_figure"] = aep_figure(pd.DataFrame(rows))
+    return out
+
+
+def aep_row(r: dict) -> dict:
+    """One row of the AEP table (strings) from an ``aep.json`` kind."""
+    band = (f"{fmt(r.get('ci95_aep_elec_low_mwh'), 3)} to "
+            f"{fmt(r.get('ci95_aep_elec_high_mwh'), 3)}"
+            if r.get("ci95_aep_elec_low_mwh") is not None else "n/a")
+    return {"kind": f"{r.get('kind')} ({LABELS.get(r.get('kind'), '')})",
+            "aep_elec": fmt(r.get("aep_elec_mwh"), 3), "band": band,
+            "aep_mech": fmt(r.get("aep_mech_mwh"), 3),
+            "cf_elec": _pct(r.get("capacity_factor_elec")),
+            "cf_mech": _pct(r.get("capacity_factor_mech")),
+            "eff_loss": fmt(r.get("efficiency_loss_mwh"), 3),
+            "limit_loss": fmt(r.get("limit_loss_mwh"), 3),
+            "cut_in": fmt(r.get("cut_in_elec_m_s"), 2),
+            "above": _pct(r.get("share_above_grid")),
+            "left_out": _pct(r.get("share_left_out")),
+            "coverage": coverage_note(r)}
+
+
+def loss_rows(losses: dict) -> list[tuple[str, str]]:
+    """The losses split of ``aep.json`` as (what, MWh/yr) pairs."""
+    return [
+        ("lost to the drive limits, electrical objective [MWh/yr]",
+         fmt(losses.get("limits_elec_objective_mwh"), 3)),
+        ("lost to the drive limits, mechanical objective, shaft energy [MWh/yr]",
+         fmt(losses.get("limits_mech_objective_mech_mwh"), 3)),
+    ] + [(f"lost to the drive's efficiency, {k} [MWh/yr]", fmt(v, 3))
+         for k, v in (losses.get("efficiency_by_kind_mwh") or {}).items()]
+
+
+def sizing_context(sizing: dict) -> dict:
+    """The sizing part of the section from ``sizing.json``."""
+    cands = sizing.get("candidates") or []
+    return {
+        "rows": [{"candidate": c.get("candidate"),
+                  "rated": fmt(c.get("rated_torque_nm"), 1),
+                  "peak": fmt(c.get("peak_torque_nm"), 0),
+                  "nominal": fmt(c.get("nominal_power_w"), 0),
+                  "aep": fmt(c.get("aep_elec_mwh"), 3),
+                  "share": _pct(c.get("aep_share_of_best")),
+                  "cf": _pct(c.get("capacity_factor_elec")),
+                  "rms_active": c.get("rms_bound_active_at") or "none",
+                  "converged": f"{c.get('n_converged')}/{c.get('n_winds')}"}
+                 for c in cands],
+        "best": sizing.get("best"), "chosen": sizing.get("chosen"),
+        "tolerance": _pct(sizing.get("tolerance")),
+        "law": sizing.get("law"), "winds": ", ".join(f"{w:g}" for w in
+                                                     sizing.get("wind_speeds_m_s") or []),
+        "wall": fmt(sizing.get("wall_time_s"), 1), "executor": sizing.get("executor"),
+        "solved": sizing.get("n_solved"), "loaded": sizing.get("n_loaded"),
+        "edge": (sizing.get("edge") or {}).get("note"),
+        "edge_at": (sizing.get("edge") or {}).get("best_at"),
+        "hours": (sizing.get("hours") or {}).get("note"),
+        "figure": sizing_figure(cands, sizing.get("chosen")) if cands else None,
+    }
 
 
 def coverage_note(row: dict) -> str:

@@ -8,28 +8,18 @@ from pathlib import Path
 from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
 
 from bench.files import write_text_durable
-from reports import energy_section, optimization, provenance, sections
-from reports.inputs import InputLog
-
-#: the report's numbered sections in order: (anchor, title). Each section's heading and
-#: the navigation bar are made from this list (the template's ``section`` macro), so the
-#: two cannot disagree; the number is the position here.
-SECTIONS = (
-    ("campaign", "Bench campaign"),
-    ("efficiency", "Efficiency map (paper Fig. 5)"),
-    ("model", "Power model (paper Table I, eq. 4, Fig. 6)"),
-    ("optimization", "Optimized pumping cycles"),
-    ("energy", "Annual energy and drive sizing"),
-    ("provenance", "Provenance"),
+from reports import (
+    campaign_section,
+    efficiency_section,
+    energy_section,
+    model_section,
+    optimization_section,
+    provenance_section,
 )
+from reports.inputs import InputLog
+from reports.section_list import SECTIONS, section_list
 
-
-def section_list() -> list[dict]:
-    """The sections for the template: ``anchor``, ``number``, ``title`` and ``short`` (the
-    title without its parenthesis, for the navigation)."""
-    return [{"anchor": a, "number": n, "title": t, "short": t.split(" (")[0]}
-            for n, (a, t) in enumerate(SECTIONS, 1)]
-
+__all__ = ["SECTIONS", "build_context", "build_report", "render"]
 
 def environment() -> Environment:
     """The Jinja2 environment: templates from the package, autoescape on for everything."""
@@ -58,25 +48,26 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str],
     """
     started = datetime.now(UTC)
     log = InputLog()
-    campaign = sections.campaign_section(log, store)
+    campaign = campaign_section.campaign_section(log, store)
     points, manifest = campaign.pop("points"), campaign.pop("manifest")
-    model = sections.read_model(log, fit)
+    model = model_section.read_model(log, fit)
     summary = log.json(Path(fit) / "fit_summary.json")
-    efficiency = sections.efficiency_section(log, fit, model, summary)
-    power = sections.power_model_section(log, fit, model, points, summary)
-    opt = optimization.optimization_section(log, optimize, efficiency["grid"],
-                                            model.sha256 if model is not None else None)
+    efficiency = efficiency_section.efficiency_section(log, fit, model, summary)
+    power = model_section.power_model_section(log, fit, model, points, summary)
+    opt = optimization_section.optimization_section(
+        log, optimize, efficiency.pop("map"), model.sha256 if model is not None else None)
     energy = energy_section.energy_section(log, aep, size)
-    prov = provenance.provenance_section(
-        log, argv, started,
-        {"ingest": manifest, "fit": model.provenance if model else None,
-         "fit summary": summary, "optimize": opt["manifest"]},
-    )
+    documents = energy.pop("documents")
+    prov = provenance_section.provenance_section(log, argv, started, {
+        "ingest": (store, manifest), "fit": (fit, model.to_dict() if model else None),
+        "optimize": (optimize, opt["manifest"]), "aep": (aep, documents["aep"]),
+        "size": (size, documents["size"])})
     return {
         "title": "drivebench report",
         "sections": section_list(),
         "headline": headline(campaign, power, opt) + energy_headline(energy),
-        "paths": {"store": str(store), "fit": str(fit), "optimize": str(optimize)},
+        "paths": stage_paths({"ingest": store, "fit": fit, "optimize": optimize, "aep": aep,
+                              "size": size}),
         "campaign": campaign,
         "efficiency": efficiency,
         "power": power,
@@ -84,6 +75,14 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str],
         "energy": energy,
         "provenance": prov,
     }
+
+
+def stage_paths(folders: dict[str, Path]) -> dict:
+    """The stage output folders for the report's header: ``found`` and ``absent``, each a
+    list of ``{"stage", "folder"}``."""
+    rows = [{"stage": stage, "folder": str(folder)} for stage, folder in folders.items()]
+    return {"found": [r for r in rows if Path(r["folder"]).is_dir()],
+            "absent": [r for r in rows if not Path(r["folder"]).is_dir()]}
 
 
 def headline(campaign: dict, power: dict, opt: dict) -> list[tuple[str, str]]:

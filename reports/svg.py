@@ -20,13 +20,8 @@ matplotlib.use("Agg")
 from markupsafe import Markup  # noqa: E402  (after selecting the backend)
 from matplotlib.figure import Figure  # noqa: E402
 
-#: Colours of the four scenarios, shared by every optimization figure.
-SCENARIO_COLORS = {
-    "elec-lim": "#1f77b4",
-    "elec-free": "#17becf",
-    "mech-lim": "#d62728",
-    "mech-free": "#ff7f0e",
-}
+from bench.figure_text import fit_text  # noqa: E402
+from reports.plots import SCENARIO_COLORS, plain_label  # noqa: E402, F401  (shared here)
 
 _PROLOGUE = re.compile(r"^.*?(?=<svg)", re.DOTALL)
 _METADATA = re.compile(r"<metadata>.*?</metadata>\s*", re.DOTALL)
@@ -54,14 +49,10 @@ def to_svg(fig: Figure, name: str) -> Markup:
         ``<svg ...>...</svg>`` without XML prologue, doctype and the RDF
         ``<metadata>`` block (creator credits), safe to inline.
     """
+    fit_text(fig)  # no text beyond the figure's edges
     buf = io.StringIO()
     with matplotlib.rc_context({"svg.hashsalt": name, "svg.fonttype": "none"}):
         fig.savefig(buf, format="svg", metadata={"Date": None}, dpi=110)
     text = _METADATA.sub("", _PROLOGUE.sub("", buf.getvalue(), count=1), count=1)
     text = text.replace("<svg ", f'<svg id="fig-{name}" role="img" ', 1)
     return Markup(text)
-
-
-def plain_label(text: object) -> str:
-    """A metadata string made safe for matplotlib text: no mathtext, bounded length."""
-    return str(text).replace("$", r"\$")[:60]

@@ -8,6 +8,8 @@ from numbers import Number
 import numpy as np
 import pandas as pd
 
+from reports.inputs import InputLog
+
 _SUPERSCRIPT = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
 
 
@@ -68,3 +70,22 @@ def _cell(value) -> str:
     if isinstance(value, float) and abs(value) >= 1e4 and value == round(value):
         return f"{value:.0f}"
     return fmt(value)
+
+
+def missing_since(log: InputLog, start: int) -> list[str]:
+    """The files ``log`` found missing since its ``start``-th record, each once."""
+    return list(dict.fromkeys(log.missing[start:]))
+
+
+def flatten(data: dict, prefix: str = "") -> list[tuple[str, str]]:
+    """Nested dict as (dotted key, text) pairs; lists of records are skipped (own tables)."""
+    out = []
+    for key, value in data.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            out.extend(flatten(value, name + "."))
+        elif isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
+            continue
+        else:
+            out.append((name, fmt(value) if isinstance(value, float) else str(value)))
+    return out

@@ -75,3 +75,43 @@ def test_walk_through_runs_as_written(tmp_path, monkeypatch):
     csv = pd.read_csv(tmp_path / "size_out" / "sizing.csv")
     np.testing.assert_allclose(csv["aep_elec_mwh"], sizing.table["aep_elec_mwh"], rtol=1e-5)
     assert sizing.chosen in set(sizing.table["candidate"])
+    # every result prints short and names what it holds; in a notebook, as a table
+    for name, holds in (("points", "points per quadrant"), ("model", "w^2"),
+                        ("sweep", "converged"), ("energy", "AEP elec-lim"),
+                        ("sizing", "chosen")):
+        text = repr(namespace[name])
+        assert len(text) < 1000 and holds in text, (name, text)
+        assert "<table" in namespace[name]._repr_html_()
+    assert repr(model.terms) == "(1, w^2, T^2, w*T)"
+    # the plotting functions draw on given axes and return them; each figure to a file
+    from matplotlib.figure import Figure
+
+    import drivebench as db
+    drawn = {
+        "map": lambda ax: db.plot_efficiency_map("fit_out", ax, cycles=sweep.cycles(7.5)),
+        "curves": lambda ax: namespace["energy"].plot_power_curves(ax),
+        "cycle": lambda ax: sweep.plot_cycle("elec-lim-7.5", ax),
+        "aep": lambda ax: namespace["energy"].plot_aep(ax),
+    }
+    for name, draw in drawn.items():
+        fig = Figure()
+        ax = fig.add_subplot()
+        assert draw(ax) is ax and ax.has_data(), name
+        fig.savefig(tmp_path / f"{name}.png")
+        assert (tmp_path / f"{name}.png").stat().st_size > 5000
+
+
+def test_the_walk_through_runs_from_standard_input():
+    """Code read from standard input has no file for the worker processes to re-import
+    (python - < walk_through.py): the pool still runs (here: one task of the solve
+    service's executor)."""
+    import subprocess
+    import sys
+
+    code = ("from optimize.sweep.executors import open_executor\n"
+            "with open_executor(2) as h:\n"
+            "    print(sorted(h.executor.map(abs, [-3, 4])))\n")
+    done = subprocess.run([sys.executable, "-"], input=code, capture_output=True, text=True,
+                          cwd=ROOT, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[3, 4]"

@@ -174,7 +174,8 @@ def write_optimize(opt: Path, model_sha256: str = "") -> pd.DataFrame:
                          "avg_p_mech_w": 2 * p_e - 300.0 if ok else math.nan,
                          "peak_speed_rpm": 900.0 if ok else math.nan,
                          "peak_torque_nm": 40.0 if ok else math.nan})
-            if ok and name in ("elec-free-10.0", "mech-free-10.0", "elec-lim-5.5"):
+            if ok and name in ("elec-free-10.0", "mech-free-10.0", "elec-lim-5.5",
+                               "elec-lim-10.0", "mech-lim-10.0"):
                 trajs.append(_cycle(name, kind, w))
     summary = pd.DataFrame(rows)
     summary.to_parquet(opt / "summary.parquet", index=False)
@@ -256,7 +257,7 @@ def test_table_ii_shows_failed_and_excludes_it(full_inputs):
     html = full_inputs["report"].read_text(encoding="utf-8")
     assert f"failed ({FAILED_STATUS})" in html
     # the sweep's manifest names the fitted model's canonical hash: the report confirms it
-    assert dict(opt["run"])["same model as section 3"] == "yes"
+    assert dict(opt["run"])["same model as section 3 (power model)"] == "yes"
     assert opt["cut_in"][0]["cut_in"] == "4.79" and opt["cut_in"][0]["label"] == (
         "elec. optimized, constrained")
     assert opt["claims"][0]["verdict"] == "agrees"
@@ -270,13 +271,15 @@ def test_report_says_the_paper_comparison_does_not_apply(full_inputs, tmp_path):
 
     store, fit, opt = full_inputs["dirs"]
     other = shutil.copytree(opt, tmp_path / "opt")
-    note = "system ap2 is not the paper system"
+    note = ("system 'ap2' is not the paper's: its statements are about another kite, so the "
+            "paper comparison does not apply")
     pd.DataFrame({"claim_id": ["fig3-energy", "fig3-period"], "statement": ["a", "b"],
                   "paper": ["827 J", "6 s"], "ours": ["n/a", "n/a"],
                   "verdict": ["does not apply"] * 2, "note": [note] * 2}
                  ).to_csv(other / "claims.csv", index=False)
     html = render(build_context(store, fit, other, ["bench", "report"]))
-    assert f"The paper comparison does not apply: {note}." in html
+    escaped = note.replace("'", "&#39;")
+    assert f"Paper comparison: {escaped}." in html  # said once, by the note
     assert '<table id="claims">' not in html
 
 

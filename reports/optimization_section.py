@@ -1,4 +1,4 @@
-"""Section 4 of the report: the optimized cycles (Table II, Figs. 8, 9, 10, 3, claims).
+"""The report's optimization section: the optimized cycles (Table II, Figs. 8, 9, 10, 3, claims).
 
 Reads ``optimize_out/summary.parquet`` (one row per scenario, with solver status),
 ``trajectories.parquet`` (every collocation point, a ``scenario`` column),
@@ -18,12 +18,17 @@ from optimize.kinds import KINDS, LABELS
 from optimize.sweep.outputs import SUMMARY_REQUIRED
 from reports import cycle_figures
 from reports.inputs import InputLog
+from reports.section_list import section_name
 from reports.tables import fmt, frame_table
+from reports.trust_checks import trust_checks
 
 TRAJECTORY_COLUMNS = ("scenario", "time_s", "weight", "l_m", "speed_rpm", "torque_nm",
                       "p_elec_w", "p_mech_w")
 #: Fig. 3: electrically optimized, constrained cycle at 5.5 m/s.
 FIG3_KIND, FIG3_WIND_M_S = "elec-lim", 5.5
+#: The wind speed of the paper's Figs. 9 and 10 and of its cycle periods [m/s]
+#: (docs/paper_figures.md §4, statement 6).
+PAPER_FIG9_WIND_M_S = 10.0
 
 
 def normalized_summary(summary: pd.DataFrame, path: Path) -> pd.DataFrame:
@@ -123,7 +128,7 @@ def run_rows(manifest: dict, fit_model_sha256: str | None) -> list[tuple[str, st
     """How the sweep ran (executor, wall time, convergence, drive model, options) as pairs.
 
     The drive model the sweep used is compared with the fitted model of the
-    report's section 3 (canonical SHA-256, docs/schemas.md §3).
+    report's power-model section (canonical SHA-256, docs/schemas.md §3).
     """
     rows = []
     for key in ("executor", "wall_time_s", "converged", "failed"):
@@ -138,7 +143,7 @@ def run_rows(manifest: dict, fit_model_sha256: str | None) -> list[tuple[str, st
         used = drive.get("model_sha256")
         if used and fit_model_sha256:
             same = "yes" if used == fit_model_sha256 else "NO: the sweep used another model"
-            rows.append(("same model as section 3", same))
+            rows.append((f"same model as {section_name('model')}", same))
     options = manifest.get("options")
     if isinstance(options, dict):  # {group: {option: value}}
         for group, values in options.items():
@@ -159,16 +164,6 @@ def cut_in_rows(manifest: dict) -> list[dict]:
                          "bracket": f"{fmt(lo, 3)} - {fmt(hi, 3)}" if lo is not None else "",
                          "status": str(c.get("status", ""))})
     return rows
-
-
-def trust_tables(manifest: dict) -> dict:
-    """The sweep's trust checks (mesh refinement, independent simulation) as tables."""
-    trust = manifest.get("trust") if isinstance(manifest.get("trust"), dict) else {}
-    out = {}
-    for name in ("mesh", "simulation"):
-        records = [r for r in trust.get(name) or [] if isinstance(r, dict)]
-        out[name] = frame_table(pd.DataFrame(records)) if records else None
-    return out
 
 
 def claims_rows(claims: pd.DataFrame) -> list[dict]:
@@ -211,18 +206,17 @@ def kite_limits_line(manifest: dict) -> str | None:
             + (f"{fmt(top, 1)} m/s." if top is not None else "no upper limit."))
 
 
-def optimization_section(log: InputLog, optimize: Path,
-                         grid: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
+def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
                          fit_model_sha256: str | None = None) -> dict:
-    """Section 4 context.
+    """The optimization section's context.
 
     Parameters
     ----------
     log : InputLog
     optimize : Path
         The ``bench optimize`` output folder.
-    grid : tuple or None
-        (speed_rpm, torque_nm, eta) of the efficiency map, beneath Fig. 9.
+    drawn_map : dict or None
+        ``map_frame`` and ``domain`` of the efficiency map, beneath Fig. 9.
     fit_model_sha256 : str, optional
         Canonical hash of the fitted model, to check the sweep used it.
 
@@ -230,73 +224,97 @@ def optimization_section(log: InputLog, optimize: Path,
     -------
     dict
         ``table_ii``, ``n_failed``, ``scenarios`` (full summary table), ``fig8a``,
-        ``fig8b``, ``fig9``, ``fig10``, ``fig3`` (each markup or None), ``domain``
-        (:func:`domain_rows`), ``notes``
-        (why a figure is absent), ``claims``, ``run``, ``cut_in``, ``trust``,
-        ``manifest``, ``missing``, ``bounds`` (:func:`bound_rows`), ``system``
-        (name, hash and file text from the manifest, or None), ``kite_limits``
+        ``fig8b`` (markup or None), ``cycles`` (:func:`cycle_figures_at_paper_wind`),
+        ``fig3``, ``notes`` (why Fig. 3 is absent), ``domain`` (:func:`domain_rows`),
+        ``claims``, ``run``, ``cut_in``, ``trust`` (:func:`reports.trust_checks.trust_checks`),
+        ``manifest``, ``missing``, ``bounds`` (:func:`bound_rows`), ``system`` (name, hash
+        and file text from the manifest, or None), ``kite_limits``
         (:func:`kite_limits_line`), ``local_optima`` (the sweep's re-solves, one line each).
     """
     start = len(log.missing)
     optimize = Path(optimize)
-    summary_path = optimize / "summary.parquet"
-    summary = log.parquet(summary_path, SUMMARY_REQUIRED)
+    summary = log.parquet(optimize / "summary.parquet", SUMMARY_REQUIRED)
     traj = log.parquet(optimize / "trajectories.parquet", TRAJECTORY_COLUMNS)
     manifest = log.json(optimize / "manifest.json")
     claims = log.csv(optimize / "claims.csv", ("statement", "paper", "ours", "verdict"))
-    out: dict = {"notes": {"fig9": None, "fig3": None}, "manifest": manifest,
-                 "table_ii": None, "n_failed": 0, "n_scenarios": 0, "scenarios": None,
-                 "fig8a": None, "fig8b": None, "fig9": None, "fig10": None, "fig3": None,
-                 "fig9_periods": [], "fig9_wind": None, "bounds": [],
-                 "domain": None}
-    out["claims"] = claims_rows(claims) if claims is not None else None
-    out["run"] = run_rows(manifest, fit_model_sha256) if manifest is not None else []
-    out["cut_in"] = cut_in_rows(manifest) if manifest is not None else []
-    out["trust"] = trust_tables(manifest or {})
-    out["system"] = (manifest or {}).get("system")
-    out["kite_limits"] = kite_limits_line(manifest or {})
-    out["local_optima"] = [str(n) for n in (manifest or {}).get("local_optima") or []]
+    out = manifest_context(manifest or {}, fit_model_sha256)
+    out.update({"manifest": manifest, "table_ii": None, "n_failed": 0, "n_scenarios": 0,
+                "scenarios": None, "fig8a": None, "fig8b": None, "cycles": None,
+                "fig3": None, "notes": {"fig3": None}, "bounds": [], "domain": None,
+                "claims": claims_rows(claims) if claims is not None else None})
     if summary is not None and len(summary):
-        s = normalized_summary(summary, summary_path)
-        out["table_ii"] = table_ii(s)
-        out["n_failed"] = int((~s["ok"]).sum())
-        out["n_scenarios"] = len(s)
-        out["scenarios"] = frame_table(summary)
-        out["bounds"] = bound_rows(summary)
-        out["domain"] = domain_rows(summary)
+        s = normalized_summary(summary, optimize / "summary.parquet")
+        out.update({"table_ii": table_ii(s), "n_failed": int((~s["ok"]).sum()),
+                    "n_scenarios": len(s), "scenarios": frame_table(summary),
+                    "bounds": bound_rows(summary), "domain": domain_rows(summary)})
         out["fig8a"] = cycle_figures.power_vs_wind_figure(
             s, "avg_p_elec_w", "fig8a", "Average generated ELECTRICAL power (Fig. 8a)")
         out["fig8b"] = cycle_figures.power_vs_wind_figure(
             s, "avg_p_mech_w", "fig8b", "Average generated MECHANICAL power (Fig. 8b)")
-        # Figs. 9 and 10: unconstrained cycles at the highest wind of the sweep (the
-        # paper's most extreme case, 10 m/s on the default grid)
-        wind = float(s["wind_speed_m_s"].max())
-        out["fig9_wind"] = fmt(wind, sig=3)
-        cycles, notes = {}, []
-        for kind in ("elec-free", "mech-free"):
-            t, why = _trajectory(traj, s, kind, wind)
-            if t is None:
-                notes.append(why)
-            else:
-                cycles[kind] = t
-        if cycles:
-            # paper order: Fig. 9 (b) mechanical, (c) electrical; Fig. 10 (a) electrical
-            mech_first = dict(sorted(cycles.items(),
-                                     key=lambda kv: KINDS[kv[0]].objective != "mechanical"))
-            out["fig9"] = cycle_figures.torque_speed_figure(mech_first, wind, grid)
-            out["fig10"] = cycle_figures.power_flow_figure(cycles, wind)
-            out["fig9_periods"] = [
-                {"label": LABELS[k], "period_s": fmt(t["time_s"].max(), 2)}
-                for k, t in cycles.items()]
-        if notes:
-            out["notes"]["fig9"] = "; ".join(notes)
-        t, why = _trajectory(traj, s, FIG3_KIND, FIG3_WIND_M_S)
-        if t is None:
-            out["notes"]["fig3"] = why
-        else:
-            period = float(t["time_s"].max())
-            out["fig3"] = cycle_figures.cycle_figure(
-                t, period, f"electrically optimized, constrained, {FIG3_WIND_M_S:g} m/s, "
-                f"period {period:.2f} s")
+        out["cycles"] = cycle_figures_at_paper_wind(traj, s, drawn_map)
+        out["fig3"], out["notes"]["fig3"] = fig3(traj, s)
     out["missing"] = list(dict.fromkeys(log.missing[start:]))
     return out
+
+
+def manifest_context(manifest: dict, fit_model_sha256: str | None) -> dict:
+    """What the sweep's manifest alone says: how it ran, cut-in speeds, trust checks, the
+    system, the kite's limits and the local-optimum re-solves."""
+    return {"run": run_rows(manifest, fit_model_sha256) if manifest else [],
+            "cut_in": cut_in_rows(manifest),
+            "trust": trust_checks(manifest),
+            "system": manifest.get("system"),
+            "kite_limits": kite_limits_line(manifest),
+            "local_optima": [str(n) for n in manifest.get("local_optima") or []]}
+
+
+def cycle_figures_at_paper_wind(traj: pd.DataFrame | None, summary: pd.DataFrame,
+                                drawn_map: dict | None) -> dict:
+    """Figs. 9 and 10 at the grid's wind speed nearest the paper's (:data:`PAPER_FIG9_WIND_M_S`).
+
+    Returns
+    -------
+    dict
+        ``wind`` (text), ``fig9``, ``fig10`` (markup or None), ``periods`` (label and
+        period of each cycle without limits), ``paper_applies`` (the grid holds the
+        paper's speed, so its periods compare), ``not_paper`` (the sentence that says why
+        they do not, else None) and ``missing`` (scenarios not drawn, and why).
+    """
+    winds = summary["wind_speed_m_s"].astype(float).unique()
+    wind = float(winds[np.argmin(np.abs(winds - PAPER_FIG9_WIND_M_S))])
+    limited, free, missing = {}, {}, []
+    # the paper's order: Fig. 9 (b) mechanical, (c) electrical
+    for kind in ("mech-lim", "elec-lim", "mech-free", "elec-free"):
+        t, why = _trajectory(traj, summary, kind, wind)
+        if t is None:
+            missing.append(why)
+        else:
+            (limited if KINDS[kind].drive_limits else free)[kind] = t
+    applies = bool(np.isclose(wind, PAPER_FIG9_WIND_M_S))
+    out = {"wind": fmt(wind, sig=3), "fig9": None, "fig10": None, "missing": missing,
+           "paper_applies": applies, "periods": [
+               {"label": LABELS[k], "period_s": fmt(t["time_s"].max(), 2)}
+               for k, t in free.items()],
+           "not_paper": None if applies else (
+               f"The paper's periods (mechanical 2.14 s, electrical 3.89 s) are for "
+               f"{PAPER_FIG9_WIND_M_S:g} m/s; this sweep's grid has no "
+               f"{PAPER_FIG9_WIND_M_S:g} m/s, so its cycles at {wind:g} m/s, the nearest "
+               "speed, are not compared with them.")}
+    if limited or free:
+        out["fig9"] = cycle_figures.torque_speed_figure(limited, free, wind, drawn_map)
+    if free:
+        out["fig10"] = cycle_figures.power_flow_figure(
+            dict(sorted(free.items(), key=lambda kv: KINDS[kv[0]].objective != "electrical")),
+            wind)
+    return out
+
+
+def fig3(traj: pd.DataFrame | None, summary: pd.DataFrame) -> tuple[object, str | None]:
+    """The Fig. 3 analogue (:data:`FIG3_KIND` at :data:`FIG3_WIND_M_S`), or (None, why not)."""
+    t, why = _trajectory(traj, summary, FIG3_KIND, FIG3_WIND_M_S)
+    if t is None:
+        return None, why
+    period = float(t["time_s"].max())
+    return cycle_figures.cycle_figure(
+        t, period, f"electrically optimized, constrained, {FIG3_WIND_M_S:g} m/s, "
+                   f"period {period:.2f} s"), None

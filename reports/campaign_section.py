@@ -1,0 +1,163 @@
+"""The report's campaign section: sessions, instruments and metadata, points per
+quadrant, rejected windows, clocks (the store of ``bench ingest``, docs/schemas.md §2).
+
+Like every section module, it reads what it needs through an
+:class:`reports.inputs.InputLog` and returns a plain dict for the template, whose
+``missing`` lists the input files that were absent. Strings from logs and metadata stay
+plain strings here; the template escapes them.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+
+from bench.errors import InputError
+from bench.store.damage import check_store
+from bench.store.manifest import kind_files as store_files
+from bench.store.manifest import read_manifest
+from reports import drive_figures
+from reports.inputs import InputLog
+from reports.tables import flatten, fmt, missing_since
+
+POINT_COLUMNS = ("session_id", "quadrant", "speed_rpm", "torque_nm", "p_mech_w", "p_elec_w")
+REJECTED_COLUMNS = ("session_id", "t_start_s", "t_end_s", "reason")
+
+
+def _store_kind(log: InputLog, store: Path, kind: str, manifest: dict | None,
+                required: tuple[str, ...]) -> pd.DataFrame | None:
+    """The ``kind`` files the store's manifest lists (never files it does not list)."""
+    try:
+        store_manifest = None if manifest is None else read_manifest(store)
+    except InputError:  # not a store manifest: the campaign section says what is missing
+        store_manifest = None
+    files = [] if store_manifest is None else list(store_files(store, kind).values())
+    if files:
+        damage = check_store(store, store_manifest)
+        if damage.damaged:
+            raise InputError(store, "damaged store: " + "; ".join(damage.lines()[:3]),
+                             expected="run bench store check, then bench ingest of the "
+                                      "damaged sessions' folders")
+    return log.parquet_files(files, str(Path(store) / kind / "*.parquet"), required)
+
+
+def campaign_section(log: InputLog, store: Path) -> dict:
+    """The campaign section: sessions, instruments, metadata, points, rejections, clocks.
+
+    Parameters
+    ----------
+    log : InputLog
+        Records the files read.
+    store : Path
+        The ``bench ingest`` store folder.
+
+    Returns
+    -------
+    dict
+        ``sessions`` (one dict per session), ``totals``, ``rejected_reasons``,
+        ``figure``, ``missing``; and for the other sections ``points`` (the
+        store's operating points or None) and ``manifest`` (decoded or None).
+    """
+    start = len(log.missing)
+    store = Path(store)
+    manifest = log.json(store / "manifest.json")
+    points = _store_kind(log, store, "points", manifest, POINT_COLUMNS)
+    rejected = _store_kind(log, store, "rejected", manifest, REJECTED_COLUMNS)
+    sessions = []
+    if manifest is not None:
+        entries = manifest.get("sessions")
+        if not isinstance(entries, dict):
+            raise InputError(store / "manifest.json", "field 'sessions' is not an object",
+                             expected="{session_id: {...}}")
+        for sid, entry in sorted(entries.items()):
+            sessions.append(_session_row(str(sid), entry if isinstance(entry, dict) else {}))
+    quadrant_counts = {"motor": 0, "generator": 0}
+    figure = None
+    if points is not None and len(points):
+        counts = points["quadrant"].astype(str).value_counts()
+        quadrant_counts = {q: int(counts.get(q, 0)) for q in ("motor", "generator")}
+        figure = drive_figures.operating_points_figure(points)
+    reasons = []
+    if rejected is not None and len(rejected):
+        table = rejected.groupby("reason").size().sort_values(ascending=False)
+        reasons = [{"reason": str(r), "count": int(n)} for r, n in table.items()]
+    elif manifest is not None:
+        agg: dict[str, int] = {}
+        for entry in manifest["sessions"].values():
+            for r, n in ((entry.get("rejected") if isinstance(entry, dict) else None)
+                         or {}).items():
+                agg[str(r)] = agg.get(str(r), 0) + int(n)
+        reasons = [{"reason": r, "count": n} for r, n in sorted(agg.items(), key=lambda x: -x[1])]
+    return {
+        "sessions": sessions,
+        "totals": {
+            "sessions": len(sessions),
+            "points": int(len(points)) if points is not None else None,
+            **quadrant_counts,
+            "rejected": sum(r["count"] for r in reasons),
+        },
+        "rejected_reasons": reasons,
+        "figure": figure,
+        "missing": missing_since(log, start),
+        "points": points,
+        "manifest": manifest,
+    }
+
+
+def _session_row(sid: str, entry: dict) -> dict:
+    meta = entry.get("metadata") if isinstance(entry.get("metadata"), dict) else {}
+    ppq = entry.get("points_per_quadrant") or {}
+    rejected = entry.get("rejected") or {}
+    return {
+        "session_id": sid,
+        "kind": entry.get("kind", meta.get("kind", "")),
+        "mode": entry.get("mode", meta.get("mode", "")),
+        "operator": meta.get("operator", ""),
+        "date": meta.get("date", ""),
+        "n_points": entry.get("n_points"),
+        "motor": ppq.get("motor"),
+        "generator": ppq.get("generator"),
+        "rejected": ", ".join(f"{k}: {v}" for k, v in sorted(rejected.items())),
+        "no_points_note": entry.get("no_points_note", ""),
+        "clock_offset_s": fmt(entry.get("clock_offset_s"), 3),
+        "clock_drift_ppm": fmt(entry.get("clock_drift_ppm"), 1),
+        "clock_offset_prior_s": fmt(entry.get("clock_offset_prior_s"), 3),
+        "clock_correlation": fmt(entry.get("clock_correlation"), 3),
+        "instruments": _instruments(
+            meta, entry["instruments"] if isinstance(entry.get("instruments"), dict) else {}),
+        "metadata": flatten(meta),
+    }
+
+
+def _instruments(meta: dict, instruments: dict) -> list[dict]:
+    """The session's instruments, one dict per stream (``stream, file, format, details``).
+
+    ``instruments`` is what ingest recorded about each stream (the analyzer's
+    header block, the column mapping); ``meta`` is the session.toml (files,
+    sensor ranges, measured side).
+    """
+    rows = []
+    for block in ("daq", "analyzer", "log", "points"):
+        b = meta.get(block) if isinstance(meta.get(block), dict) else {}
+        seen = instruments.get(block) if isinstance(instruments.get(block), dict) else {}
+        if not (b or seen):
+            continue
+        header = seen.get("header") if isinstance(seen.get("header"), dict) else {}
+        details = [f"{k} {header[k]}" for k in ("Model", "Serial", "Sample Interval", "Wiring")
+                   if k in header]
+        columns = seen.get("columns") if isinstance(seen.get("columns"), dict) else {}
+        names = [str(c.get("column")) for c in columns.values() if isinstance(c, dict)]
+        if names:
+            details.append("columns: " + ", ".join(names))
+        rows.append({"stream": block, "file": str(b.get("file", "")),
+                     "format": str(seen.get("format", b.get("format", ""))),
+                     "details": "; ".join(details)})
+    sensors = meta.get("sensors")
+    side = meta.get("measured_side")
+    ranges = [f"{k} = {v}" for k, v in sensors.items()] if isinstance(sensors, dict) else []
+    if side:
+        ranges.append(f"measured side: {side}, gear ratio {meta.get('gear_ratio', '?')}")
+    if ranges:
+        rows.append({"stream": "sensors", "file": "", "format": "", "details": ", ".join(ranges)})
+    return rows

@@ -1,0 +1,232 @@
+"""The figures of drivebench as plotting functions: each takes an optional ``ax`` and
+returns it, so the report and a notebook draw the same figure with the same code.
+
+============================ ==========================================================
+:func:`plot_efficiency_map`  the measured efficiency map (paper Fig. 5), optionally with
+                             cycles in the torque-speed plane over it (paper Fig. 9)
+:func:`plot_power_curves`    delivered power against wind speed per scenario kind, with
+                             the 95 % band of the electrical power
+:func:`plot_cycle`           shaft and grid power over one cycle (paper Figs. 3, 10)
+:func:`plot_aep`             electrical and mechanical AEP per scenario kind, with bands
+============================ ==========================================================
+
+Each reads plain frames, the content of the stages' files (docs/schemas.md); without
+``ax`` a new pyplot figure is made. Nothing here selects a matplotlib backend.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from fitting import figures
+from optimize.kinds import KINDS, LABELS
+
+#: Colours of the four scenario kinds, shared by every figure of the cycles.
+SCENARIO_COLORS = {
+    "elec-lim": "#1f77b4",
+    "elec-free": "#17becf",
+    "mech-lim": "#d62728",
+    "mech-free": "#ff7f0e",
+}
+#: Time between the markers of a cycle in the torque-speed plane [s]: equal spacing, so
+#: marker density shows dwell time, as in the paper's Fig. 9.
+MARKER_STEP_S = 0.04
+#: Two-sided 95 % normal quantile.
+Z95 = 1.959963984540054
+
+
+def new_axes(ax: Any = None, size_in: tuple[float, float] = (7.0, 4.2)) -> Any:
+    """``ax``, or the axes of a new pyplot figure of ``size_in`` [inch] (constrained layout)."""
+    if ax is not None:
+        return ax
+    import matplotlib.pyplot as plt
+
+    return plt.figure(figsize=size_in, layout="constrained").add_subplot()
+
+
+def equal_time_samples(cycle: pd.DataFrame, columns: tuple[str, ...],
+                       step_s: float = MARKER_STEP_S) -> dict[str, np.ndarray]:
+    """Columns of a closed cycle resampled at equal time steps (linear interpolation).
+
+    Parameters
+    ----------
+    cycle : DataFrame
+        Closed cycle (first row at t = 0) with ``time_s`` [s] and ``columns``.
+    columns : tuple of str
+        Columns to resample.
+    step_s : float
+        Time step [s].
+    """
+    t = cycle["time_s"].to_numpy(float)
+    grid = np.arange(0.0, t[-1], step_s)
+    return {c: np.interp(grid, t, cycle[c].to_numpy(float)) for c in columns}
+
+
+def plot_efficiency_map(map_frame: pd.DataFrame, ax: Any = None, *, domain: dict | None = None,
+                        masking: dict | None = None,
+                        cycles: dict[str, pd.DataFrame] | None = None) -> Any:
+    """The measured efficiency map (paper Fig. 5), with cycles over it (paper Fig. 9).
+
+    Parameters
+    ----------
+    map_frame : DataFrame
+        ``efficiency_map.parquet`` of ``bench fit``: ``speed_rpm`` [rpm], ``torque_nm``
+        [N m], ``eta`` [-] and, when present, ``status``.
+    ax : matplotlib Axes, optional
+        Where to draw; default a new figure.
+    domain : dict, optional
+        ``quadrant -> polygon`` of the power model's validity domain, outlined.
+    masking : dict, optional
+        The fit's masking rules, named in the title.
+    cycles : dict, optional
+        Scenario kind (a key of :data:`optimize.kinds.KINDS`) -> closed cycle with
+        ``time_s`` [s], ``speed_rpm`` [rpm], ``torque_nm`` [N m]; drawn with a marker
+        every :data:`MARKER_STEP_S` (SVG id ``cycle-<kind>``). The axes keep the map's
+        extent: the part of a cycle beyond the map is cut off, and the legend says which
+        cycles leave it.
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    ax = new_axes(ax, (7.0, 4.0))
+    figures.draw_efficiency_map(ax, map_frame, domain, masking)
+    if cycles:
+        x0, x1 = ax.get_xlim()
+        y0, y1 = ax.get_ylim()
+        for kind, cycle in cycles.items():
+            smp = equal_time_samples(cycle, ("speed_rpm", "torque_nm"))
+            s, t = smp["speed_rpm"], smp["torque_nm"]
+            inside = float(np.mean((s >= x0) & (s <= x1) & (t >= y0) & (t <= y1)))
+            ax.plot(s, t, marker=".", ms=3, lw=0.5, color=SCENARIO_COLORS.get(kind, "k"),
+                    label=LABELS.get(kind, kind) + ("" if inside == 1.0 else
+                                                    f" ({100 * inside:.0f} % on the map)"),
+                    gid=f"cycle-{kind}")  # the SVG element's id
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
+        ax.legend(loc="upper left", fontsize=7)
+    return ax
+
+
+def plot_power_curves(curves: pd.DataFrame, ax: Any = None) -> Any:
+    """Delivered power against wind speed per scenario kind: electrical solid with its
+    95 % band, mechanical dashed (positive = delivered).
+
+    Parameters
+    ----------
+    curves : DataFrame
+        ``power_curves.csv`` of ``bench aep`` (or ``AepResult.assessment.curves``):
+        ``kind``, ``wind_speed_m_s`` [m/s], ``p_elec_w``, ``p_mech_w`` [W] (our sign:
+        negative = generated) and ``p_elec_sigma_w`` [W] (NaN: no band).
+    ax : matplotlib Axes, optional
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    ax = new_axes(ax)
+    for kind, rows in curves.groupby("kind", sort=False):
+        rows = rows.sort_values("wind_speed_m_s")
+        v = rows["wind_speed_m_s"].to_numpy(float)
+        d = -rows["p_elec_w"].to_numpy(float)
+        s = rows["p_elec_sigma_w"].to_numpy(float) if "p_elec_sigma_w" in rows else v * np.nan
+        c = SCENARIO_COLORS.get(str(kind), "#444444")
+        ax.plot(v, d, "o-", color=c, label=f"{plain_label(kind)} electrical")
+        if np.all(np.isfinite(s)):
+            ax.fill_between(v, d - Z95 * s, d + Z95 * s, color=c, alpha=0.25, lw=0)
+        ax.plot(v, -rows["p_mech_w"].to_numpy(float), "--", color=c, lw=1, alpha=0.8)
+    ax.axhline(0, color="k", lw=0.6)
+    ax.set_xlabel("wind speed at the reference height [m/s]")
+    ax.set_ylabel("average power delivered [W]")
+    ax.set_title("Power curves (solid: electrical with 95 % band; dashed: mechanical)",
+                 fontsize=9)
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    return ax
+
+
+def plot_cycle(cycle: pd.DataFrame, ax: Any = None, *, title: str | None = None,
+               kind: str | None = None) -> Any:
+    """Shaft and grid power over one cycle [kW] (positive = drawn from the grid /
+    delivered to the shaft), the panels of paper Figs. 3 and 10.
+
+    Parameters
+    ----------
+    cycle : DataFrame
+        One cycle's collocation points: ``time_s`` [s], ``p_mech_w``, ``p_elec_w`` [W]
+        (a ``trajectories.parquet`` scenario's rows).
+    ax : matplotlib Axes, optional
+    title : str, optional
+    kind : str, optional
+        The scenario kind, for the colour of the electrical power.
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    ax = new_axes(ax, (5.0, 3.4))
+    cycle = cycle.sort_values("time_s")
+    t = cycle["time_s"].to_numpy(float)
+    ax.plot(t, cycle["p_mech_w"] / 1e3, color="0.3", label="P_mech (shaft)")
+    ax.plot(t, cycle["p_elec_w"] / 1e3, color=SCENARIO_COLORS.get(kind, "tab:blue"),
+            label="P_elec (grid)")
+    ax.axhline(0.0, color="k", lw=0.6)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("power [kW]\n(+ = drawn from grid)")
+    if title:
+        ax.set_title(title, fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    return ax
+
+
+def plot_aep(table: pd.DataFrame, ax: Any = None) -> Any:
+    """Electrical and mechanical AEP per scenario kind [MWh/yr], the electrical with its
+    95 % band.
+
+    Parameters
+    ----------
+    table : DataFrame
+        One row per kind: ``kind``, ``aep_elec_mwh``, ``aep_mech_mwh`` and, when known,
+        ``ci95_aep_elec_low_mwh``, ``ci95_aep_elec_high_mwh`` (the ``kinds`` of
+        ``aep.json``, or ``AepResult.table()``).
+    ax : matplotlib Axes, optional
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    ax = new_axes(ax, (6.0, 3.6))
+    kinds = [str(k) for k in table["kind"]]
+    x = np.arange(len(kinds))
+    elec = table["aep_elec_mwh"].to_numpy(float)
+    lo = pd.to_numeric(table.get("ci95_aep_elec_low_mwh", pd.Series(np.nan, table.index)),
+                       errors="coerce").to_numpy(float)
+    hi = pd.to_numeric(table.get("ci95_aep_elec_high_mwh", pd.Series(np.nan, table.index)),
+                       errors="coerce").to_numpy(float)
+    err = np.vstack([elec - lo, hi - elec])
+    colors = [SCENARIO_COLORS.get(k, "#444444") for k in kinds]
+    ax.bar(x - 0.2, elec, 0.4, color=colors, label="electrical (95 % band)",
+           yerr=np.where(np.isfinite(err), err, 0.0), capsize=3)
+    ax.bar(x + 0.2, table["aep_mech_mwh"].to_numpy(float), 0.4, color=colors, alpha=0.35,
+           hatch="//", label="mechanical (shaft)")
+    ax.set_xticks(x, [f"{k}\n{_short_label(k)}" for k in kinds], fontsize=7)
+    ax.set_ylabel("AEP [MWh/yr]")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3, axis="y")
+    return ax
+
+
+def _short_label(kind: str) -> str:
+    k = KINDS.get(kind)
+    if k is None:
+        return ""
+    return f"{k.objective[:4]}. optimized, {'with' if k.drive_limits else 'no'} limits"
+
+
+def plain_label(text: object) -> str:
+    """A label made safe for matplotlib text: no mathtext, bounded length."""
+    return str(text).replace("$", r"\$")[:60]
