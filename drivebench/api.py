@@ -612,7 +612,7 @@ def size(site: Any, model: Any = None, *, system: Any = None,
                                  adaptive=adaptive, system=system))
     edge_doc = {"best_at": edge, "added_scales": added,
                 "note": edge_note(edge, result.best, added)}
-    notes = [*notes, grid_hours(site, tuple(winds))["note"],
+    notes = [*notes, grid_hours(site, tuple(winds), result.records)["note"],
              *([edge_doc["note"]] if edge_doc["note"] else [])]
     files = write_sizing(out, result, site=site, site_note=site_note or site.describe(),
                          drive=drive, system=system, winds=tuple(winds), adaptive=adaptive,

@@ -52,10 +52,10 @@ def test_bench_run_leaves_every_other_option_at_the_stages_default():
             [a for a in argv[1:2] if stage == "ingest"]))  # ingest needs its paths
         differ = {k for k in parsed if parsed[k] != defaults[k]} - SET_BY_RUN
         assert differ == set(), f"bench run changes bench {stage} {sorted(differ)}"
-    # the size stage's grid and scales are bench size's own (they once were typed again)
+    # the size stage's scales are bench size's own (they once were typed again); its grid
+    # covers the site (test below)
     size = stage_parser("size").parse_args(stage_commands(run_args)[4][1:])
-    assert (size.scales, size.wind_grid) == (stage_parser("size").get_default("scales"),
-                                            stage_parser("size").get_default("wind_grid"))
+    assert size.scales == stage_parser("size").get_default("scales")
 
 
 @pytest.mark.parametrize("dest", sorted(FORWARDED))
@@ -110,3 +110,30 @@ def test_optimize_exit_codes_and_bench_run_going_on_past_some_failures(monkeypat
     assert run(args) == 1
     assert calls == ["ingest", "fit", "optimize", "aep", "size"]
     assert "some scenarios failed" in capsys.readouterr().out
+
+
+def test_default_sizing_grid_covers_95_percent_of_the_site():
+    from energy.site import Weibull
+    from energy.sizing_files import grid_hours
+    from optimize.sweep.plan import parse_wind_grid
+
+    run_args = build_parser(["run", "logs"]).parse_args(["run", "logs", "--out", "o"])
+    size = stage_commands(run_args)[4]
+    spec = size[size.index("--wind-grid") + 1]
+    assert spec == "4:13:3"  # from bench optimize's 4 m/s in twice its 1.5 m/s steps
+    c = 5.5 / math.gamma(1.5)  # closed form as above: P(v > x) = exp(-(x / c)^2)
+    assert math.exp(-((13.0 / c) ** 2)) < 0.05 <= math.exp(-((10.0 / c) ** 2))
+    winds = parse_wind_grid(spec)
+    site = Weibull.from_mean(2.0, 5.5)
+    # below the cut-in at the first speed (P_elec > 0: drawn from the grid) no candidate
+    # delivers: those hours lose nothing; the ones above 13 m/s do
+    quiet = [{"wind_speed_m_s": 4.0, "success": True, "avg_p_elec_w": 35.0}]
+    hours = grid_hours(site, winds, quiet)
+    assert hours["share_left_out"] == pytest.approx(math.exp(-((13.0 / c) ** 2)), rel=1e-9)
+    assert hours["share_left_out"] < 0.05
+    assert "covers 98.8 % of the site's hours" in hours["note"]
+    # a candidate delivering at 4 m/s would lose the hours below it too
+    windy = [*quiet, {"wind_speed_m_s": 4.0, "success": True, "avg_p_elec_w": -20.0}]
+    below = 1.0 - math.exp(-((4.0 / c) ** 2))
+    assert grid_hours(site, winds, windy)["share_left_out"] == pytest.approx(
+        below + math.exp(-((13.0 / c) ** 2)), rel=1e-9)
