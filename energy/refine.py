@@ -240,6 +240,7 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
     from tqdm import tqdm
 
     from optimize.service.run import run_chains
+    from optimize.service.solver import attempt_line
 
     manifest_path = run.folder / "manifest.json"
     if run.drive_model_sha256 and model.sha256 != run.drive_model_sha256:
@@ -257,6 +258,9 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
     counts = {"solved": 0, "loaded": 0}
 
     def on_event(ev: dict) -> None:
+        if "attempt" in ev:  # a solver run starts or ends: say which
+            bar.set_postfix_str(attempt_line(ev))
+            return
         counts["loaded" if ev["cached"] else "solved"] += 1
         bar.total += 1
         bar.set_postfix_str(f"{ev['kind']} {ev['wind']:g} m/s ({ev['role']}): "

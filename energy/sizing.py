@@ -278,6 +278,7 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
     from tqdm import tqdm
 
     from optimize.service import SolveTask, solve_tasks
+    from optimize.service.solver import attempt_line
     from optimize.system.system import load_system
 
     system = system if system is not None else load_system()
@@ -288,6 +289,9 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
     counts = {"solved": 0, "cached": 0}
 
     def on_event(ev: dict) -> None:
+        if "attempt" in ev:  # a solver run starts or ends: say which
+            bar.set_postfix_str(f"{ev['candidate']} {attempt_line(ev)}")
+            return
         counts["cached" if ev["cached"] else "solved"] += 1
         if bar.n >= bar.total:  # an adaptive grid adds speeds
             bar.total += 1

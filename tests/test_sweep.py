@@ -317,8 +317,11 @@ def test_sweep_on_a_local_dask_cluster():
         futures = run_tasks(handle.executor, run_chain, tasks, handle.channel, seen.append)
         assert all(f.exception() is None for f in futures)
         # 20 grid solve events, the probes' and 2 cut-in events came back through the Dask queue
-        assert len([e for e in seen if e.get("role") == "grid"]) == 20
-        assert {e["role"] for e in seen if "role" in e} == {"grid", "cut-in"}
+        solved = [e for e in seen if "role" in e and "attempt" not in e]  # the solves' records
+        assert len([e for e in solved if e["role"] == "grid"]) == 20
+        assert {e["role"] for e in solved} == {"grid", "cut-in"}
+        # and each solver run was announced through the same queue
+        assert {e["role"] for e in seen if "attempt" in e} == {"grid", "cut-in"}
         assert sorted(e["cut_in"] for e in seen if "cut_in" in e) == ["elec-lim", "mech-lim"]
         result = run_sweep(tasks, handle, show_progress=False)
     _check_sweep(result)
@@ -333,7 +336,8 @@ def test_process_pool_executor_runs_chains_with_progress():
         assert handle.description == "process pool, 2 workers"
         futures = run_tasks(handle.executor, run_chain, tasks, handle.channel, seen.append)
     outs = [f.result() for f in futures]
-    assert sorted(e["name"] for e in seen) == sorted(s.name for t in tasks for s in t.steps)
+    records = [e for e in seen if "attempt" not in e]  # one per solve; the others announce
+    assert sorted(e["name"] for e in records) == sorted(s.name for t in tasks for s in t.steps)
     assert all(int(o.worker.rsplit(":", 1)[1]) != os.getpid() for o in outs)  # ran in children
     assert all(o.success for c in outs for o in c.outcomes)
     with pytest.raises(InputError, match="--workers 0"), open_executor(workers=0):
@@ -621,3 +625,21 @@ def test_a_smooth_power_curve_is_not_resolved():
     jumped = list(period)
     jumped[7] *= 1.3  # a period jump alone
     assert 7 in off_curve(winds, power, jumped)
+
+
+def test_every_solver_run_says_what_it_is_doing():
+    """Each solver run, the local-optimum re-solves included, is announced before it runs
+    and reported after, so the progress bar names the phase it is in."""
+    from optimize.service.solver import attempt_line
+    from optimize.sweep.executors import QueueChannel
+
+    channel = QueueChannel()
+    run_chain(ChainTask(PROBLEM, chain_steps(("elec-free",), WINDS), backend=BranchBackend(),
+                        resolve=True), progress=channel)
+    runs = [e for e in channel.drain() if "attempt" in e]
+    assert [e["attempt"] for e in runs] == ["start", "done"] * (len(runs) // 2)
+    assert {e["role"] for e in runs} == {"grid", "local optimum"}
+    lines = [attempt_line(e) for e in runs if e["role"] == "local optimum"]
+    # the re-solve that finds the better optimum of 7 m/s (see the test above)
+    assert "local optimum: elec-free-7.0 from elec-free-5.5 ..." in lines
+    assert "local optimum: elec-free-7.0 from elec-free-5.5 Solve_Succeeded" in lines

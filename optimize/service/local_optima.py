@@ -33,6 +33,10 @@ CURVE_NEIGHBOURS = 2
 MAX_RESOLVE_ROUNDS = 3
 
 
+#: the role of a re-solve in the progress events (:meth:`Solver.attempt`)
+LOCAL_OPTIMUM = "local optimum"
+
+
 def objective_power_w(kind: str, result: Any) -> float:
     """Average power [W] the kind's objective maximizes (negative = generated); NaN if absent."""
     name = "avg_p_elec_w" if KINDS[kind][0] == "electrical" else "avg_p_mech_w"
@@ -144,7 +148,8 @@ def resolve_local_optima(solver: Any, keys: Sequence[tuple[str, float]]) -> None
                         continue
                     tried.add(tag)
                     before = objective_power_w(kind, o.result)
-                    attempt, result = solver.attempt(kind, o.wind_speed_m_s, ks[n])
+                    attempt, result = solver.attempt(kind, o.wind_speed_m_s, ks[n],
+                                                     LOCAL_OPTIMUM)
                     after = objective_power_w(kind, result) if attempt.success else math.nan
                     kept = bool(attempt.success and after < before - better_margin_w(before))
                     record = Resolve(attempt, after, before, kept)

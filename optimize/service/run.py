@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from optimize.service.chain import ChainTask, Refinement, run_chain
+from optimize.service.local_optima import LOCAL_OPTIMUM
 from optimize.service.outcome import (
     WORKER_ERROR,
     Attempt,
@@ -29,6 +30,7 @@ from optimize.service.outcome import (
     failure_status,
 )
 from optimize.service.problem import Problem
+from optimize.service.solver import attempt_line
 from optimize.service.store import solve_key
 from optimize.sweep.plan import Chain, chain_steps
 
@@ -155,7 +157,9 @@ def run_sweep(tasks: tuple[ChainTask, ...], handle: Any,
     handle : optimize.sweep.executors.ExecutorHandle
         The open executor and its progress channel.
     show_progress : bool
-        Show a tqdm bar (one tick per planned scenario and per cut-in search).
+        Show a tqdm bar: one tick per planned scenario, per cut-in search, per cut-in
+        probe and per local-optimum re-solve (the last two added as they come), and
+        beside it what the solver is running.
 
     Returns
     -------
@@ -171,13 +175,19 @@ def run_sweep(tasks: tuple[ChainTask, ...], handle: Any,
 
     def on_event(event: dict) -> None:
         nonlocal n_failed
+        if "attempt" in event:  # every solver run says what it is; re-solves also count
+            bar.set_postfix_str(attempt_line(event))
+            if event["attempt"] == "done" and event["role"] == LOCAL_OPTIMUM:
+                bar.total += 1
+                bar.update(1)
+            return
         if "cut_in" in event:
             bar.set_postfix_str(f"cut-in {event['cut_in']} done")
         elif event["role"] == "grid":
             n_failed += 0 if event["success"] else 1
             bar.set_postfix_str(f"{event['name']}: {event['status']}, failed {n_failed}")
-        else:
-            return
+        else:  # a cut-in probe: one more solve than planned
+            bar.total += 1
         bar.update(1)
 
     t0 = time.perf_counter()

@@ -74,7 +74,9 @@ class Solver:
         The numerical side (:class:`optimize.service.problem.OcpBackend` by default).
     progress : object with ``put(dict)``, optional
         Receives, after each solve, ``{tag..., "chain", "name", "kind", "wind", "role",
-        "success", "status", "cached", "wall_time_s"}``.
+        "success", "status", "cached", "wall_time_s"}``; and around each solver run
+        (:meth:`attempt`) ``{tag..., "attempt": "start" or "done", "chain", "name", "role",
+        "from", "status"}``, so a bar can say what runs (:func:`attempt_line`).
     tag : dict, optional
         Fields added to every record and progress event (e.g. the candidate's name).
     extras : callable, optional
@@ -113,11 +115,14 @@ class Solver:
         """Wind speeds [m/s] of ``kind`` with a converged solution to warm-start from."""
         return sorted(w for k, w in self._warm if k == kind)
 
-    def attempt(self, kind: str, wind: float, source: Key | None) -> tuple[Attempt, Any]:
+    def attempt(self, kind: str, wind: float, source: Key | None,
+                role: str = "grid") -> tuple[Attempt, Any]:
         """One solver run of ``kind`` at ``wind`` [m/s] from the converged ``source``
-        (None: a cold start); a crash is a failed attempt with no result."""
+        (None: a cold start) for ``role`` (why it runs, for the progress events); a crash
+        is a failed attempt with no result."""
         ocp = self.ocp
         name = None if source is None else scenario_name(*source)
+        self._tell("start", kind, wind, role, name, "")
         t0 = time.perf_counter()
         try:
             if source is None:
@@ -125,11 +130,21 @@ class Solver:
             else:
                 result = self.backend.solve(ocp, kind, wind, self._warm[source])
         except Exception as exc:  # noqa: BLE001 - a crash is this speed's failure, reported
-            return Attempt(name, failure_status(CRASH, exc), False, 0,
-                           time.perf_counter() - t0), None
-        ok = bool(result.success) and math.isfinite(float(result.avg_p_elec_w))
-        return Attempt(name, str(result.status), ok, int(result.iterations),
-                       float(result.wall_time_s)), result
+            attempt, result = Attempt(name, failure_status(CRASH, exc), False, 0,
+                                      time.perf_counter() - t0), None
+        else:
+            ok = bool(result.success) and math.isfinite(float(result.avg_p_elec_w))
+            attempt = Attempt(name, str(result.status), ok, int(result.iterations),
+                              float(result.wall_time_s))
+        self._tell("done", kind, wind, role, name, attempt.status)
+        return attempt, result
+
+    def _tell(self, when: str, kind: str, wind: float, role: str, source: str | None,
+              status: str) -> None:
+        if self.progress is not None:
+            self.progress.put({**self.tag, "attempt": when, "chain": self.chain,
+                               "name": scenario_name(kind, wind), "role": role,
+                               "from": source, "status": status})
 
     def solve(self, kind: str, wind: float, role: str = "grid",
               sources: Sequence[Key] | None = None, cold: bool = True) -> dict:
@@ -172,13 +187,13 @@ class Solver:
             tried = [s for s in sources if s in self._warm][:MAX_WARM_ATTEMPTS]
             attempts, result, src = [], None, None
             for src in tried:
-                attempt, result = self.attempt(kind, wind, src)
+                attempt, result = self.attempt(kind, wind, src, role)
                 attempts.append(attempt)
                 if attempt.success:
                     break
             if cold and not (attempts and attempts[-1].success):
                 src = None
-                attempt, result = self.attempt(kind, wind, None)
+                attempt, result = self.attempt(kind, wind, None, role)
                 attempts.append(attempt)
             outcome = ScenarioOutcome(scenario_name(kind, wind), kind, wind, self.chain,
                                       tuple(attempts), result)
@@ -236,3 +251,11 @@ class Solver:
             **metrics, **extras,
             "wall_time_s": outcome.total_wall_time_s,
         }
+
+
+def attempt_line(event: dict) -> str:
+    """What a solver run of a progress event (:meth:`Solver.attempt`) is doing, in a few
+    words: ``"local optimum: elec-lim-7.0 from elec-lim-8.5"``."""
+    start = f"from {event['from']}" if event["from"] else "cold start"
+    tail = "..." if event["attempt"] == "start" else event["status"]
+    return f"{event['role']}: {event['name']} {start} {tail}"
