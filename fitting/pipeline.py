@@ -17,17 +17,10 @@ from bench.files import json_safe, write_json, write_parquet
 from bench.output_folder import check_replaceable, output_folder
 from fitting import figures
 from fitting.domain import BAND_FRAC, quadrant_envelopes
-from fitting.efficiency import (
-    MaskingRules,
-    band_shares,
-    gridded_map,
-    loss_repeatability,
-    peak_points,
-    points_against_map,
-    repeatability,
-    with_repeatability,
-)
+from fitting.efficiency import MaskingRules
+from fitting.efficiency_map import band_shares, gridded_map, peak_points
 from fitting.loss_table import write_loss_table
+from fitting.map_honesty import points_against_map
 from fitting.model_file import save_power_model
 from fitting.points import QUADRANTS, load_points
 from fitting.power_fit import (
@@ -38,6 +31,7 @@ from fitting.power_fit import (
     quadrant_weights,
 )
 from fitting.rating import resolve_drive
+from fitting.repeatability import loss_repeatability, repeatability, with_repeatability
 from fitting.selection import (
     RULE,
     Candidate,
