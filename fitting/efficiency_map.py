@@ -28,7 +28,7 @@ from fitting.efficiency import (
     masked_efficiency,
     shown_efficiency,
 )
-from fitting.map_honesty import honour_points
+from fitting.map_honesty import honour_points, points_against_map
 from fitting.point_uncertainty import efficiency_ceilings
 from fitting.points import QUADRANTS, quadrant_of
 
@@ -280,3 +280,39 @@ def peak_points(map_frame: pd.DataFrame, frame: pd.DataFrame, rules: MaskingRule
         if entry:
             out[q] = entry
     return out
+
+
+def efficiency_summary(map_frame: pd.DataFrame, frame: pd.DataFrame, rules: MaskingRules,
+                       loss_repeat: dict, repeats: dict, envelopes: dict) -> dict:
+    """The fit summary's ``efficiency`` statement (docs/schemas.md section 4).
+
+    Parameters
+    ----------
+    map_frame : pandas.DataFrame
+        The map (:func:`gridded_map`).
+    frame : pandas.DataFrame
+        The points it was drawn from.
+    rules : MaskingRules
+    loss_repeat, repeats : dict
+        :func:`fitting.repeatability.loss_repeatability` and
+        :func:`fitting.repeatability.repeatability` of the points.
+    envelopes : dict
+        :func:`fitting.domain.quadrant_envelopes` of the points.
+
+    Returns
+    -------
+    dict
+        ``masking``, ``band_shares`` (records), ``peak``, ``points_against_map``,
+        ``loss_repeatability``, ``repeatability`` and per quadrant ``envelope``.
+    """
+    return {"masking": rules.to_dict(),
+            "band_shares": band_shares(map_frame).to_dict(orient="records"),
+            "peak": peak_points(map_frame, frame, rules),
+            "points_against_map": points_against_map(frame, rules, map_frame,
+                                                     map_frame.attrs["ceilings"]),
+            "loss_repeatability": loss_repeat,
+            "repeatability": repeats,
+            "envelope": {q: {"band_width_rpm": env["band_width_rpm"],
+                             "n_points": env["n_points"],
+                             "n_vertices": len(env["polygon"])}
+                         for q, env in envelopes.items()}}
