@@ -336,7 +336,7 @@ def test_tdms_channels_combined_by_expr(tmp_path):
     """``expr`` over TDMS channels: torque from a strain-gauge voltage [mV] and a gain."""
     from nptdms import ChannelObject, TdmsWriter
 
-    from bench.ingest.readers import open_daq_tdms
+    from bench.ingest.daq_stream import open_daq_tdms
 
     p = tmp_path / "daq.tdms"
     t = np.arange(10) * 0.01

@@ -12,8 +12,10 @@ import pandas as pd
 
 from bench.errors import InputError
 from bench.ingest import align, checks, steady
+from bench.ingest.csv_layout import line_of_row
+from bench.ingest.daq_stream import DaqStream
 from bench.ingest.mapping import Mapping
-from bench.ingest.readers import DaqStream, line_of_row, read_analyzer
+from bench.ingest.readers import read_analyzer
 from bench.ingest.scan import Binned, PeakSample
 from bench.ingest.scrub import NanRunCheck, TimeCheck
 from bench.ingest.session import Session

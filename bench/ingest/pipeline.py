@@ -25,8 +25,8 @@ from tqdm import tqdm
 from bench.drive import find_drive_file, session_drive
 from bench.errors import InputError
 from bench.files import WRITE_ERRNOS, file_sha256
+from bench.ingest.csv_stream import CHUNK_BYTES
 from bench.ingest.mapping import EMPTY_MAPPING, load_mapping
-from bench.ingest.readers import CHUNK_BYTES
 from bench.ingest.session import Session, complete_ranges, discover, load_session
 from bench.ingest.steady import DEFAULT_STEADY, SteadyConfig
 from bench.ingest.table import process_table

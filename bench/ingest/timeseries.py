@@ -33,9 +33,10 @@ from bench.ingest.analyzer import (
 )
 from bench.ingest.checks import check_torque_sign
 from bench.ingest.clock import TIME_OF_DAY
+from bench.ingest.csv_stream import CHUNK_BYTES
+from bench.ingest.daq_stream import DaqStream, open_daq_csv, open_daq_tdms
 from bench.ingest.drum_frame import check_drum_torque, drum_ranges
 from bench.ingest.mapping import Mapping
-from bench.ingest.readers import CHUNK_BYTES, DaqStream, open_daq_csv, open_daq_tdms
 from bench.ingest.samples_file import write_samples
 from bench.ingest.scan import Binned, StreamScan, bin_stream, scan_stream
 from bench.ingest.session import Session
