@@ -3,8 +3,9 @@
 One module per concept:
 
 - the session and its columns: :mod:`session` (``session.toml`` and discovery),
-  :mod:`mapping` (foreign column names), :mod:`units` (unit table), :mod:`expr`
-  (column expressions), :mod:`clock` (clock-time columns);
+  :mod:`mapping` (foreign column names), :mod:`column_units` (the units a logged
+  column may be in), :mod:`expr` (column expressions), :mod:`clock` (clock-time
+  columns);
 - reading files: :mod:`csv_layout` (sniffing a CSV), :mod:`csv_stream` (its rows in
   chunks), :mod:`daq_stream` (the DAQ stream, CSV or TDMS), :mod:`readers` (the
   analyzer record and the point table), :mod:`scrub` (invalid markers, time and

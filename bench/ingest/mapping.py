@@ -20,7 +20,13 @@ import numpy as np
 from bench.errors import InputError
 from bench.files import parse_toml, read_text
 from bench.ingest import expr
-from bench.ingest.units import ACCEPTED, QUANTITY_KIND, split_header, unit_factor, unit_problem
+from bench.ingest.column_units import (
+    ACCEPTED,
+    QUANTITY_KIND,
+    split_header,
+    unit_factor,
+    unit_problem,
+)
 
 #: file sections a mapping may describe, and the quantities each may name
 SECTION_QUANTITIES: dict[str, tuple[str, ...]] = {

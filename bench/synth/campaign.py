@@ -31,7 +31,7 @@ from bench.synth.loss_model import (
 )
 from bench.synth.plan import CAMPAIGN, DRIVE, GEAR_RATIO, SessionSpec, operating_points
 from bench.synth.readme import campaign_readme
-from bench.synth.timeseries import (
+from bench.synth.true_signals import (
     DEFAULT_DYNAMICS,
     Segments,
     build_segments,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from bench.synth.instruments import Instruments
 from bench.synth.plan import CAMPAIGN
-from bench.synth.timeseries import DEFAULT_DYNAMICS as dyn
+from bench.synth.true_signals import DEFAULT_DYNAMICS as dyn
 
 _DAQ = {"csv_en": "CSV (English)", "csv_de": "CSV (German: `;`, decimal comma, units row)",
         "tdms": "NI TDMS"}
