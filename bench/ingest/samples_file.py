@@ -105,7 +105,6 @@ class WindowStats:
                             "timeseries")
 
 
-
 def write_samples(path: Path, session: Session, scan: StreamScan, offset_nm: float,
                   power: AlignedPower | None, w_start: np.ndarray, w_end: np.ndarray,
                   progress: Callable[[int], None], size_bytes: int) -> WindowStats:

@@ -74,8 +74,6 @@ class PeakSample:
                              column=col, expected="plausible torque and speed samples")
 
 
-
-
 class StreamScan:
     """The state of pass 1: checks, bin sums, tare search, scratch files, counts.
 

@@ -65,8 +65,6 @@ class SessionOutput:
     info: dict
 
 
-
-
 def open_stream(session: Session, mapping: Mapping, chunk_bytes: int) -> DaqStream:
     """Open the DAQ stream (``[daq]``, CSV or TDMS) or single-stream log (``[log]``, CSV) a
     session names."""
@@ -134,8 +132,6 @@ def _screen_windows(win: steady.Windows, means: dict, p_elec_bins: np.ndarray, s
     rejected = sorted(win.rejected + [(a, b, w) for (a, b), w in zip(win.accepted, why,
                                                                        strict=True) if w])
     return steady.Windows(accepted=accepted, rejected=rejected, tolerances=win.tolerances)
-
-
 
 
 def _session_windows(session: Session, daq: DaqStream, binned: Binned, power: AlignedPower,
