@@ -25,21 +25,34 @@ def package_versions() -> dict[str, str]:
     return versions
 
 
+#: asks IPOPT for its version (``GetIpoptVersion``) in a child Python
+_IPOPT_VERSION = """
+import ctypes, pathlib, casadi
+lib = ctypes.CDLL(str(pathlib.Path(casadi.__file__).parent / "libipopt.so"))
+parts = [ctypes.c_int() for _ in range(3)]
+lib.GetIpoptVersion(*(ctypes.byref(p) for p in parts))
+print(".".join(str(p.value) for p in parts))
+"""
+
+
 def ipopt_version() -> str:
-    """The version of the IPOPT library CasADi loads (its ``GetIpoptVersion``), or
-    ``"not found (...)"`` when the library or the function is absent."""
-    import ctypes
-    from pathlib import Path
+    """The version of the IPOPT library CasADi loads, as the library states it
+    (``GetIpoptVersion``), or ``"not found (...)"``.
+
+    Asked in a child process: loading IPOPT here would load its BLAS before the solve
+    code sets its thread count (:mod:`optimize.solve.backend`), which it reads once.
+    """
+    import subprocess
+    import sys
 
     try:
-        import casadi
-
-        lib = ctypes.CDLL(str(Path(casadi.__file__).parent / "libipopt.so"))
-        parts = [ctypes.c_int() for _ in range(3)]
-        lib.GetIpoptVersion(*(ctypes.byref(p) for p in parts))
-    except (ImportError, OSError, AttributeError) as exc:
+        done = subprocess.run([sys.executable, "-c", _IPOPT_VERSION], capture_output=True,
+                              text=True, timeout=60, check=False)
+    except (OSError, subprocess.SubprocessError) as exc:
         return f"not found ({exc})"
-    return ".".join(str(p.value) for p in parts)
+    if done.returncode != 0:
+        return f"not found ({done.stderr.strip().splitlines()[-1:]})"
+    return done.stdout.strip()
 
 
 def version_text() -> str:

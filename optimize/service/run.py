@@ -193,7 +193,7 @@ def run_sweep(tasks: tuple[ChainTask, ...], handle: Any,
     t0 = time.perf_counter()
     chains, description = run_chains(tasks, handle, on_event=on_event)
     wall = time.perf_counter() - t0
-    bar.update(total - bar.n)
+    bar.update(bar.total - bar.n)  # the total grew by the probes and re-solves
     bar.close()
     order = {k: i for i, k in enumerate(dict.fromkeys(s.kind for t in tasks for s in t.steps))}
     outcomes = sorted((o for c in chains for o in c.outcomes),
