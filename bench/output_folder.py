@@ -34,7 +34,13 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from bench.errors import InputError
-from bench.files import file_sha256, fsync_path, write_text_durable
+from bench.files import (
+    file_sha256,
+    fsync_path,
+    raise_mismatches,
+    recorded_mismatch,
+    write_text_durable,
+)
 
 RUN_FILE = "run.json"
 SCHEMA_NAME = "drivebench.run"
@@ -259,20 +265,17 @@ def check_output_folder(folder: str | Path) -> str | None:
     if run is None:
         return None
     stage = run.get("stage", "?")
-    expected = f"the whole output of one bench {stage} run (run it again)"
-    for rel, rec in sorted(run["files"].items()):
-        path = folder / rel
-        if not path.is_file():
-            raise InputError(path, f"missing from the output of run {run['run_id']}",
-                             expected=expected)
-        if path.stat().st_size != rec.get("bytes") or file_sha256(path) != rec.get("sha256"):
-            raise InputError(path, f"not the file run {run['run_id']} wrote (a mixed or "
-                             "altered folder)", expected=expected)
+    record = f"{folder / RUN_FILE} of run {run['run_id']} (a mixed or altered folder)"
+    repair = f"run bench {stage} again into {folder}"
+    problems = [(folder / rel, recorded_mismatch(folder / rel, rec if isinstance(rec, dict)
+                                                 else {}))
+                for rel, rec in sorted(run["files"].items())]
+    problems = [(p, w) for p, w in problems if w is not None]
     for path in _files(folder, tuple(run.get("kept") or ())):
         rel = path.relative_to(folder).as_posix()
         if rel != RUN_FILE and rel not in run["files"]:
-            raise InputError(path, f"not written by run {run['run_id']} (a mixed folder)",
-                             expected=expected)
+            problems.append((path, "not written by this run"))
+    raise_mismatches(problems, record, repair)
     return run["run_id"]
 
 

@@ -25,7 +25,6 @@ directly in ``<store>/points`` etc.) is still read.
 
 from __future__ import annotations
 
-import hashlib
 import io
 import json
 import os
@@ -43,7 +42,15 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from bench.errors import InputError
-from bench.files import WRITE_ERRNOS, dumps_json, file_sha256, fsync_path, write_text_durable
+from bench.files import (
+    WRITE_ERRNOS,
+    dumps_json,
+    file_sha256,
+    fsync_path,
+    raise_mismatches,
+    recorded_mismatch,
+    write_text_durable,
+)
 
 SCHEMA_NAME = "drivebench.store"
 SCHEMA_VERSION = 2
@@ -55,6 +62,9 @@ STAGING_PREFIX = ".staging-"
 GENERATION_RE = re.compile(r"^gen-(\d{6,})$")
 #: times a reader starts over when a writer removed a generation under it
 READ_RETRIES = 5
+#: what repairs a damaged store, said by every reader that finds one
+STORE_REPAIR = ("run bench store check, then bench ingest of the damaged sessions' folders "
+                "(it re-ingests them)")
 
 T = TypeVar("T")
 
@@ -200,20 +210,21 @@ def consistent_read(store_dir: str | Path, read: Callable[[dict], T]) -> T:
             if read_manifest(store_dir).get("generation") == manifest.get("generation"):
                 raise InputError(exc.filename or store_dir,
                                  "a file the store manifest lists is missing (damaged store)",
-                                 expected="re-run bench ingest into a new store") from exc
+                                 expected=STORE_REPAIR) from exc
     raise InputError(store_dir, f"the store changed {READ_RETRIES} times while being read",
                      expected="no ingest running into it")
 
 
-def _check_bytes(path: Path, data: bytes, entry: dict, kind: str) -> None:
-    """Raise InputError when ``data`` differs from the size and hash the manifest records."""
+def _mismatch(path: Path, data: bytes, entry: dict, kind: str) -> str | None:
+    """How ``data`` differs from the size and hash the manifest records (None: as recorded)."""
     rec = (entry.get("store_checks") or {}).get(kind) if isinstance(entry, dict) else None
     if not isinstance(rec, dict):
-        return  # a store written before the manifest recorded its files' hashes
-    if len(data) != rec.get("bytes") or hashlib.sha256(data).hexdigest() != rec.get("sha256"):
-        raise InputError(path, f"the file differs from what the store manifest records "
-                         f"({len(data)} bytes, {rec.get('bytes')} recorded): damaged store",
-                         expected="run bench store check, then re-run bench ingest")
+        return None  # a store written before the manifest recorded its files' hashes
+    return recorded_mismatch(path, rec, data)
+
+
+def _raise_damaged(problems: list[tuple[Path, str]]) -> None:
+    raise_mismatches(problems, "the store manifest: damaged store", STORE_REPAIR)
 
 
 def read_listed_bytes(store_dir: str | Path, kind: str,
@@ -228,11 +239,14 @@ def read_listed_bytes(store_dir: str | Path, kind: str,
     InputError
         A file whose size or SHA-256 differs from the manifest's record.
     """
-    out = {}
+    out, problems = {}, []
     for sid, path in kind_files(store_dir, kind, manifest).items():
         data = path.read_bytes()
-        _check_bytes(path, data, manifest["sessions"].get(sid), kind)
+        problem = _mismatch(path, data, manifest["sessions"].get(sid), kind)
+        if problem is not None:
+            problems.append((path, problem))
         out[sid] = (path, data)
+    _raise_damaged(problems)
     return out
 
 
@@ -242,7 +256,7 @@ def parse_parquet(path: Path, data: bytes) -> pd.DataFrame:
         return pd.read_parquet(io.BytesIO(data))
     except Exception as exc:  # pyarrow raises several types for a corrupt file
         raise InputError(path, f"not a readable Parquet file ({exc}): damaged store",
-                         expected="run bench store check, then re-run bench ingest") from exc
+                         expected=STORE_REPAIR) from exc
 
 
 def _read_kind(store_dir: str | Path, kind: str) -> pd.DataFrame:
@@ -274,7 +288,8 @@ def read_samples(store_dir: str | Path, session_id: str) -> pd.DataFrame:
             raise InputError(Path(store_dir) / "manifest.json",
                              f"no samples for session {session_id!r}")
         data = path.read_bytes()
-        _check_bytes(path, data, manifest["sessions"].get(session_id), "samples")
+        problem = _mismatch(path, data, manifest["sessions"].get(session_id), "samples")
+        _raise_damaged([] if problem is None else [(path, problem)])
         return parse_parquet(path, data)
 
     return consistent_read(store_dir, read)
@@ -322,12 +337,8 @@ def _check_file(path: Path, rec: dict | None, rel: str) -> str | None:
     if not path.is_file():
         return f"{rel}: missing"
     if isinstance(rec, dict):
-        size = path.stat().st_size
-        if size != rec.get("bytes"):
-            return f"{rel}: {size} bytes, {rec.get('bytes')} recorded"
-        if file_sha256(path) != rec.get("sha256"):
-            return f"{rel}: content differs from the recorded SHA-256 (bit rot or an edit)"
-        return None
+        problem = recorded_mismatch(path, rec)
+        return None if problem is None else f"{rel}: {problem}"
     try:  # a store written before hashes were recorded: at least a whole Parquet file
         pq.read_metadata(path)
     except Exception as exc:  # pyarrow raises several types for a corrupt file
