@@ -234,7 +234,8 @@ def optimize(model: Any = None, *, winds: Sequence[float] = PAPER_WINDS_M_S,
     out = Path(out)
     unknown = [k for k in kinds if k not in KINDS]
     if unknown or not kinds:
-        raise InputError(None, f"scenario kinds {list(kinds)}", expected=", ".join(KINDS))
+        raise InputError(None, f"--scenarios {','.join(kinds)}: unknown scenario kinds "
+                         f"{unknown or 'none given'}", expected=", ".join(KINDS))
     if isinstance(model, PowerModel):
         out.mkdir(parents=True, exist_ok=True)
         model = save_power_model(model, out / "given_power_model.json")
@@ -466,7 +467,8 @@ def size(site: Any, model: Any = None, *, system: Any = None,
     from optimize.system.system import System, load_system
 
     if len(winds) < 2:
-        raise InputError(None, f"wind speeds {list(winds)}: one gives no curve to integrate",
+        raise InputError(None, f"--wind-grid {','.join(f'{w:g}' for w in winds)}: one wind "
+                         "speed gives no AEP curve to integrate",
                          expected="at least two wind speeds")
     if not 0 <= tolerance < 1:
         raise InputError(None, f"--tolerance {tolerance}", expected="a share in [0, 1)")
