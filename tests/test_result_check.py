@@ -11,7 +11,6 @@ from types import SimpleNamespace
 
 import pandas as pd
 import pytest
-from conftest import N_COARSE
 
 from bench.cli import main
 from optimize.analysis import result_check as rc
@@ -87,7 +86,8 @@ def test_two_interval_degree_one_optimum_is_failed_and_reported(tmp_path, capsys
     assert "Solve_Succeeded" in html and "Loyd-type bound" in html
 
 
-def test_trust_simulation_that_cannot_finish_is_a_finding(coarse_elec_lim, monkeypatch):
+def test_trust_simulation_that_cannot_finish_is_a_finding(coarse_ocp, coarse_elec_lim,
+                                                              monkeypatch):
     """CVODES giving up (CV_TOO_MUCH_WORK) is a failed simulation check, not a traceback."""
     from optimize.paper_model import paper_model
     from optimize.sweep import trust
@@ -98,7 +98,7 @@ def test_trust_simulation_that_cannot_finish_is_a_finding(coarse_elec_lim, monke
 
     monkeypatch.setattr(trust, "simulation_check", give_up)
     problem = Problem.for_system(None, paper_model(),
-                                 OcpOptions(Discretization(n_intervals=N_COARSE)))
+                                 OcpOptions(Discretization(n_intervals=coarse_ocp.n_intervals)))
     outcome = ScenarioOutcome("elec-lim-7.0", "elec-lim", 7.0, 0,
                               (Attempt(None, "Solve_Succeeded", True, 5, 0.1),),
                               coarse_elec_lim)

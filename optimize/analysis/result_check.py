@@ -42,6 +42,7 @@ amplification of the collocation error as much as the error itself.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
@@ -90,6 +91,8 @@ class ResultCheck:
         Re-integrated end of the cycle against its start, periodic states [-].
     reasons : tuple of str
         Why the optimum fails (empty: it passes).
+    wall_time_s : float
+        Time the check took [s].
     """
 
     scenario: str
@@ -101,6 +104,7 @@ class ResultCheck:
     defect_position_m: float
     periodicity_scaled: float
     reasons: tuple[str, ...]
+    wall_time_s: float = 0.0
 
     @property
     def passed(self) -> bool:
@@ -204,6 +208,7 @@ def check_result(ocp: Any, result: Any, name: str) -> ResultCheck:
     name : str
         The scenario's name (for the record).
     """
+    t0 = time.perf_counter()
     kite, traj = ocp.dae.kite, result.trajectory
     wind_max = float(np.max(traj["wind_m_s"]))
     bound = power_bound_w(kite.rho_kg_m3, kite.sref_m2, wind_max,
@@ -215,14 +220,17 @@ def check_result(ocp: Any, result: Any, name: str) -> ResultCheck:
     if not generated <= bound:
         reasons.append(f"{generated:.0f} W generated, above the {bound:.0f} W the wind can "
                        f"give this kite (Loyd-type bound at {wind_max:.2f} m/s at the kite)")
-    if not defect <= MAX_DEFECT_SCALED:
+    if not math.isfinite(defect):
+        reasons.append("the dynamics re-integrated on a finer grid diverge within an interval "
+                       "(the collocation states are no solution of them)")
+    elif not defect <= MAX_DEFECT_SCALED:
         reasons.append(f"the dynamics re-integrated on a finer grid leave the collocation "
                        f"states by {defect:.3g} state scales ({defect_pos:.3g} m) within an "
                        f"interval (limit {MAX_DEFECT_SCALED})")
-    if not periodicity <= MAX_DEFECT_SCALED:
+    if math.isfinite(defect) and not periodicity <= MAX_DEFECT_SCALED:
         reasons.append(f"the re-integrated cycle does not close ({periodicity:.3g} state "
                        f"scales, limit {MAX_DEFECT_SCALED})")
     if reasons:
         reasons.append(f"mesh {mesh}")
     return ResultCheck(name, mesh, generated, bound, wind_max, defect, defect_pos,
-                       periodicity, tuple(reasons))
+                       periodicity, tuple(reasons), time.perf_counter() - t0)
