@@ -24,7 +24,8 @@ import statistics
 import time
 from pathlib import Path
 
-from bench.store import check_store, kind_files, read_manifest
+from bench.store.damage import check_store
+from bench.store.manifest import kind_files, read_manifest
 from fitting.points import load_points
 
 

@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from bench.errors import InputError
-from bench.store import consistent_read, read_listed_bytes
+from bench.store.read import consistent_read, read_listed_bytes
 
 #: Columns the fit needs from ``points/*.parquet``.
 REQUIRED_COLUMNS = ("session_id", "point_id", "speed_rpm", "torque_nm", "p_mech_w", "p_elec_w")

@@ -14,7 +14,7 @@ from ingest_fixtures import make_points_session
 from bench.cli import main
 from bench.errors import InputError
 from bench.ingest.checks import efficiency_flags
-from bench.store import read_manifest
+from bench.store.manifest import read_manifest
 
 ROOT = Path(__file__).resolve().parents[1]
 SITE = ["--weibull-k", "2", "--mean-speed", "6"]

@@ -14,7 +14,7 @@ from ingest_fixtures import make_timeseries_session
 from bench.cli import main
 from bench.files import recorded_mismatch
 from bench.output_folder import output_folder
-from bench.store import read_manifest
+from bench.store.manifest import read_manifest
 from fitting.model_file import save_power_model
 from optimize.paper_model import paper_model
 
