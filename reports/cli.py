@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 from bench.files import check_output_file
+from bench.locking import output_lock
 from bench.output_folder import check_replaceable_file
 from reports.render import build_report
 
@@ -42,11 +43,13 @@ def run(args: argparse.Namespace) -> int:
     """Build the report; print its path, size and the wall time."""
     t0 = time.perf_counter()
     check_output_file(args.out)
-    check_replaceable_file(args.out, "report", is_report)
     argv = ["bench", "report", "--store", str(args.store), "--fit", str(args.fit),
             "--optimize", str(args.optimize), "--aep", str(args.aep), "--size", str(args.size),
             "--out", str(args.out)]
-    out = build_report(args.store, args.fit, args.optimize, args.out, argv, args.aep, args.size)
+    with output_lock(args.out, "report"):  # one report writer per file: a second one waits
+        check_replaceable_file(args.out, "report", is_report)
+        out = build_report(args.store, args.fit, args.optimize, args.out, argv, args.aep,
+                           args.size)
     size_mb = out.stat().st_size / 1e6
     print(f"{out.resolve()}")
     print(f"bench report: {size_mb:.2f} MB written in {time.perf_counter() - t0:.1f} s")
