@@ -47,7 +47,7 @@ def main() -> None:
     ap.add_argument("--degree", type=int, default=4)
     args = ap.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(message)s")
-    objective, limits = KINDS[args.kind]
+    objective, limits = KINDS[args.kind].objective, KINDS[args.kind].drive_limits
     runs = []
     for name in args.systems.split(","):
         system = load_system(shipped_system_path(name))

@@ -99,9 +99,9 @@ class Candidate:
         return options.replace(limits={"max_rms_torque_nm": self.rated_torque_nm})
 
     def problem(self, n_intervals: int, degree: int, system: Any) -> Any:
-        """The OCP problem (:class:`optimize.service.problem.Problem`) of this drive in
+        """The OCP problem (:class:`optimize.service.builder.Problem`) of this drive in
         ``system``."""
-        from optimize.service.problem import Problem
+        from optimize.service.builder import Problem
 
         return Problem.for_system(system, self.model, self.ocp_options(n_intervals, degree,
                                                                         system))
@@ -271,7 +271,7 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
     (:mod:`energy.adaptive`), so candidates may end with different speeds.
     ``system`` (an :class:`optimize.system.system.System`, default the shipped one)
     gives the kite, tether, winch, wind and bounds every candidate is sized for.
-    ``backend`` replaces the CasADi OCP (:class:`optimize.service.problem.OcpBackend`).
+    ``backend`` replaces the CasADi OCP (:class:`optimize.service.builder.OcpBackend`).
     A solver crash fails that solve (status ``exception: ...``) and so its
     candidate's AEP, never the sweep.
     """

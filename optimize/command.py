@@ -211,7 +211,7 @@ def run_optimize(
     ``manifest.json`` (docs/schemas.md §5) into ``request.out``, all or none
     (:mod:`bench.output_folder`).
     ``backend`` replaces the CasADi OCP in the chains (see
-    :class:`optimize.service.problem.Backend`; the trust checks always use the OCP).
+    :class:`optimize.service.builder.Backend`; the trust checks always use the OCP).
     """
     import dataclasses
     import datetime
@@ -226,7 +226,8 @@ def run_optimize(
     model = drive.model
     options = system.ocp_options(request.options, drive.rating)
     problem = Problem.for_system(system, model, options)
-    cut_in_kinds = tuple(k for k in request.kinds if KINDS[k][1]) if request.claims else ()
+    cut_in_kinds = (tuple(k for k in request.kinds if KINDS[k].drive_limits)
+                    if request.claims else ())
     trust: dict = {"mesh": [], "simulation": []}
     with open_executor(request.workers, request.scheduler) as handle:
         chains = plan_chains(request.winds, request.kinds, handle.n_workers)

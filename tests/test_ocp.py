@@ -141,8 +141,12 @@ def test_scenario_names_match_the_sweep_kinds():
     # The sweep's kinds table is the truth for what each label means.
     from optimize.kinds import KINDS
 
-    for kind, (objective, limits) in KINDS.items():
-        assert Scenario(5.5, objective, limits).name == f"{kind}-5.5"
+    for key, kind in KINDS.items():
+        assert Scenario(5.5, kind.objective, kind.drive_limits).name == f"{key}-5.5"
+        assert Scenario.of_kind(key, 5.5).kind_spec == kind
+    # each kind's objective weights exactly the average its summary column reports
+    assert KINDS["elec-lim"].weights == {"p_elec_w": 1.0}
+    assert KINDS["mech-free"].summary_column == "avg_p_mech_w"
 
 
 def test_mumps_blas_runs_the_thread_count_the_environment_names(solved):

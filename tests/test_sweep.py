@@ -86,7 +86,7 @@ class NewtonBackend:
         return self._newton(kind, w, 0.0)
 
 
-PROBLEM = Problem(params=None, drive_model=None, options=None, key="stand-in")
+PROBLEM = Problem(model=None, drive_model=None, options=None, key="stand-in")
 
 
 # ----------------------------------------------------------------- wind grid and kinds

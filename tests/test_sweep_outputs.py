@@ -152,7 +152,7 @@ def test_unit_of_agrees_with_the_ocp_tables():
         "nu_n_m": "N/m",
         "aileron_rad": "rad",
     }
-    for name in (*km.STATE_NAMES, *km.CONTROL_NAMES, *km.ALGEBRAIC_NAMES):
+    for name in (*km.STATES.names, *km.CONTROLS.names, *km.ALGEBRAIC.names):
         assert unit_of(name) != "", name
     for name, unit in want.items():
         assert unit_of(name) == unit

@@ -25,35 +25,31 @@ from dataclasses import dataclass
 import casadi as ca
 
 from optimize.model.aero import aero_forces_moments, altitude_above_ground, wind_speed
+from optimize.model.variables import Variables
 from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 
-STATE_NAMES: tuple[str, ...] = (
+#: states: CG position and velocity (NED), body-to-world DCM (column-major), body
+#: angular velocity, tether length and its two rates, control-surface deflections
+STATES = Variables(
     ("r_x_m", "r_y_m", "r_z_m", "v_x_m_s", "v_y_m_s", "v_z_m_s")
     + tuple(f"dcm_{i}{j}" for j in (1, 2, 3) for i in (1, 2, 3))
     + ("omega_x_rad_s", "omega_y_rad_s", "omega_z_rad_s")
     + ("l_m", "dl_m_s", "ddl_m_s2", "aileron_rad", "elevator_rad", "rudder_rad")
 )
-CONTROL_NAMES: tuple[str, ...] = (
-    "dddl_m_s3",
-    "daileron_rad_s",
-    "delevator_rad_s",
-    "drudder_rad_s",
+#: controls: tether jerk and control-surface rates
+CONTROLS = Variables(("dddl_m_s3", "daileron_rad_s", "delevator_rad_s", "drudder_rad_s"))
+#: algebraic variables: CG acceleration, angular acceleration, tether multiplier
+ALGEBRAIC = Variables(("a_x_m_s2", "a_y_m_s2", "a_z_m_s2", "domega_x_rad_s2",
+                       "domega_y_rad_s2", "domega_z_rad_s2", "nu_n_m"))
+#: fictitious forces and moments of the initialization homotopy
+FICTITIOUS = Variables(("f_fict_x_n", "f_fict_y_n", "f_fict_z_n", "m_fict_x_nm",
+                        "m_fict_y_nm", "m_fict_z_nm"))
+#: the state components that repeat over a cycle (the DCM closes through its relative
+#: rotation, the downwind position and velocity are free to differ)
+PERIODIC_STATES = (
+    "r_y_m", "r_z_m", "v_y_m_s", "v_z_m_s", "omega_x_rad_s", "omega_y_rad_s",
+    "omega_z_rad_s", "l_m", "dl_m_s", "ddl_m_s2", "aileron_rad", "elevator_rad", "rudder_rad",
 )
-ALGEBRAIC_NAMES: tuple[str, ...] = (
-    "a_x_m_s2",
-    "a_y_m_s2",
-    "a_z_m_s2",
-    "domega_x_rad_s2",
-    "domega_y_rad_s2",
-    "domega_z_rad_s2",
-    "nu_n_m",
-)
-FICTITIOUS_NAMES: tuple[str, ...] = (
-    "f_fict_x_n", "f_fict_y_n", "f_fict_z_n", "m_fict_x_nm", "m_fict_y_nm", "m_fict_z_nm",
-)
-
-NX, NU, NZ, NF = len(STATE_NAMES), len(CONTROL_NAMES), len(ALGEBRAIC_NAMES), 6
-IDX = {name: i for i, name in enumerate(STATE_NAMES)}
 
 
 def _skew(w: ca.SX) -> ca.SX:
@@ -66,8 +62,15 @@ def _skew(w: ca.SX) -> ca.SX:
 class KiteDae:
     """CasADi functions of the kite DAE (all SX, evaluable numerically or symbolically).
 
+    Implements :class:`optimize.model.dae.Dae`.
+
     Attributes
     ----------
+    states, controls, algebraic, fictitious : Variables
+        The named components of ``x``, ``u``, ``z`` and the fictitious forces
+        (:data:`STATES`, :data:`CONTROLS`, :data:`ALGEBRAIC`, :data:`FICTITIOUS`).
+    periodic : tuple of str
+        The states that repeat over a cycle (:data:`PERIODIC_STATES`).
     ode : Function
         ``(x, u, z) -> xdot``: kinematics, explicit in the algebraic variables.
     alg : Function
@@ -93,6 +96,11 @@ class KiteDae:
     invariants: ca.Function
     explicit_ode: ca.Function
     solve_z: ca.Function
+    states: Variables = STATES
+    controls: Variables = CONTROLS
+    algebraic: Variables = ALGEBRAIC
+    fictitious: Variables = FICTITIOUS
+    periodic: tuple[str, ...] = PERIODIC_STATES
 
 
 def _split_state(x):
@@ -113,11 +121,11 @@ def kite_dae(
     kite = kite or KiteParams()
     coeffs = coeffs or AeroCoefficients()
     wind = wind or WindModel()
-    x = ca.SX.sym("x", NX)
-    u = ca.SX.sym("u", NU)
-    z = ca.SX.sym("z", NZ)
+    x = ca.SX.sym("x", STATES.size)
+    u = ca.SX.sym("u", CONTROLS.size)
+    z = ca.SX.sym("z", ALGEBRAIC.size)
     w_ref = ca.SX.sym("wind_ref_m_s")
-    fict = ca.SX.sym("fict", NF)
+    fict = ca.SX.sym("fict", FICTITIOUS.size)
     r, v, dcm, omega, l, dl, ddl, surf = _split_state(x)
     acc, domega, nu = z[0:3], z[3:6], z[6]
 
@@ -179,8 +187,9 @@ def kite_dae(
     residual_fn = ca.Function("kite_alg", [x, u, z, w_ref, fict], [residual])
     # The residual is affine in z: z = -A^{-1} residual(z=0) with A = d residual / dz.
     jac = ca.jacobian(residual, z)
-    res0 = ca.substitute(residual, ca.vertcat(z, fict), ca.DM.zeros(NZ + NF))
-    jac0 = ca.substitute(jac, fict, ca.DM.zeros(NF))
+    res0 = ca.substitute(residual, ca.vertcat(z, fict),
+                         ca.DM.zeros(ALGEBRAIC.size + FICTITIOUS.size))
+    jac0 = ca.substitute(jac, fict, ca.DM.zeros(FICTITIOUS.size))
     z_phys = -ca.solve(jac0, res0)
     xdot_phys = ca.substitute(xdot, z, z_phys)
 

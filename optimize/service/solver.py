@@ -30,8 +30,8 @@ from typing import Any
 import numpy as np
 
 from optimize.problem.scenario import scenario_name
+from optimize.service.builder import OcpBackend, Problem
 from optimize.service.outcome import CRASH, Attempt, ScenarioOutcome, failure_status
-from optimize.service.problem import OcpBackend, Problem
 from optimize.service.store import load_solve, solve_key, store_solve
 
 #: warm-started attempts per solve before the cold-start fallback
@@ -71,7 +71,7 @@ class Solver:
     store : Path or None
         Folder of the stored solves; None stores nothing.
     backend : optional
-        The numerical side (:class:`optimize.service.problem.OcpBackend` by default).
+        The numerical side (:class:`optimize.service.builder.OcpBackend` by default).
     progress : object with ``put(dict)``, optional
         Receives, after each solve, ``{tag..., "chain", "name", "kind", "wind", "role",
         "success", "status", "cached", "wall_time_s"}``.

@@ -7,9 +7,6 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from optimize.model import kite_model as km
-from optimize.model.drive import mechanical_power_w, motor_speed_rpm, motor_torque_nm
-from optimize.problem.formulation import X_LENGTH, X_REEL_SPEED, Z_NU
 from optimize.problem.ocp import Ocp
 from optimize.problem.scenario import Scenario
 from optimize.solve.backend import RawSolve
@@ -107,7 +104,9 @@ class OcpResult:
 
 
 def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_ref_m_s: float) -> pd.DataFrame:
-    """Trajectory at every Radau point of a scaled decision vector."""
+    """Trajectory at every Radau point of a scaled decision vector: time, interval,
+    quadrature weight, the model's states, controls and algebraic variables by name, and
+    the formulation's outputs (``trajectory_outputs``)."""
     sol = ocp.unpack(w_scaled)
     n, d = ocp.n_intervals, ocp.coll.degree
     x = sol["x"][:, 1:]  # states at the Radau points
@@ -118,30 +117,12 @@ def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_ref_m_s: float) -> pd.
     tau = np.tile(ocp.coll.tau[1:], n)
     frame = {"time_s": h * (interval + tau), "interval": interval,
              "weight": np.tile(ocp.coll.quad, n) / n}
-    for names, arr in ((km.STATE_NAMES, x), (km.CONTROL_NAMES, u), (km.ALGEBRAIC_NAMES, z)):
+    dae = ocp.dae
+    for names, arr in ((dae.states.names, x), (dae.controls.names, u),
+                       (dae.algebraic.names, z)):
         for i, name in enumerate(names):
             frame[name] = arr[i]
-    outputs = ocp.dae.outputs.map(x.shape[1])(x, u, z, wind_ref_m_s)
-    names = ocp.dae.outputs.name_out()
-    out = {name: np.asarray(val).ravel() for name, val in zip(names, outputs, strict=True)}
-    r_w, gear = ocp.dae.kite.r_winch_m, ocp.dae.kite.gear_ratio
-    dl = x[X_REEL_SPEED]
-    tension = x[X_LENGTH] * z[Z_NU]
-    frame["speed_rpm"] = motor_speed_rpm(dl, r_w, gear)
-    frame["torque_nm"] = motor_torque_nm(tension, r_w, gear)
-    frame["tension_n"] = tension
-    frame["p_mech_w"] = mechanical_power_w(tension, dl)
-    frame["p_elec_w"] = np.asarray(
-        ocp.drive_model.p_elec_w(frame["speed_rpm"], frame["torque_nm"])
-    )
-    frame["altitude_m"] = out["altitude_m"]
-    frame["airspeed_m_s"] = out["airspeed_m_s"]
-    frame["alpha_deg"] = np.degrees(out["alpha_rad"])
-    frame["beta_deg"] = np.degrees(out["beta_rad"])
-    frame["wind_m_s"] = out["wind_m_s"]
-    frame["line_angle_deg"] = np.degrees(np.arccos(np.clip(out["cos_line_angle"], -1, 1)))
-    frame["c_m2"] = out["c_m2"]
-    frame["cdot_m2_s"] = out["cdot_m2_s"]
+    frame.update(ocp.formulation.trajectory_outputs(x, u, z, wind_ref_m_s))
     return pd.DataFrame(frame)
 
 

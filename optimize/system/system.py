@@ -30,6 +30,8 @@ import numpy as np
 
 from bench.errors import InputError
 from bench.files import parse_toml, read_text
+from optimize.model.dae import DaeSpec
+from optimize.model.kite_model import kite_dae
 from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 from optimize.system.plausibility import check_system
 
@@ -293,6 +295,11 @@ class System:
     def model_params(self) -> tuple[KiteParams, AeroCoefficients, WindModel]:
         """Arguments of ``optimize.model.kite_model.kite_dae``."""
         return self.kite_params(), self.aero_coefficients(), self.wind_model()
+
+    def dae_spec(self) -> DaeSpec:
+        """How a worker builds this system's model (:func:`optimize.model.kite_model.kite_dae`
+        with :meth:`model_params`)."""
+        return DaeSpec(kite_dae, self.model_params())
 
     def record(self) -> dict:
         """What every output records about the system: name, path, hash and content."""
