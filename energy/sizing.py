@@ -9,7 +9,7 @@ torque-rating scale ``s``.
 
 Scaling law
 -----------
-The similarity law of :func:`optimize.model.drive.carry_power_model` at the same
+The similarity law of :func:`optimize.model.drivetrain.carry_power_model` at the same
 speed rating (``k_n = 1``, ``k_T = s``): ``P_s(n, T) = s P_1(n, T / s)``, a drive
 of ``s`` times the torque rating behaves like ``s`` reference drives sharing the
 torque on one shaft (for a term ``c n^i T^j``: ``c -> s^(1 - j) c``). Rating:
@@ -119,7 +119,7 @@ def scaled_candidates(base: Any, rating: Any, scales: tuple[float, ...]) -> list
     scales : tuple of float
         Torque-rating scales ``s`` > 0.
     """
-    from optimize.model.drive import carry_power_model
+    from optimize.model.drivetrain import carry_power_model
 
     out = []
     for s in scales:

@@ -26,7 +26,7 @@ from optimize.sweep import outputs
 from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import plan_chains
 from optimize.sweep.trust import run_trust_checks
-from optimize.system.drive import DriveInForce, drive_in_force
+from optimize.system.drive_in_force import DriveInForce, drive_in_force
 from optimize.system.plausibility import check_drive_holds_kite
 from optimize.system.system import System, load_system
 
@@ -70,7 +70,7 @@ class SweepRequest:
     system : System or None
         The system (``--system``); ``None`` is the shipped ``highwind.toml``. Its
         bounds and drive limits replace those of ``options``.
-    drive : optimize.system.drive.DriveInForce or None
+    drive : optimize.system.drive_in_force.DriveInForce or None
         The drive in force (rating, losses at that rating); ``None``: the system's
         ``[drive]`` rating with ``drive_model``'s losses.
     """
@@ -111,7 +111,7 @@ def make_request(winds: tuple[float, ...], kinds: tuple[str, ...], *,
         The system (``--system``); default the shipped ``highwind.toml``.
     fit_default : Path, optional
         ``bench fit``'s model, used when it exists and neither ``model`` nor the system
-        file names the losses (:func:`optimize.system.drive.drive_in_force`).
+        file names the losses (:func:`optimize.system.drive_in_force.drive_in_force`).
     out : Path
         Output folder (must be a folder or absent).
     n_intervals, degree : int

@@ -10,7 +10,7 @@ import casadi
 import numpy as np
 import pytest
 
-from optimize.model.drive import (
+from optimize.model.drivetrain import (
     drum_speed_rpm,
     drum_torque_nm,
     max_reel_speed_m_s,

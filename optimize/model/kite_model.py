@@ -112,6 +112,43 @@ def _split_state(x):
     return r, v, dcm, omega, l, dl, ddl, surf
 
 
+def _tether_constraint(r, v, acc, dcm, omega, domega, l, dl, ddl, kite: KiteParams):
+    """The tether constraint ``c = (|r_bridle|^2 - l^2)/2`` and its two time derivatives,
+    with the bridle point ``r_bridle`` [m]."""
+    zt_b = ca.DM([0.0, 0.0, kite.zt_m])
+    r_bridle = r + ca.mtimes(dcm, zt_b)
+    v_bridle = v + ca.mtimes(dcm, ca.cross(omega, zt_b))
+    a_bridle = acc + ca.mtimes(dcm, ca.cross(domega, zt_b) + ca.cross(omega, ca.cross(omega, zt_b)))
+    c = 0.5 * (ca.dot(r_bridle, r_bridle) - l**2)
+    cdot = ca.dot(r_bridle, v_bridle) - l * dl
+    cddot = ca.dot(v_bridle, v_bridle) + ca.dot(r_bridle, a_bridle) - dl**2 - l * ddl
+    return c, cdot, cddot, r_bridle
+
+
+def _newton_euler(r, r_bridle, dcm, omega, acc, domega, nu, fict, aero, kite: KiteParams):
+    """Force [N] and moment [N m] residuals of the rigid wing on its tether (paper eq. 8)."""
+    zt_b = ca.DM([0.0, 0.0, kite.zt_m])
+    jmat = ca.DM(
+        [
+            [kite.j1_kg_m2, 0, kite.j31_kg_m2],
+            [0, kite.j2_kg_m2, 0],
+            [kite.j31_kg_m2, 0, kite.j3_kg_m2],
+        ]
+    )
+    gravity = ca.vertcat(0, 0, kite.mass_kg * kite.g_m_s2)
+    # Newton: m a = F_aero + m g e_z - nu * r_bridle (+ fictitious force)
+    res_force = kite.mass_kg * acc + nu * r_bridle - aero.force_n - gravity - fict[0:3]
+    # Euler: J domega + omega x J omega = M_aero - nu * zt x (R^T r) (+ fictitious moment)
+    res_moment = (
+        ca.mtimes(jmat, domega)
+        + ca.cross(omega, ca.mtimes(jmat, omega))
+        + nu * ca.cross(zt_b, ca.mtimes(dcm.T, r))
+        - aero.moment_nm
+        - fict[3:6]
+    )
+    return res_force, res_moment
+
+
 def kite_dae(
     kite: KiteParams | None = None,
     coeffs: AeroCoefficients | None = None,
@@ -133,49 +170,22 @@ def kite_dae(
     xdot = ca.vertcat(
         v, acc, ca.reshape(ca.mtimes(dcm, _skew(omega)), 9, 1), domega, dl, ddl, u[0], u[1:4]
     )
-
-    zt_b = ca.DM([0.0, 0.0, kite.zt_m])
-    r_bridle = r + ca.mtimes(dcm, zt_b)
-    v_bridle = v + ca.mtimes(dcm, ca.cross(omega, zt_b))
-    a_bridle = acc + ca.mtimes(dcm, ca.cross(domega, zt_b) + ca.cross(omega, ca.cross(omega, zt_b)))
-    c = 0.5 * (ca.dot(r_bridle, r_bridle) - l**2)
-    cdot = ca.dot(r_bridle, v_bridle) - l * dl
-    cddot = ca.dot(v_bridle, v_bridle) + ca.dot(r_bridle, a_bridle) - dl**2 - l * ddl
-
+    c, cdot, cddot, r_bridle = _tether_constraint(r, v, acc, dcm, omega, domega, l, dl, ddl,
+                                                  kite)
     altitude = altitude_above_ground(r, wind)
     w_local = wind_speed(altitude, w_ref, wind)
     v_air = v - ca.vertcat(w_local, 0, 0)
     aero = aero_forces_moments(dcm, v_air, omega, surf, l, kite, coeffs)
-
-    jmat = ca.DM(
-        [
-            [kite.j1_kg_m2, 0, kite.j31_kg_m2],
-            [0, kite.j2_kg_m2, 0],
-            [kite.j31_kg_m2, 0, kite.j3_kg_m2],
-        ]
-    )
-    gravity = ca.vertcat(0, 0, kite.mass_kg * kite.g_m_s2)
-    # Newton: m a = F_aero + m g e_z - nu * r_bridle (+ fictitious force)
-    res_force = kite.mass_kg * acc + nu * r_bridle - aero.force_n - gravity - fict[0:3]
-    # Euler: J domega + omega x J omega = M_aero - nu * zt x (R^T r) (+ fictitious moment)
-    res_moment = (
-        ca.mtimes(jmat, domega)
-        + ca.cross(omega, ca.mtimes(jmat, omega))
-        + nu * ca.cross(zt_b, ca.mtimes(dcm.T, r))
-        - aero.moment_nm
-        - fict[3:6]
-    )
+    res_force, res_moment = _newton_euler(r, r_bridle, dcm, omega, acc, domega, nu, fict, aero,
+                                          kite)
     residual = ca.vertcat(res_force, res_moment, cddot)
 
-    tension = l * nu
-    body_z = dcm[:, 2]
-    cos_line = -ca.dot(body_z, r) / ca.norm_2(r)
     outputs = {
         "airspeed_m_s": aero.airspeed_m_s,
         "alpha_rad": aero.alpha_rad,
         "beta_rad": aero.beta_rad,
-        "tension_n": tension,
-        "cos_line_angle": cos_line,
+        "tension_n": l * nu,
+        "cos_line_angle": -ca.dot(dcm[:, 2], r) / ca.norm_2(r),
         "altitude_m": altitude,
         "wind_m_s": w_local,
         "cl": aero.cl,
@@ -184,7 +194,6 @@ def kite_dae(
         "cdot_m2_s": cdot,
     }
 
-    residual_fn = ca.Function("kite_alg", [x, u, z, w_ref, fict], [residual])
     # The residual is affine in z: z = -A^{-1} residual(z=0) with A = d residual / dz.
     jac = ca.jacobian(residual, z)
     res0 = ca.substitute(residual, ca.vertcat(z, fict),
@@ -199,7 +208,7 @@ def kite_dae(
         coeffs=coeffs,
         wind=wind,
         ode=ca.Function("kite_ode", [x, u, z], [xdot], ["x", "u", "z"], ["xdot"]),
-        alg=residual_fn,
+        alg=ca.Function("kite_alg", [x, u, z, w_ref, fict], [residual]),
         outputs=ca.Function(
             "kite_outputs", [x, u, z, w_ref], list(outputs.values()),
             ["x", "u", "z", "wind"], list(outputs.keys()),

@@ -23,7 +23,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from optimize.model.drive import (
+from optimize.model.drivetrain import (
     DriveModel,
     max_reel_speed_m_s,
     mechanical_power_w,

@@ -23,7 +23,7 @@ import casadi as ca
 import numpy as np
 
 from optimize.model.dae import Dae
-from optimize.model.drive import DriveModel
+from optimize.model.drivetrain import DriveModel
 from optimize.model.kite_model import KiteDae
 from optimize.problem.collocation import Collocation, radau
 from optimize.problem.formulation import DEG, Formulation

@@ -33,7 +33,7 @@ from optimize.problem.options import OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start
 from optimize.solve.result import OcpResult, Solution, carry_over
-from optimize.system.drive import drive_in_force
+from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import load_system
 
 log = logging.getLogger(__name__)

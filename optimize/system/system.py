@@ -109,7 +109,7 @@ class WinchSection:
 @dataclass(frozen=True)
 class DriveSection:
     """``[drive]``: the drive's rating at the motor shaft and where its losses come from
-    (resolved by :func:`optimize.system.drive.drive_in_force`); ``None`` = not stated."""
+    (resolved by :func:`optimize.system.drive_in_force.drive_in_force`); ``None`` = not stated."""
 
     max_speed_rpm: float | None
     max_torque_nm: float | None
@@ -268,7 +268,7 @@ class System:
         ----------
         options : optimize.problem.options.OcpOptions
         rating : bench.drive.DriveRating
-            The drive in force (:func:`optimize.system.drive.drive_in_force`): speed and
+            The drive in force (:func:`optimize.system.drive_in_force.drive_in_force`): speed and
             torque limits, nominal power, the RMS torque bound of its continuous
             rating (when below the torque limit) and the grid power limit.
         """
@@ -380,7 +380,7 @@ def _aero(r: _Reader) -> AeroSection:
 
 
 def _drive(r: _Reader) -> DriveSection:
-    from optimize.system.drive import SCALING_CHOICES
+    from optimize.system.drive_in_force import SCALING_CHOICES
 
     numbers = {k: r.number(k, 0, optional=True) for k in
                ("max_speed_rpm", "max_torque_nm", "nominal_power_w", "max_p_elec_w",
@@ -395,8 +395,7 @@ def _drive(r: _Reader) -> DriveSection:
     return drive
 
 
-def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> System:
-    """Validate a parsed system file (see :func:`load_system`)."""
+def _check_sections(data: Any, path: str) -> None:
     if not isinstance(data, dict):
         raise InputError(path, "not a table of sections", expected="a TOML file")
     unknown = sorted(set(data) - set(_SECTIONS))
@@ -407,14 +406,19 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
         if s not in data:
             raise InputError(path, f"[{s}]: missing section",
                              expected="sections " + ", ".join(_SECTIONS))
-    r = _Reader(path, "system", data["system"])
+
+
+def _header(r: _Reader) -> tuple[str, str, bool]:
+    """``[system]``: name, description and whether it is the paper's system."""
     name, description = r.text("name"), r.text("description", optional=True) or ""
     paper_system = r.data.pop("paper_system", False)
     if not isinstance(paper_system, bool):
         raise r.error("paper_system", f"{paper_system!r} is not a boolean", "true or false")
     r.done()
+    return name, description, paper_system
 
-    r = _Reader(path, "kite", data["kite"])
+
+def _kite(r: _Reader) -> KiteSection:
     kite = KiteSection(
         r.number("mass_kg", 0), r.number("reference_area_m2", 0), r.number("span_m", 0),
         r.number("chord_m", 0), r.number("bridle_offset_m", 0, strict=False),
@@ -426,13 +430,13 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
                         [0, kite.inertia_yy_kg_m2, 0],
                         [kite.inertia_xz_kg_m2, 0, kite.inertia_zz_kg_m2]])
     if np.min(np.linalg.eigvalsh(inertia)) <= 0:
-        raise InputError(path, "[kite] inertia_xz_kg_m2: the inertia matrix is not positive "
+        raise InputError(r.path, "[kite] inertia_xz_kg_m2: the inertia matrix is not positive "
                          "definite", expected="inertia_xz_kg_m2^2 < inertia_xx_kg_m2 * "
                          "inertia_zz_kg_m2")
+    return kite
 
-    aero = _aero(_Reader(path, "aero", data["aero"]))
 
-    r = _Reader(path, "tether", data["tether"])
+def _tether(r: _Reader) -> TetherSection:
     tether = TetherSection(r.number("diameter_m", 0), r.number("drag_coefficient", 0, False),
                            r.number("max_force_n", 0, optional=True),
                            r.number("tensile_strength_pa", 0, optional=True),
@@ -444,14 +448,16 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
     if tether.safety_factor is not None and tether.safety_factor < 1:
         raise r.error("safety_factor", f"{tether.safety_factor:g} is below 1", "a number >= 1")
     r.done()
+    return tether
 
-    r = _Reader(path, "winch", data["winch"])
+
+def _winch(r: _Reader) -> WinchSection:
     winch = WinchSection(r.number("drum_radius_m", 0), r.number("gear_ratio", 0))
     r.done()
+    return winch
 
-    drive = _drive(_Reader(path, "drive", data["drive"]))
 
-    r = _Reader(path, "wind", data["wind"])
+def _wind(r: _Reader) -> WindSection:
     profile = r.text("profile", ("log", "power"))
     ref = r.number("reference_height_m", 0)
     rough = r.number("roughness_length_m", 0, optional=profile != "log")
@@ -463,8 +469,10 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
     wind = WindSection(profile, ref, rough, exponent, r.number("winch_height_m", 0, False),
                        r.number("air_density_kg_m3", 0), r.number("gravity_m_s2", 0))
     r.done()
+    return wind
 
-    r = _Reader(path, "bounds", data["bounds"])
+
+def _bounds(r: _Reader) -> BoundsSection:
     bounds = BoundsSection(
         r.number("tether_length_min_m", 0), r.number("tether_length_max_m", 0),
         r.number("period_min_s", 0), r.number("period_max_s", 0),
@@ -483,7 +491,21 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
     if bounds.max_line_angle_deg >= 90:
         raise r.error("max_line_angle_deg", f"{bounds.max_line_angle_deg:g}", "an angle < 90 deg")
     r.done()
+    return bounds
 
+
+def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> System:
+    """Validate a parsed system file (see :func:`load_system`): each section by its reader,
+    then the whole system's plausibility."""
+    _check_sections(data, path)
+    name, description, paper_system = _header(_Reader(path, "system", data["system"]))
+    kite = _kite(_Reader(path, "kite", data["kite"]))
+    aero = _aero(_Reader(path, "aero", data["aero"]))
+    tether = _tether(_Reader(path, "tether", data["tether"]))
+    winch = _winch(_Reader(path, "winch", data["winch"]))
+    drive = _drive(_Reader(path, "drive", data["drive"]))
+    wind = _wind(_Reader(path, "wind", data["wind"]))
+    bounds = _bounds(_Reader(path, "bounds", data["bounds"]))
     canonical = json.dumps(data, sort_keys=True, separators=(",", ":"))
     system = System(name, description, kite, aero, tether, winch, drive, wind, bounds, path,
                     text, hashlib.sha256(canonical.encode("utf-8")).hexdigest(), paper_system)
