@@ -157,6 +157,7 @@ def make_request(winds: tuple[float, ...], kinds: tuple[str, ...], *,
     check_drive_holds_kite(loaded, drive.rating.max_torque_nm,
                            drive.rating.source or "the drive in force")
     note += "\n" + loaded.kite_limits().describe()
+    note += "\n" + loaded.drivetrain_line()
     return SweepRequest(tuple(winds), tuple(kinds), drive.model, drive.model_path, note,
                         options, workers, scheduler, Path(out), claims, trust,
                         system=loaded, drive=drive)

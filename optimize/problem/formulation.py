@@ -23,13 +23,14 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from bench.units import RPM_PER_RAD_S
 from optimize.model.drivetrain import (
     DriveModel,
+    Drivetrain,
     max_reel_speed_m_s,
-    mechanical_power_w,
-    motor_speed_rpm,
     motor_torque_nm,
 )
+from optimize.model.envelope import EnvelopeTable, constant_power_w
 from optimize.model.kite_model import STATES, KiteDae
 from optimize.problem.interface import Point, Row, weight_param
 from optimize.problem.options import Discretization, Limits
@@ -38,8 +39,11 @@ from optimize.problem.scaling import Scales
 # ---- named parts of the kite's state, algebraic and control vectors
 #: body-to-world DCM entries (column-major) in the state
 X_DCM = slice(STATES.index("dcm_11"), STATES.index("dcm_33") + 1)
-#: tether length and reel-out speed in the state
+#: tether length, reel-out speed and acceleration in the state
 X_LENGTH, X_REEL_SPEED = STATES.index("l_m"), STATES.index("dl_m_s")
+X_REEL_ACCELERATION = STATES.index("ddl_m_s2")
+#: the reel acceleration's bound when the winch states none: keeps the solver in range
+SOLVER_REEL_ACCELERATION_M_S2 = 500.0
 
 #: the cycle averages of a point: electrical and mechanical power drawn [W], and the
 #: squared motor torque over its scale (the RMS-torque rating's integrand)
@@ -108,20 +112,61 @@ class Formulation:
             motor_torque_nm(lim.max_tether_force_n, kite.r_winch_m, kite.gear_ratio)))
         return v_top, torque_top
 
+    @property
+    def drivetrain(self) -> Drivetrain:
+        """Drum, gearbox and rotor between the tether and the drive."""
+        return Drivetrain.of(self.dae.kite)
+
+    def torque_rows(self, tension: Any, torque: Any) -> list[Row]:
+        """Rows on the drive's shaft torque ``torque`` [N m] and the tether's.
+
+        Massless drivetrain: one row, the shaft torque (the tether's) below the kite's
+        tether-force limit in every kind and below the drive's torque limit in the
+        ``*-lim`` kinds. With inertia the shaft torque also goes negative (braking a
+        reel-in), so the drive's limit bounds it both ways, and the tether-force limit
+        has a row of its own on the tether torque.
+        """
+        sc, lim = self.scales, self.limits
+        _, torque_top = self.kite_limits()
+        if self.drivetrain.inertia_kg_m2 == 0:
+            return [Row("torque", torque / sc.torque_nm, -np.inf, torque_top / sc.torque_nm,
+                        limited=(-np.inf, min(lim.max_torque_nm, torque_top) / sc.torque_nm))]
+        top = lim.max_torque_nm / sc.torque_nm
+        rows = [Row("torque", torque / sc.torque_nm, -np.inf, np.inf, limited=(-top, top))]
+        if np.isfinite(torque_top):
+            rows.append(Row("tether_force", self.drivetrain.tether_torque_nm(tension)
+                            / sc.torque_nm, -np.inf, torque_top / sc.torque_nm))
+        return rows
+
+    def envelope_rows(self, speed_rpm: Any, torque: Any) -> list[Row]:
+        """The drive's torque-speed envelope in the ``*-lim`` kinds (none without one):
+        ``|T w| <= T_max w_base`` above a base speed, or the table's largest torque."""
+        lim, sc = self.limits, self.scales
+        if lim.base_speed_rpm is not None:
+            power = constant_power_w(lim.max_torque_nm, lim.base_speed_rpm)
+            return [Row("envelope", torque * speed_rpm / RPM_PER_RAD_S / power, -np.inf,
+                        np.inf, limited=(-1.0, 1.0))]
+        if lim.envelope_speed_rpm is None:
+            return []
+        top = EnvelopeTable(lim.envelope_speed_rpm, lim.envelope_torque_nm
+                            ).smooth_torque_nm(speed_rpm)
+        return [Row("envelope", ca.vertcat(torque - top, -torque - top) / sc.torque_nm,
+                    -np.inf, np.inf, limited=(-np.inf, 0.0))]
+
     # ---------------------------------------------------------------- one point
     def point(self, x: Any, u: Any, z: Any, fict: Any, wind: Any) -> Point:
         """Rows and integrands at one collocation point (physical ``x, u, z, fict``)."""
         lim, sc = self.limits, self.scales
-        kite = self.dae.kite
-        r_w, gear = kite.r_winch_m, kite.gear_ratio
+        drivetrain = self.drivetrain
         out = dict(zip(self.dae.outputs.name_out(), self.dae.outputs(x, u, z, wind),
                        strict=True))
         tension = self.tension_n(x, z)
-        dl = x[X_REEL_SPEED]
-        torque = motor_torque_nm(tension, r_w, gear)
-        p_elec = self.drive_model.casadi_p_elec_w(motor_speed_rpm(dl, r_w, gear), torque)
+        dl, ddl = x[X_REEL_SPEED], x[X_REEL_ACCELERATION]
+        speed = drivetrain.speed_rpm(dl)
+        torque = drivetrain.shaft_torque_nm(tension, ddl)
+        p_elec = self.drive_model.casadi_p_elec_w(speed, torque)
         v_sc = sc.airspeed_m_s
-        v_top, torque_top = self.kite_limits()
+        v_top, _ = self.kite_limits()
         rows = [
             Row("algebraic", self.dae.alg(x, u, z, wind, fict) * ca.DM(1.0 / sc.residual)),
             Row("airspeed", out["airspeed_m_s"] / v_sc, lim.min_airspeed_m_s / v_sc,
@@ -132,14 +177,14 @@ class Formulation:
                 lim.beta_bounds_deg[1] / 10),
             Row("line_angle", out["cos_line_angle"], np.cos(lim.max_line_angle_deg * DEG),
                 np.inf),
-            Row("torque", torque / sc.torque_nm, -np.inf, torque_top / sc.torque_nm,
-                limited=(-np.inf, min(lim.max_torque_nm, torque_top) / sc.torque_nm)),
+            *self.torque_rows(tension, torque),
+            *self.envelope_rows(speed, torque),
         ]
         if lim.max_p_elec_w is not None:
             p_lim = lim.max_p_elec_w / sc.power_w
             rows.append(Row("p_elec", p_elec / sc.power_w, -np.inf, np.inf,
                             limited=(-p_lim, p_lim)))
-        averages = {"p_elec_w": p_elec, "p_mech_w": mechanical_power_w(tension, dl),
+        averages = {"p_elec_w": p_elec, "p_mech_w": drivetrain.shaft_power_w(tension, dl, ddl),
                     "torque_sq": (torque / sc.torque_nm) ** 2}
         return Point(rows=rows, averages=averages,
                      fict_sq=ca.sumsqr(fict / ca.DM(sc.fictitious)))
@@ -147,20 +192,21 @@ class Formulation:
     def trajectory_outputs(self, x: np.ndarray, u: np.ndarray, z: np.ndarray,
                            wind_ref_m_s: float) -> dict[str, np.ndarray]:
         """Drive and flight quantities at points (columns of ``x, u, z``) [SI, rpm, deg]:
-        motor speed and torque, tension, mechanical and electrical power, altitude,
-        airspeed, angles of attack and sideslip, local wind, line angle, invariants."""
-        kite = self.dae.kite
-        r_w, gear = kite.r_winch_m, kite.gear_ratio
+        motor speed, the drive's shaft torque and the tether's at the motor, tension, shaft
+        and electrical power, altitude, airspeed, angles of attack and sideslip, local
+        wind, line angle, invariants."""
+        drivetrain = self.drivetrain
         outputs = self.dae.outputs.map(x.shape[1])(x, u, z, wind_ref_m_s)
         out = {name: np.asarray(val).ravel()
                for name, val in zip(self.dae.outputs.name_out(), outputs, strict=True)}
-        dl = x[X_REEL_SPEED]
+        dl, ddl = x[X_REEL_SPEED], x[X_REEL_ACCELERATION]
         tension = x[X_LENGTH] * z[self.dae.algebraic.index("nu_n_m")]
-        speed_rpm = motor_speed_rpm(dl, r_w, gear)
-        torque_nm = motor_torque_nm(tension, r_w, gear)
+        speed_rpm = drivetrain.speed_rpm(dl)
+        torque_nm = drivetrain.shaft_torque_nm(tension, ddl)
         return {
-            "speed_rpm": speed_rpm, "torque_nm": torque_nm, "tension_n": tension,
-            "p_mech_w": mechanical_power_w(tension, dl),
+            "speed_rpm": speed_rpm, "torque_nm": torque_nm,
+            "tether_torque_nm": drivetrain.tether_torque_nm(tension), "tension_n": tension,
+            "p_mech_w": drivetrain.shaft_power_w(tension, dl, ddl),
             "p_elec_w": np.asarray(self.drive_model.p_elec_w(speed_rpm, torque_nm)),
             "altitude_m": out["altitude_m"], "airspeed_m_s": out["airspeed_m_s"],
             "alpha_deg": np.degrees(out["alpha_rad"]), "beta_deg": np.degrees(out["beta_rad"]),
@@ -218,7 +264,8 @@ class Formulation:
     # ---------------------------------------------------------------- bounds
     def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the state [SI] (position bounds are never active:
-        they only keep the solver in range)."""
+        they only keep the solver in range; the reel acceleration's is the winch's limit
+        when the system states one, in every kind)."""
         lim = self.limits
         l_lo, l_hi = lim.tether_length_bounds_m
         reach = 4.0 * l_hi
@@ -226,7 +273,8 @@ class Formulation:
         surf, spin = lim.surface_bound_deg * DEG, 6 * np.pi
         hi = {"r_x_m": reach, "r_y_m": reach, "r_z_m": -z_top, "v_x_m_s": 200, "v_y_m_s": 200,
               "v_z_m_s": 200, "omega_x_rad_s": spin, "omega_y_rad_s": spin,
-              "omega_z_rad_s": spin, "l_m": l_hi, "dl_m_s": 100, "ddl_m_s2": 500,
+              "omega_z_rad_s": spin, "l_m": l_hi, "dl_m_s": 100,
+              "ddl_m_s2": lim.max_reel_acceleration_m_s2 or SOLVER_REEL_ACCELERATION_M_S2,
               "aileron_rad": surf, "elevator_rad": surf, "rudder_rad": surf}
         lo = {name: -value for name, value in hi.items()}
         lo.update(r_z_m=-reach, l_m=l_lo)

@@ -43,7 +43,7 @@ Key = tuple[str, float]  # (kind, wind speed [m/s])
 
 
 def cycle_metrics(trajectory: Any) -> dict[str, float]:
-    """Peak |speed| [rpm], peak torque [N m] and RMS torque [N m] of one cycle.
+    """Peak |speed| [rpm], peak |torque| [N m] and RMS torque [N m] of one cycle.
 
     ``trajectory`` has ``speed_rpm``, ``torque_nm`` and the quadrature ``weight``
     (summing to 1 over the cycle), as :attr:`optimize.solve.result.OcpResult.trajectory`.
@@ -52,7 +52,7 @@ def cycle_metrics(trajectory: Any) -> dict[str, float]:
     torque = np.asarray(trajectory["torque_nm"], dtype=float)
     weight = np.asarray(trajectory["weight"], dtype=float)
     return {"peak_speed_rpm": float(np.max(np.abs(speed))),
-            "peak_torque_nm": float(np.max(torque)),
+            "peak_torque_nm": float(np.max(np.abs(torque))),
             "rms_torque_nm": float(np.sqrt(np.sum(weight * torque**2)))}
 
 

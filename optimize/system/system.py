@@ -100,10 +100,14 @@ class TetherSection:
 
 @dataclass(frozen=True)
 class WinchSection:
-    """``[winch]``: drum and gearbox (motor speed = gear ratio x drum speed)."""
+    """``[winch]``: drum and gearbox (motor speed = gear ratio x drum speed), the inertia
+    turning at drum speed [kg m^2] and the reel-acceleration limit [m/s^2] (``None``: not
+    stated; an unstated inertia is zero, a massless drum, and said so)."""
 
     drum_radius_m: float
     gear_ratio: float
+    drum_inertia_kg_m2: float | None = None
+    max_reel_acceleration_m_s2: float | None = None
 
 
 @dataclass(frozen=True)
@@ -120,6 +124,10 @@ class DriveSection:
     losses: str | None = None  # "paper" or a power_model.json path relative to the file
     scaling: str | None = None  # "similarity" or "none"
     source: str | None = None
+    rotor_inertia_kg_m2: float | None = None  # at the motor shaft
+    base_speed_rpm: float | None = None  # constant power above it
+    envelope_speed_rpm: tuple[float, ...] | None = None  # datasheet table, with
+    envelope_torque_nm: tuple[float, ...] | None = None  # its largest torques
 
 
 @dataclass(frozen=True)
@@ -226,6 +234,8 @@ class System:
             j3_kg_m2=k.inertia_zz_kg_m2, j31_kg_m2=k.inertia_xz_kg_m2,
             tether_cd_per_m=0.25 * self.tether.drag_coefficient * self.tether.diameter_m,
             r_winch_m=self.winch.drum_radius_m, gear_ratio=self.winch.gear_ratio,
+            drum_inertia_kg_m2=self.winch.drum_inertia_kg_m2 or 0.0,
+            rotor_inertia_kg_m2=self.drive.rotor_inertia_kg_m2 or 0.0,
         )
 
     def aero_coefficients(self) -> AeroCoefficients:
@@ -290,11 +300,35 @@ class System:
             max_line_angle_deg=b.max_line_angle_deg,
             surface_bound_deg=b.surface_max_deg,
             surface_rate_bound_rad_s=b.surface_rate_max_rad_s,
+            max_reel_acceleration_m_s2=self.winch.max_reel_acceleration_m_s2,
+            base_speed_rpm=self.drive.base_speed_rpm,
+            envelope_speed_rpm=self.drive.envelope_speed_rpm,
+            envelope_torque_nm=self.drive.envelope_torque_nm,
         ))
 
     def model_params(self) -> tuple[KiteParams, AeroCoefficients, WindModel]:
         """Arguments of ``optimize.model.kite_model.kite_dae``."""
         return self.kite_params(), self.aero_coefficients(), self.wind_model()
+
+    def drivetrain_line(self) -> str:
+        """One line: the drivetrain's inertia, reel-acceleration limit and torque-speed
+        envelope in force, and which are not stated."""
+        w, d = self.winch, self.drive
+        drum, rotor = w.drum_inertia_kg_m2, d.rotor_inertia_kg_m2
+        total = (rotor or 0.0) + (drum or 0.0) / w.gear_ratio**2
+        inertia = (f"inertia {total:.4g} kg m^2 at the motor (drum {drum or 0:g}, rotor "
+                   f"{rotor or 0:g} kg m^2)" if drum is not None or rotor is not None
+                   else "no inertia stated: a massless drum and rotor")
+        accel = (f"reel acceleration <= {w.max_reel_acceleration_m_s2:g} m/s^2 (all kinds)"
+                 if w.max_reel_acceleration_m_s2 is not None
+                 else "no reel-acceleration limit stated")
+        if d.base_speed_rpm is not None:
+            envelope = f"constant power above {d.base_speed_rpm:g} rpm"
+        elif d.envelope_speed_rpm is not None:
+            envelope = f"torque-speed table of {len(d.envelope_speed_rpm)} points"
+        else:
+            envelope = "no torque-speed envelope stated (the torque limit at every speed)"
+        return f"drivetrain: {inertia}; {accel}; {envelope}"
 
     def dae_spec(self) -> DaeSpec:
         """How a worker builds this system's model (:func:`optimize.model.kite_model.kite_dae`
@@ -343,6 +377,18 @@ class _Reader:
                              f"a number {'>' if strict else '>='} {lo:g}")
         return float(value)
 
+    def numbers(self, key: str, optional: bool = False) -> tuple[float, ...] | None:
+        """A list of at least two finite numbers."""
+        if key not in self.data:
+            if optional:
+                return None
+            raise self.error(key, "missing", "a list of numbers")
+        value = self.data.pop(key)
+        if not isinstance(value, list) or len(value) < 2 or not all(map(_number, value)):
+            raise self.error(key, f"{value!r} is not a list of numbers",
+                             "a list of at least two finite numbers")
+        return tuple(float(v) for v in value)
+
     def text(self, key: str, choices: tuple[str, ...] | None = None,
              optional: bool = False) -> str | None:
         if key not in self.data:
@@ -390,9 +436,39 @@ def _drive(r: _Reader) -> DriveSection:
                       "continuous torque)")
     drive = DriveSection(**numbers, losses=r.text("losses", optional=True),
                          scaling=r.text("scaling", SCALING_CHOICES, optional=True),
-                         source=r.text("source", optional=True))
+                         source=r.text("source", optional=True),
+                         rotor_inertia_kg_m2=r.number("rotor_inertia_kg_m2", 0, strict=False,
+                                                      optional=True),
+                         **_envelope(r))
     r.done()
     return drive
+
+
+def _envelope(r: _Reader) -> dict:
+    """``[drive]``'s torque-speed envelope: a base speed (constant power above it) or a
+    datasheet table (speeds rising from 0, largest torques falling, both at the motor
+    shaft), not both."""
+    base = r.number("base_speed_rpm", 0, optional=True)
+    speeds = r.numbers("envelope_speed_rpm", optional=True)
+    torques = r.numbers("envelope_torque_nm", optional=speeds is None)
+    if speeds is None and torques is not None:
+        raise r.error("envelope_speed_rpm", "missing", "envelope_speed_rpm with "
+                      "envelope_torque_nm (a table of speed and largest torque)")
+    if speeds is not None:
+        if base is not None:
+            raise r.error("base_speed_rpm", "given with an envelope table",
+                          "either base_speed_rpm or envelope_speed_rpm/envelope_torque_nm")
+        if len(speeds) != len(torques):
+            raise r.error("envelope_torque_nm", f"{len(torques)} torques for {len(speeds)} "
+                          "speeds", "one torque per speed")
+        if speeds[0] != 0 or any(b <= a for a, b in zip(speeds, speeds[1:], strict=False)):
+            raise r.error("envelope_speed_rpm", f"{list(speeds)} is not monotone from 0",
+                          "speeds rising strictly from 0 rpm")
+        if min(torques) <= 0 or any(b > a for a, b in zip(torques, torques[1:], strict=False)):
+            raise r.error("envelope_torque_nm", f"{list(torques)} is not monotone",
+                          "positive torques that do not rise with speed")
+    return {"base_speed_rpm": base, "envelope_speed_rpm": speeds,
+            "envelope_torque_nm": torques}
 
 
 def _check_sections(data: Any, path: str) -> None:
@@ -452,7 +528,9 @@ def _tether(r: _Reader) -> TetherSection:
 
 
 def _winch(r: _Reader) -> WinchSection:
-    winch = WinchSection(r.number("drum_radius_m", 0), r.number("gear_ratio", 0))
+    winch = WinchSection(r.number("drum_radius_m", 0), r.number("gear_ratio", 0),
+                         r.number("drum_inertia_kg_m2", 0, strict=False, optional=True),
+                         r.number("max_reel_acceleration_m_s2", 0, optional=True))
     r.done()
     return winch
 
