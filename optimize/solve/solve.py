@@ -90,6 +90,10 @@ def solve(
         raise ValueError(f"warm start has {warm_start.w.size} variables; the OCP's "
                          f"{ocp.layout.kind} layout has {ocp.layout.n_w} (carry it over with "
                          "optimize.solve.result.carry_over)")
+    if warm_start.lam_g.size != ocp.layout.n_g:
+        raise ValueError(f"warm start has {warm_start.lam_g.size} constraint multipliers; the "
+                         f"OCP has {ocp.layout.n_g} rows (another OCP's solution: carry it over "
+                         "with optimize.solve.result.carry_over)")
     bounds = ocp.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
     p = ocp.params(scenario.wind_speed_m_s, scenario.weights)
     raw = backend.run(ocp, warm_start.w, p, bounds, warm=True,
