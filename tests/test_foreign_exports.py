@@ -14,7 +14,7 @@ import pytest
 
 from bench.errors import InputError
 from bench.ingest.pipeline import ingest
-from bench.store import read_points
+from bench.store.read import read_points
 
 
 def _loss_w(speed_rpm, torque_nm):

@@ -11,7 +11,7 @@ from pathlib import Path, PurePath
 
 from bench.errors import InputError
 from bench.files import bad_number_at, read_toml
-from bench.store import STAGING_PREFIX
+from bench.store.schema import STAGING_PREFIX
 
 SESSION_FILE = "session.toml"
 

@@ -18,7 +18,7 @@ from bench.files import write_text_atomic
 from bench.synth import instruments as ins
 from bench.synth.loss_model import LossModel
 from bench.synth.plan import GEAR_RATIO, SessionSpec
-from bench.synth.timeseries import Segments
+from bench.synth.true_signals import Segments
 from bench.synth.writers import CsvStream, TdmsStream, toml_document
 
 DAQ_CHUNK_ROWS = 500_000

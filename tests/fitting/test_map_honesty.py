@@ -13,7 +13,7 @@ import statsmodels.api as sm
 from statsmodels.stats.outliers_influence import OLSInfluence
 
 from bench.ingest.pipeline import ingest
-from bench.store import read_points
+from bench.store.read import read_points
 from bench.synth.exports import make_hobby_dyno_table
 from fitting.cli import format_summary
 from fitting.pipeline import FitOptions, run_fit
@@ -114,7 +114,8 @@ def test_fit_peak_line_keeps_small_torques():
 
 @pytest.mark.parametrize("shift", [0.0, 0.03])
 def test_repeatability_of_two_sessions_at_the_same_setpoints(shift):
-    from fitting.efficiency import MaskingRules, repeatability
+    from fitting.efficiency import MaskingRules
+    from fitting.repeatability import repeatability
 
     speed = np.repeat([500.0, 1000.0, 1500.0], 4)
     torque = np.tile([20.0, 40.0, 60.0, 78.0], 3)

@@ -13,7 +13,8 @@ import argparse
 from pathlib import Path
 
 from bench.errors import InputError
-from bench.store import check_store, read_manifest
+from bench.store.damage import check_store
+from bench.store.manifest import read_manifest
 
 #: exit code of ``bench store check`` when a listed file cannot be trusted
 EXIT_DAMAGED = 1
