@@ -191,7 +191,7 @@ def optimize(model: Any = None, *, winds: Sequence[float] = PAPER_WINDS_M_S,
     model : PowerModel or path, optional
         The drive's losses (:func:`fit`'s result or a ``power_model.json``), overriding
         the system file's; default the system file's, else ``fit_default`` when it
-        exists, else the paper's model (:func:`optimize.system.drive.drive_in_force`).
+        exists, else the paper's model (:func:`optimize.system.drive_in_force.drive_in_force`).
         A model object is written to ``out/given_power_model.json``, which the
         manifest names.
     winds : sequence of float
@@ -383,7 +383,7 @@ class SizeResult:
     ----------
     sizing : energy.sizing.SizingResult
         The candidate table, every solve record, the best and the chosen candidate.
-    drive : optimize.system.drive.DriveInForce
+    drive : optimize.system.drive_in_force.DriveInForce
         The reference drive (rating and losses) the candidates are scaled from.
     notes : tuple of str
         What was assumed (a rating the system file does not state).
@@ -431,7 +431,8 @@ def size(site: Any, model: Any = None, *, system: Any = None,
         Wind-speed distribution at the reference height.
     model : PowerModel or path, optional
         The reference drive's losses; default the system file's, else ``fit_default``
-        when it exists, else the paper's model (:func:`optimize.system.drive.drive_in_force`).
+        when it exists, else the paper's model
+        (:func:`optimize.system.drive_in_force.drive_in_force`).
     system : System or path, optional
         The system file (its ``[drive]`` is the reference rating); default the shipped
         ``highwind.toml``.
@@ -465,7 +466,7 @@ def size(site: Any, model: Any = None, *, system: Any = None,
     from energy.sizing import run_sizing, size_extending
     from energy.sizing_files import SIZE_KEEP, SIZE_MARKERS, edge_note, grid_hours, write_sizing
     from fitting.power_model import PowerModel
-    from optimize.system.drive import drive_in_force
+    from optimize.system.drive_in_force import drive_in_force
     from optimize.system.system import System, load_system
 
     if len(winds) < 2:

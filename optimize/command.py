@@ -28,7 +28,7 @@ from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import plan_chains
 from optimize.sweep.result_checks import check_outcomes
 from optimize.sweep.trust import run_trust_checks
-from optimize.system.drive import DriveInForce, drive_in_force
+from optimize.system.drive_in_force import DriveInForce, drive_in_force
 from optimize.system.plausibility import check_drive_holds_kite
 from optimize.system.system import System, load_system
 
@@ -72,7 +72,7 @@ class SweepRequest:
     system : System or None
         The system (``--system``); ``None`` is the shipped ``highwind.toml``. Its
         bounds and drive limits replace those of ``options``.
-    drive : optimize.system.drive.DriveInForce or None
+    drive : optimize.system.drive_in_force.DriveInForce or None
         The drive in force (rating, losses at that rating); ``None``: the system's
         ``[drive]`` rating with ``drive_model``'s losses.
     """
@@ -113,7 +113,7 @@ def make_request(winds: tuple[float, ...], kinds: tuple[str, ...], *,
         The system (``--system``); default the shipped ``highwind.toml``.
     fit_default : Path, optional
         ``bench fit``'s model, used when it exists and neither ``model`` nor the system
-        file names the losses (:func:`optimize.system.drive.drive_in_force`).
+        file names the losses (:func:`optimize.system.drive_in_force.drive_in_force`).
     out : Path
         Output folder (must be a folder or absent).
     n_intervals, degree : int
@@ -159,6 +159,7 @@ def make_request(winds: tuple[float, ...], kinds: tuple[str, ...], *,
     check_drive_holds_kite(loaded, drive.rating.max_torque_nm,
                            drive.rating.source or "the drive in force")
     note += "\n" + loaded.kite_limits().describe()
+    note += "\n" + loaded.drivetrain_line()
     if n_intervals * degree < MIN_COLLOCATION_POINTS:
         note += (f"\nmesh {mesh_label(n_intervals, degree)}: the result check decides whether "
                  "each optimum stands")
@@ -216,7 +217,7 @@ def run_optimize(
     ``manifest.json`` (docs/schemas.md §5) into ``request.out``, all or none
     (:mod:`bench.output_folder`).
     ``backend`` replaces the CasADi OCP in the chains (see
-    :class:`optimize.service.problem.Backend`; the trust checks always use the OCP).
+    :class:`optimize.service.builder.Backend`; the trust checks always use the OCP).
     """
     import dataclasses
     import datetime
@@ -231,7 +232,8 @@ def run_optimize(
     model = drive.model
     options = system.ocp_options(request.options, drive.rating)
     problem = Problem.for_system(system, model, options)
-    cut_in_kinds = tuple(k for k in request.kinds if KINDS[k][1]) if request.claims else ()
+    cut_in_kinds = (tuple(k for k in request.kinds if KINDS[k].drive_limits)
+                    if request.claims else ())
     trust: dict = {"mesh": [], "simulation": []}
     with open_executor(request.workers, request.scheduler) as handle:
         chains = plan_chains(request.winds, request.kinds, handle.n_workers)

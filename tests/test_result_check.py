@@ -15,8 +15,8 @@ import pytest
 from bench.cli import main
 from optimize.analysis import result_check as rc
 from optimize.problem.options import Discretization, OcpOptions
+from optimize.service.builder import Problem
 from optimize.service.outcome import Attempt, ScenarioOutcome
-from optimize.service.problem import Problem
 from optimize.system.params import AeroCoefficients
 
 

@@ -50,9 +50,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from optimize.model import kite_model as km
 from optimize.model.aero import force_coefficients
-from optimize.problem.formulation import PERIODIC_STATES
 
 #: documented minimum mesh: collocation points per cycle (intervals x degree)
 MIN_COLLOCATION_POINTS = 40
@@ -64,8 +62,8 @@ SUBSTEPS_PER_POINT = 4
 MAX_STEP_S = 0.01
 #: grid points per coefficient bound for the largest C_R^3 / C_D^2
 _GRID = (41, 7, 7, 7, 7)
-_PER = [km.IDX[n] for n in PERIODIC_STATES]
-_POS = [km.IDX[n] for n in ("r_x_m", "r_y_m", "r_z_m")]
+#: the model's position states (the defect in metres is measured on them)
+POSITION_STATES = ("r_x_m", "r_y_m", "r_z_m")
 
 
 @dataclass(frozen=True)
@@ -154,9 +152,10 @@ def power_bound_w(rho_kg_m3: float, sref_m2: float, wind_m_s: float, ratio: floa
 @lru_cache(maxsize=8)
 def _rk4_step(dae: Any) -> ca.Function:
     """One classical Runge-Kutta step ``(x, [u; wind; dt]) -> x`` of the explicit ODE."""
-    x = ca.MX.sym("x", km.NX)
-    p = ca.MX.sym("p", km.NU + 2)
-    u, wind, dt = p[: km.NU], p[km.NU], p[km.NU + 1]
+    nu = dae.controls.size
+    x = ca.MX.sym("x", dae.states.size)
+    p = ca.MX.sym("p", nu + 2)
+    u, wind, dt = p[:nu], p[nu], p[nu + 1]
 
     def f(y):
         return dae.explicit_ode(y, u, wind)
@@ -181,6 +180,7 @@ def reintegrate(ocp: Any, result: Any) -> tuple[float, float, float]:
     steps = max(SUBSTEPS_PER_POINT * d, math.ceil(h / MAX_STEP_S))
     run = _rk4_step(ocp.dae).fold(steps)
     scale = ocp.scales.state
+    per, pos = ocp.dae.states.indices(ocp.dae.periodic), ocp.dae.states.indices(POSITION_STATES)
     wind = result.scenario.wind_speed_m_s
     defect = defect_pos = 0.0
     x_end = x_c[:, 0]
@@ -191,8 +191,8 @@ def reintegrate(ocp: Any, result: Any) -> tuple[float, float, float]:
         if not np.all(np.isfinite(x_end)):
             return math.inf, math.inf, math.inf
         defect = max(defect, float(np.max(np.abs(x_end - target) / scale)))
-        defect_pos = max(defect_pos, float(np.linalg.norm(x_end[_POS] - target[_POS])))
-    periodicity = float(np.max(np.abs(x_end[_PER] - x_c[_PER, 0]) / scale[_PER]))
+        defect_pos = max(defect_pos, float(np.linalg.norm(x_end[pos] - target[pos])))
+    periodicity = float(np.max(np.abs(x_end[per] - x_c[per, 0]) / scale[per]))
     return defect, defect_pos, periodicity
 
 

@@ -70,7 +70,9 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "e_elec_j": "net electrical energy per cycle (negative = generated)",
     "e_mech_j": "net mechanical energy per cycle (negative = generated)",
     "peak_speed_rpm": "largest |motor speed| (drum speed times the gear ratio)",
-    "peak_torque_nm": "largest motor torque (drum torque over the gear ratio)",
+    "peak_torque_nm": "largest |torque| the drive delivers at its shaft (tether torque at the "
+                      "motor plus the drivetrain's acceleration torque)",
+    "peak_reel_acceleration_m_s2": "largest |tether acceleration| (reel acceleration)",
     "p_elec_max_w": "largest electrical power (peak drawn from the grid)",
     "p_elec_min_w": "smallest electrical power (peak generated, negative)",
     "tether_length_min_m": "shortest tether length",
@@ -96,9 +98,9 @@ SUMMARY_REQUIRED = ("scenario", "kind", "objective", "drive_limits", "wind_speed
 #: the metric columns (NaN for a failed scenario)
 _METRICS = list(SUMMARY_COLUMNS)[list(SUMMARY_COLUMNS).index("period_s") :]
 #: active bounds the constrained scenarios mean to bind
-DRIVE_BOUNDS = ("speed_limit", "torque_limit", "p_elec_limit")
-#: the kite's own limits, in force in every kind
-KITE_BOUNDS = ("airspeed_min", "airspeed_max", "tether_force_limit")
+DRIVE_BOUNDS = ("speed_limit", "torque_limit", "envelope_limit", "p_elec_limit")
+#: the kite's and the winch's own limits, in force in every kind
+KITE_BOUNDS = ("airspeed_min", "airspeed_max", "tether_force_limit", "reel_acceleration_limit")
 #: bounds an optimum may sit on as physics: the drive and kite limits and the ground (a
 #: safety limit); the period and tether-length ranges are search ranges, and an optimum
 #: on one of them is the range's, not the system's
@@ -111,7 +113,7 @@ SYSTEM_META_KEYS = ("drivebench.system_name", "drivebench.system_sha256",
 #: columns of ``trajectories.parquet`` (:func:`optimize.solve.result.trajectory_frame` with
 #: the scenario's name, kind and wind), also of a sweep in which nothing converged
 TRAJECTORY_COLUMNS = ("scenario", "kind", "wind_speed_m_s", "time_s", "interval", "weight",
-                      *km.STATE_NAMES, *km.CONTROL_NAMES, *km.ALGEBRAIC_NAMES,
+                      *km.STATES.names, *km.CONTROLS.names, *km.ALGEBRAIC.names,
                       *(c for c in OUTPUT_UNITS if c not in ("time_s", "interval", "weight")))
 
 
@@ -123,6 +125,7 @@ def _trajectory_metrics(traj: pd.DataFrame) -> dict[str, float]:
     return {
         "peak_speed_rpm": peaks["peak_speed_rpm"],
         "peak_torque_nm": peaks["peak_torque_nm"],
+        "peak_reel_acceleration_m_s2": float(np.max(np.abs(col("ddl_m_s2")))),
         "p_elec_max_w": float(np.max(col("p_elec_w"))),
         "p_elec_min_w": float(np.min(col("p_elec_w"))),
         "tether_length_min_m": float(np.min(col("l_m"))),

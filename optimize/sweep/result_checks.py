@@ -12,8 +12,8 @@ from collections.abc import Sequence
 from typing import Any
 
 from optimize.analysis.result_check import ResultCheck, check_result
+from optimize.service.builder import OcpBackend
 from optimize.service.outcome import ScenarioOutcome
-from optimize.service.problem import OcpBackend
 
 
 def check_outcomes(problem: Any, outcomes: Sequence[ScenarioOutcome]
@@ -22,7 +22,7 @@ def check_outcomes(problem: Any, outcomes: Sequence[ScenarioOutcome]
 
     Parameters
     ----------
-    problem : optimize.service.problem.Problem
+    problem : optimize.service.builder.Problem
         The sweep's problem (its OCP is built here, or taken from the process cache).
     outcomes : sequence of ScenarioOutcome
 
