@@ -260,7 +260,7 @@ def optimize(model: Any = None, *, winds: Sequence[float] = PAPER_WINDS_M_S,
     model : PowerModel or path, optional
         The drive's losses (:func:`fit`'s result or a ``power_model.json``), overriding
         the system file's; default the system file's, else ``fit_default`` when it
-        exists, else the paper's model (:func:`optimize.system.drive.drive_in_force`).
+        exists, else the paper's model (:func:`optimize.system.drive_in_force.drive_in_force`).
         A model object is written to ``out/given_power_model.json``, which the
         manifest names.
     winds : sequence of float
@@ -303,7 +303,8 @@ def optimize(model: Any = None, *, winds: Sequence[float] = PAPER_WINDS_M_S,
     out = Path(out)
     unknown = [k for k in kinds if k not in KINDS]
     if unknown or not kinds:
-        raise InputError(None, f"scenario kinds {list(kinds)}", expected=", ".join(KINDS))
+        raise InputError(None, f"--scenarios {','.join(kinds)}: unknown scenario kinds "
+                         f"{unknown or 'none given'}", expected=", ".join(KINDS))
     if isinstance(model, PowerModel):
         out.mkdir(parents=True, exist_ok=True)
         model = save_power_model(model, out / "given_power_model.json")
@@ -423,9 +424,10 @@ def aep(sweep: Sweep | str | Path, site: Any, *, out: str | Path = "aep_out",
     import dataclasses
     import math
 
+    from bench.output_folder import check_replaceable
     from energy.assess import assess, model_for_run
     from energy.curve import read_optimize_run
-    from energy.outputs import write_outputs
+    from energy.outputs import AEP_KEEP, AEP_MARKERS, write_outputs
     from energy.refine import (
         DEFAULT_TOL,
         refine_document,
@@ -437,7 +439,7 @@ def aep(sweep: Sweep | str | Path, site: Any, *, out: str | Path = "aep_out",
     from fitting.model_schema import power_model_from_dict
 
     folder = Path(sweep.folder if isinstance(sweep, Sweep) else sweep)
-    out = Path(out)
+    out = check_replaceable(out, "aep", AEP_MARKERS, keep=AEP_KEEP)  # before the work
     run = read_optimize_run(folder)
     if shear is None:
         system = system_from_manifest(run.manifest, folder / "manifest.json")
@@ -480,7 +482,7 @@ class SizeResult:
     ----------
     sizing : energy.sizing.SizingResult
         The candidate table, every solve record, the best and the chosen candidate.
-    drive : optimize.system.drive.DriveInForce
+    drive : optimize.system.drive_in_force.DriveInForce
         The reference drive (rating and losses) the candidates are scaled from.
     notes : tuple of str
         What was assumed (a rating the system file does not state).
@@ -547,7 +549,8 @@ def size(site: Any, model: Any = None, *, system: Any = None,
         Wind-speed distribution at the reference height.
     model : PowerModel or path, optional
         The reference drive's losses; default the system file's, else ``fit_default``
-        when it exists, else the paper's model (:func:`optimize.system.drive.drive_in_force`).
+        when it exists, else the paper's model
+        (:func:`optimize.system.drive_in_force.drive_in_force`).
     system : System or path, optional
         The system file (its ``[drive]`` is the reference rating); default the shipped
         ``highwind.toml``.
@@ -576,22 +579,23 @@ def size(site: Any, model: Any = None, *, system: Any = None,
     before_solving : callable, optional
         ``before_solving(drive, n_candidates)``, called once the candidates are made.
     """
+    from bench.output_folder import check_replaceable
     from energy.candidates import build_candidates
     from energy.sizing import run_sizing, size_extending
-    from energy.sizing_files import edge_note, grid_hours, write_sizing
+    from energy.sizing_files import SIZE_KEEP, SIZE_MARKERS, edge_note, grid_hours, write_sizing
     from fitting.power_model import PowerModel
-    from optimize.system.drive import drive_in_force
+    from optimize.system.drive_in_force import drive_in_force
     from optimize.system.system import System, load_system
 
     if len(winds) < 2:
-        raise InputError(None, f"wind speeds {list(winds)}: one gives no curve to integrate",
+        raise InputError(None, f"--wind-grid {','.join(f'{w:g}' for w in winds)}: one wind "
+                         "speed gives no AEP curve to integrate",
                          expected="at least two wind speeds")
     if not 0 <= tolerance < 1:
         raise InputError(None, f"--tolerance {tolerance}", expected="a share in [0, 1)")
     if extend < 0:
         raise InputError(None, f"--extend {extend}", expected="an integer >= 0")
-    if Path(out).exists() and not Path(out).is_dir():
-        raise InputError(Path(out), "exists and is not a folder", expected="an output folder")
+    check_replaceable(out, "size", SIZE_MARKERS, keep=SIZE_KEEP)  # before the work
     system = system if isinstance(system, System) else load_system(system)
     if isinstance(model, PowerModel):
         drive = drive_in_force(system, model=model)

@@ -25,6 +25,7 @@ from energy import aep as aep_mod
 from energy import bands
 from energy.curve import OptimizeRun, PowerCurve, read_trajectories
 from energy.site import Distribution, Histogram, Weibull
+from optimize.kinds import OBJECTIVES, kind_of
 
 #: where the nominal power (the capacity factor's rating) is taken from, in this order
 NOMINAL_SOURCES = ("--nominal-power-w",
@@ -137,8 +138,7 @@ class Assessment:
 
     def limit_loss_mwh(self, objective: str, quantity: str) -> float | None:
         """AEP without minus with the drive limits, same objective [MWh/yr], or None."""
-        short = "elec" if objective == "electrical" else "mech"
-        lim, free = self.kinds.get(f"{short}-lim"), self.kinds.get(f"{short}-free")
+        lim, free = (self.kinds.get(kind_of(objective, limits).key) for limits in (True, False))
         if lim is None or free is None:
             return None
         return getattr(free, quantity).aep_mwh - getattr(lim, quantity).aep_mwh
@@ -147,7 +147,7 @@ class Assessment:
         """One row per kind: AEP, capacity factor, band, losses (the report's AEP table)."""
         rows = []
         for k in self.kinds.values():
-            quantity = "elec" if k.objective == "electrical" else "mech"
+            quantity = OBJECTIVES[k.objective].short
             lim_loss = self.limit_loss_mwh(k.objective, quantity) if k.drive_limits else None
             rows.append({
                 "kind": k.kind, "objective": k.objective, "drive_limits": k.drive_limits,
@@ -231,7 +231,8 @@ def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
             model = None
     if site_uncertainty and (site_uncertainty.mean_m_s > 0 or site_uncertainty.k > 0) and \
             isinstance(site, Histogram):
-        raise InputError(None, "site-parameter uncertainty given for a histogram site",
+        raise InputError(None, "--mean-sigma/--k-sigma: site-parameter uncertainty given for a "
+                         "histogram site (--histogram)",
                          expected="--mean-sigma/--k-sigma only with a Weibull or Rayleigh site")
     trajectories = read_trajectories(run.folder) if model is not None else None
 

@@ -17,6 +17,7 @@ from bench.errors import InputError
 from optimize.kinds import KINDS, LABELS
 from optimize.sweep.outputs import SUMMARY_REQUIRED
 from reports import cycle_figures
+from reports.failed import failed_rows, failure_text
 from reports.inputs import InputLog
 from reports.section_list import section_name
 from reports.tables import fmt, frame_table
@@ -88,7 +89,7 @@ def table_ii(summary: pd.DataFrame) -> dict:
                 cells.append({"elec": fmt(r["avg_p_elec_w"], 0), "mech": fmt(r["avg_p_mech_w"], 0),
                               "failed": None})
             else:
-                cells.append({"elec": "", "mech": "", "failed": str(r["status"])})
+                cells.append({"elec": "", "mech": "", "failed": failure_text(r)})
         rows.append({"wind": fmt(wind, sig=3), "cells": cells})
     labels = [LABELS[k] for k in kinds]
     return {"kinds": kinds, "labels": labels, "rows": rows}
@@ -240,11 +241,13 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
     out = manifest_context(manifest or {}, fit_model_sha256)
     out.update({"manifest": manifest, "table_ii": None, "n_failed": 0, "n_scenarios": 0,
                 "scenarios": None, "fig8a": None, "fig8b": None, "cycles": None,
-                "fig3": None, "notes": {"fig3": None}, "bounds": [], "domain": None,
+                "fig3": None, "notes": {"fig3": None}, "bounds": [], "failed": [],
+                "domain": None,
                 "claims": claims_rows(claims) if claims is not None else None})
     if summary is not None and len(summary):
         s = normalized_summary(summary, optimize / "summary.parquet")
         out.update({"table_ii": table_ii(s), "n_failed": int((~s["ok"]).sum()),
+                    "failed": failed_rows(summary),
                     "n_scenarios": len(s), "scenarios": frame_table(summary),
                     "bounds": bound_rows(summary), "domain": domain_rows(summary)})
         out["fig8a"] = cycle_figures.power_vs_wind_figure(

@@ -10,7 +10,7 @@ where its losses come from. :func:`drive_in_force` resolves both:
 - the **rating** (:class:`bench.drive.DriveRating`): each key of ``[drive]``; a
   key the file leaves out comes from the power model's own rating (said so);
 - how the losses are **carried** to the rating: ``scaling = "similarity"``
-  (:func:`optimize.model.drive.carry_power_model` with the speed ratio ``k_n`` of
+  (:func:`optimize.model.drivetrain.carry_power_model` with the speed ratio ``k_n`` of
   the speed ratings and the torque ratio ``k_T`` of the nominal torques, nominal
   power over rated speed, so ``k_n k_T`` is the ratio of nominal powers) or
   ``"none"`` (the model as it is). Without the key a model whose rating differs
@@ -166,7 +166,7 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
         differ by more than :data:`RATING_RATIO_LIMIT` without ``[drive] scaling``.
     """
     from fitting.model_file import load_power_model
-    from optimize.model.drive import carry_power_model
+    from optimize.model.drivetrain import carry_power_model
 
     if model is not None:
         path, note = Path(override or "<power model>"), "given"
@@ -190,6 +190,15 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
               "max_torque_nm": rating.max_torque_nm / base_rating[1],
               "nominal_power_w": rating.nominal_power_w / base_rating[2]}
     if scaling is None:
+        if max(_factor(r) for r in ratios.values()) > RATING_RATIO_LIMIT and override is not None:
+            raise InputError(  # the user's --drive-model is the file to look at
+                path,
+                f"its drive rating ({base_rating[0]:g} rpm, {base_rating[1]:g} N m, "
+                f"{base_rating[2]:g} W) differs from the drive of the system {system.path} "
+                f"({rating.max_speed_rpm:g} rpm, {rating.max_torque_nm:g} N m, "
+                f"{rating.nominal_power_w:g} W) by more than x{RATING_RATIO_LIMIT:g}",
+                column="drive", expected="--drive-model: a power model of the system's drive, "
+                'or [drive] scaling = "similarity" or "none" in the system file')
         if max(_factor(r) for r in ratios.values()) > RATING_RATIO_LIMIT:
             raise InputError(
                 system.path,
