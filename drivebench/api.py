@@ -585,7 +585,8 @@ def size(site: Any, model: Any = None, *, system: Any = None,
     from energy.sizing_files import SIZE_KEEP, SIZE_MARKERS, edge_note, grid_hours, write_sizing
     from fitting.power_model import PowerModel
     from optimize.system.drive_in_force import drive_in_force
-    from optimize.system.system import System, load_system
+    from optimize.system.system import System
+    from optimize.system.system_file import load_system
 
     if len(winds) < 2:
         raise InputError(None, f"--wind-grid {','.join(f'{w:g}' for w in winds)}: one wind "

@@ -30,7 +30,8 @@ from optimize.sweep.result_checks import check_outcomes
 from optimize.sweep.trust import run_trust_checks
 from optimize.system.drive_in_force import DriveInForce, drive_in_force
 from optimize.system.plausibility import check_drive_holds_kite
-from optimize.system.system import System, load_system
+from optimize.system.system import System
+from optimize.system.system_file import load_system
 
 #: files by which an optimize output folder written before run ids is known
 OPTIMIZE_MARKERS = ("summary.parquet", "manifest.json")

@@ -5,7 +5,7 @@ still describe nothing that flies: a drag polar that is zero or negative, a
 1e6 m span, a 1000 t wing of 0.7 m^2, a line that cannot carry the kite's
 weight. The OCP would then spend minutes in IPOPT before failing, or "converge"
 to a cycle of a kite that cannot exist. :func:`check_system` runs when the file
-is read (:func:`optimize.system.system.system_from_dict`) and
+is read (:func:`optimize.system.system_file.system_from_dict`) and
 :func:`check_drive_holds_kite` once the drive limits in force are known; each
 raises :class:`~bench.errors.InputError` naming the file, the ``[section] key``
 to look at, the value found and the range expected.
