@@ -480,7 +480,7 @@ def test_report_reads_the_real_fit_outputs(tmp_path):
 
 
 def test_cycles_outside_the_validity_domain_are_listed():
-    from reports.optimization import domain_rows
+    from reports.optimization_section import domain_rows
     summary = pd.DataFrame({
         "scenario": ["elec-lim-5.5", "elec-lim-7.0", "mech-free-8.5"],
         "success": [True, True, False],
