@@ -2,7 +2,7 @@
 
 Each subcommand lives in its own module exposing ``add_arguments(parser)`` and
 ``run(args) -> int``; this file only wires them up, imports them lazily and
-turns :class:`bench.errors.InputError` into a clear message and exit code 2.
+turns :class:`kernel.errors.InputError` into a clear message and exit code 2.
 """
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import argparse
 import importlib
 import sys
 
-from bench.errors import InputError
-from bench.files import WRITE_ERRNOS
+from kernel.errors import InputError
+from kernel.files import WRITE_ERRNOS
 
 #: subcommand -> (module, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import hashlib
 import io
-import json
 import os
 import re
 import shutil
@@ -42,8 +41,15 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from bench.errors import InputError
-from bench.files import WRITE_ERRNOS, dumps_json, file_sha256, fsync_path, write_text_durable
+from kernel.errors import InputError
+from kernel.files import (
+    WRITE_ERRNOS,
+    dumps_json,
+    file_sha256,
+    fsync_path,
+    read_json,
+    write_text_durable,
+)
 
 SCHEMA_NAME = "drivebench.store"
 SCHEMA_VERSION = 2
@@ -122,10 +128,7 @@ def read_manifest(store_dir: str | Path) -> dict:
     path = Path(store_dir) / "manifest.json"
     if not path.exists():
         return empty_manifest()
-    try:
-        manifest = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(path, f"unreadable store manifest ({exc})") from exc
+    manifest = read_json(path, what="store manifest")
     if (not isinstance(manifest, dict) or manifest.get("schema") != SCHEMA_NAME
             or manifest.get("schema_version") not in READABLE_VERSIONS
             or not isinstance(manifest.get("sessions"), dict)):

@@ -66,8 +66,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bench.files import write_json
 from fitting.model_file import load_power_model
+from kernel.files import write_json
 from optimize.analysis.claims import ABLATION_PATH, evaluate_claims, load_ablation
 from optimize.command import SweepRequest, run_optimize
 from optimize.model import kite_model as km

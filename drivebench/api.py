@@ -14,7 +14,7 @@ function     ``bench`` command              returns
 :func:`size`     ``bench size``             :class:`SizeResult`
 ============ ============================== ==========================================
 
-Bad input raises :class:`bench.errors.InputError` (the command line turns it into
+Bad input raises :class:`kernel.errors.InputError` (the command line turns it into
 exit code 2). Nothing here prints; progress bars are off unless asked for.
 """
 
@@ -28,7 +28,7 @@ from typing import Any
 
 import pandas as pd
 
-from bench.errors import InputError
+from kernel.errors import InputError
 from optimize.kinds import KINDS
 
 #: the paper's wind grid [m/s] at the reference height
@@ -129,9 +129,9 @@ def fit(store: str | Path = "bench_store", out: str | Path = "fit_out", *, order
     fitting.power_model.PowerModel
         The fitted model, as written to ``out/power_model.json``.
     """
-    from bench.files import check_output_dir
     from fitting.model_file import load_power_model
     from fitting.pipeline import FitOptions, run_fit
+    from kernel.files import check_output_dir
 
     check_output_dir(out)  # before the fit, not after it
     summary = run_fit(store, out, FitOptions(order=order, command=command, **options),

@@ -11,7 +11,6 @@ limits minus AEP with them, same objective).
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,12 +18,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bench.errors import InputError
-from bench.output_folder import check_output_file
 from energy import aep as aep_mod
 from energy import bands
 from energy.curve import OptimizeRun, PowerCurve, read_trajectories
 from energy.site import Distribution, Histogram, Weibull
+from kernel.errors import InputError
+from kernel.files import read_json
+from kernel.output_folder import check_output_file
 
 #: where the nominal power (the capacity factor's rating) is taken from, in this order
 NOMINAL_SOURCES = ("--nominal-power-w",
@@ -180,10 +180,7 @@ def model_for_run(run: OptimizeRun, drive_model: Path | None) -> tuple[Path | No
     if path is None or not path.is_file():
         return path, None
     check_output_file(path)  # a fit folder must be the whole output of one run
-    try:
-        return path, json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(path, f"not valid JSON ({exc})") from exc
+    return path, read_json(path, what="power model file")
 
 
 def assess(run: OptimizeRun, site: Distribution, site_note: str, *,

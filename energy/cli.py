@@ -12,7 +12,7 @@ import math
 import sys
 from pathlib import Path
 
-from bench.errors import InputError
+from kernel.errors import InputError
 
 
 def add_site_arguments(parser: argparse.ArgumentParser) -> None:

@@ -8,7 +8,6 @@ energy functions turn it into delivered power ``-P``.
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,8 +16,9 @@ import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 
-from bench.errors import InputError
-from bench.output_folder import check_output_folder
+from kernel.errors import InputError
+from kernel.files import read_json
+from kernel.output_folder import check_output_folder
 from optimize.sweep.outputs import SUMMARY_REQUIRED
 
 TRAJECTORY_COLUMNS = ("scenario", "kind", "wind_speed_m_s", "weight", "speed_rpm", "torque_nm")
@@ -117,10 +117,7 @@ def read_manifest(folder: Path) -> dict:
     path = Path(folder) / "manifest.json"
     if not path.is_file():
         raise InputError(path, "missing", expected="the output of `bench optimize`")
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(path, f"not valid JSON ({exc})") from exc
+    data = read_json(path, what="optimize manifest")
     if not isinstance(data, dict) or data.get("schema") != "drivebench.optimize":
         raise InputError(path, "not an optimize manifest",
                          expected='"schema": "drivebench.optimize"')
@@ -139,7 +136,7 @@ def read_optimize_run(folder: str | Path) -> OptimizeRun:
     ------
     InputError
         A missing file or column, a folder that is not the whole output of one
-        run (:func:`bench.output_folder.check_output_folder`); a kind with no
+        run (:func:`kernel.output_folder.check_output_folder`); a kind with no
         converged scenario is kept out of ``curves`` (it is still in ``summary``).
     """
     folder = Path(folder)

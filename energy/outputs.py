@@ -14,13 +14,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bench.files import write_json, write_text_atomic
-from bench.output_folder import output_folder
 from energy import awesio
 from energy.assess import Assessment
 from energy.bands import Z95
 from energy.curve import OptimizeRun
 from energy.site import Shear
+from kernel.files import write_json, write_text_atomic
+from kernel.output_folder import output_folder
 
 SCHEMA_NAME = "drivebench.aep"
 SCHEMA_VERSION = 1
@@ -93,7 +93,7 @@ def _awesio_names(a: Assessment) -> list[str]:
 
 def write_outputs(a: Assessment, run: OptimizeRun, out: Path, command_line: list[str],
                   shear: Shear, refine: dict | None = None) -> dict[str, Path]:
-    """:func:`write_files` into ``out``, all or none (:mod:`bench.output_folder`);
+    """:func:`write_files` into ``out``, all or none (:mod:`kernel.output_folder`);
     ``out/solves`` (the ``--refine`` store) is kept."""
     with output_folder(out, "aep", AEP_MARKERS, keep=AEP_KEEP) as stage:
         files = write_files(a, run, stage, command_line, shear, refine)

@@ -27,10 +27,10 @@ from typing import Any
 
 import numpy as np
 
-from bench.errors import InputError
-from bench.files import parse_toml
 from energy import bands
 from energy.curve import OptimizeRun, PowerCurve
+from kernel.errors import InputError
+from kernel.files import parse_toml
 
 #: the check re-solve must give the sweep's average electrical power within this share
 #: of the curve's largest |P_elec|: IPOPT's tolerance (1e-6 scaled) reproduces the same

@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 from scipy import special
 
-from bench.errors import InputError
-from bench.files import read_text
+from kernel.errors import InputError
+from kernel.files import read_text
 
 #: hours in a (non-leap) year: the AEP convention of IEC 61400-12-1
 HOURS_PER_YEAR = 8760.0

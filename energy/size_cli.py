@@ -14,8 +14,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from bench.errors import InputError
 from energy.cli import add_site_arguments, shear_from_args, site_from_args
+from kernel.errors import InputError
 
 #: where ``bench fit`` writes its model (docs/schemas.md §4)
 FIT_MODEL_PATH = Path("fit_out") / "power_model.json"

@@ -1,6 +1,6 @@
 """Drive sizing: electrical AEP against drive rating over candidate drives (``bench size``).
 
-A candidate is a power model with its rating (:class:`bench.drive.DriveRating`):
+A candidate is a power model with its rating (:class:`kernel.drive_rating.DriveRating`):
 the short-time peak torque and speed limits, and the continuous rating (RMS drum
 torque over the cycle at most the continuous torque,
 :class:`optimize.problem.options.Limits` ``max_rms_torque_nm``). It is a
@@ -49,7 +49,7 @@ class Candidate:
     ----------
     name : str
     model : fitting.power_model.PowerModel
-    rating : bench.drive.DriveRating
+    rating : kernel.drive_rating.DriveRating
         Its limits: ``continuous_torque_nm`` (RMS drum torque over the cycle at most
         this), ``max_torque_nm`` (short-time peak), ``max_speed_rpm``, and
         ``nominal_power_w`` (the capacity factor's and the sizing axis' rating).
@@ -114,7 +114,7 @@ def scaled_candidates(base: Any, rating: Any, scales: tuple[float, ...]) -> list
     ----------
     base : fitting.power_model.PowerModel
         The reference drive's losses (at ``rating``).
-    rating : bench.drive.DriveRating
+    rating : kernel.drive_rating.DriveRating
         The reference drive's rating, ``continuous_torque_nm`` stated.
     scales : tuple of float
         Torque-rating scales ``s`` > 0.

@@ -1,6 +1,6 @@
 """The files of ``bench size`` (docs/schemas.md §8): ``sizing.csv`` and ``sizing.json``.
 
-Written all or none into the output folder (:mod:`bench.output_folder`); the
+Written all or none into the output folder (:mod:`kernel.output_folder`); the
 resumable solve store ``solves/`` is kept from run to run.
 """
 
@@ -41,9 +41,9 @@ def edge_note(edge: str | None, best: str | None, added: list[float]) -> str | N
 
 
 def write_sizing(out: Path, res: Any, **kw: Any) -> dict[str, Path]:
-    """:func:`write_sizing_files` into ``out``, all or none (:mod:`bench.output_folder`);
+    """:func:`write_sizing_files` into ``out``, all or none (:mod:`kernel.output_folder`);
     ``out/solves`` (the resumable solve store) is kept."""
-    from bench.output_folder import output_folder
+    from kernel.output_folder import output_folder
 
     with output_folder(out, "size", SIZE_MARKERS, keep=SIZE_KEEP) as stage:
         files = write_sizing_files(stage, res, **kw)
@@ -56,7 +56,7 @@ def write_sizing_files(out: Path, res: Any, *, site: Any, site_note: str, drive:
                        edge: dict | None = None) -> dict[str, Path]:
     """Write ``sizing.csv`` and ``sizing.json`` (docs/schemas.md §8) of a sizing result
     (:class:`energy.sizing.SizingResult`) into ``out``; returns name -> path."""
-    from bench.files import write_json, write_text_atomic
+    from kernel.files import write_json, write_text_atomic
 
     t = res.table
     files = {"csv": write_text_atomic(out / "sizing.csv",

@@ -8,9 +8,9 @@ from __future__ import annotations
 import argparse
 import shlex
 
-from bench.errors import InputError
 from fitting.domain import BAND_FRAC
 from fitting.pipeline import WEIGHTINGS, FitOptions
+from kernel.errors import InputError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

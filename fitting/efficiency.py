@@ -29,9 +29,9 @@ import numpy as np
 import pandas as pd
 from scipy.spatial import ConvexHull, Delaunay, QhullError
 
-from bench.units import RPM_PER_RAD_S
 from fitting.domain import BAND_FRAC, in_polygon, quadrant_envelopes
 from fitting.points import QUADRANTS, quadrant_of
+from kernel.units import RPM_PER_RAD_S
 
 #: Status of a map node or point after the masking rules.
 OK, NEAR_AXIS, NEGATIVE, ABOVE_MAX, OUTSIDE_DOMAIN, CLIPPED = (

@@ -1,7 +1,7 @@
 """``bench fit`` as a library call: store -> power model, maps, selection, loss table, figures.
 
 Writes the outputs of docs/schemas.md §4 into one directory, all of them or none
-(:mod:`bench.output_folder`).
+(:mod:`kernel.output_folder`).
 """
 
 from __future__ import annotations
@@ -12,9 +12,6 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.errors import InputError
-from bench.files import json_safe, write_json, write_parquet
-from bench.output_folder import check_replaceable, output_folder
 from fitting import figures
 from fitting.domain import BAND_FRAC, quadrant_envelopes
 from fitting.efficiency import (
@@ -48,6 +45,9 @@ from fitting.selection import (
     select_model,
 )
 from fitting.terms import MAX_ORDER, MIN_ORDER, full_polynomial
+from kernel.errors import InputError
+from kernel.files import json_safe, write_json, write_parquet
+from kernel.output_folder import check_replaceable, output_folder
 
 WEIGHTINGS = ("quadrant", "none")
 #: files by which a fit output folder written before run ids is known

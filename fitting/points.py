@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bench.errors import InputError
 from bench.store import consistent_read, kind_files
+from kernel.errors import InputError
 
 #: Columns the fit needs from ``points/*.parquet``.
 REQUIRED_COLUMNS = ("session_id", "point_id", "speed_rpm", "torque_nm", "p_mech_w", "p_elec_w")

@@ -18,8 +18,8 @@ import numpy as np
 import pandas as pd
 
 from bench import store as bench_store
-from bench.drive import DRIVE_KEYS, DriveRating
-from bench.errors import InputError
+from kernel.drive_rating import DRIVE_KEYS, DriveRating
+from kernel.errors import InputError
 
 
 def _from_manifest(store: Path, session_ids: list[str]) -> tuple[dict, dict]:

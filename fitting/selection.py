@@ -22,7 +22,6 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from bench.errors import InputError
 from fitting.power_fit import (
     MIN_POINTS,
     MIN_POINTS_PER_TERM,
@@ -39,6 +38,7 @@ from fitting.terms import (
     paper_space,
     term_label,
 )
+from kernel.errors import InputError
 
 RULE = (
     "one-standard-error rule: fewest terms among candidates whose k-fold CV RMSE "

@@ -15,10 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from bench.errors import InputError
-from bench.files import check_output_dir, file_sha256, write_csv, write_json, write_parquet
-from bench.output_folder import check_replaceable, output_folder
-from bench.versions import package_versions
+from kernel.errors import InputError
+from kernel.files import check_output_dir, file_sha256, write_csv, write_json, write_parquet
+from kernel.output_folder import check_replaceable, output_folder
+from kernel.versions import package_versions
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
 from optimize.kinds import KINDS
 from optimize.service import Problem, make_tasks, run_sweep
@@ -209,7 +209,7 @@ def run_optimize(
     simulation check of every converged scenario); compare with the paper;
     write ``summary.parquet``, ``trajectories.parquet``, ``claims.csv`` and
     ``manifest.json`` (docs/schemas.md §5) into ``request.out``, all or none
-    (:mod:`bench.output_folder`).
+    (:mod:`kernel.output_folder`).
     ``backend`` replaces the CasADi OCP in the chains (see
     :class:`optimize.service.problem.Backend`; the trust checks always use the OCP).
     """

@@ -6,7 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
-from bench.files import check_output_file
+from kernel.files import check_output_file
 from reports.render import build_report
 
 

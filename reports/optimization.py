@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bench.errors import InputError
+from kernel.errors import InputError
 from optimize.kinds import KINDS, LABELS
 from optimize.sweep.outputs import SUMMARY_REQUIRED
 from reports import cycle_figures

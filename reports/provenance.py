@@ -6,7 +6,7 @@ import platform
 import shlex
 from datetime import UTC, datetime
 
-from bench.versions import package_versions
+from kernel.versions import package_versions
 from reports.inputs import InputLog
 
 

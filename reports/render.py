@@ -7,7 +7,7 @@ from pathlib import Path
 
 from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
 
-from bench.files import write_text_durable
+from kernel.files import write_text_durable
 from reports import energy_section, optimization, provenance, sections
 from reports.inputs import InputLog
 

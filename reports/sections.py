@@ -14,12 +14,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bench.errors import InputError
 from bench.store import check_store, read_manifest
 from bench.store import kind_files as store_files
 from fitting import figures
 from fitting.model_schema import power_model_from_dict
 from fitting.power_model import PowerModel
+from kernel.errors import InputError
 from optimize.paper_model import paper_model
 from reports import drive_figures
 from reports.inputs import InputLog

@@ -404,7 +404,7 @@ def run_output_kills(work: Path, old_args: list[str], new_args: list[str], n: in
 
 def _kill_outputs(work, runner, old_args, new_args, n, steps, seed, around_switches,
                   log) -> OutputKillFigures:
-    from bench.output_folder import RUN_FILE, check_output_folder
+    from kernel.output_folder import RUN_FILE, check_output_folder
 
     base = work / "base" / "out"
     assert runner.run([*old_args, "--out", str(base)]).rc == 0, "the old output"

@@ -7,7 +7,6 @@ import math
 import numpy as np
 import pytest
 
-from bench.errors import InputError
 from bench.ingest.mapping import load_mapping, resolve_columns
 from bench.ingest.readers import (
     iter_csv,
@@ -17,6 +16,7 @@ from bench.ingest.readers import (
     sniff_csv,
 )
 from bench.ingest.units import split_header, unit_factor
+from kernel.errors import InputError
 
 
 def test_unit_factors_by_hand():

@@ -1,5 +1,5 @@
 """Every stage output folder is written whole and switched in one step; readers refuse a
-mixed one (bench/output_folder.py). tests/fitting/test_fit_atomic.py kills bench fit;
+mixed one (kernel/output_folder.py). tests/fitting/test_fit_atomic.py kills bench fit;
 benchmarks/output_kill.py runs the kill check at scale."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import os
 
 import pytest
 
-from bench.errors import InputError
-from bench.output_folder import RUN_FILE, check_output_folder, output_folder
+from kernel.errors import InputError
+from kernel.output_folder import RUN_FILE, check_output_folder, output_folder
 
 
 def test_folder_is_switched_whole(tmp_path):

@@ -23,10 +23,10 @@ import pandas as pd
 import pytest
 
 from bench.cli import main
-from bench.files import write_text_atomic
 from fitting.figures import efficiency_grid
 from fitting.model_file import save_power_model
 from fitting.power_model import PowerModel
+from kernel.files import write_text_atomic
 from optimize.paper_model import paper_model
 from reports import cycle_figures
 from reports.render import build_context, build_report, render

@@ -11,7 +11,6 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from bench.errors import InputError
 from bench.store import (
     POINTS_SCHEMA,
     REJECTED_SCHEMA,
@@ -24,6 +23,7 @@ from bench.store import (
     read_points,
     read_rejected,
 )
+from kernel.errors import InputError
 
 
 def _points(sid: str, n: int) -> pa.Table:

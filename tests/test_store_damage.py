@@ -14,10 +14,10 @@ from ingest_fixtures import make_points_session, make_timeseries_session
 from kill_harness import damage_points_file, store_digest
 
 from bench.cli import main
-from bench.errors import InputError
 from bench.ingest.pipeline import ingest
 from bench.store import check_store, read_manifest, read_points
 from fitting.points import load_points
+from kernel.errors import InputError
 
 
 @pytest.fixture

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from bench.errors import InputError
+from kernel.errors import InputError
 from optimize.problem.scenario import scenario_name
 from optimize.service import ChainTask, Problem, Solver, make_tasks, run_chain, run_sweep
 from optimize.service.cut_in import find_cut_in

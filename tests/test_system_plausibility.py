@@ -10,7 +10,7 @@ import tomllib
 
 import pytest
 
-from bench.errors import InputError
+from kernel.errors import InputError
 from optimize.system.plausibility import check_drive_holds_kite
 from optimize.system.system import load_system, shipped_system_path, system_from_dict
 

@@ -23,15 +23,15 @@ import pyarrow.parquet as pq
 from tqdm import tqdm
 
 from bench import store
-from bench.drive import find_drive_file, session_drive
-from bench.errors import InputError
-from bench.files import WRITE_ERRNOS, file_sha256
 from bench.ingest.mapping import EMPTY_MAPPING, load_mapping
 from bench.ingest.readers import CHUNK_BYTES
 from bench.ingest.session import Session, complete_ranges, discover, load_session
 from bench.ingest.steady import DEFAULT_STEADY, SteadyConfig
 from bench.ingest.table import process_table
 from bench.ingest.timeseries import SessionOutput, process_timeseries
+from kernel.drive_rating import find_drive_file, session_drive
+from kernel.errors import InputError
+from kernel.files import WRITE_ERRNOS, file_sha256
 
 #: bump when ingest would compute different points from the same files; sessions
 #: stored by another version are re-ingested

@@ -25,7 +25,6 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.csv as pacsv
 
-from bench.errors import InputError
 from bench.ingest import clock
 from bench.ingest.mapping import (
     COUNTER,
@@ -36,6 +35,7 @@ from bench.ingest.mapping import (
     resolve_columns,
 )
 from bench.ingest.scrub import NULL_MARKERS, scrub
+from kernel.errors import InputError
 
 #: CSV bytes parsed per chunk; bounds the memory of the first pass [B]
 CHUNK_BYTES = 16 * 1024 * 1024

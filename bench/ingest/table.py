@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 
-from bench.errors import InputError
 from bench.ingest import checks, steady
 from bench.ingest.mapping import Mapping
 from bench.ingest.readers import line_of_row, read_points_table
@@ -18,7 +17,8 @@ from bench.ingest.timeseries import (
     points_table,
     rejected_table,
 )
-from bench.units import RPM_PER_RAD_S
+from kernel.errors import InputError
+from kernel.units import RPM_PER_RAD_S
 
 #: the largest count stored exactly (float64 integers are exact up to 2**53)
 MAX_COUNT = 2**53

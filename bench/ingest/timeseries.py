@@ -24,7 +24,6 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from bench.errors import InputError
 from bench.ingest import align, checks, steady, tare
 from bench.ingest.checks import check_torque_sign
 from bench.ingest.clock import TIME_OF_DAY
@@ -39,7 +38,8 @@ from bench.ingest.readers import (
 from bench.ingest.scrub import NanRunCheck, TimeCheck
 from bench.ingest.session import Session
 from bench.store import POINTS_SCHEMA, REJECTED_SCHEMA, SAMPLES_SCHEMA
-from bench.units import RPM_PER_RAD_S
+from kernel.errors import InputError
+from kernel.units import RPM_PER_RAD_S
 
 #: samples per chunk in the second pass (about 80 bytes of arrays each) [-]
 PASS2_ROWS = 500_000

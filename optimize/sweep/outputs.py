@@ -9,7 +9,7 @@
 * ``claims.csv``: the comparison with the paper (:mod:`optimize.analysis.claims`).
 
 Every Parquet field carries its unit in the field metadata (``{"unit": ...}``),
-derived from the unit suffix of the column name (:func:`bench.units.unit_of`).
+derived from the unit suffix of the column name (:func:`kernel.units.unit_of`).
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from bench.errors import InputError
 from fitting.domain import domain_excursion
+from kernel.errors import InputError
 from optimize.service.local_optima import better_margin_w
 from optimize.service.outcome import ScenarioOutcome
 from optimize.service.solver import cycle_metrics

@@ -4,7 +4,7 @@ wind and bounds (TOML; docs/system_file.md describes every key).
 :func:`load_system` reads and validates a file into a frozen :class:`System`;
 every error (unknown or missing key, wrong type, non-physical value such as a
 negative mass or an inertia that is not positive definite) is an
-:class:`~bench.errors.InputError` naming the file and the key. The shipped
+:class:`~kernel.errors.InputError` naming the file and the key. The shipped
 systems live in ``optimize/data/systems/`` (:func:`shipped_system_path`);
 ``highwind.toml`` is the paper's kite and the default.
 
@@ -28,8 +28,8 @@ from typing import Any
 
 import numpy as np
 
-from bench.errors import InputError
-from bench.files import parse_toml, read_text
+from kernel.errors import InputError
+from kernel.files import parse_toml, read_text
 from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 from optimize.system.plausibility import check_system
 
@@ -265,7 +265,7 @@ class System:
         Parameters
         ----------
         options : optimize.problem.options.OcpOptions
-        rating : bench.drive.DriveRating
+        rating : kernel.drive_rating.DriveRating
             The drive in force (:func:`optimize.system.drive.drive_in_force`): speed and
             torque limits, nominal power, the RMS torque bound of its continuous
             rating (when below the torque limit) and the grid power limit.

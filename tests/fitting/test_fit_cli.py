@@ -11,11 +11,11 @@ import pytest
 from fit_synthetic import PAPER_A, paper_quadratic, synthetic_points, write_store
 
 from bench.cli import main
-from bench.errors import InputError
 from fitting.loss_table import read_loss_table
 from fitting.model_file import load_power_model
 from fitting.pipeline import FitOptions
 from fitting.terms import PAPER_TERMS, full_polynomial
+from kernel.errors import InputError
 
 
 def test_fit_writes_every_output(paper_fits):

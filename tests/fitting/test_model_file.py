@@ -9,9 +9,9 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from bench.errors import InputError
 from fitting.model_file import load_power_model, save_power_model
 from fitting.power_model import PowerModel
+from kernel.errors import InputError
 from optimize.paper_model import PAPER_MODEL_PATH, paper_model
 
 

@@ -33,8 +33,8 @@ from collections.abc import Iterator
 from datetime import UTC, datetime
 from pathlib import Path
 
-from bench.errors import InputError
-from bench.files import file_sha256, fsync_path, write_text_durable
+from kernel.errors import InputError
+from kernel.files import file_sha256, fsync_path, read_json, write_text_durable
 
 RUN_FILE = "run.json"
 SCHEMA_NAME = "drivebench.run"
@@ -223,11 +223,7 @@ def _run_of(folder: Path) -> dict | None:
     path = folder / RUN_FILE
     if not path.is_file():
         return None
-    try:
-        run = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(path, f"unreadable run record ({exc})",
-                         expected="run the stage again") from exc
+    run = read_json(path, what="run record")
     if not (isinstance(run, dict) and run.get("schema") == SCHEMA_NAME
             and isinstance(run.get("files"), dict) and isinstance(run.get("run_id"), str)):
         raise InputError(path, "not a drivebench run record", expected="run the stage again")
