@@ -1,7 +1,8 @@
 """The ``bench`` command line: a thin dispatcher over the stage packages.
 
 Each subcommand lives in its own module exposing ``add_arguments(parser)`` and
-``run(args) -> int``; this file only wires them up, imports them lazily and
+``run(args) -> int`` (``args.command_line``: the command as given, for the stage's
+provenance header); this file only wires them up, imports them lazily and
 turns :class:`kernel.errors.InputError` into a clear message and exit code 2.
 """
 
@@ -53,6 +54,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(argv)
     args = parser.parse_args(argv)
+    args.command_line = ("bench", *argv)  # what the stage records in its provenance header
     try:
         return int(_load(args._module).run(args) or 0)
     except InputError as exc:

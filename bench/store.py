@@ -50,6 +50,7 @@ from kernel.files import (
     read_json,
     write_text_durable,
 )
+from kernel.provenance import HEADER_KEY, Provenance
 
 SCHEMA_NAME = "drivebench.store"
 SCHEMA_VERSION = 2
@@ -481,8 +482,11 @@ class StoreWriter:
     """
 
     def __init__(self, store_dir: str | Path, wait: bool = True,
-                 notify: Callable[[str], None] | None = None) -> None:
+                 notify: Callable[[str], None] | None = None,
+                 provenance: Provenance | None = None) -> None:
         self.store = Path(store_dir)
+        #: the provenance header of the manifest this writer commits (:mod:`kernel.provenance`)
+        self.provenance = provenance or Provenance.start(sys.argv)
         self.wait = wait
         self.notify = notify or (lambda msg: print(msg, file=sys.stderr, flush=True))
         self.created = False
@@ -641,7 +645,7 @@ class StoreWriter:
         sessions = {sid: e for sid, e in old["sessions"].items() if sid not in entries}
         self.require_repair(entries)
         new = {"schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION, "generation": gen,
-               "sessions": {}}
+               HEADER_KEY: self.provenance.header(), "sessions": {}}
         build = self.stage / gen
         for kind in KINDS:
             (build / kind).mkdir(parents=True)

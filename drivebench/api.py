@@ -29,6 +29,7 @@ from typing import Any
 import pandas as pd
 
 from kernel.errors import InputError
+from kernel.provenance import Provenance
 from optimize.kinds import KINDS
 
 #: the paper's wind grid [m/s] at the reference height
@@ -61,7 +62,8 @@ class Ingested:
 def ingest(paths: str | Path | Sequence[str | Path], store: str | Path = "bench_store", *,
            mapping: str | Path | None = None, workers: int = 2, progress: bool = False,
            strict: bool = False, wait: bool = True, replace: bool = True,
-           notify: Callable[[str], None] | None = None) -> Ingested:
+           notify: Callable[[str], None] | None = None,
+           command_line: Sequence[str] = ("drivebench.ingest",)) -> Ingested:
     """Ingest bench campaigns or sessions into the store.
 
     Parameters
@@ -86,6 +88,8 @@ def ingest(paths: str | Path | Sequence[str | Path], store: str | Path = "bench_
         so through ``notify``); else raise InputError.
     notify : callable, optional
         Receives the ingest's one-line notes (repairs, replacements); silent when None.
+    command_line : sequence of str
+        Recorded in the store manifest's provenance header.
 
     Returns
     -------
@@ -98,11 +102,13 @@ def ingest(paths: str | Path | Sequence[str | Path], store: str | Path = "bench_
     return Ingested(ingest_sessions(
         paths, store, mapping_path=mapping, progress=progress, workers=workers,
         strict=strict, wait=wait, replace=replace,
-        notify=notify if notify is not None else (lambda line: None)))
+        notify=notify if notify is not None else (lambda line: None),
+        command_line=tuple(command_line)))
 
 
 def fit(store: str | Path = "bench_store", out: str | Path = "fit_out", *, order: int | None = 2,
-        progress: bool = False, command: str = "drivebench.fit", report: Any = None,
+        progress: bool = False, command_line: Sequence[str] = ("drivebench.fit",),
+        report: Any = None,
         **options: Any) -> Any:
     """Fit the drive's power model to the store's points and write ``bench fit``'s files.
 
@@ -116,8 +122,8 @@ def fit(store: str | Path = "bench_store", out: str | Path = "fit_out", *, order
         Total order of the model (2: the paper's eq. 4); None selects it.
     progress : bool
         Show progress bars.
-    command : str
-        The command line recorded in the outputs.
+    command_line : sequence of str
+        The command line recorded in the outputs' provenance.
     report : callable, optional
         ``report(summary)`` receives the content of ``fit_summary.json``.
     **options
@@ -134,7 +140,8 @@ def fit(store: str | Path = "bench_store", out: str | Path = "fit_out", *, order
     from kernel.files import check_output_dir
 
     check_output_dir(out)  # before the fit, not after it
-    summary = run_fit(store, out, FitOptions(order=order, command=command, **options),
+    summary = run_fit(store, out, FitOptions(order=order, command_line=tuple(command_line),
+                                                  **options),
                       progress=progress)
     if report is not None:
         report(summary)
@@ -337,6 +344,7 @@ def aep(sweep: Sweep | str | Path, site: Any, *, out: str | Path = "aep_out",
     from energy.site import Shear
     from fitting.model_schema import power_model_from_dict
 
+    prov = Provenance.start(command_line)
     folder = Path(sweep.folder if isinstance(sweep, Sweep) else sweep)
     out = Path(out)
     run = read_optimize_run(folder)
@@ -368,7 +376,7 @@ def aep(sweep: Sweep | str | Path, site: Any, *, out: str | Path = "aep_out",
     if refined is not None:
         assessment = dataclasses.replace(assessment,
                                          notes=assessment.notes + refine_notes(doc))
-    files = write_outputs(assessment, refined.run if refined else run, out, list(command_line),
+    files = write_outputs(assessment, refined.run if refined else run, out, prov,
                           shear, refine=doc)
     return AepResult(assessment, refined, doc, files)
 
@@ -465,6 +473,7 @@ def size(site: Any, model: Any = None, *, system: Any = None,
     from optimize.system.drive import drive_in_force
     from optimize.system.system import System, load_system
 
+    prov = Provenance.start(command_line)
     if len(winds) < 2:
         raise InputError(None, f"wind speeds {list(winds)}: one gives no curve to integrate",
                          expected="at least two wind speeds")
@@ -498,6 +507,6 @@ def size(site: Any, model: Any = None, *, system: Any = None,
              *([edge_doc["note"]] if edge_doc["note"] else [])]
     files = write_sizing(out, result, site=site, site_note=site_note or site.describe(),
                          drive=drive, system=system, winds=tuple(winds), adaptive=adaptive,
-                         tolerance=tolerance, notes=notes, command_line=list(command_line),
+                         tolerance=tolerance, notes=notes, provenance=prov,
                          edge=edge_doc)
     return SizeResult(result, drive, tuple(notes), files)

@@ -9,7 +9,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
-import sys
 from pathlib import Path
 
 from kernel.errors import InputError
@@ -191,7 +190,7 @@ def run(args: argparse.Namespace) -> int:
                  nominal_power_w=args.nominal_power_w, refine=args.refine,
                  refine_tol=args.refine_tol, refine_max_points=args.refine_max_points,
                  workers=args.workers, scheduler=args.scheduler,
-                 progress=not args.no_progress, command_line=["bench", "aep", *sys.argv[2:]])
+                 progress=not args.no_progress, command_line=args.command_line)
     a, refined = result.assessment, result.refined
     if refined is not None:
         print(f"refined grid ({refined.n_solved} solved, {refined.n_loaded} loaded from "

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -98,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
                 tolerance=args.tolerance, extend=args.extend, adaptive=args.adaptive,
                 n_intervals=args.intervals,
                 degree=args.degree, workers=args.workers, scheduler=args.scheduler,
-                progress=True, command_line=["bench", "size", *sys.argv[2:]],
+                progress=True, command_line=args.command_line,
                 before_solving=lambda d, n: _announce(d, n, len(winds), args.out))
     res = done.sizing
     print(res.table.to_string(index=False, float_format=lambda x: f"{x:.4g}"))

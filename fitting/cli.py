@@ -6,7 +6,6 @@ Parses the options, calls :func:`drivebench.api.fit` and prints the fit's summar
 from __future__ import annotations
 
 import argparse
-import shlex
 
 from fitting.domain import BAND_FRAC
 from fitting.pipeline import WEIGHTINGS, FitOptions
@@ -60,18 +59,18 @@ def run(args: argparse.Namespace) -> int:
     drive = {k: getattr(args, k) for k in ("nominal_power_w", "max_speed_rpm", "max_torque_nm")
              if getattr(args, k) is not None}
     rating_args = [a for k, v in drive.items() for a in (f"--{k.replace('_', '-')}", repr(v))]
-    command = shlex.join([
+    command_line = (
         "bench", "fit", "--store", str(args.store), "--out", str(args.out),
         "--order", "auto" if order is None else str(order), *(["--full"] if args.full else []),
         "--folds", str(args.folds), "--weighting", args.weighting,
         "--mask-mech-frac", repr(args.mask_mech_frac),
         "--mask-elec-frac", repr(args.mask_elec_frac),
         "--envelope-band-frac", repr(args.envelope_band_frac), *rating_args,
-    ])
+    )
     fit(args.store, args.out, order=order, full_order2=args.full, folds=args.folds,
         weighting=args.weighting, mask_mech_frac=args.mask_mech_frac,
         mask_elec_frac=args.mask_elec_frac, envelope_band_frac=args.envelope_band_frac,
-        drive=drive, command=command, progress=True,
+        drive=drive, command_line=command_line, progress=True,
         report=lambda summary: print(format_summary(summary, args.out)))
     return 0
 

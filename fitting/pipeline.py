@@ -6,7 +6,6 @@ Writes the outputs of docs/schemas.md §4 into one directory, all of them or non
 
 from __future__ import annotations
 
-import datetime as _dt
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -48,6 +47,7 @@ from fitting.terms import MAX_ORDER, MIN_ORDER, full_polynomial
 from kernel.errors import InputError
 from kernel.files import json_safe, write_json, write_parquet
 from kernel.output_folder import check_replaceable, output_folder
+from kernel.provenance import HEADER_KEY, Provenance
 
 WEIGHTINGS = ("quadrant", "none")
 #: files by which a fit output folder written before run ids is known
@@ -74,8 +74,8 @@ class FitOptions:
         Drive rating keys given on the command line (``nominal_power_w``,
         ``max_speed_rpm``, ``max_torque_nm``); the others come from the store
         manifest or the data (:func:`fitting.rating.resolve_drive`).
-    command : str
-        The command line, recorded in the provenance.
+    command_line : tuple of str
+        The command line, recorded in the provenance (:mod:`kernel.provenance`).
     """
 
     order: int | None = 2
@@ -86,7 +86,7 @@ class FitOptions:
     mask_elec_frac: float = 0.02
     envelope_band_frac: float = BAND_FRAC
     drive: dict = field(default_factory=dict)
-    command: str = "bench fit"
+    command_line: tuple[str, ...] = ("bench", "fit")
 
     def __post_init__(self) -> None:
         if self.order is not None and not MIN_ORDER <= self.order <= MAX_ORDER:
@@ -153,6 +153,7 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     dropped and treated the same way, its point count stated.
     """
     check_replaceable(out, "fit", FIT_MARKERS)  # before the work, not after it
+    prov = Provenance.start(options.command_line)
     points = load_points(store)
     source = Path(store) / "points"
     counts = points.counts()
@@ -229,7 +230,7 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
         "points_sha256": points.sha256,
         "points_files": points.files,
         "store": str(store),
-        "command": options.command,
+        "command_line": list(options.command_line),
         "software": "drivebench fitting.pipeline",
     }
     envelopes = quadrant_envelopes(frame, masking.envelope_band_frac)
@@ -244,7 +245,7 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
         drive=drive.to_dict(),
     )
 
-    with output_folder(out, "fit", FIT_MARKERS) as stage:  # all files or none
+    with output_folder(out, "fit", FIT_MARKERS, provenance=prov) as stage:  # all or none
         (stage / "figures").mkdir()
         written = [save_power_model(model, stage / "power_model.json")]
 
@@ -267,7 +268,6 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
         summary = {
             "schema": "drivebench.fit_summary",
             "schema_version": 1,
-            "created_at": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
             "model": {"name": model.name, "sha256": model.sha256, "terms": [list(t) for t in
                       model.terms], "coefficients_rpm": list(model.coefficients_rpm),
                       "coefficients_si": list(model.coefficients_si)},
@@ -288,7 +288,7 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
                                             "n_points": env["n_points"],
                                             "n_vertices": len(env["polygon"])}
                                         for q, env in envelopes.items()}},
-            "provenance": provenance,
+            HEADER_KEY: {**prov.header(), **provenance},
             "outputs": sorted(str(p.relative_to(stage)) for p in written) + ["fit_summary.json"],
         }
         summary = json_safe(summary)

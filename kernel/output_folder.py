@@ -3,7 +3,8 @@
 A stage (``bench fit``, ``optimize``, ``aep``, ``size``) writes every file of its
 output folder into a staging sibling ``.<name>.staging-<pid>-*`` (same parent,
 same file system). When the stage succeeded, :func:`output_folder` writes
-``run.json`` there (a run id and the size and SHA-256 of every file), flushes
+``run.json`` there (the run's provenance header, :mod:`kernel.provenance`, and the
+size and SHA-256 of every file), flushes
 all of it to disk and puts it in place in one step: an atomic exchange of the
 two folders (``renameat2(RENAME_EXCHANGE)`` on Linux), or a plain rename when
 the target does not exist yet. A reader thus sees the old folder or the new
@@ -27,14 +28,14 @@ import errno
 import json
 import os
 import shutil
+import sys
 import tempfile
-import uuid
 from collections.abc import Iterator
-from datetime import UTC, datetime
 from pathlib import Path
 
 from kernel.errors import InputError
 from kernel.files import file_sha256, fsync_path, read_json, write_text_durable
+from kernel.provenance import HEADER_KEY, Provenance
 
 RUN_FILE = "run.json"
 SCHEMA_NAME = "drivebench.run"
@@ -130,10 +131,9 @@ def _files(folder: Path, keep=()) -> list[Path]:
                   and p.relative_to(folder).parts[0] not in keep)
 
 
-def _record(folder: Path, stage: str, run_id: str, keep: tuple[str, ...]) -> dict:
+def _record(folder: Path, stage: str, provenance: Provenance, keep: tuple[str, ...]) -> dict:
     return {"schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION, "stage": stage,
-            "run_id": run_id,
-            "created_at": datetime.now(UTC).isoformat(timespec="seconds"),
+            "run_id": provenance.run_id, HEADER_KEY: provenance.header(),
             "kept": list(keep),
             "files": {p.relative_to(folder).as_posix(): {"bytes": p.stat().st_size,
                                                          "sha256": file_sha256(p)}
@@ -158,7 +158,8 @@ def _switch(stage_dir: Path, target: Path) -> None:
 
 @contextlib.contextmanager
 def output_folder(target: str | Path, stage: str, markers: tuple[str, ...] = (),
-                  option: str = "--out", keep: tuple[str, ...] = ()) -> Iterator[Path]:
+                  option: str = "--out", keep: tuple[str, ...] = (),
+                  provenance: Provenance | None = None) -> Iterator[Path]:
     """Yield a staging folder; when the block succeeds it replaces ``target`` whole.
 
     Parameters
@@ -175,6 +176,9 @@ def output_folder(target: str | Path, stage: str, markers: tuple[str, ...] = (),
         Subfolders of ``target`` the stage keeps from run to run and writes in
         place (a resumable store of solves): moved into the new folder at the
         switch, left out of ``run.json`` and of the readers' check.
+    provenance : Provenance, optional
+        The run's provenance (:mod:`kernel.provenance`), whose header and run id
+        ``run.json`` records; default a new one of this process's command line.
 
     Raises
     ------
@@ -202,7 +206,7 @@ def output_folder(target: str | Path, stage: str, markers: tuple[str, ...] = (),
         for name in keep:
             if (target / name).is_dir() and not (staging / name).exists():
                 os.rename(target / name, staging / name)
-        record = _record(staging, stage, uuid.uuid4().hex, keep)
+        record = _record(staging, stage, provenance or Provenance.start(sys.argv), keep)
         try:
             write_text_durable(staging / RUN_FILE, json.dumps(record, indent=1) + "\n")
             for p in _files(staging, keep):

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import sys
 from pathlib import Path
 
 from optimize.kinds import DEFAULT_KINDS
@@ -112,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
                      scheduler=args.scheduler, claims=not args.no_claims, trust=args.trust,
                      solver=args.solver, linear_solver=args.linear_solver,
                      stored_guess=not args.no_stored_guess, fit_default=FIT_MODEL_PATH,
-                     progress=True, command_line=sys.argv, before_solving=print)
+                     progress=True, command_line=args.command_line, before_solving=print)
     print(format_summary(sweep.summary))
     if sweep.claims is not None:
         from optimize.analysis.claims import format_claims

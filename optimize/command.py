@@ -18,7 +18,7 @@ import numpy as np
 from kernel.errors import InputError
 from kernel.files import check_output_dir, file_sha256, write_csv, write_json, write_parquet
 from kernel.output_folder import check_replaceable, output_folder
-from kernel.versions import package_versions
+from kernel.provenance import HEADER_KEY, Provenance
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
 from optimize.kinds import KINDS
 from optimize.service import Problem, make_tasks, run_sweep
@@ -214,12 +214,11 @@ def run_optimize(
     :class:`optimize.service.problem.Backend`; the trust checks always use the OCP).
     """
     import dataclasses
-    import datetime
     import sys
-
 
     check_replaceable(request.out, "optimize", OPTIMIZE_MARKERS,
                       keep=OPTIMIZE_KEEP)  # before the solves
+    prov = Provenance.start(command_line if command_line is not None else sys.argv)
     system = request.system if request.system is not None else load_system()
     drive = request.drive or drive_in_force(system, request.drive_model_path,
                                             model=request.drive_model)
@@ -240,8 +239,8 @@ def run_optimize(
     claims = (evaluate_claims(summary, cut_ins, paper_system=system.paper_system,
                               system_name=system.name) if request.claims else None)
 
-    with output_folder(request.out, "optimize", OPTIMIZE_MARKERS,
-                       keep=OPTIMIZE_KEEP) as stage:  # all or none
+    with output_folder(request.out, "optimize", OPTIMIZE_MARKERS, keep=OPTIMIZE_KEEP,
+                       provenance=prov) as stage:  # all or none
         system_meta = outputs.system_metadata(system.record())
         files = {
             "summary": write_parquet(stage / "summary.parquet", summary,
@@ -261,9 +260,7 @@ def run_optimize(
         manifest = {
             "schema": outputs.SCHEMA_NAME,
             "schema_version": outputs.SCHEMA_VERSION,
-            "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-            "command_line": list(command_line if command_line is not None else sys.argv),
-            "package_versions": package_versions(),
+            HEADER_KEY: prov.header(),
             "wind_speeds_m_s": list(request.winds),
             "kinds": list(request.kinds),
             "scenarios": [o.name for o in result.outcomes],

@@ -74,7 +74,8 @@ def energy_section(log: InputLog, aep: Path, size: Path) -> dict:
     -------
     dict
         ``site``, ``nominal``, ``table`` (rows of strings), ``losses``, ``notes``,
-        ``figure``, ``sizing`` (or None), ``missing``, ``not_run``.
+        ``figure``, ``sizing`` (or None), ``missing``, ``not_run``, ``records`` (the
+        decoded ``aep.json`` and ``sizing.json``, or None).
     """
     start = len(log.missing)
     # optional stages: a folder that does not exist means the stage was not run (said in
@@ -148,6 +149,7 @@ def energy_section(log: InputLog, aep: Path, size: Path) -> dict:
         }
     out["missing"] = list(dict.fromkeys(log.missing[start:]))
     out["not_run"] = not_run
+    out["records"] = {"aep": doc, "size": sizing}  # their provenance headers
     return out
 
 

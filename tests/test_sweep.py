@@ -452,9 +452,9 @@ def test_run_optimize_writes_every_file(tmp_path):
         manifest["drive_model"]["file_sha256"]
         == hashlib.sha256(PAPER_MODEL_PATH.read_bytes()).hexdigest()
     )
-    assert manifest["command_line"] == ["bench", "optimize"]
+    assert manifest["provenance"]["command_line"] == ["bench", "optimize"]
     assert manifest["options"]["discretization"]["n_intervals"] == 40
-    assert manifest["package_versions"]["casadi"]
+    assert manifest["provenance"]["versions"]["casadi"]
     assert [len(c["scenarios"]) for c in manifest["chains"]] == [3, 3]
     # the cut-in search recovered the stand-in's crossings (4.8 and 5.5 m/s) and the
     # claims table says so

@@ -36,7 +36,8 @@ def run(args: argparse.Namespace) -> int:
 
     result = ingest(args.paths, args.store, mapping=args.mapping,
                     progress=not args.no_progress, workers=args.workers, strict=args.strict,
-                    wait=not args.no_wait, replace=not args.no_replace, notify=to_stderr).run
+                    wait=not args.no_wait, replace=not args.no_replace, notify=to_stderr,
+                    command_line=args.command_line).run
     print(format_summary(result.ingested, result.unchanged, result.manifest,
                          result.repaired))
     print(f"store: {result.store_dir}")

@@ -13,7 +13,7 @@ from __future__ import annotations
 import os
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -32,6 +32,7 @@ from bench.ingest.timeseries import SessionOutput, process_timeseries
 from kernel.drive_rating import find_drive_file, session_drive
 from kernel.errors import InputError
 from kernel.files import WRITE_ERRNOS, file_sha256
+from kernel.provenance import Provenance
 
 #: bump when ingest would compute different points from the same files; sessions
 #: stored by another version are re-ingested
@@ -123,6 +124,7 @@ def ingest(
     wait: bool = True,
     replace: bool = True,
     notify: Callable[[str], None] = to_stderr,
+    command_line: Sequence[str] = ("drivebench.ingest",),
 ) -> IngestResult:
     """Ingest every session under ``paths`` into the store at ``store_dir``.
 
@@ -189,7 +191,8 @@ def ingest(
         drives[s.session_id] = (rating, drive_file)
 
     result = IngestResult(store_dir=store_dir)
-    with store.StoreWriter(store_dir, wait=wait, notify=notify) as writer:
+    with store.StoreWriter(store_dir, wait=wait, notify=notify,
+                           provenance=Provenance.start(command_line)) as writer:
         manifest = writer.manifest
         damage = writer.damage
         for line in damage.lines():

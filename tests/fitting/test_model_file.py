@@ -31,7 +31,7 @@ def _odd_model() -> PowerModel:
         domain={"motor": [[0.0, 0.0], [1500.0, 0.0], [1500.0, 78.0]]},
         masking={"mech_frac": 0.01},
         statistics={"r2": 0.99},
-        provenance={"command": "test"},
+        provenance={"command_line": ["test"]},
         drive={"nominal_power_w": 8200.0, "max_speed_rpm": 3000.0, "max_torque_nm": 100.0,
                "source": "test"},
     )
