@@ -74,7 +74,7 @@ from optimize.model import kite_model as km
 from optimize.paper_model import PAPER_MODEL_PATH, paper_model
 from optimize.problem.ocp import OcpOptions
 from optimize.service.problem import OcpBackend
-from optimize.sweep.outputs import read_summary
+from optimize.sweep_folder import read_summary
 from optimize.system.system import load_system
 
 ROOT = Path(__file__).resolve().parent.parent

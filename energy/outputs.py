@@ -24,6 +24,8 @@ from kernel.provenance import HEADER_KEY, Provenance
 
 SCHEMA_NAME = "drivebench.aep"
 SCHEMA_VERSION = 1
+#: the columns of ``power_curves.csv`` its readers rely on (the report's curve figure)
+POWER_CURVE_COLUMNS = ("kind", "wind_speed_m_s", "p_elec_w", "p_mech_w", "p_elec_sigma_w")
 SIGN_NOTE = ("AEP and capacity factors are energy delivered (positive MWh/yr): to the grid for "
              "electrical, by the drum shaft for mechanical. Powers in power_curves.csv keep the "
              "optimize sign (negative = generated).")

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from energy import bands
+from energy.adaptive import refine_grid
 from energy.curve import OptimizeRun, PowerCurve
 from kernel.errors import InputError
 from kernel.files import parse_toml
@@ -129,7 +130,8 @@ class KindTask:
         from optimize.service.chain import ChainTask, Refinement
         from optimize.service.problem import Problem
 
-        refine = Refinement(self.kind, self.site, self.tol, self.max_points, self.known,
+        refine = Refinement(self.kind, self.site, refine_grid, self.tol, self.max_points,
+                            self.known,
                             ("avg_p_elec_w", "avg_p_mech_w"), check=True)
         return ChainTask(Problem.for_system(self.system, self.model, self.options),
                          index=index, store=self.store, backend=self.backend, refine=refine,

@@ -32,6 +32,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -277,13 +278,15 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
     """
     from tqdm import tqdm
 
-    from optimize.service import SolveTask, solve_tasks
+    from energy.adaptive import refine_grid
+    from optimize.service import Refinement, SolveTask, solve_tasks
     from optimize.system.system import load_system
 
     system = system if system is not None else load_system()
     tasks = [SolveTask(c.problem(n_intervals, degree, system), SIZING_KIND, float(w),
                        (("candidate", c.name),))
              for c in candidates for w in winds]
+    refinement = partial(Refinement, site=site, grid=refine_grid) if adaptive else None
     bar = tqdm(total=len(tasks), unit="solve", desc="size", disable=not show_progress)
     counts = {"solved": 0, "cached": 0}
 
@@ -301,10 +304,10 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
 
         with open_executor(workers, scheduler) as handle:
             records = solve_tasks(tasks, Path(out) / "solves", handle=handle, backend=backend,
-                                  refine_site=site if adaptive else None, on_event=on_event)
+                                  refine=refinement, on_event=on_event)
     else:
         records = solve_tasks(tasks, Path(out) / "solves", handle=handle, backend=backend,
-                              refine_site=site if adaptive else None, on_event=on_event)
+                              refine=refinement, on_event=on_event)
     description = handle.description
     bar.close()
     wall = time.perf_counter() - t0

@@ -52,8 +52,8 @@ def _order(text: str, select: bool) -> int | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the fit (:func:`drivebench.api.fit`) and print its summary."""
-    from drivebench.api import fit
+    """Run the fit (:func:`fitting.pipeline.run_fit`) and print its summary."""
+    from fitting.pipeline import FitOptions, run_fit
 
     order = _order(args.order, args.select)
     drive = {k: getattr(args, k) for k in ("nominal_power_w", "max_speed_rpm", "max_torque_nm")
@@ -67,11 +67,12 @@ def run(args: argparse.Namespace) -> int:
         "--mask-elec-frac", repr(args.mask_elec_frac),
         "--envelope-band-frac", repr(args.envelope_band_frac), *rating_args,
     )
-    fit(args.store, args.out, order=order, full_order2=args.full, folds=args.folds,
-        weighting=args.weighting, mask_mech_frac=args.mask_mech_frac,
-        mask_elec_frac=args.mask_elec_frac, envelope_band_frac=args.envelope_band_frac,
-        drive=drive, command_line=command_line, progress=True,
-        report=lambda summary: print(format_summary(summary, args.out)))
+    options = FitOptions(order=order, full_order2=args.full, folds=args.folds,
+                         weighting=args.weighting, mask_mech_frac=args.mask_mech_frac,
+                         mask_elec_frac=args.mask_elec_frac,
+                         envelope_band_frac=args.envelope_band_frac, drive=drive,
+                         command_line=command_line)
+    print(format_summary(run_fit(args.store, args.out, options, progress=True), args.out))
     return 0
 
 

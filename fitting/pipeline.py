@@ -45,7 +45,7 @@ from fitting.selection import (
 )
 from fitting.terms import MAX_ORDER, MIN_ORDER, full_polynomial
 from kernel.errors import InputError
-from kernel.files import json_safe, write_json, write_parquet
+from kernel.files import check_output_dir, json_safe, write_json, write_parquet
 from kernel.output_folder import check_replaceable, output_folder
 from kernel.provenance import HEADER_KEY, Provenance
 
@@ -152,7 +152,8 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     :func:`min_quadrant_points` (too few for the folds or the smallest model) is
     dropped and treated the same way, its point count stated.
     """
-    check_replaceable(out, "fit", FIT_MARKERS)  # before the work, not after it
+    check_output_dir(out)  # before the work, not after it
+    check_replaceable(out, "fit", FIT_MARKERS)
     prov = Provenance.start(options.command_line)
     points = load_points(store)
     source = Path(store) / "points"

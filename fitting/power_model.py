@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from fitting.terms import powers
 from kernel.drive_rating import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS
 from kernel.units import RPM_PER_RAD_S
 
@@ -187,13 +188,6 @@ class PowerModel:
 # --------------------------------------------------------------------- helpers
 def _canonical_json(data: dict) -> str:
     return json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=False)
-
-
-def powers(x: Any, n: int, one: Any) -> list:
-    out = [one]
-    for _ in range(n):
-        out.append(x if len(out) == 1 else out[-1] * x)
-    return out
 
 
 def _evaluate_np(terms, coefs, speed, torque) -> np.ndarray:

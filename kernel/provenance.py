@@ -61,8 +61,8 @@ class Provenance:
 
 
 def read_header(record: object, path: str | Path | None = None) -> dict | None:
-    """The provenance header of a decoded stage record, or None when it has none (a record
-    written before the header existed).
+    """The provenance header of a decoded stage record (its :data:`HEADER_FIELDS`; a record
+    may add keys of its own), or None when it has none (written before the header existed).
 
     Raises
     ------
@@ -78,7 +78,7 @@ def read_header(record: object, path: str | Path | None = None) -> dict | None:
             raise InputError(path, f"provenance header without a valid {key!r}",
                              column=f"{HEADER_KEY}.{key}",
                              expected="the header of docs/schemas.md (Provenance header)")
-    return header
+    return {key: header[key] for key in HEADER_FIELDS}
 
 
 def command_text(header: dict) -> str:

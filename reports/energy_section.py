@@ -11,13 +11,12 @@ from pathlib import Path
 
 import numpy as np
 
+from energy.bands import Z95
+from energy.outputs import POWER_CURVE_COLUMNS as CURVE_COLUMNS
 from optimize.kinds import LABELS
 from reports import svg
 from reports.inputs import InputLog
 from reports.tables import fmt
-
-CURVE_COLUMNS = ("kind", "wind_speed_m_s", "p_elec_w", "p_mech_w", "p_elec_sigma_w")
-Z95 = 1.959963984540054
 
 
 def _color(kind: str) -> str:

@@ -488,8 +488,8 @@ def test_cycles_outside_the_validity_domain_are_listed():
         "outside_worst_torque_nm": [60.0, math.nan, math.nan],
         "outside_worst_distance": [0.8333, 0.0, math.nan]})
     rows = domain_rows(summary)
-    assert rows == ["elec-lim-5.5: 50.0 % of the cycle time outside; worst at -1200 rpm, "
-                    "60.0 N m (distance 0.833 of the drive rating)"]
+    assert rows == ["elec-lim-5.5: 50.0 % of the cycle time outside the drive model's validity "
+                    "domain; worst at -1200 rpm, 60.0 N m (distance 0.833 of the drive rating)"]
     inside = summary.assign(outside_domain_time_frac=[0.0, 0.0, math.nan])
     assert domain_rows(inside) == []
     assert domain_rows(summary.drop(columns="outside_domain_time_frac")) is None

@@ -15,13 +15,8 @@ from kernel.units import unit_of
 from optimize.model import kite_model as km
 from optimize.service.outcome import Attempt, ScenarioOutcome
 from optimize.solve.result import OUTPUT_UNITS
-from optimize.sweep.outputs import (
-    SUMMARY_COLUMNS,
-    field_units,
-    read_summary,
-    summary_frame,
-    trajectories_frame,
-)
+from optimize.sweep.outputs import summary_frame, trajectories_frame
+from optimize.sweep_folder import SUMMARY_COLUMNS, field_units, read_summary
 
 
 @dataclass(frozen=True)
