@@ -19,7 +19,7 @@ from kernel.files import WRITE_ERRNOS
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "synth": ("bench.synth.cli", "generate a deterministic synthetic bench campaign"),
     "ingest": ("bench.ingest.cli", "ingest bench logs into the Parquet store"),
-    "store": ("bench.store_cli", "check a store: every listed file present and as recorded"),
+    "store": ("bench.store.cli", "check a store: every listed file present and as recorded"),
     "fit": ("fitting.cli", "efficiency map, power model fit, model selection, export"),
     "optimize": ("optimize.cli", "periodic pumping-cycle optimization over a wind grid"),
     "aep": ("energy.cli", "annual energy, capacity factor and bands of the power curves at a site"),

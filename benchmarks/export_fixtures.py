@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from bench.ingest.pipeline import ingest
-from bench.store import read_points
+from bench.store.read import read_points
 from bench.synth.exports import make_dyno_table, make_ev_table, true_eta
 from fitting.pipeline import FitOptions, run_fit
 

@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from bench.ingest.pipeline import ingest
-from bench.store import read_points
+from bench.store.read import read_points
 from bench.synth.rated_drive import EV_DRIVE, PAPER_DRIVE, grid_points, write_table_campaign
 from fitting.pipeline import FitOptions, run_fit
 

@@ -66,7 +66,7 @@ from bench.ingest.mapping import EMPTY_MAPPING
 from bench.ingest.readers import CHUNK_BYTES, read_analyzer
 from bench.ingest.session import discover, load_session
 from bench.ingest.timeseries import SAMPLES_WRITE_OPTIONS, open_stream
-from bench.store import SAMPLES_SCHEMA
+from bench.store.schema import SAMPLES_SCHEMA
 from kernel.units import RPM_PER_RAD_S
 camp, out = Path(sys.argv[1]), Path(sys.argv[2])
 out.mkdir(parents=True, exist_ok=True)

@@ -26,7 +26,7 @@ from ingest_fixtures import make_timeseries_session, paper_p_elec  # noqa: E402
 from stream_fixtures import make_ev_export, make_german_logger  # noqa: E402
 
 from bench.ingest.pipeline import ingest  # noqa: E402
-from bench.store import read_points  # noqa: E402
+from bench.store.read import read_points  # noqa: E402
 
 
 def daq_case(daq_hz: float, hold_s: float):

@@ -43,7 +43,7 @@ import numpy as np
 import pandas as pd
 
 from bench.ingest.pipeline import ingest
-from bench.store import read_points
+from bench.store.read import read_points
 
 ROOT = Path(__file__).resolve().parents[1]
 #: relative standard uncertainty of one power reading from the instruments [-]

@@ -30,7 +30,7 @@ from ingest_fixtures import make_points_session, make_timeseries_session  # noqa
 from kill_harness import REPO, damage_points_file, folder_files, store_digest  # noqa: E402
 
 from bench.ingest.pipeline import ingest  # noqa: E402
-from bench.store import read_manifest  # noqa: E402
+from bench.store.manifest import read_manifest  # noqa: E402
 
 
 def _bench(*args: str) -> tuple[int, str]:

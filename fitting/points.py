@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bench.store import consistent_read, kind_files
+from bench.store.manifest import kind_files
+from bench.store.read import consistent_read
 from kernel.errors import InputError
 
 #: Columns the fit needs from ``points/*.parquet``.

@@ -17,14 +17,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bench import store as bench_store
+from bench.store.manifest import read_manifest
 from kernel.drive_rating import DRIVE_KEYS, DriveRating
 from kernel.errors import InputError
 
 
 def _from_manifest(store: Path, session_ids: list[str]) -> tuple[dict, dict]:
     """Rating keys the manifest states for these sessions, and where each came from."""
-    manifest = bench_store.read_manifest(store)
+    manifest = read_manifest(store)
     values: dict[str, float] = {}
     where: dict[str, str] = {}
     notes: set[str] = set()

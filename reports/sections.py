@@ -14,8 +14,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bench.store import check_store, read_manifest
-from bench.store import kind_files as store_files
+from bench.store.damage import check_store
+from bench.store.manifest import kind_files as store_files
+from bench.store.manifest import read_manifest
 from fitting import figures
 from fitting.model_schema import power_model_from_dict
 from fitting.power_model import PowerModel

@@ -28,7 +28,9 @@ import pandas as pd
 from ingest_fixtures import make_points_session, make_timeseries_session
 
 from bench.ingest.pipeline import ingest
-from bench.store import STAGING_PREFIX, read_manifest, read_points, read_rejected, read_samples
+from bench.store.manifest import read_manifest
+from bench.store.read import read_points, read_rejected, read_samples
+from bench.store.schema import STAGING_PREFIX
 
 REPO = Path(__file__).resolve().parents[1]
 

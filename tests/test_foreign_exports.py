@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from bench.ingest.pipeline import ingest
-from bench.store import read_points
+from bench.store.read import read_points
 from kernel.errors import InputError
 
 

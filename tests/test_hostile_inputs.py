@@ -13,7 +13,8 @@ from ingest_fixtures import make_points_session, make_timeseries_session, store_
 
 from bench.cli import main
 from bench.ingest.readers import MAX_LINE_BYTES
-from bench.store import read_manifest, read_points
+from bench.store.manifest import read_manifest
+from bench.store.read import read_points
 
 
 def _ingest(store_and_campaign, capsys, *extra):

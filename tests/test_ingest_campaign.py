@@ -13,7 +13,8 @@ import pytest
 
 from bench.ingest.pipeline import ingest
 from bench.ingest.summary import format_summary
-from bench.store import read_manifest, read_points, read_rejected
+from bench.store.manifest import read_manifest
+from bench.store.read import read_points, read_rejected
 
 CAMPAIGN = Path(__file__).resolve().parents[1] / "raw_measurements"
 

@@ -17,7 +17,7 @@ from bench.ingest import expr
 from bench.ingest.mapping import load_mapping
 from bench.ingest.pipeline import ingest
 from bench.ingest.units import unit_factor
-from bench.store import kind_files
+from bench.store.manifest import kind_files
 from bench.synth.exports import make_dyno_table, make_ev_table
 from kernel.errors import InputError
 

@@ -15,7 +15,7 @@ from stream_fixtures import make_ev_export
 from bench.cli import main
 from bench.ingest import checks
 from bench.ingest.pipeline import ingest
-from bench.store import kind_files
+from bench.store.manifest import kind_files
 from bench.synth.exports import make_two_wattmeter_table
 
 

@@ -11,7 +11,8 @@ from ingest_fixtures import make_points_session, make_timeseries_session, store_
 
 from bench.cli import main
 from bench.ingest.pipeline import ingest
-from bench.store import kind_files, read_manifest, read_points, read_rejected, read_samples
+from bench.store.manifest import kind_files, read_manifest
+from bench.store.read import read_points, read_rejected, read_samples
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ from stream_fixtures import cut_analyzer, cut_daq, make_counted_log, make_german
 
 from bench.ingest.align import drift_line
 from bench.ingest.pipeline import ingest
-from bench.store import kind_files
+from bench.store.manifest import kind_files
 
 
 def _stored(store, sid):

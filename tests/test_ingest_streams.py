@@ -20,7 +20,8 @@ from bench.cli import main
 from bench.ingest import clock
 from bench.ingest.pipeline import ingest
 from bench.ingest.readers import open_daq_csv
-from bench.store import read_manifest, read_points
+from bench.store.manifest import read_manifest
+from bench.store.read import read_points
 from kernel.errors import InputError
 
 

@@ -12,7 +12,7 @@ from ingest_fixtures import make_timeseries_session
 from bench.cli import main
 from bench.ingest import timeseries
 from bench.ingest.expr import ExprError, parse
-from bench.store import read_points
+from bench.store.read import read_points
 
 
 @pytest.fixture

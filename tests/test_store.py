@@ -1,4 +1,4 @@
-"""The store's readers, generation commit, lock and cleanup (bench/store.py)."""
+"""The store's readers, generation commit, lock and cleanup (bench/store/)."""
 
 from __future__ import annotations
 
@@ -11,18 +11,11 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from bench.store import (
-    POINTS_SCHEMA,
-    REJECTED_SCHEMA,
-    StoreBusy,
-    StoreWriter,
-    consistent_read,
-    empty_manifest,
-    kind_files,
-    read_manifest,
-    read_points,
-    read_rejected,
-)
+from bench.store.lock import StoreBusy
+from bench.store.manifest import empty_manifest, kind_files, read_manifest
+from bench.store.read import consistent_read, read_points, read_rejected
+from bench.store.schema import POINTS_SCHEMA, REJECTED_SCHEMA
+from bench.store.writer import StoreWriter
 from kernel.errors import InputError
 
 

@@ -12,7 +12,8 @@ from ingest_fixtures import make_timeseries_session
 from kill_harness import REPO, ingest_command, run_kills, store_digest
 
 from bench.ingest.pipeline import ingest
-from bench.store import StoreWriter, read_manifest
+from bench.store.manifest import read_manifest
+from bench.store.writer import StoreWriter
 
 
 def test_sigkill_at_random_moments_leaves_old_or_new(tmp_path):

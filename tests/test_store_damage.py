@@ -1,6 +1,6 @@
 """A damaged store is noticed: ingest re-ingests what is damaged and says so, never
 deletes the only copy of the data, and ``bench store check`` reports without changing
-anything (bench/store.py, bench/store_cli.py)."""
+anything (bench/store/damage.py, bench/store/cli.py)."""
 
 from __future__ import annotations
 
@@ -15,7 +15,9 @@ from kill_harness import damage_points_file, store_digest
 
 from bench.cli import main
 from bench.ingest.pipeline import ingest
-from bench.store import check_store, read_manifest, read_points
+from bench.store.damage import check_store
+from bench.store.manifest import read_manifest
+from bench.store.read import read_points
 from fitting.points import load_points
 from kernel.errors import InputError
 

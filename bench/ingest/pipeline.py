@@ -2,7 +2,7 @@
 
 Every session is processed into a staging directory inside the store before
 anything in the store changes; only when all sessions succeeded does the store
-switch to a new generation holding them (:class:`bench.store.StoreWriter`, one
+switch to a new generation holding them (:class:`bench.store.writer.StoreWriter`, one
 writer at a time, all or nothing). A session whose source
 files hash as recorded in the manifest is not touched, so re-ingesting the same
 files changes no byte of the store.
@@ -22,13 +22,14 @@ from pathlib import Path
 import pyarrow.parquet as pq
 from tqdm import tqdm
 
-from bench import store
 from bench.ingest.mapping import EMPTY_MAPPING, load_mapping
 from bench.ingest.readers import CHUNK_BYTES
 from bench.ingest.session import Session, complete_ranges, discover, load_session
 from bench.ingest.steady import DEFAULT_STEADY, SteadyConfig
 from bench.ingest.table import process_table
 from bench.ingest.timeseries import SessionOutput, process_timeseries
+from bench.store.manifest import read_manifest
+from bench.store.writer import StoreWriter
 from kernel.drive_rating import find_drive_file, session_drive
 from kernel.errors import InputError
 from kernel.files import WRITE_ERRNOS, file_sha256
@@ -157,6 +158,8 @@ def ingest(
         naming them before anything changes.
     notify : callable
         Receives the lines that say what happens besides the summary.
+    command_line : sequence of str
+        Recorded in the store manifest's provenance header (:mod:`kernel.provenance`).
 
     Returns
     -------
@@ -171,7 +174,7 @@ def ingest(
     user_mapping = Path(mapping_path) if mapping_path is not None else None
     if user_mapping is not None:
         load_mapping(user_mapping)  # fail early on a bad --mapping file
-    store.read_manifest(store_dir)  # fail early on a path that is no store
+    read_manifest(store_dir)  # fail early on a path that is no store
     sessions: list[Session] = []
     seen: dict[str, Path] = {}
     drives: dict[str, tuple[dict | None, Path | None]] = {}  # rating, drive.toml
@@ -191,8 +194,8 @@ def ingest(
         drives[s.session_id] = (rating, drive_file)
 
     result = IngestResult(store_dir=store_dir)
-    with store.StoreWriter(store_dir, wait=wait, notify=notify,
-                           provenance=Provenance.start(command_line)) as writer:
+    with StoreWriter(store_dir, wait=wait, notify=notify,
+                     provenance=Provenance.start(command_line)) as writer:
         manifest = writer.manifest
         damage = writer.damage
         for line in damage.lines():
@@ -265,7 +268,7 @@ def _strict_check(s: Session, entry: dict) -> None:
                          expected="at least one steady operating point (--strict)")
 
 
-def _process(todo, writer: store.StoreWriter, config: SteadyConfig, progress: bool,
+def _process(todo, writer: StoreWriter, config: SteadyConfig, progress: bool,
              chunk_bytes: int, workers: int, result: IngestResult,
              drives: dict[str, dict | None], strict: bool = False) -> None:
     """Process the changed sessions into the writer's staging dir, then commit them at once.

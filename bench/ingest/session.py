@@ -9,7 +9,7 @@ from dataclasses import dataclass, replace
 from datetime import date, datetime
 from pathlib import Path, PurePath
 
-from bench.store import STAGING_PREFIX
+from bench.store.schema import STAGING_PREFIX
 from kernel.errors import InputError
 from kernel.files import bad_number_at, read_toml
 

@@ -37,7 +37,7 @@ from bench.ingest.readers import (
 )
 from bench.ingest.scrub import NanRunCheck, TimeCheck
 from bench.ingest.session import Session
-from bench.store import POINTS_SCHEMA, REJECTED_SCHEMA, SAMPLES_SCHEMA
+from bench.store.schema import POINTS_SCHEMA, REJECTED_SCHEMA, SAMPLES_SCHEMA
 from kernel.errors import InputError
 from kernel.units import RPM_PER_RAD_S
 

@@ -13,7 +13,7 @@ import statsmodels.api as sm
 from statsmodels.stats.outliers_influence import OLSInfluence
 
 from bench.ingest.pipeline import ingest
-from bench.store import read_points
+from bench.store.read import read_points
 from bench.synth.exports import make_hobby_dyno_table
 from fitting.cli import format_summary
 from fitting.pipeline import FitOptions, run_fit

@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 from bench.ingest.pipeline import ingest
-from bench.store import read_points
+from bench.store.read import read_points
 from bench.synth.rated_drive import EV_DRIVE, PAPER_DRIVE, grid_points, write_table_campaign
 from fitting.model_file import load_power_model
 from fitting.pipeline import FitOptions, run_fit

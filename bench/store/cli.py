@@ -12,7 +12,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from bench.store import check_store, read_manifest
+from bench.store.damage import check_store
+from bench.store.manifest import read_manifest
 from kernel.errors import InputError
 
 #: exit code of ``bench store check`` when a listed file cannot be trusted

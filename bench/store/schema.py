@@ -1,0 +1,61 @@
+"""The store's layout and file schemas: Parquet columns with units, manifest version,
+folder names (docs/schemas.md section 2)."""
+
+from __future__ import annotations
+
+import re
+
+import pyarrow as pa
+
+SCHEMA_NAME = "drivebench.store"
+SCHEMA_VERSION = 2
+#: manifests this version reads (1: no generations, files directly in <store>/<kind>)
+READABLE_VERSIONS = (1, 2)
+KINDS = ("points", "samples", "rejected")
+LOCK_FILE = ".lock"
+STAGING_PREFIX = ".staging-"
+GENERATION_RE = re.compile(r"^gen-(\d{6,})$")
+
+
+def _f(name: str, typ: pa.DataType, unit: str | None = None) -> pa.Field:
+    return pa.field(name, typ, metadata=None if unit is None else {"unit": unit})
+
+
+POINTS_SCHEMA = pa.schema([
+    _f("session_id", pa.string()),
+    _f("point_id", pa.int32()),
+    _f("mode", pa.string()),
+    _f("quadrant", pa.string()),
+    _f("source", pa.string()),
+    _f("speed_rpm", pa.float64(), "rpm"),
+    _f("torque_nm", pa.float64(), "N m"),
+    _f("p_mech_w", pa.float64(), "W"),
+    _f("p_elec_w", pa.float64(), "W"),
+    _f("speed_rpm_std", pa.float64(), "rpm"),
+    _f("torque_nm_std", pa.float64(), "N m"),
+    _f("p_mech_w_std", pa.float64(), "W"),
+    _f("p_elec_w_std", pa.float64(), "W"),
+    _f("n_samples", pa.int64()),
+    _f("t_start_s", pa.float64(), "s"),
+    _f("t_end_s", pa.float64(), "s"),
+])
+
+SAMPLES_SCHEMA = pa.schema([
+    _f("session_id", pa.dictionary(pa.int32(), pa.string())),
+    _f("time_s", pa.float64(), "s"),
+    _f("speed_rpm", pa.float64(), "rpm"),
+    _f("torque_nm", pa.float64(), "N m"),
+    _f("p_mech_w", pa.float64(), "W"),
+    _f("p_elec_w", pa.float64(), "W"),
+    _f("point_id", pa.int32()),
+])
+
+REJECTED_SCHEMA = pa.schema([
+    _f("session_id", pa.string()),
+    _f("t_start_s", pa.float64(), "s"),
+    _f("t_end_s", pa.float64(), "s"),
+    _f("reason", pa.string()),
+])
+
+#: kind -> the schema of its files
+SCHEMAS = {"points": POINTS_SCHEMA, "samples": SAMPLES_SCHEMA, "rejected": REJECTED_SCHEMA}
