@@ -257,7 +257,7 @@ def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, o
                    result: Any, summary: Any, trust: dict) -> dict:
     """The optimize manifest's content after its schema and provenance header
     (docs/schemas.md §5): the request, the system and drive in force, the options, and
-    the sweep's record (:class:`optimize.service.run.SweepResult`)."""
+    the sweep's own record (:meth:`optimize.service.run.SweepResult.record`)."""
     model = drive.model
     return {
         "wind_speeds_m_s": list(request.winds),
@@ -276,14 +276,9 @@ def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, o
         "drive": drive.record(),
         "kite_limits": dataclasses.asdict(system.kite_limits()),
         "options": options.as_dict(),
-        "executor": result.executor,
-        "wall_time_s": result.wall_time_s,
         "converged": int(summary["success"].sum()),
-        "failed": [o.name for o in result.outcomes if not o.success],
-        "chains": [{"chain": c.chain, "worker": c.worker, "build_time_s": c.build_time_s,
-                    "scenarios": [o.name for o in c.outcomes]} for c in result.chains],
+        **result.record(),
         "local_optima": outputs.resolve_lines(result.outcomes),
-        "cut_in": [dataclasses.asdict(c) for c in result.cut_ins],
         "trust": trust,
     }
 

@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -131,6 +132,18 @@ class SweepResult:
     chains: tuple[ChainOutcome, ...]
     wall_time_s: float
     executor: str
+
+    def record(self) -> dict:
+        """The sweep's part of the optimize manifest (docs/schemas.md §5): where it ran, how
+        long, the scenarios that failed, each chain, the cut-in searches."""
+        return {
+            "executor": self.executor,
+            "wall_time_s": self.wall_time_s,
+            "failed": [o.name for o in self.outcomes if not o.success],
+            "chains": [{"chain": c.chain, "worker": c.worker, "build_time_s": c.build_time_s,
+                        "scenarios": [o.name for o in c.outcomes]} for c in self.chains],
+            "cut_in": [dataclasses.asdict(c) for c in self.cut_ins],
+        }
 
 
 def make_tasks(chains: tuple[Chain, ...], problem: Problem, cut_in_kinds: tuple[str, ...] = (),
