@@ -13,7 +13,7 @@ omega*T and that loss (paper eqs. 1-2), at most the quadrant's ceiling. A point'
 uncertainty is computed here, independently of ``fitting``: the standard error of
 its window means (``*_w_std / sqrt(n_samples)``) and 0.2 % of each power reading
 (``u_stated``), and the fit's pooled loss repeatability of the quadrant
-(``efficiency.loss_repeatability``, a loss at the point's exact P_mech: relative
+(``repeatability.loss_repeatability``, a loss at the point's exact P_mech: relative
 ``repeat_w / |P_elec|``), in quadrature, as a relative uncertainty of the
 efficiency. Printed per campaign and quadrant: accepted points, the repeatability,
 points above the map (read bilinearly from the grid nodes) by more than

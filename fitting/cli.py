@@ -1,6 +1,7 @@
 """``bench fit``: efficiency map, power model fit, model selection, export.
 
-Parses the options, calls :func:`drivebench.api.fit` and prints the fit's summary.
+Parses the options into :class:`fitting.pipeline.FitOptions`, runs the fit
+(:func:`fitting.pipeline.run_fit`) and prints its summary.
 """
 
 from __future__ import annotations
@@ -78,6 +79,13 @@ def run(args: argparse.Namespace) -> int:
 
 def format_summary(summary: dict, out) -> str:
     """The short text summary printed by ``bench fit``."""
+    lines = [*_model_lines(summary), *_selection_lines(summary), *_efficiency_lines(summary),
+             f"outputs in {out}: " + ", ".join(summary["outputs"][:6]) + ", figures/..."]
+    return "\n".join(lines)
+
+
+def _model_lines(summary: dict) -> list[str]:
+    """The model, the points, the drive, the notes, the coefficients and the residuals."""
     st = summary["statistics"]
     d = summary["drive"]
     lines = [f"model: {summary['model']['name']}  (sha256 {summary['model']['sha256'][:12]})",
@@ -104,6 +112,13 @@ def format_summary(summary: dict, out) -> str:
                      f"Jarque-Bera p = {norm['jarque_bera']['p_value']:.3g} -> "
                      + ("consistent with normal" if norm["normal_at_5pct"]
                         else "not normal at 5 %"))
+    return lines
+
+
+def _selection_lines(summary: dict) -> list[str]:
+    """The candidates' table, the choice and the paper's extra-terms check."""
+    st = summary["statistics"]
+    lines: list[str] = []
     lines += ["", f"{'candidate':>20} {'terms':>5} {'CV RMSE [W]':>12} {'+-SE':>6} "
               f"{'dBIC':>8}  status"]
     for row in summary["selection_table"]:
@@ -124,6 +139,12 @@ def format_summary(summary: dict, out) -> str:
                                  for name, r in extra["paper_terms"].items())
                      + f"; wide vs eq. 4 model differ by at most "
                        f"{extra['model_difference']['max_abs_w']:.0f} W at the points")
+    return lines
+
+
+def _efficiency_lines(summary: dict) -> list[str]:
+    """The map's area shares per band, its peaks and how it shows the points."""
+    lines: list[str] = []
     shares: dict[str, list[str]] = {}
     for row in summary["efficiency"]["band_shares"]:
         if row["area_share"]:
@@ -153,8 +174,7 @@ def format_summary(summary: dict, out) -> str:
             f"by more than their uncertainty, {a.get('n_below_map', 0)} below it, "
             f"{a['n_off_map']} off the grid; loss repeatability {r.get('loss_w', 0.0):.3g} W "
             f"({r.get('n_pairs', 0)} repeat pairs, pooled over {r.get('pooled_over', 'none')})")
-    lines.append(f"outputs in {out}: " + ", ".join(summary["outputs"][:6]) + ", figures/...")
-    return "\n".join(lines)
+    return lines
 
 
 def _num(x: float) -> str:

@@ -42,28 +42,47 @@ def reject_constant(name: str) -> float:
     raise ValueError(f"non-finite number {name}")
 
 
-def power_model_from_dict(data: Any, path: str | Path | None = None) -> PowerModel:
-    """Validate a decoded power-model file and build the :class:`PowerModel`.
+class _Fields:
+    """Checks of a model file's fields, each error naming the file and the field.
 
     Parameters
     ----------
-    data : object
-        The decoded JSON document.
-    path : str or Path, optional
-        The file it came from, named in errors.
-
-    Raises
-    ------
-    InputError
-        Unknown schema or version, missing or unknown fields, wrong shapes,
-        non-finite numbers, negative exponents, inconsistent SI coefficients.
+    path : str or Path or None
+        The file, named in errors.
+    n : int
+        Terms of the model: the length of its vectors and matrices.
     """
 
-    def bad(field: str, problem: str, expected: str | None = None) -> InputError:
-        return InputError(path, f"field {field!r}: {problem}", expected=expected)
+    def __init__(self, path: str | Path | None, n: int = 0) -> None:
+        self.path = path
+        self.n = n
 
-    if not isinstance(data, dict):
-        raise InputError(path, "top level is not a JSON object", expected="a power model object")
+    def bad(self, field: str, problem: str, expected: str | None = None) -> InputError:
+        """The error of one field."""
+        return InputError(self.path, f"field {field!r}: {problem}", expected=expected)
+
+    def vector(self, field: str, value: Any) -> list[float]:
+        """``value`` as n finite numbers."""
+        n = self.n
+        if not isinstance(value, list) or len(value) != n:
+            length = len(value) if isinstance(value, list) else type(value).__name__
+            raise self.bad(field, f"has {length} entries", f"a list of {n} numbers (one per term)")
+        for k, v in enumerate(value):
+            if not is_finite_number(v):
+                raise self.bad(f"{field}[{k}]", f"{v!r} is not a finite number",
+                               "a finite number")
+        return [float(v) for v in value]
+
+    def matrix(self, field: str, value: Any) -> list[list[float]]:
+        """``value`` as an n x n matrix of finite numbers."""
+        if not isinstance(value, list) or len(value) != self.n:
+            raise self.bad(field, "wrong shape", f"a {self.n} x {self.n} matrix")
+        return [self.vector(f"{field}[{r}]", row) for r, row in enumerate(value)]
+
+
+def _check_keys(data: dict, fields: _Fields) -> int:
+    """Schema, version, the required keys, no unknown one, the units; the version."""
+    bad = fields.bad
     if data.get("schema") != SCHEMA_NAME:
         raise bad("schema", f"unknown schema {data.get('schema')!r}", repr(SCHEMA_NAME))
     version = data.get("schema_version")
@@ -80,11 +99,14 @@ def power_model_from_dict(data: Any, path: str | Path | None = None) -> PowerMod
                                               if key in _V2_KEYS else ""))
     if "units" in data and data["units"] != UNITS:
         raise bad("units", f"unsupported units {data['units']!r}", json.dumps(UNITS))
-
     if not isinstance(data["name"], str):
         raise bad("name", "not a string", "a string")
+    return version
 
-    terms = data["terms"]
+
+def _check_terms(terms: Any, fields: _Fields) -> None:
+    """A non-empty list of distinct pairs of exponents >= 0."""
+    bad = fields.bad
     if not isinstance(terms, list) or not terms:
         raise bad("terms", "not a non-empty list", "a list of [speed exponent, torque exponent]")
     for k, t in enumerate(terms):
@@ -98,44 +120,58 @@ def power_model_from_dict(data: Any, path: str | Path | None = None) -> PowerMod
             raise bad(f"terms[{k}]", f"negative exponent in {t!r}", "exponents >= 0")
     if len({tuple(t) for t in terms}) != len(terms):
         raise bad("terms", "duplicate term")
-    n = len(terms)
 
-    def vector(field: str, value: Any) -> list[float]:
-        if not isinstance(value, list) or len(value) != n:
-            length = len(value) if isinstance(value, list) else type(value).__name__
-            raise bad(field, f"has {length} entries", f"a list of {n} numbers (one per term)")
-        for k, v in enumerate(value):
-            if not is_finite_number(v):
-                raise bad(f"{field}[{k}]", f"{v!r} is not a finite number", "a finite number")
-        return [float(v) for v in value]
 
-    def matrix(field: str, value: Any) -> list[list[float]]:
-        if not isinstance(value, list) or len(value) != n:
-            raise bad(field, "wrong shape", f"a {n} x {n} matrix")
-        return [vector(f"{field}[{r}]", row) for r, row in enumerate(value)]
-
+def _numbers(data: dict, fields: _Fields) -> tuple:
+    """The coefficients (rpm, SI) and the covariance (rpm, SI; None when null)."""
     coefs = data["coefficients"]
     if not isinstance(coefs, dict) or set(coefs) != {"rpm", "si"}:
-        raise bad("coefficients", "not an object with exactly 'rpm' and 'si'", '{"rpm", "si"}')
-    c_rpm = vector("coefficients.rpm", coefs["rpm"])
-    c_si = vector("coefficients.si", coefs["si"])
-
-    cov_rpm = None
+        raise fields.bad("coefficients", "not an object with exactly 'rpm' and 'si'",
+                         '{"rpm", "si"}')
+    c_rpm = fields.vector("coefficients.rpm", coefs["rpm"])
+    c_si = fields.vector("coefficients.si", coefs["si"])
+    cov_rpm = cov_si = None
     cov = data["covariance"]
     if cov is not None:
         if not isinstance(cov, dict) or set(cov) != {"rpm", "si"}:
-            raise bad("covariance", "not null or an object with 'rpm' and 'si'", '{"rpm", "si"}')
-        cov_rpm = matrix("covariance.rpm", cov["rpm"])
-        cov_si = matrix("covariance.si", cov["si"])
+            raise fields.bad("covariance", "not null or an object with 'rpm' and 'si'",
+                             '{"rpm", "si"}')
+        cov_rpm = fields.matrix("covariance.rpm", cov["rpm"])
+        cov_si = fields.matrix("covariance.si", cov["si"])
+    return c_rpm, c_si, cov_rpm, cov_si
 
+
+def power_model_from_dict(data: Any, path: str | Path | None = None) -> PowerModel:
+    """Validate a decoded power-model file and build the :class:`PowerModel`.
+
+    Parameters
+    ----------
+    data : object
+        The decoded JSON document.
+    path : str or Path, optional
+        The file it came from, named in errors.
+
+    Raises
+    ------
+    InputError
+        Unknown schema or version, missing or unknown fields, wrong shapes,
+        non-finite numbers, negative exponents, inconsistent SI coefficients.
+    """
+    if not isinstance(data, dict):
+        raise InputError(path, "top level is not a JSON object", expected="a power model object")
+    fields = _Fields(path)
+    version = _check_keys(data, fields)
+    terms = data["terms"]
+    _check_terms(terms, fields)
+    fields.n = len(terms)
+    c_rpm, c_si, cov_rpm, cov_si = _numbers(data, fields)
     nominal = data["nominal_power_w"]
     if not is_finite_number(nominal) or nominal <= 0:
-        raise bad("nominal_power_w", f"{nominal!r}", "a finite positive power [W]")
+        raise fields.bad("nominal_power_w", f"{nominal!r}", "a finite positive power [W]")
     for key in ("domain", "masking", "statistics", "provenance",
                 *(_V2_KEYS if version >= 2 else ())):
         if data[key] is not None and not isinstance(data[key], dict):
-            raise bad(key, "not an object", "an object or null")
-
+            raise fields.bad(key, "not an object", "an object or null")
     try:
         model = PowerModel(
             terms=tuple(tuple(t) for t in terms),
@@ -151,12 +187,11 @@ def power_model_from_dict(data: Any, path: str | Path | None = None) -> PowerMod
         )
     except ValueError as exc:
         raise InputError(path, str(exc)) from exc
-
     if not np.allclose(model.coefficients_si, c_si, rtol=_SI_RTOL, atol=0.0):
-        raise bad("coefficients.si", "does not match coefficients.rpm converted to rad/s",
-                  "c_si = c_rpm * (60 / (2 pi))**i")
+        raise fields.bad("coefficients.si", "does not match coefficients.rpm converted to "
+                         "rad/s", "c_si = c_rpm * (60 / (2 pi))**i")
     if cov_rpm is not None and not np.allclose(
         np.array(model.covariance_si), np.array(cov_si), rtol=_SI_RTOL, atol=0.0
     ):
-        raise bad("covariance.si", "does not match covariance.rpm converted to rad/s")
+        raise fields.bad("covariance.si", "does not match covariance.rpm converted to rad/s")
     return model

@@ -10,34 +10,31 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from fitting import figures
 from fitting.domain import BAND_FRAC, quadrant_envelopes
-from fitting.efficiency import (
-    MaskingRules,
-    band_shares,
-    gridded_map,
-    loss_repeatability,
-    peak_points,
-    points_against_map,
-    repeatability,
-    with_repeatability,
-)
+from fitting.efficiency import MaskingRules
+from fitting.efficiency_map import efficiency_summary, gridded_map
+from fitting.extra_terms import extra_terms_check
 from fitting.loss_table import write_loss_table
 from fitting.model_file import save_power_model
-from fitting.points import QUADRANTS, load_points
+from fitting.points import QUADRANTS, OperatingPoints, load_points
 from fitting.power_fit import (
     OUTLIER_ALPHA,
+    FitResult,
     check_fit_input,
     fit_power_model,
     outlier_test,
     quadrant_weights,
 )
+from fitting.power_model import PowerModel
 from fitting.rating import resolve_drive
+from fitting.repeatability import loss_repeatability, repeatability, with_repeatability
 from fitting.selection import (
     RULE,
     Candidate,
-    extra_terms_check,
+    SelectionResult,
     order_candidate,
     paper_candidate,
     paper_space_candidate,
@@ -119,6 +116,177 @@ class FitOptions:
         return order_candidate(self.order)
 
 
+@dataclass(frozen=True)
+class FitPoints:
+    """The store's points a fit runs on: the quadrants with enough of them.
+
+    Parameters
+    ----------
+    points : OperatingPoints
+        All points the store lists (their files and hashes).
+    frame : pandas.DataFrame
+        The points of the quadrants fitted.
+    measured : list of str
+        The quadrants fitted.
+    dropped : dict
+        quadrant -> point count of a quadrant with points but too few to fit.
+    min_points : int
+        Fewest points a quadrant needs (:func:`min_quadrant_points`).
+    store : str
+        The store, as given.
+    """
+
+    points: OperatingPoints
+    frame: pd.DataFrame
+    measured: list[str]
+    dropped: dict[str, int]
+    min_points: int
+    store: str
+
+    @property
+    def source(self) -> Path:
+        """The points' folder, named in errors."""
+        return Path(self.store) / "points"
+
+    def provenance(self, command_line: tuple[str, ...]) -> dict:
+        """Where the model comes from: the points' files and hash, the store, the command."""
+        return {"points_sha256": self.points.sha256, "points_files": self.points.files,
+                "store": self.store, "command_line": list(command_line),
+                "software": "drivebench fitting.pipeline"}
+
+    def statement(self) -> dict:
+        """Point counts per quadrant, the quadrants fitted and those dropped (statistics)."""
+        return {"points_per_quadrant": self.points.counts(),
+                "quadrants_measured": self.measured,
+                "quadrants_dropped": {q: {"n_points": n, "min_points": self.min_points}
+                                      for q, n in self.dropped.items()}}
+
+
+def fit_points(store: str | Path, folds: int) -> FitPoints:
+    """The store's points, the quadrants with fewer than :func:`min_quadrant_points` dropped.
+
+    Raises
+    ------
+    InputError
+        No quadrant has enough points.
+    """
+    points = load_points(store)
+    counts = points.counts()
+    need = min_quadrant_points(folds)
+    measured = [q for q in QUADRANTS if counts[q] >= need]
+    if not measured:
+        raise InputError(Path(store) / "points", "no quadrant has enough points to fit and "
+                         "cross-validate: " + ", ".join(f"{q} {counts[q]}" for q in QUADRANTS),
+                         expected=f"at least {need} points in one quadrant ({folds} folds)")
+    frame = points.frame[points.frame["quadrant"].isin(measured)].reset_index(drop=True)
+    return FitPoints(points=points, frame=frame, measured=measured,
+                     dropped={q: counts[q] for q in QUADRANTS if 0 < counts[q] < need},
+                     min_points=need, store=str(store))
+
+
+@dataclass(frozen=True, eq=False)
+class ModelFit:
+    """The exported fit and how it was chosen.
+
+    Parameters
+    ----------
+    fit : FitResult
+        The exported model's fit.
+    selection : SelectionResult
+        The model selection over all candidates.
+    chosen : Candidate
+        The exported candidate.
+    requested : bool
+        True when it was asked for (``--order``), not chosen by the selection.
+    weights : numpy.ndarray
+        The points' weights.
+    extra_terms : dict
+        The paper's extra-terms check (:func:`fitting.extra_terms.extra_terms_check`).
+    """
+
+    fit: FitResult
+    selection: SelectionResult
+    chosen: Candidate
+    requested: bool
+    weights: np.ndarray
+    extra_terms: dict
+
+    def statistics(self, weighting: str, frame: pd.DataFrame, points: dict,
+                   outliers: dict) -> dict:
+        """The ``statistics`` of the fit summary and the model file (before ``validity``)."""
+        motor = frame["quadrant"].to_numpy() == "motor"
+        return json_safe({**self.fit.summary(weighting, motor, points), "outliers": outliers,
+                          "selection": self.selection.summary(self.chosen, self.requested)})
+
+    def power_model(self, measured: list[str], envelopes: dict, **metadata) -> PowerModel:
+        """The exported model: named for its candidate (and its one quadrant when only one
+        was fitted), valid in the measured envelopes; ``metadata``: masking, statistics,
+        provenance, drive."""
+        only = "" if len(measured) == len(QUADRANTS) else f", {measured[0]} quadrant only"
+        return self.fit.to_power_model(
+            name=f"bench fit: {self.chosen.name} ({len(self.chosen.terms)} terms{only})",
+            domain={q: env["polygon"] for q, env in envelopes.items()}, **metadata)
+
+
+def fit_model(frame: pd.DataFrame, drive, options: FitOptions, source: Path,
+              progress: bool) -> ModelFit:
+    """Fit the requested model (or the one the selection chooses), run the selection and
+    the paper's extra-terms check."""
+    nominal = drive.nominal_power_w
+    speed = frame["speed_rpm"].to_numpy()
+    torque = frame["torque_nm"].to_numpy()
+    p_elec = frame["p_elec_w"].to_numpy()
+    quadrant = frame["quadrant"].to_numpy()
+    weights = (quadrant_weights(quadrant) if options.weighting == "quadrant"
+               else np.ones(len(frame)))
+    requested = options.candidate()
+    fit = None
+    if requested is not None:  # fit first: its errors (too few points, rank) are the clearest
+        fit = fit_power_model(speed, torque, p_elec, requested.terms, weights=weights,
+                              nominal_power_w=nominal, source=source)
+    else:
+        check_fit_input(full_polynomial(MIN_ORDER), len(frame), source)
+    selection = select_model(speed, torque, p_elec, quadrant, weights, folds=options.folds,
+                             nominal_power_w=nominal, source=source, progress=progress)
+    chosen = requested or selection.chosen
+    if fit is None:
+        fit = fit_power_model(speed, torque, p_elec, chosen.terms, weights=weights,
+                              nominal_power_w=nominal, source=source)
+    try:
+        extra = extra_terms_check(speed, torque, p_elec, weights,
+                                  rated_speed_rpm=drive.max_speed_rpm,
+                                  rated_torque_nm=drive.max_torque_nm,
+                                  nominal_power_w=nominal, source=source)
+    except InputError as exc:
+        extra = {"space": paper_space_candidate().name, "skipped": exc.problem}
+    return ModelFit(fit=fit, selection=selection, chosen=chosen,
+                    requested=requested is not None, weights=weights, extra_terms=extra)
+
+
+def _write_outputs(stage: Path, model, frame: pd.DataFrame, masking: MaskingRules,
+                   fitted: ModelFit, options: FitOptions,
+                   points_sha256: str) -> tuple[pd.DataFrame, list[Path]]:
+    """Write the model, the map, the selection table, the loss table and the figures into
+    the staging folder; return the map and the files written."""
+    (stage / "figures").mkdir()
+    written = [save_power_model(model, stage / "power_model.json")]
+    emap = gridded_map(frame, masking, model=model)
+    meta = {"masking": masking.to_dict(), "power_model_sha256": model.sha256,
+            "points_sha256": points_sha256}
+    written.append(write_parquet(stage / "efficiency_map.parquet", emap, metadata=meta))
+    selection = fitted.selection
+    written.append(write_parquet(stage / "selection.parquet", selection.table, metadata={
+        "rule": RULE, "weighting": options.weighting, "folds": options.folds,
+        "reason": selection.reason}))
+    written.append(write_loss_table(model, stage / "loss_table.csv"))
+    fig_dir = stage / "figures"
+    written += figures.efficiency_map_figure(emap, fig_dir, masking.to_dict(), model.domain)
+    written += figures.power_map_figure(model, frame, fig_dir)
+    written += figures.residuals_figure(frame, fitted.fit.residuals_w, model.nominal_power_w,
+                                        fig_dir)
+    return emap, written
+
+
 def run_fit(store: str | Path, out: str | Path, options: FitOptions,
             progress: bool = True) -> dict:
     """Fit the store's operating points and write all outputs into ``out``.
@@ -154,145 +322,43 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     """
     check_output_dir(out)  # before the work, not after it
     check_replaceable(out, "fit", FIT_MARKERS)
-    prov = Provenance.start(options.command_line)
-    points = load_points(store)
-    source = Path(store) / "points"
-    counts = points.counts()
-    need = min_quadrant_points(options.folds)
-    measured = [q for q in QUADRANTS if counts[q] >= need]
-    dropped = {q: counts[q] for q in QUADRANTS if 0 < counts[q] < need}
-    if not measured:
-        raise InputError(source, "no quadrant has enough points to fit and cross-validate: "
-                         + ", ".join(f"{q} {counts[q]}" for q in QUADRANTS),
-                         expected=f"at least {need} points in one quadrant "
-                                  f"({options.folds} folds)")
-    frame = points.frame[points.frame["quadrant"].isin(measured)].reset_index(drop=True)
-    drive, drive_notes = resolve_drive(store, frame, options.drive)
+    run = Provenance.start(options.command_line)
+    pts = fit_points(store, options.folds)
+    drive, drive_notes = resolve_drive(store, pts.frame, options.drive)
     masking = options.masking(drive.nominal_power_w)
-    loss_repeat = loss_repeatability(frame, masking)
-    frame = with_repeatability(frame, loss_repeat)  # each point's honest uncertainty
-    nominal = drive.nominal_power_w
-    speed = frame["speed_rpm"].to_numpy()
-    torque = frame["torque_nm"].to_numpy()
-    p_elec = frame["p_elec_w"].to_numpy()
-    quadrant = frame["quadrant"].to_numpy()
-    weights = (quadrant_weights(quadrant) if options.weighting == "quadrant"
-               else np.ones(len(frame)))
-    requested = options.candidate()
-    fit = None
-    if requested is not None:  # fit first: its errors (too few points, rank) are the clearest
-        fit = fit_power_model(speed, torque, p_elec, requested.terms, weights=weights,
-                              nominal_power_w=nominal, source=source)
-    else:
-        check_fit_input(full_polynomial(MIN_ORDER), len(frame), source)
-    selection = select_model(speed, torque, p_elec, quadrant, weights, folds=options.folds,
-                             nominal_power_w=nominal, source=source,
-                             progress=progress)
-    chosen = requested or selection.chosen
-    if fit is None:
-        fit = fit_power_model(speed, torque, p_elec, chosen.terms, weights=weights,
-                              nominal_power_w=nominal, source=source)
-    try:
-        extra = extra_terms_check(speed, torque, p_elec, weights,
-                                  rated_speed_rpm=drive.max_speed_rpm,
-                                  rated_torque_nm=drive.max_torque_nm,
-                                  nominal_power_w=nominal, source=source)
-    except InputError as exc:
-        extra = {"space": paper_space_candidate().name, "skipped": exc.problem}
-
-    outliers = outlier_summary(frame, fit, weights, nominal, source)
-    repeats = repeatability(frame, masking)
-    motor = quadrant == "motor"
-    statistics = {
-        "method": "weighted least squares (statsmodels WLS)" if options.weighting == "quadrant"
-        else "ordinary least squares (statsmodels OLS)",
-        "weighting": options.weighting,
-        "n_points": fit.n_points,
-        "points_per_quadrant": counts,
-        "quadrants_measured": measured,
-        "quadrants_dropped": {q: {"n_points": n, "min_points": need} for q, n in
-                              dropped.items()},
-        "r2": fit.r2,
-        "r2_weighted": fit.r2_weighted,
-        "bic": fit.bic,
-        "condition_number_scaled_design": fit.condition_number,
-        "residuals": {"all": fit.residual_stats(), "motor": fit.residual_stats(motor),
-                      "generator": fit.residual_stats(~motor)},
-        "normality": fit.normality(),
-        "coefficients": fit.coefficient_table(),
-        "outliers": outliers,
-        "selection": {"chosen_by_selection": selection.chosen.name, "rule": RULE,
-                      "reason": selection.reason, "exported": chosen.name,
-                      "exported_because": "chosen by the selection" if requested is None
-                      else "requested with --order"},
-    }
-    statistics = json_safe(statistics)
-    provenance = {
-        "points_sha256": points.sha256,
-        "points_files": points.files,
-        "store": str(store),
-        "command_line": list(options.command_line),
-        "software": "drivebench fitting.pipeline",
-    }
+    loss_repeat = loss_repeatability(pts.frame, masking)
+    frame = with_repeatability(pts.frame, loss_repeat)  # each point's honest uncertainty
+    fitted = fit_model(frame, drive, options, pts.source, progress)
+    outliers = outlier_summary(frame, fitted.fit, fitted.weights, drive.nominal_power_w,
+                               pts.source)
+    statistics = fitted.statistics(options.weighting, frame, pts.statement(), outliers)
     envelopes = quadrant_envelopes(frame, masking.envelope_band_frac)
-    statistics["validity"] = validity_statement(counts, envelopes, need)
-    only = "" if len(measured) == len(QUADRANTS) else f", {measured[0]} quadrant only"
-    model = fit.to_power_model(
-        name=f"bench fit: {chosen.name} ({len(chosen.terms)} terms{only})",
-        domain={q: env["polygon"] for q, env in envelopes.items()},
-        masking=masking.to_dict(),
-        statistics=statistics,
-        provenance=provenance,
-        drive=drive.to_dict(),
-    )
-
-    with output_folder(out, "fit", FIT_MARKERS, provenance=prov) as stage:  # all or none
-        (stage / "figures").mkdir()
-        written = [save_power_model(model, stage / "power_model.json")]
-
-        emap = gridded_map(frame, masking, model=model)
-        shares = band_shares(emap)
-        peaks = peak_points(emap, frame, masking)
-        meta = {"masking": masking.to_dict(), "power_model_sha256": model.sha256,
-                "points_sha256": points.sha256}
-        written.append(write_parquet(stage / "efficiency_map.parquet", emap, metadata=meta))
-        table = selection.table.copy()
-        written.append(write_parquet(stage / "selection.parquet", table, metadata={
-            "rule": RULE, "weighting": options.weighting, "folds": options.folds,
-            "reason": selection.reason}))
-        written.append(write_loss_table(model, stage / "loss_table.csv"))
-        fig_dir = stage / "figures"
-        written += figures.efficiency_map_figure(emap, fig_dir, masking.to_dict(), model.domain)
-        written += figures.power_map_figure(model, frame, fig_dir)
-        written += figures.residuals_figure(frame, fit.residuals_w, nominal, fig_dir)
-
-        summary = {
+    statistics["validity"] = validity_statement(pts.points.counts(), envelopes, pts.min_points)
+    provenance = pts.provenance(options.command_line)
+    model = fitted.power_model(pts.measured, envelopes, masking=masking.to_dict(),
+                               statistics=statistics, provenance=provenance,
+                               drive=drive.to_dict())
+    repeats = repeatability(frame, masking)
+    notes = (drive_notes + [v["note"] for v in statistics["validity"].values()
+                            if not v["measured"]]
+             + [d["note"] for d in (outliers, loss_repeat, repeats) if d.get("note")])
+    with output_folder(out, "fit", FIT_MARKERS, provenance=run) as stage:  # all or none
+        emap, written = _write_outputs(stage, model, frame, masking, fitted, options,
+                                       pts.points.sha256)
+        summary = json_safe({
             "schema": "drivebench.fit_summary",
             "schema_version": 1,
-            "model": {"name": model.name, "sha256": model.sha256, "terms": [list(t) for t in
-                      model.terms], "coefficients_rpm": list(model.coefficients_rpm),
-                      "coefficients_si": list(model.coefficients_si)},
+            "model": model.summary(),
             "statistics": statistics,
-            "selection_table": _records(table),
-            "extra_terms_check": extra,
+            "selection_table": fitted.selection.table.to_dict(orient="records"),
+            "extra_terms_check": fitted.extra_terms,
             "drive": drive.to_dict(),
-            "notes": drive_notes + [v["note"] for v in statistics["validity"].values()
-                                    if not v["measured"]]
-            + [d["note"] for d in (outliers, loss_repeat, repeats) if d.get("note")],
-            "efficiency": {"masking": masking.to_dict(), "band_shares": _records(shares),
-                           "peak": peaks,
-                           "points_against_map": points_against_map(
-                               frame, masking, emap, emap.attrs["ceilings"]),
-                           "loss_repeatability": loss_repeat,
-                           "repeatability": repeats,
-                           "envelope": {q: {"band_width_rpm": env["band_width_rpm"],
-                                            "n_points": env["n_points"],
-                                            "n_vertices": len(env["polygon"])}
-                                        for q, env in envelopes.items()}},
-            HEADER_KEY: {**prov.header(), **provenance},
+            "notes": notes,
+            "efficiency": efficiency_summary(emap, frame, masking, loss_repeat, repeats,
+                                             envelopes),
+            HEADER_KEY: {**run.header(), **provenance},
             "outputs": sorted(str(p.relative_to(stage)) for p in written) + ["fit_summary.json"],
-        }
-        summary = json_safe(summary)
+        })
         write_json(stage / "fit_summary.json", summary)
     return summary
 
@@ -346,8 +412,15 @@ def outlier_summary(frame, fit, weights: np.ndarray, nominal_power_w: float, sou
                       "residuals": without.residual_stats(), "r2": without.r2,
                       "max_abs_change_w": float(change.max()),
                       "max_change_std_errors": float(np.max(shift))}
-    first = out["points"][0]
-    out["note"] = (
+    out["note"] = _outlier_note(out, fit, without, float(change.max()), float(np.max(shift)))
+    return out
+
+
+def _outlier_note(out: dict, fit, without, max_change_w: float, max_shift: float) -> str:
+    """One line on the flagged points, the worst of them and what the fit without them
+    changes."""
+    first, critical = out["points"][0], out["critical_t"]
+    return (
         f"{out['n_flagged']} outlier point(s) with |studentized residual| > {critical:.3g} "
         f"(Bonferroni, alpha {OUTLIER_ALPHA:g}), the worst {first['session_id']} point "
         f"{first['point_id']} at {first['speed_rpm']:.4g} rpm, {first['torque_nm']:.4g} N m, "
@@ -355,9 +428,8 @@ def outlier_summary(frame, fit, weights: np.ndarray, nominal_power_w: float, sou
         f"{first['studentized']:.3g}); kept in the exported fit (residual RMS "
         f"{fit.residual_stats()['rmse_w']:.4g} W); without them RMS "
         f"{without.residual_stats()['rmse_w']:.4g} W, the model changes by at most "
-        f"{change.max():.4g} W at the other points, the coefficients by at most "
-        f"{np.max(shift):.3g} standard errors")
-    return out
+        f"{max_change_w:.4g} W at the other points, the coefficients by at most "
+        f"{max_shift:.3g} standard errors")
 
 
 def min_quadrant_points(folds: int) -> int:
@@ -391,8 +463,3 @@ def validity_statement(counts: dict[str, int], envelopes: dict[str, dict],
                       "note": f"the {q} quadrant was not measured ({counts[q]} points): the "
                               "model is not valid there and the map does not show it"}
     return out
-
-
-def _records(frame) -> list[dict]:
-    """Rows as JSON-safe dicts."""
-    return json_safe(frame.to_dict(orient="records"))

@@ -127,6 +127,41 @@ class FitResult:
             )
         ]
 
+    def summary(self, weighting: str, motor: np.ndarray, points: dict) -> dict:
+        """The fit's statistics as ``fit_summary.json`` and the model file state them.
+
+        Parameters
+        ----------
+        weighting : str
+            ``quadrant`` (weighted least squares) or ``none`` (ordinary).
+        motor : numpy.ndarray of bool
+            True for the motor-quadrant points (residuals per quadrant).
+        points : dict
+            Facts of the points fitted (counts per quadrant), stated after ``n_points``.
+
+        Returns
+        -------
+        dict
+            ``method``, ``weighting``, ``n_points``, ``points``' keys, ``r2``,
+            ``r2_weighted``, ``bic``, ``condition_number_scaled_design``,
+            ``residuals`` (all, motor, generator), ``normality``, ``coefficients``.
+        """
+        return {
+            "method": "weighted least squares (statsmodels WLS)" if weighting == "quadrant"
+            else "ordinary least squares (statsmodels OLS)",
+            "weighting": weighting,
+            "n_points": self.n_points,
+            **points,
+            "r2": self.r2,
+            "r2_weighted": self.r2_weighted,
+            "bic": self.bic,
+            "condition_number_scaled_design": self.condition_number,
+            "residuals": {"all": self.residual_stats(), "motor": self.residual_stats(motor),
+                          "generator": self.residual_stats(~motor)},
+            "normality": self.normality(),
+            "coefficients": self.coefficient_table(),
+        }
+
     def to_power_model(self, name: str, **metadata) -> PowerModel:
         """The exported :class:`PowerModel` (metadata: domain, masking, statistics, provenance)."""
         return PowerModel(
@@ -227,17 +262,7 @@ def fit_power_model(
     scales = design_scales(speed, torque)
     x = design_matrix(terms, speed, torque, scales)
     xw = x * np.sqrt(w)[:, None]
-    sv = np.linalg.svd(xw, compute_uv=False)
-    # numpy's matrix_rank tolerance: sv_max * max(shape) * eps
-    rank = int(np.sum(sv > sv[0] * max(xw.shape) * np.finfo(float).eps))
-    if rank < len(terms):
-        raise InputError(
-            source,
-            f"rank-deficient design: rank {rank} for {len(terms)} terms "
-            f"({', '.join(term_label(t) for t in terms)}); the operating points do not "
-            "vary enough in speed and torque to tell these terms apart",
-            expected="points spread over speed and torque in both quadrants",
-        )
+    sv = _full_rank_singular_values(xw, terms, source)
     res = sm.WLS(p, x, weights=w).fit()
     d = term_scale(terms, scales)
     coef = res.params * d
@@ -263,6 +288,22 @@ def fit_power_model(
         condition_number=float(sv[0] / sv[-1]),
         studentized=studentized,
     )
+
+
+def _full_rank_singular_values(xw: np.ndarray, terms, source) -> np.ndarray:
+    """The singular values of the weighted design; InputError when it is rank deficient."""
+    sv = np.linalg.svd(xw, compute_uv=False)
+    # numpy's matrix_rank tolerance: sv_max * max(shape) * eps
+    rank = int(np.sum(sv > sv[0] * max(xw.shape) * np.finfo(float).eps))
+    if rank < len(terms):
+        raise InputError(
+            source,
+            f"rank-deficient design: rank {rank} for {len(terms)} terms "
+            f"({', '.join(term_label(t) for t in terms)}); the operating points do not "
+            "vary enough in speed and torque to tell these terms apart",
+            expected="points spread over speed and torque in both quadrants",
+        )
+    return sv
 
 
 def _studentized(xw: np.ndarray, ew: np.ndarray) -> np.ndarray:

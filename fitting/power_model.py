@@ -184,6 +184,13 @@ class PowerModel:
         """SHA-256 (hex) of the canonical JSON of :meth:`to_dict` (sorted keys, no spaces)."""
         return hashlib.sha256(_canonical_json(self.to_dict()).encode("utf-8")).hexdigest()
 
+    def summary(self) -> dict:
+        """The model as a fit summary names it: name, SHA-256, terms, coefficients."""
+        return {"name": self.name, "sha256": self.sha256,
+                "terms": [list(t) for t in self.terms],
+                "coefficients_rpm": list(self.coefficients_rpm),
+                "coefficients_si": list(self.coefficients_si)}
+
 
 # --------------------------------------------------------------------- helpers
 def _canonical_json(data: dict) -> str:

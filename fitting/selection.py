@@ -28,7 +28,6 @@ from fitting.power_fit import (
     design_matrix,
     design_scales,
     fit_power_model,
-    term_scale,
 )
 from fitting.terms import (
     MAX_ORDER,
@@ -36,7 +35,6 @@ from fitting.terms import (
     PAPER_TERMS,
     full_polynomial,
     paper_space,
-    term_label,
 )
 from kernel.errors import InputError
 
@@ -175,6 +173,89 @@ class SelectionResult:
     chosen: Candidate
     reason: str
 
+    def summary(self, exported: Candidate, requested: bool) -> dict:
+        """The fit summary's ``selection`` statement: the choice, the rule, why, and what
+        was exported (``requested``: the exported model was asked for with ``--order``)."""
+        return {"chosen_by_selection": self.chosen.name, "rule": RULE,
+                "reason": self.reason, "exported": exported.name,
+                "exported_because": "requested with --order" if requested
+                else "chosen by the selection"}
+
+
+@dataclass(frozen=True, eq=False)
+class _Points:
+    """The points a selection compares the candidates on, and their folds."""
+
+    speed: np.ndarray
+    torque: np.ndarray
+    p: np.ndarray
+    quadrant: np.ndarray
+    weights: np.ndarray
+    fold: np.ndarray
+    folds: int
+
+
+def _candidate_row(cand: Candidate, pts: _Points, nominal_power_w: float, source) -> dict:
+    """One row of the selection table: the candidate's CV and fit statistics, or why it
+    was skipped."""
+    row = {"candidate": cand.name, "order": cand.order, "n_terms": len(cand.terms)}
+    n_train_min = int(np.min([np.sum(pts.fold != k) for k in range(pts.folds)]))
+    needed = max(MIN_POINTS, MIN_POINTS_PER_TERM * len(cand.terms))
+    if n_train_min < needed:
+        return row | {"status": f"skipped: too few points ({n_train_min} < {needed})"}
+    try:
+        cv = cross_validate(cand, pts.speed, pts.torque, pts.p, pts.weights, pts.fold)
+        fit = fit_power_model(pts.speed, pts.torque, pts.p, cand.terms, weights=pts.weights,
+                              nominal_power_w=nominal_power_w, source=source)
+    except (np.linalg.LinAlgError, InputError) as exc:
+        return row | {"status": f"skipped: {exc}"}
+    r, quadrant = cv["residuals"], pts.quadrant
+    return row | {
+        "status": "ok",
+        "cv_rmse_w": cv["cv_rmse_w"],
+        "cv_rmse_se_w": cv["cv_rmse_se_w"],
+        "cv_rmse_pct_nominal": 100.0 * cv["cv_rmse_w"] / nominal_power_w,
+        "cv_rmse_motor_w": float(np.sqrt(np.mean(r[quadrant == "motor"] ** 2)))
+        if np.any(quadrant == "motor") else np.nan,
+        "cv_rmse_generator_w": float(np.sqrt(np.mean(r[quadrant == "generator"] ** 2)))
+        if np.any(quadrant == "generator") else np.nan,
+        "bic": fit.bic,
+        "fit_rmse_w": float(np.sqrt(np.mean(fit.residuals_w**2))),
+        "r2": fit.r2,
+        "condition_number": fit.condition_number,
+    }
+
+
+def _choose(table: pd.DataFrame, candidates: list[Candidate], n_points: int, folds: int,
+            source) -> SelectionResult:
+    """Apply the one-standard-error rule to the selection table (module docstring)."""
+    for col in ("cv_rmse_w", "cv_rmse_se_w", "bic"):
+        if col not in table:
+            table[col] = np.nan
+    ok = table["status"] == "ok"
+    if not ok.any():
+        problem, expected = _why_none_fitted(table, n_points, folds)
+        raise InputError(source, problem, expected=expected)
+    table["delta_bic"] = table["bic"] - table.loc[ok, "bic"].min()
+    best = table.loc[ok, "cv_rmse_w"].idxmin()
+    limit = table.at[best, "cv_rmse_w"] + table.at[best, "cv_rmse_se_w"]
+    eligible = table[ok & (table["cv_rmse_w"] <= limit)]
+    pick = eligible.sort_values(["n_terms", "bic"]).index[0]
+    table["chosen"] = table.index == pick
+    chosen = {c.name: c for c in candidates}[table.at[pick, "candidate"]]
+    bic_best = table.loc[table.loc[ok, "bic"].idxmin(), "candidate"]
+    reason = (
+        f"{chosen.name} ({len(chosen.terms)} terms): CV RMSE "
+        f"{table.at[pick, 'cv_rmse_w']:.1f} W is within one standard error of the lowest "
+        f"({table.at[best, 'candidate']}: {table.at[best, 'cv_rmse_w']:.1f} W "
+        f"+ {table.at[best, 'cv_rmse_se_w']:.1f} W) and has the fewest terms of the "
+        f"{len(eligible)} candidate(s) within that band; "
+        + ("BIC agrees (lowest BIC)." if bic_best == chosen.name
+           else f"lowest BIC: {bic_best} (delta BIC of the choice "
+                f"{table.at[pick, 'delta_bic']:.1f}).")
+    )
+    return SelectionResult(table=table, chosen=chosen, reason=reason)
+
 
 def select_model(
     speed_rpm,
@@ -231,137 +312,10 @@ def select_model(
     if smallest < folds:
         raise InputError(source, f"a quadrant has {smallest} points, fewer than {folds} folds",
                          expected="at least one point per fold in each quadrant")
-    fold = stratified_folds(quadrant, folds, seed)
-    rows = []
-    for cand in tqdm(candidates or default_candidates(), desc="model selection",
-                     disable=not progress, leave=False):
-        row = {"candidate": cand.name, "order": cand.order, "n_terms": len(cand.terms)}
-        n_train_min = int(np.min([np.sum(fold != k) for k in range(folds)]))
-        needed = max(MIN_POINTS, MIN_POINTS_PER_TERM * len(cand.terms))
-        if n_train_min < needed:
-            rows.append(row | {"status": f"skipped: too few points ({n_train_min} < {needed})"})
-            continue
-        try:
-            cv = cross_validate(cand, speed, torque, p, weights, fold)
-            fit = fit_power_model(speed, torque, p, cand.terms, weights=weights,
-                                  nominal_power_w=nominal_power_w, source=source)
-        except (np.linalg.LinAlgError, InputError) as exc:
-            rows.append(row | {"status": f"skipped: {exc}"})
-            continue
-        r = cv["residuals"]
-        row |= {
-            "status": "ok",
-            "cv_rmse_w": cv["cv_rmse_w"],
-            "cv_rmse_se_w": cv["cv_rmse_se_w"],
-            "cv_rmse_pct_nominal": 100.0 * cv["cv_rmse_w"] / nominal_power_w,
-            "cv_rmse_motor_w": float(np.sqrt(np.mean(r[quadrant == "motor"] ** 2)))
-            if np.any(quadrant == "motor") else np.nan,
-            "cv_rmse_generator_w": float(np.sqrt(np.mean(r[quadrant == "generator"] ** 2)))
-            if np.any(quadrant == "generator") else np.nan,
-            "bic": fit.bic,
-            "fit_rmse_w": float(np.sqrt(np.mean(fit.residuals_w**2))),
-            "r2": fit.r2,
-            "condition_number": fit.condition_number,
-        }
-        rows.append(row)
-    table = pd.DataFrame(rows)
-    for col in ("cv_rmse_w", "cv_rmse_se_w", "bic"):
-        if col not in table:
-            table[col] = np.nan
-    ok = table["status"] == "ok"
-    if not ok.any():
-        problem, expected = _why_none_fitted(table, speed.size, folds)
-        raise InputError(source, problem, expected=expected)
-    table["delta_bic"] = table["bic"] - table.loc[ok, "bic"].min()
-    best = table.loc[ok, "cv_rmse_w"].idxmin()
-    limit = table.at[best, "cv_rmse_w"] + table.at[best, "cv_rmse_se_w"]
-    eligible = table[ok & (table["cv_rmse_w"] <= limit)]
-    pick = eligible.sort_values(["n_terms", "bic"]).index[0]
-    table["chosen"] = table.index == pick
-    all_cands = {c.name: c for c in (candidates or default_candidates())}
-    chosen = all_cands[table.at[pick, "candidate"]]
-    bic_best = table.loc[table.loc[ok, "bic"].idxmin(), "candidate"]
-    reason = (
-        f"{chosen.name} ({len(chosen.terms)} terms): CV RMSE "
-        f"{table.at[pick, 'cv_rmse_w']:.1f} W is within one standard error of the lowest "
-        f"({table.at[best, 'candidate']}: {table.at[best, 'cv_rmse_w']:.1f} W "
-        f"+ {table.at[best, 'cv_rmse_se_w']:.1f} W) and has the fewest terms of the "
-        f"{len(eligible)} candidate(s) within that band; "
-        + ("BIC agrees (lowest BIC)." if bic_best == chosen.name
-           else f"lowest BIC: {bic_best} (delta BIC of the choice "
-                f"{table.at[pick, 'delta_bic']:.1f}).")
-    )
-    return SelectionResult(table=table, chosen=chosen, reason=reason)
-
-
-def extra_terms_check(
-    speed_rpm, torque_nm, p_elec_w, weights, *, rated_speed_rpm: float,
-    rated_torque_nm: float, nominal_power_w: float, source=None,
-) -> dict:
-    """The paper's check: fitted over its space (w^6, T^4), how big are the extra terms?
-
-    Three measures, each with its scaling stated in the result:
-
-    - ``paper_scaling``: raw coefficients in the rpm convention divided by a1 and
-      a2 of the eq. 4 fit, as the paper compares them (unit-dependent);
-    - ``rated_corner``: a term's contribution ``|c_ij| * 1500**i * 78**j`` [W] at
-      the rated corner, against ``a1 * 1500**2`` and ``a2 * 78**2`` of the eq. 4
-      fit (physical, but individual terms of a 35-term fit are collinear and can
-      cancel: see ``wide_fit_condition_number``);
-    - ``model_difference``: the largest and RMS difference between the wide and
-      the eq. 4 model over the measured points [W, % of nominal] (robust to the
-      collinearity: it is what the extra terms change in the power).
-    """
-    speed = np.asarray(speed_rpm, dtype=float)
-    torque = np.asarray(torque_nm, dtype=float)
-    cand = paper_space_candidate()
-    wide = fit_power_model(speed, torque, p_elec_w, cand.terms, weights=weights,
-                           nominal_power_w=nominal_power_w, source=source)
-    base = fit_power_model(speed, torque, p_elec_w, PAPER_TERMS, weights=weights,
-                           nominal_power_w=nominal_power_w, source=source)
-    a1 = abs(base.coefficients_rpm[PAPER_TERMS.index((2, 0))])
-    a2 = abs(base.coefficients_rpm[PAPER_TERMS.index((0, 2))])
-    a1_w, a2_w = a1 * rated_speed_rpm**2, a2 * rated_torque_nm**2
-    contrib = np.abs(wide.coefficients_rpm) / term_scale(
-        cand.terms, (rated_speed_rpm, rated_torque_nm))
-
-    def orders(big: float, small: float) -> float:
-        return float(np.log10(big / small)) if small > 0 else float("inf")
-
-    rows = []
-    for k in np.argsort(-contrib):
-        t = cand.terms[k]
-        if t in PAPER_TERMS:
-            continue
-        c = abs(wide.coefficients_rpm[k])
-        rows.append({
-            "term": term_label(t),
-            "coef_rpm": float(wide.coefficients_rpm[k]),
-            "raw_orders_below_a1": orders(a1, c),
-            "raw_orders_below_a2": orders(a2, c),
-            "contribution_at_rated_w": float(contrib[k]),
-            "rated_orders_below_a1": orders(a1_w, contrib[k]),
-            "rated_orders_below_a2": orders(a2_w, contrib[k]),
-        })
-    named = {r["term"]: r for r in rows}
-    diff = wide.residuals_w - base.residuals_w  # = eq.4 model - wide model at the points
-    return {
-        "space": cand.name,
-        "paper_scaling": "raw rpm-convention coefficients vs a1, a2 of the eq. 4 fit "
-                         "(as the paper compares them; unit-dependent)",
-        "rated_scaling": f"|c_ij| * {rated_speed_rpm:g}^i * {rated_torque_nm:g}^j [W] vs "
-                         f"a1 * {rated_speed_rpm:g}^2 = {a1_w:.1f} W and "
-                         f"a2 * {rated_torque_nm:g}^2 = {a2_w:.1f} W",
-        "a1_at_rated_w": float(a1_w),
-        "a2_at_rated_w": float(a2_w),
-        "wide_fit_condition_number": wide.condition_number,
-        "paper_terms": {name: named[name] for name in ("w^2*T^2", "w^4")},
-        "largest_extra_terms_at_rated": rows[:5],
-        "model_difference": {
-            "max_abs_w": float(np.max(np.abs(diff))),
-            "rms_w": float(np.sqrt(np.mean(diff**2))),
-            "max_abs_pct_nominal": float(100 * np.max(np.abs(diff)) / nominal_power_w),
-        },
-        "wide_fit_rmse_w": float(np.sqrt(np.mean(wide.residuals_w**2))),
-        "eq4_fit_rmse_w": float(np.sqrt(np.mean(base.residuals_w**2))),
-    }
+    pts = _Points(speed=speed, torque=torque, p=p, quadrant=quadrant, weights=weights,
+                  fold=stratified_folds(quadrant, folds, seed), folds=folds)
+    candidates = candidates or default_candidates()
+    rows = [_candidate_row(cand, pts, nominal_power_w, source)
+            for cand in tqdm(candidates, desc="model selection", disable=not progress,
+                             leave=False)]
+    return _choose(pd.DataFrame(rows), candidates, pts.speed.size, folds, source)

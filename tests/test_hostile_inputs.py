@@ -12,7 +12,7 @@ import pytest
 from ingest_fixtures import make_points_session, make_timeseries_session, store_tree
 
 from bench.cli import main
-from bench.ingest.readers import MAX_LINE_BYTES
+from bench.ingest.csv_layout import MAX_LINE_BYTES
 from bench.store.manifest import read_manifest
 from bench.store.read import read_points
 

@@ -14,9 +14,9 @@ from ingest_fixtures import make_points_session, make_timeseries_session
 
 from bench.cli import main
 from bench.ingest import expr
+from bench.ingest.column_units import unit_factor
 from bench.ingest.mapping import load_mapping
 from bench.ingest.pipeline import ingest
-from bench.ingest.units import unit_factor
 from bench.store.manifest import kind_files
 from bench.synth.exports import make_dyno_table, make_ev_table
 from kernel.errors import InputError
@@ -336,7 +336,7 @@ def test_tdms_channels_combined_by_expr(tmp_path):
     """``expr`` over TDMS channels: torque from a strain-gauge voltage [mV] and a gain."""
     from nptdms import ChannelObject, TdmsWriter
 
-    from bench.ingest.readers import open_daq_tdms
+    from bench.ingest.daq_stream import open_daq_tdms
 
     p = tmp_path / "daq.tdms"
     t = np.arange(10) * 0.01

@@ -18,8 +18,8 @@ from stream_fixtures import make_ev_export, make_german_logger
 
 from bench.cli import main
 from bench.ingest import clock
+from bench.ingest.daq_stream import open_daq_csv
 from bench.ingest.pipeline import ingest
-from bench.ingest.readers import open_daq_csv
 from bench.store.manifest import read_manifest
 from bench.store.read import read_points
 from kernel.errors import InputError

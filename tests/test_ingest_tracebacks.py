@@ -10,7 +10,7 @@ import pytest
 from ingest_fixtures import make_timeseries_session
 
 from bench.cli import main
-from bench.ingest import timeseries
+from bench.ingest import scan
 from bench.ingest.expr import ExprError, parse
 from bench.store.read import read_points
 
@@ -43,7 +43,7 @@ def test_disk_full_while_writing_samples_names_the_store(camp, tmp_path, capsys,
         os.close(fd)
         return fh
 
-    monkeypatch.setattr(timeseries, "open", full_disk, raising=False)
+    monkeypatch.setattr(scan, "open", full_disk, raising=False)
     store = tmp_path / "store"
     rc, err = _ingest(camp, store, capsys)
     assert rc == 2 and "Traceback" not in err

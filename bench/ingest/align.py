@@ -152,51 +152,17 @@ def estimate_clock(
     ClockModel
     """
     dt = float(grid_t_s[1] - grid_t_s[0])
-    ok = np.isfinite(p_elec_w)
-    ta, pa = analyzer_t_s[ok], p_elec_w[ok]
-
-    def on_grid(offset: float, t: np.ndarray) -> np.ndarray:
-        return np.interp(t - offset, ta, pa, left=np.nan, right=np.nan)
-
-    pm = _fill(p_mech_w)
-
-    def refine(guess: float, t: np.ndarray, x: np.ndarray) -> float:
-        """Maximise |corr| over a continuous offset within a grid step of ``guess``."""
-        dx = _increments(x)
-
-        def cost(off: float) -> float:
-            dy = _increments(_fill(on_grid(off, t)))
-            # plain sums, not BLAS dot: no thread pool spin-up on a busy machine
-            return -abs(float(np.sum(dx * dy)) / (float(np.sqrt(np.sum(dy * dy))) or 1.0))
-
-        return _grid_search(cost, guess, 1.5 * dt)
-
+    match = _PowerMatch(grid_t_s, p_mech_w, analyzer_t_s, p_elec_w)
     # global offset from the first SEGMENT_SPAN_S (cost independent of session length)
     first = slice(0, int(SEGMENT_SPAN_S / dt))
-    lag, corr = _peak_lag(pm[first], _fill(on_grid(prior_offset_s, grid_t_s[first])), dt,
+    lag, corr = _peak_lag(match.pm[first], _fill(match.on_grid(prior_offset_s,
+                                                                 grid_t_s[first])), dt,
                           max_lag_s)
-    offset = refine(prior_offset_s + lag, grid_t_s[first], pm[first])
-    # drift: the same in DRIFT_SEGMENTS segments (their central SEGMENT_SPAN_S), each
-    # searched around the offset the segments before it predict (drift over a long
-    # session adds up to seconds); a straight line through them gives offset and drift
-    span = float(grid_t_s[-1] - grid_t_s[0]) if grid_t_s.size else 0.0
-    n_seg = int(min(DRIFT_SEGMENTS, span // (MIN_DRIFT_SPAN_S / 2)))
-    half = int(SEGMENT_SPAN_S / dt) // 2
-    centres, offsets = [], []
-    for idx in np.array_split(np.arange(grid_t_s.size), n_seg) if n_seg >= 2 else []:
-        mid = int(idx[idx.size // 2])
-        sl = slice(max(int(idx[0]), mid - half), min(int(idx[-1]) + 1, mid + half))
-        t = grid_t_s[sl]
-        t_a = float(np.mean(t)) - offset  # on the analyzer clock
-        guess = offset if len(offsets) < 2 else float(np.polyval(
-            np.polyfit(centres, offsets, 1), t_a))
-        lag_h, corr_h = _peak_lag(pm[sl], _fill(on_grid(guess, t)), dt, min(2.0, max_lag_s))
-        if abs(corr_h) < MIN_HALF_CORRELATION:
-            continue
-        centres.append(t_a)
-        offsets.append(refine(guess + lag_h, t, pm[sl]))
+    offset = match.refine(prior_offset_s + lag, first)
+    centres, offsets = _segment_offsets(match, offset, max_lag_s)
     slope, estimate, sigma, note = 0.0, np.nan, np.nan, None
     if len(offsets) >= 2:
+        span = float(grid_t_s[-1] - grid_t_s[0])
         estimate, line_offset, sigma = drift_line(centres, offsets, OFFSET_FLOOR_STEPS * dt)
         if DRIFT_SIGMAS * sigma < abs(estimate):
             slope, offset = estimate, line_offset
@@ -211,6 +177,66 @@ def estimate_clock(
         drift_estimate_ppm=float(estimate * 1e6), drift_uncertainty_ppm=float(sigma * 1e6),
         drift_note=note,
     )
+
+
+class _PowerMatch:
+    """The DAQ's mechanical power on its grid against the analyzer's electrical power
+    moved onto that grid by a clock offset."""
+
+    def __init__(self, grid_t_s: np.ndarray, p_mech_w: np.ndarray, analyzer_t_s: np.ndarray,
+                 p_elec_w: np.ndarray) -> None:
+        self.grid_t_s = grid_t_s
+        self.dt = float(grid_t_s[1] - grid_t_s[0])
+        ok = np.isfinite(p_elec_w)
+        self.ta, self.pa = analyzer_t_s[ok], p_elec_w[ok]
+        self.pm = _fill(p_mech_w)
+
+    def on_grid(self, offset: float, t: np.ndarray) -> np.ndarray:
+        """The analyzer's power at DAQ times ``t`` [s] for a clock offset [s]."""
+        return np.interp(t - offset, self.ta, self.pa, left=np.nan, right=np.nan)
+
+    def refine(self, guess: float, sl: slice) -> float:
+        """Maximise |corr| over a continuous offset within a grid step of ``guess`` on the
+        grid slice ``sl``."""
+        t, dx = self.grid_t_s[sl], _increments(self.pm[sl])
+
+        def cost(off: float) -> float:
+            dy = _increments(_fill(self.on_grid(off, t)))
+            # plain sums, not BLAS dot: no thread pool spin-up on a busy machine
+            return -abs(float(np.sum(dx * dy)) / (float(np.sqrt(np.sum(dy * dy))) or 1.0))
+
+        return _grid_search(cost, guess, 1.5 * self.dt)
+
+
+def _segment_offsets(match: _PowerMatch, offset: float,
+                     max_lag_s: float) -> tuple[list[float], list[float]]:
+    """The offset in :data:`DRIFT_SEGMENTS` segments (their central SEGMENT_SPAN_S): their
+    centres on the analyzer clock and offsets [s].
+
+    Each segment is searched around the offset the segments before it predict (drift
+    over a long session adds up to seconds); a straight line through them gives offset
+    and drift. A segment whose correlation is below :data:`MIN_HALF_CORRELATION` is left
+    out.
+    """
+    grid_t_s, dt = match.grid_t_s, match.dt
+    span = float(grid_t_s[-1] - grid_t_s[0]) if grid_t_s.size else 0.0
+    n_seg = int(min(DRIFT_SEGMENTS, span // (MIN_DRIFT_SPAN_S / 2)))
+    half = int(SEGMENT_SPAN_S / dt) // 2
+    centres, offsets = [], []
+    for idx in np.array_split(np.arange(grid_t_s.size), n_seg) if n_seg >= 2 else []:
+        mid = int(idx[idx.size // 2])
+        sl = slice(max(int(idx[0]), mid - half), min(int(idx[-1]) + 1, mid + half))
+        t = grid_t_s[sl]
+        t_a = float(np.mean(t)) - offset  # on the analyzer clock
+        guess = offset if len(offsets) < 2 else float(np.polyval(
+            np.polyfit(centres, offsets, 1), t_a))
+        lag_h, corr_h = _peak_lag(match.pm[sl], _fill(match.on_grid(guess, t)), dt,
+                                  min(2.0, max_lag_s))
+        if abs(corr_h) < MIN_HALF_CORRELATION:
+            continue
+        centres.append(t_a)
+        offsets.append(match.refine(guess + lag_h, sl))
+    return centres, offsets
 
 
 def drift_line(t_s, offsets_s, floor_s: float) -> tuple[float, float, float]:

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import binom
 
-from bench.ingest.units import QUANTITY_KIND, TARGET_UNIT, alternatives
+from bench.ingest.column_units import QUANTITY_KIND, TARGET_UNIT, alternatives
 from kernel.errors import InputError
 from kernel.units import RPM_PER_RAD_S
 
@@ -323,41 +323,89 @@ def suspect_units(
     return [(q, u, r) for q, u, r, _ in found]
 
 
+def _range_problem(bad: np.ndarray, v: dict[str, np.ndarray], sources: dict[str, Source],
+                   ranges: dict[str, float]) -> tuple[str, list[str]]:
+    """What is outside the sensor ranges, and the quantities to blame."""
+    n = bad.size
+    worst, blamed = [], []
+    for q, key in (("speed", "speed"), ("torque", "torque"), ("p_elec", "power")):
+        m = float(np.max(np.abs(v[q])))
+        if key in ranges and m > RANGE_MARGIN * ranges[key]:
+            unit = TARGET_UNIT[QUANTITY_KIND[q]]
+            worst.append(f"{q} up to {m:,.6g} {unit} from {sources[q].describe()}, above "
+                         f"the {key} sensor range {ranges[key]:,.6g} {unit}")
+            blamed.append(q)
+    return (f"{int(bad.sum())} of {n} points ({bad.sum() / n:.0%}) outside the sensor "
+            "ranges: " + "; ".join(worst)), blamed
+
+
+def _power_problem(test: str, bad: np.ndarray, v: dict[str, np.ndarray],
+                   omega_t: np.ndarray) -> str:
+    """What is wrong with p_elec against omega*T, with the worst point as an example."""
+    n = bad.size
+    motor = omega_t > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        eta = np.where(motor, omega_t / v["p_elec"], v["p_elec"] / omega_t)
+    k = int(np.argmax(np.where(bad, np.abs(omega_t), -np.inf)))
+    quad = "motor" if motor[k] else "generator"
+    what = {REASON_ETA: "p_elec is below omega*T (efficiency above 1)",
+            TEST_P_ELEC_SMALL: f"p_elec is below {NEAR_ZERO_FRAC:.0%} of |omega*T| at "
+                               "high power",
+            TEST_ZERO_LOSS: f"p_elec equals omega*T within {ZERO_LOSS_RTOL:.1%} (losses "
+                            "zero within the instruments' accuracy)",
+            TEST_ETA_LOW: f"the efficiency is below {LOW_EFFICIENCY:.0%} at high power "
+                          f"(median {float(np.nanmedian(eta[bad])):.3g})"}[test]
+    what += (f" on {int(bad.sum())} of {n} points ({bad.sum() / n:.0%}), e.g. {quad} "
+             f"point {v['speed'][k]:.6g} rpm, {v['torque'][k]:.6g} N m: omega*T = "
+             f"{omega_t[k]:,.6g} W, p_elec = {v['p_elec'][k]:,.6g} W, efficiency "
+             f"{eta[k]:.4g}")
+    if test == REASON_ETA:
+        what += (f"; more than isolated outliers (up to {ISOLATED_RATE:.0%} of the points) "
+                 "explain: the mapping, not the points, is wrong")
+    return what
+
+
+def _p_mech_problem(bad: np.ndarray, v: dict[str, np.ndarray], omega_t: np.ndarray) -> str:
+    """How a mapped p_mech disagrees with omega*T, with the worst point as an example."""
+    n = bad.size
+    k = int(np.argmax(np.where(bad, np.abs(v["p_mech"] - omega_t), -np.inf)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = float(np.nanmedian(v["p_mech"][bad] / omega_t[bad]))
+    return (f"the mapped p_mech disagrees with omega*T by more than {P_MECH_RTOL:.0%} on "
+            f"{int(bad.sum())} of {n} points ({bad.sum() / n:.0%}; median ratio "
+            f"{ratio:.4g}), e.g. "
+            f"p_mech = {v['p_mech'][k]:,.6g} W against omega*T = {omega_t[k]:,.6g} W at "
+            f"{v['speed'][k]:.6g} rpm, {v['torque'][k]:.6g} N m")
+
+
+def _unit_hint(v: dict[str, np.ndarray], sources: dict[str, Source], ranges: dict[str, float],
+               blamed: list[str], where: Path) -> tuple[str, Path, str | None]:
+    """The unit change that explains the failure (or the columns to check) and the file and
+    column to name."""
+    suspects = suspect_units(v, sources, ranges)
+    if suspects:
+        q, unit, _ = suspects[0]
+        src = sources[q]
+        hint = f"suspect the {q} unit: {src.describe()} looks like {unit}"
+        if len(suspects) > 1:
+            hint += " (or " + ", ".join(f"{s} in {u}" for s, u, _ in suspects[1:3]) + ")"
+        return hint, src.path, src.column
+    hint = ("no single unit change explains it: check which columns the mapping names ("
+            + ", ".join(f"{q}: {sources[q].describe()}" for q in blamed if q in sources)
+            + ")")
+    first = next((sources[q] for q in blamed if q in sources), None)
+    path, column = (first.path, first.column) if first is not None else (where, None)
+    return hint, path, column
+
+
 def _systematic(test: str, bad: np.ndarray, v: dict[str, np.ndarray],
                 sources: dict[str, Source], ranges: dict[str, float], where: Path) -> InputError:
-    n = bad.size
+    """The error of a check that fails on too many points to be a few bad ones."""
     omega_t = v["speed"] * v["torque"] / RPM_PER_RAD_S
     if test == REASON_RANGE:
-        worst, blamed = [], []
-        for q, key in (("speed", "speed"), ("torque", "torque"), ("p_elec", "power")):
-            m = float(np.max(np.abs(v[q])))
-            if key in ranges and m > RANGE_MARGIN * ranges[key]:
-                unit = TARGET_UNIT[QUANTITY_KIND[q]]
-                worst.append(f"{q} up to {m:,.6g} {unit} from {sources[q].describe()}, above "
-                             f"the {key} sensor range {ranges[key]:,.6g} {unit}")
-                blamed.append(q)
-        what = (f"{int(bad.sum())} of {n} points ({bad.sum() / n:.0%}) outside the sensor "
-                "ranges: " + "; ".join(worst))
+        what, blamed = _range_problem(bad, v, sources, ranges)
     elif test in (REASON_ETA, TEST_P_ELEC_SMALL, TEST_ZERO_LOSS, TEST_ETA_LOW):
-        motor = omega_t > 0
-        with np.errstate(divide="ignore", invalid="ignore"):
-            eta = np.where(motor, omega_t / v["p_elec"], v["p_elec"] / omega_t)
-        k = int(np.argmax(np.where(bad, np.abs(omega_t), -np.inf)))
-        quad = "motor" if motor[k] else "generator"
-        what = {REASON_ETA: "p_elec is below omega*T (efficiency above 1)",
-                TEST_P_ELEC_SMALL: f"p_elec is below {NEAR_ZERO_FRAC:.0%} of |omega*T| at "
-                                   "high power",
-                TEST_ZERO_LOSS: f"p_elec equals omega*T within {ZERO_LOSS_RTOL:.1%} (losses "
-                                "zero within the instruments' accuracy)",
-                TEST_ETA_LOW: f"the efficiency is below {LOW_EFFICIENCY:.0%} at high power "
-                              f"(median {float(np.nanmedian(eta[bad])):.3g})"}[test]
-        what += (f" on {int(bad.sum())} of {n} points ({bad.sum() / n:.0%}), e.g. {quad} "
-                 f"point {v['speed'][k]:.6g} rpm, {v['torque'][k]:.6g} N m: omega*T = "
-                 f"{omega_t[k]:,.6g} W, p_elec = {v['p_elec'][k]:,.6g} W, efficiency "
-                 f"{eta[k]:.4g}")
-        if test == REASON_ETA:
-            what += (f"; more than isolated outliers (up to {ISOLATED_RATE:.0%} of the points) "
-                     "explain: the mapping, not the points, is wrong")
+        what = _power_problem(test, bad, v, omega_t)
         blamed = ["p_elec", "torque", "speed"]
         if test == TEST_ZERO_LOSS:
             return InputError(
@@ -369,29 +417,9 @@ def _systematic(test: str, bad: np.ndarray, v: dict[str, np.ndarray],
                 expected="the electrical power the drive draws from (or feeds into) the "
                 "grid or DC link: a power analyzer's total, or U * I (mapping: expr)")
     else:
-        k = int(np.argmax(np.where(bad, np.abs(v["p_mech"] - omega_t), -np.inf)))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = float(np.nanmedian(v["p_mech"][bad] / omega_t[bad]))
-        what = (f"the mapped p_mech disagrees with omega*T by more than {P_MECH_RTOL:.0%} on "
-                f"{int(bad.sum())} of {n} points ({bad.sum() / n:.0%}; median ratio "
-                f"{ratio:.4g}), e.g. "
-                f"p_mech = {v['p_mech'][k]:,.6g} W against omega*T = {omega_t[k]:,.6g} W at "
-                f"{v['speed'][k]:.6g} rpm, {v['torque'][k]:.6g} N m")
+        what = _p_mech_problem(bad, v, omega_t)
         blamed = ["p_mech", "torque", "speed"]
-    suspects = suspect_units(v, sources, ranges)
-    if suspects:
-        q, unit, _ = suspects[0]
-        src = sources[q]
-        hint = f"suspect the {q} unit: {src.describe()} looks like {unit}"
-        if len(suspects) > 1:
-            hint += " (or " + ", ".join(f"{s} in {u}" for s, u, _ in suspects[1:3]) + ")"
-        path, column = src.path, src.column
-    else:
-        hint = ("no single unit change explains it: check which columns the mapping names ("
-                + ", ".join(f"{q}: {sources[q].describe()}" for q in blamed if q in sources)
-                + ")")
-        first = next((sources[q] for q in blamed if q in sources), None)
-        path, column = (first.path, first.column) if first is not None else (where, None)
+    hint, path, column = _unit_hint(v, sources, ranges, blamed, where)
     return InputError(path, f"{what}; {hint}", column=column,
                       expected="the unit the column is really in (the mapping's 'unit'), or "
                       "the right column")

@@ -1,7 +1,7 @@
 """Clock-time columns: time of day and ISO 8601 date-times into seconds.
 
 A logger may write its time axis as a number (seconds, ``ms``, ``us``: a unit,
-handled by :mod:`units`) or as a clock reading:
+handled by :mod:`column_units`) or as a clock reading:
 
 - **time of day** ``hh:mm:ss`` with an optional fraction (``09:12:03.250``, or
   ``09:12:03,250`` in German locale) and an optional ``AM``/``PM`` (12-hour

@@ -17,7 +17,13 @@ from pathlib import Path
 import numpy as np
 
 from bench.ingest import expr
-from bench.ingest.units import ACCEPTED, QUANTITY_KIND, split_header, unit_factor, unit_problem
+from bench.ingest.column_units import (
+    ACCEPTED,
+    QUANTITY_KIND,
+    split_header,
+    unit_factor,
+    unit_problem,
+)
 from kernel.errors import InputError
 from kernel.files import parse_json, parse_toml, read_text
 
@@ -365,27 +371,9 @@ def resolve_columns(
     bare = [split_header(h)[0].lower() for h in stripped]
     found: dict[str, ResolvedColumn] = {}
     for quantity, spec in mapping.section(section).items():
-        if quantity not in required + optional:
-            continue
-        factor = (1.0 if quantity == "n_samples" else 1.0 / spec.rate_hz if quantity == COUNTER
-                  else unit_factor(QUANTITY_KIND[quantity], spec.unit))
-        names = ([c.name for c in expr.columns(spec.formula)] if spec.formula is not None
-                 else [spec.column])
-        sources = []
-        for name in names:
-            idx = _find_mapped(stripped, bare, name)
-            if idx is None:
-                where = "" if spec.formula is None else f" in {spec.column!r}"
-                raise InputError(
-                    mapping.path, f"mapping names column {name!r} for {quantity}{where}, "
-                    f"but {path.name} has no such column"
-                    + _header_hint(found, header_line, section), column=name,
-                    expected=closest_columns([name], stripped),
-                )
-            sources.append((name, idx))
-        header = stripped[sources[0][1]] if spec.formula is None else spec.column
-        found[quantity] = ResolvedColumn(sources[0][1], header, spec.unit, float(factor),
-                                         spec.formula, tuple(sources))
+        if quantity in required + optional:
+            found[quantity] = _mapped_column(path, stripped, bare, quantity, spec, mapping,
+                                             _header_hint(found, header_line, section))
     for quantity in required + optional:
         if quantity in found or quantity not in ALIASES:
             continue
@@ -401,25 +389,55 @@ def resolve_columns(
                     + closest_columns(list(ALIASES[quantity]), stripped),
                 )
             continue
-        unit = split_header(stripped[idx])[1]
-        if units_row is not None and idx < len(units_row) and units_row[idx].strip():
-            unit = units_row[idx].strip()
-        kind = QUANTITY_KIND[quantity]
-        if unit is None:
-            raise InputError(
-                path, f"column has no unit for {quantity}", line=header_line,
-                column=stripped[idx], expected=f"'Name [unit]' with unit one of {ACCEPTED[kind]}",
-            )
-        factor = unit_factor(kind, unit)
-        if factor is None:
-            raise InputError(
-                path, f"{unit_problem(kind, unit)} for {quantity}", line=header_line,
-                column=stripped[idx], expected=ACCEPTED[kind],
-            )
-        found[quantity] = ResolvedColumn(idx, stripped[idx], unit, factor,
-                                         sources=((stripped[idx], idx),))
+        found[quantity] = _aliased_column(path, stripped, units_row, quantity, idx, header_line)
     _check_distinct(path, mapping, found)
     return found
+
+
+def _mapped_column(path: Path, stripped: list[str], bare: list[str], quantity: str, spec,
+                   mapping: Mapping, hint: str) -> ResolvedColumn:
+    """The file column (or columns of a combination) the mapping names for ``quantity``;
+    ``hint``: what to add to the error when one is missing (:func:`_header_hint`)."""
+    factor = (1.0 if quantity == "n_samples" else 1.0 / spec.rate_hz if quantity == COUNTER
+              else unit_factor(QUANTITY_KIND[quantity], spec.unit))
+    names = ([c.name for c in expr.columns(spec.formula)] if spec.formula is not None
+             else [spec.column])
+    sources = []
+    for name in names:
+        idx = _find_mapped(stripped, bare, name)
+        if idx is None:
+            where = "" if spec.formula is None else f" in {spec.column!r}"
+            raise InputError(
+                mapping.path, f"mapping names column {name!r} for {quantity}{where}, "
+                f"but {path.name} has no such column" + hint, column=name,
+                expected=closest_columns([name], stripped),
+            )
+        sources.append((name, idx))
+    header = stripped[sources[0][1]] if spec.formula is None else spec.column
+    return ResolvedColumn(sources[0][1], header, spec.unit, float(factor), spec.formula,
+                          tuple(sources))
+
+
+def _aliased_column(path: Path, stripped: list[str], units_row: list[str] | None,
+                    quantity: str, idx: int, header_line: int | None) -> ResolvedColumn:
+    """Column ``idx``, found by alias, for ``quantity``, its unit from its name or the units
+    row (InputError when missing or unknown)."""
+    unit = split_header(stripped[idx])[1]
+    if units_row is not None and idx < len(units_row) and units_row[idx].strip():
+        unit = units_row[idx].strip()
+    kind = QUANTITY_KIND[quantity]
+    if unit is None:
+        raise InputError(
+            path, f"column has no unit for {quantity}", line=header_line,
+            column=stripped[idx], expected=f"'Name [unit]' with unit one of {ACCEPTED[kind]}",
+        )
+    factor = unit_factor(kind, unit)
+    if factor is None:
+        raise InputError(
+            path, f"{unit_problem(kind, unit)} for {quantity}", line=header_line,
+            column=stripped[idx], expected=ACCEPTED[kind],
+        )
+    return ResolvedColumn(idx, stripped[idx], unit, factor, sources=((stripped[idx], idx),))
 
 
 def _alias_column(bare: list[str], aliases: tuple[str, ...]) -> int | None:

@@ -22,8 +22,8 @@ from pathlib import Path
 import pyarrow.parquet as pq
 from tqdm import tqdm
 
+from bench.ingest.csv_stream import CHUNK_BYTES
 from bench.ingest.mapping import EMPTY_MAPPING, load_mapping
-from bench.ingest.readers import CHUNK_BYTES
 from bench.ingest.session import Session, complete_ranges, discover, load_session
 from bench.ingest.steady import DEFAULT_STEADY, SteadyConfig
 from bench.ingest.table import process_table
@@ -171,10 +171,60 @@ def ingest(
         Any bad input; the store is then left exactly as it was.
     """
     store_dir = Path(store_dir)
+    user_mapping = _checked_options(mapping_path, store_dir)
+    sessions, seen, drives = _load_sessions(paths, notify)
+    result = IngestResult(store_dir=store_dir)
+    with StoreWriter(store_dir, wait=wait, notify=notify,
+                     provenance=Provenance.start(command_line)) as writer:
+        _say_store_problems(writer, notify)
+        # hashing runs in a background thread (hashlib releases the GIL); a session
+        # already in the manifest waits for its hashes to decide whether it changed
+        hasher = ThreadPoolExecutor(max_workers=1)
+        try:
+            todo = [item for s in sessions
+                    if (item := _changed(s, user_mapping, drives[s.session_id][1], writer,
+                                         hasher, result, notify)) is not None]
+            writer.require_repair(seen)
+            _say_replaced(result, replace, seen, store_dir, notify)
+            if strict:
+                _strict_unchanged(sessions, result.unchanged, writer.manifest)
+            if todo:
+                _process_into_store(todo, writer, config, progress, chunk_bytes, workers,
+                                    result, {sid: d for sid, (d, _) in drives.items()}, strict)
+        finally:
+            hasher.shutdown(cancel_futures=True)
+        result.manifest = writer.manifest
+    return result
+
+
+def _say_store_problems(writer: StoreWriter, notify: Callable[[str], None]) -> None:
+    """Say what the store check found besides damaged sessions (those are re-ingested and
+    said so): a missing generation, folders an interrupted ingest left."""
+    for line in writer.damage.lines():
+        if not line.startswith("session "):
+            notify(f"bench ingest: store {writer.store}: {line}")
+
+
+def _checked_options(mapping_path: str | Path | None, store_dir: Path) -> Path | None:
+    """The ``--mapping`` file, read once to fail early when it is bad, after which the
+    store path is checked (InputError when it is no store)."""
     user_mapping = Path(mapping_path) if mapping_path is not None else None
     if user_mapping is not None:
         load_mapping(user_mapping)  # fail early on a bad --mapping file
     read_manifest(store_dir)  # fail early on a path that is no store
+    return user_mapping
+
+
+def _load_sessions(paths: list[str | Path], notify: Callable[[str], None]) -> tuple[
+        list[Session], dict[str, Path], dict[str, tuple[dict | None, Path | None]]]:
+    """The sessions under ``paths`` (their sensor ranges completed from the drive rating),
+    session_id -> its folder, and session_id -> (drive rating, drive.toml).
+
+    Raises
+    ------
+    InputError
+        A bad session.toml or drive.toml, a session id found twice.
+    """
     sessions: list[Session] = []
     seen: dict[str, Path] = {}
     drives: dict[str, tuple[dict | None, Path | None]] = {}  # rating, drive.toml
@@ -192,73 +242,64 @@ def ingest(
         seen[s.session_id] = folder
         sessions.append(s)
         drives[s.session_id] = (rating, drive_file)
+    return sessions, seen, drives
 
-    result = IngestResult(store_dir=store_dir)
-    with StoreWriter(store_dir, wait=wait, notify=notify,
-                     provenance=Provenance.start(command_line)) as writer:
-        manifest = writer.manifest
-        damage = writer.damage
-        for line in damage.lines():
-            if not line.startswith("session "):
-                notify(f"bench ingest: store {store_dir}: {line}")
-        todo = []
-        # hashing runs in a background thread (hashlib releases the GIL); a session
-        # already in the manifest waits for its hashes to decide whether it changed
-        hasher = ThreadPoolExecutor(max_workers=1)
-        try:
-            for s in sessions:
-                files, mapping_file = session_files(s, user_mapping)
-                named = {f"{s.session_id}/{name}": p for name, p in files.items()}
-                if mapping_file is not None and mapping_file not in files.values():
-                    named[f"--mapping/{mapping_file.name}"] = mapping_file
-                drive_file = drives[s.session_id][1]
-                if drive_file is not None:  # a changed drive.toml re-ingests the session
-                    named[f"campaign/{os.path.relpath(drive_file, s.folder.parent)}"] = \
-                        drive_file
-                hashes = {k: hasher.submit(file_sha256, p) for k, p in named.items()}
-                old = manifest["sessions"].get(s.session_id)
-                broken = damage.sessions.get(s.session_id) or (
-                    [damage.generation] if old is not None and damage.generation else [])
-                if broken:
-                    result.repaired[s.session_id] = broken
-                    notify(f"bench ingest: stored files of session {s.session_id!r} are "
-                           f"damaged ({'; '.join(broken)}); re-ingesting it")
-                elif (old is not None and old.get("ingest_version") == INGEST_VERSION
-                        and old.get("files") == {k: f.result() for k, f in hashes.items()}):
-                    result.unchanged.append(s.session_id)
-                    continue
-                if old is not None and old.get("source") not in (None, str(s.folder)):
-                    result.replaced[s.session_id] = old["source"]
-                todo.append((s, hashes, mapping_file, files))
-            writer.require_repair(seen)
-            if result.replaced and not replace:
-                lines = "; ".join(f"{sid!r} (stored from {src})"
-                                  for sid, src in sorted(result.replaced.items()))
-                raise InputError(store_dir, f"would replace stored sessions of another "
-                                 f"source: {lines}",
-                                 expected="new session ids, or no --no-replace")
-            for sid, src in sorted(result.replaced.items()):
-                notify(f"bench ingest: replacing stored session {sid!r} (from {src}) "
-                       f"with {seen[sid]}")
-            if strict:
-                for s in sessions:
-                    if s.session_id in result.unchanged:
-                        _strict_check(s, manifest["sessions"][s.session_id])
-            if todo:
-                try:
-                    _process(todo, writer, config, progress, chunk_bytes, workers, result,
-                             {sid: d for sid, (d, _) in drives.items()}, strict)
-                except OSError as exc:  # writing the store: name it
-                    if exc.errno not in WRITE_ERRNOS:
-                        raise
-                    reason = WRITE_ERRNOS[exc.errno]
-                    raise InputError(store_dir, f"cannot write to the store ({reason}); "
-                                     "nothing was committed",
-                                     expected="free space for the store") from exc
-        finally:
-            hasher.shutdown(cancel_futures=True)
-        result.manifest = writer.manifest
-    return result
+
+def _changed(s: Session, user_mapping: Path | None, drive_file: Path | None,
+             writer: StoreWriter, hasher: ThreadPoolExecutor, result: IngestResult,
+             notify: Callable[[str], None]) -> tuple | None:
+    """The work item ``(session, hashes, mapping file, files)`` of a session to (re)ingest;
+    None (and the session listed as unchanged) when its files hash as recorded."""
+    files, mapping_file = session_files(s, user_mapping)
+    named = {f"{s.session_id}/{name}": p for name, p in files.items()}
+    if mapping_file is not None and mapping_file not in files.values():
+        named[f"--mapping/{mapping_file.name}"] = mapping_file
+    if drive_file is not None:  # a changed drive.toml re-ingests the session
+        named[f"campaign/{os.path.relpath(drive_file, s.folder.parent)}"] = drive_file
+    hashes = {k: hasher.submit(file_sha256, p) for k, p in named.items()}
+    old = writer.manifest["sessions"].get(s.session_id)
+    damage = writer.damage
+    broken = damage.sessions.get(s.session_id) or (
+        [damage.generation] if old is not None and damage.generation else [])
+    if broken:
+        result.repaired[s.session_id] = broken
+        notify(f"bench ingest: stored files of session {s.session_id!r} are "
+               f"damaged ({'; '.join(broken)}); re-ingesting it")
+    elif (old is not None and old.get("ingest_version") == INGEST_VERSION
+            and old.get("files") == {k: f.result() for k, f in hashes.items()}):
+        result.unchanged.append(s.session_id)
+        return None
+    if old is not None and old.get("source") not in (None, str(s.folder)):
+        result.replaced[s.session_id] = old["source"]
+    return s, hashes, mapping_file, files
+
+
+def _say_replaced(result: IngestResult, replace: bool, seen: dict[str, Path],
+                  store_dir: Path, notify: Callable[[str], None]) -> None:
+    """Name the stored sessions a session of the same id from another folder replaces;
+    refuse (InputError) when ``replace`` is False."""
+    if result.replaced and not replace:
+        lines = "; ".join(f"{sid!r} (stored from {src})"
+                          for sid, src in sorted(result.replaced.items()))
+        raise InputError(store_dir, f"would replace stored sessions of another "
+                         f"source: {lines}",
+                         expected="new session ids, or no --no-replace")
+    for sid, src in sorted(result.replaced.items()):
+        notify(f"bench ingest: replacing stored session {sid!r} (from {src}) "
+               f"with {seen[sid]}")
+
+
+def _process_into_store(todo, writer: StoreWriter, *args) -> None:
+    """:func:`_process`, an error writing the store named as such (nothing committed)."""
+    try:
+        _process(todo, writer, *args)
+    except OSError as exc:  # writing the store: name it
+        if exc.errno not in WRITE_ERRNOS:
+            raise
+        reason = WRITE_ERRNOS[exc.errno]
+        raise InputError(writer.store, f"cannot write to the store ({reason}); "
+                         "nothing was committed",
+                         expected="free space for the store") from exc
 
 
 def _strict_check(s: Session, entry: dict) -> None:
@@ -266,6 +307,13 @@ def _strict_check(s: Session, entry: dict) -> None:
     if entry.get("n_points", 0) == 0:
         raise InputError(s.path, entry.get("no_points_note", "0 points"),
                          expected="at least one steady operating point (--strict)")
+
+
+def _strict_unchanged(sessions: list[Session], unchanged: list[str], manifest: dict) -> None:
+    """``--strict``: :func:`_strict_check` of the sessions not ingested again."""
+    for s in sessions:
+        if s.session_id in unchanged:
+            _strict_check(s, manifest["sessions"][s.session_id])
 
 
 def _process(todo, writer: StoreWriter, config: SteadyConfig, progress: bool,

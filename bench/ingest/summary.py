@@ -45,15 +45,9 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict,
             tot[k] += q.get(k, 0)
         for r, n in e["rejected"].items():
             tot_rej[r] = tot_rej.get(r, 0) + n
-        rows.append((
-            sid, "unchanged" if sid not in ingested else "repaired" if sid in repaired
-            else "ingested", e["kind"], e["mode"],
-            str(q.get("motor", 0)), str(q.get("generator", 0)),
-            _fmt(e.get("clock_offset_s"), ".4f"), _fmt(e.get("clock_drift_ppm"), ".1f"),
-            "none" if e.get("torque_zero_offset_nm") is None
-            else format(e["torque_zero_offset_nm"], ".3f"),
-            ", ".join(f"{r}: {n}" for r, n in e["rejected"].items()) or "-",
-        ))
+        status = ("unchanged" if sid not in ingested else "repaired" if sid in repaired
+                  else "ingested")
+        rows.append(_row(sid, status, e))
         if e.get("n_points", 0) == 0:
             no_points.append(f"{sid}: {e.get('no_points_note', '0 points')}")
         if e.get("clock_drift_note"):
@@ -63,6 +57,28 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict,
     rows.append(("total", f"{len(ingested)} new", "", "", str(tot["motor"]),
                  str(tot["generator"]), "", "", "",
                  ", ".join(f"{r}: {n}" for r, n in sorted(tot_rej.items())) or "-"))
+    notes = [f"NO POINTS from {n}" for n in no_points]
+    notes += [f"no torque-flange tare, torque not zero-corrected: {n}" for n in no_tare]
+    notes += no_drift
+    return "\n".join([*_table(head, rows), *notes])
+
+
+def _row(sid: str, status: str, e: dict) -> tuple[str, ...]:
+    """One session's row of the table, from its manifest entry ``e``."""
+    q = e["points_per_quadrant"]
+    return (
+        sid, status, e["kind"], e["mode"],
+        str(q.get("motor", 0)), str(q.get("generator", 0)),
+        _fmt(e.get("clock_offset_s"), ".4f"), _fmt(e.get("clock_drift_ppm"), ".1f"),
+        "none" if e.get("torque_zero_offset_nm") is None
+        else format(e["torque_zero_offset_nm"], ".3f"),
+        ", ".join(f"{r}: {n}" for r, n in e["rejected"].items()) or "-",
+    )
+
+
+def _table(head: tuple[str, ...], rows: list[tuple[str, ...]]) -> list[str]:
+    """The table's lines: head, rule, the sessions, rule, the total (the last row); numbers
+    right-aligned."""
     widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(head)]
     right = {4, 5, 6, 7, 8}
 
@@ -71,8 +87,4 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict,
                          for i, (c, w) in enumerate(zip(cells, widths, strict=True))).rstrip()
 
     sep = "  ".join("-" * w for w in widths)
-    notes = [f"NO POINTS from {n}" for n in no_points]
-    notes += [f"no torque-flange tare, torque not zero-corrected: {n}" for n in no_tare]
-    notes += no_drift
-    return "\n".join([line(head), sep, *(line(r) for r in rows[:-1]), sep, line(rows[-1]),
-                      *notes])
+    return [line(head), sep, *(line(r) for r in rows[:-1]), sep, line(rows[-1])]

@@ -7,16 +7,13 @@ import math
 import numpy as np
 
 from bench.ingest import checks, steady
+from bench.ingest.csv_layout import line_of_row
+from bench.ingest.drum_frame import check_drum_torque, fold_signed
 from bench.ingest.mapping import Mapping
-from bench.ingest.readers import line_of_row, read_points_table
+from bench.ingest.readers import read_points_table
 from bench.ingest.session import Session
-from bench.ingest.timeseries import (
-    SessionOutput,
-    check_drum_torque,
-    fold_signed,
-    points_table,
-    rejected_table,
-)
+from bench.ingest.store_tables import points_table, rejected_table
+from bench.ingest.timeseries import SessionOutput
 from kernel.errors import InputError
 from kernel.units import RPM_PER_RAD_S
 

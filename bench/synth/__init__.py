@@ -5,7 +5,7 @@ Modules, one concept each:
 - :mod:`loss_model`: the true drive power ``true_p_elec_w(speed_rpm, torque_nm, theta_c,
   model)``, the thermal step, the paper's quadratic fit and its calibration.
 - :mod:`plan`: the campaign's sessions (:data:`plan.CAMPAIGN`) and their operating points.
-- :mod:`timeseries`: step timing, transients, winding temperature, true signals and
+- :mod:`true_signals`: step timing, transients, winding temperature, true signals and
   steady-window means.
 - :mod:`instruments`: what the DAQ, the power analyzer and the bench software log.
 - :mod:`numfmt`, :mod:`writers`: fast deterministic CSV text, TDMS, atomic writes.

@@ -29,7 +29,7 @@ from bench.synth.loss_model import (
 )
 from bench.synth.plan import CAMPAIGN, DRIVE, GEAR_RATIO, SessionSpec, operating_points
 from bench.synth.readme import campaign_readme
-from bench.synth.timeseries import (
+from bench.synth.true_signals import (
     DEFAULT_DYNAMICS,
     Segments,
     build_segments,
@@ -152,6 +152,93 @@ def _bad_points(f: flt.Faults) -> list[dict]:
     return out
 
 
+def _file_record(path: Path) -> dict:
+    """The SHA-256 and size of a written file (``truth.json`` ``files``)."""
+    return {"sha256": file_sha256(path), "bytes": path.stat().st_size}
+
+
+def _write_timeseries(p: PlannedSession, seg: Segments, folder: Path, model: LossModel,
+                      seed: int, inst: ins.Instruments, bar) -> tuple[dict, dict]:
+    """Write a timeseries session's DAQ and analyzer files; their names and its truth."""
+    spec = p.spec
+    names = {"daq": "daq.tdms" if spec.daq_format == "tdms" else "daq.csv",
+             "analyzer": "analyzer.csv"}
+    daq_rows = sf.write_daq(seg, spec, folder / names["daq"], model,
+                            ins.ChunkRandom([seed, p.index, _DAQ]), inst, bar)
+    an_rows, header_offset = sf.write_analyzer(
+        seg, spec, p.index, folder / names["analyzer"], model,
+        ins.ChunkRandom([seed, p.index, _ANALYZER]), inst)
+    info = {
+        "daq_rows": daq_rows, "analyzer_rows": an_rows,
+        "duration_s": round(seg.duration_s, 4),
+        # standstill without load before the first step (true torque 0)
+        "tare": {"t_start_s": 0.0, "t_end_s": round(float(seg.t_start_s[0]), 4)},
+        "n_good_points": int(p.faults.good.sum()),
+        "bad_points": _bad_points(p.faults),
+        "clock": {
+            "model": "t_daq_s = offset_s + (1 + drift_ppm * 1e-6) * t_analyzer_s",
+            "offset_s": spec.analyzer_delay_s,
+            "drift_ppm": spec.analyzer_drift_ppm,
+            "header_offset_s": header_offset,
+            "header_error_s": round(header_offset - spec.analyzer_delay_s, 6),
+            # an analyzer record is the mean over the interval before its time
+            # stamp, then a first-order lag: slow power changes appear this late
+            "power_reading_delay_s": round(
+                inst.analyzer_interval_s / 2 + inst.analyzer_tau_s, 6),
+        },
+    }
+    return names, info
+
+
+def _write_session(p: PlannedSession, seg: Segments, means: dict, out_dir: Path,
+                   model: LossModel, seed: int, inst: ins.Instruments,
+                   bar) -> tuple[dict, dict[str, dict]]:
+    """Write one session's folder; its truth and its files' records."""
+    spec = p.spec
+    folder = out_dir / spec.session_id
+    folder.mkdir(exist_ok=True)
+    bar.set_postfix_str(spec.session_id)
+    info = {"kind": spec.kind, "mode": spec.mode, "n_points": int(seg.speed_rpm.size),
+            "measured_side": spec.measured_side, "speed_sign": spec.speed_sign,
+            "torque_sign": spec.torque_sign, "theta_start_c": spec.theta_start_c,
+            "ambient_c": spec.ambient_c,
+            "torque_zero_offset_drum_nm": ins.torque_offset_drum_nm(spec, inst)}
+    if spec.kind == "timeseries":
+        names, more = _write_timeseries(p, seg, folder, model, seed, inst, bar)
+        info.update(more)
+    else:
+        names = {"points": "points.csv", "mapping": "mapping.toml"}
+        sf.write_table(seg, means, spec, folder, _rng(seed, p.index, _TABLE), inst)
+    write_text_atomic(folder / "session.toml", sf.session_toml(spec, names))
+    files = {f"{spec.session_id}/{rel}": _file_record(folder / rel)
+             for rel in [*names.values(), "session.toml"]}
+    info["points"] = _truth_points(seg, means)
+    return info, files
+
+
+def _truth(seed: int, scale: int, calibration: dict, model: LossModel, inst: ins.Instruments,
+           files: dict, sessions: dict) -> dict:
+    """The content of ``truth.json``."""
+    return {
+        "schema": "drivebench.synth_truth", "generator": "bench.synth",
+        "generator_version": GENERATOR_VERSION, "seed": seed, "scale": scale,
+        "sign_convention": "drum frame; p_elec_w > 0 drawn from the grid; "
+                           "p_mech_w = speed_rad_s * torque_nm; generating speed < 0",
+        "reference_quadratic_rpm": dict(zip(("a0_w", "a1_w_per_rpm2", "a2_w_per_nm2",
+                                             "a3_w_per_rpm_nm"), PAPER_QUADRATIC, strict=True)),
+        "calibration": calibration,
+        "loss_model_formula": FORMULA,
+        "loss_model": model.to_dict(),
+        "dynamics": dataclasses.asdict(DEFAULT_DYNAMICS),
+        "faults": {"config": dataclasses.asdict(flt.DEFAULT_FAULTS), "why": flt.WHY},
+        "instruments": dataclasses.asdict(inst),
+        "gear_ratio": GEAR_RATIO,
+        "drive": DRIVE.to_dict(),
+        "files": files,
+        "sessions": sessions,
+    }
+
+
 def generate(out_dir: Path, seed: int = DEFAULT_SEED, scale: int = 1, *,
              inst: ins.Instruments = ins.DEFAULT_INSTRUMENTS, progress: bool = True) -> dict:
     """Generate the campaign into ``out_dir``; returns the truth written to ``truth.json``.
@@ -183,56 +270,12 @@ def generate(out_dir: Path, seed: int = DEFAULT_SEED, scale: int = 1, *,
                      for p, s in zip(planned, segs, strict=True) if p.spec.kind == "timeseries")
     sessions = {}
     files: dict[str, dict] = {}
-    bar = tqdm(total=total_rows, unit="row", unit_scale=True, desc="bench synth",
-               disable=not progress)
-    with bar:
+    with tqdm(total=total_rows, unit="row", unit_scale=True, desc="bench synth",
+              disable=not progress) as bar:
         for p, seg, means in zip(planned, segs, all_means, strict=True):
-            spec = p.spec
-            folder = out_dir / spec.session_id
-            folder.mkdir(exist_ok=True)
-            bar.set_postfix_str(spec.session_id)
-            info = {"kind": spec.kind, "mode": spec.mode, "n_points": int(seg.speed_rpm.size),
-                    "measured_side": spec.measured_side, "speed_sign": spec.speed_sign,
-                    "torque_sign": spec.torque_sign, "theta_start_c": spec.theta_start_c,
-                    "ambient_c": spec.ambient_c,
-                    "torque_zero_offset_drum_nm": ins.torque_offset_drum_nm(spec, inst)}
-            if spec.kind == "timeseries":
-                names = {"daq": "daq.tdms" if spec.daq_format == "tdms" else "daq.csv",
-                         "analyzer": "analyzer.csv"}
-                daq_rows = sf.write_daq(seg, spec, folder / names["daq"], model,
-                                        ins.ChunkRandom([seed, p.index, _DAQ]), inst, bar)
-                an_rows, header_offset = sf.write_analyzer(
-                    seg, spec, p.index, folder / names["analyzer"], model,
-                    ins.ChunkRandom([seed, p.index, _ANALYZER]), inst)
-                info.update({
-                    "daq_rows": daq_rows, "analyzer_rows": an_rows,
-                    "duration_s": round(seg.duration_s, 4),
-                    # standstill without load before the first step (true torque 0)
-                    "tare": {"t_start_s": 0.0, "t_end_s": round(float(seg.t_start_s[0]), 4)},
-                    "n_good_points": int(p.faults.good.sum()),
-                    "bad_points": _bad_points(p.faults),
-                    "clock": {
-                        "model": "t_daq_s = offset_s + (1 + drift_ppm * 1e-6) * t_analyzer_s",
-                        "offset_s": spec.analyzer_delay_s,
-                        "drift_ppm": spec.analyzer_drift_ppm,
-                        "header_offset_s": header_offset,
-                        "header_error_s": round(header_offset - spec.analyzer_delay_s, 6),
-                        # an analyzer record is the mean over the interval before its time
-                        # stamp, then a first-order lag: slow power changes appear this late
-                        "power_reading_delay_s": round(
-                            inst.analyzer_interval_s / 2 + inst.analyzer_tau_s, 6),
-                    },
-                })
-            else:
-                names = {"points": "points.csv", "mapping": "mapping.toml"}
-                sf.write_table(seg, means, spec, folder, _rng(seed, p.index, _TABLE), inst)
-            write_text_atomic(folder / "session.toml", sf.session_toml(spec, names))
-            for rel in [*names.values(), "session.toml"]:
-                path = folder / rel
-                files[f"{spec.session_id}/{rel}"] = {"sha256": file_sha256(path),
-                                                     "bytes": path.stat().st_size}
-            info["points"] = _truth_points(seg, means)
-            sessions[spec.session_id] = info
+            info, written = _write_session(p, seg, means, out_dir, model, seed, inst, bar)
+            files.update(written)
+            sessions[p.spec.session_id] = info
     calibration = {
         "ols_fit_rpm": [float(f"{c:.8g}") for c in fit],
         "residual_std_w": round(float(resid.std()), 3),
@@ -240,30 +283,11 @@ def generate(out_dir: Path, seed: int = DEFAULT_SEED, scale: int = 1, *,
         "nominal_power_w": NOMINAL_POWER_W,
     }
     write_text_atomic(out_dir / DRIVE_FILE, drive_toml(DRIVE))
-    files[DRIVE_FILE] = {"sha256": file_sha256(out_dir / DRIVE_FILE),
-                         "bytes": (out_dir / DRIVE_FILE).stat().st_size}
+    files[DRIVE_FILE] = _file_record(out_dir / DRIVE_FILE)
     readme = campaign_readme(seed, scale, sessions, calibration, inst)
     write_text_atomic(out_dir / "README.md", readme)
-    files["README.md"] = {"sha256": file_sha256(out_dir / "README.md"),
-                          "bytes": (out_dir / "README.md").stat().st_size}
-    truth = {
-        "schema": "drivebench.synth_truth", "generator": "bench.synth",
-        "generator_version": GENERATOR_VERSION, "seed": seed, "scale": scale,
-        "sign_convention": "drum frame; p_elec_w > 0 drawn from the grid; "
-                           "p_mech_w = speed_rad_s * torque_nm; generating speed < 0",
-        "reference_quadratic_rpm": dict(zip(("a0_w", "a1_w_per_rpm2", "a2_w_per_nm2",
-                                             "a3_w_per_rpm_nm"), PAPER_QUADRATIC, strict=True)),
-        "calibration": calibration,
-        "loss_model_formula": FORMULA,
-        "loss_model": model.to_dict(),
-        "dynamics": dataclasses.asdict(DEFAULT_DYNAMICS),
-        "faults": {"config": dataclasses.asdict(flt.DEFAULT_FAULTS), "why": flt.WHY},
-        "instruments": dataclasses.asdict(inst),
-        "gear_ratio": GEAR_RATIO,
-        "drive": DRIVE.to_dict(),
-        "files": files,
-        "sessions": sessions,
-    }
+    files["README.md"] = _file_record(out_dir / "README.md")
+    truth = _truth(seed, scale, calibration, model, inst, files, sessions)
     write_text_atomic(out_dir / TRUTH_FILE, truth_json(truth))
     return truth
 

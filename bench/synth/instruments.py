@@ -1,6 +1,6 @@
 """What the bench instruments log: DAQ (speed, torque), power analyzer, averaged tables.
 
-Each function turns the true signals of :mod:`bench.synth.timeseries` into one
+Each function turns the true signals of :mod:`bench.synth.true_signals` into one
 chunk of an instrument's records: sample clock, sensor side and sign, zero offset,
 noise, averaging and lag, quantization and the occasional invalid-value marker.
 """
@@ -14,7 +14,7 @@ from scipy import signal
 
 from bench.synth.loss_model import LossModel
 from bench.synth.plan import GEAR_RATIO, SessionSpec
-from bench.synth.timeseries import Segments, true_signals
+from bench.synth.true_signals import Segments, true_signals
 from kernel.units import RPM_PER_RAD_S
 
 #: the overflow value many instruments write for an invalid reading
@@ -217,7 +217,7 @@ def averaged_table(seg: Segments, truth: dict, spec: SessionSpec, rng: np.random
     Parameters
     ----------
     truth : dict
-        :func:`bench.synth.timeseries.window_means` of the session.
+        :func:`bench.synth.true_signals.window_means` of the session.
 
     Returns
     -------

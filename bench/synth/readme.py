@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from bench.synth.instruments import Instruments
 from bench.synth.plan import CAMPAIGN
-from bench.synth.timeseries import DEFAULT_DYNAMICS as dyn
+from bench.synth.true_signals import DEFAULT_DYNAMICS as dyn
 
 _DAQ = {"csv_en": "CSV (English)", "csv_de": "CSV (German: `;`, decimal comma, units row)",
         "tdms": "NI TDMS"}
@@ -15,6 +15,13 @@ _ANALYZER = {"en_kw": "vendor CSV, kW", "en_w": "vendor CSV, W",
 def campaign_readme(seed: int, scale: int, sessions: dict, calibration: dict,
                     inst: Instruments) -> str:
     """Describe the campaign, its sessions and the exact command that made it."""
+    return "\n".join([*_intro_lines(seed, scale, calibration, inst),
+                      *_session_rows(sessions), ""])
+
+
+def _intro_lines(seed: int, scale: int, calibration: dict, inst: Instruments) -> list[str]:
+    """The command, the drive, the truth, the instruments and the faults, in words; the
+    head of the sessions' table."""
     scale_arg = "" if scale == 1 else f" --scale {scale}"
     nominal = calibration["nominal_power_w"]
     lines = [
@@ -64,6 +71,12 @@ def campaign_readme(seed: int, scale: int, sessions: dict, calibration: dict,
         "| session | kind | mode | points | faulty | files | notes |",
         "|---|---|---|---:|---:|---|---|",
     ]
+    return lines
+
+
+def _session_rows(sessions: dict) -> list[str]:
+    """One row of the sessions' table per session (its truth ``info``)."""
+    lines = []
     specs = {s.session_id: s for s in CAMPAIGN}
     for sid, info in sessions.items():
         spec = specs[sid]
@@ -78,5 +91,4 @@ def campaign_readme(seed: int, scale: int, sessions: dict, calibration: dict,
         bad = len(info.get("bad_points", []))
         lines.append(f"| {sid} | {info['kind']} | {info['mode']} | {info['n_points']} | "
                      f"{bad} | {files} | {'; '.join(detail)} |")
-    lines.append("")
-    return "\n".join(lines)
+    return lines

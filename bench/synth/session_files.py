@@ -17,7 +17,7 @@ from tqdm import tqdm
 from bench.synth import instruments as ins
 from bench.synth.loss_model import LossModel
 from bench.synth.plan import GEAR_RATIO, SessionSpec
-from bench.synth.timeseries import Segments
+from bench.synth.true_signals import Segments
 from bench.synth.writers import CsvStream, TdmsStream, toml_document
 from kernel.files import write_text_atomic
 

@@ -14,12 +14,10 @@ from fitting.efficiency import (
     OK,
     OUTSIDE_DOMAIN,
     MaskingRules,
-    band_shares,
-    gridded_map,
     masked_efficiency,
-    peak_points,
-    point_uncertainty,
 )
+from fitting.efficiency_map import band_shares, gridded_map, peak_points
+from fitting.point_uncertainty import point_uncertainty
 from fitting.points import quadrant_of
 from optimize.paper_model import paper_model
 

@@ -12,18 +12,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from fitting.efficiency import (
-    REPEAT_COLUMN,
-    MaskingRules,
-    efficiency_ceilings,
-    gridded_map,
-    loss_repeatability,
-    map_at,
-    points_against_map,
-    read_grid,
-    with_repeatability,
-)
+from fitting.efficiency import MaskingRules
+from fitting.efficiency_map import gridded_map, map_at
+from fitting.map_honesty import points_against_map, read_grid
+from fitting.point_uncertainty import REPEAT_COLUMN, efficiency_ceilings
 from fitting.points import quadrant_of
+from fitting.repeatability import loss_repeatability, with_repeatability
 
 RULES = MaskingRules(nominal_power_w=8200.0)
 REPEAT_W = 60.0  # the true repeat scatter of one point's loss [W]
@@ -107,7 +101,7 @@ def test_the_shipped_grid_shows_every_point_within_its_uncertainty(sessions):
     if sessions == 3:
         # with the repeat scatter in each point's uncertainty, the repeats disagree as
         # often as chance says (two combined sigmas: ~5 %), not as the window errors do
-        from fitting.efficiency import repeatability
+        from fitting.repeatability import repeatability
 
         rep = repeatability(frame, RULES)
         assert rep["n_disagreeing"] <= 0.12 * rep["n_pairs"]

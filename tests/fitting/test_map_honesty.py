@@ -114,7 +114,8 @@ def test_fit_peak_line_keeps_small_torques():
 
 @pytest.mark.parametrize("shift", [0.0, 0.03])
 def test_repeatability_of_two_sessions_at_the_same_setpoints(shift):
-    from fitting.efficiency import MaskingRules, repeatability
+    from fitting.efficiency import MaskingRules
+    from fitting.repeatability import repeatability
 
     speed = np.repeat([500.0, 1000.0, 1500.0], 4)
     torque = np.tile([20.0, 40.0, 60.0, 78.0], 3)

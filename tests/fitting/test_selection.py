@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 from fit_synthetic import PAPER_A, paper_quadratic, synthetic_points
 
+from fitting.extra_terms import extra_terms_check
 from fitting.power_fit import quadrant_weights
-from fitting.selection import default_candidates, extra_terms_check, select_model, stratified_folds
+from fitting.selection import default_candidates, select_model, stratified_folds
 from fitting.terms import full_polynomial
 
 
