@@ -38,7 +38,7 @@ class Solver:
 
     def __init__(self, model, kind: str, intervals: int) -> None:
         self.ocp = build_ocp(kite_dae(), model, OcpOptions(Discretization(n_intervals=intervals)))
-        self.objective, self.limits = KINDS[kind]
+        self.objective, self.limits = KINDS[kind].objective, KINDS[kind].drive_limits
         self.warm: dict[float, object] = {}
         self.cache: dict[float, float | None] = {}
         self.n_solves = 0

@@ -36,7 +36,7 @@ from optimize.solve.solve import solve, start
 
 def reference(ocp, kind: str, winds: np.ndarray) -> dict[float, tuple[float, float] | None]:
     """(P_elec, P_mech) [W] at every speed, outwards from the middle, warm-started."""
-    objective, limits = KINDS[kind]
+    objective, limits = KINDS[kind].objective, KINDS[kind].drive_limits
     mid = winds[len(winds) // 2]
     warm: dict[float, object] = {}
     out: dict[float, tuple[float, float] | None] = {}

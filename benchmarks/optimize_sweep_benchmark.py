@@ -165,7 +165,7 @@ def main() -> None:
     options = OcpOptions(Discretization(n_intervals=args.intervals),
                          solver=SolverOptions(tol=args.tol, warm_bound_push=args.warm_bound_push,
                                               stored_guess=not args.no_stored_guess))
-    problem = Problem(None, model, options, f"{options!r}|{model.sha256}")
+    problem = Problem.for_system(None, model, options)
     report = {
         "machine_before": machine_state(),
         "options": repr(options),

@@ -73,7 +73,7 @@ from optimize.command import SweepRequest, run_optimize
 from optimize.model import kite_model as km
 from optimize.paper_model import PAPER_MODEL_PATH, paper_model
 from optimize.problem.ocp import OcpOptions
-from optimize.service.problem import OcpBackend
+from optimize.service.builder import OcpBackend
 from optimize.sweep_folder import read_summary
 from optimize.system.system import load_system
 
@@ -120,8 +120,8 @@ def reference_bounds(ocp, base, reel_speed_m_s, limit_points, drive_limits, fix_
     """``ocp.bounds`` with the reference's reel-speed bound and limit points."""
     lbw, ubw, lbg, ubg = base(drive_limits, fix_fictitious, period_s)
     lay, tr = ocp.layout, ocp.transcription
-    idx = lay.i_x[km.IDX["dl_m_s"]]
-    scale = ocp.scales.state[km.IDX["dl_m_s"]]
+    idx = lay.i_x[km.STATES.index("dl_m_s")]
+    scale = ocp.scales.state[km.STATES.index("dl_m_s")]
     if limit_points and drive_limits:
         d = ocp.coll.degree
         inner = idx[np.arange(lay.n_points) % d != 0]  # grid points other than interval starts

@@ -12,7 +12,7 @@ Usage::
    solver, each chain started from the stored guess when it fits (else the homotopy),
    cut-in search and trust checks excluded (as ``optimize_sweep_benchmark.py``).
 3. Each shipped system (``optimize/data/systems/*.toml``) with the drive its file names
-   (:func:`optimize.system.drive.drive_in_force`): the elec-lim start
+   (:func:`optimize.system.drive_in_force.drive_in_force`): the elec-lim start
    at the first of ``--system-winds`` (stored guess when it fits, else the homotopy),
    then warm solves at the others.
 
@@ -50,7 +50,7 @@ from optimize.solve.derivatives import nlp_derivatives, whole_derivatives
 from optimize.solve.solve import solve, start
 from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_chains
-from optimize.system.drive import drive_in_force
+from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import load_system, shipped_system_path
 
 OUT = Path(__file__).resolve().parent / "out"

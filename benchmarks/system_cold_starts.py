@@ -7,7 +7,7 @@ Usage::
 
 For every system (``optimize/data/systems/NAME.toml``) one OCP is built and each
 wind speed is solved from the system's start loop through the homotopy. Each
-system flies the drive its file names (:func:`optimize.system.drive.drive_in_force`):
+system flies the drive its file names (:func:`optimize.system.drive_in_force.drive_in_force`):
 highwind the paper's Table I drive, AP2 and MegAWES the paper's drive carried to
 their rating by the similarity law. Prints per run: status, iterations,
 wall time, P_elec, P_mech, period, active bounds and the slack-tether fraction,
@@ -34,7 +34,7 @@ from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start
 from optimize.sweep.outputs import MEANT_BOUNDS
-from optimize.system.drive import drive_in_force
+from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import load_system, shipped_system_path
 
 
@@ -47,7 +47,7 @@ def main() -> None:
     ap.add_argument("--degree", type=int, default=4)
     args = ap.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(message)s")
-    objective, limits = KINDS[args.kind]
+    objective, limits = KINDS[args.kind].objective, KINDS[args.kind].drive_limits
     runs = []
     for name in args.systems.split(","):
         system = load_system(shipped_system_path(name))

@@ -200,7 +200,7 @@ def optimize(model: Any = None, *, grid: WindGrid = PAPER_GRID, system: Any = No
     model : PowerModel or path, optional
         The drive's losses (:func:`fit`'s result or a ``power_model.json``), overriding
         the system file's; default the system file's, else ``fit_default`` when it
-        exists, else the paper's model (:func:`optimize.system.drive.drive_in_force`).
+        exists, else the paper's model (:func:`optimize.system.drive_in_force.drive_in_force`).
         A model object is written into ``out`` with the results (``power_model.json``,
         which the manifest names).
     grid : WindGrid
@@ -318,7 +318,7 @@ class SizeResult:
     ----------
     sizing : energy.sizing.SizingResult
         The candidate table, every solve record, the best and the chosen candidate.
-    drive : optimize.system.drive.DriveInForce
+    drive : optimize.system.drive_in_force.DriveInForce
         The reference drive (rating and losses) the candidates are scaled from.
     notes : tuple of str
         What was assumed (a rating the system file does not state).
@@ -362,7 +362,8 @@ def size(site: Any, model: Any = None, *, system: Any = None,
         Wind-speed distribution at the reference height.
     model : PowerModel or path, optional
         The reference drive's losses; default the system file's, else ``fit_default``
-        when it exists, else the paper's model (:func:`optimize.system.drive.drive_in_force`).
+        when it exists, else the paper's model
+        (:func:`optimize.system.drive_in_force.drive_in_force`).
     system : System or path, optional
         The system file (its ``[drive]`` is the reference rating); default the shipped
         ``highwind.toml``.

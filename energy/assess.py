@@ -26,6 +26,7 @@ from energy.site import Distribution, Histogram, Weibull
 from kernel.errors import InputError
 from kernel.files import read_json
 from kernel.output_folder import check_output_file
+from optimize.kinds import OBJECTIVES, kind_of
 from optimize.sweep_folder import read_trajectories
 
 #: the trajectory columns the coefficient bands need (cycle averages of the model terms)
@@ -142,8 +143,7 @@ class Assessment:
 
     def limit_loss_mwh(self, objective: str, quantity: str) -> float | None:
         """AEP without minus with the drive limits, same objective [MWh/yr], or None."""
-        short = "elec" if objective == "electrical" else "mech"
-        lim, free = self.kinds.get(f"{short}-lim"), self.kinds.get(f"{short}-free")
+        lim, free = (self.kinds.get(kind_of(objective, limits).key) for limits in (True, False))
         if lim is None or free is None:
             return None
         return getattr(free, quantity).aep_mwh - getattr(lim, quantity).aep_mwh
@@ -152,7 +152,7 @@ class Assessment:
         """One row per kind: AEP, capacity factor, band, losses (the report's AEP table)."""
         rows = []
         for k in self.kinds.values():
-            quantity = "elec" if k.objective == "electrical" else "mech"
+            quantity = OBJECTIVES[k.objective].short
             lim_loss = self.limit_loss_mwh(k.objective, quantity) if k.drive_limits else None
             rows.append({
                 "kind": k.kind, "objective": k.objective, "drive_limits": k.drive_limits,

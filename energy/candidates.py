@@ -1,7 +1,7 @@
 """The candidate drives of a sizing: the reference drive scaled in torque, and drive files.
 
 The reference drive is the system's drive in force
-(:func:`optimize.system.drive.drive_in_force`) with the overrides of
+(:func:`optimize.system.drive_in_force.drive_in_force`) with the overrides of
 ``bench size`` (:func:`reference_rating`); the candidates are it scaled by the
 torque-rating law of :mod:`energy.sizing`, plus one per power-model file.
 """
@@ -59,7 +59,7 @@ def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
                      rated_torque_nm: float | None = None, max_speed_rpm: float | None = None,
                      overload: float | None = None) -> tuple[list, list[str]]:
     """The candidate drives of the reference drive in force (``drive``,
-    :func:`optimize.system.drive.drive_in_force`) scaled by ``scales``, plus one per
+    :func:`optimize.system.drive_in_force.drive_in_force`) scaled by ``scales``, plus one per
     power-model file of ``models``; and notes on what was assumed."""
     from energy.sizing import Candidate, scaled_candidates
     from fitting.model_file import load_power_model

@@ -107,8 +107,8 @@ class KindTask:
     max_points : int
     system : optimize.system.system.System or None
         The sweep's system (kite, tether, winch, wind); None for the package defaults.
-    backend : optimize.service.problem.Backend or None
-        The solver (default the CasADi OCP, :class:`optimize.service.problem.OcpBackend`);
+    backend : optimize.service.builder.Backend or None
+        The solver (default the CasADi OCP, :class:`optimize.service.builder.OcpBackend`);
         its results need ``success, status, start, avg_p_elec_w, avg_p_mech_w,
         period_s, trajectory`` (``weight, speed_rpm, torque_nm``) and ``warm``.
     """
@@ -127,8 +127,8 @@ class KindTask:
     def chain(self, index: int = 0) -> Any:
         """The solve service's chain (:class:`optimize.service.chain.ChainTask`): no planned
         grid, a refinement of both curves from the known points, after a check re-solve."""
+        from optimize.service.builder import Problem
         from optimize.service.chain import ChainTask, Refinement
-        from optimize.service.problem import Problem
 
         refine = Refinement(self.kind, self.site, refine_grid, self.tol, self.max_points,
                             self.known,

@@ -112,7 +112,7 @@ class SizeRun:
     ----------
     sizing : energy.sizing.SizingResult
         The candidate table, every solve record, the best and the chosen candidate.
-    drive : optimize.system.drive.DriveInForce
+    drive : optimize.system.drive_in_force.DriveInForce
         The reference drive (rating and losses) the candidates are scaled from.
     notes : tuple of str
         What was assumed (a rating the system file does not state, the grid's hours).
@@ -140,7 +140,8 @@ def run_size(site: Any, model: Any = None, *, system: Any = None,
         Wind-speed distribution at the reference height.
     model : PowerModel or path, optional
         The reference drive's losses; default the system file's, else ``fit_default``
-        when it exists, else the paper's model (:func:`optimize.system.drive.drive_in_force`).
+        when it exists, else the paper's model
+        (:func:`optimize.system.drive_in_force.drive_in_force`).
     system : System or path, optional
         The system file (its ``[drive]`` is the reference rating); default the shipped one.
     fit_default : path, optional
@@ -158,7 +159,7 @@ def run_size(site: Any, model: Any = None, *, system: Any = None,
     before_solving : callable, optional
         ``before_solving(drive, n_candidates)``, called once the candidates are made.
     """
-    from optimize.system.drive import drive_in_force
+    from optimize.system.drive_in_force import drive_in_force
     from optimize.system.system import System, load_system
 
     run_record = Provenance.start(command_line)

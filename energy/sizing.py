@@ -9,7 +9,7 @@ torque-rating scale ``s``.
 
 Scaling law
 -----------
-The similarity law of :func:`optimize.model.drive.carry_power_model` at the same
+The similarity law of :func:`optimize.model.drivetrain.carry_power_model` at the same
 speed rating (``k_n = 1``, ``k_T = s``): ``P_s(n, T) = s P_1(n, T / s)``, a drive
 of ``s`` times the torque rating behaves like ``s`` reference drives sharing the
 torque on one shaft (for a term ``c n^i T^j``: ``c -> s^(1 - j) c``). Rating:
@@ -100,9 +100,9 @@ class Candidate:
         return options.replace(limits={"max_rms_torque_nm": self.rated_torque_nm})
 
     def problem(self, n_intervals: int, degree: int, system: Any) -> Any:
-        """The OCP problem (:class:`optimize.service.problem.Problem`) of this drive in
+        """The OCP problem (:class:`optimize.service.builder.Problem`) of this drive in
         ``system``."""
-        from optimize.service.problem import Problem
+        from optimize.service.builder import Problem
 
         return Problem.for_system(system, self.model, self.ocp_options(n_intervals, degree,
                                                                         system))
@@ -120,7 +120,7 @@ def scaled_candidates(base: Any, rating: Any, scales: tuple[float, ...]) -> list
     scales : tuple of float
         Torque-rating scales ``s`` > 0.
     """
-    from optimize.model.drive import carry_power_model
+    from optimize.model.drivetrain import carry_power_model
 
     out = []
     for s in scales:
@@ -272,7 +272,7 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
     (:mod:`energy.adaptive`), so candidates may end with different speeds.
     ``system`` (an :class:`optimize.system.system.System`, default the shipped one)
     gives the kite, tether, winch, wind and bounds every candidate is sized for.
-    ``backend`` replaces the CasADi OCP (:class:`optimize.service.problem.OcpBackend`).
+    ``backend`` replaces the CasADi OCP (:class:`optimize.service.builder.OcpBackend`).
     A solver crash fails that solve (status ``exception: ...``) and so its
     candidate's AEP, never the sweep.
     """

@@ -41,7 +41,7 @@ from optimize.sweep_options import (
     SolverChoice,
     WindGrid,
 )
-from optimize.system.drive import DriveInForce, drive_in_force
+from optimize.system.drive_in_force import DriveInForce, drive_in_force
 from optimize.system.plausibility import check_drive_holds_kite
 from optimize.system.system import System, load_system
 
@@ -79,7 +79,7 @@ class SweepRequest:
     system : System or None
         The system (``--system``); ``None`` is the shipped ``highwind.toml``. Its
         bounds and drive limits replace those of ``options``.
-    drive : optimize.system.drive.DriveInForce or None
+    drive : optimize.system.drive_in_force.DriveInForce or None
         The drive in force (rating, losses at that rating); ``None``: the system's
         ``[drive]`` rating with ``drive_model``'s losses.
     """
@@ -122,7 +122,7 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
         The system (``--system``); default the shipped ``highwind.toml``.
     fit_default : Path, optional
         ``bench fit``'s model, used when it exists and neither ``model`` nor the system
-        file names the losses (:func:`optimize.system.drive.drive_in_force`).
+        file names the losses (:func:`optimize.system.drive_in_force.drive_in_force`).
     out : Path
         Output folder (must be a folder or absent).
     execution : Execution
@@ -170,6 +170,7 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
     check_drive_holds_kite(loaded, drive.rating.max_torque_nm,
                            drive.rating.source or "the drive in force")
     note += "\n" + loaded.kite_limits().describe()
+    note += "\n" + loaded.drivetrain_line()
     return SweepRequest(grid.winds_m_s, grid.kinds, drive.model, drive.model_path, note,
                         options, execution.workers, execution.scheduler, Path(out), claims,
                         trust, system=loaded, drive=drive)
@@ -222,7 +223,7 @@ def run_optimize(
     simulation check of every converged scenario); compare with the paper;
     write the folder (:func:`optimize.sweep_folder.write_sweep_folder`, docs/schemas.md §5).
     ``backend`` replaces the CasADi OCP in the chains (see
-    :class:`optimize.service.problem.Backend`; the trust checks always use the OCP).
+    :class:`optimize.service.builder.Backend`; the trust checks always use the OCP).
     """
     check_replaceable(request.out, "optimize", MARKERS)  # before the solves
     run = Provenance.start(command_line if command_line is not None else sys.argv)
@@ -231,7 +232,8 @@ def run_optimize(
                                             model=request.drive_model)
     options = system.ocp_options(request.options, drive.rating)
     problem = Problem.for_system(system, drive.model, options)
-    cut_in_kinds = tuple(k for k in request.kinds if KINDS[k][1]) if request.claims else ()
+    cut_in_kinds = (tuple(k for k in request.kinds if KINDS[k].drive_limits)
+                    if request.claims else ())
     trust: dict = {"mesh": [], "simulation": []}
     with open_executor(request.workers, request.scheduler) as handle:
         chains = plan_chains(request.winds, request.kinds, handle.n_workers)

@@ -68,7 +68,9 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "e_elec_j": "net electrical energy per cycle (negative = generated)",
     "e_mech_j": "net mechanical energy per cycle (negative = generated)",
     "peak_speed_rpm": "largest |motor speed| (drum speed times the gear ratio)",
-    "peak_torque_nm": "largest motor torque (drum torque over the gear ratio)",
+    "peak_torque_nm": "largest |torque| the drive delivers at its shaft (tether torque at the "
+                      "motor plus the drivetrain's acceleration torque)",
+    "peak_reel_acceleration_m_s2": "largest |tether acceleration| (reel acceleration)",
     "p_elec_max_w": "largest electrical power (peak drawn from the grid)",
     "p_elec_min_w": "smallest electrical power (peak generated, negative)",
     "tether_length_min_m": "shortest tether length",

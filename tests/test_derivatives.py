@@ -10,7 +10,7 @@ from optimize.model.kite_model import kite_dae
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.solve.derivatives import _block_derivatives, nlp_derivatives, whole_derivatives
-from optimize.system.drive import drive_in_force
+from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import load_system
 
 N = 6  # intervals: every kind of row and variable, small enough to differentiate whole
@@ -37,7 +37,7 @@ def _point(ocp, seed: int = 3):
     rng = np.random.default_rng(seed)
     lay = ocp.layout
     return (1.0 + 0.1 * rng.normal(size=lay.n_w),
-            ocp.params(7.0, w_elec=1.0, w_mech=0.4, w_track=0.3, w_fict=0.2),
+            ocp.params(7.0, {"p_elec_w": 1.0, "p_mech_w": 0.4}, w_track=0.3, w_fict=0.2),
             rng.normal(size=lay.n_g))
 
 

@@ -18,7 +18,7 @@ from energy.sizing import (
 from optimize.paper_model import paper_model
 from optimize.service import solve_key
 from optimize.sweep.executors import ExecutorHandle, QueueChannel
-from optimize.system.drive import drive_in_force
+from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import load_system
 
 #: the paper drive's rating as highwind.toml states it (continuous 78 N m, overload 5)

@@ -12,7 +12,6 @@ from optimize.problem.guess import circular_loop
 from optimize.problem.ocp import build_ocp, grid_times, twin
 from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions
 from optimize.solve import backend, initial_guess
-from optimize.solve.homotopy import power_weights
 from optimize.solve.result import carry_over
 from optimize.solve.solve import solve
 
@@ -33,7 +32,7 @@ def test_stagewise_layout_evaluates_the_same_objective_and_rows():
     u = rng.normal(size=(general.layout.i_u.shape[0], 3))
     args = (x, z[:, 1:], u, fict[:, 1:], general.loop.period_s)
     w_g, w_s = general.pack(*args), staged.pack(*args)
-    p = general.params(7.0, w_elec=1.0, w_track=0.5, w_fict=0.1, x_ref=x)
+    p = general.params(7.0, {"p_elec_w": 1.0}, w_track=0.5, w_fict=0.1, x_ref=x)
     f = [float(ca.Function("f", [o.nlp["x"], o.nlp["p"]], [o.nlp["f"]])(w, p))
          for o, w in ((general, w_g), (staged, w_s))]
     assert f[1] == pytest.approx(f[0], rel=1e-12)
@@ -86,7 +85,7 @@ def test_stored_guess_is_carried_over_to_the_stage_layout(staged):
     back = carry_over(staged, guess, general)
     stored = initial_guess.load(general)[0]
     assert np.allclose(back.w, stored.w, rtol=0, atol=1e-12)
-    p = staged.params(7.0, **power_weights(initial_guess.GUESS_SCENARIO))
+    p = staged.params(7.0, initial_guess.GUESS_SCENARIO.weights)
     lo, hi = staged.bounds(True, True, None)[2:]
     g = staged.constraint_values(guess.w, p)
     assert np.max(np.maximum(np.maximum(lo - g, g - hi), 0)) < 1e-6

@@ -10,7 +10,7 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.solve import initial_guess
-from optimize.system.drive import drive_in_force
+from optimize.system.drive_in_force import drive_in_force
 from optimize.system.params import KiteParams
 from optimize.system.system import load_system, system_from_dict
 

@@ -23,7 +23,7 @@ def test_ode_matches_exact_loop_derivatives(dae):
     xp, _, _ = circular_loop(dae, guess, t + h, 7.0)
     xm, _, _ = circular_loop(dae, guess, t - h, 7.0)
     for i in range(len(t)):
-        xdot = np.asarray(dae.ode(x[:, i], np.zeros(km.NU), z[:, i])).ravel()
+        xdot = np.asarray(dae.ode(x[:, i], np.zeros(km.CONTROLS.size), z[:, i])).ravel()
         np.testing.assert_allclose(xdot, (xp[:, i] - xm[:, i]) / (2 * h), atol=1e-6)
         c, cdot, orth = dae.invariants(x[:, i])
         assert abs(float(c)) < 1e-9 and abs(float(cdot)) < 1e-9
@@ -33,7 +33,7 @@ def test_ode_matches_exact_loop_derivatives(dae):
 def test_fictitious_forces_close_the_loop_residual(dae):
     # the guess's fictitious forces make the algebraic residual exactly zero
     x, z, fict = circular_loop(dae, LoopGuess(), np.array([1.3]), 7.0)
-    res = np.asarray(dae.alg(x[:, 0], np.zeros(km.NU), z[:, 0], 7.0, fict[:, 0])).ravel()
+    res = np.asarray(dae.alg(x[:, 0], np.zeros(km.CONTROLS.size), z[:, 0], 7.0, fict[:, 0])).ravel()
     assert np.abs(res).max() < 1e-8
 
 
@@ -41,7 +41,7 @@ def test_solved_algebraic_variables_satisfy_residual(dae):
     x, _, _ = circular_loop(dae, LoopGuess(), np.array([0.4]), 6.0)
     u = np.array([3.0, 0.1, -0.2, 0.3])
     z = np.asarray(dae.solve_z(x[:, 0], u, 6.0)).ravel()
-    res = np.asarray(dae.alg(x[:, 0], u, z, 6.0, np.zeros(km.NF))).ravel()
+    res = np.asarray(dae.alg(x[:, 0], u, z, 6.0, np.zeros(km.FICTITIOUS.size))).ravel()
     # residual rows are N, N m and m^2/s^2 of size ~1e3: 1e-8 is round-off level
     assert np.abs(res).max() < 1e-8
 
@@ -53,7 +53,7 @@ def test_invariants_and_orthonormality_preserved_in_simulation(dae):
     # obeys Rdot = R [w]x, which keeps R^T R = I exactly in continuous time.
     x, _, _ = circular_loop(dae, LoopGuess(period_s=4.0), np.array([0.0]), 7.0)
     x0 = x[:, 0]
-    xs, us, wind = ca.SX.sym("x", km.NX), ca.SX.sym("u", km.NU), ca.SX.sym("w")
+    xs, us, wind = ca.SX.sym("x", km.STATES.size), ca.SX.sym("u", km.CONTROLS.size), ca.SX.sym("w")
     ode = {"x": xs, "p": ca.vertcat(us, wind), "ode": dae.explicit_ode(xs, us, wind)}
     times = np.linspace(0.0, 2.0, 21)
     sim = ca.integrator("sim", "cvodes", ode, 0.0, times[1:],

@@ -10,7 +10,7 @@ import casadi
 import numpy as np
 import pytest
 
-from optimize.model.drive import (
+from optimize.model.drivetrain import (
     drum_speed_rpm,
     drum_torque_nm,
     max_reel_speed_m_s,
@@ -22,7 +22,9 @@ from optimize.problem.collocation import radau
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
+from optimize.solve.result import carry_over
 from optimize.solve.solve import solve
+from optimize.system.params import KiteParams
 
 N_COARSE = 10  # coarse but converging grid: the whole module runs in ~30 s on 2 busy cores
 
@@ -141,8 +143,12 @@ def test_scenario_names_match_the_sweep_kinds():
     # The sweep's kinds table is the truth for what each label means.
     from optimize.kinds import KINDS
 
-    for kind, (objective, limits) in KINDS.items():
-        assert Scenario(5.5, objective, limits).name == f"{kind}-5.5"
+    for key, kind in KINDS.items():
+        assert Scenario(5.5, kind.objective, kind.drive_limits).name == f"{key}-5.5"
+        assert Scenario.of_kind(key, 5.5).kind_spec == kind
+    # each kind's objective weights exactly the average its summary column reports
+    assert KINDS["elec-lim"].weights == {"p_elec_w": 1.0}
+    assert KINDS["mech-free"].summary_column == "avg_p_mech_w"
 
 
 def test_mumps_blas_runs_the_thread_count_the_environment_names(solved):
@@ -166,14 +172,17 @@ def test_kite_limits_bind_in_a_kind_without_drive_limits(solved):
     # the unconstrained electrical optimum at 7 m/s, then the kite's own limits 15 % and
     # 10 % below its peak tension and airspeed: both must bind, to the value, without
     # any drive limit (elec-free), and the cycle generates less
-    _, _, elec, _ = solved
+    ocp, _, elec, _ = solved
     peak_n = float(elec.trajectory["tension_n"].max())
     peak_v = float(elec.trajectory["airspeed_m_s"].max())
     f_max, v_max = 0.85 * peak_n, 0.9 * peak_v
-    limited = build_ocp(kite_dae(), paper_model(), OcpOptions(
+    # a massless drivetrain, where the tether torque is the shaft torque (with inertia the
+    # tether-force limit is a row of its own: tests/test_drivetrain.py)
+    massless = KiteParams(drum_inertia_kg_m2=0.0, rotor_inertia_kg_m2=0.0)
+    limited = build_ocp(kite_dae(massless), paper_model(), OcpOptions(
         Discretization(n_intervals=N_COARSE),
         limits=Limits(max_tether_force_n=f_max, max_airspeed_m_s=v_max)))
-    res = solve(limited, Scenario(7.0, "electrical", False), elec.warm)
+    res = solve(limited, Scenario(7.0, "electrical", False), carry_over(ocp, elec.warm, limited))
     assert res.success, res.status
     # rows solved to IPOPT's 1e-6 (scaled); 1e-3 is the active-bound tolerance
     assert float(res.trajectory["tension_n"].max()) == pytest.approx(f_max, rel=1e-3)

@@ -43,8 +43,8 @@ def test_rows_are_found_by_name_and_the_drive_limits_bound_only_their_rows():
     lim = Limits(max_torque_nm=78.0, max_p_elec_w=5000.0, max_rms_torque_nm=50.0)
     ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(Discretization(n, d), lim))
     lay = ocp.layout
-    per_point = {"dynamics": km.NX, "algebraic": km.NZ, "airspeed": 1, "alpha": 1, "beta": 1,
-                 "line_angle": 1, "torque": 1, "p_elec": 1}
+    per_point = {"dynamics": km.STATES.size, "algebraic": km.ALGEBRAIC.size, "airspeed": 1,
+                 "alpha": 1, "beta": 1, "line_angle": 1, "torque": 1, "p_elec": 1}
     for name, size in per_point.items():
         assert lay.rows_of(name).size == n * d * size, name
     assert lay.rows_of("periodic").size == 13 + 3 and lay.rows_of("rms_torque").size == 1
@@ -57,4 +57,4 @@ def test_rows_are_found_by_name_and_the_drive_limits_bound_only_their_rows():
     sc = ocp.scales
     assert limited[3][lay.rows_of("torque")] == pytest.approx(lim.max_torque_nm / sc.torque_nm)
     changed_w = np.flatnonzero((free[0] != limited[0]) | (free[1] != limited[1]))
-    assert np.array_equal(changed_w, np.sort(lay.i_x[km.IDX["dl_m_s"]]))
+    assert np.array_equal(changed_w, np.sort(lay.i_x[km.STATES.index("dl_m_s")]))

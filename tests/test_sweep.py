@@ -86,7 +86,7 @@ class NewtonBackend:
         return self._newton(kind, w, 0.0)
 
 
-PROBLEM = Problem(params=None, drive_model=None, options=None, key="stand-in")
+PROBLEM = Problem(model=None, drive_model=None, options=None, key="stand-in")
 
 
 # ----------------------------------------------------------------- wind grid and kinds
@@ -403,6 +403,7 @@ class CycleBackend(NewtonBackend):
                 "time_s": [1.0, 2.0, 3.0],
                 "weight": [1 / 3, 1 / 3, 1 / 3],  # quadrature weights, as real trajectories carry
                 "l_m": [100.0, 120.0, 110.0],
+                "ddl_m_s2": [0.5 * w, -1.0, 0.0],
                 "speed_rpm": [-100.0 * w, 50.0, 80.0 * w],
                 "torque_nm": [10.0 * w, 5.0, 1.0],
                 "p_elec_w": [r.avg_p_elec_w - 100.0, r.avg_p_elec_w, r.avg_p_elec_w + 100.0],

@@ -37,6 +37,7 @@ def hand_trajectory() -> pd.DataFrame:
         {
             "time_s": [1.0, 2.0, 3.0, 4.0],
             "l_m": [150.0, 180.0, 210.0, 160.0],
+            "ddl_m_s2": [3.0, -4.5, 1.0, 0.0],
             "speed_rpm": [-1200.0, -800.0, 900.0, 300.0],
             "torque_nm": [60.0, 78.0, 10.0, 20.0],
             "p_elec_w": [-6000.0, -5000.0, 1500.0, 900.0],
@@ -76,6 +77,7 @@ def test_summary_metrics_from_a_hand_made_cycle():
     assert row["e_elec_j"] == pytest.approx(-826.8, rel=1e-12)
     assert row["e_mech_j"] == pytest.approx(-5400.0, rel=1e-12)
     assert row["peak_speed_rpm"] == 1200.0 and row["peak_torque_nm"] == 78.0
+    assert row["peak_reel_acceleration_m_s2"] == 4.5
     assert (row["p_elec_max_w"], row["p_elec_min_w"]) == (1500.0, -6000.0)
     assert (row["tether_length_min_m"], row["tether_length_max_m"]) == (150.0, 210.0)
     assert (row["altitude_min_m"], row["altitude_max_m"]) == (70.0, 120.0)
@@ -147,7 +149,7 @@ def test_unit_of_agrees_with_the_ocp_tables():
         "nu_n_m": "N/m",
         "aileron_rad": "rad",
     }
-    for name in (*km.STATE_NAMES, *km.CONTROL_NAMES, *km.ALGEBRAIC_NAMES):
+    for name in (*km.STATES.names, *km.CONTROLS.names, *km.ALGEBRAIC.names):
         assert unit_of(name) != "", name
     for name, unit in want.items():
         assert unit_of(name) == unit

@@ -11,7 +11,7 @@ import pytest
 from kernel.errors import InputError
 from optimize.paper_model import paper_model
 from optimize.problem.options import OcpOptions, with_drive_rating
-from optimize.system.drive import drive_in_force
+from optimize.system.drive_in_force import drive_in_force
 from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 from optimize.system.system import load_system, shipped_system_path, system_from_dict
 

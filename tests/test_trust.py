@@ -16,7 +16,6 @@ import pytest
 
 from optimize.model import kite_model as km
 from optimize.paper_model import paper_model
-from optimize.problem.formulation import PERIODIC_STATES
 from optimize.problem.guess import LoopGuess, circular_loop
 from optimize.problem.ocp import build_ocp, grid_times
 from optimize.problem.options import Discretization, OcpOptions
@@ -78,7 +77,7 @@ def fake_result(ocp, x: np.ndarray) -> FakeResult:
     u = controls()
     u_coll = np.repeat(u, DEGREE, axis=1)
     z = np.asarray(ocp.dae.solve_z.map(x.shape[1] - 1)(x[:, 1:], u_coll, WIND_M_S))
-    fict = np.zeros((km.NF, N * DEGREE))
+    fict = np.zeros((km.FICTITIOUS.size, N * DEGREE))
     w = ocp.pack(x, z, u, fict, PERIOD_S)
     sol = Solution(w=w, lam_x=np.zeros_like(w), lam_g=np.zeros(1), n_intervals=N, degree=DEGREE)
     return FakeResult(Scenario(WIND_M_S, "electrical", True), sol)
@@ -93,10 +92,10 @@ def test_simulation_check_reproduces_an_independent_rk4_trajectory(ocp):
     assert check.open_loop_position_m < 1e-5
     assert check.interval_defect_scaled < 1e-5
     # periodicity error of the open-loop run = |x(T) - x(0)| of the RK4 run (not periodic here)
-    per = [km.IDX[n] for n in PERIODIC_STATES]
+    per = km.STATES.indices(km.PERIODIC_STATES)
     want = np.max(np.abs(x[per, -1] - x[per, 0]) / ocp.scales.state[per])
     assert check.periodicity_error_scaled == pytest.approx(want, rel=1e-4)
-    yz = [km.IDX["r_y_m"], km.IDX["r_z_m"]]
+    yz = km.STATES.indices(("r_y_m", "r_z_m"))
     assert check.periodicity_error_position_m == pytest.approx(
         np.linalg.norm(x[yz, -1] - x[yz, 0]), rel=1e-4
     )
@@ -104,7 +103,7 @@ def test_simulation_check_reproduces_an_independent_rk4_trajectory(ocp):
 
 def test_simulation_check_finds_a_planted_defect(ocp):
     x = rk4_trajectory(ocp)
-    x[km.IDX["r_x_m"], 1 * DEGREE + 2] += 0.5  # interval 1, its second Radau point, 0.5 m
+    x[km.STATES.index("r_x_m"), 1 * DEGREE + 2] += 0.5  # interval 1, its second Radau point, 0.5 m
     check = simulation_check(ocp, fake_result(ocp, x))
     # the simulation does not follow the planted jump: the defect is the jump itself
     assert check.interval_defect_position_m == pytest.approx(0.5, abs=1e-4)
@@ -115,11 +114,11 @@ def test_mesh_interpolation_is_exact_on_linear_states_and_interval_controls(ocp)
     fine = build_ocp(ocp.dae, paper_model(),
                      OcpOptions(Discretization(n_intervals=2 * N, degree=DEGREE)))
     t_c = grid_times(ocp, PERIOD_S)
-    slope = np.linspace(-2.0, 3.0, km.NX)[:, None]
+    slope = np.linspace(-2.0, 3.0, km.STATES.size)[:, None]
     x = 1.0 + slope * t_c[None, :]
-    z = np.tile(np.linspace(1.0, 7.0, km.NZ)[:, None], (1, N * DEGREE))
+    z = np.tile(np.linspace(1.0, 7.0, km.ALGEBRAIC.size)[:, None], (1, N * DEGREE))
     u = controls()
-    w = ocp.pack(x, z, u, np.zeros((km.NF, N * DEGREE)), PERIOD_S)
+    w = ocp.pack(x, z, u, np.zeros((km.FICTITIOUS.size, N * DEGREE)), PERIOD_S)
     sol = Solution(w=w, lam_x=w, lam_g=np.zeros(1), n_intervals=N, degree=DEGREE)
     got = fine.unpack(interpolate_solution(ocp, sol, fine))
     t_f = grid_times(fine, PERIOD_S)

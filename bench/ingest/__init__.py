@@ -16,7 +16,7 @@ One module per concept:
   and quadrants), :mod:`checks` (plausibility), :mod:`samples_file` (pass 2: the
   samples file, the windows' statistics), :mod:`drum_frame` (signs, gear);
 - one point-table session: :mod:`table`;
-- both: :mod:`store_tables` (points and rejected windows as store tables),
+- both: :mod:`store_tables` (what a session hands to the store: its tables),
   :mod:`pipeline` (orchestration, idempotence, atomic commit), :mod:`summary`
   (closing table) and :mod:`cli`.
 

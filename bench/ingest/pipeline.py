@@ -26,8 +26,9 @@ from bench.ingest.csv_stream import CHUNK_BYTES
 from bench.ingest.mapping import EMPTY_MAPPING, load_mapping
 from bench.ingest.session import Session, complete_ranges, discover, load_session
 from bench.ingest.steady import DEFAULT_STEADY, SteadyConfig
+from bench.ingest.store_tables import SessionOutput
 from bench.ingest.table import process_table
-from bench.ingest.timeseries import SessionOutput, process_timeseries
+from bench.ingest.timeseries import process_timeseries
 from bench.store.manifest import read_manifest
 from bench.store.writer import StoreWriter
 from kernel.drive_rating import find_drive_file, session_drive

@@ -1,6 +1,10 @@
-"""A session's operating points and rejected windows as tables of the store's schemas."""
+"""What a processed session hands to the store: its operating points and rejected windows
+as tables of the store's schemas, its staged samples file and its manifest fields."""
 
 from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
@@ -8,6 +12,28 @@ import pyarrow as pa
 from bench.ingest import steady
 from bench.ingest.session import Session
 from bench.store.schema import POINTS_SCHEMA, REJECTED_SCHEMA
+
+
+@dataclass
+class SessionOutput:
+    """What a processed session hands to the store.
+
+    Parameters
+    ----------
+    points : pyarrow.Table
+        Operating points (store points schema).
+    rejected : pyarrow.Table
+        Rejected windows.
+    samples_path : Path or None
+        Staged samples Parquet file (timeseries sessions).
+    info : dict
+        Manifest fields: clock offset/drift, instruments, counts.
+    """
+
+    points: pa.Table
+    rejected: pa.Table
+    samples_path: Path | None
+    info: dict
 
 
 def points_table(session: Session, cols: dict, n_samples, t_start, t_end,

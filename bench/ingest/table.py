@@ -12,8 +12,7 @@ from bench.ingest.drum_frame import check_drum_torque, fold_signed
 from bench.ingest.mapping import Mapping
 from bench.ingest.readers import read_points_table
 from bench.ingest.session import Session
-from bench.ingest.store_tables import points_table, rejected_table
-from bench.ingest.timeseries import SessionOutput
+from bench.ingest.store_tables import SessionOutput, points_table, rejected_table
 from kernel.errors import InputError
 from kernel.units import RPM_PER_RAD_S
 

@@ -16,11 +16,10 @@ Two passes over the DAQ so memory does not grow with the file:
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-import pyarrow as pa
 
 from bench.ingest import checks, steady
 from bench.ingest.analyzer import (
@@ -39,30 +38,8 @@ from bench.ingest.mapping import Mapping
 from bench.ingest.samples_file import write_samples
 from bench.ingest.scan import Binned, StreamScan, bin_stream, scan_stream
 from bench.ingest.session import Session
-from bench.ingest.store_tables import rejected_table
+from bench.ingest.store_tables import SessionOutput, rejected_table
 from kernel.errors import InputError
-
-
-@dataclass
-class SessionOutput:
-    """What a processed session hands to the store.
-
-    Parameters
-    ----------
-    points : pyarrow.Table
-        Operating points (store points schema).
-    rejected : pyarrow.Table
-        Rejected windows.
-    samples_path : Path or None
-        Staged samples Parquet file (timeseries sessions).
-    info : dict
-        Manifest fields: clock offset/drift, instruments, counts.
-    """
-
-    points: pa.Table
-    rejected: pa.Table
-    samples_path: Path | None
-    info: dict
 
 
 def open_stream(session: Session, mapping: Mapping, chunk_bytes: int) -> DaqStream:

@@ -45,6 +45,17 @@ def _session_toml(sid: str, mode: str, file: str, sensors: dict[str, float]) -> 
     return "\n".join(lines) + "\n"
 
 
+def _write_table_session(root: Path, sid: str, file: str, lines: list[str], mapping: str,
+                         sensors: dict[str, float]) -> None:
+    """Write ``root/<sid>/``: the table ``file`` (its ``lines``), ``mapping.toml`` and a
+    motor-mode ``session.toml`` with these sensor ranges."""
+    folder = root / sid
+    folder.mkdir(parents=True)
+    (folder / file).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    (folder / "mapping.toml").write_text(mapping, encoding="utf-8")
+    (folder / "session.toml").write_text(_session_toml(sid, "motor", file, sensors))
+
+
 def make_dyno_table(root: Path, sid: str = "dyno_01", seed: int = 11) -> dict[str, np.ndarray]:
     """A 2 kW dyno's table: ``N mm`` torque, two preamble lines, tab separated.
 
@@ -57,20 +68,16 @@ def make_dyno_table(root: Path, sid: str = "dyno_01", seed: int = 11) -> dict[st
     torque = rng.uniform(0.5, 6.0, speed.size)
     p_mech = speed * torque / RPM_PER_RAD_S
     p_elec = p_mech + loss_w(speed, torque, 15.0, 2e-6, 0.8)
-    folder = root / sid
-    folder.mkdir(parents=True)
     rows = ["Dyno 3 – efficiency sweep, motor SN 4711", "Date\t12.03.2021",
             "Nr\tDrehzahl [1/min]\tMoment [N mm]\tP_el [W]\tT_Wicklung [°C]"]
     rows += [f"{k + 1}\t{s:.1f}\t{q * 1e3:.2f}\t{pe:.1f}\t{40 + k * 0.3:.1f}"
              for k, (s, q, pe) in enumerate(zip(speed, torque, p_elec, strict=True))]
-    (folder / "points.txt").write_text("\n".join(rows) + "\n", encoding="utf-8")
-    (folder / "mapping.toml").write_text(
+    _write_table_session(
+        root, sid, "points.txt", rows,
         'skip_lines = 2            # the title and the date line\n\n'
         '[columns.torque]\ncolumn = "Moment [N mm]"\nunit = "N mm"\n\n'
-        '[columns.p_elec]\ncolumn = "P_el [W]"\nunit = "W"\n', encoding="utf-8")
-    (folder / "session.toml").write_text(_session_toml(
-        sid, "motor", "points.txt",
-        {"torque_range_nm": 10.0, "speed_range_rpm": 4000.0, "power_range_w": 3000.0}))
+        '[columns.p_elec]\ncolumn = "P_el [W]"\nunit = "W"\n',
+        {"torque_range_nm": 10.0, "speed_range_rpm": 4000.0, "power_range_w": 3000.0})
     return {"speed_rpm": speed, "torque_nm": torque, "p_elec_w": p_elec, "p_mech_w": p_mech,
             "loss": (15.0, 2e-6, 0.8)}
 
@@ -120,23 +127,19 @@ def make_ev_table(root: Path, sid: str = "ev_01", p_elec_by: str = "expr", n_col
         unit = filler_units[k % len(filler_units)]
         cols[f"Aux_{k:03d} [{unit}]"] = [f"{v:.3f}" for v in rng.normal(50.0, 5.0, speed.size)]
         k += 1
-    folder = root / sid
-    folder.mkdir(parents=True)
     names = list(cols)
     lines = [",".join(names)] + [",".join(cols[c][r] for c in names) for r in range(speed.size)]
-    (folder / "export.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
     if p_elec_by == "expr":
         p_elec_entry = 'expr = "{U_DC [V]} * {I_DC [A]}"\nunit = "W"\n'
     else:
         p_elec_entry = 'sum = ["P_1 [kW]", "P_2 [kW]", "P_3 [kW]"]\nunit = "kW"\n'
-    (folder / "mapping.toml").write_text(
+    _write_table_session(
+        root, sid, "export.csv", lines,
         '[columns.speed]\ncolumn = "Speed [rpm]"\nunit = "rpm"\n\n'
         '[columns.torque]\ncolumn = "Torque_Flange [Nm]"\nunit = "Nm"\n\n'
         f"[columns.p_elec]\n{p_elec_entry}\n"
-        '[columns.p_mech]\ncolumn = "P_Mech [kW]"\nunit = "kW"\n', encoding="utf-8")
-    (folder / "session.toml").write_text(_session_toml(
-        sid, "motor", "export.csv",
-        {"torque_range_nm": 400.0, "speed_range_rpm": 15000.0, "power_range_w": 200e3}))
+        '[columns.p_mech]\ncolumn = "P_Mech [kW]"\nunit = "kW"\n',
+        {"torque_range_nm": 400.0, "speed_range_rpm": 15000.0, "power_range_w": 200e3})
     return {"speed_rpm": speed, "torque_nm": torque, "p_elec_w": p_elec, "p_mech_w": p_mech,
             "u_dc_v": u_dc, "loss": (400.0, 2e-5, 0.04)}
 
@@ -169,21 +172,17 @@ def make_two_wattmeter_table(root: Path, sid: str = "aron_01", channels: int = 2
     p1 = ui * np.cos(np.pi / 6 + phi)
     p2 = ui * np.cos(np.pi / 6 - phi)
     p3 = -ui * np.sin(phi)
-    folder = root / sid
-    folder.mkdir(parents=True)
     rows = ["Point,Speed [rpm],Torque [Nm],P1 [W],P2 [W],P3 [W],PF [-]"]
     rows += [f"{k + 1},{s:.2f},{q:.4f},{a:.3f},{b:.3f},{c:.3f},{np.cos(f):.4f}"
              for k, (s, q, a, b, c, f) in enumerate(zip(speed, torque, p1, p2, p3, phi,
                                                          strict=True))]
-    (folder / "analyzer_points.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
     summed = ", ".join(f'"P{k + 1} [W]"' for k in range(channels))
-    (folder / "mapping.toml").write_text(
+    _write_table_session(
+        root, sid, "analyzer_points.csv", rows,
         '[columns.speed]\ncolumn = "Speed [rpm]"\nunit = "rpm"\n\n'
         '[columns.torque]\ncolumn = "Torque [Nm]"\nunit = "Nm"\n\n'
-        f'[columns.p_elec]\nsum = [{summed}]\nunit = "W"\n', encoding="utf-8")
-    (folder / "session.toml").write_text(_session_toml(
-        sid, "motor", "analyzer_points.csv",
-        {"torque_range_nm": 20.0, "speed_range_rpm": 4000.0, "power_range_w": 10000.0}))
+        f'[columns.p_elec]\nsum = [{summed}]\nunit = "W"\n',
+        {"torque_range_nm": 20.0, "speed_range_rpm": 4000.0, "power_range_w": 10000.0})
     return {"speed_rpm": speed, "torque_nm": torque, "p_elec_w": p_elec, "p_mech_w": p_mech,
             "p_elec_3_w": p1 + p2 + p3, "loss": loss}
 
@@ -215,18 +214,14 @@ def make_hobby_dyno_table(root: Path, sid: str = "hobby_01", seed: int = 23,
         row = 7 * 18 + 1
         speed[row], torque[row], p_elec[row] = 1811.0, 0.0004, 322.0
         p_mech[row] = speed[row] * torque[row] / RPM_PER_RAD_S
-    folder = root / sid
-    folder.mkdir(parents=True)
     rows = ["Hobby dyno run 7", "Nr\tn [1/min]\tM [N mm]\tP_el [W]"]
     rows += [f"{k + 1}\t{s:.1f}\t{q * 1e3:.1f}\t{pe:.2f}"
              for k, (s, q, pe) in enumerate(zip(speed, torque, p_elec, strict=True))]
-    (folder / "points.txt").write_text("\n".join(rows) + "\n", encoding="utf-8")
-    (folder / "mapping.toml").write_text(
+    _write_table_session(
+        root, sid, "points.txt", rows,
         'skip_lines = 1\n\n[columns.speed]\ncolumn = "n [1/min]"\nunit = "1/min"\n\n'
         '[columns.torque]\ncolumn = "M [N mm]"\nunit = "N mm"\n\n'
-        '[columns.p_elec]\ncolumn = "P_el [W]"\nunit = "W"\n', encoding="utf-8")
-    (folder / "session.toml").write_text(_session_toml(
-        sid, "motor", "points.txt",
-        {"torque_range_nm": 10.0, "speed_range_rpm": 5000.0, "power_range_w": 5000.0}))
+        '[columns.p_elec]\ncolumn = "P_el [W]"\nunit = "W"\n',
+        {"torque_range_nm": 10.0, "speed_range_rpm": 5000.0, "power_range_w": 5000.0})
     return {"speed_rpm": np.round(speed, 1), "torque_nm": np.round(torque * 1e3, 1) / 1e3,
             "p_elec_w": np.round(p_elec, 2), "outlier_row": row}

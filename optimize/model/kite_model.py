@@ -25,35 +25,31 @@ from dataclasses import dataclass
 import casadi as ca
 
 from optimize.model.aero import aero_forces_moments, altitude_above_ground, wind_speed
+from optimize.model.variables import Variables
 from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 
-STATE_NAMES: tuple[str, ...] = (
+#: states: CG position and velocity (NED), body-to-world DCM (column-major), body
+#: angular velocity, tether length and its two rates, control-surface deflections
+STATES = Variables(
     ("r_x_m", "r_y_m", "r_z_m", "v_x_m_s", "v_y_m_s", "v_z_m_s")
     + tuple(f"dcm_{i}{j}" for j in (1, 2, 3) for i in (1, 2, 3))
     + ("omega_x_rad_s", "omega_y_rad_s", "omega_z_rad_s")
     + ("l_m", "dl_m_s", "ddl_m_s2", "aileron_rad", "elevator_rad", "rudder_rad")
 )
-CONTROL_NAMES: tuple[str, ...] = (
-    "dddl_m_s3",
-    "daileron_rad_s",
-    "delevator_rad_s",
-    "drudder_rad_s",
+#: controls: tether jerk and control-surface rates
+CONTROLS = Variables(("dddl_m_s3", "daileron_rad_s", "delevator_rad_s", "drudder_rad_s"))
+#: algebraic variables: CG acceleration, angular acceleration, tether multiplier
+ALGEBRAIC = Variables(("a_x_m_s2", "a_y_m_s2", "a_z_m_s2", "domega_x_rad_s2",
+                       "domega_y_rad_s2", "domega_z_rad_s2", "nu_n_m"))
+#: fictitious forces and moments of the initialization homotopy
+FICTITIOUS = Variables(("f_fict_x_n", "f_fict_y_n", "f_fict_z_n", "m_fict_x_nm",
+                        "m_fict_y_nm", "m_fict_z_nm"))
+#: the state components that repeat over a cycle (the DCM closes through its relative
+#: rotation, the downwind position and velocity are free to differ)
+PERIODIC_STATES = (
+    "r_y_m", "r_z_m", "v_y_m_s", "v_z_m_s", "omega_x_rad_s", "omega_y_rad_s",
+    "omega_z_rad_s", "l_m", "dl_m_s", "ddl_m_s2", "aileron_rad", "elevator_rad", "rudder_rad",
 )
-ALGEBRAIC_NAMES: tuple[str, ...] = (
-    "a_x_m_s2",
-    "a_y_m_s2",
-    "a_z_m_s2",
-    "domega_x_rad_s2",
-    "domega_y_rad_s2",
-    "domega_z_rad_s2",
-    "nu_n_m",
-)
-FICTITIOUS_NAMES: tuple[str, ...] = (
-    "f_fict_x_n", "f_fict_y_n", "f_fict_z_n", "m_fict_x_nm", "m_fict_y_nm", "m_fict_z_nm",
-)
-
-NX, NU, NZ, NF = len(STATE_NAMES), len(CONTROL_NAMES), len(ALGEBRAIC_NAMES), 6
-IDX = {name: i for i, name in enumerate(STATE_NAMES)}
 
 
 def _skew(w: ca.SX) -> ca.SX:
@@ -66,8 +62,15 @@ def _skew(w: ca.SX) -> ca.SX:
 class KiteDae:
     """CasADi functions of the kite DAE (all SX, evaluable numerically or symbolically).
 
+    Implements :class:`optimize.model.dae.Dae`.
+
     Attributes
     ----------
+    states, controls, algebraic, fictitious : Variables
+        The named components of ``x``, ``u``, ``z`` and the fictitious forces
+        (:data:`STATES`, :data:`CONTROLS`, :data:`ALGEBRAIC`, :data:`FICTITIOUS`).
+    periodic : tuple of str
+        The states that repeat over a cycle (:data:`PERIODIC_STATES`).
     ode : Function
         ``(x, u, z) -> xdot``: kinematics, explicit in the algebraic variables.
     alg : Function
@@ -93,6 +96,11 @@ class KiteDae:
     invariants: ca.Function
     explicit_ode: ca.Function
     solve_z: ca.Function
+    states: Variables = STATES
+    controls: Variables = CONTROLS
+    algebraic: Variables = ALGEBRAIC
+    fictitious: Variables = FICTITIOUS
+    periodic: tuple[str, ...] = PERIODIC_STATES
 
 
 def _split_state(x):
@@ -104,28 +112,9 @@ def _split_state(x):
     return r, v, dcm, omega, l, dl, ddl, surf
 
 
-def kite_dae(
-    kite: KiteParams | None = None,
-    coeffs: AeroCoefficients | None = None,
-    wind: WindModel | None = None,
-) -> KiteDae:
-    """Build the kite DAE functions (paper eqs. 6-8 with the aero model of app. B)."""
-    kite = kite or KiteParams()
-    coeffs = coeffs or AeroCoefficients()
-    wind = wind or WindModel()
-    x = ca.SX.sym("x", NX)
-    u = ca.SX.sym("u", NU)
-    z = ca.SX.sym("z", NZ)
-    w_ref = ca.SX.sym("wind_ref_m_s")
-    fict = ca.SX.sym("fict", NF)
-    r, v, dcm, omega, l, dl, ddl, surf = _split_state(x)
-    acc, domega, nu = z[0:3], z[3:6], z[6]
-
-    # kinematics: rdot = v, vdot = a, Rdot = R [omega]x, omega_dot = domega (paper eq. 7)
-    xdot = ca.vertcat(
-        v, acc, ca.reshape(ca.mtimes(dcm, _skew(omega)), 9, 1), domega, dl, ddl, u[0], u[1:4]
-    )
-
+def _tether_constraint(r, v, acc, dcm, omega, domega, l, dl, ddl, kite: KiteParams):
+    """The tether constraint ``c = (|r_bridle|^2 - l^2)/2`` and its two time derivatives,
+    with the bridle point ``r_bridle`` [m]."""
     zt_b = ca.DM([0.0, 0.0, kite.zt_m])
     r_bridle = r + ca.mtimes(dcm, zt_b)
     v_bridle = v + ca.mtimes(dcm, ca.cross(omega, zt_b))
@@ -133,12 +122,12 @@ def kite_dae(
     c = 0.5 * (ca.dot(r_bridle, r_bridle) - l**2)
     cdot = ca.dot(r_bridle, v_bridle) - l * dl
     cddot = ca.dot(v_bridle, v_bridle) + ca.dot(r_bridle, a_bridle) - dl**2 - l * ddl
+    return c, cdot, cddot, r_bridle
 
-    altitude = altitude_above_ground(r, wind)
-    w_local = wind_speed(altitude, w_ref, wind)
-    v_air = v - ca.vertcat(w_local, 0, 0)
-    aero = aero_forces_moments(dcm, v_air, omega, surf, l, kite, coeffs)
 
+def _newton_euler(r, r_bridle, dcm, omega, acc, domega, nu, fict, aero, kite: KiteParams):
+    """Force [N] and moment [N m] residuals of the rigid wing on its tether (paper eq. 8)."""
+    zt_b = ca.DM([0.0, 0.0, kite.zt_m])
     jmat = ca.DM(
         [
             [kite.j1_kg_m2, 0, kite.j31_kg_m2],
@@ -157,17 +146,46 @@ def kite_dae(
         - aero.moment_nm
         - fict[3:6]
     )
+    return res_force, res_moment
+
+
+def kite_dae(
+    kite: KiteParams | None = None,
+    coeffs: AeroCoefficients | None = None,
+    wind: WindModel | None = None,
+) -> KiteDae:
+    """Build the kite DAE functions (paper eqs. 6-8 with the aero model of app. B)."""
+    kite = kite or KiteParams()
+    coeffs = coeffs or AeroCoefficients()
+    wind = wind or WindModel()
+    x = ca.SX.sym("x", STATES.size)
+    u = ca.SX.sym("u", CONTROLS.size)
+    z = ca.SX.sym("z", ALGEBRAIC.size)
+    w_ref = ca.SX.sym("wind_ref_m_s")
+    fict = ca.SX.sym("fict", FICTITIOUS.size)
+    r, v, dcm, omega, l, dl, ddl, surf = _split_state(x)
+    acc, domega, nu = z[0:3], z[3:6], z[6]
+
+    # kinematics: rdot = v, vdot = a, Rdot = R [omega]x, omega_dot = domega (paper eq. 7)
+    xdot = ca.vertcat(
+        v, acc, ca.reshape(ca.mtimes(dcm, _skew(omega)), 9, 1), domega, dl, ddl, u[0], u[1:4]
+    )
+    c, cdot, cddot, r_bridle = _tether_constraint(r, v, acc, dcm, omega, domega, l, dl, ddl,
+                                                  kite)
+    altitude = altitude_above_ground(r, wind)
+    w_local = wind_speed(altitude, w_ref, wind)
+    v_air = v - ca.vertcat(w_local, 0, 0)
+    aero = aero_forces_moments(dcm, v_air, omega, surf, l, kite, coeffs)
+    res_force, res_moment = _newton_euler(r, r_bridle, dcm, omega, acc, domega, nu, fict, aero,
+                                          kite)
     residual = ca.vertcat(res_force, res_moment, cddot)
 
-    tension = l * nu
-    body_z = dcm[:, 2]
-    cos_line = -ca.dot(body_z, r) / ca.norm_2(r)
     outputs = {
         "airspeed_m_s": aero.airspeed_m_s,
         "alpha_rad": aero.alpha_rad,
         "beta_rad": aero.beta_rad,
-        "tension_n": tension,
-        "cos_line_angle": cos_line,
+        "tension_n": l * nu,
+        "cos_line_angle": -ca.dot(dcm[:, 2], r) / ca.norm_2(r),
         "altitude_m": altitude,
         "wind_m_s": w_local,
         "cl": aero.cl,
@@ -176,11 +194,11 @@ def kite_dae(
         "cdot_m2_s": cdot,
     }
 
-    residual_fn = ca.Function("kite_alg", [x, u, z, w_ref, fict], [residual])
     # The residual is affine in z: z = -A^{-1} residual(z=0) with A = d residual / dz.
     jac = ca.jacobian(residual, z)
-    res0 = ca.substitute(residual, ca.vertcat(z, fict), ca.DM.zeros(NZ + NF))
-    jac0 = ca.substitute(jac, fict, ca.DM.zeros(NF))
+    res0 = ca.substitute(residual, ca.vertcat(z, fict),
+                         ca.DM.zeros(ALGEBRAIC.size + FICTITIOUS.size))
+    jac0 = ca.substitute(jac, fict, ca.DM.zeros(FICTITIOUS.size))
     z_phys = -ca.solve(jac0, res0)
     xdot_phys = ca.substitute(xdot, z, z_phys)
 
@@ -190,7 +208,7 @@ def kite_dae(
         coeffs=coeffs,
         wind=wind,
         ode=ca.Function("kite_ode", [x, u, z], [xdot], ["x", "u", "z"], ["xdot"]),
-        alg=residual_fn,
+        alg=ca.Function("kite_alg", [x, u, z, w_ref, fict], [residual]),
         outputs=ca.Function(
             "kite_outputs", [x, u, z, w_ref], list(outputs.values()),
             ["x", "u", "z", "wind"], list(outputs.keys()),

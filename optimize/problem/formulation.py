@@ -1,93 +1,57 @@
-"""The periodic pumping-cycle OCP in continuous time (paper section IV, eq. 5).
+"""The kite's periodic pumping-cycle OCP in continuous time (paper section IV, eq. 5).
 
 What is optimized and subject to what, independent of how it is transcribed
 (:mod:`optimize.problem.transcription`): the kite DAE, its path constraints at a
 point of the cycle, the conditions at the cycle's start and between its start and
 end (invariants, periodicity), the cycle averages and the objective, and the
 bounds of the variables. Everything is returned scaled (each expression divided
-by its typical size, :mod:`optimize.problem.scaling`).
+by its typical size, :mod:`optimize.problem.scaling`). :class:`Formulation`
+implements :class:`optimize.problem.interface.CycleFormulation`.
 
-A constraint row is a :class:`Row`: a name, a scaled expression and its bounds,
-with separate bounds when the drive limits apply (the ``*-lim`` scenarios). A
-new path constraint is one more :class:`Row` in :meth:`Formulation.point`; the
-transcriptions place it at every collocation point and find it by its name.
+A new path constraint is one more :class:`optimize.problem.interface.Row` in
+:meth:`Formulation.point`; the transcriptions place it at every collocation point
+and find it by its name.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import functools
+import operator
+from dataclasses import dataclass, field
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
-from optimize.model import kite_model as km
-from optimize.model.drive import (
+from kernel.units import RPM_PER_RAD_S
+from optimize.model.drivetrain import (
     DriveModel,
+    Drivetrain,
     max_reel_speed_m_s,
-    mechanical_power_w,
-    motor_speed_rpm,
     motor_torque_nm,
 )
-from optimize.model.kite_model import KiteDae
+from optimize.model.envelope import EnvelopeTable, constant_power_w
+from optimize.model.kite_model import STATES, KiteDae
+from optimize.problem.interface import Point, Row, weight_param
 from optimize.problem.options import Discretization, Limits
 from optimize.problem.scaling import Scales
 
-# ---- named parts of the state, algebraic and control vectors
+# ---- named parts of the kite's state, algebraic and control vectors
 #: body-to-world DCM entries (column-major) in the state
-X_DCM = slice(km.IDX["dcm_11"], km.IDX["dcm_33"] + 1)
-#: tether length and reel-out speed in the state
-X_LENGTH, X_REEL_SPEED = km.IDX["l_m"], km.IDX["dl_m_s"]
-#: the tether multiplier ``nu`` [N/m] in the algebraic variables (tension = l nu)
-Z_NU = km.ALGEBRAIC_NAMES.index("nu_n_m")
-#: tether jerk and the control-surface rates in the controls
-U_JERK = km.CONTROL_NAMES.index("dddl_m_s3")
-U_SURFACE_RATES = slice(U_JERK + 1, km.NU)
+X_DCM = slice(STATES.index("dcm_11"), STATES.index("dcm_33") + 1)
+#: tether length, reel-out speed and acceleration in the state
+X_LENGTH, X_REEL_SPEED = STATES.index("l_m"), STATES.index("dl_m_s")
+X_REEL_ACCELERATION = STATES.index("ddl_m_s2")
+#: the reel acceleration's bound when the winch states none: keeps the solver in range
+SOLVER_REEL_ACCELERATION_M_S2 = 500.0
 
-#: periodic state components (the DCM is periodic through :data:`X_DCM` rows)
-PERIODIC_STATES = (
-    "r_y_m", "r_z_m", "v_y_m_s", "v_z_m_s", "omega_x_rad_s", "omega_y_rad_s",
-    "omega_z_rad_s", "l_m", "dl_m_s", "ddl_m_s2", "aileron_rad", "elevator_rad", "rudder_rad",
-)
-#: scalar NLP parameters: wind at 100 m, objective and homotopy weights
-PARAM_NAMES = ("wind_ref_m_s", "w_elec", "w_mech", "w_reg", "w_track", "w_fict")
+#: the cycle averages of a point: electrical and mechanical power drawn [W], and the
+#: squared motor torque over its scale (the RMS-torque rating's integrand)
+AVERAGES = ("p_elec_w", "p_mech_w", "torque_sq")
+#: the averages a scenario's objective can weight (``optimize.kinds.Objective.average``)
+OBJECTIVE_AVERAGES = ("p_elec_w", "p_mech_w")
 
 DEG = np.pi / 180
-
-
-@dataclass(frozen=True)
-class Row:
-    """Constraint rows ``lo <= expr <= hi`` (scaled).
-
-    Attributes
-    ----------
-    name : str
-        What the rows constrain (the transcription's index of the rows).
-    expr : casadi.SX
-        Column of scaled expressions.
-    lo, hi : float
-        Bounds (each row the same) without the drive limits.
-    limited : (float, float) or None
-        Bounds when the drive limits apply; ``None``: the same as ``(lo, hi)``.
-    """
-
-    name: str
-    expr: Any
-    lo: float = 0.0
-    hi: float = 0.0
-    limited: tuple[float, float] | None = None
-
-
-@dataclass(frozen=True)
-class Point:
-    """What the formulation asks of one collocation point: its constraint rows and
-    the integrands of the cycle averages."""
-
-    rows: list[Row]
-    p_elec_w: Any
-    p_mech_w: Any
-    torque_sq: Any  # (motor torque / torque scale)^2
-    fict_sq: Any  # sum of the squared scaled fictitious forces and moments
 
 
 @dataclass(frozen=True)
@@ -111,6 +75,18 @@ class Formulation:
     limits: Limits
     discretization: Discretization
     scales: Scales
+    averages: tuple[str, ...] = field(default=AVERAGES, init=False)
+    objective_averages: tuple[str, ...] = field(default=OBJECTIVE_AVERAGES, init=False)
+
+    @property
+    def constrained_averages(self) -> tuple[str, ...]:
+        """The squared torque when the drive has an RMS-torque rating."""
+        return () if self.limits.max_rms_torque_nm is None else ("torque_sq",)
+
+    @property
+    def objective_scale(self) -> float:
+        """Power scale [W] of the objective's average powers."""
+        return self.scales.power_w
 
     # ---------------------------------------------------------------- dynamics
     def ode(self, x: Any, u: Any, z: Any) -> Any:
@@ -119,7 +95,7 @@ class Formulation:
 
     def tension_n(self, x: Any, z: Any) -> Any:
         """Tether tension [N]."""
-        return x[X_LENGTH] * z[Z_NU]
+        return x[X_LENGTH] * z[self.dae.algebraic.index("nu_n_m")]
 
     def kite_limits(self) -> tuple[float, float]:
         """Upper bounds of the airspeed [m/s] and motor-torque [N m] rows in every kind.
@@ -136,20 +112,61 @@ class Formulation:
             motor_torque_nm(lim.max_tether_force_n, kite.r_winch_m, kite.gear_ratio)))
         return v_top, torque_top
 
+    @property
+    def drivetrain(self) -> Drivetrain:
+        """Drum, gearbox and rotor between the tether and the drive."""
+        return Drivetrain.of(self.dae.kite)
+
+    def torque_rows(self, tension: Any, torque: Any) -> list[Row]:
+        """Rows on the drive's shaft torque ``torque`` [N m] and the tether's.
+
+        Massless drivetrain: one row, the shaft torque (the tether's) below the kite's
+        tether-force limit in every kind and below the drive's torque limit in the
+        ``*-lim`` kinds. With inertia the shaft torque also goes negative (braking a
+        reel-in), so the drive's limit bounds it both ways, and the tether-force limit
+        has a row of its own on the tether torque.
+        """
+        sc, lim = self.scales, self.limits
+        _, torque_top = self.kite_limits()
+        if self.drivetrain.inertia_kg_m2 == 0:
+            return [Row("torque", torque / sc.torque_nm, -np.inf, torque_top / sc.torque_nm,
+                        limited=(-np.inf, min(lim.max_torque_nm, torque_top) / sc.torque_nm))]
+        top = lim.max_torque_nm / sc.torque_nm
+        rows = [Row("torque", torque / sc.torque_nm, -np.inf, np.inf, limited=(-top, top))]
+        if np.isfinite(torque_top):
+            rows.append(Row("tether_force", self.drivetrain.tether_torque_nm(tension)
+                            / sc.torque_nm, -np.inf, torque_top / sc.torque_nm))
+        return rows
+
+    def envelope_rows(self, speed_rpm: Any, torque: Any) -> list[Row]:
+        """The drive's torque-speed envelope in the ``*-lim`` kinds (none without one):
+        ``|T w| <= T_max w_base`` above a base speed, or the table's largest torque."""
+        lim, sc = self.limits, self.scales
+        if lim.base_speed_rpm is not None:
+            power = constant_power_w(lim.max_torque_nm, lim.base_speed_rpm)
+            return [Row("envelope", torque * speed_rpm / RPM_PER_RAD_S / power, -np.inf,
+                        np.inf, limited=(-1.0, 1.0))]
+        if lim.envelope_speed_rpm is None:
+            return []
+        top = EnvelopeTable(lim.envelope_speed_rpm, lim.envelope_torque_nm
+                            ).smooth_torque_nm(speed_rpm)
+        return [Row("envelope", ca.vertcat(torque - top, -torque - top) / sc.torque_nm,
+                    -np.inf, np.inf, limited=(-np.inf, 0.0))]
+
     # ---------------------------------------------------------------- one point
     def point(self, x: Any, u: Any, z: Any, fict: Any, wind: Any) -> Point:
         """Rows and integrands at one collocation point (physical ``x, u, z, fict``)."""
         lim, sc = self.limits, self.scales
-        kite = self.dae.kite
-        r_w, gear = kite.r_winch_m, kite.gear_ratio
+        drivetrain = self.drivetrain
         out = dict(zip(self.dae.outputs.name_out(), self.dae.outputs(x, u, z, wind),
                        strict=True))
         tension = self.tension_n(x, z)
-        dl = x[X_REEL_SPEED]
-        torque = motor_torque_nm(tension, r_w, gear)
-        p_elec = self.drive_model.casadi_p_elec_w(motor_speed_rpm(dl, r_w, gear), torque)
+        dl, ddl = x[X_REEL_SPEED], x[X_REEL_ACCELERATION]
+        speed = drivetrain.speed_rpm(dl)
+        torque = drivetrain.shaft_torque_nm(tension, ddl)
+        p_elec = self.drive_model.casadi_p_elec_w(speed, torque)
         v_sc = sc.airspeed_m_s
-        v_top, torque_top = self.kite_limits()
+        v_top, _ = self.kite_limits()
         rows = [
             Row("algebraic", self.dae.alg(x, u, z, wind, fict) * ca.DM(1.0 / sc.residual)),
             Row("airspeed", out["airspeed_m_s"] / v_sc, lim.min_airspeed_m_s / v_sc,
@@ -160,20 +177,43 @@ class Formulation:
                 lim.beta_bounds_deg[1] / 10),
             Row("line_angle", out["cos_line_angle"], np.cos(lim.max_line_angle_deg * DEG),
                 np.inf),
-            Row("torque", torque / sc.torque_nm, -np.inf, torque_top / sc.torque_nm,
-                limited=(-np.inf, min(lim.max_torque_nm, torque_top) / sc.torque_nm)),
+            *self.torque_rows(tension, torque),
+            *self.envelope_rows(speed, torque),
         ]
         if lim.max_p_elec_w is not None:
             p_lim = lim.max_p_elec_w / sc.power_w
             rows.append(Row("p_elec", p_elec / sc.power_w, -np.inf, np.inf,
                             limited=(-p_lim, p_lim)))
-        return Point(
-            rows=rows,
-            p_elec_w=p_elec,
-            p_mech_w=mechanical_power_w(tension, dl),
-            torque_sq=(torque / sc.torque_nm) ** 2,
-            fict_sq=ca.sumsqr(fict / ca.DM(sc.fictitious)),
-        )
+        averages = {"p_elec_w": p_elec, "p_mech_w": drivetrain.shaft_power_w(tension, dl, ddl),
+                    "torque_sq": (torque / sc.torque_nm) ** 2}
+        return Point(rows=rows, averages=averages,
+                     fict_sq=ca.sumsqr(fict / ca.DM(sc.fictitious)))
+
+    def trajectory_outputs(self, x: np.ndarray, u: np.ndarray, z: np.ndarray,
+                           wind_ref_m_s: float) -> dict[str, np.ndarray]:
+        """Drive and flight quantities at points (columns of ``x, u, z``) [SI, rpm, deg]:
+        motor speed, the drive's shaft torque and the tether's at the motor, tension, shaft
+        and electrical power, altitude, airspeed, angles of attack and sideslip, local
+        wind, line angle, invariants."""
+        drivetrain = self.drivetrain
+        outputs = self.dae.outputs.map(x.shape[1])(x, u, z, wind_ref_m_s)
+        out = {name: np.asarray(val).ravel()
+               for name, val in zip(self.dae.outputs.name_out(), outputs, strict=True)}
+        dl, ddl = x[X_REEL_SPEED], x[X_REEL_ACCELERATION]
+        tension = x[X_LENGTH] * z[self.dae.algebraic.index("nu_n_m")]
+        speed_rpm = drivetrain.speed_rpm(dl)
+        torque_nm = drivetrain.shaft_torque_nm(tension, ddl)
+        return {
+            "speed_rpm": speed_rpm, "torque_nm": torque_nm,
+            "tether_torque_nm": drivetrain.tether_torque_nm(tension), "tension_n": tension,
+            "p_mech_w": drivetrain.shaft_power_w(tension, dl, ddl),
+            "p_elec_w": np.asarray(self.drive_model.p_elec_w(speed_rpm, torque_nm)),
+            "altitude_m": out["altitude_m"], "airspeed_m_s": out["airspeed_m_s"],
+            "alpha_deg": np.degrees(out["alpha_rad"]), "beta_deg": np.degrees(out["beta_rad"]),
+            "wind_m_s": out["wind_m_s"],
+            "line_angle_deg": np.degrees(np.arccos(np.clip(out["cos_line_angle"], -1, 1))),
+            "c_m2": out["c_m2"], "cdot_m2_s": out["cdot_m2_s"],
+        }
 
     def control_cost(self, u: Any) -> Any:
         """Regularization term of one interval's control ``sum_i (u_i / sigma_i)^2``."""
@@ -192,7 +232,7 @@ class Formulation:
 
     def periodicity_rows(self, x0: Any, x_end: Any) -> list[Row]:
         """The cycle closes: periodic states and the DCM's relative rotation."""
-        per = [km.IDX[name] for name in PERIODIC_STATES]
+        per = self.dae.states.indices(self.dae.periodic)
         dcm0 = ca.reshape(x0[X_DCM], 3, 3)
         rel = ca.mtimes(dcm0.T, ca.reshape(x_end[X_DCM], 3, 3))
         return [
@@ -200,22 +240,23 @@ class Formulation:
             Row("periodic", ca.vertcat(rel[0, 1], rel[0, 2], rel[1, 2])),
         ]
 
-    def average_rows(self, torque_sq_avg: Any) -> list[Row]:
+    def average_rows(self, averages: dict[str, Any]) -> list[Row]:
         """Rows on cycle averages: the drive's RMS torque rating, when it has one."""
         lim = self.limits
         if lim.max_rms_torque_nm is None:
             return []
-        return [Row("rms_torque", torque_sq_avg, -np.inf, np.inf,
+        return [Row("rms_torque", averages["torque_sq"], -np.inf, np.inf,
                     limited=(-np.inf, (lim.max_rms_torque_nm / self.scales.torque_nm) ** 2))]
 
-    def objective(self, weights: dict[str, Any], p_elec_avg: Any, p_mech_avg: Any,
+    def objective(self, weights: dict[str, Any], averages: dict[str, Any],
                   regularization: Any, tracking: Any, fict_penalty: Any) -> Any:
         """Scaled objective: weighted average powers, regularization and homotopy terms.
 
-        ``weights`` holds the symbols of :data:`PARAM_NAMES` (but the wind).
+        ``weights`` holds the NLP's weight parameters by name
+        (:func:`optimize.problem.interface.param_names`).
         """
-        return ((weights["w_elec"] * p_elec_avg + weights["w_mech"] * p_mech_avg)
-                / self.scales.power_w
+        terms = [weights[weight_param(a)] * averages[a] for a in self.objective_averages]
+        return (functools.reduce(operator.add, terms) / self.objective_scale
                 + weights["w_reg"] * regularization
                 + weights["w_track"] * tracking
                 + weights["w_fict"] * fict_penalty)
@@ -223,7 +264,8 @@ class Formulation:
     # ---------------------------------------------------------------- bounds
     def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the state [SI] (position bounds are never active:
-        they only keep the solver in range)."""
+        they only keep the solver in range; the reel acceleration's is the winch's limit
+        when the system states one, in every kind)."""
         lim = self.limits
         l_lo, l_hi = lim.tether_length_bounds_m
         reach = 4.0 * l_hi
@@ -231,17 +273,19 @@ class Formulation:
         surf, spin = lim.surface_bound_deg * DEG, 6 * np.pi
         hi = {"r_x_m": reach, "r_y_m": reach, "r_z_m": -z_top, "v_x_m_s": 200, "v_y_m_s": 200,
               "v_z_m_s": 200, "omega_x_rad_s": spin, "omega_y_rad_s": spin,
-              "omega_z_rad_s": spin, "l_m": l_hi, "dl_m_s": 100, "ddl_m_s2": 500,
+              "omega_z_rad_s": spin, "l_m": l_hi, "dl_m_s": 100,
+              "ddl_m_s2": lim.max_reel_acceleration_m_s2 or SOLVER_REEL_ACCELERATION_M_S2,
               "aileron_rad": surf, "elevator_rad": surf, "rudder_rad": surf}
         lo = {name: -value for name, value in hi.items()}
         lo.update(r_z_m=-reach, l_m=l_lo)
-        lower = np.array([-1.1 if n.startswith("dcm_") else lo[n] for n in km.STATE_NAMES])
-        upper = np.array([1.1 if n.startswith("dcm_") else hi[n] for n in km.STATE_NAMES])
+        names = self.dae.states.names
+        lower = np.array([-1.1 if n.startswith("dcm_") else lo[n] for n in names])
+        upper = np.array([1.1 if n.startswith("dcm_") else hi[n] for n in names])
         return lower, upper
 
     def start_state_fixed(self) -> dict[int, float]:
         """State components fixed at t = 0 (the cycle's phase: ``r_y(0) = 0``) [SI]."""
-        return {km.IDX["r_y_m"]: 0.0}
+        return {self.dae.states.index("r_y_m"): 0.0}
 
     def limited_state_bounds(self) -> dict[int, tuple[float, float]]:
         """State bounds that replace :meth:`state_bounds` when the drive limits apply [SI]."""
@@ -252,15 +296,18 @@ class Formulation:
 
     def algebraic_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Bounds of the algebraic variables [SI]: tension ``l nu >= 0``."""
-        lo, hi = np.full(km.NZ, -np.inf), np.full(km.NZ, np.inf)
-        lo[Z_NU] = 0.0
+        alg = self.dae.algebraic
+        lo, hi = np.full(alg.size, -np.inf), np.full(alg.size, np.inf)
+        lo[alg.index("nu_n_m")] = 0.0
         return lo, hi
 
     def control_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Bounds of the controls [SI]: tether jerk and control-surface rates."""
         rate = self.limits.surface_rate_bound_rad_s
-        lo, hi = np.full(km.NU, -rate), np.full(km.NU, rate)
-        lo[U_JERK], hi[U_JERK] = -5000.0, 5000.0
+        controls = self.dae.controls
+        lo, hi = np.full(controls.size, -rate), np.full(controls.size, rate)
+        jerk = controls.index("dddl_m_s3")
+        lo[jerk], hi[jerk] = -5000.0, 5000.0
         return lo, hi
 
     def period_bounds(self) -> tuple[float, float]:

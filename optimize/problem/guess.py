@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from optimize.model.kite_model import NF, NX, NZ, KiteDae
+from optimize.model.kite_model import KiteDae
 from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 
 #: sine of the bank angle whose lift turns the start loop (53 deg)
@@ -141,11 +141,12 @@ def circular_loop(
     rate = 2.0 * np.pi / guess.period_s
     radius = rho * np.sin(theta)
 
-    n = len(times_s)
-    x = np.zeros((NX, n))
-    z = np.zeros((NZ, n))
-    fict = np.zeros((NF, n))
-    u0 = np.zeros(4)
+    n, nf = len(times_s), dae.fictitious.size
+    x = np.zeros((dae.states.size, n))
+    z = np.zeros((dae.algebraic.size, n))
+    fict = np.zeros((nf, n))
+    u0 = np.zeros(dae.controls.size)
+    i_nu = dae.algebraic.index("nu_n_m")
     for i, t in enumerate(times_s):
         phi = rate * t
         pos = rho * np.cos(theta) * axis + radius * (np.cos(phi) * b1 + np.sin(phi) * b2)
@@ -159,16 +160,26 @@ def circular_loop(
         # rigid rotation about an axis through the winch: |bridle| is constant, so
         # l = |bridle| makes c and dc/dt exactly zero
         length = np.linalg.norm(pos + dcm @ zt_b)
-        x[:, i] = np.concatenate(
-            [pos, vel, dcm.flatten(order="F"), omega_body, [length, 0, 0], [0, 0, 0]]
-        )
-        z_i = np.concatenate([acc, [0.0, 0.0, 0.0], [0.0]])
-        res0 = np.asarray(dae.alg(x[:, i], u0, z_i, wind_ref_m_s, np.zeros(NF))).ravel()
-        z_i[6] = 1.0
-        res1 = np.asarray(dae.alg(x[:, i], u0, z_i, wind_ref_m_s, np.zeros(NF))).ravel()
+        x[:, i] = dae.states.vector({
+            **dict(zip(("r_x_m", "r_y_m", "r_z_m"), pos, strict=True)),
+            **dict(zip(("v_x_m_s", "v_y_m_s", "v_z_m_s"), vel, strict=True)),
+            **{f"dcm_{r + 1}{c + 1}": dcm[r, c] for r in range(3) for c in range(3)},
+            **dict(zip(("omega_x_rad_s", "omega_y_rad_s", "omega_z_rad_s"), omega_body,
+                       strict=True)),
+            "l_m": length, "dl_m_s": 0.0, "ddl_m_s2": 0.0,
+            "aileron_rad": 0.0, "elevator_rad": 0.0, "rudder_rad": 0.0,
+        })
+        z_i = dae.algebraic.vector({
+            **dict(zip(("a_x_m_s2", "a_y_m_s2", "a_z_m_s2"), acc, strict=True)),
+            "domega_x_rad_s2": 0.0, "domega_y_rad_s2": 0.0, "domega_z_rad_s2": 0.0,
+            "nu_n_m": 0.0,
+        })
+        res0 = np.asarray(dae.alg(x[:, i], u0, z_i, wind_ref_m_s, np.zeros(nf))).ravel()
+        z_i[i_nu] = 1.0
+        res1 = np.asarray(dae.alg(x[:, i], u0, z_i, wind_ref_m_s, np.zeros(nf))).ravel()
         grad = res1[:3] - res0[:3]
-        z_i[6] = max(-float(res0[:3] @ grad) / float(grad @ grad), 0.0)
-        res = np.asarray(dae.alg(x[:, i], u0, z_i, wind_ref_m_s, np.zeros(NF))).ravel()
+        z_i[i_nu] = max(-float(res0[:3] @ grad) / float(grad @ grad), 0.0)
+        res = np.asarray(dae.alg(x[:, i], u0, z_i, wind_ref_m_s, np.zeros(nf))).ravel()
         z[:, i] = z_i
         fict[:, i] = res[:6]
     return x, z, fict

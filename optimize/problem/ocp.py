@@ -1,14 +1,15 @@
 """Periodic pumping-cycle optimal control problem (paper section IV, eq. 5), built.
 
-:func:`build_ocp` puts the parts together once per (options, drive model): the
-formulation (:mod:`optimize.problem.formulation`: DAE, path constraints,
+:func:`build_ocp` puts the kite's parts together once per (options, drive model):
+the formulation (:mod:`optimize.problem.formulation`: DAE, path constraints,
 periodicity, objective, bounds, from the system and its drive), the transcription
 (:mod:`optimize.problem.transcription`: Radau collocation into one scaled NLP)
-and the options (:mod:`optimize.problem.options`). The NLP is solved for any
-scenario by changing only NLP parameters (wind speed, objective weights,
-homotopy weights, reference trajectory) and variable/constraint bounds (drive
-limits, fixed period, fictitious forces switched off); :mod:`optimize.solve`
-runs the solvers.
+and the options (:mod:`optimize.problem.options`). :func:`assemble` does the
+same for any formulation (:class:`optimize.problem.interface.CycleFormulation`).
+The NLP is solved for any scenario by changing only NLP parameters (wind speed,
+objective weights by cycle-average name, homotopy weights, reference trajectory)
+and variable/constraint bounds (drive limits, fixed period, fictitious forces
+switched off); :mod:`optimize.solve` runs the solvers.
 """
 
 from __future__ import annotations
@@ -21,11 +22,13 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from optimize.model.drive import DriveModel
+from optimize.model.dae import Dae
+from optimize.model.drivetrain import DriveModel
 from optimize.model.kite_model import KiteDae
 from optimize.problem.collocation import Collocation, radau
-from optimize.problem.formulation import DEG, PARAM_NAMES, Formulation
+from optimize.problem.formulation import DEG, Formulation
 from optimize.problem.guess import LoopGuess, start_loop
+from optimize.problem.interface import CycleFormulation, weight_param
 from optimize.problem.options import OcpOptions, with_drive_rating
 from optimize.problem.scaling import Scales, system_scales
 from optimize.problem.transcription import (
@@ -44,24 +47,25 @@ Bounds = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 class Ocp:
     """A built OCP: formulation, transcribed NLP and its base bounds.
 
-    Build it with :func:`build_ocp`; solve it with :func:`optimize.solve.solve.solve`
-    or :func:`optimize.solve.solve.start`. Solvers created for it are cached in
-    ``solvers`` (:mod:`optimize.solve.backend`).
+    Build the kite's with :func:`build_ocp` (any formulation's with :func:`assemble`);
+    solve it with :func:`optimize.solve.solve.solve` or :func:`optimize.solve.solve.start`
+    (the kite's) or :func:`optimize.solve.backend.run` (any). Solvers created for it are
+    cached in ``solvers`` (:mod:`optimize.solve.backend`).
     """
 
     options: OcpOptions
-    formulation: Formulation
+    formulation: CycleFormulation
     coll: Collocation
     transcription: Transcription
     build_time_s: float
-    loop: LoopGuess
+    loop: LoopGuess | None = None
     system: Any = None
     solvers: dict = field(default_factory=dict, repr=False)
     _g_fn: ca.Function | None = field(default=None, repr=False)
 
     @property
-    def dae(self) -> KiteDae:
-        """The kite DAE."""
+    def dae(self) -> Dae:
+        """The model (the kite DAE for :func:`build_ocp`)."""
         return self.formulation.dae
 
     @property
@@ -98,8 +102,7 @@ class Ocp:
     def params(
         self,
         wind_ref_m_s: float,
-        w_elec: float = 0.0,
-        w_mech: float = 0.0,
+        weights: dict[str, float] | None = None,
         w_reg: float | None = None,
         w_track: float = 0.0,
         w_fict: float = 0.0,
@@ -111,21 +114,31 @@ class Ocp:
         ----------
         wind_ref_m_s : float
             Wind speed at 100 m [m/s].
-        w_elec, w_mech : float
-            Weights of the average electrical / mechanical power [per scaled power].
+        weights : dict, optional
+            Objective weight per cycle average, by name (``{"p_elec_w": 1.0}``;
+            :attr:`optimize.kinds.Kind.weights`) [per objective scale]; the others 0.
         w_reg : float, optional
-            Regularization weight [per scaled power]; defaults to the
-            discretization's ``regularization_w`` over the power scale.
+            Regularization weight [per objective scale]; defaults to the
+            discretization's ``regularization_w`` over the objective scale.
         w_track, w_fict : float
             Homotopy weights: state tracking and fictitious-force penalty.
         x_ref : ndarray (NX, N d + 1), optional
             Tracking reference at the state grid points [SI].
         """
         lay = self.layout
-        p = np.zeros(lay.n_p)
         if w_reg is None:
-            w_reg = self.options.discretization.regularization_w / self.scales.power_w
-        p[: len(PARAM_NAMES)] = [wind_ref_m_s, w_elec, w_mech, w_reg, w_track, w_fict]
+            w_reg = (self.options.discretization.regularization_w
+                     / self.formulation.objective_scale)
+        values = {"wind_ref_m_s": wind_ref_m_s, "w_reg": w_reg, "w_track": w_track,
+                  "w_fict": w_fict}
+        for average, weight in (weights or {}).items():
+            if weight_param(average) not in lay.params:
+                raise ValueError(f"no cycle average {average!r} to weight; the objective "
+                                 f"weights {', '.join(self.formulation.objective_averages)}")
+            values[weight_param(average)] = weight
+        p = np.zeros(lay.n_p)
+        for name, value in values.items():
+            p[lay.params[name]] = value
         if x_ref is not None:
             p[lay.i_p_ref] = x_ref / self.scales.state[:, None]
         return p
@@ -207,14 +220,36 @@ def build_ocp(
     loop = start_loop(dae.kite, dae.coeffs, dae.wind, lim.alpha_bounds_deg[1],
                       lim.min_airspeed_m_s, lim.period_bounds_s, lim.tether_length_bounds_m,
                       lim.min_altitude_m)
-    scales = system_scales(dae.kite, loop, lim.nominal_power_w, lim.max_torque_nm,
+    scales = system_scales(dae, loop, lim.nominal_power_w, lim.max_torque_nm,
                            lim.surface_bound_deg * DEG, lim.surface_rate_bound_rad_s)
     form = Formulation(dae, drive_model, lim, disc, scales)
+    return assemble(form, o, loop=loop, system=system, started=t0)
+
+
+def assemble(form: CycleFormulation, options: OcpOptions, loop: LoopGuess | None = None,
+             system: Any = None, started: float | None = None) -> Ocp:
+    """Transcribe any formulation for ``options``' solver and discretization.
+
+    Parameters
+    ----------
+    form : CycleFormulation
+        What is optimized (:mod:`optimize.problem.interface`).
+    options : OcpOptions
+        Discretization and solver (its limits are the formulation's business).
+    loop : LoopGuess, optional
+        The kite's start loop (the homotopy's guess); ``None`` for other models.
+    system : optimize.system.system.System, optional
+        Recorded on the OCP.
+    started : float, optional
+        ``time.perf_counter()`` when the build began (default: now).
+    """
+    t0 = time.perf_counter() if started is None else started
+    disc = options.discretization
     coll = radau(disc.degree)
-    transcribe = stagewise_collocation if o.solver.solver == "fatrop" else radau_collocation
+    transcribe = stagewise_collocation if options.solver.solver == "fatrop" else radau_collocation
     tr = transcribe(form, disc, coll)
-    ocp = Ocp(options=o, formulation=form, coll=coll, transcription=tr, build_time_s=0.0,
-              loop=loop, system=system)
+    ocp = Ocp(options=options, formulation=form, coll=coll, transcription=tr,
+              build_time_s=0.0, loop=loop, system=system)
     ocp.build_time_s = time.perf_counter() - t0
     log.info("built OCP (%s layout): %d variables, %d constraints, N=%d, degree %d in %.1f s",
              tr.layout.kind, tr.layout.n_w, tr.layout.n_g, disc.n_intervals, disc.degree,
@@ -228,9 +263,9 @@ def twin(ocp: Ocp, solver: str) -> Ocp:
         return ocp
     key = ("twin", solver)
     if key not in ocp.solvers:
-        ocp.solvers[key] = build_ocp(ocp.dae, ocp.drive_model,
-                                     ocp.options.replace(solver={"solver": solver}),
-                                     system=ocp.system)
+        ocp.solvers[key] = assemble(ocp.formulation,
+                                    ocp.options.replace(solver={"solver": solver}),
+                                    loop=ocp.loop, system=ocp.system)
     return ocp.solvers[key]
 
 

@@ -107,6 +107,18 @@ class Limits:
         Control-surface deflection bound [deg].
     surface_rate_bound_rad_s : float
         Control-surface rate bound [rad/s].
+    max_reel_acceleration_m_s2 : float or None
+        Largest tether (reel) acceleration ``|l''|`` [m/s^2] of every scenario kind (the
+        winch's limit); ``None``: only the solver's range (500 m/s^2).
+    base_speed_rpm : float or None
+        The drive's base speed at the motor shaft [rpm]: above it the largest torque
+        falls as ``max_torque_nm * base / |n|`` (constant power), in the constrained
+        scenarios. ``None``: no constant-power region.
+    envelope_speed_rpm, envelope_torque_nm : tuple of float or None
+        A datasheet's torque-speed envelope instead: the largest torque [N m] at each
+        motor speed [rpm] (speeds rising from 0, torques not rising), linear between
+        the points and flat beyond the last, in both quadrants, in the constrained
+        scenarios.
     """
 
     period_bounds_s: tuple[float, float] = (1.0, 20.0)
@@ -125,6 +137,10 @@ class Limits:
     max_line_angle_deg: float = 65.0
     surface_bound_deg: float = 10.0
     surface_rate_bound_rad_s: float = 2.0
+    max_reel_acceleration_m_s2: float | None = None
+    base_speed_rpm: float | None = None
+    envelope_speed_rpm: tuple[float, ...] | None = None
+    envelope_torque_nm: tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         lo, hi = self.period_bounds_s
@@ -132,7 +148,8 @@ class Limits:
             raise ValueError(
                 f"period_bounds_s must satisfy 0 < lo < hi, got {self.period_bounds_s}"
             )
-        for name in ("max_rms_torque_nm", "max_airspeed_m_s", "max_tether_force_n"):
+        for name in ("max_rms_torque_nm", "max_airspeed_m_s", "max_tether_force_n",
+                     "max_reel_acceleration_m_s2", "base_speed_rpm"):
             value = getattr(self, name)
             if value is not None and not value > 0:
                 raise ValueError(f"{name} must be > 0, got {value}")

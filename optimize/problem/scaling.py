@@ -17,9 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from optimize.model import kite_model as km
+from optimize.model.kite_model import KiteDae
 from optimize.problem.guess import LoopGuess
-from optimize.system.params import KiteParams
 
 
 @dataclass(frozen=True)
@@ -51,7 +50,7 @@ class Scales:
 
 
 def system_scales(
-    kite: KiteParams,
+    dae: KiteDae,
     loop: LoopGuess,
     nominal_power_w: float,
     max_torque_nm: float,
@@ -62,7 +61,8 @@ def system_scales(
 
     Parameters
     ----------
-    kite : KiteParams
+    dae : KiteDae
+        The kite model: its parameters, and the names the state scales follow.
     loop : LoopGuess
         The start loop (tether length ``L`` [m], period ``T`` [s], cone angle).
     nominal_power_w : float
@@ -72,22 +72,34 @@ def system_scales(
     surface_bound_rad, surface_rate_bound_rad_s : float
         Control-surface deflection [rad] and rate [rad/s] bounds.
     """
+    kite = dae.kite
     length = loop.tether_length_m
     period = loop.period_s
     rate = 2.0 * math.pi / period
     speed = length * math.sin(math.radians(loop.cone_half_angle_deg)) * rate
     force = 1.36 * kite.mass_kg * kite.g_m_s2
     moment = 0.4 * force * kite.cref_m
-    state = np.concatenate([
-        [1.25 * length] * 3, [1.15 * speed] * 3, [1.0] * 9, [2.4 * rate] * 3,
-        [1.25 * length, 0.4 * speed, 0.9 * speed * rate], [1.15 * surface_bound_rad] * 3,
-    ])
-    control = np.array([2.4 * speed * rate**2] + [surface_rate_bound_rad_s] * 3)
-    algebraic = np.array([1.5 * speed * rate] * 3 + [6.3 * rate**2] * 3
-                         + [11.0 * kite.mass_kg * kite.g_m_s2 / length])
-    fictitious = np.array([force] * 3 + [moment] * 3)
+    state = dae.states.vector({
+        **{f"r_{a}_m": 1.25 * length for a in "xyz"},
+        **{f"v_{a}_m_s": 1.15 * speed for a in "xyz"},
+        **{f"dcm_{i}{j}": 1.0 for i in (1, 2, 3) for j in (1, 2, 3)},
+        **{f"omega_{a}_rad_s": 2.4 * rate for a in "xyz"},
+        "l_m": 1.25 * length, "dl_m_s": 0.4 * speed, "ddl_m_s2": 0.9 * speed * rate,
+        **{f"{s}_rad": 1.15 * surface_bound_rad for s in ("aileron", "elevator", "rudder")},
+    })
+    control = dae.controls.vector({
+        "dddl_m_s3": 2.4 * speed * rate**2,
+        **{f"d{s}_rad_s": surface_rate_bound_rad_s for s in ("aileron", "elevator", "rudder")},
+    })
+    algebraic = dae.algebraic.vector({
+        **{f"a_{a}_m_s2": 1.5 * speed * rate for a in "xyz"},
+        **{f"domega_{a}_rad_s2": 6.3 * rate**2 for a in "xyz"},
+        "nu_n_m": 11.0 * kite.mass_kg * kite.g_m_s2 / length,
+    })
+    fictitious = dae.fictitious.vector({
+        **{f"f_fict_{a}_n": force for a in "xyz"}, **{f"m_fict_{a}_nm": moment for a in "xyz"},
+    })
     residual = np.array([force] * 3 + [moment] * 3 + [1.5 * speed**2])
-    assert state.shape == (km.NX,)
     return Scales(
         state=state, control=control, algebraic=algebraic, fictitious=fictitious,
         residual=residual, period_s=period, power_w=nominal_power_w / 8.0,

@@ -1,9 +1,11 @@
-"""One optimization scenario: wind speed, objective and whether the drive limits apply."""
+"""One optimization scenario: wind speed and the kind (objective, drive limits)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Literal
+
+from optimize.kinds import KINDS, Kind, kind_of
 
 Objective = Literal["electrical", "mechanical"]
 
@@ -18,7 +20,8 @@ class Scenario:
         Wind speed at 100 m altitude [m/s] (log shear below and above).
     objective : {"electrical", "mechanical"}
         Maximize the average generated electrical power (through the drive
-        model) or the average generated mechanical power.
+        model) or the average generated mechanical power
+        (:data:`optimize.kinds.OBJECTIVES`).
     drive_limits : bool
         Apply the drive limits (speed, torque, and the RMS and grid-power limits when set).
     """
@@ -28,18 +31,30 @@ class Scenario:
     drive_limits: bool
 
     def __post_init__(self) -> None:
-        if self.objective not in ("electrical", "mechanical"):
-            raise ValueError(
-                f"objective must be 'electrical' or 'mechanical', got {self.objective!r}"
-            )
+        kind_of(self.objective, self.drive_limits)  # raises on an unknown objective
         if not self.wind_speed_m_s > 0:
             raise ValueError(f"wind_speed_m_s must be positive, got {self.wind_speed_m_s}")
+
+    @classmethod
+    def of_kind(cls, kind: str | Kind, wind_speed_m_s: float) -> Scenario:
+        """The scenario of a kind (key or :class:`optimize.kinds.Kind`) at a wind speed."""
+        k = KINDS[kind] if isinstance(kind, str) else kind
+        return cls(wind_speed_m_s, k.objective, k.drive_limits)
+
+    @property
+    def kind_spec(self) -> Kind:
+        """The scenario's kind: its objective weights, summary column and label."""
+        return kind_of(self.objective, self.drive_limits)
 
     @property
     def kind(self) -> str:
         """Objective and limits, e.g. ``"elec-lim"`` or ``"mech-free"``."""
-        obj = "elec" if self.objective == "electrical" else "mech"
-        return f"{obj}-{'lim' if self.drive_limits else 'free'}"
+        return self.kind_spec.key
+
+    @property
+    def weights(self) -> dict[str, float]:
+        """Objective weights by cycle-average name (:attr:`optimize.kinds.Kind.weights`)."""
+        return self.kind_spec.weights
 
     @property
     def name(self) -> str:

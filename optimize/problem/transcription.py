@@ -1,11 +1,15 @@
 """Direct Radau collocation of the cycle OCP into one scaled NLP, in two layouts.
 
-Takes the :class:`optimize.problem.formulation.Formulation` (what is optimized)
-and a :class:`optimize.problem.options.Discretization` (how finely) and lays out
+Takes a formulation (what is optimized: any
+:class:`optimize.problem.interface.CycleFormulation`; the kite's is
+:class:`optimize.problem.formulation.Formulation`) and a
+:class:`optimize.problem.options.Discretization` (how finely) and lays out
 the decision vector ``w``, the constraint vector ``g`` and the parameters ``p``.
 Each decision variable is stored divided by its typical magnitude. Both layouts
 give the same NLP (same variables up to copies, same rows up to the rows that tie
-the copies), so they have the same optima:
+the copies), so they have the same optima. Every size comes from the formulation's
+model (``form.dae``), the scalar parameters from their names
+(:func:`optimize.problem.interface.param_names`):
 
 * :func:`radau_collocation` (``"ipopt"``), for a general sparse solver.
   Decision vector, in this order: one copy of the period ``T`` per interval (tied
@@ -20,10 +24,10 @@ the copies), so they have the same optima:
 * :func:`stagewise_collocation` (``"stagewise"``), for a Riccati-based solver
   (fatrop): the variables and rows of each interval form one stage, and stages
   couple only through ``x_{k+1} - F(x_k, u_k) = 0``. The stage state carries,
-  besides the kite state at the interval start, the period and the cycle's start
-  state (constant along the horizon) and the running integral of the squared
-  torque, so that periodicity and the RMS-torque row are constraints of the last
-  stage.
+  besides the model state at the interval start, the period and the cycle's start
+  state (constant along the horizon) and the running integrals of the constrained
+  cycle averages (the squared torque of an RMS-torque rating), so that periodicity
+  and the rows on averages are constraints of the last stage.
 
 :attr:`Layout.rows` finds rows by name in either layout. In both, every Radau point's
 rows and integrands come from one :class:`PointFunction`, and each layout records
@@ -39,9 +43,8 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from optimize.model import kite_model as km
 from optimize.problem.collocation import Collocation
-from optimize.problem.formulation import PARAM_NAMES, Formulation, Row
+from optimize.problem.interface import CycleFormulation, Row, param_names
 from optimize.problem.options import Discretization
 
 
@@ -61,6 +64,7 @@ class Layout:
     n_g: int
     n_p: int
     i_p_ref: np.ndarray  # (NX, n_points) reference trajectory in p
+    params: dict[str, int] = field(default_factory=dict)  # scalar parameter -> index in p
     rows: dict[str, np.ndarray] = field(default_factory=dict)  # name -> indices into g
     kind: str = "ipopt"  # which transcription: "ipopt" or "stagewise"
     #: a function of the scaled ``w`` that sets the variables derived from others
@@ -81,7 +85,7 @@ class PointBlocks:
     For each Radau point ``j``: ``g[rows[:, j]] = rows(w[vars[:, j]], p[i_wind],
     deriv[:, j])`` of ``point.function``. Its integrands enter the objective and the
     other rows only through the cycle sums: ``f_s`` and ``g_s`` are ``f`` and ``g``
-    with the symbols ``s`` (``(len(INTEGRANDS), n_coll)``) in place of the integrands
+    with the symbols ``s`` (``(len(point.integrands), n_coll)``) in place of the integrands
     (``f = f_s`` and ``g = g_s`` once ``s`` is replaced by the points' integrands).
     """
 
@@ -152,16 +156,15 @@ class _Rows:
 class _Sums:
     """Running cycle averages and penalty sums of a transcription (symbolic)."""
 
-    p_elec: Any = 0
-    p_mech: Any = 0
-    torque_sq: Any = 0
+    averages: dict[str, Any]
     fict: Any = 0
     reg: Any = 0
     track: Any = 0
 
-
-#: the integrands of the cycle averages a collocation point returns, in this order
-INTEGRANDS = ("p_elec_w", "p_mech_w", "torque_sq", "fict_sq")
+    @classmethod
+    def of(cls, form: CycleFormulation) -> _Sums:
+        """Zero sums of the cycle averages of ``form``."""
+        return cls(averages=dict.fromkeys(form.averages, 0))
 
 
 @dataclass(frozen=True)
@@ -175,13 +178,14 @@ class PointFunction:
     the reference wind speed [m/s], ``deriv`` the point's column of
     :attr:`Collocation.deriv`. ``rows`` are the dynamics rows then the formulation's
     point rows (``templates`` gives their names and bounds), ``integrands`` the values
-    of :data:`INTEGRANDS`.
+    named by :attr:`integrands` (the formulation's cycle averages, then ``fict_sq``).
     Every Radau point of both layouts is this one function, so its derivatives can
     be built once (:mod:`optimize.solve.derivatives`).
     """
 
     function: ca.Function
     templates: tuple[Row, ...]
+    integrands: tuple[str, ...]
 
     def rows_of(self, out: Any) -> list[Row]:
         """The point's rows with the expressions ``out`` (one call's ``rows``)."""
@@ -193,20 +197,21 @@ class PointFunction:
         return rows
 
 
-def point_function(form: Formulation, coll: Collocation, n_intervals: int,
+def point_function(form: CycleFormulation, coll: Collocation, n_intervals: int,
                    scale_w: dict[str, np.ndarray]) -> PointFunction:
     """Build the :class:`PointFunction` of ``form`` on ``n_intervals`` intervals.
 
     ``scale_w`` has the scale of each part of ``v`` (``period, x, u, z, f``).
     """
-    d = coll.degree
-    sizes = {"period": 1, "x": km.NX, "u": km.NU, "z": km.NZ, "f": km.NF}
-    v = ca.SX.sym("v", sum(sizes.values()) + (d + 1) * km.NX)
+    d, nx = coll.degree, form.dae.states.size
+    sizes = {"period": 1, "x": nx, "u": form.dae.controls.size, "z": form.dae.algebraic.size,
+             "f": form.dae.fictitious.size}
+    v = ca.SX.sym("v", sum(sizes.values()) + (d + 1) * nx)
     parts, start = {}, 0
     for name, size in sizes.items():
         parts[name] = v[start:start + size] * ca.DM(scale_w[name])
         start += size
-    xs = [v[start + r * km.NX: start + (r + 1) * km.NX] * ca.DM(scale_w["x"])
+    xs = [v[start + r * nx: start + (r + 1) * nx] * ca.DM(scale_w["x"])
           for r in range(d + 1)]
     wind, deriv = ca.SX.sym("wind"), ca.SX.sym("deriv", d + 1)
     x, u, z = parts["x"], parts["u"], parts["z"]
@@ -215,14 +220,15 @@ def point_function(form: Formulation, coll: Collocation, n_intervals: int,
     dynamics = Row("dynamics", (xp - h * form.ode(x, u, z)) * ca.DM(1.0 / form.scales.state))
     point = form.point(x, u, z, parts["f"], wind)
     templates = (dynamics, *point.rows)
-    integrands = ca.vertcat(point.p_elec_w, point.p_mech_w, point.torque_sq, point.fict_sq)
+    integrands = ca.vertcat(*[point.averages[a] for a in form.averages], point.fict_sq)
     function = ca.Function("radau_point", [v, wind, deriv],
                            [ca.vertcat(*[t.expr for t in templates]), integrands],
                            ["v", "wind", "deriv"], ["rows", "integrands"])
-    return PointFunction(function=function, templates=templates)
+    return PointFunction(function=function, templates=templates,
+                         integrands=(*form.averages, "fict_sq"))
 
 
-def _point_scales(form: Formulation) -> dict[str, np.ndarray]:
+def _point_scales(form: CycleFormulation) -> dict[str, np.ndarray]:
     sc = form.scales
     return {"period": np.array([sc.period_s]), "x": sc.state, "u": sc.control,
             "z": sc.algebraic, "f": sc.fictitious}
@@ -251,41 +257,41 @@ def _interval(point: PointFunction, coll: Collocation, w: Any, i_period: int,
     return out
 
 
-def _torque_sq_share(coll: Collocation, n: int, j: int, s: Any) -> Any:
-    """Point ``j``'s (1-based) share of the average squared torque, from its integrands
-    ``s`` (:data:`INTEGRANDS`)."""
-    return coll.quad[j - 1] / n * s[2]
+def _share(coll: Collocation, n: int, j: int, value: Any) -> Any:
+    """Point ``j``'s (1-based) share of a cycle average whose integrand is ``value``."""
+    return coll.quad[j - 1] / n * value
 
 
-def _add_integrands(sums: _Sums, coll: Collocation, n: int, j: int, s: Any) -> Any:
-    """Add point ``j``'s (1-based) integrands ``s`` (:data:`INTEGRANDS`) to ``sums``;
-    returns its share of the average squared torque."""
-    q = coll.quad[j - 1] / n
-    sums.p_elec += q * s[0]
-    sums.p_mech += q * s[1]
-    sums.torque_sq += _torque_sq_share(coll, n, j, s)
-    sums.fict += s[3] / (n * coll.degree)
-    return _torque_sq_share(coll, n, j, s)
+def _add_integrands(sums: _Sums, coll: Collocation, n: int, j: int, s: Any) -> None:
+    """Add point ``j``'s (1-based) integrands ``s`` (the cycle averages in the order of
+    ``sums.averages``, then the squared fictitious forces) to ``sums``."""
+    for i, name in enumerate(sums.averages):
+        sums.averages[name] += _share(coll, n, j, s[i])
+    sums.fict += s[len(sums.averages)] / (n * coll.degree)
 
 
-def _params(n_points: int) -> tuple[ca.SX, dict, int, np.ndarray]:
-    """Parameter vector: :data:`PARAM_NAMES`, then the tracking reference per grid point."""
-    n_par = len(PARAM_NAMES)
-    n_p = n_par + km.NX * n_points
+def _params(form: CycleFormulation, n_points: int
+            ) -> tuple[ca.SX, dict, int, np.ndarray, dict[str, int]]:
+    """Parameter vector: the scalar parameters by name
+    (:func:`optimize.problem.interface.param_names`), then the tracking reference per
+    grid point."""
+    names, nx = param_names(form), form.dae.states.size
+    n_par = len(names)
+    n_p = n_par + nx * n_points
     p = ca.SX.sym("p", n_p)
-    par = dict(zip(PARAM_NAMES, (p[i] for i in range(n_par)), strict=True))
-    i_p_ref = n_par + np.arange(km.NX * n_points).reshape(n_points, km.NX).T
-    return p, par, n_p, i_p_ref
+    par = {name: p[i] for i, name in enumerate(names)}
+    i_p_ref = n_par + np.arange(nx * n_points).reshape(n_points, nx).T
+    return p, par, n_p, i_p_ref, {name: i for i, name in enumerate(names)}
 
 
-def _tracking(form: Formulation, p: ca.SX, i_p_ref: np.ndarray, xs: list) -> Any:
+def _tracking(form: CycleFormulation, p: ca.SX, i_p_ref: np.ndarray, xs: list) -> Any:
     """Mean squared scaled deviation of the grid-point states from the reference."""
     inv_sx = ca.DM(1.0 / form.scales.state)
     return sum(ca.sumsqr(x * inv_sx - p[[int(i) for i in i_p_ref[:, k]]])
                for k, x in enumerate(xs)) / len(xs)
 
 
-def _variable_bounds(form: Formulation, n_w: int, i_period: np.ndarray, i_x: np.ndarray,
+def _variable_bounds(form: CycleFormulation, n_w: int, i_period: np.ndarray, i_x: np.ndarray,
                      i_z: np.ndarray, i_u: np.ndarray) -> tuple[np.ndarray, ...]:
     """Physical ``lbw, ubw`` without and with the drive limits."""
     lbw, ubw = np.full(n_w, -np.inf), np.full(n_w, np.inf)
@@ -304,7 +310,7 @@ def _variable_bounds(form: Formulation, n_w: int, i_period: np.ndarray, i_x: np.
     return lbw, ubw, lbw_lim, ubw_lim
 
 
-def _scale_w(form: Formulation, n_w: int, i_period: np.ndarray, i_x: np.ndarray,
+def _scale_w(form: CycleFormulation, n_w: int, i_period: np.ndarray, i_x: np.ndarray,
              i_z: np.ndarray, i_u: np.ndarray, i_f: np.ndarray) -> np.ndarray:
     sc = form.scales
     scale_w = np.ones(n_w)
@@ -327,7 +333,8 @@ def _finish(nlp: dict, blocks: PointBlocks, layout: Layout, rows: _Rows,
 
 
 def _nlp_and_blocks(w: Any, p: Any, f_s: Any, g_s: Any, s: Any, point: PointFunction,
-                    points: list, deriv: np.ndarray) -> tuple[dict, PointBlocks]:
+                    points: list, deriv: np.ndarray, i_wind: int
+                    ) -> tuple[dict, PointBlocks]:
     """The NLP, with the points' integrands in place of the symbols ``s``, and its
     :class:`PointBlocks` (``points`` as :func:`_interval` returns them, in the order
     of the columns of ``s``)."""
@@ -336,17 +343,23 @@ def _nlp_and_blocks(w: Any, p: Any, f_s: Any, g_s: Any, s: Any, point: PointFunc
     blocks = PointBlocks(
         point=point, vars=np.stack([pt[0] for pt in points], axis=1),
         rows=np.stack([pt[1] for pt in points], axis=1), deriv=deriv, s=s, f_s=f_s,
-        g_s=g_s, i_wind=PARAM_NAMES.index("wind_ref_m_s"))
+        g_s=g_s, i_wind=i_wind)
     return {"x": w, "p": p, "f": f, "g": g}, blocks
 
 
-def radau_collocation(form: Formulation, disc: Discretization, coll: Collocation
+def _dims(form: CycleFormulation) -> tuple[int, int, int, int]:
+    """Sizes of the model's state, algebraic, control and fictitious vectors."""
+    dae = form.dae
+    return dae.states.size, dae.algebraic.size, dae.controls.size, dae.fictitious.size
+
+
+def radau_collocation(form: CycleFormulation, disc: Discretization, coll: Collocation
                       ) -> Transcription:
     """Transcribe ``form`` by Radau collocation on ``disc.n_intervals`` intervals
     (the layout for a general sparse solver, see the module docstring)."""
     sc = form.scales
     n, d = disc.n_intervals, coll.degree
-    nx, nz, nu, nf = km.NX, km.NZ, km.NU, km.NF
+    nx, nz, nu, nf = _dims(form)
     n_points, n_coll = n * d + 1, n * d
 
     counter = iter(range(10**9))
@@ -357,7 +370,7 @@ def radau_collocation(form: Formulation, disc: Discretization, coll: Collocation
     i_f = np.array([[next(counter) for _ in range(nf)] for _ in range(n_coll)]).T
     n_w = next(counter)
     scale_w = _scale_w(form, n_w, i_period, i_x, i_z, i_u, i_f)
-    p, par, n_p, i_p_ref = _params(n_points)
+    p, par, n_p, i_p_ref, i_par = _params(form, n_points)
     w = ca.SX.sym("w", n_w)
     ws = w * ca.DM(scale_w)
 
@@ -366,10 +379,10 @@ def radau_collocation(form: Formulation, disc: Discretization, coll: Collocation
 
     xs = [col(i_x, k) for k in range(n_points)]
     point = point_function(form, coll, n, _point_scales(form))
-    rows, sums = _Rows(), _Sums()
+    rows, sums = _Rows(), _Sums.of(form)
     # the integrands enter f and g through the symbols s (substituted below), so the
     # derivatives can be built point by point (optimize.solve.derivatives)
-    s = ca.SX.sym("s", len(INTEGRANDS), n_coll)
+    s = ca.SX.sym("s", len(point.integrands), n_coll)
     points = []
     for k in range(n):
         sums.reg += form.control_cost(col(i_u, k)) / n
@@ -385,53 +398,53 @@ def radau_collocation(form: Formulation, disc: Discretization, coll: Collocation
     rows.add(Row("period_tie", ca.vertcat(*[(ws[int(i_period[k + 1])] - ws[int(i_period[k])])
                                             / sc.period_s for k in range(n - 1)])))
     for row in (*form.start_rows(xs[0]), *form.periodicity_rows(xs[0], xs[-1]),
-                *form.average_rows(sums.torque_sq)):
+                *form.average_rows(sums.averages)):
         rows.add(row)
 
-    f_s = form.objective(par, sums.p_elec, sums.p_mech, sums.reg, sums.track, sums.fict)
+    f_s = form.objective(par, sums.averages, sums.reg, sums.track, sums.fict)
     nlp, blocks = _nlp_and_blocks(w, p, f_s, ca.vertcat(*rows.exprs), s, point, points,
-                                  np.tile(coll.deriv, (1, n)))
+                                  np.tile(coll.deriv, (1, n)), i_par["wind_ref_m_s"])
     layout = Layout(
         n_points=n_points, n_coll=n_coll, i_period=i_period, i_x=i_x, i_z=i_z, i_u=i_u,
         i_f=i_f, scale_w=scale_w, n_w=n_w, n_g=rows.n, n_p=n_p, i_p_ref=i_p_ref,
-        rows={name: np.array(idx, dtype=int) for name, idx in rows.index.items()},
+        params=i_par, rows={name: np.array(idx, dtype=int) for name, idx in rows.index.items()},
     )
     return _finish(nlp, blocks, layout, rows,
                    _variable_bounds(form, n_w, i_period, i_x, i_z, i_u))
 
 
-def stagewise_collocation(form: Formulation, disc: Discretization, coll: Collocation
-                          ) -> Transcription:
-    """Transcribe ``form`` by Radau collocation in stages (the layout of a Riccati-based
-    solver such as fatrop, see the module docstring).
+@dataclass(frozen=True)
+class _Stages:
+    """Indices into ``w`` of the stage-wise layout (:func:`stagewise_collocation`)."""
 
-    Stage ``k < N``: state ``x_k = (X_k, T_k, S_k[, Q_k])`` (kite state at the interval
-    start, period, the cycle's start state, running integral of the squared scaled
-    torque when the NLP has the RMS-torque row), control ``u_k = (U_k, X_k1..X_kd,
-    Z_k1..Z_kd, F_k1..F_kd)`` (control, states, algebraic variables and fictitious
-    forces at the Radau points). Rows of stage ``k``: first ``x_{k+1} - F(x_k, u_k)``
-    (``X_{k+1} = X_kd``, ``T``, ``S`` and ``Q`` carried), then the interval's rows; stage
-    0 also has the start rows and ``S_0 = X_0``. The last stage ``N`` has only a
-    state and the periodicity (``X_N`` against ``S_N``) and average rows.
-    """
-    n, d = disc.n_intervals, coll.degree
-    nx, nz, nu, nf = km.NX, km.NZ, km.NU, km.NF
-    n_points, n_coll = n * d + 1, n * d
-    rms = form.limits.max_rms_torque_nm is not None
+    i_x: np.ndarray  # (nx, N d + 1) model states: X_0, then the Radau points
+    i_z: np.ndarray  # (nz, N d)
+    i_u: np.ndarray  # (nu, N)
+    i_f: np.ndarray  # (nf, N d)
+    i_start: np.ndarray  # (nx, N + 1) S_k, copies of the cycle's start state
+    i_next: np.ndarray  # (nx, N) X_{k+1}, copies of the interval's last Radau point
+    i_period: np.ndarray  # (N + 1,) T_k
+    i_q: np.ndarray  # (number of carried averages, N + 1) running integrals Q_k
+    n_w: int
 
+    def x_start(self, k: int) -> np.ndarray:
+        """Indices of the model state at the start of interval ``k``."""
+        return self.i_x[:, 0] if k == 0 else self.i_next[:, k - 1]
+
+
+def _stage_indices(n: int, d: int, dims: tuple[int, int, int, int], n_q: int) -> _Stages:
+    """Lay out ``w`` stage by stage: ``x_k = (X_k, T_k, S_k, Q_k)``, then ``u_k = (U_k,
+    the Radau points' states, algebraic variables and fictitious forces)``."""
+    nx, nz, nu, nf = dims
     counter = iter(range(10**9))
 
     def take(size: int) -> np.ndarray:
-        return np.array([next(counter) for _ in range(size)])
+        return np.array([next(counter) for _ in range(size)], dtype=int)
 
-    i_x = np.zeros((nx, n_points), dtype=int)
-    i_z = np.zeros((nz, n_coll), dtype=int)
-    i_u = np.zeros((nu, n), dtype=int)
-    i_f = np.zeros((nf, n_coll), dtype=int)
-    i_start = np.zeros((nx, n + 1), dtype=int)  # S_k
-    i_next = np.zeros((nx, n), dtype=int)  # X_{k+1}, copies of the last Radau point
-    i_period = np.zeros(n + 1, dtype=int)
-    i_q = np.zeros(n + 1, dtype=int)
+    i_x, i_z = np.zeros((nx, n * d + 1), dtype=int), np.zeros((nz, n * d), dtype=int)
+    i_u, i_f = np.zeros((nu, n), dtype=int), np.zeros((nf, n * d), dtype=int)
+    i_start, i_next = np.zeros((nx, n + 1), dtype=int), np.zeros((nx, n), dtype=int)
+    i_period, i_q = np.zeros(n + 1, dtype=int), np.zeros((n_q, n + 1), dtype=int)
     for k in range(n + 1):
         if k == 0:
             i_x[:, 0] = take(nx)
@@ -439,8 +452,7 @@ def stagewise_collocation(form: Formulation, disc: Discretization, coll: Colloca
             i_next[:, k - 1] = take(nx)
         i_period[k] = take(1)[0]
         i_start[:, k] = take(nx)
-        if rms:
-            i_q[k] = take(1)[0]
+        i_q[:, k] = take(n_q)
         if k == n:
             break
         i_u[:, k] = take(nu)
@@ -450,81 +462,114 @@ def stagewise_collocation(form: Formulation, disc: Discretization, coll: Colloca
             i_z[:, k * d + j] = take(nz)
         for j in range(d):
             i_f[:, k * d + j] = take(nf)
-    n_w = next(counter)
-    scale_w = _scale_w(form, n_w, i_period, i_x, i_z, i_u, i_f)
-    scale_w[i_start] = scale_w[i_x[:, :1]]
-    scale_w[i_next] = scale_w[i_x[:, d::d]]
-    p, par, n_p, i_p_ref = _params(n_points)
-    w = ca.SX.sym("w", n_w)
+    return _Stages(i_x, i_z, i_u, i_f, i_start, i_next, i_period, i_q, next(counter))
+
+
+def _stage_rows(form: CycleFormulation, coll: Collocation, st: _Stages, w: Any, at: Any,
+                point: PointFunction, s: Any, wind: Any) -> tuple[_Rows, _Sums, dict, list]:
+    """Rows of stages ``0 .. N-1``: first the gap-closing rows ``x_{k+1} - F(x_k, u_k)``
+    (in the order of ``x_{k+1}``), then the interval's rows; stage 0 also has the start
+    rows and ``S_0 = X_0``. Returns the rows, the cycle sums, the running integrals
+    (``w`` index -> value) and the points (as :func:`_interval` returns them)."""
+    n, d = st.i_u.shape[1], coll.degree
+    carried = [point.integrands.index(c) for c in form.constrained_averages]
+    rows, sums = _Rows(), _Sums.of(form)
+    running, q_running = {}, [0] * len(carried)
+    all_points = []
+    for k in range(n):
+        interval_rows = _Rows()
+        sums.reg += form.control_cost(at(st.i_u[:, k])) / n
+        points = _interval(point, coll, w, int(st.i_period[k]),
+                           [st.x_start(k)] + [st.i_x[:, k * d + j] for j in range(1, d + 1)],
+                           st.i_u[:, k], [st.i_z[:, k * d + j] for j in range(d)],
+                           [st.i_f[:, k * d + j] for j in range(d)], wind, interval_rows)
+        for j in range(1, d + 1):
+            _add_integrands(sums, coll, n, j, s[:, k * d + j - 1])
+        gap = [w[st.i_next[:, k]] - w[st.i_x[:, k * d + d]],
+               w[st.i_period[k + 1]] - w[st.i_period[k]],
+               w[st.i_start[:, k + 1]] - w[st.i_start[:, k]]]
+        for c, i_int in enumerate(carried):
+            dq = sum(_share(coll, n, j, s[i_int, k * d + j - 1]) for j in range(1, d + 1))
+            gap.append(w[st.i_q[c, k + 1]] - w[st.i_q[c, k]] - dq)
+            q_running[c] += sum(_share(coll, n, j, pt[2][i_int])
+                                for j, pt in enumerate(points, start=1))
+            running[int(st.i_q[c, k + 1])] = q_running[c]
+        rows.add(Row("continuity", ca.vertcat(*gap)))
+        if k == 0:
+            for row in form.start_rows(at(st.i_x[:, 0])):
+                rows.add(row)
+            rows.add(Row("start_copy", w[st.i_start[:, 0]] - w[st.i_x[:, 0]]))
+        all_points += [(idx, at_rows + rows.n, integ) for idx, at_rows, integ in points]
+        rows.merge(interval_rows)
+    return rows, sums, running, all_points
+
+
+def _stage_completion(st: _Stages, w: Any, running: dict, d: int) -> ca.Function:
+    """``w`` with its copies and running integrals set from the other variables."""
+    derived = dict(running)
+    for k in range(st.i_next.shape[1]):
+        for i, src in zip(st.i_next[:, k], st.i_x[:, k * d + d], strict=True):
+            derived[int(i)] = w[int(src)]
+    for k in range(st.i_start.shape[1]):
+        for i, src in zip(st.i_start[:, k], st.i_x[:, 0], strict=True):
+            derived[int(i)] = w[int(src)]
+    filled = ca.SX(w)
+    for i, expr in derived.items():
+        filled[i] = expr
+    return ca.Function("complete", [w], [filled])
+
+
+def stagewise_collocation(form: CycleFormulation, disc: Discretization, coll: Collocation
+                          ) -> Transcription:
+    """Transcribe ``form`` by Radau collocation in stages (the layout of a Riccati-based
+    solver such as fatrop, see the module docstring).
+
+    Stage ``k < N``: state ``x_k = (X_k, T_k, S_k, Q_k)`` (model state at the interval
+    start, period, the cycle's start state, running integrals of the constrained cycle
+    averages, :attr:`CycleFormulation.constrained_averages`), control ``u_k = (U_k,
+    X_k1..X_kd, Z_k1..Z_kd, F_k1..F_kd)`` (control, states, algebraic variables and
+    fictitious forces at the Radau points). Rows of stage ``k``: first ``x_{k+1} -
+    F(x_k, u_k)`` (``X_{k+1} = X_kd``, ``T``, ``S`` and ``Q`` carried), then the
+    interval's rows; stage 0 also has the start rows and ``S_0 = X_0``. The last stage
+    ``N`` has only a state and the periodicity (``X_N`` against ``S_N``) and average rows.
+    """
+    n, d = disc.n_intervals, coll.degree
+    n_points, n_coll = n * d + 1, n * d
+    carried = form.constrained_averages
+    st = _stage_indices(n, d, _dims(form), len(carried))
+    scale_w = _scale_w(form, st.n_w, st.i_period, st.i_x, st.i_z, st.i_u, st.i_f)
+    scale_w[st.i_start] = scale_w[st.i_x[:, :1]]
+    scale_w[st.i_next] = scale_w[st.i_x[:, d::d]]
+    p, par, n_p, i_p_ref, i_par = _params(form, n_points)
+    w = ca.SX.sym("w", st.n_w)
     ws = w * ca.DM(scale_w)
 
     def at(idx: np.ndarray) -> ca.SX:
         return ws[[int(i) for i in np.atleast_1d(idx)]]
 
-    def stage_x(k: int) -> ca.SX:
-        return at(i_x[:, 0]) if k == 0 else at(i_next[:, k - 1])
-
     point = point_function(form, coll, n, _point_scales(form))
-    rows, sums = _Rows(), _Sums()
-    derived: dict[int, ca.SX] = {}  # w index -> its value from the other variables (scaled)
-    q_running = 0
-    s = ca.SX.sym("s", len(INTEGRANDS), n_coll)  # the integrands, as in radau_collocation
-    all_points = []
-    for k in range(n):
-        i_xk = i_x[:, 0] if k == 0 else i_next[:, k - 1]
-        x_k = at(i_xk)
-        interval_rows = _Rows()
-        sums.reg += form.control_cost(at(i_u[:, k])) / n
-        points = _interval(point, coll, w, int(i_period[k]),
-                           [i_xk] + [i_x[:, k * d + j] for j in range(1, d + 1)], i_u[:, k],
-                           [i_z[:, k * d + j] for j in range(d)],
-                           [i_f[:, k * d + j] for j in range(d)], par["wind_ref_m_s"],
-                           interval_rows)
-        dq = sum(_add_integrands(sums, coll, n, j, s[:, k * d + j - 1])
-                 for j in range(1, d + 1))
-        # gap-closing rows first (the identity on x_{k+1}, in the order of x_{k+1})
-        gap = [w[i_next[:, k]] - w[i_x[:, k * d + d]], w[i_period[k + 1]] - w[i_period[k]],
-               w[i_start[:, k + 1]] - w[i_start[:, k]]]
-        if rms:
-            gap.append(w[i_q[k + 1]] - w[i_q[k]] - dq)
-            q_running += sum(_torque_sq_share(coll, n, j, pt[2])
-                             for j, pt in enumerate(points, start=1))
-            derived[int(i_q[k + 1])] = q_running
-        rows.add(Row("continuity", ca.vertcat(*gap)))
-        if k == 0:
-            for row in form.start_rows(x_k):
-                rows.add(row)
-            rows.add(Row("start_copy", w[i_start[:, 0]] - w[i_x[:, 0]]))
-        all_points += [(idx, at_rows + rows.n, integ) for idx, at_rows, integ in points]
-        rows.merge(interval_rows)
-    for k in range(n):
-        for i, src in zip(i_next[:, k], i_x[:, k * d + d], strict=True):
-            derived[int(i)] = w[int(src)]
-    for k in range(n + 1):
-        for i, src in zip(i_start[:, k], i_x[:, 0], strict=True):
-            derived[int(i)] = w[int(src)]
-    sums.track = _tracking(form, p, i_p_ref, [at(i_x[:, k]) for k in range(n_points)])
-    x_end, start = stage_x(n), at(i_start[:, n])
-    terminal = [*form.periodicity_rows(start, x_end)]
-    if rms:
-        terminal += form.average_rows(w[int(i_q[n])])
+    s = ca.SX.sym("s", len(point.integrands), n_coll)  # the integrands, as in radau_collocation
+    rows, sums, running, all_points = _stage_rows(form, coll, st, w, at, point, s,
+                                                  par["wind_ref_m_s"])
+    sums.track = _tracking(form, p, i_p_ref, [at(st.i_x[:, k]) for k in range(n_points)])
+    terminal = [*form.periodicity_rows(at(st.i_start[:, n]), at(st.x_start(n)))]
+    if carried:
+        terminal += form.average_rows({c: w[int(st.i_q[i, n])] for i, c in enumerate(carried)})
     for row in terminal:
         rows.add(row)
 
-    f_s = form.objective(par, sums.p_elec, sums.p_mech, sums.reg, sums.track, sums.fict)
+    f_s = form.objective(par, sums.averages, sums.reg, sums.track, sums.fict)
     nlp, blocks = _nlp_and_blocks(w, p, f_s, ca.vertcat(*rows.exprs), s, point, all_points,
-                                  np.tile(coll.deriv, (1, n)))
-    filled = ca.SX(w)
-    for i, expr in derived.items():
-        filled[i] = expr
+                                  np.tile(coll.deriv, (1, n)), i_par["wind_ref_m_s"])
     layout = Layout(
-        n_points=n_points, n_coll=n_coll, i_period=i_period, i_x=i_x, i_z=i_z, i_u=i_u,
-        i_f=i_f, scale_w=scale_w, n_w=n_w, n_g=rows.n, n_p=n_p, i_p_ref=i_p_ref,
+        n_points=n_points, n_coll=n_coll, i_period=st.i_period, i_x=st.i_x, i_z=st.i_z,
+        i_u=st.i_u, i_f=st.i_f, scale_w=scale_w, n_w=st.n_w, n_g=rows.n, n_p=n_p,
+        i_p_ref=i_p_ref, params=i_par,
         rows={name: np.array(idx, dtype=int) for name, idx in rows.index.items()},
-        kind="stagewise", complete=ca.Function("complete", [w], [filled]),
+        kind="stagewise", complete=_stage_completion(st, w, running, d),
     )
-    lbw, ubw, lbw_lim, ubw_lim = _variable_bounds(form, n_w, i_period[:1], i_x, i_z, i_u)
-    if rms:
-        for b in (lbw, ubw, lbw_lim, ubw_lim):
-            b[i_q[0]] = 0.0
+    lbw, ubw, lbw_lim, ubw_lim = _variable_bounds(form, st.n_w, st.i_period[:1], st.i_x,
+                                                  st.i_z, st.i_u)
+    for b in (lbw, ubw, lbw_lim, ubw_lim):
+        b[st.i_q[:, 0]] = 0.0
     return _finish(nlp, blocks, layout, rows, (lbw, ubw, lbw_lim, ubw_lim))

@@ -8,7 +8,7 @@ site) and ``bench aep --refine`` (the speeds where a sweep's curve bends).
 =============================================== ==========================================
 module                                          concept
 =============================================== ==========================================
-:mod:`optimize.service.problem`                 what a worker builds: ``Problem``, backends
+:mod:`optimize.service.builder`                 what a worker builds: ``Problem``, backends
 :mod:`optimize.service.solver`                  one problem's solves: warm starts, fallbacks,
                                                 records, the store
 :mod:`optimize.service.store`                   solves stored under the hash of their inputs
@@ -20,9 +20,9 @@ module                                          concept
 =============================================== ==========================================
 """
 
+from optimize.service.builder import OcpBackend, Problem, problem_key
 from optimize.service.chain import ChainTask, Refinement, run_chain
 from optimize.service.outcome import failure_status
-from optimize.service.problem import OcpBackend, Problem, problem_key
 from optimize.service.run import SolveTask, make_tasks, run_chains, run_sweep, solve_tasks
 from optimize.service.solver import Solver, cycle_metrics
 from optimize.service.store import solve_key

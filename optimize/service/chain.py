@@ -26,10 +26,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from optimize.service.builder import Problem
 from optimize.service.cut_in import find_cut_in
 from optimize.service.local_optima import resolve_local_optima
 from optimize.service.outcome import ChainOutcome
-from optimize.service.problem import Problem
 from optimize.service.solver import Solver
 from optimize.sweep.plan import Step
 
@@ -85,7 +85,7 @@ class ChainTask:
     store : Path or None
         Folder of the stored solves (resume); None stores nothing.
     backend : optional
-        The numerical side (:class:`optimize.service.problem.OcpBackend` by default).
+        The numerical side (:class:`optimize.service.builder.OcpBackend` by default).
     resolve : bool
         Re-solve planned scenarios off their kind's smooth curve.
     cut_in_kinds : tuple of str

@@ -35,8 +35,7 @@ MAX_RESOLVE_ROUNDS = 3
 
 def objective_power_w(kind: str, result: Any) -> float:
     """Average power [W] the kind's objective maximizes (negative = generated); NaN if absent."""
-    name = "avg_p_elec_w" if KINDS[kind][0] == "electrical" else "avg_p_mech_w"
-    value = getattr(result, name, math.nan)
+    value = getattr(result, KINDS[kind].summary_column, math.nan)
     return float(value) if value is not None else math.nan
 
 

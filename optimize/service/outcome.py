@@ -94,12 +94,12 @@ class ScenarioOutcome:
     @property
     def objective(self) -> str:
         """``"electrical"`` or ``"mechanical"``."""
-        return KINDS[self.kind][0]
+        return KINDS[self.kind].objective
 
     @property
     def drive_limits(self) -> bool:
         """Whether the drive limits applied."""
-        return KINDS[self.kind][1]
+        return KINDS[self.kind].drive_limits
 
     @property
     def success(self) -> bool:

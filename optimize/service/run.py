@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from optimize.service.builder import Problem
 from optimize.service.chain import ChainTask, Refinement, run_chain
 from optimize.service.outcome import (
     WORKER_ERROR,
@@ -29,7 +30,6 @@ from optimize.service.outcome import (
     ScenarioOutcome,
     failure_status,
 )
-from optimize.service.problem import Problem
 from optimize.service.store import solve_key
 from optimize.sweep.plan import Chain, chain_steps
 

@@ -30,8 +30,8 @@ from typing import Any
 import numpy as np
 
 from optimize.problem.scenario import scenario_name
+from optimize.service.builder import OcpBackend, Problem
 from optimize.service.outcome import CRASH, Attempt, ScenarioOutcome, failure_status
-from optimize.service.problem import OcpBackend, Problem
 from optimize.service.store import load_solve, solve_key, store_solve
 
 #: warm-started attempts per solve before the cold-start fallback
@@ -43,7 +43,7 @@ Key = tuple[str, float]  # (kind, wind speed [m/s])
 
 
 def cycle_metrics(trajectory: Any) -> dict[str, float]:
-    """Peak |speed| [rpm], peak torque [N m] and RMS torque [N m] of one cycle.
+    """Peak |speed| [rpm], peak |torque| [N m] and RMS torque [N m] of one cycle.
 
     ``trajectory`` has ``speed_rpm``, ``torque_nm`` and the quadrature ``weight``
     (summing to 1 over the cycle), as :attr:`optimize.solve.result.OcpResult.trajectory`.
@@ -52,7 +52,7 @@ def cycle_metrics(trajectory: Any) -> dict[str, float]:
     torque = np.asarray(trajectory["torque_nm"], dtype=float)
     weight = np.asarray(trajectory["weight"], dtype=float)
     return {"peak_speed_rpm": float(np.max(np.abs(speed))),
-            "peak_torque_nm": float(np.max(torque)),
+            "peak_torque_nm": float(np.max(np.abs(torque))),
             "rms_torque_nm": float(np.sqrt(np.sum(weight * torque**2)))}
 
 
@@ -71,7 +71,7 @@ class Solver:
     store : Path or None
         Folder of the stored solves; None stores nothing.
     backend : optional
-        The numerical side (:class:`optimize.service.problem.OcpBackend` by default).
+        The numerical side (:class:`optimize.service.builder.OcpBackend` by default).
     progress : object with ``put(dict)``, optional
         Receives, after each solve, ``{tag..., "chain", "name", "kind", "wind", "role",
         "success", "status", "cached", "wall_time_s"}``.

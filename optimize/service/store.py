@@ -26,12 +26,12 @@ def solve_key(problem: Any, kind: str, wind_m_s: float) -> str:
     options, the wind speed, the kind's objective and limits, the system's hash (when
     the problem has a system).
 
-    ``problem`` is an :class:`optimize.service.problem.Problem`.
+    ``problem`` is an :class:`optimize.service.builder.Problem`.
     """
-    objective, limits = KINDS[kind]
+    k = KINDS[kind]
     data = {"version": STORE_VERSION, "model": problem.drive_model.sha256,
             "options": dataclasses.asdict(problem.options), "wind_m_s": float(wind_m_s),
-            "objective": objective, "drive_limits": bool(limits)}
+            "objective": k.objective, "drive_limits": bool(k.drive_limits)}
     if problem.system is not None:
         data["system"] = problem.system.sha256
     text = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)

@@ -55,12 +55,6 @@ def _record(stages: list[dict], name: str, raw: RawSolve, scenario: Scenario) ->
              raw.status, raw.iterations, raw.wall_time_s, raw.cpu_time_s)
 
 
-def power_weights(scenario: Scenario) -> dict[str, float]:
-    """Objective weights of the scenario (minimize average power drawn, i.e. maximize output)."""
-    elec = scenario.objective == "electrical"
-    return {"w_elec": 1.0 if elec else 0.0, "w_mech": 0.0 if elec else 1.0}
-
-
 def _failed(ocp: Ocp, scenario: Scenario, raw: RawSolve, p: np.ndarray, bounds: tuple,
             stages: list[dict], stage: str) -> OcpResult:
     """A homotopy that stopped at ``stage``: a failed result naming the stage."""
@@ -147,7 +141,7 @@ def cold_start(ocp: Ocp, scenario: Scenario, guess: LoopGuess | None = None) -> 
             weights.append(weight * 10)
 
     bounds = ocp.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
-    p = ocp.params(wind, **power_weights(scenario))
+    p = ocp.params(wind, scenario.weights)
     raw = run(ocp, raw.w, p, bounds, warm=False)
     _record(stages, "power", raw, scenario)
     if not raw.success:

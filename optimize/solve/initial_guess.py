@@ -31,9 +31,9 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import Ocp, build_ocp, twin
 from optimize.problem.options import OcpOptions
 from optimize.problem.scenario import Scenario
-from optimize.solve.homotopy import cold_start, power_weights
+from optimize.solve.homotopy import cold_start
 from optimize.solve.result import OcpResult, Solution, carry_over
-from optimize.system.drive import drive_in_force
+from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import load_system
 
 log = logging.getLogger(__name__)
@@ -139,7 +139,7 @@ def main(argv: list[str] | None = None) -> int:
     if not result.success:
         log.error("%s: %s, no guess written", GUESS_SCENARIO.name, result.status)
         return 1
-    p = ocp.params(GUESS_SCENARIO.wind_speed_m_s, **power_weights(GUESS_SCENARIO))
+    p = ocp.params(GUESS_SCENARIO.wind_speed_m_s, GUESS_SCENARIO.weights)
     out = write(args.out, ocp, result, p)
     log.info("wrote %s (%s: P_elec %.1f W, P_mech %.1f W, %d iterations)", out,
              GUESS_SCENARIO.name, result.avg_p_elec_w, result.avg_p_mech_w, result.iterations)

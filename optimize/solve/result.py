@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from optimize.model import kite_model as km
-from optimize.model.drive import mechanical_power_w, motor_speed_rpm, motor_torque_nm
-from optimize.problem.formulation import X_LENGTH, X_REEL_SPEED, Z_NU
+from optimize.model.envelope import EnvelopeTable, base_speed_torque_nm
 from optimize.problem.ocp import Ocp
 from optimize.problem.scenario import Scenario
 from optimize.solve.backend import RawSolve
@@ -17,9 +16,9 @@ from optimize.solve.backend import RawSolve
 #: units of the trajectory columns that are not states/controls/algebraic variables
 OUTPUT_UNITS = {
     "time_s": "s", "interval": "", "weight": "", "speed_rpm": "rpm", "torque_nm": "N m",
-    "tension_n": "N", "p_mech_w": "W", "p_elec_w": "W", "altitude_m": "m",
-    "airspeed_m_s": "m/s", "alpha_deg": "deg", "beta_deg": "deg", "wind_m_s": "m/s",
-    "line_angle_deg": "deg", "c_m2": "m^2", "cdot_m2_s": "m^2/s",
+    "tether_torque_nm": "N m", "tension_n": "N", "p_mech_w": "W", "p_elec_w": "W",
+    "altitude_m": "m", "airspeed_m_s": "m/s", "alpha_deg": "deg", "beta_deg": "deg",
+    "wind_m_s": "m/s", "line_angle_deg": "deg", "c_m2": "m^2", "cdot_m2_s": "m^2/s",
 }
 
 
@@ -78,7 +77,8 @@ class OcpResult:
         Bounds the optimum sits on (:func:`active_bounds`): ``period_min``,
         ``period_max``, ``tether_length_min``, ``tether_length_max``,
         ``ground_clearance``, ``airspeed_min``, ``airspeed_max``, ``tether_force_limit``,
-        ``speed_limit``, ``torque_limit``, ``p_elec_limit``.
+        ``reel_acceleration_limit``, ``speed_limit``, ``torque_limit``, ``envelope_limit``,
+        ``p_elec_limit``.
     slack_fraction : float
         Fraction of the cycle time with zero tether tension [-] (:func:`slack_fraction`).
     start : str
@@ -107,7 +107,9 @@ class OcpResult:
 
 
 def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_ref_m_s: float) -> pd.DataFrame:
-    """Trajectory at every Radau point of a scaled decision vector."""
+    """Trajectory at every Radau point of a scaled decision vector: time, interval,
+    quadrature weight, the model's states, controls and algebraic variables by name, and
+    the formulation's outputs (``trajectory_outputs``)."""
     sol = ocp.unpack(w_scaled)
     n, d = ocp.n_intervals, ocp.coll.degree
     x = sol["x"][:, 1:]  # states at the Radau points
@@ -118,30 +120,12 @@ def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_ref_m_s: float) -> pd.
     tau = np.tile(ocp.coll.tau[1:], n)
     frame = {"time_s": h * (interval + tau), "interval": interval,
              "weight": np.tile(ocp.coll.quad, n) / n}
-    for names, arr in ((km.STATE_NAMES, x), (km.CONTROL_NAMES, u), (km.ALGEBRAIC_NAMES, z)):
+    dae = ocp.dae
+    for names, arr in ((dae.states.names, x), (dae.controls.names, u),
+                       (dae.algebraic.names, z)):
         for i, name in enumerate(names):
             frame[name] = arr[i]
-    outputs = ocp.dae.outputs.map(x.shape[1])(x, u, z, wind_ref_m_s)
-    names = ocp.dae.outputs.name_out()
-    out = {name: np.asarray(val).ravel() for name, val in zip(names, outputs, strict=True)}
-    r_w, gear = ocp.dae.kite.r_winch_m, ocp.dae.kite.gear_ratio
-    dl = x[X_REEL_SPEED]
-    tension = x[X_LENGTH] * z[Z_NU]
-    frame["speed_rpm"] = motor_speed_rpm(dl, r_w, gear)
-    frame["torque_nm"] = motor_torque_nm(tension, r_w, gear)
-    frame["tension_n"] = tension
-    frame["p_mech_w"] = mechanical_power_w(tension, dl)
-    frame["p_elec_w"] = np.asarray(
-        ocp.drive_model.p_elec_w(frame["speed_rpm"], frame["torque_nm"])
-    )
-    frame["altitude_m"] = out["altitude_m"]
-    frame["airspeed_m_s"] = out["airspeed_m_s"]
-    frame["alpha_deg"] = np.degrees(out["alpha_rad"])
-    frame["beta_deg"] = np.degrees(out["beta_rad"])
-    frame["wind_m_s"] = out["wind_m_s"]
-    frame["line_angle_deg"] = np.degrees(np.arccos(np.clip(out["cos_line_angle"], -1, 1)))
-    frame["c_m2"] = out["c_m2"]
-    frame["cdot_m2_s"] = out["cdot_m2_s"]
+    frame.update(ocp.formulation.trajectory_outputs(x, u, z, wind_ref_m_s))
     return pd.DataFrame(frame)
 
 
@@ -219,16 +203,39 @@ def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: b
     if o.max_tether_force_n is not None and _near(traj["tension_n"].to_numpy(),
                                                   o.max_tether_force_n):
         out.append("tether_force_limit")
+    if o.max_reel_acceleration_m_s2 is not None and _near(
+            np.abs(traj["ddl_m_s2"].to_numpy()), o.max_reel_acceleration_m_s2):
+        out.append("reel_acceleration_limit")
     if drive_limits:
         speed = np.abs(traj["speed_rpm"].to_numpy())
         if _near(speed, o.max_speed_rpm):
             out.append("speed_limit")
-        if _near(traj["torque_nm"].to_numpy(), o.max_torque_nm):
+        torque = np.abs(traj["torque_nm"].to_numpy())
+        if _near(torque, o.max_torque_nm):
             out.append("torque_limit")
+        if has_envelope(o) and _near(torque / envelope_torque_nm(o, speed), 1.0):
+            out.append("envelope_limit")
         if o.max_p_elec_w is not None and _near(np.abs(traj["p_elec_w"].to_numpy()),
                                                 o.max_p_elec_w):
             out.append("p_elec_limit")
     return tuple(out)
+
+
+def has_envelope(limits: Any) -> bool:
+    """Whether the drive states a torque-speed envelope (a base speed or a table)."""
+    return limits.base_speed_rpm is not None or limits.envelope_speed_rpm is not None
+
+
+def envelope_torque_nm(limits: Any, speed_rpm: np.ndarray) -> np.ndarray:
+    """The drive's largest torque [N m] at each speed as the OCP bounds it: its
+    torque-speed envelope (:mod:`optimize.model.envelope`; a table's smooth lower
+    bound), else its torque limit."""
+    if limits.base_speed_rpm is not None:
+        return base_speed_torque_nm(speed_rpm, limits.max_torque_nm, limits.base_speed_rpm)
+    if limits.envelope_speed_rpm is not None:
+        return EnvelopeTable(limits.envelope_speed_rpm, limits.envelope_torque_nm
+                             ).smooth_values_nm(speed_rpm)
+    return np.full(np.shape(speed_rpm), float(limits.max_torque_nm))
 
 
 def slack_fraction(ocp: Ocp, traj: pd.DataFrame) -> float:

@@ -16,7 +16,7 @@ import logging
 from optimize.problem.ocp import Ocp
 from optimize.problem.scenario import Scenario
 from optimize.solve import backend, initial_guess
-from optimize.solve.homotopy import cold_start, power_weights
+from optimize.solve.homotopy import cold_start
 from optimize.solve.result import OcpResult, Solution, make_result
 
 log = logging.getLogger(__name__)
@@ -90,8 +90,12 @@ def solve(
         raise ValueError(f"warm start has {warm_start.w.size} variables; the OCP's "
                          f"{ocp.layout.kind} layout has {ocp.layout.n_w} (carry it over with "
                          "optimize.solve.result.carry_over)")
+    if warm_start.lam_g.size != ocp.layout.n_g:
+        raise ValueError(f"warm start has {warm_start.lam_g.size} constraint multipliers; the "
+                         f"OCP has {ocp.layout.n_g} rows (another OCP's solution: carry it over "
+                         "with optimize.solve.result.carry_over)")
     bounds = ocp.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
-    p = ocp.params(scenario.wind_speed_m_s, **power_weights(scenario))
+    p = ocp.params(scenario.wind_speed_m_s, scenario.weights)
     raw = backend.run(ocp, warm_start.w, p, bounds, warm=True,
                   lam_x0=warm_start.lam_x, lam_g0=warm_start.lam_g)
     stages = [{"stage": "warm", "status": raw.status, "success": raw.success,

@@ -22,9 +22,9 @@ from optimize.sweep_folder import SUMMARY_COLUMNS
 #: the metric columns (NaN for a failed scenario)
 _METRICS = list(SUMMARY_COLUMNS)[list(SUMMARY_COLUMNS).index("period_s") :]
 #: active bounds the constrained scenarios mean to bind
-DRIVE_BOUNDS = ("speed_limit", "torque_limit", "p_elec_limit")
-#: the kite's own limits, in force in every kind
-KITE_BOUNDS = ("airspeed_min", "airspeed_max", "tether_force_limit")
+DRIVE_BOUNDS = ("speed_limit", "torque_limit", "envelope_limit", "p_elec_limit")
+#: the kite's and the winch's own limits, in force in every kind
+KITE_BOUNDS = ("airspeed_min", "airspeed_max", "tether_force_limit", "reel_acceleration_limit")
 #: bounds an optimum may sit on as physics: the drive and kite limits and the ground (a
 #: safety limit); the period and tether-length ranges are search ranges, and an optimum
 #: on one of them is the range's, not the system's
@@ -39,6 +39,7 @@ def _trajectory_metrics(traj: pd.DataFrame) -> dict[str, float]:
     return {
         "peak_speed_rpm": peaks["peak_speed_rpm"],
         "peak_torque_nm": peaks["peak_torque_nm"],
+        "peak_reel_acceleration_m_s2": float(np.max(np.abs(col("ddl_m_s2")))),
         "p_elec_max_w": float(np.max(col("p_elec_w"))),
         "p_elec_min_w": float(np.min(col("p_elec_w"))),
         "tether_length_min_m": float(np.min(col("l_m"))),

@@ -221,8 +221,8 @@ def group_kinds(kinds: tuple[str, ...], n_chains: int) -> list[tuple[str, ...]]:
     """
     if n_chains < 1:
         raise ValueError(f"n_chains must be >= 1, got {n_chains}")
-    objectives = list(dict.fromkeys(KINDS[k][0] for k in kinds))
-    ordered = [k for obj in objectives for k in kinds if KINDS[k][0] == obj]
+    objectives = list(dict.fromkeys(KINDS[k].objective for k in kinds))
+    ordered = [k for obj in objectives for k in kinds if KINDS[k].objective == obj]
     n = min(n_chains, len(ordered))
     base, extra = divmod(len(ordered), n)
     groups, start = [], 0

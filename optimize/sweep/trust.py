@@ -28,19 +28,17 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from optimize.model import kite_model as km
-from optimize.problem.formulation import PERIODIC_STATES
 from optimize.problem.ocp import Ocp, grid_times
 from optimize.problem.scenario import Scenario
-from optimize.service.problem import OcpBackend, Problem, problem_key
+from optimize.service.builder import OcpBackend, Problem, problem_key
 from optimize.solve import backend
-from optimize.solve.homotopy import cold_start, power_weights
+from optimize.solve.homotopy import cold_start
 from optimize.solve.result import OcpResult, Solution, make_result
 from optimize.sweep.executors import run_tasks
 from optimize.sweep.plan import middle_index
 
-_POS = [km.IDX[n] for n in ("r_x_m", "r_y_m", "r_z_m")]
-_PER = [km.IDX[n] for n in PERIODIC_STATES]
+#: the model's position states (the defects in metres are measured on them)
+POSITION_STATES = ("r_x_m", "r_y_m", "r_z_m")
 
 
 @dataclass(frozen=True)
@@ -145,7 +143,7 @@ def interpolate_solution(coarse: Ocp, warm: Solution, fine: Ocp) -> np.ndarray:
     n_c, n_f = coarse.n_intervals, fine.n_intervals
     mid = (np.arange(n_f) + 0.5) / n_f
     u = np.asarray(sol["u"])[:, np.minimum((mid * n_c).astype(int), n_c - 1)]
-    fict = np.zeros((km.NF, fine.layout.n_coll))
+    fict = np.zeros((fine.dae.fictitious.size, fine.layout.n_coll))
     return fine.pack(x, z, u, fict, period)
 
 
@@ -176,7 +174,7 @@ def mesh_check(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult) ->
         coarse, dataclasses.replace(result.warm, w=result.warm.lam_x), fine
     )
     bounds = fine.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
-    p = fine.params(scenario.wind_speed_m_s, **power_weights(scenario))
+    p = fine.params(scenario.wind_speed_m_s, scenario.weights)
     raw = backend.run(fine, w0, p, bounds, warm=True, lam_x0=lam_x0,
                       lam_g0=np.zeros(len(bounds[2])))
     stage = {
@@ -213,8 +211,8 @@ def mesh_check(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult) ->
 
 
 def _interval_integrator(ocp: Ocp, period_s: float) -> ca.Function:
-    x = ca.SX.sym("x", km.NX)
-    u = ca.SX.sym("u", km.NU)
+    x = ca.SX.sym("x", ocp.dae.states.size)
+    u = ca.SX.sym("u", ocp.dae.controls.size)
     wind = ca.SX.sym("wind")
     ode = ocp.dae.explicit_ode(x, u, wind)
     h = period_s / ocp.n_intervals
@@ -246,6 +244,8 @@ def simulation_check(ocp: Ocp, result: OcpResult) -> SimulationCheck:
     wind = result.scenario.wind_speed_m_s
     step = _interval_integrator(ocp, sol["period_s"])
     scale = ocp.scales.state[:, None]
+    states = ocp.dae.states
+    pos, per_idx = states.indices(POSITION_STATES), states.indices(ocp.dae.periodic)
     defect_pos = defect_scaled = open_pos = 0.0
     x_open = x_c[:, 0]
     p_open = []
@@ -254,22 +254,21 @@ def simulation_check(ocp: Ocp, result: OcpResult) -> SimulationCheck:
         par = np.append(u[:, k], wind)
         local = np.asarray(step(x0=x_c[:, k * d], p=par)["xf"])
         defect_pos = max(
-            defect_pos, float(np.max(np.linalg.norm(local[_POS] - coll[_POS], axis=0)))
+            defect_pos, float(np.max(np.linalg.norm(local[pos] - coll[pos], axis=0)))
         )
         defect_scaled = max(defect_scaled, float(np.max(np.abs(local - coll) / scale)))
         run = np.asarray(step(x0=x_open, p=par)["xf"])
-        open_pos = max(open_pos, float(np.max(np.linalg.norm(run[_POS] - coll[_POS], axis=0))))
+        open_pos = max(open_pos, float(np.max(np.linalg.norm(run[pos] - coll[pos], axis=0))))
         x_open = run[:, -1]
         p_open.append(run)
     x_sim = np.hstack([x_c[:, :1], *p_open])
     u_pts = np.hstack([u[:, :1], np.repeat(u, d, axis=1)])  # control at every grid point
     z_sim = np.asarray(ocp.dae.solve_z.map(x_sim.shape[1])(x_sim, u_pts, wind))
-    tension = x_sim[km.IDX["l_m"]] * z_sim[km.NZ - 1]
-    p_mech = -tension * x_sim[km.IDX["dl_m_s"]]
+    p_mech = ocp.formulation.trajectory_outputs(x_sim, u_pts, z_sim, wind)["p_mech_w"]
     t = grid_times(ocp, sol["period_s"])
     avg_p_mech = float(np.trapezoid(p_mech, t) / sol["period_s"])
-    per = (x_open - x_c[:, 0])[_PER] / ocp.scales.state[_PER]
-    yz = [km.IDX["r_y_m"], km.IDX["r_z_m"]]
+    per = (x_open - x_c[:, 0])[per_idx] / ocp.scales.state[per_idx]
+    yz = states.indices(("r_y_m", "r_z_m"))
     return SimulationCheck(
         scenario=result.scenario.name,
         integrator="cvodes (abstol = reltol = 1e-10), piecewise-constant controls",
@@ -305,7 +304,7 @@ def run_trust_checks(
 
     Parameters
     ----------
-    problem : optimize.service.problem.Problem
+    problem : optimize.service.builder.Problem
         The sweep's problem.
     outcomes : sequence of optimize.service.outcome.ScenarioOutcome
     winds : tuple of float
@@ -323,7 +322,7 @@ def run_trust_checks(
     opts = problem.options
     fine_opts = opts.replace(discretization={"n_intervals": 2 * opts.discretization.n_intervals})
     fine = Problem(
-        problem.params,
+        problem.model,
         problem.drive_model,
         fine_opts,
         problem_key(fine_opts, problem.drive_model, problem.system),

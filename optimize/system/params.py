@@ -70,6 +70,8 @@ class KiteParams:
     )
     r_winch_m: float = _f(0.1, "m", "docs/paper_figures.md §1 (winch drum radius)")
     gear_ratio: float = _f(1.0, "-", "docs/paper_figures.md §1 (drive on the drum shaft)")
+    drum_inertia_kg_m2: float = _f(0.0, "kg m^2", "the paper's OCP: a massless drum")
+    rotor_inertia_kg_m2: float = _f(0.0, "kg m^2", "the paper's OCP: a massless rotor")
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> KiteParams:

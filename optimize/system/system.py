@@ -30,6 +30,8 @@ import numpy as np
 
 from kernel.errors import InputError
 from kernel.files import parse_toml, read_text
+from optimize.model.dae import DaeSpec
+from optimize.model.kite_model import kite_dae
 from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 from optimize.system.plausibility import check_system
 
@@ -98,16 +100,20 @@ class TetherSection:
 
 @dataclass(frozen=True)
 class WinchSection:
-    """``[winch]``: drum and gearbox (motor speed = gear ratio x drum speed)."""
+    """``[winch]``: drum and gearbox (motor speed = gear ratio x drum speed), the inertia
+    turning at drum speed [kg m^2] and the reel-acceleration limit [m/s^2] (``None``: not
+    stated; an unstated inertia is zero, a massless drum, and said so)."""
 
     drum_radius_m: float
     gear_ratio: float
+    drum_inertia_kg_m2: float | None = None
+    max_reel_acceleration_m_s2: float | None = None
 
 
 @dataclass(frozen=True)
 class DriveSection:
     """``[drive]``: the drive's rating at the motor shaft and where its losses come from
-    (resolved by :func:`optimize.system.drive.drive_in_force`); ``None`` = not stated."""
+    (resolved by :func:`optimize.system.drive_in_force.drive_in_force`); ``None`` = not stated."""
 
     max_speed_rpm: float | None
     max_torque_nm: float | None
@@ -118,6 +124,10 @@ class DriveSection:
     losses: str | None = None  # "paper" or a power_model.json path relative to the file
     scaling: str | None = None  # "similarity" or "none"
     source: str | None = None
+    rotor_inertia_kg_m2: float | None = None  # at the motor shaft
+    base_speed_rpm: float | None = None  # constant power above it
+    envelope_speed_rpm: tuple[float, ...] | None = None  # datasheet table, with
+    envelope_torque_nm: tuple[float, ...] | None = None  # its largest torques
 
 
 @dataclass(frozen=True)
@@ -224,6 +234,8 @@ class System:
             j3_kg_m2=k.inertia_zz_kg_m2, j31_kg_m2=k.inertia_xz_kg_m2,
             tether_cd_per_m=0.25 * self.tether.drag_coefficient * self.tether.diameter_m,
             r_winch_m=self.winch.drum_radius_m, gear_ratio=self.winch.gear_ratio,
+            drum_inertia_kg_m2=self.winch.drum_inertia_kg_m2 or 0.0,
+            rotor_inertia_kg_m2=self.drive.rotor_inertia_kg_m2 or 0.0,
         )
 
     def aero_coefficients(self) -> AeroCoefficients:
@@ -266,7 +278,7 @@ class System:
         ----------
         options : optimize.problem.options.OcpOptions
         rating : kernel.drive_rating.DriveRating
-            The drive in force (:func:`optimize.system.drive.drive_in_force`): speed and
+            The drive in force (:func:`optimize.system.drive_in_force.drive_in_force`): speed and
             torque limits, nominal power, the RMS torque bound of its continuous
             rating (when below the torque limit) and the grid power limit.
         """
@@ -288,11 +300,40 @@ class System:
             max_line_angle_deg=b.max_line_angle_deg,
             surface_bound_deg=b.surface_max_deg,
             surface_rate_bound_rad_s=b.surface_rate_max_rad_s,
+            max_reel_acceleration_m_s2=self.winch.max_reel_acceleration_m_s2,
+            base_speed_rpm=self.drive.base_speed_rpm,
+            envelope_speed_rpm=self.drive.envelope_speed_rpm,
+            envelope_torque_nm=self.drive.envelope_torque_nm,
         ))
 
     def model_params(self) -> tuple[KiteParams, AeroCoefficients, WindModel]:
         """Arguments of ``optimize.model.kite_model.kite_dae``."""
         return self.kite_params(), self.aero_coefficients(), self.wind_model()
+
+    def drivetrain_line(self) -> str:
+        """One line: the drivetrain's inertia, reel-acceleration limit and torque-speed
+        envelope in force, and which are not stated."""
+        w, d = self.winch, self.drive
+        drum, rotor = w.drum_inertia_kg_m2, d.rotor_inertia_kg_m2
+        total = (rotor or 0.0) + (drum or 0.0) / w.gear_ratio**2
+        inertia = (f"inertia {total:.4g} kg m^2 at the motor (drum {drum or 0:g}, rotor "
+                   f"{rotor or 0:g} kg m^2)" if drum is not None or rotor is not None
+                   else "no inertia stated: a massless drum and rotor")
+        accel = (f"reel acceleration <= {w.max_reel_acceleration_m_s2:g} m/s^2 (all kinds)"
+                 if w.max_reel_acceleration_m_s2 is not None
+                 else "no reel-acceleration limit stated")
+        if d.base_speed_rpm is not None:
+            envelope = f"constant power above {d.base_speed_rpm:g} rpm"
+        elif d.envelope_speed_rpm is not None:
+            envelope = f"torque-speed table of {len(d.envelope_speed_rpm)} points"
+        else:
+            envelope = "no torque-speed envelope stated (the torque limit at every speed)"
+        return f"drivetrain: {inertia}; {accel}; {envelope}"
+
+    def dae_spec(self) -> DaeSpec:
+        """How a worker builds this system's model (:func:`optimize.model.kite_model.kite_dae`
+        with :meth:`model_params`)."""
+        return DaeSpec(kite_dae, self.model_params())
 
     def record(self) -> dict:
         """What every output records about the system: name, path, hash and content."""
@@ -336,6 +377,18 @@ class _Reader:
                              f"a number {'>' if strict else '>='} {lo:g}")
         return float(value)
 
+    def numbers(self, key: str, optional: bool = False) -> tuple[float, ...] | None:
+        """A list of at least two finite numbers."""
+        if key not in self.data:
+            if optional:
+                return None
+            raise self.error(key, "missing", "a list of numbers")
+        value = self.data.pop(key)
+        if not isinstance(value, list) or len(value) < 2 or not all(map(_number, value)):
+            raise self.error(key, f"{value!r} is not a list of numbers",
+                             "a list of at least two finite numbers")
+        return tuple(float(v) for v in value)
+
     def text(self, key: str, choices: tuple[str, ...] | None = None,
              optional: bool = False) -> str | None:
         if key not in self.data:
@@ -373,7 +426,7 @@ def _aero(r: _Reader) -> AeroSection:
 
 
 def _drive(r: _Reader) -> DriveSection:
-    from optimize.system.drive import SCALING_CHOICES
+    from optimize.system.drive_in_force import SCALING_CHOICES
 
     numbers = {k: r.number(k, 0, optional=True) for k in
                ("max_speed_rpm", "max_torque_nm", "nominal_power_w", "max_p_elec_w",
@@ -383,13 +436,42 @@ def _drive(r: _Reader) -> DriveSection:
                       "continuous torque)")
     drive = DriveSection(**numbers, losses=r.text("losses", optional=True),
                          scaling=r.text("scaling", SCALING_CHOICES, optional=True),
-                         source=r.text("source", optional=True))
+                         source=r.text("source", optional=True),
+                         rotor_inertia_kg_m2=r.number("rotor_inertia_kg_m2", 0, strict=False,
+                                                      optional=True),
+                         **_envelope(r))
     r.done()
     return drive
 
 
-def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> System:
-    """Validate a parsed system file (see :func:`load_system`)."""
+def _envelope(r: _Reader) -> dict:
+    """``[drive]``'s torque-speed envelope: a base speed (constant power above it) or a
+    datasheet table (speeds rising from 0, largest torques falling, both at the motor
+    shaft), not both."""
+    base = r.number("base_speed_rpm", 0, optional=True)
+    speeds = r.numbers("envelope_speed_rpm", optional=True)
+    torques = r.numbers("envelope_torque_nm", optional=speeds is None)
+    if speeds is None and torques is not None:
+        raise r.error("envelope_speed_rpm", "missing", "envelope_speed_rpm with "
+                      "envelope_torque_nm (a table of speed and largest torque)")
+    if speeds is not None:
+        if base is not None:
+            raise r.error("base_speed_rpm", "given with an envelope table",
+                          "either base_speed_rpm or envelope_speed_rpm/envelope_torque_nm")
+        if len(speeds) != len(torques):
+            raise r.error("envelope_torque_nm", f"{len(torques)} torques for {len(speeds)} "
+                          "speeds", "one torque per speed")
+        if speeds[0] != 0 or any(b <= a for a, b in zip(speeds, speeds[1:], strict=False)):
+            raise r.error("envelope_speed_rpm", f"{list(speeds)} is not monotone from 0",
+                          "speeds rising strictly from 0 rpm")
+        if min(torques) <= 0 or any(b > a for a, b in zip(torques, torques[1:], strict=False)):
+            raise r.error("envelope_torque_nm", f"{list(torques)} is not monotone",
+                          "positive torques that do not rise with speed")
+    return {"base_speed_rpm": base, "envelope_speed_rpm": speeds,
+            "envelope_torque_nm": torques}
+
+
+def _check_sections(data: Any, path: str) -> None:
     if not isinstance(data, dict):
         raise InputError(path, "not a table of sections", expected="a TOML file")
     unknown = sorted(set(data) - set(_SECTIONS))
@@ -400,14 +482,19 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
         if s not in data:
             raise InputError(path, f"[{s}]: missing section",
                              expected="sections " + ", ".join(_SECTIONS))
-    r = _Reader(path, "system", data["system"])
+
+
+def _header(r: _Reader) -> tuple[str, str, bool]:
+    """``[system]``: name, description and whether it is the paper's system."""
     name, description = r.text("name"), r.text("description", optional=True) or ""
     paper_system = r.data.pop("paper_system", False)
     if not isinstance(paper_system, bool):
         raise r.error("paper_system", f"{paper_system!r} is not a boolean", "true or false")
     r.done()
+    return name, description, paper_system
 
-    r = _Reader(path, "kite", data["kite"])
+
+def _kite(r: _Reader) -> KiteSection:
     kite = KiteSection(
         r.number("mass_kg", 0), r.number("reference_area_m2", 0), r.number("span_m", 0),
         r.number("chord_m", 0), r.number("bridle_offset_m", 0, strict=False),
@@ -419,13 +506,13 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
                         [0, kite.inertia_yy_kg_m2, 0],
                         [kite.inertia_xz_kg_m2, 0, kite.inertia_zz_kg_m2]])
     if np.min(np.linalg.eigvalsh(inertia)) <= 0:
-        raise InputError(path, "[kite] inertia_xz_kg_m2: the inertia matrix is not positive "
+        raise InputError(r.path, "[kite] inertia_xz_kg_m2: the inertia matrix is not positive "
                          "definite", expected="inertia_xz_kg_m2^2 < inertia_xx_kg_m2 * "
                          "inertia_zz_kg_m2")
+    return kite
 
-    aero = _aero(_Reader(path, "aero", data["aero"]))
 
-    r = _Reader(path, "tether", data["tether"])
+def _tether(r: _Reader) -> TetherSection:
     tether = TetherSection(r.number("diameter_m", 0), r.number("drag_coefficient", 0, False),
                            r.number("max_force_n", 0, optional=True),
                            r.number("tensile_strength_pa", 0, optional=True),
@@ -437,14 +524,18 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
     if tether.safety_factor is not None and tether.safety_factor < 1:
         raise r.error("safety_factor", f"{tether.safety_factor:g} is below 1", "a number >= 1")
     r.done()
+    return tether
 
-    r = _Reader(path, "winch", data["winch"])
-    winch = WinchSection(r.number("drum_radius_m", 0), r.number("gear_ratio", 0))
+
+def _winch(r: _Reader) -> WinchSection:
+    winch = WinchSection(r.number("drum_radius_m", 0), r.number("gear_ratio", 0),
+                         r.number("drum_inertia_kg_m2", 0, strict=False, optional=True),
+                         r.number("max_reel_acceleration_m_s2", 0, optional=True))
     r.done()
+    return winch
 
-    drive = _drive(_Reader(path, "drive", data["drive"]))
 
-    r = _Reader(path, "wind", data["wind"])
+def _wind(r: _Reader) -> WindSection:
     profile = r.text("profile", ("log", "power"))
     ref = r.number("reference_height_m", 0)
     rough = r.number("roughness_length_m", 0, optional=profile != "log")
@@ -456,8 +547,10 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
     wind = WindSection(profile, ref, rough, exponent, r.number("winch_height_m", 0, False),
                        r.number("air_density_kg_m3", 0), r.number("gravity_m_s2", 0))
     r.done()
+    return wind
 
-    r = _Reader(path, "bounds", data["bounds"])
+
+def _bounds(r: _Reader) -> BoundsSection:
     bounds = BoundsSection(
         r.number("tether_length_min_m", 0), r.number("tether_length_max_m", 0),
         r.number("period_min_s", 0), r.number("period_max_s", 0),
@@ -476,7 +569,21 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
     if bounds.max_line_angle_deg >= 90:
         raise r.error("max_line_angle_deg", f"{bounds.max_line_angle_deg:g}", "an angle < 90 deg")
     r.done()
+    return bounds
 
+
+def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> System:
+    """Validate a parsed system file (see :func:`load_system`): each section by its reader,
+    then the whole system's plausibility."""
+    _check_sections(data, path)
+    name, description, paper_system = _header(_Reader(path, "system", data["system"]))
+    kite = _kite(_Reader(path, "kite", data["kite"]))
+    aero = _aero(_Reader(path, "aero", data["aero"]))
+    tether = _tether(_Reader(path, "tether", data["tether"]))
+    winch = _winch(_Reader(path, "winch", data["winch"]))
+    drive = _drive(_Reader(path, "drive", data["drive"]))
+    wind = _wind(_Reader(path, "wind", data["wind"]))
+    bounds = _bounds(_Reader(path, "bounds", data["bounds"]))
     canonical = json.dumps(data, sort_keys=True, separators=(",", ":"))
     system = System(name, description, kite, aero, tether, winch, drive, wind, bounds, path,
                     text, hashlib.sha256(canonical.encode("utf-8")).hexdigest(), paper_system)

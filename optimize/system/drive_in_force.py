@@ -10,7 +10,7 @@ where its losses come from. :func:`drive_in_force` resolves both:
 - the **rating** (:class:`kernel.drive_rating.DriveRating`): each key of ``[drive]``; a
   key the file leaves out comes from the power model's own rating (said so);
 - how the losses are **carried** to the rating: ``scaling = "similarity"``
-  (:func:`optimize.model.drive.carry_power_model` with the speed ratio ``k_n`` of
+  (:func:`optimize.model.drivetrain.carry_power_model` with the speed ratio ``k_n`` of
   the speed ratings and the torque ratio ``k_T`` of the nominal torques, nominal
   power over rated speed, so ``k_n k_T`` is the ratio of nominal powers) or
   ``"none"`` (the model as it is). Without the key a model whose rating differs
@@ -166,7 +166,7 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
         differ by more than :data:`RATING_RATIO_LIMIT` without ``[drive] scaling``.
     """
     from fitting.model_file import load_power_model
-    from optimize.model.drive import carry_power_model
+    from optimize.model.drivetrain import carry_power_model
 
     if model is not None:
         path, note = Path(override or "<power model>"), "given"

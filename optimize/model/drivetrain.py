@@ -1,5 +1,6 @@
-"""Winch-drive quantities of the kite state (paper eq. 4) and the similarity law that
-carries a drive's power model to another rating.
+"""Winch-drive quantities of the kite state (paper eq. 4), the drivetrain's inertia, the
+drive's torque-speed envelope, and the similarity law that carries a drive's power model
+to another rating.
 
 Drum frame: torque >= 0 when the tether pulls, reel-out (generating) is
 negative speed; mechanical power is positive when the drive delivers power to
@@ -10,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
@@ -60,6 +62,82 @@ def max_reel_speed_m_s(max_speed_rpm: float, r_winch_m: float) -> float:
 def max_tension_n(max_torque_nm: float, r_winch_m: float) -> float:
     """Tether tension [N] that corresponds to a drum torque limit [N m]."""
     return max_torque_nm / r_winch_m
+
+
+def motor_acceleration_rad_s2(ddl_m_s2: Any, r_winch_m: float, gear_ratio: float) -> Any:
+    """Motor angular acceleration [rad/s^2] from the tether acceleration [m/s^2]
+    (reel-out is negative speed, so ``l'' > 0`` accelerates the motor negatively)."""
+    return -gear_ratio * ddl_m_s2 / r_winch_m
+
+
+@dataclass(frozen=True)
+class Drivetrain:
+    """The turning parts between the tether and the drive, seen from the motor shaft.
+
+    The drum shaft obeys ``J_d dw_d/dt = T_gear - T_tether`` and the rotor
+    ``J_r dw_m/dt = T_drive - T_gear / i`` with ``w_m = i w_d`` (ideal gearbox of ratio
+    ``i``), so the torque the drive delivers at its shaft is the tether torque seen at
+    the motor plus the acceleration torque of the inertia referred to the motor,
+    ``J = J_r + J_d / i^2``: ``T_drive = T_tether / i + J dw_m/dt``. Its power
+    ``T_drive w_m`` is the tether's plus ``d/dt (J w_m^2 / 2)``, which integrates to
+    zero over a periodic cycle.
+
+    Attributes
+    ----------
+    r_winch_m : float
+        Drum radius [m].
+    gear_ratio : float
+        Motor speed over drum speed [-].
+    drum_inertia_kg_m2 : float
+        Inertia turning at drum speed (drum, shaft, gearbox output side) [kg m^2].
+    rotor_inertia_kg_m2 : float
+        Inertia turning at motor speed (rotor, gearbox input side) [kg m^2].
+    """
+
+    r_winch_m: float
+    gear_ratio: float
+    drum_inertia_kg_m2: float = 0.0
+    rotor_inertia_kg_m2: float = 0.0
+
+    @classmethod
+    def of(cls, kite: Any) -> Drivetrain:
+        """The drivetrain of a kite's parameters (``optimize.system.params.KiteParams``)."""
+        return cls(kite.r_winch_m, kite.gear_ratio, kite.drum_inertia_kg_m2,
+                   kite.rotor_inertia_kg_m2)
+
+    @property
+    def inertia_kg_m2(self) -> float:
+        """Inertia referred to the motor shaft, ``J_r + J_d / i^2`` [kg m^2]."""
+        return self.rotor_inertia_kg_m2 + self.drum_inertia_kg_m2 / self.gear_ratio**2
+
+    def speed_rpm(self, dl_m_s: Any) -> Any:
+        """Motor speed [rpm] from the tether speed [m/s]."""
+        return motor_speed_rpm(dl_m_s, self.r_winch_m, self.gear_ratio)
+
+    def tether_torque_nm(self, tension_n: Any) -> Any:
+        """The tether's torque seen at the motor shaft [N m]."""
+        return motor_torque_nm(tension_n, self.r_winch_m, self.gear_ratio)
+
+    def acceleration_torque_nm(self, ddl_m_s2: Any) -> Any:
+        """Torque [N m] that accelerates the inertia: ``J dw_m/dt``."""
+        return self.inertia_kg_m2 * motor_acceleration_rad_s2(ddl_m_s2, self.r_winch_m,
+                                                              self.gear_ratio)
+
+    def shaft_torque_nm(self, tension_n: Any, ddl_m_s2: Any) -> Any:
+        """Torque the drive delivers at its shaft [N m]: tether plus acceleration torque
+        (the tether torque alone for a massless drivetrain)."""
+        if self.inertia_kg_m2 == 0:
+            return self.tether_torque_nm(tension_n)
+        return self.tether_torque_nm(tension_n) + self.acceleration_torque_nm(ddl_m_s2)
+
+    def shaft_power_w(self, tension_n: Any, dl_m_s: Any, ddl_m_s2: Any) -> Any:
+        """Power the drive delivers at its shaft [W]: the tether's ``-tension dl`` plus the
+        rate of change of the kinetic energy ``J w_m dw_m/dt``."""
+        if self.inertia_kg_m2 == 0:
+            return mechanical_power_w(tension_n, dl_m_s)
+        speed_rad_s = -self.gear_ratio * dl_m_s / self.r_winch_m
+        return (mechanical_power_w(tension_n, dl_m_s)
+                + speed_rad_s * self.acceleration_torque_nm(ddl_m_s2))
 
 
 #: the similarity law of :func:`carry_power_model`, as recorded in a carried model

@@ -13,8 +13,6 @@ import threading
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from optimize.kinds import KINDS
-
 
 class SolveResult(Protocol):
     """What the service reads from a solve result (see ``optimize.solve.result.OcpResult``).
@@ -50,10 +48,9 @@ class Problem:
 
     Attributes
     ----------
-    params : tuple or None
-        Arguments of ``optimize.model.kite_model.kite_dae`` (``KiteParams``,
-        ``AeroCoefficients``, ``WindModel``); ``None`` for the package defaults.
-        Plain data, so the DAE is built in the worker.
+    model : optimize.model.dae.DaeSpec or None
+        How the worker builds the model (factory and plain-data arguments: the DAE
+        is built in the worker); ``None`` only for backends that build no model.
     drive_model : Any
         ``fitting.power_model.PowerModel`` (or what the backend takes).
     options : Any
@@ -65,7 +62,7 @@ class Problem:
         the package defaults); the built OCP carries it (stored-guess acceptance).
     """
 
-    params: Any
+    model: Any
     drive_model: Any
     options: Any
     key: str
@@ -75,8 +72,11 @@ class Problem:
     def for_system(cls, system: Any, drive_model: Any, options: Any) -> Problem:
         """The problem of a system with its options (already holding the system's limits);
         ``system`` None is the package defaults."""
-        params = None if system is None else system.model_params()
-        return cls(params, drive_model, options, problem_key(options, drive_model, system),
+        from optimize.model.dae import DaeSpec
+        from optimize.model.kite_model import kite_dae
+
+        model = DaeSpec(kite_dae) if system is None else system.dae_spec()
+        return cls(model, drive_model, options, problem_key(options, drive_model, system),
                    system)
 
 
@@ -96,14 +96,12 @@ class OcpBackend:
 
     def build(self, problem: Problem) -> Any:
         """Build the NLP once per process and per :attr:`Problem.key`."""
-        from optimize.model.kite_model import kite_dae
         from optimize.problem.ocp import build_ocp
 
         key = (problem.key, threading.get_ident())
         if key not in _OCP_CACHE:
-            dae = kite_dae(*(problem.params or ()))
-            _OCP_CACHE[key] = build_ocp(dae, problem.drive_model, problem.options,
-                                        system=problem.system)
+            _OCP_CACHE[key] = build_ocp(problem.model.build(), problem.drive_model,
+                                        problem.options, system=problem.system)
         return _OCP_CACHE[key]
 
     @staticmethod
@@ -111,8 +109,7 @@ class OcpBackend:
         """The OCP's ``Scenario`` for a kind and wind speed [m/s]."""
         from optimize.problem.scenario import Scenario
 
-        objective, limits = KINDS[kind]
-        return Scenario(wind_speed_m_s=wind_speed_m_s, objective=objective, drive_limits=limits)
+        return Scenario.of_kind(kind, wind_speed_m_s)
 
     def solve(self, ocp: Any, kind: str, wind_speed_m_s: float, warm: Any) -> SolveResult:
         """Warm-started solve (primal and dual start; on failure ``solve`` retries the same
