@@ -162,7 +162,8 @@ def run_size(site: Any, model: Any = None, *, system: Any = None,
         ``before_solving(drive, n_candidates)``, called once the candidates are made.
     """
     from optimize.system.drive_in_force import drive_in_force
-    from optimize.system.system import System, load_system
+    from optimize.system.system import System
+    from optimize.system.system_file import load_system
 
     run_record = Provenance.start(command_line)
     check_replaceable(out, "size", SIZE_MARKERS, keep=SIZE_KEEP)  # before the work

@@ -54,7 +54,7 @@ def test_size_writes_the_header_into_sizing_json_and_run_json(tmp_path):
     from energy.sizing_files import write_sizing
     from optimize.paper_model import paper_model
     from optimize.system.drive_in_force import drive_in_force
-    from optimize.system.system import load_system
+    from optimize.system.system_file import load_system
 
     site, winds = Weibull(2.0, 6.2), (6.0, 7.0)
     res = run_sizing(_candidates((1.0,)), winds, site, tmp_path / "solves", n_intervals=10,
