@@ -5,6 +5,8 @@ A term ``(i, j)`` is ``speed**i * torque**j`` (docs/schemas.md §3).
 
 from __future__ import annotations
 
+from typing import Any
+
 
 class Term(tuple):
     """A term ``(i, j)``: ``speed**i * torque**j``; a tuple that prints as its name.
@@ -84,3 +86,12 @@ def term_label(term: tuple[int, int]) -> str:
         elif e > 1:
             parts.append(f"{sym}^{e}")
     return "*".join(parts) if parts else "1"
+
+
+def powers(x: Any, n: int, one: Any) -> list:
+    """``[one, x, x**2, ..., x**n]``, each power by one multiplication (floats, arrays or
+    CasADi expressions alike)."""
+    out = [one]
+    for _ in range(n):
+        out.append(x if len(out) == 1 else out[-1] * x)
+    return out

@@ -13,10 +13,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from bench.errors import InputError
 from bench.store.damage import check_store
 from bench.store.manifest import kind_files as store_files
 from bench.store.manifest import read_manifest
+from kernel.errors import InputError
 from reports import drive_figures
 from reports.inputs import InputLog
 from reports.tables import flatten, fmt, missing_since

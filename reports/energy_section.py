@@ -13,13 +13,12 @@ import numpy as np
 import pandas as pd
 from markupsafe import Markup
 
+from energy.outputs import POWER_CURVE_COLUMNS as CURVE_COLUMNS
 from energy.refine import refine_notes
 from optimize.kinds import LABELS
 from reports import plots, svg
 from reports.inputs import InputLog
 from reports.tables import fmt
-
-CURVE_COLUMNS = ("kind", "wind_speed_m_s", "p_elec_w", "p_mech_w", "p_elec_sigma_w")
 
 
 def power_curve_figure(curves: pd.DataFrame) -> Markup:

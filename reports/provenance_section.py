@@ -6,7 +6,8 @@ import platform
 import shlex
 from datetime import UTC, datetime
 
-from bench.versions import package_versions
+from kernel.provenance import command_text, read_header
+from kernel.versions import package_versions
 from reports.inputs import InputLog
 
 #: the keys under which a stage's document records its command line (a list or a string)
@@ -20,6 +21,10 @@ def stage_row(stage: str, doc: dict | None, run_id: str | None) -> dict:
     if not isinstance(doc, dict):
         return {"stage": stage, "command": "not run (no output found)", "run_id": "",
                 "created": ""}
+    header = read_header(doc)
+    if header is not None:  # the one provenance header every stage writes
+        return {"stage": stage, "command": command_text(header), "run_id": header["run_id"],
+                "created": str(header["created_utc"])}
     places = [doc.get("provenance_header"), doc, doc.get("provenance")]
     command = created = None
     for place in (p for p in places if isinstance(p, dict)):

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
 
-from bench.files import write_text_durable
+from kernel.files import write_text_durable
 from reports import (
     campaign_section,
     efficiency_section,
@@ -59,7 +59,7 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str],
     energy = energy_section.energy_section(log, aep, size)
     documents = energy.pop("documents")
     prov = provenance_section.provenance_section(log, argv, started, {
-        "ingest": (store, manifest), "fit": (fit, model.to_dict() if model else None),
+        "ingest": (store, manifest), "fit": (fit, summary),
         "optimize": (optimize, opt["manifest"]), "aep": (aep, documents["aep"]),
         "size": (size, documents["size"])})
     return {

@@ -20,7 +20,7 @@ matplotlib.use("Agg")
 from markupsafe import Markup  # noqa: E402  (after selecting the backend)
 from matplotlib.figure import Figure  # noqa: E402
 
-from bench.figure_text import fit_text  # noqa: E402
+from kernel.figure_text import fit_text  # noqa: E402
 from reports.plots import SCENARIO_COLORS, plain_label  # noqa: E402, F401  (shared here)
 
 _PROLOGUE = re.compile(r"^.*?(?=<svg)", re.DOTALL)

@@ -9,7 +9,7 @@ import casadi
 import pytest
 
 from bench.cli import main
-from bench.errors import InputError
+from kernel.errors import InputError
 
 
 def test_version_names_drivebench_casadi_and_ipopt(capsys):

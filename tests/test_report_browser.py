@@ -15,7 +15,7 @@ import pandas as pd
 import pytest
 from test_report import browser, write_fit, write_optimize, write_store  # noqa: F401
 
-from bench.files import write_text_atomic
+from kernel.files import write_text_atomic
 from reports.render import build_context, render
 
 SIMULATION = [  # the trust checks' records as optimize writes them (docs/schemas.md §5)

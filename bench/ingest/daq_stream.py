@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.errors import InputError
 from bench.ingest import clock
 from bench.ingest.csv_layout import line_of_row, sniff_csv
 from bench.ingest.csv_stream import (
@@ -29,6 +28,7 @@ from bench.ingest.mapping import (
     resolve_columns,
 )
 from bench.ingest.scrub import scrub
+from kernel.errors import InputError
 
 
 @dataclass
