@@ -59,7 +59,10 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str],
     energy = energy_section.energy_section(log, aep, size)
     documents = energy.pop("documents")
     prov = provenance_section.provenance_section(log, argv, started, {
-        "ingest": (store, manifest), "fit": (fit, summary),
+        "ingest": (store, manifest),
+        # the fit's header is in fit_summary.json; a model alone names its command line
+        "fit": (fit, {**(model.to_dict() if model else {}), **(summary or {})}
+                if model or summary else None),
         "optimize": (optimize, opt["manifest"]), "aep": (aep, documents["aep"]),
         "size": (size, documents["size"])})
     return {

@@ -128,7 +128,7 @@ def test_provenance_has_a_row_per_stage(browser, report):  # noqa: F811
     stages = {r[0]: r[1] for r in rows}
     assert list(stages) == ["ingest", "fit", "optimize", "aep", "size", "report"]
     # each stage's own command line, as its files record it (tests/test_report.py)
-    assert stages["fit"] == "bench fit --store s --out f --order 2"
+    assert stages["fit"] == "bench fit --store s"  # fit_summary.json's provenance header
     assert stages["optimize"] == "bench optimize --wind-grid 4:10:1.5"
     assert stages["report"] == "bench report"
     assert stages["ingest"] == "not recorded in the stage's files"  # this store's manifest
