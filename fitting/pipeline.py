@@ -7,7 +7,7 @@ Writes the outputs of docs/schemas.md §4 into one directory, all of them or non
 from __future__ import annotations
 
 import datetime as _dt
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +16,7 @@ import pandas as pd
 from bench.errors import InputError
 from bench.files import json_safe, write_json, write_parquet
 from bench.output_folder import check_replaceable, output_folder
+from bench.store.read import read_points, read_samples
 from fitting import figures
 from fitting.domain import BAND_FRAC, quadrant_envelopes
 from fitting.efficiency import MaskingRules
@@ -45,6 +46,7 @@ from fitting.selection import (
     select_model,
 )
 from fitting.terms import MAX_ORDER, MIN_ORDER, full_polynomial
+from fitting.thermal import fit_thermal
 
 WEIGHTINGS = ("quadrant", "none")
 #: files by which a fit output folder written before run ids is known
@@ -336,8 +338,11 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     model = fitted.power_model(pts.measured, envelopes, masking=masking.to_dict(),
                                statistics=statistics, provenance=provenance,
                                drive=drive.to_dict())
+    thermal, thermal_note = fit_thermal(read_points(store),
+                                        lambda sid: read_samples(store, sid))
+    model = replace(model, thermal=thermal)
     repeats = repeatability(frame, masking)
-    notes = (drive_notes + [v["note"] for v in statistics["validity"].values()
+    notes = ([thermal_note] + drive_notes + [v["note"] for v in statistics["validity"].values()
                             if not v["measured"]]
              + [d["note"] for d in (outliers, loss_repeat, repeats) if d.get("note")])
     with output_folder(out, "fit", FIT_MARKERS) as stage:  # all files or none
