@@ -39,14 +39,17 @@ class InputError(Exception):
         super().__init__(self.describe())
 
     def describe(self) -> str:
-        """Return one human-readable line: ``file:line: column 'x': problem; expected ...``."""
-        where = str(self.path) if self.path is not None else "<input>"
-        if self.line is not None:
-            where += f":{self.line}"
-        parts = [where]
+        """Return one human-readable line: ``file:line: column 'x': problem; expected ...``.
+
+        Without a file (a command-line option), the problem comes first: it names the
+        option itself (``--wind-grid 7: ...``).
+        """
+        parts = [] if self.path is None else [str(self.path)]
+        if self.path is not None and self.line is not None:
+            parts[0] += f":{self.line}"
         if self.column is not None:
             parts.append(f"column {self.column!r}")
-        msg = ": ".join(parts) + ": " + self.problem
+        msg = ": ".join([*parts, self.problem])
         if self.expected:
             msg += f"; expected {self.expected}"
         return msg

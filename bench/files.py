@@ -273,6 +273,60 @@ def file_sha256(path: str | Path) -> str:
     return digest.hexdigest()
 
 
+def recorded_mismatch(path: str | Path, record: dict, data: bytes | None = None) -> str | None:
+    """How a file differs from its record ``{"bytes": n, "sha256": hex}``; None when it matches.
+
+    The one check of a file against the size and SHA-256 a store manifest or an
+    output folder's ``run.json`` recorded for it.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    record : dict
+        Its recorded size [bytes] and SHA-256 (hex).
+    data : bytes, optional
+        The file's bytes when the caller has read them already (they are checked,
+        not the file again, so what is parsed is what was checked).
+
+    Returns
+    -------
+    str or None
+        ``"missing"``, ``"<n> bytes, <m> recorded"`` or ``"content differs from the
+        recorded SHA-256 ..."``.
+    """
+    path = Path(path)
+    if data is None and not path.is_file():
+        return "missing"
+    size = len(data) if data is not None else path.stat().st_size
+    if size != record.get("bytes"):
+        return f"{size} bytes, {record.get('bytes')} recorded"
+    digest = hashlib.sha256(data).hexdigest() if data is not None else file_sha256(path)
+    if digest != record.get("sha256"):
+        return "content differs from the recorded SHA-256 (bit rot, an edit or another run's file)"
+    return None
+
+
+def raise_mismatches(problems: list[tuple[Path, str]], record: str, repair: str) -> None:
+    """Raise one InputError naming every file that differs from its record (none: return).
+
+    Parameters
+    ----------
+    problems : list of (Path, str)
+        Each file with :func:`recorded_mismatch`'s description of it.
+    record : str
+        Where the record is, for the message (``"the store manifest"``, ``"run.json"``).
+    repair : str
+        The command that repairs the input, for the message.
+    """
+    if not problems:
+        return
+    first, what = problems[0]
+    more = "".join(f"; {p}: {w}" for p, w in problems[1:])
+    raise InputError(first, f"{what} (against {record}){more}",
+                     expected=f"the files as recorded: {repair}")
+
+
 def check_output_dir(path: str | Path, option: str = "--out") -> Path:
     """Fail early, before any long work, if ``path`` cannot become an output folder.
 

@@ -29,14 +29,23 @@ import os
 import shutil
 import tempfile
 import uuid
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from datetime import UTC, datetime
 from pathlib import Path
 
 from bench.errors import InputError
-from bench.files import file_sha256, fsync_path, write_text_durable
+from bench.files import (
+    file_sha256,
+    fsync_path,
+    raise_mismatches,
+    recorded_mismatch,
+    write_text_durable,
+)
+from bench.locking import output_lock
 
 RUN_FILE = "run.json"
+#: output folder -> run id it held when :func:`check_replaceable` passed (this process)
+_SEEN: dict[Path, str | None] = {}
 SCHEMA_NAME = "drivebench.run"
 SCHEMA_VERSION = 1
 _RENAME_EXCHANGE = 2
@@ -106,6 +115,61 @@ def check_replaceable(target: str | Path, stage: str, markers: tuple[str, ...] =
         raise InputError(target, f"holds files that are not an earlier bench {stage} output, "
                          "and the whole folder is replaced by the new one", column=option,
                          expected=f"a new or empty folder, or one bench {stage} wrote")
+    _SEEN[target.absolute()] = _run_id(target)
+    return target
+
+
+def _run_id(target: Path) -> str | None:
+    """The run id in ``target/run.json`` (None: no folder, no record or an unreadable one)."""
+    try:
+        return json.loads((target / RUN_FILE).read_text(encoding="utf-8")).get("run_id")
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, AttributeError):
+        return None
+
+
+def _check_unchanged(target: Path, stage: str, option: str) -> None:
+    """Stop when another run of the stage wrote ``target`` since :func:`check_replaceable`."""
+    if target not in _SEEN:
+        return
+    seen, now = _SEEN.pop(target), _run_id(target)
+    if now != seen:
+        raise InputError(target, f"another bench {stage} (run {now}) wrote it while this one "
+                         "ran; this run's output is not written", column=option,
+                         expected=f"one bench {stage} per output folder at a time (run again)")
+
+
+def check_replaceable_file(target: str | Path, stage: str, is_earlier: Callable[[bytes], bool],
+                           option: str = "--out") -> Path:
+    """Raise InputError unless the output file ``target`` is new or an earlier ``stage`` output.
+
+    The rule of :func:`check_replaceable` for a stage that writes one file (``bench
+    report``): nothing that stage did not write is ever overwritten.
+
+    Parameters
+    ----------
+    target : str or Path
+        The output file.
+    stage : str
+        The stage, for the message.
+    is_earlier : callable
+        Given the file's first 64 KiB, whether the stage wrote it.
+    option : str
+        The command-line option that named the file.
+    """
+    target = Path(target)
+    if target.is_dir():
+        raise InputError(target, "is a folder", column=option, expected="an output file name")
+    if target.exists():
+        try:
+            with open(target, "rb") as fh:
+                head = fh.read(1 << 16)
+        except OSError as exc:
+            raise InputError(target, f"cannot be read ({exc.strerror or exc})", column=option,
+                             expected=f"a new file, or one bench {stage} wrote") from exc
+        if not is_earlier(head):
+            raise InputError(target, f"is not an earlier bench {stage} output and would be "
+                             "overwritten", column=option,
+                             expected=f"a new file, or one bench {stage} wrote")
     return target
 
 
@@ -184,12 +248,22 @@ def output_folder(target: str | Path, stage: str, markers: tuple[str, ...] = (),
     """
     target = Path(target).absolute()
     target.parent.mkdir(parents=True, exist_ok=True)
-    for p in _leftovers(target, "old"):  # a fallback switch killed between its renames
-        if not target.exists():
-            os.rename(p, target)
-        else:
-            shutil.rmtree(p, ignore_errors=True)
-    check_replaceable(target, stage, markers, option, keep)
+    with output_lock(target, stage, option=option):
+        for p in _leftovers(target, "old"):  # a fallback switch killed between its renames
+            if not target.exists():
+                os.rename(p, target)
+            else:
+                shutil.rmtree(p, ignore_errors=True)
+        _check_unchanged(target, stage, option)
+        check_replaceable(target, stage, markers, option, keep)
+        _SEEN.pop(target, None)
+        with _staged(target, stage, keep) as staging:
+            yield staging
+
+
+@contextlib.contextmanager
+def _staged(target: Path, stage: str, keep: tuple[str, ...]) -> Iterator[Path]:
+    """Yield a staging folder beside ``target``; switch it in when the block succeeds."""
     for p in _leftovers(target, "staging"):
         shutil.rmtree(p, ignore_errors=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.staging-{os.getpid()}-",
@@ -259,20 +333,17 @@ def check_output_folder(folder: str | Path) -> str | None:
     if run is None:
         return None
     stage = run.get("stage", "?")
-    expected = f"the whole output of one bench {stage} run (run it again)"
-    for rel, rec in sorted(run["files"].items()):
-        path = folder / rel
-        if not path.is_file():
-            raise InputError(path, f"missing from the output of run {run['run_id']}",
-                             expected=expected)
-        if path.stat().st_size != rec.get("bytes") or file_sha256(path) != rec.get("sha256"):
-            raise InputError(path, f"not the file run {run['run_id']} wrote (a mixed or "
-                             "altered folder)", expected=expected)
+    record = f"{folder / RUN_FILE} of run {run['run_id']} (a mixed or altered folder)"
+    repair = f"run bench {stage} again into {folder}"
+    problems = [(folder / rel, recorded_mismatch(folder / rel, rec if isinstance(rec, dict)
+                                                 else {}))
+                for rel, rec in sorted(run["files"].items())]
+    problems = [(p, w) for p, w in problems if w is not None]
     for path in _files(folder, tuple(run.get("kept") or ())):
         rel = path.relative_to(folder).as_posix()
         if rel != RUN_FILE and rel not in run["files"]:
-            raise InputError(path, f"not written by run {run['run_id']} (a mixed folder)",
-                             expected=expected)
+            problems.append((path, "not written by this run"))
+    raise_mismatches(problems, record, repair)
     return run["run_id"]
 
 

@@ -78,7 +78,7 @@ def site_wind_grid(site_argv: list[str]) -> str:
     from energy.cli import shear_from_args, site_from_args
     from energy.site import covering_stop
     from optimize.sweep.plan import WIND_RANGE_M_S, parse_wind_grid
-    from optimize.system.system import load_system
+    from optimize.system.system_file import load_system
 
     base = parse_wind_grid(stage_default("optimize", "--wind-grid"))
     start, step = base[0], base[1] - base[0]

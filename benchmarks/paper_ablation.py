@@ -75,7 +75,7 @@ from optimize.paper_model import PAPER_MODEL_PATH, paper_model
 from optimize.problem.ocp import OcpOptions
 from optimize.service.builder import OcpBackend
 from optimize.sweep.outputs import read_summary
-from optimize.system.system import load_system
+from optimize.system.system_file import load_system
 
 ROOT = Path(__file__).resolve().parent.parent
 #: the statements that differ from the paper on our defaults (the ablation's subject)

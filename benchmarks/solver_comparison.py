@@ -51,7 +51,8 @@ from optimize.solve.solve import solve, start
 from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_chains
 from optimize.system.drive_in_force import drive_in_force
-from optimize.system.system import load_system, shipped_system_path
+from optimize.system.system import shipped_system_path
+from optimize.system.system_file import load_system
 
 OUT = Path(__file__).resolve().parent / "out"
 GOALS = {"optimum_w": 0.05, "period_s": 0.01, "per_iteration_speedup": 5.0,

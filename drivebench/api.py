@@ -234,7 +234,8 @@ def optimize(model: Any = None, *, winds: Sequence[float] = PAPER_WINDS_M_S,
     out = Path(out)
     unknown = [k for k in kinds if k not in KINDS]
     if unknown or not kinds:
-        raise InputError(None, f"scenario kinds {list(kinds)}", expected=", ".join(KINDS))
+        raise InputError(None, f"--scenarios {','.join(kinds)}: unknown scenario kinds "
+                         f"{unknown or 'none given'}", expected=", ".join(KINDS))
     if isinstance(model, PowerModel):
         out.mkdir(parents=True, exist_ok=True)
         model = save_power_model(model, out / "given_power_model.json")
@@ -324,9 +325,10 @@ def aep(sweep: Sweep | str | Path, site: Any, *, out: str | Path = "aep_out",
     import dataclasses
     import math
 
+    from bench.output_folder import check_replaceable
     from energy.assess import assess, model_for_run
     from energy.curve import read_optimize_run
-    from energy.outputs import write_outputs
+    from energy.outputs import AEP_KEEP, AEP_MARKERS, write_outputs
     from energy.refine import (
         DEFAULT_TOL,
         refine_document,
@@ -338,7 +340,7 @@ def aep(sweep: Sweep | str | Path, site: Any, *, out: str | Path = "aep_out",
     from fitting.model_schema import power_model_from_dict
 
     folder = Path(sweep.folder if isinstance(sweep, Sweep) else sweep)
-    out = Path(out)
+    out = check_replaceable(out, "aep", AEP_MARKERS, keep=AEP_KEEP)  # before the work
     run = read_optimize_run(folder)
     if shear is None:
         system = system_from_manifest(run.manifest, folder / "manifest.json")
@@ -459,22 +461,24 @@ def size(site: Any, model: Any = None, *, system: Any = None,
     before_solving : callable, optional
         ``before_solving(drive, n_candidates)``, called once the candidates are made.
     """
+    from bench.output_folder import check_replaceable
     from energy.candidates import build_candidates
     from energy.sizing import run_sizing, size_extending
-    from energy.sizing_files import edge_note, grid_hours, write_sizing
+    from energy.sizing_files import SIZE_KEEP, SIZE_MARKERS, edge_note, grid_hours, write_sizing
     from fitting.power_model import PowerModel
     from optimize.system.drive_in_force import drive_in_force
-    from optimize.system.system import System, load_system
+    from optimize.system.system import System
+    from optimize.system.system_file import load_system
 
     if len(winds) < 2:
-        raise InputError(None, f"wind speeds {list(winds)}: one gives no curve to integrate",
+        raise InputError(None, f"--wind-grid {','.join(f'{w:g}' for w in winds)}: one wind "
+                         "speed gives no AEP curve to integrate",
                          expected="at least two wind speeds")
     if not 0 <= tolerance < 1:
         raise InputError(None, f"--tolerance {tolerance}", expected="a share in [0, 1)")
     if extend < 0:
         raise InputError(None, f"--extend {extend}", expected="an integer >= 0")
-    if Path(out).exists() and not Path(out).is_dir():
-        raise InputError(Path(out), "exists and is not a folder", expected="an output folder")
+    check_replaceable(out, "size", SIZE_MARKERS, keep=SIZE_KEEP)  # before the work
     system = system if isinstance(system, System) else load_system(system)
     if isinstance(model, PowerModel):
         drive = drive_in_force(system, model=model)

@@ -231,7 +231,8 @@ def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
             model = None
     if site_uncertainty and (site_uncertainty.mean_m_s > 0 or site_uncertainty.k > 0) and \
             isinstance(site, Histogram):
-        raise InputError(None, "site-parameter uncertainty given for a histogram site",
+        raise InputError(None, "--mean-sigma/--k-sigma: site-parameter uncertainty given for a "
+                         "histogram site (--histogram)",
                          expected="--mean-sigma/--k-sigma only with a Weibull or Rayleigh site")
     trajectories = read_trajectories(run.folder) if model is not None else None
 

@@ -66,7 +66,7 @@ def system_from_manifest(manifest: dict, path: Path) -> Any:
     InputError
         The record's text does not parse or its hash differs from the record's.
     """
-    from optimize.system.system import system_from_dict
+    from optimize.system.system_file import system_from_dict
 
     rec = manifest.get("system")
     if rec is None:

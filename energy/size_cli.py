@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     """Run or resume the sizing sweep (:func:`drivebench.api.size`), print the table."""
     from drivebench.api import size
     from optimize.sweep.plan import parse_wind_grid
-    from optimize.system.system import load_system
+    from optimize.system.system_file import load_system
 
     system = load_system(args.system)
     site, site_note, _ = site_from_args(args, shear_from_args(args, system))

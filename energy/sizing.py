@@ -278,7 +278,7 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
     from tqdm import tqdm
 
     from optimize.service import SolveTask, solve_tasks
-    from optimize.system.system import load_system
+    from optimize.system.system_file import load_system
 
     system = system if system is not None else load_system()
     tasks = [SolveTask(c.problem(n_intervals, degree, system), SIZING_KIND, float(w),

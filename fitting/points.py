@@ -11,8 +11,7 @@ import numpy as np
 import pandas as pd
 
 from bench.errors import InputError
-from bench.store.manifest import kind_files
-from bench.store.read import consistent_read
+from bench.store.read import consistent_read, read_listed_bytes
 
 #: Columns the fit needs from ``points/*.parquet``.
 REQUIRED_COLUMNS = ("session_id", "point_id", "speed_rpm", "torque_nm", "p_mech_w", "p_elec_w")
@@ -61,18 +60,20 @@ def load_points(store: str | Path) -> OperatingPoints:
     Raises
     ------
     InputError
-        Missing or empty store, a missing column, or a non-finite value
-        (naming the file, the column and the point).
+        Missing or empty store, a listed file missing or not as the manifest records
+        it (naming the files and the command that repairs the store), a missing
+        column, or a non-finite value (naming the file, the column and the point).
     """
     store = Path(store)
     if not store.is_dir():
         raise InputError(store, "store not found", expected="a directory written by bench ingest")
 
     def read_bytes(manifest: dict) -> dict[str, tuple[Path, bytes]]:
-        return {f"{sid}.parquet": (p, p.read_bytes())
-                for sid, p in kind_files(store, "points", manifest).items()}
+        return {f"{sid}.parquet": pair
+                for sid, pair in read_listed_bytes(store, "points", manifest).items()}
 
-    listed = consistent_read(store, read_bytes)  # only the files the manifest lists
+    # only the files the manifest lists, each as it records it (size and SHA-256)
+    listed = consistent_read(store, read_bytes)
     frames, files = [], {}
     for name, (path, data) in listed.items():
         files[name] = hashlib.sha256(data).hexdigest()

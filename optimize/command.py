@@ -20,15 +20,18 @@ from bench.files import check_output_dir, file_sha256, write_csv, write_json, wr
 from bench.output_folder import check_replaceable, output_folder
 from bench.versions import package_versions
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
+from optimize.analysis.result_check import MIN_COLLOCATION_POINTS, mesh_label
 from optimize.kinds import KINDS
 from optimize.service import Problem, make_tasks, run_sweep
 from optimize.sweep import outputs
 from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import plan_chains
+from optimize.sweep.result_checks import check_outcomes
 from optimize.sweep.trust import run_trust_checks
 from optimize.system.drive_in_force import DriveInForce, drive_in_force
 from optimize.system.plausibility import check_drive_holds_kite
-from optimize.system.system import System, load_system
+from optimize.system.system import System
+from optimize.system.system_file import load_system
 
 #: files by which an optimize output folder written before run ids is known
 OPTIMIZE_MARKERS = ("summary.parquet", "manifest.json")
@@ -158,6 +161,9 @@ def make_request(winds: tuple[float, ...], kinds: tuple[str, ...], *,
                            drive.rating.source or "the drive in force")
     note += "\n" + loaded.kite_limits().describe()
     note += "\n" + loaded.drivetrain_line()
+    if n_intervals * degree < MIN_COLLOCATION_POINTS:
+        note += (f"\nmesh {mesh_label(n_intervals, degree)}: the result check decides whether "
+                 "each optimum stands")
     return SweepRequest(tuple(winds), tuple(kinds), drive.model, drive.model_path, note,
                         options, workers, scheduler, Path(out), claims, trust,
                         system=loaded, drive=drive)
@@ -234,10 +240,11 @@ def run_optimize(
         chains = plan_chains(request.winds, request.kinds, handle.n_workers)
         tasks = make_tasks(chains, problem, cut_in_kinds, request.cut_in_tol_m_s, backend)
         result = run_sweep(tasks, handle, show_progress)
+        outcomes, checks = (check_outcomes(problem, result.outcomes) if backend is None
+                            else (list(result.outcomes), []))
         if request.trust:
-            trust = run_trust_checks(problem, result.outcomes, request.winds, handle)
-    summary = outputs.summary_frame(result.outcomes, model.domain,
-                                    domain_scales(model, options))
+            trust = run_trust_checks(problem, outcomes, request.winds, handle)
+    summary = outputs.summary_frame(outcomes, model.domain, domain_scales(model, options))
     cut_ins = cut_in_frame(result.cut_ins)
     claims = (evaluate_claims(summary, cut_ins, paper_system=system.paper_system,
                               system_name=system.name) if request.claims else None)
@@ -249,7 +256,7 @@ def run_optimize(
             "summary": write_parquet(stage / "summary.parquet", summary,
                                      descriptions=outputs.SUMMARY_COLUMNS, metadata=system_meta),
             "trajectories": write_parquet(stage / "trajectories.parquet",
-                                          outputs.trajectories_frame(result.outcomes),
+                                          outputs.trajectories_frame(outcomes),
                                           metadata=system_meta),
         }
         model_path = request.drive_model_path
@@ -268,7 +275,7 @@ def run_optimize(
             "package_versions": package_versions(),
             "wind_speeds_m_s": list(request.winds),
             "kinds": list(request.kinds),
-            "scenarios": [o.name for o in result.outcomes],
+            "scenarios": [o.name for o in outcomes],
             "drive_model": {
                 "path": str(stage / "power_model.json" if drive.carried
                             else model_path),
@@ -285,7 +292,8 @@ def run_optimize(
             "executor": result.executor,
             "wall_time_s": result.wall_time_s,
             "converged": int(summary["success"].sum()),
-            "failed": [o.name for o in result.outcomes if not o.success],
+            "failed": [o.name for o in outcomes if not o.success],
+            "result_checks": [dataclasses.asdict(c) for c in checks],
             "chains": [
                 {
                     "chain": c.chain,
@@ -295,7 +303,7 @@ def run_optimize(
                 }
                 for c in result.chains
             ],
-            "local_optima": outputs.resolve_lines(result.outcomes),
+            "local_optima": outputs.resolve_lines(outcomes),
             "cut_in": [dataclasses.asdict(c) for c in result.cut_ins],
             "trust": trust,
             "files": {k: Path(v).name for k, v in files.items()},
@@ -373,6 +381,14 @@ def bound_lines(summary: Any) -> list[str]:
     return lines
 
 
+def check_lines(summary: Any) -> list[str]:
+    """One line per scenario whose optimum failed the result check (summary ``result_check``)."""
+    if "result_check" not in summary.columns:
+        return []
+    return [f"{r.scenario} ({r.status}): {r.result_check}"
+            for r in summary.itertuples(index=False) if r.result_check.startswith("failed")]
+
+
 def resolve_lines_of(summary: Any) -> list[str]:
     """One line per scenario re-solved from a neighbour (summary ``resolved_from``)."""
     if "resolved_from" not in summary.columns:
@@ -401,6 +417,10 @@ def format_summary(summary: Any) -> str:
             f"{r.e_elec_j:>9.0f} {r.peak_speed_rpm:>7.0f} {r.peak_torque_nm:>6.1f} "
             f"{r.p_elec_max_w:>10.0f}"
         )
+    rejected = check_lines(summary)
+    if rejected:
+        lines += ["", "converged, but failed the result check (physically impossible or not a "
+                  "solution of the dynamics; counted as failed):", *rejected]
     flagged = bound_lines(summary)
     if flagged:
         lines += ["", "optima on a bound or with a slack tether:", *flagged]

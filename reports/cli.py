@@ -7,6 +7,8 @@ import time
 from pathlib import Path
 
 from bench.files import check_output_file
+from bench.locking import output_lock
+from bench.output_folder import check_replaceable_file
 from reports.render import build_report
 
 
@@ -26,6 +28,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the HTML file to write (default: ./report.html)")
 
 
+#: in the head of every report (reports/templates/report.html), and the heading of those
+#: written before it: how an earlier report is known (``--out`` replaces nothing else)
+REPORT_MARKERS = (b'<meta name="generator" content="drivebench report">',
+                  b"from bench logs to electrically optimal pumping cycles</h1>")
+
+
+def is_report(head: bytes) -> bool:
+    """Whether a file starting with ``head`` is a report ``bench report`` wrote."""
+    return head.lstrip().startswith(b"<!DOCTYPE html>") and any(m in head for m in REPORT_MARKERS)
+
+
 def run(args: argparse.Namespace) -> int:
     """Build the report; print its path, size and the wall time."""
     t0 = time.perf_counter()
@@ -33,7 +46,10 @@ def run(args: argparse.Namespace) -> int:
     argv = ["bench", "report", "--store", str(args.store), "--fit", str(args.fit),
             "--optimize", str(args.optimize), "--aep", str(args.aep), "--size", str(args.size),
             "--out", str(args.out)]
-    out = build_report(args.store, args.fit, args.optimize, args.out, argv, args.aep, args.size)
+    with output_lock(args.out, "report"):  # one report writer per file: a second one waits
+        check_replaceable_file(args.out, "report", is_report)
+        out = build_report(args.store, args.fit, args.optimize, args.out, argv, args.aep,
+                           args.size)
     size_mb = out.stat().st_size / 1e6
     print(f"{out.resolve()}")
     print(f"bench report: {size_mb:.2f} MB written in {time.perf_counter() - t0:.1f} s")

@@ -17,6 +17,7 @@ from bench.errors import InputError
 from optimize.kinds import KINDS, LABELS
 from optimize.sweep.outputs import SUMMARY_REQUIRED
 from reports import cycle_figures
+from reports.failed import failed_rows, failure_text
 from reports.inputs import InputLog
 from reports.tables import fmt, frame_table
 
@@ -83,7 +84,7 @@ def table_ii(summary: pd.DataFrame) -> dict:
                 cells.append({"elec": fmt(r["avg_p_elec_w"], 0), "mech": fmt(r["avg_p_mech_w"], 0),
                               "failed": None})
             else:
-                cells.append({"elec": "", "mech": "", "failed": str(r["status"])})
+                cells.append({"elec": "", "mech": "", "failed": failure_text(r)})
         rows.append({"wind": fmt(wind, sig=3), "cells": cells})
     labels = [LABELS[k] for k in kinds]
     return {"kinds": kinds, "labels": labels, "rows": rows}
@@ -247,7 +248,7 @@ def optimization_section(log: InputLog, optimize: Path,
     out: dict = {"notes": {"fig9": None, "fig3": None}, "manifest": manifest,
                  "table_ii": None, "n_failed": 0, "n_scenarios": 0, "scenarios": None,
                  "fig8a": None, "fig8b": None, "fig9": None, "fig10": None, "fig3": None,
-                 "fig9_periods": [], "fig9_wind": None, "bounds": [],
+                 "fig9_periods": [], "fig9_wind": None, "bounds": [], "failed": [],
                  "domain": None}
     out["claims"] = claims_rows(claims) if claims is not None else None
     out["run"] = run_rows(manifest, fit_model_sha256) if manifest is not None else []
@@ -260,6 +261,7 @@ def optimization_section(log: InputLog, optimize: Path,
         s = normalized_summary(summary, summary_path)
         out["table_ii"] = table_ii(s)
         out["n_failed"] = int((~s["ok"]).sum())
+        out["failed"] = failed_rows(summary)
         out["n_scenarios"] = len(s)
         out["scenarios"] = frame_table(summary)
         out["bounds"] = bound_rows(summary)

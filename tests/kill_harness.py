@@ -460,7 +460,8 @@ def _kill_outputs(work, runner, old_args, new_args, n, steps, seed, around_switc
         log(f"kill {i + 1}/{len(plan)} ({how} {delay:.3f}): rc {rc}, {state}")
     if dirty is not None:
         assert runner.run([*new_args, "--out", str(dirty)]).rc == 0, "the next complete run"
-        left = sorted(p.name for p in dirty.parent.iterdir() if p.name != "out")
+        # the writer's lock file (bench.locking) stays beside the output, as the store's does
+        left = sorted(p.name for p in dirty.parent.iterdir() if p.name not in ("out", ".out.lock"))
         if left:
             figures.leftovers += 1
             figures.problems.append(f"after the next run: leftovers {left}")

@@ -11,7 +11,7 @@ from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.solve.derivatives import _block_derivatives, nlp_derivatives, whole_derivatives
 from optimize.system.drive_in_force import drive_in_force
-from optimize.system.system import load_system
+from optimize.system.system_file import load_system
 
 N = 6  # intervals: every kind of row and variable, small enough to differentiate whole
 

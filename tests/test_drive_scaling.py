@@ -20,7 +20,8 @@ from bench.errors import InputError
 from optimize.model.drivetrain import RPM_PER_RAD_S, carry_power_model
 from optimize.paper_model import paper_model
 from optimize.system.drive_in_force import drive_in_force
-from optimize.system.system import load_system, shipped_system_path, system_from_dict
+from optimize.system.system import shipped_system_path
+from optimize.system.system_file import load_system, system_from_dict
 
 RATIOS = [(1.0, 1.0), (0.6366, 3.831), (0.3979, 919.5), (2.0, 0.5)]
 

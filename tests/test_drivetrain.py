@@ -24,7 +24,8 @@ from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.params import KiteParams
-from optimize.system.system import shipped_system_path, system_from_dict
+from optimize.system.system import shipped_system_path
+from optimize.system.system_file import system_from_dict
 
 R_M, GEAR, J_DRUM, J_ROTOR = 0.1, 3.0, 0.45, 0.01
 AMPLITUDE_M_S, RATE_RAD_S = 4.0, 2 * np.pi / 5.0

@@ -150,7 +150,8 @@ def test_site_height_moves_by_the_systems_wind_profile(tmp_path):
     import argparse
 
     from energy.cli import add_site_arguments, shear_from_args, site_from_args
-    from optimize.system.system import load_system, shipped_system_path
+    from optimize.system.system import shipped_system_path
+    from optimize.system.system_file import load_system
 
     parser = argparse.ArgumentParser()
     add_site_arguments(parser)

@@ -19,7 +19,7 @@ from optimize.paper_model import paper_model
 from optimize.service import solve_key
 from optimize.sweep.executors import ExecutorHandle, QueueChannel
 from optimize.system.drive_in_force import drive_in_force
-from optimize.system.system import load_system
+from optimize.system.system_file import load_system
 
 #: the paper drive's rating as highwind.toml states it (continuous 78 N m, overload 5)
 PAPER_RATING = drive_in_force(load_system(), model=paper_model()).rating
@@ -46,7 +46,8 @@ def test_scaled_candidates_are_s_drives_sharing_the_torque():
 
 
 def test_candidate_options_take_the_system_bounds_and_the_candidate_limits():
-    from optimize.system.system import load_system, shipped_system_path
+    from optimize.system.system import shipped_system_path
+    from optimize.system.system_file import load_system
 
     base = paper_model()
     c = _candidates((2.0,))[0]

@@ -12,7 +12,7 @@ from optimize.problem.options import Discretization, OcpOptions
 from optimize.solve import initial_guess
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.params import KiteParams
-from optimize.system.system import load_system, system_from_dict
+from optimize.system.system_file import load_system, system_from_dict
 
 
 @pytest.fixture(scope="module")

@@ -18,7 +18,7 @@ from energy.sizing import (
 )
 from optimize.paper_model import paper_model
 from optimize.system.drive_in_force import drive_in_force
-from optimize.system.system import load_system
+from optimize.system.system_file import load_system
 
 SITE = Weibull(2.0, 6.2)
 

@@ -20,7 +20,8 @@ from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start
 from optimize.sweep.outputs import MEANT_BOUNDS
 from optimize.system.drive_in_force import drive_in_force
-from optimize.system.system import load_system, shipped_system_path
+from optimize.system.system import shipped_system_path
+from optimize.system.system_file import load_system
 
 WIND_M_S = 7.0
 

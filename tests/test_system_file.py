@@ -13,7 +13,8 @@ from optimize.paper_model import paper_model
 from optimize.problem.options import OcpOptions, with_drive_rating
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.params import AeroCoefficients, KiteParams, WindModel
-from optimize.system.system import load_system, shipped_system_path, system_from_dict
+from optimize.system.system import shipped_system_path
+from optimize.system.system_file import load_system, system_from_dict
 
 SHIPPED = ("highwind", "ap2", "megawes")
 

@@ -12,7 +12,8 @@ import pytest
 
 from bench.errors import InputError
 from optimize.system.plausibility import check_drive_holds_kite
-from optimize.system.system import load_system, shipped_system_path, system_from_dict
+from optimize.system.system import shipped_system_path
+from optimize.system.system_file import load_system, system_from_dict
 
 SHIPPED = ("highwind", "ap2", "megawes")
 

@@ -472,3 +472,40 @@ def check_torque_sign(session, p_mech_w, p_elec_w, where: Path) -> None:
         "(a wrong p_elec column or misaligned clocks give this); torque_sign/speed_sign "
         "need no change for that",
     )
+
+
+def efficiency_flags(points: dict[str, np.ndarray]) -> list[str]:
+    """Kept points whose efficiency (paper eqs. 1-2) lies outside [0, 1] beyond the noise.
+
+    A point with ``p_elec`` and ``p_mech`` of opposite signs, each larger than its
+    uncertainty, has a negative efficiency: a generator point at which the drive draws
+    power (its losses exceed the shaft power; real at high speed and little torque). It
+    is a true measurement of the electrical power, so it is kept for the power model,
+    and flagged here (the efficiency map shows it as 0, as the paper does). Efficiencies
+    above 1 are rejected by :func:`check_points`.
+
+    Parameters
+    ----------
+    points : dict
+        ``speed_rpm``, ``torque_nm``, ``p_mech_w``, ``p_elec_w`` and optionally
+        ``p_elec_w_std``, ``p_mech_w_std`` per point (the store's points columns).
+
+    Returns
+    -------
+    list of str
+        One line per flagged point: its efficiency, speed, torque and both powers.
+    """
+    p_mech = np.asarray(points["p_mech_w"], np.float64)
+    p_elec = np.asarray(points["p_elec_w"], np.float64)
+    if p_mech.size == 0:
+        return []
+    floor = POWER_FLOOR_FRAC * float(np.nanmax(np.abs(p_mech)))
+    u_elec = np.maximum(floor, 2 * np.nan_to_num(points.get("p_elec_w_std", 0.0)))
+    u_mech = np.maximum(floor, 2 * np.nan_to_num(points.get("p_mech_w_std", 0.0)))
+    bad = (p_mech * p_elec < 0) & (np.abs(p_elec) > u_elec) & (np.abs(p_mech) > u_mech)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        eta = np.where(p_mech > 0, p_mech / p_elec, p_elec / p_mech)
+    return [f"efficiency {eta[k]:.3g} outside [0, 1] at {points['speed_rpm'][k]:.0f} rpm, "
+            f"{points['torque_nm'][k]:.3g} N m (p_mech {p_mech[k]:.4g} W, p_elec "
+            f"{p_elec[k]:.4g} W: the drive draws power while the shaft drives it); kept for the "
+            "power model, shown as 0 in the efficiency map" for k in np.flatnonzero(bad)]

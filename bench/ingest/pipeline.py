@@ -25,6 +25,7 @@ from tqdm import tqdm
 from bench.drive import find_drive_file, session_drive
 from bench.errors import InputError
 from bench.files import WRITE_ERRNOS, file_sha256
+from bench.ingest.checks import efficiency_flags
 from bench.ingest.csv_stream import CHUNK_BYTES
 from bench.ingest.mapping import EMPTY_MAPPING, load_mapping
 from bench.ingest.session import Session, complete_ranges, discover, load_session
@@ -396,6 +397,9 @@ def _entry(s: Session, hashes: dict[str, str], out: SessionOutput,
         "ingested_at": datetime.now(UTC).isoformat(timespec="seconds"),
     }
     entry.update(out.info)
+    flags = efficiency_flags({c: out.points.column(c).to_numpy() for c in out.points.column_names})
+    if flags:
+        entry["efficiency_flags"] = flags
     if out.points.num_rows == 0 and "no_points_note" not in entry:
         entry["no_points_note"] = "0 points: every row of the table is invalid"
     return entry

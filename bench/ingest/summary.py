@@ -28,7 +28,8 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict,
         clock offset [s] and drift [ppm], torque-flange zero offset subtracted
         [N m] (``none`` without a tare), rejected windows by reason; then one line
         per session that gave no operating point saying why, and one per session
-        without a tare saying why.
+        without a tare saying why, and one per point kept with an efficiency outside
+        [0, 1] (manifest ``efficiency_flags``).
     """
     head = ("session", "status", "kind", "mode", "motor", "generator", "offset_s", "drift_ppm",
             "zero_nm", "rejected")
@@ -38,6 +39,7 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict,
     no_tare = []
     no_points = []
     no_drift = []
+    flagged: list[str] = []
     for sid in sorted(ingested + unchanged):
         e = manifest["sessions"][sid]
         q = e["points_per_quadrant"]
@@ -53,6 +55,7 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict,
         if e.get("clock_drift_note"):
             no_drift.append(f"{sid}: {e['clock_drift_note']}")
         no_drift += [f"{sid}: temperature flagged: {n}" for n in e.get("temperature_notes", [])]
+        flagged += [f"{sid}: {f}" for f in e.get("efficiency_flags") or ()]
         if e.get("torque_zero_offset_nm") is None:
             no_tare.append(f"{sid}: {e.get('torque_zero_note', 'no tare recorded')}")
     rows.append(("total", f"{len(ingested)} new", "", "", str(tot["motor"]),
@@ -61,6 +64,7 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict,
     notes = [f"NO POINTS from {n}" for n in no_points]
     notes += [f"no torque-flange tare, torque not zero-corrected: {n}" for n in no_tare]
     notes += no_drift
+    notes += [f"FLAGGED point: {f}" for f in flagged]
     return "\n".join([*_table(head, rows), *notes])
 
 

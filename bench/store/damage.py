@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pyarrow.parquet as pq
 
-from bench.files import file_sha256
+from bench.files import recorded_mismatch
 from bench.store.manifest import listed_files, read_manifest
 from bench.store.schema import GENERATION_RE, KINDS, STAGING_PREFIX
 
@@ -54,12 +54,8 @@ def _check_file(path: Path, rec: dict | None, rel: str) -> str | None:
     if not path.is_file():
         return f"{rel}: missing"
     if isinstance(rec, dict):
-        size = path.stat().st_size
-        if size != rec.get("bytes"):
-            return f"{rel}: {size} bytes, {rec.get('bytes')} recorded"
-        if file_sha256(path) != rec.get("sha256"):
-            return f"{rel}: content differs from the recorded SHA-256 (bit rot or an edit)"
-        return None
+        problem = recorded_mismatch(path, rec)
+        return None if problem is None else f"{rel}: {problem}"
     try:  # a store written before hashes were recorded: at least a whole Parquet file
         pq.read_metadata(path)
     except Exception as exc:  # pyarrow raises several types for a corrupt file

@@ -1,4 +1,5 @@
-"""One writer at a time: an exclusive lock on ``<store>/.lock`` holding the writer's pid."""
+"""One writer at a time: an exclusive lock on ``<store>/.lock`` holding the writer's pid
+(the flock of :mod:`bench.locking`, which every stage's output uses too)."""
 
 from __future__ import annotations
 
@@ -8,50 +9,12 @@ from pathlib import Path
 
 from bench.errors import InputError
 from bench.files import WRITE_ERRNOS
+from bench.locking import lock_fd, read_holder, write_pid
 from bench.store.schema import LOCK_FILE
 
 
 class StoreBusy(InputError):
     """Another ingest holds the store's lock and the caller chose not to wait."""
-
-
-def _lock(fd: int, block: bool) -> None:
-    """Exclusive lock on an open file; BlockingIOError when taken and ``block`` is False.
-
-    ``flock`` on POSIX (released when the process ends, however it ends);
-    ``msvcrt.locking`` of the first byte on Windows.
-    """
-    try:
-        import fcntl
-    except ImportError:  # Windows
-        import msvcrt
-        import time as _time
-
-        while True:
-            os.lseek(fd, 0, os.SEEK_SET)
-            try:
-                msvcrt.locking(fd, msvcrt.LK_NBLCK, 1)
-                return
-            except OSError as exc:
-                if not block:
-                    raise BlockingIOError(*exc.args) from exc
-                _time.sleep(0.2)
-    fcntl.flock(fd, fcntl.LOCK_EX | (0 if block else fcntl.LOCK_NB))
-
-
-def _read_at_start(fd: int) -> str:
-    """The text at the start of the lock file (the holder's pid), without the lock."""
-    try:
-        os.lseek(fd, 0, os.SEEK_SET)
-        return os.read(fd, 64).decode("ascii", "replace")
-    except OSError:  # Windows: the locked byte cannot be read
-        return ""
-
-
-def _write_pid(fd: int) -> None:
-    os.ftruncate(fd, 0)
-    os.lseek(fd, 0, os.SEEK_SET)
-    os.write(fd, f"{os.getpid()}\n".encode())
 
 
 class StoreLock:
@@ -99,9 +62,9 @@ class StoreLock:
     def _take(self, fd: int) -> None:
         """Lock ``fd``, waiting for the holder (or raising StoreBusy when not waiting)."""
         try:
-            _lock(fd, block=False)
+            lock_fd(fd, block=False)
         except BlockingIOError as busy:
-            holder = _read_at_start(fd).strip() or "?"
+            holder = read_holder(fd).strip() or "?"
             if not self.wait:
                 os.close(fd)
                 raise StoreBusy(self.store,
@@ -109,7 +72,7 @@ class StoreLock:
                                 expected="one ingest per store at a time") from busy
             self.notify(f"bench ingest: waiting for another ingest (pid {holder}) "
                         f"writing {self.store} ...")
-            _lock(fd, block=True)
+            lock_fd(fd, block=True)
 
     def acquire(self) -> None:
         """Take the lock and write this process's pid into the lock file."""
@@ -126,7 +89,7 @@ class StoreLock:
                 same = False
             if same:
                 self._fd = fd
-                _write_pid(fd)
+                write_pid(fd)
                 return
             os.close(fd)
 

@@ -7,7 +7,6 @@ A store written before generations (schema_version 1, files directly in
 
 from __future__ import annotations
 
-import hashlib
 import io
 from collections.abc import Callable
 from pathlib import Path
@@ -16,11 +15,15 @@ from typing import TypeVar
 import pandas as pd
 
 from bench.errors import InputError
+from bench.files import raise_mismatches, recorded_mismatch
 from bench.store.manifest import kind_files, read_manifest
 from bench.store.schema import SCHEMAS
 
 #: times a reader starts over when a writer removed a generation under it
 READ_RETRIES = 5
+#: what repairs a damaged store, said by every reader that finds one
+STORE_REPAIR = ("run bench store check, then bench ingest of the damaged sessions' folders "
+                "(it re-ingests them)")
 
 T = TypeVar("T")
 
@@ -46,20 +49,21 @@ def consistent_read(store_dir: str | Path, read: Callable[[dict], T]) -> T:
             if read_manifest(store_dir).get("generation") == manifest.get("generation"):
                 raise InputError(exc.filename or store_dir,
                                  "a file the store manifest lists is missing (damaged store)",
-                                 expected="re-run bench ingest into a new store") from exc
+                                 expected=STORE_REPAIR) from exc
     raise InputError(store_dir, f"the store changed {READ_RETRIES} times while being read",
                      expected="no ingest running into it")
 
 
-def _check_bytes(path: Path, data: bytes, entry: dict, kind: str) -> None:
-    """Raise InputError when ``data`` differs from the size and hash the manifest records."""
+def _mismatch(path: Path, data: bytes, entry: dict, kind: str) -> str | None:
+    """How ``data`` differs from the size and hash the manifest records (None: as recorded)."""
     rec = (entry.get("store_checks") or {}).get(kind) if isinstance(entry, dict) else None
     if not isinstance(rec, dict):
-        return  # a store written before the manifest recorded its files' hashes
-    if len(data) != rec.get("bytes") or hashlib.sha256(data).hexdigest() != rec.get("sha256"):
-        raise InputError(path, f"the file differs from what the store manifest records "
-                         f"({len(data)} bytes, {rec.get('bytes')} recorded): damaged store",
-                         expected="run bench store check, then re-run bench ingest")
+        return None  # a store written before the manifest recorded its files' hashes
+    return recorded_mismatch(path, rec, data)
+
+
+def _raise_damaged(problems: list[tuple[Path, str]]) -> None:
+    raise_mismatches(problems, "the store manifest: damaged store", STORE_REPAIR)
 
 
 def read_listed_bytes(store_dir: str | Path, kind: str,
@@ -74,11 +78,14 @@ def read_listed_bytes(store_dir: str | Path, kind: str,
     InputError
         A file whose size or SHA-256 differs from the manifest's record.
     """
-    out = {}
+    out, problems = {}, []
     for sid, path in kind_files(store_dir, kind, manifest).items():
         data = path.read_bytes()
-        _check_bytes(path, data, manifest["sessions"].get(sid), kind)
+        problem = _mismatch(path, data, manifest["sessions"].get(sid), kind)
+        if problem is not None:
+            problems.append((path, problem))
         out[sid] = (path, data)
+    _raise_damaged(problems)
     return out
 
 
@@ -88,7 +95,7 @@ def parse_parquet(path: Path, data: bytes) -> pd.DataFrame:
         return pd.read_parquet(io.BytesIO(data))
     except Exception as exc:  # pyarrow raises several types for a corrupt file
         raise InputError(path, f"not a readable Parquet file ({exc}): damaged store",
-                         expected="run bench store check, then re-run bench ingest") from exc
+                         expected=STORE_REPAIR) from exc
 
 
 def _read_kind(store_dir: str | Path, kind: str) -> pd.DataFrame:
@@ -120,7 +127,8 @@ def read_samples(store_dir: str | Path, session_id: str) -> pd.DataFrame:
             raise InputError(Path(store_dir) / "manifest.json",
                              f"no samples for session {session_id!r}")
         data = path.read_bytes()
-        _check_bytes(path, data, manifest["sessions"].get(session_id), "samples")
+        problem = _mismatch(path, data, manifest["sessions"].get(session_id), "samples")
+        _raise_damaged([] if problem is None else [(path, problem)])
         return parse_parquet(path, data)
 
     return consistent_read(store_dir, read)

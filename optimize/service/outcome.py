@@ -81,6 +81,10 @@ class ScenarioOutcome:
         Re-solves from neighbours because the scenario sat off its kind's smooth
         curve (:func:`optimize.service.local_optima.resolve_local_optima`); a kept
         one is also the last attempt.
+    check : str
+        The result check's verdict on a converged optimum (``"passed"`` or
+        ``"failed: <reasons>"``, :mod:`optimize.analysis.result_check`); ``""``
+        when not checked. A failed check makes the scenario a failed one.
     """
 
     name: str
@@ -90,6 +94,7 @@ class ScenarioOutcome:
     attempts: tuple[Attempt, ...]
     result: Any | None
     resolves: tuple[Resolve, ...] = ()
+    check: str = ""
 
     @property
     def objective(self) -> str:
@@ -103,8 +108,9 @@ class ScenarioOutcome:
 
     @property
     def success(self) -> bool:
-        """Whether the final attempt converged."""
-        return bool(self.attempts) and self.attempts[-1].success
+        """Whether the final attempt converged and its optimum passed the result check."""
+        return (bool(self.attempts) and self.attempts[-1].success
+                and not self.check.startswith("failed"))
 
     @property
     def status(self) -> str:

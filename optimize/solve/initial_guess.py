@@ -34,7 +34,7 @@ from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start
 from optimize.solve.result import OcpResult, Solution, carry_over
 from optimize.system.drive_in_force import drive_in_force
-from optimize.system.system import load_system
+from optimize.system.system_file import load_system
 
 log = logging.getLogger(__name__)
 

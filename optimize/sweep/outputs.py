@@ -26,9 +26,11 @@ import pyarrow.parquet as pq
 
 from bench.errors import InputError
 from fitting.domain import domain_excursion
+from optimize.model import kite_model as km
 from optimize.service.local_optima import better_margin_w
 from optimize.service.outcome import ScenarioOutcome
 from optimize.service.solver import cycle_metrics
+from optimize.solve.result import OUTPUT_UNITS
 
 SCHEMA_NAME = "drivebench.optimize"
 SCHEMA_VERSION = 1
@@ -42,6 +44,10 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "wind_speed_m_s": "wind speed at 100 m",
     "success": "final solve converged",
     "status": "IPOPT return status of the final solve",
+    "result_check": "the physical check of a converged optimum (power against the Loyd-type "
+    "bound, collocation error and periodicity of a finer re-integration): 'passed', or "
+    "'failed: <reasons>' (then success is false whatever the solver said); '' when not "
+    "checked",
     "iterations": "IPOPT iterations of the final solve",
     "wall_time_s": "wall time of the final solve",
     "attempts": "solver runs (retries included)",
@@ -102,6 +108,13 @@ MEANT_BOUNDS = (*DRIVE_BOUNDS, *KITE_BOUNDS, "ground_clearance")
 #: keys of the Parquet files' schema metadata recording the system
 SYSTEM_META_KEYS = ("drivebench.system_name", "drivebench.system_sha256",
                     "drivebench.system_toml")
+
+
+#: columns of ``trajectories.parquet`` (:func:`optimize.solve.result.trajectory_frame` with
+#: the scenario's name, kind and wind), also of a sweep in which nothing converged
+TRAJECTORY_COLUMNS = ("scenario", "kind", "wind_speed_m_s", "time_s", "interval", "weight",
+                      *km.STATES.names, *km.CONTROLS.names, *km.ALGEBRAIC.names,
+                      *(c for c in OUTPUT_UNITS if c not in ("time_s", "interval", "weight")))
 
 
 def _trajectory_metrics(traj: pd.DataFrame) -> dict[str, float]:
@@ -174,6 +187,7 @@ def summary_row(o: ScenarioOutcome, domain: dict | None = None,
         "wind_speed_m_s": o.wind_speed_m_s,
         "success": o.success,
         "status": o.status,
+        "result_check": o.check,
         "iterations": last.iterations if last else 0,
         "wall_time_s": last.wall_time_s if last else math.nan,
         "attempts": len(o.attempts),
@@ -231,6 +245,7 @@ def summary_frame(outcomes: Iterable[ScenarioOutcome], domain: dict | None = Non
             "attempts": "int64",
             "chain": "int64",
             "resolved_from": str,
+            "result_check": str,
             "resolve_gain_w": float,
         }
     )
@@ -247,8 +262,9 @@ def trajectories_frame(outcomes: Iterable[ScenarioOutcome]) -> pd.DataFrame:
                 index=traj.index,
             )
             parts.append(pd.concat([head, traj], axis=1))
-    if not parts:
-        return pd.DataFrame({"scenario": [], "kind": [], "wind_speed_m_s": []})
+    if not parts:  # no converged scenario: no row, every column (a failed sweep is data)
+        types = {"scenario": str, "kind": str, "interval": "int64"}
+        return pd.DataFrame({c: pd.Series(dtype=types.get(c, float)) for c in TRAJECTORY_COLUMNS})
     return pd.concat(parts, ignore_index=True)
 
 

@@ -190,6 +190,15 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
               "max_torque_nm": rating.max_torque_nm / base_rating[1],
               "nominal_power_w": rating.nominal_power_w / base_rating[2]}
     if scaling is None:
+        if max(_factor(r) for r in ratios.values()) > RATING_RATIO_LIMIT and override is not None:
+            raise InputError(  # the user's --drive-model is the file to look at
+                path,
+                f"its drive rating ({base_rating[0]:g} rpm, {base_rating[1]:g} N m, "
+                f"{base_rating[2]:g} W) differs from the drive of the system {system.path} "
+                f"({rating.max_speed_rpm:g} rpm, {rating.max_torque_nm:g} N m, "
+                f"{rating.nominal_power_w:g} W) by more than x{RATING_RATIO_LIMIT:g}",
+                column="drive", expected="--drive-model: a power model of the system's drive, "
+                'or [drive] scaling = "similarity" or "none" in the system file')
         if max(_factor(r) for r in ratios.values()) > RATING_RATIO_LIMIT:
             raise InputError(
                 system.path,

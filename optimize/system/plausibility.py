@@ -5,7 +5,7 @@ still describe nothing that flies: a drag polar that is zero or negative, a
 1e6 m span, a 1000 t wing of 0.7 m^2, a line that cannot carry the kite's
 weight. The OCP would then spend minutes in IPOPT before failing, or "converge"
 to a cycle of a kite that cannot exist. :func:`check_system` runs when the file
-is read (:func:`optimize.system.system.system_from_dict`) and
+is read (:func:`optimize.system.system_file.system_from_dict`) and
 :func:`check_drive_holds_kite` once the drive limits in force are known; each
 raises :class:`~bench.errors.InputError` naming the file, the ``[section] key``
 to look at, the value found and the range expected.
@@ -47,6 +47,11 @@ MAX_LIFT_COEFFICIENT = 4.0
 #: highest speed [m/s] at which a kite may first carry its weight when the file gives no
 #: upper airspeed limit (the OCP bounds each velocity component at 200 m/s)
 MAX_CARRY_SPEED_M_S = 150.0
+#: gravity [m/s^2] on Earth where kites fly: 9.780 at the equator to 9.832 at the poles
+#: at sea level (GRS80 normal gravity, H. Moritz, J. Geodesy 74, 2000), less 0.003 per km
+GRAVITY_M_S2 = (9.70, 9.90)
+#: air density [kg/m^3]: about 0.5 at 7 km (ISA), 1.45 in -30 degC air at sea level
+AIR_DENSITY_KG_M3 = (0.5, 1.5)
 #: alpha and beta samples of the polar checks
 _SAMPLES = 61
 
@@ -133,6 +138,15 @@ def _check_geometry(system: Any) -> None:
                      "other two")
 
 
+def _check_environment(system: Any) -> None:
+    """Gravity and air density of the Earth's lower atmosphere, each against its own key."""
+    w = system.wind
+    _within(system.path, "wind", "gravity_m_s2", "gravity", w.gravity_m_s2, GRAVITY_M_S2,
+            "the Earth's, from the equator to the poles and up to 30 km")
+    _within(system.path, "wind", "air_density_kg_m3", "air density", w.air_density_kg_m3,
+            AIR_DENSITY_KG_M3, "air from 7 km altitude to cold air at sea level")
+
+
 def _check_weight_carried(system: Any) -> None:
     """The kite can carry its weight at some airspeed it may fly, and its line holds it."""
     path, k, w = system.path, system.kite, system.wind
@@ -166,6 +180,7 @@ def check_system(system: Any) -> None:
     InputError
         Naming the file and the key to look at.
     """
+    _check_environment(system)
     _check_geometry(system)
     _check_polar(system)
     _check_weight_carried(system)

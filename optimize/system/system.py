@@ -1,12 +1,10 @@
 """The system file of ``bench optimize --system FILE``: kite, aero, tether, winch, drive,
 wind and bounds (TOML; docs/system_file.md describes every key).
 
-:func:`load_system` reads and validates a file into a frozen :class:`System`;
-every error (unknown or missing key, wrong type, non-physical value such as a
-negative mass or an inertia that is not positive definite) is an
-:class:`~bench.errors.InputError` naming the file and the key. The shipped
-systems live in ``optimize/data/systems/`` (:func:`shipped_system_path`);
-``highwind.toml`` is the paper's kite and the default.
+:func:`optimize.system.system_file.load_system` reads and validates a file into a
+frozen :class:`System` (its sections here). The shipped systems live in
+``optimize/data/systems/`` (:func:`shipped_system_path`); ``highwind.toml`` is the
+paper's kite and the default.
 
 A :class:`System` turns into the model's parameter sets
 (:meth:`System.kite_params`, :meth:`System.aero_coefficients`,
@@ -18,22 +16,14 @@ not count), which is part of the NLP cache key and of the stored-guess acceptanc
 
 from __future__ import annotations
 
-import dataclasses
-import hashlib
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from bench.errors import InputError
-from bench.files import parse_toml, read_text
 from optimize.model.dae import DaeSpec
 from optimize.model.kite_model import kite_dae
 from optimize.system.params import AeroCoefficients, KiteParams, WindModel
-from optimize.system.plausibility import check_system
 
 #: folder of the shipped system files (package data)
 SYSTEMS_DIR = Path(__file__).resolve().parent.parent / "data" / "systems"
@@ -43,10 +33,6 @@ DEFAULT_SYSTEM = "highwind"
 def shipped_system_path(name: str = DEFAULT_SYSTEM) -> Path:
     """Path of a shipped system file by name (``"highwind"``, ``"ap2"``, ``"megawes"``)."""
     return SYSTEMS_DIR / f"{name}.toml"
-
-
-def _number(value: Any) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
 @dataclass(frozen=True)
@@ -338,267 +324,3 @@ class System:
     def record(self) -> dict:
         """What every output records about the system: name, path, hash and content."""
         return {"name": self.name, "path": self.path, "sha256": self.sha256, "text": self.text}
-
-
-# ------------------------------------------------------------------ parsing
-_SECTIONS = ("system", "kite", "aero", "tether", "winch", "drive", "wind", "bounds")
-_OPTIONAL = {
-    "drive": {"max_speed_rpm", "max_torque_nm", "nominal_power_w", "max_p_elec_w",
-              "continuous_torque_nm", "overload", "losses", "scaling", "source"},
-    "wind": {"roughness_length_m", "exponent"},
-    "tether": {"max_force_n", "tensile_strength_pa", "safety_factor"},
-    "bounds": {"max_airspeed_m_s"},
-    "system": {"description", "paper_system"},
-}
-
-
-class _Reader:
-    """Pops keys from one section, checking types; raises InputError naming file and key."""
-
-    def __init__(self, path: str, section: str, data: Any):
-        if not isinstance(data, dict):
-            raise InputError(path, f"[{section}]: not a table", expected=f"a [{section}] table")
-        self.path, self.section, self.data = path, section, dict(data)
-
-    def error(self, key: str, problem: str, expected: str) -> InputError:
-        return InputError(self.path, f"[{self.section}] {key}: {problem}", expected=expected)
-
-    def number(self, key: str, lo: float | None = None, strict: bool = True,
-               optional: bool = False) -> float | None:
-        if key not in self.data:
-            if optional:
-                return None
-            raise self.error(key, "missing", "a number")
-        value = self.data.pop(key)
-        if not _number(value):
-            raise self.error(key, f"{value!r} is not a finite number", "a number")
-        if lo is not None and (value <= lo if strict else value < lo):
-            raise self.error(key, f"{value!r} is not physical",
-                             f"a number {'>' if strict else '>='} {lo:g}")
-        return float(value)
-
-    def numbers(self, key: str, optional: bool = False) -> tuple[float, ...] | None:
-        """A list of at least two finite numbers."""
-        if key not in self.data:
-            if optional:
-                return None
-            raise self.error(key, "missing", "a list of numbers")
-        value = self.data.pop(key)
-        if not isinstance(value, list) or len(value) < 2 or not all(map(_number, value)):
-            raise self.error(key, f"{value!r} is not a list of numbers",
-                             "a list of at least two finite numbers")
-        return tuple(float(v) for v in value)
-
-    def text(self, key: str, choices: tuple[str, ...] | None = None,
-             optional: bool = False) -> str | None:
-        if key not in self.data:
-            if optional:
-                return None
-            raise self.error(key, "missing", "a string")
-        value = self.data.pop(key)
-        if not isinstance(value, str):
-            raise self.error(key, f"{value!r} is not a string", "a string")
-        if choices is not None and value not in choices:
-            raise self.error(key, f"{value!r} is not allowed", "one of " + ", ".join(choices))
-        return value
-
-    def done(self) -> None:
-        if self.data:
-            key = sorted(self.data)[0]
-            raise self.error(key, "unknown key", "only the keys of docs/system_file.md")
-
-
-def _aero(r: _Reader) -> AeroSection:
-    names = [f.name for f in dataclasses.fields(AeroCoefficients)]
-    coeffs = AeroCoefficients(**{n: r.number(n) for n in names})
-    a_lo, a_hi = r.number("alpha_min_deg"), r.number("alpha_max_deg")
-    b_lo, b_hi = r.number("beta_min_deg"), r.number("beta_max_deg")
-    if not -90 < a_lo < a_hi < 90:
-        raise r.error("alpha_max_deg", f"range [{a_lo:g}, {a_hi:g}]", "-90 < alpha_min < "
-                      "alpha_max < 90 deg")
-    if not -90 < b_lo < b_hi < 90:
-        raise r.error("beta_max_deg", f"range [{b_lo:g}, {b_hi:g}]", "-90 < beta_min < "
-                      "beta_max < 90 deg")
-    if coeffs.cl_alpha <= 0:
-        raise r.error("cl_alpha", f"{coeffs.cl_alpha!r} is not physical", "a lift slope > 0")
-    r.done()
-    return AeroSection(coeffs, a_lo, a_hi, b_lo, b_hi)
-
-
-def _drive(r: _Reader) -> DriveSection:
-    from optimize.system.drive_in_force import SCALING_CHOICES
-
-    numbers = {k: r.number(k, 0, optional=True) for k in
-               ("max_speed_rpm", "max_torque_nm", "nominal_power_w", "max_p_elec_w",
-                "continuous_torque_nm", "overload")}
-    if numbers["overload"] is not None and numbers["overload"] < 1:
-        raise r.error("overload", f"{numbers['overload']!r}", "a factor >= 1 (peak torque over "
-                      "continuous torque)")
-    drive = DriveSection(**numbers, losses=r.text("losses", optional=True),
-                         scaling=r.text("scaling", SCALING_CHOICES, optional=True),
-                         source=r.text("source", optional=True),
-                         rotor_inertia_kg_m2=r.number("rotor_inertia_kg_m2", 0, strict=False,
-                                                      optional=True),
-                         **_envelope(r))
-    r.done()
-    return drive
-
-
-def _envelope(r: _Reader) -> dict:
-    """``[drive]``'s torque-speed envelope: a base speed (constant power above it) or a
-    datasheet table (speeds rising from 0, largest torques falling, both at the motor
-    shaft), not both."""
-    base = r.number("base_speed_rpm", 0, optional=True)
-    speeds = r.numbers("envelope_speed_rpm", optional=True)
-    torques = r.numbers("envelope_torque_nm", optional=speeds is None)
-    if speeds is None and torques is not None:
-        raise r.error("envelope_speed_rpm", "missing", "envelope_speed_rpm with "
-                      "envelope_torque_nm (a table of speed and largest torque)")
-    if speeds is not None:
-        if base is not None:
-            raise r.error("base_speed_rpm", "given with an envelope table",
-                          "either base_speed_rpm or envelope_speed_rpm/envelope_torque_nm")
-        if len(speeds) != len(torques):
-            raise r.error("envelope_torque_nm", f"{len(torques)} torques for {len(speeds)} "
-                          "speeds", "one torque per speed")
-        if speeds[0] != 0 or any(b <= a for a, b in zip(speeds, speeds[1:], strict=False)):
-            raise r.error("envelope_speed_rpm", f"{list(speeds)} is not monotone from 0",
-                          "speeds rising strictly from 0 rpm")
-        if min(torques) <= 0 or any(b > a for a, b in zip(torques, torques[1:], strict=False)):
-            raise r.error("envelope_torque_nm", f"{list(torques)} is not monotone",
-                          "positive torques that do not rise with speed")
-    return {"base_speed_rpm": base, "envelope_speed_rpm": speeds,
-            "envelope_torque_nm": torques}
-
-
-def _check_sections(data: Any, path: str) -> None:
-    if not isinstance(data, dict):
-        raise InputError(path, "not a table of sections", expected="a TOML file")
-    unknown = sorted(set(data) - set(_SECTIONS))
-    if unknown:
-        raise InputError(path, f"[{unknown[0]}]: unknown section",
-                         expected="sections " + ", ".join(_SECTIONS))
-    for s in _SECTIONS:
-        if s not in data:
-            raise InputError(path, f"[{s}]: missing section",
-                             expected="sections " + ", ".join(_SECTIONS))
-
-
-def _header(r: _Reader) -> tuple[str, str, bool]:
-    """``[system]``: name, description and whether it is the paper's system."""
-    name, description = r.text("name"), r.text("description", optional=True) or ""
-    paper_system = r.data.pop("paper_system", False)
-    if not isinstance(paper_system, bool):
-        raise r.error("paper_system", f"{paper_system!r} is not a boolean", "true or false")
-    r.done()
-    return name, description, paper_system
-
-
-def _kite(r: _Reader) -> KiteSection:
-    kite = KiteSection(
-        r.number("mass_kg", 0), r.number("reference_area_m2", 0), r.number("span_m", 0),
-        r.number("chord_m", 0), r.number("bridle_offset_m", 0, strict=False),
-        r.number("inertia_xx_kg_m2", 0), r.number("inertia_yy_kg_m2", 0),
-        r.number("inertia_zz_kg_m2", 0), r.number("inertia_xz_kg_m2"),
-    )
-    r.done()
-    inertia = np.array([[kite.inertia_xx_kg_m2, 0, kite.inertia_xz_kg_m2],
-                        [0, kite.inertia_yy_kg_m2, 0],
-                        [kite.inertia_xz_kg_m2, 0, kite.inertia_zz_kg_m2]])
-    if np.min(np.linalg.eigvalsh(inertia)) <= 0:
-        raise InputError(r.path, "[kite] inertia_xz_kg_m2: the inertia matrix is not positive "
-                         "definite", expected="inertia_xz_kg_m2^2 < inertia_xx_kg_m2 * "
-                         "inertia_zz_kg_m2")
-    return kite
-
-
-def _tether(r: _Reader) -> TetherSection:
-    tether = TetherSection(r.number("diameter_m", 0), r.number("drag_coefficient", 0, False),
-                           r.number("max_force_n", 0, optional=True),
-                           r.number("tensile_strength_pa", 0, optional=True),
-                           r.number("safety_factor", 0, optional=True))
-    if (tether.tensile_strength_pa is None) != (tether.safety_factor is None):
-        missing = "safety_factor" if tether.safety_factor is None else "tensile_strength_pa"
-        raise r.error(missing, "missing", "tensile_strength_pa and safety_factor together "
-                      "(the working load is strength * pi d^2 / 4 / safety factor)")
-    if tether.safety_factor is not None and tether.safety_factor < 1:
-        raise r.error("safety_factor", f"{tether.safety_factor:g} is below 1", "a number >= 1")
-    r.done()
-    return tether
-
-
-def _winch(r: _Reader) -> WinchSection:
-    winch = WinchSection(r.number("drum_radius_m", 0), r.number("gear_ratio", 0),
-                         r.number("drum_inertia_kg_m2", 0, strict=False, optional=True),
-                         r.number("max_reel_acceleration_m_s2", 0, optional=True))
-    r.done()
-    return winch
-
-
-def _wind(r: _Reader) -> WindSection:
-    profile = r.text("profile", ("log", "power"))
-    ref = r.number("reference_height_m", 0)
-    rough = r.number("roughness_length_m", 0, optional=profile != "log")
-    exponent = r.number("exponent", 0, optional=profile != "power")
-    if profile == "log" and exponent is not None:
-        raise r.error("exponent", "given with profile = \"log\"", "roughness_length_m only")
-    if profile == "power" and rough is not None:
-        raise r.error("roughness_length_m", "given with profile = \"power\"", "exponent only")
-    wind = WindSection(profile, ref, rough, exponent, r.number("winch_height_m", 0, False),
-                       r.number("air_density_kg_m3", 0), r.number("gravity_m_s2", 0))
-    r.done()
-    return wind
-
-
-def _bounds(r: _Reader) -> BoundsSection:
-    bounds = BoundsSection(
-        r.number("tether_length_min_m", 0), r.number("tether_length_max_m", 0),
-        r.number("period_min_s", 0), r.number("period_max_s", 0),
-        r.number("min_ground_clearance_m", 0, False), r.number("min_airspeed_m_s", 0, False),
-        r.number("max_line_angle_deg", 0), r.number("surface_max_deg", 0),
-        r.number("surface_rate_max_rad_s", 0), r.number("max_airspeed_m_s", 0, optional=True),
-    )
-    if bounds.max_airspeed_m_s is not None and bounds.max_airspeed_m_s <= bounds.min_airspeed_m_s:
-        raise r.error("max_airspeed_m_s", "not above min_airspeed_m_s",
-                      "min_airspeed_m_s < max_airspeed_m_s")
-    if bounds.tether_length_max_m <= bounds.tether_length_min_m:
-        raise r.error("tether_length_max_m", "not above tether_length_min_m",
-                      "tether_length_min_m < tether_length_max_m")
-    if bounds.period_max_s <= bounds.period_min_s:
-        raise r.error("period_max_s", "not above period_min_s", "period_min_s < period_max_s")
-    if bounds.max_line_angle_deg >= 90:
-        raise r.error("max_line_angle_deg", f"{bounds.max_line_angle_deg:g}", "an angle < 90 deg")
-    r.done()
-    return bounds
-
-
-def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> System:
-    """Validate a parsed system file (see :func:`load_system`): each section by its reader,
-    then the whole system's plausibility."""
-    _check_sections(data, path)
-    name, description, paper_system = _header(_Reader(path, "system", data["system"]))
-    kite = _kite(_Reader(path, "kite", data["kite"]))
-    aero = _aero(_Reader(path, "aero", data["aero"]))
-    tether = _tether(_Reader(path, "tether", data["tether"]))
-    winch = _winch(_Reader(path, "winch", data["winch"]))
-    drive = _drive(_Reader(path, "drive", data["drive"]))
-    wind = _wind(_Reader(path, "wind", data["wind"]))
-    bounds = _bounds(_Reader(path, "bounds", data["bounds"]))
-    canonical = json.dumps(data, sort_keys=True, separators=(",", ":"))
-    system = System(name, description, kite, aero, tether, winch, drive, wind, bounds, path,
-                    text, hashlib.sha256(canonical.encode("utf-8")).hexdigest(), paper_system)
-    check_system(system)  # well-formed is not enough: refuse what cannot fly, before any solve
-    return system
-
-
-def load_system(path: str | Path | None = None) -> System:
-    """Read and validate a system file (default: the shipped ``highwind.toml``).
-
-    Raises
-    ------
-    InputError
-        File missing, not UTF-8 or not TOML, or any key wrong (named with the file).
-    """
-    path = Path(path) if path is not None else shipped_system_path()
-    text = read_text(path, what="system file")
-    return system_from_dict(parse_toml(text, path, what="system file"), str(path), text)

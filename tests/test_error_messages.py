@@ -1,0 +1,121 @@
+"""Every error names the option, key or file it is about: a table of bad inputs and the
+message each must give (exit 2, nothing solved), and a stored point whose efficiency is
+outside [0, 1] is flagged with its reason, never kept silently."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from ingest_fixtures import make_points_session
+
+from bench.cli import main
+from bench.errors import InputError
+from bench.ingest.checks import efficiency_flags
+from bench.store.manifest import read_manifest
+
+ROOT = Path(__file__).resolve().parents[1]
+SITE = ["--weibull-k", "2", "--mean-speed", "6"]
+
+
+def _gravity_file(tmp: Path) -> Path:
+    text = (ROOT / "optimize/data/systems/highwind.toml").read_text()
+    lines = [("gravity_m_s2 = 98.1" if ln.startswith("gravity_m_s2") else ln)
+             for ln in text.splitlines()]
+    path = tmp / "grav.toml"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _model_100x(tmp: Path) -> Path:
+    data = json.loads((ROOT / "optimize/data/paper_drive_model.json").read_text())
+    for key in ("max_torque_nm", "nominal_power_w"):
+        data["drive"][key] *= 100
+    data["nominal_power_w"] *= 100
+    path = tmp / "model100.json"
+    path.write_text(json.dumps(data))
+    return path
+
+
+def _refusing_client(*args, **kwargs):
+    raise OSError("Timed out trying to connect to tcp://127.0.0.1:1 after 20 s")
+
+
+#: (argv built from tmp_path, what the message must hold, what it must not)
+CASES = {
+    "size --wind-grid 7": (
+        lambda t: ["size", "--wind-grid", "7", "--scales", "1", "--out", str(t / "s"), *SITE],
+        ["--wind-grid 7: one wind speed gives no AEP curve to integrate"], ["<input>"]),
+    "implausible gravity": (
+        lambda t: ["optimize", "--system", str(_gravity_file(t)), "--wind-grid", "7",
+                   "--out", str(t / "o")],
+        ["grav.toml: [wind] gravity_m_s2: gravity 98.1 is outside"], ["mass_kg"]),
+    "--drive-model 100x off": (
+        lambda t: ["optimize", "--drive-model", str(_model_100x(t)), "--wind-grid", "7",
+                   "--out", str(t / "o")],
+        ["model100.json: column 'drive': its drive rating", "--drive-model"],
+        ["highwind.toml: [drive]"]),
+    "unreachable scheduler": (
+        lambda t: ["optimize", "--scheduler", "tcp://127.0.0.1:1", "--wind-grid", "7",
+                   "--scenarios", "elec-lim", "--no-claims", "--out", str(t / "o")],
+        ["--scheduler 'tcp://127.0.0.1:1': "], ["<input>"]),
+    "unknown scenario kind": (
+        lambda t: ["optimize", "--scenarios", "elec-lim,fast", "--out", str(t / "o")],
+        ["--scenarios"], ["<input>"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_bad_input_names_what_it_is_about(case, tmp_path, capsys, monkeypatch):
+    argv, must, must_not = CASES[case]
+    if case == "unreachable scheduler":
+        distributed = pytest.importorskip("distributed")
+        monkeypatch.setattr(distributed, "Client", _refusing_client)
+    code = main(argv(tmp_path))
+    err = capsys.readouterr().err
+    assert code == 2, err
+    for text in must:
+        assert text in err, (case, err)
+    for text in must_not:
+        assert text not in err, (case, err)
+
+
+def test_a_message_without_a_file_begins_with_its_option():
+    assert InputError(None, "--workers 0: not >= 1").describe() == "--workers 0: not >= 1"
+    assert InputError("a.csv", "bad", line=3, column="x").describe() == \
+        "a.csv:3: column 'x': bad"
+
+
+def test_negative_efficiency_is_flagged_by_hand_numbers():
+    """-1500 rpm, 2 N m: p_mech = -314.2 W; p_elec = +300 W: efficiency 300 / -314.2 = -0.955."""
+    speed, torque = np.array([-1500.0, 1000.0]), np.array([2.0, 60.0])
+    p_mech = speed * torque * np.pi / 30
+    p_elec = np.array([300.0, 7000.0])
+    (flag,) = efficiency_flags({"speed_rpm": speed, "torque_nm": torque, "p_mech_w": p_mech,
+                                "p_elec_w": p_elec})
+    assert f"efficiency {300 / p_mech[0]:.3g} outside [0, 1] at -1500 rpm" in flag
+
+
+def test_ingest_flags_a_point_whose_efficiency_is_outside_0_1(tmp_path, capsys):
+    """A table whose generator point draws 300 W at -1500 rpm, 2 N m (drum): kept and flagged
+    in the manifest and the ingest summary."""
+    camp = tmp_path / "camp"
+    truth = make_points_session(camp, "table_01", seed=3)
+    table = camp / "table_01" / "points.csv"
+    row = f"{3 * -1500.0:.4f};{2.0 / 3:.5f};{0.3:.6f};0,5;500".replace(".", ",")
+    table.write_text(table.read_text() + row + "\n")
+    store = tmp_path / "store"
+    assert main(["ingest", str(camp), "--store", str(store), "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    flags = read_manifest(store)["sessions"]["table_01"]["efficiency_flags"]
+    # the fixture's own points with opposite power signs beyond 1 % of the largest |p_mech|
+    # (paper losses above the shaft power at low generator speed), and the added one
+    p_mech = np.append(truth["p_mech_w"], -1500.0 * 2.0 * np.pi / 30)
+    p_elec = np.append(truth["p_elec_w"], 300.0)
+    floor = 0.01 * np.max(np.abs(p_mech))
+    expected = (p_mech * p_elec < 0) & (np.abs(p_mech) > floor) & (np.abs(p_elec) > floor)
+    assert len(flags) == int(expected.sum()) >= 1
+    assert any("outside [0, 1] at -1500 rpm, 2 N m" in f for f in flags)
+    assert "FLAGGED point: table_01: efficiency" in out
