@@ -64,7 +64,9 @@ def test_samples_aligned_and_tagged(campaign):
     _, store, truths, _, _ = campaign
     s = read_samples(store, "motor_01")
     assert list(s.columns) == ["session_id", "time_s", "speed_rpm", "torque_nm", "p_mech_w",
-                               "p_elec_w", "point_id"]
+                               "p_elec_w", "point_id", "t_winding_c", "t_housing_c",
+                               "t_coolant_c", "t_ambient_c"]
+    assert s.t_winding_c.isna().all()  # the fixture logs no temperature
     pts = read_points(store).query("session_id == 'motor_01'")
     # samples tagged with a point lie inside that point's window
     for _, p in pts.iterrows():
