@@ -1,8 +1,9 @@
 """The ``bench`` command line: a thin dispatcher over the stage packages.
 
 Each subcommand lives in its own module exposing ``add_arguments(parser)`` and
-``run(args) -> int``; this file only wires them up, imports them lazily and
-turns :class:`bench.errors.InputError` into a clear message and exit code 2.
+``run(args) -> int`` (``args.command_line``: the command as given, for the stage's
+provenance header); this file only wires them up, imports them lazily and
+turns :class:`kernel.errors.InputError` into a clear message and exit code 2.
 """
 
 from __future__ import annotations
@@ -11,8 +12,8 @@ import argparse
 import importlib
 import sys
 
-from bench.errors import InputError
-from bench.files import WRITE_ERRNOS
+from kernel.errors import InputError
+from kernel.files import WRITE_ERRNOS
 
 #: subcommand -> (module, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
@@ -53,6 +54,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(argv)
     args = parser.parse_args(argv)
+    args.command_line = ("bench", *argv)  # what the stage records in its provenance header
     try:
         return int(_load(args._module).run(args) or 0)
     except InputError as exc:

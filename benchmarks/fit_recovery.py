@@ -46,7 +46,7 @@ def main() -> int:
         t0 = time.perf_counter()
         summary = run_fit(store, work / f"fit_{weighting}",
                           FitOptions(order=2, weighting=weighting, masking=MaskingRules(),
-                                     command=f"benchmarks/fit_recovery.py ({weighting})"),
+                                     command_line=("benchmarks/fit_recovery.py", weighting)),
                           progress=False)
         elapsed = time.perf_counter() - t0
         st = summary["statistics"]

@@ -61,15 +61,16 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
-from bench.files import file_sha256
+from kernel.files import file_sha256
 from bench.ingest.mapping import EMPTY_MAPPING
 from bench.ingest.csv_stream import CHUNK_BYTES
 from bench.ingest.readers import read_analyzer
 from bench.ingest.session import discover, load_session
 from bench.ingest.samples_file import SAMPLES_WRITE_OPTIONS
 from bench.ingest.timeseries import open_stream
+from bench.store.schema import SAMPLES_SCHEMA
+from kernel.units import RPM_PER_RAD_S
 from bench.store.schema import SAMPLES_SCHEMA, TEMPERATURE_COLUMNS
-from bench.units import RPM_PER_RAD_S
 camp, out = Path(sys.argv[1]), Path(sys.argv[2])
 out.mkdir(parents=True, exist_ok=True)
 def one(folder):

@@ -34,8 +34,8 @@ import statistics
 import time
 from pathlib import Path
 
-from bench.files import write_text_atomic
 from fitting.model_file import load_power_model
+from kernel.files import write_text_atomic
 from optimize.kinds import DEFAULT_KINDS
 from optimize.paper_model import PAPER_MODEL_PATH
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions

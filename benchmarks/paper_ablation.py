@@ -66,15 +66,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bench.files import write_json
 from fitting.model_file import load_power_model
+from kernel.files import write_json
 from optimize.analysis.claims import ABLATION_PATH, evaluate_claims, load_ablation
 from optimize.command import SweepRequest, run_optimize
 from optimize.model import kite_model as km
 from optimize.paper_model import PAPER_MODEL_PATH, paper_model
 from optimize.problem.ocp import OcpOptions
 from optimize.service.builder import OcpBackend
-from optimize.sweep.outputs import read_summary
+from optimize.sweep_folder import read_summary
 from optimize.system.system_file import load_system
 
 ROOT = Path(__file__).resolve().parent.parent

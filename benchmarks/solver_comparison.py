@@ -39,7 +39,7 @@ from pathlib import Path
 
 import casadi as ca
 
-from bench.files import write_text_atomic
+from kernel.files import write_text_atomic
 from optimize.kinds import DEFAULT_KINDS
 from optimize.model.kite_model import kite_dae
 from optimize.problem.ocp import build_ocp

@@ -5,10 +5,31 @@ returns a typed result and writes the stage's files (docs/python_api.md).
     >>> points = db.ingest(["raw_measurements"], store="bench_store").points  # doctest: +SKIP
     >>> model = db.fit("bench_store", out="fit_out")                     # doctest: +SKIP
 
-The functions live in :mod:`drivebench.api`.
+The functions live in :mod:`drivebench.api`; their grouped options are frozen dataclasses
+(:class:`WindGrid`, :class:`SolverChoice`, :class:`Execution`, :class:`SiteSpec`,
+:class:`RefineOptions`, :class:`SizingGrid`, :class:`RatingOverrides`), the same objects
+the ``bench`` commands build from their options.
 """
 
-from drivebench.api import AepResult, Ingested, SizeResult, Sweep, aep, fit, ingest, optimize, size
+from drivebench.api import (
+    AepResult,
+    Execution,
+    Ingested,
+    RatingOverrides,
+    RefineOptions,
+    SiteSpec,
+    SizeResult,
+    SizingGrid,
+    SolverChoice,
+    Sweep,
+    WindGrid,
+    aep,
+    fit,
+    ingest,
+    optimize,
+    size,
+)
 
-__all__ = ["AepResult", "Ingested", "SizeResult", "Sweep", "aep", "fit", "ingest", "optimize",
-           "size"]
+__all__ = ["AepResult", "Execution", "Ingested", "RatingOverrides", "RefineOptions", "SiteSpec",
+           "SizeResult", "SizingGrid", "SolverChoice", "Sweep", "WindGrid", "aep", "fit",
+           "ingest", "optimize", "size"]

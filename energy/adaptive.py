@@ -120,23 +120,8 @@ def refine_grid(power: Callable[[float], Power | None], start_m_s: tuple[float, 
         if len(w) < 2:
             break
         scale = np.maximum(np.abs(aep), max(0.1 * float(np.max(np.abs(aep))), 1e-12))
-        # estimated error of each open interval: chord vs the neighbours' curvature
-        scores = []
-        for i in range(len(w) - 1):
-            a, b = w[i], w[i + 1]
-            if (a, b) in closed or b - a < 2 * min_step_m_s - 1e-9:
-                continue
-            curv = []
-            for j in (i - 1, i + 1):  # second differences around the interval
-                if 0 <= j and j + 2 <= len(w) - 1 and j + 1 < len(w):
-                    x0, x1, x2 = w[j], w[j + 1], w[j + 2]
-                    slope_l = (p[j + 1] - p[j]) / (x1 - x0)
-                    slope_r = (p[j + 2] - p[j + 1]) / (x2 - x1)
-                    curv.append(np.abs(slope_r - slope_l) / (x2 - x0))
-            c = np.max(curv, axis=0) if curv else np.full(p.shape[1], np.inf)
-            mass = float(site.cdf(b) - site.cdf(a))
-            est = c * (b - a) ** 2 / 8 * mass * HOURS_PER_YEAR / 1e6  # chord error bound
-            scores.append((float(np.max(est / scale)), a, b))
+        scores = [s for s in _interval_scores(w, p, site, scale, min_step_m_s)
+                  if (s[1], s[2]) not in closed]
         if not scores:
             break
         rel, a, b = max(scores)
@@ -149,3 +134,27 @@ def refine_grid(power: Callable[[float], Power | None], start_m_s: tuple[float, 
         history.append((mid, out(current()[2])))
     w, p, aep = current()
     return RefinedGrid(w, p[:, 0] if scalar else p, out(aep), history, failed)
+
+
+def _interval_scores(w: np.ndarray, p: np.ndarray, site: Distribution, scale: np.ndarray,
+                     min_step_m_s: float) -> list[tuple[float, float, float]]:
+    """``(estimated error / scale, a, b)`` of every interval ``[a, b]`` of the grid ``w``
+    [m/s] long enough to split: the chord's error bound from the neighbours' curvature of
+    the powers ``p`` [W] (one column per curve), weighted by the site's hours in it [MWh]."""
+    scores = []
+    for i in range(len(w) - 1):
+        a, b = w[i], w[i + 1]
+        if b - a < 2 * min_step_m_s - 1e-9:
+            continue
+        curv = []
+        for j in (i - 1, i + 1):  # second differences around the interval
+            if 0 <= j and j + 2 <= len(w) - 1 and j + 1 < len(w):
+                x0, x1, x2 = w[j], w[j + 1], w[j + 2]
+                slope_l = (p[j + 1] - p[j]) / (x1 - x0)
+                slope_r = (p[j + 2] - p[j + 1]) / (x2 - x1)
+                curv.append(np.abs(slope_r - slope_l) / (x2 - x0))
+        c = np.max(curv, axis=0) if curv else np.full(p.shape[1], np.inf)
+        mass = float(site.cdf(b) - site.cdf(a))
+        est = c * (b - a) ** 2 / 8 * mass * HOURS_PER_YEAR / 1e6  # chord error bound
+        scores.append((float(np.max(est / scale)), a, b))
+    return scores

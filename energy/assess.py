@@ -11,21 +11,26 @@ limits minus AEP with them, same objective).
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from bench.errors import InputError
-from bench.output_folder import check_output_file
 from energy import aep as aep_mod
 from energy import bands
-from energy.curve import OptimizeRun, PowerCurve, read_trajectories
+from energy.curve import OptimizeRun, PowerCurve
 from energy.site import Distribution, Histogram, Weibull
+from kernel.errors import InputError
+from kernel.files import read_json
+from kernel.output_folder import check_output_file
 from optimize.kinds import OBJECTIVES, kind_of
+from optimize.sweep_folder import read_trajectories
+
+#: the trajectory columns the coefficient bands need (cycle averages of the model terms)
+CYCLE_COLUMNS = ("scenario", "kind", "wind_speed_m_s", "weight", "speed_rpm", "torque_nm")
 
 #: where the nominal power (the capacity factor's rating) is taken from, in this order
 NOMINAL_SOURCES = ("--nominal-power-w",
@@ -180,10 +185,7 @@ def model_for_run(run: OptimizeRun, drive_model: Path | None) -> tuple[Path | No
     if path is None or not path.is_file():
         return path, None
     check_output_file(path)  # a fit folder must be the whole output of one run
-    try:
-        return path, json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(path, f"not valid JSON ({exc})") from exc
+    return path, read_json(path, what="power model file")
 
 
 def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
@@ -212,30 +214,17 @@ def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
         Scenario -> basis averages of points with no stored trajectory (added by
         :mod:`energy.refine`).
     """
-    from fitting.model_schema import power_model_from_dict
-
     notes: list[str] = []
     path, model_json = model_for_run(run, drive_model)
     nominal, source = nominal_power(model_json, nominal_power_w, path, run.manifest)
-    if model_json is None:
-        model = None
-        notes.append(f"power model {path} not found: no confidence band")
-    else:
-        model = power_model_from_dict(model_json, path)
-        if run.drive_model_sha256 and model.sha256 != run.drive_model_sha256:
-            notes.append(f"{path} is not the model the sweep used (hash differs from the "
-                         "optimize manifest): no confidence band")
-            model = None
-        elif model.covariance_rpm is None:
-            notes.append(f"{path} carries no coefficient covariance: no confidence band")
-            model = None
+    model = _band_model(run, path, model_json, notes)
     if site_uncertainty and (site_uncertainty.mean_m_s > 0 or site_uncertainty.k > 0) and \
             isinstance(site, Histogram):
         raise InputError(None, "--mean-sigma/--k-sigma: site-parameter uncertainty given for a "
                          "histogram site (--histogram)",
                          expected="--mean-sigma/--k-sigma only with a Weibull or Rayleigh site")
-    trajectories = read_trajectories(run.folder) if model is not None else None
-
+    trajectories = (read_trajectories(run.folder, CYCLE_COLUMNS) if model is not None
+                    else None)
     kinds: dict[str, KindEnergy] = {}
     curve_rows = []
     for kind, curve in run.curves.items():
@@ -245,35 +234,9 @@ def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
                              "wind speed cannot be integrated over the site's wind hours",
                              expected="a sweep of at least two wind speeds that converge "
                                       "(bench optimize --wind-grid LO:HI:STEP)")
-        elec = aep_mod.curve_energy(curve.wind_m_s, curve.p_elec_w, site, nominal,
-                                    curve.cut_in_m_s)
-        mech = aep_mod.curve_energy(curve.wind_m_s, curve.p_mech_w, site, nominal, None)
-        sigma_p = np.full(len(curve.wind_m_s), np.nan)
-        sigma_model = None
-        if model is not None:
-            grads = bands.curve_gradients(trajectories, curve.scenarios, model.terms, gradients)
-            cov = np.array(model.covariance_rpm)
-            _check_consistent(curve, grads, model, notes)
-            sigma_p = np.array([bands.sigma(g, cov) for g in grads])
-            dA = aep_mod.aep_sensitivity(curve.wind_m_s, curve.p_elec_w, site, curve.cut_in_m_s)
-            sigma_model = bands.sigma(dA @ grads, cov)
-        sigma_site = 0.0
-        if site_uncertainty is not None and isinstance(site, Weibull):
-            sigma_site = _weibull_site_sigma(
-                lambda d, c=curve: aep_mod.aep_mwh(c.wind_m_s, c.p_elec_w, d, c.cut_in_m_s),
-                site, site_uncertainty)
-        if curve.failed:
-            notes.append(f"{kind}: failed solves at {', '.join(f'{w:g}' for w, _ in curve.failed)}"
-                         " m/s are left out; the curve is interpolated across them")
-        kinds[kind] = KindEnergy(kind, curve.objective, curve.drive_limits, elec, mech,
-                                 sigma_model, sigma_site, len(curve.wind_m_s), curve.failed)
-        for i, v in enumerate(curve.wind_m_s):
-            curve_rows.append({
-                "kind": kind, "scenario": curve.scenarios[i], "wind_speed_m_s": float(v),
-                "p_elec_w": float(curve.p_elec_w[i]), "p_mech_w": float(curve.p_mech_w[i]),
-                "p_elec_sigma_w": float(sigma_p[i]),
-                "added": bool(curve.added[i]) if curve.added else False,
-            })
+        kinds[kind], rows = _kind_energy(curve, site, nominal, model, trajectories, gradients,
+                                         site_uncertainty, notes)
+        curve_rows += rows
     if not kinds:
         raise InputError(run.folder / "summary.parquet", "no converged scenario",
                          expected="at least one converged scenario per curve")
@@ -284,6 +247,61 @@ def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
                      "them")
     return Assessment(site, site_note, nominal, source, kinds, pd.DataFrame(curve_rows),
                       tuple(notes))
+
+
+def _band_model(run: OptimizeRun, path: Path | None, model_json: dict | None,
+                notes: list[str]) -> Any:
+    """The power model whose covariance gives the bands, or None (with a note why)."""
+    from fitting.model_schema import power_model_from_dict
+
+    if model_json is None:
+        notes.append(f"power model {path} not found: no confidence band")
+        return None
+    model = power_model_from_dict(model_json, path)
+    if run.drive_model_sha256 and model.sha256 != run.drive_model_sha256:
+        notes.append(f"{path} is not the model the sweep used (hash differs from the "
+                     "optimize manifest): no confidence band")
+        return None
+    if model.covariance_rpm is None:
+        notes.append(f"{path} carries no coefficient covariance: no confidence band")
+        return None
+    return model
+
+
+def _kind_energy(curve: PowerCurve, site: Distribution, nominal: float, model: Any,
+                 trajectories: pd.DataFrame | None, gradients: dict | None,
+                 site_uncertainty: SiteUncertainty | None,
+                 notes: list[str]) -> tuple[KindEnergy, list[dict]]:
+    """One kind's energy and bands, and its rows of ``power_curves.csv``."""
+    elec = aep_mod.curve_energy(curve.wind_m_s, curve.p_elec_w, site, nominal,
+                                curve.cut_in_m_s)
+    mech = aep_mod.curve_energy(curve.wind_m_s, curve.p_mech_w, site, nominal, None)
+    sigma_p = np.full(len(curve.wind_m_s), np.nan)
+    sigma_model = None
+    if model is not None:
+        grads = bands.curve_gradients(trajectories, curve.scenarios, model.terms, gradients)
+        cov = np.array(model.covariance_rpm)
+        _check_consistent(curve, grads, model, notes)
+        sigma_p = np.array([bands.sigma(g, cov) for g in grads])
+        dA = aep_mod.aep_sensitivity(curve.wind_m_s, curve.p_elec_w, site, curve.cut_in_m_s)
+        sigma_model = bands.sigma(dA @ grads, cov)
+    sigma_site = 0.0
+    if site_uncertainty is not None and isinstance(site, Weibull):
+        sigma_site = _weibull_site_sigma(
+            lambda d, c=curve: aep_mod.aep_mwh(c.wind_m_s, c.p_elec_w, d, c.cut_in_m_s),
+            site, site_uncertainty)
+    if curve.failed:
+        notes.append(f"{curve.kind}: failed solves at "
+                     f"{', '.join(f'{w:g}' for w, _ in curve.failed)}"
+                     " m/s are left out; the curve is interpolated across them")
+    energy = KindEnergy(curve.kind, curve.objective, curve.drive_limits, elec, mech,
+                        sigma_model, sigma_site, len(curve.wind_m_s), curve.failed)
+    rows = [{"kind": curve.kind, "scenario": curve.scenarios[i], "wind_speed_m_s": float(v),
+             "p_elec_w": float(curve.p_elec_w[i]), "p_mech_w": float(curve.p_mech_w[i]),
+             "p_elec_sigma_w": float(sigma_p[i]),
+             "added": bool(curve.added[i]) if curve.added else False}
+            for i, v in enumerate(curve.wind_m_s)]
+    return energy, rows
 
 
 def _check_consistent(curve: PowerCurve, grads: np.ndarray, model, notes: list[str]) -> None:

@@ -14,7 +14,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from bench.errors import InputError
+from kernel.errors import InputError
 
 
 def _drive_value(path: Path, key: str) -> float | None:
@@ -61,9 +61,9 @@ def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
     """The candidate drives of the reference drive in force (``drive``,
     :func:`optimize.system.drive_in_force.drive_in_force`) scaled by ``scales``, plus one per
     power-model file of ``models``; and notes on what was assumed."""
-    from bench.drive import DriveRating
     from energy.sizing import Candidate, scaled_candidates
     from fitting.model_file import load_power_model
+    from kernel.drive_rating import DriveRating
 
     rating, notes = reference_rating(drive.rating, rated_torque_nm, max_speed_rpm, overload)
     candidates = scaled_candidates(drive.model, rating, tuple(scales))

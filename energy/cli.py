@@ -1,6 +1,6 @@
 """``bench aep``: annual energy of the optimal power curves at a site.
 
-A thin command line over :func:`drivebench.api.aep`: the options here make the
+A thin command line over :func:`energy.aep_command.run_aep`: the options here make the
 site (:func:`site_from_args`) and the wind profile (:func:`shear_from_args`).
 """
 
@@ -9,10 +9,9 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
-import sys
 from pathlib import Path
 
-from bench.errors import InputError
+from kernel.errors import InputError
 
 
 def add_site_arguments(parser: argparse.ArgumentParser) -> None:
@@ -174,11 +173,13 @@ def site_from_args(args: argparse.Namespace, shear):
 
 
 def run(args: argparse.Namespace) -> int:
-    """Compute and write the AEP assessment (:func:`drivebench.api.aep`); print the table."""
-    from drivebench.api import aep
-    from energy.curve import read_manifest
+    """Compute and write the AEP assessment (:func:`energy.aep_command.run_aep`); print
+    the table."""
+    from energy.aep_command import RefineOptions, SiteSpec, run_aep
     from energy.outputs import SIGN_NOTE, format_table
-    from energy.refine import added_list, system_from_manifest
+    from energy.refine import DEFAULT_TOL, added_list, system_from_manifest
+    from optimize.sweep_folder import read_manifest
+    from optimize.sweep_options import Execution
 
     if args.out.exists() and not args.out.is_dir():
         raise InputError(args.out, "exists and is not a folder", expected="an output folder")
@@ -186,12 +187,12 @@ def run(args: argparse.Namespace) -> int:
     shear = shear_from_args(args, system_from_manifest(manifest,
                                                        Path(args.optimize) / "manifest.json"))
     site, note, unc = site_from_args(args, shear)
-    result = aep(args.optimize, site, out=args.out, site_note=note, site_uncertainty=unc,
-                 shear=shear, drive_model=args.drive_model,
-                 nominal_power_w=args.nominal_power_w, refine=args.refine,
-                 refine_tol=args.refine_tol, refine_max_points=args.refine_max_points,
-                 workers=args.workers, scheduler=args.scheduler,
-                 progress=not args.no_progress, command_line=["bench", "aep", *sys.argv[2:]])
+    refine = (RefineOptions(DEFAULT_TOL if args.refine_tol is None else args.refine_tol,
+                            args.refine_max_points) if args.refine else None)
+    result = run_aep(args.optimize, SiteSpec(site, note, unc, shear), out=args.out,
+                     drive_model=args.drive_model, nominal_power_w=args.nominal_power_w,
+                     refine=refine, command_line=args.command_line,
+                     execution=Execution(args.workers, args.scheduler, not args.no_progress))
     a, refined = result.assessment, result.refined
     if refined is not None:
         print(f"refined grid ({refined.n_solved} solved, {refined.n_loaded} loaded from "

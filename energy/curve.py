@@ -1,27 +1,22 @@
 """Power curves of the optimize stage: one per scenario kind, read from its files.
 
-Reads ``optimize_out/summary.parquet``, ``trajectories.parquet`` and
-``manifest.json`` (docs/schemas.md §5); never imports the optimizer. A power
+Reads ``optimize_out/summary.parquet`` and ``manifest.json`` (docs/schemas.md §5)
+through their owner, :mod:`optimize.sweep_folder`; never imports the optimizer. A power
 curve keeps the optimize sign convention (negative power = generated); the
 energy functions turn it into delivered power ``-P``.
 """
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import pyarrow.parquet as pq
 
-from bench.errors import InputError
-from bench.output_folder import check_output_folder
-from optimize.sweep.outputs import SUMMARY_REQUIRED
-
-TRAJECTORY_COLUMNS = ("scenario", "kind", "wind_speed_m_s", "weight", "speed_rpm", "torque_nm")
+from kernel.errors import InputError
+from optimize.sweep_folder import read_sweep_folder
 
 
 @dataclass(frozen=True)
@@ -98,40 +93,6 @@ class OptimizeRun:
         return (self.manifest.get("drive_model") or {}).get("model_sha256")
 
 
-def _read_parquet(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
-    if not path.is_file():
-        raise InputError(path, "missing", expected="the output of `bench optimize`")
-    try:
-        names = pq.read_schema(path).names
-    except Exception as exc:  # pyarrow raises several types for a damaged file
-        raise InputError(path, f"not a readable Parquet file ({exc})") from exc
-    absent = [c for c in columns if c not in names]
-    if absent:
-        raise InputError(path, f"columns {absent} missing", column=absent[0],
-                         expected="docs/schemas.md §5")
-    return pd.read_parquet(path, columns=list(columns))
-
-
-def read_manifest(folder: Path) -> dict:
-    """The sweep's ``manifest.json`` (docs/schemas.md §5)."""
-    path = Path(folder) / "manifest.json"
-    if not path.is_file():
-        raise InputError(path, "missing", expected="the output of `bench optimize`")
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(path, f"not valid JSON ({exc})") from exc
-    if not isinstance(data, dict) or data.get("schema") != "drivebench.optimize":
-        raise InputError(path, "not an optimize manifest",
-                         expected='"schema": "drivebench.optimize"')
-    return data
-
-
-def read_trajectories(folder: Path) -> pd.DataFrame:
-    """The drum speed, torque and quadrature weight of every converged scenario."""
-    return _read_parquet(Path(folder) / "trajectories.parquet", TRAJECTORY_COLUMNS)
-
-
 def read_optimize_run(folder: str | Path) -> OptimizeRun:
     """Read a ``bench optimize`` output folder into one :class:`PowerCurve` per kind.
 
@@ -139,13 +100,11 @@ def read_optimize_run(folder: str | Path) -> OptimizeRun:
     ------
     InputError
         A missing file or column, a folder that is not the whole output of one
-        run (:func:`bench.output_folder.check_output_folder`); a kind with no
+        run (:func:`kernel.output_folder.check_output_folder`); a kind with no
         converged scenario is kept out of ``curves`` (it is still in ``summary``).
     """
     folder = Path(folder)
-    check_output_folder(folder)
-    summary = _read_parquet(folder / "summary.parquet", SUMMARY_REQUIRED)
-    manifest = read_manifest(folder)
+    summary, manifest = read_sweep_folder(folder)
     cut_ins = {}
     for c in manifest.get("cut_in") or []:
         value = c.get("cut_in_m_s") if isinstance(c, dict) else None

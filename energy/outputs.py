@@ -7,23 +7,25 @@
 
 from __future__ import annotations
 
-import datetime
 import math
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from bench.files import write_json, write_text_atomic
-from bench.output_folder import output_folder
 from energy import awesio
 from energy.assess import Assessment
 from energy.bands import Z95
 from energy.curve import OptimizeRun
 from energy.site import Shear
+from kernel.files import write_json, write_text_atomic
+from kernel.output_folder import output_folder
+from kernel.provenance import HEADER_KEY, Provenance
 
 SCHEMA_NAME = "drivebench.aep"
 SCHEMA_VERSION = 1
+#: the columns of ``power_curves.csv`` its readers rely on (the report's curve figure)
+POWER_CURVE_COLUMNS = ("kind", "wind_speed_m_s", "p_elec_w", "p_mech_w", "p_elec_sigma_w")
 SIGN_NOTE = ("AEP and capacity factors are energy delivered (positive MWh/yr): to the grid for "
              "electrical, by the drum shaft for mechanical. Powers in power_curves.csv keep the "
              "optimize sign (negative = generated).")
@@ -54,15 +56,14 @@ def _clean(value):
 AEP_MARKERS, AEP_KEEP = ("aep.json",), ("solves",)
 
 
-def aep_document(a: Assessment, run: OptimizeRun, command_line: list[str],
+def aep_document(a: Assessment, run: OptimizeRun, provenance: Provenance,
                  reference_height_m: float, refine: dict | None = None) -> dict:
     """The ``aep.json`` content (docs/schemas.md §7)."""
     table = a.table()
     return _clean({
         "schema": SCHEMA_NAME,
         "schema_version": SCHEMA_VERSION,
-        "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "command_line": command_line,
+        HEADER_KEY: provenance.header(),
         "optimize": {"folder": str(run.folder),
                      "drive_model": run.manifest.get("drive_model"),
                      "wind_speeds_m_s": run.manifest.get("wind_speeds_m_s")},
@@ -91,16 +92,16 @@ def _awesio_names(a: Assessment) -> list[str]:
     return [f"awesio/{k}_{q}.yml" for k in a.kinds for q in ("electrical", "mechanical")]
 
 
-def write_outputs(a: Assessment, run: OptimizeRun, out: Path, command_line: list[str],
+def write_outputs(a: Assessment, run: OptimizeRun, out: Path, provenance: Provenance,
                   shear: Shear, refine: dict | None = None) -> dict[str, Path]:
-    """:func:`write_files` into ``out``, all or none (:mod:`bench.output_folder`);
+    """:func:`write_files` into ``out``, all or none (:mod:`kernel.output_folder`);
     ``out/solves`` (the ``--refine`` store) is kept."""
-    with output_folder(out, "aep", AEP_MARKERS, keep=AEP_KEEP) as stage:
-        files = write_files(a, run, stage, command_line, shear, refine)
+    with output_folder(out, "aep", AEP_MARKERS, keep=AEP_KEEP, provenance=provenance) as stage:
+        files = write_files(a, run, stage, provenance, shear, refine)
     return {k: Path(out) / Path(v).relative_to(stage) for k, v in files.items()}
 
 
-def write_files(a: Assessment, run: OptimizeRun, out: Path, command_line: list[str],
+def write_files(a: Assessment, run: OptimizeRun, out: Path, provenance: Provenance,
                 shear: Shear, refine: dict | None = None) -> dict[str, Path]:
     """Write ``aep.json``, ``power_curves.csv`` and the awesIO files into ``out``.
 
@@ -141,7 +142,7 @@ def write_files(a: Assessment, run: OptimizeRun, out: Path, command_line: list[s
             name = f"awesio/{kind}_{q}.yml"
             files[name] = write_text_atomic(out / name, awesio.dump_yaml(doc) + "\n")
     files["aep"] = write_json(
-        out / "aep.json", aep_document(a, run, command_line, reference_height_m, refine),
+        out / "aep.json", aep_document(a, run, provenance, reference_height_m, refine),
         non_finite="error")
     return files
 

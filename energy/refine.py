@@ -27,10 +27,11 @@ from typing import Any
 
 import numpy as np
 
-from bench.errors import InputError
-from bench.files import parse_toml
 from energy import bands
+from energy.adaptive import refine_grid
 from energy.curve import OptimizeRun, PowerCurve
+from kernel.errors import InputError
+from kernel.files import parse_toml
 
 #: the check re-solve must give the sweep's average electrical power within this share
 #: of the curve's largest |P_elec|: IPOPT's tolerance (1e-6 scaled) reproduces the same
@@ -129,7 +130,8 @@ class KindTask:
         from optimize.service.builder import Problem
         from optimize.service.chain import ChainTask, Refinement
 
-        refine = Refinement(self.kind, self.site, self.tol, self.max_points, self.known,
+        refine = Refinement(self.kind, self.site, refine_grid, self.tol, self.max_points,
+                            self.known,
                             ("avg_p_elec_w", "avg_p_mech_w"), check=True)
         return ChainTask(Problem.for_system(self.system, self.model, self.options),
                          index=index, store=self.store, backend=self.backend, refine=refine,

@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 from scipy import special
 
-from bench.errors import InputError
-from bench.files import read_text
+from kernel.errors import InputError
+from kernel.files import read_text
 
 #: hours in a (non-leap) year: the AEP convention of IEC 61400-12-1
 HOURS_PER_YEAR = 8760.0
@@ -286,24 +286,48 @@ def read_histogram_csv(path: str | Path) -> Histogram:
             if line.strip() and not line.lstrip().startswith("#")]
     if not rows:
         raise InputError(path, "no header row", expected=_HISTOGRAM_EXPECTED)
-    header_line, header = rows[0]
+    speed_cols, weight = _histogram_header(path, *rows[0])
+    values, lines = _histogram_values(path, rows, (*speed_cols, weight))
+    if speed_cols == _SPEED_COLUMNS["edges"]:
+        edges = _edges_of_bins(path, values, lines)
+    else:
+        edges = _edges_of_centres(path, values, lines)
+    w = np.array(values[weight])
+    total = w.sum()
+    if total <= 0:
+        raise InputError(path, f"the {weight} sum to 0", column=weight,
+                         expected="some positive weight")
+    if weight == "probability" and abs(total - 1.0) > 0.01:
+        raise InputError(path, f"probabilities sum to {total:.4f}", column="probability",
+                         expected="a sum of 1 (within 1 %); give 'hours' for raw counts")
+    return Histogram(tuple(float(x) for x in edges), tuple(float(x) for x in w / total))
+
+
+def _histogram_header(path: Path, line: int, header: str) -> tuple[tuple[str, ...], str]:
+    """The speed columns (edges or centres) and the weight column a header names."""
     names = [c.strip() for c in header.split(",")]
     if "v_low_m_s" in names or "v_high_m_s" in names:
         speed_cols = _SPEED_COLUMNS["edges"]
     elif "v_m_s" in names:
         speed_cols = _SPEED_COLUMNS["centres"]
     else:
-        raise InputError(path, f"no wind-speed column in header {names}", line=header_line,
+        raise InputError(path, f"no wind-speed column in header {names}", line=line,
                          expected=_HISTOGRAM_EXPECTED)
     weights = [c for c in _WEIGHT_COLUMNS if c in names]
     if len(weights) != 1:
         raise InputError(path, f"header {names} has {len(weights)} of 'hours'/'probability'",
-                         line=header_line, expected=_HISTOGRAM_EXPECTED)
-    wanted = (*speed_cols, weights[0])
-    for c in wanted:
+                         line=line, expected=_HISTOGRAM_EXPECTED)
+    for c in (*speed_cols, weights[0]):
         if c not in names:
-            raise InputError(path, f"column {c!r} missing", line=header_line,
+            raise InputError(path, f"column {c!r} missing", line=line,
                              expected=_HISTOGRAM_EXPECTED)
+    return speed_cols, weights[0]
+
+
+def _histogram_values(path: Path, rows: list[tuple[int, str]],
+                      wanted: tuple[str, ...]) -> tuple[dict[str, list[float]], list[int]]:
+    """The ``wanted`` columns of the data rows (finite numbers >= 0) and their line numbers."""
+    names = [c.strip() for c in rows[0][1].split(",")]
     index = {c: names.index(c) for c in wanted}
     values: dict[str, list[float]] = {c: [] for c in wanted}
     lines: list[int] = []
@@ -324,37 +348,36 @@ def read_histogram_csv(path: str | Path) -> Histogram:
         lines.append(n)
     if not lines:
         raise InputError(path, "no data rows", expected=_HISTOGRAM_EXPECTED)
+    return values, lines
 
-    if speed_cols == _SPEED_COLUMNS["edges"]:
-        lo, hi = np.array(values["v_low_m_s"]), np.array(values["v_high_m_s"])
-        for k in range(len(lo)):
-            if hi[k] <= lo[k]:
-                raise InputError(path, f"bin {lo[k]:g}-{hi[k]:g} m/s is empty", line=lines[k],
-                                 column="v_high_m_s", expected="v_high_m_s > v_low_m_s")
-            if k and abs(lo[k] - hi[k - 1]) > 1e-9 * max(1.0, hi[k - 1]):
-                raise InputError(path, f"bin starts at {lo[k]:g} m/s, the previous ended at "
-                                 f"{hi[k - 1]:g} m/s", line=lines[k], column="v_low_m_s",
-                                 expected="sorted, adjacent bins (no gaps, no overlaps)")
-        edges = np.concatenate([lo[:1], hi])
-    else:
-        v = np.array(values["v_m_s"])
-        for k in range(1, len(v)):
-            if v[k] <= v[k - 1]:
-                raise InputError(path, f"centre {v[k]:g} m/s is not above the previous "
-                                 f"{v[k - 1]:g} m/s", line=lines[k], column="v_m_s",
-                                 expected="strictly increasing bin centres")
-        if len(v) < 2:
-            raise InputError(path, "one bin centre cannot define a bin width", line=lines[0],
-                             column="v_m_s", expected="at least two bins, or give bin edges")
-        mid = 0.5 * (v[1:] + v[:-1])
-        edges = np.concatenate([[max(0.0, v[0] - (mid[0] - v[0]))], mid,
-                                [v[-1] + (v[-1] - mid[-1])]])
-    w = np.array(values[weights[0]])
-    total = w.sum()
-    if total <= 0:
-        raise InputError(path, f"the {weights[0]} sum to 0", column=weights[0],
-                         expected="some positive weight")
-    if weights[0] == "probability" and abs(total - 1.0) > 0.01:
-        raise InputError(path, f"probabilities sum to {total:.4f}", column="probability",
-                         expected="a sum of 1 (within 1 %); give 'hours' for raw counts")
-    return Histogram(tuple(float(x) for x in edges), tuple(float(x) for x in w / total))
+
+def _edges_of_bins(path: Path, values: dict[str, list[float]], lines: list[int]) -> np.ndarray:
+    """Bin edges from ``v_low_m_s, v_high_m_s``: sorted, adjacent, non-empty bins."""
+    lo, hi = np.array(values["v_low_m_s"]), np.array(values["v_high_m_s"])
+    for k in range(len(lo)):
+        if hi[k] <= lo[k]:
+            raise InputError(path, f"bin {lo[k]:g}-{hi[k]:g} m/s is empty", line=lines[k],
+                             column="v_high_m_s", expected="v_high_m_s > v_low_m_s")
+        if k and abs(lo[k] - hi[k - 1]) > 1e-9 * max(1.0, hi[k - 1]):
+            raise InputError(path, f"bin starts at {lo[k]:g} m/s, the previous ended at "
+                             f"{hi[k - 1]:g} m/s", line=lines[k], column="v_low_m_s",
+                             expected="sorted, adjacent bins (no gaps, no overlaps)")
+    return np.concatenate([lo[:1], hi])
+
+
+def _edges_of_centres(path: Path, values: dict[str, list[float]],
+                      lines: list[int]) -> np.ndarray:
+    """Bin edges from ``v_m_s`` centres: the midpoints, the outer edges half a spacing out
+    (clipped at 0)."""
+    v = np.array(values["v_m_s"])
+    for k in range(1, len(v)):
+        if v[k] <= v[k - 1]:
+            raise InputError(path, f"centre {v[k]:g} m/s is not above the previous "
+                             f"{v[k - 1]:g} m/s", line=lines[k], column="v_m_s",
+                             expected="strictly increasing bin centres")
+    if len(v) < 2:
+        raise InputError(path, "one bin centre cannot define a bin width", line=lines[0],
+                         column="v_m_s", expected="at least two bins, or give bin edges")
+    mid = 0.5 * (v[1:] + v[:-1])
+    return np.concatenate([[max(0.0, v[0] - (mid[0] - v[0]))], mid,
+                           [v[-1] + (v[-1] - mid[-1])]])

@@ -1,6 +1,6 @@
 """``bench size``: electrical AEP against drive rating over candidate drives.
 
-A thin command line over :func:`drivebench.api.size` (the options here make the
+A thin command line over :func:`energy.size_command.run_size` (the options here make the
 site, :func:`energy.cli.site_from_args`); it writes ``size_out/sizing.json``,
 ``size_out/sizing.csv`` and the resumable solve store ``size_out/solves/``
 (docs/schemas.md §8).
@@ -9,13 +9,11 @@ site, :func:`energy.cli.site_from_args`); it writes ``size_out/sizing.json``,
 from __future__ import annotations
 
 import argparse
-import math
-import sys
 from pathlib import Path
 from typing import Any
 
-from bench.errors import InputError
 from energy.cli import add_site_arguments, shear_from_args, site_from_args
+from kernel.errors import InputError
 
 #: where ``bench fit`` writes its model (docs/schemas.md §4)
 FIT_MODEL_PATH = Path("fit_out") / "power_model.json"
@@ -69,37 +67,36 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _scales(spec: str) -> tuple[float, ...]:
+    """The numbers of ``--scales`` (checked as scales by :class:`SizingGrid`)."""
     try:
-        values = tuple(float(x) for x in spec.split(",") if x.strip())
+        return tuple(float(x) for x in spec.split(",") if x.strip())
     except ValueError:
         raise InputError(None, f"--scales {spec!r}: not numbers",
                          expected="a comma list of scales > 0") from None
-    if not values or any(not (math.isfinite(v) and v > 0) for v in values) or \
-            len(set(values)) != len(values):
-        raise InputError(None, f"--scales {spec!r}", expected="distinct scales > 0")
-    return values
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run or resume the sizing sweep (:func:`drivebench.api.size`), print the table."""
-    from drivebench.api import size
+    """Run or resume the sizing sweep (:func:`energy.size_command.run_size`), print the
+    table."""
+    from energy.size_command import RatingOverrides, SizingGrid, run_size
     from optimize.sweep.plan import parse_wind_grid
+    from optimize.sweep_options import Execution, SolverChoice
     from optimize.system.system_file import load_system
 
     system = load_system(args.system)
     site, site_note, _ = site_from_args(args, shear_from_args(args, system))
-    winds = parse_wind_grid(args.wind_grid)
+    grid = SizingGrid(_scales(args.scales), tuple(args.models), parse_wind_grid(args.wind_grid),
+                      args.tolerance, args.extend, args.adaptive)
     print(f"site: {site_note}")
     print(f"system: {system.name} ({system.path})")
-    done = size(site, args.drive_model, system=system, fit_default=FIT_MODEL_PATH,
-                scales=_scales(args.scales), models=tuple(args.models), winds=winds,
-                out=args.out, site_note=site_note, rated_torque_nm=args.rated_torque_nm,
-                max_speed_rpm=args.max_speed_rpm, overload=args.overload,
-                tolerance=args.tolerance, extend=args.extend, adaptive=args.adaptive,
-                n_intervals=args.intervals,
-                degree=args.degree, workers=args.workers, scheduler=args.scheduler,
-                progress=True, command_line=["bench", "size", *sys.argv[2:]],
-                before_solving=lambda d, n: _announce(d, n, len(winds), args.out))
+    done = run_size(site, args.drive_model, system=system, fit_default=FIT_MODEL_PATH,
+                    grid=grid, out=args.out, site_note=site_note,
+                    rating=RatingOverrides(args.rated_torque_nm, args.max_speed_rpm,
+                                           args.overload),
+                    solver=SolverChoice(args.intervals, args.degree),
+                    execution=Execution(args.workers, args.scheduler, progress=True),
+                    command_line=args.command_line,
+                    before_solving=lambda d, n: _announce(d, n, len(grid.winds_m_s), args.out))
     res = done.sizing
     print(res.table.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
     print(f"best: {res.best}; smallest within {args.tolerance:.0%} of the best AEP: {res.chosen}")

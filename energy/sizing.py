@@ -1,6 +1,6 @@
 """Drive sizing: electrical AEP against drive rating over candidate drives (``bench size``).
 
-A candidate is a power model with its rating (:class:`bench.drive.DriveRating`):
+A candidate is a power model with its rating (:class:`kernel.drive_rating.DriveRating`):
 the short-time peak torque and speed limits, and the continuous rating (RMS drum
 torque over the cycle at most the continuous torque,
 :class:`optimize.problem.options.Limits` ``max_rms_torque_nm``). It is a
@@ -32,6 +32,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -49,7 +50,7 @@ class Candidate:
     ----------
     name : str
     model : fitting.power_model.PowerModel
-    rating : bench.drive.DriveRating
+    rating : kernel.drive_rating.DriveRating
         Its limits: ``continuous_torque_nm`` (RMS drum torque over the cycle at most
         this), ``max_torque_nm`` (short-time peak), ``max_speed_rpm``, and
         ``nominal_power_w`` (the capacity factor's and the sizing axis' rating).
@@ -114,7 +115,7 @@ def scaled_candidates(base: Any, rating: Any, scales: tuple[float, ...]) -> list
     ----------
     base : fitting.power_model.PowerModel
         The reference drive's losses (at ``rating``).
-    rating : bench.drive.DriveRating
+    rating : kernel.drive_rating.DriveRating
         The reference drive's rating, ``continuous_torque_nm`` stated.
     scales : tuple of float
         Torque-rating scales ``s`` > 0.
@@ -277,13 +278,15 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
     """
     from tqdm import tqdm
 
-    from optimize.service import SolveTask, solve_tasks
+    from energy.adaptive import refine_grid
+    from optimize.service import Refinement, SolveTask, solve_tasks
     from optimize.system.system_file import load_system
 
     system = system if system is not None else load_system()
     tasks = [SolveTask(c.problem(n_intervals, degree, system), SIZING_KIND, float(w),
                        (("candidate", c.name),))
              for c in candidates for w in winds]
+    refinement = partial(Refinement, site=site, grid=refine_grid) if adaptive else None
     bar = tqdm(total=len(tasks), unit="solve", desc="size", disable=not show_progress)
     counts = {"solved": 0, "cached": 0}
 
@@ -301,10 +304,10 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
 
         with open_executor(workers, scheduler) as handle:
             records = solve_tasks(tasks, Path(out) / "solves", handle=handle, backend=backend,
-                                  refine_site=site if adaptive else None, on_event=on_event)
+                                  refine=refinement, on_event=on_event)
     else:
         records = solve_tasks(tasks, Path(out) / "solves", handle=handle, backend=backend,
-                              refine_site=site if adaptive else None, on_event=on_event)
+                              refine=refinement, on_event=on_event)
     description = handle.description
     bar.close()
     wall = time.perf_counter() - t0

@@ -1,15 +1,16 @@
 """The files of ``bench size`` (docs/schemas.md §8): ``sizing.csv`` and ``sizing.json``.
 
-Written all or none into the output folder (:mod:`bench.output_folder`); the
+Written all or none into the output folder (:mod:`kernel.output_folder`); the
 resumable solve store ``solves/`` is kept from run to run.
 """
 
 from __future__ import annotations
 
-import datetime
 import json
 from pathlib import Path
 from typing import Any
+
+from kernel.provenance import HEADER_KEY, Provenance
 
 #: files by which a size output folder written before run ids is known; the
 #: resumable solve store kept from run to run
@@ -41,30 +42,30 @@ def edge_note(edge: str | None, best: str | None, added: list[float]) -> str | N
 
 
 def write_sizing(out: Path, res: Any, **kw: Any) -> dict[str, Path]:
-    """:func:`write_sizing_files` into ``out``, all or none (:mod:`bench.output_folder`);
+    """:func:`write_sizing_files` into ``out``, all or none (:mod:`kernel.output_folder`);
     ``out/solves`` (the resumable solve store) is kept."""
-    from bench.output_folder import output_folder
+    from kernel.output_folder import output_folder
 
-    with output_folder(out, "size", SIZE_MARKERS, keep=SIZE_KEEP) as stage:
+    with output_folder(out, "size", SIZE_MARKERS, keep=SIZE_KEEP,
+                       provenance=kw["provenance"]) as stage:
         files = write_sizing_files(stage, res, **kw)
     return {k: Path(out) / Path(v).relative_to(stage) for k, v in files.items()}
 
 
 def write_sizing_files(out: Path, res: Any, *, site: Any, site_note: str, drive: Any,
                        system: Any, winds: tuple[float, ...], adaptive: bool, tolerance: float,
-                       notes: list[str], command_line: list[str],
+                       notes: list[str], provenance: Provenance,
                        edge: dict | None = None) -> dict[str, Path]:
     """Write ``sizing.csv`` and ``sizing.json`` (docs/schemas.md §8) of a sizing result
     (:class:`energy.sizing.SizingResult`) into ``out``; returns name -> path."""
-    from bench.files import write_json, write_text_atomic
+    from kernel.files import write_json, write_text_atomic
 
     t = res.table
     files = {"csv": write_text_atomic(out / "sizing.csv",
                                       t.to_csv(index=False, float_format="%.6g"))}
     doc = {
         "schema": "drivebench.sizing", "schema_version": 1,
-        "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "command_line": list(command_line),
+        HEADER_KEY: provenance.header(),
         "site": {**site.to_dict(), "note": site_note},
         "reference_model": {"path": str(drive.model_path), "note": drive.losses_note},
         "reference_drive": drive.record(),

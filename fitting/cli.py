@@ -1,16 +1,16 @@
 """``bench fit``: efficiency map, power model fit, model selection, export.
 
-Parses the options, calls :func:`drivebench.api.fit` and prints the fit's summary.
+Parses the options into :class:`fitting.pipeline.FitOptions`, runs the fit
+(:func:`fitting.pipeline.run_fit`) and prints its summary.
 """
 
 from __future__ import annotations
 
 import argparse
-import shlex
 
-from bench.errors import InputError
 from fitting.domain import BAND_FRAC
 from fitting.pipeline import WEIGHTINGS, FitOptions
+from kernel.errors import InputError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -53,26 +53,27 @@ def _order(text: str, select: bool) -> int | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the fit (:func:`drivebench.api.fit`) and print its summary."""
-    from drivebench.api import fit
+    """Run the fit (:func:`fitting.pipeline.run_fit`) and print its summary."""
+    from fitting.pipeline import FitOptions, run_fit
 
     order = _order(args.order, args.select)
     drive = {k: getattr(args, k) for k in ("nominal_power_w", "max_speed_rpm", "max_torque_nm")
              if getattr(args, k) is not None}
     rating_args = [a for k, v in drive.items() for a in (f"--{k.replace('_', '-')}", repr(v))]
-    command = shlex.join([
+    command_line = (
         "bench", "fit", "--store", str(args.store), "--out", str(args.out),
         "--order", "auto" if order is None else str(order), *(["--full"] if args.full else []),
         "--folds", str(args.folds), "--weighting", args.weighting,
         "--mask-mech-frac", repr(args.mask_mech_frac),
         "--mask-elec-frac", repr(args.mask_elec_frac),
         "--envelope-band-frac", repr(args.envelope_band_frac), *rating_args,
-    ])
-    fit(args.store, args.out, order=order, full_order2=args.full, folds=args.folds,
-        weighting=args.weighting, mask_mech_frac=args.mask_mech_frac,
-        mask_elec_frac=args.mask_elec_frac, envelope_band_frac=args.envelope_band_frac,
-        drive=drive, command=command, progress=True,
-        report=lambda summary: print(format_summary(summary, args.out)))
+    )
+    options = FitOptions(order=order, full_order2=args.full, folds=args.folds,
+                         weighting=args.weighting, mask_mech_frac=args.mask_mech_frac,
+                         mask_elec_frac=args.mask_elec_frac,
+                         envelope_band_frac=args.envelope_band_frac, drive=drive,
+                         command_line=command_line)
+    print(format_summary(run_fit(args.store, args.out, options, progress=True), args.out))
     return 0
 
 

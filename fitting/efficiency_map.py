@@ -15,7 +15,6 @@ import numpy as np
 import pandas as pd
 from scipy.spatial import ConvexHull, Delaunay, QhullError
 
-from bench.units import RPM_PER_RAD_S
 from fitting.domain import in_polygon, quadrant_envelopes
 from fitting.efficiency import (
     ABOVE_MAX,
@@ -31,6 +30,7 @@ from fitting.efficiency import (
 from fitting.map_honesty import honour_points, points_against_map
 from fitting.point_uncertainty import efficiency_ceilings
 from fitting.points import QUADRANTS, quadrant_of
+from kernel.units import RPM_PER_RAD_S
 
 
 def nice_step(raw: float) -> float:

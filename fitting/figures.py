@@ -21,9 +21,9 @@ from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 from matplotlib.tri import Triangulation  # noqa: E402
 
-from bench.files import atomic_write, write_parquet  # noqa: E402
 from fitting.domain import in_domain  # noqa: E402
 from fitting.efficiency import ABOVE_MAX, CLIPPED, NEAR_AXIS  # noqa: E402
+from kernel.files import atomic_write, write_parquet  # noqa: E402
 
 #: Contour spacing of the power map [W] (paper Fig. 6: a line every 500 W).
 POWER_CONTOUR_STEP_W = 500.0

@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.files import write_text_atomic
-from bench.units import RPM_PER_RAD_S
 from fitting.domain import in_domain
 from fitting.power_model import PowerModel
+from kernel.files import write_text_atomic
+from kernel.units import RPM_PER_RAD_S
 
 
 def loss_grid(model: PowerModel, speeds_rpm: np.ndarray, torques_nm: np.ndarray) -> np.ndarray:

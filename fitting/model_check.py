@@ -25,10 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.errors import InputError
-from bench.units import RPM_PER_RAD_S
 from fitting.domain import in_polygon
 from fitting.power_model import PowerModel
+from kernel.errors import InputError
+from kernel.units import RPM_PER_RAD_S
 
 #: grid nodes per axis over a region's bounding box, and per polygon edge
 GRID_NODES = 41

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
-from bench.errors import InputError
-from bench.files import bad_number_at, read_text, write_json
-from bench.output_folder import check_output_file
 from fitting.model_schema import power_model_from_dict
 from fitting.power_model import PowerModel
+from kernel.errors import InputError
+from kernel.files import bad_number_at, read_json, write_json
+from kernel.output_folder import check_output_file
 
 
 def load_power_model(path: str | Path) -> PowerModel:
@@ -28,7 +27,7 @@ def load_power_model(path: str | Path) -> PowerModel:
     ------
     InputError
         If the file is missing, is not JSON, or fails validation, or its folder is
-        a stage output that is not whole (:func:`bench.output_folder.check_output_file`);
+        a stage output that is not whole (:func:`kernel.output_folder.check_output_file`);
         the message names the file and the field.
     """
     path = Path(path)
@@ -36,13 +35,7 @@ def load_power_model(path: str | Path) -> PowerModel:
         raise InputError(path, "file not found", expected="a power model JSON file")
     if path.is_file():
         check_output_file(path)
-    text = read_text(path, what="power model file")
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise InputError(path, f"not valid JSON: {exc.msg}", line=exc.lineno) from exc
-    except ValueError as exc:  # e.g. an integer of more digits than Python converts
-        raise InputError(path, f"not valid JSON: {exc}") from exc
+    data = read_json(path, what="power model file")
     bad = bad_number_at(data)
     if bad is not None:
         raise InputError(path, bad[1], column=bad[0], expected="finite numbers only")

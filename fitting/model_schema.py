@@ -9,7 +9,6 @@ from typing import Any
 
 import numpy as np
 
-from bench.errors import InputError
 from fitting.power_model import (
     READ_VERSIONS,
     SCHEMA_NAME,
@@ -17,6 +16,7 @@ from fitting.power_model import (
     PowerModel,
     is_finite_number,
 )
+from kernel.errors import InputError
 
 _REQUIRED_KEYS = (
     "schema",

@@ -1,21 +1,17 @@
 """``bench fit`` as a library call: store -> power model, maps, selection, loss table, figures.
 
 Writes the outputs of docs/schemas.md §4 into one directory, all of them or none
-(:mod:`bench.output_folder`).
+(:mod:`kernel.output_folder`).
 """
 
 from __future__ import annotations
 
-import datetime as _dt
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from bench.errors import InputError
-from bench.files import json_safe, write_json, write_parquet
-from bench.output_folder import check_replaceable, output_folder
 from bench.store.read import read_points, read_samples
 from fitting import figures
 from fitting.domain import BAND_FRAC, quadrant_envelopes
@@ -47,6 +43,10 @@ from fitting.selection import (
 )
 from fitting.terms import MAX_ORDER, MIN_ORDER, full_polynomial
 from fitting.thermal import fit_thermal
+from kernel.errors import InputError
+from kernel.files import check_output_dir, json_safe, write_json, write_parquet
+from kernel.output_folder import check_replaceable, output_folder
+from kernel.provenance import HEADER_KEY, Provenance
 
 WEIGHTINGS = ("quadrant", "none")
 #: files by which a fit output folder written before run ids is known
@@ -73,8 +73,8 @@ class FitOptions:
         Drive rating keys given on the command line (``nominal_power_w``,
         ``max_speed_rpm``, ``max_torque_nm``); the others come from the store
         manifest or the data (:func:`fitting.rating.resolve_drive`).
-    command : str
-        The command line, recorded in the provenance.
+    command_line : tuple of str
+        The command line, recorded in the provenance (:mod:`kernel.provenance`).
     """
 
     order: int | None = 2
@@ -85,7 +85,7 @@ class FitOptions:
     mask_elec_frac: float = 0.02
     envelope_band_frac: float = BAND_FRAC
     drive: dict = field(default_factory=dict)
-    command: str = "bench fit"
+    command_line: tuple[str, ...] = ("bench", "fit")
 
     def __post_init__(self) -> None:
         if self.order is not None and not MIN_ORDER <= self.order <= MAX_ORDER:
@@ -150,10 +150,10 @@ class FitPoints:
         """The points' folder, named in errors."""
         return Path(self.store) / "points"
 
-    def provenance(self, command: str) -> dict:
+    def provenance(self, command_line: tuple[str, ...]) -> dict:
         """Where the model comes from: the points' files and hash, the store, the command."""
         return {"points_sha256": self.points.sha256, "points_files": self.points.files,
-                "store": self.store, "command": command,
+                "store": self.store, "command_line": list(command_line),
                 "software": "drivebench fitting.pipeline"}
 
     def statement(self) -> dict:
@@ -322,7 +322,9 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     :func:`min_quadrant_points` (too few for the folds or the smallest model) is
     dropped and treated the same way, its point count stated.
     """
-    check_replaceable(out, "fit", FIT_MARKERS)  # before the work, not after it
+    check_output_dir(out)  # before the work, not after it
+    check_replaceable(out, "fit", FIT_MARKERS)
+    run = Provenance.start(options.command_line)
     pts = fit_points(store, options.folds)
     drive, drive_notes = resolve_drive(store, pts.frame, options.drive)
     masking = options.masking(drive.nominal_power_w)
@@ -334,7 +336,7 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     statistics = fitted.statistics(options.weighting, frame, pts.statement(), outliers)
     envelopes = quadrant_envelopes(frame, masking.envelope_band_frac)
     statistics["validity"] = validity_statement(pts.points.counts(), envelopes, pts.min_points)
-    provenance = pts.provenance(options.command)
+    provenance = pts.provenance(options.command_line)
     model = fitted.power_model(pts.measured, envelopes, masking=masking.to_dict(),
                                statistics=statistics, provenance=provenance,
                                drive=drive.to_dict())
@@ -345,13 +347,12 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     notes = ([thermal_note] + drive_notes + [v["note"] for v in statistics["validity"].values()
                             if not v["measured"]]
              + [d["note"] for d in (outliers, loss_repeat, repeats) if d.get("note")])
-    with output_folder(out, "fit", FIT_MARKERS) as stage:  # all files or none
+    with output_folder(out, "fit", FIT_MARKERS, provenance=run) as stage:  # all or none
         emap, written = _write_outputs(stage, model, frame, masking, fitted, options,
                                        pts.points.sha256)
         summary = json_safe({
             "schema": "drivebench.fit_summary",
             "schema_version": 1,
-            "created_at": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
             "model": model.summary(),
             "statistics": statistics,
             "selection_table": fitted.selection.table.to_dict(orient="records"),
@@ -360,7 +361,7 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
             "notes": notes,
             "efficiency": efficiency_summary(emap, frame, masking, loss_repeat, repeats,
                                              envelopes),
-            "provenance": provenance,
+            HEADER_KEY: {**run.header(), **provenance},
             "outputs": sorted(str(p.relative_to(stage)) for p in written) + ["fit_summary.json"],
         })
         write_json(stage / "fit_summary.json", summary)

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bench.errors import InputError
 from bench.store.read import consistent_read, read_listed_bytes
+from kernel.errors import InputError
 
 #: Columns the fit needs from ``points/*.parquet``.
 REQUIRED_COLUMNS = ("session_id", "point_id", "speed_rpm", "torque_nm", "p_mech_w", "p_elec_w")

@@ -14,9 +14,9 @@ import numpy as np
 import statsmodels.api as sm
 from scipy import stats
 
-from bench.errors import InputError
 from fitting.power_model import PowerModel
 from fitting.terms import term_label
+from kernel.errors import InputError
 
 #: Fewest points per model term a fit accepts (a fit needs more points than
 #: terms; three per term leaves residual degrees of freedom to judge it by).

@@ -25,8 +25,9 @@ from typing import Any
 
 import numpy as np
 
-from bench.drive import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS
-from bench.units import RPM_PER_RAD_S
+from fitting.terms import powers
+from kernel.drive_rating import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS
+from kernel.units import RPM_PER_RAD_S
 
 SCHEMA_NAME = "drivebench.power_model"
 #: Version written; 2 added the ``drive`` object (rating and limits of the drive), 3 the
@@ -78,7 +79,7 @@ class PowerModel:
         Where the model comes from (input hash, command line, source).
     drive : dict or None
         The drive's rating ``{nominal_power_w, max_speed_rpm, max_torque_nm, source}``
-        (:class:`bench.drive.DriveRating`); its nominal power equals
+        (:class:`kernel.drive_rating.DriveRating`); its nominal power equals
         ``nominal_power_w``. None for a version-1 file.
     thermal : dict or None
         The winding's fitted thermal model (:func:`fitting.thermal.fit_thermal`);
@@ -200,13 +201,6 @@ class PowerModel:
 # --------------------------------------------------------------------- helpers
 def _canonical_json(data: dict) -> str:
     return json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=False)
-
-
-def powers(x: Any, n: int, one: Any) -> list:
-    out = [one]
-    for _ in range(n):
-        out.append(x if len(out) == 1 else out[-1] * x)
-    return out
 
 
 def _evaluate_np(terms, coefs, speed, torque) -> np.ndarray:

@@ -6,7 +6,7 @@ from typing import Any
 
 import casadi as ca
 
-from fitting.power_model import powers
+from fitting.terms import powers
 
 
 def evaluate(terms, coefs, speed, torque) -> Any:

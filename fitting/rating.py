@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bench.drive import DRIVE_KEYS, DriveRating
-from bench.errors import InputError
 from bench.store.manifest import read_manifest
+from kernel.drive_rating import DRIVE_KEYS, DriveRating
+from kernel.errors import InputError
 
 
 def _from_manifest(store: Path, session_ids: list[str]) -> tuple[dict, dict]:

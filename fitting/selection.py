@@ -22,7 +22,6 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from bench.errors import InputError
 from fitting.power_fit import (
     MIN_POINTS,
     MIN_POINTS_PER_TERM,
@@ -37,6 +36,7 @@ from fitting.terms import (
     full_polynomial,
     paper_space,
 )
+from kernel.errors import InputError
 
 RULE = (
     "one-standard-error rule: fewest terms among candidates whose k-fold CV RMSE "

@@ -5,6 +5,8 @@ A term ``(i, j)`` is ``speed**i * torque**j`` (docs/schemas.md §3).
 
 from __future__ import annotations
 
+from typing import Any
+
 #: The paper's eq. (4): P_elec = a0 + a1 w^2 + a2 T^2 + a3 w T (docs/paper_figures.md §1).
 PAPER_TERMS: tuple[tuple[int, int], ...] = ((0, 0), (2, 0), (0, 2), (1, 1))
 
@@ -56,3 +58,12 @@ def term_label(term: tuple[int, int]) -> str:
         elif e > 1:
             parts.append(f"{sym}^{e}")
     return "*".join(parts) if parts else "1"
+
+
+def powers(x: Any, n: int, one: Any) -> list:
+    """``[one, x, x**2, ..., x**n]``, each power by one multiplication (floats, arrays or
+    CasADi expressions alike)."""
+    out = [one]
+    for _ in range(n):
+        out.append(x if len(out) == 1 else out[-1] * x)
+    return out

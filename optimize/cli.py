@@ -1,15 +1,15 @@
 """``bench optimize``: the pumping-cycle sweep over a wind grid.
 
-Parses the options, calls :func:`drivebench.api.optimize` (check the inputs, plan
-chains, run them on the solve service, compare with the paper, write the files)
-and prints the summary, claims and trust figures.
+Parses the options into the sweep's option objects (:mod:`optimize.sweep_options`),
+checks the inputs (:func:`optimize.command.make_request`), runs the sweep
+(:func:`optimize.command.run_optimize`: plan chains, run them on the solve service,
+compare with the paper, write the files) and prints the summary, claims and trust figures.
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
-import sys
 from pathlib import Path
 
 from optimize.kinds import DEFAULT_KINDS
@@ -99,20 +99,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the sweep (:func:`drivebench.api.optimize`); the exit code says how many
+    """Run the sweep (:func:`optimize.command.run_optimize`); the exit code says how many
     scenarios converged (:data:`EXIT_CODES`)."""
-    from drivebench.api import optimize
-    from optimize.command import format_summary
-    from optimize.sweep.plan import parse_kinds, parse_wind_grid
+    from optimize.command import format_summary, make_request, run_optimize
+    from optimize.sweep_options import Execution, SolverChoice, WindGrid
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    sweep = optimize(args.drive_model, winds=parse_wind_grid(args.wind_grid),
-                     kinds=parse_kinds(args.scenarios), system=args.system, out=args.out,
-                     n_intervals=args.intervals, degree=args.degree, workers=args.workers,
-                     scheduler=args.scheduler, claims=not args.no_claims, trust=args.trust,
-                     solver=args.solver, linear_solver=args.linear_solver,
-                     stored_guess=not args.no_stored_guess, fit_default=FIT_MODEL_PATH,
-                     progress=True, command_line=sys.argv, before_solving=print)
+    request = make_request(
+        WindGrid.parse(args.wind_grid, args.scenarios),
+        SolverChoice(args.intervals, args.degree, args.solver, args.linear_solver,
+                     not args.no_stored_guess),
+        model=args.drive_model, system=args.system, fit_default=FIT_MODEL_PATH, out=args.out,
+        execution=Execution(args.workers, args.scheduler, progress=True),
+        claims=not args.no_claims, trust=args.trust)
+    print(request.model_note)
+    sweep = run_optimize(request, list(args.command_line), show_progress=True)
     print(format_summary(sweep.summary))
     if sweep.claims is not None:
         from optimize.analysis.claims import format_claims

@@ -3,22 +3,22 @@
 Plan the chains (:mod:`optimize.sweep.plan`), run them on the solve service
 (:mod:`optimize.service`, on :mod:`optimize.sweep.executors`), the trust
 checks (:mod:`optimize.sweep.trust`), the paper comparison
-(:mod:`optimize.analysis.claims`) and the files (:mod:`optimize.sweep.outputs`).
+(:mod:`optimize.analysis.claims`) and the files (:mod:`optimize.sweep_folder`).
 This module sits above the solver and the analysis; nothing in them imports it.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from bench.errors import InputError
-from bench.files import check_output_dir, file_sha256, write_csv, write_json, write_parquet
-from bench.output_folder import check_replaceable, output_folder
-from bench.versions import package_versions
+from kernel.errors import InputError
+from kernel.files import check_output_dir, file_sha256
+from kernel.output_folder import check_replaceable
+from kernel.provenance import Provenance
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
 from optimize.analysis.result_check import MIN_COLLOCATION_POINTS, mesh_label
 from optimize.kinds import KINDS
@@ -28,16 +28,25 @@ from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import plan_chains
 from optimize.sweep.result_checks import check_outcomes
 from optimize.sweep.trust import run_trust_checks
+from optimize.sweep_folder import (
+    MARKERS,
+    bound_lines,
+    domain_lines,
+    resolve_lines_of,
+    write_sweep_folder,
+)
+from optimize.sweep_options import (
+    DEFAULT_SOLVER,
+    LOCAL_POOL,
+    PAPER_GRID,
+    Execution,
+    SolverChoice,
+    WindGrid,
+)
 from optimize.system.drive_in_force import DriveInForce, drive_in_force
 from optimize.system.plausibility import check_drive_holds_kite
 from optimize.system.system import System
 from optimize.system.system_file import load_system
-
-#: files by which an optimize output folder written before run ids is known
-OPTIMIZE_MARKERS = ("summary.parquet", "manifest.json")
-#: a model given to the Python API, written beside the outputs before the sweep and
-#: named by its manifest: kept from the folder, not part of the run
-OPTIMIZE_KEEP = ("given_power_model.json",)
 
 
 @dataclass(frozen=True)
@@ -94,22 +103,24 @@ class SweepRequest:
     drive: DriveInForce | None = None
 
 
-def make_request(winds: tuple[float, ...], kinds: tuple[str, ...], *,
-                 model: Path | None = None, system: Path | System | None = None,
+def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOLVER, *,
+                 model: Any = None, system: Path | System | None = None,
                  fit_default: Path | None = None, out: Path = Path("optimize_out"),
-                 n_intervals: int = 40, degree: int = 4, solver: str = "ipopt",
-                 linear_solver: str | None = None, stored_guess: bool = True,
-                 workers: int = 2, scheduler: str | None = None, claims: bool = True,
+                 execution: Execution = LOCAL_POOL, claims: bool = True,
                  trust: bool = False) -> SweepRequest:
     """The request of a sweep, every input checked before any solve.
 
     Parameters
     ----------
-    winds, kinds
-        Wind speeds [m/s] and scenario kinds (:func:`optimize.sweep.plan.parse_wind_grid`,
-        :func:`optimize.sweep.plan.parse_kinds`).
-    model : Path, optional
-        The drive's losses (``--drive-model``), overriding the system file's.
+    grid : WindGrid
+        Wind speeds [m/s] and scenario kinds.
+    solver : SolverChoice
+        Collocation intervals (2 to :data:`optimize.problem.options.MAX_INTERVALS`, half
+        that with ``trust``, which refines to twice as many), Radau degree (1 to 9), and
+        the solver (:func:`solver_options`).
+    model : Path or PowerModel, optional
+        The drive's losses (``--drive-model``, or a model object), overriding the system
+        file's. A model object is written into the output folder with the results.
     system : Path or System, optional
         The system (``--system``); default the shipped ``highwind.toml``.
     fit_default : Path, optional
@@ -117,12 +128,9 @@ def make_request(winds: tuple[float, ...], kinds: tuple[str, ...], *,
         file names the losses (:func:`optimize.system.drive_in_force.drive_in_force`).
     out : Path
         Output folder (must be a folder or absent).
-    n_intervals, degree : int
-        Collocation intervals (2 to :data:`optimize.problem.options.MAX_INTERVALS`, half
-        that with ``trust``, which refines to twice as many) and Radau degree (1 to 9).
-    solver, linear_solver, stored_guess
-        :func:`solver_options`.
-    workers, scheduler, claims, trust
+    execution : Execution
+        Worker processes or a Dask scheduler (the progress bar is :func:`run_optimize`'s).
+    claims, trust
         As :class:`SweepRequest`.
 
     Raises
@@ -135,21 +143,26 @@ def make_request(winds: tuple[float, ...], kinds: tuple[str, ...], *,
     from optimize.problem.options import MAX_INTERVALS, Discretization, OcpOptions
 
     top = MAX_INTERVALS // 2 if trust else MAX_INTERVALS  # trust solves at 2x
-    if not 2 <= n_intervals <= top:
-        raise InputError(None, f"--intervals {n_intervals}: out of range",
+    if not 2 <= solver.n_intervals <= top:
+        raise InputError(None, f"--intervals {solver.n_intervals}: out of range",
                          expected=f"an integer from 2 to {top}"
                                   + (" (--trust refines to twice as many)" if trust else ""))
-    if not 1 <= degree <= 9:
-        raise InputError(None, f"--degree {degree}: out of range", expected="1 to 9")
+    if not 1 <= solver.degree <= 9:
+        raise InputError(None, f"--degree {solver.degree}: out of range", expected="1 to 9")
     check_output_dir(out)
     loaded = system if isinstance(system, System) else load_system(system)
-    drive = drive_in_force(loaded, model, fit_default)
+    if model is None or isinstance(model, str | Path):
+        drive = drive_in_force(loaded, None if model is None else Path(model), fit_default)
+    else:
+        drive = drive_in_force(loaded, model=model)
     note = f"system: {loaded.name} ({loaded.path}" + (
         ", the shipped default)" if system is None else ")")
     note += "\n" + "\n".join(drive.lines())
     try:
-        options = OcpOptions(Discretization(n_intervals=n_intervals, degree=degree),
-                             solver=solver_options(solver, linear_solver, stored_guess))
+        options = OcpOptions(Discretization(n_intervals=solver.n_intervals,
+                                            degree=solver.degree),
+                             solver=solver_options(solver.solver, solver.linear_solver,
+                                                   solver.stored_guess))
     except ValueError as exc:
         raise InputError(None, f"OCP options: {exc}") from exc
     options = loaded.ocp_options(options, drive.rating)
@@ -161,12 +174,12 @@ def make_request(winds: tuple[float, ...], kinds: tuple[str, ...], *,
                            drive.rating.source or "the drive in force")
     note += "\n" + loaded.kite_limits().describe()
     note += "\n" + loaded.drivetrain_line()
-    if n_intervals * degree < MIN_COLLOCATION_POINTS:
-        note += (f"\nmesh {mesh_label(n_intervals, degree)}: the result check decides whether "
-                 "each optimum stands")
-    return SweepRequest(tuple(winds), tuple(kinds), drive.model, drive.model_path, note,
-                        options, workers, scheduler, Path(out), claims, trust,
-                        system=loaded, drive=drive)
+    if solver.n_intervals * solver.degree < MIN_COLLOCATION_POINTS:
+        note += (f"\nmesh {mesh_label(solver.n_intervals, solver.degree)}: the result check "
+                 "decides whether each optimum stands")
+    return SweepRequest(grid.winds_m_s, grid.kinds, drive.model, drive.model_path, note,
+                        options, execution.workers, execution.scheduler, Path(out), claims,
+                        trust, system=loaded, drive=drive)
 
 
 @dataclass(frozen=True)
@@ -214,25 +227,17 @@ def run_optimize(
     (cut-in searches included when ``request.claims``); optionally the trust
     checks (mesh check of each kind's middle-wind scenario on the executor,
     simulation check of every converged scenario); compare with the paper;
-    write ``summary.parquet``, ``trajectories.parquet``, ``claims.csv`` and
-    ``manifest.json`` (docs/schemas.md §5) into ``request.out``, all or none
-    (:mod:`bench.output_folder`).
+    write the folder (:func:`optimize.sweep_folder.write_sweep_folder`, docs/schemas.md §5).
     ``backend`` replaces the CasADi OCP in the chains (see
     :class:`optimize.service.builder.Backend`; the trust checks always use the OCP).
     """
-    import dataclasses
-    import datetime
-    import sys
-
-
-    check_replaceable(request.out, "optimize", OPTIMIZE_MARKERS,
-                      keep=OPTIMIZE_KEEP)  # before the solves
+    check_replaceable(request.out, "optimize", MARKERS)  # before the solves
+    run = Provenance.start(command_line if command_line is not None else sys.argv)
     system = request.system if request.system is not None else load_system()
     drive = request.drive or drive_in_force(system, request.drive_model_path,
                                             model=request.drive_model)
-    model = drive.model
     options = system.ocp_options(request.options, drive.rating)
-    problem = Problem.for_system(system, model, options)
+    problem = Problem.for_system(system, drive.model, options)
     cut_in_kinds = (tuple(k for k in request.kinds if KINDS[k].drive_limits)
                     if request.claims else ())
     trust: dict = {"mesh": [], "simulation": []}
@@ -244,82 +249,54 @@ def run_optimize(
                             else (list(result.outcomes), []))
         if request.trust:
             trust = run_trust_checks(problem, outcomes, request.winds, handle)
-    summary = outputs.summary_frame(outcomes, model.domain, domain_scales(model, options))
+    summary = outputs.summary_frame(outcomes, drive.model.domain,
+                                    domain_scales(drive.model, options))
     cut_ins = cut_in_frame(result.cut_ins)
     claims = (evaluate_claims(summary, cut_ins, paper_system=system.paper_system,
                               system_name=system.name) if request.claims else None)
+    files = write_sweep_folder(
+        request.out, run, summary=summary, claims=claims, system=system.record(),
+        trajectories=outputs.trajectories_frame(outcomes),
+        carried_model=drive.model if drive.carried or not drive.model_path.is_file() else None,
+        manifest=sweep_manifest(request, system, drive, options, result, summary, trust,
+                                outcomes, checks))
+    return OptimizeOutcome(summary, claims, cut_ins, trust, tuple(trust.get("lines", ())),
+                           result.wall_time_s, result.executor, files)
 
-    with output_folder(request.out, "optimize", OPTIMIZE_MARKERS,
-                       keep=OPTIMIZE_KEEP) as stage:  # all or none
-        system_meta = outputs.system_metadata(system.record())
-        files = {
-            "summary": write_parquet(stage / "summary.parquet", summary,
-                                     descriptions=outputs.SUMMARY_COLUMNS, metadata=system_meta),
-            "trajectories": write_parquet(stage / "trajectories.parquet",
-                                          outputs.trajectories_frame(outcomes),
-                                          metadata=system_meta),
-        }
-        model_path = request.drive_model_path
-        if drive.carried:  # the losses the sweep flew with, for bench aep (bands, refine)
-            from fitting.model_file import save_power_model
 
-            model_path = files["power_model"] = save_power_model(model,
-                                                                 stage / "power_model.json")
-        if claims is not None:  # else no stale comparison is left: the folder is replaced
-            files["claims"] = write_csv(stage / "claims.csv", claims)
-        manifest = {
-            "schema": outputs.SCHEMA_NAME,
-            "schema_version": outputs.SCHEMA_VERSION,
-            "created_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-            "command_line": list(command_line if command_line is not None else sys.argv),
-            "package_versions": package_versions(),
-            "wind_speeds_m_s": list(request.winds),
-            "kinds": list(request.kinds),
-            "scenarios": [o.name for o in outcomes],
-            "drive_model": {
-                "path": str(stage / "power_model.json" if drive.carried
-                            else model_path),
-                "file_sha256": file_sha256(model_path),
-                "model_sha256": model.sha256,
-                "name": model.name,
-                "note": request.model_note,
-            },
-            "system": system.record(),
-            "drive_limits": drive.rating.to_dict(),
-            "drive": drive.record(),
-            "kite_limits": dataclasses.asdict(system.kite_limits()),
-            "options": options.as_dict(),
-            "executor": result.executor,
-            "wall_time_s": result.wall_time_s,
-            "converged": int(summary["success"].sum()),
-            "failed": [o.name for o in outcomes if not o.success],
-            "result_checks": [dataclasses.asdict(c) for c in checks],
-            "chains": [
-                {
-                    "chain": c.chain,
-                    "worker": c.worker,
-                    "build_time_s": c.build_time_s,
-                    "scenarios": [o.name for o in c.outcomes],
-                }
-                for c in result.chains
-            ],
-            "local_optima": outputs.resolve_lines(outcomes),
-            "cut_in": [dataclasses.asdict(c) for c in result.cut_ins],
-            "trust": trust,
-            "files": {k: Path(v).name for k, v in files.items()},
-        }
-        files["manifest"] = write_json(stage / "manifest.json", manifest)
-    files = {k: request.out / Path(v).relative_to(stage) for k, v in files.items()}
-    return OptimizeOutcome(
-        summary,
-        claims,
-        cut_ins,
-        trust,
-        tuple(trust.get("lines", ())),
-        result.wall_time_s,
-        result.executor,
-        files,
-    )
+def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, options: Any,
+                   result: Any, summary: Any, trust: dict, outcomes: list,
+                   checks: list) -> dict:
+    """The optimize manifest's content after its schema and provenance header
+    (docs/schemas.md §5): the request, the system and drive in force, the options, the
+    sweep's own record (:meth:`optimize.service.run.SweepResult.record`) and the result
+    checks of its optima (``outcomes``: the sweep's outcomes after them; a scenario that
+    failed its check is failed)."""
+    model = drive.model
+    return {
+        "wind_speeds_m_s": list(request.winds),
+        "kinds": list(request.kinds),
+        "scenarios": [o.name for o in result.outcomes],
+        "drive_model": {  # a carried model's path and file hash: write_sweep_folder's
+            "path": str(request.drive_model_path),
+            "file_sha256": (file_sha256(request.drive_model_path)
+                            if Path(request.drive_model_path).is_file() else None),
+            "model_sha256": model.sha256,
+            "name": model.name,
+            "note": request.model_note,
+        },
+        "system": system.record(),
+        "drive_limits": drive.rating.to_dict(),
+        "drive": drive.record(),
+        "kite_limits": dataclasses.asdict(system.kite_limits()),
+        "options": options.as_dict(),
+        "converged": int(summary["success"].sum()),
+        **result.record(),
+        "failed": [o.name for o in outcomes if not o.success],
+        "result_checks": [dataclasses.asdict(c) for c in checks],
+        "local_optima": outputs.resolve_lines(outcomes),
+        "trust": trust,
+    }
 
 
 def solver_options(solver: str = "ipopt", linear_solver: str | None = None,
@@ -354,52 +331,12 @@ def domain_scales(model: Any, options: Any) -> tuple[float, float]:
             float(drive.get("max_torque_nm", options.limits.max_torque_nm)))
 
 
-def domain_lines(summary: Any) -> list[str]:
-    """One line per converged scenario whose cycle leaves the model's validity domain."""
-    lines = []
-    for r in summary.itertuples(index=False):
-        frac = r.outside_domain_time_frac
-        if r.success and np.isfinite(frac) and frac > 0:
-            lines.append(
-                f"{r.scenario}: {100 * frac:.1f} % of the cycle time outside the drive model's "
-                f"validity domain; worst at {r.outside_worst_speed_rpm:.0f} rpm, "
-                f"{r.outside_worst_torque_nm:.1f} N m (distance {r.outside_worst_distance:.3f} "
-                "of the drive rating)")
-    return lines
-
-
-def bound_lines(summary: Any) -> list[str]:
-    """One line per converged scenario on a bound or with a slack tether."""
-    lines = []
-    for r in summary.itertuples(index=False):
-        slack = r.slack_fraction
-        if r.success and (r.active_bounds or (np.isfinite(slack) and slack > 0)):
-            note = (" BOUND-LIMITED: the optimum is the bound's, not the kite's"
-                    if r.bound_limited else "")
-            lines.append(f"{r.scenario}: on {r.active_bounds or 'no bound'}; slack tether "
-                         f"{100 * slack:.1f} % of the cycle{note}")
-    return lines
-
-
 def check_lines(summary: Any) -> list[str]:
     """One line per scenario whose optimum failed the result check (summary ``result_check``)."""
     if "result_check" not in summary.columns:
         return []
     return [f"{r.scenario} ({r.status}): {r.result_check}"
             for r in summary.itertuples(index=False) if r.result_check.startswith("failed")]
-
-
-def resolve_lines_of(summary: Any) -> list[str]:
-    """One line per scenario re-solved from a neighbour (summary ``resolved_from``)."""
-    if "resolved_from" not in summary.columns:
-        return []
-    lines = []
-    for r in summary.itertuples(index=False):
-        if r.resolved_from:
-            gain = (f"better by {r.resolve_gain_w:.1f} W, kept" if r.resolve_gain_w > 0
-                    else "no better optimum found")
-            lines.append(f"{r.scenario}: re-solved from {r.resolved_from}: {gain}")
-    return lines
 
 
 def format_summary(summary: Any) -> str:

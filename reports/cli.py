@@ -6,9 +6,9 @@ import argparse
 import time
 from pathlib import Path
 
-from bench.files import check_output_file
-from bench.locking import output_lock
-from bench.output_folder import check_replaceable_file
+from kernel.files import check_output_file
+from kernel.locking import output_lock
+from kernel.output_folder import check_replaceable_file
 from reports.render import build_report
 
 

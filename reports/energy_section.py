@@ -11,13 +11,12 @@ from pathlib import Path
 
 import numpy as np
 
+from energy.bands import Z95
+from energy.outputs import POWER_CURVE_COLUMNS as CURVE_COLUMNS
 from optimize.kinds import LABELS
 from reports import svg
 from reports.inputs import InputLog
 from reports.tables import fmt
-
-CURVE_COLUMNS = ("kind", "wind_speed_m_s", "p_elec_w", "p_mech_w", "p_elec_sigma_w")
-Z95 = 1.959963984540054
 
 
 def _color(kind: str) -> str:
@@ -74,7 +73,8 @@ def energy_section(log: InputLog, aep: Path, size: Path) -> dict:
     -------
     dict
         ``site``, ``nominal``, ``table`` (rows of strings), ``losses``, ``notes``,
-        ``figure``, ``sizing`` (or None), ``missing``, ``not_run``.
+        ``figure``, ``sizing`` (or None), ``missing``, ``not_run``, ``records`` (the
+        decoded ``aep.json`` and ``sizing.json``, or None).
     """
     start = len(log.missing)
     # optional stages: a folder that does not exist means the stage was not run (said in
@@ -148,6 +148,7 @@ def energy_section(log: InputLog, aep: Path, size: Path) -> dict:
         }
     out["missing"] = list(dict.fromkeys(log.missing[start:]))
     out["not_run"] = not_run
+    out["records"] = {"aep": doc, "size": sizing}  # their provenance headers
     return out
 
 

@@ -3,12 +3,11 @@
 The report only reads files (docs/schemas.md §2, §4, §5). Each read goes through
 :class:`InputLog`, which records the file's SHA-256 for the provenance section and
 the files that were expected but missing, so every section can say what it lacks.
-A file that is present but unreadable is bad input: :class:`bench.errors.InputError`.
+A file that is present but unreadable is bad input: :class:`kernel.errors.InputError`.
 """
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -16,9 +15,9 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from bench.errors import InputError
-from bench.files import file_sha256
-from bench.output_folder import check_output_file
+from kernel.errors import InputError
+from kernel.files import file_sha256, read_json
+from kernel.output_folder import check_output_file
 
 
 @dataclass(frozen=True)
@@ -52,7 +51,7 @@ class InputLog:
     runs : dict
         Stage output folder -> its run id (None: written before run ids); each
         folder is checked to be the whole output of one run before its first file
-        is read (:func:`bench.output_folder.check_output_folder`).
+        is read (:func:`kernel.output_folder.check_output_folder`).
     """
 
     def __init__(self) -> None:
@@ -83,12 +82,7 @@ class InputLog:
         path = Path(path)
         if not self._present(path):
             return None
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except json.JSONDecodeError as exc:
-            raise InputError(path, f"not valid JSON: {exc.msg}", line=exc.lineno) from exc
-        except (OSError, UnicodeDecodeError) as exc:
-            raise InputError(path, f"cannot read: {exc}") from exc
+        data = read_json(path, what="JSON file")
         if not isinstance(data, dict):
             raise InputError(path, "top level is not a JSON object", expected="a JSON object")
         self._record(path)

@@ -13,16 +13,20 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bench.errors import InputError
+from kernel.errors import InputError
 from optimize.kinds import KINDS, LABELS
-from optimize.sweep.outputs import SUMMARY_REQUIRED
+from optimize.sweep_folder import (
+    SUMMARY_REQUIRED,
+    TRAJECTORY_COLUMNS,
+    domain_excursions,
+    domain_line,
+    on_bounds,
+)
 from reports import cycle_figures
 from reports.failed import failed_rows, failure_text
 from reports.inputs import InputLog
 from reports.tables import fmt, frame_table
 
-TRAJECTORY_COLUMNS = ("scenario", "time_s", "weight", "l_m", "speed_rpm", "torque_nm",
-                      "p_elec_w", "p_mech_w")
 #: Fig. 3: electrically optimized, constrained cycle at 5.5 m/s.
 FIG3_KIND, FIG3_WIND_M_S = "elec-lim", 5.5
 
@@ -45,24 +49,14 @@ def normalized_summary(summary: pd.DataFrame, path: Path) -> pd.DataFrame:
 
 
 def domain_rows(summary: pd.DataFrame) -> list[str] | None:
-    """Per converged scenario leaving the drive model's validity domain: one line.
+    """Per converged scenario leaving the drive model's validity domain: one line
+    (:func:`optimize.sweep_folder.domain_line`, as ``bench optimize`` prints it).
 
     None when the summary has no ``outside_domain_time_frac`` column (an older sweep)
     or the model had no domain (all NaN); an empty list when every cycle stays inside.
     """
-    if "outside_domain_time_frac" not in summary.columns:
-        return None
-    ok = summary[summary["success"].astype(bool)]
-    frac = ok["outside_domain_time_frac"].astype(float)
-    if ok.empty or frac.isna().all():
-        return None
-    lines = []
-    for r in ok[frac > 0].itertuples(index=False):
-        lines.append(f"{r.scenario}: {fmt(100 * r.outside_domain_time_frac, 1)} % of the cycle "
-                     f"time outside; worst at {fmt(r.outside_worst_speed_rpm, 0)} rpm, "
-                     f"{fmt(r.outside_worst_torque_nm, 1)} N m (distance "
-                     f"{fmt(r.outside_worst_distance, 3)} of the drive rating)")
-    return lines
+    rows = domain_excursions(summary)
+    return None if rows is None else [domain_line(r) for r in rows.itertuples(index=False)]
 
 
 def table_ii(summary: pd.DataFrame) -> dict:
@@ -179,22 +173,15 @@ def claims_rows(claims: pd.DataFrame) -> list[dict]:
 
 
 def bound_rows(summary: pd.DataFrame) -> list[dict]:
-    """Converged scenarios on a bound or with a slack tether, for the report.
-
-    Reads ``active_bounds``, ``bound_limited`` and ``slack_fraction`` of the summary
-    (absent in summaries written before they existed: then no rows).
-    """
-    if not {"active_bounds", "bound_limited", "slack_fraction"} <= set(summary.columns):
-        return []
+    """Converged scenarios on a bound or with a slack tether
+    (:func:`optimize.sweep_folder.on_bounds`), one table row each; none for a summary
+    written before ``active_bounds``, ``bound_limited`` and ``slack_fraction`` existed."""
     rows = []
-    for r in summary.itertuples(index=False):
-        if not r.success:
-            continue
+    for r in on_bounds(summary).itertuples(index=False):
         slack = float(r.slack_fraction)
-        if r.active_bounds or (np.isfinite(slack) and slack > 0):
-            rows.append({"scenario": r.scenario, "active_bounds": r.active_bounds or "none",
-                         "bound_limited": bool(r.bound_limited),
-                         "slack": f"{100 * slack:.1f} %" if np.isfinite(slack) else "n/a"})
+        rows.append({"scenario": r.scenario, "active_bounds": r.active_bounds or "none",
+                     "bound_limited": bool(r.bound_limited),
+                     "slack": f"{100 * slack:.1f} %" if np.isfinite(slack) else "n/a"})
     return rows
 
 

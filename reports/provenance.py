@@ -6,21 +6,18 @@ import platform
 import shlex
 from datetime import UTC, datetime
 
-from bench.versions import package_versions
+from kernel.provenance import command_text, read_header
+from kernel.versions import package_versions
 from reports.inputs import InputLog
 
 
-def _commands(source: str, data) -> list[dict]:
-    """Every string value under a key that names a command line, found recursively."""
-    out = []
-    if isinstance(data, dict):
-        for key, value in data.items():
-            if "command" in str(key).lower() or str(key).lower() in ("argv", "cmdline"):
-                text = shlex.join(map(str, value)) if isinstance(value, list) else str(value)
-                out.append({"stage": source, "command": text})
-            else:
-                out.extend(_commands(source, value))
-    return out
+def _commands(stage: str, record) -> list[dict]:
+    """The command line of a stage's record, from its provenance header (none for a record
+    written before the header)."""
+    header = read_header(record)
+    return [] if header is None else [{"stage": stage, "command": command_text(header),
+                                       "run_id": header["run_id"],
+                                       "created_utc": header["created_utc"]}]
 
 
 def provenance_section(log: InputLog, argv: list[str], started: datetime,
@@ -36,8 +33,9 @@ def provenance_section(log: InputLog, argv: list[str], started: datetime,
     started : datetime
         When report generation started (UTC).
     stage_metadata : dict
-        Stage name -> a decoded document (store manifest, model provenance,
-        optimize manifest) searched for the command lines the stages recorded.
+        Stage name -> its decoded record (store manifest, ``fit_summary.json``, optimize
+        manifest, ``aep.json``, ``sizing.json``) or None; the command line is read from
+        its provenance header (:func:`kernel.provenance.read_header`).
 
     Returns
     -------

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
 
-from bench.files import write_text_durable
+from kernel.files import write_text_durable
 from reports import energy_section, optimization, provenance, sections
 from reports.inputs import InputLog
 
@@ -69,8 +69,8 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str],
     energy = energy_section.energy_section(log, aep, size)
     prov = provenance.provenance_section(
         log, argv, started,
-        {"ingest": manifest, "fit": model.provenance if model else None,
-         "fit summary": summary, "optimize": opt["manifest"]},
+        {"ingest": manifest, "fit": summary, "optimize": opt["manifest"],
+         **energy.pop("records")},
     )
     return {
         "title": "drivebench report",

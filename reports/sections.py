@@ -14,13 +14,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bench.errors import InputError
 from bench.store.damage import check_store
 from bench.store.manifest import kind_files as store_files
 from bench.store.manifest import read_manifest
 from fitting import figures
 from fitting.model_schema import power_model_from_dict
 from fitting.power_model import PowerModel
+from kernel.errors import InputError
 from optimize.paper_model import paper_model
 from reports import drive_figures
 from reports.inputs import InputLog

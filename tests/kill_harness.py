@@ -406,7 +406,7 @@ def run_output_kills(work: Path, old_args: list[str], new_args: list[str], n: in
 
 def _kill_outputs(work, runner, old_args, new_args, n, steps, seed, around_switches,
                   log) -> OutputKillFigures:
-    from bench.output_folder import RUN_FILE, check_output_folder
+    from kernel.output_folder import RUN_FILE, check_output_folder
 
     base = work / "base" / "out"
     assert runner.run([*old_args, "--out", str(base)]).rc == 0, "the old output"
@@ -460,7 +460,7 @@ def _kill_outputs(work, runner, old_args, new_args, n, steps, seed, around_switc
         log(f"kill {i + 1}/{len(plan)} ({how} {delay:.3f}): rc {rc}, {state}")
     if dirty is not None:
         assert runner.run([*new_args, "--out", str(dirty)]).rc == 0, "the next complete run"
-        # the writer's lock file (bench.locking) stays beside the output, as the store's does
+        # the writer's lock file (kernel.locking) stays beside the output, as the store's does
         left = sorted(p.name for p in dirty.parent.iterdir() if p.name not in ("out", ".out.lock"))
         if left:
             figures.leftovers += 1

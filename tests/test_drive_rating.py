@@ -7,9 +7,15 @@ import json
 import pandas as pd
 import pytest
 
-from bench.drive import DriveRating, drive_toml, find_drive_file, load_drive_file, session_drive
-from bench.errors import InputError
 from fitting.rating import resolve_drive
+from kernel.drive_rating import (
+    DriveRating,
+    drive_toml,
+    find_drive_file,
+    load_drive_file,
+    session_drive,
+)
+from kernel.errors import InputError
 
 
 def test_drive_toml_round_trip_and_bad_values(tmp_path):

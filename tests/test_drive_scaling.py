@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from bench.cli import main
-from bench.errors import InputError
+from kernel.errors import InputError
 from optimize.model.drivetrain import RPM_PER_RAD_S, carry_power_model
 from optimize.paper_model import paper_model
 from optimize.system.drive_in_force import drive_in_force

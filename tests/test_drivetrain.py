@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bench.errors import InputError
-from bench.units import RPM_PER_RAD_S
+from kernel.errors import InputError
+from kernel.units import RPM_PER_RAD_S
 from optimize.model.drivetrain import Drivetrain, mechanical_power_w
 from optimize.model.envelope import EnvelopeTable
 from optimize.model.kite_model import ALGEBRAIC, STATES, kite_dae

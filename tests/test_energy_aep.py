@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from bench.errors import InputError
 from energy.aep import aep_mwh, aep_sensitivity, curve_energy, delivered_knots
 from energy.site import Histogram, Shear, Weibull, rayleigh, read_histogram_csv
+from kernel.errors import InputError
 
 
 def test_flat_curve_under_weibull_has_the_closed_form():

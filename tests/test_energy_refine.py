@@ -155,8 +155,8 @@ def test_refine_without_the_sweeps_options_is_a_clear_input_error(tmp_path, caps
 
 
 def test_the_sweeps_system_is_rebuilt_from_its_manifest_record(tmp_path):
-    from bench.errors import InputError
     from energy.refine import system_from_manifest
+    from kernel.errors import InputError
     from optimize.system.system_file import load_system
 
     system = load_system()

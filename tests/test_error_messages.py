@@ -12,9 +12,9 @@ import pytest
 from ingest_fixtures import make_points_session
 
 from bench.cli import main
-from bench.errors import InputError
 from bench.ingest.checks import efficiency_flags
 from bench.store.manifest import read_manifest
+from kernel.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[1]
 SITE = ["--weibull-k", "2", "--mean-speed", "6"]

@@ -1,4 +1,4 @@
-"""bench.files: atomic replacement and hashes shared by every stage."""
+"""kernel.files: atomic replacement and hashes shared by every stage."""
 
 import hashlib
 import os
@@ -6,7 +6,7 @@ import stat
 
 import pytest
 
-from bench.files import atomic_write, file_sha256, write_text_atomic
+from kernel.files import atomic_write, file_sha256, write_text_atomic
 
 
 def test_failed_write_leaves_the_old_file_and_no_temp(tmp_path):

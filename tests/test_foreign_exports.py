@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.errors import InputError
 from bench.ingest.pipeline import ingest
 from bench.store.read import read_points
+from kernel.errors import InputError
 
 
 def _loss_w(speed_rpm, torque_nm):

@@ -260,7 +260,7 @@ def test_fit_out_naming_an_existing_file(tmp_path, capsys, monkeypatch):
     def no_fit(*a, **kw):
         raise AssertionError("the fit ran")
 
-    monkeypatch.setattr(pipeline, "run_fit", no_fit)
+    monkeypatch.setattr(pipeline, "load_points", no_fit)  # the fit's first step
     out = tmp_path / "fit_out"
     out.write_text("keep me")
     rc = main(["fit", "--store", str(tmp_path / "store"), "--out", str(out)])

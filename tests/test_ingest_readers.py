@@ -7,13 +7,13 @@ import math
 import numpy as np
 import pytest
 
-from bench.errors import InputError
 from bench.ingest.column_units import split_header, unit_factor
 from bench.ingest.csv_layout import sniff_csv
 from bench.ingest.csv_stream import iter_csv
 from bench.ingest.daq_stream import open_daq_csv, open_daq_tdms
 from bench.ingest.mapping import load_mapping, resolve_columns
 from bench.ingest.readers import read_analyzer
+from kernel.errors import InputError
 
 
 def test_unit_factors_by_hand():

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bench.errors import InputError
 from bench.ingest.scrub import NanRunCheck, TimeCheck, scrub
+from kernel.errors import InputError
 
 N = np.nan
 

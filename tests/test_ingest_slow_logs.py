@@ -222,8 +222,8 @@ def test_a_sample_counter_places_rows_of_repeated_stamps(tmp_path, form):
 
 
 def test_a_bad_sample_counter_entry_names_what_it_needs(tmp_path):
-    from bench.errors import InputError
     from bench.ingest.mapping import load_mapping
+    from kernel.errors import InputError
 
     path = tmp_path / "mapping.toml"
     path.write_text('[log.columns.sample_counter]\ncolumn = "Sample"\n')

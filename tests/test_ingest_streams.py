@@ -17,12 +17,12 @@ from ingest_fixtures import make_timeseries_session, paper_p_elec, store_tree
 from stream_fixtures import make_ev_export, make_german_logger
 
 from bench.cli import main
-from bench.errors import InputError
 from bench.ingest import clock
 from bench.ingest.daq_stream import open_daq_csv
 from bench.ingest.pipeline import ingest
 from bench.store.manifest import read_manifest
 from bench.store.read import read_points
+from kernel.errors import InputError
 
 
 def _match(points: pd.DataFrame, step_s, start_s: float = 0.0) -> np.ndarray:

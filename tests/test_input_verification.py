@@ -12,10 +12,10 @@ from energy_fixtures import model_with_covariance, write_optimize_folder
 from ingest_fixtures import make_timeseries_session
 
 from bench.cli import main
-from bench.files import recorded_mismatch
-from bench.output_folder import output_folder
 from bench.store.manifest import read_manifest
 from fitting.model_file import save_power_model
+from kernel.files import recorded_mismatch
+from kernel.output_folder import output_folder
 from optimize.paper_model import paper_model
 
 SITE = ["--weibull-k", "2", "--mean-speed", "6"]

@@ -14,9 +14,9 @@ from energy_fixtures import model_with_covariance, write_optimize_folder
 from ingest_fixtures import make_points_session
 
 from bench.cli import main
-from bench.errors import InputError
-from bench.files import read_text, read_toml, write_json, write_parquet
-from bench.units import RPM_PER_RAD_S, unit_of
+from kernel.errors import InputError
+from kernel.files import read_json, read_text, read_toml, write_json, write_parquet
+from kernel.units import RPM_PER_RAD_S, unit_of
 from optimize.system.system import shipped_system_path
 
 # a value of the file that is not ASCII, so the encodings differ in bytes
@@ -77,6 +77,20 @@ def test_utf8_with_byte_order_mark_reads_and_toml_error_names_its_line(tmp_path)
     with pytest.raises(InputError) as err:
         read_toml(path, what="site file")
     assert err.value.line == 2 and "site file is not valid TOML" in str(err.value)
+
+
+def test_json_reader_names_file_line_and_what(tmp_path):
+    path = tmp_path / "run.json"
+    path.write_text('{"a": 1,\n "b": [1, 2,]}', encoding="utf-8")
+    with pytest.raises(InputError) as err:
+        read_json(path, what="run record")
+    assert err.value.path == path and err.value.line == 2
+    assert "not valid JSON" in err.value.describe() and "run record" in err.value.describe()
+    path.write_bytes('{"h\u00f6he_m": 1}'.encode("utf-16"))
+    with pytest.raises(InputError, match="UTF-16"):
+        read_json(path)
+    path.write_text('\ufeff{"h\u00f6he_m": 1.5}', encoding="utf-8")
+    assert read_json(path) == {"h\u00f6he_m": 1.5}
 
 
 def test_json_writer_nulls_non_finite_and_keeps_old_file_on_failure(tmp_path):

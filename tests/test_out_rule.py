@@ -11,9 +11,9 @@ from pathlib import Path
 import pytest
 
 from bench.cli import main
-from bench.errors import InputError
-from bench.locking import output_lock
-from bench.output_folder import check_output_folder, check_replaceable, output_folder
+from kernel.errors import InputError
+from kernel.locking import output_lock
+from kernel.output_folder import check_output_folder, check_replaceable, output_folder
 
 
 @pytest.mark.parametrize("victim", ["store/manifest.json", "notes.html", "fit_out"])
@@ -47,7 +47,7 @@ def test_report_out_replaces_an_earlier_report(tmp_path, capsys):
 
 def _write_other_run(target, stage):
     """Another process writes ``target`` whole as ``stage`` (as a concurrent run would)."""
-    code = ("import sys; from bench.output_folder import output_folder\n"
+    code = ("import sys; from kernel.output_folder import output_folder\n"
             "with output_folder(sys.argv[1], sys.argv[2]) as d:\n"
             "    (d / 'other.txt').write_text('other run')\n")
     subprocess.run([sys.executable, "-c", code, str(target), stage], check=True,
@@ -73,7 +73,7 @@ def test_a_run_that_another_wrote_over_meanwhile_stops(tmp_path):
 
 def test_a_writer_waits_for_or_stops_at_another(tmp_path):
     target = tmp_path / "fit"
-    code = ("import sys; from bench.locking import output_lock\n"
+    code = ("import sys; from kernel.locking import output_lock\n"
             "with output_lock(sys.argv[1], 'fit', wait=False): pass\n")
     with output_lock(target, "fit"):
         busy = subprocess.run([sys.executable, "-c", code, str(target)], capture_output=True,

@@ -1,5 +1,5 @@
 """Every stage output folder is written whole and switched in one step; readers refuse a
-mixed one (bench/output_folder.py). tests/fitting/test_fit_atomic.py kills bench fit;
+mixed one (kernel/output_folder.py). tests/fitting/test_fit_atomic.py kills bench fit;
 benchmarks/output_kill.py runs the kill check at scale."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import os
 
 import pytest
 
-from bench.errors import InputError
-from bench.output_folder import RUN_FILE, check_output_folder, output_folder
+from kernel.errors import InputError
+from kernel.output_folder import RUN_FILE, check_output_folder, output_folder
 
 
 def test_folder_is_switched_whole(tmp_path):
@@ -31,7 +31,7 @@ def test_folder_is_switched_whole(tmp_path):
     assert sorted(p.name for p in out.rglob("*")) == ["a.txt", "b.txt", RUN_FILE, "sub"]
     run = json.loads((out / RUN_FILE).read_text())
     assert set(run["files"]) == {"a.txt", "sub/b.txt"} and run["stage"] == "demo"
-    # no staging left; the writer's lock file (bench.locking) stays beside the output
+    # no staging left; the writer's lock file (kernel.locking) stays beside the output
     assert sorted(p.name for p in tmp_path.iterdir()) == [".out.lock", "out"]
 
 

@@ -14,6 +14,8 @@ import pandas as pd
 import pytest
 from scipy import integrate, stats
 
+from fitting.model_file import load_power_model
+
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "python_api.md"
 
@@ -55,6 +57,13 @@ def test_walk_through_runs_as_written(tmp_path, monkeypatch):
     pd.testing.assert_frame_equal(sweep.summary.reset_index(drop=True),
                                   pd.read_parquet(tmp_path / "optimize_out" / "summary.parquet"))
     assert sweep.summary["success"].all(), sweep.summary[["scenario", "status"]]
+    # the model object flew as given: written once, with the results, named by the manifest
+    manifest = json.loads((tmp_path / "optimize_out" / "manifest.json").read_text())
+    written = tmp_path / "optimize_out" / "power_model.json"
+    assert manifest["drive_model"]["path"] == str(written.absolute())
+    assert manifest["drive_model"]["model_sha256"] == model.sha256
+    assert load_power_model(written).sha256 == model.sha256
+    assert not (tmp_path / "optimize_out" / "given_power_model.json").exists()
     p_elec = sweep.summary["avg_p_elec_w"].to_numpy()
     assert (p_elec < 0).all() and (sweep.summary["avg_p_mech_w"].to_numpy() < p_elec).all()
     # aep: the file agrees with the returned table, and with the integral of the linear

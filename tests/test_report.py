@@ -23,10 +23,11 @@ import pandas as pd
 import pytest
 
 from bench.cli import main
-from bench.files import write_text_atomic
 from fitting.figures import efficiency_grid
 from fitting.model_file import save_power_model
 from fitting.power_model import PowerModel
+from kernel.files import write_text_atomic
+from kernel.provenance import Provenance
 from optimize.paper_model import paper_model
 from reports import cycle_figures
 from reports.render import build_context, build_report, render
@@ -110,7 +111,7 @@ def write_fit(fit: Path, points: pd.DataFrame) -> PowerModel:
         nominal_power_w=8200.0, name="test model (paper Table I)",
         masking={"mech_frac": 0.02, "elec_frac": 0.02,
                  "rules": ["negative efficiency -> 0", "|P_mech| < 0.02 * 8200 W -> masked"]},
-        provenance={"command": "bench fit --store s --out f --order 2"},
+        provenance={"command_line": ["bench", "fit", "--store", "s", "--out", "f"]},
     )
     save_power_model(model, fit / "power_model.json")
     s, t = np.meshgrid(np.arange(-3000, 1501, 100.0), np.arange(0, 79, 2.0), indexing="ij")
@@ -129,7 +130,8 @@ def write_fit(fit: Path, points: pd.DataFrame) -> PowerModel:
     pd.DataFrame({"candidate": ["paper eq. 4", "order 3"], "n_terms": [4, 10],
                   "cv_rmse_w": [121.0, 123.5], "bic": [100.0, 140.0], "chosen": [True, False]}
                  ).to_parquet(fit / "selection.parquet", index=False)
-    summary = {"efficiency": {
+    summary = {"provenance": Provenance.start(["bench", "fit", "--store", "s"]).header(),
+               "efficiency": {
         "band_shares": [{"quadrant": "motor", "band": "0.80-0.85", "area_share": 0.25},
                         {"quadrant": "generator", "band": "0.80-0.85", "area_share": 0.5}],
         "peak": {"motor": {"map": {"speed_rpm": 1500.0, "torque_nm": 40.0, "eta": 0.93}}}}}
@@ -181,7 +183,8 @@ def write_optimize(opt: Path, model_sha256: str = "") -> pd.DataFrame:
     pd.concat(trajs, ignore_index=True).to_parquet(opt / "trajectories.parquet", index=False)
     (opt / "manifest.json").write_text(json.dumps(
         {"schema": "drivebench.optimize", "wind_speeds_m_s": list(WINDS),
-         "command_line": ["bench", "optimize", "--wind-grid", "4:10:1.5"],
+         "provenance": Provenance.start(["bench", "optimize", "--wind-grid", "4:10:1.5"]
+                                        ).header(),
          "drive_model": {"path": "fit/power_model.json", "model_sha256": model_sha256,
                          "name": "test model"},
          "cut_in": [{"kind": "elec-lim", "cut_in_m_s": 4.7947, "bracket_lo_m_s": 4.75,
@@ -322,8 +325,9 @@ def test_provenance_hashes_every_input(full_inputs):
         assert rec["sha256"] == hashlib.sha256(Path(rec["path"]).read_bytes()).hexdigest()
     names = {Path(r["path"]).name for r in prov["inputs"]}
     assert {"manifest.json", "power_model.json", "summary.parquet", "claims.csv"} <= names
-    stages = {c["stage"] for c in prov["commands"]}
-    assert {"report", "fit", "optimize"} <= stages
+    commands = {c["stage"]: c["command"] for c in prov["commands"]}
+    assert {"report", "fit", "optimize"} <= set(commands)
+    assert commands["optimize"] == "bench optimize --wind-grid 4:10:1.5"
     assert {p for p, _ in prov["packages"]} >= {"numpy", "casadi", "drivebench"}
 
 
@@ -359,7 +363,7 @@ def test_bad_manifest_is_an_input_error_and_keeps_the_old_report(tmp_path, capsy
     err = capsys.readouterr().err
     assert "manifest.json:1: not valid JSON" in err
     assert out.read_text(encoding="utf-8") == previous
-    # no temporary file left; the writer's lock file (bench.locking) stays
+    # no temporary file left; the writer's lock file (kernel.locking) stays
     assert [p.name for p in tmp_path.glob(".r.html.*")] in ([], [".r.html.lock"])
 
 
@@ -486,8 +490,8 @@ def test_cycles_outside_the_validity_domain_are_listed():
         "outside_worst_torque_nm": [60.0, math.nan, math.nan],
         "outside_worst_distance": [0.8333, 0.0, math.nan]})
     rows = domain_rows(summary)
-    assert rows == ["elec-lim-5.5: 50.0 % of the cycle time outside; worst at -1200 rpm, "
-                    "60.0 N m (distance 0.833 of the drive rating)"]
+    assert rows == ["elec-lim-5.5: 50.0 % of the cycle time outside the drive model's validity "
+                    "domain; worst at -1200 rpm, 60.0 N m (distance 0.833 of the drive rating)"]
     inside = summary.assign(outside_domain_time_frac=[0.0, 0.0, math.nan])
     assert domain_rows(inside) == []
     assert domain_rows(summary.drop(columns="outside_domain_time_frac")) is None

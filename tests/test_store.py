@@ -11,12 +11,12 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from bench.errors import InputError
 from bench.store.lock import StoreBusy
 from bench.store.manifest import empty_manifest, kind_files, read_manifest
 from bench.store.read import consistent_read, read_points, read_rejected
 from bench.store.schema import POINTS_SCHEMA, REJECTED_SCHEMA
 from bench.store.writer import StoreWriter
+from kernel.errors import InputError
 
 
 def _points(sid: str, n: int) -> pa.Table:

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from bench.errors import InputError
+from kernel.errors import InputError
 from optimize.problem.scenario import scenario_name
 from optimize.service import ChainTask, Problem, Solver, make_tasks, run_chain, run_sweep
 from optimize.service.cut_in import find_cut_in
@@ -363,9 +363,10 @@ def test_request_falls_back_to_the_paper_model(tmp_path):
     from fitting.model_file import save_power_model
     from optimize.command import make_request
     from optimize.paper_model import PAPER_MODEL_PATH, paper_model
+    from optimize.sweep_options import WindGrid
 
     def request(fit):
-        return make_request(parse_wind_grid("5:6:0.5"), parse_kinds("mech-free"),
+        return make_request(WindGrid.parse("5:6:0.5", "mech-free"),
                             fit_default=fit, out=tmp_path / "out")
 
     req = request(tmp_path / "fit_out" / "power_model.json")
@@ -423,7 +424,7 @@ def test_run_optimize_writes_every_file(tmp_path):
     from optimize.command import SweepRequest, run_optimize
     from optimize.paper_model import PAPER_MODEL_PATH, paper_model
     from optimize.problem.options import OcpOptions
-    from optimize.sweep.outputs import field_units, read_summary
+    from optimize.sweep_folder import field_units, read_summary
 
     out = tmp_path / "optimize_out"
     request = SweepRequest(
@@ -453,9 +454,9 @@ def test_run_optimize_writes_every_file(tmp_path):
         manifest["drive_model"]["file_sha256"]
         == hashlib.sha256(PAPER_MODEL_PATH.read_bytes()).hexdigest()
     )
-    assert manifest["command_line"] == ["bench", "optimize"]
+    assert manifest["provenance"]["command_line"] == ["bench", "optimize"]
     assert manifest["options"]["discretization"]["n_intervals"] == 40
-    assert manifest["package_versions"]["casadi"]
+    assert manifest["provenance"]["versions"]["casadi"]
     assert [len(c["scenarios"]) for c in manifest["chains"]] == [3, 3]
     # the cut-in search recovered the stand-in's crossings (4.8 and 5.5 m/s) and the
     # claims table says so
@@ -591,7 +592,8 @@ def test_a_local_optimum_off_the_curve_is_resolved_from_its_neighbour():
     assert "better optimum, kept" in resolve_lines([mid])[0]  # the manifest's local_optima
     import pandas as pd
 
-    from optimize.command import format_summary, resolve_lines_of
+    from optimize.command import format_summary
+    from optimize.sweep_folder import resolve_lines_of
 
     frame = pd.DataFrame([{"scenario": mid.name, **row}])
     line = "elec-free-7.0: re-solved from elec-free-5.5: better by 300.0 W, kept"

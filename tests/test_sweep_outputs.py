@@ -9,19 +9,14 @@ import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 
-from bench.errors import InputError
-from bench.files import write_parquet
-from bench.units import unit_of
+from kernel.errors import InputError
+from kernel.files import write_parquet
+from kernel.units import unit_of
 from optimize.model import kite_model as km
 from optimize.service.outcome import Attempt, ScenarioOutcome
 from optimize.solve.result import OUTPUT_UNITS
-from optimize.sweep.outputs import (
-    SUMMARY_COLUMNS,
-    field_units,
-    read_summary,
-    summary_frame,
-    trajectories_frame,
-)
+from optimize.sweep.outputs import summary_frame, trajectories_frame
+from optimize.sweep_folder import SUMMARY_COLUMNS, field_units, read_summary
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from bench.errors import InputError
+from kernel.errors import InputError
 from optimize.paper_model import paper_model
 from optimize.problem.options import OcpOptions, with_drive_rating
 from optimize.system.drive_in_force import drive_in_force

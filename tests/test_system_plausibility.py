@@ -10,7 +10,7 @@ import tomllib
 
 import pytest
 
-from bench.errors import InputError
+from kernel.errors import InputError
 from optimize.system.plausibility import check_drive_holds_kite
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import load_system, system_from_dict

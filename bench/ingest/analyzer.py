@@ -10,7 +10,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from bench.errors import InputError
 from bench.ingest import align, checks, steady
 from bench.ingest.csv_layout import line_of_row
 from bench.ingest.daq_stream import DaqStream
@@ -19,6 +18,7 @@ from bench.ingest.readers import read_analyzer
 from bench.ingest.scan import Binned, PeakSample
 from bench.ingest.scrub import NanRunCheck, TimeCheck
 from bench.ingest.session import Session
+from kernel.errors import InputError
 
 #: smallest |correlation| of analyzer and DAQ power steps that counts as aligned [-]
 MIN_ALIGN_CORRELATION = 0.3

@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from bench.ingest import steady
-from bench.units import RPM_PER_RAD_S
+from kernel.units import RPM_PER_RAD_S
 
 
 class StreamBins:

@@ -32,9 +32,9 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import binom
 
-from bench.errors import InputError
 from bench.ingest.column_units import QUANTITY_KIND, TARGET_UNIT, alternatives
-from bench.units import RPM_PER_RAD_S
+from kernel.errors import InputError
+from kernel.units import RPM_PER_RAD_S
 
 #: a point may read up to this multiple of a sensor's range (overload) [-]
 RANGE_MARGIN = 1.25

@@ -30,13 +30,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Ingest (:func:`drivebench.api.ingest`), then print the summary table; InputError
-    propagates to the dispatcher."""
-    from drivebench.api import ingest
+    """Ingest (:func:`bench.ingest.pipeline.ingest`), then print the summary table;
+    InputError propagates to the dispatcher."""
+    from bench.ingest.pipeline import ingest
 
-    result = ingest(args.paths, args.store, mapping=args.mapping,
+    result = ingest(args.paths, args.store, mapping_path=args.mapping,
                     progress=not args.no_progress, workers=args.workers, strict=args.strict,
-                    wait=not args.no_wait, replace=not args.no_replace, notify=to_stderr).run
+                    wait=not args.no_wait, replace=not args.no_replace, notify=to_stderr,
+                    command_line=args.command_line)
     print(format_summary(result.ingested, result.unchanged, result.manifest,
                          result.repaired))
     print(f"store: {result.store_dir}")

@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 import re
 
-from bench.units import RPM_PER_RAD_S
+from kernel.units import RPM_PER_RAD_S
 
 #: our unit per quantity (the unit in the store's column name)
 TARGET_UNIT: dict[str, str] = {

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.errors import InputError
 from bench.ingest import clock
 from bench.ingest.scrub import NULL_MARKERS
+from kernel.errors import InputError
 
 _SNIFF_BYTES = 64 * 1024
 

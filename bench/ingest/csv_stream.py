@@ -12,11 +12,11 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pacsv
 
-from bench.errors import InputError
 from bench.ingest import clock
 from bench.ingest.csv_layout import MAX_LINE_BYTES, CsvLayout, is_number, line_at, split_cells
 from bench.ingest.mapping import COUNTER, ResolvedColumn
 from bench.ingest.scrub import NULL_MARKERS, scrub
+from kernel.errors import InputError
 
 #: CSV bytes parsed per chunk; bounds the memory of the first pass [B]
 CHUNK_BYTES = 16 * 1024 * 1024

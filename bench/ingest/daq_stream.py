@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.errors import InputError
 from bench.ingest import clock
 from bench.ingest.csv_layout import line_of_row, sniff_csv
 from bench.ingest.csv_stream import (
@@ -30,6 +29,7 @@ from bench.ingest.mapping import (
 )
 from bench.ingest.scrub import scrub
 from bench.ingest.temperature import TEMPERATURES
+from kernel.errors import InputError
 
 
 @dataclass

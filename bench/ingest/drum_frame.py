@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.errors import InputError
 from bench.ingest.session import Session
+from kernel.errors import InputError
 
 
 def to_drum_frame(session: Session, speed, torque):

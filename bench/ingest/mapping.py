@@ -10,15 +10,12 @@ instruments need no mapping file; p_mech is only ever taken from a mapping.
 from __future__ import annotations
 
 import difflib
-import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from bench.errors import InputError
-from bench.files import parse_toml, read_text
 from bench.ingest import expr
 from bench.ingest.column_units import (
     ACCEPTED,
@@ -30,6 +27,8 @@ from bench.ingest.column_units import (
 )
 from bench.ingest.temperature import ALIASES as TEMPERATURE_ALIASES
 from bench.ingest.temperature import TEMPERATURES
+from kernel.errors import InputError
+from kernel.files import parse_json, parse_toml, read_text
 
 #: file sections a mapping may describe, and the quantities each may name
 SECTION_QUANTITIES: dict[str, tuple[str, ...]] = {
@@ -140,11 +139,7 @@ def load_mapping(path: str | Path) -> Mapping:
     path = Path(path)
     text = read_text(path, what="mapping file")
     if path.suffix.lower() == ".json":
-        try:
-            raw = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise InputError(path, f"not a valid mapping file ({exc})", line=exc.lineno,
-                             expected="TOML or JSON") from exc
+        raw = parse_json(text, path, what="mapping file")
     else:
         raw = parse_toml(text, path, what="mapping file")
     if not isinstance(raw, dict):

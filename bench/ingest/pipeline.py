@@ -13,7 +13,7 @@ from __future__ import annotations
 import os
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -22,9 +22,6 @@ from pathlib import Path
 import pyarrow.parquet as pq
 from tqdm import tqdm
 
-from bench.drive import find_drive_file, session_drive
-from bench.errors import InputError
-from bench.files import WRITE_ERRNOS, file_sha256
 from bench.ingest.checks import efficiency_flags
 from bench.ingest.csv_stream import CHUNK_BYTES
 from bench.ingest.mapping import EMPTY_MAPPING, load_mapping
@@ -35,6 +32,10 @@ from bench.ingest.table import process_table
 from bench.ingest.timeseries import process_timeseries
 from bench.store.manifest import read_manifest
 from bench.store.writer import StoreWriter
+from kernel.drive_rating import find_drive_file, session_drive
+from kernel.errors import InputError
+from kernel.files import WRITE_ERRNOS, file_sha256
+from kernel.provenance import Provenance
 
 #: bump when ingest would compute different points from the same files; sessions
 #: stored by another version are re-ingested
@@ -126,6 +127,7 @@ def ingest(
     wait: bool = True,
     replace: bool = True,
     notify: Callable[[str], None] = to_stderr,
+    command_line: Sequence[str] = ("drivebench.ingest",),
 ) -> IngestResult:
     """Ingest every session under ``paths`` into the store at ``store_dir``.
 
@@ -158,6 +160,8 @@ def ingest(
         naming them before anything changes.
     notify : callable
         Receives the lines that say what happens besides the summary.
+    command_line : sequence of str
+        Recorded in the store manifest's provenance header (:mod:`kernel.provenance`).
 
     Returns
     -------
@@ -172,7 +176,8 @@ def ingest(
     user_mapping = _checked_options(mapping_path, store_dir)
     sessions, seen, drives = _load_sessions(paths, notify)
     result = IngestResult(store_dir=store_dir)
-    with StoreWriter(store_dir, wait=wait, notify=notify) as writer:
+    with StoreWriter(store_dir, wait=wait, notify=notify,
+                     provenance=Provenance.start(command_line)) as writer:
         _say_store_problems(writer, notify)
         # hashing runs in a background thread (hashlib releases the GIL); a session
         # already in the manifest waits for its hashes to decide whether it changed

@@ -20,7 +20,7 @@ from bench.ingest.session import Session
 from bench.ingest.store_tables import points_table
 from bench.ingest.temperature import STORE_COLUMN
 from bench.store.schema import SAMPLES_SCHEMA, TEMPERATURE_COLUMNS
-from bench.units import RPM_PER_RAD_S
+from kernel.units import RPM_PER_RAD_S
 
 #: samples per chunk in the second pass (about 80 bytes of arrays each) [-]
 PASS2_ROWS = 500_000

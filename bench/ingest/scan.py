@@ -17,7 +17,6 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.errors import InputError
 from bench.ingest import steady, tare
 from bench.ingest.bins import StreamBins
 from bench.ingest.daq_stream import DaqStream
@@ -25,6 +24,7 @@ from bench.ingest.drum_frame import drum_ranges, to_drum_frame
 from bench.ingest.scrub import NanRunCheck, TimeCheck
 from bench.ingest.session import Session
 from bench.ingest.temperature import TEMPERATURES, TemperatureCheck
+from kernel.errors import InputError
 
 
 def _disk_full(path: Path, why: str) -> None:

@@ -13,7 +13,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from bench.errors import InputError
+from kernel.errors import InputError
 
 #: cell texts read as "no value" (matched exactly by the CSV parser)
 NULL_MARKERS: tuple[str, ...] = (

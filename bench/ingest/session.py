@@ -9,9 +9,9 @@ from dataclasses import dataclass, replace
 from datetime import date, datetime
 from pathlib import Path, PurePath
 
-from bench.errors import InputError
-from bench.files import bad_number_at, read_toml
 from bench.store.schema import STAGING_PREFIX
+from kernel.errors import InputError
+from kernel.files import bad_number_at, read_toml
 
 SESSION_FILE = "session.toml"
 

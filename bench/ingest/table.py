@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 
-from bench.errors import InputError
 from bench.ingest import checks, steady
 from bench.ingest.csv_layout import line_of_row
 from bench.ingest.drum_frame import check_drum_torque, fold_signed
@@ -14,7 +13,8 @@ from bench.ingest.mapping import Mapping
 from bench.ingest.readers import read_points_table
 from bench.ingest.session import Session
 from bench.ingest.store_tables import SessionOutput, points_table, rejected_table
-from bench.units import RPM_PER_RAD_S
+from kernel.errors import InputError
+from kernel.units import RPM_PER_RAD_S
 
 #: the largest count stored exactly (float64 integers are exact up to 2**53)
 MAX_COUNT = 2**53

@@ -21,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.errors import InputError
 from bench.ingest.column_units import unit_offset
 from bench.store.schema import TEMPERATURE_COLUMNS
+from kernel.errors import InputError
 
 #: our temperature quantities (mapping keys and header aliases: docs/schemas.md section 1)
 TEMPERATURES: tuple[str, ...] = ("t_winding", "t_housing", "t_coolant", "t_ambient")

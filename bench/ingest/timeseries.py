@@ -21,7 +21,6 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.errors import InputError
 from bench.ingest import checks, steady
 from bench.ingest.analyzer import (
     AlignedPower,
@@ -40,6 +39,7 @@ from bench.ingest.samples_file import write_samples
 from bench.ingest.scan import Binned, StreamScan, bin_stream, scan_stream
 from bench.ingest.session import Session
 from bench.ingest.store_tables import SessionOutput, rejected_table
+from kernel.errors import InputError
 
 
 def open_stream(session: Session, mapping: Mapping, chunk_bytes: int) -> DaqStream:

@@ -12,9 +12,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from bench.errors import InputError
 from bench.store.damage import check_store
 from bench.store.manifest import read_manifest
+from kernel.errors import InputError
 
 #: exit code of ``bench store check`` when a listed file cannot be trusted
 EXIT_DAMAGED = 1

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pyarrow.parquet as pq
 
-from bench.files import recorded_mismatch
 from bench.store.manifest import listed_files, read_manifest
 from bench.store.schema import GENERATION_RE, KINDS, STAGING_PREFIX
+from kernel.files import recorded_mismatch
 
 
 @dataclass

@@ -1,5 +1,5 @@
 """One writer at a time: an exclusive lock on ``<store>/.lock`` holding the writer's pid
-(the flock of :mod:`bench.locking`, which every stage's output uses too)."""
+(the flock of :mod:`kernel.locking`, which every stage's output uses too)."""
 
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ import os
 from collections.abc import Callable
 from pathlib import Path
 
-from bench.errors import InputError
-from bench.files import WRITE_ERRNOS
-from bench.locking import lock_fd, read_holder, write_pid
 from bench.store.schema import LOCK_FILE
+from kernel.errors import InputError
+from kernel.files import WRITE_ERRNOS
+from kernel.locking import lock_fd, read_holder, write_pid
 
 
 class StoreBusy(InputError):

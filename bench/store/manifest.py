@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
-from bench.errors import InputError
-from bench.files import dumps_json
 from bench.store.schema import GENERATION_RE, READABLE_VERSIONS, SCHEMA_NAME, SCHEMA_VERSION
+from kernel.errors import InputError
+from kernel.files import dumps_json, read_json
 
 
 def empty_manifest() -> dict:
@@ -30,10 +29,7 @@ def read_manifest(store_dir: str | Path) -> dict:
     path = Path(store_dir) / "manifest.json"
     if not path.exists():
         return empty_manifest()
-    try:
-        manifest = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(path, f"unreadable store manifest ({exc})") from exc
+    manifest = read_json(path, what="store manifest")
     if (not isinstance(manifest, dict) or manifest.get("schema") != SCHEMA_NAME
             or manifest.get("schema_version") not in READABLE_VERSIONS
             or not isinstance(manifest.get("sessions"), dict)):

@@ -14,10 +14,10 @@ from typing import TypeVar
 
 import pandas as pd
 
-from bench.errors import InputError
-from bench.files import raise_mismatches, recorded_mismatch
 from bench.store.manifest import kind_files, read_manifest
 from bench.store.schema import SCHEMAS
+from kernel.errors import InputError
+from kernel.files import raise_mismatches, recorded_mismatch
 
 #: times a reader starts over when a writer removed a generation under it
 READ_RETRIES = 5

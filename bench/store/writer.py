@@ -15,12 +15,13 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-from bench.errors import InputError
-from bench.files import WRITE_ERRNOS, file_sha256, fsync_path, write_text_durable
 from bench.store.damage import StoreDamage, check_store
 from bench.store.lock import StoreLock
 from bench.store.manifest import dumps, empty_manifest, kind_files, read_manifest
 from bench.store.schema import GENERATION_RE, KINDS, SCHEMA_NAME, SCHEMA_VERSION, STAGING_PREFIX
+from kernel.errors import InputError
+from kernel.files import WRITE_ERRNOS, file_sha256, fsync_path, write_text_durable
+from kernel.provenance import HEADER_KEY, Provenance
 
 
 def _link_or_copy(src: Path, dest: Path) -> None:
@@ -95,8 +96,11 @@ class StoreWriter:
     """
 
     def __init__(self, store_dir: str | Path, wait: bool = True,
-                 notify: Callable[[str], None] | None = None) -> None:
+                 notify: Callable[[str], None] | None = None,
+                 provenance: Provenance | None = None) -> None:
         self.store = Path(store_dir)
+        #: the provenance header of the manifest this writer commits (:mod:`kernel.provenance`)
+        self.provenance = provenance or Provenance.start(sys.argv)
         self._lock = StoreLock(self.store, wait,
                                notify or (lambda msg: print(msg, file=sys.stderr, flush=True)))
         self.committed = False
@@ -232,6 +236,7 @@ class StoreWriter:
         self.require_repair(entries)
         build = self.stage / gen
         new = {"schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION, "generation": gen,
+               HEADER_KEY: self.provenance.header(),
                "sessions": _fill_generation(build, self.store, old, kept, staged, entries)}
         try:
             text = dumps(new)

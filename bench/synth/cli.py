@@ -6,8 +6,8 @@ import argparse
 import time
 from pathlib import Path
 
-from bench.errors import InputError
 from bench.synth.campaign import DEFAULT_SEED, generate, is_complete
+from kernel.errors import InputError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.units import RPM_PER_RAD_S
+from kernel.units import RPM_PER_RAD_S
 
 
 def loss_w(speed_rpm, torque_nm, c0: float, c_speed: float, c_torque: float):

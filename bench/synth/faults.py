@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bench.units import RPM_PER_RAD_S
+from kernel.units import RPM_PER_RAD_S
 
 HUNTING = "brake hunting"
 DRIFT = "torque drift"

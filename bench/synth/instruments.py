@@ -15,7 +15,7 @@ from scipy import signal
 from bench.synth.loss_model import LossModel
 from bench.synth.plan import GEAR_RATIO, SessionSpec
 from bench.synth.true_signals import Segments, true_signals
-from bench.units import RPM_PER_RAD_S
+from kernel.units import RPM_PER_RAD_S
 
 #: the overflow value many instruments write for an invalid reading
 OVERFLOW = 9.91e37

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bench.units import RPM_PER_RAD_S
+from kernel.units import RPM_PER_RAD_S
 
 #: paper Table I (docs/paper_figures.md §1), rpm convention: a0 [W], a1 [W/rpm^2],
 #: a2 [W/(N m)^2], a3 [W/(rpm N m)]

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bench.drive import DriveRating
-from bench.units import RPM_PER_RAD_S
+from kernel.drive_rating import DriveRating
+from kernel.units import RPM_PER_RAD_S
 
 MOTOR_SPEED_RPM = (50.0, 1500.0)
 GENERATOR_SPEED_RPM = (30.0, 3000.0)  # magnitudes; drum speed is negative

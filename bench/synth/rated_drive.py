@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from bench.units import RPM_PER_RAD_S
+from kernel.units import RPM_PER_RAD_S
 
 
 @dataclass(frozen=True)
@@ -141,8 +141,8 @@ def write_table_campaign(folder, drive: TruthDrive, points: pd.DataFrame,
     """
     from pathlib import Path
 
-    from bench.drive import DRIVE_FILE, DriveRating, drive_toml
-    from bench.files import write_text_atomic
+    from kernel.drive_rating import DRIVE_FILE, DriveRating, drive_toml
+    from kernel.files import write_text_atomic
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)

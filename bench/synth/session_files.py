@@ -14,13 +14,13 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from bench.files import write_text_atomic
 from bench.synth import instruments as ins
 from bench.synth.loss_model import LossModel
 from bench.synth.plan import GEAR_RATIO, SessionSpec
 from bench.synth.true_signals import Segments
 from bench.synth.winding_sensor import KELVIN_AT_0C, WindingSensor
 from bench.synth.writers import CsvStream, TdmsStream, toml_document
+from kernel.files import write_text_atomic
 
 DAQ_CHUNK_ROWS = 500_000
 ANALYZER_CHUNK_ROWS = 200_000

@@ -21,7 +21,7 @@ import numpy as np
 
 from bench.synth.faults import Faults, speed_torque_offsets
 from bench.synth.loss_model import LossModel, loss_w, theta_step, true_p_elec_w
-from bench.units import RPM_PER_RAD_S
+from kernel.units import RPM_PER_RAD_S
 
 
 @dataclass(frozen=True)

@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
 
-from bench.files import commit, discard, temp_path
 from bench.synth.numfmt import format_rows
+from kernel.files import commit, discard, temp_path
 
 
 def toml_value(value) -> str:

@@ -16,7 +16,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from bench.units import RPM_PER_RAD_S
+from kernel.units import RPM_PER_RAD_S
 
 
 class DriveModel(Protocol):

@@ -17,7 +17,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from bench.units import RPM_PER_RAD_S
+from kernel.units import RPM_PER_RAD_S
 
 #: the table's kinks are rounded over this fraction of its last speed (the envelope
 #: stays below the table, and within ln 2 * this * |slope change| of it)

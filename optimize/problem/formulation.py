@@ -23,7 +23,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from bench.units import RPM_PER_RAD_S
+from kernel.units import RPM_PER_RAD_S
 from optimize.model.drivetrain import (
     DriveModel,
     Drivetrain,

@@ -11,7 +11,7 @@ its planned source and fallbacks, of any kind of the chain), then, as asked:
 * searches the cut-in wind speed of some kinds by bisection
   (:func:`optimize.service.cut_in.find_cut_in`);
 * refines the wind grid of one kind where its power curve bends for a site
-  (:class:`Refinement`, :func:`energy.adaptive.refine_grid`).
+  (:class:`Refinement`, with the grid rule its caller hands in).
 
 ``bench optimize``, ``bench size`` and ``bench aep --refine`` all run their
 solves through this loop (:mod:`optimize.service.run`).
@@ -43,9 +43,12 @@ class Refinement:
     kind : str
     site : Weibull or Histogram
         The wind distribution (:mod:`energy.site`).
+    grid : callable
+        ``grid(power, start, site, known=, tol=, max_points=)``: picks the added speeds
+        (:func:`energy.adaptive.refine_grid`, handed in by the caller: the service does
+        not import the energy stage above it). A module-level function (picklable).
     tol, max_points : float or None, int or None
-        :func:`energy.adaptive.refine_grid`'s stop criterion and grid cap (None: its
-        defaults).
+        ``grid``'s stop criterion and grid cap (None: its defaults).
     known : tuple of (float, float, ...)
         Points known without solving: wind [m/s], then one power [W] per curve of
         ``curves`` (e.g. the sweep's grid); their speeds are not solved.
@@ -58,6 +61,7 @@ class Refinement:
 
     kind: str
     site: Any
+    grid: Callable[..., Any]
     tol: float | None = None
     max_points: int | None = None
     known: tuple[tuple[float, ...], ...] = ()
@@ -107,8 +111,6 @@ class ChainTask:
 
 
 def _refine(solver: Solver, r: Refinement, start: tuple[float, ...]) -> None:
-    from energy.adaptive import refine_grid
-
     known = {float(w): (p[0] if len(p) == 1 else tuple(p)) for w, *p in r.known}
 
     def power(wind: float) -> Any:
@@ -123,7 +125,7 @@ def _refine(solver: Solver, r: Refinement, start: tuple[float, ...]) -> None:
         return values[0] if len(values) == 1 else values
 
     limits = {k: v for k, v in (("tol", r.tol), ("max_points", r.max_points)) if v is not None}
-    refine_grid(power, start, r.site, known=known, **limits)
+    r.grid(power, start, r.site, known=known, **limits)
 
 
 def run_chain(task: ChainTask, progress: Any = None) -> ChainOutcome:

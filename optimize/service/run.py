@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -85,15 +86,15 @@ class SolveTask:
 
 def solve_tasks(tasks: Sequence[SolveTask], store: Path | None = None, *, workers: int = 2,
                 scheduler: str | None = None, handle: Any = None, backend: Any = None,
-                refine_site: Any = None,
+                refine: Callable[[str], Refinement] | None = None,
                 on_event: Callable[[dict], None] | None = None) -> list[dict]:
     """Solve every task; the records of each chain, sorted by wind speed, chain after chain.
 
     Tasks of one problem, kind and tag form one chain (one executor task), planned
     along the continuation order of their wind speeds
-    (:func:`optimize.sweep.plan.chain_steps`). With ``refine_site`` each chain then
-    adds the wind speeds where its electrical power curve bends for that site
-    (:class:`optimize.service.chain.Refinement`). ``store``, ``backend``: see
+    (:func:`optimize.sweep.plan.chain_steps`). With ``refine`` (kind -> its
+    :class:`optimize.service.chain.Refinement`) each chain then adds the wind speeds
+    where its electrical power curve bends for the refinement's site. ``store``, ``backend``: see
     :class:`optimize.service.chain.ChainTask`; ``handle``, ``workers``,
     ``scheduler``, ``on_event``: see :func:`run_chains`.
     """
@@ -103,9 +104,8 @@ def solve_tasks(tasks: Sequence[SolveTask], store: Path | None = None, *, worker
     chains = []
     for i, g in enumerate(groups.values()):
         winds = tuple(sorted({float(t.wind_speed_m_s) for t in g}))
-        refine = Refinement(g[0].kind, refine_site) if refine_site is not None else None
         chains.append(ChainTask(g[0].problem, chain_steps((g[0].kind,), winds), i, g[0].tag,
-                                store, backend, refine=refine))
+                                store, backend, refine=refine(g[0].kind) if refine else None))
     outs, _ = run_chains(chains, handle, workers=workers, scheduler=scheduler, on_event=on_event)
     return [rec for out in outs for rec in out.records]
 
@@ -132,6 +132,18 @@ class SweepResult:
     chains: tuple[ChainOutcome, ...]
     wall_time_s: float
     executor: str
+
+    def record(self) -> dict:
+        """The sweep's part of the optimize manifest (docs/schemas.md §5): where it ran, how
+        long, the scenarios that failed, each chain, the cut-in searches."""
+        return {
+            "executor": self.executor,
+            "wall_time_s": self.wall_time_s,
+            "failed": [o.name for o in self.outcomes if not o.success],
+            "chains": [{"chain": c.chain, "worker": c.worker, "build_time_s": c.build_time_s,
+                        "scenarios": [o.name for o in c.outcomes]} for c in self.chains],
+            "cut_in": [dataclasses.asdict(c) for c in self.cut_ins],
+        }
 
 
 def make_tasks(chains: tuple[Chain, ...], problem: Problem, cut_in_kinds: tuple[str, ...] = (),

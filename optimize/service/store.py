@@ -1,7 +1,7 @@
 """Finished solves stored under the hash of their inputs, so a re-run resumes.
 
 ``<key>.json`` holds a solve's record, ``<key>.npz`` its primal and dual vectors
-(the next solve's warm start), each written whole (:func:`bench.files.atomic_write`).
+(the next solve's warm start), each written whole (:func:`kernel.files.atomic_write`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from bench.files import atomic_write, write_json
+from kernel.files import atomic_write, write_json
 from optimize.kinds import KINDS
 
 #: bump when the meaning of a stored solve changes (invalidates every stored solve)

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.files import atomic_path
+from kernel.files import atomic_path
 from optimize.model.kite_model import kite_dae
 from optimize.paper_model import paper_model
 from optimize.problem.ocp import Ocp, build_ocp, twin

@@ -27,7 +27,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
-from bench.errors import InputError
+from kernel.errors import InputError
 
 
 class QueueChannel:

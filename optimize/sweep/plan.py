@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from bench.errors import InputError
+from kernel.errors import InputError
 from optimize.kinds import KINDS
 from optimize.problem.scenario import scenario_name
 

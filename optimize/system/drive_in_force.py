@@ -7,7 +7,7 @@ where its losses come from. :func:`drive_in_force` resolves both:
   file's ``losses`` key (``"paper"`` or a ``power_model.json`` path relative to
   the system file), else ``fit_out/power_model.json`` of ``bench fit`` when it
   exists, else the shipped paper model;
-- the **rating** (:class:`bench.drive.DriveRating`): each key of ``[drive]``; a
+- the **rating** (:class:`kernel.drive_rating.DriveRating`): each key of ``[drive]``; a
   key the file leaves out comes from the power model's own rating (said so);
 - how the losses are **carried** to the rating: ``scaling = "similarity"``
   (:func:`optimize.model.drivetrain.carry_power_model` with the speed ratio ``k_n`` of
@@ -24,8 +24,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from bench.drive import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS, DriveRating
-from bench.errors import InputError
+from kernel.drive_rating import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS, DriveRating
+from kernel.errors import InputError
 
 #: ``[drive] losses`` value naming the shipped paper model
 LOSSES_PAPER = "paper"

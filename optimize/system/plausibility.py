@@ -7,7 +7,7 @@ weight. The OCP would then spend minutes in IPOPT before failing, or "converge"
 to a cycle of a kite that cannot exist. :func:`check_system` runs when the file
 is read (:func:`optimize.system.system_file.system_from_dict`) and
 :func:`check_drive_holds_kite` once the drive limits in force are known; each
-raises :class:`~bench.errors.InputError` naming the file, the ``[section] key``
+raises :class:`~kernel.errors.InputError` naming the file, the ``[section] key``
 to look at, the value found and the range expected.
 
 The ranges are those of things that fly, not of the shipped files: they admit
@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from bench.errors import InputError
+from kernel.errors import InputError
 
 #: largest mass [kg]: the An-225's 640 t maximum take-off mass, the heaviest aircraft flown
 MAX_MASS_KG = 640e3

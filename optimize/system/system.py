@@ -263,7 +263,7 @@ class System:
         Parameters
         ----------
         options : optimize.problem.options.OcpOptions
-        rating : bench.drive.DriveRating
+        rating : kernel.drive_rating.DriveRating
             The drive in force (:func:`optimize.system.drive_in_force.drive_in_force`): speed and
             torque limits, nominal power, the RMS torque bound of its continuous
             rating (when below the torque limit) and the grid power limit.

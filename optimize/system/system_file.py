@@ -4,7 +4,7 @@
 :class:`optimize.system.system.System`; every error (unknown or missing key, wrong
 type, non-physical value such as a negative mass, an inertia that is not positive
 definite or a torque-speed table that is not monotone) is an
-:class:`~bench.errors.InputError` naming the file and the key (docs/system_file.md
+:class:`~kernel.errors.InputError` naming the file and the key (docs/system_file.md
 describes every key).
 """
 
@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from bench.errors import InputError
-from bench.files import parse_toml, read_text
+from kernel.errors import InputError
+from kernel.files import parse_toml, read_text
 from optimize.system.params import AeroCoefficients
 from optimize.system.plausibility import check_system
 from optimize.system.system import (

@@ -11,11 +11,12 @@ import pytest
 from fit_synthetic import PAPER_A, paper_quadratic, synthetic_points, write_store
 
 from bench.cli import main
-from bench.errors import InputError
 from fitting.loss_table import read_loss_table
 from fitting.model_file import load_power_model
 from fitting.pipeline import FitOptions
 from fitting.terms import PAPER_TERMS, full_polynomial
+from kernel.errors import InputError
+from kernel.provenance import command_text, read_header
 
 
 def test_fit_writes_every_output(paper_fits):
@@ -32,11 +33,17 @@ def test_fit_writes_every_output(paper_fits):
     assert model.covariance_rpm is not None
     assert set(model.domain) == {"motor", "generator"}
     assert model.masking["mech_frac"] == 0.02
-    assert model.provenance["points_sha256"] and "bench fit" in model.provenance["command"]
+    assert model.provenance["points_sha256"]
+    assert model.provenance["command_line"][:2] == ["bench", "fit"]
     assert model.statistics["residuals"]["all"]["std_w"] == pytest.approx(40.0, rel=0.1)
 
     summary = json.loads((out / "fit_summary.json").read_text())
     assert summary["model"]["sha256"] == model.sha256
+    # the provenance header (docs/schemas.md), its run id the folder's run.json's
+    header = read_header(summary)
+    assert header["command_line"] == model.provenance["command_line"]
+    assert "--order 2" in command_text(header) and header["versions"]["statsmodels"]
+    assert json.loads((out / "run.json").read_text())["provenance"] == header
     for name in summary["outputs"]:
         assert (out / name).is_file(), name
     for name in ("efficiency_map", "power_map", "residuals"):

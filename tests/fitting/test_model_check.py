@@ -8,13 +8,13 @@ import pytest
 from fit_synthetic import paper_quadratic, synthetic_points
 
 from bench.cli import main
-from bench.errors import InputError
 from fitting.domain import quadrant_envelopes
 from fitting.model_check import check_physics, physics_problems
 from fitting.model_file import save_power_model
 from fitting.points import quadrant_of
 from fitting.power_fit import fit_power_model
 from fitting.terms import full_polynomial
+from kernel.errors import InputError
 from optimize.paper_model import paper_model
 
 A0, A1, A2, A3 = paper_model().coefficients_rpm

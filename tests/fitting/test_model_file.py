@@ -9,9 +9,9 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from bench.errors import InputError
 from fitting.model_file import load_power_model, save_power_model
 from fitting.power_model import PowerModel
+from kernel.errors import InputError
 from optimize.paper_model import PAPER_MODEL_PATH, paper_model
 
 
@@ -31,7 +31,7 @@ def _odd_model() -> PowerModel:
         domain={"motor": [[0.0, 0.0], [1500.0, 0.0], [1500.0, 78.0]]},
         masking={"mech_frac": 0.01},
         statistics={"r2": 0.99},
-        provenance={"command": "test"},
+        provenance={"command_line": ["test"]},
         drive={"nominal_power_w": 8200.0, "max_speed_rpm": 3000.0, "max_torque_nm": 100.0,
                "source": "test"},
     )

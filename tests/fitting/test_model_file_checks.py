@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from bench.cli import main
-from bench.errors import InputError
 from fitting.model_file import load_power_model
 from fitting.power_model import covariance_problem
+from kernel.errors import InputError
 from optimize.paper_model import PAPER_MODEL_PATH, paper_model
 
 TERMS = paper_model().terms

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from fit_synthetic import PAPER_A, paper_quadratic, synthetic_points
 
-from bench.errors import InputError
 from fitting.power_fit import fit_power_model, quadrant_weights
 from fitting.terms import PAPER_TERMS, full_polynomial
+from kernel.errors import InputError
 
 NOISE_W = 0.016 * 8200  # the paper's residual std: 1.6 % of nominal power
 

@@ -13,8 +13,8 @@ import os
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
-from bench.errors import InputError
-from bench.files import WRITE_ERRNOS
+from kernel.errors import InputError
+from kernel.files import WRITE_ERRNOS
 
 
 def lock_fd(fd: int, block: bool) -> None:

@@ -3,7 +3,7 @@ a column from its name.
 
 Columns carry their unit in the name's suffix (``speed_rpm``, ``torque_nm``,
 ``p_elec_w``; docs/schemas.md); :func:`unit_of` reads it back for the Parquet
-field metadata every stage writes (:func:`bench.files.write_parquet`).
+field metadata every stage writes (:func:`kernel.files.write_parquet`).
 """
 
 from __future__ import annotations

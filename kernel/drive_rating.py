@@ -20,8 +20,8 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from bench.errors import InputError
-from bench.files import read_toml
+from kernel.errors import InputError
+from kernel.files import read_toml
 
 #: The rating keys, in drive.toml, session.toml, the manifest and power_model.json.
 DRIVE_KEYS = ("nominal_power_w", "max_speed_rpm", "max_torque_nm")

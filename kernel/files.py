@@ -23,7 +23,7 @@ from datetime import date, time
 from pathlib import Path
 from typing import Any
 
-from bench.errors import InputError
+from kernel.errors import InputError
 
 #: OS errors that mean "this place cannot be written", said plainly by the CLI
 WRITE_ERRNOS = {errno.EACCES: "permission denied", errno.EPERM: "operation not permitted",
@@ -167,6 +167,43 @@ def read_toml(path: str | Path, *, what: str = "file") -> dict:
     return parse_toml(read_text(path, what=what), path, what=what)
 
 
+def parse_json(text: str, path: str | Path | None, *, what: str = "file") -> Any:
+    """The value of JSON ``text`` read from ``path`` (named in the error).
+
+    Raises
+    ------
+    InputError
+        ``text`` is not valid JSON (with the line of the error), or holds a number
+        Python does not convert (an integer of thousands of digits).
+    """
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(path, f"not valid JSON: {exc.msg}", line=exc.lineno,
+                         expected=f"the {what} as JSON (https://www.json.org)") from None
+    except ValueError as exc:
+        raise InputError(path, f"not valid JSON: {exc}",
+                         expected=f"the {what} as JSON (https://www.json.org)") from None
+
+
+def read_json(path: str | Path, *, what: str = "file") -> Any:
+    """The value of a UTF-8 JSON file.
+
+    Parameters
+    ----------
+    path : str or Path
+    what : str
+        What the file is, for the error message (``"store manifest"``, ``"power model file"``).
+
+    Raises
+    ------
+    InputError
+        The file cannot be read, is not UTF-8 (see :func:`read_text`), or is not
+        valid JSON; the file, and the line when known, are named.
+    """
+    return parse_json(read_text(path, what=what), path, what=what)
+
+
 # ------------------------------------------------------------------ JSON and Parquet
 def json_safe(value: Any) -> Any:
     """Copy of nested dicts/lists/tuples with numpy scalars and arrays as Python
@@ -226,7 +263,7 @@ def write_parquet(path: str | Path, frame: Any, *, descriptions: dict[str, str] 
     """Write a DataFrame to Parquet atomically, each field carrying its unit.
 
     Every field's metadata gets ``{"unit": ...}`` (from the column name, see
-    :func:`bench.units.unit_of`; no key when the name has no unit) and, when
+    :func:`kernel.units.unit_of`; no key when the name has no unit) and, when
     given, ``{"description": ...}``.
 
     Parameters
@@ -242,7 +279,7 @@ def write_parquet(path: str | Path, frame: Any, *, descriptions: dict[str, str] 
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from bench.units import unit_of
+    from kernel.units import unit_of
 
     table = pa.Table.from_pandas(frame, preserve_index=False)
     fields = []

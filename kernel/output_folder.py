@@ -3,7 +3,8 @@
 A stage (``bench fit``, ``optimize``, ``aep``, ``size``) writes every file of its
 output folder into a staging sibling ``.<name>.staging-<pid>-*`` (same parent,
 same file system). When the stage succeeded, :func:`output_folder` writes
-``run.json`` there (a run id and the size and SHA-256 of every file), flushes
+``run.json`` there (the run's provenance header, :mod:`kernel.provenance`, and the
+size and SHA-256 of every file), flushes
 all of it to disk and puts it in place in one step: an atomic exchange of the
 two folders (``renameat2(RENAME_EXCHANGE)`` on Linux), or a plain rename when
 the target does not exist yet. A reader thus sees the old folder or the new
@@ -27,21 +28,22 @@ import errno
 import json
 import os
 import shutil
+import sys
 import tempfile
-import uuid
 from collections.abc import Callable, Iterator
-from datetime import UTC, datetime
 from pathlib import Path
 
-from bench.errors import InputError
-from bench.files import (
+from kernel.errors import InputError
+from kernel.files import (
     file_sha256,
     fsync_path,
     raise_mismatches,
+    read_json,
     recorded_mismatch,
     write_text_durable,
 )
-from bench.locking import output_lock
+from kernel.locking import output_lock
+from kernel.provenance import HEADER_KEY, Provenance
 
 RUN_FILE = "run.json"
 #: output folder -> run id it held when :func:`check_replaceable` passed (this process)
@@ -194,10 +196,9 @@ def _files(folder: Path, keep=()) -> list[Path]:
                   and p.relative_to(folder).parts[0] not in keep)
 
 
-def _record(folder: Path, stage: str, run_id: str, keep: tuple[str, ...]) -> dict:
+def _record(folder: Path, stage: str, provenance: Provenance, keep: tuple[str, ...]) -> dict:
     return {"schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION, "stage": stage,
-            "run_id": run_id,
-            "created_at": datetime.now(UTC).isoformat(timespec="seconds"),
+            "run_id": provenance.run_id, HEADER_KEY: provenance.header(),
             "kept": list(keep),
             "files": {p.relative_to(folder).as_posix(): {"bytes": p.stat().st_size,
                                                          "sha256": file_sha256(p)}
@@ -222,7 +223,8 @@ def _switch(stage_dir: Path, target: Path) -> None:
 
 @contextlib.contextmanager
 def output_folder(target: str | Path, stage: str, markers: tuple[str, ...] = (),
-                  option: str = "--out", keep: tuple[str, ...] = ()) -> Iterator[Path]:
+                  option: str = "--out", keep: tuple[str, ...] = (),
+                  provenance: Provenance | None = None) -> Iterator[Path]:
     """Yield a staging folder; when the block succeeds it replaces ``target`` whole.
 
     Parameters
@@ -239,6 +241,9 @@ def output_folder(target: str | Path, stage: str, markers: tuple[str, ...] = (),
         Subfolders of ``target`` the stage keeps from run to run and writes in
         place (a resumable store of solves): moved into the new folder at the
         switch, left out of ``run.json`` and of the readers' check.
+    provenance : Provenance, optional
+        The run's provenance (:mod:`kernel.provenance`), whose header and run id
+        ``run.json`` records; default a new one of this process's command line.
 
     Raises
     ------
@@ -257,12 +262,13 @@ def output_folder(target: str | Path, stage: str, markers: tuple[str, ...] = (),
         _check_unchanged(target, stage, option)
         check_replaceable(target, stage, markers, option, keep)
         _SEEN.pop(target, None)
-        with _staged(target, stage, keep) as staging:
+        with _staged(target, stage, keep, provenance) as staging:
             yield staging
 
 
 @contextlib.contextmanager
-def _staged(target: Path, stage: str, keep: tuple[str, ...]) -> Iterator[Path]:
+def _staged(target: Path, stage: str, keep: tuple[str, ...],
+            provenance: Provenance | None) -> Iterator[Path]:
     """Yield a staging folder beside ``target``; switch it in when the block succeeds."""
     for p in _leftovers(target, "staging"):
         shutil.rmtree(p, ignore_errors=True)
@@ -276,7 +282,7 @@ def _staged(target: Path, stage: str, keep: tuple[str, ...]) -> Iterator[Path]:
         for name in keep:
             if (target / name).is_dir() and not (staging / name).exists():
                 os.rename(target / name, staging / name)
-        record = _record(staging, stage, uuid.uuid4().hex, keep)
+        record = _record(staging, stage, provenance or Provenance.start(sys.argv), keep)
         try:
             write_text_durable(staging / RUN_FILE, json.dumps(record, indent=1) + "\n")
             for p in _files(staging, keep):
@@ -297,11 +303,7 @@ def _run_of(folder: Path) -> dict | None:
     path = folder / RUN_FILE
     if not path.is_file():
         return None
-    try:
-        run = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(path, f"unreadable run record ({exc})",
-                         expected="run the stage again") from exc
+    run = read_json(path, what="run record")
     if not (isinstance(run, dict) and run.get("schema") == SCHEMA_NAME
             and isinstance(run.get("files"), dict) and isinstance(run.get("run_id"), str)):
         raise InputError(path, "not a drivebench run record", expected="run the stage again")

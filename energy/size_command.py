@@ -1,0 +1,199 @@
+"""The whole ``bench size`` command as a library call: :func:`run_size`.
+
+Make the candidate drives (:func:`energy.candidates.build_candidates`), size them at the
+site, adding a scale beyond the edge while the best is the largest or smallest
+(:func:`energy.sizing.size_extending`), and write the files
+(:func:`energy.sizing_files.write_sizing`). ``bench size`` and :func:`drivebench.api.size`
+both call it with the same option objects.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from energy.candidates import build_candidates
+from energy.sizing import run_sizing, size_extending
+from energy.sizing_files import SIZE_KEEP, SIZE_MARKERS, edge_note, grid_hours, write_sizing
+from kernel.errors import InputError
+from kernel.output_folder import check_replaceable
+from kernel.provenance import Provenance
+from optimize.sweep_options import (
+    DEFAULT_SOLVER,
+    LOCAL_POOL,
+    PAPER_WINDS_M_S,
+    Execution,
+    SolverChoice,
+)
+
+
+@dataclass(frozen=True)
+class SizingGrid:
+    """The candidates and wind speeds of a sizing.
+
+    Attributes
+    ----------
+    scales : tuple of float
+        Torque-rating scales of the reference drive (docs/schemas.md §8: the law).
+    models : tuple of Path
+        Further candidates: power-model files with their own ``drive`` rating.
+    winds_m_s : tuple of float
+        Wind speeds [m/s] solved per candidate (at least two).
+    tolerance : float
+        The chosen drive is the smallest within this share of the best AEP.
+    extend : int
+        While the best drive is the largest or smallest scale, add one beyond it and size
+        again, up to this many times.
+    adaptive : bool
+        Refine each candidate's grid where its curve bends for the site.
+
+    Raises
+    ------
+    InputError
+        Fewer than two wind speeds, a tolerance outside [0, 1), ``extend`` < 0, a scale
+        that is not a distinct number > 0.
+    """
+
+    scales: tuple[float, ...] = (0.5, 1.0, 2.0)
+    models: tuple[Path, ...] = ()
+    winds_m_s: tuple[float, ...] = PAPER_WINDS_M_S
+    tolerance: float = 0.02
+    extend: int = 1
+    adaptive: bool = False
+
+    def __post_init__(self) -> None:
+        for name in ("scales", "winds_m_s"):
+            object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))
+        object.__setattr__(self, "models", tuple(Path(m) for m in self.models))
+        if len(self.winds_m_s) < 2:
+            raise InputError(None, f"--wind-grid {','.join(f'{w:g}' for w in self.winds_m_s)}: "
+                             "one wind speed gives no AEP curve to integrate",
+                             expected="at least two wind speeds")
+        if not 0 <= self.tolerance < 1:
+            raise InputError(None, f"--tolerance {self.tolerance}", expected="a share in [0, 1)")
+        if self.extend < 0:
+            raise InputError(None, f"--extend {self.extend}", expected="an integer >= 0")
+        s = self.scales
+        if not s or any(not (math.isfinite(v) and v > 0) for v in s) or len(set(s)) != len(s):
+            raise InputError(None, f"--scales {','.join(f'{v:g}' for v in s)}",
+                             expected="distinct scales > 0")
+
+
+@dataclass(frozen=True)
+class RatingOverrides:
+    """Overrides of the reference drive's rating (None: the system's ``[drive]``).
+
+    Attributes
+    ----------
+    rated_torque_nm : float or None
+        Continuous (RMS) torque rating [N m].
+    max_speed_rpm : float or None
+        Speed limit [rpm].
+    overload : float or None
+        Short-time peak torque over continuous torque [-].
+    """
+
+    rated_torque_nm: float | None = None
+    max_speed_rpm: float | None = None
+    overload: float | None = None
+
+
+#: the defaults as objects, for signatures (frozen, so shared safely)
+DEFAULT_SIZING = SizingGrid()
+SYSTEM_RATING = RatingOverrides()
+
+
+@dataclass(frozen=True)
+class SizeRun:
+    """What :func:`run_size` produced (the files are already written).
+
+    Attributes
+    ----------
+    sizing : energy.sizing.SizingResult
+        The candidate table, every solve record, the best and the chosen candidate.
+    drive : optimize.system.drive_in_force.DriveInForce
+        The reference drive (rating and losses) the candidates are scaled from.
+    notes : tuple of str
+        What was assumed (a rating the system file does not state, the grid's hours).
+    files : dict
+        Name -> written path.
+    """
+
+    sizing: Any
+    drive: Any
+    notes: tuple[str, ...]
+    files: dict
+
+
+def run_size(site: Any, model: Any = None, *, system: Any = None,
+             fit_default: str | Path | None = None, grid: SizingGrid = DEFAULT_SIZING,
+             rating: RatingOverrides = SYSTEM_RATING, solver: SolverChoice = DEFAULT_SOLVER,
+             execution: Execution = LOCAL_POOL, out: str | Path = "size_out",
+             site_note: str | None = None, command_line: Sequence[str] = ("drivebench.size",),
+             before_solving: Callable[[Any, int], None] | None = None) -> SizeRun:
+    """Size the drive: electrical AEP at ``site`` of the system's drive scaled in torque.
+
+    Parameters
+    ----------
+    site : energy.site.Weibull or energy.site.Histogram
+        Wind-speed distribution at the reference height.
+    model : PowerModel or path, optional
+        The reference drive's losses; default the system file's, else ``fit_default``
+        when it exists, else the paper's model
+        (:func:`optimize.system.drive_in_force.drive_in_force`).
+    system : System or path, optional
+        The system file (its ``[drive]`` is the reference rating); default the shipped one.
+    fit_default : path, optional
+        ``bench fit``'s model, used when the system file names no losses.
+    grid, rating : SizingGrid, RatingOverrides
+        The candidates, wind speeds and choice rule; the reference rating's overrides.
+    solver, execution : SolverChoice, Execution
+        The collocation grid of each solve (``n_intervals``, ``degree``); where they run.
+    out : path
+        Output folder (``sizing.json``, ``sizing.csv``, the resumable ``solves/``).
+    site_note : str, optional
+        How the site was given (default its description).
+    command_line : sequence of str
+        Recorded in the provenance header.
+    before_solving : callable, optional
+        ``before_solving(drive, n_candidates)``, called once the candidates are made.
+    """
+    from optimize.system.drive_in_force import drive_in_force
+    from optimize.system.system import System
+    from optimize.system.system_file import load_system
+
+    run_record = Provenance.start(command_line)
+    check_replaceable(out, "size", SIZE_MARKERS, keep=SIZE_KEEP)  # before the work
+    system = system if isinstance(system, System) else load_system(system)
+    if model is None or isinstance(model, str | Path):
+        drive = drive_in_force(system, None if model is None else Path(model),
+                               None if fit_default is None else Path(fit_default))
+    else:
+        drive = drive_in_force(system, model=model)
+
+    def candidates(scales: tuple[float, ...]) -> tuple[list, list[str]]:
+        return build_candidates(drive, scales, grid.models, rating.rated_torque_nm,
+                                rating.max_speed_rpm, rating.overload)
+
+    first, notes = candidates(grid.scales)
+    if before_solving is not None:
+        before_solving(drive, len(first))
+    result, edge, added = size_extending(
+        lambda scales: candidates(scales)[0], grid.scales, grid.extend,
+        lambda cands: run_sizing(cands, grid.winds_m_s, site, Path(out), solver.n_intervals,
+                                 solver.degree, workers=execution.workers,
+                                 scheduler=execution.scheduler,
+                                 show_progress=execution.progress, tolerance=grid.tolerance,
+                                 adaptive=grid.adaptive, system=system))
+    edge_doc = {"best_at": edge, "added_scales": added,
+                "note": edge_note(edge, result.best, added)}
+    notes = [*notes, grid_hours(site, grid.winds_m_s)["note"],
+             *([edge_doc["note"]] if edge_doc["note"] else [])]
+    files = write_sizing(Path(out), result, site=site, site_note=site_note or site.describe(),
+                         drive=drive, system=system, winds=grid.winds_m_s,
+                         adaptive=grid.adaptive, tolerance=grid.tolerance, notes=notes,
+                         provenance=run_record, edge=edge_doc)
+    return SizeRun(result, drive, tuple(notes), files)

@@ -1,0 +1,310 @@
+"""The output folder of ``bench optimize`` (docs/schemas.md §5): its schema, its one writer
+and its readers, used by the optimize stage, ``bench aep``, ``bench size``, the report
+and the tests.
+
+* ``summary.parquet``: one row per scenario, failed ones included with their solver
+  status and NaN metrics (:data:`SUMMARY_COLUMNS`);
+* ``trajectories.parquet``: every collocation point of every converged scenario (states,
+  controls, drive quantities) with ``scenario``, ``kind`` and the wind speed;
+* ``manifest.json``: the sweep's record (provenance header, wind list, kinds, drive model,
+  system, options, executor, cut-in searches, trust checks);
+* ``claims.csv``: the comparison with the paper (:mod:`optimize.analysis.claims`);
+* ``power_model.json``: the losses the sweep flew with, when no file holds them as flown
+  (carried to the system's rating, or given to the Python API as an object).
+
+Every Parquet field carries its unit in the field metadata (``{"unit": ...}``), from the
+unit suffix of the column name (:func:`kernel.units.unit_of`). This module imports only the
+kernel: the readers of later stages take it without the optimizer.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from kernel.errors import InputError
+from kernel.files import file_sha256, read_json, write_csv, write_json, write_parquet
+from kernel.output_folder import check_output_folder, output_folder
+from kernel.provenance import Provenance
+
+SCHEMA_NAME = "drivebench.optimize"
+SCHEMA_VERSION = 1
+#: files by which an optimize output folder written before run ids is known
+MARKERS = ("summary.parquet", "manifest.json")
+
+#: summary columns, in order, with their meaning (unit from the name)
+SUMMARY_COLUMNS: dict[str, str] = {
+    "scenario": "scenario name, kind and wind speed",
+    "kind": "elec-lim | elec-free | mech-lim | mech-free",
+    "objective": "electrical | mechanical (the average power maximized)",
+    "drive_limits": "the drive's speed and torque limits applied (manifest drive_limits)",
+    "wind_speed_m_s": "wind speed at 100 m",
+    "success": "final solve converged",
+    "status": "IPOPT return status of the final solve",
+    "result_check": "the physical check of a converged optimum (power against the Loyd-type "
+    "bound, collocation error and periodicity of a finer re-integration): 'passed', or "
+    "'failed: <reasons>' (then success is false whatever the solver said); '' when not "
+    "checked",
+    "iterations": "IPOPT iterations of the final solve",
+    "wall_time_s": "wall time of the final solve",
+    "attempts": "solver runs (retries included)",
+    "total_wall_time_s": "wall time of all runs of this scenario",
+    "warm_source": "scenario the final solve was warm-started from, or 'cold start'",
+    "chain": "warm-start chain (worker task) index",
+    "resolved_from": "neighbouring scenarios of the same kind this one was solved again from, "
+    "because its average power or period sat off the kind's smooth curve (comma-separated; "
+    "'' when it did not)",
+    "resolve_gain_w": "how much more power [W] the kept re-solve's objective gives than the "
+    "first optimum (0: the first was the better; NaN: not re-solved)",
+    "active_bounds": "bounds the optimum sits on, comma-separated: period_min, period_max, "
+    "tether_length_min, tether_length_max, ground_clearance, airspeed_min, airspeed_max, "
+    "tether_force_limit, speed_limit, torque_limit, p_elec_limit ('' for none)",
+    "bound_limited": "an optimum on a bound the system did not mean to bind (period or tether "
+    "length range): the optimum is the bound's, not the kite's",
+    "period_s": "cycle period",
+    "avg_p_elec_w": "average electrical power (negative = generated)",
+    "avg_p_mech_w": "average mechanical power (negative = generated)",
+    "e_elec_j": "net electrical energy per cycle (negative = generated)",
+    "e_mech_j": "net mechanical energy per cycle (negative = generated)",
+    "peak_speed_rpm": "largest |motor speed| (drum speed times the gear ratio)",
+    "peak_torque_nm": "largest |torque| the drive delivers at its shaft (tether torque at the "
+                      "motor plus the drivetrain's acceleration torque)",
+    "peak_reel_acceleration_m_s2": "largest |tether acceleration| (reel acceleration)",
+    "p_elec_max_w": "largest electrical power (peak drawn from the grid)",
+    "p_elec_min_w": "smallest electrical power (peak generated, negative)",
+    "tether_length_min_m": "shortest tether length",
+    "tether_length_max_m": "longest tether length",
+    "altitude_min_m": "lowest altitude above ground",
+    "altitude_max_m": "highest altitude above ground",
+    "periodicity_error": "largest scaled residual of the periodicity constraints [-]",
+    "max_violation": "largest scaled constraint violation [-]",
+    "slack_fraction": "fraction of the cycle time with zero tether tension (slack tether) [-]",
+    "outside_domain_time_frac": "share of the cycle time outside the drive model's validity "
+                                "domain (its measured envelope per quadrant) [-]; NaN when "
+                                "the model has no domain",
+    "outside_worst_speed_rpm": "drum speed of the cycle point farthest outside the domain",
+    "outside_worst_torque_nm": "drum torque of the cycle point farthest outside the domain",
+    "outside_worst_distance": "its distance to the domain in (speed / max_speed_rpm, "
+                              "torque / max_torque_nm) [-]; 0 when the cycle stays inside",
+}
+#: the columns every reader of ``summary.parquet`` relies on (``bench aep``, ``bench size``,
+#: ``bench report``); the others are read where present
+SUMMARY_REQUIRED = ("scenario", "kind", "objective", "drive_limits", "wind_speed_m_s",
+                    "success", "status", "avg_p_elec_w", "avg_p_mech_w", "period_s",
+                    "peak_speed_rpm", "peak_torque_nm")
+#: the columns of ``trajectories.parquet`` its readers rely on (the energy stage's cycle
+#: averages, the report's cycle figures); the file holds every state and control besides
+TRAJECTORY_COLUMNS = ("scenario", "kind", "wind_speed_m_s", "time_s", "weight", "l_m",
+                      "speed_rpm", "torque_nm", "p_elec_w", "p_mech_w")
+#: keys of the Parquet files' schema metadata recording the system
+SYSTEM_META_KEYS = ("drivebench.system_name", "drivebench.system_sha256",
+                    "drivebench.system_toml")
+_EXPECTED = "the output of `bench optimize` (docs/schemas.md §5)"
+
+
+# ------------------------------------------------------------------ writing
+def system_metadata(system: dict | None) -> dict[str, str]:
+    """Parquet schema metadata recording the system (``System.record()``) under
+    :data:`SYSTEM_META_KEYS`: name, hash and the system file's text."""
+    if system is None:
+        return {}
+    return {key: str(system[field]) for key, field in
+            zip(SYSTEM_META_KEYS, ("name", "sha256", "text"), strict=True)}
+
+
+def write_sweep_folder(out: Path, provenance: Provenance, *, summary: pd.DataFrame,
+                       trajectories: pd.DataFrame, manifest: dict, system: dict | None,
+                       claims: pd.DataFrame | None = None,
+                       carried_model: Any = None) -> dict[str, Path]:
+    """Write the sweep's files into ``out``, all or none (:mod:`kernel.output_folder`).
+
+    Parameters
+    ----------
+    out : Path
+        The output folder.
+    provenance : Provenance
+        The run's provenance header (written into the manifest and ``run.json``).
+    summary, trajectories : DataFrame
+        ``summary.parquet`` (columns :data:`SUMMARY_COLUMNS`) and ``trajectories.parquet``.
+    manifest : dict
+        The manifest's content after its schema and provenance keys.
+    system : dict or None
+        ``System.record()``, recorded in the Parquet files' metadata.
+    claims : DataFrame, optional
+        ``claims.csv`` (none written without: the folder is replaced whole).
+    carried_model : PowerModel, optional
+        The losses the sweep flew with, when no power-model file named them (for ``bench
+        aep``); written as ``power_model.json``, whose final path and file hash the
+        manifest's ``drive_model`` then names.
+
+    Returns
+    -------
+    dict
+        File name key (``summary``, ``trajectories``, ``power_model``, ``claims``,
+        ``manifest``) -> its path in ``out``.
+    """
+    with output_folder(out, "optimize", MARKERS, provenance=provenance) as stage:
+        meta = system_metadata(system)
+        files = {"summary": write_parquet(stage / "summary.parquet", summary,
+                                          descriptions=SUMMARY_COLUMNS, metadata=meta),
+                 "trajectories": write_parquet(stage / "trajectories.parquet", trajectories,
+                                               metadata=meta)}
+        if carried_model is not None:
+            files["power_model"] = write_json(stage / "power_model.json",
+                                              carried_model.to_dict(), non_finite="error")
+            manifest = {**manifest, "drive_model": {
+                **manifest["drive_model"], "path": str(Path(out).absolute() / "power_model.json"),
+                "file_sha256": file_sha256(files["power_model"])}}
+        if claims is not None:
+            files["claims"] = write_csv(stage / "claims.csv", claims)
+        doc = {"schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION,
+               "provenance": provenance.header(), **manifest,
+               "files": {k: Path(v).name for k, v in files.items()}}
+        files["manifest"] = write_json(stage / "manifest.json", doc)
+    return {k: Path(out) / Path(v).relative_to(stage) for k, v in files.items()}
+
+
+# ------------------------------------------------------------------ reading back
+def field_units(path: Path) -> dict[str, str]:
+    """Column -> unit recorded in a Parquet file's field metadata."""
+    schema = pq.read_schema(path)
+    return {f.name: (f.metadata or {}).get(b"unit", b"").decode() for f in schema}
+
+
+def check_columns(columns, required: tuple[str, ...], path: Path) -> None:
+    """Raise InputError naming the first of ``required`` absent from ``columns``."""
+    absent = [c for c in required if c not in columns]
+    if absent:
+        raise InputError(path, f"columns {absent} missing", column=absent[0],
+                         expected=", ".join(required))
+
+
+def read_parquet(path: Path, required: tuple[str, ...],
+                 columns: tuple[str, ...] | None = None) -> pd.DataFrame:
+    """A Parquet file of the folder with its ``required`` columns checked; ``columns``
+    reads only those (default all).
+
+    Raises
+    ------
+    InputError
+        The file is missing, not readable Parquet, or lacks a required column.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(path, "file not found", expected=_EXPECTED)
+    try:
+        names = pq.read_schema(path).names
+    except (OSError, pa.ArrowException) as exc:
+        raise InputError(path, f"not a readable Parquet file ({exc})") from exc
+    check_columns(names, required, path)
+    try:
+        return pd.read_parquet(path, columns=list(columns) if columns else None)
+    except (OSError, pa.ArrowException) as exc:
+        raise InputError(path, f"not a readable Parquet file ({exc})") from exc
+
+
+def read_summary(path: Path) -> pd.DataFrame:
+    """``summary.parquet`` with the columns of :data:`SUMMARY_REQUIRED` checked."""
+    return read_parquet(path, SUMMARY_REQUIRED)
+
+
+def read_trajectories(folder: Path, columns: tuple[str, ...] | None = None) -> pd.DataFrame:
+    """``trajectories.parquet`` of ``folder`` (``columns``: only those of
+    :data:`TRAJECTORY_COLUMNS`; default all)."""
+    return read_parquet(Path(folder) / "trajectories.parquet", columns or TRAJECTORY_COLUMNS,
+                        columns)
+
+
+def check_manifest(doc: object, path: Path) -> dict:
+    """``doc`` if it is an optimize manifest, else InputError naming ``path``."""
+    if not isinstance(doc, dict) or doc.get("schema") != SCHEMA_NAME:
+        raise InputError(path, "not an optimize manifest",
+                         expected=f'"schema": "{SCHEMA_NAME}"')
+    return doc
+
+
+def read_manifest(folder: Path) -> dict:
+    """The sweep's ``manifest.json``, its schema checked."""
+    path = Path(folder) / "manifest.json"
+    if not path.is_file():
+        raise InputError(path, "file not found", expected=_EXPECTED)
+    return check_manifest(read_json(path, what="optimize manifest"), path)
+
+
+def read_sweep_folder(folder: Path) -> tuple[pd.DataFrame, dict]:
+    """The summary and the manifest of a whole optimize folder
+    (:func:`kernel.output_folder.check_output_folder` first)."""
+    folder = Path(folder)
+    check_output_folder(folder)
+    return read_summary(folder / "summary.parquet"), read_manifest(folder)
+
+
+# ------------------------------------------------------------------ the summary in words
+def domain_excursions(summary: pd.DataFrame) -> pd.DataFrame | None:
+    """The converged scenarios whose cycle leaves the drive model's validity domain.
+
+    None when the summary has no ``outside_domain_time_frac`` column (an older sweep) or
+    the model had no domain (all NaN); an empty frame when every cycle stays inside.
+    """
+    if "outside_domain_time_frac" not in summary.columns:
+        return None
+    ok = summary[summary["success"].astype(bool)]
+    frac = ok["outside_domain_time_frac"].astype(float)
+    if ok.empty or frac.isna().all():
+        return None
+    return ok[frac > 0]
+
+
+def on_bounds(summary: pd.DataFrame) -> pd.DataFrame:
+    """The converged scenarios on a bound or with a slack tether (none in a summary written
+    before ``active_bounds``, ``bound_limited`` and ``slack_fraction`` existed)."""
+    if not {"active_bounds", "bound_limited", "slack_fraction"} <= set(summary.columns):
+        return summary.iloc[:0]
+    ok = summary[summary["success"].astype(bool)]
+    slack = ok["slack_fraction"].astype(float)
+    return ok[(ok["active_bounds"].astype(str) != "") | (np.isfinite(slack) & (slack > 0))]
+
+
+def domain_line(r: Any) -> str:
+    """One scenario (a summary row) outside the validity domain, in words."""
+    return (f"{r.scenario}: {100 * r.outside_domain_time_frac:.1f} % of the cycle time outside "
+            f"the drive model's validity domain; worst at {r.outside_worst_speed_rpm:.0f} rpm, "
+            f"{r.outside_worst_torque_nm:.1f} N m (distance {r.outside_worst_distance:.3f} of "
+            "the drive rating)")
+
+
+def bound_line(r: Any) -> str:
+    """One scenario (a summary row) on a bound or with a slack tether, in words."""
+    note = (" BOUND-LIMITED: the optimum is the bound's, not the kite's"
+            if r.bound_limited else "")
+    return (f"{r.scenario}: on {r.active_bounds or 'no bound'}; slack tether "
+            f"{100 * r.slack_fraction:.1f} % of the cycle{note}")
+
+
+def domain_lines(summary: pd.DataFrame) -> list[str]:
+    """One line per converged scenario whose cycle leaves the model's validity domain."""
+    rows = domain_excursions(summary)
+    return [] if rows is None else [domain_line(r) for r in rows.itertuples(index=False)]
+
+
+def bound_lines(summary: pd.DataFrame) -> list[str]:
+    """One line per converged scenario on a bound or with a slack tether."""
+    return [bound_line(r) for r in on_bounds(summary).itertuples(index=False)]
+
+
+def resolve_lines_of(summary: pd.DataFrame) -> list[str]:
+    """One line per scenario re-solved from a neighbour (summary ``resolved_from``)."""
+    if "resolved_from" not in summary.columns:
+        return []
+    lines = []
+    for r in summary.itertuples(index=False):
+        if r.resolved_from:
+            gain = (f"better by {r.resolve_gain_w:.1f} W, kept" if r.resolve_gain_w > 0
+                    else "no better optimum found")
+            lines.append(f"{r.scenario}: re-solved from {r.resolved_from}: {gain}")
+    return lines

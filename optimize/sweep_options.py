@@ -1,0 +1,104 @@
+"""The options of a sweep, grouped: which scenarios (:class:`WindGrid`), how each is
+discretized and solved (:class:`SolverChoice`), where the solves run (:class:`Execution`).
+
+``bench optimize``, ``bench aep --refine``, ``bench size`` and the Python API
+(docs/python_api.md) build the same objects: the command line from its options
+(:meth:`WindGrid.parse`), a Python caller directly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from kernel.errors import InputError
+from optimize.kinds import KINDS
+
+#: the paper's wind grid [m/s] at the reference height (``bench optimize``'s default)
+PAPER_WINDS_M_S = (4.0, 5.5, 7.0, 8.5, 10.0)
+
+
+@dataclass(frozen=True)
+class WindGrid:
+    """The scenarios of a sweep: every kind at every wind speed.
+
+    Attributes
+    ----------
+    winds_m_s : tuple of float
+        Wind speeds at the reference height [m/s].
+    kinds : tuple of str
+        Scenario kinds (keys of :data:`optimize.kinds.KINDS`).
+
+    Raises
+    ------
+    InputError
+        No kind, an unknown kind, or no wind speed.
+    """
+
+    winds_m_s: tuple[float, ...] = PAPER_WINDS_M_S
+    kinds: tuple[str, ...] = tuple(KINDS)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "winds_m_s", tuple(float(w) for w in self.winds_m_s))
+        object.__setattr__(self, "kinds", tuple(self.kinds))
+        unknown = [k for k in self.kinds if k not in KINDS]
+        if unknown or not self.kinds:
+            raise InputError(None, f"--scenarios {','.join(self.kinds)}: unknown scenario kinds "
+                             f"{unknown or 'none given'}", expected=", ".join(KINDS))
+        if not self.winds_m_s:
+            raise InputError(None, "no wind speed", expected="at least one wind speed [m/s]")
+
+    @classmethod
+    def parse(cls, wind_grid: str, scenarios: str) -> WindGrid:
+        """The grid of ``--wind-grid`` and ``--scenarios``
+        (:func:`optimize.sweep.plan.parse_wind_grid`, :func:`optimize.sweep.plan.parse_kinds`)."""
+        from optimize.sweep.plan import parse_kinds, parse_wind_grid
+
+        return cls(parse_wind_grid(wind_grid), parse_kinds(scenarios))
+
+
+@dataclass(frozen=True)
+class SolverChoice:
+    """How each scenario's optimal control problem is discretized and solved.
+
+    Attributes
+    ----------
+    n_intervals, degree : int
+        Collocation intervals and Radau polynomial degree (``--intervals``, ``--degree``).
+    solver : str
+        NLP solver (``--solver``: ``ipopt`` or ``fatrop``).
+    linear_solver : str or None
+        IPOPT's linear solver (``--linear-solver``; None: MUMPS).
+    stored_guess : bool
+        Start chains from the shipped initial guess (``--no-stored-guess``: False).
+    """
+
+    n_intervals: int = 40
+    degree: int = 4
+    solver: str = "ipopt"
+    linear_solver: str | None = None
+    stored_guess: bool = True
+
+
+@dataclass(frozen=True)
+class Execution:
+    """Where the solves run and whether they show progress.
+
+    Attributes
+    ----------
+    workers : int
+        Local worker processes (ignored with ``scheduler``).
+    scheduler : str or None
+        Address of a Dask scheduler (needs ``drivebench[dask]``).
+    progress : bool
+        Show progress bars.
+    """
+
+    workers: int = 2
+    scheduler: str | None = None
+    progress: bool = False
+
+
+#: the defaults as objects, for signatures (frozen, so shared safely)
+PAPER_GRID = WindGrid()
+DEFAULT_SOLVER = SolverChoice()
+LOCAL_POOL = Execution()
