@@ -152,12 +152,10 @@ def ingest(
         its session.toml and why), and the store is left as it was; without it
         the manifest and the summary say why.
     wait : bool
-        Wait for another ingest writing the same store (default), else stop with
-        an InputError.
+        Wait for another ingest writing the same store (default), else stop (InputError).
     replace : bool
-        Replace stored sessions of the same id ingested from another folder
-        (default, and said through ``notify``), else stop with an InputError
-        naming them before anything changes.
+        Replace stored sessions of the same id from another folder (default, said through
+        ``notify``), else stop naming them before anything changes (InputError).
     notify : callable
         Receives the lines that say what happens besides the summary.
     command_line : sequence of str
