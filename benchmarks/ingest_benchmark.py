@@ -70,6 +70,7 @@ from bench.ingest.samples_file import SAMPLES_WRITE_OPTIONS
 from bench.ingest.timeseries import open_stream
 from bench.store.schema import SAMPLES_SCHEMA
 from kernel.units import RPM_PER_RAD_S
+from bench.store.schema import SAMPLES_SCHEMA, TEMPERATURE_COLUMNS
 camp, out = Path(sys.argv[1]), Path(sys.argv[2])
 out.mkdir(parents=True, exist_ok=True)
 def one(folder):
@@ -87,6 +88,7 @@ def one(folder):
             w.write_table(pa.Table.from_arrays([
                 pa.DictionaryArray.from_arrays(np.zeros(t.size, np.int32), sid), t, n, q,
                 n * q / RPM_PER_RAD_S, np.full(t.size, np.nan), np.full(t.size, -1, np.int32),
+                *(np.full(t.size, np.nan) for _ in TEMPERATURE_COLUMNS),
             ], schema=SAMPLES_SCHEMA))
 with ThreadPoolExecutor(int(sys.argv[3])) as ex:
     list(ex.map(one, discover([camp])))

@@ -32,8 +32,10 @@ _REQUIRED_KEYS = (
     "provenance",
 )
 _OPTIONAL_KEYS = ("units", "sign_convention")
-#: Keys of version 2 only.
+#: Keys from version 2 on.
 _V2_KEYS = ("drive",)
+#: Keys from version 3 on.
+_V3_KEYS = ("thermal",)
 #: Relative tolerance for the derived SI set agreeing with the rpm set on load.
 _SI_RTOL = 1e-9
 
@@ -89,14 +91,16 @@ def _check_keys(data: dict, fields: _Fields) -> int:
     if version not in READ_VERSIONS or isinstance(version, bool):
         raise bad("schema_version", f"unsupported version {version!r}",
                   " or ".join(map(str, READ_VERSIONS)))
-    required = _REQUIRED_KEYS + (_V2_KEYS if version >= 2 else ())
+    required = (_REQUIRED_KEYS + (_V2_KEYS if version >= 2 else ())
+                + (_V3_KEYS if version >= 3 else ()))
     for key in required:
         if key not in data:
             raise bad(key, "missing", "all of " + ", ".join(required))
     for key in data:
         if key not in required and key not in _OPTIONAL_KEYS:
-            raise bad(key, "unknown field" + (" (a version-2 field in a version-1 file)"
-                                              if key in _V2_KEYS else ""))
+            later = (" (a version-2 field in a version-1 file)" if key in _V2_KEYS
+                     else " (a version-3 field in an older file)" if key in _V3_KEYS else "")
+            raise bad(key, "unknown field" + later)
     if "units" in data and data["units"] != UNITS:
         raise bad("units", f"unsupported units {data['units']!r}", json.dumps(UNITS))
     if not isinstance(data["name"], str):
@@ -141,6 +145,15 @@ def _numbers(data: dict, fields: _Fields) -> tuple:
     return c_rpm, c_si, cov_rpm, cov_si
 
 
+def _check_thermal(thermal: dict, fields: _Fields) -> None:
+    """A thermal model with a finite positive resistance, time constant and capacitance."""
+    for key in ("r_th_k_per_w", "tau_th_s", "c_th_j_per_k"):
+        value = thermal.get(key)
+        if not is_finite_number(value) or value <= 0:
+            raise fields.bad(f"thermal.{key}", f"{value!r}: a thermal model needs a positive "
+                             "resistance, time constant and capacitance", "a finite number > 0")
+
+
 def power_model_from_dict(data: Any, path: str | Path | None = None) -> PowerModel:
     """Validate a decoded power-model file and build the :class:`PowerModel`.
 
@@ -169,9 +182,11 @@ def power_model_from_dict(data: Any, path: str | Path | None = None) -> PowerMod
     if not is_finite_number(nominal) or nominal <= 0:
         raise fields.bad("nominal_power_w", f"{nominal!r}", "a finite positive power [W]")
     for key in ("domain", "masking", "statistics", "provenance",
-                *(_V2_KEYS if version >= 2 else ())):
+                *(_V2_KEYS if version >= 2 else ()), *(_V3_KEYS if version >= 3 else ())):
         if data[key] is not None and not isinstance(data[key], dict):
             raise fields.bad(key, "not an object", "an object or null")
+    if data.get("thermal") is not None:
+        _check_thermal(data["thermal"], fields)
     try:
         model = PowerModel(
             terms=tuple(tuple(t) for t in terms),
@@ -184,6 +199,7 @@ def power_model_from_dict(data: Any, path: str | Path | None = None) -> PowerMod
             statistics=data["statistics"],
             provenance=data["provenance"],
             drive=data.get("drive"),
+            thermal=data.get("thermal"),
         )
     except ValueError as exc:
         raise InputError(path, str(exc)) from exc

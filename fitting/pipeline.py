@@ -6,12 +6,13 @@ Writes the outputs of docs/schemas.md §4 into one directory, all of them or non
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from bench.store.read import read_points, read_samples
 from fitting import figures
 from fitting.domain import BAND_FRAC, quadrant_envelopes
 from fitting.efficiency import MaskingRules
@@ -41,6 +42,7 @@ from fitting.selection import (
     select_model,
 )
 from fitting.terms import MAX_ORDER, MIN_ORDER, full_polynomial
+from fitting.thermal import fit_thermal
 from kernel.errors import InputError
 from kernel.files import check_output_dir, json_safe, write_json, write_parquet
 from kernel.output_folder import check_replaceable, output_folder
@@ -338,8 +340,11 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     model = fitted.power_model(pts.measured, envelopes, masking=masking.to_dict(),
                                statistics=statistics, provenance=provenance,
                                drive=drive.to_dict())
+    thermal, thermal_note = fit_thermal(read_points(store),
+                                        lambda sid: read_samples(store, sid))
+    model = replace(model, thermal=thermal)
     repeats = repeatability(frame, masking)
-    notes = (drive_notes + [v["note"] for v in statistics["validity"].values()
+    notes = ([thermal_note] + drive_notes + [v["note"] for v in statistics["validity"].values()
                             if not v["measured"]]
              + [d["note"] for d in (outliers, loss_repeat, repeats) if d.get("note")])
     with output_folder(out, "fit", FIT_MARKERS, provenance=run) as stage:  # all or none

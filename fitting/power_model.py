@@ -31,10 +31,11 @@ from kernel.drive_rating import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS
 from kernel.units import RPM_PER_RAD_S
 
 SCHEMA_NAME = "drivebench.power_model"
-#: Version written; 2 added the ``drive`` object (rating and limits of the drive).
-SCHEMA_VERSION = 2
-#: Versions read: a version-1 file loads with ``drive = None``.
-READ_VERSIONS = (1, 2)
+#: Version written; 2 added the ``drive`` object (rating and limits of the drive), 3 the
+#: ``thermal`` object (the winding's thermal model, or null: fitting/thermal.py).
+SCHEMA_VERSION = 3
+#: Versions read: a version-1 file loads with ``drive = None``, 1 and 2 with ``thermal = None``.
+READ_VERSIONS = (1, 2, 3)
 
 
 UNITS = {
@@ -81,6 +82,9 @@ class PowerModel:
         The drive's rating ``{nominal_power_w, max_speed_rpm, max_torque_nm, source}``
         (:class:`kernel.drive_rating.DriveRating`); its nominal power equals
         ``nominal_power_w``. None for a version-1 file.
+    thermal : dict or None
+        The winding's fitted thermal model (:func:`fitting.thermal.fit_thermal`);
+        None when the bench logged no winding temperature (or before version 3).
     """
 
     terms: tuple[tuple[int, int], ...]
@@ -93,6 +97,7 @@ class PowerModel:
     statistics: dict | None = None
     provenance: dict | None = None
     drive: dict | None = None
+    thermal: dict | None = None
 
     def __post_init__(self) -> None:
         terms = tuple(Term(t) for t in self.terms)
@@ -206,6 +211,7 @@ class PowerModel:
             "statistics": self.statistics,
             "provenance": self.provenance,
             "drive": self.drive,
+            "thermal": self.thermal,
         }
 
     @property

@@ -64,7 +64,9 @@ def test_samples_aligned_and_tagged(campaign):
     _, store, truths, _, _ = campaign
     s = read_samples(store, "motor_01")
     assert list(s.columns) == ["session_id", "time_s", "speed_rpm", "torque_nm", "p_mech_w",
-                               "p_elec_w", "point_id"]
+                               "p_elec_w", "point_id", "t_winding_c", "t_housing_c",
+                               "t_coolant_c", "t_ambient_c"]
+    assert s.t_winding_c.isna().all()  # the fixture logs no temperature
     pts = read_points(store).query("session_id == 'motor_01'")
     # samples tagged with a point lie inside that point's window
     for _, p in pts.iterrows():
@@ -198,10 +200,12 @@ def test_workers_do_not_change_the_store(campaign, tmp_path):
     one = tmp_path / "one"
     ingest([root], one, progress=False, workers=1)
     a, b = store_tree(store), store_tree(one)
-    # every data file byte-identical (the manifest differs only in ingested_at)
+    # every data file byte-identical (the manifest differs only in ingested_at and in its
+    # provenance header: each ingest is its own run)
     assert {k: v for k, v in a.items() if k != "manifest.json"} == {
         k: v for k, v in b.items() if k != "manifest.json"}
     ma, mb = read_manifest(store), read_manifest(one)
     for e in (*ma["sessions"].values(), *mb["sessions"].values()):
         e.pop("ingested_at")
+    assert ma.pop("provenance")["run_id"] != mb.pop("provenance")["run_id"]
     assert ma == mb

@@ -21,6 +21,7 @@ from bench.cli import main
 from bench.synth import faults, session_files
 from bench.synth.campaign import DEFAULT_SEED, generate, is_complete, plan_campaign
 from bench.synth.loss_model import PAPER_QUADRATIC, LossModel, fit_quadratic, true_p_elec_w
+from bench.synth.winding_sensor import KELVIN_AT_0C
 
 RAW = Path(__file__).resolve().parents[1] / "raw_measurements"
 NOMINAL_W = 8200.0
@@ -114,23 +115,25 @@ def _read_daq(folder: Path, meta: dict) -> pd.DataFrame:
     daq = meta["daq"]
     if daq["format"] == "tdms":
         group = TdmsFile.read(folder / daq["file"])[daq["tdms_group"]]
-        units = [group[c].properties["unit_string"] for c in ("Time", "Speed", "Torque")]
-        assert units == ["s", "1/min", "N m"]
-        df = pd.DataFrame({c: group[c][:] for c in ("Time", "Speed", "Torque")})
+        names = ("Time", "Speed", "Torque", "Winding temperature")
+        units = [group[c].properties["unit_string"] for c in names]
+        assert units == ["s", "1/min", "N m", "K"]
+        df = pd.DataFrame({c: group[c][:] for c in names})
         df[df.abs() > 1e30] = np.nan
-        return df.set_axis(["t", "n", "T"], axis=1)
+        df["Winding temperature"] -= KELVIN_AT_0C
+        return df.set_axis(["t", "n", "T", "theta"], axis=1)
     head = (folder / daq["file"]).read_text(encoding="utf-8").splitlines()[:2]
     if ";" in head[0]:
-        assert head == ["Zeit;Drehzahl;Drehmoment", "s;U/min;Nm"]
+        assert head == ["Zeit;Drehzahl;Drehmoment;Wicklungstemperatur", "s;U/min;Nm;°C"]
         # German exports mark invalid cells as NAN, --- or an empty cell
         df = pd.read_csv(folder / daq["file"], sep=";", decimal=",", skiprows=[1],
                          na_values=[*MARKERS_NA, ""], keep_default_na=False)
         assert df.dtypes.map(pd.api.types.is_float_dtype).all()
     else:
-        assert head[0] in ("Time [s],Speed [1/min],Torque [N m]",
-                           "Time [s],Speed [rpm],Torque [Nm]")
+        assert head[0] in ("Time [s],Speed [1/min],Torque [N m],T_winding [degC]",
+                           "Time [s],Speed [rpm],Torque [Nm],Winding temperature [deg C]")
         df = pd.read_csv(folder / daq["file"], na_values=MARKERS_NA, keep_default_na=False)
-    return df.set_axis(["t", "n", "T"], axis=1)
+    return df.set_axis(["t", "n", "T", "theta"], axis=1)
 
 
 def _read_analyzer(path: Path) -> tuple[dict, pd.DataFrame, float]:
@@ -204,6 +207,31 @@ def test_faults_and_tare_are_in_the_files(truth):
                 ok = inside & np.isfinite(torque)
                 slope = np.polyfit(t[ok], torque[ok], 1)[0]
                 assert slope == pytest.approx(-b["rate_nm_per_s"], abs=0.05), (sid, k)
+
+
+def test_winding_sensor_follows_the_true_temperature(truth):
+    # the sensor: the true winding temperature through an 8 s lag plus 0.2 K of noise; over
+    # a steady window (>= 4 s, >= 200 samples) the noise averages to < 0.05 K, and the lag
+    # shifts the mean by about 8 s times the heating rate (measured on the truth points)
+    inst = truth["instruments"]
+    assert (inst["winding_lag_s"], inst["winding_noise_k"]) == (8.0, 0.2)
+    assert truth["thermal"]["r_th_k_per_w"] == truth["loss_model"]["r_th_k_per_w"]
+    assert truth["thermal"]["c_th_j_per_k"] == pytest.approx(
+        truth["loss_model"]["tau_th_s"] / truth["loss_model"]["r_th_k_per_w"])
+    for sid, info in truth["sessions"].items():
+        if info["kind"] != "timeseries":
+            continue
+        folder = RAW / sid
+        meta = tomllib.loads((folder / "session.toml").read_text(encoding="utf-8"))
+        daq = _read_daq(folder, meta)
+        pts = pd.DataFrame(info["points"])
+        sensed, _ = _window_means(daq.t.to_numpy(), daq.theta.to_numpy(),
+                                  pts.t_start_s.to_numpy(), pts.t_end_s.to_numpy())
+        err = sensed - pts.theta_c.to_numpy()
+        rate = np.abs(np.diff(pts.theta_c) / np.diff(pts.t_start_s)).max()
+        assert np.abs(err).max() < 8.0 * rate + 0.1, sid
+        assert abs(np.median(err)) < 0.3, sid
+        assert daq.theta.iloc[0] == pytest.approx(info["theta_start_c"], abs=1.0)
 
 
 def _window_means(t, values, t_start, t_end):

@@ -25,6 +25,7 @@ TARGET_UNIT: dict[str, str] = {
     "speed": "rpm",
     "torque": "N m",
     "power": "W",
+    "temperature": "degC",
 }
 
 _NM_PER_LBF_FT = 1.3558179483314004  # 1 lbf ft = 0.3048 m * 4.4482216152605 N
@@ -55,7 +56,16 @@ _UNITS: dict[str, list[tuple[str, float]]] = {
         ("in lbf", _NM_PER_LBF_IN), ("in lb", _NM_PER_LBF_IN),
     ],
     "power": [("W", 1.0), ("mW", 1e-3), ("kW", 1e3), ("MW", 1e6)],
+    # kelvin has factor 1 too: its offset is in KELVIN_SPELLINGS / unit_offset
+    "temperature": [("degC", 1.0), ("deg C", 1.0), ("°C", 1.0), ("℃", 1.0), ("Cel", 1.0),
+                    ("K", 1.0)],
 }
+
+#: spellings of the kelvin (a temperature in K is converted to degC by its offset)
+KELVIN_SPELLINGS = frozenset({"K"})
+
+#: 0 degC in kelvin [K]
+KELVIN_AT_0C = 273.15
 
 
 def _compact(unit: str) -> str:
@@ -87,6 +97,10 @@ QUANTITY_KIND: dict[str, str] = {
     "torque_std": "torque",
     "p_elec_std": "power",
     "p_mech_std": "power",
+    "t_winding": "temperature",
+    "t_housing": "temperature",
+    "t_coolant": "temperature",
+    "t_ambient": "temperature",
 }
 
 
@@ -122,6 +136,12 @@ def unit_factor(kind: str, unit: str) -> float | None:
         return exact
     factors = set(_candidates(kind, unit).values())
     return factors.pop() if len(factors) == 1 else None
+
+
+def unit_offset(kind: str, unit: str) -> float:
+    """What to add after :func:`unit_factor` to reach our unit: -273.15 for a temperature in
+    K (to degC), else 0."""
+    return -KELVIN_AT_0C if kind == "temperature" and _compact(unit) in KELVIN_SPELLINGS else 0.0
 
 
 def unit_problem(kind: str, unit: str) -> str:

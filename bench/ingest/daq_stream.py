@@ -28,6 +28,7 @@ from bench.ingest.mapping import (
     resolve_columns,
 )
 from bench.ingest.scrub import scrub
+from bench.ingest.temperature import TEMPERATURES
 from kernel.errors import InputError
 
 
@@ -85,7 +86,7 @@ def open_daq_csv(
     layout = sniff_csv(path, skip_lines=mapping.skip(section))
     cols = resolve_columns(
         layout.path, layout.headers, layout.units_with_clock(), section,
-        required=required, optional=optional + (COUNTER,), mapping=mapping,
+        required=required, optional=optional + (COUNTER, *TEMPERATURES), mapping=mapping,
         header_line=layout.header_line,
     )
     clocks = clock_parsers(layout, cols, day)
@@ -157,7 +158,7 @@ def open_daq_tdms(
     path = Path(path)
     headers, units, lengths = _tdms_channels(path, group)
     cols = resolve_columns(path, headers, units, "daq", required=("time", "speed", "torque"),
-                           mapping=mapping)
+                           optional=TEMPERATURES, mapping=mapping)
     n_rows = {lengths[headers[i]] for r in cols.values() for i in r.indices}
     if len(n_rows) != 1:
         raise InputError(path, f"channels of group {group!r} differ in length {sorted(n_rows)}"

@@ -22,8 +22,11 @@ from bench.ingest.column_units import (
     QUANTITY_KIND,
     split_header,
     unit_factor,
+    unit_offset,
     unit_problem,
 )
+from bench.ingest.temperature import ALIASES as TEMPERATURE_ALIASES
+from bench.ingest.temperature import TEMPERATURES
 from kernel.errors import InputError
 from kernel.files import parse_json, parse_toml, read_text
 
@@ -33,9 +36,9 @@ SECTION_QUANTITIES: dict[str, tuple[str, ...]] = {
         "speed", "torque", "p_elec", "p_mech",
         "speed_std", "torque_std", "p_elec_std", "p_mech_std", "n_samples",
     ),
-    "daq": ("time", "speed", "torque", "sample_counter"),
+    "daq": ("time", "speed", "torque", "sample_counter", *TEMPERATURES),
     "analyzer": ("time", "p_elec", "sample_counter"),
-    "log": ("time", "speed", "torque", "p_elec", "p_mech", "sample_counter"),
+    "log": ("time", "speed", "torque", "p_elec", "p_mech", "sample_counter", *TEMPERATURES),
 }
 
 #: a stream's optional sample counter: ``column`` and ``rate_hz``; the time is the
@@ -55,6 +58,7 @@ ALIASES: dict[str, tuple[str, ...]] = {
     "torque": ("torque", "drehmoment", "m", "torque_nm"),
     "p_elec": ("p_sigma", "p_elec", "p_el", "p", "p_total", "wirkleistung", "p_elec_w",
                "active power", "electrical power", "input power", "power", "leistung"),
+    **TEMPERATURE_ALIASES,
 }
 
 #: aliases a column matches only when no earlier alias of the quantity matches and no
@@ -272,6 +276,8 @@ class ResolvedColumn:
     sources : tuple of (str, int)
         ``(name in the formula, column index)`` of every column a combination
         reads; ``((header, index),)`` for a single column.
+    offset : float
+        Added after the factor (a temperature in K to degC: -273.15); 0 otherwise.
     """
 
     index: int
@@ -280,6 +286,7 @@ class ResolvedColumn:
     factor: float
     formula: expr.Node | None = None
     sources: tuple[tuple[str, int], ...] = ()
+    offset: float = 0.0
 
     @property
     def indices(self) -> tuple[int, ...]:
@@ -299,7 +306,8 @@ class ResolvedColumn:
             x = np.asarray(expr.evaluate(self.formula, lambda name: column(index[name])),
                            dtype=np.float64)
             x = np.where(np.isfinite(x), x, np.nan)
-        return x * self.factor if self.factor != 1.0 else x
+        x = x * self.factor if self.factor != 1.0 else x
+        return x + self.offset if self.offset else x
 
 
 def closest_columns(wanted: list[str], headers: list[str], limit: int = MAX_LISTED,
@@ -414,8 +422,9 @@ def _mapped_column(path: Path, stripped: list[str], bare: list[str], quantity: s
             )
         sources.append((name, idx))
     header = stripped[sources[0][1]] if spec.formula is None else spec.column
+    offset = unit_offset(QUANTITY_KIND[quantity], spec.unit) if quantity in QUANTITY_KIND else 0.0
     return ResolvedColumn(sources[0][1], header, spec.unit, float(factor), spec.formula,
-                          tuple(sources))
+                          tuple(sources), offset)
 
 
 def _aliased_column(path: Path, stripped: list[str], units_row: list[str] | None,
@@ -437,7 +446,8 @@ def _aliased_column(path: Path, stripped: list[str], units_row: list[str] | None
             path, f"{unit_problem(kind, unit)} for {quantity}", line=header_line,
             column=stripped[idx], expected=ACCEPTED[kind],
         )
-    return ResolvedColumn(idx, stripped[idx], unit, factor, sources=((stripped[idx], idx),))
+    return ResolvedColumn(idx, stripped[idx], unit, factor, sources=((stripped[idx], idx),),
+                          offset=unit_offset(kind, unit))
 
 
 def _alias_column(bare: list[str], aliases: tuple[str, ...]) -> int | None:

@@ -18,7 +18,8 @@ from bench.ingest.drum_frame import fold_signed
 from bench.ingest.scan import StreamScan
 from bench.ingest.session import Session
 from bench.ingest.store_tables import points_table
-from bench.store.schema import SAMPLES_SCHEMA
+from bench.ingest.temperature import STORE_COLUMN
+from bench.store.schema import SAMPLES_SCHEMA, TEMPERATURE_COLUMNS
 from kernel.units import RPM_PER_RAD_S
 
 #: samples per chunk in the second pass (about 80 bytes of arrays each) [-]
@@ -69,6 +70,19 @@ class WindowStats:
         self.count = np.zeros(n)
         self.s1 = {q: np.zeros(n) for q in self.Q}
         self.s2 = {q: np.zeros(n) for q in self.Q}
+        #: temperature column -> (sum of valid values, their count) per window
+        self.temps: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+
+    def add_temperature(self, lo, hi, name: str, x: np.ndarray) -> None:
+        """Accumulate one chunk of a temperature column [degC] (its own valid samples)."""
+        live = np.flatnonzero(hi > lo)
+        if live.size == 0:
+            return
+        s, c = self.temps.setdefault(name, (np.zeros(self.n), np.zeros(self.n)))
+        csum = np.concatenate(([0.0], np.cumsum(np.where(np.isfinite(x), x, 0.0))))
+        ccnt = np.concatenate(([0], np.cumsum(np.isfinite(x))))
+        s[live] += csum[hi[live]] - csum[lo[live]]
+        c[live] += ccnt[hi[live]] - ccnt[lo[live]]
 
     def add(self, lo, hi, speed, torque, p_mech, p_elec) -> None:
         """Accumulate one chunk; window k covers its rows ``[lo_k, hi_k)``."""
@@ -101,6 +115,9 @@ class WindowStats:
             var = np.maximum(self.s2[q] - n * m * m, 0.0) / np.maximum(n - 1, 1)
             cols[name] = m
             cols[name + "_std"] = np.sqrt(var)
+        for name, (s, c) in self.temps.items():
+            with np.errstate(invalid="ignore", divide="ignore"):
+                cols[name] = np.where(c > 0, s / c, np.nan)
         return points_table(session, cols, np.rint(self.count).astype(np.int32), w_start, w_end,
                             "timeseries")
 
@@ -137,6 +154,8 @@ def write_samples(path: Path, session: Session, scan: StreamScan, offset_nm: flo
     """
     stats = WindowStats(len(w_start))
     rows, n_rows = PASS2_ROWS, scan.n_rows
+    # the temperature channels that passed their checks (a flagged one is stored as NaN)
+    temps = {q: STORE_COLUMN[q] for q, chk in scan.temps.items() if chk.note() is None}
     sid_dict = pa.array([session.session_id], pa.string())
     with pq.ParquetWriter(path, SAMPLES_SCHEMA, **SAMPLES_WRITE_OPTIONS) as writer:
         fhs = {q: open(p, "rb") for q, p in scan.spill.items()}
@@ -155,9 +174,16 @@ def write_samples(path: Path, session: Session, scan: StreamScan, offset_nm: flo
                     p_elec = align.asof_nearest(t, power.t_s, power.p_w, 0.75 * power.interval_s)
                 lo, hi = np.searchsorted(t, w_start), np.searchsorted(t, w_end)
                 stats.add(lo, hi, speed, torque, p_mech, p_elec)
+                temp_cols = {name: np.full(t.size, np.nan) for name in TEMPERATURE_COLUMNS}
+                for q in scan.temps:  # read every spill in step; store the checked ones
+                    x = np.fromfile(fhs[q], np.float64, rows)
+                    if q in temps:
+                        temp_cols[temps[q]] = x
+                        stats.add_temperature(lo, hi, temps[q], x)
                 writer.write_table(pa.Table.from_arrays([
                     pa.DictionaryArray.from_arrays(np.zeros(t.size, np.int32), sid_dict),
                     t, speed, torque, p_mech, p_elec, _point_ids(t.size, lo, hi),
+                    *temp_cols.values(),
                 ], schema=SAMPLES_SCHEMA))
                 done += t.size
                 progress(int(size_bytes * t.size / n_rows) // 2)

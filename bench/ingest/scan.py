@@ -23,6 +23,7 @@ from bench.ingest.daq_stream import DaqStream
 from bench.ingest.drum_frame import drum_ranges, to_drum_frame
 from bench.ingest.scrub import NanRunCheck, TimeCheck
 from bench.ingest.session import Session
+from bench.ingest.temperature import TEMPERATURES, TemperatureCheck
 from kernel.errors import InputError
 
 
@@ -106,9 +107,13 @@ class StreamScan:
         self.tare = tare.TareFinder(ranges["speed"], ranges["torque"])
         sid = session.session_id
         #: quantity -> its scratch file of raw float64 values
+        #: the temperature channels the stream holds, each with its checks (degC)
+        self.temps = {q: TemperatureCheck(daq.path, q, cols[q]["column"], cols[q]["unit"],
+                                          daq.line_of_row)
+                      for q in TEMPERATURES if q in cols}
         self.spill = {q: scratch / f"{sid}.{q}.f64"
                       for q in ("time", "speed", "torque")
-                      + (("p_elec",) if session.single_stream else ())}
+                      + (("p_elec",) if session.single_stream else ()) + tuple(self.temps)}
         self._handles = {q: open(p, "wb") for q, p in self.spill.items()}
         self._spilled = dict.fromkeys(self._handles, 0)
         self.peak = PeakSample()
@@ -125,6 +130,9 @@ class StreamScan:
         speed, torque = to_drum_frame(self.session, v["speed"], v["torque"])
         self.peak.feed(speed, torque, chunk.row0)
         more = {q: v[q] for q in self.extra}
+        temps = {q: v[q] for q in self.temps}
+        for q, chk in self.temps.items():
+            chk.feed(temps[q], chunk.row0)
         if "p_mech" in more:  # logged in the bench's frame: to the drum frame's sign
             more["p_mech"] = more["p_mech"] * (self.session.speed_sign
                                                * self.session.torque_sign)
@@ -133,10 +141,12 @@ class StreamScan:
         if not keep.all():
             t, speed, torque = t[keep], speed[keep], torque[keep]
             more = {q: x[keep] for q, x in more.items()}
+            temps = {q: x[keep] for q, x in temps.items()}
         if t.size:
             self.tare.feed(t, speed, torque)
             self.bins.add(t, speed, torque, **{self.bin_names[q]: x for q, x in more.items()})
-            for q, arr in (("time", t), ("speed", speed), ("torque", torque), *more.items()):
+            for q, arr in (("time", t), ("speed", speed), ("torque", torque), *more.items(),
+                           *temps.items()):
                 if q in self._handles:
                     _spill(arr, self._handles[q], self.spill[q])
                     self._spilled[q] += arr.nbytes

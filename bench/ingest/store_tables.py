@@ -11,7 +11,7 @@ import pyarrow as pa
 
 from bench.ingest import steady
 from bench.ingest.session import Session
-from bench.store.schema import POINTS_SCHEMA, REJECTED_SCHEMA
+from bench.store.schema import POINTS_SCHEMA, REJECTED_SCHEMA, TEMPERATURE_COLUMNS
 
 
 @dataclass
@@ -46,7 +46,8 @@ def points_table(session: Session, cols: dict, n_samples, t_start, t_end,
         Gives ``session_id`` and ``mode``.
     cols : dict
         ``speed_rpm``, ``torque_nm``, ``p_mech_w``, ``p_elec_w`` and their ``*_std``
-        arrays in the drum frame [rpm, N m, W].
+        arrays in the drum frame [rpm, N m, W]; the temperature means
+        (``t_winding_c``, ...) [degC] where logged (NaN otherwise).
     n_samples : array
         Samples averaged per point.
     t_start, t_end : array
@@ -68,6 +69,7 @@ def points_table(session: Session, cols: dict, n_samples, t_start, t_end,
         "n_samples": pa.array(np.asarray(n_samples, np.int64)),
         "t_start_s": pa.array(np.asarray(t_start, np.float64)),
         "t_end_s": pa.array(np.asarray(t_end, np.float64)),
+        **{k: pa.array(data.get(k, np.full(m, np.nan))) for k in TEMPERATURE_COLUMNS},
     }
     return pa.table(arrays, schema=POINTS_SCHEMA)
 

@@ -54,6 +54,7 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict,
             no_points.append(f"{sid}: {e.get('no_points_note', '0 points')}")
         if e.get("clock_drift_note"):
             no_drift.append(f"{sid}: {e['clock_drift_note']}")
+        no_drift += [f"{sid}: temperature flagged: {n}" for n in e.get("temperature_notes", [])]
         flagged += [f"{sid}: {f}" for f in e.get("efficiency_flags") or ()]
         if e.get("torque_zero_offset_nm") is None:
             no_tare.append(f"{sid}: {e.get('torque_zero_note', 'no tare recorded')}")

@@ -243,4 +243,7 @@ def process_timeseries(
     rejected = rejected_table(sid, sorted(
         [(t0 + a * dt, t0 + b * dt, r) for a, b, r in win.rejected] + unlogged))
     info = _session_info(daq, record, power.clock, binned, scan, win, usable, config)
+    notes = [n for n in (chk.note() for chk in scan.temps.values()) if n is not None]
+    if notes:  # flagged temperature channels, not stored
+        info["temperature_notes"] = notes
     return SessionOutput(points=points, rejected=rejected, samples_path=samples_path, info=info)

@@ -21,6 +21,10 @@ def _f(name: str, typ: pa.DataType, unit: str | None = None) -> pa.Field:
     return pa.field(name, typ, metadata=None if unit is None else {"unit": unit})
 
 
+#: the logged temperatures in degC, NaN where a session has none (bench.ingest.temperature)
+TEMPERATURE_COLUMNS = ("t_winding_c", "t_housing_c", "t_coolant_c", "t_ambient_c")
+TEMPERATURE_FIELDS = tuple(_f(name, pa.float64(), "degC") for name in TEMPERATURE_COLUMNS)
+
 POINTS_SCHEMA = pa.schema([
     _f("session_id", pa.string()),
     _f("point_id", pa.int32()),
@@ -38,6 +42,7 @@ POINTS_SCHEMA = pa.schema([
     _f("n_samples", pa.int64()),
     _f("t_start_s", pa.float64(), "s"),
     _f("t_end_s", pa.float64(), "s"),
+    *TEMPERATURE_FIELDS,
 ])
 
 SAMPLES_SCHEMA = pa.schema([
@@ -48,6 +53,7 @@ SAMPLES_SCHEMA = pa.schema([
     _f("p_mech_w", pa.float64(), "W"),
     _f("p_elec_w", pa.float64(), "W"),
     _f("point_id", pa.int32()),
+    *TEMPERATURE_FIELDS,
 ])
 
 REJECTED_SCHEMA = pa.schema([

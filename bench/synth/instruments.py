@@ -61,6 +61,12 @@ class Instruments:
         Probability that a DAQ row holds one invalid-value marker [-].
     analyzer_marker_rate : float
         Probability that an analyzer row holds one invalid-value marker [-].
+    winding_noise_k : float
+        Winding-temperature sensor white noise [K].
+    winding_lag_s : float
+        First-order time constant of the winding sensor [s].
+    winding_decimals : int
+        DAQ resolution of the winding temperature, decimals of degC or K [-].
     """
 
     daq_rate_hz: float = 50.0
@@ -80,6 +86,9 @@ class Instruments:
     reactive_power_var: float = 350.0
     daq_marker_rate: float = 1.0 / 3000.0
     analyzer_marker_rate: float = 1.0 / 2000.0
+    winding_noise_k: float = 0.2
+    winding_lag_s: float = 8.0
+    winding_decimals: int = 2
 
 
 DEFAULT_INSTRUMENTS = Instruments()
@@ -139,7 +148,8 @@ def torque_offset_drum_nm(spec: SessionSpec, inst: Instruments = DEFAULT_INSTRUM
 
 def daq_chunk(seg: Segments, rows: slice, spec: SessionSpec, model: LossModel,
               rnd: ChunkRandom, inst: Instruments = DEFAULT_INSTRUMENTS):
-    """DAQ rows ``rows.start .. rows.stop - 1``: time [s], logged speed, logged torque.
+    """DAQ rows ``rows.start .. rows.stop - 1``: time [s], logged speed, logged torque,
+    true winding temperature [degC] (the sensor's input, :mod:`bench.synth.winding_sensor`).
 
     The DAQ clock is the reference clock of the truth; its samples sit on an
     exact ``1 / daq_rate_hz`` grid.
@@ -155,7 +165,7 @@ def daq_chunk(seg: Segments, rows: slice, spec: SessionSpec, model: LossModel,
     # of the platform's exp/sin/cos)
     speed = np.round(speed, inst.speed_decimals)
     torque = np.round(torque, inst.torque_decimals)
-    return time_s, speed, torque
+    return time_s, speed, torque, sig["theta_c"]
 
 
 def analyzer_rows(seg: Segments, spec: SessionSpec, inst: Instruments = DEFAULT_INSTRUMENTS) -> int:

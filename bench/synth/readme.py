@@ -13,15 +13,43 @@ _ANALYZER = {"en_kw": "vendor CSV, kW", "en_w": "vendor CSV, W",
 
 
 def campaign_readme(seed: int, scale: int, sessions: dict, calibration: dict,
-                    inst: Instruments) -> str:
-    """Describe the campaign, its sessions and the exact command that made it."""
+                    inst: Instruments, thermal: dict) -> str:
+    """Describe the campaign, its sessions and the exact command that made it.
+
+    ``thermal`` is ``truth.json``'s ``thermal`` section (the winding's true thermal model).
+    """
     return "\n".join([*_intro_lines(seed, scale, calibration, inst),
+                      *_thermal_lines(thermal, inst), *_table_head(),
                       *_session_rows(sessions), ""])
 
 
+def _thermal_lines(thermal: dict, inst: Instruments) -> list[str]:
+    """The winding sensor and the thermal truth, in words."""
+    return [
+        "Every timeseries session's DAQ file also logs the winding temperature (degC;",
+        "generator_01's TDMS in K): a sensor with a first-order lag of "
+        f"{inst.winding_lag_s:g} s and {inst.winding_noise_k:g} K",
+        "of white noise on the true winding temperature. The truth (`truth.json` `thermal`;",
+        "each session's ambient is `ambient_c`): one thermal node, `tau_th_s dtheta/dt =",
+        "ambient_c + r_th_k_per_w * heat_w - theta`, with the heat the losses",
+        "`p_elec_w - p_mech_w` less the cabinet fan's power; "
+        f"r_th_k_per_w = {thermal['r_th_k_per_w']:g} K/W,",
+        f"tau_th_s = {thermal['tau_th_s']:g} s (c_th_j_per_k = {thermal['c_th_j_per_k']:g} J/K), "
+        f"and the copper part of the T^2 loss drifts by {thermal['copper_temp_coeff_per_k']:g} / K",
+        f"from theta_ref_c = {thermal['theta_ref_c']:g} degC.",
+        "",
+    ]
+
+
+def _table_head() -> list[str]:
+    return [
+        "| session | kind | mode | points | faulty | files | notes |",
+        "|---|---|---|---:|---:|---|---|",
+    ]
+
+
 def _intro_lines(seed: int, scale: int, calibration: dict, inst: Instruments) -> list[str]:
-    """The command, the drive, the truth, the instruments and the faults, in words; the
-    head of the sessions' table."""
+    """The command, the drive, the truth, the instruments and the faults, in words."""
     scale_arg = "" if scale == 1 else f" --scale {scale}"
     nominal = calibration["nominal_power_w"]
     lines = [
@@ -68,8 +96,6 @@ def _intro_lines(seed: int, scale: int, calibration: dict, inst: Instruments) ->
         "stepping to the next setpoint before a steady window was logged. The loss model's",
         "calibration and the figures above use the good points only.",
         "",
-        "| session | kind | mode | points | faulty | files | notes |",
-        "|---|---|---|---:|---:|---|---|",
     ]
     return lines
 

@@ -18,6 +18,7 @@ from bench.synth import instruments as ins
 from bench.synth.loss_model import LossModel
 from bench.synth.plan import GEAR_RATIO, SessionSpec
 from bench.synth.true_signals import Segments
+from bench.synth.winding_sensor import KELVIN_AT_0C, WindingSensor
 from bench.synth.writers import CsvStream, TdmsStream, toml_document
 from kernel.files import write_text_atomic
 
@@ -92,40 +93,50 @@ def _analyzer_preamble(spec: SessionSpec, index: int,
 
 def _daq_stream(spec: SessionSpec, path: Path, inst: ins.Instruments):
     """Open the session's DAQ file writer; returns ``(writer, invalid-value markers)``."""
-    if spec.daq_format == "tdms":
-        channels = [("Time", "s"), ("Speed", "1/min"), ("Torque", "N m")]
+    if spec.daq_format == "tdms":  # this DAQ logs the winding sensor in kelvin
+        channels = [("Time", "s"), ("Speed", "1/min"), ("Torque", "N m"),
+                    ("Winding temperature", "K")]
         props = {"name": spec.session_id, "Author": spec.operator, "Bench": "drive test bench"}
         return TdmsStream(path, TDMS_GROUP, channels, props), MARKERS_TDMS
-    decimals = (3, inst.speed_decimals, inst.torque_decimals)
+    decimals = (3, inst.speed_decimals, inst.torque_decimals, inst.winding_decimals)
     if spec.daq_format == "csv_de":
-        pre = "Zeit;Drehzahl;Drehmoment\ns;U/min;Nm\n"
+        pre = "Zeit;Drehzahl;Drehmoment;Wicklungstemperatur\ns;U/min;Nm;°C\n"
         return CsvStream(path, pre, decimals, sep=";", decimal_mark=","), MARKERS_DE
     if spec.mode == "motor":
-        pre = "Time [s],Speed [1/min],Torque [N m]\n"
+        pre = "Time [s],Speed [1/min],Torque [N m],T_winding [degC]\n"
     else:
-        pre = "Time [s],Speed [rpm],Torque [Nm]\n"
+        pre = "Time [s],Speed [rpm],Torque [Nm],Winding temperature [deg C]\n"
     return CsvStream(path, pre, decimals), MARKERS_EN
 
 
 def write_daq(seg: Segments, spec: SessionSpec, path: Path, model: LossModel,
-              rnd: ins.ChunkRandom, inst: ins.Instruments, progress: tqdm) -> int:
-    """Write the DAQ stream of one session in chunks; returns the number of rows."""
+              rnd: ins.ChunkRandom, inst: ins.Instruments, progress: tqdm,
+              sensor_rng: np.random.Generator) -> int:
+    """Write the DAQ stream of one session in chunks; returns the number of rows.
+
+    ``sensor_rng`` is the winding sensor's own random stream (no invalid markers
+    in its column, so the other columns' markers are those of a DAQ without it).
+    """
     n_rows = int(np.floor(seg.duration_s * inst.daq_rate_hz)) + 1
     writer, kinds = _daq_stream(spec, path, inst)
+    sensor = WindingSensor(spec.theta_start_c, inst.winding_lag_s, inst.winding_noise_k,
+                           inst.daq_rate_hz, sensor_rng)
+    kelvin = KELVIN_AT_0C if spec.daq_format == "tdms" else 0.0
     ok = False
     try:
         for start in range(0, n_rows, DAQ_CHUNK_ROWS):
             rows = slice(start, min(n_rows, start + DAQ_CHUNK_ROWS))
-            time_s, speed, torque = ins.daq_chunk(seg, rows, spec, model, rnd, inst)
+            time_s, speed, torque, theta = ins.daq_chunk(seg, rows, spec, model, rnd, inst)
+            winding = np.round(sensor.read(theta) + kelvin, inst.winding_decimals)
             cells = rnd.marker_cells(time_s.size, (1, 2), len(kinds), inst.daq_marker_rate)
             if isinstance(writer, TdmsStream):
-                cols = [time_s, speed, torque]
+                cols = [time_s, speed, torque, winding]
                 for c, (r, code) in cells.items():
                     cols[c][r] = np.asarray(kinds)[code]
                 writer.write(cols)
             else:
                 markers = {c: (r, code, kinds) for c, (r, code) in cells.items()}
-                writer.write([time_s, speed, torque], markers)
+                writer.write([time_s, speed, torque, winding], markers)
             progress.update(time_s.size)
         ok = True
     finally:

@@ -107,7 +107,8 @@ def test_round_trip(tmp_path):
     assert data["units"]["speed"] == {"rpm": "rpm", "si": "rad/s"}
     assert "negative" in data["sign_convention"]
     assert len(data["coefficients"]["si"]) == len(m.terms)
-    assert data["schema_version"] == 2 and data["drive"]["max_speed_rpm"] == 3000.0
+    assert data["schema_version"] == 3 and data["drive"]["max_speed_rpm"] == 3000.0
+    assert data["thermal"] is None
     # no temp files left beside it
     assert [p.name for p in tmp_path.iterdir()] == ["power_model.json"]
 
@@ -193,10 +194,31 @@ def test_version_1_file_loads_without_drive(tmp_path):
     path.write_text(json.dumps(d))
     m = load_power_model(path)
     assert m.drive is None and m.nominal_power_w == 8200.0
-    assert m.to_dict()["schema_version"] == 2  # written as the current version
+    assert m.to_dict()["schema_version"] == 3  # written as the current version
     d["drive"] = _paper_dict()["drive"]
     path.write_text(json.dumps(d))
     with pytest.raises(InputError, match="version-2 field"):
+        load_power_model(path)
+
+
+def test_thermal_block_versions_and_physics(tmp_path):
+    # version 3 carries "thermal" (null: no thermal model); version 2 files (the shipped
+    # paper model) load with thermal None and refuse the key; a non-positive resistance
+    # is refused by name
+    d2 = _paper_dict()
+    assert d2["schema_version"] == 2 and "thermal" not in d2
+    d = {**d2, "schema_version": 3, "thermal": None}
+    path = tmp_path / "m.json"
+    path.write_text(json.dumps(d2))
+    assert load_power_model(path).thermal is None
+    path.write_text(json.dumps({**d2, "thermal": None}))
+    with pytest.raises(InputError, match="version-3 field"):
+        load_power_model(path)
+    thermal = {"r_th_k_per_w": 0.05, "tau_th_s": 600.0, "c_th_j_per_k": 12000.0}
+    path.write_text(json.dumps({**d, "thermal": thermal}))
+    assert load_power_model(path).thermal == thermal
+    path.write_text(json.dumps({**d, "thermal": {**thermal, "r_th_k_per_w": -0.05}}))
+    with pytest.raises(InputError, match=r"thermal\.r_th_k_per_w.*positive resistance"):
         load_power_model(path)
 
 
