@@ -104,7 +104,3 @@ def kind_of(objective: str, drive_limits: bool) -> Kind:
             return kind
     raise ValueError(f"objective must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
 
-
-def partner(kind: Kind, drive_limits: bool) -> Kind:
-    """The kind with the same objective and the given drive-limits switch."""
-    return kind_of(kind.objective, drive_limits)
