@@ -40,8 +40,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                     "default the drum frame")
 
 
+    ve = sub.add_parser("verify", help="measured energy per cycle against the predictions",
+                        description="per kept cycle of a cycle-run session in the store: the "
+                        "measured electrical and mechanical energy with their uncertainty "
+                        "against the power model at the measured speed and torque and against "
+                        "the optimizer; mean error, 95 % band, drift, verdict "
+                        "(docs/schemas.md section 11)")
+    ve.add_argument("--store", type=Path, default=Path("bench_store"),
+                    help="the store holding the cycle run (default ./bench_store)")
+    ve.add_argument("--optimize", type=Path, default=Path("optimize_out"),
+                    help="the optimize folder the profile was exported from "
+                    "(default ./optimize_out)")
+    ve.add_argument("--session", default=None,
+                    help="the cycle-run session's id (default the store's only one)")
+    ve.add_argument("--out", type=Path, default=Path("verify_out"),
+                    help="output folder (default ./verify_out)")
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the action."""
+    if args.action == "verify":
+        return _verify(args)
     frame = BenchFrame()
     if args.bench_session is not None:
         s = load_session(args.bench_session)
@@ -60,4 +79,25 @@ def run(args: argparse.Namespace) -> int:
           f"{h['e_mech_pred_j']:.1f} J (largest cycle difference "
           f"{100 * done.e_mech_error:.3f} %); electrical {h['e_elec_pred_j']:.1f} J predicted")
     print("  files: " + ", ".join(str(p) for p in done.files.values()))
+    return 0
+
+
+def _verify(args: argparse.Namespace) -> int:
+    from cycle.verify_command import verify_cycles
+
+    done = verify_cycles(args.store, args.optimize, args.out, session=args.session,
+                         command_line=args.command_line)
+    r, m = done.record, done.record["means"]
+    print(f"bench cycle verify: session {r['session']} ({r['scenario']}): "
+          f"{r['cycles_kept']} of {r['cycles_in_profile']} cycles kept")
+    for line in r["cycle_notes"]:
+        print(f"  rejected {line}")
+    print(f"  electrical energy per cycle: measured {m['e_elec_j']:.1f} +- "
+          f"{m['band_elec_j']:.1f} J (95 %), power model at the measured speed and torque "
+          f"{m['e_elec_model_j']:.1f} J, "
+          f"optimizer {m['e_elec_optimizer_j']:.1f} J")
+    print(f"  mechanical energy per cycle: measured {m['e_mech_j']:.1f} +- "
+          f"{m['band_mech_j']:.1f} J (95 %), optimizer {r['e_mech_optimizer_j']:.1f} J")
+    print(f"  {r['verdict']}")
+    print(f"  files in {args.out}")
     return 0

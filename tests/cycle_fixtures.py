@@ -20,6 +20,7 @@ from optimize.sweep_folder import write_sweep_folder
 
 #: scenario -> (period [s], a, b [rpm], A, B [N m]); the second leaves the 1500 rpm limit
 CYCLES = {"elec-lim-7.0": (6.0, -300.0, -900.0, 40.0, 30.0),
+          "elec-lim-5.5": (7.0, -200.0, -700.0, 35.0, 25.0),
           "elec-free-9.0": (5.0, -400.0, -1300.0, 45.0, 30.0)}
 LIMITS = {"nominal_power_w": 8200.0, "max_speed_rpm": 1500.0, "max_torque_nm": 78.0}
 
@@ -57,7 +58,7 @@ def write_cycle_sweep(folder) -> object:
     paper's, carried into the folder)."""
     model = paper_model()
     rows, trajs = zip(*(_cycle(s, model) for s in CYCLES), strict=True)
-    manifest = {"wind_speeds_m_s": [7.0, 9.0], "kinds": ["elec-lim", "elec-free"],
+    manifest = {"wind_speeds_m_s": [5.5, 7.0, 9.0], "kinds": ["elec-lim", "elec-free"],
                 "scenarios": list(CYCLES),
                 "drive_model": {"path": "", "file_sha256": "", "model_sha256": model.sha256,
                                 "name": model.name, "note": "analytic test cycles"},
