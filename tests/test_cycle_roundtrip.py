@@ -159,3 +159,22 @@ def test_another_profile_than_named_is_refused(rig, tmp_path):
     store, camp = _hostile(rig, tmp_path, "cycle_other")
     shutil.copy(base / "other.csv", camp / "cycle_other" / "profile.csv")
     _refused(store, camp, "a different profile than the one named")
+
+
+def test_report_shows_the_verification(rig):
+    """``bench report --verify``: the section holds the verdict, the table and both
+    figures; without the folder it says the stage was not run."""
+    from reports.render import build_context, render
+
+    base, truths, _ = rig
+    sid = next(iter(truths))
+    done = verify_cycles(base / "store", base / "opt", base / "verify_report", session=sid)
+    none = base / "none"
+    html = render(build_context(none, none, none, ["bench", "report"], none, none,
+                                base / "verify_report"))
+    section = html[html.index('<section id="verification">'):]
+    section = section[:section.index("</section>")]
+    assert done.verdict.split(":")[0] in section and "cycles kept" in section
+    assert section.count("<svg") == 2
+    html = render(build_context(none, none, none, ["bench", "report"], none, none, none))
+    assert "Not run: bench cycle verify" in html
