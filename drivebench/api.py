@@ -595,17 +595,14 @@ def plot_efficiency_map(fit: str | Path | pd.DataFrame = "fit_out", ax: Any = No
     -------
     matplotlib Axes
     """
-    from fitting.model_file import load_power_model
+    from fitting.fit_folder import MODEL_FILE, read_efficiency_map, read_power_model
     from reports.plots import plot_efficiency_map as draw
 
     domain = None
     if isinstance(fit, pd.DataFrame):
         frame = fit
     else:
-        path = Path(fit) / "efficiency_map.parquet"
-        if not path.is_file():
-            raise InputError(path, "missing", expected="the output folder of bench fit")
-        frame = pd.read_parquet(path)
-        if (Path(fit) / "power_model.json").is_file():
-            domain = load_power_model(Path(fit) / "power_model.json").domain
+        frame = read_efficiency_map(Path(fit))
+        if (Path(fit) / MODEL_FILE).is_file():
+            domain = read_power_model(Path(fit)).domain
     return draw(frame, ax, domain=domain, cycles=cycles)

@@ -18,12 +18,15 @@ from energy.assess import Assessment
 from energy.bands import Z95
 from energy.curve import OptimizeRun
 from energy.site import Shear
-from kernel.files import write_json, write_text_atomic
+from kernel.errors import InputError
+from kernel.files import read_csv, read_document, write_json, write_text_atomic
 from kernel.output_folder import output_folder
 from kernel.provenance import HEADER_KEY, Provenance
 
 SCHEMA_NAME = "drivebench.aep"
 SCHEMA_VERSION = 1
+AEP_FILE, CURVES_FILE = "aep.json", "power_curves.csv"
+_EXPECTED = "the output of `bench aep` (docs/schemas.md §7)"
 #: the columns of ``power_curves.csv`` its readers rely on (the report's curve figure)
 POWER_CURVE_COLUMNS = ("kind", "wind_speed_m_s", "p_elec_w", "p_mech_w", "p_elec_sigma_w")
 SIGN_NOTE = ("AEP and capacity factors are energy delivered (positive MWh/yr): to the grid for "
@@ -53,7 +56,7 @@ def _clean(value):
 
 #: files by which an aep output folder written before run ids is known; the resumable
 #: store of ``--refine`` solves kept from run to run
-AEP_MARKERS, AEP_KEEP = ("aep.json",), ("solves",)
+AEP_MARKERS, AEP_KEEP = (AEP_FILE,), ("solves",)
 
 
 def aep_document(a: Assessment, run: OptimizeRun, provenance: Provenance,
@@ -84,7 +87,7 @@ def aep_document(a: Assessment, run: OptimizeRun, provenance: Provenance,
         },
         "refine": refine,
         "notes": list(a.notes),
-        "files": {"curves": "power_curves.csv", "awesio": sorted(_awesio_names(a))},
+        "files": {"curves": CURVES_FILE, "awesio": sorted(_awesio_names(a))},
     })
 
 
@@ -114,7 +117,7 @@ def write_files(a: Assessment, run: OptimizeRun, out: Path, provenance: Provenan
     curves = a.curves.copy()
     curves["p_elec_ci95_low_w"] = curves["p_elec_w"] - Z95 * curves["p_elec_sigma_w"]
     curves["p_elec_ci95_high_w"] = curves["p_elec_w"] + Z95 * curves["p_elec_sigma_w"]
-    files["curves"] = write_text_atomic(out / "power_curves.csv",
+    files["curves"] = write_text_atomic(out / CURVES_FILE,
                                         curves.to_csv(index=False, float_format="%.6g"))
     altitudes = np.arange(0.0, 501.0, 10.0)
     reference_height_m = shear.reference_height_m
@@ -142,9 +145,36 @@ def write_files(a: Assessment, run: OptimizeRun, out: Path, provenance: Provenan
             name = f"awesio/{kind}_{q}.yml"
             files[name] = write_text_atomic(out / name, awesio.dump_yaml(doc) + "\n")
     files["aep"] = write_json(
-        out / "aep.json", aep_document(a, run, provenance, reference_height_m, refine),
+        out / AEP_FILE, aep_document(a, run, provenance, reference_height_m, refine),
         non_finite="error")
     return files
+
+
+def read_aep(folder: Path) -> dict:
+    """The ``aep.json`` of an aep output folder, its schema checked."""
+    return read_document(Path(folder) / AEP_FILE, SCHEMA_NAME, expected=_EXPECTED)
+
+
+def read_power_curves(folder: Path) -> pd.DataFrame:
+    """The ``power_curves.csv`` of an aep output folder, the columns of
+    :data:`POWER_CURVE_COLUMNS` checked and their numbers read (an empty cell: NaN).
+
+    Raises
+    ------
+    InputError
+        The file is missing or not CSV, lacks a column, or holds text where a number goes.
+    """
+    path = Path(folder) / CURVES_FILE
+    curves = read_csv(path, POWER_CURVE_COLUMNS, expected=_EXPECTED)
+    for column in POWER_CURVE_COLUMNS[1:]:
+        numbers = pd.to_numeric(curves[column].replace("", np.nan), errors="coerce")
+        bad = numbers.isna() & (curves[column] != "")
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            raise InputError(path, f"{curves[column].iloc[row]!r} is not a number",
+                             line=row + 2, column=column, expected="a number or an empty cell")
+        curves[column] = numbers.astype(float)
+    return curves
 
 
 def format_table(a: Assessment) -> str:

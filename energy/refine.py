@@ -32,6 +32,7 @@ from energy.adaptive import refine_grid
 from energy.curve import OptimizeRun, PowerCurve
 from kernel.errors import InputError
 from kernel.files import parse_toml
+from optimize.service.outcome import failure_reason
 
 #: the check re-solve must give the sweep's average electrical power within this share
 #: of the curve's largest |P_elec|: IPOPT's tolerance (1e-6 scaled) reproduces the same
@@ -196,7 +197,7 @@ def merged_curve(coarse: PowerCurve, records: tuple[dict, ...]) -> PowerCurve:
         if r["role"] != "added" or w in have:
             continue
         if not r["success"]:
-            failed.append((w, f"added by --refine: {r['status']}"))
+            failed.append((w, f"added by --refine: {failure_reason(r)}"))
             continue
         rows.append((w, r["avg_p_elec_w"], r["avg_p_mech_w"], r["period_s"],
                      r["peak_speed_rpm"], r["peak_torque_nm"], scenario_name(coarse.kind, w),
@@ -300,7 +301,8 @@ def _check_note(coarse: PowerCurve, records: tuple[dict, ...]) -> str | None:
         return None
     w = float(check["wind_speed_m_s"])
     if not check["success"]:
-        return (f"{coarse.kind}: the check re-solve at {w:g} m/s failed ({check['status']}); "
+        return (f"{coarse.kind}: the check re-solve at {w:g} m/s failed "
+                f"({failure_reason(check)}); "
                 "added points were solved without it")
     ref = float(coarse.p_elec_w[np.flatnonzero(coarse.wind_m_s == w)[0]])
     gap = abs(check["avg_p_elec_w"] - ref)
@@ -327,7 +329,8 @@ def refine_document(r: RefinedRun, site: Any, tol: float) -> dict:
             "wind_speeds_m_s": m.wind_m_s.tolist(),
             "solves": [{key: rec.get(key) for key in (
                 "wind_speed_m_s", "role", "success", "status", "warm_from", "avg_p_elec_w",
-                "avg_p_mech_w", "wall_time_s", "cached")} for rec in kr.records],
+                "avg_p_mech_w", "result_check", "wall_time_s", "cached")}
+                       for rec in kr.records],
             "n_added": sum(rec["success"] for rec in kr.added),
             "n_added_failed": sum(not rec["success"] for rec in kr.added),
             "note": kr.check_note,
@@ -340,7 +343,7 @@ def refine_document(r: RefinedRun, site: Any, tol: float) -> dict:
 def added_list(kind_doc: dict) -> str:
     """``"4.75, 6.25 FAILED (Infeasible)"``: the added speeds of one kind of the document."""
     return ", ".join(f"{r['wind_speed_m_s']:g}"
-                     + ("" if r["success"] else f" FAILED ({r['status']})")
+                     + ("" if r["success"] else f" FAILED ({failure_reason(r)})")
                      for r in kind_doc["solves"] if r["role"] == "added") or "none"
 
 

@@ -14,6 +14,7 @@ from typing import Any
 
 from energy.cli import add_site_arguments, shear_from_args, site_from_args
 from kernel.errors import InputError
+from optimize.service.outcome import failure_reason
 
 #: where ``bench fit`` writes its model (docs/schemas.md §4)
 FIT_MODEL_PATH = Path("fit_out") / "power_model.json"
@@ -105,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
     for n in done.notes:
         print(f"note: {n}")
     for r in (r for r in res.records if not r["success"]):
-        print(f"FAILED: {r['candidate']} at {r['wind_speed_m_s']:g} m/s: {r['status']} "
+        print(f"FAILED: {r['candidate']} at {r['wind_speed_m_s']:g} m/s: {failure_reason(r)} "
               "(that candidate gets no AEP)")
     return 0 if res.chosen is not None else 1
 

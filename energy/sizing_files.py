@@ -10,11 +10,15 @@ import json
 from pathlib import Path
 from typing import Any
 
+from kernel.files import read_document
 from kernel.provenance import HEADER_KEY, Provenance
 
+SCHEMA_NAME = "drivebench.sizing"
+SCHEMA_VERSION = 1
+SIZING_FILE, TABLE_FILE = "sizing.json", "sizing.csv"
 #: files by which a size output folder written before run ids is known; the
 #: resumable solve store kept from run to run
-SIZE_MARKERS, SIZE_KEEP = ("sizing.json",), ("solves",)
+SIZE_MARKERS, SIZE_KEEP = (SIZING_FILE,), ("solves",)
 
 
 def grid_hours(site, winds: tuple[float, ...], records: list[dict] | tuple = ()) -> dict:
@@ -75,10 +79,10 @@ def write_sizing_files(out: Path, res: Any, *, site: Any, site_note: str, drive:
     from kernel.files import write_json, write_text_atomic
 
     t = res.table
-    files = {"csv": write_text_atomic(out / "sizing.csv",
+    files = {"csv": write_text_atomic(out / TABLE_FILE,
                                       t.to_csv(index=False, float_format="%.6g"))}
     doc = {
-        "schema": "drivebench.sizing", "schema_version": 1,
+        "schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION,
         HEADER_KEY: provenance.header(),
         "site": {**site.to_dict(), "note": site_note},
         "reference_model": {"path": str(drive.model_path), "note": drive.losses_note},
@@ -96,5 +100,11 @@ def write_sizing_files(out: Path, res: Any, *, site: Any, site_note: str, drive:
         "candidates": json.loads(t.to_json(orient="records")),
         "solves": res.records, "notes": notes,
     }
-    files["json"] = write_json(out / "sizing.json", doc, indent=1)
+    files["json"] = write_json(out / SIZING_FILE, doc, indent=1)
     return files
+
+
+def read_sizing(folder: Path) -> dict:
+    """The ``sizing.json`` of a size output folder, its schema checked."""
+    return read_document(Path(folder) / SIZING_FILE, SCHEMA_NAME,
+                         expected="the output of `bench size` (docs/schemas.md §8)")

@@ -6,6 +6,7 @@ Writes the outputs of docs/schemas.md §4 into one directory, all of them or non
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -18,8 +19,7 @@ from fitting.domain import BAND_FRAC, quadrant_envelopes
 from fitting.efficiency import MaskingRules
 from fitting.efficiency_map import efficiency_summary, gridded_map
 from fitting.extra_terms import extra_terms_check
-from fitting.loss_table import write_loss_table
-from fitting.model_file import save_power_model
+from fitting.fit_folder import FIT_MARKERS, FitContents, write_fit_files
 from fitting.points import QUADRANTS, OperatingPoints, load_points
 from fitting.power_fit import (
     OUTLIER_ALPHA,
@@ -44,13 +44,11 @@ from fitting.selection import (
 from fitting.terms import MAX_ORDER, MIN_ORDER, full_polynomial
 from fitting.thermal import fit_thermal
 from kernel.errors import InputError
-from kernel.files import check_output_dir, json_safe, write_json, write_parquet
+from kernel.files import check_output_dir, json_safe
 from kernel.output_folder import check_replaceable, output_folder
 from kernel.provenance import HEADER_KEY, Provenance
 
 WEIGHTINGS = ("quadrant", "none")
-#: files by which a fit output folder written before run ids is known
-FIT_MARKERS = ("fit_summary.json", "power_model.json")
 
 
 @dataclass(frozen=True)
@@ -229,6 +227,15 @@ class ModelFit:
             name=f"bench fit: {self.chosen.name} ({len(self.chosen.terms)} terms{only})",
             domain={q: env["polygon"] for q, env in envelopes.items()}, **metadata)
 
+    def summary(self, model: PowerModel, statistics: dict, drive: dict, notes: list[str],
+                efficiency: dict, header: dict) -> dict:
+        """``fit_summary.json`` without its schema and its list of files (docs/schemas.md §4)."""
+        return json_safe({
+            "model": model.summary(), "statistics": statistics,
+            "selection_table": self.selection.table.to_dict(orient="records"),
+            "extra_terms_check": self.extra_terms, "drive": drive, "notes": notes,
+            "efficiency": efficiency, HEADER_KEY: header})
+
 
 def fit_model(frame: pd.DataFrame, drive, options: FitOptions, source: Path,
               progress: bool) -> ModelFit:
@@ -265,28 +272,28 @@ def fit_model(frame: pd.DataFrame, drive, options: FitOptions, source: Path,
                     requested=requested is not None, weights=weights, extra_terms=extra)
 
 
-def _write_outputs(stage: Path, model, frame: pd.DataFrame, masking: MaskingRules,
-                   fitted: ModelFit, options: FitOptions,
-                   points_sha256: str) -> tuple[pd.DataFrame, list[Path]]:
-    """Write the model, the map, the selection table, the loss table and the figures into
-    the staging folder; return the map and the files written."""
-    (stage / "figures").mkdir()
-    written = [save_power_model(model, stage / "power_model.json")]
-    emap = gridded_map(frame, masking, model=model)
-    meta = {"masking": masking.to_dict(), "power_model_sha256": model.sha256,
-            "points_sha256": points_sha256}
-    written.append(write_parquet(stage / "efficiency_map.parquet", emap, metadata=meta))
-    selection = fitted.selection
-    written.append(write_parquet(stage / "selection.parquet", selection.table, metadata={
-        "rule": RULE, "weighting": options.weighting, "folds": options.folds,
-        "reason": selection.reason}))
-    written.append(write_loss_table(model, stage / "loss_table.csv"))
-    fig_dir = stage / "figures"
-    written += figures.efficiency_map_figure(emap, fig_dir, masking.to_dict(), model.domain)
-    written += figures.power_map_figure(model, frame, fig_dir)
-    written += figures.residuals_figure(frame, fitted.fit.residuals_w, model.nominal_power_w,
-                                        fig_dir)
-    return emap, written
+def _contents(model, emap: pd.DataFrame, masking: MaskingRules, fitted: ModelFit,
+              options: FitOptions, points_sha256: str, summary: dict) -> FitContents:
+    """The files of the fit folder: the model, its map, the selection table, the summary."""
+    return FitContents(
+        model=model, efficiency_map=emap,
+        map_metadata={"masking": masking.to_dict(), "power_model_sha256": model.sha256,
+                      "points_sha256": points_sha256},
+        selection=fitted.selection.table,
+        selection_metadata={"rule": RULE, "weighting": options.weighting,
+                            "folds": options.folds, "reason": fitted.selection.reason},
+        summary=summary)
+
+
+def _figures(model, frame: pd.DataFrame, masking: MaskingRules, fitted: ModelFit,
+             emap: pd.DataFrame) -> Callable[[Path], list[Path]]:
+    """The fit's figures, drawn into the folder given."""
+    def draw(fig_dir: Path) -> list[Path]:
+        return (figures.efficiency_map_figure(emap, fig_dir, masking.to_dict(), model.domain)
+                + figures.power_map_figure(model, frame, fig_dir)
+                + figures.residuals_figure(frame, fitted.fit.residuals_w,
+                                           model.nominal_power_w, fig_dir))
+    return draw
 
 
 def run_fit(store: str | Path, out: str | Path, options: FitOptions,
@@ -347,25 +354,14 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     notes = ([thermal_note] + drive_notes + [v["note"] for v in statistics["validity"].values()
                             if not v["measured"]]
              + [d["note"] for d in (outliers, loss_repeat, repeats) if d.get("note")])
+    emap = gridded_map(frame, masking, model=model)
+    efficiency = efficiency_summary(emap, frame, masking, loss_repeat, repeats, envelopes)
+    summary = fitted.summary(model, statistics, drive.to_dict(), notes, efficiency,
+                             {**run.header(), **provenance})
+    contents = _contents(model, emap, masking, fitted, options, pts.points.sha256, summary)
+    draw = _figures(model, frame, masking, fitted, emap)
     with output_folder(out, "fit", FIT_MARKERS, provenance=run) as stage:  # all or none
-        emap, written = _write_outputs(stage, model, frame, masking, fitted, options,
-                                       pts.points.sha256)
-        summary = json_safe({
-            "schema": "drivebench.fit_summary",
-            "schema_version": 1,
-            "model": model.summary(),
-            "statistics": statistics,
-            "selection_table": fitted.selection.table.to_dict(orient="records"),
-            "extra_terms_check": fitted.extra_terms,
-            "drive": drive.to_dict(),
-            "notes": notes,
-            "efficiency": efficiency_summary(emap, frame, masking, loss_repeat, repeats,
-                                             envelopes),
-            HEADER_KEY: {**run.header(), **provenance},
-            "outputs": sorted(str(p.relative_to(stage)) for p in written) + ["fit_summary.json"],
-        })
-        write_json(stage / "fit_summary.json", summary)
-    return summary
+        return write_fit_files(stage, contents, draw)
 
 
 def outlier_summary(frame, fit, weights: np.ndarray, nominal_power_w: float, source) -> dict:

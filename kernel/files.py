@@ -1,5 +1,6 @@
-"""Files every stage writes and reads: UTF-8 text and TOML in, JSON, Parquet and
-CSV out by atomic replacement, and content hashes.
+"""Files every stage writes and reads: UTF-8 text, TOML, JSON documents, Parquet and
+CSV tables in (each checked, errors naming the file), JSON, Parquet and CSV out by
+atomic replacement, and content hashes.
 
 A stage never leaves a half-written output: it writes a temporary sibling of
 the target (same directory, so the same file system) and moves it into place
@@ -299,6 +300,89 @@ def write_parquet(path: str | Path, frame: Any, *, descriptions: dict[str, str] 
 def write_csv(path: str | Path, frame: Any) -> Path:
     """Write a DataFrame as CSV (no index) atomically."""
     return atomic_write(path, lambda tmp: frame.to_csv(tmp, index=False))
+
+
+def check_columns(columns, required: tuple[str, ...], path: str | Path) -> None:
+    """Raise InputError naming the first of ``required`` absent from ``columns``."""
+    absent = [c for c in required if c not in columns]
+    if absent:
+        raise InputError(path, f"columns {absent} missing", column=absent[0],
+                         expected=", ".join(required))
+
+
+def _require_file(path: Path, expected: str) -> None:
+    if not path.is_file():
+        raise InputError(path, "file not found", expected=expected)
+
+
+def read_parquet(path: str | Path, required: tuple[str, ...] = (),
+                 columns: tuple[str, ...] | None = None, *, expected: str = "a Parquet file"):
+    """A Parquet file as a DataFrame, its ``required`` columns checked first.
+
+    Parameters
+    ----------
+    path : str or Path
+    required : tuple of str
+        Columns the file must have.
+    columns : tuple of str, optional
+        Read only these (default all).
+    expected : str
+        What the file should be, for the error message (``"the output of bench fit"``).
+
+    Raises
+    ------
+    InputError
+        The file is missing, not readable Parquet, or lacks a required column.
+    """
+    import pandas as pd
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    path = Path(path)
+    _require_file(path, expected)
+    try:
+        check_columns(pq.read_schema(path).names, required, path)
+        return pd.read_parquet(path, columns=list(columns) if columns else None)
+    except (OSError, pa.ArrowException) as exc:
+        raise InputError(path, f"not a readable Parquet file ({exc})", expected=expected) from exc
+
+
+def read_csv(path: str | Path, required: tuple[str, ...] = (), *,
+             expected: str = "a CSV file"):
+    """A CSV file written by :func:`write_csv` (English locale, empty cells as text),
+    its ``required`` columns checked.
+
+    Raises
+    ------
+    InputError
+        The file is missing, not readable CSV, or lacks a required column.
+    """
+    import pandas as pd
+
+    path = Path(path)
+    _require_file(path, expected)
+    try:
+        frame = pd.read_csv(path, keep_default_na=False)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise InputError(path, f"not a readable CSV file: {exc}", expected=expected) from exc
+    check_columns(frame.columns, required, path)
+    return frame
+
+
+def read_document(path: str | Path, schema: str, *, expected: str) -> dict:
+    """A stage's JSON document whose ``"schema"`` is ``schema``.
+
+    Raises
+    ------
+    InputError
+        The file is missing, not JSON, or not a JSON object of that schema.
+    """
+    path = Path(path)
+    _require_file(path, expected)
+    doc = read_json(path, what=expected)
+    if not isinstance(doc, dict) or doc.get("schema") != schema:
+        raise InputError(path, f"not a {schema} document", expected=f'"schema": "{schema}"')
+    return doc
 
 
 def file_sha256(path: str | Path) -> str:

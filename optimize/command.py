@@ -26,7 +26,6 @@ from optimize.service import Problem, make_tasks, run_sweep
 from optimize.sweep import outputs
 from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import plan_chains
-from optimize.sweep.result_checks import check_outcomes
 from optimize.sweep.trust import run_trust_checks
 from optimize.sweep_folder import (
     MARKERS,
@@ -245,8 +244,7 @@ def run_optimize(
         chains = plan_chains(request.winds, request.kinds, handle.n_workers)
         tasks = make_tasks(chains, problem, cut_in_kinds, request.cut_in_tol_m_s, backend)
         result = run_sweep(tasks, handle, show_progress)
-        outcomes, checks = (check_outcomes(problem, result.outcomes) if backend is None
-                            else (list(result.outcomes), []))
+        outcomes = list(result.outcomes)
         if request.trust:
             trust = run_trust_checks(problem, outcomes, request.winds, handle)
     summary = outputs.summary_frame(outcomes, drive.model.domain,
@@ -259,19 +257,17 @@ def run_optimize(
         trajectories=outputs.trajectories_frame(outcomes),
         carried_model=drive.model if drive.carried or not drive.model_path.is_file() else None,
         manifest=sweep_manifest(request, system, drive, options, result, summary, trust,
-                                outcomes, checks))
+                                outcomes))
     return OptimizeOutcome(summary, claims, cut_ins, trust, tuple(trust.get("lines", ())),
                            result.wall_time_s, result.executor, files)
 
 
 def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, options: Any,
-                   result: Any, summary: Any, trust: dict, outcomes: list,
-                   checks: list) -> dict:
+                   result: Any, summary: Any, trust: dict, outcomes: list) -> dict:
     """The optimize manifest's content after its schema and provenance header
     (docs/schemas.md §5): the request, the system and drive in force, the options, the
     sweep's own record (:meth:`optimize.service.run.SweepResult.record`) and the result
-    checks of its optima (``outcomes``: the sweep's outcomes after them; a scenario that
-    failed its check is failed)."""
+    check of each scenario's final optimum (a scenario that failed its check is failed)."""
     model = drive.model
     return {
         "wind_speeds_m_s": list(request.winds),
@@ -293,7 +289,8 @@ def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, o
         "converged": int(summary["success"].sum()),
         **result.record(),
         "failed": [o.name for o in outcomes if not o.success],
-        "result_checks": [dataclasses.asdict(c) for c in checks],
+        "result_checks": [dataclasses.asdict(o.attempts[-1].check) for o in outcomes
+                          if o.attempts and o.attempts[-1].check is not None],
         "local_optima": outputs.resolve_lines(outcomes),
         "trust": trust,
     }

@@ -24,18 +24,26 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-import pyarrow as pa
 import pyarrow.parquet as pq
 
-from kernel.errors import InputError
-from kernel.files import file_sha256, read_json, write_csv, write_json, write_parquet
+from kernel.files import (
+    file_sha256,
+    read_csv,
+    read_document,
+    read_parquet,
+    write_csv,
+    write_json,
+    write_parquet,
+)
 from kernel.output_folder import check_output_folder, output_folder
 from kernel.provenance import Provenance
 
 SCHEMA_NAME = "drivebench.optimize"
 SCHEMA_VERSION = 1
+SUMMARY_FILE, TRAJECTORIES_FILE = "summary.parquet", "trajectories.parquet"
+MANIFEST_FILE, CLAIMS_FILE, MODEL_FILE = "manifest.json", "claims.csv", "power_model.json"
 #: files by which an optimize output folder written before run ids is known
-MARKERS = ("summary.parquet", "manifest.json")
+MARKERS = (SUMMARY_FILE, MANIFEST_FILE)
 
 #: summary columns, in order, with their meaning (unit from the name)
 SUMMARY_COLUMNS: dict[str, str] = {
@@ -97,6 +105,8 @@ SUMMARY_COLUMNS: dict[str, str] = {
 SUMMARY_REQUIRED = ("scenario", "kind", "objective", "drive_limits", "wind_speed_m_s",
                     "success", "status", "avg_p_elec_w", "avg_p_mech_w", "period_s",
                     "peak_speed_rpm", "peak_torque_nm")
+#: the columns of ``claims.csv`` a reader needs (:mod:`optimize.analysis.claims` writes more)
+CLAIMS_COLUMNS = ("statement", "paper", "ours", "verdict")
 #: the columns of ``trajectories.parquet`` its readers rely on (the energy stage's cycle
 #: averages, the report's cycle figures); the file holds every state and control besides
 TRAJECTORY_COLUMNS = ("scenario", "kind", "wind_speed_m_s", "time_s", "weight", "l_m",
@@ -150,22 +160,22 @@ def write_sweep_folder(out: Path, provenance: Provenance, *, summary: pd.DataFra
     """
     with output_folder(out, "optimize", MARKERS, provenance=provenance) as stage:
         meta = system_metadata(system)
-        files = {"summary": write_parquet(stage / "summary.parquet", summary,
+        files = {"summary": write_parquet(stage / SUMMARY_FILE, summary,
                                           descriptions=SUMMARY_COLUMNS, metadata=meta),
-                 "trajectories": write_parquet(stage / "trajectories.parquet", trajectories,
+                 "trajectories": write_parquet(stage / TRAJECTORIES_FILE, trajectories,
                                                metadata=meta)}
         if carried_model is not None:
-            files["power_model"] = write_json(stage / "power_model.json",
+            files["power_model"] = write_json(stage / MODEL_FILE,
                                               carried_model.to_dict(), non_finite="error")
             manifest = {**manifest, "drive_model": {
-                **manifest["drive_model"], "path": str(Path(out).absolute() / "power_model.json"),
+                **manifest["drive_model"], "path": str(Path(out).absolute() / MODEL_FILE),
                 "file_sha256": file_sha256(files["power_model"])}}
         if claims is not None:
-            files["claims"] = write_csv(stage / "claims.csv", claims)
+            files["claims"] = write_csv(stage / CLAIMS_FILE, claims)
         doc = {"schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION,
                "provenance": provenance.header(), **manifest,
                "files": {k: Path(v).name for k, v in files.items()}}
-        files["manifest"] = write_json(stage / "manifest.json", doc)
+        files["manifest"] = write_json(stage / MANIFEST_FILE, doc)
     return {k: Path(out) / Path(v).relative_to(stage) for k, v in files.items()}
 
 
@@ -176,64 +186,26 @@ def field_units(path: Path) -> dict[str, str]:
     return {f.name: (f.metadata or {}).get(b"unit", b"").decode() for f in schema}
 
 
-def check_columns(columns, required: tuple[str, ...], path: Path) -> None:
-    """Raise InputError naming the first of ``required`` absent from ``columns``."""
-    absent = [c for c in required if c not in columns]
-    if absent:
-        raise InputError(path, f"columns {absent} missing", column=absent[0],
-                         expected=", ".join(required))
-
-
-def read_parquet(path: Path, required: tuple[str, ...],
-                 columns: tuple[str, ...] | None = None) -> pd.DataFrame:
-    """A Parquet file of the folder with its ``required`` columns checked; ``columns``
-    reads only those (default all).
-
-    Raises
-    ------
-    InputError
-        The file is missing, not readable Parquet, or lacks a required column.
-    """
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(path, "file not found", expected=_EXPECTED)
-    try:
-        names = pq.read_schema(path).names
-    except (OSError, pa.ArrowException) as exc:
-        raise InputError(path, f"not a readable Parquet file ({exc})") from exc
-    check_columns(names, required, path)
-    try:
-        return pd.read_parquet(path, columns=list(columns) if columns else None)
-    except (OSError, pa.ArrowException) as exc:
-        raise InputError(path, f"not a readable Parquet file ({exc})") from exc
-
-
 def read_summary(path: Path) -> pd.DataFrame:
     """``summary.parquet`` with the columns of :data:`SUMMARY_REQUIRED` checked."""
-    return read_parquet(path, SUMMARY_REQUIRED)
+    return read_parquet(path, SUMMARY_REQUIRED, expected=_EXPECTED)
 
 
 def read_trajectories(folder: Path, columns: tuple[str, ...] | None = None) -> pd.DataFrame:
     """``trajectories.parquet`` of ``folder`` (``columns``: only those of
     :data:`TRAJECTORY_COLUMNS`; default all)."""
-    return read_parquet(Path(folder) / "trajectories.parquet", columns or TRAJECTORY_COLUMNS,
-                        columns)
-
-
-def check_manifest(doc: object, path: Path) -> dict:
-    """``doc`` if it is an optimize manifest, else InputError naming ``path``."""
-    if not isinstance(doc, dict) or doc.get("schema") != SCHEMA_NAME:
-        raise InputError(path, "not an optimize manifest",
-                         expected=f'"schema": "{SCHEMA_NAME}"')
-    return doc
+    return read_parquet(Path(folder) / TRAJECTORIES_FILE, columns or TRAJECTORY_COLUMNS,
+                        columns, expected=_EXPECTED)
 
 
 def read_manifest(folder: Path) -> dict:
     """The sweep's ``manifest.json``, its schema checked."""
-    path = Path(folder) / "manifest.json"
-    if not path.is_file():
-        raise InputError(path, "file not found", expected=_EXPECTED)
-    return check_manifest(read_json(path, what="optimize manifest"), path)
+    return read_document(Path(folder) / MANIFEST_FILE, SCHEMA_NAME, expected=_EXPECTED)
+
+
+def read_claims(folder: Path) -> pd.DataFrame:
+    """The sweep's ``claims.csv`` (the comparison with the paper)."""
+    return read_csv(Path(folder) / CLAIMS_FILE, CLAIMS_COLUMNS, expected=_EXPECTED)
 
 
 def read_sweep_folder(folder: Path) -> tuple[pd.DataFrame, dict]:
@@ -241,7 +213,7 @@ def read_sweep_folder(folder: Path) -> tuple[pd.DataFrame, dict]:
     (:func:`kernel.output_folder.check_output_folder` first)."""
     folder = Path(folder)
     check_output_folder(folder)
-    return read_summary(folder / "summary.parquet"), read_manifest(folder)
+    return read_summary(folder / SUMMARY_FILE), read_manifest(folder)
 
 
 # ------------------------------------------------------------------ the summary in words

@@ -16,30 +16,33 @@ import pandas as pd
 from bench.store.damage import check_store
 from bench.store.manifest import kind_files as store_files
 from bench.store.manifest import read_manifest
+from bench.store.read import STORE_REPAIR, read_points, read_rejected
 from kernel.errors import InputError
+from kernel.files import check_columns
 from reports import drive_figures
 from reports.inputs import InputLog
 from reports.tables import flatten, fmt, missing_since
 
 POINT_COLUMNS = ("session_id", "quadrant", "speed_rpm", "torque_nm", "p_mech_w", "p_elec_w")
 REJECTED_COLUMNS = ("session_id", "t_start_s", "t_end_s", "reason")
+READERS = {"points": read_points, "rejected": read_rejected}
 
 
 def _store_kind(log: InputLog, store: Path, kind: str, manifest: dict | None,
                 required: tuple[str, ...]) -> pd.DataFrame | None:
-    """The ``kind`` files the store's manifest lists (never files it does not list)."""
-    try:
-        store_manifest = None if manifest is None else read_manifest(store)
-    except InputError:  # not a store manifest: the campaign section says what is missing
-        store_manifest = None
-    files = [] if store_manifest is None else list(store_files(store, kind).values())
+    """The ``kind`` tables the store's manifest lists (never files it does not list), read
+    by the store's reader after the store's own check (``bench store check``)."""
+    files = [] if manifest is None else list(store_files(store, kind, manifest).values())
     if files:
-        damage = check_store(store, store_manifest)
+        damage = check_store(store, manifest)
         if damage.damaged:
             raise InputError(store, "damaged store: " + "; ".join(damage.lines()[:3]),
-                             expected="run bench store check, then bench ingest of the "
-                                      "damaged sessions' folders")
-    return log.parquet_files(files, str(Path(store) / kind / "*.parquet"), required)
+                             expected=STORE_REPAIR)
+    frame = log.read_files(files, str(Path(store) / kind / "*.parquet"),
+                           lambda: READERS[kind](store))
+    if frame is not None:
+        check_columns(frame.columns, required, store / kind)
+    return frame
 
 
 def campaign_section(log: InputLog, store: Path) -> dict:
@@ -61,16 +64,12 @@ def campaign_section(log: InputLog, store: Path) -> dict:
     """
     start = len(log.missing)
     store = Path(store)
-    manifest = log.json(store / "manifest.json")
+    manifest = log.read(store, "manifest.json", read_manifest)
     points = _store_kind(log, store, "points", manifest, POINT_COLUMNS)
     rejected = _store_kind(log, store, "rejected", manifest, REJECTED_COLUMNS)
     sessions = []
     if manifest is not None:
-        entries = manifest.get("sessions")
-        if not isinstance(entries, dict):
-            raise InputError(store / "manifest.json", "field 'sessions' is not an object",
-                             expected="{session_id: {...}}")
-        for sid, entry in sorted(entries.items()):
+        for sid, entry in sorted(manifest["sessions"].items()):
             sessions.append(_session_row(str(sid), entry if isinstance(entry, dict) else {}))
     quadrant_counts = {"motor": 0, "generator": 0}
     figure = None

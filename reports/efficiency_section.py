@@ -6,12 +6,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from fitting.fit_folder import MAP_FILE, read_efficiency_map
 from fitting.power_model import PowerModel
 from reports import drive_figures
 from reports.inputs import InputLog
 from reports.tables import flatten, fmt, missing_since
-
-EFFICIENCY_COLUMNS = ("speed_rpm", "torque_nm", "eta")
 
 
 def efficiency_section(log: InputLog, fit: Path, model: PowerModel | None,
@@ -35,7 +34,7 @@ def efficiency_section(log: InputLog, fit: Path, model: PowerModel | None,
         ``masking`` (settings), ``rules``, ``bands``, ``peaks``, ``missing``.
     """
     start = len(log.missing)
-    emap = log.parquet(Path(fit) / "efficiency_map.parquet", EFFICIENCY_COLUMNS)
+    emap = log.read(fit, MAP_FILE, read_efficiency_map)
     figure = drawn = None
     if emap is not None and len(emap):
         drawn = {"map_frame": emap, "domain": model.domain if model is not None else None}

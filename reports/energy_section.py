@@ -13,8 +13,9 @@ import numpy as np
 import pandas as pd
 from markupsafe import Markup
 
-from energy.outputs import POWER_CURVE_COLUMNS as CURVE_COLUMNS
+from energy.outputs import AEP_FILE, CURVES_FILE, read_aep, read_power_curves
 from energy.refine import refine_notes
+from energy.sizing_files import SIZING_FILE, read_sizing
 from optimize.kinds import LABELS
 from reports import plots, svg
 from reports.inputs import InputLog
@@ -71,12 +72,12 @@ def energy_section(log: InputLog, aep: Path, size: Path) -> dict:
     # ``not_run``); a folder without its files is a missing input
     not_run = [f"bench {name} (no {folder})" for name, folder in (("aep", aep), ("size", size))
                if not Path(folder).is_dir()]
-    doc = log.json(Path(aep) / "aep.json") if Path(aep).is_dir() else None
-    curves = log.csv(Path(aep) / "power_curves.csv", CURVE_COLUMNS) if doc is not None else None
+    doc = log.read(aep, AEP_FILE, read_aep) if Path(aep).is_dir() else None
+    curves = log.read(aep, CURVES_FILE, read_power_curves) if doc is not None else None
     out = aep_context(doc, curves) if doc is not None else {
         "site": None, "nominal": None, "table": [], "losses": [], "notes": [], "warnings": [],
         "figure": None, "aep_figure": None, "sign": None, "interpolation": None}
-    sizing = log.json(Path(size) / "sizing.json") if Path(size).is_dir() else None
+    sizing = log.read(size, SIZING_FILE, read_sizing) if Path(size).is_dir() else None
     out["sizing"] = sizing_context(sizing) if sizing is not None else None
     out["missing"] = list(dict.fromkeys(log.missing[start:]))
     out["not_run"] = not_run
@@ -100,8 +101,6 @@ def aep_context(doc: dict, curves: pd.DataFrame | None) -> dict:
            "warnings": [n for n in notes if n not in informational],
            "figure": None, "aep_figure": None}
     if curves is not None and len(curves):
-        for col in CURVE_COLUMNS[2:]:
-            curves[col] = curves[col].astype(float)
         out["figure"] = power_curve_figure(curves)
     if rows and all(r.get("aep_elec_mwh") is not None for r in rows):
         out["aep_figure"] = aep_figure(pd.DataFrame(rows))

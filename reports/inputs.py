@@ -1,23 +1,24 @@
 """Reading the stage outputs the report is built from, and remembering what was read.
 
-The report only reads files (docs/schemas.md §2, §4, §5). Each read goes through
-:class:`InputLog`, which records the file's SHA-256 for the provenance section and
+The report only reads files (docs/schemas.md §2, §4, §5, §7, §8), each through the reader
+of the stage that writes it (``bench.store``, ``fitting.fit_folder``,
+``optimize.sweep_folder``, ``energy.outputs``, ``energy.sizing_files``). Each read goes
+through :class:`InputLog`, which records the file's SHA-256 for the provenance section and
 the files that were expected but missing, so every section can say what it lacks.
 A file that is present but unreadable is bad input: :class:`kernel.errors.InputError`.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeVar
 
-import pandas as pd
-import pyarrow as pa
-import pyarrow.parquet as pq
-
-from kernel.errors import InputError
-from kernel.files import file_sha256, read_json
+from kernel.files import file_sha256
 from kernel.output_folder import check_output_file
+
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -71,75 +72,31 @@ class InputLog:
         if all(r.path != str(path) for r in self.records):
             self.records.append(InputRecord(str(path), file_sha256(path), path.stat().st_size))
 
-    def json(self, path: Path) -> dict | None:
-        """Decoded JSON object of ``path``, or None if the file is missing.
+    def read(self, folder: Path, name: str, reader: Callable[[Path], T]) -> T | None:
+        """``reader(folder)``: the file ``name`` of a stage's output ``folder`` read by
+        that stage's own reader, or None if the file is missing.
 
         Raises
         ------
         InputError
-            If the file is not valid JSON or not a JSON object.
+            From ``reader``: the file is present but not what its stage writes.
         """
-        path = Path(path)
+        path = Path(folder) / name
         if not self._present(path):
             return None
-        data = read_json(path, what="JSON file")
-        if not isinstance(data, dict):
-            raise InputError(path, "top level is not a JSON object", expected="a JSON object")
+        value = reader(Path(folder))
         self._record(path)
-        return data
+        return value
 
-    def parquet(self, path: Path, required: tuple[str, ...] = ()) -> pd.DataFrame | None:
-        """Frame of one Parquet file, or None if missing.
-
-        Parameters
-        ----------
-        path : Path
-            The Parquet file.
-        required : tuple of str
-            Columns that must be present.
-
-        Raises
-        ------
-        InputError
-            If the file is not Parquet or lacks a required column.
-        """
-        path = Path(path)
-        if not self._present(path):
-            return None
-        try:
-            frame = pq.read_table(path).to_pandas()
-        except (pa.ArrowException, OSError) as exc:
-            raise InputError(path, f"not a readable Parquet file: {exc}") from exc
-        _require(frame, required, path)
-        self._record(path)
-        return frame
-
-    def parquet_files(self, files: list[Path], label: str,
-                      required: tuple[str, ...] = ()) -> pd.DataFrame | None:
-        """The given Parquet files concatenated, or None (``label`` missing) if there are none."""
+    def read_files(self, files: list[Path], label: str,
+                   reader: Callable[[], T]) -> T | None:
+        """``reader()`` of a set of ``files`` read together (the store's tables, which its
+        reader checks against its manifest), each recorded; None (``label`` missing) if
+        there are none."""
         if not files:
             self.missing.append(label)
             return None
-        frames = [self.parquet(Path(f), required) for f in files]
-        return pd.concat(frames, ignore_index=True)
-
-    def csv(self, path: Path, required: tuple[str, ...] = ()) -> pd.DataFrame | None:
-        """Frame of a CSV file (English locale), or None if missing."""
-        path = Path(path)
-        if not self._present(path):
-            return None
-        try:
-            frame = pd.read_csv(path, keep_default_na=False)
-        except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-            raise InputError(path, f"not a readable CSV file: {exc}") from exc
-        _require(frame, required, path)
-        self._record(path)
-        return frame
-
-
-def _require(frame: pd.DataFrame, required: tuple[str, ...], path: Path) -> None:
-    for column in required:
-        if column not in frame.columns:
-            raise InputError(
-                path, "missing column", column=column, expected=", ".join(required)
-            )
+        value = reader()
+        for path in files:
+            self._record(Path(path))
+        return value

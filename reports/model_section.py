@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from fitting.model_schema import power_model_from_dict
+from fitting.fit_folder import MODEL_FILE, SELECTION_FILE, read_power_model, read_selection
 from fitting.power_model import PowerModel
 from optimize.paper_model import paper_model
 from reports import drive_figures
@@ -23,9 +23,7 @@ Z95 = 1.959963984540054
 
 def read_model(log: InputLog, fit: Path) -> PowerModel | None:
     """The fitted power model ``fit/power_model.json`` (validated), or None if missing."""
-    path = Path(fit) / "power_model.json"
-    data = log.json(path)
-    return None if data is None else power_model_from_dict(data, path)
+    return log.read(fit, MODEL_FILE, read_power_model)
 
 
 def power_model_section(log: InputLog, fit: Path, model: PowerModel | None,
@@ -56,7 +54,7 @@ def power_model_section(log: InputLog, fit: Path, model: PowerModel | None,
     lacking = [] if model is not None else [str(Path(fit) / "power_model.json")]
     if points is None:
         lacking.append("the store's points/*.parquet")
-    selection = log.parquet(Path(fit) / "selection.parquet")
+    selection = log.read(fit, SELECTION_FILE, read_selection)
     out = {"name": None, "coefficients": [], "interval_note": "", "statistics": [],
            "fit_statistics": [], "power_map": None, "residuals": None, "selection": None,
            "selection_note": None, "extra_terms": None}

@@ -16,11 +16,17 @@ import pandas as pd
 from kernel.errors import InputError
 from optimize.kinds import KINDS, LABELS
 from optimize.sweep_folder import (
-    SUMMARY_REQUIRED,
-    TRAJECTORY_COLUMNS,
+    CLAIMS_FILE,
+    MANIFEST_FILE,
+    SUMMARY_FILE,
+    TRAJECTORIES_FILE,
     domain_excursions,
     domain_line,
     on_bounds,
+    read_claims,
+    read_manifest,
+    read_summary,
+    read_trajectories,
 )
 from reports import cycle_figures
 from reports.failed import failed_rows, failure_text
@@ -221,10 +227,10 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
     """
     start = len(log.missing)
     optimize = Path(optimize)
-    summary = log.parquet(optimize / "summary.parquet", SUMMARY_REQUIRED)
-    traj = log.parquet(optimize / "trajectories.parquet", TRAJECTORY_COLUMNS)
-    manifest = log.json(optimize / "manifest.json")
-    claims = log.csv(optimize / "claims.csv", ("statement", "paper", "ours", "verdict"))
+    summary = log.read(optimize, SUMMARY_FILE, lambda f: read_summary(f / SUMMARY_FILE))
+    traj = log.read(optimize, TRAJECTORIES_FILE, read_trajectories)
+    manifest = log.read(optimize, MANIFEST_FILE, read_manifest)
+    claims = log.read(optimize, CLAIMS_FILE, read_claims)
     out = manifest_context(manifest or {}, fit_model_sha256)
     out.update({"manifest": manifest, "table_ii": None, "n_failed": 0, "n_scenarios": 0,
                 "scenarios": None, "fig8a": None, "fig8b": None, "cycles": None,

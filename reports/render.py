@@ -7,6 +7,7 @@ from pathlib import Path
 
 from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
 
+from fitting.fit_folder import SUMMARY_FILE, read_fit_summary
 from kernel.files import write_text_durable
 from reports import (
     campaign_section,
@@ -54,7 +55,7 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str],
     campaign = campaign_section.campaign_section(log, store)
     points, manifest = campaign.pop("points"), campaign.pop("manifest")
     model = model_section.read_model(log, fit)
-    summary = log.json(Path(fit) / "fit_summary.json")
+    summary = log.read(fit, SUMMARY_FILE, read_fit_summary)
     efficiency = efficiency_section.efficiency_section(log, fit, model, summary)
     power = model_section.power_model_section(log, fit, model, points, summary)
     opt = optimization_section.optimization_section(

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import dataclasses
-import json
 
 import numpy as np
 import pandas as pd
 
-from fitting.model_file import save_power_model
+from kernel.provenance import Provenance
 from optimize.paper_model import paper_model
+from optimize.sweep_folder import write_sweep_folder
 
 WINDS = (4.0, 5.5, 7.0, 8.5, 10.0)
 KINDS = {"elec-lim": ("electrical", True), "mech-free": ("mechanical", False)}
@@ -23,12 +23,13 @@ def model_with_covariance():
     return dataclasses.replace(m, covariance_rpm=tuple(map(tuple, cov)))
 
 
-def write_optimize_folder(folder, model, failed=()):
-    """A folder laid out as docs/schemas.md §5 with cycles made up per wind speed."""
+def write_optimize_folder(folder, model, failed=(), winds=WINDS):
+    """A folder written by the sweep's writer (docs/schemas.md §5) with cycles made up
+    per wind speed of ``winds``; the scenarios named in ``failed`` failed."""
     rng = np.random.default_rng(1)
     rows, traj = [], []
     for kind, (objective, limits) in KINDS.items():
-        for v in WINDS:
+        for v in winds:
             name = f"{kind}-{v:.1f}"
             n = 40
             t = np.linspace(0, 1, n, endpoint=False)
@@ -49,15 +50,10 @@ def write_optimize_folder(folder, model, failed=()):
             if ok:
                 traj.append(pd.DataFrame({"scenario": name, "kind": kind, "wind_speed_m_s": v,
                                           "weight": w, "speed_rpm": speed, "torque_nm": torque}))
-    folder.mkdir(parents=True)
-    pd.DataFrame(rows).to_parquet(folder / "summary.parquet")
-    pd.concat(traj).to_parquet(folder / "trajectories.parquet")
-    model_path = folder / "power_model.json"
-    save_power_model(model, model_path)
-    (folder / "manifest.json").write_text(json.dumps({
-        "schema": "drivebench.optimize", "schema_version": 1,
-        "wind_speeds_m_s": list(WINDS), "kinds": list(KINDS),
-        "drive_model": {"path": str(model_path), "model_sha256": model.sha256, "name": model.name},
-        "cut_in": [],
-    }))
+    write_sweep_folder(
+        folder, Provenance.start(["bench", "optimize"]), summary=pd.DataFrame(rows),
+        trajectories=pd.concat(traj, ignore_index=True), system=None, carried_model=model,
+        manifest={"wind_speeds_m_s": list(winds), "kinds": list(KINDS),
+                  "drive_model": {"model_sha256": model.sha256, "name": model.name},
+                  "cut_in": []})
     return folder

@@ -175,6 +175,9 @@ class CrashingBackend:
     def cold_start(self, ocp, kind, wind):
         return self._result(ocp, wind)
 
+    def check(self, ocp, result, name):
+        return None  # an exact stand-in solver: nothing to check
+
 
 def test_a_solver_crash_in_a_sizing_sweep_is_reported_as_refine_reports_it(tmp_path):
     cands = _candidates((0.5, 1.0))

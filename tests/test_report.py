@@ -24,11 +24,19 @@ import pytest
 
 from bench.cli import main
 from fitting.figures import efficiency_grid
-from fitting.model_file import save_power_model
+from fitting.fit_folder import FitContents, write_fit_files
 from fitting.power_model import PowerModel
 from kernel.files import write_text_atomic
 from kernel.provenance import Provenance
 from optimize.paper_model import paper_model
+from optimize.sweep_folder import (
+    SUMMARY_FILE,
+    read_claims,
+    read_manifest,
+    read_summary,
+    read_trajectories,
+    write_sweep_folder,
+)
 from reports import cycle_figures
 from reports.render import build_context, build_report, render
 from reports.svg import new_figure, to_svg
@@ -112,8 +120,9 @@ def write_fit(fit: Path, points: pd.DataFrame) -> PowerModel:
         masking={"mech_frac": 0.02, "elec_frac": 0.02,
                  "rules": ["negative efficiency -> 0", "|P_mech| < 0.02 * 8200 W -> masked"]},
         provenance={"command_line": ["bench", "fit", "--store", "s", "--out", "f"]},
+        drive={"nominal_power_w": 8200.0, "max_speed_rpm": 3000.0, "max_torque_nm": 78.0,
+               "source": "test rating"},
     )
-    save_power_model(model, fit / "power_model.json")
     s, t = np.meshgrid(np.arange(-3000, 1501, 100.0), np.arange(0, 79, 2.0), indexing="ij")
     s, t = s.ravel(), t.ravel()
     p_mech = s * 2 * np.pi / 60 * t
@@ -123,19 +132,19 @@ def write_fit(fit: Path, points: pd.DataFrame) -> PowerModel:
     near = (np.abs(p_mech) < 164.0) | (np.abs(p_elec) < 164.0)
     status = np.where(near, "near_axis", np.where(eta < 0, "negative", "ok"))
     eta = np.where(near, np.nan, np.clip(eta, 0.0, None))
-    pd.DataFrame({"speed_rpm": s, "torque_nm": t,
-                  "quadrant": np.where(p_mech > 0, "motor", "generator"), "in_hull": True,
-                  "p_mech_w": p_mech, "p_elec_w": p_elec, "eta": eta, "status": status}
-                 ).to_parquet(fit / "efficiency_map.parquet", index=False)
-    pd.DataFrame({"candidate": ["paper eq. 4", "order 3"], "n_terms": [4, 10],
-                  "cv_rmse_w": [121.0, 123.5], "bic": [100.0, 140.0], "chosen": [True, False]}
-                 ).to_parquet(fit / "selection.parquet", index=False)
+    emap = pd.DataFrame({"speed_rpm": s, "torque_nm": t,
+                         "quadrant": np.where(p_mech > 0, "motor", "generator"),
+                         "in_hull": True, "p_mech_w": p_mech, "p_elec_w": p_elec, "eta": eta,
+                         "status": status})
+    selection = pd.DataFrame({"candidate": ["paper eq. 4", "order 3"], "n_terms": [4, 10],
+                              "cv_rmse_w": [121.0, 123.5], "bic": [100.0, 140.0],
+                              "chosen": [True, False]})
     summary = {"provenance": Provenance.start(["bench", "fit", "--store", "s"]).header(),
                "efficiency": {
         "band_shares": [{"quadrant": "motor", "band": "0.80-0.85", "area_share": 0.25},
                         {"quadrant": "generator", "band": "0.80-0.85", "area_share": 0.5}],
         "peak": {"motor": {"map": {"speed_rpm": 1500.0, "torque_nm": 40.0, "eta": 0.93}}}}}
-    (fit / "fit_summary.json").write_text(json.dumps(summary), encoding="utf-8")
+    write_fit_files(fit, FitContents(model, emap, {}, selection, {}, summary), lambda _: [])
     return model
 
 
@@ -158,8 +167,10 @@ def _cycle(scenario: str, kind: str, wind: float) -> pd.DataFrame:
     })
 
 
-def write_optimize(opt: Path, model_sha256: str = "") -> pd.DataFrame:
-    """Optimize outputs (docs/schemas.md §5): 20 scenarios, ``mech-free`` at 8.5 m/s failed."""
+def write_optimize(opt: Path, model_sha256: str = "",
+                   claims: pd.DataFrame | None = None) -> pd.DataFrame:
+    """Optimize outputs (docs/schemas.md §5): 20 scenarios, ``mech-free`` at 8.5 m/s failed;
+    ``claims``: the paper comparison (default: one agreeing statement)."""
     opt.mkdir(parents=True, exist_ok=True)
     rows, trajs = [], []
     for kind in KINDS:
@@ -180,21 +191,38 @@ def write_optimize(opt: Path, model_sha256: str = "") -> pd.DataFrame:
                                "elec-lim-10.0", "mech-lim-10.0"):
                 trajs.append(_cycle(name, kind, w))
     summary = pd.DataFrame(rows)
-    summary.to_parquet(opt / "summary.parquet", index=False)
-    pd.concat(trajs, ignore_index=True).to_parquet(opt / "trajectories.parquet", index=False)
-    (opt / "manifest.json").write_text(json.dumps(
-        {"schema": "drivebench.optimize", "wind_speeds_m_s": list(WINDS),
-         "provenance": Provenance.start(["bench", "optimize", "--wind-grid", "4:10:1.5"]
-                                        ).header(),
-         "drive_model": {"path": "fit/power_model.json", "model_sha256": model_sha256,
-                         "name": "test model"},
-         "cut_in": [{"kind": "elec-lim", "cut_in_m_s": 4.7947, "bracket_lo_m_s": 4.75,
-                     "bracket_hi_m_s": 4.796875, "status": "found"}],
-         "trust": {"mesh": [], "simulation": []}}), encoding="utf-8")
-    pd.DataFrame({"claim_id": ["fig3-energy"], "statement": ["Fig. 3 cycle nets +827 J"],
-                  "paper": ["827 J"], "ours": ["827 J"], "verdict": ["agrees"], "note": [""]}
-                 ).to_csv(opt / "claims.csv", index=False)
+    if claims is None:
+        claims = pd.DataFrame({"claim_id": ["fig3-energy"],
+                               "statement": ["Fig. 3 cycle nets +827 J"], "paper": ["827 J"],
+                               "ours": ["827 J"], "verdict": ["agrees"], "note": [""]})
+    write_sweep_folder(
+        opt, Provenance.start(["bench", "optimize", "--wind-grid", "4:10:1.5"]),
+        summary=summary, trajectories=pd.concat(trajs, ignore_index=True), system=None,
+        claims=claims, manifest={
+            "wind_speeds_m_s": list(WINDS),
+            "drive_model": {"path": "fit/power_model.json", "model_sha256": model_sha256,
+                            "name": "test model"},
+            "cut_in": [{"kind": "elec-lim", "cut_in_m_s": 4.7947, "bracket_lo_m_s": 4.75,
+                        "bracket_hi_m_s": 4.796875, "status": "found"}],
+            "trust": {"mesh": [], "simulation": []}})
     return summary
+
+
+def rewrite_optimize(src: Path, dst: Path, *, summary: pd.DataFrame | None = None,
+                     trust: dict | None = None) -> Path:
+    """A copy of the optimize folder ``src`` in ``dst``, written whole by the sweep's writer
+    (a new run of the same command line), with ``summary`` or the manifest's ``trust``
+    checks replaced."""
+    manifest = read_manifest(src)
+    body = {k: v for k, v in manifest.items()
+            if k not in ("schema", "schema_version", "provenance", "files")}
+    if trust is not None:
+        body["trust"] = trust
+    write_sweep_folder(dst, Provenance.start(manifest["provenance"]["command_line"]),
+                       summary=read_summary(src / SUMMARY_FILE) if summary is None else summary,
+                       trajectories=read_trajectories(src), manifest=body, system=None,
+                       claims=read_claims(src))
+    return dst
 
 
 @pytest.fixture(scope="module")
@@ -270,16 +298,14 @@ def test_table_ii_shows_failed_and_excludes_it(full_inputs):
 def test_report_says_the_paper_comparison_does_not_apply(full_inputs, tmp_path):
     """A sweep of another system: claims.csv holds only "does not apply" rows (as
     optimize.analysis.claims writes them); the report says so instead of a table."""
-    import shutil
-
-    store, fit, opt = full_inputs["dirs"]
-    other = shutil.copytree(opt, tmp_path / "opt")
+    store, fit, _ = full_inputs["dirs"]
+    other = tmp_path / "opt"
     note = ("system 'ap2' is not the paper's: its statements are about another kite, so the "
             "paper comparison does not apply")
-    pd.DataFrame({"claim_id": ["fig3-energy", "fig3-period"], "statement": ["a", "b"],
-                  "paper": ["827 J", "6 s"], "ours": ["n/a", "n/a"],
-                  "verdict": ["does not apply"] * 2, "note": [note] * 2}
-                 ).to_csv(other / "claims.csv", index=False)
+    write_optimize(other, claims=pd.DataFrame({
+        "claim_id": ["fig3-energy", "fig3-period"], "statement": ["a", "b"],
+        "paper": ["827 J", "6 s"], "ours": ["n/a", "n/a"],
+        "verdict": ["does not apply"] * 2, "note": [note] * 2}))
     html = render(build_context(store, fit, other, ["bench", "report"]))
     escaped = note.replace("'", "&#39;")
     assert f"Paper comparison: {escaped}." in html  # said once, by the note

@@ -8,12 +8,15 @@ drift in open loop and fail, so the report holds both a warning and a note.
 
 from __future__ import annotations
 
-import json
-import shutil
-
 import pandas as pd
 import pytest
-from test_report import browser, write_fit, write_optimize, write_store  # noqa: F401
+from test_report import (  # noqa: F401
+    browser,
+    rewrite_optimize,
+    write_fit,
+    write_optimize,
+    write_store,
+)
 
 from kernel.files import write_text_atomic
 from reports.render import build_context, render
@@ -37,10 +40,8 @@ def report(tmp_path_factory) -> dict:
     root = tmp_path_factory.mktemp("browser_report")
     points = write_store(root / "store")
     model = write_fit(root / "fit", points)
-    write_optimize(root / "opt", model.sha256)
-    manifest = json.loads((root / "opt" / "manifest.json").read_text("utf-8"))
-    manifest["trust"] = {"mesh": MESH, "simulation": SIMULATION}
-    (root / "opt" / "manifest.json").write_text(json.dumps(manifest), encoding="utf-8")
+    write_optimize(root / "opt0", model.sha256)
+    rewrite_optimize(root / "opt0", root / "opt", trust={"mesh": MESH, "simulation": SIMULATION})
     dirs = (root / "store", root / "fit", root / "opt")
     ctx = build_context(*dirs, ["bench", "report"], root / "aep", root / "size")
     out = write_text_atomic(root / "report.html", render(ctx))
@@ -88,10 +89,9 @@ def test_constrained_cycles_lie_on_the_map_inside_its_axes(browser, report):  # 
 
 def test_without_10_m_s_the_paper_periods_are_not_compared(report, tmp_path):
     store, fit, opt = report["dirs"]
-    other = shutil.copytree(opt, tmp_path / "opt")
-    summary = pd.read_parquet(other / "summary.parquet")
+    summary = pd.read_parquet(opt / "summary.parquet")
     summary.loc[summary["wind_speed_m_s"] == 10.0, "wind_speed_m_s"] = 9.5
-    summary.to_parquet(other / "summary.parquet", index=False)
+    other = rewrite_optimize(opt, tmp_path / "opt", summary=summary)
     html = render(build_context(store, fit, other, ["bench", "report"]))
     assert "Fig. 9 analogue at 9.5 m/s" in html  # the speed nearest 10 m/s
     assert "paper: mechanical 2.14 s" not in html

@@ -57,8 +57,7 @@ def test_an_optimum_above_the_power_bound_is_rejected(coarse_ocp, coarse_elec_li
     assert not check.passed
     assert "Loyd-type bound" in check.verdict() and "mesh 10 intervals" in check.verdict()
     out = ScenarioOutcome("elec-lim-7.0", "elec-lim", 7.0, 0,
-                          (Attempt(None, "Solve_Succeeded", True, 5, 0.1),), fake,
-                          check=check.verdict())
+                          (Attempt(None, "Solve_Succeeded", False, 5, 0.1, check),), fake)
     assert not out.success and out.status == "Solve_Succeeded"
 
 

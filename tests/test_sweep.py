@@ -85,6 +85,9 @@ class NewtonBackend:
     def cold_start(self, ocp: str, kind: str, w: float) -> Result:
         return self._newton(kind, w, 0.0)
 
+    def check(self, ocp, result, name):
+        return None  # an exact stand-in solver: nothing to check
+
 
 PROBLEM = Problem(model=None, drive_model=None, options=None, key="stand-in")
 
@@ -549,6 +552,47 @@ def test_a_dead_worker_fails_its_chain_the_same_way_in_a_sweep_and_in_solve_task
     assert {r["status"] for r in records} == {status} and not any(r["success"] for r in records)
 
 
+@dataclass(frozen=True)
+class BoundedBackend(NewtonBackend):
+    """The exact stand-in whose result check rejects every optimum generating more than
+    ``bound_w`` (as the Loyd-type bound rejects an impossible one)."""
+
+    bound_w: float = 300.0
+
+    def check(self, ocp, result, name):
+        from optimize.analysis.result_check import ResultCheck
+
+        generated = -result.avg_p_elec_w
+        reasons = (f"{generated:.0f} W generated, above {self.bound_w:.0f} W",
+                   ) if generated > self.bound_w else ()
+        return ResultCheck(name, "stand-in", generated, self.bound_w, 0.0, 0.0, 0.0, 0.0,
+                           reasons)
+
+
+def test_an_optimum_failing_its_result_check_is_failed_in_every_service_path():
+    """The check runs where the service solves, so ``bench size`` and ``bench aep --refine``
+    (``solve_tasks``, ``run_chains``) fail such an optimum as ``bench optimize`` does: not
+    converged, the solver's status kept, the reason in ``result_check``, never a warm start."""
+    from optimize.service import SolveTask, solve_tasks
+
+    backend = BoundedBackend()
+    truth = {w: SCALE_W * (exact_root(CUT_IN_M_S["elec-lim"]) - exact_root(w)) for w in WINDS}
+    records = solve_tasks([SolveTask(PROBLEM, "elec-lim", w) for w in WINDS], workers=1,
+                          backend=backend)
+    for r in records:
+        impossible = -truth[r["wind_speed_m_s"]] > backend.bound_w
+        assert r["success"] is not impossible and r["status"] == "Solve_Succeeded"
+        assert r["result_check"].startswith("failed: ") is impossible, r
+        if not impossible:
+            assert r["avg_p_elec_w"] == pytest.approx(truth[r["wind_speed_m_s"]], abs=1e-6)
+    assert sum(not r["success"] for r in records) == 2  # 8.5 and 10 m/s: above 300 W
+    solver = Solver(PROBLEM, backend=backend)
+    solver.solve("elec-lim", 10.0)
+    outcome = solver.outcomes["elec-lim", 10.0]
+    assert not outcome.success and outcome.check.startswith("failed: ")
+    assert solver.converged("elec-lim") == []  # a failed optimum starts nothing
+
+
 # ----------------------------------------------------------------- local optima
 @dataclass(frozen=True)
 class BranchResult(Result):
@@ -577,6 +621,9 @@ class BranchBackend:
 
     def cold_start(self, ocp: str, kind: str, w: float) -> BranchResult:
         return self._on("local", w)
+
+    def check(self, ocp, result, name):
+        return None  # an exact stand-in solver: nothing to check
 
 
 def test_a_local_optimum_off_the_curve_is_resolved_from_its_neighbour():

@@ -3,7 +3,7 @@
 A :class:`Problem` is everything a worker needs to build the NLP (all
 picklable). The numerical work goes through a *backend*
 (:class:`OcpBackend` by default, the CasADi/IPOPT OCP of this package); anything
-with the same three methods (:class:`Backend`) works, which is how the tests
+with the same four methods (:class:`Backend`) works, which is how the tests
 drive the solve service with a cheap exact solver.
 """
 
@@ -40,6 +40,11 @@ class Backend(Protocol):
 
     def cold_start(self, ocp: Any, kind: str, wind_speed_m_s: float) -> SolveResult:
         """Solve one scenario with no neighbouring solution (stored guess or homotopy)."""
+
+    def check(self, ocp: Any, result: SolveResult, name: str) -> Any:
+        """The result check of a converged ``result`` (``passed``: whether the optimum
+        stands; ``verdict()``: the summary's text), or None when the backend has nothing
+        to check."""
 
 
 @dataclass(frozen=True)
@@ -123,3 +128,10 @@ class OcpBackend:
         from optimize.solve.solve import start
 
         return start(ocp, self.scenario(kind, wind_speed_m_s))
+
+    def check(self, ocp: Any, result: SolveResult, name: str) -> Any:
+        """The physical check of every converged optimum
+        (:func:`optimize.analysis.result_check.check_result`)."""
+        from optimize.analysis.result_check import check_result
+
+        return check_result(ocp, result, name)

@@ -22,11 +22,21 @@ def failure_status(prefix: str, exc: BaseException) -> str:
     return f"{prefix}: {type(exc).__name__}: {exc}"[:300]
 
 
+def failure_reason(record: dict) -> str:
+    """Why a failed solve record failed: its result check's reasons when the solver
+    converged to an optimum that cannot stand, else the solver's status."""
+    check = record.get("result_check") or ""
+    return check if check.startswith("failed") else str(record["status"])
+
+
 @dataclass(frozen=True)
 class Attempt:
     """One solver run of a scenario: its warm source (``None`` = cold start) and outcome.
 
     ``source`` is the scenario name (``"elec-lim-7.0"``) whose solution started it.
+    ``success`` is True when the solver converged and its optimum passed the result
+    check; ``check`` is that check (:class:`optimize.analysis.result_check.ResultCheck`,
+    None when the solver did not converge or its backend checks nothing).
     """
 
     source: str | None
@@ -34,6 +44,12 @@ class Attempt:
     success: bool
     iterations: int
     wall_time_s: float
+    check: Any = None
+
+    @property
+    def verdict(self) -> str:
+        """The result check's ``"passed"`` or ``"failed: <reasons>"``; ``""`` unchecked."""
+        return "" if self.check is None else self.check.verdict()
 
 
 @dataclass(frozen=True)
@@ -81,10 +97,6 @@ class ScenarioOutcome:
         Re-solves from neighbours because the scenario sat off its kind's smooth
         curve (:func:`optimize.service.local_optima.resolve_local_optima`); a kept
         one is also the last attempt.
-    check : str
-        The result check's verdict on a converged optimum (``"passed"`` or
-        ``"failed: <reasons>"``, :mod:`optimize.analysis.result_check`); ``""``
-        when not checked. A failed check makes the scenario a failed one.
     """
 
     name: str
@@ -94,7 +106,13 @@ class ScenarioOutcome:
     attempts: tuple[Attempt, ...]
     result: Any | None
     resolves: tuple[Resolve, ...] = ()
-    check: str = ""
+
+    @property
+    def check(self) -> str:
+        """The result check's verdict on the final optimum (``"passed"`` or ``"failed:
+        <reasons>"``, :mod:`optimize.analysis.result_check`); ``""`` when not checked.
+        A failed check makes the scenario a failed one."""
+        return self.attempts[-1].verdict if self.attempts else ""
 
     @property
     def objective(self) -> str:
@@ -109,8 +127,7 @@ class ScenarioOutcome:
     @property
     def success(self) -> bool:
         """Whether the final attempt converged and its optimum passed the result check."""
-        return (bool(self.attempts) and self.attempts[-1].success
-                and not self.check.startswith("failed"))
+        return bool(self.attempts) and self.attempts[-1].success
 
     @property
     def status(self) -> str:

@@ -134,8 +134,10 @@ class Solver:
                                       time.perf_counter() - t0), None
         else:
             ok = bool(result.success) and math.isfinite(float(result.avg_p_elec_w))
-            attempt = Attempt(name, str(result.status), ok, int(result.iterations),
-                              float(result.wall_time_s))
+            check = self.backend.check(ocp, result, scenario_name(kind, wind)) if ok else None
+            passed = ok and (check is None or check.passed)
+            attempt = Attempt(name, str(result.status), passed, int(result.iterations),
+                              float(result.wall_time_s), check)
         self._tell("done", kind, wind, role, name, attempt.status)
         return attempt, result
 
@@ -248,6 +250,7 @@ class Solver:
             "avg_p_elec_w": _figure(res, "avg_p_elec_w") if ok else None,
             "avg_p_mech_w": _figure(res, "avg_p_mech_w") if ok else None,
             "period_s": _figure(res, "period_s") if ok else None,
+            "result_check": outcome.check,
             **metrics, **extras,
             "wall_time_s": outcome.total_wall_time_s,
         }
