@@ -1,10 +1,5 @@
 """``bench cycle verify`` as a library call: read the store and the sweep, compare, write
-the output folder (docs/schemas.md §11) whole.
-
-``verify_out/``: ``verify.json`` (the record: inputs, the means, bands, drift and the
-verdict), ``cycles.csv`` (one row per kept cycle) and ``one_cycle.csv`` (the measured
-and predicted electrical power over the middle kept cycle, for the report's figure).
-"""
+the output folder (docs/schemas.md §11, :mod:`cycle.verify_folder`) whole."""
 
 from __future__ import annotations
 
@@ -21,14 +16,10 @@ from bench.store.manifest import read_manifest
 from bench.store.read import read_cycles, read_samples
 from cycle.models import sweep_power_model
 from cycle.verify import CLAIM_RTOL, Accuracy, K, _drift, measured_energy, model_energy
+from cycle.verify_folder import write_verify_folder
 from kernel.errors import InputError
-from kernel.files import write_csv, write_json
-from kernel.output_folder import output_folder
 from kernel.provenance import Provenance
 from optimize.sweep_folder import read_sweep_folder, read_trajectories
-
-STAGE = "cycle-verify"
-MARKERS = ("verify.json",)
 
 
 def cycle_session(store: Path, session: str | None) -> tuple[str, dict]:
@@ -190,7 +181,7 @@ def verify_cycles(store: str | Path, optimize: str | Path, out: str | Path, *,
     traj = read_trajectories(optimize)
     one = _one_cycle(samples, mid, model, traj[traj["scenario"] == info["scenario"]]
                      .sort_values("time_s"), info["phase_s"], float(row.iloc[0]["period_s"]))
-    record = {"provenance": provenance.header(), "store": str(store.resolve()),
+    record = {"store": str(store.resolve()),
               "session": sid, "scenario": info["scenario"], "optimize": str(optimize.resolve()),
               "power_model_sha256": model.sha256, "cycles_in_profile": info["n_profile_cycles"],
               "cycles_kept": len(cycles), "cycle_notes": info.get("notes", []),
@@ -198,8 +189,5 @@ def verify_cycles(store: str | Path, optimize: str | Path, out: str | Path, *,
               "claim_rtol": CLAIM_RTOL, "means": means, "drift": drift,
               "e_mech_optimizer_j": float(row.iloc[0]["e_mech_j"]),
               "one_cycle": int(mid.cycle_id), "verdict": verdict(means, drift, missing)}
-    with output_folder(out, STAGE, MARKERS, provenance=provenance) as stage:
-        write_json(stage / "verify.json", record, non_finite="null")
-        write_csv(stage / "cycles.csv", table)
-        write_csv(stage / "one_cycle.csv", one)
-    return Verified(Path(out), record, table)
+    write_verify_folder(out, provenance, record, table, one)
+    return Verified(Path(out), {"provenance": provenance.header(), **record}, table)

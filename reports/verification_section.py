@@ -1,7 +1,8 @@
 """The report's section on the optimal cycle flown on the bench (``bench cycle verify``).
 
 Reads ``verify_out/verify.json``, ``cycles.csv`` and ``one_cycle.csv`` (docs/schemas.md
-§11) through the :class:`reports.inputs.InputLog`: predicted against measured power over
+§11) with their readers (:mod:`cycle.verify_folder`) through the
+:class:`reports.inputs.InputLog`: predicted against measured power over
 one cycle, the energy per cycle with its band, and the verdict. No folder: the stage was
 not run, and the section says so.
 """
@@ -14,14 +15,17 @@ import numpy as np
 import pandas as pd
 from markupsafe import Markup
 
+from cycle.verify_folder import (
+    CYCLES_FILE,
+    ONE_CYCLE_FILE,
+    RECORD_FILE,
+    read_cycles,
+    read_one_cycle,
+    read_record,
+)
 from reports import svg
 from reports.inputs import InputLog
 from reports.tables import fmt
-
-CYCLE_COLUMNS = ("cycle_id", "e_elec_j", "u_elec_j", "e_elec_model_j", "e_elec_optimizer_j",
-                 "e_mech_j", "u_mech_j")
-ONE_CYCLE_COLUMNS = ("time_s", "p_elec_measured_w", "p_elec_model_w", "p_elec_optimizer_w",
-                     "p_mech_measured_w")
 
 
 def power_figure(one: pd.DataFrame, cycle_id: int) -> Markup:
@@ -63,11 +67,6 @@ def energy_figure(cycles: pd.DataFrame, k: float) -> Markup:
     return svg.to_svg(fig, "verification-energy")
 
 
-def _numbers(frame: pd.DataFrame, columns: tuple[str, ...]) -> pd.DataFrame:
-    """The columns as floats (an empty cell, NaN in the file, as NaN)."""
-    return frame[list(columns)].apply(pd.to_numeric, errors="coerce")
-
-
 def _pct(x) -> str:
     return "n/a" if x is None or not np.isfinite(x) else f"{100 * x:+.1f} %"
 
@@ -88,9 +87,9 @@ def verification_section(log: InputLog, verify: Path) -> dict:
     if not Path(verify).is_dir():
         out["not_run"] = [f"bench cycle verify (no {verify})"]
         return out
-    doc = log.json(Path(verify) / "verify.json")
-    cycles = log.csv(Path(verify) / "cycles.csv", CYCLE_COLUMNS)
-    one = log.csv(Path(verify) / "one_cycle.csv", ONE_CYCLE_COLUMNS)
+    doc = log.read(verify, RECORD_FILE, read_record)
+    cycles = log.read(verify, CYCLES_FILE, read_cycles)
+    one = log.read(verify, ONE_CYCLE_FILE, read_one_cycle)
     out["missing"] = list(dict.fromkeys(log.missing[start:]))
     if doc is None:
         return out
@@ -115,9 +114,7 @@ def verification_section(log: InputLog, verify: Path) -> dict:
          f" +- {fmt((doc.get('drift') or {}).get('slope_u_j_per_cycle'), 2)}"),
     ]
     if one is not None and len(one):
-        out["power_figure"] = power_figure(_numbers(one, ONE_CYCLE_COLUMNS),
-                                           int(doc.get("one_cycle", 0)))
+        out["power_figure"] = power_figure(one, int(doc.get("one_cycle", 0)))
     if cycles is not None and len(cycles):
-        out["energy_figure"] = energy_figure(_numbers(cycles, CYCLE_COLUMNS),
-                                             float(doc.get("coverage_factor", 2.0)))
+        out["energy_figure"] = energy_figure(cycles, float(doc.get("coverage_factor", 2.0)))
     return out
