@@ -3,7 +3,7 @@
 Usage::
 
     .venv/bin/python benchmarks/cycle_roundtrip.py OPTIMIZE_OUT [--campaign raw_measurements]
-        [--kinds elec-lim] [--seeds 20] [--cycles 10] [--out DIR]
+        [--kinds elec-lim] [--seeds 20] [--cycles 10] [--theta-start-c 50] [--out DIR]
 
 For every converged scenario of the given kinds in ``OPTIMIZE_OUT`` (the demo's: ``bench
 run``'s sweep, or ``bench optimize`` on the demo's power model): ``bench cycle export``
@@ -14,7 +14,7 @@ on the campaign's true drive, one ``bench ingest`` of all seeds' sessions and ``
 cycle verify`` of each. Per scenario: the optimizer's electrical energy per cycle, the
 power model's at the measured speed and torque, the measurement with its 95 % band, the
 truth (the mean of the true energies of the kept cycles), and how many seeds' bands
-cover the truth. Writes ``DIR/cycle_roundtrip.json`` and prints the table.
+cover the truth. Writes ``DIR/cycle_roundtrip_<theta>C.json`` and prints the table.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from optimize.sweep_folder import read_sweep_folder
 
 
 def _scenario(opt: Path, scenario: str, campaign: Path, work: Path, seeds: int,
-              cycles: int) -> dict:
+              cycles: int, theta_c: float) -> dict:
     frame = BenchFrame("motor", 3.0, 1, 1)  # motor_02's session.toml
     done = export_cycle(opt, scenario, work / "profile.csv",
                         ExportOptions(n_cycles=cycles, frame=frame),
@@ -48,7 +48,9 @@ def _scenario(opt: Path, scenario: str, campaign: Path, work: Path, seeds: int,
     shutil.copy(campaign / "drive.toml", camp)
     truths = {}
     for seed in range(1, seeds + 1):
-        run = dataclasses.replace(CycleRunSpec(), session_id=f"run_{seed:02d}", seed=seed)
+        spec = CycleRunSpec()
+        run = dataclasses.replace(spec, session_id=f"run_{seed:02d}", seed=seed,
+                                  bench=dataclasses.replace(spec.bench, theta_start_c=theta_c))
         truths[run.session_id] = write_cycle_run(camp, work / "profile.csv", run,
                                                  truth_path=campaign / "truth.json")
     ingest([camp], work / "store", progress=False, notify=lambda line: None)
@@ -107,6 +109,8 @@ def main() -> int:
     parser.add_argument("--kinds", default="elec-lim")
     parser.add_argument("--seeds", type=int, default=20)
     parser.add_argument("--cycles", type=int, default=10)
+    parser.add_argument("--theta-start-c", type=float, default=CycleRunSpec().bench.theta_start_c,
+                        help="the winding's temperature at the start of each run [degC]")
     parser.add_argument("--out", type=Path, default=Path("benchmarks/out"))
     args = parser.parse_args()
     summary, _ = read_sweep_folder(args.optimize)
@@ -120,7 +124,7 @@ def main() -> int:
             work.mkdir()
             try:
                 results.append(_scenario(args.optimize, name, args.campaign, work, args.seeds,
-                                         args.cycles))
+                                         args.cycles, args.theta_start_c))
             except Exception as exc:  # noqa: BLE001 (one scenario's refusal is a result)
                 results.append({"scenario": name, "refused": f"{type(exc).__name__}: {exc}"})
                 print(f"{name}: refused: {exc}")
@@ -131,8 +135,10 @@ def main() -> int:
     done = [r for r in results if "refused" not in r]
     print(table(done))
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "cycle_roundtrip.json").write_text(json.dumps(
+    name = f"cycle_roundtrip_{args.theta_start_c:g}C.json"
+    (args.out / name).write_text(json.dumps(
         {"optimize": str(args.optimize), "seeds": args.seeds, "cycles": args.cycles,
+         "theta_start_c": args.theta_start_c,
          "wall_time_s": time.perf_counter() - t0, "scenarios": results}, indent=1,
         default=float) + "\n")
     return 0

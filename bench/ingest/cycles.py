@@ -194,13 +194,31 @@ def _set_on_daq(t: np.ndarray, cut: CycleCut, profile: DriveProfile,
             np.interp(tp, profile.columns["time_s"], torque))
 
 
+def _gains(bins: dict, cut: CycleCut, profile: DriveProfile) -> dict[str, float]:
+    """Measured over set speed and torque: least squares through the origin over the
+    cycles the log holds whole."""
+    sums = {"speed": [0.0, 0.0], "torque": [0.0, 0.0]}
+    for k in range(profile.n_cycles):
+        a, b = cut.bounds(k)
+        if a < bins["t"][0] or b > bins["t"][-1]:
+            continue
+        sel = (bins["t"] >= a) & (bins["t"] < b)
+        sets = dict(zip(("speed", "torque"), _set_on_daq(bins["t"][sel], cut, profile, k),
+                        strict=True))
+        ok = np.isfinite(bins["speed"][sel]) & np.isfinite(bins["torque"][sel])
+        for q, acc in sums.items():
+            acc[0] += float((sets[q][ok] * bins[q][sel][ok]).sum())
+            acc[1] += float((sets[q][ok] ** 2).sum())
+    return {q: num / den if den > 0 else float("nan") for q, (num, den) in sums.items()}
+
+
 def _check_gains(gains: dict[str, float], where: dict[str, Path]) -> None:
     """Refuse a log whose speed or torque is a multiple of the profile's: the frame
     (``gear_ratio``, ``measured_side``, the signs) of session.toml does not match it."""
     lo, hi = GAIN_RANGE
     for q, key in (("speed", "speed_sign"), ("torque", "torque_sign")):
         g = gains[q]
-        if lo <= g <= hi:
+        if lo <= g <= hi or not np.isfinite(g):
             continue
         why = (f"the logged {q} of {where['daq'].name} is {g:.3f} x the profile's set-point"
                + (f": its sign is flipped (check {key})" if g < 0 else
@@ -284,21 +302,7 @@ def cut_cycles(bins: dict, profile: DriveProfile, where: dict[str, Path]) -> Cyc
                          column="cycle.profile", expected="the drive profile this run flew")
     cut = CycleCut(phase, period, rho, found, found_u, tracking={
         k: (np.nan, np.nan, float(starts[k] - phase - k * period)) for k in range(starts.size)})
-    logged = []
-    for k in range(profile.n_cycles):
-        a, b = cut.bounds(k)
-        if a >= bins["t"][0] and b <= bins["t"][-1]:
-            logged.append(k)
-    ns, ts, ms, mt = [], [], [], []
-    for k in logged:
-        sel = (bins["t"] >= cut.bounds(k)[0]) & (bins["t"] < cut.bounds(k)[1])
-        n_set, t_set = _set_on_daq(bins["t"][sel], cut, profile, k)
-        ok = np.isfinite(bins["speed"][sel]) & np.isfinite(bins["torque"][sel])
-        ns.append(n_set[ok]), ts.append(t_set[ok])
-        ms.append(bins["speed"][sel][ok]), mt.append(bins["torque"][sel][ok])
-    for q, s, m in (("speed", ns, ms), ("torque", ts, mt)):
-        s, m = np.concatenate(s), np.concatenate(m)
-        cut.gains[q] = float((s * m).sum() / (s * s).sum())
+    cut.gains.update(_gains(bins, cut, profile))
     _check_gains(cut.gains, where)
     peaks = (float(np.abs(speed_set).max()), float(np.abs(torque_set).max()))
     for k in range(profile.n_cycles):
