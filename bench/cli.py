@@ -24,6 +24,8 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "optimize": ("optimize.cli", "periodic pumping-cycle optimization over a wind grid"),
     "aep": ("energy.cli", "annual energy, capacity factor and bands of the power curves at a site"),
     "size": ("energy.size_cli", "drive sizing: electrical AEP against drive rating"),
+    "cycle": ("cycle.cli", "fly an optimal cycle on the bench: export it as a drive profile, "
+                           "verify the measured energy per cycle"),
     "report": ("reports.cli", "render the self-contained HTML report"),
     "run": ("bench.run_cli", "ingest, fit, optimize, aep, size and report in one go"),
 }

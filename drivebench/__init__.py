@@ -7,13 +7,16 @@ returns a typed result and writes the stage's files (docs/python_api.md).
 
 The functions live in :mod:`drivebench.api`; their grouped options are frozen dataclasses
 (:class:`WindGrid`, :class:`SolverChoice`, :class:`Execution`, :class:`SiteSpec`,
-:class:`RefineOptions`, :class:`SizingGrid`, :class:`RatingOverrides`), the same objects
+:class:`RefineOptions`, :class:`SizingGrid`, :class:`RatingOverrides`, :class:`ExportOptions`
+with its :class:`BenchFrame`), the same objects
 the ``bench`` commands build from their options.
 """
 
+from bench.cycle_profile import BenchFrame
 from drivebench.api import (
     AepResult,
     Execution,
+    ExportOptions,
     Ingested,
     RatingOverrides,
     RefineOptions,
@@ -24,6 +27,8 @@ from drivebench.api import (
     Sweep,
     WindGrid,
     aep,
+    cycle_export,
+    cycle_verify,
     fit,
     ingest,
     optimize,
@@ -32,7 +37,8 @@ from drivebench.api import (
 )
 from reports.plots import plot_aep, plot_cycle, plot_power_curves
 
-__all__ = ["AepResult", "Execution", "Ingested", "RatingOverrides", "RefineOptions", "SiteSpec",
-           "SizeResult", "SizingGrid", "SolverChoice", "Sweep", "WindGrid", "aep", "fit",
+__all__ = ["AepResult", "BenchFrame", "Execution", "ExportOptions", "Ingested",
+           "RatingOverrides", "RefineOptions", "SiteSpec", "SizeResult", "SizingGrid",
+           "SolverChoice", "Sweep", "WindGrid", "aep", "cycle_export", "cycle_verify", "fit",
            "ingest", "optimize", "plot_aep", "plot_cycle", "plot_efficiency_map",
            "plot_power_curves", "size"]

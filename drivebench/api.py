@@ -12,6 +12,8 @@ function     ``bench`` command              returns
 :func:`optimize` ``bench optimize``         :class:`Sweep`
 :func:`aep`      ``bench aep``              :class:`AepResult`
 :func:`size`     ``bench size``             :class:`SizeResult`
+:func:`cycle_export` ``bench cycle export`` :class:`cycle.export.Exported`
+:func:`cycle_verify` ``bench cycle verify`` :class:`cycle.verify_command.Verified`
 ============ ============================== ==========================================
 
 Bad input raises :class:`kernel.errors.InputError` (the command line turns it into
@@ -28,6 +30,7 @@ from typing import Any
 
 import pandas as pd
 
+from cycle.export import DEFAULT_EXPORT, ExportOptions
 from energy.aep_command import RefineOptions, SiteSpec
 from energy.size_command import DEFAULT_SIZING, SYSTEM_RATING, RatingOverrides, SizingGrid
 from fitting.power_model import PowerModel
@@ -507,6 +510,71 @@ def size(site: Any, model: Any = None, *, system: Any = None,
                     site_note=site_note, command_line=command_line,
                     before_solving=before_solving)
     return SizeResult(done.sizing, done.drive, done.notes, done.files)
+
+
+def cycle_export(optimize: str | Path, scenario: str, out: str | Path = "profile.csv", *,
+                 options: ExportOptions = DEFAULT_EXPORT,
+                 bench_session: str | Path | None = None,
+                 command_line: Sequence[str] = ("drivebench.cycle_export",)) -> Any:
+    """Write a converged scenario of a sweep as a drive profile a bench runs.
+
+    Parameters
+    ----------
+    optimize : path
+        An optimize output folder (:func:`optimize`'s ``out``).
+    scenario : str
+        A converged scenario of it, e.g. ``"elec-lim-7.0"``.
+    out : path
+        The profile CSV (docs/schemas.md §10); its two plain tables go beside it.
+    options : ExportOptions
+        Cycles, set-point rate, standstill, ramp and the bench frame (:class:`BenchFrame`);
+        default 10 cycles at 100 Hz in the drum frame.
+    bench_session : path, optional
+        A session folder of the bench's campaign whose drive rating and stated sensor
+        ranges are limits too (its frame is ``options.frame``'s business).
+    command_line : sequence of str
+        Recorded in the profile's provenance header.
+
+    Returns
+    -------
+    cycle.export.Exported
+        ``.files``, ``.profile`` (header and columns), ``.e_mech_cycles_j``.
+    """
+    from cycle.export import export_cycle
+
+    return export_cycle(optimize, scenario, out, options,
+                        bench_session=bench_session, command_line=tuple(command_line))
+
+
+def cycle_verify(store: str | Path = "bench_store", optimize: str | Path = "optimize_out",
+                 out: str | Path = "verify_out", *, session: str | None = None,
+                 command_line: Sequence[str] = ("drivebench.cycle_verify",)) -> Any:
+    """Compare a cycle run in the store with the power model and the optimizer.
+
+    Parameters
+    ----------
+    store : path
+        The store holding the cycle-run session (:func:`ingest` of a ``kind =
+        "cycle_run"`` session, docs/schemas.md §1).
+    optimize : path
+        The optimize folder its profile was exported from.
+    out : path
+        The output folder (docs/schemas.md §11).
+    session : str, optional
+        The session id; default the store's only cycle run.
+    command_line : sequence of str
+        Recorded in the provenance header.
+
+    Returns
+    -------
+    cycle.verify_command.Verified
+        ``.record`` (verify.json: means, bands, drift), ``.cycles`` (per cycle),
+        ``.verdict`` (words).
+    """
+    from cycle.verify_command import verify_cycles
+
+    return verify_cycles(store, optimize, out, session=session,
+                         command_line=tuple(command_line))
 
 
 def plot_efficiency_map(fit: str | Path | pd.DataFrame = "fit_out", ax: Any = None, *,

@@ -256,6 +256,7 @@ def fit_thermal(points: pd.DataFrame, samples_of) -> tuple[dict | None, str]:
         "copper_temp_coeff_per_k": copper["copper_temp_coeff_per_k"],
         "copper_temp_coeff_per_k_ci95": copper["copper_temp_coeff_per_k_ci95"],
         "theta_ref_c": THETA_REF_C,
+        "theta_points_c": float(pts.t_winding_c.mean()),
         "ambient_c": float(np.mean(ambients)),
         "session_ambient_c": first["ambient_c"],
         "aux_load": copper["aux"],

@@ -34,6 +34,8 @@ UNIT_SUFFIXES: tuple[tuple[str, str], ...] = (
     ("_n", "N"),
     ("_w", "W"),
     ("_j", "J"),
+    ("_c", "degC"),
+    ("_k", "K"),
 )
 #: dimensionless columns whose names carry no suffix
 DIMENSIONLESS = ("eta", "eta_fit", "eta_low", "eta_high", "area_share", "r2")

@@ -22,6 +22,7 @@ from kernel.provenance import Provenance
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
 from optimize.analysis.result_check import MIN_COLLOCATION_POINTS, mesh_label
 from optimize.kinds import KINDS
+from optimize.problem.ocp import thermal_line, winding_thermal
 from optimize.service import Problem, make_tasks, run_sweep
 from optimize.sweep import outputs
 from optimize.sweep.executors import open_executor
@@ -173,6 +174,7 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
                            drive.rating.source or "the drive in force")
     note += "\n" + loaded.kite_limits().describe()
     note += "\n" + loaded.drivetrain_line()
+    note += "\n" + thermal_line(drive.model, options.limits)
     if solver.n_intervals * solver.degree < MIN_COLLOCATION_POINTS:
         note += (f"\nmesh {mesh_label(solver.n_intervals, solver.degree)}: the result check "
                  "decides whether each optimum stands")
@@ -247,8 +249,10 @@ def run_optimize(
         outcomes = list(result.outcomes)
         if request.trust:
             trust = run_trust_checks(problem, outcomes, request.winds, handle)
+    thermal = winding_thermal(drive.model, options.limits)
     summary = outputs.summary_frame(outcomes, drive.model.domain,
-                                    domain_scales(drive.model, options))
+                                    domain_scales(drive.model, options),
+                                    None if thermal is None else thermal.max_c)
     cut_ins = cut_in_frame(result.cut_ins)
     claims = (evaluate_claims(summary, cut_ins, paper_system=system.paper_system,
                               system_name=system.name) if request.claims else None)

@@ -71,7 +71,8 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "first optimum (0: the first was the better; NaN: not re-solved)",
     "active_bounds": "bounds the optimum sits on, comma-separated: period_min, period_max, "
     "tether_length_min, tether_length_max, ground_clearance, airspeed_min, airspeed_max, "
-    "tether_force_limit, speed_limit, torque_limit, p_elec_limit ('' for none)",
+    "tether_force_limit, reel_acceleration_limit, speed_limit, torque_limit, envelope_limit, "
+    "p_elec_limit, winding_temperature_limit ('' for none)",
     "bound_limited": "an optimum on a bound the system did not mean to bind (period or tether "
     "length range): the optimum is the bound's, not the kite's",
     "period_s": "cycle period",
@@ -83,6 +84,10 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "peak_torque_nm": "largest |torque| the drive delivers at its shaft (tether torque at the "
                       "motor plus the drivetrain's acceleration torque)",
     "peak_reel_acceleration_m_s2": "largest |tether acceleration| (reel acceleration)",
+    "peak_winding_temperature_c": "highest winding temperature over the cycle, its cyclic "
+    "steady state (NaN without a thermal model in the OCP)",
+    "thermal_margin_k": "the drive's winding limit minus that peak (NaN without a thermal "
+    "model in the OCP)",
     "p_elec_max_w": "largest electrical power (peak drawn from the grid)",
     "p_elec_min_w": "smallest electrical power (peak generated, negative)",
     "tether_length_min_m": "shortest tether length",

@@ -24,6 +24,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="output folder of `bench aep` (default: ./aep_out)")
     parser.add_argument("--size", type=Path, default=Path("size_out"),
                         help="output folder of `bench size` (default: ./size_out)")
+    parser.add_argument("--verify", type=Path, default=Path("verify_out"),
+                        help="output folder of `bench cycle verify` (default: ./verify_out; "
+                        "none: the section says the stage was not run)")
     parser.add_argument("--out", type=Path, default=Path("report.html"),
                         help="the HTML file to write (default: ./report.html)")
 
@@ -45,11 +48,11 @@ def run(args: argparse.Namespace) -> int:
     check_output_file(args.out)
     argv = ["bench", "report", "--store", str(args.store), "--fit", str(args.fit),
             "--optimize", str(args.optimize), "--aep", str(args.aep), "--size", str(args.size),
-            "--out", str(args.out)]
+            "--verify", str(args.verify), "--out", str(args.out)]
     with output_lock(args.out, "report"):  # one report writer per file: a second one waits
         check_replaceable_file(args.out, "report", is_report)
         out = build_report(args.store, args.fit, args.optimize, args.out, argv, args.aep,
-                           args.size)
+                           args.size, args.verify)
     size_mb = out.stat().st_size / 1e6
     print(f"{out.resolve()}")
     print(f"bench report: {size_mb:.2f} MB written in {time.perf_counter() - t0:.1f} s")

@@ -16,6 +16,7 @@ from reports import (
     model_section,
     optimization_section,
     provenance_section,
+    verification_section,
 )
 from reports.inputs import InputLog
 from reports.section_list import SECTIONS, section_list
@@ -34,7 +35,8 @@ def environment() -> Environment:
 
 
 def build_context(store: Path, fit: Path, optimize: Path, argv: list[str],
-                  aep: Path = Path("aep_out"), size: Path = Path("size_out")) -> dict:
+                  aep: Path = Path("aep_out"), size: Path = Path("size_out"),
+                  verify: Path = Path("verify_out")) -> dict:
     """Read the stage outputs and return the template context (one dict per section).
 
     Parameters
@@ -42,8 +44,9 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str],
     store, fit, optimize : Path
         The ``bench ingest``, ``bench fit`` and ``bench optimize`` output folders;
         any of them may be missing or partial.
-    aep, size : Path
-        The ``bench aep`` and ``bench size`` output folders (optional).
+    aep, size, verify : Path
+        The ``bench aep``, ``bench size`` and ``bench cycle verify`` output folders
+        (optional).
     argv : list of str
         The report's command line, for provenance.
     """
@@ -59,24 +62,27 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str],
         log, optimize, efficiency.pop("map"), model.sha256 if model is not None else None)
     energy = energy_section.energy_section(log, aep, size)
     documents = energy.pop("documents")
+    verification = verification_section.verification_section(log, verify)
     prov = provenance_section.provenance_section(log, argv, started, {
         "ingest": (store, manifest),
         # the fit's header is in fit_summary.json; a model alone names its command line
         "fit": (fit, {**(model.to_dict() if model else {}), **(summary or {})}
                 if model or summary else None),
         "optimize": (optimize, opt["manifest"]), "aep": (aep, documents["aep"]),
-        "size": (size, documents["size"])})
+        "size": (size, documents["size"]),
+        "cycle verify": (verify, verification["record"])})
     return {
         "title": "drivebench report",
         "sections": section_list(),
         "headline": headline(campaign, power, opt) + energy_headline(energy),
         "paths": stage_paths({"ingest": store, "fit": fit, "optimize": optimize, "aep": aep,
-                              "size": size}),
+                              "size": size, "cycle verify": verify}),
         "campaign": campaign,
         "efficiency": efficiency,
         "power": power,
         "optimization": opt,
         "energy": energy,
+        "verification": verification,
         "provenance": prov,
     }
 
@@ -134,6 +140,8 @@ def render(context: dict) -> str:
 
 
 def build_report(store: Path, fit: Path, optimize: Path, out: Path, argv: list[str],
-                 aep: Path = Path("aep_out"), size: Path = Path("size_out")) -> Path:
+                 aep: Path = Path("aep_out"), size: Path = Path("size_out"),
+                 verify: Path = Path("verify_out")) -> Path:
     """Read the stage outputs, render the report and write it to ``out``; returns ``out``."""
-    return write_text_durable(out, render(build_context(store, fit, optimize, argv, aep, size)))
+    return write_text_durable(out, render(build_context(store, fit, optimize, argv, aep, size,
+                                                        verify)))

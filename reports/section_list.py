@@ -13,6 +13,7 @@ SECTIONS = (
     ("model", "Power model (paper Table I, eq. 4, Fig. 6)"),
     ("optimization", "Optimized pumping cycles"),
     ("energy", "Annual energy and drive sizing"),
+    ("verification", "The optimal cycle flown on the bench"),
     ("provenance", "Provenance"),
 )
 

@@ -8,7 +8,7 @@ import ast
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = ("kernel", "bench", "fitting", "optimize", "energy", "reports", "drivebench")
+PACKAGES = ("kernel", "bench", "fitting", "optimize", "energy", "cycle", "reports", "drivebench")
 #: (module prefix, layer), most specific first: a module may import its own layer and below
 LAYERS = (
     ("kernel", 0),
@@ -18,6 +18,7 @@ LAYERS = (
     ("fitting", 3),
     ("optimize", 4),
     ("energy", 5),
+    ("cycle", 5),  # the cycle round trip: reads optimize folders and the store
     ("reports", 6),
     ("drivebench", 7),  # the Python API: the top
 )

@@ -126,13 +126,15 @@ def test_provenance_has_a_row_per_stage(browser, report):  # noqa: F811
         "#command-lines tr", "rs => rs.slice(1).map(r => [...r.cells].map(c => c.innerText))")
     page.close()
     stages = {r[0]: r[1] for r in rows}
-    assert list(stages) == ["ingest", "fit", "optimize", "aep", "size", "report"]
+    assert list(stages) == ["ingest", "fit", "optimize", "aep", "size", "cycle verify",
+                            "report"]
     # each stage's own command line, as its files record it (tests/test_report.py)
     assert stages["fit"] == "bench fit --store s"  # fit_summary.json's provenance header
     assert stages["optimize"] == "bench optimize --wind-grid 4:10:1.5"
     assert stages["report"] == "bench report"
     assert stages["ingest"] == "not recorded in the stage's files"  # this store's manifest
-    assert stages["aep"] == stages["size"] == "not run (no output found)"
+    assert stages["aep"] == stages["size"] == stages["cycle verify"] == \
+        "not run (no output found)"
 
 
 def test_warnings_and_notes_look_different(browser, report):  # noqa: F811

@@ -14,7 +14,7 @@ import pytest
 from bench.store.lock import StoreBusy
 from bench.store.manifest import empty_manifest, kind_files, read_manifest
 from bench.store.read import consistent_read, read_points, read_rejected
-from bench.store.schema import POINTS_SCHEMA, REJECTED_SCHEMA
+from bench.store.schema import POINTS_SCHEMA, REJECTED_SCHEMA, SCHEMA_VERSION
 from bench.store.writer import StoreWriter
 from kernel.errors import InputError
 
@@ -124,7 +124,7 @@ def test_version_1_store_is_read_and_migrated(tmp_path):
     _commit(store, "new", 1)
     assert not (store / "points").exists()
     assert sorted(read_points(store)["session_id"].unique()) == ["new", "old"]
-    assert read_manifest(store)["schema_version"] == 2
+    assert read_manifest(store)["schema_version"] == SCHEMA_VERSION
 
 
 def test_reader_starts_over_when_a_writer_removes_its_generation(tmp_path):

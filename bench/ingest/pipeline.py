@@ -24,6 +24,7 @@ from tqdm import tqdm
 
 from bench.ingest.checks import efficiency_flags
 from bench.ingest.csv_stream import CHUNK_BYTES
+from bench.ingest.cycle_run import process_cycle_run
 from bench.ingest.mapping import EMPTY_MAPPING, load_mapping
 from bench.ingest.session import Session, complete_ranges, discover, load_session
 from bench.ingest.steady import DEFAULT_STEADY, SteadyConfig
@@ -88,12 +89,15 @@ def session_files(
     ``session.toml``) wins; else the user's ``--mapping`` file applies.
     """
     files = {"session.toml": session.path}
-    if session.kind != "timeseries":
+    if session.kind == "operating_points":
         tables: tuple[str, ...] = ("points",)
     else:
         tables = ("log",) if session.single_stream else ("daq", "analyzer")
     for t in tables:
         p = session.file(t)
+        files[p.name] = p
+    if session.kind == "cycle_run":
+        p = session.profile()
         files[p.name] = p
     mapping = None
     named = session.raw.get("points", {}).get("mapping") if session.kind == "operating_points" \
@@ -303,7 +307,13 @@ def _process_into_store(todo, writer: StoreWriter, *args) -> None:
 
 
 def _strict_check(s: Session, entry: dict) -> None:
-    """``--strict``: raise when a session's entry has no operating point."""
+    """``--strict``: raise when a session's entry has no operating point (a cycle run:
+    no kept cycle)."""
+    if s.kind == "cycle_run":
+        if (entry.get("cycles") or {}).get("n_kept", 0) == 0:
+            raise InputError(s.path, entry.get("no_points_note", "no cycle kept"),
+                             expected="at least one kept cycle (--strict)")
+        return
     if entry.get("n_points", 0) == 0:
         raise InputError(s.path, entry.get("no_points_note", "0 points"),
                          expected="at least one steady operating point (--strict)")
@@ -345,6 +355,8 @@ def _process(todo, writer: StoreWriter, config: SteadyConfig, progress: bool,
 
             if s.kind == "timeseries":
                 out = process_timeseries(s, mapping, stage, config, chunk_bytes, tick)
+            elif s.kind == "cycle_run":
+                out = process_cycle_run(s, mapping, stage, config, chunk_bytes, tick)
             else:
                 out = process_table(s, mapping)
             tick(size)
@@ -373,7 +385,10 @@ def _process(todo, writer: StoreWriter, config: SteadyConfig, progress: bool,
 
 def _stage(stage: Path, sid: str, out: SessionOutput) -> dict[str, Path]:
     files = {}
-    for kind, table in (("points", out.points), ("rejected", out.rejected)):
+    for kind, table in (("points", out.points), ("rejected", out.rejected),
+                        ("cycles", out.cycles)):
+        if table is None:
+            continue
         p = stage / f"{sid}.{kind}.parquet"
         pq.write_table(table, p, compression="snappy")
         files[kind] = p

@@ -27,9 +27,10 @@ class Session:
     session_id : str
         Equals the folder name.
     kind : str
-        ``"timeseries"`` or ``"operating_points"``.
+        ``"timeseries"``, ``"operating_points"`` or ``"cycle_run"`` (a drive profile
+        flown, ``[cycle] profile``: cut into cycles, not steady windows).
     mode : str
-        Intended bench mode, ``"motor"`` or ``"generator"``.
+        Intended bench mode, ``"motor"`` or ``"generator"`` (``"cycle"`` for a cycle run).
     gear_ratio : float
         Motor-shaft speed / drum-shaft speed [-].
     measured_side : str
@@ -61,7 +62,15 @@ class Session:
     @property
     def single_stream(self) -> bool:
         """A timeseries session with one ``[log]`` file instead of ``[daq]`` + ``[analyzer]``."""
-        return self.kind == "timeseries" and "log" in self.raw
+        return self.kind in ("timeseries", "cycle_run") and "log" in self.raw
+
+    def profile(self) -> Path:
+        """A cycle run's drive profile (``[cycle] profile``, in the session folder)."""
+        name = self.table("cycle").get("profile")
+        if not isinstance(name, str) or not name:
+            raise InputError(self.path, "[cycle] has no 'profile'", column="cycle.profile",
+                             expected="the drive profile's file name in the session folder")
+        return self.inside(name, "cycle.profile")
 
     def day(self) -> date | None:
         """The session's ``date`` (dates a time-of-day time column), or None."""
@@ -249,8 +258,9 @@ def load_session(folder: str | Path) -> Session:
     if sid != folder.name:
         raise InputError(path, f"session_id {sid!r} differs from the folder name",
                          column="session_id", expected=repr(folder.name))
-    kind = _get(path, raw, "kind", str, ("timeseries", "operating_points"))
-    mode = _get(path, raw, "mode", str, ("motor", "generator"))
+    kind = _get(path, raw, "kind", str, ("timeseries", "operating_points", "cycle_run"))
+    mode = _get(path, raw, "mode", str,
+                ("cycle",) if kind == "cycle_run" else ("motor", "generator"))
     gear = float(_get(path, raw, "gear_ratio", (int, float)))
     if not (math.isfinite(gear) and gear > 0):
         raise InputError(path, f"gear_ratio {gear} is not a finite positive number",
@@ -259,7 +269,7 @@ def load_session(folder: str | Path) -> Session:
     ssign = _get(path, raw, "speed_sign", int, (1, -1))
     signed = raw.get("torque_sign") == "signed"
     tsign = 1 if signed else _get(path, raw, "torque_sign", int, (1, -1))
-    if kind == "timeseries":
+    if kind in ("timeseries", "cycle_run"):
         _check_streams(path, raw)
     ranges = _sensor_ranges(path, raw.get("sensors", {}))
     if bad is not None:  # the keys checked above said so in their own words

@@ -28,12 +28,15 @@ class SessionOutput:
         Staged samples Parquet file (timeseries sessions).
     info : dict
         Manifest fields: clock offset/drift, instruments, counts.
+    cycles : pyarrow.Table or None
+        The kept cycles of a cycle-run session (store cycles schema).
     """
 
     points: pa.Table
     rejected: pa.Table
     samples_path: Path | None
     info: dict
+    cycles: pa.Table | None = None
 
 
 def points_table(session: Session, cols: dict, n_samples, t_start, t_end,

@@ -29,7 +29,8 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict,
         [N m] (``none`` without a tare), rejected windows by reason; then one line
         per session that gave no operating point saying why, and one per session
         without a tare saying why, and one per point kept with an efficiency outside
-        [0, 1] (manifest ``efficiency_flags``).
+        [0, 1] (manifest ``efficiency_flags``); a cycle run's kept cycles and one line
+        per rejected cycle instead of its points.
     """
     head = ("session", "status", "kind", "mode", "motor", "generator", "offset_s", "drift_ppm",
             "zero_nm", "rejected")
@@ -38,6 +39,7 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict,
     tot_rej: dict[str, int] = {}
     no_tare = []
     no_points = []
+    cycle_runs: list[str] = []
     no_drift = []
     flagged: list[str] = []
     for sid in sorted(ingested + unchanged):
@@ -50,7 +52,13 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict,
         status = ("unchanged" if sid not in ingested else "repaired" if sid in repaired
                   else "ingested")
         rows.append(_row(sid, status, e))
-        if e.get("n_points", 0) == 0:
+        if e.get("kind") == "cycle_run":
+            c = e.get("cycles") or {}
+            cycle_runs.append(f"{sid}: {c.get('n_kept', 0)} of {c.get('n_profile_cycles', 0)} "
+                              f"cycles of {c.get('scenario')} kept (period {c.get('period_s')} "
+                              f"s, correlation {c.get('correlation')})")
+            cycle_runs += [f"{sid}: rejected {n}" for n in c.get("notes", [])]
+        elif e.get("n_points", 0) == 0:
             no_points.append(f"{sid}: {e.get('no_points_note', '0 points')}")
         if e.get("clock_drift_note"):
             no_drift.append(f"{sid}: {e['clock_drift_note']}")
@@ -62,6 +70,7 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict,
                  str(tot["generator"]), "", "", "",
                  ", ".join(f"{r}: {n}" for r, n in sorted(tot_rej.items())) or "-"))
     notes = [f"NO POINTS from {n}" for n in no_points]
+    notes += [f"cycle run {n}" for n in cycle_runs]
     notes += [f"no torque-flange tare, torque not zero-corrected: {n}" for n in no_tare]
     notes += no_drift
     notes += [f"FLAGGED point: {f}" for f in flagged]

@@ -119,6 +119,11 @@ def read_rejected(store_dir: str | Path) -> pd.DataFrame:
     return _read_kind(store_dir, "rejected")
 
 
+def read_cycles(store_dir: str | Path) -> pd.DataFrame:
+    """All kept cycles of the store's cycle-run sessions, one row each."""
+    return _read_kind(store_dir, "cycles")
+
+
 def read_samples(store_dir: str | Path, session_id: str) -> pd.DataFrame:
     """The aligned time series of one timeseries session."""
     def read(manifest: dict) -> pd.DataFrame:

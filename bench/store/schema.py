@@ -8,10 +8,11 @@ import re
 import pyarrow as pa
 
 SCHEMA_NAME = "drivebench.store"
-SCHEMA_VERSION = 2
-#: manifests this version reads (1: no generations, files directly in <store>/<kind>)
-READABLE_VERSIONS = (1, 2)
-KINDS = ("points", "samples", "rejected")
+SCHEMA_VERSION = 3  # 3: cycles/ (cycle-run sessions)
+#: manifests this version reads (1: no generations, files directly in <store>/<kind>;
+#: 2: no cycles/)
+READABLE_VERSIONS = (1, 2, 3)
+KINDS = ("points", "samples", "rejected", "cycles")
 LOCK_FILE = ".lock"
 STAGING_PREFIX = ".staging-"
 GENERATION_RE = re.compile(r"^gen-(\d{6,})$")
@@ -63,5 +64,26 @@ REJECTED_SCHEMA = pa.schema([
     _f("reason", pa.string()),
 ])
 
+#: one row per kept cycle of a cycle-run session (bench.ingest.cycle_run)
+CYCLES_SCHEMA = pa.schema([
+    _f("session_id", pa.string()),
+    _f("cycle_id", pa.int32()),
+    _f("t_start_s", pa.float64(), "s"),
+    _f("t_end_s", pa.float64(), "s"),
+    _f("period_s", pa.float64(), "s"),
+    _f("e_elec_j", pa.float64(), "J"),
+    _f("e_mech_j", pa.float64(), "J"),
+    _f("angle_rad", pa.float64(), "rad"),
+    _f("p_elec_start_w", pa.float64(), "W"),
+    _f("p_elec_end_w", pa.float64(), "W"),
+    _f("n_samples", pa.int64()),
+    _f("n_records", pa.int64()),
+    _f("speed_rms_error_rpm", pa.float64(), "rpm"),
+    _f("torque_rms_error_nm", pa.float64(), "N m"),
+    _f("start_offset_s", pa.float64(), "s"),
+    _f("t_winding_c", pa.float64(), "degC"),
+])
+
 #: kind -> the schema of its files
-SCHEMAS = {"points": POINTS_SCHEMA, "samples": SAMPLES_SCHEMA, "rejected": REJECTED_SCHEMA}
+SCHEMAS = {"points": POINTS_SCHEMA, "samples": SAMPLES_SCHEMA, "rejected": REJECTED_SCHEMA,
+           "cycles": CYCLES_SCHEMA}

@@ -21,6 +21,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--check", action="store_true",
                         help="do nothing if OUT_DIR already holds this campaign, complete")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--cycle-run", type=Path, default=None, metavar="PROFILE",
+                        help="instead of the campaign: fly this drive profile (bench cycle "
+                        "export) on the campaign's true drive into OUT_DIR/<--session-id>/, "
+                        "its truth in cycle_truth.json beside it")
+    parser.add_argument("--session-id", default="cycle_01",
+                        help="the cycle-run session's id and folder (default cycle_01)")
+    parser.add_argument("--truth", type=Path, default=None,
+                        help="with --cycle-run: the campaign truth.json whose loss model is "
+                        "the drive's (default OUT_DIR/truth.json)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -32,6 +41,8 @@ def run(args: argparse.Namespace) -> int:
     if args.out_dir.exists() and not args.out_dir.is_dir():
         raise InputError(args.out_dir, "exists and is not a directory",
                          expected="a campaign folder")
+    if args.cycle_run is not None:
+        return _cycle_run(args)
     if args.check and is_complete(args.out_dir, args.seed, args.scale):
         print(f"bench synth: {args.out_dir} is complete (seed {args.seed}, scale {args.scale})")
         return 0
@@ -58,4 +69,22 @@ def run(args: argparse.Namespace) -> int:
         f"{100 * cal['residual_std_w'] / nominal:.2f} %, "
         f"max {100 * cal['residual_max_abs_w'] / nominal:.2f} % of {nominal / 1000:g} kW"
     )
+    return 0
+
+
+def _cycle_run(args: argparse.Namespace) -> int:
+    """``--cycle-run``: write the cycle-run session and print its truth in one line."""
+    import dataclasses
+
+    from bench.synth.cycle_session import CycleRunSpec, write_cycle_run
+
+    if not args.session_id.replace("_", "").replace("-", "").isalnum():
+        raise InputError(None, f"--session-id {args.session_id!r}",
+                         expected="letters, digits, '_' or '-' (a folder name)")
+    run = dataclasses.replace(CycleRunSpec(), session_id=args.session_id, seed=args.seed)
+    truth = write_cycle_run(args.out_dir, args.cycle_run, run, truth_path=args.truth)
+    e = truth["cycles"]["e_elec_j"]
+    print(f"bench synth: wrote {args.out_dir / args.session_id}: {len(e)} cycles of "
+          f"{truth['scenario']}, true electrical energy per cycle {min(e):.1f} to "
+          f"{max(e):.1f} J (cycle_truth.json)")
     return 0

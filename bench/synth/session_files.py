@@ -66,7 +66,7 @@ def session_toml(spec: SessionSpec, files: dict[str, str]) -> str:
     return toml_document(top, tables)
 
 
-def _analyzer_preamble(spec: SessionSpec, index: int,
+def analyzer_preamble(spec: SessionSpec, index: int,
                        inst: ins.Instruments) -> tuple[str, float]:
     """Header block and column rows; also the header's start offset from the DAQ start [s]."""
     # the header shows milliseconds: round the offset, not the wall time's digits
@@ -150,7 +150,7 @@ def write_analyzer(seg: Segments, spec: SessionSpec, index: int, path: Path, mod
 
     ``index`` (the session's place in the campaign) sets the analyzer's serial number.
     """
-    preamble, header_offset = _analyzer_preamble(spec, index, inst)
+    preamble, header_offset = analyzer_preamble(spec, index, inst)
     german = spec.analyzer_style == "de_w"
     kw = spec.analyzer_style == "en_kw"
     decimals = (0, 3, 2, 3, 3 if kw else 0, 4)

@@ -32,6 +32,7 @@ from optimize.model.drivetrain import (
 )
 from optimize.model.envelope import EnvelopeTable, constant_power_w
 from optimize.model.kite_model import STATES, KiteDae
+from optimize.model.thermal import SCALE_K, STATE, WindingThermal
 from optimize.problem.interface import Point, Row, weight_param
 from optimize.problem.options import Discretization, Limits
 from optimize.problem.scaling import Scales
@@ -68,6 +69,10 @@ class Formulation:
     discretization : Discretization
         For the control regularization's weight and scales.
     scales : Scales
+    thermal : WindingThermal, optional
+        The winding's thermal model and limit: ``dae`` then carries the winding
+        temperature (:func:`optimize.model.thermal.with_winding_temperature`), the
+        copper losses follow it and its limit replaces the RMS-torque row.
     """
 
     dae: KiteDae
@@ -75,13 +80,17 @@ class Formulation:
     limits: Limits
     discretization: Discretization
     scales: Scales
+    thermal: WindingThermal | None = None
     averages: tuple[str, ...] = field(default=AVERAGES, init=False)
     objective_averages: tuple[str, ...] = field(default=OBJECTIVE_AVERAGES, init=False)
 
     @property
     def constrained_averages(self) -> tuple[str, ...]:
-        """The squared torque when the drive has an RMS-torque rating."""
-        return () if self.limits.max_rms_torque_nm is None else ("torque_sq",)
+        """The squared torque when the drive has an RMS-torque rating (and no thermal one)."""
+        return () if self._rms_rating() is None else ("torque_sq",)
+
+    def _rms_rating(self) -> float | None:
+        return self.limits.max_rms_torque_nm if self.thermal is None else None
 
     @property
     def objective_scale(self) -> float:
@@ -96,6 +105,36 @@ class Formulation:
     def tension_n(self, x: Any, z: Any) -> Any:
         """Tether tension [N]."""
         return x[X_LENGTH] * z[self.dae.algebraic.index("nu_n_m")]
+
+    def p_elec_w(self, speed_rpm: Any, torque_nm: Any, theta_c: Any = None) -> Any:
+        """Electrical power drawn [W] (CasADi): the power model, its copper loss at the
+        winding temperature ``theta_c`` [degC] when the formulation has a thermal model."""
+        p = self.drive_model.casadi_p_elec_w(speed_rpm, torque_nm)
+        if self.thermal is None:
+            return p
+        return p + self.thermal.copper_drift_w(torque_nm, theta_c)
+
+    def heat_w(self, x: Any, z: Any, theta_c: Any) -> Any:
+        """The drive's losses [W] at a point (the kite's state ``x``, which may carry more
+        after it), the heat of the winding's thermal model."""
+        drivetrain = self.drivetrain
+        tension = self.tension_n(x, z)
+        dl, ddl = x[X_REEL_SPEED], x[X_REEL_ACCELERATION]
+        torque = drivetrain.shaft_torque_nm(tension, ddl)
+        return (self.p_elec_w(drivetrain.speed_rpm(dl), torque, theta_c)
+                - drivetrain.shaft_power_w(tension, dl, ddl))
+
+    def heat_function(self) -> ca.Function:
+        """``(x, z, theta_c) -> heat [W]`` on this formulation's state and algebraic
+        variables (:meth:`heat_w`)."""
+        x = ca.SX.sym("x", self.dae.states.size)
+        z = ca.SX.sym("z", self.dae.algebraic.size)
+        theta = ca.SX.sym("theta_c")
+        return ca.Function("heat_w", [x, z, theta], [self.heat_w(x, z, theta)])
+
+    def winding_temperature_c(self, x: Any) -> Any:
+        """The winding temperature [degC] of the state (None without a thermal model)."""
+        return None if self.thermal is None else x[self.dae.states.index(STATE)]
 
     def kite_limits(self) -> tuple[float, float]:
         """Upper bounds of the airspeed [m/s] and motor-torque [N m] rows in every kind.
@@ -164,7 +203,8 @@ class Formulation:
         dl, ddl = x[X_REEL_SPEED], x[X_REEL_ACCELERATION]
         speed = drivetrain.speed_rpm(dl)
         torque = drivetrain.shaft_torque_nm(tension, ddl)
-        p_elec = self.drive_model.casadi_p_elec_w(speed, torque)
+        theta = self.winding_temperature_c(x)
+        p_elec = self.p_elec_w(speed, torque, theta)
         v_sc = sc.airspeed_m_s
         v_top, _ = self.kite_limits()
         rows = [
@@ -180,6 +220,9 @@ class Formulation:
             *self.torque_rows(tension, torque),
             *self.envelope_rows(speed, torque),
         ]
+        if self.thermal is not None:
+            rows.append(Row("winding_temperature", theta / SCALE_K, -np.inf, np.inf,
+                            limited=(-np.inf, self.thermal.max_c / SCALE_K)))
         if lim.max_p_elec_w is not None:
             p_lim = lim.max_p_elec_w / sc.power_w
             rows.append(Row("p_elec", p_elec / sc.power_w, -np.inf, np.inf,
@@ -203,11 +246,15 @@ class Formulation:
         tension = x[X_LENGTH] * z[self.dae.algebraic.index("nu_n_m")]
         speed_rpm = drivetrain.speed_rpm(dl)
         torque_nm = drivetrain.shaft_torque_nm(tension, ddl)
+        p_elec = np.asarray(self.drive_model.p_elec_w(speed_rpm, torque_nm))
+        if self.thermal is not None:
+            p_elec = p_elec + self.thermal.copper_drift_w(
+                torque_nm, x[self.dae.states.index(STATE)])
         return {
             "speed_rpm": speed_rpm, "torque_nm": torque_nm,
             "tether_torque_nm": drivetrain.tether_torque_nm(tension), "tension_n": tension,
             "p_mech_w": drivetrain.shaft_power_w(tension, dl, ddl),
-            "p_elec_w": np.asarray(self.drive_model.p_elec_w(speed_rpm, torque_nm)),
+            "p_elec_w": p_elec,
             "altitude_m": out["altitude_m"], "airspeed_m_s": out["airspeed_m_s"],
             "alpha_deg": np.degrees(out["alpha_rad"]), "beta_deg": np.degrees(out["beta_rad"]),
             "wind_m_s": out["wind_m_s"],
@@ -241,12 +288,13 @@ class Formulation:
         ]
 
     def average_rows(self, averages: dict[str, Any]) -> list[Row]:
-        """Rows on cycle averages: the drive's RMS torque rating, when it has one."""
-        lim = self.limits
-        if lim.max_rms_torque_nm is None:
+        """Rows on cycle averages: the drive's RMS torque rating, when it has one and no
+        thermal rating."""
+        rms = self._rms_rating()
+        if rms is None:
             return []
         return [Row("rms_torque", averages["torque_sq"], -np.inf, np.inf,
-                    limited=(-np.inf, (lim.max_rms_torque_nm / self.scales.torque_nm) ** 2))]
+                    limited=(-np.inf, (rms / self.scales.torque_nm) ** 2))]
 
     def objective(self, weights: dict[str, Any], averages: dict[str, Any],
                   regularization: Any, tracking: Any, fict_penalty: Any) -> Any:
@@ -278,6 +326,7 @@ class Formulation:
               "aileron_rad": surf, "elevator_rad": surf, "rudder_rad": surf}
         lo = {name: -value for name, value in hi.items()}
         lo.update(r_z_m=-reach, l_m=l_lo)
+        hi[STATE], lo[STATE] = 400.0, -100.0  # the solver's range: no winding limit here
         names = self.dae.states.names
         lower = np.array([-1.1 if n.startswith("dcm_") else lo[n] for n in names])
         upper = np.array([1.1 if n.startswith("dcm_") else hi[n] for n in names])

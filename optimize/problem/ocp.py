@@ -14,6 +14,7 @@ switched off); :mod:`optimize.solve` runs the solvers.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from dataclasses import dataclass, field
@@ -25,6 +26,7 @@ import numpy as np
 from optimize.model.dae import Dae
 from optimize.model.drivetrain import DriveModel
 from optimize.model.kite_model import KiteDae
+from optimize.model.thermal import SCALE_K, WindingThermal, with_winding_temperature
 from optimize.problem.collocation import Collocation, radau
 from optimize.problem.formulation import DEG, Formulation
 from optimize.problem.guess import LoopGuess, start_loop
@@ -50,7 +52,9 @@ class Ocp:
     Build the kite's with :func:`build_ocp` (any formulation's with :func:`assemble`);
     solve it with :func:`optimize.solve.solve.solve` or :func:`optimize.solve.solve.start`
     (the kite's) or :func:`optimize.solve.backend.run` (any). Solvers created for it are
-    cached in ``solvers`` (:mod:`optimize.solve.backend`).
+    cached in ``solvers`` (:mod:`optimize.solve.backend`). ``base`` is the same problem
+    without the states a formulation adds to the kite's (the winding temperature): its
+    solution starts this one's cold starts.
     """
 
     options: OcpOptions
@@ -60,6 +64,7 @@ class Ocp:
     build_time_s: float
     loop: LoopGuess | None = None
     system: Any = None
+    base: Ocp | None = None
     solvers: dict = field(default_factory=dict, repr=False)
     _g_fn: ca.Function | None = field(default=None, repr=False)
 
@@ -223,7 +228,52 @@ def build_ocp(
     scales = system_scales(dae, loop, lim.nominal_power_w, lim.max_torque_nm,
                            lim.surface_bound_deg * DEG, lim.surface_rate_bound_rad_s)
     form = Formulation(dae, drive_model, lim, disc, scales)
-    return assemble(form, o, loop=loop, system=system, started=t0)
+    ocp = assemble(form, o, loop=loop, system=system, started=t0)
+    thermal = winding_thermal(drive_model, lim)
+    if thermal is None:
+        return ocp
+    heat = dataclasses.replace(form, thermal=thermal).heat_function()
+    hot = Formulation(with_winding_temperature(dae, heat, thermal),
+                      drive_model, lim, disc,
+                      dataclasses.replace(scales, state=np.append(scales.state, SCALE_K)),
+                      thermal)
+    with_heat = assemble(hot, o, loop=loop, system=system, started=t0)
+    with_heat.base = ocp
+    return with_heat
+
+
+def thermal_line(drive_model: DriveModel, limits: Any) -> str:
+    """One line: how the drive's continuous rating enters the OCP (winding temperature or
+    RMS torque), and why."""
+    thermal = winding_thermal(drive_model, limits)
+    limit = limits.max_winding_temperature_c
+    if thermal is not None:
+        return (f"continuous rating: winding temperature <= {thermal.max_c:g} degC at "
+                f"{thermal.ambient_c:.4g} degC ambient, a periodic state of the cycle "
+                f"(thermal model r_th {thermal.r_th_k_per_w:.4g} K/W, tau_th "
+                f"{thermal.tau_th_s:.4g} s), in place of the RMS-torque row")
+    rms = ("RMS torque <= " + f"{limits.max_rms_torque_nm:g} N m"
+           if limits.max_rms_torque_nm is not None else "none stated")
+    if limit is not None:
+        return (f"continuous rating: {rms}; the winding limit {limit:g} degC is not applied: "
+                "the power model has no thermal model (bench fit fits one from sessions "
+                "that log the winding temperature)")
+    if getattr(drive_model, "thermal", None) is not None:
+        return (f"continuous rating: {rms}; the power model has a thermal model, "
+                "[drive] max_winding_temperature_c would put the winding temperature in "
+                "the cycle")
+    return f"continuous rating: {rms}"
+
+
+def winding_thermal(drive_model: DriveModel, limits: Any) -> WindingThermal | None:
+    """The winding's thermal model in the OCP: when the drive has a thermal rating
+    (``limits.max_winding_temperature_c``) and its power model a thermal model; else
+    None (the RMS-torque row stands for the continuous rating)."""
+    thermal = getattr(drive_model, "thermal", None)
+    if limits.max_winding_temperature_c is None or thermal is None:
+        return None
+    return WindingThermal.of(drive_model, limits.max_winding_temperature_c,
+                             limits.ambient_temperature_c)
 
 
 def assemble(form: CycleFormulation, options: OcpOptions, loop: LoopGuess | None = None,
@@ -263,9 +313,10 @@ def twin(ocp: Ocp, solver: str) -> Ocp:
         return ocp
     key = ("twin", solver)
     if key not in ocp.solvers:
-        ocp.solvers[key] = assemble(ocp.formulation,
-                                    ocp.options.replace(solver={"solver": solver}),
-                                    loop=ocp.loop, system=ocp.system)
+        other = assemble(ocp.formulation, ocp.options.replace(solver={"solver": solver}),
+                         loop=ocp.loop, system=ocp.system)
+        other.base = None if ocp.base is None else twin(ocp.base, solver)
+        ocp.solvers[key] = other
     return ocp.solvers[key]
 
 

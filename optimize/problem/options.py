@@ -119,6 +119,14 @@ class Limits:
         motor speed [rpm] (speeds rising from 0, torques not rising), linear between
         the points and flat beyond the last, in both quadrants, in the constrained
         scenarios.
+    max_winding_temperature_c : float or None
+        The drive's thermal rating: the largest winding temperature [degC] in the
+        constrained scenarios. With a power model that has a thermal model, the
+        winding temperature is a periodic state of the OCP and this bound replaces
+        the RMS-torque row; ``None``: no thermal state.
+    ambient_temperature_c : float or None
+        Ambient (or coolant) temperature of the thermal model [degC]; ``None``: the
+        one the thermal model was fitted with.
     """
 
     period_bounds_s: tuple[float, float] = (1.0, 20.0)
@@ -141,6 +149,8 @@ class Limits:
     base_speed_rpm: float | None = None
     envelope_speed_rpm: tuple[float, ...] | None = None
     envelope_torque_nm: tuple[float, ...] | None = None
+    max_winding_temperature_c: float | None = None
+    ambient_temperature_c: float | None = None
 
     def __post_init__(self) -> None:
         lo, hi = self.period_bounds_s

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from optimize.model.envelope import EnvelopeTable, base_speed_torque_nm
+from optimize.model.thermal import STATE as THERMAL_STATE
 from optimize.problem.ocp import Ocp
 from optimize.problem.scenario import Scenario
 from optimize.solve.backend import RawSolve
@@ -129,20 +130,24 @@ def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_ref_m_s: float) -> pd.
     return pd.DataFrame(frame)
 
 
-def carry_over(src: Ocp, solution: Solution, dst: Ocp) -> Solution:
+def carry_over(src: Ocp, solution: Solution, dst: Ocp,
+               added_x: np.ndarray | None = None) -> Solution:
     """A solution of ``src`` in the layout of ``dst`` (the same problem, another
-    transcription, :func:`optimize.problem.ocp.twin`).
+    transcription, :func:`optimize.problem.ocp.twin`; or ``dst`` adds states after
+    ``src``'s, whose values at the state grid ``added_x`` gives, :attr:`Ocp.base`).
 
     The primal point through the physical variables (``dst`` fills its copies); the
     multipliers of the variables both layouts have and of the rows with the same name
     and count; zero for the others.
     """
     sol = src.unpack(solution.w)
-    w = dst.pack(sol["x"], sol["z"], sol["u"], sol["fict"], float(sol["period_s"]))
+    x = sol["x"] if added_x is None else np.vstack([sol["x"], added_x])
+    w = dst.pack(x, sol["z"], sol["u"], sol["fict"], float(sol["period_s"]))
     s_lay, d_lay = src.layout, dst.layout
     lam_x = np.zeros(d_lay.n_w)
     for name in ("i_x", "i_z", "i_u", "i_f"):
-        lam_x[getattr(d_lay, name)] = solution.lam_x[getattr(s_lay, name)]
+        ours = getattr(s_lay, name)
+        lam_x[getattr(d_lay, name)[:ours.shape[0]]] = solution.lam_x[ours]
     lam_x[d_lay.i_period[0]] = solution.lam_x[s_lay.i_period].sum()
     lam_g = np.zeros(d_lay.n_g)
     for name, rows in d_lay.rows.items():
@@ -218,6 +223,9 @@ def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: b
         if o.max_p_elec_w is not None and _near(np.abs(traj["p_elec_w"].to_numpy()),
                                                 o.max_p_elec_w):
             out.append("p_elec_limit")
+        thermal = getattr(ocp.formulation, "thermal", None)
+        if thermal is not None and _near(traj[THERMAL_STATE].to_numpy(), thermal.max_c):
+            out.append("winding_temperature_limit")
     return tuple(out)
 
 

@@ -15,6 +15,7 @@ import pandas as pd
 
 from fitting.domain import domain_excursion
 from optimize.model import kite_model as km
+from optimize.model.thermal import STATE as THERMAL_STATE
 from optimize.service.local_optima import better_margin_w
 from optimize.service.outcome import ScenarioOutcome
 from optimize.service.solver import cycle_metrics
@@ -24,7 +25,8 @@ from optimize.sweep_folder import SUMMARY_COLUMNS
 #: the metric columns (NaN for a failed scenario)
 _METRICS = list(SUMMARY_COLUMNS)[list(SUMMARY_COLUMNS).index("period_s") :]
 #: active bounds the constrained scenarios mean to bind
-DRIVE_BOUNDS = ("speed_limit", "torque_limit", "envelope_limit", "p_elec_limit")
+DRIVE_BOUNDS = ("speed_limit", "torque_limit", "envelope_limit", "p_elec_limit",
+                "winding_temperature_limit")
 #: the kite's and the winch's own limits, in force in every kind
 KITE_BOUNDS = ("airspeed_min", "airspeed_max", "tether_force_limit", "reel_acceleration_limit")
 #: bounds an optimum may sit on as physics: the drive and kite limits and the ground (a
@@ -50,6 +52,8 @@ def _trajectory_metrics(traj: pd.DataFrame) -> dict[str, float]:
         "peak_speed_rpm": peaks["peak_speed_rpm"],
         "peak_torque_nm": peaks["peak_torque_nm"],
         "peak_reel_acceleration_m_s2": float(np.max(np.abs(col("ddl_m_s2")))),
+        "peak_winding_temperature_c": (float(np.max(col(THERMAL_STATE)))
+                                       if THERMAL_STATE in traj else math.nan),
         "p_elec_max_w": float(np.max(col("p_elec_w"))),
         "p_elec_min_w": float(np.min(col("p_elec_w"))),
         "tether_length_min_m": float(np.min(col("l_m"))),
@@ -146,7 +150,8 @@ def summary_row(o: ScenarioOutcome, domain: dict | None = None,
 
 
 def summary_frame(outcomes: Iterable[ScenarioOutcome], domain: dict | None = None,
-                  scales: tuple[float, float] = (1.0, 1.0)) -> pd.DataFrame:
+                  scales: tuple[float, float] = (1.0, 1.0),
+                  winding_limit_c: float | None = None) -> pd.DataFrame:
     """The summary table: one row per scenario, columns :data:`SUMMARY_COLUMNS`.
 
     Parameters
@@ -156,9 +161,14 @@ def summary_frame(outcomes: Iterable[ScenarioOutcome], domain: dict | None = Non
         The drive model's validity domain (``PowerModel.domain``).
     scales : (float, float)
         Speed [rpm] and torque [N m] of distance 1 for ``outside_worst_distance``.
+    winding_limit_c : float or None
+        The drive's winding limit [degC] when the OCP carries the winding temperature
+        (the ``thermal_margin_k`` column).
     """
     frame = pd.DataFrame([summary_row(o, domain, scales) for o in outcomes],
                          columns=list(SUMMARY_COLUMNS))
+    if winding_limit_c is not None:
+        frame["thermal_margin_k"] = winding_limit_c - frame["peak_winding_temperature_c"]
     return frame.astype(
         {
             "success": bool,

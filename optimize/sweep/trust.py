@@ -33,8 +33,8 @@ from optimize.problem.ocp import Ocp, grid_times
 from optimize.problem.scenario import Scenario
 from optimize.service.builder import OcpBackend, Problem, problem_key
 from optimize.solve import backend
-from optimize.solve.homotopy import cold_start
 from optimize.solve.result import OcpResult, Solution, make_result
+from optimize.solve.solve import solve
 from optimize.sweep.executors import run_tasks
 from optimize.sweep.plan import middle_index
 
@@ -196,7 +196,7 @@ def mesh_check(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult) ->
     res = make_result(fine, scenario, raw, p, bounds, [stage])
     if not res.success:
         route = "cold start"
-        res = cold_start(fine, scenario)
+        res = solve(fine, scenario, None)
     nan = math.nan
     return MeshCheck(
         scenario=scenario.name,

@@ -114,6 +114,8 @@ class DriveSection:
     base_speed_rpm: float | None = None  # constant power above it
     envelope_speed_rpm: tuple[float, ...] | None = None  # datasheet table, with
     envelope_torque_nm: tuple[float, ...] | None = None  # its largest torques
+    max_winding_temperature_c: float | None = None  # the thermal rating [degC]
+    ambient_temperature_c: float | None = None  # default: the thermal model's [degC]
 
 
 @dataclass(frozen=True)
@@ -290,6 +292,8 @@ class System:
             base_speed_rpm=self.drive.base_speed_rpm,
             envelope_speed_rpm=self.drive.envelope_speed_rpm,
             envelope_torque_nm=self.drive.envelope_torque_nm,
+            max_winding_temperature_c=self.drive.max_winding_temperature_c,
+            ambient_temperature_c=self.drive.ambient_temperature_c,
         ))
 
     def model_params(self) -> tuple[KiteParams, AeroCoefficients, WindModel]:

@@ -130,9 +130,26 @@ def _drive(r: _Reader) -> DriveSection:
                          source=r.text("source", optional=True),
                          rotor_inertia_kg_m2=r.number("rotor_inertia_kg_m2", 0, strict=False,
                                                       optional=True),
-                         **_envelope(r))
+                         **_envelope(r), **_winding(r))
     r.done()
     return drive
+
+
+def _winding(r: _Reader) -> dict:
+    """``[drive]``'s thermal rating: the largest winding temperature and the ambient (or
+    coolant) temperature [degC], both optional; the limit above the ambient."""
+    limit = r.number("max_winding_temperature_c", -273.15, optional=True)
+    ambient = r.number("ambient_temperature_c", -273.15, optional=True)
+    if limit is not None and limit > 300:
+        raise r.error("max_winding_temperature_c", f"{limit!r} degC is not physical",
+                      "a winding limit up to 300 degC (insulation class H is 180 degC)")
+    if ambient is not None and not -60 <= ambient <= 80:
+        raise r.error("ambient_temperature_c", f"{ambient!r} degC is not physical",
+                      "an ambient temperature from -60 to 80 degC")
+    if limit is not None and ambient is not None and not limit > ambient:
+        raise r.error("max_winding_temperature_c", f"{limit:g} degC, not above the ambient "
+                      f"{ambient:g} degC", "a winding limit above ambient_temperature_c")
+    return {"max_winding_temperature_c": limit, "ambient_temperature_c": ambient}
 
 
 def _envelope(r: _Reader) -> dict:

@@ -1,0 +1,193 @@
+"""``bench cycle verify`` as a library call: read the store and the sweep, compare, write
+the output folder (docs/schemas.md §11, :mod:`cycle.verify_folder`) whole."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from bench.ingest.cycles import CLOCK_RTOL
+from bench.store.manifest import read_manifest
+from bench.store.read import read_cycles, read_samples
+from cycle.models import sweep_power_model
+from cycle.verify import CLAIM_RTOL, Accuracy, K, _drift, measured_energy, model_energy
+from cycle.verify_folder import write_verify_folder
+from kernel.errors import InputError
+from kernel.provenance import Provenance
+from optimize.sweep_folder import read_sweep_folder, read_trajectories
+
+
+def cycle_session(store: Path, session: str | None) -> tuple[str, dict]:
+    """The cycle-run session to verify (``session``, or the store's only one) and its
+    manifest entry."""
+    manifest = read_manifest(store)
+    runs = {sid: e for sid, e in manifest["sessions"].items()
+            if isinstance(e, dict) and e.get("kind") == "cycle_run"}
+    if session is None and len(runs) == 1:
+        session = next(iter(runs))
+    if session not in runs:
+        raise InputError(store / "manifest.json",
+                         f"no cycle-run session {session!r}" if session else
+                         f"{len(runs)} cycle-run sessions, none chosen", column="--session",
+                         expected="one of: " + (", ".join(sorted(runs)) or "none stored "
+                                                "(bench ingest a session of kind = cycle_run)"))
+    entry = runs[session]
+    if not (entry.get("cycles") or {}).get("n_kept"):
+        raise InputError(store / "manifest.json", f"session {session!r} kept no cycle: "
+                         + "; ".join((entry.get("cycles") or {}).get("notes", [])),
+                         column="--session", expected="a cycle run with kept cycles")
+    return session, entry
+
+
+def period_uncertainty(info: dict) -> float:
+    """The standard uncertainty of the period a session's cycles were cut with [s]: the
+    fit's when the period found was used, else the clocks' tolerance on the profile's."""
+    if info["period_s"] != info["period_profile_s"] and info.get("period_found_u_s"):
+        return float(info["period_found_u_s"])
+    return CLOCK_RTOL * float(info["period_profile_s"])
+
+
+def _means(table: pd.DataFrame, e_opt: float) -> dict:
+    """Means over the kept cycles, their standard uncertainties and relative errors."""
+    n = len(table)
+    e = float(table["e_elec_j"].mean())
+    u_sys = float(table["u_elec_systematic_j"].mean())  # common to every cycle
+    u_rand = float(math.sqrt((table["u_elec_random_j"] ** 2).mean() / n))
+    u_meas = math.hypot(u_sys, u_rand)
+    u_model = float(table["u_model_j"].mean())
+    e_model = float(table["e_elec_model_j"].mean())
+    m = float(table["e_mech_j"].mean())
+    u_m = math.hypot(float(table["u_mech_systematic_j"].mean()),
+                     float(table["u_mech_random_j"].mean()) / math.sqrt(n))
+    return {"n_cycles": n, "e_elec_j": e, "u_elec_j": u_meas, "band_elec_j": K * u_meas,
+            "e_elec_model_j": e_model, "u_model_j": u_model, "e_elec_optimizer_j": e_opt,
+            "e_mech_j": m, "u_mech_j": u_m, "band_mech_j": K * u_m,
+            "model_error": (e_model - e) / abs(e),
+            "model_error_band": K * math.hypot(u_meas, u_model) / abs(e),
+            "optimizer_error": (e_opt - e) / abs(e),
+            "optimizer_error_band": K * u_meas / abs(e)}
+
+
+def verdict(means: dict, drift: dict, missing: list[str]) -> str:
+    """The result in plain words."""
+    err, band = means["model_error"], means["model_error_band"]
+    inside = abs(err) + band <= CLAIM_RTOL
+    outside = abs(err) - band > CLAIM_RTOL
+    claim = (("within" if inside else "outside" if outside else "not decidable against")
+             + f" the {100 * CLAIM_RTOL:g} % the steady map is said to hold")
+    lines = [f"The steady-state power model predicts the measured electrical energy per cycle "
+             f"to {100 * err:+.1f} % (95 % band {100 * band:.1f} %) at the measured speed and "
+             f"torque: {claim}.",
+             f"The optimizer promised {means['e_elec_optimizer_j']:.0f} J per cycle, "
+             f"{100 * means['optimizer_error']:+.1f} % from the {means['e_elec_j']:.0f} J "
+             f"measured (band {100 * means['optimizer_error_band']:.1f} %)."]
+    if math.isfinite(drift["slope_j_per_cycle"]) and abs(drift["slope_j_per_cycle"]) > \
+            K * drift["slope_u_j_per_cycle"]:
+        lines.append(f"The energy per cycle drifts by {drift['slope_j_per_cycle']:+.1f} J "
+                     f"({100 * drift['slope_per_cycle']:+.2f} %) per cycle over "
+                     f"{means['n_cycles']} cycles: the drive's temperature is moving.")
+    else:
+        lines.append("No drift over the cycles is resolved.")
+    if missing:
+        lines.append(f"session.toml [sensors] does not state {', '.join(missing)}: the band "
+                     "leaves those instruments' limits of error out.")
+    return " ".join(lines)
+
+
+@dataclass(frozen=True)
+class Verified:
+    """What :func:`verify_cycles` found and wrote: ``folder``, ``record`` (verify.json),
+    ``cycles`` (one row per kept cycle)."""
+
+    folder: Path
+    record: dict
+    cycles: pd.DataFrame
+
+    @property
+    def verdict(self) -> str:
+        """The verdict in words."""
+        return self.record["verdict"]
+
+
+def _one_cycle(samples: pd.DataFrame, row, model, traj: pd.DataFrame, phase_s: float,
+               period_opt: float) -> pd.DataFrame:
+    """Measured and predicted p_elec over one kept cycle, time from its start."""
+    sel = (samples["time_s"] >= row.t_start_s) & (samples["time_s"] < row.t_end_s)
+    s = samples[sel]
+    t = s["time_s"].to_numpy(float) - row.t_start_s
+    tp = np.mod(t * period_opt / row.period_s, period_opt)
+    opt_t = np.concatenate([[0.0], traj["time_s"].to_numpy(float)])
+    opt_p = np.concatenate([traj["p_elec_w"].to_numpy(float)[-1:], traj["p_elec_w"]])
+    return pd.DataFrame({"time_s": t, "p_elec_measured_w": s["p_elec_w"].to_numpy(float),
+                         "p_elec_model_w": model.p_elec_w(s["speed_rpm"], s["torque_nm"]),
+                         "p_elec_optimizer_w": np.interp(tp, opt_t, opt_p),
+                         "p_mech_measured_w": s["p_mech_w"].to_numpy(float)})
+
+
+def verify_cycles(store: str | Path, optimize: str | Path, out: str | Path, *,
+                  session: str | None = None, model=None,
+                  command_line: Sequence[str] = ("drivebench.cycle_verify",)) -> Verified:
+    """Compare a stored cycle run with the power model and the optimizer; write ``out``.
+
+    Parameters
+    ----------
+    store : path
+        The store holding the cycle-run session (``bench ingest``).
+    optimize : path
+        The optimize folder the profile was exported from.
+    out : path
+        The output folder (new, or an earlier ``bench cycle verify`` output).
+    session : str, optional
+        The session id (default the store's only cycle-run session).
+    model : PowerModel, optional
+        The power model to predict with (default the sweep's).
+    command_line : sequence of str
+        Recorded in the provenance header.
+    """
+    store, optimize = Path(store), Path(optimize)
+    provenance = Provenance.start(command_line)
+    sid, entry = cycle_session(store, session)
+    info = entry["cycles"]
+    summary, manifest = read_sweep_folder(optimize)
+    row = summary[summary["scenario"] == info["scenario"]]
+    if row.empty or not bool(row.iloc[0]["success"]):
+        raise InputError(optimize / "summary.parquet", f"no converged scenario "
+                         f"{info['scenario']!r}, which session {sid!r} flew",
+                         column="--optimize", expected="the optimize folder the profile "
+                         "was exported from")
+    model = model if model is not None else sweep_power_model(optimize, manifest)
+    cycles = read_cycles(store)
+    cycles = cycles[cycles["session_id"] == sid].sort_values("cycle_id")
+    samples = read_samples(store, sid)
+    acc, missing = Accuracy.of_session(entry.get("metadata") or {})
+    table = measured_energy(cycles, acc, float((entry.get("timing") or {}).get("bin_s", 0.1)),
+                            period_uncertainty(info))
+    table["e_elec_model_j"], table["u_model_j"] = model_energy(cycles, samples, model)
+    table["e_elec_optimizer_j"] = float(row.iloc[0]["e_elec_j"])
+    table["e_mech_optimizer_j"] = float(row.iloc[0]["e_mech_j"])
+    for col in ("t_start_s", "t_end_s", "period_s", "t_winding_c"):
+        table[col] = cycles[col].to_numpy()
+    means = _means(table, float(row.iloc[0]["e_elec_j"]))
+    slope, slope_u, scatter = _drift(table["e_elec_j"].to_numpy(float),
+                                     table["cycle_id"].to_numpy(float))
+    drift = {"slope_j_per_cycle": slope, "slope_u_j_per_cycle": slope_u,
+             "slope_per_cycle": slope / abs(means["e_elec_j"]), "scatter_j": scatter}
+    mid = cycles.iloc[len(cycles) // 2]
+    traj = read_trajectories(optimize)
+    one = _one_cycle(samples, mid, model, traj[traj["scenario"] == info["scenario"]]
+                     .sort_values("time_s"), info["phase_s"], float(row.iloc[0]["period_s"]))
+    record = {"store": str(store.resolve()),
+              "session": sid, "scenario": info["scenario"], "optimize": str(optimize.resolve()),
+              "power_model_sha256": model.sha256, "cycles_in_profile": info["n_profile_cycles"],
+              "cycles_kept": len(cycles), "cycle_notes": info.get("notes", []),
+              "accuracy": acc.__dict__, "accuracy_missing": missing, "coverage_factor": K,
+              "claim_rtol": CLAIM_RTOL, "means": means, "drift": drift,
+              "e_mech_optimizer_j": float(row.iloc[0]["e_mech_j"]),
+              "one_cycle": int(mid.cycle_id), "verdict": verdict(means, drift, missing)}
+    write_verify_folder(out, provenance, record, table, one)
+    return Verified(Path(out), {"provenance": provenance.header(), **record}, table)

@@ -1,0 +1,143 @@
+"""The winding temperature in the cycle: a periodic state with the drive's thermal limit.
+
+Truths: the closed-form periodic solution of the first-order model under a sinusoidal
+heat; the cycle mean of that model (``theta_mean = theta_amb + r_th mean(q)``, exact for
+any periodic heat); an independent forward integration (scipy's RK45) of the thermal model
+over 50 repeated optimal cycles, its heat recomputed from the trajectory at the simulated
+temperature.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from kernel.errors import InputError
+from optimize.model.kite_model import kite_dae
+from optimize.model.thermal import STATE, WindingThermal, periodic_temperature
+from optimize.paper_model import paper_model
+from optimize.problem.ocp import build_ocp, thermal_line, winding_thermal
+from optimize.problem.options import Discretization, OcpOptions
+from optimize.problem.scenario import Scenario
+from optimize.solve.solve import start
+from optimize.system.system import shipped_system_path
+from optimize.system.system_file import load_system
+
+#: a thermal block as bench fit writes it (the synthetic campaign's truth: 0.05 K/W, 600 s,
+#: copper 0.00393 /K), the power model's copper term holding at 40 degC
+THERMAL = {"version": 1, "nodes": 1, "r_th_k_per_w": 0.05, "tau_th_s": 600.0,
+           "c_th_j_per_k": 12000.0, "copper_temp_coeff_per_k": 0.00393, "theta_ref_c": 20.0,
+           "theta_points_c": 40.0, "ambient_c": 25.0}
+LIMIT_C = 40.0
+
+
+def _model():
+    return dataclasses.replace(paper_model(), thermal=dict(THERMAL))
+
+
+def test_periodic_temperature_matches_the_closed_form():
+    """tau theta' = theta_a + r q - theta, q = q0 + A sin(w t): theta = theta_a + r q0
+    + r A (sin w t - w tau cos w t) / (1 + (w tau)^2), to 1e-4 K on a 5 s cycle."""
+    th = WindingThermal.of(_model(), max_c=100.0)
+    period, q0, amp = 5.0, 400.0, 3000.0
+    t = np.linspace(0.0, period, 400, endpoint=False)
+    w = 2 * np.pi / period
+    q = q0 + amp * np.sin(w * t)
+    wt = w * th.tau_th_s
+    exact = (th.ambient_c + th.r_th_k_per_w * q0
+             + th.r_th_k_per_w * amp * (np.sin(w * t) - wt * np.cos(w * t)) / (1 + wt**2))
+    got = periodic_temperature(t, q, period, th, substeps=50)
+    assert np.max(np.abs(got - exact)) < 1e-4
+
+
+def test_without_a_thermal_rating_the_ocp_is_unchanged():
+    """No winding limit, or no thermal model: no temperature state, the RMS row stays."""
+    opts = OcpOptions(Discretization(n_intervals=8))
+    plain = build_ocp(kite_dae(), _model(), opts)
+    assert plain.base is None and STATE not in plain.dae.states.names
+    assert winding_thermal(paper_model(), dataclasses.replace(
+        opts.limits, max_winding_temperature_c=LIMIT_C)) is None
+    line = thermal_line(paper_model(), dataclasses.replace(opts.limits,
+                                                           max_winding_temperature_c=LIMIT_C))
+    assert "not applied" in line and "no thermal model" in line
+
+
+@pytest.fixture(scope="module")
+def hot_cycle():
+    """elec-lim at 10 m/s, 20 intervals, the winding limited to 40 degC."""
+    system = load_system()
+    opts = OcpOptions(Discretization(n_intervals=20)).replace(limits={
+        "max_winding_temperature_c": LIMIT_C, "max_speed_rpm": 1500.0,
+        "max_torque_nm": 78.0, "nominal_power_w": 8200.0, "max_rms_torque_nm": 60.0})
+    ocp = build_ocp(kite_dae(*system.model_params()), _model(), opts)
+    scenario = Scenario.of_kind("elec-lim", 10.0)
+    return ocp, start(ocp, scenario), start(ocp.base, scenario)
+
+
+def test_the_thermal_limit_binds_and_replaces_the_rms_row(hot_cycle):
+    ocp, hot, base = hot_cycle
+    assert hot.success and base.success, (hot.status, base.status)
+    theta = hot.trajectory[STATE].to_numpy()
+    assert theta.max() == pytest.approx(LIMIT_C, abs=1e-3)
+    assert "winding_temperature_limit" in hot.active_bounds
+    assert "rms_torque" not in ocp.layout.rows and "rms_torque" in ocp.base.layout.rows
+    # the base (RMS 60 N m, no temperature) flies hotter: the limit changes the optimum
+    assert abs(hot.avg_p_elec_w - base.avg_p_elec_w) > 10.0
+
+
+def test_the_cycle_mean_temperature_is_the_heat_balance(hot_cycle):
+    """Over a periodic cycle tau (theta(T) - theta(0)) = 0, so the time mean of theta is
+    theta_a + r_th mean(q) exactly (quadrature of the collocation: 1e-3 K)."""
+    ocp, hot, _ = hot_cycle
+    tr, th = hot.trajectory, ocp.formulation.thermal
+    heat = tr["p_elec_w"] - tr["p_mech_w"]
+    mean_theta = float(np.sum(tr["weight"] * tr[STATE]))
+    assert mean_theta == pytest.approx(th.steady_c(float(np.sum(tr["weight"] * heat))),
+                                       abs=1e-3)
+
+
+def test_fifty_cycles_forward_stay_on_the_periodic_temperature(hot_cycle):
+    """RK45 over 50 repeated cycles from the OCP's theta(0), the heat recomputed at the
+    simulated temperature from the cycle's speed, torque and shaft power: ends within
+    0.5 K of the OCP's periodic temperature."""
+    ocp, hot, _ = hot_cycle
+    tr, th, model = hot.trajectory, ocp.formulation.thermal, ocp.drive_model
+    t = tr["time_s"].to_numpy()
+    period = float(hot.period_s)
+    base_heat = model.p_elec_w(tr["speed_rpm"].to_numpy(), tr["torque_nm"].to_numpy()) \
+        - tr["p_mech_w"].to_numpy()
+    torque = tr["torque_nm"].to_numpy()
+    a = th.copper_temp_coeff_per_k
+
+    def rhs(time, y):
+        tt = np.mod(time, period)
+        q0 = np.interp(tt, t, base_heat, period=period)
+        torq = np.interp(tt, t, torque, period=period)
+        drift = th.copper_w_per_nm2 * torq**2 * (
+            (1 + a * (y[0] - th.theta_ref_c)) / (1 + a * (th.theta_model_c - th.theta_ref_c))
+            - 1)
+        return [(th.ambient_c + th.r_th_k_per_w * (q0 + drift) - y[0]) / th.tau_th_s]
+
+    theta_end = tr[STATE].to_numpy()[-1]  # the last Radau point is the period's end
+    sim = solve_ivp(rhs, (0.0, 50 * period), [theta_end], rtol=1e-9, atol=1e-9,
+                    max_step=period / 40)
+    assert math.isfinite(sim.y[0, -1])
+    assert abs(sim.y[0, -1] - theta_end) < 0.5
+
+
+@pytest.mark.parametrize("line,needle", [
+    ("max_winding_temperature_c = 400.0", "max_winding_temperature_c"),
+    ("max_winding_temperature_c = 20.0\nambient_temperature_c = 30.0",
+     "max_winding_temperature_c"),
+    ("ambient_temperature_c = 120.0", "ambient_temperature_c"),
+])
+def test_an_implausible_thermal_rating_is_refused_naming_the_key(tmp_path, line, needle):
+    text = shipped_system_path().read_text(encoding="utf-8")
+    path = tmp_path / "system.toml"
+    path.write_text(text.replace("[drive]\n", f"[drive]\n{line}\n", 1), encoding="utf-8")
+    with pytest.raises(InputError, match=needle):
+        load_system(path)
