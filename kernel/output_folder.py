@@ -310,6 +310,22 @@ def _run_of(folder: Path) -> dict | None:
     return run
 
 
+def _recorded_run(folder: Path) -> tuple[Path, str] | None:
+    """A top-level JSON record of ``folder`` whose provenance header names a run, and
+    that run id (None: no record names one, a folder written before run ids)."""
+    for path in sorted(folder.glob("*.json")):
+        if path.name == RUN_FILE or not path.is_file():
+            continue
+        try:
+            doc = read_json(path, what="stage record")
+        except InputError:
+            continue  # not a record: the stage's own reader says what is wrong with it
+        header = doc.get(HEADER_KEY) if isinstance(doc, dict) else None
+        if isinstance(header, dict) and isinstance(header.get("run_id"), str):
+            return path, header["run_id"]
+    return None
+
+
 def check_output_folder(folder: str | Path) -> str | None:
     """Verify that a stage's output folder is the whole output of one run.
 
@@ -321,18 +337,25 @@ def check_output_folder(folder: str | Path) -> str | None:
     Returns
     -------
     str or None
-        The run id; None for a folder written before run ids (no ``run.json``),
-        which is read as before.
+        The run id; None for a folder written before run ids (no ``run.json`` and no
+        record naming a run), which is read as before.
 
     Raises
     ------
     InputError
         A file ``run.json`` lists is missing or differs from its record, or a
-        file it does not list is there (a mixed folder), naming the file.
+        file it does not list is there (a mixed folder), naming the file; or
+        ``run.json`` itself is missing while a record of the folder names its run.
     """
     folder = Path(folder)
     run = _run_of(folder)
     if run is None:
+        recorded = _recorded_run(folder)
+        if recorded is not None:
+            raise InputError(folder / RUN_FILE, f"missing, while {recorded[0].name} records "
+                             f"run {recorded[1]} (an altered folder)",
+                             expected="the stage's whole output: run the stage that wrote "
+                                      f"it again into {folder}")
         return None
     stage = run.get("stage", "?")
     record = f"{folder / RUN_FILE} of run {run['run_id']} (a mixed or altered folder)"

@@ -64,7 +64,7 @@ def campaign_section(log: InputLog, store: Path) -> dict:
     """
     start = len(log.missing)
     store = Path(store)
-    manifest = log.read(store, "manifest.json", read_manifest)
+    manifest = log.read(store, "manifest.json", read_manifest, whole=False)
     points = _store_kind(log, store, "points", manifest, POINT_COLUMNS)
     rejected = _store_kind(log, store, "rejected", manifest, REJECTED_COLUMNS)
     sessions = []

@@ -60,9 +60,9 @@ class InputLog:
         self.missing: list[str] = []
         self.runs: dict[str, str | None] = {}
 
-    def _present(self, path: Path) -> bool:
+    def _present(self, path: Path, whole: bool = True) -> bool:
         if path.is_file():
-            if str(path.parent) not in self.runs:
+            if whole and str(path.parent) not in self.runs:
                 self.runs[str(path.parent)] = check_output_file(path)
             return True
         self.missing.append(str(path))
@@ -72,9 +72,12 @@ class InputLog:
         if all(r.path != str(path) for r in self.records):
             self.records.append(InputRecord(str(path), file_sha256(path), path.stat().st_size))
 
-    def read(self, folder: Path, name: str, reader: Callable[[Path], T]) -> T | None:
+    def read(self, folder: Path, name: str, reader: Callable[[Path], T],
+             whole: bool = True) -> T | None:
         """``reader(folder)``: the file ``name`` of a stage's output ``folder`` read by
-        that stage's own reader, or None if the file is missing.
+        that stage's own reader, or None if the file is missing. ``whole``: the folder is
+        checked to be the whole output of one run first (not the store, which its own
+        reader checks against its manifest).
 
         Raises
         ------
@@ -82,7 +85,7 @@ class InputLog:
             From ``reader``: the file is present but not what its stage writes.
         """
         path = Path(folder) / name
-        if not self._present(path):
+        if not self._present(path, whole):
             return None
         value = reader(Path(folder))
         self._record(path)

@@ -91,12 +91,8 @@ def test_report_refuses_a_damaged_store(store_and_campaign, tmp_path, how, capsy
 
 
 def _optimize_out(tmp_path, name="opt"):
-    """A synthetic optimize folder written whole, with its run.json."""
-    loose = write_optimize_folder(tmp_path / f"{name}_loose", model_with_covariance())
-    with output_folder(tmp_path / name, "optimize") as stage:
-        for p in loose.iterdir():
-            shutil.copy(p, stage / p.name)
-    return tmp_path / name
+    """A synthetic optimize folder written whole by the sweep's writer, with its run.json."""
+    return write_optimize_folder(tmp_path / name, model_with_covariance())
 
 
 def _damage_folder(folder, tmp_path, how, name):
@@ -120,6 +116,21 @@ def test_aep_refuses_a_damaged_optimize_folder(tmp_path, how, capsys):
     assert code == 2, err
     assert str(path) in err and "run.json" in err and "run bench optimize again" in err
     assert not (tmp_path / "aep").exists()
+
+
+@pytest.mark.parametrize("stage", ["aep", "report"])
+def test_a_folder_whose_run_record_was_deleted_is_refused(tmp_path, stage, capsys):
+    """Deleting run.json does not make a folder pass for one written before run ids: its
+    manifest names the run."""
+    folder = _optimize_out(tmp_path)
+    (folder / "run.json").unlink()
+    args = (["aep", "--optimize", str(folder), "--out", str(tmp_path / "aep"), *SITE]
+            if stage == "aep" else
+            ["report", "--optimize", str(folder), "--out", str(tmp_path / "r.html")])
+    code = main(args)
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert str(folder / "run.json") in err and "manifest.json records run" in err
 
 
 def _fit_out(tmp_path):

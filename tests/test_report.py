@@ -27,6 +27,7 @@ from fitting.figures import efficiency_grid
 from fitting.fit_folder import FitContents, write_fit_files
 from fitting.power_model import PowerModel
 from kernel.files import write_text_atomic
+from kernel.output_folder import output_folder
 from kernel.provenance import Provenance
 from optimize.paper_model import paper_model
 from optimize.sweep_folder import (
@@ -139,12 +140,15 @@ def write_fit(fit: Path, points: pd.DataFrame) -> PowerModel:
     selection = pd.DataFrame({"candidate": ["paper eq. 4", "order 3"], "n_terms": [4, 10],
                               "cv_rmse_w": [121.0, 123.5], "bic": [100.0, 140.0],
                               "chosen": [True, False]})
-    summary = {"provenance": Provenance.start(["bench", "fit", "--store", "s"]).header(),
+    run = Provenance.start(["bench", "fit", "--store", "s"])
+    summary = {"provenance": run.header(),
                "efficiency": {
         "band_shares": [{"quadrant": "motor", "band": "0.80-0.85", "area_share": 0.25},
                         {"quadrant": "generator", "band": "0.80-0.85", "area_share": 0.5}],
         "peak": {"motor": {"map": {"speed_rpm": 1500.0, "torque_nm": 40.0, "eta": 0.93}}}}}
-    write_fit_files(fit, FitContents(model, emap, {}, selection, {}, summary), lambda _: [])
+    with output_folder(fit, "fit", provenance=run) as stage:
+        write_fit_files(stage, FitContents(model, emap, {}, selection, {}, summary),
+                        lambda _: [])
     return model
 
 
