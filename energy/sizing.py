@@ -1,9 +1,11 @@
 """Drive sizing: electrical AEP against drive rating over candidate drives (``bench size``).
 
 A candidate is a power model with its rating (:class:`kernel.drive_rating.DriveRating`):
-the short-time peak torque and speed limits, and the continuous rating (RMS drum
-torque over the cycle at most the continuous torque,
-:class:`optimize.problem.options.Limits` ``max_rms_torque_nm``). It is a
+the short-time peak torque and speed limits, and the continuous rating: the RMS drum
+torque over the cycle at most the continuous torque
+(:class:`optimize.problem.options.Limits` ``max_rms_torque_nm``), or, when the system
+states a winding limit and the power model has a thermal model, the winding
+temperature of the cycle within that limit (sizing by heat, :mod:`optimize.model.thermal`). It is a
 ``power_model.json`` of its own, or the reference drive scaled by a
 torque-rating scale ``s``.
 
@@ -14,7 +16,11 @@ speed rating (``k_n = 1``, ``k_T = s``): ``P_s(n, T) = s P_1(n, T / s)``, a driv
 of ``s`` times the torque rating behaves like ``s`` reference drives sharing the
 torque on one shaft (for a term ``c n^i T^j``: ``c -> s^(1 - j) c``). Rating:
 continuous torque ``s T_cont``, peak torque ``s T_peak``, the same speed limit,
-nominal power ``s P_nom``; the system's other limits are kept.
+nominal power ``s P_nom``; the system's other limits are kept. A thermal model is
+carried with the losses: ``r_th / s``, ``c_th s``, the time constant, the copper
+coefficient and the temperatures kept (``s`` reference drives side by side, each with
+its own cooling), so every candidate reaches the reference's temperature at
+corresponding points and the winding limit stays the system's.
 
 Resumable sweep
 ---------------
@@ -150,15 +156,20 @@ class SizingResult:
 
 
 def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
-                    tolerance: float = 0.02) -> tuple[Any, str | None, str | None]:
+                    tolerance: float = 0.02, winding_limit_c: float | None = None
+                    ) -> tuple[Any, str | None, str | None]:
     """Electrical AEP per candidate; the best, and the smallest within ``tolerance`` of it.
+
+    ``winding_limit_c`` is the system's winding limit [degC] (the continuous rating in
+    place of the RMS torque when the candidates' power model has a thermal model).
 
     Returns
     -------
     (DataFrame, str or None, str or None)
         Rows ``candidate, scale, rated_torque_nm, peak_torque_nm, max_speed_rpm,
         nominal_power_w, n_converged, n_winds, aep_elec_mwh, capacity_factor_elec,
-        aep_share_of_best, rms_bound_active_at``; the best candidate's name and the chosen one.
+        aep_share_of_best, rms_bound_active_at, thermal_bound_active_at,
+        peak_winding_temperature_c``; the best candidate's name and the chosen one.
         A candidate with a failed solve gets no AEP (never an AEP from fewer points).
     """
     import pandas as pd
@@ -177,6 +188,12 @@ def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
         active = [r["wind_speed_m_s"] for r in ok
                   if r["rms_torque_nm"] is not None
                   and r["rms_torque_nm"] >= (1 - 1e-3) * c.rated_torque_nm]
+        hottest = [r.get("peak_winding_temperature_c") for r in ok
+                   if r.get("peak_winding_temperature_c") is not None]
+        hot = [r["wind_speed_m_s"] for r in ok if winding_limit_c is not None
+               and r.get("peak_winding_temperature_c") is not None
+               and r["peak_winding_temperature_c"] >= winding_limit_c - 1e-3 * abs(
+                   winding_limit_c)]
         rows.append({
             "candidate": c.name, "scale": c.scale, "rated_torque_nm": c.rated_torque_nm,
             "peak_torque_nm": c.peak_torque_nm, "max_speed_rpm": c.max_speed_rpm,
@@ -184,7 +201,9 @@ def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
             "aep_elec_mwh": aep,
             "capacity_factor_elec": (None if aep is None
                                      else aep * 1e6 / 8760.0 / c.nominal_power_w),
-            "rms_bound_active_at": ",".join(f"{w:g}" for w in active),
+            "rms_bound_active_at": "" if hottest else ",".join(f"{w:g}" for w in active),
+            "thermal_bound_active_at": ",".join(f"{w:g}" for w in hot),
+            "peak_winding_temperature_c": max(hottest) if hottest else None,
         })
     table = pd.DataFrame(rows).sort_values("rated_torque_nm", kind="stable")
     valid = table.dropna(subset=["aep_elec_mwh"])
@@ -315,6 +334,7 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
     description = handle.description
     bar.close()
     wall = time.perf_counter() - t0
-    table, best, chosen = candidate_table(candidates, records, site, tolerance)
+    table, best, chosen = candidate_table(candidates, records, site, tolerance,
+                                          system.drive.max_winding_temperature_c)
     return SizingResult(table, records, best, chosen, wall, description, counts["solved"],
                         counts["cached"])

@@ -90,7 +90,8 @@ def write_sizing_files(out: Path, res: Any, *, site: Any, site_note: str, drive:
         "system": system.record(),
         "law": "P_s(n, T) = s P_1(n, T/s): c_ij -> s^(1-j) c_ij (the similarity law at the same "
                "speed); continuous torque s T_cont, peak s T_peak, same speed limit, nominal "
-               "power s P_nom",
+               "power s P_nom; a thermal model: r_th / s, c_th s, time constant and "
+               "temperatures kept (the winding limit the same)",
         "wind_speeds_m_s": list(winds), "adaptive": adaptive, "tolerance": tolerance,
         "best": res.best, "chosen": res.chosen,
         "edge": edge or {"best_at": None, "added_scales": [], "note": None},

@@ -74,7 +74,8 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "tether_force_limit, reel_acceleration_limit, speed_limit, torque_limit, envelope_limit, "
     "p_elec_limit, winding_temperature_limit ('' for none)",
     "bound_limited": "an optimum on a bound the system did not mean to bind (period or tether "
-    "length range): the optimum is the bound's, not the kite's",
+    "length range, the winding temperature's range): the optimum is the bound's, not the "
+    "kite's",
     "period_s": "cycle period",
     "avg_p_elec_w": "average electrical power (negative = generated)",
     "avg_p_mech_w": "average mechanical power (negative = generated)",

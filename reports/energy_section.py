@@ -136,6 +136,16 @@ def loss_rows(losses: dict) -> list[tuple[str, str]]:
          for k, v in (losses.get("efficiency_by_kind_mwh") or {}).items()]
 
 
+def continuous_rating_text(candidate: dict) -> str:
+    """Where a candidate's continuous rating binds: the winding temperature (with its
+    peak) when the cycle carried it, else the RMS torque; ``"none"``."""
+    peak = candidate.get("peak_winding_temperature_c")
+    if peak is not None:
+        at = candidate.get("thermal_bound_active_at") or "none"
+        return f"winding: {at} (peak {fmt(peak, 1)} degC)"
+    return candidate.get("rms_bound_active_at") or "none"
+
+
 def sizing_context(sizing: dict) -> dict:
     """The sizing part of the section from ``sizing.json``."""
     cands = sizing.get("candidates") or []
@@ -147,7 +157,7 @@ def sizing_context(sizing: dict) -> dict:
                   "aep": fmt(c.get("aep_elec_mwh"), 3),
                   "share": _pct(c.get("aep_share_of_best")),
                   "cf": _pct(c.get("capacity_factor_elec")),
-                  "rms_active": c.get("rms_bound_active_at") or "none",
+                  "rms_active": continuous_rating_text(c),
                   "converged": f"{c.get('n_converged')}/{c.get('n_winds')}"}
                  for c in cands],
         "best": sizing.get("best"), "chosen": sizing.get("chosen"),

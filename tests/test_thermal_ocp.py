@@ -16,7 +16,11 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from energy.site import Weibull
+from energy.sizing import candidate_table, scaled_candidates
 from kernel.errors import InputError
+from kernel.units import RPM_PER_RAD_S
+from optimize.model.drivetrain import carry_power_model
 from optimize.model.kite_model import kite_dae
 from optimize.model.thermal import STATE, WindingThermal, periodic_temperature
 from optimize.paper_model import paper_model
@@ -24,6 +28,7 @@ from optimize.problem.ocp import build_ocp, thermal_line, winding_thermal
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.solve import start
+from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import load_system
 
@@ -141,3 +146,41 @@ def test_an_implausible_thermal_rating_is_refused_naming_the_key(tmp_path, line,
     path.write_text(text.replace("[drive]\n", f"[drive]\n{line}\n", 1), encoding="utf-8")
     with pytest.raises(InputError, match=needle):
         load_system(path)
+
+
+@pytest.mark.parametrize("s", [0.5, 2.0, 3.7])
+def test_the_carried_thermal_model_keeps_the_temperature_at_corresponding_points(s):
+    """The sizing law: a drive s times the torque reaches, at (n, s T), the base drive's
+    steady temperature at (n, T), its copper drift included (s base drives side by side)."""
+    base = _model()
+    carried = carry_power_model(base, 1.0, s)
+    n, torque, theta = np.array([-900.0, 300.0, 1200.0]), np.array([20.0, 55.0, 70.0]), 62.0
+    th_b = WindingThermal.of(base, max_c=150.0)
+    th_s = WindingThermal.of(carried, max_c=150.0)
+
+    def steady(model, th, speed, tq):
+        p_mech = speed * tq / RPM_PER_RAD_S
+        return th.steady_c(model.p_elec_w(speed, tq) + th.copper_drift_w(tq, theta) - p_mech)
+
+    assert np.allclose(steady(carried, th_s, n, s * torque), steady(base, th_b, n, torque),
+                       rtol=0, atol=1e-9)
+    assert th_s.tau_th_s == th_b.tau_th_s and th_s.max_c == th_b.max_c
+
+
+def test_sizing_by_heat_lists_where_the_winding_limit_binds():
+    """candidate_table with the winding limit: the speeds whose cycle reached it, the
+    hottest peak, and no RMS column (the RMS row was not in those cycles)."""
+    system = load_system()
+    cands = scaled_candidates(_model(), drive_in_force(system, model=_model()).rating,
+                              (1.0, 2.0))
+    peaks = {("x1", 5.0): 31.0, ("x1", 9.0): LIMIT_C, ("x2", 5.0): 28.0, ("x2", 9.0): 37.5}
+    recs = [{"candidate": c.name, "wind_speed_m_s": w, "success": True,
+             "avg_p_elec_w": -500.0 * w, "rms_torque_nm": 1e3,
+             "peak_winding_temperature_c": peaks[c.name, w]}
+            for c in cands for w in (5.0, 9.0)]
+    table, _, _ = candidate_table(cands, recs, Weibull(2.0, 6.2), 0.02, LIMIT_C)
+    rows = table.set_index("candidate")
+    assert rows.loc["x1", "thermal_bound_active_at"] == "9"
+    assert rows.loc["x2", "thermal_bound_active_at"] == ""
+    assert rows.loc["x1", "peak_winding_temperature_c"] == LIMIT_C
+    assert (rows["rms_bound_active_at"] == "").all()

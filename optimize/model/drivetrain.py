@@ -142,7 +142,11 @@ class Drivetrain:
 
 #: the similarity law of :func:`carry_power_model`, as recorded in a carried model
 SIMILARITY_LAW = ("P_elec(n, T) = P_mech(n, T) + k_n k_T L_base(n / k_n, T / k_T), "
-                  "L_base = P_elec_base - P_mech_base: c_ij -> k_n^(1-i) k_T^(1-j) c_ij")
+                  "L_base = P_elec_base - P_mech_base: c_ij -> k_n^(1-i) k_T^(1-j) c_ij; "
+                  "thermal: r_th -> r_th / (k_n k_T), c_th -> k_n k_T c_th, tau_th, copper "
+                  "coefficient and temperatures kept")
+#: the thermal block's keys the law scales, and by which power of ``k_n k_T``
+_THERMAL_SCALING = {"r_th_k_per_w": -1, "c_th_j_per_k": 1}
 
 
 def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
@@ -167,6 +171,15 @@ def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
     axial and radial scaling of synchronous permanent magnet machines", IET Electric
     Power Applications 10(7), 2016); a speed ratio adds a rewound (or re-geared)
     machine whose losses grow with its power.
+
+    A thermal model (``base.thermal``, :mod:`fitting.thermal`) is carried so that the
+    winding reaches the base drive's temperature at corresponding points: the losses
+    grow by ``k_n k_T``, so the thermal resistance falls by it and the heat capacity
+    grows by it (``k_n k_T`` base drives side by side, each with its own cooling path
+    and mass); the time constant, the copper coefficient, the reference and ambient
+    temperatures are kept. This is how a rating scales with the design (the continuous
+    torque ``k_T T_cont`` at the same temperature rise); a larger machine cooled by
+    its surface alone (``r_th ~ 1/k^2`` of its length scale ``k``) runs hotter than this.
 
     Parameters
     ----------
@@ -211,4 +224,21 @@ def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
         base, coefficients_rpm=tuple(np.array(base.coefficients_rpm) * f), covariance_rpm=cov,
         nominal_power_w=nominal, domain=domain, statistics=None, provenance=provenance,
         drive=drive, name=name or f"{base.name} carried x{k_n:.4g} speed, x{k_t:.4g} torque",
+        thermal=carry_thermal(getattr(base, "thermal", None), k_n * k_t),
     )
+
+
+def carry_thermal(thermal: dict | None, power_ratio: float) -> dict | None:
+    """A thermal block (:mod:`fitting.thermal`) carried to a drive with ``power_ratio``
+    times the losses at corresponding points (see :func:`carry_power_model`)."""
+    if thermal is None:
+        return None
+    out = dict(thermal)
+    for key, power in _THERMAL_SCALING.items():
+        factor = power_ratio**power
+        if key in out:
+            out[key] = out[key] * factor
+        if f"{key}_ci95" in out:
+            out[f"{key}_ci95"] = [v * factor for v in out[f"{key}_ci95"]]
+    out["carried"] = {"power_ratio": power_ratio, "law": SIMILARITY_LAW}
+    return out

@@ -36,6 +36,10 @@ from optimize.model.variables import Variables
 STATE = "theta_winding_c"
 #: the thermal state's typical magnitude for scaling [K]
 SCALE_K = 50.0
+#: the thermal state's range [degC]: only keeps the solver in range (the limit of the
+#: constrained kinds is the drive's); an optimum on it would overheat the winding beyond
+#: what the model describes, reported as the bound ``winding_temperature_range``
+RANGE_C = (-100.0, 400.0)
 #: the power model's copper-loss term: torque squared (speed power 0, torque power 2)
 COPPER_TERM = (0, 2)
 

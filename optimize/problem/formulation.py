@@ -32,6 +32,7 @@ from optimize.model.drivetrain import (
 )
 from optimize.model.envelope import EnvelopeTable, constant_power_w
 from optimize.model.kite_model import STATES, KiteDae
+from optimize.model.thermal import RANGE_C as THERMAL_RANGE_C
 from optimize.model.thermal import SCALE_K, STATE, WindingThermal
 from optimize.problem.interface import Point, Row, weight_param
 from optimize.problem.options import Discretization, Limits
@@ -326,7 +327,7 @@ class Formulation:
               "aileron_rad": surf, "elevator_rad": surf, "rudder_rad": surf}
         lo = {name: -value for name, value in hi.items()}
         lo.update(r_z_m=-reach, l_m=l_lo)
-        hi[STATE], lo[STATE] = 400.0, -100.0  # the solver's range: no winding limit here
+        lo[STATE], hi[STATE] = THERMAL_RANGE_C  # the solver's range: no winding limit here
         names = self.dae.states.names
         lower = np.array([-1.1 if n.startswith("dcm_") else lo[n] for n in names])
         upper = np.array([1.1 if n.startswith("dcm_") else hi[n] for n in names])

@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from optimize.model.thermal import STATE as THERMAL_STATE
 from optimize.problem.scenario import scenario_name
 from optimize.service.builder import OcpBackend, Problem
 from optimize.service.outcome import CRASH, Attempt, ScenarioOutcome, failure_status
@@ -37,23 +38,28 @@ from optimize.service.store import load_solve, solve_key, store_solve
 #: warm-started attempts per solve before the cold-start fallback
 MAX_WARM_ATTEMPTS = 2
 #: the cycle figures of a record, None when the solve failed (:func:`cycle_metrics`)
-METRICS = ("peak_speed_rpm", "peak_torque_nm", "rms_torque_nm")
+METRICS = ("peak_speed_rpm", "peak_torque_nm", "rms_torque_nm", "peak_winding_temperature_c")
 
 Key = tuple[str, float]  # (kind, wind speed [m/s])
 
 
 def cycle_metrics(trajectory: Any) -> dict[str, float]:
-    """Peak |speed| [rpm], peak |torque| [N m] and RMS torque [N m] of one cycle.
+    """Peak |speed| [rpm], peak |torque| [N m], RMS torque [N m] and peak winding
+    temperature [degC] (None when the cycle has none) of one cycle.
 
     ``trajectory`` has ``speed_rpm``, ``torque_nm`` and the quadrature ``weight``
-    (summing to 1 over the cycle), as :attr:`optimize.solve.result.OcpResult.trajectory`.
+    (summing to 1 over the cycle), as :attr:`optimize.solve.result.OcpResult.trajectory`,
+    and the winding temperature when the OCP carries it.
     """
     speed = np.asarray(trajectory["speed_rpm"], dtype=float)
     torque = np.asarray(trajectory["torque_nm"], dtype=float)
     weight = np.asarray(trajectory["weight"], dtype=float)
+    theta = (float(np.max(np.asarray(trajectory[THERMAL_STATE], dtype=float)))
+             if THERMAL_STATE in trajectory else None)
     return {"peak_speed_rpm": float(np.max(np.abs(speed))),
             "peak_torque_nm": float(np.max(np.abs(torque))),
-            "rms_torque_nm": float(np.sqrt(np.sum(weight * torque**2)))}
+            "rms_torque_nm": float(np.sqrt(np.sum(weight * torque**2))),
+            "peak_winding_temperature_c": theta}
 
 
 def _figure(result: Any, name: str) -> float | None:

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from optimize.model.envelope import EnvelopeTable, base_speed_torque_nm
+from optimize.model.thermal import RANGE_C as THERMAL_RANGE_C
 from optimize.model.thermal import STATE as THERMAL_STATE
 from optimize.problem.ocp import Ocp
 from optimize.problem.scenario import Scenario
@@ -226,6 +227,8 @@ def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: b
         thermal = getattr(ocp.formulation, "thermal", None)
         if thermal is not None and _near(traj[THERMAL_STATE].to_numpy(), thermal.max_c):
             out.append("winding_temperature_limit")
+    if THERMAL_STATE in traj and _near(traj[THERMAL_STATE].to_numpy(), THERMAL_RANGE_C[1]):
+        out.append("winding_temperature_range")
     return tuple(out)
 
 
