@@ -73,8 +73,20 @@ def _means(table: pd.DataFrame, e_opt: float) -> dict:
             "optimizer_error_band": K * u_meas / abs(e)}
 
 
-def verdict(means: dict, drift: dict, missing: list[str]) -> str:
-    """The result in plain words."""
+def residual_std_w(model) -> float | None:
+    """The power model's residual standard deviation at its own steady points [W]
+    (``statistics.residuals.all.std_w`` of ``bench fit``; None when the model has none)."""
+    try:
+        value = float(model.statistics["residuals"]["all"]["std_w"])
+    except (TypeError, KeyError, ValueError):
+        return None
+    return value if math.isfinite(value) else None
+
+
+def verdict(means: dict, drift: dict, missing: list[str],
+            residual: tuple[float, float] | None = None) -> str:
+    """The result in plain words; ``residual`` is the model's residual std at its steady
+    points [W] and a cycle's period [s], when the model states it."""
     err, band = means["model_error"], means["model_error_band"]
     inside = abs(err) + band <= CLAIM_RTOL
     outside = abs(err) - band > CLAIM_RTOL
@@ -93,6 +105,12 @@ def verdict(means: dict, drift: dict, missing: list[str]) -> str:
                      f"{means['n_cycles']} cycles: the drive's temperature is moving.")
     else:
         lines.append("No drift over the cycles is resolved.")
+    if residual is not None:
+        std_w, period = residual
+        lines.append(f"At its own steady points the map scatters by {std_w:.0f} W (residual "
+                     f"std); held over a cycle of {period:.2f} s that is {std_w * period:.0f} J, "
+                     f"{100 * std_w * period / abs(means['e_elec_j']):.1f} % of the energy "
+                     "measured: the map promises no better on this cycle.")
     if missing:
         lines.append(f"session.toml [sensors] does not state {', '.join(missing)}: the band "
                      "leaves those instruments' limits of error out.")
@@ -188,6 +206,9 @@ def verify_cycles(store: str | Path, optimize: str | Path, out: str | Path, *,
               "accuracy": acc.__dict__, "accuracy_missing": missing, "coverage_factor": K,
               "claim_rtol": CLAIM_RTOL, "means": means, "drift": drift,
               "e_mech_optimizer_j": float(row.iloc[0]["e_mech_j"]),
-              "one_cycle": int(mid.cycle_id), "verdict": verdict(means, drift, missing)}
+              "model_residual_std_w": residual_std_w(model),
+              "one_cycle": int(mid.cycle_id),
+              "verdict": verdict(means, drift, missing, None if residual_std_w(model) is None
+                                 else (residual_std_w(model), float(cycles["period_s"].mean())))}
     write_verify_folder(out, provenance, record, table, one)
     return Verified(Path(out), {"provenance": provenance.header(), **record}, table)

@@ -178,3 +178,21 @@ def test_report_shows_the_verification(rig):
     assert section.count("<svg") == 2
     html = render(build_context(none, none, none, ["bench", "report"], none, none, none))
     assert "Not run: bench cycle verify" in html
+
+
+def test_verdict_in_words():
+    """Within, outside, undecidable against 5 %; the drift when resolved; the map's
+    residual std held over a cycle; the limits of error a session left out."""
+    from cycle.verify_command import verdict
+
+    means = {"model_error": 0.02, "model_error_band": 0.01, "e_elec_optimizer_j": -1000.0,
+             "optimizer_error": 0.03, "e_elec_j": -1000.0, "optimizer_error_band": 0.01,
+             "n_cycles": 8}
+    still = {"slope_j_per_cycle": 0.1, "slope_u_j_per_cycle": 0.2, "slope_per_cycle": 1e-4}
+    text = verdict(means, still, [], (120.0, 5.0))
+    assert "within the 5 %" in text and "No drift" in text and "600 J, 60.0 %" in text
+    text = verdict({**means, "model_error": -0.2}, {**still, "slope_j_per_cycle": -3.0},
+                   ["power_accuracy_range"])
+    assert "outside the 5 %" in text and "drifts by -3.0 J" in text
+    assert "does not state power_accuracy_range" in text and "residual" not in text
+    assert "not decidable" in verdict({**means, "model_error": 0.045}, still, [])
