@@ -32,9 +32,9 @@ from drivebench.api import (
     fit,
     ingest,
     optimize,
-    plot_efficiency_map,
     size,
 )
+from drivebench.plots import plot_efficiency_map
 from reports.plots import plot_aep, plot_cycle, plot_power_curves
 
 __all__ = ["AepResult", "BenchFrame", "Execution", "ExportOptions", "Ingested",

@@ -97,7 +97,8 @@ def run(args: argparse.Namespace) -> int:
                     solver=SolverChoice(args.intervals, args.degree),
                     execution=Execution(args.workers, args.scheduler, progress=True),
                     command_line=args.command_line,
-                    before_solving=lambda d, n: _announce(d, n, len(grid.winds_m_s), args.out))
+                    before_solving=lambda d, n: _announce(d, n, len(grid.winds_m_s), args.out,
+                                                          system.drive.max_winding_temperature_c))
     res = done.sizing
     print(res.table.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
     print(f"best: {res.best}; smallest within {args.tolerance:.0%} of the best AEP: {res.chosen}")
@@ -111,10 +112,14 @@ def run(args: argparse.Namespace) -> int:
     return 0 if res.chosen is not None else 1
 
 
-def _announce(drive: Any, n_candidates: int, n_winds: int, out: Path) -> None:
+def _announce(drive: Any, n_candidates: int, n_winds: int, out: Path,
+              winding_limit_c: float | None) -> None:
     for line in drive.lines():
         print(line)
-    print(f"{n_candidates} candidates x {n_winds} wind speeds (elec-lim, RMS torque <= "
-          f"rated); solves stored in {out / 'solves'}")
+    heat = winding_limit_c is not None and getattr(drive.model, "thermal", None) is not None
+    rating = (f"winding temperature <= {winding_limit_c:g} degC" if heat
+              else "RMS torque <= rated")
+    print(f"{n_candidates} candidates x {n_winds} wind speeds (elec-lim, {rating}); solves "
+          f"stored in {out / 'solves'}")
 
 
