@@ -202,8 +202,8 @@ def build_columns(f: dict, period_s: float, opts: ExportOptions,
     t_cyc = t_start + np.arange(n_cyc) * dt
     phase = np.mod(t_cyc - t_start, period_s)
     cyc_speed, cyc_torque = f["speed_rpm"](phase), f["torque_nm"](phase)
-    end_speed, end_torque = (float(f[k](opts.n_cycles * period_s % period_s))
-                             for k in ("speed_rpm", "torque_nm"))
+    # the last cycle ends where every cycle starts (the interpolants are periodic)
+    end_speed, end_torque = (float(f[k](0.0)) for k in ("speed_rpm", "torque_nm"))
     n_tail = int(round(TAIL_S * opts.rate_hz))
     speed = np.concatenate([np.zeros(n_still), _ramp(n_ramp, 0.0, float(f["speed_rpm"](0.0))),
                             cyc_speed, _ramp(n_ramp, end_speed, 0.0), np.zeros(n_tail)])

@@ -92,3 +92,43 @@ def test_reader_names_the_problem(sweep, tmp_path):
     (tmp_path / "b.csv").write_text("\n".join(lines) + "\n")
     with pytest.raises(InputError, match=f"b.csv:{len(lines) - 4}:"):
         read_profile(tmp_path / "b.csv")
+
+
+def test_bench_session_limits_and_bad_options(sweep, tmp_path):
+    """A bench session whose torque flange is too small for the cycle refuses it, naming
+    its [sensors] key; options out of range are refused naming the option."""
+    session = tmp_path / "small"
+    session.mkdir()
+    (session / "session.toml").write_text(
+        'session_id = "small"\nkind = "timeseries"\nmode = "motor"\ngear_ratio = 3.0\n'
+        'measured_side = "motor"\nspeed_sign = 1\ntorque_sign = 1\n'
+        '[daq]\nfile = "daq.csv"\n[analyzer]\nfile = "analyzer.csv"\n'
+        '[sensors]\ntorque_range_nm = 20.0\n')  # 60 N m at the drum: the cycle needs 70
+    with pytest.raises(InputError, match=r"torque_range_nm \(at the drum\)"):
+        export_cycle(sweep, "elec-lim-7.0", tmp_path / "p.csv", bench_session=session)
+    for bad in ({"n_cycles": 0}, {"rate_hz": 0.5}, {"standstill_s": 1.0}):
+        with pytest.raises(InputError, match="--"):
+            ExportOptions(**bad)
+
+
+def test_period_and_phase_are_found(sweep, tmp_path):
+    """A log on a clock 300 ppm slow, starting 7.3 s before the profile: cut_cycles finds
+    that phase and that period (to 0.1 ms), not the profile's."""
+    from bench.ingest.cycles import cut_cycles
+
+    export_cycle(sweep, "elec-lim-7.0", tmp_path / "p.csv", ExportOptions(n_cycles=6))
+    p = read_profile(tmp_path / "p.csv")
+    speed, torque = p.drum()
+    scale, lead = 1.0 + 300e-6, 7.3
+    t_bins = np.arange(0.05, lead + p.columns["time_s"][-1] * scale + 2.0, 0.1)
+    t_prof = (t_bins - lead) / scale  # the profile's time at each bin
+    bins = {"t": t_bins,
+            "speed": np.interp(t_prof, p.columns["time_s"], speed, left=0.0, right=0.0),
+            "torque": np.interp(t_prof, p.columns["time_s"], torque, left=0.0, right=0.0),
+            "p_elec": np.full(t_bins.size, 100.0), "recorded": np.ones(t_bins.size, bool),
+            "gap": np.zeros(t_bins.size, bool)}
+    where = {k: tmp_path / k for k in ("session", "profile", "daq")}
+    cut = cut_cycles(bins, p, where)
+    assert cut.period_s == pytest.approx(p.period_s * scale, abs=1e-4)
+    assert cut.phase_s == pytest.approx(lead + p.header["cycle_start_s"] * scale, abs=1e-3)
+    assert cut.kept == [1, 2, 3, 4, 5] and cut.rejected == {0: "cycle settling"}

@@ -136,7 +136,7 @@ def test_half_the_cycles_missing_is_flagged(rig, tmp_path):
     done = ingest([camp], store, progress=False, notify=_quiet)
     entry = done.manifest["sessions"]["cycle_half"]
     assert entry["rejected"]["cycle not logged"] >= 2 and entry["cycles"]["n_kept"] >= 1
-    assert any("the log holds" in n for n in entry["cycles"]["notes"])
+    assert any("the log (daq.csv) holds" in n for n in entry["cycles"]["notes"])
     assert {"cycle_s1", "cycle_s2", "cycle_s3"} <= set(done.manifest["sessions"])
 
 

@@ -113,7 +113,8 @@ def process_cycle_run(session: Session, mapping: Mapping, scratch: Path,
                       "torque": binned.means["torque"], "p_elec": power.p_elec_bins,
                       "recorded": power.recorded,
                       "gap": binned.gap()}, profile,
-                     {"session": session.path, "profile": profile_path, "daq": daq.path})
+                     {"session": session.path, "profile": profile_path, "daq": daq.path,
+                      **({} if session.single_stream else {"analyzer": session.file("analyzer")})})
     samples_path = scratch / f"{sid}.samples.parquet"
     empty = np.empty(0)
     stats = write_samples(samples_path, session, scan, binned.offset_nm,

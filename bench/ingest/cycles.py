@@ -229,7 +229,7 @@ def _check_gains(gains: dict[str, float], where: dict[str, Path]) -> None:
 
 
 def _judge(k: int, cut: CycleCut, sel: np.ndarray, bins: dict, profile: DriveProfile,
-           peaks: tuple[float, float]) -> tuple[str | None, str]:
+           peaks: tuple[float, float], where: dict[str, Path]) -> tuple[str | None, str]:
     """Cycle ``k``'s reason to be rejected (None to keep) and the line saying why."""
     a, b = cut.bounds(k)
     if k == 0:
@@ -237,10 +237,12 @@ def _judge(k: int, cut: CycleCut, sel: np.ndarray, bins: dict, profile: DrivePro
                           "whose transient the loops' and the instruments' lags carry into it")
     if a < bins["t"][0] or b > bins["t"][-1] or bins["gap"][sel].any() \
             or np.isnan(bins["speed"][sel]).mean() > 0.1:
-        return NOT_LOGGED, (f"cycle {k} ({a:.2f} to {b:.2f} s): the log holds "
-                            f"{bins['t'][0]:.2f} to {bins['t'][-1]:.2f} s, with its gaps")
+        return NOT_LOGGED, (f"cycle {k} ({a:.2f} to {b:.2f} s): the log "
+                            f"({where['daq'].name}) holds {bins['t'][0]:.2f} to "
+                            f"{bins['t'][-1]:.2f} s, with its gaps")
     if not bins["recorded"][sel].all():
-        return NO_ANALYZER, f"cycle {k} ({a:.2f} to {b:.2f} s): the analyzer did not record it all"
+        return NO_ANALYZER, (f"cycle {k} ({a:.2f} to {b:.2f} s): the analyzer's record "
+                             f"({where.get('analyzer', where['daq']).name}) does not hold it all")
     p = bins["p_elec"]
     ends = np.interp([a, b], bins["t"][np.isfinite(p)], p[np.isfinite(p)])
     peak = float(np.nanmax(np.abs(p[sel])))
@@ -272,7 +274,8 @@ def cut_cycles(bins: dict, profile: DriveProfile, where: dict[str, Path]) -> Cyc
     profile : DriveProfile
         The profile the session names.
     where : dict of Path
-        ``session`` (session.toml), ``profile``, ``daq``: named in errors.
+        ``session`` (session.toml), ``profile``, ``daq`` and ``analyzer`` (when there is
+        one): named in errors and notes.
 
     Raises
     ------
@@ -307,7 +310,7 @@ def cut_cycles(bins: dict, profile: DriveProfile, where: dict[str, Path]) -> Cyc
     peaks = (float(np.abs(speed_set).max()), float(np.abs(torque_set).max()))
     for k in range(profile.n_cycles):
         sel = (bins["t"] >= cut.bounds(k)[0]) & (bins["t"] < cut.bounds(k)[1])
-        reason, line = _judge(k, cut, sel, bins, profile, peaks)
+        reason, line = _judge(k, cut, sel, bins, profile, peaks, where)
         if reason is None:
             cut.kept.append(k)
         else:
