@@ -45,8 +45,8 @@ import numpy as np
 import pandas as pd
 
 from bench.synth.writers import toml_document
+from optimize.model.envelope import envelope_torque_nm
 from optimize.problem.options import Limits
-from optimize.solve.result import envelope_torque_nm
 
 ROOT = Path(__file__).resolve().parent.parent
 SYSTEMS = ROOT / "optimize" / "data" / "systems"

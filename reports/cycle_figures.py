@@ -55,7 +55,8 @@ def power_vs_wind_figure(summary: pd.DataFrame, power_column: str, name: str,
 
 
 def torque_speed_figure(limited: dict[str, pd.DataFrame], free: dict[str, pd.DataFrame],
-                        wind_m_s: float, drawn_map: dict | None) -> Markup:
+                        wind_m_s: float, drawn_map: dict | None,
+                        envelope: tuple[np.ndarray, np.ndarray] | None = None) -> Markup:
     """Cycles in the torque-speed plane (paper Fig. 9).
 
     Panel (a): the cycles with the drive limits over the efficiency map
@@ -74,6 +75,8 @@ def torque_speed_figure(limited: dict[str, pd.DataFrame], free: dict[str, pd.Dat
     drawn_map : dict or None
         ``map_frame`` (``efficiency_map.parquet``) and ``domain`` of the efficiency map;
         None: panel (a) draws the cycles without the map.
+    envelope : (ndarray, ndarray), optional
+        The drive's torque-speed envelope, drawn over panel (a)'s map.
     """
     panels = [p for p in (limited, free) if p]
     fig = new_figure(8.0, 3.8 * len(panels))
@@ -83,7 +86,7 @@ def torque_speed_figure(limited: dict[str, pd.DataFrame], free: dict[str, pd.Dat
         ax = next(axes)
         if drawn_map is not None:
             plots.plot_efficiency_map(drawn_map["map_frame"], ax, domain=drawn_map["domain"],
-                                      cycles=limited)
+                                      cycles=limited, envelope=envelope)
             ax.patch.set_gid("fig9-map-axes")  # the SVG id of the map's axes
         else:
             _cycles_panel(ax, limited, None)

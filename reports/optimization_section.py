@@ -9,12 +9,14 @@ converge is shown as failed with its status and is never plotted or compared.
 from __future__ import annotations
 
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
 
 from kernel.errors import InputError
 from optimize.kinds import KINDS, LABELS
+from optimize.model.envelope import envelope_curve
 from optimize.sweep_folder import (
     CLAIMS_FILE,
     MANIFEST_FILE,
@@ -247,7 +249,8 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
             s, "avg_p_elec_w", "fig8a", "Average generated ELECTRICAL power (Fig. 8a)")
         out["fig8b"] = cycle_figures.power_vs_wind_figure(
             s, "avg_p_mech_w", "fig8b", "Average generated MECHANICAL power (Fig. 8b)")
-        out["cycles"] = cycle_figures_at_paper_wind(traj, s, drawn_map)
+        out["cycles"] = cycle_figures_at_paper_wind(traj, s, drawn_map,
+                                                    flown_envelope(manifest))
         out["fig3"], out["notes"]["fig3"] = fig3(traj, s)
     out["missing"] = list(dict.fromkeys(log.missing[start:]))
     return out
@@ -264,8 +267,20 @@ def manifest_context(manifest: dict, fit_model_sha256: str | None) -> dict:
             "local_optima": [str(n) for n in manifest.get("local_optima") or []]}
 
 
+def flown_envelope(manifest: dict | None) -> tuple[np.ndarray, np.ndarray] | None:
+    """The torque-speed envelope the sweep flew with (its manifest's ``options.limits``),
+    or None when its drive stated none."""
+    limits = ((manifest or {}).get("options") or {}).get("limits")
+    if not isinstance(limits, dict):
+        return None
+    keys = ("base_speed_rpm", "envelope_speed_rpm", "envelope_torque_nm", "max_speed_rpm",
+            "max_torque_nm")
+    return envelope_curve(SimpleNamespace(**{k: limits.get(k) for k in keys}))
+
+
 def cycle_figures_at_paper_wind(traj: pd.DataFrame | None, summary: pd.DataFrame,
-                                drawn_map: dict | None) -> dict:
+                                drawn_map: dict | None,
+                                envelope: tuple[np.ndarray, np.ndarray] | None = None) -> dict:
     """Figs. 9 and 10 at the grid's wind speed nearest the paper's (:data:`PAPER_FIG9_WIND_M_S`).
 
     Returns
@@ -297,7 +312,8 @@ def cycle_figures_at_paper_wind(traj: pd.DataFrame | None, summary: pd.DataFrame
                f"{PAPER_FIG9_WIND_M_S:g} m/s, so its cycles at {wind:g} m/s, the nearest "
                "speed, are not compared with them.")}
     if limited or free:
-        out["fig9"] = cycle_figures.torque_speed_figure(limited, free, wind, drawn_map)
+        out["fig9"] = cycle_figures.torque_speed_figure(limited, free, wind, drawn_map,
+                                                        envelope)
     if free:
         out["fig10"] = cycle_figures.power_flow_figure(
             dict(sorted(free.items(), key=lambda kv: KINDS[kv[0]].objective != "electrical")),

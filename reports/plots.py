@@ -67,7 +67,8 @@ def equal_time_samples(cycle: pd.DataFrame, columns: tuple[str, ...],
 
 def plot_efficiency_map(map_frame: pd.DataFrame, ax: Any = None, *, domain: dict | None = None,
                         masking: dict | None = None,
-                        cycles: dict[str, pd.DataFrame] | None = None) -> Any:
+                        cycles: dict[str, pd.DataFrame] | None = None,
+                        envelope: tuple[np.ndarray, np.ndarray] | None = None) -> Any:
     """The measured efficiency map (paper Fig. 5), with cycles over it (paper Fig. 9).
 
     Parameters
@@ -87,6 +88,10 @@ def plot_efficiency_map(map_frame: pd.DataFrame, ax: Any = None, *, domain: dict
         every :data:`MARKER_STEP_S` (SVG id ``cycle-<kind>``). The axes keep the map's
         extent: the part of a cycle beyond the map is cut off, and the legend says which
         cycles leave it.
+    envelope : (ndarray, ndarray), optional
+        The drive's torque-speed envelope the optimizer flew with: speeds [rpm] and
+        largest torques [N m] (:func:`optimize.model.envelope.envelope_curve`), drawn
+        dashed (SVG id ``drive-envelope``).
 
     Returns
     -------
@@ -94,6 +99,14 @@ def plot_efficiency_map(map_frame: pd.DataFrame, ax: Any = None, *, domain: dict
     """
     ax = new_axes(ax, (7.0, 4.0))
     figures.draw_efficiency_map(ax, map_frame, domain, masking)
+    if envelope is not None:
+        x0, x1 = ax.get_xlim()
+        y0, y1 = ax.get_ylim()
+        ax.plot(*envelope, ls="--", lw=1.0, color="k", label="drive torque-speed envelope",
+                gid="drive-envelope")
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
+        ax.legend(loc="upper left", fontsize=7)
     if cycles:
         x0, x1 = ax.get_xlim()
         y0, y1 = ax.get_ylim()

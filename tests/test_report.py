@@ -213,15 +213,17 @@ def write_optimize(opt: Path, model_sha256: str = "",
 
 
 def rewrite_optimize(src: Path, dst: Path, *, summary: pd.DataFrame | None = None,
-                     trust: dict | None = None) -> Path:
+                     trust: dict | None = None, options: dict | None = None) -> Path:
     """A copy of the optimize folder ``src`` in ``dst``, written whole by the sweep's writer
     (a new run of the same command line), with ``summary`` or the manifest's ``trust``
-    checks replaced."""
+    checks or ``options`` replaced."""
     manifest = read_manifest(src)
     body = {k: v for k, v in manifest.items()
             if k not in ("schema", "schema_version", "provenance", "files")}
     if trust is not None:
         body["trust"] = trust
+    if options is not None:
+        body["options"] = options
     write_sweep_folder(dst, Provenance.start(manifest["provenance"]["command_line"]),
                        summary=read_summary(src / SUMMARY_FILE) if summary is None else summary,
                        trajectories=read_trajectories(src), manifest=body, system=None,
@@ -528,3 +530,26 @@ def test_cycles_outside_the_validity_domain_are_listed():
     inside = summary.assign(outside_domain_time_frac=[0.0, 0.0, math.nan])
     assert domain_rows(inside) == []
     assert domain_rows(summary.drop(columns="outside_domain_time_frac")) is None
+
+
+def test_fig9_draws_the_drive_envelope_the_sweep_flew_with(full_inputs, tmp_path):
+    """A sweep whose drive stated a base speed of 1000 rpm: the map under the limited
+    cycles carries the envelope (78 N m up to 1000 rpm, 78 x 1000 / |n| above); a sweep
+    without one draws none."""
+    from optimize.model.envelope import envelope_curve
+    from reports.optimization_section import flown_envelope
+
+    store, fit, opt = full_inputs["dirs"]
+    limits = {"max_speed_rpm": 1500.0, "max_torque_nm": 78.0, "base_speed_rpm": 1000.0,
+              "envelope_speed_rpm": None, "envelope_torque_nm": None}
+    other = rewrite_optimize(opt, tmp_path / "opt", options={"limits": limits})
+    speed, torque = flown_envelope(read_manifest(other))
+    assert np.interp([-1500.0, -500.0, 0.0, 1200.0], speed, torque) == pytest.approx(
+        [52.0, 78.0, 78.0, 65.0], abs=1e-9)
+    html = render(build_context(store, fit, other, ["bench", "report"]))
+    assert 'id="drive-envelope"' in html
+    assert 'id="drive-envelope"' not in full_inputs["report"].read_text(encoding="utf-8")
+    table = {"max_speed_rpm": 1500.0, "max_torque_nm": 78.0, "base_speed_rpm": None,
+             "envelope_speed_rpm": (0.0, 1000.0, 1500.0), "envelope_torque_nm": (78.0, 78.0, 40.0)}
+    speed, torque = envelope_curve(type("L", (), table))
+    assert np.interp([1250.0, -1250.0], speed, torque) == pytest.approx([59.0, 59.0])

@@ -91,3 +91,33 @@ class EnvelopeTable:
         fn = ca.Function("envelope", [n], [self.smooth_torque_nm(n)])
         speeds = np.atleast_1d(np.asarray(speed_rpm, dtype=float))
         return np.asarray(fn.map(speeds.size)(speeds)).ravel().reshape(np.shape(speed_rpm))
+
+
+def has_envelope(limits: Any) -> bool:
+    """Whether the drive states a torque-speed envelope (a base speed or a table)."""
+    return limits.base_speed_rpm is not None or limits.envelope_speed_rpm is not None
+
+
+def envelope_torque_nm(limits: Any, speed_rpm: np.ndarray) -> np.ndarray:
+    """The drive's largest torque [N m] at each speed as the OCP bounds it: its
+    torque-speed envelope (a table's smooth lower bound), else its torque limit.
+    ``limits``: :class:`optimize.problem.options.Limits` (or the same fields)."""
+    if limits.base_speed_rpm is not None:
+        return base_speed_torque_nm(speed_rpm, limits.max_torque_nm, limits.base_speed_rpm)
+    if limits.envelope_speed_rpm is not None:
+        return EnvelopeTable(limits.envelope_speed_rpm, limits.envelope_torque_nm
+                             ).smooth_values_nm(speed_rpm)
+    return np.full(np.shape(speed_rpm), float(limits.max_torque_nm))
+
+
+def envelope_curve(limits: Any, points: int = 241) -> tuple[np.ndarray, np.ndarray] | None:
+    """The envelope over both quadrants, ``-max_speed_rpm`` to ``max_speed_rpm``: speeds
+    [rpm] and largest torques [N m] (the table itself, not its smooth bound); None when
+    the drive states none. ``limits`` as :func:`envelope_torque_nm`."""
+    if not has_envelope(limits) or limits.max_speed_rpm is None:
+        return None
+    speed = np.linspace(-limits.max_speed_rpm, limits.max_speed_rpm, points)
+    if limits.base_speed_rpm is not None:
+        return speed, base_speed_torque_nm(speed, limits.max_torque_nm, limits.base_speed_rpm)
+    table = EnvelopeTable(limits.envelope_speed_rpm, limits.envelope_torque_nm)
+    return speed, np.minimum(table.torque_nm(speed), limits.max_torque_nm)

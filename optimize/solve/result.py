@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from optimize.model.envelope import EnvelopeTable, base_speed_torque_nm
+from optimize.model.envelope import envelope_torque_nm, has_envelope
 from optimize.model.thermal import RANGE_C as THERMAL_RANGE_C
 from optimize.model.thermal import STATE as THERMAL_STATE
 from optimize.problem.ocp import Ocp
@@ -230,23 +229,6 @@ def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: b
     if THERMAL_STATE in traj and _near(traj[THERMAL_STATE].to_numpy(), THERMAL_RANGE_C[1]):
         out.append("winding_temperature_range")
     return tuple(out)
-
-
-def has_envelope(limits: Any) -> bool:
-    """Whether the drive states a torque-speed envelope (a base speed or a table)."""
-    return limits.base_speed_rpm is not None or limits.envelope_speed_rpm is not None
-
-
-def envelope_torque_nm(limits: Any, speed_rpm: np.ndarray) -> np.ndarray:
-    """The drive's largest torque [N m] at each speed as the OCP bounds it: its
-    torque-speed envelope (:mod:`optimize.model.envelope`; a table's smooth lower
-    bound), else its torque limit."""
-    if limits.base_speed_rpm is not None:
-        return base_speed_torque_nm(speed_rpm, limits.max_torque_nm, limits.base_speed_rpm)
-    if limits.envelope_speed_rpm is not None:
-        return EnvelopeTable(limits.envelope_speed_rpm, limits.envelope_torque_nm
-                             ).smooth_values_nm(speed_rpm)
-    return np.full(np.shape(speed_rpm), float(limits.max_torque_nm))
 
 
 def slack_fraction(ocp: Ocp, traj: pd.DataFrame) -> float:
