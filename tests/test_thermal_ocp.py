@@ -27,7 +27,8 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp, thermal_line, winding_thermal
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
-from optimize.solve.solve import start
+from optimize.solve.heat_start import warm_from_base
+from optimize.solve.solve import solve, start
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import load_system
@@ -73,14 +74,17 @@ def test_without_a_thermal_rating_the_ocp_is_unchanged():
 
 @pytest.fixture(scope="module")
 def hot_cycle():
-    """elec-lim at 10 m/s, 20 intervals, the winding limited to 40 degC."""
+    """elec-lim at 10 m/s, 20 intervals, the winding limited to 40 degC: the problem
+    without the temperature (with an RMS rating of 60 N m), then the one with it
+    warm-started from that optimum (as a cold start does)."""
     system = load_system()
     opts = OcpOptions(Discretization(n_intervals=20)).replace(limits={
         "max_winding_temperature_c": LIMIT_C, "max_speed_rpm": 1500.0,
         "max_torque_nm": 78.0, "nominal_power_w": 8200.0, "max_rms_torque_nm": 60.0})
     ocp = build_ocp(kite_dae(*system.model_params()), _model(), opts)
     scenario = Scenario.of_kind("elec-lim", 10.0)
-    return ocp, start(ocp, scenario), start(ocp.base, scenario)
+    base = start(ocp.base, scenario)
+    return ocp, solve(ocp, scenario, warm_from_base(ocp, base.warm, 10.0)), base
 
 
 def test_the_thermal_limit_binds_and_replaces_the_rms_row(hot_cycle):
