@@ -161,6 +161,8 @@ def run_size(site: Any, model: Any = None, *, system: Any = None,
     before_solving : callable, optional
         ``before_solving(drive, n_candidates)``, called once the candidates are made.
     """
+    from optimize.problem.ocp import thermal_line
+    from optimize.problem.options import OcpOptions
     from optimize.system.drive_in_force import drive_in_force
     from optimize.system.system import System
     from optimize.system.system_file import load_system
@@ -179,6 +181,8 @@ def run_size(site: Any, model: Any = None, *, system: Any = None,
                                 rating.max_speed_rpm, rating.overload)
 
     first, notes = candidates(grid.scales)
+    notes = [thermal_line(drive.model, system.ocp_options(OcpOptions(), drive.rating).limits,
+                          system.path), *notes]
     if before_solving is not None:
         before_solving(drive, len(first))
     result, edge, added = size_extending(

@@ -188,3 +188,27 @@ def test_sizing_by_heat_lists_where_the_winding_limit_binds():
     assert rows.loc["x2", "thermal_bound_active_at"] == ""
     assert rows.loc["x1", "peak_winding_temperature_c"] == LIMIT_C
     assert (rows["rms_bound_active_at"] == "").all()
+
+
+@pytest.mark.parametrize("stage", ["optimize", "size"])
+def test_a_winding_limit_below_the_fitted_ambient_stops_before_solving(tmp_path, capsys,
+                                                                        stage):
+    """No ambient in the system file: the thermal model's (25 degC) is in force, and a
+    20 degC limit under it stops both stages with exit 2 naming the key, nothing written."""
+    from bench.cli import main
+    from fitting.model_file import save_power_model
+
+    model = save_power_model(_model(), tmp_path / "power_model.json")
+    text = shipped_system_path().read_text(encoding="utf-8")
+    system = tmp_path / "system.toml"
+    system.write_text(text.replace("[drive]\n", "[drive]\nmax_winding_temperature_c = 20.0\n",
+                                   1), encoding="utf-8")
+    args = {"optimize": ["optimize", "--wind-grid", "7", "--scenarios", "elec-lim",
+                         "--no-claims"],
+            "size": ["size", "--weibull-k", "2", "--mean-speed", "5.5"]}[stage]
+    code = main([*args, "--system", str(system), "--drive-model", str(model),
+                 "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert str(system) in err and "max_winding_temperature_c" in err and "25" in err
+    assert not (tmp_path / "out").exists()

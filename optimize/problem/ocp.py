@@ -23,6 +23,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from kernel.errors import InputError
 from optimize.model.dae import Dae
 from optimize.model.drivetrain import DriveModel
 from optimize.model.kite_model import KiteDae
@@ -242,10 +243,23 @@ def build_ocp(
     return with_heat
 
 
-def thermal_line(drive_model: DriveModel, limits: Any) -> str:
+def thermal_line(drive_model: DriveModel, limits: Any, source: Any = None) -> str:
     """One line: how the drive's continuous rating enters the OCP (winding temperature or
-    RMS torque), and why."""
-    thermal = winding_thermal(drive_model, limits)
+    RMS torque), and why.
+
+    Raises
+    ------
+    InputError
+        The winding limit is not above the ambient temperature in force (naming
+        ``source``, the system file, and the key).
+    """
+    try:
+        thermal = winding_thermal(drive_model, limits)
+    except ValueError as exc:
+        raise InputError(source, str(exc), column="max_winding_temperature_c",
+                         expected="a winding limit above the ambient temperature "
+                                  "([drive] ambient_temperature_c, else the one the "
+                                  "thermal model was fitted with)") from exc
     limit = limits.max_winding_temperature_c
     if thermal is not None:
         return (f"continuous rating: winding temperature <= {thermal.max_c:g} degC at "
