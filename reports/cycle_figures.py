@@ -14,6 +14,7 @@ from markupsafe import Markup
 from matplotlib.patches import Rectangle
 
 from optimize.kinds import KINDS, LABELS
+from optimize.model.thermal import STATE as THERMAL_STATE
 from reports import plots
 from reports.svg import SCENARIO_COLORS, new_figure, to_svg
 
@@ -161,22 +162,28 @@ def cycle_energy(weight: np.ndarray, power_w: np.ndarray, period_s: float) -> np
     return period_s * np.cumsum(np.asarray(weight, float) * np.asarray(power_w, float))
 
 
-def cycle_figure(traj: pd.DataFrame, period_s: float, label: str) -> Markup:
-    """Tether length, power and energy over one cycle (paper Fig. 3).
+def cycle_figure(traj: pd.DataFrame, period_s: float, label: str,
+                 winding_limit_c: float | None = None) -> Markup:
+    """Tether length, power and energy over one cycle (paper Fig. 3), and the winding
+    temperature when the cycle carries it.
 
     Parameters
     ----------
     traj : DataFrame
         Closed cycle (first row at t = 0) with ``time_s`` [s], ``weight`` [-],
-        ``l_m`` [m], ``p_elec_w``, ``p_mech_w`` [W].
+        ``l_m`` [m], ``p_elec_w``, ``p_mech_w`` [W] and, when the OCP carried it,
+        ``theta_winding_c`` [degC].
     period_s : float
         Cycle period [s].
     label : str
         What the cycle is (our constant text, e.g. "elec. optimized, constrained, 5.5 m/s").
+    winding_limit_c : float, optional
+        The drive's winding limit [degC], drawn with the temperature.
     """
     t = traj["time_s"].to_numpy(float)
-    fig = new_figure(7.0, 6.0)
-    ax_l, ax_p, ax_e = fig.subplots(3, 1, sharex=True)
+    hot = THERMAL_STATE in traj
+    fig = new_figure(7.0, 7.6 if hot else 6.0)
+    ax_l, ax_p, ax_e, *ax_t = fig.subplots(4 if hot else 3, 1, sharex=True)
     ax_l.plot(t, traj["l_m"], color="k")
     ax_l.set_ylabel("tether length [m]")
     ax_l.set_title(label, fontsize=10)
@@ -187,9 +194,24 @@ def cycle_figure(traj: pd.DataFrame, period_s: float, label: str) -> Markup:
         e = cycle_energy(traj["weight"].to_numpy(float), traj[col].to_numpy(float), period_s)
         ax_e.plot(t, e, color=color, label=f"E {name}: net {e[-1]:+.0f} J")
     ax_e.set_ylabel("energy [J]\n(+ = consumed)")
-    ax_e.set_xlabel("time [s]")
+    ax_e.set_xlabel("" if hot else "time [s]")
     for ax in (ax_l, ax_e):
         ax.grid(alpha=0.3)
     ax_e.axhline(0.0, color="k", lw=0.6)
     ax_e.legend(fontsize=7, loc="best")
+    if hot:
+        _winding_panel(ax_t[0], t, traj[THERMAL_STATE].to_numpy(float), winding_limit_c)
     return to_svg(fig, "cycle")
+
+
+def _winding_panel(ax, t: np.ndarray, theta_c: np.ndarray, limit_c: float | None) -> None:
+    """The winding temperature over the cycle (its cyclic steady state), with the limit."""
+    ax.plot(t, theta_c, color="tab:red", gid="winding-temperature",
+            label=f"winding: peak {theta_c.max():.2f} degC")
+    if limit_c is not None:
+        ax.axhline(limit_c, color="k", ls="--", lw=0.8,
+                   label=f"limit {limit_c:g} degC (margin {limit_c - theta_c.max():.2f} K)")
+    ax.set_ylabel("winding [degC]")
+    ax.set_xlabel("time [s]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="best")

@@ -251,7 +251,7 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
             s, "avg_p_mech_w", "fig8b", "Average generated MECHANICAL power (Fig. 8b)")
         out["cycles"] = cycle_figures_at_paper_wind(traj, s, drawn_map,
                                                     flown_envelope(manifest))
-        out["fig3"], out["notes"]["fig3"] = fig3(traj, s)
+        out["fig3"], out["notes"]["fig3"] = fig3(traj, s, winding_limit(manifest))
     out["missing"] = list(dict.fromkeys(log.missing[start:]))
     return out
 
@@ -321,7 +321,15 @@ def cycle_figures_at_paper_wind(traj: pd.DataFrame | None, summary: pd.DataFrame
     return out
 
 
-def fig3(traj: pd.DataFrame | None, summary: pd.DataFrame) -> tuple[object, str | None]:
+def winding_limit(manifest: dict | None) -> float | None:
+    """The drive's winding limit [degC] the sweep flew with (its manifest's limits)."""
+    limits = ((manifest or {}).get("options") or {}).get("limits") or {}
+    value = limits.get("max_winding_temperature_c") if isinstance(limits, dict) else None
+    return float(value) if value is not None else None
+
+
+def fig3(traj: pd.DataFrame | None, summary: pd.DataFrame,
+         winding_limit_c: float | None = None) -> tuple[object, str | None]:
     """The Fig. 3 analogue (:data:`FIG3_KIND` at :data:`FIG3_WIND_M_S`), or (None, why not)."""
     t, why = _trajectory(traj, summary, FIG3_KIND, FIG3_WIND_M_S)
     if t is None:
@@ -329,4 +337,4 @@ def fig3(traj: pd.DataFrame | None, summary: pd.DataFrame) -> tuple[object, str 
     period = float(t["time_s"].max())
     return cycle_figures.cycle_figure(
         t, period, f"electrically optimized, constrained, {FIG3_WIND_M_S:g} m/s, "
-                   f"period {period:.2f} s"), None
+                   f"period {period:.2f} s", winding_limit_c), None

@@ -213,7 +213,8 @@ def write_optimize(opt: Path, model_sha256: str = "",
 
 
 def rewrite_optimize(src: Path, dst: Path, *, summary: pd.DataFrame | None = None,
-                     trust: dict | None = None, options: dict | None = None) -> Path:
+                     trust: dict | None = None, options: dict | None = None,
+                     trajectories: pd.DataFrame | None = None) -> Path:
     """A copy of the optimize folder ``src`` in ``dst``, written whole by the sweep's writer
     (a new run of the same command line), with ``summary`` or the manifest's ``trust``
     checks or ``options`` replaced."""
@@ -226,7 +227,8 @@ def rewrite_optimize(src: Path, dst: Path, *, summary: pd.DataFrame | None = Non
         body["options"] = options
     write_sweep_folder(dst, Provenance.start(manifest["provenance"]["command_line"]),
                        summary=read_summary(src / SUMMARY_FILE) if summary is None else summary,
-                       trajectories=read_trajectories(src), manifest=body, system=None,
+                       trajectories=(read_trajectories(src) if trajectories is None
+                                     else trajectories), manifest=body, system=None,
                        claims=read_claims(src))
     return dst
 
@@ -553,3 +555,19 @@ def test_fig9_draws_the_drive_envelope_the_sweep_flew_with(full_inputs, tmp_path
              "envelope_speed_rpm": (0.0, 1000.0, 1500.0), "envelope_torque_nm": (78.0, 78.0, 40.0)}
     speed, torque = envelope_curve(type("L", (), table))
     assert np.interp([1250.0, -1250.0], speed, torque) == pytest.approx([59.0, 59.0])
+
+
+def test_fig3_shows_the_winding_temperature_over_the_cycle_and_its_margin(full_inputs,
+                                                                          tmp_path):
+    """A sweep whose cycles carried the winding temperature: the Fig. 3 analogue gains its
+    panel, with the limit and the margin (limit - peak) said in the legend."""
+    store, fit, opt = full_inputs["dirs"]
+    traj = read_trajectories(opt)
+    phase = 2 * np.pi * traj["time_s"] / CYCLE_PERIOD_S
+    traj["theta_winding_c"] = 44.0 + 0.5 * np.sin(phase)  # peak 44.5 degC
+    other = rewrite_optimize(opt, tmp_path / "opt", trajectories=traj,
+                             options={"limits": {"max_winding_temperature_c": 45.0}})
+    html = render(build_context(store, fit, other, ["bench", "report"]))
+    assert 'id="winding-temperature"' in html
+    assert "limit 45 degC (margin 0.50 K)" in html
+    assert 'id="winding-temperature"' not in full_inputs["report"].read_text(encoding="utf-8")
