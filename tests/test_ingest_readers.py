@@ -134,3 +134,17 @@ def test_byte_order_mark_and_crlf(tmp_path):
     assert meta["columns"]["time"]["column"] == "Time [s]"
     np.testing.assert_array_equal(v["speed"], [10.0, 11.0])
     np.testing.assert_array_equal(v["time"], [0.0, 0.1])
+
+
+def test_lines_longer_than_the_chunk_grow_the_buffer(tmp_path):
+    """A chunk smaller than one line (here 8 bytes against lines of about 25): the buffer
+    grows to hold the line and every value is read as with the default chunk."""
+    p = tmp_path / "daq.csv"
+    rows = "\n".join(f"{0.02 * k:.3f},{1000.0 + k:.3f},{40.0 + 0.01 * k:.4f}"
+                     for k in range(200))
+    p.write_text("Time [s],Speed [rpm],Torque [N m]\n" + rows + "\n")
+    _, big, _ = _read(p)
+    _, tiny, _ = _read(p, chunk_bytes=8)
+    for k in big:
+        np.testing.assert_array_equal(big[k], tiny[k])
+    np.testing.assert_allclose(big["speed"], 1000.0 + np.arange(200))

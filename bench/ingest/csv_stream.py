@@ -219,9 +219,9 @@ def iter_csv(
                 raise InputError(layout.path, f"line longer than {MAX_LINE_BYTES // 1024} "
                                  "KiB", line=line_at(layout, offset),
                                  expected="a delimited text file (a damaged file?)")
-            if carry == len(buf):  # a single line longer than the buffer
+            if carry == len(buf):  # a single line longer than the buffer: grow it
+                view.release()  # (a bytearray with a live view cannot be resized)
                 buf.extend(bytes(len(buf)))
-                view.release()
                 view = memoryview(buf)
             got = fh.readinto(view[carry:])
             filled = carry + got
