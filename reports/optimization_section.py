@@ -267,11 +267,17 @@ def manifest_context(manifest: dict, fit_model_sha256: str | None) -> dict:
             "local_optima": [str(n) for n in manifest.get("local_optima") or []]}
 
 
-def flown_envelope(manifest: dict | None) -> tuple[np.ndarray, np.ndarray] | None:
-    """The torque-speed envelope the sweep flew with (its manifest's ``options.limits``),
-    or None when its drive stated none."""
+def flown_limits(manifest: dict | None) -> dict:
+    """The limits the sweep flew with (its manifest's ``options.limits``; empty when the
+    manifest records none)."""
     limits = ((manifest or {}).get("options") or {}).get("limits")
-    if not isinstance(limits, dict):
+    return limits if isinstance(limits, dict) else {}
+
+
+def flown_envelope(manifest: dict | None) -> tuple[np.ndarray, np.ndarray] | None:
+    """The torque-speed envelope the sweep flew with, or None when its drive stated none."""
+    limits = flown_limits(manifest)
+    if not limits:
         return None
     keys = ("base_speed_rpm", "envelope_speed_rpm", "envelope_torque_nm", "max_speed_rpm",
             "max_torque_nm")
@@ -323,8 +329,7 @@ def cycle_figures_at_paper_wind(traj: pd.DataFrame | None, summary: pd.DataFrame
 
 def winding_limit(manifest: dict | None) -> float | None:
     """The drive's winding limit [degC] the sweep flew with (its manifest's limits)."""
-    limits = ((manifest or {}).get("options") or {}).get("limits") or {}
-    value = limits.get("max_winding_temperature_c") if isinstance(limits, dict) else None
+    value = flown_limits(manifest).get("max_winding_temperature_c")
     return float(value) if value is not None else None
 
 

@@ -15,7 +15,6 @@ import pandas as pd
 
 from fitting.domain import domain_excursion
 from optimize.model import kite_model as km
-from optimize.model.thermal import STATE as THERMAL_STATE
 from optimize.service.local_optima import better_margin_w
 from optimize.service.outcome import ScenarioOutcome
 from optimize.service.solver import cycle_metrics
@@ -52,8 +51,8 @@ def _trajectory_metrics(traj: pd.DataFrame) -> dict[str, float]:
         "peak_speed_rpm": peaks["peak_speed_rpm"],
         "peak_torque_nm": peaks["peak_torque_nm"],
         "peak_reel_acceleration_m_s2": float(np.max(np.abs(col("ddl_m_s2")))),
-        "peak_winding_temperature_c": (float(np.max(col(THERMAL_STATE)))
-                                       if THERMAL_STATE in traj else math.nan),
+        "peak_winding_temperature_c": (math.nan if peaks["peak_winding_temperature_c"] is None
+                                       else peaks["peak_winding_temperature_c"]),
         "p_elec_max_w": float(np.max(col("p_elec_w"))),
         "p_elec_min_w": float(np.min(col("p_elec_w"))),
         "tether_length_min_m": float(np.min(col("l_m"))),
