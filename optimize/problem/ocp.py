@@ -310,7 +310,10 @@ def assemble(form: CycleFormulation, options: OcpOptions, loop: LoopGuess | None
     t0 = time.perf_counter() if started is None else started
     disc = options.discretization
     coll = radau(disc.degree)
-    transcribe = stagewise_collocation if options.solver.solver == "fatrop" else radau_collocation
+    # the condensed NLP is built beside the full one (optimize.solve.backend), which it
+    # reads and writes its starts and solutions in
+    stagewise = options.solver.solver == "fatrop" and options.solver.transcription != "condensed"
+    transcribe = stagewise_collocation if stagewise else radau_collocation
     tr = transcribe(form, disc, coll)
     ocp = Ocp(options=options, formulation=form, coll=coll, transcription=tr,
               build_time_s=0.0, loop=loop, system=system)

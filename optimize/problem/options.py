@@ -167,6 +167,9 @@ class Limits:
 
 #: NLP solvers the OCP can be handed to
 SOLVERS = ("ipopt", "fatrop")
+#: transcriptions the solver runs on (:mod:`optimize.problem.transcription`,
+#: :mod:`optimize.problem.condensed`)
+TRANSCRIPTIONS = ("collocation", "condensed")
 
 
 @dataclass(frozen=True)
@@ -208,6 +211,12 @@ class SolverOptions:
         MUMPS fill-reducing ordering (0 AMD, 2 AMF, 4 PORD, 6 QAMD, 7 automatic).
         AMD makes an iteration on this NLP cheaper than the automatic choice
         (measured by ``benchmarks/optimize_solve.py``, figures in benchmarks/README.md).
+    transcription : str
+        What the solver runs on (one of :data:`TRANSCRIPTIONS`): ``"collocation"`` (the
+        default: every Radau point's states and algebraic variables are NLP variables)
+        or ``"condensed"`` (multiple shooting, each interval's collocation solved inside
+        the interval, :mod:`optimize.problem.condensed`). Both have the same optima;
+        results and warm starts are in the collocation layout either way.
     """
 
     solver: str = "ipopt"
@@ -219,10 +228,14 @@ class SolverOptions:
     stored_guess: bool = True
     linear_solver: str = "mumps"
     mumps_pivot_order: int = 0
+    transcription: str = "collocation"
 
     def __post_init__(self) -> None:
         if self.solver not in SOLVERS:
             raise ValueError(f"solver must be one of {', '.join(SOLVERS)}, got {self.solver!r}")
+        if self.transcription not in TRANSCRIPTIONS:
+            raise ValueError(f"transcription must be one of {', '.join(TRANSCRIPTIONS)}, "
+                             f"got {self.transcription!r}")
         if not 0 < self.warm_bound_push <= 0.5:  # IPOPT's range of warm_start_bound_frac
             raise ValueError(f"warm_bound_push must be in (0, 0.5], got {self.warm_bound_push}")
 

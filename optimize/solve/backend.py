@@ -5,10 +5,14 @@ The solver and its settings come from ``ocp.options.solver``
 layout, with the linear solver of ``linear_solver`` (MUMPS by default; the HSL
 solvers and Pardiso are loaded by IPOPT from the user's library at run time), or
 fatrop on the stage-wise layout (:func:`optimize.problem.transcription.stagewise_collocation`).
+With ``transcription = "condensed"`` either solver runs on the condensed NLP
+(:mod:`optimize.problem.condensed`), built once beside the OCP's full one; starts and
+solutions cross over in the full layout (:mod:`optimize.solve.condensed_solve`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 import time
@@ -17,7 +21,9 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from optimize.problem.condensed import CondensedNlp, condensed_nlp
 from optimize.problem.ocp import Bounds, Ocp
+from optimize.solve import condensed_solve
 from optimize.solve.derivatives import nlp_derivatives
 
 log = logging.getLogger(__name__)
@@ -107,18 +113,37 @@ def solver(ocp: Ocp, warm: bool, bound_push: float | None = None) -> ca.Function
     """
     o = ocp.options.solver
     push = o.warm_bound_push if bound_push is None else bound_push
-    key = (o.solver, warm, push if warm else None)
+    key = (o.solver, o.transcription, warm, push if warm else None)
     if key not in ocp.solvers:
         t0 = time.perf_counter()
         make = _fatrop if o.solver == "fatrop" else _ipopt
         ocp.solvers[key] = make(ocp, warm, push)
-        log.debug("created %s %s solver in %.1f s", "warm" if warm else "cold", o.solver,
-                  time.perf_counter() - t0)
+        log.debug("created %s %s solver (%s) in %.1f s", "warm" if warm else "cold", o.solver,
+                  o.transcription, time.perf_counter() - t0)
     return ocp.solvers[key]
 
 
+def condensed(ocp: Ocp) -> CondensedNlp:
+    """The OCP's condensed NLP (built once, cached on the OCP)."""
+    if "condensed" not in ocp.solvers:
+        t0 = time.perf_counter()
+        c = condensed_nlp(ocp.formulation, ocp.coll, ocp.transcription)
+        ocp.solvers["condensed"] = c
+        ocp.solvers["condensed_first_order"] = condensed_solve.derivatives(c)
+        log.info("built the condensed NLP: %d variables, %d constraints in %.1f s", c.n_w,
+                 c.n_g, time.perf_counter() - t0)
+    return ocp.solvers["condensed"]
+
+
+def _nlp(ocp: Ocp) -> tuple[dict, dict]:
+    """The NLP a solver of ``ocp`` runs on and the derivative functions handed to IPOPT."""
+    if ocp.options.solver.transcription == "condensed":
+        return condensed(ocp).nlp, {}
+    return ocp.nlp, derivatives(ocp)
+
+
 def _ipopt(ocp: Ocp, warm: bool, push: float) -> ca.Function:
-    """IPOPT with the OCP's linear solver on the general layout."""
+    """IPOPT with the OCP's linear solver on the general layout (or the condensed NLP)."""
     o = ocp.options.solver
     ipopt = {
         "linear_solver": o.linear_solver,
@@ -147,10 +172,9 @@ def _ipopt(ocp: Ocp, warm: bool, push: float) -> ca.Function:
             }
         )
     _single_threaded_blas()
-    return ca.nlpsol(
-        "pumping_cycle", "ipopt", ocp.nlp,
-        {"ipopt": ipopt, "print_time": False, "error_on_fail": False, **derivatives(ocp)},
-    )
+    nlp, given = _nlp(ocp)
+    return ca.nlpsol("pumping_cycle", "ipopt", nlp,
+                     {"ipopt": ipopt, "print_time": False, "error_on_fail": False, **given})
 
 
 def _fatrop_derivatives(ocp: Ocp) -> dict[str, ca.Function]:
@@ -168,6 +192,11 @@ def _fatrop(ocp: Ocp, warm: bool, push: float) -> ca.Function:
             "max_iter": o.max_iter, "print_level": 0}
     if warm:  # fatrop takes no multipliers: a warm start is the primal point, a small barrier
         opts.update({"mu_init": o.warm_mu_init, "bound_push": push, "bound_frac": push})
+    if o.transcription == "condensed":
+        c = condensed(ocp)
+        return ca.nlpsol("pumping_cycle", "fatrop", c.nlp, {
+            "structure_detection": "auto", "equality": [bool(e) for e in c.equality()],
+            "fatrop": opts, "print_time": False, "error_on_fail": False})
     return ca.nlpsol("pumping_cycle", "fatrop", ocp.nlp, {
         "structure_detection": "auto",
         "equality": [bool(e) for e in ocp.layout.equality],
@@ -204,10 +233,18 @@ def run(
 
     ``bound_push`` overrides the solver options' ``warm_bound_push`` of a warm solve.
     """
-    nlpsol = solver(ocp, warm, bound_push)
+    if ocp.options.solver.transcription == "condensed":
+        return _run_condensed(ocp, w0, p, bounds, warm, lam_x0, lam_g0, bound_push)
+    return _call(solver(ocp, warm, bound_push), w0, p, bounds, lam_x0 if warm else None,
+                 lam_g0 if warm else None)
+
+
+def _call(nlpsol: ca.Function, w0: np.ndarray, p: np.ndarray, bounds: Bounds,
+          lam_x0: np.ndarray | None, lam_g0: np.ndarray | None) -> RawSolve:
+    """One call of ``nlpsol``, with the multipliers when both are given."""
     args = {"x0": w0, "p": p, "lbx": bounds[0], "ubx": bounds[1], "lbg": bounds[2],
             "ubg": bounds[3]}
-    if warm and lam_x0 is not None and lam_g0 is not None:
+    if lam_x0 is not None and lam_g0 is not None:
         args.update(lam_x0=lam_x0, lam_g0=lam_g0)
     t0, c0 = time.perf_counter(), time.process_time()
     sol = nlpsol(**args)
@@ -224,3 +261,26 @@ def run(
         wall_time_s=wall,
         cpu_time_s=cpu,
     )
+
+
+def _run_condensed(ocp: Ocp, w0: np.ndarray, p: np.ndarray, bounds: Bounds, warm: bool,
+                   lam_x0: np.ndarray | None, lam_g0: np.ndarray | None,
+                   bound_push: float | None) -> RawSolve:
+    """:func:`run` on the condensed NLP: the start condensed, the solution expanded, the
+    multipliers carried across (both in the full layout; their time counts in the
+    solve's)."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    c = condensed(ocp)
+    first_order = ocp.solvers["condensed_first_order"]
+    w0_c, p_c = c.condense(w0, p)
+    lam_c = (None, None)
+    if warm and lam_x0 is not None and lam_g0 is not None:
+        lam_c = condensed_solve.to_condensed(c, first_order, w0_c, p_c, lam_x0, lam_g0)
+    raw = _call(solver(ocp, warm, bound_push), w0_c, p_c, c.bounds(bounds), *lam_c)
+    w = c.expand(raw.w, p_c)
+    full = derivatives(ocp)
+    lam_x, lam_g = condensed_solve.to_full(c, (full["grad_f"], full["jac_g"]), w, p,
+                                           raw.lam_x, raw.lam_g)
+    return dataclasses.replace(raw, w=w, lam_x=lam_x, lam_g=lam_g,
+                               wall_time_s=time.perf_counter() - t0,
+                               cpu_time_s=time.process_time() - c0)
