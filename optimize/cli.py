@@ -13,7 +13,7 @@ import logging
 from pathlib import Path
 
 from optimize.kinds import DEFAULT_KINDS
-from optimize.problem.options import SOLVERS
+from optimize.problem.options import SOLVERS, TRANSCRIPTIONS
 from optimize.sweep.plan import DEFAULT_WIND_GRID
 
 log = logging.getLogger(__name__)
@@ -79,6 +79,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "for how the two compare here)",
     )
     parser.add_argument(
+        "--transcription",
+        choices=TRANSCRIPTIONS,
+        default="collocation",
+        help="what the solver runs on: collocation (default: the states and algebraic "
+        "variables at every Radau point are NLP variables) or condensed (multiple shooting, "
+        "each interval's collocation solved inside the interval; the same optima, see "
+        "benchmarks/README.md for the time)",
+    )
+    parser.add_argument(
         "--linear-solver",
         default=None,
         metavar="NAME",
@@ -108,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
     request = make_request(
         WindGrid.parse(args.wind_grid, args.scenarios),
         SolverChoice(args.intervals, args.degree, args.solver, args.linear_solver,
-                     not args.no_stored_guess),
+                     not args.no_stored_guess, args.transcription),
         model=args.drive_model, system=args.system, fit_default=FIT_MODEL_PATH, out=args.out,
         execution=Execution(args.workers, args.scheduler, progress=True),
         claims=not args.no_claims, trust=args.trust)

@@ -162,7 +162,7 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
         options = OcpOptions(Discretization(n_intervals=solver.n_intervals,
                                             degree=solver.degree),
                              solver=solver_options(solver.solver, solver.linear_solver,
-                                                   solver.stored_guess))
+                                                   solver.stored_guess, solver.transcription))
     except ValueError as exc:
         raise InputError(None, f"OCP options: {exc}") from exc
     options = loaded.ocp_options(options, drive.rating)
@@ -301,14 +301,15 @@ def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, o
 
 
 def solver_options(solver: str = "ipopt", linear_solver: str | None = None,
-                   stored_guess: bool = True) -> Any:
-    """``SolverOptions`` of ``--solver``, ``--linear-solver`` and ``--no-stored-guess``.
+                   stored_guess: bool = True, transcription: str = "collocation") -> Any:
+    """``SolverOptions`` of ``--solver``, ``--linear-solver``, ``--no-stored-guess`` and
+    ``--transcription``.
 
     Raises
     ------
     ValueError
         ``--linear-solver`` with fatrop, or a linear solver IPOPT cannot load here
-        (:func:`optimize.solve.backend.check_linear_solver`).
+        (:func:`optimize.solve.backend.check_linear_solver`), or an unknown transcription.
     """
     from optimize.problem.options import SolverOptions
     from optimize.solve.backend import check_linear_solver
@@ -319,7 +320,7 @@ def solver_options(solver: str = "ipopt", linear_solver: str | None = None,
     if linear_solver is not None:
         check_linear_solver(linear_solver)
     return SolverOptions(solver=solver, linear_solver=linear_solver or "mumps",
-                         stored_guess=stored_guess)
+                         stored_guess=stored_guess, transcription=transcription)
 
 
 def domain_scales(model: Any, options: Any) -> tuple[float, float]:

@@ -70,6 +70,9 @@ class SolverChoice:
         IPOPT's linear solver (``--linear-solver``; None: MUMPS).
     stored_guess : bool
         Start chains from the shipped initial guess (``--no-stored-guess``: False).
+    transcription : str
+        What the solver runs on (``--transcription``: ``collocation`` or ``condensed``,
+        :attr:`optimize.problem.options.SolverOptions.transcription`).
     """
 
     n_intervals: int = 40
@@ -77,6 +80,7 @@ class SolverChoice:
     solver: str = "ipopt"
     linear_solver: str | None = None
     stored_guess: bool = True
+    transcription: str = "collocation"
 
 
 @dataclass(frozen=True)
