@@ -27,7 +27,7 @@ the interval start and the algebraic variables of a full vector (the start's).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import casadi as ca
@@ -35,12 +35,7 @@ import numpy as np
 
 from optimize.problem.collocation import Collocation
 from optimize.problem.interface import CycleFormulation
-from optimize.problem.transcription import (
-    Transcription,
-    _dims,
-    _share,
-    _tracking,
-)
+from optimize.problem.transcription import Transcription, _dims, _share
 
 #: the point row that holds the DAE's algebraic equations (solved with the dynamics)
 ALGEBRAIC_ROW = "algebraic"
@@ -70,13 +65,23 @@ class CondensedNlp:
     i_period: np.ndarray  # (N + 1,) T_k
     i_state: np.ndarray  # (nx, N + 1) X_k
     i_start: np.ndarray  # (nx, N + 1) S_k
-    i_q: np.ndarray  # (n_q, N + 1) Q_k
+    i_run: np.ndarray  # (n_q, N + 1) Q_k, the running integrals
     gap_rows: np.ndarray  # rows x_{k+1} - F(x_k, u_k) and S_0 - X_0
     gap_cols: np.ndarray  # the variables they pin: x_1..x_N and S_0
     full: Transcription
     coll: Collocation
     carried: tuple[int, ...]  # integrand index of each running integral
-    interiors: ca.Function  # (w, p) -> (d (nx + nz), N) the intervals' solutions
+    interval: Interval
+    i_q: np.ndarray  # (n_q, N) each interval's stage variables, indices into w
+    i_a: np.ndarray  # (n_a, N) each interval's parameters, indices into p
+    #: the NLP with the intervals' outputs as symbols ``s`` (n_y, N): ``f = f_s`` and
+    #: ``g = g_s`` once ``s`` is replaced by the outputs (SX in ``w_s, p_s, s``)
+    w_s: Any
+    p_s: Any
+    s: Any
+    f_s: Any
+    g_s: Any
+    interiors: ca.Function  # (w, p) -> (n_v, N) the intervals' solutions
 
     @property
     def n_intervals(self) -> int:
@@ -89,7 +94,7 @@ class CondensedNlp:
         lbx, ubx = np.full(self.n_w, -np.inf), np.full(self.n_w, np.inf)
         own = self.var_src >= 0
         lbx[own], ubx[own] = lbw[self.var_src[own]], ubw[self.var_src[own]]
-        lbx[self.i_q[:, 0]] = ubx[self.i_q[:, 0]] = 0.0
+        lbx[self.i_run[:, 0]] = ubx[self.i_run[:, 0]] = 0.0
         lo, hi = np.zeros(self.n_g), np.zeros(self.n_g)
         lo[self.row_g[0]], hi[self.row_g[0]] = lbg[self.row_g[1]], ubg[self.row_g[1]]
         lo[self.row_w[0]], hi[self.row_w[0]] = lbw[self.row_w[1]], ubw[self.row_w[1]]
@@ -115,7 +120,7 @@ class CondensedNlp:
             integ = self._integrands(w_full, p_full)[list(self.carried)]
             shares = integ * np.tile(self.coll.quad, n)[None, :] / n
             per_interval = shares.reshape(len(self.carried), n, d).sum(axis=2)
-            w[self.i_q[:, 1:]] = np.cumsum(per_interval, axis=1)
+            w[self.i_run[:, 1:]] = np.cumsum(per_interval, axis=1)
         x = w_full[lay.i_x]
         starts = np.repeat(x[:, 0:-1:d], d, axis=1)
         dx = (x[:, 1:] - starts).reshape(-1, n, d).transpose(2, 0, 1)  # (d, nx, N)
@@ -147,38 +152,56 @@ class CondensedNlp:
 
 
 @dataclass(frozen=True)
-class _Interval:
-    """One interval as functions of the Radau points' unknowns ``v = (X_1..X_d, Z_1..Z_d)``
-    and ``q = (X_0, U, T, F_1..F_d, wind)`` (scaled): the rootfinder of the collocation
-    equations and the rows and integrands at the points."""
+class Interval:
+    """One interval as functions of its Radau points' unknowns ``v = (X_1..X_d,
+    Z_1..Z_d)``, its stage variables ``q = (X_0, U, T, F_1..F_d)`` and its parameters
+    ``a = (wind, guess, the tracking reference at its d points)`` (all scaled).
 
-    solve: ca.Function  # (v0, q) -> v
-    rows: ca.Function  # (v, q) -> (path rows (n_path d), integrands (n_int, d))
+    ``residual(v, q, a)``: the collocation equations (dynamics and algebraic rows at the
+    points), square in ``v``; ``outputs(v, q, a)``: ``y = (X_d, path rows, integrands,
+    bounded states and algebraic variables, tracking sum)`` (:attr:`parts` gives each
+    part's slice); ``solve(q, a) -> (y, v)``: Newton's method from the guess, then ``y``.
+    """
+
+    residual: ca.Function
+    outputs: ca.Function
+    solve: ca.Function
+    parts: dict[str, slice]
     path: np.ndarray  # positions of the path rows among a point's rows
     n_v: int
+    n_q: int
+    n_a: int
 
 
-def _interval(full: Transcription, coll: Collocation, dims: tuple[int, int, int, int]
-              ) -> _Interval:
+def _solved_rows(point: Any, nx: int, nz: int) -> np.ndarray:
+    """Which of a point's rows the interval solves: its dynamics and algebraic rows."""
+    sizes = [t.expr.shape[0] for t in point.templates]
+    start = np.cumsum([0, *sizes])
+    solved = np.zeros(start[-1], dtype=bool)
+    for i, t in enumerate(point.templates):
+        if i == 0 or t.name == ALGEBRAIC_ROW:
+            solved[start[i]:start[i + 1]] = True
+    if int(solved.sum()) != nx + nz:
+        raise ValueError(f"the condensed transcription solves a point's dynamics and its "
+                         f"row {ALGEBRAIC_ROW!r} for the states and algebraic variables: "
+                         f"{int(solved.sum())} rows for {nx + nz} unknowns")
+    return solved
+
+
+def interval(full: Transcription, coll: Collocation, dims: tuple[int, int, int, int],
+             xbound: np.ndarray, zbound: np.ndarray) -> Interval:
+    """The :class:`Interval` of ``full``'s point function; ``xbound``, ``zbound``: the
+    state and algebraic components whose bounds become rows."""
     point = full.blocks.point
     nx, nz, nu, nf = dims
     d = coll.degree
-    names = ["dynamics"] + [t.name for t in point.templates[1:]]
-    sizes = [t.expr.shape[0] for t in point.templates]
-    start = np.cumsum([0, *sizes])
-    solved = [i for i, name in enumerate(names) if name in ("dynamics", ALGEBRAIC_ROW)]
-    pos = np.arange(start[-1])
-    in_solved = np.zeros(start[-1], dtype=bool)
-    for i in solved:
-        in_solved[start[i]:start[i + 1]] = True
-    if int(in_solved.sum()) != nx + nz:
-        raise ValueError(f"the condensed transcription solves a point's dynamics and its "
-                         f"row {ALGEBRAIC_ROW!r} for the states and algebraic variables: "
-                         f"{int(in_solved.sum())} rows for {nx + nz} unknowns")
+    solved = _solved_rows(point, nx, nz)
+    pos = np.arange(solved.size)
     v = ca.SX.sym("v", d * (nx + nz))
-    q = ca.SX.sym("q", nx + nu + 1 + d * nf + 1)
-    x0, u, period = q[:nx], q[nx:nx + nu], q[nx + nu]
-    wind = q[-1]
+    q = ca.SX.sym("q", nx + nu + 1 + d * nf)
+    a = ca.SX.sym("a", 1 + v.shape[0] + d * nx)
+    x0, u, period, wind = q[:nx], q[nx:nx + nu], q[nx + nu], a[0]
+    ref = a[1 + v.shape[0]:]
     xs = [v[j * nx:(j + 1) * nx] for j in range(d)]
     zs = [v[d * nx + j * nz:d * nx + (j + 1) * nz] for j in range(d)]
     fs = [q[nx + nu + 1 + j * nf:nx + nu + 1 + (j + 1) * nf] for j in range(d)]
@@ -186,28 +209,43 @@ def _interval(full: Transcription, coll: Collocation, dims: tuple[int, int, int,
     for j in range(d):
         vpt = ca.vertcat(period, xs[j], u, zs[j], fs[j], x0, *xs)
         rows, s = point.function(vpt, wind, ca.DM(coll.deriv[:, j]))
-        res.append(rows[pos[in_solved].tolist()])
-        path.append(rows[pos[~in_solved].tolist()])
+        res.append(rows[pos[solved].tolist()])
+        path.append(rows[pos[~solved].tolist()])
         integ.append(s)
-    g = ca.Function("collocation", [v, q], [ca.vertcat(*res)])
-    solve = ca.rootfinder("interval", "newton", g, {
+    bounds = [xs[j][xbound.tolist()] for j in range(d - 1)] + [
+        zs[j][zbound.tolist()] for j in range(d)]
+    track = sum(ca.sumsqr(xs[j] - ref[j * nx:(j + 1) * nx]) for j in range(d))
+    parts, y, start = {}, [], 0
+    for name, expr in (("x_end", xs[-1]), ("path", ca.vertcat(*path)),
+                       ("integrands", ca.vertcat(*integ)), ("bounds", ca.vertcat(*bounds)),
+                       ("track", track)):
+        parts[name] = slice(start, start + expr.shape[0])
+        y.append(expr)
+        start += expr.shape[0]
+    residual = ca.Function("collocation", [v, q, a], [ca.vertcat(*res)])
+    outputs = ca.Function("interval_outputs", [v, q, a], [ca.vertcat(*y)])
+    newton = ca.rootfinder("interval", "newton", residual, {
         "abstol": NEWTON_ABSTOL, "abstolStep": 0.0, "max_iter": NEWTON_MAX_ITER,
-        "error_on_fail": True})
-    rows_fn = ca.Function("interval_rows", [v, q], [ca.vertcat(*path), ca.horzcat(*integ)])
-    return _Interval(solve, rows_fn, pos[~in_solved], v.shape[0])
+        "linear_solver": "qr", "error_on_fail": True})
+    qm, am = ca.MX.sym("q", q.shape[0]), ca.MX.sym("a", a.shape[0])
+    v0 = ca.vertcat(ca.repmat(qm[:nx], d, 1), ca.MX.zeros(d * nz, 1)) + am[1:1 + v.shape[0]]
+    vm = newton(v0, qm, am)
+    solve = ca.Function("interval_solve", [qm, am], [outputs(vm, qm, am), vm])
+    return Interval(residual, outputs, solve, parts, pos[~solved], v.shape[0], q.shape[0],
+                    a.shape[0])
 
 
-def _sx(fn: Any, *sizes: int) -> ca.Function:
-    """``fn`` (of SX columns of ``sizes``) as a CasADi function, to call on MX."""
-    args = [ca.SX.sym(f"a{i}", size) for i, size in enumerate(sizes)]
-    return ca.Function("part", args, [fn(*args)])
+def _bounded(full: Transcription, idx: np.ndarray) -> np.ndarray:
+    """Which rows of ``idx`` (a variable's components at one point) have a finite bound
+    in any configuration."""
+    arrays = (full.lbw, full.ubw, full.limited[0], full.limited[1])
+    return np.logical_or.reduce([np.isfinite(a[idx]) for a in arrays])
 
 
 def _full_tail_rows(full: Transcription) -> np.ndarray:
     """Full rows that are neither a Radau point's nor a period tie: the start rows, then
     the periodicity rows, then the average rows (in that order)."""
-    n_g = full.layout.n_g
-    taken = np.zeros(n_g, dtype=bool)
+    taken = np.zeros(full.layout.n_g, dtype=bool)
     taken[full.blocks.rows.ravel()] = True
     taken[full.layout.rows_of("period_tie")] = True
     return np.flatnonzero(~taken)
@@ -218,37 +256,41 @@ class _Builder:
     """Variables and rows of the condensed NLP as they are laid out."""
 
     n_w: int = 0
-    rows: list = None  # expressions
     n_g: int = 0
-    row_g: list = None
-    row_w: list = None
-    gap: list = None
-
-    def __post_init__(self) -> None:
-        self.rows, self.row_g, self.row_w, self.gap = [], [], [], []
+    rows: list = field(default_factory=list)  # expressions
+    row_g: list = field(default_factory=list)
+    row_w: list = field(default_factory=list)
+    gap: list = field(default_factory=list)
 
     def take(self, size: int) -> np.ndarray:
         out = np.arange(self.n_w, self.n_w + size)
         self.n_w += size
         return out
 
-    def add(self, expr: Any, kind: str = "gap", src: np.ndarray | None = None) -> None:
+    def add(self, expr: Any, src: tuple[str, np.ndarray] | None = None) -> None:
+        """Rows ``expr``: gap rows (``src`` None) or rows with the bounds of the full
+        row (``("g", rows)``) or variable (``("w", indices)``) they stand for."""
         size = expr.shape[0]
         idx = np.arange(self.n_g, self.n_g + size)
         self.rows.append(expr)
         self.n_g += size
-        if kind == "gap":
+        if src is None:
             self.gap.extend(idx)
         else:
-            assert src is not None and len(src) == size
-            (self.row_g if kind == "g" else self.row_w).extend(zip(idx, src, strict=True))
+            assert len(src[1]) == size
+            (self.row_g if src[0] == "g" else self.row_w).extend(zip(idx, src[1], strict=True))
 
 
-def _bounded(full: Transcription, idx: np.ndarray) -> np.ndarray:
-    """Which rows of ``idx`` (a variable's components at one point) have a finite bound
-    in any configuration."""
-    arrays = (full.lbw, full.ubw, full.limited[0], full.limited[1])
-    return np.logical_or.reduce([np.isfinite(a[idx]) for a in arrays])
+def _stages(b: _Builder, n: int, sizes: dict[str, int]) -> dict[str, list[np.ndarray]]:
+    """Stage by stage: ``x_k = (X_k, T_k, S_k, Q_k)``, then ``u_k = (U_k, F_k)``."""
+    st: dict[str, list[np.ndarray]] = {key: [] for key in sizes}
+    for k in range(n + 1):
+        for key in ("x", "t", "s", "q"):
+            st[key].append(b.take(sizes[key]))
+        if k < n:
+            st["u"].append(b.take(sizes["u"]))
+            st["f"].append(b.take(sizes["f"]))
+    return st
 
 
 def condensed_nlp(form: CycleFormulation, coll: Collocation, full: Transcription
@@ -261,16 +303,11 @@ def condensed_nlp(form: CycleFormulation, coll: Collocation, full: Transcription
     nx, nz, nu, nf = dims
     names = full.blocks.point.integrands
     carried = tuple(names.index(c) for c in form.constrained_averages)
-    nq = len(carried)
-    it = _interval(full, coll, dims)
+    xbound = np.flatnonzero(_bounded(full, lay.i_x[:, 1]))
+    zbound = np.flatnonzero(_bounded(full, lay.i_z[:, 0])) if nz else np.zeros(0, dtype=int)
+    it = interval(full, coll, dims, xbound, zbound)
     b = _Builder()
-    st = {"x": [], "t": [], "s": [], "q": [], "u": [], "f": []}
-    for k in range(n + 1):
-        for key, size in (("x", nx), ("t", 1), ("s", nx), ("q", nq)):
-            st[key].append(b.take(size))
-        if k < n:
-            st["u"].append(b.take(nu))
-            st["f"].append(b.take(d * nf))
+    st = _stages(b, n, {"x": nx, "t": 1, "s": nx, "q": len(carried), "u": nu, "f": d * nf})
     var_src = -np.ones(b.n_w, dtype=int)
     for k in range(n + 1):
         var_src[st["x"][k]] = lay.i_x[:, k * d]
@@ -278,78 +315,87 @@ def condensed_nlp(form: CycleFormulation, coll: Collocation, full: Transcription
             var_src[st["u"][k]] = lay.i_u[:, k]
             var_src[st["f"][k]] = lay.i_f[:, k * d:(k + 1) * d].T.ravel()
     var_src[st["t"][0]] = lay.i_period[0]
-    w = ca.MX.sym("w", b.n_w)
     n_p_full = lay.n_p
-    p = ca.MX.sym("p", n_p_full + n * it.n_v)
-    wind = p[lay.params["wind_ref_m_s"]]
-    xbound = np.flatnonzero(_bounded(full, lay.i_x[:, 1]))
-    zbound = np.flatnonzero(_bounded(full, lay.i_z[:, 0])) if nz else np.zeros(0, dtype=int)
-    tail = _full_tail_rows(full)
-    x_scale = ca.DM(form.scales.state)
-    start_fn = _sx(lambda x0: ca.vertcat(*[r.expr for r in form.start_rows(x0 * x_scale)]), nx)
-    per_fn = _sx(lambda a, e: ca.vertcat(*[r.expr for r in form.periodicity_rows(
-        a * x_scale, e * x_scale)]), nx, nx)
-    n_start, n_per = start_fn.size1_out(0), per_fn.size1_out(0)
-    xs_phys = [w[st["x"][0]] * x_scale]
-    sums = {a: 0 for a in form.averages}
-    fict, reg = 0, 0
-    cost_fn = _sx(lambda u: form.control_cost(u * ca.DM(form.scales.control)), nu)
-    interiors = []
-    for k in range(n):
-        q = ca.vertcat(w[st["x"][k]], w[st["u"][k]], w[st["t"][k]], w[st["f"][k]], wind)
-        guess = p[n_p_full + k * it.n_v:n_p_full + (k + 1) * it.n_v]
-        v0 = ca.vertcat(ca.repmat(w[st["x"][k]], d, 1), ca.MX.zeros(d * nz, 1)) + guess
-        v = it.solve(v0, q)
-        interiors.append(v)
-        path, integ = it.rows(v, q)
-        x_end = v[(d - 1) * nx:d * nx]
-        dq = [sum(_share(coll, n, j, integ[c, j - 1]) for j in range(1, d + 1)) for c in carried]
-        b.add(ca.vertcat(w[st["x"][k + 1]] - x_end, w[st["t"][k + 1]] - w[st["t"][k]],
-                         w[st["s"][k + 1]] - w[st["s"][k]],
-                         *[w[st["q"][k + 1][i]] - w[st["q"][k][i]] - dq[i]
-                           for i in range(nq)]))
-        if k == 0:
-            b.add(start_fn(w[st["x"][0]]), "g", tail[:n_start])
-            b.add(w[st["s"][0]] - w[st["x"][0]])
-        b.add(path, "g", full.blocks.rows[it.path][:, k * d:(k + 1) * d].T.ravel())
-        for j in range(1, d):
-            b.add(v[(j - 1) * nx + xbound], "w", lay.i_x[xbound, k * d + j])
-        for j in range(d):
-            b.add(v[d * nx + j * nz + zbound], "w", lay.i_z[zbound, k * d + j])
-        for j in range(1, d + 1):
-            xs_phys.append(v[(j - 1) * nx:j * nx] * x_scale)
-            for i, a in enumerate(form.averages):
-                sums[a] += _share(coll, n, j, integ[i, j - 1])
-            fict += integ[len(form.averages), j - 1] / (n * d)
-        reg += cost_fn(w[st["u"][k]]) / n
-    b.add(per_fn(w[st["s"][n]], w[st["x"][n]]), "g", tail[n_start:n_start + n_per])
-    if nq:
-        avg_fn = _sx(lambda qn: ca.vertcat(*[r.expr for r in form.average_rows(
-            {c: qn[i] for i, c in enumerate(form.constrained_averages)})]), nq)
-        b.add(avg_fn(w[st["q"][n]]), "g", tail[n_start + n_per:])
-    track = _tracking(form, p, lay.i_p_ref, xs_phys)
-    f = _objective(form, p, n_p_full, sums, reg, track, fict, lay.params)
+    i_q = np.stack([np.concatenate([st["x"][k], st["u"][k], st["t"][k], st["f"][k]])
+                    for k in range(n)], axis=1)
+    i_a = np.stack([np.concatenate([[lay.params["wind_ref_m_s"]],
+                                    n_p_full + k * it.n_v + np.arange(it.n_v),
+                                    lay.i_p_ref[:, k * d + 1:(k + 1) * d + 1].T.ravel()])
+                    for k in range(n)], axis=1)
+    w, p = ca.SX.sym("w", b.n_w), ca.SX.sym("p", n_p_full + n * it.n_v)
+    s = ca.SX.sym("s", it.parts["track"].stop, n)
+    f_s = _rows_and_objective(form, coll, full, b, st, w, p, s, it, (xbound, zbound))
+    g_s = ca.vertcat(*b.rows)
+    # the NLP itself: each interval's outputs from its Newton solve, in place of s
+    wm, pm = ca.MX.sym("w", b.n_w), ca.MX.sym("p", p.shape[0])
+    qs = ca.reshape(wm[i_q.T.ravel().tolist()], it.n_q, n)
+    as_ = ca.reshape(pm[i_a.T.ravel().tolist()], it.n_a, n)
+    ys, vs = it.solve.map(n)(qs, as_)
+    fg = ca.Function("f_g_s", [w, p, ca.vec(s)], [f_s, g_s])
+    f, g = fg(wm, pm, ca.vec(ys))
     gap_cols = np.concatenate([np.concatenate([st[key][k] for key in ("x", "t", "s", "q")])
                                for k in range(1, n + 1)] + [st["s"][0]])
     return CondensedNlp(
-        nlp={"x": w, "p": p, "f": f, "g": ca.vertcat(*b.rows)}, n_w=b.n_w, n_g=b.n_g,
-        n_p_full=n_p_full, var_src=var_src,
-        row_g=np.array(b.row_g, dtype=int).reshape(-1, 2).T,
+        nlp={"x": wm, "p": pm, "f": f, "g": g}, n_w=b.n_w, n_g=b.n_g, n_p_full=n_p_full,
+        var_src=var_src, row_g=np.array(b.row_g, dtype=int).reshape(-1, 2).T,
         row_w=np.array(b.row_w, dtype=int).reshape(-1, 2).T,
         i_period=np.concatenate(st["t"]), i_state=np.stack(st["x"], axis=1),
-        i_start=np.stack(st["s"], axis=1), i_q=np.stack(st["q"], axis=1).reshape(nq, n + 1),
+        i_start=np.stack(st["s"], axis=1),
+        i_run=np.stack(st["q"], axis=1).reshape(len(carried), n + 1),
         gap_rows=np.array(b.gap, dtype=int), gap_cols=gap_cols, full=full, coll=coll,
-        carried=carried,
-        interiors=ca.Function("interiors", [w, p], [ca.horzcat(*interiors)]))
+        carried=carried, interval=it, i_q=i_q, i_a=i_a, w_s=w, p_s=p, s=s, f_s=f_s, g_s=g_s,
+        interiors=ca.Function("interiors", [wm, pm], [vs]))
 
 
-def _objective(form: CycleFormulation, p: Any, n_p_full: int, sums: dict, reg: Any,
-               track: Any, fict: Any, params: dict[str, int]) -> Any:
-    """The formulation's objective (through an SX function, called on the MX sums)."""
-    ps = ca.SX.sym("p", n_p_full)
-    avg = ca.SX.sym("avg", len(sums))
-    r, t, fi = ca.SX.sym("reg"), ca.SX.sym("track"), ca.SX.sym("fict")
-    par = {name: ps[i] for name, i in params.items()}
-    expr = form.objective(par, {a: avg[i] for i, a in enumerate(sums)}, r, t, fi)
-    fn = ca.Function("objective", [ps, avg, r, t, fi], [expr])
-    return fn(p[:n_p_full], ca.vertcat(*sums.values()), reg, track, fict)
+def _rows_and_objective(form: CycleFormulation, coll: Collocation, full: Transcription,
+                        b: _Builder, st: dict, w: Any, p: Any, s: Any, it: Interval,
+                        bounded: tuple[np.ndarray, np.ndarray]) -> Any:
+    """Add the rows of every stage to ``b`` (in terms of the intervals' outputs ``s``)
+    and return the objective."""
+    lay, d = full.layout, coll.degree
+    n = s.shape[1]
+    names = full.blocks.point.integrands
+    n_int = len(names)
+    carried = [names.index(c) for c in form.constrained_averages]
+    tail = _full_tail_rows(full)
+    x_scale = ca.DM(form.scales.state)
+    part = it.parts
+
+    def integrand(k: int, j: int, i: int) -> Any:  # point j (1-based), integrand i
+        return s[part["integrands"].start + (j - 1) * n_int + i, k]
+
+    def shares(k: int, i: int) -> Any:
+        return sum(_share(coll, n, j, integrand(k, j, i)) for j in range(1, d + 1))
+
+    start = [r.expr for r in form.start_rows(w[st["x"][0]] * x_scale)]
+    n_start = sum(e.shape[0] for e in start)
+    for k in range(n):
+        b.add(ca.vertcat(w[st["x"][k + 1]] - s[part["x_end"], k],
+                         w[st["t"][k + 1]] - w[st["t"][k]], w[st["s"][k + 1]] - w[st["s"][k]],
+                         *[w[st["q"][k + 1][c]] - w[st["q"][k][c]] - shares(k, i)
+                           for c, i in enumerate(carried)]))
+        if k == 0:
+            b.add(ca.vertcat(*start), ("g", tail[:n_start]))
+            b.add(w[st["s"][0]] - w[st["x"][0]])
+        b.add(s[part["path"], k], ("g", full.blocks.rows[it.path][:, k * d:(k + 1) * d]
+                                   .T.ravel()))
+        xb, zb = bounded
+        b.add(s[part["bounds"], k], ("w", np.concatenate(
+            [lay.i_x[xb, k * d + j] for j in range(1, d)]
+            + [lay.i_z[zb, k * d + j] for j in range(d)]).astype(int)))
+    periodic = ca.vertcat(*[r.expr for r in form.periodicity_rows(
+        w[st["s"][n]] * x_scale, w[st["x"][n]] * x_scale)])
+    b.add(periodic, ("g", tail[n_start:n_start + periodic.shape[0]]))
+    if carried:
+        b.add(ca.vertcat(*[r.expr for r in form.average_rows(
+            {c: w[st["q"][n][i]] for i, c in enumerate(form.constrained_averages)})]),
+            ("g", tail[n_start + periodic.shape[0]:]))
+    par = {name: p[i] for name, i in lay.params.items()}
+    averages = {a: sum(shares(k, i) for k in range(n)) for i, a in enumerate(form.averages)}
+    fict = sum(integrand(k, j, len(form.averages)) for k in range(n)
+               for j in range(1, d + 1)) / (n * d)
+    reg = sum(form.control_cost(w[st["u"][k]] * ca.DM(form.scales.control))
+              for k in range(n)) / n
+    ref0 = p[lay.i_p_ref[:, 0].tolist()]
+    track = (ca.sumsqr(w[st["x"][0]] - ref0) + ca.sum2(s[part["track"], :])) / (n * d + 1)
+    return form.objective(par, averages, reg, track, fict)

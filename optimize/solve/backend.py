@@ -24,6 +24,7 @@ import numpy as np
 from optimize.problem.condensed import CondensedNlp, condensed_nlp
 from optimize.problem.ocp import Bounds, Ocp
 from optimize.solve import condensed_solve
+from optimize.solve.condensed_derivatives import condensed_derivatives
 from optimize.solve.derivatives import nlp_derivatives
 
 log = logging.getLogger(__name__)
@@ -129,7 +130,7 @@ def condensed(ocp: Ocp) -> CondensedNlp:
         t0 = time.perf_counter()
         c = condensed_nlp(ocp.formulation, ocp.coll, ocp.transcription)
         ocp.solvers["condensed"] = c
-        ocp.solvers["condensed_first_order"] = condensed_solve.derivatives(c)
+        ocp.solvers["condensed_derivatives"] = condensed_derivatives(c)
         log.info("built the condensed NLP: %d variables, %d constraints in %.1f s", c.n_w,
                  c.n_g, time.perf_counter() - t0)
     return ocp.solvers["condensed"]
@@ -138,8 +139,17 @@ def condensed(ocp: Ocp) -> CondensedNlp:
 def _nlp(ocp: Ocp) -> tuple[dict, dict]:
     """The NLP a solver of ``ocp`` runs on and the derivative functions handed to IPOPT."""
     if ocp.options.solver.transcription == "condensed":
-        return condensed(ocp).nlp, {}
+        c = condensed(ocp)
+        return c.nlp, ocp.solvers["condensed_derivatives"].functions("ipopt")
     return ocp.nlp, derivatives(ocp)
+
+
+def _quiet(ocp: Ocp) -> dict:
+    """Options that keep an evaluation error quiet on the condensed NLP: a Newton solve of
+    an interval that does not converge at a trial point is an evaluation error, on which
+    the solver shortens its step (the solve's status says whether it recovered)."""
+    return {"show_eval_warnings": False} if ocp.options.solver.transcription == "condensed" \
+        else {}
 
 
 def _ipopt(ocp: Ocp, warm: bool, push: float) -> ca.Function:
@@ -174,7 +184,8 @@ def _ipopt(ocp: Ocp, warm: bool, push: float) -> ca.Function:
     _single_threaded_blas()
     nlp, given = _nlp(ocp)
     return ca.nlpsol("pumping_cycle", "ipopt", nlp,
-                     {"ipopt": ipopt, "print_time": False, "error_on_fail": False, **given})
+                     {"ipopt": ipopt, "print_time": False, "error_on_fail": False,
+                      **_quiet(ocp), **given})
 
 
 def _fatrop_derivatives(ocp: Ocp) -> dict[str, ca.Function]:
@@ -196,7 +207,8 @@ def _fatrop(ocp: Ocp, warm: bool, push: float) -> ca.Function:
         c = condensed(ocp)
         return ca.nlpsol("pumping_cycle", "fatrop", c.nlp, {
             "structure_detection": "auto", "equality": [bool(e) for e in c.equality()],
-            "fatrop": opts, "print_time": False, "error_on_fail": False})
+            "fatrop": opts, "print_time": False, "error_on_fail": False, **_quiet(ocp),
+            "cache": ocp.solvers["condensed_derivatives"].functions("fatrop")})
     return ca.nlpsol("pumping_cycle", "fatrop", ocp.nlp, {
         "structure_detection": "auto",
         "equality": [bool(e) for e in ocp.layout.equality],
@@ -271,7 +283,8 @@ def _run_condensed(ocp: Ocp, w0: np.ndarray, p: np.ndarray, bounds: Bounds, warm
     solve's)."""
     t0, c0 = time.perf_counter(), time.process_time()
     c = condensed(ocp)
-    first_order = ocp.solvers["condensed_first_order"]
+    funcs = ocp.solvers["condensed_derivatives"].functions("ipopt")
+    first_order = (funcs["grad_f"], funcs["jac_g"])
     w0_c, p_c = c.condense(w0, p)
     lam_c = (None, None)
     if warm and lam_x0 is not None and lam_g0 is not None:

@@ -40,17 +40,12 @@ def _complete(grad: np.ndarray, jac: sp.csc_matrix, lam_x: np.ndarray, lam_g: np
     return out
 
 
-def derivatives(c: CondensedNlp) -> ca.Function:
-    """``(w, p) -> (grad f, jac g)`` of the condensed NLP."""
-    w, p = c.nlp["x"], c.nlp["p"]
-    return ca.Function("condensed_first_order", [w, p],
-                       [ca.gradient(c.nlp["f"], w), ca.jacobian(c.nlp["g"], w)])
-
-
-def to_condensed(c: CondensedNlp, first_order: ca.Function, w: np.ndarray, p: np.ndarray,
-                 lam_x_full: np.ndarray, lam_g_full: np.ndarray
+def to_condensed(c: CondensedNlp, first_order: tuple[ca.Function, ca.Function],
+                 w: np.ndarray, p: np.ndarray, lam_x_full: np.ndarray, lam_g_full: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray]:
-    """Condensed ``lam_x, lam_g`` at the condensed point ``(w, p)`` from full ones."""
+    """Condensed ``lam_x, lam_g`` at the condensed point ``(w, p)`` from full ones;
+    ``first_order``: ``(w, p) -> (f, grad f)`` and ``(w, p) -> (g, jac g)`` of the
+    condensed NLP."""
     lam_x = np.zeros(c.n_w)
     own = c.var_src >= 0
     lam_x[own] = lam_x_full[c.var_src[own]]
@@ -58,14 +53,15 @@ def to_condensed(c: CondensedNlp, first_order: ca.Function, w: np.ndarray, p: np
     lam_g = np.zeros(c.n_g)
     lam_g[c.row_g[0]] = lam_g_full[c.row_g[1]]
     lam_g[c.row_w[0]] = lam_x_full[c.row_w[1]]
-    grad, jac = first_order(w, p)
-    lam_g = _complete(np.asarray(grad).ravel(), _csc(jac), lam_x, lam_g, c.gap_rows,
-                      c.gap_cols)
+    grad_fn, jac_fn = first_order
+    grad = np.asarray(grad_fn(w, p)[1]).ravel()
+    lam_g = _complete(grad, _csc(jac_fn(w, p)[1]), lam_x, lam_g, c.gap_rows, c.gap_cols)
     return lam_x, lam_g
 
 
-def to_full(c: CondensedNlp, first_order: ca.Function, w_full: np.ndarray, p_full: np.ndarray,
-            lam_x: np.ndarray, lam_g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def to_full(c: CondensedNlp, first_order: tuple[ca.Function, ca.Function],
+            w_full: np.ndarray, p_full: np.ndarray, lam_x: np.ndarray, lam_g: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray]:
     """Full ``lam_x, lam_g`` at the full point ``w_full`` from condensed ones;
     ``first_order``: ``(w, p) -> (f, grad f)`` and ``(w, p) -> (g, jac g)`` of the full
     NLP, as a pair."""

@@ -1,0 +1,120 @@
+"""The condensed transcription (each interval's collocation solved inside the interval)
+has the optima of the full Radau collocation.
+
+Truths: the pendulum's period (tests/point_mass_model.py, a closed form), the full
+collocation's own optimum of the same NLP (kite and pendulum), the KKT conditions of the
+full NLP for the multipliers carried across.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import N_COARSE
+from point_mass_model import Pendulum, pendulum_formulation, small_angle_guess
+
+from bench.cli import main
+from optimize.model.kite_model import kite_dae
+from optimize.paper_model import paper_model
+from optimize.problem.ocp import assemble, build_ocp, grid_times
+from optimize.problem.options import Discretization, OcpOptions, SolverOptions
+from optimize.problem.scenario import Scenario
+from optimize.solve import backend
+from optimize.solve.condensed_solve import _csc
+from optimize.solve.solve import solve
+
+N, DEGREE = 20, 3
+
+
+def _pendulum(solver: str, transcription: str):
+    pendulum = Pendulum()
+    form = pendulum_formulation(pendulum)
+    ocp = assemble(form, OcpOptions(Discretization(N, DEGREE), solver=SolverOptions(
+        solver=solver, transcription=transcription)))
+    period = form.scales.period_s
+    x, z = small_angle_guess(pendulum, grid_times(ocp, period), period)
+    w0 = ocp.pack(x, z[:, 1:], np.zeros((1, N)), np.zeros((2, N * DEGREE)), period)
+    p = ocp.params(0.0, {"p_ctrl_w": 0.0})
+    bounds = ocp.bounds(drive_limits=False, fix_fictitious=True, period_s=None)
+    return pendulum, ocp, backend.run(ocp, w0, p, bounds, warm=False), p
+
+
+@pytest.fixture(scope="module")
+def pendulums():
+    return {tr: _pendulum("ipopt", tr) for tr in ("collocation", "condensed")}
+
+
+def test_condensed_pendulum_has_the_exact_period_and_the_full_optimum(pendulums):
+    pendulum, full_ocp, full, _ = pendulums["collocation"]
+    _, ocp, raw, p = pendulums["condensed"]
+    assert raw.success, raw.status
+    assert ocp.layout.kind == "ipopt"  # results stay in the full layout
+    period = ocp.unpack(raw.w)["period_s"]
+    # Radau collocation of degree 3 on 20 intervals: the period to 1e-5 relative, and
+    # the same NLP's optimum as the full transcription to the solver's tolerance
+    assert period == pytest.approx(pendulum.period_s(), rel=1e-5)
+    assert period == pytest.approx(full_ocp.unpack(full.w)["period_s"], rel=1e-5)
+    assert raw.objective == pytest.approx(full.objective, abs=1e-8)
+    # the expanded solution satisfies every row of the full NLP (collocation included)
+    # to the solver's tolerance (1e-6) on the condensed continuity rows
+    bounds = ocp.bounds(drive_limits=False, fix_fictitious=True, period_s=None)
+    g = ocp.constraint_values(raw.w, p)
+    assert np.max(np.maximum(np.maximum(bounds[2] - g, g - bounds[3]), 0.0)) < 1e-5
+
+
+def test_multipliers_carried_to_the_full_layout_satisfy_its_kkt_conditions(pendulums):
+    _, ocp, raw, p = pendulums["condensed"]
+    d = backend.derivatives(ocp)
+    grad = np.asarray(d["grad_f"](raw.w, p)[1]).ravel()
+    jac = _csc(d["jac_g"](raw.w, p)[1])
+    stationarity = grad + jac.T @ raw.lam_g + raw.lam_x
+    assert np.max(np.abs(stationarity)) < 1e-6 * max(1.0, np.max(np.abs(grad)))
+
+
+def test_condense_and_expand_are_inverse(pendulums):
+    _, ocp, raw, p = pendulums["condensed"]
+    c = backend.condensed(ocp)
+    w_c, p_c = c.condense(raw.w, p)
+    # a condensed vector whose gap rows hold exactly: each interval from the end of the
+    # one before (a shooting roll-out from the optimum's start and controls)
+    it = c.interval
+    for k in range(c.n_intervals):
+        y, _ = it.solve(w_c[c.i_q[:, k]], p_c[c.i_a[:, k]])
+        w_c[c.i_state[:, k + 1]] = np.asarray(y).ravel()[it.parts["x_end"]]
+    w_full = c.expand(w_c, p_c)
+    back, p_back = c.condense(w_full, p)
+    assert np.max(np.abs(back - w_c)) < 1e-12
+    assert np.max(np.abs(c.expand(back, p_back) - w_full)) < 1e-12
+
+
+def test_fatrop_on_the_condensed_nlp_has_the_same_optimum(pendulums):
+    _, _, full, _ = pendulums["collocation"]
+    pendulum, ocp, raw, _ = _pendulum("fatrop", "condensed")
+    assert raw.success, raw.status
+    assert ocp.unpack(raw.w)["period_s"] == pytest.approx(pendulum.period_s(), rel=1e-5)
+    assert raw.objective == pytest.approx(full.objective, abs=1e-8)
+
+
+def test_condensed_kite_warm_solve_has_the_full_optimum(coarse_mechanical, coarse_elec_lim):
+    # the same warm start (the coarse mechanical optimum, the full layout's vectors) on
+    # the condensed NLP: the electrical optimum with drive limits to 0.05 W
+    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(Discretization(n_intervals=N_COARSE),
+                               solver=SolverOptions(transcription="condensed")))
+    res = solve(ocp, Scenario(7.0, "electrical", True), coarse_mechanical.warm)
+    assert res.success, res.status
+    assert res.avg_p_elec_w == pytest.approx(coarse_elec_lim.avg_p_elec_w, abs=0.05)
+    assert res.period_s == pytest.approx(coarse_elec_lim.period_s, rel=1e-5)
+    assert res.max_violation < 1e-6
+
+
+def test_a_bad_transcription_is_refused_with_the_choices():
+    with pytest.raises(ValueError, match="transcription must be one of collocation, "
+                                         "condensed, got 'shooting'"):
+        SolverOptions(transcription="shooting")
+
+
+def test_the_command_line_refuses_a_bad_transcription_with_exit_2(capsys):
+    with pytest.raises(SystemExit) as done:
+        main(["optimize", "--transcription", "shooting"])
+    assert done.value.code == 2
+    assert "--transcription: invalid choice: 'shooting'" in capsys.readouterr().err
