@@ -146,12 +146,27 @@ def _numbers(data: dict, fields: _Fields) -> tuple:
 
 
 def _check_thermal(thermal: dict, fields: _Fields) -> None:
-    """A thermal model with a finite positive resistance, time constant and capacitance."""
+    """A thermal model with a finite positive resistance, time constant and capacitance,
+    and (when it states them) modes and ladder nodes with positive elements, one per node."""
     for key in ("r_th_k_per_w", "tau_th_s", "c_th_j_per_k"):
-        value = thermal.get(key)
-        if not is_finite_number(value) or value <= 0:
-            raise fields.bad(f"thermal.{key}", f"{value!r}: a thermal model needs a positive "
-                             "resistance, time constant and capacitance", "a finite number > 0")
+        _positive(thermal, key, "thermal", fields)
+    nodes = thermal.get("nodes", 1)
+    for part, keys in (("modes", ("r_k_per_w", "tau_s")), ("ladder", ("c_j_per_k", "r_k_per_w"))):
+        if part not in thermal:
+            continue
+        if not isinstance(thermal[part], list) or len(thermal[part]) != nodes:
+            raise fields.bad(f"thermal.{part}", f"not a list of {nodes} nodes",
+                             "one entry per node (thermal.nodes)")
+        for k, node in enumerate(thermal[part]):
+            for key in keys:
+                _positive(node, key, f"thermal.{part}[{k}]", fields)
+
+
+def _positive(block: dict, key: str, where: str, fields: _Fields) -> None:
+    value = block.get(key) if isinstance(block, dict) else None
+    if not is_finite_number(value) or value <= 0:
+        raise fields.bad(f"{where}.{key}", f"{value!r}: a thermal model needs a positive "
+                         "resistance, time constant and capacitance", "a finite number > 0")
 
 
 def power_model_from_dict(data: Any, path: str | Path | None = None) -> PowerModel:

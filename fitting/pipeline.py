@@ -18,6 +18,7 @@ from fitting import figures
 from fitting.domain import BAND_FRAC, quadrant_envelopes
 from fitting.efficiency import MaskingRules
 from fitting.efficiency_map import efficiency_summary, gridded_map
+from fitting.envelope_check import envelope_check
 from fitting.extra_terms import extra_terms_check
 from fitting.fit_folder import FIT_MARKERS, FitContents, write_fit_files
 from fitting.points import QUADRANTS, OperatingPoints, load_points
@@ -343,6 +344,9 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     statistics = fitted.statistics(options.weighting, frame, pts.statement(), outliers)
     envelopes = quadrant_envelopes(frame, masking.envelope_band_frac)
     statistics["validity"] = validity_statement(pts.points.counts(), envelopes, pts.min_points)
+    checked = envelope_check(frame, drive)
+    if checked is not None:
+        statistics["envelope_check"] = checked
     provenance = pts.provenance(options.command_line)
     model = fitted.power_model(pts.measured, envelopes, masking=masking.to_dict(),
                                statistics=statistics, provenance=provenance,
@@ -353,7 +357,8 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     repeats = repeatability(frame, masking)
     notes = ([thermal_note] + drive_notes + [v["note"] for v in statistics["validity"].values()
                             if not v["measured"]]
-             + [d["note"] for d in (outliers, loss_repeat, repeats) if d.get("note")])
+             + [d["note"] for d in (outliers, loss_repeat, repeats, checked or {})
+                if d.get("note")])
     emap = gridded_map(frame, masking, model=model)
     efficiency = efficiency_summary(emap, frame, masking, loss_repeat, repeats, envelopes)
     summary = fitted.summary(model, statistics, drive.to_dict(), notes, efficiency,

@@ -27,6 +27,7 @@ import numpy as np
 
 from fitting.terms import Term, powers
 from kernel.display import html_view, text_view
+from kernel.drive_envelope import ENVELOPE_KEYS, envelope_problem
 from kernel.drive_rating import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS
 from kernel.units import RPM_PER_RAD_S
 
@@ -322,7 +323,11 @@ def model_problem(model: PowerModel) -> str | None:
                 return f"drive.{key}: a finite positive number expected, got {v!r}"
         if not isinstance(model.drive.get("source", ""), str):
             return "drive.source: a string expected"
-        unknown = set(model.drive) - {*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS, "source"}
+        problem = envelope_problem(*(model.drive.get(k) for k in ENVELOPE_KEYS))
+        if problem is not None:
+            return "drive.{}: {} ({} expected)".format(*problem)
+        unknown = set(model.drive) - {*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS, *ENVELOPE_KEYS,
+                                      "source"}
         if unknown:
             return f"drive: unknown key {sorted(unknown)[0]!r}"
         if not math.isclose(model.drive["nominal_power_w"], model.nominal_power_w, rel_tol=1e-12):

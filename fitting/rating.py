@@ -1,6 +1,7 @@
 """The drive rating a fit uses: from the command line, the store manifest, or the data.
 
-Order per key (``nominal_power_w``, ``max_speed_rpm``, ``max_torque_nm``):
+Order per key (``nominal_power_w``, ``max_speed_rpm``, ``max_torque_nm``; the
+torque-speed envelope, when the campaign states one, comes from the manifest only):
 
 1. a ``bench fit`` option (``--nominal-power-w`` ...);
 2. the store manifest: the ``drive`` that ``bench ingest`` recorded for the
@@ -18,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from bench.store.manifest import read_manifest
+from kernel.drive_envelope import ENVELOPE_KEYS
 from kernel.drive_rating import DRIVE_KEYS, DriveRating
 from kernel.errors import InputError
 
@@ -30,17 +32,17 @@ def _from_manifest(store: Path, session_ids: list[str]) -> tuple[dict, dict]:
     notes: set[str] = set()
     for sid in session_ids:
         drive = (manifest["sessions"].get(sid) or {}).get("drive") or {}
-        for key in DRIVE_KEYS:
+        for key in (*DRIVE_KEYS, *ENVELOPE_KEYS):
             if key not in drive:
                 continue
             origin = str((drive.get("sources") or {}).get(key, f"manifest, session {sid}"))
             if key in values and values[key] != drive[key]:
                 raise InputError(store / "manifest.json",
                                  f"sessions disagree on the drive rating {key}: "
-                                 f"{values[key]:g} ({where[key]}) vs {drive[key]:g} ({origin})",
+                                 f"{values[key]} ({where[key]}) vs {drive[key]} ({origin})",
                                  column=key, expected="one drive per fit (one drive.toml per "
                                  "campaign, or the same values in each session.toml)")
-            values[key] = float(drive[key])
+            values[key] = float(drive[key]) if key in DRIVE_KEYS else drive[key]
             where.setdefault(key, origin)
         if drive.get("source"):
             notes.add(str(drive["source"]))
@@ -95,12 +97,15 @@ def resolve_drive(store: str | Path, frame: pd.DataFrame,
             notes.append(f"no {key} in the campaign (drive.toml or session.toml): the measured "
                          f"maximum {stand_in[key]:.6g} stands in for it")
     by_origin: dict[str, list[str]] = {}
-    for key in DRIVE_KEYS:
-        by_origin.setdefault(origin[key], []).append(key)
+    for key in (*DRIVE_KEYS, *ENVELOPE_KEYS):
+        if key in values:
+            by_origin.setdefault(origin[key], []).append(key)
     parts = [f"{', '.join(keys)} from {where}" for where, keys in by_origin.items()]
     source = "; ".join(parts + info["notes"])
     try:
-        rating = DriveRating(**{k: values[k] for k in DRIVE_KEYS}, source=source)
+        rating = DriveRating(**{k: values[k] for k in DRIVE_KEYS},
+                             **{k: values[k] for k in ENVELOPE_KEYS if k in values},
+                             source=source)
     except ValueError as exc:
         raise InputError(None, f"drive rating: {exc}") from None
     return rating, notes

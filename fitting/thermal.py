@@ -1,4 +1,4 @@
-"""A lumped first-order thermal model of the drive's winding, fitted from the bench logs.
+"""A lumped thermal model of the drive's winding, fitted from the bench logs.
 
 Two steps, each a least-squares fit (docs/schemas.md section 3, ``thermal``):
 
@@ -9,12 +9,14 @@ Two steps, each a least-squares fit (docs/schemas.md section 3, ``thermal``):
    ``b / c2`` [1/K] with ``c2`` the ``T^2`` coefficient at ``theta_ref``. ``g`` is
    taken as an auxiliary load on the same grid connection (a thermostat-controlled
    cabinet fan): electrical power that does not heat the winding.
-2. **The winding's heat balance** (time series of the sessions that log it):
-   ``tau_th dtheta/dt = theta_amb + r_th q - theta`` with the heat
+2. **The winding's heat balance** (time series of the sessions that log it): a
+   network of one or two nodes (:mod:`fitting.thermal_network`; one node is
+   ``tau_th dtheta/dt = theta_amb + r_th q - theta``) under the heat
    ``q = p_elec - p_mech - g(theta)`` held over bins of :data:`BIN_S` (the ODE's exact
    zero-order-hold solution), one ambient and one start temperature per session,
-   ``r_th`` and ``tau_th`` shared; the measured bin means are compared with the
-   simulated bin means (scipy ``least_squares``).
+   the network shared; the measured bin means are compared with the simulated bin
+   means (scipy ``least_squares``). How many nodes: held-out prediction and the
+   one-standard-error rule (:mod:`fitting.thermal_selection`).
 
 Intervals are 95 % (normal quantile): the points' covariance for step 1; for step 2
 the Gauss-Newton covariance inflated by the residuals' lag-1 autocorrelation
@@ -26,8 +28,16 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import least_squares
-from scipy.signal import lfilter
+
+from fitting.thermal_network import (
+    Z95,
+    delta_sd,
+    fit_network,
+    interval,
+    ladder_of,
+    mean_time_constant_s,
+)
+from fitting.thermal_selection import predict, select_nodes
 
 #: reference temperature of the copper coefficient [degC] (IEC 60034-2-1 reference 20 degC
 #: for the resistance before correction)
@@ -36,10 +46,10 @@ THETA_REF_C = 20.0
 AUX_KNOTS_C = (30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0, 100.0, 120.0)
 #: bin of the time series [s] (the winding's time constant is minutes)
 BIN_S = 5.0
-#: normal quantile of a two-sided 95 % interval
-Z95 = 1.959963984540054
-#: version of the ``thermal`` block of power_model.json
-THERMAL_VERSION = 1
+#: version of the ``thermal`` block of power_model.json (2: networks of 1 or 2 nodes)
+THERMAL_VERSION = 2
+#: names of the ladder's nodes, from the winding outwards
+NODE_NAMES = ("winding", "housing")
 
 
 def _aux_basis(theta_c: np.ndarray) -> np.ndarray:
@@ -96,7 +106,7 @@ def copper_fit(points: pd.DataFrame) -> dict:
     aux_coef[keep[i_c2 + 2:]] = coef[i_c2 + 2:]
     return {
         "copper_temp_coeff_per_k": float(k),
-        "copper_temp_coeff_per_k_ci95": _interval(k, np.sqrt(var_k)),
+        "copper_temp_coeff_per_k_ci95": interval(k, np.sqrt(var_k)),
         "c2_w_per_nm2": float(c2),
         "aux": {"theta_ref_c": THETA_REF_C, "knots_c": list(AUX_KNOTS_C),
                 "linear_w_per_k": float(aux_coef[0]),
@@ -140,78 +150,55 @@ def binned_series(samples: pd.DataFrame, aux: dict, bin_s: float = BIN_S) -> dic
     return {"heat_w": heat_b, "theta_c": means(th), "bin_s": bin_s}
 
 
-def simulate_bins(heat_w, theta0_c: float, ambient_c: float, r_th_k_per_w: float,
-                  tau_th_s: float, bin_s: float = BIN_S) -> np.ndarray:
-    """Winding temperature averaged over each bin [degC] (exact first-order solution,
-    heat held over each bin), starting at ``theta0_c`` at the first bin's start."""
-    q = np.asarray(heat_w, dtype=float)
-    a = np.exp(-bin_s / tau_th_s)
-    steady = ambient_c + r_th_k_per_w * q
-    # theta at the bin starts: theta[k+1] = a theta[k] + (1 - a) steady[k]
-    ends, _ = lfilter([1.0 - a], [1.0, -a], steady, zi=[a * theta0_c])
-    starts = np.concatenate([[theta0_c], ends[:-1]])
-    # mean over a bin of steady + (start - steady) exp(-s / tau)
-    return steady + (starts - steady) * tau_th_s / bin_s * (1.0 - a)
+def _resolved(fit: dict) -> bool:
+    """Every mode's resistance and time constant has a 95 % interval above zero."""
+    sd = np.sqrt(np.maximum(np.diag(fit["cov"]), 0.0))
+    return bool(np.all(fit["modes"].ravel() - Z95 * sd > 0))
 
 
-def _interval(value: float, sd: float) -> list[float]:
-    return [float(value - Z95 * sd), float(value + Z95 * sd)]
-
-
-def fit_first_order(series: dict[str, dict]) -> dict:
-    """Step 2: ``r_th``, ``tau_th`` (shared) and each session's ambient and start temperature.
-
-    Parameters
-    ----------
-    series : dict
-        session id -> :func:`binned_series` output.
-
-    Returns
-    -------
-    dict
-        ``r_th_k_per_w``, ``tau_th_s``, ``c_th_j_per_k`` and each ``*_ci95``,
-        ``ambient_c`` per session, ``rms_k``, ``n_bins``, ``residual_lag1_corr``.
-    """
-    sids = list(series)
-    s = len(sids)
-    bin_s = next(iter(series.values()))["bin_s"]
-
-    def residuals(p):
-        r_th, tau = p[0], p[1]
-        out = []
-        for i, sid in enumerate(sids):
-            d = series[sid]
-            sim = simulate_bins(d["heat_w"], p[2 + s + i], p[2 + i], r_th, tau, bin_s)
-            out.append((sim - d["theta_c"])[np.isfinite(d["theta_c"])])
-        return np.concatenate(out)
-
-    first = [float(d["theta_c"][np.isfinite(d["theta_c"])][0]) for d in series.values()]
-    x0 = np.r_[0.05, 600.0, first, first]
-    lo = np.r_[1e-6, bin_s, [-50.0] * s, [-50.0] * s]
-    hi = np.r_[10.0, 1e6, [250.0] * s, [250.0] * s]
-    sol = least_squares(residuals, x0, bounds=(lo, hi), x_scale=np.r_[0.01, 100.0,
-                                                                        [1.0] * (2 * s)])
-    r = sol.fun
-    rho = float(np.corrcoef(r[:-1], r[1:])[0, 1])
-    inflate = (1.0 + max(rho, 0.0)) / (1.0 - min(max(rho, 0.0), 0.99))
-    cov = r @ r / (r.size - sol.x.size) * np.linalg.pinv(sol.jac.T @ sol.jac) * inflate
-    r_th, tau = float(sol.x[0]), float(sol.x[1])
-    c_th = tau / r_th
-    # delta method on C = tau / R
-    grad = np.array([-tau / r_th**2, 1.0 / r_th])
-    sd_c = float(np.sqrt(grad @ cov[:2, :2] @ grad))
+def _network_fields(fit: dict) -> dict:
+    """The block's network keys: totals, modes and ladder with their 95 % intervals."""
+    x, cov = fit["modes"].ravel(), fit["cov"]
+    n = fit["modes"].shape[0]
+    r_th = float(fit["modes"][:, 0].sum())
+    tau = mean_time_constant_s(fit["modes"])
+    sd_r, sd_tau, sd_c = delta_sd(
+        lambda v: [v[0::2].sum(), mean_time_constant_s(v.reshape(-1, 2)),
+                   mean_time_constant_s(v.reshape(-1, 2)) / v[0::2].sum()], x, cov)
+    ladder = ladder_of(fit["modes"])
+    sd_ladder = delta_sd(lambda v: ladder_of(v.reshape(-1, 2)).ravel(), x, cov)
+    sd_modes = np.sqrt(np.maximum(np.diag(cov), 0.0))
     return {
-        "r_th_k_per_w": r_th, "r_th_k_per_w_ci95": _interval(r_th, np.sqrt(cov[0, 0])),
-        "tau_th_s": tau, "tau_th_s_ci95": _interval(tau, np.sqrt(cov[1, 1])),
-        "c_th_j_per_k": c_th, "c_th_j_per_k_ci95": _interval(c_th, sd_c),
-        "ambient_c": {sid: float(sol.x[2 + i]) for i, sid in enumerate(sids)},
-        "rms_k": float(np.sqrt(np.mean(r**2))), "n_bins": int(r.size),
-        "residual_lag1_corr": rho, "solver_status": sol.message,
+        "r_th_k_per_w": r_th, "r_th_k_per_w_ci95": interval(r_th, sd_r),
+        "tau_th_s": tau, "tau_th_s_ci95": interval(tau, sd_tau),
+        "c_th_j_per_k": tau / r_th, "c_th_j_per_k_ci95": interval(tau / r_th, sd_c),
+        "modes": [{"r_k_per_w": float(r), "r_k_per_w_ci95": interval(r, sd_modes[2 * i]),
+                   "tau_s": float(t), "tau_s_ci95": interval(t, sd_modes[2 * i + 1])}
+                  for i, (r, t) in enumerate(fit["modes"])],
+        "ladder": [{"node": NODE_NAMES[i] if i < len(NODE_NAMES) else f"node_{i + 1}",
+                    "c_j_per_k": float(c), "c_j_per_k_ci95": interval(c, sd_ladder[2 * i]),
+                    "r_k_per_w": float(r), "r_k_per_w_ci95": interval(r, sd_ladder[2 * i + 1])}
+                   for i, (c, r) in enumerate(ladder[:n])],
     }
 
 
+def _chosen_fit(series: dict[str, dict]) -> tuple[dict, dict]:
+    """The network the selection chooses, fitted on every session, with fewer nodes
+    while a mode's interval reaches zero (the data do not resolve it)."""
+    selection = select_nodes(series)
+    n = selection["chosen_nodes"]
+    fit = fit_network(series, n)
+    while n > 1 and not _resolved(fit):
+        n -= 1
+        fit = fit_network(series, n)
+        selection["note"] = f"{n + 1} nodes chosen, but a mode's interval reaches zero"
+    selection["fitted_nodes"] = n
+    return fit, selection
+
+
 def fit_thermal(points: pd.DataFrame, samples_of) -> tuple[dict | None, str]:
-    """Both steps on a store's operating points and samples, and a line saying what came out.
+    """The winding's thermal model from a store's points and samples, and a line saying
+    what came out.
 
     Parameters
     ----------
@@ -224,9 +211,9 @@ def fit_thermal(points: pd.DataFrame, samples_of) -> tuple[dict | None, str]:
     -------
     thermal : dict or None
         The ``thermal`` block of power_model.json (docs/schemas.md section 3): the
-        parameters with their 95 % intervals; None without a winding temperature, or
-        when the fit implies a non-physical model (a resistance or time constant
-        whose interval reaches zero).
+        network the selection chooses (:mod:`fitting.thermal_selection`), with 95 %
+        intervals; None without a winding temperature, or when even one node is not
+        resolved (a resistance or time constant whose interval reaches zero).
     note : str
         ``"no thermal model: <why>"`` or the fitted parameters in one line.
     """
@@ -236,36 +223,54 @@ def fit_thermal(points: pd.DataFrame, samples_of) -> tuple[dict | None, str]:
     copper = copper_fit(pts)
     series = {sid: binned_series(samples_of(sid), copper["aux"])
               for sid in sorted(pts.session_id.unique())}
-    first = fit_first_order(series)
-    if not first["r_th_k_per_w_ci95"][0] > 0 or not first["tau_th_s_ci95"][0] > 0:
+    fit, selection = _chosen_fit(series)
+    sessions = ", ".join(sorted(series))
+    if not _resolved(fit):
+        r, tau = fit["modes"][0]
         return None, ("no thermal model: the fit implies a non-positive thermal resistance "
-                      f"or time constant (r_th {first['r_th_k_per_w']:.3g} K/W, tau_th "
-                      f"{first['tau_th_s']:.3g} s, an interval reaching zero) from the "
-                      f"winding temperatures (t_winding_c) of {', '.join(sorted(series))}")
-    ambients = list(first["ambient_c"].values())
-    note = (f"thermal model (1 node, {', '.join(sorted(series))}): r_th "
-            f"{first['r_th_k_per_w']:.4g} K/W, tau_th {first['tau_th_s']:.4g} s, "
+                      f"or time constant (r_th {r:.3g} K/W, tau_th {tau:.3g} s, an interval "
+                      f"reaching zero) from the winding temperatures (t_winding_c) of "
+                      f"{sessions}")
+    block = _block(fit, copper, pts, selection, sorted(series))
+    note = (f"thermal model ({block['nodes']} node{'s' * (block['nodes'] > 1)}, {sessions}): "
+            f"r_th {block['r_th_k_per_w']:.4g} K/W, tau_th {block['tau_th_s']:.4g} s, "
             f"copper {copper['copper_temp_coeff_per_k']:.4g} /K")
+    return block, note
+
+
+def _block(fit: dict, copper: dict, pts: pd.DataFrame, selection: dict,
+           sessions: list[str]) -> dict:
+    """The ``thermal`` block of power_model.json of a fitted network."""
+    n = fit["modes"].shape[0]
     return {
-        "version": THERMAL_VERSION, "nodes": 1,
-        "model": "tau_th_s dtheta/dt = ambient_c + r_th_k_per_w * heat_w - theta; "
-                 "heat_w = p_elec_w - p_mech_w - aux_w(theta); copper T^2 term x "
-                 "(1 + copper_temp_coeff_per_k (theta - theta_ref_c))",
-        **{k: first[k] for k in ("r_th_k_per_w", "r_th_k_per_w_ci95", "tau_th_s",
-                                 "tau_th_s_ci95", "c_th_j_per_k", "c_th_j_per_k_ci95")},
+        "version": THERMAL_VERSION, "nodes": n,
+        "model": "theta = ambient_c + sum_i theta_i, modes[i].tau_s dtheta_i/dt = "
+                 "modes[i].r_k_per_w * heat_w - theta_i (the ladder: the same network "
+                 "node by node); heat_w = p_elec_w - p_mech_w - aux_w(theta); copper T^2 "
+                 "term x (1 + copper_temp_coeff_per_k (theta - theta_ref_c))",
+        **_network_fields(fit),
         "copper_temp_coeff_per_k": copper["copper_temp_coeff_per_k"],
         "copper_temp_coeff_per_k_ci95": copper["copper_temp_coeff_per_k_ci95"],
         "theta_ref_c": THETA_REF_C,
         "theta_points_c": float(pts.t_winding_c.mean()),
-        "ambient_c": float(np.mean(ambients)),
-        "session_ambient_c": first["ambient_c"],
+        "ambient_c": float(np.mean(list(fit["ambient_c"].values()))),
+        "session_ambient_c": fit["ambient_c"],
         "aux_load": copper["aux"],
-        "statistics": {"rms_k": first["rms_k"], "n_bins": first["n_bins"], "bin_s": BIN_S,
-                       "residual_lag1_corr": first["residual_lag1_corr"],
+        "selection": selection,
+        "statistics": {"rms_k": fit["rms_k"], "n_bins": fit["n_bins"], "bin_s": BIN_S,
+                       "residual_lag1_corr": fit["residual_lag1_corr"],
                        "power_rms_w": copper["rms_w"], "n_points": copper["n_points"],
-                       "solver_status": first["solver_status"]},
-        "sessions": sorted(series),
-    }, note
+                       "solver_status": fit["solver_status"]},
+        "sessions": sessions,
+    }
+
+
+def modes_of(thermal: dict) -> np.ndarray:
+    """A thermal block's modes ``(n, 2)`` (resistance [K/W], time constant [s]); a
+    block written before networks had more than one node is its one mode."""
+    if "modes" in thermal:
+        return np.array([[m["r_k_per_w"], m["tau_s"]] for m in thermal["modes"]])
+    return np.array([[thermal["r_th_k_per_w"], thermal["tau_th_s"]]])
 
 
 def predict_session(thermal: dict, samples: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
@@ -280,8 +285,4 @@ def predict_session(thermal: dict, samples: pd.DataFrame) -> tuple[np.ndarray, n
         Bin means [degC] (measured NaN where the sensor gave none).
     """
     d = binned_series(samples, thermal["aux_load"])
-    measured = d["theta_c"]
-    theta0 = float(measured[np.isfinite(measured)][0])
-    predicted = simulate_bins(d["heat_w"], theta0, thermal["ambient_c"],
-                              thermal["r_th_k_per_w"], thermal["tau_th_s"], d["bin_s"])
-    return predicted, measured
+    return predict(modes_of(thermal), thermal["ambient_c"], d), d["theta_c"]

@@ -8,10 +8,14 @@ at the top level of its ``session.toml``::
     max_speed_rpm = 3000.0        # [rpm], drum side: the optimizer's default speed limit
     max_torque_nm = 48.0          # [N m], drum side: the optimizer's default torque limit
     source = "datasheet / paper section ..."   # drive.toml only: where the numbers come from
+    base_speed_rpm = 1000.0       # drive.toml only, optional: the torque-speed envelope,
+                                  # or a table envelope_speed_rpm / envelope_torque_nm
+                                  # (kernel.drive_envelope)
 
 ``bench ingest`` records what applies to each session in the store manifest;
 ``bench fit`` writes it into ``power_model.json`` (``drive``); ``bench optimize``
-takes its default limits from there.
+takes its default limits from there. ``bench fit`` checks the measured points against
+the envelope; the optimizer flies the envelope its system file states.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from kernel.drive_envelope import ENVELOPE_KEYS, envelope_problem
 from kernel.errors import InputError
 from kernel.files import read_toml
 
@@ -58,6 +63,11 @@ class DriveRating:
         candidates' peak torque). None: not stated.
     max_p_elec_w : float or None
         Largest electrical power magnitude (grid connection) [W]; None: no limit.
+    base_speed_rpm : float or None
+        Torque-speed envelope: constant power above this speed [rpm]
+        (:mod:`kernel.drive_envelope`); None: not stated.
+    envelope_speed_rpm, envelope_torque_nm : tuple of float or None
+        Torque-speed envelope as a table of speeds [rpm] and largest torques [N m].
     """
 
     nominal_power_w: float
@@ -67,6 +77,9 @@ class DriveRating:
     continuous_torque_nm: float | None = None
     overload: float | None = None
     max_p_elec_w: float | None = None
+    base_speed_rpm: float | None = None
+    envelope_speed_rpm: tuple[float, ...] | None = None
+    envelope_torque_nm: tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         for key in (*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS):
@@ -79,13 +92,27 @@ class DriveRating:
             object.__setattr__(self, key, float(value))
         if self.overload is not None and self.overload < 1:
             raise ValueError(f"overload = {self.overload!r}: a factor >= 1 expected")
+        problem = envelope_problem(self.base_speed_rpm, self.envelope_speed_rpm,
+                                   self.envelope_torque_nm)
+        if problem is not None:
+            raise ValueError("{} = {}: {} expected".format(*problem))
+        for key in ENVELOPE_KEYS[1:]:
+            if getattr(self, key) is not None:
+                object.__setattr__(self, key, tuple(float(v) for v in getattr(self, key)))
+
+    @property
+    def envelope(self) -> dict:
+        """The envelope keys it states (lists for the table)."""
+        return {k: (list(v) if isinstance(v, tuple) else v)
+                for k in ENVELOPE_KEYS if (v := getattr(self, k)) is not None}
 
     def to_dict(self) -> dict:
         """``{nominal_power_w, max_speed_rpm, max_torque_nm, source}`` and the optional
         keys that are stated."""
         optional = {k: getattr(self, k) for k in OPTIONAL_DRIVE_KEYS
                     if getattr(self, k) is not None}
-        return {**{k: getattr(self, k) for k in DRIVE_KEYS}, **optional, "source": self.source}
+        return {**{k: getattr(self, k) for k in DRIVE_KEYS}, **optional, **self.envelope,
+                "source": self.source}
 
     @property
     def rms_torque_limit_nm(self) -> float | None:
@@ -114,7 +141,8 @@ def drive_toml(rating: DriveRating) -> str:
             f"nominal_power_w = {rating.nominal_power_w!r}  # [W]\n"
             f"max_speed_rpm = {rating.max_speed_rpm!r}  # [rpm], drum side\n"
             f"max_torque_nm = {rating.max_torque_nm!r}  # [N m], drum side\n"
-            f"source = {_toml_string(rating.source)}\n")
+            + "".join(f"{k} = {v!r}\n" for k, v in rating.envelope.items())
+            + f"source = {_toml_string(rating.source)}\n")
 
 
 def _toml_string(text: str) -> str:
@@ -156,9 +184,9 @@ def load_drive_file(path: str | Path) -> dict:
     path = Path(path)
     raw = read_toml(path)
     for key in raw:
-        if key not in (*DRIVE_KEYS, "source"):
+        if key not in (*DRIVE_KEYS, *ENVELOPE_KEYS, "source"):
             raise InputError(path, f"unknown key {key!r}", column=key,
-                             expected=", ".join((*DRIVE_KEYS, "source")))
+                             expected=", ".join((*DRIVE_KEYS, *ENVELOPE_KEYS, "source")))
     keys = rating_keys(raw, path)
     if not keys:
         raise InputError(path, "no drive rating", expected="at least one of "
@@ -166,7 +194,34 @@ def load_drive_file(path: str | Path) -> dict:
     source = raw.get("source", "")
     if not isinstance(source, str):
         raise InputError(path, f"bad value {source!r}", column="source", expected="a string")
-    return {**keys, "source": source}
+    return {**keys, **envelope_keys(raw, path), "source": source}
+
+
+def envelope_keys(table: dict, path: Path | str | None) -> dict:
+    """The torque-speed envelope a TOML table states (:mod:`kernel.drive_envelope`),
+    checked; lists for the table.
+
+    Raises
+    ------
+    InputError
+        A value that is not a number (or a list of numbers), or an envelope that is not
+        one (naming file and key).
+    """
+    out = {k: table[k] for k in ENVELOPE_KEYS if k in table}
+    for key, value in out.items():
+        values = value if key != "base_speed_rpm" and isinstance(value, list) else [value]
+        if key != "base_speed_rpm" and not isinstance(value, list) or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                for v in values):
+            raise InputError(path, f"bad value {value!r}", column=key,
+                             expected="a number [rpm]" if key == "base_speed_rpm"
+                             else "a list of numbers")
+    problem = envelope_problem(out.get("base_speed_rpm"), out.get("envelope_speed_rpm"),
+                               out.get("envelope_torque_nm"))
+    if problem is not None:
+        key, what, expected = problem
+        raise InputError(path, f"bad value {what}", column=key, expected=expected)
+    return out
 
 
 def find_drive_file(session_folder: Path, roots: list[Path]) -> Path | None:

@@ -57,7 +57,7 @@ def power_model_section(log: InputLog, fit: Path, model: PowerModel | None,
     selection = log.read(fit, SELECTION_FILE, read_selection)
     out = {"name": None, "coefficients": [], "interval_note": "", "statistics": [],
            "fit_statistics": [], "power_map": None, "residuals": None, "selection": None,
-           "selection_note": None, "extra_terms": None}
+           "selection_note": None, "extra_terms": None, "thermal": None}
     if selection is not None:
         out["selection"] = frame_table(selection)
     out["extra_terms"] = extra_terms_rows((summary or {}).get("extra_terms_check"))
@@ -70,6 +70,7 @@ def power_model_section(log: InputLog, fit: Path, model: PowerModel | None,
         out["coefficients"], out["interval_note"] = coefficient_rows(model)
         out["fit_statistics"] = flatten(model.statistics or {})
         out["provenance"] = flatten(model.provenance or {})
+        out["thermal"] = thermal_tables(model.thermal)
         if points is not None and len(points):
             measured = points["p_elec_w"].to_numpy(float)
             residual = measured - model.p_elec_w(points["speed_rpm"].to_numpy(float),
@@ -80,6 +81,36 @@ def power_model_section(log: InputLog, fit: Path, model: PowerModel | None,
                                                              model.nominal_power_w)
     out["missing"] = lacking + missing_since(log, start)
     return out
+
+
+def thermal_tables(thermal: dict | None) -> dict | None:
+    """The winding's thermal model (power_model.json ``thermal``) as two tables: its
+    parameters with 95 % intervals, and the held-out check of each candidate network;
+    None without a thermal model."""
+    if not isinstance(thermal, dict):
+        return None
+
+    def row(name, block, key, unit):
+        lo, hi = block.get(f"{key}_ci95") or (math.nan, math.nan)
+        return [name, fmt(block.get(key), sig=4), f"[{fmt(lo, sig=4)}, {fmt(hi, sig=4)}]", unit]
+    rows = [row("steady resistance winding to ambient", thermal, "r_th_k_per_w", "K/W"),
+            row("time constant (mean, with more nodes)", thermal, "tau_th_s", "s"),
+            row("copper temperature coefficient", thermal, "copper_temp_coeff_per_k", "1/K")]
+    for node in thermal.get("ladder", []):
+        rows += [row(f"{node['node']}: heat capacity", node, "c_j_per_k", "J/K"),
+                 row(f"{node['node']}: resistance outwards", node, "r_k_per_w", "K/W")]
+    params = {"columns": ["parameter", "value", "95 % interval", "unit"], "rows": rows,
+              "truncated": 0, "notes": []}
+    selection = thermal.get("selection") or {}
+    check = {"columns": ["nodes", "held-out RMS [K]", "standard error [K]", "per part [K]"],
+             "rows": [[str(c["nodes"]), fmt(c["cv_rms_k"], sig=3), fmt(c["cv_rms_k_se"], sig=3),
+                       ", ".join(f"{k} {fmt(v, sig=3)}" for k, v in c["held_out_rms_k"].items())]
+                      for c in selection.get("candidates", [])],
+             "truncated": 0,
+             "notes": [f"chosen: {thermal.get('nodes', 1)} node(s); rule: "
+                       f"{selection.get('rule', 'none recorded (a model fitted with one node)')}"]
+             + ([selection["note"]] if selection.get("note") else [])}
+    return {"nodes": thermal.get("nodes", 1), "parameters": params, "check": check}
 
 
 def extra_terms_rows(check) -> dict | None:

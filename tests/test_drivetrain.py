@@ -9,6 +9,8 @@ Truths: closed forms of a prescribed reel motion ``dl = A sin(W t)`` (the kineti
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -188,3 +190,20 @@ def test_the_optimal_cycle_stays_within_the_drive(heavy_cycle):
     # the kinetic energy's share of the shaft power averages to zero over the cycle
     kinetic = t["p_mech_w"] - (-t["l_m"] * t["nu_n_m"] * t["dl_m_s"])
     assert abs((t["weight"] * kinetic).sum()) < 1e-3 * (t["weight"] * kinetic.abs()).sum()
+
+
+def test_an_envelope_the_power_model_states_and_the_system_does_not_is_said():
+    """A power model whose campaign's drive.toml stated an envelope, flown with a system
+    file that states none: drive_in_force says it is not flown; with the system's own
+    envelope nothing is said."""
+    from optimize.system.drive_in_force import drive_in_force
+
+    model = dataclasses.replace(paper_model(), drive={
+        "nominal_power_w": 8200.0, "max_speed_rpm": 1500.0, "max_torque_nm": 78.0,
+        "base_speed_rpm": 1000.0, "source": "test drive.toml"})
+    plain = system_from_dict(_system(), "plain.toml")
+    lines = drive_in_force(plain, model=model).lines()
+    assert any("states a torque-speed envelope (base_speed_rpm)" in line and "not flown" in line
+               for line in lines), lines
+    own = system_from_dict(_system(drive__base_speed_rpm=1200.0), "own.toml")
+    assert drive_in_force(own, model=model).envelope_note == ""

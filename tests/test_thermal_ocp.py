@@ -72,16 +72,18 @@ def test_without_a_thermal_rating_the_ocp_is_unchanged():
     assert "not applied" in line and "no thermal model" in line
 
 
+#: elec-lim options of the cycles below: 20 intervals, the winding limited to LIMIT_C
+HOT_OPTIONS = OcpOptions(Discretization(n_intervals=20)).replace(limits={
+    "max_winding_temperature_c": LIMIT_C, "max_speed_rpm": 1500.0,
+    "max_torque_nm": 78.0, "nominal_power_w": 8200.0, "max_rms_torque_nm": 60.0})
+
+
 @pytest.fixture(scope="module")
 def hot_cycle():
     """elec-lim at 10 m/s, 20 intervals, the winding limited to 40 degC: the problem
     without the temperature (with an RMS rating of 60 N m), then the one with it
     warm-started from that optimum (as a cold start does)."""
-    system = load_system()
-    opts = OcpOptions(Discretization(n_intervals=20)).replace(limits={
-        "max_winding_temperature_c": LIMIT_C, "max_speed_rpm": 1500.0,
-        "max_torque_nm": 78.0, "nominal_power_w": 8200.0, "max_rms_torque_nm": 60.0})
-    ocp = build_ocp(kite_dae(*system.model_params()), _model(), opts)
+    ocp = build_ocp(kite_dae(*load_system().model_params()), _model(), HOT_OPTIONS)
     scenario = Scenario.of_kind("elec-lim", 10.0)
     base = start(ocp.base, scenario)
     return ocp, solve(ocp, scenario, warm_from_base(ocp, base.warm, 10.0)), base
@@ -109,11 +111,9 @@ def test_the_cycle_mean_temperature_is_the_heat_balance(hot_cycle):
                                        abs=1e-3)
 
 
-def test_fifty_cycles_forward_stay_on_the_periodic_temperature(hot_cycle):
-    """RK45 over 50 repeated cycles from the OCP's theta(0), the heat recomputed at the
-    simulated temperature from the cycle's speed, torque and shaft power: ends within
-    0.5 K of the OCP's periodic temperature."""
-    ocp, hot, _ = hot_cycle
+def _heat_of(ocp, hot):
+    """``heat(time, theta_winding)`` [W] of the optimal cycle: the power model at the
+    cycle's speed and torque, its copper term at ``theta_winding``, less the shaft power."""
     tr, th, model = hot.trajectory, ocp.formulation.thermal, ocp.drive_model
     t = tr["time_s"].to_numpy()
     period = float(hot.period_s)
@@ -122,20 +122,67 @@ def test_fifty_cycles_forward_stay_on_the_periodic_temperature(hot_cycle):
     torque = tr["torque_nm"].to_numpy()
     a = th.copper_temp_coeff_per_k
 
-    def rhs(time, y):
+    def heat(time, theta_c):
         tt = np.mod(time, period)
-        q0 = np.interp(tt, t, base_heat, period=period)
         torq = np.interp(tt, t, torque, period=period)
-        drift = th.copper_w_per_nm2 * torq**2 * (
-            (1 + a * (y[0] - th.theta_ref_c)) / (1 + a * (th.theta_model_c - th.theta_ref_c))
+        return np.interp(tt, t, base_heat, period=period) + th.copper_w_per_nm2 * torq**2 * (
+            (1 + a * (theta_c - th.theta_ref_c)) / (1 + a * (th.theta_model_c - th.theta_ref_c))
             - 1)
-        return [(th.ambient_c + th.r_th_k_per_w * (q0 + drift) - y[0]) / th.tau_th_s]
+    return heat
 
-    theta_end = tr[STATE].to_numpy()[-1]  # the last Radau point is the period's end
+
+def test_fifty_cycles_forward_stay_on_the_periodic_temperature(hot_cycle):
+    """RK45 over 50 repeated cycles from the OCP's theta(0), the heat recomputed at the
+    simulated temperature from the cycle's speed, torque and shaft power: ends within
+    0.5 K of the OCP's periodic temperature."""
+    ocp, hot, _ = hot_cycle
+    th, heat, period = ocp.formulation.thermal, _heat_of(ocp, hot), float(hot.period_s)
+
+    def rhs(time, y):
+        return [(th.ambient_c + th.r_th_k_per_w * heat(time, y[0]) - y[0]) / th.tau_th_s]
+
+    theta_end = hot.trajectory[STATE].to_numpy()[-1]  # the last Radau point is the period's end
     sim = solve_ivp(rhs, (0.0, 50 * period), [theta_end], rtol=1e-9, atol=1e-9,
                     max_step=period / 40)
     assert math.isfinite(sim.y[0, -1])
     assert abs(sim.y[0, -1] - theta_end) < 0.5
+
+
+#: a two-node network of the same steady resistance (0.05 K/W): the winding 1.5 kJ/K,
+#: 0.015 K/W to a 15 kJ/K housing, 0.035 K/W from it to the ambient
+LADDER = ((1500.0, 0.015), (15000.0, 0.035))
+
+
+def test_a_two_node_network_is_periodic_in_the_cycle_and_its_winding_limited(hot_cycle):
+    """The same problem with a two-node network, warm-started from the same optimum
+    without heat: the winding (not the housing) reaches the limit, and 50 cycles of an
+    RK45 integration of the node equations (C dtheta/dt = heat flows) from the OCP's end
+    temperatures end within 0.5 K of them at both nodes."""
+    _, _, base = hot_cycle
+    (c_w, r_wh), (c_h, r_ha) = LADDER
+    thermal = {**THERMAL, "nodes": 2, "ladder": [{"node": "winding", "c_j_per_k": c_w,
+                                                   "r_k_per_w": r_wh},
+                                                  {"node": "housing", "c_j_per_k": c_h,
+                                                   "r_k_per_w": r_ha}]}
+    model = dataclasses.replace(paper_model(), thermal=thermal)
+    ocp = build_ocp(kite_dae(*load_system().model_params()), model, HOT_OPTIONS)
+    assert ocp.dae.states.names[-2:] == (STATE, "theta_housing_c")
+    hot = solve(ocp, Scenario.of_kind("elec-lim", 10.0), warm_from_base(ocp, base.warm, 10.0))
+    assert hot.success, hot.status
+    winding = hot.trajectory[STATE].to_numpy()
+    housing = hot.trajectory["theta_housing_c"].to_numpy()
+    assert winding.max() == pytest.approx(LIMIT_C, abs=1e-3)
+    assert "winding_temperature_limit" in hot.active_bounds
+    assert housing.max() < LIMIT_C - 1.0
+    heat, amb, period = _heat_of(ocp, hot), THERMAL["ambient_c"], float(hot.period_s)
+
+    def rhs(time, y):
+        between = (y[0] - y[1]) / r_wh
+        return [(heat(time, y[0]) - between) / c_w, (between - (y[1] - amb) / r_ha) / c_h]
+
+    end = [winding[-1], housing[-1]]
+    sim = solve_ivp(rhs, (0.0, 50 * period), end, rtol=1e-9, atol=1e-9, max_step=period / 40)
+    assert np.max(np.abs(sim.y[:, -1] - end)) < 0.5
 
 
 @pytest.mark.parametrize("line,needle", [

@@ -122,7 +122,8 @@ def grid_points(drive: TruthDrive, quadrants=("motor", "generator"), *, n_speeds
 
 
 def write_table_campaign(folder, drive: TruthDrive, points: pd.DataFrame,
-                         source: str = "synthetic rated drive (bench.synth.rated_drive)") -> None:
+                         source: str = "synthetic rated drive (bench.synth.rated_drive)",
+                         base_speed_rpm: float | None = None) -> None:
     """Write points as a campaign of operating-point-table sessions plus its ``drive.toml``.
 
     One session per ``session_id`` of ``points`` (docs/schemas.md §1: ``session.toml``
@@ -138,6 +139,8 @@ def write_table_campaign(folder, drive: TruthDrive, points: pd.DataFrame,
         As :func:`grid_points` returns.
     source : str
         The ``source`` line of ``drive.toml``.
+    base_speed_rpm : float, optional
+        A torque-speed envelope for ``drive.toml`` to state (constant power above it).
     """
     from pathlib import Path
 
@@ -147,7 +150,7 @@ def write_table_campaign(folder, drive: TruthDrive, points: pd.DataFrame,
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     rating = DriveRating(drive.nominal_power_w, drive.max_speed_rpm, drive.max_torque_nm,
-                         source=source)
+                         source=source, base_speed_rpm=base_speed_rpm)
     write_text_atomic(folder / DRIVE_FILE, drive_toml(rating))
     for sid, sub in points.groupby("session_id"):
         session = folder / str(sid)

@@ -143,10 +143,11 @@ class Drivetrain:
 #: the similarity law of :func:`carry_power_model`, as recorded in a carried model
 SIMILARITY_LAW = ("P_elec(n, T) = P_mech(n, T) + k_n k_T L_base(n / k_n, T / k_T), "
                   "L_base = P_elec_base - P_mech_base: c_ij -> k_n^(1-i) k_T^(1-j) c_ij; "
-                  "thermal: r_th -> r_th / (k_n k_T), c_th -> k_n k_T c_th, tau_th, copper "
-                  "coefficient and temperatures kept")
-#: the thermal block's keys the law scales, and by which power of ``k_n k_T``
-_THERMAL_SCALING = {"r_th_k_per_w": -1, "c_th_j_per_k": 1}
+                  "thermal: every resistance r -> r / (k_n k_T), every capacity c -> "
+                  "k_n k_T c, time constants, copper coefficient and temperatures kept")
+#: the thermal block's keys the law scales, and by which power of ``k_n k_T`` (in the
+#: block and in each of its ``modes`` and ``ladder`` nodes)
+_THERMAL_SCALING = {"r_th_k_per_w": -1, "c_th_j_per_k": 1, "r_k_per_w": -1, "c_j_per_k": 1}
 
 
 def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
@@ -174,9 +175,9 @@ def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
 
     A thermal model (``base.thermal``, :mod:`fitting.thermal`) is carried so that the
     winding reaches the base drive's temperature at corresponding points: the losses
-    grow by ``k_n k_T``, so the thermal resistance falls by it and the heat capacity
-    grows by it (``k_n k_T`` base drives side by side, each with its own cooling path
-    and mass); the time constant, the copper coefficient, the reference and ambient
+    grow by ``k_n k_T``, so every thermal resistance falls by it and every heat capacity
+    grows by it, node by node (``k_n k_T`` base drives side by side, each with its own
+    cooling path and mass); the time constants, the copper coefficient, the reference and ambient
     temperatures are kept. This is how a rating scales with the design (the continuous
     torque ``k_T T_cont`` at the same temperature rise); a larger machine cooled by
     its surface alone (``r_th ~ 1/k^2`` of its length scale ``k``) runs hotter than this.
@@ -233,12 +234,21 @@ def carry_thermal(thermal: dict | None, power_ratio: float) -> dict | None:
     times the losses at corresponding points (see :func:`carry_power_model`)."""
     if thermal is None:
         return None
-    out = dict(thermal)
+    out = _scaled(thermal, power_ratio)
+    for key in ("modes", "ladder"):
+        if key in out:
+            out[key] = [_scaled(node, power_ratio) for node in out[key]]
+    out["carried"] = {"power_ratio": power_ratio, "law": SIMILARITY_LAW}
+    return out
+
+
+def _scaled(block: dict, power_ratio: float) -> dict:
+    """``block`` with the keys of :data:`_THERMAL_SCALING` (and their intervals) scaled."""
+    out = dict(block)
     for key, power in _THERMAL_SCALING.items():
         factor = power_ratio**power
         if key in out:
             out[key] = out[key] * factor
         if f"{key}_ci95" in out:
             out[f"{key}_ci95"] = [v * factor for v in out[f"{key}_ci95"]]
-    out["carried"] = {"power_ratio": power_ratio, "law": SIMILARITY_LAW}
     return out

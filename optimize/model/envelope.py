@@ -17,6 +17,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from kernel.drive_envelope import envelope_problem, largest_torque_nm
 from kernel.units import RPM_PER_RAD_S
 
 #: the table's kinks are rounded over this fraction of its last speed (the envelope
@@ -27,13 +28,6 @@ ROUNDING_FRACTION = 0.005
 def constant_power_w(max_torque_nm: float, base_speed_rpm: float) -> float:
     """The power [W] of the constant-power region above the base speed: ``T_max w_base``."""
     return max_torque_nm * base_speed_rpm / RPM_PER_RAD_S
-
-
-def base_speed_torque_nm(speed_rpm: np.ndarray, max_torque_nm: float,
-                         base_speed_rpm: float) -> np.ndarray:
-    """Largest torque [N m] at ``speed_rpm`` of a drive with a base speed (numpy)."""
-    speed = np.maximum(np.abs(np.asarray(speed_rpm, dtype=float)), 1e-12)
-    return np.minimum(max_torque_nm, max_torque_nm * base_speed_rpm / speed)
 
 
 @dataclass(frozen=True)
@@ -53,17 +47,14 @@ class EnvelopeTable:
     torques_nm: tuple[float, ...]
 
     def __post_init__(self) -> None:
-        s, t = np.asarray(self.speeds_rpm), np.asarray(self.torques_nm)
-        if len(s) != len(t) or len(s) < 2 or s[0] != 0 or np.any(np.diff(s) <= 0):
-            raise ValueError(f"envelope speeds must rise from 0 with one torque each, got "
-                             f"{self.speeds_rpm} / {self.torques_nm}")
-        if np.any(t <= 0) or np.any(np.diff(t) > 0):
-            raise ValueError(f"envelope torques must be positive, not rising: {self.torques_nm}")
+        problem = envelope_problem(None, self.speeds_rpm, self.torques_nm)
+        if problem is not None:
+            raise ValueError("{}: {} ({} expected)".format(*problem))
 
     def torque_nm(self, speed_rpm: np.ndarray) -> np.ndarray:
         """The table's largest torque [N m] at ``|speed_rpm|`` (numpy, exact)."""
-        return np.interp(np.abs(np.asarray(speed_rpm, dtype=float)), self.speeds_rpm,
-                         self.torques_nm)
+        return largest_torque_nm(speed_rpm, np.inf, speeds_rpm=self.speeds_rpm,
+                                 torques_nm=self.torques_nm)
 
     def smooth_torque_nm(self, speed_rpm: Any) -> Any:
         """A smooth lower bound of the table's torque (CasADi expression of ``speed_rpm``).
@@ -103,7 +94,7 @@ def envelope_torque_nm(limits: Any, speed_rpm: np.ndarray) -> np.ndarray:
     torque-speed envelope (a table's smooth lower bound), else its torque limit.
     ``limits``: :class:`optimize.problem.options.Limits` (or the same fields)."""
     if limits.base_speed_rpm is not None:
-        return base_speed_torque_nm(speed_rpm, limits.max_torque_nm, limits.base_speed_rpm)
+        return largest_torque_nm(speed_rpm, limits.max_torque_nm, limits.base_speed_rpm)
     if limits.envelope_speed_rpm is not None:
         return EnvelopeTable(limits.envelope_speed_rpm, limits.envelope_torque_nm
                              ).smooth_values_nm(speed_rpm)
@@ -117,7 +108,5 @@ def envelope_curve(limits: Any, points: int = 241) -> tuple[np.ndarray, np.ndarr
     if not has_envelope(limits) or limits.max_speed_rpm is None:
         return None
     speed = np.linspace(-limits.max_speed_rpm, limits.max_speed_rpm, points)
-    if limits.base_speed_rpm is not None:
-        return speed, base_speed_torque_nm(speed, limits.max_torque_nm, limits.base_speed_rpm)
-    table = EnvelopeTable(limits.envelope_speed_rpm, limits.envelope_torque_nm)
-    return speed, np.minimum(table.torque_nm(speed), limits.max_torque_nm)
+    return speed, largest_torque_nm(speed, limits.max_torque_nm, limits.base_speed_rpm,
+                                    limits.envelope_speed_rpm, limits.envelope_torque_nm)

@@ -1,39 +1,45 @@
-"""The drive's winding temperature in the cycle: a first-order thermal state beside the
-kite's, and the copper losses at that temperature.
+"""The drive's winding temperature in the cycle: a thermal network beside the kite's
+state, and the copper losses at that temperature.
 
-The fitted one-node model of ``bench fit`` (``power_model.json`` ``thermal``,
-docs/schemas.md section 3)::
+The fitted network of ``bench fit`` (``power_model.json`` ``thermal``, docs/schemas.md
+section 3) as a ladder of nodes from the winding outwards (one node, or the winding
+and the housing), each node ``k`` with its heat capacity ``c_k`` and the resistance
+``r_k`` to the next node (the last: to the ambient)::
 
-    tau_th dtheta/dt = theta_amb + r_th q - theta,     q = p_elec - p_mech
+    tau_k dtheta_k/dt = theta_(k+1) + r_k q_k - theta_k,    tau_k = r_k c_k
 
-with the heat ``q`` [W] the drive's losses at the winding temperature ``theta``
-[degC]. The copper loss is the power model's ``T^2`` term; it holds at the mean winding
-temperature of the operating points it was fitted on (``theta_points_c``) and scales
-with the copper's resistance, ``(1 + a (theta - theta_ref)) / (1 + a (theta_points -
-theta_ref))`` (IEC 60034-2-1 resistance correction, ``a`` the fitted coefficient).
+with ``q_0 = q`` the heat [W], the drive's losses at the winding temperature
+``theta_0`` [degC], ``q_k = (theta_(k-1) - theta_k) / r_(k-1)`` the heat from the node
+before, and ``theta_n`` the ambient. One node is ``tau_th dtheta/dt = theta_amb + r_th q
+- theta``. The copper loss is the power model's ``T^2`` term; it holds at the mean
+winding temperature of the operating points it was fitted on (``theta_points_c``) and
+scales with the copper's resistance, ``(1 + a (theta - theta_ref)) / (1 + a (theta_points
+- theta_ref))`` (IEC 60034-2-1 resistance correction, ``a`` the fitted coefficient).
 The heat is all of the power model's losses: the part the fit takes as an auxiliary
 load outside the winding (a fan) heats it here too, which errs on the warm side.
 
-With a periodic boundary condition on ``theta`` the cycle's temperature is its cyclic
+With periodic boundary conditions on the nodes the cycle's temperature is its cyclic
 steady state: the cycle flown for hours (IEC 60034-1 duty type S6). Because the
-time constant (minutes) is long against a cycle (seconds), the temperature ripples
-by a fraction of a kelvin about ``theta_amb + r_th mean(q)``.
+time constants (minutes) are long against a cycle (seconds), the winding ripples
+by a fraction of a kelvin about ``theta_amb + r_th mean(q)``, ``r_th = sum r_k``.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
 import numpy as np
+from scipy.linalg import expm
 
 from optimize.model.variables import Variables
 
-#: the thermal state's name (the unit in the name, :mod:`optimize.model.variables`)
+#: the winding temperature's state (the unit in the name, :mod:`optimize.model.variables`)
 STATE = "theta_winding_c"
+#: the states of a ladder's nodes from the winding outwards (beyond them ``theta_node_<k>_c``)
+NODE_STATES = (STATE, "theta_housing_c")
 #: the thermal state's typical magnitude for scaling [K]
 SCALE_K = 50.0
 #: the thermal state's range [degC]: only keeps the solver in range (the limit of the
@@ -44,16 +50,21 @@ RANGE_C = (-100.0, 400.0)
 COPPER_TERM = (0, 2)
 
 
+def node_states(n: int) -> tuple[str, ...]:
+    """The state names of an ``n``-node ladder, from the winding outwards."""
+    return tuple(NODE_STATES[k] if k < len(NODE_STATES) else f"theta_node_{k + 1}_c"
+                 for k in range(n))
+
+
 @dataclass(frozen=True)
 class WindingThermal:
-    """The winding's one-node thermal model and its limit.
+    """The winding's thermal network and its limit.
 
     Parameters
     ----------
-    r_th_k_per_w : float
-        Thermal resistance winding to ambient [K/W].
-    tau_th_s : float
-        Thermal time constant [s].
+    ladder : tuple of (float, float)
+        Per node from the winding: the resistance to the next node (the last: to the
+        ambient) [K/W] and its time constant ``r_k c_k`` [s].
     ambient_c : float
         Ambient (or coolant) temperature [degC].
     copper_temp_coeff_per_k : float
@@ -68,8 +79,7 @@ class WindingThermal:
         Largest winding temperature [degC], the drive's continuous rating.
     """
 
-    r_th_k_per_w: float
-    tau_th_s: float
+    ladder: tuple[tuple[float, float], ...]
     ambient_c: float
     copper_temp_coeff_per_k: float
     theta_ref_c: float
@@ -78,9 +88,9 @@ class WindingThermal:
     max_c: float
 
     def __post_init__(self) -> None:
-        for name in ("r_th_k_per_w", "tau_th_s"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        if not self.ladder or not all(r > 0 and tau > 0 for r, tau in self.ladder):
+            raise ValueError(f"every node needs a resistance and time constant > 0, got "
+                             f"{self.ladder}")
         if not self.max_c > self.ambient_c:
             raise ValueError(f"the winding limit {self.max_c} degC is not above the ambient "
                              f"{self.ambient_c} degC")
@@ -94,12 +104,51 @@ class WindingThermal:
         terms = [tuple(t) for t in drive_model.terms]
         copper = (drive_model.coefficients_rpm[terms.index(COPPER_TERM)]
                   if COPPER_TERM in terms else 0.0)
-        return cls(r_th_k_per_w=float(th["r_th_k_per_w"]), tau_th_s=float(th["tau_th_s"]),
+        if th.get("nodes", 1) == 1:
+            ladder = ((float(th["r_th_k_per_w"]), float(th["tau_th_s"])),)
+        else:
+            ladder = tuple((float(n["r_k_per_w"]), float(n["r_k_per_w"] * n["c_j_per_k"]))
+                           for n in th["ladder"])
+        return cls(ladder=ladder,
                    ambient_c=float(th["ambient_c"] if ambient_c is None else ambient_c),
                    copper_temp_coeff_per_k=float(th["copper_temp_coeff_per_k"]),
                    theta_ref_c=float(th["theta_ref_c"]),
                    theta_model_c=float(th.get("theta_points_c", th["theta_ref_c"])),
                    copper_w_per_nm2=float(copper), max_c=float(max_c))
+
+    @property
+    def states(self) -> tuple[str, ...]:
+        """The nodes' state names, the winding first."""
+        return node_states(len(self.ladder))
+
+    @property
+    def r_th_k_per_w(self) -> float:
+        """Steady resistance winding to ambient [K/W]."""
+        return float(sum(r for r, _ in self.ladder))
+
+    @property
+    def tau_th_s(self) -> float:
+        """The winding's time constant [s]; with more nodes, its step response's mean
+        time constant (``-Z'(0) / Z(0)`` of the network's impedance)."""
+        if len(self.ladder) == 1:
+            return self.ladder[0][1]
+        a, b = self.matrices()
+        return float(np.linalg.solve(a, np.linalg.solve(a, b))[0] / self.r_th_k_per_w)
+
+    def matrices(self) -> tuple[np.ndarray, np.ndarray]:
+        """``A``, ``b`` of the nodes' rises over the ambient, ``dx/dt = A x + b q``."""
+        n = len(self.ladder)
+        a, b = np.zeros((n, n)), np.zeros(n)
+        for k, (r, tau) in enumerate(self.ladder):
+            a[k, k] -= 1.0 / tau
+            if k + 1 < n:
+                a[k, k + 1] += 1.0 / tau
+            if k > 0:  # the heat from the node before, r_k (theta_(k-1) - theta_k) / r_(k-1)
+                g = r / self.ladder[k - 1][0] / tau
+                a[k, k - 1] += g
+                a[k, k] -= g
+        b[0] = self.ladder[0][0] / self.ladder[0][1]
+        return a, b
 
     def copper_drift_w(self, torque_nm: Any, theta_c: Any) -> Any:
         """Change of the copper loss [W] from the power model's temperature to ``theta_c``."""
@@ -108,41 +157,53 @@ class WindingThermal:
                   / (1 + a * (self.theta_model_c - self.theta_ref_c)))
         return self.copper_w_per_nm2 * torque_nm**2 * (factor - 1)
 
-    def rate_k_s(self, theta_c: Any, heat_w: Any) -> Any:
-        """``dtheta/dt`` [K/s] at the temperature ``theta_c`` and the heat ``heat_w``."""
-        return (self.ambient_c + self.r_th_k_per_w * heat_w - theta_c) / self.tau_th_s
+    def rates_k_s(self, theta_c: list, heat_w: Any) -> list:
+        """``dtheta_k/dt`` [K/s] of the nodes at ``theta_c`` (one per node) and the heat
+        ``heat_w`` [W] into the winding."""
+        n, out = len(self.ladder), []
+        for k, (r, tau) in enumerate(self.ladder):
+            after = theta_c[k + 1] if k + 1 < n else self.ambient_c
+            inflow = heat_w if k == 0 else (theta_c[k - 1] - theta_c[k]) / self.ladder[k - 1][0]
+            out.append((after + r * inflow - theta_c[k]) / tau)
+        return out
 
     def steady_c(self, heat_w: float) -> float:
-        """Steady temperature [degC] under a constant heat [W]."""
+        """Steady winding temperature [degC] under a constant heat [W]."""
         return self.ambient_c + self.r_th_k_per_w * heat_w
+
+    def steady_nodes_c(self, heat_w: float) -> np.ndarray:
+        """Steady temperature [degC] of every node under a constant heat [W]."""
+        r = np.array([r for r, _ in self.ladder])
+        return self.ambient_c + heat_w * np.cumsum(r[::-1])[::-1]
 
 
 def with_winding_temperature(base: Any, heat_w: ca.Function, thermal: WindingThermal) -> Any:
-    """The model ``base`` (a :class:`optimize.model.kite_model.KiteDae`) with the winding
-    temperature appended to its state, periodic over the cycle.
+    """The model ``base`` (a :class:`optimize.model.kite_model.KiteDae`) with the thermal
+    network's nodes appended to its state (the winding first), periodic over the cycle.
 
     Parameters
     ----------
     base : KiteDae
     heat_w : casadi.Function
-        ``(x, z, theta_c) -> heat [W]`` on ``base``'s state and algebraic variables.
+        ``(x, z, theta_c) -> heat [W]`` on ``base``'s state and algebraic variables,
+        at the winding temperature ``theta_c``.
     thermal : WindingThermal
     """
-    n = base.states.size
-    x = ca.SX.sym("x", n + 1)
+    n, m = base.states.size, len(thermal.ladder)
+    x = ca.SX.sym("x", n + m)
     u = ca.SX.sym("u", base.controls.size)
     z = ca.SX.sym("z", base.algebraic.size)
     w = ca.SX.sym("wind_ref_m_s")
     fict = ca.SX.sym("fict", base.fictitious.size)
-    xb, theta = x[:n], x[n]
+    xb, theta = x[:n], [x[n + k] for k in range(m)]
     z_phys = base.solve_z(xb, u, w)
     outputs = base.outputs(xb, u, z, w)
     return dataclasses.replace(
         base,
-        states=Variables((*base.states.names, STATE)),
-        periodic=(*base.periodic, STATE),
+        states=Variables((*base.states.names, *thermal.states)),
+        periodic=(*base.periodic, *thermal.states),
         ode=ca.Function("ode", [x, u, z], [ca.vertcat(
-            base.ode(xb, u, z), thermal.rate_k_s(theta, heat_w(xb, z, theta)))],
+            base.ode(xb, u, z), *thermal.rates_k_s(theta, heat_w(xb, z, theta[0])))],
             ["x", "u", "z"], ["xdot"]),
         alg=ca.Function("alg", [x, u, z, w, fict], [base.alg(xb, u, z, w, fict)]),
         outputs=ca.Function("outputs", [x, u, z, w], list(outputs),
@@ -150,30 +211,42 @@ def with_winding_temperature(base: Any, heat_w: ca.Function, thermal: WindingThe
         invariants=ca.Function("invariants", [x], list(base.invariants(xb))),
         explicit_ode=ca.Function("explicit_ode", [x, u, w], [ca.vertcat(
             base.explicit_ode(xb, u, w),
-            thermal.rate_k_s(theta, heat_w(xb, z_phys, theta)))]),
+            *thermal.rates_k_s(theta, heat_w(xb, z_phys, theta[0])))]),
         solve_z=ca.Function("solve_z", [x, u, w], [z_phys]),
     )
 
 
-def periodic_temperature(times_s: np.ndarray, heat_w: np.ndarray, period_s: float,
-                         thermal: WindingThermal, substeps: int = 20) -> np.ndarray:
-    """The cyclic steady temperature [degC] at ``times_s`` of a heat profile over a cycle.
+def periodic_temperatures(times_s: np.ndarray, heat_w: np.ndarray, period_s: float,
+                          thermal: WindingThermal, substeps: int = 20) -> np.ndarray:
+    """The cyclic steady temperatures [degC] of the nodes at ``times_s`` under a heat
+    profile over a cycle, ``(nodes, len(times_s))``, the winding first.
 
     The heat [W] is linear between the given points (``times_s`` rising from 0, within
     the period) and periodic; the ODE is integrated exactly for the heat held at its
     mid value over each of ``substeps`` sub-steps per segment, and the start
-    temperature solves ``theta(T) = theta(0)`` (the map over one cycle is affine).
+    temperatures solve ``theta(T) = theta(0)`` (the map over one cycle is affine).
     """
     t = np.append(np.asarray(times_s, float), period_s)
     q = np.append(np.asarray(heat_w, float), heat_w[0])
-    gains = np.zeros(len(t))  # theta(t_k) - exp(-t_k / tau) theta(0)
+    a, b = thermal.matrices()
+    m = len(thermal.ladder)
+    gains = np.zeros((len(t), m))  # rise(t_k) - Phi(t_k) rise(0)
+    phis = [np.eye(m)]
     for k in range(len(t) - 1):
-        e = math.exp(-(t[k + 1] - t[k]) / substeps / thermal.tau_th_s)
+        e = expm(a * (t[k + 1] - t[k]) / substeps)
+        step = np.linalg.solve(a, (e - np.eye(m)) @ b)
         g = gains[k]
         for s in range(substeps):
-            g = g * e + (1 - e) * thermal.steady_c(q[k] + (q[k + 1] - q[k]) * (s + 0.5)
-                                                   / substeps)
+            g = e @ g + step * (q[k] + (q[k + 1] - q[k]) * (s + 0.5) / substeps)
         gains[k + 1] = g
-    decay = np.exp(-(t - t[0]) / thermal.tau_th_s)
-    theta0 = gains[-1] / (1 - decay[-1])
-    return (decay * theta0 + gains)[:-1]
+        phis.append(np.linalg.matrix_power(e, substeps) @ phis[-1])
+    rise0 = np.linalg.solve(np.eye(m) - phis[-1], gains[-1])
+    rises = np.array([phi @ rise0 for phi in phis]) + gains
+    return (thermal.ambient_c + rises[:-1]).T
+
+
+def periodic_temperature(times_s: np.ndarray, heat_w: np.ndarray, period_s: float,
+                         thermal: WindingThermal, substeps: int = 20) -> np.ndarray:
+    """The winding's cyclic steady temperature [degC] at ``times_s``
+    (:func:`periodic_temperatures`' first node)."""
+    return periodic_temperatures(times_s, heat_w, period_s, thermal, substeps)[0]

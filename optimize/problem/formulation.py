@@ -327,7 +327,8 @@ class Formulation:
               "aileron_rad": surf, "elevator_rad": surf, "rudder_rad": surf}
         lo = {name: -value for name, value in hi.items()}
         lo.update(r_z_m=-reach, l_m=l_lo)
-        lo[STATE], hi[STATE] = THERMAL_RANGE_C  # the solver's range: no winding limit here
+        for name in () if self.thermal is None else self.thermal.states:
+            lo[name], hi[name] = THERMAL_RANGE_C  # the solver's range: no winding limit here
         names = self.dae.states.names
         lower = np.array([-1.1 if n.startswith("dcm_") else lo[n] for n in names])
         upper = np.array([1.1 if n.startswith("dcm_") else hi[n] for n in names])

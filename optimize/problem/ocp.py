@@ -236,7 +236,8 @@ def build_ocp(
     heat = dataclasses.replace(form, thermal=thermal).heat_function()
     hot = Formulation(with_winding_temperature(dae, heat, thermal),
                       drive_model, lim, disc,
-                      dataclasses.replace(scales, state=np.append(scales.state, SCALE_K)),
+                      dataclasses.replace(scales, state=np.append(
+                          scales.state, [SCALE_K] * len(thermal.ladder))),
                       thermal)
     with_heat = assemble(hot, o, loop=loop, system=system, started=t0)
     with_heat.base = ocp
@@ -264,8 +265,9 @@ def thermal_line(drive_model: DriveModel, limits: Any, source: Any = None) -> st
     if thermal is not None:
         return (f"continuous rating: winding temperature <= {thermal.max_c:g} degC at "
                 f"{thermal.ambient_c:.4g} degC ambient, a periodic state of the cycle "
-                f"(thermal model r_th {thermal.r_th_k_per_w:.4g} K/W, tau_th "
-                f"{thermal.tau_th_s:.4g} s), in place of the RMS-torque row")
+                f"(thermal model of {len(thermal.ladder)} node{'s' * (len(thermal.ladder) > 1)}: "
+                f"r_th {thermal.r_th_k_per_w:.4g} K/W, tau_th {thermal.tau_th_s:.4g} s), "
+                "in place of the RMS-torque row")
     rms = ("RMS torque <= " + f"{limits.max_rms_torque_nm:g} N m"
            if limits.max_rms_torque_nm is not None else "none stated")
     if limit is not None:

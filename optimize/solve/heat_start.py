@@ -4,7 +4,7 @@ An OCP whose formulation adds the winding temperature to the kite's state
 (:func:`optimize.problem.ocp.build_ocp` with a thermal rating) keeps the problem
 without it as ``ocp.base``. A cold start solves ``base`` (stored guess or homotopy),
 adds to its optimum the cyclic steady temperature of its losses
-(:func:`optimize.model.thermal.periodic_temperature`, the copper term at that
+(:func:`optimize.model.thermal.periodic_temperatures`, the copper term at that
 temperature by a fixed-point iteration) and solves the full problem from there.
 """
 
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from optimize.model.thermal import periodic_temperature
+from optimize.model.thermal import periodic_temperatures
 from optimize.problem.ocp import Ocp
 from optimize.solve.result import Solution, carry_over
 
@@ -21,7 +21,8 @@ ITERATIONS = 4
 
 
 def temperature_guess(ocp: Ocp, solution: Solution, wind_ref_m_s: float) -> np.ndarray:
-    """The winding temperature [degC] at the state grid of ``ocp.base``'s ``solution``.
+    """The thermal nodes' temperatures [degC] at the state grid of ``ocp.base``'s
+    ``solution``, ``(nodes, N d + 1)``, the winding first.
 
     Parameters
     ----------
@@ -45,12 +46,13 @@ def temperature_guess(ocp: Ocp, solution: Solution, wind_ref_m_s: float) -> np.n
     theta = np.full(n * d, thermal.steady_c(float(np.mean(heat0))))
     for _ in range(ITERATIONS):
         heat = heat0 + thermal.copper_drift_w(out["torque_nm"], theta)
-        at = periodic_temperature(times, np.roll(heat, 1), sol["period_s"], thermal)
-        theta = np.roll(at, -1)  # back to the Radau points (the end is the start)
-    return np.concatenate([[theta[-1]], theta])
+        at = periodic_temperatures(times, np.roll(heat, 1), sol["period_s"], thermal)
+        nodes = np.roll(at, -1, axis=1)  # back to the Radau points (the end is the start)
+        theta = nodes[0]
+    return np.hstack([nodes[:, -1:], nodes])
 
 
 def warm_from_base(ocp: Ocp, solution: Solution, wind_ref_m_s: float) -> Solution:
     """``ocp.base``'s ``solution`` in ``ocp``'s layout with its winding temperature."""
     theta = temperature_guess(ocp, solution, wind_ref_m_s)
-    return carry_over(ocp.base, solution, ocp, added_x=theta[None, :])
+    return carry_over(ocp.base, solution, ocp, added_x=theta)

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from kernel.drive_envelope import ENVELOPE_KEYS
 from kernel.drive_rating import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS, DriveRating
 from kernel.errors import InputError
 
@@ -52,6 +53,9 @@ class DriveInForce:
         Why that file.
     speed_ratio, torque_ratio : float or None
         The similarity law's ratios when carried, else None.
+    envelope_note : str
+        Said when the power model's rating states a torque-speed envelope that the
+        system file does not (the OCP flies the system file's), else empty.
     """
 
     rating: DriveRating
@@ -60,6 +64,7 @@ class DriveInForce:
     losses_note: str
     speed_ratio: float | None = None
     torque_ratio: float | None = None
+    envelope_note: str = ""
 
     @property
     def carried(self) -> bool:
@@ -74,7 +79,7 @@ class DriveInForce:
             out.append(f"drive losses carried to this rating by the similarity law "
                        f"(speed x{self.speed_ratio:.4g}, torque x{self.torque_ratio:.4g}; "
                        "docs/system_file.md)")
-        return out
+        return out + ([self.envelope_note] if self.envelope_note else [])
 
     def record(self) -> dict:
         """The manifest's ``drive`` record."""
@@ -175,15 +180,16 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
         model = load_power_model(path)
     rating = rating_in_force(system, model, path)
     base = getattr(model, "drive", None)
+    env = unflown_envelope(system, base, path)
     scaling = system.drive.scaling
     if scaling == "none":
-        return DriveInForce(rating, model, path, note)
+        return DriveInForce(rating, model, path, note, envelope_note=env)
     if base is None:
         if scaling == "similarity":
             raise InputError(system.path, f'[drive] scaling = "similarity": the power model '
                              f"{path} states no rating to carry its losses from",
                              expected='a power model with a "drive" rating, or scaling = "none"')
-        return DriveInForce(rating, model, path, note)
+        return DriveInForce(rating, model, path, note, envelope_note=env)
     base_rating = (float(base["max_speed_rpm"]), float(base["max_torque_nm"]),
                    float(base["nominal_power_w"]))
     ratios = {"max_speed_rpm": rating.max_speed_rpm / base_rating[0],
@@ -209,11 +215,24 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
                 "the losses over",
                 expected='[drive] scaling = "similarity" (carry the losses to this rating, '
                          'docs/system_file.md) or scaling = "none" (use them as they are)')
-        return DriveInForce(rating, model, path, note)
+        return DriveInForce(rating, model, path, note, envelope_note=env)
     # the machine's size: speed ratio and ratio of nominal torques (nominal power / speed)
     k_n = ratios["max_speed_rpm"]
     k_t = ratios["nominal_power_w"] / k_n
     carried = carry_power_model(model, k_n, k_t, drive=rating.to_dict(),
                                 name=f"{model.name} carried to {rating.max_speed_rpm:g} rpm, "
                                      f"{rating.max_torque_nm:g} N m")
-    return DriveInForce(rating, carried, path, note, k_n, k_t)
+    return DriveInForce(rating, carried, path, note, k_n, k_t, envelope_note=env)
+
+
+def unflown_envelope(system: Any, model_drive: dict | None, path: Path) -> str:
+    """A line when the power model's rating (its campaign's ``drive.toml``) states a
+    torque-speed envelope and the system file's ``[drive]`` states none, else ``""``."""
+    stated = [k for k in ENVELOPE_KEYS if (model_drive or {}).get(k) is not None]
+    d = system.drive
+    if not stated or d.base_speed_rpm is not None or d.envelope_speed_rpm is not None:
+        return ""
+    return (f"the power model's drive rating ({path}) states a torque-speed envelope "
+            f"({', '.join(stated)}) that the system file's [drive] does not: not flown; state "
+            "base_speed_rpm or envelope_speed_rpm/envelope_torque_nm in [drive] (at the "
+            "power model's shaft) to fly it")

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from kernel.drive_envelope import envelope_problem
 from kernel.errors import InputError
 from kernel.files import parse_toml, read_text
 from optimize.system.params import AeroCoefficients
@@ -155,26 +156,13 @@ def _winding(r: _Reader) -> dict:
 def _envelope(r: _Reader) -> dict:
     """``[drive]``'s torque-speed envelope: a base speed (constant power above it) or a
     datasheet table (speeds rising from 0, largest torques falling, both at the motor
-    shaft), not both."""
+    shaft), not both (:func:`kernel.drive_envelope.envelope_problem`)."""
     base = r.number("base_speed_rpm", 0, optional=True)
     speeds = r.numbers("envelope_speed_rpm", optional=True)
-    torques = r.numbers("envelope_torque_nm", optional=speeds is None)
-    if speeds is None and torques is not None:
-        raise r.error("envelope_speed_rpm", "missing", "envelope_speed_rpm with "
-                      "envelope_torque_nm (a table of speed and largest torque)")
-    if speeds is not None:
-        if base is not None:
-            raise r.error("base_speed_rpm", "given with an envelope table",
-                          "either base_speed_rpm or envelope_speed_rpm/envelope_torque_nm")
-        if len(speeds) != len(torques):
-            raise r.error("envelope_torque_nm", f"{len(torques)} torques for {len(speeds)} "
-                          "speeds", "one torque per speed")
-        if speeds[0] != 0 or any(b <= a for a, b in zip(speeds, speeds[1:], strict=False)):
-            raise r.error("envelope_speed_rpm", f"{list(speeds)} is not monotone from 0",
-                          "speeds rising strictly from 0 rpm")
-        if min(torques) <= 0 or any(b > a for a, b in zip(torques, torques[1:], strict=False)):
-            raise r.error("envelope_torque_nm", f"{list(torques)} is not monotone",
-                          "positive torques that do not rise with speed")
+    torques = r.numbers("envelope_torque_nm", optional=True)
+    problem = envelope_problem(base, speeds, torques)
+    if problem is not None:
+        raise r.error(*problem)
     return {"base_speed_rpm": base, "envelope_speed_rpm": speeds,
             "envelope_torque_nm": torques}
 

@@ -69,6 +69,13 @@ def test_thermal_model_recovers_the_truth(thermal_fit):
     thermal, note = thermal_fit[1]
     assert note.startswith("thermal model (1 node")
     assert thermal["sessions"] == ["generator_01", "generator_02", "motor_01", "motor_02"]
+    # the truth is one node: the held-out check keeps one, and predicts every session
+    # left out of the fit within 3 K RMS (with either network)
+    selection = thermal["selection"]
+    assert selection["unit"] == "session" and selection["chosen_nodes"] == thermal["nodes"] == 1
+    for candidate in selection["candidates"]:
+        assert set(candidate["held_out_rms_k"]) == set(thermal["sessions"])
+        assert max(candidate["held_out_rms_k"].values()) < 3.0, candidate
     for key, tol in (("r_th_k_per_w", 0.10), ("tau_th_s", 0.10),
                      ("copper_temp_coeff_per_k", 0.20)):
         assert thermal[key] == pytest.approx(truth[key], rel=tol), key

@@ -71,3 +71,56 @@ def test_rated_campaign(tmp_path, case):
         assert peak["measured"]["eta"] == pytest.approx(top, abs=1e-5)  # the file's rounding
         assert abs(peak["map"]["eta"] - top) <= np.sqrt(2) * 0.002 * top + 1e-9
         assert peak["map"]["eta"] <= peak["ceiling"]["eta"] + 1e-12
+
+
+def test_bench_fit_checks_the_points_against_the_envelope_drive_toml_states(tmp_path):
+    """The 150 kW drive's points lie on and under its true envelope (constant power above
+    4000 rpm). A drive.toml that states a base speed of 3000 rpm puts every point above
+    min(T_max, T_max 3000 / |n|) + 1 % of T_max above it: bench fit counts exactly those,
+    records the envelope in power_model.json, and keeps the points; with the true base
+    speed none is above."""
+    from bench.store.read import read_points as stored_points
+    from fitting.envelope_check import envelope_check
+    from kernel.drive_rating import DriveRating
+
+    drive = EV_DRIVE
+    pts = grid_points(drive, ("motor", "generator"), noise_w=300.0, seed=7)
+    write_table_campaign(tmp_path / "campaign", drive, pts, base_speed_rpm=3000.0)
+    ingest([tmp_path / "campaign"], tmp_path / "store", progress=False)
+    summary = run_fit(tmp_path / "store", tmp_path / "fit", FitOptions(), progress=False)
+    model = load_power_model(tmp_path / "fit" / "power_model.json")
+    assert model.drive["base_speed_rpm"] == 3000.0
+    check = summary["statistics"]["envelope_check"]
+    stored = stored_points(tmp_path / "store")
+    top = np.minimum(drive.max_torque_nm,
+                     drive.max_torque_nm * 3000.0 / stored["speed_rpm"].abs())
+    expected = int((stored["torque_nm"].abs() > top + 0.01 * drive.max_torque_nm).sum())
+    assert expected > 10 and check["n_above"] == expected
+    assert check["worst"]["speed_rpm"] != 0 and any("lie above the drive's stated" in n
+                                                     for n in summary["notes"])
+    assert model.statistics["n_points"] == len(stored)  # kept in the fit
+    true = DriveRating(drive.nominal_power_w, drive.max_speed_rpm, drive.max_torque_nm,
+                       base_speed_rpm=drive.base_speed_rpm)
+    assert envelope_check(stored, true)["n_above"] == 0
+
+
+@pytest.mark.parametrize("lines,key", [
+    ("envelope_speed_rpm = [0, 3000, 12000]\nenvelope_torque_nm = [300, 320, 100]",
+     "envelope_torque_nm"),
+    ("envelope_speed_rpm = [0, 3000, 2000]\nenvelope_torque_nm = [300, 300, 100]",
+     "envelope_speed_rpm"),
+    ("base_speed_rpm = -5.0", "base_speed_rpm"),
+    ("envelope_speed_rpm = [0, 3000]", "envelope_torque_nm"),
+])
+def test_a_bad_envelope_in_drive_toml_stops_ingest_naming_the_key(tmp_path, capsys, lines,
+                                                                   key):
+    from bench.cli import main
+
+    pts = grid_points(PAPER_DRIVE, ("motor",), seed=1)
+    write_table_campaign(tmp_path / "campaign", PAPER_DRIVE, pts)
+    drive_file = tmp_path / "campaign" / "drive.toml"
+    drive_file.write_text(drive_file.read_text() + lines + "\n")
+    assert main(["ingest", str(tmp_path / "campaign"), "--store", str(tmp_path / "store")]) == 2
+    err = capsys.readouterr().err
+    assert "drive.toml" in err and key in err, err
+    assert not (tmp_path / "store" / "manifest.json").exists()
