@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import N_COARSE
 from point_mass_model import Pendulum, pendulum_formulation, small_angle_guess
 
 from bench.cli import main
@@ -98,8 +97,9 @@ def test_fatrop_on_the_condensed_nlp_has_the_same_optimum(pendulums):
 def test_condensed_kite_warm_solve_has_the_full_optimum(coarse_mechanical, coarse_elec_lim):
     # the same warm start (the coarse mechanical optimum, the full layout's vectors) on
     # the condensed NLP: the electrical optimum with drive limits to 0.05 W
-    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(Discretization(n_intervals=N_COARSE),
-                               solver=SolverOptions(transcription="condensed")))
+    n = coarse_mechanical.warm.n_intervals
+    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(
+        Discretization(n_intervals=n), solver=SolverOptions(transcription="condensed")))
     res = solve(ocp, Scenario(7.0, "electrical", True), coarse_mechanical.warm)
     assert res.success, res.status
     assert res.avg_p_elec_w == pytest.approx(coarse_elec_lim.avg_p_elec_w, abs=0.05)
