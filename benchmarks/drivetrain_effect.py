@@ -3,7 +3,7 @@
 Usage::
 
     .venv/bin/python benchmarks/drivetrain_effect.py [--cases paper-0,paper,paper-2x,ap2,megawes]
-        [--wind-grid 4:10:1.5] [--reference DIR] [--from DIR]
+        [--wind-grid 4:10:1.5] [--reference DIR] [--from DIR] [--claims]
 
 Every case is ``bench optimize --system FILE --wind-grid GRID --no-claims`` in a scratch
 folder with no ``fit_out/`` (so the system's own ``[drive]`` is in force), timed:
@@ -25,8 +25,10 @@ folder with no ``fit_out/`` (so the system's own ``[drive]`` is in force), timed
 Per case and scenario: status, P_elec, P_mech [W], period [s], the largest |reel
 acceleration| [m/s^2], the largest |shaft torque| and |tether torque| at the motor
 [N m], the largest shaft torque over the envelope in force (1 = on it), the active
-bounds, and the sweep's wall time. Writes ``benchmarks/out/drivetrain_effect.json``
-and prints Markdown tables.
+bounds, and the sweep's wall time. With ``--claims`` the paper cases also compare
+themselves with the paper's claims (``claims.csv``), printed side by side: which of
+the paper's statements the drivetrain moves. Writes
+``benchmarks/out/drivetrain_effect.json`` and prints Markdown tables.
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ import pandas as pd
 from bench.synth.writers import toml_document
 from optimize.model.envelope import envelope_torque_nm
 from optimize.problem.options import Limits
+from optimize.sweep_folder import CLAIMS_FILE, read_claims
 
 ROOT = Path(__file__).resolve().parent.parent
 SYSTEMS = ROOT / "optimize" / "data" / "systems"
@@ -116,12 +119,15 @@ def cases(ablate: bool) -> dict[str, tuple[dict, str, str]]:
     return out
 
 
-def run_case(name: str, data: dict, grid: str | None, kinds: str, folder: Path) -> dict:
-    """``bench optimize`` on one system (written next to the output) in a clean folder."""
+def run_case(name: str, data: dict, grid: str | None, kinds: str, folder: Path,
+             claims: bool = False) -> dict:
+    """``bench optimize`` on one system (written next to the output) in a clean folder
+    (with the comparison with the paper's claims when ``claims``)."""
     system = folder / f"{name}.toml"
     system.write_text(toml_document({}, data))
     args = [sys.executable, "-m", "bench.cli", "optimize", "--system", str(system),
-            "--scenarios", kinds, "--no-claims", "--out", str(folder / name)]
+            "--scenarios", kinds, "--out", str(folder / name)] + ([] if claims
+                                                                  else ["--no-claims"])
     if grid is not None:
         args += ["--wind-grid", grid]
     with tempfile.TemporaryDirectory() as cwd:
@@ -174,6 +180,21 @@ def compare(folder: Path, reference: Path) -> float:
                      for c in ("avg_p_elec_w", "avg_p_mech_w")))
 
 
+def claims_table(folder: Path, names: list[str]) -> str:
+    """The paper's claims side by side for the paper cases that wrote ``claims.csv``:
+    per claim, each case's value and verdict (markdown)."""
+    tables = {n: read_claims(folder / n).set_index("claim_id") for n in names
+              if n.startswith("paper") and (folder / n / CLAIMS_FILE).is_file()}
+    if not tables:
+        return ""
+    lines = ["| claim | " + " | ".join(tables) + " |", "|---|" + "---|" * len(tables)]
+    for claim in next(iter(tables.values())).index:
+        cells = [f"{t.loc[claim, 'ours']} ({t.loc[claim, 'verdict']})" if claim in t.index
+                 else "-" for t in tables.values()]
+        lines.append(f"| {claim} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def _markdown(rows: list[dict]) -> str:
     cols = ["case", "scenario", "status", "p_elec_w", "p_mech_w", "period_s",
             "peak_reel_acceleration_m_s2", "peak_shaft_torque_nm", "peak_tether_torque_nm",
@@ -194,6 +215,8 @@ def main() -> None:
     ap.add_argument("--reference", type=Path, help="optimize_out/ of the massless OCP")
     ap.add_argument("--from", dest="source", type=Path,
                     help="read the runs from this folder instead of running them")
+    ap.add_argument("--claims", action="store_true",
+                    help="compare the paper cases with the paper's claims (claims.csv)")
     args = ap.parse_args()
     all_cases = cases(args.ablate)
     names = [n for n in args.cases.split(",") if n] + (
@@ -204,7 +227,7 @@ def main() -> None:
         data, grid, kinds = all_cases[name]
         if args.source is None:
             print(f"running {name} ...", flush=True)
-            report["cases"][name] = run_case(name, data, grid, kinds, folder)
+            report["cases"][name] = run_case(name, data, grid, kinds, folder, args.claims)
         report["rows"] += rows_of(name, data, folder)
     if args.reference is not None and "paper-0" in names:
         report["paper_0_max_dp_w"] = compare(folder, args.reference)
@@ -215,6 +238,7 @@ def main() -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "drivetrain_effect.json").write_text(json.dumps(report, indent=1, default=str))
     print(_markdown(report["rows"]))
+    print(claims_table(folder, names))
     print(json.dumps(report["cases"], indent=1))
     if "paper_0_max_dp_w" in report:
         print(f"paper-0 against {args.reference}: max |dP| = {report['paper_0_max_dp_w']:.4f} W")
