@@ -71,8 +71,8 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "first optimum (0: the first was the better; NaN: not re-solved)",
     "active_bounds": "bounds the optimum sits on, comma-separated: period_min, period_max, "
     "tether_length_min, tether_length_max, ground_clearance, airspeed_min, airspeed_max, "
-    "tether_force_limit, reel_acceleration_limit, speed_limit, torque_limit, envelope_limit, "
-    "p_elec_limit, winding_temperature_limit ('' for none)",
+    "tether_force_limit, reel_acceleration_limit, reel_jerk_limit, speed_limit, torque_limit, "
+    "envelope_limit, p_elec_limit, winding_temperature_limit ('' for none)",
     "bound_limited": "an optimum on a bound the system did not mean to bind (period or tether "
     "length range, the winding temperature's range): the optimum is the bound's, not the "
     "kite's",

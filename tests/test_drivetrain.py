@@ -24,6 +24,7 @@ from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start
+from optimize.solve.solve import start
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.params import KiteParams
 from optimize.system.system import shipped_system_path
@@ -207,3 +208,27 @@ def test_an_envelope_the_power_model_states_and_the_system_does_not_is_said():
                for line in lines), lines
     own = system_from_dict(_system(drive__base_speed_rpm=1200.0), "own.toml")
     assert drive_in_force(own, model=model).envelope_note == ""
+
+
+def test_a_reel_jerk_limit_holds_and_is_reported_in_every_kind():
+    """[winch] max_reel_jerk_m_s3 = 50 on the paper's kite, elec-lim at 7 m/s from the
+    stored guess (whose jerk reaches 90 m/s^3): the optimum's |l'''| (the control, one
+    value per interval) stays within 50 m/s^3 at every point, sits on it, and the bound
+    is reported; the header line states it."""
+    system = system_from_dict(_system(winch__max_reel_jerk_m_s3=50.0), "jerk.toml")
+    assert "reel jerk <= 50 m/s^3 (all kinds)" in system.drivetrain_line()
+    model = paper_model()
+    options = system.ocp_options(OcpOptions(), drive_in_force(system, model=model).rating)
+    assert options.limits.max_reel_jerk_m_s3 == 50.0
+    res = start(build_ocp(kite_dae(*system.model_params()), model, options),
+                Scenario.of_kind("elec-lim", 7.0))
+    assert res.success, res.status
+    jerk = res.trajectory["dddl_m_s3"].abs()
+    assert jerk.max() <= 50.0 + 1e-6 and jerk.max() > 49.9
+    assert "reel_jerk_limit" in res.active_bounds
+
+
+@pytest.mark.parametrize("value", [0.0, -10.0])
+def test_a_non_positive_jerk_limit_names_the_key(value):
+    with pytest.raises(InputError, match="max_reel_jerk_m_s3"):
+        system_from_dict(_system(winch__max_reel_jerk_m_s3=value), "bad.toml")

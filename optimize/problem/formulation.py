@@ -46,6 +46,8 @@ X_LENGTH, X_REEL_SPEED = STATES.index("l_m"), STATES.index("dl_m_s")
 X_REEL_ACCELERATION = STATES.index("ddl_m_s2")
 #: the reel acceleration's bound when the winch states none: keeps the solver in range
 SOLVER_REEL_ACCELERATION_M_S2 = 500.0
+#: the reel jerk's bound (the control's) when the winch states none: the solver's range
+SOLVER_REEL_JERK_M_S3 = 5000.0
 
 #: the cycle averages of a point: electrical and mechanical power drawn [W], and the
 #: squared motor torque over its scale (the RMS-torque rating's integrand)
@@ -353,12 +355,14 @@ class Formulation:
         return lo, hi
 
     def control_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Bounds of the controls [SI]: tether jerk and control-surface rates."""
+        """Bounds of the controls [SI]: tether jerk (the winch's limit when the system
+        states one, in every kind) and control-surface rates."""
         rate = self.limits.surface_rate_bound_rad_s
         controls = self.dae.controls
         lo, hi = np.full(controls.size, -rate), np.full(controls.size, rate)
         jerk = controls.index("dddl_m_s3")
-        lo[jerk], hi[jerk] = -5000.0, 5000.0
+        limit = self.limits.max_reel_jerk_m_s3 or SOLVER_REEL_JERK_M_S3
+        lo[jerk], hi[jerk] = -limit, limit
         return lo, hi
 
     def period_bounds(self) -> tuple[float, float]:

@@ -110,6 +110,9 @@ class Limits:
     max_reel_acceleration_m_s2 : float or None
         Largest tether (reel) acceleration ``|l''|`` [m/s^2] of every scenario kind (the
         winch's limit); ``None``: only the solver's range (500 m/s^2).
+    max_reel_jerk_m_s3 : float or None
+        Largest tether (reel) jerk ``|dddl|`` [m/s^3], the OCP's control, of every
+        scenario kind; ``None``: only the solver's range (5000 m/s^3).
     base_speed_rpm : float or None
         The drive's base speed at the motor shaft [rpm]: above it the largest torque
         falls as ``max_torque_nm * base / |n|`` (constant power), in the constrained
@@ -146,6 +149,7 @@ class Limits:
     surface_bound_deg: float = 10.0
     surface_rate_bound_rad_s: float = 2.0
     max_reel_acceleration_m_s2: float | None = None
+    max_reel_jerk_m_s3: float | None = None
     base_speed_rpm: float | None = None
     envelope_speed_rpm: tuple[float, ...] | None = None
     envelope_torque_nm: tuple[float, ...] | None = None
@@ -159,7 +163,7 @@ class Limits:
                 f"period_bounds_s must satisfy 0 < lo < hi, got {self.period_bounds_s}"
             )
         for name in ("max_rms_torque_nm", "max_airspeed_m_s", "max_tether_force_n",
-                     "max_reel_acceleration_m_s2", "base_speed_rpm"):
+                     "max_reel_acceleration_m_s2", "max_reel_jerk_m_s3", "base_speed_rpm"):
             value = getattr(self, name)
             if value is not None and not value > 0:
                 raise ValueError(f"{name} must be > 0, got {value}")

@@ -78,8 +78,8 @@ class OcpResult:
         Bounds the optimum sits on (:func:`active_bounds`): ``period_min``,
         ``period_max``, ``tether_length_min``, ``tether_length_max``,
         ``ground_clearance``, ``airspeed_min``, ``airspeed_max``, ``tether_force_limit``,
-        ``reel_acceleration_limit``, ``speed_limit``, ``torque_limit``, ``envelope_limit``,
-        ``p_elec_limit``.
+        ``reel_acceleration_limit``, ``reel_jerk_limit``, ``speed_limit``, ``torque_limit``,
+        ``envelope_limit``, ``p_elec_limit``.
     slack_fraction : float
         Fraction of the cycle time with zero tether tension [-] (:func:`slack_fraction`).
     start : str
@@ -211,6 +211,9 @@ def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: b
     if o.max_reel_acceleration_m_s2 is not None and _near(
             np.abs(traj["ddl_m_s2"].to_numpy()), o.max_reel_acceleration_m_s2):
         out.append("reel_acceleration_limit")
+    if o.max_reel_jerk_m_s3 is not None and _near(
+            np.abs(traj["dddl_m_s3"].to_numpy()), o.max_reel_jerk_m_s3):
+        out.append("reel_jerk_limit")
     if drive_limits:
         speed = np.abs(traj["speed_rpm"].to_numpy())
         if _near(speed, o.max_speed_rpm):

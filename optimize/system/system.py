@@ -87,13 +87,15 @@ class TetherSection:
 @dataclass(frozen=True)
 class WinchSection:
     """``[winch]``: drum and gearbox (motor speed = gear ratio x drum speed), the inertia
-    turning at drum speed [kg m^2] and the reel-acceleration limit [m/s^2] (``None``: not
-    stated; an unstated inertia is zero, a massless drum, and said so)."""
+    turning at drum speed [kg m^2], the reel-acceleration limit [m/s^2] and the reel-jerk
+    limit [m/s^3] (``None``: not stated; an unstated inertia is zero, a massless drum,
+    and said so)."""
 
     drum_radius_m: float
     gear_ratio: float
     drum_inertia_kg_m2: float | None = None
     max_reel_acceleration_m_s2: float | None = None
+    max_reel_jerk_m_s3: float | None = None
 
 
 @dataclass(frozen=True)
@@ -289,6 +291,7 @@ class System:
             surface_bound_deg=b.surface_max_deg,
             surface_rate_bound_rad_s=b.surface_rate_max_rad_s,
             max_reel_acceleration_m_s2=self.winch.max_reel_acceleration_m_s2,
+            max_reel_jerk_m_s3=self.winch.max_reel_jerk_m_s3,
             base_speed_rpm=self.drive.base_speed_rpm,
             envelope_speed_rpm=self.drive.envelope_speed_rpm,
             envelope_torque_nm=self.drive.envelope_torque_nm,
@@ -312,6 +315,8 @@ class System:
         accel = (f"reel acceleration <= {w.max_reel_acceleration_m_s2:g} m/s^2 (all kinds)"
                  if w.max_reel_acceleration_m_s2 is not None
                  else "no reel-acceleration limit stated")
+        if w.max_reel_jerk_m_s3 is not None:
+            accel += f", reel jerk <= {w.max_reel_jerk_m_s3:g} m/s^3 (all kinds)"
         if d.base_speed_rpm is not None:
             envelope = f"constant power above {d.base_speed_rpm:g} rpm"
         elif d.envelope_speed_rpm is not None:

@@ -226,7 +226,8 @@ def _tether(r: _Reader) -> TetherSection:
 def _winch(r: _Reader) -> WinchSection:
     winch = WinchSection(r.number("drum_radius_m", 0), r.number("gear_ratio", 0),
                          r.number("drum_inertia_kg_m2", 0, strict=False, optional=True),
-                         r.number("max_reel_acceleration_m_s2", 0, optional=True))
+                         r.number("max_reel_acceleration_m_s2", 0, optional=True),
+                         r.number("max_reel_jerk_m_s3", 0, optional=True))
     r.done()
     return winch
 
