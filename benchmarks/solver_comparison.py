@@ -1,9 +1,13 @@
-"""Both NLP solvers on the same problems, back to back: IPOPT + MUMPS and fatrop.
+"""The NLP solvers and transcriptions on the same problems, back to back: IPOPT + MUMPS
+and fatrop, each on the collocation NLP or the condensed one.
 
 Usage::
 
     .venv/bin/python benchmarks/solver_comparison.py [--solvers ipopt,fatrop] [--workers 2]
         [--wind-grid 4:10:1.5] [--systems highwind,ap2,megawes] [--system-winds 7,10]
+
+A solver name ``condensed-ipopt`` or ``condensed-fatrop`` runs that solver on the condensed
+transcription (``--transcription condensed``, :mod:`optimize.problem.condensed`).
 
 1. Profile: the warm solve of the stored guess's scenario from the stored guess (N = 40),
    with the solver's own time statistics (function evaluations, and fatrop's split).
@@ -59,6 +63,13 @@ GOALS = {"optimum_w": 0.05, "period_s": 0.01, "per_iteration_speedup": 5.0,
          "sweep_2_workers_s": 10.0}
 
 
+def solver_options(name: str, max_iter: int) -> SolverOptions:
+    """The solver options of a name of ``--solvers`` (``[condensed-]ipopt|fatrop``)."""
+    transcription, _, solver = name.rpartition("-")
+    return SolverOptions(solver=solver, max_iter=max_iter,
+                         transcription=transcription or "collocation")
+
+
 def load() -> list[float]:
     """Load averages (1, 5, 15 min)."""
     return [round(x, 2) for x in os.getloadavg()]
@@ -91,9 +102,9 @@ def paper_sweep(solver: str, winds, kinds, workers: int, intervals: int, max_ite
     """The paper scenarios' sweep with one solver."""
     system = load_system()
     drive = drive_in_force(system)
-    solver_options = SolverOptions(solver=solver, max_iter=max_iter)
-    options = system.ocp_options(
-        OcpOptions(Discretization(n_intervals=intervals), solver=solver_options), drive.rating)
+    options = system.ocp_options(OcpOptions(Discretization(n_intervals=intervals),
+                                            solver=solver_options(solver, max_iter)),
+                                 drive.rating)
     problem = Problem.for_system(system, drive.model, options)
     load_before = load()
     t0 = time.perf_counter()
@@ -126,10 +137,9 @@ def system_runs(solver: str, systems: list[str], winds: list[float], intervals: 
     for name in systems:
         system = load_system(shipped_system_path(name))
         drive = drive_in_force(system)
-        solver_options = SolverOptions(solver=solver, max_iter=max_iter)
         options = system.ocp_options(
-            OcpOptions(Discretization(n_intervals=intervals), solver=solver_options),
-            drive.rating)
+            OcpOptions(Discretization(n_intervals=intervals),
+                       solver=solver_options(solver, max_iter)), drive.rating)
         t0, c0 = time.perf_counter(), time.process_time()
         ocp = build_ocp(kite_dae(*system.model_params()), drive.model, options, system=system)
         res = start(ocp, Scenario(winds[0], "electrical", True))
@@ -207,7 +217,7 @@ def profile(solver: str, max_iter: int) -> dict:
     system = load_system()
     drive = drive_in_force(system)
     options = system.ocp_options(
-        OcpOptions(solver=SolverOptions(solver=solver, max_iter=max_iter)), drive.rating)
+        OcpOptions(solver=solver_options(solver, max_iter)), drive.rating)
     t0, c0 = time.perf_counter(), time.process_time()
     ocp = build_ocp(kite_dae(*system.model_params()), drive.model, options, system=system)
     build = (time.perf_counter() - t0, time.process_time() - c0)

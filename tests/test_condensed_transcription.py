@@ -8,6 +8,9 @@ full NLP for the multipliers carried across.
 
 from __future__ import annotations
 
+import logging
+
+import casadi as ca
 import numpy as np
 import pytest
 from point_mass_model import Pendulum, pendulum_formulation, small_angle_guess
@@ -18,18 +21,18 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import assemble, build_ocp, grid_times
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
-from optimize.solve import backend
+from optimize.solve import backend, codegen
 from optimize.solve.condensed_solve import _csc
 from optimize.solve.solve import solve
 
 N, DEGREE = 20, 3
 
 
-def _pendulum(solver: str, transcription: str):
+def _pendulum(solver: str, transcription: str, codegen: bool = False):
     pendulum = Pendulum()
     form = pendulum_formulation(pendulum)
     ocp = assemble(form, OcpOptions(Discretization(N, DEGREE), solver=SolverOptions(
-        solver=solver, transcription=transcription)))
+        solver=solver, transcription=transcription, codegen=codegen)))
     period = form.scales.period_s
     x, z = small_angle_guess(pendulum, grid_times(ocp, period), period)
     w0 = ocp.pack(x, z[:, 1:], np.zeros((1, N)), np.zeros((2, N * DEGREE)), period)
@@ -99,12 +102,35 @@ def test_condensed_kite_warm_solve_has_the_full_optimum(coarse_mechanical, coars
     # the condensed NLP: the electrical optimum with drive limits to 0.05 W
     n = coarse_mechanical.warm.n_intervals
     ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(
-        Discretization(n_intervals=n), solver=SolverOptions(transcription="condensed")))
+        Discretization(n_intervals=n),
+        solver=SolverOptions(transcription="condensed", codegen=False)))
     res = solve(ocp, Scenario(7.0, "electrical", True), coarse_mechanical.warm)
     assert res.success, res.status
     assert res.avg_p_elec_w == pytest.approx(coarse_elec_lim.avg_p_elec_w, abs=0.05)
     assert res.period_s == pytest.approx(coarse_elec_lim.period_s, rel=1e-5)
     assert res.max_violation < 1e-6
+
+
+@pytest.mark.skipif(codegen.compiler() is None, reason="no C compiler")
+def test_compiled_interval_functions_give_the_same_optimum(pendulums, tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    _, _, plain, _ = pendulums["condensed"]
+    _, ocp, raw, _ = _pendulum("ipopt", "condensed", codegen=True)
+    assert raw.success, raw.status
+    assert raw.iterations == plain.iterations
+    assert raw.objective == pytest.approx(plain.objective, rel=1e-9, abs=1e-12)
+    assert np.max(np.abs(raw.w - plain.w)) < 1e-8
+    # compiled once: three libraries (solve, Jacobian, Hessian) in the cache, by hash
+    assert len(list((tmp_path / "drivebench" / "casadi").glob("*.so"))) == 3
+
+
+def test_without_a_compiler_the_function_stays_and_a_warning_says_so(monkeypatch, caplog):
+    monkeypatch.setattr(codegen, "compiler", lambda: None)
+    x = ca.SX.sym("x")
+    fn = ca.Function("square", [x], [x * x])
+    with caplog.at_level(logging.WARNING):
+        assert codegen.compiled(fn) is fn
+    assert "no C compiler found ($CC, gcc, cc): square runs uncompiled" in caplog.text
 
 
 def test_a_bad_transcription_is_refused_with_the_choices():

@@ -27,6 +27,7 @@ the interval start and the algebraic variables of a full vector (the start's).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -42,6 +43,17 @@ ALGEBRAIC_ROW = "algebraic"
 #: Newton's method inside an interval: residual tolerance (scaled rows) and iteration limit
 NEWTON_ABSTOL = 1e-10
 NEWTON_MAX_ITER = 50
+#: an interval whose collocation residual is above this after Newton's method has no
+#: solution there: its outputs are NaN (an evaluation error, on which the solver
+#: shortens its step), never the unconverged iterate
+NEWTON_CHECK = 1e-8
+#: CasADi's Newton rootfinders: ``newton`` (sparse QR) and ``fast_newton`` (dense QR, the
+#: one CasADi generates C code for)
+ROOTFINDERS = {"newton": {"abstol": NEWTON_ABSTOL, "abstolStep": 0.0,
+                          "max_iter": NEWTON_MAX_ITER, "linear_solver": "qr",
+                          "error_on_fail": False},
+               "fast_newton": {"abstol": NEWTON_ABSTOL, "max_iter": NEWTON_MAX_ITER,
+                               "error_on_fail": False}}
 
 
 @dataclass(frozen=True)
@@ -189,9 +201,10 @@ def _solved_rows(point: Any, nx: int, nz: int) -> np.ndarray:
 
 
 def interval(full: Transcription, coll: Collocation, dims: tuple[int, int, int, int],
-             xbound: np.ndarray, zbound: np.ndarray) -> Interval:
+             xbound: np.ndarray, zbound: np.ndarray, rootfinder: str = "newton") -> Interval:
     """The :class:`Interval` of ``full``'s point function; ``xbound``, ``zbound``: the
-    state and algebraic components whose bounds become rows."""
+    state and algebraic components whose bounds become rows; ``rootfinder``: one of
+    :data:`ROOTFINDERS`."""
     point = full.blocks.point
     nx, nz, nu, nf = dims
     d = coll.degree
@@ -224,13 +237,13 @@ def interval(full: Transcription, coll: Collocation, dims: tuple[int, int, int, 
         start += expr.shape[0]
     residual = ca.Function("collocation", [v, q, a], [ca.vertcat(*res)])
     outputs = ca.Function("interval_outputs", [v, q, a], [ca.vertcat(*y)])
-    newton = ca.rootfinder("interval", "newton", residual, {
-        "abstol": NEWTON_ABSTOL, "abstolStep": 0.0, "max_iter": NEWTON_MAX_ITER,
-        "linear_solver": "qr", "error_on_fail": True})
+    newton = ca.rootfinder("interval", rootfinder, residual, ROOTFINDERS[rootfinder])
     qm, am = ca.MX.sym("q", q.shape[0]), ca.MX.sym("a", a.shape[0])
     v0 = ca.vertcat(ca.repmat(qm[:nx], d, 1), ca.MX.zeros(d * nz, 1)) + am[1:1 + v.shape[0]]
     vm = newton(v0, qm, am)
-    solve = ca.Function("interval_solve", [qm, am], [outputs(vm, qm, am), vm])
+    solved_ok = ca.norm_inf(residual(vm, qm, am)) <= NEWTON_CHECK
+    y = ca.if_else(solved_ok, outputs(vm, qm, am), ca.DM.nan(start, 1))
+    solve = ca.Function("interval_solve", [qm, am], [y, vm])
     return Interval(residual, outputs, solve, parts, pos[~solved], v.shape[0], q.shape[0],
                     a.shape[0])
 
@@ -293,10 +306,16 @@ def _stages(b: _Builder, n: int, sizes: dict[str, int]) -> dict[str, list[np.nda
     return st
 
 
-def condensed_nlp(form: CycleFormulation, coll: Collocation, full: Transcription
+def condensed_nlp(form: CycleFormulation, coll: Collocation, full: Transcription,
+                  rootfinder: str = "newton",
+                  compile_fn: Callable[[ca.Function], ca.Function] | None = None
                   ) -> CondensedNlp:
     """The condensed NLP of ``form`` beside its full transcription ``full``
-    (:func:`optimize.problem.transcription.radau_collocation` with collocation ``coll``)."""
+    (:func:`optimize.problem.transcription.radau_collocation` with collocation ``coll``).
+
+    ``rootfinder`` solves each interval (:data:`ROOTFINDERS`); ``compile_fn``, when
+    given, turns the interval's solve into a compiled function of the same signature.
+    """
     lay, d = full.layout, coll.degree
     n = lay.i_u.shape[1]
     dims = _dims(form)
@@ -305,7 +324,8 @@ def condensed_nlp(form: CycleFormulation, coll: Collocation, full: Transcription
     carried = tuple(names.index(c) for c in form.constrained_averages)
     xbound = np.flatnonzero(_bounded(full, lay.i_x[:, 1]))
     zbound = np.flatnonzero(_bounded(full, lay.i_z[:, 0])) if nz else np.zeros(0, dtype=int)
-    it = interval(full, coll, dims, xbound, zbound)
+    it = interval(full, coll, dims, xbound, zbound, rootfinder)
+    solve = it.solve if compile_fn is None else compile_fn(it.solve)
     b = _Builder()
     st = _stages(b, n, {"x": nx, "t": 1, "s": nx, "q": len(carried), "u": nu, "f": d * nf})
     var_src = -np.ones(b.n_w, dtype=int)
@@ -330,7 +350,7 @@ def condensed_nlp(form: CycleFormulation, coll: Collocation, full: Transcription
     wm, pm = ca.MX.sym("w", b.n_w), ca.MX.sym("p", p.shape[0])
     qs = ca.reshape(wm[i_q.T.ravel().tolist()], it.n_q, n)
     as_ = ca.reshape(pm[i_a.T.ravel().tolist()], it.n_a, n)
-    ys, vs = it.solve.map(n)(qs, as_)
+    ys, vs = solve.map(n)(qs, as_)
     fg = ca.Function("f_g_s", [w, p, ca.vec(s)], [f_s, g_s])
     f, g = fg(wm, pm, ca.vec(ys))
     gap_cols = np.concatenate([np.concatenate([st[key][k] for key in ("x", "t", "s", "q")])

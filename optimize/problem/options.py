@@ -221,6 +221,9 @@ class SolverOptions:
         or ``"condensed"`` (multiple shooting, each interval's collocation solved inside
         the interval, :mod:`optimize.problem.condensed`). Both have the same optima;
         results and warm starts are in the collocation layout either way.
+    codegen : bool
+        Compile the condensed NLP's interval functions to C where a C compiler is found
+        (:mod:`optimize.solve.codegen`, cached by hash); False: CasADi's virtual machine.
     """
 
     solver: str = "ipopt"
@@ -233,6 +236,7 @@ class SolverOptions:
     linear_solver: str = "mumps"
     mumps_pivot_order: int = 0
     transcription: str = "collocation"
+    codegen: bool = True
 
     def __post_init__(self) -> None:
         if self.solver not in SOLVERS:

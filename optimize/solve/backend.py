@@ -23,7 +23,7 @@ import numpy as np
 
 from optimize.problem.condensed import CondensedNlp, condensed_nlp
 from optimize.problem.ocp import Bounds, Ocp
-from optimize.solve import condensed_solve
+from optimize.solve import codegen, condensed_solve
 from optimize.solve.condensed_derivatives import condensed_derivatives
 from optimize.solve.derivatives import nlp_derivatives
 
@@ -128,11 +128,16 @@ def condensed(ocp: Ocp) -> CondensedNlp:
     """The OCP's condensed NLP (built once, cached on the OCP)."""
     if "condensed" not in ocp.solvers:
         t0 = time.perf_counter()
-        c = condensed_nlp(ocp.formulation, ocp.coll, ocp.transcription)
+        compile_fn = codegen.compiled if ocp.options.solver.codegen else None
+        # CasADi generates C code for its dense Newton method, not for the sparse one
+        rootfinder = "fast_newton" if compile_fn and codegen.compiler() else "newton"
+        c = condensed_nlp(ocp.formulation, ocp.coll, ocp.transcription, rootfinder,
+                          compile_fn)
         ocp.solvers["condensed"] = c
-        ocp.solvers["condensed_derivatives"] = condensed_derivatives(c)
-        log.info("built the condensed NLP: %d variables, %d constraints in %.1f s", c.n_w,
-                 c.n_g, time.perf_counter() - t0)
+        ocp.solvers["condensed_derivatives"] = condensed_derivatives(c, compile_fn)
+        log.info("built the condensed NLP (%s%s): %d variables, %d constraints in %.1f s",
+                 rootfinder, ", compiled" if compile_fn else "", c.n_w, c.n_g,
+                 time.perf_counter() - t0)
     return ocp.solvers["condensed"]
 
 
@@ -145,11 +150,14 @@ def _nlp(ocp: Ocp) -> tuple[dict, dict]:
 
 
 def _quiet(ocp: Ocp) -> dict:
-    """Options that keep an evaluation error quiet on the condensed NLP: a Newton solve of
-    an interval that does not converge at a trial point is an evaluation error, on which
-    the solver shortens its step (the solve's status says whether it recovered)."""
-    return {"show_eval_warnings": False} if ocp.options.solver.transcription == "condensed" \
-        else {}
+    """Options of a solver of the condensed NLP: an evaluation error stays quiet (a Newton
+    solve of an interval that does not converge at a trial point is one, on which the
+    solver shortens its step; the solve's status says whether it recovered), and no
+    multipliers of the parameters (their derivative would differentiate the compiled
+    interval functions)."""
+    if ocp.options.solver.transcription != "condensed":
+        return {}
+    return {"show_eval_warnings": False, "calc_lam_p": False}
 
 
 def _ipopt(ocp: Ocp, warm: bool, push: float) -> ca.Function:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 
 import casadi as ca
 import numpy as np
@@ -58,8 +59,11 @@ def interval_functions(it: Interval) -> tuple[ca.Function, ca.Function]:
     return jac, ca.Function("interval_hessian", [qm, am, num], [h.nz[:]])
 
 
-def condensed_derivatives(c: CondensedNlp) -> Derivatives:
-    """The condensed NLP's gradient, Jacobian and Lagrangian Hessian (upper triangle).
+def condensed_derivatives(c: CondensedNlp,
+                          compile_fn: Callable[[ca.Function], ca.Function] | None = None
+                          ) -> Derivatives:
+    """The condensed NLP's gradient, Jacobian and Lagrangian Hessian (upper triangle);
+    ``compile_fn``, when given, compiles the interval functions.
 
     Raises
     ------
@@ -85,6 +89,8 @@ def condensed_derivatives(c: CondensedNlp) -> Derivatives:
     rest_hess = ca.Function("rest_hess", [w, p, lam_f, lam_g],
                             [ca.triu(ca.hessian(lag, w)[0]), grad_s])
     jac_fn, hess_fn = interval_functions(c.interval)
+    if compile_fn is not None:
+        jac_fn, hess_fn = compile_fn(jac_fn), compile_fn(hess_fn)
     s_index = np.arange(n_y * n).reshape(n, n_y).T
     jr, jc = _local_entries(ca.Sparsity.dense(n_y, c.interval.n_q), c.i_q, s_index)
     hr, hc = _local_entries(ca.Sparsity.dense(c.interval.n_q, c.interval.n_q), c.i_q)

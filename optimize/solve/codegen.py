@@ -1,0 +1,72 @@
+"""CasADi functions as compiled C code, cached by the hash of their source.
+
+The C code CasADi generates for a function is compiled once by the system's C compiler
+(``$CC``, else ``gcc``, else ``cc``) into a shared library under the user's cache folder
+(``$XDG_CACHE_HOME/drivebench/casadi``, default ``~/.cache/drivebench/casadi``), named by
+the hash of the source and the compiler command, and loaded with ``casadi.external``.
+Where no compiler is found, or the compilation fails, the function stays as it is (run
+by CasADi's virtual machine) and a warning says so.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+import casadi as ca
+
+log = logging.getLogger(__name__)
+
+#: flags of the compilation (optimized, position-independent, one shared library)
+FLAGS = ("-O2", "-fPIC", "-shared")
+
+
+def compiler() -> str | None:
+    """Path of the C compiler: ``$CC``, else ``gcc``, else ``cc``; None when none is found."""
+    for name in (os.environ.get("CC"), "gcc", "cc"):
+        if name and shutil.which(name):
+            return shutil.which(name)
+    return None
+
+
+def cache_dir() -> Path:
+    """Where the compiled libraries are kept."""
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "drivebench" / "casadi"
+
+
+def compiled(fn: ca.Function) -> ca.Function:
+    """``fn`` as a compiled function of the same signature (built once, then loaded from
+    the cache), with its first-order reverse derivative (``adj1_<name>``, which CasADi's
+    solvers build their multiplier functions from); ``fn`` itself, with a warning, when
+    no C compiler is found or the compilation fails."""
+    cc = compiler()
+    if cc is None:
+        log.warning("no C compiler found ($CC, gcc, cc): %s runs uncompiled in CasADi's "
+                    "virtual machine (slower); install gcc to compile it", fn.name())
+        return fn
+    gen = ca.CodeGenerator(f"{fn.name()}.c", {"with_header": False})
+    gen.add(fn)
+    gen.add(fn.reverse(1))
+    source = gen.dump()
+    key = hashlib.sha256((source + cc + " ".join(FLAGS)).encode()).hexdigest()[:20]
+    lib = cache_dir() / f"{fn.name()}_{key}.so"
+    if not lib.exists():
+        lib.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
+            src, out = Path(tmp) / f"{fn.name()}.c", Path(tmp) / lib.name
+            src.write_text(source, encoding="utf-8")
+            run = subprocess.run([cc, *FLAGS, str(src), "-o", str(out), "-lm"],
+                                 capture_output=True, text=True, check=False)
+            if run.returncode != 0:
+                log.warning("compiling %s failed (%s); it runs uncompiled: %s", fn.name(), cc,
+                            run.stderr.strip()[:500])
+                return fn
+            os.replace(out, lib)  # atomic: a concurrent worker sees all or nothing
+        log.info("compiled %s into %s", fn.name(), lib)
+    return ca.external(fn.name(), str(lib))
