@@ -7,7 +7,9 @@ Usage::
         [--wind-grid 4:10:1.5] [--systems highwind,ap2,megawes] [--system-winds 7,10]
 
 A solver name ``condensed-ipopt`` or ``condensed-fatrop`` runs that solver on the condensed
-transcription (``--transcription condensed``, :mod:`optimize.problem.condensed`).
+transcription (``--transcription condensed``, :mod:`optimize.problem.condensed`) with the
+interval functions in CasADi's virtual machine; ``condensed-ipopt+cc`` (or ``...fatrop+cc``)
+with them compiled to C (:mod:`optimize.solve.codegen`; the first use compiles them).
 
 1. Profile: the warm solve of the stored guess's scenario from the stored guess (N = 40),
    with the solver's own time statistics (function evaluations, and fatrop's split).
@@ -64,10 +66,11 @@ GOALS = {"optimum_w": 0.05, "period_s": 0.01, "per_iteration_speedup": 5.0,
 
 
 def solver_options(name: str, max_iter: int) -> SolverOptions:
-    """The solver options of a name of ``--solvers`` (``[condensed-]ipopt|fatrop``)."""
-    transcription, _, solver = name.rpartition("-")
+    """The solver options of a name of ``--solvers`` (``[condensed-]ipopt|fatrop[+cc]``)."""
+    base, cc, _ = name.partition("+cc")
+    transcription, _, solver = base.rpartition("-")
     return SolverOptions(solver=solver, max_iter=max_iter,
-                         transcription=transcription or "collocation")
+                         transcription=transcription or "collocation", codegen=bool(cc))
 
 
 def load() -> list[float]:

@@ -144,3 +144,31 @@ def test_the_command_line_refuses_a_bad_transcription_with_exit_2(capsys):
         main(["optimize", "--transcription", "shooting"])
     assert done.value.code == 2
     assert "--transcription: invalid choice: 'shooting'" in capsys.readouterr().err
+
+
+def test_interval_wise_derivatives_equal_automatic_differentiation():
+    # gradient, Jacobian and Lagrangian Hessian assembled interval by interval (implicit
+    # function theorem) against CasADi's AD through the Newton solves, at a point off the
+    # optimum with every objective term weighted
+    pendulum = Pendulum()
+    form = pendulum_formulation(pendulum)
+    n, degree = 6, 3
+    ocp = assemble(form, OcpOptions(Discretization(n, degree), solver=SolverOptions(
+        transcription="condensed")))
+    c = backend.condensed(ocp)
+    fns = ocp.solvers["condensed_derivatives"].functions("ipopt")
+    period = form.scales.period_s
+    x, z = small_angle_guess(pendulum, grid_times(ocp, period), period)
+    w0 = ocp.pack(x, z[:, 1:], 0.1 * np.ones((1, n)), 0.01 * np.ones((2, n * degree)), period)
+    p = ocp.params(0.0, {"p_ctrl_w": 0.7}, w_track=0.3, w_fict=0.2, x_ref=1.01 * x)
+    w, p_c = c.condense(w0, p)
+    lam = np.random.default_rng(1).standard_normal(c.n_g)
+    x_, p_ = c.nlp["x"], c.nlp["p"]
+    lag = 0.5 * c.nlp["f"] + ca.dot(ca.DM(lam), c.nlp["g"])
+    ad = ca.Function("ad", [x_, p_], [ca.gradient(c.nlp["f"], x_), ca.jacobian(c.nlp["g"], x_),
+                                      ca.triu(ca.hessian(lag, x_)[0])])
+    grad, jac, hess = ad(w, p_c)
+    assert float(ca.norm_inf(fns["grad_f"](w, p_c)[1] - grad)) < 1e-12
+    assert float(ca.norm_inf(fns["jac_g"](w, p_c)[1] - jac)) < 1e-12
+    assert float(ca.norm_inf(ca.densify(fns["hess_lag"](w, p_c, 0.5, lam)) - ca.densify(hess))
+                 ) < 1e-11

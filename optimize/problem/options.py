@@ -223,7 +223,9 @@ class SolverOptions:
         results and warm starts are in the collocation layout either way.
     codegen : bool
         Compile the condensed NLP's interval functions to C where a C compiler is found
-        (:mod:`optimize.solve.codegen`, cached by hash); False: CasADi's virtual machine.
+        (:mod:`optimize.solve.codegen`, cached by hash, so only the first use of a model
+        compiles). Off by default: gcc -O2 took more than 10 minutes per function for the
+        kite's (benchmarks/README.md); False runs them in CasADi's virtual machine.
     """
 
     solver: str = "ipopt"
@@ -236,7 +238,7 @@ class SolverOptions:
     linear_solver: str = "mumps"
     mumps_pivot_order: int = 0
     transcription: str = "collocation"
-    codegen: bool = True
+    codegen: bool = False
 
     def __post_init__(self) -> None:
         if self.solver not in SOLVERS:

@@ -59,6 +59,12 @@ def interval_functions(it: Interval) -> tuple[ca.Function, ca.Function]:
     return jac, ca.Function("interval_hessian", [qm, am, num], [h.nz[:]])
 
 
+def _triplets(matrix: ca.DM) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rows, columns and values of the nonzeros of a constant sparse matrix."""
+    r, col = (np.asarray(a, dtype=int) for a in matrix.sparsity().get_triplet())
+    return r, col, np.asarray(matrix.nonzeros(), dtype=float)
+
+
 def condensed_derivatives(c: CondensedNlp,
                           compile_fn: Callable[[ca.Function], ca.Function] | None = None
                           ) -> Derivatives:
@@ -84,29 +90,47 @@ def condensed_derivatives(c: CondensedNlp,
             or ca.jacobian(ca.gradient(lag, w), s).nnz()):
         raise ValueError("the condensed transcription needs an objective and rows linear in "
                          "the cycle averages and the homotopy terms")
-    rest = ca.Function("rest", [w, p], [ca.jacobian(c.g_s, w), jac_s, ca.gradient(c.f_s, w),
+    if ca.depends_on(jac_s, p):
+        raise ValueError("the condensed transcription needs rows whose coefficients of the "
+                         "cycle averages are constants")
+    rest = ca.Function("rest", [w, p], [ca.jacobian(c.g_s, w), ca.gradient(c.f_s, w),
                                         grad_f_s])
     rest_hess = ca.Function("rest_hess", [w, p, lam_f, lam_g],
                             [ca.triu(ca.hessian(lag, w)[0]), grad_s])
     jac_fn, hess_fn = interval_functions(c.interval)
     if compile_fn is not None:
         jac_fn, hess_fn = compile_fn(jac_fn), compile_fn(hess_fn)
-    s_index = np.arange(n_y * n).reshape(n, n_y).T
-    jr, jc = _local_entries(ca.Sparsity.dense(n_y, c.interval.n_q), c.i_q, s_index)
-    hr, hc = _local_entries(ca.Sparsity.dense(c.interval.n_q, c.interval.n_q), c.i_q)
+    n_q = c.interval.n_q
+    # the interval Jacobians' nonzeros (dense n_y x n_q blocks, interval after interval):
+    # output i of interval k, variable j at nonzero k n_y n_q + j n_y + i, column i_q[j, k]
+    rows_s, cols_s, coef = _triplets(ca.DM(ca.Function("jac_s", [], [jac_s])()["o0"]))
+    k, i = np.divmod(cols_s[:, None], n_y)
+    j = np.arange(n_q)[None, :]
+    t = (k * n_y * n_q + j * n_y + i).ravel()
+    jac_cols = c.i_q[j, k].ravel()
+    jac_rows = np.repeat(rows_s, n_q)
+    jac_coef = ca.DM(np.repeat(coef, n_q))
+    ks, is_ = np.divmod(np.arange(n_y * n), n_y)
+    t_grad = (ks[:, None] * n_y * n_q + j * n_y + is_[:, None]).ravel()
+    hr, hc = _local_entries(ca.Sparsity.dense(n_q, n_q), c.i_q)
     hr = np.where(hr <= hc, hr, -1)  # the upper triangle, as IPOPT takes it
 
     x_, p_ = ca.MX.sym("x", n_w), ca.MX.sym("p", p.shape[0])
     lf_, lg_ = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", n_g)
-    q_ = ca.reshape(x_[c.i_q.T.ravel().tolist()], c.interval.n_q, n)
+    q_ = ca.reshape(x_[c.i_q.T.ravel().tolist()], n_q, n)
     a_ = ca.reshape(p_[c.i_a.T.ravel().tolist()], c.interval.n_a, n)
     ys, jac_nz = jac_fn.map(n)(q_, a_)
+    jac_nz = ca.vec(jac_nz)
     fg = ca.Function("f_g_s", [w, p, s], [c.f_s, c.g_s])
     f_, g_ = fg(x_, p_, ca.vec(ys))
-    jac_w, jac_s_, grad_w, grad_s_f = rest(x_, p_)
-    ds = _sum_into((n_y * n, n_w), [(ca.vec(jac_nz), jr, jc)])
-    jac = _sum_into((n_g, n_w), [_entries(jac_w), _entries(ca.mtimes(jac_s_, ds))])
-    grad = grad_w + ca.mtimes(ds.T, grad_s_f)
+    jac_w, grad_w, grad_s_f = rest(x_, p_)
+    jac = _sum_into((n_g, n_w), [_entries(jac_w), (jac_coef * jac_nz[t.tolist()], jac_rows,
+                                                    jac_cols)])
+    per_variable = ca.vec(ca.repmat(grad_s_f.T, n_q, 1))  # d f / d s, once per variable
+    grad = grad_w + _sum_into((n_w, 1), [(jac_nz[t_grad.tolist()] * per_variable,
+                                          c.i_q[np.tile(np.arange(n_q), n_y * n),
+                                                np.repeat(ks, n_q)],
+                                          np.zeros(n_y * n * n_q, dtype=int))])
     hess_rest, nu_ = rest_hess(x_, p_, lf_, lg_)
     hess_nz = hess_fn.map(n)(q_, a_, ca.reshape(nu_, n_y, n))
     hess = _sum_into((n_w, n_w), [(ca.vec(hess_nz), hr, hc), _entries(hess_rest)])
