@@ -12,8 +12,8 @@ folder with no ``fit_out/`` (so the system's own ``[drive]`` is in force), timed
   massless drum, no acceleration limit): the OCP before the drivetrain. With
   ``--reference DIR`` (an ``optimize_out/`` of that OCP) its optima are compared: the
   largest |dP| [W] per scenario.
-* ``paper``: ``highwind.toml`` with the estimate of its drivetrain that its comments
-  give (the file itself states the paper's massless drum); ``paper-2x``: twice it.
+* ``paper``: the shipped ``highwind_drivetrain.toml`` (``highwind.toml`` with the
+  estimate of its drum's and rotor's inertia); ``paper-2x``: twice it.
 * ``ap2``, ``megawes``: the shipped files, ``mech-free`` and ``elec-lim`` only.
 * ``ap2-awebox``: ``ap2.toml`` at 10 m/s, ``mech-free``, against awebox's AP2 example
   (Licitra et al., Energy 173, 2019, circular trajectory at 10 m/s: 4.4 kW, 39.6 s;
@@ -72,15 +72,12 @@ def _massless(data: dict) -> dict:
     return data
 
 
-#: the estimate of the HIGHWIND drivetrain in highwind.toml's comments (the file states the
-#: paper's massless drum) [kg m^2]
-HIGHWIND_DRUM_KG_M2, HIGHWIND_ROTOR_KG_M2 = 0.04, 0.057
-
-
 def _estimated_highwind(factor: float) -> dict:
-    data = _load("highwind")
-    data["winch"]["drum_inertia_kg_m2"] = factor * HIGHWIND_DRUM_KG_M2
-    data["drive"]["rotor_inertia_kg_m2"] = factor * HIGHWIND_ROTOR_KG_M2
+    """``highwind_drivetrain.toml`` (the paper's system with its estimated inertia), the
+    inertia times ``factor``."""
+    data = _load("highwind_drivetrain")
+    data["winch"]["drum_inertia_kg_m2"] *= factor
+    data["drive"]["rotor_inertia_kg_m2"] *= factor
     return data
 
 
@@ -153,6 +150,9 @@ def rows_of(name: str, data: dict, folder: Path) -> list[dict]:
     s = pd.read_parquet(folder / name / "summary.parquet")
     traj = pd.read_parquet(folder / name / "trajectories.parquet")
     limits = limits_of(data)
+    w, d = data["winch"], data["drive"]
+    radius, gear = w["drum_radius_m"], w["gear_ratio"]
+    inertia = d.get("rotor_inertia_kg_m2", 0.0) + w.get("drum_inertia_kg_m2", 0.0) / gear**2
     rows = []
     for _, r in s.sort_values(["kind", "wind_speed_m_s"]).iterrows():
         t = traj[traj["scenario"] == r["scenario"]]
@@ -164,6 +164,11 @@ def rows_of(name: str, data: dict, folder: Path) -> list[dict]:
             row.update(
                 peak_reel_acceleration_m_s2=float(t["ddl_m_s2"].abs().max()),
                 peak_shaft_torque_nm=float(torque.max()),
+                # recomputed from the tension and the reel acceleration, not the OCP's
+                # column: tether torque at the motor plus J_motor * motor acceleration
+                peak_shaft_torque_recomputed_nm=float(np.max(np.abs(
+                    t["l_m"] * t["nu_n_m"] * radius / gear
+                    - inertia * gear * t["ddl_m_s2"] / radius))),
                 peak_tether_torque_nm=float(t["tether_torque_nm"].abs().max()),
                 envelope_ratio=float(np.max(torque / envelope_torque_nm(
                     limits, t["speed_rpm"].to_numpy()))) if r["drive_limits"] else None)
@@ -197,7 +202,8 @@ def claims_table(folder: Path, names: list[str]) -> str:
 
 def _markdown(rows: list[dict]) -> str:
     cols = ["case", "scenario", "status", "p_elec_w", "p_mech_w", "period_s",
-            "peak_reel_acceleration_m_s2", "peak_shaft_torque_nm", "peak_tether_torque_nm",
+            "peak_reel_acceleration_m_s2", "peak_shaft_torque_nm",
+            "peak_shaft_torque_recomputed_nm", "peak_tether_torque_nm",
             "envelope_ratio", "active_bounds"]
     lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for r in rows:

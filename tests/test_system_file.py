@@ -16,7 +16,7 @@ from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import load_system, system_from_dict
 
-SHIPPED = ("highwind", "ap2", "megawes")
+SHIPPED = ("highwind", "highwind_drivetrain", "ap2", "megawes")
 
 
 def _data(name: str = "highwind") -> dict:
@@ -53,9 +53,11 @@ def test_highwind_file_is_the_package_defaults():
 
 
 def test_only_the_paper_system_says_it_is_the_papers():
-    assert load_system().paper_system is True
-    for name in SHIPPED[1:]:
-        assert load_system(shipped_system_path(name)).paper_system is False
+    """highwind and highwind_drivetrain (the paper's wing and drive, with its estimated
+    inertia: the comparison shows what the inertia moves) are the paper's; no other."""
+    for name in SHIPPED:
+        assert load_system(shipped_system_path(name)).paper_system is name.startswith(
+            "highwind")
     data = _data()
     del data["system"]["paper_system"]  # optional: a system is not the paper's by default
     assert system_from_dict(data, "x.toml").paper_system is False
@@ -158,3 +160,14 @@ def test_cli_exit_code_2_on_a_bad_system_file(tmp_path):
     path.write_text(data)
     assert main(["optimize", "--system", str(path), "--out", str(tmp_path / "o")]) == 2
     assert not (tmp_path / "o").exists()
+
+
+def test_highwind_drivetrain_is_highwind_with_its_estimated_inertia():
+    """highwind_drivetrain.toml is highwind.toml with the drum and rotor inertia its
+    comments estimate (0.04 and 0.057 kg m^2): every other key is the same."""
+    base, heavy = _data("highwind"), _data("highwind_drivetrain")
+    assert heavy["winch"].pop("drum_inertia_kg_m2") == 0.04
+    assert heavy["drive"].pop("rotor_inertia_kg_m2") == 0.057
+    for key in ("name", "description"):
+        base["system"].pop(key), heavy["system"].pop(key)
+    assert heavy == base

@@ -15,7 +15,7 @@ from optimize.system.plausibility import check_drive_holds_kite
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import load_system, system_from_dict
 
-SHIPPED = ("highwind", "ap2", "megawes")
+SHIPPED = ("highwind", "highwind_drivetrain", "ap2", "megawes")
 
 
 def _data(name: str = "highwind") -> dict:

@@ -259,3 +259,25 @@ def test_a_winding_limit_below_the_fitted_ambient_stops_before_solving(tmp_path,
     assert code == 2, err
     assert str(system) in err and "max_winding_temperature_c" in err and "25" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_the_carried_two_node_network_scales_every_node():
+    """The sizing law on a two-node block: every ladder and mode resistance / s, every
+    capacity x s, so each node's time constant and the steady winding temperature at
+    corresponding points (s x the heat) are the base drive's."""
+    (c_w, r_wh), (c_h, r_ha) = LADDER
+    thermal = {**THERMAL, "nodes": 2,
+               "ladder": [{"node": "winding", "c_j_per_k": c_w, "r_k_per_w": r_wh},
+                          {"node": "housing", "c_j_per_k": c_h, "r_k_per_w": r_ha}],
+               "modes": [{"r_k_per_w": 0.01, "tau_s": 20.0}, {"r_k_per_w": 0.04, "tau_s": 600.0}]}
+    base = dataclasses.replace(paper_model(), thermal=thermal)
+    s = 2.5
+    carried = carry_power_model(base, 1.0, s).thermal
+    for a, b in zip(carried["ladder"], thermal["ladder"], strict=True):
+        assert a["r_k_per_w"] == pytest.approx(b["r_k_per_w"] / s, rel=1e-12)
+        assert a["c_j_per_k"] == pytest.approx(b["c_j_per_k"] * s, rel=1e-12)
+    assert [m["tau_s"] for m in carried["modes"]] == [20.0, 600.0]
+    th_b = WindingThermal.of(base, max_c=150.0)
+    th_s = WindingThermal.of(dataclasses.replace(base, thermal=carried), max_c=150.0)
+    assert [t for _, t in th_s.ladder] == pytest.approx([t for _, t in th_b.ladder], rel=1e-12)
+    assert th_s.steady_c(s * 800.0) == pytest.approx(th_b.steady_c(800.0), abs=1e-9)
