@@ -32,7 +32,7 @@ import pandas as pd
 from fitting.thermal_network import (
     Z95,
     delta_sd,
-    fit_network,
+    fit_chain,
     interval,
     ladder_of,
     mean_time_constant_s,
@@ -159,7 +159,6 @@ def _resolved(fit: dict) -> bool:
 def _network_fields(fit: dict) -> dict:
     """The block's network keys: totals, modes and ladder with their 95 % intervals."""
     x, cov = fit["modes"].ravel(), fit["cov"]
-    n = fit["modes"].shape[0]
     r_th = float(fit["modes"][:, 0].sum())
     tau = mean_time_constant_s(fit["modes"])
     sd_r, sd_tau, sd_c = delta_sd(
@@ -178,7 +177,7 @@ def _network_fields(fit: dict) -> dict:
         "ladder": [{"node": NODE_NAMES[i] if i < len(NODE_NAMES) else f"node_{i + 1}",
                     "c_j_per_k": float(c), "c_j_per_k_ci95": interval(c, sd_ladder[2 * i]),
                     "r_k_per_w": float(r), "r_k_per_w_ci95": interval(r, sd_ladder[2 * i + 1])}
-                   for i, (c, r) in enumerate(ladder[:n])],
+                   for i, (c, r) in enumerate(ladder)],
     }
 
 
@@ -186,14 +185,13 @@ def _chosen_fit(series: dict[str, dict]) -> tuple[dict, dict]:
     """The network the selection chooses, fitted on every session, with fewer nodes
     while a mode's interval reaches zero (the data do not resolve it)."""
     selection = select_nodes(series)
-    n = selection["chosen_nodes"]
-    fit = fit_network(series, n)
-    while n > 1 and not _resolved(fit):
+    chain = fit_chain(series, selection["chosen_nodes"])
+    n = len(chain)
+    while n > 1 and not _resolved(chain[n - 1]):
         n -= 1
-        fit = fit_network(series, n)
         selection["note"] = f"{n + 1} nodes chosen, but a mode's interval reaches zero"
     selection["fitted_nodes"] = n
-    return fit, selection
+    return chain[n - 1], selection
 
 
 def fit_thermal(points: pd.DataFrame, samples_of) -> tuple[dict | None, str]:

@@ -141,19 +141,24 @@ def fit_modes(series: dict[str, dict], n: int, modes0: np.ndarray | None = None)
     }
 
 
-def fit_network(series: dict[str, dict], n: int) -> dict:
-    """:func:`fit_modes` with ``n`` modes, started from the fit with one mode fewer
-    (the new mode split off both ways, fast and slow; the lower cost is kept)."""
-    fit = fit_modes(series, 1)
+def fit_chain(series: dict[str, dict], n: int) -> list[dict]:
+    """:func:`fit_modes` with 1, 2, ..., ``n`` modes, each started from the fit with one
+    mode fewer (a mode split off both ways, fast and slow; the lower cost is kept)."""
+    fits = [fit_modes(series, 1)]
     for k in range(2, n + 1):
         starts = []
-        for r, tau in fit["modes"]:
-            rest = [m for m in fit["modes"].tolist() if m != [r, tau]]
+        for r, tau in fits[-1]["modes"]:
+            rest = [m for m in fits[-1]["modes"].tolist() if m != [r, tau]]
             starts += [rest + [[0.3 * r, tau / 10], [0.7 * r, tau]],
                        rest + [[0.7 * r, tau / 3], [0.3 * r, 3 * tau]]]
-        fit = min((fit_modes(series, k, np.array(m)) for m in starts),
-                  key=lambda f: f["cost"])
-    return fit
+        fits.append(min((fit_modes(series, k, np.array(m)) for m in starts),
+                        key=lambda f: f["cost"]))
+    return fits
+
+
+def fit_network(series: dict[str, dict], n: int) -> dict:
+    """:func:`fit_modes` with ``n`` modes (the last of :func:`fit_chain`)."""
+    return fit_chain(series, n)[-1]
 
 
 def _sub(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -191,7 +196,7 @@ def ladder_of(modes: np.ndarray) -> np.ndarray:
         y_num = _sub(y_num, np.convolve([0.0, c], y_den))[:-1]  # the top power cancels
         r = y_den[-1] / y_num[-1]  # the rest's impedance y_den / y_num ~ R
         nodes.append([c, r])
-        y_num, y_den = y_num, _sub(y_den, r * y_num)[:-1]
+        y_den = _sub(y_den, r * y_num)[:-1]
     return np.array(nodes)
 
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fitting.thermal_network import fit_network, simulate_modes
+from fitting.thermal_network import fit_chain, simulate_modes
 
 #: candidate numbers of nodes
 CANDIDATES = (1, 2)
@@ -52,15 +52,19 @@ def predict(modes: np.ndarray, ambient_c: float, d: dict) -> np.ndarray:
     return simulate_modes(d["heat_w"], theta0, ambient_c, modes, d["bin_s"])
 
 
-def held_out_rms(units: dict[str, dict], n: int) -> dict[str, float]:
-    """Per unit: the RMS [K] of its predicted winding temperature, ``n`` nodes fitted
-    on the other units."""
-    out = {}
+def held_out_rms(units: dict[str, dict], candidates: tuple[int, ...]
+                 ) -> dict[int, dict[str, float]]:
+    """Per candidate number of nodes and per unit: the RMS [K] of the unit's predicted
+    winding temperature, the network fitted on the other units (one
+    :func:`fitting.thermal_network.fit_chain` per unit serves every candidate)."""
+    out: dict[int, dict[str, float]] = {n: {} for n in candidates}
     for name, d in units.items():
-        fit = fit_network({k: v for k, v in units.items() if k != name}, n)
-        ambient = float(np.mean(list(fit["ambient_c"].values())))
-        err = (predict(fit["modes"], ambient, d) - d["theta_c"])[np.isfinite(d["theta_c"])]
-        out[name] = float(np.sqrt(np.mean(err**2)))
+        chain = fit_chain({k: v for k, v in units.items() if k != name}, max(candidates))
+        for n in candidates:
+            fit = chain[n - 1]
+            ambient = float(np.mean(list(fit["ambient_c"].values())))
+            err = (predict(fit["modes"], ambient, d) - d["theta_c"])[np.isfinite(d["theta_c"])]
+            out[n][name] = float(np.sqrt(np.mean(err**2)))
     return out
 
 
@@ -80,8 +84,7 @@ def select_nodes(series: dict[str, dict], candidates: tuple[int, ...] = CANDIDAT
         return {"rule": RULE, "unit": unit, "chosen_nodes": 1, "candidates": [],
                 "note": "one node: too little logged temperature to hold a part out"}
     rows = []
-    for n in candidates:
-        rms = held_out_rms(units, n)
+    for n, rms in held_out_rms(units, candidates).items():
         v = np.array(list(rms.values()))
         rows.append({"nodes": n, "cv_rms_k": float(v.mean()),
                      "cv_rms_k_se": float(v.std(ddof=1) / np.sqrt(v.size)),

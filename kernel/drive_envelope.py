@@ -65,9 +65,8 @@ def largest_torque_nm(speed_rpm, max_torque_nm: float, base_speed_rpm: float | N
     its torque limit; the torque limit alone when it states no envelope."""
     speed = np.abs(np.asarray(speed_rpm, dtype=float))
     if base_speed_rpm is not None:
-        with np.errstate(divide="ignore"):
-            return np.minimum(max_torque_nm, max_torque_nm * base_speed_rpm
-                              / np.maximum(speed, 1e-12))
+        return np.minimum(max_torque_nm, max_torque_nm * base_speed_rpm
+                          / np.maximum(speed, 1e-12))
     if speeds_rpm is not None:
         return np.minimum(np.interp(speed, speeds_rpm, torques_nm), max_torque_nm)
     return np.full(speed.shape, float(max_torque_nm))

@@ -149,9 +149,13 @@ def _toml_string(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-def _positive(value) -> bool:
+def _finite(value) -> bool:
     return (isinstance(value, (int, float)) and not isinstance(value, bool)
-            and math.isfinite(value) and value > 0)
+            and math.isfinite(value))
+
+
+def _positive(value) -> bool:
+    return _finite(value) and value > 0
 
 
 def rating_keys(table: dict, path: Path | str | None) -> dict[str, float]:
@@ -209,13 +213,11 @@ def envelope_keys(table: dict, path: Path | str | None) -> dict:
     """
     out = {k: table[k] for k in ENVELOPE_KEYS if k in table}
     for key, value in out.items():
-        values = value if key != "base_speed_rpm" and isinstance(value, list) else [value]
-        if key != "base_speed_rpm" and not isinstance(value, list) or not all(
-                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-                for v in values):
+        scalar = key == "base_speed_rpm"
+        values = [value] if scalar else value
+        if not isinstance(values, list) or not all(_finite(v) for v in values):
             raise InputError(path, f"bad value {value!r}", column=key,
-                             expected="a number [rpm]" if key == "base_speed_rpm"
-                             else "a list of numbers")
+                             expected="a number [rpm]" if scalar else "a list of numbers")
     problem = envelope_problem(out.get("base_speed_rpm"), out.get("envelope_speed_rpm"),
                                out.get("envelope_torque_nm"))
     if problem is not None:

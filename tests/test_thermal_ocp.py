@@ -22,7 +22,7 @@ from kernel.errors import InputError
 from kernel.units import RPM_PER_RAD_S
 from optimize.model.drivetrain import carry_power_model
 from optimize.model.kite_model import kite_dae
-from optimize.model.thermal import STATE, WindingThermal, periodic_temperature
+from optimize.model.thermal import STATE, WindingThermal, periodic_temperatures
 from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp, thermal_line, winding_thermal
 from optimize.problem.options import Discretization, OcpOptions
@@ -56,7 +56,7 @@ def test_periodic_temperature_matches_the_closed_form():
     wt = w * th.tau_th_s
     exact = (th.ambient_c + th.r_th_k_per_w * q0
              + th.r_th_k_per_w * amp * (np.sin(w * t) - wt * np.cos(w * t)) / (1 + wt**2))
-    got = periodic_temperature(t, q, period, th, substeps=50)
+    got = periodic_temperatures(t, q, period, th, substeps=50)[0]
     assert np.max(np.abs(got - exact)) < 1e-4
 
 

@@ -171,11 +171,6 @@ class WindingThermal:
         """Steady winding temperature [degC] under a constant heat [W]."""
         return self.ambient_c + self.r_th_k_per_w * heat_w
 
-    def steady_nodes_c(self, heat_w: float) -> np.ndarray:
-        """Steady temperature [degC] of every node under a constant heat [W]."""
-        r = np.array([r for r, _ in self.ladder])
-        return self.ambient_c + heat_w * np.cumsum(r[::-1])[::-1]
-
 
 def with_winding_temperature(base: Any, heat_w: ca.Function, thermal: WindingThermal) -> Any:
     """The model ``base`` (a :class:`optimize.model.kite_model.KiteDae`) with the thermal
@@ -243,10 +238,3 @@ def periodic_temperatures(times_s: np.ndarray, heat_w: np.ndarray, period_s: flo
     rise0 = np.linalg.solve(np.eye(m) - phis[-1], gains[-1])
     rises = np.array([phi @ rise0 for phi in phis]) + gains
     return (thermal.ambient_c + rises[:-1]).T
-
-
-def periodic_temperature(times_s: np.ndarray, heat_w: np.ndarray, period_s: float,
-                         thermal: WindingThermal, substeps: int = 20) -> np.ndarray:
-    """The winding's cyclic steady temperature [degC] at ``times_s``
-    (:func:`periodic_temperatures`' first node)."""
-    return periodic_temperatures(times_s, heat_w, period_s, thermal, substeps)[0]

@@ -27,6 +27,7 @@ from typing import Any
 from kernel.drive_envelope import ENVELOPE_KEYS
 from kernel.drive_rating import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS, DriveRating
 from kernel.errors import InputError
+from optimize.model.envelope import has_envelope
 
 #: ``[drive] losses`` value naming the shipped paper model
 LOSSES_PAPER = "paper"
@@ -229,8 +230,7 @@ def unflown_envelope(system: Any, model_drive: dict | None, path: Path) -> str:
     """A line when the power model's rating (its campaign's ``drive.toml``) states a
     torque-speed envelope and the system file's ``[drive]`` states none, else ``""``."""
     stated = [k for k in ENVELOPE_KEYS if (model_drive or {}).get(k) is not None]
-    d = system.drive
-    if not stated or d.base_speed_rpm is not None or d.envelope_speed_rpm is not None:
+    if not stated or has_envelope(system.drive):
         return ""
     return (f"the power model's drive rating ({path}) states a torque-speed envelope "
             f"({', '.join(stated)}) that the system file's [drive] does not: not flown; state "
