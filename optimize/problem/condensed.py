@@ -27,7 +27,6 @@ the interval start and the algebraic variables of a full vector (the start's).
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -307,14 +306,11 @@ def _stages(b: _Builder, n: int, sizes: dict[str, int]) -> dict[str, list[np.nda
 
 
 def condensed_nlp(form: CycleFormulation, coll: Collocation, full: Transcription,
-                  rootfinder: str = "newton",
-                  compile_fn: Callable[[ca.Function], ca.Function] | None = None
-                  ) -> CondensedNlp:
+                  rootfinder: str = "newton") -> CondensedNlp:
     """The condensed NLP of ``form`` beside its full transcription ``full``
     (:func:`optimize.problem.transcription.radau_collocation` with collocation ``coll``).
 
-    ``rootfinder`` solves each interval (:data:`ROOTFINDERS`); ``compile_fn``, when
-    given, turns the interval's solve into a compiled function of the same signature.
+    ``rootfinder`` solves each interval (:data:`ROOTFINDERS`).
     """
     lay, d = full.layout, coll.degree
     n = lay.i_u.shape[1]
@@ -325,7 +321,6 @@ def condensed_nlp(form: CycleFormulation, coll: Collocation, full: Transcription
     xbound = np.flatnonzero(_bounded(full, lay.i_x[:, 1]))
     zbound = np.flatnonzero(_bounded(full, lay.i_z[:, 0])) if nz else np.zeros(0, dtype=int)
     it = interval(full, coll, dims, xbound, zbound, rootfinder)
-    solve = it.solve if compile_fn is None else compile_fn(it.solve)
     b = _Builder()
     st = _stages(b, n, {"x": nx, "t": 1, "s": nx, "q": len(carried), "u": nu, "f": d * nf})
     var_src = -np.ones(b.n_w, dtype=int)
@@ -350,7 +345,7 @@ def condensed_nlp(form: CycleFormulation, coll: Collocation, full: Transcription
     wm, pm = ca.MX.sym("w", b.n_w), ca.MX.sym("p", p.shape[0])
     qs = ca.reshape(wm[i_q.T.ravel().tolist()], it.n_q, n)
     as_ = ca.reshape(pm[i_a.T.ravel().tolist()], it.n_a, n)
-    ys, vs = solve.map(n)(qs, as_)
+    ys, vs = it.solve.map(n)(qs, as_)
     fg = ca.Function("f_g_s", [w, p, ca.vec(s)], [f_s, g_s])
     f, g = fg(wm, pm, ca.vec(ys))
     gap_cols = np.concatenate([np.concatenate([st[key][k] for key in ("x", "t", "s", "q")])

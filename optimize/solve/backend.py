@@ -131,33 +131,44 @@ def condensed(ocp: Ocp) -> CondensedNlp:
         compile_fn = codegen.compiled if ocp.options.solver.codegen else None
         # CasADi generates C code for its dense Newton method, not for the sparse one
         rootfinder = "fast_newton" if compile_fn and codegen.compiler() else "newton"
-        c = condensed_nlp(ocp.formulation, ocp.coll, ocp.transcription, rootfinder,
-                          compile_fn)
+        c = condensed_nlp(ocp.formulation, ocp.coll, ocp.transcription, rootfinder)
+        derivs, cache, calls = condensed_derivatives(c, compile_fn)
         ocp.solvers["condensed"] = c
-        ocp.solvers["condensed_derivatives"] = condensed_derivatives(c, compile_fn)
+        ocp.solvers["condensed_derivatives"] = derivs
+        # the callbacks into the cache live as long as the solvers that call them
+        ocp.solvers["condensed_cache"] = (cache, calls)
         log.info("built the condensed NLP (%s%s): %d variables, %d constraints in %.1f s",
                  rootfinder, ", compiled" if compile_fn else "", c.n_w, c.n_g,
                  time.perf_counter() - t0)
     return ocp.solvers["condensed"]
 
 
-def _nlp(ocp: Ocp) -> tuple[dict, dict]:
-    """The NLP a solver of ``ocp`` runs on and the derivative functions handed to IPOPT."""
-    if ocp.options.solver.transcription == "condensed":
-        c = condensed(ocp)
-        return c.nlp, ocp.solvers["condensed_derivatives"].functions("ipopt")
-    return ocp.nlp, derivatives(ocp)
+def _condensed_nlp(ocp: Ocp, solver: str) -> tuple[dict, dict]:
+    """The condensed NLP as ``solver`` runs it and the options that hand it its functions.
 
-
-def _quiet(ocp: Ocp) -> dict:
-    """Options of a solver of the condensed NLP: an evaluation error stays quiet (a Newton
-    solve of an interval that does not converge at a trial point is one, on which the
-    solver shortens its step; the solve's status says whether it recovered), and no
-    multipliers of the parameters (their derivative would differentiate the compiled
-    interval functions)."""
-    if ocp.options.solver.transcription != "condensed":
-        return {}
-    return {"show_eval_warnings": False, "calc_lam_p": False}
+    Its objective and rows come from the intervals solved once per point
+    (:class:`optimize.solve.condensed_derivatives.IntervalCache`), reached through
+    callbacks CasADi cannot differentiate. So every derivative is given, the Lagrangian
+    gradient CasADi evaluates at the solution (``nlp_grad``) included, with a structurally
+    zero gradient in the parameters: their multipliers are not computed. An evaluation
+    error stays quiet (a Newton solve of an interval that does not converge at a trial
+    point is one, on which the solver shortens its step; the solve's status says whether
+    it recovered).
+    """
+    condensed(ocp)
+    d = ocp.solvers["condensed_derivatives"]
+    grad_x = d.lam_f * d.grad + ca.mtimes(d.jac.T, d.lam_g)
+    nlp_grad = ca.Function("nlp_grad", [d.x, d.p, d.lam_f, d.lam_g],
+                           [d.f, d.g, grad_x, ca.MX(d.p.shape[0], 1)],
+                           ["x", "p", "lam_f", "lam_g"],
+                           ["f", "g", "grad_gamma_x", "grad_gamma_p"])
+    fns = d.functions(solver)
+    opts = {"show_eval_warnings": False, "calc_lam_p": False}
+    if solver == "ipopt":
+        opts.update(fns, cache={"nlp_grad": nlp_grad})
+    else:
+        opts["cache"] = {**fns, "nlp_grad": nlp_grad}
+    return {"x": d.x, "p": d.p, "f": d.f, "g": d.g}, opts
 
 
 def _ipopt(ocp: Ocp, warm: bool, push: float) -> ca.Function:
@@ -190,10 +201,10 @@ def _ipopt(ocp: Ocp, warm: bool, push: float) -> ca.Function:
             }
         )
     _single_threaded_blas()
-    nlp, given = _nlp(ocp)
+    nlp, given = ((ocp.nlp, derivatives(ocp)) if o.transcription == "collocation"
+                  else _condensed_nlp(ocp, "ipopt"))
     return ca.nlpsol("pumping_cycle", "ipopt", nlp,
-                     {"ipopt": ipopt, "print_time": False, "error_on_fail": False,
-                      **_quiet(ocp), **given})
+                     {"ipopt": ipopt, "print_time": False, "error_on_fail": False, **given})
 
 
 def _fatrop_derivatives(ocp: Ocp) -> dict[str, ca.Function]:
@@ -212,11 +223,11 @@ def _fatrop(ocp: Ocp, warm: bool, push: float) -> ca.Function:
     if warm:  # fatrop takes no multipliers: a warm start is the primal point, a small barrier
         opts.update({"mu_init": o.warm_mu_init, "bound_push": push, "bound_frac": push})
     if o.transcription == "condensed":
-        c = condensed(ocp)
-        return ca.nlpsol("pumping_cycle", "fatrop", c.nlp, {
-            "structure_detection": "auto", "equality": [bool(e) for e in c.equality()],
-            "fatrop": opts, "print_time": False, "error_on_fail": False, **_quiet(ocp),
-            "cache": ocp.solvers["condensed_derivatives"].functions("fatrop")})
+        nlp, given = _condensed_nlp(ocp, "fatrop")
+        return ca.nlpsol("pumping_cycle", "fatrop", nlp, {
+            "structure_detection": "auto",
+            "equality": [bool(e) for e in condensed(ocp).equality()],
+            "fatrop": opts, "print_time": False, "error_on_fail": False, **given})
     return ca.nlpsol("pumping_cycle", "fatrop", ocp.nlp, {
         "structure_detection": "auto",
         "equality": [bool(e) for e in ocp.layout.equality],

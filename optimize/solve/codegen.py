@@ -42,9 +42,8 @@ def cache_dir() -> Path:
 
 def compiled(fn: ca.Function) -> ca.Function:
     """``fn`` as a compiled function of the same signature (built once, then loaded from
-    the cache), with its first-order reverse derivative (``adj1_<name>``, which CasADi's
-    solvers build their multiplier functions from); ``fn`` itself, with a warning, when
-    no C compiler is found or the compilation fails."""
+    the cache; no derivatives); ``fn`` itself, with a warning, when no C compiler is
+    found or the compilation fails."""
     cc = compiler()
     if cc is None:
         log.warning("no C compiler found ($CC, gcc, cc): %s runs uncompiled in CasADi's "
@@ -52,7 +51,6 @@ def compiled(fn: ca.Function) -> ca.Function:
         return fn
     gen = ca.CodeGenerator(f"{fn.name()}.c", {"with_header": False})
     gen.add(fn)
-    gen.add(fn.reverse(1))
     source = gen.dump()
     key = hashlib.sha256((source + cc + " ".join(FLAGS)).encode()).hexdigest()[:20]
     lib = cache_dir() / f"{fn.name()}_{key}.so"

@@ -1,4 +1,4 @@
-"""Derivatives of the condensed NLP, interval by interval.
+"""Derivatives of the condensed NLP, interval by interval, each interval solved once per point.
 
 Each interval's outputs ``y(q)`` (:class:`optimize.problem.condensed.Interval`) depend on
 its stage variables ``q`` through the Radau points' unknowns ``v(q)``, the root of the
@@ -6,17 +6,26 @@ collocation equations ``G(v, q) = 0``. By the implicit function theorem
 ``dv/dq = -G_v^-1 G_q``, so ``dy/dq = y_v dv/dq + y_q``; and for multipliers ``nu`` of the
 outputs, with the adjoint ``mu = -G_v^-T y_v' nu``, the Hessian of ``nu' y(v(q), q)`` is
 ``[dv/dq; I]' H [dv/dq; I]`` with ``H`` the Hessian of ``nu' y + mu' G`` in ``(v, q)``.
-These are built once (symbolic pieces in SX, the solves with ``G_v`` in MX), evaluated
-for every interval by one CasADi ``map``, and added into the NLP's sparse matrices as
-:mod:`optimize.solve.derivatives` does for the Radau points. The NLP is linear in the
-outputs with coefficients free of the variables (checked), so nothing else couples them.
+
+A solver asks for the objective, the rows, the gradient, the Jacobian and the Hessian
+in separate calls, most of them at the same point. :class:`IntervalCache` solves the
+intervals' collocation (Newton's method) and their sensitivities ``dv/dq`` once per
+point and hands them to every call at that point; the calls reach it through CasADi
+callbacks, so the NLP's assembly (constant sparse sums, as
+:mod:`optimize.solve.derivatives` does for the Radau points) stays in CasADi. The NLP is
+linear in the outputs with coefficients free of the variables (checked), so nothing
+else couples the intervals.
 """
 
 from __future__ import annotations
 
+import hashlib
 import logging
+import struct
 import time
+from collections import OrderedDict
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -28,11 +37,28 @@ log = logging.getLogger(__name__)
 
 #: the linear solver of the solves with an interval's collocation Jacobian ``G_v``
 LINEAR_SOLVER = "qr"
+#: points whose interval solutions are kept (a trial point and the current iterate)
+KEEP_POINTS = 4
 
 
-def interval_functions(it: Interval) -> tuple[ca.Function, ca.Function]:
-    """``(q, a) -> (y, dy/dq)`` and ``(q, a, nu) -> d2(nu' y)/dq2`` of one interval,
-    both dense in ``q``."""
+@dataclass(frozen=True)
+class IntervalFunctions:
+    """One interval's functions, dense in its stage variables ``q``: ``solve(q, a) ->
+    (y, v)``; ``first(v, q, a) -> (dy/dq, dv/dq)``; ``second(v, q, a, dv/dq, nu) ->
+    d2(nu' y)/dq2`` (each matrix as its column-major nonzeros)."""
+
+    solve: ca.Function
+    first: ca.Function
+    second: ca.Function
+
+    def compiled(self, compile_fn: Callable[[ca.Function], ca.Function]) -> IntervalFunctions:
+        """The three functions through ``compile_fn``."""
+        return IntervalFunctions(*(compile_fn(f) for f in (self.solve, self.first,
+                                                           self.second)))
+
+
+def interval_functions(it: Interval) -> IntervalFunctions:
+    """The :class:`IntervalFunctions` of ``it``."""
     v, q = ca.SX.sym("v", it.n_v), ca.SX.sym("q", it.n_q)
     a = ca.SX.sym("a", it.n_a)
     g, y = it.residual(v, q, a), it.outputs(v, q, a)
@@ -46,18 +72,103 @@ def interval_functions(it: Interval) -> tuple[ca.Function, ca.Function]:
     n_v = it.n_v
     hess_fn = ca.Function("interval_lagrangian_hessian", [v, q, a, nu, mu], [
         hess[:n_v, :n_v], hess[:n_v, n_v:], hess[n_v:, n_v:]], {"cse": True})
-    qm, am, num = (ca.MX.sym("q", it.n_q), ca.MX.sym("a", it.n_a),
-                   ca.MX.sym("nu", y.shape[0]))
-    ym, vm = it.solve(qm, am)
+    vm, qm, am = ca.MX.sym("v", it.n_v), ca.MX.sym("q", it.n_q), ca.MX.sym("a", it.n_a)
+    num, v_qm = ca.MX.sym("nu", y.shape[0]), ca.MX.sym("v_q", it.n_v * it.n_q)
     g_v, g_q, y_v, y_q = pieces(vm, qm, am)
-    v_q = -ca.solve(g_v, g_q, LINEAR_SOLVER)
-    jac = ca.Function("interval_jacobian", [qm, am],
-                      [ym, ca.densify(ca.mtimes(y_v, v_q) + y_q).nz[:]])
+    v_q = ca.densify(-ca.solve(g_v, g_q, LINEAR_SOLVER))
+    first = ca.Function("interval_jacobian", [vm, qm, am],
+                        [ca.densify(ca.mtimes(y_v, v_q) + y_q).nz[:], v_q.nz[:]])
+    v_q = ca.reshape(v_qm, it.n_v, it.n_q)
     mum = -ca.solve(g_v.T, ca.mtimes(y_v.T, num), LINEAR_SOLVER)
     h_vv, h_vq, h_qq = hess_fn(vm, qm, am, num, mum)
     cross = ca.mtimes(v_q.T, h_vq)
     h = ca.mtimes([v_q.T, h_vv, v_q]) + cross + cross.T + h_qq
-    return jac, ca.Function("interval_hessian", [qm, am, num], [ca.densify(h).nz[:]])
+    second = ca.Function("interval_hessian", [vm, qm, am, v_qm, num], [ca.densify(h).nz[:]])
+    return IntervalFunctions(it.solve, first, second)
+
+
+class IntervalCache:
+    """The intervals' Newton solutions and sensitivities at the last few points.
+
+    ``outputs``, ``jacobian`` and ``hessian`` take the condensed NLP's ``(w, p)`` (CasADi
+    matrices: a conversion to NumPy costs more than the rest of a call); the Newton
+    solves at a point run at the first call there, the sensitivities ``dv/dq`` at the
+    first call of ``jacobian`` or ``hessian`` there, and both are kept for the
+    :data:`KEEP_POINTS` points last asked for.
+    """
+
+    def __init__(self, c: CondensedNlp, fns: IntervalFunctions) -> None:
+        n = c.n_intervals
+        w, p = ca.MX.sym("w", c.n_w), ca.MX.sym("p", c.p_s.shape[0])
+        q = ca.reshape(w[c.i_q.T.ravel().tolist()], c.interval.n_q, n)
+        a = ca.reshape(p[c.i_a.T.ravel().tolist()], c.interval.n_a, n)
+        y, v = fns.solve.map(n)(q, a)
+        vs = ca.MX.sym("v", v.shape)
+        y_q, v_q = fns.first.map(n)(vs, q, a)
+        v_qs, nu = ca.MX.sym("v_q", v_q.shape), ca.MX.sym("nu", y.shape)
+        self._solve = ca.Function("intervals_solve", [w, p], [y, v])
+        self._first = ca.Function("intervals_first", [w, p, vs], [y_q, v_q])
+        self._second = ca.Function("intervals_second", [w, p, vs, v_qs, nu], [
+            fns.second.map(n)(vs, q, a, v_qs, nu)])
+        self._points: OrderedDict[bytes, dict[str, ca.DM]] = OrderedDict()
+
+    def _point(self, w: ca.DM, p: ca.DM) -> dict[str, ca.DM]:
+        key = hashlib.blake2b(struct.pack(f"{w.nnz() + p.nnz()}d", *w.nonzeros(),
+                                          *p.nonzeros()), digest_size=16).digest()
+        entry = self._points.get(key)
+        if entry is None:
+            y, v = self._solve(w, p)
+            entry = {"w": w, "p": p, "y": y, "v": v}
+            self._points[key] = entry
+            if len(self._points) > KEEP_POINTS:
+                self._points.popitem(last=False)
+        else:
+            self._points.move_to_end(key)
+        return entry
+
+    def outputs(self, w: ca.DM, p: ca.DM) -> ca.DM:
+        """The intervals' outputs ``y`` (one column per interval)."""
+        return self._point(w, p)["y"]
+
+    def _sensitivities(self, w: ca.DM, p: ca.DM) -> dict[str, ca.DM]:
+        e = self._point(w, p)
+        if "y_q" not in e:
+            e["y_q"], e["v_q"] = self._first(w, p, e["v"])
+        return e
+
+    def jacobian(self, w: ca.DM, p: ca.DM) -> ca.DM:
+        """The intervals' ``dy/dq`` (column-major nonzeros, one column per interval)."""
+        return self._sensitivities(w, p)["y_q"]
+
+    def hessian(self, w: ca.DM, p: ca.DM, nu: ca.DM) -> ca.DM:
+        """The intervals' ``d2(nu' y)/dq2`` for output multipliers ``nu`` (columns)."""
+        e = self._sensitivities(w, p)
+        return self._second(w, p, e["v"], e["v_q"], nu)
+
+
+class _Call(ca.Callback):
+    """A Python function of CasADi matrices as a CasADi function (no derivatives)."""
+
+    def __init__(self, name: str, fn: Callable[..., ca.DM],
+                 shapes_in: list[tuple[int, int]], shape_out: tuple[int, int]) -> None:
+        ca.Callback.__init__(self)
+        self._fn, self._in, self._out = fn, shapes_in, shape_out
+        self.construct(name, {})
+
+    def get_n_in(self) -> int:
+        return len(self._in)
+
+    def get_n_out(self) -> int:
+        return 1
+
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(*self._in[i])
+
+    def get_sparsity_out(self, i: int) -> ca.Sparsity:
+        return ca.Sparsity.dense(*self._out)
+
+    def eval(self, args: list) -> list:
+        return [self._fn(*args)]
 
 
 def _triplets(matrix: ca.DM) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -66,11 +177,9 @@ def _triplets(matrix: ca.DM) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return r, col, np.asarray(matrix.nonzeros(), dtype=float)
 
 
-def condensed_derivatives(c: CondensedNlp,
-                          compile_fn: Callable[[ca.Function], ca.Function] | None = None
-                          ) -> Derivatives:
-    """The condensed NLP's gradient, Jacobian and Lagrangian Hessian (upper triangle);
-    ``compile_fn``, when given, compiles the interval functions.
+def _rest(c: CondensedNlp) -> tuple[ca.Function, ca.Function, ca.DM]:
+    """What is not an interval, differentiated whole: ``(w, p) -> (dg/dw, df/dw, df/ds)``,
+    ``(w, p, lam_f, lam_g) -> (d2L/dw2 upper, dL/ds)`` and the constant ``dg/ds``.
 
     Raises
     ------
@@ -78,11 +187,8 @@ def condensed_derivatives(c: CondensedNlp,
         When the NLP is not linear in the intervals' outputs with coefficients free of the
         variables (then the interval-wise chain rule would be wrong).
     """
-    t0 = time.perf_counter()
     w, p, s = c.w_s, c.p_s, ca.vec(c.s)
-    n_y, n = c.s.shape
-    n_w, n_g = c.n_w, c.n_g
-    lam_f, lam_g = ca.SX.sym("lam_f"), ca.SX.sym("lam_g", n_g)
+    lam_f, lam_g = ca.SX.sym("lam_f"), ca.SX.sym("lam_g", c.n_g)
     lag = lam_f * c.f_s + ca.dot(lam_g, c.g_s)
     grad_s, jac_s, grad_f_s = (ca.gradient(lag, s), ca.jacobian(c.g_s, s),
                                ca.gradient(c.f_s, s))
@@ -98,13 +204,34 @@ def condensed_derivatives(c: CondensedNlp,
                                         grad_f_s])
     rest_hess = ca.Function("rest_hess", [w, p, lam_f, lam_g],
                             [ca.triu(ca.hessian(lag, w)[0]), grad_s])
-    jac_fn, hess_fn = interval_functions(c.interval)
-    if compile_fn is not None:
-        jac_fn, hess_fn = compile_fn(jac_fn), compile_fn(hess_fn)
-    n_q = c.interval.n_q
+    return rest, rest_hess, ca.DM(ca.Function("jac_s", [], [jac_s])()["o0"])
+
+
+def condensed_derivatives(c: CondensedNlp,
+                          compile_fn: Callable[[ca.Function], ca.Function] | None = None
+                          ) -> tuple[Derivatives, IntervalCache, tuple[ca.Callback, ...]]:
+    """The condensed NLP's objective, rows, gradient, Jacobian and Lagrangian Hessian
+    (upper triangle), with every interval solved once per point; ``compile_fn``, when
+    given, compiles the interval functions.
+
+    Returns the derivatives, the cache they read and the callbacks that reach it (keep
+    them as long as the functions live: CasADi holds no reference to them).
+    """
+    t0 = time.perf_counter()
+    n_y, n = c.s.shape
+    n_w, n_g, n_q = c.n_w, c.n_g, c.interval.n_q
+    rest, rest_hess, jac_s = _rest(c)
+    fns = interval_functions(c.interval)
+    cache = IntervalCache(c, fns if compile_fn is None else fns.compiled(compile_fn))
+    n_p = c.p_s.shape[0]
+    calls = (_Call("interval_outputs", cache.outputs, [(n_w, 1), (n_p, 1)], (n_y, n)),
+             _Call("interval_jacobians", cache.jacobian, [(n_w, 1), (n_p, 1)],
+                   (n_y * n_q, n)),
+             _Call("interval_hessians", cache.hessian, [(n_w, 1), (n_p, 1), (n_y, n)],
+                   (n_q * n_q, n)))
     # the interval Jacobians' nonzeros (dense n_y x n_q blocks, interval after interval):
     # output i of interval k, variable j at nonzero k n_y n_q + j n_y + i, column i_q[j, k]
-    rows_s, cols_s, coef = _triplets(ca.DM(ca.Function("jac_s", [], [jac_s])()["o0"]))
+    rows_s, cols_s, coef = _triplets(jac_s)
     k, i = np.divmod(cols_s[:, None], n_y)
     j = np.arange(n_q)[None, :]
     t = (k * n_y * n_q + j * n_y + i).ravel()
@@ -116,14 +243,11 @@ def condensed_derivatives(c: CondensedNlp,
     hr, hc = _local_entries(ca.Sparsity.dense(n_q, n_q), c.i_q)
     hr = np.where(hr <= hc, hr, -1)  # the upper triangle, as IPOPT takes it
 
-    x_, p_ = ca.MX.sym("x", n_w), ca.MX.sym("p", p.shape[0])
+    x_, p_ = ca.MX.sym("x", n_w), ca.MX.sym("p", n_p)
     lf_, lg_ = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", n_g)
-    q_ = ca.reshape(x_[c.i_q.T.ravel().tolist()], n_q, n)
-    a_ = ca.reshape(p_[c.i_a.T.ravel().tolist()], c.interval.n_a, n)
-    ys, jac_nz = jac_fn.map(n)(q_, a_)
-    jac_nz = ca.vec(jac_nz)
-    fg = ca.Function("f_g_s", [w, p, s], [c.f_s, c.g_s])
-    f_, g_ = fg(x_, p_, ca.vec(ys))
+    jac_nz = ca.vec(calls[1](x_, p_))
+    fg = ca.Function("f_g_s", [c.w_s, c.p_s, ca.vec(c.s)], [c.f_s, c.g_s])
+    f_, g_ = fg(x_, p_, ca.vec(calls[0](x_, p_)))
     jac_w, grad_w, grad_s_f = rest(x_, p_)
     jac = _sum_into((n_g, n_w), [_entries(jac_w), (jac_coef * jac_nz[t.tolist()], jac_rows,
                                                     jac_cols)])
@@ -133,7 +257,7 @@ def condensed_derivatives(c: CondensedNlp,
                                                 np.repeat(ks, n_q)],
                                           np.zeros(n_y * n * n_q, dtype=int))])
     hess_rest, nu_ = rest_hess(x_, p_, lf_, lg_)
-    hess_nz = hess_fn.map(n)(q_, a_, ca.reshape(nu_, n_y, n))
+    hess_nz = calls[2](x_, p_, ca.reshape(nu_, n_y, n))
     hess = _sum_into((n_w, n_w), [(ca.vec(hess_nz), hr, hc), _entries(hess_rest)])
     log.debug("condensed NLP derivatives in %.1f s", time.perf_counter() - t0)
-    return Derivatives(x_, p_, lf_, lg_, f_, grad, g_, jac, hess)
+    return Derivatives(x_, p_, lf_, lg_, f_, grad, g_, jac, hess), cache, calls
