@@ -12,7 +12,9 @@ interval functions in CasADi's virtual machine; ``condensed-ipopt+cc`` (or ``...
 with them compiled to C (:mod:`optimize.solve.codegen`; the first use compiles them).
 
 1. Profile: the warm solve of the stored guess's scenario from the stored guess (N = 40),
-   with the solver's own time statistics (function evaluations, and fatrop's split).
+   with the solver's own time statistics (function evaluations, and fatrop's split);
+   then the cold start of the same scenario (the homotopy, no stored guess), with the
+   solver creation it needs.
 2. The paper's 20 scenarios (4 kinds x ``--wind-grid``, the paper's Table I drive model,
    the shipped highwind system): the whole sweep on ``--workers`` processes with each
    solver, each chain started from the stored guess when it fits (else the homotopy),
@@ -53,7 +55,7 @@ from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.service import Problem, make_tasks, run_sweep
 from optimize.solve.derivatives import nlp_derivatives, whole_derivatives
-from optimize.solve.solve import solve, start
+from optimize.solve.solve import cold_start, solve, start
 from optimize.sweep.executors import open_executor
 from optimize.sweep.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_chains
 from optimize.system.drive_in_force import drive_in_force
@@ -239,6 +241,11 @@ def profile(solver: str, max_iter: int) -> dict:
            "t_proc_s": {k[7:]: v for k, v in stats.items() if k.startswith("t_proc_")},
            "t_wall_s": {k[7:]: v for k, v in stats.items() if k.startswith("t_wall_")}}
     out["cpu_per_iteration_s"] = out["cpu_s"] / max(out["iterations"], 1)
+    t0, c0 = time.perf_counter(), time.process_time()
+    cold = cold_start(ocp, initial_guess.GUESS_SCENARIO)
+    out["cold_start"] = {**record(initial_guess.GUESS_SCENARIO.name, cold),
+                         "wall_s": time.perf_counter() - t0,
+                         "process_cpu_s": time.process_time() - c0}
     if "fatrop" in stats:
         out["fatrop"] = stats["fatrop"]
         out["stages"] = {"N": stats["N"], "nx": sorted(set(stats["nx"])),
@@ -247,6 +254,10 @@ def profile(solver: str, max_iter: int) -> dict:
           f"{out['cpu_s']:.2f} s CPU ({1000 * out['cpu_per_iteration_s']:.0f} ms per "
           f"iteration), function evaluations {sum(out['t_proc_s'].values()):.2f} s CPU; "
           f"build {build[1]:.1f} s CPU, solver creation {create[1]:.1f} s CPU", flush=True)
+    c = out["cold_start"]
+    print(f"{solver}: cold start (homotopy): {c['status']}, {c['iterations']} it, "
+          f"{c['process_cpu_s']:.1f} s CPU, {c['wall_s']:.1f} s wall, "
+          f"P_elec {c['p_elec_w'] or float('nan'):.4f} W", flush=True)
     if split:
         it = max(out["iterations"], 1)
         print(f"{solver}: IPOPT timers per iteration (ms CPU): "

@@ -121,7 +121,23 @@ def test_compiled_interval_functions_give_the_same_optimum(pendulums, tmp_path, 
     assert raw.objective == pytest.approx(plain.objective, rel=1e-9, abs=1e-12)
     assert np.max(np.abs(raw.w - plain.w)) < 1e-8
     # compiled once: three libraries (solve, Jacobian, Hessian) in the cache, by hash
-    assert len(list((tmp_path / "drivebench" / "casadi").glob("*.so"))) == 3
+    assert len(list((tmp_path / "drivebench" / "casadi").glob("interval_*.so"))) == 3
+
+
+@pytest.mark.skipif(codegen.compiler() is None, reason="no C compiler")
+def test_compiled_point_functions_give_the_collocation_the_same_optimum(pendulums, tmp_path,
+                                                                       monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    _, _, plain, _ = pendulums["collocation"]
+    _, ocp, raw, _ = _pendulum("ipopt", "collocation", codegen=True)
+    assert raw.success, raw.status
+    assert raw.iterations == plain.iterations
+    assert raw.objective == pytest.approx(plain.objective, rel=1e-9, abs=1e-12)
+    assert np.max(np.abs(raw.w - plain.w)) < 1e-8
+    # the Radau point's Jacobian and Hessian, compiled once each
+    libs = sorted(p.name.rsplit("_", 1)[0] for p in
+                  (tmp_path / "drivebench" / "casadi").glob("*.so"))
+    assert libs == ["point_hess", "point_jac"]
 
 
 def test_without_a_compiler_the_function_stays_and_a_warning_says_so(monkeypatch, caplog):

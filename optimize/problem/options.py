@@ -222,11 +222,13 @@ class SolverOptions:
         the interval, :mod:`optimize.problem.condensed`). Both have the same optima;
         results and warm starts are in the collocation layout either way.
     codegen : bool
-        Compile the condensed NLP's interval functions to C where a C compiler is found
+        Compile the NLP's repeated functions to C where a C compiler is found
         (:mod:`optimize.solve.codegen`, cached by hash, so only the first use of a model
-        compiles). Off by default: for the kite it saved 16 % of an iteration after
-        about 2 minutes of gcc on a quiet machine, in every worker of a sweep at once
-        (benchmarks/README.md); False runs them in CasADi's virtual machine.
+        compiles): the Radau point's Jacobian and Hessian for ``"collocation"``, each
+        interval's solve and derivatives for ``"condensed"``. Off by default: the
+        compilation is minutes of gcc in every worker of a sweep at once, for a few
+        percent of an iteration (benchmarks/README.md); False runs them in CasADi's
+        virtual machine.
     """
 
     solver: str = "ipopt"

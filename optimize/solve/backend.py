@@ -16,6 +16,7 @@ import dataclasses
 import logging
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import casadi as ca
@@ -56,6 +57,12 @@ def _single_threaded_blas() -> None:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
+def _compile_fn(ocp: Ocp) -> Callable[[ca.Function], ca.Function] | None:
+    """How the OCP's repeated functions are compiled: :func:`optimize.solve.codegen.compiled`
+    when ``options.solver.codegen`` is set, else not at all (None)."""
+    return codegen.compiled if ocp.options.solver.codegen else None
+
+
 def derivatives(ocp: Ocp) -> dict[str, ca.Function]:
     """Objective gradient, constraint Jacobian and Lagrangian Hessian (built once).
 
@@ -64,7 +71,8 @@ def derivatives(ocp: Ocp) -> dict[str, ca.Function]:
     (:func:`optimize.solve.derivatives.nlp_derivatives`).
     """
     if "derivatives" not in ocp.solvers:
-        ocp.solvers["derivatives"] = nlp_derivatives(ocp.transcription)
+        ocp.solvers["derivatives"] = nlp_derivatives(ocp.transcription,
+                                                     compile_fn=_compile_fn(ocp))
     return ocp.solvers["derivatives"]
 
 
@@ -128,7 +136,7 @@ def condensed(ocp: Ocp) -> CondensedNlp:
     """The OCP's condensed NLP (built once, cached on the OCP)."""
     if "condensed" not in ocp.solvers:
         t0 = time.perf_counter()
-        compile_fn = codegen.compiled if ocp.options.solver.codegen else None
+        compile_fn = _compile_fn(ocp)
         # CasADi generates C code for its dense Newton method, not for the sparse one
         rootfinder = "fast_newton" if compile_fn and codegen.compiler() else "newton"
         c = condensed_nlp(ocp.formulation, ocp.coll, ocp.transcription, rootfinder)
@@ -211,7 +219,8 @@ def _fatrop_derivatives(ocp: Ocp) -> dict[str, ca.Function]:
     """Objective gradient, constraint Jacobian and Lagrangian gradient and (full, symmetric)
     Hessian in the form the fatrop interface evaluates (built once per OCP)."""
     if "fatrop_derivatives" not in ocp.solvers:
-        ocp.solvers["fatrop_derivatives"] = nlp_derivatives(ocp.transcription, "fatrop")
+        ocp.solvers["fatrop_derivatives"] = nlp_derivatives(ocp.transcription, "fatrop",
+                                                            _compile_fn(ocp))
     return ocp.solvers["fatrop_derivatives"]
 
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -76,14 +77,17 @@ class Derivatives:
         raise ValueError(f"no derivative format for solver {solver!r}; one of {FORMATS}")
 
 
-def nlp_derivatives(transcription: Any, solver: str = "ipopt") -> dict[str, ca.Function]:
+def nlp_derivatives(transcription: Any, solver: str = "ipopt",
+                    compile_fn: Callable[[ca.Function], ca.Function] | None = None
+                    ) -> dict[str, ca.Function]:
     """The derivative functions of ``transcription.nlp`` in ``solver``'s format.
 
     Point by point (:attr:`blocks`) when the sums are linear in the integrands; the
-    whole NLP at once otherwise.
+    whole NLP at once otherwise. ``compile_fn``, when given, compiles the point's
+    Jacobian and Hessian functions (:mod:`optimize.solve.codegen`).
     """
     t0 = time.perf_counter()
-    out = _block_derivatives(transcription.nlp, transcription.blocks)
+    out = _block_derivatives(transcription.nlp, transcription.blocks, compile_fn)
     how = "point by point"
     if out is None:
         out, how = whole_derivatives(transcription.nlp), "whole"
@@ -138,7 +142,9 @@ def _local_entries(local: ca.Sparsity, index_of: np.ndarray,
     return rows_of[r].T.ravel(), index_of[c].T.ravel()
 
 
-def _block_derivatives(nlp: dict, b: Any) -> Derivatives | None:
+def _block_derivatives(nlp: dict, b: Any,
+                       compile_fn: Callable[[ca.Function], ca.Function] | None = None
+                       ) -> Derivatives | None:
     """The derivative functions point by point, or None when the sums are not linear in
     the integrands (then :func:`whole_derivatives` applies)."""
     w, p, g_all = nlp["x"], nlp["p"], nlp["g"]
@@ -171,9 +177,11 @@ def _block_derivatives(nlp: dict, b: Any) -> Derivatives | None:
     jac_v = ca.jacobian(ca.vertcat(rows_v, integrands_v), v)
     hess_v = ca.hessian(ca.dot(lam_r, rows_v) + ca.dot(mu, integrands_v), v)[0]
     cse = {"cse": True}
-    jac_point = ca.Function("point_jac", [v, wind, deriv], [jac_v.nz[:]], cse).map(n_pts)
-    hess_point = ca.Function("point_hess", [v, wind, deriv, lam_r, mu], [hess_v.nz[:]],
-                             cse).map(n_pts)
+    jac_point = ca.Function("point_jac", [v, wind, deriv], [jac_v.nz[:]], cse)
+    hess_point = ca.Function("point_hess", [v, wind, deriv, lam_r, mu], [hess_v.nz[:]], cse)
+    if compile_fn is not None:
+        jac_point, hess_point = compile_fn(jac_point), compile_fn(hess_point)
+    jac_point, hess_point = jac_point.map(n_pts), hess_point.map(n_pts)
 
     # where each mapped nonzero goes: point rows into g, integrands into s (as -1 - k)
     s_index = np.arange(n_s * n_pts).reshape(n_pts, n_s).T  # (n_s, n_pts) index into s
