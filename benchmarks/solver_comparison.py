@@ -323,6 +323,9 @@ def main() -> None:
         if systems:
             report["systems"][solver] = system_runs(solver, systems, system_winds,
                                                     args.intervals, args.max_iter)
+        # each solver's figures as soon as they are measured: a long run stopped
+        # part-way keeps them
+        write_text_atomic(args.out, json.dumps(report, indent=2, default=str) + "\n")
     ref = solvers[0]
     verdict = {}
     for solver in solvers[1:]:

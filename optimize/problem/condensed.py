@@ -47,12 +47,13 @@ NEWTON_MAX_ITER = 50
 #: shortens its step), never the unconverged iterate
 NEWTON_CHECK = 1e-8
 #: CasADi's Newton rootfinders: ``newton`` (sparse QR) and ``fast_newton`` (dense QR, the
-#: one CasADi generates C code for)
+#: one CasADi generates C code for). A NaN inside Newton's method at a trial point is an
+#: unconverged interval, said by its NaN outputs (:data:`NEWTON_CHECK`), not a warning
 ROOTFINDERS = {"newton": {"abstol": NEWTON_ABSTOL, "abstolStep": 0.0,
                           "max_iter": NEWTON_MAX_ITER, "linear_solver": "qr",
-                          "error_on_fail": False},
+                          "error_on_fail": False, "show_eval_warnings": False},
                "fast_newton": {"abstol": NEWTON_ABSTOL, "max_iter": NEWTON_MAX_ITER,
-                               "error_on_fail": False}}
+                               "error_on_fail": False, "show_eval_warnings": False}}
 
 
 @dataclass(frozen=True)
