@@ -88,6 +88,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "benchmarks/README.md for the time)",
     )
     parser.add_argument(
+        "--codegen",
+        action="store_true",
+        help="compile the NLP's repeated functions to C with the system's C compiler "
+        "($CC, gcc or cc; cached in ~/.cache/drivebench/casadi, so only the first use of a "
+        "model compiles); without a compiler they run uncompiled and a warning says so",
+    )
+    parser.add_argument(
         "--linear-solver",
         default=None,
         metavar="NAME",
@@ -117,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
     request = make_request(
         WindGrid.parse(args.wind_grid, args.scenarios),
         SolverChoice(args.intervals, args.degree, args.solver, args.linear_solver,
-                     not args.no_stored_guess, args.transcription),
+                     not args.no_stored_guess, args.transcription, args.codegen),
         model=args.drive_model, system=args.system, fit_default=FIT_MODEL_PATH, out=args.out,
         execution=Execution(args.workers, args.scheduler, progress=True),
         claims=not args.no_claims, trust=args.trust)

@@ -162,7 +162,8 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
         options = OcpOptions(Discretization(n_intervals=solver.n_intervals,
                                             degree=solver.degree),
                              solver=solver_options(solver.solver, solver.linear_solver,
-                                                   solver.stored_guess, solver.transcription))
+                                                   solver.stored_guess, solver.transcription,
+                                                   solver.codegen))
     except ValueError as exc:
         raise InputError(None, f"OCP options: {exc}") from exc
     options = loaded.ocp_options(options, drive.rating)
@@ -301,9 +302,10 @@ def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, o
 
 
 def solver_options(solver: str = "ipopt", linear_solver: str | None = None,
-                   stored_guess: bool = True, transcription: str = "collocation") -> Any:
-    """``SolverOptions`` of ``--solver``, ``--linear-solver``, ``--no-stored-guess`` and
-    ``--transcription``.
+                   stored_guess: bool = True, transcription: str = "collocation",
+                   codegen: bool = False) -> Any:
+    """``SolverOptions`` of ``--solver``, ``--linear-solver``, ``--no-stored-guess``,
+    ``--transcription`` and ``--codegen``.
 
     Raises
     ------
@@ -320,7 +322,8 @@ def solver_options(solver: str = "ipopt", linear_solver: str | None = None,
     if linear_solver is not None:
         check_linear_solver(linear_solver)
     return SolverOptions(solver=solver, linear_solver=linear_solver or "mumps",
-                         stored_guess=stored_guess, transcription=transcription)
+                         stored_guess=stored_guess, transcription=transcription,
+                         codegen=codegen)
 
 
 def domain_scales(model: Any, options: Any) -> tuple[float, float]:

@@ -73,6 +73,9 @@ class SolverChoice:
     transcription : str
         What the solver runs on (``--transcription``: ``collocation`` or ``condensed``,
         :attr:`optimize.problem.options.SolverOptions.transcription`).
+    codegen : bool
+        Compile the NLP's repeated functions to C (``--codegen``,
+        :attr:`optimize.problem.options.SolverOptions.codegen`).
     """
 
     n_intervals: int = 40
@@ -81,6 +84,7 @@ class SolverChoice:
     linear_solver: str | None = None
     stored_guess: bool = True
     transcription: str = "collocation"
+    codegen: bool = False
 
 
 @dataclass(frozen=True)

@@ -188,3 +188,18 @@ def test_interval_wise_derivatives_equal_automatic_differentiation():
     assert float(ca.norm_inf(fns["jac_g"](w, p_c)[1] - jac)) < 1e-12
     assert float(ca.norm_inf(ca.densify(fns["hess_lag"](w, p_c, 0.5, lam)) - ca.densify(hess))
                  ) < 1e-11
+
+
+def test_the_command_line_hands_transcription_and_codegen_to_the_solver(tmp_path):
+    from bench.cli import build_parser
+    from optimize.command import make_request
+    from optimize.sweep_options import SolverChoice, WindGrid
+
+    argv = ["optimize", "--transcription", "condensed", "--codegen"]
+    args = build_parser(argv).parse_args(argv)
+    choice = SolverChoice(transcription=args.transcription, codegen=args.codegen)
+    options = make_request(WindGrid.parse("5:6:0.5", "mech-free"), choice,
+                           out=tmp_path / "out").options.solver
+    assert (options.transcription, options.codegen) == ("condensed", True)
+    default = build_parser(["optimize"]).parse_args(["optimize"])
+    assert (default.transcription, default.codegen) == ("collocation", False)
