@@ -112,32 +112,26 @@ def test_condensed_kite_warm_solve_has_the_full_optimum(coarse_mechanical, coars
 
 
 @pytest.mark.skipif(codegen.compiler() is None, reason="no C compiler")
-def test_compiled_interval_functions_give_the_same_optimum(pendulums, tmp_path, monkeypatch):
+@pytest.mark.parametrize(("transcription", "libraries"), [
+    # the interval's solve, sensitivities and Hessian; the full layout's point functions
+    # (the multipliers cross over through them)
+    ("condensed", ["interval_hessian", "interval_jacobian", "interval_solve", "point_hess",
+                   "point_jac"]),
+    ("collocation", ["point_hess", "point_jac"]),  # the Radau point's Jacobian and Hessian
+])
+def test_compiled_functions_give_the_same_iterations_and_optimum(pendulums, tmp_path,
+                                                                 monkeypatch, transcription,
+                                                                 libraries):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
-    _, _, plain, _ = pendulums["condensed"]
-    _, ocp, raw, _ = _pendulum("ipopt", "condensed", codegen=True)
+    _, _, plain, _ = pendulums[transcription]
+    _, ocp, raw, _ = _pendulum("ipopt", transcription, codegen=True)
     assert raw.success, raw.status
     assert raw.iterations == plain.iterations
     assert raw.objective == pytest.approx(plain.objective, rel=1e-9, abs=1e-12)
     assert np.max(np.abs(raw.w - plain.w)) < 1e-8
-    # compiled once: three libraries (solve, Jacobian, Hessian) in the cache, by hash
-    assert len(list((tmp_path / "drivebench" / "casadi").glob("interval_*.so"))) == 3
-
-
-@pytest.mark.skipif(codegen.compiler() is None, reason="no C compiler")
-def test_compiled_point_functions_give_the_collocation_the_same_optimum(pendulums, tmp_path,
-                                                                       monkeypatch):
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
-    _, _, plain, _ = pendulums["collocation"]
-    _, ocp, raw, _ = _pendulum("ipopt", "collocation", codegen=True)
-    assert raw.success, raw.status
-    assert raw.iterations == plain.iterations
-    assert raw.objective == pytest.approx(plain.objective, rel=1e-9, abs=1e-12)
-    assert np.max(np.abs(raw.w - plain.w)) < 1e-8
-    # the Radau point's Jacobian and Hessian, compiled once each
-    libs = sorted(p.name.rsplit("_", 1)[0] for p in
-                  (tmp_path / "drivebench" / "casadi").glob("*.so"))
-    assert libs == ["point_hess", "point_jac"]
+    # each compiled once, into the cache by hash
+    assert sorted(p.name.rsplit("_", 1)[0] for p in
+                  (tmp_path / "drivebench" / "casadi").glob("*.so")) == libraries
 
 
 def test_without_a_compiler_the_function_stays_and_a_warning_says_so(monkeypatch, caplog):
