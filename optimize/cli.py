@@ -70,6 +70,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--no-claims", action="store_true", help="skip the cut-in search and the paper comparison"
     )
+    _add_solver_arguments(parser)
+    parser.add_argument(
+        "--trust",
+        action="store_true",
+        help="also run the trust checks (mesh refinement at 2x intervals, CVODES simulation)",
+    )
+
+
+def _add_solver_arguments(parser: argparse.ArgumentParser) -> None:
+    """Register how ``bench optimize`` solves: solver, transcription, generated code,
+    linear solver and start."""
     parser.add_argument(
         "--solver",
         choices=SOLVERS,
@@ -106,11 +117,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--no-stored-guess",
         action="store_true",
         help="start every chain by the homotopy, not from the shipped initial guess",
-    )
-    parser.add_argument(
-        "--trust",
-        action="store_true",
-        help="also run the trust checks (mesh refinement at 2x intervals, CVODES simulation)",
     )
 
 

@@ -140,11 +140,11 @@ def condensed(ocp: Ocp) -> CondensedNlp:
         # CasADi generates C code for its dense Newton method, not for the sparse one
         rootfinder = "fast_newton" if compile_fn and codegen.compiler() else "newton"
         c = condensed_nlp(ocp.formulation, ocp.coll, ocp.transcription, rootfinder)
-        derivs, cache, calls = condensed_derivatives(c, compile_fn)
+        derivs, callbacks = condensed_derivatives(c, compile_fn)
         ocp.solvers["condensed"] = c
         ocp.solvers["condensed_derivatives"] = derivs
-        # the callbacks into the cache live as long as the solvers that call them
-        ocp.solvers["condensed_cache"] = (cache, calls)
+        # the callbacks into the interval cache live as long as the solvers that call them
+        ocp.solvers["condensed_callbacks"] = callbacks
         log.info("built the condensed NLP (%s%s): %d variables, %d constraints in %.1f s",
                  rootfinder, ", compiled" if compile_fn else "", c.n_w, c.n_g,
                  time.perf_counter() - t0)

@@ -37,7 +37,8 @@ log = logging.getLogger(__name__)
 
 #: the linear solver of the solves with an interval's collocation Jacobian ``G_v``
 LINEAR_SOLVER = "qr"
-#: points whose interval solutions are kept (a trial point and the current iterate)
+#: points whose interval solutions are kept (the current iterate and the trial points of
+#: its line search)
 KEEP_POINTS = 4
 
 
@@ -118,7 +119,7 @@ class IntervalCache:
         entry = self._points.get(key)
         if entry is None:
             y, v = self._solve(w, p)
-            entry = {"w": w, "p": p, "y": y, "v": v}
+            entry = {"y": y, "v": v}
             self._points[key] = entry
             if len(self._points) > KEEP_POINTS:
                 self._points.popitem(last=False)
@@ -209,12 +210,12 @@ def _rest(c: CondensedNlp) -> tuple[ca.Function, ca.Function, ca.DM]:
 
 def condensed_derivatives(c: CondensedNlp,
                           compile_fn: Callable[[ca.Function], ca.Function] | None = None
-                          ) -> tuple[Derivatives, IntervalCache, tuple[ca.Callback, ...]]:
+                          ) -> tuple[Derivatives, tuple[ca.Callback, ...]]:
     """The condensed NLP's objective, rows, gradient, Jacobian and Lagrangian Hessian
     (upper triangle), with every interval solved once per point; ``compile_fn``, when
     given, compiles the interval functions.
 
-    Returns the derivatives, the cache they read and the callbacks that reach it (keep
+    Returns the derivatives and the callbacks into their :class:`IntervalCache` (keep
     them as long as the functions live: CasADi holds no reference to them).
     """
     t0 = time.perf_counter()
@@ -260,4 +261,4 @@ def condensed_derivatives(c: CondensedNlp,
     hess_nz = calls[2](x_, p_, ca.reshape(nu_, n_y, n))
     hess = _sum_into((n_w, n_w), [(ca.vec(hess_nz), hr, hc), _entries(hess_rest)])
     log.debug("condensed NLP derivatives in %.1f s", time.perf_counter() - t0)
-    return Derivatives(x_, p_, lf_, lg_, f_, grad, g_, jac, hess), cache, calls
+    return Derivatives(x_, p_, lf_, lg_, f_, grad, g_, jac, hess), calls
