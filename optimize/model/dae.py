@@ -1,6 +1,6 @@
 """What a model of the cycle must provide: the semi-explicit DAE and its named vectors.
 
-The transcription (:mod:`optimize.problem.transcription`) needs of a model only
+The transcription (:mod:`optimize.problem.transcriptions`) needs of a model only
 this interface (through the formulation, :class:`optimize.problem.interface.CycleFormulation`):
 the sizes and names of its vectors and the two CasADi functions of its dynamics.
 The tethered kite (:mod:`optimize.model.kite_model`) is one such model; any other

@@ -1,5 +1,5 @@
 """What a transcription needs of a cycle OCP: the contract between a formulation and
-:mod:`optimize.problem.transcription`.
+:mod:`optimize.problem.transcriptions`.
 
 A formulation states what is optimized, in continuous time and scaled: its model
 (:class:`optimize.model.dae.Dae`), the constraint rows at one point of the cycle,

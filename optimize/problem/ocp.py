@@ -3,7 +3,7 @@
 :func:`build_ocp` puts the kite's parts together once per (options, drive model):
 the formulation (:mod:`optimize.problem.formulation`: DAE, path constraints,
 periodicity, objective, bounds, from the system and its drive), the transcription
-(:mod:`optimize.problem.transcription`: Radau collocation into one scaled NLP)
+(:mod:`optimize.problem.transcriptions`: Radau collocation into one scaled NLP)
 and the options (:mod:`optimize.problem.options`). :func:`assemble` does the
 same for any formulation (:class:`optimize.problem.interface.CycleFormulation`).
 The NLP is solved for any scenario by changing only NLP parameters (wind speed,
@@ -35,12 +35,8 @@ from optimize.problem.options import OcpOptions, with_drive_rating
 from optimize.problem.part import Part
 from optimize.problem.parts import kite_parts
 from optimize.problem.scaling import Scales, system_scales
-from optimize.problem.transcription import (
-    Layout,
-    Transcription,
-    radau_collocation,
-    stagewise_collocation,
-)
+from optimize.problem.transcriptions import method_of
+from optimize.problem.transcriptions.layouts import Layout, Transcription
 
 log = logging.getLogger(__name__)
 
@@ -300,11 +296,7 @@ def assemble(form: CycleFormulation, options: OcpOptions, loop: LoopGuess | None
     t0 = time.perf_counter() if started is None else started
     disc = options.discretization
     coll = radau(disc.degree)
-    # the condensed NLP is built beside the full one (optimize.solve.backend), which it
-    # reads and writes its starts and solutions in
-    stagewise = options.solver.solver == "fatrop" and options.solver.transcription != "condensed"
-    transcribe = stagewise_collocation if stagewise else radau_collocation
-    tr = transcribe(form, disc, coll)
+    tr = method_of(options.solver).transcribe(form, disc, coll, options.solver)
     ocp = Ocp(options=options, formulation=form, coll=coll, transcription=tr,
               build_time_s=0.0, loop=loop, system=system)
     ocp.build_time_s = time.perf_counter() - t0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -259,6 +260,43 @@ def slack_fraction(ocp: Ocp, traj: pd.DataFrame) -> float:
     return float((traj["weight"].to_numpy() * slack).sum())
 
 
+#: each figure of :func:`cycle_metrics`: the columns it reads and how
+CYCLE_FIGURES: dict[str, tuple[tuple[str, ...], Any]] = {
+    "avg_p_elec_w": (("weight", "p_elec_w"), lambda w, p: np.sum(w * p)),
+    "avg_p_mech_w": (("weight", "p_mech_w"), lambda w, p: np.sum(w * p)),
+    "peak_speed_rpm": (("speed_rpm",), lambda n: np.max(np.abs(n))),
+    "peak_torque_nm": (("torque_nm",), lambda t: np.max(np.abs(t))),
+    "rms_torque_nm": (("weight", "torque_nm"), lambda w, t: np.sqrt(np.sum(w * t**2))),
+    "peak_reel_acceleration_m_s2": (("ddl_m_s2",), lambda a: np.max(np.abs(a))),
+    "peak_winding_temperature_c": ((THERMAL_STATE,), np.max),
+    "p_elec_max_w": (("p_elec_w",), np.max),
+    "p_elec_min_w": (("p_elec_w",), np.min),
+    "tether_length_min_m": (("l_m",), np.min),
+    "tether_length_max_m": (("l_m",), np.max),
+    "altitude_min_m": (("altitude_m",), np.min),
+    "altitude_max_m": (("altitude_m",), np.max),
+}
+
+
+def cycle_metrics(trajectory: Any) -> dict[str, float | None]:
+    """The figures of one cycle from its trajectory (the one place they are computed).
+
+    ``trajectory`` (:attr:`OcpResult.trajectory`, or a table with some of its columns,
+    ``weight`` the quadrature weights summing to 1 over the cycle): the cycle averages
+    of the electrical and shaft power [W], the peak |speed| [rpm], |torque| [N m] and
+    |reel acceleration| [m/s^2], the RMS torque [N m], the peak winding temperature
+    [degC], the largest and smallest electrical power [W], the tether length's [m] and
+    the altitude's [m] range (:data:`CYCLE_FIGURES`); None for a figure whose columns the
+    trajectory has not (the winding temperature of an OCP without it).
+    """
+    out: dict[str, float | None] = {}
+    for name, (columns, how) in CYCLE_FIGURES.items():
+        have = all(c in trajectory for c in columns)
+        out[name] = (float(how(*(np.asarray(trajectory[c], dtype=float) for c in columns)))
+                     if have else None)
+    return out
+
+
 def make_result(
     ocp: Ocp,
     scenario: Scenario,
@@ -276,6 +314,7 @@ def make_result(
     viol_x = np.maximum(np.maximum(bounds[0] - raw.w, raw.w - bounds[1]), 0.0)
     per = float(np.max(np.abs(g[ocp.layout.rows_of("periodic")])))
     period_s = float(ocp.unpack(raw.w)["period_s"])
+    metrics = cycle_metrics(traj)
     return OcpResult(
         scenario=scenario,
         status=raw.status,
@@ -284,8 +323,8 @@ def make_result(
         wall_time_s=float(sum(s["wall_time_s"] for s in stages)),
         objective=raw.objective,
         period_s=period_s,
-        avg_p_elec_w=float((traj["weight"] * traj["p_elec_w"]).sum()),
-        avg_p_mech_w=float((traj["weight"] * traj["p_mech_w"]).sum()),
+        avg_p_elec_w=metrics["avg_p_elec_w"],
+        avg_p_mech_w=metrics["avg_p_mech_w"],
         periodicity_error=per,
         max_violation=float(max(viol_g.max(initial=0.0), viol_x.max(initial=0.0))),
         trajectory=traj,

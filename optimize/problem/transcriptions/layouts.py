@@ -1,5 +1,8 @@
 """Direct Radau collocation of the cycle OCP into one scaled NLP, in two layouts.
 
+The collocation's NLP (:class:`optimize.problem.transcriptions.collocation.CollocationMethod`
+runs it; the condensed transcription is built beside the general layout).
+
 Takes a formulation (what is optimized: any
 :class:`optimize.problem.interface.CycleFormulation`; the kite's is
 :class:`optimize.problem.formulation.Formulation`) and a
@@ -11,7 +14,7 @@ the copies), so they have the same optima. Every size comes from the formulation
 model (``form.dae``), the scalar parameters from their names
 (:func:`optimize.problem.interface.param_names`):
 
-* :func:`radau_collocation` (``"ipopt"``), for a general sparse solver.
+* :func:`general_layout` (``Layout.kind`` ``"general"``), for a general sparse solver.
   Decision vector, in this order: one copy of the period ``T`` per interval (tied
   by equality rows, so no variable couples every interval); states at the
   ``N d + 1`` grid points (interval starts and the Radau points; the last Radau
@@ -21,7 +24,7 @@ model (``form.dae``), the scalar parameters from their names
   vector: per Radau point the collocation rows of the dynamics then the
   formulation's point rows; then the period ties, the start rows, the
   periodicity rows and the rows on cycle averages.
-* :func:`stagewise_collocation` (``"stagewise"``), for a Riccati-based solver
+* :func:`stagewise_layout` (``"stagewise"``), for a Riccati-based solver
   (fatrop): the variables and rows of each interval form one stage, and stages
   couple only through ``x_{k+1} - F(x_k, u_k) = 0``. The stage state carries,
   besides the model state at the interval start, the period and the cycle's start
@@ -66,12 +69,24 @@ class Layout:
     i_p_ref: np.ndarray  # (NX, n_points) reference trajectory in p
     params: dict[str, int] = field(default_factory=dict)  # scalar parameter -> index in p
     rows: dict[str, np.ndarray] = field(default_factory=dict)  # name -> indices into g
-    kind: str = "ipopt"  # which transcription: "ipopt" or "stagewise"
+    kind: str = "general"  # which layout: "general" or "stagewise"
     #: a function of the scaled ``w`` that sets the variables derived from others
     #: (copies, running integrals); ``None`` when there are none but the period copies
     complete: ca.Function | None = None
     #: per row, whether it is an equality in every configuration (lbg == ubg)
     equality: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    #: the decision vector by name: each model variable (the period ``period_s``, every
+    #: state, control, algebraic variable and fictitious force by its model name) -> its
+    #: indices into ``w`` along the grid (:func:`named_variables`)
+    variables: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def of(self, name: str) -> np.ndarray:
+        """Indices into ``w`` of the variable ``name`` along the grid."""
+        try:
+            return self.variables[name]
+        except KeyError:
+            raise KeyError(f"no variable {name!r} in the decision vector; known: "
+                           f"{', '.join(self.variables)}") from None
 
     def rows_of(self, name: str) -> np.ndarray:
         """Indices into ``g`` of the rows named ``name`` (empty when the NLP has none)."""
@@ -80,7 +95,7 @@ class Layout:
 
 @dataclass(frozen=True)
 class PointBlocks:
-    """The NLP point by point: what :mod:`optimize.solve.derivatives` builds on.
+    """The NLP point by point: what :mod:`optimize.problem.transcriptions.derivatives` builds on.
 
     For each Radau point ``j``: ``g[rows[:, j]] = rows(w[vars[:, j]], p[i_wind],
     deriv[:, j])`` of ``point.function``. Its integrands enter the objective and the
@@ -180,7 +195,7 @@ class PointFunction:
     point rows (``templates`` gives their names and bounds), ``integrands`` the values
     named by :attr:`integrands` (the formulation's cycle averages, then ``fict_sq``).
     Every Radau point of both layouts is this one function, so its derivatives can
-    be built once (:mod:`optimize.solve.derivatives`).
+    be built once (:mod:`optimize.problem.transcriptions.derivatives`).
     """
 
     function: ca.Function
@@ -257,7 +272,7 @@ def _interval(point: PointFunction, coll: Collocation, w: Any, i_period: int,
     return out
 
 
-def _share(coll: Collocation, n: int, j: int, value: Any) -> Any:
+def share(coll: Collocation, n: int, j: int, value: Any) -> Any:
     """Point ``j``'s (1-based) share of a cycle average whose integrand is ``value``."""
     return coll.quad[j - 1] / n * value
 
@@ -266,7 +281,7 @@ def _add_integrands(sums: _Sums, coll: Collocation, n: int, j: int, s: Any) -> N
     """Add point ``j``'s (1-based) integrands ``s`` (the cycle averages in the order of
     ``sums.averages``, then the squared fictitious forces) to ``sums``."""
     for i, name in enumerate(sums.averages):
-        sums.averages[name] += _share(coll, n, j, s[i])
+        sums.averages[name] += share(coll, n, j, s[i])
     sums.fict += s[len(sums.averages)] / (n * coll.degree)
 
 
@@ -347,28 +362,59 @@ def _nlp_and_blocks(w: Any, p: Any, f_s: Any, g_s: Any, s: Any, point: PointFunc
     return {"x": w, "p": p, "f": f, "g": g}, blocks
 
 
-def _dims(form: CycleFormulation) -> tuple[int, int, int, int]:
+class Vector:
+    """A vector laid out block by block, each block named (the decision vector of a
+    layout: its indices come from here, in the order blocks are taken)."""
+
+    def __init__(self) -> None:
+        self.n = 0
+        self.blocks: dict[str, list[np.ndarray]] = {}
+
+    def take(self, name: str, size: int) -> np.ndarray:
+        """The indices of the next ``size`` entries, a block of ``name``."""
+        idx = np.arange(self.n, self.n + size, dtype=int)
+        self.n += size
+        self.blocks.setdefault(name, []).append(idx)
+        return idx
+
+    def columns(self, name: str, size: int, count: int) -> np.ndarray:
+        """``count`` blocks of ``name`` one after the other, as ``(size, count)``."""
+        return np.stack([self.take(name, size) for _ in range(count)], axis=1).reshape(
+            size, count)
+
+
+def named_variables(form: CycleFormulation, i_period: np.ndarray, i_x: np.ndarray,
+                    i_z: np.ndarray, i_u: np.ndarray, i_f: np.ndarray) -> dict[str, np.ndarray]:
+    """Each model variable's indices into ``w`` by its name (the period: ``period_s``)."""
+    dae, out = form.dae, {"period_s": i_period}
+    for variables, idx in ((dae.states, i_x), (dae.algebraic, i_z), (dae.controls, i_u),
+                           (dae.fictitious, i_f)):
+        out.update({name: idx[i] for i, name in enumerate(variables.names)})
+    return out
+
+
+def dims(form: CycleFormulation) -> tuple[int, int, int, int]:
     """Sizes of the model's state, algebraic, control and fictitious vectors."""
     dae = form.dae
     return dae.states.size, dae.algebraic.size, dae.controls.size, dae.fictitious.size
 
 
-def radau_collocation(form: CycleFormulation, disc: Discretization, coll: Collocation
+def general_layout(form: CycleFormulation, disc: Discretization, coll: Collocation
                       ) -> Transcription:
     """Transcribe ``form`` by Radau collocation on ``disc.n_intervals`` intervals
     (the layout for a general sparse solver, see the module docstring)."""
     sc = form.scales
     n, d = disc.n_intervals, coll.degree
-    nx, nz, nu, nf = _dims(form)
+    nx, nz, nu, nf = dims(form)
     n_points, n_coll = n * d + 1, n * d
 
-    counter = iter(range(10**9))
-    i_period = np.array([next(counter) for _ in range(n)])
-    i_x = np.array([[next(counter) for _ in range(nx)] for _ in range(n_points)]).T
-    i_z = np.array([[next(counter) for _ in range(nz)] for _ in range(n_coll)]).T
-    i_u = np.array([[next(counter) for _ in range(nu)] for _ in range(n)]).T
-    i_f = np.array([[next(counter) for _ in range(nf)] for _ in range(n_coll)]).T
-    n_w = next(counter)
+    vec = Vector()
+    i_period = vec.take("period", n)
+    i_x = vec.columns("x", nx, n_points)
+    i_z = vec.columns("z", nz, n_coll)
+    i_u = vec.columns("u", nu, n)
+    i_f = vec.columns("f", nf, n_coll)
+    n_w = vec.n
     scale_w = _scale_w(form, n_w, i_period, i_x, i_z, i_u, i_f)
     p, par, n_p, i_p_ref, i_par = _params(form, n_points)
     w = ca.SX.sym("w", n_w)
@@ -381,7 +427,7 @@ def radau_collocation(form: CycleFormulation, disc: Discretization, coll: Colloc
     point = point_function(form, coll, n, _point_scales(form))
     rows, sums = _Rows(), _Sums.of(form)
     # the integrands enter f and g through the symbols s (substituted below), so the
-    # derivatives can be built point by point (optimize.solve.derivatives)
+    # derivatives can be built point by point (optimize.problem.transcriptions.derivatives)
     s = ca.SX.sym("s", len(point.integrands), n_coll)
     points = []
     for k in range(n):
@@ -408,6 +454,7 @@ def radau_collocation(form: CycleFormulation, disc: Discretization, coll: Colloc
         n_points=n_points, n_coll=n_coll, i_period=i_period, i_x=i_x, i_z=i_z, i_u=i_u,
         i_f=i_f, scale_w=scale_w, n_w=n_w, n_g=rows.n, n_p=n_p, i_p_ref=i_p_ref,
         params=i_par, rows={name: np.array(idx, dtype=int) for name, idx in rows.index.items()},
+        variables=named_variables(form, i_period, i_x, i_z, i_u, i_f),
     )
     return _finish(nlp, blocks, layout, rows,
                    _variable_bounds(form, n_w, i_period, i_x, i_z, i_u))
@@ -415,7 +462,7 @@ def radau_collocation(form: CycleFormulation, disc: Discretization, coll: Colloc
 
 @dataclass(frozen=True)
 class _Stages:
-    """Indices into ``w`` of the stage-wise layout (:func:`stagewise_collocation`)."""
+    """Indices into ``w`` of the stage-wise layout (:func:`stagewise_layout`)."""
 
     i_x: np.ndarray  # (nx, N d + 1) model states: X_0, then the Radau points
     i_z: np.ndarray  # (nz, N d)
@@ -436,33 +483,29 @@ def _stage_indices(n: int, d: int, dims: tuple[int, int, int, int], n_q: int) ->
     """Lay out ``w`` stage by stage: ``x_k = (X_k, T_k, S_k, Q_k)``, then ``u_k = (U_k,
     the Radau points' states, algebraic variables and fictitious forces)``."""
     nx, nz, nu, nf = dims
-    counter = iter(range(10**9))
-
-    def take(size: int) -> np.ndarray:
-        return np.array([next(counter) for _ in range(size)], dtype=int)
-
+    vec = Vector()
     i_x, i_z = np.zeros((nx, n * d + 1), dtype=int), np.zeros((nz, n * d), dtype=int)
     i_u, i_f = np.zeros((nu, n), dtype=int), np.zeros((nf, n * d), dtype=int)
     i_start, i_next = np.zeros((nx, n + 1), dtype=int), np.zeros((nx, n), dtype=int)
     i_period, i_q = np.zeros(n + 1, dtype=int), np.zeros((n_q, n + 1), dtype=int)
     for k in range(n + 1):
         if k == 0:
-            i_x[:, 0] = take(nx)
+            i_x[:, 0] = vec.take("x", nx)
         else:
-            i_next[:, k - 1] = take(nx)
-        i_period[k] = take(1)[0]
-        i_start[:, k] = take(nx)
-        i_q[:, k] = take(n_q)
+            i_next[:, k - 1] = vec.take("x_next", nx)
+        i_period[k] = vec.take("period", 1)[0]
+        i_start[:, k] = vec.take("x_start", nx)
+        i_q[:, k] = vec.take("running_averages", n_q)
         if k == n:
             break
-        i_u[:, k] = take(nu)
+        i_u[:, k] = vec.take("u", nu)
         for j in range(d):
-            i_x[:, k * d + j + 1] = take(nx)
+            i_x[:, k * d + j + 1] = vec.take("x", nx)
         for j in range(d):
-            i_z[:, k * d + j] = take(nz)
+            i_z[:, k * d + j] = vec.take("z", nz)
         for j in range(d):
-            i_f[:, k * d + j] = take(nf)
-    return _Stages(i_x, i_z, i_u, i_f, i_start, i_next, i_period, i_q, next(counter))
+            i_f[:, k * d + j] = vec.take("f", nf)
+    return _Stages(i_x, i_z, i_u, i_f, i_start, i_next, i_period, i_q, vec.n)
 
 
 def _stage_rows(form: CycleFormulation, coll: Collocation, st: _Stages, w: Any, at: Any,
@@ -489,9 +532,9 @@ def _stage_rows(form: CycleFormulation, coll: Collocation, st: _Stages, w: Any, 
                w[st.i_period[k + 1]] - w[st.i_period[k]],
                w[st.i_start[:, k + 1]] - w[st.i_start[:, k]]]
         for c, i_int in enumerate(carried):
-            dq = sum(_share(coll, n, j, s[i_int, k * d + j - 1]) for j in range(1, d + 1))
+            dq = sum(share(coll, n, j, s[i_int, k * d + j - 1]) for j in range(1, d + 1))
             gap.append(w[st.i_q[c, k + 1]] - w[st.i_q[c, k]] - dq)
-            q_running[c] += sum(_share(coll, n, j, pt[2][i_int])
+            q_running[c] += sum(share(coll, n, j, pt[2][i_int])
                                 for j, pt in enumerate(points, start=1))
             running[int(st.i_q[c, k + 1])] = q_running[c]
         rows.add(Row("continuity", ca.vertcat(*gap)))
@@ -519,7 +562,7 @@ def _stage_completion(st: _Stages, w: Any, running: dict, d: int) -> ca.Function
     return ca.Function("complete", [w], [filled])
 
 
-def stagewise_collocation(form: CycleFormulation, disc: Discretization, coll: Collocation
+def stagewise_layout(form: CycleFormulation, disc: Discretization, coll: Collocation
                           ) -> Transcription:
     """Transcribe ``form`` by Radau collocation in stages (the layout of a Riccati-based
     solver such as fatrop, see the module docstring).
@@ -536,7 +579,7 @@ def stagewise_collocation(form: CycleFormulation, disc: Discretization, coll: Co
     n, d = disc.n_intervals, coll.degree
     n_points, n_coll = n * d + 1, n * d
     carried = form.constrained_averages
-    st = _stage_indices(n, d, _dims(form), len(carried))
+    st = _stage_indices(n, d, dims(form), len(carried))
     scale_w = _scale_w(form, st.n_w, st.i_period, st.i_x, st.i_z, st.i_u, st.i_f)
     scale_w[st.i_start] = scale_w[st.i_x[:, :1]]
     scale_w[st.i_next] = scale_w[st.i_x[:, d::d]]
@@ -548,7 +591,7 @@ def stagewise_collocation(form: CycleFormulation, disc: Discretization, coll: Co
         return ws[[int(i) for i in np.atleast_1d(idx)]]
 
     point = point_function(form, coll, n, _point_scales(form))
-    s = ca.SX.sym("s", len(point.integrands), n_coll)  # the integrands, as in radau_collocation
+    s = ca.SX.sym("s", len(point.integrands), n_coll)  # the integrands, as in general_layout
     rows, sums, running, all_points = _stage_rows(form, coll, st, w, at, point, s,
                                                   par["wind_ref_m_s"])
     sums.track = _tracking(form, p, i_p_ref, [at(st.i_x[:, k]) for k in range(n_points)])
@@ -567,6 +610,7 @@ def stagewise_collocation(form: CycleFormulation, disc: Discretization, coll: Co
         i_p_ref=i_p_ref, params=i_par,
         rows={name: np.array(idx, dtype=int) for name, idx in rows.index.items()},
         kind="stagewise", complete=_stage_completion(st, w, running, d),
+        variables=named_variables(form, st.i_period, st.i_x, st.i_z, st.i_u, st.i_f),
     )
     lbw, ubw, lbw_lim, ubw_lim = _variable_bounds(form, st.n_w, st.i_period[:1], st.i_x,
                                                   st.i_z, st.i_u)

@@ -1,7 +1,7 @@
 """Condensed transcription: multiple shooting with the Radau collocation solved inside
 each interval.
 
-The same cycle OCP as :func:`optimize.problem.transcription.radau_collocation` (any
+The same cycle OCP as :func:`optimize.problem.transcriptions.layouts.general_layout` (any
 :class:`optimize.problem.interface.CycleFormulation`), with the states and algebraic
 variables at the Radau points eliminated: each interval's collocation equations (the
 dynamics rows and the formulation's point row named ``algebraic``, the DAE's algebraic
@@ -10,7 +10,7 @@ the interval (a CasADi rootfinder, whose first and second derivatives come from 
 implicit function theorem). The NLP's unknowns are stage by stage: the state
 ``x_k = (X_k, T_k, S_k, Q_k)`` (model state at the interval start, period, the cycle's
 start state and the running integrals of the constrained cycle averages, all carried by
-equality rows as in :func:`optimize.problem.transcription.stagewise_collocation`) and the
+equality rows as in :func:`optimize.problem.transcriptions.layouts.stagewise_layout`) and the
 control ``u_k = (U_k, F_k1..F_kd)`` (control and fictitious forces at the Radau points).
 Rows of stage ``k``: ``x_{k+1} - F(x_k, u_k)``, then (stage 0) the start rows and
 ``S_0 = X_0``, then the interval's point rows at its Radau points and the bounds of the
@@ -20,8 +20,9 @@ The full layout stays the one the rest of the code reads (:class:`Layout` of the
 transcription): :meth:`CondensedNlp.condense` turns a full decision vector into a
 condensed start, :meth:`CondensedNlp.expand` a condensed solution into the full vector
 (the interval's collocation solved at it), and the index maps carry bounds and row
-multipliers across (:mod:`optimize.solve.condensed_solve`). The Newton solve of an
-interval starts from the NLP parameters ``guess``: the increments of the states from
+multipliers across (:mod:`optimize.problem.transcriptions.condensed_multipliers`). The
+Newton solve of an interval starts from the NLP parameters ``guess``: the increments of
+the states from
 the interval start and the algebraic variables of a full vector (the start's).
 """
 
@@ -35,7 +36,7 @@ import numpy as np
 
 from optimize.problem.collocation import Collocation
 from optimize.problem.interface import CycleFormulation
-from optimize.problem.transcription import Transcription, _dims, _share
+from optimize.problem.transcriptions.layouts import Transcription, dims, share
 
 #: the point row that holds the DAE's algebraic equations (solved with the dynamics)
 ALGEBRAIC_ROW = "algebraic"
@@ -309,19 +310,19 @@ def _stages(b: _Builder, n: int, sizes: dict[str, int]) -> dict[str, list[np.nda
 def condensed_nlp(form: CycleFormulation, coll: Collocation, full: Transcription,
                   rootfinder: str = "newton") -> CondensedNlp:
     """The condensed NLP of ``form`` beside its full transcription ``full``
-    (:func:`optimize.problem.transcription.radau_collocation` with collocation ``coll``).
+    (:func:`optimize.problem.transcriptions.layouts.general_layout` with collocation ``coll``).
 
     ``rootfinder`` solves each interval (:data:`ROOTFINDERS`).
     """
     lay, d = full.layout, coll.degree
     n = lay.i_u.shape[1]
-    dims = _dims(form)
-    nx, nz, nu, nf = dims
+    sizes = dims(form)
+    nx, nz, nu, nf = sizes
     names = full.blocks.point.integrands
     carried = tuple(names.index(c) for c in form.constrained_averages)
     xbound = np.flatnonzero(_bounded(full, lay.i_x[:, 1]))
     zbound = np.flatnonzero(_bounded(full, lay.i_z[:, 0])) if nz else np.zeros(0, dtype=int)
-    it = interval(full, coll, dims, xbound, zbound, rootfinder)
+    it = interval(full, coll, sizes, xbound, zbound, rootfinder)
     b = _Builder()
     st = _stages(b, n, {"x": nx, "t": 1, "s": nx, "q": len(carried), "u": nu, "f": d * nf})
     var_src = -np.ones(b.n_w, dtype=int)
@@ -381,7 +382,7 @@ def _rows_and_objective(form: CycleFormulation, coll: Collocation, full: Transcr
         return s[part["integrands"].start + (j - 1) * n_int + i, k]
 
     def shares(k: int, i: int) -> Any:
-        return sum(_share(coll, n, j, integrand(k, j, i)) for j in range(1, d + 1))
+        return sum(share(coll, n, j, integrand(k, j, i)) for j in range(1, d + 1))
 
     start = [r.expr for r in form.start_rows(w[st["x"][0]] * x_scale)]
     n_start = sum(e.shape[0] for e in start)
