@@ -39,7 +39,7 @@ def _pendulum(solver: str, transcription: str, codegen: bool = False):
     period = form.scales.period_s
     x, z = small_angle_guess(pendulum, grid_times(ocp, period), period)
     w0 = ocp.pack(x, z[:, 1:], np.zeros((1, N)), np.zeros((2, N * DEGREE)), period)
-    p = ocp.params(0.0, {"p_ctrl_w": 0.0})
+    p = ocp.params(None, {"p_ctrl_w": 0.0})
     bounds = ocp.bounds(drive_limits=False, fix_fictitious=True, period_s=None)
     return pendulum, ocp, backend.run(ocp, w0, p, bounds, warm=False), p
 
@@ -173,7 +173,7 @@ def test_interval_wise_derivatives_equal_automatic_differentiation():
     period = form.scales.period_s
     x, z = small_angle_guess(pendulum, grid_times(ocp, period), period)
     w0 = ocp.pack(x, z[:, 1:], 0.1 * np.ones((1, n)), 0.01 * np.ones((2, n * degree)), period)
-    p = ocp.params(0.0, {"p_ctrl_w": 0.7}, w_track=0.3, w_fict=0.2, x_ref=1.01 * x)
+    p = ocp.params(None, {"p_ctrl_w": 0.7}, w_track=0.3, w_fict=0.2, x_ref=1.01 * x)
     w, p_c = c.condense(w0, p)
     lam = np.random.default_rng(1).standard_normal(c.n_g)
     x_, p_ = c.nlp["x"], c.nlp["p"]

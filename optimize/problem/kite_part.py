@@ -21,13 +21,15 @@ from optimize.model.kite_model import KiteDae
 from optimize.problem.guess import LoopGuess, circular_loop
 from optimize.problem.interface import Row
 from optimize.problem.options import Limits
-from optimize.problem.part import WIND, Part, StartPoint
+from optimize.problem.part import Part, StartPoint
 from optimize.problem.scaling import Scales
 
 #: the reel acceleration's bound when the winch states none: keeps the solver in range
 SOLVER_REEL_ACCELERATION_M_S2 = 500.0
 #: the reel jerk's bound (the control's) when the winch states none: the solver's range
 SOLVER_REEL_JERK_M_S3 = 5000.0
+#: the kite's parameter: the wind speed at the reference height [m/s]
+WIND = "wind_ref_m_s"
 #: the CG position's components (not periodic: the downwind position is free)
 POSITION_STATES = ("r_x_m", "r_y_m", "r_z_m")
 
@@ -77,6 +79,10 @@ class KitePart(Part):
     @property
     def periodic(self):  # type: ignore[override]
         return self.dae.periodic
+
+    @property
+    def parameters(self):  # type: ignore[override]
+        return self.dae.parameters
 
     def _xuz(self, q: Mapping[str, Any]) -> tuple[Any, Any, Any]:
         return (_vector(q, self.states.names), _vector(q, self.controls.names),
@@ -195,7 +201,7 @@ class KitePart(Part):
         """The circular loop (:func:`optimize.problem.guess.circular_loop`) at its own
         period, with the fictitious forces that make it a solution."""
         x, z, fict = circular_loop(self.dae, self.loop, start.grid_times_s,
-                                   start.wind_ref_m_s)
+                                   start.parameters[WIND])
         out = dict(zip(self.states.names, x, strict=True))
         out.update(zip(self.algebraic.names, z[:, 1:], strict=True))
         out.update(zip(self.fictitious.names, fict[:, 1:], strict=True))

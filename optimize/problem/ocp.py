@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -36,7 +37,7 @@ from optimize.problem.part import Part
 from optimize.problem.parts import kite_parts
 from optimize.problem.scaling import Scales, system_scales
 from optimize.problem.transcriptions import method_of
-from optimize.problem.transcriptions.layouts import Layout, Transcription
+from optimize.problem.transcriptions.structure import Layout, Transcription
 
 log = logging.getLogger(__name__)
 
@@ -101,7 +102,7 @@ class Ocp:
 
     def params(
         self,
-        wind_ref_m_s: float,
+        parameters: Mapping[str, float] | float | None,
         weights: dict[str, float] | None = None,
         w_reg: float | None = None,
         w_track: float = 0.0,
@@ -112,8 +113,11 @@ class Ocp:
 
         Parameters
         ----------
-        wind_ref_m_s : float
-            Wind speed at 100 m [m/s].
+        parameters : dict of float, float or None
+            The model's parameters by name (:attr:`CycleFormulation.parameters`; a
+            scenario's :attr:`optimize.problem.scenario.Scenario.parameters`, the kite's
+            reference wind speed [m/s]); a number: the value of the model's only one;
+            None: a model without parameters.
         weights : dict, optional
             Objective weight per cycle average, by name (``{"p_elec_w": 1.0}``;
             :attr:`optimize.kinds.Kind.weights`) [per objective scale]; the others 0.
@@ -129,7 +133,7 @@ class Ocp:
         if w_reg is None:
             w_reg = (self.options.discretization.regularization_w
                      / self.formulation.objective_scale)
-        values = {"wind_ref_m_s": wind_ref_m_s, "w_reg": w_reg, "w_track": w_track,
+        values = {**self.model_parameters(parameters), "w_reg": w_reg, "w_track": w_track,
                   "w_fict": w_fict}
         for average, weight in (weights or {}).items():
             if weight_param(average) not in lay.params:
@@ -142,6 +146,20 @@ class Ocp:
         if x_ref is not None:
             p[lay.i_p_ref] = x_ref / self.scales.state[:, None]
         return p
+
+    def model_parameters(self, parameters: Mapping[str, float] | float | None
+                         ) -> dict[str, float]:
+        """The model's parameters by name, every one given (see :meth:`params`)."""
+        names = tuple(self.formulation.parameters)
+        if parameters is None:
+            parameters = {}
+        elif not isinstance(parameters, Mapping):
+            if len(names) != 1:
+                raise ValueError(f"one number for the model's parameters {names}")
+            parameters = {names[0]: parameters}
+        if set(parameters) != set(names):
+            raise ValueError(f"the model's parameters are {names}, got {tuple(parameters)}")
+        return {name: float(parameters[name]) for name in names}
 
     def bounds(self, drive_limits: bool, fix_fictitious: bool, period_s: float | None) -> Bounds:
         """Scaled ``lbx, ubx, lbg, ubg`` for a configuration.

@@ -16,12 +16,13 @@ override what the part has; every method has a default that adds nothing.
 Variables (class or instance attributes, :class:`optimize.model.variables.Variables`,
 every name ending in its unit suffix, no name used by another part):
 ``states``, ``controls``, ``algebraic``, ``fictitious`` (the homotopy's forces, zero in
-the physical model), and ``periodic``, the names of the own states that repeat over a
-cycle.
+the physical model), ``parameters`` (scalars set per scenario, NLP parameters of the
+same names: the kite's reference wind ``wind_ref_m_s``), and ``periodic``, the names of
+the own states that repeat over a cycle.
 
 Quantities: at a point of the cycle the formulation builds a dict ``q`` of named
-CasADi expressions (physical units): every variable of every part by name, the
-reference wind ``wind_ref_m_s`` [m/s], then what each part's :meth:`Part.quantities`
+CasADi expressions (physical units): every variable and parameter of every part by
+name, then what each part's :meth:`Part.quantities`
 returns, part after part in the order of the list (a part reads the quantities of
 the parts before it; it may replace one of theirs, as the thermal part puts the
 copper loss at the winding temperature into ``p_elec_w``). The kite gives
@@ -29,7 +30,7 @@ copper loss at the winding temperature into ``p_elec_w``). The kite gives
 ``torque_nm``, ``p_mech_w``, ``p_elec_w``. Then, on the finished ``q``:
 
 * :meth:`Part.rates`: ``d/dt`` of the own states, in their order (they may not depend
-  on the wind: the model's ``ode`` is ``(x, u, z) -> xdot``);
+  on the parameters: the model's ``ode`` is ``(x, u, z) -> xdot``);
 * :meth:`Part.residual`: rows of the algebraic residual ``0 = g`` (affine in the
   algebraic variables; one row per own algebraic variable in all);
 * :meth:`Part.rows`: path constraints (:class:`optimize.problem.interface.Row`,
@@ -66,8 +67,6 @@ from optimize.model.variables import Variables
 
 #: no variables
 NONE = Variables(())
-#: the quantity of the reference wind speed [m/s] (the scenario's parameter)
-WIND = "wind_ref_m_s"
 
 
 @dataclass(frozen=True)
@@ -82,8 +81,8 @@ class StartPoint:
         The start's period [s].
     n_intervals : int
         Collocation intervals per period ``N``.
-    wind_ref_m_s : float
-        Reference wind speed [m/s].
+    parameters : dict of float
+        The model's parameters by name (the reference wind speed ``wind_ref_m_s`` [m/s]).
     quantities : dict of ndarray
         The variables and quantities of the parts before this one at the ``N d``
         Radau points (``time_s`` in ``(0, T]``, the last one is the period's end).
@@ -92,7 +91,7 @@ class StartPoint:
     grid_times_s: np.ndarray
     period_s: float
     n_intervals: int
-    wind_ref_m_s: float
+    parameters: Mapping[str, float]
     quantities: Mapping[str, np.ndarray]
 
     @property
@@ -121,6 +120,7 @@ class Part:
     controls: Variables = NONE
     algebraic: Variables = NONE
     fictitious: Variables = NONE
+    parameters: Variables = NONE
     periodic: tuple[str, ...] = ()
     #: the names of the cycle averages :meth:`averages` defines, and those of them the
     #: objective can weight
@@ -192,5 +192,5 @@ class Part:
 
 def variables_of(parts: tuple[Part, ...], kind: str) -> Variables:
     """All parts' variables of one kind (``"states"``, ``"controls"``, ``"algebraic"``,
-    ``"fictitious"``), in the order of the parts."""
+    ``"fictitious"``, ``"parameters"``), in the order of the parts."""
     return Variables(tuple(n for p in parts for n in getattr(p, kind).names))

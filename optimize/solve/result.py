@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -111,7 +112,8 @@ class OcpResult:
     slack_fraction: float = 0.0
 
 
-def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_ref_m_s: float) -> pd.DataFrame:
+def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray,
+                     parameters: Mapping[str, float] | float | None) -> pd.DataFrame:
     """Trajectory at every Radau point of a scaled decision vector: time, interval,
     quadrature weight, the model's states, controls and algebraic variables by name, and
     the formulation's outputs (``trajectory_outputs``)."""
@@ -130,16 +132,17 @@ def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_ref_m_s: float) -> pd.
                        (dae.algebraic.names, z)):
         for i, name in enumerate(names):
             frame[name] = arr[i]
-    frame.update(ocp.formulation.trajectory_outputs(x, u, z, wind_ref_m_s))
+    params = list(ocp.model_parameters(parameters).values())
+    frame.update(ocp.formulation.trajectory_outputs(x, u, z, params))
     return pd.DataFrame(frame)
 
 
 def carry_over(src: Ocp, solution: Solution, dst: Ocp,
-               wind_ref_m_s: float | None = None) -> Solution:
+               parameters: Mapping[str, float] | None = None) -> Solution:
     """A solution of ``src`` in the layout of ``dst``: the same problem in another
     transcription (:func:`optimize.problem.ocp.twin`), or one with more parts, whose
-    variables their parts fill (:func:`optimize.problem.start.fill`, at the wind speed
-    ``wind_ref_m_s`` [m/s] of the solution).
+    variables their parts fill (:func:`optimize.problem.start.fill`, at the model's
+    ``parameters`` of the solution, :attr:`optimize.problem.scenario.Scenario.parameters`).
 
     The primal point through the physical variables by name (``dst`` fills its
     copies); the multipliers of the variables both have and of the rows with the same
@@ -160,10 +163,10 @@ def carry_over(src: Ocp, solution: Solution, dst: Ocp,
                 lam_x[i_dst[i]] = solution.lam_x[i_src[j]]
                 known.add(name)
     if len(known) < sum(getattr(dst.dae, kind).size for kind in KEYS):
-        if wind_ref_m_s is None:
+        if parameters is None:
             raise ValueError("the destination has variables the solution has not: their "
-                             "parts fill them at a wind speed (wind_ref_m_s)")
-        arrays = fill(dst, arrays, period, wind_ref_m_s, known)
+                             "parts fill them at the model's parameters (parameters)")
+        arrays = fill(dst, arrays, period, parameters, known)
     w = dst.pack(arrays["x"], arrays["z"], arrays["u"], arrays["fict"], period)
     s_lay, d_lay = src.layout, dst.layout
     lam_x[d_lay.i_period[0]] = solution.lam_x[s_lay.i_period].sum()
@@ -307,7 +310,7 @@ def make_result(
     start: str = "warm start",
 ) -> OcpResult:
     """Assemble an :class:`OcpResult` from the final solver call and the stage log."""
-    traj = trajectory_frame(ocp, raw.w, scenario.wind_speed_m_s)
+    traj = trajectory_frame(ocp, raw.w, scenario.parameters)
     g = ocp.constraint_values(raw.w, p)
     lbg, ubg = bounds[2], bounds[3]
     viol_g = np.maximum(np.maximum(lbg - g, g - ubg), 0.0)

@@ -1,7 +1,9 @@
 """The transcriptions of the cycle OCP, one object per method, chosen once.
 
+* :mod:`.structure`: a transcribed NLP's named decision vector, index bookkeeping and
+  per-point structure;
 * :mod:`.layouts`: direct Radau collocation into one scaled NLP, in the general layout
-  or in stages (fatrop's), with its per-point structure;
+  or in stages (fatrop's);
 * :mod:`.derivatives`: that NLP's derivatives point by point, in each solver's format;
 * :mod:`.collocation`: the collocation method (:class:`.collocation.CollocationMethod`);
 * :mod:`.condensed_nlp`, :mod:`.condensed_derivatives`, :mod:`.condensed_multipliers`,

@@ -15,12 +15,9 @@ from optimize.problem.collocation import Collocation
 from optimize.problem.interface import CycleFormulation
 from optimize.problem.options import Discretization, SolverOptions
 from optimize.problem.transcriptions.derivatives import nlp_derivatives
-from optimize.problem.transcriptions.layouts import (
-    Transcription,
-    general_layout,
-    stagewise_layout,
-)
+from optimize.problem.transcriptions.layouts import general_layout, stagewise_layout
 from optimize.problem.transcriptions.method import Call, SolverNlp, compile_fn
+from optimize.problem.transcriptions.structure import Transcription
 
 
 def full_derivatives(ocp: Any, solver: str) -> dict[str, ca.Function]:

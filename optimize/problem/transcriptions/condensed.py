@@ -22,8 +22,9 @@ from optimize.problem.transcriptions.collocation import full_derivatives
 from optimize.problem.transcriptions.condensed_derivatives import condensed_derivatives
 from optimize.problem.transcriptions.condensed_multipliers import to_condensed, to_full
 from optimize.problem.transcriptions.condensed_nlp import CondensedNlp, condensed_nlp
-from optimize.problem.transcriptions.layouts import Transcription, general_layout
+from optimize.problem.transcriptions.layouts import general_layout
 from optimize.problem.transcriptions.method import Call, SolverNlp, compile_fn
+from optimize.problem.transcriptions.structure import Transcription
 
 log = logging.getLogger(__name__)
 

@@ -36,7 +36,8 @@ import numpy as np
 
 from optimize.problem.collocation import Collocation
 from optimize.problem.interface import CycleFormulation
-from optimize.problem.transcriptions.layouts import Transcription, dims, share
+from optimize.problem.transcriptions.layouts import share
+from optimize.problem.transcriptions.structure import Transcription, dims
 
 #: the point row that holds the DAE's algebraic equations (solved with the dynamics)
 ALGEBRAIC_ROW = "algebraic"
@@ -160,15 +161,17 @@ class CondensedNlp:
         """The integrands at every Radau point of a full ``w`` (columns)."""
         b = self.full.blocks
         fn = b.point.function.map(b.vars.shape[1])
-        wind = np.full((1, b.vars.shape[1]), float(np.asarray(p_full).ravel()[b.i_wind]))
-        return np.asarray(fn(w_full[b.vars], wind, b.deriv)[1])
+        params = np.asarray(p_full).ravel()[b.i_params]
+        params = np.tile(params[:, None], (1, b.vars.shape[1]))
+        return np.asarray(fn(w_full[b.vars], params, b.deriv)[1])
 
 
 @dataclass(frozen=True)
 class Interval:
     """One interval as functions of its Radau points' unknowns ``v = (X_1..X_d,
     Z_1..Z_d)``, its stage variables ``q = (X_0, U, T, F_1..F_d)`` and its parameters
-    ``a = (wind, guess, the tracking reference at its d points)`` (all scaled).
+    ``a = (the model's parameters, guess, the tracking reference at its d points)`` (all
+    scaled).
 
     ``residual(v, q, a)``: the collocation equations (dynamics and algebraic rows at the
     points), square in ``v``; ``outputs(v, q, a)``: ``y = (X_d, path rows, integrands,
@@ -213,16 +216,17 @@ def interval(full: Transcription, coll: Collocation, dims: tuple[int, int, int, 
     pos = np.arange(solved.size)
     v = ca.SX.sym("v", d * (nx + nz))
     q = ca.SX.sym("q", nx + nu + 1 + d * nf)
-    a = ca.SX.sym("a", 1 + v.shape[0] + d * nx)
-    x0, u, period, wind = q[:nx], q[nx:nx + nu], q[nx + nu], a[0]
-    ref = a[1 + v.shape[0]:]
+    n_par = point.function.size1_in(1)
+    a = ca.SX.sym("a", n_par + v.shape[0] + d * nx)
+    x0, u, period, params = q[:nx], q[nx:nx + nu], q[nx + nu], a[:n_par]
+    ref = a[n_par + v.shape[0]:]
     xs = [v[j * nx:(j + 1) * nx] for j in range(d)]
     zs = [v[d * nx + j * nz:d * nx + (j + 1) * nz] for j in range(d)]
     fs = [q[nx + nu + 1 + j * nf:nx + nu + 1 + (j + 1) * nf] for j in range(d)]
     res, path, integ = [], [], []
     for j in range(d):
         vpt = ca.vertcat(period, xs[j], u, zs[j], fs[j], x0, *xs)
-        rows, s = point.function(vpt, wind, ca.DM(coll.deriv[:, j]))
+        rows, s = point.function(vpt, params, ca.DM(coll.deriv[:, j]))
         res.append(rows[pos[solved].tolist()])
         path.append(rows[pos[~solved].tolist()])
         integ.append(s)
@@ -240,7 +244,8 @@ def interval(full: Transcription, coll: Collocation, dims: tuple[int, int, int, 
     outputs = ca.Function("interval_outputs", [v, q, a], [ca.vertcat(*y)])
     newton = ca.rootfinder("interval", rootfinder, residual, ROOTFINDERS[rootfinder])
     qm, am = ca.MX.sym("q", q.shape[0]), ca.MX.sym("a", a.shape[0])
-    v0 = ca.vertcat(ca.repmat(qm[:nx], d, 1), ca.MX.zeros(d * nz, 1)) + am[1:1 + v.shape[0]]
+    v0 = (ca.vertcat(ca.repmat(qm[:nx], d, 1), ca.MX.zeros(d * nz, 1))
+          + am[n_par:n_par + v.shape[0]])
     vm = newton(v0, qm, am)
     solved_ok = ca.norm_inf(residual(vm, qm, am)) <= NEWTON_CHECK
     y = ca.if_else(solved_ok, outputs(vm, qm, am), ca.DM.nan(start, 1))
@@ -335,7 +340,7 @@ def condensed_nlp(form: CycleFormulation, coll: Collocation, full: Transcription
     n_p_full = lay.n_p
     i_q = np.stack([np.concatenate([st["x"][k], st["u"][k], st["t"][k], st["f"][k]])
                     for k in range(n)], axis=1)
-    i_a = np.stack([np.concatenate([[lay.params["wind_ref_m_s"]],
+    i_a = np.stack([np.concatenate([full.blocks.i_params,
                                     n_p_full + k * it.n_v + np.arange(it.n_v),
                                     lay.i_p_ref[:, k * d + 1:(k + 1) * d + 1].T.ravel()])
                     for k in range(n)], axis=1)

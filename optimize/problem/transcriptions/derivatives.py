@@ -3,7 +3,7 @@
 Symbolic differentiation of the whole NLP (about 6,100 variables at 40 intervals)
 costs seconds each time an OCP is built, more than a warm solve takes. The Radau
 transcription is one function repeated at each collocation point
-(:class:`optimize.problem.transcriptions.layouts.PointBlocks`): its Jacobian and Hessian are
+(:class:`optimize.problem.transcriptions.structure.PointBlocks`): its Jacobian and Hessian are
 built once, on the point's own variables, evaluated at every point by one CasADi
 ``map`` and added into the NLP's sparse matrices by constant sparse sums. What is
 left (period ties, start, periodicity and average rows, tracking and regularization)
@@ -178,15 +178,16 @@ def _block_derivatives(nlp: dict, b: Any,
 
     # the point function's derivatives, built once
     v = ca.SX.sym("v", n_v)
-    wind, deriv = ca.SX.sym("wind"), ca.SX.sym("deriv", b.deriv.shape[0])
-    rows_v, integrands_v = b.point.function(v, wind, deriv)
+    params = ca.SX.sym("params", len(b.i_params))
+    deriv = ca.SX.sym("deriv", b.deriv.shape[0])
+    rows_v, integrands_v = b.point.function(v, params, deriv)
     n_r = rows_v.numel()
     lam_r, mu = ca.SX.sym("lam_r", n_r), ca.SX.sym("mu", n_s)
     jac_v = ca.jacobian(ca.vertcat(rows_v, integrands_v), v)
     hess_v = ca.hessian(ca.dot(lam_r, rows_v) + ca.dot(mu, integrands_v), v)[0]
     cse = {"cse": True}
-    jac_point = ca.Function("point_jac", [v, wind, deriv], [jac_v.nz[:]], cse)
-    hess_point = ca.Function("point_hess", [v, wind, deriv, lam_r, mu], [hess_v.nz[:]], cse)
+    jac_point = ca.Function("point_jac", [v, params, deriv], [jac_v.nz[:]], cse)
+    hess_point = ca.Function("point_hess", [v, params, deriv, lam_r, mu], [hess_v.nz[:]], cse)
     if compile_fn is not None:
         jac_point, hess_point = compile_fn(jac_point), compile_fn(hess_point)
     jac_point, hess_point = jac_point.map(n_pts), hess_point.map(n_pts)
@@ -211,11 +212,11 @@ def _block_derivatives(nlp: dict, b: Any,
     x_, p_ = ca.MX.sym("x", n_w), ca.MX.sym("p", n_p)
     lf_, lg_ = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", n_g)
     V = ca.reshape(x_[[int(i) for i in b.vars.T.ravel()]], n_v, n_pts)
-    wind_, D = p_[b.i_wind], ca.DM(b.deriv)
+    params_, D = p_[b.i_params.tolist()], ca.DM(b.deriv)
     s0 = ca.MX.zeros(n_s * n_pts)  # the rest's derivatives do not depend on s (checked)
     f_, g_ = f_fn(x_, p_), g_fn(x_, p_)
     jac_rest_w, jac_rest_s_, grad_w, grad_s_f = rest_fn(x_, p_, s0)
-    jac_nz = ca.vec(jac_point(V, wind_, D))
+    jac_nz = ca.vec(jac_point(V, params_, D))
     ds = sum_into((n_s * n_pts, n_w), [(jac_nz, np.where(jr < 0, -1 - jr, -1), jc)])
     rest_jac = [entries(jac_rest_w), entries(ca.mtimes(jac_rest_s_, ds))]
     jac = sum_into((n_g, n_w), [(jac_nz, jr, jc),
@@ -224,6 +225,6 @@ def _block_derivatives(nlp: dict, b: Any,
     hess_rest, mu_ = rest_hess_fn(x_, p_, s0, lf_, lg_)
     MU = ca.reshape(mu_, n_s, n_pts)
     LR = ca.reshape(lg_[[int(i) for i in b.rows.T.ravel()]], n_r, n_pts)
-    hess_nz = ca.vec(hess_point(V, wind_, D, LR, MU))
+    hess_nz = ca.vec(hess_point(V, params_, D, LR, MU))
     hess = sum_into((n_w, n_w), [(hess_nz, hr, hc), entries(hess_rest)])
     return Derivatives(x_, p_, lf_, lg_, f_, grad, g_, jac, hess)

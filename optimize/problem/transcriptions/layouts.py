@@ -40,7 +40,7 @@ point function rather than over the whole NLP.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
@@ -49,88 +49,15 @@ import numpy as np
 from optimize.problem.collocation import Collocation
 from optimize.problem.interface import CycleFormulation, Row, param_names
 from optimize.problem.options import Discretization
-
-
-@dataclass
-class Layout:
-    """Index bookkeeping of the scaled decision, constraint and parameter vectors."""
-
-    n_points: int  # grid points with states (N d + 1)
-    n_coll: int  # Radau points (N d)
-    i_period: np.ndarray  # (N,) one copy of the period per interval, all equal
-    i_x: np.ndarray  # (NX, n_points) indices into w
-    i_z: np.ndarray  # (NZ, n_coll)
-    i_u: np.ndarray  # (NU, N)
-    i_f: np.ndarray  # (NF, n_coll)
-    scale_w: np.ndarray  # w_physical = scale_w * w_scaled
-    n_w: int
-    n_g: int
-    n_p: int
-    i_p_ref: np.ndarray  # (NX, n_points) reference trajectory in p
-    params: dict[str, int] = field(default_factory=dict)  # scalar parameter -> index in p
-    rows: dict[str, np.ndarray] = field(default_factory=dict)  # name -> indices into g
-    kind: str = "general"  # which layout: "general" or "stagewise"
-    #: a function of the scaled ``w`` that sets the variables derived from others
-    #: (copies, running integrals); ``None`` when there are none but the period copies
-    complete: ca.Function | None = None
-    #: per row, whether it is an equality in every configuration (lbg == ubg)
-    equality: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
-    #: the decision vector by name: each model variable (the period ``period_s``, every
-    #: state, control, algebraic variable and fictitious force by its model name) -> its
-    #: indices into ``w`` along the grid (:func:`named_variables`)
-    variables: dict[str, np.ndarray] = field(default_factory=dict)
-
-    def of(self, name: str) -> np.ndarray:
-        """Indices into ``w`` of the variable ``name`` along the grid."""
-        try:
-            return self.variables[name]
-        except KeyError:
-            raise KeyError(f"no variable {name!r} in the decision vector; known: "
-                           f"{', '.join(self.variables)}") from None
-
-    def rows_of(self, name: str) -> np.ndarray:
-        """Indices into ``g`` of the rows named ``name`` (empty when the NLP has none)."""
-        return self.rows.get(name, np.zeros(0, dtype=int))
-
-
-@dataclass(frozen=True)
-class PointBlocks:
-    """The NLP point by point: what :mod:`optimize.problem.transcriptions.derivatives` builds on.
-
-    For each Radau point ``j``: ``g[rows[:, j]] = rows(w[vars[:, j]], p[i_wind],
-    deriv[:, j])`` of ``point.function``. Its integrands enter the objective and the
-    other rows only through the cycle sums: ``f_s`` and ``g_s`` are ``f`` and ``g``
-    with the symbols ``s`` (``(len(point.integrands), n_coll)``) in place of the integrands
-    (``f = f_s`` and ``g = g_s`` once ``s`` is replaced by the points' integrands).
-    """
-
-    point: PointFunction
-    vars: np.ndarray  # (n_v, n_coll) indices into w
-    rows: np.ndarray  # (n_r, n_coll) indices into g
-    deriv: np.ndarray  # (d + 1, n_coll) the points' columns of Collocation.deriv
-    s: ca.SX
-    f_s: ca.SX
-    g_s: ca.SX
-    i_wind: int  # index of the reference wind speed in p
-
-
-@dataclass
-class Transcription:
-    """A transcribed NLP: CasADi problem, layout and scaled base bounds.
-
-    ``lbw, ubw, lbg, ubg`` hold without the drive limits, ``limited`` with them
-    (both with the period free and the fictitious forces free).
-    """
-
-    nlp: dict
-    layout: Layout
-    lbw: np.ndarray
-    ubw: np.ndarray
-    lbg: np.ndarray
-    ubg: np.ndarray
-    limited: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-    #: the per-point structure of the NLP (what its derivatives are built from)
-    blocks: PointBlocks
+from optimize.problem.transcriptions.structure import (
+    Layout,
+    PointBlocks,
+    PointFunction,
+    Transcription,
+    Vector,
+    dims,
+    named_variables,
+)
 
 
 class _Rows:
@@ -182,36 +109,6 @@ class _Sums:
         return cls(averages=dict.fromkeys(form.averages, 0))
 
 
-@dataclass(frozen=True)
-class PointFunction:
-    """The rows and integrands of one Radau point as one CasADi function.
-
-    ``function(v, wind, deriv) -> (rows, integrands)``: ``v`` is the point's slice of
-    the scaled decision vector in this order: period, state at the point, control,
-    algebraic variables, fictitious forces, then the ``d + 1`` states of the interval
-    (the point's own state appears twice; :func:`_interval` lays it out), ``wind``
-    the reference wind speed [m/s], ``deriv`` the point's column of
-    :attr:`Collocation.deriv`. ``rows`` are the dynamics rows then the formulation's
-    point rows (``templates`` gives their names and bounds), ``integrands`` the values
-    named by :attr:`integrands` (the formulation's cycle averages, then ``fict_sq``).
-    Every Radau point of both layouts is this one function, so its derivatives can
-    be built once (:mod:`optimize.problem.transcriptions.derivatives`).
-    """
-
-    function: ca.Function
-    templates: tuple[Row, ...]
-    integrands: tuple[str, ...]
-
-    def rows_of(self, out: Any) -> list[Row]:
-        """The point's rows with the expressions ``out`` (one call's ``rows``)."""
-        rows, start = [], 0
-        for t in self.templates:
-            size = t.expr.shape[0]
-            rows.append(Row(t.name, out[start:start + size], t.lo, t.hi, t.limited))
-            start += size
-        return rows
-
-
 def point_function(form: CycleFormulation, coll: Collocation, n_intervals: int,
                    scale_w: dict[str, np.ndarray]) -> PointFunction:
     """Build the :class:`PointFunction` of ``form`` on ``n_intervals`` intervals.
@@ -228,17 +125,18 @@ def point_function(form: CycleFormulation, coll: Collocation, n_intervals: int,
         start += size
     xs = [v[start + r * nx: start + (r + 1) * nx] * ca.DM(scale_w["x"])
           for r in range(d + 1)]
-    wind, deriv = ca.SX.sym("wind"), ca.SX.sym("deriv", d + 1)
+    params = ca.SX.sym("params", len(form.parameters))
+    deriv = ca.SX.sym("deriv", d + 1)
     x, u, z = parts["x"], parts["u"], parts["z"]
     xp = sum(deriv[r] * xs[r] for r in range(d + 1))
     h = parts["period"] / n_intervals
     dynamics = Row("dynamics", (xp - h * form.ode(x, u, z)) * ca.DM(1.0 / form.scales.state))
-    point = form.point(x, u, z, parts["f"], wind)
+    point = form.point(x, u, z, parts["f"], params)
     templates = (dynamics, *point.rows)
     integrands = ca.vertcat(*[point.averages[a] for a in form.averages], point.fict_sq)
-    function = ca.Function("radau_point", [v, wind, deriv],
+    function = ca.Function("radau_point", [v, params, deriv],
                            [ca.vertcat(*[t.expr for t in templates]), integrands],
-                           ["v", "wind", "deriv"], ["rows", "integrands"])
+                           ["v", "params", "deriv"], ["rows", "integrands"])
     return PointFunction(function=function, templates=templates,
                          integrands=(*form.averages, "fict_sq"))
 
@@ -251,7 +149,7 @@ def _point_scales(form: CycleFormulation) -> dict[str, np.ndarray]:
 
 def _interval(point: PointFunction, coll: Collocation, w: Any, i_period: int,
               i_xs: list[np.ndarray], i_u: np.ndarray, i_zs: list[np.ndarray],
-              i_fs: list[np.ndarray], wind: Any, rows: _Rows
+              i_fs: list[np.ndarray], params: Any, rows: _Rows
               ) -> list[tuple[np.ndarray, np.ndarray, Any]]:
     """Rows of one collocation interval of the scaled decision vector ``w``.
 
@@ -263,7 +161,7 @@ def _interval(point: PointFunction, coll: Collocation, w: Any, i_period: int,
     out = []
     for j in range(1, coll.degree + 1):
         idx = np.concatenate([[i_period], i_xs[j], i_u, i_zs[j - 1], i_fs[j - 1], *i_xs])
-        g, integrands = point.function(w[[int(i) for i in idx]], wind,
+        g, integrands = point.function(w[[int(i) for i in idx]], params,
                                        ca.DM(coll.deriv[:, j - 1]))
         first = rows.n
         for row in point.rows_of(g):
@@ -297,6 +195,11 @@ def _params(form: CycleFormulation, n_points: int
     par = {name: p[i] for i, name in enumerate(names)}
     i_p_ref = n_par + np.arange(nx * n_points).reshape(n_points, nx).T
     return p, par, n_p, i_p_ref, {name: i for i, name in enumerate(names)}
+
+
+def model_params(form: CycleFormulation, par: dict[str, Any]) -> Any:
+    """The model's parameters (``form.parameters``) as one vector of the NLP's ``p``."""
+    return ca.vertcat(*[par[name] for name in form.parameters])
 
 
 def _tracking(form: CycleFormulation, p: ca.SX, i_p_ref: np.ndarray, xs: list) -> Any:
@@ -348,7 +251,7 @@ def _finish(nlp: dict, blocks: PointBlocks, layout: Layout, rows: _Rows,
 
 
 def _nlp_and_blocks(w: Any, p: Any, f_s: Any, g_s: Any, s: Any, point: PointFunction,
-                    points: list, deriv: np.ndarray, i_wind: int
+                    points: list, deriv: np.ndarray, i_params: np.ndarray
                     ) -> tuple[dict, PointBlocks]:
     """The NLP, with the points' integrands in place of the symbols ``s``, and its
     :class:`PointBlocks` (``points`` as :func:`_interval` returns them, in the order
@@ -358,45 +261,8 @@ def _nlp_and_blocks(w: Any, p: Any, f_s: Any, g_s: Any, s: Any, point: PointFunc
     blocks = PointBlocks(
         point=point, vars=np.stack([pt[0] for pt in points], axis=1),
         rows=np.stack([pt[1] for pt in points], axis=1), deriv=deriv, s=s, f_s=f_s,
-        g_s=g_s, i_wind=i_wind)
+        g_s=g_s, i_params=np.asarray(i_params, dtype=int))
     return {"x": w, "p": p, "f": f, "g": g}, blocks
-
-
-class Vector:
-    """A vector laid out block by block, each block named (the decision vector of a
-    layout: its indices come from here, in the order blocks are taken)."""
-
-    def __init__(self) -> None:
-        self.n = 0
-        self.blocks: dict[str, list[np.ndarray]] = {}
-
-    def take(self, name: str, size: int) -> np.ndarray:
-        """The indices of the next ``size`` entries, a block of ``name``."""
-        idx = np.arange(self.n, self.n + size, dtype=int)
-        self.n += size
-        self.blocks.setdefault(name, []).append(idx)
-        return idx
-
-    def columns(self, name: str, size: int, count: int) -> np.ndarray:
-        """``count`` blocks of ``name`` one after the other, as ``(size, count)``."""
-        return np.stack([self.take(name, size) for _ in range(count)], axis=1).reshape(
-            size, count)
-
-
-def named_variables(form: CycleFormulation, i_period: np.ndarray, i_x: np.ndarray,
-                    i_z: np.ndarray, i_u: np.ndarray, i_f: np.ndarray) -> dict[str, np.ndarray]:
-    """Each model variable's indices into ``w`` by its name (the period: ``period_s``)."""
-    dae, out = form.dae, {"period_s": i_period}
-    for variables, idx in ((dae.states, i_x), (dae.algebraic, i_z), (dae.controls, i_u),
-                           (dae.fictitious, i_f)):
-        out.update({name: idx[i] for i, name in enumerate(variables.names)})
-    return out
-
-
-def dims(form: CycleFormulation) -> tuple[int, int, int, int]:
-    """Sizes of the model's state, algebraic, control and fictitious vectors."""
-    dae = form.dae
-    return dae.states.size, dae.algebraic.size, dae.controls.size, dae.fictitious.size
 
 
 def general_layout(form: CycleFormulation, disc: Discretization, coll: Collocation
@@ -435,7 +301,8 @@ def general_layout(form: CycleFormulation, disc: Discretization, coll: Collocati
         points += _interval(point, coll, w, int(i_period[k]),
                             [i_x[:, k * d + r] for r in range(d + 1)], i_u[:, k],
                             [i_z[:, k * d + j] for j in range(d)],
-                            [i_f[:, k * d + j] for j in range(d)], par["wind_ref_m_s"], rows)
+                            [i_f[:, k * d + j] for j in range(d)], model_params(form, par),
+                            rows)
         for j in range(1, d + 1):
             _add_integrands(sums, coll, n, j, s[:, k * d + j - 1])
     sums.track = _tracking(form, p, i_p_ref, xs)
@@ -449,7 +316,8 @@ def general_layout(form: CycleFormulation, disc: Discretization, coll: Collocati
 
     f_s = form.objective(par, sums.averages, sums.reg, sums.track, sums.fict)
     nlp, blocks = _nlp_and_blocks(w, p, f_s, ca.vertcat(*rows.exprs), s, point, points,
-                                  np.tile(coll.deriv, (1, n)), i_par["wind_ref_m_s"])
+                                  np.tile(coll.deriv, (1, n)),
+                                  [i_par[name] for name in form.parameters])
     layout = Layout(
         n_points=n_points, n_coll=n_coll, i_period=i_period, i_x=i_x, i_z=i_z, i_u=i_u,
         i_f=i_f, scale_w=scale_w, n_w=n_w, n_g=rows.n, n_p=n_p, i_p_ref=i_p_ref,
@@ -509,7 +377,7 @@ def _stage_indices(n: int, d: int, dims: tuple[int, int, int, int], n_q: int) ->
 
 
 def _stage_rows(form: CycleFormulation, coll: Collocation, st: _Stages, w: Any, at: Any,
-                point: PointFunction, s: Any, wind: Any) -> tuple[_Rows, _Sums, dict, list]:
+                point: PointFunction, s: Any, params: Any) -> tuple[_Rows, _Sums, dict, list]:
     """Rows of stages ``0 .. N-1``: first the gap-closing rows ``x_{k+1} - F(x_k, u_k)``
     (in the order of ``x_{k+1}``), then the interval's rows; stage 0 also has the start
     rows and ``S_0 = X_0``. Returns the rows, the cycle sums, the running integrals
@@ -525,7 +393,7 @@ def _stage_rows(form: CycleFormulation, coll: Collocation, st: _Stages, w: Any, 
         points = _interval(point, coll, w, int(st.i_period[k]),
                            [st.x_start(k)] + [st.i_x[:, k * d + j] for j in range(1, d + 1)],
                            st.i_u[:, k], [st.i_z[:, k * d + j] for j in range(d)],
-                           [st.i_f[:, k * d + j] for j in range(d)], wind, interval_rows)
+                           [st.i_f[:, k * d + j] for j in range(d)], params, interval_rows)
         for j in range(1, d + 1):
             _add_integrands(sums, coll, n, j, s[:, k * d + j - 1])
         gap = [w[st.i_next[:, k]] - w[st.i_x[:, k * d + d]],
@@ -593,7 +461,7 @@ def stagewise_layout(form: CycleFormulation, disc: Discretization, coll: Colloca
     point = point_function(form, coll, n, _point_scales(form))
     s = ca.SX.sym("s", len(point.integrands), n_coll)  # the integrands, as in general_layout
     rows, sums, running, all_points = _stage_rows(form, coll, st, w, at, point, s,
-                                                  par["wind_ref_m_s"])
+                                                  model_params(form, par))
     sums.track = _tracking(form, p, i_p_ref, [at(st.i_x[:, k]) for k in range(n_points)])
     terminal = [*form.periodicity_rows(at(st.i_start[:, n]), at(st.x_start(n)))]
     if carried:
@@ -603,7 +471,8 @@ def stagewise_layout(form: CycleFormulation, disc: Discretization, coll: Colloca
 
     f_s = form.objective(par, sums.averages, sums.reg, sums.track, sums.fict)
     nlp, blocks = _nlp_and_blocks(w, p, f_s, ca.vertcat(*rows.exprs), s, point, all_points,
-                                  np.tile(coll.deriv, (1, n)), i_par["wind_ref_m_s"])
+                                  np.tile(coll.deriv, (1, n)),
+                                  [i_par[name] for name in form.parameters])
     layout = Layout(
         n_points=n_points, n_coll=n_coll, i_period=st.i_period, i_x=st.i_x, i_z=st.i_z,
         i_u=st.i_u, i_f=st.i_f, scale_w=scale_w, n_w=st.n_w, n_g=rows.n, n_p=n_p,

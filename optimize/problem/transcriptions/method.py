@@ -1,7 +1,7 @@
 """What a transcription method is: one object per method, behind one interface.
 
 A method (:class:`Method`) turns a formulation into the NLP whose layout results,
-starts and warm starts live in (:class:`optimize.problem.transcriptions.layouts.Transcription`),
+starts and warm starts live in (:class:`optimize.problem.transcriptions.structure.Transcription`),
 hands an NLP solver the problem it runs on with its derivatives (:class:`SolverNlp`),
 and carries a start into that problem and its solution back (:meth:`Method.solve`).
 :func:`optimize.problem.transcriptions.method_of` chooses it once from the solver
@@ -21,7 +21,7 @@ from optimize.problem.collocation import Collocation
 from optimize.problem.interface import CycleFormulation
 from optimize.problem.options import Discretization, SolverOptions
 from optimize.problem.transcriptions.codegen import compiled
-from optimize.problem.transcriptions.layouts import Transcription
+from optimize.problem.transcriptions.structure import Transcription
 
 #: ``call(w0, p, bounds, lam_x0, lam_g0) -> RawSolve``: one call of the solver the
 #: backend created on :meth:`Method.solver_nlp`'s problem
