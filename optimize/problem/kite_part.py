@@ -21,7 +21,7 @@ from optimize.model.kite_model import KiteDae
 from optimize.problem.guess import LoopGuess, circular_loop
 from optimize.problem.interface import Row
 from optimize.problem.options import Limits
-from optimize.problem.part import Part, StartPoint
+from optimize.problem.part import Part, StartPoint, near
 from optimize.problem.scaling import Scales
 
 #: the reel acceleration's bound when the winch states none: keeps the solver in range
@@ -175,6 +175,21 @@ class KitePart(Part):
             **{f"f_fict_{a}_n": sc.force_n for a in "xyz"},
             **{f"m_fict_{a}_nm": sc.moment_nm for a in "xyz"},
         }
+
+    def active_bounds(self, traj: Any, drive_limits: bool) -> list[str]:
+        """Tether length, ground clearance, airspeed and the winch's acceleration and jerk
+        limits (the kite's own, in every kind)."""
+        lim = self.limits
+        l_lo, l_hi = lim.tether_length_bounds_m
+        checks = (("tether_length_min", traj["l_m"], l_lo),
+                  ("tether_length_max", traj["l_m"], l_hi),
+                  ("ground_clearance", traj["altitude_m"], lim.min_altitude_m),
+                  ("airspeed_min", traj["airspeed_m_s"], lim.min_airspeed_m_s),
+                  ("airspeed_max", traj["airspeed_m_s"], lim.max_airspeed_m_s),
+                  ("reel_acceleration_limit", np.abs(traj["ddl_m_s2"]),
+                   lim.max_reel_acceleration_m_s2),
+                  ("reel_jerk_limit", np.abs(traj["dddl_m_s3"]), lim.max_reel_jerk_m_s3))
+        return [name for name, value, bound in checks if near(value, bound)]
 
     def start_rows(self, q0: Mapping[str, Any]) -> list[Row]:
         """Invariants at t = 0: tether constraint, its rate, an orthonormal DCM."""

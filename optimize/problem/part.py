@@ -41,6 +41,7 @@ copper loss at the winding temperature into ``p_elec_w``). The kite gives
   ending in its unit.
 
 Bounds and scales, by variable name [SI]: :meth:`Part.bounds` (default unbounded),
+:meth:`Part.active_bounds` (the names of its bounds an optimum sits on, for the summary),
 :meth:`Part.limited_bounds` (replacing those under the drive limits; may name another
 part's state), :meth:`Part.scales` (the typical magnitude each variable is divided by;
 default 1). The cycle: :meth:`Part.start_rows`, :meth:`Part.periodicity_rows` (beyond
@@ -67,6 +68,17 @@ from optimize.model.variables import Variables
 
 #: no variables
 NONE = Variables(())
+#: a bound counts as active within this fraction of its value (IPOPT's bound push and
+#: tolerance leave the optimum about 1e-8 to 1e-6 inside)
+ACTIVE_RTOL = 1e-3
+
+
+def near(value: Any, bound: float | None) -> bool:
+    """Whether ``value`` (an array along the cycle) reaches ``bound`` anywhere, within
+    :data:`ACTIVE_RTOL` of it (None or an infinite bound: no)."""
+    return bound is not None and bool(np.isfinite(bound)) and bool(
+        np.any(np.abs(np.asarray(value, dtype=float) - bound)
+               <= ACTIVE_RTOL * max(abs(bound), 1e-9)))
 
 
 @dataclass(frozen=True)
@@ -182,6 +194,12 @@ class Part:
     def start_fixed(self) -> dict[str, float]:
         """Own state components fixed at ``t = 0`` [SI]."""
         return {}
+
+    def active_bounds(self, traj: Any, drive_limits: bool) -> list[str]:
+        """Names of this part's bounds a solution's trajectory (its table,
+        ``trajectories.parquet``'s columns) sits on (:func:`near`); ``drive_limits``:
+        whether the drive limits applied."""
+        return []
 
     def guess(self, start: StartPoint) -> dict[str, np.ndarray]:
         """Start values of the own variables: states ``(N d + 1,)`` at the state grid,

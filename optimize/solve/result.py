@@ -9,10 +9,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from optimize.model.envelope import envelope_torque_nm, has_envelope
-from optimize.model.thermal import RANGE_C as THERMAL_RANGE_C
 from optimize.model.thermal import STATE as THERMAL_STATE
 from optimize.problem.ocp import Ocp
+from optimize.problem.part import near
 from optimize.problem.scenario import Scenario
 from optimize.problem.start import KEYS, fill
 from optimize.solve.backend import RawSolve
@@ -178,22 +177,15 @@ def carry_over(src: Ocp, solution: Solution, dst: Ocp,
                     degree=solution.degree)
 
 
-#: a bound counts as active within this fraction of its value (IPOPT's bound push and
-#: tolerance leave the optimum about 1e-8 to 1e-6 inside)
-ACTIVE_RTOL = 1e-3
 #: tension below this fraction of the kite's weight counts as a slack tether
 SLACK_TENSION_FRACTION = 1e-3
 
 
-def _near(value: np.ndarray, bound: float) -> bool:
-    return bool(np.isfinite(bound)) and bool(
-        np.any(np.abs(value - bound) <= ACTIVE_RTOL * max(abs(bound), 1e-9)))
-
-
 def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: bool,
                   bounds: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> tuple[str, ...]:
-    """Names of the bounds the solution sits on (period, tether length, ground, the kite's
-    airspeed and tether-force limits, drive).
+    """Names of the bounds the solution sits on: the period's, then each part's
+    (:meth:`optimize.problem.part.Part.active_bounds`: tether length, ground, the kite's
+    airspeed and tether-force limits, the winch's, the drive's, the winding's).
 
     Parameters
     ----------
@@ -207,51 +199,13 @@ def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: b
     bounds : tuple
         The scaled ``lbx, ubx, lbg, ubg`` of the solve (a fixed period is not a bound).
     """
-    o, lay = ocp.options.limits, ocp.layout
     out = []
-    i = lay.i_period[0]
-    period_fixed = bounds[0][i] == bounds[1][i]
-    if not period_fixed:
-        lo, hi = o.period_bounds_s
-        out += [n for n, b in (("period_min", lo), ("period_max", hi)) if _near(period_s, b)]
-    l_lo, l_hi = o.tether_length_bounds_m
-    length = traj["l_m"].to_numpy()
-    out += [n for n, b in (("tether_length_min", l_lo), ("tether_length_max", l_hi))
-            if _near(length, b)]
-    if _near(traj["altitude_m"].to_numpy(), o.min_altitude_m):
-        out.append("ground_clearance")
-    # the kite's own limits, in force in every kind
-    airspeed = traj["airspeed_m_s"].to_numpy()
-    if _near(airspeed, o.min_airspeed_m_s):
-        out.append("airspeed_min")
-    if o.max_airspeed_m_s is not None and _near(airspeed, o.max_airspeed_m_s):
-        out.append("airspeed_max")
-    if o.max_tether_force_n is not None and _near(traj["tension_n"].to_numpy(),
-                                                  o.max_tether_force_n):
-        out.append("tether_force_limit")
-    if o.max_reel_acceleration_m_s2 is not None and _near(
-            np.abs(traj["ddl_m_s2"].to_numpy()), o.max_reel_acceleration_m_s2):
-        out.append("reel_acceleration_limit")
-    if o.max_reel_jerk_m_s3 is not None and _near(
-            np.abs(traj["dddl_m_s3"].to_numpy()), o.max_reel_jerk_m_s3):
-        out.append("reel_jerk_limit")
-    if drive_limits:
-        speed = np.abs(traj["speed_rpm"].to_numpy())
-        if _near(speed, o.max_speed_rpm):
-            out.append("speed_limit")
-        torque = np.abs(traj["torque_nm"].to_numpy())
-        if _near(torque, o.max_torque_nm):
-            out.append("torque_limit")
-        if has_envelope(o) and _near(torque / envelope_torque_nm(o, speed), 1.0):
-            out.append("envelope_limit")
-        if o.max_p_elec_w is not None and _near(np.abs(traj["p_elec_w"].to_numpy()),
-                                                o.max_p_elec_w):
-            out.append("p_elec_limit")
-        thermal = getattr(ocp.formulation, "thermal", None)
-        if thermal is not None and _near(traj[THERMAL_STATE].to_numpy(), thermal.max_c):
-            out.append("winding_temperature_limit")
-    if THERMAL_STATE in traj and _near(traj[THERMAL_STATE].to_numpy(), THERMAL_RANGE_C[1]):
-        out.append("winding_temperature_range")
+    i = ocp.layout.i_period[0]
+    if bounds[0][i] != bounds[1][i]:  # a fixed period is not a bound
+        lo, hi = ocp.formulation.period_bounds()
+        out += [n for n, b in (("period_min", lo), ("period_max", hi)) if near(period_s, b)]
+    for part in getattr(ocp.formulation, "parts", ()):
+        out += part.active_bounds(traj, drive_limits)
     return tuple(out)
 
 
