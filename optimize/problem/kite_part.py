@@ -30,6 +30,10 @@ SOLVER_REEL_ACCELERATION_M_S2 = 500.0
 SOLVER_REEL_JERK_M_S3 = 5000.0
 #: the kite's parameter: the wind speed at the reference height [m/s]
 WIND = "wind_ref_m_s"
+#: forces [N] (world NED frame, on the CG) and moments [N m] (body frame) other parts put
+#: on the kite: quantities of these names enter its Newton-Euler rows as the homotopy's
+#: fictitious forces do (a part adds its own to what the parts before it put there)
+EXTERNAL = ("f_ext_x_n", "f_ext_y_n", "f_ext_z_n", "m_ext_x_nm", "m_ext_y_nm", "m_ext_z_nm")
 #: the CG position's components (not periodic: the downwind position is free)
 POSITION_STATES = ("r_x_m", "r_y_m", "r_z_m")
 
@@ -60,29 +64,12 @@ class KitePart(Part):
     loop: LoopGuess
     name: str = "kite"
 
-    @property
-    def states(self):  # type: ignore[override]
-        return self.dae.states
-
-    @property
-    def controls(self):  # type: ignore[override]
-        return self.dae.controls
-
-    @property
-    def algebraic(self):  # type: ignore[override]
-        return self.dae.algebraic
-
-    @property
-    def fictitious(self):  # type: ignore[override]
-        return self.dae.fictitious
-
-    @property
-    def periodic(self):  # type: ignore[override]
-        return self.dae.periodic
-
-    @property
-    def parameters(self):  # type: ignore[override]
-        return self.dae.parameters
+    states = property(lambda self: self.dae.states, doc="The kite DAE's states.")
+    controls = property(lambda self: self.dae.controls, doc="The kite DAE's controls.")
+    algebraic = property(lambda self: self.dae.algebraic, doc="Its algebraic variables.")
+    fictitious = property(lambda self: self.dae.fictitious, doc="Its fictitious forces.")
+    periodic = property(lambda self: self.dae.periodic, doc="Its periodic states.")
+    parameters = property(lambda self: self.dae.parameters, doc="Its reference wind.")
 
     def _xuz(self, q: Mapping[str, Any]) -> tuple[Any, Any, Any]:
         return (_vector(q, self.states.names), _vector(q, self.controls.names),
@@ -99,9 +86,12 @@ class KitePart(Part):
         return [self.dae.ode(*self._xuz(q))]
 
     def residual(self, q: Mapping[str, Any]) -> list[Any]:
-        """Newton-Euler and ``d2c/dt2`` over their scales."""
+        """Newton-Euler and ``d2c/dt2`` over their scales, with the forces and moments
+        other parts put on the kite (:data:`EXTERNAL`)."""
         x, u, z = self._xuz(q)
         fict = _vector(q, self.fictitious.names)
+        if any(name in q for name in EXTERNAL):
+            fict = fict + ca.vertcat(*[q.get(name, 0) for name in EXTERNAL])
         return [self.dae.alg(x, u, z, q[WIND], fict) * ca.DM(1.0 / self.scales_of.residual)]
 
     def rows(self, q: Mapping[str, Any]) -> list[Row]:

@@ -5,8 +5,9 @@ The kite's OCP is a list of parts (:func:`optimize.problem.parts.kite_parts`): t
 (:class:`optimize.problem.drive_part.DrivePart`) and, with a thermal rating, the
 winding temperature (:class:`optimize.problem.thermal_part.ThermalPart`). The
 formulation (:class:`optimize.problem.formulation.Formulation`), the transcriptions,
-the scaling, the start guess, the trajectory frame and the sweep folder's columns
-iterate over the parts; none of them names a part's variable.
+the scaling, the start guess, the trajectory frame (``trajectories.parquet``'s columns)
+and the summary's active bounds iterate over the parts; none of them names a part's
+variable.
 
 Writing a part
 --------------
@@ -27,7 +28,10 @@ returns, part after part in the order of the list (a part reads the quantities o
 the parts before it; it may replace one of theirs, as the thermal part puts the
 copper loss at the winding temperature into ``p_elec_w``). The kite gives
 ``tension_n``, ``airspeed_m_s``, ``alpha_rad``, ...; the drive ``speed_rpm``,
-``torque_nm``, ``p_mech_w``, ``p_elec_w``. Then, on the finished ``q``:
+``torque_nm``, ``p_mech_w``, ``p_elec_w``. A part puts a force or moment on the kite
+by adding to the quantities :data:`optimize.problem.kite_part.EXTERNAL` (``f_ext_x_n``
+... in the world NED frame, ``m_ext_x_nm`` ... in the body frame): return
+``{"f_ext_z_n": q.get("f_ext_z_n", 0) + mine}``. Then, on the finished ``q``:
 
 * :meth:`Part.rates`: ``d/dt`` of the own states, in their order (they may not depend
   on the parameters: the model's ``ode`` is ``(x, u, z) -> xdot``);
@@ -52,8 +56,15 @@ Start: :meth:`Part.guess` fills the part's own variables from a
 A stored initial guess or the homotopy's circular loop gives the kite's variables; the
 parts after it fill theirs, so a stored guess keeps working when a part is added.
 
+The stored initial guess is checked on the kite and drive parts alone
+(:data:`optimize.solve.initial_guess.STORED_PARTS`), then carried over: a part that only
+adds variables and rows keeps it; one that changes the kite's or the drive's own rows
+(a force on the kite) starts from it all the same, its rows not yet satisfied there.
+
 Registering: pass the part to :func:`optimize.problem.ocp.build_ocp` (``parts=``) or
-append it in :func:`optimize.problem.parts.kite_parts`.
+append it in :func:`optimize.problem.parts.kite_parts`. A complete example, a filter of
+the reel speed with its state, bound, scale, output and start: ``ReelFilter`` in
+tests/test_model_parts.py.
 """
 
 from __future__ import annotations

@@ -202,6 +202,11 @@ def model_params(form: CycleFormulation, par: dict[str, Any]) -> Any:
     return ca.vertcat(*[par[name] for name in form.parameters])
 
 
+def _param_indices(form: CycleFormulation, i_par: dict[str, int]) -> list[int]:
+    """Indices in ``p`` of the model's parameters (``form.parameters``)."""
+    return [i_par[name] for name in form.parameters]
+
+
 def _tracking(form: CycleFormulation, p: ca.SX, i_p_ref: np.ndarray, xs: list) -> Any:
     """Mean squared scaled deviation of the grid-point states from the reference."""
     inv_sx = ca.DM(1.0 / form.scales.state)
@@ -316,8 +321,7 @@ def general_layout(form: CycleFormulation, disc: Discretization, coll: Collocati
 
     f_s = form.objective(par, sums.averages, sums.reg, sums.track, sums.fict)
     nlp, blocks = _nlp_and_blocks(w, p, f_s, ca.vertcat(*rows.exprs), s, point, points,
-                                  np.tile(coll.deriv, (1, n)),
-                                  [i_par[name] for name in form.parameters])
+                                  np.tile(coll.deriv, (1, n)), _param_indices(form, i_par))
     layout = Layout(
         n_points=n_points, n_coll=n_coll, i_period=i_period, i_x=i_x, i_z=i_z, i_u=i_u,
         i_f=i_f, scale_w=scale_w, n_w=n_w, n_g=rows.n, n_p=n_p, i_p_ref=i_p_ref,
@@ -471,8 +475,7 @@ def stagewise_layout(form: CycleFormulation, disc: Discretization, coll: Colloca
 
     f_s = form.objective(par, sums.averages, sums.reg, sums.track, sums.fict)
     nlp, blocks = _nlp_and_blocks(w, p, f_s, ca.vertcat(*rows.exprs), s, point, all_points,
-                                  np.tile(coll.deriv, (1, n)),
-                                  [i_par[name] for name in form.parameters])
+                                  np.tile(coll.deriv, (1, n)), _param_indices(form, i_par))
     layout = Layout(
         n_points=n_points, n_coll=n_coll, i_period=st.i_period, i_x=st.i_x, i_z=st.i_z,
         i_u=st.i_u, i_f=st.i_f, scale_w=scale_w, n_w=st.n_w, n_g=rows.n, n_p=n_p,
