@@ -246,7 +246,7 @@ def test_a_winding_limit_below_the_fitted_ambient_stops_before_solving(tmp_path,
                                                                         stage):
     """No ambient in the system file: the thermal model's (25 degC) is in force, and a
     20 degC limit under it stops both stages with exit 2 naming the key, nothing written."""
-    from bench.cli import main
+    from drivebench.cli import main
     from fitting.model_file import save_power_model
 
     model = save_power_model(_model(), tmp_path / "power_model.json")
