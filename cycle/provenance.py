@@ -115,7 +115,7 @@ def _check_trajectory(want: str, scenario: str, trajectories: pd.DataFrame, opti
     if hashes.get(scenario) == want:
         return
     match = [s for s, h in hashes.items() if h == want]
-    flown = f"scenario {match[0]!r}'s" if match else "no scenario's of this sweep"
+    flown = f"that of scenario {match[0]!r}" if match else "no scenario's of this sweep"
     raise _refuse(optimize / "trajectories.parquet", "trajectory_sha256",
                   f"{profile} names scenario {scenario!r} (trajectory "
                   f"{_short(hashes.get(scenario, ''))}) but its trajectory_sha256 "

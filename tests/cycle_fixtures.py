@@ -53,17 +53,21 @@ def _cycle(scenario: str, model, n: int = 160) -> tuple[dict, pd.DataFrame]:
     return row, traj
 
 
-def write_cycle_sweep(folder) -> object:
+def write_cycle_sweep(folder, edit=None) -> object:
     """Write the fixture optimize folder; returns the power model it flew with (the
-    paper's, carried into the folder)."""
+    paper's, carried into the folder). ``edit(trajectories)``, when given, changes the
+    trajectories in place before they are written (a hostile sweep)."""
     model = paper_model()
     rows, trajs = zip(*(_cycle(s, model) for s in CYCLES), strict=True)
+    trajectories = pd.concat(trajs, ignore_index=True)
+    if edit is not None:
+        edit(trajectories)
     manifest = {"wind_speeds_m_s": [5.5, 7.0, 9.0], "kinds": ["elec-lim", "elec-free"],
                 "scenarios": list(CYCLES),
                 "drive_model": {"path": "", "file_sha256": "", "model_sha256": model.sha256,
                                 "name": model.name, "note": "analytic test cycles"},
                 "drive_limits": dict(LIMITS)}
     write_sweep_folder(folder, Provenance.start(("tests",)), summary=pd.DataFrame(rows),
-                       trajectories=pd.concat(trajs, ignore_index=True), manifest=manifest,
+                       trajectories=trajectories, manifest=manifest,
                        system=None, carried_model=model)
     return model
