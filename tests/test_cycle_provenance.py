@@ -275,3 +275,51 @@ def test_a_nan_in_the_trajectories_is_named(trip, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "trajectories.parquet: column 'torque_nm'" in err and "Traceback" not in err
     assert not (tmp_path / "p.csv").exists() and check_output_folder(opt)
+
+
+def _retime(path: Path, col: int, fn) -> None:
+    """Rewrite the rows of a log: ``fn(time, line)`` gives the new line or None to drop."""
+    lines = path.read_text().splitlines()
+    out = []
+    for line in lines:
+        if line[:1].isdigit():
+            line = fn(float(line.split(",")[col]), line)
+        if line is not None:
+            out.append(line)
+    path.write_text("\n".join(out) + "\n")
+
+
+def test_a_log_cut_after_two_cycles_keeps_what_it_holds(trip, tmp_path, capsys):
+    """The log stops half a cycle after cycle 1: cycle 1 is kept, the cycles after it
+    rejected as not logged; no "different profile"."""
+    base, _ = trip
+    info = read_manifest(base / "store")["sessions"]["cycle_s1"]["cycles"]
+    end = info["phase_s"] + 2.5 * info["period_s"]
+    store, camp = _copy(trip, tmp_path, "cycle_cut")
+    _retime(camp / "cycle_cut" / "daq.csv", 0, lambda t, ln: ln if t < end else None)
+    _retime(camp / "cycle_cut" / "analyzer.csv", 1, lambda t, ln: ln if t < end else None)
+    assert main(["ingest", str(camp), "--store", str(store), "--no-progress"]) == 0
+    entry = read_manifest(store)["sessions"]["cycle_cut"]
+    assert entry["cycles"]["n_kept"] == 1 and entry["rejected"]["cycle not logged"] == 3
+    assert "different profile" not in capsys.readouterr().err
+
+
+def test_a_clock_jump_is_named_in_the_log(trip, tmp_path, capsys):
+    """The DAQ's clock jumps 2 s ahead in cycle 2: exit 2 naming daq.csv and the time of
+    the jump, not "a different profile"; the store as it was."""
+    base, _ = trip
+    info = read_manifest(base / "store")["sessions"]["cycle_s1"]["cycles"]
+    at = info["phase_s"] + 2.5 * info["period_s"]
+    store, camp = _copy(trip, tmp_path, "cycle_jump")
+
+    def jump(t: float, line: str) -> str:
+        rest = line.split(",", 1)[1]
+        return f"{t + 2.0:.3f},{rest}" if t >= at else line
+
+    _retime(camp / "cycle_jump" / "daq.csv", 0, jump)
+    before = _stored(store)
+    assert main(["ingest", str(camp), "--store", str(store), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    jumped = re.search(r"daq.csv: column 'time': .*the log's time jumps at ([0-9.]+) s", err)
+    assert jumped and abs(float(jumped.group(1)) - at) < 0.1, err
+    assert "different profile" not in err and _stored(store) == before
