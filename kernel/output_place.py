@@ -58,7 +58,7 @@ def owner_of(folder: str | Path) -> str | None:
     return None
 
 
-def check_place(target: str | Path, option: str = "--out") -> Path:
+def check_place(target: str | Path, option: str = "--out", itself: bool = False) -> Path:
     """Raise InputError when a folder above ``target`` is another output's.
 
     Parameters
@@ -67,6 +67,8 @@ def check_place(target: str | Path, option: str = "--out") -> Path:
         The output folder or file (or store) a stage is about to write.
     option : str
         The option that named it, for the message.
+    itself : bool
+        Check ``target`` too (a folder the stage writes into, not one it replaces).
 
     Returns
     -------
@@ -79,10 +81,12 @@ def check_place(target: str | Path, option: str = "--out") -> Path:
         Naming ``target``, the option and the folder whose output it would land in.
     """
     target = Path(target)
-    for folder in Path(target).absolute().resolve().parents:
+    full = target.absolute().resolve()
+    for folder in ([full] if itself else []) + list(full.parents):
         owner = owner_of(folder)
         if owner is not None:
-            raise InputError(target, f"lies inside {folder}, {owner}: a file written there "
+            where = "is" if folder == full else f"lies inside {folder},"
+            raise InputError(target, f"{where} {owner}: a file written there "
                              "makes that folder mixed for every later reader", column=option,
                              expected="a place outside every stage's output folder and store "
                              "(e.g. beside it)")
