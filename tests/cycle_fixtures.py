@@ -9,6 +9,8 @@ form: ``E = (pi / 30) T (a A + b B / 2)`` for ``n = a + b cos(2 pi t / T)`` [rpm
 from __future__ import annotations
 
 import math
+import shutil
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -71,3 +73,20 @@ def write_cycle_sweep(folder, edit=None) -> object:
                        trajectories=trajectories, manifest=manifest,
                        system=None, carried_model=model)
     return model
+
+
+def copy_session(base: Path, tmp_path: Path, name: str, edit=None) -> tuple[Path, Path]:
+    """A copy of ``base``'s store, and a campaign holding a copy of its session
+    ``cycle_s1`` under the id ``name``, its profile changed by ``edit(text)`` when given:
+    ``(store, campaign)``."""
+    store = tmp_path / "store"
+    shutil.copytree(base / "store", store)
+    camp = tmp_path / "campaign"
+    shutil.copytree(base / "campaign" / "cycle_s1", camp / name)
+    shutil.copy(base / "campaign" / "drive.toml", camp)
+    toml = camp / name / "session.toml"
+    toml.write_text(toml.read_text().replace('"cycle_s1"', f'"{name}"'))
+    if edit is not None:
+        profile = camp / name / "profile.csv"
+        profile.write_text(edit(profile.read_text()))
+    return store, camp

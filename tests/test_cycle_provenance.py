@@ -28,7 +28,7 @@ from kernel.errors import InputError
 from kernel.output_folder import check_output_folder
 from optimize.sweep_folder import read_manifest as read_sweep_manifest
 from optimize.sweep_folder import read_trajectories
-from tests.cycle_fixtures import exact_e_mech_j, write_cycle_sweep
+from tests.cycle_fixtures import copy_session, exact_e_mech_j, write_cycle_sweep
 
 ROOT = Path(__file__).resolve().parent.parent
 TRUTH = ROOT / "raw_measurements" / "truth.json"
@@ -64,18 +64,7 @@ def _verify(store: Path, opt: Path, out: Path) -> list[str]:
 def _copy(trip, tmp_path: Path, name: str, edit=None) -> tuple[Path, Path]:
     """A copy of the store, and a campaign holding a copy of the session under ``name``
     whose profile ``edit(text)`` changed."""
-    base, _ = trip
-    store = tmp_path / "store"
-    shutil.copytree(base / "store", store)
-    camp = tmp_path / "campaign"
-    shutil.copytree(base / "campaign" / "cycle_s1", camp / name)
-    shutil.copy(base / "campaign" / "drive.toml", camp)
-    toml = camp / name / "session.toml"
-    toml.write_text(toml.read_text().replace('"cycle_s1"', f'"{name}"'))
-    if edit is not None:
-        profile = camp / name / "profile.csv"
-        profile.write_text(edit(profile.read_text()))
-    return store, camp
+    return copy_session(trip[0], tmp_path, name, edit)
 
 
 def _stored(store: Path) -> dict[str, bytes]:
