@@ -15,15 +15,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from bench.cycle_profile import E_MECH_RTOL, PROVENANCE_KEYS
 from kernel.errors import InputError
 
 #: the trajectory columns the export interpolates: what the hash binds
 HASHED_COLUMNS = ("time_s", "speed_rpm", "torque_nm", "p_elec_w")
-#: the profile's own mechanical energy per cycle may differ from the scenario's by this
-#: share (the export's interpolation and the file's rounding leave 0.02 %)
-E_MECH_RTOL = 5e-3
-#: the keys of the profile's header ingest keeps (``cycles.provenance`` of the entry)
-PROFILE_KEYS = ("optimize_run_id", "power_model_sha256", "trajectory_sha256")
 
 
 def trajectory_sha256(points: pd.DataFrame) -> str:
@@ -56,7 +52,7 @@ def check_provenance(info: dict, sid: str, optimize: Path, manifest: dict,
     ----------
     info : dict
         The session's ``cycles`` entry of the store manifest (``scenario``,
-        ``provenance``: :data:`PROFILE_KEYS`, ``e_mech_profile_j``, ``profile``).
+        ``provenance``: :data:`PROVENANCE_KEYS`, ``e_mech_profile_j``, ``profile``).
     sid : str
         The session id, for the messages.
     optimize : Path
@@ -79,10 +75,10 @@ def check_provenance(info: dict, sid: str, optimize: Path, manifest: dict,
         profile's set-points integrate to another mechanical energy than the scenario's.
     """
     prov, scenario = info.get("provenance") or {}, info["scenario"]
-    profile = f"session {sid!r}'s profile {info.get('profile', '?')}"
+    profile = f"profile {info.get('profile', '?')} (session {sid!r})"
     redo = "a profile of this sweep (bench cycle export), flown and ingested"
-    if not all(prov.get(k) for k in PROFILE_KEYS) or "e_mech_profile_j" not in info:
-        missing = next((k for k in PROFILE_KEYS if not prov.get(k)), "e_mech_profile_j")
+    if not all(prov.get(k) for k in PROVENANCE_KEYS) or "e_mech_profile_j" not in info:
+        missing = next((k for k in PROVENANCE_KEYS if not prov.get(k)), "e_mech_profile_j")
         raise _refuse(optimize, "--session", f"{profile} states no {missing}: which sweep "
                       "and cycle it flew cannot be checked", f"{redo}, or the session "
                       "ingested again by this version")
@@ -101,7 +97,7 @@ def check_provenance(info: dict, sid: str, optimize: Path, manifest: dict,
     _check_trajectory(prov["trajectory_sha256"], scenario, trajectories, optimize, profile)
     body = float(info["e_mech_profile_j"])
     if not abs(body - e_mech_j) <= E_MECH_RTOL * abs(e_mech_j):
-        raise _refuse(optimize / "summary.parquet", "e_mech_j", f"{profile}'s set-points "
+        raise _refuse(optimize / "summary.parquet", "e_mech_j", f"the set-points of {profile} "
                       f"integrate to {body:.1f} J of mechanical energy per cycle, scenario "
                       f"{scenario!r} to {e_mech_j:.1f} J: the profile flew another cycle "
                       "than its header names", f"{redo} (within {100 * E_MECH_RTOL:g} %)")

@@ -178,17 +178,7 @@ def verify_cycles(store: str | Path, optimize: str | Path, out: str | Path, *,
     provenance = Provenance.start(command_line)
     sid, entry = cycle_session(store, session)
     info = entry["cycles"]
-    summary, manifest = read_sweep_folder(optimize)
-    row = summary[summary["scenario"] == info["scenario"]]
-    if row.empty or not bool(row.iloc[0]["success"]):
-        raise InputError(optimize / "summary.parquet", f"no converged scenario "
-                         f"{info['scenario']!r}, which session {sid!r} flew",
-                         column="--optimize", expected="the optimize folder the profile "
-                         "was exported from")
-    row = row.iloc[0]
-    model = model if model is not None else sweep_power_model(optimize, manifest)
-    traj = read_trajectories(optimize)
-    check_provenance(info, sid, optimize, manifest, traj, float(row["e_mech_j"]), model.sha256)
+    row, traj, model = _flown(optimize, info, sid, model)
     cycles = read_cycles(store)
     cycles = cycles[cycles["session_id"] == sid].sort_values("cycle_id")
     samples = read_samples(store, sid)
@@ -224,6 +214,24 @@ def verify_cycles(store: str | Path, optimize: str | Path, out: str | Path, *,
                                  else (residual, float(cycles["period_s"].mean())))}
     write_verify_folder(out, provenance, record, table, one)
     return Verified(Path(out), {"provenance": provenance.header(), **record}, table)
+
+
+def _flown(optimize: Path, info: dict, sid: str, model) -> tuple[pd.Series, pd.DataFrame, object]:
+    """The sweep's summary row of the scenario session ``sid`` flew, the sweep's
+    trajectories and the power model (``model``, default the sweep's), once
+    :func:`cycle.provenance.check_provenance` found the session flew this sweep's cycle."""
+    summary, manifest = read_sweep_folder(optimize)
+    row = summary[summary["scenario"] == info["scenario"]]
+    if row.empty or not bool(row.iloc[0]["success"]):
+        raise InputError(optimize / "summary.parquet", f"no converged scenario "
+                         f"{info['scenario']!r}, which session {sid!r} flew",
+                         column="--optimize", expected="the optimize folder the profile "
+                         "was exported from")
+    row = row.iloc[0]
+    model = model if model is not None else sweep_power_model(optimize, manifest)
+    traj = read_trajectories(optimize)
+    check_provenance(info, sid, optimize, manifest, traj, float(row["e_mech_j"]), model.sha256)
+    return row, traj, model
 
 
 #: the columns of the verification table every figure is computed from

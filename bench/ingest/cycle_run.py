@@ -141,6 +141,23 @@ def _read_samples(path: Path) -> dict[str, np.ndarray]:
     return {c: table.column(c).to_numpy() for c in cols}
 
 
+def _cycles_entry(profile: DriveProfile, path: Path, cut: CycleCut, e_mech_body: float) -> dict:
+    """The session's ``cycles`` entry of the store manifest (docs/schemas.md section 2)."""
+    return {
+        "profile": path.name, "scenario": profile.header["scenario"],
+        "n_profile_cycles": profile.n_cycles, "n_kept": len(cut.kept),
+        "period_profile_s": profile.period_s, "period_s": round(cut.period_s, 6),
+        "period_found_s": _rounded(cut.period_found_s, 6),
+        "period_found_u_s": _rounded(cut.period_found_u_s, 7),
+        "phase_s": round(cut.phase_s, 6), "correlation": round(cut.correlation, 5),
+        "speed_gain": round(cut.gains["speed"], 5), "torque_gain": round(cut.gains["torque"], 5),
+        "e_elec_pred_j": profile.header["e_elec_pred_j"],
+        "e_mech_pred_j": profile.header["e_mech_pred_j"],
+        "e_mech_profile_j": round(e_mech_body, 3), "profile_sha256": file_sha256(path),
+        "provenance": {k: str(profile.header.get(k, "")) for k in PROVENANCE_KEYS},
+        "notes": cut.notes}
+
+
 def process_cycle_run(session: Session, mapping: Mapping, scratch: Path,
                       config: steady.SteadyConfig = steady.DEFAULT_STEADY,
                       chunk_bytes: int = CHUNK_BYTES,
@@ -186,19 +203,7 @@ def process_cycle_run(session: Session, mapping: Mapping, scratch: Path,
                          steady.Windows([], [], {}), np.ones(binned.n_bins, bool), config)
     info["no_points_note"] = (f"a cycle run: {len(cut.kept)} of {profile.n_cycles} cycles "
                               "kept, no operating points")
-    info["cycles"] = {
-        "profile": profile_path.name, "scenario": profile.header["scenario"],
-        "n_profile_cycles": profile.n_cycles, "n_kept": len(cut.kept),
-        "period_profile_s": profile.period_s, "period_s": round(cut.period_s, 6),
-        "period_found_s": _rounded(cut.period_found_s, 6),
-        "period_found_u_s": _rounded(cut.period_found_u_s, 7),
-        "phase_s": round(cut.phase_s, 6), "correlation": round(cut.correlation, 5),
-        "speed_gain": round(cut.gains["speed"], 5), "torque_gain": round(cut.gains["torque"], 5),
-        "e_elec_pred_j": profile.header["e_elec_pred_j"],
-        "e_mech_pred_j": profile.header["e_mech_pred_j"],
-        "e_mech_profile_j": round(e_mech_body, 3), "profile_sha256": file_sha256(profile_path),
-        "provenance": {k: str(profile.header.get(k, "")) for k in PROVENANCE_KEYS},
-        "notes": cut.notes}
+    info["cycles"] = _cycles_entry(profile, profile_path, cut, e_mech_body)
     return SessionOutput(points=stats.points_table(session, empty, empty), rejected=rejected,
                          samples_path=samples_path, info=info,
                          cycles=cycles_table(sid, rows))
