@@ -16,7 +16,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.cli import main
 from bench.cycle_profile import BenchFrame, read_profile
 from bench.ingest.pipeline import ingest
 from bench.store.manifest import read_manifest
@@ -24,6 +23,7 @@ from bench.synth.cycle_session import CycleRunSpec, write_cycle_run
 from cycle.export import ExportOptions, export_cycle
 from cycle.provenance import trajectory_sha256
 from cycle.verify_command import verify_cycles
+from drivebench.cli import main
 from kernel.errors import InputError
 from kernel.output_folder import check_output_folder
 from optimize.sweep_folder import read_manifest as read_sweep_manifest
