@@ -259,7 +259,8 @@ def check_tables_replaceable(path: str | Path, option: str = "--out") -> None:
         named = header.get(f"{q}_table") == table.name
         if not (named and header.get(f"{q}_table_sha256") == file_sha256(table)):
             why = ("was changed since the export that wrote it" if named else
-                   f"was not written by an earlier bench cycle export to {path.name}")
+                   f"was not written by an earlier bench cycle export to {path.name} (its "
+                   "header does not name it: a file of your own, or of an older export)")
             raise InputError(table, f"exists and {why}; the export would overwrite it",
                              column=option, expected=f"a new profile name, or move {table} "
                              "away")
