@@ -49,6 +49,19 @@ def stage_default(stage: str, option: str):
     return stage_parser(stage).get_default(option.lstrip("-").replace("-", "_"))
 
 
+def _stage_defaults(stages: tuple[str, ...], option: str) -> str:
+    """The stages' defaults of ``option`` in words: one value, or one per stage where they
+    differ (None: a solve stage's worker count, the cores this process may use)."""
+    by_value: dict[str, list[str]] = {}
+    for s in stages:
+        value = stage_default(s, option)
+        by_value.setdefault("the cores this process may use" if value is None else str(value),
+                            []).append(s)
+    if len(by_value) == 1:
+        return next(iter(by_value))
+    return ", ".join(f"{'/'.join(s)} {w}" for w, s in by_value.items())
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Declare the ``bench run`` options."""
     parser.add_argument("paths", nargs="+", type=Path, help="campaign folders with bench logs")
@@ -56,7 +69,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--out", type=Path, default=Path("bench_run"), help="output folder (default: ./bench_run)"
     )
     for dest, (stages, option) in FORWARDED.items():
-        default = (f"the stage's, {stage_default(stages[0], option)}"
+        default = (f"the stage's, {_stage_defaults(stages, option)}"
                    if dest != "size_wind_grid" else
                    f"from {stage_default('optimize', '--wind-grid').split(':')[0]} m/s in "
                    f"{SIZE_GRID[0]} optimize steps up to the speed above which less than "

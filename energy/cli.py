@@ -64,8 +64,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "the AEP (default 0.002)")
     g.add_argument("--refine-max-points", type=int, default=25,
                    help="largest grid per kind, failed solves included (default 25)")
-    g.add_argument("--workers", type=int, default=2,
-                   help="worker processes for --refine (one kind per task; default 2)")
+    g.add_argument("--workers", type=int, default=None,
+                   help="worker processes for --refine (one kind per task; default: the cores "
+                        "this process may use)")
     g.add_argument("--scheduler", default=None,
                    help="Dask scheduler address for --refine instead of the local pool")
     g.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -189,10 +190,13 @@ def run(args: argparse.Namespace) -> int:
     site, note, unc = site_from_args(args, shear)
     refine = (RefineOptions(DEFAULT_TOL if args.refine_tol is None else args.refine_tol,
                             args.refine_max_points) if args.refine else None)
+    execution = Execution(args.workers, args.scheduler, not args.no_progress)
+    if refine is not None:
+        print(execution.line())
     result = run_aep(args.optimize, SiteSpec(site, note, unc, shear), out=args.out,
                      drive_model=args.drive_model, nominal_power_w=args.nominal_power_w,
                      refine=refine, command_line=args.command_line,
-                     execution=Execution(args.workers, args.scheduler, not args.no_progress))
+                     execution=execution)
     a, refined = result.assessment, result.refined
     if refined is not None:
         print(f"refined grid ({refined.n_solved} solved, {refined.n_loaded} loaded from "

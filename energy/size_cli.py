@@ -60,7 +60,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="choose the smallest drive within this share of the best AEP")
     parser.add_argument("--intervals", type=int, default=40, help="collocation intervals")
     parser.add_argument("--degree", type=int, default=4, help="Radau collocation degree")
-    parser.add_argument("--workers", type=int, default=2, help="local worker processes")
+    parser.add_argument("--workers", type=int, default=None,
+                        help="local worker processes (default: the cores this process may use)")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
                         help="run on a Dask cluster at this scheduler address")
     parser.add_argument("--out", type=Path, default=Path("size_out"), help="output folder")
@@ -90,12 +91,14 @@ def run(args: argparse.Namespace) -> int:
                       args.tolerance, args.extend, args.adaptive)
     print(f"site: {site_note}")
     print(f"system: {system.name} ({system.path})")
+    execution = Execution(args.workers, args.scheduler, progress=True)
+    print(execution.line())
     done = run_size(site, args.drive_model, system=system, fit_default=FIT_MODEL_PATH,
                     grid=grid, out=args.out, site_note=site_note,
                     rating=RatingOverrides(args.rated_torque_nm, args.max_speed_rpm,
                                            args.overload),
                     solver=SolverChoice(args.intervals, args.degree),
-                    execution=Execution(args.workers, args.scheduler, progress=True),
+                    execution=execution,
                     command_line=args.command_line,
                     before_solving=lambda d, n: _announce(d, n, len(grid.winds_m_s), args.out,
                                                           system.drive.max_winding_temperature_c))

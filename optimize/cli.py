@@ -59,7 +59,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--intervals", type=int, default=40, help="collocation intervals")
     parser.add_argument("--degree", type=int, default=4, help="Radau collocation degree")
-    parser.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
+    parser.add_argument("--workers", type=int, default=None,
+                        help="local worker processes (default: the cores this process may use)")
     parser.add_argument(
         "--scheduler",
         default=None,
@@ -127,14 +128,15 @@ def run(args: argparse.Namespace) -> int:
     from optimize.sweep_options import Execution, SolverChoice, WindGrid
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    execution = Execution(args.workers, args.scheduler, progress=True)
     request = make_request(
         WindGrid.parse(args.wind_grid, args.scenarios),
         SolverChoice(args.intervals, args.degree, args.solver, args.linear_solver,
                      not args.no_stored_guess, args.transcription, args.codegen),
         model=args.drive_model, system=args.system, fit_default=FIT_MODEL_PATH, out=args.out,
-        execution=Execution(args.workers, args.scheduler, progress=True),
-        claims=not args.no_claims, trust=args.trust)
+        execution=execution, claims=not args.no_claims, trust=args.trust)
     print(request.model_note)
+    print(execution.line())
     sweep = run_optimize(request, list(args.command_line), show_progress=True)
     print(format_summary(sweep.summary))
     if sweep.claims is not None:

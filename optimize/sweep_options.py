@@ -8,6 +8,7 @@ discretized and solved (:class:`SolverChoice`), where the solves run (:class:`Ex
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 from kernel.errors import InputError
@@ -87,23 +88,54 @@ class SolverChoice:
     codegen: bool = False
 
 
+#: why a sweep runs on as many workers as it does (:attr:`Execution.workers_reason`)
+CORES_REASON, GIVEN_REASON = "the cores this process may use", "--workers"
+
+
+def usable_cores() -> int:
+    """The cores this process may run on: its CPU affinity mask (a container's or a
+    ``taskset``'s share), else the machine's count where the platform has no mask."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # no affinity mask on this platform (macOS, Windows)
+        return os.cpu_count() or 1
+
+
 @dataclass(frozen=True)
 class Execution:
     """Where the solves run and whether they show progress.
 
     Attributes
     ----------
-    workers : int
-        Local worker processes (ignored with ``scheduler``).
+    workers : int or None
+        Local worker processes (ignored with ``scheduler``); None: one per core this
+        process may use (:func:`usable_cores`), resolved on construction.
     scheduler : str or None
         Address of a Dask scheduler (needs ``drivebench[dask]``).
     progress : bool
         Show progress bars.
+    workers_reason : str
+        Why ``workers`` is what it is: :data:`GIVEN_REASON` or, when it was None,
+        :data:`CORES_REASON` (set on construction).
     """
 
-    workers: int = 2
+    workers: int | None = None
     scheduler: str | None = None
     progress: bool = False
+    workers_reason: str = GIVEN_REASON
+
+    def __post_init__(self) -> None:
+        if self.workers is None:
+            object.__setattr__(self, "workers", usable_cores())
+            object.__setattr__(self, "workers_reason", CORES_REASON)
+
+    def line(self) -> str:
+        """The header line of a run: ``"2 workers: the cores this process may use"``
+        (or ``"... --workers"``), or the Dask scheduler it runs on."""
+        if self.scheduler:
+            return f"workers: the Dask cluster at {self.scheduler}"
+        plural = "s" if self.workers != 1 else ""
+        return f"{self.workers} worker{plural}: {self.workers_reason}"
 
 
 #: the defaults as objects, for signatures (frozen, so shared safely)

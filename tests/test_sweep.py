@@ -693,3 +693,20 @@ def test_every_solver_run_says_what_it_is_doing():
     # the re-solve that finds the better optimum of 7 m/s (see the test above)
     assert "local optimum: elec-free-7.0 from elec-free-5.5 ..." in lines
     assert "local optimum: elec-free-7.0 from elec-free-5.5 Solve_Succeeded" in lines
+
+
+def test_workers_default_to_the_affinity_mask_and_the_header_says_why(monkeypatch):
+    # a process pinned to 3 of the machine's cores (taskset, a container's share) gets 3
+    # workers, not the machine's count; --workers overrides it
+    from optimize import sweep_options
+    from optimize.sweep_options import CORES_REASON, Execution
+
+    monkeypatch.setattr(sweep_options.os, "sched_getaffinity", lambda pid: {0, 2, 5},
+                        raising=False)
+    monkeypatch.setattr(sweep_options.os, "cpu_count", lambda: 64)
+    default = Execution()
+    assert default.workers == 3 and default.workers_reason == CORES_REASON
+    assert default.line() == "3 workers: the cores this process may use"
+    assert Execution(1).line() == "1 worker: --workers"
+    monkeypatch.delattr(sweep_options.os, "sched_getaffinity")
+    assert Execution().workers == 64
