@@ -47,7 +47,7 @@ from optimize.sweep.plan import (
     middle_index,
     parse_kinds,
     parse_wind_grid,
-    plan_chains,
+    plan_graph,
 )
 from optimize.sweep.trust import run_trust_checks
 
@@ -89,8 +89,8 @@ def bench_sweep(problem: Problem, winds, kinds, workers: int, trust: bool) -> di
     """The whole sweep on ``workers`` processes; per-solve statistics; optional trust checks
     (after the timed sweep, on the same workers)."""
     with open_executor(workers) as handle:
-        chains = plan_chains(winds, kinds, handle.n_workers)
-        result = run_sweep(make_tasks(chains, problem), handle)
+        steps = plan_graph(winds, kinds)
+        result = run_sweep(make_tasks(steps, problem), handle)
         checks = run_trust_checks(problem, result.outcomes, winds, handle) if trust else None
     warm = [a for o in result.outcomes for a in o.attempts if a.source is not None]
     starts = [(o, a) for o in result.outcomes for a in o.attempts if a.source is None]
@@ -99,7 +99,7 @@ def bench_sweep(problem: Problem, winds, kinds, workers: int, trust: bool) -> di
     iters = [a.iterations for a in ok_warm] or [0]
     out = {
         "workers": workers,
-        "chains": [[s.name for s in c.steps] for c in chains],
+        "start_graph": [(s.name, s.warm_from, s.depth) for s in steps],
         "wall_s": result.wall_time_s,
         "converged": sum(o.success for o in result.outcomes),
         "scenarios": len(result.outcomes),

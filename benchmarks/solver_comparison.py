@@ -59,7 +59,7 @@ from optimize.problem.transcriptions.derivatives import nlp_derivatives, whole_d
 from optimize.service import Problem, make_tasks, run_sweep
 from optimize.solve.solve import cold_start, solve, start
 from optimize.sweep.executors import open_executor
-from optimize.sweep.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_chains
+from optimize.sweep.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import load_system
@@ -116,8 +116,7 @@ def paper_sweep(solver: str, winds, kinds, workers: int, intervals: int, max_ite
     load_before = load()
     t0 = time.perf_counter()
     with open_executor(workers) as handle:
-        chains = plan_chains(winds, kinds, handle.n_workers)
-        result = run_sweep(make_tasks(chains, problem), handle)
+        result = run_sweep(make_tasks(plan_graph(winds, kinds), problem), handle)
     wall = time.perf_counter() - t0
     rows = []
     for o in result.outcomes:

@@ -26,7 +26,7 @@ from optimize.problem.ocp import thermal_line, winding_thermal
 from optimize.service import Problem, make_tasks, run_sweep
 from optimize.sweep import outputs
 from optimize.sweep.executors import open_executor
-from optimize.sweep.plan import plan_chains
+from optimize.sweep.plan import plan_graph
 from optimize.sweep.trust import run_trust_checks
 from optimize.sweep_folder import (
     MARKERS,
@@ -225,12 +225,12 @@ def run_optimize(
 ) -> OptimizeOutcome:
     """Plan, run and record a sweep: the library behind ``bench optimize``.
 
-    Steps: plan warm-start chains for the executor's worker count; run them
+    Steps: plan the start graph (:func:`optimize.sweep.plan.plan_graph`); run it
     (cut-in searches included when ``request.claims``); optionally the trust
     checks (mesh check of each kind's middle-wind scenario on the executor,
     simulation check of every converged scenario); compare with the paper;
     write the folder (:func:`optimize.sweep_folder.write_sweep_folder`, docs/schemas.md §5).
-    ``backend`` replaces the CasADi OCP in the chains (see
+    ``backend`` replaces the CasADi OCP in the solves (see
     :class:`optimize.service.builder.Backend`; the trust checks always use the OCP).
     """
     check_replaceable(request.out, "optimize", MARKERS)  # before the solves
@@ -244,8 +244,8 @@ def run_optimize(
                     if request.claims else ())
     trust: dict = {"mesh": [], "simulation": []}
     with open_executor(request.workers, request.scheduler) as handle:
-        chains = plan_chains(request.winds, request.kinds, handle.n_workers)
-        tasks = make_tasks(chains, problem, cut_in_kinds, request.cut_in_tol_m_s, backend)
+        tasks = make_tasks(plan_graph(request.winds, request.kinds), problem, cut_in_kinds,
+                           request.cut_in_tol_m_s, backend)
         result = run_sweep(tasks, handle, show_progress)
         outcomes = list(result.outcomes)
         if request.trust:

@@ -63,7 +63,9 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "attempts": "solver runs (retries included)",
     "total_wall_time_s": "wall time of all runs of this scenario",
     "warm_source": "scenario the final solve was warm-started from, or 'cold start'",
-    "chain": "warm-start chain (worker task) index",
+    "depth": "solves before this one along its starts: 0 for a cold start or the stored "
+             "guess, else one more than its warm_source's at the time",
+    "chain": "the task that solved it: the index of its step in the start graph",
     "resolved_from": "neighbouring scenarios of the same kind this one was solved again from, "
     "because its average power or period sat off the kind's smooth curve (comma-separated; "
     "'' when it did not)",

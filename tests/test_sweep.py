@@ -27,13 +27,11 @@ from optimize.service.cut_in import find_cut_in
 from optimize.service.solver import MAX_WARM_ATTEMPTS
 from optimize.sweep.executors import ExecutorHandle, QueueChannel, open_executor, run_tasks
 from optimize.sweep.plan import (
-    Step,
     chain_steps,
     continuation_order,
-    group_kinds,
     parse_kinds,
     parse_wind_grid,
-    plan_chains,
+    plan_graph,
 )
 
 CUT_IN_M_S = {"elec-lim": 4.8, "mech-lim": 5.5, "elec-free": 4.6, "mech-free": 20.0}
@@ -150,62 +148,76 @@ def test_continuation_goes_outwards_from_the_middle():
     ]
 
 
-def test_two_chains_split_the_paper_sweep_evenly_by_objective():
-    chains = plan_chains(WINDS, KINDS, 2)
-    assert [c.kinds for c in chains] == [("elec-lim", "elec-free"), ("mech-lim", "mech-free")]
-    assert [len(c.steps) for c in chains] == [10, 10]
-    names = [s.name for c in chains for s in c.steps]
-    assert len(names) == len(set(names)) == 20
-    for chain in chains:
-        first, *rest = chain.steps
-        assert first.warm_from is None and first.wind_speed_m_s == 7.0  # one cold start, middle
-        done = {first.name}
-        for step in rest:
-            # every warm source, primary or fallback, is solved earlier on the same chain
-            assert step.warm_from in done and set(step.fallbacks) <= done
-            assert step.warm_from not in step.fallbacks
-            done.add(step.name)
-    # the kind switch happens at the middle speed, from the previous kind's middle solve
-    assert chains[0].steps[5] == Step(
-        "elec-free", 7.0, "elec-lim-7.0", ("elec-lim-8.5", "elec-lim-5.5")
-    )
-    # and elec-free-8.5 can fall back to elec-lim-8.5 (same wind, other limits)
-    assert chains[0].steps[6].fallbacks[0] == "elec-lim-8.5"
+def _check_graph(steps, winds, kinds):
+    """Every scenario once; sources planned earlier and shallower; at most 2 deep."""
+    assert sorted(s.name for s in steps) == sorted(scenario_name(k, w) for k in kinds
+                                                   for w in winds)
+    depth = {}
+    for step in steps:
+        sources = [n for n in (step.warm_from, *step.fallbacks) if n is not None]
+        assert all(depth[n] < step.depth for n in sources)  # KeyError: planned later
+        assert (step.depth == 0) == (step.warm_from is None)
+        assert step.warm_from not in step.fallbacks
+        depth[step.name] = step.depth
+    assert max(depth.values()) <= 2
+    return depth
 
 
-def test_group_kinds_balances_and_caps_chains():
-    assert group_kinds(KINDS, 1) == [KINDS]
-    assert group_kinds(KINDS, 3) == [("elec-lim", "elec-free"), ("mech-lim",), ("mech-free",)]
-    assert group_kinds(("mech-lim", "elec-lim", "mech-free"), 8) == [
-        ("mech-lim",),
-        ("mech-free",),
-        ("elec-lim",),
-    ]
+def test_the_paper_sweep_is_a_graph_two_solves_deep_after_one_seed_per_objective():
+    steps = plan_graph(WINDS, KINDS)
+    depth = _check_graph(steps, WINDS, KINDS)
+    assert [s.name for s in steps if s.depth == 0] == ["elec-lim-7.0", "mech-lim-7.0"]
+    # depth 1: one wind step or one limit switch from the seed of the objective
+    assert {s.name: s.warm_from for s in steps if s.depth == 1} == {
+        "elec-lim-5.5": "elec-lim-7.0", "elec-lim-8.5": "elec-lim-7.0",
+        "elec-free-7.0": "elec-lim-7.0", "mech-lim-5.5": "mech-lim-7.0",
+        "mech-lim-8.5": "mech-lim-7.0", "mech-free-7.0": "mech-lim-7.0"}
+    by_name = {s.name: s for s in steps}
+    # depth 2 from the nearest: a wind step of the same kind, else a limit switch
+    assert by_name["elec-lim-4.0"].warm_from == "elec-lim-5.5"
+    assert by_name["elec-free-5.5"].warm_from == "elec-lim-5.5"
+    assert by_name["mech-free-10.0"].warm_from == "mech-lim-8.5"
+    assert by_name["mech-free-10.0"].fallbacks == ("mech-free-7.0",)
+    assert sum(d == 2 for d in depth.values()) == 12
+    # any grid and selection: still two deep; an objective alone has its own seed
+    for winds, kinds in (((4.0, 5.0, 6.0, 7.0), ("mech-free",)), ((7.0,), KINDS),
+                         (tuple(4.0 + i for i in range(13)), ("elec-free", "mech-lim"))):
+        steps = plan_graph(winds, kinds)
+        _check_graph(steps, winds, kinds)
+        assert len([s for s in steps if s.depth == 0]) == len({k[:4] for k in kinds})
 
 
-# ----------------------------------------------------------------- running chains
-def test_chain_solves_every_scenario_exactly_with_cheap_warm_starts():
-    (chain,) = plan_chains(WINDS, KINDS, 1)
-    task = make_tasks((chain,), PROBLEM, cut_in_kinds=("elec-lim", "mech-lim"),
-                      backend=NewtonBackend())[0]
-    out = run_chain(task)
-    assert len(out.outcomes) == 20 and all(o.success for o in out.outcomes)
-    for o in out.outcomes:
+# ----------------------------------------------------------------- running the sweep
+def _sweep(kinds=KINDS, cut_in_kinds=(), backend=None, workers=2):
+    """The sweep of ``kinds`` on WINDS on a thread pool (the stand-in solver by default)."""
+    tasks = make_tasks(plan_graph(WINDS, kinds), PROBLEM, cut_in_kinds=cut_in_kinds,
+                       backend=backend or NewtonBackend())
+    with ThreadPoolExecutor(workers) as ex:
+        return run_sweep(tasks, ExecutorHandle(ex, QueueChannel(), "threads", workers),
+                         show_progress=False)
+
+
+def test_sweep_solves_every_scenario_exactly_with_cheap_warm_starts():
+    result = _sweep(cut_in_kinds=("elec-lim", "mech-lim"))
+    assert len(result.outcomes) == 20 and all(o.success for o in result.outcomes)
+    for o in result.outcomes:
         # Newton converges quadratically: 1e-9 relative is far above its round-off
         want = SCALE_W * (exact_root(CUT_IN_M_S[o.kind]) - exact_root(o.wind_speed_m_s))
         assert o.result.avg_p_elec_w == pytest.approx(want, rel=1e-9, abs=1e-9)
-    cold = [o for o in out.outcomes if o.warm_source == "cold start"]
-    assert [o.name for o in cold] == ["elec-lim-7.0"]  # exactly one homotopy
-    warm_iters = [o.attempts[-1].iterations for o in out.outcomes if o not in cold]
-    assert max(warm_iters) < cold[0].attempts[-1].iterations
+    cold = [o for o in result.outcomes if o.warm_source == "cold start"]
+    assert [o.name for o in cold] == ["elec-lim-7.0", "mech-lim-7.0"]  # one per objective
+    # the depth column says where each start came from: the plan's, as every start converged
+    planned = {s.name: s.depth for s in plan_graph(WINDS, KINDS)}
+    assert {o.name: o.depth for o in result.outcomes} == planned
+    warm_iters = [o.attempts[-1].iterations for o in result.outcomes if o not in cold]
+    assert max(warm_iters) < min(o.attempts[-1].iterations for o in cold)
+    # one task per step, then one per kind for its re-solves and cut-in search
+    assert len(result.chains) == 24 and {o.chain for o in result.outcomes} == set(range(20))
 
 
 def test_cut_in_bisection_finds_the_known_crossing():
-    (chain,) = plan_chains(WINDS, KINDS, 1)
-    task = make_tasks((chain,), PROBLEM, cut_in_kinds=KINDS, cut_in_tol_m_s=0.05,
-                      backend=NewtonBackend())[0]
-    out = run_chain(task)
-    found = {c.kind: c for c in out.cut_ins}
+    result = _sweep(cut_in_kinds=KINDS)
+    found = {c.kind: c for c in result.cut_ins}
     for kind in ("elec-lim", "mech-lim", "elec-free"):
         c = found[kind]
         assert c.status == "found"
@@ -278,8 +290,7 @@ def test_failed_warm_start_retries_fallback_then_cold_start():
 
 def test_failure_is_reported_not_dropped():
     # Newton capped at 3 iterations: the cold start (from x = 0) cannot converge at 7 m/s
-    (chain,) = plan_chains(WINDS, ("elec-lim",), 1)
-    out = run_chain(make_tasks((chain,), PROBLEM, backend=NewtonBackend(max_iter=3))[0])
+    out = _sweep(("elec-lim",), backend=NewtonBackend(max_iter=3))
     assert len(out.outcomes) == 5
     assert not any(o.success for o in out.outcomes)
     assert {o.status for o in out.outcomes} == {"Maximum_Iterations_Exceeded"}
@@ -292,14 +303,15 @@ def _check_sweep(result):
     assert {c.kind for c in result.cut_ins} == {"elec-lim", "mech-lim"}
 
 
+def _chains(kinds, cut_in_kinds=()):
+    """One chain task per kind along WINDS (as ``bench size`` runs them)."""
+    return [ChainTask(PROBLEM, chain_steps((k,), WINDS), i, backend=NewtonBackend(),
+                      cut_in_kinds=tuple(c for c in cut_in_kinds if c == k))
+            for i, k in enumerate(kinds)]
+
+
 def test_sweep_on_a_thread_pool_with_progress_events():
-    tasks = make_tasks(plan_chains(WINDS, KINDS, 2), PROBLEM, cut_in_kinds=("elec-lim", "mech-lim"),
-                       backend=NewtonBackend())
-    with ThreadPoolExecutor(2) as ex:
-        handle = ExecutorHandle(ex, QueueChannel(), "threads", 2)
-        result = run_sweep(tasks, handle, show_progress=False)
-    _check_sweep(result)
-    assert {c.chain for c in result.chains} == {0, 1}
+    _check_sweep(_sweep(cut_in_kinds=("elec-lim", "mech-lim")))
 
 
 def test_sweep_on_a_local_dask_cluster():
@@ -307,7 +319,7 @@ def test_sweep_on_a_local_dask_cluster():
     # as bench optimize --scheduler does; in-process workers see this test module
     distributed = pytest.importorskip("distributed")
 
-    tasks = make_tasks(plan_chains(WINDS, KINDS, 2), PROBLEM, cut_in_kinds=("elec-lim", "mech-lim"),
+    tasks = make_tasks(plan_graph(WINDS, KINDS), PROBLEM, cut_in_kinds=("elec-lim", "mech-lim"),
                        backend=NewtonBackend())
     with (
         distributed.LocalCluster(
@@ -317,7 +329,8 @@ def test_sweep_on_a_local_dask_cluster():
     ):
         assert handle.n_workers == 2 and handle.description.startswith("dask scheduler")
         seen: list[dict] = []
-        futures = run_tasks(handle.executor, run_chain, tasks, handle.channel, seen.append)
+        futures = run_tasks(handle.executor, run_chain, _chains(KINDS, ("elec-lim", "mech-lim")),
+                            handle.channel, seen.append)
         assert all(f.exception() is None for f in futures)
         # 20 grid solve events, the probes' and 2 cut-in events came back through the Dask queue
         solved = [e for e in seen if "role" in e and "attempt" not in e]  # the solves' records
@@ -332,8 +345,7 @@ def test_sweep_on_a_local_dask_cluster():
 
 def test_process_pool_executor_runs_chains_with_progress():
     # the real default executor: spawned processes and a manager-queue channel
-    tasks = make_tasks(plan_chains(WINDS, ("elec-lim", "mech-lim"), 2), PROBLEM,
-                       backend=NewtonBackend())
+    tasks = _chains(("elec-lim", "mech-lim"))
     seen: list[dict] = []
     with open_executor(workers=2) as handle:
         assert handle.description == "process pool, 2 workers"
@@ -464,7 +476,11 @@ def test_run_optimize_writes_every_file(tmp_path):
     assert manifest["provenance"]["command_line"] == ["bench", "optimize"]
     assert manifest["options"]["discretization"]["n_intervals"] == 40
     assert manifest["provenance"]["versions"]["casadi"]
-    assert [len(c["scenarios"]) for c in manifest["chains"]] == [3, 3]
+    # one task per step of the start graph, then one per kind (its re-solves, cut-in)
+    assert [len(c["scenarios"]) for c in manifest["chains"]] == [1] * 6 + [3, 3]
+    assert summary.set_index("scenario")["depth"].to_dict() == {
+        "elec-lim-5.5": 0, "mech-lim-5.5": 0, "elec-lim-4.0": 1, "elec-lim-7.0": 1,
+        "mech-lim-4.0": 1, "mech-lim-7.0": 1}
     # the cut-in search recovered the stand-in's crossings (4.8 and 5.5 m/s) and the
     # claims table says so
     cut = {c["kind"]: c["cut_in_m_s"] for c in manifest["cut_in"]}
@@ -538,16 +554,17 @@ def test_a_dead_worker_fails_its_chain_the_same_way_in_a_sweep_and_in_solve_task
     from optimize.service import SolveTask, solve_tasks
 
     status = "worker error: RuntimeError: worker died"
-    tasks = make_tasks(plan_chains(WINDS, ("elec-lim", "mech-lim"), 2), PROBLEM,
+    tasks = make_tasks(plan_graph(WINDS, ("elec-lim", "mech-lim")), PROBLEM,
                        cut_in_kinds=("elec-lim",), backend=DeadWorkerBackend())
     with ThreadPoolExecutor(2) as ex:
         handle = ExecutorHandle(ex, QueueChannel(), "threads", 2)
         result = run_sweep(tasks, handle, show_progress=False)
         records = solve_tasks([SolveTask(PROBLEM, "elec-lim", w) for w in WINDS], handle=handle,
                               backend=DeadWorkerBackend())
-    # nothing dropped: every planned scenario and the cut-in search report the chain's death
+    # nothing dropped: every planned scenario reports its task's death, and the cut-in
+    # search (which needs no NLP with nothing converged) says why it found nothing
     assert len(result.outcomes) == 10 and {o.status for o in result.outcomes} == {status}
-    assert [c.status for c in result.cut_ins] == [status]
+    assert [c.status for c in result.cut_ins] == ["too few converged grid speeds"]
     assert [r["wind_speed_m_s"] for r in records] == list(WINDS)
     assert {r["status"] for r in records} == {status} and not any(r["success"] for r in records)
 
@@ -660,6 +677,20 @@ def test_a_local_optimum_off_the_curve_is_resolved_from_its_neighbour():
         assert not any(r.kept for r in by_name[name].resolves)
         assert by_name[name].result.avg_p_elec_w == pytest.approx(-100.0 * float(name[-3:])**2)
     assert all(o.result.warm == "good" for o in done.outcomes)
+
+
+def test_a_seed_on_a_local_optimum_is_caught_and_resolved_in_the_graph():
+    # the seed (elec-free-7.0, a cold start) lands on the local branch; its neighbours,
+    # started from it, find the good branch (the local one does not exist there); the
+    # per-kind task after the graph re-solves the seed from a neighbour and keeps it
+    result = _sweep(("elec-free",), backend=BranchBackend())
+    by_name = {o.name: o for o in result.outcomes}
+    mid = by_name["elec-free-7.0"]
+    assert [r.kept for r in mid.resolves] == [True] and mid.result.warm == "good"
+    assert mid.result.avg_p_elec_w == pytest.approx(-4900.0)
+    assert mid.attempts[-1].source in ("elec-free-5.5", "elec-free-8.5")
+    assert mid.depth == by_name[mid.attempts[-1].source].depth + 1 == 2
+    assert all(o.result.warm == "good" for o in result.outcomes)
 
 
 def test_a_smooth_power_curve_is_not_resolved():

@@ -1,7 +1,7 @@
-"""The one solve service: optimal cycles of (system, drive, wind, kind) along warm-start chains.
+"""The one solve service: optimal cycles of (system, drive, wind, kind) from warm starts.
 
-Every stage that solves the OCP goes through here: ``bench optimize`` (planned
-chains of several kinds, local optima re-solved, cut-in searches), ``bench size``
+Every stage that solves the OCP goes through here: ``bench optimize`` (a start
+graph of several kinds, local optima re-solved, cut-in searches), ``bench size``
 (a chain per candidate drive, stored and resumable, optionally refined for the
 site) and ``bench aep --refine`` (the speeds where a sweep's curve bends).
 
@@ -15,7 +15,7 @@ module                                          concept
 :mod:`optimize.service.local_optima`            re-solve of scenarios off their kind's curve
 :mod:`optimize.service.cut_in`                  cut-in bisection
 :mod:`optimize.service.chain`                   the one chain loop (``run_chain``)
-:mod:`optimize.service.run`                     chains on the process pool or Dask
+:mod:`optimize.service.run`                     chains and start graphs on the pool or Dask
 :mod:`optimize.service.outcome`                 what it reports; the one failure format
 =============================================== ==========================================
 """

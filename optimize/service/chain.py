@@ -1,10 +1,13 @@
 """The one chain loop: the solves of one problem, in order, on one worker.
 
 A chain (:class:`ChainTask`) is shipped to a worker as one task
-(:func:`run_chain`). The worker's :class:`optimize.service.solver.Solver` solves
-the chain's planned steps in order (:func:`optimize.sweep.plan.chain_steps`: a
-cold start at the middle wind speed, then outwards, each step warm-started from
-its planned source and fallbacks, of any kind of the chain), then, as asked:
+(:func:`run_chain`). The worker's :class:`optimize.service.solver.Solver` takes in
+the scenarios solved elsewhere that the task hands it (``solved``: warm starts, and
+a grid to check), solves the chain's planned steps in order (one step of the start
+graph, :func:`optimize.sweep.plan.plan_graph`, or a chain of
+:func:`optimize.sweep.plan.chain_steps`: a cold start at the middle wind speed,
+then outwards), each step warm-started from its planned source and fallbacks, then,
+as asked:
 
 * re-solves the planned scenarios that sit off their kind's smooth curve
   (:func:`optimize.service.local_optima.resolve_local_optima`);
@@ -26,10 +29,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from optimize.problem.scenario import scenario_name
 from optimize.service.builder import Problem
 from optimize.service.cut_in import find_cut_in
 from optimize.service.local_optima import resolve_local_optima
-from optimize.service.outcome import ChainOutcome
+from optimize.service.outcome import ChainOutcome, ScenarioOutcome
 from optimize.service.solver import Solver
 from optimize.sweep.plan import Step
 
@@ -95,6 +99,10 @@ class ChainTask:
     refine : Refinement or None
     extras : callable or None
         ``extras(trajectory) -> dict`` of further record figures (picklable).
+    solved : tuple of (ScenarioOutcome, dict)
+        Scenarios solved by other tasks, with their records: warm starts for the
+        steps, and part of the grid the re-solve, cut-in searches and refinement see
+        (a re-solve may replace them); they come back in the outcome.
     """
 
     problem: Problem
@@ -108,6 +116,7 @@ class ChainTask:
     cut_in_tol_m_s: float = 0.05
     refine: Refinement | None = None
     extras: Callable[[Any], dict] | None = None
+    solved: tuple[tuple[ScenarioOutcome, dict], ...] = ()
 
 
 def _refine(solver: Solver, r: Refinement, start: tuple[float, ...]) -> None:
@@ -145,10 +154,13 @@ def run_chain(task: ChainTask, progress: Any = None) -> ChainOutcome:
     """
     solver = Solver(task.problem, task.store, task.backend, progress, dict(task.tag),
                     task.extras, task.index)
-    keys = [(s.kind, s.wind_speed_m_s) for s in task.steps]
-    by_name = {s.name: k for s, k in zip(task.steps, keys, strict=True)}
-    for step, key in zip(task.steps, keys, strict=True):
-        sources = [by_name[n] for n in (step.warm_from, *step.fallbacks) if n is not None]
+    for outcome, record in task.solved:
+        solver.adopt(outcome, record)
+    planned = [(s.kind, s.wind_speed_m_s) for s in task.steps]
+    keys = [(o.kind, o.wind_speed_m_s) for o, _ in task.solved] + planned
+    by_name = {scenario_name(*k): k for k in keys}
+    for step, key in zip(task.steps, planned, strict=True):
+        sources = [by_name[n] for n in (step.warm_from, *step.fallbacks) if n in by_name]
         solver.solve(*key, "grid", sources)
     if task.resolve:
         resolve_local_optima(solver, [k for k in keys if k in solver.outcomes])

@@ -97,6 +97,10 @@ class ScenarioOutcome:
         Re-solves from neighbours because the scenario sat off its kind's smooth
         curve (:func:`optimize.service.local_optima.resolve_local_optima`); a kept
         one is also the last attempt.
+    depth : int
+        Solves before this one along its starts: 0 for a cold start (stored guess or
+        homotopy), else one more than the depth the scenario of :attr:`warm_source` had
+        when it started this one (:class:`optimize.service.solver.Solver`).
     """
 
     name: str
@@ -106,6 +110,7 @@ class ScenarioOutcome:
     attempts: tuple[Attempt, ...]
     result: Any | None
     resolves: tuple[Resolve, ...] = ()
+    depth: int = 0
 
     @property
     def check(self) -> str:

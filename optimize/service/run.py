@@ -1,4 +1,4 @@
-"""Run chains on the local process pool or a Dask cluster; gather what they report.
+"""Run chains and start graphs on the local process pool or a Dask cluster; gather results.
 
 * :func:`run_chains` submits each :class:`optimize.service.chain.ChainTask` as one
   executor task; a chain whose worker died reports every planned speed failed with
@@ -6,8 +6,11 @@
 * :func:`solve_tasks` solves a list of :class:`SolveTask` (``bench size``,
   ``bench aep --refine``): one chain per (problem, kind, tag), along the
   continuation order of its wind speeds; returns the solve records;
-* :func:`run_sweep` runs ``bench optimize``'s planned chains
-  (:func:`make_tasks`) with a progress bar; returns a :class:`SweepResult`.
+* :func:`run_sweep` runs ``bench optimize``'s start graph (:func:`make_tasks`,
+  :func:`optimize.sweep.plan.plan_graph`) with a progress bar: each step is one task,
+  submitted once its sources are solved, with their optima as its warm starts; then
+  one task per kind re-solves its local optima and searches its cut-in speed; returns
+  a :class:`SweepResult`.
 """
 
 from __future__ import annotations
@@ -33,17 +36,19 @@ from optimize.service.outcome import (
 )
 from optimize.service.solver import attempt_line
 from optimize.service.store import solve_key
-from optimize.sweep.plan import Chain, chain_steps
+from optimize.sweep.plan import Step, chain_steps
 
 
 def failed_chain(task: ChainTask, exc: BaseException) -> ChainOutcome:
     """The outcome of a chain whose task raised: every planned speed failed, with the
-    one failure format (:func:`optimize.service.outcome.failure_status`)."""
+    one failure format (:func:`optimize.service.outcome.failure_status`); the scenarios
+    handed to it as solved stay as they were."""
     status = failure_status(WORKER_ERROR, exc)
-    outcomes = tuple(ScenarioOutcome(s.name, s.kind, s.wind_speed_m_s, task.index,
-                                     (Attempt(s.warm_from, status, False, 0, 0.0),), None)
-                     for s in task.steps)
-    records = tuple({**dict(task.tag),
+    outcomes = tuple(o for o, _ in task.solved) + tuple(
+        ScenarioOutcome(s.name, s.kind, s.wind_speed_m_s, task.index,
+                        (Attempt(s.warm_from, status, False, 0, 0.0),), None)
+        for s in task.steps)
+    records = tuple(r for _, r in task.solved) + tuple({**dict(task.tag),
                      "key": (solve_key(task.problem, s.kind, s.wind_speed_m_s)
                              if task.store is not None else None),
                      "kind": s.kind, "wind_speed_m_s": s.wind_speed_m_s, "role": "grid",
@@ -114,7 +119,7 @@ def solve_tasks(tasks: Sequence[SolveTask], store: Path | None = None, *, worker
 
 @dataclass(frozen=True)
 class SweepResult:
-    """All chains of a ``bench optimize`` sweep, gathered in the driver.
+    """A ``bench optimize`` sweep, gathered in the driver.
 
     Attributes
     ----------
@@ -122,7 +127,8 @@ class SweepResult:
         One per scenario, sorted by kind (as selected) then wind speed.
     cut_ins : tuple of CutIn
     chains : tuple of ChainOutcome
-        Per-chain records (worker, NLP build time); their outcomes are those above.
+        Per task (one per step of the start graph, then one per kind for its re-solves
+        and cut-in search): worker, NLP build time, its scenarios.
     wall_time_s : float
         Wall time of the whole sweep, cold starts included [s].
     executor : str
@@ -137,7 +143,7 @@ class SweepResult:
 
     def record(self) -> dict:
         """The sweep's part of the optimize manifest (docs/schemas.md §5): where it ran, how
-        long, the scenarios that failed, each chain, the cut-in searches."""
+        long, the scenarios that failed, each task, the cut-in searches."""
         return {
             "executor": self.executor,
             "wall_time_s": self.wall_time_s,
@@ -148,23 +154,104 @@ class SweepResult:
         }
 
 
-def make_tasks(chains: tuple[Chain, ...], problem: Problem, cut_in_kinds: tuple[str, ...] = (),
-               cut_in_tol_m_s: float = 0.05, backend: Any = None) -> tuple[ChainTask, ...]:
-    """The tasks of ``bench optimize``'s planned chains: local optima re-solved, each
-    cut-in search in the chain that solved its kind."""
-    return tuple(ChainTask(problem, c.steps, c.index, backend=backend, resolve=True,
-                           cut_in_kinds=tuple(k for k in c.kinds if k in cut_in_kinds),
-                           cut_in_tol_m_s=cut_in_tol_m_s)
-                 for c in chains)
+@dataclass(frozen=True)
+class SweepTasks:
+    """``bench optimize``'s sweep as the service runs it (:func:`run_sweep`).
+
+    Attributes
+    ----------
+    problem : Problem
+    steps : tuple of Step
+        The start graph (:func:`optimize.sweep.plan.plan_graph`), sources first.
+    cut_in_kinds : tuple of str
+        Kinds whose cut-in speed is searched after the grid.
+    cut_in_tol_m_s : float
+        Bisection stops when the bracket is at most this wide [m/s].
+    backend : optional
+        The numerical side (:class:`optimize.service.builder.OcpBackend` by default).
+    """
+
+    problem: Problem
+    steps: tuple[Step, ...]
+    cut_in_kinds: tuple[str, ...] = ()
+    cut_in_tol_m_s: float = 0.05
+    backend: Any = None
+
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        """The scenario kinds, in the order of the steps."""
+        return tuple(dict.fromkeys(s.kind for s in self.steps))
 
 
-def run_sweep(tasks: tuple[ChainTask, ...], handle: Any,
-              show_progress: bool = True) -> SweepResult:
-    """Run ``bench optimize``'s chain tasks on an open executor and gather the outcomes.
+def make_tasks(steps: tuple[Step, ...], problem: Problem, cut_in_kinds: tuple[str, ...] = (),
+               cut_in_tol_m_s: float = 0.05, backend: Any = None) -> SweepTasks:
+    """The sweep of ``bench optimize``'s start graph: local optima re-solved and cut-in
+    speeds searched after it, per kind."""
+    return SweepTasks(problem, tuple(steps), tuple(cut_in_kinds), cut_in_tol_m_s, backend)
+
+
+def _own(out: ChainOutcome, step: Step) -> ChainOutcome:
+    """A step task's outcome with only its own scenario (not the starts handed to it)."""
+    key = (step.kind, step.wind_speed_m_s)
+    return dataclasses.replace(
+        out, outcomes=tuple(o for o in out.outcomes if (o.kind, o.wind_speed_m_s) == key),
+        records=tuple(r for r in out.records if (r["kind"], r["wind_speed_m_s"]) == key))
+
+
+def _solve_graph(tasks: SweepTasks, handle: Any,
+                 on_event: Callable[[dict], None]) -> list[ChainOutcome]:
+    """Solve every step of the start graph, each as one task once its sources are done;
+    one outcome per step, in step order."""
+    from optimize.sweep.executors import run_graph
+
+    steps = tasks.steps
+    index = {s.name: i for i, s in enumerate(steps)}
+    outs: dict[int, ChainOutcome] = {}
+    made: dict[int, ChainTask] = {}
+
+    def needs(i: int) -> list[int]:
+        return [index[n] for n in (steps[i].warm_from, *steps[i].fallbacks) if n in index]
+
+    def outcome(j: int, future: Any) -> ChainOutcome:
+        if j not in outs:
+            exc = future.exception()
+            outs[j] = _own(failed_chain(made[j], exc) if exc is not None else future.result(),
+                           steps[j])
+        return outs[j]
+
+    def make_task(i: int, done: dict) -> ChainTask:
+        solved = tuple((o, r) for j in needs(i)
+                       for o, r in zip(outcome(j, done[j]).outcomes, outcome(j, done[j]).records,
+                                       strict=True) if o.success)
+        made[i] = ChainTask(tasks.problem, (steps[i],), i, backend=tasks.backend, solved=solved)
+        return made[i]
+
+    futures = run_graph(handle.executor, run_chain, len(steps), needs, make_task,
+                        handle.channel, on_event)
+    return [outcome(i, futures[i]) for i in range(len(steps))]
+
+
+def _follow_up(tasks: SweepTasks, grid: list[ChainOutcome], handle: Any,
+               on_event: Callable[[dict], None]) -> list[ChainOutcome]:
+    """Per kind, one task: its local optima re-solved, its cut-in speed searched."""
+    first = len(tasks.steps)
+    follow = [ChainTask(tasks.problem, (), first + n, backend=tasks.backend, resolve=True,
+                        cut_in_kinds=(kind,) if kind in tasks.cut_in_kinds else (),
+                        cut_in_tol_m_s=tasks.cut_in_tol_m_s,
+                        solved=tuple((o, r) for out in grid
+                                     for o, r in zip(out.outcomes, out.records, strict=True)
+                                     if o.kind == kind))
+              for n, kind in enumerate(tasks.kinds)]
+    outs, _ = run_chains(follow, handle, on_event=on_event)
+    return outs
+
+
+def run_sweep(tasks: SweepTasks, handle: Any, show_progress: bool = True) -> SweepResult:
+    """Run ``bench optimize``'s sweep on an open executor and gather the outcomes.
 
     Parameters
     ----------
-    tasks : tuple of ChainTask
+    tasks : SweepTasks
         From :func:`make_tasks`.
     handle : optimize.sweep.executors.ExecutorHandle
         The open executor and its progress channel.
@@ -176,13 +263,13 @@ def run_sweep(tasks: tuple[ChainTask, ...], handle: Any,
     Returns
     -------
     SweepResult
-        A chain whose task raised is recorded with every scenario failed
-        (:func:`failed_chain`); nothing is silently dropped.
+        A task that raised is recorded with its scenario failed (:func:`failed_chain`);
+        nothing is silently dropped.
     """
     from tqdm import tqdm
 
-    total = sum(len(t.steps) + len(t.cut_in_kinds) for t in tasks)
-    bar = tqdm(total=total, desc="optimize", unit="solve", disable=not show_progress)
+    bar = tqdm(total=len(tasks.steps) + len(tasks.cut_in_kinds), desc="optimize",
+               unit="solve", disable=not show_progress)
     n_failed = 0
 
     def on_event(event: dict) -> None:
@@ -203,14 +290,13 @@ def run_sweep(tasks: tuple[ChainTask, ...], handle: Any,
         bar.update(1)
 
     t0 = time.perf_counter()
-    chains, description = run_chains(tasks, handle, on_event=on_event)
+    grid = _solve_graph(tasks, handle, on_event)
+    follow = _follow_up(tasks, grid, handle, on_event)
     wall = time.perf_counter() - t0
     bar.update(bar.total - bar.n)  # the total grew by the probes and re-solves
     bar.close()
-    order = {k: i for i, k in enumerate(dict.fromkeys(s.kind for t in tasks for s in t.steps))}
-    outcomes = sorted((o for c in chains for o in c.outcomes),
+    order = {k: i for i, k in enumerate(tasks.kinds)}
+    outcomes = sorted((o for c in follow for o in c.outcomes),
                       key=lambda o: (order[o.kind], o.wind_speed_m_s))
-    cut_ins = tuple(ci for c in chains for ci in c.cut_ins)
-    return SweepResult(tuple(outcomes), cut_ins, tuple(chains), wall, description)
-
-
+    cut_ins = tuple(ci for c in follow for ci in c.cut_ins)
+    return SweepResult(tuple(outcomes), cut_ins, (*grid, *follow), wall, handle.description)

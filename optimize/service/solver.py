@@ -21,6 +21,7 @@ the stored form).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -85,6 +86,7 @@ class Solver:
         self.outcomes: dict[Key, ScenarioOutcome] = {}
         self.build_time_s = 0.0
         self._warm: dict[Key, Any] = {}
+        self._depth: dict[Key, int] = {}
         self._ocp = None
 
     @property
@@ -183,7 +185,7 @@ class Solver:
                 attempt, result = self.attempt(kind, wind, None, role)
                 attempts.append(attempt)
             outcome = ScenarioOutcome(scenario_name(kind, wind), kind, wind, self.chain,
-                                      tuple(attempts), result)
+                                      tuple(attempts), result, depth=self._depth_from(src))
             self.outcomes[kind, wind] = outcome
             rec = self.record(key, outcome, role, src)
             warm = result.warm if outcome.success else None
@@ -193,6 +195,7 @@ class Solver:
         self.records[kind, wind] = rec
         if rec["success"] and warm is not None:
             self._warm[kind, wind] = warm
+            self._depth[kind, wind] = self.outcomes[kind, wind].depth if not rec["cached"] else 0
         if self.progress is not None:
             self.progress.put({**self.tag, "chain": self.chain, "name": scenario_name(kind, wind),
                                "kind": kind, "wind": wind, "role": role,
@@ -200,17 +203,30 @@ class Solver:
                                "cached": rec["cached"], "wall_time_s": rec["wall_time_s"]})
         return rec
 
+    def adopt(self, outcome: ScenarioOutcome, record: dict) -> None:
+        """Take in a scenario another worker solved: its outcome and record, and its
+        optimum as a warm start when it converged."""
+        k = (outcome.kind, outcome.wind_speed_m_s)
+        self.outcomes[k], self.records[k] = outcome, record
+        if outcome.success and outcome.result is not None:
+            self._warm[k], self._depth[k] = outcome.result.warm, outcome.depth
+
+    def _depth_from(self, source: Key | None) -> int:
+        """The start-graph depth of a solve started from ``source`` (None: cold, 0)."""
+        return 0 if source is None else self._depth.get(source, 0) + 1
+
     def replace(self, outcome: ScenarioOutcome, source: Key) -> None:
         """Make ``outcome`` (a better optimum of a solved scenario, started from
         ``source``) its result: its record, its warm start and its stored solve."""
         k = (outcome.kind, outcome.wind_speed_m_s)
         key = self.records[k]["key"]
+        outcome = dataclasses.replace(outcome, depth=self._depth_from(source))
         self.outcomes[k] = outcome
         rec = self.record(key, outcome, self.records[k]["role"], source)
         if key is not None:
             store_solve(self.store, key, rec, outcome.result.warm)
         self.records[k] = {**rec, "cached": False}
-        self._warm[k] = outcome.result.warm
+        self._warm[k], self._depth[k] = outcome.result.warm, outcome.depth
 
     def record(self, key: str | None, outcome: ScenarioOutcome, role: str,
                source: Key | None) -> dict:

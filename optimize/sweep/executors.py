@@ -1,6 +1,7 @@
 """Executors for the sweep: a local process pool or a Dask cluster, plus progress.
 
-Any :class:`concurrent.futures.Executor` runs the sweep; each chain is one task.
+Any :class:`concurrent.futures.Executor` runs the sweep; each chain or step of the
+start graph is one task (:func:`run_tasks`, :func:`run_graph`).
 :func:`open_executor` makes the two supported ones:
 
 * a :class:`~concurrent.futures.ProcessPoolExecutor` with ``workers`` processes
@@ -23,7 +24,7 @@ import queue
 import sys
 import uuid
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import Executor, Future, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -223,10 +224,42 @@ def run_tasks(
     list of Future
         In task order, all done; a task's exception stays in its future.
     """
-    futures = [executor.submit(fn, task, progress=channel) for task in tasks]
-    pending = set(futures)
-    while pending:
-        _, pending = wait(pending, timeout=poll_s)
+    futures = run_graph(executor, fn, len(tasks), lambda i: (), lambda i, done: tasks[i],
+                        channel, on_event, poll_s)
+    return [futures[i] for i in range(len(tasks))]
+
+
+def run_graph(
+    executor: Executor,
+    fn: Callable[..., Any],
+    n: int,
+    needs: Callable[[int], Sequence[int]],
+    make_task: Callable[[int, dict[int, Future]], Any],
+    channel: Any = None,
+    on_event: Callable[[dict], None] | None = None,
+    poll_s: float = 0.25,
+) -> dict[int, Future]:
+    """Run ``n`` dependent tasks: task ``i`` is submitted as ``fn(make_task(i, done),
+    progress=channel)`` once every task of ``needs(i)`` has finished (``done``: their
+    futures, by index), ready tasks in index order; relay progress until all finish.
+
+    ``needs`` must only name lower indices (the tasks in a topological order). The
+    other parameters are those of :func:`run_tasks`. Returns every future by index, all
+    done; a task's exception stays in its future (its dependents still run).
+    """
+    futures: dict[int, Future] = {}
+    waiting = list(range(n))
+    while waiting or any(not f.done() for f in futures.values()):
+        done = {i: f for i, f in futures.items() if f.done()}
+        ready = [i for i in waiting if all(j in done for j in needs(i))]
+        for i in ready:
+            futures[i] = executor.submit(fn, make_task(i, done), progress=channel)
+        waiting = [i for i in waiting if i not in ready]
+        pending = [f for f in futures.values() if not f.done()]
+        if waiting and not pending and not ready:
+            raise ValueError(f"tasks {waiting} need tasks that come after them")
+        if pending:
+            wait(pending, timeout=poll_s, return_when=FIRST_COMPLETED)
         if channel is not None and on_event is not None:
             for event in channel.drain():
                 on_event(event)

@@ -1,24 +1,25 @@
-"""The scenario sweep: wind grid, scenario kinds, continuation order and chain planning.
+"""The scenario sweep: wind grid, scenario kinds, continuation order and the start graph.
 
 A sweep is every selected scenario *kind* (objective x drive limits, e.g.
 ``elec-lim``) at every wind speed of a grid. Solving each of them cold (homotopy)
-would be slow, so the sweep is planned as *chains* of warm-started solves:
+would be slow, so each solve starts from a solved neighbour; :func:`plan_graph`
+plans those starts as a graph, not as chains, so that every core has work:
 
-* each chain starts with one cold start at the middle wind speed of its first
-  kind, then continues along the wind grid outwards from that middle speed,
-  every solve warm-started from its inner neighbour;
-* the next kind of the same chain starts at the middle speed from the previous
-  kind's middle solution (an objective or limit switch), then goes outwards again;
-* every step also lists fallback sources (other already-solved neighbours);
-  when all of them fail the runner falls back to a fresh cold start.
+* the *seeds* (depth 0) are one cold start per objective (the shipped stored guess
+  where it fits, else the homotopy), at the middle wind speed of the first kind of
+  that objective;
+* depth 1: the scenarios one step from a seed (:func:`start_cost` at most 1: the
+  seed's kind at the neighbouring wind speeds, the other kinds of the objective at
+  the seed's speed) start from it;
+* depth 2: every other scenario starts from its nearest depth-0 or depth-1 scenario;
+* every step also lists one fallback source (the next nearest of those); when
+  neither converges the solve falls back to a fresh cold start.
 
-Chains are independent of one another, so they run in parallel, one chain per
-task (a warm-start chain never leaves its worker). Kinds are grouped so that the
-chains have equal numbers of solves: with two workers the default 20-scenario
-sweep splits into ``elec-lim + elec-free`` and ``mech-lim + mech-free``.
-
-The chains run on the solve service (:mod:`optimize.service`); the whole
-``bench optimize`` command is :func:`optimize.command.run_optimize`.
+So a sweep's critical path is three solves long (a seed, then two), whatever its
+size. The steps run on the solve service (:func:`optimize.service.run.run_sweep`);
+the whole ``bench optimize`` command is :func:`optimize.command.run_optimize`.
+:func:`chain_steps` still plans the one-kind chains of ``bench size`` and
+``bench aep --refine``.
 """
 
 from __future__ import annotations
@@ -172,7 +173,7 @@ def continuation_order(winds: tuple[float, ...]) -> list[tuple[float, float | No
 
 @dataclass(frozen=True)
 class Step:
-    """One solve of a chain.
+    """One planned solve.
 
     Attributes
     ----------
@@ -181,56 +182,25 @@ class Step:
     wind_speed_m_s : float
         Wind speed at 100 m [m/s].
     warm_from : str or None
-        Name of the scenario (solved earlier in the same chain) whose primal and
-        dual solution warm-starts this one; ``None`` means a cold start (homotopy).
+        Name of the scenario (solved before this one) whose primal and dual solution
+        warm-starts this one; ``None`` means a cold start (stored guess or homotopy).
     fallbacks : tuple of str
         Other earlier scenarios to warm-start from, in order, when the primary
         source failed or its solve fails. A cold start is the last resort.
+    depth : int
+        Planned solves before this one along its starts (0: a cold start).
     """
 
     kind: str
     wind_speed_m_s: float
     warm_from: str | None
     fallbacks: tuple[str, ...] = ()
+    depth: int = 0
 
     @property
     def name(self) -> str:
         """Scenario name, e.g. ``"elec-lim-7.0"``."""
         return scenario_name(self.kind, self.wind_speed_m_s)
-
-
-@dataclass(frozen=True)
-class Chain:
-    """A sequence of warm-started solves that runs on one worker."""
-
-    index: int
-    steps: tuple[Step, ...]
-
-    @property
-    def kinds(self) -> tuple[str, ...]:
-        """The scenario kinds of this chain, in solve order."""
-        return tuple(dict.fromkeys(s.kind for s in self.steps))
-
-
-def group_kinds(kinds: tuple[str, ...], n_chains: int) -> list[tuple[str, ...]]:
-    """Split kinds into at most ``n_chains`` groups of near-equal size.
-
-    Kinds of the same objective are put next to each other first (so a chain
-    switches limits on/off rather than the objective where it can), then the
-    list is cut into contiguous groups whose sizes differ by at most one.
-    """
-    if n_chains < 1:
-        raise ValueError(f"n_chains must be >= 1, got {n_chains}")
-    objectives = list(dict.fromkeys(KINDS[k].objective for k in kinds))
-    ordered = [k for obj in objectives for k in kinds if KINDS[k].objective == obj]
-    n = min(n_chains, len(ordered))
-    base, extra = divmod(len(ordered), n)
-    groups, start = [], 0
-    for i in range(n):
-        size = base + (1 if i < extra else 0)
-        groups.append(tuple(ordered[start : start + size]))
-        start += size
-    return groups
 
 
 def chain_steps(kinds: tuple[str, ...], winds: tuple[float, ...]) -> tuple[Step, ...]:
@@ -256,15 +226,30 @@ def chain_steps(kinds: tuple[str, ...], winds: tuple[float, ...]) -> tuple[Step,
                 primary = scenario_name(kinds[i - 1], mid_wind)
             else:
                 primary = None
-            steps.append(Step(kind, wind, primary, fallbacks(kind, wind, primary)))
+            steps.append(Step(kind, wind, primary, fallbacks(kind, wind, primary),
+                              len(steps)))
             solved.append((kind, wind))
     return tuple(steps)
 
 
-def plan_chains(
-    winds: tuple[float, ...], kinds: tuple[str, ...], n_chains: int
-) -> tuple[Chain, ...]:
-    """Plan the sweep as independent warm-start chains.
+#: the cost of a start from another kind (:func:`start_cost`), in wind-grid steps: a
+#: drive-limit switch within one objective, and a switch of objective
+LIMIT_SWITCH_COST, OBJECTIVE_SWITCH_COST = 0.5, 2.0
+
+
+def start_cost(a: tuple[str, int], b: tuple[str, int]) -> float:
+    """How far apart two scenarios ``(kind, wind index)`` are as warm starts: the wind-grid
+    steps between them plus :data:`LIMIT_SWITCH_COST` or :data:`OBJECTIVE_SWITCH_COST`
+    when the kinds differ."""
+    cost = float(abs(a[1] - b[1]))
+    if a[0] != b[0]:
+        same = KINDS[a[0]].objective == KINDS[b[0]].objective
+        cost += LIMIT_SWITCH_COST if same else OBJECTIVE_SWITCH_COST
+    return cost
+
+
+def plan_graph(winds: tuple[float, ...], kinds: tuple[str, ...]) -> tuple[Step, ...]:
+    """Plan the sweep as a start graph (see the module docstring).
 
     Parameters
     ----------
@@ -272,15 +257,26 @@ def plan_chains(
         Wind speeds [m/s], increasing (from :func:`parse_wind_grid`).
     kinds : tuple of str
         Scenario kinds (from :func:`parse_kinds`).
-    n_chains : int
-        Wanted number of chains (normally the number of workers); fewer are
-        made when there are fewer kinds.
 
     Returns
     -------
-    tuple of Chain
-        Every (kind, wind) exactly once; each chain starts with a cold start.
+    tuple of Step
+        Every (kind, wind) exactly once, by depth (seeds first); each step's sources
+        come before it and are at most ``depth - 1`` deep, ``depth`` at most 2.
     """
-    return tuple(
-        Chain(i, chain_steps(group, winds)) for i, group in enumerate(group_kinds(kinds, n_chains))
-    )
+    mid = middle_index(winds)
+    objectives = dict.fromkeys(KINDS[k].objective for k in kinds)
+    seeds = [(next(k for k in kinds if KINDS[k].objective == obj), mid) for obj in objectives]
+    rest = [(k, i) for k in kinds for i in range(len(winds)) if (k, i) not in seeds]
+    first = [n for n in rest if min(start_cost(n, s) for s in seeds) <= 1.0]
+    second = [n for n in rest if n not in first]
+
+    def step(node: tuple[str, int], sources: list[tuple[str, int]], depth: int) -> Step:
+        ranked = sorted(sources, key=lambda s: start_cost(node, s))[:2]  # stable: plan order
+        names = [scenario_name(k, winds[i]) for k, i in ranked]
+        return Step(node[0], winds[node[1]], names[0] if names else None, tuple(names[1:]),
+                    depth)
+
+    return (tuple(Step(k, winds[i], None) for k, i in seeds)
+            + tuple(step(n, seeds, 1) for n in first)
+            + tuple(step(n, seeds + first, 2) for n in second))
