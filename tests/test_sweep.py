@@ -610,6 +610,51 @@ def test_an_optimum_failing_its_result_check_is_failed_in_every_service_path():
     assert solver.converged("elec-lim") == []  # a failed optimum starts nothing
 
 
+@dataclass(frozen=True)
+class ArtifactBackend(BoundedBackend):
+    """``bad`` converges to a non-physical optimum (1 MW generated: the result check fails
+    it) from a cold start and from every start of its own kind; from the other objective's
+    optimum it finds the true one. The warm start carries the kind it came from."""
+
+    bound_w: float = 1e5
+    bad: str = "mech-free-10.0"
+
+    def _from(self, kind: str, w: float, x: float, source_kind: str | None) -> Result:
+        r = self._newton(kind, w, x)
+        artifact = scenario_name(kind, w) == self.bad and source_kind in (None, kind)
+        return dataclasses.replace(r, warm=(r.warm, kind),
+                                   avg_p_elec_w=r.avg_p_elec_w - 1e6 * artifact)
+
+    def solve(self, ocp: str, kind: str, w: float, warm: tuple) -> Result:
+        return self._from(kind, w, warm[0], warm[1])
+
+    def cold_start(self, ocp: str, kind: str, w: float) -> Result:
+        return self._from(kind, w, 0.0, None)
+
+
+def test_a_failed_result_check_is_retried_from_the_other_starts_before_it_fails():
+    result = _sweep(("elec-free", "mech-free"), backend=ArtifactBackend())
+    by_name = {o.name: o for o in result.outcomes}
+    bad = by_name["mech-free-10.0"]
+    # its planned starts and the cold start converge to the artifact, the check fails them;
+    # then the other converged speeds of its kind (nearest first), then elec-free-10.0
+    assert [a.source for a in bad.attempts] == [
+        "mech-free-8.5", "mech-free-7.0", None, "mech-free-5.5", "mech-free-4.0",
+        "elec-free-10.0"]
+    assert [a.verdict.split(":")[0] for a in bad.attempts] == ["failed"] * 5 + ["passed"]
+    assert bad.success and bad.warm_source == "elec-free-10.0"  # the summary says which
+    truth = SCALE_W * (exact_root(CUT_IN_M_S["mech-free"]) - exact_root(10.0))
+    assert bad.result.avg_p_elec_w == pytest.approx(truth, rel=1e-9)
+    assert bad.depth == by_name["elec-free-10.0"].depth + 1
+    assert all(o.success for o in result.outcomes) and len(result.outcomes) == 10
+    # with no other objective to start from it fails, every try listed
+    alone = {o.name: o for o in _sweep(("mech-free",), backend=ArtifactBackend()).outcomes}
+    assert not alone["mech-free-10.0"].success and len(alone["mech-free-10.0"].attempts) == 5
+    assert alone["mech-free-10.0"].check.startswith("failed: 999408 W generated, above 100000")
+    assert alone["mech-free-10.0"].warm_source == "mech-free-4.0"
+    assert alone["mech-free-10.0"].depth == 3  # from mech-free-4.0, 2 deep
+
+
 # ----------------------------------------------------------------- local optima
 @dataclass(frozen=True)
 class BranchResult(Result):

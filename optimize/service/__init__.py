@@ -13,6 +13,7 @@ module                                          concept
                                                 records, the store
 :mod:`optimize.service.store`                   solves stored under the hash of their inputs
 :mod:`optimize.service.local_optima`            re-solve of scenarios off their kind's curve
+:mod:`optimize.service.retry`                   failed scenarios retried from other starts
 :mod:`optimize.service.cut_in`                  cut-in bisection
 :mod:`optimize.service.chain`                   the one chain loop (``run_chain``)
 :mod:`optimize.service.run`                     chains and start graphs on the pool or Dask

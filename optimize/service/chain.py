@@ -9,6 +9,8 @@ graph, :func:`optimize.sweep.plan.plan_graph`, or a chain of
 then outwards), each step warm-started from its planned source and fallbacks, then,
 as asked:
 
+* solves its failed scenarios again from the other starts it has
+  (:func:`optimize.service.retry.retry_failed`);
 * re-solves the planned scenarios that sit off their kind's smooth curve
   (:func:`optimize.service.local_optima.resolve_local_optima`);
 * searches the cut-in wind speed of some kinds by bisection
@@ -34,6 +36,7 @@ from optimize.service.builder import Problem
 from optimize.service.cut_in import find_cut_in
 from optimize.service.local_optima import resolve_local_optima
 from optimize.service.outcome import ChainOutcome, ScenarioOutcome
+from optimize.service.retry import retry_failed
 from optimize.service.solver import Solver
 from optimize.sweep.plan import Step
 
@@ -103,6 +106,12 @@ class ChainTask:
         Scenarios solved by other tasks, with their records: warm starts for the
         steps, and part of the grid the re-solve, cut-in searches and refinement see
         (a re-solve may replace them); they come back in the outcome.
+    starts : tuple of (ScenarioOutcome, dict)
+        Further scenarios solved elsewhere, as warm starts only (not part of the grid,
+        not in the outcome).
+    retry : bool
+        Solve the grid's failed scenarios again from the other starts there are
+        (:func:`optimize.service.retry.retry_failed`), before the re-solve of local optima.
     """
 
     problem: Problem
@@ -117,6 +126,8 @@ class ChainTask:
     refine: Refinement | None = None
     extras: Callable[[Any], dict] | None = None
     solved: tuple[tuple[ScenarioOutcome, dict], ...] = ()
+    starts: tuple[tuple[ScenarioOutcome, dict], ...] = ()
+    retry: bool = False
 
 
 def _refine(solver: Solver, r: Refinement, start: tuple[float, ...]) -> None:
@@ -154,7 +165,7 @@ def run_chain(task: ChainTask, progress: Any = None) -> ChainOutcome:
     """
     solver = Solver(task.problem, task.store, task.backend, progress, dict(task.tag),
                     task.extras, task.index)
-    for outcome, record in task.solved:
+    for outcome, record in (*task.solved, *task.starts):
         solver.adopt(outcome, record)
     planned = [(s.kind, s.wind_speed_m_s) for s in task.steps]
     keys = [(o.kind, o.wind_speed_m_s) for o, _ in task.solved] + planned
@@ -162,6 +173,8 @@ def run_chain(task: ChainTask, progress: Any = None) -> ChainOutcome:
     for step, key in zip(task.steps, planned, strict=True):
         sources = [by_name[n] for n in (step.warm_from, *step.fallbacks) if n in by_name]
         solver.solve(*key, "grid", sources)
+    if task.retry:
+        retry_failed(solver, keys)
     if task.resolve:
         resolve_local_optima(solver, [k for k in keys if k in solver.outcomes])
     cut_ins = []
@@ -174,10 +187,12 @@ def run_chain(task: ChainTask, progress: Any = None) -> ChainOutcome:
     if task.refine is not None:
         start = tuple(sorted(w for k, w in keys if k == task.refine.kind))
         _refine(solver, task.refine, start)
+    only_starts = {(o.kind, o.wind_speed_m_s) for o, _ in task.starts}
     return ChainOutcome(
         task.index,
         tuple(solver.outcomes[k] for k in keys if k in solver.outcomes),
-        tuple(solver.records[k] for k in sorted(solver.records, key=lambda k: k[1])),
+        tuple(solver.records[k] for k in sorted(solver.records, key=lambda k: k[1])
+              if k not in only_starts),
         tuple(cut_ins),
         solver.build_time_s,
         f"{socket.gethostname()}:{os.getpid()}",

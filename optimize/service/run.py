@@ -9,8 +9,9 @@
 * :func:`run_sweep` runs ``bench optimize``'s start graph (:func:`make_tasks`,
   :func:`optimize.sweep.plan.plan_graph`) with a progress bar: each step is one task,
   submitted once its sources are solved, with their optima as its warm starts; then
-  one task per kind re-solves its local optima and searches its cut-in speed; returns
-  a :class:`SweepResult`.
+  one task per kind retries its failed scenarios from the other starts there are,
+  re-solves its local optima and searches its cut-in speed; returns a
+  :class:`SweepResult`.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from optimize.kinds import KINDS
 from optimize.service.builder import Problem
 from optimize.service.chain import ChainTask, Refinement, run_chain
 from optimize.service.local_optima import LOCAL_OPTIMUM
@@ -34,6 +36,7 @@ from optimize.service.outcome import (
     ScenarioOutcome,
     failure_status,
 )
+from optimize.service.retry import RETRY
 from optimize.service.solver import attempt_line
 from optimize.service.store import solve_key
 from optimize.sweep.plan import Step, chain_steps
@@ -233,14 +236,23 @@ def _solve_graph(tasks: SweepTasks, handle: Any,
 
 def _follow_up(tasks: SweepTasks, grid: list[ChainOutcome], handle: Any,
                on_event: Callable[[dict], None]) -> list[ChainOutcome]:
-    """Per kind, one task: its local optima re-solved, its cut-in speed searched."""
+    """Per kind, one task: its failed scenarios retried from the other starts (with the
+    other objective's optima at their speeds), its local optima re-solved, its cut-in
+    speed searched."""
     first = len(tasks.steps)
+    solved = [(o, r) for out in grid for o, r in zip(out.outcomes, out.records, strict=True)]
+    failed = {(o.kind, o.wind_speed_m_s) for o, _ in solved if not o.success}
+
+    def starts(kind: str) -> tuple:
+        winds = {w for k, w in failed if k == kind}
+        return tuple((o, r) for o, r in solved if o.success and o.wind_speed_m_s in winds
+                     and KINDS[o.kind].objective != KINDS[kind].objective)
+
     follow = [ChainTask(tasks.problem, (), first + n, backend=tasks.backend, resolve=True,
                         cut_in_kinds=(kind,) if kind in tasks.cut_in_kinds else (),
                         cut_in_tol_m_s=tasks.cut_in_tol_m_s,
-                        solved=tuple((o, r) for out in grid
-                                     for o, r in zip(out.outcomes, out.records, strict=True)
-                                     if o.kind == kind))
+                        solved=tuple((o, r) for o, r in solved if o.kind == kind),
+                        starts=starts(kind), retry=True)
               for n, kind in enumerate(tasks.kinds)]
     outs, _ = run_chains(follow, handle, on_event=on_event)
     return outs
@@ -257,7 +269,8 @@ def run_sweep(tasks: SweepTasks, handle: Any, show_progress: bool = True) -> Swe
         The open executor and its progress channel.
     show_progress : bool
         Show a tqdm bar: one tick per planned scenario, per cut-in search, per cut-in
-        probe and per local-optimum re-solve (the last two added as they come), and
+        probe, per retry and per local-optimum re-solve (the last three added as they
+        come), and
         beside it what the solver is running.
 
     Returns
@@ -276,7 +289,7 @@ def run_sweep(tasks: SweepTasks, handle: Any, show_progress: bool = True) -> Swe
         nonlocal n_failed
         if "attempt" in event:  # every solver run says what it is; re-solves also count
             bar.set_postfix_str(attempt_line(event))
-            if event["attempt"] == "done" and event["role"] == LOCAL_OPTIMUM:
+            if event["attempt"] == "done" and event["role"] in (LOCAL_OPTIMUM, RETRY):
                 bar.total += 1
                 bar.update(1)
             return

@@ -216,17 +216,19 @@ class Solver:
         return 0 if source is None else self._depth.get(source, 0) + 1
 
     def replace(self, outcome: ScenarioOutcome, source: Key) -> None:
-        """Make ``outcome`` (a better optimum of a solved scenario, started from
-        ``source``) its result: its record, its warm start and its stored solve."""
+        """Make ``outcome`` (a new result of a solved scenario, its last attempt started
+        from ``source``) its result: its record and, when it succeeded (a better optimum,
+        a failure retried), its warm start and its stored solve."""
         k = (outcome.kind, outcome.wind_speed_m_s)
         key = self.records[k]["key"]
         outcome = dataclasses.replace(outcome, depth=self._depth_from(source))
         self.outcomes[k] = outcome
         rec = self.record(key, outcome, self.records[k]["role"], source)
-        if key is not None:
-            store_solve(self.store, key, rec, outcome.result.warm)
+        if outcome.success:
+            if key is not None:
+                store_solve(self.store, key, rec, outcome.result.warm)
+            self._warm[k], self._depth[k] = outcome.result.warm, outcome.depth
         self.records[k] = {**rec, "cached": False}
-        self._warm[k], self._depth[k] = outcome.result.warm, outcome.depth
 
     def record(self, key: str | None, outcome: ScenarioOutcome, role: str,
                source: Key | None) -> dict:
