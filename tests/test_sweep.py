@@ -478,6 +478,10 @@ def test_run_optimize_writes_every_file(tmp_path):
     assert manifest["provenance"]["versions"]["casadi"]
     # one task per step of the start graph, then one per kind (its re-solves, cut-in)
     assert [len(c["scenarios"]) for c in manifest["chains"]] == [1] * 6 + [3, 3]
+    # each worker's setup: its tasks' NLP build times, all 8 tasks on the 2 workers
+    assert sum(w["tasks"] for w in manifest["workers"]) == 8 and len(manifest["workers"]) <= 2
+    assert sum(w["build_time_s"] for w in manifest["workers"]) == pytest.approx(
+        sum(c["build_time_s"] for c in manifest["chains"]))
     assert summary.set_index("scenario")["depth"].to_dict() == {
         "elec-lim-5.5": 0, "mech-lim-5.5": 0, "elec-lim-4.0": 1, "elec-lim-7.0": 1,
         "mech-lim-4.0": 1, "mech-lim-7.0": 1}

@@ -146,13 +146,20 @@ class SweepResult:
 
     def record(self) -> dict:
         """The sweep's part of the optimize manifest (docs/schemas.md §5): where it ran, how
-        long, the scenarios that failed, each task, the cut-in searches."""
+        long, the scenarios that failed, each task, each worker's setup (the time it spent
+        building the NLP before its first solve, paid once per worker process), the
+        cut-in searches."""
+        workers: dict[str, list] = {}
+        for c in self.chains:
+            workers.setdefault(c.worker, []).append(c.build_time_s)
         return {
             "executor": self.executor,
             "wall_time_s": self.wall_time_s,
             "failed": [o.name for o in self.outcomes if not o.success],
             "chains": [{"chain": c.chain, "worker": c.worker, "build_time_s": c.build_time_s,
                         "scenarios": [o.name for o in c.outcomes]} for c in self.chains],
+            "workers": [{"worker": w, "build_time_s": sum(b), "tasks": len(b)}
+                        for w, b in workers.items()],
             "cut_in": [dataclasses.asdict(c) for c in self.cut_ins],
         }
 
