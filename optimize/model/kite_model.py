@@ -25,8 +25,10 @@ from dataclasses import dataclass
 import casadi as ca
 
 from optimize.model.aero import aero_forces_moments, altitude_above_ground, wind_speed
+from optimize.model.atmosphere import air_density
+from optimize.model.tether import element_drag, rod_residual
 from optimize.model.variables import Variables
-from optimize.system.params import AeroCoefficients, KiteParams, WindModel
+from optimize.system.params import AeroCoefficients, KiteParams, TetherModel, WindModel
 
 #: states: CG position and velocity (NED), body-to-world DCM (column-major), body
 #: angular velocity, tether length and its two rates, control-surface deflections
@@ -101,6 +103,7 @@ class KiteDae:
     algebraic: Variables = ALGEBRAIC
     fictitious: Variables = FICTITIOUS
     periodic: tuple[str, ...] = PERIODIC_STATES
+    tether: TetherModel = TetherModel()
 
 
 def _split_state(x):
@@ -149,15 +152,40 @@ def _newton_euler(r, r_bridle, dcm, omega, acc, domega, nu, fict, aero, kite: Ki
     return res_force, res_moment
 
 
+def _tether_force(r, v, acc, w_ref, kite: KiteParams, wind: WindModel, tether: TetherModel):
+    """The tether's mass and element drag as terms of the force residual [N] (None for a
+    massless line with the lumped drag; :mod:`optimize.model.tether`). The line ends
+    at the CG."""
+    terms = []
+    if tether.mass_kg_m > 0:
+        terms.append(rod_residual(r, v, acc, tether.mass_kg_m, kite.g_m_s2))
+    if tether.drag_elements > 0:
+        def wind_at(p):
+            return ca.vertcat(wind_speed(altitude_above_ground(p, wind), w_ref, wind), 0, 0)
+
+        def density_at(p):
+            return air_density(altitude_above_ground(p, wind), kite.rho_kg_m3, kite.g_m_s2,
+                               wind.temperature_lapse_k_m)
+
+        terms.append(-element_drag(r, v, wind_at, density_at,
+                                   tether.drag_coefficient * tether.diameter_m,
+                                   tether.drag_elements))
+    return sum(terms[1:], terms[0]) if terms else None
+
+
 def kite_dae(
     kite: KiteParams | None = None,
     coeffs: AeroCoefficients | None = None,
     wind: WindModel | None = None,
+    tether: TetherModel | None = None,
 ) -> KiteDae:
-    """Build the kite DAE functions (paper eqs. 6-8 with the aero model of app. B)."""
+    """Build the kite DAE functions (paper eqs. 6-8 with the aero model of app. B; the
+    tether's mass and element drag of :mod:`optimize.model.tether` when ``tether``
+    has them, the air density of :mod:`optimize.model.atmosphere`)."""
     kite = kite or KiteParams()
     coeffs = coeffs or AeroCoefficients()
     wind = wind or WindModel()
+    tether = tether or TetherModel()
     x = ca.SX.sym("x", STATES.size)
     u = ca.SX.sym("u", CONTROLS.size)
     z = ca.SX.sym("z", ALGEBRAIC.size)
@@ -175,9 +203,13 @@ def kite_dae(
     altitude = altitude_above_ground(r, wind)
     w_local = wind_speed(altitude, w_ref, wind)
     v_air = v - ca.vertcat(w_local, 0, 0)
-    aero = aero_forces_moments(dcm, v_air, omega, surf, l, kite, coeffs)
+    rho = air_density(altitude, kite.rho_kg_m3, kite.g_m_s2, wind.temperature_lapse_k_m)
+    aero = aero_forces_moments(dcm, v_air, omega, surf, l, kite, coeffs, rho)
     res_force, res_moment = _newton_euler(r, r_bridle, dcm, omega, acc, domega, nu, fict, aero,
                                           kite)
+    line = _tether_force(r, v, acc, w_ref, kite, wind, tether)
+    if line is not None:
+        res_force = res_force + line
     residual = ca.vertcat(res_force, res_moment, cddot)
 
     outputs = {
@@ -216,4 +248,5 @@ def kite_dae(
         invariants=ca.Function("kite_invariants", [x], [c, cdot, orth]),
         explicit_ode=ca.Function("kite_explicit_ode", [x, u, w_ref], [xdot_phys]),
         solve_z=ca.Function("kite_solve_z", [x, u, w_ref], [z_phys]),
+        tether=tether,
     )

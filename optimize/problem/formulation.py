@@ -48,6 +48,9 @@ X_REEL_ACCELERATION = STATES.index("ddl_m_s2")
 SOLVER_REEL_ACCELERATION_M_S2 = 500.0
 #: the reel jerk's bound (the control's) when the winch states none: the solver's range
 SOLVER_REEL_JERK_M_S3 = 5000.0
+#: the reel speed's and the body rates' bounds when the system states none: the solver's
+#: range [m/s], [rad/s] (three turns a second)
+SOLVER_REEL_SPEED_M_S, SOLVER_BODY_RATE_RAD_S = 100.0, 6 * np.pi
 
 #: the cycle averages of a point: electrical and mechanical power drawn [W], and the
 #: squared motor torque over its scale (the RMS-torque rating's integrand)
@@ -162,22 +165,27 @@ class Formulation:
     def torque_rows(self, tension: Any, torque: Any) -> list[Row]:
         """Rows on the drive's shaft torque ``torque`` [N m] and the tether's.
 
-        Massless drivetrain: one row, the shaft torque (the tether's) below the kite's
-        tether-force limit in every kind and below the drive's torque limit in the
-        ``*-lim`` kinds. With inertia the shaft torque also goes negative (braking a
-        reel-in), so the drive's limit bounds it both ways, and the tether-force limit
-        has a row of its own on the tether torque.
+        Massless drivetrain: one row, the shaft torque (the tether's) between the
+        kite's tension floor and its tether-force limit in every kind and below the
+        drive's torque limit in the ``*-lim`` kinds. With inertia the shaft torque also
+        goes negative (braking a reel-in), so the drive's limit bounds it both ways,
+        and the tension floor and the tether-force limit have a row of their own on
+        the tether torque.
         """
-        sc, lim = self.scales, self.limits
+        sc, lim, kite = self.scales, self.limits, self.dae.kite
         _, torque_top = self.kite_limits()
+        floor = (-np.inf if lim.min_tension_n is None else float(
+            motor_torque_nm(lim.min_tension_n, kite.r_winch_m, kite.gear_ratio)))
         if self.drivetrain.inertia_kg_m2 == 0:
-            return [Row("torque", torque / sc.torque_nm, -np.inf, torque_top / sc.torque_nm,
-                        limited=(-np.inf, min(lim.max_torque_nm, torque_top) / sc.torque_nm))]
+            return [Row("torque", torque / sc.torque_nm, floor / sc.torque_nm,
+                        torque_top / sc.torque_nm, limited=(
+                            floor / sc.torque_nm,
+                            min(lim.max_torque_nm, torque_top) / sc.torque_nm))]
         top = lim.max_torque_nm / sc.torque_nm
         rows = [Row("torque", torque / sc.torque_nm, -np.inf, np.inf, limited=(-top, top))]
-        if np.isfinite(torque_top):
+        if np.isfinite(torque_top) or np.isfinite(floor):
             rows.append(Row("tether_force", self.drivetrain.tether_torque_nm(tension)
-                            / sc.torque_nm, -np.inf, torque_top / sc.torque_nm))
+                            / sc.torque_nm, floor / sc.torque_nm, torque_top / sc.torque_nm))
         return rows
 
     def envelope_rows(self, speed_rpm: Any, torque: Any) -> list[Row]:
@@ -321,14 +329,18 @@ class Formulation:
         l_lo, l_hi = lim.tether_length_bounds_m
         reach = 4.0 * l_hi
         z_top = lim.min_altitude_m - self.dae.wind.origin_altitude_m  # r_z <= -(clearance)
-        surf, spin = lim.surface_bound_deg * DEG, 6 * np.pi
+        surf = lim.surface_bound_deg * DEG
+        spin = (SOLVER_BODY_RATE_RAD_S if lim.max_body_rate_deg_s is None
+                else lim.max_body_rate_deg_s * DEG)
         hi = {"r_x_m": reach, "r_y_m": reach, "r_z_m": -z_top, "v_x_m_s": 200, "v_y_m_s": 200,
               "v_z_m_s": 200, "omega_x_rad_s": spin, "omega_y_rad_s": spin,
-              "omega_z_rad_s": spin, "l_m": l_hi, "dl_m_s": 100,
+              "omega_z_rad_s": spin, "l_m": l_hi,
+              "dl_m_s": lim.max_reel_out_speed_m_s or SOLVER_REEL_SPEED_M_S,
               "ddl_m_s2": lim.max_reel_acceleration_m_s2 or SOLVER_REEL_ACCELERATION_M_S2,
               "aileron_rad": surf, "elevator_rad": surf, "rudder_rad": surf}
         lo = {name: -value for name, value in hi.items()}
-        lo.update(r_z_m=-reach, l_m=l_lo)
+        lo.update(r_z_m=-reach, l_m=l_lo,
+                  dl_m_s=-(lim.max_reel_in_speed_m_s or SOLVER_REEL_SPEED_M_S))
         for name in () if self.thermal is None else self.thermal.states:
             lo[name], hi[name] = THERMAL_RANGE_C  # the solver's range: no winding limit here
         names = self.dae.states.names
@@ -345,7 +357,9 @@ class Formulation:
         kite = self.dae.kite
         dl_max = max_reel_speed_m_s(self.limits.max_speed_rpm / kite.gear_ratio,
                                     kite.r_winch_m)
-        return {X_REEL_SPEED: (-dl_max, dl_max)}
+        lower, upper = self.state_bounds()
+        return {X_REEL_SPEED: (max(-dl_max, lower[X_REEL_SPEED]),
+                               min(dl_max, upper[X_REEL_SPEED]))}
 
     def algebraic_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Bounds of the algebraic variables [SI]: tension ``l nu >= 0``."""

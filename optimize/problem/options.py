@@ -113,6 +113,15 @@ class Limits:
     max_reel_jerk_m_s3 : float or None
         Largest tether (reel) jerk ``|dddl|`` [m/s^3], the OCP's control, of every
         scenario kind; ``None``: only the solver's range (5000 m/s^3).
+    max_reel_out_speed_m_s, max_reel_in_speed_m_s : float or None
+        Largest reel-out speed ``l'`` and reel-in speed ``-l'`` [m/s] of every scenario
+        kind (the winch's limits; the drive's speed limit of the constrained kinds
+        comes on top, the smaller wins); ``None``: only the solver's range (100 m/s).
+    max_body_rate_deg_s : float or None
+        Largest magnitude of each body rate p, q, r [deg/s] of every kind; ``None``:
+        only the solver's range (1080 deg/s).
+    min_tension_n : float or None
+        Smallest tether tension [N] of every kind; ``None``: tension >= 0.
     base_speed_rpm : float or None
         The drive's base speed at the motor shaft [rpm]: above it the largest torque
         falls as ``max_torque_nm * base / |n|`` (constant power), in the constrained
@@ -150,6 +159,10 @@ class Limits:
     surface_rate_bound_rad_s: float = 2.0
     max_reel_acceleration_m_s2: float | None = None
     max_reel_jerk_m_s3: float | None = None
+    max_reel_out_speed_m_s: float | None = None
+    max_reel_in_speed_m_s: float | None = None
+    max_body_rate_deg_s: float | None = None
+    min_tension_n: float | None = None
     base_speed_rpm: float | None = None
     envelope_speed_rpm: tuple[float, ...] | None = None
     envelope_torque_nm: tuple[float, ...] | None = None
@@ -163,10 +176,13 @@ class Limits:
                 f"period_bounds_s must satisfy 0 < lo < hi, got {self.period_bounds_s}"
             )
         for name in ("max_rms_torque_nm", "max_airspeed_m_s", "max_tether_force_n",
-                     "max_reel_acceleration_m_s2", "max_reel_jerk_m_s3", "base_speed_rpm"):
+                     "max_reel_acceleration_m_s2", "max_reel_jerk_m_s3", "base_speed_rpm",
+                     "max_reel_out_speed_m_s", "max_reel_in_speed_m_s", "max_body_rate_deg_s"):
             value = getattr(self, name)
             if value is not None and not value > 0:
                 raise ValueError(f"{name} must be > 0, got {value}")
+        if self.min_tension_n is not None and not self.min_tension_n >= 0:
+            raise ValueError(f"min_tension_n must be >= 0, got {self.min_tension_n}")
 
 
 #: NLP solvers the OCP can be handed to

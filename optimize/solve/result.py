@@ -11,6 +11,7 @@ from optimize.model.envelope import envelope_torque_nm, has_envelope
 from optimize.model.thermal import RANGE_C as THERMAL_RANGE_C
 from optimize.model.thermal import STATE as THERMAL_STATE
 from optimize.problem.ocp import Ocp
+from optimize.problem.options import Limits
 from optimize.problem.scenario import Scenario
 from optimize.solve.backend import RawSolve
 
@@ -214,6 +215,7 @@ def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: b
     if o.max_reel_jerk_m_s3 is not None and _near(
             np.abs(traj["dddl_m_s3"].to_numpy()), o.max_reel_jerk_m_s3):
         out.append("reel_jerk_limit")
+    out += _winch_and_body_bounds(o, traj)
     if drive_limits:
         speed = np.abs(traj["speed_rpm"].to_numpy())
         if _near(speed, o.max_speed_rpm):
@@ -232,6 +234,25 @@ def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: b
     if THERMAL_STATE in traj and _near(traj[THERMAL_STATE].to_numpy(), THERMAL_RANGE_C[1]):
         out.append("winding_temperature_range")
     return tuple(out)
+
+
+def _winch_and_body_bounds(o: Limits, traj: pd.DataFrame) -> list[str]:
+    """The winch's reel-speed limits, the body-rate limit and the tension floor the
+    solution sits on (those the system states; every kind)."""
+    out = []
+    dl = traj["dl_m_s"].to_numpy()
+    if o.max_reel_out_speed_m_s is not None and _near(dl, o.max_reel_out_speed_m_s):
+        out.append("reel_out_speed_limit")
+    if o.max_reel_in_speed_m_s is not None and _near(-dl, o.max_reel_in_speed_m_s):
+        out.append("reel_in_speed_limit")
+    if o.max_body_rate_deg_s is not None:
+        rates = np.degrees(np.abs(traj[["omega_x_rad_s", "omega_y_rad_s",
+                                        "omega_z_rad_s"]].to_numpy()))
+        if _near(rates, o.max_body_rate_deg_s):
+            out.append("body_rate_limit")
+    if o.min_tension_n is not None and _near(traj["tension_n"].to_numpy(), o.min_tension_n):
+        out.append("tension_min")
+    return out
 
 
 def slack_fraction(ocp: Ocp, traj: pd.DataFrame) -> float:
