@@ -175,6 +175,7 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
                            drive.rating.source or "the drive in force")
     note += "\n" + loaded.kite_limits().describe()
     note += "\n" + loaded.drivetrain_line()
+    note += "\n" + loaded.tether_air_line()
     note += "\n" + thermal_line(drive.model, options.limits, loaded.path)
     if solver.n_intervals * solver.degree < MIN_COLLOCATION_POINTS:
         note += (f"\nmesh {mesh_label(solver.n_intervals, solver.degree)}: the result check "

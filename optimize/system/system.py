@@ -364,6 +364,17 @@ class System:
             envelope = "no torque-speed envelope stated (the torque limit at every speed)"
         return f"drivetrain: {inertia}; {accel}; {envelope}"
 
+    def tether_air_line(self) -> str:
+        """One line: the tether's mass and drag model and the atmosphere in force."""
+        t, w = self.tether_model(), self.wind
+        mass = (f"{t.mass_kg_m:.4g} kg/m (a rod with its weight and mass flow)"
+                if t.mass_kg_m > 0 else "massless")
+        drag = (f"drag over {t.drag_elements} elements with their own apparent wind"
+                if t.drag_elements else "drag lumped at the kite (a quarter of the line's)")
+        air = (f"ISA from {w.air_density_kg_m3:g} kg/m^3 at the ground" if w.atmosphere == "isa"
+               else f"constant density {w.air_density_kg_m3:g} kg/m^3")
+        return f"tether: {mass}, {drag}; air: {air}"
+
     def dae_spec(self) -> DaeSpec:
         """How a worker builds this system's model (:func:`optimize.model.kite_model.kite_dae`
         with :meth:`model_params`)."""
