@@ -27,6 +27,15 @@ scratch folder with no ``fit_out/``, on a copy of the shipped
 * ``drag-5``: tether drag over 5 elements with their own apparent wind;
 * ``mass``: the tether's mass, 0.0046 kg/m: the shipped file.
 
+Two variants of the shipped file measure awebox's remaining differences instead of
+copying them (``--variants``):
+
+* ``ends-only``: the path constraints (airspeed, alpha, beta, line angle, tether force)
+  at the last Radau point of each interval only, the interval ends: awebox imposes them
+  at the interval starts only, so a cycle may break them in between;
+* ``period-51.6``: the period held at awebox's 51.6 s (bounds 51.5-51.7 s): what the
+  power loses at awebox's period.
+
 Each row: status, average mechanical power, period, the largest line angle, reel speeds,
 the body rates and the bounds the optimum sits on, against the paper (Licitra et al.
 2019: 4.4 kW, 39.6 s) and awebox as it ships (4.88 kW, 51.6 s, issue 39). ``--curve``
@@ -51,7 +60,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from optimize.command import make_request, run_optimize
 from optimize.model.aero import at_alpha
+from optimize.service.builder import OcpBackend
+from optimize.sweep_options import Execution, WindGrid
+from optimize.system.system_file import system_from_dict
 
 ROOT = Path(__file__).resolve().parent.parent
 BENCH = Path(sys.executable).parent / "bench"
@@ -163,6 +176,43 @@ def run(name: str, data: dict, out: Path, grid: str, kinds: str) -> dict:
     return {"exit": proc.returncode, "wall_s": time.perf_counter() - t0}
 
 
+#: the rows awebox imposes at the interval starts only (its model_bounds)
+PATH_ROWS = ("airspeed", "alpha", "beta", "line_angle", "torque", "tether_force")
+
+
+class EndsOnlyBackend(OcpBackend):
+    """The package's OCP with the path rows at each interval's last Radau point only."""
+
+    def build(self, problem):  # noqa: D102 (OcpBackend.build)
+        ocp = super().build(problem)
+        base = type(ocp).bounds.__get__(ocp)
+
+        def bounds(drive_limits, fix_fictitious, period_s):
+            lbw, ubw, lbg, ubg = base(drive_limits, fix_fictitious, period_s)
+            d = ocp.coll.degree
+            for name in PATH_ROWS:
+                rows = ocp.layout.rows_of(name)
+                if rows.size:
+                    inner = rows.reshape(ocp.n_intervals, d)[:, : d - 1].ravel()
+                    lbg[inner], ubg[inner] = -np.inf, np.inf
+            return lbw, ubw, lbg, ubg
+
+        ocp.bounds = bounds
+        return ocp
+
+
+def run_ends_only(data: dict, out: Path) -> dict:
+    """The shipped file with :class:`EndsOnlyBackend`, at 10 m/s mech-free."""
+    system = system_from_dict(data, str(AP2))
+    request = make_request(WindGrid((10.0,), ("mech-free",)), system=system,
+                           out=out / "ends-only", execution=Execution(workers=1),
+                           claims=False)
+    t0 = time.perf_counter()
+    run_optimize(request, command_line=sys.argv, show_progress=False,
+                 backend=EndsOnlyBackend())
+    return {"exit": 0, "wall_s": time.perf_counter() - t0}
+
+
 def measure(folder: Path) -> list[dict]:
     """Per scenario of a run: power, period, extremes and active bounds."""
     s = pd.read_parquet(folder / "summary.parquet")
@@ -187,7 +237,9 @@ def ablation_table(results: dict) -> str:
     lines = ["| step | change | status | P_mech [kW] | vs paper | vs awebox | period [s] | "
              "vs paper | vs awebox | max line angle [deg] | reel speed [m/s] | "
              "max body rate [deg/s] | active bounds |", "|---|---|---|" + "---:|" * 9 + "---|"]
-    for name, what, _ in STEPS:
+    variants = (("ends-only", "shipped file, path rows at interval ends only"),
+                ("period-51.6", "shipped file, period held at 51.6 s"))
+    for name, what in [(n, w) for n, w, _ in STEPS] + list(variants):
         for r in results.get(name, []):
             p, t = -r["p_mech_w"], r["period_s"]
             lo, hi = r["reel_speed_m_s"]
@@ -216,6 +268,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--steps", default=",".join(s[0] for s in STEPS))
     ap.add_argument("--workers", type=int, default=2, help="steps run side by side")
     ap.add_argument("--curve", action="store_true", help="also the power curve 6-14 m/s")
+    ap.add_argument("--variants", action="store_true", help="also ends-only and period-51.6")
     ap.add_argument("--tabulate-only", action="store_true")
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "out" / "ap2_ablation")
     args = ap.parse_args(argv)
@@ -223,15 +276,24 @@ def main(argv: list[str] | None = None) -> int:
     files = step_files()
     names = [n for n in args.steps.split(",") if n]
     jobs = [(n, files[n], "10", "mech-free") for n in names]
+    shipped = files[STEPS[-1][0]]
     if args.curve:
-        jobs.append(("curve", files[STEPS[-1][0]], "6:14:2", "mech-free,elec-lim"))
+        jobs.append(("curve", shipped, "6:14:2", "mech-free,elec-lim"))
+    if args.variants:
+        held = json.loads(json.dumps(shipped))
+        held["bounds"].update(period_min_s=51.5, period_max_s=51.7)
+        jobs.append(("period-51.6", held, "10", "mech-free"))
     if not args.tabulate_only:
         with ThreadPoolExecutor(args.workers) as pool:
             for (name, *_), info in zip(jobs, pool.map(lambda j: run(*j[:2], args.out, *j[2:]),
                                                        jobs), strict=True):
                 print(f"{name}: exit {info['exit']}, {info['wall_s']:.0f} s "
                       f"(load {os.getloadavg()[0]:.1f})", flush=True)
-    results = {n: measure(args.out / n) for n, *_ in jobs
+        if args.variants:
+            info = run_ends_only(shipped, args.out)
+            print(f"ends-only: {info['wall_s']:.0f} s (load {os.getloadavg()[0]:.1f})")
+    names = [n for n, *_ in jobs] + (["ends-only"] if args.variants else [])
+    results = {n: measure(args.out / n) for n in names
                if (args.out / n / "summary.parquet").exists()}
     print(ablation_table(results))
     if "curve" in results:
