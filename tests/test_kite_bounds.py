@@ -98,7 +98,7 @@ def test_crossed_keys_name_the_key():
 
 
 def test_the_cli_refuses_a_bad_key_with_exit_2(tmp_path, capsys):
-    from bench.cli import main
+    from drivebench.cli import main
 
     text = shipped_system_path("ap2").read_text().replace(
         "max_body_rate_deg_s = 50.0", "max_body_rate_deg_s = -50.0")

@@ -18,8 +18,13 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import Any
+
+#: the reel speed's and the body rates' bounds when the system states none: the solver's
+#: range [m/s], [rad/s] (three turns a second)
+SOLVER_REEL_SPEED_M_S, SOLVER_BODY_RATE_RAD_S = 100.0, 6 * math.pi
 
 #: most collocation intervals per period: the default is 40 and the trust check's mesh
 #: refinement doubles it; 400 already means ~10^5 NLP variables and minutes per solve
@@ -183,6 +188,19 @@ class Limits:
                 raise ValueError(f"{name} must be > 0, got {value}")
         if self.min_tension_n is not None and not self.min_tension_n >= 0:
             raise ValueError(f"min_tension_n must be >= 0, got {self.min_tension_n}")
+
+    def reel_speed_range_m_s(self) -> tuple[float, float]:
+        """The reel speed ``l'`` range of every kind [m/s]: the winch's limits, the
+        solver's range of :data:`SOLVER_REEL_SPEED_M_S` where unstated."""
+        return (-(self.max_reel_in_speed_m_s or SOLVER_REEL_SPEED_M_S),
+                self.max_reel_out_speed_m_s or SOLVER_REEL_SPEED_M_S)
+
+    def body_rate_bound_rad_s(self) -> float:
+        """The bound of each body rate of every kind [rad/s]: the system's, the solver's
+        range of :data:`SOLVER_BODY_RATE_RAD_S` where unstated."""
+        if self.max_body_rate_deg_s is None:
+            return SOLVER_BODY_RATE_RAD_S
+        return self.max_body_rate_deg_s * math.pi / 180
 
 
 #: NLP solvers the OCP can be handed to
