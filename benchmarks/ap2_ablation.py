@@ -33,8 +33,13 @@ copying them (``--variants``):
 * ``ends-only``: the path constraints (airspeed, alpha, beta, line angle, tether force)
   at the last Radau point of each interval only, the interval ends: awebox imposes them
   at the interval starts only, so a cycle may break them in between;
-* ``period-51.6``: the period held at awebox's 51.6 s (bounds 51.5-51.7 s): what the
-  power loses at awebox's period.
+* ``from-51.6``: solved with the period held at 51.6 s, then again with it free (the
+  nearest local optimum to awebox's period).
+
+``ends-only`` solves the shipped file as always, then again from its optimum with the
+rows relaxed between the interval ends. ``--hold-periods 40,51.6,...`` flies the
+shipped file with its period held at each (bounds P +- 0.1 s): the power along the
+period, at awebox's 51.6 s among them.
 
 Each row: status, average mechanical power, period, the largest line angle, reel speeds,
 the body rates and the bounds the optimum sits on, against the paper (Licitra et al.
@@ -180,36 +185,50 @@ def run(name: str, data: dict, out: Path, grid: str, kinds: str) -> dict:
 PATH_ROWS = ("airspeed", "alpha", "beta", "line_angle", "torque", "tether_force")
 
 
-class EndsOnlyBackend(OcpBackend):
-    """The package's OCP with the path rows at each interval's last Radau point only."""
+class StagedBackend(OcpBackend):
+    """The package's OCP solved in two stages: the cold start as always (or with the
+    period held at ``hold_period_s``), then, warm-started from it, with the period free
+    and (``ends_only``) the path rows at each interval's last Radau point only."""
+
+    def __init__(self, ends_only: bool = False, hold_period_s: float | None = None):
+        self.ends_only, self.hold_period_s, self.stage = ends_only, hold_period_s, 1
 
     def build(self, problem):  # noqa: D102 (OcpBackend.build)
         ocp = super().build(problem)
         base = type(ocp).bounds.__get__(ocp)
 
         def bounds(drive_limits, fix_fictitious, period_s):
+            if self.stage == 1 and self.hold_period_s is not None:
+                period_s = self.hold_period_s
             lbw, ubw, lbg, ubg = base(drive_limits, fix_fictitious, period_s)
-            d = ocp.coll.degree
-            for name in PATH_ROWS:
-                rows = ocp.layout.rows_of(name)
-                if rows.size:
-                    inner = rows.reshape(ocp.n_intervals, d)[:, : d - 1].ravel()
-                    lbg[inner], ubg[inner] = -np.inf, np.inf
+            if self.stage == 2 and self.ends_only:
+                d = ocp.coll.degree
+                for name in PATH_ROWS:
+                    rows = ocp.layout.rows_of(name)
+                    if rows.size:
+                        inner = rows.reshape(ocp.n_intervals, d)[:, : d - 1].ravel()
+                        lbg[inner], ubg[inner] = -np.inf, np.inf
             return lbw, ubw, lbg, ubg
 
         ocp.bounds = bounds
         return ocp
 
+    def cold_start(self, ocp, kind, wind_speed_m_s):  # noqa: D102 (OcpBackend.cold_start)
+        self.stage = 1
+        first = super().cold_start(ocp, kind, wind_speed_m_s)
+        if not first.success:
+            return first
+        self.stage = 2
+        return self.solve(ocp, kind, wind_speed_m_s, first.warm)
 
-def run_ends_only(data: dict, out: Path) -> dict:
-    """The shipped file with :class:`EndsOnlyBackend`, at 10 m/s mech-free."""
+
+def run_staged(name: str, data: dict, out: Path, backend: StagedBackend) -> dict:
+    """The shipped file with a :class:`StagedBackend`, at 10 m/s mech-free, in-process."""
     system = system_from_dict(data, str(AP2))
     request = make_request(WindGrid((10.0,), ("mech-free",)), system=system,
-                           out=out / "ends-only", execution=Execution(workers=1),
-                           claims=False)
+                           out=out / name, execution=Execution(workers=1), claims=False)
     t0 = time.perf_counter()
-    run_optimize(request, command_line=sys.argv, show_progress=False,
-                 backend=EndsOnlyBackend())
+    run_optimize(request, command_line=sys.argv, show_progress=False, backend=backend)
     return {"exit": 0, "wall_s": time.perf_counter() - t0}
 
 
@@ -237,9 +256,12 @@ def ablation_table(results: dict) -> str:
     lines = ["| step | change | status | P_mech [kW] | vs paper | vs awebox | period [s] | "
              "vs paper | vs awebox | max line angle [deg] | reel speed [m/s] | "
              "max body rate [deg/s] | active bounds |", "|---|---|---|" + "---:|" * 9 + "---|"]
-    variants = (("ends-only", "shipped file, path rows at interval ends only"),
-                ("period-51.6", "shipped file, period held at 51.6 s"))
-    for name, what in [(n, w) for n, w, _ in STEPS] + list(variants):
+    variants = [("ends-only", "shipped file, then path rows at interval ends only"),
+                ("from-51.6", "shipped file, period free from the 51.6 s optimum"),
+                *((n, f"shipped file, period held at {n[7:]} s")
+                  for n in sorted(results, key=lambda n: float(n[7:]) if n.startswith(
+                      "period-") else 0) if n.startswith("period-"))]
+    for name, what in [(n, w) for n, w, _ in STEPS] + variants:
         for r in results.get(name, []):
             p, t = -r["p_mech_w"], r["period_s"]
             lo, hi = r["reel_speed_m_s"]
@@ -263,12 +285,19 @@ def curve_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+#: the in-process variants (after :class:`StagedBackend` is defined)
+STAGED = (("ends-only", StagedBackend(ends_only=True)),
+          ("from-51.6", StagedBackend(hold_period_s=AWEBOX[1])))
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--steps", default=",".join(s[0] for s in STEPS))
     ap.add_argument("--workers", type=int, default=2, help="steps run side by side")
     ap.add_argument("--curve", action="store_true", help="also the power curve 6-14 m/s")
-    ap.add_argument("--variants", action="store_true", help="also ends-only and period-51.6")
+    ap.add_argument("--variants", action="store_true", help="also ends-only and from-51.6")
+    ap.add_argument("--hold-periods", default="",
+                    help="periods [s] to hold the shipped file at, e.g. 40,45,51.6,60,70")
     ap.add_argument("--tabulate-only", action="store_true")
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "out" / "ap2_ablation")
     args = ap.parse_args(argv)
@@ -279,20 +308,20 @@ def main(argv: list[str] | None = None) -> int:
     shipped = files[STEPS[-1][0]]
     if args.curve:
         jobs.append(("curve", shipped, "6:14:2", "mech-free,elec-lim"))
-    if args.variants:
+    for p in [float(p) for p in args.hold_periods.split(",") if p]:
         held = json.loads(json.dumps(shipped))
-        held["bounds"].update(period_min_s=51.5, period_max_s=51.7)
-        jobs.append(("period-51.6", held, "10", "mech-free"))
+        held["bounds"].update(period_min_s=p - 0.1, period_max_s=p + 0.1)
+        jobs.append((f"period-{p:g}", held, "10", "mech-free"))
     if not args.tabulate_only:
         with ThreadPoolExecutor(args.workers) as pool:
             for (name, *_), info in zip(jobs, pool.map(lambda j: run(*j[:2], args.out, *j[2:]),
                                                        jobs), strict=True):
                 print(f"{name}: exit {info['exit']}, {info['wall_s']:.0f} s "
                       f"(load {os.getloadavg()[0]:.1f})", flush=True)
-        if args.variants:
-            info = run_ends_only(shipped, args.out)
-            print(f"ends-only: {info['wall_s']:.0f} s (load {os.getloadavg()[0]:.1f})")
-    names = [n for n, *_ in jobs] + (["ends-only"] if args.variants else [])
+        for name, backend in STAGED if args.variants else ():
+            info = run_staged(name, shipped, args.out, backend)
+            print(f"{name}: {info['wall_s']:.0f} s (load {os.getloadavg()[0]:.1f})")
+    names = [n for n, *_ in jobs] + ([n for n, _ in STAGED] if args.variants else [])
     results = {n: measure(args.out / n) for n in names
                if (args.out / n / "summary.parquet").exists()}
     print(ablation_table(results))

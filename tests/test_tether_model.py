@@ -18,7 +18,7 @@ from scipy.integrate import quad
 
 from optimize.model.atmosphere import ISA_LAPSE_K_M, air_density
 from optimize.model.kite_model import kite_dae
-from optimize.model.tether import element_drag, rod_energies, rod_residual
+from optimize.model.tether import LINE_FORCE, element_drag, rod_energies, rod_residual
 from optimize.system.params import KiteParams, TetherModel, WindModel
 
 MU_KG_M, G_M_S2 = 0.0046, 9.81  # AP2's line (awebox ampyx_ap2_settings.py L18)
@@ -130,10 +130,34 @@ def test_constant_atmosphere_is_the_density_itself():
     assert air_density(ca.SX.sym("h"), 1.23, 9.81, 0.0) == 1.23
 
 
-def test_a_massless_lumped_tether_leaves_the_kite_model_unchanged():
-    """The defaults build the very same expressions (the paper's model, bit for bit)."""
-    plain = kite_dae()
-    explicit = kite_dae(KiteParams(), None, WindModel(), TetherModel())
-    assert plain.alg.serialize() == explicit.alg.serialize()
-    heavy = kite_dae(KiteParams(), None, WindModel(), TetherModel(mass_kg_m=0.01))
-    assert heavy.alg.serialize() != plain.alg.serialize()
+def test_the_tether_part_joins_only_a_line_with_mass_or_element_drag():
+    """The paper's massless lumped line adds no part (its OCP is the paper's, bit for bit);
+    a line with mass adds the line's force on the kite, which the kite's Newton rows
+    take: at any point the kite's rows with the part are the kite's own (the plain
+    model's, unscaled) minus the line's force, and the part's rows are the force
+    variables minus the rod's force."""
+    from optimize.paper_model import paper_model
+    from optimize.problem.ocp import build_ocp
+    from optimize.problem.options import Discretization, OcpOptions
+
+    options = OcpOptions(Discretization(4, 2))
+    plain = build_ocp(kite_dae(), paper_model(), options)
+    assert "tether" not in [p.name for p in plain.formulation.parts]
+    heavy = build_ocp(kite_dae(KiteParams(), None, WindModel(), TetherModel(mass_kg_m=0.01)),
+                      paper_model(), options)
+    part = [p for p in heavy.formulation.parts if p.name == "tether"]
+    assert len(part) == 1 and part[0].algebraic.names == LINE_FORCE
+    dae = heavy.dae
+    rng = np.random.default_rng(1)
+    x, u = rng.normal(size=dae.states.size), rng.normal(size=dae.controls.size)
+    z, fict = rng.normal(size=dae.algebraic.size), np.zeros(dae.fictitious.size)
+    x[dae.states.indices(("r_x_m", "r_y_m", "r_z_m"))] = R_M
+    res = np.asarray(dae.alg(x, u, z, 10.0, fict)).ravel()
+    alone = np.asarray(plain.dae.alg(x[:plain.dae.states.size], u, z[:7], 10.0, fict)).ravel()
+    force = z[dae.algebraic.indices(LINE_FORCE)]
+    scale = heavy.formulation.parts[0].scales_of.residual
+    np.testing.assert_allclose(res[:7] * scale, alone - np.r_[force, np.zeros(4)],
+                               rtol=1e-9, atol=1e-9)
+    rod = _vec(-rod_residual(ca.DM(R_M), ca.DM(x[3:6]), ca.DM(z[:3]), 0.01, 9.81))
+    np.testing.assert_allclose(res[7:] * part[0].force_scale_n, force - rod, rtol=1e-9,
+                               atol=1e-9)

@@ -26,7 +26,6 @@ import casadi as ca
 
 from optimize.model.aero import aero_forces_moments, altitude_above_ground, wind_speed
 from optimize.model.atmosphere import air_density
-from optimize.model.tether import element_drag, rod_residual
 from optimize.model.variables import Variables
 from optimize.system.params import AeroCoefficients, KiteParams, TetherModel, WindModel
 
@@ -152,36 +151,16 @@ def _newton_euler(r, r_bridle, dcm, omega, acc, domega, nu, fict, aero, kite: Ki
     return res_force, res_moment
 
 
-def _tether_force(r, v, acc, w_ref, kite: KiteParams, wind: WindModel, tether: TetherModel):
-    """The tether's mass and element drag as terms of the force residual [N] (None for a
-    massless line with the lumped drag; :mod:`optimize.model.tether`). The line ends
-    at the CG."""
-    terms = []
-    if tether.mass_kg_m > 0:
-        terms.append(rod_residual(r, v, acc, tether.mass_kg_m, kite.g_m_s2))
-    if tether.drag_elements > 0:
-        def wind_at(p):
-            return ca.vertcat(wind_speed(altitude_above_ground(p, wind), w_ref, wind), 0, 0)
-
-        def density_at(p):
-            return air_density(altitude_above_ground(p, wind), kite.rho_kg_m3, kite.g_m_s2,
-                               wind.temperature_lapse_k_m)
-
-        terms.append(-element_drag(r, v, wind_at, density_at,
-                                   tether.drag_coefficient * tether.diameter_m,
-                                   tether.drag_elements))
-    return sum(terms[1:], terms[0]) if terms else None
-
-
 def kite_dae(
     kite: KiteParams | None = None,
     coeffs: AeroCoefficients | None = None,
     wind: WindModel | None = None,
     tether: TetherModel | None = None,
 ) -> KiteDae:
-    """Build the kite DAE functions (paper eqs. 6-8 with the aero model of app. B; the
-    tether's mass and element drag of :mod:`optimize.model.tether` when ``tether``
-    has them, the air density of :mod:`optimize.model.atmosphere`)."""
+    """Build the kite DAE functions (paper eqs. 6-8 with the aero model of app. B, the air
+    density of :mod:`optimize.model.atmosphere`). ``tether`` is carried along: its mass
+    and element drag enter the OCP as a part of their own
+    (:class:`optimize.problem.tether_part.TetherPart`), the line's force on the kite."""
     kite = kite or KiteParams()
     coeffs = coeffs or AeroCoefficients()
     wind = wind or WindModel()
@@ -207,9 +186,6 @@ def kite_dae(
     aero = aero_forces_moments(dcm, v_air, omega, surf, l, kite, coeffs, rho)
     res_force, res_moment = _newton_euler(r, r_bridle, dcm, omega, acc, domega, nu, fict, aero,
                                           kite)
-    line = _tether_force(r, v, acc, w_ref, kite, wind, tether)
-    if line is not None:
-        res_force = res_force + line
     residual = ca.vertcat(res_force, res_moment, cddot)
 
     outputs = {

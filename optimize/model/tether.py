@@ -35,6 +35,13 @@ from typing import Any
 
 import casadi as ca
 
+from optimize.model.aero import altitude_above_ground, wind_speed
+from optimize.model.atmosphere import air_density
+from optimize.system.params import KiteParams, TetherModel, WindModel
+
+#: the line's force on the kite, NED [N]: the tether part's algebraic variables
+LINE_FORCE = ("f_line_x_n", "f_line_y_n", "f_line_z_n")
+
 #: smoothing of the apparent wind's norm and of the length across it [m/s], [m]: keeps
 #: their derivatives finite where either vanishes (awebox smooths by 1e-6 likewise)
 _EPS = 1e-6
@@ -109,4 +116,40 @@ def element_drag(r: Any, v: Any, wind_at: Callable[[Any], Any],
         along = ca.dot(r, u) / (speed * n_elements)  # element's length along u
         across = ca.sqrt((length / n_elements) ** 2 - along**2 + _EPS**2)
         force = force + s * cd_diameter_m * 0.5 * density_at(s * r) * speed * across * u
+    return force
+
+
+def line_force(r: Any, v: Any, a: Any, wind_ref_m_s: Any, kite: KiteParams, wind: WindModel,
+               tether: TetherModel) -> Any:
+    """The force the line puts on the kite [N], NED: minus :func:`rod_residual` (its
+    mass) plus :func:`element_drag` (its drag over elements), each when ``tether`` has
+    it; 0 for a massless line with the lumped drag.
+
+    Parameters
+    ----------
+    r, v, a : 3-vector
+        The kite's position [m], velocity [m/s] and acceleration [m/s^2], NED.
+    wind_ref_m_s : scalar
+        The reference wind speed [m/s] of ``wind``'s profile (along +x).
+    kite : KiteParams
+        Gravity, and the density at the ground.
+    wind : WindModel
+        The profile, the winch's height and the atmosphere's lapse rate.
+    tether : TetherModel
+    """
+    force = ca.DM.zeros(3)
+    if tether.mass_kg_m > 0:
+        force = force - rod_residual(r, v, a, tether.mass_kg_m, kite.g_m_s2)
+    if tether.drag_elements > 0:
+        def wind_at(p):
+            return ca.vertcat(wind_speed(altitude_above_ground(p, wind), wind_ref_m_s, wind),
+                              0, 0)
+
+        def density_at(p):
+            return air_density(altitude_above_ground(p, wind), kite.rho_kg_m3, kite.g_m_s2,
+                               wind.temperature_lapse_k_m)
+
+        force = force + element_drag(r, v, wind_at, density_at,
+                                     tether.drag_coefficient * tether.diameter_m,
+                                     tether.drag_elements)
     return force

@@ -18,6 +18,7 @@ import casadi as ca
 import numpy as np
 
 from optimize.model.kite_model import KiteDae
+from optimize.model.tether import LINE_FORCE
 from optimize.problem.guess import LoopGuess, circular_loop
 from optimize.problem.interface import Row
 from optimize.problem.options import Limits
@@ -93,10 +94,16 @@ class KitePart(Part):
         return [self.dae.ode(*self._xuz(q))]
 
     def residual(self, q: Mapping[str, Any]) -> list[Any]:
-        """Newton-Euler and ``d2c/dt2`` over their scales."""
+        """Newton-Euler and ``d2c/dt2`` over their scales; the line's force on the kite
+        (:class:`optimize.problem.tether_part.TetherPart`) in Newton's rows when the
+        OCP has it."""
         x, u, z = self._xuz(q)
         fict = _vector(q, self.fictitious.names)
-        return [self.dae.alg(x, u, z, q[WIND], fict) * ca.DM(1.0 / self.scales_of.residual)]
+        residual = self.dae.alg(x, u, z, q[WIND], fict)
+        if LINE_FORCE[0] in q:
+            residual = residual - ca.vertcat(_vector(q, LINE_FORCE),
+                                             ca.DM.zeros(residual.numel() - 3))
+        return [residual * ca.DM(1.0 / self.scales_of.residual)]
 
     def rows(self, q: Mapping[str, Any]) -> list[Row]:
         """Airspeed (the kite's limit in every kind), angle of attack, sideslip and line
