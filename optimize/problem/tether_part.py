@@ -4,10 +4,10 @@ The part has three algebraic variables, the line's force on the kite
 (:data:`optimize.model.tether.LINE_FORCE`, NED [N]), and one residual row per
 component: the variable equals :func:`optimize.model.tether.line_force` at the kite's
 position, velocity and acceleration (the rod's Lagrange terms and the element drag,
-awebox's models). The kite part adds the force to its Newton rows
-(:meth:`optimize.problem.kite_part.KitePart.residual`), as awebox carries its tether
-forces in algebraic variables (``f_tether``) of their own. It joins the kite's parts
-only when the system file gives the line a mass or element drag
+awebox's models). The part puts it on the kite through the external-force quantities
+(:data:`optimize.problem.kite_part.EXTERNAL`) the kite's Newton rows take, as awebox
+carries its tether forces in algebraic variables (``f_tether``) of their own. It joins
+the kite's parts only when the system file gives the line a mass or element drag
 (:func:`optimize.problem.parts.kite_parts`): the paper's massless line with the
 lumped drag has no part.
 """
@@ -24,7 +24,8 @@ import numpy as np
 from optimize.model.kite_model import KiteDae
 from optimize.model.tether import LINE_FORCE, line_force
 from optimize.model.variables import Variables
-from optimize.problem.part import WIND, Part, StartPoint
+from optimize.problem.kite_part import EXTERNAL, WIND
+from optimize.problem.part import Part, StartPoint
 
 #: the kite's position, velocity and acceleration, NED
 _R, _V, _A = (tuple(f"{p}_{a}_{u}" for a in "xyz") for p, u in
@@ -53,6 +54,12 @@ class TetherPart(Part):
         d = self.dae
         return line_force(r, v, a, wind_ref_m_s, d.kite, d.wind, d.tether)
 
+    def quantities(self, q: Mapping[str, Any]) -> dict[str, Any]:
+        """The line's force added to the forces other parts put on the kite
+        (:data:`optimize.problem.kite_part.EXTERNAL`)."""
+        return {ext: q.get(ext, 0) + q[own] for ext, own in zip(EXTERNAL[:3], LINE_FORCE,
+                                                               strict=True)}
+
     def residual(self, q: Mapping[str, Any]) -> list[Any]:
         """The variables minus the line's force at the kite's motion, over the scale."""
         def vec(names):
@@ -68,7 +75,7 @@ class TetherPart(Part):
     def guess(self, start: StartPoint) -> dict[str, np.ndarray]:
         """The line's force along the start trajectory (at its Radau points)."""
         r, v, a = (ca.SX.sym(n, 3) for n in "rva")
-        fn = ca.Function("line_force", [r, v, a], [self._force(r, v, a, start.wind_ref_m_s)])
+        fn = ca.Function("line_force", [r, v, a], [self._force(r, v, a, start.parameters[WIND])])
         q = start.quantities
 
         def rows(names):
