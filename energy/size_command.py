@@ -84,21 +84,22 @@ class SizingGrid:
 
 @dataclass(frozen=True)
 class RatingOverrides:
-    """Overrides of the reference drive's rating (None: the system's ``[drive]``).
+    """Overrides of the reference drive's rating (None: the system's ``[drive]``, the
+    limits ``bench optimize`` flies).
 
     Attributes
     ----------
-    rated_torque_nm : float or None
+    continuous_torque_nm : float or None
         Continuous (RMS) torque rating [N m].
     max_speed_rpm : float or None
         Speed limit [rpm].
-    overload : float or None
-        Short-time peak torque over continuous torque [-].
+    max_torque_nm : float or None
+        Torque limit (the short-time peak torque) [N m].
     """
 
-    rated_torque_nm: float | None = None
+    continuous_torque_nm: float | None = None
     max_speed_rpm: float | None = None
-    overload: float | None = None
+    max_torque_nm: float | None = None
 
 
 #: the defaults as objects, for signatures (frozen, so shared safely)
@@ -177,8 +178,8 @@ def run_size(site: Any, model: Any = None, *, system: Any = None,
         drive = drive_in_force(system, model=model)
 
     def candidates(scales: tuple[float, ...]) -> tuple[list, list[str]]:
-        return build_candidates(drive, scales, grid.models, rating.rated_torque_nm,
-                                rating.max_speed_rpm, rating.overload)
+        return build_candidates(drive, scales, grid.models, rating.continuous_torque_nm,
+                                rating.max_speed_rpm, rating.max_torque_nm)
 
     first, notes = candidates(grid.scales)
     notes = [thermal_line(drive.model, system.ocp_options(OcpOptions(), drive.rating).limits,

@@ -16,7 +16,10 @@ speed rating (``k_n = 1``, ``k_T = s``): ``P_s(n, T) = s P_1(n, T / s)``, a driv
 of ``s`` times the torque rating behaves like ``s`` reference drives sharing the
 torque on one shaft (for a term ``c n^i T^j``: ``c -> s^(1 - j) c``). Rating:
 continuous torque ``s T_cont``, peak torque ``s T_peak``, the same speed limit,
-nominal power ``s P_nom``; the system's other limits are kept. A thermal model is
+nominal power ``s P_nom``, a torque-speed envelope's torques ``s T(n)``; the system's other
+limits are kept. The reference drive x1 is the system's drive as ``bench optimize`` flies
+it: peak torque its ``max_torque_nm``, the RMS torque bound of its continuous rating only
+when below that (:attr:`kernel.drive_rating.DriveRating.rms_torque_limit_nm`). A thermal model is
 carried with the losses: ``r_th / s``, ``c_th s``, the time constant, the copper
 coefficient and the temperatures kept (``s`` reference drives side by side, each with
 its own cooling), so every candidate reaches the reference's temperature at
@@ -90,7 +93,8 @@ class Candidate:
         return self.rating.nominal_power_w
 
     def ocp_options(self, n_intervals: int, degree: int, system: Any) -> Any:
-        """The OCP options of ``system`` (bounds) with this drive's limits and rating.
+        """The OCP options of ``system`` (bounds) with this drive's limits and rating, as
+        ``bench optimize`` builds them for the system's drive: x1 flies its limits exactly.
 
         Parameters
         ----------
@@ -103,7 +107,11 @@ class Candidate:
 
         options = system.ocp_options(OcpOptions(Discretization(n_intervals, degree)),
                                      self.rating)
-        return options.replace(limits={"max_rms_torque_nm": self.rated_torque_nm})
+        table = options.limits.envelope_torque_nm
+        if self.scale is None or table is None:  # a base speed scales with max_torque_nm
+            return options
+        return options.replace(limits={"envelope_torque_nm": tuple(self.scale * t
+                                                                   for t in table)})
 
     def problem(self, n_intervals: int, degree: int, system: Any) -> Any:
         """The OCP problem (:class:`optimize.service.builder.Problem`) of this drive in
