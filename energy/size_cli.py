@@ -119,8 +119,8 @@ def _announce(drive: Any, n_candidates: int, n_winds: int, out: Path,
         print(line)
     heat = winding_limit_c is not None and getattr(drive.model, "thermal", None) is not None
     rating = (f"winding temperature <= {winding_limit_c:g} degC" if heat
-              else "RMS torque <= rated")
-    print(f"{n_candidates} candidates x {n_winds} wind speeds (elec-lim, {rating}); solves "
-          f"stored in {out / 'solves'}")
+              else "RMS torque <= the continuous rating where below the torque limit")
+    print(f"{n_candidates} candidates x {n_winds} wind speeds (elec-lim, each the drive above "
+          f"scaled: torque and speed limits, {rating}); solves stored in {out / 'solves'}")
 
 

@@ -175,7 +175,8 @@ def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
     -------
     (DataFrame, str or None, str or None)
         Rows ``candidate, scale, rated_torque_nm, peak_torque_nm, max_speed_rpm,
-        nominal_power_w, n_converged, n_winds, aep_elec_mwh, capacity_factor_elec,
+        peak_torque_flown_nm, peak_speed_flown_rpm`` (the largest over its converged
+        solves), ``nominal_power_w, n_converged, n_winds, aep_elec_mwh, capacity_factor_elec,
         aep_share_of_best, rms_bound_active_at, thermal_bound_active_at,
         peak_winding_temperature_c``; the best candidate's name and the chosen one.
         A candidate with a failed solve gets no AEP (never an AEP from fewer points).
@@ -205,6 +206,8 @@ def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
         rows.append({
             "candidate": c.name, "scale": c.scale, "rated_torque_nm": c.rated_torque_nm,
             "peak_torque_nm": c.peak_torque_nm, "max_speed_rpm": c.max_speed_rpm,
+            "peak_torque_flown_nm": _largest(ok, "peak_torque_nm"),
+            "peak_speed_flown_rpm": _largest(ok, "peak_speed_rpm"),
             "nominal_power_w": c.nominal_power_w, "n_converged": len(ok), "n_winds": len(recs),
             "aep_elec_mwh": aep,
             "capacity_factor_elec": (None if aep is None
@@ -223,6 +226,12 @@ def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
     within = valid[valid["aep_elec_mwh"] >= (1 - tolerance) * best["aep_elec_mwh"]]
     chosen = within.sort_values("rated_torque_nm").iloc[0]["candidate"]
     return table.reset_index(drop=True), str(best["candidate"]), str(chosen)
+
+
+def _largest(records: list[dict], key: str) -> float | None:
+    """The largest ``key`` over the solve records that state it (None: none does)."""
+    values = [r[key] for r in records if r.get(key) is not None]
+    return max(values) if values else None
 
 
 def edge_of_set(table: Any, best: str | None) -> str | None:
