@@ -12,6 +12,8 @@ with its :class:`BenchFrame`), the same objects
 the ``bench`` commands build from their options.
 """
 
+from importlib import metadata
+
 from bench.cycle_profile import BenchFrame
 from drivebench.api import (
     AepResult,
@@ -36,6 +38,9 @@ from drivebench.api import (
 )
 from drivebench.plots import plot_efficiency_map
 from reports.plots import plot_aep, plot_cycle, plot_power_curves
+
+#: the installed distribution's version, as ``bench --version`` prints it
+__version__ = metadata.version("drivebench")
 
 __all__ = ["AepResult", "BenchFrame", "Execution", "ExportOptions", "Ingested",
            "RatingOverrides", "RefineOptions", "SiteSpec", "SizeResult", "SizingGrid",

@@ -18,6 +18,10 @@ def test_version_names_drivebench_casadi_and_ipopt(capsys):
     assert done.value.code == 0
     out = capsys.readouterr().out
     assert out.startswith(f"drivebench {metadata.version('drivebench')} ")
+    # issue 42: the Python API says the same version
+    import drivebench
+
+    assert out.split()[1] == drivebench.__version__
     assert f"CasADi {casadi.__version__}" in out
     # the IPOPT library CasADi loads answers with its own version (3.x.y)
     assert re.search(r"IPOPT 3\.\d+\.\d+\)", out), out
