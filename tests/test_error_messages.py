@@ -119,3 +119,19 @@ def test_ingest_flags_a_point_whose_efficiency_is_outside_0_1(tmp_path, capsys):
     assert len(flags) == int(expected.sum()) >= 1
     assert any("outside [0, 1] at -1500 rpm, 2 N m" in f for f in flags)
     assert "FLAGGED point: table_01: efficiency" in out
+
+
+def test_flagged_points_are_one_line_per_session_and_not_repeated_when_unchanged():
+    # issue 42: 120 FLAGGED lines on every ingest, re-ingests of unchanged sessions included
+    from bench.ingest.summary import format_summary
+
+    flags = [f"efficiency -0.{k} outside [0, 1] at -1500 rpm" for k in range(1, 61)]
+    entry = {"points_per_quadrant": {"motor": 1, "generator": 1}, "rejected": {},
+             "kind": "points", "mode": "table", "n_points": 2, "efficiency_flags": flags,
+             "torque_zero_offset_nm": 0.0}
+    manifest = {"sessions": {"a": entry, "b": entry}}
+    out = format_summary(["a", "b"], [], manifest)
+    lines = [x for x in out.splitlines() if x.startswith("FLAGGED")]
+    assert lines == [f"FLAGGED point: {s}: {flags[0]} and 59 more (manifest efficiency_flags)"
+                     for s in ("a", "b")]
+    assert "FLAGGED" not in format_summary([], ["a", "b"], manifest)
