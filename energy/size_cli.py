@@ -65,6 +65,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
                         help="run on a Dask cluster at this scheduler address")
     parser.add_argument("--out", type=Path, default=Path("size_out"), help="output folder")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_site_arguments(parser)
 
 
@@ -96,7 +97,8 @@ def run(args: argparse.Namespace) -> int:
                     rating=RatingOverrides(args.continuous_torque_nm, args.max_speed_rpm,
                                            args.max_torque_nm),
                     solver=SolverChoice(args.intervals, args.degree),
-                    execution=Execution(args.workers, args.scheduler, progress=True),
+                    execution=Execution(args.workers, args.scheduler,
+                                        progress=not args.no_progress),
                     command_line=args.command_line,
                     before_solving=lambda d, n: _announce(d, n, len(grid.winds_m_s), args.out,
                                                           system.drive.max_winding_temperature_c))

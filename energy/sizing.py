@@ -315,6 +315,7 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
     from tqdm import tqdm
 
     from energy.adaptive import refine_grid
+    from energy.refine import solve_counter
     from optimize.service import Refinement, SolveTask, solve_tasks
     from optimize.service.solver import attempt_line
     from optimize.system.system_file import load_system
@@ -324,7 +325,8 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
                        (("candidate", c.name),))
              for c in candidates for w in winds]
     refinement = partial(Refinement, site=site, grid=refine_grid) if adaptive else None
-    bar = tqdm(total=len(tasks), unit="solve", desc="size", disable=not show_progress)
+    bar = (solve_counter("size", show_progress) if adaptive else
+           tqdm(total=len(tasks), unit="solve", desc="size", disable=not show_progress))
     counts = {"solved": 0, "cached": 0}
 
     def on_event(ev: dict) -> None:
@@ -332,8 +334,6 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
             bar.set_postfix_str(f"{ev['candidate']} {attempt_line(ev)}")
             return
         counts["cached" if ev["cached"] else "solved"] += 1
-        if bar.n >= bar.total:  # an adaptive grid adds speeds
-            bar.total += 1
         bar.set_postfix_str(f"{ev['candidate']} {ev['wind']:g} m/s: "
                             f"{'stored' if ev['cached'] else ev['status']}")
         bar.update(1)
