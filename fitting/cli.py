@@ -16,7 +16,7 @@ from kernel.errors import InputError
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the ``bench fit`` options."""
     parser.add_argument("--store", default="bench_store", help="store written by bench ingest")
-    parser.add_argument("--out", default="fit_out", help="output directory")
+    parser.add_argument("--out", default="fit_out", help="output folder")
     group = parser.add_mutually_exclusive_group()
     group.add_argument("--order", default="2",
                        help="total order 1..6 of the exported model, or 'auto' to select it; "

@@ -40,8 +40,8 @@ def test_an_option_is_called_an_option_and_the_subcommand_named_in_full(tmp_path
     # issue 42: `bench cycle export` errors began "bench cycle:" and said "column '--scenario'"
     err = InputError(tmp_path / "manifest.json", "no such scenario", column="--scenario")
     assert err.describe() == f"{tmp_path / 'manifest.json'}: option --scenario: no such scenario"
-    code = main(["cycle", "export", str(tmp_path / "nowhere"), "--scenario", "elec-lim-7.0",
-                 "--out", str(tmp_path / "p.csv")])
+    code = main(["cycle", "export", "--optimize", str(tmp_path / "nowhere"),
+                 "--scenario", "elec-lim-7.0", "--out", str(tmp_path / "p.csv")])
     text = capsys.readouterr().err
     assert code == 2 and text.startswith("bench cycle export: error: "), text
     assert "column '--" not in text

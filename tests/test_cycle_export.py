@@ -62,7 +62,7 @@ def test_bench_frame_and_plain_tables(sweep, tmp_path):
 
 
 def test_outside_the_rating_is_refused_saying_where(sweep, tmp_path, capsys):
-    rc = main(["cycle", "export", str(sweep), "--scenario", "elec-free-9.0",
+    rc = main(["cycle", "export", "--optimize", str(sweep), "--scenario", "elec-free-9.0",
                "--out", str(tmp_path / "x.csv")])
     err = capsys.readouterr().err
     assert rc == 2 and "leaves the bench's rating" in err and "|speed| 1700.0 rpm" in err
@@ -70,12 +70,12 @@ def test_outside_the_rating_is_refused_saying_where(sweep, tmp_path, capsys):
 
 
 def test_bad_scenario_and_out_refused(sweep, tmp_path, capsys):
-    assert main(["cycle", "export", str(sweep), "--scenario", "elec-lim-3.0",
+    assert main(["cycle", "export", "--optimize", str(sweep), "--scenario", "elec-lim-3.0",
                  "--out", str(tmp_path / "x.csv")]) == 2
     assert "not in the sweep" in capsys.readouterr().err
     other = tmp_path / "notes.csv"
     other.write_text("mine\n")
-    assert main(["cycle", "export", str(sweep), "--scenario", "elec-lim-7.0",
+    assert main(["cycle", "export", "--optimize", str(sweep), "--scenario", "elec-lim-7.0",
                  "--out", str(other)]) == 2
     assert other.read_text() == "mine\n"
 
