@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from energy.candidates import build_candidates
-from energy.sizing import run_sizing, size_extending
+from energy.sizing import candidate_row, limits_text, run_sizing, size_extending
 from energy.sizing_files import SIZE_KEEP, SIZE_MARKERS, edge_note, grid_hours, write_sizing
 from kernel.errors import InputError
 from kernel.output_folder import check_replaceable
@@ -183,7 +183,9 @@ def run_size(site: Any, model: Any = None, *, system: Any = None,
 
     first, notes = candidates(grid.scales)
     notes = [thermal_line(drive.model, system.ocp_options(OcpOptions(), drive.rating).limits,
-                          system.path), *notes]
+                          system.path),
+             *(f"{c.name} flies {limits_text(candidate_row(c))}" for c in first
+               if c.scale == 1.0), *notes]
     if before_solving is not None:
         before_solving(drive, len(first))
     result, edge, added = size_extending(

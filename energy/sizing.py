@@ -163,6 +163,13 @@ class SizingResult:
     n_cached: int
 
 
+def candidate_row(c: Candidate) -> dict:
+    """A candidate's name, scale and the limits it flies, as its row of
+    :func:`candidate_table` begins."""
+    return {"candidate": c.name, "scale": c.scale, "rated_torque_nm": c.rated_torque_nm,
+            "peak_torque_nm": c.peak_torque_nm, "max_speed_rpm": c.max_speed_rpm}
+
+
 def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
                     tolerance: float = 0.02, winding_limit_c: float | None = None
                     ) -> tuple[Any, str | None, str | None]:
@@ -204,8 +211,7 @@ def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
                and r["peak_winding_temperature_c"] >= winding_limit_c - 1e-3 * abs(
                    winding_limit_c)]
         rows.append({
-            "candidate": c.name, "scale": c.scale, "rated_torque_nm": c.rated_torque_nm,
-            "peak_torque_nm": c.peak_torque_nm, "max_speed_rpm": c.max_speed_rpm,
+            **candidate_row(c),
             "peak_torque_flown_nm": _largest(ok, "peak_torque_nm"),
             "peak_speed_flown_rpm": _largest(ok, "peak_speed_rpm"),
             "nominal_power_w": c.nominal_power_w, "n_converged": len(ok), "n_winds": len(recs),
@@ -232,6 +238,21 @@ def _largest(records: list[dict], key: str) -> float | None:
     """The largest ``key`` over the solve records that state it (None: none does)."""
     values = [r[key] for r in records if r.get(key) is not None]
     return max(values) if values else None
+
+
+def limits_text(candidate: dict) -> str:
+    """The limits a sizing candidate flew, from its row of :func:`candidate_table` (or of
+    ``sizing.json``): torque, RMS torque (when below the torque limit, else implied by
+    it), speed."""
+    def num(key: str, decimals: int) -> str:
+        value = candidate.get(key)
+        return "?" if value is None else f"{float(value):.{decimals}f}"
+
+    peak, cont = candidate.get("peak_torque_nm"), candidate.get("rated_torque_nm")
+    rms = (f"RMS <= {num('rated_torque_nm', 1)} N m"
+           if cont is not None and peak is not None and cont < peak else "RMS implied")
+    return (f"torque <= {num('peak_torque_nm', 1)} N m, {rms}, |speed| <= "
+            f"{num('max_speed_rpm', 0)} rpm")
 
 
 def edge_of_set(table: Any, best: str | None) -> str | None:

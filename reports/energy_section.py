@@ -15,6 +15,7 @@ from markupsafe import Markup
 
 from energy.outputs import AEP_FILE, CURVES_FILE, read_aep, read_power_curves
 from energy.refine import refine_notes
+from energy.sizing import limits_text
 from energy.sizing_files import SIZING_FILE, read_sizing
 from optimize.kinds import LABELS
 from reports import plots, svg
@@ -146,16 +147,6 @@ def continuous_rating_text(candidate: dict) -> str:
         at = candidate.get("thermal_bound_active_at") or "none"
         return f"winding: {at} (peak {fmt(peak, 1)} degC)"
     return candidate.get("rms_bound_active_at") or "none"
-
-
-def limits_text(candidate: dict) -> str:
-    """The limits a sizing candidate flew: torque, RMS torque (when below the torque
-    limit, else implied by it), speed."""
-    peak, cont = candidate.get("peak_torque_nm"), candidate.get("rated_torque_nm")
-    rms = (f"RMS <= {fmt(cont, 1)} N m" if cont is not None and peak is not None
-           and cont < peak else "RMS implied")
-    return (f"torque <= {fmt(peak, 1)} N m, {rms}, |speed| <= "
-            f"{fmt(candidate.get('max_speed_rpm'), 0)} rpm")
 
 
 def sizing_context(sizing: dict) -> dict:

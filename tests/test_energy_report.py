@@ -98,7 +98,7 @@ def test_sizing_says_how_much_of_x1s_aep_difference_the_wind_grids_make():
 
 
 def test_sizing_table_states_the_limits_each_candidate_flew():
-    from reports.energy_section import limits_text
+    from energy.sizing import limits_text
 
     assert limits_text({"peak_torque_nm": 78.0, "rated_torque_nm": 78.0,
                         "max_speed_rpm": 1500.0}) == (
