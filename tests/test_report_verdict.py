@@ -49,3 +49,14 @@ def test_key_results_carry_the_round_trip_verdict(tmp_path):
     # no verification: no row
     ctx = build_context(none, none, none, ["bench", "report"], none, none, none)
     assert all(k != "bench round trip (cycle verify)" for k, _ in ctx["headline"])
+
+
+def test_verify_power_plot_says_which_cycle_of_the_run_its_time_counts_from():
+    # issue 42: the x label read "time in cycle 5 [s]"
+    from reports.verification_section import power_figure
+
+    one = pd.DataFrame({"time_s": [0.0, 1.0], "p_elec_measured_w": [-1.0, -2.0],
+                        "p_elec_model_w": [-1.0, -2.0], "p_elec_optimizer_w": [-1.0, -2.0],
+                        "p_mech_measured_w": [-1.0, -2.0]})
+    svg = str(power_figure(one, 5))
+    assert "time from the start of cycle 5 of the run [s]" in svg.replace("\n", " ")
