@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.cli import main as bench_main
+from drivebench.cli import main as bench_main
 from energy.aep import aep_mwh
 from energy.curve import read_optimize_run
 from energy.refine import options_from_manifest

@@ -1,7 +1,7 @@
 """What `make demo` costs, stage by stage: wall time, CPU time and the load around it.
 
 Runs the stages of ``bench run PATH --out OUT`` (the same argument lists,
-:func:`bench.run_cli.stage_commands`) one after the other, each as its own ``bench``
+:func:`drivebench.run_cli.stage_commands`) one after the other, each as its own ``bench``
 process, and prints per stage the wall time, the CPU time (user + system of the stage
 and every worker process it waited for, from ``getrusage(RUSAGE_CHILDREN)``) and the
 1-minute load average before and after; each stage's output goes to ``OUT_<stage>.log``
@@ -31,8 +31,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--json", type=Path, default=None, help="also write the rows here")
     args, extra = parser.parse_known_args(argv)
-    from bench.cli import build_parser
-    from bench.run_cli import stage_commands
+    from drivebench.cli import build_parser
+    from drivebench.run_cli import stage_commands
 
     args.out.parent.mkdir(parents=True, exist_ok=True)
     run_argv = ["run", *args.paths, "--out", str(args.out), *[a for a in extra if a != "--"]]

@@ -122,7 +122,7 @@ def run_case(name: str, data: dict, grid: str | None, kinds: str, folder: Path,
     (with the comparison with the paper's claims when ``claims``)."""
     system = folder / f"{name}.toml"
     system.write_text(toml_document({}, data))
-    args = [sys.executable, "-m", "bench.cli", "optimize", "--system", str(system),
+    args = [sys.executable, "-m", "drivebench.cli", "optimize", "--system", str(system),
             "--scenarios", kinds, "--out", str(folder / name)] + ([] if claims
                                                                   else ["--no-claims"])
     if grid is not None:

@@ -18,7 +18,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from bench.cli import main as bench
+from drivebench.cli import main as bench
 from fitting.efficiency import MaskingRules
 from fitting.pipeline import FitOptions, run_fit
 

@@ -158,7 +158,7 @@ def main() -> int:
     campaign = args.campaign or work / "campaign"
     try:
         t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "bench.cli", "synth", str(campaign),
+        subprocess.run([sys.executable, "-m", "drivebench.cli", "synth", str(campaign),
                         "--scale", str(args.scale), "--check"], check=True, cwd=ROOT)
         synth_s = time.perf_counter() - t0
         rows = count_rows(campaign)

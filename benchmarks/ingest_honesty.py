@@ -91,7 +91,7 @@ def write_campaigns(folder: Path) -> dict:
 def run(name: str, campaign: Path, work: Path, truth: dict) -> dict:
     """Ingest one class in a subprocess; the row of the report."""
     store = work / name
-    code = ("import sys; from bench.cli import main; "
+    code = ("import sys; from drivebench.cli import main; "
             f"sys.exit(main(['ingest', {str(campaign)!r}, '--store', {str(store)!r}, "
             "'--no-progress']))")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from bench.cli import main as bench_main
+from drivebench.cli import main as bench_main
 from optimize.system.system import shipped_system_path
 
 

@@ -34,7 +34,7 @@ from bench.store.manifest import read_manifest  # noqa: E402
 
 
 def _bench(*args: str) -> tuple[int, str]:
-    proc = subprocess.run([sys.executable, "-m", "bench.cli", *args], capture_output=True,
+    proc = subprocess.run([sys.executable, "-m", "drivebench.cli", *args], capture_output=True,
                           text=True, cwd=REPO)
     return proc.returncode, (proc.stdout + proc.stderr).strip()
 

@@ -38,7 +38,7 @@ def limited_system(limit_c: float, out: Path) -> Path:
 def sweep(system: Path, model: Path, grid: str, out: Path) -> float:
     """Run one sweep into ``out``; its wall time [s]."""
     t0 = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "bench.cli", "optimize", "--system", str(system),
+    subprocess.run([sys.executable, "-m", "drivebench.cli", "optimize", "--system", str(system),
                     "--drive-model", str(model), "--wind-grid", grid, "--no-claims",
                     "--out", str(out)], check=False, cwd=ROOT)
     return time.perf_counter() - t0

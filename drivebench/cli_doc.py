@@ -27,7 +27,7 @@ option an option; bad input exits with code 2.
 def stage_parsers() -> list[tuple[str, argparse.ArgumentParser]]:
     """``(subcommand, parser)`` of every stage, a nested action (``cycle export``) as its
     own entry, in the order of ``bench --help``."""
-    from bench.cli import SUBCOMMANDS
+    from drivebench.cli import SUBCOMMANDS
 
     out = []
     for name, (module, help_text) in SUBCOMMANDS.items():

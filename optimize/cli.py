@@ -20,7 +20,7 @@ log = logging.getLogger(__name__)
 
 #: where ``bench fit`` writes its model (docs/schemas.md §4)
 FIT_MODEL_PATH = Path("fit_out") / "power_model.json"
-#: exit codes of ``bench optimize`` (2, bad input, is every stage's: :mod:`bench.cli`)
+#: exit codes of ``bench optimize`` (2, bad input, is every stage's: :mod:`drivebench.cli`)
 EXIT_ALL_CONVERGED, EXIT_ALL_FAILED, EXIT_SOME_FAILED = 0, 1, 3
 EXIT_CODES = (f"exit codes: {EXIT_ALL_CONVERGED} every scenario converged; {EXIT_SOME_FAILED} "
               f"some failed (listed after FAILED, their status in summary.parquet; the files "

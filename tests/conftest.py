@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 from ingest_fixtures import make_timeseries_session
 
-from bench.cli import main
+from drivebench.cli import main
 
 
 @pytest.fixture

@@ -93,7 +93,7 @@ def make_campaigns(root: Path) -> tuple[Path, Path]:
 
 def ingest_command(campaign: Path, store: Path) -> list[str]:
     """The ``bench ingest`` subprocess that gets killed."""
-    return [sys.executable, "-m", "bench.cli", "ingest", str(campaign), "--store", str(store),
+    return [sys.executable, "-m", "drivebench.cli", "ingest", str(campaign), "--store", str(store),
             "--no-progress"]
 
 
@@ -124,18 +124,18 @@ def write_names(path, names):
 STEP_CHILD = _WRAP + """
 k, names = int(sys.argv[1]), []
 wrap_fs_calls(k, names)
-from bench.cli import main
+from drivebench.cli import main
 rc = main(sys.argv[3:])
 write_names(sys.argv[2], names)
 sys.exit(rc)
 """
 
-#: a process that imports ``bench.cli`` and the modules named in argv once, then, for each
+#: a process that imports ``drivebench.cli`` and the modules named in argv once, then, for each
 #: JSON line ``[k, names_file, args]`` on stdin, forks a child that runs ``bench ARGS`` as
 #: STEP_CHILD does; it says "ready" once, then answers each child's pid and exit code
 FORK_SERVER = _WRAP + """
 import importlib, json
-from bench.cli import main
+from drivebench.cli import main
 for module in sys.argv[1:]:
     importlib.import_module(module)
 print("ready", flush=True)
@@ -172,7 +172,7 @@ class StageRunner:
 
     ``preload=None``: each run is a fresh interpreter (``python -c STEP_CHILD``), so a
     kill can also land in its start-up. ``preload=[module, ...]``: one fork server
-    imports ``bench.cli`` and these modules once and forks each run from itself, so the
+    imports ``drivebench.cli`` and these modules once and forks each run from itself, so the
     runs skip the imports and a kill lands in the stage's own work; use it as a
     context manager.
     """

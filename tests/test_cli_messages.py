@@ -8,7 +8,7 @@ from importlib import metadata
 import casadi
 import pytest
 
-from bench.cli import main
+from drivebench.cli import main
 from kernel.errors import InputError
 
 

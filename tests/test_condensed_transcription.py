@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from point_mass_model import Pendulum, pendulum_formulation, small_angle_guess
 
-from bench.cli import main
+from drivebench.cli import main
 from optimize.model.kite_model import kite_dae
 from optimize.paper_model import paper_model
 from optimize.problem.ocp import assemble, build_ocp, grid_times
@@ -185,7 +185,7 @@ def test_interval_wise_derivatives_equal_automatic_differentiation():
 
 
 def test_the_command_line_hands_transcription_and_codegen_to_the_solver(tmp_path):
-    from bench.cli import build_parser
+    from drivebench.cli import build_parser
     from optimize.command import make_request
     from optimize.sweep_options import SolverChoice, WindGrid
 

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bench.cli import main
 from bench.cycle_profile import BenchFrame, plain_paths, read_profile, window_integral
 from cycle.export import ExportOptions, export_cycle
+from drivebench.cli import main
 from kernel.errors import InputError
 from kernel.units import RPM_PER_RAD_S
 from tests.cycle_fixtures import exact_e_mech_j, write_cycle_sweep

@@ -13,7 +13,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.cli import main
 from bench.cycle_profile import BenchFrame, read_profile, window_integral
 from bench.ingest.pipeline import ingest
 from bench.synth.cycle_run import run_signals
@@ -21,6 +20,7 @@ from bench.synth.cycle_session import CycleRunSpec, campaign_loss_model, write_c
 from cycle.export import ExportOptions, export_cycle
 from cycle.verify import K
 from cycle.verify_command import verify_cycles
+from drivebench.cli import main
 from kernel.errors import InputError
 from tests.cycle_fixtures import write_cycle_sweep
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.cli import main
+from drivebench.cli import main
 from kernel.errors import InputError
 from optimize.model.drivetrain import RPM_PER_RAD_S, carry_power_model
 from optimize.paper_model import paper_model

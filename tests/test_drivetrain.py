@@ -141,7 +141,7 @@ def test_an_envelope_table_that_is_not_monotone_is_refused(speeds, torques, word
 
 
 def test_cli_refuses_a_negative_inertia_before_any_solve(tmp_path):
-    from bench.cli import main
+    from drivebench.cli import main
 
     text = shipped_system_path().read_text().replace(
         "[winch]\n", "[winch]\ndrum_inertia_kg_m2 = -0.2\n", 1)

@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 from energy_fixtures import KINDS, model_with_covariance, write_optimize_folder
 
-from bench.cli import main
+from drivebench.cli import main
 from energy.aep import aep_mwh
 from energy.assess import assess
 from energy.curve import read_optimize_run

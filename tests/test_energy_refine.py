@@ -143,7 +143,7 @@ def test_refine_without_the_sweeps_options_is_a_clear_input_error(tmp_path, caps
     # naming the manifest and the key, and nothing written
     from energy_fixtures import model_with_covariance, write_optimize_folder
 
-    from bench.cli import main
+    from drivebench.cli import main
 
     folder = write_optimize_folder(tmp_path / "opt", model_with_covariance())
     out = tmp_path / "aep"

@@ -7,7 +7,7 @@ import json
 import pytest
 from energy_fixtures import model_with_covariance, write_optimize_folder
 
-from bench.cli import main
+from drivebench.cli import main
 from reports.render import build_context, render
 
 

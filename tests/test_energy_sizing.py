@@ -163,7 +163,7 @@ def test_interrupted_sweep_continues_where_it_stopped(tmp_path):
      ["--tolerance", "1.5"], ["--extend", "-1"]],
 )
 def test_bench_size_bad_input_exits_2_before_solving(tmp_path, capsys, extra):
-    from bench.cli import main
+    from drivebench.cli import main
 
     code = main(["size", "--rayleigh-mean", "5.5", "--out", str(tmp_path / "s"), *extra])
     assert code == 2

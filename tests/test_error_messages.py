@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from ingest_fixtures import make_points_session
 
-from bench.cli import main
 from bench.ingest.checks import efficiency_flags
 from bench.store.manifest import read_manifest
+from drivebench.cli import main
 from kernel.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[1]

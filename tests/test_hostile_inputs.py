@@ -11,10 +11,10 @@ import shutil
 import pytest
 from ingest_fixtures import make_points_session, make_timeseries_session, store_tree
 
-from bench.cli import main
 from bench.ingest.csv_layout import MAX_LINE_BYTES
 from bench.store.manifest import read_manifest
 from bench.store.read import read_points
+from drivebench.cli import main
 
 
 def _ingest(store_and_campaign, capsys, *extra):

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from ingest_fixtures import make_points_session, make_timeseries_session, store_tree
 
-from bench.cli import main
 from bench.ingest.scrub import MAX_NAN_RUN
+from drivebench.cli import main
 
 
 def _fails(store_and_campaign, capsys, *fragments, extra=()):

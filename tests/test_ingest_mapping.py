@@ -12,13 +12,13 @@ import pandas as pd
 import pytest
 from ingest_fixtures import make_points_session, make_timeseries_session
 
-from bench.cli import main
 from bench.ingest import expr
 from bench.ingest.column_units import unit_factor
 from bench.ingest.mapping import load_mapping
 from bench.ingest.pipeline import ingest
 from bench.store.manifest import kind_files
 from bench.synth.exports import make_dyno_table, make_ev_table
+from drivebench.cli import main
 from kernel.errors import InputError
 
 

@@ -12,11 +12,11 @@ import pytest
 from ingest_fixtures import make_timeseries_session
 from stream_fixtures import make_ev_export
 
-from bench.cli import main
 from bench.ingest import checks
 from bench.ingest.pipeline import ingest
 from bench.store.manifest import kind_files
 from bench.synth.exports import make_two_wattmeter_table
+from drivebench.cli import main
 
 
 def _ingest_fails(tmp_path, capsys, campaign) -> str:

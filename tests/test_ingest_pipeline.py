@@ -9,10 +9,10 @@ import pandas as pd
 import pytest
 from ingest_fixtures import make_points_session, make_timeseries_session, store_tree
 
-from bench.cli import main
 from bench.ingest.pipeline import ingest
 from bench.store.manifest import kind_files, read_manifest
 from bench.store.read import read_points, read_rejected, read_samples
+from drivebench.cli import main
 
 
 @pytest.fixture(scope="module")

@@ -129,7 +129,7 @@ def test_whole_second_stamps_at_4hz_are_spread_and_named_columns_found(tmp_path,
 
 
 def test_a_duplicated_row_of_a_1hz_log_is_still_an_error(tmp_path, capsys):
-    from bench.cli import main
+    from drivebench.cli import main
 
     make_german_logger(tmp_path / "c")
     log = tmp_path / "c" / "logger_de" / "log.csv"

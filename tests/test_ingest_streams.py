@@ -16,12 +16,12 @@ import pytest
 from ingest_fixtures import make_timeseries_session, paper_p_elec, store_tree
 from stream_fixtures import make_ev_export, make_german_logger
 
-from bench.cli import main
 from bench.ingest import clock
 from bench.ingest.daq_stream import open_daq_csv
 from bench.ingest.pipeline import ingest
 from bench.store.manifest import read_manifest
 from bench.store.read import read_points
+from drivebench.cli import main
 from kernel.errors import InputError
 
 

@@ -11,8 +11,8 @@ import pytest
 from ingest_fixtures import make_timeseries_session
 from test_ingest_bad_input import _fails
 
-from bench.cli import main
 from bench.store.read import read_points, read_samples
+from drivebench.cli import main
 
 KELVIN = 273.15
 

@@ -9,10 +9,10 @@ import os
 import pytest
 from ingest_fixtures import make_timeseries_session
 
-from bench.cli import main
 from bench.ingest import scan
 from bench.ingest.expr import ExprError, parse
 from bench.store.read import read_points
+from drivebench.cli import main
 
 
 @pytest.fixture

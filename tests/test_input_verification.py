@@ -11,8 +11,8 @@ import pytest
 from energy_fixtures import model_with_covariance, write_optimize_folder
 from ingest_fixtures import make_timeseries_session
 
-from bench.cli import main
 from bench.store.manifest import read_manifest
+from drivebench.cli import main
 from fitting.model_file import save_power_model
 from kernel.files import recorded_mismatch
 from kernel.output_folder import output_folder

@@ -13,7 +13,7 @@ import pytest
 from energy_fixtures import model_with_covariance, write_optimize_folder
 from ingest_fixtures import make_points_session
 
-from bench.cli import main
+from drivebench.cli import main
 from kernel.errors import InputError
 from kernel.files import read_json, read_text, read_toml, write_json, write_parquet
 from kernel.units import RPM_PER_RAD_S, unit_of

@@ -12,7 +12,6 @@ PACKAGES = ("kernel", "bench", "fitting", "optimize", "energy", "cycle", "report
 #: (module prefix, layer), most specific first: a module may import its own layer and below
 LAYERS = (
     ("kernel", 0),
-    ("bench.cli", 7), ("bench.run_cli", 7),  # the command line: the top
     ("bench.synth", 2),  # writes raw campaigns as ingest reads them
     ("bench", 1),  # ingest and the store
     ("fitting", 3),
@@ -20,7 +19,7 @@ LAYERS = (
     ("energy", 5),
     ("cycle", 5),  # the cycle round trip: reads optimize folders and the store
     ("reports", 6),
-    ("drivebench", 7),  # the Python API: the top
+    ("drivebench", 7),  # the Python API and the command line: the top
 )
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from bench.cli import main
+from drivebench.cli import main
 from kernel.errors import InputError
 from kernel.locking import output_lock
 from kernel.output_folder import check_output_folder, check_replaceable, output_folder

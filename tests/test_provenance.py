@@ -10,7 +10,7 @@ from datetime import UTC, datetime
 import pytest
 from energy_fixtures import model_with_covariance, write_optimize_folder
 
-from bench.cli import main
+from drivebench.cli import main
 from kernel.provenance import HEADER_FIELDS, Provenance, command_text, read_header
 from kernel.versions import package_versions
 

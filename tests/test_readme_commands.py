@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from bench.cli import build_parser
+from drivebench.cli import build_parser
 
 README = Path(__file__).resolve().parent.parent / "README.md"
 

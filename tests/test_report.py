@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bench.cli import main
+from drivebench.cli import main
 from fitting.figures import efficiency_grid
 from fitting.fit_folder import FitContents, write_fit_files
 from fitting.power_model import PowerModel

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import re
 
-from bench.cli import main
+from drivebench.cli import main
 
 
 def test_report_records_its_command_line_as_given_and_ipopt(tmp_path, monkeypatch):

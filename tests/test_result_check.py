@@ -12,7 +12,7 @@ from types import SimpleNamespace
 import pandas as pd
 import pytest
 
-from bench.cli import main
+from drivebench.cli import main
 from optimize.analysis import result_check as rc
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.service.builder import Problem

@@ -5,8 +5,8 @@ from pathlib import Path
 
 import pytest
 
-from bench.cli import build_parser
-from bench.run_cli import FORWARDED, stage_commands, stage_parser
+from drivebench.cli import build_parser
+from drivebench.run_cli import FORWARDED, stage_commands, stage_parser
 
 
 def test_every_stage_command_parses_with_that_stage_parser():
@@ -87,8 +87,8 @@ def test_default_wind_grid_covers_all_but_half_a_percent_of_the_site():
 
 
 def test_optimize_exit_codes_and_bench_run_going_on_past_some_failures(monkeypatch, capsys):
-    import bench.cli
-    from bench.run_cli import run
+    import drivebench.cli
+    from drivebench.run_cli import run
     from optimize.cli import EXIT_CODES, exit_code
 
     assert exit_code([True, True]) == 0
@@ -105,7 +105,7 @@ def test_optimize_exit_codes_and_bench_run_going_on_past_some_failures(monkeypat
         calls.append(argv[0])
         return {"optimize": 3, "size": 1}.get(argv[0], 0)
 
-    monkeypatch.setattr(bench.cli, "main", fake_main)
+    monkeypatch.setattr(drivebench.cli, "main", fake_main)
     args = build_parser(["run", "logs"]).parse_args(["run", "logs", "--out", "o"])
     assert run(args) == 1
     assert calls == ["ingest", "fit", "optimize", "aep", "size"]

@@ -52,7 +52,7 @@ def test_hours_below_a_cut_in_inside_the_grid_are_not_left_out():
 def test_key_results_state_the_share_of_hours_the_aep_covers(tmp_path):
     from energy_fixtures import WINDS, model_with_covariance, write_optimize_folder
 
-    from bench.cli import main
+    from drivebench.cli import main
     from reports.render import build_context
 
     folder = write_optimize_folder(tmp_path / "opt", model_with_covariance())

@@ -13,11 +13,11 @@ import pytest
 from ingest_fixtures import make_points_session, make_timeseries_session
 from kill_harness import damage_points_file, store_digest
 
-from bench.cli import main
 from bench.ingest.pipeline import ingest
 from bench.store.damage import check_store
 from bench.store.manifest import read_manifest
 from bench.store.read import read_points
+from drivebench.cli import main
 from fitting.points import load_points
 from kernel.errors import InputError
 

@@ -349,7 +349,7 @@ def test_process_pool_executor_runs_chains_with_progress():
 
 # ----------------------------------------------------------------- the command line
 def test_cli_rejects_bad_input_with_exit_code_2(tmp_path, capsys):
-    from bench.cli import main
+    from drivebench.cli import main
 
     out = str(tmp_path / "out")
     assert main(["optimize", "--wind-grid", "4:10:1.4", "--out", out]) == 2

@@ -17,11 +17,11 @@ import pandas as pd
 import pytest
 from nptdms import TdmsFile
 
-from bench.cli import main
 from bench.synth import faults, session_files
 from bench.synth.campaign import DEFAULT_SEED, generate, is_complete, plan_campaign
 from bench.synth.loss_model import PAPER_QUADRATIC, LossModel, fit_quadratic, true_p_elec_w
 from bench.synth.winding_sensor import KELVIN_AT_0C
+from drivebench.cli import main
 
 RAW = Path(__file__).resolve().parents[1] / "raw_measurements"
 NOMINAL_W = 8200.0

@@ -153,7 +153,7 @@ def test_unreadable_and_non_toml_files(tmp_path):
 
 
 def test_cli_exit_code_2_on_a_bad_system_file(tmp_path):
-    from bench.cli import main
+    from drivebench.cli import main
 
     data = shipped_system_path().read_text().replace("mass_kg = 7.5", "mass_kg = -7.5")
     path = tmp_path / "neg.toml"

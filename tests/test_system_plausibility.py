@@ -153,7 +153,7 @@ def _toml(data: dict) -> str:
 ])
 def test_bench_optimize_exits_2_before_any_solve(tmp_path, monkeypatch, capsys, change, key):
     import optimize.command
-    from bench.cli import main
+    from drivebench.cli import main
 
     def no_solve(*args, **kwargs):
         raise AssertionError("a solve started")

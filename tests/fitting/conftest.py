@@ -24,7 +24,7 @@ def paper_fits(tmp_path_factory):
     import contextlib
     import io
 
-    from bench.cli import main
+    from drivebench.cli import main
 
     root = tmp_path_factory.mktemp("paper_fits")
     store = root / "bench_store"

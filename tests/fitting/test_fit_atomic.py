@@ -9,7 +9,7 @@ import pytest
 from fit_synthetic import paper_quadratic, synthetic_points, write_store
 from kill_harness import run_output_kills
 
-from bench.cli import main
+from drivebench.cli import main
 
 
 def test_readers_refuse_a_mixed_fit_folder(tmp_path, paper_fits):

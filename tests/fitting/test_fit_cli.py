@@ -10,7 +10,7 @@ import pyarrow.parquet as pq
 import pytest
 from fit_synthetic import PAPER_A, paper_quadratic, synthetic_points, write_store
 
-from bench.cli import main
+from drivebench.cli import main
 from fitting.loss_table import read_loss_table
 from fitting.model_file import load_power_model
 from fitting.pipeline import FitOptions

@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.cli import main
 from bench.store.read import read_points, read_samples
+from drivebench.cli import main
 from fitting.points import load_points
 from fitting.power_fit import fit_power_model, quadrant_weights
 from fitting.terms import PAPER_TERMS

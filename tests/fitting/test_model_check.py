@@ -7,7 +7,7 @@ import dataclasses
 import pytest
 from fit_synthetic import paper_quadratic, synthetic_points
 
-from bench.cli import main
+from drivebench.cli import main
 from fitting.domain import quadrant_envelopes
 from fitting.model_check import check_physics, physics_problems
 from fitting.model_file import save_power_model

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from bench.cli import main
+from drivebench.cli import main
 from fitting.model_file import load_power_model
 from fitting.power_model import covariance_problem
 from kernel.errors import InputError

@@ -114,7 +114,7 @@ def test_bench_fit_checks_the_points_against_the_envelope_drive_toml_states(tmp_
 ])
 def test_a_bad_envelope_in_drive_toml_stops_ingest_naming_the_key(tmp_path, capsys, lines,
                                                                    key):
-    from bench.cli import main
+    from drivebench.cli import main
 
     pts = grid_points(PAPER_DRIVE, ("motor",), seed=1)
     write_table_campaign(tmp_path / "campaign", PAPER_DRIVE, pts)

@@ -27,7 +27,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "cycle": ("cycle.cli", "fly an optimal cycle on the bench: export it as a drive profile, "
                            "verify the measured energy per cycle"),
     "report": ("reports.cli", "render the self-contained HTML report"),
-    "run": ("bench.run_cli", "ingest, fit, optimize, aep, size and report in one go"),
+    "run": ("drivebench.run_cli", "ingest, fit, optimize, aep, size and report in one go"),
 }
 
 

@@ -39,7 +39,7 @@ FORWARDED = {
 
 def stage_parser(stage: str) -> argparse.ArgumentParser:
     """A parser with exactly the options of ``bench STAGE`` (its own defaults)."""
-    from bench.cli import SUBCOMMANDS
+    from drivebench.cli import SUBCOMMANDS
 
     parser = argparse.ArgumentParser(prog=f"bench {stage}")
     importlib.import_module(SUBCOMMANDS[stage][0]).add_arguments(parser)
@@ -152,7 +152,7 @@ def stage_commands(args: argparse.Namespace) -> list[list[str]]:
 
 def run(args: argparse.Namespace) -> int:
     """Run the stages one after the other; return the first non-zero exit code."""
-    from bench.cli import main
+    from drivebench.cli import main
     from optimize.cli import EXIT_SOME_FAILED
 
     for argv in stage_commands(args):
