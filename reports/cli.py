@@ -7,8 +7,7 @@ import time
 from pathlib import Path
 
 from kernel.files import check_output_file
-from kernel.locking import output_lock
-from kernel.output_folder import check_replaceable_file
+from kernel.output_folder import output_file
 from reports.render import build_report
 
 
@@ -47,8 +46,7 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     check_output_file(args.out)
     argv = list(args.command_line)  # as given: an option not passed is not recorded
-    with output_lock(args.out, "report"):  # one report writer per file: a second one waits
-        check_replaceable_file(args.out, "report", is_report)
+    with output_file(args.out, "report", is_report):  # one writer per file: a second waits
         out = build_report(args.store, args.fit, args.optimize, args.out, argv, args.aep,
                            args.size, args.verify)
     size_mb = out.stat().st_size / 1e6

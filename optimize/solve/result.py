@@ -186,6 +186,17 @@ def _near(value: np.ndarray, bound: float) -> bool:
         np.any(np.abs(value - bound) <= ACTIVE_RTOL * max(abs(bound), 1e-9)))
 
 
+def envelope_active(limits, speed_rpm: np.ndarray, torque_nm: np.ndarray) -> bool:
+    """Whether the torque sits on the drive's torque-speed envelope where the envelope,
+    not the torque limit, is the bound (above the base speed; a base speed beyond every
+    speed flown never binds). ``limits``: :class:`optimize.problem.options.Limits`."""
+    if not has_envelope(limits):
+        return False
+    env = envelope_torque_nm(limits, speed_rpm)
+    below = env < limits.max_torque_nm * (1.0 - ACTIVE_RTOL)
+    return _near(np.abs(torque_nm)[below] / env[below], 1.0)
+
+
 def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: bool,
                   bounds: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> tuple[str, ...]:
     """Names of the bounds the solution sits on (period, tether length, ground, the kite's
@@ -238,7 +249,7 @@ def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: b
         torque = np.abs(traj["torque_nm"].to_numpy())
         if _near(torque, o.max_torque_nm):
             out.append("torque_limit")
-        if has_envelope(o) and _near(torque / envelope_torque_nm(o, speed), 1.0):
+        if envelope_active(o, speed, torque):
             out.append("envelope_limit")
         if o.max_p_elec_w is not None and _near(np.abs(traj["p_elec_w"].to_numpy()),
                                                 o.max_p_elec_w):
