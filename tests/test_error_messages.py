@@ -195,16 +195,19 @@ def test_envelope_limit_is_active_only_where_the_envelope_bounds():
     is not on its envelope; with 1000 rpm, 55.7 N m at 1400 rpm is (78 x 1000 / 1400)."""
     from types import SimpleNamespace
 
-    from optimize.solve.result import envelope_active
+    from optimize.problem.drive_part import DrivePart
+    from optimize.problem.part import near
 
-    def limits(base):
-        return SimpleNamespace(base_speed_rpm=base, envelope_speed_rpm=None,
-                               envelope_torque_nm=None, max_torque_nm=78.0)
+    def envelope_active(base, speed, torque):
+        limits = SimpleNamespace(base_speed_rpm=base, envelope_speed_rpm=None,
+                                 envelope_torque_nm=None, max_torque_nm=78.0)
+        ratio = DrivePart(None, None, limits, None).envelope_ratio(speed, torque)
+        return ratio is not None and near(ratio, 1.0)
 
     speed, torque = np.array([500.0, 1400.0]), np.array([78.0, 78.0])
-    assert not envelope_active(limits(1e9), speed, torque)
-    assert not envelope_active(limits(1000.0), speed, np.array([78.0, 50.0]))
-    assert envelope_active(limits(1000.0), speed, np.array([78.0, 78.0 * 1000 / 1400]))
+    assert not envelope_active(1e9, speed, torque)
+    assert not envelope_active(1000.0, speed, np.array([78.0, 50.0]))
+    assert envelope_active(1000.0, speed, np.array([78.0, 78.0 * 1000 / 1400]))
 
 
 def test_an_unusable_compiled_code_cache_falls_back_naming_it(tmp_path, monkeypatch, caplog):
@@ -212,7 +215,7 @@ def test_an_unusable_compiled_code_cache_falls_back_naming_it(tmp_path, monkeypa
     function runs uncompiled, and the warning names the cache (no scenario fails)."""
     import casadi as ca
 
-    from optimize.solve import codegen
+    from optimize.problem.transcriptions import codegen
 
     if codegen.compiler() is None:
         pytest.skip("no C compiler")
