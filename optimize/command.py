@@ -250,7 +250,7 @@ def run_optimize(
         result = run_sweep(tasks, handle, show_progress)
         outcomes = list(result.outcomes)
         if request.trust:
-            trust = run_trust_checks(problem, outcomes, request.winds, handle)
+            trust = run_trust_checks(problem, outcomes, request.winds, handle, show_progress)
     thermal = winding_thermal(drive.model, options.limits)
     summary = outputs.summary_frame(outcomes, drive.model.domain,
                                     domain_scales(drive.model, options),
