@@ -19,6 +19,10 @@ solver.
 from __future__ import annotations
 
 import importlib
+from importlib import metadata
+
+#: the installed distribution's version, as ``bench --version`` prints it
+__version__ = metadata.version("drivebench")
 
 #: public name -> the module that defines it
 _HOMES = {

@@ -67,7 +67,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--workers", type=int, default=None,
                    help="worker processes for --refine (one kind per task; default: the cores "
                         "this process may use)")
-    g.add_argument("--scheduler", default=None,
+    g.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="Dask scheduler address for --refine instead of the local pool")
     g.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_site_arguments(parser)

@@ -68,6 +68,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="run on a Dask cluster at this scheduler address instead (needs drivebench[dask])",
     )
     parser.add_argument("--out", type=Path, default=Path("optimize_out"), help="output folder")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument(
         "--no-claims", action="store_true", help="skip the cut-in search and the paper comparison"
     )
@@ -128,7 +129,7 @@ def run(args: argparse.Namespace) -> int:
     from optimize.sweep_options import Execution, SolverChoice, WindGrid
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    execution = Execution(args.workers, args.scheduler, progress=True)
+    execution = Execution(args.workers, args.scheduler, progress=not args.no_progress)
     request = make_request(
         WindGrid.parse(args.wind_grid, args.scenarios),
         SolverChoice(args.intervals, args.degree, args.solver, args.linear_solver,
@@ -137,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
         execution=execution, claims=not args.no_claims, trust=args.trust)
     print(request.model_note)
     print(execution.line())
-    sweep = run_optimize(request, list(args.command_line), show_progress=True)
+    sweep = run_optimize(request, list(args.command_line), show_progress=not args.no_progress)
     print(format_summary(sweep.summary))
     if sweep.claims is not None:
         from optimize.analysis.claims import format_claims
