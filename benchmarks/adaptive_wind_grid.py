@@ -29,8 +29,8 @@ from optimize.paper_model import PAPER_MODEL_PATH
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
+from optimize.service.plan import parse_wind_grid
 from optimize.solve.solve import solve, start
-from optimize.sweep.plan import parse_wind_grid
 
 
 class Solver:

@@ -22,7 +22,7 @@ import pandas as pd
 
 from optimize.kinds import KINDS
 from optimize.service import Problem, make_tasks, run_chain
-from optimize.sweep.plan import parse_wind_grid, plan_chains
+from optimize.service.plan import parse_wind_grid, plan_chains
 
 TRAJECTORY = pd.DataFrame({"weight": np.full(161, 1 / 161),
                            "speed_rpm": np.linspace(-900.0, 900.0, 161),

@@ -36,7 +36,7 @@ from energy.size_command import DEFAULT_SIZING, SYSTEM_RATING, RatingOverrides, 
 from fitting.power_model import PowerModel
 from kernel.display import html_view, text_view
 from kernel.errors import InputError
-from optimize.sweep_options import (
+from optimize.door import (
     DEFAULT_SOLVER,
     LOCAL_POOL,
     PAPER_GRID,
@@ -299,7 +299,7 @@ def optimize(model: Any = None, *, grid: WindGrid = PAPER_GRID, system: Any = No
         checked, before the first solve.
     """
     from energy.curve import read_optimize_run
-    from optimize.command import make_request, run_optimize
+    from optimize.door import make_request, run_optimize
 
     if model is not None and not isinstance(model, str | Path | PowerModel):
         raise InputError(None, f"model of type {type(model).__name__}",

@@ -26,7 +26,7 @@ from energy.site import Distribution, Histogram, Weibull
 from kernel.errors import InputError
 from kernel.files import read_json
 from kernel.output_folder import check_output_file
-from optimize.kinds import OBJECTIVES, kind_of
+from optimize.door import OBJECTIVES, kind_of
 from optimize.sweep_folder import read_trajectories
 
 #: the trajectory columns the coefficient bands need (cycle averages of the model terms)

@@ -32,7 +32,7 @@ from energy.adaptive import refine_grid
 from energy.curve import OptimizeRun, PowerCurve
 from kernel.errors import InputError
 from kernel.files import parse_toml
-from optimize.service.outcome import failure_reason
+from optimize.door import failure_reason
 
 #: the check re-solve must give the sweep's average electrical power within this share
 #: of the curve's largest |P_elec|: IPOPT's tolerance (1e-6 scaled) reproduces the same
@@ -45,7 +45,7 @@ DEFAULT_TOL = 0.002
 
 def options_from_manifest(manifest: dict, path: Path) -> Any:
     """The sweep's ``OcpOptions`` from its manifest's ``options`` (lists back to tuples)."""
-    from optimize.problem.options import OcpOptions
+    from optimize.door import OcpOptions
 
     raw = manifest.get("options")
     if not isinstance(raw, dict):
@@ -68,7 +68,7 @@ def system_from_manifest(manifest: dict, path: Path) -> Any:
     InputError
         The record's text does not parse or its hash differs from the record's.
     """
-    from optimize.system.system_file import system_from_dict
+    from optimize.door import system_from_dict
 
     rec = manifest.get("system")
     if rec is None:
@@ -128,8 +128,7 @@ class KindTask:
     def chain(self, index: int = 0) -> Any:
         """The solve service's chain (:class:`optimize.service.chain.ChainTask`): no planned
         grid, a refinement of both curves from the known points, after a check re-solve."""
-        from optimize.service.builder import Problem
-        from optimize.service.chain import ChainTask, Refinement
+        from optimize.door import ChainTask, Problem, Refinement
 
         refine = Refinement(self.kind, self.site, refine_grid, self.tol, self.max_points,
                             self.known,
@@ -147,7 +146,7 @@ def refine_kind(task: KindTask, progress: Any = None) -> list[dict]:
     solved again, to check the sweep's figure) or ``"added"``, plus ``basis_averages``
     (:func:`basis_figures`).
     """
-    from optimize.service.chain import run_chain
+    from optimize.door import run_chain
 
     return list(run_chain(task.chain(), progress).records)
 
@@ -183,7 +182,7 @@ class KindRefinement:
 
 def merged_curve(coarse: PowerCurve, records: tuple[dict, ...]) -> PowerCurve:
     """The sweep's curve with the converged added points in, the failed ones in ``failed``."""
-    from optimize.problem.scenario import scenario_name
+    from optimize.door import scenario_name
 
     rows = [(float(w), float(pe), float(pm), float(t), float(n), float(q), s, False)
             for w, pe, pm, t, n, q, s in zip(coarse.wind_m_s, coarse.p_elec_w, coarse.p_mech_w,
@@ -242,8 +241,7 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
     """
     from tqdm import tqdm
 
-    from optimize.service.run import run_chains
-    from optimize.service.solver import attempt_line
+    from optimize.door import attempt_line, run_chains
 
     manifest_path = run.folder / "manifest.json"
     if run.drive_model_sha256 and model.sha256 != run.drive_model_sha256:

@@ -13,8 +13,8 @@ import pandas as pd
 from markupsafe import Markup
 from matplotlib.patches import Rectangle
 
-from optimize.kinds import KINDS, LABELS
-from optimize.model.thermal import STATE as THERMAL_STATE
+from kernel.names import WINDING_TEMPERATURE
+from optimize.door import KINDS, LABELS
 from reports import plots
 from reports.svg import SCENARIO_COLORS, new_figure, to_svg
 
@@ -181,7 +181,7 @@ def cycle_figure(traj: pd.DataFrame, period_s: float, label: str,
         The drive's winding limit [degC], drawn with the temperature.
     """
     t = traj["time_s"].to_numpy(float)
-    hot = THERMAL_STATE in traj
+    hot = WINDING_TEMPERATURE in traj
     fig = new_figure(7.0, 7.6 if hot else 6.0)
     ax_l, ax_p, ax_e, *ax_t = fig.subplots(4 if hot else 3, 1, sharex=True)
     ax_l.plot(t, traj["l_m"], color="k")
@@ -200,7 +200,7 @@ def cycle_figure(traj: pd.DataFrame, period_s: float, label: str,
     ax_e.axhline(0.0, color="k", lw=0.6)
     ax_e.legend(fontsize=7, loc="best")
     if hot:
-        _winding_panel(ax_t[0], t, traj[THERMAL_STATE].to_numpy(float), winding_limit_c)
+        _winding_panel(ax_t[0], t, traj[WINDING_TEMPERATURE].to_numpy(float), winding_limit_c)
     return to_svg(fig, "cycle")
 
 

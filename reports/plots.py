@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from fitting import figures
-from optimize.kinds import KINDS, LABELS
+from optimize.door import KINDS, LABELS
 
 #: Colours of the four scenario kinds, shared by every figure of the cycles.
 SCENARIO_COLORS = {

@@ -19,6 +19,7 @@ from kernel.units import RPM_PER_RAD_S
 from optimize.model.drivetrain import Drivetrain, mechanical_power_w
 from optimize.model.envelope import EnvelopeTable
 from optimize.model.kite_model import ALGEBRAIC, STATES, kite_dae
+from optimize.model.params import KiteParams
 from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions
@@ -26,7 +27,6 @@ from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start
 from optimize.solve.solve import start
 from optimize.system.drive_in_force import drive_in_force
-from optimize.system.params import KiteParams
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import system_from_dict
 

@@ -12,7 +12,7 @@ from typing import Any
 
 import casadi as ca
 
-from optimize.system.params import AeroCoefficients, KiteParams, WindModel
+from optimize.model.params import AeroCoefficients, KiteParams, WindModel
 
 
 def wind_speed(altitude_m: Any, wind_ref_m_s: Any, wind: WindModel) -> Any:

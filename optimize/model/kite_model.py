@@ -25,8 +25,8 @@ from dataclasses import dataclass
 import casadi as ca
 
 from optimize.model.aero import aero_forces_moments, altitude_above_ground, wind_speed
+from optimize.model.params import AeroCoefficients, KiteParams, WindModel
 from optimize.model.variables import Variables
-from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 
 #: states: CG position and velocity (NED), body-to-world DCM (column-major), body
 #: angular velocity, tether length and its two rates, control-surface deflections

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from optimize.model.kite_model import KiteDae
-from optimize.system.params import AeroCoefficients, KiteParams, WindModel
+from optimize.model.params import AeroCoefficients, KiteParams, WindModel
 
 #: sine of the bank angle whose lift turns the start loop (53 deg)
 LOOP_SIN_BANK = 0.8

@@ -2,7 +2,7 @@
 
 A chain (:class:`ChainTask`) is shipped to a worker as one task
 (:func:`run_chain`). The worker's :class:`optimize.service.solver.Solver` solves
-the chain's planned steps in order (:func:`optimize.sweep.plan.chain_steps`: a
+the chain's planned steps in order (:func:`optimize.service.plan.chain_steps`: a
 cold start at the middle wind speed, then outwards, each step warm-started from
 its planned source and fallbacks, of any kind of the chain), then, as asked:
 
@@ -30,8 +30,8 @@ from optimize.service.builder import Problem
 from optimize.service.cut_in import find_cut_in
 from optimize.service.local_optima import resolve_local_optima
 from optimize.service.outcome import ChainOutcome
+from optimize.service.plan import Step
 from optimize.service.solver import Solver
-from optimize.sweep.plan import Step
 
 
 @dataclass(frozen=True)

@@ -31,9 +31,9 @@ from optimize.service.outcome import (
     ScenarioOutcome,
     failure_status,
 )
+from optimize.service.plan import Chain, chain_steps
 from optimize.service.solver import attempt_line
 from optimize.service.store import solve_key
-from optimize.sweep.plan import Chain, chain_steps
 
 
 def failed_chain(task: ChainTask, exc: BaseException) -> ChainOutcome:
@@ -58,11 +58,11 @@ def run_chains(tasks: Sequence[ChainTask], handle: Any = None, *, workers: int =
                on_event: Callable[[dict], None] | None = None) -> tuple[list[ChainOutcome], str]:
     """Run every chain; their outcomes in task order and the executor's description.
 
-    ``handle`` is an open :class:`optimize.sweep.executors.ExecutorHandle`; without
+    ``handle`` is an open :class:`optimize.service.executors.ExecutorHandle`; without
     it the local process pool of ``workers`` (or the Dask cluster at ``scheduler``)
     is opened for these chains. ``on_event`` receives the progress events.
     """
-    from optimize.sweep.executors import open_executor, run_tasks
+    from optimize.service.executors import open_executor, run_tasks
 
     if handle is None:
         with open_executor(workers, scheduler) as h:
@@ -94,7 +94,7 @@ def solve_tasks(tasks: Sequence[SolveTask], store: Path | None = None, *, worker
 
     Tasks of one problem, kind and tag form one chain (one executor task), planned
     along the continuation order of their wind speeds
-    (:func:`optimize.sweep.plan.chain_steps`). With ``refine`` (kind -> its
+    (:func:`optimize.service.plan.chain_steps`). With ``refine`` (kind -> its
     :class:`optimize.service.chain.Refinement`) each chain then adds the wind speeds
     where its electrical power curve bends for the refinement's site. ``store``, ``backend``: see
     :class:`optimize.service.chain.ChainTask`; ``handle``, ``workers``,
@@ -166,7 +166,7 @@ def run_sweep(tasks: tuple[ChainTask, ...], handle: Any,
     ----------
     tasks : tuple of ChainTask
         From :func:`make_tasks`.
-    handle : optimize.sweep.executors.ExecutorHandle
+    handle : optimize.service.executors.ExecutorHandle
         The open executor and its progress channel.
     show_progress : bool
         Show a tqdm bar: one tick per planned scenario, per cut-in search, per cut-in

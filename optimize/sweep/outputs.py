@@ -18,7 +18,7 @@ from optimize.model import kite_model as km
 from optimize.service.local_optima import better_margin_w
 from optimize.service.outcome import ScenarioOutcome
 from optimize.service.solver import cycle_metrics
-from optimize.solve.result import OUTPUT_UNITS
+from optimize.solve.result import OUTPUT_COLUMNS
 from optimize.sweep_folder import SUMMARY_COLUMNS
 
 #: the metric columns (NaN for a failed scenario)
@@ -40,7 +40,7 @@ MEANT_BOUNDS = (*DRIVE_BOUNDS, *KITE_BOUNDS, "ground_clearance")
 #: readers' required subset: :data:`optimize.sweep_folder.TRAJECTORY_COLUMNS`)
 TRAJECTORY_COLUMNS_ALL = ("scenario", "kind", "wind_speed_m_s", "time_s", "interval", "weight",
                       *km.STATES.names, *km.CONTROLS.names, *km.ALGEBRAIC.names,
-                      *(c for c in OUTPUT_UNITS if c not in ("time_s", "interval", "weight")))
+                      *(c for c in OUTPUT_COLUMNS if c not in ("time_s", "interval", "weight")))
 
 
 def _trajectory_metrics(traj: pd.DataFrame) -> dict[str, float]:

@@ -17,8 +17,9 @@ task (a warm-start chain never leaves its worker). Kinds are grouped so that the
 chains have equal numbers of solves: with two workers the default 20-scenario
 sweep splits into ``elec-lim + elec-free`` and ``mech-lim + mech-free``.
 
-The chains run on the solve service (:mod:`optimize.service`); the whole
-``bench optimize`` command is :func:`optimize.command.run_optimize`.
+The chains run on the solve service (:mod:`optimize.service.run`, on the executors of
+:mod:`optimize.service.executors`); the whole ``bench optimize`` command is
+:func:`optimize.command.run_optimize`.
 """
 
 from __future__ import annotations
