@@ -223,7 +223,7 @@ class Sweep:
                  ("system and drive", self.note)]
         return rows
 
-    def cycles(self, wind_m_s: float) -> dict[str, pd.DataFrame]:
+    def cycles(self, wind_speed_m_s: float) -> dict[str, pd.DataFrame]:
         """The converged cycles at one wind speed: scenario kind -> the closed cycle
         (``time_s`` from 0 to the period [s], ``speed_rpm``, ``torque_nm``, ``p_elec_w``,
         ``p_mech_w``, ...: ``trajectories.parquet``'s columns, docs/schemas.md §5)."""
@@ -231,7 +231,7 @@ class Sweep:
 
         traj = pd.read_parquet(self.folder / "trajectories.parquet")
         rows = self.summary[self.summary["success"].astype(bool)
-                            & (self.summary["wind_speed_m_s"].astype(float) - wind_m_s).abs()
+                            & (self.summary["wind_speed_m_s"].astype(float) - wind_speed_m_s).abs()
                             .lt(1e-9)]
         return {str(r.kind): closed_cycle(traj[traj["scenario"] == r.scenario])
                 for r in rows.itertuples(index=False)}

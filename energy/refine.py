@@ -184,11 +184,10 @@ def merged_curve(coarse: PowerCurve, records: tuple[dict, ...]) -> PowerCurve:
     """The sweep's curve with the converged added points in, the failed ones in ``failed``."""
     from optimize.door import scenario_name
 
+    columns = (coarse.wind_speed_m_s, coarse.p_elec_w, coarse.p_mech_w, coarse.period_s,
+               coarse.peak_speed_rpm, coarse.peak_torque_nm, coarse.scenarios)
     rows = [(float(w), float(pe), float(pm), float(t), float(n), float(q), s, False)
-            for w, pe, pm, t, n, q, s in zip(coarse.wind_m_s, coarse.p_elec_w, coarse.p_mech_w,
-                                             coarse.period_s, coarse.peak_speed_rpm,
-                                             coarse.peak_torque_nm, coarse.scenarios,
-                                             strict=True)]
+            for w, pe, pm, t, n, q, s in zip(*columns, strict=True)]
     have = {r[0] for r in rows}
     failed = list(coarse.failed)
     for r in records:
@@ -203,7 +202,7 @@ def merged_curve(coarse: PowerCurve, records: tuple[dict, ...]) -> PowerCurve:
                      True))
     rows.sort()
     col = list(zip(*rows, strict=True))
-    return replace(coarse, wind_m_s=np.array(col[0]), p_elec_w=np.array(col[1]),
+    return replace(coarse, wind_speed_m_s=np.array(col[0]), p_elec_w=np.array(col[1]),
                    p_mech_w=np.array(col[2]), period_s=np.array(col[3]),
                    peak_speed_rpm=np.array(col[4]), peak_torque_nm=np.array(col[5]),
                    scenarios=tuple(col[6]), added=tuple(col[7]),
@@ -251,10 +250,10 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
     options = options_from_manifest(run.manifest, manifest_path)
     system = system_from_manifest(run.manifest, manifest_path)
     tasks = [KindTask(k, model, options,
-                      tuple(zip(c.wind_m_s.tolist(), c.p_elec_w.tolist(), c.p_mech_w.tolist(),
+                      tuple(zip(c.wind_speed_m_s.tolist(), c.p_elec_w.tolist(), c.p_mech_w.tolist(),
                                 strict=True)),
                       site, Path(store), tol, max_points, backend, system)
-             for k, c in run.curves.items() if len(c.wind_m_s) >= 2]
+             for k, c in run.curves.items() if len(c.wind_speed_m_s) >= 2]
     bar = tqdm(total=0, unit="solve", desc="refine", disable=not show_progress)
     counts = {"solved": 0, "loaded": 0}
 
@@ -283,7 +282,7 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
             continue
         records = out.records
         curve = merged_curve(coarse, records)
-        names = dict(zip(curve.wind_m_s.tolist(), curve.scenarios, strict=True))
+        names = dict(zip(curve.wind_speed_m_s.tolist(), curve.scenarios, strict=True))
         grads = {names[float(r["wind_speed_m_s"])]: np.array(r["basis_averages"])
                  for r in records if r["role"] == "added" and r["success"]}
         kinds[task.kind] = KindRefinement(task.kind, coarse, records, grads,
@@ -302,7 +301,7 @@ def _check_note(coarse: PowerCurve, records: tuple[dict, ...]) -> str | None:
         return (f"{coarse.kind}: the check re-solve at {w:g} m/s failed "
                 f"({failure_reason(check)}); "
                 "added points were solved without it")
-    ref = float(coarse.p_elec_w[np.flatnonzero(coarse.wind_m_s == w)[0]])
+    ref = float(coarse.p_elec_w[np.flatnonzero(coarse.wind_speed_m_s == w)[0]])
     gap = abs(check["avg_p_elec_w"] - ref)
     scale = float(np.max(np.abs(coarse.p_elec_w)))
     if gap > CHECK_REL_TOL * scale:
@@ -320,11 +319,11 @@ def refine_document(r: RefinedRun, site: Any, tol: float) -> dict:
     for k, kr in r.kinds.items():
         c, m = kr.coarse, r.run.curves[k]
         kinds[k] = {
-            "coarse_aep_elec_mwh": aep_mwh(c.wind_m_s, c.p_elec_w, site, c.cut_in_m_s),
-            "coarse_aep_mech_mwh": aep_mwh(c.wind_m_s, c.p_mech_w, site),
-            "aep_elec_mwh": aep_mwh(m.wind_m_s, m.p_elec_w, site, m.cut_in_m_s),
-            "aep_mech_mwh": aep_mwh(m.wind_m_s, m.p_mech_w, site),
-            "wind_speeds_m_s": m.wind_m_s.tolist(),
+            "coarse_aep_elec_mwh": aep_mwh(c.wind_speed_m_s, c.p_elec_w, site, c.cut_in_m_s),
+            "coarse_aep_mech_mwh": aep_mwh(c.wind_speed_m_s, c.p_mech_w, site),
+            "aep_elec_mwh": aep_mwh(m.wind_speed_m_s, m.p_elec_w, site, m.cut_in_m_s),
+            "aep_mech_mwh": aep_mwh(m.wind_speed_m_s, m.p_mech_w, site),
+            "wind_speeds_m_s": m.wind_speed_m_s.tolist(),
             "solves": [{key: rec.get(key) for key in (
                 "wind_speed_m_s", "role", "success", "status", "warm_from", "avg_p_elec_w",
                 "avg_p_mech_w", "result_check", "wall_time_s", "cached")}

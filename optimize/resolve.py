@@ -43,7 +43,7 @@ class Setup:
         return thermal_line(self.drive.model, self.options.limits, self.system.path)
 
 
-def resolve(system: Path | str | System | None = None, model: Any = None, *,
+def resolve(system: Path | str | System | None = None, drive_model: Any = None, *,
             fit_default: Path | str | None = None, options: OcpOptions | None = None,
             model_path: Path | None = None) -> Setup:
     """Resolve the system, the drive in force and the OCP options.
@@ -52,17 +52,17 @@ def resolve(system: Path | str | System | None = None, model: Any = None, *,
     ----------
     system : Path or System, optional
         A system file or a loaded system; default the shipped ``highwind.toml``.
-    model : Path or PowerModel, optional
+    drive_model : Path or PowerModel, optional
         The drive's losses (``--drive-model``, or a model object), overriding the system
         file's (:func:`optimize.system.drive_in_force.drive_in_force`).
     fit_default : Path, optional
-        ``bench fit``'s model, used when it exists and neither ``model`` nor the system
+        ``bench fit``'s model, used when it exists and neither ``drive_model`` nor the system
         file names the losses.
     options : OcpOptions, optional
         Discretization and solver (default :class:`OcpOptions`); the system's bounds and
         the drive's limits replace its limits.
     model_path : Path, optional
-        Where a model object was read from (recorded with it).
+        Where a drive model object was read from (recorded with it).
 
     Raises
     ------
@@ -71,9 +71,9 @@ def resolve(system: Path | str | System | None = None, model: Any = None, *,
         ``[drive]`` cannot take (see :func:`drive_in_force`).
     """
     loaded = system if isinstance(system, System) else load_system(system)
-    if model is None or isinstance(model, str | Path):
-        drive = drive_in_force(loaded, None if model is None else Path(model),
+    if drive_model is None or isinstance(drive_model, str | Path):
+        drive = drive_in_force(loaded, None if drive_model is None else Path(drive_model),
                                None if fit_default is None else Path(fit_default))
     else:
-        drive = drive_in_force(loaded, model_path, model=model)
+        drive = drive_in_force(loaded, model_path, model=drive_model)
     return Setup(loaded, drive, loaded.ocp_options(options or OcpOptions(), drive.rating))

@@ -25,7 +25,7 @@ from optimize.problem.interface import Point, Row, weight_param
 
 STATES = Variables(("r_x_m", "r_z_m", "v_x_m_s", "v_z_m_s"))
 CONTROLS = Variables(("f_x_n",))
-ALGEBRAIC = Variables(("a_x_m_s2", "a_z_m_s2", "nu_n_m"))
+ALGEBRAIC = Variables(("a_x_m_s2", "a_z_m_s2", "nu_n_per_m"))
 FICTITIOUS = Variables(("f_fict_x_n", "f_fict_z_n"))
 
 
@@ -101,7 +101,7 @@ class PendulumFormulation:
                      averages={"p_ctrl_w": u[0] * x[2]},
                      fict_sq=ca.sumsqr(fict / ca.DM(self.scales.fictitious)))
 
-    def trajectory_outputs(self, x, u, z, wind_ref_m_s) -> dict:
+    def trajectory_outputs(self, x, u, z, wind_speed_m_s) -> dict:
         return {"tension_n": np.hypot(x[0], x[1]) * z[2]}
 
     def control_cost(self, u: Any) -> Any:

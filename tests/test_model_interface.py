@@ -47,7 +47,7 @@ def test_pendulum_cycle_has_the_exact_period(solver):
     r = np.hypot(sol["x"][0], sol["x"][1])
     assert np.max(np.abs(r - pendulum.length_m)) < 2e-4 * pendulum.length_m
     traj = trajectory_frame(ocp, raw.w, 0.0)
-    assert {"r_x_m", "v_z_m_s", "f_x_n", "nu_n_m", "tension_n"} <= set(traj.columns)
+    assert {"r_x_m", "v_z_m_s", "f_x_n", "nu_n_per_m", "tension_n"} <= set(traj.columns)
     # tension at the lowest point of the swing: m g (3 - 2 cos(theta0)) = 2 m g at 60 deg
     assert traj["tension_n"].max() == pytest.approx(2.0 * pendulum.mass_kg * pendulum.g_m_s2,
                                                     rel=1e-3)
@@ -56,6 +56,6 @@ def test_pendulum_cycle_has_the_exact_period(solver):
 def test_the_objective_weights_are_named_by_the_model():
     form = pendulum_formulation(Pendulum())
     ocp = assemble(form, OcpOptions(Discretization(4, 2)))
-    assert set(ocp.layout.params) == {"wind_ref_m_s", "w_p_ctrl_w", "w_reg", "w_track", "w_fict"}
+    assert set(ocp.layout.params) == {"wind_speed_m_s", "w_p_ctrl_w", "w_reg", "w_track", "w_fict"}
     with pytest.raises(ValueError, match="p_elec_w"):
         ocp.params(0.0, {"p_elec_w": 1.0})

@@ -78,7 +78,8 @@ def test_optimize_writes_the_header_into_the_manifest_and_run_json(tmp_path):
 
     out = tmp_path / "optimize_out"
     request = SweepRequest(winds=(5.5, 7.0), kinds=("elec-lim",),
-                           setup=resolve(model=paper_model(), model_path=PAPER_MODEL_PATH),
+                           setup=resolve(drive_model=paper_model(),
+                                         model_path=PAPER_MODEL_PATH),
                            model_note="paper model", workers=1, out=out, claims=False)
     run_optimize(request, ["bench", "optimize", "--wind-grid", "5.5,7"], show_progress=False,
                  backend=CycleBackend())

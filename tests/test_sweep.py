@@ -438,7 +438,7 @@ def test_run_optimize_writes_every_file(tmp_path):
     request = SweepRequest(
         winds=(4.0, 5.5, 7.0),
         kinds=("elec-lim", "mech-lim"),
-        setup=resolve(model=paper_model(), model_path=PAPER_MODEL_PATH),
+        setup=resolve(drive_model=paper_model(), model_path=PAPER_MODEL_PATH),
         model_note="paper model",
         workers=2,
         out=out,
@@ -510,7 +510,8 @@ def test_a_solver_crash_in_an_optimize_sweep_is_reported_as_sizing_and_refine_re
 
     out = tmp_path / "optimize_out"
     request = SweepRequest(winds=(4.0, 5.5, 7.0), kinds=("elec-lim",),
-                           setup=resolve(model=paper_model(), model_path=PAPER_MODEL_PATH),
+                           setup=resolve(drive_model=paper_model(),
+                                         model_path=PAPER_MODEL_PATH),
                            model_note="paper model", workers=1, out=out, claims=False)
     done = run_optimize(request, ["bench", "optimize"], show_progress=False,
                         backend=CrashingCycleBackend(crash_at=5.5))

@@ -152,7 +152,7 @@ def test_unit_of_gives_each_output_column_its_unit():
         "dddl_m_s3": "m/s^3",
         "daileron_rad_s": "rad/s",
         "domega_x_rad_s2": "rad/s^2",
-        "nu_n_m": "N/m",
+        "nu_n_per_m": "N/m",
         "aileron_rad": "rad",
     }
     for name in (*km.STATES.names, *km.CONTROLS.names, *km.ALGEBRAIC.names):

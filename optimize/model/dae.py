@@ -31,7 +31,7 @@ class Dae(Protocol):
     ode : casadi.Function
         ``(x, u, z) -> xdot`` [SI].
     alg : casadi.Function
-        ``(x, u, z, wind_ref_m_s, fict) -> residual`` (``algebraic.size`` rows).
+        ``(x, u, z, wind_speed_m_s, fict) -> residual`` (``algebraic.size`` rows).
     """
 
     states: Variables

@@ -188,7 +188,7 @@ def with_winding_temperature(base: Any, heat_w: ca.Function, thermal: WindingThe
     x = ca.SX.sym("x", n + m)
     u = ca.SX.sym("u", base.controls.size)
     z = ca.SX.sym("z", base.algebraic.size)
-    w = ca.SX.sym("wind_ref_m_s")
+    w = ca.SX.sym("wind_speed_m_s")
     fict = ca.SX.sym("fict", base.fictitious.size)
     xb, theta = x[:n], [x[n + k] for k in range(m)]
     z_phys = base.solve_z(xb, u, w)

@@ -334,7 +334,7 @@ def condensed_nlp(form: CycleFormulation, coll: Collocation, full: Transcription
     n_p_full = lay.n_p
     i_q = np.stack([np.concatenate([st["x"][k], st["u"][k], st["t"][k], st["f"][k]])
                     for k in range(n)], axis=1)
-    i_a = np.stack([np.concatenate([[lay.params["wind_ref_m_s"]],
+    i_a = np.stack([np.concatenate([[lay.params["wind_speed_m_s"]],
                                     n_p_full + k * it.n_v + np.arange(it.n_v),
                                     lay.i_p_ref[:, k * d + 1:(k + 1) * d + 1].T.ravel()])
                     for k in range(n)], axis=1)

@@ -107,7 +107,7 @@ class Formulation:
 
     def tension_n(self, x: Any, z: Any) -> Any:
         """Tether tension [N]."""
-        return x[X_LENGTH] * z[self.dae.algebraic.index("nu_n_m")]
+        return x[X_LENGTH] * z[self.dae.algebraic.index("nu_n_per_m")]
 
     def p_elec_w(self, speed_rpm: Any, torque_nm: Any, theta_c: Any = None) -> Any:
         """Electrical power drawn [W] (CasADi): the power model, its copper loss at the
@@ -236,17 +236,17 @@ class Formulation:
                      fict_sq=ca.sumsqr(fict / ca.DM(sc.fictitious)))
 
     def trajectory_outputs(self, x: np.ndarray, u: np.ndarray, z: np.ndarray,
-                           wind_ref_m_s: float) -> dict[str, np.ndarray]:
+                           wind_speed_m_s: float) -> dict[str, np.ndarray]:
         """Drive and flight quantities at points (columns of ``x, u, z``) [SI, rpm, deg]:
         motor speed, the drive's shaft torque and the tether's at the motor, tension, shaft
         and electrical power, altitude, airspeed, angles of attack and sideslip, local
         wind, line angle, invariants."""
         drivetrain = self.drivetrain
-        outputs = self.dae.outputs.map(x.shape[1])(x, u, z, wind_ref_m_s)
+        outputs = self.dae.outputs.map(x.shape[1])(x, u, z, wind_speed_m_s)
         out = {name: np.asarray(val).ravel()
                for name, val in zip(self.dae.outputs.name_out(), outputs, strict=True)}
         dl, ddl = x[X_REEL_SPEED], x[X_REEL_ACCELERATION]
-        tension = x[X_LENGTH] * z[self.dae.algebraic.index("nu_n_m")]
+        tension = x[X_LENGTH] * z[self.dae.algebraic.index("nu_n_per_m")]
         speed_rpm = drivetrain.speed_rpm(dl)
         torque_nm = drivetrain.shaft_torque_nm(tension, ddl)
         p_elec = np.asarray(self.drive_model.p_elec_w(speed_rpm, torque_nm))
@@ -351,7 +351,7 @@ class Formulation:
         """Bounds of the algebraic variables [SI]: tension ``l nu >= 0``."""
         alg = self.dae.algebraic
         lo, hi = np.full(alg.size, -np.inf), np.full(alg.size, np.inf)
-        lo[alg.index("nu_n_m")] = 0.0
+        lo[alg.index("nu_n_per_m")] = 0.0
         return lo, hi
 
     def control_bounds(self) -> tuple[np.ndarray, np.ndarray]:

@@ -110,7 +110,7 @@ class CycleFormulation(Protocol):
         """Rows and integrands at one collocation point (physical arguments)."""
 
     def trajectory_outputs(self, x: np.ndarray, u: np.ndarray, z: np.ndarray,
-                           wind_ref_m_s: float) -> dict[str, np.ndarray]:
+                           wind_speed_m_s: float) -> dict[str, np.ndarray]:
         """Derived columns of a solution's trajectory at points (columns of ``x, u, z``),
         each name ending in its unit."""
 
@@ -151,7 +151,7 @@ class CycleFormulation(Protocol):
 
 #: NLP parameters every transcription has besides the objective weights: the reference
 #: wind speed [m/s] and the weights of the regularization and the homotopy terms
-BASE_PARAMS = ("wind_ref_m_s", "w_reg", "w_track", "w_fict")
+BASE_PARAMS = ("wind_speed_m_s", "w_reg", "w_track", "w_fict")
 
 
 def weight_param(average: str) -> str:

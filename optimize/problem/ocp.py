@@ -107,7 +107,7 @@ class Ocp:
 
     def params(
         self,
-        wind_ref_m_s: float,
+        wind_speed_m_s: float,
         weights: dict[str, float] | None = None,
         w_reg: float | None = None,
         w_track: float = 0.0,
@@ -118,7 +118,7 @@ class Ocp:
 
         Parameters
         ----------
-        wind_ref_m_s : float
+        wind_speed_m_s : float
             Wind speed at 100 m [m/s].
         weights : dict, optional
             Objective weight per cycle average, by name (``{"p_elec_w": 1.0}``;
@@ -135,7 +135,7 @@ class Ocp:
         if w_reg is None:
             w_reg = (self.options.discretization.regularization_w
                      / self.formulation.objective_scale)
-        values = {"wind_ref_m_s": wind_ref_m_s, "w_reg": w_reg, "w_track": w_track,
+        values = {"wind_speed_m_s": wind_speed_m_s, "w_reg": w_reg, "w_track": w_track,
                   "w_fict": w_fict}
         for average, weight in (weights or {}).items():
             if weight_param(average) not in lay.params:

@@ -94,7 +94,7 @@ def system_scales(
     algebraic = dae.algebraic.vector({
         **{f"a_{a}_m_s2": 1.5 * speed * rate for a in "xyz"},
         **{f"domega_{a}_rad_s2": 6.3 * rate**2 for a in "xyz"},
-        "nu_n_m": 11.0 * kite.mass_kg * kite.g_m_s2 / length,
+        "nu_n_per_m": 11.0 * kite.mass_kg * kite.g_m_s2 / length,
     })
     fictitious = dae.fictitious.vector({
         **{f"f_fict_{a}_n": force for a in "xyz"}, **{f"m_fict_{a}_nm": moment for a in "xyz"},

@@ -7,7 +7,8 @@ from typing import Literal
 
 from optimize.kinds import KINDS, Kind, kind_of
 
-Objective = Literal["electrical", "mechanical"]
+#: the name of an objective (:class:`optimize.kinds.Objective` is the objective itself)
+ObjectiveName = Literal["electrical", "mechanical"]
 
 
 @dataclass(frozen=True)
@@ -27,7 +28,7 @@ class Scenario:
     """
 
     wind_speed_m_s: float
-    objective: Objective
+    objective: ObjectiveName
     drive_limits: bool
 
     def __post_init__(self) -> None:

@@ -389,7 +389,7 @@ def radau_collocation(form: CycleFormulation, disc: Discretization, coll: Colloc
         points += _interval(point, coll, w, int(i_period[k]),
                             [i_x[:, k * d + r] for r in range(d + 1)], i_u[:, k],
                             [i_z[:, k * d + j] for j in range(d)],
-                            [i_f[:, k * d + j] for j in range(d)], par["wind_ref_m_s"], rows)
+                            [i_f[:, k * d + j] for j in range(d)], par["wind_speed_m_s"], rows)
         for j in range(1, d + 1):
             _add_integrands(sums, coll, n, j, s[:, k * d + j - 1])
     sums.track = _tracking(form, p, i_p_ref, xs)
@@ -403,7 +403,7 @@ def radau_collocation(form: CycleFormulation, disc: Discretization, coll: Colloc
 
     f_s = form.objective(par, sums.averages, sums.reg, sums.track, sums.fict)
     nlp, blocks = _nlp_and_blocks(w, p, f_s, ca.vertcat(*rows.exprs), s, point, points,
-                                  np.tile(coll.deriv, (1, n)), i_par["wind_ref_m_s"])
+                                  np.tile(coll.deriv, (1, n)), i_par["wind_speed_m_s"])
     layout = Layout(
         n_points=n_points, n_coll=n_coll, i_period=i_period, i_x=i_x, i_z=i_z, i_u=i_u,
         i_f=i_f, scale_w=scale_w, n_w=n_w, n_g=rows.n, n_p=n_p, i_p_ref=i_p_ref,
@@ -550,7 +550,7 @@ def stagewise_collocation(form: CycleFormulation, disc: Discretization, coll: Co
     point = point_function(form, coll, n, _point_scales(form))
     s = ca.SX.sym("s", len(point.integrands), n_coll)  # the integrands, as in radau_collocation
     rows, sums, running, all_points = _stage_rows(form, coll, st, w, at, point, s,
-                                                  par["wind_ref_m_s"])
+                                                  par["wind_speed_m_s"])
     sums.track = _tracking(form, p, i_p_ref, [at(st.i_x[:, k]) for k in range(n_points)])
     terminal = [*form.periodicity_rows(at(st.i_start[:, n]), at(st.x_start(n)))]
     if carried:
@@ -560,7 +560,7 @@ def stagewise_collocation(form: CycleFormulation, disc: Discretization, coll: Co
 
     f_s = form.objective(par, sums.averages, sums.reg, sums.track, sums.fict)
     nlp, blocks = _nlp_and_blocks(w, p, f_s, ca.vertcat(*rows.exprs), s, point, all_points,
-                                  np.tile(coll.deriv, (1, n)), i_par["wind_ref_m_s"])
+                                  np.tile(coll.deriv, (1, n)), i_par["wind_speed_m_s"])
     layout = Layout(
         n_points=n_points, n_coll=n_coll, i_period=st.i_period, i_x=st.i_x, i_z=st.i_z,
         i_u=st.i_u, i_f=st.i_f, scale_w=scale_w, n_w=st.n_w, n_g=rows.n, n_p=n_p,

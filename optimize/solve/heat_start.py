@@ -20,7 +20,7 @@ from optimize.solve.result import Solution, carry_over
 ITERATIONS = 4
 
 
-def temperature_guess(ocp: Ocp, solution: Solution, wind_ref_m_s: float) -> np.ndarray:
+def temperature_guess(ocp: Ocp, solution: Solution, wind_speed_m_s: float) -> np.ndarray:
     """The thermal nodes' temperatures [degC] at the state grid of ``ocp.base``'s
     ``solution``, ``(nodes, N d + 1)``, the winding first.
 
@@ -30,7 +30,7 @@ def temperature_guess(ocp: Ocp, solution: Solution, wind_ref_m_s: float) -> np.n
         The problem with the winding temperature (``ocp.base`` set).
     solution : Solution
         An optimum of ``ocp.base``.
-    wind_ref_m_s : float
+    wind_speed_m_s : float
         Its wind speed [m/s].
     """
     base, thermal = ocp.base, ocp.formulation.thermal
@@ -38,7 +38,7 @@ def temperature_guess(ocp: Ocp, solution: Solution, wind_ref_m_s: float) -> np.n
     n, d = base.n_intervals, base.coll.degree
     x, z = sol["x"][:, 1:], sol["z"]
     out = base.formulation.trajectory_outputs(x, np.repeat(sol["u"], d, axis=1), z,
-                                              wind_ref_m_s)
+                                              wind_speed_m_s)
     heat0 = out["p_elec_w"] - out["p_mech_w"]
     h = sol["period_s"] / n
     times = h * (np.repeat(np.arange(n), d) + np.tile(base.coll.tau[1:], n))
@@ -52,7 +52,7 @@ def temperature_guess(ocp: Ocp, solution: Solution, wind_ref_m_s: float) -> np.n
     return np.hstack([nodes[:, -1:], nodes])
 
 
-def warm_from_base(ocp: Ocp, solution: Solution, wind_ref_m_s: float) -> Solution:
+def warm_from_base(ocp: Ocp, solution: Solution, wind_speed_m_s: float) -> Solution:
     """``ocp.base``'s ``solution`` in ``ocp``'s layout with its winding temperature."""
-    theta = temperature_guess(ocp, solution, wind_ref_m_s)
+    theta = temperature_guess(ocp, solution, wind_speed_m_s)
     return carry_over(ocp.base, solution, ocp, added_x=theta)

@@ -105,7 +105,7 @@ class OcpResult:
     slack_fraction: float = 0.0
 
 
-def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_ref_m_s: float) -> pd.DataFrame:
+def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_speed_m_s: float) -> pd.DataFrame:
     """Trajectory at every Radau point of a scaled decision vector: time, interval,
     quadrature weight, the model's states, controls and algebraic variables by name, and
     the formulation's outputs (``trajectory_outputs``)."""
@@ -124,7 +124,7 @@ def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_ref_m_s: float) -> pd.
                        (dae.algebraic.names, z)):
         for i, name in enumerate(names):
             frame[name] = arr[i]
-    frame.update(ocp.formulation.trajectory_outputs(x, u, z, wind_ref_m_s))
+    frame.update(ocp.formulation.trajectory_outputs(x, u, z, wind_speed_m_s))
     return pd.DataFrame(frame)
 
 
