@@ -27,7 +27,7 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp, thermal_line, winding_thermal
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
-from optimize.solve.heat_start import warm_from_base
+from optimize.solve.result import carry_over
 from optimize.solve.solve import solve, start
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path
@@ -64,7 +64,7 @@ def test_without_a_thermal_rating_the_ocp_is_unchanged():
     """No winding limit, or no thermal model: no temperature state, the RMS row stays."""
     opts = OcpOptions(Discretization(n_intervals=8))
     plain = build_ocp(kite_dae(), _model(), opts)
-    assert plain.base is None and STATE not in plain.dae.states.names
+    assert STATE not in plain.dae.states.names
     assert winding_thermal(paper_model(), dataclasses.replace(
         opts.limits, max_winding_temperature_c=LIMIT_C)) is None
     line = thermal_line(paper_model(), dataclasses.replace(opts.limits,
@@ -80,22 +80,24 @@ HOT_OPTIONS = OcpOptions(Discretization(n_intervals=20)).replace(limits={
 
 @pytest.fixture(scope="module")
 def hot_cycle():
-    """elec-lim at 10 m/s, 20 intervals, the winding limited to 40 degC: the problem
-    without the temperature (with an RMS rating of 60 N m), then the one with it
-    warm-started from that optimum (as a cold start does)."""
-    ocp = build_ocp(kite_dae(*load_system().model_params()), _model(), HOT_OPTIONS)
+    """elec-lim at 10 m/s, 20 intervals, the winding limited to 40 degC, started from
+    the stored guess with the thermal part's own start (its cyclic steady temperature);
+    and the problem without the temperature (with an RMS rating of 60 N m), the
+    power model without a thermal model."""
+    dae = kite_dae(*load_system().model_params())
+    ocp = build_ocp(dae, _model(), HOT_OPTIONS)
     scenario = Scenario.of_kind("elec-lim", 10.0)
-    base = start(ocp.base, scenario)
-    return ocp, solve(ocp, scenario, warm_from_base(ocp, base.warm, 10.0)), base
+    plain = build_ocp(dae, paper_model(), HOT_OPTIONS)
+    return ocp, start(ocp, scenario), start(plain, scenario), plain
 
 
 def test_the_thermal_limit_binds_and_replaces_the_rms_row(hot_cycle):
-    ocp, hot, base = hot_cycle
+    ocp, hot, base, plain = hot_cycle
     assert hot.success and base.success, (hot.status, base.status)
     theta = hot.trajectory[STATE].to_numpy()
     assert theta.max() == pytest.approx(LIMIT_C, abs=1e-3)
     assert "winding_temperature_limit" in hot.active_bounds
-    assert "rms_torque" not in ocp.layout.rows and "rms_torque" in ocp.base.layout.rows
+    assert "rms_torque" not in ocp.layout.rows and "rms_torque" in plain.layout.rows
     # the base (RMS 60 N m, no temperature) flies hotter: the limit changes the optimum
     assert abs(hot.avg_p_elec_w - base.avg_p_elec_w) > 10.0
 
@@ -103,7 +105,7 @@ def test_the_thermal_limit_binds_and_replaces_the_rms_row(hot_cycle):
 def test_the_cycle_mean_temperature_is_the_heat_balance(hot_cycle):
     """Over a periodic cycle tau (theta(T) - theta(0)) = 0, so the time mean of theta is
     theta_a + r_th mean(q) exactly (quadrature of the collocation: 1e-3 K)."""
-    ocp, hot, _ = hot_cycle
+    ocp, hot, _, _ = hot_cycle
     tr, th = hot.trajectory, ocp.formulation.thermal
     heat = tr["p_elec_w"] - tr["p_mech_w"]
     mean_theta = float(np.sum(tr["weight"] * tr[STATE]))
@@ -135,7 +137,7 @@ def test_fifty_cycles_forward_stay_on_the_periodic_temperature(hot_cycle):
     """RK45 over 50 repeated cycles from the OCP's theta(0), the heat recomputed at the
     simulated temperature from the cycle's speed, torque and shaft power: ends within
     0.5 K of the OCP's periodic temperature."""
-    ocp, hot, _ = hot_cycle
+    ocp, hot, _, _ = hot_cycle
     th, heat, period = ocp.formulation.thermal, _heat_of(ocp, hot), float(hot.period_s)
 
     def rhs(time, y):
@@ -154,11 +156,12 @@ LADDER = ((1500.0, 0.015), (15000.0, 0.035))
 
 
 def test_a_two_node_network_is_periodic_in_the_cycle_and_its_winding_limited(hot_cycle):
-    """The same problem with a two-node network, warm-started from the same optimum
-    without heat: the winding (not the housing) reaches the limit, and 50 cycles of an
-    RK45 integration of the node equations (C dtheta/dt = heat flows) from the OCP's end
-    temperatures end within 0.5 K of them at both nodes."""
-    _, _, base = hot_cycle
+    """The same problem with a two-node network, warm-started from the one-node optimum
+    (its housing node filled by the thermal part's start): the winding (not the housing)
+    reaches the limit, and 50 cycles of an RK45 integration of the node equations
+    (C dtheta/dt = heat flows) from the OCP's end temperatures end within 0.5 K of them
+    at both nodes."""
+    one_node, one, _, _ = hot_cycle
     (c_w, r_wh), (c_h, r_ha) = LADDER
     thermal = {**THERMAL, "nodes": 2, "ladder": [{"node": "winding", "c_j_per_k": c_w,
                                                    "r_k_per_w": r_wh},
@@ -167,7 +170,8 @@ def test_a_two_node_network_is_periodic_in_the_cycle_and_its_winding_limited(hot
     model = dataclasses.replace(paper_model(), thermal=thermal)
     ocp = build_ocp(kite_dae(*load_system().model_params()), model, HOT_OPTIONS)
     assert ocp.dae.states.names[-2:] == (STATE, "theta_housing_c")
-    hot = solve(ocp, Scenario.of_kind("elec-lim", 10.0), warm_from_base(ocp, base.warm, 10.0))
+    warm = carry_over(one_node, one.warm, ocp, 10.0)
+    hot = solve(ocp, Scenario.of_kind("elec-lim", 10.0), warm)
     assert hot.success, hot.status
     winding = hot.trajectory[STATE].to_numpy()
     housing = hot.trajectory["theta_housing_c"].to_numpy()

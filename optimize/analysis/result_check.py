@@ -51,6 +51,7 @@ import casadi as ca
 import numpy as np
 
 from optimize.model.aero import force_coefficients
+from optimize.problem.kite_part import POSITION_STATES
 
 #: documented minimum mesh: collocation points per cycle (intervals x degree)
 MIN_COLLOCATION_POINTS = 40
@@ -62,8 +63,6 @@ SUBSTEPS_PER_POINT = 4
 MAX_STEP_S = 0.01
 #: grid points per coefficient bound for the largest C_R^3 / C_D^2
 _GRID = (41, 7, 7, 7, 7)
-#: the model's position states (the defect in metres is measured on them)
-POSITION_STATES = ("r_x_m", "r_y_m", "r_z_m")
 
 
 @dataclass(frozen=True)

@@ -26,15 +26,11 @@ by a fraction of a kelvin about ``theta_amb + r_th mean(q)``, ``r_th = sum r_k``
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
-import casadi as ca
 import numpy as np
 from scipy.linalg import expm
-
-from optimize.model.variables import Variables
 
 #: the winding temperature's state (the unit in the name, :mod:`optimize.model.variables`)
 STATE = "theta_winding_c"
@@ -170,45 +166,6 @@ class WindingThermal:
     def steady_c(self, heat_w: float) -> float:
         """Steady winding temperature [degC] under a constant heat [W]."""
         return self.ambient_c + self.r_th_k_per_w * heat_w
-
-
-def with_winding_temperature(base: Any, heat_w: ca.Function, thermal: WindingThermal) -> Any:
-    """The model ``base`` (a :class:`optimize.model.kite_model.KiteDae`) with the thermal
-    network's nodes appended to its state (the winding first), periodic over the cycle.
-
-    Parameters
-    ----------
-    base : KiteDae
-    heat_w : casadi.Function
-        ``(x, z, theta_c) -> heat [W]`` on ``base``'s state and algebraic variables,
-        at the winding temperature ``theta_c``.
-    thermal : WindingThermal
-    """
-    n, m = base.states.size, len(thermal.ladder)
-    x = ca.SX.sym("x", n + m)
-    u = ca.SX.sym("u", base.controls.size)
-    z = ca.SX.sym("z", base.algebraic.size)
-    w = ca.SX.sym("wind_speed_m_s")
-    fict = ca.SX.sym("fict", base.fictitious.size)
-    xb, theta = x[:n], [x[n + k] for k in range(m)]
-    z_phys = base.solve_z(xb, u, w)
-    outputs = base.outputs(xb, u, z, w)
-    return dataclasses.replace(
-        base,
-        states=Variables((*base.states.names, *thermal.states)),
-        periodic=(*base.periodic, *thermal.states),
-        ode=ca.Function("ode", [x, u, z], [ca.vertcat(
-            base.ode(xb, u, z), *thermal.rates_k_s(theta, heat_w(xb, z, theta[0])))],
-            ["x", "u", "z"], ["xdot"]),
-        alg=ca.Function("alg", [x, u, z, w, fict], [base.alg(xb, u, z, w, fict)]),
-        outputs=ca.Function("outputs", [x, u, z, w], list(outputs),
-                            ["x", "u", "z", "wind"], base.outputs.name_out()),
-        invariants=ca.Function("invariants", [x], list(base.invariants(xb))),
-        explicit_ode=ca.Function("explicit_ode", [x, u, w], [ca.vertcat(
-            base.explicit_ode(xb, u, w),
-            *thermal.rates_k_s(theta, heat_w(xb, z_phys, theta[0])))]),
-        solve_z=ca.Function("solve_z", [x, u, w], [z_phys]),
-    )
 
 
 def periodic_temperatures(times_s: np.ndarray, heat_w: np.ndarray, period_s: float,

@@ -14,7 +14,6 @@ switched off); :mod:`optimize.solve` runs the solvers.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import time
 from dataclasses import dataclass, field
@@ -27,12 +26,14 @@ from kernel.errors import InputError
 from optimize.model.dae import Dae
 from optimize.model.drivetrain import DriveModel
 from optimize.model.kite_model import KiteDae
-from optimize.model.thermal import SCALE_K, WindingThermal, with_winding_temperature
+from optimize.model.thermal import WindingThermal
 from optimize.problem.collocation import Collocation, radau
-from optimize.problem.formulation import DEG, Formulation
+from optimize.problem.formulation import Formulation
 from optimize.problem.guess import LoopGuess, start_loop
 from optimize.problem.interface import CycleFormulation, weight_param
 from optimize.problem.options import OcpOptions, with_drive_rating
+from optimize.problem.part import Part
+from optimize.problem.parts import kite_parts
 from optimize.problem.scaling import Scales, system_scales
 from optimize.problem.transcription import (
     Layout,
@@ -53,9 +54,7 @@ class Ocp:
     Build the kite's with :func:`build_ocp` (any formulation's with :func:`assemble`);
     solve it with :func:`optimize.solve.solve.solve` or :func:`optimize.solve.solve.start`
     (the kite's) or :func:`optimize.solve.backend.run` (any). Solvers created for it are
-    cached in ``solvers`` (:mod:`optimize.solve.backend`). ``base`` is the same problem
-    without the states a formulation adds to the kite's (the winding temperature): its
-    solution starts this one's cold starts.
+    cached in ``solvers`` (:mod:`optimize.solve.backend`).
     """
 
     options: OcpOptions
@@ -65,7 +64,6 @@ class Ocp:
     build_time_s: float
     loop: LoopGuess | None = None
     system: Any = None
-    base: Ocp | None = None
     solvers: dict = field(default_factory=dict, repr=False)
     _g_fn: ca.Function | None = field(default=None, repr=False)
 
@@ -198,7 +196,7 @@ class Ocp:
 
 def build_ocp(
     dae: KiteDae, drive_model: DriveModel, options: OcpOptions | None = None,
-    system: Any = None,
+    system: Any = None, parts: tuple[Part, ...] = (),
 ) -> Ocp:
     """Build the scaled collocation NLP once for given options and drive model.
 
@@ -214,6 +212,8 @@ def build_ocp(
     system : optimize.system.system.System, optional
         The system ``dae`` and ``options.limits`` come from (recorded on the OCP;
         the stored initial guess is accepted only for its own system).
+    parts : tuple of Part
+        Parts added after the kite's own (:func:`optimize.problem.parts.kite_parts`).
 
     Returns
     -------
@@ -226,22 +226,10 @@ def build_ocp(
     loop = start_loop(dae.kite, dae.coeffs, dae.wind, lim.alpha_bounds_deg[1],
                       lim.min_airspeed_m_s, lim.period_bounds_s, lim.tether_length_bounds_m,
                       lim.min_altitude_m)
-    scales = system_scales(dae, loop, lim.nominal_power_w, lim.max_torque_nm,
-                           lim.surface_bound_deg * DEG, lim.surface_rate_bound_rad_s)
-    form = Formulation(dae, drive_model, lim, disc, scales)
-    ocp = assemble(form, o, loop=loop, system=system, started=t0)
-    thermal = winding_thermal(drive_model, lim)
-    if thermal is None:
-        return ocp
-    heat = dataclasses.replace(form, thermal=thermal).heat_function()
-    hot = Formulation(with_winding_temperature(dae, heat, thermal),
-                      drive_model, lim, disc,
-                      dataclasses.replace(scales, state=np.append(
-                          scales.state, [SCALE_K] * len(thermal.ladder))),
-                      thermal)
-    with_heat = assemble(hot, o, loop=loop, system=system, started=t0)
-    with_heat.base = ocp
-    return with_heat
+    scales = system_scales(dae.kite, loop, lim.nominal_power_w, lim.max_torque_nm)
+    own = kite_parts(dae, drive_model, lim, scales, loop, winding_thermal(drive_model, lim))
+    form = Formulation((*own, *parts), disc, scales)
+    return assemble(form, o, loop=loop, system=system, started=t0)
 
 
 def thermal_line(drive_model: DriveModel, limits: Any, source: Any = None) -> str:
@@ -334,7 +322,6 @@ def twin(ocp: Ocp, solver: str) -> Ocp:
     if key not in ocp.solvers:
         other = assemble(ocp.formulation, ocp.options.replace(solver={"solver": solver}),
                          loop=ocp.loop, system=ocp.system)
-        other.base = None if ocp.base is None else twin(ocp.base, solver)
         ocp.solvers[key] = other
     return ocp.solvers[key]
 

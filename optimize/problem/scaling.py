@@ -13,11 +13,11 @@ tuned with (100 m, 30 m/s, 100 N, 10 N m, 5 s, 1 kW, 100 N m).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from optimize.model.kite_model import KiteDae
+from optimize.model.params import KiteParams
 from optimize.problem.guess import LoopGuess
 
 
@@ -28,18 +28,19 @@ class Scales:
     Attributes
     ----------
     state, control, algebraic, fictitious : ndarray
-        Per component of ``x``, ``u``, ``z`` and the fictitious forces/moments.
+        Per component of ``x``, ``u``, ``z`` and the fictitious forces/moments (the
+        parts' :meth:`optimize.problem.part.Part.scales`, set by the formulation;
+        empty until then).
     residual : ndarray (7,)
         Algebraic residual rows: force [N], moment [N m], ``d2c/dt2`` [m^2/s^2].
     period_s, power_w, torque_nm, airspeed_m_s : float
     c_m2, cdot_m2_s : float
         Rows of the invariants at t = 0.
+    length_m, speed_m_s, rate_rad_s, force_n, moment_nm : float
+        The start loop's tether length, flight speed and turn rate, the force and moment
+        magnitudes the kite's variables are scaled from.
     """
 
-    state: np.ndarray
-    control: np.ndarray
-    algebraic: np.ndarray
-    fictitious: np.ndarray
     residual: np.ndarray
     period_s: float
     power_w: float
@@ -47,62 +48,47 @@ class Scales:
     airspeed_m_s: float
     c_m2: float
     cdot_m2_s: float
+    length_m: float
+    speed_m_s: float
+    rate_rad_s: float
+    force_n: float
+    moment_nm: float
+    state: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    control: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    algebraic: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    fictitious: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def system_scales(
-    dae: KiteDae,
+    kite: KiteParams,
     loop: LoopGuess,
     nominal_power_w: float,
     max_torque_nm: float,
-    surface_bound_rad: float,
-    surface_rate_bound_rad_s: float,
 ) -> Scales:
-    """Scales of a system flying its start loop ``loop``.
+    """Scales of a system flying its start loop ``loop`` (the per-variable ones come
+    from the parts, :meth:`optimize.problem.part.Part.scales`).
 
     Parameters
     ----------
-    dae : KiteDae
-        The kite model: its parameters, and the names the state scales follow.
+    kite : KiteParams
+        The kite's parameters.
     loop : LoopGuess
         The start loop (tether length ``L`` [m], period ``T`` [s], cone angle).
     nominal_power_w : float
         The drive's nominal power [W].
     max_torque_nm : float
         The drive's torque limit [N m] (motor shaft).
-    surface_bound_rad, surface_rate_bound_rad_s : float
-        Control-surface deflection [rad] and rate [rad/s] bounds.
     """
-    kite = dae.kite
     length = loop.tether_length_m
     period = loop.period_s
     rate = 2.0 * math.pi / period
     speed = length * math.sin(math.radians(loop.cone_half_angle_deg)) * rate
     force = 1.36 * kite.mass_kg * kite.g_m_s2
     moment = 0.4 * force * kite.cref_m
-    state = dae.states.vector({
-        **{f"r_{a}_m": 1.25 * length for a in "xyz"},
-        **{f"v_{a}_m_s": 1.15 * speed for a in "xyz"},
-        **{f"dcm_{i}{j}": 1.0 for i in (1, 2, 3) for j in (1, 2, 3)},
-        **{f"omega_{a}_rad_s": 2.4 * rate for a in "xyz"},
-        "l_m": 1.25 * length, "dl_m_s": 0.4 * speed, "ddl_m_s2": 0.9 * speed * rate,
-        **{f"{s}_rad": 1.15 * surface_bound_rad for s in ("aileron", "elevator", "rudder")},
-    })
-    control = dae.controls.vector({
-        "dddl_m_s3": 2.4 * speed * rate**2,
-        **{f"d{s}_rad_s": surface_rate_bound_rad_s for s in ("aileron", "elevator", "rudder")},
-    })
-    algebraic = dae.algebraic.vector({
-        **{f"a_{a}_m_s2": 1.5 * speed * rate for a in "xyz"},
-        **{f"domega_{a}_rad_s2": 6.3 * rate**2 for a in "xyz"},
-        "nu_n_per_m": 11.0 * kite.mass_kg * kite.g_m_s2 / length,
-    })
-    fictitious = dae.fictitious.vector({
-        **{f"f_fict_{a}_n": force for a in "xyz"}, **{f"m_fict_{a}_nm": moment for a in "xyz"},
-    })
     residual = np.array([force] * 3 + [moment] * 3 + [1.5 * speed**2])
     return Scales(
-        state=state, control=control, algebraic=algebraic, fictitious=fictitious,
         residual=residual, period_s=period, power_w=nominal_power_w / 8.0,
         torque_nm=1.3 * max_torque_nm, airspeed_m_s=1.15 * speed, c_m2=0.016 * length**2,
-        cdot_m2_s=0.5 * length * speed,
+        cdot_m2_s=0.5 * length * speed, length_m=length, speed_m_s=speed, rate_rad_s=rate,
+        force_n=force, moment_nm=moment,
     )

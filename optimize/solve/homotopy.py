@@ -23,9 +23,9 @@ import logging
 
 import numpy as np
 
-from optimize.problem.guess import LoopGuess, circular_loop
-from optimize.problem.ocp import Ocp, grid_times
+from optimize.problem.ocp import Ocp
 from optimize.problem.scenario import Scenario
+from optimize.problem.start import part_start
 from optimize.solve.backend import RawSolve, run
 from optimize.solve.result import OcpResult, make_result
 
@@ -68,8 +68,9 @@ def fictitious_rms(ocp: Ocp, w_scaled: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.asarray(w_scaled)[ocp.layout.i_f] ** 2)))
 
 
-def cold_start(ocp: Ocp, scenario: Scenario, guess: LoopGuess | None = None) -> OcpResult:
-    """Solve ``scenario`` from the circular-loop guess through the homotopy.
+def cold_start(ocp: Ocp, scenario: Scenario) -> OcpResult:
+    """Solve ``scenario`` from the parts' own start (the kite's circular loop,
+    :func:`optimize.problem.start.part_start`) through the homotopy.
 
     Stages: ``track`` (period free), ``penalize-W`` for the weights of
     :data:`PENALTY_WEIGHTS`; when a penalty stage fails, intermediate weights
@@ -86,9 +87,6 @@ def cold_start(ocp: Ocp, scenario: Scenario, guess: LoopGuess | None = None) -> 
         Built by :func:`optimize.problem.ocp.build_ocp`.
     scenario : Scenario
         Wind speed, objective and drive limits of the final stage.
-    guess : LoopGuess, optional
-        Geometry of the initial loop; defaults to the system's start loop
-        (``ocp.loop``, :func:`optimize.problem.guess.start_loop`).
 
     Returns
     -------
@@ -96,12 +94,10 @@ def cold_start(ocp: Ocp, scenario: Scenario, guess: LoopGuess | None = None) -> 
         Result of the final (power) stage; ``stages`` lists every stage and
         ``iterations``/``wall_time_s`` are the totals.
     """
-    guess = guess or ocp.loop
-    wind = scenario.wind_speed_m_s
-    lay = ocp.layout
-    x, z, fict = circular_loop(ocp.dae, guess, grid_times(ocp, guess.period_s), wind)
-    u = np.zeros((lay.i_u.shape[0], ocp.n_intervals))
-    w0 = ocp.pack(x, z[:, 1:], u, fict[:, 1:], guess.period_s)
+    wind, period = scenario.wind_speed_m_s, ocp.loop.period_s
+    guess = part_start(ocp, period, wind)
+    x = guess["x"]
+    w0 = ocp.pack(x, guess["z"], guess["u"], guess["fict"], period)
     stages: list[dict] = []
 
     track_bounds = ocp.bounds(drive_limits=False, fix_fictitious=False, period_s=None)

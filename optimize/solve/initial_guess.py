@@ -19,6 +19,7 @@ falls back to the homotopy. Regenerate the file with::
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import zipfile
 from pathlib import Path
@@ -28,7 +29,7 @@ import numpy as np
 from kernel.files import atomic_path
 from optimize.model.kite_model import kite_dae
 from optimize.paper_model import paper_model
-from optimize.problem.ocp import Ocp, build_ocp, twin
+from optimize.problem.ocp import Ocp, assemble, build_ocp, twin
 from optimize.problem.options import OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start
@@ -44,6 +45,8 @@ GUESS_PATH = Path(__file__).resolve().parent.parent / "data" / "initial_guess.np
 GUESS_SCENARIO = Scenario(wind_speed_m_s=7.0, objective="electrical", drive_limits=True)
 #: largest deviation of the scaled constraint values at the stored point [-]
 MATCH_TOL = 1e-9
+#: the parts of the OCP the file holds a solution of (:mod:`optimize.problem.parts`)
+STORED_PARTS = ("kite", "drive")
 #: the arrays of the file besides its scalars
 ARRAYS = ("w", "lam_x", "lam_g", "p", "g")
 
@@ -61,13 +64,31 @@ def write(path: str | Path, ocp: Ocp, result: OcpResult, p: np.ndarray) -> Path:
     return Path(path)
 
 
+def reference(ocp: Ocp) -> Ocp:
+    """The OCP the stored file is checked against: ``ocp`` in the general (IPOPT)
+    layout with only the parts the file was made with (:data:`STORED_PARTS`); ``ocp``
+    itself when it is that (built once, cached on ``ocp``)."""
+    general = twin(ocp, "ipopt")
+    parts = getattr(general.formulation, "parts", ())
+    kept = tuple(p for p in parts if p.name in STORED_PARTS)
+    if len(kept) == len(parts):
+        return general
+    key = ("stored parts",)
+    if key not in general.solvers:
+        form = dataclasses.replace(general.formulation, parts=kept)
+        general.solvers[key] = assemble(form, general.options, loop=general.loop,
+                                        system=general.system)
+    return general.solvers[key]
+
+
 def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]:
     """The stored solution if it fits ``ocp``, else ``None``; and why (for the log).
 
-    The file holds a solution of the general (IPOPT) layout. An OCP of another
-    layout (fatrop's stage-wise one) gets it carried over
-    (:func:`optimize.solve.result.carry_over`) after the check on its general-layout
-    twin (:func:`optimize.problem.ocp.twin`).
+    The file holds a solution of the general (IPOPT) layout of the kite's parts
+    (:data:`STORED_PARTS`). It is checked on that problem (:func:`reference`) and
+    carried over to ``ocp`` (:func:`optimize.solve.result.carry_over`): to another
+    layout (fatrop's stage-wise one), and to more parts, which fill their own variables
+    along it (the winding temperature: its cyclic steady temperature).
 
     Parameters
     ----------
@@ -82,13 +103,18 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
     reason : str
         What was checked, or why the file does not fit.
     """
-    if ocp.layout.kind != "ipopt":
-        general = twin(ocp, "ipopt")
-        solution, why = load(general, path)
+    ref = reference(ocp)
+    if ref is not ocp:
+        solution, why = _check(ref, path)
         if solution is None:
             return None, why
-        return (carry_over(general, solution, ocp),
-                f"{why}; carried over to the {ocp.layout.kind} layout")
+        return (carry_over(ref, solution, ocp, GUESS_SCENARIO.wind_speed_m_s),
+                f"{why}; carried over to this OCP's {ocp.layout.kind} layout and parts")
+    return _check(ocp, path)
+
+
+def _check(ocp: Ocp, path: str | Path) -> tuple[Solution | None, str]:
+    """:func:`load` on the OCP of the file's own layout and parts."""
     path = Path(path)
     if not path.is_file():
         return None, f"no stored initial guess at {path}"

@@ -12,8 +12,11 @@ from optimize.model.thermal import RANGE_C as THERMAL_RANGE_C
 from optimize.model.thermal import STATE as THERMAL_STATE
 from optimize.problem.ocp import Ocp
 from optimize.problem.scenario import Scenario
+from optimize.problem.start import KEYS, fill
 from optimize.solve.backend import RawSolve
 
+#: the layout's indices of each start array (:data:`optimize.problem.start.KEYS`)
+LAYOUT = {"x": "i_x", "u": "i_u", "z": "i_z", "fict": "i_f"}
 #: the trajectory columns that are not states/controls/algebraic variables (each unit from
 #: its name's suffix, :func:`kernel.units.unit_of`; ``interval`` and ``weight`` have none)
 OUTPUT_COLUMNS = ("time_s", "interval", "weight", "speed_rpm", "torque_nm", "tether_torque_nm",
@@ -129,23 +132,37 @@ def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_speed_m_s: float) -> p
 
 
 def carry_over(src: Ocp, solution: Solution, dst: Ocp,
-               added_x: np.ndarray | None = None) -> Solution:
-    """A solution of ``src`` in the layout of ``dst`` (the same problem, another
-    transcription, :func:`optimize.problem.ocp.twin`; or ``dst`` adds states after
-    ``src``'s, whose values at the state grid ``added_x`` gives, :attr:`Ocp.base`).
+               wind_speed_m_s: float | None = None) -> Solution:
+    """A solution of ``src`` in the layout of ``dst``: the same problem in another
+    transcription (:func:`optimize.problem.ocp.twin`), or one with more parts, whose
+    variables their parts fill (:func:`optimize.problem.start.fill`, at the wind speed
+    ``wind_speed_m_s`` [m/s] of the solution).
 
-    The primal point through the physical variables (``dst`` fills its copies); the
-    multipliers of the variables both layouts have and of the rows with the same name
-    and count; zero for the others.
+    The primal point through the physical variables by name (``dst`` fills its
+    copies); the multipliers of the variables both have and of the rows with the same
+    name and count; zero for the others.
     """
     sol = src.unpack(solution.w)
-    x = sol["x"] if added_x is None else np.vstack([sol["x"], added_x])
-    w = dst.pack(x, sol["z"], sol["u"], sol["fict"], float(sol["period_s"]))
+    period = float(sol["period_s"])
+    arrays, known = {}, set()
+    lam_x = np.zeros(dst.layout.n_w)
+    for kind, key in KEYS.items():
+        ours, theirs = getattr(src.dae, kind), getattr(dst.dae, kind)
+        i_src, i_dst = getattr(src.layout, LAYOUT[key]), getattr(dst.layout, LAYOUT[key])
+        arrays[key] = np.zeros((theirs.size, sol[key].shape[1]))
+        for i, name in enumerate(theirs.names):
+            if name in ours.names:
+                j = ours.index(name)
+                arrays[key][i] = sol[key][j]
+                lam_x[i_dst[i]] = solution.lam_x[i_src[j]]
+                known.add(name)
+    if len(known) < sum(getattr(dst.dae, kind).size for kind in KEYS):
+        if wind_speed_m_s is None:
+            raise ValueError("the destination has variables the solution has not: their "
+                             "parts fill them at a wind speed (wind_speed_m_s)")
+        arrays = fill(dst, arrays, period, wind_speed_m_s, known)
+    w = dst.pack(arrays["x"], arrays["z"], arrays["u"], arrays["fict"], period)
     s_lay, d_lay = src.layout, dst.layout
-    lam_x = np.zeros(d_lay.n_w)
-    for name in ("i_x", "i_z", "i_u", "i_f"):
-        ours = getattr(s_lay, name)
-        lam_x[getattr(d_lay, name)[:ours.shape[0]]] = solution.lam_x[ours]
     lam_x[d_lay.i_period[0]] = solution.lam_x[s_lay.i_period].sum()
     lam_g = np.zeros(d_lay.n_g)
     for name, rows in d_lay.rows.items():

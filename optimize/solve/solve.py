@@ -16,7 +16,6 @@ import logging
 from optimize.problem.ocp import Ocp
 from optimize.problem.scenario import Scenario
 from optimize.solve import backend, initial_guess
-from optimize.solve.heat_start import warm_from_base
 from optimize.solve.homotopy import cold_start
 from optimize.solve.result import OcpResult, Solution, make_result
 
@@ -34,8 +33,6 @@ def start(ocp: Ocp, scenario: Scenario) -> OcpResult:
     (:func:`optimize.solve.homotopy.cold_start`). A failed stored-guess solve stays
     in ``stages`` and counts in the iterations and wall time.
     """
-    if ocp.base is not None:
-        return _start_from_base(ocp, scenario)
     guess, why = (initial_guess.load(ocp) if ocp.options.solver.stored_guess
                   else (None, "stored initial guess switched off"))
     log.info("%s: %s", scenario.name, why)
@@ -52,20 +49,6 @@ def start(ocp: Ocp, scenario: Scenario) -> OcpResult:
         hom, stages=stages + hom.stages, iterations=res.iterations + hom.iterations,
         wall_time_s=res.wall_time_s + hom.wall_time_s,
     )
-
-
-def _start_from_base(ocp: Ocp, scenario: Scenario) -> OcpResult:
-    """:func:`start` of ``ocp.base`` (the problem without the winding temperature), then
-    ``ocp`` from that optimum with its cyclic steady temperature
-    (:mod:`optimize.solve.heat_start`); both count in the result."""
-    first = start(ocp.base, scenario)
-    stages = tuple({**s, "stage": f"without heat: {s['stage']}"} for s in first.stages)
-    if not first.success:
-        return dataclasses.replace(first, stages=stages)
-    res = solve(ocp, scenario, warm_from_base(ocp, first.warm, scenario.wind_speed_m_s))
-    return dataclasses.replace(
-        res, stages=stages + res.stages, iterations=first.iterations + res.iterations,
-        wall_time_s=first.wall_time_s + res.wall_time_s, start=first.start)
 
 
 def solve(
@@ -97,7 +80,7 @@ def solve(
         If ``warm_start`` comes from a different discretization.
     """
     if warm_start is None:
-        return start(ocp, scenario) if ocp.base is not None else cold_start(ocp, scenario)
+        return cold_start(ocp, scenario)
     if (warm_start.n_intervals, warm_start.degree) != (ocp.n_intervals, ocp.coll.degree):
         raise ValueError(
             f"warm start has N={warm_start.n_intervals}, degree {warm_start.degree}; "

@@ -29,6 +29,7 @@ import casadi as ca
 import numpy as np
 
 from optimize.analysis.result_check import MAX_DEFECT_SCALED
+from optimize.problem.kite_part import POSITION_STATES
 from optimize.problem.ocp import Ocp, grid_times
 from optimize.problem.scenario import Scenario
 from optimize.service.builder import OcpBackend, Problem, problem_key
@@ -37,9 +38,6 @@ from optimize.service.plan import middle_index
 from optimize.solve import backend
 from optimize.solve.result import OcpResult, Solution, make_result
 from optimize.solve.solve import solve
-
-#: the model's position states (the defects in metres are measured on them)
-POSITION_STATES = ("r_x_m", "r_y_m", "r_z_m")
 
 
 @dataclass(frozen=True)

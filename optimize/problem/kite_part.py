@@ -1,0 +1,202 @@
+"""The tethered kite as a part of the cycle OCP (paper eqs. 6-8, section IV).
+
+Its variables are the kite DAE's (:mod:`optimize.model.kite_model`); its quantities the
+DAE's outputs at a point (tension, airspeed, angles, altitude, local wind, invariants);
+its rows the Newton-Euler residual, the flight envelope (airspeed, angle of attack,
+sideslip, line angle), the invariants at the start and the DCM's closing rotation; its
+bounds the system's reach, tether length, ground clearance and the winch's acceleration
+and jerk limits; its start the circular loop (:func:`optimize.problem.guess.circular_loop`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from optimize.model.kite_model import KiteDae
+from optimize.problem.guess import LoopGuess, circular_loop
+from optimize.problem.interface import Row
+from optimize.problem.options import Limits
+from optimize.problem.part import WIND, Part, StartPoint
+from optimize.problem.scaling import Scales
+
+#: the reel acceleration's bound when the winch states none: keeps the solver in range
+SOLVER_REEL_ACCELERATION_M_S2 = 500.0
+#: the reel jerk's bound (the control's) when the winch states none: the solver's range
+SOLVER_REEL_JERK_M_S3 = 5000.0
+#: the CG position's components (not periodic: the downwind position is free)
+POSITION_STATES = ("r_x_m", "r_y_m", "r_z_m")
+
+DEG = np.pi / 180
+
+
+def _vector(q: Mapping[str, Any], names: tuple[str, ...]) -> Any:
+    return ca.vertcat(*[q[n] for n in names])
+
+
+@dataclass(frozen=True)
+class KitePart(Part):
+    """The kite (a :class:`optimize.problem.part.Part`).
+
+    Parameters
+    ----------
+    dae : KiteDae
+    limits : Limits
+    scales : Scales
+        The system's magnitudes (:func:`optimize.problem.scaling.system_scales`).
+    loop : LoopGuess
+        The start loop.
+    """
+
+    dae: KiteDae
+    limits: Limits
+    scales_of: Scales
+    loop: LoopGuess
+    name: str = "kite"
+
+    @property
+    def states(self):  # type: ignore[override]
+        return self.dae.states
+
+    @property
+    def controls(self):  # type: ignore[override]
+        return self.dae.controls
+
+    @property
+    def algebraic(self):  # type: ignore[override]
+        return self.dae.algebraic
+
+    @property
+    def fictitious(self):  # type: ignore[override]
+        return self.dae.fictitious
+
+    @property
+    def periodic(self):  # type: ignore[override]
+        return self.dae.periodic
+
+    def _xuz(self, q: Mapping[str, Any]) -> tuple[Any, Any, Any]:
+        return (_vector(q, self.states.names), _vector(q, self.controls.names),
+                _vector(q, self.algebraic.names))
+
+    def quantities(self, q: Mapping[str, Any]) -> dict[str, Any]:
+        """The DAE's outputs (``airspeed_m_s``, ``alpha_rad``, ``tension_n``, ...)."""
+        x, u, z = self._xuz(q)
+        out = self.dae.outputs(x, u, z, q[WIND])
+        return dict(zip(self.dae.outputs.name_out(), out, strict=True))
+
+    def rates(self, q: Mapping[str, Any]) -> list[Any]:
+        """The kinematics (paper eq. 7)."""
+        return [self.dae.ode(*self._xuz(q))]
+
+    def residual(self, q: Mapping[str, Any]) -> list[Any]:
+        """Newton-Euler and ``d2c/dt2`` over their scales."""
+        x, u, z = self._xuz(q)
+        fict = _vector(q, self.fictitious.names)
+        return [self.dae.alg(x, u, z, q[WIND], fict) * ca.DM(1.0 / self.scales_of.residual)]
+
+    def rows(self, q: Mapping[str, Any]) -> list[Row]:
+        """Airspeed (the kite's limit in every kind), angle of attack, sideslip and line
+        angle."""
+        lim, v_sc = self.limits, self.scales_of.airspeed_m_s
+        v_top = np.inf if lim.max_airspeed_m_s is None else lim.max_airspeed_m_s
+        return [
+            Row("airspeed", q["airspeed_m_s"] / v_sc, lim.min_airspeed_m_s / v_sc,
+                v_top / v_sc),
+            Row("alpha", q["alpha_rad"] / (10 * DEG), lim.alpha_bounds_deg[0] / 10,
+                lim.alpha_bounds_deg[1] / 10),
+            Row("beta", q["beta_rad"] / (10 * DEG), lim.beta_bounds_deg[0] / 10,
+                lim.beta_bounds_deg[1] / 10),
+            Row("line_angle", q["cos_line_angle"], np.cos(lim.max_line_angle_deg * DEG),
+                np.inf),
+        ]
+
+    def outputs(self, q: Mapping[str, Any]) -> dict[str, Any]:
+        """Altitude, airspeed, angles [deg], local wind, line angle [deg], invariants."""
+        to_deg = 180.0 / np.pi
+        return {
+            "altitude_m": q["altitude_m"], "airspeed_m_s": q["airspeed_m_s"],
+            "alpha_deg": q["alpha_rad"] * to_deg, "beta_deg": q["beta_rad"] * to_deg,
+            "wind_m_s": q["wind_m_s"],
+            "line_angle_deg": ca.acos(ca.fmin(ca.fmax(q["cos_line_angle"], -1), 1)) * to_deg,
+            "c_m2": q["c_m2"], "cdot_m2_s": q["cdot_m2_s"],
+        }
+
+    def bounds(self) -> dict[str, tuple[float, float]]:
+        """Position bounds only keep the solver in range; the tether length's, the
+        ground's and the winch's acceleration and jerk limits are the system's; the
+        tension ``l nu >= 0``; the control-surface deflections and rates."""
+        lim = self.limits
+        l_lo, l_hi = lim.tether_length_bounds_m
+        reach = 4.0 * l_hi
+        z_top = lim.min_altitude_m - self.dae.wind.origin_altitude_m  # r_z <= -(clearance)
+        surf, spin, rate = lim.surface_bound_deg * DEG, 6 * np.pi, lim.surface_rate_bound_rad_s
+        ddl = lim.max_reel_acceleration_m_s2 or SOLVER_REEL_ACCELERATION_M_S2
+        jerk = lim.max_reel_jerk_m_s3 or SOLVER_REEL_JERK_M_S3
+        sym = {"r_x_m": reach, "r_y_m": reach, "v_x_m_s": 200, "v_y_m_s": 200,
+               "v_z_m_s": 200, "omega_x_rad_s": spin, "omega_y_rad_s": spin,
+               "omega_z_rad_s": spin, "dl_m_s": 100, "ddl_m_s2": ddl, "aileron_rad": surf,
+               "elevator_rad": surf, "rudder_rad": surf, "dddl_m_s3": jerk,
+               "daileron_rad_s": rate, "delevator_rad_s": rate, "drudder_rad_s": rate}
+        out = {name: (-top, top) for name, top in sym.items()}
+        out.update({n: (-1.1, 1.1) for n in self.states.names if n.startswith("dcm_")})
+        out.update(r_z_m=(-reach, -z_top), l_m=(l_lo, l_hi), nu_n_per_m=(0.0, np.inf))
+        return out
+
+    def scales(self) -> dict[str, float]:
+        """Magnitudes from the start loop's length, speed and rate, the weight, the
+        surface bounds (:func:`optimize.problem.scaling.system_scales`)."""
+        sc, lim = self.scales_of, self.limits
+        length, speed, rate = sc.length_m, sc.speed_m_s, sc.rate_rad_s
+        surf = lim.surface_bound_deg * DEG
+        kite = self.dae.kite
+        return {
+            **{f"r_{a}_m": 1.25 * length for a in "xyz"},
+            **{f"v_{a}_m_s": 1.15 * speed for a in "xyz"},
+            **{f"dcm_{i}{j}": 1.0 for i in (1, 2, 3) for j in (1, 2, 3)},
+            **{f"omega_{a}_rad_s": 2.4 * rate for a in "xyz"},
+            "l_m": 1.25 * length, "dl_m_s": 0.4 * speed, "ddl_m_s2": 0.9 * speed * rate,
+            **{f"{s}_rad": 1.15 * surf for s in ("aileron", "elevator", "rudder")},
+            "dddl_m_s3": 2.4 * speed * rate**2,
+            **{f"d{s}_rad_s": lim.surface_rate_bound_rad_s
+               for s in ("aileron", "elevator", "rudder")},
+            **{f"a_{a}_m_s2": 1.5 * speed * rate for a in "xyz"},
+            **{f"domega_{a}_rad_s2": 6.3 * rate**2 for a in "xyz"},
+            "nu_n_per_m": 11.0 * kite.mass_kg * kite.g_m_s2 / length,
+            **{f"f_fict_{a}_n": sc.force_n for a in "xyz"},
+            **{f"m_fict_{a}_nm": sc.moment_nm for a in "xyz"},
+        }
+
+    def start_rows(self, q0: Mapping[str, Any]) -> list[Row]:
+        """Invariants at t = 0: tether constraint, its rate, an orthonormal DCM."""
+        sc = self.scales_of
+        c0, cdot0, orth0 = self.dae.invariants(_vector(q0, self.states.names))
+        return [
+            Row("invariant_c", c0 / sc.c_m2),
+            Row("invariant_cdot", cdot0 / sc.cdot_m2_s),
+            Row("orthonormal", ca.vertcat(*[orth0[a, b] for a in range(3) for b in range(a, 3)])),
+        ]
+
+    def periodicity_rows(self, q0: Mapping[str, Any], q_end: Mapping[str, Any]) -> list[Row]:
+        """The DCM's relative rotation over the cycle is the identity."""
+        dcm = [n for n in self.states.names if n.startswith("dcm_")]
+        dcm0 = ca.reshape(_vector(q0, dcm), 3, 3)
+        rel = ca.mtimes(dcm0.T, ca.reshape(_vector(q_end, dcm), 3, 3))
+        return [Row("periodic", ca.vertcat(rel[0, 1], rel[0, 2], rel[1, 2]))]
+
+    def start_fixed(self) -> dict[str, float]:
+        """The cycle's phase: ``r_y(0) = 0``."""
+        return {"r_y_m": 0.0}
+
+    def guess(self, start: StartPoint) -> dict[str, np.ndarray]:
+        """The circular loop (:func:`optimize.problem.guess.circular_loop`) at its own
+        period, with the fictitious forces that make it a solution."""
+        x, z, fict = circular_loop(self.dae, self.loop, start.grid_times_s,
+                                   start.wind_speed_m_s)
+        out = dict(zip(self.states.names, x, strict=True))
+        out.update(zip(self.algebraic.names, z[:, 1:], strict=True))
+        out.update(zip(self.fictitious.names, fict[:, 1:], strict=True))
+        return out

@@ -1,0 +1,196 @@
+"""A model part: what one piece of the physics brings to the cycle OCP.
+
+The kite's OCP is a list of parts (:func:`optimize.problem.parts.kite_parts`): the kite
+(:class:`optimize.problem.kite_part.KitePart`), its drivetrain and drive
+(:class:`optimize.problem.drive_part.DrivePart`) and, with a thermal rating, the
+winding temperature (:class:`optimize.problem.thermal_part.ThermalPart`). The
+formulation (:class:`optimize.problem.formulation.Formulation`), the transcriptions,
+the scaling, the start guess, the trajectory frame and the sweep folder's columns
+iterate over the parts; none of them names a part's variable.
+
+Writing a part
+--------------
+Subclass :class:`Part` (usually as a frozen dataclass holding its parameters) and
+override what the part has; every method has a default that adds nothing.
+
+Variables (class or instance attributes, :class:`optimize.model.variables.Variables`,
+every name ending in its unit suffix, no name used by another part):
+``states``, ``controls``, ``algebraic``, ``fictitious`` (the homotopy's forces, zero in
+the physical model), and ``periodic``, the names of the own states that repeat over a
+cycle.
+
+Quantities: at a point of the cycle the formulation builds a dict ``q`` of named
+CasADi expressions (physical units): every variable of every part by name, the
+reference wind ``wind_speed_m_s`` [m/s], then what each part's :meth:`Part.quantities`
+returns, part after part in the order of the list (a part reads the quantities of
+the parts before it; it may replace one of theirs, as the thermal part puts the
+copper loss at the winding temperature into ``p_elec_w``). The kite gives
+``tension_n``, ``airspeed_m_s``, ``alpha_rad``, ...; the drive ``speed_rpm``,
+``torque_nm``, ``p_mech_w``, ``p_elec_w``. Then, on the finished ``q``:
+
+* :meth:`Part.rates`: ``d/dt`` of the own states, in their order (they may not depend
+  on the wind: the model's ``ode`` is ``(x, u, z) -> xdot``);
+* :meth:`Part.residual`: rows of the algebraic residual ``0 = g`` (affine in the
+  algebraic variables; one row per own algebraic variable in all);
+* :meth:`Part.rows`: path constraints (:class:`optimize.problem.interface.Row`,
+  scaled), placed at every collocation point;
+* :meth:`Part.averages`: integrands of the cycle averages it defines (named in
+  ``cycle_averages``; those the objective can weight in ``objective_averages``);
+* :meth:`Part.outputs`: trajectory columns (``trajectories.parquet``), each name
+  ending in its unit.
+
+Bounds and scales, by variable name [SI]: :meth:`Part.bounds` (default unbounded),
+:meth:`Part.limited_bounds` (replacing those under the drive limits; may name another
+part's state), :meth:`Part.scales` (the typical magnitude each variable is divided by;
+default 1). The cycle: :meth:`Part.start_rows`, :meth:`Part.periodicity_rows` (beyond
+the periodic states), :meth:`Part.average_rows`, :meth:`Part.start_fixed`.
+
+Start: :meth:`Part.guess` fills the part's own variables from a
+:class:`StartPoint` (the quantities of the parts before it along a start trajectory).
+A stored initial guess or the homotopy's circular loop gives the kite's variables; the
+parts after it fill theirs, so a stored guess keeps working when a part is added.
+
+Registering: pass the part to :func:`optimize.problem.ocp.build_ocp` (``parts=``) or
+append it in :func:`optimize.problem.parts.kite_parts`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from optimize.model.variables import Variables
+
+#: no variables
+NONE = Variables(())
+#: the quantity of the reference wind speed [m/s] (the scenario's parameter)
+WIND = "wind_speed_m_s"
+
+
+@dataclass(frozen=True)
+class StartPoint:
+    """What a part's :meth:`Part.guess` sees: a start trajectory of the parts before it.
+
+    Attributes
+    ----------
+    grid_times_s : ndarray (N d + 1,)
+        Times [s] of the state grid points (interval starts and Radau points).
+    period_s : float
+        The start's period [s].
+    n_intervals : int
+        Collocation intervals per period ``N``.
+    wind_speed_m_s : float
+        Reference wind speed [m/s].
+    quantities : dict of ndarray
+        The variables and quantities of the parts before this one at the ``N d``
+        Radau points (``time_s`` in ``(0, T]``, the last one is the period's end).
+    """
+
+    grid_times_s: np.ndarray
+    period_s: float
+    n_intervals: int
+    wind_speed_m_s: float
+    quantities: Mapping[str, np.ndarray]
+
+    @property
+    def times_s(self) -> np.ndarray:
+        """Times [s] of the Radau points (the columns of :attr:`quantities`)."""
+        return self.grid_times_s[1:]
+
+    @staticmethod
+    def on_grid(at_points: np.ndarray) -> np.ndarray:
+        """Values at the Radau points extended to the state grid: the periodic value at
+        ``t = 0`` is the one at the period's end (the last point)."""
+        arr = np.asarray(at_points, dtype=float)
+        return np.concatenate([arr[..., -1:], arr], axis=-1)
+
+
+class Part:
+    """One piece of the physics of the cycle OCP (see the module docstring).
+
+    Every method adds nothing by default; a part overrides what it has. Variables:
+    ``states``, ``controls``, ``algebraic``, ``fictitious`` (``Variables``) and
+    ``periodic`` (names of own states).
+    """
+
+    name: str = "part"
+    states: Variables = NONE
+    controls: Variables = NONE
+    algebraic: Variables = NONE
+    fictitious: Variables = NONE
+    periodic: tuple[str, ...] = ()
+    #: the names of the cycle averages :meth:`averages` defines, and those of them the
+    #: objective can weight
+    cycle_averages: tuple[str, ...] = ()
+    objective_averages: tuple[str, ...] = ()
+
+    def quantities(self, q: Mapping[str, Any]) -> dict[str, Any]:
+        """Named quantities this part derives at a point from ``q`` (physical units)."""
+        return {}
+
+    def rates(self, q: Mapping[str, Any]) -> list[Any]:
+        """``d/dt`` of the own states, in their order (physical units)."""
+        return []
+
+    def residual(self, q: Mapping[str, Any]) -> list[Any]:
+        """Rows of the algebraic residual (scaled), affine in the algebraic variables."""
+        return []
+
+    def rows(self, q: Mapping[str, Any]) -> list[Any]:
+        """Path constraints at a point (``Row``, scaled)."""
+        return []
+
+    def averages(self, q: Mapping[str, Any]) -> dict[str, Any]:
+        """Integrands of the cycle averages this part defines, by name."""
+        return {}
+
+    def outputs(self, q: Mapping[str, Any]) -> dict[str, Any]:
+        """Trajectory columns at a point, each name ending in its unit."""
+        return {}
+
+    def bounds(self) -> dict[str, tuple[float, float]]:
+        """Bounds of the own variables [SI] (default: none)."""
+        return {}
+
+    def limited_bounds(self) -> dict[str, tuple[float, float]]:
+        """State bounds [SI] that replace :meth:`bounds` under the drive limits."""
+        return {}
+
+    def scales(self) -> dict[str, float]:
+        """Typical magnitude [SI] of each own variable (default 1)."""
+        return {}
+
+    def start_rows(self, q0: Mapping[str, Any]) -> list[Any]:
+        """Rows at ``t = 0`` on the start state's components ``q0`` (by name)."""
+        return []
+
+    def periodicity_rows(self, q0: Mapping[str, Any], q_end: Mapping[str, Any]) -> list[Any]:
+        """Rows that close the cycle besides the periodic states (by name at both ends)."""
+        return []
+
+    def average_rows(self, averages: Mapping[str, Any]) -> list[Any]:
+        """Rows on the cycle averages (by name)."""
+        return []
+
+    def constrained_averages(self) -> tuple[str, ...]:
+        """The averages :meth:`average_rows` constrains."""
+        return ()
+
+    def start_fixed(self) -> dict[str, float]:
+        """Own state components fixed at ``t = 0`` [SI]."""
+        return {}
+
+    def guess(self, start: StartPoint) -> dict[str, np.ndarray]:
+        """Start values of the own variables: states ``(N d + 1,)`` at the state grid,
+        algebraic variables and fictitious forces ``(N d,)`` at the Radau points,
+        controls ``(N,)`` per interval; a variable left out starts at zero."""
+        return {}
+
+
+def variables_of(parts: tuple[Part, ...], kind: str) -> Variables:
+    """All parts' variables of one kind (``"states"``, ``"controls"``, ``"algebraic"``,
+    ``"fictitious"``), in the order of the parts."""
+    return Variables(tuple(n for p in parts for n in getattr(p, kind).names))

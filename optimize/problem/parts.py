@@ -1,0 +1,46 @@
+"""The parts of the kite's cycle OCP, in order (:mod:`optimize.problem.part`).
+
+The kite first (its variables and quantities are what the others read), then the
+drivetrain and the drive, then the winding temperature when the drive has a thermal
+rating and its power model a thermal model. A new part is one more entry here, or an
+extra part handed to :func:`optimize.problem.ocp.build_ocp`.
+"""
+
+from __future__ import annotations
+
+from optimize.model.drivetrain import DriveModel, Drivetrain
+from optimize.model.kite_model import KiteDae
+from optimize.model.thermal import WindingThermal
+from optimize.problem.drive_part import DrivePart
+from optimize.problem.guess import LoopGuess
+from optimize.problem.kite_part import KitePart
+from optimize.problem.options import Limits
+from optimize.problem.part import Part
+from optimize.problem.scaling import Scales
+from optimize.problem.thermal_part import ThermalPart
+
+
+def kite_parts(dae: KiteDae, drive_model: DriveModel, limits: Limits, scales: Scales,
+               loop: LoopGuess, thermal: WindingThermal | None = None) -> tuple[Part, ...]:
+    """The kite, its drive and (with ``thermal``) the winding temperature.
+
+    Parameters
+    ----------
+    dae : KiteDae
+    drive_model : DriveModel
+        Electrical power model of the drive.
+    limits : Limits
+        Bounds of the system and its drive.
+    scales : Scales
+        The system's magnitudes (:func:`optimize.problem.scaling.system_scales`).
+    loop : LoopGuess
+        The kite's start loop.
+    thermal : WindingThermal, optional
+        The winding's thermal model and limit; it replaces the RMS-torque row.
+    """
+    rms = limits.max_rms_torque_nm if thermal is None else None
+    parts: tuple[Part, ...] = (
+        KitePart(dae, limits, scales, loop),
+        DrivePart(Drivetrain.of(dae.kite), drive_model, limits, scales, rms_torque_nm=rms),
+    )
+    return parts if thermal is None else (*parts, ThermalPart(thermal))

@@ -1,0 +1,71 @@
+"""A start point of an OCP made of parts: each part fills the variables it owns.
+
+A start comes as the variables some parts have (a stored solution of the kite, the
+circular loop of the homotopy: the kite's part's own guess); :func:`fill` asks every
+other part, in the formulation's order, for its variables
+(:meth:`optimize.problem.part.Part.guess`), handing it the quantities of the parts
+before it along the start trajectory. So a stored start keeps working when a part is
+added, and a part's start is part of the part.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from optimize.problem.formulation import KINDS
+from optimize.problem.ocp import Ocp, grid_times
+from optimize.problem.part import StartPoint
+
+#: the key of each kind of variable in a start's arrays (:meth:`optimize.problem.ocp.Ocp.pack`)
+KEYS = {"states": "x", "controls": "u", "algebraic": "z", "fictitious": "fict"}
+
+
+def fill(ocp: Ocp, arrays: dict[str, np.ndarray], period_s: float, wind_speed_m_s: float,
+         known: set[str]) -> dict[str, np.ndarray]:
+    """``arrays`` (physical ``x (NX, N d + 1)``, ``u (NU, N)``, ``z (NZ, N d)``,
+    ``fict (NF, N d)``) with the variables not in ``known`` filled by their parts.
+
+    Parameters
+    ----------
+    ocp : Ocp
+    arrays : dict of ndarray
+        The start, by :data:`KEYS` (a variable not known may hold anything).
+    period_s : float
+        The start's period [s].
+    wind_speed_m_s : float
+        Reference wind speed [m/s].
+    known : set of str
+        The variables ``arrays`` holds.
+    """
+    form = ocp.formulation
+    out = {key: np.array(a, dtype=float) for key, a in arrays.items()}
+    known = set(known)
+    times, d = grid_times(ocp, period_s), ocp.coll.degree
+    for k, part in enumerate(getattr(form, "parts", ())):
+        own = {n for kind in KINDS for n in getattr(part, kind).names}
+        if own <= known:
+            continue
+        fn, names = form.prefix_quantities(k)
+        x, u, z = out["x"][:, 1:], np.repeat(out["u"], d, axis=1), out["z"]
+        values = np.asarray(fn.map(x.shape[1])(x, u, z, wind_speed_m_s))
+        start = StartPoint(times, period_s, ocp.n_intervals, wind_speed_m_s,
+                           dict(zip(names, values, strict=True)))
+        guess = part.guess(start)
+        for kind, key in KEYS.items():
+            variables = getattr(ocp.dae, kind)
+            for name in getattr(part, kind).names:
+                out[key][variables.index(name)] = guess.get(name, 0.0)
+        known |= own
+    return out
+
+
+def part_start(ocp: Ocp, period_s: float, wind_speed_m_s: float) -> dict[str, np.ndarray]:
+    """A start of every part from its own guess alone (the homotopy's: the kite's
+    circular loop at ``period_s``, then the others along it)."""
+    n, n_coll = ocp.n_intervals, ocp.layout.n_coll
+    dae = ocp.dae
+    zeros = {"x": np.zeros((dae.states.size, n_coll + 1)),
+             "u": np.zeros((dae.controls.size, n)),
+             "z": np.zeros((dae.algebraic.size, n_coll)),
+             "fict": np.zeros((dae.fictitious.size, n_coll))}
+    return fill(ocp, zeros, period_s, wind_speed_m_s, set())

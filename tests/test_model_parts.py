@@ -1,0 +1,113 @@
+"""A model part added in one file: a first-order filter of the reel speed.
+
+The part (:class:`ReelFilter`, below) brings its own state, bound, scale, start guess
+and output column; one line registers it (``build_ocp(..., parts=...)``). Truths:
+
+* the filter's output is a weighted average of its input (``f' = (dl - f) / tau``), so
+  ``|f| <= max |dl|``: its bound at the drive's reel-speed limit holds and never binds,
+  and the kite's optimum is the one without the part (same mesh, same start);
+* an independent integration (scipy's RK45) of the filter over repeated cycles of the
+  optimal reel speed ends on the OCP's periodic filter state.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from kernel.files import write_parquet
+from optimize.model.kite_model import kite_dae
+from optimize.model.variables import Variables
+from optimize.paper_model import paper_model
+from optimize.problem.ocp import build_ocp
+from optimize.problem.options import OcpOptions
+from optimize.problem.part import Part, StartPoint
+from optimize.service.outcome import Attempt, ScenarioOutcome
+from optimize.solve import initial_guess
+from optimize.solve.solve import start
+from optimize.sweep.outputs import trajectories_frame
+from optimize.sweep_folder import field_units
+
+TAU_S = 0.5
+
+
+@dataclass(frozen=True)
+class ReelFilter(Part):
+    """``tau df/dt = dl - f``: the reel speed [m/s] through a first-order lag."""
+
+    tau_s: float
+    bound_m_s: float
+    name: str = "reel_filter"
+    states: Variables = Variables(("dl_filtered_m_s",))
+    periodic: tuple[str, ...] = ("dl_filtered_m_s",)
+
+    def rates(self, q: Mapping[str, Any]) -> list[Any]:
+        return [(q["dl_m_s"] - q["dl_filtered_m_s"]) / self.tau_s]
+
+    def bounds(self) -> dict[str, tuple[float, float]]:
+        return {"dl_filtered_m_s": (-self.bound_m_s, self.bound_m_s)}
+
+    def scales(self) -> dict[str, float]:
+        return {"dl_filtered_m_s": 5.0}
+
+    def outputs(self, q: Mapping[str, Any]) -> dict[str, Any]:
+        return {"filter_lag_m_s": q["dl_m_s"] - q["dl_filtered_m_s"]}
+
+    def guess(self, start: StartPoint) -> dict[str, np.ndarray]:
+        return {"dl_filtered_m_s": start.on_grid(start.quantities["dl_m_s"])}
+
+
+@pytest.fixture(scope="module")
+def filtered(paper_ocp):
+    """The paper's OCP with the filter, started as any scenario is (the stored guess, the
+    filter filling its own state), at the guess's scenario elec-lim 7 m/s."""
+    bound = paper_ocp.formulation.limited_state_bounds()[
+        paper_ocp.dae.states.index("dl_m_s")][1]
+    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(),
+                    parts=(ReelFilter(TAU_S, bound),))
+    return ocp, start(ocp, initial_guess.GUESS_SCENARIO), bound
+
+
+def test_the_part_changes_nothing_of_the_kites_optimum(filtered, stored_guess_solve):
+    ocp, res, _ = filtered
+    assert res.success and stored_guess_solve.success, (res.status, stored_guess_solve.status)
+    assert res.start == "stored guess"  # the stored guess still fits, the part filled in
+    assert ocp.dae.states.names[-1] == "dl_filtered_m_s"
+    assert res.avg_p_elec_w == pytest.approx(stored_guess_solve.avg_p_elec_w, abs=1e-3)
+    assert res.avg_p_mech_w == pytest.approx(stored_guess_solve.avg_p_mech_w, abs=1e-3)
+    assert res.period_s == pytest.approx(stored_guess_solve.period_s, rel=1e-6)
+
+
+def test_the_filter_state_is_in_the_trajectories_with_its_unit(filtered, tmp_path):
+    _, res, bound = filtered
+    outcome = ScenarioOutcome(res.scenario.name, "elec-lim", 7.0, 0,
+                              (Attempt(None, res.status, True, res.iterations, 1.0),), res)
+    path = write_parquet(tmp_path / "trajectories.parquet", trajectories_frame([outcome]))
+    units = field_units(path)
+    assert units["dl_filtered_m_s"] == "m/s" and units["filter_lag_m_s"] == "m/s"
+    traj = res.trajectory
+    f, dl = traj["dl_filtered_m_s"].to_numpy(), traj["dl_m_s"].to_numpy()
+    # a weighted average of the reel speed: inside its range, so inside the bound
+    assert np.abs(f).max() <= np.abs(dl).max() + 1e-6 and np.abs(f).max() <= bound
+    assert np.allclose(traj["filter_lag_m_s"], dl - f)
+
+
+def test_the_filter_state_is_the_periodic_solution_of_its_ode(filtered):
+    """RK45 over 10 cycles of the optimal reel speed (linear between the Radau points)
+    from the OCP's end value ends within 1 % of the peak reel speed of it."""
+    _, res, _ = filtered
+    traj, period = res.trajectory, float(res.period_s)
+    t, dl = traj["time_s"].to_numpy(), traj["dl_m_s"].to_numpy()
+    f_end = traj["dl_filtered_m_s"].to_numpy()[-1]  # the last Radau point is the period's end
+
+    def rhs(time, y):
+        return [(np.interp(np.mod(time, period), t, dl, period=period) - y[0]) / TAU_S]
+
+    sim = solve_ivp(rhs, (0.0, 10 * period), [f_end], rtol=1e-9, atol=1e-9,
+                    max_step=period / 200)
+    assert abs(sim.y[0, -1] - f_end) < 0.01 * np.abs(dl).max()
