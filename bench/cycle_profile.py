@@ -16,6 +16,7 @@ set-point, no header) for bench controllers that import those: ``<stem>.speed.cs
 
 from __future__ import annotations
 
+import hashlib
 import io
 import json
 import math
@@ -25,7 +26,14 @@ from pathlib import Path
 import numpy as np
 
 from kernel.errors import InputError
-from kernel.files import parse_toml, read_text, write_text_atomic
+from kernel.files import (
+    atomic_path,
+    bad_number_at,
+    file_sha256,
+    parse_toml,
+    read_text,
+)
+from kernel.units import RPM_PER_RAD_S
 
 SCHEMA_NAME = "drivebench.drive_profile"
 SCHEMA_VERSION = 1
@@ -36,6 +44,18 @@ COLUMNS = ("time_s", "speed_set_rpm", "torque_set_nm", "p_elec_pred_w", "p_mech_
 REQUIRED_KEYS = ("schema", "schema_version", "scenario", "measured_side", "gear_ratio",
                  "speed_sign", "torque_sign", "rate_hz", "period_s", "n_cycles",
                  "cycle_start_s", "e_elec_pred_j", "e_mech_pred_j")
+#: the profile's own mechanical energy per cycle (its set-points integrated) may differ
+#: from the optimizer's by this share (the export's interpolation and the file's rounding
+#: leave 0.02 %)
+E_MECH_RTOL = 5e-3
+#: the header keys that say which sweep, power model and trajectory the cycle is
+#: (``bench ingest`` keeps them with the session; ``bench cycle verify`` checks them)
+PROVENANCE_KEYS = ("optimize_run_id", "power_model_sha256", "trajectory_sha256")
+#: the units a header may state for the columns (their names say rpm, N m, W)
+UNITS = {"speed_unit": ("rpm", "1/min", "min^-1"), "torque_unit": ("N m", "Nm", "N*m", "N.m"),
+         "power_unit": ("W",)}
+#: header keys that must be whole numbers
+INTEGER_KEYS = ("schema_version", "n_cycles", "speed_sign", "torque_sign")
 SIGN_CONVENTION = ("p_elec_pred_w > 0 drawn from the grid; p_mech_pred_w > 0 delivered by the "
                    "drive to the shaft; drum frame: torque >= 0, reel-out (generating) speed < 0")
 _EXPECTED = "a drive profile written by bench cycle export (docs/schemas.md section 10)"
@@ -126,6 +146,15 @@ class DriveProfile:
         """The set-points in the drum frame: speed [rpm], torque [N m]."""
         return self.frame.to_drum(self.columns["speed_set_rpm"], self.columns["torque_set_nm"])
 
+    def e_mech_cycles_j(self) -> np.ndarray:
+        """The set-points' mechanical energy over each cycle [J] (speed x torque
+        integrated, trapezoids)."""
+        speed, torque = self.drum()
+        t = self.columns["time_s"]
+        return cycle_integrals(t, speed * torque / RPM_PER_RAD_S,
+                               float(self.header["cycle_start_s"]), self.period_s,
+                               self.n_cycles)
+
     def one_cycle(self) -> dict[str, np.ndarray]:
         """The rows of cycle 0, time measured from the cycle's start [s]."""
         sel = self.columns["cycle"] == 0
@@ -170,8 +199,18 @@ def plain_paths(path: str | Path) -> dict[str, Path]:
     return {q: path.with_name(f"{stem}.{q}.csv") for q in ("speed", "torque")}
 
 
+def _text_sha256(text: str) -> str:
+    """SHA-256 of text's lines joined by newlines (the same whatever the line ends)."""
+    return hashlib.sha256(("\n".join(text.splitlines()) + "\n").encode("utf-8")).hexdigest()
+
+
 def write_profile(path: str | Path, profile: DriveProfile) -> dict[str, Path]:
-    """Write the profile and its two plain tables, each atomically.
+    """Write the two plain tables, then the profile naming them, each atomically.
+
+    The header gets ``speed_table``, ``torque_table`` (the tables' names beside the
+    profile) with their ``*_sha256``, and ``body_sha256``. The caller holds the output's
+    lock and has checked that the three files may be replaced
+    (:func:`check_tables_replaceable`).
 
     Returns
     -------
@@ -179,15 +218,63 @@ def write_profile(path: str | Path, profile: DriveProfile) -> dict[str, Path]:
         ``profile``, ``speed``, ``torque``: the files written.
     """
     c = profile.columns
-    header = {"schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION, **profile.header}
-    body = _rows([c[k] for k in COLUMNS], [4, 3, 4, 2, 2, 0])
-    out = {"profile": Path(path)}
-    write_text_atomic(path, header_text(header) + ",".join(COLUMNS) + "\n" + body)
-    for q, p in plain_paths(path).items():
-        write_text_atomic(p, _rows([c["time_s"], c[f"{q}_set_{'rpm' if q == 'speed' else 'nm'}"]],
-                                   [4, 3 if q == "speed" else 4]))
-        out[q] = p
+    body = ",".join(COLUMNS) + "\n" + _rows([c[k] for k in COLUMNS], [4, 3, 4, 2, 2, 0])
+    tables = {q: _rows([c["time_s"], c[f"{q}_set_{'rpm' if q == 'speed' else 'nm'}"]],
+                       [4, 3 if q == "speed" else 4]) for q in ("speed", "torque")}
+    paths = plain_paths(path)
+    header = {"schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION, **profile.header,
+              **{k: v for q, text in tables.items()
+                 for k, v in ((f"{q}_table", paths[q].name),
+                              (f"{q}_table_sha256", hashlib.sha256(text.encode()).hexdigest()))},
+              "body_sha256": _text_sha256(body)}
+    out = {"profile": Path(path), **paths}
+    texts = {"speed": tables["speed"], "torque": tables["torque"],
+             "profile": header_text(header) + body}
+    for key in ("speed", "torque", "profile"):  # the profile last: it names the others
+        with atomic_path(out[key]) as tmp:
+            tmp.write_bytes(texts[key].encode("utf-8"))
     return out
+
+
+def check_tables_replaceable(path: str | Path, option: str = "--out") -> None:
+    """Raise InputError when a plain table beside the profile ``path`` exists and is not
+    the one an earlier export wrote: named in the header of the profile at ``path``
+    with that content (its SHA-256).
+
+    Raises
+    ------
+    InputError
+        Naming the table and ``option``: a folder, or a file no earlier export of
+        ``path`` wrote (a user's own, or one edited since).
+    """
+    path = Path(path)
+    header = _earlier_header(path)
+    for q, table in plain_paths(path).items():
+        if table.exists() and not table.is_file():
+            raise InputError(table, f"the {q} table's place is not a file (a folder?)",
+                             column=option, expected=f"a new profile name, or move {table} "
+                             "away")
+        if not table.exists():
+            continue
+        named = header.get(f"{q}_table") == table.name
+        if not (named and header.get(f"{q}_table_sha256") == file_sha256(table)):
+            why = ("was changed since the export that wrote it" if named else
+                   f"was not written by an earlier bench cycle export to {path.name} (its "
+                   "header does not name it: a file of your own, or of an older export)")
+            raise InputError(table, f"exists and {why}; the export would overwrite it",
+                             column=option, expected=f"a new profile name, or move {table} "
+                             "away")
+
+
+def _earlier_header(path: Path) -> dict:
+    """The header of the earlier profile at ``path`` ({} when there is none to read)."""
+    try:
+        with open(path, "rb") as fh:
+            if not is_profile(fh.read(len(TITLE))):
+                return {}
+        return _split(path, read_text(path, what="drive profile"))[0]
+    except (OSError, InputError):
+        return {}
 
 
 def is_profile(head: bytes) -> bool:
@@ -213,13 +300,26 @@ def _check_header(path: Path, header: dict) -> None:
     if missing:
         raise InputError(path, f"header key {missing[0]!r} missing", column=missing[0],
                          expected=_EXPECTED)
+    bad = bad_number_at(header)
+    if bad is not None:
+        raise InputError(path, f"header key {bad[0]}: {bad[1]}", column=bad[0],
+                         expected="finite numbers in the header")
     if header["schema"] != SCHEMA_NAME or header["schema_version"] != SCHEMA_VERSION:
         raise InputError(path, f"schema {header['schema']!r} version "
                          f"{header['schema_version']!r}", column="schema",
                          expected=f"{SCHEMA_NAME!r} version {SCHEMA_VERSION}")
+    for key in INTEGER_KEYS:
+        if isinstance(header[key], bool) or not isinstance(header[key], int):
+            raise InputError(path, f"{key} = {header[key]!r} is not a whole number",
+                             column=key, expected="an integer")
+    for key, names in UNITS.items():
+        if key in header and header[key] not in names:
+            raise InputError(path, f"{key} = {header[key]!r}: the columns are in "
+                             f"{names[0]} (their names say so) and are not converted",
+                             column=key, expected=f"{names[0]!r} (the columns' unit)")
     try:
         BenchFrame(header["measured_side"], float(header["gear_ratio"]),
-                   int(header["speed_sign"]), int(header["torque_sign"]))
+                   header["speed_sign"], header["torque_sign"])
     except (ValueError, TypeError) as exc:
         raise InputError(path, f"bad bench frame: {exc}", column="measured_side",
                          expected="the keys of session.toml") from exc
@@ -227,6 +327,10 @@ def _check_header(path: Path, header: dict) -> None:
         v = header[key]
         if isinstance(v, bool) or not isinstance(v, int | float) or not v > 0:
             raise InputError(path, f"bad value {v!r}", column=key, expected="a positive number")
+    for key in ("cycle_start_s", "e_elec_pred_j", "e_mech_pred_j"):
+        if isinstance(header[key], bool) or not isinstance(header[key], int | float):
+            raise InputError(path, f"{key} = {header[key]!r} is not a number", column=key,
+                             expected="a finite number")
 
 
 def read_profile(path: str | Path) -> DriveProfile:
@@ -236,8 +340,9 @@ def read_profile(path: str | Path) -> DriveProfile:
     ------
     InputError
         Naming the file and the line, key or column: no title, a header key missing
-        or bad, a column missing, a value not a finite number, time not increasing,
-        or no row of cycle 0.
+        or bad (not finite, not a whole number, a unit other than the columns'), a
+        body other than its ``body_sha256``, a column missing, a value not a finite
+        number, time not increasing, or no row of cycle 0.
     """
     path = Path(path)
     header, n_head, body = _split(path, read_text(path, what="drive profile"))
@@ -263,6 +368,12 @@ def read_profile(path: str | Path) -> DriveProfile:
                          line=n_head + 3 + int(np.argmin(step)), expected="increasing time")
     if not (cols["cycle"] == 0).any():
         raise InputError(path, "no row of cycle 0", column="cycle", expected=_EXPECTED)
+    if "body_sha256" in header and _text_sha256("\n".join(body)) != header["body_sha256"]:
+        raise InputError(path, "the set-points (the rows after the header) are not those "
+                         "the header's body_sha256 was written for: edited after the export",
+                         column="body_sha256", line=n_head + 1,
+                         expected="the profile as bench cycle export wrote it (export it "
+                         "again)")
     return DriveProfile(header=header, columns=cols)
 
 
@@ -278,3 +389,11 @@ def window_integral(time_s, values, t0: float, t1: float) -> float:
     tt = np.concatenate([[t0], t[a:b], [t1]])
     yy = np.concatenate([[np.interp(t0, t, y)], y[a:b], [np.interp(t1, t, y)]])
     return float(np.trapezoid(yy, tt))
+
+
+def cycle_integrals(time_s, values, t_start: float, period_s: float,
+                    n_cycles: int) -> np.ndarray:
+    """The integral of a sampled signal over each of ``n_cycles`` cycles from ``t_start``
+    (:func:`window_integral`) [unit of ``values`` x s]."""
+    return np.array([window_integral(time_s, values, t_start + k * period_s,
+                                     t_start + (k + 1) * period_s) for k in range(n_cycles)])

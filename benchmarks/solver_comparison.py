@@ -7,9 +7,11 @@ Usage::
         [--wind-grid 4:10:1.5] [--systems highwind,ap2,megawes] [--system-winds 7,10]
 
 A solver name ``condensed-ipopt`` or ``condensed-fatrop`` runs that solver on the condensed
-transcription (``--transcription condensed``, :mod:`optimize.problem.condensed`) with the
+transcription (``--transcription condensed``,
+:mod:`optimize.problem.transcriptions.condensed_nlp`) with the
 interval functions in CasADi's virtual machine; ``condensed-ipopt+cc`` (or ``...fatrop+cc``)
-with them compiled to C (:mod:`optimize.solve.codegen`; the first use compiles them).
+with them compiled to C (:mod:`optimize.problem.transcriptions.codegen`; the first use
+compiles them).
 
 1. Profile: the warm solve of the stored guess's scenario from the stored guess (N = 40),
    with the solver's own time statistics (function evaluations, and fatrop's split);
@@ -53,10 +55,10 @@ from optimize.model.kite_model import kite_dae
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
+from optimize.problem.transcriptions.derivatives import nlp_derivatives, whole_derivatives
 from optimize.service import Problem, make_tasks, run_sweep
 from optimize.service.executors import open_executor
 from optimize.service.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_chains
-from optimize.solve.derivatives import nlp_derivatives, whole_derivatives
 from optimize.solve.solve import cold_start, solve, start
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path

@@ -89,7 +89,8 @@ def _verify(args: argparse.Namespace) -> int:
                          command_line=args.command_line)
     r, m = done.record, done.record["means"]
     print(f"bench cycle verify: session {r['session']} ({r['scenario']}): "
-          f"{r['cycles_kept']} of {r['cycles_in_profile']} cycles kept")
+          f"{r['cycles_kept']} of {r['cycles_in_profile']} cycles kept; every mean, band "
+          f"and the drift below is over these {m['n_cycles']}")
     for line in r["cycle_notes"]:
         print(f"  rejected {line}")
     print(f"  electrical energy per cycle: measured {m['e_elec_j']:.1f} +- "

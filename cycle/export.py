@@ -23,14 +23,16 @@ from bench.cycle_profile import (
     SIGN_CONVENTION,
     BenchFrame,
     DriveProfile,
+    check_tables_replaceable,
+    cycle_integrals,
     is_profile,
-    window_integral,
     write_profile,
 )
 from bench.ingest.session import load_session
+from cycle.provenance import HASHED_COLUMNS, sweep_ids, trajectory_sha256
 from kernel.drive_rating import find_drive_file, session_drive
 from kernel.errors import InputError
-from kernel.output_folder import check_replaceable_file
+from kernel.output_folder import check_replaceable_file, output_file
 from kernel.provenance import Provenance
 from kernel.units import RPM_PER_RAD_S
 from optimize.sweep_folder import read_sweep_folder, read_trajectories
@@ -42,6 +44,13 @@ LIMIT_RTOL = 1e-3
 TAIL_S = 2.0
 #: points wrapped around each end of the cycle for the periodic interpolation
 WRAP = 8
+
+
+#: the command-line option of each of :class:`ExportOptions`' fields, and its range
+OPTIONS = {"n_cycles": "--cycles", "rate_hz": "--rate-hz", "standstill_s": "--standstill-s",
+           "ramp_s": "--ramp-s"}
+LIMITS = {"n_cycles": "a whole number >= 1", "rate_hz": "1 Hz to 100 kHz",
+          "standstill_s": ">= 2 s (the tare)", "ramp_s": "> 0 s"}
 
 
 @dataclass(frozen=True)
@@ -73,11 +82,11 @@ class ExportOptions:
         checks = {"n_cycles": self.n_cycles >= 1, "rate_hz": 1.0 <= self.rate_hz <= 100_000,
                   "standstill_s": self.standstill_s >= 2.0, "ramp_s": self.ramp_s > 0}
         for name, ok in checks.items():
-            if not ok or not math.isfinite(getattr(self, name)):
-                raise InputError(None, f"{name} = {getattr(self, name)!r}",
-                                 column=f"--{name.replace('_', '-')}",
-                                 expected="n_cycles >= 1, rate 1 Hz to 100 kHz, standstill "
-                                 ">= 2 s (the tare), ramp > 0 s")
+            value = getattr(self, name)
+            if not ok or not math.isfinite(value) or (name == "n_cycles"
+                                                     and value != int(value)):
+                raise InputError(None, f"{OPTIONS[name]} {value!r}: not {LIMITS[name]}",
+                                 expected=f"{OPTIONS[name]} {LIMITS[name]}")
 
 
 DEFAULT_EXPORT = ExportOptions()
@@ -114,6 +123,17 @@ def scenario_cycle(folder: Path, scenario: str) -> tuple[pd.Series, pd.DataFrame
     if len(points) < 4:
         raise InputError(folder / "trajectories.parquet", f"no cycle of {scenario!r}",
                          expected="its collocation points")
+    values = points[list(HASHED_COLUMNS)].to_numpy(float)
+    if not np.isfinite(values).all():
+        bad = HASHED_COLUMNS[int(np.flatnonzero(~np.isfinite(values).all(axis=0))[0])]
+        raise InputError(folder / "trajectories.parquet", f"scenario {scenario!r} has a "
+                         f"non-finite {bad}", column=bad, expected="the finite collocation "
+                         "points of a converged cycle (run bench optimize again)")
+    period = float(row.iloc[0]["period_s"])
+    if not (math.isfinite(period) and period > 0):
+        raise InputError(folder / "summary.parquet", f"scenario {scenario!r}: period_s "
+                         f"{period!r}", column="period_s", expected="the cycle's period, "
+                         "a finite number > 0 [s]")
     return row.iloc[0], points, manifest
 
 
@@ -220,14 +240,6 @@ def build_columns(f: dict, period_s: float, opts: ExportOptions,
             "p_mech_w": speed * torque / RPM_PER_RAD_S, "cycle": cycle}, t_start
 
 
-def profile_cycle_energies(cols: dict, t_start: float, period_s: float,
-                           n_cycles: int) -> np.ndarray:
-    """The integral of ``p_mech_w`` over each cycle of drum-frame columns [J]."""
-    return np.array([window_integral(cols["time_s"], cols["p_mech_w"],
-                                     t_start + k * period_s, t_start + (k + 1) * period_s)
-                     for k in range(n_cycles)])
-
-
 @dataclass(frozen=True)
 class Exported:
     """What :func:`export_cycle` wrote.
@@ -282,7 +294,8 @@ def export_cycle(folder: str | Path, scenario: str, out: str | Path,
     from cycle.models import sweep_power_model
 
     folder, out = Path(folder), Path(out)
-    check_replaceable_file(out, "cycle export", is_profile)
+    check_replaceable_file(out, "cycle export", is_profile)  # before the work
+    check_tables_replaceable(out)
     provenance = Provenance.start(command_line)
     row, points, manifest = scenario_cycle(folder, scenario)
     period = float(row["period_s"])
@@ -294,23 +307,29 @@ def export_cycle(folder: str | Path, scenario: str, out: str | Path,
                  scenario, folder / "trajectories.parquet")
     model = model if model is not None else sweep_power_model(folder, manifest)
     cols, t_start = build_columns(f, period, options, model.p_elec_w)
-    energies = profile_cycle_energies(cols, t_start, period, options.n_cycles)
+    energies = cycle_integrals(cols["time_s"], cols["p_mech_w"], t_start, period,
+                               options.n_cycles)
     speed_b, torque_b = options.frame.to_bench(cols["speed_rpm"], cols["torque_nm"])
     header = _header(row, manifest, folder, options, t_start, energies, bench_session,
-                     provenance)
+                     provenance, trajectory_sha256(points))
     profile = DriveProfile(header, {"time_s": cols["time_s"], "speed_set_rpm": speed_b,
                                     "torque_set_nm": torque_b, "p_elec_pred_w": cols["p_elec_w"],
                                     "p_mech_pred_w": cols["p_mech_w"], "cycle": cols["cycle"]})
-    return Exported(write_profile(out, profile), profile, energies)
+    # one export per profile at a time: the three files are checked again and written
+    # under the profile's lock (a second export waits, then replaces all three)
+    with output_file(out, "cycle export", is_profile):
+        check_tables_replaceable(out)
+        files = write_profile(out, profile)
+    return Exported(files, profile, energies)
 
 
 def _header(row, manifest: dict, folder: Path, opts: ExportOptions, t_start: float,
-            energies: np.ndarray, bench_session, provenance: Provenance) -> dict:
+            energies: np.ndarray, bench_session, provenance: Provenance,
+            trajectory: str) -> dict:
     rating = manifest.get("drive_limits") or {}
     return {
         "scenario": str(row["scenario"]), "optimize_folder": str(folder.resolve()),
-        "optimize_run_id": str((manifest.get("provenance") or {}).get("run_id", "")),
-        "power_model_sha256": str((manifest.get("drive_model") or {}).get("model_sha256", "")),
+        **sweep_ids(manifest), "trajectory_sha256": trajectory,
         **opts.frame.keys(),
         "bench_session": str(Path(bench_session).resolve()) if bench_session else "",
         "speed_unit": "rpm", "torque_unit": "N m", "power_unit": "W",

@@ -15,9 +15,11 @@ from bench.ingest.cycles import CLOCK_RTOL
 from bench.store.manifest import read_manifest
 from bench.store.read import read_cycles, read_samples
 from cycle.models import sweep_power_model
+from cycle.provenance import check_provenance
 from cycle.verify import CLAIM_RTOL, Accuracy, K, _drift, measured_energy, model_energy
-from cycle.verify_folder import write_verify_folder
+from cycle.verify_folder import MARKERS, STAGE, write_verify_folder
 from kernel.errors import InputError
+from kernel.output_folder import check_replaceable
 from kernel.provenance import Provenance
 from optimize.sweep_folder import read_sweep_folder, read_trajectories
 
@@ -25,6 +27,10 @@ from optimize.sweep_folder import read_sweep_folder, read_trajectories
 def cycle_session(store: Path, session: str | None) -> tuple[str, dict]:
     """The cycle-run session to verify (``session``, or the store's only one) and its
     manifest entry."""
+    if not (store / "manifest.json").is_file():
+        raise InputError(store, "no store here (no manifest.json)" if store.is_dir() else
+                         "not found", column="--store",
+                         expected="the store bench ingest wrote the cycle run into")
     manifest = read_manifest(store)
     runs = {sid: e for sid, e in manifest["sessions"].items()
             if isinstance(e, dict) and e.get("kind") == "cycle_run"}
@@ -168,17 +174,11 @@ def verify_cycles(store: str | Path, optimize: str | Path, out: str | Path, *,
         Recorded in the provenance header.
     """
     store, optimize = Path(store), Path(optimize)
+    check_replaceable(out, STAGE, MARKERS)  # before the work
     provenance = Provenance.start(command_line)
     sid, entry = cycle_session(store, session)
     info = entry["cycles"]
-    summary, manifest = read_sweep_folder(optimize)
-    row = summary[summary["scenario"] == info["scenario"]]
-    if row.empty or not bool(row.iloc[0]["success"]):
-        raise InputError(optimize / "summary.parquet", f"no converged scenario "
-                         f"{info['scenario']!r}, which session {sid!r} flew",
-                         column="--optimize", expected="the optimize folder the profile "
-                         "was exported from")
-    model = model if model is not None else sweep_power_model(optimize, manifest)
+    row, traj, model = _flown(optimize, info, sid, model)
     cycles = read_cycles(store)
     cycles = cycles[cycles["session_id"] == sid].sort_values("cycle_id")
     samples = read_samples(store, sid)
@@ -186,29 +186,76 @@ def verify_cycles(store: str | Path, optimize: str | Path, out: str | Path, *,
     table = measured_energy(cycles, acc, float((entry.get("timing") or {}).get("bin_s", 0.1)),
                             period_uncertainty(info))
     table["e_elec_model_j"], table["u_model_j"] = model_energy(cycles, samples, model)
-    table["e_elec_optimizer_j"] = float(row.iloc[0]["e_elec_j"])
-    table["e_mech_optimizer_j"] = float(row.iloc[0]["e_mech_j"])
+    table["e_elec_optimizer_j"] = float(row["e_elec_j"])
+    table["e_mech_optimizer_j"] = float(row["e_mech_j"])
     for col in ("t_start_s", "t_end_s", "period_s", "t_winding_c"):
         table[col] = cycles[col].to_numpy()
-    means = _means(table, float(row.iloc[0]["e_elec_j"]))
+    table, cycles, dropped = _finite(table, cycles, sid, store)
+    means = _means(table, float(row["e_elec_j"]))
     slope, slope_u, scatter = _drift(table["e_elec_j"].to_numpy(float),
                                      table["cycle_id"].to_numpy(float))
     drift = {"slope_j_per_cycle": slope, "slope_u_j_per_cycle": slope_u,
              "slope_per_cycle": slope / abs(means["e_elec_j"]), "scatter_j": scatter}
     mid = cycles.iloc[len(cycles) // 2]
-    traj = read_trajectories(optimize)
     one = _one_cycle(samples, mid, model, traj[traj["scenario"] == info["scenario"]]
-                     .sort_values("time_s"), info["phase_s"], float(row.iloc[0]["period_s"]))
+                     .sort_values("time_s"), info["phase_s"], float(row["period_s"]))
+    residual = residual_std_w(model)
     record = {"store": str(store.resolve()),
               "session": sid, "scenario": info["scenario"], "optimize": str(optimize.resolve()),
+              "optimize_run_id": info["provenance"]["optimize_run_id"],
+              "trajectory_sha256": info["provenance"]["trajectory_sha256"],
               "power_model_sha256": model.sha256, "cycles_in_profile": info["n_profile_cycles"],
-              "cycles_kept": len(cycles), "cycle_notes": info.get("notes", []),
+              "cycles_kept": len(cycles), "cycle_notes": [*info.get("notes", []), *dropped],
               "accuracy": acc.__dict__, "accuracy_missing": missing, "coverage_factor": K,
               "claim_rtol": CLAIM_RTOL, "means": means, "drift": drift,
-              "e_mech_optimizer_j": float(row.iloc[0]["e_mech_j"]),
-              "model_residual_std_w": residual_std_w(model),
-              "one_cycle": int(mid.cycle_id),
-              "verdict": verdict(means, drift, missing, None if residual_std_w(model) is None
-                                 else (residual_std_w(model), float(cycles["period_s"].mean())))}
+              "e_mech_optimizer_j": float(row["e_mech_j"]),
+              "model_residual_std_w": residual, "one_cycle": int(mid.cycle_id),
+              "verdict": verdict(means, drift, missing, None if residual is None
+                                 else (residual, float(cycles["period_s"].mean())))}
     write_verify_folder(out, provenance, record, table, one)
     return Verified(Path(out), {"provenance": provenance.header(), **record}, table)
+
+
+def _flown(optimize: Path, info: dict, sid: str, model) -> tuple[pd.Series, pd.DataFrame, object]:
+    """The sweep's summary row of the scenario session ``sid`` flew, the sweep's
+    trajectories and the power model (``model``, default the sweep's), once
+    :func:`cycle.provenance.check_provenance` found the session flew this sweep's cycle."""
+    summary, manifest = read_sweep_folder(optimize)
+    row = summary[summary["scenario"] == info["scenario"]]
+    if row.empty or not bool(row.iloc[0]["success"]):
+        raise InputError(optimize / "summary.parquet", f"no converged scenario "
+                         f"{info['scenario']!r}, which session {sid!r} flew",
+                         column="--optimize", expected="the optimize folder the profile "
+                         "was exported from")
+    row = row.iloc[0]
+    model = model if model is not None else sweep_power_model(optimize, manifest)
+    traj = read_trajectories(optimize)
+    check_provenance(info, sid, optimize, manifest, traj, float(row["e_mech_j"]), model.sha256)
+    return row, traj, model
+
+
+#: the columns of the verification table every figure is computed from
+_FIGURES = ("e_elec_j", "u_elec_j", "e_mech_j", "u_mech_j", "e_elec_model_j", "u_model_j")
+
+
+def _finite(table: pd.DataFrame, cycles: pd.DataFrame, sid: str,
+            store: Path) -> tuple[pd.DataFrame, pd.DataFrame, list[str]]:
+    """The cycles whose every figure is finite (every mean, band and the drift are over
+    the same cycles), and one note per cycle left out (a store ingested before such
+    cycles were rejected).
+
+    Raises
+    ------
+    InputError
+        No cycle is left.
+    """
+    ok = np.isfinite(table[list(_FIGURES)].to_numpy(float)).all(axis=1)
+    notes = [f"cycle {int(r.cycle_id)}: left out, "
+             + ", ".join(c for c in _FIGURES if not math.isfinite(getattr(r, c)))
+             + " not finite (ingest the session again: it rejects such cycles)"
+             for r in table[~ok].itertuples(index=False)]
+    if not ok.any():
+        raise InputError(store / "manifest.json", f"session {sid!r}: no kept cycle has "
+                         "finite energies", column="--session",
+                         expected="a cycle run with kept cycles (ingest it again)")
+    return table[ok].reset_index(drop=True), cycles[ok], notes

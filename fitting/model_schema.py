@@ -145,9 +145,14 @@ def _numbers(data: dict, fields: _Fields) -> tuple:
     return c_rpm, c_si, cov_rpm, cov_si
 
 
+#: a thermal network's resistances sum to its total within this share
+_R_RTOL = 1e-3
+
+
 def _check_thermal(thermal: dict, fields: _Fields) -> None:
     """A thermal model with a finite positive resistance, time constant and capacitance,
-    and (when it states them) modes and ladder nodes with positive elements, one per node."""
+    (when it states them) modes and ladder nodes with positive elements, one per node,
+    whose resistances sum to the total, and a positive copper coefficient."""
     for key in ("r_th_k_per_w", "tau_th_s", "c_th_j_per_k"):
         _positive(thermal, key, "thermal", fields)
     nodes = thermal.get("nodes", 1)
@@ -160,6 +165,16 @@ def _check_thermal(thermal: dict, fields: _Fields) -> None:
         for k, node in enumerate(thermal[part]):
             for key in keys:
                 _positive(node, key, f"thermal.{part}[{k}]", fields)
+        total, r_th = sum(node["r_k_per_w"] for node in thermal[part]), thermal["r_th_k_per_w"]
+        if abs(total - r_th) > _R_RTOL * r_th:  # a Foster or Cauer network keeps the sum
+            raise fields.bad(f"thermal.{part}", f"its resistances sum to {total:.6g} K/W, "
+                             f"r_th_k_per_w is {r_th:.6g} K/W", "the network's resistances "
+                             f"summing to r_th_k_per_w (within {100 * _R_RTOL:g} %)")
+    k = thermal.get("copper_temp_coeff_per_k")
+    if k is not None and (not is_finite_number(k) or k <= 0):
+        raise fields.bad("thermal.copper_temp_coeff_per_k", f"{k!r}: a copper winding's "
+                         "resistance rises with its temperature", "a finite number > 0 "
+                         "[1/K] (copper: 0.00393 at 20 degC)")
 
 
 def _positive(block: dict, key: str, where: str, fields: _Fields) -> None:

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from kernel.errors import InputError
+from kernel.output_place import check_place
 
 #: OS errors that mean "this place cannot be written", said plainly by the CLI
 WRITE_ERRNOS = {errno.EACCES: "permission denied", errno.EPERM: "operation not permitted",
@@ -457,9 +458,11 @@ def check_output_dir(path: str | Path, option: str = "--out") -> Path:
     Raises
     ------
     InputError
-        ``path`` is an existing file, or the place is read-only, not permitted or full.
+        ``path`` is an existing file, lies inside another stage's output or a store
+        (:func:`kernel.output_place.check_place`), or the place is read-only, not
+        permitted or full.
     """
-    path = Path(path)
+    path = check_place(path, option)
     if path.exists() and not path.is_dir():
         raise InputError(path, "exists and is not a folder", column=option,
                          expected="an output folder (created when missing)")
@@ -469,7 +472,7 @@ def check_output_dir(path: str | Path, option: str = "--out") -> Path:
 
 def check_output_file(path: str | Path, option: str = "--out") -> Path:
     """Like :func:`check_output_dir` for an output file: not a folder, parent writable."""
-    path = Path(path)
+    path = check_place(path, option)
     if path.is_dir():
         raise InputError(path, "is a folder", column=option, expected="an output file name")
     _probe_write(path.parent, option)

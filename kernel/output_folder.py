@@ -43,12 +43,12 @@ from kernel.files import (
     write_text_durable,
 )
 from kernel.locking import output_lock
+from kernel.output_place import RUN_FILE, RUN_SCHEMA, check_place
 from kernel.provenance import HEADER_KEY, Provenance
 
-RUN_FILE = "run.json"
 #: output folder -> run id it held when :func:`check_replaceable` passed (this process)
 _SEEN: dict[Path, str | None] = {}
-SCHEMA_NAME = "drivebench.run"
+SCHEMA_NAME = RUN_SCHEMA
 SCHEMA_VERSION = 1
 _RENAME_EXCHANGE = 2
 _AT_FDCWD = -100
@@ -94,7 +94,8 @@ def check_replaceable(target: str | Path, stage: str, markers: tuple[str, ...] =
     """Raise InputError unless ``target`` is missing, empty or an earlier ``stage`` output.
 
     The whole folder is replaced by the new output, so a folder holding anything
-    else (a project folder given as ``--out`` by mistake) is refused.
+    else (a project folder given as ``--out`` by mistake) is refused, and so is a
+    folder inside another stage's output or a store (:func:`kernel.output_place.check_place`).
 
     Parameters
     ----------
@@ -109,7 +110,7 @@ def check_replaceable(target: str | Path, stage: str, markers: tuple[str, ...] =
     keep : tuple of str
         Subfolders the stage keeps from run to run (see :func:`output_folder`).
     """
-    target = Path(target)
+    target = check_place(target, option)
     if target.exists() and not target.is_dir():
         raise InputError(target, "exists and is not a folder", column=option,
                          expected="an output folder (created when missing)")
@@ -145,7 +146,8 @@ def check_replaceable_file(target: str | Path, stage: str, is_earlier: Callable[
     """Raise InputError unless the output file ``target`` is new or an earlier ``stage`` output.
 
     The rule of :func:`check_replaceable` for a stage that writes one file (``bench
-    report``): nothing that stage did not write is ever overwritten.
+    report``): nothing that stage did not write is ever overwritten, nothing is written
+    inside another stage's output or a store.
 
     Parameters
     ----------
@@ -158,7 +160,7 @@ def check_replaceable_file(target: str | Path, stage: str, is_earlier: Callable[
     option : str
         The command-line option that named the file.
     """
-    target = Path(target)
+    target = check_place(target, option)
     if target.is_dir():
         raise InputError(target, "is a folder", column=option, expected="an output file name")
     if target.exists():
@@ -173,6 +175,20 @@ def check_replaceable_file(target: str | Path, stage: str, is_earlier: Callable[
                              "overwritten", column=option,
                              expected=f"a new file, or one bench {stage} wrote")
     return target
+
+
+@contextlib.contextmanager
+def output_file(target: str | Path, stage: str, is_earlier: Callable[[bytes], bool],
+                option: str = "--out") -> Iterator[Path]:
+    """Hold the writer's lock of the output file ``target`` and yield it, checked under
+    the lock (:func:`check_replaceable_file`); the block writes it (atomically).
+
+    One writer per output file: a second one waits, then finds the first one's output,
+    an earlier output of the stage. A refused or failed write leaves nothing behind
+    (:func:`kernel.locking.output_lock`).
+    """
+    with output_lock(target, stage, option=option):
+        yield check_replaceable_file(target, stage, is_earlier, option)
 
 
 def _exchange(a: Path, b: Path) -> bool:
@@ -251,8 +267,7 @@ def output_folder(target: str | Path, stage: str, markers: tuple[str, ...] = (),
         ``target`` holds something other than an earlier output of ``stage``, or
         the output cannot be flushed to disk (nothing switched then).
     """
-    target = Path(target).absolute()
-    target.parent.mkdir(parents=True, exist_ok=True)
+    target = check_place(Path(target).absolute(), option)
     with output_lock(target, stage, option=option):
         for p in _leftovers(target, "old"):  # a fallback switch killed between its renames
             if not target.exists():

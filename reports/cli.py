@@ -7,8 +7,7 @@ import time
 from pathlib import Path
 
 from kernel.files import check_output_file
-from kernel.locking import output_lock
-from kernel.output_folder import check_replaceable_file
+from kernel.output_folder import output_file
 from reports.render import build_report
 
 
@@ -49,8 +48,7 @@ def run(args: argparse.Namespace) -> int:
     argv = ["bench", "report", "--store", str(args.store), "--fit", str(args.fit),
             "--optimize", str(args.optimize), "--aep", str(args.aep), "--size", str(args.size),
             "--verify", str(args.verify), "--out", str(args.out)]
-    with output_lock(args.out, "report"):  # one report writer per file: a second one waits
-        check_replaceable_file(args.out, "report", is_report)
+    with output_file(args.out, "report", is_report):  # one writer per file: a second waits
         out = build_report(args.store, args.fit, args.optimize, args.out, argv, args.aep,
                            args.size, args.verify)
     size_mb = out.stat().st_size / 1e6

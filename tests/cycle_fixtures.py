@@ -9,6 +9,8 @@ form: ``E = (pi / 30) T (a A + b B / 2)`` for ``n = a + b cos(2 pi t / T)`` [rpm
 from __future__ import annotations
 
 import math
+import shutil
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -53,17 +55,38 @@ def _cycle(scenario: str, model, n: int = 160) -> tuple[dict, pd.DataFrame]:
     return row, traj
 
 
-def write_cycle_sweep(folder) -> object:
+def write_cycle_sweep(folder, edit=None) -> object:
     """Write the fixture optimize folder; returns the power model it flew with (the
-    paper's, carried into the folder)."""
+    paper's, carried into the folder). ``edit(trajectories)``, when given, changes the
+    trajectories in place before they are written (a hostile sweep)."""
     model = paper_model()
     rows, trajs = zip(*(_cycle(s, model) for s in CYCLES), strict=True)
+    trajectories = pd.concat(trajs, ignore_index=True)
+    if edit is not None:
+        edit(trajectories)
     manifest = {"wind_speeds_m_s": [5.5, 7.0, 9.0], "kinds": ["elec-lim", "elec-free"],
                 "scenarios": list(CYCLES),
                 "drive_model": {"path": "", "file_sha256": "", "model_sha256": model.sha256,
                                 "name": model.name, "note": "analytic test cycles"},
                 "drive_limits": dict(LIMITS)}
     write_sweep_folder(folder, Provenance.start(("tests",)), summary=pd.DataFrame(rows),
-                       trajectories=pd.concat(trajs, ignore_index=True), manifest=manifest,
+                       trajectories=trajectories, manifest=manifest,
                        system=None, carried_model=model)
     return model
+
+
+def copy_session(base: Path, tmp_path: Path, name: str, edit=None) -> tuple[Path, Path]:
+    """A copy of ``base``'s store, and a campaign holding a copy of its session
+    ``cycle_s1`` under the id ``name``, its profile changed by ``edit(text)`` when given:
+    ``(store, campaign)``."""
+    store = tmp_path / "store"
+    shutil.copytree(base / "store", store)
+    camp = tmp_path / "campaign"
+    shutil.copytree(base / "campaign" / "cycle_s1", camp / name)
+    shutil.copy(base / "campaign" / "drive.toml", camp)
+    toml = camp / name / "session.toml"
+    toml.write_text(toml.read_text().replace('"cycle_s1"', f'"{name}"'))
+    if edit is not None:
+        profile = camp / name / "profile.csv"
+        profile.write_text(edit(profile.read_text()))
+    return store, camp

@@ -54,6 +54,7 @@ class PendulumDae:
     controls: Variables = CONTROLS
     algebraic: Variables = ALGEBRAIC
     fictitious: Variables = FICTITIOUS
+    parameters: Variables = Variables(())
     periodic: tuple[str, ...] = ("r_x_m", "v_x_m_s")
 
 
@@ -61,13 +62,13 @@ def pendulum_dae(p: Pendulum) -> PendulumDae:
     """``rdot = v, vdot = a``; ``m a = -nu r + m g e_z + f e_x (+ fict)``, ``d2c/dt2 = 0``."""
     x, u = ca.SX.sym("x", STATES.size), ca.SX.sym("u", CONTROLS.size)
     z, fict = ca.SX.sym("z", ALGEBRAIC.size), ca.SX.sym("fict", FICTITIOUS.size)
-    wind = ca.SX.sym("wind")  # the interface's reference wind; the pendulum has none
+    par = ca.SX.sym("p", 0)  # the model's parameters: the pendulum has none
     r, v, a, nu = x[0:2], x[2:4], z[0:2], z[2]
     force = ca.vertcat(u[0], p.mass_kg * p.g_m_s2) - nu * r + fict
     residual = ca.vertcat(p.mass_kg * a - force, ca.dot(v, v) + ca.dot(r, a))
     return PendulumDae(
         ode=ca.Function("pendulum_ode", [x, u, z], [ca.vertcat(v, a)]),
-        alg=ca.Function("pendulum_alg", [x, u, z, wind, fict], [residual]),
+        alg=ca.Function("pendulum_alg", [x, u, z, par, fict], [residual]),
     )
 
 
@@ -87,6 +88,7 @@ class PendulumFormulation:
     pendulum: Pendulum
     dae: PendulumDae
     scales: PendulumScales
+    parameters: tuple[str, ...] = ()
     averages: tuple[str, ...] = ("p_ctrl_w",)
     objective_averages: tuple[str, ...] = ("p_ctrl_w",)
     constrained_averages: tuple[str, ...] = field(default=())
@@ -95,13 +97,13 @@ class PendulumFormulation:
     def ode(self, x: Any, u: Any, z: Any) -> Any:
         return self.dae.ode(x, u, z)
 
-    def point(self, x: Any, u: Any, z: Any, fict: Any, wind: Any) -> Point:
-        residual = self.dae.alg(x, u, z, wind, fict) / self.pendulum.mass_kg
+    def point(self, x: Any, u: Any, z: Any, fict: Any, params: Any) -> Point:
+        residual = self.dae.alg(x, u, z, params, fict) / self.pendulum.mass_kg
         return Point(rows=[Row("algebraic", residual / self.pendulum.g_m_s2)],
                      averages={"p_ctrl_w": u[0] * x[2]},
                      fict_sq=ca.sumsqr(fict / ca.DM(self.scales.fictitious)))
 
-    def trajectory_outputs(self, x, u, z, wind_speed_m_s) -> dict:
+    def trajectory_outputs(self, x, u, z, params) -> dict:
         return {"tension_n": np.hypot(x[0], x[1]) * z[2]}
 
     def control_cost(self, u: Any) -> Any:

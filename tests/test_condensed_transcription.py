@@ -21,8 +21,11 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import assemble, build_ocp, grid_times
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
-from optimize.solve import backend, codegen
-from optimize.solve.condensed_solve import _csc
+from optimize.problem.transcriptions import codegen
+from optimize.problem.transcriptions.collocation import full_derivatives
+from optimize.problem.transcriptions.condensed import condensed
+from optimize.problem.transcriptions.condensed_multipliers import csc
+from optimize.solve import backend
 from optimize.solve.solve import solve
 
 N, DEGREE = 20, 3
@@ -36,7 +39,7 @@ def _pendulum(solver: str, transcription: str, codegen: bool = False):
     period = form.scales.period_s
     x, z = small_angle_guess(pendulum, grid_times(ocp, period), period)
     w0 = ocp.pack(x, z[:, 1:], np.zeros((1, N)), np.zeros((2, N * DEGREE)), period)
-    p = ocp.params(0.0, {"p_ctrl_w": 0.0})
+    p = ocp.params(None, {"p_ctrl_w": 0.0})
     bounds = ocp.bounds(drive_limits=False, fix_fictitious=True, period_s=None)
     return pendulum, ocp, backend.run(ocp, w0, p, bounds, warm=False), p
 
@@ -50,7 +53,7 @@ def test_condensed_pendulum_has_the_exact_period_and_the_full_optimum(pendulums)
     pendulum, full_ocp, full, _ = pendulums["collocation"]
     _, ocp, raw, p = pendulums["condensed"]
     assert raw.success, raw.status
-    assert ocp.layout.kind == "ipopt"  # results stay in the full layout
+    assert ocp.layout.kind == "general"  # results stay in the full layout
     period = ocp.unpack(raw.w)["period_s"]
     # Radau collocation of degree 3 on 20 intervals: the period to 1e-5 relative, and
     # the same NLP's optimum as the full transcription to the solver's tolerance
@@ -66,16 +69,16 @@ def test_condensed_pendulum_has_the_exact_period_and_the_full_optimum(pendulums)
 
 def test_multipliers_carried_to_the_full_layout_satisfy_its_kkt_conditions(pendulums):
     _, ocp, raw, p = pendulums["condensed"]
-    d = backend.derivatives(ocp)
+    d = full_derivatives(ocp, "ipopt")
     grad = np.asarray(d["grad_f"](raw.w, p)[1]).ravel()
-    jac = _csc(d["jac_g"](raw.w, p)[1])
+    jac = csc(d["jac_g"](raw.w, p)[1])
     stationarity = grad + jac.T @ raw.lam_g + raw.lam_x
     assert np.max(np.abs(stationarity)) < 1e-6 * max(1.0, np.max(np.abs(grad)))
 
 
 def test_condense_and_expand_are_inverse(pendulums):
     _, ocp, raw, p = pendulums["condensed"]
-    c = backend.condensed(ocp)
+    c = condensed(ocp)
     w_c, p_c = c.condense(raw.w, p)
     # a condensed vector whose gap rows hold exactly: each interval from the end of the
     # one before (a shooting roll-out from the optimum's start and controls)
@@ -165,12 +168,12 @@ def test_interval_wise_derivatives_equal_automatic_differentiation():
     n, degree = 6, 3
     ocp = assemble(form, OcpOptions(Discretization(n, degree), solver=SolverOptions(
         transcription="condensed")))
-    c = backend.condensed(ocp)
+    c = condensed(ocp)
     fns = ocp.solvers["condensed_derivatives"].functions("ipopt")
     period = form.scales.period_s
     x, z = small_angle_guess(pendulum, grid_times(ocp, period), period)
     w0 = ocp.pack(x, z[:, 1:], 0.1 * np.ones((1, n)), 0.01 * np.ones((2, n * degree)), period)
-    p = ocp.params(0.0, {"p_ctrl_w": 0.7}, w_track=0.3, w_fict=0.2, x_ref=1.01 * x)
+    p = ocp.params(None, {"p_ctrl_w": 0.7}, w_track=0.3, w_fict=0.2, x_ref=1.01 * x)
     w, p_c = c.condense(w0, p)
     lam = np.random.default_rng(1).standard_normal(c.n_g)
     x_, p_ = c.nlp["x"], c.nlp["p"]

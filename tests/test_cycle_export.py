@@ -3,6 +3,10 @@ and limits, the file's reader against its writer, and bad input refused."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -132,3 +136,56 @@ def test_period_and_phase_are_found(sweep, tmp_path):
     assert cut.period_s == pytest.approx(p.period_s * scale, abs=1e-4)
     assert cut.phase_s == pytest.approx(lead + p.header["cycle_start_s"] * scale, abs=1e-3)
     assert cut.kept == [1, 2, 3, 4, 5] and cut.rejected == {0: "cycle settling"}
+
+
+def test_plain_tables_replace_only_what_an_export_wrote(sweep, tmp_path, capsys):
+    """The header names the two tables with their hashes: an earlier export's are replaced;
+    a user's own ``run.speed.csv``, a table edited since, or a folder in a table's place is
+    refused (exit 2, naming it), every file as it was."""
+    out = tmp_path / "run.csv"
+    tables = plain_paths(out)
+    argv = ["cycle", "export", str(sweep), "--scenario", "elec-lim-7.0", "--cycles", "1",
+            "--out", str(out)]
+    tables["speed"].write_text("my own speed table\n")
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "run.speed.csv: column '--out': exists and was not written by an earlier" in err
+    assert tables["speed"].read_text() == "my own speed table\n" and not out.exists()
+    assert not tables["torque"].exists()
+    tables["speed"].unlink()
+    assert main(argv) == 0
+    header = read_profile(out).header
+    assert header["speed_table"] == "run.speed.csv" and header["torque_table"] == "run.torque.csv"
+    assert main([*argv[:-3], "2", "--out", str(out)]) == 0  # an export's own: replaced
+    assert read_profile(out).n_cycles == 2
+    edited = tables["torque"].read_text().replace("0.0000", "0.0001", 1)
+    tables["torque"].write_text(edited)
+    assert main(argv) == 2
+    assert "was changed since the export that wrote it" in capsys.readouterr().err
+    assert tables["torque"].read_text() == edited and read_profile(out).n_cycles == 2
+    tables["torque"].unlink()
+    tables["torque"].mkdir()
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "run.torque.csv: column '--out'" in err and "Traceback" not in err
+
+
+def test_two_exports_to_one_profile_serialize(sweep, tmp_path):
+    """Two exports of different scenarios to the same --out at once: one waits for the
+    other, and the profile and both tables are one export's (their hashes in its header)."""
+    from kernel.files import file_sha256
+
+    out = tmp_path / "p.csv"
+    code = ("import sys; from pathlib import Path; from cycle.export import ExportOptions, "
+            "export_cycle\nexport_cycle(Path(sys.argv[1]), sys.argv[2], Path(sys.argv[3]), "
+            "ExportOptions(n_cycles=3))\n")
+    cwd = Path(__file__).resolve().parents[1]
+    procs = [subprocess.Popen([sys.executable, "-c", code, str(sweep), s, str(out)], cwd=cwd,
+                              stderr=subprocess.PIPE, text=True)
+             for s in ("elec-lim-7.0", "elec-lim-5.5")]
+    assert [p.wait() for p in procs] == [0, 0], [p.stderr.read() for p in procs]
+    header = read_profile(out).header
+    for q, path in plain_paths(out).items():
+        assert header[f"{q}_table_sha256"] == file_sha256(path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.csv", "p.speed.csv",
+                                                         "p.torque.csv"]

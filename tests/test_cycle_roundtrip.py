@@ -22,7 +22,7 @@ from cycle.verify import K
 from cycle.verify_command import verify_cycles
 from drivebench.cli import main
 from kernel.errors import InputError
-from tests.cycle_fixtures import write_cycle_sweep
+from tests.cycle_fixtures import copy_session, write_cycle_sweep
 
 ROOT = Path(__file__).resolve().parent.parent
 TRUTH = ROOT / "raw_measurements" / "truth.json"
@@ -105,15 +105,7 @@ def test_verify_command_line(rig, capsys):
 
 def _hostile(rig, tmp_path, name: str):
     """A copy of the rig's store and a campaign holding one copy of a good session."""
-    base, _, _ = rig
-    store = tmp_path / "store"
-    shutil.copytree(base / "store", store)
-    camp = tmp_path / "campaign"
-    shutil.copytree(base / "campaign" / "cycle_s1", camp / name)
-    shutil.copy(base / "campaign" / "drive.toml", camp)
-    toml = camp / name / "session.toml"
-    toml.write_text(toml.read_text().replace('"cycle_s1"', f'"{name}"'))
-    return store, camp
+    return copy_session(rig[0], tmp_path, name)
 
 
 def _refused(store: Path, camp: Path, match: str) -> None:

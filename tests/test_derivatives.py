@@ -9,7 +9,11 @@ import pytest
 from optimize.model.kite_model import kite_dae
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
-from optimize.solve.derivatives import _block_derivatives, nlp_derivatives, whole_derivatives
+from optimize.problem.transcriptions.derivatives import (
+    _block_derivatives,
+    nlp_derivatives,
+    whole_derivatives,
+)
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system_file import load_system
 

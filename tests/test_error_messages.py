@@ -39,6 +39,33 @@ def _model_100x(tmp: Path) -> Path:
     return path
 
 
+def _losses_file(tmp: Path) -> Path:
+    """A system file whose [drive] losses names a fit folder's summary, not its model."""
+    fit = tmp / "fit"
+    fit.mkdir()
+    (fit / "fit_summary.json").write_text(json.dumps(
+        {"schema": "drivebench.fit_summary", "provenance": {"run_id": "0123abcd"}}))
+    text = (ROOT / "optimize/data/systems/highwind.toml").read_text()
+    path = fit / "system.toml"
+    path.write_text(text.replace("[drive]\n", '[drive]\nlosses = "fit_summary.json"\n', 1))
+    return path
+
+
+def _thermal_model(tmp: Path, edit) -> Path:
+    """The paper's model with a one-node thermal block, ``edit(block)`` applied."""
+    data = json.loads((ROOT / "optimize/data/paper_drive_model.json").read_text())
+    block = {"nodes": 2, "r_th_k_per_w": 0.05, "tau_th_s": 900.0, "c_th_j_per_k": 18000.0,
+             "ladder": [{"c_j_per_k": 6000.0, "r_k_per_w": 0.02},
+                        {"c_j_per_k": 30000.0, "r_k_per_w": 0.03}],
+             "copper_temp_coeff_per_k": 0.00393, "theta_ref_c": 20.0, "ambient_c": 25.0}
+    edit(block)
+    data["schema_version"] = 3
+    data["thermal"] = block
+    path = tmp / "thermal.json"
+    path.write_text(json.dumps(data))
+    return path
+
+
 def _refusing_client(*args, **kwargs):
     raise OSError("Timed out trying to connect to tcp://127.0.0.1:1 after 20 s")
 
@@ -48,6 +75,14 @@ CASES = {
     "size --wind-grid 7": (
         lambda t: ["size", "--wind-grid", "7", "--scales", "1", "--out", str(t / "s"), *SITE],
         ["--wind-grid 7: one wind speed gives no AEP curve to integrate"], ["<input>"]),
+    "--cycles 0": (
+        lambda t: ["cycle", "export", str(t / "opt"), "--scenario", "x", "--cycles", "0",
+                   "--out", str(t / "p.csv")],
+        ["--cycles 0: not a whole number >= 1"], ["--n-cycles"]),
+    "--store nowhere": (
+        lambda t: ["cycle", "verify", "--store", str(t / "nowhere"), "--optimize",
+                   str(t / "opt"), "--out", str(t / "v")],
+        ["nowhere: column '--store': not found"], ["0 cycle-run sessions"]),
     "implausible gravity": (
         lambda t: ["optimize", "--system", str(_gravity_file(t)), "--wind-grid", "7",
                    "--out", str(t / "o")],
@@ -61,6 +96,23 @@ CASES = {
         lambda t: ["optimize", "--scheduler", "tcp://127.0.0.1:1", "--wind-grid", "7",
                    "--scenarios", "elec-lim", "--no-claims", "--out", str(t / "o")],
         ["--scheduler 'tcp://127.0.0.1:1': "], ["<input>"]),
+    "[drive] losses names a fit summary": (
+        lambda t: ["optimize", "--system", str(_losses_file(t)), "--wind-grid", "7",
+                   "--out", str(t / "o")],
+        ["fit_summary.json: column 'schema': not a power model (schema "
+         "'drivebench.fit_summary')"],
+        ["run.json"]),
+    "negative copper coefficient": (
+        lambda t: ["optimize", "--drive-model", str(_thermal_model(
+            t, lambda b: b.update(copper_temp_coeff_per_k=-0.004))), "--wind-grid", "7",
+            "--out", str(t / "o")],
+        ["thermal.json: field 'thermal.copper_temp_coeff_per_k': -0.004"], ["Traceback"]),
+    "resistance contradicting its ladder": (
+        lambda t: ["optimize", "--drive-model", str(_thermal_model(
+            t, lambda b: b.update(r_th_k_per_w=0.5))), "--wind-grid", "7",
+            "--out", str(t / "o")],
+        ["thermal.json: field 'thermal.ladder': its resistances sum to 0.05 K/W, "
+         "r_th_k_per_w is 0.5 K/W"], ["Traceback"]),
     "unknown scenario kind": (
         lambda t: ["optimize", "--scenarios", "elec-lim,fast", "--out", str(t / "o")],
         ["--scenarios"], ["<input>"]),
@@ -76,6 +128,7 @@ def test_bad_input_names_what_it_is_about(case, tmp_path, capsys, monkeypatch):
     code = main(argv(tmp_path))
     err = capsys.readouterr().err
     assert code == 2, err
+    assert not (tmp_path / "o").exists() and not (tmp_path / "p.csv").exists()
     for text in must:
         assert text in err, (case, err)
     for text in must_not:
@@ -119,3 +172,50 @@ def test_ingest_flags_a_point_whose_efficiency_is_outside_0_1(tmp_path, capsys):
     assert len(flags) == int(expected.sum()) >= 1
     assert any("outside [0, 1] at -1500 rpm, 2 N m" in f for f in flags)
     assert "FLAGGED point: table_01: efficiency" in out
+
+
+def test_envelope_limit_is_active_only_where_the_envelope_bounds():
+    """A base speed of 1e9 rpm never bounds the torque: a cycle on its 78 N m torque limit
+    is not on its envelope; with 1000 rpm, 55.7 N m at 1400 rpm is (78 x 1000 / 1400)."""
+    from types import SimpleNamespace
+
+    from optimize.problem.drive_part import DrivePart
+    from optimize.problem.part import near
+
+    def envelope_active(base, speed, torque):
+        limits = SimpleNamespace(base_speed_rpm=base, envelope_speed_rpm=None,
+                                 envelope_torque_nm=None, max_torque_nm=78.0)
+        ratio = DrivePart(None, None, limits, None).envelope_ratio(speed, torque)
+        return ratio is not None and near(ratio, 1.0)
+
+    speed, torque = np.array([500.0, 1400.0]), np.array([78.0, 78.0])
+    assert not envelope_active(1e9, speed, torque)
+    assert not envelope_active(1000.0, speed, np.array([78.0, 50.0]))
+    assert envelope_active(1000.0, speed, np.array([78.0, 78.0 * 1000 / 1400]))
+
+
+def test_an_unusable_compiled_code_cache_falls_back_naming_it(tmp_path, monkeypatch, caplog):
+    """--codegen's cache under a path that is a file, or a damaged library in it: the
+    function runs uncompiled, and the warning names the cache (no scenario fails)."""
+    import casadi as ca
+
+    from optimize.problem.transcriptions import codegen
+
+    if codegen.compiler() is None:
+        pytest.skip("no C compiler")
+    x = ca.SX.sym("x")
+    fn = ca.Function("cache_probe", [x], [x * x + 1.0])
+    (tmp_path / "afile").write_text("")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "afile"))
+    assert codegen.compiled(fn) is fn
+    assert "afile/drivebench/casadi" in caplog.text and "runs uncompiled" in caplog.text
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    built = codegen.compiled(fn)
+    assert built is not fn and float(built(3.0)) == 10.0
+    for lib in (tmp_path / "cache").rglob("*.so"):  # the same library, damaged, elsewhere
+        damaged = tmp_path / "damaged" / lib.relative_to(tmp_path / "cache")
+        damaged.parent.mkdir(parents=True)
+        damaged.write_bytes(b"damaged")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "damaged"))
+    caplog.clear()
+    assert codegen.compiled(fn) is fn and "cannot be used" in caplog.text

@@ -25,7 +25,7 @@ def _pair(n: int, d: int, limits: Limits | None = None):
 
 def test_stagewise_layout_evaluates_the_same_objective_and_rows():
     general, staged = _pair(3, 3, Limits(max_rms_torque_nm=60.0, max_p_elec_w=9000.0))
-    assert general.layout.kind == "ipopt" and staged.layout.kind == "stagewise"
+    assert general.layout.kind == "general" and staged.layout.kind == "stagewise"
     x, z, fict = circular_loop(general.dae, general.loop,
                                grid_times(general, general.loop.period_s), 7.0)
     rng = np.random.default_rng(1)

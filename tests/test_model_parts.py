@@ -25,7 +25,7 @@ from optimize.model.kite_model import kite_dae
 from optimize.model.variables import Variables
 from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
-from optimize.problem.options import OcpOptions
+from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.part import Part, StartPoint
 from optimize.service.outcome import Attempt, ScenarioOutcome
 from optimize.solve import initial_guess
@@ -111,3 +111,36 @@ def test_the_filter_state_is_the_periodic_solution_of_its_ode(filtered):
     sim = solve_ivp(rhs, (0.0, 10 * period), [f_end], rtol=1e-9, atol=1e-9,
                     max_step=period / 200)
     assert abs(sim.y[0, -1] - f_end) < 0.01 * np.abs(dl).max()
+
+
+@dataclass(frozen=True)
+class Push(Part):
+    """A constant force [N] (world NED) and moment [N m] (body) on the kite."""
+
+    force_n: tuple[float, float, float]
+    moment_nm: tuple[float, float, float]
+    name: str = "push"
+
+    def quantities(self, q: Mapping[str, Any]) -> dict[str, Any]:
+        axes = zip("xyz", self.force_n, self.moment_nm, strict=True)
+        return {k: q.get(k, 0) + v for a, f, m in axes
+                for k, v in ((f"f_ext_{a}_n", f), (f"m_ext_{a}_nm", m))}
+
+
+def test_a_force_from_another_part_enters_the_kites_newton_euler_rows():
+    """Newton's and Euler's residuals drop by the force and moment over their scales
+    (``m a + ... - F_aero - m g - F_ext``), the tether row not at all; at a random point."""
+    opts = OcpOptions(Discretization(n_intervals=2, degree=1))
+    force, moment = (3.0, -2.0, 40.0), (0.5, 0.0, -1.5)
+    plain = build_ocp(kite_dae(), paper_model(), opts)
+    pushed = build_ocp(kite_dae(), paper_model(), opts, parts=(Push(force, moment),))
+    dae, rng = plain.dae, np.random.default_rng(3)
+    x, u = rng.normal(size=dae.states.size), rng.normal(size=dae.controls.size)
+    z, fict = rng.normal(size=dae.algebraic.size), rng.normal(size=dae.fictitious.size)
+
+    def algebraic(ocp):
+        rows = ocp.formulation.point(x, u, z, fict, [7.0]).rows
+        return np.asarray(next(r.expr for r in rows if r.name == "algebraic")).ravel()
+
+    want = -np.array([*force, *moment, 0.0]) / plain.scales.residual
+    assert np.allclose(algebraic(pushed) - algebraic(plain), want, rtol=1e-9, atol=1e-12)

@@ -31,8 +31,8 @@ def test_folder_is_switched_whole(tmp_path):
     assert sorted(p.name for p in out.rglob("*")) == ["a.txt", "b.txt", RUN_FILE, "sub"]
     run = json.loads((out / RUN_FILE).read_text())
     assert set(run["files"]) == {"a.txt", "sub/b.txt"} and run["stage"] == "demo"
-    # no staging left; the writer's lock file (kernel.locking) stays beside the output
-    assert sorted(p.name for p in tmp_path.iterdir()) == [".out.lock", "out"]
+    # no staging left, nor the writer's lock file (kernel.locking removes it)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
 def test_failure_keeps_the_old_folder(tmp_path):
@@ -43,7 +43,7 @@ def test_failure_keeps_the_old_folder(tmp_path):
         (stage / "a.txt").write_text("half")
         raise RuntimeError("late failure")
     assert (out / "a.txt").read_text() == "old"
-    assert sorted(p.name for p in tmp_path.iterdir()) == [".out.lock", "out"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
 def test_fsync_error_keeps_the_old_folder(tmp_path, monkeypatch):

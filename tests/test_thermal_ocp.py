@@ -170,7 +170,7 @@ def test_a_two_node_network_is_periodic_in_the_cycle_and_its_winding_limited(hot
     model = dataclasses.replace(paper_model(), thermal=thermal)
     ocp = build_ocp(kite_dae(*load_system().model_params()), model, HOT_OPTIONS)
     assert ocp.dae.states.names[-2:] == (STATE, "theta_housing_c")
-    warm = carry_over(one_node, one.warm, ocp, 10.0)
+    warm = carry_over(one_node, one.warm, ocp, Scenario.of_kind("elec-lim", 10.0).parameters)
     hot = solve(ocp, Scenario.of_kind("elec-lim", 10.0), warm)
     assert hot.success, hot.status
     winding = hot.trajectory[STATE].to_numpy()

@@ -262,6 +262,32 @@ def _judge(k: int, cut: CycleCut, sel: np.ndarray, bins: dict, profile: DrivePro
     return None, ""
 
 
+def _not_found(problem: str, bins: dict, profile: DriveProfile, where: dict[str, Path],
+               t0: float) -> InputError:
+    """The error of a run whose cycles cannot be found, saying the likeliest why: a gap in
+    the log (its clock jumped, or the logging paused: the time after it does not run with
+    the profile's), a log that ends before the first cycle would (the profile starting at
+    ``t0`` on the DAQ clock [s]), or else another profile."""
+    gap = np.flatnonzero(bins["gap"])
+    first = t0 + float(profile.header["cycle_start_s"]) + 2 * profile.period_s
+    if gap.size:
+        runs = np.split(gap, np.flatnonzero(np.diff(gap) > 1) + 1)
+        jumps = ", ".join(f"{bins['t'][r[0]]:.2f} s ({len(r) * (bins['t'][1] - bins['t'][0]):.2f}"
+                          " s without samples)" for r in runs[:3])
+        return InputError(where["daq"], f"{problem}: the log's time jumps at {jumps}: its "
+                          "clock does not run with the profile's across it", column="time",
+                          expected="a log whose clock runs without jumps through the profile "
+                          "(split the run at the jump, or log it again)")
+    if bins["t"][-1] < first:
+        return InputError(where["daq"], f"{problem}: the log ends at {bins['t'][-1]:.1f} s, "
+                          f"before the profile's cycle 1 would end ({first:.1f} s)",
+                          column="time", expected="a log of the whole profile, or of its "
+                          "ramp and at least two whole cycles (the first is settling)")
+    return InputError(where["profile"], f"{problem}: a different profile than the one "
+                      f"named? ({where['daq'].name} against {where['profile'].name})",
+                      column="cycle.profile", expected="the drive profile this run flew")
+
+
 def cut_cycles(bins: dict, profile: DriveProfile, where: dict[str, Path]) -> CycleCut:
     """Find the profile's cycles in a run's bins and judge each.
 
@@ -280,29 +306,26 @@ def cut_cycles(bins: dict, profile: DriveProfile, where: dict[str, Path]) -> Cyc
     Raises
     ------
     InputError
-        The speed does not follow the profile (another profile), the period found is
-        not the profile's, or the log's speed or torque is a multiple of the profile's
+        The speed does not follow the profile, no whole cycle is found or the period
+        found (from three cycles or more) is not the profile's: naming the log's time
+        jump when it has one, the log when it is too short for a cycle, else the profile
+        (another profile); or the log's speed or torque is a multiple of the profile's
         (a wrong frame in session.toml).
     """
     speed_set, torque_set = profile.drum()
     t0, rho = global_shift(bins["t"], bins["speed"], profile.columns["time_s"], speed_set)
-    other = (f"a different profile than the one named? ({where['daq'].name} against "
-             f"{where['profile'].name})")
     if rho < MIN_CORRELATION:
-        raise InputError(where["profile"], f"the logged speed does not follow this profile "
-                         f"(correlation {rho:.2f} at the best shift, below "
-                         f"{MIN_CORRELATION:g}): {other}", column="cycle.profile",
-                         expected="the drive profile this run flew")
+        raise _not_found(f"the logged speed does not follow this profile (correlation "
+                         f"{rho:.2f} at the best shift, below {MIN_CORRELATION:g})", bins,
+                         profile, where, t0)
     starts, corr = cycle_starts(bins["t"], bins["speed"], profile, t0)
     good = np.isfinite(starts) & (corr >= MIN_CORRELATION)
     if not good.any():
-        raise InputError(where["profile"], f"no whole cycle of the profile in the log: {other}",
-                         column="cycle.profile", expected="the drive profile this run flew")
+        raise _not_found("no whole cycle of the profile in the log", bins, profile, where, t0)
     phase, period, found, found_u = _line(starts, good, profile.period_s)
-    if np.isfinite(found) and abs(found / profile.period_s - 1.0) > PERIOD_RTOL:
-        raise InputError(where["profile"], f"the log's cycles repeat every {found:.4f} s, "
-                         f"the profile's every {profile.period_s:.4f} s: {other}",
-                         column="cycle.profile", expected="the drive profile this run flew")
+    if np.isfinite(found_u) and abs(found / profile.period_s - 1.0) > PERIOD_RTOL:
+        raise _not_found(f"the log's cycles repeat every {found:.4f} s, the profile's every "
+                         f"{profile.period_s:.4f} s", bins, profile, where, t0)
     cut = CycleCut(phase, period, rho, found, found_u, tracking={
         k: (np.nan, np.nan, float(starts[k] - phase - k * period)) for k in range(starts.size)})
     cut.gains.update(_gains(bins, cut, profile))

@@ -36,6 +36,7 @@ from bench.store.writer import StoreWriter
 from kernel.drive_rating import find_drive_file, session_drive
 from kernel.errors import InputError
 from kernel.files import WRITE_ERRNOS, file_sha256
+from kernel.output_place import check_place
 from kernel.provenance import Provenance
 
 #: bump when ingest would compute different points from the same files; sessions
@@ -211,10 +212,12 @@ def _say_store_problems(writer: StoreWriter, notify: Callable[[str], None]) -> N
 
 def _checked_options(mapping_path: str | Path | None, store_dir: Path) -> Path | None:
     """The ``--mapping`` file, read once to fail early when it is bad, after which the
-    store path is checked (InputError when it is no store)."""
+    store path is checked (InputError when it is no store, or lies inside another
+    stage's output or store)."""
     user_mapping = Path(mapping_path) if mapping_path is not None else None
     if user_mapping is not None:
         load_mapping(user_mapping)  # fail early on a bad --mapping file
+    check_place(store_dir, "--store")  # not inside another stage's output or store
     read_manifest(store_dir)  # fail early on a path that is no store
     return user_mapping
 

@@ -11,6 +11,7 @@ from bench.store.schema import LOCK_FILE
 from kernel.errors import InputError
 from kernel.files import WRITE_ERRNOS
 from kernel.locking import lock_fd, read_holder, write_pid
+from kernel.output_place import check_place
 
 
 class StoreBusy(InputError):
@@ -76,6 +77,7 @@ class StoreLock:
 
     def acquire(self) -> None:
         """Take the lock and write this process's pid into the lock file."""
+        check_place(self.store, "--store")  # not inside another stage's output or store
         lock_path = self.store / LOCK_FILE
         while True:
             fd = self._open()

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from bench.synth.campaign import DEFAULT_SEED, generate, is_complete
 from kernel.errors import InputError
+from kernel.output_place import check_place
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -41,6 +42,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out_dir.exists() and not args.out_dir.is_dir():
         raise InputError(args.out_dir, "exists and is not a directory",
                          expected="a campaign folder")
+    check_place(args.out_dir, "OUT_DIR", itself=True)  # not a stage's output or store
     if args.cycle_run is not None:
         return _cycle_run(args)
     if args.check and is_complete(args.out_dir, args.seed, args.scale):

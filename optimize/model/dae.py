@@ -1,6 +1,6 @@
 """What a model of the cycle must provide: the semi-explicit DAE and its named vectors.
 
-The transcription (:mod:`optimize.problem.transcription`) needs of a model only
+The transcription (:mod:`optimize.problem.transcriptions`) needs of a model only
 this interface (through the formulation, :class:`optimize.problem.interface.CycleFormulation`):
 the sizes and names of its vectors and the two CasADi functions of its dynamics.
 The tethered kite (:mod:`optimize.model.kite_model`) is one such model; any other
@@ -19,25 +19,28 @@ from optimize.model.variables import Variables
 
 
 class Dae(Protocol):
-    """A semi-explicit DAE ``xdot = f(x, u, z)``, ``0 = g(x, u, z, wind, fict)``.
+    """A semi-explicit DAE ``xdot = f(x, u, z)``, ``0 = g(x, u, z, p, fict)`` with the
+    model's parameters ``p``.
 
     Attributes
     ----------
-    states, controls, algebraic : Variables
-        The named components of ``x``, ``u`` and ``z``.
+    states, controls, algebraic, parameters : Variables
+        The named components of ``x``, ``u``, ``z`` and ``p`` (the kite's ``p`` is its
+        reference wind speed).
     fictitious : Variables
         Fictitious forces and moments added to ``g`` by the initialization homotopy
         (zero in the physical model).
     ode : casadi.Function
         ``(x, u, z) -> xdot`` [SI].
     alg : casadi.Function
-        ``(x, u, z, wind_speed_m_s, fict) -> residual`` (``algebraic.size`` rows).
+        ``(x, u, z, p, fict) -> residual`` (``algebraic.size`` rows).
     """
 
     states: Variables
     controls: Variables
     algebraic: Variables
     fictitious: Variables
+    parameters: Variables
     ode: ca.Function
     alg: ca.Function
 

@@ -41,6 +41,8 @@ CONTROLS = Variables(("dddl_m_s3", "daileron_rad_s", "delevator_rad_s", "drudder
 #: algebraic variables: CG acceleration, angular acceleration, tether multiplier
 ALGEBRAIC = Variables(("a_x_m_s2", "a_y_m_s2", "a_z_m_s2", "domega_x_rad_s2",
                        "domega_y_rad_s2", "domega_z_rad_s2", "nu_n_per_m"))
+#: the model's parameter: the wind speed at the reference height
+PARAMETERS = Variables(("wind_speed_m_s",))
 #: fictitious forces and moments of the initialization homotopy
 FICTITIOUS = Variables(("f_fict_x_n", "f_fict_y_n", "f_fict_z_n", "m_fict_x_nm",
                         "m_fict_y_nm", "m_fict_z_nm"))
@@ -66,9 +68,10 @@ class KiteDae:
 
     Attributes
     ----------
-    states, controls, algebraic, fictitious : Variables
-        The named components of ``x``, ``u``, ``z`` and the fictitious forces
-        (:data:`STATES`, :data:`CONTROLS`, :data:`ALGEBRAIC`, :data:`FICTITIOUS`).
+    states, controls, algebraic, fictitious, parameters : Variables
+        The named components of ``x``, ``u``, ``z``, the fictitious forces and the
+        parameters (:data:`STATES`, :data:`CONTROLS`, :data:`ALGEBRAIC`,
+        :data:`FICTITIOUS`, :data:`PARAMETERS`).
     periodic : tuple of str
         The states that repeat over a cycle (:data:`PERIODIC_STATES`).
     ode : Function
@@ -100,6 +103,7 @@ class KiteDae:
     controls: Variables = CONTROLS
     algebraic: Variables = ALGEBRAIC
     fictitious: Variables = FICTITIOUS
+    parameters: Variables = PARAMETERS
     periodic: tuple[str, ...] = PERIODIC_STATES
 
 

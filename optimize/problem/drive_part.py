@@ -18,10 +18,15 @@ import numpy as np
 
 from kernel.units import RPM_PER_RAD_S
 from optimize.model.drivetrain import DriveModel, Drivetrain, max_reel_speed_m_s
-from optimize.model.envelope import EnvelopeTable, constant_power_w
+from optimize.model.envelope import (
+    EnvelopeTable,
+    constant_power_w,
+    envelope_torque_nm,
+    has_envelope,
+)
 from optimize.problem.interface import Row
 from optimize.problem.options import Limits
-from optimize.problem.part import Part
+from optimize.problem.part import ACTIVE_RTOL, Part, near
 from optimize.problem.scaling import Scales
 
 #: the cycle averages: electrical and mechanical power drawn [W], and the squared motor
@@ -140,6 +145,33 @@ class DrivePart(Part):
             return []
         return [Row("rms_torque", averages["torque_sq"], -np.inf, np.inf,
                     limited=(-np.inf, (self.rms_torque_nm / self.scales_of.torque_nm) ** 2))]
+
+    def active_bounds(self, traj: Any, drive_limits: bool) -> list[str]:
+        """The kite's tether-force limit (every kind); the drive's speed, torque, envelope
+        and electrical-power limits (the ``*-lim`` kinds)."""
+        lim = self.limits
+        out = ["tether_force_limit"] if near(traj["tension_n"], lim.max_tether_force_n) else []
+        if not drive_limits:
+            return out
+        speed, torque = np.abs(np.asarray(traj["speed_rpm"])), np.abs(np.asarray(traj["torque_nm"]))
+        checks = (("speed_limit", speed, lim.max_speed_rpm),
+                  ("torque_limit", torque, lim.max_torque_nm),
+                  ("envelope_limit", self.envelope_ratio(speed, torque), 1.0),
+                  ("p_elec_limit", np.abs(traj["p_elec_w"]), lim.max_p_elec_w))
+        return out + [name for name, value, bound in checks
+                      if value is not None and near(value, bound)]
+
+    def envelope_ratio(self, speed_rpm: np.ndarray, torque_nm: np.ndarray
+                       ) -> np.ndarray | None:
+        """|Torque| over the envelope's torque where the envelope, not the torque limit,
+        is the bound (above the base speed; a base speed beyond every speed flown never
+        binds); None without an envelope."""
+        lim = self.limits
+        if not has_envelope(lim):
+            return None
+        env = envelope_torque_nm(lim, speed_rpm)
+        below = env < lim.max_torque_nm * (1.0 - ACTIVE_RTOL)
+        return np.abs(torque_nm)[below] / env[below]
 
     def limited_bounds(self) -> dict[str, tuple[float, float]]:
         """The reel speed of the drive's speed limit."""

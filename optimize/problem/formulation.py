@@ -26,11 +26,13 @@ import numpy as np
 from optimize.model.variables import Variables
 from optimize.problem.interface import Point, Row, weight_param
 from optimize.problem.options import Discretization
-from optimize.problem.part import WIND, Part, variables_of
+from optimize.problem.part import Part, variables_of
 from optimize.problem.scaling import Scales
 
-#: the vectors of a model, in the order of the point's arguments
+#: the vectors of a model's variables, in the order of the point's arguments
 KINDS = ("states", "controls", "algebraic", "fictitious")
+#: the vectors of a point: the variables, then the model's parameters
+VECTORS = (*KINDS, "parameters")
 
 
 def _named(variables: Variables, vector: Any) -> dict[str, Any]:
@@ -46,16 +48,16 @@ class PartsModel:
     ----------
     kite, coeffs, wind
         The kite's parameters (of the first part's model).
-    states, controls, algebraic, fictitious : Variables
+    states, controls, algebraic, fictitious, parameters : Variables
     periodic : tuple of str
     ode : casadi.Function
         ``(x, u, z) -> xdot``, the parts' rates.
     alg : casadi.Function
-        ``(x, u, z, wind_speed_m_s, fict) -> residual`` (scaled), the parts' residuals.
+        ``(x, u, z, p, fict) -> residual`` (scaled), the parts' residuals.
     explicit_ode : casadi.Function
-        ``(x, u, wind_speed_m_s) -> xdot`` with ``z`` solved from ``alg``.
+        ``(x, u, p) -> xdot`` with ``z`` solved from ``alg``.
     solve_z : casadi.Function
-        ``(x, u, wind_speed_m_s) -> z``.
+        ``(x, u, p) -> z``.
     """
 
     kite: Any
@@ -65,6 +67,7 @@ class PartsModel:
     controls: Variables
     algebraic: Variables
     fictitious: Variables
+    parameters: Variables
     periodic: tuple[str, ...]
     ode: ca.Function
     alg: ca.Function
@@ -76,13 +79,13 @@ def parts_model(parts: tuple[Part, ...]) -> Any:
     """The model of ``parts``; the first part's own model (``parts[0].dae``) when no
     other part has variables."""
     first = parts[0]
-    if all(getattr(p, k).size == 0 for p in parts[1:] for k in KINDS):
+    if all(getattr(p, k).size == 0 for p in parts[1:] for k in VECTORS):
         return first.dae
-    v = {k: variables_of(parts, k) for k in KINDS}
+    v = {k: variables_of(parts, k) for k in VECTORS}
     x, u = ca.SX.sym("x", v["states"].size), ca.SX.sym("u", v["controls"].size)
     z, fict = ca.SX.sym("z", v["algebraic"].size), ca.SX.sym("fict", v["fictitious"].size)
-    wind = ca.SX.sym(WIND)
-    q = point_quantities(parts, x, u, z, fict, wind)
+    par = ca.SX.sym("p", v["parameters"].size)
+    q = point_quantities(parts, x, u, z, fict, par)
     xdot = ca.vertcat(*[r for p in parts for r in p.rates(q)])
     residual = ca.vertcat(*[r for p in parts for r in p.residual(q)])
     ode = ca.Function("ode", [x, u, z], [xdot], ["x", "u", "z"], ["xdot"])
@@ -93,17 +96,17 @@ def parts_model(parts: tuple[Part, ...]) -> Any:
     return PartsModel(
         kite=first.dae.kite, coeffs=first.dae.coeffs, wind=first.dae.wind,
         periodic=tuple(n for p in parts for n in p.periodic),
-        ode=ode, alg=ca.Function("alg", [x, u, z, wind, fict], [residual]),
-        explicit_ode=ca.Function("explicit_ode", [x, u, wind], [ode(x, u, z_phys)]),
-        solve_z=ca.Function("solve_z", [x, u, wind], [z_phys]), **v)
+        ode=ode, alg=ca.Function("alg", [x, u, z, par, fict], [residual]),
+        explicit_ode=ca.Function("explicit_ode", [x, u, par], [ode(x, u, z_phys)]),
+        solve_z=ca.Function("solve_z", [x, u, par], [z_phys]), **v)
 
 
-def point_quantities(parts: tuple[Part, ...], x: Any, u: Any, z: Any, fict: Any, wind: Any,
-                     upto: int | None = None) -> dict[str, Any]:
-    """The named quantities at a point: every variable, the wind, then each part's
+def point_quantities(parts: tuple[Part, ...], x: Any, u: Any, z: Any, fict: Any,
+                     params: Any, upto: int | None = None) -> dict[str, Any]:
+    """The named quantities at a point: every variable and parameter, then each part's
     :meth:`optimize.problem.part.Part.quantities` in order (of ``parts[:upto]``)."""
-    q: dict[str, Any] = {WIND: wind}
-    for kind, vector in zip(KINDS, (x, u, z, fict), strict=True):
+    q: dict[str, Any] = {}
+    for kind, vector in zip(VECTORS, (x, u, z, fict, params), strict=True):
         q.update(_named(variables_of(parts, kind), vector))
     for part in parts[:upto]:
         q.update(part.quantities(q))
@@ -131,7 +134,7 @@ class Formulation:
     dae: Any = field(init=False)
 
     def __post_init__(self) -> None:
-        names = [n for p in self.parts for k in KINDS for n in getattr(p, k).names]
+        names = [n for p in self.parts for k in VECTORS for n in getattr(p, k).names]
         if len(set(names)) != len(names):
             raise ValueError(f"two parts name the same variable: {sorted(names)}")
         object.__setattr__(self, "dae", parts_model(self.parts))
@@ -159,6 +162,11 @@ class Formulation:
         return None if part is None else part.thermal
 
     @property
+    def parameters(self) -> tuple[str, ...]:
+        """The model's parameters (the parts'), NLP parameters set per scenario."""
+        return self.dae.parameters.names
+
+    @property
     def averages(self) -> tuple[str, ...]:
         """The cycle averages of the parts."""
         return tuple(a for p in self.parts for a in p.cycle_averages)
@@ -183,15 +191,20 @@ class Formulation:
         """``xdot = f(x, u, z)`` (physical units): the parts' rates."""
         return self.dae.ode(x, u, z)
 
-    def quantities(self, x: Any, u: Any, z: Any, fict: Any, wind: Any,
+    def quantities(self, x: Any, u: Any, z: Any, fict: Any, params: Any,
                    upto: int | None = None) -> dict[str, Any]:
         """The named quantities at a point (:func:`point_quantities`)."""
-        return point_quantities(self.parts, x, u, z, fict, wind, upto)
+        return point_quantities(self.parts, x, u, z, fict, params, upto)
 
-    def point(self, x: Any, u: Any, z: Any, fict: Any, wind: Any) -> Point:
-        """Rows and integrands at one collocation point (physical ``x, u, z, fict``):
-        the parts' residual, then each part's rows."""
-        q = self.quantities(x, u, z, fict, wind)
+    def _symbols(self) -> tuple[Any, Any, Any, Any]:
+        dae = self.dae
+        return (ca.SX.sym("x", dae.states.size), ca.SX.sym("u", dae.controls.size),
+                ca.SX.sym("z", dae.algebraic.size), ca.SX.sym("p", dae.parameters.size))
+
+    def point(self, x: Any, u: Any, z: Any, fict: Any, params: Any) -> Point:
+        """Rows and integrands at one collocation point (physical ``x, u, z, fict``, the
+        model's ``params``): the parts' residual, then each part's rows."""
+        q = self.quantities(x, u, z, fict, params)
         rows = [Row("algebraic", ca.vertcat(*[r for p in self.parts for r in p.residual(q)])),
                 *(row for p in self.parts for row in p.rows(q))]
         averages: dict[str, Any] = {}
@@ -202,15 +215,13 @@ class Formulation:
 
     @functools.cached_property
     def _outputs(self) -> ca.Function:
-        dae = self.dae
-        x, u = ca.SX.sym("x", dae.states.size), ca.SX.sym("u", dae.controls.size)
-        z, wind = ca.SX.sym("z", dae.algebraic.size), ca.SX.sym(WIND)
-        q = self.quantities(x, u, z, ca.DM.zeros(dae.fictitious.size), wind)
+        x, u, z, par = self._symbols()
+        q = self.quantities(x, u, z, ca.DM.zeros(self.dae.fictitious.size), par)
         out: dict[str, Any] = {}
         for p in self.parts:
             out.update(p.outputs(q))
-        return ca.Function("outputs", [x, u, z, wind], list(out.values()),
-                           ["x", "u", "z", "wind"], list(out))
+        return ca.Function("outputs", [x, u, z, par], list(out.values()),
+                           ["x", "u", "z", "p"], list(out))
 
     @property
     def output_names(self) -> tuple[str, ...]:
@@ -218,24 +229,23 @@ class Formulation:
         return tuple(self._outputs.name_out())
 
     def trajectory_outputs(self, x: np.ndarray, u: np.ndarray, z: np.ndarray,
-                           wind_speed_m_s: float) -> dict[str, np.ndarray]:
-        """The parts' outputs at points (columns of ``x, u, z``): drive and flight
-        quantities [SI, rpm, deg]."""
-        out = self._outputs.map(x.shape[1])(x, u, z, wind_speed_m_s)
+                           params: Any) -> dict[str, np.ndarray]:
+        """The parts' outputs at points (columns of ``x, u, z``; ``params`` the values of
+        :attr:`parameters`): drive and flight quantities [SI, rpm, deg]."""
+        out = self._outputs.map(x.shape[1])(x, u, z, params)
         return {name: np.asarray(val).ravel()
                 for name, val in zip(self.output_names, out, strict=True)}
 
     def prefix_quantities(self, upto: int) -> tuple[ca.Function, tuple[str, ...]]:
-        """``(x, u, z, wind) -> q``: the scalar quantities of ``parts[:upto]`` (the
+        """``(x, u, z, p) -> q``: the scalar quantities of ``parts[:upto]`` (the
         variables first), and their names (for a part's start,
         :mod:`optimize.problem.start`)."""
-        dae = self.dae
-        x, u = ca.SX.sym("x", dae.states.size), ca.SX.sym("u", dae.controls.size)
-        z, wind = ca.SX.sym("z", dae.algebraic.size), ca.SX.sym(WIND)
-        q = self.quantities(x, u, z, ca.DM.zeros(dae.fictitious.size), wind, upto)
-        del q[WIND]
-        return ca.Function("quantities", [x, u, z, wind], [ca.vertcat(*q.values())],
-                           ["x", "u", "z", "wind"], ["q"]), tuple(q)
+        x, u, z, par = self._symbols()
+        q = self.quantities(x, u, z, ca.DM.zeros(self.dae.fictitious.size), par, upto)
+        for name in self.parameters:
+            del q[name]
+        return ca.Function("quantities", [x, u, z, par], [ca.vertcat(*q.values())],
+                           ["x", "u", "z", "p"], ["q"]), tuple(q)
 
     def control_cost(self, u: Any) -> Any:
         """Regularization term of one interval's control ``sum_i (u_i / sigma_i)^2``."""

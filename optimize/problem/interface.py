@@ -1,5 +1,5 @@
 """What a transcription needs of a cycle OCP: the contract between a formulation and
-:mod:`optimize.problem.transcription`.
+:mod:`optimize.problem.transcriptions`.
 
 A formulation states what is optimized, in continuous time and scaled: its model
 (:class:`optimize.model.dae.Dae`), the constraint rows at one point of the cycle,
@@ -84,6 +84,9 @@ class CycleFormulation(Protocol):
     ----------
     dae : Dae
         The model: sizes and names of its vectors, its dynamics.
+    parameters : tuple of str
+        The model's scalar parameters, set per scenario (the kite's reference wind speed
+        ``wind_speed_m_s``; NLP parameters of the same names, first in ``p``).
     scales : VariableScales
     averages : tuple of str
         Names of the cycle averages of :attr:`Point.averages`.
@@ -97,6 +100,7 @@ class CycleFormulation(Protocol):
     """
 
     dae: Dae
+    parameters: tuple[str, ...]
     scales: VariableScales
     averages: tuple[str, ...]
     objective_averages: tuple[str, ...]
@@ -106,13 +110,14 @@ class CycleFormulation(Protocol):
     def ode(self, x: Any, u: Any, z: Any) -> Any:
         """``xdot = f(x, u, z)`` (physical units)."""
 
-    def point(self, x: Any, u: Any, z: Any, fict: Any, wind: Any) -> Point:
-        """Rows and integrands at one collocation point (physical arguments)."""
+    def point(self, x: Any, u: Any, z: Any, fict: Any, params: Any) -> Point:
+        """Rows and integrands at one collocation point (physical arguments; ``params``
+        the values of :attr:`parameters`)."""
 
     def trajectory_outputs(self, x: np.ndarray, u: np.ndarray, z: np.ndarray,
-                           wind_speed_m_s: float) -> dict[str, np.ndarray]:
-        """Derived columns of a solution's trajectory at points (columns of ``x, u, z``),
-        each name ending in its unit."""
+                           params: Any) -> dict[str, np.ndarray]:
+        """Derived columns of a solution's trajectory at points (columns of ``x, u, z``;
+        ``params`` the values of :attr:`parameters`), each name ending in its unit."""
 
     def control_cost(self, u: Any) -> Any:
         """Regularization of one interval's control (physical)."""
@@ -149,9 +154,9 @@ class CycleFormulation(Protocol):
         """Bounds of the free period [s]."""
 
 
-#: NLP parameters every transcription has besides the objective weights: the reference
-#: wind speed [m/s] and the weights of the regularization and the homotopy terms
-BASE_PARAMS = ("wind_speed_m_s", "w_reg", "w_track", "w_fict")
+#: NLP parameters every transcription has besides the model's parameters and the
+#: objective weights: the weights of the regularization and the homotopy terms
+BASE_PARAMS = ("w_reg", "w_track", "w_fict")
 
 
 def weight_param(average: str) -> str:
@@ -160,6 +165,7 @@ def weight_param(average: str) -> str:
 
 
 def param_names(form: CycleFormulation) -> tuple[str, ...]:
-    """The scalar NLP parameters of a formulation, in the order of the vector ``p``."""
-    return (BASE_PARAMS[0], *(weight_param(a) for a in form.objective_averages),
-            *BASE_PARAMS[1:])
+    """The scalar NLP parameters of a formulation, in the order of the vector ``p``: the
+    model's parameters, the objective weights, :data:`BASE_PARAMS`."""
+    return (*form.parameters, *(weight_param(a) for a in form.objective_averages),
+            *BASE_PARAMS)

@@ -21,13 +21,19 @@ from optimize.model.kite_model import KiteDae
 from optimize.problem.guess import LoopGuess, circular_loop
 from optimize.problem.interface import Row
 from optimize.problem.options import Limits
-from optimize.problem.part import WIND, Part, StartPoint
+from optimize.problem.part import Part, StartPoint, near
 from optimize.problem.scaling import Scales
 
 #: the reel acceleration's bound when the winch states none: keeps the solver in range
 SOLVER_REEL_ACCELERATION_M_S2 = 500.0
 #: the reel jerk's bound (the control's) when the winch states none: the solver's range
 SOLVER_REEL_JERK_M_S3 = 5000.0
+#: the kite's parameter: the wind speed at the reference height [m/s]
+WIND = "wind_speed_m_s"
+#: forces [N] (world NED frame, on the CG) and moments [N m] (body frame) other parts put
+#: on the kite: quantities of these names enter its Newton-Euler rows as the homotopy's
+#: fictitious forces do (a part adds its own to what the parts before it put there)
+EXTERNAL = ("f_ext_x_n", "f_ext_y_n", "f_ext_z_n", "m_ext_x_nm", "m_ext_y_nm", "m_ext_z_nm")
 #: the CG position's components (not periodic: the downwind position is free)
 POSITION_STATES = ("r_x_m", "r_y_m", "r_z_m")
 
@@ -58,25 +64,12 @@ class KitePart(Part):
     loop: LoopGuess
     name: str = "kite"
 
-    @property
-    def states(self):  # type: ignore[override]
-        return self.dae.states
-
-    @property
-    def controls(self):  # type: ignore[override]
-        return self.dae.controls
-
-    @property
-    def algebraic(self):  # type: ignore[override]
-        return self.dae.algebraic
-
-    @property
-    def fictitious(self):  # type: ignore[override]
-        return self.dae.fictitious
-
-    @property
-    def periodic(self):  # type: ignore[override]
-        return self.dae.periodic
+    states = property(lambda self: self.dae.states, doc="The kite DAE's states.")
+    controls = property(lambda self: self.dae.controls, doc="The kite DAE's controls.")
+    algebraic = property(lambda self: self.dae.algebraic, doc="Its algebraic variables.")
+    fictitious = property(lambda self: self.dae.fictitious, doc="Its fictitious forces.")
+    periodic = property(lambda self: self.dae.periodic, doc="Its periodic states.")
+    parameters = property(lambda self: self.dae.parameters, doc="Its reference wind.")
 
     def _xuz(self, q: Mapping[str, Any]) -> tuple[Any, Any, Any]:
         return (_vector(q, self.states.names), _vector(q, self.controls.names),
@@ -93,9 +86,12 @@ class KitePart(Part):
         return [self.dae.ode(*self._xuz(q))]
 
     def residual(self, q: Mapping[str, Any]) -> list[Any]:
-        """Newton-Euler and ``d2c/dt2`` over their scales."""
+        """Newton-Euler and ``d2c/dt2`` over their scales, with the forces and moments
+        other parts put on the kite (:data:`EXTERNAL`)."""
         x, u, z = self._xuz(q)
         fict = _vector(q, self.fictitious.names)
+        if any(name in q for name in EXTERNAL):
+            fict = fict + ca.vertcat(*[q.get(name, 0) for name in EXTERNAL])
         return [self.dae.alg(x, u, z, q[WIND], fict) * ca.DM(1.0 / self.scales_of.residual)]
 
     def rows(self, q: Mapping[str, Any]) -> list[Row]:
@@ -170,6 +166,21 @@ class KitePart(Part):
             **{f"m_fict_{a}_nm": sc.moment_nm for a in "xyz"},
         }
 
+    def active_bounds(self, traj: Any, drive_limits: bool) -> list[str]:
+        """Tether length, ground clearance, airspeed and the winch's acceleration and jerk
+        limits (the kite's own, in every kind)."""
+        lim = self.limits
+        l_lo, l_hi = lim.tether_length_bounds_m
+        checks = (("tether_length_min", traj["l_m"], l_lo),
+                  ("tether_length_max", traj["l_m"], l_hi),
+                  ("ground_clearance", traj["altitude_m"], lim.min_altitude_m),
+                  ("airspeed_min", traj["airspeed_m_s"], lim.min_airspeed_m_s),
+                  ("airspeed_max", traj["airspeed_m_s"], lim.max_airspeed_m_s),
+                  ("reel_acceleration_limit", np.abs(traj["ddl_m_s2"]),
+                   lim.max_reel_acceleration_m_s2),
+                  ("reel_jerk_limit", np.abs(traj["dddl_m_s3"]), lim.max_reel_jerk_m_s3))
+        return [name for name, value, bound in checks if near(value, bound)]
+
     def start_rows(self, q0: Mapping[str, Any]) -> list[Row]:
         """Invariants at t = 0: tether constraint, its rate, an orthonormal DCM."""
         sc = self.scales_of
@@ -195,7 +206,7 @@ class KitePart(Part):
         """The circular loop (:func:`optimize.problem.guess.circular_loop`) at its own
         period, with the fictitious forces that make it a solution."""
         x, z, fict = circular_loop(self.dae, self.loop, start.grid_times_s,
-                                   start.wind_speed_m_s)
+                                   start.parameters[WIND])
         out = dict(zip(self.states.names, x, strict=True))
         out.update(zip(self.algebraic.names, z[:, 1:], strict=True))
         out.update(zip(self.fictitious.names, fict[:, 1:], strict=True))

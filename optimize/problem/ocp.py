@@ -3,7 +3,7 @@
 :func:`build_ocp` puts the kite's parts together once per (options, drive model):
 the formulation (:mod:`optimize.problem.formulation`: DAE, path constraints,
 periodicity, objective, bounds, from the system and its drive), the transcription
-(:mod:`optimize.problem.transcription`: Radau collocation into one scaled NLP)
+(:mod:`optimize.problem.transcriptions`: Radau collocation into one scaled NLP)
 and the options (:mod:`optimize.problem.options`). :func:`assemble` does the
 same for any formulation (:class:`optimize.problem.interface.CycleFormulation`).
 The NLP is solved for any scenario by changing only NLP parameters (wind speed,
@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -35,12 +36,8 @@ from optimize.problem.options import OcpOptions, with_drive_rating
 from optimize.problem.part import Part
 from optimize.problem.parts import kite_parts
 from optimize.problem.scaling import Scales, system_scales
-from optimize.problem.transcription import (
-    Layout,
-    Transcription,
-    radau_collocation,
-    stagewise_collocation,
-)
+from optimize.problem.transcriptions import method_of
+from optimize.problem.transcriptions.structure import Layout, Transcription
 
 log = logging.getLogger(__name__)
 
@@ -105,7 +102,7 @@ class Ocp:
 
     def params(
         self,
-        wind_speed_m_s: float,
+        parameters: Mapping[str, float] | float | None,
         weights: dict[str, float] | None = None,
         w_reg: float | None = None,
         w_track: float = 0.0,
@@ -116,8 +113,11 @@ class Ocp:
 
         Parameters
         ----------
-        wind_speed_m_s : float
-            Wind speed at 100 m [m/s].
+        parameters : dict of float, float or None
+            The model's parameters by name (:attr:`CycleFormulation.parameters`; a
+            scenario's :attr:`optimize.problem.scenario.Scenario.parameters`, the kite's
+            reference wind speed [m/s]); a number: the value of the model's only one;
+            None: a model without parameters.
         weights : dict, optional
             Objective weight per cycle average, by name (``{"p_elec_w": 1.0}``;
             :attr:`optimize.kinds.Kind.weights`) [per objective scale]; the others 0.
@@ -133,7 +133,7 @@ class Ocp:
         if w_reg is None:
             w_reg = (self.options.discretization.regularization_w
                      / self.formulation.objective_scale)
-        values = {"wind_speed_m_s": wind_speed_m_s, "w_reg": w_reg, "w_track": w_track,
+        values = {**self.model_parameters(parameters), "w_reg": w_reg, "w_track": w_track,
                   "w_fict": w_fict}
         for average, weight in (weights or {}).items():
             if weight_param(average) not in lay.params:
@@ -146,6 +146,20 @@ class Ocp:
         if x_ref is not None:
             p[lay.i_p_ref] = x_ref / self.scales.state[:, None]
         return p
+
+    def model_parameters(self, parameters: Mapping[str, float] | float | None
+                         ) -> dict[str, float]:
+        """The model's parameters by name, every one given (see :meth:`params`)."""
+        names = tuple(self.formulation.parameters)
+        if parameters is None:
+            parameters = {}
+        elif not isinstance(parameters, Mapping):
+            if len(names) != 1:
+                raise ValueError(f"one number for the model's parameters {names}")
+            parameters = {names[0]: parameters}
+        if set(parameters) != set(names):
+            raise ValueError(f"the model's parameters are {names}, got {tuple(parameters)}")
+        return {name: float(parameters[name]) for name in names}
 
     def bounds(self, drive_limits: bool, fix_fictitious: bool, period_s: float | None) -> Bounds:
         """Scaled ``lbx, ubx, lbg, ubg`` for a configuration.
@@ -300,11 +314,7 @@ def assemble(form: CycleFormulation, options: OcpOptions, loop: LoopGuess | None
     t0 = time.perf_counter() if started is None else started
     disc = options.discretization
     coll = radau(disc.degree)
-    # the condensed NLP is built beside the full one (optimize.solve.backend), which it
-    # reads and writes its starts and solutions in
-    stagewise = options.solver.solver == "fatrop" and options.solver.transcription != "condensed"
-    transcribe = stagewise_collocation if stagewise else radau_collocation
-    tr = transcribe(form, disc, coll)
+    tr = method_of(options.solver).transcribe(form, disc, coll, options.solver)
     ocp = Ocp(options=options, formulation=form, coll=coll, transcription=tr,
               build_time_s=0.0, loop=loop, system=system)
     ocp.build_time_s = time.perf_counter() - t0

@@ -171,8 +171,10 @@ class Limits:
 
 #: NLP solvers the OCP can be handed to
 SOLVERS = ("ipopt", "fatrop")
-#: transcriptions the solver runs on (:mod:`optimize.problem.transcription`,
-#: :mod:`optimize.problem.condensed`)
+#: the solvers that take the collocation's stage-wise layout (Riccati-based)
+STAGEWISE_SOLVERS = ("fatrop",)
+#: transcriptions the solver runs on (:mod:`optimize.problem.transcriptions`,
+#: :mod:`optimize.problem.transcriptions.condensed_nlp`)
 TRANSCRIPTIONS = ("collocation", "condensed")
 
 
@@ -219,12 +221,12 @@ class SolverOptions:
         What the solver runs on (one of :data:`TRANSCRIPTIONS`): ``"collocation"`` (the
         default: every Radau point's states and algebraic variables are NLP variables)
         or ``"condensed"`` (multiple shooting, each interval's collocation solved inside
-        the interval, :mod:`optimize.problem.condensed`). Both have the same optima;
-        results and warm starts are in the collocation layout either way.
+        the interval, :mod:`optimize.problem.transcriptions.condensed_nlp`). Both have the
+        same optima; results and warm starts are in the collocation layout either way.
     codegen : bool
         Compile the NLP's repeated functions to C where a C compiler is found
-        (:mod:`optimize.solve.codegen`, cached by hash, so only the first use of a model
-        compiles): the Radau point's Jacobian and Hessian for ``"collocation"``, each
+        (:mod:`optimize.problem.transcriptions.codegen`, cached by hash, so only the first
+        use of a model compiles): the Radau point's Jacobian and Hessian for ``"collocation"``, each
         interval's solve and derivatives for ``"condensed"``. Off by default: it needs a
         C compiler, and on the paper sweep it saved 17 % of the CPU after 3 s of gcc
         (collocation) and 16 % after 34 s (condensed) (benchmarks/README.md); False runs
@@ -251,6 +253,11 @@ class SolverOptions:
                              f"got {self.transcription!r}")
         if not 0 < self.warm_bound_push <= 0.5:  # IPOPT's range of warm_start_bound_frac
             raise ValueError(f"warm_bound_push must be in (0, 0.5], got {self.warm_bound_push}")
+
+    @property
+    def stagewise(self) -> bool:
+        """Whether the solver takes the stage-wise layout (:data:`STAGEWISE_SOLVERS`)."""
+        return self.solver in STAGEWISE_SOLVERS
 
 
 @dataclass(frozen=True)

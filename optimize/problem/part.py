@@ -5,8 +5,9 @@ The kite's OCP is a list of parts (:func:`optimize.problem.parts.kite_parts`): t
 (:class:`optimize.problem.drive_part.DrivePart`) and, with a thermal rating, the
 winding temperature (:class:`optimize.problem.thermal_part.ThermalPart`). The
 formulation (:class:`optimize.problem.formulation.Formulation`), the transcriptions,
-the scaling, the start guess, the trajectory frame and the sweep folder's columns
-iterate over the parts; none of them names a part's variable.
+the scaling, the start guess, the trajectory frame (``trajectories.parquet``'s columns)
+and the summary's active bounds iterate over the parts; none of them names a part's
+variable.
 
 Writing a part
 --------------
@@ -16,20 +17,24 @@ override what the part has; every method has a default that adds nothing.
 Variables (class or instance attributes, :class:`optimize.model.variables.Variables`,
 every name ending in its unit suffix, no name used by another part):
 ``states``, ``controls``, ``algebraic``, ``fictitious`` (the homotopy's forces, zero in
-the physical model), and ``periodic``, the names of the own states that repeat over a
-cycle.
+the physical model), ``parameters`` (scalars set per scenario, NLP parameters of the
+same names: the kite's reference wind ``wind_speed_m_s``), and ``periodic``, the names of
+the own states that repeat over a cycle.
 
 Quantities: at a point of the cycle the formulation builds a dict ``q`` of named
-CasADi expressions (physical units): every variable of every part by name, the
-reference wind ``wind_speed_m_s`` [m/s], then what each part's :meth:`Part.quantities`
+CasADi expressions (physical units): every variable and parameter of every part by
+name, then what each part's :meth:`Part.quantities`
 returns, part after part in the order of the list (a part reads the quantities of
 the parts before it; it may replace one of theirs, as the thermal part puts the
 copper loss at the winding temperature into ``p_elec_w``). The kite gives
 ``tension_n``, ``airspeed_m_s``, ``alpha_rad``, ...; the drive ``speed_rpm``,
-``torque_nm``, ``p_mech_w``, ``p_elec_w``. Then, on the finished ``q``:
+``torque_nm``, ``p_mech_w``, ``p_elec_w``. A part puts a force or moment on the kite
+by adding to the quantities :data:`optimize.problem.kite_part.EXTERNAL` (``f_ext_x_n``
+... in the world NED frame, ``m_ext_x_nm`` ... in the body frame): return
+``{"f_ext_z_n": q.get("f_ext_z_n", 0) + mine}``. Then, on the finished ``q``:
 
 * :meth:`Part.rates`: ``d/dt`` of the own states, in their order (they may not depend
-  on the wind: the model's ``ode`` is ``(x, u, z) -> xdot``);
+  on the parameters: the model's ``ode`` is ``(x, u, z) -> xdot``);
 * :meth:`Part.residual`: rows of the algebraic residual ``0 = g`` (affine in the
   algebraic variables; one row per own algebraic variable in all);
 * :meth:`Part.rows`: path constraints (:class:`optimize.problem.interface.Row`,
@@ -40,6 +45,7 @@ copper loss at the winding temperature into ``p_elec_w``). The kite gives
   ending in its unit.
 
 Bounds and scales, by variable name [SI]: :meth:`Part.bounds` (default unbounded),
+:meth:`Part.active_bounds` (the names of its bounds an optimum sits on, for the summary),
 :meth:`Part.limited_bounds` (replacing those under the drive limits; may name another
 part's state), :meth:`Part.scales` (the typical magnitude each variable is divided by;
 default 1). The cycle: :meth:`Part.start_rows`, :meth:`Part.periodicity_rows` (beyond
@@ -50,8 +56,15 @@ Start: :meth:`Part.guess` fills the part's own variables from a
 A stored initial guess or the homotopy's circular loop gives the kite's variables; the
 parts after it fill theirs, so a stored guess keeps working when a part is added.
 
+The stored initial guess is checked on the kite and drive parts alone
+(:data:`optimize.solve.initial_guess.STORED_PARTS`), then carried over: a part that only
+adds variables and rows keeps it; one that changes the kite's or the drive's own rows
+(a force on the kite) starts from it all the same, its rows not yet satisfied there.
+
 Registering: pass the part to :func:`optimize.problem.ocp.build_ocp` (``parts=``) or
-append it in :func:`optimize.problem.parts.kite_parts`.
+append it in :func:`optimize.problem.parts.kite_parts`. A complete example, a filter of
+the reel speed with its state, bound, scale, output and start: ``ReelFilter`` in
+tests/test_model_parts.py.
 """
 
 from __future__ import annotations
@@ -66,8 +79,17 @@ from optimize.model.variables import Variables
 
 #: no variables
 NONE = Variables(())
-#: the quantity of the reference wind speed [m/s] (the scenario's parameter)
-WIND = "wind_speed_m_s"
+#: a bound counts as active within this fraction of its value (IPOPT's bound push and
+#: tolerance leave the optimum about 1e-8 to 1e-6 inside)
+ACTIVE_RTOL = 1e-3
+
+
+def near(value: Any, bound: float | None) -> bool:
+    """Whether ``value`` (an array along the cycle) reaches ``bound`` anywhere, within
+    :data:`ACTIVE_RTOL` of it (None or an infinite bound: no)."""
+    return bound is not None and bool(np.isfinite(bound)) and bool(
+        np.any(np.abs(np.asarray(value, dtype=float) - bound)
+               <= ACTIVE_RTOL * max(abs(bound), 1e-9)))
 
 
 @dataclass(frozen=True)
@@ -82,8 +104,8 @@ class StartPoint:
         The start's period [s].
     n_intervals : int
         Collocation intervals per period ``N``.
-    wind_speed_m_s : float
-        Reference wind speed [m/s].
+    parameters : dict of float
+        The model's parameters by name (the reference wind speed ``wind_speed_m_s`` [m/s]).
     quantities : dict of ndarray
         The variables and quantities of the parts before this one at the ``N d``
         Radau points (``time_s`` in ``(0, T]``, the last one is the period's end).
@@ -92,7 +114,7 @@ class StartPoint:
     grid_times_s: np.ndarray
     period_s: float
     n_intervals: int
-    wind_speed_m_s: float
+    parameters: Mapping[str, float]
     quantities: Mapping[str, np.ndarray]
 
     @property
@@ -121,6 +143,7 @@ class Part:
     controls: Variables = NONE
     algebraic: Variables = NONE
     fictitious: Variables = NONE
+    parameters: Variables = NONE
     periodic: tuple[str, ...] = ()
     #: the names of the cycle averages :meth:`averages` defines, and those of them the
     #: objective can weight
@@ -183,6 +206,12 @@ class Part:
         """Own state components fixed at ``t = 0`` [SI]."""
         return {}
 
+    def active_bounds(self, traj: Any, drive_limits: bool) -> list[str]:
+        """Names of this part's bounds a solution's trajectory (its table,
+        ``trajectories.parquet``'s columns) sits on (:func:`near`); ``drive_limits``:
+        whether the drive limits applied."""
+        return []
+
     def guess(self, start: StartPoint) -> dict[str, np.ndarray]:
         """Start values of the own variables: states ``(N d + 1,)`` at the state grid,
         algebraic variables and fictitious forces ``(N d,)`` at the Radau points,
@@ -192,5 +221,5 @@ class Part:
 
 def variables_of(parts: tuple[Part, ...], kind: str) -> Variables:
     """All parts' variables of one kind (``"states"``, ``"controls"``, ``"algebraic"``,
-    ``"fictitious"``), in the order of the parts."""
+    ``"fictitious"``, ``"parameters"``), in the order of the parts."""
     return Variables(tuple(n for p in parts for n in getattr(p, kind).names))

@@ -58,6 +58,12 @@ class Scenario:
         return self.kind_spec.weights
 
     @property
+    def parameters(self) -> dict[str, float]:
+        """The model's parameters of the scenario by name: the wind speed at the
+        reference height ``wind_speed_m_s`` [m/s]."""
+        return {"wind_speed_m_s": self.wind_speed_m_s}
+
+    @property
     def name(self) -> str:
         """Short label, e.g. ``"elec-lim-7.0"`` or ``"mech-free-8.5"``."""
         return scenario_name(self.kind, self.wind_speed_m_s)

@@ -10,6 +10,8 @@ added, and a part's start is part of the part.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
 from optimize.problem.formulation import KINDS
@@ -20,8 +22,8 @@ from optimize.problem.part import StartPoint
 KEYS = {"states": "x", "controls": "u", "algebraic": "z", "fictitious": "fict"}
 
 
-def fill(ocp: Ocp, arrays: dict[str, np.ndarray], period_s: float, wind_speed_m_s: float,
-         known: set[str]) -> dict[str, np.ndarray]:
+def fill(ocp: Ocp, arrays: dict[str, np.ndarray], period_s: float,
+         parameters: Mapping[str, float], known: set[str]) -> dict[str, np.ndarray]:
     """``arrays`` (physical ``x (NX, N d + 1)``, ``u (NU, N)``, ``z (NZ, N d)``,
     ``fict (NF, N d)``) with the variables not in ``known`` filled by their parts.
 
@@ -32,8 +34,8 @@ def fill(ocp: Ocp, arrays: dict[str, np.ndarray], period_s: float, wind_speed_m_
         The start, by :data:`KEYS` (a variable not known may hold anything).
     period_s : float
         The start's period [s].
-    wind_speed_m_s : float
-        Reference wind speed [m/s].
+    parameters : dict of float
+        The model's parameters by name (the scenario's, :attr:`Scenario.parameters`).
     known : set of str
         The variables ``arrays`` holds.
     """
@@ -47,8 +49,9 @@ def fill(ocp: Ocp, arrays: dict[str, np.ndarray], period_s: float, wind_speed_m_
             continue
         fn, names = form.prefix_quantities(k)
         x, u, z = out["x"][:, 1:], np.repeat(out["u"], d, axis=1), out["z"]
-        values = np.asarray(fn.map(x.shape[1])(x, u, z, wind_speed_m_s))
-        start = StartPoint(times, period_s, ocp.n_intervals, wind_speed_m_s,
+        par = [float(parameters[name]) for name in form.parameters]
+        values = np.asarray(fn.map(x.shape[1])(x, u, z, par))
+        start = StartPoint(times, period_s, ocp.n_intervals, parameters,
                            dict(zip(names, values, strict=True)))
         guess = part.guess(start)
         for kind, key in KEYS.items():
@@ -59,7 +62,8 @@ def fill(ocp: Ocp, arrays: dict[str, np.ndarray], period_s: float, wind_speed_m_
     return out
 
 
-def part_start(ocp: Ocp, period_s: float, wind_speed_m_s: float) -> dict[str, np.ndarray]:
+def part_start(ocp: Ocp, period_s: float, parameters: Mapping[str, float]
+               ) -> dict[str, np.ndarray]:
     """A start of every part from its own guess alone (the homotopy's: the kite's
     circular loop at ``period_s``, then the others along it)."""
     n, n_coll = ocp.n_intervals, ocp.layout.n_coll
@@ -68,4 +72,4 @@ def part_start(ocp: Ocp, period_s: float, wind_speed_m_s: float) -> dict[str, np
              "u": np.zeros((dae.controls.size, n)),
              "z": np.zeros((dae.algebraic.size, n_coll)),
              "fict": np.zeros((dae.fictitious.size, n_coll))}
-    return fill(ocp, zeros, period_s, wind_speed_m_s, set())
+    return fill(ocp, zeros, period_s, parameters, set())

@@ -19,7 +19,7 @@ import numpy as np
 from optimize.model.thermal import RANGE_C, SCALE_K, STATE, WindingThermal, periodic_temperatures
 from optimize.model.variables import Variables
 from optimize.problem.interface import Row
-from optimize.problem.part import Part, StartPoint
+from optimize.problem.part import Part, StartPoint, near
 
 #: fixed-point iterations of the start temperature and the copper losses at it
 ITERATIONS = 4
@@ -67,6 +67,14 @@ class ThermalPart(Part):
     def scales(self) -> dict[str, float]:
         """:data:`optimize.model.thermal.SCALE_K` each."""
         return dict.fromkeys(self.thermal.states, SCALE_K)
+
+    def active_bounds(self, traj: Any, drive_limits: bool) -> list[str]:
+        """The winding limit (the ``*-lim`` kinds); the top of the solver's range, beyond
+        what the model describes (every kind)."""
+        theta = traj[STATE]
+        return ([name for name, bound, applies in (
+            ("winding_temperature_limit", self.thermal.max_c, drive_limits),
+            ("winding_temperature_range", RANGE_C[1], True)) if applies and near(theta, bound)])
 
     def guess(self, start: StartPoint) -> dict[str, np.ndarray]:
         """The cyclic steady temperatures of the start's losses, the copper term at the

@@ -27,13 +27,11 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from optimize.model.thermal import STATE as THERMAL_STATE
 from optimize.problem.scenario import scenario_name
 from optimize.service.builder import OcpBackend, Problem
 from optimize.service.outcome import CRASH, Attempt, ScenarioOutcome, failure_status
 from optimize.service.store import load_solve, solve_key, store_solve
+from optimize.solve.result import cycle_metrics
 
 #: warm-started attempts per solve before the cold-start fallback
 MAX_WARM_ATTEMPTS = 2
@@ -41,25 +39,6 @@ MAX_WARM_ATTEMPTS = 2
 METRICS = ("peak_speed_rpm", "peak_torque_nm", "rms_torque_nm", "peak_winding_temperature_c")
 
 Key = tuple[str, float]  # (kind, wind speed [m/s])
-
-
-def cycle_metrics(trajectory: Any) -> dict[str, float]:
-    """Peak |speed| [rpm], peak |torque| [N m], RMS torque [N m] and peak winding
-    temperature [degC] (None when the cycle has none) of one cycle.
-
-    ``trajectory`` has ``speed_rpm``, ``torque_nm`` and the quadrature ``weight``
-    (summing to 1 over the cycle), as :attr:`optimize.solve.result.OcpResult.trajectory`,
-    and the winding temperature when the OCP carries it.
-    """
-    speed = np.asarray(trajectory["speed_rpm"], dtype=float)
-    torque = np.asarray(trajectory["torque_nm"], dtype=float)
-    weight = np.asarray(trajectory["weight"], dtype=float)
-    theta = (float(np.max(np.asarray(trajectory[THERMAL_STATE], dtype=float)))
-             if THERMAL_STATE in trajectory else None)
-    return {"peak_speed_rpm": float(np.max(np.abs(speed))),
-            "peak_torque_nm": float(np.max(np.abs(torque))),
-            "rms_torque_nm": float(np.sqrt(np.sum(weight * torque**2))),
-            "peak_winding_temperature_c": theta}
 
 
 def _figure(result: Any, name: str) -> float | None:
@@ -245,8 +224,10 @@ class Solver:
         else:
             warm_from = scenario_name(*source)
         trajectory = getattr(res, "trajectory", None) if ok else None
-        metrics = (cycle_metrics(trajectory) if trajectory is not None
-                   else dict.fromkeys(METRICS))
+        metrics = dict.fromkeys(METRICS)
+        if trajectory is not None:
+            figures = cycle_metrics(trajectory)
+            metrics = {name: figures[name] for name in METRICS}
         extras = {}
         if self.extras is not None:
             extras = self.extras(trajectory) if ok else dict.fromkeys(self.extras(None))

@@ -1,32 +1,25 @@
 """NLP solvers of a built OCP: created once per setting, cached on the OCP, and run.
 
 The solver and its settings come from ``ocp.options.solver``
-(:class:`optimize.problem.options.SolverOptions`): IPOPT on the general sparse
-layout, with the linear solver of ``linear_solver`` (MUMPS by default; the HSL
-solvers and Pardiso are loaded by IPOPT from the user's library at run time), or
-fatrop on the stage-wise layout (:func:`optimize.problem.transcription.stagewise_collocation`).
-With ``transcription = "condensed"`` either solver runs on the condensed NLP
-(:mod:`optimize.problem.condensed`), built once beside the OCP's full one; starts and
-solutions cross over in the full layout (:mod:`optimize.solve.condensed_solve`).
+(:class:`optimize.problem.options.SolverOptions`): IPOPT, with the linear solver of
+``linear_solver`` (MUMPS by default; the HSL solvers and Pardiso are loaded by IPOPT
+from the user's library at run time), or fatrop. What it runs on, with which
+derivatives, and how a start and a solution cross to it, is the transcription method's
+(:func:`optimize.problem.transcriptions.method_of`).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import os
 import time
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
-from optimize.problem.condensed import CondensedNlp, condensed_nlp
 from optimize.problem.ocp import Bounds, Ocp
-from optimize.solve import codegen, condensed_solve
-from optimize.solve.condensed_derivatives import condensed_derivatives
-from optimize.solve.derivatives import nlp_derivatives
+from optimize.problem.transcriptions import method_of
 
 log = logging.getLogger(__name__)
 
@@ -55,25 +48,6 @@ def _single_threaded_blas() -> None:
     ``benchmarks/optimize_sweep_benchmark.py``, figures in benchmarks/README.md).
     """
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-
-
-def _compile_fn(ocp: Ocp) -> Callable[[ca.Function], ca.Function] | None:
-    """How the OCP's repeated functions are compiled: :func:`optimize.solve.codegen.compiled`
-    when ``options.solver.codegen`` is set, else not at all (None)."""
-    return codegen.compiled if ocp.options.solver.codegen else None
-
-
-def derivatives(ocp: Ocp) -> dict[str, ca.Function]:
-    """Objective gradient, constraint Jacobian and Lagrangian Hessian (built once).
-
-    Handed to every IPOPT instance, so the warm-start solver costs about a
-    second to create instead of repeating the differentiation
-    (:func:`optimize.solve.derivatives.nlp_derivatives`).
-    """
-    if "derivatives" not in ocp.solvers:
-        ocp.solvers["derivatives"] = nlp_derivatives(ocp.transcription,
-                                                     compile_fn=_compile_fn(ocp))
-    return ocp.solvers["derivatives"]
 
 
 #: linear solvers IPOPT accepts; all but MUMPS and SPRAL are loaded at run time
@@ -125,58 +99,10 @@ def solver(ocp: Ocp, warm: bool, bound_push: float | None = None) -> ca.Function
     key = (o.solver, o.transcription, warm, push if warm else None)
     if key not in ocp.solvers:
         t0 = time.perf_counter()
-        make = _fatrop if o.solver == "fatrop" else _ipopt
-        ocp.solvers[key] = make(ocp, warm, push)
+        ocp.solvers[key] = MAKERS[o.solver](ocp, warm, push)
         log.debug("created %s %s solver (%s) in %.1f s", "warm" if warm else "cold", o.solver,
                   o.transcription, time.perf_counter() - t0)
     return ocp.solvers[key]
-
-
-def condensed(ocp: Ocp) -> CondensedNlp:
-    """The OCP's condensed NLP (built once, cached on the OCP)."""
-    if "condensed" not in ocp.solvers:
-        t0 = time.perf_counter()
-        compile_fn = _compile_fn(ocp)
-        # CasADi generates C code for its dense Newton method, not for the sparse one
-        rootfinder = "fast_newton" if compile_fn and codegen.compiler() else "newton"
-        c = condensed_nlp(ocp.formulation, ocp.coll, ocp.transcription, rootfinder)
-        derivs, callbacks = condensed_derivatives(c, compile_fn)
-        ocp.solvers["condensed"] = c
-        ocp.solvers["condensed_derivatives"] = derivs
-        # the callbacks into the interval cache live as long as the solvers that call them
-        ocp.solvers["condensed_callbacks"] = callbacks
-        log.info("built the condensed NLP (%s%s): %d variables, %d constraints in %.1f s",
-                 rootfinder, ", compiled" if compile_fn else "", c.n_w, c.n_g,
-                 time.perf_counter() - t0)
-    return ocp.solvers["condensed"]
-
-
-def _condensed_nlp(ocp: Ocp, solver: str) -> tuple[dict, dict]:
-    """The condensed NLP as ``solver`` runs it and the options that hand it its functions.
-
-    Its objective and rows come from the intervals solved once per point
-    (:class:`optimize.solve.condensed_derivatives.IntervalCache`), reached through
-    callbacks CasADi cannot differentiate. So every derivative is given, the Lagrangian
-    gradient CasADi evaluates at the solution (``nlp_grad``) included, with a structurally
-    zero gradient in the parameters: their multipliers are not computed. An evaluation
-    error stays quiet (a Newton solve of an interval that does not converge at a trial
-    point is one, on which the solver shortens its step; the solve's status says whether
-    it recovered).
-    """
-    condensed(ocp)
-    d = ocp.solvers["condensed_derivatives"]
-    grad_x = d.lam_f * d.grad + ca.mtimes(d.jac.T, d.lam_g)
-    nlp_grad = ca.Function("nlp_grad", [d.x, d.p, d.lam_f, d.lam_g],
-                           [d.f, d.g, grad_x, ca.MX(d.p.shape[0], 1)],
-                           ["x", "p", "lam_f", "lam_g"],
-                           ["f", "g", "grad_gamma_x", "grad_gamma_p"])
-    fns = d.functions(solver)
-    opts = {"show_eval_warnings": False, "calc_lam_p": False}
-    if solver == "ipopt":
-        opts.update(fns, cache={"nlp_grad": nlp_grad})
-    else:
-        opts["cache"] = {**fns, "nlp_grad": nlp_grad}
-    return {"x": d.x, "p": d.p, "f": d.f, "g": d.g}, opts
 
 
 def _ipopt(ocp: Ocp, warm: bool, push: float) -> ca.Function:
@@ -209,39 +135,29 @@ def _ipopt(ocp: Ocp, warm: bool, push: float) -> ca.Function:
             }
         )
     _single_threaded_blas()
-    nlp, given = ((ocp.nlp, derivatives(ocp)) if o.transcription == "collocation"
-                  else _condensed_nlp(ocp, "ipopt"))
-    return ca.nlpsol("pumping_cycle", "ipopt", nlp,
-                     {"ipopt": ipopt, "print_time": False, "error_on_fail": False, **given})
-
-
-def _fatrop_derivatives(ocp: Ocp) -> dict[str, ca.Function]:
-    """Objective gradient, constraint Jacobian and Lagrangian gradient and (full, symmetric)
-    Hessian in the form the fatrop interface evaluates (built once per OCP)."""
-    if "fatrop_derivatives" not in ocp.solvers:
-        ocp.solvers["fatrop_derivatives"] = nlp_derivatives(ocp.transcription, "fatrop",
-                                                            _compile_fn(ocp))
-    return ocp.solvers["fatrop_derivatives"]
+    sn = method_of(o).solver_nlp(ocp, "ipopt")
+    extra = {"cache": sn.cache} if sn.cache else {}
+    return ca.nlpsol("pumping_cycle", "ipopt", sn.nlp, {
+        "ipopt": ipopt, "print_time": False, "error_on_fail": False, **sn.options,
+        **sn.functions, **extra})
 
 
 def _fatrop(ocp: Ocp, warm: bool, push: float) -> ca.Function:
-    """fatrop on the stage-wise layout, structure detected from the Jacobian."""
+    """fatrop on the transcription's stages, structure detected from the Jacobian."""
     o = ocp.options.solver
     opts = {"tol": o.tol, "tol_acceptable": o.acceptable_tol, "acceptable_iter": 5,
             "max_iter": o.max_iter, "print_level": 0}
     if warm:  # fatrop takes no multipliers: a warm start is the primal point, a small barrier
         opts.update({"mu_init": o.warm_mu_init, "bound_push": push, "bound_frac": push})
-    if o.transcription == "condensed":
-        nlp, given = _condensed_nlp(ocp, "fatrop")
-        return ca.nlpsol("pumping_cycle", "fatrop", nlp, {
-            "structure_detection": "auto",
-            "equality": [bool(e) for e in condensed(ocp).equality()],
-            "fatrop": opts, "print_time": False, "error_on_fail": False, **given})
-    return ca.nlpsol("pumping_cycle", "fatrop", ocp.nlp, {
-        "structure_detection": "auto",
-        "equality": [bool(e) for e in ocp.layout.equality],
-        "fatrop": opts, "print_time": False, "error_on_fail": False,
-        "cache": _fatrop_derivatives(ocp)})
+    sn = method_of(o).solver_nlp(ocp, "fatrop")
+    return ca.nlpsol("pumping_cycle", "fatrop", sn.nlp, {
+        "structure_detection": "auto", "equality": sn.equality, "fatrop": opts,
+        "print_time": False, "error_on_fail": False, **sn.options,
+        "cache": {**sn.functions, **sn.cache}})
+
+
+#: the solver of each name (:data:`optimize.problem.options.SOLVERS`)
+MAKERS = {"ipopt": _ipopt, "fatrop": _fatrop}
 
 
 #: casadi's unified return status of fatrop, in words
@@ -273,10 +189,15 @@ def run(
 
     ``bound_push`` overrides the solver options' ``warm_bound_push`` of a warm solve.
     """
-    if ocp.options.solver.transcription == "condensed":
-        return _run_condensed(ocp, w0, p, bounds, warm, lam_x0, lam_g0, bound_push)
-    return _call(solver(ocp, warm, bound_push), w0, p, bounds, lam_x0 if warm else None,
-                 lam_g0 if warm else None)
+    nlpsol = solver(ocp, warm, bound_push)
+
+    def call(w: np.ndarray, p_: np.ndarray, b: Bounds, lam_x: np.ndarray | None,
+             lam_g: np.ndarray | None) -> RawSolve:
+        return _call(nlpsol, w, p_, b, lam_x, lam_g)
+
+    return method_of(ocp.options.solver).solve(ocp, call, w0, p, bounds,
+                                               lam_x0 if warm else None,
+                                               lam_g0 if warm else None)
 
 
 def _call(nlpsol: ca.Function, w0: np.ndarray, p: np.ndarray, bounds: Bounds,
@@ -301,27 +222,3 @@ def _call(nlpsol: ca.Function, w0: np.ndarray, p: np.ndarray, bounds: Bounds,
         wall_time_s=wall,
         cpu_time_s=cpu,
     )
-
-
-def _run_condensed(ocp: Ocp, w0: np.ndarray, p: np.ndarray, bounds: Bounds, warm: bool,
-                   lam_x0: np.ndarray | None, lam_g0: np.ndarray | None,
-                   bound_push: float | None) -> RawSolve:
-    """:func:`run` on the condensed NLP: the start condensed, the solution expanded, the
-    multipliers carried across (both in the full layout; their time counts in the
-    solve's)."""
-    t0, c0 = time.perf_counter(), time.process_time()
-    c = condensed(ocp)
-    funcs = ocp.solvers["condensed_derivatives"].functions("ipopt")
-    first_order = (funcs["grad_f"], funcs["jac_g"])
-    w0_c, p_c = c.condense(w0, p)
-    lam_c = (None, None)
-    if warm and lam_x0 is not None and lam_g0 is not None:
-        lam_c = condensed_solve.to_condensed(c, first_order, w0_c, p_c, lam_x0, lam_g0)
-    raw = _call(solver(ocp, warm, bound_push), w0_c, p_c, c.bounds(bounds), *lam_c)
-    w = c.expand(raw.w, p_c)
-    full = derivatives(ocp)
-    lam_x, lam_g = condensed_solve.to_full(c, (full["grad_f"], full["jac_g"]), w, p,
-                                           raw.lam_x, raw.lam_g)
-    return dataclasses.replace(raw, w=w, lam_x=lam_x, lam_g=lam_g,
-                               wall_time_s=time.perf_counter() - t0,
-                               cpu_time_s=time.process_time() - c0)

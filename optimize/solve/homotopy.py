@@ -94,7 +94,7 @@ def cold_start(ocp: Ocp, scenario: Scenario) -> OcpResult:
         Result of the final (power) stage; ``stages`` lists every stage and
         ``iterations``/``wall_time_s`` are the totals.
     """
-    wind, period = scenario.wind_speed_m_s, ocp.loop.period_s
+    wind, period = scenario.parameters, ocp.loop.period_s
     guess = part_start(ocp, period, wind)
     x = guess["x"]
     w0 = ocp.pack(x, guess["z"], guess["u"], guess["fict"], period)

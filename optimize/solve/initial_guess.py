@@ -108,7 +108,7 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
         solution, why = _check(ref, path)
         if solution is None:
             return None, why
-        return (carry_over(ref, solution, ocp, GUESS_SCENARIO.wind_speed_m_s),
+        return (carry_over(ref, solution, ocp, GUESS_SCENARIO.parameters),
                 f"{why}; carried over to this OCP's {ocp.layout.kind} layout and parts")
     return _check(ocp, path)
 
@@ -165,7 +165,7 @@ def main(argv: list[str] | None = None) -> int:
     if not result.success:
         log.error("%s: %s, no guess written", GUESS_SCENARIO.name, result.status)
         return 1
-    p = ocp.params(GUESS_SCENARIO.wind_speed_m_s, GUESS_SCENARIO.weights)
+    p = ocp.params(GUESS_SCENARIO.parameters, GUESS_SCENARIO.weights)
     out = write(args.out, ocp, result, p)
     log.info("wrote %s (%s: P_elec %.1f W, P_mech %.1f W, %d iterations)", out,
              GUESS_SCENARIO.name, result.avg_p_elec_w, result.avg_p_mech_w, result.iterations)

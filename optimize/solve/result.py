@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from optimize.model.envelope import envelope_torque_nm, has_envelope
-from optimize.model.thermal import RANGE_C as THERMAL_RANGE_C
 from optimize.model.thermal import STATE as THERMAL_STATE
 from optimize.problem.ocp import Ocp
+from optimize.problem.part import near
 from optimize.problem.scenario import Scenario
 from optimize.problem.start import KEYS, fill
 from optimize.solve.backend import RawSolve
@@ -108,7 +109,8 @@ class OcpResult:
     slack_fraction: float = 0.0
 
 
-def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_speed_m_s: float) -> pd.DataFrame:
+def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray,
+                     parameters: Mapping[str, float] | float | None) -> pd.DataFrame:
     """Trajectory at every Radau point of a scaled decision vector: time, interval,
     quadrature weight, the model's states, controls and algebraic variables by name, and
     the formulation's outputs (``trajectory_outputs``)."""
@@ -127,16 +129,17 @@ def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray, wind_speed_m_s: float) -> p
                        (dae.algebraic.names, z)):
         for i, name in enumerate(names):
             frame[name] = arr[i]
-    frame.update(ocp.formulation.trajectory_outputs(x, u, z, wind_speed_m_s))
+    params = list(ocp.model_parameters(parameters).values())
+    frame.update(ocp.formulation.trajectory_outputs(x, u, z, params))
     return pd.DataFrame(frame)
 
 
 def carry_over(src: Ocp, solution: Solution, dst: Ocp,
-               wind_speed_m_s: float | None = None) -> Solution:
+               parameters: Mapping[str, float] | None = None) -> Solution:
     """A solution of ``src`` in the layout of ``dst``: the same problem in another
     transcription (:func:`optimize.problem.ocp.twin`), or one with more parts, whose
-    variables their parts fill (:func:`optimize.problem.start.fill`, at the wind speed
-    ``wind_speed_m_s`` [m/s] of the solution).
+    variables their parts fill (:func:`optimize.problem.start.fill`, at the model's
+    ``parameters`` of the solution, :attr:`optimize.problem.scenario.Scenario.parameters`).
 
     The primal point through the physical variables by name (``dst`` fills its
     copies); the multipliers of the variables both have and of the rows with the same
@@ -157,10 +160,10 @@ def carry_over(src: Ocp, solution: Solution, dst: Ocp,
                 lam_x[i_dst[i]] = solution.lam_x[i_src[j]]
                 known.add(name)
     if len(known) < sum(getattr(dst.dae, kind).size for kind in KEYS):
-        if wind_speed_m_s is None:
+        if parameters is None:
             raise ValueError("the destination has variables the solution has not: their "
-                             "parts fill them at a wind speed (wind_speed_m_s)")
-        arrays = fill(dst, arrays, period, wind_speed_m_s, known)
+                             "parts fill them at the model's parameters (parameters)")
+        arrays = fill(dst, arrays, period, parameters, known)
     w = dst.pack(arrays["x"], arrays["z"], arrays["u"], arrays["fict"], period)
     s_lay, d_lay = src.layout, dst.layout
     lam_x[d_lay.i_period[0]] = solution.lam_x[s_lay.i_period].sum()
@@ -172,22 +175,15 @@ def carry_over(src: Ocp, solution: Solution, dst: Ocp,
                     degree=solution.degree)
 
 
-#: a bound counts as active within this fraction of its value (IPOPT's bound push and
-#: tolerance leave the optimum about 1e-8 to 1e-6 inside)
-ACTIVE_RTOL = 1e-3
 #: tension below this fraction of the kite's weight counts as a slack tether
 SLACK_TENSION_FRACTION = 1e-3
 
 
-def _near(value: np.ndarray, bound: float) -> bool:
-    return bool(np.isfinite(bound)) and bool(
-        np.any(np.abs(value - bound) <= ACTIVE_RTOL * max(abs(bound), 1e-9)))
-
-
 def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: bool,
                   bounds: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> tuple[str, ...]:
-    """Names of the bounds the solution sits on (period, tether length, ground, the kite's
-    airspeed and tether-force limits, drive).
+    """Names of the bounds the solution sits on: the period's, then each part's
+    (:meth:`optimize.problem.part.Part.active_bounds`: tether length, ground, the kite's
+    airspeed and tether-force limits, the winch's, the drive's, the winding's).
 
     Parameters
     ----------
@@ -201,51 +197,13 @@ def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: b
     bounds : tuple
         The scaled ``lbx, ubx, lbg, ubg`` of the solve (a fixed period is not a bound).
     """
-    o, lay = ocp.options.limits, ocp.layout
     out = []
-    i = lay.i_period[0]
-    period_fixed = bounds[0][i] == bounds[1][i]
-    if not period_fixed:
-        lo, hi = o.period_bounds_s
-        out += [n for n, b in (("period_min", lo), ("period_max", hi)) if _near(period_s, b)]
-    l_lo, l_hi = o.tether_length_bounds_m
-    length = traj["l_m"].to_numpy()
-    out += [n for n, b in (("tether_length_min", l_lo), ("tether_length_max", l_hi))
-            if _near(length, b)]
-    if _near(traj["altitude_m"].to_numpy(), o.min_altitude_m):
-        out.append("ground_clearance")
-    # the kite's own limits, in force in every kind
-    airspeed = traj["airspeed_m_s"].to_numpy()
-    if _near(airspeed, o.min_airspeed_m_s):
-        out.append("airspeed_min")
-    if o.max_airspeed_m_s is not None and _near(airspeed, o.max_airspeed_m_s):
-        out.append("airspeed_max")
-    if o.max_tether_force_n is not None and _near(traj["tension_n"].to_numpy(),
-                                                  o.max_tether_force_n):
-        out.append("tether_force_limit")
-    if o.max_reel_acceleration_m_s2 is not None and _near(
-            np.abs(traj["ddl_m_s2"].to_numpy()), o.max_reel_acceleration_m_s2):
-        out.append("reel_acceleration_limit")
-    if o.max_reel_jerk_m_s3 is not None and _near(
-            np.abs(traj["dddl_m_s3"].to_numpy()), o.max_reel_jerk_m_s3):
-        out.append("reel_jerk_limit")
-    if drive_limits:
-        speed = np.abs(traj["speed_rpm"].to_numpy())
-        if _near(speed, o.max_speed_rpm):
-            out.append("speed_limit")
-        torque = np.abs(traj["torque_nm"].to_numpy())
-        if _near(torque, o.max_torque_nm):
-            out.append("torque_limit")
-        if has_envelope(o) and _near(torque / envelope_torque_nm(o, speed), 1.0):
-            out.append("envelope_limit")
-        if o.max_p_elec_w is not None and _near(np.abs(traj["p_elec_w"].to_numpy()),
-                                                o.max_p_elec_w):
-            out.append("p_elec_limit")
-        thermal = getattr(ocp.formulation, "thermal", None)
-        if thermal is not None and _near(traj[THERMAL_STATE].to_numpy(), thermal.max_c):
-            out.append("winding_temperature_limit")
-    if THERMAL_STATE in traj and _near(traj[THERMAL_STATE].to_numpy(), THERMAL_RANGE_C[1]):
-        out.append("winding_temperature_range")
+    i = ocp.layout.i_period[0]
+    if bounds[0][i] != bounds[1][i]:  # a fixed period is not a bound
+        lo, hi = ocp.formulation.period_bounds()
+        out += [n for n, b in (("period_min", lo), ("period_max", hi)) if near(period_s, b)]
+    for part in getattr(ocp.formulation, "parts", ()):
+        out += part.active_bounds(traj, drive_limits)
     return tuple(out)
 
 
@@ -255,6 +213,43 @@ def slack_fraction(ocp: Ocp, traj: pd.DataFrame) -> float:
     kite = ocp.dae.kite
     slack = traj["tension_n"].to_numpy() < SLACK_TENSION_FRACTION * kite.mass_kg * kite.g_m_s2
     return float((traj["weight"].to_numpy() * slack).sum())
+
+
+#: each figure of :func:`cycle_metrics`: the columns it reads and how
+CYCLE_FIGURES: dict[str, tuple[tuple[str, ...], Any]] = {
+    "avg_p_elec_w": (("weight", "p_elec_w"), lambda w, p: np.sum(w * p)),
+    "avg_p_mech_w": (("weight", "p_mech_w"), lambda w, p: np.sum(w * p)),
+    "peak_speed_rpm": (("speed_rpm",), lambda n: np.max(np.abs(n))),
+    "peak_torque_nm": (("torque_nm",), lambda t: np.max(np.abs(t))),
+    "rms_torque_nm": (("weight", "torque_nm"), lambda w, t: np.sqrt(np.sum(w * t**2))),
+    "peak_reel_acceleration_m_s2": (("ddl_m_s2",), lambda a: np.max(np.abs(a))),
+    "peak_winding_temperature_c": ((THERMAL_STATE,), np.max),
+    "p_elec_max_w": (("p_elec_w",), np.max),
+    "p_elec_min_w": (("p_elec_w",), np.min),
+    "tether_length_min_m": (("l_m",), np.min),
+    "tether_length_max_m": (("l_m",), np.max),
+    "altitude_min_m": (("altitude_m",), np.min),
+    "altitude_max_m": (("altitude_m",), np.max),
+}
+
+
+def cycle_metrics(trajectory: Any) -> dict[str, float | None]:
+    """The figures of one cycle from its trajectory (the one place they are computed).
+
+    ``trajectory`` (:attr:`OcpResult.trajectory`, or a table with some of its columns,
+    ``weight`` the quadrature weights summing to 1 over the cycle): the cycle averages
+    of the electrical and shaft power [W], the peak |speed| [rpm], |torque| [N m] and
+    |reel acceleration| [m/s^2], the RMS torque [N m], the peak winding temperature
+    [degC], the largest and smallest electrical power [W], the tether length's [m] and
+    the altitude's [m] range (:data:`CYCLE_FIGURES`); None for a figure whose columns the
+    trajectory has not (the winding temperature of an OCP without it).
+    """
+    out: dict[str, float | None] = {}
+    for name, (columns, how) in CYCLE_FIGURES.items():
+        have = all(c in trajectory for c in columns)
+        out[name] = (float(how(*(np.asarray(trajectory[c], dtype=float) for c in columns)))
+                     if have else None)
+    return out
 
 
 def make_result(
@@ -267,13 +262,14 @@ def make_result(
     start: str = "warm start",
 ) -> OcpResult:
     """Assemble an :class:`OcpResult` from the final solver call and the stage log."""
-    traj = trajectory_frame(ocp, raw.w, scenario.wind_speed_m_s)
+    traj = trajectory_frame(ocp, raw.w, scenario.parameters)
     g = ocp.constraint_values(raw.w, p)
     lbg, ubg = bounds[2], bounds[3]
     viol_g = np.maximum(np.maximum(lbg - g, g - ubg), 0.0)
     viol_x = np.maximum(np.maximum(bounds[0] - raw.w, raw.w - bounds[1]), 0.0)
     per = float(np.max(np.abs(g[ocp.layout.rows_of("periodic")])))
     period_s = float(ocp.unpack(raw.w)["period_s"])
+    metrics = cycle_metrics(traj)
     return OcpResult(
         scenario=scenario,
         status=raw.status,
@@ -282,8 +278,8 @@ def make_result(
         wall_time_s=float(sum(s["wall_time_s"] for s in stages)),
         objective=raw.objective,
         period_s=period_s,
-        avg_p_elec_w=float((traj["weight"] * traj["p_elec_w"]).sum()),
-        avg_p_mech_w=float((traj["weight"] * traj["p_mech_w"]).sum()),
+        avg_p_elec_w=metrics["avg_p_elec_w"],
+        avg_p_mech_w=metrics["avg_p_mech_w"],
         periodicity_error=per,
         max_violation=float(max(viol_g.max(initial=0.0), viol_x.max(initial=0.0))),
         trajectory=traj,

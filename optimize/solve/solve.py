@@ -95,7 +95,7 @@ def solve(
                          f"OCP has {ocp.layout.n_g} rows (another OCP's solution: carry it over "
                          "with optimize.solve.result.carry_over)")
     bounds = ocp.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
-    p = ocp.params(scenario.wind_speed_m_s, scenario.weights)
+    p = ocp.params(scenario.parameters, scenario.weights)
     raw = backend.run(ocp, warm_start.w, p, bounds, warm=True,
                   lam_x0=warm_start.lam_x, lam_g0=warm_start.lam_g)
     stages = [{"stage": "warm", "status": raw.status, "success": raw.success,

@@ -10,19 +10,22 @@ import math
 from collections.abc import Iterable
 from typing import Any
 
-import numpy as np
 import pandas as pd
 
 from fitting.domain import domain_excursion
 from optimize.model import kite_model as km
 from optimize.service.local_optima import better_margin_w
 from optimize.service.outcome import ScenarioOutcome
-from optimize.service.solver import cycle_metrics
-from optimize.solve.result import OUTPUT_COLUMNS
+from optimize.solve.result import OUTPUT_COLUMNS, cycle_metrics
 from optimize.sweep_folder import SUMMARY_COLUMNS
 
 #: the metric columns (NaN for a failed scenario)
 _METRICS = list(SUMMARY_COLUMNS)[list(SUMMARY_COLUMNS).index("period_s") :]
+#: the summary's columns of :func:`optimize.solve.result.cycle_metrics`
+TRAJECTORY_METRICS = ("peak_speed_rpm", "peak_torque_nm", "peak_reel_acceleration_m_s2",
+                      "peak_winding_temperature_c", "p_elec_max_w", "p_elec_min_w",
+                      "tether_length_min_m", "tether_length_max_m", "altitude_min_m",
+                      "altitude_max_m")
 #: active bounds the constrained scenarios mean to bind
 DRIVE_BOUNDS = ("speed_limit", "torque_limit", "envelope_limit", "p_elec_limit",
                 "winding_temperature_limit")
@@ -44,23 +47,9 @@ TRAJECTORY_COLUMNS_ALL = ("scenario", "kind", "wind_speed_m_s", "time_s", "inter
 
 
 def _trajectory_metrics(traj: pd.DataFrame) -> dict[str, float]:
-    def col(name: str) -> np.ndarray:
-        return traj[name].to_numpy(dtype=float)
-
-    peaks = cycle_metrics(traj)
-    return {
-        "peak_speed_rpm": peaks["peak_speed_rpm"],
-        "peak_torque_nm": peaks["peak_torque_nm"],
-        "peak_reel_acceleration_m_s2": float(np.max(np.abs(col("ddl_m_s2")))),
-        "peak_winding_temperature_c": (math.nan if peaks["peak_winding_temperature_c"] is None
-                                       else peaks["peak_winding_temperature_c"]),
-        "p_elec_max_w": float(np.max(col("p_elec_w"))),
-        "p_elec_min_w": float(np.min(col("p_elec_w"))),
-        "tether_length_min_m": float(np.min(col("l_m"))),
-        "tether_length_max_m": float(np.max(col("l_m"))),
-        "altitude_min_m": float(np.min(col("altitude_m"))),
-        "altitude_max_m": float(np.max(col("altitude_m"))),
-    }
+    figures = cycle_metrics(traj)
+    return {name: math.nan if figures[name] is None else figures[name]
+            for name in TRAJECTORY_METRICS}
 
 
 def _excursion_metrics(traj: pd.DataFrame, domain: dict | None,

@@ -180,7 +180,7 @@ def mesh_check(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult) ->
         coarse, dataclasses.replace(result.warm, w=result.warm.lam_x), fine
     )
     bounds = fine.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
-    p = fine.params(scenario.wind_speed_m_s, scenario.weights)
+    p = fine.params(scenario.parameters, scenario.weights)
     raw = backend.run(fine, w0, p, bounds, warm=True, lam_x0=lam_x0,
                       lam_g0=np.zeros(len(bounds[2])))
     stage = {

@@ -3,7 +3,7 @@
 Symbolic differentiation of the whole NLP (about 6,100 variables at 40 intervals)
 costs seconds each time an OCP is built, more than a warm solve takes. The Radau
 transcription is one function repeated at each collocation point
-(:class:`optimize.problem.transcription.PointBlocks`): its Jacobian and Hessian are
+(:class:`optimize.problem.transcriptions.structure.PointBlocks`): its Jacobian and Hessian are
 built once, on the point's own variables, evaluated at every point by one CasADi
 ``map`` and added into the NLP's sparse matrices by constant sparse sums. What is
 left (period ties, start, periodicity and average rows, tracking and regularization)
@@ -29,10 +29,6 @@ import numpy as np
 log = logging.getLogger(__name__)
 
 
-#: the NLP solvers whose derivative functions :func:`nlp_derivatives` builds
-FORMATS = ("ipopt", "fatrop")
-
-
 @dataclass(frozen=True)
 class Derivatives:
     """Symbolic derivatives of an NLP: inputs ``x, p, lam_f, lam_g``; ``f, grad`` (of
@@ -50,31 +46,43 @@ class Derivatives:
     hess: Any
 
     def functions(self, solver: str) -> dict[str, ca.Function]:
-        """The functions ``solver`` (one of :data:`FORMATS`) takes, by its option names:
-        IPOPT the upper triangle, fatrop the full Hessian and the Lagrangian gradient."""
-        x, p, lf, lg = self.x, self.p, self.lam_f, self.lam_g
-        if solver == "ipopt":
-            return {
-                "grad_f": ca.Function("nlp_grad_f", [x, p], [self.f, self.grad], ["x", "p"],
-                                      ["f", "grad_f_x"]),
-                "jac_g": ca.Function("nlp_jac_g", [x, p], [self.g, self.jac], ["x", "p"],
-                                     ["g", "jac_g_x"]),
-                "hess_lag": ca.Function("nlp_hess_l", [x, p, lf, lg], [self.hess],
-                                        ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"]),
-            }
-        if solver == "fatrop":
-            full = self.hess + ca.triu(self.hess, False).T
-            grad_lag = lf * self.grad + ca.mtimes(self.jac.T, lg)
-            return {
-                "nlp_grad_f": ca.Function("nlp_grad_f", [x, p], [self.grad], ["x", "p"],
-                                          ["grad_f_x"]),
-                "nlp_jac_g": ca.Function("nlp_jac_g", [x, p], [self.g, self.jac], ["x", "p"],
-                                         ["g", "jac_g_x"]),
-                "nlp_hess_l": ca.Function("nlp_hess_l", [x, p, lf, lg], [grad_lag, full],
-                                          ["x", "p", "lam_f", "lam_g"],
-                                          ["grad_gamma_x", "hess_gamma_x_x"]),
-            }
-        raise ValueError(f"no derivative format for solver {solver!r}; one of {FORMATS}")
+        """The functions ``solver`` (a key of :data:`FORMATS`) takes, by its option names."""
+        if solver not in FORMATS:
+            raise ValueError(f"no derivative format for solver {solver!r}; one of "
+                             f"{', '.join(FORMATS)}")
+        return FORMATS[solver](self)
+
+
+def ipopt_functions(d: Derivatives) -> dict[str, ca.Function]:
+    """IPOPT's: objective gradient, constraint Jacobian, upper triangle of the Hessian."""
+    x, p, lf, lg = d.x, d.p, d.lam_f, d.lam_g
+    return {
+        "grad_f": ca.Function("nlp_grad_f", [x, p], [d.f, d.grad], ["x", "p"],
+                              ["f", "grad_f_x"]),
+        "jac_g": ca.Function("nlp_jac_g", [x, p], [d.g, d.jac], ["x", "p"],
+                             ["g", "jac_g_x"]),
+        "hess_lag": ca.Function("nlp_hess_l", [x, p, lf, lg], [d.hess],
+                                ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"]),
+    }
+
+
+def fatrop_functions(d: Derivatives) -> dict[str, ca.Function]:
+    """fatrop's: the full Hessian and the Lagrangian gradient besides the first order."""
+    x, p, lf, lg = d.x, d.p, d.lam_f, d.lam_g
+    full = d.hess + ca.triu(d.hess, False).T
+    grad_lag = lf * d.grad + ca.mtimes(d.jac.T, lg)
+    return {
+        "nlp_grad_f": ca.Function("nlp_grad_f", [x, p], [d.grad], ["x", "p"], ["grad_f_x"]),
+        "nlp_jac_g": ca.Function("nlp_jac_g", [x, p], [d.g, d.jac], ["x", "p"],
+                                 ["g", "jac_g_x"]),
+        "nlp_hess_l": ca.Function("nlp_hess_l", [x, p, lf, lg], [grad_lag, full],
+                                  ["x", "p", "lam_f", "lam_g"],
+                                  ["grad_gamma_x", "hess_gamma_x_x"]),
+    }
+
+
+#: the derivative functions each NLP solver takes (by solver name)
+FORMATS = {"ipopt": ipopt_functions, "fatrop": fatrop_functions}
 
 
 def nlp_derivatives(transcription: Any, solver: str = "ipopt",
@@ -84,7 +92,7 @@ def nlp_derivatives(transcription: Any, solver: str = "ipopt",
 
     Point by point (:attr:`blocks`) when the sums are linear in the integrands; the
     whole NLP at once otherwise. ``compile_fn``, when given, compiles the point's
-    Jacobian and Hessian functions (:mod:`optimize.solve.codegen`).
+    Jacobian and Hessian functions (:mod:`optimize.problem.transcriptions.codegen`).
     """
     t0 = time.perf_counter()
     out = _block_derivatives(transcription.nlp, transcription.blocks, compile_fn)
@@ -105,7 +113,7 @@ def whole_derivatives(nlp: dict) -> Derivatives:
     return Derivatives(x, p, lam_f, lam_g, f, ca.gradient(f, x), g, ca.jacobian(g, x), hess)
 
 
-def _sum_into(shape: tuple[int, int], parts: list[tuple[Any, np.ndarray, np.ndarray]]
+def sum_into(shape: tuple[int, int], parts: list[tuple[Any, np.ndarray, np.ndarray]]
               ) -> Any:
     """A sparse MX matrix of ``shape`` from nonzero values placed by coordinates.
 
@@ -126,13 +134,13 @@ def _sum_into(shape: tuple[int, int], parts: list[tuple[Any, np.ndarray, np.ndar
     return ca.MX(sp, ca.mtimes(sum_to, values))
 
 
-def _entries(matrix: Any) -> tuple[Any, np.ndarray, np.ndarray]:
+def entries(matrix: Any) -> tuple[Any, np.ndarray, np.ndarray]:
     """``(nonzeros, rows, cols)`` of a (symbolic) sparse matrix, for :func:`_sum_into`."""
     r, c = (np.asarray(a, dtype=int) for a in matrix.sparsity().get_triplet())
     return matrix.nz[:], r, c
 
 
-def _local_entries(local: ca.Sparsity, index_of: np.ndarray,
+def local_entries(local: ca.Sparsity, index_of: np.ndarray,
                    row_index: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Global ``(row, col)`` of every nonzero of a point matrix at every point, in the
     order of the mapped nonzeros (point after point). ``index_of`` maps a local column
@@ -170,23 +178,24 @@ def _block_derivatives(nlp: dict, b: Any,
 
     # the point function's derivatives, built once
     v = ca.SX.sym("v", n_v)
-    wind, deriv = ca.SX.sym("wind"), ca.SX.sym("deriv", b.deriv.shape[0])
-    rows_v, integrands_v = b.point.function(v, wind, deriv)
+    params = ca.SX.sym("params", len(b.i_params))
+    deriv = ca.SX.sym("deriv", b.deriv.shape[0])
+    rows_v, integrands_v = b.point.function(v, params, deriv)
     n_r = rows_v.numel()
     lam_r, mu = ca.SX.sym("lam_r", n_r), ca.SX.sym("mu", n_s)
     jac_v = ca.jacobian(ca.vertcat(rows_v, integrands_v), v)
     hess_v = ca.hessian(ca.dot(lam_r, rows_v) + ca.dot(mu, integrands_v), v)[0]
     cse = {"cse": True}
-    jac_point = ca.Function("point_jac", [v, wind, deriv], [jac_v.nz[:]], cse)
-    hess_point = ca.Function("point_hess", [v, wind, deriv, lam_r, mu], [hess_v.nz[:]], cse)
+    jac_point = ca.Function("point_jac", [v, params, deriv], [jac_v.nz[:]], cse)
+    hess_point = ca.Function("point_hess", [v, params, deriv, lam_r, mu], [hess_v.nz[:]], cse)
     if compile_fn is not None:
         jac_point, hess_point = compile_fn(jac_point), compile_fn(hess_point)
     jac_point, hess_point = jac_point.map(n_pts), hess_point.map(n_pts)
 
     # where each mapped nonzero goes: point rows into g, integrands into s (as -1 - k)
     s_index = np.arange(n_s * n_pts).reshape(n_pts, n_s).T  # (n_s, n_pts) index into s
-    jr, jc = _local_entries(jac_v.sparsity(), b.vars, np.vstack([b.rows, -1 - s_index]))
-    hr, hc = _local_entries(hess_v.sparsity(), b.vars)
+    jr, jc = local_entries(jac_v.sparsity(), b.vars, np.vstack([b.rows, -1 - s_index]))
+    hr, hc = local_entries(hess_v.sparsity(), b.vars)
     hr = np.where(hr <= hc, hr, -1)  # the upper triangle, as IPOPT takes it
 
     # the symbolic pieces of the rest, as functions
@@ -203,19 +212,19 @@ def _block_derivatives(nlp: dict, b: Any,
     x_, p_ = ca.MX.sym("x", n_w), ca.MX.sym("p", n_p)
     lf_, lg_ = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", n_g)
     V = ca.reshape(x_[[int(i) for i in b.vars.T.ravel()]], n_v, n_pts)
-    wind_, D = p_[b.i_wind], ca.DM(b.deriv)
+    params_, D = p_[b.i_params.tolist()], ca.DM(b.deriv)
     s0 = ca.MX.zeros(n_s * n_pts)  # the rest's derivatives do not depend on s (checked)
     f_, g_ = f_fn(x_, p_), g_fn(x_, p_)
     jac_rest_w, jac_rest_s_, grad_w, grad_s_f = rest_fn(x_, p_, s0)
-    jac_nz = ca.vec(jac_point(V, wind_, D))
-    ds = _sum_into((n_s * n_pts, n_w), [(jac_nz, np.where(jr < 0, -1 - jr, -1), jc)])
-    rest_jac = [_entries(jac_rest_w), _entries(ca.mtimes(jac_rest_s_, ds))]
-    jac = _sum_into((n_g, n_w), [(jac_nz, jr, jc),
+    jac_nz = ca.vec(jac_point(V, params_, D))
+    ds = sum_into((n_s * n_pts, n_w), [(jac_nz, np.where(jr < 0, -1 - jr, -1), jc)])
+    rest_jac = [entries(jac_rest_w), entries(ca.mtimes(jac_rest_s_, ds))]
+    jac = sum_into((n_g, n_w), [(jac_nz, jr, jc),
                                  *[(nz, rest[r], c) for nz, r, c in rest_jac]])
     grad = grad_w + ca.mtimes(ds.T, grad_s_f)
     hess_rest, mu_ = rest_hess_fn(x_, p_, s0, lf_, lg_)
     MU = ca.reshape(mu_, n_s, n_pts)
     LR = ca.reshape(lg_[[int(i) for i in b.rows.T.ravel()]], n_r, n_pts)
-    hess_nz = ca.vec(hess_point(V, wind_, D, LR, MU))
-    hess = _sum_into((n_w, n_w), [(hess_nz, hr, hc), _entries(hess_rest)])
+    hess_nz = ca.vec(hess_point(V, params_, D, LR, MU))
+    hess = sum_into((n_w, n_w), [(hess_nz, hr, hc), entries(hess_rest)])
     return Derivatives(x_, p_, lf_, lg_, f_, grad, g_, jac, hess)

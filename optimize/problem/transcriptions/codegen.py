@@ -4,8 +4,9 @@ The C code CasADi generates for a function is compiled once by the system's C co
 (``$CC``, else ``gcc``, else ``cc``) into a shared library under the user's cache folder
 (``$XDG_CACHE_HOME/drivebench/casadi``, default ``~/.cache/drivebench/casadi``), named by
 the hash of the source and the compiler command, and loaded with ``casadi.external``.
-Where no compiler is found, or the compilation fails, the function stays as it is (run
-by CasADi's virtual machine) and a warning says so.
+Where no compiler is found, the compilation fails, or the cache cannot be used (a folder
+that cannot be written, a damaged library), the function stays as it is (run by CasADi's
+virtual machine) and a warning says so, naming the cache.
 """
 
 from __future__ import annotations
@@ -54,17 +55,30 @@ def compiled(fn: ca.Function) -> ca.Function:
     source = gen.dump()
     key = hashlib.sha256((source + cc + " ".join(FLAGS)).encode()).hexdigest()[:20]
     lib = cache_dir() / f"{fn.name()}_{key}.so"
-    if not lib.exists():
-        lib.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
-            src, out = Path(tmp) / f"{fn.name()}.c", Path(tmp) / lib.name
-            src.write_text(source, encoding="utf-8")
-            run = subprocess.run([cc, *FLAGS, str(src), "-o", str(out), "-lm"],
-                                 capture_output=True, text=True, check=False)
-            if run.returncode != 0:
-                log.warning("compiling %s failed (%s); it runs uncompiled: %s", fn.name(), cc,
-                            run.stderr.strip()[:500])
-                return fn
-            os.replace(out, lib)  # atomic: a concurrent worker sees all or nothing
-        log.info("compiled %s into %s", fn.name(), lib)
-    return ca.external(fn.name(), str(lib))
+    try:
+        if not lib.exists() and not _build(cc, fn.name(), source, lib):
+            return fn
+        return ca.external(fn.name(), str(lib))
+    except (OSError, RuntimeError) as exc:  # a cache folder not writable, a damaged library
+        log.warning("the compiled-code cache %s cannot be used (%s): %s runs uncompiled "
+                    "(slower); remove the file, or set XDG_CACHE_HOME to a writable folder",
+                    lib, str(exc).strip().splitlines()[0][:300] if str(exc).strip() else
+                    type(exc).__name__, fn.name())
+        return fn
+
+
+def _build(cc: str, name: str, source: str, lib: Path) -> bool:
+    """Compile ``source`` into ``lib``; False (with a warning) when the compiler fails."""
+    lib.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(dir=lib.parent) as tmp:
+        src, out = Path(tmp) / f"{name}.c", Path(tmp) / lib.name
+        src.write_text(source, encoding="utf-8")
+        run = subprocess.run([cc, *FLAGS, str(src), "-o", str(out), "-lm"],
+                             capture_output=True, text=True, check=False)
+        if run.returncode != 0:
+            log.warning("compiling %s failed (%s); it runs uncompiled: %s", name, cc,
+                        run.stderr.strip()[:500])
+            return False
+        os.replace(out, lib)  # atomic: a concurrent worker sees all or nothing
+    log.info("compiled %s into %s", name, lib)
+    return True

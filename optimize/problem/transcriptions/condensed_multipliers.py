@@ -1,8 +1,9 @@
 """Multipliers across the condensed and the full transcription.
 
 A warm start hands the solver the full layout's multipliers, and a solve hands back the
-full layout's (:mod:`optimize.problem.condensed`: the rest of the code reads only that
-layout). The rows both NLPs have and the bounds of the variables both have keep their
+full layout's (:mod:`optimize.problem.transcriptions.condensed_nlp`: the rest of the code
+reads only that layout). The rows both NLPs have and the bounds of the variables both
+have keep their
 multipliers; the bounds of the variables the condensed NLP eliminates are its rows, so
 their multipliers move between ``lam_x`` and ``lam_g``. The multipliers of the rows only
 one NLP has (the condensed gap rows; the full collocation, algebraic and period-tie
@@ -18,10 +19,10 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from optimize.problem.condensed import CondensedNlp
+from optimize.problem.transcriptions.condensed_nlp import CondensedNlp
 
 
-def _csc(matrix: ca.DM) -> sp.csc_matrix:
+def csc(matrix: ca.DM) -> sp.csc_matrix:
     rows, cols = matrix.sparsity().get_triplet()
     return sp.csc_matrix((np.asarray(matrix.nonzeros()), (rows, cols)), shape=matrix.shape)
 
@@ -55,7 +56,7 @@ def to_condensed(c: CondensedNlp, first_order: tuple[ca.Function, ca.Function],
     lam_g[c.row_w[0]] = lam_x_full[c.row_w[1]]
     grad_fn, jac_fn = first_order
     grad = np.asarray(grad_fn(w, p)[1]).ravel()
-    lam_g = _complete(grad, _csc(jac_fn(w, p)[1]), lam_x, lam_g, c.gap_rows, c.gap_cols)
+    lam_g = _complete(grad, csc(jac_fn(w, p)[1]), lam_x, lam_g, c.gap_rows, c.gap_cols)
     return lam_x, lam_g
 
 
@@ -78,5 +79,5 @@ def to_full(c: CondensedNlp, first_order: tuple[ca.Function, ca.Function],
     cols = np.setdiff1d(np.arange(lay.n_w), pinned)
     grad_fn, jac_fn = first_order
     grad = np.asarray(grad_fn(w_full, p_full)[1]).ravel()
-    jac = _csc(jac_fn(w_full, p_full)[1])
+    jac = csc(jac_fn(w_full, p_full)[1])
     return lam_x_full, _complete(grad, jac, lam_x_full, lam_g_full, rows, cols)

@@ -1,7 +1,8 @@
 """Derivatives of the condensed NLP, interval by interval, each interval solved once per point.
 
-Each interval's outputs ``y(q)`` (:class:`optimize.problem.condensed.Interval`) depend on
-its stage variables ``q`` through the Radau points' unknowns ``v(q)``, the root of the
+Each interval's outputs ``y(q)``
+(:class:`optimize.problem.transcriptions.condensed_nlp.Interval`) depend on its stage
+variables ``q`` through the Radau points' unknowns ``v(q)``, the root of the
 collocation equations ``G(v, q) = 0``. By the implicit function theorem
 ``dv/dq = -G_v^-1 G_q``, so ``dy/dq = y_v dv/dq + y_q``; and for multipliers ``nu`` of the
 outputs, with the adjoint ``mu = -G_v^-T y_v' nu``, the Hessian of ``nu' y(v(q), q)`` is
@@ -12,7 +13,8 @@ in separate calls, most of them at the same point. :class:`IntervalCache` solves
 intervals' collocation (Newton's method) and their sensitivities ``dv/dq`` once per
 point and hands them to every call at that point; the calls reach it through CasADi
 callbacks, so the NLP's assembly (constant sparse sums, as
-:mod:`optimize.solve.derivatives` does for the Radau points) stays in CasADi. The NLP is
+:mod:`optimize.problem.transcriptions.derivatives` does for the Radau points) stays in
+CasADi. The NLP is
 linear in the outputs with coefficients free of the variables (checked), so nothing
 else couples the intervals.
 """
@@ -30,8 +32,13 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from optimize.problem.condensed import CondensedNlp, Interval
-from optimize.solve.derivatives import Derivatives, _entries, _local_entries, _sum_into
+from optimize.problem.transcriptions.condensed_nlp import CondensedNlp, Interval
+from optimize.problem.transcriptions.derivatives import (
+    Derivatives,
+    entries,
+    local_entries,
+    sum_into,
+)
 
 log = logging.getLogger(__name__)
 
@@ -241,7 +248,7 @@ def condensed_derivatives(c: CondensedNlp,
     jac_coef = ca.DM(np.repeat(coef, n_q))
     ks, is_ = np.divmod(np.arange(n_y * n), n_y)
     t_grad = (ks[:, None] * n_y * n_q + j * n_y + is_[:, None]).ravel()
-    hr, hc = _local_entries(ca.Sparsity.dense(n_q, n_q), c.i_q)
+    hr, hc = local_entries(ca.Sparsity.dense(n_q, n_q), c.i_q)
     hr = np.where(hr <= hc, hr, -1)  # the upper triangle, as IPOPT takes it
 
     x_, p_ = ca.MX.sym("x", n_w), ca.MX.sym("p", n_p)
@@ -250,15 +257,15 @@ def condensed_derivatives(c: CondensedNlp,
     fg = ca.Function("f_g_s", [c.w_s, c.p_s, ca.vec(c.s)], [c.f_s, c.g_s])
     f_, g_ = fg(x_, p_, ca.vec(calls[0](x_, p_)))
     jac_w, grad_w, grad_s_f = rest(x_, p_)
-    jac = _sum_into((n_g, n_w), [_entries(jac_w), (jac_coef * jac_nz[t.tolist()], jac_rows,
+    jac = sum_into((n_g, n_w), [entries(jac_w), (jac_coef * jac_nz[t.tolist()], jac_rows,
                                                     jac_cols)])
     per_variable = ca.vec(ca.repmat(grad_s_f.T, n_q, 1))  # d f / d s, once per variable
-    grad = grad_w + _sum_into((n_w, 1), [(jac_nz[t_grad.tolist()] * per_variable,
+    grad = grad_w + sum_into((n_w, 1), [(jac_nz[t_grad.tolist()] * per_variable,
                                           c.i_q[np.tile(np.arange(n_q), n_y * n),
                                                 np.repeat(ks, n_q)],
                                           np.zeros(n_y * n * n_q, dtype=int))])
     hess_rest, nu_ = rest_hess(x_, p_, lf_, lg_)
     hess_nz = calls[2](x_, p_, ca.reshape(nu_, n_y, n))
-    hess = _sum_into((n_w, n_w), [(ca.vec(hess_nz), hr, hc), _entries(hess_rest)])
+    hess = sum_into((n_w, n_w), [(ca.vec(hess_nz), hr, hc), entries(hess_rest)])
     log.debug("condensed NLP derivatives in %.1f s", time.perf_counter() - t0)
     return Derivatives(x_, p_, lf_, lg_, f_, grad, g_, jac, hess), calls

@@ -1,7 +1,7 @@
 """Condensed transcription: multiple shooting with the Radau collocation solved inside
 each interval.
 
-The same cycle OCP as :func:`optimize.problem.transcription.radau_collocation` (any
+The same cycle OCP as :func:`optimize.problem.transcriptions.layouts.general_layout` (any
 :class:`optimize.problem.interface.CycleFormulation`), with the states and algebraic
 variables at the Radau points eliminated: each interval's collocation equations (the
 dynamics rows and the formulation's point row named ``algebraic``, the DAE's algebraic
@@ -10,7 +10,7 @@ the interval (a CasADi rootfinder, whose first and second derivatives come from 
 implicit function theorem). The NLP's unknowns are stage by stage: the state
 ``x_k = (X_k, T_k, S_k, Q_k)`` (model state at the interval start, period, the cycle's
 start state and the running integrals of the constrained cycle averages, all carried by
-equality rows as in :func:`optimize.problem.transcription.stagewise_collocation`) and the
+equality rows as in :func:`optimize.problem.transcriptions.layouts.stagewise_layout`) and the
 control ``u_k = (U_k, F_k1..F_kd)`` (control and fictitious forces at the Radau points).
 Rows of stage ``k``: ``x_{k+1} - F(x_k, u_k)``, then (stage 0) the start rows and
 ``S_0 = X_0``, then the interval's point rows at its Radau points and the bounds of the
@@ -20,8 +20,9 @@ The full layout stays the one the rest of the code reads (:class:`Layout` of the
 transcription): :meth:`CondensedNlp.condense` turns a full decision vector into a
 condensed start, :meth:`CondensedNlp.expand` a condensed solution into the full vector
 (the interval's collocation solved at it), and the index maps carry bounds and row
-multipliers across (:mod:`optimize.solve.condensed_solve`). The Newton solve of an
-interval starts from the NLP parameters ``guess``: the increments of the states from
+multipliers across (:mod:`optimize.problem.transcriptions.condensed_multipliers`). The
+Newton solve of an interval starts from the NLP parameters ``guess``: the increments of
+the states from
 the interval start and the algebraic variables of a full vector (the start's).
 """
 
@@ -35,7 +36,8 @@ import numpy as np
 
 from optimize.problem.collocation import Collocation
 from optimize.problem.interface import CycleFormulation
-from optimize.problem.transcription import Transcription, _dims, _share
+from optimize.problem.transcriptions.layouts import share
+from optimize.problem.transcriptions.structure import Transcription, dims
 
 #: the point row that holds the DAE's algebraic equations (solved with the dynamics)
 ALGEBRAIC_ROW = "algebraic"
@@ -159,15 +161,17 @@ class CondensedNlp:
         """The integrands at every Radau point of a full ``w`` (columns)."""
         b = self.full.blocks
         fn = b.point.function.map(b.vars.shape[1])
-        wind = np.full((1, b.vars.shape[1]), float(np.asarray(p_full).ravel()[b.i_wind]))
-        return np.asarray(fn(w_full[b.vars], wind, b.deriv)[1])
+        params = np.asarray(p_full).ravel()[b.i_params]
+        params = np.tile(params[:, None], (1, b.vars.shape[1]))
+        return np.asarray(fn(w_full[b.vars], params, b.deriv)[1])
 
 
 @dataclass(frozen=True)
 class Interval:
     """One interval as functions of its Radau points' unknowns ``v = (X_1..X_d,
     Z_1..Z_d)``, its stage variables ``q = (X_0, U, T, F_1..F_d)`` and its parameters
-    ``a = (wind, guess, the tracking reference at its d points)`` (all scaled).
+    ``a = (the model's parameters, guess, the tracking reference at its d points)`` (all
+    scaled).
 
     ``residual(v, q, a)``: the collocation equations (dynamics and algebraic rows at the
     points), square in ``v``; ``outputs(v, q, a)``: ``y = (X_d, path rows, integrands,
@@ -212,16 +216,17 @@ def interval(full: Transcription, coll: Collocation, dims: tuple[int, int, int, 
     pos = np.arange(solved.size)
     v = ca.SX.sym("v", d * (nx + nz))
     q = ca.SX.sym("q", nx + nu + 1 + d * nf)
-    a = ca.SX.sym("a", 1 + v.shape[0] + d * nx)
-    x0, u, period, wind = q[:nx], q[nx:nx + nu], q[nx + nu], a[0]
-    ref = a[1 + v.shape[0]:]
+    n_par = point.function.size1_in(1)
+    a = ca.SX.sym("a", n_par + v.shape[0] + d * nx)
+    x0, u, period, params = q[:nx], q[nx:nx + nu], q[nx + nu], a[:n_par]
+    ref = a[n_par + v.shape[0]:]
     xs = [v[j * nx:(j + 1) * nx] for j in range(d)]
     zs = [v[d * nx + j * nz:d * nx + (j + 1) * nz] for j in range(d)]
     fs = [q[nx + nu + 1 + j * nf:nx + nu + 1 + (j + 1) * nf] for j in range(d)]
     res, path, integ = [], [], []
     for j in range(d):
         vpt = ca.vertcat(period, xs[j], u, zs[j], fs[j], x0, *xs)
-        rows, s = point.function(vpt, wind, ca.DM(coll.deriv[:, j]))
+        rows, s = point.function(vpt, params, ca.DM(coll.deriv[:, j]))
         res.append(rows[pos[solved].tolist()])
         path.append(rows[pos[~solved].tolist()])
         integ.append(s)
@@ -239,7 +244,8 @@ def interval(full: Transcription, coll: Collocation, dims: tuple[int, int, int, 
     outputs = ca.Function("interval_outputs", [v, q, a], [ca.vertcat(*y)])
     newton = ca.rootfinder("interval", rootfinder, residual, ROOTFINDERS[rootfinder])
     qm, am = ca.MX.sym("q", q.shape[0]), ca.MX.sym("a", a.shape[0])
-    v0 = ca.vertcat(ca.repmat(qm[:nx], d, 1), ca.MX.zeros(d * nz, 1)) + am[1:1 + v.shape[0]]
+    v0 = (ca.vertcat(ca.repmat(qm[:nx], d, 1), ca.MX.zeros(d * nz, 1))
+          + am[n_par:n_par + v.shape[0]])
     vm = newton(v0, qm, am)
     solved_ok = ca.norm_inf(residual(vm, qm, am)) <= NEWTON_CHECK
     y = ca.if_else(solved_ok, outputs(vm, qm, am), ca.DM.nan(start, 1))
@@ -309,19 +315,19 @@ def _stages(b: _Builder, n: int, sizes: dict[str, int]) -> dict[str, list[np.nda
 def condensed_nlp(form: CycleFormulation, coll: Collocation, full: Transcription,
                   rootfinder: str = "newton") -> CondensedNlp:
     """The condensed NLP of ``form`` beside its full transcription ``full``
-    (:func:`optimize.problem.transcription.radau_collocation` with collocation ``coll``).
+    (:func:`optimize.problem.transcriptions.layouts.general_layout` with collocation ``coll``).
 
     ``rootfinder`` solves each interval (:data:`ROOTFINDERS`).
     """
     lay, d = full.layout, coll.degree
     n = lay.i_u.shape[1]
-    dims = _dims(form)
-    nx, nz, nu, nf = dims
+    sizes = dims(form)
+    nx, nz, nu, nf = sizes
     names = full.blocks.point.integrands
     carried = tuple(names.index(c) for c in form.constrained_averages)
     xbound = np.flatnonzero(_bounded(full, lay.i_x[:, 1]))
     zbound = np.flatnonzero(_bounded(full, lay.i_z[:, 0])) if nz else np.zeros(0, dtype=int)
-    it = interval(full, coll, dims, xbound, zbound, rootfinder)
+    it = interval(full, coll, sizes, xbound, zbound, rootfinder)
     b = _Builder()
     st = _stages(b, n, {"x": nx, "t": 1, "s": nx, "q": len(carried), "u": nu, "f": d * nf})
     var_src = -np.ones(b.n_w, dtype=int)
@@ -334,7 +340,7 @@ def condensed_nlp(form: CycleFormulation, coll: Collocation, full: Transcription
     n_p_full = lay.n_p
     i_q = np.stack([np.concatenate([st["x"][k], st["u"][k], st["t"][k], st["f"][k]])
                     for k in range(n)], axis=1)
-    i_a = np.stack([np.concatenate([[lay.params["wind_speed_m_s"]],
+    i_a = np.stack([np.concatenate([full.blocks.i_params,
                                     n_p_full + k * it.n_v + np.arange(it.n_v),
                                     lay.i_p_ref[:, k * d + 1:(k + 1) * d + 1].T.ravel()])
                     for k in range(n)], axis=1)
@@ -381,7 +387,7 @@ def _rows_and_objective(form: CycleFormulation, coll: Collocation, full: Transcr
         return s[part["integrands"].start + (j - 1) * n_int + i, k]
 
     def shares(k: int, i: int) -> Any:
-        return sum(_share(coll, n, j, integrand(k, j, i)) for j in range(1, d + 1))
+        return sum(share(coll, n, j, integrand(k, j, i)) for j in range(1, d + 1))
 
     start = [r.expr for r in form.start_rows(w[st["x"][0]] * x_scale)]
     n_start = sum(e.shape[0] for e in start)

@@ -1,5 +1,8 @@
 """Direct Radau collocation of the cycle OCP into one scaled NLP, in two layouts.
 
+The collocation's NLP (:class:`optimize.problem.transcriptions.collocation.CollocationMethod`
+runs it; the condensed transcription is built beside the general layout).
+
 Takes a formulation (what is optimized: any
 :class:`optimize.problem.interface.CycleFormulation`; the kite's is
 :class:`optimize.problem.formulation.Formulation`) and a
@@ -11,7 +14,7 @@ the copies), so they have the same optima. Every size comes from the formulation
 model (``form.dae``), the scalar parameters from their names
 (:func:`optimize.problem.interface.param_names`):
 
-* :func:`radau_collocation` (``"ipopt"``), for a general sparse solver.
+* :func:`general_layout` (``Layout.kind`` ``"general"``), for a general sparse solver.
   Decision vector, in this order: one copy of the period ``T`` per interval (tied
   by equality rows, so no variable couples every interval); states at the
   ``N d + 1`` grid points (interval starts and the Radau points; the last Radau
@@ -21,7 +24,7 @@ model (``form.dae``), the scalar parameters from their names
   vector: per Radau point the collocation rows of the dynamics then the
   formulation's point rows; then the period ties, the start rows, the
   periodicity rows and the rows on cycle averages.
-* :func:`stagewise_collocation` (``"stagewise"``), for a Riccati-based solver
+* :func:`stagewise_layout` (``"stagewise"``), for a Riccati-based solver
   (fatrop): the variables and rows of each interval form one stage, and stages
   couple only through ``x_{k+1} - F(x_k, u_k) = 0``. The stage state carries,
   besides the model state at the interval start, the period and the cycle's start
@@ -37,7 +40,7 @@ point function rather than over the whole NLP.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
@@ -46,76 +49,15 @@ import numpy as np
 from optimize.problem.collocation import Collocation
 from optimize.problem.interface import CycleFormulation, Row, param_names
 from optimize.problem.options import Discretization
-
-
-@dataclass
-class Layout:
-    """Index bookkeeping of the scaled decision, constraint and parameter vectors."""
-
-    n_points: int  # grid points with states (N d + 1)
-    n_coll: int  # Radau points (N d)
-    i_period: np.ndarray  # (N,) one copy of the period per interval, all equal
-    i_x: np.ndarray  # (NX, n_points) indices into w
-    i_z: np.ndarray  # (NZ, n_coll)
-    i_u: np.ndarray  # (NU, N)
-    i_f: np.ndarray  # (NF, n_coll)
-    scale_w: np.ndarray  # w_physical = scale_w * w_scaled
-    n_w: int
-    n_g: int
-    n_p: int
-    i_p_ref: np.ndarray  # (NX, n_points) reference trajectory in p
-    params: dict[str, int] = field(default_factory=dict)  # scalar parameter -> index in p
-    rows: dict[str, np.ndarray] = field(default_factory=dict)  # name -> indices into g
-    kind: str = "ipopt"  # which transcription: "ipopt" or "stagewise"
-    #: a function of the scaled ``w`` that sets the variables derived from others
-    #: (copies, running integrals); ``None`` when there are none but the period copies
-    complete: ca.Function | None = None
-    #: per row, whether it is an equality in every configuration (lbg == ubg)
-    equality: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
-
-    def rows_of(self, name: str) -> np.ndarray:
-        """Indices into ``g`` of the rows named ``name`` (empty when the NLP has none)."""
-        return self.rows.get(name, np.zeros(0, dtype=int))
-
-
-@dataclass(frozen=True)
-class PointBlocks:
-    """The NLP point by point: what :mod:`optimize.solve.derivatives` builds on.
-
-    For each Radau point ``j``: ``g[rows[:, j]] = rows(w[vars[:, j]], p[i_wind],
-    deriv[:, j])`` of ``point.function``. Its integrands enter the objective and the
-    other rows only through the cycle sums: ``f_s`` and ``g_s`` are ``f`` and ``g``
-    with the symbols ``s`` (``(len(point.integrands), n_coll)``) in place of the integrands
-    (``f = f_s`` and ``g = g_s`` once ``s`` is replaced by the points' integrands).
-    """
-
-    point: PointFunction
-    vars: np.ndarray  # (n_v, n_coll) indices into w
-    rows: np.ndarray  # (n_r, n_coll) indices into g
-    deriv: np.ndarray  # (d + 1, n_coll) the points' columns of Collocation.deriv
-    s: ca.SX
-    f_s: ca.SX
-    g_s: ca.SX
-    i_wind: int  # index of the reference wind speed in p
-
-
-@dataclass
-class Transcription:
-    """A transcribed NLP: CasADi problem, layout and scaled base bounds.
-
-    ``lbw, ubw, lbg, ubg`` hold without the drive limits, ``limited`` with them
-    (both with the period free and the fictitious forces free).
-    """
-
-    nlp: dict
-    layout: Layout
-    lbw: np.ndarray
-    ubw: np.ndarray
-    lbg: np.ndarray
-    ubg: np.ndarray
-    limited: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-    #: the per-point structure of the NLP (what its derivatives are built from)
-    blocks: PointBlocks
+from optimize.problem.transcriptions.structure import (
+    Layout,
+    PointBlocks,
+    PointFunction,
+    Transcription,
+    Vector,
+    dims,
+    named_variables,
+)
 
 
 class _Rows:
@@ -167,36 +109,6 @@ class _Sums:
         return cls(averages=dict.fromkeys(form.averages, 0))
 
 
-@dataclass(frozen=True)
-class PointFunction:
-    """The rows and integrands of one Radau point as one CasADi function.
-
-    ``function(v, wind, deriv) -> (rows, integrands)``: ``v`` is the point's slice of
-    the scaled decision vector in this order: period, state at the point, control,
-    algebraic variables, fictitious forces, then the ``d + 1`` states of the interval
-    (the point's own state appears twice; :func:`_interval` lays it out), ``wind``
-    the reference wind speed [m/s], ``deriv`` the point's column of
-    :attr:`Collocation.deriv`. ``rows`` are the dynamics rows then the formulation's
-    point rows (``templates`` gives their names and bounds), ``integrands`` the values
-    named by :attr:`integrands` (the formulation's cycle averages, then ``fict_sq``).
-    Every Radau point of both layouts is this one function, so its derivatives can
-    be built once (:mod:`optimize.solve.derivatives`).
-    """
-
-    function: ca.Function
-    templates: tuple[Row, ...]
-    integrands: tuple[str, ...]
-
-    def rows_of(self, out: Any) -> list[Row]:
-        """The point's rows with the expressions ``out`` (one call's ``rows``)."""
-        rows, start = [], 0
-        for t in self.templates:
-            size = t.expr.shape[0]
-            rows.append(Row(t.name, out[start:start + size], t.lo, t.hi, t.limited))
-            start += size
-        return rows
-
-
 def point_function(form: CycleFormulation, coll: Collocation, n_intervals: int,
                    scale_w: dict[str, np.ndarray]) -> PointFunction:
     """Build the :class:`PointFunction` of ``form`` on ``n_intervals`` intervals.
@@ -213,17 +125,18 @@ def point_function(form: CycleFormulation, coll: Collocation, n_intervals: int,
         start += size
     xs = [v[start + r * nx: start + (r + 1) * nx] * ca.DM(scale_w["x"])
           for r in range(d + 1)]
-    wind, deriv = ca.SX.sym("wind"), ca.SX.sym("deriv", d + 1)
+    params = ca.SX.sym("params", len(form.parameters))
+    deriv = ca.SX.sym("deriv", d + 1)
     x, u, z = parts["x"], parts["u"], parts["z"]
     xp = sum(deriv[r] * xs[r] for r in range(d + 1))
     h = parts["period"] / n_intervals
     dynamics = Row("dynamics", (xp - h * form.ode(x, u, z)) * ca.DM(1.0 / form.scales.state))
-    point = form.point(x, u, z, parts["f"], wind)
+    point = form.point(x, u, z, parts["f"], params)
     templates = (dynamics, *point.rows)
     integrands = ca.vertcat(*[point.averages[a] for a in form.averages], point.fict_sq)
-    function = ca.Function("radau_point", [v, wind, deriv],
+    function = ca.Function("radau_point", [v, params, deriv],
                            [ca.vertcat(*[t.expr for t in templates]), integrands],
-                           ["v", "wind", "deriv"], ["rows", "integrands"])
+                           ["v", "params", "deriv"], ["rows", "integrands"])
     return PointFunction(function=function, templates=templates,
                          integrands=(*form.averages, "fict_sq"))
 
@@ -236,7 +149,7 @@ def _point_scales(form: CycleFormulation) -> dict[str, np.ndarray]:
 
 def _interval(point: PointFunction, coll: Collocation, w: Any, i_period: int,
               i_xs: list[np.ndarray], i_u: np.ndarray, i_zs: list[np.ndarray],
-              i_fs: list[np.ndarray], wind: Any, rows: _Rows
+              i_fs: list[np.ndarray], params: Any, rows: _Rows
               ) -> list[tuple[np.ndarray, np.ndarray, Any]]:
     """Rows of one collocation interval of the scaled decision vector ``w``.
 
@@ -248,7 +161,7 @@ def _interval(point: PointFunction, coll: Collocation, w: Any, i_period: int,
     out = []
     for j in range(1, coll.degree + 1):
         idx = np.concatenate([[i_period], i_xs[j], i_u, i_zs[j - 1], i_fs[j - 1], *i_xs])
-        g, integrands = point.function(w[[int(i) for i in idx]], wind,
+        g, integrands = point.function(w[[int(i) for i in idx]], params,
                                        ca.DM(coll.deriv[:, j - 1]))
         first = rows.n
         for row in point.rows_of(g):
@@ -257,7 +170,7 @@ def _interval(point: PointFunction, coll: Collocation, w: Any, i_period: int,
     return out
 
 
-def _share(coll: Collocation, n: int, j: int, value: Any) -> Any:
+def share(coll: Collocation, n: int, j: int, value: Any) -> Any:
     """Point ``j``'s (1-based) share of a cycle average whose integrand is ``value``."""
     return coll.quad[j - 1] / n * value
 
@@ -266,7 +179,7 @@ def _add_integrands(sums: _Sums, coll: Collocation, n: int, j: int, s: Any) -> N
     """Add point ``j``'s (1-based) integrands ``s`` (the cycle averages in the order of
     ``sums.averages``, then the squared fictitious forces) to ``sums``."""
     for i, name in enumerate(sums.averages):
-        sums.averages[name] += _share(coll, n, j, s[i])
+        sums.averages[name] += share(coll, n, j, s[i])
     sums.fict += s[len(sums.averages)] / (n * coll.degree)
 
 
@@ -282,6 +195,16 @@ def _params(form: CycleFormulation, n_points: int
     par = {name: p[i] for i, name in enumerate(names)}
     i_p_ref = n_par + np.arange(nx * n_points).reshape(n_points, nx).T
     return p, par, n_p, i_p_ref, {name: i for i, name in enumerate(names)}
+
+
+def model_params(form: CycleFormulation, par: dict[str, Any]) -> Any:
+    """The model's parameters (``form.parameters``) as one vector of the NLP's ``p``."""
+    return ca.vertcat(*[par[name] for name in form.parameters])
+
+
+def _param_indices(form: CycleFormulation, i_par: dict[str, int]) -> list[int]:
+    """Indices in ``p`` of the model's parameters (``form.parameters``)."""
+    return [i_par[name] for name in form.parameters]
 
 
 def _tracking(form: CycleFormulation, p: ca.SX, i_p_ref: np.ndarray, xs: list) -> Any:
@@ -333,7 +256,7 @@ def _finish(nlp: dict, blocks: PointBlocks, layout: Layout, rows: _Rows,
 
 
 def _nlp_and_blocks(w: Any, p: Any, f_s: Any, g_s: Any, s: Any, point: PointFunction,
-                    points: list, deriv: np.ndarray, i_wind: int
+                    points: list, deriv: np.ndarray, i_params: np.ndarray
                     ) -> tuple[dict, PointBlocks]:
     """The NLP, with the points' integrands in place of the symbols ``s``, and its
     :class:`PointBlocks` (``points`` as :func:`_interval` returns them, in the order
@@ -343,32 +266,26 @@ def _nlp_and_blocks(w: Any, p: Any, f_s: Any, g_s: Any, s: Any, point: PointFunc
     blocks = PointBlocks(
         point=point, vars=np.stack([pt[0] for pt in points], axis=1),
         rows=np.stack([pt[1] for pt in points], axis=1), deriv=deriv, s=s, f_s=f_s,
-        g_s=g_s, i_wind=i_wind)
+        g_s=g_s, i_params=np.asarray(i_params, dtype=int))
     return {"x": w, "p": p, "f": f, "g": g}, blocks
 
 
-def _dims(form: CycleFormulation) -> tuple[int, int, int, int]:
-    """Sizes of the model's state, algebraic, control and fictitious vectors."""
-    dae = form.dae
-    return dae.states.size, dae.algebraic.size, dae.controls.size, dae.fictitious.size
-
-
-def radau_collocation(form: CycleFormulation, disc: Discretization, coll: Collocation
+def general_layout(form: CycleFormulation, disc: Discretization, coll: Collocation
                       ) -> Transcription:
     """Transcribe ``form`` by Radau collocation on ``disc.n_intervals`` intervals
     (the layout for a general sparse solver, see the module docstring)."""
     sc = form.scales
     n, d = disc.n_intervals, coll.degree
-    nx, nz, nu, nf = _dims(form)
+    nx, nz, nu, nf = dims(form)
     n_points, n_coll = n * d + 1, n * d
 
-    counter = iter(range(10**9))
-    i_period = np.array([next(counter) for _ in range(n)])
-    i_x = np.array([[next(counter) for _ in range(nx)] for _ in range(n_points)]).T
-    i_z = np.array([[next(counter) for _ in range(nz)] for _ in range(n_coll)]).T
-    i_u = np.array([[next(counter) for _ in range(nu)] for _ in range(n)]).T
-    i_f = np.array([[next(counter) for _ in range(nf)] for _ in range(n_coll)]).T
-    n_w = next(counter)
+    vec = Vector()
+    i_period = vec.take("period", n)
+    i_x = vec.columns("x", nx, n_points)
+    i_z = vec.columns("z", nz, n_coll)
+    i_u = vec.columns("u", nu, n)
+    i_f = vec.columns("f", nf, n_coll)
+    n_w = vec.n
     scale_w = _scale_w(form, n_w, i_period, i_x, i_z, i_u, i_f)
     p, par, n_p, i_p_ref, i_par = _params(form, n_points)
     w = ca.SX.sym("w", n_w)
@@ -381,7 +298,7 @@ def radau_collocation(form: CycleFormulation, disc: Discretization, coll: Colloc
     point = point_function(form, coll, n, _point_scales(form))
     rows, sums = _Rows(), _Sums.of(form)
     # the integrands enter f and g through the symbols s (substituted below), so the
-    # derivatives can be built point by point (optimize.solve.derivatives)
+    # derivatives can be built point by point (optimize.problem.transcriptions.derivatives)
     s = ca.SX.sym("s", len(point.integrands), n_coll)
     points = []
     for k in range(n):
@@ -389,7 +306,8 @@ def radau_collocation(form: CycleFormulation, disc: Discretization, coll: Colloc
         points += _interval(point, coll, w, int(i_period[k]),
                             [i_x[:, k * d + r] for r in range(d + 1)], i_u[:, k],
                             [i_z[:, k * d + j] for j in range(d)],
-                            [i_f[:, k * d + j] for j in range(d)], par["wind_speed_m_s"], rows)
+                            [i_f[:, k * d + j] for j in range(d)], model_params(form, par),
+                            rows)
         for j in range(1, d + 1):
             _add_integrands(sums, coll, n, j, s[:, k * d + j - 1])
     sums.track = _tracking(form, p, i_p_ref, xs)
@@ -403,11 +321,12 @@ def radau_collocation(form: CycleFormulation, disc: Discretization, coll: Colloc
 
     f_s = form.objective(par, sums.averages, sums.reg, sums.track, sums.fict)
     nlp, blocks = _nlp_and_blocks(w, p, f_s, ca.vertcat(*rows.exprs), s, point, points,
-                                  np.tile(coll.deriv, (1, n)), i_par["wind_speed_m_s"])
+                                  np.tile(coll.deriv, (1, n)), _param_indices(form, i_par))
     layout = Layout(
         n_points=n_points, n_coll=n_coll, i_period=i_period, i_x=i_x, i_z=i_z, i_u=i_u,
         i_f=i_f, scale_w=scale_w, n_w=n_w, n_g=rows.n, n_p=n_p, i_p_ref=i_p_ref,
         params=i_par, rows={name: np.array(idx, dtype=int) for name, idx in rows.index.items()},
+        variables=named_variables(form, i_period, i_x, i_z, i_u, i_f),
     )
     return _finish(nlp, blocks, layout, rows,
                    _variable_bounds(form, n_w, i_period, i_x, i_z, i_u))
@@ -415,7 +334,7 @@ def radau_collocation(form: CycleFormulation, disc: Discretization, coll: Colloc
 
 @dataclass(frozen=True)
 class _Stages:
-    """Indices into ``w`` of the stage-wise layout (:func:`stagewise_collocation`)."""
+    """Indices into ``w`` of the stage-wise layout (:func:`stagewise_layout`)."""
 
     i_x: np.ndarray  # (nx, N d + 1) model states: X_0, then the Radau points
     i_z: np.ndarray  # (nz, N d)
@@ -436,37 +355,33 @@ def _stage_indices(n: int, d: int, dims: tuple[int, int, int, int], n_q: int) ->
     """Lay out ``w`` stage by stage: ``x_k = (X_k, T_k, S_k, Q_k)``, then ``u_k = (U_k,
     the Radau points' states, algebraic variables and fictitious forces)``."""
     nx, nz, nu, nf = dims
-    counter = iter(range(10**9))
-
-    def take(size: int) -> np.ndarray:
-        return np.array([next(counter) for _ in range(size)], dtype=int)
-
+    vec = Vector()
     i_x, i_z = np.zeros((nx, n * d + 1), dtype=int), np.zeros((nz, n * d), dtype=int)
     i_u, i_f = np.zeros((nu, n), dtype=int), np.zeros((nf, n * d), dtype=int)
     i_start, i_next = np.zeros((nx, n + 1), dtype=int), np.zeros((nx, n), dtype=int)
     i_period, i_q = np.zeros(n + 1, dtype=int), np.zeros((n_q, n + 1), dtype=int)
     for k in range(n + 1):
         if k == 0:
-            i_x[:, 0] = take(nx)
+            i_x[:, 0] = vec.take("x", nx)
         else:
-            i_next[:, k - 1] = take(nx)
-        i_period[k] = take(1)[0]
-        i_start[:, k] = take(nx)
-        i_q[:, k] = take(n_q)
+            i_next[:, k - 1] = vec.take("x_next", nx)
+        i_period[k] = vec.take("period", 1)[0]
+        i_start[:, k] = vec.take("x_start", nx)
+        i_q[:, k] = vec.take("running_averages", n_q)
         if k == n:
             break
-        i_u[:, k] = take(nu)
+        i_u[:, k] = vec.take("u", nu)
         for j in range(d):
-            i_x[:, k * d + j + 1] = take(nx)
+            i_x[:, k * d + j + 1] = vec.take("x", nx)
         for j in range(d):
-            i_z[:, k * d + j] = take(nz)
+            i_z[:, k * d + j] = vec.take("z", nz)
         for j in range(d):
-            i_f[:, k * d + j] = take(nf)
-    return _Stages(i_x, i_z, i_u, i_f, i_start, i_next, i_period, i_q, next(counter))
+            i_f[:, k * d + j] = vec.take("f", nf)
+    return _Stages(i_x, i_z, i_u, i_f, i_start, i_next, i_period, i_q, vec.n)
 
 
 def _stage_rows(form: CycleFormulation, coll: Collocation, st: _Stages, w: Any, at: Any,
-                point: PointFunction, s: Any, wind: Any) -> tuple[_Rows, _Sums, dict, list]:
+                point: PointFunction, s: Any, params: Any) -> tuple[_Rows, _Sums, dict, list]:
     """Rows of stages ``0 .. N-1``: first the gap-closing rows ``x_{k+1} - F(x_k, u_k)``
     (in the order of ``x_{k+1}``), then the interval's rows; stage 0 also has the start
     rows and ``S_0 = X_0``. Returns the rows, the cycle sums, the running integrals
@@ -482,16 +397,16 @@ def _stage_rows(form: CycleFormulation, coll: Collocation, st: _Stages, w: Any, 
         points = _interval(point, coll, w, int(st.i_period[k]),
                            [st.x_start(k)] + [st.i_x[:, k * d + j] for j in range(1, d + 1)],
                            st.i_u[:, k], [st.i_z[:, k * d + j] for j in range(d)],
-                           [st.i_f[:, k * d + j] for j in range(d)], wind, interval_rows)
+                           [st.i_f[:, k * d + j] for j in range(d)], params, interval_rows)
         for j in range(1, d + 1):
             _add_integrands(sums, coll, n, j, s[:, k * d + j - 1])
         gap = [w[st.i_next[:, k]] - w[st.i_x[:, k * d + d]],
                w[st.i_period[k + 1]] - w[st.i_period[k]],
                w[st.i_start[:, k + 1]] - w[st.i_start[:, k]]]
         for c, i_int in enumerate(carried):
-            dq = sum(_share(coll, n, j, s[i_int, k * d + j - 1]) for j in range(1, d + 1))
+            dq = sum(share(coll, n, j, s[i_int, k * d + j - 1]) for j in range(1, d + 1))
             gap.append(w[st.i_q[c, k + 1]] - w[st.i_q[c, k]] - dq)
-            q_running[c] += sum(_share(coll, n, j, pt[2][i_int])
+            q_running[c] += sum(share(coll, n, j, pt[2][i_int])
                                 for j, pt in enumerate(points, start=1))
             running[int(st.i_q[c, k + 1])] = q_running[c]
         rows.add(Row("continuity", ca.vertcat(*gap)))
@@ -519,7 +434,7 @@ def _stage_completion(st: _Stages, w: Any, running: dict, d: int) -> ca.Function
     return ca.Function("complete", [w], [filled])
 
 
-def stagewise_collocation(form: CycleFormulation, disc: Discretization, coll: Collocation
+def stagewise_layout(form: CycleFormulation, disc: Discretization, coll: Collocation
                           ) -> Transcription:
     """Transcribe ``form`` by Radau collocation in stages (the layout of a Riccati-based
     solver such as fatrop, see the module docstring).
@@ -536,7 +451,7 @@ def stagewise_collocation(form: CycleFormulation, disc: Discretization, coll: Co
     n, d = disc.n_intervals, coll.degree
     n_points, n_coll = n * d + 1, n * d
     carried = form.constrained_averages
-    st = _stage_indices(n, d, _dims(form), len(carried))
+    st = _stage_indices(n, d, dims(form), len(carried))
     scale_w = _scale_w(form, st.n_w, st.i_period, st.i_x, st.i_z, st.i_u, st.i_f)
     scale_w[st.i_start] = scale_w[st.i_x[:, :1]]
     scale_w[st.i_next] = scale_w[st.i_x[:, d::d]]
@@ -548,9 +463,9 @@ def stagewise_collocation(form: CycleFormulation, disc: Discretization, coll: Co
         return ws[[int(i) for i in np.atleast_1d(idx)]]
 
     point = point_function(form, coll, n, _point_scales(form))
-    s = ca.SX.sym("s", len(point.integrands), n_coll)  # the integrands, as in radau_collocation
+    s = ca.SX.sym("s", len(point.integrands), n_coll)  # the integrands, as in general_layout
     rows, sums, running, all_points = _stage_rows(form, coll, st, w, at, point, s,
-                                                  par["wind_speed_m_s"])
+                                                  model_params(form, par))
     sums.track = _tracking(form, p, i_p_ref, [at(st.i_x[:, k]) for k in range(n_points)])
     terminal = [*form.periodicity_rows(at(st.i_start[:, n]), at(st.x_start(n)))]
     if carried:
@@ -560,13 +475,14 @@ def stagewise_collocation(form: CycleFormulation, disc: Discretization, coll: Co
 
     f_s = form.objective(par, sums.averages, sums.reg, sums.track, sums.fict)
     nlp, blocks = _nlp_and_blocks(w, p, f_s, ca.vertcat(*rows.exprs), s, point, all_points,
-                                  np.tile(coll.deriv, (1, n)), i_par["wind_speed_m_s"])
+                                  np.tile(coll.deriv, (1, n)), _param_indices(form, i_par))
     layout = Layout(
         n_points=n_points, n_coll=n_coll, i_period=st.i_period, i_x=st.i_x, i_z=st.i_z,
         i_u=st.i_u, i_f=st.i_f, scale_w=scale_w, n_w=st.n_w, n_g=rows.n, n_p=n_p,
         i_p_ref=i_p_ref, params=i_par,
         rows={name: np.array(idx, dtype=int) for name, idx in rows.index.items()},
         kind="stagewise", complete=_stage_completion(st, w, running, d),
+        variables=named_variables(form, st.i_period, st.i_x, st.i_z, st.i_u, st.i_f),
     )
     lbw, ubw, lbw_lim, ubw_lim = _variable_bounds(form, st.n_w, st.i_period[:1], st.i_x,
                                                   st.i_z, st.i_u)

@@ -1,0 +1,106 @@
+"""The condensed method: multiple shooting with each interval's collocation solved inside
+it (:mod:`optimize.problem.transcriptions.condensed_nlp`), built beside the collocation's
+general layout, in which its starts and solutions are read and written
+(:mod:`optimize.problem.transcriptions.condensed_multipliers`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from optimize.problem.collocation import Collocation
+from optimize.problem.interface import CycleFormulation
+from optimize.problem.options import Discretization, SolverOptions
+from optimize.problem.transcriptions.codegen import compiler
+from optimize.problem.transcriptions.collocation import full_derivatives
+from optimize.problem.transcriptions.condensed_derivatives import condensed_derivatives
+from optimize.problem.transcriptions.condensed_multipliers import to_condensed, to_full
+from optimize.problem.transcriptions.condensed_nlp import CondensedNlp, condensed_nlp
+from optimize.problem.transcriptions.layouts import general_layout
+from optimize.problem.transcriptions.method import Call, SolverNlp, compile_fn
+from optimize.problem.transcriptions.structure import Transcription
+
+log = logging.getLogger(__name__)
+
+
+def condensed(ocp: Any) -> CondensedNlp:
+    """The OCP's condensed NLP and its derivatives (built once, cached on the OCP as
+    ``"condensed"`` and ``"condensed_derivatives"``)."""
+    if "condensed" not in ocp.solvers:
+        t0 = time.perf_counter()
+        compile_with = compile_fn(ocp)
+        # CasADi generates C code for its dense Newton method, not for the sparse one
+        rootfinder = "fast_newton" if compile_with and compiler() else "newton"
+        c = condensed_nlp(ocp.formulation, ocp.coll, ocp.transcription, rootfinder)
+        derivs, callbacks = condensed_derivatives(c, compile_with)
+        ocp.solvers["condensed"] = c
+        ocp.solvers["condensed_derivatives"] = derivs
+        # the callbacks into the interval cache live as long as the solvers that call them
+        ocp.solvers["condensed_callbacks"] = callbacks
+        log.info("built the condensed NLP (%s%s): %d variables, %d constraints in %.1f s",
+                 rootfinder, ", compiled" if compile_with else "", c.n_w, c.n_g,
+                 time.perf_counter() - t0)
+    return ocp.solvers["condensed"]
+
+
+class CondensedMethod:
+    """Multiple shooting over the collocation (a
+    :class:`optimize.problem.transcriptions.method.Method`)."""
+
+    name = "condensed"
+
+    def transcribe(self, form: CycleFormulation, disc: Discretization, coll: Collocation,
+                   solver: SolverOptions) -> Transcription:
+        """The collocation's general layout (the condensed NLP is built beside it, once
+        a solver needs it, :func:`condensed`)."""
+        return general_layout(form, disc, coll)
+
+    def solver_nlp(self, ocp: Any, solver: str) -> SolverNlp:
+        """The condensed NLP as ``solver`` runs it.
+
+        Its objective and rows come from the intervals solved once per point
+        (:class:`optimize.problem.transcriptions.condensed_derivatives.IntervalCache`),
+        reached through callbacks CasADi cannot differentiate. So every derivative is
+        given, the Lagrangian gradient CasADi evaluates at the solution (``nlp_grad``)
+        included, with a structurally zero gradient in the parameters: their multipliers
+        are not computed. An evaluation error stays quiet (a Newton solve of an interval
+        that does not converge at a trial point is one, on which the solver shortens its
+        step; the solve's status says whether it recovered).
+        """
+        c = condensed(ocp)
+        d = ocp.solvers["condensed_derivatives"]
+        grad_x = d.lam_f * d.grad + ca.mtimes(d.jac.T, d.lam_g)
+        nlp_grad = ca.Function("nlp_grad", [d.x, d.p, d.lam_f, d.lam_g],
+                               [d.f, d.g, grad_x, ca.MX(d.p.shape[0], 1)],
+                               ["x", "p", "lam_f", "lam_g"],
+                               ["f", "g", "grad_gamma_x", "grad_gamma_p"])
+        return SolverNlp({"x": d.x, "p": d.p, "f": d.f, "g": d.g}, d.functions(solver),
+                         [bool(e) for e in c.equality()], cache={"nlp_grad": nlp_grad},
+                         options={"show_eval_warnings": False, "calc_lam_p": False})
+
+    def solve(self, ocp: Any, call: Call, w0: np.ndarray, p: np.ndarray, bounds: tuple,
+              lam_x0: np.ndarray | None, lam_g0: np.ndarray | None) -> Any:
+        """The start condensed, the solution expanded, the multipliers carried across
+        (both in the full layout; their time counts in the solve's)."""
+        t0, c0 = time.perf_counter(), time.process_time()
+        c = condensed(ocp)
+        funcs = ocp.solvers["condensed_derivatives"].functions("ipopt")
+        w0_c, p_c = c.condense(w0, p)
+        lam_c = (None, None)
+        if lam_x0 is not None and lam_g0 is not None:
+            lam_c = to_condensed(c, (funcs["grad_f"], funcs["jac_g"]),
+                                                       w0_c, p_c, lam_x0, lam_g0)
+        raw = call(w0_c, p_c, c.bounds(bounds), *lam_c)
+        w = c.expand(raw.w, p_c)
+        full = full_derivatives(ocp, "ipopt")
+        lam_x, lam_g = to_full(c, (full["grad_f"], full["jac_g"]), w, p,
+                                                     raw.lam_x, raw.lam_g)
+        return dataclasses.replace(raw, w=w, lam_x=lam_x, lam_g=lam_g,
+                                   wall_time_s=time.perf_counter() - t0,
+                                   cpu_time_s=time.process_time() - c0)
