@@ -18,7 +18,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     ex = sub.add_parser("export", help="a converged scenario as a drive profile for the bench",
                         description="write a converged scenario of an optimize folder as a "
                         "drive profile (docs/schemas.md section 10) and its two plain tables")
-    ex.add_argument("optimize_out", type=Path, help="optimize output folder")
+    ex.add_argument("--optimize", type=Path, default=Path("optimize_out"),
+                    help="output folder of `bench optimize` (default ./optimize_out)")
     ex.add_argument("--scenario", required=True, help="a converged scenario, e.g. elec-lim-7.0")
     ex.add_argument("--out", type=Path, default=Path("profile.csv"),
                     help="the profile CSV (default profile.csv); <stem>.speed.csv and "
@@ -67,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
         frame = BenchFrame(s.measured_side, s.gear_ratio, s.speed_sign, s.torque_sign)
     opts = ExportOptions(n_cycles=args.cycles, rate_hz=args.rate_hz,
                          standstill_s=args.standstill_s, ramp_s=args.ramp_s, frame=frame)
-    done = export_cycle(args.optimize_out, args.scenario, args.out, opts,
+    done = export_cycle(args.optimize, args.scenario, args.out, opts,
                         bench_session=args.bench_session, command_line=args.command_line)
     h = done.profile.header
     print(f"bench cycle export: {h['scenario']}: {h['n_cycles']} cycles of "

@@ -15,7 +15,12 @@ The package also holds the ``bench`` command line (:mod:`drivebench.cli`), so it
 are imported on first use (:mod:`kernel.lazy`): ``bench --help`` does not load the solver.
 """
 
+from importlib import metadata
+
 from kernel.lazy import lazy_names
+
+#: the installed distribution's version, as ``bench --version`` prints it
+__version__ = metadata.version("drivebench")
 
 #: home module -> the public names it defines
 LAZY_IMPORTS = {

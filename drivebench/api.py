@@ -494,8 +494,8 @@ def size(site: Any, model: Any = None, *, system: Any = None,
         Torque-rating scales, further candidate models, wind speeds, the choice's tolerance,
         scales added beyond the edge, adaptive grids.
     rating : RatingOverrides
-        The reference rating's continuous torque, speed limit and overload, when not the
-        system's.
+        The reference rating's continuous torque, speed limit and torque limit, when not
+        the system's (x1 is then not the drive :func:`optimize` flies).
     solver, execution : SolverChoice, Execution
         As for :func:`optimize` (``solver``: its ``n_intervals`` and ``degree``).
     out : path

@@ -73,16 +73,18 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser(argv)
     args = parser.parse_args(argv)
     args.command_line = ("bench", *argv)  # what the stage records in its provenance header
+    # the subcommand its messages name: `bench cycle export`, not `bench cycle`
+    name = " ".join(x for x in (args.command, getattr(args, "action", None)) if x)
     try:
         return int(_load(args._module).run(args) or 0)
     except InputError as exc:
-        print(f"bench {args.command}: error: {exc.describe()}", file=sys.stderr)
+        print(f"bench {name}: error: {exc.describe()}", file=sys.stderr)
         return 2
     except OSError as exc:  # a place that cannot be written, found only while writing
         if exc.errno not in WRITE_ERRNOS:
             raise
         where = exc.filename or "<output>"
-        print(f"bench {args.command}: error: {where}: cannot write ({WRITE_ERRNOS[exc.errno]}); "
+        print(f"bench {name}: error: {where}: cannot write ({WRITE_ERRNOS[exc.errno]}); "
               "expected a writable output folder", file=sys.stderr)
         return 2
 

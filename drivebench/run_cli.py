@@ -20,12 +20,14 @@ from pathlib import Path
 
 #: the site of ``bench run`` when none is given: Weibull k = 2, mean 5.5 m/s at 100 m
 #: (the paper's Leuven figure)
-DEMO_SITE = {"weibull_k": 2.0, "mean_speed": 5.5, "site_height_m": 100.0}
+DEMO_SITE = {"weibull_k": 2.0, "mean_speed": 5.5, "height_m": 100.0}
 #: the sizing grid of ``bench run`` (:func:`site_wind_grid`): twice the optimize grid's step
 #: and up to the speed above which 5 % of the site's hours lie, so the drive is chosen on
 #: at least 95 % of the hours (below the grid's first speed, under the cut-in, no drive
 #: delivers) at about a third more solves than ``bench size``'s own three speeds
 SIZE_GRID = (2, 0.05)
+#: the stages that show a progress bar (``--no-progress``)
+PROGRESS_STAGES = ("ingest", "fit", "optimize", "aep", "size")
 #: ``bench run`` option -> (the stages that take it, their option): passed on only when given
 FORWARDED = {
     "order": (("fit",), "--order"),
@@ -72,13 +74,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="site for `bench aep` and `bench size`: Weibull shape "
                              f"(default {DEMO_SITE['weibull_k']:g})")
     parser.add_argument("--mean-speed", type=float, default=DEMO_SITE["mean_speed"],
-                        help="site mean wind speed [m/s] at --site-height-m (default "
+                        help="site mean wind speed [m/s] at --height-m (default "
                              f"{DEMO_SITE['mean_speed']:g}, the paper's Leuven figure)")
-    parser.add_argument("--site-height-m", type=float, default=DEMO_SITE["site_height_m"],
-                        help=f"site height [m] (default {DEMO_SITE['site_height_m']:g})")
+    parser.add_argument("--height-m", type=float, default=DEMO_SITE["height_m"],
+                        help="height of the site's wind figures [m] (default "
+                             f"{DEMO_SITE['height_m']:g})")
     parser.add_argument("--no-refine", action="store_true",
                         help="`bench aep` on the sweep grid only, without --refine (the "
                              "added wind speeds where the curves bend)")
+    parser.add_argument("--no-progress", action="store_true",
+                        help="no progress bar (--no-progress of every stage that shows one)")
 
 
 def site_wind_grid(site_argv: list[str], step_factor: int = 1,
@@ -107,11 +112,13 @@ def stage_commands(args: argparse.Namespace) -> list[list[str]]:
     store, fit, opt = out / "bench_store", out / "fit", out / "optimize"
     aep, size = out / "aep", out / "size"
     site = ["--weibull-k", f"{args.weibull_k:g}", "--mean-speed", f"{args.mean_speed:g}",
-            "--height-m", f"{args.site_height_m:g}"]
+            "--height-m", f"{args.height_m:g}"]
     given: dict[str, list[str]] = {s: [] for s in ("ingest", "fit", "optimize", "aep", "size")}
     for dest, (stages, option) in FORWARDED.items():
         for stage in stages if getattr(args, dest) is not None else ():
             given[stage] += [option, str(getattr(args, dest))]
+    for stage in PROGRESS_STAGES if args.no_progress else ():
+        given[stage].append("--no-progress")
     wind_grid = args.wind_grid or site_wind_grid(site)
     if args.size_wind_grid is None:
         given["size"] += ["--wind-grid", site_wind_grid(site, *SIZE_GRID)]

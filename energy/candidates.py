@@ -27,37 +27,54 @@ def _drive_value(path: Path, key: str) -> float | None:
     return float(value) if isinstance(value, int | float) and value > 0 else None
 
 
-def reference_rating(rating: Any, rated_torque_nm: float | None = None,
+def reference_rating(rating: Any, continuous_torque_nm: float | None = None,
                      max_speed_rpm: float | None = None,
-                     overload: float | None = None) -> tuple[Any, list[str]]:
-    """The reference drive's rating: the system's drive in force with the given
-    overrides (``--rated-torque-nm``, ``--max-speed-rpm``, ``--overload``); a continuous
-    torque or an overload the system does not state is said."""
+                     max_torque_nm: float | None = None) -> tuple[Any, list[str]]:
+    """The reference drive's rating (x1): the system's drive in force, the limits
+    ``bench optimize``'s constrained kinds fly, with the given overrides
+    (``--continuous-torque-nm``, ``--max-speed-rpm``, ``--max-torque-nm``).
+
+    The peak torque is the system's ``max_torque_nm``: a short-time torque above it is
+    flown only where the system file (or ``--max-torque-nm``) states it as the drive's
+    limit. A continuous torque the system does not state, a stated ``overload`` that no
+    stage flies, and an override that departs from the system's limits are said.
+    """
     notes = []
-    for name, v in (("--rated-torque-nm", rated_torque_nm),
-                    ("--max-speed-rpm", max_speed_rpm), ("--overload", overload)):
+    for name, v in (("--continuous-torque-nm", continuous_torque_nm),
+                    ("--max-speed-rpm", max_speed_rpm), ("--max-torque-nm", max_torque_nm)):
         if v is not None and not (math.isfinite(v) and v > 0):
-            raise InputError(None, f"{name} {v}", expected="a value > 0")
-    if overload is not None and overload < 1:
-        raise InputError(None, f"--overload {overload}", expected="a factor >= 1")
-    continuous = rated_torque_nm or rating.continuous_torque_nm
+            raise InputError(None, f"option {name} {v}", expected="a value > 0")
+    peak = max_torque_nm or rating.max_torque_nm
+    continuous = continuous_torque_nm or rating.continuous_torque_nm
     if continuous is None:
-        continuous = rating.max_torque_nm
+        continuous = peak
         notes.append(f"the system's [drive] states no continuous_torque_nm: its torque limit "
-                     f"{continuous:g} N m is taken as the continuous rating")
-    overload = overload or rating.overload
-    peak = overload * continuous if overload is not None else max(rating.max_torque_nm,
-                                                                   continuous)
-    if overload is None:
-        notes.append(f"the system's [drive] states no overload: peak torque {peak:g} N m")
+                     f"{peak:g} N m is taken as the continuous rating")
+    if rating.overload is not None and rating.overload * continuous > peak:
+        notes.append(f"the system's [drive] states overload {rating.overload:g} (a short-time "
+                     f"{rating.overload * continuous:g} N m): not flown; the drive's torque "
+                     f"limit is max_torque_nm {peak:g} N m, as in bench optimize (state a "
+                     "short-time torque as max_torque_nm to fly it)")
+    departs = [f"{opt} {v:g}" for opt, v, own in (
+        ("--max-torque-nm", max_torque_nm, rating.max_torque_nm),
+        ("--max-speed-rpm", max_speed_rpm, rating.max_speed_rpm),
+        ("--continuous-torque-nm", continuous_torque_nm, rating.continuous_torque_nm))
+        if v is not None and v != own]
+    if departs:
+        notes.append(f"x1 is not the drive bench optimize flies: {', '.join(departs)} in place "
+                     "of the system's [drive]")
+    if continuous > peak:
+        notes.append(f"continuous torque {continuous:g} N m above the torque limit {peak:g} "
+                     "N m: the continuous rating never binds")
     return dataclasses.replace(rating, continuous_torque_nm=continuous, max_torque_nm=peak,
                                max_speed_rpm=max_speed_rpm or rating.max_speed_rpm,
-                               overload=peak / continuous), notes
+                               overload=None), notes
 
 
 def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
-                     rated_torque_nm: float | None = None, max_speed_rpm: float | None = None,
-                     overload: float | None = None) -> tuple[list, list[str]]:
+                     continuous_torque_nm: float | None = None,
+                     max_speed_rpm: float | None = None,
+                     max_torque_nm: float | None = None) -> tuple[list, list[str]]:
     """The candidate drives of the reference drive in force (``drive``,
     :func:`optimize.system.drive_in_force.drive_in_force`) scaled by ``scales``, plus one per
     power-model file of ``models``; and notes on what was assumed."""
@@ -65,15 +82,21 @@ def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
     from fitting.model_file import load_power_model
     from kernel.drive_rating import DriveRating
 
-    rating, notes = reference_rating(drive.rating, rated_torque_nm, max_speed_rpm, overload)
+    rating, notes = reference_rating(drive.rating, continuous_torque_nm, max_speed_rpm,
+                                     max_torque_nm)
     candidates = scaled_candidates(drive.model, rating, tuple(scales))
     for p in models:
         m = load_power_model(p)
-        cont = _drive_value(p, "max_torque_nm") or rating.continuous_torque_nm
+        peak = _drive_value(p, "max_torque_nm") or rating.max_torque_nm
+        cont = _drive_value(p, "continuous_torque_nm")
+        if cont is None:
+            cont = peak * rating.continuous_torque_nm / rating.max_torque_nm
+            notes.append(f"{p}: its drive states no continuous_torque_nm: {cont:g} N m, the "
+                         "reference drive's continuous share of its torque limit")
         own = DriveRating(_drive_value(p, "nominal_power_w") or m.nominal_power_w,
                           _drive_value(p, "max_speed_rpm") or rating.max_speed_rpm,
-                          rating.overload * cont, source=str(p), continuous_torque_nm=cont,
-                          overload=rating.overload, max_p_elec_w=rating.max_p_elec_w)
+                          peak, source=str(p), continuous_torque_nm=cont,
+                          max_p_elec_w=rating.max_p_elec_w)
         candidates.append(Candidate(Path(p).stem, m, own))
     return candidates, notes
 

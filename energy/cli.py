@@ -66,7 +66,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                    help="largest grid per kind, failed solves included (default 25)")
     g.add_argument("--workers", type=int, default=2,
                    help="worker processes for --refine (one kind per task; default 2)")
-    g.add_argument("--scheduler", default=None,
+    g.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="Dask scheduler address for --refine instead of the local pool")
     g.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_site_arguments(parser)

@@ -226,6 +226,15 @@ class RefinedRun:
         return {s: g for k in self.kinds.values() for s, g in k.gradients.items()}
 
 
+def solve_counter(desc: str, show: bool, file: Any = None) -> Any:
+    """A progress bar of solves whose number is not known before they run (grids refined
+    where the curve bends): it counts the solves done and their rate, and shows no share
+    of a total, so it never sits at 100 % while solves still run."""
+    from tqdm import tqdm
+
+    return tqdm(total=None, unit="solve", desc=desc, disable=not show, file=file)
+
+
 def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: float = DEFAULT_TOL,
                max_points: int = 25, workers: int = 2, scheduler: str | None = None,
                show_progress: bool = True, backend: Any = None) -> RefinedRun:
@@ -238,8 +247,6 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
     InputError
         ``model`` is not the sweep's (manifest hash), or the manifest has no options.
     """
-    from tqdm import tqdm
-
     from optimize.door import attempt_line, run_chains
 
     manifest_path = run.folder / "manifest.json"
@@ -254,7 +261,7 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
                                 strict=True)),
                       site, Path(store), tol, max_points, backend, system)
              for k, c in run.curves.items() if len(c.wind_speed_m_s) >= 2]
-    bar = tqdm(total=0, unit="solve", desc="refine", disable=not show_progress)
+    bar = solve_counter("refine", show_progress)
     counts = {"solved": 0, "loaded": 0}
 
     def on_event(ev: dict) -> None:
@@ -262,7 +269,6 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
             bar.set_postfix_str(attempt_line(ev))
             return
         counts["loaded" if ev["cached"] else "solved"] += 1
-        bar.total += 1
         bar.set_postfix_str(f"{ev['kind']} {ev['wind']:g} m/s ({ev['role']}): "
                             f"{'stored' if ev['cached'] else ev['status']}")
         bar.update(1)

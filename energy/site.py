@@ -222,6 +222,21 @@ class Histogram:
 
 Distribution = Weibull | Histogram
 
+
+def site_from_dict(record: dict) -> Distribution:
+    """The distribution a ``to_dict`` record describes (``aep.json``, ``sizing.json``).
+
+    Raises
+    ------
+    ValueError
+        A record of another type, or values that make no distribution.
+    """
+    if record.get("type") == "weibull":
+        return Weibull(float(record["k"]), float(record["scale_m_s"]))
+    if record.get("type") == "histogram":
+        return Histogram(tuple(record["edges_m_s"]), tuple(record["probabilities"]))
+    raise ValueError(f"site type {record.get('type')!r}: 'weibull' or 'histogram' expected")
+
 #: the share of the site's hours a wind grid that "covers the site" may leave above its
 #: last speed (:func:`covering_stop`)
 TAIL_SHARE = 0.005

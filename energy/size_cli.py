@@ -38,15 +38,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--models", type=Path, nargs="*", default=(),
                         help="further candidates: power_model.json files (rated torque and "
                              "speed limit from their drive section, else the reference ones)")
-    parser.add_argument("--rated-torque-nm", type=float, default=None,
+    parser.add_argument("--continuous-torque-nm", type=float, default=None,
                         help="reference drive's continuous (RMS) torque rating [N m] (default: "
                              "the system's [drive] continuous_torque_nm, else its max_torque_nm)")
     parser.add_argument("--max-speed-rpm", type=float, default=None,
-                        help="speed limit [rpm] (default: the system's [drive] max_speed_rpm)")
-    parser.add_argument("--overload", type=float, default=None,
-                        help="short-time peak torque / continuous torque (default: the "
-                             "system's [drive] overload, else its max_torque_nm / continuous "
-                             "torque)")
+                        help="reference drive's speed limit [rpm] (default: the system's "
+                             "[drive] max_speed_rpm)")
+    parser.add_argument("--max-torque-nm", type=float, default=None,
+                        help="reference drive's torque limit, its short-time peak [N m] "
+                             "(default: the system's [drive] max_torque_nm, the limit bench "
+                             "optimize flies)")
     parser.add_argument("--wind-grid", default=DEFAULT_WINDS,
                         help=f"wind speeds at the reference height [m/s] (default {DEFAULT_WINDS})")
     parser.add_argument("--adaptive", action="store_true",
@@ -64,6 +65,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
                         help="run on a Dask cluster at this scheduler address")
     parser.add_argument("--out", type=Path, default=Path("size_out"), help="output folder")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_site_arguments(parser)
 
 
@@ -90,10 +92,11 @@ def run(args: argparse.Namespace) -> int:
     print(f"system: {system.name} ({system.path})")
     done = run_size(site, args.drive_model, system=system, fit_default=FIT_MODEL_PATH,
                     grid=grid, out=args.out, site_note=site_note,
-                    rating=RatingOverrides(args.rated_torque_nm, args.max_speed_rpm,
-                                           args.overload),
+                    rating=RatingOverrides(args.continuous_torque_nm, args.max_speed_rpm,
+                                           args.max_torque_nm),
                     solver=SolverChoice(args.intervals, args.degree),
-                    execution=Execution(args.workers, args.scheduler, progress=True),
+                    execution=Execution(args.workers, args.scheduler,
+                                        progress=not args.no_progress),
                     command_line=args.command_line,
                     before_solving=lambda d, n: _announce(d, n, len(grid.winds_m_s), args.out,
                                                           system.drive.max_winding_temperature_c))
@@ -116,8 +119,8 @@ def _announce(drive: Any, n_candidates: int, n_winds: int, out: Path,
         print(line)
     heat = winding_limit_c is not None and getattr(drive.model, "thermal", None) is not None
     rating = (f"winding temperature <= {winding_limit_c:g} degC" if heat
-              else "RMS torque <= rated")
-    print(f"{n_candidates} candidates x {n_winds} wind speeds (elec-lim, {rating}); solves "
-          f"stored in {out / 'solves'}")
+              else "RMS torque <= the continuous rating where below the torque limit")
+    print(f"{n_candidates} candidates x {n_winds} wind speeds (elec-lim, each the drive above "
+          f"scaled: torque and speed limits, {rating}); solves stored in {out / 'solves'}")
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from energy.candidates import build_candidates
-from energy.sizing import run_sizing, size_extending
+from energy.sizing import candidate_row, limits_text, run_sizing, size_extending
 from energy.sizing_files import SIZE_KEEP, SIZE_MARKERS, edge_note, grid_hours, write_sizing
 from kernel.errors import InputError
 from kernel.output_folder import check_replaceable
@@ -78,21 +78,22 @@ class SizingGrid:
 
 @dataclass(frozen=True)
 class RatingOverrides:
-    """Overrides of the reference drive's rating (None: the system's ``[drive]``).
+    """Overrides of the reference drive's rating (None: the system's ``[drive]``, the
+    limits ``bench optimize`` flies).
 
     Attributes
     ----------
-    rated_torque_nm : float or None
+    continuous_torque_nm : float or None
         Continuous (RMS) torque rating [N m].
     max_speed_rpm : float or None
         Speed limit [rpm].
-    overload : float or None
-        Short-time peak torque over continuous torque [-].
+    max_torque_nm : float or None
+        Torque limit (the short-time peak torque) [N m].
     """
 
-    rated_torque_nm: float | None = None
+    continuous_torque_nm: float | None = None
     max_speed_rpm: float | None = None
-    overload: float | None = None
+    max_torque_nm: float | None = None
 
 
 #: the defaults as objects, for signatures (frozen, so shared safely)
@@ -163,11 +164,13 @@ def run_size(site: Any, model: Any = None, *, system: Any = None,
     system, drive = setup.system, setup.drive
 
     def candidates(scales: tuple[float, ...]) -> tuple[list, list[str]]:
-        return build_candidates(drive, scales, grid.models, rating.rated_torque_nm,
-                                rating.max_speed_rpm, rating.overload)
+        return build_candidates(drive, scales, grid.models, rating.continuous_torque_nm,
+                                rating.max_speed_rpm, rating.max_torque_nm)
 
     first, notes = candidates(grid.scales)
-    notes = [setup.thermal_line(), *notes]
+    notes = [setup.thermal_line(),
+             *(f"{c.name} flies {limits_text(candidate_row(c))}" for c in first
+               if c.scale == 1.0), *notes]
     if before_solving is not None:
         before_solving(drive, len(first))
     result, edge, added = size_extending(

@@ -16,7 +16,10 @@ speed rating (``k_n = 1``, ``k_T = s``): ``P_s(n, T) = s P_1(n, T / s)``, a driv
 of ``s`` times the torque rating behaves like ``s`` reference drives sharing the
 torque on one shaft (for a term ``c n^i T^j``: ``c -> s^(1 - j) c``). Rating:
 continuous torque ``s T_cont``, peak torque ``s T_peak``, the same speed limit,
-nominal power ``s P_nom``; the system's other limits are kept. A thermal model is
+nominal power ``s P_nom``, a torque-speed envelope's torques ``s T(n)``; the system's other
+limits are kept. The reference drive x1 is the system's drive as ``bench optimize`` flies
+it: peak torque its ``max_torque_nm``, the RMS torque bound of its continuous rating only
+when below that (:attr:`kernel.drive_rating.DriveRating.rms_torque_limit_nm`). A thermal model is
 carried with the losses: ``r_th / s``, ``c_th s``, the time constant, the copper
 coefficient and the temperatures kept (``s`` reference drives side by side, each with
 its own cooling), so every candidate reaches the reference's temperature at
@@ -90,7 +93,8 @@ class Candidate:
         return self.rating.nominal_power_w
 
     def ocp_options(self, n_intervals: int, degree: int, system: Any) -> Any:
-        """The OCP options of ``system`` (bounds) with this drive's limits and rating.
+        """The OCP options of ``system`` (bounds) with this drive's limits and rating, as
+        ``bench optimize`` builds them for the system's drive: x1 flies its limits exactly.
 
         Parameters
         ----------
@@ -103,7 +107,11 @@ class Candidate:
 
         options = system.ocp_options(OcpOptions(Discretization(n_intervals, degree)),
                                      self.rating)
-        return options.replace(limits={"max_rms_torque_nm": self.rated_torque_nm})
+        table = options.limits.envelope_torque_nm
+        if self.scale is None or table is None:  # a base speed scales with max_torque_nm
+            return options
+        return options.replace(limits={"envelope_torque_nm": tuple(self.scale * t
+                                                                   for t in table)})
 
     def problem(self, n_intervals: int, degree: int, system: Any) -> Any:
         """The OCP problem (:class:`optimize.service.builder.Problem`) of this drive in
@@ -155,6 +163,13 @@ class SizingResult:
     n_cached: int
 
 
+def candidate_row(c: Candidate) -> dict:
+    """A candidate's name, scale and the limits it flies, as its row of
+    :func:`candidate_table` begins."""
+    return {"candidate": c.name, "scale": c.scale, "rated_torque_nm": c.rated_torque_nm,
+            "peak_torque_nm": c.peak_torque_nm, "max_speed_rpm": c.max_speed_rpm}
+
+
 def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
                     tolerance: float = 0.02, winding_limit_c: float | None = None
                     ) -> tuple[Any, str | None, str | None]:
@@ -167,7 +182,8 @@ def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
     -------
     (DataFrame, str or None, str or None)
         Rows ``candidate, scale, rated_torque_nm, peak_torque_nm, max_speed_rpm,
-        nominal_power_w, n_converged, n_winds, aep_elec_mwh, capacity_factor_elec,
+        peak_torque_flown_nm, peak_speed_flown_rpm`` (the largest over its converged
+        solves), ``nominal_power_w, n_converged, n_winds, aep_elec_mwh, capacity_factor_elec,
         aep_share_of_best, rms_bound_active_at, thermal_bound_active_at,
         peak_winding_temperature_c``; the best candidate's name and the chosen one.
         A candidate with a failed solve gets no AEP (never an AEP from fewer points).
@@ -195,8 +211,9 @@ def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
                and r["peak_winding_temperature_c"] >= winding_limit_c - 1e-3 * abs(
                    winding_limit_c)]
         rows.append({
-            "candidate": c.name, "scale": c.scale, "rated_torque_nm": c.rated_torque_nm,
-            "peak_torque_nm": c.peak_torque_nm, "max_speed_rpm": c.max_speed_rpm,
+            **candidate_row(c),
+            "peak_torque_flown_nm": _largest(ok, "peak_torque_nm"),
+            "peak_speed_flown_rpm": _largest(ok, "peak_speed_rpm"),
             "nominal_power_w": c.nominal_power_w, "n_converged": len(ok), "n_winds": len(recs),
             "aep_elec_mwh": aep,
             "capacity_factor_elec": (None if aep is None
@@ -215,6 +232,27 @@ def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
     within = valid[valid["aep_elec_mwh"] >= (1 - tolerance) * best["aep_elec_mwh"]]
     chosen = within.sort_values("rated_torque_nm").iloc[0]["candidate"]
     return table.reset_index(drop=True), str(best["candidate"]), str(chosen)
+
+
+def _largest(records: list[dict], key: str) -> float | None:
+    """The largest ``key`` over the solve records that state it (None: none does)."""
+    values = [r[key] for r in records if r.get(key) is not None]
+    return max(values) if values else None
+
+
+def limits_text(candidate: dict) -> str:
+    """The limits a sizing candidate flew, from its row of :func:`candidate_table` (or of
+    ``sizing.json``): torque, RMS torque (when below the torque limit, else implied by
+    it), speed."""
+    def num(key: str, decimals: int) -> str:
+        value = candidate.get(key)
+        return "?" if value is None else f"{float(value):.{decimals}f}"
+
+    peak, cont = candidate.get("peak_torque_nm"), candidate.get("rated_torque_nm")
+    rms = (f"RMS <= {num('rated_torque_nm', 1)} N m"
+           if cont is not None and peak is not None and cont < peak else "RMS implied")
+    return (f"torque <= {num('peak_torque_nm', 1)} N m, {rms}, |speed| <= "
+            f"{num('max_speed_rpm', 0)} rpm")
 
 
 def edge_of_set(table: Any, best: str | None) -> str | None:
@@ -298,6 +336,7 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
     from tqdm import tqdm
 
     from energy.adaptive import refine_grid
+    from energy.refine import solve_counter
     from optimize.door import Refinement, SolveTask, attempt_line, load_system, solve_tasks
 
     system = system if system is not None else load_system()
@@ -305,7 +344,8 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
                        (("candidate", c.name),))
              for c in candidates for w in winds]
     refinement = partial(Refinement, site=site, grid=refine_grid) if adaptive else None
-    bar = tqdm(total=len(tasks), unit="solve", desc="size", disable=not show_progress)
+    bar = (solve_counter("size", show_progress) if adaptive else
+           tqdm(total=len(tasks), unit="solve", desc="size", disable=not show_progress))
     counts = {"solved": 0, "cached": 0}
 
     def on_event(ev: dict) -> None:
@@ -313,8 +353,6 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
             bar.set_postfix_str(f"{ev['candidate']} {attempt_line(ev)}")
             return
         counts["cached" if ev["cached"] else "solved"] += 1
-        if bar.n >= bar.total:  # an adaptive grid adds speeds
-            bar.total += 1
         bar.set_postfix_str(f"{ev['candidate']} {ev['wind']:g} m/s: "
                             f"{'stored' if ev['cached'] else ev['status']}")
         bar.update(1)

@@ -16,7 +16,7 @@ from kernel.errors import InputError
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the ``bench fit`` options."""
     parser.add_argument("--store", default="bench_store", help="store written by bench ingest")
-    parser.add_argument("--out", default="fit_out", help="output directory")
+    parser.add_argument("--out", default="fit_out", help="output folder")
     group = parser.add_mutually_exclusive_group()
     group.add_argument("--order", default="2",
                        help="total order 1..6 of the exported model, or 'auto' to select it; "
@@ -35,6 +35,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--envelope-band-frac", type=float, default=BAND_FRAC,
                         help="speed band of the measured envelope, a fraction of the largest "
                              "|speed| (default: %(default)s)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     rating = parser.add_argument_group(
         "drive rating (default: the campaign's drive.toml / session.toml, as ingested)")
     rating.add_argument("--nominal-power-w", type=float, help="nominal power [W]")
@@ -73,7 +74,8 @@ def run(args: argparse.Namespace) -> int:
                          mask_elec_frac=args.mask_elec_frac,
                          envelope_band_frac=args.envelope_band_frac, drive=drive,
                          command_line=command_line)
-    print(format_summary(run_fit(args.store, args.out, options, progress=True), args.out))
+    print(format_summary(run_fit(args.store, args.out, options,
+                                        progress=not args.no_progress), args.out))
     return 0
 
 

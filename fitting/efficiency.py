@@ -97,7 +97,7 @@ class MaskingRules:
         d["rules"] = [
             f"|P_mech| < {self.mech_frac:g} * {self.nominal_power_w:g} W -> masked (NaN)",
             f"|P_elec| < {self.elec_frac:g} * {self.nominal_power_w:g} W -> masked (NaN)",
-            "negative efficiency -> 0",
+            "negative efficiency -> 0, drawn white as the masked nodes",
             f"efficiency > {self.max_efficiency:g} -> masked (NaN)",
             "grid nodes outside the quadrant's measured envelope (highest and lowest measured "
             f"torque per speed band of {self.envelope_band_frac:g} x max |speed|) -> NaN "

@@ -33,6 +33,9 @@ EFFICIENCY_CONTOURS = (0.5, 0.7, 0.8, 0.85, 0.9)
 #: Map nodes the masking rules blank (drawn white like a negative efficiency, as in
 #: the paper); nodes outside the measured envelope are NaN and not drawn.
 MASKED_STATUSES = (NEAR_AXIS, ABOVE_MAX)
+#: Colour of the measured envelope's outline: none of the scenario kinds' colours
+#: (:data:`reports.plots.SCENARIO_COLORS`), so Fig. 9's cycles stay apart from it.
+ENVELOPE_COLOR = "#e377c2"
 #: Colours of the two quadrants.
 QUADRANT_COLORS = {"motor": "#1f77b4", "generator": "#2ca02c"}
 #: Above this many points, scatter layers are drawn as a bitmap (small SVG files).
@@ -103,8 +106,8 @@ def draw_efficiency_map(ax, map_frame: pd.DataFrame, domain: dict | None = None,
         ax.clabel(cs, fontsize=7, fmt="%.2f")
     for k, poly in enumerate((domain or {}).values()):
         p = np.asarray(poly, dtype=float)
-        ax.plot(np.r_[p[:, 0], p[:1, 0]], np.r_[p[:, 1], p[:1, 1]], color="tab:red", lw=0.8,
-                label="measured envelope" if k == 0 else None)
+        ax.plot(np.r_[p[:, 0], p[:1, 0]], np.r_[p[:, 1], p[:1, 1]], color=ENVELOPE_COLOR,
+                lw=0.8, label="measured envelope" if k == 0 else None, gid="measured-envelope")
     clipped = (map_frame[map_frame["status"] == CLIPPED] if "status" in map_frame.columns
                else map_frame.iloc[:0])
     if len(clipped):
@@ -159,7 +162,9 @@ def draw_power_map(ax, model, points: pd.DataFrame) -> pd.DataFrame:
                                                   points["p_elec_w"].to_numpy(float)]))
     ax.scatter(points["speed_rpm"], points["torque_nm"], s=3, color="0.6", alpha=0.5,
                label="measured points", rasterized=len(points) > RASTER_ABOVE_POINTS)
-    cs = ax.contour(sg, tg, pg, levels=levels, colors="k", linewidths=0.7)
+    # solid below zero too: dashed lines are the measured contours
+    cs = ax.contour(sg, tg, pg, levels=levels, colors="k", linewidths=0.7,
+                    negative_linestyles="solid")
     ax.contour(sg, tg, pg, levels=[0.0], colors="k", linewidths=2.2)
     ax.clabel(cs, levels=levels[:: max(1, len(levels) // 8)], fontsize=7, fmt="%.0f")
     for _, group in points.groupby("quadrant"):

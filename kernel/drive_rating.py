@@ -58,8 +58,8 @@ class DriveRating:
         Continuous (thermal) torque rating [N m]: RMS torque over a cycle at most this.
         None: not stated.
     overload : float or None
-        Short-time peak torque over the continuous rating [-] (>= 1; ``bench size``
-        candidates' peak torque). None: not stated.
+        The datasheet's short-time torque over the continuous rating [-] (>= 1), for the
+        record: no stage flies it (the torque limit is ``max_torque_nm``). None: not stated.
     max_p_elec_w : float or None
         Largest electrical power magnitude (grid connection) [W]; None: no limit.
     base_speed_rpm : float or None
@@ -124,7 +124,8 @@ class DriveRating:
         """One line for summaries and reports."""
         extra = "".join(
             f", {label} {getattr(self, key):g} {unit}" for key, label, unit in (
-                ("continuous_torque_nm", "continuous", "N m"), ("overload", "overload", "x"),
+                ("continuous_torque_nm", "continuous", "N m"),
+                ("overload", "datasheet overload (not flown)", "x"),
                 ("max_p_elec_w", "|P_elec| <=", "W"))
             if getattr(self, key) is not None)
         return (f"drive: {self.nominal_power_w:g} W nominal, |speed| <= {self.max_speed_rpm:g} "

@@ -17,7 +17,8 @@ class InputError(Exception):
     line : int, optional
         1-based line number in the file, when known.
     column : str, optional
-        Column name (or 1-based column index as text), when known.
+        Column name (or 1-based column index as text), when known; a command-line option
+        (``--scenario``) when the value came from one, said as "option --scenario".
     expected : str, optional
         What the tool expected instead.
     """
@@ -47,8 +48,9 @@ class InputError(Exception):
         parts = [] if self.path is None else [str(self.path)]
         if self.path is not None and self.line is not None:
             parts[0] += f":{self.line}"
-        if self.column is not None:
-            parts.append(f"column {self.column!r}")
+        if self.column is not None:  # a command-line option is an option, not a column
+            parts.append(f"option {self.column}" if str(self.column).startswith("--")
+                         else f"column {self.column!r}")
         msg = ": ".join([*parts, self.problem])
         if self.expected:
             msg += f"; expected {self.expected}"

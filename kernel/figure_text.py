@@ -68,6 +68,20 @@ def fit_text(fig: Figure, passes: int = 3) -> Figure:
     return fig
 
 
+def fit_title(ax) -> None:
+    """Wrap the title of ``ax`` at spaces to :data:`MAX_SHARE` of the axes' width, so it
+    stays over its own axes: inside the figure and off a neighbouring panel (a figure's
+    layout may still change after; :func:`fit_text` checks the whole figure)."""
+    for _ in range(3):
+        renderer, title = _renderer(ax.figure), ax.title
+        length, room = title.get_window_extent(renderer).width, ax.bbox.width
+        if not title.get_text().strip() or length <= MAX_SHARE * room:
+            return
+        lines = title.get_text().split("\n")
+        width = max(8, int(max(map(len, lines)) * MAX_SHARE * room / length))
+        title.set_text("\n".join(textwrap.fill(line, width) for line in lines))
+
+
 def overflowing_text(fig: Figure, tolerance_px: float = 1.0) -> list[str]:
     """The texts of ``fig`` (after layout) that reach beyond the figure's edges."""
     renderer = _renderer(fig)

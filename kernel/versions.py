@@ -3,6 +3,7 @@ stage records them (manifests, the report's provenance section)."""
 
 from __future__ import annotations
 
+import functools
 import platform
 from importlib import metadata
 
@@ -35,12 +36,14 @@ print(".".join(str(p.value) for p in parts))
 """
 
 
+@functools.cache
 def ipopt_version() -> str:
     """The version of the IPOPT library CasADi loads, as the library states it
     (``GetIpoptVersion``), or ``"not found (...)"``.
 
     Asked in a child process: loading IPOPT here would load its BLAS before the solve
-    code sets its thread count (:mod:`optimize.solve.backend`), which it reads once.
+    code sets its thread count (:mod:`optimize.solve.backend`), which it reads once; asked
+    once per process.
     """
     import subprocess
     import sys

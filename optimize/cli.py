@@ -67,6 +67,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="run on a Dask cluster at this scheduler address instead (needs drivebench[dask])",
     )
     parser.add_argument("--out", type=Path, default=Path("optimize_out"), help="output folder")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument(
         "--no-claims", action="store_true", help="skip the cut-in search and the paper comparison"
     )
@@ -132,10 +133,10 @@ def run(args: argparse.Namespace) -> int:
         SolverChoice(args.intervals, args.degree, args.solver, args.linear_solver,
                      not args.no_stored_guess, args.transcription, args.codegen),
         model=args.drive_model, system=args.system, fit_default=FIT_MODEL_PATH, out=args.out,
-        execution=Execution(args.workers, args.scheduler, progress=True),
+        execution=Execution(args.workers, args.scheduler, progress=not args.no_progress),
         claims=not args.no_claims, trust=args.trust)
     print(request.model_note)
-    sweep = run_optimize(request, list(args.command_line), show_progress=True)
+    sweep = run_optimize(request, list(args.command_line), show_progress=not args.no_progress)
     print(format_summary(sweep.summary))
     if sweep.claims is not None:
         from optimize.analysis.claims import format_claims

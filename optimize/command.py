@@ -158,6 +158,7 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
     note += "\n" + "\n".join(drive.lines())
     note += "\n" + loaded.kite_limits().describe()
     note += "\n" + loaded.drivetrain_line()
+    note += "\n" + loaded.tether_air_line()
     note += "\n" + setup.thermal_line()
     if solver.n_intervals * solver.degree < MIN_COLLOCATION_POINTS:
         note += (f"\nmesh {mesh_label(solver.n_intervals, solver.degree)}: the result check "
@@ -228,7 +229,7 @@ def run_optimize(
         result = run_sweep(tasks, handle, show_progress)
         outcomes = list(result.outcomes)
         if request.trust:
-            trust = run_trust_checks(problem, outcomes, request.winds, handle)
+            trust = run_trust_checks(problem, outcomes, request.winds, handle, show_progress)
     thermal = winding_thermal(drive.model, options.limits)
     summary = outputs.summary_frame(outcomes, drive.model.domain,
                                     domain_scales(drive.model, options),

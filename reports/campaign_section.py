@@ -77,31 +77,80 @@ def campaign_section(log: InputLog, store: Path) -> dict:
         counts = points["quadrant"].astype(str).value_counts()
         quadrant_counts = {q: int(counts.get(q, 0)) for q in ("motor", "generator")}
         figure = drive_figures.operating_points_figure(points)
-    reasons = []
-    if rejected is not None and len(rejected):
-        table = rejected.groupby("reason").size().sort_values(ascending=False)
-        reasons = [{"reason": str(r), "count": int(n)} for r, n in table.items()]
-    elif manifest is not None:
-        agg: dict[str, int] = {}
-        for entry in manifest["sessions"].values():
-            for r, n in ((entry.get("rejected") if isinstance(entry, dict) else None)
-                         or {}).items():
-                agg[str(r)] = agg.get(str(r), 0) + int(n)
-        reasons = [{"reason": r, "count": n} for r, n in sorted(agg.items(), key=lambda x: -x[1])]
+    reasons = rejected_reasons(rejected, manifest)
     return {
         "sessions": sessions,
         "totals": {
             "sessions": len(sessions),
             "points": int(len(points)) if points is not None else None,
             **quadrant_counts,
-            "rejected": sum(r["count"] for r in reasons),
+            "rejected": sum(r["count"] for r in reasons if r["what"] == "window"),
+            "rejected_cycles": sum(r["count"] for r in reasons if r["what"] == "cycle"),
         },
         "rejected_reasons": reasons,
+        "beyond_rating": beyond_rating(points, manifest),
         "figure": figure,
         "missing": missing_since(log, start),
         "points": points,
         "manifest": manifest,
     }
+
+
+def rejected_reasons(rejected: pd.DataFrame | None, manifest: dict | None) -> list[dict]:
+    """Rejections by reason, largest first: ``{"reason", "what", "count"}``, ``what``
+    ``"cycle"`` for a cycle run's rejected cycles and ``"window"`` for the steady-state
+    windows of the other sessions; from the store's ``rejected/`` or, without it, the
+    manifest's counts."""
+    entries = {str(k): e for k, e in (manifest or {}).get("sessions", {}).items()
+               if isinstance(e, dict)}
+    cycle_runs = {sid for sid, e in entries.items() if e.get("kind") == "cycle_run"}
+    agg: dict[tuple[str, str], int] = {}
+    if rejected is not None and len(rejected):
+        what = rejected["session_id"].astype(str).isin(cycle_runs).map({True: "cycle",
+                                                                         False: "window"})
+        for (reason, kind), n in rejected.groupby([rejected["reason"].astype(str), what]).size(
+                ).items():
+            agg[(reason, kind)] = int(n)
+    else:
+        for sid, entry in entries.items():
+            kind = "cycle" if sid in cycle_runs else "window"
+            for r, n in (entry.get("rejected") or {}).items():
+                agg[(str(r), kind)] = agg.get((str(r), kind), 0) + int(n)
+    return [{"reason": r, "what": w, "count": n}
+            for (r, w), n in sorted(agg.items(), key=lambda x: -x[1])]
+
+
+#: a point this share above a stated limit is beyond it (a point run at the limit reads
+#: a little above it: its window's scatter) [-]
+BEYOND_SHARE = 0.01
+
+
+def beyond_rating(points: pd.DataFrame | None, manifest: dict | None) -> list[str]:
+    """Sentences on operating points beyond the drive rating their sessions state
+    (``drive.toml``/``session.toml``: ``max_speed_rpm``, ``max_torque_nm``, drum side):
+    how many, how far, under which rating."""
+    if points is None or not len(points) or manifest is None:
+        return []
+    out = []
+    for key, column, unit in (("max_speed_rpm", "speed_rpm", "rpm"),
+                              ("max_torque_nm", "torque_nm", "N m")):
+        limit = {str(sid): float(e["drive"][key]) for sid, e in manifest["sessions"].items()
+                 if isinstance(e, dict) and isinstance(e.get("drive"), dict)
+                 and isinstance(e["drive"].get(key), int | float)}
+        stated = points["session_id"].astype(str).map(limit)
+        value = points[column].astype(float).abs()
+        over = value > stated * (1 + BEYOND_SHARE)
+        if not over.any():
+            continue
+        worst = int((value / stated).where(over).idxmax())
+        out.append(f"{int(over.sum())} of {len(points)} operating points lie more than "
+                   f"{100 * BEYOND_SHARE:g} % beyond the drive's "
+                   f"stated {key} ({fmt(stated[worst], 0)} {unit} at the drum, session "
+                   f"{points['session_id'][worst]}): up to {fmt(value[worst], 0)} {unit}, "
+                   f"{value[worst] / stated[worst]:.1f} x the rating. The bench ran the drive "
+                   "beyond the limits the optimization flies; the map and the fit cover those "
+                   "points, the constrained cycles (*-lim) stay within the rating")
+    return out
 
 
 def _session_row(sid: str, entry: dict) -> dict:

@@ -45,9 +45,7 @@ def run(args: argparse.Namespace) -> int:
     """Build the report; print its path, size and the wall time."""
     t0 = time.perf_counter()
     check_output_file(args.out)
-    argv = ["bench", "report", "--store", str(args.store), "--fit", str(args.fit),
-            "--optimize", str(args.optimize), "--aep", str(args.aep), "--size", str(args.size),
-            "--verify", str(args.verify), "--out", str(args.out)]
+    argv = list(args.command_line)  # as given: an option not passed is not recorded
     with output_file(args.out, "report", is_report):  # one writer per file: a second waits
         out = build_report(args.store, args.fit, args.optimize, args.out, argv, args.aep,
                            args.size, args.verify)

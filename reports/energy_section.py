@@ -15,6 +15,7 @@ from markupsafe import Markup
 
 from energy.outputs import AEP_FILE, CURVES_FILE, read_aep, read_power_curves
 from energy.refine import refine_notes
+from energy.sizing import limits_text
 from energy.sizing_files import SIZING_FILE, read_sizing
 from optimize.door import LABELS
 from reports import plots, svg
@@ -79,6 +80,8 @@ def energy_section(log: InputLog, aep: Path, size: Path) -> dict:
         "figure": None, "aep_figure": None, "sign": None, "interpolation": None}
     sizing = log.read(size, SIZING_FILE, read_sizing) if Path(size).is_dir() else None
     out["sizing"] = sizing_context(sizing) if sizing is not None else None
+    if out["sizing"] is not None and doc is not None:
+        out["sizing"]["grids"] = grid_difference(doc, curves, sizing)
     out["missing"] = list(dict.fromkeys(log.missing[start:]))
     out["not_run"] = not_run
     out["documents"] = {"aep": doc, "size": sizing}
@@ -150,9 +153,9 @@ def sizing_context(sizing: dict) -> dict:
     """The sizing part of the section from ``sizing.json``."""
     cands = sizing.get("candidates") or []
     return {
-        "rows": [{"candidate": c.get("candidate"),
-                  "rated": fmt(c.get("rated_torque_nm"), 1),
-                  "peak": fmt(c.get("peak_torque_nm"), 0),
+        "rows": [{"candidate": c.get("candidate"), "limits": limits_text(c),
+                  "flown": (f"{fmt(c.get('peak_torque_flown_nm'), 1)} N m, "
+                            f"{fmt(c.get('peak_speed_flown_rpm'), 0)} rpm"),
                   "nominal": fmt(c.get("nominal_power_w"), 0),
                   "aep": fmt(c.get("aep_elec_mwh"), 3),
                   "share": _pct(c.get("aep_share_of_best")),
@@ -171,6 +174,53 @@ def sizing_context(sizing: dict) -> dict:
         "hours": (sizing.get("hours") or {}).get("note"),
         "figure": sizing_figure(cands, sizing.get("chosen")) if cands else None,
     }
+
+
+def _same_site(a: dict | None, b: dict | None) -> bool:
+    keys = ("type", "k", "scale_m_s", "edges_m_s", "probabilities")
+    return bool(a and b) and all(a.get(k) == b.get(k) for k in keys)
+
+
+def grid_difference(aep_doc: dict, curves: pd.DataFrame | None, sizing: dict) -> str | None:
+    """How far x1's sizing AEP lies from the AEP table's elec-lim AEP, and how much of that
+    the two stages' wind grids make: the AEP stage's elec-lim curve taken at the sizing
+    grid's speeds (linear between its own) and integrated as the sizing integrates.
+
+    Returns None without an x1 with an AEP, an elec-lim AEP or its curve.
+    """
+    from energy.aep import aep_mwh
+    from energy.site import site_from_dict
+
+    x1 = next((c for c in sizing.get("candidates") or [] if c.get("scale") == 1.0), None)
+    row = next((r for r in aep_doc.get("kinds") or [] if r.get("kind") == "elec-lim"), None)
+    if (x1 is None or row is None or x1.get("aep_elec_mwh") is None
+            or row.get("aep_elec_mwh") is None or curves is None):
+        return None
+    own, other = float(x1["aep_elec_mwh"]), float(row["aep_elec_mwh"])
+    head = (f"x1 against the AEP table's elec-lim: {own:.3f} against {other:.3f} MWh/yr "
+            f"({100 * (own / other - 1):+.2f} %)")
+    losses = ((aep_doc.get("optimize") or {}).get("drive_model") or {}).get("model_sha256")
+    if not _same_site(aep_doc.get("site"), sizing.get("site")):
+        return f"{head}: at another site, not compared."
+    if losses != (sizing.get("reference_drive") or {}).get("model_sha256"):
+        return f"{head}: x1 has other losses than the optimization's drive, not compared."
+    curve = curves[curves["kind"] == "elec-lim"].sort_values("wind_speed_m_s")
+    theirs = curve["wind_speed_m_s"].to_numpy(float)
+    ours = np.array(sorted({float(r["wind_speed_m_s"]) for r in sizing.get("solves") or []
+                            if r.get("candidate") == x1.get("candidate")}))
+    if len(ours) == len(theirs) and np.allclose(ours, theirs):
+        return f"{head}, on the same wind grid."
+    grids = (f"the wind grids differ (sizing: {len(ours)} speeds {ours[0]:g}-{ours[-1]:g} "
+             f"m/s; AEP stage: {len(theirs)} speeds {theirs[0]:g}-{theirs[-1]:g} m/s)")
+    if ours[0] < theirs[0] or ours[-1] > theirs[-1]:
+        return f"{head}; {grids}: the sizing grid reaches beyond the AEP stage's, not split."
+    on_ours = aep_mwh(ours, np.interp(ours, theirs, curve["p_elec_w"].to_numpy(float)),
+                      site_from_dict(aep_doc["site"]))
+    return (f"{head}; {grids}. The AEP stage's elec-lim curve at the sizing speeds gives "
+            f"{on_ours:.3f} MWh/yr: the grids make {on_ours - other:+.3f} MWh/yr "
+            f"({100 * (on_ours / other - 1):+.2f} %) of the difference, the solves at the "
+            f"sizing speeds (and the AEP curve's interpolation there) "
+            f"{own - on_ours:+.3f} MWh/yr ({100 * (own / on_ours - 1):+.2f} %).")
 
 
 def coverage_note(row: dict) -> str:

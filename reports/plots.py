@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 
 from fitting import figures
+from kernel.figure_text import fit_title
 from optimize.door import KINDS, LABELS
 
 #: Colours of the four scenario kinds, shared by every figure of the cycles.
@@ -99,6 +100,7 @@ def plot_efficiency_map(map_frame: pd.DataFrame, ax: Any = None, *, domain: dict
     """
     ax = new_axes(ax, (7.0, 4.0))
     figures.draw_efficiency_map(ax, map_frame, domain, masking)
+    fit_title(ax)  # the title within its own axes, never over a neighbouring panel
     if envelope is not None:
         x0, x1 = ax.get_xlim()
         y0, y1 = ax.get_ylim()
@@ -124,16 +126,30 @@ def plot_efficiency_map(map_frame: pd.DataFrame, ax: Any = None, *, domain: dict
     return ax
 
 
-def plot_power_curves(curves: pd.DataFrame, ax: Any = None) -> Any:
+def curve_frame(curves: pd.DataFrame | dict) -> pd.DataFrame:
+    """The rows of ``power_curves.csv`` from that frame (returned as it is) or from a sweep's
+    curves, scenario kind -> :class:`energy.curve.PowerCurve` (``Sweep.curves``: no band,
+    ``p_elec_sigma_w`` NaN)."""
+    if isinstance(curves, pd.DataFrame):
+        return curves
+    frames = [pd.DataFrame({"kind": kind, "wind_speed_m_s": c.wind_speed_m_s, "p_elec_w": c.p_elec_w,
+                            "p_mech_w": c.p_mech_w, "p_elec_sigma_w": np.nan})
+              for kind, c in curves.items()]
+    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(
+        columns=["kind", "wind_speed_m_s", "p_elec_w", "p_mech_w", "p_elec_sigma_w"])
+
+
+def plot_power_curves(curves: pd.DataFrame | dict, ax: Any = None) -> Any:
     """Delivered power against wind speed per scenario kind: electrical solid with its
     95 % band, mechanical dashed (positive = delivered).
 
     Parameters
     ----------
-    curves : DataFrame
+    curves : DataFrame or dict
         ``power_curves.csv`` of ``bench aep`` (or ``AepResult.assessment.curves``):
         ``kind``, ``wind_speed_m_s`` [m/s], ``p_elec_w``, ``p_mech_w`` [W] (our sign:
-        negative = generated) and ``p_elec_sigma_w`` [W] (NaN: no band).
+        negative = generated) and ``p_elec_sigma_w`` [W] (NaN: no band); or a sweep's
+        curves (``Sweep.curves``, :func:`curve_frame`), drawn without a band.
     ax : matplotlib Axes, optional
 
     Returns
@@ -141,6 +157,7 @@ def plot_power_curves(curves: pd.DataFrame, ax: Any = None) -> Any:
     matplotlib Axes
     """
     ax = new_axes(ax)
+    curves = curve_frame(curves)
     for kind, rows in curves.groupby("kind", sort=False):
         rows = rows.sort_values("wind_speed_m_s")
         v = rows["wind_speed_m_s"].to_numpy(float)

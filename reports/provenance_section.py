@@ -7,7 +7,7 @@ import shlex
 from datetime import UTC, datetime
 
 from kernel.provenance import command_text, read_header
-from kernel.versions import package_versions
+from kernel.versions import ipopt_version, package_versions
 from reports.inputs import InputLog
 
 #: the keys under which a stage's document records its command line (a list or a string)
@@ -75,7 +75,8 @@ def provenance_section(log: InputLog, argv: list[str], started: datetime,
     return {
         "date": started.astimezone(UTC).strftime("%Y-%m-%d %H:%M:%S UTC"),
         "commands": commands,
-        "packages": list(package_versions().items()),
+        "packages": [*package_versions().items(), ("IPOPT (the library CasADi loads)",
+                                                     ipopt_version())],
         "platform": f"{platform.system()} {platform.machine()}",
         "inputs": [
             {"path": r.path, "sha256": r.sha256, "size_bytes": r.size_bytes} for r in log.records

@@ -74,7 +74,9 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str],
     return {
         "title": "drivebench report",
         "sections": section_list(),
-        "headline": headline(campaign, power, opt) + energy_headline(energy),
+        "headline": (headline(campaign, power, opt) + energy_headline(energy)
+                     + ([("bench round trip (cycle verify)", verification["headline"])]
+                        if verification["headline"] else [])),
         "paths": stage_paths({"ingest": store, "fit": fit, "optimize": optimize, "aep": aep,
                               "size": size, "cycle verify": verify}),
         "campaign": campaign,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from numbers import Number
 
 import numpy as np
@@ -49,16 +50,38 @@ def term_label(term: tuple[int, int]) -> str:
     return "·".join(parts) if parts else "1"
 
 
+#: unit suffixes of the files' column names (docs/schemas.md Conventions) -> the unit said
+#: in a table's header; the longest suffix that fits wins
+UNIT_SUFFIXES = {"m_s2": "m/s²", "m_s": "m/s", "kg_m2": "kg m²", "nm": "N m", "rpm": "rpm",
+                 "w": "W", "j": "J", "s": "s", "m": "m", "c": "°C", "k": "K", "deg": "deg",
+                 "frac": "share", "mwh": "MWh/yr", "hz": "Hz"}
+
+
+def header_label(column: str) -> str:
+    """A file's column name as a table header: words, the unit in brackets
+    (``wind_speed_m_s`` -> ``wind speed [m/s]``); a name without a unit suffix keeps its
+    words (``bound_limited`` -> ``bound limited``)."""
+    words = str(column).split("_")
+    unit = None
+    for n in (2, 1):
+        if UNIT_SUFFIXES.get("_".join(words[-n:])) is not None and len(words) > n:
+            unit, words = UNIT_SUFFIXES["_".join(words[-n:])], words[:-n]
+            break
+    text = re.sub(r"\b([pe]) (elec|mech)\b", lambda m: f"{m[1].upper()}_{m[2]}",
+                  " ".join(words))
+    return text if unit is None else f"{text} [{unit}]"
+
+
 def frame_table(frame: pd.DataFrame, max_rows: int = 200) -> dict:
     """A frame as ``{"columns": [...], "rows": [[str, ...], ...], "truncated": int}``.
 
-    Floats get 4 significant digits, booleans yes/no; every cell is a plain
-    string (the template escapes it).
+    Columns are headed by :func:`header_label`; floats get 4 significant digits, booleans
+    yes/no; every cell is a plain string (the template escapes it).
     """
     shown = frame.head(max_rows)
     rows = [[_cell(v) for v in rec] for rec in shown.itertuples(index=False, name=None)]
     return {
-        "columns": [str(c) for c in frame.columns],
+        "columns": [header_label(c) for c in frame.columns],
         "rows": rows,
         "truncated": max(0, len(frame) - max_rows),
     }

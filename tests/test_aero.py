@@ -114,7 +114,7 @@ def test_log_wind_shear_hand_values():
 
 def test_from_dict_rejects_unknown_and_missing_keys():
     good = {"reference_altitude_m": 100.0, "roughness_length_m": 0.1, "origin_altitude_m": 2.0,
-            "power_law_exponent": 0.0}
+            "power_law_exponent": 0.0, "temperature_lapse_k_m": 0.0}
     assert WindModel.from_dict(good) == WindModel()
     with pytest.raises(ValueError, match="unknown keys"):
         WindModel.from_dict({**good, "gust": 1.0})

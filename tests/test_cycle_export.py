@@ -66,7 +66,7 @@ def test_bench_frame_and_plain_tables(sweep, tmp_path):
 
 
 def test_outside_the_rating_is_refused_saying_where(sweep, tmp_path, capsys):
-    rc = main(["cycle", "export", str(sweep), "--scenario", "elec-free-9.0",
+    rc = main(["cycle", "export", "--optimize", str(sweep), "--scenario", "elec-free-9.0",
                "--out", str(tmp_path / "x.csv")])
     err = capsys.readouterr().err
     assert rc == 2 and "leaves the bench's rating" in err and "|speed| 1700.0 rpm" in err
@@ -74,12 +74,12 @@ def test_outside_the_rating_is_refused_saying_where(sweep, tmp_path, capsys):
 
 
 def test_bad_scenario_and_out_refused(sweep, tmp_path, capsys):
-    assert main(["cycle", "export", str(sweep), "--scenario", "elec-lim-3.0",
+    assert main(["cycle", "export", "--optimize", str(sweep), "--scenario", "elec-lim-3.0",
                  "--out", str(tmp_path / "x.csv")]) == 2
     assert "not in the sweep" in capsys.readouterr().err
     other = tmp_path / "notes.csv"
     other.write_text("mine\n")
-    assert main(["cycle", "export", str(sweep), "--scenario", "elec-lim-7.0",
+    assert main(["cycle", "export", "--optimize", str(sweep), "--scenario", "elec-lim-7.0",
                  "--out", str(other)]) == 2
     assert other.read_text() == "mine\n"
 
@@ -144,12 +144,12 @@ def test_plain_tables_replace_only_what_an_export_wrote(sweep, tmp_path, capsys)
     refused (exit 2, naming it), every file as it was."""
     out = tmp_path / "run.csv"
     tables = plain_paths(out)
-    argv = ["cycle", "export", str(sweep), "--scenario", "elec-lim-7.0", "--cycles", "1",
-            "--out", str(out)]
+    argv = ["cycle", "export", "--optimize", str(sweep), "--scenario", "elec-lim-7.0",
+            "--cycles", "1", "--out", str(out)]
     tables["speed"].write_text("my own speed table\n")
     assert main(argv) == 2
     err = capsys.readouterr().err
-    assert "run.speed.csv: column '--out': exists and was not written by an earlier" in err
+    assert "run.speed.csv: option --out: exists and was not written by an earlier" in err
     assert tables["speed"].read_text() == "my own speed table\n" and not out.exists()
     assert not tables["torque"].exists()
     tables["speed"].unlink()
@@ -167,7 +167,7 @@ def test_plain_tables_replace_only_what_an_export_wrote(sweep, tmp_path, capsys)
     tables["torque"].mkdir()
     assert main(argv) == 2
     err = capsys.readouterr().err
-    assert "run.torque.csv: column '--out'" in err and "Traceback" not in err
+    assert "run.torque.csv: option --out" in err and "Traceback" not in err
 
 
 def test_two_exports_to_one_profile_serialize(sweep, tmp_path):

@@ -170,3 +170,18 @@ def test_the_sweeps_system_is_rebuilt_from_its_manifest_record(tmp_path):
                 + "\n# edited\n", "sha256": "0" * 64}
     with pytest.raises(InputError, match="sha256"):
         system_from_manifest({"system": tampered}, tmp_path / "manifest.json")
+
+
+def test_refine_progress_never_sits_at_100_percent_while_solves_run():
+    # issue 42: aep --refine's bar grew its total with each finished solve (always 100 %)
+    import io
+
+    from energy.refine import solve_counter
+
+    out = io.StringIO()
+    bar = solve_counter("refine", True, file=out)
+    for _ in range(3):
+        bar.update(1)
+        assert "%" not in out.getvalue()
+    bar.close()
+    assert "3solve" in out.getvalue().replace(" ", "") and "%" not in out.getvalue()

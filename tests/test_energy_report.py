@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import pytest
 from energy_fixtures import model_with_covariance, write_optimize_folder
 
 from drivebench.cli import main
@@ -47,3 +48,61 @@ def test_energy_section_says_what_is_missing_or_not_run(tmp_path):
                         tmp_path / "size")
     assert str(tmp_path / "aep" / "aep.json") in ctx["energy"]["missing"]
     assert "not available" in render(ctx)
+
+
+def _docs(size_winds, aep_winds, power, site):
+    """An aep.json, its elec-lim curve and a sizing.json whose x1 flies the same curve
+    (``power(v)`` [W]) on its own grid, each AEP integrated on its grid."""
+    import numpy as np
+    import pandas as pd
+
+    from energy.aep import aep_mwh
+
+    curve = pd.DataFrame({"kind": "elec-lim", "wind_speed_m_s": aep_winds,
+                          "p_elec_w": [power(v) for v in aep_winds]})
+    aep_doc = {"site": {**site.to_dict(), "note": "aep"},
+               "optimize": {"drive_model": {"model_sha256": "m"}},
+               "kinds": [{"kind": "elec-lim", "aep_elec_mwh": aep_mwh(
+                   np.array(aep_winds), curve["p_elec_w"].to_numpy(), site)}]}
+    sizing = {"site": {**site.to_dict(), "note": "size"},
+              "reference_drive": {"model_sha256": "m"},
+              "candidates": [{"candidate": "x1", "scale": 1.0, "aep_elec_mwh": aep_mwh(
+                  np.array(size_winds), np.array([power(v) for v in size_winds]), site)}],
+              "solves": [{"candidate": "x1", "wind_speed_m_s": v} for v in size_winds]}
+    return aep_doc, curve, sizing
+
+
+def test_sizing_says_how_much_of_x1s_aep_difference_the_wind_grids_make():
+    # issue 42: x1 and the AEP table's elec-lim differ by their grids only when x1 is the
+    # same drive; on a curve linear between the AEP grid's speeds the split is exact
+    import re
+
+    from energy.site import Weibull
+    from reports.energy_section import grid_difference
+
+    site = Weibull.from_mean(2.0, 5.5)
+    aep_winds = [4.0, 5.5, 7.0, 8.5, 10.0, 11.5]
+    aep_doc, curve, sizing = _docs([5.5, 8.5, 11.5], aep_winds, lambda v: -60.0 * v**3, site)
+    text = grid_difference(aep_doc, curve, sizing)
+    own = sizing["candidates"][0]["aep_elec_mwh"]
+    other = aep_doc["kinds"][0]["aep_elec_mwh"]
+    assert f"{own:.3f} against {other:.3f}" in text
+    grids = float(re.search(r"the grids make ([-+.\d]+) MWh/yr", text).group(1))
+    assert grids == pytest.approx(own - other, abs=1e-3)  # all of it: the same curve
+    assert "+0.000 MWh/yr (+0.00 %)" in text  # nothing left for the solves
+    # the same grid: no split; another site or other losses: not compared
+    aep_doc, curve, sizing = _docs(aep_winds, aep_winds, lambda v: -60.0 * v**3, site)
+    assert grid_difference(aep_doc, curve, sizing).endswith("(+0.00 %), on the same wind grid.")
+    sizing["reference_drive"]["model_sha256"] = "other"
+    assert "not compared" in grid_difference(aep_doc, curve, sizing)
+
+
+def test_sizing_table_states_the_limits_each_candidate_flew():
+    from energy.sizing import limits_text
+
+    assert limits_text({"peak_torque_nm": 78.0, "rated_torque_nm": 78.0,
+                        "max_speed_rpm": 1500.0}) == (
+        "torque <= 78.0 N m, RMS implied, |speed| <= 1500 rpm")
+    assert limits_text({"peak_torque_nm": 390.0, "rated_torque_nm": 78.0,
+                        "max_speed_rpm": 1500.0}) == (
+        "torque <= 390.0 N m, RMS <= 78.0 N m, |speed| <= 1500 rpm")

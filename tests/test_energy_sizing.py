@@ -21,7 +21,8 @@ from optimize.service.executors import ExecutorHandle, QueueChannel
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system_file import load_system
 
-#: the paper drive's rating as highwind.toml states it (continuous 78 N m, overload 5)
+#: the paper drive's rating as highwind.toml states it (torque limit and continuous 78 N m,
+#: a datasheet overload of 5 that no stage flies)
 PAPER_RATING = drive_in_force(load_system(), model=paper_model()).rating
 
 
@@ -43,6 +44,54 @@ def test_scaled_candidates_are_s_drives_sharing_the_torque():
         assert c.max_speed_rpm == PAPER_RATING.max_speed_rpm
     c = _candidates((0.5, 2.0))
     assert [(x.rated_torque_nm, x.peak_torque_nm) for x in c] == [(39.0, 195.0), (156.0, 780.0)]
+
+
+def test_x1_is_the_drive_bench_optimize_flies():
+    # issue 42: x1 flew the paper drive at 5 x 78 N m while bench optimize holds it to 78
+    from energy.candidates import build_candidates
+    from optimize.problem.options import Discretization, OcpOptions
+
+    system = load_system()
+    drive = drive_in_force(system, model=paper_model())
+    (x1, x2), notes = build_candidates(drive, (1.0, 2.0))
+    assert (x1.peak_torque_nm, x1.rated_torque_nm, x1.max_speed_rpm) == (78.0, 78.0, 1500.0)
+    optimize_limits = system.ocp_options(OcpOptions(Discretization(20, 3)), drive.rating).limits
+    assert x1.ocp_options(20, 3, system).limits == optimize_limits
+    assert x1.ocp_options(20, 3, system).limits.max_rms_torque_nm is None  # 78 <= 78: implied
+    assert x2.ocp_options(20, 3, system).limits.max_torque_nm == 156.0
+    # highwind.toml states the paper's overload 5 for the record: said, not flown
+    assert [n for n in notes if "overload" in n] == [
+        "the system's [drive] states overload 5 (a short-time 390 N m): not flown; the drive's "
+        "torque limit is max_torque_nm 78 N m, as in bench optimize (state a short-time torque "
+        "as max_torque_nm to fly it)"]
+
+
+def test_a_stated_overload_is_not_flown_and_said():
+    from dataclasses import replace
+
+    from energy.candidates import reference_rating
+
+    rating, notes = reference_rating(replace(PAPER_RATING, overload=5.0))
+    assert rating.max_torque_nm == 78.0 and rating.overload is None
+    assert any("overload 5" in n and "not flown" in n for n in notes)
+    # an explicit torque limit is flown, and said to depart from the system's drive
+    rating, notes = reference_rating(PAPER_RATING, max_torque_nm=390.0)
+    assert (rating.max_torque_nm, rating.rms_torque_limit_nm) == (390.0, 78.0)
+    assert any("--max-torque-nm 390" in n for n in notes)
+
+
+def test_x1_solve_stays_within_the_systems_torque_limit(tmp_path):
+    # issue 42: x1's solves reached 101.9 N m at 10 m/s with the paper's 78 N m limit
+    from energy.candidates import build_candidates
+
+    system = load_system()
+    cands, _ = build_candidates(drive_in_force(system, model=paper_model()), (1.0,))
+    res = run_sizing(cands, (10.0, 11.0), Weibull(2.0, 6.2), tmp_path, n_intervals=10,
+                     handle=_handle(), show_progress=False, system=system)
+    assert all(r["success"] for r in res.records), [r["status"] for r in res.records]
+    assert max(r["peak_torque_nm"] for r in res.records) <= 78.0 * (1 + 1e-6)
+    # the limit binds there: the unconstrained cycle pulls harder
+    assert max(r["peak_torque_nm"] for r in res.records) >= 78.0 * (1 - 1e-3)
 
 
 def test_candidate_options_take_the_system_bounds_and_the_candidate_limits():
@@ -115,7 +164,7 @@ def test_interrupted_sweep_continues_where_it_stopped(tmp_path):
 
 @pytest.mark.parametrize(
     "extra",
-    [["--wind-grid", "7"], ["--scales", "0,1"], ["--scales", "1,1"], ["--overload", "0.5"],
+    [["--wind-grid", "7"], ["--scales", "0,1"], ["--scales", "1,1"], ["--max-torque-nm", "-1"],
      ["--tolerance", "1.5"], ["--extend", "-1"]],
 )
 def test_bench_size_bad_input_exits_2_before_solving(tmp_path, capsys, extra):

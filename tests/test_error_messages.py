@@ -76,13 +76,13 @@ CASES = {
         lambda t: ["size", "--wind-grid", "7", "--scales", "1", "--out", str(t / "s"), *SITE],
         ["--wind-grid 7: one wind speed gives no AEP curve to integrate"], ["<input>"]),
     "--cycles 0": (
-        lambda t: ["cycle", "export", str(t / "opt"), "--scenario", "x", "--cycles", "0",
-                   "--out", str(t / "p.csv")],
+        lambda t: ["cycle", "export", "--optimize", str(t / "opt"), "--scenario", "x",
+                   "--cycles", "0", "--out", str(t / "p.csv")],
         ["--cycles 0: not a whole number >= 1"], ["--n-cycles"]),
     "--store nowhere": (
         lambda t: ["cycle", "verify", "--store", str(t / "nowhere"), "--optimize",
                    str(t / "opt"), "--out", str(t / "v")],
-        ["nowhere: column '--store': not found"], ["0 cycle-run sessions"]),
+        ["nowhere: option --store: not found"], ["0 cycle-run sessions"]),
     "implausible gravity": (
         lambda t: ["optimize", "--system", str(_gravity_file(t)), "--wind-grid", "7",
                    "--out", str(t / "o")],
@@ -172,6 +172,22 @@ def test_ingest_flags_a_point_whose_efficiency_is_outside_0_1(tmp_path, capsys):
     assert len(flags) == int(expected.sum()) >= 1
     assert any("outside [0, 1] at -1500 rpm, 2 N m" in f for f in flags)
     assert "FLAGGED point: table_01: efficiency" in out
+
+
+def test_flagged_points_are_one_line_per_session_and_not_repeated_when_unchanged():
+    # issue 42: 120 FLAGGED lines on every ingest, re-ingests of unchanged sessions included
+    from bench.ingest.summary import format_summary
+
+    flags = [f"efficiency -0.{k} outside [0, 1] at -1500 rpm" for k in range(1, 61)]
+    entry = {"points_per_quadrant": {"motor": 1, "generator": 1}, "rejected": {},
+             "kind": "points", "mode": "table", "n_points": 2, "efficiency_flags": flags,
+             "torque_zero_offset_nm": 0.0}
+    manifest = {"sessions": {"a": entry, "b": entry}}
+    out = format_summary(["a", "b"], [], manifest)
+    lines = [x for x in out.splitlines() if x.startswith("FLAGGED")]
+    assert lines == [f"FLAGGED point: {s}: {flags[0]} and 59 more (manifest efficiency_flags)"
+                     for s in ("a", "b")]
+    assert "FLAGGED" not in format_summary([], ["a", "b"], manifest)
 
 
 def test_envelope_limit_is_active_only_where_the_envelope_bounds():

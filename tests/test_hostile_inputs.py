@@ -265,7 +265,7 @@ def test_fit_out_naming_an_existing_file(tmp_path, capsys, monkeypatch):
     out.write_text("keep me")
     rc = main(["fit", "--store", str(tmp_path / "store"), "--out", str(out)])
     err = capsys.readouterr().err
-    assert rc == 2 and "fit_out: column '--out': exists and is not a folder" in err
+    assert rc == 2 and "fit_out: option --out: exists and is not a folder" in err
     assert out.read_text() == "keep me"
 
 

@@ -149,3 +149,17 @@ def test_warnings_and_notes_look_different(browser, report):  # noqa: F811
     assert warning[2].startswith("1 of 3 cycles fail (1 passing but unstable in open loop)")
     assert note[2].startswith("Every mesh check passes")
     assert warning[0] != note[0] and warning[1] != note[1]
+
+
+def test_raw_scenario_table_has_worded_headers_and_fits_a_few_screens(browser, report):  # noqa: F811
+    # issue 42: summary.parquet's table was 5695 px wide under snake_case headers
+    page = browser.new_page(viewport={"width": 1280, "height": 900})
+    page.goto(report["html"].resolve().as_uri(), wait_until="load")
+    found = page.evaluate("""() => { const t = document.querySelector('#scenarios-raw table');
+      t.closest('details').open = true;
+      return {width: t.getBoundingClientRect().width,
+              heads: [...t.rows[0].cells].map(c => c.innerText)}; }""")
+    page.close()
+    assert "wind speed [m/s]" in found["heads"] and "avg P_elec [W]" in found["heads"]
+    assert not any("_" in h.replace("P_", "").replace("E_", "") for h in found["heads"])
+    assert found["width"] < 3 * 1280, found["width"]

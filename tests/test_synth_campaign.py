@@ -340,13 +340,13 @@ def test_check_keeps_a_complete_campaign_and_repairs_a_damaged_one(tmp_path, fre
     shutil.copytree(fresh, out)
     target = out / "motor_01" / "daq.csv"
     os.utime(target, (1_000_000_000, 1_000_000_000))
-    assert main(["synth", str(out), "--check", "--quiet"]) == 0
+    assert main(["synth", str(out), "--check", "--no-progress"]) == 0
     assert "is complete" in capsys.readouterr().out
     assert target.stat().st_mtime == 1_000_000_000  # untouched
     with open(target, "ab") as fh:
         fh.write(b"1,2,3\n")
     assert not is_complete(out, DEFAULT_SEED, 1)
-    assert main(["synth", str(out), "--check", "--quiet"]) == 0
+    assert main(["synth", str(out), "--check", "--no-progress"]) == 0
     assert target.read_bytes() == (fresh / "motor_01" / "daq.csv").read_bytes()
     assert not is_complete(out, DEFAULT_SEED, 2)  # another scale is another campaign
 

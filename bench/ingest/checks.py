@@ -481,7 +481,7 @@ def efficiency_flags(points: dict[str, np.ndarray]) -> list[str]:
     uncertainty, has a negative efficiency: a generator point at which the drive draws
     power (its losses exceed the shaft power; real at high speed and little torque). It
     is a true measurement of the electrical power, so it is kept for the power model,
-    and flagged here (the efficiency map shows it as 0, as the paper does). Efficiencies
+    and flagged here (the efficiency map sets it to 0, drawn white, as the paper does). Efficiencies
     above 1 are rejected by :func:`check_points`.
 
     Parameters
@@ -508,4 +508,5 @@ def efficiency_flags(points: dict[str, np.ndarray]) -> list[str]:
     return [f"efficiency {eta[k]:.3g} outside [0, 1] at {points['speed_rpm'][k]:.0f} rpm, "
             f"{points['torque_nm'][k]:.3g} N m (p_mech {p_mech[k]:.4g} W, p_elec "
             f"{p_elec[k]:.4g} W: the drive draws power while the shaft drives it); kept for the "
-            "power model, shown as 0 in the efficiency map" for k in np.flatnonzero(bad)]
+            "power model, set to 0 (drawn white) in the efficiency map"
+            for k in np.flatnonzero(bad)]

@@ -19,7 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="column mapping (TOML or JSON) for sessions without their own")
     parser.add_argument("--workers", type=int, default=2,
                         help="sessions processed at the same time (default 2)")
-    parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--strict", action="store_true",
                         help="a session that gives no operating point is an error (exit 2)")
     parser.add_argument("--no-wait", action="store_true",

@@ -28,8 +28,9 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict,
         clock offset [s] and drift [ppm], torque-flange zero offset subtracted
         [N m] (``none`` without a tare), rejected windows by reason; then one line
         per session that gave no operating point saying why, and one per session
-        without a tare saying why, and one per point kept with an efficiency outside
-        [0, 1] (manifest ``efficiency_flags``); a cycle run's kept cycles and one line
+        without a tare saying why, and one per session ingested by this run with points
+        kept with an efficiency outside [0, 1] (:func:`flag_lines`, manifest
+        ``efficiency_flags``); a cycle run's kept cycles and one line
         per rejected cycle instead of its points.
     """
     head = ("session", "status", "kind", "mode", "motor", "generator", "offset_s", "drift_ppm",
@@ -63,7 +64,7 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict,
         if e.get("clock_drift_note"):
             no_drift.append(f"{sid}: {e['clock_drift_note']}")
         no_drift += [f"{sid}: temperature flagged: {n}" for n in e.get("temperature_notes", [])]
-        flagged += [f"{sid}: {f}" for f in e.get("efficiency_flags") or ()]
+        flagged += flag_lines(sid, e.get("efficiency_flags") or (), sid in ingested)
         if e.get("torque_zero_offset_nm") is None:
             no_tare.append(f"{sid}: {e.get('torque_zero_note', 'no tare recorded')}")
     rows.append(("total", f"{len(ingested)} new", "", "", str(tot["motor"]),
@@ -73,8 +74,19 @@ def format_summary(ingested: list[str], unchanged: list[str], manifest: dict,
     notes += [f"cycle run {n}" for n in cycle_runs]
     notes += [f"no torque-flange tare, torque not zero-corrected: {n}" for n in no_tare]
     notes += no_drift
-    notes += [f"FLAGGED point: {f}" for f in flagged]
+    notes += flagged
     return "\n".join([*_table(head, rows), *notes])
+
+
+def flag_lines(sid: str, flags, ingested: bool) -> list[str]:
+    """The summary's lines on a session's points with an efficiency outside [0, 1]: one
+    line with the first one and the count of the others when ingested by this run, none
+    for an unchanged session (said when it was ingested; all in the manifest)."""
+    if not flags or not ingested:
+        return []
+    more = (f" and {len(flags) - 1} more (manifest efficiency_flags)" if len(flags) > 1
+            else "")
+    return [f"FLAGGED point: {sid}: {flags[0]}{more}"]
 
 
 def _row(sid: str, status: str, e: dict) -> tuple[str, ...]:

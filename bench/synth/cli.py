@@ -21,7 +21,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "by about 369 k per unit, so 55 gives 20.3 M")
     parser.add_argument("--check", action="store_true",
                         help="do nothing if OUT_DIR already holds this campaign, complete")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--cycle-run", type=Path, default=None, metavar="PROFILE",
                         help="instead of the campaign: fly this drive profile (bench cycle "
                         "export) on the campaign's true drive into OUT_DIR/<--session-id>/, "
@@ -50,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     t0 = time.perf_counter()
     try:
-        truth = generate(args.out_dir, args.seed, args.scale, progress=not args.quiet)
+        truth = generate(args.out_dir, args.seed, args.scale, progress=not args.no_progress)
     except OSError as exc:
         raise InputError(exc.filename or args.out_dir, f"cannot write: {exc.strerror}",
                          expected="a writable campaign folder") from exc

@@ -25,7 +25,8 @@ from dataclasses import dataclass
 import casadi as ca
 
 from optimize.model.aero import aero_forces_moments, altitude_above_ground, wind_speed
-from optimize.model.params import AeroCoefficients, KiteParams, WindModel
+from optimize.model.atmosphere import air_density
+from optimize.model.params import AeroCoefficients, KiteParams, TetherModel, WindModel
 from optimize.model.variables import Variables
 
 #: states: CG position and velocity (NED), body-to-world DCM (column-major), body
@@ -105,6 +106,7 @@ class KiteDae:
     fictitious: Variables = FICTITIOUS
     parameters: Variables = PARAMETERS
     periodic: tuple[str, ...] = PERIODIC_STATES
+    tether: TetherModel = TetherModel()
 
 
 def _split_state(x):
@@ -157,11 +159,16 @@ def kite_dae(
     kite: KiteParams | None = None,
     coeffs: AeroCoefficients | None = None,
     wind: WindModel | None = None,
+    tether: TetherModel | None = None,
 ) -> KiteDae:
-    """Build the kite DAE functions (paper eqs. 6-8 with the aero model of app. B)."""
+    """Build the kite DAE functions (paper eqs. 6-8 with the aero model of app. B, the air
+    density of :mod:`optimize.model.atmosphere`). ``tether`` is carried along: its mass
+    and element drag enter the OCP as a part of their own
+    (:class:`optimize.problem.tether_part.TetherPart`), the line's force on the kite."""
     kite = kite or KiteParams()
     coeffs = coeffs or AeroCoefficients()
     wind = wind or WindModel()
+    tether = tether or TetherModel()
     x = ca.SX.sym("x", STATES.size)
     u = ca.SX.sym("u", CONTROLS.size)
     z = ca.SX.sym("z", ALGEBRAIC.size)
@@ -179,7 +186,8 @@ def kite_dae(
     altitude = altitude_above_ground(r, wind)
     w_local = wind_speed(altitude, w_ref, wind)
     v_air = v - ca.vertcat(w_local, 0, 0)
-    aero = aero_forces_moments(dcm, v_air, omega, surf, l, kite, coeffs)
+    rho = air_density(altitude, kite.rho_kg_m3, kite.g_m_s2, wind.temperature_lapse_k_m)
+    aero = aero_forces_moments(dcm, v_air, omega, surf, l, kite, coeffs, rho)
     res_force, res_moment = _newton_euler(r, r_bridle, dcm, omega, acc, domega, nu, fict, aero,
                                           kite)
     residual = ca.vertcat(res_force, res_moment, cddot)
@@ -220,4 +228,5 @@ def kite_dae(
         invariants=ca.Function("kite_invariants", [x], [c, cdot, orth]),
         explicit_ode=ca.Function("kite_explicit_ode", [x, u, w_ref], [xdot_phys]),
         solve_z=ca.Function("kite_solve_z", [x, u, w_ref], [z_phys]),
+        tether=tether,
     )

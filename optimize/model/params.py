@@ -81,7 +81,12 @@ class KiteParams:
 
 @dataclass(frozen=True)
 class AeroCoefficients:
-    """Aerodynamic coefficients; angles, rates and deflections in radians."""
+    """Aerodynamic coefficients; angles, rates and deflections in radians.
+
+    Each is a number or a polynomial in the angle of attack: a tuple ``(c0, c1, ...)``
+    standing for ``c0 + c1 alpha + c2 alpha^2 + ...`` (alpha in rad; evaluated by
+    :func:`optimize.model.aero.at_alpha`), as awebox states stability derivatives.
+    """
 
     cl0: float = _f(0.203530, "-", _SRC_AERO)
     cl_alpha: float = _f(5.786876, "1/rad", _SRC_AERO)
@@ -113,11 +118,35 @@ class AeroCoefficients:
     cn_beta: float = _f(0.037183, "1/rad", _SRC_AERO)
     cn_alpha_beta: float = _f(-0.028933, "1/rad^2", _SRC_AERO)
     cn_rud: float = _f(0.001176 * _DEG, "1/rad", _SRC_AERO)
+    # derivatives the paper's kite has none of (optional keys of a system file, 0 here)
+    cl_q: float = _f(0.0, "-", "none in the paper's model (per q*c/(2v))")
+    cd_q: float = _f(0.0, "-", "none in the paper's model (per q*c/(2v))")
+    cy_p: float = _f(0.0, "-", "none in the paper's model (per p*b/(2v))")
+    cy_r: float = _f(0.0, "-", "none in the paper's model (per r*b/(2v))")
+    cy_ail: float = _f(0.0, "1/rad", "none in the paper's model")
+    cl_rud: float = _f(0.0, "1/rad", "none in the paper's model")
+    cn_ail: float = _f(0.0, "1/rad", "none in the paper's model")
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> AeroCoefficients:
         """Build from a mapping with exactly the field names as keys."""
         return _from_dict(cls, data)
+
+
+@dataclass(frozen=True)
+class TetherModel:
+    """The tether's mass and how its drag reaches the kite.
+
+    ``drag_elements = 0`` is the lumped model of :class:`KiteParams` (a quarter of
+    the line's drag added to the kite's drag coefficient); ``n > 0`` splits the
+    straight line into ``n`` elements, each with the apparent wind at its midpoint
+    (:mod:`optimize.model.tether`). A zero mass is the massless line.
+    """
+
+    mass_kg_m: float = _f(0.0, "kg/m", "the paper's OCP: a massless tether")
+    diameter_m: float = _f(0.0, "m", "used by the element drag only")
+    drag_coefficient: float = _f(0.0, "-", "used by the element drag only")
+    drag_elements: int = _f(0, "-", "0: the lumped drag of KiteParams.tether_cd_per_m")
 
 
 @dataclass(frozen=True)
@@ -133,6 +162,9 @@ class WindModel:
     roughness_length_m: float = _f(0.1, "m", _SRC_WIND)
     origin_altitude_m: float = _f(2.0, "m", _SRC_WIND + " (altitude0 = -2)")
     power_law_exponent: float = _f(0.0, "-", "0 selects the log law")
+    temperature_lapse_k_m: float = _f(
+        0.0, "K/m", "0: a constant air density; 0.0065: the ISA troposphere "
+        "(optimize.model.atmosphere)")
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> WindModel:

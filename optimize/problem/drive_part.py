@@ -78,24 +78,31 @@ class DrivePart(Part):
         force = self.limits.max_tether_force_n
         return np.inf if force is None else float(self.drivetrain.tether_torque_nm(force))
 
+    def tether_torque_floor_nm(self) -> float:
+        """The kite's tension floor as a torque at the motor [N m] (-inf: none)."""
+        force = self.limits.min_tension_n
+        return -np.inf if force is None else float(self.drivetrain.tether_torque_nm(force))
+
     def torque_rows(self, q: Mapping[str, Any]) -> list[Row]:
         """Rows on the drive's shaft torque and the tether's.
 
-        Massless drivetrain: one row, the shaft torque (the tether's) below the kite's
-        tether-force limit in every kind and below the drive's torque limit in the
-        ``*-lim`` kinds. With inertia the shaft torque also goes negative (braking a
-        reel-in), so the drive's limit bounds it both ways, and the tether-force limit
-        has a row of its own on the tether torque.
+        Massless drivetrain: one row, the shaft torque (the tether's) between the kite's
+        tension floor and its tether-force limit in every kind and below the drive's
+        torque limit in the ``*-lim`` kinds. With inertia the shaft torque also goes
+        negative (braking a reel-in), so the drive's limit bounds it both ways, and the
+        tension floor and the tether-force limit have a row of their own on the tether
+        torque.
         """
         sc, lim, torque = self.scales_of, self.limits, q["torque_nm"]
         torque_top = self.tether_torque_limit_nm()
+        floor = self.tether_torque_floor_nm() / sc.torque_nm
         if self.drivetrain.inertia_kg_m2 == 0:
-            return [Row("torque", torque / sc.torque_nm, -np.inf, torque_top / sc.torque_nm,
-                        limited=(-np.inf, min(lim.max_torque_nm, torque_top) / sc.torque_nm))]
+            return [Row("torque", torque / sc.torque_nm, floor, torque_top / sc.torque_nm,
+                        limited=(floor, min(lim.max_torque_nm, torque_top) / sc.torque_nm))]
         top = lim.max_torque_nm / sc.torque_nm
         rows = [Row("torque", torque / sc.torque_nm, -np.inf, np.inf, limited=(-top, top))]
-        if np.isfinite(torque_top):
-            rows.append(Row("tether_force", q["tether_torque_nm"] / sc.torque_nm, -np.inf,
+        if np.isfinite(torque_top) or np.isfinite(floor):
+            rows.append(Row("tether_force", q["tether_torque_nm"] / sc.torque_nm, floor,
                             torque_top / sc.torque_nm))
         return rows
 
@@ -174,7 +181,8 @@ class DrivePart(Part):
         return np.abs(torque_nm)[below] / env[below]
 
     def limited_bounds(self) -> dict[str, tuple[float, float]]:
-        """The reel speed of the drive's speed limit."""
+        """The reel speed of the drive's speed limit (within the winch's range)."""
         dt = self.drivetrain
         dl_max = max_reel_speed_m_s(self.limits.max_speed_rpm / dt.gear_ratio, dt.r_winch_m)
-        return {"dl_m_s": (-dl_max, dl_max)}
+        lo, hi = self.limits.reel_speed_range_m_s()
+        return {"dl_m_s": (max(-dl_max, lo), min(dl_max, hi))}

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from optimize.model.aero import force_coefficients
 from optimize.model.kite_model import KiteDae
 from optimize.model.params import AeroCoefficients, KiteParams, WindModel
 
@@ -90,7 +91,7 @@ def start_loop(
     min_altitude_m : float
         Lowest allowed CG altitude above ground [m].
     """
-    cl = coeffs.cl0 + coeffs.cl_alpha * math.radians(alpha_max_deg)
+    cl = force_coefficients(math.radians(alpha_max_deg), 0.0, (0.0, 0.0, 0.0), coeffs)[0]
     loading = kite.mass_kg / kite.sref_m2
     cone = math.radians(LOOP_CONE_DEG)
     radius = 2.0 * loading / (kite.rho_kg_m3 * cl * LOOP_SIN_BANK)

@@ -123,23 +123,26 @@ class KitePart(Part):
 
     def bounds(self) -> dict[str, tuple[float, float]]:
         """Position bounds only keep the solver in range; the tether length's, the
-        ground's and the winch's acceleration and jerk limits are the system's; the
-        tension ``l nu >= 0``; the control-surface deflections and rates."""
+        ground's, the body rates' and the winch's reel speed, acceleration and jerk
+        limits are the system's; the tension ``l nu >= 0``; the control-surface
+        deflections and rates."""
         lim = self.limits
         l_lo, l_hi = lim.tether_length_bounds_m
         reach = 4.0 * l_hi
         z_top = lim.min_altitude_m - self.dae.wind.origin_altitude_m  # r_z <= -(clearance)
-        surf, spin, rate = lim.surface_bound_deg * DEG, 6 * np.pi, lim.surface_rate_bound_rad_s
+        surf, rate = lim.surface_bound_deg * DEG, lim.surface_rate_bound_rad_s
+        spin = lim.body_rate_bound_rad_s()
         ddl = lim.max_reel_acceleration_m_s2 or SOLVER_REEL_ACCELERATION_M_S2
         jerk = lim.max_reel_jerk_m_s3 or SOLVER_REEL_JERK_M_S3
         sym = {"r_x_m": reach, "r_y_m": reach, "v_x_m_s": 200, "v_y_m_s": 200,
                "v_z_m_s": 200, "omega_x_rad_s": spin, "omega_y_rad_s": spin,
-               "omega_z_rad_s": spin, "dl_m_s": 100, "ddl_m_s2": ddl, "aileron_rad": surf,
+               "omega_z_rad_s": spin, "ddl_m_s2": ddl, "aileron_rad": surf,
                "elevator_rad": surf, "rudder_rad": surf, "dddl_m_s3": jerk,
                "daileron_rad_s": rate, "delevator_rad_s": rate, "drudder_rad_s": rate}
         out = {name: (-top, top) for name, top in sym.items()}
         out.update({n: (-1.1, 1.1) for n in self.states.names if n.startswith("dcm_")})
-        out.update(r_z_m=(-reach, -z_top), l_m=(l_lo, l_hi), nu_n_per_m=(0.0, np.inf))
+        out.update(r_z_m=(-reach, -z_top), l_m=(l_lo, l_hi), nu_n_per_m=(0.0, np.inf),
+                   dl_m_s=lim.reel_speed_range_m_s())
         return out
 
     def scales(self) -> dict[str, float]:
@@ -167,10 +170,13 @@ class KitePart(Part):
         }
 
     def active_bounds(self, traj: Any, drive_limits: bool) -> list[str]:
-        """Tether length, ground clearance, airspeed and the winch's acceleration and jerk
-        limits (the kite's own, in every kind)."""
+        """Tether length, ground clearance, airspeed, the winch's acceleration, jerk and
+        reel-speed limits, the body rates and the tension floor (the kite's own, in every
+        kind)."""
         lim = self.limits
         l_lo, l_hi = lim.tether_length_bounds_m
+        rates = np.degrees(np.abs(traj[["omega_x_rad_s", "omega_y_rad_s",
+                                        "omega_z_rad_s"]].to_numpy()))
         checks = (("tether_length_min", traj["l_m"], l_lo),
                   ("tether_length_max", traj["l_m"], l_hi),
                   ("ground_clearance", traj["altitude_m"], lim.min_altitude_m),
@@ -178,7 +184,11 @@ class KitePart(Part):
                   ("airspeed_max", traj["airspeed_m_s"], lim.max_airspeed_m_s),
                   ("reel_acceleration_limit", np.abs(traj["ddl_m_s2"]),
                    lim.max_reel_acceleration_m_s2),
-                  ("reel_jerk_limit", np.abs(traj["dddl_m_s3"]), lim.max_reel_jerk_m_s3))
+                  ("reel_jerk_limit", np.abs(traj["dddl_m_s3"]), lim.max_reel_jerk_m_s3),
+                  ("reel_out_speed_limit", traj["dl_m_s"], lim.max_reel_out_speed_m_s),
+                  ("reel_in_speed_limit", -traj["dl_m_s"], lim.max_reel_in_speed_m_s),
+                  ("body_rate_limit", rates, lim.max_body_rate_deg_s),
+                  ("tension_min", traj["tension_n"], lim.min_tension_n))
         return [name for name, value, bound in checks if near(value, bound)]
 
     def start_rows(self, q0: Mapping[str, Any]) -> list[Row]:

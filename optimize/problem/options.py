@@ -18,8 +18,13 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import Any
+
+#: the reel speed's and the body rates' bounds when the system states none: the solver's
+#: range [m/s], [rad/s] (three turns a second)
+SOLVER_REEL_SPEED_M_S, SOLVER_BODY_RATE_RAD_S = 100.0, 6 * math.pi
 
 #: most collocation intervals per period: the default is 40 and the trust check's mesh
 #: refinement doubles it; 400 already means ~10^5 NLP variables and minutes per solve
@@ -113,6 +118,15 @@ class Limits:
     max_reel_jerk_m_s3 : float or None
         Largest tether (reel) jerk ``|dddl|`` [m/s^3], the OCP's control, of every
         scenario kind; ``None``: only the solver's range (5000 m/s^3).
+    max_reel_out_speed_m_s, max_reel_in_speed_m_s : float or None
+        Largest reel-out speed ``l'`` and reel-in speed ``-l'`` [m/s] of every scenario
+        kind (the winch's limits; the drive's speed limit of the constrained kinds
+        comes on top, the smaller wins); ``None``: only the solver's range (100 m/s).
+    max_body_rate_deg_s : float or None
+        Largest magnitude of each body rate p, q, r [deg/s] of every kind; ``None``:
+        only the solver's range (1080 deg/s).
+    min_tension_n : float or None
+        Smallest tether tension [N] of every kind; ``None``: tension >= 0.
     base_speed_rpm : float or None
         The drive's base speed at the motor shaft [rpm]: above it the largest torque
         falls as ``max_torque_nm * base / |n|`` (constant power), in the constrained
@@ -150,6 +164,10 @@ class Limits:
     surface_rate_bound_rad_s: float = 2.0
     max_reel_acceleration_m_s2: float | None = None
     max_reel_jerk_m_s3: float | None = None
+    max_reel_out_speed_m_s: float | None = None
+    max_reel_in_speed_m_s: float | None = None
+    max_body_rate_deg_s: float | None = None
+    min_tension_n: float | None = None
     base_speed_rpm: float | None = None
     envelope_speed_rpm: tuple[float, ...] | None = None
     envelope_torque_nm: tuple[float, ...] | None = None
@@ -163,10 +181,26 @@ class Limits:
                 f"period_bounds_s must satisfy 0 < lo < hi, got {self.period_bounds_s}"
             )
         for name in ("max_rms_torque_nm", "max_airspeed_m_s", "max_tether_force_n",
-                     "max_reel_acceleration_m_s2", "max_reel_jerk_m_s3", "base_speed_rpm"):
+                     "max_reel_acceleration_m_s2", "max_reel_jerk_m_s3", "base_speed_rpm",
+                     "max_reel_out_speed_m_s", "max_reel_in_speed_m_s", "max_body_rate_deg_s"):
             value = getattr(self, name)
             if value is not None and not value > 0:
                 raise ValueError(f"{name} must be > 0, got {value}")
+        if self.min_tension_n is not None and not self.min_tension_n >= 0:
+            raise ValueError(f"min_tension_n must be >= 0, got {self.min_tension_n}")
+
+    def reel_speed_range_m_s(self) -> tuple[float, float]:
+        """The reel speed ``l'`` range of every kind [m/s]: the winch's limits, the
+        solver's range of :data:`SOLVER_REEL_SPEED_M_S` where unstated."""
+        return (-(self.max_reel_in_speed_m_s or SOLVER_REEL_SPEED_M_S),
+                self.max_reel_out_speed_m_s or SOLVER_REEL_SPEED_M_S)
+
+    def body_rate_bound_rad_s(self) -> float:
+        """The bound of each body rate of every kind [rad/s]: the system's, the solver's
+        range of :data:`SOLVER_BODY_RATE_RAD_S` where unstated."""
+        if self.max_body_rate_deg_s is None:
+            return SOLVER_BODY_RATE_RAD_S
+        return self.max_body_rate_deg_s * math.pi / 180
 
 
 #: NLP solvers the OCP can be handed to

@@ -1,8 +1,9 @@
 """The parts of the kite's cycle OCP, in order (:mod:`optimize.problem.part`).
 
 The kite first (its variables and quantities are what the others read), then the
-drivetrain and the drive, then the winding temperature when the drive has a thermal
-rating and its power model a thermal model. A new part is one more entry here, or an
+drivetrain and the drive, then the tether's mass and drag when the system gives them,
+then the winding temperature when the drive has a thermal rating and its power model a
+thermal model. A new part is one more entry here, or an
 extra part handed to :func:`optimize.problem.ocp.build_ocp`.
 """
 
@@ -17,6 +18,7 @@ from optimize.problem.kite_part import KitePart
 from optimize.problem.options import Limits
 from optimize.problem.part import Part
 from optimize.problem.scaling import Scales
+from optimize.problem.tether_part import TetherPart
 from optimize.problem.thermal_part import ThermalPart
 
 
@@ -43,4 +45,6 @@ def kite_parts(dae: KiteDae, drive_model: DriveModel, limits: Limits, scales: Sc
         KitePart(dae, limits, scales, loop),
         DrivePart(Drivetrain.of(dae.kite), drive_model, limits, scales, rms_torque_nm=rms),
     )
+    if dae.tether.mass_kg_m > 0 or dae.tether.drag_elements > 0:
+        parts = (*parts, TetherPart(dae, scales.force_n))
     return parts if thermal is None else (*parts, ThermalPart(thermal))

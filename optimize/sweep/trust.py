@@ -314,7 +314,8 @@ def run_mesh_task(task: tuple, progress: Any = None) -> MeshCheck:
 
 
 def run_trust_checks(
-    problem: Any, outcomes: Sequence[Any], winds: tuple[float, ...], handle: Any
+    problem: Any, outcomes: Sequence[Any], winds: tuple[float, ...], handle: Any,
+    show_progress: bool = True,
 ) -> dict:
     """Mesh check of each kind's middle-wind scenario (on the executor) and simulation
     check of every converged scenario (here).
@@ -327,6 +328,8 @@ def run_trust_checks(
     winds : tuple of float
         The wind grid [m/s]; the mesh check uses its middle speed.
     handle : optimize.service.executors.ExecutorHandle
+    show_progress : bool
+        Show the mesh checks' progress bar.
 
     Returns
     -------
@@ -347,7 +350,7 @@ def run_trust_checks(
     )
     middle = winds[middle_index(winds)]
     picks = [o for o in outcomes if o.success and o.wind_speed_m_s == middle]
-    bar = tqdm(total=len(picks), desc="mesh check", unit="solve")
+    bar = tqdm(total=len(picks), desc="mesh check", unit="solve", disable=not show_progress)
     futures = run_tasks(
         handle.executor,
         run_mesh_task,

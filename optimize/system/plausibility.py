@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from kernel.errors import InputError
+from optimize.model.aero import force_coefficients
 
 #: largest mass [kg]: the An-225's 640 t maximum take-off mass, the heaviest aircraft flown
 MAX_MASS_KG = 640e3
@@ -77,9 +78,8 @@ def polar(system: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     alpha_deg = np.linspace(a.alpha_min_deg, a.alpha_max_deg, _SAMPLES)
     beta_deg = np.unique(np.array([a.beta_min_deg, 0.0, a.beta_max_deg]))
     al, be = np.meshgrid(np.radians(alpha_deg), np.radians(beta_deg))
-    cl = c.cl0 + c.cl_alpha * al
-    cd = c.cd0 + c.cd_alpha * al + c.cd_alpha2 * al**2 + c.cd_beta2 * be**2
-    return alpha_deg, beta_deg, cl, cd
+    cl, cd, _ = force_coefficients(al, be, (0.0, 0.0, 0.0), c)
+    return alpha_deg, beta_deg, np.broadcast_to(cl, al.shape), cd
 
 
 def _check_polar(system: Any) -> None:

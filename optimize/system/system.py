@@ -21,9 +21,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from optimize.model.atmosphere import ISA_LAPSE_K_M
 from optimize.model.dae import DaeSpec
 from optimize.model.kite_model import kite_dae
-from optimize.model.params import AeroCoefficients, KiteParams, WindModel
+from optimize.model.params import AeroCoefficients, KiteParams, TetherModel, WindModel
 
 #: folder of the shipped system files (package data)
 SYSTEMS_DIR = Path(__file__).resolve().parent.parent / "data" / "systems"
@@ -63,7 +64,9 @@ class AeroSection:
 
 @dataclass(frozen=True)
 class TetherSection:
-    """``[tether]``: the kite sees a quarter of the tether's drag (lumped).
+    """``[tether]``: the kite sees a quarter of the tether's drag (lumped), or the drag of
+    ``drag_elements`` elements with their own apparent wind; the line's mass per length
+    [kg/m] (``None``: massless).
 
     The tether-force limit is ``max_force_n``, or the working load of the line
     ``tensile_strength_pa * pi d^2 / 4 / safety_factor``, or the smaller of the two
@@ -75,6 +78,8 @@ class TetherSection:
     max_force_n: float | None = None
     tensile_strength_pa: float | None = None
     safety_factor: float | None = None
+    mass_kg_m: float | None = None
+    drag_elements: int | None = None
 
     def working_load_n(self) -> float | None:
         """The line's working load [N] from its strength and safety factor (or ``None``)."""
@@ -96,6 +101,8 @@ class WinchSection:
     drum_inertia_kg_m2: float | None = None
     max_reel_acceleration_m_s2: float | None = None
     max_reel_jerk_m_s3: float | None = None
+    max_reel_out_speed_m_s: float | None = None  # every kind, beside the drive's rpm
+    max_reel_in_speed_m_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -122,7 +129,9 @@ class DriveSection:
 
 @dataclass(frozen=True)
 class WindSection:
-    """``[wind]``: profile ``"log"`` (roughness length) or ``"power"`` (exponent)."""
+    """``[wind]``: profile ``"log"`` (roughness length) or ``"power"`` (exponent); the
+    atmosphere ``"constant"`` (the density everywhere) or ``"isa"`` (the density at the
+    ground, falling with altitude as in the ISA troposphere)."""
 
     profile: str
     reference_height_m: float
@@ -131,6 +140,7 @@ class WindSection:
     winch_height_m: float
     air_density_kg_m3: float
     gravity_m_s2: float
+    atmosphere: str = "constant"
 
 
 @dataclass(frozen=True)
@@ -147,6 +157,8 @@ class BoundsSection:
     surface_max_deg: float
     surface_rate_max_rad_s: float
     max_airspeed_m_s: float | None = None
+    max_body_rate_deg_s: float | None = None  # each body rate
+    min_tension_n: float | None = None
 
 
 @dataclass(frozen=True)
@@ -167,16 +179,23 @@ class KiteLimits:
     min_airspeed_m_s: float
     max_airspeed_m_s: float | None
     sources: dict
+    min_tension_n: float | None = None
+    max_body_rate_deg_s: float | None = None
 
     def describe(self) -> str:
         """One line: the kite limits in force and where they came from."""
         force = (f"tether force <= {self.max_tether_force_n:g} N "
                  f"({self.sources['max_tether_force_n']})" if self.max_tether_force_n
                  else "no tether-force limit (the system file gives none)")
+        if self.min_tension_n is not None:
+            force += f", tension >= {self.min_tension_n:g} N ([bounds] min_tension_n)"
         top = (f"{self.max_airspeed_m_s:g} m/s" if self.max_airspeed_m_s is not None
                else "no upper limit (the system file gives none)")
+        rates = ("" if self.max_body_rate_deg_s is None else
+                 f", body rates within {self.max_body_rate_deg_s:g} deg/s "
+                 "([bounds] max_body_rate_deg_s)")
         return (f"kite limits (all scenario kinds): {force}, airspeed from "
-                f"{self.min_airspeed_m_s:g} m/s to {top}")
+                f"{self.min_airspeed_m_s:g} m/s to {top}{rates}")
 
 
 @dataclass(frozen=True)
@@ -222,7 +241,8 @@ class System:
             zt_m=k.bridle_offset_m, g_m_s2=w.gravity_m_s2, rho_kg_m3=w.air_density_kg_m3,
             j1_kg_m2=k.inertia_xx_kg_m2, j2_kg_m2=k.inertia_yy_kg_m2,
             j3_kg_m2=k.inertia_zz_kg_m2, j31_kg_m2=k.inertia_xz_kg_m2,
-            tether_cd_per_m=0.25 * self.tether.drag_coefficient * self.tether.diameter_m,
+            tether_cd_per_m=(0.25 * self.tether.drag_coefficient * self.tether.diameter_m
+                             if self.tether.drag_elements is None else 0.0),
             r_winch_m=self.winch.drum_radius_m, gear_ratio=self.winch.gear_ratio,
             drum_inertia_kg_m2=self.winch.drum_inertia_kg_m2 or 0.0,
             rotor_inertia_kg_m2=self.drive.rotor_inertia_kg_m2 or 0.0,
@@ -240,7 +260,17 @@ class System:
             roughness_length_m=w.roughness_length_m if w.profile == "log" else 0.0,
             origin_altitude_m=w.winch_height_m,
             power_law_exponent=w.exponent if w.profile == "power" else 0.0,
+            temperature_lapse_k_m=ISA_LAPSE_K_M if w.atmosphere == "isa" else 0.0,
         )
+
+    def tether_model(self) -> TetherModel:
+        """The tether's mass and drag model (massless and lumped unless the file says)."""
+        t = self.tether
+        if t.mass_kg_m is None and t.drag_elements is None:
+            return TetherModel()
+        return TetherModel(mass_kg_m=t.mass_kg_m or 0.0, diameter_m=t.diameter_m,
+                           drag_coefficient=t.drag_coefficient,
+                           drag_elements=t.drag_elements or 0)
 
     def ground_clearance_m(self) -> float:
         """Lowest allowed CG altitude above ground [m]: the file's value, at least half the span."""
@@ -259,7 +289,8 @@ class System:
                           {"max_tether_force_n": source,
                            "min_airspeed_m_s": "[bounds] min_airspeed_m_s",
                            "max_airspeed_m_s": "[bounds] max_airspeed_m_s"
-                           if self.bounds.max_airspeed_m_s is not None else "none"})
+                           if self.bounds.max_airspeed_m_s is not None else "none"},
+                          self.bounds.min_tension_n, self.bounds.max_body_rate_deg_s)
 
     def ocp_options(self, options: Any, rating: Any) -> Any:
         """``options`` (an ``OcpOptions``) with this system's bounds and a drive's limits.
@@ -292,6 +323,10 @@ class System:
             surface_rate_bound_rad_s=b.surface_rate_max_rad_s,
             max_reel_acceleration_m_s2=self.winch.max_reel_acceleration_m_s2,
             max_reel_jerk_m_s3=self.winch.max_reel_jerk_m_s3,
+            max_reel_out_speed_m_s=self.winch.max_reel_out_speed_m_s,
+            max_reel_in_speed_m_s=self.winch.max_reel_in_speed_m_s,
+            max_body_rate_deg_s=b.max_body_rate_deg_s,
+            min_tension_n=b.min_tension_n,
             base_speed_rpm=self.drive.base_speed_rpm,
             envelope_speed_rpm=self.drive.envelope_speed_rpm,
             envelope_torque_nm=self.drive.envelope_torque_nm,
@@ -299,9 +334,10 @@ class System:
             ambient_temperature_c=self.drive.ambient_temperature_c,
         ))
 
-    def model_params(self) -> tuple[KiteParams, AeroCoefficients, WindModel]:
+    def model_params(self) -> tuple[KiteParams, AeroCoefficients, WindModel, TetherModel]:
         """Arguments of ``optimize.model.kite_model.kite_dae``."""
-        return self.kite_params(), self.aero_coefficients(), self.wind_model()
+        return self.kite_params(), self.aero_coefficients(), self.wind_model(), \
+            self.tether_model()
 
     def drivetrain_line(self) -> str:
         """One line: the drivetrain's inertia, reel-acceleration limit and torque-speed
@@ -317,6 +353,9 @@ class System:
                  else "no reel-acceleration limit stated")
         if w.max_reel_jerk_m_s3 is not None:
             accel += f", reel jerk <= {w.max_reel_jerk_m_s3:g} m/s^3 (all kinds)"
+        for word, value in (("out", w.max_reel_out_speed_m_s), ("in", w.max_reel_in_speed_m_s)):
+            if value is not None:
+                accel += f", reel-{word} speed <= {value:g} m/s (all kinds)"
         if d.base_speed_rpm is not None:
             envelope = f"constant power above {d.base_speed_rpm:g} rpm"
         elif d.envelope_speed_rpm is not None:
@@ -324,6 +363,17 @@ class System:
         else:
             envelope = "no torque-speed envelope stated (the torque limit at every speed)"
         return f"drivetrain: {inertia}; {accel}; {envelope}"
+
+    def tether_air_line(self) -> str:
+        """One line: the tether's mass and drag model and the atmosphere in force."""
+        t, w = self.tether_model(), self.wind
+        mass = (f"{t.mass_kg_m:.4g} kg/m (a rod with its weight and mass flow)"
+                if t.mass_kg_m > 0 else "massless")
+        drag = (f"drag over {t.drag_elements} elements with their own apparent wind"
+                if t.drag_elements else "drag lumped at the kite (a quarter of the line's)")
+        air = (f"ISA from {w.air_density_kg_m3:g} kg/m^3 at the ground" if w.atmosphere == "isa"
+               else f"constant density {w.air_density_kg_m3:g} kg/m^3")
+        return f"tether: {mass}, {drag}; air: {air}"
 
     def dae_spec(self) -> DaeSpec:
         """How a worker builds this system's model (:func:`optimize.model.kite_model.kite_dae`

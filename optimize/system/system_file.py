@@ -22,6 +22,7 @@ import numpy as np
 from kernel.drive_envelope import envelope_problem
 from kernel.errors import InputError
 from kernel.files import parse_toml, read_text
+from optimize.model.aero import force_coefficients
 from optimize.model.params import AeroCoefficients
 from optimize.system.plausibility import check_system
 from optimize.system.system import (
@@ -81,6 +82,32 @@ class _Reader:
                              "a list of at least two finite numbers")
         return tuple(float(v) for v in value)
 
+    def coefficient(self, key: str, optional: bool = False) -> float | tuple[float, ...] | None:
+        """A number, or a polynomial in alpha: a list of 1 to 8 finite numbers, ascending
+        powers (returned as a tuple)."""
+        if key not in self.data:
+            if optional:
+                return None
+            raise self.error(key, "missing", "a number or a list of numbers")
+        value = self.data.pop(key)
+        if _number(value):
+            return float(value)
+        if not isinstance(value, list) or not 1 <= len(value) <= 8 or not all(map(_number,
+                                                                                value)):
+            raise self.error(key, f"{value!r} is neither a number nor a polynomial",
+                             "a finite number, or a list of 1 to 8 finite numbers (the "
+                             "coefficients of 1, alpha, alpha^2, ... with alpha in rad)")
+        return tuple(float(v) for v in value)
+
+    def integer(self, key: str, lo: int, hi: int) -> int | None:
+        """An optional integer from ``lo`` to ``hi``."""
+        if key not in self.data:
+            return None
+        value = self.data.pop(key)
+        if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+            raise self.error(key, f"{value!r} is not allowed", f"an integer from {lo} to {hi}")
+        return value
+
     def text(self, key: str, choices: tuple[str, ...] | None = None,
              optional: bool = False) -> str | None:
         if key not in self.data:
@@ -100,9 +127,14 @@ class _Reader:
             raise self.error(key, "unknown key", "only the keys of docs/system_file.md")
 
 
+#: coefficients a system file may leave out (0: the paper's kite has none of them)
+OPTIONAL_COEFFICIENTS = ("cl_q", "cd_q", "cy_p", "cy_r", "cy_ail", "cl_rud", "cn_ail")
+
+
 def _aero(r: _Reader) -> AeroSection:
     names = [f.name for f in dataclasses.fields(AeroCoefficients)]
-    coeffs = AeroCoefficients(**{n: r.number(n) for n in names})
+    given = {n: r.coefficient(n, optional=n in OPTIONAL_COEFFICIENTS) for n in names}
+    coeffs = AeroCoefficients(**{n: v for n, v in given.items() if v is not None})
     a_lo, a_hi = r.number("alpha_min_deg"), r.number("alpha_max_deg")
     b_lo, b_hi = r.number("beta_min_deg"), r.number("beta_max_deg")
     if not -90 < a_lo < a_hi < 90:
@@ -111,10 +143,22 @@ def _aero(r: _Reader) -> AeroSection:
     if not -90 < b_lo < b_hi < 90:
         raise r.error("beta_max_deg", f"range [{b_lo:g}, {b_hi:g}]", "-90 < beta_min < "
                       "beta_max < 90 deg")
-    if coeffs.cl_alpha <= 0:
-        raise r.error("cl_alpha", f"{coeffs.cl_alpha!r} is not physical", "a lift slope > 0")
+    slope = _lift_slope(coeffs, a_lo, a_hi)
+    if slope <= 0:
+        raise r.error("cl_alpha", f"the lift slope dC_L/dalpha falls to {slope:.4g} per rad "
+                      f"in [{a_lo:g}, {a_hi:g}] deg", "a lift slope > 0 over the alpha range")
     r.done()
     return AeroSection(coeffs, a_lo, a_hi, b_lo, b_hi)
+
+
+def _lift_slope(coeffs: AeroCoefficients, a_lo_deg: float, a_hi_deg: float) -> float:
+    """Smallest lift slope dC_L/dalpha [1/rad] of the clean wing over the alpha range
+    (central differences on 51 points; ``cl_alpha`` itself for a linear lift)."""
+    if not isinstance(coeffs.cl0, tuple) and not isinstance(coeffs.cl_alpha, tuple):
+        return coeffs.cl_alpha
+    alpha = np.radians(np.linspace(a_lo_deg, a_hi_deg, 51))
+    cl = force_coefficients(alpha, 0.0, (0.0, 0.0, 0.0), coeffs)[0]
+    return float(np.min(np.diff(cl) / np.diff(alpha)))
 
 
 def _drive(r: _Reader) -> DriveSection:
@@ -209,10 +253,12 @@ def _kite(r: _Reader) -> KiteSection:
 
 
 def _tether(r: _Reader) -> TetherSection:
-    tether = TetherSection(r.number("diameter_m", 0), r.number("drag_coefficient", 0, False),
+    diameter = r.number("diameter_m", 0)
+    tether = TetherSection(diameter, r.number("drag_coefficient", 0, False),
                            r.number("max_force_n", 0, optional=True),
                            r.number("tensile_strength_pa", 0, optional=True),
-                           r.number("safety_factor", 0, optional=True))
+                           r.number("safety_factor", 0, optional=True),
+                           _line_mass(r, diameter), r.integer("drag_elements", 1, 100))
     if (tether.tensile_strength_pa is None) != (tether.safety_factor is None):
         missing = "safety_factor" if tether.safety_factor is None else "tensile_strength_pa"
         raise r.error(missing, "missing", "tensile_strength_pa and safety_factor together "
@@ -223,11 +269,29 @@ def _tether(r: _Reader) -> TetherSection:
     return tether
 
 
+def _line_mass(r: _Reader, diameter_m: float) -> float | None:
+    """``[tether]``'s mass per length [kg/m]: ``mass_kg_m``, or ``density_kg_m3`` times the
+    cross-section ``pi d^2 / 4`` (not both; ``None``: a massless line)."""
+    per_length = r.number("mass_kg_m", 0, strict=False, optional=True)
+    density = r.number("density_kg_m3", 0, optional=True)
+    if per_length is not None and density is not None:
+        raise r.error("density_kg_m3", "given with mass_kg_m", "mass_kg_m or density_kg_m3, "
+                      "not both")
+    if density is not None:
+        if not 100 <= density <= 20000:
+            raise r.error("density_kg_m3", f"{density!r} kg/m^3 is not a line's",
+                          "a density from 100 to 20000 kg/m^3 (Dyneema 970, steel 7850)")
+        return density * math.pi * diameter_m**2 / 4
+    return per_length
+
+
 def _winch(r: _Reader) -> WinchSection:
     winch = WinchSection(r.number("drum_radius_m", 0), r.number("gear_ratio", 0),
                          r.number("drum_inertia_kg_m2", 0, strict=False, optional=True),
                          r.number("max_reel_acceleration_m_s2", 0, optional=True),
-                         r.number("max_reel_jerk_m_s3", 0, optional=True))
+                         r.number("max_reel_jerk_m_s3", 0, optional=True),
+                         r.number("max_reel_out_speed_m_s", 0, optional=True),
+                         r.number("max_reel_in_speed_m_s", 0, optional=True))
     r.done()
     return winch
 
@@ -242,7 +306,8 @@ def _wind(r: _Reader) -> WindSection:
     if profile == "power" and rough is not None:
         raise r.error("roughness_length_m", "given with profile = \"power\"", "exponent only")
     wind = WindSection(profile, ref, rough, exponent, r.number("winch_height_m", 0, False),
-                       r.number("air_density_kg_m3", 0), r.number("gravity_m_s2", 0))
+                       r.number("air_density_kg_m3", 0), r.number("gravity_m_s2", 0),
+                       r.text("atmosphere", ("constant", "isa"), optional=True) or "constant")
     r.done()
     return wind
 
@@ -254,6 +319,8 @@ def _bounds(r: _Reader) -> BoundsSection:
         r.number("min_ground_clearance_m", 0, False), r.number("min_airspeed_m_s", 0, False),
         r.number("max_line_angle_deg", 0), r.number("surface_max_deg", 0),
         r.number("surface_rate_max_rad_s", 0), r.number("max_airspeed_m_s", 0, optional=True),
+        r.number("max_body_rate_deg_s", 0, optional=True),
+        r.number("min_tension_n", 0, strict=False, optional=True),
     )
     if bounds.max_airspeed_m_s is not None and bounds.max_airspeed_m_s <= bounds.min_airspeed_m_s:
         raise r.error("max_airspeed_m_s", "not above min_airspeed_m_s",
@@ -269,6 +336,16 @@ def _bounds(r: _Reader) -> BoundsSection:
     return bounds
 
 
+def _check_tension_range(path: str, tether: TetherSection, bounds: BoundsSection) -> None:
+    """The tension floor below the tether-force limit (when both are given)."""
+    top = [v for v in (tether.max_force_n, tether.working_load_n()) if v is not None]
+    if bounds.min_tension_n is not None and top and bounds.min_tension_n >= min(top):
+        raise InputError(path, f"[bounds] min_tension_n: {bounds.min_tension_n:g} N is not "
+                         f"below the tether-force limit {min(top):g} N",
+                         expected="a tension floor below [tether] max_force_n (or the "
+                         "line's working load)")
+
+
 def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> System:
     """Validate a parsed system file (see :func:`load_system`): each section by its reader,
     then the whole system's plausibility."""
@@ -281,6 +358,7 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
     drive = _drive(_Reader(path, "drive", data["drive"]))
     wind = _wind(_Reader(path, "wind", data["wind"]))
     bounds = _bounds(_Reader(path, "bounds", data["bounds"]))
+    _check_tension_range(path, tether, bounds)
     canonical = json.dumps(data, sort_keys=True, separators=(",", ":"))
     system = System(name, description, kite, aero, tether, winch, drive, wind, bounds, path,
                     text, hashlib.sha256(canonical.encode("utf-8")).hexdigest(), paper_system)
