@@ -29,8 +29,8 @@ from optimize.paper_model import PAPER_MODEL_PATH
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
+from optimize.service.plan import parse_wind_grid
 from optimize.solve.solve import solve, start
-from optimize.sweep.plan import parse_wind_grid
 
 
 class Solver:
@@ -102,7 +102,7 @@ def main(argv=None) -> int:
           f"({len(fine) - len(ok)} failed), {t_ref:.0f} s")
     print(f"coarse {args.coarse}: AEP {coarse_aep:.4f} MWh/yr, error {coarse_aep / ref - 1:+.2%} "
           f"(the cost of linear interpolation on it)")
-    grid = ", ".join(f"{w:g}" for w in refined.wind_m_s)
+    grid = ", ".join(f"{w:g}" for w in refined.wind_speed_m_s)
     failed = f"; failed {refined.failed}" if refined.failed else ""
     print(f"adaptive: AEP {refined.aep_mwh:.4f} MWh/yr, error {refined.aep_mwh / ref - 1:+.2%}, "
           f"{solver.n_solves} solves, {t_ad:.0f} s; grid {grid}{failed}")

@@ -167,7 +167,7 @@ def rows_of(name: str, data: dict, folder: Path) -> list[dict]:
                 # recomputed from the tension and the reel acceleration, not the OCP's
                 # column: tether torque at the motor plus J_motor * motor acceleration
                 peak_shaft_torque_recomputed_nm=float(np.max(np.abs(
-                    t["l_m"] * t["nu_n_m"] * radius / gear
+                    t["l_m"] * t["nu_n_per_m"] * radius / gear
                     - inertia * gear * t["ddl_m_s2"] / radius))),
                 peak_tether_torque_nm=float(t["tether_torque_nm"].abs().max()),
                 envelope_ratio=float(np.max(torque / envelope_torque_nm(

@@ -40,15 +40,15 @@ from optimize.kinds import DEFAULT_KINDS
 from optimize.paper_model import PAPER_MODEL_PATH
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.service import OcpBackend, Problem, make_tasks, run_sweep
-from optimize.solve.homotopy import cold_start
-from optimize.sweep.executors import open_executor
-from optimize.sweep.plan import (
+from optimize.service.executors import open_executor
+from optimize.service.plan import (
     DEFAULT_WIND_GRID,
     middle_index,
     parse_kinds,
     parse_wind_grid,
     plan_graph,
 )
+from optimize.solve.homotopy import cold_start
 from optimize.sweep.trust import run_trust_checks
 
 OUT = Path(__file__).resolve().parent / "out"

@@ -73,6 +73,7 @@ from optimize.command import SweepRequest, run_optimize
 from optimize.model import kite_model as km
 from optimize.paper_model import PAPER_MODEL_PATH, paper_model
 from optimize.problem.ocp import OcpOptions
+from optimize.resolve import resolve
 from optimize.service.builder import OcpBackend
 from optimize.sweep_folder import read_summary
 from optimize.system.system_file import load_system
@@ -191,9 +192,10 @@ def run_change(change: Change, out: Path, workers: int, fitted: Path | None) -> 
     path = fitted if change.fitted_model else PAPER_MODEL_PATH
     model = load_power_model(path) if change.fitted_model else paper_model()
     options = OcpOptions().replace(**change.options)
-    request = SweepRequest(change.winds, change.kinds, model, path,
-                           f"paper ablation: {change.name}", options, workers=workers,
-                           out=out / change.name, claims=False, system=system)
+    request = SweepRequest(change.winds, change.kinds,
+                           resolve(system, model, options=options, model_path=path),
+                           f"paper ablation: {change.name}", workers=workers,
+                           out=out / change.name, claims=False)
     backend = (ReferenceBackend(change.reel_speed_m_s, change.limit_points)
                if change.reel_speed_m_s is not None or change.limit_points else None)
     load0, c0, t0 = os.getloadavg()[0], time.process_time(), time.perf_counter()

@@ -22,7 +22,7 @@ import pandas as pd
 
 from optimize.kinds import KINDS
 from optimize.service import ChainTask, Problem, run_chain
-from optimize.sweep.plan import chain_steps, parse_wind_grid
+from optimize.service.plan import chain_steps, parse_wind_grid
 
 TRAJECTORY = pd.DataFrame({"weight": np.full(161, 1 / 161),
                            "speed_rpm": np.linspace(-900.0, 900.0, 161),

@@ -57,9 +57,9 @@ from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.problem.transcriptions.derivatives import nlp_derivatives, whole_derivatives
 from optimize.service import Problem, make_tasks, run_sweep
+from optimize.service.executors import open_executor
+from optimize.service.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
 from optimize.solve.solve import cold_start, solve, start
-from optimize.sweep.executors import open_executor
-from optimize.sweep.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import load_system

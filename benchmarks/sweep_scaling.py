@@ -1,7 +1,7 @@
 """Scaling of the bench optimize sweep with the worker count, and its critical path.
 
 Runs the paper sweep (4 kinds x 4:10:1.5, the start graph of
-:func:`optimize.sweep.plan.plan_graph`) on 1, 2, ... worker processes and reports,
+:func:`optimize.service.plan.plan_graph`) on 1, 2, ... worker processes and reports,
 per run: the sweep's wall time, the total solver time (the sum of every scenario's
 solver runs), and the critical path: the longest sum of solver wall times along the
 start dependencies (each scenario's ``warm_source`` back to its seed), which no
@@ -29,8 +29,8 @@ from kernel.files import write_text_atomic
 from optimize.kinds import DEFAULT_KINDS
 from optimize.problem.options import OcpOptions
 from optimize.service import Problem, make_tasks, run_sweep
-from optimize.sweep.executors import open_executor
-from optimize.sweep.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
+from optimize.service.executors import open_executor
+from optimize.service.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system_file import load_system
 

@@ -12,40 +12,26 @@ with its :class:`BenchFrame`), the same objects
 the ``bench`` commands build from their options.
 
 The package also holds the ``bench`` command line (:mod:`drivebench.cli`), so its names
-are imported when first used (:func:`__getattr__`): ``bench --help`` does not load the
-solver.
+are imported on first use (:mod:`kernel.lazy`): ``bench --help`` does not load the solver.
 """
 
-from __future__ import annotations
-
-import importlib
 from importlib import metadata
+
+from kernel.lazy import lazy_names
 
 #: the installed distribution's version, as ``bench --version`` prints it
 __version__ = metadata.version("drivebench")
 
-#: public name -> the module that defines it
-_HOMES = {
-    **dict.fromkeys(("AepResult", "Execution", "ExportOptions", "Ingested", "RatingOverrides",
-                     "RefineOptions", "SiteSpec", "SizeResult", "SizingGrid", "SolverChoice",
-                     "Sweep", "WindGrid", "aep", "cycle_export", "cycle_verify", "fit",
-                     "ingest", "optimize", "size"), "drivebench.api"),
-    "BenchFrame": "bench.cycle_profile",
-    "plot_efficiency_map": "drivebench.plots",
-    **dict.fromkeys(("plot_aep", "plot_cycle", "plot_power_curves"), "reports.plots"),
+#: home module -> the public names it defines
+LAZY_IMPORTS = {
+    "drivebench.api": ("AepResult", "Execution", "ExportOptions", "Ingested", "RatingOverrides",
+                       "RefineOptions", "SiteSpec", "SizeResult", "SizingGrid", "SolverChoice",
+                       "Sweep", "WindGrid", "aep", "cycle_export", "cycle_verify", "fit",
+                       "ingest", "optimize", "size"),
+    "bench.cycle_profile": ("BenchFrame",),
+    "drivebench.plots": ("plot_efficiency_map",),
+    "reports.plots": ("plot_aep", "plot_cycle", "plot_power_curves"),
 }
 
-__all__ = sorted(_HOMES)
-
-
-def __getattr__(name: str):
-    """Import a public name from its module on first use (PEP 562)."""
-    if name not in _HOMES:
-        raise AttributeError(f"module 'drivebench' has no attribute {name!r}")
-    value = getattr(importlib.import_module(_HOMES[name]), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *__all__})
+__all__ = sorted(name for names in LAZY_IMPORTS.values() for name in names)
+__getattr__, __dir__ = lazy_names(__name__, LAZY_IMPORTS)

@@ -36,7 +36,7 @@ from energy.size_command import DEFAULT_SIZING, SYSTEM_RATING, RatingOverrides, 
 from fitting.power_model import PowerModel
 from kernel.display import html_view, text_view
 from kernel.errors import InputError
-from optimize.sweep_options import (
+from optimize.door import (
     DEFAULT_SOLVER,
     LOCAL_POOL,
     PAPER_GRID,
@@ -223,7 +223,7 @@ class Sweep:
                  ("system and drive", self.note)]
         return rows
 
-    def cycles(self, wind_m_s: float) -> dict[str, pd.DataFrame]:
+    def cycles(self, wind_speed_m_s: float) -> dict[str, pd.DataFrame]:
         """The converged cycles at one wind speed: scenario kind -> the closed cycle
         (``time_s`` from 0 to the period [s], ``speed_rpm``, ``torque_nm``, ``p_elec_w``,
         ``p_mech_w``, ...: ``trajectories.parquet``'s columns, docs/schemas.md §5)."""
@@ -231,7 +231,7 @@ class Sweep:
 
         traj = pd.read_parquet(self.folder / "trajectories.parquet")
         rows = self.summary[self.summary["success"].astype(bool)
-                            & (self.summary["wind_speed_m_s"].astype(float) - wind_m_s).abs()
+                            & (self.summary["wind_speed_m_s"].astype(float) - wind_speed_m_s).abs()
                             .lt(1e-9)]
         return {str(r.kind): closed_cycle(traj[traj["scenario"] == r.scenario])
                 for r in rows.itertuples(index=False)}
@@ -299,7 +299,7 @@ def optimize(model: Any = None, *, grid: WindGrid = PAPER_GRID, system: Any = No
         checked, before the first solve.
     """
     from energy.curve import read_optimize_run
-    from optimize.command import make_request, run_optimize
+    from optimize.door import make_request, run_optimize
 
     if model is not None and not isinstance(model, str | Path | PowerModel):
         raise InputError(None, f"model of type {type(model).__name__}",

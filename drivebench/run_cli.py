@@ -105,11 +105,10 @@ def site_wind_grid(site_argv: list[str], step_factor: int = 1,
     ``START:STOP:STEP`` from the start of ``bench optimize``'s default grid in
     ``step_factor`` of its steps, up to the speed above which ``tail_share`` of the hours
     lie (default :data:`energy.site.TAIL_SHARE`), at most to the 25 m/s cut-out of
-    :data:`optimize.sweep.plan.WIND_RANGE_M_S` (system files state no cut-out)."""
+    :data:`optimize.service.plan.WIND_RANGE_M_S` (system files state no cut-out)."""
     from energy.cli import shear_from_args, site_from_args
     from energy.site import TAIL_SHARE, covering_stop
-    from optimize.sweep.plan import WIND_RANGE_M_S, parse_wind_grid
-    from optimize.system.system_file import load_system
+    from optimize.door import WIND_RANGE_M_S, load_system, parse_wind_grid
 
     base = parse_wind_grid(stage_default("optimize", "--wind-grid"))
     start, step = base[0], step_factor * (base[1] - base[0])
@@ -166,7 +165,7 @@ def stage_commands(args: argparse.Namespace) -> list[list[str]]:
 def run(args: argparse.Namespace) -> int:
     """Run the stages one after the other; return the first non-zero exit code."""
     from drivebench.cli import main
-    from optimize.cli import EXIT_SOME_FAILED
+    from optimize.door import EXIT_SOME_FAILED
 
     for argv in stage_commands(args):
         print(f"\n== bench {' '.join(argv)}", flush=True)

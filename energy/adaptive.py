@@ -40,7 +40,7 @@ class RefinedGrid:
 
     Attributes
     ----------
-    wind_m_s, p_w : ndarray
+    wind_speed_m_s, p_w : ndarray
         The final grid [m/s] and powers [W] (failed solves left out); ``p_w`` has
         shape ``(n,)`` for one curve, ``(n, n_curves)`` for several.
     aep_mwh : float or ndarray
@@ -51,7 +51,7 @@ class RefinedGrid:
         Wind speeds whose solve failed.
     """
 
-    wind_m_s: np.ndarray
+    wind_speed_m_s: np.ndarray
     p_w: np.ndarray
     aep_mwh: float | np.ndarray
     history: list[tuple[float, float | np.ndarray]]

@@ -33,13 +33,13 @@ WH_PER_MWH = 1.0e6
 
 
 def delivered_knots(
-    wind_m_s: np.ndarray, p_w: np.ndarray, cut_in_m_s: float | None = None
+    wind_speed_m_s: np.ndarray, p_w: np.ndarray, cut_in_m_s: float | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Knots of the delivered-power curve ``max(-P, 0)``, zero crossings included.
 
     Parameters
     ----------
-    wind_m_s : ndarray
+    wind_speed_m_s : ndarray
         Grid wind speeds [m/s], strictly increasing.
     p_w : ndarray
         Cycle-average power [W] at those speeds (negative = generated).
@@ -52,7 +52,7 @@ def delivered_knots(
     (ndarray, ndarray)
         Knot speeds [m/s] and delivered power [W] (>= 0), linear in between.
     """
-    v = np.asarray(wind_m_s, dtype=float)
+    v = np.asarray(wind_speed_m_s, dtype=float)
     d = -np.asarray(p_w, dtype=float)
     if v.ndim != 1 or v.shape != d.shape or len(v) == 0:
         raise ValueError("wind and power must be 1-D arrays of equal, non-zero length")
@@ -83,13 +83,13 @@ def expected_power_w(knot_v: np.ndarray, knot_d: np.ndarray, dist: Distribution)
                         + beta * (dist.partial_mean(b) - dist.partial_mean(a))))
 
 
-def aep_mwh(wind_m_s, p_w, dist: Distribution, cut_in_m_s: float | None = None) -> float:
+def aep_mwh(wind_speed_m_s, p_w, dist: Distribution, cut_in_m_s: float | None = None) -> float:
     """Annual energy delivered [MWh/yr] (8760 h) by the curve ``P(wind)`` (negative = generated)."""
-    kv, kd = delivered_knots(wind_m_s, p_w, cut_in_m_s)
+    kv, kd = delivered_knots(wind_speed_m_s, p_w, cut_in_m_s)
     return expected_power_w(kv, kd, dist) * HOURS_PER_YEAR / WH_PER_MWH
 
 
-def aep_sensitivity(wind_m_s, p_w, dist: Distribution, cut_in_m_s: float | None = None,
+def aep_sensitivity(wind_speed_m_s, p_w, dist: Distribution, cut_in_m_s: float | None = None,
                     step_w: float = 1e-3) -> np.ndarray:
     """``d AEP / d P_i`` [MWh/yr per W] at each grid point (central differences).
 
@@ -102,8 +102,8 @@ def aep_sensitivity(wind_m_s, p_w, dist: Distribution, cut_in_m_s: float | None 
         hi, lo = p.copy(), p.copy()
         hi[i] += step_w
         lo[i] -= step_w
-        out[i] = (aep_mwh(wind_m_s, hi, dist, cut_in_m_s)
-                  - aep_mwh(wind_m_s, lo, dist, cut_in_m_s)) / (2 * step_w)
+        out[i] = (aep_mwh(wind_speed_m_s, hi, dist, cut_in_m_s)
+                  - aep_mwh(wind_speed_m_s, lo, dist, cut_in_m_s)) / (2 * step_w)
     return out
 
 
@@ -145,10 +145,10 @@ class CurveEnergy:
     share_left_out: float
 
 
-def curve_energy(wind_m_s, p_w, dist: Distribution, nominal_power_w: float,
+def curve_energy(wind_speed_m_s, p_w, dist: Distribution, nominal_power_w: float,
                  cut_in_m_s: float | None = None) -> CurveEnergy:
     """AEP, capacity factor, cut-in/out of one curve (see :func:`aep_mwh`)."""
-    kv, kd = delivered_knots(wind_m_s, p_w, cut_in_m_s)
+    kv, kd = delivered_knots(wind_speed_m_s, p_w, cut_in_m_s)
     mean = expected_power_w(kv, kd, dist)
     positive = np.flatnonzero(kd > 0)
     below, above = float(dist.cdf(kv[0])), float(1.0 - dist.cdf(kv[-1]))

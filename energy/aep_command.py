@@ -31,7 +31,7 @@ from fitting.model_schema import power_model_from_dict
 from kernel.errors import InputError
 from kernel.output_folder import check_replaceable
 from kernel.provenance import Provenance
-from optimize.sweep_options import LOCAL_POOL, Execution
+from optimize.door import LOCAL_POOL, Execution
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,7 @@ from energy.site import Distribution, Histogram, Weibull
 from kernel.errors import InputError
 from kernel.files import read_json
 from kernel.output_folder import check_output_file
-from optimize.kinds import OBJECTIVES, kind_of
+from optimize.door import OBJECTIVES, kind_of
 from optimize.sweep_folder import read_trajectories
 
 #: the trajectory columns the coefficient bands need (cycle averages of the model terms)
@@ -228,9 +228,9 @@ def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
     kinds: dict[str, KindEnergy] = {}
     curve_rows = []
     for kind, curve in run.curves.items():
-        if len(np.unique(curve.wind_m_s)) < 2:
+        if len(np.unique(curve.wind_speed_m_s)) < 2:
             raise InputError(run.folder / "summary.parquet",
-                             f"kind {kind}: a power curve of {len(curve.wind_m_s)} converged "
+                             f"kind {kind}: a power curve of {len(curve.wind_speed_m_s)} converged "
                              "wind speed cannot be integrated over the site's wind hours",
                              expected="a sweep of at least two wind speeds that converge "
                                       "(bench optimize --wind-grid LO:HI:STEP)")
@@ -273,34 +273,34 @@ def _kind_energy(curve: PowerCurve, site: Distribution, nominal: float, model: A
                  site_uncertainty: SiteUncertainty | None,
                  notes: list[str]) -> tuple[KindEnergy, list[dict]]:
     """One kind's energy and bands, and its rows of ``power_curves.csv``."""
-    elec = aep_mod.curve_energy(curve.wind_m_s, curve.p_elec_w, site, nominal,
+    elec = aep_mod.curve_energy(curve.wind_speed_m_s, curve.p_elec_w, site, nominal,
                                 curve.cut_in_m_s)
-    mech = aep_mod.curve_energy(curve.wind_m_s, curve.p_mech_w, site, nominal, None)
-    sigma_p = np.full(len(curve.wind_m_s), np.nan)
+    mech = aep_mod.curve_energy(curve.wind_speed_m_s, curve.p_mech_w, site, nominal, None)
+    sigma_p = np.full(len(curve.wind_speed_m_s), np.nan)
     sigma_model = None
     if model is not None:
         grads = bands.curve_gradients(trajectories, curve.scenarios, model.terms, gradients)
         cov = np.array(model.covariance_rpm)
         _check_consistent(curve, grads, model, notes)
         sigma_p = np.array([bands.sigma(g, cov) for g in grads])
-        dA = aep_mod.aep_sensitivity(curve.wind_m_s, curve.p_elec_w, site, curve.cut_in_m_s)
+        dA = aep_mod.aep_sensitivity(curve.wind_speed_m_s, curve.p_elec_w, site, curve.cut_in_m_s)
         sigma_model = bands.sigma(dA @ grads, cov)
     sigma_site = 0.0
     if site_uncertainty is not None and isinstance(site, Weibull):
         sigma_site = _weibull_site_sigma(
-            lambda d, c=curve: aep_mod.aep_mwh(c.wind_m_s, c.p_elec_w, d, c.cut_in_m_s),
+            lambda d, c=curve: aep_mod.aep_mwh(c.wind_speed_m_s, c.p_elec_w, d, c.cut_in_m_s),
             site, site_uncertainty)
     if curve.failed:
         notes.append(f"{curve.kind}: failed solves at "
                      f"{', '.join(f'{w:g}' for w, _ in curve.failed)}"
                      " m/s are left out; the curve is interpolated across them")
     energy = KindEnergy(curve.kind, curve.objective, curve.drive_limits, elec, mech,
-                        sigma_model, sigma_site, len(curve.wind_m_s), curve.failed)
+                        sigma_model, sigma_site, len(curve.wind_speed_m_s), curve.failed)
     rows = [{"kind": curve.kind, "scenario": curve.scenarios[i], "wind_speed_m_s": float(v),
              "p_elec_w": float(curve.p_elec_w[i]), "p_mech_w": float(curve.p_mech_w[i]),
              "p_elec_sigma_w": float(sigma_p[i]),
              "added": bool(curve.added[i]) if curve.added else False}
-            for i, v in enumerate(curve.wind_m_s)]
+            for i, v in enumerate(curve.wind_speed_m_s)]
     return energy, rows
 
 

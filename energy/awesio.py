@@ -76,7 +76,7 @@ def power_curve_document(
     name: str,
     description: str,
     note: str,
-    wind_m_s: np.ndarray,
+    wind_speed_m_s: np.ndarray,
     delivered_w: np.ndarray,
     cycle_time_s: np.ndarray,
     reference_height_m: float,
@@ -88,7 +88,7 @@ def power_curve_document(
 
     Parameters
     ----------
-    wind_m_s : ndarray
+    wind_speed_m_s : ndarray
         Reference wind speeds [m/s] at ``reference_height_m``.
     delivered_w : ndarray
         Average cycle power delivered [W] (positive = generated, awesIO's sign).
@@ -111,7 +111,7 @@ def power_curve_document(
             "wind_resource": {"n_clusters": 1, "reference_height": float(reference_height_m)},
         },
         "altitudes": [float(a) for a in altitudes_m],
-        "reference_wind_speeds": [float(v) for v in wind_m_s],
+        "reference_wind_speeds": [float(v) for v in wind_speed_m_s],
         "power_curves": [{
             "profile_id": 1,
             "probability_weight": 1.0,
@@ -123,7 +123,7 @@ def power_curve_document(
                 {"wind_speed": float(v),
                  "performance": {"power": {"average_cycle_power": float(p)},
                                  "timing": {"cycle_time": float(t)}}}
-                for v, p, t in zip(wind_m_s, delivered_w, cycle_time_s, strict=True)
+                for v, p, t in zip(wind_speed_m_s, delivered_w, cycle_time_s, strict=True)
             ],
         }],
     }

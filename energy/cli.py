@@ -179,8 +179,8 @@ def run(args: argparse.Namespace) -> int:
     from energy.aep_command import RefineOptions, SiteSpec, run_aep
     from energy.outputs import SIGN_NOTE, format_table
     from energy.refine import DEFAULT_TOL, added_list, system_from_manifest
+    from optimize.door import Execution
     from optimize.sweep_folder import read_manifest
-    from optimize.sweep_options import Execution
 
     if args.out.exists() and not args.out.is_dir():
         raise InputError(args.out, "exists and is not a folder", expected="an output folder")

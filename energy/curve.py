@@ -31,7 +31,7 @@ class PowerCurve:
         ``"electrical"`` or ``"mechanical"``.
     drive_limits : bool
         Whether the drive limits applied.
-    wind_m_s : ndarray
+    wind_speed_m_s : ndarray
         Wind speeds of the converged scenarios at the reference height [m/s], increasing.
     p_elec_w, p_mech_w : ndarray
         Cycle-average electrical / mechanical power [W] (negative = generated).
@@ -54,7 +54,7 @@ class PowerCurve:
     kind: str
     objective: str
     drive_limits: bool
-    wind_m_s: np.ndarray
+    wind_speed_m_s: np.ndarray
     p_elec_w: np.ndarray
     p_mech_w: np.ndarray
     period_s: np.ndarray
@@ -124,7 +124,7 @@ def read_optimize_run(folder: str | Path) -> OptimizeRun:
             kind=str(kind),
             objective=str(first["objective"]),
             drive_limits=bool(first["drive_limits"]),
-            wind_m_s=ok["wind_speed_m_s"].to_numpy(float),
+            wind_speed_m_s=ok["wind_speed_m_s"].to_numpy(float),
             p_elec_w=ok["avg_p_elec_w"].to_numpy(float),
             p_mech_w=ok["avg_p_mech_w"].to_numpy(float),
             period_s=ok["period_s"].to_numpy(float),

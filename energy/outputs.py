@@ -136,7 +136,7 @@ def write_files(a: Assessment, run: OptimizeRun, out: Path, provenance: Provenan
                      "are left out"
                      + ("; wind speeds added by bench aep --refine are in the list."
                         if any(curve.added) else "."),
-                wind_m_s=curve.wind_m_s, delivered_w=-p, cycle_time_s=curve.period_s,
+                wind_speed_m_s=curve.wind_speed_m_s, delivered_w=-p, cycle_time_s=curve.period_s,
                 reference_height_m=reference_height_m, altitudes_m=altitudes, u_normalized=u,
                 model_config={"drive_model": model.get("name"),
                               "drive_model_sha256": model.get("model_sha256"),

@@ -32,7 +32,7 @@ from energy.adaptive import refine_grid
 from energy.curve import OptimizeRun, PowerCurve
 from kernel.errors import InputError
 from kernel.files import parse_toml
-from optimize.service.outcome import failure_reason
+from optimize.door import failure_reason
 
 #: the check re-solve must give the sweep's average electrical power within this share
 #: of the curve's largest |P_elec|: IPOPT's tolerance (1e-6 scaled) reproduces the same
@@ -45,7 +45,7 @@ DEFAULT_TOL = 0.002
 
 def options_from_manifest(manifest: dict, path: Path) -> Any:
     """The sweep's ``OcpOptions`` from its manifest's ``options`` (lists back to tuples)."""
-    from optimize.problem.options import OcpOptions
+    from optimize.door import OcpOptions
 
     raw = manifest.get("options")
     if not isinstance(raw, dict):
@@ -68,7 +68,7 @@ def system_from_manifest(manifest: dict, path: Path) -> Any:
     InputError
         The record's text does not parse or its hash differs from the record's.
     """
-    from optimize.system.system_file import system_from_dict
+    from optimize.door import system_from_dict
 
     rec = manifest.get("system")
     if rec is None:
@@ -128,8 +128,7 @@ class KindTask:
     def chain(self, index: int = 0) -> Any:
         """The solve service's chain (:class:`optimize.service.chain.ChainTask`): no planned
         grid, a refinement of both curves from the known points, after a check re-solve."""
-        from optimize.service.builder import Problem
-        from optimize.service.chain import ChainTask, Refinement
+        from optimize.door import ChainTask, Problem, Refinement
 
         refine = Refinement(self.kind, self.site, refine_grid, self.tol, self.max_points,
                             self.known,
@@ -147,7 +146,7 @@ def refine_kind(task: KindTask, progress: Any = None) -> list[dict]:
     solved again, to check the sweep's figure) or ``"added"``, plus ``basis_averages``
     (:func:`basis_figures`).
     """
-    from optimize.service.chain import run_chain
+    from optimize.door import run_chain
 
     return list(run_chain(task.chain(), progress).records)
 
@@ -183,13 +182,12 @@ class KindRefinement:
 
 def merged_curve(coarse: PowerCurve, records: tuple[dict, ...]) -> PowerCurve:
     """The sweep's curve with the converged added points in, the failed ones in ``failed``."""
-    from optimize.problem.scenario import scenario_name
+    from optimize.door import scenario_name
 
+    columns = (coarse.wind_speed_m_s, coarse.p_elec_w, coarse.p_mech_w, coarse.period_s,
+               coarse.peak_speed_rpm, coarse.peak_torque_nm, coarse.scenarios)
     rows = [(float(w), float(pe), float(pm), float(t), float(n), float(q), s, False)
-            for w, pe, pm, t, n, q, s in zip(coarse.wind_m_s, coarse.p_elec_w, coarse.p_mech_w,
-                                             coarse.period_s, coarse.peak_speed_rpm,
-                                             coarse.peak_torque_nm, coarse.scenarios,
-                                             strict=True)]
+            for w, pe, pm, t, n, q, s in zip(*columns, strict=True)]
     have = {r[0] for r in rows}
     failed = list(coarse.failed)
     for r in records:
@@ -204,7 +202,7 @@ def merged_curve(coarse: PowerCurve, records: tuple[dict, ...]) -> PowerCurve:
                      True))
     rows.sort()
     col = list(zip(*rows, strict=True))
-    return replace(coarse, wind_m_s=np.array(col[0]), p_elec_w=np.array(col[1]),
+    return replace(coarse, wind_speed_m_s=np.array(col[0]), p_elec_w=np.array(col[1]),
                    p_mech_w=np.array(col[2]), period_s=np.array(col[3]),
                    peak_speed_rpm=np.array(col[4]), peak_torque_nm=np.array(col[5]),
                    scenarios=tuple(col[6]), added=tuple(col[7]),
@@ -249,8 +247,7 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
     InputError
         ``model`` is not the sweep's (manifest hash), or the manifest has no options.
     """
-    from optimize.service.run import run_chains
-    from optimize.service.solver import attempt_line
+    from optimize.door import attempt_line, run_chains
 
     manifest_path = run.folder / "manifest.json"
     if run.drive_model_sha256 and model.sha256 != run.drive_model_sha256:
@@ -260,10 +257,10 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
     options = options_from_manifest(run.manifest, manifest_path)
     system = system_from_manifest(run.manifest, manifest_path)
     tasks = [KindTask(k, model, options,
-                      tuple(zip(c.wind_m_s.tolist(), c.p_elec_w.tolist(), c.p_mech_w.tolist(),
+                      tuple(zip(c.wind_speed_m_s.tolist(), c.p_elec_w.tolist(), c.p_mech_w.tolist(),
                                 strict=True)),
                       site, Path(store), tol, max_points, backend, system)
-             for k, c in run.curves.items() if len(c.wind_m_s) >= 2]
+             for k, c in run.curves.items() if len(c.wind_speed_m_s) >= 2]
     bar = solve_counter("refine", show_progress)
     counts = {"solved": 0, "loaded": 0}
 
@@ -291,7 +288,7 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
             continue
         records = out.records
         curve = merged_curve(coarse, records)
-        names = dict(zip(curve.wind_m_s.tolist(), curve.scenarios, strict=True))
+        names = dict(zip(curve.wind_speed_m_s.tolist(), curve.scenarios, strict=True))
         grads = {names[float(r["wind_speed_m_s"])]: np.array(r["basis_averages"])
                  for r in records if r["role"] == "added" and r["success"]}
         kinds[task.kind] = KindRefinement(task.kind, coarse, records, grads,
@@ -310,7 +307,7 @@ def _check_note(coarse: PowerCurve, records: tuple[dict, ...]) -> str | None:
         return (f"{coarse.kind}: the check re-solve at {w:g} m/s failed "
                 f"({failure_reason(check)}); "
                 "added points were solved without it")
-    ref = float(coarse.p_elec_w[np.flatnonzero(coarse.wind_m_s == w)[0]])
+    ref = float(coarse.p_elec_w[np.flatnonzero(coarse.wind_speed_m_s == w)[0]])
     gap = abs(check["avg_p_elec_w"] - ref)
     scale = float(np.max(np.abs(coarse.p_elec_w)))
     if gap > CHECK_REL_TOL * scale:
@@ -328,11 +325,11 @@ def refine_document(r: RefinedRun, site: Any, tol: float) -> dict:
     for k, kr in r.kinds.items():
         c, m = kr.coarse, r.run.curves[k]
         kinds[k] = {
-            "coarse_aep_elec_mwh": aep_mwh(c.wind_m_s, c.p_elec_w, site, c.cut_in_m_s),
-            "coarse_aep_mech_mwh": aep_mwh(c.wind_m_s, c.p_mech_w, site),
-            "aep_elec_mwh": aep_mwh(m.wind_m_s, m.p_elec_w, site, m.cut_in_m_s),
-            "aep_mech_mwh": aep_mwh(m.wind_m_s, m.p_mech_w, site),
-            "wind_speeds_m_s": m.wind_m_s.tolist(),
+            "coarse_aep_elec_mwh": aep_mwh(c.wind_speed_m_s, c.p_elec_w, site, c.cut_in_m_s),
+            "coarse_aep_mech_mwh": aep_mwh(c.wind_speed_m_s, c.p_mech_w, site),
+            "aep_elec_mwh": aep_mwh(m.wind_speed_m_s, m.p_elec_w, site, m.cut_in_m_s),
+            "aep_mech_mwh": aep_mwh(m.wind_speed_m_s, m.p_mech_w, site),
+            "wind_speeds_m_s": m.wind_speed_m_s.tolist(),
             "solves": [{key: rec.get(key) for key in (
                 "wind_speed_m_s", "role", "success", "status", "warm_from", "avg_p_elec_w",
                 "avg_p_mech_w", "result_check", "wall_time_s", "cached")}

@@ -14,7 +14,7 @@ from typing import Any
 
 from energy.cli import add_site_arguments, shear_from_args, site_from_args
 from kernel.errors import InputError
-from optimize.service.outcome import failure_reason
+from optimize.door import failure_reason
 
 #: where ``bench fit`` writes its model (docs/schemas.md §4)
 FIT_MODEL_PATH = Path("fit_out") / "power_model.json"
@@ -83,9 +83,7 @@ def run(args: argparse.Namespace) -> int:
     """Run or resume the sizing sweep (:func:`energy.size_command.run_size`), print the
     table."""
     from energy.size_command import RatingOverrides, SizingGrid, run_size
-    from optimize.sweep.plan import parse_wind_grid
-    from optimize.sweep_options import Execution, SolverChoice
-    from optimize.system.system_file import load_system
+    from optimize.door import Execution, SolverChoice, load_system, parse_wind_grid
 
     system = load_system(args.system)
     site, site_note, _ = site_from_args(args, shear_from_args(args, system))

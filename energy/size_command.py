@@ -21,13 +21,7 @@ from energy.sizing_files import SIZE_KEEP, SIZE_MARKERS, edge_note, grid_hours, 
 from kernel.errors import InputError
 from kernel.output_folder import check_replaceable
 from kernel.provenance import Provenance
-from optimize.sweep_options import (
-    DEFAULT_SOLVER,
-    LOCAL_POOL,
-    PAPER_WINDS_M_S,
-    Execution,
-    SolverChoice,
-)
+from optimize.door import DEFAULT_SOLVER, LOCAL_POOL, PAPER_WINDS_M_S, Execution, SolverChoice
 
 
 @dataclass(frozen=True)
@@ -162,28 +156,19 @@ def run_size(site: Any, model: Any = None, *, system: Any = None,
     before_solving : callable, optional
         ``before_solving(drive, n_candidates)``, called once the candidates are made.
     """
-    from optimize.problem.ocp import thermal_line
-    from optimize.problem.options import OcpOptions
-    from optimize.system.drive_in_force import drive_in_force
-    from optimize.system.system import System
-    from optimize.system.system_file import load_system
+    from optimize.door import resolve
 
     run_record = Provenance.start(command_line)
     check_replaceable(out, "size", SIZE_MARKERS, keep=SIZE_KEEP)  # before the work
-    system = system if isinstance(system, System) else load_system(system)
-    if model is None or isinstance(model, str | Path):
-        drive = drive_in_force(system, None if model is None else Path(model),
-                               None if fit_default is None else Path(fit_default))
-    else:
-        drive = drive_in_force(system, model=model)
+    setup = resolve(system, model, fit_default=fit_default)
+    system, drive = setup.system, setup.drive
 
     def candidates(scales: tuple[float, ...]) -> tuple[list, list[str]]:
         return build_candidates(drive, scales, grid.models, rating.continuous_torque_nm,
                                 rating.max_speed_rpm, rating.max_torque_nm)
 
     first, notes = candidates(grid.scales)
-    notes = [thermal_line(drive.model, system.ocp_options(OcpOptions(), drive.rating).limits,
-                          system.path),
+    notes = [setup.thermal_line(),
              *(f"{c.name} flies {limits_text(candidate_row(c))}" for c in first
                if c.scale == 1.0), *notes]
     if before_solving is not None:

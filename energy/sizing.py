@@ -103,7 +103,7 @@ class Candidate:
         system : optimize.system.system.System
             The kite, tether, winch, wind and bounds the candidate is sized for.
         """
-        from optimize.problem.options import Discretization, OcpOptions
+        from optimize.door import Discretization, OcpOptions
 
         options = system.ocp_options(OcpOptions(Discretization(n_intervals, degree)),
                                      self.rating)
@@ -116,7 +116,7 @@ class Candidate:
     def problem(self, n_intervals: int, degree: int, system: Any) -> Any:
         """The OCP problem (:class:`optimize.service.builder.Problem`) of this drive in
         ``system``."""
-        from optimize.service.builder import Problem
+        from optimize.door import Problem
 
         return Problem.for_system(system, self.model, self.ocp_options(n_intervals, degree,
                                                                         system))
@@ -134,7 +134,7 @@ def scaled_candidates(base: Any, rating: Any, scales: tuple[float, ...]) -> list
     scales : tuple of float
         Torque-rating scales ``s`` > 0.
     """
-    from optimize.model.drivetrain import carry_power_model
+    from optimize.door import carry_power_model
 
     out = []
     for s in scales:
@@ -323,7 +323,7 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
     """Run (or resume) the sizing sweep through the solve service (:mod:`optimize.service`):
     one chain of :data:`SIZING_KIND` solves per candidate, stored under ``out/solves``.
 
-    ``handle`` is an open :class:`optimize.sweep.executors.ExecutorHandle`; without it
+    ``handle`` is an open :class:`optimize.service.executors.ExecutorHandle`; without it
     a local process pool of ``workers`` (or the Dask cluster at ``scheduler``) is opened.
     With ``adaptive`` each candidate's grid is refined where its curve bends
     (:mod:`energy.adaptive`), so candidates may end with different speeds.
@@ -337,9 +337,7 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
 
     from energy.adaptive import refine_grid
     from energy.refine import solve_counter
-    from optimize.service import Refinement, SolveTask, solve_tasks
-    from optimize.service.solver import attempt_line
-    from optimize.system.system_file import load_system
+    from optimize.door import Refinement, SolveTask, attempt_line, load_system, solve_tasks
 
     system = system if system is not None else load_system()
     tasks = [SolveTask(c.problem(n_intervals, degree, system), SIZING_KIND, float(w),
@@ -361,7 +359,7 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
 
     t0 = time.perf_counter()
     if handle is None:
-        from optimize.sweep.executors import open_executor
+        from optimize.door import open_executor
 
         with open_executor(workers, scheduler) as handle:
             records = solve_tasks(tasks, Path(out) / "solves", handle=handle, backend=backend,

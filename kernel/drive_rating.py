@@ -27,14 +27,13 @@ from pathlib import Path
 from kernel.drive_envelope import ENVELOPE_KEYS, envelope_problem
 from kernel.errors import InputError
 from kernel.files import read_toml
+from kernel.units import unit_of
 
 #: The rating keys, in drive.toml, session.toml, the manifest and power_model.json.
 DRIVE_KEYS = ("nominal_power_w", "max_speed_rpm", "max_torque_nm")
 #: Optional rating keys (a system file's ``[drive]``; a carried power model's ``drive``).
 OPTIONAL_DRIVE_KEYS = ("continuous_torque_nm", "overload", "max_p_elec_w")
 DRIVE_FILE = "drive.toml"
-_UNITS = {"nominal_power_w": "W", "max_speed_rpm": "rpm", "max_torque_nm": "N m",
-          "continuous_torque_nm": "N m", "overload": "-", "max_p_elec_w": "W"}
 
 
 @dataclass(frozen=True)
@@ -88,7 +87,7 @@ class DriveRating:
                 continue
             if not _positive(value):
                 raise ValueError(f"{key} = {value!r}: a finite positive number "
-                                 f"[{_UNITS[key]}] expected")
+                                 f"[{unit_of(key) or '-'}] expected")
             object.__setattr__(self, key, float(value))
         if self.overload is not None and self.overload < 1:
             raise ValueError(f"overload = {self.overload!r}: a factor >= 1 expected")
@@ -173,7 +172,7 @@ def rating_keys(table: dict, path: Path | str | None) -> dict[str, float]:
             value = table[key]
             if not _positive(value):
                 raise InputError(path, f"bad value {value!r}", column=key,
-                                 expected=f"a positive number [{_UNITS[key]}]")
+                                 expected=f"a positive number [{unit_of(key) or '-'}]")
             out[key] = float(value)
     return out
 

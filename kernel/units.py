@@ -21,7 +21,7 @@ UNIT_SUFFIXES: tuple[tuple[str, str], ...] = (
     ("_m_s3", "m/s^3"),
     ("_m_s2", "m/s^2"),
     ("_m_s", "m/s"),
-    ("_n_m", "N/m"),
+    ("_n_per_m", "N/m"),
     ("_m2_s", "m^2/s"),
     ("_m2", "m^2"),
     ("_rpm", "rpm"),

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from optimize.kinds import DEFAULT_KINDS
 from optimize.problem.options import SOLVERS, TRANSCRIPTIONS
-from optimize.sweep.plan import DEFAULT_WIND_GRID
+from optimize.service.plan import DEFAULT_WIND_GRID
 
 log = logging.getLogger(__name__)
 

@@ -1,7 +1,7 @@
 """The whole ``bench optimize`` command as a library call: :func:`run_optimize`.
 
-Plan the chains (:mod:`optimize.sweep.plan`), run them on the solve service
-(:mod:`optimize.service`, on :mod:`optimize.sweep.executors`), the trust
+Plan the chains (:mod:`optimize.service.plan`), run them on the solve service
+(:mod:`optimize.service`, on :mod:`optimize.service.executors`), the trust
 checks (:mod:`optimize.sweep.trust`), the paper comparison
 (:mod:`optimize.analysis.claims`) and the files (:mod:`optimize.sweep_folder`).
 This module sits above the solver and the analysis; nothing in them imports it.
@@ -22,11 +22,12 @@ from kernel.provenance import Provenance
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
 from optimize.analysis.result_check import MIN_COLLOCATION_POINTS, mesh_label
 from optimize.kinds import KINDS
-from optimize.problem.ocp import thermal_line, winding_thermal
+from optimize.problem.ocp import winding_thermal
+from optimize.resolve import Setup, resolve
 from optimize.service import Problem, make_tasks, run_sweep
+from optimize.service.executors import open_executor
+from optimize.service.plan import plan_graph
 from optimize.sweep import outputs
-from optimize.sweep.executors import open_executor
-from optimize.sweep.plan import plan_graph
 from optimize.sweep.trust import run_trust_checks
 from optimize.sweep_folder import (
     MARKERS,
@@ -43,10 +44,9 @@ from optimize.sweep_options import (
     SolverChoice,
     WindGrid,
 )
-from optimize.system.drive_in_force import DriveInForce, drive_in_force
+from optimize.system.drive_in_force import DriveInForce
 from optimize.system.plausibility import check_drive_holds_kite
 from optimize.system.system import System
-from optimize.system.system_file import load_system
 
 
 @dataclass(frozen=True)
@@ -59,14 +59,11 @@ class SweepRequest:
         Wind speeds [m/s].
     kinds : tuple of str
         Scenario kinds.
-    drive_model : Any
-        ``fitting.power_model.PowerModel``.
-    drive_model_path : Path
-        Where it was read from.
+    setup : optimize.resolve.Setup
+        The system, the drive in force (rating, losses) and the OCP options
+        (:func:`optimize.resolve.resolve`).
     model_note : str
-        One line saying which model is used and why.
-    options : Any
-        ``optimize.problem.options.OcpOptions``.
+        What the setup is and why (printed and recorded).
     workers : int
         Local worker processes (ignored with ``scheduler``).
     scheduler : str or None
@@ -79,28 +76,18 @@ class SweepRequest:
         Run the mesh and simulation checks.
     cut_in_tol_m_s : float
         Cut-in bisection stops at this bracket width [m/s].
-    system : System or None
-        The system (``--system``); ``None`` is the shipped ``highwind.toml``. Its
-        bounds and drive limits replace those of ``options``.
-    drive : optimize.system.drive_in_force.DriveInForce or None
-        The drive in force (rating, losses at that rating); ``None``: the system's
-        ``[drive]`` rating with ``drive_model``'s losses.
     """
 
     winds: tuple[float, ...]
     kinds: tuple[str, ...]
-    drive_model: Any
-    drive_model_path: Path
+    setup: Setup
     model_note: str
-    options: Any
     workers: int = 2
     scheduler: str | None = None
     out: Path = Path("optimize_out")
     claims: bool = True
     trust: bool = False
     cut_in_tol_m_s: float = 0.05
-    system: System | None = None
-    drive: DriveInForce | None = None
 
 
 def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOLVER, *,
@@ -150,14 +137,6 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
     if not 1 <= solver.degree <= 9:
         raise InputError(None, f"--degree {solver.degree}: out of range", expected="1 to 9")
     check_output_dir(out)
-    loaded = system if isinstance(system, System) else load_system(system)
-    if model is None or isinstance(model, str | Path):
-        drive = drive_in_force(loaded, None if model is None else Path(model), fit_default)
-    else:
-        drive = drive_in_force(loaded, model=model)
-    note = f"system: {loaded.name} ({loaded.path}" + (
-        ", the shipped default)" if system is None else ")")
-    note += "\n" + "\n".join(drive.lines())
     try:
         options = OcpOptions(Discretization(n_intervals=solver.n_intervals,
                                             degree=solver.degree),
@@ -166,23 +145,26 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
                                                    solver.codegen))
     except ValueError as exc:
         raise InputError(None, f"OCP options: {exc}") from exc
-    options = loaded.ocp_options(options, drive.rating)
+    setup = resolve(system, model, fit_default=fit_default, options=options)
+    loaded, drive, limits = setup.system, setup.drive, setup.options.limits
     # an impossible model "converges" to a wrong cycle: refuse it before any solve,
     # checked also where the optimizer may take it (the drive limits in force)
     check_physics(drive.model, drive.model_path,
-                  limits=(options.limits.max_speed_rpm, options.limits.max_torque_nm))
+                  limits=(limits.max_speed_rpm, limits.max_torque_nm))
     check_drive_holds_kite(loaded, drive.rating.max_torque_nm,
                            drive.rating.source or "the drive in force")
+    note = f"system: {loaded.name} ({loaded.path}" + (
+        ", the shipped default)" if system is None else ")")
+    note += "\n" + "\n".join(drive.lines())
     note += "\n" + loaded.kite_limits().describe()
     note += "\n" + loaded.drivetrain_line()
     note += "\n" + loaded.tether_air_line()
-    note += "\n" + thermal_line(drive.model, options.limits, loaded.path)
+    note += "\n" + setup.thermal_line()
     if solver.n_intervals * solver.degree < MIN_COLLOCATION_POINTS:
         note += (f"\nmesh {mesh_label(solver.n_intervals, solver.degree)}: the result check "
                  "decides whether each optimum stands")
-    return SweepRequest(grid.winds_m_s, grid.kinds, drive.model, drive.model_path, note,
-                        options, execution.workers, execution.scheduler, Path(out), claims,
-                        trust, system=loaded, drive=drive)
+    return SweepRequest(grid.winds_m_s, grid.kinds, setup, note, execution.workers,
+                        execution.scheduler, Path(out), claims, trust)
 
 
 @dataclass(frozen=True)
@@ -226,7 +208,7 @@ def run_optimize(
 ) -> OptimizeOutcome:
     """Plan, run and record a sweep: the library behind ``bench optimize``.
 
-    Steps: plan the start graph (:func:`optimize.sweep.plan.plan_graph`); run it
+    Steps: plan the start graph (:func:`optimize.service.plan.plan_graph`); run it
     (cut-in searches included when ``request.claims``); optionally the trust
     checks (mesh check of each kind's middle-wind scenario on the executor,
     simulation check of every converged scenario); compare with the paper;
@@ -236,10 +218,7 @@ def run_optimize(
     """
     check_replaceable(request.out, "optimize", MARKERS)  # before the solves
     run = Provenance.start(command_line if command_line is not None else sys.argv)
-    system = request.system if request.system is not None else load_system()
-    drive = request.drive or drive_in_force(system, request.drive_model_path,
-                                            model=request.drive_model)
-    options = system.ocp_options(request.options, drive.rating)
+    system, drive, options = request.setup.system, request.setup.drive, request.setup.options
     problem = Problem.for_system(system, drive.model, options)
     cut_in_kinds = (tuple(k for k in request.kinds if KINDS[k].drive_limits)
                     if request.claims else ())
@@ -280,9 +259,9 @@ def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, o
         "kinds": list(request.kinds),
         "scenarios": [o.name for o in result.outcomes],
         "drive_model": {  # a carried model's path and file hash: write_sweep_folder's
-            "path": str(request.drive_model_path),
-            "file_sha256": (file_sha256(request.drive_model_path)
-                            if Path(request.drive_model_path).is_file() else None),
+            "path": str(drive.model_path),
+            "file_sha256": (file_sha256(drive.model_path)
+                            if Path(drive.model_path).is_file() else None),
             "model_sha256": model.sha256,
             "name": model.name,
             "note": request.model_note,

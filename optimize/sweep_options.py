@@ -51,8 +51,9 @@ class WindGrid:
     @classmethod
     def parse(cls, wind_grid: str, scenarios: str) -> WindGrid:
         """The grid of ``--wind-grid`` and ``--scenarios``
-        (:func:`optimize.sweep.plan.parse_wind_grid`, :func:`optimize.sweep.plan.parse_kinds`)."""
-        from optimize.sweep.plan import parse_kinds, parse_wind_grid
+        (:func:`optimize.service.plan.parse_wind_grid`,
+        :func:`optimize.service.plan.parse_kinds`)."""
+        from optimize.service.plan import parse_kinds, parse_wind_grid
 
         return cls(parse_wind_grid(wind_grid), parse_kinds(scenarios))
 

@@ -13,8 +13,8 @@ import pandas as pd
 from markupsafe import Markup
 from matplotlib.patches import Rectangle
 
-from optimize.kinds import KINDS, LABELS
-from optimize.model.thermal import STATE as THERMAL_STATE
+from kernel.names import WINDING_TEMPERATURE
+from optimize.door import KINDS, LABELS
 from reports import plots
 from reports.svg import SCENARIO_COLORS, new_figure, to_svg
 
@@ -56,7 +56,7 @@ def power_vs_wind_figure(summary: pd.DataFrame, power_column: str, name: str,
 
 
 def torque_speed_figure(limited: dict[str, pd.DataFrame], free: dict[str, pd.DataFrame],
-                        wind_m_s: float, drawn_map: dict | None,
+                        wind_speed_m_s: float, drawn_map: dict | None,
                         envelope: tuple[np.ndarray, np.ndarray] | None = None) -> Markup:
     """Cycles in the torque-speed plane (paper Fig. 9).
 
@@ -71,7 +71,7 @@ def torque_speed_figure(limited: dict[str, pd.DataFrame], free: dict[str, pd.Dat
     limited, free : dict
         kind key -> closed cycle with ``time_s`` [s], ``speed_rpm`` [rpm], ``torque_nm``
         [N m]; either may be empty (its panel is left out).
-    wind_m_s : float
+    wind_speed_m_s : float
         The wind speed of the cycles [m/s], for the titles.
     drawn_map : dict or None
         ``map_frame`` (``efficiency_map.parquet``) and ``domain`` of the efficiency map;
@@ -91,13 +91,13 @@ def torque_speed_figure(limited: dict[str, pd.DataFrame], free: dict[str, pd.Dat
             ax.patch.set_gid("fig9-map-axes")  # the SVG id of the map's axes
         else:
             _cycles_panel(ax, limited, None)
-        ax.set_title(f"(a) with the drive limits, {wind_m_s:g} m/s, over the measured "
+        ax.set_title(f"(a) with the drive limits, {wind_speed_m_s:g} m/s, over the measured "
                      f"efficiency map; {step}", fontsize=9)
     if free:
         ax = next(axes)
         _cycles_panel(ax, free, drawn_map["map_frame"] if drawn_map is not None else None)
         ax.set_title(f"({'b' if limited else 'a'}) without drive limits (the paper's Fig. 9),"
-                     f" {wind_m_s:g} m/s; {step}", fontsize=9)
+                     f" {wind_speed_m_s:g} m/s; {step}", fontsize=9)
     return to_svg(fig, "torque-speed")
 
 
@@ -119,7 +119,7 @@ def _cycles_panel(ax, cycles: dict[str, pd.DataFrame], map_frame: pd.DataFrame |
     ax.legend(fontsize=7, loc="upper right")
 
 
-def power_flow_figure(cycles: dict[str, pd.DataFrame], wind_m_s: float) -> Markup:
+def power_flow_figure(cycles: dict[str, pd.DataFrame], wind_speed_m_s: float) -> Markup:
     """Mechanical and electrical power over one cycle, one panel per cycle (paper Fig. 10;
     each panel :func:`reports.plots.plot_cycle`).
 
@@ -128,13 +128,13 @@ def power_flow_figure(cycles: dict[str, pd.DataFrame], wind_m_s: float) -> Marku
     cycles : dict
         kind key -> trajectory frame with ``time_s`` [s], ``p_mech_w`` [W]
         and ``p_elec_w`` [W] (positive = drawn from the grid / delivered to the shaft).
-    wind_m_s : float
+    wind_speed_m_s : float
         Wind speed [m/s], for the titles.
     """
     fig = new_figure(9.0, 3.6)
     axes = np.atleast_1d(fig.subplots(1, len(cycles), sharey=True))
     for k, (ax, (key, traj)) in enumerate(zip(axes, cycles.items(), strict=True)):
-        plots.plot_cycle(traj, ax, title=f"{LABELS[key]}, {wind_m_s:g} m/s", kind=key)
+        plots.plot_cycle(traj, ax, title=f"{LABELS[key]}, {wind_speed_m_s:g} m/s", kind=key)
         if k:
             ax.set_ylabel("")
     return to_svg(fig, "power-flows")
@@ -181,7 +181,7 @@ def cycle_figure(traj: pd.DataFrame, period_s: float, label: str,
         The drive's winding limit [degC], drawn with the temperature.
     """
     t = traj["time_s"].to_numpy(float)
-    hot = THERMAL_STATE in traj
+    hot = WINDING_TEMPERATURE in traj
     fig = new_figure(7.0, 7.6 if hot else 6.0)
     ax_l, ax_p, ax_e, *ax_t = fig.subplots(4 if hot else 3, 1, sharex=True)
     ax_l.plot(t, traj["l_m"], color="k")
@@ -200,7 +200,7 @@ def cycle_figure(traj: pd.DataFrame, period_s: float, label: str,
     ax_e.axhline(0.0, color="k", lw=0.6)
     ax_e.legend(fontsize=7, loc="best")
     if hot:
-        _winding_panel(ax_t[0], t, traj[THERMAL_STATE].to_numpy(float), winding_limit_c)
+        _winding_panel(ax_t[0], t, traj[WINDING_TEMPERATURE].to_numpy(float), winding_limit_c)
     return to_svg(fig, "cycle")
 
 

@@ -17,7 +17,7 @@ from energy.outputs import AEP_FILE, CURVES_FILE, read_aep, read_power_curves
 from energy.refine import refine_notes
 from energy.sizing import limits_text
 from energy.sizing_files import SIZING_FILE, read_sizing
-from optimize.kinds import LABELS
+from optimize.door import LABELS
 from reports import plots, svg
 from reports.inputs import InputLog
 from reports.tables import fmt

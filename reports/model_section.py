@@ -12,7 +12,7 @@ import pandas as pd
 
 from fitting.fit_folder import MODEL_FILE, SELECTION_FILE, read_power_model, read_selection
 from fitting.power_model import PowerModel
-from optimize.paper_model import paper_model
+from optimize.door import paper_model
 from reports import drive_figures
 from reports.inputs import InputLog
 from reports.tables import flatten, fmt, frame_table, missing_since, term_label

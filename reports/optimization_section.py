@@ -15,8 +15,7 @@ import numpy as np
 import pandas as pd
 
 from kernel.errors import InputError
-from optimize.kinds import KINDS, LABELS
-from optimize.model.envelope import envelope_curve
+from optimize.door import KINDS, LABELS, envelope_curve
 from optimize.sweep_folder import (
     CLAIMS_FILE,
     MANIFEST_FILE,

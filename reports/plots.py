@@ -23,7 +23,7 @@ import pandas as pd
 
 from fitting import figures
 from kernel.figure_text import fit_title
-from optimize.kinds import KINDS, LABELS
+from optimize.door import KINDS, LABELS
 
 #: Colours of the four scenario kinds, shared by every figure of the cycles.
 SCENARIO_COLORS = {
@@ -132,7 +132,7 @@ def curve_frame(curves: pd.DataFrame | dict) -> pd.DataFrame:
     ``p_elec_sigma_w`` NaN)."""
     if isinstance(curves, pd.DataFrame):
         return curves
-    frames = [pd.DataFrame({"kind": kind, "wind_speed_m_s": c.wind_m_s, "p_elec_w": c.p_elec_w,
+    frames = [pd.DataFrame({"kind": kind, "wind_speed_m_s": c.wind_speed_m_s, "p_elec_w": c.p_elec_w,
                             "p_mech_w": c.p_mech_w, "p_elec_sigma_w": np.nan})
               for kind, c in curves.items()]
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(

@@ -25,7 +25,7 @@ from optimize.problem.interface import Point, Row, weight_param
 
 STATES = Variables(("r_x_m", "r_z_m", "v_x_m_s", "v_z_m_s"))
 CONTROLS = Variables(("f_x_n",))
-ALGEBRAIC = Variables(("a_x_m_s2", "a_z_m_s2", "nu_n_m"))
+ALGEBRAIC = Variables(("a_x_m_s2", "a_z_m_s2", "nu_n_per_m"))
 FICTITIOUS = Variables(("f_fict_x_n", "f_fict_z_n"))
 
 

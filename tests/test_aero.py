@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from optimize.model.aero import aero_forces_moments, wind_speed
-from optimize.system.params import AeroCoefficients, KiteParams, WindModel
+from optimize.model.params import AeroCoefficients, KiteParams, WindModel
 
 KITE = KiteParams()
 COEF = AeroCoefficients()

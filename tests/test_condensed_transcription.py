@@ -196,7 +196,7 @@ def test_the_command_line_hands_transcription_and_codegen_to_the_solver(tmp_path
     args = build_parser(argv).parse_args(argv)
     choice = SolverChoice(transcription=args.transcription, codegen=args.codegen)
     options = make_request(WindGrid.parse("5:6:0.5", "mech-free"), choice,
-                           out=tmp_path / "out").options.solver
+                           out=tmp_path / "out").setup.options.solver
     assert (options.transcription, options.codegen) == ("condensed", True)
     default = build_parser(["optimize"]).parse_args(["optimize"])
     assert (default.transcription, default.codegen) == ("collocation", False)

@@ -19,6 +19,7 @@ from kernel.units import RPM_PER_RAD_S
 from optimize.model.drivetrain import Drivetrain, mechanical_power_w
 from optimize.model.envelope import EnvelopeTable
 from optimize.model.kite_model import ALGEBRAIC, STATES, kite_dae
+from optimize.model.params import KiteParams
 from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions
@@ -26,7 +27,6 @@ from optimize.problem.scenario import Scenario
 from optimize.solve.homotopy import cold_start
 from optimize.solve.solve import start
 from optimize.system.drive_in_force import drive_in_force
-from optimize.system.params import KiteParams
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import system_from_dict
 
@@ -63,7 +63,7 @@ def test_power_model_is_evaluated_at_the_shaft_torque():
     x[STATES.index("l_m")], x[STATES.index("dl_m_s")], x[STATES.index("ddl_m_s2")] = 200, dl, ddl
     x[STATES.index("r_x_m")] = 200.0
     z = np.zeros((ALGEBRAIC.size, t.size))
-    z[ALGEBRAIC.index("nu_n_m")] = 4.0  # 800 N on 200 m
+    z[ALGEBRAIC.index("nu_n_per_m")] = 4.0  # 800 N on 200 m
     out = ocp.formulation.trajectory_outputs(x, np.zeros((4, t.size)), z, 7.0)
     tether = 800.0 * R_M / GEAR
     shaft = tether - (J_ROTOR + J_DRUM / GEAR**2) * GEAR * ddl / R_M
@@ -179,7 +179,7 @@ def test_the_optimal_cycle_stays_within_the_drive(heavy_cycle):
     assert res.success, res.status
     t = res.trajectory
     j = 0.04 + 0.057  # gear ratio 1
-    shaft = t["l_m"] * t["nu_n_m"] * 0.1 - j * t["ddl_m_s2"] / 0.1
+    shaft = t["l_m"] * t["nu_n_per_m"] * 0.1 - j * t["ddl_m_s2"] / 0.1
     assert np.allclose(t["torque_nm"], shaft, rtol=1e-9, atol=1e-9)
     speed = np.abs(t["dl_m_s"] / 0.1 * RPM_PER_RAD_S)
     envelope = np.minimum(78.0, 78.0 * 1000.0 / speed)
@@ -194,7 +194,7 @@ def test_the_optimal_cycle_stays_within_the_drive(heavy_cycle):
     on_envelope = bool(np.any(np.abs(np.abs(shaft[above]) / envelope[above] - 1.0) <= 1e-3))
     assert ("envelope_limit" in res.active_bounds) == on_envelope
     # the kinetic energy's share of the shaft power averages to zero over the cycle
-    kinetic = t["p_mech_w"] - (-t["l_m"] * t["nu_n_m"] * t["dl_m_s"])
+    kinetic = t["p_mech_w"] - (-t["l_m"] * t["nu_n_per_m"] * t["dl_m_s"])
     assert abs((t["weight"] * kinetic).sum()) < 1e-3 * (t["weight"] * kinetic.abs()).sum()
 
 

@@ -38,4 +38,4 @@ def test_failed_solves_are_left_out_and_reported():
     site = Weibull.from_mean(2.0, 5.5)
     r = refine_grid(lambda v: None if abs(v - 4.75) < 1e-9 else _curve(v),
                     (4.0, 5.5, 7.0, 8.5, 10.0), site)
-    assert 4.75 in r.failed and 4.75 not in r.wind_m_s
+    assert 4.75 in r.failed and 4.75 not in r.wind_speed_m_s

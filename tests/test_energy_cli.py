@@ -36,7 +36,7 @@ def test_band_equals_monte_carlo_over_the_coefficients(tmp_path):
     rows = traj[traj["kind"] == "elec-lim"].groupby("wind_speed_m_s")
     basis = np.array([[float(np.sum(g["weight"] * u.p_elec_w(g["speed_rpm"], g["torque_nm"])))
                        for u in units] for _, g in rows])
-    aeps = [aep_mwh(curve.wind_m_s, p, site) for p in draws @ basis.T]
+    aeps = [aep_mwh(curve.wind_speed_m_s, p, site) for p in draws @ basis.T]
     assert a.kinds["elec-lim"].sigma_elec_model_mwh == pytest.approx(np.std(aeps), rel=0.03)
     assert a.kinds["elec-lim"].elec.aep_mwh == pytest.approx(np.mean(aeps), rel=0.01)
 

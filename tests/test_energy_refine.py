@@ -95,8 +95,8 @@ def test_refined_aep_is_within_1_percent_of_the_exact_one_where_the_sweep_grid_i
     coarse_e = aep_mwh(np.array(COARSE), np.array([p_elec(v) for v in COARSE]), SITE)
     # the bar: 1 % (of the AEP against a dense grid; here against the exact integral)
     assert abs(coarse_e / truth_e - 1) > 0.01
-    assert aep_mwh(curve.wind_m_s, curve.p_elec_w, SITE) == pytest.approx(truth_e, rel=0.01)
-    assert aep_mwh(curve.wind_m_s, curve.p_mech_w, SITE) == pytest.approx(truth_m, rel=0.01)
+    assert aep_mwh(curve.wind_speed_m_s, curve.p_elec_w, SITE) == pytest.approx(truth_e, rel=0.01)
+    assert aep_mwh(curve.wind_speed_m_s, curve.p_mech_w, SITE) == pytest.approx(truth_m, rel=0.01)
     added = [r for r in records if r["role"] == "added"]
     assert added and all(r["success"] for r in added)
     # fewer solves than a 0.25 m/s grid (25 points), each speed once, one check re-solve
@@ -126,7 +126,7 @@ def test_a_failed_added_solve_is_reported_not_dropped(tmp_path):
     failed = [r for r in records if not r["success"]]
     assert [r["wind_speed_m_s"] for r in failed] == [4.75]
     curve = merged_curve(_coarse_curve(), tuple(records))
-    assert 4.75 not in curve.wind_m_s
+    assert 4.75 not in curve.wind_speed_m_s
     assert (4.75, "added by --refine: Infeasible") in curve.failed
 
 

@@ -17,7 +17,7 @@ from energy.sizing import (
 )
 from optimize.paper_model import paper_model
 from optimize.service import solve_key
-from optimize.sweep.executors import ExecutorHandle, QueueChannel
+from optimize.service.executors import ExecutorHandle, QueueChannel
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system_file import load_system
 

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 from optimize.model.kite_model import kite_dae
+from optimize.model.params import KiteParams
 from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.solve import initial_guess
 from optimize.system.drive_in_force import drive_in_force
-from optimize.system.params import KiteParams
 from optimize.system.system_file import load_system, system_from_dict
 
 

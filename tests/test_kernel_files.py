@@ -130,6 +130,6 @@ def test_parquet_writer_records_units_descriptions_and_file_metadata(tmp_path):
 def test_unit_table():
     # Truth: one revolution per minute is 2 pi rad per 60 s.
     assert 1500.0 / RPM_PER_RAD_S == pytest.approx(1500 * 2 * math.pi / 60, rel=1e-15)
-    assert [unit_of(c) for c in ("torque_nm", "wind_speed_m_s", "tether_stiffness_n_m",
+    assert [unit_of(c) for c in ("torque_nm", "wind_speed_m_s", "tether_stiffness_n_per_m",
                                  "band_pct_nominal", "dcm_11", "scenario")] == [
         "N m", "m/s", "N/m", "% of nominal power", "1", ""]

@@ -1,11 +1,14 @@
 """The import rules of docs/architecture.md, read from the source (ast): the kernel at the
 bottom, each stage importing only the kernel and the stages before it, the API and the
-command line at the top, and no import cycle between modules."""
+command line at the top, optimize's parts in an order of their own, the other stages
+entering optimize only by its front door, and no import cycle between modules."""
 
 from __future__ import annotations
 
 import ast
 from pathlib import Path
+
+import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = ("kernel", "bench", "fitting", "optimize", "energy", "cycle", "reports", "drivebench")
@@ -21,6 +24,25 @@ LAYERS = (
     ("reports", 6),
     ("drivebench", 7),  # the Python API and the command line: the top
 )
+#: optimize's parts, bottom first: a module of optimize may import its own part and below
+OPTIMIZE_ORDER = (
+    ("optimize.kinds", "optimize.paper_model", "optimize.sweep_folder"),  # vocabulary, data
+    ("optimize.model",),  # the kite DAE, aerodynamics, drivetrain, winding temperature
+    ("optimize.system",),  # the system file and the drive in force
+    ("optimize.problem",),  # the optimal control problem
+    ("optimize.resolve",),  # system, drive and OCP options resolved once
+    ("optimize.solve",),  # its solution
+    ("optimize.analysis",),  # the result check, the paper comparison
+    ("optimize.service",),  # the one solve service: plans, chains, executors
+    ("optimize.sweep",),  # a sweep's frames and trust checks
+    ("optimize.sweep_options",),
+    ("optimize.command",),  # bench optimize as a library call
+    ("optimize.cli",),
+    ("optimize.door",),  # the front door: all the other stages use of optimize
+    ("optimize",),  # the package itself
+)
+#: what a module outside optimize may import of it: its front door and the sweep folder
+OPTIMIZE_DOORS = ("optimize.door", "optimize.sweep_folder")
 
 
 def modules() -> dict[str, Path]:
@@ -52,15 +74,48 @@ def import_graph(mods: dict[str, Path]) -> dict[str, set[str]]:
             elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
                 wanted = [node.module, *(f"{node.module}.{a.name}" for a in node.names)]
             else:
-                continue
+                wanted = lazy_imports(node)
             targets |= {resolve(w) for w in wanted if w.split(".")[0] in PACKAGES}
         graph[name] = targets - {None, name}
     return graph
 
 
+def lazy_imports(node: ast.AST) -> list[str]:
+    """The modules of a ``LAZY_IMPORTS = {module: names}`` table (:mod:`kernel.lazy`)."""
+    if not (isinstance(node, ast.Assign) and len(node.targets) == 1
+            and isinstance(node.targets[0], ast.Name) and node.targets[0].id == "LAZY_IMPORTS"):
+        return []
+    return list(ast.literal_eval(node.value))
+
+
+def within(module: str, prefix: str) -> bool:
+    return module == prefix or module.startswith(prefix + ".")
+
+
 def layer(module: str) -> int:
-    return next(rank for prefix, rank in LAYERS
-                if module == prefix or module.startswith(prefix + "."))
+    return next(rank for prefix, rank in LAYERS if within(module, prefix))
+
+
+def optimize_rank(module: str) -> int:
+    """The rank of an optimize module's part in :data:`OPTIMIZE_ORDER`."""
+    return next(rank for rank, parts in enumerate(OPTIMIZE_ORDER)
+                if any(within(module, p) for p in parts))
+
+
+def rule_breaks(graph: dict[str, set[str]]) -> list[str]:
+    """Every import against the rules: upward between layers, upward between optimize's
+    parts, and into optimize from outside other than by its doors."""
+    out = []
+    for a, targets in graph.items():
+        for b in targets:
+            inside = within(a, "optimize") and within(b, "optimize")
+            if layer(b) > layer(a):
+                out.append(f"{a} -> {b}: upward")
+            elif inside and optimize_rank(b) > optimize_rank(a):
+                out.append(f"{a} -> {b}: upward inside optimize")
+            elif within(b, "optimize") and not inside and b not in OPTIMIZE_DOORS:
+                out.append(f"{a} -> {b}: not by optimize's front door")
+    return sorted(out)
 
 
 def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
@@ -95,11 +150,15 @@ def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
     return found
 
 
-def test_every_import_looks_down():
-    graph = import_graph(modules())
-    upward = sorted(f"{a} -> {b}" for a, targets in graph.items() for b in targets
-                    if layer(b) > layer(a))
-    assert upward == []
+def test_every_import_looks_down_and_enters_optimize_by_its_door():
+    assert rule_breaks(import_graph(modules())) == []
+
+
+def test_every_optimize_module_has_a_part():
+    mods = [m for m in modules() if within(m, "optimize")]
+    assert all(isinstance(optimize_rank(m), int) for m in mods)
+    assert {m.split(".")[1] for m in mods if m != "optimize"} == {
+        p.split(".")[1] for parts in OPTIMIZE_ORDER for p in parts if p != "optimize"}
 
 
 def test_no_stage_imports_the_api_or_the_command_line():
@@ -119,3 +178,28 @@ def test_the_checks_see_a_violation():
     assert layer("kernel.files") < layer("energy.aep")
     assert cycles(graph) == [["energy.aep", "kernel.files"]]
     assert "bench.ingest.cli" in modules() and layer("bench.ingest.cli") == 1
+
+
+@pytest.mark.parametrize("source, target, why", [
+    ("bench.ingest.pipeline", "optimize.door", "upward"),  # a function-level import too
+    ("energy.sizing", "optimize.service.solver", "not by optimize's front door"),
+    ("optimize.model.aero", "optimize.system.system", "upward inside optimize"),
+    ("optimize.service.run", "optimize.sweep.outputs", "upward inside optimize"),
+])
+def test_a_wrong_import_written_into_a_module_fails_the_rules(tmp_path, source, target, why):
+    # a copy of the product packages with one wrong import added inside a function
+    mods = modules()
+    assert rule_breaks(import_graph(mods)) == []
+    path = tmp_path / (source.replace(".", "/") + ".py")
+    path.parent.mkdir(parents=True)
+    path.write_text(mods[source].read_text(encoding="utf-8")
+                    + f"\n\ndef _wrong():\n    from {target} import something\n",
+                    encoding="utf-8")
+    assert rule_breaks(import_graph({**mods, source: path})) == [f"{source} -> {target}: {why}"]
+
+
+def test_a_lazy_table_counts_as_imports(tmp_path):
+    path = tmp_path / "lazy.py"
+    path.write_text('LAZY_IMPORTS = {"energy.aep": ("aep_mwh",)}\n', encoding="utf-8")
+    mods = {**modules(), "kernel.lazy_example": path}
+    assert "kernel.lazy_example -> energy.aep: upward" in rule_breaks(import_graph(mods))

@@ -47,7 +47,7 @@ def test_pendulum_cycle_has_the_exact_period(solver):
     r = np.hypot(sol["x"][0], sol["x"][1])
     assert np.max(np.abs(r - pendulum.length_m)) < 2e-4 * pendulum.length_m
     traj = trajectory_frame(ocp, raw.w, None)
-    assert {"r_x_m", "v_z_m_s", "f_x_n", "nu_n_m", "tension_n"} <= set(traj.columns)
+    assert {"r_x_m", "v_z_m_s", "f_x_n", "nu_n_per_m", "tension_n"} <= set(traj.columns)
     # tension at the lowest point of the swing: m g (3 - 2 cos(theta0)) = 2 m g at 60 deg
     assert traj["tension_n"].max() == pytest.approx(2.0 * pendulum.mass_kg * pendulum.g_m_s2,
                                                     rel=1e-3)

@@ -17,6 +17,7 @@ from optimize.model.drivetrain import (
     mechanical_power_w,
 )
 from optimize.model.kite_model import kite_dae
+from optimize.model.params import KiteParams
 from optimize.paper_model import paper_model
 from optimize.problem.collocation import radau
 from optimize.problem.ocp import build_ocp
@@ -24,7 +25,6 @@ from optimize.problem.options import Discretization, Limits, OcpOptions, SolverO
 from optimize.problem.scenario import Scenario
 from optimize.solve.result import carry_over
 from optimize.solve.solve import solve
-from optimize.system.params import KiteParams
 
 N_COARSE = 10  # coarse but converging grid: the whole module runs in ~30 s on 2 busy cores
 

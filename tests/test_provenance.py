@@ -74,12 +74,13 @@ def test_optimize_writes_the_header_into_the_manifest_and_run_json(tmp_path):
 
     from optimize.command import SweepRequest, run_optimize
     from optimize.paper_model import PAPER_MODEL_PATH, paper_model
-    from optimize.problem.options import OcpOptions
+    from optimize.resolve import resolve
 
     out = tmp_path / "optimize_out"
-    request = SweepRequest(winds=(5.5, 7.0), kinds=("elec-lim",), drive_model=paper_model(),
-                           drive_model_path=PAPER_MODEL_PATH, model_note="paper model",
-                           options=OcpOptions(), workers=1, out=out, claims=False)
+    request = SweepRequest(winds=(5.5, 7.0), kinds=("elec-lim",),
+                           setup=resolve(drive_model=paper_model(),
+                                         model_path=PAPER_MODEL_PATH),
+                           model_note="paper model", workers=1, out=out, claims=False)
     run_optimize(request, ["bench", "optimize", "--wind-grid", "5.5,7"], show_progress=False,
                  backend=CycleBackend())
     manifest = json.loads((out / "manifest.json").read_text(encoding="utf-8"))

@@ -117,7 +117,7 @@ def test_the_walk_through_runs_from_standard_input():
     import subprocess
     import sys
 
-    code = ("from optimize.sweep.executors import open_executor\n"
+    code = ("from optimize.service.executors import open_executor\n"
             "with open_executor(2) as h:\n"
             "    print(sorted(h.executor.map(abs, [-3, 4])))\n")
     done = subprocess.run([sys.executable, "-"], input=code, capture_output=True, text=True,

@@ -14,10 +14,10 @@ import pytest
 
 from drivebench.cli import main
 from optimize.analysis import result_check as rc
+from optimize.model.params import AeroCoefficients
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.service.builder import Problem
 from optimize.service.outcome import Attempt, ScenarioOutcome
-from optimize.system.params import AeroCoefficients
 
 
 def test_power_bound_is_the_largest_aerodynamic_power():

@@ -115,7 +115,7 @@ def test_optimize_exit_codes_and_bench_run_going_on_past_some_failures(monkeypat
 def test_default_sizing_grid_covers_95_percent_of_the_site():
     from energy.site import Weibull
     from energy.sizing_files import grid_hours
-    from optimize.sweep.plan import parse_wind_grid
+    from optimize.service.plan import parse_wind_grid
 
     run_args = build_parser(["run", "logs"]).parse_args(["run", "logs", "--out", "o"])
     size = stage_commands(run_args)[4]

@@ -24,15 +24,15 @@ from kernel.errors import InputError
 from optimize.problem.scenario import scenario_name
 from optimize.service import ChainTask, Problem, Solver, make_tasks, run_chain, run_sweep
 from optimize.service.cut_in import find_cut_in
-from optimize.service.solver import MAX_WARM_ATTEMPTS
-from optimize.sweep.executors import ExecutorHandle, QueueChannel, open_executor, run_tasks
-from optimize.sweep.plan import (
+from optimize.service.executors import ExecutorHandle, QueueChannel, open_executor, run_tasks
+from optimize.service.plan import (
     chain_steps,
     continuation_order,
     parse_kinds,
     parse_wind_grid,
     plan_graph,
 )
+from optimize.service.solver import MAX_WARM_ATTEMPTS
 
 CUT_IN_M_S = {"elec-lim": 4.8, "mech-lim": 5.5, "elec-free": 4.6, "mech-free": 20.0}
 SCALE_W = 1000.0
@@ -389,15 +389,16 @@ def test_request_falls_back_to_the_paper_model(tmp_path):
                             fit_default=fit, out=tmp_path / "out")
 
     req = request(tmp_path / "fit_out" / "power_model.json")
-    assert req.drive_model_path == PAPER_MODEL_PATH and "shipped paper model" in req.model_note
+    assert req.setup.drive.model_path == PAPER_MODEL_PATH
+    assert "shipped paper model" in req.model_note
     assert req.winds == (5.0, 5.5, 6.0) and req.kinds == ("mech-free",)
-    assert req.options.discretization.n_intervals == 40
-    assert req.options.discretization.degree == 4 and req.claims
+    assert req.setup.options.discretization.n_intervals == 40
+    assert req.setup.options.discretization.degree == 4 and req.claims
     # a fit in fit_out/ takes precedence when it exists
     fit = tmp_path / "fit_out" / "power_model.json"
     fit.parent.mkdir()
     save_power_model(paper_model(), fit)
-    assert request(fit).drive_model_path == fit
+    assert request(fit).setup.drive.model_path == fit
 
 
 @dataclass(frozen=True)
@@ -442,17 +443,15 @@ def test_run_optimize_writes_every_file(tmp_path):
 
     from optimize.command import SweepRequest, run_optimize
     from optimize.paper_model import PAPER_MODEL_PATH, paper_model
-    from optimize.problem.options import OcpOptions
+    from optimize.resolve import resolve
     from optimize.sweep_folder import field_units, read_summary
 
     out = tmp_path / "optimize_out"
     request = SweepRequest(
         winds=(4.0, 5.5, 7.0),
         kinds=("elec-lim", "mech-lim"),
-        drive_model=paper_model(),
-        drive_model_path=PAPER_MODEL_PATH,
+        setup=resolve(drive_model=paper_model(), model_path=PAPER_MODEL_PATH),
         model_note="paper model",
-        options=OcpOptions(),
         workers=2,
         out=out,
     )
@@ -526,13 +525,14 @@ def test_a_solver_crash_in_an_optimize_sweep_is_reported_as_sizing_and_refine_re
 
     from optimize.command import SweepRequest, run_optimize
     from optimize.paper_model import PAPER_MODEL_PATH, paper_model
-    from optimize.problem.options import OcpOptions
+    from optimize.resolve import resolve
     from optimize.service import failure_status
 
     out = tmp_path / "optimize_out"
-    request = SweepRequest(winds=(4.0, 5.5, 7.0), kinds=("elec-lim",), drive_model=paper_model(),
-                           drive_model_path=PAPER_MODEL_PATH, model_note="paper model",
-                           options=OcpOptions(), workers=1, out=out, claims=False)
+    request = SweepRequest(winds=(4.0, 5.5, 7.0), kinds=("elec-lim",),
+                           setup=resolve(drive_model=paper_model(),
+                                         model_path=PAPER_MODEL_PATH),
+                           model_note="paper model", workers=1, out=out, claims=False)
     done = run_optimize(request, ["bench", "optimize"], show_progress=False,
                         backend=CrashingCycleBackend(crash_at=5.5))
     rows = done.summary.set_index("scenario")
@@ -760,8 +760,8 @@ def test_a_smooth_power_curve_is_not_resolved():
 def test_every_solver_run_says_what_it_is_doing():
     """Each solver run, the local-optimum re-solves included, is announced before it runs
     and reported after, so the progress bar names the phase it is in."""
+    from optimize.service.executors import QueueChannel
     from optimize.service.solver import attempt_line
-    from optimize.sweep.executors import QueueChannel
 
     channel = QueueChannel()
     run_chain(ChainTask(PROBLEM, chain_steps(("elec-free",), WINDS), backend=BranchBackend(),

@@ -14,7 +14,7 @@ from kernel.files import write_parquet
 from kernel.units import unit_of
 from optimize.model import kite_model as km
 from optimize.service.outcome import Attempt, ScenarioOutcome
-from optimize.solve.result import OUTPUT_UNITS
+from optimize.solve.result import OUTPUT_COLUMNS
 from optimize.sweep.outputs import summary_frame, trajectories_frame
 from optimize.sweep_folder import SUMMARY_COLUMNS, field_units, read_summary
 
@@ -132,11 +132,17 @@ def test_trajectories_hold_only_converged_scenarios(tmp_path):
     assert pd.read_parquet(path)["p_elec_w"].sum() == -8600.0
 
 
-def test_unit_of_agrees_with_the_ocp_tables():
-    # the OCP's own unit table (optimize.solve.result.OUTPUT_UNITS) is the independent truth
-    for name, unit in OUTPUT_UNITS.items():
-        if unit:
-            assert unit_of(name) == unit, name
+def test_unit_of_gives_each_output_column_its_unit():
+    # the units each output column is meant to have, written out here as the truth
+    outputs = {
+        "time_s": "s", "interval": "", "weight": "", "speed_rpm": "rpm", "torque_nm": "N m",
+        "tether_torque_nm": "N m", "tension_n": "N", "p_mech_w": "W", "p_elec_w": "W",
+        "altitude_m": "m", "airspeed_m_s": "m/s", "alpha_deg": "deg", "beta_deg": "deg",
+        "wind_m_s": "m/s", "line_angle_deg": "deg", "c_m2": "m^2", "cdot_m2_s": "m^2/s",
+    }
+    assert set(OUTPUT_COLUMNS) == set(outputs)
+    for name in OUTPUT_COLUMNS:
+        assert unit_of(name) == outputs[name], name
     want = {
         "r_x_m": "m",
         "v_y_m_s": "m/s",
@@ -146,7 +152,7 @@ def test_unit_of_agrees_with_the_ocp_tables():
         "dddl_m_s3": "m/s^3",
         "daileron_rad_s": "rad/s",
         "domega_x_rad_s2": "rad/s^2",
-        "nu_n_m": "N/m",
+        "nu_n_per_m": "N/m",
         "aileron_rad": "rad",
     }
     for name in (*km.STATES.names, *km.CONTROLS.names, *km.ALGEBRAIC.names):

@@ -9,10 +9,10 @@ from pathlib import Path
 import pytest
 
 from kernel.errors import InputError
+from optimize.model.params import AeroCoefficients, KiteParams, WindModel
 from optimize.paper_model import paper_model
 from optimize.problem.options import OcpOptions, with_drive_rating
 from optimize.system.drive_in_force import drive_in_force
-from optimize.system.params import AeroCoefficients, KiteParams, WindModel
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import load_system, system_from_dict
 

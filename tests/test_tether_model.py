@@ -18,8 +18,8 @@ from scipy.integrate import quad
 
 from optimize.model.atmosphere import ISA_LAPSE_K_M, air_density
 from optimize.model.kite_model import kite_dae
+from optimize.model.params import KiteParams, TetherModel, WindModel
 from optimize.model.tether import LINE_FORCE, element_drag, rod_energies, rod_residual
-from optimize.system.params import KiteParams, TetherModel, WindModel
 
 MU_KG_M, G_M_S2 = 0.0046, 9.81  # AP2's line (awebox ampyx_ap2_settings.py L18)
 R_M = np.array([120.0, 35.0, -160.0])  # NED: 160 m up

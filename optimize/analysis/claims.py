@@ -38,8 +38,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from optimize.service.outcome import CutIn
-
 #: measured causes of the differences: the ablation's results (benchmarks/paper_ablation.py)
 ABLATION_PATH = Path(__file__).resolve().parent.parent / "data" / "paper_ablation.json"
 
@@ -483,8 +481,9 @@ def _with_margin(c: Claim, ablation: dict | None) -> Claim:
     return replace(c, note="; ".join(p for p in parts if p))
 
 
-def cut_in_frame(cut_ins: Iterable[CutIn]) -> pd.DataFrame:
-    """Table of cut-in searches: kind, cut_in_m_s, bracket, status, number of probes."""
+def cut_in_frame(cut_ins: Iterable) -> pd.DataFrame:
+    """Table of cut-in searches (:class:`optimize.service.outcome.CutIn`, a dataclass):
+    kind, cut_in_m_s, bracket, status, number of probes."""
     rows = []
     for c in cut_ins:
         row = asdict(c)

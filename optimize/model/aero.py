@@ -12,17 +12,17 @@ from typing import Any
 
 import casadi as ca
 
-from optimize.system.params import AeroCoefficients, KiteParams, WindModel
+from optimize.model.params import AeroCoefficients, KiteParams, WindModel
 
 
-def wind_speed(altitude_m: Any, wind_ref_m_s: Any, wind: WindModel) -> Any:
+def wind_speed(altitude_m: Any, wind_speed_m_s: Any, wind: WindModel) -> Any:
     """Wind speed [m/s] at ``altitude_m`` above ground [m] (log law, or power law)."""
     if wind.power_law_exponent > 0:
         ratio = ca.fmax(altitude_m, 1e-3) / wind.reference_altitude_m
-        return wind_ref_m_s * ratio**wind.power_law_exponent
+        return wind_speed_m_s * ratio**wind.power_law_exponent
     z0 = wind.roughness_length_m
     return (
-        wind_ref_m_s
+        wind_speed_m_s
         * ca.log((altitude_m + z0) / z0)
         / ca.log(wind.reference_altitude_m / z0)
     )

@@ -101,7 +101,7 @@ class Drivetrain:
 
     @classmethod
     def of(cls, kite: Any) -> Drivetrain:
-        """The drivetrain of a kite's parameters (``optimize.system.params.KiteParams``)."""
+        """The drivetrain of a kite's parameters (``optimize.model.params.KiteParams``)."""
         return cls(kite.r_winch_m, kite.gear_ratio, kite.drum_inertia_kg_m2,
                    kite.rotor_inertia_kg_m2)
 

@@ -26,8 +26,8 @@ import casadi as ca
 
 from optimize.model.aero import aero_forces_moments, altitude_above_ground, wind_speed
 from optimize.model.atmosphere import air_density
+from optimize.model.params import AeroCoefficients, KiteParams, TetherModel, WindModel
 from optimize.model.variables import Variables
-from optimize.system.params import AeroCoefficients, KiteParams, TetherModel, WindModel
 
 #: states: CG position and velocity (NED), body-to-world DCM (column-major), body
 #: angular velocity, tether length and its two rates, control-surface deflections
@@ -41,9 +41,9 @@ STATES = Variables(
 CONTROLS = Variables(("dddl_m_s3", "daileron_rad_s", "delevator_rad_s", "drudder_rad_s"))
 #: algebraic variables: CG acceleration, angular acceleration, tether multiplier
 ALGEBRAIC = Variables(("a_x_m_s2", "a_y_m_s2", "a_z_m_s2", "domega_x_rad_s2",
-                       "domega_y_rad_s2", "domega_z_rad_s2", "nu_n_m"))
+                       "domega_y_rad_s2", "domega_z_rad_s2", "nu_n_per_m"))
 #: the model's parameter: the wind speed at the reference height
-PARAMETERS = Variables(("wind_ref_m_s",))
+PARAMETERS = Variables(("wind_speed_m_s",))
 #: fictitious forces and moments of the initialization homotopy
 FICTITIOUS = Variables(("f_fict_x_n", "f_fict_y_n", "f_fict_z_n", "m_fict_x_nm",
                         "m_fict_y_nm", "m_fict_z_nm"))
@@ -78,17 +78,17 @@ class KiteDae:
     ode : Function
         ``(x, u, z) -> xdot``: kinematics, explicit in the algebraic variables.
     alg : Function
-        ``(x, u, z, wind_ref_m_s, fict) -> residual (7)``: Newton-Euler rows
+        ``(x, u, z, wind_speed_m_s, fict) -> residual (7)``: Newton-Euler rows
         [N], [N m] and ``d2c/dt2`` [m^2/s^2]; zero on the physical solution.
     outputs : Function
-        ``(x, u, z, wind_ref_m_s) -> dict`` of named scalar outputs (airspeed,
+        ``(x, u, z, wind_speed_m_s) -> dict`` of named scalar outputs (airspeed,
         angles, tension, line angle cosine, altitude, invariants, ...).
     invariants : Function
         ``x -> (c [m^2], dc/dt [m^2/s], R^T R - I (3x3))``.
     explicit_ode : Function
-        ``(x, u, wind_ref_m_s) -> xdot`` with ``z`` solved from ``alg`` (for simulation).
+        ``(x, u, wind_speed_m_s) -> xdot`` with ``z`` solved from ``alg`` (for simulation).
     solve_z : Function
-        ``(x, u, wind_ref_m_s) -> z`` (the physical algebraic variables).
+        ``(x, u, wind_speed_m_s) -> z`` (the physical algebraic variables).
     """
 
     kite: KiteParams
@@ -172,7 +172,7 @@ def kite_dae(
     x = ca.SX.sym("x", STATES.size)
     u = ca.SX.sym("u", CONTROLS.size)
     z = ca.SX.sym("z", ALGEBRAIC.size)
-    w_ref = ca.SX.sym("wind_ref_m_s")
+    w_ref = ca.SX.sym("wind_speed_m_s")
     fict = ca.SX.sym("fict", FICTITIOUS.size)
     r, v, dcm, omega, l, dl, ddl, surf = _split_state(x)
     acc, domega, nu = z[0:3], z[3:6], z[6]

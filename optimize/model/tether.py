@@ -37,7 +37,7 @@ import casadi as ca
 
 from optimize.model.aero import altitude_above_ground, wind_speed
 from optimize.model.atmosphere import air_density
-from optimize.system.params import KiteParams, TetherModel, WindModel
+from optimize.model.params import KiteParams, TetherModel, WindModel
 
 #: the line's force on the kite, NED [N]: the tether part's algebraic variables
 LINE_FORCE = ("f_line_x_n", "f_line_y_n", "f_line_z_n")
@@ -119,7 +119,7 @@ def element_drag(r: Any, v: Any, wind_at: Callable[[Any], Any],
     return force
 
 
-def line_force(r: Any, v: Any, a: Any, wind_ref_m_s: Any, kite: KiteParams, wind: WindModel,
+def line_force(r: Any, v: Any, a: Any, wind_speed_m_s: Any, kite: KiteParams, wind: WindModel,
                tether: TetherModel) -> Any:
     """The force the line puts on the kite [N], NED: minus :func:`rod_residual` (its
     mass) plus :func:`element_drag` (its drag over elements), each when ``tether`` has
@@ -129,7 +129,7 @@ def line_force(r: Any, v: Any, a: Any, wind_ref_m_s: Any, kite: KiteParams, wind
     ----------
     r, v, a : 3-vector
         The kite's position [m], velocity [m/s] and acceleration [m/s^2], NED.
-    wind_ref_m_s : scalar
+    wind_speed_m_s : scalar
         The reference wind speed [m/s] of ``wind``'s profile (along +x).
     kite : KiteParams
         Gravity, and the density at the ground.
@@ -142,7 +142,7 @@ def line_force(r: Any, v: Any, a: Any, wind_ref_m_s: Any, kite: KiteParams, wind
         force = force - rod_residual(r, v, a, tether.mass_kg_m, kite.g_m_s2)
     if tether.drag_elements > 0:
         def wind_at(p):
-            return ca.vertcat(wind_speed(altitude_above_ground(p, wind), wind_ref_m_s, wind),
+            return ca.vertcat(wind_speed(altitude_above_ground(p, wind), wind_speed_m_s, wind),
                               0, 0)
 
         def density_at(p):

@@ -1,7 +1,7 @@
 """Named vectors of a model: its states, controls, algebraic variables, fictitious forces.
 
 A model (:class:`optimize.model.dae.Dae`) names every component of its vectors,
-each name ending in its unit (``dl_m_s``, ``nu_n_m``; :func:`kernel.units.unit_of`
+each name ending in its unit (``dl_m_s``, ``nu_n_per_m``; :func:`kernel.units.unit_of`
 reads it), so the transcription, the initial guess, the scaling, the results and
 the trust checks find a component by name and size every vector from the model
 instead of from constants of one model.

@@ -19,7 +19,7 @@ import numpy as np
 
 from optimize.model.aero import force_coefficients
 from optimize.model.kite_model import KiteDae
-from optimize.system.params import AeroCoefficients, KiteParams, WindModel
+from optimize.model.params import AeroCoefficients, KiteParams, WindModel
 
 #: sine of the bank angle whose lift turns the start loop (53 deg)
 LOOP_SIN_BANK = 0.8
@@ -111,7 +111,7 @@ def start_loop(
 
 
 def circular_loop(
-    dae: KiteDae, guess: LoopGuess, times_s: np.ndarray, wind_ref_m_s: float
+    dae: KiteDae, guess: LoopGuess, times_s: np.ndarray, wind_speed_m_s: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """States, algebraic variables and fictitious forces of the loop at ``times_s``.
 
@@ -147,7 +147,7 @@ def circular_loop(
     z = np.zeros((dae.algebraic.size, n))
     fict = np.zeros((nf, n))
     u0 = np.zeros(dae.controls.size)
-    i_nu = dae.algebraic.index("nu_n_m")
+    i_nu = dae.algebraic.index("nu_n_per_m")
     for i, t in enumerate(times_s):
         phi = rate * t
         pos = rho * np.cos(theta) * axis + radius * (np.cos(phi) * b1 + np.sin(phi) * b2)
@@ -173,14 +173,14 @@ def circular_loop(
         z_i = dae.algebraic.vector({
             **dict(zip(("a_x_m_s2", "a_y_m_s2", "a_z_m_s2"), acc, strict=True)),
             "domega_x_rad_s2": 0.0, "domega_y_rad_s2": 0.0, "domega_z_rad_s2": 0.0,
-            "nu_n_m": 0.0,
+            "nu_n_per_m": 0.0,
         })
-        res0 = np.asarray(dae.alg(x[:, i], u0, z_i, wind_ref_m_s, np.zeros(nf))).ravel()
+        res0 = np.asarray(dae.alg(x[:, i], u0, z_i, wind_speed_m_s, np.zeros(nf))).ravel()
         z_i[i_nu] = 1.0
-        res1 = np.asarray(dae.alg(x[:, i], u0, z_i, wind_ref_m_s, np.zeros(nf))).ravel()
+        res1 = np.asarray(dae.alg(x[:, i], u0, z_i, wind_speed_m_s, np.zeros(nf))).ravel()
         grad = res1[:3] - res0[:3]
         z_i[i_nu] = max(-float(res0[:3] @ grad) / float(grad @ grad), 0.0)
-        res = np.asarray(dae.alg(x[:, i], u0, z_i, wind_ref_m_s, np.zeros(nf))).ravel()
+        res = np.asarray(dae.alg(x[:, i], u0, z_i, wind_speed_m_s, np.zeros(nf))).ravel()
         z[:, i] = z_i
         fict[:, i] = res[:6]
     return x, z, fict

@@ -86,7 +86,7 @@ class CycleFormulation(Protocol):
         The model: sizes and names of its vectors, its dynamics.
     parameters : tuple of str
         The model's scalar parameters, set per scenario (the kite's reference wind speed
-        ``wind_ref_m_s``; NLP parameters of the same names, first in ``p``).
+        ``wind_speed_m_s``; NLP parameters of the same names, first in ``p``).
     scales : VariableScales
     averages : tuple of str
         Names of the cycle averages of :attr:`Point.averages`.

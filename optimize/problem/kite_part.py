@@ -29,7 +29,7 @@ SOLVER_REEL_ACCELERATION_M_S2 = 500.0
 #: the reel jerk's bound (the control's) when the winch states none: the solver's range
 SOLVER_REEL_JERK_M_S3 = 5000.0
 #: the kite's parameter: the wind speed at the reference height [m/s]
-WIND = "wind_ref_m_s"
+WIND = "wind_speed_m_s"
 #: forces [N] (world NED frame, on the CG) and moments [N m] (body frame) other parts put
 #: on the kite: quantities of these names enter its Newton-Euler rows as the homotopy's
 #: fictitious forces do (a part adds its own to what the parts before it put there)
@@ -141,7 +141,7 @@ class KitePart(Part):
                "daileron_rad_s": rate, "delevator_rad_s": rate, "drudder_rad_s": rate}
         out = {name: (-top, top) for name, top in sym.items()}
         out.update({n: (-1.1, 1.1) for n in self.states.names if n.startswith("dcm_")})
-        out.update(r_z_m=(-reach, -z_top), l_m=(l_lo, l_hi), nu_n_m=(0.0, np.inf),
+        out.update(r_z_m=(-reach, -z_top), l_m=(l_lo, l_hi), nu_n_per_m=(0.0, np.inf),
                    dl_m_s=lim.reel_speed_range_m_s())
         return out
 
@@ -164,7 +164,7 @@ class KitePart(Part):
                for s in ("aileron", "elevator", "rudder")},
             **{f"a_{a}_m_s2": 1.5 * speed * rate for a in "xyz"},
             **{f"domega_{a}_rad_s2": 6.3 * rate**2 for a in "xyz"},
-            "nu_n_m": 11.0 * kite.mass_kg * kite.g_m_s2 / length,
+            "nu_n_per_m": 11.0 * kite.mass_kg * kite.g_m_s2 / length,
             **{f"f_fict_{a}_n": sc.force_n for a in "xyz"},
             **{f"m_fict_{a}_nm": sc.moment_nm for a in "xyz"},
         }

@@ -18,7 +18,7 @@ Variables (class or instance attributes, :class:`optimize.model.variables.Variab
 every name ending in its unit suffix, no name used by another part):
 ``states``, ``controls``, ``algebraic``, ``fictitious`` (the homotopy's forces, zero in
 the physical model), ``parameters`` (scalars set per scenario, NLP parameters of the
-same names: the kite's reference wind ``wind_ref_m_s``), and ``periodic``, the names of
+same names: the kite's reference wind ``wind_speed_m_s``), and ``periodic``, the names of
 the own states that repeat over a cycle.
 
 Quantities: at a point of the cycle the formulation builds a dict ``q`` of named
@@ -105,7 +105,7 @@ class StartPoint:
     n_intervals : int
         Collocation intervals per period ``N``.
     parameters : dict of float
-        The model's parameters by name (the reference wind speed ``wind_ref_m_s`` [m/s]).
+        The model's parameters by name (the reference wind speed ``wind_speed_m_s`` [m/s]).
     quantities : dict of ndarray
         The variables and quantities of the parts before this one at the ``N d``
         Radau points (``time_s`` in ``(0, T]``, the last one is the period's end).

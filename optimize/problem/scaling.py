@@ -17,8 +17,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from optimize.model.params import KiteParams
 from optimize.problem.guess import LoopGuess
-from optimize.system.params import KiteParams
 
 
 @dataclass(frozen=True)

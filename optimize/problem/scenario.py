@@ -7,7 +7,8 @@ from typing import Literal
 
 from optimize.kinds import KINDS, Kind, kind_of
 
-Objective = Literal["electrical", "mechanical"]
+#: the name of an objective (:class:`optimize.kinds.Objective` is the objective itself)
+ObjectiveName = Literal["electrical", "mechanical"]
 
 
 @dataclass(frozen=True)
@@ -27,7 +28,7 @@ class Scenario:
     """
 
     wind_speed_m_s: float
-    objective: Objective
+    objective: ObjectiveName
     drive_limits: bool
 
     def __post_init__(self) -> None:
@@ -59,8 +60,8 @@ class Scenario:
     @property
     def parameters(self) -> dict[str, float]:
         """The model's parameters of the scenario by name: the wind speed at the
-        reference height ``wind_ref_m_s`` [m/s]."""
-        return {"wind_ref_m_s": self.wind_speed_m_s}
+        reference height ``wind_speed_m_s`` [m/s]."""
+        return {"wind_speed_m_s": self.wind_speed_m_s}
 
     @property
     def name(self) -> str:

@@ -50,9 +50,9 @@ class TetherPart(Part):
     name: str = "tether"
     algebraic: Variables = Variables(LINE_FORCE)
 
-    def _force(self, r: Any, v: Any, a: Any, wind_ref_m_s: Any) -> Any:
+    def _force(self, r: Any, v: Any, a: Any, wind_speed_m_s: Any) -> Any:
         d = self.dae
-        return line_force(r, v, a, wind_ref_m_s, d.kite, d.wind, d.tether)
+        return line_force(r, v, a, wind_speed_m_s, d.kite, d.wind, d.tether)
 
     def quantities(self, q: Mapping[str, Any]) -> dict[str, Any]:
         """The line's force added to the forces other parts put on the kite

@@ -8,6 +8,8 @@ site) and ``bench aep --refine`` (the speeds where a sweep's curve bends).
 =============================================== ==========================================
 module                                          concept
 =============================================== ==========================================
+:mod:`optimize.service.plan`                    the wind grid, the kinds, warm-start chains
+:mod:`optimize.service.executors`               a process pool or Dask, progress channels
 :mod:`optimize.service.builder`                 what a worker builds: ``Problem``, backends
 :mod:`optimize.service.solver`                  one problem's solves: warm starts, fallbacks,
                                                 records, the store

@@ -4,8 +4,8 @@ A chain (:class:`ChainTask`) is shipped to a worker as one task
 (:func:`run_chain`). The worker's :class:`optimize.service.solver.Solver` takes in
 the scenarios solved elsewhere that the task hands it (``solved``: warm starts, and
 a grid to check), solves the chain's planned steps in order (one step of the start
-graph, :func:`optimize.sweep.plan.plan_graph`, or a chain of
-:func:`optimize.sweep.plan.chain_steps`: a cold start at the middle wind speed,
+graph, :func:`optimize.service.plan.plan_graph`, or a chain of
+:func:`optimize.service.plan.chain_steps`: a cold start at the middle wind speed,
 then outwards), each step warm-started from its planned source and fallbacks, then,
 as asked:
 
@@ -36,9 +36,9 @@ from optimize.service.builder import Problem
 from optimize.service.cut_in import find_cut_in
 from optimize.service.local_optima import resolve_local_optima
 from optimize.service.outcome import ChainOutcome, ScenarioOutcome
+from optimize.service.plan import Step
 from optimize.service.retry import retry_failed
 from optimize.service.solver import Solver
-from optimize.sweep.plan import Step
 
 
 @dataclass(frozen=True)

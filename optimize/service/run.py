@@ -7,7 +7,7 @@
   ``bench aep --refine``): one chain per (problem, kind, tag), along the
   continuation order of its wind speeds; returns the solve records;
 * :func:`run_sweep` runs ``bench optimize``'s start graph (:func:`make_tasks`,
-  :func:`optimize.sweep.plan.plan_graph`) with a progress bar: each step is one task,
+  :func:`optimize.service.plan.plan_graph`) with a progress bar: each step is one task,
   submitted once its sources are solved, with their optima as its warm starts; then
   one task per kind retries its failed scenarios from the other starts there are,
   re-solves its local optima and searches its cut-in speed; returns a
@@ -36,10 +36,10 @@ from optimize.service.outcome import (
     ScenarioOutcome,
     failure_status,
 )
+from optimize.service.plan import Step, chain_steps
 from optimize.service.retry import RETRY
 from optimize.service.solver import attempt_line
 from optimize.service.store import solve_key
-from optimize.sweep.plan import Step, chain_steps
 
 
 def failed_chain(task: ChainTask, exc: BaseException) -> ChainOutcome:
@@ -66,11 +66,11 @@ def run_chains(tasks: Sequence[ChainTask], handle: Any = None, *, workers: int =
                on_event: Callable[[dict], None] | None = None) -> tuple[list[ChainOutcome], str]:
     """Run every chain; their outcomes in task order and the executor's description.
 
-    ``handle`` is an open :class:`optimize.sweep.executors.ExecutorHandle`; without
+    ``handle`` is an open :class:`optimize.service.executors.ExecutorHandle`; without
     it the local process pool of ``workers`` (or the Dask cluster at ``scheduler``)
     is opened for these chains. ``on_event`` receives the progress events.
     """
-    from optimize.sweep.executors import open_executor, run_tasks
+    from optimize.service.executors import open_executor, run_tasks
 
     if handle is None:
         with open_executor(workers, scheduler) as h:
@@ -102,7 +102,7 @@ def solve_tasks(tasks: Sequence[SolveTask], store: Path | None = None, *, worker
 
     Tasks of one problem, kind and tag form one chain (one executor task), planned
     along the continuation order of their wind speeds
-    (:func:`optimize.sweep.plan.chain_steps`). With ``refine`` (kind -> its
+    (:func:`optimize.service.plan.chain_steps`). With ``refine`` (kind -> its
     :class:`optimize.service.chain.Refinement`) each chain then adds the wind speeds
     where its electrical power curve bends for the refinement's site. ``store``, ``backend``: see
     :class:`optimize.service.chain.ChainTask`; ``handle``, ``workers``,
@@ -172,7 +172,7 @@ class SweepTasks:
     ----------
     problem : Problem
     steps : tuple of Step
-        The start graph (:func:`optimize.sweep.plan.plan_graph`), sources first.
+        The start graph (:func:`optimize.service.plan.plan_graph`), sources first.
     cut_in_kinds : tuple of str
         Kinds whose cut-in speed is searched after the grid.
     cut_in_tol_m_s : float
@@ -212,7 +212,7 @@ def _solve_graph(tasks: SweepTasks, handle: Any,
                  on_event: Callable[[dict], None]) -> list[ChainOutcome]:
     """Solve every step of the start graph, each as one task once its sources are done;
     one outcome per step, in step order."""
-    from optimize.sweep.executors import run_graph
+    from optimize.service.executors import run_graph
 
     steps = tasks.steps
     index = {s.name: i for i, s in enumerate(steps)}
@@ -272,7 +272,7 @@ def run_sweep(tasks: SweepTasks, handle: Any, show_progress: bool = True) -> Swe
     ----------
     tasks : SweepTasks
         From :func:`make_tasks`.
-    handle : optimize.sweep.executors.ExecutorHandle
+    handle : optimize.service.executors.ExecutorHandle
         The open executor and its progress channel.
     show_progress : bool
         Show a tqdm bar: one tick per planned scenario, per cut-in search, per cut-in

@@ -21,7 +21,7 @@ from optimize.kinds import KINDS
 STORE_VERSION = 1
 
 
-def solve_key(problem: Any, kind: str, wind_m_s: float) -> str:
+def solve_key(problem: Any, kind: str, wind_speed_m_s: float) -> str:
     """SHA-256 (hex) of everything one solve depends on: the drive model's hash, the OCP
     options, the wind speed, the kind's objective and limits, the system's hash (when
     the problem has a system).
@@ -30,7 +30,7 @@ def solve_key(problem: Any, kind: str, wind_m_s: float) -> str:
     """
     k = KINDS[kind]
     data = {"version": STORE_VERSION, "model": problem.drive_model.sha256,
-            "options": dataclasses.asdict(problem.options), "wind_m_s": float(wind_m_s),
+            "options": dataclasses.asdict(problem.options), "wind_speed_m_s": float(wind_speed_m_s),
             "objective": k.objective, "drive_limits": bool(k.drive_limits)}
     if problem.system is not None:
         data["system"] = problem.system.sha256

@@ -18,13 +18,11 @@ from optimize.solve.backend import RawSolve
 
 #: the layout's indices of each start array (:data:`optimize.problem.start.KEYS`)
 LAYOUT = {"x": "i_x", "u": "i_u", "z": "i_z", "fict": "i_f"}
-#: units of the trajectory columns that are not states/controls/algebraic variables
-OUTPUT_UNITS = {
-    "time_s": "s", "interval": "", "weight": "", "speed_rpm": "rpm", "torque_nm": "N m",
-    "tether_torque_nm": "N m", "tension_n": "N", "p_mech_w": "W", "p_elec_w": "W",
-    "altitude_m": "m", "airspeed_m_s": "m/s", "alpha_deg": "deg", "beta_deg": "deg",
-    "wind_m_s": "m/s", "line_angle_deg": "deg", "c_m2": "m^2", "cdot_m2_s": "m^2/s",
-}
+#: the trajectory columns that are not states/controls/algebraic variables (each unit from
+#: its name's suffix, :func:`kernel.units.unit_of`; ``interval`` and ``weight`` have none)
+OUTPUT_COLUMNS = ("time_s", "interval", "weight", "speed_rpm", "torque_nm", "tether_torque_nm",
+                  "tension_n", "p_mech_w", "p_elec_w", "altitude_m", "airspeed_m_s", "alpha_deg",
+                  "beta_deg", "wind_m_s", "line_angle_deg", "c_m2", "cdot_m2_s")
 
 
 @dataclass(frozen=True)
@@ -71,7 +69,7 @@ class OcpResult:
         Largest scaled violation of any constraint [-].
     trajectory : pandas.DataFrame
         One row per Radau point (``time_s`` in ``(0, T]``): states, controls,
-        algebraic variables and outputs (see ``OUTPUT_UNITS``); ``weight`` are
+        algebraic variables and outputs (see ``OUTPUT_COLUMNS``); ``weight`` are
         the quadrature weights, so ``(weight * p).sum()`` is the cycle average.
     warm : Solution
         Primal/dual vectors to warm-start the next solve.

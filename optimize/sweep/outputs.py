@@ -16,7 +16,7 @@ from fitting.domain import domain_excursion
 from optimize.model import kite_model as km
 from optimize.service.local_optima import better_margin_w
 from optimize.service.outcome import ScenarioOutcome
-from optimize.solve.result import OUTPUT_UNITS, cycle_metrics
+from optimize.solve.result import OUTPUT_COLUMNS, cycle_metrics
 from optimize.sweep_folder import SUMMARY_COLUMNS
 
 #: the metric columns (NaN for a failed scenario)
@@ -44,7 +44,7 @@ MEANT_BOUNDS = (*DRIVE_BOUNDS, *KITE_BOUNDS, "ground_clearance")
 #: readers' required subset: :data:`optimize.sweep_folder.TRAJECTORY_COLUMNS`)
 TRAJECTORY_COLUMNS_ALL = ("scenario", "kind", "wind_speed_m_s", "time_s", "interval", "weight",
                       *km.STATES.names, *km.CONTROLS.names, *km.ALGEBRAIC.names,
-                      *(c for c in OUTPUT_UNITS if c not in ("time_s", "interval", "weight")))
+                      *(c for c in OUTPUT_COLUMNS if c not in ("time_s", "interval", "weight")))
 
 
 def _trajectory_metrics(traj: pd.DataFrame) -> dict[str, float]:

@@ -33,11 +33,11 @@ from optimize.problem.kite_part import POSITION_STATES
 from optimize.problem.ocp import Ocp, grid_times
 from optimize.problem.scenario import Scenario
 from optimize.service.builder import OcpBackend, Problem, problem_key
+from optimize.service.executors import run_tasks
+from optimize.service.plan import middle_index
 from optimize.solve import backend
 from optimize.solve.result import OcpResult, Solution, make_result
 from optimize.solve.solve import solve
-from optimize.sweep.executors import run_tasks
-from optimize.sweep.plan import middle_index
 
 
 @dataclass(frozen=True)
@@ -327,7 +327,7 @@ def run_trust_checks(
     outcomes : sequence of optimize.service.outcome.ScenarioOutcome
     winds : tuple of float
         The wind grid [m/s]; the mesh check uses its middle speed.
-    handle : optimize.sweep.executors.ExecutorHandle
+    handle : optimize.service.executors.ExecutorHandle
     show_progress : bool
         Show the mesh checks' progress bar.
 

@@ -24,7 +24,7 @@ from typing import Any
 from optimize.model.atmosphere import ISA_LAPSE_K_M
 from optimize.model.dae import DaeSpec
 from optimize.model.kite_model import kite_dae
-from optimize.system.params import AeroCoefficients, KiteParams, TetherModel, WindModel
+from optimize.model.params import AeroCoefficients, KiteParams, TetherModel, WindModel
 
 #: folder of the shipped system files (package data)
 SYSTEMS_DIR = Path(__file__).resolve().parent.parent / "data" / "systems"

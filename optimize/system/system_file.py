@@ -23,7 +23,7 @@ from kernel.drive_envelope import envelope_problem
 from kernel.errors import InputError
 from kernel.files import parse_toml, read_text
 from optimize.model.aero import force_coefficients
-from optimize.system.params import AeroCoefficients
+from optimize.model.params import AeroCoefficients
 from optimize.system.plausibility import check_system
 from optimize.system.system import (
     AeroSection,
