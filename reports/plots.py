@@ -132,8 +132,9 @@ def curve_frame(curves: pd.DataFrame | dict) -> pd.DataFrame:
     ``p_elec_sigma_w`` NaN)."""
     if isinstance(curves, pd.DataFrame):
         return curves
-    frames = [pd.DataFrame({"kind": kind, "wind_speed_m_s": c.wind_speed_m_s, "p_elec_w": c.p_elec_w,
-                            "p_mech_w": c.p_mech_w, "p_elec_sigma_w": np.nan})
+    frames = [pd.DataFrame({"kind": kind, "wind_speed_m_s": c.wind_speed_m_s,
+                            "p_elec_w": c.p_elec_w, "p_mech_w": c.p_mech_w,
+                            "p_elec_sigma_w": np.nan})
               for kind, c in curves.items()]
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame(
         columns=["kind", "wind_speed_m_s", "p_elec_w", "p_mech_w", "p_elec_sigma_w"])
