@@ -76,7 +76,7 @@ class Accuracy:
                    v["speed_accuracy_reading"]), missing
 
 
-def _drift(energy: np.ndarray, index: np.ndarray) -> tuple[float, float, float]:
+def energy_drift(energy: np.ndarray, index: np.ndarray) -> tuple[float, float, float]:
     """Slope [J per cycle], its standard error and the residual std [J] of a straight
     line through the cycles' energies (NaN, NaN, 0 for fewer than three cycles)."""
     if energy.size < 3:
@@ -104,11 +104,11 @@ def measured_energy(cycles: pd.DataFrame, acc: Accuracy, bin_s: float,
     sys_e = np.hypot(acc.power_reading * e, acc.power_range * acc.power_range_w * t) / _SQRT3
     edge = np.hypot(bin_s * np.abs(cycles["p_elec_end_w"] - cycles["p_elec_start_w"]) / _SQRT3,
                     u_period_s * np.abs(cycles["p_elec_end_w"])).to_numpy()
-    rep_e = _drift(e, idx)[2]
+    rep_e = energy_drift(e, idx)[2]
     m = cycles["e_mech_j"].to_numpy(float)
     sys_m = np.hypot(acc.speed_reading * m,
                      acc.torque_range * acc.torque_range_nm * cycles["angle_rad"]) / _SQRT3
-    rep_m = _drift(m, idx)[2]
+    rep_m = energy_drift(m, idx)[2]
     return pd.DataFrame({
         "cycle_id": cycles["cycle_id"].astype(int), "e_elec_j": e,
         "u_elec_j": np.sqrt(sys_e**2 + edge**2 + rep_e**2), "u_elec_systematic_j": sys_e,

@@ -16,7 +16,7 @@ from bench.store.manifest import read_manifest
 from bench.store.read import read_cycles, read_samples
 from cycle.models import sweep_power_model
 from cycle.provenance import check_provenance
-from cycle.verify import CLAIM_RTOL, Accuracy, K, _drift, measured_energy, model_energy
+from cycle.verify import CLAIM_RTOL, Accuracy, K, energy_drift, measured_energy, model_energy
 from cycle.verify_folder import MARKERS, STAGE, write_verify_folder
 from kernel.errors import InputError
 from kernel.output_folder import check_replaceable
@@ -192,7 +192,7 @@ def verify_cycles(store: str | Path, optimize: str | Path, out: str | Path, *,
         table[col] = cycles[col].to_numpy()
     table, cycles, dropped = _finite(table, cycles, sid, store)
     means = _means(table, float(row["e_elec_j"]))
-    slope, slope_u, scatter = _drift(table["e_elec_j"].to_numpy(float),
+    slope, slope_u, scatter = energy_drift(table["e_elec_j"].to_numpy(float),
                                      table["cycle_id"].to_numpy(float))
     drift = {"slope_j_per_cycle": slope, "slope_u_j_per_cycle": slope_u,
              "slope_per_cycle": slope / abs(means["e_elec_j"]), "scatter_j": scatter}

@@ -203,3 +203,25 @@ def test_a_lazy_table_counts_as_imports(tmp_path):
     path.write_text('LAZY_IMPORTS = {"energy.aep": ("aep_mwh",)}\n', encoding="utf-8")
     mods = {**modules(), "kernel.lazy_example": path}
     assert "kernel.lazy_example -> energy.aep: upward" in rule_breaks(import_graph(mods))
+
+
+def private_imports(mods: dict[str, Path]) -> list[str]:
+    """Every ``from <product module> import _name``: a private name used outside its module."""
+    found = []
+    for name, path in mods.items():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if (isinstance(node, ast.ImportFrom) and node.module
+                    and node.module.split(".")[0] in PACKAGES):
+                found += [f"{name} imports {node.module}.{a.name}" for a in node.names
+                          if a.name.startswith("_") and not a.name.startswith("__")]
+    return found
+
+
+def test_no_module_imports_another_modules_private_name():
+    assert private_imports(modules()) == []
+
+
+def test_the_private_import_check_sees_one(tmp_path):
+    path = tmp_path / "probe.py"
+    path.write_text("from cycle.verify import _hidden\n", encoding="utf-8")
+    assert private_imports({"cycle.probe": path}) == ["cycle.probe imports cycle.verify._hidden"]

@@ -36,7 +36,7 @@ from bench.ingest.samples_file import write_samples
 from bench.ingest.scan import bin_stream, scan_stream
 from bench.ingest.session import Session
 from bench.ingest.store_tables import SessionOutput, rejected_table
-from bench.ingest.timeseries import _electrical_power, _session_info, open_stream
+from bench.ingest.timeseries import open_stream, session_electrical_power, session_info
 from bench.store.schema import CYCLES_SCHEMA
 from kernel.errors import InputError
 from kernel.files import file_sha256
@@ -183,7 +183,7 @@ def process_cycle_run(session: Session, mapping: Mapping, scratch: Path,
     scan = scan_stream(session, daq, extra, scratch, config, progress)
     binned = bin_stream(scan, daq, config)
     config = replace(config, bin_s=binned.dt)
-    power = _electrical_power(session, daq, record, binned, scan, sources, config)
+    power = session_electrical_power(session, daq, record, binned, scan, sources, config)
     check_torque_sign(session, binned.means["p_mech"], power.p_elec_bins, daq.path)
     cut = cut_cycles({"t": binned.centres(), "speed": binned.means["speed"],
                       "torque": binned.means["torque"], "p_elec": power.p_elec_bins,
@@ -199,7 +199,7 @@ def process_cycle_run(session: Session, mapping: Mapping, scratch: Path,
     rows = _cycle_rows(cut, _read_samples(samples_path), None if record is None else power)
     cut.notes.sort(key=lambda line: int(line.split()[1]))
     rejected = rejected_table(sid, [(*cut.bounds(k), r) for k, r in sorted(cut.rejected.items())])
-    info = _session_info(daq, record, power.clock, binned, scan,
+    info = session_info(daq, record, power.clock, binned, scan,
                          steady.Windows([], [], {}), np.ones(binned.n_bins, bool), config)
     info["no_points_note"] = (f"a cycle run: {len(cut.kept)} of {profile.n_cycles} cycles "
                               "kept, no operating points")

@@ -62,9 +62,9 @@ def open_stream(session: Session, mapping: Mapping, chunk_bytes: int) -> DaqStre
                      expected="'csv' or 'tdms'" if name == "daq" else "'csv'")
 
 
-def _electrical_power(session: Session, daq: DaqStream, record: AnalyzerRecord | None,
-                      binned: Binned, scan: StreamScan, sources: dict,
-                      config: steady.SteadyConfig) -> AlignedPower:
+def session_electrical_power(session: Session, daq: DaqStream,
+                             record: AnalyzerRecord | None, binned: Binned, scan: StreamScan,
+                             sources: dict, config: steady.SteadyConfig) -> AlignedPower:
     """The electrical power on the bins: a single-stream log's own, or the analyzer's
     aligned to the DAQ clock."""
     if record is None:
@@ -137,9 +137,9 @@ def _session_windows(session: Session, daq: DaqStream, binned: Binned, power: Al
     return win, usable
 
 
-def _session_info(daq: DaqStream, record: AnalyzerRecord | None, clock, binned: Binned,
-                  scan: StreamScan, win: steady.Windows, usable: np.ndarray,
-                  config: steady.SteadyConfig) -> dict:
+def session_info(daq: DaqStream, record: AnalyzerRecord | None, clock, binned: Binned,
+                 scan: StreamScan, win: steady.Windows, usable: np.ndarray,
+                 config: steady.SteadyConfig) -> dict:
     """The session's manifest fields: clock offset/drift, torque zero, counts, timing,
     instruments."""
     zero, timing = binned.zero, binned.timing
@@ -223,7 +223,7 @@ def process_timeseries(
     scan = scan_stream(session, daq, extra, scratch, config, progress)  # pass 1
     binned = bin_stream(scan, daq, config)
     config = replace(config, bin_s=binned.dt)
-    power = _electrical_power(session, daq, record, binned, scan, sources, config)
+    power = session_electrical_power(session, daq, record, binned, scan, sources, config)
     check_torque_sign(session, binned.means["p_mech"], power.p_elec_bins, daq.path)
     win, usable = _session_windows(session, daq, binned, power, sources, scan.tare.limit_rpm,
                                    config)
@@ -242,7 +242,7 @@ def process_timeseries(
                           win.tolerances["torque"], daq.path)
     rejected = rejected_table(sid, sorted(
         [(t0 + a * dt, t0 + b * dt, r) for a, b, r in win.rejected] + unlogged))
-    info = _session_info(daq, record, power.clock, binned, scan, win, usable, config)
+    info = session_info(daq, record, power.clock, binned, scan, win, usable, config)
     notes = [n for n in (chk.note() for chk in scan.temps.values()) if n is not None]
     if notes:  # flagged temperature channels, not stored
         info["temperature_notes"] = notes
