@@ -373,6 +373,27 @@ def run_trust_checks(
             f"({m.rel_change_p_elec:.2%}), P_mech {m.avg_p_mech_w:.1f} -> "
             f"{m.avg_p_mech_fine_w:.1f} W ({m.rel_change_p_mech:.2%})"
         )
+    sims, sim_lines = simulation_checks(problem, outcomes)
+    return {"mesh": mesh, "simulation": sims, "lines": lines + sim_lines}
+
+
+def simulation_checks(problem: Any, outcomes: Sequence[Any]) -> tuple[list[dict], list[str]]:
+    """Simulation check of every converged scenario (CVODES through each interval and open
+    loop over the cycle), with the lines that summarize it.
+
+    Parameters
+    ----------
+    problem : optimize.service.builder.Problem
+        The sweep's problem.
+    outcomes : sequence of optimize.service.outcome.ScenarioOutcome
+
+    Returns
+    -------
+    sims : list of dict
+        One SimulationCheck (as a dict) per converged scenario.
+    lines : list of str
+        The summary line and one line per scenario that did not pass.
+    """
     ocp = OcpBackend().build(problem)
     sims = []
     for o in outcomes:
@@ -385,13 +406,15 @@ def run_trust_checks(
     done = [s for s in sims if math.isfinite(s["interval_defect_scaled"])]
     if done:
         worst = max(done, key=lambda s: s["periodicity_error_scaled"])
-        lines.append(
+        lines = [
             f"simulation check ({len(done)} cycles, CVODES): interval defect <= "
             f"{max(s['interval_defect_position_m'] for s in done):.2e} m, open loop <= "
             f"{max(s['open_loop_position_m'] for s in done):.2e} m, periodicity error <= "
             f"{worst['periodicity_error_scaled']:.2e} (scaled, {worst['scenario']}; the "
             "open-loop figures carry no verdict: the kite is unstable open loop)"
-        )
+        ]
+    else:
+        lines = []
     lines += [f"simulation check {s['scenario']}: {s['verdict']}" for s in sims
               if s["verdict"] != "passed"]
-    return {"mesh": mesh, "simulation": sims, "lines": lines}
+    return sims, lines
