@@ -265,6 +265,13 @@ class SolverOptions:
         C compiler, and on the paper sweep it saved 17 % of the CPU after 3 s of gcc
         (collocation) and 16 % after 34 s (condensed) (benchmarks/README.md); False runs
         them in CasADi's virtual machine.
+    predictor_step : float
+        Fraction of the tangential predictor's step (:mod:`optimize.solve.predictor`)
+        a warm start from another wind speed or objective takes: 0 (the default) starts
+        from the neighbour's optimum as it is; 1 from the first-order prediction of the
+        new optimum. Off by default: on the paper sweep it saved no iterations at these
+        warm-start settings and costs a KKT factorization per start
+        (``benchmarks/warm_start_predictor.py``, figures in benchmarks/README.md).
     """
 
     solver: str = "ipopt"
@@ -278,6 +285,7 @@ class SolverOptions:
     mumps_pivot_order: int = 0
     transcription: str = "collocation"
     codegen: bool = False
+    predictor_step: float = 0.0
 
     def __post_init__(self) -> None:
         if self.solver not in SOLVERS:
@@ -287,6 +295,8 @@ class SolverOptions:
                              f"got {self.transcription!r}")
         if not 0 < self.warm_bound_push <= 0.5:  # IPOPT's range of warm_start_bound_frac
             raise ValueError(f"warm_bound_push must be in (0, 0.5], got {self.warm_bound_push}")
+        if not 0 <= self.predictor_step <= 1:
+            raise ValueError(f"predictor_step must be in [0, 1], got {self.predictor_step}")
 
     @property
     def stagewise(self) -> bool:

@@ -30,7 +30,10 @@ class Solution:
     """Scaled primal and dual vectors of a solve, to warm-start the next one.
 
     Only valid for an :class:`optimize.problem.ocp.Ocp` with the same ``n_intervals``
-    and ``degree`` (checked by :func:`optimize.solve.solve.solve`).
+    and ``degree`` (checked by :func:`optimize.solve.solve.solve`). ``p`` (the NLP
+    parameters it solves) and ``drive_limits`` (whether the drive limits bounded it)
+    let the next solve predict its optimum (:mod:`optimize.solve.predictor`); None
+    where unknown (a stored solve, a carried-over one).
     """
 
     w: np.ndarray
@@ -38,6 +41,8 @@ class Solution:
     lam_g: np.ndarray
     n_intervals: int
     degree: int
+    p: np.ndarray | None = None
+    drive_limits: bool | None = None
 
 
 @dataclass(frozen=True)
@@ -285,7 +290,8 @@ def make_result(
         trajectory=traj,
         warm=Solution(
             w=raw.w, lam_x=raw.lam_x, lam_g=raw.lam_g,
-            n_intervals=ocp.n_intervals, degree=ocp.coll.degree,
+            n_intervals=ocp.n_intervals, degree=ocp.coll.degree, p=p,
+            drive_limits=scenario.drive_limits,
         ),
         stages=tuple(stages),
         start=start,

@@ -13,10 +13,13 @@ from __future__ import annotations
 import dataclasses
 import logging
 
-from optimize.problem.ocp import Ocp
+import numpy as np
+
+from optimize.problem.ocp import Bounds, Ocp
 from optimize.problem.scenario import Scenario
 from optimize.solve import backend, initial_guess
 from optimize.solve.homotopy import cold_start
+from optimize.solve.predictor import predict
 from optimize.solve.result import OcpResult, Solution, make_result
 
 log = logging.getLogger(__name__)
@@ -58,7 +61,9 @@ def solve(
 
     The warm start passes the primal vector and both multiplier vectors with
     IPOPT's ``warm_start_init_point`` and a small ``mu_init`` (fatrop takes the
-    primal vector and the small ``mu_init``; it starts no multipliers). If that fails
+    primal vector and the small ``mu_init``; it starts no multipliers); with the
+    solver options' ``predictor_step``, moved first along the tangent to the
+    scenario's parameters (:mod:`optimize.solve.predictor`; stage ``"predicted"``). If that fails
     and ``retry_cold`` is set, the same primal point is tried once more with
     the default (cold) barrier settings; both calls count in the result.
 
@@ -96,12 +101,12 @@ def solve(
                          "with optimize.solve.result.carry_over)")
     bounds = ocp.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
     p = ocp.params(scenario.parameters, scenario.weights)
-    raw = backend.run(ocp, warm_start.w, p, bounds, warm=True,
-                  lam_x0=warm_start.lam_x, lam_g0=warm_start.lam_g)
-    stages = [{"stage": "warm", "status": raw.status, "success": raw.success,
-               "iterations": raw.iterations, "wall_time_s": raw.wall_time_s,
+    stage, w0, lam_x0, lam_g0, predict_s = _predicted(ocp, warm_start, p, bounds)
+    raw = backend.run(ocp, w0, p, bounds, warm=True, lam_x0=lam_x0, lam_g0=lam_g0)
+    stages = [{"stage": stage, "status": raw.status, "success": raw.success,
+               "iterations": raw.iterations, "wall_time_s": raw.wall_time_s + predict_s,
                "cpu_time_s": raw.cpu_time_s}]
-    log.info("%s warm  %-22s %4d it %6.1f s (cpu %.1f s)", scenario.name, raw.status,
+    log.info("%s %-5s %-22s %4d it %6.1f s (cpu %.1f s)", scenario.name, stage, raw.status,
              raw.iterations, raw.wall_time_s, raw.cpu_time_s)
     if not raw.success and retry_cold:
         raw = backend.run(ocp, warm_start.w, p, bounds, warm=False)
@@ -111,3 +116,20 @@ def solve(
         log.info("%s retry %-22s %4d it %6.1f s (cpu %.1f s)", scenario.name, raw.status,
                  raw.iterations, raw.wall_time_s, raw.cpu_time_s)
     return make_result(ocp, scenario, raw, p, bounds, stages)
+
+
+def _predicted(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds
+               ) -> tuple[str, np.ndarray, np.ndarray, np.ndarray, float]:
+    """The warm start of a solve at ``p`` and the seconds it took: ``("warm", the
+    neighbour's vectors, 0)``, or, with the solver options' ``predictor_step`` above 0
+    and a neighbour that knows its own parameters (:attr:`Solution.p`) and they differ,
+    ``("predicted", the vectors moved along the tangent, its time)``
+    (:func:`optimize.solve.predictor.predict`)."""
+    step = ocp.options.solver.predictor_step
+    if step <= 0 or warm.p is None or np.array_equal(warm.p, p):
+        return "warm", warm.w, warm.lam_x, warm.lam_g, 0.0
+    before = ocp.bounds(drive_limits=bool(warm.drive_limits), fix_fictitious=True,
+                        period_s=None)
+    w, lam_x, lam_g, tg = predict(ocp, warm.w, warm.lam_x, warm.lam_g, warm.p, p, before,
+                                  bounds, step=step)
+    return "predicted", w, lam_x, lam_g, tg.time_s
