@@ -22,7 +22,8 @@ from kernel.provenance import Provenance
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
 from optimize.analysis.result_check import MIN_COLLOCATION_POINTS, mesh_label
 from optimize.kinds import KINDS
-from optimize.problem.ocp import winding_thermal
+from optimize.problem.ocp import model_parts
+from optimize.problem.part import trajectory_columns
 from optimize.resolve import Setup, resolve
 from optimize.service import Problem, make_tasks, run_sweep
 from optimize.service.executors import open_executor
@@ -230,16 +231,15 @@ def run_optimize(
         outcomes = list(result.outcomes)
         if request.trust:
             trust = run_trust_checks(problem, outcomes, request.winds, handle, show_progress)
-    thermal = winding_thermal(drive.model, options.limits)
     summary = outputs.summary_frame(outcomes, drive.model.domain,
-                                    domain_scales(drive.model, options),
-                                    None if thermal is None else thermal.max_c)
+                                    domain_scales(drive.model, options))
+    parts = model_parts(problem.model.build(), drive.model, options)
     cut_ins = cut_in_frame(result.cut_ins)
     claims = (evaluate_claims(summary, cut_ins, paper_system=system.paper_system,
                               system_name=system.name) if request.claims else None)
     files = write_sweep_folder(
         request.out, run, summary=summary, claims=claims, system=system.record(),
-        trajectories=outputs.trajectories_frame(outcomes),
+        trajectories=outputs.trajectories_frame(outcomes, trajectory_columns(parts)),
         carried_model=drive.model if drive.carried or not drive.model_path.is_file() else None,
         manifest=sweep_manifest(request, system, drive, options, result, summary, trust,
                                 outcomes))

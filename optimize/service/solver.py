@@ -36,8 +36,9 @@ from optimize.solve.result import cycle_metrics
 
 #: warm-started attempts per solve before the cold-start fallback
 MAX_WARM_ATTEMPTS = 2
-#: the cycle figures of a record, None when the solve failed (:func:`cycle_metrics`)
-METRICS = ("peak_speed_rpm", "peak_torque_nm", "rms_torque_nm", "peak_winding_temperature_c")
+#: the cycle figures of a record, None when the solve failed (:func:`cycle_metrics`); the
+#: parts' own figures follow when it converged (``OcpResult.figures``)
+METRICS = ("peak_speed_rpm", "peak_torque_nm", "rms_torque_nm")
 
 Key = tuple[str, float]  # (kind, wind speed [m/s])
 
@@ -158,7 +159,8 @@ class Solver:
             Keys: the tag's, ``key`` (of the store, None without one), ``kind,
             wind_speed_m_s, role, success, status, warm_from, avg_p_elec_w, avg_p_mech_w,
             period_s, peak_speed_rpm, peak_torque_nm, rms_torque_nm`` (None when
-            failed), the extras,
+            failed), the parts' figures (``OcpResult.figures``, when converged), the
+            extras,
             ``wall_time_s, cached``.
         """
         wind = float(wind)
@@ -246,6 +248,7 @@ class Solver:
         if trajectory is not None:
             figures = cycle_metrics(trajectory)
             metrics = {name: figures[name] for name in METRICS}
+            metrics.update(getattr(res, "figures", {}))
         extras = {}
         if self.extras is not None:
             extras = self.extras(trajectory) if ok else dict.fromkeys(self.extras(None))
