@@ -61,10 +61,13 @@ Start: :meth:`Part.guess` fills the part's own variables from a
 A stored initial guess or the homotopy's circular loop gives the kite's variables; the
 parts after it fill theirs, so a stored guess keeps working when a part is added.
 
-The stored initial guess is checked on the kite and drive parts alone
-(:data:`optimize.solve.initial_guess.STORED_PARTS`), then carried over: a part that only
-adds variables and rows keeps it; one that changes the kite's or the drive's own rows
-(a force on the kite) starts from it all the same, its rows not yet satisfied there.
+The stored initial guess records the parts it holds (their names and variables,
+:func:`optimize.solve.initial_guess.parts_record`); it is checked on the OCP's parts of
+those names, then carried over: a part the file lacks fills its own variables (a part
+that only adds variables and rows keeps the kite's optimum; one that changes the kite's
+or the drive's own rows, a force on the kite, starts from it all the same, its rows not
+yet satisfied there); a part the file holds and the OCP has not, or has with other
+variables, refuses the file (the homotopy starts instead, and the log says why).
 
 Registering: pass the part to :func:`optimize.problem.ocp.build_ocp` (``parts=``) or
 append it in :func:`optimize.problem.parts.kite_parts`. A complete example, a filter of
