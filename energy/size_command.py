@@ -185,7 +185,7 @@ def run_size(site: Any, model: Any = None, *, system: Any = None,
     notes = [*notes, grid_hours(site, grid.winds_m_s, result.records)["note"],
              *([edge_doc["note"]] if edge_doc["note"] else [])]
     files = write_sizing(Path(out), result, site=site, site_note=site_note or site.describe(),
-                         drive=drive, system=system, winds=grid.winds_m_s,
+                         drive=drive, system=system, wind_speeds_m_s=grid.winds_m_s,
                          adaptive=grid.adaptive, tolerance=grid.tolerance, notes=notes,
                          provenance=run_record, edge=edge_doc)
     return SizeRun(result, drive, tuple(notes), files)

@@ -56,7 +56,7 @@ class SweepRequest:
 
     Attributes
     ----------
-    winds : tuple of float
+    wind_speeds_m_s : tuple of float
         Wind speeds [m/s].
     kinds : tuple of str
         Scenario kinds.
@@ -79,7 +79,7 @@ class SweepRequest:
         Cut-in bisection stops at this bracket width [m/s].
     """
 
-    winds: tuple[float, ...]
+    wind_speeds_m_s: tuple[float, ...]
     kinds: tuple[str, ...]
     setup: Setup
     model_note: str
@@ -225,12 +225,13 @@ def run_optimize(
                     if request.claims else ())
     trust: dict = {"mesh": [], "simulation": []}
     with open_executor(request.workers, request.scheduler) as handle:
-        tasks = make_tasks(plan_graph(request.winds, request.kinds), problem, cut_in_kinds,
-                           request.cut_in_tol_m_s, backend)
+        tasks = make_tasks(plan_graph(request.wind_speeds_m_s, request.kinds), problem,
+                           cut_in_kinds, request.cut_in_tol_m_s, backend)
         result = run_sweep(tasks, handle, show_progress)
         outcomes = list(result.outcomes)
         if request.trust:
-            trust = run_trust_checks(problem, outcomes, request.winds, handle, show_progress)
+            trust = run_trust_checks(problem, outcomes, request.wind_speeds_m_s, handle,
+                                     show_progress)
     summary = outputs.summary_frame(outcomes, drive.model.domain,
                                     domain_scales(drive.model, options))
     parts = model_parts(problem.model.build(), drive.model, options)
@@ -255,7 +256,7 @@ def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, o
     check of each scenario's final optimum (a scenario that failed its check is failed)."""
     model = drive.model
     return {
-        "wind_speeds_m_s": list(request.winds),
+        "wind_speeds_m_s": list(request.wind_speeds_m_s),
         "kinds": list(request.kinds),
         "scenarios": [o.name for o in result.outcomes],
         "drive_model": {  # a carried model's path and file hash: write_sweep_folder's

@@ -314,7 +314,7 @@ def run_mesh_task(task: tuple, progress: Any = None) -> MeshCheck:
 
 
 def run_trust_checks(
-    problem: Any, outcomes: Sequence[Any], winds: tuple[float, ...], handle: Any,
+    problem: Any, outcomes: Sequence[Any], wind_speeds_m_s: tuple[float, ...], handle: Any,
     show_progress: bool = True,
 ) -> dict:
     """Mesh check of each kind's middle-wind scenario (on the executor) and simulation
@@ -325,7 +325,7 @@ def run_trust_checks(
     problem : optimize.service.builder.Problem
         The sweep's problem.
     outcomes : sequence of optimize.service.outcome.ScenarioOutcome
-    winds : tuple of float
+    wind_speeds_m_s : tuple of float
         The wind grid [m/s]; the mesh check uses its middle speed.
     handle : optimize.service.executors.ExecutorHandle
     show_progress : bool
@@ -348,7 +348,7 @@ def run_trust_checks(
         problem_key(fine_opts, problem.drive_model, problem.system),
         problem.system,
     )
-    middle = winds[middle_index(winds)]
+    middle = wind_speeds_m_s[middle_index(wind_speeds_m_s)]
     picks = [o for o in outcomes if o.success and o.wind_speed_m_s == middle]
     bar = tqdm(total=len(picks), desc="mesh check", unit="solve", disable=not show_progress)
     futures = run_tasks(
