@@ -353,7 +353,7 @@ def run_sizing(candidates: list[Candidate], wind_speeds_m_s: tuple[float, ...], 
             bar.set_postfix_str(f"{ev['candidate']} {attempt_line(ev)}")
             return
         counts["cached" if ev["cached"] else "solved"] += 1
-        bar.set_postfix_str(f"{ev['candidate']} {ev['wind']:g} m/s: "
+        bar.set_postfix_str(f"{ev['candidate']} {ev['wind_speed_m_s']:g} m/s: "
                             f"{'stored' if ev['cached'] else ev['status']}")
         bar.update(1)
 

@@ -112,9 +112,9 @@ def resolve_local_optima(solver: Any, keys: Sequence[tuple[str, float]]) -> None
     Parameters
     ----------
     solver : optimize.service.solver.Solver
-        Has solved every ``(kind, wind)`` of ``keys``; a kept re-solve replaces the
+        Has solved every ``(kind, wind_speed_m_s)`` of ``keys``; a kept re-solve replaces the
         scenario's outcome, record and warm start there (:meth:`Solver.replace`).
-    keys : sequence of (kind, wind)
+    keys : sequence of (kind, wind_speed_m_s)
         The scenarios to check (the planned grid), kinds checked in their order here.
 
     Notes

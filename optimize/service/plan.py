@@ -153,7 +153,7 @@ def continuation_order(wind_speeds_m_s: tuple[float, ...]) -> list[tuple[float, 
 
     Returns
     -------
-    list of (wind, source)
+    list of (wind_speed_m_s, source)
         ``source`` is the inner neighbour [m/s] the solve is warm-started from;
         ``None`` for the middle speed (where a chain starts). For 4:10:1.5:
         ``[(7, None), (8.5, 7), (5.5, 7), (10, 8.5), (4, 5.5)]``.
@@ -210,25 +210,25 @@ def chain_steps(kinds: tuple[str, ...], wind_speeds_m_s: tuple[float, ...]) -> t
     order = continuation_order(wind_speeds_m_s)
     mid_wind = order[0][0]
     steps: list[Step] = []
-    solved: list[tuple[str, float]] = []  # (kind, wind) solved earlier in this chain
+    solved: list[tuple[str, float]] = []  # (kind, wind_speed_m_s) solved earlier in this chain
 
-    def fallbacks(kind: str, wind: float, primary: str | None) -> tuple[str, ...]:
-        # nearest wind first; at equal distance the same kind first
-        ranked = sorted(solved, key=lambda kw: (abs(kw[1] - wind), kw[0] != kind))
+    def fallbacks(kind: str, wind_speed_m_s: float, primary: str | None) -> tuple[str, ...]:
+        # nearest wind speed first; at equal distance the same kind first
+        ranked = sorted(solved, key=lambda kw: (abs(kw[1] - wind_speed_m_s), kw[0] != kind))
         names = [scenario_name(k, w) for k, w in ranked]
         return tuple(n for n in names if n != primary)[:2]
 
     for i, kind in enumerate(kinds):
-        for wind, source_wind in order:
+        for wind_speed_m_s, source_wind in order:
             if source_wind is not None:
                 primary = scenario_name(kind, source_wind)
             elif i > 0:
                 primary = scenario_name(kinds[i - 1], mid_wind)
             else:
                 primary = None
-            steps.append(Step(kind, wind, primary, fallbacks(kind, wind, primary),
-                              len(steps)))
-            solved.append((kind, wind))
+            steps.append(Step(kind, wind_speed_m_s, primary,
+                              fallbacks(kind, wind_speed_m_s, primary), len(steps)))
+            solved.append((kind, wind_speed_m_s))
     return tuple(steps)
 
 
@@ -261,7 +261,7 @@ def plan_graph(wind_speeds_m_s: tuple[float, ...], kinds: tuple[str, ...]) -> tu
     Returns
     -------
     tuple of Step
-        Every (kind, wind) exactly once, by depth (seeds first); each step's sources
+        Every (kind, wind_speed_m_s) exactly once, by depth (seeds first); each step's sources
         come before it and are at most ``depth - 1`` deep, ``depth`` at most 2.
     """
     mid = middle_index(wind_speeds_m_s)
