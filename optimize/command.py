@@ -92,7 +92,7 @@ class SweepRequest:
 
 
 def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOLVER, *,
-                 model: Any = None, system: Path | System | None = None,
+                 drive_model: Any = None, system: Path | System | None = None,
                  fit_default: Path | None = None, out: Path = Path("optimize_out"),
                  execution: Execution = LOCAL_POOL, claims: bool = True,
                  trust: bool = False) -> SweepRequest:
@@ -106,13 +106,13 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
         Collocation intervals (2 to :data:`optimize.problem.options.MAX_INTERVALS`, half
         that with ``trust``, which refines to twice as many), Radau degree (1 to 9), and
         the solver (:func:`solver_options`).
-    model : Path or PowerModel, optional
+    drive_model : Path or PowerModel, optional
         The drive's losses (``--drive-model``, or a model object), overriding the system
         file's. A model object is written into the output folder with the results.
     system : Path or System, optional
         The system (``--system``); default the shipped ``highwind.toml``.
     fit_default : Path, optional
-        ``bench fit``'s model, used when it exists and neither ``model`` nor the system
+        ``bench fit``'s model, used when it exists and neither ``drive_model`` nor the system
         file names the losses (:func:`optimize.system.drive_in_force.drive_in_force`).
     out : Path
         Output folder (must be a folder or absent).
@@ -146,7 +146,7 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
                                                    solver.codegen))
     except ValueError as exc:
         raise InputError(None, f"OCP options: {exc}") from exc
-    setup = resolve(system, model, fit_default=fit_default, options=options)
+    setup = resolve(system, drive_model, fit_default=fit_default, options=options)
     loaded, drive, limits = setup.system, setup.drive, setup.options.limits
     # an impossible model "converges" to a wrong cycle: refuse it before any solve,
     # checked also where the optimizer may take it (the drive limits in force)
