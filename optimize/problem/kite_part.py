@@ -64,6 +64,8 @@ class KitePart(Part):
     scales_of: Scales
     loop: LoopGuess
     name: str = "kite"
+    output_columns: tuple[str, ...] = ("altitude_m", "airspeed_m_s", "alpha_deg", "beta_deg",
+                                       "wind_m_s", "line_angle_deg", "c_m2", "cdot_m2_s")
 
     states = property(lambda self: self.dae.states, doc="The kite DAE's states.")
     controls = property(lambda self: self.dae.controls, doc="The kite DAE's controls.")
