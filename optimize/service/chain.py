@@ -57,7 +57,7 @@ class Refinement:
     tol, max_points : float or None, int or None
         ``grid``'s stop criterion and grid cap (None: its defaults).
     known : tuple of (float, float, ...)
-        Points known without solving: wind [m/s], then one power [W] per curve of
+        Points known without solving: wind speed [m/s], then one power [W] per curve of
         ``curves`` (e.g. the sweep's grid); their speeds are not solved.
     curves : tuple of str
         Record figures the refinement follows together (``avg_p_elec_w``, ``avg_p_mech_w``).
@@ -133,12 +133,12 @@ class ChainTask:
 def _refine(solver: Solver, r: Refinement, start: tuple[float, ...]) -> None:
     known = {float(w): (p[0] if len(p) == 1 else tuple(p)) for w, *p in r.known}
 
-    def power(wind: float) -> Any:
-        wind = round(float(wind), 6)
+    def power(wind_speed_m_s: float) -> Any:
+        wind_speed_m_s = round(float(wind_speed_m_s), 6)
         if r.check and known and not any(rec["role"] == "check"
                                          for rec in solver.records.values()):
-            solver.solve(r.kind, min(known, key=lambda w: abs(w - wind)), "check")
-        rec = solver.solve(r.kind, wind, "added")
+            solver.solve(r.kind, min(known, key=lambda w: abs(w - wind_speed_m_s)), "check")
+        rec = solver.solve(r.kind, wind_speed_m_s, "added")
         if not rec["success"]:
             return None
         values = tuple(rec[c] for c in r.curves)

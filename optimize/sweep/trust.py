@@ -32,11 +32,11 @@ from optimize.analysis.result_check import MAX_DEFECT_SCALED
 from optimize.problem.kite_part import POSITION_STATES
 from optimize.problem.ocp import Ocp, grid_times
 from optimize.problem.scenario import Scenario
-from optimize.service.builder import OcpBackend, Problem, problem_key
+from optimize.service.builder import OcpBackend
 from optimize.service.executors import run_tasks
 from optimize.service.plan import middle_index
-from optimize.solve import backend
-from optimize.solve.result import OcpResult, Solution, make_result
+from optimize.solve.remesh import solve_interpolated
+from optimize.solve.result import OcpResult
 from optimize.solve.solve import solve
 
 
@@ -130,29 +130,6 @@ def _rel(fine: float, coarse: float) -> float:
     return abs(fine - coarse) / abs(coarse) if coarse else math.nan
 
 
-def interpolate_solution(coarse: Ocp, warm: Solution, fine: Ocp) -> np.ndarray:
-    """Scaled decision vector of ``fine`` interpolated from a ``coarse`` solution.
-
-    States and algebraic variables are interpolated linearly in time between
-    the coarse grid points (periodic wrap for the algebraic ones); each fine
-    interval takes the control of the coarse interval that contains its
-    midpoint; fictitious forces are zero.
-    """
-    sol = coarse.unpack(warm.w)
-    period = sol["period_s"]
-    t_c = grid_times(coarse, period)
-    t_f = grid_times(fine, period)
-    x = np.vstack([np.interp(t_f, t_c, row) for row in sol["x"]])
-    t_zc = t_c[1:]
-    t_zf = t_f[1:]
-    z = np.vstack([np.interp(t_zf, t_zc, row, period=period) for row in np.asarray(sol["z"])])
-    n_c, n_f = coarse.n_intervals, fine.n_intervals
-    mid = (np.arange(n_f) + 0.5) / n_f
-    u = np.asarray(sol["u"])[:, np.minimum((mid * n_c).astype(int), n_c - 1)]
-    fict = np.zeros((fine.dae.fictitious.size, fine.layout.n_coll))
-    return fine.pack(x, z, u, fict, period)
-
-
 def mesh_check(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult) -> MeshCheck:
     """Re-solve ``scenario`` on ``fine`` (normally twice the intervals) and compare powers.
 
@@ -172,26 +149,8 @@ def mesh_check(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult) ->
         If the interpolated start fails, a cold start (homotopy) on ``fine``
         is tried; its outcome is reported either way.
     """
-    w0 = interpolate_solution(coarse, result.warm, fine)
-    # the bound multipliers have the layout of w and interpolate the same way; the
-    # constraint multipliers start at zero. Measured at N 20 -> 40 (7 m/s, elec-lim):
-    # 24 iterations, against 50 with all multipliers zero and 274 with cold settings.
-    lam_x0 = interpolate_solution(
-        coarse, dataclasses.replace(result.warm, w=result.warm.lam_x), fine
-    )
-    bounds = fine.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
-    p = fine.params(scenario.parameters, scenario.weights)
-    raw = backend.run(fine, w0, p, bounds, warm=True, lam_x0=lam_x0,
-                      lam_g0=np.zeros(len(bounds[2])))
-    stage = {
-        "stage": "interpolated",
-        "status": raw.status,
-        "success": raw.success,
-        "iterations": raw.iterations,
-        "wall_time_s": raw.wall_time_s,
-    }
+    res = solve_interpolated(coarse, fine, scenario, result)
     route = "interpolated warm start"
-    res = make_result(fine, scenario, raw, p, bounds, [stage])
     if not res.success:
         route = "cold start"
         res = solve(fine, scenario, None)
@@ -219,14 +178,14 @@ def mesh_check(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult) ->
 def _interval_integrator(ocp: Ocp, period_s: float) -> ca.Function:
     x = ca.SX.sym("x", ocp.dae.states.size)
     u = ca.SX.sym("u", ocp.dae.controls.size)
-    wind = ca.SX.sym("wind")
-    ode = ocp.dae.explicit_ode(x, u, wind)
+    wind_speed_m_s = ca.SX.sym("wind")
+    ode = ocp.dae.explicit_ode(x, u, wind_speed_m_s)
     h = period_s / ocp.n_intervals
     tgrid = [float(h * t) for t in ocp.coll.tau[1:]]
     return ca.integrator(
         "interval",
         "cvodes",
-        {"x": x, "p": ca.vertcat(u, wind), "ode": ode},
+        {"x": x, "p": ca.vertcat(u, wind_speed_m_s), "ode": ode},
         0.0,
         tgrid,
         {"abstol": 1e-10, "reltol": 1e-10, "max_num_steps": 100000},
@@ -247,7 +206,7 @@ def simulation_check(ocp: Ocp, result: OcpResult) -> SimulationCheck:
     sol = ocp.unpack(result.warm.w)
     x_c, u = np.asarray(sol["x"]), np.asarray(sol["u"])
     n, d = ocp.n_intervals, ocp.coll.degree
-    wind = result.scenario.wind_speed_m_s
+    wind_speed_m_s = result.scenario.wind_speed_m_s
     step = _interval_integrator(ocp, sol["period_s"])
     scale = ocp.scales.state[:, None]
     states = ocp.dae.states
@@ -257,7 +216,7 @@ def simulation_check(ocp: Ocp, result: OcpResult) -> SimulationCheck:
     p_open = []
     for k in range(n):
         coll = x_c[:, k * d + 1 : (k + 1) * d + 1]
-        par = np.append(u[:, k], wind)
+        par = np.append(u[:, k], wind_speed_m_s)
         local = np.asarray(step(x0=x_c[:, k * d], p=par)["xf"])
         defect_pos = max(
             defect_pos, float(np.max(np.linalg.norm(local[pos] - coll[pos], axis=0)))
@@ -269,8 +228,8 @@ def simulation_check(ocp: Ocp, result: OcpResult) -> SimulationCheck:
         p_open.append(run)
     x_sim = np.hstack([x_c[:, :1], *p_open])
     u_pts = np.hstack([u[:, :1], np.repeat(u, d, axis=1)])  # control at every grid point
-    z_sim = np.asarray(ocp.dae.solve_z.map(x_sim.shape[1])(x_sim, u_pts, wind))
-    p_mech = ocp.formulation.trajectory_outputs(x_sim, u_pts, z_sim, wind)["p_mech_w"]
+    z_sim = np.asarray(ocp.dae.solve_z.map(x_sim.shape[1])(x_sim, u_pts, wind_speed_m_s))
+    p_mech = ocp.formulation.trajectory_outputs(x_sim, u_pts, z_sim, wind_speed_m_s)["p_mech_w"]
     t = grid_times(ocp, sol["period_s"])
     avg_p_mech = float(np.trapezoid(p_mech, t) / sol["period_s"])
     per = (x_open - x_c[:, 0])[per_idx] / ocp.scales.state[per_idx]
@@ -314,7 +273,7 @@ def run_mesh_task(task: tuple, progress: Any = None) -> MeshCheck:
 
 
 def run_trust_checks(
-    problem: Any, outcomes: Sequence[Any], winds: tuple[float, ...], handle: Any,
+    problem: Any, outcomes: Sequence[Any], wind_speeds_m_s: tuple[float, ...], handle: Any,
     show_progress: bool = True,
 ) -> dict:
     """Mesh check of each kind's middle-wind scenario (on the executor) and simulation
@@ -325,7 +284,7 @@ def run_trust_checks(
     problem : optimize.service.builder.Problem
         The sweep's problem.
     outcomes : sequence of optimize.service.outcome.ScenarioOutcome
-    winds : tuple of float
+    wind_speeds_m_s : tuple of float
         The wind grid [m/s]; the mesh check uses its middle speed.
     handle : optimize.service.executors.ExecutorHandle
     show_progress : bool
@@ -339,17 +298,10 @@ def run_trust_checks(
     """
     from tqdm import tqdm
 
-    opts = problem.options
-    fine_opts = opts.replace(discretization={"n_intervals": 2 * opts.discretization.n_intervals})
-    fine = Problem(
-        problem.model,
-        problem.drive_model,
-        fine_opts,
-        problem_key(fine_opts, problem.drive_model, problem.system),
-        problem.system,
-    )
-    middle = winds[middle_index(winds)]
-    picks = [o for o in outcomes if o.success and o.wind_speed_m_s == middle]
+    fine = problem.refined()
+    middle = wind_speeds_m_s[middle_index(wind_speeds_m_s)]
+    picks = [o for o in outcomes if o.success and o.wind_speed_m_s == middle
+             and fine is not None and o.result.warm.n_intervals == problem.n_intervals]
     bar = tqdm(total=len(picks), desc="mesh check", unit="solve", disable=not show_progress)
     futures = run_tasks(
         handle.executor,
@@ -394,10 +346,10 @@ def simulation_checks(problem: Any, outcomes: Sequence[Any]) -> tuple[list[dict]
     lines : list of str
         The summary line and one line per scenario that did not pass.
     """
-    ocp = OcpBackend().build(problem)
-    sims = []
+    builder, sims = OcpBackend(), []
     for o in outcomes:
-        if o.success:
+        if o.success:  # on its own mesh (a retry may have refined it)
+            ocp = builder.build(problem.with_intervals(o.result.warm.n_intervals))
             try:
                 s = simulation_check(ocp, o.result)
             except RuntimeError as exc:  # CVODES gives up: CV_TOO_MUCH_WORK, CV_CONV_FAILURE
