@@ -7,7 +7,6 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from conftest import N_COARSE
 
 from optimize.problem.scenario import Scenario
 from optimize.solve.predictor import tangent
@@ -47,16 +46,14 @@ def test_tangent_against_two_optima(coarse_ocp, neighbours):
 
 
 @pytest.fixture(scope="module")
-def predicting_ocp():
+def predicting_ocp(coarse_ocp):
     """The coarse OCP with ``predictor_step = 1`` (the same layout as ``coarse_ocp``)."""
     from optimize.model.kite_model import kite_dae
     from optimize.paper_model import paper_model
     from optimize.problem.ocp import build_ocp
-    from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 
     return build_ocp(kite_dae(), paper_model(),
-                     OcpOptions(Discretization(n_intervals=N_COARSE),
-                                solver=SolverOptions(predictor_step=1.0)))
+                     coarse_ocp.options.replace(solver={"predictor_step": 1.0}))
 
 
 def test_predicted_start_solves_to_the_same_optimum(predicting_ocp, neighbours):
