@@ -253,7 +253,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     system, model = load_system(), paper_model()
-    rating = drive_in_force(system, model=model).rating
+    rating = drive_in_force(system, drive_model=model).rating
     ocp = build_ocp(kite_dae(*system.model_params()), model,
                     system.ocp_options(OcpOptions(), rating), system=system)
     if args.record_parts:
