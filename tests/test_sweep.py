@@ -684,9 +684,9 @@ class CoarseMeshBackend(ArtifactBackend):
 def test_an_optimum_the_mesh_is_too_coarse_for_is_solved_on_a_finer_one_before_it_fails():
     from types import SimpleNamespace
 
-    from optimize.problem.options import Discretization, OcpOptions
     import pandas as pd
 
+    from optimize.problem.options import Discretization, OcpOptions
     from optimize.sweep_folder import remesh_lines
 
     options = OcpOptions(Discretization(n_intervals=10))
