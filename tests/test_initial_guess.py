@@ -53,7 +53,7 @@ def test_guess_is_accepted_for_its_system_and_refused_for_another():
     # highwind.toml is the guess's system; a copy with only a wider period range has the
     # same constraints g, so only the system hash tells them apart
     system, model = load_system(), paper_model()
-    rating = drive_in_force(system, model=model).rating
+    rating = drive_in_force(system, drive_model=model).rating
     own = build_ocp(kite_dae(*system.model_params()), model,
                     system.ocp_options(OcpOptions(), rating), system=system)
     solution, why = initial_guess.load(own)

@@ -73,17 +73,11 @@ def write(path: str | Path, ocp: Ocp, result: OcpResult, p: np.ndarray) -> Path:
     """Store ``result``'s solution with its parameters ``p``, ``g(w, p)`` and the parts
     of ``ocp`` (:func:`parts_record`; atomic)."""
     warm = result.warm
-    return _save(path, ocp, {"w": warm.w, "lam_x": warm.lam_x, "lam_g": warm.lam_g, "p": p,
-                             "scenario": result.scenario.name})
-
-
-def _save(path: str | Path, ocp: Ocp, data: dict) -> Path:
-    """The file of ``data`` (``w, lam_x, lam_g, p, scenario``) on ``ocp`` (atomic)."""
     with atomic_path(path) as tmp, tmp.open("wb") as fh:
         np.savez_compressed(
-            fh, **{k: data[k] for k in ("w", "lam_x", "lam_g", "p")},
-            g=ocp.constraint_values(data["w"], data["p"]), n_intervals=ocp.n_intervals,
-            degree=ocp.coll.degree, scenario=str(data["scenario"]),
+            fh, w=warm.w, lam_x=warm.lam_x, lam_g=warm.lam_g, p=p,
+            g=ocp.constraint_values(warm.w, p), n_intervals=ocp.n_intervals,
+            degree=ocp.coll.degree, scenario=result.scenario.name,
             system_sha256=getattr(ocp.system, "sha256", ""), **parts_record(ocp),
         )
     return Path(path)
@@ -119,14 +113,15 @@ def _missing(ocp: Ocp, names: tuple[str, ...]) -> str | None:
 def _other_variables(ref: Ocp, stored: dict[str, np.ndarray]) -> str | None:
     """Why the file's record (``stored``, :func:`parts_record`) is not that of ``ref``'s
     parts (the OCP's parts of the file's names), or None."""
-    have, ours = parts_record(ref), [str(n) for n in stored["parts"]]
-    if have["parts"].tolist() != ours:
-        return (f"the stored initial guess has its parts in another order ({', '.join(ours)}) "
-                f"than this OCP ({', '.join(have['parts'].tolist())})")
-    if have["part_variables"].tolist() == stored["part_variables"].tolist():
+    ocp_record, file_parts = parts_record(ref), [str(n) for n in stored["parts"]]
+    if ocp_record["parts"].tolist() != file_parts:
+        return (f"the stored initial guess has its parts in another order "
+                f"({', '.join(file_parts)}) than this OCP "
+                f"({', '.join(ocp_record['parts'].tolist())})")
+    ours, theirs = ocp_record["part_variables"].tolist(), stored["part_variables"].tolist()
+    if ours == theirs:
         return None
-    mine, theirs = set(have["part_variables"].tolist()), set(stored["part_variables"].tolist())
-    other = sorted({v.split()[0] for v in mine ^ theirs}) or ours
+    other = sorted({v.split()[0] for v in set(ours) ^ set(theirs)}) or file_parts
     return (f"the stored initial guess has other variables of the part"
             f"{'s' * (len(other) > 1)} {', '.join(other)} than this OCP")
 
@@ -253,7 +248,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     system, model = load_system(), paper_model()
-    rating = drive_in_force(system, model=model).rating
+    rating = drive_in_force(system, drive_model=model).rating
     ocp = build_ocp(kite_dae(*system.model_params()), model,
                     system.ocp_options(OcpOptions(), rating), system=system)
     if args.record_parts:
