@@ -129,6 +129,21 @@ class OcpBackend:
 
         return start(ocp, self.scenario(kind, wind_speed_m_s))
 
+    def carry(self, src: Any, warm: Any, dst: Any, kind: str, wind_speed_m_s: float) -> Any:
+        """``warm``, a solution of the NLP ``src`` (of ``kind`` at ``wind_speed_m_s``), in
+        the layout of another problem's NLP ``dst``
+        (:func:`optimize.solve.result.carry_over`)."""
+        from optimize.solve.result import carry_over
+
+        return carry_over(src, warm, dst, self.scenario(kind, wind_speed_m_s).parameters)
+
+    def from_trajectory(self, ocp: Any, trajectory: Any) -> Any:
+        """A converged cycle of ``ocp`` kept as its trajectory, as its start
+        (:func:`optimize.solve.result.solution_of_trajectory`)."""
+        from optimize.solve.result import solution_of_trajectory
+
+        return solution_of_trajectory(ocp, trajectory)
+
     def check(self, ocp: Any, result: SolveResult, name: str) -> Any:
         """The physical check of every converged optimum
         (:func:`optimize.analysis.result_check.check_result`)."""
