@@ -345,6 +345,18 @@ def starts_note(records: list[dict], reference: str | None) -> str:
     return f"starts of the {len(records)} solves: {', '.join(parts)}"
 
 
+def start_lines(records: list[dict]) -> list[str]:
+    """One line per candidate: where each of its solves started (``warm_from``), e.g.
+    ``"x0.5 starts: 4 m/s from x1 4 m/s, 7 m/s from x1 7 m/s"``."""
+    by: dict[str, list[dict]] = {}
+    for r in records:
+        by.setdefault(r["candidate"], []).append(r)
+    return [f"{c} starts: " + ", ".join(f"{r['wind_speed_m_s']:g} m/s from "
+                                          f"{r.get('warm_from') or '?'}"
+                                          for r in sorted(rs, key=lambda r: r["wind_speed_m_s"]))
+            for c, rs in by.items()]
+
+
 def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any, out: Path,
                n_intervals: int = 40, degree: int = 4, handle: Any = None, workers: int = 2,
                scheduler: str | None = None, show_progress: bool = True,

@@ -14,6 +14,8 @@ from energy.sizing import (
     candidate_table,
     run_sizing,
     scaled_candidates,
+    start_lines,
+    starts_note,
 )
 from optimize.paper_model import paper_model
 from optimize.service import solve_key
@@ -268,6 +270,11 @@ def test_a_candidate_starts_from_the_reference_drive_and_reaches_its_cold_optimu
     assert starts[("x0.6", 6.0)] == "x1 6 m/s" and starts[("x0.6", 7.0)] == "x1 7 m/s"
     cold = [w for w in starts.values() if "m/s" not in w]
     assert len(cold) == 1, starts  # the reference's middle speed, nothing else
+    # the log says each solve's start, and counts them
+    assert "x0.6 starts: 6 m/s from x1 6 m/s, 7 m/s from x1 7 m/s" in start_lines(res.records)
+    assert starts_note(res.records, res.reference).startswith(
+        "starts of the 4 solves: 2 from x1's optimum at the same wind speed, 1 from the "
+        "candidate's own neighbouring speed, 1 cold (x1 ")
     small = next(c for c in cands if c.name == "x0.6")
     assert res.table.loc[0, "rms_bound_active_at"] != ""
     backend = OcpBackend()
