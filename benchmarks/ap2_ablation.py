@@ -25,16 +25,17 @@ scratch folder with no ``fit_out/``, on a copy of the shipped
 * ``aero-more``: the derivatives it lacked (CL_q, CD_q, CY_p, CY_r, CY_deltaa, Cl_deltar,
   Cn_deltaa);
 * ``drag-5``: tether drag over 5 elements with their own apparent wind;
-* ``mass``: the tether's mass, 0.0046 kg/m: the shipped file.
+* ``mass``: the tether's mass, 0.0046 kg/m;
+* ``surfaces-30``: elevator and rudder within 30 deg (the aileron 20): the shipped file.
 
-Two variants of the shipped file measure awebox's remaining differences instead of
-copying them (``--variants``):
+Variants of the shipped file measure awebox's remaining differences and the local optima
+instead of copying them (``--variants``):
 
 * ``ends-only``: the path constraints (airspeed, alpha, beta, line angle, tether force)
   at the last Radau point of each interval only, the interval ends: awebox imposes them
   at the interval starts only, so a cycle may break them in between;
-* ``from-51.6``: solved with the period held at 51.6 s, then again with it free (the
-  nearest local optimum to awebox's period).
+* ``from-P`` for each ``--free-from`` period P (default awebox's 51.6 s): solved with the
+  period held at P (a cold start), then again with it free: the local optimum nearest P.
 
 ``ends-only`` solves the shipped file as always, then again from its optimum with the
 rows relaxed between the interval ends. ``--hold-periods 40,51.6,...`` flies the
@@ -125,7 +126,9 @@ STEPS: tuple[tuple[str, str, Callable[[dict, dict], None] | None], ...] = (
     ("aero-poly", "derivatives as polynomials in alpha", _aero_poly),
     ("aero-more", "+ CL_q, CD_q, CY_p, CY_r, CY_da, Cl_dr, Cn_da", _drop("aero", *ADDED)),
     ("drag-5", "tether drag over 5 elements", _drop("tether", "drag_elements")),
-    ("mass", "tether mass 0.0046 kg/m (the shipped file)", _drop("tether", "mass_kg_m")),
+    ("mass", "tether mass 0.0046 kg/m", _drop("tether", "mass_kg_m")),
+    ("surfaces-30", "elevator and rudder within 30 deg (the shipped file)",
+     _drop("bounds", "elevator_max_deg", "rudder_max_deg")),
 )
 
 
@@ -136,7 +139,8 @@ def today(shipped: dict) -> dict:
     for section, key in (("winch", "max_reel_out_speed_m_s"), ("winch", "max_reel_in_speed_m_s"),
                          ("bounds", "max_body_rate_deg_s"), ("bounds", "min_tension_n"),
                          ("wind", "atmosphere"), ("tether", "drag_elements"),
-                         ("tether", "mass_kg_m")):
+                         ("tether", "mass_kg_m"), ("bounds", "elevator_max_deg"),
+                         ("bounds", "rudder_max_deg")):
         data[section].pop(key)
     data["aero"] = linear_fit_aero(shipped["aero"])
     return data
@@ -256,11 +260,14 @@ def ablation_table(results: dict) -> str:
     lines = ["| step | change | status | P_mech [kW] | vs paper | vs awebox | period [s] | "
              "vs paper | vs awebox | max line angle [deg] | reel speed [m/s] | "
              "max body rate [deg/s] | active bounds |", "|---|---|---|" + "---:|" * 9 + "---|"]
+    def held(prefix: str) -> list[str]:
+        return sorted((n for n in results if n.startswith(prefix)),
+                      key=lambda n: float(n[len(prefix):]))
+
     variants = [("ends-only", "shipped file, then path rows at interval ends only"),
-                ("from-51.6", "shipped file, period free from the 51.6 s optimum"),
-                *((n, f"shipped file, period held at {n[7:]} s")
-                  for n in sorted(results, key=lambda n: float(n[7:]) if n.startswith(
-                      "period-") else 0) if n.startswith("period-"))]
+                *((n, f"shipped file, period free from its optimum held at {n[5:]} s")
+                  for n in held("from-")),
+                *((n, f"shipped file, period held at {n[7:]} s") for n in held("period-"))]
     for name, what in [(n, w) for n, w, _ in STEPS] + variants:
         for r in results.get(name, []):
             p, t = -r["p_mech_w"], r["period_s"]
@@ -285,9 +292,10 @@ def curve_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-#: the in-process variants (after :class:`StagedBackend` is defined)
-STAGED = (("ends-only", StagedBackend(ends_only=True)),
-          ("from-51.6", StagedBackend(hold_period_s=AWEBOX[1])))
+def staged(free_from: list[float]) -> list[tuple[str, StagedBackend]]:
+    """The in-process variants: ends-only, and the period freed from each held period."""
+    return [("ends-only", StagedBackend(ends_only=True)),
+            *((f"from-{p:g}", StagedBackend(hold_period_s=p)) for p in free_from)]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -295,13 +303,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--steps", default=",".join(s[0] for s in STEPS))
     ap.add_argument("--workers", type=int, default=2, help="steps run side by side")
     ap.add_argument("--curve", action="store_true", help="also the power curve 6-14 m/s")
-    ap.add_argument("--variants", action="store_true", help="also ends-only and from-51.6")
+    ap.add_argument("--variants", action="store_true",
+                    help="also ends-only and the period freed from each --free-from period")
+    ap.add_argument("--free-from", default="51.6",
+                    help="periods [s] to hold (a cold start), then free, with --variants")
     ap.add_argument("--hold-periods", default="",
                     help="periods [s] to hold the shipped file at, e.g. 40,45,51.6,60,70")
     ap.add_argument("--tabulate-only", action="store_true")
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "out" / "ap2_ablation")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
+    variants = staged([float(p) for p in args.free_from.split(",") if p]) \
+        if args.variants else []
     files = step_files()
     names = [n for n in args.steps.split(",") if n]
     jobs = [(n, files[n], "10", "mech-free") for n in names]
@@ -318,10 +331,10 @@ def main(argv: list[str] | None = None) -> int:
                                                        jobs), strict=True):
                 print(f"{name}: exit {info['exit']}, {info['wall_s']:.0f} s "
                       f"(load {os.getloadavg()[0]:.1f})", flush=True)
-        for name, backend in STAGED if args.variants else ():
+        for name, backend in variants:
             info = run_staged(name, shipped, args.out, backend)
             print(f"{name}: {info['wall_s']:.0f} s (load {os.getloadavg()[0]:.1f})")
-    names = [n for n, *_ in jobs] + ([n for n, _ in STAGED] if args.variants else [])
+    names = [n for n, *_ in jobs] + [n for n, _ in variants]
     results = {n: measure(args.out / n) for n in names
                if (args.out / n / "summary.parquet").exists()}
     print(ablation_table(results))

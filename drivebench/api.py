@@ -259,7 +259,7 @@ class Sweep:
         return html_view("Sweep", self._view_rows(), [("summary", self.summary[cols])])
 
 
-def optimize(model: Any = None, *, grid: WindGrid = PAPER_GRID, system: Any = None,
+def optimize(drive_model: Any = None, *, grid: WindGrid = PAPER_GRID, system: Any = None,
              solver: SolverChoice = DEFAULT_SOLVER, execution: Execution = LOCAL_POOL,
              out: str | Path = "optimize_out", claims: bool = True, trust: bool = False,
              fit_default: str | Path | None = None,
@@ -269,7 +269,7 @@ def optimize(model: Any = None, *, grid: WindGrid = PAPER_GRID, system: Any = No
 
     Parameters
     ----------
-    model : PowerModel or path, optional
+    drive_model : PowerModel or path, optional
         The drive's losses (:func:`fit`'s result or a ``power_model.json``), overriding
         the system file's; default the system file's, else ``fit_default`` when it
         exists, else the paper's model (:func:`optimize.system.drive_in_force.drive_in_force`).
@@ -291,7 +291,7 @@ def optimize(model: Any = None, *, grid: WindGrid = PAPER_GRID, system: Any = No
     trust : bool
         Also run the trust checks (mesh refinement at twice the intervals, simulation).
     fit_default : path, optional
-        ``bench fit``'s model, used when neither ``model`` nor the system names losses.
+        ``bench fit``'s model, used when neither ``drive_model`` nor the system names losses.
     command_line : sequence of str
         Recorded in the manifest's provenance header.
     before_solving : callable, optional
@@ -301,10 +301,10 @@ def optimize(model: Any = None, *, grid: WindGrid = PAPER_GRID, system: Any = No
     from energy.curve import read_optimize_run
     from optimize.door import make_request, run_optimize
 
-    if model is not None and not isinstance(model, str | Path | PowerModel):
-        raise InputError(None, f"model of type {type(model).__name__}",
+    if drive_model is not None and not isinstance(drive_model, str | Path | PowerModel):
+        raise InputError(None, f"drive_model of type {type(drive_model).__name__}",
                          expected="a PowerModel, a power_model.json path or None")
-    request = make_request(grid, solver, model=model, system=system, out=Path(out),
+    request = make_request(grid, solver, drive_model=drive_model, system=system, out=Path(out),
                            fit_default=Path(fit_default) if fit_default is not None else None,
                            execution=execution, claims=claims, trust=trust)
     if before_solving is not None:
@@ -468,7 +468,7 @@ class SizeResult:
         return html_view("SizeResult", self._view_rows(), [("table", self.table[cols])])
 
 
-def size(site: Any, model: Any = None, *, system: Any = None,
+def size(site: Any, drive_model: Any = None, *, system: Any = None,
          fit_default: str | Path | None = None, grid: SizingGrid = DEFAULT_SIZING,
          rating: RatingOverrides = SYSTEM_RATING, solver: SolverChoice = DEFAULT_SOLVER,
          execution: Execution = LOCAL_POOL, out: str | Path = "size_out",
@@ -481,7 +481,7 @@ def size(site: Any, model: Any = None, *, system: Any = None,
     ----------
     site : energy.site.Weibull or energy.site.Histogram
         Wind-speed distribution at the reference height.
-    model : PowerModel or path, optional
+    drive_model : PowerModel or path, optional
         The reference drive's losses; default the system file's, else ``fit_default``
         when it exists, else the paper's model
         (:func:`optimize.system.drive_in_force.drive_in_force`).
@@ -505,7 +505,7 @@ def size(site: Any, model: Any = None, *, system: Any = None,
     """
     from energy.size_command import run_size
 
-    done = run_size(site, model, system=system, fit_default=fit_default, grid=grid,
+    done = run_size(site, drive_model, system=system, fit_default=fit_default, grid=grid,
                     rating=rating, solver=solver, execution=execution, out=out,
                     site_note=site_note, command_line=command_line,
                     before_solving=before_solving)

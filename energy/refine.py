@@ -293,7 +293,7 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
             bar.set_postfix_str(attempt_line(ev))
             return
         counts["loaded" if ev["cached"] else "solved"] += 1
-        bar.set_postfix_str(f"{ev['kind']} {ev['wind']:g} m/s ({ev['role']}): "
+        bar.set_postfix_str(f"{ev['kind']} {ev['wind_speed_m_s']:g} m/s ({ev['role']}): "
                             f"{'stored' if ev['cached'] else ev['status']}")
         bar.update(1)
 

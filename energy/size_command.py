@@ -129,7 +129,7 @@ class SizeRun:
     files: dict
 
 
-def run_size(site: Any, model: Any = None, *, system: Any = None,
+def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
              fit_default: str | Path | None = None, grid: SizingGrid = DEFAULT_SIZING,
              rating: RatingOverrides = SYSTEM_RATING, solver: SolverChoice = DEFAULT_SOLVER,
              execution: Execution = LOCAL_POOL, out: str | Path = "size_out",
@@ -141,7 +141,7 @@ def run_size(site: Any, model: Any = None, *, system: Any = None,
     ----------
     site : energy.site.Weibull or energy.site.Histogram
         Wind-speed distribution at the reference height.
-    model : PowerModel or path, optional
+    drive_model : PowerModel or path, optional
         The reference drive's losses; default the system file's, else ``fit_default``
         when it exists, else the paper's model
         (:func:`optimize.system.drive_in_force.drive_in_force`).
@@ -166,7 +166,7 @@ def run_size(site: Any, model: Any = None, *, system: Any = None,
 
     run_record = Provenance.start(command_line)
     check_replaceable(out, "size", SIZE_MARKERS, keep=SIZE_KEEP)  # before the work
-    setup = resolve(system, model, fit_default=fit_default)
+    setup = resolve(system, drive_model, fit_default=fit_default)
     system, drive = setup.system, setup.drive
 
     def candidates(scales: tuple[float, ...]) -> tuple[list, list[str]]:
@@ -192,7 +192,7 @@ def run_size(site: Any, model: Any = None, *, system: Any = None,
              starts_note(result.records, result.reference),
              *([edge_doc["note"]] if edge_doc["note"] else [])]
     files = write_sizing(Path(out), result, site=site, site_note=site_note or site.describe(),
-                         drive=drive, system=system, winds=grid.winds_m_s,
+                         drive=drive, system=system, wind_speeds_m_s=grid.winds_m_s,
                          adaptive=grid.adaptive, tolerance=grid.tolerance, notes=notes,
                          provenance=run_record, edge=edge_doc)
     return SizeRun(result, drive, tuple(notes), files)

@@ -357,9 +357,9 @@ def start_lines(records: list[dict]) -> list[str]:
             for c, rs in by.items()]
 
 
-def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any, out: Path,
-               n_intervals: int = 40, degree: int = 4, handle: Any = None, workers: int = 2,
-               scheduler: str | None = None, show_progress: bool = True,
+def run_sizing(candidates: list[Candidate], wind_speeds_m_s: tuple[float, ...], site: Any,
+               out: Path, n_intervals: int = 40, degree: int = 4, handle: Any = None,
+               workers: int = 2, scheduler: str | None = None, show_progress: bool = True,
                tolerance: float = 0.02, adaptive: bool = False,
                system: Any = None, backend: Any = None) -> SizingResult:
     """Run (or resume) the sizing sweep through the solve service (:mod:`optimize.service`):
@@ -392,7 +392,7 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
     system = system if system is not None else load_system()
     tasks = [SolveTask(c.problem(n_intervals, degree, system), SIZING_KIND, float(w),
                        (("candidate", c.name),))
-             for c in candidates for w in winds]
+             for c in candidates for w in wind_speeds_m_s]
     refinement = partial(Refinement, site=site, grid=refine_grid) if adaptive else None
     first = reference_candidate(candidates)
     reference = None if first is None else (("candidate", first.name),)
@@ -405,7 +405,7 @@ def run_sizing(candidates: list[Candidate], winds: tuple[float, ...], site: Any,
             bar.set_postfix_str(f"{ev['candidate']} {attempt_line(ev)}")
             return
         counts["cached" if ev["cached"] else "solved"] += 1
-        bar.set_postfix_str(f"{ev['candidate']} {ev['wind']:g} m/s: "
+        bar.set_postfix_str(f"{ev['candidate']} {ev['wind_speed_m_s']:g} m/s: "
                             f"{'stored' if ev['cached'] else ev['status']}")
         bar.update(1)
 

@@ -21,7 +21,7 @@ SIZING_FILE, TABLE_FILE = "sizing.json", "sizing.csv"
 SIZE_MARKERS, SIZE_KEEP = (SIZING_FILE,), ("solves",)
 
 
-def grid_hours(site, winds: tuple[float, ...], records: list[dict] | tuple = ()) -> dict:
+def grid_hours(site, wind_speeds_m_s: tuple[float, ...], records: list[dict] | tuple = ()) -> dict:
     """The shares of the site's hours below and above the sizing wind grid, and the share
     the grid leaves out, with a one-line note.
 
@@ -30,7 +30,7 @@ def grid_hours(site, winds: tuple[float, ...], records: list[dict] | tuple = ())
     (``records``: the solves, :attr:`energy.sizing.SizingResult.records`): below a cut-in
     inside the grid no energy is lost by stopping there, as in ``bench aep``.
     """
-    lo, hi = min(winds), max(winds)
+    lo, hi = min(wind_speeds_m_s), max(wind_speeds_m_s)
     below = float(site.cdf(lo))
     above = float(1.0 - site.cdf(hi))
     first = [r for r in records if r.get("success") and abs(r["wind_speed_m_s"] - lo) < 1e-9]
@@ -71,8 +71,8 @@ def write_sizing(out: Path, res: Any, **kw: Any) -> dict[str, Path]:
 
 
 def write_sizing_files(out: Path, res: Any, *, site: Any, site_note: str, drive: Any,
-                       system: Any, winds: tuple[float, ...], adaptive: bool, tolerance: float,
-                       notes: list[str], provenance: Provenance,
+                       system: Any, wind_speeds_m_s: tuple[float, ...], adaptive: bool,
+                       tolerance: float, notes: list[str], provenance: Provenance,
                        edge: dict | None = None) -> dict[str, Path]:
     """Write ``sizing.csv`` and ``sizing.json`` (docs/schemas.md §8) of a sizing result
     (:class:`energy.sizing.SizingResult`) into ``out``; returns name -> path."""
@@ -92,10 +92,10 @@ def write_sizing_files(out: Path, res: Any, *, site: Any, site_note: str, drive:
                "speed); continuous torque s T_cont, peak s T_peak, same speed limit, nominal "
                "power s P_nom; a thermal model: r_th / s, c_th s, time constant and "
                "temperatures kept (the winding limit the same)",
-        "wind_speeds_m_s": list(winds), "adaptive": adaptive, "tolerance": tolerance,
+        "wind_speeds_m_s": list(wind_speeds_m_s), "adaptive": adaptive, "tolerance": tolerance,
         "best": res.best, "chosen": res.chosen,
         "edge": edge or {"best_at": None, "added_scales": [], "note": None},
-        "hours": grid_hours(site, winds, res.records),
+        "hours": grid_hours(site, wind_speeds_m_s, res.records),
         "wall_time_s": res.wall_time_s, "executor": res.executor,
         "n_solved": res.n_solved, "n_loaded": res.n_cached,
         "candidates": json.loads(t.to_json(orient="records")),

@@ -134,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
         WindGrid.parse(args.wind_grid, args.scenarios),
         SolverChoice(args.intervals, args.degree, args.solver, args.linear_solver,
                      not args.no_stored_guess, args.transcription, args.codegen),
-        model=args.drive_model, system=args.system, fit_default=FIT_MODEL_PATH, out=args.out,
+        drive_model=args.drive_model, system=args.system, fit_default=FIT_MODEL_PATH, out=args.out,
         execution=execution, claims=not args.no_claims, trust=args.trust)
     print(request.model_note)
     print(execution.line())

@@ -22,7 +22,8 @@ from kernel.provenance import Provenance
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
 from optimize.analysis.result_check import MIN_COLLOCATION_POINTS, mesh_label
 from optimize.kinds import KINDS
-from optimize.problem.ocp import winding_thermal
+from optimize.problem.ocp import model_parts
+from optimize.problem.part import trajectory_columns
 from optimize.resolve import Setup, resolve
 from optimize.service import Problem, make_tasks, run_sweep
 from optimize.service.executors import open_executor
@@ -55,7 +56,7 @@ class SweepRequest:
 
     Attributes
     ----------
-    winds : tuple of float
+    wind_speeds_m_s : tuple of float
         Wind speeds [m/s].
     kinds : tuple of str
         Scenario kinds.
@@ -78,7 +79,7 @@ class SweepRequest:
         Cut-in bisection stops at this bracket width [m/s].
     """
 
-    winds: tuple[float, ...]
+    wind_speeds_m_s: tuple[float, ...]
     kinds: tuple[str, ...]
     setup: Setup
     model_note: str
@@ -91,7 +92,7 @@ class SweepRequest:
 
 
 def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOLVER, *,
-                 model: Any = None, system: Path | System | None = None,
+                 drive_model: Any = None, system: Path | System | None = None,
                  fit_default: Path | None = None, out: Path = Path("optimize_out"),
                  execution: Execution = LOCAL_POOL, claims: bool = True,
                  trust: bool = False) -> SweepRequest:
@@ -105,13 +106,13 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
         Collocation intervals (2 to :data:`optimize.problem.options.MAX_INTERVALS`, half
         that with ``trust``, which refines to twice as many), Radau degree (1 to 9), and
         the solver (:func:`solver_options`).
-    model : Path or PowerModel, optional
+    drive_model : Path or PowerModel, optional
         The drive's losses (``--drive-model``, or a model object), overriding the system
         file's. A model object is written into the output folder with the results.
     system : Path or System, optional
         The system (``--system``); default the shipped ``highwind.toml``.
     fit_default : Path, optional
-        ``bench fit``'s model, used when it exists and neither ``model`` nor the system
+        ``bench fit``'s model, used when it exists and neither ``drive_model`` nor the system
         file names the losses (:func:`optimize.system.drive_in_force.drive_in_force`).
     out : Path
         Output folder (must be a folder or absent).
@@ -145,7 +146,7 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
                                                    solver.codegen))
     except ValueError as exc:
         raise InputError(None, f"OCP options: {exc}") from exc
-    setup = resolve(system, model, fit_default=fit_default, options=options)
+    setup = resolve(system, drive_model, fit_default=fit_default, options=options)
     loaded, drive, limits = setup.system, setup.drive, setup.options.limits
     # an impossible model "converges" to a wrong cycle: refuse it before any solve,
     # checked also where the optimizer may take it (the drive limits in force)
@@ -224,22 +225,22 @@ def run_optimize(
                     if request.claims else ())
     trust: dict = {"mesh": [], "simulation": []}
     with open_executor(request.workers, request.scheduler) as handle:
-        tasks = make_tasks(plan_graph(request.winds, request.kinds), problem, cut_in_kinds,
-                           request.cut_in_tol_m_s, backend)
+        tasks = make_tasks(plan_graph(request.wind_speeds_m_s, request.kinds), problem,
+                           cut_in_kinds, request.cut_in_tol_m_s, backend)
         result = run_sweep(tasks, handle, show_progress)
         outcomes = list(result.outcomes)
         if request.trust:
-            trust = run_trust_checks(problem, outcomes, request.winds, handle, show_progress)
-    thermal = winding_thermal(drive.model, options.limits)
+            trust = run_trust_checks(problem, outcomes, request.wind_speeds_m_s, handle,
+                                     show_progress)
     summary = outputs.summary_frame(outcomes, drive.model.domain,
-                                    domain_scales(drive.model, options),
-                                    None if thermal is None else thermal.max_c)
+                                    domain_scales(drive.model, options))
+    parts = model_parts(problem.model.build(), drive.model, options)
     cut_ins = cut_in_frame(result.cut_ins)
     claims = (evaluate_claims(summary, cut_ins, paper_system=system.paper_system,
                               system_name=system.name) if request.claims else None)
     files = write_sweep_folder(
         request.out, run, summary=summary, claims=claims, system=system.record(),
-        trajectories=outputs.trajectories_frame(outcomes),
+        trajectories=outputs.trajectories_frame(outcomes, trajectory_columns(parts)),
         carried_model=drive.model if drive.carried or not drive.model_path.is_file() else None,
         manifest=sweep_manifest(request, system, drive, options, result, summary, trust,
                                 outcomes))
@@ -255,7 +256,7 @@ def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, o
     check of each scenario's final optimum (a scenario that failed its check is failed)."""
     model = drive.model
     return {
-        "wind_speeds_m_s": list(request.winds),
+        "wind_speeds_m_s": list(request.wind_speeds_m_s),
         "kinds": list(request.kinds),
         "scenarios": [o.name for o in result.outcomes],
         "drive_model": {  # a carried model's path and file hash: write_sweep_folder's

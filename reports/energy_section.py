@@ -165,7 +165,7 @@ def sizing_context(sizing: dict) -> dict:
                  for c in cands],
         "best": sizing.get("best"), "chosen": sizing.get("chosen"),
         "tolerance": _pct(sizing.get("tolerance")),
-        "law": sizing.get("law"), "winds": ", ".join(f"{w:g}" for w in
+        "law": sizing.get("law"), "wind_speeds": ", ".join(f"{w:g}" for w in
                                                      sizing.get("wind_speeds_m_s") or []),
         "wall": fmt(sizing.get("wall_time_s"), 1), "executor": sizing.get("executor"),
         "solved": sizing.get("n_solved"), "loaded": sizing.get("n_loaded"),

@@ -296,8 +296,8 @@ def cycle_figures_at_paper_wind(traj: pd.DataFrame | None, summary: pd.DataFrame
         paper's speed, so its periods compare), ``not_paper`` (the sentence that says why
         they do not, else None) and ``missing`` (scenarios not drawn, and why).
     """
-    winds = summary["wind_speed_m_s"].astype(float).unique()
-    wind = float(winds[np.argmin(np.abs(winds - PAPER_FIG9_WIND_M_S))])
+    wind_speeds_m_s = summary["wind_speed_m_s"].astype(float).unique()
+    wind = float(wind_speeds_m_s[np.argmin(np.abs(wind_speeds_m_s - PAPER_FIG9_WIND_M_S))])
     limited, free, missing = {}, {}, []
     # the paper's order: Fig. 9 (b) mechanical, (c) electrical
     for kind in ("mech-lim", "elec-lim", "mech-free", "elec-free"):

@@ -1,16 +1,27 @@
-"""The shipped initial guess: it fits the current OCP, and it is an optimum of it."""
+"""The shipped initial guess: it fits the current OCP, and it is an optimum of it; a
+guess file records its parts, a part it lacks fills its own variables, one it has and
+the OCP has not refuses it."""
 
 from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 import pytest
 
 from optimize.model.kite_model import kite_dae
 from optimize.model.params import KiteParams
+from optimize.model.variables import Variables
 from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
+from optimize.problem.part import Part, StartPoint
+from optimize.problem.start import part_start
 from optimize.solve import initial_guess
+from optimize.solve.result import Solution
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system_file import load_system, system_from_dict
 
@@ -87,3 +98,94 @@ def test_start_from_the_guess_stays_at_its_optimum(ocp, stored_guess_solve):
     # differing in details); the same cycle within 5 %
     assert res.avg_p_elec_w == pytest.approx(-558.0, rel=0.05)
     assert res.period_s == pytest.approx(5.6, rel=0.1)
+
+
+@dataclass(frozen=True)
+class Lag(Part):
+    """A first-order lag of the reel speed [m/s], started at the reel speed itself."""
+
+    state: str = "dl_lag_m_s"
+    name: str = "lag"
+
+    @property
+    def states(self) -> Variables:  # type: ignore[override]
+        return Variables((self.state,))
+
+    @property
+    def periodic(self) -> tuple[str, ...]:  # type: ignore[override]
+        return (self.state,)
+
+    def rates(self, q: Mapping[str, Any]) -> list[Any]:
+        return [q["dl_m_s"] - q[self.state]]
+
+    def guess(self, start: StartPoint) -> dict[str, np.ndarray]:
+        return {self.state: start.on_grid(start.quantities["dl_m_s"])}
+
+
+SMALL = OcpOptions(Discretization(n_intervals=3, degree=2))
+
+
+def _small(*parts: Part):
+    return build_ocp(kite_dae(), paper_model(), SMALL, parts=parts)
+
+
+def _written(ocp, path):
+    """A guess file of ``ocp`` at the parts' own start (the circular loop), recording its
+    parts; the start's physical arrays."""
+    period = float(np.mean(ocp.formulation.period_bounds()))
+    params = initial_guess.GUESS_SCENARIO.parameters
+    arrays = part_start(ocp, period, params)
+    w = ocp.pack(arrays["x"], arrays["z"], arrays["u"], arrays["fict"], period)
+    warm = Solution(w, np.zeros(ocp.layout.n_w), np.zeros(ocp.layout.n_g), 3, 2)
+    p = ocp.params(params, initial_guess.GUESS_SCENARIO.weights)
+    result = SimpleNamespace(warm=warm, scenario=initial_guess.GUESS_SCENARIO)
+    initial_guess.write(path, ocp, result, p)
+    return arrays
+
+
+def test_a_part_the_stored_guess_lacks_fills_its_own_variables(tmp_path):
+    """Stored with the kite and drive, loaded with a lag part more: the kite's variables
+    are the file's to the last bit, the lag's state its own guess (the reel speed)."""
+    plain, lagged = _small(), _small(Lag())
+    arrays = _written(plain, tmp_path / "guess.npz")
+    solution, why = initial_guess.load(lagged, tmp_path / "guess.npz")
+    assert solution is not None and "carried over" in why, why
+    got = lagged.unpack(solution.w)
+    names = lagged.dae.states.names
+    kite = [names.index(n) for n in plain.dae.states.names]
+    assert np.allclose(got["x"][kite], arrays["x"], rtol=1e-12, atol=1e-12)
+    dl = got["x"][names.index("dl_m_s")]
+    assert np.allclose(got["x"][names.index("dl_lag_m_s")][1:], dl[1:], rtol=1e-12, atol=1e-12)
+
+
+def test_a_stored_part_the_ocp_lacks_or_has_otherwise_is_refused_naming_it(tmp_path):
+    path = tmp_path / "guess.npz"
+    _written(_small(Lag()), path)
+    with np.load(path) as f:
+        assert list(f["parts"]) == ["kite", "drive", "lag"]
+        assert "lag states dl_lag_m_s" in list(f["part_variables"])
+    solution, why = initial_guess.load(_small(), path)
+    assert solution is None and "holds the part lag this OCP has not" in why
+    solution, why = initial_guess.load(_small(Lag(state="dl_slow_m_s")), path)
+    assert solution is None and "other variables of the part lag" in why
+    solution, why = initial_guess.load(_small(Lag()), path)
+    assert solution is not None, why
+
+
+def test_a_file_without_its_parts_is_refused_until_they_are_recorded(tmp_path):
+    """A file written before the record: refused, saying how to add it; the record added
+    after the check on the OCP of the named parts, every array kept."""
+    ocp, path = _small(), tmp_path / "old.npz"
+    _written(ocp, path)
+    with np.load(path) as f:
+        old = {k: f[k] for k in f.files if k not in ("parts", "part_variables")}
+    np.savez_compressed(path, **old)
+    solution, why = initial_guess.load(ocp, path)
+    assert solution is None and "--record-parts kite,drive" in why
+    done, why = initial_guess.record_parts(path, ocp, ("kite", "lag"))
+    assert not done and "holds the part lag this OCP has not" in why
+    done, why = initial_guess.record_parts(path, ocp, ("kite", "drive"))
+    assert done, why
+    with np.load(path) as f:
+        assert all(np.array_equal(f[k], v) for k, v in old.items())
+    assert initial_guess.load(ocp, path)[0] is not None

@@ -81,6 +81,9 @@ def test_a_polynomial_of_one_term_is_the_number():
     ("aero__cl0", [], "[aero] cl0"),
     ("aero__cn_rud", [0.1, "x"], "[aero] cn_rud"),
     ("aero__cy_p", True, "[aero] cy_p"),
+    ("bounds__elevator_max_deg", 0.0, "[bounds] elevator_max_deg"),
+    ("bounds__rudder_max_deg", 95.0, "[bounds] rudder_max_deg"),
+    ("bounds__surface_max_deg", 90.0, "[bounds] surface_max_deg"),
 ])
 def test_a_bad_value_names_the_key(key, value, words):
     with pytest.raises(InputError) as err:
@@ -121,14 +124,21 @@ def test_the_tether_keys_reach_the_model():
     assert plain.tether_model().mass_kg_m == 0.0 and plain.tether_model().drag_elements == 0
 
 
-def test_reel_speed_body_rate_and_tension_bounds_hold_and_are_reported():
+def test_each_surface_has_its_own_bound():
+    assert load_system(shipped_system_path("ap2")).bounds.surface_bounds_deg() == (20.0, 30.0, 30.0)
+    assert load_system().bounds.surface_bounds_deg() == (10.0, 10.0, 10.0)
+
+
+def test_reel_speed_body_rate_tension_and_surface_bounds_hold_and_are_reported():
     """The paper's kite, elec-lim at 7 m/s from the stored guess, with every new bound
     inside the optimum's range without them (reel-out 5.0, reel-in 12.8 m/s, body rates
-    130 deg/s; tension from 52 N, 102 N with the others in force): the optimum keeps
-    each, sits on each, reports each."""
+    130 deg/s; tension from 52 N, 102 N with the others in force; elevator 6.4 deg): the
+    optimum keeps each, sits on each, reports each. The rudder, on its 10 deg bound
+    without them, gets 12 deg of its own."""
     system = system_from_dict(_data(
         winch__max_reel_out_speed_m_s=4.0, winch__max_reel_in_speed_m_s=11.0,
-        bounds__max_body_rate_deg_s=120.0, bounds__min_tension_n=250.0), "bounds.toml")
+        bounds__max_body_rate_deg_s=120.0, bounds__min_tension_n=250.0,
+        bounds__elevator_max_deg=5.0, bounds__rudder_max_deg=12.0), "bounds.toml")
     model = paper_model()
     options = system.ocp_options(OcpOptions(), drive_in_force(system, model=model).rating)
     res = start(build_ocp(kite_dae(*system.model_params()), model, options),
@@ -139,8 +149,11 @@ def test_reel_speed_body_rate_and_tension_bounds_hold_and_are_reported():
     assert traj.dl_m_s.max() <= 4.0 + tol and traj.dl_m_s.min() >= -11.0 - tol
     assert rates.to_numpy().max() <= 120.0 + tol
     assert traj.tension_n.min() >= 250.0 - 1e-3
+    surfaces = np.degrees(traj[["aileron_rad", "elevator_rad", "rudder_rad"]].abs().max())
+    assert (surfaces.to_numpy() <= np.array([10.0, 5.0, 12.0]) + tol).all(), surfaces
+    assert surfaces["rudder_rad"] > 10.0 + 1e-3, surfaces
     assert {"reel_out_speed_limit", "reel_in_speed_limit", "body_rate_limit",
-            "tension_min"} <= set(res.active_bounds), res.active_bounds
+            "tension_min", "surface_limit"} <= set(res.active_bounds), res.active_bounds
 
 
 def test_the_header_states_the_tether_and_air_and_the_new_limits():

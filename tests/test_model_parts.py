@@ -1,7 +1,8 @@
 """A model part added in one file: a first-order filter of the reel speed.
 
 The part (:class:`ReelFilter`, below) brings its own state, bound, scale, start guess
-and output column; one line registers it (``build_ocp(..., parts=...)``). Truths:
+and output column (declared with its unit suffix); one line registers it
+(``build_ocp(..., parts=...)``). Truths:
 
 * the filter's output is a weighted average of its input (``f' = (dl - f) / tau``), so
   ``|f| <= max |dl|``: its bound at the drive's reel-speed limit holds and never binds,
@@ -26,7 +27,7 @@ from optimize.model.variables import Variables
 from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
-from optimize.problem.part import Part, StartPoint
+from optimize.problem.part import Part, StartPoint, trajectory_columns
 from optimize.service.outcome import Attempt, ScenarioOutcome
 from optimize.solve import initial_guess
 from optimize.solve.solve import start
@@ -45,6 +46,7 @@ class ReelFilter(Part):
     name: str = "reel_filter"
     states: Variables = Variables(("dl_filtered_m_s",))
     periodic: tuple[str, ...] = ("dl_filtered_m_s",)
+    output_columns: tuple[str, ...] = ("filter_lag_m_s",)
 
     def rates(self, q: Mapping[str, Any]) -> list[Any]:
         return [(q["dl_m_s"] - q["dl_filtered_m_s"]) / self.tau_s]
@@ -87,9 +89,13 @@ def test_the_filter_state_is_in_the_trajectories_with_its_unit(filtered, tmp_pat
     _, res, bound = filtered
     outcome = ScenarioOutcome(res.scenario.name, "elec-lim", 7.0, 0,
                               (Attempt(None, res.status, True, res.iterations, 1.0),), res)
-    path = write_parquet(tmp_path / "trajectories.parquet", trajectories_frame([outcome]))
-    units = field_units(path)
-    assert units["dl_filtered_m_s"] == "m/s" and units["filter_lag_m_s"] == "m/s"
+    columns = trajectory_columns(filtered[0].formulation.parts)
+    assert list(res.trajectory.columns) == list(columns)  # the parts' columns, in order
+    for name, outcomes in (("trajectories", [outcome]), ("empty", [])):  # nothing converged
+        path = write_parquet(tmp_path / f"{name}.parquet", trajectories_frame(outcomes, columns))
+        units = field_units(path)
+        assert units["dl_filtered_m_s"] == "m/s" and units["filter_lag_m_s"] == "m/s"
+        assert list(units) == ["scenario", "kind", "wind_speed_m_s", *columns]
     traj = res.trajectory
     f, dl = traj["dl_filtered_m_s"].to_numpy(), traj["dl_m_s"].to_numpy()
     # a weighted average of the reel speed: inside its range, so inside the bound
@@ -144,3 +150,28 @@ def test_a_force_from_another_part_enters_the_kites_newton_euler_rows():
 
     want = -np.array([*force, *moment, 0.0]) / plain.scales.residual
     assert np.allclose(algebraic(pushed) - algebraic(plain), want, rtol=1e-9, atol=1e-12)
+
+
+@dataclass(frozen=True)
+class Undeclared(ReelFilter):
+    """The filter with an output its ``output_columns`` do not declare, and one without
+    a unit suffix."""
+
+    output_columns: tuple[str, ...] = ("filter_lag_m_s", "filter_gain")
+
+    def outputs(self, q: Mapping[str, Any]) -> dict[str, Any]:
+        return {**super().outputs(q), "filter_input_m_s": q["dl_m_s"]}
+
+
+def test_a_part_s_columns_are_its_declared_ones_each_with_a_unit():
+    opts = OcpOptions(Discretization(n_intervals=2, degree=1))
+    part = Undeclared(TAU_S, 10.0)
+    ocp = build_ocp(kite_dae(), paper_model(), opts, parts=(part,))
+    with pytest.raises(ValueError, match="part 'reel_filter': outputs.. gives"):
+        dae = ocp.dae
+        ocp.formulation.trajectory_outputs(
+            *(np.zeros((v.size, 1)) for v in (dae.states, dae.controls, dae.algebraic)), [7.0])
+    with pytest.raises(ValueError, match="'filter_gain' has no unit suffix"):
+        trajectory_columns(ocp.formulation.parts)
+    with pytest.raises(ValueError, match="'dl_filtered_m_s' is given twice"):
+        trajectory_columns((*ocp.formulation.parts, ReelFilter(TAU_S, 10.0)))

@@ -391,7 +391,7 @@ def test_request_falls_back_to_the_paper_model(tmp_path):
     req = request(tmp_path / "fit_out" / "power_model.json")
     assert req.setup.drive.model_path == PAPER_MODEL_PATH
     assert "shipped paper model" in req.model_note
-    assert req.winds == (5.0, 5.5, 6.0) and req.kinds == ("mech-free",)
+    assert req.wind_speeds_m_s == (5.0, 5.5, 6.0) and req.kinds == ("mech-free",)
     assert req.setup.options.discretization.n_intervals == 40
     assert req.setup.options.discretization.degree == 4 and req.claims
     # a fit in fit_out/ takes precedence when it exists
@@ -448,7 +448,7 @@ def test_run_optimize_writes_every_file(tmp_path):
 
     out = tmp_path / "optimize_out"
     request = SweepRequest(
-        winds=(4.0, 5.5, 7.0),
+        wind_speeds_m_s=(4.0, 5.5, 7.0),
         kinds=("elec-lim", "mech-lim"),
         setup=resolve(drive_model=paper_model(), model_path=PAPER_MODEL_PATH),
         model_note="paper model",
@@ -500,7 +500,7 @@ def test_run_optimize_writes_every_file(tmp_path):
     }
     # without claims the old comparison is removed, not left beside new results
     run_optimize(
-        dataclasses.replace(request, claims=False, winds=(7.0,)),
+        dataclasses.replace(request, claims=False, wind_speeds_m_s=(7.0,)),
         show_progress=False,
         backend=CycleBackend(),
     )
@@ -529,7 +529,7 @@ def test_a_solver_crash_in_an_optimize_sweep_is_reported_as_sizing_and_refine_re
     from optimize.service import failure_status
 
     out = tmp_path / "optimize_out"
-    request = SweepRequest(winds=(4.0, 5.5, 7.0), kinds=("elec-lim",),
+    request = SweepRequest(wind_speeds_m_s=(4.0, 5.5, 7.0), kinds=("elec-lim",),
                            setup=resolve(drive_model=paper_model(),
                                          model_path=PAPER_MODEL_PATH),
                            model_note="paper model", workers=1, out=out, claims=False)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import pandas as pd
 import pyarrow.parquet as pq
@@ -13,8 +13,10 @@ from kernel.errors import InputError
 from kernel.files import write_parquet
 from kernel.units import unit_of
 from optimize.model import kite_model as km
+from optimize.paper_model import paper_model
+from optimize.problem.ocp import model_parts
+from optimize.problem.part import FRAME_COLUMNS, trajectory_columns
 from optimize.service.outcome import Attempt, ScenarioOutcome
-from optimize.solve.result import OUTPUT_COLUMNS
 from optimize.sweep.outputs import summary_frame, trajectories_frame
 from optimize.sweep_folder import SUMMARY_COLUMNS, field_units, read_summary
 
@@ -29,6 +31,7 @@ class FakeResult:
     periodicity_error: float
     max_violation: float
     trajectory: pd.DataFrame
+    figures: dict = field(default_factory=dict)
 
 
 def hand_trajectory() -> pd.DataFrame:
@@ -124,15 +127,33 @@ def test_summary_round_trip_keeps_values_and_units(tmp_path):
     assert not list(tmp_path.glob(".*.tmp"))  # temp file moved into place
 
 
+def test_the_parts_figures_fill_the_summary_and_a_new_one_follows_its_columns():
+    """A result's part figures (``OcpResult.figures``) land in the schema's columns (the
+    winding's) or, a figure the schema does not name, after them; NaN where it failed."""
+    ok, failed = outcomes()
+    figures = {"peak_winding_temperature_c": 38.5, "thermal_margin_k": 1.5,
+               "filter_peak_m_s": 2.25}
+    ok = replace(ok, result=replace(ok.result, figures=figures))
+    frame = summary_frame([ok, failed])
+    assert list(frame.columns) == [*SUMMARY_COLUMNS, "filter_peak_m_s"]
+    rows = frame.set_index("scenario")
+    for name, value in figures.items():
+        assert rows.loc["elec-lim-5.5", name] == value
+        assert math.isnan(rows.loc["mech-free-10.0", name])
+    plain = summary_frame(outcomes())  # no thermal part: the schema's columns, NaN
+    assert list(plain.columns) == list(SUMMARY_COLUMNS)
+    assert plain["thermal_margin_k"].isna().all()
+
+
 def test_trajectories_hold_only_converged_scenarios(tmp_path):
-    traj = trajectories_frame(outcomes())
+    traj = trajectories_frame(outcomes(), tuple(hand_trajectory()))
     assert list(traj["scenario"].unique()) == ["elec-lim-5.5"] and len(traj) == 4
     path = write_parquet(tmp_path / "trajectories.parquet", traj)
     assert field_units(path)["torque_nm"] == "N m"
     assert pd.read_parquet(path)["p_elec_w"].sum() == -8600.0
 
 
-def test_unit_of_gives_each_output_column_its_unit():
+def test_the_paper_parts_give_each_trajectory_column_its_unit():
     # the units each output column is meant to have, written out here as the truth
     outputs = {
         "time_s": "s", "interval": "", "weight": "", "speed_rpm": "rpm", "torque_nm": "N m",
@@ -140,9 +161,11 @@ def test_unit_of_gives_each_output_column_its_unit():
         "altitude_m": "m", "airspeed_m_s": "m/s", "alpha_deg": "deg", "beta_deg": "deg",
         "wind_m_s": "m/s", "line_angle_deg": "deg", "c_m2": "m^2", "cdot_m2_s": "m^2/s",
     }
-    assert set(OUTPUT_COLUMNS) == set(outputs)
-    for name in OUTPUT_COLUMNS:
-        assert unit_of(name) == outputs[name], name
+    columns = trajectory_columns(model_parts(km.kite_dae(), paper_model()))
+    variables = (*km.STATES.names, *km.CONTROLS.names, *km.ALGEBRAIC.names)
+    assert list(columns) == [*outputs][:3] + [*variables] + [
+        c for c in columns if c in outputs and c not in FRAME_COLUMNS]
+    assert {c: u for c, u in columns.items() if c not in variables} == outputs
     want = {
         "r_x_m": "m",
         "v_y_m_s": "m/s",
@@ -155,8 +178,8 @@ def test_unit_of_gives_each_output_column_its_unit():
         "nu_n_per_m": "N/m",
         "aileron_rad": "rad",
     }
-    for name in (*km.STATES.names, *km.CONTROLS.names, *km.ALGEBRAIC.names):
-        assert unit_of(name) != "", name
+    for name in variables:
+        assert columns[name] == unit_of(name) != "", name
     for name, unit in want.items():
         assert unit_of(name) == unit
 

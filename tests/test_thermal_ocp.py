@@ -97,6 +97,10 @@ def test_the_thermal_limit_binds_and_replaces_the_rms_row(hot_cycle):
     theta = hot.trajectory[STATE].to_numpy()
     assert theta.max() == pytest.approx(LIMIT_C, abs=1e-3)
     assert "winding_temperature_limit" in hot.active_bounds
+    # the summary's figures are the thermal part's, absent without it
+    assert hot.figures == {"peak_winding_temperature_c": theta.max(),
+                           "thermal_margin_k": LIMIT_C - theta.max()}
+    assert base.figures == {}
     assert "rms_torque" not in ocp.layout.rows and "rms_torque" in plain.layout.rows
     # the base (RMS 60 N m, no temperature) flies hotter: the limit changes the optimum
     assert abs(hot.avg_p_elec_w - base.avg_p_elec_w) > 10.0

@@ -216,15 +216,15 @@ def _gain_peak(summary: pd.DataFrame) -> Claim:
     cid = "gain-peak-5.5"
     statement = "constrained case: the gain of electrical optimization is largest near 5.5 m/s"
     pairs = _pairs(summary, "mech-lim", "elec-lim", "avg_p_elec_w")
-    winds = pairs["wind_speed_m_s"].to_numpy()
-    if len(pairs) < 3 or not winds.min() < 5.5 < winds.max():
+    speeds = pairs["wind_speed_m_s"].to_numpy()
+    if len(pairs) < 3 or not speeds.min() < 5.5 < speeds.max():
         txt, note = _missing("elec-lim and mech-lim at >= 3 speeds around 5.5 m/s")
         return Claim(cid, statement, "5.5 m/s", txt, NOT_COMPARABLE, note, unit="W")
     gain = (pairs["a"] - pairs["b"]).to_numpy()  # mech minus elec: W more generated
-    i_near = int(np.argmin(np.abs(winds - 5.5)))
-    best = float(winds[int(np.argmax(gain))])
+    i_near = int(np.argmin(np.abs(speeds - 5.5)))
+    best = float(speeds[int(np.argmax(gain))])
     ours = f"largest at {best:g} m/s ({gain.max():.0f} W); gains " + ", ".join(
-        f"{w:g}: {g:.0f} W" for w, g in zip(winds, gain, strict=True)
+        f"{w:g}: {g:.0f} W" for w, g in zip(speeds, gain, strict=True)
     )
     margin = float(gain[i_near] - np.max(np.delete(gain, i_near)))
     note = "" if margin >= 0 else "the gain curve is flat near its maximum, sampled at the grid"
@@ -299,8 +299,8 @@ def _mech_free_consumes(summary: pd.DataFrame) -> Claim:
         return Claim(cid, statement, "P_elec > 0 at all speeds", txt, NOT_COMPARABLE, note,
                      unit="W")
     p = rows["avg_p_elec_w"].to_numpy()
-    winds = rows["wind_speed_m_s"].to_numpy()
-    ours = ", ".join(f"{w:g}: {v:+.0f} W" for w, v in zip(winds, p, strict=True))
+    speeds = rows["wind_speed_m_s"].to_numpy()
+    ours = ", ".join(f"{w:g}: {v:+.0f} W" for w, v in zip(speeds, p, strict=True))
     r = rows.iloc[int(np.argmin(p))]  # the decisive speed: the least consumption
     losses = r.avg_p_elec_w - r.avg_p_mech_w
     value = float(p.min())
@@ -325,19 +325,19 @@ def _coincidence(
     if not len(pairs):
         txt, note = _missing(f"{objective}-lim and {objective}-free at common speeds")
         return Claim(cid, statement, paper, txt, NOT_COMPARABLE, note, unit="W")
-    winds = pairs["wind_speed_m_s"].to_numpy()
+    speeds = pairs["wind_speed_m_s"].to_numpy()
     a, b = pairs["a"].to_numpy(), pairs["b"].to_numpy()
     gap, tol = np.abs(a - b), _coincide_tolerance(a, b)
     same = gap <= tol
-    expected = winds <= up_to + 1e-9
+    expected = speeds <= up_to + 1e-9
     signed = np.where(expected, tol - gap, gap - tol)  # >= 0 where as the paper says
     i = int(np.argmin(signed))  # the decisive wind speed
-    ours = (f"coincide at {_winds(winds[same])} m/s; differ at {_winds(winds[~same])} m/s; "
-            f"closest call at {winds[i]:g} m/s: lim {a[i]:.1f} W vs free {b[i]:.1f} W")
-    limits = _active_limits(summary, f"{objective}-lim", float(winds[i]))
-    free = (f"{_value(summary, f'{objective}-free', float(winds[i]), 'peak_torque_nm'):.1f} N m,"
-            f" {_value(summary, f'{objective}-free', float(winds[i]), 'peak_speed_rpm'):.0f} rpm")
-    facts = (f"drive limits active in {objective}-lim at {winds[i]:g} m/s: {limits}; "
+    ours = (f"coincide at {_winds(speeds[same])} m/s; differ at {_winds(speeds[~same])} m/s; "
+            f"closest call at {speeds[i]:g} m/s: lim {a[i]:.1f} W vs free {b[i]:.1f} W")
+    limits = _active_limits(summary, f"{objective}-lim", float(speeds[i]))
+    free = (f"{_value(summary, f'{objective}-free', float(speeds[i]), 'peak_torque_nm'):.1f} N m,"
+            f" {_value(summary, f'{objective}-free', float(speeds[i]), 'peak_speed_rpm'):.0f} rpm")
+    facts = (f"drive limits active in {objective}-lim at {speeds[i]:g} m/s: {limits}; "
              f"{objective}-free peaks at {free} there")
     ok = bool(np.all(same == expected))
     return Claim(cid, statement, paper, ours, AGREES if ok else DIFFERS, facts,

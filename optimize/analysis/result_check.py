@@ -126,14 +126,15 @@ def max_force_ratio(coeffs: Any, limits: Any) -> float:
     """Largest ``C_R^3 / C_D^2`` of the wing within the OCP's bounds [-].
 
     Grid over angle of attack, sideslip and the three surface deflections
-    (``limits.alpha_bounds_deg``, ``beta_bounds_deg``, ``surface_bound_deg``); the
+    (``limits.alpha_bounds_deg``, ``beta_bounds_deg``, ``surface_bounds_deg``); the
     wing's drag alone, no tether drag.
     """
     a_lo, a_hi = np.radians(limits.alpha_bounds_deg)
     b_lo, b_hi = np.radians(limits.beta_bounds_deg)
-    s = math.radians(limits.surface_bound_deg)
+    s_a, s_e, s_r = np.radians(limits.surface_bounds_deg)
     axes = [np.linspace(lo, hi, n) for (lo, hi), n in
-            zip(((a_lo, a_hi), (b_lo, b_hi), (-s, s), (-s, s), (-s, s)), _GRID, strict=True)]
+            zip(((a_lo, a_hi), (b_lo, b_hi), (-s_a, s_a), (-s_e, s_e), (-s_r, s_r)), _GRID,
+                strict=True)]
     alpha, beta, ail, elev, rud = np.meshgrid(*axes, indexing="ij", sparse=True)
     cl, cd, cy = force_coefficients(alpha, beta, (ail, elev, rud), coeffs)
     cd = np.broadcast_to(cd, np.broadcast_shapes(np.shape(cl), np.shape(cd), np.shape(cy)))

@@ -14,6 +14,9 @@ import casadi as ca
 
 from optimize.model.params import AeroCoefficients, KiteParams, WindModel
 
+#: the control surfaces, in the order of every per-surface tuple (``surfaces_rad``, bounds)
+SURFACES = ("aileron", "elevator", "rudder")
+
 
 def wind_speed(altitude_m: Any, wind_speed_m_s: Any, wind: WindModel) -> Any:
     """Wind speed [m/s] at ``altitude_m`` above ground [m] (log law, or power law)."""

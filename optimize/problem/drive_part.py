@@ -59,6 +59,8 @@ class DrivePart(Part):
     scales_of: Scales
     rms_torque_nm: float | None = None
     name: str = "drive"
+    output_columns: tuple[str, ...] = ("speed_rpm", "torque_nm", "tether_torque_nm",
+                                       "tension_n", "p_mech_w", "p_elec_w")
     cycle_averages: tuple[str, ...] = AVERAGES
     objective_averages: tuple[str, ...] = OBJECTIVE_AVERAGES
 
@@ -138,9 +140,7 @@ class DrivePart(Part):
 
     def outputs(self, q: Mapping[str, Any]) -> dict[str, Any]:
         """Motor speed, shaft and tether torque, tension, shaft and electrical power."""
-        names = ("speed_rpm", "torque_nm", "tether_torque_nm", "tension_n", "p_mech_w",
-                 "p_elec_w")
-        return {name: q[name] for name in names}
+        return {name: q[name] for name in self.output_columns}
 
     def constrained_averages(self) -> tuple[str, ...]:
         """The squared torque when the drive has an RMS-torque rating."""

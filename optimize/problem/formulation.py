@@ -219,13 +219,18 @@ class Formulation:
         q = self.quantities(x, u, z, ca.DM.zeros(self.dae.fictitious.size), par)
         out: dict[str, Any] = {}
         for p in self.parts:
-            out.update(p.outputs(q))
+            given = p.outputs(q)
+            if tuple(given) != p.output_columns:
+                raise ValueError(f"part {p.name!r}: outputs() gives {tuple(given)}, its "
+                                 f"output_columns declare {p.output_columns}")
+            out.update(given)
         return ca.Function("outputs", [x, u, z, par], list(out.values()),
                            ["x", "u", "z", "p"], list(out))
 
     @property
     def output_names(self) -> tuple[str, ...]:
-        """The trajectory columns of the parts' outputs, each name ending in its unit."""
+        """The trajectory columns of the parts' outputs (their ``output_columns``), each
+        name ending in its unit."""
         return tuple(self._outputs.name_out())
 
     def trajectory_outputs(self, x: np.ndarray, u: np.ndarray, z: np.ndarray,

@@ -17,6 +17,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from optimize.model.aero import SURFACES
 from optimize.model.kite_model import KiteDae
 from optimize.problem.guess import LoopGuess, circular_loop
 from optimize.problem.interface import Row
@@ -63,6 +64,8 @@ class KitePart(Part):
     scales_of: Scales
     loop: LoopGuess
     name: str = "kite"
+    output_columns: tuple[str, ...] = ("altitude_m", "airspeed_m_s", "alpha_deg", "beta_deg",
+                                       "wind_m_s", "line_angle_deg", "c_m2", "cdot_m2_s")
 
     states = property(lambda self: self.dae.states, doc="The kite DAE's states.")
     controls = property(lambda self: self.dae.controls, doc="The kite DAE's controls.")
@@ -130,14 +133,15 @@ class KitePart(Part):
         l_lo, l_hi = lim.tether_length_bounds_m
         reach = 4.0 * l_hi
         z_top = lim.min_altitude_m - self.dae.wind.origin_altitude_m  # r_z <= -(clearance)
-        surf, rate = lim.surface_bound_deg * DEG, lim.surface_rate_bound_rad_s
+        rate = lim.surface_rate_bound_rad_s
         spin = lim.body_rate_bound_rad_s()
         ddl = lim.max_reel_acceleration_m_s2 or SOLVER_REEL_ACCELERATION_M_S2
         jerk = lim.max_reel_jerk_m_s3 or SOLVER_REEL_JERK_M_S3
         sym = {"r_x_m": reach, "r_y_m": reach, "v_x_m_s": 200, "v_y_m_s": 200,
                "v_z_m_s": 200, "omega_x_rad_s": spin, "omega_y_rad_s": spin,
-               "omega_z_rad_s": spin, "ddl_m_s2": ddl, "aileron_rad": surf,
-               "elevator_rad": surf, "rudder_rad": surf, "dddl_m_s3": jerk,
+               "omega_z_rad_s": spin, "ddl_m_s2": ddl, "dddl_m_s3": jerk,
+               **{f"{s}_rad": bound * DEG
+                  for s, bound in zip(SURFACES, lim.surface_bounds_deg, strict=True)},
                "daileron_rad_s": rate, "delevator_rad_s": rate, "drudder_rad_s": rate}
         out = {name: (-top, top) for name, top in sym.items()}
         out.update({n: (-1.1, 1.1) for n in self.states.names if n.startswith("dcm_")})
@@ -150,7 +154,6 @@ class KitePart(Part):
         surface bounds (:func:`optimize.problem.scaling.system_scales`)."""
         sc, lim = self.scales_of, self.limits
         length, speed, rate = sc.length_m, sc.speed_m_s, sc.rate_rad_s
-        surf = lim.surface_bound_deg * DEG
         kite = self.dae.kite
         return {
             **{f"r_{a}_m": 1.25 * length for a in "xyz"},
@@ -158,10 +161,11 @@ class KitePart(Part):
             **{f"dcm_{i}{j}": 1.0 for i in (1, 2, 3) for j in (1, 2, 3)},
             **{f"omega_{a}_rad_s": 2.4 * rate for a in "xyz"},
             "l_m": 1.25 * length, "dl_m_s": 0.4 * speed, "ddl_m_s2": 0.9 * speed * rate,
-            **{f"{s}_rad": 1.15 * surf for s in ("aileron", "elevator", "rudder")},
+            **{f"{s}_rad": 1.15 * (bound * DEG)
+               for s, bound in zip(SURFACES, lim.surface_bounds_deg, strict=True)},
             "dddl_m_s3": 2.4 * speed * rate**2,
             **{f"d{s}_rad_s": lim.surface_rate_bound_rad_s
-               for s in ("aileron", "elevator", "rudder")},
+               for s in SURFACES},
             **{f"a_{a}_m_s2": 1.5 * speed * rate for a in "xyz"},
             **{f"domega_{a}_rad_s2": 6.3 * rate**2 for a in "xyz"},
             "nu_n_per_m": 11.0 * kite.mass_kg * kite.g_m_s2 / length,
@@ -171,12 +175,13 @@ class KitePart(Part):
 
     def active_bounds(self, traj: Any, drive_limits: bool) -> list[str]:
         """Tether length, ground clearance, airspeed, the winch's acceleration, jerk and
-        reel-speed limits, the body rates and the tension floor (the kite's own, in every
-        kind)."""
+        reel-speed limits, the body rates, the tension floor and the control-surface
+        deflections (the kite's own, in every kind)."""
         lim = self.limits
         l_lo, l_hi = lim.tether_length_bounds_m
         rates = np.degrees(np.abs(traj[["omega_x_rad_s", "omega_y_rad_s",
                                         "omega_z_rad_s"]].to_numpy()))
+        surfaces = np.degrees(np.abs(traj[[f"{s}_rad" for s in SURFACES]].to_numpy()))
         checks = (("tether_length_min", traj["l_m"], l_lo),
                   ("tether_length_max", traj["l_m"], l_hi),
                   ("ground_clearance", traj["altitude_m"], lim.min_altitude_m),
@@ -188,7 +193,8 @@ class KitePart(Part):
                   ("reel_out_speed_limit", traj["dl_m_s"], lim.max_reel_out_speed_m_s),
                   ("reel_in_speed_limit", -traj["dl_m_s"], lim.max_reel_in_speed_m_s),
                   ("body_rate_limit", rates, lim.max_body_rate_deg_s),
-                  ("tension_min", traj["tension_n"], lim.min_tension_n))
+                  ("tension_min", traj["tension_n"], lim.min_tension_n),
+                  ("surface_limit", surfaces / np.asarray(lim.surface_bounds_deg), 1.0))
         return [name for name, value, bound in checks if near(value, bound)]
 
     def start_rows(self, q0: Mapping[str, Any]) -> list[Row]:

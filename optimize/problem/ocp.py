@@ -236,14 +236,30 @@ def build_ocp(
     """
     t0 = time.perf_counter()
     o = with_drive_rating(options or OcpOptions(), drive_model)
-    lim, disc = o.limits, o.discretization
+    loop, scales, own = _model(dae, drive_model, o)
+    form = Formulation((*own, *parts), o.discretization, scales)
+    return assemble(form, o, loop=loop, system=system, started=t0)
+
+
+def model_parts(dae: KiteDae, drive_model: DriveModel, options: OcpOptions | None = None,
+                parts: tuple[Part, ...] = ()) -> tuple[Part, ...]:
+    """The parts :func:`build_ocp` builds its OCP of, without the NLP (what a sweep's
+    tables hold, :func:`optimize.problem.part.trajectory_columns`); same arguments."""
+    o = with_drive_rating(options or OcpOptions(), drive_model)
+    return (*_model(dae, drive_model, o)[2], *parts)
+
+
+def _model(dae: KiteDae, drive_model: DriveModel, o: OcpOptions
+           ) -> tuple[LoopGuess, Scales, tuple[Part, ...]]:
+    """The start loop, the scales and the kite's parts (:func:`kite_parts`) under the
+    options ``o`` (with the drive's rating)."""
+    lim = o.limits
     loop = start_loop(dae.kite, dae.coeffs, dae.wind, lim.alpha_bounds_deg[1],
                       lim.min_airspeed_m_s, lim.period_bounds_s, lim.tether_length_bounds_m,
                       lim.min_altitude_m)
     scales = system_scales(dae.kite, loop, lim.nominal_power_w, lim.max_torque_nm)
-    own = kite_parts(dae, drive_model, lim, scales, loop, winding_thermal(drive_model, lim))
-    form = Formulation((*own, *parts), disc, scales)
-    return assemble(form, o, loop=loop, system=system, started=t0)
+    return loop, scales, kite_parts(dae, drive_model, lim, scales, loop,
+                                    winding_thermal(drive_model, lim))
 
 
 def thermal_line(drive_model: DriveModel, limits: Any, source: Any = None) -> str:

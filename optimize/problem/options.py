@@ -108,8 +108,8 @@ class Limits:
         Angle-of-attack and sideslip bounds [deg].
     max_line_angle_deg : float
         Largest angle between body z axis and tether [deg].
-    surface_bound_deg : float
-        Control-surface deflection bound [deg].
+    surface_bounds_deg : (float, float, float)
+        Deflection bounds of the aileron, elevator and rudder [deg].
     surface_rate_bound_rad_s : float
         Control-surface rate bound [rad/s].
     max_reel_acceleration_m_s2 : float or None
@@ -160,7 +160,7 @@ class Limits:
     alpha_bounds_deg: tuple[float, float] = (-4.5, 8.5)
     beta_bounds_deg: tuple[float, float] = (-9.0, 9.0)
     max_line_angle_deg: float = 65.0
-    surface_bound_deg: float = 10.0
+    surface_bounds_deg: tuple[float, float, float] = (10.0, 10.0, 10.0)
     surface_rate_bound_rad_s: float = 2.0
     max_reel_acceleration_m_s2: float | None = None
     max_reel_jerk_m_s3: float | None = None

@@ -41,8 +41,13 @@ by adding to the quantities :data:`optimize.problem.kite_part.EXTERNAL` (``f_ext
   scaled), placed at every collocation point;
 * :meth:`Part.averages`: integrands of the cycle averages it defines (named in
   ``cycle_averages``; those the objective can weight in ``objective_averages``);
-* :meth:`Part.outputs`: trajectory columns (``trajectories.parquet``), each name
-  ending in its unit.
+* :meth:`Part.outputs`: trajectory columns (``trajectories.parquet``), the ones the
+  part declares in ``output_columns`` (each name ending in its unit suffix,
+  :func:`kernel.units.unit_of`: the column's unit), in that order; so a sweep in which
+  nothing converged still has every column (:func:`trajectory_columns`);
+* :meth:`Part.figures`: the part's figures of a solved cycle for the summary
+  (``summary.parquet``), from the trajectory table (the thermal part's peak winding
+  temperature and its margin to the limit).
 
 Bounds and scales, by variable name [SI]: :meth:`Part.bounds` (default unbounded),
 :meth:`Part.active_bounds` (the names of its bounds an optimum sits on, for the summary),
@@ -56,10 +61,13 @@ Start: :meth:`Part.guess` fills the part's own variables from a
 A stored initial guess or the homotopy's circular loop gives the kite's variables; the
 parts after it fill theirs, so a stored guess keeps working when a part is added.
 
-The stored initial guess is checked on the kite and drive parts alone
-(:data:`optimize.solve.initial_guess.STORED_PARTS`), then carried over: a part that only
-adds variables and rows keeps it; one that changes the kite's or the drive's own rows
-(a force on the kite) starts from it all the same, its rows not yet satisfied there.
+The stored initial guess records the parts it holds (their names and variables,
+:func:`optimize.solve.initial_guess.parts_record`); it is checked on the OCP's parts of
+those names, then carried over: a part the file lacks fills its own variables (a part
+that only adds variables and rows keeps the kite's optimum; one that changes the kite's
+or the drive's own rows, a force on the kite, starts from it all the same, its rows not
+yet satisfied there); a part the file holds and the OCP has not, or has with other
+variables, refuses the file (the homotopy starts instead, and the log says why).
 
 Registering: pass the part to :func:`optimize.problem.ocp.build_ocp` (``parts=``) or
 append it in :func:`optimize.problem.parts.kite_parts`. A complete example, a filter of
@@ -75,6 +83,7 @@ from typing import Any
 
 import numpy as np
 
+from kernel.units import unit_of
 from optimize.model.variables import Variables
 
 #: no variables
@@ -145,6 +154,9 @@ class Part:
     fictitious: Variables = NONE
     parameters: Variables = NONE
     periodic: tuple[str, ...] = ()
+    #: the trajectory columns :meth:`outputs` gives, in its order, each name ending in
+    #: its unit suffix (:func:`kernel.units.unit_of`)
+    output_columns: tuple[str, ...] = ()
     #: the names of the cycle averages :meth:`averages` defines, and those of them the
     #: objective can weight
     cycle_averages: tuple[str, ...] = ()
@@ -171,7 +183,12 @@ class Part:
         return {}
 
     def outputs(self, q: Mapping[str, Any]) -> dict[str, Any]:
-        """Trajectory columns at a point, each name ending in its unit."""
+        """Trajectory columns at a point: those of :attr:`output_columns`, by name."""
+        return {}
+
+    def figures(self, traj: Any) -> dict[str, float]:
+        """The part's figures of a solved cycle for the summary, each name ending in its
+        unit, from its trajectory table (``trajectories.parquet``'s columns)."""
         return {}
 
     def bounds(self) -> dict[str, tuple[float, float]]:
@@ -217,6 +234,37 @@ class Part:
         algebraic variables and fictitious forces ``(N d,)`` at the Radau points,
         controls ``(N,)`` per interval; a variable left out starts at zero."""
         return {}
+
+
+#: the trajectory table's own columns before the parts' (time [s], collocation interval,
+#: quadrature weight)
+FRAME_COLUMNS = ("time_s", "interval", "weight")
+
+
+def trajectory_columns(parts: tuple[Part, ...]) -> dict[str, str]:
+    """The columns of the trajectory table of an OCP of ``parts``, in order, with their
+    units: :data:`FRAME_COLUMNS`, then every part's states, controls and algebraic
+    variables (the parts' order within each kind), then every part's
+    ``output_columns``.
+
+    Raises
+    ------
+    ValueError
+        A part's variable or output column whose name carries no unit suffix
+        (:func:`kernel.units.unit_of`), or a name two parts give.
+    """
+    own = [(p.name, n) for kind in ("states", "controls", "algebraic") for p in parts
+           for n in getattr(p, kind).names]
+    own += [(p.name, n) for p in parts for n in p.output_columns]
+    out = {name: unit_of(name) for name in FRAME_COLUMNS}
+    for part, name in own:
+        if not unit_of(name):
+            raise ValueError(f"part {part!r}: column {name!r} has no unit suffix "
+                             "(kernel.units.UNIT_SUFFIXES)")
+        if name in out:
+            raise ValueError(f"part {part!r}: column {name!r} is given twice")
+        out[name] = unit_of(name)
+    return out
 
 
 def variables_of(parts: tuple[Part, ...], kind: str) -> Variables:

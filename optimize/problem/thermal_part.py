@@ -5,7 +5,8 @@ cycle; its rates the network's under the drive's losses; it puts the copper loss
 the winding temperature into the electrical power; its row is the drive's winding
 limit (the ``*-lim`` kinds); its start the cyclic steady temperature of the losses of
 the start trajectory (:func:`optimize.model.thermal.periodic_temperatures`, the copper
-term at that temperature by a fixed-point iteration).
+term at that temperature by a fixed-point iteration); its summary figures the peak
+winding temperature and its margin to the limit.
 """
 
 from __future__ import annotations
@@ -75,6 +76,12 @@ class ThermalPart(Part):
         return ([name for name, bound, applies in (
             ("winding_temperature_limit", self.thermal.max_c, drive_limits),
             ("winding_temperature_range", RANGE_C[1], True)) if applies and near(theta, bound)])
+
+    def figures(self, traj: Any) -> dict[str, float]:
+        """The winding's highest temperature over the cycle [degC] and the limit's margin
+        above it [K] (negative: the cycle would overheat the winding)."""
+        peak = float(np.max(np.asarray(traj[STATE], dtype=float)))
+        return {"peak_winding_temperature_c": peak, "thermal_margin_k": self.thermal.max_c - peak}
 
     def guess(self, start: StartPoint) -> dict[str, np.ndarray]:
         """The cyclic steady temperatures of the start's losses, the copper term at the

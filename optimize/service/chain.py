@@ -60,7 +60,7 @@ class Refinement:
     tol, max_points : float or None, int or None
         ``grid``'s stop criterion and grid cap (None: its defaults).
     known : tuple of (float, float, ...)
-        Points known without solving: wind [m/s], then one power [W] per curve of
+        Points known without solving: wind speed [m/s], then one power [W] per curve of
         ``curves`` (e.g. the sweep's grid); their speeds are not solved.
     curves : tuple of str
         Record figures the refinement follows together (``avg_p_elec_w``, ``avg_p_mech_w``).
@@ -142,13 +142,13 @@ class ChainTask:
     foreign: tuple[ForeignStart, ...] = ()
 
 
-def _nearest(solver: Solver, r: Refinement, wind: float) -> list:
+def _nearest(solver: Solver, r: Refinement, wind_speed_m_s: float) -> list:
     """The starts of an added speed: the nearest solved speeds of the refined kind, its
     own solves before the known cycles at equal distance, at most two."""
     own = [(r.kind, w) for w in solver.converged(r.kind)]
     cycles = [s for s in r.starts if s.key not in own]
     ranked = sorted([*own, *cycles], key=lambda s: (
-        abs((s.wind_speed_m_s if isinstance(s, CycleStart) else s[1]) - wind),
+        abs((s.wind_speed_m_s if isinstance(s, CycleStart) else s[1]) - wind_speed_m_s),
         isinstance(s, CycleStart)))
     return ranked[:2]
 
@@ -157,13 +157,14 @@ def _refine(solver: Solver, r: Refinement, start: tuple[float, ...]) -> None:
     known = {float(w): (p[0] if len(p) == 1 else tuple(p)) for w, *p in r.known}
     cycles = {s.wind_speed_m_s: s for s in r.starts}
 
-    def power(wind: float) -> Any:
-        wind = round(float(wind), 6)
+    def power(wind_speed_m_s: float) -> Any:
+        wind_speed_m_s = round(float(wind_speed_m_s), 6)
         if r.check and known and not any(rec["role"] == "check"
                                          for rec in solver.records.values()):
-            near = min(known, key=lambda w: abs(w - wind))
+            near = min(known, key=lambda w: abs(w - wind_speed_m_s))
             solver.solve(r.kind, near, "check", [cycles[near]] if near in cycles else None)
-        rec = solver.solve(r.kind, wind, "added", _nearest(solver, r, wind) or None)
+        rec = solver.solve(r.kind, wind_speed_m_s, "added",
+                           _nearest(solver, r, wind_speed_m_s) or None)
         if not rec["success"]:
             return None
         values = tuple(rec[c] for c in r.curves)

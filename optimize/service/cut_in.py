@@ -32,15 +32,15 @@ def find_cut_in(solver: Any, kind: str, grid: dict[float, float],
     the crossing inside the final bracket.
     """
     nan = float("nan")
-    winds = sorted(grid)
-    if len(winds) < 2:
+    wind_speeds_m_s = sorted(grid)
+    if len(wind_speeds_m_s) < 2:
         return CutIn(kind, nan, nan, nan, "too few converged grid speeds")
-    if all(grid[w] <= 0 for w in winds):
-        return CutIn(kind, nan, nan, winds[0], "generates at every converged grid speed")
-    pair = next(((a, b) for a, b in zip(winds, winds[1:], strict=False)
+    if all(grid[w] <= 0 for w in wind_speeds_m_s):
+        return CutIn(kind, nan, nan, wind_speeds_m_s[0], "generates at every converged grid speed")
+    pair = next(((a, b) for a, b in zip(wind_speeds_m_s, wind_speeds_m_s[1:], strict=False)
                  if grid[a] > 0 >= grid[b]), None)
     if pair is None:
-        return CutIn(kind, nan, winds[-1], nan, "never generates on the grid")
+        return CutIn(kind, nan, wind_speeds_m_s[-1], nan, "never generates on the grid")
     (lo, hi), probes = pair, []
     p_lo, p_hi = grid[lo], grid[hi]
     status = "found"

@@ -49,7 +49,7 @@ def better_margin_w(power_w: float) -> float:
     return max(0.05, 1e-4 * abs(power_w))
 
 
-def _curve_prediction(winds: list[float], values: list[float], i: int) -> float:
+def _curve_prediction(wind_speeds_m_s: list[float], values: list[float], i: int) -> float:
     """``values[i]`` predicted from its nearest neighbours by a local polynomial; NaN
     with fewer than two.
 
@@ -58,25 +58,26 @@ def _curve_prediction(winds: list[float], values: list[float], i: int) -> float:
     the point). At an end: the polynomial through the nearest up to
     ``2 CURVE_NEIGHBOURS`` points on the one side (a cubic through four).
     """
-    below, above = list(range(i)), list(range(i + 1, len(winds)))
+    below, above = list(range(i)), list(range(i + 1, len(wind_speeds_m_s)))
     if below and above:
         near, degree = below[-CURVE_NEIGHBOURS:] + above[:CURVE_NEIGHBOURS], 2
-    else:  # winds are increasing: the nearest on the one side
+    else:  # the wind speeds increase: the nearest on the one side
         near, degree = (below[-2 * CURVE_NEIGHBOURS:] or above[:2 * CURVE_NEIGHBOURS]), 3
     if len(near) < 2:
         return math.nan
-    x = np.array([winds[j] for j in near]) - winds[i]
+    x = np.array([wind_speeds_m_s[j] for j in near]) - wind_speeds_m_s[i]
     y = np.array([values[j] for j in near])
     coef = np.polyfit(x, y, min(degree, len(near) - 1))
     return float(coef[-1])
 
 
-def off_curve(winds: list[float], power_w: list[float], period_s: list[float]) -> list[int]:
+def off_curve(wind_speeds_m_s: list[float], power_w: list[float],
+              period_s: list[float]) -> list[int]:
     """Indices of the points of one kind that sit off the smooth curve of the others.
 
     Parameters
     ----------
-    winds : list of float
+    wind_speeds_m_s : list of float
         Wind speeds [m/s], increasing.
     power_w : list of float
         Objective power at each [W].
@@ -90,15 +91,15 @@ def off_curve(winds: list[float], power_w: list[float], period_s: list[float]) -
         than :data:`JUMP_POWER_RTOL` of the kind's largest ``|P|``, or whose period
         departs by more than :data:`JUMP_PERIOD_RTOL` of its own.
     """
-    if len(winds) < 3:
+    if len(wind_speeds_m_s) < 3:
         return []
     scale = max(abs(p) for p in power_w)
     flagged = []
-    for i in range(len(winds)):
-        p_fit = _curve_prediction(winds, power_w, i)
+    for i in range(len(wind_speeds_m_s)):
+        p_fit = _curve_prediction(wind_speeds_m_s, power_w, i)
         jump = abs(power_w[i] - p_fit) > JUMP_POWER_RTOL * scale
         if math.isfinite(period_s[i]):
-            t_fit = _curve_prediction(winds, period_s, i)
+            t_fit = _curve_prediction(wind_speeds_m_s, period_s, i)
             jump = jump or abs(period_s[i] - t_fit) > JUMP_PERIOD_RTOL * period_s[i]
         if jump:
             flagged.append(i)
@@ -111,9 +112,9 @@ def resolve_local_optima(solver: Any, keys: Sequence[tuple[str, float]]) -> None
     Parameters
     ----------
     solver : optimize.service.solver.Solver
-        Has solved every ``(kind, wind)`` of ``keys``; a kept re-solve replaces the
+        Has solved every ``(kind, wind_speed_m_s)`` of ``keys``; a kept re-solve replaces the
         scenario's outcome, record and warm start there (:meth:`Solver.replace`).
-    keys : sequence of (kind, wind)
+    keys : sequence of (kind, wind_speed_m_s)
         The scenarios to check (the planned grid), kinds checked in their order here.
 
     Notes

@@ -102,21 +102,21 @@ def parse_wind_grid(spec: str) -> tuple[float, ...]:
             raise _bad_grid(
                 spec, f"stop {stop:g} is not start {start:g} plus a whole number of steps {step:g}"
             )
-        winds = [round(start + i * step, 9) for i in range(n_whole + 1)]
-        winds[-1] = stop
+        wind_speeds_m_s = [round(start + i * step, 9) for i in range(n_whole + 1)]
+        wind_speeds_m_s[-1] = stop
     else:
-        winds = [_number(spec, p) for p in text.split(",")]
-        if len(winds) > MAX_WIND_SPEEDS:
-            raise _bad_grid(spec, f"{len(winds)} speeds, more than {MAX_WIND_SPEEDS}")
-    bad = [w for w in winds if w <= 0]
+        wind_speeds_m_s = [_number(spec, p) for p in text.split(",")]
+        if len(wind_speeds_m_s) > MAX_WIND_SPEEDS:
+            raise _bad_grid(spec, f"{len(wind_speeds_m_s)} speeds, more than {MAX_WIND_SPEEDS}")
+    bad = [w for w in wind_speeds_m_s if w <= 0]
     if bad:
         raise _bad_grid(spec, f"wind speed {bad[0]:g} is not > 0")
     lo, hi = WIND_RANGE_M_S
-    bad = [w for w in winds if not lo <= w <= hi]
+    bad = [w for w in wind_speeds_m_s if not lo <= w <= hi]
     if bad:
         raise _bad_grid(spec, f"wind speed {bad[0]:g} m/s is outside the plausible "
                               f"{lo:g} to {hi:g} m/s")
-    ordered = sorted(winds)
+    ordered = sorted(wind_speeds_m_s)
     dupes = [a for a, b in zip(ordered, ordered[1:], strict=False) if a == b]
     if dupes:
         raise _bad_grid(spec, f"wind speed {dupes[0]:g} appears twice")
@@ -143,30 +143,30 @@ def parse_kinds(spec: str) -> tuple[str, ...]:
     return kinds
 
 
-def middle_index(winds: tuple[float, ...]) -> int:
+def middle_index(wind_speeds_m_s: tuple[float, ...]) -> int:
     """Index of the middle wind speed (the lower middle for an even count)."""
-    return (len(winds) - 1) // 2
+    return (len(wind_speeds_m_s) - 1) // 2
 
 
-def continuation_order(winds: tuple[float, ...]) -> list[tuple[float, float | None]]:
+def continuation_order(wind_speeds_m_s: tuple[float, ...]) -> list[tuple[float, float | None]]:
     """Order the wind speeds outwards from the middle one, alternating above and below.
 
     Returns
     -------
-    list of (wind, source)
+    list of (wind_speed_m_s, source)
         ``source`` is the inner neighbour [m/s] the solve is warm-started from;
         ``None`` for the middle speed (where a chain starts). For 4:10:1.5:
         ``[(7, None), (8.5, 7), (5.5, 7), (10, 8.5), (4, 5.5)]``.
     """
-    mid = middle_index(winds)
-    order: list[tuple[float, float | None]] = [(winds[mid], None)]
+    mid = middle_index(wind_speeds_m_s)
+    order: list[tuple[float, float | None]] = [(wind_speeds_m_s[mid], None)]
     up, down = mid + 1, mid - 1
-    while up < len(winds) or down >= 0:
-        if up < len(winds):
-            order.append((winds[up], winds[up - 1]))
+    while up < len(wind_speeds_m_s) or down >= 0:
+        if up < len(wind_speeds_m_s):
+            order.append((wind_speeds_m_s[up], wind_speeds_m_s[up - 1]))
             up += 1
         if down >= 0:
-            order.append((winds[down], winds[down + 1]))
+            order.append((wind_speeds_m_s[down], wind_speeds_m_s[down + 1]))
             down -= 1
     return order
 
@@ -203,32 +203,32 @@ class Step:
         return scenario_name(self.kind, self.wind_speed_m_s)
 
 
-def chain_steps(kinds: tuple[str, ...], winds: tuple[float, ...]) -> tuple[Step, ...]:
+def chain_steps(kinds: tuple[str, ...], wind_speeds_m_s: tuple[float, ...]) -> tuple[Step, ...]:
     """The steps of one chain: each kind along :func:`continuation_order`, the next kind
     started at the middle speed from the previous kind's middle solve; every step with up
     to two fallbacks (the nearest solved speeds, the same kind first at equal distance)."""
-    order = continuation_order(winds)
+    order = continuation_order(wind_speeds_m_s)
     mid_wind = order[0][0]
     steps: list[Step] = []
-    solved: list[tuple[str, float]] = []  # (kind, wind) solved earlier in this chain
+    solved: list[tuple[str, float]] = []  # (kind, wind_speed_m_s) solved earlier in this chain
 
-    def fallbacks(kind: str, wind: float, primary: str | None) -> tuple[str, ...]:
-        # nearest wind first; at equal distance the same kind first
-        ranked = sorted(solved, key=lambda kw: (abs(kw[1] - wind), kw[0] != kind))
+    def fallbacks(kind: str, wind_speed_m_s: float, primary: str | None) -> tuple[str, ...]:
+        # nearest wind speed first; at equal distance the same kind first
+        ranked = sorted(solved, key=lambda kw: (abs(kw[1] - wind_speed_m_s), kw[0] != kind))
         names = [scenario_name(k, w) for k, w in ranked]
         return tuple(n for n in names if n != primary)[:2]
 
     for i, kind in enumerate(kinds):
-        for wind, source_wind in order:
+        for wind_speed_m_s, source_wind in order:
             if source_wind is not None:
                 primary = scenario_name(kind, source_wind)
             elif i > 0:
                 primary = scenario_name(kinds[i - 1], mid_wind)
             else:
                 primary = None
-            steps.append(Step(kind, wind, primary, fallbacks(kind, wind, primary),
-                              len(steps)))
-            solved.append((kind, wind))
+            steps.append(Step(kind, wind_speed_m_s, primary,
+                              fallbacks(kind, wind_speed_m_s, primary), len(steps)))
+            solved.append((kind, wind_speed_m_s))
     return tuple(steps)
 
 
@@ -248,12 +248,12 @@ def start_cost(a: tuple[str, int], b: tuple[str, int]) -> float:
     return cost
 
 
-def plan_graph(winds: tuple[float, ...], kinds: tuple[str, ...]) -> tuple[Step, ...]:
+def plan_graph(wind_speeds_m_s: tuple[float, ...], kinds: tuple[str, ...]) -> tuple[Step, ...]:
     """Plan the sweep as a start graph (see the module docstring).
 
     Parameters
     ----------
-    winds : tuple of float
+    wind_speeds_m_s : tuple of float
         Wind speeds [m/s], increasing (from :func:`parse_wind_grid`).
     kinds : tuple of str
         Scenario kinds (from :func:`parse_kinds`).
@@ -261,22 +261,22 @@ def plan_graph(winds: tuple[float, ...], kinds: tuple[str, ...]) -> tuple[Step, 
     Returns
     -------
     tuple of Step
-        Every (kind, wind) exactly once, by depth (seeds first); each step's sources
+        Every (kind, wind_speed_m_s) exactly once, by depth (seeds first); each step's sources
         come before it and are at most ``depth - 1`` deep, ``depth`` at most 2.
     """
-    mid = middle_index(winds)
+    mid = middle_index(wind_speeds_m_s)
     objectives = dict.fromkeys(KINDS[k].objective for k in kinds)
     seeds = [(next(k for k in kinds if KINDS[k].objective == obj), mid) for obj in objectives]
-    rest = [(k, i) for k in kinds for i in range(len(winds)) if (k, i) not in seeds]
+    rest = [(k, i) for k in kinds for i in range(len(wind_speeds_m_s)) if (k, i) not in seeds]
     first = [n for n in rest if min(start_cost(n, s) for s in seeds) <= 1.0]
     second = [n for n in rest if n not in first]
 
     def step(node: tuple[str, int], sources: list[tuple[str, int]], depth: int) -> Step:
         ranked = sorted(sources, key=lambda s: start_cost(node, s))[:2]  # stable: plan order
-        names = [scenario_name(k, winds[i]) for k, i in ranked]
-        return Step(node[0], winds[node[1]], names[0] if names else None, tuple(names[1:]),
-                    depth)
+        names = [scenario_name(k, wind_speeds_m_s[i]) for k, i in ranked]
+        return Step(node[0], wind_speeds_m_s[node[1]], names[0] if names else None,
+                    tuple(names[1:]), depth)
 
-    return (tuple(Step(k, winds[i], None) for k, i in seeds)
+    return (tuple(Step(k, wind_speeds_m_s[i], None) for k, i in seeds)
             + tuple(step(n, seeds, 1) for n in first)
             + tuple(step(n, seeds + first, 2) for n in second))

@@ -24,16 +24,18 @@ RETRY = "retry"
 MAX_SAME_KIND = 2
 
 
-def other_starts(solver: Any, kind: str, wind: float, tried: set) -> list[tuple[str, float]]:
-    """The starts to retry ``kind`` at ``wind`` [m/s] from: up to :data:`MAX_SAME_KIND`
+def other_starts(solver: Any, kind: str, wind_speed_m_s: float,
+                 tried: set) -> list[tuple[str, float]]:
+    """The starts to retry ``kind`` at ``wind_speed_m_s`` [m/s] from: up to :data:`MAX_SAME_KIND`
     converged speeds of the kind (nearest first), then the other objective's optimum at
     the same speed with the same drive limits; those in ``tried`` (names) left out."""
-    near = sorted(solver.converged(kind), key=lambda w: abs(w - wind))
+    near = sorted(solver.converged(kind), key=lambda w: abs(w - wind_speed_m_s))
     same = [(kind, w) for w in near if scenario_name(kind, w) not in tried][:MAX_SAME_KIND]
     mine = KINDS[kind]
-    other = [(k, wind) for k, v in KINDS.items()
+    other = [(k, wind_speed_m_s) for k, v in KINDS.items()
              if v.objective != mine.objective and v.drive_limits == mine.drive_limits
-             and wind in solver.converged(k) and scenario_name(k, wind) not in tried]
+             and wind_speed_m_s in solver.converged(k)
+             and scenario_name(k, wind_speed_m_s) not in tried]
     return same + other
 
 
@@ -45,8 +47,8 @@ def retry_failed(solver: Any, keys: Sequence[tuple[str, float]]) -> None:
     Parameters
     ----------
     solver : optimize.service.solver.Solver
-        Has solved (or adopted) every ``(kind, wind)`` of ``keys``.
-    keys : sequence of (kind, wind)
+        Has solved (or adopted) every ``(kind, wind_speed_m_s)`` of ``keys``.
+    keys : sequence of (kind, wind_speed_m_s)
         The grid scenarios to look at.
     """
     for k in keys:

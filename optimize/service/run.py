@@ -127,9 +127,10 @@ def solve_tasks(tasks: Sequence[SolveTask], store: Path | None = None, *, worker
         groups.setdefault((t.problem.key, t.kind, t.tag), []).append(t)
     chains = []
     for i, g in enumerate(groups.values()):
-        winds = tuple(sorted({float(t.wind_speed_m_s) for t in g}))
-        chains.append(ChainTask(g[0].problem, chain_steps((g[0].kind,), winds), i, g[0].tag,
-                                store, backend, refine=refine(g[0].kind) if refine else None))
+        wind_speeds_m_s = tuple(sorted({float(t.wind_speed_m_s) for t in g}))
+        chains.append(ChainTask(g[0].problem, chain_steps((g[0].kind,), wind_speeds_m_s), i,
+                                g[0].tag, store, backend,
+                                refine=refine(g[0].kind) if refine else None))
     first = [c for c in chains if reference is not None and c.tag == tuple(reference)]
     rest = [c for c in chains if reference is None or c.tag != tuple(reference)]
     outs = dict(zip((c.index for c in first), run_chains(first, handle, on_event=on_event)[0],
@@ -297,8 +298,8 @@ def _follow_up(tasks: SweepTasks, grid: list[ChainOutcome], handle: Any,
     failed = {(o.kind, o.wind_speed_m_s) for o, _ in solved if not o.success}
 
     def starts(kind: str) -> tuple:
-        winds = {w for k, w in failed if k == kind}
-        return tuple((o, r) for o, r in solved if o.success and o.wind_speed_m_s in winds
+        wind_speeds_m_s = {w for k, w in failed if k == kind}
+        return tuple((o, r) for o, r in solved if o.success and o.wind_speed_m_s in wind_speeds_m_s
                      and KINDS[o.kind].objective != KINDS[kind].objective)
 
     follow = [ChainTask(tasks.problem, (), first + n, backend=tasks.backend, resolve=True,

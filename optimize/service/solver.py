@@ -1,7 +1,7 @@
 """The solves of one problem on one worker: warm starts, fallbacks, records, the store.
 
 A :class:`Solver` holds one problem (system, drive model, OCP options) on one
-worker. It builds the NLP once (cached per process) and solves each (kind, wind):
+worker. It builds the NLP once (cached per process) and solves each (kind, wind_speed_m_s):
 
 * warm-started from the given sources in order (scenarios solved earlier by this
   solver, of any kind; at most :data:`MAX_WARM_ATTEMPTS` of those that converged),
@@ -37,8 +37,9 @@ from optimize.solve.result import cycle_metrics
 
 #: warm-started attempts per solve before the cold-start fallback
 MAX_WARM_ATTEMPTS = 2
-#: the cycle figures of a record, None when the solve failed (:func:`cycle_metrics`)
-METRICS = ("peak_speed_rpm", "peak_torque_nm", "rms_torque_nm", "peak_winding_temperature_c")
+#: the cycle figures of a record, None when the solve failed (:func:`cycle_metrics`); the
+#: parts' own figures follow when it converged (``OcpResult.figures``)
+METRICS = ("peak_speed_rpm", "peak_torque_nm", "rms_torque_nm")
 
 Key = tuple[str, float]  # (kind, wind speed [m/s])
 
@@ -60,7 +61,7 @@ class Solver:
     backend : optional
         The numerical side (:class:`optimize.service.builder.OcpBackend` by default).
     progress : object with ``put(dict)``, optional
-        Receives, after each solve, ``{tag..., "chain", "name", "kind", "wind", "role",
+        Receives, after each solve, ``{tag..., "chain", "name", "kind", "wind_speed_m_s", "role",
         "success", "status", "cached", "wall_time_s"}``; and around each solver run
         (:meth:`attempt`) ``{tag..., "attempt": "start" or "done", "chain", "name", "role",
         "from", "status"}``, so a bar can say what runs (:func:`attempt_line`).
@@ -105,54 +106,55 @@ class Solver:
         """Wind speeds [m/s] of ``kind`` with a converged solution to warm-start from."""
         return sorted(w for k, w in self._warm if k == kind)
 
-    def attempt(self, kind: str, wind: float, source: Key | Start | None,
+    def attempt(self, kind: str, wind_speed_m_s: float, source: Key | Start | None,
                 role: str = "grid") -> tuple[Attempt, Any]:
-        """One solver run of ``kind`` at ``wind`` [m/s] from the converged ``source``
+        """One solver run of ``kind`` at ``wind_speed_m_s`` [m/s] from the converged ``source``
         (None: a cold start; a :class:`optimize.service.foreign.Start`: one it did not
-        find itself, another problem's solution or a stored cycle) for
-        ``role`` (why it runs, for the progress events); a crash is a failed attempt with
-        no result."""
+        find itself, another problem's solution or a stored cycle) for ``role`` (why it
+        runs, for the progress events); a crash is a failed attempt with no result."""
         ocp = self.ocp
-        foreign = isinstance(source, Start)
-        name = source.name if foreign else None if source is None else scenario_name(*source)
-        self._tell("start", kind, wind, role, name, "")
+        given = isinstance(source, Start)
+        name = source.name if given else None if source is None else scenario_name(*source)
+        self._tell("start", kind, wind_speed_m_s, role, name, "")
         t0 = time.perf_counter()
         try:
             if source is None:
-                result = self.backend.cold_start(ocp, kind, wind)
+                result = self.backend.cold_start(ocp, kind, wind_speed_m_s)
             else:
-                warm = source.carried(self.backend, ocp) if foreign else self._warm[source]
-                result = self.backend.solve(ocp, kind, wind, warm)
+                warm = source.carried(self.backend, ocp) if given else self._warm[source]
+                result = self.backend.solve(ocp, kind, wind_speed_m_s, warm)
         except Exception as exc:  # noqa: BLE001 - a crash is this speed's failure, reported
             attempt, result = Attempt(name, failure_status(CRASH, exc), False, 0,
                                       time.perf_counter() - t0), None
         else:
             ok = bool(result.success) and math.isfinite(float(result.avg_p_elec_w))
-            check = self.backend.check(ocp, result, scenario_name(kind, wind)) if ok else None
+            check = (self.backend.check(ocp, result, scenario_name(kind, wind_speed_m_s))
+                     if ok else None)
             passed = ok and (check is None or check.passed)
             attempt = Attempt(name, str(result.status), passed, int(result.iterations),
                               float(result.wall_time_s), check)
-        self._tell("done", kind, wind, role, name, attempt.status)
+        self._tell("done", kind, wind_speed_m_s, role, name, attempt.status)
         return attempt, result
 
-    def _tell(self, when: str, kind: str, wind: float, role: str, source: str | None,
+    def _tell(self, when: str, kind: str, wind_speed_m_s: float, role: str, source: str | None,
               status: str) -> None:
         if self.progress is not None:
             self.progress.put({**self.tag, "attempt": when, "chain": self.chain,
-                               "name": scenario_name(kind, wind), "role": role,
+                               "name": scenario_name(kind, wind_speed_m_s), "role": role,
                                "from": source, "status": status})
 
-    def solve(self, kind: str, wind: float, role: str = "grid",
+    def solve(self, kind: str, wind_speed_m_s: float, role: str = "grid",
               sources: Sequence[Key] | None = None, cold: bool = True) -> dict:
-        """The record of ``kind`` at ``wind`` [m/s]: loaded, solved earlier, or solved now.
+        """The record of ``kind`` at ``wind_speed_m_s`` [m/s]: loaded, solved earlier, or
+        solved now.
 
         Parameters
         ----------
         kind : str
-        wind : float
+        wind_speed_m_s : float
         role : str
             Why it is solved (``"grid"``, ``"added"``, ``"check"``, ``"cut-in"``), recorded.
-        sources : sequence of (kind, wind) or Start, optional
+        sources : sequence of (kind, wind_speed_m_s) or Start, optional
             Warm sources in order of preference; those not converged are skipped and at
             most :data:`MAX_WARM_ATTEMPTS` are tried. Default: the nearest converged
             speed of ``kind``. A start from another problem's solution of this scenario
@@ -166,13 +168,15 @@ class Solver:
             Keys: the tag's, ``key`` (of the store, None without one), ``kind,
             wind_speed_m_s, role, success, status, warm_from, avg_p_elec_w, avg_p_mech_w,
             period_s, peak_speed_rpm, peak_torque_nm, rms_torque_nm`` (None when
-            failed), the extras,
+            failed), the parts' figures (``OcpResult.figures``, when converged), the
+            extras,
             ``wall_time_s, cached``.
         """
-        wind = float(wind)
-        if (kind, wind) in self.records:
-            return self.records[kind, wind]
-        key = solve_key(self.problem, kind, wind) if self.store is not None else None
+        wind_speed_m_s = float(wind_speed_m_s)
+        k = (kind, wind_speed_m_s)
+        if k in self.records:
+            return self.records[k]
+        key = solve_key(self.problem, kind, wind_speed_m_s) if self.store is not None else None
         stored = load_solve(self.store, key) if key is not None else None
         if stored is not None:
             rec, warm = stored
@@ -180,36 +184,36 @@ class Solver:
         else:
             if sources is None:
                 near = self.converged(kind)
-                sources = [(kind, min(near, key=lambda w: abs(w - wind)))] if near else []
+                sources = [(kind, min(near, key=lambda w: abs(w - wind_speed_m_s)))] if near else []
             tried = [s for s in sources
                      if isinstance(s, Start) or s in self._warm][:MAX_WARM_ATTEMPTS]
-            if (kind, wind) in self.foreign:
-                tried.insert(0, self.foreign[kind, wind])
+            if (kind, wind_speed_m_s) in self.foreign:
+                tried.insert(0, self.foreign[kind, wind_speed_m_s])
             attempts, result, src = [], None, None
             for src in tried:
-                attempt, result = self.attempt(kind, wind, src, role)
+                attempt, result = self.attempt(kind, wind_speed_m_s, src, role)
                 attempts.append(attempt)
                 if attempt.success:
                     break
             if cold and not (attempts and attempts[-1].success):
                 src = None
-                attempt, result = self.attempt(kind, wind, None, role)
+                attempt, result = self.attempt(kind, wind_speed_m_s, None, role)
                 attempts.append(attempt)
-            outcome = ScenarioOutcome(scenario_name(kind, wind), kind, wind, self.chain,
+            outcome = ScenarioOutcome(scenario_name(*k), kind, wind_speed_m_s, self.chain,
                                       tuple(attempts), result, depth=self._depth_from(src))
-            self.outcomes[kind, wind] = outcome
+            self.outcomes[k] = outcome
             rec = self.record(key, outcome, role, src)
             warm = result.warm if outcome.success else None
             if key is not None and result is not None:  # a crash is not stored
                 store_solve(self.store, key, rec, warm)
             rec = {**rec, "cached": False}
-        self.records[kind, wind] = rec
+        self.records[k] = rec
         if rec["success"] and warm is not None:
-            self._warm[kind, wind] = warm
-            self._depth[kind, wind] = self.outcomes[kind, wind].depth if not rec["cached"] else 0
+            self._warm[k] = warm
+            self._depth[k] = self.outcomes[k].depth if not rec["cached"] else 0
         if self.progress is not None:
-            self.progress.put({**self.tag, "chain": self.chain, "name": scenario_name(kind, wind),
-                               "kind": kind, "wind": wind, "role": role,
+            self.progress.put({**self.tag, "chain": self.chain, "name": scenario_name(*k),
+                               "kind": kind, "wind_speed_m_s": wind_speed_m_s, "role": role,
                                "success": rec["success"], "status": rec["status"],
                                "cached": rec["cached"], "wall_time_s": rec["wall_time_s"]})
         return rec
@@ -261,6 +265,7 @@ class Solver:
         if trajectory is not None:
             figures = cycle_metrics(trajectory)
             metrics = {name: figures[name] for name in METRICS}
+            metrics.update(getattr(res, "figures", {}))
         extras = {}
         if self.extras is not None:
             extras = self.extras(trajectory) if ok else dict.fromkeys(self.extras(None))

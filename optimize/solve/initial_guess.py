@@ -4,16 +4,22 @@
 one scenario (:data:`GUESS_SCENARIO`, elec-lim-7.0, solved by the homotopy with
 the paper's Table I drive model, the shipped ``highwind.toml`` system, at the default
 discretization), the NLP parameters it was solved with, the scaled constraint values
-``g(w, p)`` there and the system's hash.
+``g(w, p)`` there, the system's hash, and the parts of the OCP it solved with their
+variables (``parts``, ``part_variables``: :func:`parts_record`).
 
-:func:`load` accepts the file for an OCP only if the OCP's system (when it has
-one) is the stored one and it evaluates the same ``g`` at the stored point to
-:data:`MATCH_TOL`. The constraints do not depend on
-the drive model, so the guess serves any fitted model; a changed kite model,
-scaling, collocation or layout makes it stale, and :func:`optimize.solve.solve.start`
-falls back to the homotopy. Regenerate the file with::
+:func:`load` accepts the file for an OCP only if the OCP has every part the file
+records, with the same variables, its system (when it has one) is the stored one, and
+the OCP of those parts evaluates the same ``g`` at the stored point to :data:`MATCH_TOL`.
+The constraints do not depend on the drive model, so the guess serves any fitted model;
+a part the OCP has beyond the file's fills its own variables along it; a part the
+file records and the OCP has not, a changed kite model, scaling, collocation or layout
+makes it stale, and :func:`optimize.solve.solve.start` falls back to the homotopy
+(saying why). Regenerate the file with::
 
     .venv/bin/python -m optimize.solve.initial_guess
+
+A file written before it recorded its parts gets the record, checked on the OCP of the
+parts named, with ``--record-parts kite,drive`` (its arrays unchanged).
 """
 
 from __future__ import annotations
@@ -32,6 +38,7 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import Ocp, assemble, build_ocp, twin
 from optimize.problem.options import OcpOptions
 from optimize.problem.scenario import Scenario
+from optimize.problem.start import KEYS
 from optimize.solve.homotopy import cold_start
 from optimize.solve.result import OcpResult, Solution, carry_over
 from optimize.system.drive_in_force import drive_in_force
@@ -45,35 +52,53 @@ GUESS_PATH = Path(__file__).resolve().parent.parent / "data" / "initial_guess.np
 GUESS_SCENARIO = Scenario(wind_speed_m_s=7.0, objective="electrical", drive_limits=True)
 #: largest deviation of the scaled constraint values at the stored point [-]
 MATCH_TOL = 1e-9
-#: the parts of the OCP the file holds a solution of (:mod:`optimize.problem.parts`)
-STORED_PARTS = ("kite", "drive")
-#: the arrays of the file besides its scalars
+#: the arrays of the file besides its scalars and its parts record
 ARRAYS = ("w", "lam_x", "lam_g", "p", "g")
+#: the kinds of a part's variables the record lists
+RECORDED = (*KEYS, "parameters")
+
+
+def parts_record(ocp: Ocp) -> dict[str, np.ndarray]:
+    """What the file records of ``ocp``'s parts: ``parts`` (their names, in order) and
+    ``part_variables`` (``"<part> <kind> <variable>"`` for each variable of each kind of
+    :data:`RECORDED`, in order)."""
+    parts = getattr(ocp.formulation, "parts", ())
+    return {"parts": np.array([p.name for p in parts], dtype=str),
+            "part_variables": np.array([f"{p.name} {kind} {name}" for p in parts
+                                        for kind in RECORDED
+                                        for name in getattr(p, kind).names], dtype=str)}
 
 
 def write(path: str | Path, ocp: Ocp, result: OcpResult, p: np.ndarray) -> Path:
-    """Store ``result``'s solution with its parameters ``p`` and ``g(w, p)`` (atomic)."""
-    w = result.warm.w
+    """Store ``result``'s solution with its parameters ``p``, ``g(w, p)`` and the parts
+    of ``ocp`` (:func:`parts_record`; atomic)."""
+    warm = result.warm
+    return _save(path, ocp, {"w": warm.w, "lam_x": warm.lam_x, "lam_g": warm.lam_g, "p": p,
+                             "scenario": result.scenario.name})
+
+
+def _save(path: str | Path, ocp: Ocp, data: dict) -> Path:
+    """The file of ``data`` (``w, lam_x, lam_g, p, scenario``) on ``ocp`` (atomic)."""
     with atomic_path(path) as tmp, tmp.open("wb") as fh:
         np.savez_compressed(
-            fh, w=w, lam_x=result.warm.lam_x, lam_g=result.warm.lam_g, p=p,
-            g=ocp.constraint_values(w, p), n_intervals=ocp.n_intervals,
-            degree=ocp.coll.degree, scenario=result.scenario.name,
-            system_sha256=getattr(ocp.system, "sha256", ""),
+            fh, **{k: data[k] for k in ("w", "lam_x", "lam_g", "p")},
+            g=ocp.constraint_values(data["w"], data["p"]), n_intervals=ocp.n_intervals,
+            degree=ocp.coll.degree, scenario=str(data["scenario"]),
+            system_sha256=getattr(ocp.system, "sha256", ""), **parts_record(ocp),
         )
     return Path(path)
 
 
-def reference(ocp: Ocp) -> Ocp:
+def reference(ocp: Ocp, names: tuple[str, ...]) -> Ocp:
     """The OCP the stored file is checked against: ``ocp`` in the general (IPOPT)
-    layout with only the parts the file was made with (:data:`STORED_PARTS`); ``ocp``
-    itself when it is that (built once, cached on ``ocp``)."""
+    layout with only its parts named ``names`` (the file's); ``ocp`` itself when it is
+    that (built once, cached on ``ocp``)."""
     general = twin(ocp, "ipopt")
     parts = getattr(general.formulation, "parts", ())
-    kept = tuple(p for p in parts if p.name in STORED_PARTS)
+    kept = tuple(p for p in parts if p.name in names)
     if len(kept) == len(parts):
         return general
-    key = ("stored parts",)
+    key = ("stored parts", names)
     if key not in general.solvers:
         form = dataclasses.replace(general.formulation, parts=kept)
         general.solvers[key] = assemble(form, general.options, loop=general.loop,
@@ -81,14 +106,40 @@ def reference(ocp: Ocp) -> Ocp:
     return general.solvers[key]
 
 
+def _missing(ocp: Ocp, names: tuple[str, ...]) -> str | None:
+    """Why the OCP cannot hold a solution of the parts ``names`` (one it has not), or None."""
+    ours = [str(n) for n in parts_record(ocp)["parts"]]
+    missing = [n for n in names if n not in ours]
+    if not missing:
+        return None
+    return (f"the stored initial guess holds the part{'s' * (len(missing) > 1)} "
+            f"{', '.join(missing)} this OCP has not (its parts: {', '.join(ours)}); not used")
+
+
+def _other_variables(ref: Ocp, stored: dict[str, np.ndarray]) -> str | None:
+    """Why the file's record (``stored``, :func:`parts_record`) is not that of ``ref``'s
+    parts (the OCP's parts of the file's names), or None."""
+    have, ours = parts_record(ref), [str(n) for n in stored["parts"]]
+    if have["parts"].tolist() != ours:
+        return (f"the stored initial guess has its parts in another order ({', '.join(ours)}) "
+                f"than this OCP ({', '.join(have['parts'].tolist())})")
+    if have["part_variables"].tolist() == stored["part_variables"].tolist():
+        return None
+    mine, theirs = set(have["part_variables"].tolist()), set(stored["part_variables"].tolist())
+    other = sorted({v.split()[0] for v in mine ^ theirs}) or ours
+    return (f"the stored initial guess has other variables of the part"
+            f"{'s' * (len(other) > 1)} {', '.join(other)} than this OCP")
+
+
 def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]:
     """The stored solution if it fits ``ocp``, else ``None``; and why (for the log).
 
-    The file holds a solution of the general (IPOPT) layout of the kite's parts
-    (:data:`STORED_PARTS`). It is checked on that problem (:func:`reference`) and
-    carried over to ``ocp`` (:func:`optimize.solve.result.carry_over`): to another
-    layout (fatrop's stage-wise one), and to more parts, which fill their own variables
-    along it (the winding temperature: its cyclic steady temperature).
+    The file holds a solution of the general (IPOPT) layout of the parts it records
+    (:func:`parts_record`). It is checked on ``ocp``'s parts of those names
+    (:func:`reference`: each of them there, with the recorded variables) and carried
+    over to ``ocp`` (:func:`optimize.solve.result.carry_over`): to another layout
+    (fatrop's stage-wise one), and to more parts, which fill their own variables along it
+    (the winding temperature: its cyclic steady temperature).
 
     Parameters
     ----------
@@ -103,27 +154,44 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
     reason : str
         What was checked, or why the file does not fit.
     """
-    ref = reference(ocp)
-    if ref is not ocp:
-        solution, why = _check(ref, path)
-        if solution is None:
-            return None, why
-        return (carry_over(ref, solution, ocp, GUESS_SCENARIO.parameters),
-                f"{why}; carried over to this OCP's {ocp.layout.kind} layout and parts")
-    return _check(ocp, path)
+    data, why = _read(path)
+    if data is None:
+        return None, why
+    names = tuple(str(n) for n in data["parts"])
+    why = _missing(ocp, names)
+    ref = reference(ocp, names) if why is None else ocp
+    why = why or _other_variables(ref, data)
+    if why is not None:
+        return None, why
+    solution, why = _check(ref, data)
+    if solution is None or ref is ocp:
+        return solution, why
+    return (carry_over(ref, solution, ocp, GUESS_SCENARIO.parameters),
+            f"{why}; carried over to this OCP's {ocp.layout.kind} layout and parts")
 
 
-def _check(ocp: Ocp, path: str | Path) -> tuple[Solution | None, str]:
-    """:func:`load` on the OCP of the file's own layout and parts."""
+def _read(path: str | Path) -> tuple[dict | None, str]:
+    """The file's arrays and scalars by name, or None and why."""
     path = Path(path)
     if not path.is_file():
         return None, f"no stored initial guess at {path}"
     try:
         with np.load(path) as f:
             data = {k: f[k] for k in (*ARRAYS, "n_intervals", "degree", "scenario")}
-            stored_system = str(f["system_sha256"]) if "system_sha256" in f.files else ""
+            data["system_sha256"] = str(f["system_sha256"]) if "system_sha256" in f.files else ""
+            record = {k: f[k] for k in ("parts", "part_variables") if k in f.files}
     except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
         return None, f"cannot read the stored initial guess {path}: {exc}"
+    if len(record) < 2:
+        return None, (f"the stored initial guess {path} does not record its parts (written "
+                      "before it did): python -m optimize.solve.initial_guess --record-parts "
+                      "kite,drive adds the record")
+    return {**data, **record}, ""
+
+
+def _check(ocp: Ocp, data: dict) -> tuple[Solution | None, str]:
+    """:func:`load` on the OCP of the file's own layout and parts."""
+    stored_system = data["system_sha256"]
     system = getattr(ocp.system, "sha256", None)
     if system is not None and system != stored_system:
         return None, (f"the stored initial guess is for another system (sha256 "
@@ -151,16 +219,47 @@ def _check(ocp: Ocp, path: str | Path) -> tuple[Solution | None, str]:
     return solution, f"stored initial guess {data['scenario']} fits (deviation {dev:.1e})"
 
 
+def record_parts(path: str | Path, ocp: Ocp, names: tuple[str, ...]) -> tuple[bool, str]:
+    """Add the record of ``ocp``'s parts ``names`` (:func:`parts_record`) to a guess file
+    written before the files recorded their parts, once the file fits the OCP of those
+    parts (:func:`reference`); its arrays are kept as they are. Whether it was written,
+    and what was checked or why not."""
+    try:
+        with np.load(path) as f:
+            old = {k: f[k] for k in f.files}
+    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        return False, f"cannot read the stored initial guess {path}: {exc}"
+    why = _missing(ocp, names)
+    if why is not None:
+        return False, why
+    ref = reference(ocp, names)
+    data = {**old, "system_sha256": str(old.get("system_sha256", ""))}
+    solution, why = _check(ref, data)
+    if solution is None:
+        return False, why
+    with atomic_path(path) as tmp, tmp.open("wb") as fh:
+        np.savez_compressed(fh, **{**old, **parts_record(ref)})
+    return True, why
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Solve :data:`GUESS_SCENARIO` by the homotopy and write the guess file."""
+    """Solve :data:`GUESS_SCENARIO` by the homotopy and write the guess file (or, with
+    ``--record-parts``, add the parts record to the file written before it had one)."""
     ap = argparse.ArgumentParser(description=main.__doc__)
     ap.add_argument("--out", type=Path, default=GUESS_PATH)
+    ap.add_argument("--record-parts", metavar="NAMES",
+                    help="comma-separated parts the file at --out holds (kite,drive): "
+                         "check it on their OCP and add their record, solving nothing")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     system, model = load_system(), paper_model()
     rating = drive_in_force(system, model=model).rating
     ocp = build_ocp(kite_dae(*system.model_params()), model,
                     system.ocp_options(OcpOptions(), rating), system=system)
+    if args.record_parts:
+        done, why = record_parts(args.out, ocp, tuple(args.record_parts.split(",")))
+        (log.info if done else log.error)("%s: %s", args.out, why)
+        return 0 if done else 1
     result = cold_start(ocp, GUESS_SCENARIO)
     if not result.success:
         log.error("%s: %s, no guess written", GUESS_SCENARIO.name, result.status)
@@ -170,7 +269,6 @@ def main(argv: list[str] | None = None) -> int:
     log.info("wrote %s (%s: P_elec %.1f W, P_mech %.1f W, %d iterations)", out,
              GUESS_SCENARIO.name, result.avg_p_elec_w, result.avg_p_mech_w, result.iterations)
     return 0
-
 
 if __name__ == "__main__":
     raise SystemExit(main())

@@ -3,26 +3,20 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from optimize.model.thermal import STATE as THERMAL_STATE
 from optimize.problem.ocp import Ocp
-from optimize.problem.part import near
+from optimize.problem.part import FRAME_COLUMNS, near
 from optimize.problem.scenario import Scenario
 from optimize.problem.start import KEYS, fill
 from optimize.solve.backend import RawSolve
 
 #: the layout's indices of each start array (:data:`optimize.problem.start.KEYS`)
 LAYOUT = {"x": "i_x", "u": "i_u", "z": "i_z", "fict": "i_f"}
-#: the trajectory columns that are not states/controls/algebraic variables (each unit from
-#: its name's suffix, :func:`kernel.units.unit_of`; ``interval`` and ``weight`` have none)
-OUTPUT_COLUMNS = ("time_s", "interval", "weight", "speed_rpm", "torque_nm", "tether_torque_nm",
-                  "tension_n", "p_mech_w", "p_elec_w", "altitude_m", "airspeed_m_s", "alpha_deg",
-                  "beta_deg", "wind_m_s", "line_angle_deg", "c_m2", "cdot_m2_s")
 
 
 @dataclass(frozen=True)
@@ -68,9 +62,11 @@ class OcpResult:
     max_violation : float
         Largest scaled violation of any constraint [-].
     trajectory : pandas.DataFrame
-        One row per Radau point (``time_s`` in ``(0, T]``): states, controls,
-        algebraic variables and outputs (see ``OUTPUT_COLUMNS``); ``weight`` are
-        the quadrature weights, so ``(weight * p).sum()`` is the cycle average.
+        One row per Radau point (``time_s`` in ``(0, T]``): the columns of
+        :func:`optimize.problem.part.trajectory_columns` of the OCP's parts (time,
+        interval, weight, states, controls, algebraic variables, the parts' outputs);
+        ``weight`` are the quadrature weights, so ``(weight * p).sum()`` is the cycle
+        average.
     warm : Solution
         Primal/dual vectors to warm-start the next solve.
     stages : tuple of dict
@@ -84,6 +80,9 @@ class OcpResult:
         ``envelope_limit``, ``p_elec_limit``.
     slack_fraction : float
         Fraction of the cycle time with zero tether tension [-] (:func:`slack_fraction`).
+    figures : dict of float
+        The parts' own figures of the cycle (:func:`part_figures`: the winding's peak
+        temperature [degC] and its margin [K] with the thermal part), by name.
     start : str
         How the final solve was started: ``"warm start"`` (from a neighbouring
         solution), ``"stored guess"`` (:mod:`optimize.solve.initial_guess`) or
@@ -107,13 +106,15 @@ class OcpResult:
     start: str = "warm start"
     active_bounds: tuple[str, ...] = ()
     slack_fraction: float = 0.0
+    figures: Mapping[str, float] = field(default_factory=dict)
 
 
 def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray,
                      parameters: Mapping[str, float] | float | None) -> pd.DataFrame:
     """Trajectory at every Radau point of a scaled decision vector: time, interval,
     quadrature weight, the model's states, controls and algebraic variables by name, and
-    the formulation's outputs (``trajectory_outputs``)."""
+    the parts' outputs (``trajectory_outputs``): the columns of
+    :func:`optimize.problem.part.trajectory_columns` of the OCP's parts, in that order."""
     sol = ocp.unpack(w_scaled)
     n, d = ocp.n_intervals, ocp.coll.degree
     x = sol["x"][:, 1:]  # states at the Radau points
@@ -122,8 +123,8 @@ def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray,
     interval = np.repeat(np.arange(n), d)
     h = sol["period_s"] / n
     tau = np.tile(ocp.coll.tau[1:], n)
-    frame = {"time_s": h * (interval + tau), "interval": interval,
-             "weight": np.tile(ocp.coll.quad, n) / n}
+    frame = dict(zip(FRAME_COLUMNS, (h * (interval + tau), interval,
+                                     np.tile(ocp.coll.quad, n) / n), strict=True))
     dae = ocp.dae
     for names, arr in ((dae.states.names, x), (dae.controls.names, u),
                        (dae.algebraic.names, z)):
@@ -239,6 +240,15 @@ def active_bounds(ocp: Ocp, traj: pd.DataFrame, period_s: float, drive_limits: b
     return tuple(out)
 
 
+def part_figures(ocp: Ocp, traj: pd.DataFrame) -> dict[str, float]:
+    """Each part's own figures of a solved cycle (:meth:`optimize.problem.part.Part.figures`)
+    from its :func:`trajectory_frame`, by name."""
+    out: dict[str, float] = {}
+    for part in getattr(ocp.formulation, "parts", ()):
+        out.update({name: float(value) for name, value in part.figures(traj).items()})
+    return out
+
+
 def slack_fraction(ocp: Ocp, traj: pd.DataFrame) -> float:
     """Fraction of the cycle time [-] with tension below :data:`SLACK_TENSION_FRACTION`
     of the kite's weight (quadrature weights of the Radau points)."""
@@ -255,7 +265,6 @@ CYCLE_FIGURES: dict[str, tuple[tuple[str, ...], Any]] = {
     "peak_torque_nm": (("torque_nm",), lambda t: np.max(np.abs(t))),
     "rms_torque_nm": (("weight", "torque_nm"), lambda w, t: np.sqrt(np.sum(w * t**2))),
     "peak_reel_acceleration_m_s2": (("ddl_m_s2",), lambda a: np.max(np.abs(a))),
-    "peak_winding_temperature_c": ((THERMAL_STATE,), np.max),
     "p_elec_max_w": (("p_elec_w",), np.max),
     "p_elec_min_w": (("p_elec_w",), np.min),
     "tether_length_min_m": (("l_m",), np.min),
@@ -271,10 +280,10 @@ def cycle_metrics(trajectory: Any) -> dict[str, float | None]:
     ``trajectory`` (:attr:`OcpResult.trajectory`, or a table with some of its columns,
     ``weight`` the quadrature weights summing to 1 over the cycle): the cycle averages
     of the electrical and shaft power [W], the peak |speed| [rpm], |torque| [N m] and
-    |reel acceleration| [m/s^2], the RMS torque [N m], the peak winding temperature
-    [degC], the largest and smallest electrical power [W], the tether length's [m] and
-    the altitude's [m] range (:data:`CYCLE_FIGURES`); None for a figure whose columns the
-    trajectory has not (the winding temperature of an OCP without it).
+    |reel acceleration| [m/s^2], the RMS torque [N m], the largest and smallest
+    electrical power [W], the tether length's [m] and the altitude's [m] range
+    (:data:`CYCLE_FIGURES`); None for a figure whose columns the trajectory has not. A
+    part's own figures are the part's (:func:`part_figures`).
     """
     out: dict[str, float | None] = {}
     for name, (columns, how) in CYCLE_FIGURES.items():
@@ -323,4 +332,5 @@ def make_result(
         start=start,
         active_bounds=active_bounds(ocp, traj, period_s, scenario.drive_limits, bounds),
         slack_fraction=slack_fraction(ocp, traj),
+        figures=part_figures(ocp, traj),
     )

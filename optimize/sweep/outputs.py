@@ -13,17 +13,16 @@ from typing import Any
 import pandas as pd
 
 from fitting.domain import domain_excursion
-from optimize.model import kite_model as km
 from optimize.service.local_optima import better_margin_w
 from optimize.service.outcome import ScenarioOutcome
-from optimize.solve.result import OUTPUT_COLUMNS, cycle_metrics
+from optimize.solve.result import cycle_metrics
 from optimize.sweep_folder import SUMMARY_COLUMNS
 
 #: the metric columns (NaN for a failed scenario)
 _METRICS = list(SUMMARY_COLUMNS)[list(SUMMARY_COLUMNS).index("period_s") :]
 #: the summary's columns of :func:`optimize.solve.result.cycle_metrics`
 TRAJECTORY_METRICS = ("peak_speed_rpm", "peak_torque_nm", "peak_reel_acceleration_m_s2",
-                      "peak_winding_temperature_c", "p_elec_max_w", "p_elec_min_w",
+                      "p_elec_max_w", "p_elec_min_w",
                       "tether_length_min_m", "tether_length_max_m", "altitude_min_m",
                       "altitude_max_m")
 #: active bounds the constrained scenarios mean to bind
@@ -32,19 +31,11 @@ DRIVE_BOUNDS = ("speed_limit", "torque_limit", "envelope_limit", "p_elec_limit",
 #: the kite's and the winch's own limits, in force in every kind
 KITE_BOUNDS = ("airspeed_min", "airspeed_max", "tether_force_limit", "reel_acceleration_limit",
                "reel_jerk_limit", "reel_out_speed_limit", "reel_in_speed_limit",
-               "body_rate_limit", "tension_min")
+               "body_rate_limit", "tension_min", "surface_limit")
 #: bounds an optimum may sit on as physics: the drive and kite limits and the ground (a
 #: safety limit); the period and tether-length ranges are search ranges, and an optimum
 #: on one of them is the range's, not the system's
 MEANT_BOUNDS = (*DRIVE_BOUNDS, *KITE_BOUNDS, "ground_clearance")
-
-
-#: every column ``trajectories.parquet`` gets (:func:`optimize.solve.result.trajectory_frame`
-#: with the scenario's name, kind and wind), also of a sweep in which nothing converged (the
-#: readers' required subset: :data:`optimize.sweep_folder.TRAJECTORY_COLUMNS`)
-TRAJECTORY_COLUMNS_ALL = ("scenario", "kind", "wind_speed_m_s", "time_s", "interval", "weight",
-                      *km.STATES.names, *km.CONTROLS.names, *km.ALGEBRAIC.names,
-                      *(c for c in OUTPUT_COLUMNS if c not in ("time_s", "interval", "weight")))
 
 
 def _trajectory_metrics(traj: pd.DataFrame) -> dict[str, float]:
@@ -128,6 +119,7 @@ def summary_row(o: ScenarioOutcome, domain: dict | None = None,
             max_violation=float(getattr(r, "max_violation", math.nan)),
         )
         row.update(_trajectory_metrics(r.trajectory))
+        row.update(getattr(r, "figures", {}))
         row.update(_excursion_metrics(r.trajectory, domain, scales))
         active = tuple(getattr(r, "active_bounds", ()))
         row.update(
@@ -141,9 +133,10 @@ def summary_row(o: ScenarioOutcome, domain: dict | None = None,
 
 
 def summary_frame(outcomes: Iterable[ScenarioOutcome], domain: dict | None = None,
-                  scales: tuple[float, float] = (1.0, 1.0),
-                  winding_limit_c: float | None = None) -> pd.DataFrame:
-    """The summary table: one row per scenario, columns :data:`SUMMARY_COLUMNS`.
+                  scales: tuple[float, float] = (1.0, 1.0)) -> pd.DataFrame:
+    """The summary table: one row per scenario, columns :data:`SUMMARY_COLUMNS`, then the
+    figures of a part that table does not name (:meth:`optimize.problem.part.Part.figures`;
+    NaN where a scenario failed).
 
     Parameters
     ----------
@@ -152,14 +145,10 @@ def summary_frame(outcomes: Iterable[ScenarioOutcome], domain: dict | None = Non
         The drive model's validity domain (``PowerModel.domain``).
     scales : (float, float)
         Speed [rpm] and torque [N m] of distance 1 for ``outside_worst_distance``.
-    winding_limit_c : float or None
-        The drive's winding limit [degC] when the OCP carries the winding temperature
-        (the ``thermal_margin_k`` column).
     """
-    frame = pd.DataFrame([summary_row(o, domain, scales) for o in outcomes],
-                         columns=list(SUMMARY_COLUMNS))
-    if winding_limit_c is not None:
-        frame["thermal_margin_k"] = winding_limit_c - frame["peak_winding_temperature_c"]
+    rows = [summary_row(o, domain, scales) for o in outcomes]
+    extra = [c for c in dict.fromkeys(k for r in rows for k in r) if c not in SUMMARY_COLUMNS]
+    frame = pd.DataFrame(rows, columns=[*SUMMARY_COLUMNS, *extra])
     return frame.astype(
         {
             "success": bool,
@@ -177,19 +166,22 @@ def summary_frame(outcomes: Iterable[ScenarioOutcome], domain: dict | None = Non
     )
 
 
-def trajectories_frame(outcomes: Iterable[ScenarioOutcome]) -> pd.DataFrame:
-    """Every collocation point of every converged scenario, with ``scenario``, ``kind``, wind."""
+def trajectories_frame(outcomes: Iterable[ScenarioOutcome],
+                       columns: Iterable[str]) -> pd.DataFrame:
+    """Every collocation point of every converged scenario, with ``scenario``, ``kind`` and
+    the wind speed before the trajectory's ``columns``
+    (:func:`optimize.problem.part.trajectory_columns` of the OCP's parts): every one of
+    them also when nothing converged (no row; a failed sweep is data)."""
+    head_columns = ("scenario", "kind", "wind_speed_m_s")
     parts = []
     for o in outcomes:
         if o.success:
             traj = o.result.trajectory.reset_index(drop=True)
-            head = pd.DataFrame(
-                {"scenario": o.name, "kind": o.kind, "wind_speed_m_s": o.wind_speed_m_s},
-                index=traj.index,
-            )
+            head = pd.DataFrame(dict(zip(head_columns, (o.name, o.kind, o.wind_speed_m_s),
+                                         strict=True)), index=traj.index)
             parts.append(pd.concat([head, traj], axis=1))
-    if not parts:  # no converged scenario: no row, every column (a failed sweep is data)
+    if not parts:
         types = {"scenario": str, "kind": str, "interval": "int64"}
         return pd.DataFrame({c: pd.Series(dtype=types.get(c, float))
-                             for c in TRAJECTORY_COLUMNS_ALL})
+                             for c in (*head_columns, *columns)})
     return pd.concat(parts, ignore_index=True)

@@ -219,14 +219,14 @@ def mesh_check(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult) ->
 def _interval_integrator(ocp: Ocp, period_s: float) -> ca.Function:
     x = ca.SX.sym("x", ocp.dae.states.size)
     u = ca.SX.sym("u", ocp.dae.controls.size)
-    wind = ca.SX.sym("wind")
-    ode = ocp.dae.explicit_ode(x, u, wind)
+    wind_speed_m_s = ca.SX.sym("wind")
+    ode = ocp.dae.explicit_ode(x, u, wind_speed_m_s)
     h = period_s / ocp.n_intervals
     tgrid = [float(h * t) for t in ocp.coll.tau[1:]]
     return ca.integrator(
         "interval",
         "cvodes",
-        {"x": x, "p": ca.vertcat(u, wind), "ode": ode},
+        {"x": x, "p": ca.vertcat(u, wind_speed_m_s), "ode": ode},
         0.0,
         tgrid,
         {"abstol": 1e-10, "reltol": 1e-10, "max_num_steps": 100000},
@@ -247,7 +247,7 @@ def simulation_check(ocp: Ocp, result: OcpResult) -> SimulationCheck:
     sol = ocp.unpack(result.warm.w)
     x_c, u = np.asarray(sol["x"]), np.asarray(sol["u"])
     n, d = ocp.n_intervals, ocp.coll.degree
-    wind = result.scenario.wind_speed_m_s
+    wind_speed_m_s = result.scenario.wind_speed_m_s
     step = _interval_integrator(ocp, sol["period_s"])
     scale = ocp.scales.state[:, None]
     states = ocp.dae.states
@@ -257,7 +257,7 @@ def simulation_check(ocp: Ocp, result: OcpResult) -> SimulationCheck:
     p_open = []
     for k in range(n):
         coll = x_c[:, k * d + 1 : (k + 1) * d + 1]
-        par = np.append(u[:, k], wind)
+        par = np.append(u[:, k], wind_speed_m_s)
         local = np.asarray(step(x0=x_c[:, k * d], p=par)["xf"])
         defect_pos = max(
             defect_pos, float(np.max(np.linalg.norm(local[pos] - coll[pos], axis=0)))
@@ -269,8 +269,8 @@ def simulation_check(ocp: Ocp, result: OcpResult) -> SimulationCheck:
         p_open.append(run)
     x_sim = np.hstack([x_c[:, :1], *p_open])
     u_pts = np.hstack([u[:, :1], np.repeat(u, d, axis=1)])  # control at every grid point
-    z_sim = np.asarray(ocp.dae.solve_z.map(x_sim.shape[1])(x_sim, u_pts, wind))
-    p_mech = ocp.formulation.trajectory_outputs(x_sim, u_pts, z_sim, wind)["p_mech_w"]
+    z_sim = np.asarray(ocp.dae.solve_z.map(x_sim.shape[1])(x_sim, u_pts, wind_speed_m_s))
+    p_mech = ocp.formulation.trajectory_outputs(x_sim, u_pts, z_sim, wind_speed_m_s)["p_mech_w"]
     t = grid_times(ocp, sol["period_s"])
     avg_p_mech = float(np.trapezoid(p_mech, t) / sol["period_s"])
     per = (x_open - x_c[:, 0])[per_idx] / ocp.scales.state[per_idx]
@@ -314,7 +314,7 @@ def run_mesh_task(task: tuple, progress: Any = None) -> MeshCheck:
 
 
 def run_trust_checks(
-    problem: Any, outcomes: Sequence[Any], winds: tuple[float, ...], handle: Any,
+    problem: Any, outcomes: Sequence[Any], wind_speeds_m_s: tuple[float, ...], handle: Any,
     show_progress: bool = True,
 ) -> dict:
     """Mesh check of each kind's middle-wind scenario (on the executor) and simulation
@@ -325,7 +325,7 @@ def run_trust_checks(
     problem : optimize.service.builder.Problem
         The sweep's problem.
     outcomes : sequence of optimize.service.outcome.ScenarioOutcome
-    winds : tuple of float
+    wind_speeds_m_s : tuple of float
         The wind grid [m/s]; the mesh check uses its middle speed.
     handle : optimize.service.executors.ExecutorHandle
     show_progress : bool
@@ -348,7 +348,7 @@ def run_trust_checks(
         problem_key(fine_opts, problem.drive_model, problem.system),
         problem.system,
     )
-    middle = winds[middle_index(winds)]
+    middle = wind_speeds_m_s[middle_index(wind_speeds_m_s)]
     picks = [o for o in outcomes if o.success and o.wind_speed_m_s == middle]
     bar = tqdm(total=len(picks), desc="mesh check", unit="solve", disable=not show_progress)
     futures = run_tasks(

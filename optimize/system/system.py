@@ -145,7 +145,11 @@ class WindSection:
 
 @dataclass(frozen=True)
 class BoundsSection:
-    """``[bounds]``: the OCP's path and parameter bounds."""
+    """``[bounds]``: the OCP's path and parameter bounds.
+
+    ``surface_max_deg`` bounds every control surface; ``aileron_max_deg``,
+    ``elevator_max_deg`` and ``rudder_max_deg`` (optional) bound one surface each instead.
+    """
 
     tether_length_min_m: float
     tether_length_max_m: float
@@ -159,6 +163,15 @@ class BoundsSection:
     max_airspeed_m_s: float | None = None
     max_body_rate_deg_s: float | None = None  # each body rate
     min_tension_n: float | None = None
+    aileron_max_deg: float | None = None
+    elevator_max_deg: float | None = None
+    rudder_max_deg: float | None = None
+
+    def surface_bounds_deg(self) -> tuple[float, float, float]:
+        """Deflection bound of each surface [deg], in the order of
+        :data:`optimize.model.aero.SURFACES`."""
+        own = (self.aileron_max_deg, self.elevator_max_deg, self.rudder_max_deg)
+        return tuple(self.surface_max_deg if b is None else b for b in own)
 
 
 @dataclass(frozen=True)
@@ -319,7 +332,7 @@ class System:
             alpha_bounds_deg=(a.alpha_min_deg, a.alpha_max_deg),
             beta_bounds_deg=(a.beta_min_deg, a.beta_max_deg),
             max_line_angle_deg=b.max_line_angle_deg,
-            surface_bound_deg=b.surface_max_deg,
+            surface_bounds_deg=b.surface_bounds_deg(),
             surface_rate_bound_rad_s=b.surface_rate_max_rad_s,
             max_reel_acceleration_m_s2=self.winch.max_reel_acceleration_m_s2,
             max_reel_jerk_m_s3=self.winch.max_reel_jerk_m_s3,

@@ -22,7 +22,7 @@ import numpy as np
 from kernel.drive_envelope import envelope_problem
 from kernel.errors import InputError
 from kernel.files import parse_toml, read_text
-from optimize.model.aero import force_coefficients
+from optimize.model.aero import SURFACES, force_coefficients
 from optimize.model.params import AeroCoefficients
 from optimize.system.plausibility import check_system
 from optimize.system.system import (
@@ -321,6 +321,7 @@ def _bounds(r: _Reader) -> BoundsSection:
         r.number("surface_rate_max_rad_s", 0), r.number("max_airspeed_m_s", 0, optional=True),
         r.number("max_body_rate_deg_s", 0, optional=True),
         r.number("min_tension_n", 0, strict=False, optional=True),
+        *(r.number(f"{s}_max_deg", 0, optional=True) for s in SURFACES),
     )
     if bounds.max_airspeed_m_s is not None and bounds.max_airspeed_m_s <= bounds.min_airspeed_m_s:
         raise r.error("max_airspeed_m_s", "not above min_airspeed_m_s",
@@ -330,6 +331,10 @@ def _bounds(r: _Reader) -> BoundsSection:
                       "tether_length_min_m < tether_length_max_m")
     if bounds.period_max_s <= bounds.period_min_s:
         raise r.error("period_max_s", "not above period_min_s", "period_min_s < period_max_s")
+    for name, value in zip(SURFACES, bounds.surface_bounds_deg(), strict=True):
+        if value >= 90:
+            key = f"{name}_max_deg" if getattr(bounds, f"{name}_max_deg") else "surface_max_deg"
+            raise r.error(key, f"{value:g}", "an angle < 90 deg")
     if bounds.max_line_angle_deg >= 90:
         raise r.error("max_line_angle_deg", f"{bounds.max_line_angle_deg:g}", "an angle < 90 deg")
     r.done()
