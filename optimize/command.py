@@ -31,9 +31,11 @@ from optimize.service.plan import plan_graph
 from optimize.sweep import outputs
 from optimize.sweep.trust import run_trust_checks
 from optimize.sweep_folder import (
+    FINER_MESH_HEAD,
     MARKERS,
     bound_lines,
     domain_lines,
+    remesh_lines,
     resolve_lines_of,
     write_sweep_folder,
 )
@@ -344,6 +346,9 @@ def format_summary(summary: Any) -> str:
     if rejected:
         lines += ["", "converged, but failed the result check (physically impossible or not a "
                   "solution of the dynamics; counted as failed):", *rejected]
+    finer = remesh_lines(summary)
+    if finer:
+        lines += ["", f"{FINER_MESH_HEAD}:", *finer]
     flagged = bound_lines(summary)
     if flagged:
         lines += ["", "optima on a bound or with a slack tether:", *flagged]

@@ -66,6 +66,9 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "depth": "solves before this one along its starts: 0 for a cold start or the stored "
              "guess, else one more than its warm_source's at the time",
     "chain": "the task that solved it: the index of its step in the start graph",
+    "n_intervals": "collocation intervals of the mesh this row's result is on: the sweep's "
+    "(manifest) unless the last retry solved it on a finer one (warm_source says so); 0 "
+    "when no solve returned a result",
     "resolved_from": "neighbouring scenarios of the same kind this one was solved again from, "
     "because its average power or period sat off the kind's smooth curve (comma-separated; "
     "'' when it did not)",
@@ -238,6 +241,21 @@ def domain_excursions(summary: pd.DataFrame) -> pd.DataFrame | None:
     if ok.empty or frac.isna().all():
         return None
     return ok[frac > 0]
+
+
+#: what the scenarios of :func:`remesh_lines` are, in words (the log's and the report's)
+FINER_MESH_HEAD = ("solved on a finer mesh (the sweep's mesh is too coarse for their cycle: the "
+                   "result check rejected it there; each stands on its own mesh)")
+
+
+def remesh_lines(summary: pd.DataFrame) -> list[str]:
+    """One line per scenario whose optimum stands on a finer mesh than the sweep's (the
+    last retry, :func:`optimize.service.retry.retry_on_finer_mesh`); none for a summary
+    written before ``n_intervals`` existed."""
+    if "n_intervals" not in summary.columns:
+        return []
+    return [f"{r.scenario}: on {r.n_intervals} intervals" for r in summary.itertuples(index=False)
+            if r.success and r.warm_source == f"{r.scenario} on {r.n_intervals} intervals"]
 
 
 def on_bounds(summary: pd.DataFrame) -> pd.DataFrame:

@@ -18,6 +18,7 @@ from kernel.errors import InputError
 from optimize.door import KINDS, LABELS, envelope_curve
 from optimize.sweep_folder import (
     CLAIMS_FILE,
+    FINER_MESH_HEAD,
     MANIFEST_FILE,
     SUMMARY_FILE,
     TRAJECTORIES_FILE,
@@ -28,6 +29,7 @@ from optimize.sweep_folder import (
     read_manifest,
     read_summary,
     read_trajectories,
+    remesh_lines,
 )
 from reports import cycle_figures
 from reports.failed import failed_rows, failure_text
@@ -224,7 +226,9 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
         ``claims``, ``run``, ``cut_in``, ``trust`` (:func:`reports.trust_checks.trust_checks`),
         ``manifest``, ``missing``, ``bounds`` (:func:`bound_rows`), ``system`` (name, hash
         and file text from the manifest, or None), ``kite_limits``
-        (:func:`kite_limits_line`), ``local_optima`` (the sweep's re-solves, one line each).
+        (:func:`kite_limits_line`), ``local_optima`` (the sweep's re-solves, one line each),
+        ``finer_mesh`` (scenarios solved on a finer mesh than the sweep's,
+        :func:`optimize.sweep_folder.remesh_lines`) and ``finer_mesh_head`` (what they are).
     """
     start = len(log.missing)
     optimize = Path(optimize)
@@ -236,6 +240,7 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
     out.update({"manifest": manifest, "table_ii": None, "n_failed": 0, "n_scenarios": 0,
                 "scenarios": None, "fig8a": None, "fig8b": None, "cycles": None,
                 "fig3": None, "notes": {"fig3": None}, "bounds": [], "failed": [],
+                "finer_mesh": [], "finer_mesh_head": FINER_MESH_HEAD,
                 "domain": None,
                 "claims": claims_rows(claims) if claims is not None else None})
     if summary is not None and len(summary):
@@ -243,7 +248,8 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
         out.update({"table_ii": table_ii(s), "n_failed": int((~s["ok"]).sum()),
                     "failed": failed_rows(summary),
                     "n_scenarios": len(s), "scenarios": frame_table(summary),
-                    "bounds": bound_rows(summary), "domain": domain_rows(summary)})
+                    "bounds": bound_rows(summary), "domain": domain_rows(summary),
+                    "finer_mesh": remesh_lines(summary)})
         out["fig8a"] = cycle_figures.power_vs_wind_figure(
             s, "avg_p_elec_w", "fig8a", "Average generated ELECTRICAL power (Fig. 8a)")
         out["fig8b"] = cycle_figures.power_vs_wind_figure(

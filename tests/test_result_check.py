@@ -62,8 +62,9 @@ def test_an_optimum_above_the_power_bound_is_rejected(coarse_ocp, coarse_elec_li
 
 
 def test_two_interval_degree_one_optimum_is_failed_and_reported(tmp_path, capsys):
-    """The case that reported 2947 W generated at 1 m/s: failed by the result check, the
-    files written (every trajectory column, no row), and the report lists its status."""
+    """The case that reported 2947 W generated at 1 m/s: failed by the result check (also
+    when solved again on 4 and 8 intervals, the last retry), the files written (every
+    trajectory column, no row), and the report lists its status."""
     out = tmp_path / "opt"
     code = main(["optimize", "--wind-grid", "1", "--scenarios", "elec-lim", "--intervals", "2",
                  "--degree", "1", "--no-claims", "--workers", "1", "--out", str(out)])
@@ -73,7 +74,8 @@ def test_two_interval_degree_one_optimum_is_failed_and_reported(tmp_path, capsys
     row = summary.iloc[0]
     assert not row["success"] and row["status"] == "Solve_Succeeded"
     assert "Loyd-type bound" in row["result_check"]
-    assert "mesh 2 intervals x degree 1 (below the documented minimum" in row["result_check"]
+    assert "mesh 8 intervals x degree 1 (below the documented minimum" in row["result_check"]
+    assert row["warm_source"] == "elec-lim-1.0 on 8 intervals" and row["n_intervals"] == 8
     assert math.isnan(row["avg_p_elec_w"])
     traj = pd.read_parquet(out / "trajectories.parquet")
     assert len(traj) == 0 and {"time_s", "l_m", "p_elec_w", "speed_rpm"} <= set(traj.columns)

@@ -188,9 +188,9 @@ def test_the_paper_sweep_is_a_graph_two_solves_deep_after_one_seed_per_objective
 
 
 # ----------------------------------------------------------------- running the sweep
-def _sweep(kinds=KINDS, cut_in_kinds=(), backend=None, workers=2):
+def _sweep(kinds=KINDS, cut_in_kinds=(), backend=None, workers=2, problem=PROBLEM):
     """The sweep of ``kinds`` on WINDS on a thread pool (the stand-in solver by default)."""
-    tasks = make_tasks(plan_graph(WINDS, kinds), PROBLEM, cut_in_kinds=cut_in_kinds,
+    tasks = make_tasks(plan_graph(WINDS, kinds), problem, cut_in_kinds=cut_in_kinds,
                        backend=backend or NewtonBackend())
     with ThreadPoolExecutor(workers) as ex:
         return run_sweep(tasks, ExecutorHandle(ex, QueueChannel(), "threads", workers),
@@ -658,6 +658,57 @@ def test_a_failed_result_check_is_retried_from_the_other_starts_before_it_fails(
     assert alone["mech-free-10.0"].warm_source == "mech-free-4.0"
     assert alone["mech-free-10.0"].depth == 3  # from mech-free-4.0, 2 deep
 
+
+
+@dataclass(frozen=True)
+class CoarseMeshBackend(ArtifactBackend):
+    """``bad`` converges to the artifact on every mesh below ``fine_enough`` intervals, as a
+    cycle its mesh is too coarse for fails the re-integration check; its own result
+    solved again on a mesh of ``fine_enough`` or more (``remesh``) is the true optimum.
+    The built OCP is the problem itself, so ``remesh`` sees both meshes."""
+
+    fine_enough: int = 40
+
+    def build(self, problem: Problem) -> Problem:
+        return problem
+
+    def remesh(self, coarse: Problem, fine: Problem, kind: str, w: float, result: Result
+               ) -> Result:
+        assert fine.n_intervals == 2 * coarse.n_intervals
+        r = self._newton(kind, w, result.warm[0])
+        artifact = fine.n_intervals < self.fine_enough
+        return dataclasses.replace(r, warm=(r.warm, kind),
+                                   avg_p_elec_w=r.avg_p_elec_w - 1e6 * artifact)
+
+
+def test_an_optimum_the_mesh_is_too_coarse_for_is_solved_on_a_finer_one_before_it_fails():
+    from types import SimpleNamespace
+
+    import pandas as pd
+
+    from optimize.problem.options import Discretization, OcpOptions
+    from optimize.sweep_folder import remesh_lines
+
+    options = OcpOptions(Discretization(n_intervals=10))
+    problem = Problem(None, SimpleNamespace(sha256="stand-in"), options, "stand-in 10")
+    result = _sweep(("mech-free",), backend=CoarseMeshBackend(), problem=problem)
+    bad = {o.name: o for o in result.outcomes}["mech-free-10.0"]
+    # every start of its kind gives the artifact (as in the test above); then its own
+    # optimum on 20 intervals (still the artifact) and on 40 (the true optimum)
+    assert [a.source for a in bad.attempts][-2:] == ["mech-free-10.0 on 20 intervals",
+                                                     "mech-free-10.0 on 40 intervals"]
+    assert [a.verdict.split(":")[0] for a in bad.attempts] == ["failed"] * 6 + ["passed"]
+    assert bad.success and bad.warm_source == "mech-free-10.0 on 40 intervals"
+    truth = SCALE_W * (exact_root(CUT_IN_M_S["mech-free"]) - exact_root(10.0))
+    assert bad.result.avg_p_elec_w == pytest.approx(truth, rel=1e-9)
+    assert all(o.success for o in result.outcomes)
+    frame = pd.DataFrame([{"scenario": o.name, "success": o.success, "n_intervals": 40,
+                           "warm_source": o.warm_source} for o in result.outcomes])
+    assert remesh_lines(frame) == ["mech-free-10.0: on 40 intervals"]  # the log's, the report's
+    # one refinement short of the mesh it needs: failed, every try listed
+    short = _sweep(("mech-free",), backend=CoarseMeshBackend(fine_enough=80), problem=problem)
+    bad = {o.name: o for o in short.outcomes}["mech-free-10.0"]
+    assert not bad.success and len(bad.attempts) == 7 and bad.check.startswith("failed: ")
 
 # ----------------------------------------------------------------- local optima
 @dataclass(frozen=True)

@@ -20,8 +20,9 @@ from optimize.problem.guess import LoopGuess, circular_loop
 from optimize.problem.ocp import build_ocp, grid_times
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
+from optimize.solve.remesh import interpolate_solution
 from optimize.solve.result import Solution
-from optimize.sweep.trust import interpolate_solution, simulation_check
+from optimize.sweep.trust import simulation_check
 
 WIND_M_S = 7.0
 PERIOD_S = 0.4

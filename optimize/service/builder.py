@@ -41,6 +41,11 @@ class Backend(Protocol):
     def cold_start(self, ocp: Any, kind: str, wind_speed_m_s: float) -> SolveResult:
         """Solve one scenario with no neighbouring solution (stored guess or homotopy)."""
 
+    def remesh(self, coarse: Any, fine: Any, kind: str, wind_speed_m_s: float,
+               result: SolveResult) -> SolveResult:
+        """``kind`` at ``wind_speed_m_s`` solved on the ``fine`` mesh from ``result``, a
+        converged solve on ``coarse``."""
+
     def check(self, ocp: Any, result: SolveResult, name: str) -> Any:
         """The result check of a converged ``result`` (``passed``: whether the optimum
         stands; ``verdict()``: the summary's text), or None when the backend has nothing
@@ -83,6 +88,28 @@ class Problem:
         model = DaeSpec(kite_dae) if system is None else system.dae_spec()
         return cls(model, drive_model, options, problem_key(options, drive_model, system),
                    system)
+
+    @property
+    def n_intervals(self) -> int:
+        """Collocation intervals of its mesh."""
+        return self.options.discretization.n_intervals
+
+    def with_intervals(self, n_intervals: int) -> Problem:
+        """The same problem on a mesh of ``n_intervals`` (same degree)."""
+        if n_intervals == self.n_intervals:
+            return self
+        options = self.options.replace(discretization={"n_intervals": n_intervals})
+        return Problem(self.model, self.drive_model, options,
+                       problem_key(options, self.drive_model, self.system), self.system)
+
+    def refined(self) -> Problem | None:
+        """The same problem on twice the collocation intervals (the mesh check's and the
+        last retry's mesh); None when that exceeds
+        :data:`optimize.problem.options.MAX_INTERVALS`."""
+        from optimize.problem.options import MAX_INTERVALS
+
+        n = 2 * self.n_intervals
+        return self.with_intervals(n) if n <= MAX_INTERVALS else None
 
 
 def problem_key(options: Any, drive_model: Any, system: Any) -> str:
@@ -143,6 +170,14 @@ class OcpBackend:
         from optimize.solve.result import solution_of_trajectory
 
         return solution_of_trajectory(ocp, trajectory)
+
+    def remesh(self, coarse: Any, fine: Any, kind: str, wind_speed_m_s: float,
+               result: SolveResult) -> SolveResult:
+        """From ``result`` interpolated onto the finer mesh
+        (:func:`optimize.solve.remesh.solve_interpolated`)."""
+        from optimize.solve.remesh import solve_interpolated
+
+        return solve_interpolated(coarse, fine, self.scenario(kind, wind_speed_m_s), result)
 
     def check(self, ocp: Any, result: SolveResult, name: str) -> Any:
         """The physical check of every converged optimum

@@ -5,23 +5,34 @@ check (:mod:`optimize.analysis.result_check`: e.g. a collocation artifact that g
 more than the wind can give). Once its kind's grid is solved there are starts its own
 solve did not have: :func:`retry_failed` tries, in order, the converged speeds of the same
 kind (nearest first) and the other objective's optimum at the same wind speed (same drive
-limits), and keeps the first that converges and passes; every try is an attempt of the
-scenario, so the summary's ``warm_source`` names the start that succeeded.
+limits), and keeps the first that converges and passes. When none does and the scenario's
+own optimum converged but was rejected, its mesh may be too coarse for the cycle
+(the dynamics re-integrated between the collocation points leave it): that optimum is
+interpolated onto twice the intervals and solved there, then on twice those
+(:func:`retry_on_finer_mesh`); a result that passes stands on that mesh (the summary's
+``n_intervals`` says which) and starts no solve of the sweep's own mesh. Every try is
+an attempt of the scenario, so the summary's ``warm_source`` names the start that
+succeeded.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import time
 from collections.abc import Sequence
 from typing import Any
 
 from optimize.kinds import KINDS
 from optimize.problem.scenario import scenario_name
+from optimize.service.outcome import CRASH, Attempt, ScenarioOutcome, failure_status
 
 #: role of a retry in the progress events (:meth:`optimize.service.solver.Solver.attempt`)
 RETRY = "retry"
 #: converged speeds of the same kind tried per failed scenario (nearest first)
 MAX_SAME_KIND = 2
+#: finer meshes tried, each twice the intervals of the one before (the glider of
+#: tests/test_retry_mesh.py at 14 x 3 passes its result check on 56 intervals)
+MAX_REFINEMENTS = 2
 
 
 def other_starts(solver: Any, kind: str, wind_speed_m_s: float,
@@ -63,3 +74,52 @@ def retry_failed(solver: Any, keys: Sequence[tuple[str, float]]) -> None:
             solver.replace(outcome, source)
             if attempt.success:
                 break
+        if not outcome.success:
+            finer = retry_on_finer_mesh(solver, outcome)
+            if finer is not outcome:
+                solver.replace_remeshed(finer)
+
+
+def retry_on_finer_mesh(solver: Any, outcome: ScenarioOutcome) -> ScenarioOutcome:
+    """``outcome`` with its last result, when it converged (and its result check
+    rejected it), interpolated onto twice the intervals and solved there
+    (:meth:`optimize.service.builder.OcpBackend.remesh`) and checked on that mesh; again
+    from that result on twice those, up to :data:`MAX_REFINEMENTS` meshes, until one
+    passes. Each is an attempt whose source names the scenario and the mesh. ``outcome``
+    itself when its last result did not converge or the backend has no other mesh."""
+    coarse, ocp = solver.problem, None
+    for _ in range(MAX_REFINEMENTS):
+        result = outcome.result
+        if (outcome.success or result is None or not getattr(result, "success", False)
+                or not hasattr(solver.backend, "remesh")):
+            break
+        fine = coarse.refined()
+        if fine is None:
+            break
+        attempt, res, ocp = _remesh_attempt(solver, outcome, ocp or solver.ocp, fine)
+        outcome = dataclasses.replace(outcome, attempts=(*outcome.attempts, attempt),
+                                      result=res if res is not None else result)
+        coarse = fine
+    return outcome
+
+
+def _remesh_attempt(solver: Any, outcome: ScenarioOutcome, coarse_ocp: Any, fine: Any
+                    ) -> tuple[Attempt, Any, Any]:
+    """One solve of ``outcome``'s scenario on the ``fine`` problem from its last result
+    (on ``coarse_ocp``): the attempt, its result (None if it raised) and the fine OCP."""
+    source = f"{outcome.name} on {fine.n_intervals} intervals"
+    solver.tell("start", outcome.kind, outcome.wind_speed_m_s, RETRY, source, "")
+    t0, fine_ocp = time.perf_counter(), None
+    try:
+        fine_ocp = solver.backend.build(fine)
+        res = solver.backend.remesh(coarse_ocp, fine_ocp, outcome.kind,
+                                    outcome.wind_speed_m_s, outcome.result)
+    except Exception as exc:  # noqa: BLE001 - a crash is this attempt's failure, reported
+        attempt, res = Attempt(source, failure_status(CRASH, exc), False, 0,
+                               time.perf_counter() - t0), None
+    else:
+        check = solver.backend.check(fine_ocp, res, outcome.name) if res.success else None
+        attempt = Attempt(source, str(res.status), bool(res.success) and (
+            check is None or check.passed), int(res.iterations), float(res.wall_time_s), check)
+    solver.tell("done", outcome.kind, outcome.wind_speed_m_s, RETRY, source, attempt.status)
+    return attempt, res, fine_ocp

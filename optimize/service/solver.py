@@ -115,7 +115,7 @@ class Solver:
         ocp = self.ocp
         given = isinstance(source, Start)
         name = source.name if given else None if source is None else scenario_name(*source)
-        self._tell("start", kind, wind_speed_m_s, role, name, "")
+        self.tell("start", kind, wind_speed_m_s, role, name, "")
         t0 = time.perf_counter()
         try:
             if source is None:
@@ -133,11 +133,13 @@ class Solver:
             passed = ok and (check is None or check.passed)
             attempt = Attempt(name, str(result.status), passed, int(result.iterations),
                               float(result.wall_time_s), check)
-        self._tell("done", kind, wind_speed_m_s, role, name, attempt.status)
+        self.tell("done", kind, wind_speed_m_s, role, name, attempt.status)
         return attempt, result
 
-    def _tell(self, when: str, kind: str, wind_speed_m_s: float, role: str, source: str | None,
-              status: str) -> None:
+    def tell(self, when: str, kind: str, wind_speed_m_s: float, role: str, source: str | None,
+             status: str) -> None:
+        """Say a solver run starts (``when="start"``) or is done, to the progress
+        channel (see the class docstring)."""
         if self.progress is not None:
             self.progress.put({**self.tag, "attempt": when, "chain": self.chain,
                                "name": scenario_name(kind, wind_speed_m_s), "role": role,
@@ -245,6 +247,19 @@ class Solver:
             if key is not None:
                 store_solve(self.store, key, rec, outcome.result.warm)
             self._warm[k], self._depth[k] = outcome.result.warm, outcome.depth
+        self.records[k] = {**rec, "cached": False}
+
+    def replace_remeshed(self, outcome: ScenarioOutcome) -> None:
+        """Make ``outcome`` (its last attempt solved on a finer mesh,
+        :func:`optimize.service.retry.retry_on_finer_mesh`) its result: its record, and
+        its stored solve without a warm start (another mesh's solution starts no solve
+        of this solver's)."""
+        k = (outcome.kind, outcome.wind_speed_m_s)
+        key = self.records[k]["key"]
+        self.outcomes[k] = outcome
+        rec = self.record(key, outcome, self.records[k]["role"], None)
+        if outcome.success and key is not None:
+            store_solve(self.store, key, rec, None)
         self.records[k] = {**rec, "cached": False}
 
     def record(self, key: str | None, outcome: ScenarioOutcome, role: str,

@@ -104,6 +104,7 @@ def summary_row(o: ScenarioOutcome, domain: dict | None = None,
         "warm_source": o.warm_source,
         "depth": o.depth,
         "chain": o.chain,
+        "n_intervals": int(getattr(getattr(o.result, "warm", None), "n_intervals", 0)),
         **resolve_fields(o),
     }
     row.update(dict.fromkeys(_METRICS, math.nan))
@@ -159,6 +160,7 @@ def summary_frame(outcomes: Iterable[ScenarioOutcome], domain: dict | None = Non
             "attempts": "int64",
             "depth": "int64",
             "chain": "int64",
+            "n_intervals": "int64",
             "resolved_from": str,
             "result_check": str,
             "resolve_gain_w": float,

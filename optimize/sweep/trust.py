@@ -32,11 +32,11 @@ from optimize.analysis.result_check import MAX_DEFECT_SCALED
 from optimize.problem.kite_part import POSITION_STATES
 from optimize.problem.ocp import Ocp, grid_times
 from optimize.problem.scenario import Scenario
-from optimize.service.builder import OcpBackend, Problem, problem_key
+from optimize.service.builder import OcpBackend
 from optimize.service.executors import run_tasks
 from optimize.service.plan import middle_index
-from optimize.solve import backend
-from optimize.solve.result import OcpResult, Solution, make_result
+from optimize.solve.remesh import solve_interpolated
+from optimize.solve.result import OcpResult
 from optimize.solve.solve import solve
 
 
@@ -130,29 +130,6 @@ def _rel(fine: float, coarse: float) -> float:
     return abs(fine - coarse) / abs(coarse) if coarse else math.nan
 
 
-def interpolate_solution(coarse: Ocp, warm: Solution, fine: Ocp) -> np.ndarray:
-    """Scaled decision vector of ``fine`` interpolated from a ``coarse`` solution.
-
-    States and algebraic variables are interpolated linearly in time between
-    the coarse grid points (periodic wrap for the algebraic ones); each fine
-    interval takes the control of the coarse interval that contains its
-    midpoint; fictitious forces are zero.
-    """
-    sol = coarse.unpack(warm.w)
-    period = sol["period_s"]
-    t_c = grid_times(coarse, period)
-    t_f = grid_times(fine, period)
-    x = np.vstack([np.interp(t_f, t_c, row) for row in sol["x"]])
-    t_zc = t_c[1:]
-    t_zf = t_f[1:]
-    z = np.vstack([np.interp(t_zf, t_zc, row, period=period) for row in np.asarray(sol["z"])])
-    n_c, n_f = coarse.n_intervals, fine.n_intervals
-    mid = (np.arange(n_f) + 0.5) / n_f
-    u = np.asarray(sol["u"])[:, np.minimum((mid * n_c).astype(int), n_c - 1)]
-    fict = np.zeros((fine.dae.fictitious.size, fine.layout.n_coll))
-    return fine.pack(x, z, u, fict, period)
-
-
 def mesh_check(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult) -> MeshCheck:
     """Re-solve ``scenario`` on ``fine`` (normally twice the intervals) and compare powers.
 
@@ -172,26 +149,8 @@ def mesh_check(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult) ->
         If the interpolated start fails, a cold start (homotopy) on ``fine``
         is tried; its outcome is reported either way.
     """
-    w0 = interpolate_solution(coarse, result.warm, fine)
-    # the bound multipliers have the layout of w and interpolate the same way; the
-    # constraint multipliers start at zero. Measured at N 20 -> 40 (7 m/s, elec-lim):
-    # 24 iterations, against 50 with all multipliers zero and 274 with cold settings.
-    lam_x0 = interpolate_solution(
-        coarse, dataclasses.replace(result.warm, w=result.warm.lam_x), fine
-    )
-    bounds = fine.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
-    p = fine.params(scenario.parameters, scenario.weights)
-    raw = backend.run(fine, w0, p, bounds, warm=True, lam_x0=lam_x0,
-                      lam_g0=np.zeros(len(bounds[2])))
-    stage = {
-        "stage": "interpolated",
-        "status": raw.status,
-        "success": raw.success,
-        "iterations": raw.iterations,
-        "wall_time_s": raw.wall_time_s,
-    }
+    res = solve_interpolated(coarse, fine, scenario, result)
     route = "interpolated warm start"
-    res = make_result(fine, scenario, raw, p, bounds, [stage])
     if not res.success:
         route = "cold start"
         res = solve(fine, scenario, None)
@@ -339,17 +298,10 @@ def run_trust_checks(
     """
     from tqdm import tqdm
 
-    opts = problem.options
-    fine_opts = opts.replace(discretization={"n_intervals": 2 * opts.discretization.n_intervals})
-    fine = Problem(
-        problem.model,
-        problem.drive_model,
-        fine_opts,
-        problem_key(fine_opts, problem.drive_model, problem.system),
-        problem.system,
-    )
+    fine = problem.refined()
     middle = wind_speeds_m_s[middle_index(wind_speeds_m_s)]
-    picks = [o for o in outcomes if o.success and o.wind_speed_m_s == middle]
+    picks = [o for o in outcomes if o.success and o.wind_speed_m_s == middle
+             and fine is not None and o.result.warm.n_intervals == problem.n_intervals]
     bar = tqdm(total=len(picks), desc="mesh check", unit="solve", disable=not show_progress)
     futures = run_tasks(
         handle.executor,
@@ -394,10 +346,10 @@ def simulation_checks(problem: Any, outcomes: Sequence[Any]) -> tuple[list[dict]
     lines : list of str
         The summary line and one line per scenario that did not pass.
     """
-    ocp = OcpBackend().build(problem)
-    sims = []
+    builder, sims = OcpBackend(), []
     for o in outcomes:
-        if o.success:
+        if o.success:  # on its own mesh (a retry may have refined it)
+            ocp = builder.build(problem.with_intervals(o.result.warm.n_intervals))
             try:
                 s = simulation_check(ocp, o.result)
             except RuntimeError as exc:  # CVODES gives up: CV_TOO_MUCH_WORK, CV_CONV_FAILURE
