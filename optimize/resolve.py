@@ -75,5 +75,5 @@ def resolve(system: Path | str | System | None = None, drive_model: Any = None, 
         drive = drive_in_force(loaded, None if drive_model is None else Path(drive_model),
                                None if fit_default is None else Path(fit_default))
     else:
-        drive = drive_in_force(loaded, model_path, model=drive_model)
+        drive = drive_in_force(loaded, model_path, drive_model=drive_model)
     return Setup(loaded, drive, loaded.ocp_options(options or OcpOptions(), drive.rating))

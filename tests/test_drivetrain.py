@@ -24,8 +24,8 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
-from optimize.solve.homotopy import cold_start
-from optimize.solve.solve import start
+from optimize.solve.starts.cold import start
+from optimize.solve.starts.homotopy import cold_start
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import system_from_dict
@@ -166,7 +166,7 @@ def heavy_cycle():
     model = paper_model()
     options = system.ocp_options(OcpOptions(Discretization(20, 3),
                                             solver=SolverOptions(stored_guess=False)),
-                                 drive_in_force(system, model=model).rating)
+                                 drive_in_force(system, drive_model=model).rating)
     ocp = build_ocp(kite_dae(*system.model_params()), model, options, system=system)
     return system, ocp, cold_start(ocp, Scenario(10.0, "electrical", True))
 
@@ -208,11 +208,11 @@ def test_an_envelope_the_power_model_states_and_the_system_does_not_is_said():
         "nominal_power_w": 8200.0, "max_speed_rpm": 1500.0, "max_torque_nm": 78.0,
         "base_speed_rpm": 1000.0, "source": "test drive.toml"})
     plain = system_from_dict(_system(), "plain.toml")
-    lines = drive_in_force(plain, model=model).lines()
+    lines = drive_in_force(plain, drive_model=model).lines()
     assert any("states a torque-speed envelope (base_speed_rpm)" in line and "not flown" in line
                for line in lines), lines
     own = system_from_dict(_system(drive__base_speed_rpm=1200.0), "own.toml")
-    assert drive_in_force(own, model=model).envelope_note == ""
+    assert drive_in_force(own, drive_model=model).envelope_note == ""
 
 
 def test_a_reel_jerk_limit_holds_and_is_reported_in_every_kind():
@@ -223,7 +223,7 @@ def test_a_reel_jerk_limit_holds_and_is_reported_in_every_kind():
     system = system_from_dict(_system(winch__max_reel_jerk_m_s3=50.0), "jerk.toml")
     assert "reel jerk <= 50 m/s^3 (all kinds)" in system.drivetrain_line()
     model = paper_model()
-    options = system.ocp_options(OcpOptions(), drive_in_force(system, model=model).rating)
+    options = system.ocp_options(OcpOptions(), drive_in_force(system, drive_model=model).rating)
     assert options.limits.max_reel_jerk_m_s3 == 50.0
     res = start(build_ocp(kite_dae(*system.model_params()), model, options),
                 Scenario.of_kind("elec-lim", 7.0))

@@ -22,7 +22,7 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import OcpOptions
 from optimize.problem.scenario import Scenario
-from optimize.solve.solve import start
+from optimize.solve.starts.cold import start
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import load_system, system_from_dict
@@ -140,7 +140,7 @@ def test_reel_speed_body_rate_tension_and_surface_bounds_hold_and_are_reported()
         bounds__max_body_rate_deg_s=120.0, bounds__min_tension_n=250.0,
         bounds__elevator_max_deg=5.0, bounds__rudder_max_deg=12.0), "bounds.toml")
     model = paper_model()
-    options = system.ocp_options(OcpOptions(), drive_in_force(system, model=model).rating)
+    options = system.ocp_options(OcpOptions(), drive_in_force(system, drive_model=model).rating)
     res = start(build_ocp(kite_dae(*system.model_params()), model, options),
                 Scenario.of_kind("elec-lim", 7.0))
     assert res.success, res.status

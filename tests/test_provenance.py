@@ -63,7 +63,7 @@ def test_size_writes_the_header_into_sizing_json_and_run_json(tmp_path):
     system = load_system()
     run = Provenance.start(["drivebench.size"])
     write_sizing(tmp_path / "size", res, site=site, site_note="test", system=system,
-                 drive=drive_in_force(system, model=paper_model()), wind_speeds_m_s=winds,
+                 drive=drive_in_force(system, drive_model=paper_model()), wind_speeds_m_s=winds,
                  adaptive=False, tolerance=0.02, notes=[], provenance=run)
     doc = json.loads((tmp_path / "size" / "sizing.json").read_text(encoding="utf-8"))
     assert check_header(doc, ["drivebench.size"], tmp_path / "size") == run.header()

@@ -25,8 +25,8 @@ SITE = Weibull(2.0, 6.2)
 
 def _candidates(scales):
     system = load_system()
-    return scaled_candidates(paper_model(), drive_in_force(system, model=paper_model()).rating,
-                             scales)
+    rating = drive_in_force(system, drive_model=paper_model()).rating
+    return scaled_candidates(paper_model(), rating, scales)
 
 
 def _records(cands, power_of_scale, winds=(5.0, 9.0)):

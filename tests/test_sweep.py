@@ -246,7 +246,7 @@ def test_cut_in_edge_cases():
 
 @dataclass(frozen=True)
 class StoredGuessResult(Result):
-    start: str = "stored guess"  # as optimize.solve.solve.start marks from the shipped guess
+    start: str = "stored guess"  # as optimize.solve.starts.cold.start marks from the shipped guess
 
 
 class StoredGuessBackend(NewtonBackend):
@@ -571,6 +571,32 @@ def test_a_dead_worker_fails_its_chain_the_same_way_in_a_sweep_and_in_solve_task
     assert [c.status for c in result.cut_ins] == ["too few converged grid speeds"]
     assert [r["wind_speed_m_s"] for r in records] == list(WINDS)
     assert {r["status"] for r in records} == {status} and not any(r["success"] for r in records)
+
+
+def test_a_sweep_in_which_nothing_converged_writes_every_column_of_its_parts(tmp_path):
+    """No row, and the columns of the OCP's parts (time, variables, outputs) with units:
+    the same columns a converged sweep writes, from the parts, not from a solution."""
+    from optimize.command import SweepRequest, run_optimize
+    from optimize.model.kite_model import kite_dae
+    from optimize.paper_model import PAPER_MODEL_PATH, paper_model
+    from optimize.problem.ocp import build_ocp
+    from optimize.problem.part import trajectory_columns
+    from optimize.resolve import resolve
+    from optimize.sweep_folder import field_units
+
+    out = tmp_path / "optimize_out"
+    setup = resolve(drive_model=paper_model(), model_path=PAPER_MODEL_PATH)
+    request = SweepRequest(wind_speeds_m_s=(5.5, 7.0), kinds=("elec-lim",), setup=setup,
+                           model_note="paper model", workers=1, out=out, claims=False)
+    done = run_optimize(request, ["bench", "optimize"], show_progress=False,
+                        backend=DeadWorkerBackend())
+    assert not done.summary["success"].any()
+    units = field_units(out / "trajectories.parquet")
+    ocp = build_ocp(kite_dae(*setup.system.model_params()), paper_model(), setup.options)
+    columns = trajectory_columns(ocp.formulation.parts)
+    assert list(units) == ["scenario", "kind", "wind_speed_m_s", *columns]
+    assert {c: units[c] for c in columns} == columns
+    assert units["speed_rpm"] == "rpm" and units["nu_n_per_m"] == "N/m"
 
 
 @dataclass(frozen=True)

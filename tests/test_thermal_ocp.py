@@ -28,7 +28,8 @@ from optimize.problem.ocp import build_ocp, thermal_line, winding_thermal
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.result import carry_over
-from optimize.solve.solve import solve, start
+from optimize.solve.solve import solve
+from optimize.solve.starts.cold import start
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import load_system
@@ -230,7 +231,7 @@ def test_sizing_by_heat_lists_where_the_winding_limit_binds():
     """candidate_table with the winding limit: the speeds whose cycle reached it, the
     hottest peak, and no RMS column (the RMS row was not in those cycles)."""
     system = load_system()
-    cands = scaled_candidates(_model(), drive_in_force(system, model=_model()).rating,
+    cands = scaled_candidates(_model(), drive_in_force(system, drive_model=_model()).rating,
                               (1.0, 2.0))
     peaks = {("x1", 5.0): 31.0, ("x1", 9.0): LIMIT_C, ("x2", 5.0): 28.0, ("x2", 9.0): 37.5}
     recs = [{"candidate": c.name, "wind_speed_m_s": w, "success": True,

@@ -99,13 +99,13 @@ def _rows(summary: pd.DataFrame, kind: str) -> pd.DataFrame:
     return rows.sort_values("wind_speed_m_s")
 
 
-def _hit(summary: pd.DataFrame, kind: str, wind: float) -> pd.DataFrame:
+def _hit(summary: pd.DataFrame, kind: str, wind_speed_m_s: float) -> pd.DataFrame:
     rows = _rows(summary, kind)
-    return rows[np.isclose(rows["wind_speed_m_s"], wind, rtol=0, atol=1e-6)]
+    return rows[np.isclose(rows["wind_speed_m_s"], wind_speed_m_s, rtol=0, atol=1e-6)]
 
 
-def _value(summary: pd.DataFrame, kind: str, wind: float, column: str) -> float:
-    hit = _hit(summary, kind, wind)
+def _value(summary: pd.DataFrame, kind: str, wind_speed_m_s: float, column: str) -> float:
+    hit = _hit(summary, kind, wind_speed_m_s)
     return float(hit[column].iloc[0]) if len(hit) and column in hit else math.nan
 
 
@@ -135,14 +135,14 @@ def _figure(
                  facts, ours, unit, margin, tol)
 
 
-def _cycle_facts(summary: pd.DataFrame, kind: str, wind: float) -> str:
+def _cycle_facts(summary: pd.DataFrame, kind: str, wind_speed_m_s: float) -> str:
     """Shape of one of our cycles, for the notes: period, tether, altitude, peaks."""
 
     def v(column: str) -> float:
-        return _value(summary, kind, wind, column)
+        return _value(summary, kind, wind_speed_m_s, column)
 
     return (
-        f"our {kind} at {wind:g} m/s: period {v('period_s'):.2f} s, tether "
+        f"our {kind} at {wind_speed_m_s:g} m/s: period {v('period_s'):.2f} s, tether "
         f"{v('tether_length_min_m'):.0f}-{v('tether_length_max_m'):.0f} m, altitude "
         f"{v('altitude_min_m'):.0f}-{v('altitude_max_m'):.0f} m, peak torque "
         f"{v('peak_torque_nm'):.0f} N m, peak speed {v('peak_speed_rpm'):.0f} rpm"
@@ -344,9 +344,9 @@ def _coincidence(
                  float(gap[i]), "W", float(signed[i]), float(tol[i]))
 
 
-def _active_limits(summary: pd.DataFrame, kind: str, wind: float) -> str:
+def _active_limits(summary: pd.DataFrame, kind: str, wind_speed_m_s: float) -> str:
     """The drive limits the solve reported active (its ``active_bounds``), with its peaks."""
-    hit = _hit(summary, kind, wind)
+    hit = _hit(summary, kind, wind_speed_m_s)
     if not len(hit):
         return "unknown (no converged solve)"
     peaks = (f"peaks {float(hit['peak_torque_nm'].iloc[0]):.1f} N m, "

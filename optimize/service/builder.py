@@ -152,7 +152,7 @@ class OcpBackend:
 
     def cold_start(self, ocp: Any, kind: str, wind_speed_m_s: float) -> SolveResult:
         """From the stored initial guess when it fits, else the homotopy."""
-        from optimize.solve.solve import start
+        from optimize.solve.starts.cold import start
 
         return start(ocp, self.scenario(kind, wind_speed_m_s))
 
@@ -174,8 +174,8 @@ class OcpBackend:
     def remesh(self, coarse: Any, fine: Any, kind: str, wind_speed_m_s: float,
                result: SolveResult) -> SolveResult:
         """From ``result`` interpolated onto the finer mesh
-        (:func:`optimize.solve.remesh.solve_interpolated`)."""
-        from optimize.solve.remesh import solve_interpolated
+        (:func:`optimize.solve.starts.remesh.solve_interpolated`)."""
+        from optimize.solve.starts.remesh import solve_interpolated
 
         return solve_interpolated(coarse, fine, self.scenario(kind, wind_speed_m_s), result)
 

@@ -12,10 +12,10 @@ import pandas as pd
 from optimize.problem.ocp import Ocp
 from optimize.problem.part import FRAME_COLUMNS, near
 from optimize.problem.scenario import Scenario
-from optimize.problem.start import KEYS, fill
 from optimize.solve.backend import RawSolve
+from optimize.solve.starts.fill import KEYS, fill
 
-#: the layout's indices of each start array (:data:`optimize.problem.start.KEYS`)
+#: the layout's indices of each start array (:data:`optimize.solve.starts.fill.KEYS`)
 LAYOUT = {"x": "i_x", "u": "i_u", "z": "i_z", "fict": "i_f"}
 
 
@@ -85,7 +85,7 @@ class OcpResult:
         temperature [degC] and its margin [K] with the thermal part), by name.
     start : str
         How the final solve was started: ``"warm start"`` (from a neighbouring
-        solution), ``"stored guess"`` (:mod:`optimize.solve.initial_guess`) or
+        solution), ``"stored guess"`` (:mod:`optimize.solve.starts.stored_guess`) or
         ``"homotopy"``.
     """
 
@@ -171,7 +171,7 @@ def carry_over(src: Ocp, solution: Solution, dst: Ocp,
                parameters: Mapping[str, float] | None = None) -> Solution:
     """A solution of ``src`` in the layout of ``dst``: the same problem in another
     transcription (:func:`optimize.problem.ocp.twin`), or one with more parts, whose
-    variables their parts fill (:func:`optimize.problem.start.fill`, at the model's
+    variables their parts fill (:func:`optimize.solve.starts.fill.fill`, at the model's
     ``parameters`` of the solution, :attr:`optimize.problem.scenario.Scenario.parameters`).
 
     The primal point through the physical variables by name (``dst`` fills its

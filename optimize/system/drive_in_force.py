@@ -152,7 +152,7 @@ def _factor(ratio: float) -> float:
 
 
 def drive_in_force(system: Any, override: Path | None = None, fit_default: Path | None = None,
-                   model: Any = None) -> DriveInForce:
+                   drive_model: Any = None) -> DriveInForce:
     """Resolve the drive a system flies with (see the module docstring).
 
     Parameters
@@ -162,7 +162,7 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
         ``--drive-model``: the losses' file, whatever the system file says.
     fit_default : Path, optional
         ``bench fit``'s output, used when it exists and the file names no losses.
-    model : fitting.power_model.PowerModel, optional
+    drive_model : fitting.power_model.PowerModel, optional
         The losses already loaded (from ``override``; for library callers).
 
     Raises
@@ -174,6 +174,7 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
     from fitting.model_file import load_power_model
     from optimize.model.drivetrain import carry_power_model
 
+    model = drive_model
     if model is not None:
         path, note = Path(override or "<power model>"), "given"
     else:

@@ -13,10 +13,10 @@ the OCP of those parts evaluates the same ``g`` at the stored point to :data:`MA
 The constraints do not depend on the drive model, so the guess serves any fitted model;
 a part the OCP has beyond the file's fills its own variables along it; a part the
 file records and the OCP has not, a changed kite model, scaling, collocation or layout
-makes it stale, and :func:`optimize.solve.solve.start` falls back to the homotopy
+makes it stale, and :func:`optimize.solve.starts.cold.start` falls back to the homotopy
 (saying why). Regenerate the file with::
 
-    .venv/bin/python -m optimize.solve.initial_guess
+    .venv/bin/python -m optimize.solve.starts.stored_guess
 
 A file written before it recorded its parts gets the record, checked on the OCP of the
 parts named, with ``--record-parts kite,drive`` (its arrays unchanged).
@@ -38,16 +38,16 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import Ocp, assemble, build_ocp, twin
 from optimize.problem.options import OcpOptions
 from optimize.problem.scenario import Scenario
-from optimize.problem.start import KEYS
-from optimize.solve.homotopy import cold_start
 from optimize.solve.result import OcpResult, Solution, carry_over
+from optimize.solve.starts.fill import KEYS
+from optimize.solve.starts.homotopy import cold_start
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system_file import load_system
 
 log = logging.getLogger(__name__)
 
 #: the shipped file
-GUESS_PATH = Path(__file__).resolve().parent.parent / "data" / "initial_guess.npz"
+GUESS_PATH = Path(__file__).resolve().parents[2] / "data" / "initial_guess.npz"
 #: the scenario it holds: its solution warm-starts both objectives at 7 m/s
 GUESS_SCENARIO = Scenario(wind_speed_m_s=7.0, objective="electrical", drive_limits=True)
 #: largest deviation of the scaled constraint values at the stored point [-]
@@ -73,17 +73,11 @@ def write(path: str | Path, ocp: Ocp, result: OcpResult, p: np.ndarray) -> Path:
     """Store ``result``'s solution with its parameters ``p``, ``g(w, p)`` and the parts
     of ``ocp`` (:func:`parts_record`; atomic)."""
     warm = result.warm
-    return _save(path, ocp, {"w": warm.w, "lam_x": warm.lam_x, "lam_g": warm.lam_g, "p": p,
-                             "scenario": result.scenario.name})
-
-
-def _save(path: str | Path, ocp: Ocp, data: dict) -> Path:
-    """The file of ``data`` (``w, lam_x, lam_g, p, scenario``) on ``ocp`` (atomic)."""
     with atomic_path(path) as tmp, tmp.open("wb") as fh:
         np.savez_compressed(
-            fh, **{k: data[k] for k in ("w", "lam_x", "lam_g", "p")},
-            g=ocp.constraint_values(data["w"], data["p"]), n_intervals=ocp.n_intervals,
-            degree=ocp.coll.degree, scenario=str(data["scenario"]),
+            fh, w=warm.w, lam_x=warm.lam_x, lam_g=warm.lam_g, p=p,
+            g=ocp.constraint_values(warm.w, p), n_intervals=ocp.n_intervals,
+            degree=ocp.coll.degree, scenario=result.scenario.name,
             system_sha256=getattr(ocp.system, "sha256", ""), **parts_record(ocp),
         )
     return Path(path)
@@ -119,14 +113,15 @@ def _missing(ocp: Ocp, names: tuple[str, ...]) -> str | None:
 def _other_variables(ref: Ocp, stored: dict[str, np.ndarray]) -> str | None:
     """Why the file's record (``stored``, :func:`parts_record`) is not that of ``ref``'s
     parts (the OCP's parts of the file's names), or None."""
-    have, ours = parts_record(ref), [str(n) for n in stored["parts"]]
-    if have["parts"].tolist() != ours:
-        return (f"the stored initial guess has its parts in another order ({', '.join(ours)}) "
-                f"than this OCP ({', '.join(have['parts'].tolist())})")
-    if have["part_variables"].tolist() == stored["part_variables"].tolist():
+    ocp_record, file_parts = parts_record(ref), [str(n) for n in stored["parts"]]
+    if ocp_record["parts"].tolist() != file_parts:
+        return (f"the stored initial guess has its parts in another order "
+                f"({', '.join(file_parts)}) than this OCP "
+                f"({', '.join(ocp_record['parts'].tolist())})")
+    ours, theirs = ocp_record["part_variables"].tolist(), stored["part_variables"].tolist()
+    if ours == theirs:
         return None
-    mine, theirs = set(have["part_variables"].tolist()), set(stored["part_variables"].tolist())
-    other = sorted({v.split()[0] for v in mine ^ theirs}) or ours
+    other = sorted({v.split()[0] for v in set(ours) ^ set(theirs)}) or file_parts
     return (f"the stored initial guess has other variables of the part"
             f"{'s' * (len(other) > 1)} {', '.join(other)} than this OCP")
 
@@ -184,7 +179,7 @@ def _read(path: str | Path) -> tuple[dict | None, str]:
         return None, f"cannot read the stored initial guess {path}: {exc}"
     if len(record) < 2:
         return None, (f"the stored initial guess {path} does not record its parts (written "
-                      "before it did): python -m optimize.solve.initial_guess --record-parts "
+                      "before it did): python -m optimize.solve.starts.stored_guess --record-parts "
                       "kite,drive adds the record")
     return {**data, **record}, ""
 
@@ -212,7 +207,7 @@ def _check(ocp: Ocp, data: dict) -> tuple[Solution | None, str]:
     if not dev <= MATCH_TOL:
         return None, (f"the stored initial guess does not fit this OCP's constraints (largest "
                       f"deviation {dev:.1e}); regenerate it: "
-                      "python -m optimize.solve.initial_guess")
+                      "python -m optimize.solve.starts.stored_guess")
     lam_g = np.concatenate([data["lam_g"], np.zeros(n_rms)])
     solution = Solution(w=data["w"], lam_x=data["lam_x"], lam_g=lam_g,
                         n_intervals=n, degree=d)
@@ -253,7 +248,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     system, model = load_system(), paper_model()
-    rating = drive_in_force(system, model=model).rating
+    rating = drive_in_force(system, drive_model=model).rating
     ocp = build_ocp(kite_dae(*system.model_params()), model,
                     system.ocp_options(OcpOptions(), rating), system=system)
     if args.record_parts:
