@@ -145,16 +145,19 @@ class KindTask:
                          extras=partial(basis_figures, self.model.terms))
 
 
-def sweep_starts(run: OptimizeRun) -> dict[str, tuple]:
+def sweep_starts(run: OptimizeRun, points: int) -> dict[str, tuple]:
     """Kind -> the sweep's converged cycles of that kind as starts
     (:class:`optimize.service.foreign.CycleStart`, labelled ``"sweep"``), from its
-    ``trajectories.parquet``; none when the folder has no such file."""
+    ``trajectories.parquet``; none when the folder has no such file. Only the cycles of
+    ``points`` collocation points, the sweep's mesh (a cycle the last retry solved on a
+    finer mesh, :mod:`optimize.service.retry`, starts nothing on this one)."""
     from optimize.door import CycleStart
     from optimize.sweep_folder import TRAJECTORIES_FILE, read_trajectories
 
     if not (run.folder / TRAJECTORIES_FILE).is_file():
         return {}
-    frames = dict(tuple(read_trajectories(run.folder).groupby("scenario", sort=False)))
+    frames = {name: frame for name, frame in read_trajectories(run.folder).groupby(
+        "scenario", sort=False) if len(frame) == points}
     return {kind: tuple(CycleStart(kind, float(w), "sweep", trajectory=frames[name])
                         for w, name in zip(c.wind_speed_m_s, c.scenarios, strict=True)
                         if name in frames)
@@ -279,7 +282,8 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
                          expected="--drive-model omitted or the sweep's own model file")
     options = options_from_manifest(run.manifest, manifest_path)
     system = system_from_manifest(run.manifest, manifest_path)
-    starts = sweep_starts(run)
+    mesh = options.discretization
+    starts = sweep_starts(run, mesh.n_intervals * mesh.degree)
     tasks = [KindTask(k, model, options,
                       tuple(zip(c.wind_speed_m_s.tolist(), c.p_elec_w.tolist(), c.p_mech_w.tolist(),
                                 strict=True)),

@@ -151,7 +151,17 @@ def test_each_added_speed_starts_from_the_nearest_solved_speed_the_sweeps_includ
         solved.add(wind)
     assert len(backend.calls) > 3
     # a sweep folder without trajectories offers no cycle (the check then starts cold)
-    assert sweep_starts(SimpleNamespace(folder=tmp_path, curves={})) == {}
+    assert sweep_starts(SimpleNamespace(folder=tmp_path, curves={}), 160) == {}
+    # a cycle on another mesh than the sweep's (the finer-mesh retry's) is not offered
+    columns = ("scenario", "kind", "wind_speed_m_s", "time_s", "weight", "l_m", "speed_rpm",
+               "torque_nm", "p_elec_w", "p_mech_w")
+    rows = [dict.fromkeys(columns, 0.0) | {"scenario": f"elec-lim-{w:g}", "kind": "elec-lim",
+                                            "wind_speed_m_s": w}
+            for w, n in ((7.0, 3), (8.5, 6)) for _ in range(n)]
+    pd.DataFrame(rows).to_parquet(tmp_path / "trajectories.parquet")
+    curve = SimpleNamespace(wind_speed_m_s=[7.0, 8.5], scenarios=["elec-lim-7", "elec-lim-8.5"])
+    offered = sweep_starts(SimpleNamespace(folder=tmp_path, curves={"elec-lim": curve}), 3)
+    assert [s.wind_speed_m_s for s in offered["elec-lim"]] == [7.0]
 
 
 def test_a_stored_cycle_is_the_optimum_it_was_stored_from():
