@@ -30,7 +30,8 @@ from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.service.plan import parse_wind_grid
-from optimize.solve.solve import solve, start
+from optimize.solve.solve import solve
+from optimize.solve.starts.cold import start
 
 
 class Solver:

@@ -41,7 +41,8 @@ def _setup(model, winds, intervals):
     from optimize.problem.ocp import build_ocp
     from optimize.problem.options import Discretization, OcpOptions
     from optimize.problem.scenario import Scenario
-    from optimize.solve.solve import solve, start
+    from optimize.solve.solve import solve
+    from optimize.solve.starts.cold import start
 
     dae, options = kite_dae(), OcpOptions(Discretization(n_intervals=intervals))
     ocp = build_ocp(dae, model, options)

@@ -31,7 +31,8 @@ from optimize.kinds import KINDS
 from optimize.model.kite_model import kite_dae
 from optimize.problem.ocp import build_ocp
 from optimize.problem.scenario import Scenario
-from optimize.solve.solve import solve, start
+from optimize.solve.solve import solve
+from optimize.solve.starts.cold import start
 
 
 def reference(ocp, kind: str, winds: np.ndarray) -> dict[float, tuple[float, float] | None]:

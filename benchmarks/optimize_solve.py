@@ -25,8 +25,8 @@ from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve import backend
-from optimize.solve.homotopy import HOMOTOPY_BOUND_PUSH
 from optimize.solve.solve import cold_start, solve
+from optimize.solve.starts.homotopy import HOMOTOPY_BOUND_PUSH
 
 #: (label, scenario, index of the warm-start source in this list or None = cold start)
 PLAN = [

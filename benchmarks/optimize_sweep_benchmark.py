@@ -48,7 +48,7 @@ from optimize.service.plan import (
     parse_wind_grid,
     plan_graph,
 )
-from optimize.solve.homotopy import cold_start
+from optimize.solve.starts.homotopy import cold_start
 from optimize.sweep.trust import run_trust_checks
 
 OUT = Path(__file__).resolve().parent / "out"

@@ -59,7 +59,8 @@ from optimize.problem.transcriptions.derivatives import nlp_derivatives, whole_d
 from optimize.service import Problem, make_tasks, run_sweep
 from optimize.service.executors import open_executor
 from optimize.service.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
-from optimize.solve.solve import cold_start, solve, start
+from optimize.solve.solve import cold_start, solve
+from optimize.solve.starts.cold import start
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import load_system
@@ -218,7 +219,8 @@ def derivative_build_cpu_s(ocp) -> dict[str, float]:
 def profile(solver: str, max_iter: int) -> dict:
     """Where one solve's time goes: the warm solve of the stored guess's own scenario
     (elec-lim-7.0, N = 40) from the stored guess, with the solver's own statistics."""
-    from optimize.solve import backend, initial_guess
+    from optimize.solve import backend
+    from optimize.solve.starts import stored_guess
 
     system = load_system()
     drive = drive_in_force(system)
@@ -227,24 +229,24 @@ def profile(solver: str, max_iter: int) -> dict:
     t0, c0 = time.perf_counter(), time.process_time()
     ocp = build_ocp(kite_dae(*system.model_params()), drive.model, options, system=system)
     build = (time.perf_counter() - t0, time.process_time() - c0)
-    guess, why = initial_guess.load(ocp)
+    guess, why = stored_guess.load(ocp)
     deriv = derivative_build_cpu_s(ocp) if solver == "ipopt" else {}
     with ipopt_timing() as split:
         t0, c0 = time.perf_counter(), time.process_time()
         backend.solver(ocp, True)
         create = (time.perf_counter() - t0, time.process_time() - c0)
-        res = solve(ocp, initial_guess.GUESS_SCENARIO, guess, retry_cold=False)
+        res = solve(ocp, stored_guess.GUESS_SCENARIO, guess, retry_cold=False)
     stats = backend.solver(ocp, True).stats()
     out = {"solver": solver, "layout": ocp.layout.kind, "variables": ocp.layout.n_w,
            "rows": ocp.layout.n_g, "build_wall_cpu_s": build, "create_wall_cpu_s": create,
-           "guess": why, **record(initial_guess.GUESS_SCENARIO.name, res),
+           "guess": why, **record(stored_guess.GUESS_SCENARIO.name, res),
            "derivative_build_cpu_s": deriv, "ipopt_timing_cpu_s": split,
            "t_proc_s": {k[7:]: v for k, v in stats.items() if k.startswith("t_proc_")},
            "t_wall_s": {k[7:]: v for k, v in stats.items() if k.startswith("t_wall_")}}
     out["cpu_per_iteration_s"] = out["cpu_s"] / max(out["iterations"], 1)
     t0, c0 = time.perf_counter(), time.process_time()
-    cold = cold_start(ocp, initial_guess.GUESS_SCENARIO)
-    out["cold_start"] = {**record(initial_guess.GUESS_SCENARIO.name, cold),
+    cold = cold_start(ocp, stored_guess.GUESS_SCENARIO)
+    out["cold_start"] = {**record(stored_guess.GUESS_SCENARIO.name, cold),
                          "wall_s": time.perf_counter() - t0,
                          "process_cpu_s": time.process_time() - c0}
     if "fatrop" in stats:

@@ -33,7 +33,8 @@ from optimize.model.kite_model import kite_dae
 from optimize.problem.ocp import Ocp, build_ocp
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
-from optimize.solve.solve import solve, start
+from optimize.solve.solve import solve
+from optimize.solve.starts.cold import start
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system_file import load_system
 

@@ -8,10 +8,12 @@ curve of the kind refined together, and returns the curve with those points
 added, each marked with its solve's status.
 
 Solves: the first added speed of a kind is preceded by a re-solve of the nearest
-converged grid point from the stored initial guess (the optimize stage's own cold
-start): it gives the warm start, and it checks that the model and OCP options of
-the manifest reproduce the sweep's power there (:data:`CHECK_REL_TOL`). Every
-later speed is warm-started from the nearest solved one. Each solve is stored
+converged grid point from the sweep's own cycle there (``trajectories.parquet``,
+:func:`sweep_starts`; the stored initial guess when the folder has none): it checks
+that the model and OCP options of the manifest reproduce the sweep's power there
+(:data:`CHECK_REL_TOL`). Every added speed starts from the nearest solved speed: a
+sweep speed's cycle, or a speed solved here (its optimum, multipliers included, is
+preferred at equal distance), a cold start last. Each solve is stored
 under the hash of its inputs (:func:`optimize.service.solve_key`, same store
 layout as ``bench size``), so a re-run loads it instead of solving it. A failed
 added solve is kept out of the curve and reported, never dropped silently.
@@ -108,6 +110,9 @@ class KindTask:
     max_points : int
     system : optimize.system.system.System or None
         The sweep's system (kite, tether, winch, wind); None for the package defaults.
+    starts : tuple of optimize.service.foreign.CycleStart
+        The sweep's converged cycles of the kind (:func:`sweep_starts`): the starts of
+        the check re-solve and of the added speeds nearest them.
     backend : optimize.service.builder.Backend or None
         The solver (default the CasADi OCP, :class:`optimize.service.builder.OcpBackend`);
         its results need ``success, status, start, avg_p_elec_w, avg_p_mech_w,
@@ -124,6 +129,7 @@ class KindTask:
     max_points: int = 25
     backend: Any = None
     system: Any = None
+    starts: tuple = ()
 
     def chain(self, index: int = 0) -> Any:
         """The solve service's chain (:class:`optimize.service.chain.ChainTask`): no planned
@@ -132,10 +138,30 @@ class KindTask:
 
         refine = Refinement(self.kind, self.site, refine_grid, self.tol, self.max_points,
                             self.known,
-                            ("avg_p_elec_w", "avg_p_mech_w"), check=True)
+                            ("avg_p_elec_w", "avg_p_mech_w"), check=True,
+                            starts=self.starts)
         return ChainTask(Problem.for_system(self.system, self.model, self.options),
                          index=index, store=self.store, backend=self.backend, refine=refine,
                          extras=partial(basis_figures, self.model.terms))
+
+
+def sweep_starts(run: OptimizeRun, points: int) -> dict[str, tuple]:
+    """Kind -> the sweep's converged cycles of that kind as starts
+    (:class:`optimize.service.foreign.CycleStart`, labelled ``"sweep"``), from its
+    ``trajectories.parquet``; none when the folder has no such file. Only the cycles of
+    ``points`` collocation points, the sweep's mesh (a cycle the last retry solved on a
+    finer mesh, :mod:`optimize.service.retry`, starts nothing on this one)."""
+    from optimize.door import CycleStart
+    from optimize.sweep_folder import TRAJECTORIES_FILE, read_trajectories
+
+    if not (run.folder / TRAJECTORIES_FILE).is_file():
+        return {}
+    frames = {name: frame for name, frame in read_trajectories(run.folder).groupby(
+        "scenario", sort=False) if len(frame) == points}
+    return {kind: tuple(CycleStart(kind, float(w), "sweep", trajectory=frames[name])
+                        for w, name in zip(c.wind_speed_m_s, c.scenarios, strict=True)
+                        if name in frames)
+            for kind, c in run.curves.items()}
 
 
 def refine_kind(task: KindTask, progress: Any = None) -> list[dict]:
@@ -256,10 +282,12 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
                          expected="--drive-model omitted or the sweep's own model file")
     options = options_from_manifest(run.manifest, manifest_path)
     system = system_from_manifest(run.manifest, manifest_path)
+    mesh = options.discretization
+    starts = sweep_starts(run, mesh.n_intervals * mesh.degree)
     tasks = [KindTask(k, model, options,
                       tuple(zip(c.wind_speed_m_s.tolist(), c.p_elec_w.tolist(), c.p_mech_w.tolist(),
                                 strict=True)),
-                      site, Path(store), tol, max_points, backend, system)
+                      site, Path(store), tol, max_points, backend, system, starts.get(k, ()))
              for k, c in run.curves.items() if len(c.wind_speed_m_s) >= 2]
     bar = solve_counter("refine", show_progress)
     counts = {"solved": 0, "loaded": 0}

@@ -83,6 +83,7 @@ def run(args: argparse.Namespace) -> int:
     """Run or resume the sizing sweep (:func:`energy.size_command.run_size`), print the
     table."""
     from energy.size_command import RatingOverrides, SizingGrid, run_size
+    from energy.sizing import start_lines
     from optimize.door import Execution, SolverChoice, load_system, parse_wind_grid
 
     system = load_system(args.system)
@@ -107,6 +108,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"best: {res.best}; smallest within {args.tolerance:.0%} of the best AEP: {res.chosen}")
     print(f"{res.n_solved} solved, {res.n_cached} loaded from the store, "
           f"{res.wall_time_s:.1f} s ({res.executor})")
+    for line in start_lines(res.records):
+        print(line)
     for n in done.notes:
         print(f"note: {n}")
     for r in (r for r in res.records if not r["success"]):

@@ -16,7 +16,13 @@ from pathlib import Path
 from typing import Any
 
 from energy.candidates import build_candidates
-from energy.sizing import candidate_row, limits_text, run_sizing, size_extending
+from energy.sizing import (
+    candidate_row,
+    limits_text,
+    run_sizing,
+    size_extending,
+    starts_note,
+)
 from energy.sizing_files import SIZE_KEEP, SIZE_MARKERS, edge_note, grid_hours, write_sizing
 from kernel.errors import InputError
 from kernel.output_folder import check_replaceable
@@ -183,6 +189,7 @@ def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
     edge_doc = {"best_at": edge, "added_scales": added,
                 "note": edge_note(edge, result.best, added)}
     notes = [*notes, grid_hours(site, grid.winds_m_s, result.records)["note"],
+             starts_note(result.records, result.reference),
              *([edge_doc["note"]] if edge_doc["note"] else [])]
     files = write_sizing(Path(out), result, site=site, site_note=site_note or site.describe(),
                          drive=drive, system=system, wind_speeds_m_s=grid.winds_m_s,

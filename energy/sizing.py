@@ -39,6 +39,7 @@ it, so an interrupted sweep continues where it stopped.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from dataclasses import dataclass
 from functools import partial
@@ -161,6 +162,7 @@ class SizingResult:
     executor: str
     n_solved: int
     n_cached: int
+    reference: str | None = None  # the candidate the others start from (reference_candidate)
 
 
 def candidate_row(c: Candidate) -> dict:
@@ -315,6 +317,46 @@ def size_extending(make_candidates: Any, scales: tuple[float, ...], extend: int,
         scales.append(added[-1])
 
 
+def reference_candidate(candidates: list[Candidate]) -> Candidate | None:
+    """The candidate whose solves the others start from (see :func:`run_sizing`): the
+    reference drive x1, else the scaled candidate nearest it in torque rating, else the
+    first; None for a single candidate."""
+    if len(candidates) < 2:
+        return None
+    scaled = [c for c in candidates if c.scale is not None]
+    return min(scaled, key=lambda c: abs(math.log(c.scale))) if scaled else candidates[0]
+
+
+def starts_note(records: list[dict], reference: str | None) -> str:
+    """How the solves of a sizing started (each record's ``warm_from``), counted, with the
+    cold starts named: ``"starts of the 20 solves: 16 from x1's optimum at the same wind
+    speed, 3 from the candidate's own neighbouring speed, 1 cold (x1 7 m/s: stored
+    guess)"``. A solve loaded from the store counts with the start it was solved from."""
+    starts = [(r, r.get("warm_from") or "") for r in records]
+    cold = [r for r, w in starts if w and "m/s" not in w]
+    borrowed = sum(bool(reference) and w.startswith(f"{reference} ")
+                   and r.get("candidate") != reference for r, w in starts)
+    own = sum("m/s" in w for _, w in starts) - borrowed
+    named = ", ".join(f"{r['candidate']} {r['wind_speed_m_s']:g} m/s: {r['warm_from']}"
+                      for r in cold)
+    parts = ([f"{borrowed} from {reference}'s optimum at the same wind speed"]
+             if reference else []) + [f"{own} from the candidate's own neighbouring speed",
+                                      f"{len(cold)} cold" + (f" ({named})" if cold else "")]
+    return f"starts of the {len(records)} solves: {', '.join(parts)}"
+
+
+def start_lines(records: list[dict]) -> list[str]:
+    """One line per candidate: where each of its solves started (``warm_from``), e.g.
+    ``"x0.5 starts: 4 m/s from x1 4 m/s, 7 m/s from x1 7 m/s"``."""
+    by: dict[str, list[dict]] = {}
+    for r in records:
+        by.setdefault(r["candidate"], []).append(r)
+    return [f"{c} starts: " + ", ".join(f"{r['wind_speed_m_s']:g} m/s from "
+                                          f"{r.get('warm_from') or '?'}"
+                                          for r in sorted(rs, key=lambda r: r["wind_speed_m_s"]))
+            for c, rs in by.items()]
+
+
 def run_sizing(candidates: list[Candidate], wind_speeds_m_s: tuple[float, ...], site: Any,
                out: Path, n_intervals: int = 40, degree: int = 4, handle: Any = None,
                workers: int = 2, scheduler: str | None = None, show_progress: bool = True,
@@ -322,6 +364,14 @@ def run_sizing(candidates: list[Candidate], wind_speeds_m_s: tuple[float, ...], 
                system: Any = None, backend: Any = None) -> SizingResult:
     """Run (or resume) the sizing sweep through the solve service (:mod:`optimize.service`):
     one chain of :data:`SIZING_KIND` solves per candidate, stored under ``out/solves``.
+
+    The reference candidate's chain (:func:`reference_candidate`) runs first, from one
+    cold start (the stored guess where it fits, else the homotopy); every other
+    candidate's solve starts from the reference's optimum at the same wind speed,
+    carried to its own drive (:class:`optimize.service.foreign.ForeignStart`: the
+    cycle's states and controls as they are, since the drive has no variables of its
+    own), then from its own solved neighbour, a cold start last. Each record's
+    ``warm_from`` says which (docs/schemas.md §8).
 
     ``handle`` is an open :class:`optimize.service.executors.ExecutorHandle`; without it
     a local process pool of ``workers`` (or the Dask cluster at ``scheduler``) is opened.
@@ -344,6 +394,8 @@ def run_sizing(candidates: list[Candidate], wind_speeds_m_s: tuple[float, ...], 
                        (("candidate", c.name),))
              for c in candidates for w in wind_speeds_m_s]
     refinement = partial(Refinement, site=site, grid=refine_grid) if adaptive else None
+    first = reference_candidate(candidates)
+    reference = None if first is None else (("candidate", first.name),)
     bar = (solve_counter("size", show_progress) if adaptive else
            tqdm(total=len(tasks), unit="solve", desc="size", disable=not show_progress))
     counts = {"solved": 0, "cached": 0}
@@ -363,14 +415,14 @@ def run_sizing(candidates: list[Candidate], wind_speeds_m_s: tuple[float, ...], 
 
         with open_executor(workers, scheduler) as handle:
             records = solve_tasks(tasks, Path(out) / "solves", handle=handle, backend=backend,
-                                  refine=refinement, on_event=on_event)
+                                  refine=refinement, on_event=on_event, reference=reference)
     else:
         records = solve_tasks(tasks, Path(out) / "solves", handle=handle, backend=backend,
-                              refine=refinement, on_event=on_event)
+                              refine=refinement, on_event=on_event, reference=reference)
     description = handle.description
     bar.close()
     wall = time.perf_counter() - t0
     table, best, chosen = candidate_table(candidates, records, site, tolerance,
                                           system.drive.max_winding_temperature_c)
     return SizingResult(table, records, best, chosen, wall, description, counts["solved"],
-                        counts["cached"])
+                        counts["cached"], None if first is None else first.name)

@@ -15,6 +15,7 @@ home module                         what the other stages use
 :mod:`optimize.command`             ``bench optimize`` as a library call
 :mod:`optimize.cli`                 its exit codes
 :mod:`optimize.service`             the one solve service: problems, chains, their records
+:mod:`optimize.service.foreign`     starts it did not find itself (a sweep's stored cycles)
 :mod:`optimize.problem.options`     the OCP's options; :mod:`~optimize.problem.scenario` names
 :mod:`optimize.system.system_file`  system files (and a manifest's system record)
 :mod:`optimize.model.drivetrain`    the similarity law that carries a drive's losses
@@ -37,6 +38,7 @@ LAZY_IMPORTS = {
     "optimize.service": ("ChainTask", "Problem", "Refinement", "SolveTask", "run_chain",
                          "run_chains", "solve_tasks"),
     "optimize.service.solver": ("attempt_line",),
+    "optimize.service.foreign": ("CycleStart",),
     "optimize.service.outcome": ("failure_reason",),
     "optimize.service.executors": ("open_executor",),
     "optimize.problem.options": ("Discretization", "OcpOptions"),

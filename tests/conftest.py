@@ -46,10 +46,10 @@ def paper_ocp():
 @pytest.fixture(scope="session")
 def stored_guess_solve(paper_ocp):
     """IPOPT started from the shipped initial guess on its own scenario (``start``)."""
-    from optimize.solve import initial_guess
-    from optimize.solve.solve import start
+    from optimize.solve.starts import stored_guess
+    from optimize.solve.starts.cold import start
 
-    return start(paper_ocp, initial_guess.GUESS_SCENARIO)
+    return start(paper_ocp, stored_guess.GUESS_SCENARIO)
 
 
 @pytest.fixture(scope="session")

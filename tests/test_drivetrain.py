@@ -24,8 +24,8 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
-from optimize.solve.homotopy import cold_start
-from optimize.solve.solve import start
+from optimize.solve.starts.cold import start
+from optimize.solve.starts.homotopy import cold_start
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import system_from_dict

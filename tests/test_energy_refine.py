@@ -112,6 +112,81 @@ def test_refined_aep_is_within_1_percent_of_the_exact_one_where_the_sweep_grid_i
     assert r["basis_averages"] == pytest.approx(expected, rel=1e-12)
 
 
+class CycleBackend(KinkBackend):
+    """:class:`KinkBackend` that also takes a stored cycle as a start (its trajectory's one
+    ``wind`` value is the start's wind speed) and records where each solve started."""
+
+    def __init__(self):
+        super().__init__()
+        self.cold = []
+
+    def from_trajectory(self, ocp, trajectory):
+        return Solution(trajectory["wind"].to_numpy(), np.zeros(1), np.zeros(1), 1, 1)
+
+    def cold_start(self, ocp, kind, wind):
+        self.cold.append(wind)
+        return super().cold_start(ocp, kind, wind)
+
+
+def test_each_added_speed_starts_from_the_nearest_solved_speed_the_sweeps_included(tmp_path):
+    # issue 40 item 3: the sweep's stored cycles are solved neighbours too: the check
+    # re-solve starts from its own cycle, every added speed from the nearest speed solved
+    # before it (sweep or added), and nothing starts cold
+    from energy.refine import sweep_starts
+    from optimize.service.foreign import CycleStart
+
+    starts = tuple(CycleStart("elec-lim", v, "sweep", trajectory=pd.DataFrame({"wind": [v]}))
+                   for v in COARSE)
+    backend = CycleBackend()
+    task = _task(tmp_path, backend)
+    records = refine_kind(KindTask(**{**task.__dict__, "starts": starts}))
+    assert backend.cold == []
+    check = next(r for r in records if r["role"] == "check")
+    assert check["warm_from"] == f"sweep {check['wind_speed_m_s']:g} m/s"
+    solved = set(COARSE)
+    by_wind = {r["wind_speed_m_s"]: r for r in records}
+    for wind in backend.calls[1:]:  # in solve order, after the check
+        source = float(by_wind[wind]["warm_from"].split()[-2])
+        assert abs(source - wind) == pytest.approx(min(abs(s - wind) for s in solved)), wind
+        solved.add(wind)
+    assert len(backend.calls) > 3
+    # a sweep folder without trajectories offers no cycle (the check then starts cold)
+    assert sweep_starts(SimpleNamespace(folder=tmp_path, curves={}), 160) == {}
+    # a cycle on another mesh than the sweep's (the finer-mesh retry's) is not offered
+    columns = ("scenario", "kind", "wind_speed_m_s", "time_s", "weight", "l_m", "speed_rpm",
+               "torque_nm", "p_elec_w", "p_mech_w")
+    rows = [dict.fromkeys(columns, 0.0) | {"scenario": f"elec-lim-{w:g}", "kind": "elec-lim",
+                                            "wind_speed_m_s": w}
+            for w, n in ((7.0, 3), (8.5, 6)) for _ in range(n)]
+    pd.DataFrame(rows).to_parquet(tmp_path / "trajectories.parquet")
+    curve = SimpleNamespace(wind_speed_m_s=[7.0, 8.5], scenarios=["elec-lim-7", "elec-lim-8.5"])
+    offered = sweep_starts(SimpleNamespace(folder=tmp_path, curves={"elec-lim": curve}), 3)
+    assert [s.wind_speed_m_s for s in offered["elec-lim"]] == [7.0]
+
+
+def test_a_stored_cycle_is_the_optimum_it_was_stored_from():
+    # the trajectory of an optimum, packed back, is that optimum's primal point (up to the
+    # cycle's start state, which the file keeps as the end state: equal where periodic),
+    # and a warm solve from it stays on that optimum
+    from energy.sizing import scaled_candidates
+    from optimize.service import OcpBackend
+    from optimize.solve.result import trajectory_frame
+    from optimize.system.drive_in_force import drive_in_force
+    from optimize.system.system_file import load_system
+
+    system = load_system()
+    x1 = scaled_candidates(paper_model(), drive_in_force(system, drive_model=paper_model()).rating,
+                           (1.0,))[0]
+    backend = OcpBackend()
+    ocp = backend.build(x1.problem(10, 4, system))
+    first = backend.cold_start(ocp, "elec-lim", 7.0)
+    assert first.success, first.status
+    start = backend.from_trajectory(ocp, trajectory_frame(ocp, first.warm.w, 7.0))
+    assert np.abs(start.w - first.warm.w).max() < 1e-3  # scaled units: O(1) entries
+    again = backend.solve(ocp, "elec-lim", 7.0, start)
+    assert again.success and again.avg_p_elec_w == pytest.approx(first.avg_p_elec_w, abs=0.01)
+
+
 def test_a_rerun_loads_every_solve_from_the_store(tmp_path):
     first = refine_kind(_task(tmp_path, KinkBackend()))
     backend = KinkBackend()

@@ -14,6 +14,8 @@ from energy.sizing import (
     candidate_table,
     run_sizing,
     scaled_candidates,
+    start_lines,
+    starts_note,
 )
 from optimize.paper_model import paper_model
 from optimize.service import solve_key
@@ -250,3 +252,37 @@ def test_a_solver_crash_in_a_sizing_sweep_is_reported_as_refine_reports_it(tmp_p
                        show_progress=False, backend=CrashingBackend(crash_at=None))
     assert (again.n_solved, again.n_cached) == (2, 4)
     assert again.chosen is not None
+
+
+def test_a_candidate_starts_from_the_reference_drive_and_reaches_its_cold_optimum(tmp_path):
+    # issue 40 item 3: the reference x1 runs one cold start; every solve of x0.6 starts
+    # from x1's optimum at the same wind speed (no cold start of its own) and lands on the
+    # optimum a cold start of x0.6 finds (the RMS bound binds for x0.6: another active set
+    # than x1's, so the carried start is not already its optimum)
+    from optimize.service import OcpBackend
+
+    cands = _candidates((0.6, 1.0))
+    winds = (6.0, 7.0)
+    res = run_sizing(cands, winds, Weibull(2.0, 6.2), tmp_path, n_intervals=10,
+                     handle=_handle(), show_progress=False)
+    assert all(r["success"] for r in res.records), [r["status"] for r in res.records]
+    starts = {(r["candidate"], r["wind_speed_m_s"]): r["warm_from"] for r in res.records}
+    assert starts[("x0.6", 6.0)] == "x1 6 m/s" and starts[("x0.6", 7.0)] == "x1 7 m/s"
+    cold = [w for w in starts.values() if "m/s" not in w]
+    assert len(cold) == 1, starts  # the reference's middle speed, nothing else
+    # the log says each solve's start, and counts them
+    assert "x0.6 starts: 6 m/s from x1 6 m/s, 7 m/s from x1 7 m/s" in start_lines(res.records)
+    assert starts_note(res.records, res.reference).startswith(
+        "starts of the 4 solves: 2 from x1's optimum at the same wind speed, 1 from the "
+        "candidate's own neighbouring speed, 1 cold (x1 ")
+    small = next(c for c in cands if c.name == "x0.6")
+    assert res.table.loc[0, "rms_bound_active_at"] != ""
+    backend = OcpBackend()
+    ocp = backend.build(small.problem(10, 4, load_system()))
+    for w in winds:
+        own = backend.cold_start(ocp, SIZING_KIND, w)
+        assert own.success, own.status
+        carried = next(r for r in res.records if (r["candidate"], r["wind_speed_m_s"])
+                       == ("x0.6", w))
+        # IPOPT's tolerance on the same local optimum: far below 0.05 W
+        assert carried["avg_p_elec_w"] == pytest.approx(own.avg_p_elec_w, abs=0.05)

@@ -11,9 +11,10 @@ from optimize.paper_model import paper_model
 from optimize.problem.guess import circular_loop
 from optimize.problem.ocp import build_ocp, grid_times, twin
 from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions
-from optimize.solve import backend, initial_guess
+from optimize.solve import backend
 from optimize.solve.result import carry_over
 from optimize.solve.solve import solve
+from optimize.solve.starts import stored_guess
 
 
 def _pair(n: int, d: int, limits: Limits | None = None):
@@ -64,10 +65,10 @@ def test_fatrop_confirms_the_stored_optimum_on_the_stage_layout(staged, paper_oc
     # layout, fatrop's warm solve stays on it (independent truth: IPOPT's optimum, warm
     # from the stored guess on the same NLP in the general layout, shared: conftest.py)
     assert twin(staged, "ipopt").options == paper_ocp.options
-    scenario = initial_guess.GUESS_SCENARIO
+    scenario = stored_guess.GUESS_SCENARIO
     ref = stored_guess_solve
     assert ref.start == "stored guess"
-    res = solve(staged, scenario, initial_guess.load(staged)[0], retry_cold=False)
+    res = solve(staged, scenario, stored_guess.load(staged)[0], retry_cold=False)
     assert ref.success and res.success, (ref.status, res.status)
     assert res.status.startswith("fatrop return flag 0")
     assert abs(res.avg_p_elec_w - ref.avg_p_elec_w) < 0.05
@@ -79,13 +80,13 @@ def test_fatrop_confirms_the_stored_optimum_on_the_stage_layout(staged, paper_oc
 
 
 def test_stored_guess_is_carried_over_to_the_stage_layout(staged):
-    guess, why = initial_guess.load(staged)
+    guess, why = stored_guess.load(staged)
     assert guess is not None and "carried over" in why
     general = twin(staged, "ipopt")
     back = carry_over(staged, guess, general)
-    stored = initial_guess.load(general)[0]
+    stored = stored_guess.load(general)[0]
     assert np.allclose(back.w, stored.w, rtol=0, atol=1e-12)
-    p = staged.params(7.0, initial_guess.GUESS_SCENARIO.weights)
+    p = staged.params(7.0, stored_guess.GUESS_SCENARIO.weights)
     lo, hi = staged.bounds(True, True, None)[2:]
     g = staged.constraint_values(guess.w, p)
     assert np.max(np.maximum(np.maximum(lo - g, g - hi), 0)) < 1e-6

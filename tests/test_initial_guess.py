@@ -19,9 +19,9 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.part import Part, StartPoint
-from optimize.problem.start import part_start
-from optimize.solve import initial_guess
 from optimize.solve.result import Solution
+from optimize.solve.starts import stored_guess
+from optimize.solve.starts.fill import part_start
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system_file import load_system, system_from_dict
 
@@ -32,20 +32,20 @@ def ocp(paper_ocp):
 
 
 def test_shipped_guess_fits_the_default_ocp(ocp):
-    # fails when the formulation changes without `python -m optimize.solve.initial_guess`
-    solution, why = initial_guess.load(ocp)
+    # fails when the formulation changes without `python -m optimize.solve.starts.stored_guess`
+    solution, why = stored_guess.load(ocp)
     assert solution is not None, why
     assert solution.w.size == ocp.layout.n_w and solution.lam_g.size == ocp.layout.n_g
 
 
 def test_guess_is_refused_for_another_discretization_or_kite():
     coarse = build_ocp(kite_dae(), paper_model(), OcpOptions(Discretization(n_intervals=20)))
-    solution, why = initial_guess.load(coarse)
+    solution, why = stored_guess.load(coarse)
     assert solution is None and "N=40" in why and "N=20" in why
     # 1 kg more mass changes the dynamics residuals at the stored point
     heavier = build_ocp(kite_dae(KiteParams(mass_kg=KiteParams().mass_kg + 1.0)), paper_model(),
                         OcpOptions())
-    solution, why = initial_guess.load(heavier)
+    solution, why = stored_guess.load(heavier)
     assert solution is None and "does not fit" in why
 
 
@@ -56,7 +56,7 @@ def test_guess_is_accepted_for_its_system_and_refused_for_another():
     rating = drive_in_force(system, drive_model=model).rating
     own = build_ocp(kite_dae(*system.model_params()), model,
                     system.ocp_options(OcpOptions(), rating), system=system)
-    solution, why = initial_guess.load(own)
+    solution, why = stored_guess.load(own)
     assert solution is not None, why
     import tomllib
 
@@ -65,20 +65,20 @@ def test_guess_is_accepted_for_its_system_and_refused_for_another():
     wider = system_from_dict(data, "wider.toml")
     other = build_ocp(kite_dae(*wider.model_params()), model,
                       wider.ocp_options(OcpOptions(), rating), system=wider)
-    solution, why = initial_guess.load(other)
+    solution, why = stored_guess.load(other)
     assert solution is None and "another system" in why
 
 
 def test_missing_or_damaged_file_is_refused(ocp, tmp_path):
-    solution, why = initial_guess.load(ocp, tmp_path / "none.npz")
+    solution, why = stored_guess.load(ocp, tmp_path / "none.npz")
     assert solution is None and "no stored initial guess" in why
     bad = tmp_path / "bad.npz"
     bad.write_bytes(b"not a zip archive")
-    solution, why = initial_guess.load(ocp, bad)
+    solution, why = stored_guess.load(ocp, bad)
     assert solution is None and "cannot read" in why and "bad.npz" in why
     partial = tmp_path / "partial.npz"
     np.savez(partial, w=np.zeros(3))
-    solution, why = initial_guess.load(ocp, partial)
+    solution, why = stored_guess.load(ocp, partial)
     assert solution is None and "cannot read" in why
 
 
@@ -87,8 +87,8 @@ def test_start_from_the_guess_stays_at_its_optimum(ocp, stored_guess_solve):
     # IPOPT must confirm it in a few dozen iterations (the warm start pushes it 1e-2
     # off its active bounds first) and leave the point (scaled
     # variables of order 1) where it is
-    stored, _ = initial_guess.load(ocp)
-    res = stored_guess_solve  # start(ocp, initial_guess.GUESS_SCENARIO), shared
+    stored, _ = stored_guess.load(ocp)
+    res = stored_guess_solve  # start(ocp, stored_guess.GUESS_SCENARIO), shared
     assert res.success, res.status
     assert res.start == "stored guess"
     assert [s["stage"] for s in res.stages] == ["stored-guess warm"]
@@ -133,13 +133,13 @@ def _written(ocp, path):
     """A guess file of ``ocp`` at the parts' own start (the circular loop), recording its
     parts; the start's physical arrays."""
     period = float(np.mean(ocp.formulation.period_bounds()))
-    params = initial_guess.GUESS_SCENARIO.parameters
+    params = stored_guess.GUESS_SCENARIO.parameters
     arrays = part_start(ocp, period, params)
     w = ocp.pack(arrays["x"], arrays["z"], arrays["u"], arrays["fict"], period)
     warm = Solution(w, np.zeros(ocp.layout.n_w), np.zeros(ocp.layout.n_g), 3, 2)
-    p = ocp.params(params, initial_guess.GUESS_SCENARIO.weights)
-    result = SimpleNamespace(warm=warm, scenario=initial_guess.GUESS_SCENARIO)
-    initial_guess.write(path, ocp, result, p)
+    p = ocp.params(params, stored_guess.GUESS_SCENARIO.weights)
+    result = SimpleNamespace(warm=warm, scenario=stored_guess.GUESS_SCENARIO)
+    stored_guess.write(path, ocp, result, p)
     return arrays
 
 
@@ -148,7 +148,7 @@ def test_a_part_the_stored_guess_lacks_fills_its_own_variables(tmp_path):
     are the file's to the last bit, the lag's state its own guess (the reel speed)."""
     plain, lagged = _small(), _small(Lag())
     arrays = _written(plain, tmp_path / "guess.npz")
-    solution, why = initial_guess.load(lagged, tmp_path / "guess.npz")
+    solution, why = stored_guess.load(lagged, tmp_path / "guess.npz")
     assert solution is not None and "carried over" in why, why
     got = lagged.unpack(solution.w)
     names = lagged.dae.states.names
@@ -164,11 +164,11 @@ def test_a_stored_part_the_ocp_lacks_or_has_otherwise_is_refused_naming_it(tmp_p
     with np.load(path) as f:
         assert list(f["parts"]) == ["kite", "drive", "lag"]
         assert "lag states dl_lag_m_s" in list(f["part_variables"])
-    solution, why = initial_guess.load(_small(), path)
+    solution, why = stored_guess.load(_small(), path)
     assert solution is None and "holds the part lag this OCP has not" in why
-    solution, why = initial_guess.load(_small(Lag(state="dl_slow_m_s")), path)
+    solution, why = stored_guess.load(_small(Lag(state="dl_slow_m_s")), path)
     assert solution is None and "other variables of the part lag" in why
-    solution, why = initial_guess.load(_small(Lag()), path)
+    solution, why = stored_guess.load(_small(Lag()), path)
     assert solution is not None, why
 
 
@@ -180,12 +180,12 @@ def test_a_file_without_its_parts_is_refused_until_they_are_recorded(tmp_path):
     with np.load(path) as f:
         old = {k: f[k] for k in f.files if k not in ("parts", "part_variables")}
     np.savez_compressed(path, **old)
-    solution, why = initial_guess.load(ocp, path)
+    solution, why = stored_guess.load(ocp, path)
     assert solution is None and "--record-parts kite,drive" in why
-    done, why = initial_guess.record_parts(path, ocp, ("kite", "lag"))
+    done, why = stored_guess.record_parts(path, ocp, ("kite", "lag"))
     assert not done and "holds the part lag this OCP has not" in why
-    done, why = initial_guess.record_parts(path, ocp, ("kite", "drive"))
+    done, why = stored_guess.record_parts(path, ocp, ("kite", "drive"))
     assert done, why
     with np.load(path) as f:
         assert all(np.array_equal(f[k], v) for k, v in old.items())
-    assert initial_guess.load(ocp, path)[0] is not None
+    assert stored_guess.load(ocp, path)[0] is not None

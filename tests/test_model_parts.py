@@ -29,8 +29,8 @@ from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.part import Part, StartPoint, trajectory_columns
 from optimize.service.outcome import Attempt, ScenarioOutcome
-from optimize.solve import initial_guess
-from optimize.solve.solve import start
+from optimize.solve.starts import stored_guess
+from optimize.solve.starts.cold import start
 from optimize.sweep.outputs import trajectories_frame
 from optimize.sweep_folder import field_units
 
@@ -72,7 +72,7 @@ def filtered(paper_ocp):
         paper_ocp.dae.states.index("dl_m_s")][1]
     ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(),
                     parts=(ReelFilter(TAU_S, bound),))
-    return ocp, start(ocp, initial_guess.GUESS_SCENARIO), bound
+    return ocp, start(ocp, stored_guess.GUESS_SCENARIO), bound
 
 
 def test_the_part_changes_nothing_of_the_kites_optimum(filtered, stored_guess_solve):

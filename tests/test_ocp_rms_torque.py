@@ -10,8 +10,8 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, Limits, OcpOptions
 from optimize.problem.scenario import Scenario
-from optimize.solve import initial_guess
 from optimize.solve.solve import solve
+from optimize.solve.starts import stored_guess
 
 N_COARSE = 10
 
@@ -46,6 +46,6 @@ def test_rms_torque_bound_binds_and_costs_power(coarse_ocp, coarse_elec_lim):
 
 def test_stored_guess_fits_an_ocp_with_the_rms_row():
     ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(limits=Limits(max_rms_torque_nm=70.0)))
-    guess, why = initial_guess.load(ocp)
+    guess, why = stored_guess.load(ocp)
     assert guess is not None, why
     assert guess.lam_g.size == ocp.layout.n_g

@@ -246,7 +246,7 @@ def test_cut_in_edge_cases():
 
 @dataclass(frozen=True)
 class StoredGuessResult(Result):
-    start: str = "stored guess"  # as optimize.solve.solve.start marks from the shipped guess
+    start: str = "stored guess"  # as optimize.solve.starts.cold.start marks from the shipped guess
 
 
 class StoredGuessBackend(NewtonBackend):

@@ -18,7 +18,7 @@ from optimize.model.kite_model import kite_dae
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
-from optimize.solve.homotopy import cold_start
+from optimize.solve.starts.homotopy import cold_start
 from optimize.sweep.outputs import MEANT_BOUNDS
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path

@@ -28,7 +28,8 @@ from optimize.problem.ocp import build_ocp, thermal_line, winding_thermal
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.result import carry_over
-from optimize.solve.solve import solve, start
+from optimize.solve.solve import solve
+from optimize.solve.starts.cold import start
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import load_system

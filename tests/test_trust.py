@@ -20,8 +20,8 @@ from optimize.problem.guess import LoopGuess, circular_loop
 from optimize.problem.ocp import build_ocp, grid_times
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
-from optimize.solve.remesh import interpolate_solution
 from optimize.solve.result import Solution
+from optimize.solve.starts.remesh import interpolate_solution
 from optimize.sweep.trust import simulation_check
 
 WIND_M_S = 7.0

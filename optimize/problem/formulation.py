@@ -244,7 +244,7 @@ class Formulation:
     def prefix_quantities(self, upto: int) -> tuple[ca.Function, tuple[str, ...]]:
         """``(x, u, z, p) -> q``: the scalar quantities of ``parts[:upto]`` (the
         variables first), and their names (for a part's start,
-        :mod:`optimize.problem.start`)."""
+        :mod:`optimize.solve.starts.fill`)."""
         x, u, z, par = self._symbols()
         q = self.quantities(x, u, z, ca.DM.zeros(self.dae.fictitious.size), par, upto)
         for name in self.parameters:

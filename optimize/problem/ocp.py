@@ -49,7 +49,7 @@ class Ocp:
     """A built OCP: formulation, transcribed NLP and its base bounds.
 
     Build the kite's with :func:`build_ocp` (any formulation's with :func:`assemble`);
-    solve it with :func:`optimize.solve.solve.solve` or :func:`optimize.solve.solve.start`
+    solve it with :func:`optimize.solve.solve.solve` or :func:`optimize.solve.starts.cold.start`
     (the kite's) or :func:`optimize.solve.backend.run` (any). Solvers created for it are
     cached in ``solvers`` (:mod:`optimize.solve.backend`).
     """

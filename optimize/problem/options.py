@@ -241,7 +241,7 @@ class SolverOptions:
         steps to 1e-7..1e-2 of their length.
     stored_guess : bool
         Start a scenario with no neighbouring solution from the shipped initial
-        guess (:mod:`optimize.solve.initial_guess`) when it fits, instead of the homotopy.
+        guess (:mod:`optimize.solve.starts.stored_guess`) when it fits, instead of the homotopy.
     linear_solver : str
         IPOPT linear solver: ``"mumps"`` (default), ``"spral"``, or one IPOPT loads
         at run time from the user's library (HSL ``"ma27"``, ``"ma57"``, ``"ma77"``,

@@ -62,7 +62,7 @@ A stored initial guess or the homotopy's circular loop gives the kite's variable
 parts after it fill theirs, so a stored guess keeps working when a part is added.
 
 The stored initial guess records the parts it holds (their names and variables,
-:func:`optimize.solve.initial_guess.parts_record`); it is checked on the OCP's parts of
+:func:`optimize.solve.starts.stored_guess.parts_record`); it is checked on the OCP's parts of
 those names, then carried over: a part the file lacks fills its own variables (a part
 that only adds variables and rows keeps the kite's optimum; one that changes the kite's
 or the drive's own rows, a force on the kite, starts from it all the same, its rows not

@@ -2,8 +2,9 @@
 
 Every stage that solves the OCP goes through here: ``bench optimize`` (a start
 graph of several kinds, local optima re-solved, cut-in searches), ``bench size``
-(a chain per candidate drive, stored and resumable, optionally refined for the
-site) and ``bench aep --refine`` (the speeds where a sweep's curve bends).
+(a chain per candidate drive, each started from the reference drive's optima, stored
+and resumable, optionally refined for the site) and ``bench aep --refine`` (the
+speeds where a sweep's curve bends, each started from the nearest solved speed).
 
 =============================================== ==========================================
 module                                          concept
@@ -13,6 +14,8 @@ module                                          concept
 :mod:`optimize.service.builder`                 what a worker builds: ``Problem``, backends
 :mod:`optimize.service.solver`                  one problem's solves: warm starts, fallbacks,
                                                 records, the store
+:mod:`optimize.service.foreign`                 starts it did not find itself: another
+                                                problem's solution, a stored cycle
 :mod:`optimize.service.store`                   solves stored under the hash of their inputs
 :mod:`optimize.service.local_optima`            re-solve of scenarios off their kind's curve
 :mod:`optimize.service.retry`                   failed scenarios retried from other starts

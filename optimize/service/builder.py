@@ -152,15 +152,30 @@ class OcpBackend:
 
     def cold_start(self, ocp: Any, kind: str, wind_speed_m_s: float) -> SolveResult:
         """From the stored initial guess when it fits, else the homotopy."""
-        from optimize.solve.solve import start
+        from optimize.solve.starts.cold import start
 
         return start(ocp, self.scenario(kind, wind_speed_m_s))
+
+    def carry(self, src: Any, warm: Any, dst: Any, kind: str, wind_speed_m_s: float) -> Any:
+        """``warm``, a solution of the NLP ``src`` (of ``kind`` at ``wind_speed_m_s``), in
+        the layout of another problem's NLP ``dst``
+        (:func:`optimize.solve.result.carry_over`)."""
+        from optimize.solve.result import carry_over
+
+        return carry_over(src, warm, dst, self.scenario(kind, wind_speed_m_s).parameters)
+
+    def from_trajectory(self, ocp: Any, trajectory: Any) -> Any:
+        """A converged cycle of ``ocp`` kept as its trajectory, as its start
+        (:func:`optimize.solve.result.solution_of_trajectory`)."""
+        from optimize.solve.result import solution_of_trajectory
+
+        return solution_of_trajectory(ocp, trajectory)
 
     def remesh(self, coarse: Any, fine: Any, kind: str, wind_speed_m_s: float,
                result: SolveResult) -> SolveResult:
         """From ``result`` interpolated onto the finer mesh
-        (:func:`optimize.solve.remesh.solve_interpolated`)."""
-        from optimize.solve.remesh import solve_interpolated
+        (:func:`optimize.solve.starts.remesh.solve_interpolated`)."""
+        from optimize.solve.starts.remesh import solve_interpolated
 
         return solve_interpolated(coarse, fine, self.scenario(kind, wind_speed_m_s), result)
 

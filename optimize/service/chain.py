@@ -6,8 +6,10 @@ the scenarios solved elsewhere that the task hands it (``solved``: warm starts, 
 a grid to check), solves the chain's planned steps in order (one step of the start
 graph, :func:`optimize.service.plan.plan_graph`, or a chain of
 :func:`optimize.service.plan.chain_steps`: a cold start at the middle wind speed,
-then outwards), each step warm-started from its planned source and fallbacks, then,
-as asked:
+then outwards), each step warm-started from another problem's solution of its
+scenario where the task offers one (``foreign``: a sizing candidate from its reference
+drive, :mod:`optimize.service.foreign`), then from its planned source and fallbacks,
+then, as asked:
 
 * solves its failed scenarios again from the other starts it has
   (:func:`optimize.service.retry.retry_failed`);
@@ -34,6 +36,7 @@ from typing import Any
 from optimize.problem.scenario import scenario_name
 from optimize.service.builder import Problem
 from optimize.service.cut_in import find_cut_in
+from optimize.service.foreign import CycleStart, ForeignStart
 from optimize.service.local_optima import resolve_local_optima
 from optimize.service.outcome import ChainOutcome, ScenarioOutcome
 from optimize.service.plan import Step
@@ -64,6 +67,10 @@ class Refinement:
     check : bool
         Before the first added speed, solve again the known speed nearest it (role
         ``"check"``): the warm start of the added ones, and a check of the known figure.
+    starts : tuple of CycleStart
+        The known speeds' cycles (:class:`optimize.service.foreign.CycleStart`, e.g. the
+        sweep's trajectories): the check re-solve starts from its own, and each added
+        speed from the nearest solved speed, known or added (a cold start without them).
     """
 
     kind: str
@@ -74,6 +81,7 @@ class Refinement:
     known: tuple[tuple[float, ...], ...] = ()
     curves: tuple[str, ...] = ("avg_p_elec_w",)
     check: bool = False
+    starts: tuple[CycleStart, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -112,6 +120,9 @@ class ChainTask:
     retry : bool
         Solve the grid's failed scenarios again from the other starts there are
         (:func:`optimize.service.retry.retry_failed`), before the re-solve of local optima.
+    foreign : tuple of ForeignStart
+        Other problems' solutions, each the first start of this problem's scenario of
+        its kind and wind speed (:mod:`optimize.service.foreign`).
     """
 
     problem: Problem
@@ -128,17 +139,32 @@ class ChainTask:
     solved: tuple[tuple[ScenarioOutcome, dict], ...] = ()
     starts: tuple[tuple[ScenarioOutcome, dict], ...] = ()
     retry: bool = False
+    foreign: tuple[ForeignStart, ...] = ()
+
+
+def _nearest(solver: Solver, r: Refinement, wind_speed_m_s: float) -> list:
+    """The starts of an added speed: the nearest solved speeds of the refined kind, its
+    own solves before the known cycles at equal distance, at most two."""
+    own = [(r.kind, w) for w in solver.converged(r.kind)]
+    cycles = [s for s in r.starts if s.key not in own]
+    ranked = sorted([*own, *cycles], key=lambda s: (
+        abs((s.wind_speed_m_s if isinstance(s, CycleStart) else s[1]) - wind_speed_m_s),
+        isinstance(s, CycleStart)))
+    return ranked[:2]
 
 
 def _refine(solver: Solver, r: Refinement, start: tuple[float, ...]) -> None:
     known = {float(w): (p[0] if len(p) == 1 else tuple(p)) for w, *p in r.known}
+    cycles = {s.wind_speed_m_s: s for s in r.starts}
 
     def power(wind_speed_m_s: float) -> Any:
         wind_speed_m_s = round(float(wind_speed_m_s), 6)
         if r.check and known and not any(rec["role"] == "check"
                                          for rec in solver.records.values()):
-            solver.solve(r.kind, min(known, key=lambda w: abs(w - wind_speed_m_s)), "check")
-        rec = solver.solve(r.kind, wind_speed_m_s, "added")
+            near = min(known, key=lambda w: abs(w - wind_speed_m_s))
+            solver.solve(r.kind, near, "check", [cycles[near]] if near in cycles else None)
+        rec = solver.solve(r.kind, wind_speed_m_s, "added",
+                           _nearest(solver, r, wind_speed_m_s) or None)
         if not rec["success"]:
             return None
         values = tuple(rec[c] for c in r.curves)
@@ -167,6 +193,7 @@ def run_chain(task: ChainTask, progress: Any = None) -> ChainOutcome:
                     task.extras, task.index)
     for outcome, record in (*task.solved, *task.starts):
         solver.adopt(outcome, record)
+    solver.foreign.update((f.key, f) for f in task.foreign)
     planned = [(s.kind, s.wind_speed_m_s) for s in task.steps]
     keys = [(o.kind, o.wind_speed_m_s) for o, _ in task.solved] + planned
     by_name = {scenario_name(*k): k for k in keys}

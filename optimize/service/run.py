@@ -27,6 +27,7 @@ from typing import Any
 from optimize.kinds import KINDS
 from optimize.service.builder import Problem
 from optimize.service.chain import ChainTask, Refinement, run_chain
+from optimize.service.foreign import ForeignStart
 from optimize.service.local_optima import LOCAL_OPTIMUM
 from optimize.service.outcome import (
     WORKER_ERROR,
@@ -97,17 +98,30 @@ class SolveTask:
 def solve_tasks(tasks: Sequence[SolveTask], store: Path | None = None, *, workers: int = 2,
                 scheduler: str | None = None, handle: Any = None, backend: Any = None,
                 refine: Callable[[str], Refinement] | None = None,
-                on_event: Callable[[dict], None] | None = None) -> list[dict]:
+                on_event: Callable[[dict], None] | None = None,
+                reference: tuple[tuple[str, Any], ...] | None = None) -> list[dict]:
     """Solve every task; the records of each chain, sorted by wind speed, chain after chain.
 
     Tasks of one problem, kind and tag form one chain (one executor task), planned
     along the continuation order of their wind speeds
     (:func:`optimize.service.plan.chain_steps`). With ``refine`` (kind -> its
     :class:`optimize.service.chain.Refinement`) each chain then adds the wind speeds
-    where its electrical power curve bends for the refinement's site. ``store``, ``backend``: see
-    :class:`optimize.service.chain.ChainTask`; ``handle``, ``workers``,
-    ``scheduler``, ``on_event``: see :func:`run_chains`.
+    where its electrical power curve bends for the refinement's site.
+
+    With ``reference`` (a tag, e.g. ``(("candidate", "x1"),)``) the chains of that tag
+    run first, and every solve of the other chains starts from the reference's solution
+    of the same kind and wind speed (:class:`optimize.service.foreign.ForeignStart`),
+    before its own neighbours: one cold start in all, the reference's (``bench size``).
+
+    ``store``, ``backend``: see :class:`optimize.service.chain.ChainTask`; ``handle``,
+    ``workers``, ``scheduler``, ``on_event``: see :func:`run_chains`.
     """
+    if handle is None:
+        from optimize.service.executors import open_executor
+
+        with open_executor(workers, scheduler) as h:
+            return solve_tasks(tasks, store, handle=h, backend=backend, refine=refine,
+                               on_event=on_event, reference=reference)
     groups: dict[tuple, list[SolveTask]] = {}
     for t in tasks:
         groups.setdefault((t.problem.key, t.kind, t.tag), []).append(t)
@@ -117,8 +131,40 @@ def solve_tasks(tasks: Sequence[SolveTask], store: Path | None = None, *, worker
         chains.append(ChainTask(g[0].problem, chain_steps((g[0].kind,), wind_speeds_m_s), i,
                                 g[0].tag, store, backend,
                                 refine=refine(g[0].kind) if refine else None))
-    outs, _ = run_chains(chains, handle, workers=workers, scheduler=scheduler, on_event=on_event)
-    return [rec for out in outs for rec in out.records]
+    first = [c for c in chains if reference is not None and c.tag == tuple(reference)]
+    rest = [c for c in chains if reference is None or c.tag != tuple(reference)]
+    outs = dict(zip((c.index for c in first), run_chains(first, handle, on_event=on_event)[0],
+                    strict=True))
+    if first:
+        starts = tuple(f for c in first for f in reference_starts(c, outs[c.index]))
+        rest = [dataclasses.replace(c, foreign=starts) for c in rest]
+    outs.update(zip((c.index for c in rest), run_chains(rest, handle, on_event=on_event)[0],
+                    strict=True))
+    return [rec for i in sorted(outs) for rec in outs[i].records]
+
+
+def reference_starts(task: ChainTask, out: ChainOutcome) -> tuple[ForeignStart, ...]:
+    """The converged solves of a finished chain, as starts of other problems' solves
+    (:class:`optimize.service.foreign.ForeignStart`, labelled with the chain's tag values):
+    the solutions it solved, and those it loaded from the store."""
+    from optimize.service.store import load_solve
+
+    label = " ".join(str(v) for _, v in task.tag) or "reference"
+    solved = {(o.kind, o.wind_speed_m_s): o for o in out.outcomes
+              if o.success and o.result is not None}
+    starts = []
+    for rec in out.records:
+        if not rec["success"]:
+            continue
+        key = (rec["kind"], float(rec["wind_speed_m_s"]))
+        if key in solved:
+            warm, depth = solved[key].result.warm, solved[key].depth
+        else:  # loaded from the store (or solved after the planned steps): its stored warm start
+            stored = load_solve(task.store, rec["key"]) if rec.get("key") else None
+            warm, depth = (None, 0) if stored is None else (stored[1], 0)
+        if warm is not None:
+            starts.append(ForeignStart(*key, label, depth, problem=task.problem, warm=warm))
+    return tuple(starts)
 
 
 @dataclass(frozen=True)

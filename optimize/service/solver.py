@@ -30,6 +30,7 @@ from typing import Any
 
 from optimize.problem.scenario import scenario_name
 from optimize.service.builder import OcpBackend, Problem
+from optimize.service.foreign import Start
 from optimize.service.outcome import CRASH, Attempt, ScenarioOutcome, failure_status
 from optimize.service.store import load_solve, solve_key, store_solve
 from optimize.solve.result import cycle_metrics
@@ -86,6 +87,8 @@ class Solver:
         self.records: dict[Key, dict] = {}
         self.outcomes: dict[Key, ScenarioOutcome] = {}
         self.build_time_s = 0.0
+        #: starts from other problems' solutions, tried first (:mod:`optimize.service.foreign`)
+        self.foreign: dict[Key, Start] = {}
         self._warm: dict[Key, Any] = {}
         self._depth: dict[Key, int] = {}
         self._ocp = None
@@ -103,20 +106,23 @@ class Solver:
         """Wind speeds [m/s] of ``kind`` with a converged solution to warm-start from."""
         return sorted(w for k, w in self._warm if k == kind)
 
-    def attempt(self, kind: str, wind_speed_m_s: float, source: Key | None,
+    def attempt(self, kind: str, wind_speed_m_s: float, source: Key | Start | None,
                 role: str = "grid") -> tuple[Attempt, Any]:
         """One solver run of ``kind`` at ``wind_speed_m_s`` [m/s] from the converged ``source``
-        (None: a cold start) for ``role`` (why it runs, for the progress events); a crash
-        is a failed attempt with no result."""
+        (None: a cold start; a :class:`optimize.service.foreign.Start`: one it did not
+        find itself, another problem's solution or a stored cycle) for ``role`` (why it
+        runs, for the progress events); a crash is a failed attempt with no result."""
         ocp = self.ocp
-        name = None if source is None else scenario_name(*source)
+        given = isinstance(source, Start)
+        name = source.name if given else None if source is None else scenario_name(*source)
         self.tell("start", kind, wind_speed_m_s, role, name, "")
         t0 = time.perf_counter()
         try:
             if source is None:
                 result = self.backend.cold_start(ocp, kind, wind_speed_m_s)
             else:
-                result = self.backend.solve(ocp, kind, wind_speed_m_s, self._warm[source])
+                warm = source.carried(self.backend, ocp) if given else self._warm[source]
+                result = self.backend.solve(ocp, kind, wind_speed_m_s, warm)
         except Exception as exc:  # noqa: BLE001 - a crash is this speed's failure, reported
             attempt, result = Attempt(name, failure_status(CRASH, exc), False, 0,
                                       time.perf_counter() - t0), None
@@ -150,10 +156,11 @@ class Solver:
         wind_speed_m_s : float
         role : str
             Why it is solved (``"grid"``, ``"added"``, ``"check"``, ``"cut-in"``), recorded.
-        sources : sequence of (kind, wind_speed_m_s), optional
+        sources : sequence of (kind, wind_speed_m_s) or Start, optional
             Warm sources in order of preference; those not converged are skipped and at
             most :data:`MAX_WARM_ATTEMPTS` are tried. Default: the nearest converged
-            speed of ``kind``.
+            speed of ``kind``. A start from another problem's solution of this scenario
+            (:attr:`foreign`) is tried before them.
         cold : bool
             Fall back to a cold start when no warm start converged.
 
@@ -180,7 +187,10 @@ class Solver:
             if sources is None:
                 near = self.converged(kind)
                 sources = [(kind, min(near, key=lambda w: abs(w - wind_speed_m_s)))] if near else []
-            tried = [s for s in sources if s in self._warm][:MAX_WARM_ATTEMPTS]
+            tried = [s for s in sources
+                     if isinstance(s, Start) or s in self._warm][:MAX_WARM_ATTEMPTS]
+            if (kind, wind_speed_m_s) in self.foreign:
+                tried.insert(0, self.foreign[kind, wind_speed_m_s])
             attempts, result, src = [], None, None
             for src in tried:
                 attempt, result = self.attempt(kind, wind_speed_m_s, src, role)
@@ -218,8 +228,10 @@ class Solver:
         if outcome.success and outcome.result is not None:
             self._warm[k], self._depth[k] = outcome.result.warm, outcome.depth
 
-    def _depth_from(self, source: Key | None) -> int:
+    def _depth_from(self, source: Key | Start | None) -> int:
         """The start-graph depth of a solve started from ``source`` (None: cold, 0)."""
+        if isinstance(source, Start):
+            return source.depth + 1
         return 0 if source is None else self._depth.get(source, 0) + 1
 
     def replace(self, outcome: ScenarioOutcome, source: Key) -> None:
@@ -251,12 +263,14 @@ class Solver:
         self.records[k] = {**rec, "cached": False}
 
     def record(self, key: str | None, outcome: ScenarioOutcome, role: str,
-               source: Key | None) -> dict:
+               source: Key | Start | None) -> dict:
         """The flat record of an outcome whose final attempt started from ``source`` (see
         :meth:`solve`; the stored form)."""
         res, ok = outcome.result, outcome.success
         if source is None:
             warm_from = getattr(res, "start", "cold start")
+        elif isinstance(source, Start):
+            warm_from = source.warm_from(outcome.kind)
         elif source[0] == outcome.kind:
             warm_from = f"{source[1]:g} m/s"
         else:

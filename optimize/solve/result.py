@@ -12,10 +12,10 @@ import pandas as pd
 from optimize.problem.ocp import Ocp
 from optimize.problem.part import FRAME_COLUMNS, near
 from optimize.problem.scenario import Scenario
-from optimize.problem.start import KEYS, fill
 from optimize.solve.backend import RawSolve
+from optimize.solve.starts.fill import KEYS, fill
 
-#: the layout's indices of each start array (:data:`optimize.problem.start.KEYS`)
+#: the layout's indices of each start array (:data:`optimize.solve.starts.fill.KEYS`)
 LAYOUT = {"x": "i_x", "u": "i_u", "z": "i_z", "fict": "i_f"}
 
 
@@ -90,7 +90,7 @@ class OcpResult:
         temperature [degC] and its margin [K] with the thermal part), by name.
     start : str
         How the final solve was started: ``"warm start"`` (from a neighbouring
-        solution), ``"stored guess"`` (:mod:`optimize.solve.initial_guess`) or
+        solution), ``"stored guess"`` (:mod:`optimize.solve.starts.stored_guess`) or
         ``"homotopy"``.
     """
 
@@ -140,11 +140,43 @@ def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray,
     return pd.DataFrame(frame)
 
 
+def solution_of_trajectory(ocp: Ocp, trajectory: pd.DataFrame) -> Solution:
+    """A start of ``ocp`` at a cycle kept as its trajectory (the rows of
+    :func:`trajectory_frame` on the same mesh, e.g. ``trajectories.parquet``'s of one
+    scenario): the primal vector, with the cycle's start state its end state (periodic)
+    and the fictitious forces zero (fixed there at every optimum); the multipliers zero,
+    since the trajectory keeps none.
+
+    Raises
+    ------
+    ValueError
+        The trajectory has another number of points than the OCP's mesh.
+    KeyError
+        It lacks a variable of the model (named).
+    """
+    n, d = ocp.n_intervals, ocp.coll.degree
+    traj = trajectory.sort_values("time_s")
+    if len(traj) != n * d:
+        raise ValueError(f"the trajectory has {len(traj)} points; the OCP's mesh {n} x {d}")
+
+    def rows(names: tuple[str, ...]) -> np.ndarray:
+        return np.vstack([traj[name].to_numpy(float) for name in names])
+
+    dae = ocp.dae
+    x = rows(dae.states.names)
+    w = ocp.pack(np.hstack([x[:, -1:], x]), rows(dae.algebraic.names),
+                 rows(dae.controls.names)[:, ::d],
+                 np.zeros((dae.fictitious.size, ocp.layout.n_coll)),
+                 float(traj["time_s"].iloc[-1]))
+    return Solution(w=w, lam_x=np.zeros(ocp.layout.n_w), lam_g=np.zeros(ocp.layout.n_g),
+                    n_intervals=n, degree=d)
+
+
 def carry_over(src: Ocp, solution: Solution, dst: Ocp,
                parameters: Mapping[str, float] | None = None) -> Solution:
     """A solution of ``src`` in the layout of ``dst``: the same problem in another
     transcription (:func:`optimize.problem.ocp.twin`), or one with more parts, whose
-    variables their parts fill (:func:`optimize.problem.start.fill`, at the model's
+    variables their parts fill (:func:`optimize.solve.starts.fill.fill`, at the model's
     ``parameters`` of the solution, :attr:`optimize.problem.scenario.Scenario.parameters`).
 
     The primal point through the physical variables by name (``dst`` fills its

@@ -1,57 +1,31 @@
-"""Solve one scenario, warm-started from a neighbouring solution or from scratch.
+"""Solve one scenario warm-started from a neighbouring solution (or, given none, by the
+homotopy).
 
-Typical use (the sweep builds the OCP once and chains warm starts)::
+Typical use (the sweep builds the OCP once and chains warm starts; every other start is
+in :mod:`optimize.solve.starts`)::
 
     dae = kite_dae()
     ocp = build_ocp(dae, load_power_model(path), OcpOptions(Discretization(n_intervals=40)))
-    res = start(ocp, Scenario(7.0, "mechanical", False))  # stored guess, else homotopy
+    res = start(ocp, Scenario(7.0, "mechanical", False))  # optimize.solve.starts.cold
     res2 = solve(ocp, Scenario(7.0, "electrical", False), res.warm)
 """
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 
 import numpy as np
 
 from optimize.problem.ocp import Bounds, Ocp
 from optimize.problem.scenario import Scenario
-from optimize.solve import backend, initial_guess
-from optimize.solve.homotopy import cold_start
+from optimize.solve import backend
 from optimize.solve.predictor import predict
 from optimize.solve.result import OcpResult, Solution, make_result
+from optimize.solve.starts.homotopy import cold_start
 
 log = logging.getLogger(__name__)
 
-__all__ = ["cold_start", "solve", "start"]
-
-
-def start(ocp: Ocp, scenario: Scenario) -> OcpResult:
-    """Solve ``scenario`` with no neighbouring solution at hand.
-
-    Warm-started from the shipped initial guess (:mod:`optimize.solve.initial_guess`)
-    when ``ocp.options.solver.stored_guess`` is set and the guess fits this OCP;
-    otherwise, or when that solve fails, by the homotopy
-    (:func:`optimize.solve.homotopy.cold_start`). A failed stored-guess solve stays
-    in ``stages`` and counts in the iterations and wall time.
-    """
-    guess, why = (initial_guess.load(ocp) if ocp.options.solver.stored_guess
-                  else (None, "stored initial guess switched off"))
-    log.info("%s: %s", scenario.name, why)
-    if guess is None:
-        return cold_start(ocp, scenario)
-    res = solve(ocp, scenario, guess)
-    stages = tuple({**s, "stage": f"stored-guess {s['stage']}"} for s in res.stages)
-    if res.success:
-        return dataclasses.replace(res, stages=stages, start="stored guess")
-    log.info("%s: the solve from the stored initial guess ended %s; running the homotopy",
-             scenario.name, res.status)
-    hom = cold_start(ocp, scenario)
-    return dataclasses.replace(
-        hom, stages=stages + hom.stages, iterations=res.iterations + hom.iterations,
-        wall_time_s=res.wall_time_s + hom.wall_time_s,
-    )
+__all__ = ["cold_start", "solve"]
 
 
 def solve(
@@ -126,7 +100,8 @@ def _predicted(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds
     ``("predicted", the vectors moved along the tangent, its time)``
     (:func:`optimize.solve.predictor.predict`)."""
     step = ocp.options.solver.predictor_step
-    if step <= 0 or warm.p is None or np.array_equal(warm.p, p):
+    if (step <= 0 or warm.p is None or warm.p.shape != p.shape
+            or np.array_equal(warm.p, p)):
         return "warm", warm.w, warm.lam_x, warm.lam_g, 0.0
     before = ocp.bounds(drive_limits=bool(warm.drive_limits), fix_fictitious=True,
                         period_s=None)

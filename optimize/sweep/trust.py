@@ -35,9 +35,9 @@ from optimize.problem.scenario import Scenario
 from optimize.service.builder import OcpBackend
 from optimize.service.executors import run_tasks
 from optimize.service.plan import middle_index
-from optimize.solve.remesh import solve_interpolated
 from optimize.solve.result import OcpResult
 from optimize.solve.solve import solve
+from optimize.solve.starts.remesh import solve_interpolated
 
 
 @dataclass(frozen=True)

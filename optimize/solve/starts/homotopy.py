@@ -25,9 +25,9 @@ import numpy as np
 
 from optimize.problem.ocp import Ocp
 from optimize.problem.scenario import Scenario
-from optimize.problem.start import part_start
 from optimize.solve.backend import RawSolve, run
 from optimize.solve.result import OcpResult, make_result
+from optimize.solve.starts.fill import part_start
 
 log = logging.getLogger(__name__)
 
@@ -70,7 +70,7 @@ def fictitious_rms(ocp: Ocp, w_scaled: np.ndarray) -> float:
 
 def cold_start(ocp: Ocp, scenario: Scenario) -> OcpResult:
     """Solve ``scenario`` from the parts' own start (the kite's circular loop,
-    :func:`optimize.problem.start.part_start`) through the homotopy.
+    :func:`optimize.solve.starts.fill.part_start`) through the homotopy.
 
     Stages: ``track`` (period free), ``penalize-W`` for the weights of
     :data:`PENALTY_WEIGHTS`; when a penalty stage fails, intermediate weights

@@ -13,10 +13,10 @@ the OCP of those parts evaluates the same ``g`` at the stored point to :data:`MA
 The constraints do not depend on the drive model, so the guess serves any fitted model;
 a part the OCP has beyond the file's fills its own variables along it; a part the
 file records and the OCP has not, a changed kite model, scaling, collocation or layout
-makes it stale, and :func:`optimize.solve.solve.start` falls back to the homotopy
+makes it stale, and :func:`optimize.solve.starts.cold.start` falls back to the homotopy
 (saying why). Regenerate the file with::
 
-    .venv/bin/python -m optimize.solve.initial_guess
+    .venv/bin/python -m optimize.solve.starts.stored_guess
 
 A file written before it recorded its parts gets the record, checked on the OCP of the
 parts named, with ``--record-parts kite,drive`` (its arrays unchanged).
@@ -38,16 +38,16 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import Ocp, assemble, build_ocp, twin
 from optimize.problem.options import OcpOptions
 from optimize.problem.scenario import Scenario
-from optimize.problem.start import KEYS
-from optimize.solve.homotopy import cold_start
 from optimize.solve.result import OcpResult, Solution, carry_over
+from optimize.solve.starts.fill import KEYS
+from optimize.solve.starts.homotopy import cold_start
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system_file import load_system
 
 log = logging.getLogger(__name__)
 
 #: the shipped file
-GUESS_PATH = Path(__file__).resolve().parent.parent / "data" / "initial_guess.npz"
+GUESS_PATH = Path(__file__).resolve().parents[2] / "data" / "initial_guess.npz"
 #: the scenario it holds: its solution warm-starts both objectives at 7 m/s
 GUESS_SCENARIO = Scenario(wind_speed_m_s=7.0, objective="electrical", drive_limits=True)
 #: largest deviation of the scaled constraint values at the stored point [-]
@@ -179,7 +179,7 @@ def _read(path: str | Path) -> tuple[dict | None, str]:
         return None, f"cannot read the stored initial guess {path}: {exc}"
     if len(record) < 2:
         return None, (f"the stored initial guess {path} does not record its parts (written "
-                      "before it did): python -m optimize.solve.initial_guess --record-parts "
+                      "before it did): python -m optimize.solve.starts.stored_guess --record-parts "
                       "kite,drive adds the record")
     return {**data, **record}, ""
 
@@ -207,7 +207,7 @@ def _check(ocp: Ocp, data: dict) -> tuple[Solution | None, str]:
     if not dev <= MATCH_TOL:
         return None, (f"the stored initial guess does not fit this OCP's constraints (largest "
                       f"deviation {dev:.1e}); regenerate it: "
-                      "python -m optimize.solve.initial_guess")
+                      "python -m optimize.solve.starts.stored_guess")
     lam_g = np.concatenate([data["lam_g"], np.zeros(n_rms)])
     solution = Solution(w=data["w"], lam_x=data["lam_x"], lam_g=lam_g,
                         n_intervals=n, degree=d)
