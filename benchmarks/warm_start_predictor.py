@@ -6,7 +6,7 @@ solved four times from the same converged source, on the paper's OCP (default op
 
 * ``neighbour``: from the source's optimum as it is (today's warm start);
 * ``predicted``: from the first-order prediction (``predictor_step = 1``,
-  :mod:`optimize.solve.predictor`);
+  :mod:`optimize.solve.starts.predictor`);
 * ``half``: half the predicted step (``predictor_step = 0.5``);
 * ``own optimum``: from the scenario's own optimum (the ``neighbour`` solve's), the
   floor any start can reach with these warm-start settings.
@@ -45,8 +45,8 @@ from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.service.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
-from optimize.solve.predictor import tangent
 from optimize.solve.solve import solve, start
+from optimize.solve.starts.predictor import tangent
 
 OUT = Path(__file__).resolve().parent / "out"
 VARIANTS = {"neighbour": 0.0, "predicted": 1.0, "half": 0.5}

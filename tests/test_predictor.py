@@ -1,4 +1,4 @@
-"""The tangential predictor (optimize/solve/predictor.py): the derivative of an optimum in
+"""The tangential predictor (optimize/solve/starts/predictor.py): the derivative of an optimum in
 the wind speed against two converged optima, and a predicted start's solve."""
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from optimize.problem.scenario import Scenario
-from optimize.solve.predictor import tangent
 from optimize.solve.solve import solve
+from optimize.solve.starts.predictor import tangent
 
 #: a wind step small enough for the first-order prediction to dominate [m/s]
 STEP_M_S = 0.05

@@ -266,7 +266,7 @@ class SolverOptions:
         (collocation) and 16 % after 34 s (condensed) (benchmarks/README.md); False runs
         them in CasADi's virtual machine.
     predictor_step : float
-        Fraction of the tangential predictor's step (:mod:`optimize.solve.predictor`)
+        Fraction of the tangential predictor's step (:mod:`optimize.solve.starts.predictor`)
         a warm start from another wind speed or objective takes: 0 (the default) starts
         from the neighbour's optimum as it is; 1 from the first-order prediction of the
         new optimum. Off by default: on the paper sweep it saved no iterations at these

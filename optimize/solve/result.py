@@ -26,7 +26,7 @@ class Solution:
     Only valid for an :class:`optimize.problem.ocp.Ocp` with the same ``n_intervals``
     and ``degree`` (checked by :func:`optimize.solve.solve.solve`). ``p`` (the NLP
     parameters it solves) and ``drive_limits`` (whether the drive limits bounded it)
-    let the next solve predict its optimum (:mod:`optimize.solve.predictor`); None
+    let the next solve predict its optimum (:mod:`optimize.solve.starts.predictor`); None
     where unknown (a stored solve, a carried-over one).
     """
 

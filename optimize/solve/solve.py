@@ -19,9 +19,9 @@ import numpy as np
 from optimize.problem.ocp import Bounds, Ocp
 from optimize.problem.scenario import Scenario
 from optimize.solve import backend
-from optimize.solve.predictor import predict
 from optimize.solve.result import OcpResult, Solution, make_result
 from optimize.solve.starts.homotopy import cold_start
+from optimize.solve.starts.predictor import predict
 
 log = logging.getLogger(__name__)
 
@@ -37,9 +37,10 @@ def solve(
     IPOPT's ``warm_start_init_point`` and a small ``mu_init`` (fatrop takes the
     primal vector and the small ``mu_init``; it starts no multipliers); with the
     solver options' ``predictor_step``, moved first along the tangent to the
-    scenario's parameters (:mod:`optimize.solve.predictor`; stage ``"predicted"``). If that fails
-    and ``retry_cold`` is set, the same primal point is tried once more with
-    the default (cold) barrier settings; both calls count in the result.
+    scenario's parameters (:mod:`optimize.solve.starts.predictor`; stage
+    ``"predicted"``). If that fails and ``retry_cold`` is set, the same primal point
+    is tried once more with the default (cold) barrier settings; both calls count in
+    the result.
 
     Parameters
     ----------
@@ -98,7 +99,7 @@ def _predicted(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds
     neighbour's vectors, 0)``, or, with the solver options' ``predictor_step`` above 0
     and a neighbour that knows its own parameters (:attr:`Solution.p`) and they differ,
     ``("predicted", the vectors moved along the tangent, its time)``
-    (:func:`optimize.solve.predictor.predict`)."""
+    (:func:`optimize.solve.starts.predictor.predict`)."""
     step = ocp.options.solver.predictor_step
     if (step <= 0 or warm.p is None or warm.p.shape != p.shape
             or np.array_equal(warm.p, p)):
