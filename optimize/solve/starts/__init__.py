@@ -8,7 +8,9 @@ A solve starts from one of:
 * the homotopy from those guesses (:mod:`optimize.solve.starts.homotopy`), a cold start;
 * the shipped solution (:mod:`optimize.solve.starts.stored_guess`), when it fits the OCP;
 * :func:`optimize.solve.starts.cold.start`: the shipped solution, else the homotopy;
-* a neighbouring optimum (:func:`optimize.solve.solve.solve`: the warm start);
+* a neighbouring optimum (:func:`optimize.solve.solve.solve`: the warm start), moved
+  along its tangent in the scenario's parameters when the solver options ask for it
+  (:mod:`optimize.solve.starts.predictor`; off by default, benchmarks/README.md);
 * an optimum on a coarser mesh interpolated onto a finer one
   (:mod:`optimize.solve.starts.remesh`).
 
