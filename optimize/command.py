@@ -33,10 +33,12 @@ from optimize.sweep.trust import run_trust_checks
 from optimize.sweep_folder import (
     FINER_MESH_HEAD,
     MARKERS,
+    UNCHECKED_HEAD,
     bound_lines,
     domain_lines,
     remesh_lines,
     resolve_lines_of,
+    unchecked_lines,
     write_sweep_folder,
 )
 from optimize.sweep_options import (
@@ -356,6 +358,9 @@ def format_summary(summary: Any) -> str:
     if resolved:
         lines += ["", "local optima: scenarios off their kind's smooth curve, solved again from "
                   "a neighbour (the better optimum kept):", *resolved]
+    unchecked = unchecked_lines(summary)
+    if unchecked:
+        lines += ["", f"{UNCHECKED_HEAD}:", *unchecked]
     outside = domain_lines(summary)
     if outside:
         lines += ["", "outside the drive model's validity domain (the model extrapolates there):",

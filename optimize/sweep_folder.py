@@ -295,6 +295,25 @@ def bound_lines(summary: pd.DataFrame) -> list[str]:
     return [bound_line(r) for r in on_bounds(summary).itertuples(index=False)]
 
 
+#: converged wind speeds a kind needs for the local-optimum check, which compares each
+#: optimum with the curve through its neighbours (:mod:`optimize.service.local_optima`)
+MIN_CURVE_SPEEDS = 3
+#: what the kinds of :func:`unchecked_lines` are, in words (the log's and the report's)
+UNCHECKED_HEAD = (f"local optima not checked (fewer than {MIN_CURVE_SPEEDS} converged wind "
+                  "speeds of the kind: the check compares neighbouring speeds, so each optimum "
+                  "there may be a local one; benchmarks/README.md, AP2's local optima)")
+
+
+def unchecked_lines(summary: pd.DataFrame) -> list[str]:
+    """One line per kind whose converged scenarios are too few for the local-optimum check
+    (none for a summary without ``kind``)."""
+    if "kind" not in summary.columns:
+        return []
+    ok = summary[summary["success"].astype(bool)]
+    return [f"{kind}: {n} converged wind speed{'s' if n > 1 else ''}"
+            for kind, n in ok.groupby("kind", sort=False).size().items() if n < MIN_CURVE_SPEEDS]
+
+
 def resolve_lines_of(summary: pd.DataFrame) -> list[str]:
     """One line per scenario re-solved from a neighbour (summary ``resolved_from``)."""
     if "resolved_from" not in summary.columns:

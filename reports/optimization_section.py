@@ -22,6 +22,7 @@ from optimize.sweep_folder import (
     MANIFEST_FILE,
     SUMMARY_FILE,
     TRAJECTORIES_FILE,
+    UNCHECKED_HEAD,
     domain_excursions,
     domain_line,
     on_bounds,
@@ -30,6 +31,7 @@ from optimize.sweep_folder import (
     read_summary,
     read_trajectories,
     remesh_lines,
+    unchecked_lines,
 )
 from reports import cycle_figures
 from reports.failed import failed_rows, failure_text
@@ -228,7 +230,9 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
         and file text from the manifest, or None), ``kite_limits``
         (:func:`kite_limits_line`), ``local_optima`` (the sweep's re-solves, one line each),
         ``finer_mesh`` (scenarios solved on a finer mesh than the sweep's,
-        :func:`optimize.sweep_folder.remesh_lines`) and ``finer_mesh_head`` (what they are).
+        :func:`optimize.sweep_folder.remesh_lines`) and ``finer_mesh_head`` (what they are),
+        ``unchecked`` (kinds too few speeds for the local-optimum check,
+        :func:`optimize.sweep_folder.unchecked_lines`) and ``unchecked_head``.
     """
     start = len(log.missing)
     optimize = Path(optimize)
@@ -241,6 +245,7 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
                 "scenarios": None, "fig8a": None, "fig8b": None, "cycles": None,
                 "fig3": None, "notes": {"fig3": None}, "bounds": [], "failed": [],
                 "finer_mesh": [], "finer_mesh_head": FINER_MESH_HEAD,
+                "unchecked": [], "unchecked_head": UNCHECKED_HEAD,
                 "domain": None,
                 "claims": claims_rows(claims) if claims is not None else None})
     if summary is not None and len(summary):
@@ -249,7 +254,8 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
                     "failed": failed_rows(summary),
                     "n_scenarios": len(s), "scenarios": frame_table(summary),
                     "bounds": bound_rows(summary), "domain": domain_rows(summary),
-                    "finer_mesh": remesh_lines(summary)})
+                    "finer_mesh": remesh_lines(summary),
+                    "unchecked": unchecked_lines(summary)})
         out["fig8a"] = cycle_figures.power_vs_wind_figure(
             s, "avg_p_elec_w", "fig8a", "Average generated ELECTRICAL power (Fig. 8a)")
         out["fig8b"] = cycle_figures.power_vs_wind_figure(

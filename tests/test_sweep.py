@@ -713,7 +713,7 @@ def test_an_optimum_the_mesh_is_too_coarse_for_is_solved_on_a_finer_one_before_i
     import pandas as pd
 
     from optimize.problem.options import Discretization, OcpOptions
-    from optimize.sweep_folder import remesh_lines
+    from optimize.sweep_folder import remesh_lines, unchecked_lines
 
     options = OcpOptions(Discretization(n_intervals=10))
     problem = Problem(None, SimpleNamespace(sha256="stand-in"), options, "stand-in 10")
@@ -728,9 +728,11 @@ def test_an_optimum_the_mesh_is_too_coarse_for_is_solved_on_a_finer_one_before_i
     truth = SCALE_W * (exact_root(CUT_IN_M_S["mech-free"]) - exact_root(10.0))
     assert bad.result.avg_p_elec_w == pytest.approx(truth, rel=1e-9)
     assert all(o.success for o in result.outcomes)
-    frame = pd.DataFrame([{"scenario": o.name, "success": o.success, "n_intervals": 40,
+    frame = pd.DataFrame([{"scenario": o.name, "kind": o.kind, "success": o.success,
+                           "n_intervals": 40,
                            "warm_source": o.warm_source} for o in result.outcomes])
     assert remesh_lines(frame) == ["mech-free-10.0: on 40 intervals"]  # the log's, the report's
+    assert unchecked_lines(frame) == []  # five converged speeds: the local optima are checked
     # one refinement short of the mesh it needs: failed, every try listed
     short = _sweep(("mech-free",), backend=CoarseMeshBackend(fine_enough=80), problem=problem)
     bad = {o.name: o for o in short.outcomes}["mech-free-10.0"]

@@ -18,6 +18,7 @@ import numpy as np
 
 from optimize.kinds import KINDS
 from optimize.service.outcome import Resolve
+from optimize.sweep_folder import MIN_CURVE_SPEEDS
 
 #: a scenario whose objective power departs from the smooth curve through its
 #: neighbours of the same kind by more than this fraction of the kind's largest |power|,
@@ -91,7 +92,7 @@ def off_curve(wind_speeds_m_s: list[float], power_w: list[float],
         than :data:`JUMP_POWER_RTOL` of the kind's largest ``|P|``, or whose period
         departs by more than :data:`JUMP_PERIOD_RTOL` of its own.
     """
-    if len(wind_speeds_m_s) < 3:
+    if len(wind_speeds_m_s) < MIN_CURVE_SPEEDS:
         return []
     scale = max(abs(p) for p in power_w)
     flagged = []
