@@ -166,8 +166,8 @@ class OcpBackend:
 
     def from_trajectory(self, ocp: Any, trajectory: Any) -> Any:
         """A converged cycle of ``ocp`` kept as its trajectory, as its start
-        (:func:`optimize.solve.result.solution_of_trajectory`)."""
-        from optimize.solve.result import solution_of_trajectory
+        (:func:`optimize.solve.starts.cycle.solution_of_trajectory`)."""
+        from optimize.solve.starts.cycle import solution_of_trajectory
 
         return solution_of_trajectory(ocp, trajectory)
 

@@ -12,7 +12,8 @@ A solve starts from one of:
   along its tangent in the scenario's parameters when the solver options ask for it
   (:mod:`optimize.solve.starts.predictor`; off by default, benchmarks/README.md);
 * an optimum on a coarser mesh interpolated onto a finer one
-  (:mod:`optimize.solve.starts.remesh`).
+  (:mod:`optimize.solve.starts.remesh`);
+* a converged cycle kept only as its trajectory (:mod:`optimize.solve.starts.cycle`).
 
 Which start each solve of a sweep gets is the solve service's choice
 (:mod:`optimize.service`).
