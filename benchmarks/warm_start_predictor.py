@@ -45,7 +45,8 @@ from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.service.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
-from optimize.solve.solve import solve, start
+from optimize.solve.solve import solve
+from optimize.solve.starts.cold import start
 from optimize.solve.starts.predictor import tangent
 
 OUT = Path(__file__).resolve().parent / "out"
