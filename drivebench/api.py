@@ -262,7 +262,7 @@ class Sweep:
 def optimize(drive_model: Any = None, *, grid: WindGrid = PAPER_GRID, system: Any = None,
              solver: SolverChoice = DEFAULT_SOLVER, execution: Execution = LOCAL_POOL,
              out: str | Path = "optimize_out", claims: bool = True, trust: bool = False,
-             fit_default: str | Path | None = None,
+             period_scan: int = 0, fit_default: str | Path | None = None,
              command_line: Sequence[str] = ("drivebench.optimize",),
              before_solving: Callable[[str], None] | None = None) -> Sweep:
     """Optimize the pumping cycle for every scenario kind and wind speed.
@@ -290,6 +290,10 @@ def optimize(drive_model: Any = None, *, grid: WindGrid = PAPER_GRID, system: An
         Search the cut-in wind speeds and compare with the paper.
     trust : bool
         Also run the trust checks (mesh refinement at twice the intervals, simulation).
+    period_scan : int
+        Solve each converged scenario again with its period held at this many other values
+        (from half to twice its own, within the period bounds), then free, and keep the
+        best optimum (``bench optimize --period-scan N``; 0: no scan).
     fit_default : path, optional
         ``bench fit``'s model, used when neither ``drive_model`` nor the system names losses.
     command_line : sequence of str
@@ -306,7 +310,8 @@ def optimize(drive_model: Any = None, *, grid: WindGrid = PAPER_GRID, system: An
                          expected="a PowerModel, a power_model.json path or None")
     request = make_request(grid, solver, drive_model=drive_model, system=system, out=Path(out),
                            fit_default=Path(fit_default) if fit_default is not None else None,
-                           execution=execution, claims=claims, trust=trust)
+                           execution=execution, claims=claims, trust=trust,
+                           period_scan=period_scan)
     if before_solving is not None:
         before_solving(request.model_note)
     done = run_optimize(request, list(command_line), show_progress=execution.progress)

@@ -78,6 +78,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="also run the trust checks (mesh refinement at 2x intervals, CVODES simulation)",
     )
+    parser.add_argument(
+        "--period-scan",
+        type=int,
+        nargs="?",
+        const=4,
+        default=0,
+        metavar="N",
+        help="look for a better optimum along the period: solve each converged scenario "
+        "again with its period held at N other values (default 4; from half to twice its "
+        "own, within the system's period bounds), then free; the best is kept (2 N warm "
+        "solves per scenario; the local-optimum check compares wind speeds and cannot "
+        "check a kind of fewer than 3)",
+    )
 
 
 def _add_solver_arguments(parser: argparse.ArgumentParser) -> None:
@@ -135,7 +148,8 @@ def run(args: argparse.Namespace) -> int:
         SolverChoice(args.intervals, args.degree, args.solver, args.linear_solver,
                      not args.no_stored_guess, args.transcription, args.codegen),
         drive_model=args.drive_model, system=args.system, fit_default=FIT_MODEL_PATH, out=args.out,
-        execution=execution, claims=not args.no_claims, trust=args.trust)
+        execution=execution, claims=not args.no_claims, trust=args.trust,
+        period_scan=args.period_scan)
     print(request.model_note)
     print(execution.line())
     sweep = run_optimize(request, list(args.command_line), show_progress=not args.no_progress)

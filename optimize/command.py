@@ -81,6 +81,9 @@ class SweepRequest:
         Run the mesh and simulation checks.
     cut_in_tol_m_s : float
         Cut-in bisection stops at this bracket width [m/s].
+    period_scan : int
+        Held periods per converged scenario of the period scan (0: none;
+        :mod:`optimize.service.period_scan`).
     """
 
     wind_speeds_m_s: tuple[float, ...]
@@ -93,13 +96,18 @@ class SweepRequest:
     claims: bool = True
     trust: bool = False
     cut_in_tol_m_s: float = 0.05
+    period_scan: int = 0
+
+
+#: the most held periods ``--period-scan`` takes (each costs two warm solves per scenario)
+MAX_PERIOD_SCAN = 8
 
 
 def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOLVER, *,
                  drive_model: Any = None, system: Path | System | None = None,
                  fit_default: Path | None = None, out: Path = Path("optimize_out"),
                  execution: Execution = LOCAL_POOL, claims: bool = True,
-                 trust: bool = False) -> SweepRequest:
+                 trust: bool = False, period_scan: int = 0) -> SweepRequest:
     """The request of a sweep, every input checked before any solve.
 
     Parameters
@@ -124,6 +132,9 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
         Worker processes or a Dask scheduler (the progress bar is :func:`run_optimize`'s).
     claims, trust
         As :class:`SweepRequest`.
+    period_scan : int
+        Held periods per converged scenario of the period scan (``--period-scan``, 0 to
+        :data:`MAX_PERIOD_SCAN`; 0: none).
 
     Raises
     ------
@@ -141,6 +152,9 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
                                   + (" (--trust refines to twice as many)" if trust else ""))
     if not 1 <= solver.degree <= 9:
         raise InputError(None, f"--degree {solver.degree}: out of range", expected="1 to 9")
+    if not 0 <= period_scan <= MAX_PERIOD_SCAN:
+        raise InputError(None, f"--period-scan {period_scan}: out of range",
+                         expected=f"an integer from 0 to {MAX_PERIOD_SCAN}")
     check_output_dir(out)
     try:
         options = OcpOptions(Discretization(n_intervals=solver.n_intervals,
@@ -169,7 +183,8 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
         note += (f"\nmesh {mesh_label(solver.n_intervals, solver.degree)}: the result check "
                  "decides whether each optimum stands")
     return SweepRequest(grid.winds_m_s, grid.kinds, setup, note, execution.workers,
-                        execution.scheduler, Path(out), claims, trust)
+                        execution.scheduler, Path(out), claims, trust,
+                        period_scan=period_scan)
 
 
 @dataclass(frozen=True)
@@ -230,7 +245,8 @@ def run_optimize(
     trust: dict = {"mesh": [], "simulation": []}
     with open_executor(request.workers, request.scheduler) as handle:
         tasks = make_tasks(plan_graph(request.wind_speeds_m_s, request.kinds), problem,
-                           cut_in_kinds, request.cut_in_tol_m_s, backend)
+                           cut_in_kinds, request.cut_in_tol_m_s, backend,
+                           request.period_scan)
         result = run_sweep(tasks, handle, show_progress)
         outcomes = list(result.outcomes)
         if request.trust:
@@ -356,8 +372,9 @@ def format_summary(summary: Any) -> str:
         lines += ["", "optima on a bound or with a slack tether:", *flagged]
     resolved = resolve_lines_of(summary)
     if resolved:
-        lines += ["", "local optima: scenarios off their kind's smooth curve, solved again from "
-                  "a neighbour (the better optimum kept):", *resolved]
+        lines += ["", "local optima: scenarios solved again from a neighbour (off their kind's "
+                  "smooth curve) or with the period held elsewhere (the period scan); the "
+                  "better optimum kept:", *resolved]
     unchecked = unchecked_lines(summary)
     if unchecked:
         lines += ["", f"{UNCHECKED_HEAD}:", *unchecked]

@@ -69,9 +69,11 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "n_intervals": "collocation intervals of the mesh this row's result is on: the sweep's "
     "(manifest) unless the last retry solved it on a finer one (warm_source says so); 0 "
     "when no solve returned a result",
-    "resolved_from": "neighbouring scenarios of the same kind this one was solved again from, "
-    "because its average power or period sat off the kind's smooth curve (comma-separated; "
-    "'' when it did not)",
+    "resolved_from": "where this one was solved again from, comma-separated: neighbouring "
+    "scenarios of the same kind, because its average power or period sat off the kind's "
+    "smooth curve, or its own optimum held at another period by the period scan "
+    "('mech-free-10.0 held at 45 s'); '' when it was not",
+    "periods_scanned": "periods the period scan held this scenario at (0: not scanned)",
     "resolve_gain_w": "how much more power [W] the kept re-solve's objective gives than the "
     "first optimum (0: the first was the better; NaN: not re-solved)",
     "active_bounds": "bounds the optimum sits on, comma-separated: period_min, period_max, "
@@ -301,21 +303,26 @@ MIN_CURVE_SPEEDS = 3
 #: what the kinds of :func:`unchecked_lines` are, in words (the log's and the report's)
 UNCHECKED_HEAD = (f"local optima not checked (fewer than {MIN_CURVE_SPEEDS} converged wind "
                   "speeds of the kind: the check compares neighbouring speeds, so each optimum "
-                  "there may be a local one; benchmarks/README.md, AP2's local optima)")
+                  "there may be a local one; --period-scan N looks for others along the "
+                  "period; benchmarks/README.md, AP2's local optima)")
 
 
 def unchecked_lines(summary: pd.DataFrame) -> list[str]:
     """One line per kind whose converged scenarios are too few for the local-optimum check
-    (none for a summary without ``kind``)."""
+    and were not all period-scanned (none for a summary without ``kind``)."""
     if "kind" not in summary.columns:
         return []
     ok = summary[summary["success"].astype(bool)]
+    if "periods_scanned" in ok.columns:
+        scanned = ok.groupby("kind", sort=False)["periods_scanned"].min() > 0
+        ok = ok[~ok["kind"].map(scanned).astype(bool)]
     return [f"{kind}: {n} converged wind speed{'s' if n > 1 else ''}"
             for kind, n in ok.groupby("kind", sort=False).size().items() if n < MIN_CURVE_SPEEDS]
 
 
 def resolve_lines_of(summary: pd.DataFrame) -> list[str]:
-    """One line per scenario re-solved from a neighbour (summary ``resolved_from``)."""
+    """One line per scenario re-solved from a neighbour or by the period scan (summary
+    ``resolved_from``)."""
     if "resolved_from" not in summary.columns:
         return []
     lines = []

@@ -3,7 +3,7 @@
 A :class:`Problem` is everything a worker needs to build the NLP (all
 picklable). The numerical work goes through a *backend*
 (:class:`OcpBackend` by default, the CasADi/IPOPT OCP of this package); anything
-with the same four methods (:class:`Backend`) works, which is how the tests
+with the same methods (:class:`Backend`) works, which is how the tests
 drive the solve service with a cheap exact solver.
 """
 
@@ -35,8 +35,11 @@ class Backend(Protocol):
     def build(self, problem: Problem) -> Any:
         """Build (or fetch from the per-process cache) the NLP for ``problem``."""
 
-    def solve(self, ocp: Any, kind: str, wind_speed_m_s: float, warm: Any) -> SolveResult:
-        """Solve one scenario warm-started from ``warm`` (a previous result's ``warm``)."""
+    def solve(self, ocp: Any, kind: str, wind_speed_m_s: float, warm: Any,
+              period_s: float | None = None) -> SolveResult:
+        """Solve one scenario warm-started from ``warm`` (a previous result's ``warm``);
+        with ``period_s`` [s], the period held there (only the period scan passes it,
+        :mod:`optimize.service.period_scan`)."""
 
     def cold_start(self, ocp: Any, kind: str, wind_speed_m_s: float) -> SolveResult:
         """Solve one scenario with no neighbouring solution (stored guess or homotopy)."""
@@ -45,6 +48,9 @@ class Backend(Protocol):
                result: SolveResult) -> SolveResult:
         """``kind`` at ``wind_speed_m_s`` solved on the ``fine`` mesh from ``result``, a
         converged solve on ``coarse``."""
+
+    def period_bounds(self, ocp: Any) -> tuple[float, float]:
+        """Bounds [s] of the free period (only the period scan asks)."""
 
     def check(self, ocp: Any, result: SolveResult, name: str) -> Any:
         """The result check of a converged ``result`` (``passed``: whether the optimum
@@ -143,12 +149,14 @@ class OcpBackend:
 
         return Scenario.of_kind(kind, wind_speed_m_s)
 
-    def solve(self, ocp: Any, kind: str, wind_speed_m_s: float, warm: Any) -> SolveResult:
+    def solve(self, ocp: Any, kind: str, wind_speed_m_s: float, warm: Any,
+              period_s: float | None = None) -> SolveResult:
         """Warm-started solve (primal and dual start; on failure ``solve`` retries the same
-        primal point once with cold barrier settings, before the service's own fallbacks)."""
+        primal point once with cold barrier settings, before the service's own fallbacks),
+        with the period held at ``period_s`` [s] when given."""
         from optimize.solve.solve import solve
 
-        return solve(ocp, self.scenario(kind, wind_speed_m_s), warm)
+        return solve(ocp, self.scenario(kind, wind_speed_m_s), warm, period_s=period_s)
 
     def cold_start(self, ocp: Any, kind: str, wind_speed_m_s: float) -> SolveResult:
         """From the stored initial guess when it fits, else the homotopy."""
@@ -178,6 +186,10 @@ class OcpBackend:
         from optimize.solve.starts.remesh import solve_interpolated
 
         return solve_interpolated(coarse, fine, self.scenario(kind, wind_speed_m_s), result)
+
+    def period_bounds(self, ocp: Any) -> tuple[float, float]:
+        """Bounds [s] of the free period of ``ocp`` (the system's)."""
+        return ocp.formulation.period_bounds()
 
     def check(self, ocp: Any, result: SolveResult, name: str) -> Any:
         """The physical check of every converged optimum

@@ -15,6 +15,8 @@ then, as asked:
   (:func:`optimize.service.retry.retry_failed`);
 * re-solves the planned scenarios that sit off their kind's smooth curve
   (:func:`optimize.service.local_optima.resolve_local_optima`);
+* scans the period of each converged scenario for a better optimum
+  (:func:`optimize.service.period_scan.scan_periods`);
 * searches the cut-in wind speed of some kinds by bisection
   (:func:`optimize.service.cut_in.find_cut_in`);
 * refines the wind grid of one kind where its power curve bends for a site
@@ -39,6 +41,7 @@ from optimize.service.cut_in import find_cut_in
 from optimize.service.foreign import CycleStart, ForeignStart
 from optimize.service.local_optima import resolve_local_optima
 from optimize.service.outcome import ChainOutcome, ScenarioOutcome
+from optimize.service.period_scan import scan_periods
 from optimize.service.plan import Step
 from optimize.service.retry import retry_failed
 from optimize.service.solver import Solver
@@ -103,6 +106,9 @@ class ChainTask:
         The numerical side (:class:`optimize.service.builder.OcpBackend` by default).
     resolve : bool
         Re-solve planned scenarios off their kind's smooth curve.
+    period_scan : int
+        Held periods per converged scenario of the period scan, after the re-solves
+        (:func:`optimize.service.period_scan.scan_periods`); 0 scans nothing.
     cut_in_kinds : tuple of str
         Kinds whose cut-in speed is searched after the grid.
     cut_in_tol_m_s : float
@@ -132,6 +138,7 @@ class ChainTask:
     store: Path | None = None
     backend: Any = None
     resolve: bool = False
+    period_scan: int = 0
     cut_in_kinds: tuple[str, ...] = ()
     cut_in_tol_m_s: float = 0.05
     refine: Refinement | None = None
@@ -204,6 +211,7 @@ def run_chain(task: ChainTask, progress: Any = None) -> ChainOutcome:
         retry_failed(solver, keys)
     if task.resolve:
         resolve_local_optima(solver, [k for k in keys if k in solver.outcomes])
+    scan_periods(solver, [k for k in keys if k in solver.outcomes], task.period_scan)
     cut_ins = []
     for kind in task.cut_in_kinds:
         grid = {w: solver.records[k, w]["avg_p_elec_w"] for k, w in keys

@@ -1,4 +1,5 @@
-"""Starts the solver did not find itself: another problem's solution, a stored cycle.
+"""Starts the solver did not find itself: another problem's solution, a stored cycle, an
+optimum with the period held.
 
 A :class:`ForeignStart` is a converged solution of one problem (system, drive model,
 options: :class:`optimize.service.builder.Problem`) offered as the first start of the
@@ -20,6 +21,9 @@ trajectory (``optimize_out/trajectories.parquet``, docs/schemas.md §5): ``bench
 (:class:`optimize.service.chain.Refinement`). The backend's ``from_trajectory``
 (:meth:`optimize.service.builder.OcpBackend.from_trajectory`) packs it into the NLP's
 primal vector, with zero multipliers (the file keeps none).
+
+A :class:`HeldStart` is an optimum of the same problem with its period held elsewhere
+(:mod:`optimize.service.period_scan`), the start of a solve with the period free.
 """
 
 from __future__ import annotations
@@ -32,7 +36,8 @@ from optimize.problem.scenario import scenario_name
 
 @dataclass(frozen=True, eq=False)
 class Start:
-    """A start the solver did not find itself (:class:`ForeignStart`, :class:`CycleStart`).
+    """A start the solver did not find itself (:class:`ForeignStart`, :class:`CycleStart`,
+    :class:`HeldStart`).
 
     Attributes
     ----------
@@ -115,3 +120,34 @@ class CycleStart(Start):
     def carried(self, backend: Any, ocp: Any) -> Any:
         """The cycle as the NLP's start (``backend.from_trajectory``)."""
         return backend.from_trajectory(ocp, self.trajectory)
+
+
+@dataclass(frozen=True, eq=False)
+class HeldStart(Start):
+    """An optimum of the same problem with the period held (picklable): the period
+    scan's start (:mod:`optimize.service.period_scan`), solved again with the period free.
+
+    Attributes
+    ----------
+    warm : Any
+        Its primal and dual vectors (:class:`optimize.solve.result.Solution`).
+    period_s : float
+        The period it was held at [s].
+    (and those of :class:`Start`)
+    """
+
+    warm: Any = None
+    period_s: float = 0.0
+
+    @property
+    def name(self) -> str:
+        """``"mech-free-10.0 held at 45 s"``: the attempts' and progress events' source."""
+        return f"{scenario_name(self.kind, self.wind_speed_m_s)} held at {self.period_s:g} s"
+
+    def warm_from(self, kind: str) -> str:
+        """The record's ``warm_from``: ``"10 m/s held at 45 s"``."""
+        return f"{self.wind_speed_m_s:g} m/s held at {self.period_s:g} s"
+
+    def carried(self, backend: Any, ocp: Any) -> Any:
+        """The held optimum as it is (the same NLP)."""
+        return self.warm

@@ -54,12 +54,15 @@ class Attempt:
 
 @dataclass(frozen=True)
 class Resolve:
-    """A re-solve of a scenario off its kind's smooth curve, from a neighbouring optimum.
+    """A re-solve of a scenario: off its kind's smooth curve, from a neighbouring optimum
+    (:mod:`optimize.service.local_optima`), or by the period scan, from its own optimum
+    with the period held elsewhere (:mod:`optimize.service.period_scan`).
 
     Attributes
     ----------
     attempt : Attempt
-        The solver run (``source`` is the neighbour it started from).
+        The solver run (``source`` is the neighbour it started from, or the held start
+        ``"mech-free-10.0 held at 45 s"``; when the held solve failed, that solve).
     objective_w : float
         Average power of the objective (electrical or mechanical) it reached [W]
         (NaN when it failed).
@@ -69,12 +72,15 @@ class Resolve:
         It converged to a better optimum (by more than
         :func:`optimize.service.local_optima.better_margin_w`) and replaced the
         scenario's result.
+    held_period_s : float or None
+        The period scan's held period [s]; None for a re-solve from a neighbour.
     """
 
     attempt: Attempt
     objective_w: float
     before_w: float
     kept: bool
+    held_period_s: float | None = None
 
 
 @dataclass(frozen=True)

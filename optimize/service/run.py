@@ -37,10 +37,14 @@ from optimize.service.outcome import (
     ScenarioOutcome,
     failure_status,
 )
+from optimize.service.period_scan import PERIOD_SCAN
 from optimize.service.plan import Step, chain_steps
 from optimize.service.retry import RETRY
 from optimize.service.solver import attempt_line
 from optimize.service.store import solve_key
+
+#: the roles of the solver runs that add a tick to the progress bar as they come
+RE_SOLVES = (LOCAL_OPTIMUM, PERIOD_SCAN, RETRY)
 
 
 def failed_chain(task: ChainTask, exc: BaseException) -> ChainOutcome:
@@ -226,6 +230,9 @@ class SweepTasks:
         Bisection stops when the bracket is at most this wide [m/s].
     backend : optional
         The numerical side (:class:`optimize.service.builder.OcpBackend` by default).
+    period_scan : int
+        Held periods per converged scenario of the period scan (0: none;
+        :mod:`optimize.service.period_scan`).
     """
 
     problem: Problem
@@ -233,6 +240,7 @@ class SweepTasks:
     cut_in_kinds: tuple[str, ...] = ()
     cut_in_tol_m_s: float = 0.05
     backend: Any = None
+    period_scan: int = 0
 
     @property
     def kinds(self) -> tuple[str, ...]:
@@ -241,10 +249,13 @@ class SweepTasks:
 
 
 def make_tasks(steps: tuple[Step, ...], problem: Problem, cut_in_kinds: tuple[str, ...] = (),
-               cut_in_tol_m_s: float = 0.05, backend: Any = None) -> SweepTasks:
-    """The sweep of ``bench optimize``'s start graph: local optima re-solved and cut-in
-    speeds searched after it, per kind."""
-    return SweepTasks(problem, tuple(steps), tuple(cut_in_kinds), cut_in_tol_m_s, backend)
+               cut_in_tol_m_s: float = 0.05, backend: Any = None,
+               period_scan: int = 0) -> SweepTasks:
+    """The sweep of ``bench optimize``'s start graph: local optima re-solved (and, with
+    ``period_scan``, each optimum's period scanned) and cut-in speeds searched after it,
+    per kind."""
+    return SweepTasks(problem, tuple(steps), tuple(cut_in_kinds), cut_in_tol_m_s, backend,
+                      period_scan)
 
 
 def _own(out: ChainOutcome, step: Step) -> ChainOutcome:
@@ -291,8 +302,8 @@ def _solve_graph(tasks: SweepTasks, handle: Any,
 def _follow_up(tasks: SweepTasks, grid: list[ChainOutcome], handle: Any,
                on_event: Callable[[dict], None]) -> list[ChainOutcome]:
     """Per kind, one task: its failed scenarios retried from the other starts (with the
-    other objective's optima at their speeds), its local optima re-solved, its cut-in
-    speed searched."""
+    other objective's optima at their speeds), its local optima re-solved, its periods
+    scanned (when asked), its cut-in speed searched."""
     first = len(tasks.steps)
     solved = [(o, r) for out in grid for o, r in zip(out.outcomes, out.records, strict=True)]
     failed = {(o.kind, o.wind_speed_m_s) for o, _ in solved if not o.success}
@@ -303,6 +314,7 @@ def _follow_up(tasks: SweepTasks, grid: list[ChainOutcome], handle: Any,
                      and KINDS[o.kind].objective != KINDS[kind].objective)
 
     follow = [ChainTask(tasks.problem, (), first + n, backend=tasks.backend, resolve=True,
+                        period_scan=tasks.period_scan,
                         cut_in_kinds=(kind,) if kind in tasks.cut_in_kinds else (),
                         cut_in_tol_m_s=tasks.cut_in_tol_m_s,
                         solved=tuple((o, r) for o, r in solved if o.kind == kind),
@@ -323,9 +335,8 @@ def run_sweep(tasks: SweepTasks, handle: Any, show_progress: bool = True) -> Swe
         The open executor and its progress channel.
     show_progress : bool
         Show a tqdm bar: one tick per planned scenario, per cut-in search, per cut-in
-        probe, per retry and per local-optimum re-solve (the last three added as they
-        come), and
-        beside it what the solver is running.
+        probe, per retry, per local-optimum re-solve and per period-scan run (the last
+        four added as they come), and beside it what the solver is running.
 
     Returns
     -------
@@ -343,7 +354,7 @@ def run_sweep(tasks: SweepTasks, handle: Any, show_progress: bool = True) -> Swe
         nonlocal n_failed
         if "attempt" in event:  # every solver run says what it is; re-solves also count
             bar.set_postfix_str(attempt_line(event))
-            if event["attempt"] == "done" and event["role"] in (LOCAL_OPTIMUM, RETRY):
+            if event["attempt"] == "done" and event["role"] in RE_SOLVES:
                 bar.total += 1
                 bar.update(1)
             return

@@ -107,11 +107,12 @@ class Solver:
         return sorted(w for k, w in self._warm if k == kind)
 
     def attempt(self, kind: str, wind_speed_m_s: float, source: Key | Start | None,
-                role: str = "grid") -> tuple[Attempt, Any]:
+                role: str = "grid", period_s: float | None = None) -> tuple[Attempt, Any]:
         """One solver run of ``kind`` at ``wind_speed_m_s`` [m/s] from the converged ``source``
         (None: a cold start; a :class:`optimize.service.foreign.Start`: one it did not
         find itself, another problem's solution or a stored cycle) for ``role`` (why it
-        runs, for the progress events); a crash is a failed attempt with no result."""
+        runs, for the progress events), with the period held at ``period_s`` [s] when
+        given (a warm start only); a crash is a failed attempt with no result."""
         ocp = self.ocp
         given = isinstance(source, Start)
         name = source.name if given else None if source is None else scenario_name(*source)
@@ -122,7 +123,8 @@ class Solver:
                 result = self.backend.cold_start(ocp, kind, wind_speed_m_s)
             else:
                 warm = source.carried(self.backend, ocp) if given else self._warm[source]
-                result = self.backend.solve(ocp, kind, wind_speed_m_s, warm)
+                held = {} if period_s is None else {"period_s": period_s}
+                result = self.backend.solve(ocp, kind, wind_speed_m_s, warm, **held)
         except Exception as exc:  # noqa: BLE001 - a crash is this speed's failure, reported
             attempt, result = Attempt(name, failure_status(CRASH, exc), False, 0,
                                       time.perf_counter() - t0), None

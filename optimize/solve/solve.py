@@ -29,7 +29,8 @@ __all__ = ["cold_start", "solve"]
 
 
 def solve(
-    ocp: Ocp, scenario: Scenario, warm_start: Solution | None, retry_cold: bool = True
+    ocp: Ocp, scenario: Scenario, warm_start: Solution | None, retry_cold: bool = True,
+    period_s: float | None = None,
 ) -> OcpResult:
     """Solve ``scenario``; warm-started from ``warm_start`` or by :func:`cold_start`.
 
@@ -53,6 +54,9 @@ def solve(
         ``None`` runs the homotopy.
     retry_cold : bool
         Retry a failed warm solve with cold barrier settings.
+    period_s : float, optional
+        Hold the period at this value [s] (a start elsewhere on the period axis,
+        :mod:`optimize.service.period_scan`); None leaves it free within its bounds.
 
     Raises
     ------
@@ -74,7 +78,8 @@ def solve(
         raise ValueError(f"warm start has {warm_start.lam_g.size} constraint multipliers; the "
                          f"OCP has {ocp.layout.n_g} rows (another OCP's solution: carry it over "
                          "with optimize.solve.result.carry_over)")
-    bounds = ocp.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
+    bounds = ocp.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True,
+                        period_s=period_s)
     p = ocp.params(scenario.parameters, scenario.weights)
     stage, w0, lam_x0, lam_g0, predict_s = _predicted(ocp, warm_start, p, bounds)
     raw = backend.run(ocp, w0, p, bounds, warm=True, lam_x0=lam_x0, lam_g0=lam_g0)

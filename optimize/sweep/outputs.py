@@ -14,7 +14,7 @@ import pandas as pd
 
 from fitting.domain import domain_excursion
 from optimize.service.local_optima import better_margin_w
-from optimize.service.outcome import ScenarioOutcome
+from optimize.service.outcome import Resolve, ScenarioOutcome
 from optimize.solve.result import cycle_metrics
 from optimize.sweep_folder import SUMMARY_COLUMNS
 
@@ -55,29 +55,44 @@ def _excursion_metrics(traj: pd.DataFrame, domain: dict | None,
 
 
 def resolve_fields(o: ScenarioOutcome) -> dict[str, Any]:
-    """``resolved_from`` and ``resolve_gain_w`` of a scenario (see :data:`SUMMARY_COLUMNS`)."""
+    """``resolved_from``, ``periods_scanned`` and ``resolve_gain_w`` of a scenario (see
+    :data:`SUMMARY_COLUMNS`)."""
+    scanned = sum(r.held_period_s is not None for r in o.resolves)
     if not o.resolves:
-        return {"resolved_from": "", "resolve_gain_w": math.nan}
+        return {"resolved_from": "", "periods_scanned": 0, "resolve_gain_w": math.nan}
     kept = [r for r in o.resolves if r.kept]
     gain = o.resolves[0].before_w - kept[-1].objective_w if kept else 0.0
     return {"resolved_from": ",".join(dict.fromkeys(r.attempt.source for r in o.resolves)),
-            "resolve_gain_w": float(gain)}
+            "periods_scanned": scanned, "resolve_gain_w": float(gain)}
 
 
 def resolve_lines(outcomes: Iterable[ScenarioOutcome]) -> list[str]:
-    """One line per scenario re-solved from a neighbour: what each re-solve found."""
+    """One line per re-solve of a scenario (from a neighbour, or by the period scan):
+    what it found."""
     lines = []
     for o in outcomes:
         for r in o.resolves:
             found = (f"{r.objective_w:.1f} W" if r.attempt.success
                      else f"failed ({r.attempt.status})")
-            verdict = ("a better optimum, kept" if r.kept else
-                       "the same optimum" if r.attempt.success
-                       and abs(r.objective_w - r.before_w) <= better_margin_w(r.before_w)
-                       else "no better optimum, the first kept")
-            lines.append(f"{o.name}: off its kind's smooth curve; re-solved from {r.attempt.source}"
-                         f": {found} against {r.before_w:.1f} W: {verdict}")
+            why = ("off its kind's smooth curve; re-solved" if r.held_period_s is None
+                   else "period scan; solved")
+            lines.append(f"{o.name}: {why} from {r.attempt.source}: {found} against "
+                         f"{r.before_w:.1f} W: {_verdict(r)}")
     return lines
+
+
+def _verdict(r: Resolve) -> str:
+    """What a re-solve's optimum is to the first one, in words."""
+    if r.kept:
+        return "a better optimum, kept"
+    if not r.attempt.success:
+        return "no better optimum, the first kept"
+    margin = better_margin_w(r.before_w)
+    if abs(r.objective_w - r.before_w) <= margin:
+        return "the same optimum"
+    if r.objective_w < r.before_w - margin:
+        return "a better optimum, another start's best kept"
+    return "a poorer optimum, the first kept"
 
 
 def summary_row(o: ScenarioOutcome, domain: dict | None = None,
@@ -162,6 +177,7 @@ def summary_frame(outcomes: Iterable[ScenarioOutcome], domain: dict | None = Non
             "chain": "int64",
             "n_intervals": "int64",
             "resolved_from": str,
+            "periods_scanned": "int64",
             "result_check": str,
             "resolve_gain_w": float,
         }

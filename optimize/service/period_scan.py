@@ -1,0 +1,124 @@
+"""Period scan: a converged scenario solved again with its period held elsewhere, then
+freed; the better optimum kept.
+
+A pumping cycle's objective is flat along the period and has several optima there. The
+shipped AP2 file at 10 m/s mech-free: the cold start lands on 4.81 kW at 33.5 s; held
+at 45 or 60 s and then freed, the same file gives 5.06 and 5.07 kW at 64 s
+(benchmarks/README.md, AP2's local optima). The local-optimum check
+(:mod:`optimize.service.local_optima`) compares neighbouring wind speeds: it cannot
+check a kind of fewer than :data:`optimize.sweep_folder.MIN_CURVE_SPEEDS` speeds, nor
+see a whole kind on one branch. The scan looks along the period instead
+(:func:`scan_periods`): for each held period (:func:`held_periods`), a warm solve from
+the scenario's optimum with the period held, then a warm solve from that with the
+period free; the best optimum, if better by more than
+:func:`optimize.service.local_optima.better_margin_w`, replaces the result. Every run
+is recorded in the outcome's ``resolves`` (summary ``resolved_from``, the log's and the
+report's local-optimum lines).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from typing import Any
+
+from optimize.service.foreign import HeldStart
+from optimize.service.local_optima import better_margin_w, objective_power_w
+from optimize.service.outcome import Resolve
+
+#: the role of the scan's solver runs in the progress events (:meth:`Solver.attempt`)
+PERIOD_SCAN = "period scan"
+#: the held periods span this factor each way from the optimum's own (within the bounds)
+SCAN_SPAN = 2.0
+#: a held period within this fraction of the optimum's own is not tried (the same start)
+SCAN_GAP = 0.15
+
+
+def held_periods(period_s: float, bounds_s: tuple[float, float], n: int) -> list[float]:
+    """The periods [s] the scan holds a scenario of period ``period_s`` at.
+
+    Parameters
+    ----------
+    period_s : float
+        The optimum's period [s].
+    bounds_s : (float, float)
+        Bounds of the free period [s].
+    n : int
+        Periods asked for: ``period_s * SCAN_SPAN**(k/m)`` for ``k = 1, -1, 2, -2, ...``
+        (``m = ceil(n/2)``, so the last pair is ``SCAN_SPAN`` times and ``1/SCAN_SPAN``
+        times the optimum's), the first ``n`` of them.
+
+    Returns
+    -------
+    list of float
+        Those periods to 3 significant digits, clipped into the bounds, without repeats
+        and without those within :data:`SCAN_GAP` of ``period_s`` (fewer than ``n``
+        where the bounds cut them).
+    """
+    m = math.ceil(n / 2)
+    factors = [SCAN_SPAN ** (s * k / m) for k in range(1, m + 1) for s in (1, -1)][:n]
+    lo, hi = bounds_s
+    out: list[float] = []
+    for f in factors:
+        p = min(max(float(f"{period_s * f:.3g}"), lo), hi)
+        if abs(p - period_s) > SCAN_GAP * period_s and p not in out:
+            out.append(p)
+    return out
+
+
+def _held_run(solver: Any, key: tuple[str, float], period_s: float
+              ) -> tuple[Any, Any, HeldStart | None]:
+    """Hold ``key``'s period at ``period_s`` from its own optimum, then free it: the last
+    attempt (named after the held start), its result and the held start (None when the
+    held solve failed)."""
+    kind, wind = key
+    held_attempt, held = solver.attempt(kind, wind, key, PERIOD_SCAN, period_s=period_s)
+    depth = solver.outcomes[key].depth
+    start = HeldStart(kind, wind, "held", depth + 1, warm=getattr(held, "warm", None),
+                      period_s=period_s)
+    if not held_attempt.success:
+        return dataclasses.replace(held_attempt, source=start.name), None, None
+    attempt, result = solver.attempt(kind, wind, start, PERIOD_SCAN)
+    return attempt, result, start
+
+
+def scan_periods(solver: Any, keys: Sequence[tuple[str, float]], n: int) -> None:
+    """Scan the period of each converged scenario of ``keys`` (see the module docstring).
+
+    Parameters
+    ----------
+    solver : optimize.service.solver.Solver
+        Has solved every ``(kind, wind_speed_m_s)`` of ``keys``; a kept optimum replaces
+        the scenario's outcome, record and warm start there (:meth:`Solver.replace`).
+    keys : sequence of (kind, wind_speed_m_s)
+    n : int
+        Held periods per scenario (:func:`held_periods`); 0 scans nothing.
+    """
+    if n <= 0:
+        return
+    bounds = solver.backend.period_bounds(solver.ocp)
+    for key in keys:
+        o = solver.outcomes.get(key)
+        if o is None or not o.success or getattr(o.result, "period_s", None) is None:
+            continue
+        kind = key[0]
+        before = objective_power_w(kind, o.result)
+        records, best = [], None
+        for period_s in held_periods(float(o.result.period_s), bounds, n):
+            attempt, result, start = _held_run(solver, key, period_s)
+            after = objective_power_w(kind, result) if attempt.success else math.nan
+            records.append((Resolve(attempt, after, before, False, period_s), result, start))
+            if attempt.success and (best is None or after < best[0].objective_w):
+                best = records[-1]
+        if best is not None and best[0].objective_w < before - better_margin_w(before):
+            records = [(dataclasses.replace(r, kept=r is best[0]), res, s)
+                       for r, res, s in records]
+        resolves = tuple(r for r, _, _ in records)
+        kept = next(((r, res, s) for r, res, s in records if r.kept), None)
+        if kept is None:
+            solver.outcomes[key] = dataclasses.replace(o, resolves=(*o.resolves, *resolves))
+            continue
+        solver.replace(dataclasses.replace(o, attempts=(*o.attempts, kept[0].attempt),
+                                           result=kept[1], resolves=(*o.resolves, *resolves)),
+                       kept[2])
