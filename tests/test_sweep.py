@@ -26,11 +26,14 @@ from optimize.service import ChainTask, Problem, Solver, make_tasks, run_chain, 
 from optimize.service.cut_in import find_cut_in
 from optimize.service.executors import ExecutorHandle, QueueChannel, open_executor, run_tasks
 from optimize.service.plan import (
+    NEAR_START_COST,
     chain_steps,
     continuation_order,
+    middle_index,
     parse_kinds,
     parse_wind_grid,
     plan_graph,
+    start_cost,
 )
 from optimize.service.solver import MAX_WARM_ATTEMPTS
 
@@ -149,17 +152,25 @@ def test_continuation_goes_outwards_from_the_middle():
 
 
 def _check_graph(steps, winds, kinds):
-    """Every scenario once; sources planned earlier and shallower; at most 2 deep."""
+    """Every scenario once; sources planned earlier and shallower; no start farther than
+    a wind step and a limit switch; at most 2 deep on up to five speeds, else one more
+    per further wind step each way from the middle."""
     assert sorted(s.name for s in steps) == sorted(scenario_name(k, w) for k in kinds
                                                    for w in winds)
-    depth = {}
+    depth, by_name = {}, {}
     for step in steps:
         sources = [n for n in (step.warm_from, *step.fallbacks) if n is not None]
         assert all(depth[n] < step.depth for n in sources)  # KeyError: planned later
         assert (step.depth == 0) == (step.warm_from is None)
         assert step.warm_from not in step.fallbacks
+        if step.warm_from is not None:
+            src = by_name[step.warm_from]
+            cost = start_cost((step.kind, winds.index(step.wind_speed_m_s)),
+                              (src.kind, winds.index(src.wind_speed_m_s)))
+            assert cost <= NEAR_START_COST
         depth[step.name] = step.depth
-    assert max(depth.values()) <= 2
+        by_name[step.name] = step
+    assert max(depth.values()) <= max(2, len(winds) - middle_index(winds) - 1)
     return depth
 
 
@@ -179,12 +190,22 @@ def test_the_paper_sweep_is_a_graph_two_solves_deep_after_one_seed_per_objective
     assert by_name["mech-free-10.0"].warm_from == "mech-lim-8.5"
     assert by_name["mech-free-10.0"].fallbacks == ("mech-free-7.0",)
     assert sum(d == 2 for d in depth.values()) == 12
-    # any grid and selection: still two deep; an objective alone has its own seed
+    # any grid and selection: near starts; an objective alone has its own seed
     for winds, kinds in (((4.0, 5.0, 6.0, 7.0), ("mech-free",)), ((7.0,), KINDS),
                          (tuple(4.0 + i for i in range(13)), ("elec-free", "mech-lim"))):
         steps = plan_graph(winds, kinds)
         _check_graph(steps, winds, kinds)
         assert len([s for s in steps if s.depth == 0]) == len({k[:4] for k in kinds})
+
+
+def test_a_long_grid_starts_each_scenario_from_a_near_one():
+    # make demo's grid: 8 speeds, seeds at 8.5 m/s; 14.5 m/s starts from 13, not from 10
+    winds = tuple(4.0 + 1.5 * i for i in range(8))
+    by_name = {s.name: s for s in plan_graph(winds, KINDS)}
+    assert by_name["elec-lim-14.5"].warm_from == "elec-lim-13.0"
+    assert by_name["mech-free-13.0"].warm_from == "mech-free-11.5"
+    assert by_name["elec-free-4.0"].warm_from == "elec-free-5.5"
+    assert max(s.depth for s in by_name.values()) == 4  # 8.5 -> 10 -> 11.5 -> 13 -> 14.5
 
 
 # ----------------------------------------------------------------- running the sweep

@@ -8,15 +8,22 @@ plans those starts as a graph, not as chains, so that every core has work:
 * the *seeds* (depth 0) are one cold start per objective (the shipped stored guess
   where it fits, else the homotopy), at the middle wind speed of the first kind of
   that objective;
-* depth 1: the scenarios one step from a seed (:func:`start_cost` at most 1: the
-  seed's kind at the neighbouring wind speeds, the other kinds of the objective at
-  the seed's speed) start from it;
-* depth 2: every other scenario starts from its nearest depth-0 or depth-1 scenario;
+* depth 1: the scenarios one step from a seed (:func:`start_cost` at most
+  :data:`SEED_STEP_COST`: the seed's kind at the neighbouring wind speeds, the other
+  kinds of the objective at the seed's speed) start from it;
+* each further depth: every scenario within :data:`NEAR_START_COST` (a wind step and a
+  limit switch) of one planned before starts from the nearest of those;
 * every step also lists one fallback source (the next nearest of those); when
   neither converges the solve falls back to a fresh cold start.
 
-So a sweep's critical path is three solves long (a seed, then two), whatever its
-size. The steps run on the solve service (:func:`optimize.service.run.run_sweep`);
+So on a grid of up to five wind speeds every scenario is at most two solves deep after
+its seed (the paper's sweep: a critical path of three solves); a longer grid adds one
+depth per further wind step each way from the middle, so that no start jumps farther
+than one wind step and a limit switch. Farther starts cost iterations and land on
+poorer optima: on ``make demo``'s 4:14.5:1.5, depth 2 everywhere started 13 and 14.5 m/s
+from 10 m/s, took 1025 IPOPT iterations against 820 for neighbour starts, and found
+optima up to 18 W poorer (benchmarks/README.md, sweep_scaling). The steps run on the
+solve service (:func:`optimize.service.run.run_sweep`);
 the whole ``bench optimize`` command is :func:`optimize.command.run_optimize`.
 :func:`chain_steps` still plans the one-kind chains of ``bench size`` and
 ``bench aep --refine``.
@@ -235,6 +242,10 @@ def chain_steps(kinds: tuple[str, ...], wind_speeds_m_s: tuple[float, ...]) -> t
 #: the cost of a start from another kind (:func:`start_cost`), in wind-grid steps: a
 #: drive-limit switch within one objective, and a switch of objective
 LIMIT_SWITCH_COST, OBJECTIVE_SWITCH_COST = 0.5, 2.0
+#: the farthest start (:func:`start_cost`) of a scenario one step from a seed, and of
+#: any later one (:func:`plan_graph`); a scenario farther from every planned one waits
+#: a depth (unless none is nearer: then the nearest go)
+SEED_STEP_COST, NEAR_START_COST = 1.0, 1.5
 
 
 def start_cost(a: tuple[str, int], b: tuple[str, int]) -> float:
@@ -262,14 +273,13 @@ def plan_graph(wind_speeds_m_s: tuple[float, ...], kinds: tuple[str, ...]) -> tu
     -------
     tuple of Step
         Every (kind, wind_speed_m_s) exactly once, by depth (seeds first); each step's sources
-        come before it and are at most ``depth - 1`` deep, ``depth`` at most 2.
+        come before it and are at most ``depth - 1`` deep; ``depth`` at most 2 on a grid
+        of up to five wind speeds.
     """
     mid = middle_index(wind_speeds_m_s)
     objectives = dict.fromkeys(KINDS[k].objective for k in kinds)
     seeds = [(next(k for k in kinds if KINDS[k].objective == obj), mid) for obj in objectives]
     rest = [(k, i) for k in kinds for i in range(len(wind_speeds_m_s)) if (k, i) not in seeds]
-    first = [n for n in rest if min(start_cost(n, s) for s in seeds) <= 1.0]
-    second = [n for n in rest if n not in first]
 
     def step(node: tuple[str, int], sources: list[tuple[str, int]], depth: int) -> Step:
         ranked = sorted(sources, key=lambda s: start_cost(node, s))[:2]  # stable: plan order
@@ -277,6 +287,15 @@ def plan_graph(wind_speeds_m_s: tuple[float, ...], kinds: tuple[str, ...]) -> tu
         return Step(node[0], wind_speeds_m_s[node[1]], names[0] if names else None,
                     tuple(names[1:]), depth)
 
-    return (tuple(Step(k, wind_speeds_m_s[i], None) for k, i in seeds)
-            + tuple(step(n, seeds, 1) for n in first)
-            + tuple(step(n, seeds + first, 2) for n in second))
+    steps = [Step(k, wind_speeds_m_s[i], None) for k, i in seeds]
+    planned = list(seeds)
+    while rest:
+        near = {n: min(start_cost(n, s) for s in planned) for n in rest}
+        limit = max(SEED_STEP_COST if planned == seeds else NEAR_START_COST,
+                    min(near.values()))
+        layer = [n for n in rest if near[n] <= limit]
+        depth = steps[-1].depth + 1
+        steps += [step(n, planned, depth) for n in layer]
+        planned += layer
+        rest = [n for n in rest if near[n] > limit]
+    return tuple(steps)
