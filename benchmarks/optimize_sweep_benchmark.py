@@ -169,7 +169,7 @@ def main() -> None:
     report = {
         "machine_before": machine_state(),
         "options": repr(options),
-        "winds_m_s": list(winds),
+        "wind_speeds_m_s": list(winds),
         "kinds": list(kinds),
         "goals": GOALS,
     }

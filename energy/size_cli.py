@@ -101,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
                     solver=SolverChoice(args.intervals, args.degree),
                     execution=execution,
                     command_line=args.command_line,
-                    before_solving=lambda d, n: _announce(d, n, len(grid.winds_m_s), args.out,
+                    before_solving=lambda d, n: _announce(d, n, len(grid.wind_speeds_m_s), args.out,
                                                           system.drive.max_winding_temperature_c))
     res = done.sizing
     print(res.table.to_string(index=False, float_format=lambda x: f"{x:.4g}"))

@@ -40,7 +40,7 @@ class SizingGrid:
         Torque-rating scales of the reference drive (docs/schemas.md §8: the law).
     models : tuple of Path
         Further candidates: power-model files with their own ``drive`` rating.
-    winds_m_s : tuple of float
+    wind_speeds_m_s : tuple of float
         Wind speeds [m/s] solved per candidate (at least two).
     tolerance : float
         The chosen drive is the smallest within this share of the best AEP.
@@ -59,17 +59,18 @@ class SizingGrid:
 
     scales: tuple[float, ...] = (0.5, 1.0, 2.0)
     models: tuple[Path, ...] = ()
-    winds_m_s: tuple[float, ...] = PAPER_WINDS_M_S
+    wind_speeds_m_s: tuple[float, ...] = PAPER_WINDS_M_S
     tolerance: float = 0.02
     extend: int = 1
     adaptive: bool = False
 
     def __post_init__(self) -> None:
-        for name in ("scales", "winds_m_s"):
+        for name in ("scales", "wind_speeds_m_s"):
             object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))
         object.__setattr__(self, "models", tuple(Path(m) for m in self.models))
-        if len(self.winds_m_s) < 2:
-            raise InputError(None, f"--wind-grid {','.join(f'{w:g}' for w in self.winds_m_s)}: "
+        if len(self.wind_speeds_m_s) < 2:
+            spec = ",".join(f"{w:g}" for w in self.wind_speeds_m_s)
+            raise InputError(None, f"--wind-grid {spec}: "
                              "one wind speed gives no AEP curve to integrate",
                              expected="at least two wind speeds")
         if not 0 <= self.tolerance < 1:
@@ -181,18 +182,18 @@ def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
         before_solving(drive, len(first))
     result, edge, added = size_extending(
         lambda scales: candidates(scales)[0], grid.scales, grid.extend,
-        lambda cands: run_sizing(cands, grid.winds_m_s, site, Path(out), solver.n_intervals,
+        lambda cands: run_sizing(cands, grid.wind_speeds_m_s, site, Path(out), solver.n_intervals,
                                  solver.degree, workers=execution.workers,
                                  scheduler=execution.scheduler,
                                  show_progress=execution.progress, tolerance=grid.tolerance,
                                  adaptive=grid.adaptive, system=system))
     edge_doc = {"best_at": edge, "added_scales": added,
                 "note": edge_note(edge, result.best, added)}
-    notes = [*notes, grid_hours(site, grid.winds_m_s, result.records)["note"],
+    notes = [*notes, grid_hours(site, grid.wind_speeds_m_s, result.records)["note"],
              starts_note(result.records, result.reference),
              *([edge_doc["note"]] if edge_doc["note"] else [])]
     files = write_sizing(Path(out), result, site=site, site_note=site_note or site.describe(),
-                         drive=drive, system=system, wind_speeds_m_s=grid.winds_m_s,
+                         drive=drive, system=system, wind_speeds_m_s=grid.wind_speeds_m_s,
                          adaptive=grid.adaptive, tolerance=grid.tolerance, notes=notes,
                          provenance=run_record, edge=edge_doc)
     return SizeRun(result, drive, tuple(notes), files)

@@ -69,7 +69,7 @@ QUANTITIES: tuple[Name, ...] = (
     Name(WIND_SPEED, "wind speed at the reference height (100 m): a scenario's parameter, "
          "the axis of the power curves and of the site's distribution", ("wind_ref_m_s",)),
     Name("wind_speeds_m_s", "the wind speeds at the reference height of a sweep (a tuple, "
-         "increasing; the manifest's list)", ("winds",)),
+         "increasing; the manifest's list)", ("winds", "winds_m_s")),
     Name(LOCAL_WIND, "wind speed at the kite: the wind profile at its altitude (trajectory "
          "column); never the reference wind"),
     Name("speed_rpm", "speed of the power model's shaft (the drum times the gear ratio)"),

@@ -182,7 +182,7 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
     if solver.n_intervals * solver.degree < MIN_COLLOCATION_POINTS:
         note += (f"\nmesh {mesh_label(solver.n_intervals, solver.degree)}: the result check "
                  "decides whether each optimum stands")
-    return SweepRequest(grid.winds_m_s, grid.kinds, setup, note, execution.workers,
+    return SweepRequest(grid.wind_speeds_m_s, grid.kinds, setup, note, execution.workers,
                         execution.scheduler, Path(out), claims, trust,
                         period_scan=period_scan)
 

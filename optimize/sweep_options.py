@@ -24,7 +24,7 @@ class WindGrid:
 
     Attributes
     ----------
-    winds_m_s : tuple of float
+    wind_speeds_m_s : tuple of float
         Wind speeds at the reference height [m/s].
     kinds : tuple of str
         Scenario kinds (keys of :data:`optimize.kinds.KINDS`).
@@ -35,17 +35,17 @@ class WindGrid:
         No kind, an unknown kind, or no wind speed.
     """
 
-    winds_m_s: tuple[float, ...] = PAPER_WINDS_M_S
+    wind_speeds_m_s: tuple[float, ...] = PAPER_WINDS_M_S
     kinds: tuple[str, ...] = tuple(KINDS)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "winds_m_s", tuple(float(w) for w in self.winds_m_s))
+        object.__setattr__(self, "wind_speeds_m_s", tuple(float(w) for w in self.wind_speeds_m_s))
         object.__setattr__(self, "kinds", tuple(self.kinds))
         unknown = [k for k in self.kinds if k not in KINDS]
         if unknown or not self.kinds:
             raise InputError(None, f"--scenarios {','.join(self.kinds)}: unknown scenario kinds "
                              f"{unknown or 'none given'}", expected=", ".join(KINDS))
-        if not self.winds_m_s:
+        if not self.wind_speeds_m_s:
             raise InputError(None, "no wind speed", expected="at least one wind speed [m/s]")
 
     @classmethod
