@@ -6,6 +6,7 @@ entering optimize only by its front door, and no import cycle between modules.""
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -57,6 +58,18 @@ def modules() -> dict[str, Path]:
     return out
 
 
+@functools.cache
+def _parsed(text: str) -> tuple[ast.AST, ...]:
+    """Every node of a module's source (parsed once per source text: the tests parse the
+    same 300 modules many times)."""
+    return tuple(ast.walk(ast.parse(text)))
+
+
+def nodes(path: Path) -> tuple[ast.AST, ...]:
+    """Every node of the module at ``path``, as it is now."""
+    return _parsed(path.read_text(encoding="utf-8"))
+
+
 def import_graph(mods: dict[str, Path]) -> dict[str, set[str]]:
     """Module -> the product modules it imports (at the top or inside a function)."""
 
@@ -68,7 +81,7 @@ def import_graph(mods: dict[str, Path]) -> dict[str, set[str]]:
     graph: dict[str, set[str]] = {}
     for name, path in mods.items():
         targets = set()
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        for node in nodes(path):
             if isinstance(node, ast.Import):
                 wanted = [a.name for a in node.names]
             elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
@@ -209,7 +222,7 @@ def private_imports(mods: dict[str, Path]) -> list[str]:
     """Every ``from <product module> import _name``: a private name used outside its module."""
     found = []
     for name, path in mods.items():
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        for node in nodes(path):
             if (isinstance(node, ast.ImportFrom) and node.module
                     and node.module.split(".")[0] in PACKAGES):
                 found += [f"{name} imports {node.module}.{a.name}" for a in node.names
