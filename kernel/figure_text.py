@@ -19,11 +19,13 @@ MAX_SHARE = 0.97
 
 
 def _renderer(fig: Figure):
+    """A renderer of ``fig`` after its layout has run as saving runs it (text extents are
+    known then); nothing is rasterized."""
     if not hasattr(fig.canvas, "get_renderer"):
         from matplotlib.backends.backend_agg import FigureCanvasAgg
 
         FigureCanvasAgg(fig)
-    fig.canvas.draw()  # runs the layout engine as saving does
+    fig.draw_without_rendering()
     return fig.canvas.get_renderer()
 
 
