@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from scipy.optimize import minimize
+from service_fixtures import Result
 
 from optimize.service.builder import Problem
 from optimize.service.outcome import ScenarioOutcome
@@ -36,20 +37,17 @@ def power_w(period_s: float) -> float:
 
 
 @dataclass(frozen=True)
-class Result:
-    status: str
-    success: bool
-    iterations: int
-    wall_time_s: float
-    avg_p_elec_w: float
+class PeriodResult(Result):
+    """A stand-in result with its mechanical power [W] and period [s] (the warm start is
+    the period)."""
+
     avg_p_mech_w: float
     period_s: float
-    warm: float
 
 
-def _result(period_s: float) -> Result:
+def _result(period_s: float) -> PeriodResult:
     p = power_w(period_s)
-    return Result("Solve_Succeeded", True, 5, 1e-3, p, p, period_s, period_s)
+    return PeriodResult("Solve_Succeeded", True, 5, 1e-3, p, period_s, p, period_s)
 
 
 class PeriodBackend:
@@ -149,8 +147,8 @@ def test_a_failed_held_solve_is_recorded_and_the_first_kept():
     class Failing(PeriodBackend):
         def solve(self, ocp, kind, wind, warm, period_s=None):
             if period_s is not None:
-                return Result("Infeasible_Problem_Detected", False, 9, 1e-3, math.nan,
-                              math.nan, period_s, warm)
+                return PeriodResult("Infeasible_Problem_Detected", False, 9, 1e-3, math.nan,
+                                    warm, math.nan, period_s)
             return super().solve(ocp, kind, wind, warm)
 
     key = ("mech-free", 10.0)

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
+from service_fixtures import Result
 
 from kernel.errors import InputError
 from optimize.problem.scenario import scenario_name
@@ -47,16 +48,6 @@ def exact_root(w: float) -> float:
     """Real root of x**3 + x - w, independently of Newton (numpy companion matrix)."""
     roots = np.roots([1.0, 0.0, 1.0, -w])
     return float(roots[np.argmin(np.abs(roots.imag))].real)
-
-
-@dataclass(frozen=True)
-class Result:
-    status: str
-    success: bool
-    iterations: int
-    wall_time_s: float
-    avg_p_elec_w: float
-    warm: float
 
 
 @dataclass(frozen=True)
