@@ -143,18 +143,9 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
         impossible or a drive that cannot hold the kite.
     """
     from fitting.model_check import check_physics
-    from optimize.problem.options import MAX_INTERVALS, Discretization, OcpOptions
+    from optimize.problem.options import Discretization, OcpOptions
 
-    top = MAX_INTERVALS // 2 if trust else MAX_INTERVALS  # trust solves at 2x
-    if not 2 <= solver.n_intervals <= top:
-        raise InputError(None, f"--intervals {solver.n_intervals}: out of range",
-                         expected=f"an integer from 2 to {top}"
-                                  + (" (--trust refines to twice as many)" if trust else ""))
-    if not 1 <= solver.degree <= 9:
-        raise InputError(None, f"--degree {solver.degree}: out of range", expected="1 to 9")
-    if not 0 <= period_scan <= MAX_PERIOD_SCAN:
-        raise InputError(None, f"--period-scan {period_scan}: out of range",
-                         expected=f"an integer from 0 to {MAX_PERIOD_SCAN}")
+    _check_ranges(solver, trust, period_scan)
     check_output_dir(out)
     try:
         options = OcpOptions(Discretization(n_intervals=solver.n_intervals,
@@ -172,9 +163,35 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
                   limits=(limits.max_speed_rpm, limits.max_torque_nm))
     check_drive_holds_kite(loaded, drive.rating.max_torque_nm,
                            drive.rating.source or "the drive in force")
-    note = f"system: {loaded.name} ({loaded.path}" + (
-        ", the shipped default)" if system is None else ")")
-    note += "\n" + "\n".join(drive.lines())
+    note = _setup_note(setup, system is None, solver)
+    return SweepRequest(grid.wind_speeds_m_s, grid.kinds, setup, note, execution.workers,
+                        execution.scheduler, Path(out), claims, trust,
+                        period_scan=period_scan)
+
+
+def _check_ranges(solver: SolverChoice, trust: bool, period_scan: int) -> None:
+    """Refuse intervals, degree and held periods out of range (:func:`make_request`)."""
+    from optimize.problem.options import MAX_INTERVALS
+
+    top = MAX_INTERVALS // 2 if trust else MAX_INTERVALS  # trust solves at 2x
+    if not 2 <= solver.n_intervals <= top:
+        raise InputError(None, f"--intervals {solver.n_intervals}: out of range",
+                         expected=f"an integer from 2 to {top}"
+                                  + (" (--trust refines to twice as many)" if trust else ""))
+    if not 1 <= solver.degree <= 9:
+        raise InputError(None, f"--degree {solver.degree}: out of range", expected="1 to 9")
+    if not 0 <= period_scan <= MAX_PERIOD_SCAN:
+        raise InputError(None, f"--period-scan {period_scan}: out of range",
+                         expected=f"an integer from 0 to {MAX_PERIOD_SCAN}")
+
+
+def _setup_note(setup: Setup, shipped: bool, solver: SolverChoice) -> str:
+    """What the sweep flies and why: system, drive, kite limits, drivetrain, tether and
+    air, thermal rating, and a mesh too coarse to trust without the result check."""
+    loaded = setup.system
+    note = f"system: {loaded.name} ({loaded.path}" + (", the shipped default)" if shipped
+                                                      else ")")
+    note += "\n" + "\n".join(setup.drive.lines())
     note += "\n" + loaded.kite_limits().describe()
     note += "\n" + loaded.drivetrain_line()
     note += "\n" + loaded.tether_air_line()
@@ -182,9 +199,7 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
     if solver.n_intervals * solver.degree < MIN_COLLOCATION_POINTS:
         note += (f"\nmesh {mesh_label(solver.n_intervals, solver.degree)}: the result check "
                  "decides whether each optimum stands")
-    return SweepRequest(grid.wind_speeds_m_s, grid.kinds, setup, note, execution.workers,
-                        execution.scheduler, Path(out), claims, trust,
-                        period_scan=period_scan)
+    return note
 
 
 @dataclass(frozen=True)
