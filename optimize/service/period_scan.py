@@ -100,25 +100,26 @@ def scan_periods(solver: Any, keys: Sequence[tuple[str, float]], n: int) -> None
     bounds = solver.backend.period_bounds(solver.ocp)
     for key in keys:
         o = solver.outcomes.get(key)
-        if o is None or not o.success or getattr(o.result, "period_s", None) is None:
-            continue
-        kind = key[0]
-        before = objective_power_w(kind, o.result)
-        records, best = [], None
-        for period_s in held_periods(float(o.result.period_s), bounds, n):
-            attempt, result, start = _held_run(solver, key, period_s)
-            after = objective_power_w(kind, result) if attempt.success else math.nan
-            records.append((Resolve(attempt, after, before, False, period_s), result, start))
-            if attempt.success and (best is None or after < best[0].objective_w):
-                best = records[-1]
-        if best is not None and best[0].objective_w < before - better_margin_w(before):
-            records = [(dataclasses.replace(r, kept=r is best[0]), res, s)
-                       for r, res, s in records]
-        resolves = tuple(r for r, _, _ in records)
-        kept = next(((r, res, s) for r, res, s in records if r.kept), None)
-        if kept is None:
-            solver.outcomes[key] = dataclasses.replace(o, resolves=(*o.resolves, *resolves))
-            continue
-        solver.replace(dataclasses.replace(o, attempts=(*o.attempts, kept[0].attempt),
-                                           result=kept[1], resolves=(*o.resolves, *resolves)),
-                       kept[2])
+        if o is not None and o.success and getattr(o.result, "period_s", None) is not None:
+            _scan_one(solver, key, held_periods(float(o.result.period_s), bounds, n))
+
+
+def _scan_one(solver: Any, key: tuple[str, float], periods: list[float]) -> None:
+    """Hold ``key``'s period at each of ``periods`` and free it; record every run and keep
+    the best optimum when it is better than the first by the local-optimum margin."""
+    o, kind = solver.outcomes[key], key[0]
+    before = objective_power_w(kind, o.result)
+    runs = [(p, *_held_run(solver, key, p)) for p in periods]
+    found = [objective_power_w(kind, result) if attempt.success else math.nan
+             for _, attempt, result, _ in runs]
+    best = min((i for i, run in enumerate(runs) if run[1].success), key=found.__getitem__,
+               default=None)
+    keep = best is not None and found[best] < before - better_margin_w(before)
+    o = dataclasses.replace(o, resolves=(*o.resolves, *(
+        Resolve(attempt, f, before, keep and i == best, p)
+        for i, ((p, attempt, _, _), f) in enumerate(zip(runs, found, strict=True)))))
+    if not keep:
+        solver.outcomes[key] = o
+        return
+    _, attempt, result, start = runs[best]
+    solver.replace(dataclasses.replace(o, attempts=(*o.attempts, attempt), result=result), start)
