@@ -288,9 +288,10 @@ def plan_graph(wind_speeds_m_s: tuple[float, ...], kinds: tuple[str, ...]) -> tu
                     tuple(names[1:]), depth)
 
     steps = [Step(k, wind_speeds_m_s[i], None) for k, i in seeds]
-    planned = list(seeds)
+    planned, layer = list(seeds), list(seeds)
+    near = dict.fromkeys(rest, math.inf)  # start cost from the nearest planned scenario
     while rest:
-        near = {n: min(start_cost(n, s) for s in planned) for n in rest}
+        near = {n: min(near[n], *(start_cost(n, s) for s in layer)) for n in rest}
         limit = max(SEED_STEP_COST if planned == seeds else NEAR_START_COST,
                     min(near.values()))
         layer = [n for n in rest if near[n] <= limit]
