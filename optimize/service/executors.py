@@ -7,7 +7,7 @@ start graph is one task (:func:`run_tasks`, :func:`run_graph`).
 * a :class:`~concurrent.futures.ProcessPoolExecutor` with ``workers`` processes
   (``spawn`` start method: CasADi/IPOPT and the tqdm thread of the parent are
   not fork-safe), its workers and the progress queue's manager each ended when
-  the process that started them dies (:func:`_die_with_parent`);
+  the process that started them dies (:func:`kernel.lifetime.die_with_parent`);
 * with ``scheduler`` given, the executor of a ``distributed.Client`` connected to
   that Dask scheduler address (optional extra ``drivebench[dask]``). Start the
   Dask workers with ``--nthreads 1``: one solve at a time per process.
@@ -20,11 +20,9 @@ is shipped with the task, and ``drain()`` on the driver side. A
 
 from __future__ import annotations
 
-import ctypes
 import multiprocessing
 import os
 import queue
-import signal
 import sys
 import uuid
 from collections.abc import Callable, Iterator, Sequence
@@ -36,23 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from kernel.errors import InputError
-
-#: Linux ``prctl`` option: the signal a process gets when the thread that started it ends
-_PR_SET_PDEATHSIG = 1
-
-
-def _die_with_parent(parent_pid: int) -> None:
-    """Worker initializer: end this worker when ``parent_pid``, the process that started
-    it, dies. A killed ``bench`` left its idle workers running for good (each worker holds
-    its own end of the task queue, so it never sees the queue close). Linux only
-    (``prctl(PR_SET_PDEATHSIG)``); elsewhere nothing changes."""
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
-    except (OSError, AttributeError):  # not Linux: no prctl
-        return
-    if os.getppid() != parent_pid:  # it died before the signal was armed
-        os._exit(1)
+from kernel.lifetime import die_with_parent
 
 
 class QueueChannel:
@@ -209,9 +191,9 @@ def open_executor(workers: int = 2, scheduler: str | None = None) -> Iterator[Ex
     ctx = multiprocessing.get_context("spawn")
     manager = SyncManager(ctx=ctx)
     with _main_not_reimported():
-        manager.start(_die_with_parent, (os.getpid(),))
+        manager.start(die_with_parent, (os.getpid(),))
         with manager, ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                                          initializer=_die_with_parent,
+                                          initializer=die_with_parent,
                                           initargs=(os.getpid(),)) as ex:
             plural = "s" if workers > 1 else ""
             yield ExecutorHandle(ex, QueueChannel(manager.Queue()),
