@@ -82,8 +82,8 @@ HOT_OPTIONS = OcpOptions(Discretization(n_intervals=20)).replace(limits={
 @pytest.fixture(scope="module")
 def hot_cycle():
     """elec-lim at 10 m/s, 20 intervals: the problem without the temperature (with an RMS
-    rating of 60 N m, the power model without a thermal model) by the homotopy (the
-    stored guess is for 40 intervals), and the winding limited to 40 degC, started from
+    rating of 60 N m, the power model without a thermal model) from the stored guess
+    interpolated onto 20 intervals, and the winding limited to 40 degC, started from
     that optimum with the thermal part's own start (its cyclic steady temperature)."""
     dae = kite_dae(*load_system().model_params())
     ocp = build_ocp(dae, _model(), HOT_OPTIONS)
