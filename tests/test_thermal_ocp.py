@@ -73,17 +73,17 @@ def test_without_a_thermal_rating_the_ocp_is_unchanged():
     assert "not applied" in line and "no thermal model" in line
 
 
-#: elec-lim options of the cycles below: 20 intervals, the winding limited to LIMIT_C
-HOT_OPTIONS = OcpOptions(Discretization(n_intervals=20)).replace(limits={
+#: elec-lim options of the cycles below: 10 intervals, the winding limited to LIMIT_C
+HOT_OPTIONS = OcpOptions(Discretization(n_intervals=10)).replace(limits={
     "max_winding_temperature_c": LIMIT_C, "max_speed_rpm": 1500.0,
     "max_torque_nm": 78.0, "nominal_power_w": 8200.0, "max_rms_torque_nm": 60.0})
 
 
 @pytest.fixture(scope="module")
 def hot_cycle():
-    """elec-lim at 10 m/s, 20 intervals: the problem without the temperature (with an RMS
+    """elec-lim at 10 m/s, 10 intervals: the problem without the temperature (with an RMS
     rating of 60 N m, the power model without a thermal model) from the stored guess
-    interpolated onto 20 intervals, and the winding limited to 40 degC, started from
+    interpolated onto 10 intervals, and the winding limited to 40 degC, started from
     that optimum with the thermal part's own start (its cyclic steady temperature)."""
     dae = kite_dae(*load_system().model_params())
     ocp = build_ocp(dae, _model(), HOT_OPTIONS)
