@@ -14,7 +14,12 @@ variant of IPOPT's warm-start options:
 * ``kappa05``: ``mu_linear_decrease_factor`` 0.05 (the barrier falls faster);
 * ``tol5``: ``tol`` 1e-5 instead of 1e-6 (the last barrier level is 1e-6, not 1e-7);
 * ``acceptable2``: ``acceptable_iter`` 2 and ``acceptable_tol`` 1e-5 (IPOPT stops after
-  2 iterates within 1e-5 instead of 5 within 1e-4, or at ``tol``).
+  2 iterates within 1e-5 instead of 5 within 1e-4, or at ``tol``);
+* ``fhp3``, ``fhp6``: ``first_hessian_perturbation`` 1e-3 or 1e-6 instead of 1e-4 (the
+  first regularization tried when the KKT matrix has the wrong inertia);
+* ``inc3``: ``perturb_inc_fact_first`` and ``perturb_inc_fact`` 3 instead of 100 and 8
+  (smaller increases of that regularization);
+* ``mu3``, ``mu5``: ``mu_init`` 1e-3 or 1e-5 with today's bound pushes.
 
 The options the product does not expose reach IPOPT through a wrapper of
 ``casadi.nlpsol`` that adds them to a warm solver's options (this script only). Per
@@ -62,6 +67,11 @@ VARIANTS = {
     "kappa05": ({"mu_linear_decrease_factor": 0.05}, 1e-4, 1e-2),
     "tol5": ({"tol": 1e-5}, 1e-4, 1e-2),
     "acceptable2": ({"acceptable_iter": 2, "acceptable_tol": 1e-5}, 1e-4, 1e-2),
+    "fhp3": ({"first_hessian_perturbation": 1e-3}, 1e-4, 1e-2),
+    "fhp6": ({"first_hessian_perturbation": 1e-6}, 1e-4, 1e-2),
+    "inc3": ({"perturb_inc_fact_first": 3.0, "perturb_inc_fact": 3.0}, 1e-4, 1e-2),
+    "mu3": ({}, 1e-3, 1e-2),
+    "mu5": ({}, 1e-5, 1e-2),
 }
 
 
