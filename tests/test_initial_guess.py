@@ -16,7 +16,7 @@ from optimize.model.kite_model import kite_dae
 from optimize.model.params import KiteParams
 from optimize.model.variables import Variables
 from optimize.paper_model import paper_model
-from optimize.problem.ocp import build_ocp
+from optimize.problem.ocp import build_ocp, on_mesh
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.part import Part, StartPoint
 from optimize.problem.scenario import Scenario
@@ -53,7 +53,7 @@ def test_guess_is_interpolated_onto_another_mesh():
     assert solution.w.size == coarse.layout.n_w and solution.lam_x.size == coarse.layout.n_w
     assert not solution.lam_g.any() and solution.lam_g.size == coarse.layout.n_g
     # the period is the stored one (5.134 s at elec-lim-7.0, unscaled through the layout)
-    stored = stored_guess.on_mesh(coarse, 40, 4).unpack(np.load(stored_guess.GUESS_PATH)["w"])
+    stored = on_mesh(coarse, 40, 4).unpack(np.load(stored_guess.GUESS_PATH)["w"])
     assert coarse.unpack(solution.w)["period_s"] == pytest.approx(stored["period_s"], rel=1e-12)
 
 

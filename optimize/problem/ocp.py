@@ -17,7 +17,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import casadi as ca
@@ -349,6 +349,20 @@ def twin(ocp: Ocp, solver: str) -> Ocp:
         other = assemble(ocp.formulation, ocp.options.replace(solver={"solver": solver}),
                          loop=ocp.loop, system=ocp.system)
         ocp.solvers[key] = other
+    return ocp.solvers[key]
+
+
+def on_mesh(ocp: Ocp, n_intervals: int, degree: int) -> Ocp:
+    """The same problem on ``n_intervals`` x ``degree`` (``ocp`` itself when that is its
+    mesh; built once, cached on ``ocp``), e.g. the stored initial guess's own mesh."""
+    if (n_intervals, degree) == (ocp.n_intervals, ocp.coll.degree):
+        return ocp
+    key = ("mesh", n_intervals, degree)
+    if key not in ocp.solvers:
+        options = ocp.options.replace(discretization={"n_intervals": n_intervals,
+                                                      "degree": degree})
+        form = replace(ocp.formulation, discretization=options.discretization)
+        ocp.solvers[key] = assemble(form, options, loop=ocp.loop, system=ocp.system)
     return ocp.solvers[key]
 
 

@@ -10,8 +10,9 @@ variables (``parts``, ``part_variables``: :func:`parts_record`).
 :func:`load` accepts the file for an OCP only if the OCP has every part the file
 records, with the same variables, its system (when it has one) is the stored one, and
 the OCP of those parts evaluates the same ``g`` at the stored point to :data:`MATCH_TOL`.
-The check runs on the file's own mesh (:func:`on_mesh`); an OCP on another mesh gets the
-stored solution interpolated in time onto its own (:func:`interpolated`): on the paper's
+The check runs on the file's own mesh (:func:`optimize.problem.ocp.on_mesh`); an OCP on
+another mesh gets the stored solution interpolated in time onto its own
+(:func:`interpolated`): on the paper's
 kite at 7-10 m/s, 8 to 80 intervals, that start took 18-43 iterations where the homotopy
 took 97-193 (1.3 to 5.6 times less wall time, the check on the stored mesh included) and
 reached the homotopy's optimum in 4 of 6 cases, in 2 (at 10 m/s, a wind speed off the
@@ -42,7 +43,7 @@ import numpy as np
 from kernel.files import atomic_path
 from optimize.model.kite_model import kite_dae
 from optimize.paper_model import paper_model
-from optimize.problem.ocp import Ocp, assemble, build_ocp, twin
+from optimize.problem.ocp import Ocp, assemble, build_ocp, on_mesh, twin
 from optimize.problem.options import OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.result import OcpResult, Solution, carry_over
@@ -178,20 +179,6 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
         return solution, why
     return (carry_over(ref, solution, ocp, GUESS_SCENARIO.parameters),
             f"{why}; carried over to this OCP's {ocp.layout.kind} layout and parts")
-
-
-def on_mesh(ocp: Ocp, n_intervals: int, degree: int) -> Ocp:
-    """``ocp``'s problem on ``n_intervals`` x ``degree`` (``ocp`` itself when that is its
-    mesh; built once, cached on ``ocp``): the mesh the stored guess is checked on."""
-    if (n_intervals, degree) == (ocp.n_intervals, ocp.coll.degree):
-        return ocp
-    key = ("mesh", n_intervals, degree)
-    if key not in ocp.solvers:
-        options = ocp.options.replace(discretization={"n_intervals": n_intervals,
-                                                      "degree": degree})
-        form = dataclasses.replace(ocp.formulation, discretization=options.discretization)
-        ocp.solvers[key] = assemble(form, options, loop=ocp.loop, system=ocp.system)
-    return ocp.solvers[key]
 
 
 def interpolated(src: Ocp, solution: Solution, dst: Ocp) -> Solution:
