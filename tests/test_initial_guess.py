@@ -16,7 +16,7 @@ from optimize.model.kite_model import kite_dae
 from optimize.model.params import KiteParams
 from optimize.model.variables import Variables
 from optimize.paper_model import paper_model
-from optimize.problem.ocp import build_ocp, on_mesh
+from optimize.problem.ocp import build_ocp, grid_times, on_mesh
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.part import Part, StartPoint
 from optimize.problem.scenario import Scenario
@@ -183,6 +183,28 @@ def test_a_part_the_stored_guess_lacks_fills_its_own_variables(tmp_path):
     names = lagged.dae.states.names
     kite = [names.index(n) for n in plain.dae.states.names]
     assert np.allclose(got["x"][kite], arrays["x"], rtol=1e-12, atol=1e-12)
+    dl = got["x"][names.index("dl_m_s")]
+    assert np.allclose(got["x"][names.index("dl_lag_m_s")][1:], dl[1:], rtol=1e-12, atol=1e-12)
+
+
+def test_a_part_the_stored_guess_lacks_fills_its_variables_on_another_mesh(tmp_path):
+    """Stored on 3 x 2 with the kite and drive, loaded on 5 x 2 with the lag part more: the
+    kite's states are the stored ones interpolated linearly in time onto the new grid,
+    and the lag's state is then filled along them (its own guess: the reel speed)."""
+    plain = _small()
+    arrays = _written(plain, tmp_path / "guess.npz")
+    lagged = build_ocp(kite_dae(), paper_model(), OcpOptions(Discretization(5, 2)),
+                       parts=(Lag(),))
+    solution, why = stored_guess.load(lagged, tmp_path / "guess.npz")
+    assert solution is not None, why
+    assert "interpolated from N=3, degree 2 onto N=5, degree 2" in why and "carried over" in why
+    got = lagged.unpack(solution.w)
+    period = float(got["period_s"])
+    t_stored, t_new = grid_times(plain, period), grid_times(lagged, period)
+    names = lagged.dae.states.names
+    for i, name in enumerate(plain.dae.states.names):
+        assert np.allclose(got["x"][names.index(name)], np.interp(t_new, t_stored, arrays["x"][i]),
+                           rtol=1e-9, atol=1e-9), name
     dl = got["x"][names.index("dl_m_s")]
     assert np.allclose(got["x"][names.index("dl_lag_m_s")][1:], dl[1:], rtol=1e-12, atol=1e-12)
 

@@ -18,16 +18,19 @@ from optimize.solve import backend
 from optimize.solve.result import OcpResult, Solution, make_result
 
 
-def interpolate_solution(coarse: Ocp, warm: Solution, fine: Ocp) -> np.ndarray:
+def interpolate_solution(coarse: Ocp, warm: Solution, fine: Ocp,
+                         period_s: float | None = None) -> np.ndarray:
     """Scaled decision vector of ``fine`` interpolated from a ``coarse`` solution.
 
     States and algebraic variables are interpolated linearly in time between
     the coarse grid points (periodic wrap for the algebraic ones); each fine
     interval takes the control of the coarse interval that contains its
-    midpoint; fictitious forces are zero.
+    midpoint; fictitious forces are zero. The grids' times are those of the
+    vector's own period, or of ``period_s`` [s] when given: a vector of bound
+    multipliers (:func:`interpolate_multipliers`) holds no period of its own.
     """
     sol = coarse.unpack(warm.w)
-    period = sol["period_s"]
+    period = sol["period_s"] if period_s is None else period_s
     t_c = grid_times(coarse, period)
     t_f = grid_times(fine, period)
     x = np.vstack([np.interp(t_f, t_c, row) for row in sol["x"]])
@@ -38,7 +41,16 @@ def interpolate_solution(coarse: Ocp, warm: Solution, fine: Ocp) -> np.ndarray:
     mid = (np.arange(n_f) + 0.5) / n_f
     u = np.asarray(sol["u"])[:, np.minimum((mid * n_c).astype(int), n_c - 1)]
     fict = np.zeros((fine.dae.fictitious.size, fine.layout.n_coll))
-    return fine.pack(x, z, u, fict, period)
+    return fine.pack(x, z, u, fict, sol["period_s"])
+
+
+def interpolate_multipliers(coarse: Ocp, warm: Solution, fine: Ocp) -> np.ndarray:
+    """The bound multipliers ``warm.lam_x`` of a ``coarse`` solution on ``fine``'s
+    variables, interpolated as :func:`interpolate_solution` interpolates its primal
+    point, on the grids of the primal period."""
+    period_s = float(coarse.unpack(warm.w)["period_s"])
+    return interpolate_solution(coarse, dataclasses.replace(warm, w=warm.lam_x), fine,
+                                period_s=period_s)
 
 
 def solve_interpolated(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult
@@ -53,8 +65,7 @@ def solve_interpolated(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpRe
     ``"interpolated from N x d"``.
     """
     w0 = interpolate_solution(coarse, result.warm, fine)
-    lam_x0 = interpolate_solution(
-        coarse, dataclasses.replace(result.warm, w=result.warm.lam_x), fine)
+    lam_x0 = interpolate_multipliers(coarse, result.warm, fine)
     bounds = fine.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
     p = fine.params(scenario.parameters, scenario.weights)
     raw = backend.run(fine, w0, p, bounds, warm=True, lam_x0=lam_x0,

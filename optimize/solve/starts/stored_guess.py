@@ -49,7 +49,7 @@ from optimize.problem.scenario import Scenario
 from optimize.solve.result import OcpResult, Solution, carry_over
 from optimize.solve.starts.fill import KEYS
 from optimize.solve.starts.homotopy import cold_start
-from optimize.solve.starts.remesh import interpolate_solution
+from optimize.solve.starts.remesh import interpolate_multipliers, interpolate_solution
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system_file import load_system
 
@@ -183,10 +183,10 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
 
 def interpolated(src: Ocp, solution: Solution, dst: Ocp) -> Solution:
     """``solution`` of ``src`` on ``dst``'s mesh: the primal point and the bound
-    multipliers interpolated in time (:func:`optimize.solve.starts.remesh.interpolate_solution`),
-    the constraint multipliers zero (as the mesh check starts a finer mesh)."""
-    lam_x = interpolate_solution(src, dataclasses.replace(solution, w=solution.lam_x), dst)
-    return Solution(w=interpolate_solution(src, solution, dst), lam_x=lam_x,
+    multipliers interpolated in time (:mod:`optimize.solve.starts.remesh`), the constraint
+    multipliers zero (as the mesh check starts a finer mesh)."""
+    return Solution(w=interpolate_solution(src, solution, dst),
+                    lam_x=interpolate_multipliers(src, solution, dst),
                     lam_g=np.zeros(dst.layout.n_g), n_intervals=dst.n_intervals,
                     degree=dst.coll.degree)
 
