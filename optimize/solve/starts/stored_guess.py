@@ -12,12 +12,12 @@ records, with the same variables, its system (when it has one) is the stored one
 the OCP of those parts evaluates the same ``g`` at the stored point to :data:`MATCH_TOL`.
 The check runs on the file's own mesh (:func:`optimize.problem.ocp.on_mesh`); an OCP on
 another mesh gets the stored solution interpolated in time onto its own
-(:func:`interpolated`): on the paper's
-kite at 7-10 m/s, 8 to 80 intervals, that start took 18-43 iterations where the homotopy
-took 97-193 (1.3 to 5.6 times less wall time, the check on the stored mesh included) and
-reached the homotopy's optimum in 4 of 6 cases, in 2 (at 10 m/s, a wind speed off the
-stored 7 m/s, as the stored guess starts any wind speed on its own mesh) another local
-optimum 0.4 % poorer (``benchmarks/interpolated_guess.py``).
+(:func:`interpolated`). On the paper's kite at 7-10 m/s, 8 to 80 intervals, that start
+took 18-43 iterations where the homotopy took 97-193 (1.3 to 5.6 times less wall time,
+the check on the stored mesh included) and reached the homotopy's optimum in 4 of 6
+cases; in 2 (at 10 m/s, a wind speed off the stored 7 m/s, as the stored guess starts
+any wind speed on its own mesh) another local optimum 0.4 % poorer
+(``benchmarks/interpolated_guess.py``).
 The constraints do not depend on the drive model, so the guess serves any fitted model;
 a part the OCP has beyond the file's fills its own variables along it; a part the
 file records and the OCP has not, a changed kite model, scaling, collocation or layout
