@@ -34,7 +34,7 @@ from energy.adaptive import refine_grid
 from energy.curve import OptimizeRun, PowerCurve
 from kernel.errors import InputError
 from kernel.files import parse_toml
-from optimize.door import failure_reason
+from optimize.door import failure_reason, rejected_lines
 
 #: the check re-solve must give the sweep's average electrical power within this share
 #: of the curve's largest |P_elec|: IPOPT's tolerance (1e-6 scaled) reproduces the same
@@ -360,7 +360,7 @@ def refine_document(r: RefinedRun, site: Any, tol: float) -> dict:
             "wind_speeds_m_s": m.wind_speed_m_s.tolist(),
             "solves": [{key: rec.get(key) for key in (
                 "wind_speed_m_s", "role", "success", "status", "warm_from", "avg_p_elec_w",
-                "avg_p_mech_w", "result_check", "wall_time_s", "cached")}
+                "avg_p_mech_w", "result_check", "wall_time_s", "cached", "store_rejected")}
                        for rec in kr.records],
             "n_added": sum(rec["success"] for rec in kr.added),
             "n_added_failed": sum(not rec["success"] for rec in kr.added),
@@ -390,4 +390,5 @@ def refine_notes(doc: dict) -> tuple[str, ...]:
             "refined)")
         if k["note"]:
             lines.append(k["note"])
+        lines.extend(rejected_lines([{**r, "kind": kind} for r in k["solves"]]))
     return tuple(lines)

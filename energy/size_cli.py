@@ -9,6 +9,7 @@ site, :func:`energy.cli.site_from_args`); it writes ``size_out/sizing.json``,
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -115,6 +116,9 @@ def run(args: argparse.Namespace) -> int:
     for r in (r for r in res.records if not r["success"]):
         print(f"FAILED: {r['candidate']} at {r['wind_speed_m_s']:g} m/s: {failure_reason(r)} "
               "(that candidate gets no AEP)")
+    if done.kept is not None:
+        print(f"bench size: {done.kept}", file=sys.stderr)
+        return 1
     return 0 if res.chosen is not None else 1
 
 

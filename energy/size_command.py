@@ -121,13 +121,44 @@ class SizeRun:
     notes : tuple of str
         What was assumed (a rating the system file does not state, the grid's hours).
     files : dict
-        Name -> written path.
+        Name -> written path (empty when the earlier output was kept).
+    kept : str or None
+        Why the earlier output in the folder was kept and nothing written
+        (:func:`earlier_is_better`); None when this run's files were written.
     """
 
     sizing: Any
     drive: Any
     notes: tuple[str, ...]
     files: dict
+    kept: str | None = None
+
+
+def earlier_is_better(out: Path, sizing: Any) -> str | None:
+    """Why the sizing already in ``out`` must not be replaced by ``sizing``: this run lost
+    an AEP the earlier one has by solves that crashed (not stored; a re-run tries them
+    again), not by the solver's verdict. None when this run's output may replace it."""
+    from energy.sizing_files import read_sizing
+    from optimize.door import transient
+
+    crashed = [r for r in sizing.records if transient(r)]
+    if not crashed or not (Path(out) / "sizing.json").is_file():
+        return None
+    try:
+        earlier = read_sizing(Path(out))
+    except (InputError, OSError):
+        return None  # no readable earlier sizing: nothing better to keep
+    had = {c.get("candidate") for c in earlier.get("candidates", [])
+           if isinstance(c, dict) and c.get("aep_elec_mwh") is not None}
+    now = set(sizing.table.dropna(subset=["aep_elec_mwh"])["candidate"])
+    lost = sorted(had - now, key=str)
+    if not lost:
+        return None
+    first = crashed[0]
+    return (f"the sizing already in {out} is kept (nothing written): it has an AEP for "
+            f"{', '.join(map(str, lost))}, this run has none because {len(crashed)} solve"
+            f"{'s' * (len(crashed) > 1)} crashed (first {first.get('candidate', '')} "
+            f"{first['wind_speed_m_s']:g} m/s: {first['status']}); a re-run solves them again")
 
 
 def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
@@ -163,7 +194,7 @@ def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
     before_solving : callable, optional
         ``before_solving(drive, n_candidates)``, called once the candidates are made.
     """
-    from optimize.door import resolve
+    from optimize.door import rejected_lines, resolve
 
     run_record = Provenance.start(command_line)
     check_replaceable(out, "size", SIZE_MARKERS, keep=SIZE_KEEP)  # before the work
@@ -189,9 +220,13 @@ def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
                                  adaptive=grid.adaptive, system=system))
     edge_doc = {"best_at": edge, "added_scales": added,
                 "note": edge_note(edge, result.best, added)}
-    notes = [*notes, grid_hours(site, grid.wind_speeds_m_s, result.records)["note"],
+    notes = [*notes, *rejected_lines(result.records),
+             grid_hours(site, grid.wind_speeds_m_s, result.records)["note"],
              starts_note(result.records, result.reference),
              *([edge_doc["note"]] if edge_doc["note"] else [])]
+    kept = earlier_is_better(Path(out), result)
+    if kept is not None:
+        return SizeRun(result, drive, (*notes, kept), {}, kept)
     files = write_sizing(Path(out), result, site=site, site_note=site_note or site.describe(),
                          drive=drive, system=system, wind_speeds_m_s=grid.wind_speeds_m_s,
                          adaptive=grid.adaptive, tolerance=grid.tolerance, notes=notes,

@@ -32,8 +32,11 @@ stored under the SHA-256 of its inputs (the candidate's model hash, the OCP
 options, the wind speed, objective and the system's hash:
 :func:`optimize.service.solve_key`) as ``solves/<key>.json`` (figures) and
 ``solves/<key>.npz`` (primal and dual vectors, the next solve's warm start),
-each written atomically. A re-run loads every stored solve instead of solving
-it, so an interrupted sweep continues where it stopped.
+each written atomically, with the hashes of their content and of the problem they
+solve. A re-run loads every stored solve that passes its checks instead of solving it,
+so an interrupted sweep continues where it stopped; a stored solve that does not (an
+edited, truncated or foreign file) is named and solved again
+(:func:`optimize.service.store.read_solve`).
 """
 
 from __future__ import annotations

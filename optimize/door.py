@@ -16,6 +16,7 @@ home module                         what the other stages use
 :mod:`optimize.cli`                 its exit codes
 :mod:`optimize.service`             the one solve service: problems, chains, their records
 :mod:`optimize.service.foreign`     starts it did not find itself (a sweep's stored cycles)
+:mod:`optimize.service.store`       the stored solves it did not believe, in words
 :mod:`optimize.problem.options`     the OCP's options; :mod:`~optimize.problem.scenario` names
 :mod:`optimize.system.system_file`  system files (and a manifest's system record)
 :mod:`optimize.model.drivetrain`    the similarity law that carries a drive's losses
@@ -39,8 +40,9 @@ LAZY_IMPORTS = {
                          "run_chains", "solve_tasks"),
     "optimize.service.solver": ("attempt_line",),
     "optimize.service.foreign": ("CycleStart",),
-    "optimize.service.outcome": ("failure_reason",),
+    "optimize.service.outcome": ("failure_reason", "transient"),
     "optimize.service.executors": ("open_executor",),
+    "optimize.service.store": ("rejected_lines",),
     "optimize.problem.options": ("Discretization", "OcpOptions"),
     "optimize.problem.scenario": ("scenario_name",),
     "optimize.system.system_file": ("load_system", "system_from_dict"),

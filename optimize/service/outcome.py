@@ -22,6 +22,12 @@ def failure_status(prefix: str, exc: BaseException) -> str:
     return f"{prefix}: {type(exc).__name__}: {exc}"[:300]
 
 
+def transient(record: dict) -> bool:
+    """Whether a solve record failed by a crash of the solver or its worker (not stored,
+    so a re-run tries it again), not by the solver's own verdict."""
+    return not record["success"] and str(record["status"]).startswith((CRASH, WORKER_ERROR))
+
+
 def failure_reason(record: dict) -> str:
     """Why a failed solve record failed: its result check's reasons when the solver
     converged to an optimum that cannot stand, else the solver's status."""

@@ -12,7 +12,9 @@ worker. It builds the NLP once (cached per process) and solves each (kind, wind_
   never a failed sweep;
 * with a store, each finished solve is kept under the hash of its inputs
   (:func:`optimize.service.store.solve_key`) and a re-run loads it instead of
-  solving it; a crash is not stored (it may be transient: a re-run tries again).
+  solving it, once its files pass their checks (:func:`optimize.service.store.read_solve`);
+  one that does not is solved again, its record's ``store_rejected`` naming the file and
+  why; a crash is not stored (it may be transient: a re-run tries again).
 
 Each solve gives a :class:`optimize.service.outcome.ScenarioOutcome` (attempts,
 the backend's result; kept in memory) and a record (a flat dict of its figures,
@@ -32,7 +34,7 @@ from optimize.problem.scenario import scenario_name
 from optimize.service.builder import OcpBackend, Problem
 from optimize.service.foreign import Start
 from optimize.service.outcome import CRASH, Attempt, ScenarioOutcome, failure_status
-from optimize.service.store import load_solve, solve_key, store_solve
+from optimize.service.store import read_solve, solve_key, store_solve
 from optimize.solve.result import cycle_metrics
 
 #: warm-started attempts per solve before the cold-start fallback
@@ -174,17 +176,18 @@ class Solver:
             period_s, peak_speed_rpm, peak_torque_nm, rms_torque_nm`` (None when
             failed), the parts' figures (``OcpResult.figures``, when converged), the
             extras,
-            ``wall_time_s, cached``.
+            ``wall_time_s, cached``, and ``store_rejected`` when its stored files were not
+            believed (the file and why; solved again).
         """
         wind_speed_m_s = float(wind_speed_m_s)
         k = (kind, wind_speed_m_s)
         if k in self.records:
             return self.records[k]
         key = solve_key(self.problem, kind, wind_speed_m_s) if self.store is not None else None
-        stored = load_solve(self.store, key) if key is not None else None
-        if stored is not None:
-            rec, warm = stored
-            rec = {**rec, "role": role, "cached": True}
+        stored = read_solve(self.store, key, kind, wind_speed_m_s) if key is not None else None
+        if stored is not None and stored.record is not None:
+            rec, warm = stored.record, stored.warm
+            rec = {**rec, **self.tag, "role": role, "cached": True}
         else:
             if sources is None:
                 near = self.converged(kind)
@@ -211,6 +214,8 @@ class Solver:
             if key is not None and result is not None:  # a crash is not stored
                 store_solve(self.store, key, rec, warm)
             rec = {**rec, "cached": False}
+            if stored is not None:  # its stored files were not believed: say which and why
+                rec["store_rejected"] = stored.rejected
         self.records[k] = rec
         if rec["success"] and warm is not None:
             self._warm[k] = warm
