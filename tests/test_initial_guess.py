@@ -224,12 +224,14 @@ def test_a_stored_part_the_ocp_lacks_or_has_otherwise_is_refused_naming_it(tmp_p
 
 
 def test_a_file_without_its_parts_is_refused_until_they_are_recorded(tmp_path):
-    """A file written before the record: refused, saying how to add it; the record added
-    after the check on the OCP of the named parts, every array kept."""
+    """A file written before the record (and its content hash): refused, saying how to add
+    it; the record and the hash added after the check on the OCP of the named parts, every
+    array kept."""
     ocp, path = _small(), tmp_path / "old.npz"
     _written(ocp, path)
     with np.load(path) as f:
-        old = {k: f[k] for k in f.files if k not in ("parts", "part_variables")}
+        old = {k: f[k] for k in f.files
+               if k not in ("parts", "part_variables", stored_guess.HASH_KEY)}
     np.savez_compressed(path, **old)
     solution, why = stored_guess.load(ocp, path)
     assert solution is None and "--record-parts kite,drive" in why
@@ -239,4 +241,5 @@ def test_a_file_without_its_parts_is_refused_until_they_are_recorded(tmp_path):
     assert done, why
     with np.load(path) as f:
         assert all(np.array_equal(f[k], v) for k, v in old.items())
+        assert str(f[stored_guess.HASH_KEY]) == stored_guess.content_sha256(dict(f))
     assert stored_guess.load(ocp, path)[0] is not None

@@ -26,21 +26,28 @@ makes it stale, and :func:`optimize.solve.starts.cold.start` falls back to the h
 
     .venv/bin/python -m optimize.solve.starts.stored_guess
 
-A file written before it recorded its parts gets the record, checked on the OCP of the
-parts named, with ``--record-parts kite,drive`` (its arrays unchanged).
+The file records the SHA-256 of its content (:data:`HASH_KEY`): an edited, truncated or
+damaged file, or one without its parts record or hash, is not used, and :func:`load` says
+so as a warning (once per process) before the cold start runs the homotopy. A file
+written before it recorded its parts or hash gets them, checked on the OCP of the parts
+named, with ``--record-parts kite,drive`` (its arrays unchanged); names that are no part
+of the OCP, or none, are refused (exit 2) and the file is left as it was.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import hashlib
 import logging
+import sys
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
-from kernel.files import atomic_path
+from kernel.errors import InputError
+from kernel.files import atomic_path, check_output_file
 from optimize.model.kite_model import kite_dae
 from optimize.paper_model import paper_model
 from optimize.problem.ocp import Ocp, assemble, build_ocp, on_mesh, twin
@@ -65,6 +72,31 @@ MATCH_TOL = 1e-9
 ARRAYS = ("w", "lam_x", "lam_g", "p", "g")
 #: the kinds of a part's variables the record lists
 RECORDED = (*KEYS, "parameters")
+#: the command that writes the shipped file again
+REGENERATE = "python -m optimize.solve.starts.stored_guess"
+#: how a refusal of a guess of another system begins (no warning: expected for other systems)
+OTHER_SYSTEM = "the stored initial guess is for another system"
+#: the entry holding the SHA-256 of every other entry (:func:`content_sha256`)
+HASH_KEY = "content_sha256"
+#: the reasons already said as warnings in this process (each once)
+_SAID: set[str] = set()
+
+
+def content_sha256(arrays: dict[str, np.ndarray]) -> str:
+    """SHA-256 (hex) of a guess file's entries but :data:`HASH_KEY`: each entry's name,
+    dtype, shape and bytes, in name order."""
+    digest = hashlib.sha256()
+    for name in sorted(k for k in arrays if k != HASH_KEY):
+        a = np.ascontiguousarray(arrays[name])
+        digest.update(f"{name}|{a.dtype.str}|{a.shape}|".encode())
+        digest.update(a.tobytes())
+    return digest.hexdigest()
+
+
+def _save(fh, arrays: dict[str, np.ndarray]) -> None:
+    """Write ``arrays`` with their content hash (:data:`HASH_KEY`) to the open file ``fh``."""
+    arrays = {k: np.asarray(v) for k, v in arrays.items() if k != HASH_KEY}
+    np.savez_compressed(fh, **arrays, **{HASH_KEY: np.array(content_sha256(arrays))})
 
 
 def parts_record(ocp: Ocp) -> dict[str, np.ndarray]:
@@ -79,16 +111,16 @@ def parts_record(ocp: Ocp) -> dict[str, np.ndarray]:
 
 
 def write(path: str | Path, ocp: Ocp, result: OcpResult, p: np.ndarray) -> Path:
-    """Store ``result``'s solution with its parameters ``p``, ``g(w, p)`` and the parts
-    of ``ocp`` (:func:`parts_record`; atomic)."""
+    """Store ``result``'s solution with its parameters ``p``, ``g(w, p)``, the parts
+    of ``ocp`` (:func:`parts_record`) and the hash of it all (:data:`HASH_KEY`; atomic)."""
     warm = result.warm
     with atomic_path(path) as tmp, tmp.open("wb") as fh:
-        np.savez_compressed(
-            fh, w=warm.w, lam_x=warm.lam_x, lam_g=warm.lam_g, p=p,
+        _save(fh, dict(
+            w=warm.w, lam_x=warm.lam_x, lam_g=warm.lam_g, p=p,
             g=ocp.constraint_values(warm.w, p), n_intervals=ocp.n_intervals,
             degree=ocp.coll.degree, scenario=result.scenario.name,
             system_sha256=getattr(ocp.system, "sha256", ""), **parts_record(ocp),
-        )
+        ))
     return Path(path)
 
 
@@ -159,8 +191,8 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
         What was checked, or why the file does not fit.
     """
     data, why = _read(path)
-    if data is None:
-        return None, why
+    if data is None:  # missing, unreadable, edited or damaged: said, once
+        return None, _warn(why)
     names = tuple(str(n) for n in data["parts"])
     why = _missing(ocp, names)
     ref = reference(ocp, names) if why is None else ocp
@@ -169,8 +201,8 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
         return None, why
     stored_mesh = on_mesh(ref, int(data["n_intervals"]), int(data["degree"]))
     solution, why = _check(stored_mesh, data)
-    if solution is None:
-        return None, why
+    if solution is None:  # another system's is no surprise; an intact file unfit is stale
+        return None, why if why.startswith(OTHER_SYSTEM) else _warn(f"{path}: {why}")
     if stored_mesh is not ref:
         solution = interpolated(stored_mesh, solution, ref)
         why = (f"{why}; interpolated from N={stored_mesh.n_intervals}, degree "
@@ -179,6 +211,15 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
         return solution, why
     return (carry_over(ref, solution, ocp, GUESS_SCENARIO.parameters),
             f"{why}; carried over to this OCP's {ocp.layout.kind} layout and parts")
+
+
+def _warn(why: str) -> str:
+    """Say (once per process, as a warning) why the stored initial guess is not used,
+    before the cold start falls back to the homotopy; return ``why``."""
+    if why not in _SAID:
+        _SAID.add(why)
+        log.warning("stored initial guess not used: %s; the cold start runs the homotopy", why)
+    return why
 
 
 def interpolated(src: Ocp, solution: Solution, dst: Ocp) -> Solution:
@@ -198,15 +239,24 @@ def _read(path: str | Path) -> tuple[dict | None, str]:
         return None, f"no stored initial guess at {path}"
     try:
         with np.load(path) as f:
-            data = {k: f[k] for k in (*ARRAYS, "n_intervals", "degree", "scenario")}
-            data["system_sha256"] = str(f["system_sha256"]) if "system_sha256" in f.files else ""
-            record = {k: f[k] for k in ("parts", "part_variables") if k in f.files}
-    except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
-        return None, f"cannot read the stored initial guess {path}: {exc}"
+            stored = {k: f[k] for k in f.files}
+        data = {k: stored[k] for k in (*ARRAYS, "n_intervals", "degree", "scenario")}
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+        return None, (f"cannot read the stored initial guess {path} ({type(exc).__name__}: "
+                      f"{exc}): restore the shipped file or regenerate it ({REGENERATE})")
+    data["system_sha256"] = str(stored.get("system_sha256", ""))
+    record = {k: stored[k] for k in ("parts", "part_variables") if k in stored}
     if len(record) < 2:
         return None, (f"the stored initial guess {path} does not record its parts (written "
-                      "before it did): python -m optimize.solve.starts.stored_guess --record-parts "
-                      "kite,drive adds the record")
+                      f"before it did): {REGENERATE} --record-parts kite,drive adds the record")
+    if HASH_KEY not in stored:
+        return None, (f"the stored initial guess {path} records no content hash (written "
+                      f"before it did): {REGENERATE} --record-parts kite,drive checks it and "
+                      "adds it")
+    if str(stored[HASH_KEY]) != content_sha256(stored):
+        return None, (f"the stored initial guess {path} differs from the SHA-256 it records "
+                      f"(edited or damaged): restore the shipped file or regenerate it "
+                      f"({REGENERATE})")
     return {**data, **record}, ""
 
 
@@ -215,7 +265,7 @@ def _check(ocp: Ocp, data: dict) -> tuple[Solution | None, str]:
     stored_system = data["system_sha256"]
     system = getattr(ocp.system, "sha256", None)
     if system is not None and system != stored_system:
-        return None, (f"the stored initial guess is for another system (sha256 "
+        return None, (f"{OTHER_SYSTEM} (sha256 "
                       f"{stored_system[:12] or 'not recorded'}); this OCP's system "
                       f"{ocp.system.name} has {system[:12]}")
     n, d = int(data["n_intervals"]), int(data["degree"])
@@ -241,31 +291,58 @@ def _check(ocp: Ocp, data: dict) -> tuple[Solution | None, str]:
 
 
 def record_parts(path: str | Path, ocp: Ocp, names: tuple[str, ...]) -> tuple[bool, str]:
-    """Add the record of ``ocp``'s parts ``names`` (:func:`parts_record`) to a guess file
-    written before the files recorded their parts, once the file fits the OCP of those
-    parts (:func:`reference`); its arrays are kept as they are. Whether it was written,
-    and what was checked or why not."""
+    """Add the record of ``ocp``'s parts ``names`` (:func:`parts_record`) and the content
+    hash (:data:`HASH_KEY`) to a guess file written before the files recorded them, once
+    the file fits the OCP of those parts (:func:`reference`); its arrays are kept as they
+    are. Whether it was written, and what was checked or why not (the file untouched)."""
     try:
         with np.load(path) as f:
             old = {k: f[k] for k in f.files}
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
         return False, f"cannot read the stored initial guess {path}: {exc}"
+    if HASH_KEY in old and str(old[HASH_KEY]) != content_sha256(old):
+        return False, ("it differs from the SHA-256 it records (edited or damaged): "
+                       f"restore it or regenerate it ({REGENERATE})")
     why = _missing(ocp, names)
     if why is not None:
         return False, why
-    ref = reference(ocp, names)
-    data = {**old, "system_sha256": str(old.get("system_sha256", ""))}
-    solution, why = _check(ref, data)
+    try:
+        ref = reference(ocp, names)
+        data = {**old, "system_sha256": str(old.get("system_sha256", ""))}
+        solution, why = _check(ref, data)
+    except (KeyError, TypeError, ValueError, RuntimeError) as exc:
+        return False, (f"the parts {', '.join(names)} make no OCP to check the file on "
+                       f"({type(exc).__name__}: {exc}); name every part it was written with "
+                       "(the shipped file: kite,drive)")
     if solution is None:
         return False, why
     with atomic_path(path) as tmp, tmp.open("wb") as fh:
-        np.savez_compressed(fh, **{**old, **parts_record(ref)})
+        _save(fh, {**old, **parts_record(ref)})
     return True, why
+
+
+def _part_names(spec: str, ocp: Ocp) -> tuple[str, ...]:
+    """The parts ``--record-parts`` names, each one of ``ocp``'s, once."""
+    names = tuple(n.strip() for n in spec.split(","))
+    ours = [str(n) for n in parts_record(ocp)["parts"]]
+    if not spec.strip() or any(not n for n in names):
+        raise InputError(None, f"--record-parts {spec!r}: names no part (or an empty one)",
+                         expected="the parts the file holds, comma-separated, of "
+                                  + ", ".join(ours))
+    unknown = [n for n in names if n not in ours]
+    if unknown or len(set(names)) != len(names):
+        problem = (f"unknown part{'s' * (len(unknown) > 1)} {', '.join(unknown)}" if unknown
+                   else "a part named twice")
+        raise InputError(None, f"--record-parts {spec!r}: {problem}",
+                         expected=f"each once, of the OCP's parts {', '.join(ours)}")
+    return names
 
 
 def main(argv: list[str] | None = None) -> int:
     """Solve :data:`GUESS_SCENARIO` by the homotopy and write the guess file (or, with
-    ``--record-parts``, add the parts record to the file written before it had one)."""
+    ``--record-parts``, add the parts record and content hash to a file written before
+    it had them). Exit 0 when written, 1 when the homotopy failed, 2 on bad input (the
+    file untouched)."""
     ap = argparse.ArgumentParser(description=main.__doc__)
     ap.add_argument("--out", type=Path, default=GUESS_PATH)
     ap.add_argument("--record-parts", metavar="NAMES",
@@ -277,10 +354,21 @@ def main(argv: list[str] | None = None) -> int:
     rating = drive_in_force(system, drive_model=model).rating
     ocp = build_ocp(kite_dae(*system.model_params()), model,
                     system.ocp_options(OcpOptions(), rating), system=system)
-    if args.record_parts:
-        done, why = record_parts(args.out, ocp, tuple(args.record_parts.split(",")))
-        (log.info if done else log.error)("%s: %s", args.out, why)
-        return 0 if done else 1
+    try:
+        if args.record_parts is not None:
+            names = _part_names(args.record_parts, ocp)
+            if not args.out.is_file():
+                raise InputError(args.out, "no guess file to record the parts of",
+                                 column="--out", expected="an existing .npz guess file")
+            done, why = record_parts(args.out, ocp, names)
+            if not done:
+                raise InputError(args.out, f"not changed: {why}")
+            log.info("%s: %s", args.out, why)
+            return 0
+        check_output_file(args.out)  # before the solve, not after it
+    except InputError as exc:
+        print(f"stored_guess: error: {exc.describe()}", file=sys.stderr)
+        return 2
     result = cold_start(ocp, GUESS_SCENARIO)
     if not result.success:
         log.error("%s: %s, no guess written", GUESS_SCENARIO.name, result.status)
@@ -290,6 +378,7 @@ def main(argv: list[str] | None = None) -> int:
     log.info("wrote %s (%s: P_elec %.1f W, P_mech %.1f W, %d iterations)", out,
              GUESS_SCENARIO.name, result.avg_p_elec_w, result.avg_p_mech_w, result.iterations)
     return 0
+
 
 if __name__ == "__main__":
     raise SystemExit(main())
