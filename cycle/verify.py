@@ -31,6 +31,8 @@ from fitting.power_model import PowerModel
 CLAIM_RTOL = 0.05
 #: coverage factor of the bands (about 95 %)
 K = 2.0
+#: a round trip's result against :data:`CLAIM_RTOL` (:func:`round_trip_result`)
+RESULTS = ("PASS", "FAIL", "INCONCLUSIVE")
 _SQRT3 = math.sqrt(3.0)
 
 
@@ -74,6 +76,23 @@ class Accuracy:
                    float(sensors.get("power_range_w", 0.0)), v["torque_accuracy_range"],
                    float(sensors.get("torque_range_nm", 0.0)) * gear,
                    v["speed_accuracy_reading"]), missing
+
+
+def round_trip_result(error: float, band: float, tolerance: float = CLAIM_RTOL) -> str:
+    """The round trip's result: ``"PASS"`` when a prediction's relative error with its 95 %
+    band lies within ``+-tolerance``, ``"FAIL"`` when it lies outside it with its band,
+    ``"INCONCLUSIVE"`` when the band reaches across the tolerance (more cycles or better
+    instruments decide it)."""
+    if abs(error) + band <= tolerance:
+        return RESULTS[0]
+    return RESULTS[1] if abs(error) - band > tolerance else RESULTS[2]
+
+
+def generated_words(energy_j: float) -> tuple[str, float]:
+    """The one sign convention of a round trip's words: the energy per cycle as what the
+    cycle does with it, ``("generated", |E|)`` for a cycle that delivers to the grid
+    (``E < 0``, docs/schemas.md Conventions), ``("drawn", E)`` for one that draws."""
+    return ("generated", -energy_j) if energy_j < 0 else ("drawn", energy_j)
 
 
 def energy_drift(energy: np.ndarray, index: np.ndarray) -> tuple[float, float, float]:

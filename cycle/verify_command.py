@@ -16,7 +16,16 @@ from bench.store.manifest import read_manifest
 from bench.store.read import read_cycles, read_samples
 from cycle.models import sweep_power_model
 from cycle.provenance import check_provenance
-from cycle.verify import CLAIM_RTOL, Accuracy, K, energy_drift, measured_energy, model_energy
+from cycle.verify import (
+    CLAIM_RTOL,
+    Accuracy,
+    K,
+    energy_drift,
+    generated_words,
+    measured_energy,
+    model_energy,
+    round_trip_result,
+)
 from cycle.verify_folder import MARKERS, STAGE, write_verify_folder
 from kernel.errors import InputError
 from kernel.output_folder import check_replaceable
@@ -91,19 +100,27 @@ def residual_std_w(model) -> float | None:
 
 def verdict(means: dict, drift: dict, missing: list[str],
             residual: tuple[float, float] | None = None) -> str:
-    """The result in plain words; ``residual`` is the model's residual std at its steady
-    points [W] and a cycle's period [s], when the model states it."""
+    """The result in plain words, PASS, FAIL or INCONCLUSIVE against :data:`CLAIM_RTOL`
+    first (:func:`cycle.verify.round_trip_result`), every energy said as generated (or
+    drawn) per cycle and every error as the prediction against the measurement of that
+    energy; ``residual`` is the model's residual std at its steady points [W] and a
+    cycle's period [s], when the model states it."""
     err, band = means["model_error"], means["model_error_band"]
-    inside = abs(err) + band <= CLAIM_RTOL
-    outside = abs(err) - band > CLAIM_RTOL
-    claim = (("within" if inside else "outside" if outside else "not decidable against")
-             + f" the {100 * CLAIM_RTOL:g} % the steady map is said to hold")
-    lines = [f"The steady-state power model predicts the measured electrical energy per cycle "
-             f"to {100 * err:+.1f} % (95 % band {100 * band:.1f} %) at the measured speed and "
-             f"torque: {claim}.",
-             f"The optimizer promised {means['e_elec_optimizer_j']:.0f} J per cycle, "
-             f"{100 * means['optimizer_error']:+.1f} % from the {means['e_elec_j']:.0f} J "
-             f"measured (band {100 * means['optimizer_error_band']:.1f} %)."]
+    word, measured = generated_words(means["e_elec_j"])
+    sign = -1.0 if word == "generated" else 1.0  # every energy in the measured one's sense
+    model = sign * means.get("e_elec_model_j", means["e_elec_j"] * (1 + err))
+    promised = sign * means["e_elec_optimizer_j"]
+    where = "delivered to" if word == "generated" else "taken from"
+    lines = [f"{round_trip_result(err, band)} against +-{100 * CLAIM_RTOL:g} % (the steady "
+             "map's accuracy on dynamic cycles the paper states): the steady-state power "
+             f"model at the measured speed and torque predicts {model:.0f} J {word} per cycle "
+             f"against {measured:.0f} J measured, {_off(err, word)} (95 % band "
+             f"+-{100 * band:.1f} %).",
+             f"The optimizer promised {promised:.0f} J {word}, "
+             f"{_off(means['optimizer_error'], word)} (band "
+             f"+-{100 * means['optimizer_error_band']:.1f} %).",
+             f"Energies are per cycle, {word} ({where} the grid); an error is the prediction "
+             "against the measurement of that energy."]
     if math.isfinite(drift["slope_j_per_cycle"]) and abs(drift["slope_j_per_cycle"]) > \
             K * drift["slope_u_j_per_cycle"]:
         lines.append(f"The energy per cycle drifts by {drift['slope_j_per_cycle']:+.1f} J "
@@ -121,6 +138,13 @@ def verdict(means: dict, drift: dict, missing: list[str],
         lines.append(f"session.toml [sensors] does not state {', '.join(missing)}: the band "
                      "leaves those instruments' limits of error out.")
     return " ".join(lines)
+
+
+def _off(error: float, word: str) -> str:
+    """A prediction's relative error ``(E_pred - E_meas) / |E_meas|`` as more or less of the
+    energy ``word`` (generated: a negative error is more generated)."""
+    more = error < 0 if word == "generated" else error > 0
+    return f"{100 * abs(error):.1f} % {'more' if more else 'less'} than measured"
 
 
 @dataclass(frozen=True)
@@ -208,6 +232,7 @@ def verify_cycles(store: str | Path, optimize: str | Path, out: str | Path, *,
               "cycles_kept": len(cycles), "cycle_notes": [*info.get("notes", []), *dropped],
               "accuracy": acc.__dict__, "accuracy_missing": missing, "coverage_factor": K,
               "claim_rtol": CLAIM_RTOL, "means": means, "drift": drift,
+              "result": round_trip_result(means["model_error"], means["model_error_band"]),
               "e_mech_optimizer_j": float(row["e_mech_j"]),
               "model_residual_std_w": residual, "one_cycle": int(mid.cycle_id),
               "verdict": verdict(means, drift, missing, None if residual is None

@@ -478,7 +478,7 @@ def size(site: Any, drive_model: Any = None, *, system: Any = None,
          rating: RatingOverrides = SYSTEM_RATING, solver: SolverChoice = DEFAULT_SOLVER,
          execution: Execution = LOCAL_POOL, out: str | Path = "size_out",
          site_note: str | None = None, command_line: Sequence[str] = ("drivebench.size",),
-         before_solving: Callable[[Any, int], None] | None = None) -> SizeResult:
+         before_solving: Callable[[Any, int, tuple], None] | None = None) -> SizeResult:
     """Size the drive: electrical AEP at ``site`` of the system's drive scaled in torque
     (:func:`energy.size_command.run_size`; the parameters are its own).
 
@@ -506,7 +506,8 @@ def size(site: Any, drive_model: Any = None, *, system: Any = None,
     out : path
         Output folder (``sizing.json``, ``sizing.csv``, the resumable ``solves/``).
     before_solving : callable, optional
-        ``before_solving(drive, n_candidates)``, called once the candidates are made.
+        ``before_solving(drive, n_candidates, wind_speeds_m_s)``, called once the
+        candidates and the wind grid are made.
     """
     from energy.size_command import run_size
 

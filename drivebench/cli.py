@@ -67,11 +67,25 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _subparser(parser: argparse.ArgumentParser,
+               args: argparse.Namespace) -> argparse.ArgumentParser:
+    """The parser of the subcommand ``args`` names (``bench cycle export``'s, not
+    ``bench``'s), so its errors name it."""
+    for name in (args.command, getattr(args, "action", None)):
+        subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+        if not name or not subs or name not in subs[0].choices:
+            break
+        parser = subs[0].choices[name]
+    return parser
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``bench`` console script."""
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(argv)
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:  # named by the subcommand that does not take them (exit 2)
+        _subparser(parser, args).error(f"unrecognized arguments: {' '.join(unknown)}")
     args.command_line = ("bench", *argv)  # what the stage records in its provenance header
     # the subcommand its messages name: `bench cycle export`, not `bench cycle`
     name = " ".join(x for x in (args.command, getattr(args, "action", None)) if x)

@@ -7,9 +7,9 @@ passed on only when the user gives it, so each stage keeps its own default (the
 help below reads it from the stage). Two defaults are ``bench run``'s own: the
 site (the paper's Leuven figure) and the optimize wind grid, which starts and
 steps like ``bench optimize``'s default and ends where the site's wind ends
-(:func:`energy.site.covering_stop`: above its last speed lie less than 0.5 % of
-the site's hours); the sizing grid likewise covers the site, in coarser steps
-(:data:`SIZE_GRID`).
+(:func:`energy.site.covering_stop`: above its last speed lies less than 1 % of the
+site's available wind energy). ``bench size``'s own default grid covers the site by the
+same rule, in coarser steps (:func:`energy.decision.covering_sizing_grid`).
 """
 
 from __future__ import annotations
@@ -21,11 +21,6 @@ from pathlib import Path
 #: the site of ``bench run`` when none is given: Weibull k = 2, mean 5.5 m/s at 100 m
 #: (the paper's Leuven figure)
 DEMO_SITE = {"weibull_k": 2.0, "mean_speed": 5.5, "height_m": 100.0}
-#: the sizing grid of ``bench run`` (:func:`site_wind_grid`): twice the optimize grid's step
-#: and up to the speed above which 5 % of the site's hours lie, so the drive is chosen on
-#: at least 95 % of the hours (below the grid's first speed, under the cut-in, no drive
-#: delivers) at about a third more solves than ``bench size``'s own three speeds
-SIZE_GRID = (2, 0.05)
 #: the stages that show a progress bar (``--no-progress``)
 PROGRESS_STAGES = ("ingest", "fit", "optimize", "aep", "size")
 #: ``bench run`` option -> (the stages that take it, their option): passed on only when given
@@ -33,7 +28,8 @@ FORWARDED = {
     "order": (("fit",), "--order"),
     "workers": (("ingest", "optimize", "aep", "size"), "--workers"),
     "size_scales": (("size",), "--scales"),
-    "size_wind_grid": (("size",), "--wind-grid"),  # default: SIZE_GRID
+    "size_wind_grid": (("size",), "--wind-grid"),
+    "system": (("optimize", "size"), "--system"),
 }
 
 
@@ -71,18 +67,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--out", type=Path, default=Path("bench_run"), help="output folder (default: ./bench_run)"
     )
     for dest, (stages, option) in FORWARDED.items():
-        default = (f"the stage's, {_stage_defaults(stages, option)}"
-                   if dest != "size_wind_grid" else
-                   f"from {stage_default('optimize', '--wind-grid').split(':')[0]} m/s in "
-                   f"{SIZE_GRID[0]} optimize steps up to the speed above which less than "
-                   f"{100 * SIZE_GRID[1]:g} %% of the site's hours lie")
+        default = {"size_wind_grid": "the stage's, the grid that covers the site",
+                   "system": "the stages', the shipped highwind.toml: the paper's kite"}.get(
+            dest, f"the stage's, {_stage_defaults(stages, option)}")
         parser.add_argument("--" + dest.replace("_", "-"), default=None,
                             help=f"{option} of `bench {'/'.join(stages)}` (default: {default})")
+    parser.add_argument(
+        "--drive-model", type=Path, default=None,
+        help="power model JSON the optimize and size stages fly instead of the one `bench fit` "
+             "makes of the campaign (default: OUT/fit/power_model.json)")
     parser.add_argument(
         "--wind-grid", default=None,
         help="wind grid for `bench optimize` (default: from "
              f"{stage_default('optimize', '--wind-grid')} in the same steps up to the speed "
-             "above which less than 0.5 %% of the site's hours lie)")
+             "below which 99 %% of the site's wind energy lies)")
     parser.add_argument("--weibull-k", type=float, default=DEMO_SITE["weibull_k"],
                         help="site for `bench aep` and `bench size`: Weibull shape "
                              f"(default {DEMO_SITE['weibull_k']:g})")
@@ -99,23 +97,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="no progress bar (--no-progress of every stage that shows one)")
 
 
-def site_wind_grid(site_argv: list[str], step_factor: int = 1,
-                   tail_share: float | None = None) -> str:
+def site_wind_grid(site_argv: list[str], system: Path | None = None) -> str:
     """A wind grid covering the site of the ``bench aep`` options ``site_argv``:
-    ``START:STOP:STEP`` from the start of ``bench optimize``'s default grid in
-    ``step_factor`` of its steps, up to the speed above which ``tail_share`` of the hours
-    lie (default :data:`energy.site.TAIL_SHARE`), at most to the 25 m/s cut-out of
-    :data:`optimize.service.plan.WIND_RANGE_M_S` (system files state no cut-out)."""
+    ``START:STOP:STEP`` from the start of ``bench optimize``'s default grid in its steps,
+    up to the speed below which 99 % of the site's available wind energy lies
+    (:func:`energy.site.covering_stop`), at most to the 25 m/s cut-out of
+    :data:`optimize.service.plan.WIND_RANGE_M_S` (system files state no cut-out); the
+    site moved to the reference height by ``system``'s wind profile (default the
+    shipped system's)."""
     from energy.cli import shear_from_args, site_from_args
-    from energy.site import TAIL_SHARE, covering_stop
+    from energy.site import covering_stop
     from optimize.door import WIND_RANGE_M_S, load_system, parse_wind_grid
 
     base = parse_wind_grid(stage_default("optimize", "--wind-grid"))
-    start, step = base[0], step_factor * (base[1] - base[0])
+    start, step = base[0], base[1] - base[0]
     site_args = stage_parser("aep").parse_args(site_argv)
-    site, _, _ = site_from_args(site_args, shear_from_args(site_args, load_system()))
-    stop = covering_stop(site, start, step, TAIL_SHARE if tail_share is None else tail_share,
-                         ceiling_m_s=WIND_RANGE_M_S[1])
+    site, _, _ = site_from_args(site_args, shear_from_args(site_args, load_system(system)))
+    stop = covering_stop(site, start, step, ceiling_m_s=WIND_RANGE_M_S[1])
     return f"{start:g}:{stop:g}:{step:g}"
 
 
@@ -132,15 +130,14 @@ def stage_commands(args: argparse.Namespace) -> list[list[str]]:
             given[stage] += [option, str(getattr(args, dest))]
     for stage in PROGRESS_STAGES if args.no_progress else ():
         given[stage].append("--no-progress")
-    wind_grid = args.wind_grid or site_wind_grid(site)
-    if args.size_wind_grid is None:
-        given["size"] += ["--wind-grid", site_wind_grid(site, *SIZE_GRID)]
+    wind_grid = args.wind_grid or site_wind_grid(site, args.system)
+    model = str(args.drive_model or fit / "power_model.json")
     return [
         ["ingest", *map(str, args.paths), "--store", str(store), *given["ingest"]],
         ["fit", "--store", str(store), "--out", str(fit), *given["fit"]],
         [
             "optimize",
-            "--drive-model", str(fit / "power_model.json"),
+            "--drive-model", model,
             "--wind-grid", wind_grid,
             "--out", str(opt),
             "--trust",  # a report to rely on states the mesh and simulation checks
@@ -148,7 +145,7 @@ def stage_commands(args: argparse.Namespace) -> list[list[str]]:
         ],
         ["aep", "--optimize", str(opt), "--out", str(aep), *site,
          *([] if args.no_refine else ["--refine"]), *given["aep"]],
-        ["size", "--drive-model", str(fit / "power_model.json"), "--out", str(size), *site,
+        ["size", "--drive-model", model, "--out", str(size), *site,
          *given["size"]],
         [
             "report",

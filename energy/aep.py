@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from energy.site import HOURS_PER_YEAR, Distribution
+from energy.site import HOURS_PER_YEAR, Distribution, energy_share
 
 #: W h -> MW h
 WH_PER_MWH = 1.0e6
@@ -120,18 +120,30 @@ class CurveEnergy:
     capacity_factor : float
         ``mean_power_w / nominal_power_w`` [-].
     cut_in_m_s : float or None
-        Lowest speed with positive delivered power on the interpolated curve [m/s].
+        Where the delivered power turns positive inside the grid [m/s]: the optimize
+        stage's bisected cut-in when it lies there, else the linear zero crossing
+        between the grid points around it; None when the curve delivers already at the
+        grid's first speed (the cut-in lies below the grid: not found) or never.
     cut_out_m_s : float or None
         Highest speed with positive delivered power (the last grid point when it delivers) [m/s].
     share_below_grid, share_above_grid : float
         Probability of wind below the first / above the last grid point [-]:
         hours counted with zero power.
+    energy_below_grid, energy_above_grid : float
+        The site's available wind energy (``rho v^3 / 2`` over the year) below the first
+        / above the last grid point, as a share of all of it [-]
+        (:func:`energy.site.energy_share`).
     grid_m_s : tuple of float
         First and last grid speed [m/s].
     share_left_out : float
         Probability of the hours the grid leaves out [-]: those above it, and those
         below it unless the curve delivers nothing at its first speed (below a cut-in
         inside the grid no power is lost by stopping there).
+    energy_left_out : float
+        The same in the site's available wind energy [-].
+    delivers_at_grid_start : bool
+        Whether the curve delivers power at the grid's first speed, so the hours below
+        it are an undercount (the cut-in lies below the grid).
     """
 
     aep_mwh: float
@@ -143,6 +155,10 @@ class CurveEnergy:
     share_above_grid: float
     grid_m_s: tuple[float, float]
     share_left_out: float
+    energy_below_grid: float = 0.0
+    energy_above_grid: float = 0.0
+    energy_left_out: float = 0.0
+    delivers_at_grid_start: bool = False
 
 
 def curve_energy(wind_speed_m_s, p_w, dist: Distribution, nominal_power_w: float,
@@ -152,10 +168,12 @@ def curve_energy(wind_speed_m_s, p_w, dist: Distribution, nominal_power_w: float
     mean = expected_power_w(kv, kd, dist)
     positive = np.flatnonzero(kd > 0)
     below, above = float(dist.cdf(kv[0])), float(1.0 - dist.cdf(kv[-1]))
+    e_below, e_above = energy_share(dist, 0.0, kv[0]), energy_share(dist, kv[-1])
+    delivers = bool(kd[0] > 0)
     cut_in = cut_out = None
     if len(positive):
         first, last = positive[0], positive[-1]
-        cut_in = float(kv[first - 1] if first > 0 and kd[first - 1] == 0 else kv[first])
+        cut_in = float(kv[first - 1]) if first > 0 and kd[first - 1] == 0 else None
         cut_out = float(kv[last + 1] if last + 1 < len(kv) and kd[last + 1] == 0 else kv[last])
     return CurveEnergy(
         aep_mwh=mean * HOURS_PER_YEAR / WH_PER_MWH,
@@ -166,5 +184,9 @@ def curve_energy(wind_speed_m_s, p_w, dist: Distribution, nominal_power_w: float
         share_below_grid=below,
         share_above_grid=above,
         grid_m_s=(float(kv[0]), float(kv[-1])),
-        share_left_out=above + (below if kd[0] > 0 else 0.0),
+        share_left_out=above + (below if delivers else 0.0),
+        energy_below_grid=e_below,
+        energy_above_grid=e_above,
+        energy_left_out=e_above + (e_below if delivers else 0.0),
+        delivers_at_grid_start=delivers,
     )

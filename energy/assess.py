@@ -174,6 +174,10 @@ class Assessment:
                 "share_above_grid": k.elec.share_above_grid,
                 "grid_min_m_s": k.elec.grid_m_s[0], "grid_max_m_s": k.elec.grid_m_s[1],
                 "share_left_out": k.elec.share_left_out,
+                "energy_below_grid": k.elec.energy_below_grid,
+                "energy_above_grid": k.elec.energy_above_grid,
+                "energy_left_out": k.elec.energy_left_out,
+                "delivers_at_grid_start": k.elec.delivers_at_grid_start,
                 "n_points": k.n_points,
             })
         return pd.DataFrame(rows)
@@ -240,13 +244,38 @@ def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
     if not kinds:
         raise InputError(run.folder / "summary.parquet", "no converged scenario",
                          expected="at least one converged scenario per curve")
-    above = max(k.elec.share_above_grid for k in kinds.values())
-    if above > 0.01:
-        notes.append(f"{above:.1%} of the hours have wind above the last grid point and count "
-                     "with zero power (cut-out at the grid's end): extend --wind-grid to count "
-                     "them")
+    notes += coverage_notes(kinds.values())
     return Assessment(site, site_note, nominal, source, kinds, pd.DataFrame(curve_rows),
                       tuple(notes))
+
+
+def coverage_notes(kinds) -> list[str]:
+    """What the grid leaves out of the site, in words: the hours and the share of the
+    site's available wind energy below its first speed where a kind already delivers
+    there (its cut-in lies below the grid, so those hours are an undercount), and above
+    its last speed when more than :data:`energy.site.ENERGY_LEFT_OUT` of the energy lies
+    there."""
+    from energy.site import ENERGY_LEFT_OUT
+
+    kinds = list(kinds)
+    notes = []
+    low = [k for k in kinds if k.elec.delivers_at_grid_start]
+    if low:
+        e = low[0].elec
+        notes.append(
+            f"{', '.join(k.kind for k in low)} already deliver at the grid's first speed "
+            f"{e.grid_m_s[0]:g} m/s: the cut-in lies below the grid and was not found, and "
+            f"the {e.share_below_grid:.1%} of the hours below it ({e.energy_below_grid:.1%} of "
+            "the site's wind energy) count as zero power: the AEP is an undercount; start "
+            "--wind-grid lower to count them")
+    top = max(kinds, key=lambda k: k.elec.energy_above_grid)
+    if top.elec.energy_above_grid > ENERGY_LEFT_OUT:
+        e = top.elec
+        notes.append(f"{e.share_above_grid:.1%} of the hours ({e.energy_above_grid:.1%} of the "
+                     f"site's wind energy) have wind above the last grid point "
+                     f"{e.grid_m_s[1]:g} m/s and count with zero power (cut-out at the grid's "
+                     "end): extend --wind-grid to count them")
+    return notes
 
 
 def _band_model(run: OptimizeRun, path: Path | None, model_json: dict | None,

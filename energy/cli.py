@@ -18,11 +18,11 @@ def add_site_arguments(parser: argparse.ArgumentParser) -> None:
     """The site options shared by ``bench aep`` and ``bench size``."""
     g = parser.add_argument_group("site (one of --weibull-k, --rayleigh-mean, --histogram)")
     g.add_argument("--weibull-k", type=float, default=None, metavar="K",
-                   help="Weibull shape; with --mean-speed or --scale")
+                   help="Weibull shape; with --mean-speed or --weibull-scale")
     g.add_argument("--mean-speed", type=float, default=None, metavar="M_S",
                    help="mean wind speed [m/s] at --height-m (Weibull)")
-    g.add_argument("--scale", type=float, default=None, metavar="M_S",
-                   help="Weibull scale [m/s] at --height-m")
+    g.add_argument("--weibull-scale", type=float, default=None, metavar="M_S",
+                   help="Weibull scale parameter c [m/s] at --height-m")
     g.add_argument("--rayleigh-mean", type=float, default=None, metavar="M_S",
                    help="Rayleigh site (Weibull k = 2) of this mean speed [m/s] at --height-m")
     g.add_argument("--histogram", type=Path, default=None, metavar="CSV",
@@ -121,16 +121,16 @@ def site_from_args(args: argparse.Namespace, shear):
     options = (("--weibull-k", args.weibull_k), ("--rayleigh-mean", args.rayleigh_mean),
                ("--histogram", args.histogram))
     given = [n for n, v in options if v is not None]
-    expected = ("one site: --weibull-k K with --mean-speed M or --scale C, --rayleigh-mean M, "
-                "or --histogram FILE")
+    expected = ("one site: --weibull-k K with --mean-speed M or --weibull-scale C, "
+                "--rayleigh-mean M, or --histogram FILE")
     if len(given) != 1:
         listed = ", ".join(given) or "none"
         raise InputError(None, f"{len(given)} site definitions given ({listed})",
                          expected=expected)
-    for name in ("weibull_k", "mean_speed", "scale", "rayleigh_mean", "height_m",
+    for name in ("weibull_k", "mean_speed", "weibull_scale", "rayleigh_mean", "height_m",
                  "reference_height_m", "roughness_m"):
         _positive("--" + name.replace("_", "-"), getattr(args, name))
-    for name in ("mean_speed", "scale", "rayleigh_mean"):
+    for name in ("mean_speed", "weibull_scale", "rayleigh_mean"):
         _at_most("--" + name.replace("_", "-"), getattr(args, name), MAX_MEAN_WIND_M_S,
                  "a site's wind speed [m/s]")
     _at_most("--roughness-m", args.roughness_m, MAX_ROUGHNESS_M, "a roughness length [m]")
@@ -146,19 +146,21 @@ def site_from_args(args: argparse.Namespace, shear):
     ref = shear.reference_height_m
     height = ref if args.height_m is None else args.height_m
     if given[0] == "--weibull-k":
-        if (args.mean_speed is None) == (args.scale is None):
-            raise InputError(None, "--weibull-k needs exactly one of --mean-speed, --scale",
+        if (args.mean_speed is None) == (args.weibull_scale is None):
+            raise InputError(None, "--weibull-k needs exactly one of --mean-speed, "
+                             "--weibull-scale",
                              expected=expected)
         site = (Weibull.from_mean(args.weibull_k, args.mean_speed) if args.mean_speed is not None
-                else Weibull(args.weibull_k, args.scale))
+                else Weibull(args.weibull_k, args.weibull_scale))
     elif given[0] == "--rayleigh-mean":
-        if args.mean_speed is not None or args.scale is not None:
-            raise InputError(None, "--rayleigh-mean takes no --mean-speed/--scale",
+        if args.mean_speed is not None or args.weibull_scale is not None:
+            raise InputError(None, "--rayleigh-mean takes no --mean-speed/--weibull-scale",
                              expected=expected)
         site = rayleigh(args.rayleigh_mean)
     else:
-        if args.mean_speed is not None or args.scale is not None:
-            raise InputError(None, "--histogram takes no --mean-speed/--scale", expected=expected)
+        if args.mean_speed is not None or args.weibull_scale is not None:
+            raise InputError(None, "--histogram takes no --mean-speed/--weibull-scale",
+                             expected=expected)
         site = read_histogram_csv(args.histogram)
     note = f"{site.describe()} at {height:g} m"
     try:

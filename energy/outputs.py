@@ -181,13 +181,33 @@ def format_table(a: Assessment) -> str:
     """The AEP table as plain text for the terminal."""
     t = a.table()
     lines = [f"{'kind':<10} {'AEP el MWh/yr':>13} {'95% band':>17} {'AEP mech':>9} "
-             f"{'CF el':>6} {'CF mech':>7} {'eff. loss':>9} {'limit loss':>10} {'cut-in':>6}"]
+             f"{'CF el':>6} {'CF mech':>7} {'eff. loss':>9} {'limit loss':>10} "
+             f"{'cut-in m/s':>10} {'wind energy left out below + above':>34}"]
     for r in t.itertuples(index=False):
         band = ("n/a" if pd.isna(r.ci95_aep_elec_low_mwh)
                 else f"{r.ci95_aep_elec_low_mwh:.3f}-{r.ci95_aep_elec_high_mwh:.3f}")
         lim = "" if pd.isna(r.limit_loss_mwh) else f"{r.limit_loss_mwh:.3f}"
-        cut = "" if pd.isna(r.cut_in_elec_m_s) else f"{r.cut_in_elec_m_s:.2f}"
         lines.append(f"{r.kind:<10} {r.aep_elec_mwh:>13.3f} {band:>17} {r.aep_mech_mwh:>9.3f} "
                      f"{r.capacity_factor_elec:>6.1%} {r.capacity_factor_mech:>7.1%} "
-                     f"{r.efficiency_loss_mwh:>9.3f} {lim:>10} {cut:>6}")
+                     f"{r.efficiency_loss_mwh:>9.3f} {lim:>10} {cut_in_text(r._asdict()):>10} "
+                     f"{left_out_text(r._asdict()):>34}")
     return "\n".join(lines)
+
+
+def cut_in_text(row: dict) -> str:
+    """A kind's electrical cut-in for a table: the speed where its delivered power turns
+    positive inside the grid, ``below 6`` when it delivers at the grid's first speed
+    already (not found), ``none`` when it never delivers."""
+    cut = row.get("cut_in_elec_m_s")
+    if cut is not None and not pd.isna(cut):
+        return f"{cut:.2f}"
+    if row.get("delivers_at_grid_start"):
+        return f"below {row.get('grid_min_m_s'):g}"
+    return "none"
+
+
+def left_out_text(row: dict) -> str:
+    """The share of the site's available wind energy an AEP row leaves out, below and
+    above its grid (below only where the kind delivers at the grid's first speed)."""
+    below = row.get("energy_below_grid") if row.get("delivers_at_grid_start") else 0.0
+    return f"{100 * (below or 0.0):.1f} % + {100 * (row.get('energy_above_grid') or 0.0):.1f} %"

@@ -6,7 +6,10 @@ system's reference height (the height of the optimize stage's wind speeds,
 
 * ``cdf(v)``: the probability that the wind is below ``v``;
 * ``partial_mean(v)``: ``M(v) = integral_0^v u f(u) du`` [m/s], the first
-  partial moment.
+  partial moment;
+* ``partial_cube(v)``: ``integral_0^v u^3 f(u) du`` [m^3/s^3], the third partial moment:
+  the wind's available energy (power density ``rho v^3 / 2``) below ``v``, so
+  :func:`energy_share` is the share of the site's available wind energy between two speeds.
 
 With both, the energy of a piecewise-linear power curve is exact (see
 :func:`energy.aep.expected_power_w`): on a segment ``[a, b]`` where
@@ -128,6 +131,13 @@ class Weibull:
         a = 1.0 + 1.0 / self.k
         return self.mean_m_s * special.gammainc(a, (v / self.scale_m_s) ** self.k)
 
+    def partial_cube(self, v: np.ndarray) -> np.ndarray:
+        """``integral_0^v u^3 f(u) du`` [m^3/s^3] = ``c^3 Gamma(1 + 3/k) P(1 + 3/k, (v/c)^k)``."""
+        v = np.clip(np.asarray(v, dtype=float), 0.0, None)
+        a = 1.0 + 3.0 / self.k
+        return self.scale_m_s**3 * math.gamma(a) * special.gammainc(a, (v / self.scale_m_s)
+                                                                     ** self.k)
+
     def quantile(self, share: float) -> float:
         """The wind speed [m/s] below which ``share`` of the hours lie: ``c (-ln(1 - q))^(1/k)``."""
         return self.scale_m_s * (-math.log1p(-share)) ** (1.0 / self.k)
@@ -196,6 +206,14 @@ class Histogram:
         density = p / np.diff(e)
         return np.sum(density * 0.5 * (lo**2 - e[:-1] ** 2), axis=-1)
 
+    def partial_cube(self, v: np.ndarray) -> np.ndarray:
+        """``integral_0^v u^3 f(u) du`` [m^3/s^3] with ``f`` constant inside each bin."""
+        e, p = np.asarray(self.edges_m_s), np.asarray(self.probabilities)
+        v = np.asarray(v, dtype=float)
+        lo = np.clip(v[..., None], e[:-1], e[1:])
+        density = p / np.diff(e)
+        return np.sum(density * 0.25 * (lo**4 - e[:-1] ** 4), axis=-1)
+
     def quantile(self, share: float) -> float:
         """The wind speed [m/s] below which ``share`` of the hours lie (linear inside a bin)."""
         e = np.asarray(self.edges_m_s)
@@ -237,19 +255,46 @@ def site_from_dict(record: dict) -> Distribution:
         return Histogram(tuple(record["edges_m_s"]), tuple(record["probabilities"]))
     raise ValueError(f"site type {record.get('type')!r}: 'weibull' or 'histogram' expected")
 
-#: the share of the site's hours a wind grid that "covers the site" may leave above its
-#: last speed (:func:`covering_stop`)
-TAIL_SHARE = 0.005
+#: the share of the site's available wind energy a grid that "covers the site" may leave
+#: out above its last speed (:func:`covering_stop`): it holds 99 % of the energy the wind
+#: brings from its first speed up
+ENERGY_LEFT_OUT = 0.01
+
+
+def energy_share(dist: Distribution, lo_m_s: float, hi_m_s: float = math.inf) -> float:
+    """The share of the site's available wind energy (``rho v^3 / 2`` over the year) in
+    the wind from ``lo_m_s`` to ``hi_m_s`` [m/s] (default: no upper end) [-]."""
+    top = _top(dist)
+    hi = min(hi_m_s, top)
+    return float(dist.partial_cube(hi) - dist.partial_cube(lo_m_s)) / float(
+        dist.partial_cube(top))
+
+
+def _top(dist: Distribution) -> float:
+    """A speed above which the distribution holds no energy worth counting [m/s]."""
+    if isinstance(dist, Histogram):
+        return float(dist.edges_m_s[-1])
+    return dist.quantile(1.0 - 1e-15) * 1.5
+
+
+def energy_quantile(dist: Distribution, share: float) -> float:
+    """The wind speed [m/s] below which ``share`` of the site's available wind energy lies."""
+    from scipy.optimize import brentq
+
+    if not 0 < share < 1:
+        raise ValueError(f"an energy share in (0, 1), got {share}")
+    return float(brentq(lambda v: energy_share(dist, 0.0, v) - share, 0.0, _top(dist),
+                        xtol=1e-9))
 
 
 def covering_stop(dist: Distribution, start_m_s: float, step_m_s: float,
-                  tail_share: float = TAIL_SHARE, ceiling_m_s: float | None = None) -> float:
+                  left_out: float = ENERGY_LEFT_OUT, ceiling_m_s: float | None = None) -> float:
     """The last speed of the grid ``start, start + step, ...`` that covers the site [m/s].
 
-    The first grid speed at or above the one above which less than ``tail_share`` of the
-    hours lie (the ``1 - tail_share`` quantile), at least ``start + step`` (two speeds), and
-    not above ``ceiling_m_s`` (a cut-out) when given: the grid then ends at the last speed
-    at or below it.
+    The first grid speed at or above the one above which less than ``left_out`` of the
+    site's available wind energy lies (:func:`energy_quantile`), at least ``start + step``
+    (two speeds), and not above ``ceiling_m_s`` (a cut-out) when given: the grid then ends
+    at the last speed at or below it.
 
     Parameters
     ----------
@@ -257,14 +302,15 @@ def covering_stop(dist: Distribution, start_m_s: float, step_m_s: float,
         Site at the grid's reference height.
     start_m_s, step_m_s : float
         First speed and spacing of the grid [m/s], ``step_m_s > 0``.
-    tail_share : float
-        Share of the hours the grid may leave above its end, in (0, 1).
+    left_out : float
+        Share of the available wind energy the grid may leave above its end, in (0, 1).
     ceiling_m_s : float, optional
         Highest speed worth solving [m/s].
     """
-    if not (step_m_s > 0 and 0 < tail_share < 1):
-        raise ValueError(f"need step > 0 and a tail share in (0, 1), got {step_m_s}, {tail_share}")
-    n = max(1, math.ceil((dist.quantile(1.0 - tail_share) - start_m_s) / step_m_s - 1e-9))
+    if not (step_m_s > 0 and 0 < left_out < 1):
+        raise ValueError(f"need step > 0 and a share in (0, 1), got {step_m_s}, {left_out}")
+    top = energy_quantile(dist, 1.0 - left_out)
+    n = max(1, math.ceil((top - start_m_s) / step_m_s - 1e-9))
     if ceiling_m_s is not None:
         n = max(1, min(n, math.floor((ceiling_m_s - start_m_s) / step_m_s + 1e-9)))
     return start_m_s + n * step_m_s

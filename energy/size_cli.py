@@ -20,7 +20,6 @@ from optimize.door import failure_reason
 #: where ``bench fit`` writes its model (docs/schemas.md §4)
 FIT_MODEL_PATH = Path("fit_out") / "power_model.json"
 DEFAULT_SCALES = "0.5,0.75,1,1.5,2"
-DEFAULT_WINDS = "5.5,7,8.5"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -49,8 +48,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="reference drive's torque limit, its short-time peak [N m] "
                              "(default: the system's [drive] max_torque_nm, the limit bench "
                              "optimize flies)")
-    parser.add_argument("--wind-grid", default=DEFAULT_WINDS,
-                        help=f"wind speeds at the reference height [m/s] (default {DEFAULT_WINDS})")
+    parser.add_argument("--wind-grid", default=None,
+                        help="wind speeds at the reference height [m/s], LO:HI:STEP or a comma "
+                             "list (default: the grid that covers the site: from 4 m/s in 3 m/s "
+                             "steps up to the speed below which 99 %% of the site's wind energy "
+                             "lies; a grid that leaves out more than 1 %% of it gives no "
+                             "decision)")
     parser.add_argument("--adaptive", action="store_true",
                         help="refine each candidate's wind grid where its power curve bends "
                              "(docs/schemas.md §9)")
@@ -84,12 +87,13 @@ def run(args: argparse.Namespace) -> int:
     """Run or resume the sizing sweep (:func:`energy.size_command.run_size`), print the
     table."""
     from energy.size_command import RatingOverrides, SizingGrid, run_size
-    from energy.sizing import start_lines
+    from energy.sizing import format_candidates, start_lines
     from optimize.door import Execution, SolverChoice, load_system, parse_wind_grid
 
     system = load_system(args.system)
     site, site_note, _ = site_from_args(args, shear_from_args(args, system))
-    grid = SizingGrid(_scales(args.scales), tuple(args.models), parse_wind_grid(args.wind_grid),
+    wind_speeds_m_s = None if args.wind_grid is None else parse_wind_grid(args.wind_grid)
+    grid = SizingGrid(_scales(args.scales), tuple(args.models), wind_speeds_m_s,
                       args.tolerance, args.extend, args.adaptive)
     print(f"site: {site_note}")
     print(f"system: {system.name} ({system.path})")
@@ -102,11 +106,11 @@ def run(args: argparse.Namespace) -> int:
                     solver=SolverChoice(args.intervals, args.degree),
                     execution=execution,
                     command_line=args.command_line,
-                    before_solving=lambda d, n: _announce(d, n, len(grid.wind_speeds_m_s), args.out,
+                    before_solving=lambda d, n, w: _announce(d, n, w, args.out,
                                                           system.drive.max_winding_temperature_c))
     res = done.sizing
-    print(res.table.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
-    print(f"best: {res.best}; smallest within {args.tolerance:.0%} of the best AEP: {res.chosen}")
+    print(format_candidates(res.table))
+    print(done.decision["line"])
     print(f"{res.n_solved} solved, {res.n_cached} loaded from the store, "
           f"{res.wall_time_s:.1f} s ({res.executor})")
     for line in start_lines(res.records):
@@ -122,14 +126,17 @@ def run(args: argparse.Namespace) -> int:
     return 0 if res.chosen is not None else 1
 
 
-def _announce(drive: Any, n_candidates: int, n_winds: int, out: Path,
+def _announce(drive: Any, n_candidates: int, wind_speeds_m_s: tuple[float, ...], out: Path,
               winding_limit_c: float | None) -> None:
+    from energy.decision import grid_spec
+
     for line in drive.lines():
         print(line)
     heat = winding_limit_c is not None and getattr(drive.model, "thermal", None) is not None
     rating = (f"winding temperature <= {winding_limit_c:g} degC" if heat
               else "RMS torque <= the continuous rating where below the torque limit")
-    print(f"{n_candidates} candidates x {n_winds} wind speeds (elec-lim, each the drive above "
+    print(f"{n_candidates} candidates x {len(wind_speeds_m_s)} wind speeds "
+          f"({grid_spec(wind_speeds_m_s)} m/s; elec-lim, each the drive above "
           f"scaled: torque and speed limits, {rating}); solves stored in {out / 'solves'}")
 
 

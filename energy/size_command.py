@@ -11,11 +11,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from energy.candidates import build_candidates
+from energy.decision import covering_sizing_grid, decision, grid_coverage, grid_spec
 from energy.sizing import (
     candidate_row,
     limits_text,
@@ -23,11 +24,11 @@ from energy.sizing import (
     size_extending,
     starts_note,
 )
-from energy.sizing_files import SIZE_KEEP, SIZE_MARKERS, edge_note, grid_hours, write_sizing
+from energy.sizing_files import SIZE_KEEP, SIZE_MARKERS, edge_note, write_sizing
 from kernel.errors import InputError
 from kernel.output_folder import check_replaceable
 from kernel.provenance import Provenance
-from optimize.door import DEFAULT_SOLVER, LOCAL_POOL, PAPER_WINDS_M_S, Execution, SolverChoice
+from optimize.door import DEFAULT_SOLVER, LOCAL_POOL, Execution, SolverChoice
 
 
 @dataclass(frozen=True)
@@ -40,8 +41,9 @@ class SizingGrid:
         Torque-rating scales of the reference drive (docs/schemas.md §8: the law).
     models : tuple of Path
         Further candidates: power-model files with their own ``drive`` rating.
-    wind_speeds_m_s : tuple of float
-        Wind speeds [m/s] solved per candidate (at least two).
+    wind_speeds_m_s : tuple of float or None
+        Wind speeds [m/s] solved per candidate (at least two); None: the grid that covers
+        the site (:func:`energy.decision.covering_sizing_grid`).
     tolerance : float
         The chosen drive is the smallest within this share of the best AEP.
     extend : int
@@ -59,16 +61,17 @@ class SizingGrid:
 
     scales: tuple[float, ...] = (0.5, 1.0, 2.0)
     models: tuple[Path, ...] = ()
-    wind_speeds_m_s: tuple[float, ...] = PAPER_WINDS_M_S
+    wind_speeds_m_s: tuple[float, ...] | None = None
     tolerance: float = 0.02
     extend: int = 1
     adaptive: bool = False
 
     def __post_init__(self) -> None:
         for name in ("scales", "wind_speeds_m_s"):
-            object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))
+            if getattr(self, name) is not None:
+                object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))
         object.__setattr__(self, "models", tuple(Path(m) for m in self.models))
-        if len(self.wind_speeds_m_s) < 2:
+        if self.wind_speeds_m_s is not None and len(self.wind_speeds_m_s) < 2:
             spec = ",".join(f"{w:g}" for w in self.wind_speeds_m_s)
             raise InputError(None, f"--wind-grid {spec}: "
                              "one wind speed gives no AEP curve to integrate",
@@ -125,6 +128,10 @@ class SizeRun:
     kept : str or None
         Why the earlier output in the folder was kept and nothing written
         (:func:`earlier_is_better`); None when this run's files were written.
+    decision : dict
+        Whether the choice holds for the site (:func:`energy.decision.decision`).
+    wind_speeds_m_s : tuple of float
+        The sizing grid solved.
     """
 
     sizing: Any
@@ -132,6 +139,8 @@ class SizeRun:
     notes: tuple[str, ...]
     files: dict
     kept: str | None = None
+    decision: dict = field(default_factory=dict)
+    wind_speeds_m_s: tuple[float, ...] = ()
 
 
 def earlier_is_better(out: Path, sizing: Any) -> str | None:
@@ -166,7 +175,7 @@ def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
              rating: RatingOverrides = SYSTEM_RATING, solver: SolverChoice = DEFAULT_SOLVER,
              execution: Execution = LOCAL_POOL, out: str | Path = "size_out",
              site_note: str | None = None, command_line: Sequence[str] = ("drivebench.size",),
-             before_solving: Callable[[Any, int], None] | None = None) -> SizeRun:
+             before_solving: Callable[[Any, int, tuple], None] | None = None) -> SizeRun:
     """Size the drive: electrical AEP at ``site`` of the system's drive scaled in torque.
 
     Parameters
@@ -192,7 +201,8 @@ def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
     command_line : sequence of str
         Recorded in the provenance header.
     before_solving : callable, optional
-        ``before_solving(drive, n_candidates)``, called once the candidates are made.
+        ``before_solving(drive, n_candidates, wind_speeds_m_s)``, called once the
+        candidates and the wind grid are made.
     """
     from optimize.door import rejected_lines, resolve
 
@@ -209,26 +219,33 @@ def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
     notes = [setup.thermal_line(),
              *(f"{c.name} flies {limits_text(candidate_row(c))}" for c in first
                if c.scale == 1.0), *notes]
+    wind_speeds_m_s = grid.wind_speeds_m_s
+    if wind_speeds_m_s is None:
+        wind_speeds_m_s = covering_sizing_grid(site)
+        notes.append(f"sizing grid {grid_spec(wind_speeds_m_s)} m/s: it covers the site (no "
+                     "--wind-grid given)")
     if before_solving is not None:
-        before_solving(drive, len(first))
+        before_solving(drive, len(first), wind_speeds_m_s)
     result, edge, added = size_extending(
         lambda scales: candidates(scales)[0], grid.scales, grid.extend,
-        lambda cands: run_sizing(cands, grid.wind_speeds_m_s, site, Path(out), solver.n_intervals,
+        lambda cands: run_sizing(cands, wind_speeds_m_s, site, Path(out), solver.n_intervals,
                                  solver.degree, workers=execution.workers,
                                  scheduler=execution.scheduler,
                                  show_progress=execution.progress, tolerance=grid.tolerance,
                                  adaptive=grid.adaptive, system=system))
     edge_doc = {"best_at": edge, "added_scales": added,
                 "note": edge_note(edge, result.best, added)}
-    notes = [*notes, *rejected_lines(result.records),
-             grid_hours(site, grid.wind_speeds_m_s, result.records)["note"],
+    coverage = grid_coverage(site, wind_speeds_m_s, result.records)
+    choice = decision(result.table, result.records, site, coverage, grid.tolerance)
+    notes = [*notes, *rejected_lines(result.records), coverage["note"],
              starts_note(result.records, result.reference),
              *([edge_doc["note"]] if edge_doc["note"] else [])]
     kept = earlier_is_better(Path(out), result)
     if kept is not None:
-        return SizeRun(result, drive, (*notes, kept), {}, kept)
+        return SizeRun(result, drive, (*notes, kept), {}, kept, choice, wind_speeds_m_s)
     files = write_sizing(Path(out), result, site=site, site_note=site_note or site.describe(),
-                         drive=drive, system=system, wind_speeds_m_s=grid.wind_speeds_m_s,
+                         drive=drive, system=system, wind_speeds_m_s=wind_speeds_m_s,
                          adaptive=grid.adaptive, tolerance=grid.tolerance, notes=notes,
-                         provenance=run_record, edge=edge_doc)
-    return SizeRun(result, drive, tuple(notes), files)
+                         provenance=run_record, edge=edge_doc, coverage=coverage,
+                         decision=choice)
+    return SizeRun(result, drive, tuple(notes), files, None, choice, wind_speeds_m_s)

@@ -260,6 +260,47 @@ def limits_text(candidate: dict) -> str:
             f"{num('max_speed_rpm', 0)} rpm")
 
 
+#: the columns of the console's candidate table: (heading, row key, format)
+CONSOLE_COLUMNS = (
+    ("candidate", "candidate", "{}"), ("torque limit N m", "peak_torque_nm", "{:.1f}"),
+    ("RMS rating N m", "rated_torque_nm", "{:.1f}"), ("speed limit rpm", "max_speed_rpm", "{:.0f}"),
+    ("nominal power W", "nominal_power_w", "{:,.0f}"), ("AEP el MWh/yr", "aep_elec_mwh", "{:.3f}"),
+    ("share of best", "aep_share_of_best", "{:.1%}"),
+    ("capacity factor", "capacity_factor_elec", "{:.1%}"),
+    ("converged", None, None), ("continuous rating binds at m/s", None, None),
+)
+
+
+def format_candidates(table: Any) -> str:
+    """The candidate table for the terminal: units in the headings, powers in whole watts,
+    shares in per cent, an empty cell where a candidate has no value (no AEP: a failed
+    solve), and where its continuous rating binds (RMS torque, or the winding temperature
+    with the cycle's peak when the power model carries a thermal model)."""
+    rows = []
+    for r in table.to_dict(orient="records"):
+        cells = []
+        for _, key, form in CONSOLE_COLUMNS:
+            if key is None:
+                continue
+            value = r.get(key)
+            cells.append("" if value is None or (isinstance(value, float) and math.isnan(value))
+                         else form.format(value))
+        cells.append(f"{r.get('n_converged')}/{r.get('n_winds')}")
+        peak = r.get("peak_winding_temperature_c")
+        if peak is not None and not (isinstance(peak, float) and math.isnan(peak)):
+            cells.append(f"winding {r.get('thermal_bound_active_at') or 'none'} "
+                         f"(peak {peak:.1f} degC)")
+        else:
+            cells.append(r.get("rms_bound_active_at") or "none")
+        rows.append(cells)
+    heads = [h for h, _, _ in CONSOLE_COLUMNS]
+    widths = [max(len(h), *(len(c[i]) for c in rows)) for i, h in enumerate(heads)]
+    line = lambda cells: "  ".join(  # noqa: E731
+        c.ljust(w) if i in (0, len(heads) - 1) else c.rjust(w)
+        for i, (c, w) in enumerate(zip(cells, widths, strict=True)))
+    return "\n".join([line(heads), *map(line, rows)])
+
+
 def edge_of_set(table: Any, best: str | None) -> str | None:
     """Whether the best candidate is the largest or smallest drive that got an AEP.
 

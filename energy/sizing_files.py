@@ -21,31 +21,6 @@ SIZING_FILE, TABLE_FILE = "sizing.json", "sizing.csv"
 SIZE_MARKERS, SIZE_KEEP = (SIZING_FILE,), ("solves",)
 
 
-def grid_hours(site, wind_speeds_m_s: tuple[float, ...], records: list[dict] | tuple = ()) -> dict:
-    """The shares of the site's hours below and above the sizing wind grid, and the share
-    the grid leaves out, with a one-line note.
-
-    Power is zero outside the grid in every candidate's sizing AEP. Above the grid that
-    leaves energy out; below it only when a candidate delivers at the grid's first speed
-    (``records``: the solves, :attr:`energy.sizing.SizingResult.records`): below a cut-in
-    inside the grid no energy is lost by stopping there, as in ``bench aep``.
-    """
-    lo, hi = min(wind_speeds_m_s), max(wind_speeds_m_s)
-    below = float(site.cdf(lo))
-    above = float(1.0 - site.cdf(hi))
-    first = [r for r in records if r.get("success") and abs(r["wind_speed_m_s"] - lo) < 1e-9]
-    delivers = any(r["avg_p_elec_w"] < 0 for r in first) or not first
-    left_out = above + (below if delivers else 0.0)
-    where = (f"{100 * below:.1f} % below and {100 * above:.1f} % above it count as zero power "
-             "in the sizing AEP" if delivers else
-             f"{100 * above:.1f} % above it count as zero power in the sizing AEP; below "
-             f"{lo:g} m/s ({100 * below:.1f} %) no candidate delivers")
-    note = (f"the sizing grid {lo:g}-{hi:g} m/s covers {100 * (1 - left_out):.1f} % of the "
-            f"site's hours; {where}")
-    return {"share_below_grid": below, "share_above_grid": above,
-            "share_left_out": left_out, "note": note}
-
-
 def edge_note(edge: str | None, best: str | None, added: list[float]) -> str | None:
     """What the edge of the candidate set means for the answer (None: the best is inside
     and no scale was added)."""
@@ -73,6 +48,7 @@ def write_sizing(out: Path, res: Any, **kw: Any) -> dict[str, Path]:
 def write_sizing_files(out: Path, res: Any, *, site: Any, site_note: str, drive: Any,
                        system: Any, wind_speeds_m_s: tuple[float, ...], adaptive: bool,
                        tolerance: float, notes: list[str], provenance: Provenance,
+                       coverage: dict, decision: dict,
                        edge: dict | None = None) -> dict[str, Path]:
     """Write ``sizing.csv`` and ``sizing.json`` (docs/schemas.md §8) of a sizing result
     (:class:`energy.sizing.SizingResult`) into ``out``; returns name -> path."""
@@ -95,7 +71,7 @@ def write_sizing_files(out: Path, res: Any, *, site: Any, site_note: str, drive:
         "wind_speeds_m_s": list(wind_speeds_m_s), "adaptive": adaptive, "tolerance": tolerance,
         "best": res.best, "chosen": res.chosen,
         "edge": edge or {"best_at": None, "added_scales": [], "note": None},
-        "hours": grid_hours(site, wind_speeds_m_s, res.records),
+        "coverage": coverage, "decision": decision,
         "wall_time_s": res.wall_time_s, "executor": res.executor,
         "n_solved": res.n_solved, "n_loaded": res.n_cached,
         "candidates": json.loads(t.to_json(orient="records")),

@@ -96,7 +96,7 @@ def draw_efficiency_map(ax, map_frame: pd.DataFrame, domain: dict | None = None,
     domain : dict, optional
         ``quadrant -> polygon`` of the model's validity domain, outlined.
     masking : dict, optional
-        The masking rules (``mech_frac``, ``elec_frac`` of nominal power), named in the title.
+        The masking rules (``mech_frac``, ``elec_frac`` of nominal power), named in the legend.
     """
     speeds, torques, eta = efficiency_grid(map_frame)
     draw_efficiency(ax, speeds, torques, eta)
@@ -113,13 +113,15 @@ def draw_efficiency_map(ax, map_frame: pd.DataFrame, domain: dict | None = None,
     if len(clipped):
         ax.scatter(clipped["speed_rpm"], clipped["torque_nm"], s=4, marker="x", c="k",
                    lw=0.5, label=f"clipped to measured max + noise ({len(clipped)} nodes)")
-    if domain or len(clipped):
-        ax.legend(loc="upper left", fontsize=7)
-    rule = (f"\nmasked: |P_mech| < {masking['mech_frac']:g} P_nom, |P_elec| < "
-            f"{masking['elec_frac']:g} P_nom" if masking else "")
-    ax.set_title("Measured efficiency map (white: negative or masked near the axes; blank: "
-                 "outside the measured envelope), contours "
-                 + ", ".join(f"{v:g}" for v in EFFICIENCY_CONTOURS) + rule, fontsize=9)
+    # what white and blank mean, in the legend: a short title fits over a panel of a
+    # figure of several (the contours carry their own labels)
+    rule = (f": |P_mech| < {masking['mech_frac']:g} P_nom or |P_elec| < "
+            f"{masking['elec_frac']:g} P_nom" if masking else " near the axes")
+    ax.fill([], [], facecolor="white", edgecolor="0.5", lw=0.5,
+            label=f"white: negative, or masked{rule}")
+    ax.fill([], [], facecolor="none", edgecolor="none", label="blank: not measured")
+    ax.legend(loc="upper left", fontsize=7)
+    ax.set_title("Measured efficiency", fontsize=9)
 
 
 def power_contour_levels(values: np.ndarray) -> np.ndarray:

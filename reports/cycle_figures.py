@@ -57,7 +57,8 @@ def power_vs_wind_figure(summary: pd.DataFrame, power_column: str, name: str,
 
 def torque_speed_figure(limited: dict[str, pd.DataFrame], free: dict[str, pd.DataFrame],
                         wind_speed_m_s: float, drawn_map: dict | None,
-                        envelope: tuple[np.ndarray, np.ndarray] | None = None) -> Markup:
+                        envelope: tuple[np.ndarray, np.ndarray] | None = None,
+                        paper: bool = True) -> Markup:
     """Cycles in the torque-speed plane (paper Fig. 9).
 
     Panel (a): the cycles with the drive limits over the efficiency map
@@ -78,6 +79,8 @@ def torque_speed_figure(limited: dict[str, pd.DataFrame], free: dict[str, pd.Dat
         None: panel (a) draws the cycles without the map.
     envelope : (ndarray, ndarray), optional
         The drive's torque-speed envelope, drawn over panel (a)'s map.
+    paper : bool
+        The sweep flew the paper's system: panel (b) is named as the paper's figure.
     """
     panels = [p for p in (limited, free) if p]
     fig = new_figure(8.0, 3.8 * len(panels))
@@ -91,13 +94,15 @@ def torque_speed_figure(limited: dict[str, pd.DataFrame], free: dict[str, pd.Dat
             ax.patch.set_gid("fig9-map-axes")  # the SVG id of the map's axes
         else:
             _cycles_panel(ax, limited, None)
-        ax.set_title(f"(a) with the drive limits, {wind_speed_m_s:g} m/s, over the measured "
-                     f"efficiency map; {step}", fontsize=9)
+        ax.set_title(f"(a) with the drive limits, {wind_speed_m_s:g} m/s"
+                     + (", over the measured efficiency map" if drawn_map is not None else "")
+                     + f"; {step}", fontsize=9)
     if free:
         ax = next(axes)
         _cycles_panel(ax, free, drawn_map["map_frame"] if drawn_map is not None else None)
-        ax.set_title(f"({'b' if limited else 'a'}) without drive limits (the paper's Fig. 9),"
-                     f" {wind_speed_m_s:g} m/s; {step}", fontsize=9)
+        ax.set_title(f"({'b' if limited else 'a'}) without drive limits"
+                     + (" (the paper's Fig. 9)" if paper else "")
+                     + f", {wind_speed_m_s:g} m/s; {step}", fontsize=9)
     return to_svg(fig, "torque-speed")
 
 

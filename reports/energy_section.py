@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 from markupsafe import Markup
 
-from energy.outputs import AEP_FILE, CURVES_FILE, read_aep, read_power_curves
+from energy.outputs import AEP_FILE, CURVES_FILE, cut_in_text, read_aep, read_power_curves
 from energy.refine import refine_notes
 from energy.sizing import limits_text
 from energy.sizing_files import SIZING_FILE, read_sizing
@@ -79,7 +79,7 @@ def energy_section(log: InputLog, aep: Path, size: Path) -> dict:
         "site": None, "nominal": None, "table": [], "losses": [], "notes": [], "warnings": [],
         "figure": None, "aep_figure": None, "sign": None, "interpolation": None}
     sizing = log.read(size, SIZING_FILE, read_sizing) if Path(size).is_dir() else None
-    out["sizing"] = sizing_context(sizing) if sizing is not None else None
+    out["sizing"] = sizing_context(sizing, doc) if sizing is not None else None
     if out["sizing"] is not None and doc is not None:
         out["sizing"]["grids"] = grid_difference(doc, curves, sizing)
     out["missing"] = list(dict.fromkeys(log.missing[start:]))
@@ -122,9 +122,11 @@ def aep_row(r: dict) -> dict:
             "cf_mech": _pct(r.get("capacity_factor_mech")),
             "eff_loss": fmt(r.get("efficiency_loss_mwh"), 3),
             "limit_loss": fmt(r.get("limit_loss_mwh"), 3),
-            "cut_in": fmt(r.get("cut_in_elec_m_s"), 2),
-            "above": _pct(r.get("share_above_grid")),
-            "left_out": _pct(r.get("share_left_out")),
+            "cut_in": cut_in_text(r) if "delivers_at_grid_start" in r else fmt(
+                r.get("cut_in_elec_m_s"), 2),
+            "below": (_pct(r.get("energy_below_grid")) if r.get("delivers_at_grid_start")
+                      else "none" if "delivers_at_grid_start" in r else "n/a"),
+            "above": _pct(r.get("energy_above_grid")),
             "coverage": coverage_note(r)}
 
 
@@ -149,10 +151,64 @@ def continuous_rating_text(candidate: dict) -> str:
     return candidate.get("rms_bound_active_at") or "none"
 
 
-def sizing_context(sizing: dict) -> dict:
-    """The sizing part of the section from ``sizing.json``."""
+def x1_band(aep_doc: dict | None, sizing: dict) -> float | None:
+    """The relative half-width of the AEP table's elec-lim 95 % band, when x1 is that
+    drive (the same losses, at the same site), else None."""
+    row = next((r for r in (aep_doc or {}).get("kinds") or [] if r.get("kind") == "elec-lim"),
+               None)
+    losses = (((aep_doc or {}).get("optimize") or {}).get("drive_model") or {}).get(
+        "model_sha256")
+    if (row is None or row.get("ci95_aep_elec_high_mwh") is None or not row.get("aep_elec_mwh")
+            or not _same_site(aep_doc.get("site"), sizing.get("site"))
+            or losses != (sizing.get("reference_drive") or {}).get("model_sha256")):
+        return None
+    return (row["ci95_aep_elec_high_mwh"] - row["ci95_aep_elec_low_mwh"]) / 2 / row[
+        "aep_elec_mwh"]
+
+
+def decision_rows(sizing: dict, aep_doc: dict | None) -> list[tuple[str, str]]:
+    """The sizing's Key results: the chosen drive with its rating, its AEP with a band and
+    the margin to the next candidate, and the grid it was chosen on; or, where the grid
+    leaves out too much of the site, that it is not a decision and why
+    (:func:`energy.decision.decision`)."""
+    d = sizing.get("decision")
+    if not isinstance(d, dict):
+        return [("drive sizing", "no decision recorded (sizing.json from an older version): "
+                                 "run bench size again")]
+    grid = (sizing.get("coverage") or {}).get("note", "")
+    if not d.get("holds") or d.get("chosen") is None:
+        return [("drive sizing", f"{d.get('line')}")]
+    cands = {c.get("candidate"): c for c in sizing.get("candidates") or []}
+    c, best = cands[d["chosen"]], cands[d["best"]]
+    band = x1_band(aep_doc, sizing)
+    band_text = (f"95 %: +-{100 * band:.1f} %, x1's relative band in the AEP table carried "
+                 "to it" if band is not None else
+                 "no band: bench size solves none; bench aep gives x1's")
+    margin = ("it is the best" if c is best else
+              f"{100 * (1 - float(c['aep_share_of_best'])):.1f} % below the best, "
+              f"{d['best']} ({fmt(best.get('aep_elec_mwh'), 3)} MWh/yr)")
+    nxt = d.get("next_smaller")
+    if nxt:
+        share = float(nxt["aep_elec_mwh"]) / float(best["aep_elec_mwh"])
+        margin += (f"; the next smaller, {nxt['candidate']}, delivers "
+                   f"{fmt(nxt['aep_elec_mwh'], 3)} MWh/yr, {100 * share:.1f} % of the best "
+                   f"(the rule needs {100 * (1 - float(sizing.get('tolerance') or 0)):.0f} %)")
+    return [("drive chosen",
+             f"{d['chosen']}: {limits_text(c)}, nominal power {fmt(c.get('nominal_power_w'), 0)}"
+             f" W; electrical AEP {fmt(c.get('aep_elec_mwh'), 3)} MWh/yr at the site "
+             f"({band_text}); {margin}"),
+            ("drive sizing grid", grid + (f"; {sizing['edge']['note']}"
+                                          if (sizing.get("edge") or {}).get("note") else ""))]
+
+
+def sizing_context(sizing: dict, aep_doc: dict | None = None) -> dict:
+    """The sizing part of the section from ``sizing.json`` (``aep_doc``: the AEP stage's
+    ``aep.json``, for x1's band)."""
     cands = sizing.get("candidates") or []
+    decision = sizing.get("decision") or {}
     return {
+        "headline": decision_rows(sizing, aep_doc),
+        "decision": decision.get("line"), "holds": bool(decision.get("holds")),
         "rows": [{"candidate": c.get("candidate"), "limits": limits_text(c),
                   "flown": (f"{fmt(c.get('peak_torque_flown_nm'), 1)} N m, "
                             f"{fmt(c.get('peak_speed_flown_rpm'), 0)} rpm"),
@@ -171,7 +227,7 @@ def sizing_context(sizing: dict) -> dict:
         "solved": sizing.get("n_solved"), "loaded": sizing.get("n_loaded"),
         "edge": (sizing.get("edge") or {}).get("note"),
         "edge_at": (sizing.get("edge") or {}).get("best_at"),
-        "hours": (sizing.get("hours") or {}).get("note"),
+        "hours": (sizing.get("coverage") or {}).get("note"),
         "figure": sizing_figure(cands, sizing.get("chosen")) if cands else None,
     }
 
@@ -224,19 +280,26 @@ def grid_difference(aep_doc: dict, curves: pd.DataFrame | None, sizing: dict) ->
 
 
 def coverage_note(row: dict) -> str:
-    """Which of the site's hours an ``aep.json`` kind's AEP covers, in one sentence."""
-    left, lo, hi = (row.get(k) for k in ("share_left_out", "grid_min_m_s", "grid_max_m_s"))
-    if left is None or lo is None or hi is None:
-        return "share of the site's hours covered: not recorded (aep.json from an older version)"
-    below, above = row.get("share_below_grid") or 0.0, row.get("share_above_grid") or 0.0
-    parts = [f"{_pct(above)} above {hi:g} m/s count as zero"]
-    if below > 0:
-        parts.insert(0, f"{_pct(below)} below {lo:g} m/s "
-                     + ("count as zero" if left > above else "deliver nothing, under the "
-                        f"cut-in of {fmt(row.get('cut_in_elec_m_s'), 2)} m/s"))
-    verdict = "" if left < 0.01 else "only part of the site's AEP: "
+    """Which part of the site an ``aep.json`` kind's AEP covers, in one sentence: the share
+    of the site's available wind energy (and of its hours) its grid covers, what lies below
+    it (left out where the kind delivers at the grid's first speed: its cut-in lies below
+    the grid) and above it."""
+    from energy.site import ENERGY_LEFT_OUT
+
+    lo, hi = row.get("grid_min_m_s"), row.get("grid_max_m_s")
+    if row.get("energy_left_out") is None or lo is None or hi is None:
+        return ("share of the site's wind energy covered: not recorded (aep.json from an "
+                "older version)")
+    left, hours = row["energy_left_out"], row.get("share_left_out") or 0.0
+    below = (f"{_pct(row.get('energy_below_grid'))} of the wind energy below {lo:g} m/s, where "
+             "it already delivers (its cut-in lies below the grid, not found), counts as zero"
+             if row.get("delivers_at_grid_start") else
+             f"below {lo:g} m/s it delivers nothing (cut-in {fmt(row.get('cut_in_elec_m_s'), 2)}"
+             " m/s)")
+    above = f"{_pct(row.get('energy_above_grid'))} above {hi:g} m/s counts as zero"
+    verdict = "" if left <= ENERGY_LEFT_OUT else "only part of the site's AEP: "
     return (f"{verdict}wind grid {lo:g}-{hi:g} m/s covers {_pct(1.0 - left)} of the site's "
-            f"hours ({'; '.join(parts)})")
+            f"wind energy ({_pct(1.0 - hours)} of its hours); {below}; {above}")
 
 
 def _pct(x) -> str:

@@ -37,7 +37,7 @@ from reports import cycle_figures
 from reports.failed import failed_rows, failure_text
 from reports.inputs import InputLog
 from reports.section_list import section_name
-from reports.tables import fmt, frame_table
+from reports.tables import fmt, frame_table, value_text
 from reports.trust_checks import trust_checks
 
 #: Fig. 3: electrically optimized, constrained cycle at 5.5 m/s.
@@ -45,6 +45,56 @@ FIG3_KIND, FIG3_WIND_M_S = "elec-lim", 5.5
 #: The wind speed of the paper's Figs. 9 and 10 and of its cycle periods [m/s]
 #: (docs/paper_figures.md §4, statement 6).
 PAPER_FIG9_WIND_M_S = 10.0
+
+
+def is_paper_system(manifest: dict | None) -> bool:
+    """Whether the sweep flew the paper's system (``[system] paper_system = true`` in the
+    system text its manifest records; a sweep before system files flew the paper's kite):
+    only then does the report compare with the paper's figures and statements."""
+    from kernel.files import parse_toml
+
+    rec = (manifest or {}).get("system")
+    if not isinstance(rec, dict) or not isinstance(rec.get("text"), str):
+        return not isinstance(rec, dict)
+    try:
+        data = parse_toml(rec["text"], Path(str(rec.get("path"))), what="the sweep's system")
+    except InputError:
+        return False
+    return bool((data.get("system") or {}).get("paper_system", False))
+
+
+def key_warnings(summary: pd.DataFrame) -> list[tuple[str, str]]:
+    """What Key results must say about the cycles themselves: those that run most of their
+    time outside the drive model's validity domain (there the model extrapolates), and
+    those that draw net power from the grid while the drum generates (their drive's
+    losses exceed what the drum delivers)."""
+    ok = summary[summary["success"].astype(bool)]
+    rows = []
+    if "outside_domain_time_frac" in ok.columns:
+        frac = ok["outside_domain_time_frac"].astype(float)
+        most = ok[frac > 0.5]
+        if len(most):
+            worst = most.loc[frac[frac > 0.5].idxmax()]
+            rows.append(("outside the drive model's domain", (
+                f"{len(most)} of {len(ok)} converged cycles spend most of their time outside the "
+                f"drive model's validity domain (its measured envelope, where it extrapolates): "
+                f"{_scenario_list(most)}; worst {worst['scenario']}, "
+                f"{100 * float(worst['outside_domain_time_frac']):.0f} % of its cycle")))
+    losing = ok[(ok["avg_p_elec_w"].astype(float) > 0) & (ok["avg_p_mech_w"].astype(float) < 0)]
+    if len(losing):
+        w = losing.loc[(losing["avg_p_elec_w"] - losing["avg_p_mech_w"]).idxmax()]
+        rows.append(("drawing from the grid while generating", (
+            f"{len(losing)} converged cycles draw net power from the grid while the drum "
+            f"generates (the drive's losses exceed the drum's power): {_scenario_list(losing)};"
+            f" largest {w['scenario']}: {fmt(float(w['avg_p_elec_w']), 0)} W drawn, "
+            f"{fmt(-float(w['avg_p_mech_w']), 0)} W generated at the drum")))
+    return rows
+
+
+def _scenario_list(rows: pd.DataFrame) -> str:
+    """Scenarios by kind: ``mech-lim at 6, 9 m/s; mech-free at 12 m/s``."""
+    return "; ".join(f"{kind} at {', '.join(fmt(w, sig=3) for w in sorted(g['wind_speed_m_s']))}"
+                     " m/s" for kind, g in rows.groupby("kind", sort=False))
 
 
 def normalized_summary(summary: pd.DataFrame, path: Path) -> pd.DataFrame:
@@ -140,9 +190,7 @@ def run_rows(manifest: dict, fit_model_sha256: str | None) -> list[tuple[str, st
     for key in ("executor", "wall_time_s", "converged", "failed"):
         if key in manifest:
             value = manifest[key]
-            text = fmt(value, 1) if isinstance(value, float) else (
-                ", ".join(map(str, value)) or "none" if isinstance(value, list) else str(value))
-            rows.append((key, text))
+            rows.append((key, fmt(value, 1) if isinstance(value, float) else value_text(value)))
     drive = manifest.get("drive_model")
     if isinstance(drive, dict):
         rows.append(("drive model", f"{drive.get('name', '?')} ({drive.get('path', '?')})"))
@@ -154,12 +202,14 @@ def run_rows(manifest: dict, fit_model_sha256: str | None) -> list[tuple[str, st
     if isinstance(options, dict):  # {group: {option: value}}
         for group, values in options.items():
             items = values.items() if isinstance(values, dict) else [(group, values)]
-            rows.extend((f"option {k}", str(v)) for k, v in items)
+            rows.extend((f"option {k}", value_text(v)) for k, v in items)
     return rows
 
 
 def cut_in_rows(manifest: dict) -> list[dict]:
-    """Cut-in wind speeds (net electrical power crosses zero) found by the sweep's search."""
+    """Cut-in wind speeds (net electrical power crosses zero) the sweep's search looked for:
+    ``cut_in`` empty where it found none (``status`` says why; the table shows "not
+    found")."""
     rows = []
     for c in manifest.get("cut_in") or []:
         if isinstance(c, dict):
@@ -167,8 +217,9 @@ def cut_in_rows(manifest: dict) -> list[dict]:
             rows.append({"kind": str(c.get("kind", "")),
                          "label": LABELS.get(str(c.get("kind")), ""),
                          "cut_in": fmt(c.get("cut_in_m_s"), 2),
-                         "bracket": f"{fmt(lo, 3)} - {fmt(hi, 3)}" if lo is not None else "",
-                         "status": str(c.get("status", ""))})
+                         "bracket": (f"{fmt(lo, 3)} - {fmt(hi, 3)}" if lo is not None
+                                     else "none"),
+                         "status": str(c.get("status") or "not recorded")})
     return rows
 
 
@@ -241,7 +292,9 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
     manifest = log.read(optimize, MANIFEST_FILE, read_manifest)
     claims = log.read(optimize, CLAIMS_FILE, read_claims)
     out = manifest_context(manifest or {}, fit_model_sha256)
+    paper = is_paper_system(manifest) if manifest is not None else False
     out.update({"manifest": manifest, "table_ii": None, "n_failed": 0, "n_scenarios": 0,
+                "paper": paper, "key_warnings": [], "fig3_wind": fmt(FIG3_WIND_M_S, sig=3),
                 "scenarios": None, "fig8a": None, "fig8b": None, "cycles": None,
                 "fig3": None, "notes": {"fig3": None}, "bounds": [], "failed": [],
                 "finer_mesh": [], "finer_mesh_head": FINER_MESH_HEAD,
@@ -255,14 +308,17 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
                     "n_scenarios": len(s), "scenarios": frame_table(summary),
                     "bounds": bound_rows(summary), "domain": domain_rows(summary),
                     "finer_mesh": remesh_lines(summary),
-                    "unchecked": unchecked_lines(summary)})
+                    "unchecked": unchecked_lines(summary),
+                    "key_warnings": key_warnings(summary)})
         out["fig8a"] = cycle_figures.power_vs_wind_figure(
             s, "avg_p_elec_w", "fig8a", "Average generated ELECTRICAL power (Fig. 8a)")
         out["fig8b"] = cycle_figures.power_vs_wind_figure(
             s, "avg_p_mech_w", "fig8b", "Average generated MECHANICAL power (Fig. 8b)")
         out["cycles"] = cycle_figures_at_paper_wind(traj, s, drawn_map,
-                                                    flown_envelope(manifest))
-        out["fig3"], out["notes"]["fig3"] = fig3(traj, s, winding_limit(manifest))
+                                                    flown_envelope(manifest), paper)
+        wind = FIG3_WIND_M_S if paper else nearest_speed(s, FIG3_KIND, FIG3_WIND_M_S)
+        out["fig3_wind"] = fmt(wind, sig=3)
+        out["fig3"], out["notes"]["fig3"] = fig3(traj, s, winding_limit(manifest), wind)
     out["missing"] = list(dict.fromkeys(log.missing[start:]))
     return out
 
@@ -295,18 +351,27 @@ def flown_envelope(manifest: dict | None) -> tuple[np.ndarray, np.ndarray] | Non
     return envelope_curve(SimpleNamespace(**{k: limits.get(k) for k in keys}))
 
 
+def nearest_speed(summary: pd.DataFrame, kind: str, wind: float) -> float:
+    """The converged wind speed of ``kind`` nearest ``wind`` [m/s] (``wind`` when none)."""
+    ok = summary[(summary["kind"] == kind) & summary["ok"]]["wind_speed_m_s"].astype(float)
+    return wind if ok.empty else float(ok.iloc[int(np.argmin(np.abs(ok.to_numpy() - wind)))])
+
+
 def cycle_figures_at_paper_wind(traj: pd.DataFrame | None, summary: pd.DataFrame,
                                 drawn_map: dict | None,
-                                envelope: tuple[np.ndarray, np.ndarray] | None = None) -> dict:
+                                envelope: tuple[np.ndarray, np.ndarray] | None = None,
+                                paper: bool = True) -> dict:
     """Figs. 9 and 10 at the grid's wind speed nearest the paper's (:data:`PAPER_FIG9_WIND_M_S`).
 
     Returns
     -------
     dict
         ``wind`` (text), ``fig9``, ``fig10`` (markup or None), ``periods`` (label and
-        period of each cycle without limits), ``paper_applies`` (the grid holds the
-        paper's speed, so its periods compare), ``not_paper`` (the sentence that says why
-        they do not, else None) and ``missing`` (scenarios not drawn, and why).
+        period of each cycle without limits), ``paper_applies`` (the paper's system and
+        its speed, so its periods compare), ``not_paper`` (the sentence that says why they
+        do not on the paper's system, else None), ``on_map`` (the constrained cycles are
+        drawn over a measured efficiency map) and ``missing`` (scenarios not drawn, and
+        why). ``paper``: the sweep flew the paper's system (:func:`is_paper_system`).
     """
     wind_speeds_m_s = summary["wind_speed_m_s"].astype(float).unique()
     wind = float(wind_speeds_m_s[np.argmin(np.abs(wind_speeds_m_s - PAPER_FIG9_WIND_M_S))])
@@ -318,19 +383,21 @@ def cycle_figures_at_paper_wind(traj: pd.DataFrame | None, summary: pd.DataFrame
             missing.append(why)
         else:
             (limited if KINDS[kind].drive_limits else free)[kind] = t
-    applies = bool(np.isclose(wind, PAPER_FIG9_WIND_M_S))
+    applies = paper and bool(np.isclose(wind, PAPER_FIG9_WIND_M_S))
     out = {"wind": fmt(wind, sig=3), "fig9": None, "fig10": None, "missing": missing,
-           "paper_applies": applies, "periods": [
-               {"label": LABELS[k], "period_s": fmt(t["time_s"].max(), 2)}
-               for k, t in free.items()],
-           "not_paper": None if applies else (
+           "paper_applies": applies, "paper": paper,
+           "on_map": bool(limited) and drawn_map is not None
+           and drawn_map.get("map_frame") is not None,
+           "periods": [{"label": LABELS[k], "period_s": fmt(t["time_s"].max(), 2)}
+                       for k, t in free.items()],
+           "not_paper": None if applies or not paper else (
                f"The paper's periods (mechanical 2.14 s, electrical 3.89 s) are for "
                f"{PAPER_FIG9_WIND_M_S:g} m/s; this sweep's grid has no "
                f"{PAPER_FIG9_WIND_M_S:g} m/s, so its cycles at {wind:g} m/s, the nearest "
                "speed, are not compared with them.")}
     if limited or free:
         out["fig9"] = cycle_figures.torque_speed_figure(limited, free, wind, drawn_map,
-                                                        envelope)
+                                                        envelope, paper)
     if free:
         out["fig10"] = cycle_figures.power_flow_figure(
             dict(sorted(free.items(), key=lambda kv: KINDS[kv[0]].objective != "electrical")),
@@ -345,12 +412,14 @@ def winding_limit(manifest: dict | None) -> float | None:
 
 
 def fig3(traj: pd.DataFrame | None, summary: pd.DataFrame,
-         winding_limit_c: float | None = None) -> tuple[object, str | None]:
-    """The Fig. 3 analogue (:data:`FIG3_KIND` at :data:`FIG3_WIND_M_S`), or (None, why not)."""
-    t, why = _trajectory(traj, summary, FIG3_KIND, FIG3_WIND_M_S)
+         winding_limit_c: float | None = None,
+         wind: float = FIG3_WIND_M_S) -> tuple[object, str | None]:
+    """The Fig. 3 analogue (:data:`FIG3_KIND` at ``wind``, the paper's
+    :data:`FIG3_WIND_M_S` for the paper's system), or (None, why not)."""
+    t, why = _trajectory(traj, summary, FIG3_KIND, wind)
     if t is None:
         return None, why
     period = float(t["time_s"].max())
     return cycle_figures.cycle_figure(
-        t, period, f"electrically optimized, constrained, {FIG3_WIND_M_S:g} m/s, "
+        t, period, f"electrically optimized, constrained, {wind:g} m/s, "
                    f"period {period:.2f} s", winding_limit_c), None

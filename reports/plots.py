@@ -82,7 +82,7 @@ def plot_efficiency_map(map_frame: pd.DataFrame, ax: Any = None, *, domain: dict
     domain : dict, optional
         ``quadrant -> polygon`` of the power model's validity domain, outlined.
     masking : dict, optional
-        The fit's masking rules, named in the title.
+        The fit's masking rules, named in the legend.
     cycles : dict, optional
         Scenario kind (a key of :data:`optimize.kinds.KINDS`) -> closed cycle with
         ``time_s`` [s], ``speed_rpm`` [rpm], ``torque_nm`` [N m]; drawn with a marker
@@ -168,13 +168,14 @@ def plot_power_curves(curves: pd.DataFrame | dict, ax: Any = None) -> Any:
         ax.plot(v, d, "o-", color=c, label=f"{plain_label(kind)} electrical")
         if np.all(np.isfinite(s)):
             ax.fill_between(v, d - Z95 * s, d + Z95 * s, color=c, alpha=0.25, lw=0)
-        ax.plot(v, -rows["p_mech_w"].to_numpy(float), "--", color=c, lw=1, alpha=0.8)
+        ax.plot(v, -rows["p_mech_w"].to_numpy(float), "--", color=c, lw=1, alpha=0.8,
+                label=f"{plain_label(kind)} mechanical (shaft)")
     ax.axhline(0, color="k", lw=0.6)
     ax.set_xlabel("wind speed at the reference height [m/s]")
     ax.set_ylabel("average power delivered [W]")
     ax.set_title("Power curves (solid: electrical with 95 % band; dashed: mechanical)",
                  fontsize=9)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, ncol=2)
     ax.grid(alpha=0.3)
     return ax
 

@@ -71,6 +71,11 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str],
         "optimize": (optimize, opt["manifest"]), "aep": (aep, documents["aep"]),
         "size": (size, documents["size"]),
         "cycle verify": (verify, verification["record"])})
+    for section, folder, stage in ((campaign, store, "ingest"), (efficiency, fit, "fit"),
+                                   (power, fit, "fit"), (opt, optimize, "optimize")):
+        not_run(section, folder, stage)
+    prov["missing"] = [m for m in prov["missing"] if not _under_absent(m, (
+        store, fit, optimize, aep, size, verify))]
     return {
         "title": "drivebench report",
         "sections": section_list(),
@@ -87,6 +92,23 @@ def build_context(store: Path, fit: Path, optimize: Path, argv: list[str],
         "verification": verification,
         "provenance": prov,
     }
+
+
+def _under_absent(path: str, folders: tuple[Path, ...]) -> bool:
+    """Whether ``path`` lies in one of ``folders`` that does not exist (a stage not run)."""
+    return any(not Path(f).is_dir() and Path(path).is_relative_to(f) for f in folders)
+
+
+def not_run(section: dict, folder: Path, stage: str) -> None:
+    """A section whose stage's output ``folder`` does not exist says the stage was not run
+    (``not_run``) instead of listing each of its files as missing: a report of the stages
+    a user ran shows what applies (a folder that exists without its files is a missing
+    input, and stays one)."""
+    if Path(folder).is_dir():
+        section.setdefault("not_run", [])
+        return
+    section["missing"] = [m for m in section["missing"] if not _under_absent(m, (folder,))]
+    section["not_run"] = [f"bench {stage} (no {folder})"]
 
 
 def stage_paths(folders: dict[str, Path]) -> dict:
@@ -112,27 +134,28 @@ def headline(campaign: dict, power: dict, opt: dict) -> list[tuple[str, str]]:
         rows.append(("optimizations", f"{opt['n_scenarios'] - opt['n_failed']} of "
                                       f"{opt['n_scenarios']} converged"))
     for c in opt["cut_in"]:
-        rows.append((f"cut-in, {c['label'] or c['kind']}", f"{c['cut_in']} m/s"))
-    if opt["claims"]:
-        verdicts = [c["verdict"] for c in opt["claims"]]
+        if c["cut_in"]:  # found by the sweep's search; the table says why not otherwise
+            rows.append((f"cut-in, {c['label'] or c['kind']}", f"{c['cut_in']} m/s"))
+    verdicts = [c["verdict"] for c in opt["claims"] or [] if c["verdict"] != "does not apply"]
+    if verdicts:  # another kite: the paper's statements are about the paper's
         rows.append(("paper's statements", ", ".join(
             f"{verdicts.count(v)} {v}" for v in dict.fromkeys(verdicts))))
+    rows += opt["key_warnings"]
     return rows
 
 
 def energy_headline(energy: dict) -> list[tuple[str, str]]:
-    """Key energy results (AEP of the constrained electrical optimum, the sizing choice)."""
+    """Key energy results: the AEP of the constrained electrical optimum with the share of
+    the site it covers, and the drive sizing's decision (:func:`reports.energy_section.
+    decision_rows`)."""
     rows = []
     for r in energy["table"]:
         if r["kind"].startswith("elec-lim"):
             rows.append(("electrical AEP (elec-lim)",
                          f"{r['aep_elec']} MWh/yr (95 %: {r['band']}), "
                          f"capacity factor {r['cf_elec']}; {r['coverage']}"))
-    sizing = energy["sizing"]
-    if sizing is not None:
-        rows.append(("drive sizing", "; ".join(x for x in (
-            f"smallest within {sizing['tolerance']} of the best AEP: {sizing['chosen']}",
-            sizing["edge"], sizing["hours"]) if x)))
+    if energy["sizing"] is not None:
+        rows += energy["sizing"]["headline"]
     return rows
 
 

@@ -36,7 +36,21 @@ def fmt(value, decimals: int | None = None, sig: int | None = None) -> str:
         return "n/a"
     if decimals is not None:
         return f"{v:.{decimals}f}"
+    if 10 ** (sig or 4) <= abs(v) < 1e15:  # no exponent for a large number: 12300, not 1.23e+04
+        return f"{v:.0f}"
     return f"{v:.{sig or 4}g}"
+
+
+def value_text(value) -> str:
+    """A setting's value for a table: ``not set`` for None, yes/no for a boolean, a number
+    by :func:`fmt`, a list comma-separated (``none`` when empty), else its text."""
+    if value is None:
+        return "not set"
+    if isinstance(value, list | tuple):
+        return ", ".join(value_text(v) for v in value) or "none"
+    if isinstance(value, bool | np.bool_ | Number):
+        return fmt(value)
+    return str(value)
 
 
 def term_label(term: tuple[int, int]) -> str:
@@ -110,5 +124,5 @@ def flatten(data: dict, prefix: str = "") -> list[tuple[str, str]]:
         elif isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
             continue
         else:
-            out.append((name, fmt(value) if isinstance(value, float) else str(value)))
+            out.append((name, value_text(value)))
     return out

@@ -88,23 +88,34 @@ def prediction_words(predicted_error: float | None, measured_j: float | None) ->
             f"{'generated' if generated else 'drawn'} than measured")
 
 
+def _energy(value, sign: float, digits: int = 1) -> str:
+    """An energy per cycle in the round trip's sense (``sign`` -1: generated positive)."""
+    return fmt(None if value is None else sign * value, digits)
+
+
 def round_trip_verdict(doc: dict) -> str | None:
-    """The round trip's verdict in one line for Key results: how far the power model misses
-    the measured electrical energy per cycle, with its band, against the
-    :data:`cycle.verify.CLAIM_RTOL` the steady map is said to hold (None: no means)."""
-    from cycle.verify import CLAIM_RTOL
+    """The round trip's verdict in one line for Key results: PASS, FAIL or INCONCLUSIVE
+    against :data:`cycle.verify.CLAIM_RTOL` (:func:`cycle.verify.round_trip_result`), then
+    the power model's and the optimizer's energy per cycle against the measured one, all
+    said as generated (or drawn) energy (None: no means)."""
+    from cycle.verify import CLAIM_RTOL, generated_words, round_trip_result
 
     m = doc.get("means") or {}
     err, band = m.get("model_error"), m.get("model_error_band")
-    if not _finite(err, band):
+    if not _finite(err, band, m.get("e_elec_j")):
         return None
-    claim = ("within" if abs(err) + band <= CLAIM_RTOL else
-             "outside" if abs(err) - band > CLAIM_RTOL else "not decidable against")
-    return (f"the power model at the measured speed and torque predicts "
-            f"{prediction_words(err, m.get('e_elec_j'))} per cycle (95 % band "
-            f"{100 * band:.1f} %, {doc.get('cycles_kept')} cycles of {doc.get('scenario')}): "
-            f"{claim} the {100 * CLAIM_RTOL:g} % the steady map is said to hold; the optimizer "
-            f"promised {prediction_words(m.get('optimizer_error'), m.get('e_elec_j'))}")
+    result = doc.get("result") or round_trip_result(err, band)
+    word, measured = generated_words(m["e_elec_j"])
+    sign = -1.0 if word == "generated" else 1.0
+    parts = [f"{result} against +-{100 * CLAIM_RTOL:g} %: the power model at the measured speed "
+             f"and torque predicts {fmt(sign * m.get('e_elec_model_j'), 0)} J {word} per cycle "
+             f"against {measured:.0f} J measured ({prediction_words(err, m['e_elec_j'])}, 95 % "
+             f"band +-{100 * band:.1f} %; {doc.get('cycles_kept')} cycles of "
+             f"{doc.get('scenario')})"]
+    if _finite(m.get("e_elec_optimizer_j")):
+        parts.append(f"the optimizer promised {sign * m['e_elec_optimizer_j']:.0f} J {word} "
+                     f"({prediction_words(m.get('optimizer_error'), m['e_elec_j'])})")
+    return "; ".join(parts)
 
 
 def verification_section(log: InputLog, verify: Path) -> dict:
@@ -136,21 +147,27 @@ def verification_section(log: InputLog, verify: Path) -> dict:
     out["verdict"] = doc.get("verdict")
     out["headline"] = round_trip_verdict(doc)
     out["notes"] = [str(n) for n in doc.get("cycle_notes") or []]
+    word = "generated" if (m.get("e_elec_j") or 0.0) < 0 else "drawn"
+    sign = -1.0 if word == "generated" else 1.0
     out["rows"] = [
         ("session, scenario", f"{doc.get('session')}, {doc.get('scenario')}"),
         ("cycles kept", f"{doc.get('cycles_kept')} of {doc.get('cycles_in_profile')}"),
-        ("electrical energy per cycle, measured [J]",
-         f"{fmt(m.get('e_elec_j'), 1)} (95 %: +- {fmt(m.get('band_elec_j'), 1)})"),
+        ("sign convention", f"every energy below is electrical energy {word} per cycle "
+         f"({'delivered to' if word == 'generated' else 'taken from'} the grid), positive; an "
+         "error is the prediction against the measured energy"),
+        (f"electrical energy {word} per cycle, measured [J]",
+         f"{_energy(m.get('e_elec_j'), sign)} (95 %: +- {fmt(m.get('band_elec_j'), 1)})"),
         ("power model at the measured speed and torque [J]",
-         f"{fmt(m.get('e_elec_model_j'), 1)}: "
+         f"{_energy(m.get('e_elec_model_j'), sign)}: "
          f"{prediction_words(m.get('model_error'), m.get('e_elec_j'))} "
          f"(band {_pct(m.get('model_error_band'))[1:]})"),
-        ("optimizer's prediction [J]", f"{fmt(m.get('e_elec_optimizer_j'), 1)}: "
+        ("optimizer's prediction [J]", f"{_energy(m.get('e_elec_optimizer_j'), sign)}: "
          f"{prediction_words(m.get('optimizer_error'), m.get('e_elec_j'))}"),
-        ("mechanical energy per cycle, measured [J]",
-         f"{fmt(m.get('e_mech_j'), 1)} (95 %: +- {fmt(m.get('band_mech_j'), 1)}); optimizer "
-         f"{fmt(doc.get('e_mech_optimizer_j'), 1)}"),
-        ("drift [J per cycle]", f"{fmt((doc.get('drift') or {}).get('slope_j_per_cycle'), 2)}"
+        (f"mechanical energy {word} per cycle, measured [J]",
+         f"{_energy(m.get('e_mech_j'), sign)} (95 %: +- {fmt(m.get('band_mech_j'), 1)}); "
+         f"optimizer {_energy(doc.get('e_mech_optimizer_j'), sign)}"),
+        (f"drift of the energy {word} [J per cycle]",
+         f"{_energy((doc.get('drift') or {}).get('slope_j_per_cycle'), sign, 2)}"
          f" +- {fmt((doc.get('drift') or {}).get('slope_u_j_per_cycle'), 2)}"),
     ]
     if one is not None and len(one):

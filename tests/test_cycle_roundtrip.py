@@ -173,18 +173,29 @@ def test_report_shows_the_verification(rig):
 
 
 def test_verdict_in_words():
-    """Within, outside, undecidable against 5 %; the drift when resolved; the map's
-    residual std held over a cycle; the limits of error a session left out."""
+    """PASS, FAIL or INCONCLUSIVE against 5 % first; every energy said as generated; the
+    drift when resolved; the map's residual std held over a cycle; the limits of error a
+    session left out."""
     from cycle.verify_command import verdict
 
     means = {"model_error": 0.02, "model_error_band": 0.01, "e_elec_optimizer_j": -1000.0,
+             "e_elec_model_j": -980.0,
              "optimizer_error": 0.03, "e_elec_j": -1000.0, "optimizer_error_band": 0.01,
              "n_cycles": 8}
     still = {"slope_j_per_cycle": 0.1, "slope_u_j_per_cycle": 0.2, "slope_per_cycle": 1e-4}
     text = verdict(means, still, [], (120.0, 5.0))
-    assert "within the 5 %" in text and "No drift" in text and "600 J, 60.0 %" in text
-    text = verdict({**means, "model_error": -0.2}, {**still, "slope_j_per_cycle": -3.0},
-                   ["power_accuracy_range"])
-    assert "outside the 5 %" in text and "drifts by -3.0 J" in text
+    assert text.startswith("PASS against +-5 %") and "No drift" in text
+    assert "predicts 980 J generated per cycle against 1000 J measured, 2.0 % less" in text
+    assert "600 J, 60.0 %" in text
+    text = verdict({**means, "model_error": -0.2, "e_elec_model_j": -1200.0},
+                   {**still, "slope_j_per_cycle": -3.0}, ["power_accuracy_range"])
+    assert text.startswith("FAIL against +-5 %") and "drifts by -3.0 J" in text
+    assert "1200 J generated per cycle against 1000 J measured, 20.0 % more" in text
     assert "does not state power_accuracy_range" in text and "residual" not in text
-    assert "not decidable" in verdict({**means, "model_error": 0.045}, still, [])
+    assert verdict({**means, "model_error": 0.045}, still, []).startswith("INCONCLUSIVE")
+    # a cycle that draws power on balance: every energy said as drawn
+    drawn = verdict({**means, "e_elec_j": 250.0, "e_elec_model_j": 260.0,
+                     "e_elec_optimizer_j": 1050.0, "model_error": 0.04, "optimizer_error": 3.2},
+                    still, [])
+    assert "predicts 260 J drawn per cycle against 250 J measured, 4.0 % more" in drawn
+    assert "promised 1050 J drawn" in drawn

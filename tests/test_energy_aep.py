@@ -155,7 +155,7 @@ def test_site_height_moves_by_the_systems_wind_profile(tmp_path):
 
     parser = argparse.ArgumentParser()
     add_site_arguments(parser)
-    args = parser.parse_args(["--weibull-k", "2", "--scale", "6", "--height-m", "10"])
+    args = parser.parse_args(["--weibull-k", "2", "--weibull-scale", "6", "--height-m", "10"])
     # a power-law system: the site's scale moves by (h_ref / 10 m)^a, the kite model's profile
     text = shipped_system_path().read_text()
     text = text.replace('profile = "log"', 'profile = "power"')

@@ -77,7 +77,7 @@ def test_bench_aep_writes_every_file(tmp_path, capsys):
     [
         [],
         ["--weibull-k", "2"],
-        ["--weibull-k", "2", "--mean-speed", "5", "--scale", "6"],
+        ["--weibull-k", "2", "--mean-speed", "5", "--weibull-scale", "6"],
         ["--rayleigh-mean", "-1"],
         ["--rayleigh-mean", "5", "--weibull-k", "2", "--mean-speed", "5"],
     ],
@@ -92,7 +92,7 @@ def test_bench_aep_bad_site_exits_2(tmp_path, capsys, site_args):
 
 @pytest.mark.parametrize("site_args", [
     ["--weibull-k", "2", "--mean-speed", "1e6"],
-    ["--weibull-k", "2", "--scale", "500"],
+    ["--weibull-k", "2", "--weibull-scale", "500"],
     ["--rayleigh-mean", "1e6"],
     ["--weibull-k", "2", "--mean-speed", "6", "--roughness-m", "1000"],
 ])

@@ -34,7 +34,7 @@ def test_energy_section_renders_aep_table_bands_and_sizing(tmp_path):
     assert e["table"][0]["band"] != "n/a"
     assert e["figure"] is not None and e["sizing"]["figure"] is not None
     html = render(ctx)
-    assert 'id="aep-table"' in html and 'id="sizing-chosen">x1<' in html
+    assert 'id="aep-table"' in html and 'id="sizing-chosen">No decision recorded' in html
     assert any(k == "drive sizing" for k, _ in ctx["headline"])
 
 
@@ -106,3 +106,42 @@ def test_sizing_table_states_the_limits_each_candidate_flew():
     assert limits_text({"peak_torque_nm": 390.0, "rated_torque_nm": 78.0,
                         "max_speed_rpm": 1500.0}) == (
         "torque <= 390.0 N m, RMS <= 78.0 N m, |speed| <= 1500 rpm")
+
+
+def test_key_results_sign_the_chosen_drive(tmp_path):
+    # issue 49: Key results said "smallest within 2.0 % of the best AEP: x1.5" and a run-on
+    # about coverage; its rating, power and AEP were only in section 5's table
+    from energy.decision import decision, grid_coverage
+    from energy.site import Weibull
+    from reports.energy_section import decision_rows
+
+    site = Weibull.from_mean(2.0, 5.5)
+    winds = (4.0, 7.0, 10.0, 13.0, 16.0, 19.0)
+    cands = [{"candidate": f"x{s:g}", "scale": s, "rated_torque_nm": 78.0 * s,
+              "peak_torque_nm": 78.0 * s, "max_speed_rpm": 1500.0,
+              "nominal_power_w": 8200.0 * s, "aep_elec_mwh": a, "aep_share_of_best": a / 4.382}
+             for s, a in ((1.0, 3.834), (1.5, 4.264), (2.0, 4.382))]
+    recs = [{"candidate": c["candidate"], "wind_speed_m_s": w, "success": True,
+             "avg_p_elec_w": 100.0 if w == 4.0 else -1000.0} for c in cands for w in winds]
+    import pandas as pd
+
+    cov = grid_coverage(site, winds, recs)
+    sizing = {"candidates": cands, "tolerance": 0.02, "coverage": cov,
+              "decision": decision(pd.DataFrame(cands), recs, site, cov, 0.02),
+              "site": site.to_dict(), "reference_drive": {"model_sha256": "abc"}}
+    aep = {"site": site.to_dict(), "optimize": {"drive_model": {"model_sha256": "abc"}},
+           "kinds": [{"kind": "elec-lim", "aep_elec_mwh": 3.6, "ci95_aep_elec_low_mwh": 3.55,
+                      "ci95_aep_elec_high_mwh": 3.65}]}
+    (key, chosen), (_, grid) = decision_rows(sizing, aep)
+    assert key == "drive chosen"
+    assert chosen.startswith("x2: torque <= 156.0 N m, RMS implied, |speed| <= 1500 rpm, "
+                             "nominal power 16400 W; electrical AEP 4.382 MWh/yr")
+    assert "95 %: +-1.4 %, x1's relative band" in chosen  # 0.05 / 3.6
+    assert "it is the best" in chosen
+    assert "the next smaller, x1.5, delivers 4.264 MWh/yr, 97.3 % of the best (the rule needs " \
+           "98 %)" in chosen
+    assert grid.startswith("the sizing grid 4-19 m/s covers 99.8 % of the site's wind energy")
+    # on another site, no band is carried
+    (_, chosen), _ = decision_rows(sizing, {**aep, "site": Weibull(2.0, 9.0).to_dict()})
+    assert "no band" in chosen
+

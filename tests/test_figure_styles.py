@@ -90,3 +90,35 @@ def test_power_curves_of_a_sweep_are_drawn_as_the_docs_say():
     np.testing.assert_allclose(elec.get_ydata(), 100.0 * w)  # delivered = -P
     np.testing.assert_allclose(mech.get_ydata(), 120.0 * w)
     plt.close(ax.figure)
+
+
+def test_efficiency_map_title_is_one_line_over_a_panel_of_a_grid():
+    # issue 49: the title wrapped into three lines ("...blank:" / "outside" / "the measured
+    # envelope)") and, in a subplot through the API, its top was cut off the figure
+    fig, axes = plt.subplots(2, 2, figsize=(9, 6))
+    plot_efficiency_map(_map(), axes[0, 0], masking={"mech_frac": 0.05, "elec_frac": 0.05})
+    fig.canvas.draw()
+    assert "\n" not in axes[0, 0].get_title()
+    assert overflowing_text(fig) == []
+    # the masking rule the title once carried is in the legend
+    labels = [t.get_text() for t in axes[0, 0].get_legend().get_texts()]
+    assert "white: negative, or masked: |P_mech| < 0.05 P_nom or |P_elec| < 0.05 P_nom" in labels
+    assert "blank: not measured" in labels
+    plt.close(fig)
+
+
+def test_power_curve_legend_names_every_curve():
+    # issue 49: the legend named only the electrical curves, the dashed mechanical unnamed
+    curves = pd.DataFrame({"kind": ["elec-lim"] * 3 + ["mech-free"] * 3,
+                           "wind_speed_m_s": [5.0, 7.0, 9.0] * 2,
+                           "p_elec_w": [-100.0, -300.0, -500.0, 50.0, 20.0, -10.0],
+                           "p_mech_w": [-200.0, -500.0, -800.0, -300.0, -700.0, -1200.0],
+                           "p_elec_sigma_w": [5.0] * 6})
+    ax = plot_power_curves(curves)
+    drawn = [line for line in ax.lines if len(line.get_xdata()) == 3]
+    assert len(drawn) == 4
+    named = {line.get_label() for line in ax.get_legend().get_lines()}
+    assert all(line.get_label() in named for line in drawn)
+    dashed = [line.get_label() for line in drawn if line.get_linestyle() == "--"]
+    assert len(dashed) == 2 and all("mechanical" in label for label in dashed)
+    plt.close(ax.figure)

@@ -372,6 +372,7 @@ def test_provenance_hashes_every_input(full_inputs):
 def test_partial_inputs_render_and_say_what_is_missing(tmp_path, capsys):
     write_store(tmp_path / "store")
     out = tmp_path / "r.html"
+    (tmp_path / "noopt").mkdir()  # a folder without its files: those are missing inputs
     code = main(["report", "--store", str(tmp_path / "store"), "--fit", str(tmp_path / "nofit"),
                  "--optimize", str(tmp_path / "noopt"), "--out", str(out)])
     assert code == 0
@@ -382,9 +383,14 @@ def test_partial_inputs_render_and_say_what_is_missing(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert str(out.resolve()) in printed and re.search(r"written in \d+\.\d s", printed)
     html = out.read_text(encoding="utf-8")
-    for missing in ("nofit/power_model.json", "nofit/efficiency_map.parquet",
-                    "noopt/summary.parquet", "noopt/claims.csv"):
+    for missing in ("noopt/summary.parquet", "noopt/claims.csv"):
         assert f"not available: <code>{tmp_path / missing}</code> missing" in html
+    # issue 49: a stage not run (no folder) is said once per section, not as missing
+    # files nor among the missing inputs at the top
+    assert f"Not run: bench fit (no {tmp_path / 'nofit'})." in html
+    assert "nofit/power_model.json</code> missing" not in html
+    top = html[:html.index("<main>")]
+    assert "noopt/summary.parquet" in top and "nofit/" not in top.split("Not found:")[0]
     assert 'id="sessions"' in html  # the campaign section is still there
 
 

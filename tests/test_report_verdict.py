@@ -28,10 +28,15 @@ def test_prediction_words_say_the_direction_on_generated_and_drawn_energy():
 
 
 def test_key_results_carry_the_round_trip_verdict(tmp_path):
+    # issue 49: no PASS / FAIL against a stated tolerance, and signs that read both ways
     text = round_trip_verdict(RECORD)
-    assert text.startswith("the power model at the measured speed and torque predicts 17.7 % "
-                           "less energy generated than measured per cycle")
-    assert "outside the 5 %" in text and "5.0 % more energy generated" in text
+    assert text.startswith("FAIL against +-5 %: the power model at the measured speed and "
+                           "torque predicts 823 J generated per cycle against 1000 J measured "
+                           "(17.7 % less energy generated than measured")
+    assert "the optimizer promised 1050 J generated (5.0 % more energy generated" in text
+    assert round_trip_verdict({**RECORD, "means": {**RECORD["means"], "model_error": 0.03,
+                                                   "e_elec_model_j": -970.0}}).startswith(
+        "PASS against +-5 %")
     cycles = pd.DataFrame({"cycle_id": [1], "e_elec_j": [-1000.0], "u_elec_j": [2.0],
                            "e_elec_model_j": [-823.0], "e_elec_optimizer_j": [-1050.0],
                            "e_mech_j": [-1100.0], "u_mech_j": [2.0]})

@@ -62,7 +62,7 @@ def test_bench_run_leaves_every_other_option_at_the_stages_default():
 def test_an_option_given_to_bench_run_reaches_its_stages(dest):
     stages, option = FORWARDED[dest]
     value = {"order": "3", "workers": "1", "size_scales": "1,2",
-             "size_wind_grid": "6,8"}[dest]
+             "size_wind_grid": "6,8", "system": "optimize/data/systems/ap2.toml"}[dest]
     flag = "--" + dest.replace("_", "-")
     run_args = build_parser(["run", "logs"]).parse_args(["run", "logs", flag, value])
     commands = {c[0]: c for c in stage_commands(run_args)}
@@ -71,19 +71,61 @@ def test_an_option_given_to_bench_run_reaches_its_stages(dest):
         assert argv[argv.index(option) + 1] == value
 
 
-def test_default_wind_grid_covers_all_but_half_a_percent_of_the_site():
+def _energy_above(x: float, c: float) -> float:
+    """The share of a Weibull k = 2 site's available wind energy above ``x`` [m/s], by
+    quadrature of v^3 f(v) (independent of energy.site's incomplete gamma function)."""
+    from scipy.integrate import quad
+
+    def f(v):
+        return v**3 * 2 * v / c**2 * math.exp(-((v / c) ** 2))
+
+    return quad(f, x, 20 * c)[0] / quad(f, 0, 20 * c)[0]
+
+
+def test_default_wind_grid_covers_99_percent_of_the_site_wind_energy():
     run_args = build_parser(["run", "logs"]).parse_args(["run", "logs", "--out", "o"])
     optimize = stage_commands(run_args)[2]
     start, stop, step = (float(x) for x in optimize[optimize.index("--wind-grid") + 1].split(":"))
     # bench optimize's default 4:10:1.5 starts and steps the grid
     assert (start, step) == (4.0, 1.5)
-    # closed form: Weibull k = 2, mean 5.5 m/s (the site is given at the 100 m reference
-    # height, so unmoved), scale c = 5.5 / Gamma(1.5); P(v > x) = exp(-(x / c)^2)
+    # Weibull k = 2, mean 5.5 m/s (the site is given at the 100 m reference height, so
+    # unmoved), scale c = 5.5 / Gamma(1.5)
     c = 5.5 / math.gamma(1.5)
-    above = math.exp(-((stop / c) ** 2))
-    above_one_step_less = math.exp(-(((stop - step) / c) ** 2))
-    assert above < 0.005 <= above_one_step_less
-    assert stop == 14.5  # c sqrt(ln 200) = 14.29 m/s, rounded up to the grid
+    assert _energy_above(stop, c) < 0.01 <= _energy_above(stop - step, c)
+    assert stop == 17.5  # 99 % of the energy lies below 17.04 m/s, rounded up to the grid
+
+
+AP2 = "optimize/data/systems/ap2.toml"
+
+
+def test_bench_run_flies_your_kite_and_drive():
+    # issue 49: bench run had no --system and no --drive-model ("unrecognized arguments")
+    run_args = build_parser(["run", "logs"]).parse_args(
+        ["run", "logs", "--system", AP2, "--drive-model", "drive.json"])
+    commands = {c[0]: build_parser(c).parse_args(c) for c in stage_commands(run_args)}
+    for stage in ("optimize", "size"):
+        assert str(commands[stage].system) == AP2
+        assert Path(commands[stage].drive_model) == Path("drive.json")
+
+
+def test_bench_run_sizes_on_bench_size_own_grid_as_the_readme_does():
+    # issue 49: make demo sized on 4:13:3 and the README's `bench size` on 5.5,7,8.5, and
+    # they named different drives for the same site. Both now leave the grid and the scales
+    # to bench size, whose grid covers the site (tests/test_sizing_decision.py)
+    import re
+    import shlex
+
+    run_args = build_parser(["run", "logs"]).parse_args(["run", "logs", "--out", "o"])
+    ours = stage_commands(run_args)[4]
+    readme = (Path(__file__).resolve().parent.parent / "README.md").read_text(encoding="utf-8")
+    line = re.search(r"^bench size [^#\n]*", readme, re.M).group(0)
+    theirs = shlex.split(line)[1:]  # without "bench"
+    parsed = [stage_parser("size").parse_args(a[1:]) for a in (ours, theirs)]
+    keys = ("wind_grid", "scales", "weibull_k", "mean_speed", "system", "tolerance", "extend")
+    assert [{k: getattr(p, k) for k in keys} for p in parsed][0] == {
+        k: getattr(parsed[1], k) for k in keys}
+    assert parsed[0].wind_grid is None  # bench size's default: the grid that covers the site
+    assert parsed[1].height_m in (None, 100.0)  # at the 100 m reference height, as bench run
 
 
 def test_optimize_exit_codes_and_bench_run_going_on_past_some_failures(monkeypatch, capsys):
@@ -110,30 +152,3 @@ def test_optimize_exit_codes_and_bench_run_going_on_past_some_failures(monkeypat
     assert run(args) == 1
     assert calls == ["ingest", "fit", "optimize", "aep", "size"]
     assert "some scenarios failed" in capsys.readouterr().out
-
-
-def test_default_sizing_grid_covers_95_percent_of_the_site():
-    from energy.site import Weibull
-    from energy.sizing_files import grid_hours
-    from optimize.service.plan import parse_wind_grid
-
-    run_args = build_parser(["run", "logs"]).parse_args(["run", "logs", "--out", "o"])
-    size = stage_commands(run_args)[4]
-    spec = size[size.index("--wind-grid") + 1]
-    assert spec == "4:13:3"  # from bench optimize's 4 m/s in twice its 1.5 m/s steps
-    c = 5.5 / math.gamma(1.5)  # closed form as above: P(v > x) = exp(-(x / c)^2)
-    assert math.exp(-((13.0 / c) ** 2)) < 0.05 <= math.exp(-((10.0 / c) ** 2))
-    winds = parse_wind_grid(spec)
-    site = Weibull.from_mean(2.0, 5.5)
-    # below the cut-in at the first speed (P_elec > 0: drawn from the grid) no candidate
-    # delivers: those hours lose nothing; the ones above 13 m/s do
-    quiet = [{"wind_speed_m_s": 4.0, "success": True, "avg_p_elec_w": 35.0}]
-    hours = grid_hours(site, winds, quiet)
-    assert hours["share_left_out"] == pytest.approx(math.exp(-((13.0 / c) ** 2)), rel=1e-9)
-    assert hours["share_left_out"] < 0.05
-    assert "covers 98.8 % of the site's hours" in hours["note"]
-    # a candidate delivering at 4 m/s would lose the hours below it too
-    windy = [*quiet, {"wind_speed_m_s": 4.0, "success": True, "avg_p_elec_w": -20.0}]
-    below = 1.0 - math.exp(-((4.0 / c) ** 2))
-    assert grid_hours(site, winds, windy)["share_left_out"] == pytest.approx(
-        below + math.exp(-((13.0 / c) ** 2)), rel=1e-9)

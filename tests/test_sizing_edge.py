@@ -1,9 +1,7 @@
 """Sizing says when its best drive is at the edge of the candidate set, extends the set,
-and states the share of the site's hours its wind grid leaves out."""
+(what its wind grid leaves out: tests/test_sizing_decision.py)."""
 
 from __future__ import annotations
-
-import math
 
 import pytest
 
@@ -89,11 +87,3 @@ def test_sizing_extends_the_set_beyond_an_edge_optimum(extend, added, edge):
                                                              1.0 + len(added))
     note = sizing_files.edge_note(got_edge, res.best, got_added)
     assert ("larger drive may be better" in note) == (edge == "largest")
-
-
-def test_sizing_grid_hours_are_the_weibull_tails():
-    # closed form: F(v) = 1 - exp(-(v / c)^k)
-    h = sizing_files.grid_hours(SITE, (5.5, 7.0, 8.5))
-    assert h["share_below_grid"] == pytest.approx(1 - math.exp(-(5.5 / 6.2) ** 2), rel=1e-12)
-    assert h["share_above_grid"] == pytest.approx(math.exp(-(8.5 / 6.2) ** 2), rel=1e-12)
-    assert f"{100 * (1 - h['share_below_grid'] - h['share_above_grid']):.1f} %" in h["note"]

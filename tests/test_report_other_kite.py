@@ -1,0 +1,122 @@
+"""A report of another kite, of the stages a user ran (issue 49: the shipped AP2 through
+optimize and aep only gave Key results with an empty cut-in, "15 does not apply", the
+paper's cut-ins, a Fig. 3 slot "not run", Fig. 9 captioned over a map it did not draw, and
+every stage not run listed as missing at the top).
+
+The sweep is made up (tests/test_report.py's analytic cycles) on a 6:12:3 grid, its
+manifest recording the shipped ap2.toml (``paper_system`` unset) and a cut-in search that
+found none; the AEP folder is bench aep's own output of it.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pandas as pd
+import pytest
+from test_report import _cycle, browser  # noqa: F401
+
+from drivebench.cli import main
+from kernel.provenance import Provenance
+from optimize.sweep_folder import write_sweep_folder
+from optimize.system.system_file import load_system
+from reports.render import build_context, render
+
+WINDS = (6.0, 9.0, 12.0)
+KINDS = ("elec-lim", "elec-free", "mech-lim", "mech-free")
+
+
+def write_other_kite(opt):
+    rows, trajs = [], []
+    for kind in KINDS:
+        for w in WINDS:
+            name = f"{kind}-{w:.1f}"
+            p_e = -300.0 * w
+            rows.append({"scenario": name, "kind": kind,
+                         "objective": "electrical" if kind.startswith("elec") else "mechanical",
+                         "drive_limits": kind.endswith("lim"), "wind_speed_m_s": w,
+                         "success": True, "status": "Solve_Succeeded", "iterations": 12,
+                         "period_s": 6.0, "avg_p_elec_w": p_e, "avg_p_mech_w": 1.3 * p_e,
+                         "peak_speed_rpm": 900.0, "peak_torque_nm": 40.0})
+            trajs.append(_cycle(name, kind, w))
+    system = load_system("optimize/data/systems/ap2.toml")
+    claims = pd.DataFrame({"claim_id": ["fig3-energy"], "statement": ["Fig. 3 nets 827 J"],
+                           "paper": ["827 J"], "ours": ["n/a"], "verdict": ["does not apply"],
+                           "note": ["system 'ap2' is not the paper's"]})
+    write_sweep_folder(
+        opt, Provenance.start(["bench", "optimize", "--system", str(system.path)]),
+        summary=pd.DataFrame(rows), trajectories=pd.concat(trajs, ignore_index=True),
+        system=system.record(), claims=claims, carried_model=None, manifest={
+            "wind_speeds_m_s": list(WINDS), "system": system.record(),
+            "drive_model": {"path": "", "model_sha256": "", "name": "none"},
+            "cut_in": [{"kind": "elec-lim", "cut_in_m_s": None, "bracket_lo_m_s": None,
+                        "bracket_hi_m_s": None, "status": "no bracket: every grid speed "
+                                                          "delivers"}],
+            "trust": {"mesh": [], "simulation": []}})
+    return opt
+
+
+@pytest.fixture(scope="module")
+def other(tmp_path_factory):
+    root = tmp_path_factory.mktemp("other_kite")
+    opt = write_other_kite(root / "opt")
+    assert main(["aep", "--optimize", str(opt), "--rayleigh-mean", "5.5",
+                 "--nominal-power-w", "20000", "--out", str(root / "aep")]) == 0
+    none = root / "none"
+    ctx = build_context(none, none, opt, ["bench", "report"], root / "aep", none)
+    html = render(ctx)
+    out = root / "report.html"
+    out.write_text(html, encoding="utf-8")
+    return {"ctx": ctx, "html": html, "out": out}
+
+
+def test_key_results_have_no_empty_value_nor_paper_count(other):
+    rows = other["ctx"]["headline"]
+    assert rows and all(str(v).strip() for _, v in rows)
+    assert not any("does not apply" in str(v) for _, v in rows)
+    assert not any(k.startswith("cut-in") for k, _ in rows)  # the search found none
+
+
+def test_no_paper_figure_is_claimed_for_another_kite(other):
+    html = other["html"]
+    section = html[html.index('<section id="optimization">'):]
+    section = section[:section.index("</section>")]
+    text = re.sub(r"<svg.*?</svg>", "", section, flags=re.S)
+    assert "Paper:" not in text and "827 J" not in text.replace("Fig. 3 nets 827 J", "")
+    assert "(the paper's Fig. 9)" not in section
+    assert "over the measured efficiency map" not in section  # no map was drawn
+    # Fig. 3 at the grid's speed nearest 5.5 m/s, not a slot saying 5.5 m/s was not run
+    assert "One cycle over time (Fig. 3): electrically optimized, constrained, 6 m/s" in text
+    assert "was not run" not in text
+    assert "<td class=\"num\">not found</td>" in text  # the cut-in table says so
+
+
+def test_stages_not_run_are_not_missing_inputs(other):
+    html = other["html"]
+    assert 'id="missing-inputs"' not in html
+    assert "Not run: bench ingest" in html and "Not run: bench fit" in html
+
+
+def test_aep_of_a_grid_above_the_cut_in_names_what_it_leaves_out(other):
+    # the curve delivers at 6 m/s: no cut-in is claimed, the wind energy below and above
+    # the grid is stated (Rayleigh, mean 5.5 m/s: closed forms in tests/test_sizing_decision)
+    from energy.site import energy_share, rayleigh
+
+    site = rayleigh(5.5)
+    row = next(r for r in other["ctx"]["energy"]["table"] if r["kind"].startswith("elec-lim"))
+    assert row["cut_in"] == "below 6"
+    assert row["below"] == f"{100 * energy_share(site, 0.0, 6.0):.1f} %"
+    assert row["above"] == f"{100 * energy_share(site, 12.0):.1f} %"
+    assert "only part of the site's AEP" in row["coverage"]
+
+
+def test_browser_key_results_have_no_empty_cell(browser, other):  # noqa: F811
+    page = browser.new_page(viewport={"width": 1280, "height": 900})
+    page.goto(other["out"].resolve().as_uri(), wait_until="load")
+    cells = page.eval_on_selector_all("#summary td", "els => els.map(e => e.innerText.trim())")
+    page.close()
+    assert cells and len(cells) % 2 == 0
+    values = cells[1::2]
+    assert all(values), cells
+    assert not any(v in ("None", "nan", "n/a") for v in np.array(values))

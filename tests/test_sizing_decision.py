@@ -1,0 +1,124 @@
+"""A sizing choice is a decision only on a grid that covers the site (issue 49: the README's
+`bench size` on 5.5-8.5 m/s chose x1 where `make demo` on 4-13 m/s chose x1.5).
+
+Truths: the site's available wind energy by quadrature of ``v^3 f(v)`` and by hand for a
+histogram; made-up solves whose AEPs are known.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+import pytest
+from scipy.integrate import quad
+
+from energy.decision import (
+    covering_sizing_grid,
+    decision,
+    grid_coverage,
+    grid_spec,
+)
+from energy.site import Histogram, Weibull, energy_quantile, energy_share
+
+#: the demo's site: Weibull k = 2, mean 5.5 m/s at the 100 m reference height
+SITE = Weibull.from_mean(2.0, 5.5)
+
+
+def _energy(dist: Weibull, a: float, b: float) -> float:
+    """The share of the available wind energy between ``a`` and ``b`` by quadrature."""
+    c, k = dist.scale_m_s, dist.k
+
+    def f(v):
+        return v**3 * k / c * (v / c) ** (k - 1) * math.exp(-((v / c) ** k))
+
+    return quad(f, a, b)[0] / quad(f, 0.0, 30 * c)[0]
+
+
+@pytest.mark.parametrize(("k", "lo", "hi"), [(2.0, 0.0, 4.0), (2.0, 8.5, math.inf),
+                                             (1.6, 3.0, 11.0), (3.1, 5.0, 9.0)])
+def test_energy_share_is_the_third_moment_of_the_site(k, lo, hi):
+    w = Weibull.from_mean(k, 6.0)
+    assert energy_share(w, lo, hi) == pytest.approx(_energy(w, lo, min(hi, 180.0)), rel=1e-6)
+
+
+def test_energy_share_of_a_histogram_by_hand():
+    # uniform 0-8 m/s in four bins: the energy above 6 is (8^4 - 6^4) / 8^4
+    h = Histogram((0.0, 2.0, 4.0, 6.0, 8.0), (0.25, 0.25, 0.25, 0.25))
+    assert energy_share(h, 6.0) == pytest.approx((8**4 - 6**4) / 8**4, rel=1e-12)
+    assert energy_share(h, 0.0, 8.0) == pytest.approx(1.0, rel=1e-12)
+    assert energy_share(h, 0.0, energy_quantile(h, 0.5)) == pytest.approx(0.5, rel=1e-9)
+
+
+def test_default_sizing_grid_holds_99_percent_of_the_wind_energy():
+    grid = covering_sizing_grid(SITE)
+    assert grid_spec(grid) == "4:19:3"  # 99 % of the energy lies below 17.04 m/s
+    assert _energy(SITE, grid[-1], 200.0) < 0.01 <= _energy(SITE, grid[-2], 200.0)
+
+
+def _records(aep_power, winds):
+    """Converged solves: candidate -> delivered power [W] per wind speed."""
+    return [{"candidate": c, "wind_speed_m_s": w, "success": True, "avg_p_elec_w": -p(w)}
+            for c, p in aep_power.items() for w in winds]
+
+
+def _table(records, site, torques):
+    from energy.aep import aep_mwh
+
+    rows = []
+    for c, t in torques.items():
+        rs = sorted((r for r in records if r["candidate"] == c), key=lambda r: r["wind_speed_m_s"])
+        rows.append({"candidate": c, "rated_torque_nm": t, "peak_torque_nm": t,
+                     "max_speed_rpm": 1500.0, "aep_elec_mwh": aep_mwh(
+                         [r["wind_speed_m_s"] for r in rs], [r["avg_p_elec_w"] for r in rs],
+                         site)})
+    return pd.DataFrame(rows)
+
+
+#: a smaller drive caps the power lower: x1 at 1.2 kW, x2 at 2 kW (cube law below the cap,
+#: less 150 W of losses: both draw power at 4 m/s, below their cut-in)
+POWER = {"x1": lambda v: min(1200.0, 2.0 * v**3) - 150.0,
+         "x2": lambda v: min(2000.0, 1.9 * v**3) - 150.0}
+TORQUES = {"x1": 78.0, "x2": 156.0}
+
+
+def test_the_readme_grid_is_not_a_decision():
+    winds = (5.5, 7.0, 8.5)
+    recs = _records(POWER, winds)
+    cov = grid_coverage(SITE, winds, recs)
+    # every candidate delivers at 5.5 m/s: the energy below counts as left out too
+    assert cov["deliver_at_first"] == ["x1", "x2"]
+    assert cov["energy_left_out"] == pytest.approx(
+        _energy(SITE, 0.0, 5.5) + _energy(SITE, 8.5, 200.0), rel=1e-6)
+    d = decision(_table(recs, SITE, TORQUES), recs, SITE, cov, 0.02)
+    assert not d["holds"] and d["line"].startswith("not a decision")
+    # below its 1.2 kW cap x1 delivers more than x2: on 5.5-8.5 m/s x1 is chosen, on the
+    # grid that covers the site x2 (the next test): the choice flips with the grid
+    assert d["chosen"] == "x1"
+    assert f"{100 * cov['energy_left_out']:.1f} %" in d["line"]
+    assert "--wind-grid 4:19:3" in d["line"]  # the grid that covers the site
+    # how much it could move: x2's torque limit times its speed limit over the hours left out
+    cap = 156.0 * 1500.0 * math.pi / 30
+    left = float(SITE.cdf(5.5)) + 1 - float(SITE.cdf(8.5))  # both deliver at 5.5 m/s
+    assert d["headroom_mwh"]["x2"] == pytest.approx(cap * left * 8760 / 1e6, rel=1e-12)
+    assert f"up to {d['headroom_mwh']['x1']:.3g} to {d['headroom_mwh']['x2']:.3g} MWh/yr" \
+        in d["line"]
+
+
+def test_a_covering_grid_is_a_decision_and_names_the_next_candidate():
+    winds = covering_sizing_grid(SITE)
+    recs = _records(POWER, winds)
+    cov = grid_coverage(SITE, winds, recs)
+    d = decision(_table(recs, SITE, TORQUES), recs, SITE, cov, 0.02)
+    assert d["holds"] and d["line"].startswith("chosen: x2")
+    assert d["next_smaller"]["candidate"] == "x1"
+    assert cov["energy_left_out"] < 0.01
+
+
+def test_below_a_cut_in_inside_the_grid_nothing_is_left_out():
+    winds = (4.0, 8.0, 12.0)
+    recs = _records({"x1": lambda v: v**3 - 100.0}, winds)  # draws power at 4 m/s
+    cov = grid_coverage(SITE, winds, recs)
+    assert cov["deliver_at_first"] == []
+    assert cov["energy_left_out"] == pytest.approx(_energy(SITE, 12.0, 200.0), rel=1e-6)
+    assert cov["share_left_out"] == pytest.approx(1 - float(SITE.cdf(12.0)), rel=1e-12)
