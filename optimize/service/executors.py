@@ -10,7 +10,13 @@ start graph is one task (:func:`run_tasks`, :func:`run_graph`).
   the process that started them dies (:func:`kernel.lifetime.die_with_parent`);
 * with ``scheduler`` given, the executor of a ``distributed.Client`` connected to
   that Dask scheduler address (optional extra ``drivebench[dask]``). Start the
-  Dask workers with ``--nthreads 1``: one solve at a time per process.
+  Dask workers with ``--nthreads 1``: one solve at a time per process. An address
+  that is none, or where no scheduler answers within 20 s, is refused; a cluster
+  without a worker is waited for :data:`WORKER_WAIT_S` seconds, at the start and
+  whenever its last worker leaves during the run, and then the run stops with an
+  :class:`~kernel.errors.InputError` that says so (:class:`WatchedExecutor`), as when
+  the scheduler stops answering. The solves already stored are kept (``bench size``
+  and ``bench aep --refine`` store each as it finishes; a re-run takes them up).
 
 Workers report progress through a *channel*: an object with ``put(dict)`` that
 is shipped with the task, and ``drain()`` on the driver side. A
@@ -24,6 +30,7 @@ import multiprocessing
 import os
 import queue
 import sys
+import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
@@ -114,6 +121,68 @@ class ExecutorHandle:
     n_workers: int
 
 
+#: how long a Dask cluster may have no worker, at the start or after its last worker
+#: left, before the run stops [s]
+WORKER_WAIT_S = 60.0
+#: how often the driver asks the Dask scheduler for its workers during a run [s]
+HEALTH_EVERY_S = 2.0
+
+
+class WatchedExecutor(Executor):
+    """A Dask client's executor that can tell when it can no longer run anything.
+
+    :func:`run_graph` calls :meth:`check` while it waits: it asks the scheduler for its
+    workers (every :data:`HEALTH_EVERY_S` seconds) and raises when the scheduler does not
+    answer, or has had no worker for ``wait_s`` seconds (default :data:`WORKER_WAIT_S`).
+    """
+
+    def __init__(self, client: Any, address: str, wait_s: float | None = None) -> None:
+        self._client, self.address = client, address
+        self.wait_s = WORKER_WAIT_S if wait_s is None else wait_s
+        self._inner = client.get_executor(pure=False)
+        self._asked = self._seen = time.monotonic()
+        self.n_slots = 0
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
+        """Submit ``fn(*args, **kwargs)`` to the cluster."""
+        return self._inner.submit(fn, *args, **kwargs)
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        """Shut the client's executor down (the client is closed by :func:`open_executor`)."""
+        self._inner.shutdown(wait=wait)
+
+    def slots(self) -> int:
+        """Threads of the cluster's workers now; raises when the scheduler does not answer."""
+        try:
+            n = sum(self._client.nthreads().values())
+        except Exception as exc:  # noqa: BLE001 - any failure to answer ends the run, said
+            raise self._stopped(f"the scheduler no longer answers ({type(exc).__name__}: "
+                                f"{exc})") from None
+        if n:
+            self._seen, self.n_slots = time.monotonic(), n
+        return n
+
+    def check(self, force: bool = False) -> None:
+        """Raise :class:`~kernel.errors.InputError` when the cluster cannot run the tasks:
+        the scheduler does not answer, or it has had no worker for :attr:`wait_s`
+        seconds. Asks the scheduler at most every :data:`HEALTH_EVERY_S` seconds unless
+        ``force``."""
+        now = time.monotonic()
+        if not force and now - self._asked < HEALTH_EVERY_S:
+            return
+        self._asked = now
+        if self.slots() == 0 and (force or now - self._seen > self.wait_s):
+            raise self._stopped(f"it has had no worker for {now - self._seen:.0f} s (the "
+                                f"last left during the run; waited up to {self.wait_s:g} s)")
+
+    def _stopped(self, why: str) -> InputError:
+        return InputError(None, f"--scheduler {self.address}: {why}; the run stops, nothing "
+                          "more is solved: the solves already stored are kept (bench size and "
+                          "bench aep --refine store each as it finishes; a re-run takes them "
+                          "up)", expected=f"a scheduler with workers: dask worker "
+                          f"{self.address} --nthreads 1")
+
+
 def _dask_client(scheduler: str) -> Any:
     try:
         from distributed import Client
@@ -125,12 +194,25 @@ def _dask_client(scheduler: str) -> Any:
         ) from exc
     try:
         return Client(scheduler, timeout="20s")
-    except (OSError, TimeoutError) as exc:
+    except Exception as exc:  # noqa: BLE001 - a malformed address, none answering, ...
+        what = "cannot connect" if isinstance(exc, OSError | TimeoutError) else \
+            "not a scheduler address"
         raise InputError(
             None,
-            f"--scheduler {scheduler!r}: cannot connect ({exc})",
+            f"--scheduler {scheduler!r}: {what} ({type(exc).__name__}: {exc})",
             expected="the address of a running Dask scheduler, e.g. tcp://host:8786",
-        ) from exc
+        ) from None
+
+
+def _wait_for_workers(client: Any, scheduler: str, wait_s: float) -> None:
+    """Wait up to ``wait_s`` seconds for the cluster's first worker; raise when none came."""
+    try:
+        client.wait_for_workers(1, timeout=wait_s)
+    except Exception as exc:  # noqa: BLE001 - dask's TimeoutError, or the scheduler gone
+        raise InputError(None, f"--scheduler {scheduler!r}: the scheduler has no worker "
+                         f"(waited {wait_s:g} s; {type(exc).__name__}); nothing was solved",
+                         expected=f"a scheduler with workers: dask worker {scheduler} "
+                                  "--nthreads 1") from None
 
 
 @contextmanager
@@ -174,15 +256,18 @@ def open_executor(workers: int = 2, scheduler: str | None = None) -> Iterator[Ex
     Raises
     ------
     InputError
-        If ``workers`` < 1, the Dask extra is missing or the scheduler is unreachable.
+        If ``workers`` < 1, the Dask extra is missing, the address is none, no scheduler
+        answers there, or it has no worker within :data:`WORKER_WAIT_S` seconds.
     """
     if scheduler:
         client = _dask_client(scheduler)
         try:
-            n = max(1, sum(client.nthreads().values()))
+            _wait_for_workers(client, scheduler, WORKER_WAIT_S)
+            executor = WatchedExecutor(client, scheduler)
+            n = max(1, executor.slots())
             channel = DaskChannel(f"drivebench-progress-{uuid.uuid4().hex}", client)
             description = f"dask scheduler {scheduler}, {n} slots"
-            yield ExecutorHandle(client.get_executor(pure=False), channel, description, n)
+            yield ExecutorHandle(executor, channel, description, n)
         finally:
             client.close()
         return
@@ -253,10 +338,19 @@ def run_graph(
     ``needs`` must only name lower indices (the tasks in a topological order). The
     other parameters are those of :func:`run_tasks`. Returns every future by index, all
     done; a task's exception stays in its future (its dependents still run).
+
+    Raises
+    ------
+    InputError
+        The executor can no longer run the tasks (:meth:`WatchedExecutor.check`: a Dask
+        cluster without workers or scheduler), or it cancelled some.
     """
     futures: dict[int, Future] = {}
     waiting = list(range(n))
+    check = getattr(executor, "check", None)  # a cluster that can stop running (Dask)
     while waiting or any(not f.done() for f in futures.values()):
+        if check is not None:
+            check()
         done = {i: f for i, f in futures.items() if f.done()}
         ready = [i for i in waiting if all(j in done for j in needs(i))]
         for i in ready:
@@ -273,4 +367,10 @@ def run_graph(
     if channel is not None and on_event is not None:
         for event in channel.drain():
             on_event(event)
+    cancelled = sorted(i for i, f in futures.items() if f.cancelled())
+    if cancelled:  # the executor shut down under them (a Dask client closed)
+        if check is not None:
+            check(force=True)
+        raise InputError(None, f"{len(cancelled)} of {n} tasks were cancelled: the executor "
+                         "stopped during the run; nothing more is solved")
     return futures

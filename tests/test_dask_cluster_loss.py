@@ -1,0 +1,93 @@
+"""A Dask scheduler that cannot be reached, has no worker or loses all of them ends the
+run with a message within a stated time (optimize/service/executors.py), never a
+traceback or a wait without end."""
+
+from __future__ import annotations
+
+import contextlib
+import threading
+import time
+
+import pytest
+
+from kernel.errors import InputError
+from optimize.service import executors
+from optimize.service.executors import open_executor, run_tasks
+
+distributed = pytest.importorskip("distributed")
+
+#: set at the end of each test: lets a task still running on a worker thread finish
+RELEASE = threading.Event()
+
+
+def held(x, progress=None):
+    """A task that runs 2 s (an in-process worker leaves once its running task is done)."""
+    RELEASE.wait(2)
+    return x
+
+
+def quick(x, progress=None):
+    return 2 * x
+
+
+@pytest.fixture(autouse=True)
+def short_wait(monkeypatch):
+    monkeypatch.setattr(executors, "WORKER_WAIT_S", 1.0)
+    monkeypatch.setattr(executors, "HEALTH_EVERY_S", 0.2)
+    RELEASE.clear()
+    yield
+    RELEASE.set()
+
+
+def _cluster(n_workers):
+    return distributed.LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=False,
+                                    dashboard_address=None)
+
+
+@pytest.mark.parametrize("address", ["nonsense", "tcp://", "tcp://host:notaport", "http://x:1",
+                                     "tcp://[::1:1", "inproc://x"])
+def test_a_malformed_address_is_refused_naming_it(address):
+    # was: a ValueError traceback
+    with pytest.raises(InputError, match="not a scheduler address") as err, \
+            open_executor(scheduler=address):
+        pass
+    assert err.value.describe().startswith(f"--scheduler {address!r}: ")
+    assert "tcp://host:8786" in err.value.describe()
+
+
+def test_a_scheduler_without_workers_is_refused_within_the_stated_time():
+    # was: the run waited forever without a word
+    with _cluster(0) as cluster:
+        t0 = time.monotonic()
+        with pytest.raises(InputError, match=r"has no worker \(waited 1 s"), \
+                open_executor(scheduler=cluster.scheduler_address):
+            pass
+        assert time.monotonic() - t0 < 10
+
+
+def test_a_cluster_that_loses_its_last_worker_ends_the_run_keeping_what_finished():
+    with _cluster(1) as cluster, open_executor(scheduler=cluster.scheduler_address) as handle:
+        # what finishes before the loss is there
+        assert [f.result() for f in run_tasks(handle.executor, quick, [1, 2])] == [2, 4]
+        threading.Timer(0.5, lambda: cluster.scale(0)).start()
+        t0 = time.monotonic()
+        with pytest.raises(InputError, match="has had no worker for") as err:
+            run_tasks(handle.executor, held, [1, 2, 3])
+        assert time.monotonic() - t0 < 15
+        assert "the solves already stored are kept" in err.value.describe()
+        assert "dask worker" in err.value.describe()
+
+
+def test_a_scheduler_that_stops_answering_ends_the_run():
+    cluster = _cluster(1)
+    try:
+        with open_executor(scheduler=cluster.scheduler_address) as handle:
+            threading.Timer(0.5, cluster.close).start()
+            t0 = time.monotonic()
+            with pytest.raises(InputError, match="--scheduler .*: (the scheduler no longer "
+                                                 "answers|it has had no worker)"):
+                run_tasks(handle.executor, held, [1, 2])
+            assert time.monotonic() - t0 < 30
+    finally:
+        with contextlib.suppress(Exception):  # closed already, as it should be
+            cluster.close()
