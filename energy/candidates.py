@@ -85,6 +85,7 @@ def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
     rating, notes = reference_rating(drive.rating, continuous_torque_nm, max_speed_rpm,
                                      max_torque_nm)
     candidates = scaled_candidates(drive.model, rating, tuple(scales))
+    names = _model_names(tuple(models), {c.name for c in candidates})
     for p in models:
         m = load_power_model(p)
         peak = _drive_value(p, "max_torque_nm") or rating.max_torque_nm
@@ -97,7 +98,22 @@ def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
                           _drive_value(p, "max_speed_rpm") or rating.max_speed_rpm,
                           peak, source=str(p), continuous_torque_nm=cont,
                           max_p_elec_w=rating.max_p_elec_w)
-        candidates.append(Candidate(Path(p).stem, m, own))
+        candidates.append(Candidate(names[Path(p)], m, own, path=Path(p)))
     return candidates, notes
+
+
+def _model_names(models: tuple, taken: set[str]) -> dict[Path, str]:
+    """Each ``--models`` file's candidate name: its file name without ``.json``, or, where
+    two files (or a scale's ``x<s>``) would share it, the path as given."""
+    paths = [Path(p) for p in models]
+    seen: set[Path] = set()
+    for p in paths:
+        if p.resolve() in seen:
+            raise InputError(p, "given twice to --models", column="--models",
+                             expected="each power-model file once")
+        seen.add(p.resolve())
+    stems = [p.stem for p in paths]
+    return {p: (p.stem if stems.count(p.stem) == 1 and p.stem not in taken else str(p))
+            for p in paths}
 
 

@@ -148,11 +148,12 @@ def decision(table: Any, records: list[dict], site: Distribution, coverage: dict
         ``covering_grid`` (``START:STOP:STEP`` that covers the site), ``line`` (for the
         console and the report).
     """
-    valid = table.dropna(subset=["aep_elec_mwh"]).sort_values("rated_torque_nm", kind="stable")
-    if valid.empty:
+    valid = table[table["aep_elec_mwh"].fillna(0.0) > 0].sort_values("rated_torque_nm",
+                                                                      kind="stable")
+    if valid.empty:  # none got an AEP, or none delivers energy: nothing to choose
         return {"holds": False, "limit": ENERGY_LEFT_OUT, "chosen": None, "best": None,
                 "next_smaller": None, "headroom_mwh": {}, "covering_grid": None,
-                "line": "no candidate got an AEP: no decision"}
+                "line": "no candidate got an AEP above 0: no decision"}
     aeps = dict(zip(valid["candidate"], valid["aep_elec_mwh"].astype(float), strict=True))
     torques = dict(zip(valid["candidate"], valid["rated_torque_nm"].astype(float), strict=True))
     best, chosen = _choice(aeps, torques, tolerance)

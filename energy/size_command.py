@@ -19,6 +19,7 @@ from energy.candidates import build_candidates
 from energy.decision import covering_sizing_grid, decision, grid_coverage, grid_spec
 from energy.sizing import (
     candidate_row,
+    idle_lines,
     limits_text,
     run_sizing,
     size_extending,
@@ -211,9 +212,18 @@ def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
     setup = resolve(system, drive_model, fit_default=fit_default)
     system, drive = setup.system, setup.drive
 
+    checked: set[str] = set()
+
     def candidates(scales: tuple[float, ...]) -> tuple[list, list[str]]:
-        return build_candidates(drive, scales, grid.models, rating.continuous_torque_nm,
-                                rating.max_speed_rpm, rating.max_torque_nm)
+        """The candidates of ``scales`` and the models, each checked as bench optimize
+        checks the system's drive before its first solve (InputError: refused)."""
+        made, said = build_candidates(drive, scales, grid.models, rating.continuous_torque_nm,
+                                      rating.max_speed_rpm, rating.max_torque_nm)
+        for c in made:
+            if c.name not in checked:
+                c.check(solver.n_intervals, solver.degree, system)
+                checked.add(c.name)
+        return made, said
 
     first, notes = candidates(grid.scales)
     notes = [setup.thermal_line(),
@@ -226,20 +236,22 @@ def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
                      "--wind-grid given)")
     if before_solving is not None:
         before_solving(drive, len(first), wind_speeds_m_s)
+    refused: list[str] = []
     result, edge, added = size_extending(
         lambda scales: candidates(scales)[0], grid.scales, grid.extend,
         lambda cands: run_sizing(cands, wind_speeds_m_s, site, Path(out), solver.n_intervals,
                                  solver.degree, workers=execution.workers,
                                  scheduler=execution.scheduler,
                                  show_progress=execution.progress, tolerance=grid.tolerance,
-                                 adaptive=grid.adaptive, system=system))
+                                 adaptive=grid.adaptive, system=system), refused)
     edge_doc = {"best_at": edge, "added_scales": added,
                 "note": edge_note(edge, result.best, added)}
     coverage = grid_coverage(site, wind_speeds_m_s, result.records)
     choice = decision(result.table, result.records, site, coverage, grid.tolerance)
-    notes = [*notes, *rejected_lines(result.records), coverage["note"],
+    notes = [*notes, *rejected_lines(result.records),
+             *idle_lines(result.table, result.records), coverage["note"],
              starts_note(result.records, result.reference),
-             *([edge_doc["note"]] if edge_doc["note"] else [])]
+             *([edge_doc["note"]] if edge_doc["note"] else []), *refused]
     kept = earlier_is_better(Path(out), result)
     if kept is not None:
         return SizeRun(result, drive, (*notes, kept), {}, kept, choice, wind_speeds_m_s)

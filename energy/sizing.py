@@ -69,12 +69,15 @@ class Candidate:
         ``nominal_power_w`` (the capacity factor's and the sizing axis' rating).
     scale : float or None
         Torque-rating scale when made by :func:`scaled_candidates`.
+    path : Path or None
+        The power-model file it was read from (``--models``); None for a scaled one.
     """
 
     name: str
     model: Any
     rating: Any
     scale: float | None = None
+    path: Path | None = None
 
     @property
     def rated_torque_nm(self) -> float:
@@ -116,6 +119,17 @@ class Candidate:
             return options
         return options.replace(limits={"envelope_torque_nm": tuple(self.scale * t
                                                                    for t in table)})
+
+    def check(self, n_intervals: int, degree: int, system: Any) -> None:
+        """Refuse, before any solve, a candidate ``bench optimize`` would refuse as the
+        system's drive (:func:`optimize.system.contradictions.check_drive`): its messages
+        begin with the candidate's name."""
+        from optimize.door import check_drive
+
+        how = f"--models {self.path}" if self.path is not None else f"--scales {self.scale:g}"
+        check_drive(system, self.model, self.path,
+                    self.ocp_options(n_intervals, degree, system).limits, (SIZING_KIND,),
+                    source=f"candidate {self.name} ({how})", rating_source=self.rating.source)
 
     def problem(self, n_intervals: int, degree: int, system: Any) -> Any:
         """The OCP problem (:class:`optimize.service.builder.Problem`) of this drive in
@@ -228,7 +242,8 @@ def candidate_table(candidates: list[Candidate], records: list[dict], site: Any,
             "peak_winding_temperature_c": max(hottest) if hottest else None,
         })
     table = pd.DataFrame(rows).sort_values("rated_torque_nm", kind="stable")
-    valid = table.dropna(subset=["aep_elec_mwh"])
+    # a candidate that delivers nothing is no best drive, even when none delivers
+    valid = table[table["aep_elec_mwh"].fillna(0.0) > 0]
     if valid.empty:
         table["aep_share_of_best"] = np.nan
         return table.reset_index(drop=True), None, None
@@ -333,7 +348,8 @@ def next_scale(scales: tuple[float, ...], edge: str) -> float:
 
 
 def size_extending(make_candidates: Any, scales: tuple[float, ...], extend: int,
-                   run: Any) -> tuple[SizingResult, str | None, list[float]]:
+                   run: Any, refused: list[str] | None = None
+                   ) -> tuple[SizingResult, str | None, list[float]]:
     """Size, and while the best drive is a torque-rating scale at the edge of the set, add
     the next scale beyond it (:func:`next_scale`) and size again, up to ``extend`` times.
 
@@ -341,12 +357,25 @@ def size_extending(make_candidates: Any, scales: tuple[float, ...], extend: int,
     ``run(candidates)`` sizes them (:func:`run_sizing`: solves already stored are loaded,
     so a later round solves only the added scale). Returns the last round's result, with
     each solve and the wall time counted once over the rounds, the edge the best drive
-    sits at (:func:`edge_of_set`) and the scales added.
+    sits at (:func:`edge_of_set`) and the scales added. A scale beyond the edge whose
+    candidate ``make_candidates`` refuses (:class:`~kernel.errors.InputError`: a drive
+    that cannot hold the kite, ...) ends the extension; why is appended to ``refused``.
     """
+    from kernel.errors import InputError
+
     scales, added = list(scales), []
     solved, wall = 0, 0.0
+    res = edge = None
     while True:
-        candidates = make_candidates(tuple(scales))
+        try:
+            candidates = make_candidates(tuple(scales))
+        except InputError as exc:
+            if res is None:  # the candidates asked for: refused, nothing solved
+                raise
+            if refused is not None:
+                refused.append(f"scale x{added[-1]:g} beyond the edge not sized: "
+                               f"{exc.describe()}")
+            return res, edge, added[:-1]
         res = run(candidates)
         # a later round loads the solves of the earlier ones: count each solve once
         res = dataclasses.replace(res, n_solved=solved + res.n_solved,
@@ -387,6 +416,23 @@ def starts_note(records: list[dict], reference: str | None) -> str:
              if reference else []) + [f"{own} from the candidate's own neighbouring speed",
                                       f"{len(cold)} cold" + (f" ({named})" if cold else "")]
     return f"starts of the {len(records)} solves: {', '.join(parts)}"
+
+
+def idle_lines(table: Any, records: list[dict]) -> list[str]:
+    """One line per candidate that got an AEP of 0: every solve converged and none
+    delivers energy (each optimum draws power from the grid, its losses above what the
+    kite gives it), so it is no choice at this site."""
+    lines = []
+    for row in table.to_dict(orient="records"):
+        if row["aep_elec_mwh"] is None or not row["aep_elec_mwh"] <= 0:
+            continue
+        draws = [r["avg_p_elec_w"] for r in records
+                 if r.get("candidate") == row["candidate"] and r["success"]]
+        lines.append(f"{row['candidate']} delivers no energy at any wind speed of the grid "
+                     f"(its optima draw {min(draws):.4g} to {max(draws):.4g} W from the grid: "
+                     "the drive's losses exceed what the kite gives it): no choice at this "
+                     "site; size drives of this kite's power (--scales)")
+    return lines
 
 
 def start_lines(records: list[dict]) -> list[str]:

@@ -49,8 +49,8 @@ from optimize.sweep_options import (
     SolverChoice,
     WindGrid,
 )
+from optimize.system.contradictions import check_drive
 from optimize.system.drive_in_force import DriveInForce
-from optimize.system.plausibility import check_drive_holds_kite
 from optimize.system.system import System
 
 
@@ -140,9 +140,9 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
     ------
     InputError
         Any input out of range or unreadable; a drive model that is physically
-        impossible or a drive that cannot hold the kite.
+        impossible, a drive that cannot hold the kite, or bounds of different parts that
+        cannot hold together (:func:`optimize.system.contradictions.check_drive`).
     """
-    from fitting.model_check import check_physics
     from optimize.problem.options import Discretization, OcpOptions
 
     _check_ranges(solver, trust, period_scan)
@@ -158,11 +158,10 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
     setup = resolve(system, drive_model, fit_default=fit_default, options=options)
     loaded, drive, limits = setup.system, setup.drive, setup.options.limits
     # an impossible model "converges" to a wrong cycle: refuse it before any solve,
-    # checked also where the optimizer may take it (the drive limits in force)
-    check_physics(drive.model, drive.model_path,
-                  limits=(limits.max_speed_rpm, limits.max_torque_nm))
-    check_drive_holds_kite(loaded, drive.rating.max_torque_nm,
-                           drive.rating.source or "the drive in force")
+    # checked also where the optimizer may take it (the drive limits in force), with a
+    # drive that cannot hold the kite and bounds of two parts that contradict each other
+    check_drive(loaded, drive.model, drive.model_path, limits, grid.kinds,
+                rating_source=drive.rating.source)
     note = _setup_note(setup, system is None, solver)
     return SweepRequest(grid.wind_speeds_m_s, grid.kinds, setup, note, execution.workers,
                         execution.scheduler, Path(out), claims, trust,

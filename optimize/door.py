@@ -5,24 +5,25 @@ the command line) use of it, besides the sweep folder's readers
 Each name is imported from its home module on first use (:mod:`kernel.lazy`), so a stage
 that imports the door at the top loads the solver only when it solves.
 
-=================================== ==========================================================
-home module                         what the other stages use
-=================================== ==========================================================
-:mod:`optimize.kinds`               the scenario kinds and their objectives
-:mod:`optimize.sweep_options`       a sweep's grouped options (grid, solver, execution)
-:mod:`optimize.service.plan`        the wind grid's parser and its plausible range
-:mod:`optimize.resolve`             the one resolution of system, drive and OCP options
-:mod:`optimize.command`             ``bench optimize`` as a library call
-:mod:`optimize.cli`                 its exit codes
-:mod:`optimize.service`             the one solve service: problems, chains, their records
-:mod:`optimize.service.foreign`     starts it did not find itself (a sweep's stored cycles)
-:mod:`optimize.service.store`       the stored solves it did not believe, in words
-:mod:`optimize.problem.options`     the OCP's options; :mod:`~optimize.problem.scenario` names
-:mod:`optimize.system.system_file`  system files (and a manifest's system record)
-:mod:`optimize.model.drivetrain`    the similarity law that carries a drive's losses
-:mod:`optimize.model.envelope`      the drive's torque-speed envelope as a curve
-:mod:`optimize.paper_model`         the paper's drive model
-=================================== ==========================================================
+======================================= ==========================================================
+home module                             what the other stages use
+======================================= ==========================================================
+:mod:`optimize.kinds`                   the scenario kinds and their objectives
+:mod:`optimize.sweep_options`           a sweep's grouped options (grid, solver, execution)
+:mod:`optimize.service.plan`            the wind grid's parser and its plausible range
+:mod:`optimize.resolve`                 the one resolution of system, drive and OCP options
+:mod:`optimize.command`                 ``bench optimize`` as a library call
+:mod:`optimize.cli`                     its exit codes
+:mod:`optimize.service`                 the one solve service: problems, chains, their records
+:mod:`optimize.service.foreign`         starts it did not find itself (a sweep's stored cycles)
+:mod:`optimize.service.store`           the stored solves it did not believe, in words
+:mod:`optimize.problem.options`         the OCP's options; :mod:`~optimize.problem.scenario` names
+:mod:`optimize.system.system_file`      system files (and a manifest's system record)
+:mod:`optimize.system.contradictions`   every check of a drive in a system before any solve
+:mod:`optimize.model.drivetrain`        the similarity law that carries a drive's losses
+:mod:`optimize.model.envelope`          the drive's torque-speed envelope as a curve
+:mod:`optimize.paper_model`             the paper's drive model
+======================================= ==========================================================
 """
 
 from kernel.lazy import lazy_names
@@ -46,6 +47,7 @@ LAZY_IMPORTS = {
     "optimize.problem.options": ("Discretization", "OcpOptions"),
     "optimize.problem.scenario": ("scenario_name",),
     "optimize.system.system_file": ("load_system", "system_from_dict"),
+    "optimize.system.contradictions": ("check_drive",),
     "optimize.model.drivetrain": ("carry_power_model",),
     "optimize.model.envelope": ("envelope_curve",),
     "optimize.paper_model": ("paper_model",),

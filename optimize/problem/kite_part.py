@@ -175,8 +175,8 @@ class KitePart(Part):
 
     def active_bounds(self, traj: Any, drive_limits: bool) -> list[str]:
         """Tether length, ground clearance, airspeed, the winch's acceleration, jerk and
-        reel-speed limits, the body rates, the tension floor and the control-surface
-        deflections (the kite's own, in every kind)."""
+        reel-speed limits, the body rates, the tension floor, the line angle and the
+        control-surface deflections (the kite's own, in every kind)."""
         lim = self.limits
         l_lo, l_hi = lim.tether_length_bounds_m
         rates = np.degrees(np.abs(traj[["omega_x_rad_s", "omega_y_rad_s",
@@ -194,6 +194,7 @@ class KitePart(Part):
                   ("reel_in_speed_limit", -traj["dl_m_s"], lim.max_reel_in_speed_m_s),
                   ("body_rate_limit", rates, lim.max_body_rate_deg_s),
                   ("tension_min", traj["tension_n"], lim.min_tension_n),
+                  ("line_angle_limit", traj["line_angle_deg"], lim.max_line_angle_deg),
                   ("surface_limit", surfaces / np.asarray(lim.surface_bounds_deg), 1.0))
         return [name for name, value, bound in checks if near(value, bound)]
 

@@ -41,6 +41,42 @@ from optimize.problem.transcriptions.structure import Layout, Transcription
 
 log = logging.getLogger(__name__)
 
+#: the inputs whose values bound each NLP row or variable, named when its lower bound is
+#: above its upper one (:func:`crossed_bounds`); others are named by the row or variable
+BOUND_INPUTS = {
+    "torque": "[drive] max_torque_nm against [bounds] min_tension_n (the tension floor's "
+              "torque on the drum)",
+    "airspeed": "[bounds] min_airspeed_m_s, max_airspeed_m_s",
+    "alpha": "[aero] alpha_min_deg, alpha_max_deg",
+    "beta": "[aero] beta_min_deg, beta_max_deg",
+    "line_angle": "[bounds] max_line_angle_deg",
+    "tether_force": "the tether-force limit against [bounds] min_tension_n",
+    "rms_torque": "[drive] continuous_torque_nm",
+    "p_elec": "[drive] max_p_elec_w",
+    "envelope": "[drive] base_speed_rpm or envelope_speed_rpm, envelope_torque_nm",
+    "winding_temperature": "[drive] max_winding_temperature_c, ambient_temperature_c",
+    "period_s": "[bounds] period_min_s, period_max_s",
+    "l_m": "[bounds] tether_length_min_m, tether_length_max_m",
+}
+
+
+def crossed_bounds(layout: Layout, bounds: tuple[np.ndarray, ...]) -> str | None:
+    """Which rows and variables of the NLP have a lower bound above their upper one
+    (``bounds``: ``lbw, ubw, lbg, ubg``), and the inputs those bounds come from; None when
+    none does (the solver would stop on an assertion without naming them)."""
+    lbw, ubw, lbg, ubg = bounds
+    names = []
+    for where, lo, hi in ((layout.variables, lbw, ubw), (layout.rows, lbg, ubg)):
+        crossed = np.flatnonzero(np.asarray(lo) > np.asarray(hi))
+        if crossed.size:
+            names += [n for n, idx in where.items()
+                      if np.intersect1d(np.ravel(idx), crossed).size]
+    if not names:
+        return None
+    said = "; ".join(f"{n} ({BOUND_INPUTS[n]})" if n in BOUND_INPUTS else n for n in names)
+    return (f"the NLP's bounds cross (lower above upper), so no point satisfies them: {said}; "
+            "those inputs contradict each other")
+
 Bounds = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 
@@ -167,6 +203,11 @@ class Ocp:
         ``drive_limits`` applies the drive's limits (the formulation's limited
         bounds); ``period_s`` fixes the period when given; ``fix_fictitious`` pins
         the fictitious forces at zero (the physical model).
+
+        Raises
+        ------
+        ValueError
+            Some bounds cross (:func:`crossed_bounds`, naming the inputs).
         """
         tr, lay = self.transcription, self.layout
         base = tr.limited if drive_limits else (tr.lbw, tr.ubw, tr.lbg, tr.ubg)
@@ -178,6 +219,9 @@ class Ocp:
             # fix the first copy only: the copies follow through their equality rows
             # (fixing all would leave those rows with an empty Jacobian)
             lbw[lay.i_period[0]] = ubw[lay.i_period[0]] = period_s / self.scales.period_s
+        why = crossed_bounds(lay, (lbw, ubw, lbg, ubg))
+        if why is not None:
+            raise ValueError(why)
         return lbw, ubw, lbg, ubg
 
     def pack(self, x: np.ndarray, z: np.ndarray, u: np.ndarray, fict: np.ndarray,

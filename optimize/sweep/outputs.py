@@ -31,7 +31,7 @@ DRIVE_BOUNDS = ("speed_limit", "torque_limit", "envelope_limit", "p_elec_limit",
 #: the kite's and the winch's own limits, in force in every kind
 KITE_BOUNDS = ("airspeed_min", "airspeed_max", "tether_force_limit", "reel_acceleration_limit",
                "reel_jerk_limit", "reel_out_speed_limit", "reel_in_speed_limit",
-               "body_rate_limit", "tension_min", "surface_limit")
+               "body_rate_limit", "tension_min", "line_angle_limit", "surface_limit")
 #: bounds an optimum may sit on as physics: the drive and kite limits and the ground (a
 #: safety limit); the period and tether-length ranges are search ranges, and an optimum
 #: on one of them is the range's, not the system's
