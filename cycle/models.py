@@ -25,12 +25,16 @@ def sweep_power_model(folder: Path, manifest: dict) -> PowerModel:
     if not path.is_file():
         raise InputError(folder / "manifest.json", f"the sweep's power model {path} is gone",
                          column="drive_model.path",
-                         expected="the power_model.json the sweep flew with (or give --model)")
+                         expected=f"the power_model.json the sweep flew with back at {path}, "
+                                  f"or a copy of it as {folder / 'power_model.json'} (its hash "
+                                  "is checked); or run bench optimize again")
     model = load_power_model(path)
     want = record.get("model_sha256")
     if want and model.sha256 != want:
         raise InputError(path, "is not the power model the sweep flew with "
                          f"(model_sha256 {model.sha256[:12]}..., the manifest names "
                          f"{want[:12]}...)", column="drive_model.model_sha256",
-                         expected="the sweep's power model (or give --model)")
+                         expected=f"the sweep's power model back at {path} (the manifest "
+                                  "names its hash), or run bench optimize again with this "
+                                  "model")
     return model

@@ -78,6 +78,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 #: terrain classes end near 2 m (city centres, WMO/Davenport classification)
 MAX_MEAN_WIND_M_S = 30.0
 MAX_ROUGHNESS_M = 5.0
+#: plausible Weibull shapes: measured sites lie from about 1 (gusty, low mean) to about 4
+#: (steady trade winds); Rayleigh is 2
+WEIBULL_K_RANGE = (0.5, 10.0)
 
 
 def _at_most(name: str, value: float | None, limit: float, what: str) -> None:
@@ -134,6 +137,11 @@ def site_from_args(args: argparse.Namespace, shear):
         _at_most("--" + name.replace("_", "-"), getattr(args, name), MAX_MEAN_WIND_M_S,
                  "a site's wind speed [m/s]")
     _at_most("--roughness-m", args.roughness_m, MAX_ROUGHNESS_M, "a roughness length [m]")
+    lo, hi = WEIBULL_K_RANGE
+    if args.weibull_k is not None and not lo <= args.weibull_k <= hi:
+        raise InputError(None, f"--weibull-k {args.weibull_k:g}: implausible Weibull shape",
+                         expected=f"a shape from {lo:g} to {hi:g} (measured sites: about 1 "
+                                  "to 4; Rayleigh, --rayleigh-mean, is 2)")
     if args.roughness_m is not None and args.roughness_m >= min(
             shear.reference_height_m, args.height_m or math.inf):
         raise InputError(None, f"--roughness-m {args.roughness_m:g}: not below the heights "

@@ -35,6 +35,17 @@ from kernel.files import read_text
 
 #: hours in a (non-leap) year: the AEP convention of IEC 61400-12-1
 HOURS_PER_YEAR = 8760.0
+#: Weibull shapes whose integrals stay finite in double precision (the gamma function of
+#: 1 + 1/k overflows below the first, the powers (v/c)^k above the second)
+WEIBULL_K_NUMERIC = (0.1, 100.0)
+
+
+def _check_shape(k: float) -> None:
+    """Raise ValueError for a Weibull shape outside :data:`WEIBULL_K_NUMERIC`."""
+    lo, hi = WEIBULL_K_NUMERIC
+    if not (math.isfinite(k) and lo <= k <= hi):
+        raise ValueError(f"Weibull shape k must be from {lo:g} to {hi:g} (beyond, its "
+                         f"integrals overflow), got {k}")
 
 
 @dataclass(frozen=True)
@@ -103,16 +114,14 @@ class Weibull:
     scale_m_s: float
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.k) and self.k > 0):
-            raise ValueError(f"Weibull shape k must be finite and > 0, got {self.k}")
+        _check_shape(self.k)
         if not (math.isfinite(self.scale_m_s) and self.scale_m_s > 0):
             raise ValueError(f"Weibull scale must be finite and > 0 m/s, got {self.scale_m_s}")
 
     @classmethod
     def from_mean(cls, k: float, mean_m_s: float) -> Weibull:
         """Weibull of shape ``k`` with mean ``mean_m_s`` [m/s]: ``c = mean / Gamma(1 + 1/k)``."""
-        if not (math.isfinite(k) and k > 0):
-            raise ValueError(f"Weibull shape k must be finite and > 0, got {k}")
+        _check_shape(k)
         return cls(k, mean_m_s / math.gamma(1.0 + 1.0 / k))
 
     @property

@@ -33,11 +33,11 @@ from optimize.sweep.trust import run_trust_checks
 from optimize.sweep_folder import (
     FINER_MESH_HEAD,
     MARKERS,
-    UNCHECKED_HEAD,
     bound_lines,
     domain_lines,
     remesh_lines,
     resolve_lines_of,
+    unchecked_head,
     unchecked_lines,
     write_sweep_folder,
 )
@@ -359,8 +359,11 @@ def check_lines(summary: Any) -> list[str]:
             for r in summary.itertuples(index=False) if r.result_check.startswith("failed")]
 
 
-def format_summary(summary: Any) -> str:
-    """The summary as a plain-text table (the paper's Table II analogue, and more)."""
+def format_summary(summary: Any, period_scan: int = 0,
+                   period_bounds_s: tuple[float, float] | None = None) -> str:
+    """The summary as a plain-text table (the paper's Table II analogue, and more);
+    ``period_scan`` and ``period_bounds_s`` [s] (the sweep's) say why a kind was not
+    period-scanned (:func:`optimize.sweep_folder.unchecked_head`)."""
     head = (
         f"{'scenario':<16} {'status':<27} {'it':>4} {'wall s':>6} {'P_elec W':>9} "
         f"{'P_mech W':>9} {'T s':>5} {'E_elec J':>9} {'rpm max':>7} {'T_q Nm':>6} "
@@ -391,7 +394,7 @@ def format_summary(summary: Any) -> str:
                   "better optimum kept:", *resolved]
     unchecked = unchecked_lines(summary)
     if unchecked:
-        lines += ["", f"{UNCHECKED_HEAD}:", *unchecked]
+        lines += ["", f"{unchecked_head(period_scan, period_bounds_s)}:", *unchecked]
     outside = domain_lines(summary)
     if outside:
         lines += ["", "outside the drive model's validity domain (the model extrapolates there):",

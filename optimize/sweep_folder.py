@@ -307,6 +307,25 @@ UNCHECKED_HEAD = (f"local optima not checked (fewer than {MIN_CURVE_SPEEDS} conv
                   "period; benchmarks/README.md, AP2's local optima)")
 
 
+#: the head of :func:`unchecked_lines` when a period scan was asked and held none of them
+UNCHECKED_SCAN_HEAD = (f"local optima not checked (fewer than {MIN_CURVE_SPEEDS} converged "
+                       "wind speeds of the kind, and the period scan held none of their "
+                       "optima: every period it would hold lies outside the period bounds or "
+                       "within 15 % of the optimum's own)")
+
+
+def unchecked_head(period_scan: int = 0, period_bounds_s: tuple[float, float] | None = None
+                   ) -> str:
+    """The head of :func:`unchecked_lines`: with a period scan asked (``--period-scan``
+    > 0), that it held nothing there and the bounds to widen, not the option to give."""
+    if period_scan <= 0:
+        return UNCHECKED_HEAD
+    span = ("" if period_bounds_s is None else
+            f" (now {period_bounds_s[0]:g} to {period_bounds_s[1]:g} s)")
+    return (f"{UNCHECKED_SCAN_HEAD}; widen [bounds] period_min_s, period_max_s{span} for "
+            f"--period-scan {period_scan} to hold other periods")
+
+
 def unchecked_lines(summary: pd.DataFrame) -> list[str]:
     """One line per kind whose converged scenarios are too few for the local-optimum check
     and were not all period-scanned (none for a summary without ``kind``)."""

@@ -313,3 +313,38 @@ def test_a_clock_jump_is_named_in_the_log(trip, tmp_path, capsys):
     jumped = re.search(r"daq.csv: column 'time': .*the log's time jumps at ([0-9.]+) s", err)
     assert jumped and abs(float(jumped.group(1)) - at) < 0.1, err
     assert "different profile" not in err and _stored(store) == before
+
+
+def test_a_run_whose_drive_stopped_early_is_not_blamed_on_the_profile(trip, tmp_path, capsys):
+    """The drive stops half a cycle after cycle 1 and stays at standstill while the DAQ
+    and the analyzer log on (a trip): the cycles before the stop are kept, those after it
+    rejected, not "a different profile"."""
+    base, _ = trip
+    info = read_manifest(base / "store")["sessions"]["cycle_s1"]["cycles"]
+    end = info["phase_s"] + 2.5 * info["period_s"]
+    store, camp = _copy(trip, tmp_path, "cycle_stop")
+    rng = np.random.default_rng(3)
+
+    def stopped(t: float, line: str) -> str:
+        return (line if t < end
+                else f"{t:.3f},{rng.normal(0, 0.5):.2f},{rng.normal(0.15, 0.05):.3f}")
+
+    def standby(t: float, line: str) -> str:
+        if t < end:
+            return line
+        cells = line.split(",")
+        return ",".join([*cells[:2], "400.0", "0.5", f"{rng.normal(195, 4):.0f}", "0.48"])
+
+    _retime(camp / "cycle_stop" / "daq.csv", 0, stopped)
+    _retime(camp / "cycle_stop" / "analyzer.csv", 1, standby)
+    # was: exit 2, "the logged speed does not follow this profile (correlation 0.67 ...):
+    # a different profile than the one named?"
+    assert main(["ingest", str(camp), "--store", str(store), "--no-progress"]) == 0
+    out = capsys.readouterr()
+    assert "different profile" not in out.err + out.out
+    entry = read_manifest(store)["sessions"]["cycle_stop"]
+    assert entry["cycles"]["n_kept"] == 1 and entry["rejected"]["cycle not logged"] == 3
+    said = json.dumps(entry)
+    assert re.search(r"the drive stopped at ([0-9.]+) s", said), said[:2000]
+    at = float(re.search(r"the drive stopped at ([0-9.]+) s", said).group(1))
+    assert abs(at - end) < 0.5 and "the run ended early" in said

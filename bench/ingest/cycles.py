@@ -35,6 +35,9 @@ PERIOD_RTOL = 0.005
 CLOCK_RTOL = 1e-4
 #: measured over set speed (torque) outside this range: the frame is wrong
 GAIN_RANGE = (0.8, 1.25)
+#: the drive is at standstill while its speed stays within this share of the profile's
+#: largest |speed|; a run whose log ends in a standstill longer than a cycle stopped there
+STILL_SHARE = 0.02
 
 SETTLING = "cycle settling"
 NOT_LOGGED = "cycle not logged"
@@ -229,12 +232,19 @@ def _check_gains(gains: dict[str, float], where: dict[str, Path]) -> None:
 
 
 def _judge(k: int, cut: CycleCut, sel: np.ndarray, bins: dict, profile: DriveProfile,
-           peaks: tuple[float, float], where: dict[str, Path]) -> tuple[str | None, str]:
-    """Cycle ``k``'s reason to be rejected (None to keep) and the line saying why."""
+           peaks: tuple[float, float], where: dict[str, Path],
+           stop: tuple[float, float] | None = None) -> tuple[str | None, str]:
+    """Cycle ``k``'s reason to be rejected (None to keep) and the line saying why;
+    ``stop``: the time [s] the drive stopped and the end of the log, when it did."""
     a, b = cut.bounds(k)
     if k == 0:
         return SETTLING, (f"cycle 0 ({a:.2f} to {b:.2f} s): the first after the ramp in, "
                           "whose transient the loops' and the instruments' lags carry into it")
+    if stop is not None and b > stop[0]:
+        return NOT_LOGGED, (f"cycle {k} ({a:.2f} to {b:.2f} s): the drive stopped at "
+                            f"{stop[0]:.2f} s ({where['daq'].name}: its speed stays at "
+                            f"standstill from there to the end of the log at {stop[1]:.2f} "
+                            "s): the run ended early")
     if a < bins["t"][0] or b > bins["t"][-1] or bins["gap"][sel].any() \
             or np.isnan(bins["speed"][sel]).mean() > 0.1:
         return NOT_LOGGED, (f"cycle {k} ({a:.2f} to {b:.2f} s): the log "
@@ -288,6 +298,18 @@ def _not_found(problem: str, bins: dict, profile: DriveProfile, where: dict[str,
                       column="cycle.profile", expected="the drive profile this run flew")
 
 
+def _stopped(bins: dict, speed_set: np.ndarray, period_s: float) -> tuple[float, float] | None:
+    """When the log ends in a standstill longer than a cycle (the drive stopped while the
+    loggers ran on): the time it began [s] and the end of the log [s]; else None."""
+    moving = np.abs(np.nan_to_num(bins["speed"])) > STILL_SHARE * float(np.abs(speed_set).max())
+    if not moving.any():
+        return None
+    last = int(np.flatnonzero(moving)[-1])
+    if last + 1 >= bins["t"].size or bins["t"][-1] - bins["t"][last] <= period_s:
+        return None
+    return float(bins["t"][last + 1]), float(bins["t"][-1])
+
+
 def cut_cycles(bins: dict, profile: DriveProfile, where: dict[str, Path]) -> CycleCut:
     """Find the profile's cycles in a run's bins and judge each.
 
@@ -314,8 +336,14 @@ def cut_cycles(bins: dict, profile: DriveProfile, where: dict[str, Path]) -> Cyc
     """
     speed_set, torque_set = profile.drum()
     t0, rho = global_shift(bins["t"], bins["speed"], profile.columns["time_s"], speed_set)
+    stop = _stopped(bins, speed_set, profile.period_s) if rho < MIN_CORRELATION else None
+    if stop is not None:  # a run that stopped early: its cycles up to the stop
+        bins = {k: v[bins["t"] < stop[0]] for k, v in bins.items()}
+        t0, rho = global_shift(bins["t"], bins["speed"], profile.columns["time_s"], speed_set)
     if rho < MIN_CORRELATION:
-        raise _not_found(f"the logged speed does not follow this profile (correlation "
+        before = "" if stop is None else (f" before the drive stopped at {stop[0]:.2f} s "
+                                          "(standstill to the end of the log)")
+        raise _not_found(f"the logged speed{before} does not follow this profile (correlation "
                          f"{rho:.2f} at the best shift, below {MIN_CORRELATION:g})", bins,
                          profile, where, t0)
     starts, corr = cycle_starts(bins["t"], bins["speed"], profile, t0)
@@ -333,7 +361,7 @@ def cut_cycles(bins: dict, profile: DriveProfile, where: dict[str, Path]) -> Cyc
     peaks = (float(np.abs(speed_set).max()), float(np.abs(torque_set).max()))
     for k in range(profile.n_cycles):
         sel = (bins["t"] >= cut.bounds(k)[0]) & (bins["t"] < cut.bounds(k)[1])
-        reason, line = _judge(k, cut, sel, bins, profile, peaks, where)
+        reason, line = _judge(k, cut, sel, bins, profile, peaks, where, stop)
         if reason is None:
             cut.kept.append(k)
         else:
