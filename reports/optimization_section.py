@@ -91,6 +91,13 @@ def key_warnings(summary: pd.DataFrame) -> list[tuple[str, str]]:
     return rows
 
 
+def drive_checks(manifest: dict | None) -> list[tuple[str, str]]:
+    """What the drive in force assumes that a real machine would not (the manifest's
+    ``drive.checks``, :mod:`optimize.system.drive_power_check`), for Key results."""
+    checks = ((manifest or {}).get("drive") or {}).get("checks") or []
+    return [("drive in force", str(c)) for c in checks]
+
+
 def _scenario_list(rows: pd.DataFrame) -> str:
     """Scenarios by kind: ``mech-lim at 6, 9 m/s; mech-free at 12 m/s``."""
     return "; ".join(f"{kind} at {', '.join(fmt(w, sig=3) for w in sorted(g['wind_speed_m_s']))}"
@@ -229,6 +236,67 @@ def claims_rows(claims: pd.DataFrame) -> list[dict]:
     return [{c: str(r.get(c, "")) for c in columns} for r in claims.to_dict(orient="records")]
 
 
+#: what each name of ``active_bounds`` (docs/schemas.md §5) means, and the manifest's
+#: ``options.limits`` key holding its value with the value's unit (None: no single value)
+BOUND_MEANINGS = {
+    "period_min": ("the cycle period at the shortest of its search range",
+                   "period_bounds_s", "s"),
+    "period_max": ("the cycle period at the longest of its search range", "period_bounds_s",
+                   "s"),
+    "tether_length_min": ("the tether at the shortest of its search range",
+                          "tether_length_bounds_m", "m"),
+    "tether_length_max": ("the tether at the longest of its search range",
+                          "tether_length_bounds_m", "m"),
+    "ground_clearance": ("the kite at its lowest allowed altitude", "min_altitude_m", "m"),
+    "airspeed_min": ("the kite at its least airspeed (the kite's limit, every kind)",
+                     "min_airspeed_m_s", "m/s"),
+    "airspeed_max": ("the kite at its largest airspeed (the kite's limit, every kind)",
+                     "max_airspeed_m_s", "m/s"),
+    "tether_force_limit": ("the tether at its largest force (the kite's limit, every kind)",
+                           "max_tether_force_n", "N"),
+    "tension_min": ("the tether at its least tension: a line that must stay taut (every "
+                    "kind)", "min_tension_n", "N"),
+    "reel_acceleration_limit": ("the winch at its largest reel acceleration (every kind)",
+                                "max_reel_acceleration_m_s2", "m/s^2"),
+    "reel_jerk_limit": ("the winch at its largest reel jerk (every kind)",
+                        "max_reel_jerk_m_s3", "m/s^3"),
+    "reel_out_speed_limit": ("the winch at its largest reel-out speed (every kind)",
+                             "max_reel_out_speed_m_s", "m/s"),
+    "reel_in_speed_limit": ("the winch at its largest reel-in speed (every kind)",
+                            "max_reel_in_speed_m_s", "m/s"),
+    "body_rate_limit": ("a body rate of the kite (roll, pitch or yaw) at its bound (every "
+                        "kind)", "max_body_rate_deg_s", "deg/s"),
+    "surface_limit": ("a control surface (aileron, elevator, rudder) at its largest "
+                      "deflection: the kite's own actuator limit, in force in every kind, "
+                      "the unconstrained ones included (the kind's 'free' frees the drive, "
+                      "not the kite)", "surface_bounds_deg", "deg"),
+    "speed_limit": ("the drive at its speed limit (constrained kinds)", "max_speed_rpm", "rpm"),
+    "torque_limit": ("the drive at its torque limit (constrained kinds)", "max_torque_nm",
+                     "N m"),
+    "envelope_limit": ("the drive on its torque-speed envelope above base speed (constrained "
+                       "kinds)", "base_speed_rpm", "rpm base speed"),
+    "p_elec_limit": ("the grid connection at its largest power (constrained kinds)",
+                     "max_p_elec_w", "W"),
+    "winding_temperature_limit": ("the drive's winding at its largest temperature "
+                                  "(constrained kinds)", "max_winding_temperature_c", "degC"),
+}
+
+
+def bound_legend(rows: list[dict], limits: dict) -> list[str]:
+    """What each bound name in the table ``rows`` (:func:`bound_rows`) means, once each, with
+    its value from the sweep's limits (``options.limits`` of the manifest)."""
+    names = dict.fromkeys(n.strip() for r in rows for n in r["active_bounds"].split(",")
+                          if n.strip() and n.strip() != "none")
+    out = []
+    for name in names:
+        meaning, key, unit = BOUND_MEANINGS.get(name, ("see docs/schemas.md section 5", None,
+                                                       None))
+        value = limits.get(key) if key else None
+        shown = (f" ({value_text(value)} {unit})" if value is not None else "")
+        out.append(f"{name}: {meaning}{shown}")
+    return out
+
+
 def bound_rows(summary: pd.DataFrame) -> list[dict]:
     """Converged scenarios on a bound or with a slack tether
     (:func:`optimize.sweep_folder.on_bounds`), one table row each; none for a summary
@@ -295,6 +363,7 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
     paper = is_paper_system(manifest) if manifest is not None else False
     out.update({"manifest": manifest, "table_ii": None, "n_failed": 0, "n_scenarios": 0,
                 "paper": paper, "key_warnings": [], "fig3_wind": fmt(FIG3_WIND_M_S, sig=3),
+                "bound_legend": [],
                 "scenarios": None, "fig8a": None, "fig8b": None, "cycles": None,
                 "fig3": None, "notes": {"fig3": None}, "bounds": [], "failed": [],
                 "finer_mesh": [], "finer_mesh_head": FINER_MESH_HEAD,
@@ -307,9 +376,10 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
                     "failed": failed_rows(summary),
                     "n_scenarios": len(s), "scenarios": frame_table(summary),
                     "bounds": bound_rows(summary), "domain": domain_rows(summary),
+                    "bound_legend": bound_legend(bound_rows(summary), flown_limits(manifest)),
                     "finer_mesh": remesh_lines(summary),
                     "unchecked": unchecked_lines(summary),
-                    "key_warnings": key_warnings(summary)})
+                    "key_warnings": drive_checks(manifest) + key_warnings(summary)})
         out["fig8a"] = cycle_figures.power_vs_wind_figure(
             s, "avg_p_elec_w", "fig8a", "Average generated ELECTRICAL power (Fig. 8a)")
         out["fig8b"] = cycle_figures.power_vs_wind_figure(

@@ -37,7 +37,9 @@ def write_other_kite(opt):
                          "drive_limits": kind.endswith("lim"), "wind_speed_m_s": w,
                          "success": True, "status": "Solve_Succeeded", "iterations": 12,
                          "period_s": 6.0, "avg_p_elec_w": p_e, "avg_p_mech_w": 1.3 * p_e,
-                         "peak_speed_rpm": 900.0, "peak_torque_nm": 40.0})
+                         "peak_speed_rpm": 900.0, "peak_torque_nm": 40.0,
+                         "active_bounds": "surface_limit,ground_clearance",
+                         "bound_limited": False, "slack_fraction": 0.0})
             trajs.append(_cycle(name, kind, w))
     system = load_system("optimize/data/systems/ap2.toml")
     claims = pd.DataFrame({"claim_id": ["fig3-energy"], "statement": ["Fig. 3 nets 827 J"],
@@ -48,6 +50,8 @@ def write_other_kite(opt):
         summary=pd.DataFrame(rows), trajectories=pd.concat(trajs, ignore_index=True),
         system=system.record(), claims=claims, carried_model=None, manifest={
             "wind_speeds_m_s": list(WINDS), "system": system.record(),
+            "options": {"limits": {"surface_bounds_deg": [20.0, 30.0, 30.0],
+                                   "min_altitude_m": 100.0}},
             "drive_model": {"path": "", "model_sha256": "", "name": "none"},
             "cut_in": [{"kind": "elec-lim", "cut_in_m_s": None, "bracket_lo_m_s": None,
                         "bracket_hi_m_s": None, "status": "no bracket: every grid speed "
@@ -121,3 +125,16 @@ def test_browser_key_results_have_no_empty_cell(browser, other):  # noqa: F811
     assert all(re.search(r"[0-9A-Za-z]", re.sub(r"\b(m/s|MWh/yr|W|N m|rpm)\b", "", v))
                for v in values), cells
     assert not any(v in ("None", "nan", "n/a") for v in values)
+
+
+def test_every_active_bound_is_explained(other):
+    # issue 49: surface_limit was an active bound on 28 of the demo's 32 optima,
+    # unconstrained kinds included, and nothing said what it is
+    legend = other["ctx"]["optimization"]["bound_legend"]
+    assert legend[0].startswith("surface_limit: a control surface (aileron, elevator, rudder) "
+                                "at its largest deflection")
+    assert "in force in every kind, the unconstrained ones included" in legend[0]
+    assert legend[0].endswith("(20, 30, 30 deg)")
+    assert legend[1] == "ground_clearance: the kite at its lowest allowed altitude (100 m)"
+    assert '<ul id="bound-legend">' in other["html"]
+

@@ -11,8 +11,10 @@ where its losses come from. :func:`drive_in_force` resolves both:
   key the file leaves out comes from the power model's own rating (said so);
 - how the losses are **carried** to the rating: ``scaling = "similarity"``
   (:func:`optimize.model.drivetrain.carry_power_model` with the speed ratio ``k_n`` of
-  the speed ratings and the torque ratio ``k_T`` of the nominal torques, nominal
-  power over rated speed, so ``k_n k_T`` is the ratio of nominal powers) or
+  the speed ratings, the corners of their constant-torque regions (the base speed of a
+  system drive with a constant-power envelope, else its speed limit), and the torque
+  ratio ``k_T`` of the nominal torques, nominal power over that speed, so ``k_n k_T`` is
+  the ratio of nominal powers) or
   ``"none"`` (the model as it is). Without the key a model whose rating differs
   from the system's by more than :data:`RATING_RATIO_LIMIT` in speed, torque or
   nominal power is refused (exit 2) naming the key.
@@ -28,6 +30,7 @@ from kernel.drive_envelope import ENVELOPE_KEYS
 from kernel.drive_rating import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS, DriveRating
 from kernel.errors import InputError
 from optimize.model.envelope import has_envelope
+from optimize.system.drive_power_check import efficiency_assumption, power_check
 
 #: ``[drive] losses`` value naming the shipped paper model
 LOSSES_PAPER = "paper"
@@ -57,6 +60,9 @@ class DriveInForce:
     envelope_note : str
         Said when the power model's rating states a torque-speed envelope that the
         system file does not (the OCP flies the system file's), else empty.
+    checks : tuple of str
+        What the rating and the carried losses assume that a real machine would not
+        (:mod:`optimize.system.drive_power_check`): printed, recorded, reported.
     """
 
     rating: DriveRating
@@ -66,6 +72,7 @@ class DriveInForce:
     speed_ratio: float | None = None
     torque_ratio: float | None = None
     envelope_note: str = ""
+    checks: tuple[str, ...] = ()
 
     @property
     def carried(self) -> bool:
@@ -80,13 +87,15 @@ class DriveInForce:
             out.append(f"drive losses carried to this rating by the similarity law "
                        f"(speed x{self.speed_ratio:.4g}, torque x{self.torque_ratio:.4g}; "
                        "docs/system_file.md)")
-        return out + ([self.envelope_note] if self.envelope_note else [])
+        return (out + ([self.envelope_note] if self.envelope_note else [])
+                + [f"note: {c}" for c in self.checks])
 
     def record(self) -> dict:
         """The manifest's ``drive`` record."""
         return {"rating": self.rating.to_dict(), "losses_path": str(self.model_path),
                 "losses_note": self.losses_note, "speed_ratio": self.speed_ratio,
-                "torque_ratio": self.torque_ratio, "model_sha256": self.model.sha256}
+                "torque_ratio": self.torque_ratio, "model_sha256": self.model.sha256,
+                "checks": list(self.checks)}
 
 
 def loss_model_path(system: Any, override: Path | None = None,
@@ -183,15 +192,16 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
     rating = rating_in_force(system, model, path)
     base = getattr(model, "drive", None)
     env = unflown_envelope(system, base, path)
+    checks = tuple(c for c in (power_check(rating, system.drive),) if c)
     scaling = system.drive.scaling
     if scaling == "none":
-        return DriveInForce(rating, model, path, note, envelope_note=env)
+        return DriveInForce(rating, model, path, note, envelope_note=env, checks=checks)
     if base is None:
         if scaling == "similarity":
             raise InputError(system.path, f'[drive] scaling = "similarity": the power model '
                              f"{path} states no rating to carry its losses from",
                              expected='a power model with a "drive" rating, or scaling = "none"')
-        return DriveInForce(rating, model, path, note, envelope_note=env)
+        return DriveInForce(rating, model, path, note, envelope_note=env, checks=checks)
     base_rating = (float(base["max_speed_rpm"]), float(base["max_torque_nm"]),
                    float(base["nominal_power_w"]))
     ratios = {"max_speed_rpm": rating.max_speed_rpm / base_rating[0],
@@ -217,14 +227,38 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
                 "the losses over",
                 expected='[drive] scaling = "similarity" (carry the losses to this rating, '
                          'docs/system_file.md) or scaling = "none" (use them as they are)')
-        return DriveInForce(rating, model, path, note, envelope_note=env)
-    # the machine's size: speed ratio and ratio of nominal torques (nominal power / speed)
-    k_n = ratios["max_speed_rpm"]
+        return DriveInForce(rating, model, path, note, envelope_note=env, checks=checks)
+    # the machine's size: the ratio of the corners of the constant-torque regions (a base
+    # speed, else the speed limit) and of nominal torques (nominal power / that speed)
+    k_n = _corner_rpm(system.drive, rating) / _corner_rpm(_Table(base), rating_of(base))
     k_t = ratios["nominal_power_w"] / k_n
+    checks = (*checks, *(c for c in (efficiency_assumption(ratios["nominal_power_w"]),) if c))
     carried = carry_power_model(model, k_n, k_t, drive=rating.to_dict(),
                                 name=f"{model.name} carried to {rating.max_speed_rpm:g} rpm, "
                                      f"{rating.max_torque_nm:g} N m")
-    return DriveInForce(rating, carried, path, note, k_n, k_t, envelope_note=env)
+    return DriveInForce(rating, carried, path, note, k_n, k_t, envelope_note=env,
+                        checks=checks)
+
+
+class _Table:
+    """A power model's ``drive`` mapping read as a ``[drive]`` section (its envelope)."""
+
+    def __init__(self, drive: dict) -> None:
+        self.base_speed_rpm = drive.get("base_speed_rpm")
+
+
+def rating_of(drive: dict) -> Any:
+    """A power model's ``drive`` mapping's speed limit, as a rating."""
+    from types import SimpleNamespace
+
+    return SimpleNamespace(max_speed_rpm=float(drive["max_speed_rpm"]))
+
+
+def _corner_rpm(envelope: Any, rating: Any) -> float:
+    """The corner of a drive's constant-torque region [rpm]: its base speed when it states a
+    constant-power envelope, else its speed limit."""
+    base = getattr(envelope, "base_speed_rpm", None)
+    return float(base) if base is not None else float(rating.max_speed_rpm)
 
 
 def unflown_envelope(system: Any, model_drive: dict | None, path: Path) -> str:

@@ -1,0 +1,96 @@
+"""Whether a drive's rating is one a real machine has, and what a carried loss model assumes.
+
+**Peak power.** A machine runs at its nominal power continuously and above it only for a
+short time, at the overload its datasheet states (``[drive] overload``: the short-time
+torque over the continuous one). An airborne-wind-energy ground station's generator is
+sized for the peak mechanical power of the reel-out phase, 2.5 times the rated electrical
+(cycle-average) power in AWE-Power (R. Joshi, R. Schmehl, M. Kruijff, "Power curve
+modelling and scaling of fixed-wing ground-generation airborne wind energy systems",
+Wind Energ. Sci. 9, 2195-2215, 2024; its input ``peakM2E_F``, awegroup/AWE-Power):
+:data:`PEAK_TO_RATED` is that factor, the limit where the rating states no overload. The
+most shaft power a cycle can draw within the limits (:func:`peak_shaft_power_w`) is the
+torque limit times the speed limit without an envelope, times the base speed with a
+constant-power envelope, the largest torque times speed of a datasheet table (its last
+torque held to the speed limit) otherwise. A rating whose peak exceeds that many times its
+nominal power is no drive an engineer would recognize: :func:`power_check` says so, and
+``bench optimize``, ``bench size`` and the report print it.
+
+**Efficiency and size.** The similarity law (:func:`optimize.model.drivetrain.
+carry_power_model`) keeps the base drive's efficiency at corresponding operating points.
+Real machines grow more efficient with their rating: the IEC 60034-30-1 efficiency
+classes rise with rated power (IE3, 4 poles, 50 Hz: 90.4 % at 7.5 kW, 96.0 % from 200 kW
+up). The law does not know that: :func:`efficiency_assumption` says so whenever it
+carries losses to a larger drive.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+#: the largest peak shaft power a rating may allow per unit of its nominal power when it
+#: states no overload: AWE-Power's peak mechanical to rated electrical power (see above)
+PEAK_TO_RATED = 2.5
+#: IEC 60034-30-1 IE3 efficiency, 4 poles, 50 Hz: (rated power [W], efficiency [-]) at the
+#: class table's small and large end quoted in the assumption
+IE3_4POLE = ((7.5e3, 0.904), (200e3, 0.960))
+#: a carried drive this many times the base drive's nominal power or more gets the line
+EFFICIENCY_NOTE_RATIO = 1.5
+
+
+def peak_shaft_power_w(rating: Any, envelope: Any = None) -> float:
+    """The most shaft power [W] a cycle can draw within a rating's limits (see the module
+    text); ``envelope`` has ``base_speed_rpm``, ``envelope_speed_rpm``,
+    ``envelope_torque_nm`` (a system file's ``[drive]``; None or unset: no envelope)."""
+    w = math.pi / 30.0
+    base = getattr(envelope, "base_speed_rpm", None)
+    speeds = getattr(envelope, "envelope_speed_rpm", None)
+    if base is not None:
+        return rating.max_torque_nm * min(base, rating.max_speed_rpm) * w
+    if speeds is not None:
+        n = np.append(np.asarray(speeds, float), rating.max_speed_rpm)
+        n = n[n <= rating.max_speed_rpm]
+        t = np.minimum(np.interp(n, speeds, envelope.envelope_torque_nm),
+                       rating.max_torque_nm)
+        return float(np.max(n * t)) * w
+    return rating.max_torque_nm * rating.max_speed_rpm * w
+
+
+def power_check(rating: Any, envelope: Any = None) -> str | None:
+    """A sentence when the rating lets the drive deliver more shaft power than its nominal
+    power times its overload (the stated ``overload``, else :data:`PEAK_TO_RATED`), else
+    None."""
+    peak = peak_shaft_power_w(rating, envelope)
+    factor = rating.overload if rating.overload is not None else PEAK_TO_RATED
+    if peak <= factor * rating.nominal_power_w * (1 + 1e-9):
+        return None
+    why = (f"its datasheet overload {factor:g}" if rating.overload is not None else
+           f"{PEAK_TO_RATED:g}, AWE-Power's peak mechanical power of a ground station's "
+           "generator per rated electrical power (Joshi et al. 2024)")
+    return (f"drive rating not that of a real machine: torque <= {rating.max_torque_nm:g} N m "
+            f"and speed <= {rating.max_speed_rpm:g} rpm let a cycle draw {power_text(peak)} "
+            f"at the shaft, {peak / rating.nominal_power_w:.3g} times its nominal "
+            f"{power_text(rating.nominal_power_w)}, above {why}: state a constant-power "
+            "envelope ([drive] base_speed_rpm) or the datasheet's overload, or a nominal "
+            "power that fits the limits")
+
+
+def power_text(power_w: float) -> str:
+    """A power in words, three significant digits: ``34.7 MW``, ``12.3 kW``."""
+    return f"{power_w / 1e6:.3g} MW" if power_w >= 1e6 else f"{power_w / 1e3:.3g} kW"
+
+
+def efficiency_assumption(nominal_ratio: float) -> str | None:
+    """The line that says the similarity law keeps efficiency with size, when it carries
+    losses to a drive ``nominal_ratio`` times the base drive's nominal power (at least
+    :data:`EFFICIENCY_NOTE_RATIO`), else None."""
+    if nominal_ratio < EFFICIENCY_NOTE_RATIO:
+        return None
+    (p0, e0), (p1, e1) = IE3_4POLE
+    return (f"the similarity law carries the base drive's efficiency unchanged to a drive "
+            f"{nominal_ratio:.3g} times its nominal power: it assumes efficiency does not rise "
+            f"with rating, while IEC 60034-30-1's classes do (IE3, 4 poles: {100 * e0:.1f} % "
+            f"at {p0 / 1e3:g} kW, {100 * e1:.1f} % from {p1 / 1e3:g} kW), so the carried "
+            "losses are likely too large; a bench fit of the real drive replaces them")

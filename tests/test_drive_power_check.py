@@ -1,0 +1,98 @@
+"""A drive rating an engineer would recognize (issue 49: the shipped MegAWES drive was
+rated 3 MW but held 556 kN m up to 597 rpm, 35 MW, with no envelope, and the paper drive's
+losses were carried to it at up to 11 times its nominal torque).
+
+Truths: the shaft power of the limits by hand (P = T w); AWE-Power's 2.5 (peak mechanical
+over rated electrical power); the paper drive's corner (1500 rpm, 78 N m).
+"""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from kernel.drive_rating import DriveRating
+from optimize.system.drive_in_force import drive_in_force
+from optimize.system.drive_power_check import (
+    PEAK_TO_RATED,
+    efficiency_assumption,
+    peak_shaft_power_w,
+    power_check,
+)
+from optimize.system.system_file import load_system
+
+W = math.pi / 30  # rpm -> rad/s
+NONE = SimpleNamespace(base_speed_rpm=None, envelope_speed_rpm=None, envelope_torque_nm=None)
+
+
+def test_peak_shaft_power_of_each_kind_of_envelope():
+    r = DriveRating(3e6, 600.0, 556000.0)
+    assert peak_shaft_power_w(r, NONE) == pytest.approx(556000.0 * 600.0 * W)
+    base = SimpleNamespace(base_speed_rpm=130.0, envelope_speed_rpm=None)
+    assert peak_shaft_power_w(r, base) == pytest.approx(556000.0 * 130.0 * W)
+    # a table: 556 kN m to 100 rpm, 200 kN m at 400 rpm, flat beyond (held to 600 rpm)
+    table = SimpleNamespace(base_speed_rpm=None, envelope_speed_rpm=(0.0, 100.0, 400.0),
+                            envelope_torque_nm=(556000.0, 556000.0, 200000.0))
+    assert peak_shaft_power_w(r, table) == pytest.approx(200000.0 * 600.0 * W)
+
+
+def test_the_old_megawes_rating_is_said_not_to_be_a_machine():
+    old = DriveRating(3e6, 596.8310365946075, 556000.0)  # the file before issue 49
+    line = power_check(old, NONE)
+    assert line.startswith("drive rating not that of a real machine")
+    assert "let a cycle draw 34.8 MW at the shaft, 11.6 times its nominal 3 MW" in line
+    # the paper's drive: 78 N m x 1500 rpm = 12.3 kW, 1.49 x 8.2 kW, within its overload 5
+    assert power_check(DriveRating(8200.0, 1500.0, 78.0, overload=5.0), NONE) is None
+    # without a stated overload, AWE-Power's 2.5 is the limit
+    at = DriveRating(1000.0, 1000.0, PEAK_TO_RATED * 1000.0 / (1000.0 * W))
+    assert power_check(at, NONE) is None
+    assert power_check(DriveRating(999.0, at.max_speed_rpm, at.max_torque_nm), NONE)
+
+
+@pytest.mark.parametrize("name", ["highwind", "ap2", "megawes", "highwind_drivetrain"])
+def test_every_shipped_drive_is_a_machine(name):
+    system = load_system(f"optimize/data/systems/{name}.toml")
+    drive = drive_in_force(system)
+    assert not [c for c in drive.checks if c.startswith("drive rating")], drive.checks
+
+
+def test_megawes_drive_is_rated_and_carried_at_its_corner():
+    system = load_system("optimize/data/systems/megawes.toml")
+    drive = drive_in_force(system)
+    r, d = drive.rating, system.drive
+    # peak 2.5 x 3 MW at the torque limit at base speed; continuous torque = nominal power
+    # at base speed; the torque limit 2.5 times it
+    assert r.max_torque_nm * d.base_speed_rpm * W == pytest.approx(2.5 * r.nominal_power_w,
+                                                                    rel=1e-4)
+    assert r.continuous_torque_nm == pytest.approx(r.nominal_power_w / (d.base_speed_rpm * W),
+                                                   rel=1e-3)
+    # the paper drive's corner (1500 rpm; nominal torque 8200 W / 1500 rpm) on its base
+    # speed: the torque limit maps to 556 kN m / k_T = 1.67 x 78 N m, not 7.8 x as before
+    assert drive.speed_ratio == pytest.approx(d.base_speed_rpm / 1500.0)
+    assert drive.speed_ratio * drive.torque_ratio == pytest.approx(3e6 / 8200.0)
+    assert r.max_torque_nm / drive.torque_ratio / 78.0 == pytest.approx(1.67, abs=0.01)
+    # generating at the torque limit at base speed: the carried drive converts 91.7 %
+    n, t = np.array([-d.base_speed_rpm]), np.array([r.max_torque_nm])
+    eta = drive.model.p_elec_w(n, t) / (n * W * t)
+    assert 0.85 < float(eta[0]) < 0.95
+    # and the output says what the law assumes about efficiency and size
+    assert any("IEC 60034-30-1" in c for c in drive.checks)
+    assert any("IEC 60034-30-1" in line for line in drive.lines())
+
+
+def test_the_efficiency_assumption_is_said_for_a_larger_drive_only():
+    assert efficiency_assumption(1.2) is None
+    line = efficiency_assumption(366.0)
+    assert "366 times its nominal power" in line and "90.4 % at 7.5 kW" in line
+
+
+def test_report_key_results_carry_the_drive_checks():
+    from reports.optimization_section import drive_checks
+
+    manifest = {"drive": {"checks": ["drive rating not that of a real machine: x"]}}
+    assert drive_checks(manifest) == [("drive in force",
+                                       "drive rating not that of a real machine: x")]
+    assert drive_checks({}) == []
