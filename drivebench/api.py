@@ -23,7 +23,7 @@ exit code 2). Nothing here prints; progress bars are off unless asked for.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -431,12 +431,16 @@ class SizeResult:
         What was assumed (a rating the system file does not state).
     files : dict
         Name -> written path.
+    decision : dict
+        Whether the choice holds for the site (:func:`energy.decision.decision`: ``holds``,
+        ``line``, the grid that covers the site).
     """
 
     sizing: Any
     drive: Any
     notes: tuple[str, ...]
     files: dict
+    decision: dict = field(default_factory=dict)
 
     @property
     def table(self) -> pd.DataFrame:
@@ -457,8 +461,8 @@ class SizeResult:
         t = self.table
         aep = ", ".join(f"{r.candidate} {r.aep_elec_mwh:.3g}" if pd.notna(r.aep_elec_mwh)
                         else f"{r.candidate} failed" for r in t.itertuples(index=False))
-        return [("chosen", f"{self.chosen} (smallest within tolerance of the best, "
-                           f"{self.best})"),
+        return [("decision", self.decision.get("line") or
+                 f"{self.chosen} (smallest within tolerance of the best, {self.best})"),
                 ("electrical AEP [MWh/yr]", aep),
                 ("solves", f"{self.sizing.n_solved} solved, {self.sizing.n_cached} loaded, "
                            f"{self.sizing.wall_time_s:.1f} s"),
@@ -515,7 +519,7 @@ def size(site: Any, drive_model: Any = None, *, system: Any = None,
                     rating=rating, solver=solver, execution=execution, out=out,
                     site_note=site_note, command_line=command_line,
                     before_solving=before_solving)
-    return SizeResult(done.sizing, done.drive, done.notes, done.files)
+    return SizeResult(done.sizing, done.drive, done.notes, done.files, done.decision)
 
 
 def cycle_export(optimize: str | Path, scenario: str, out: str | Path = "profile.csv", *,

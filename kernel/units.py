@@ -53,3 +53,12 @@ def unit_of(column: str) -> str:
         if column.endswith(suffix):
             return unit
     return ""
+
+
+def power_words(power_w: float) -> str:
+    """A power in words with its unit, three significant digits: ``34.7 MW``, ``493 kW``,
+    ``827 W`` (the sign kept)."""
+    size = abs(power_w)
+    if size >= 1e6:
+        return f"{power_w / 1e6:.3g} MW"
+    return f"{power_w / 1e3:.3g} kW" if size >= 1e3 else f"{power_w:.3g} W"

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from kernel.errors import InputError
+from kernel.units import power_words
 from optimize.door import KINDS, LABELS, envelope_curve
 from optimize.sweep_folder import (
     CLAIMS_FILE,
@@ -86,8 +87,8 @@ def key_warnings(summary: pd.DataFrame) -> list[tuple[str, str]]:
         rows.append(("drawing from the grid while generating", (
             f"{len(losing)} converged cycles draw net power from the grid while the drum "
             f"generates (the drive's losses exceed the drum's power): {_scenario_list(losing)};"
-            f" largest {w['scenario']}: {fmt(float(w['avg_p_elec_w']), 0)} W drawn, "
-            f"{fmt(-float(w['avg_p_mech_w']), 0)} W generated at the drum")))
+            f" largest {w['scenario']}: {power_words(float(w['avg_p_elec_w']))} drawn, "
+            f"{power_words(-float(w['avg_p_mech_w']))} generated at the drum")))
     return rows
 
 

@@ -151,8 +151,10 @@ def energy_headline(energy: dict) -> list[tuple[str, str]]:
     rows = []
     for r in energy["table"]:
         if r["kind"].startswith("elec-lim"):
+            band = (f"95 %: {r['band']}" if r["band"] != "n/a" else
+                    "no 95 % band: the notes of section 5 say why")
             rows.append(("electrical AEP (elec-lim)",
-                         f"{r['aep_elec']} MWh/yr (95 %: {r['band']}), "
+                         f"{r['aep_elec']} MWh/yr ({band}), "
                          f"capacity factor {r['cf_elec']}; {r['coverage']}"))
     if energy["sizing"] is not None:
         rows += energy["sizing"]["headline"]

@@ -138,3 +138,26 @@ def test_every_active_bound_is_explained(other):
     assert legend[1] == "ground_clearance: the kite at its lowest allowed altitude (100 m)"
     assert '<ul id="bound-legend">' in other["html"]
 
+
+
+def test_key_results_say_when_cycles_leave_the_model_or_lose_more_than_they_make():
+    # issue 49: MegAWES cycles ran 16-98 % of their time outside the drive model's domain
+    # and mech-lim drew up to 1.29 MW from the grid while generating at the drum; nothing
+    # in Key results said so
+    from reports.optimization_section import key_warnings
+
+    summary = pd.DataFrame({
+        "scenario": ["mech-lim-6.0", "mech-lim-9.0", "elec-lim-9.0"],
+        "kind": ["mech-lim", "mech-lim", "elec-lim"], "wind_speed_m_s": [6.0, 9.0, 9.0],
+        "success": [True, True, True], "avg_p_elec_w": [492923.0, -356894.0, -662985.0],
+        "avg_p_mech_w": [-255605.0, -1105231.0, -981911.0],
+        "outside_domain_time_frac": [0.632, 0.558, 0.278]})
+    rows = dict(key_warnings(summary))
+    assert rows["outside the drive model's domain"].startswith(
+        "2 of 3 converged cycles spend most of their time outside")
+    assert "mech-lim at 6, 9 m/s; worst mech-lim-6.0, 63 % of its cycle" in rows[
+        "outside the drive model's domain"]
+    assert rows["drawing from the grid while generating"].endswith(
+        "mech-lim at 6 m/s; largest mech-lim-6.0: 493 kW drawn, 256 kW generated at the drum")
+    quiet = summary.assign(avg_p_elec_w=-1.0, outside_domain_time_frac=0.1)
+    assert key_warnings(quiet) == []

@@ -122,3 +122,44 @@ def test_below_a_cut_in_inside_the_grid_nothing_is_left_out():
     assert cov["deliver_at_first"] == []
     assert cov["energy_left_out"] == pytest.approx(_energy(SITE, 12.0, 200.0), rel=1e-6)
     assert cov["share_left_out"] == pytest.approx(1 - float(SITE.cdf(12.0)), rel=1e-12)
+
+
+def test_console_candidate_table_has_no_raw_values():
+    # issue 49: `None` in peak_winding_temperature_c on every row, 1.23e+04 for a power,
+    # the capacity factor as 0.06879 where other places use %
+    from energy.sizing import format_candidates
+
+    table = pd.DataFrame([
+        {"candidate": "x1.5", "peak_torque_nm": 117.0, "rated_torque_nm": 117.0,
+         "max_speed_rpm": 1500.0, "nominal_power_w": 12300.0, "aep_elec_mwh": 3.862,
+         "aep_share_of_best": 0.9919, "capacity_factor_elec": 0.03584, "n_converged": 4,
+         "n_winds": 4, "rms_bound_active_at": "", "thermal_bound_active_at": "",
+         "peak_winding_temperature_c": None},
+        {"candidate": "x2", "peak_torque_nm": 156.0, "rated_torque_nm": 156.0,
+         "max_speed_rpm": 1500.0, "nominal_power_w": 16400.0, "aep_elec_mwh": None,
+         "aep_share_of_best": None, "capacity_factor_elec": None, "n_converged": 3,
+         "n_winds": 4, "rms_bound_active_at": "7,10", "thermal_bound_active_at": "",
+         "peak_winding_temperature_c": 71.25}])
+    text = format_candidates(table)
+    assert "None" not in text and "nan" not in text and "e+" not in text
+    rows = text.splitlines()
+    assert "12,300" in rows[1] and "3.6%" in rows[1] and "99.2%" in rows[1]
+    assert rows[1].rstrip().endswith("none") and "4/4" in rows[1]
+    assert "winding none (peak 71.2 degC)" in rows[2] and "3/4" in rows[2]
+
+
+def test_how_the_sweep_ran_says_no_none_nor_true_false():
+    from reports.optimization_section import run_rows
+
+    rows = run_rows({"executor": "process pool", "wall_time_s": 80.4, "failed": [],
+                     "options": {"limits": {"max_p_elec_w": None, "max_speed_rpm": 1500.0,
+                                            "surface_bounds_deg": [10.0, 10.0, 10.0]},
+                                 "solver": {"codegen": False, "stored_guess": True,
+                                            "max_iter": 1000, "tol": 1e-06}}}, None)
+    text = dict(rows)
+    assert text["option max_p_elec_w"] == "not set"
+    assert text["option codegen"] == "no" and text["option stored_guess"] == "yes"
+    assert text["option surface_bounds_deg"] == "10, 10, 10"
+    assert text["option max_iter"] == "1000" and text["option tol"] == "1e-06"
+    assert text["failed"] == "none"
+    assert not any(v in ("None", "True", "False") for v in text.values())

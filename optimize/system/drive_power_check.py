@@ -30,6 +30,8 @@ from typing import Any
 
 import numpy as np
 
+from kernel.units import power_words
+
 #: the largest peak shaft power a rating may allow per unit of its nominal power when it
 #: states no overload: AWE-Power's peak mechanical to rated electrical power (see above)
 PEAK_TO_RATED = 2.5
@@ -70,16 +72,11 @@ def power_check(rating: Any, envelope: Any = None) -> str | None:
            f"{PEAK_TO_RATED:g}, AWE-Power's peak mechanical power of a ground station's "
            "generator per rated electrical power (Joshi et al. 2024)")
     return (f"drive rating not that of a real machine: torque <= {rating.max_torque_nm:g} N m "
-            f"and speed <= {rating.max_speed_rpm:g} rpm let a cycle draw {power_text(peak)} "
+            f"and speed <= {rating.max_speed_rpm:g} rpm let a cycle draw {power_words(peak)} "
             f"at the shaft, {peak / rating.nominal_power_w:.3g} times its nominal "
-            f"{power_text(rating.nominal_power_w)}, above {why}: state a constant-power "
+            f"{power_words(rating.nominal_power_w)}, above {why}: state a constant-power "
             "envelope ([drive] base_speed_rpm) or the datasheet's overload, or a nominal "
             "power that fits the limits")
-
-
-def power_text(power_w: float) -> str:
-    """A power in words, three significant digits: ``34.7 MW``, ``12.3 kW``."""
-    return f"{power_w / 1e6:.3g} MW" if power_w >= 1e6 else f"{power_w / 1e3:.3g} kW"
 
 
 def efficiency_assumption(nominal_ratio: float) -> str | None:
