@@ -16,6 +16,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register ``bench cycle export`` and ``bench cycle verify``."""
     sub = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
     ex = sub.add_parser("export", help="a converged scenario as a drive profile for the bench",
+                        allow_abbrev=False,
                         description="write a converged scenario of an optimize folder as a "
                         "drive profile (docs/schemas.md section 10) and its two plain tables")
     ex.add_argument("--optimize", type=Path, default=Path("optimize_out"),
@@ -42,6 +43,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
     ve = sub.add_parser("verify", help="measured energy per cycle against the predictions",
+                        allow_abbrev=False,
                         description="per kept cycle of a cycle-run session in the store: the "
                         "measured electrical and mechanical energy with their uncertainty "
                         "against the power model at the measured speed and torque and against "

@@ -60,7 +60,8 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     wanted = next((a for a in (argv or []) if not a.startswith("-")), None)
     for name, (module_name, help_text) in SUBCOMMANDS.items():
-        sp = sub.add_parser(name, help=help_text, description=help_text)
+        # no abbreviations: `bench size --scale 6` once meant --scales 6
+        sp = sub.add_parser(name, help=help_text, description=help_text, allow_abbrev=False)
         if name == wanted:
             _load(module_name).add_arguments(sp)
             sp.set_defaults(_module=module_name)

@@ -37,7 +37,7 @@ def stage_parser(stage: str) -> argparse.ArgumentParser:
     """A parser with exactly the options of ``bench STAGE`` (its own defaults)."""
     from drivebench.cli import SUBCOMMANDS
 
-    parser = argparse.ArgumentParser(prog=f"bench {stage}")
+    parser = argparse.ArgumentParser(prog=f"bench {stage}", allow_abbrev=False)
     importlib.import_module(SUBCOMMANDS[stage][0]).add_arguments(parser)
     return parser
 

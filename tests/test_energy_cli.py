@@ -117,3 +117,21 @@ def test_one_wind_speed_is_refused(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "cannot be integrated" in err and "summary.parquet" in err
     assert not (tmp_path / "aep").exists()
+
+
+@pytest.mark.parametrize("stage", ["aep", "size"])
+def test_scale_means_one_thing(tmp_path, capsys, stage):
+    # issue 49: --scale was a campaign-length multiplier in bench synth and the Weibull
+    # scale in m/s in aep and size; the Weibull one is --weibull-scale, and an option a
+    # stage does not take is named by that stage ("bench aep: error: ...", not "bench:")
+    from drivebench.cli import build_parser
+
+    with pytest.raises(SystemExit) as exit_:
+        main([stage, "--weibull-k", "2", "--scale", "6"])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert f"bench {stage}: error: unrecognized arguments: --scale 6" in err
+    args = build_parser([stage]).parse_args([stage, "--weibull-k", "2", "--weibull-scale", "6"])
+    assert args.weibull_scale == 6.0
+    synth = build_parser(["synth", "x"]).parse_args(["synth", "x", "--scale", "3"])
+    assert synth.scale == 3  # bench synth's --scale: the campaign's length, alone
