@@ -79,7 +79,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 MAX_MEAN_WIND_M_S = 30.0
 MAX_ROUGHNESS_M = 5.0
 #: plausible Weibull shapes: measured sites lie from about 1 (gusty, low mean) to about 4
-#: (steady trade winds); Rayleigh is 2
+#: (steady trade-wind sites); Rayleigh is 2
 WEIBULL_K_RANGE = (0.5, 10.0)
 
 
