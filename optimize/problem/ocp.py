@@ -30,7 +30,7 @@ from optimize.model.kite_model import KiteDae
 from optimize.model.thermal import WindingThermal
 from optimize.problem.collocation import Collocation, radau
 from optimize.problem.formulation import Formulation
-from optimize.problem.guess import LoopGuess, start_loop
+from optimize.problem.guess import LoopBounds, LoopGuess, start_loop
 from optimize.problem.interface import CycleFormulation, weight_param
 from optimize.problem.options import OcpOptions, with_drive_rating
 from optimize.problem.part import Part
@@ -298,9 +298,11 @@ def _model(dae: KiteDae, drive_model: DriveModel, o: OcpOptions
     """The start loop, the scales and the kite's parts (:func:`kite_parts`) under the
     options ``o`` (with the drive's rating)."""
     lim = o.limits
+    spin = None if lim.max_body_rate_deg_s is None else lim.body_rate_bound_rad_s()
     loop = start_loop(dae.kite, dae.coeffs, dae.wind, lim.alpha_bounds_deg[1],
-                      lim.min_airspeed_m_s, lim.period_bounds_s, lim.tether_length_bounds_m,
-                      lim.min_altitude_m)
+                      LoopBounds(lim.min_airspeed_m_s, lim.period_bounds_s,
+                                 lim.tether_length_bounds_m, lim.min_altitude_m,
+                                 lim.max_airspeed_m_s, spin))
     scales = system_scales(dae.kite, loop, lim.nominal_power_w, lim.max_torque_nm)
     return loop, scales, kite_parts(dae, drive_model, lim, scales, loop,
                                     winding_thermal(drive_model, lim))
