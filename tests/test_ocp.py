@@ -64,7 +64,8 @@ def test_cold_start_converges_to_a_generating_periodic_cycle(solved):
     _, mech, _, _ = solved
     assert mech.success, mech.status
     stages = [s["stage"] for s in mech.stages]
-    assert stages == ["track", "penalize-1", "penalize-10", "penalize-100", "power"]
+    assert stages == ["track", "penalize-1", "penalize-10", "penalize-100",
+                      "power-penalized", "power"]
     # the NLP asks for scaled constraint residuals below 1e-6; periodicity rows are scaled
     # by ~100 m, 30 m/s, 3 rad/s, so 1e-5 is ~1 mm / 0.3 mm/s at most
     assert mech.periodicity_error < 1e-5

@@ -88,24 +88,55 @@ def check_linear_solver(name: str) -> None:
             f"--linear-solver mumps (the default)")
 
 
-def solver(ocp: Ocp, warm: bool, bound_push: float | None = None) -> ca.Function:
+@dataclass(frozen=True)
+class Setting:
+    """How one solve runs beyond the solver options: its barrier parameter and its
+    iteration cap (fatrop: only ``mu_init`` of a warm solve and ``max_iter``).
+
+    Attributes
+    ----------
+    mu_init : float or None
+        Initial barrier parameter; None: IPOPT's default for a cold solve, the solver
+        options' ``warm_mu_init`` for a warm one.
+    mu_target : float
+        0 (a solve to the options' tolerance), or the barrier parameter a homotopy's
+        intermediate stage ends at: it stops on the central path there, to a tolerance of
+        ``mu_target`` (acceptable at ten times it), and the next stage warm-starts at
+        the same barrier instead of climbing back from an optimum at zero.
+    max_iter : int or None
+        Iteration cap; None: the solver options' ``max_iter``. 0 only checks the start:
+        it succeeds when the start already is an optimum to the tolerance.
+    """
+
+    mu_init: float | None = None
+    mu_target: float = 0.0
+    max_iter: int | None = None
+
+
+#: the default: IPOPT's own cold barrier, the options' warm one, a solve to the tolerance
+FULL = Setting()
+
+
+def solver(ocp: Ocp, warm: bool, bound_push: float | None = None,
+           setting: Setting = FULL) -> ca.Function:
     """The OCP's NLP solver; ``warm`` selects warm-start options (created once, then
     cached on the OCP).
 
-    ``bound_push`` overrides the solver options' ``warm_bound_push`` of a warm solver.
+    ``bound_push`` overrides the solver options' ``warm_bound_push`` of a warm solver;
+    ``setting`` sets its barrier parameter and iteration cap (:class:`Setting`).
     """
     o = ocp.options.solver
     push = o.warm_bound_push if bound_push is None else bound_push
-    key = (o.solver, o.transcription, warm, push if warm else None)
+    key = (o.solver, o.transcription, warm, push if warm else None, setting)
     if key not in ocp.solvers:
         t0 = time.perf_counter()
-        ocp.solvers[key] = MAKERS[o.solver](ocp, warm, push)
+        ocp.solvers[key] = MAKERS[o.solver](ocp, warm, push, setting)
         log.debug("created %s %s solver (%s) in %.1f s", "warm" if warm else "cold", o.solver,
                   o.transcription, time.perf_counter() - t0)
     return ocp.solvers[key]
 
 
-def _ipopt(ocp: Ocp, warm: bool, push: float) -> ca.Function:
+def _ipopt(ocp: Ocp, warm: bool, push: float, setting: Setting) -> ca.Function:
     """IPOPT with the OCP's linear solver on the general layout (or the condensed NLP)."""
     o = ocp.options.solver
     ipopt = {
@@ -114,7 +145,7 @@ def _ipopt(ocp: Ocp, warm: bool, push: float) -> ca.Function:
         "tol": o.tol,
         "acceptable_tol": o.acceptable_tol,
         "acceptable_iter": 5,
-        "max_iter": o.max_iter,
+        "max_iter": o.max_iter if setting.max_iter is None else setting.max_iter,
         "print_level": 0,
         "sb": "yes",
         # the NLP is scaled by construction; MUMPS' own scaling cost time and
@@ -122,11 +153,16 @@ def _ipopt(ocp: Ocp, warm: bool, push: float) -> ca.Function:
         "mumps_scaling": 0,
         "mumps_permuting_scaling": 0,
     }
+    if setting.mu_target > 0:
+        ipopt.update({"mu_target": setting.mu_target, "tol": setting.mu_target,
+                      "acceptable_tol": 10 * setting.mu_target})
+    if setting.mu_init is not None:
+        ipopt["mu_init"] = setting.mu_init
     if warm:
         ipopt.update(
             {
                 "warm_start_init_point": "yes",
-                "mu_init": o.warm_mu_init,
+                "mu_init": o.warm_mu_init if setting.mu_init is None else setting.mu_init,
                 "warm_start_bound_push": push,
                 "warm_start_bound_frac": push,
                 "warm_start_slack_bound_push": push,
@@ -142,13 +178,15 @@ def _ipopt(ocp: Ocp, warm: bool, push: float) -> ca.Function:
         **sn.functions, **extra})
 
 
-def _fatrop(ocp: Ocp, warm: bool, push: float) -> ca.Function:
+def _fatrop(ocp: Ocp, warm: bool, push: float, setting: Setting) -> ca.Function:
     """fatrop on the transcription's stages, structure detected from the Jacobian."""
     o = ocp.options.solver
     opts = {"tol": o.tol, "tol_acceptable": o.acceptable_tol, "acceptable_iter": 5,
-            "max_iter": o.max_iter, "print_level": 0}
+            "max_iter": o.max_iter if setting.max_iter is None else setting.max_iter,
+            "print_level": 0}
     if warm:  # fatrop takes no multipliers: a warm start is the primal point, a small barrier
-        opts.update({"mu_init": o.warm_mu_init, "bound_push": push, "bound_frac": push})
+        mu = o.warm_mu_init if setting.mu_init is None else setting.mu_init
+        opts.update({"mu_init": mu, "bound_push": push, "bound_frac": push})
     sn = method_of(o).solver_nlp(ocp, "fatrop")
     return ca.nlpsol("pumping_cycle", "fatrop", sn.nlp, {
         "structure_detection": "auto", "equality": sn.equality, "fatrop": opts,
@@ -184,12 +222,14 @@ def run(
     lam_x0: np.ndarray | None = None,
     lam_g0: np.ndarray | None = None,
     bound_push: float | None = None,
+    setting: Setting = FULL,
 ) -> RawSolve:
     """One solve from the scaled primal ``w0`` (and multipliers when ``warm``).
 
-    ``bound_push`` overrides the solver options' ``warm_bound_push`` of a warm solve.
+    ``bound_push`` overrides the solver options' ``warm_bound_push`` of a warm solve;
+    ``setting`` sets the barrier parameter and the iteration cap (:class:`Setting`).
     """
-    nlpsol = solver(ocp, warm, bound_push)
+    nlpsol = solver(ocp, warm, bound_push, setting)
 
     def call(w: np.ndarray, p_: np.ndarray, b: Bounds, lam_x: np.ndarray | None,
              lam_g: np.ndarray | None) -> RawSolve:
