@@ -28,6 +28,7 @@ from optimize.service.cut_in import find_cut_in
 from optimize.service.executors import ExecutorHandle, QueueChannel, open_executor, run_tasks
 from optimize.service.plan import (
     NEAR_START_COST,
+    OBJECTIVE_SWITCH_COST,
     chain_steps,
     continuation_order,
     middle_index,
@@ -143,9 +144,10 @@ def test_continuation_goes_outwards_from_the_middle():
 
 
 def _check_graph(steps, winds, kinds):
-    """Every scenario once; sources planned earlier and shallower; no start farther than
-    a wind step and a limit switch; at most 2 deep on up to five speeds, else one more
-    per further wind step each way from the middle."""
+    """Every scenario once; one cold start; sources planned earlier and shallower; no
+    start farther than a wind step and a limit switch but the switch of objective at the
+    seed's speed; at most 2 deep after the first solve of each objective on up to five
+    speeds, else one more per further wind step each way from the middle."""
     assert sorted(s.name for s in steps) == sorted(scenario_name(k, w) for k in kinds
                                                    for w in winds)
     depth, by_name = {}, {}
@@ -158,35 +160,38 @@ def _check_graph(steps, winds, kinds):
             src = by_name[step.warm_from]
             cost = start_cost((step.kind, winds.index(step.wind_speed_m_s)),
                               (src.kind, winds.index(src.wind_speed_m_s)))
-            assert cost <= NEAR_START_COST
+            switch = src.depth == 0 and src.wind_speed_m_s == step.wind_speed_m_s
+            assert cost <= (OBJECTIVE_SWITCH_COST if switch else NEAR_START_COST)
         depth[step.name] = step.depth
         by_name[step.name] = step
-    assert max(depth.values()) <= max(2, len(winds) - middle_index(winds) - 1)
+    objectives = len({k[:4] for k in kinds})
+    assert [s.depth for s in steps].count(0) == 1
+    assert max(depth.values()) <= max(2, len(winds) - middle_index(winds) - 1) + objectives - 1
     return depth
 
 
-def test_the_paper_sweep_is_a_graph_two_solves_deep_after_one_seed_per_objective():
+def test_the_paper_sweep_is_a_graph_with_one_cold_start():
     steps = plan_graph(WINDS, KINDS)
     depth = _check_graph(steps, WINDS, KINDS)
-    assert [s.name for s in steps if s.depth == 0] == ["elec-lim-7.0", "mech-lim-7.0"]
-    # depth 1: one wind step or one limit switch from the seed of the objective
+    assert [s.name for s in steps if s.depth == 0] == ["elec-lim-7.0"]
+    # depth 1: one wind step or one limit switch from the seed, and the other objective
+    # at the seed's speed (a switch of objective, no cold start of its own)
     assert {s.name: s.warm_from for s in steps if s.depth == 1} == {
         "elec-lim-5.5": "elec-lim-7.0", "elec-lim-8.5": "elec-lim-7.0",
-        "elec-free-7.0": "elec-lim-7.0", "mech-lim-5.5": "mech-lim-7.0",
-        "mech-lim-8.5": "mech-lim-7.0", "mech-free-7.0": "mech-lim-7.0"}
+        "elec-free-7.0": "elec-lim-7.0", "mech-lim-7.0": "elec-lim-7.0"}
     by_name = {s.name: s for s in steps}
-    # depth 2 from the nearest: a wind step of the same kind, else a limit switch
+    # then from the nearest: a wind step of the same kind, else a limit switch
     assert by_name["elec-lim-4.0"].warm_from == "elec-lim-5.5"
     assert by_name["elec-free-5.5"].warm_from == "elec-lim-5.5"
-    assert by_name["mech-free-10.0"].warm_from == "mech-lim-8.5"
-    assert by_name["mech-free-10.0"].fallbacks == ("mech-free-7.0",)
-    assert sum(d == 2 for d in depth.values()) == 12
-    # any grid and selection: near starts; an objective alone has its own seed
+    assert by_name["mech-lim-8.5"].warm_from == "mech-lim-7.0"
+    assert by_name["mech-free-7.0"].warm_from == "mech-lim-7.0"
+    assert by_name["mech-free-10.0"].warm_from == "mech-free-8.5"
+    assert sum(d == 3 for d in depth.values()) == 4
+    # any grid and selection: near starts, one cold start
     for winds, kinds in (((4.0, 5.0, 6.0, 7.0), ("mech-free",)), ((7.0,), KINDS),
                          (tuple(4.0 + i for i in range(13)), ("elec-free", "mech-lim"))):
         steps = plan_graph(winds, kinds)
         _check_graph(steps, winds, kinds)
-        assert len([s for s in steps if s.depth == 0]) == len({k[:4] for k in kinds})
 
 
 def test_a_long_grid_starts_each_scenario_from_a_near_one():
@@ -196,7 +201,9 @@ def test_a_long_grid_starts_each_scenario_from_a_near_one():
     assert by_name["elec-lim-14.5"].warm_from == "elec-lim-13.0"
     assert by_name["mech-free-13.0"].warm_from == "mech-free-11.5"
     assert by_name["elec-free-4.0"].warm_from == "elec-free-5.5"
-    assert max(s.depth for s in by_name.values()) == 4  # 8.5 -> 10 -> 11.5 -> 13 -> 14.5
+    # 8.5 -> 10 -> 11.5 -> 13 -> 14.5, one more after the switch of objective
+    assert max(s.depth for s in by_name.values() if s.kind.startswith("elec")) == 4
+    assert max(s.depth for s in by_name.values()) == 5
 
 
 # ----------------------------------------------------------------- running the sweep
@@ -217,7 +224,7 @@ def test_sweep_solves_every_scenario_exactly_with_cheap_warm_starts():
         want = SCALE_W * (exact_root(CUT_IN_M_S[o.kind]) - exact_root(o.wind_speed_m_s))
         assert o.result.avg_p_elec_w == pytest.approx(want, rel=1e-9, abs=1e-9)
     cold = [o for o in result.outcomes if o.warm_source == "cold start"]
-    assert [o.name for o in cold] == ["elec-lim-7.0", "mech-lim-7.0"]  # one per objective
+    assert [o.name for o in cold] == ["elec-lim-7.0"]  # one per sweep
     # the depth column says where each start came from: the plan's, as every start converged
     planned = {s.name: s.depth for s in plan_graph(WINDS, KINDS)}
     assert {o.name: o.depth for o in result.outcomes} == planned
@@ -494,8 +501,8 @@ def test_run_optimize_writes_every_file(tmp_path):
     assert sum(w["build_time_s"] for w in manifest["workers"]) == pytest.approx(
         sum(c["build_time_s"] for c in manifest["chains"]))
     assert summary.set_index("scenario")["depth"].to_dict() == {
-        "elec-lim-5.5": 0, "mech-lim-5.5": 0, "elec-lim-4.0": 1, "elec-lim-7.0": 1,
-        "mech-lim-4.0": 1, "mech-lim-7.0": 1}
+        "elec-lim-5.5": 0, "mech-lim-5.5": 1, "elec-lim-4.0": 1, "elec-lim-7.0": 1,
+        "mech-lim-4.0": 2, "mech-lim-7.0": 2}
     # the cut-in search recovered the stand-in's crossings (4.8 and 5.5 m/s) and the
     # claims table says so
     cut = {c["kind"]: c["cut_in_m_s"] for c in manifest["cut_in"]}

@@ -5,19 +5,19 @@ A sweep is every selected scenario *kind* (objective x drive limits, e.g.
 would be slow, so each solve starts from a solved neighbour; :func:`plan_graph`
 plans those starts as a graph, not as chains, so that every core has work:
 
-* the *seeds* (depth 0) are one cold start per objective (the shipped stored guess
-  where it fits, else the homotopy), at the middle wind speed of the first kind of
-  that objective;
-* depth 1: the scenarios one step from a seed (:func:`start_cost` at most
+* the *seed* (depth 0) is the sweep's one cold start (the system's stored start where
+  it fits, else the homotopy), the first kind at the middle wind speed;
+* depth 1: the scenarios one step from the seed (:func:`start_cost` at most
   :data:`SEED_STEP_COST`: the seed's kind at the neighbouring wind speeds, the other
-  kinds of the objective at the seed's speed) start from it;
+  kinds of its objective at the seed's speed) and the first kind of each other
+  objective at the seed's speed (a switch of objective) start from it;
 * each further depth: every scenario within :data:`NEAR_START_COST` (a wind step and a
   limit switch) of one planned before starts from the nearest of those;
 * every step also lists one fallback source (the next nearest of those); when
   neither converges the solve falls back to a fresh cold start.
 
-So on a grid of up to five wind speeds every scenario is at most two solves deep after
-its seed (the paper's sweep: a critical path of three solves); a longer grid adds one
+So on a grid of up to five wind speeds every scenario is at most three solves deep after
+the seed, two after the first solve of its objective; a longer grid adds one
 depth per further wind step each way from the middle, so that no start jumps farther
 than one wind step and a limit switch. Farther starts cost iterations and land on
 poorer optima: on ``make demo``'s 4:14.5:1.5, depth 2 everywhere started 13 and 14.5 m/s
@@ -272,14 +272,16 @@ def plan_graph(wind_speeds_m_s: tuple[float, ...], kinds: tuple[str, ...]) -> tu
     Returns
     -------
     tuple of Step
-        Every (kind, wind_speed_m_s) exactly once, by depth (seeds first); each step's sources
-        come before it and are at most ``depth - 1`` deep; ``depth`` at most 2 on a grid
-        of up to five wind speeds.
+        Every (kind, wind_speed_m_s) exactly once, by depth (the seed first); each step's
+        sources come before it and are at most ``depth - 1`` deep; ``depth`` at most 3
+        on a grid of up to five wind speeds.
     """
     mid = middle_index(wind_speeds_m_s)
     objectives = dict.fromkeys(KINDS[k].objective for k in kinds)
-    seeds = [(next(k for k in kinds if KINDS[k].objective == obj), mid) for obj in objectives]
-    rest = [(k, i) for k in kinds for i in range(len(wind_speeds_m_s)) if (k, i) not in seeds]
+    seed = (kinds[0], mid)
+    switches = [(next(k for k in kinds if KINDS[k].objective == obj), mid) for obj in objectives
+                if obj != KINDS[kinds[0]].objective]
+    rest = [(k, i) for k in kinds for i in range(len(wind_speeds_m_s)) if (k, i) != seed]
 
     def step(node: tuple[str, int], sources: list[tuple[str, int]], depth: int) -> Step:
         ranked = sorted(sources, key=lambda s: start_cost(node, s))[:2]  # stable: plan order
@@ -287,16 +289,16 @@ def plan_graph(wind_speeds_m_s: tuple[float, ...], kinds: tuple[str, ...]) -> tu
         return Step(node[0], wind_speeds_m_s[node[1]], names[0] if names else None,
                     tuple(names[1:]), depth)
 
-    steps = [Step(k, wind_speeds_m_s[i], None) for k, i in seeds]
-    planned, layer = list(seeds), list(seeds)
+    steps = [Step(seed[0], wind_speeds_m_s[mid], None)]
+    planned, layer = [seed], [seed]
     near = dict.fromkeys(rest, math.inf)  # start cost from the nearest planned scenario
     while rest:
         near = {n: min(near[n], *(start_cost(n, s) for s in layer)) for n in rest}
-        limit = max(SEED_STEP_COST if planned == seeds else NEAR_START_COST,
-                    min(near.values()))
-        layer = [n for n in rest if near[n] <= limit]
+        first = planned == [seed]
+        limit = max(SEED_STEP_COST if first else NEAR_START_COST, min(near.values()))
+        layer = [n for n in rest if near[n] <= limit or (first and n in switches)]
         depth = steps[-1].depth + 1
         steps += [step(n, planned, depth) for n in layer]
         planned += layer
-        rest = [n for n in rest if near[n] > limit]
+        rest = [n for n in rest if n not in layer]
     return tuple(steps)
