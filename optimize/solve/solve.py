@@ -34,6 +34,9 @@ def solve(
 ) -> OcpResult:
     """Solve ``scenario``; warm-started from ``warm_start`` or by :func:`cold_start`.
 
+    A start that solved this very problem (the same NLP parameters and drive limits,
+    the period free: :func:`at_optimum`) is first checked: when it is an optimum to the
+    tolerance, the check (stage ``"check"``, no iteration) is the solve.
     The warm start passes the primal vector and both multiplier vectors with
     IPOPT's ``warm_start_init_point`` and a small ``mu_init`` (fatrop takes the
     primal vector and the small ``mu_init``; it starts no multipliers); with the
@@ -81,21 +84,53 @@ def solve(
     bounds = ocp.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True,
                         period_s=period_s)
     p = ocp.params(scenario.parameters, scenario.weights)
+    stages = []
+    if (period_s is None and ocp.options.solver.solver == "ipopt"
+            and solves(warm_start, p, scenario.drive_limits)):
+        raw = at_optimum(ocp, warm_start, p, bounds)
+        stages.append(_stage("check", raw))
+        if raw.success:
+            log.info("%s: its start is an optimum of its problem", scenario.name)
+            return make_result(ocp, scenario, raw, p, bounds, stages)
     stage, w0, lam_x0, lam_g0, predict_s = _predicted(ocp, warm_start, p, bounds)
     raw = backend.run(ocp, w0, p, bounds, warm=True, lam_x0=lam_x0, lam_g0=lam_g0)
-    stages = [{"stage": stage, "status": raw.status, "success": raw.success,
-               "iterations": raw.iterations, "wall_time_s": raw.wall_time_s + predict_s,
-               "cpu_time_s": raw.cpu_time_s}]
+    stages.append(_stage(stage, raw, predict_s))
     log.info("%s %-5s %-22s %4d it %6.1f s (cpu %.1f s)", scenario.name, stage, raw.status,
              raw.iterations, raw.wall_time_s, raw.cpu_time_s)
     if not raw.success and retry_cold:
         raw = backend.run(ocp, warm_start.w, p, bounds, warm=False)
-        stages.append({"stage": "retry-cold", "status": raw.status, "success": raw.success,
-                       "iterations": raw.iterations, "wall_time_s": raw.wall_time_s,
-                       "cpu_time_s": raw.cpu_time_s})
+        stages.append(_stage("retry-cold", raw))
         log.info("%s retry %-22s %4d it %6.1f s (cpu %.1f s)", scenario.name, raw.status,
                  raw.iterations, raw.wall_time_s, raw.cpu_time_s)
     return make_result(ocp, scenario, raw, p, bounds, stages)
+
+
+#: the check of a start that may be an optimum already: IPOPT evaluates it with the
+#: barrier and the bound pushes below the tolerance, and takes no step (from the
+#: scenario's own optimum it converges at iteration 0; with the warm options' barrier
+#: of 1e-4 it climbs back down in 18-19 iterations)
+AT_OPTIMUM, AT_OPTIMUM_PUSH = backend.Setting(mu_init=1e-7, max_iter=0), 1e-9
+
+
+def solves(warm: Solution, p: np.ndarray, drive_limits: bool) -> bool:
+    """Whether ``warm`` is a solution of the problem with the NLP parameters ``p`` and
+    ``drive_limits`` (those it knows it solved, :attr:`Solution.p`)."""
+    return (warm.p is not None and warm.drive_limits == drive_limits
+            and warm.p.shape == p.shape and bool(np.array_equal(warm.p, p)))
+
+
+def at_optimum(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds) -> backend.RawSolve:
+    """The convergence check of ``warm`` on the problem ``(p, bounds)``: a solve of no
+    iteration that succeeds when ``warm`` is an optimum there to the tolerance."""
+    return backend.run(ocp, warm.w, p, bounds, warm=True, lam_x0=warm.lam_x,
+                       lam_g0=warm.lam_g, bound_push=AT_OPTIMUM_PUSH, setting=AT_OPTIMUM)
+
+
+def _stage(name: str, raw: backend.RawSolve, extra_wall_s: float = 0.0) -> dict:
+    """The record of one solver call of a solve's ``stages``."""
+    return {"stage": name, "status": raw.status, "success": raw.success,
+            "iterations": raw.iterations, "wall_time_s": raw.wall_time_s + extra_wall_s,
+            "cpu_time_s": raw.cpu_time_s}
 
 
 def _predicted(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds

@@ -285,8 +285,8 @@ def _check(ocp: Ocp, data: dict) -> tuple[Solution | None, str]:
                       f"deviation {dev:.1e}); regenerate it: "
                       "python -m optimize.solve.starts.stored_guess")
     lam_g = np.concatenate([data["lam_g"], np.zeros(n_rms)])
-    solution = Solution(w=data["w"], lam_x=data["lam_x"], lam_g=lam_g,
-                        n_intervals=n, degree=d)
+    solution = Solution(w=data["w"], lam_x=data["lam_x"], lam_g=lam_g, n_intervals=n,
+                        degree=d, p=data["p"], drive_limits=GUESS_SCENARIO.drive_limits)
     return solution, f"stored initial guess {data['scenario']} fits (deviation {dev:.1e})"
 
 
