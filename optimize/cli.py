@@ -163,12 +163,22 @@ def run(args: argparse.Namespace) -> int:
     for line in sweep.trust_lines:
         print(line)
     n_ok = int(sweep.summary["success"].sum())
-    print(f"\n{n_ok}/{len(sweep.summary)} scenarios converged in {sweep.wall_time_s:.1f} s "
+    print(f"\n{iterations_line(sweep.iterations)}")
+    print(f"{n_ok}/{len(sweep.summary)} scenarios converged in {sweep.wall_time_s:.1f} s "
           f"({sweep.executor}); files in {args.out}")
     failed = sweep.summary.loc[~sweep.summary["success"], "scenario"].tolist()
     if failed:
         print(f"FAILED (status in summary.parquet, never averaged): {', '.join(failed)}")
     return exit_code(sweep.summary["success"].tolist())
+
+
+def iterations_line(iterations: dict) -> str:
+    """What the sweep's solves cost in IPOPT iterations, in one line."""
+    way = (f"; {iterations['intermediate_points']} intermediate points on the way to them "
+           f"({iterations['intermediate_iterations']} iterations, not results)"
+           if iterations["intermediate_iterations"] else "")
+    return (f"IPOPT iterations: {iterations['reported']} in the scenarios' final solves{way}; "
+            f"{iterations['all']} in all (retries, re-solves and cut-in probes included)")
 
 
 def exit_code(success: list[bool]) -> int:

@@ -222,6 +222,8 @@ class OptimizeOutcome:
     executor : str
     files : dict
         Name -> written path.
+    iterations : dict of int
+        The sweep's solver iterations (:meth:`optimize.service.run.SweepResult.iterations`).
     """
 
     summary: Any
@@ -232,6 +234,7 @@ class OptimizeOutcome:
     wall_time_s: float
     executor: str
     files: dict
+    iterations: dict = dataclasses.field(default_factory=dict)
 
 
 def run_optimize(
@@ -279,7 +282,7 @@ def run_optimize(
         manifest=sweep_manifest(request, system, drive, options, result, summary, trust,
                                 outcomes))
     return OptimizeOutcome(summary, claims, cut_ins, trust, tuple(trust.get("lines", ())),
-                           result.wall_time_s, result.executor, files)
+                           result.wall_time_s, result.executor, files, result.iterations())
 
 
 def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, options: Any,

@@ -59,6 +59,11 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "'failed: <reasons>' (then success is false whatever the solver said); '' when not "
     "checked",
     "iterations": "IPOPT iterations of the final solve",
+    "intermediate_points": "converged intermediate points on the way from the final solve's "
+    "start to this scenario (step control: the wind speed, objective and drive limits moved "
+    "part of the way; not results), 0 when it was solved directly",
+    "intermediate_iterations": "IPOPT iterations on that way besides the final solve's (the "
+    "intermediate points and the capped tries whose step was halved)",
     "wall_time_s": "wall time of the final solve",
     "attempts": "solver runs (retries included)",
     "total_wall_time_s": "wall time of all runs of this scenario",

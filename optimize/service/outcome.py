@@ -43,6 +43,9 @@ class Attempt:
     ``success`` is True when the solver converged and its optimum passed the result
     check; ``check`` is that check (:class:`optimize.analysis.result_check.ResultCheck`,
     None when the solver did not converge or its backend checks nothing).
+    ``intermediate_points`` and ``intermediate_iterations`` are the converged points
+    and the solver iterations on the way from the source that are not the scenario's
+    own (:mod:`optimize.solve.starts.continuation`; not in ``iterations``).
     """
 
     source: str | None
@@ -51,6 +54,13 @@ class Attempt:
     iterations: int
     wall_time_s: float
     check: Any = None
+    intermediate_points: int = 0
+    intermediate_iterations: int = 0
+
+    @property
+    def all_iterations(self) -> int:
+        """Solver iterations of this run, the way to the scenario included."""
+        return self.iterations + self.intermediate_iterations
 
     @property
     def verdict(self) -> str:
@@ -221,6 +231,10 @@ class ChainOutcome:
     error : str
         ``"worker error: ..."`` when the chain's task raised (then every planned
         speed failed with it), else ``""``.
+    iterations : int
+        Every solver iteration the chain ran (:attr:`Attempt.all_iterations` of its
+        every solver run: the grid's, retries, re-solves, the period scan, cut-in
+        probes, refinements).
     """
 
     chain: int
@@ -230,3 +244,4 @@ class ChainOutcome:
     build_time_s: float = 0.0
     worker: str = ""
     error: str = ""
+    iterations: int = 0

@@ -195,6 +195,19 @@ class SweepResult:
     wall_time_s: float
     executor: str
 
+    def iterations(self) -> dict[str, int]:
+        """What the sweep's solves cost in solver iterations: ``reported`` (the final
+        solve of each scenario, the summary's ``iterations``), ``intermediate_points`` and
+        ``intermediate_iterations`` (on the way to those final solves,
+        :mod:`optimize.solve.starts.continuation`) and ``all`` (every solver run of the
+        sweep: failed attempts, retries, re-solves, the period scan and the cut-in
+        probes, with their ways)."""
+        finals = [o.attempts[-1] for o in self.outcomes if o.attempts]
+        return {"reported": sum(a.iterations for a in finals),
+                "intermediate_points": sum(a.intermediate_points for a in finals),
+                "intermediate_iterations": sum(a.intermediate_iterations for a in finals),
+                "all": sum(c.iterations for c in self.chains)}
+
     def record(self) -> dict:
         """The sweep's part of the optimize manifest (docs/schemas.md §5): where it ran, how
         long, the scenarios that failed, each task, each worker's setup (the time it spent
@@ -206,6 +219,7 @@ class SweepResult:
         return {
             "executor": self.executor,
             "wall_time_s": self.wall_time_s,
+            "iterations": self.iterations(),
             "failed": [o.name for o in self.outcomes if not o.success],
             "chains": [{"chain": c.chain, "worker": c.worker, "build_time_s": c.build_time_s,
                         "scenarios": [o.name for o in c.outcomes]} for c in self.chains],

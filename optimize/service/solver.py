@@ -89,6 +89,8 @@ class Solver:
         self.records: dict[Key, dict] = {}
         self.outcomes: dict[Key, ScenarioOutcome] = {}
         self.build_time_s = 0.0
+        #: every solver iteration this solver ran (:meth:`count`)
+        self.iterations = 0
         #: starts from other problems' solutions, tried first (:mod:`optimize.service.foreign`)
         self.foreign: dict[Key, Start] = {}
         self._warm: dict[Key, Any] = {}
@@ -136,9 +138,16 @@ class Solver:
                      if ok else None)
             passed = ok and (check is None or check.passed)
             attempt = Attempt(name, str(result.status), passed, int(result.iterations),
-                              float(result.wall_time_s), check)
+                              float(result.wall_time_s), check,
+                              int(getattr(result, "intermediate_points", 0)),
+                              int(getattr(result, "intermediate_iterations", 0)))
+        self.count(attempt)
         self.tell("done", kind, wind_speed_m_s, role, name, attempt.status)
         return attempt, result
+
+    def count(self, attempt: Attempt) -> None:
+        """Add a solver run's iterations, its way included, to :attr:`iterations`."""
+        self.iterations += attempt.all_iterations
 
     def tell(self, when: str, kind: str, wind_speed_m_s: float, role: str, source: str | None,
              status: str) -> None:

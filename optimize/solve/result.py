@@ -92,6 +92,11 @@ class OcpResult:
         How the final solve was started: ``"warm start"`` (from a neighbouring
         solution), ``"stored guess"`` (:mod:`optimize.solve.starts.stored_guess`) or
         ``"homotopy"``.
+    intermediates : tuple of dict
+        The solves on the way to this scenario that are not its own
+        (:mod:`optimize.solve.starts.continuation`: intermediate points and the
+        capped tries whose step was halved), each with its ``step``, ``status``,
+        ``success``, ``iterations`` and times; not in ``iterations``.
     """
 
     scenario: Scenario
@@ -112,6 +117,17 @@ class OcpResult:
     active_bounds: tuple[str, ...] = ()
     slack_fraction: float = 0.0
     figures: Mapping[str, float] = field(default_factory=dict)
+    intermediates: tuple[dict, ...] = ()
+
+    @property
+    def intermediate_points(self) -> int:
+        """Converged intermediate points on the way to this scenario."""
+        return sum(1 for s in self.intermediates if s["success"])
+
+    @property
+    def intermediate_iterations(self) -> int:
+        """Solver iterations on the way to this scenario, besides its own."""
+        return int(sum(s["iterations"] for s in self.intermediates))
 
 
 def trajectory_frame(ocp: Ocp, w_scaled: np.ndarray,
@@ -274,8 +290,10 @@ def make_result(
     bounds: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     stages: list[dict],
     start: str = "warm start",
+    intermediates: tuple[dict, ...] = (),
 ) -> OcpResult:
-    """Assemble an :class:`OcpResult` from the final solver call and the stage log."""
+    """Assemble an :class:`OcpResult` from the final solver call, the stage log and the
+    solves on the way (``intermediates``)."""
     traj = trajectory_frame(ocp, raw.w, scenario.parameters)
     g = ocp.constraint_values(raw.w, p)
     lbg, ubg = bounds[2], bounds[3]
@@ -307,4 +325,5 @@ def make_result(
         active_bounds=active_bounds(ocp, traj, period_s, scenario.drive_limits, bounds),
         slack_fraction=slack_fraction(ocp, traj),
         figures=part_figures(ocp, traj),
+        intermediates=tuple(intermediates),
     )

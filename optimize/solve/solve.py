@@ -20,6 +20,7 @@ from optimize.problem.ocp import Bounds, Ocp
 from optimize.problem.scenario import Scenario
 from optimize.solve import backend
 from optimize.solve.result import OcpResult, Solution, make_result
+from optimize.solve.starts.continuation import step_towards
 from optimize.solve.starts.homotopy import cold_start
 from optimize.solve.starts.predictor import predict
 
@@ -39,7 +40,10 @@ def solve(
     tolerance, the check (stage ``"check"``, no iteration) is the solve.
     The warm start passes the primal vector and both multiplier vectors with
     IPOPT's ``warm_start_init_point`` and a small ``mu_init`` (fatrop takes the
-    primal vector and the small ``mu_init``; it starts no multipliers); with the
+    primal vector and the small ``mu_init``; it starts no multipliers). A start that
+    knows the problem it solved (:attr:`Solution.p`) is solved with step control: capped,
+    and through intermediate points of the way from its problem to the scenario's when
+    the direct solve is dear (:mod:`optimize.solve.starts.continuation`); with the
     solver options' ``predictor_step``, moved first along the tangent to the
     scenario's parameters (:mod:`optimize.solve.starts.predictor`; stage
     ``"predicted"``). If that fails and ``retry_cold`` is set, the same primal point
@@ -92,17 +96,24 @@ def solve(
         if raw.success:
             log.info("%s: its start is an optimum of its problem", scenario.name)
             return make_result(ocp, scenario, raw, p, bounds, stages)
-    stage, w0, lam_x0, lam_g0, predict_s = _predicted(ocp, warm_start, p, bounds)
-    raw = backend.run(ocp, w0, p, bounds, warm=True, lam_x0=lam_x0, lam_g0=lam_g0)
-    stages.append(_stage(stage, raw, predict_s))
-    log.info("%s %-5s %-22s %4d it %6.1f s (cpu %.1f s)", scenario.name, stage, raw.status,
-             raw.iterations, raw.wall_time_s, raw.cpu_time_s)
+    if period_s is None and warm_start.p is not None and ocp.options.solver.predictor_step <= 0:
+        stepped = step_towards(ocp, warm_start, p, bounds, scenario.name)
+        raw, intermediates = stepped.last, stepped.intermediates
+        stages.append(_stage("warm", raw))
+    else:
+        stage, w0, lam_x0, lam_g0, predict_s = _predicted(ocp, warm_start, p, bounds)
+        raw, intermediates = backend.run(ocp, w0, p, bounds, warm=True, lam_x0=lam_x0,
+                                         lam_g0=lam_g0), ()
+        stages.append(_stage(stage, raw, predict_s))
+    log.info("%s %-22s %4d it %6.1f s (cpu %.1f s), %d solves on the way (%d it)",
+             scenario.name, raw.status, raw.iterations, raw.wall_time_s, raw.cpu_time_s,
+             len(intermediates), sum(s["iterations"] for s in intermediates))
     if not raw.success and retry_cold:
         raw = backend.run(ocp, warm_start.w, p, bounds, warm=False)
         stages.append(_stage("retry-cold", raw))
         log.info("%s retry %-22s %4d it %6.1f s (cpu %.1f s)", scenario.name, raw.status,
                  raw.iterations, raw.wall_time_s, raw.cpu_time_s)
-    return make_result(ocp, scenario, raw, p, bounds, stages)
+    return make_result(ocp, scenario, raw, p, bounds, stages, intermediates=intermediates)
 
 
 #: the check of a start that may be an optimum already: IPOPT evaluates it with the
