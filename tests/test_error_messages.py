@@ -5,6 +5,7 @@ outside [0, 1] is flagged with its reason, never kept silently."""
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -234,4 +235,21 @@ def test_an_unusable_compiled_code_cache_falls_back_naming_it(tmp_path, monkeypa
         damaged.write_bytes(b"damaged")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "damaged"))
     caplog.clear()
-    assert codegen.compiled(fn) is fn and "cannot be used" in caplog.text
+    # it records no hash of its build: named, compiled again, the right function loaded
+    rebuilt = codegen.compiled(fn)
+    assert rebuilt is not fn and float(rebuilt(3.0)) == 10.0
+    assert "records no SHA-256 of its build" in caplog.text and "compiled again" in caplog.text
+    # damaged in a folder that cannot be written: named, and the function runs uncompiled
+    lib = next((tmp_path / "damaged").rglob("*.so"))
+    (tmp_path / "new.so").write_bytes(b"damaged")  # a new file: the loaded one stays mapped
+    os.replace(tmp_path / "new.so", lib)
+    lib.parent.chmod(0o500)
+    try:
+        caplog.clear()
+        if os.access(lib.parent, os.W_OK):  # root writes anyway: nothing to refuse it
+            assert codegen.compiled(fn) is not fn
+        else:
+            assert codegen.compiled(fn) is fn and "cannot be used" in caplog.text
+        assert "differs from the SHA-256 recorded at its build" in caplog.text
+    finally:
+        lib.parent.chmod(0o700)

@@ -212,3 +212,18 @@ def test_a_sizing_whose_solves_crashed_does_not_replace_a_better_one(tmp_path):
     (tmp_path / "bad").mkdir()
     (tmp_path / "bad" / "sizing.json").write_text("{")
     assert earlier_is_better(tmp_path / "bad", now) is None
+
+
+def test_bench_aep_refine_names_a_stored_solve_it_did_not_believe():
+    from energy.refine import refine_notes
+
+    solve = {"wind_speed_m_s": 6.25, "role": "added", "success": True, "status": "ok",
+             "store_rejected": "aep_out/solves/abc.json: its content differs from the SHA-256 "
+                               "it records (edited or damaged)"}
+    doc = {"tol": 0.002, "kinds": {"elec-lim": {
+        "solves": [solve, {**solve, "wind_speed_m_s": 7.0, "store_rejected": None}],
+        "coarse_aep_elec_mwh": 1.0, "aep_elec_mwh": 1.0, "coarse_aep_mech_mwh": 1.2,
+        "aep_mech_mwh": 1.2, "note": None}}}
+    lines = [line for line in refine_notes(doc) if line.startswith("stored solve not used")]
+    assert lines == ["stored solve not used: aep_out/solves/abc.json: its content differs from "
+                     "the SHA-256 it records (edited or damaged); elec-lim 6.25 m/s solved again"]
