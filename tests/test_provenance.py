@@ -49,6 +49,7 @@ def test_aep_writes_the_header_into_aep_json_and_run_json(tmp_path, capsys):
 def test_size_writes_the_header_into_sizing_json_and_run_json(tmp_path):
     from test_energy_sizing import CrashingBackend, _candidates, _handle
 
+    from energy.decision import decision, grid_coverage
     from energy.site import Weibull
     from energy.sizing import run_sizing
     from energy.sizing_files import write_sizing
@@ -62,9 +63,11 @@ def test_size_writes_the_header_into_sizing_json_and_run_json(tmp_path):
                      backend=CrashingBackend(crash_at=None))
     system = load_system()
     run = Provenance.start(["drivebench.size"])
+    coverage = grid_coverage(site, winds, res.records)
     write_sizing(tmp_path / "size", res, site=site, site_note="test", system=system,
                  drive=drive_in_force(system, drive_model=paper_model()), wind_speeds_m_s=winds,
-                 adaptive=False, tolerance=0.02, notes=[], provenance=run)
+                 adaptive=False, tolerance=0.02, notes=[], provenance=run, coverage=coverage,
+                 decision=decision(res.table, res.records, site, coverage, 0.02))
     doc = json.loads((tmp_path / "size" / "sizing.json").read_text(encoding="utf-8"))
     assert check_header(doc, ["drivebench.size"], tmp_path / "size") == run.header()
 

@@ -126,6 +126,8 @@ class ExecutorHandle:
 WORKER_WAIT_S = 60.0
 #: how often the driver asks the Dask scheduler for its workers during a run [s]
 HEALTH_EVERY_S = 2.0
+#: how long the scheduler may take to answer that question [s]
+ANSWER_TIMEOUT_S = 10.0
 
 
 class WatchedExecutor(Executor):
@@ -133,7 +135,8 @@ class WatchedExecutor(Executor):
 
     :func:`run_graph` calls :meth:`check` while it waits: it asks the scheduler for its
     workers (every :data:`HEALTH_EVERY_S` seconds) and raises when the scheduler does not
-    answer, or has had no worker for ``wait_s`` seconds (default :data:`WORKER_WAIT_S`).
+    answer (within :data:`ANSWER_TIMEOUT_S`), or has had no worker for ``wait_s`` seconds
+    (default :data:`WORKER_WAIT_S`).
     """
 
     def __init__(self, client: Any, address: str, wait_s: float | None = None) -> None:
@@ -154,7 +157,7 @@ class WatchedExecutor(Executor):
     def slots(self) -> int:
         """Threads of the cluster's workers now; raises when the scheduler does not answer."""
         try:
-            n = sum(self._client.nthreads().values())
+            n = sum(self._client.nthreads(callback_timeout=ANSWER_TIMEOUT_S).values())
         except Exception as exc:  # noqa: BLE001 - any failure to answer ends the run, said
             raise self._stopped(f"the scheduler no longer answers ({type(exc).__name__}: "
                                 f"{exc})") from None
