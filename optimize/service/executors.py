@@ -26,6 +26,7 @@ is shipped with the task, and ``drain()`` on the driver side. A
 
 from __future__ import annotations
 
+import gc
 import multiprocessing
 import os
 import queue
@@ -186,7 +187,31 @@ class WatchedExecutor(Executor):
                           f"{self.address} --nthreads 1")
 
 
+def _address_problem(address: str) -> str | None:
+    """What is wrong with a Dask scheduler address as text (no client is made for it),
+    or None: an unknown scheme, a host or port that cannot be read, a port out of range."""
+    from distributed.comm import parse_address
+    from distributed.comm.registry import backends
+
+    try:
+        scheme, location = parse_address(address)
+        backend = backends[scheme]
+    except KeyError as exc:
+        return f"unknown scheme {exc} (known: {', '.join(sorted(backends))})"
+    except (ValueError, TypeError) as exc:
+        return f"{type(exc).__name__}: {exc}"
+    try:
+        _, port = backend.get_address_host_port(location)
+    except NotImplementedError:  # an in-process address has no host and port
+        return None
+    except (ValueError, TypeError) as exc:
+        return f"{type(exc).__name__}: {exc}"
+    return None if 0 < int(port) < 65536 else f"port {port} is outside 1 to 65535"
+
+
 def _dask_client(scheduler: str) -> Any:
+    """A client of the scheduler at ``scheduler``; InputError when the address is none or
+    no scheduler answers there within 20 s."""
     try:
         from distributed import Client
     except ImportError as exc:
@@ -195,16 +220,19 @@ def _dask_client(scheduler: str) -> Any:
             f"--scheduler {scheduler!r}: the Dask extra is not installed",
             expected="pip install 'drivebench[dask]'",
         ) from exc
+    expected = "the address of a running Dask scheduler, e.g. tcp://host:8786"
+    problem = _address_problem(scheduler)
+    if problem is not None:
+        raise InputError(None, f"--scheduler {scheduler!r}: not a scheduler address "
+                         f"({problem})", expected=expected)
     try:
         return Client(scheduler, timeout="20s")
-    except Exception as exc:  # noqa: BLE001 - a malformed address, none answering, ...
-        what = "cannot connect" if isinstance(exc, OSError | TimeoutError) else \
-            "not a scheduler address"
-        raise InputError(
-            None,
-            f"--scheduler {scheduler!r}: {what} ({type(exc).__name__}: {exc})",
-            expected="the address of a running Dask scheduler, e.g. tcp://host:8786",
-        ) from None
+    except Exception as exc:  # noqa: BLE001 - none answering, a handshake refused, ...
+        why = f"cannot connect ({type(exc).__name__}: {exc})"
+    # the half-made client is freed now: freed later, inside another client's start, its
+    # __del__ waits on a lock that start holds (distributed deadlocks)
+    gc.collect()
+    raise InputError(None, f"--scheduler {scheduler!r}: {why}", expected=expected)
 
 
 def _wait_for_workers(client: Any, scheduler: str, wait_s: float) -> None:
