@@ -135,3 +135,32 @@ def test_scale_means_one_thing(tmp_path, capsys, stage):
     assert args.weibull_scale == 6.0
     synth = build_parser(["synth", "x"]).parse_args(["synth", "x", "--scale", "3"])
     assert synth.scale == 3  # bench synth's --scale: the campaign's length, alone
+
+
+def test_aep_above_the_cut_in_names_what_it_leaves_out_on_the_console_and_in_aep_json(
+        tmp_path, capsys):
+    # issue 49: AP2 over 6:12:3 printed 8.966 MWh/yr noting only the hours above the grid;
+    # the 43.8 % below 6 m/s counted as zero though the kite delivers there, and the
+    # table's "cut-in 6.00" was the grid's edge
+    import json
+
+    from energy.site import energy_share, rayleigh
+
+    folder = write_optimize_folder(tmp_path / "opt", model_with_covariance(),
+                                   winds=(6.0, 9.0, 12.0))
+    assert main(["aep", "--optimize", str(folder), "--rayleigh-mean", "5.5",
+                 "--out", str(tmp_path / "aep")]) == 0
+    out = capsys.readouterr().out
+    site = rayleigh(5.5)
+    below, above = energy_share(site, 0.0, 6.0), energy_share(site, 12.0)
+    row = next(line for line in out.splitlines() if line.startswith("elec-lim "))
+    assert "below 6" in row and "6.00" not in row  # no cut-in the sweep did not find
+    assert row.rstrip().endswith(f"{100 * below:.1f} % + {100 * above:.1f} %")
+    assert f"({100 * below:.1f}% of the site's wind energy) count as zero power" in out
+    assert f"({100 * above:.1f}% of the site's wind energy) have wind above" in out
+    doc = json.loads((tmp_path / "aep" / "aep.json").read_text())
+    kind = next(k for k in doc["kinds"] if k["kind"] == "elec-lim")
+    assert kind["cut_in_elec_m_s"] is None and kind["delivers_at_grid_start"] is True
+    assert kind["energy_below_grid"] == pytest.approx(below, rel=1e-9)
+    assert kind["energy_above_grid"] == pytest.approx(above, rel=1e-9)
+    assert kind["energy_left_out"] == pytest.approx(below + above, rel=1e-9)
