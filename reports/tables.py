@@ -102,6 +102,8 @@ def frame_table(frame: pd.DataFrame, max_rows: int = 200) -> dict:
 
 
 def _cell(value) -> str:
+    if value is None:  # a figure the record lacks: said, never an empty cell
+        return "n/a"
     if isinstance(value, (list, tuple, np.ndarray)):
         return ", ".join(_cell(v) for v in value)
     if isinstance(value, float) and abs(value) >= 1e4 and value == round(value):

@@ -39,7 +39,11 @@ def mesh_verdict(r: dict) -> str:
 
 
 def simulation_verdict(r: dict) -> str:
-    """The verdict of one simulation-check record (see the module)."""
+    """The verdict of one simulation-check record (see the module); a simulation that could
+    not finish (no figures, its record's own ``verdict`` says why) fails."""
+    if r.get("interval_defect_position_m") is None or r.get("open_loop_position_m") is None:
+        why = str(r.get("verdict") or "the simulation recorded no figures")
+        return f"FAILS: {why.removeprefix('failed: ')}"
     defect, drift = float(r["interval_defect_position_m"]), float(r["open_loop_position_m"])
     if defect > DEFECT_M:
         return f"FAILS: defect {fmt(defect, 3)} m over one interval"

@@ -161,3 +161,22 @@ def test_key_results_say_when_cycles_leave_the_model_or_lose_more_than_they_make
         "mech-lim at 6 m/s; largest mech-lim-6.0: 493 kW drawn, 256 kW generated at the drum")
     quiet = summary.assign(avg_p_elec_w=-1.0, outside_domain_time_frac=0.1)
     assert key_warnings(quiet) == []
+
+
+def test_a_simulation_that_could_not_finish_is_a_failed_check_not_a_crash():
+    # found by `bench run raw_measurements --system ap2.toml`: the report stopped with a
+    # TypeError (float(None)) on AP2's elec-lim-17.5, whose simulation CVODES gave up on
+    from reports.trust_checks import trust_checks
+
+    record = {"scenario": "elec-lim-17.5", "integrator": "cvodes",
+              "interval_defect_position_m": None, "open_loop_position_m": None,
+              "periodicity_error_position_m": None,
+              "verdict": "failed: the simulation could not finish (CV_TOO_MUCH_WORK)"}
+    ok = {"scenario": "elec-lim-6.0", "integrator": "cvodes",
+          "interval_defect_position_m": 1e-4, "open_loop_position_m": 0.1,
+          "periodicity_error_position_m": 0.01}
+    sim = trust_checks({"trust": {"simulation": [record, ok]}})["simulation"]
+    assert sim["failed"] == 1
+    assert sim["table"]["rows"][0][-1] == ("FAILS: the simulation could not finish "
+                                           "(CV_TOO_MUCH_WORK)")
+    assert "" not in sim["table"]["rows"][0] and "n/a" in sim["table"]["rows"][0]
