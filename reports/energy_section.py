@@ -195,7 +195,7 @@ def decision_rows(sizing: dict, aep_doc: dict | None) -> list[tuple[str, str]]:
                    f"(the rule needs {100 * (1 - float(sizing.get('tolerance') or 0)):.0f} %)")
     return [("drive chosen",
              f"{d['chosen']}: {limits_text(c)}, nominal power {fmt(c.get('nominal_power_w'), 0)}"
-             f" W; electrical AEP {fmt(c.get('aep_elec_mwh'), 3)} MWh/yr at the site "
+             f" W; electrical AEP {fmt(c.get('aep_elec_mwh'), 3)} MWh/yr on the sizing grid "
              f"({band_text}); {margin}"),
             ("drive sizing grid", grid + (f"; {sizing['edge']['note']}"
                                           if (sizing.get("edge") or {}).get("note") else ""))]
