@@ -121,7 +121,8 @@ def aep_row(r: dict) -> dict:
             "cf_elec": _pct(r.get("capacity_factor_elec")),
             "cf_mech": _pct(r.get("capacity_factor_mech")),
             "eff_loss": fmt(r.get("efficiency_loss_mwh"), 3),
-            "limit_loss": fmt(r.get("limit_loss_mwh"), 3),
+            "limit_loss": (fmt(r.get("limit_loss_mwh"), 3) if r.get("limit_loss_mwh") is not None
+                           else "n/a (no limits)"),
             "cut_in": cut_in_text(r) if "delivers_at_grid_start" in r else fmt(
                 r.get("cut_in_elec_m_s"), 2),
             "below": (_pct(r.get("energy_below_grid")) if r.get("delivers_at_grid_start")
