@@ -48,12 +48,17 @@ def write_sizing(out: Path, res: Any, **kw: Any) -> dict[str, Path]:
 def write_sizing_files(out: Path, res: Any, *, site: Any, site_note: str, drive: Any,
                        system: Any, wind_speeds_m_s: tuple[float, ...], adaptive: bool,
                        tolerance: float, notes: list[str], provenance: Provenance,
-                       coverage: dict, decision: dict,
+                       coverage: dict | None = None, decision: dict | None = None,
                        edge: dict | None = None) -> dict[str, Path]:
     """Write ``sizing.csv`` and ``sizing.json`` (docs/schemas.md §8) of a sizing result
     (:class:`energy.sizing.SizingResult`) into ``out``; returns name -> path."""
+    from energy import decision as choice
     from kernel.files import write_json, write_text_atomic
 
+    if coverage is None:  # what the grid covers and whether the choice holds, if not given
+        coverage = choice.grid_coverage(site, wind_speeds_m_s, res.records)
+    if decision is None:
+        decision = choice.decision(res.table, res.records, site, coverage, tolerance)
     t = res.table
     files = {"csv": write_text_atomic(out / TABLE_FILE,
                                       t.to_csv(index=False, float_format="%.6g"))}
