@@ -30,7 +30,8 @@ LAZY_IMPORTS = {
                        "ingest", "optimize", "size"),
     "bench.cycle_profile": ("BenchFrame",),
     "drivebench.plots": ("plot_efficiency_map",),
-    "reports.plots": ("plot_aep", "plot_cycle", "plot_power_curves"),
+    "energy.plots": ("plot_aep", "plot_power_curves"),
+    "optimize.door": ("plot_cycle",),
 }
 
 __all__ = sorted(name for names in LAZY_IMPORTS.values() for name in names)

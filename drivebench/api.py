@@ -227,7 +227,7 @@ class Sweep:
         """The converged cycles at one wind speed: scenario kind -> the closed cycle
         (``time_s`` from 0 to the period [s], ``speed_rpm``, ``torque_nm``, ``p_elec_w``,
         ``p_mech_w``, ...: ``trajectories.parquet``'s columns, docs/schemas.md §5)."""
-        from reports.optimization_section import closed_cycle
+        from optimize.door import closed_cycle
 
         traj = pd.read_parquet(self.folder / "trajectories.parquet")
         rows = self.summary[self.summary["success"].astype(bool)
@@ -238,8 +238,7 @@ class Sweep:
 
     def plot_cycle(self, scenario: str, ax: Any = None) -> Any:
         """Shaft and grid power over one cycle of ``scenario`` (:func:`plot_cycle`)."""
-        from reports.optimization_section import closed_cycle
-        from reports.plots import plot_cycle
+        from optimize.door import closed_cycle, plot_cycle
 
         traj = pd.read_parquet(self.folder / "trajectories.parquet")
         rows = traj[traj["scenario"] == scenario]
@@ -358,13 +357,13 @@ class AepResult:
 
     def plot_power_curves(self, ax: Any = None) -> Any:
         """The power curves with their 95 % bands (:func:`plot_power_curves`)."""
-        from reports.plots import plot_power_curves
+        from energy.plots import plot_power_curves
 
         return plot_power_curves(self.assessment.curves, ax)
 
     def plot_aep(self, ax: Any = None) -> Any:
         """AEP per scenario kind with its band (:func:`plot_aep`)."""
-        from reports.plots import plot_aep
+        from energy.plots import plot_aep
 
         return plot_aep(self.table(), ax)
 

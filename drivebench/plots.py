@@ -1,6 +1,6 @@
 """The figures of the Python API that read a stage's folder: each draws into a matplotlib
 ``Axes`` (a new figure without one) with the report's own drawing code
-(:mod:`reports.plots`), so a notebook shows what the report shows."""
+(:mod:`optimize.plots`), so a notebook shows what the report shows."""
 
 from __future__ import annotations
 
@@ -29,7 +29,7 @@ def plot_efficiency_map(fit: str | Path | pd.DataFrame = "fit_out", ax: Any = No
     matplotlib Axes
     """
     from fitting.fit_folder import MODEL_FILE, read_efficiency_map, read_power_model
-    from reports.plots import plot_efficiency_map as draw
+    from optimize.door import plot_efficiency_map as draw
 
     domain = None
     if isinstance(fit, pd.DataFrame):

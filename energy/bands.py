@@ -26,6 +26,8 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from optimize.door import cycle_quadrature
+
 #: two-sided 95 % normal quantile
 Z95 = 1.959963984540054
 
@@ -51,7 +53,7 @@ def basis_averages(trajectory: pd.DataFrame, terms: Sequence[tuple[int, int]]) -
         raise ValueError(f"quadrature weights sum to {w.sum():.8f}, not 1")
     n = trajectory["speed_rpm"].to_numpy(float)
     t = trajectory["torque_nm"].to_numpy(float)
-    return np.array([np.sum(w * n**i * t**j) for i, j in terms])
+    return np.array([cycle_quadrature(w, n**i * t**j) for i, j in terms])
 
 
 def sigma(gradient: np.ndarray, covariance: np.ndarray) -> float:

@@ -34,7 +34,7 @@ EFFICIENCY_CONTOURS = (0.5, 0.7, 0.8, 0.85, 0.9)
 #: the paper); nodes outside the measured envelope are NaN and not drawn.
 MASKED_STATUSES = (NEAR_AXIS, ABOVE_MAX)
 #: Colour of the measured envelope's outline: none of the scenario kinds' colours
-#: (:data:`reports.plots.SCENARIO_COLORS`), so Fig. 9's cycles stay apart from it.
+#: (:data:`optimize.plots.SCENARIO_COLORS`), so Fig. 9's cycles stay apart from it.
 ENVELOPE_COLOR = "#e377c2"
 #: Colours of the two quadrants.
 QUADRANT_COLORS = {"motor": "#1f77b4", "generator": "#2ca02c"}

@@ -1,5 +1,6 @@
 """Figure text that stays inside its figure: long titles, labels and legend entries are
-wrapped to the figure's width before a figure is saved.
+wrapped to the figure's width before a figure is saved; labels from metadata made safe
+(:func:`plain_label`), and the axes a plotting function draws on (:func:`new_axes`).
 
 A centred title wider than its figure is cut at both ends in the saved file; constrained
 layout makes room for more lines but does not break a line. :func:`fit_text` breaks every
@@ -10,6 +11,7 @@ what still overflows (the check the tests make over every figure).
 from __future__ import annotations
 
 import textwrap
+from typing import Any
 
 from matplotlib.figure import Figure
 from matplotlib.text import Text
@@ -102,3 +104,17 @@ def overflowing_text(fig: Figure, tolerance_px: float = 1.0) -> list[str]:
                 or b.y0 < box.y0 - tolerance_px or b.y1 > box.y1 + tolerance_px):
             out.append(text.get_text())
     return out
+
+
+def new_axes(ax: Any = None, size_in: tuple[float, float] = (7.0, 4.2)) -> Any:
+    """``ax``, or the axes of a new pyplot figure of ``size_in`` [inch] (constrained layout)."""
+    if ax is not None:
+        return ax
+    import matplotlib.pyplot as plt
+
+    return plt.figure(figsize=size_in, layout="constrained").add_subplot()
+
+
+def plain_label(text: object) -> str:
+    """A label made safe for matplotlib text: no mathtext, bounded length."""
+    return str(text).replace("$", r"\$")[:60]

@@ -9,6 +9,8 @@ that imports the door at the top loads the solver only when it solves.
 home module                             what the other stages use
 ======================================= ==========================================================
 :mod:`optimize.kinds`                   the scenario kinds and their objectives
+:mod:`optimize.cycles`                  a cycle's quadrature, figures and closed form
+:mod:`optimize.plots`                   the figures of cycles (and of the map they run on)
 :mod:`optimize.sweep_options`           a sweep's grouped options (grid, solver, execution)
 :mod:`optimize.service.plan`            the wind grid's parser and its plausible range
 :mod:`optimize.resolve`                 the one resolution of system, drive and OCP options
@@ -31,6 +33,9 @@ from kernel.lazy import lazy_names
 #: home module -> the names the other stages use of it
 LAZY_IMPORTS = {
     "optimize.kinds": ("KINDS", "LABELS", "OBJECTIVES", "kind_of"),
+    "optimize.cycles": ("closed_cycle", "cycle_metrics", "cycle_quadrature"),
+    "optimize.plots": ("MARKER_STEP_S", "SCENARIO_COLORS", "equal_time_samples", "plot_cycle",
+                       "plot_efficiency_map"),
     "optimize.sweep_options": ("DEFAULT_SOLVER", "LOCAL_POOL", "PAPER_GRID", "PAPER_WINDS_M_S",
                                "Execution", "SolverChoice", "WindGrid"),
     "optimize.service.plan": ("WIND_RANGE_M_S", "parse_wind_grid"),

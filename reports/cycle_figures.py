@@ -14,9 +14,17 @@ from markupsafe import Markup
 from matplotlib.patches import Rectangle
 
 from kernel.names import WINDING_TEMPERATURE
-from optimize.door import KINDS, LABELS
-from reports import plots
-from reports.svg import SCENARIO_COLORS, new_figure, to_svg
+from optimize.door import (
+    KINDS,
+    LABELS,
+    MARKER_STEP_S,
+    SCENARIO_COLORS,
+    cycle_quadrature,
+    equal_time_samples,
+    plot_cycle,
+    plot_efficiency_map,
+)
+from reports.svg import new_figure, to_svg
 
 
 def power_vs_wind_figure(summary: pd.DataFrame, power_column: str, name: str,
@@ -62,10 +70,10 @@ def torque_speed_figure(limited: dict[str, pd.DataFrame], free: dict[str, pd.Dat
     """Cycles in the torque-speed plane (paper Fig. 9).
 
     Panel (a): the cycles with the drive limits over the efficiency map
-    (:func:`reports.plots.plot_efficiency_map`, within the map's axes), where the
+    (:func:`optimize.plots.plot_efficiency_map`, within the map's axes), where the
     electrical optimum's move to efficient regions shows. Panel (b): the cycles without
     limits (the paper's Fig. 9), which leave the measured map, with the map's extent
-    outlined. Markers are equally spaced in time (:data:`reports.plots.MARKER_STEP_S`).
+    outlined. Markers are equally spaced in time (:data:`optimize.plots.MARKER_STEP_S`).
 
     Parameters
     ----------
@@ -85,11 +93,11 @@ def torque_speed_figure(limited: dict[str, pd.DataFrame], free: dict[str, pd.Dat
     panels = [p for p in (limited, free) if p]
     fig = new_figure(8.0, 3.8 * len(panels))
     axes = iter(fig.subplots(len(panels), 1, squeeze=False)[:, 0])
-    step = f"a marker every {plots.MARKER_STEP_S * 1e3:.0f} ms"
+    step = f"a marker every {MARKER_STEP_S * 1e3:.0f} ms"
     if limited:
         ax = next(axes)
         if drawn_map is not None:
-            plots.plot_efficiency_map(drawn_map["map_frame"], ax, domain=drawn_map["domain"],
+            plot_efficiency_map(drawn_map["map_frame"], ax, domain=drawn_map["domain"],
                                       cycles=limited, envelope=envelope)
             ax.patch.set_gid("fig9-map-axes")  # the SVG id of the map's axes
         else:
@@ -110,7 +118,7 @@ def _cycles_panel(ax, cycles: dict[str, pd.DataFrame], map_frame: pd.DataFrame |
     """Cycles in the torque-speed plane on axes that hold them all; the extent of the
     efficiency map (when given) outlined, dashed."""
     for key, cycle in cycles.items():
-        smp = plots.equal_time_samples(cycle, ("speed_rpm", "torque_nm"))
+        smp = equal_time_samples(cycle, ("speed_rpm", "torque_nm"))
         ax.plot(smp["speed_rpm"], smp["torque_nm"], marker=".", ms=3, lw=0.5,
                 color=SCENARIO_COLORS[key], label=LABELS[key])
     if map_frame is not None and len(map_frame):
@@ -126,7 +134,7 @@ def _cycles_panel(ax, cycles: dict[str, pd.DataFrame], map_frame: pd.DataFrame |
 
 def power_flow_figure(cycles: dict[str, pd.DataFrame], wind_speed_m_s: float) -> Markup:
     """Mechanical and electrical power over one cycle, one panel per cycle (paper Fig. 10;
-    each panel :func:`reports.plots.plot_cycle`).
+    each panel :func:`optimize.plots.plot_cycle`).
 
     Parameters
     ----------
@@ -139,32 +147,10 @@ def power_flow_figure(cycles: dict[str, pd.DataFrame], wind_speed_m_s: float) ->
     fig = new_figure(9.0, 3.6)
     axes = np.atleast_1d(fig.subplots(1, len(cycles), sharey=True))
     for k, (ax, (key, traj)) in enumerate(zip(axes, cycles.items(), strict=True)):
-        plots.plot_cycle(traj, ax, title=f"{LABELS[key]}, {wind_speed_m_s:g} m/s", kind=key)
+        plot_cycle(traj, ax, title=f"{LABELS[key]}, {wind_speed_m_s:g} m/s", kind=key)
         if k:
             ax.set_ylabel("")
     return to_svg(fig, "power-flows")
-
-
-def cycle_energy(weight: np.ndarray, power_w: np.ndarray, period_s: float) -> np.ndarray:
-    """Cumulative energy [J] over a cycle by the collocation quadrature.
-
-    Parameters
-    ----------
-    weight : (n,) array
-        Quadrature weight of each collocation point as a fraction of the period
-        (the trajectory's ``weight`` column; they sum to 1 over a cycle) [-].
-    power_w : (n,) array
-        Power at the points [W].
-    period_s : float
-        Cycle period [s].
-
-    Returns
-    -------
-    (n,) array
-        Energy [J] up to and including each point; the last value is the net
-        energy of the cycle, ``mean power * period``.
-    """
-    return period_s * np.cumsum(np.asarray(weight, float) * np.asarray(power_w, float))
 
 
 def cycle_figure(traj: pd.DataFrame, period_s: float, label: str,
@@ -192,11 +178,11 @@ def cycle_figure(traj: pd.DataFrame, period_s: float, label: str,
     ax_l.plot(t, traj["l_m"], color="k")
     ax_l.set_ylabel("tether length [m]")
     ax_l.set_title(label, fontsize=10)
-    plots.plot_cycle(traj, ax_p, kind="elec-lim")
+    plot_cycle(traj, ax_p, kind="elec-lim")
     ax_p.set_xlabel("")
     for col, color, name in (("p_elec_w", "tab:blue", "electrical"),
                              ("p_mech_w", "0.3", "mechanical")):
-        e = cycle_energy(traj["weight"].to_numpy(float), traj[col].to_numpy(float), period_s)
+        e = period_s * cycle_quadrature(traj["weight"], traj[col], cumulative=True)  # [J]
         ax_e.plot(t, e, color=color, label=f"E {name}: net {e[-1]:+.0f} J")
     ax_e.set_ylabel("energy [J]\n(+ = consumed)")
     ax_e.set_xlabel("" if hot else "time [s]")

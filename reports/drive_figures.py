@@ -13,8 +13,9 @@ from markupsafe import Markup
 
 from fitting import figures
 from fitting.power_model import PowerModel
-from reports import plots
-from reports.svg import new_figure, plain_label, to_svg
+from kernel.figure_text import plain_label
+from optimize.door import plot_efficiency_map
+from reports.svg import new_figure, to_svg
 
 
 def operating_points_figure(points: pd.DataFrame) -> Markup:
@@ -45,7 +46,7 @@ def operating_points_figure(points: pd.DataFrame) -> Markup:
 
 def efficiency_map_figure(map_frame: pd.DataFrame, domain: dict | None = None,
                           name: str = "efficiency-map") -> Markup:
-    """The measured efficiency map (paper Fig. 5; :func:`reports.plots.plot_efficiency_map`).
+    """The measured efficiency map (paper Fig. 5; :func:`optimize.plots.plot_efficiency_map`).
 
     Parameters
     ----------
@@ -57,7 +58,7 @@ def efficiency_map_figure(map_frame: pd.DataFrame, domain: dict | None = None,
         Figure name (unique in the report).
     """
     fig = new_figure(7.0, 4.0)
-    plots.plot_efficiency_map(map_frame, fig.add_subplot(), domain=domain)
+    plot_efficiency_map(map_frame, fig.add_subplot(), domain=domain)
     return to_svg(fig, name)
 
 

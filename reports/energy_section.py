@@ -13,25 +13,26 @@ import numpy as np
 import pandas as pd
 from markupsafe import Markup
 
+from energy import plots
 from energy.outputs import AEP_FILE, CURVES_FILE, cut_in_text, read_aep, read_power_curves
 from energy.refine import refine_notes
 from energy.sizing import limits_text
 from energy.sizing_files import SIZING_FILE, read_sizing
 from optimize.door import LABELS
-from reports import plots, svg
+from reports import svg
 from reports.inputs import InputLog
 from reports.tables import fmt
 
 
 def power_curve_figure(curves: pd.DataFrame) -> Markup:
-    """The power curves with bands (:func:`reports.plots.plot_power_curves`)."""
+    """The power curves with bands (:func:`energy.plots.plot_power_curves`)."""
     fig = svg.new_figure(7.0, 4.2)
     plots.plot_power_curves(curves, fig.add_subplot())
     return svg.to_svg(fig, "energy-power-curves")
 
 
 def aep_figure(table: pd.DataFrame) -> Markup:
-    """AEP per scenario kind with bands (:func:`reports.plots.plot_aep`)."""
+    """AEP per scenario kind with bands (:func:`energy.plots.plot_aep`)."""
     fig = svg.new_figure(6.4, 3.6)
     plots.plot_aep(table, fig.add_subplot())
     return svg.to_svg(fig, "energy-aep")

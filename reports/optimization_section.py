@@ -16,7 +16,7 @@ import pandas as pd
 
 from kernel.errors import InputError
 from kernel.units import power_words
-from optimize.door import KINDS, LABELS, envelope_curve
+from optimize.door import KINDS, LABELS, closed_cycle, envelope_curve
 from optimize.sweep_folder import (
     CLAIMS_FILE,
     FINER_MESH_HEAD,
@@ -158,22 +158,10 @@ def table_ii(summary: pd.DataFrame) -> dict:
     return {"kinds": kinds, "labels": labels, "rows": rows}
 
 
-def closed_cycle(rows: pd.DataFrame) -> pd.DataFrame:
-    """A cycle's collocation points sorted by time, closed at t = 0 by periodicity.
-
-    The points sit at ``time_s`` in ``(0, T]``; the state at 0 equals the state at
-    T, so the last point is repeated at ``time_s = 0`` with quadrature weight 0.
-    """
-    rows = rows.sort_values("time_s")
-    first = rows.iloc[[-1]].copy()
-    first["time_s"] = 0.0
-    first["weight"] = 0.0
-    return pd.concat([first, rows], ignore_index=True)
-
-
 def _trajectory(traj: pd.DataFrame | None, summary: pd.DataFrame, kind: str,
                 wind: float) -> tuple[pd.DataFrame | None, str | None]:
-    """The closed cycle of a converged scenario (:func:`closed_cycle`), or (None, why not)."""
+    """The closed cycle of a converged scenario (:func:`optimize.cycles.closed_cycle`), or
+    (None, why not)."""
     hit = summary[(summary["kind"] == kind) & np.isclose(summary["wind_speed_m_s"], wind)]
     if hit.empty:
         return None, f"scenario {kind} at {wind:g} m/s was not run"

@@ -21,7 +21,6 @@ from markupsafe import Markup  # noqa: E402  (after selecting the backend)
 from matplotlib.figure import Figure  # noqa: E402
 
 from kernel.figure_text import fit_text  # noqa: E402
-from reports.plots import SCENARIO_COLORS, plain_label  # noqa: E402, F401  (shared here)
 
 _PROLOGUE = re.compile(r"^.*?(?=<svg)", re.DOTALL)
 _METADATA = re.compile(r"<metadata>.*?</metadata>\s*", re.DOTALL)

@@ -12,10 +12,11 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from matplotlib.colors import to_hex  # noqa: E402
 
+from energy.plots import plot_power_curves  # noqa: E402
 from fitting.figures import draw_power_map  # noqa: E402
 from kernel.figure_text import overflowing_text  # noqa: E402
 from optimize.paper_model import paper_model  # noqa: E402
-from reports.plots import SCENARIO_COLORS, plot_efficiency_map, plot_power_curves  # noqa: E402
+from optimize.plots import SCENARIO_COLORS, plot_efficiency_map  # noqa: E402
 
 
 def _map() -> pd.DataFrame:

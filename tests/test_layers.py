@@ -27,7 +27,8 @@ LAYERS = (
 )
 #: optimize's parts, bottom first: a module of optimize may import its own part and below
 OPTIMIZE_ORDER = (
-    ("optimize.kinds", "optimize.paper_model", "optimize.sweep_folder"),  # vocabulary, data
+    ("optimize.kinds", "optimize.paper_model", "optimize.sweep_folder",  # vocabulary, data
+     "optimize.cycles", "optimize.plots"),
     ("optimize.model",),  # the kite DAE, aerodynamics, drivetrain, winding temperature
     ("optimize.system",),  # the system file and the drive in force
     ("optimize.problem",),  # the optimal control problem
@@ -179,6 +180,13 @@ def test_no_stage_imports_the_api_or_the_command_line():
     top = {m for m in graph if layer(m) == 7}
     assert sorted(f"{a} -> {b}" for a, t in graph.items() if a not in top
                   for b in t if b in top) == []
+
+
+def test_the_api_takes_nothing_from_the_report():
+    # the API's results and figures come from the stages; the report consumes them too
+    graph = import_graph(modules())
+    api = [m for m in graph if within(m, "drivebench") and m != "drivebench.cli"]
+    assert sorted(f"{a} -> {b}" for a in api for b in graph[a] if within(b, "reports")) == []
 
 
 def test_no_import_cycle():

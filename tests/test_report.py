@@ -29,6 +29,7 @@ from fitting.power_model import PowerModel
 from kernel.files import write_text_atomic
 from kernel.output_folder import output_folder
 from kernel.provenance import Provenance
+from optimize.cycles import cycle_quadrature
 from optimize.paper_model import paper_model
 from optimize.sweep_folder import (
     SUMMARY_FILE,
@@ -38,7 +39,6 @@ from optimize.sweep_folder import (
     read_trajectories,
     write_sweep_folder,
 )
-from reports import cycle_figures
 from reports.render import build_context, build_report, render
 from reports.svg import new_figure, to_svg
 
@@ -322,10 +322,11 @@ def test_report_says_the_paper_comparison_does_not_apply(full_inputs, tmp_path):
 
 def test_cycle_energy_matches_the_analytic_net_energy(full_inputs):
     cyc = _cycle("x", "elec-lim", 5.5)
-    e = cycle_figures.cycle_energy(cyc["weight"].to_numpy(), cyc["p_elec_w"].to_numpy(),
-                                   CYCLE_PERIOD_S)
+    e = CYCLE_PERIOD_S * cycle_quadrature(cyc["weight"], cyc["p_elec_w"], cumulative=True)
     # point rule on a full period integrates the sine exactly: net = mean * T = -827 J
     assert e[-1] == pytest.approx(-827.0, abs=1e-9)
+    assert CYCLE_PERIOD_S * cycle_quadrature(cyc["weight"], cyc["p_elec_w"]) == pytest.approx(
+        -827.0, abs=1e-9)
     ctx = full_inputs["context"]
     assert "net -827 J" in str(ctx["optimization"]["fig3"])
 

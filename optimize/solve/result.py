@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from optimize.cycles import cycle_metrics, cycle_quadrature
 from optimize.problem.ocp import Ocp
 from optimize.problem.part import FRAME_COLUMNS, near
 from optimize.problem.scenario import Scenario
@@ -70,8 +70,8 @@ class OcpResult:
         One row per Radau point (``time_s`` in ``(0, T]``): the columns of
         :func:`optimize.problem.part.trajectory_columns` of the OCP's parts (time,
         interval, weight, states, controls, algebraic variables, the parts' outputs);
-        ``weight`` are the quadrature weights, so ``(weight * p).sum()`` is the cycle
-        average.
+        ``weight`` are the quadrature weights
+        (:func:`optimize.cycles.cycle_quadrature` gives a cycle average).
     warm : Solution
         Primal/dual vectors to warm-start the next solve.
     stages : tuple of dict
@@ -243,43 +243,7 @@ def slack_fraction(ocp: Ocp, traj: pd.DataFrame) -> float:
     of the kite's weight (quadrature weights of the Radau points)."""
     kite = ocp.dae.kite
     slack = traj["tension_n"].to_numpy() < SLACK_TENSION_FRACTION * kite.mass_kg * kite.g_m_s2
-    return float((traj["weight"].to_numpy() * slack).sum())
-
-
-#: each figure of :func:`cycle_metrics`: the columns it reads and how
-CYCLE_FIGURES: dict[str, tuple[tuple[str, ...], Any]] = {
-    "avg_p_elec_w": (("weight", "p_elec_w"), lambda w, p: np.sum(w * p)),
-    "avg_p_mech_w": (("weight", "p_mech_w"), lambda w, p: np.sum(w * p)),
-    "peak_speed_rpm": (("speed_rpm",), lambda n: np.max(np.abs(n))),
-    "peak_torque_nm": (("torque_nm",), lambda t: np.max(np.abs(t))),
-    "rms_torque_nm": (("weight", "torque_nm"), lambda w, t: np.sqrt(np.sum(w * t**2))),
-    "peak_reel_acceleration_m_s2": (("ddl_m_s2",), lambda a: np.max(np.abs(a))),
-    "p_elec_max_w": (("p_elec_w",), np.max),
-    "p_elec_min_w": (("p_elec_w",), np.min),
-    "tether_length_min_m": (("l_m",), np.min),
-    "tether_length_max_m": (("l_m",), np.max),
-    "altitude_min_m": (("altitude_m",), np.min),
-    "altitude_max_m": (("altitude_m",), np.max),
-}
-
-
-def cycle_metrics(trajectory: Any) -> dict[str, float | None]:
-    """The figures of one cycle from its trajectory (the one place they are computed).
-
-    ``trajectory`` (:attr:`OcpResult.trajectory`, or a table with some of its columns,
-    ``weight`` the quadrature weights summing to 1 over the cycle): the cycle averages
-    of the electrical and shaft power [W], the peak |speed| [rpm], |torque| [N m] and
-    |reel acceleration| [m/s^2], the RMS torque [N m], the largest and smallest
-    electrical power [W], the tether length's [m] and the altitude's [m] range
-    (:data:`CYCLE_FIGURES`); None for a figure whose columns the trajectory has not. A
-    part's own figures are the part's (:func:`part_figures`).
-    """
-    out: dict[str, float | None] = {}
-    for name, (columns, how) in CYCLE_FIGURES.items():
-        have = all(c in trajectory for c in columns)
-        out[name] = (float(how(*(np.asarray(trajectory[c], dtype=float) for c in columns)))
-                     if have else None)
-    return out
+    return cycle_quadrature(traj["weight"], slack)
 
 
 def make_result(

@@ -13,14 +13,14 @@ from typing import Any
 import pandas as pd
 
 from fitting.domain import domain_excursion
+from optimize.cycles import cycle_metrics
 from optimize.service.local_optima import better_margin_w
 from optimize.service.outcome import Resolve, ScenarioOutcome
-from optimize.solve.result import cycle_metrics
 from optimize.sweep_folder import SUMMARY_COLUMNS
 
 #: the metric columns (NaN for a failed scenario)
 _METRICS = list(SUMMARY_COLUMNS)[list(SUMMARY_COLUMNS).index("period_s") :]
-#: the summary's columns of :func:`optimize.solve.result.cycle_metrics`
+#: the summary's columns of :func:`optimize.cycles.cycle_metrics`
 TRAJECTORY_METRICS = ("peak_speed_rpm", "peak_torque_nm", "peak_reel_acceleration_m_s2",
                       "p_elec_max_w", "p_elec_min_w",
                       "tether_length_min_m", "tether_length_max_m", "altitude_min_m",
