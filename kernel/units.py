@@ -16,6 +16,10 @@ RPM_PER_RAD_S = 30.0 / math.pi
 #: column-name suffix -> unit, longest match first where suffixes overlap
 UNIT_SUFFIXES: tuple[tuple[str, str], ...] = (
     ("_pct_nominal", "% of nominal power"),
+    ("_deg_s", "deg/s"),
+    ("_kg_m3", "kg/m^3"),
+    ("_kg_m2", "kg m^2"),
+    ("_kg_m", "kg/m"),
     ("_rad_s2", "rad/s^2"),
     ("_rad_s", "rad/s"),
     ("_m_s3", "m/s^3"),
@@ -36,6 +40,7 @@ UNIT_SUFFIXES: tuple[tuple[str, str], ...] = (
     ("_j", "J"),
     ("_c", "degC"),
     ("_k", "K"),
+    ("_pa", "Pa"),
 )
 #: dimensionless columns whose names carry no suffix
 DIMENSIONLESS = ("eta", "eta_fit", "eta_low", "eta_high", "area_share", "r2")

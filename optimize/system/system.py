@@ -6,7 +6,8 @@ frozen :class:`System` (its sections here). The shipped systems live in
 ``optimize/data/systems/`` (:func:`shipped_system_path`); ``highwind.toml`` is the
 paper's kite and the default.
 
-A :class:`System` turns into the model's parameter sets
+Its sections, each key declared once with its unit, range and meaning, are
+:mod:`optimize.system.sections`. A :class:`System` turns into the model's parameter sets
 (:meth:`System.kite_params`, :meth:`System.aero_coefficients`,
 :meth:`System.wind_model`), into the drive limits (:meth:`System.drive_limits`)
 and into the OCP's options with the file's bounds (:meth:`System.ocp_options`). It
@@ -16,7 +17,6 @@ not count), which is part of the NLP cache key and of the stored-guess acceptanc
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,6 +25,15 @@ from optimize.model.atmosphere import ISA_LAPSE_K_M
 from optimize.model.dae import DaeSpec
 from optimize.model.kite_model import kite_dae
 from optimize.model.params import AeroCoefficients, KiteParams, TetherModel, WindModel
+from optimize.system.sections import (
+    AeroSection,
+    BoundsSection,
+    DriveSection,
+    KiteSection,
+    TetherSection,
+    WinchSection,
+    WindSection,
+)
 
 #: folder of the shipped system files (package data)
 SYSTEMS_DIR = Path(__file__).resolve().parent.parent / "data" / "systems"
@@ -34,144 +43,6 @@ DEFAULT_SYSTEM = "highwind"
 def shipped_system_path(name: str = DEFAULT_SYSTEM) -> Path:
     """Path of a shipped system file by name (``"highwind"``, ``"ap2"``, ``"megawes"``)."""
     return SYSTEMS_DIR / f"{name}.toml"
-
-
-@dataclass(frozen=True)
-class KiteSection:
-    """``[kite]``: rigid wing; body axes x forward, y right wing, z down."""
-
-    mass_kg: float
-    reference_area_m2: float
-    span_m: float
-    chord_m: float
-    bridle_offset_m: float  # bridle point below the CG along body z [m]
-    inertia_xx_kg_m2: float
-    inertia_yy_kg_m2: float
-    inertia_zz_kg_m2: float
-    inertia_xz_kg_m2: float
-
-
-@dataclass(frozen=True)
-class AeroSection:
-    """``[aero]``: the coefficients of :class:`AeroCoefficients` and their validity range."""
-
-    coefficients: AeroCoefficients
-    alpha_min_deg: float
-    alpha_max_deg: float
-    beta_min_deg: float
-    beta_max_deg: float
-
-
-@dataclass(frozen=True)
-class TetherSection:
-    """``[tether]``: the kite sees a quarter of the tether's drag (lumped), or the drag of
-    ``drag_elements`` elements with their own apparent wind; the line's mass per length
-    [kg/m] (``None``: massless).
-
-    The tether-force limit is ``max_force_n``, or the working load of the line
-    ``tensile_strength_pa * pi d^2 / 4 / safety_factor``, or the smaller of the two
-    when both are given; ``None`` each when the file does not give it.
-    """
-
-    diameter_m: float
-    drag_coefficient: float
-    max_force_n: float | None = None
-    tensile_strength_pa: float | None = None
-    safety_factor: float | None = None
-    mass_kg_m: float | None = None
-    drag_elements: int | None = None
-
-    def working_load_n(self) -> float | None:
-        """The line's working load [N] from its strength and safety factor (or ``None``)."""
-        if self.tensile_strength_pa is None or self.safety_factor is None:
-            return None
-        area_m2 = math.pi * self.diameter_m**2 / 4
-        return self.tensile_strength_pa * area_m2 / self.safety_factor
-
-
-@dataclass(frozen=True)
-class WinchSection:
-    """``[winch]``: drum and gearbox (motor speed = gear ratio x drum speed), the inertia
-    turning at drum speed [kg m^2], the reel-acceleration limit [m/s^2] and the reel-jerk
-    limit [m/s^3] (``None``: not stated; an unstated inertia is zero, a massless drum,
-    and said so)."""
-
-    drum_radius_m: float
-    gear_ratio: float
-    drum_inertia_kg_m2: float | None = None
-    max_reel_acceleration_m_s2: float | None = None
-    max_reel_jerk_m_s3: float | None = None
-    max_reel_out_speed_m_s: float | None = None  # every kind, beside the drive's rpm
-    max_reel_in_speed_m_s: float | None = None
-
-
-@dataclass(frozen=True)
-class DriveSection:
-    """``[drive]``: the drive's rating at the motor shaft and where its losses come from
-    (resolved by :func:`optimize.system.drive_in_force.drive_in_force`); ``None`` = not stated."""
-
-    max_speed_rpm: float | None
-    max_torque_nm: float | None
-    nominal_power_w: float | None
-    max_p_elec_w: float | None
-    continuous_torque_nm: float | None = None
-    overload: float | None = None
-    losses: str | None = None  # "paper" or a power_model.json path relative to the file
-    scaling: str | None = None  # "similarity" or "none"
-    source: str | None = None
-    rotor_inertia_kg_m2: float | None = None  # at the motor shaft
-    base_speed_rpm: float | None = None  # constant power above it
-    envelope_speed_rpm: tuple[float, ...] | None = None  # datasheet table, with
-    envelope_torque_nm: tuple[float, ...] | None = None  # its largest torques
-    max_winding_temperature_c: float | None = None  # the thermal rating [degC]
-    ambient_temperature_c: float | None = None  # default: the thermal model's [degC]
-
-
-@dataclass(frozen=True)
-class WindSection:
-    """``[wind]``: profile ``"log"`` (roughness length) or ``"power"`` (exponent); the
-    atmosphere ``"constant"`` (the density everywhere) or ``"isa"`` (the density at the
-    ground, falling with altitude as in the ISA troposphere)."""
-
-    profile: str
-    reference_height_m: float
-    roughness_length_m: float | None
-    exponent: float | None
-    winch_height_m: float
-    air_density_kg_m3: float
-    gravity_m_s2: float
-    atmosphere: str = "constant"
-
-
-@dataclass(frozen=True)
-class BoundsSection:
-    """``[bounds]``: the OCP's path and parameter bounds.
-
-    ``surface_max_deg`` bounds every control surface; ``aileron_max_deg``,
-    ``elevator_max_deg`` and ``rudder_max_deg`` (optional) bound one surface each instead.
-    """
-
-    tether_length_min_m: float
-    tether_length_max_m: float
-    period_min_s: float
-    period_max_s: float
-    min_ground_clearance_m: float
-    min_airspeed_m_s: float
-    max_line_angle_deg: float
-    surface_max_deg: float
-    surface_rate_max_rad_s: float
-    max_airspeed_m_s: float | None = None
-    max_body_rate_deg_s: float | None = None  # each body rate
-    min_tension_n: float | None = None
-    aileron_max_deg: float | None = None
-    elevator_max_deg: float | None = None
-    rudder_max_deg: float | None = None
-
-    def surface_bounds_deg(self) -> tuple[float, float, float]:
-        """Deflection bound of each surface [deg], in the order of
-        :data:`optimize.model.aero.SURFACES`."""
-        own = (self.aileron_max_deg, self.elevator_max_deg, self.rudder_max_deg)
-        return tuple(self.surface_max_deg if b is None else b for b in own)
 
 
 @dataclass(frozen=True)
@@ -279,9 +150,9 @@ class System:
     def tether_model(self) -> TetherModel:
         """The tether's mass and drag model (massless and lumped unless the file says)."""
         t = self.tether
-        if t.mass_kg_m is None and t.drag_elements is None:
+        if t.line_mass_kg_m() is None and t.drag_elements is None:
             return TetherModel()
-        return TetherModel(mass_kg_m=t.mass_kg_m or 0.0, diameter_m=t.diameter_m,
+        return TetherModel(mass_kg_m=t.line_mass_kg_m() or 0.0, diameter_m=t.diameter_m,
                            drag_coefficient=t.drag_coefficient,
                            drag_elements=t.drag_elements or 0)
 
