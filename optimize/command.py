@@ -271,7 +271,7 @@ def run_optimize(
                                      show_progress)
     summary = outputs.summary_frame(outcomes, drive.model.domain,
                                     domain_scales(drive.model, options))
-    parts = model_parts(problem.model.build(), drive.model, options)
+    parts = model_parts(problem.model.build(), drive.model, options, system)
     cut_ins = cut_in_frame(result.cut_ins)
     claims = (evaluate_claims(summary, cut_ins, paper_system=system.paper_system,
                               system_name=system.name) if request.claims else None)

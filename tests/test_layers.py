@@ -30,8 +30,8 @@ OPTIMIZE_ORDER = (
     ("optimize.kinds", "optimize.paper_model", "optimize.sweep_folder",  # vocabulary, data
      "optimize.cycles", "optimize.plots"),
     ("optimize.model",),  # the kite DAE, aerodynamics, drivetrain, winding temperature
-    ("optimize.system",),  # the system file and the drive in force
-    ("optimize.problem",),  # the optimal control problem
+    ("optimize.problem",),  # the optimal control problem, its parts
+    ("optimize.system",),  # the system file (the parts' sections) and the drive in force
     ("optimize.resolve",),  # system, drive and OCP options resolved once
     ("optimize.solve",),  # its solution
     ("optimize.analysis",),  # the result check, the paper comparison

@@ -2,7 +2,10 @@
 
 The part (:class:`ReelFilter`, below) brings its own state, bound, scale, start guess
 and output column (declared with its unit suffix); one line registers it
-(``build_ocp(..., parts=...)``). Truths:
+(``build_ocp(..., parts=...)``), or, with its section of the system file
+(:class:`ReelFilterInputs`, one key), one line in ``PART_SECTIONS``: then a system file
+with ``[reel_filter]`` flies it through ``bench optimize --system`` and
+docs/system_file.md shows its key. Truths:
 
 * the filter's output is a weighted average of its input (``f' = (dl - f) / tau``), so
   ``|f| <= max |dl|``: its bound at the drive's reel-speed limit holds and never binds,
@@ -15,26 +18,33 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from drivebench.cli import main
 from kernel.files import write_parquet
+from kernel.sections import number
 from optimize.model.kite_model import kite_dae
 from optimize.model.variables import Variables
 from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
-from optimize.problem.options import Discretization, OcpOptions
+from optimize.problem.options import SOLVER_REEL_SPEED_M_S, Discretization, OcpOptions
 from optimize.problem.part import Part, StartPoint, trajectory_columns
+from optimize.problem.part_sections import PART_SECTIONS
 from optimize.service.outcome import Attempt, ScenarioOutcome
 from optimize.solve.starts import stored_guess
 from optimize.solve.starts.cold import start
 from optimize.sweep.outputs import trajectories_frame
-from optimize.sweep_folder import field_units
+from optimize.sweep_folder import field_units, read_summary, read_trajectories
+from optimize.system import system_doc
+from optimize.system.system import shipped_system_path
 
 TAU_S = 0.5
+DOC = Path(__file__).resolve().parent.parent / "docs" / "system_file.md"
 
 
 @dataclass(frozen=True)
@@ -62,6 +72,53 @@ class ReelFilter(Part):
 
     def guess(self, start: StartPoint) -> dict[str, np.ndarray]:
         return {"dl_filtered_m_s": start.on_grid(start.quantities["dl_m_s"])}
+
+
+@dataclass(frozen=True, kw_only=True)
+class ReelFilterInputs:
+    """The reel speed through a first-order lag: ``tau df/dt = dl - f`` (a test part)."""
+
+    time_constant_s: float = number("the filter's time constant tau", lo=0)
+
+    def part(self, dae: Any, scales: Any) -> ReelFilter:
+        """The filter, bounded by the solver's reel-speed range (it never binds)."""
+        return ReelFilter(self.time_constant_s, SOLVER_REEL_SPEED_M_S)
+
+
+@pytest.fixture(scope="module")
+def flown(tmp_path_factory):
+    """``bench optimize --system`` of the paper's kite with ``[reel_filter]``, the part
+    registered by one line (one worker process: the system carries the part's inputs)."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setitem(PART_SECTIONS, "reel_filter", ReelFilterInputs)  # the registration
+        work = tmp_path_factory.mktemp("flown")
+        mp.chdir(work)  # no fit_out/ here: the paper's drive model
+        system = work / "filtered.toml"
+        system.write_text(shipped_system_path().read_text(encoding="utf-8")
+                          + f"\n[reel_filter]\ntime_constant_s = {TAU_S}\n", encoding="utf-8")
+        code = main(["optimize", "--system", str(system), "--wind-grid", "7", "--scenarios",
+                     "elec-lim", "--no-claims", "--no-progress", "--workers", "1",
+                     "--out", str(work / "out")])
+        page = system_doc.render(DOC.read_text(encoding="utf-8"))
+    return code, work / "out", page
+
+
+def test_a_part_registered_by_one_line_flies_from_the_command_line(flown, stored_guess_solve):
+    code, out, page = flown
+    assert code == 0
+    summary = read_summary(out / "summary.parquet").iloc[0]
+    assert summary["success"] and summary["scenario"] == "elec-lim-7.0"
+    # the kite's optimum is the one without the part (started by the homotopy here: a
+    # system with another section is another system for the stored guess)
+    assert summary["avg_p_elec_w"] == pytest.approx(stored_guess_solve.avg_p_elec_w, rel=1e-4)
+    traj = read_trajectories(out)
+    units = field_units(out / "trajectories.parquet")
+    assert units["dl_filtered_m_s"] == "m/s" and units["filter_lag_m_s"] == "m/s"
+    assert np.allclose(traj["filter_lag_m_s"], traj["dl_m_s"] - traj["dl_filtered_m_s"])
+    # its key in the generated docs/system_file.md, and in no other section
+    assert "### `[reel_filter]` (optional)" in page
+    assert "| `time_constant_s` | s | > 0 | required | the filter's time constant tau |" in page
+    assert "time_constant_s" not in DOC.read_text(encoding="utf-8")
 
 
 @pytest.fixture(scope="module")

@@ -34,6 +34,7 @@ from optimize.problem.guess import LoopBounds, LoopGuess, start_loop
 from optimize.problem.interface import CycleFormulation, weight_param
 from optimize.problem.options import OcpOptions, with_drive_rating
 from optimize.problem.part import Part
+from optimize.problem.part_sections import section_parts
 from optimize.problem.parts import kite_parts
 from optimize.problem.scaling import Scales, system_scales
 from optimize.problem.transcriptions import method_of
@@ -269,9 +270,11 @@ def build_ocp(
         limits it leaves open are the power model's rating (``drive_model.drive``).
     system : optimize.system.system.System, optional
         The system ``dae`` and ``options.limits`` come from (recorded on the OCP;
-        the stored initial guess is accepted only for its own system).
+        the stored initial guess is accepted only for its own system); the parts of its
+        part sections (``system.part_inputs``,
+        :data:`optimize.problem.part_sections.PART_SECTIONS`) follow the kite's own.
     parts : tuple of Part
-        Parts added after the kite's own (:func:`optimize.problem.parts.kite_parts`).
+        Parts added after those.
 
     Returns
     -------
@@ -280,23 +283,24 @@ def build_ocp(
     """
     t0 = time.perf_counter()
     o = with_drive_rating(options or OcpOptions(), drive_model)
-    loop, scales, own = _model(dae, drive_model, o)
+    loop, scales, own = _model(dae, drive_model, o, system)
     form = Formulation((*own, *parts), o.discretization, scales)
     return assemble(form, o, loop=loop, system=system, started=t0)
 
 
 def model_parts(dae: KiteDae, drive_model: DriveModel, options: OcpOptions | None = None,
-                parts: tuple[Part, ...] = ()) -> tuple[Part, ...]:
+                system: Any = None, parts: tuple[Part, ...] = ()) -> tuple[Part, ...]:
     """The parts :func:`build_ocp` builds its OCP of, without the NLP (what a sweep's
     tables hold, :func:`optimize.problem.part.trajectory_columns`); same arguments."""
     o = with_drive_rating(options or OcpOptions(), drive_model)
-    return (*_model(dae, drive_model, o)[2], *parts)
+    return (*_model(dae, drive_model, o, system)[2], *parts)
 
 
-def _model(dae: KiteDae, drive_model: DriveModel, o: OcpOptions
+def _model(dae: KiteDae, drive_model: DriveModel, o: OcpOptions, system: Any
            ) -> tuple[LoopGuess, Scales, tuple[Part, ...]]:
-    """The start loop, the scales and the kite's parts (:func:`kite_parts`) under the
-    options ``o`` (with the drive's rating)."""
+    """The start loop, the scales and the parts under the options ``o`` (with the drive's
+    rating): the kite's (:func:`kite_parts`), then those of the system's part sections
+    (:func:`section_parts`)."""
     lim = o.limits
     spin = None if lim.max_body_rate_deg_s is None else lim.body_rate_bound_rad_s()
     loop = start_loop(dae.kite, dae.coeffs, dae.wind, lim.alpha_bounds_deg[1],
@@ -304,8 +308,8 @@ def _model(dae: KiteDae, drive_model: DriveModel, o: OcpOptions
                                  lim.tether_length_bounds_m, lim.min_altitude_m,
                                  lim.max_airspeed_m_s, spin))
     scales = system_scales(dae.kite, loop, lim.nominal_power_w, lim.max_torque_nm)
-    return loop, scales, kite_parts(dae, drive_model, lim, scales, loop,
-                                    winding_thermal(drive_model, lim))
+    own = kite_parts(dae, drive_model, lim, scales, loop, winding_thermal(drive_model, lim))
+    return loop, scales, (*own, *section_parts(getattr(system, "part_inputs", ()), dae, scales))
 
 
 def thermal_line(drive_model: DriveModel, limits: Any, source: Any = None) -> str:

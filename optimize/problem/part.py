@@ -69,9 +69,19 @@ or the drive's own rows, a force on the kite, starts from it all the same, its r
 yet satisfied there); a part the file holds and the OCP has not, or has with other
 variables, refuses the file (the homotopy starts instead, and the log says why).
 
-Registering: pass the part to :func:`optimize.problem.ocp.build_ocp` (``parts=``) or
-append it in :func:`optimize.problem.parts.kite_parts`. A complete example, a filter of
-the reel speed with its state, bound, scale, output and start: ``ReelFilter`` in
+Inputs: a part with inputs of its own declares its section of the system file, a frozen
+dataclass of keys with their units, ranges, defaults and meanings (:mod:`kernel.sections`)
+whose ``part(dae, scales)`` makes the part from them (``dae`` the kite's
+:class:`optimize.model.kite_model.KiteDae`, ``scales`` the system's
+:class:`optimize.problem.scaling.Scales`).
+
+Registering: one line in :data:`optimize.problem.part_sections.PART_SECTIONS`, the section's name
+and class: a system file with that section then flies the part in every solve of
+``bench optimize``, ``bench aep --refine`` and ``bench size``, the file's reader checks
+its keys, and docs/system_file.md shows them. A part without inputs is passed to
+:func:`optimize.problem.ocp.build_ocp` (``parts=``) or appended in
+:func:`optimize.problem.parts.kite_parts`. A complete example, a filter of the reel speed
+with its section, state, bound, scale, output and start: ``ReelFilter`` in
 tests/test_model_parts.py.
 """
 

@@ -4,7 +4,9 @@ The kite first (its variables and quantities are what the others read), then the
 drivetrain and the drive, then the tether's mass and drag when the system gives them,
 then the winding temperature when the drive has a thermal rating and its power model a
 thermal model. A new part is one more entry here, or an
-extra part handed to :func:`optimize.problem.ocp.build_ocp`.
+extra part handed to :func:`optimize.problem.ocp.build_ocp`, or, with inputs of its own,
+its section of the system file registered in
+:data:`optimize.problem.part_sections.PART_SECTIONS`.
 """
 
 from __future__ import annotations

@@ -100,6 +100,9 @@ class System:
     paper_system : bool
         Whether this is the system of the paper the product implements
         (``[system] paper_system``): only then is a sweep compared with the paper.
+    part_inputs : tuple
+        The file's sections of further parts (:data:`optimize.problem.part_sections.PART_SECTIONS`),
+        in that table's order: each makes the part it is the inputs of.
     """
 
     name: str
@@ -115,6 +118,7 @@ class System:
     text: str
     sha256: str
     paper_system: bool = False
+    part_inputs: tuple[Any, ...] = ()
 
     # -------------------------------------------------------------- model parameters
     def kite_params(self) -> KiteParams:

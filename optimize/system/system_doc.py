@@ -2,9 +2,11 @@
 (:data:`optimize.system.sections.SECTIONS`, :func:`kernel.sections.key_table`).
 
 The page's prose is written by hand; each section's table of keys sits between
-:data:`BEGIN` and :data:`END` and is generated: ``python -m optimize.system.system_doc
-docs/system_file.md`` rewrites them in place, and ``tests/test_system_doc.py`` checks that
-the page holds what this renders.
+:data:`BEGIN` and :data:`END`, and the sections of further parts
+(:data:`optimize.problem.part_sections.PART_SECTIONS`), each with its heading, meaning and
+table, between :data:`PARTS` and :data:`END`; all of them are generated: ``python -m
+optimize.system.system_doc docs/system_file.md`` rewrites them in place, and
+``tests/test_system_doc.py`` checks that the page holds what this renders.
 """
 
 from __future__ import annotations
@@ -14,32 +16,51 @@ from pathlib import Path
 
 from kernel.files import read_text, write_text_atomic
 from kernel.sections import key_table
+from optimize.problem.part_sections import PART_SECTIONS
 from optimize.system.sections import SECTIONS
 
 #: the line before a section's generated table (``{section}`` its name)
 BEGIN = "<!-- the keys of [{section}], generated: python -m optimize.system.system_doc -->"
-#: the line after it
+#: the line before the generated sections of further parts
+PARTS = "<!-- the sections of further parts, generated: python -m optimize.system.system_doc -->"
+#: the line after a generated block
 END = "<!-- end of the generated keys -->"
 
 
-def render(page: str, sections: dict[str, type] | None = None) -> str:
-    """``page`` with the table of every section (default :data:`SECTIONS`) rendered
-    between its markers.
+def render(page: str, sections: dict[str, type] | None = None,
+           parts: dict[str, type] | None = None) -> str:
+    """``page`` with the table of every section (default :data:`SECTIONS`) and the sections
+    of further parts (default :data:`PART_SECTIONS`) rendered between their markers.
 
     Raises
     ------
     ValueError
-        A section without its markers on the page.
+        A section, or the further parts, without its markers on the page.
     """
     for name, cls in (SECTIONS if sections is None else sections).items():
-        begin = BEGIN.format(section=name)
-        start = page.find(begin)
-        stop = page.find(END, start)
-        if start < 0 or stop < 0:
-            raise ValueError(f"no generated table of [{name}]: the page needs the lines "
-                             f"{begin!r} and {END!r}")
-        page = page[:start] + begin + "\n\n" + key_table(cls) + "\n" + page[stop:]
-    return page
+        page = _between(page, BEGIN.format(section=name), "\n" + key_table(cls))
+    return _between(page, PARTS, parts_text(PART_SECTIONS if parts is None else parts))
+
+
+def parts_text(parts: dict[str, type]) -> str:
+    """Each part section's heading, meaning (its docstring's first paragraph) and table."""
+    if not parts:
+        return "\nNone is registered in this installation.\n"
+    out = ""
+    for name, cls in parts.items():
+        meaning = " ".join((cls.__doc__ or "").strip().split("\n\n")[0].split())
+        out += f"\n### `[{name}]` (optional)\n\n{meaning}\n\n{key_table(cls)}"
+    return out
+
+
+def _between(page: str, begin: str, body: str) -> str:
+    """``page`` with ``body`` between the line ``begin`` and the next :data:`END`."""
+    start = page.find(begin)
+    stop = page.find(END, start)
+    if start < 0 or stop < 0:
+        raise ValueError(f"no generated block: the page needs the lines {begin!r} and "
+                         f"{END!r}")
+    return page[:start] + begin + "\n" + body + "\n" + page[stop:]
 
 
 def main(argv: list[str]) -> int:

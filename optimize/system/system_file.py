@@ -19,18 +19,21 @@ from typing import Any
 from kernel.errors import InputError
 from kernel.files import parse_toml, read_text
 from kernel.sections import read_section
+from optimize.problem.part_sections import PART_SECTIONS
 from optimize.system.plausibility import check_system
 from optimize.system.sections import SECTIONS, BoundsSection, TetherSection
 from optimize.system.system import System, shipped_system_path
 
 
 def _check_sections(data: Any, path: str) -> None:
+    """Every required section there, none unknown (a part's section is optional)."""
     if not isinstance(data, dict):
         raise InputError(path, "not a table of sections", expected="a TOML file")
-    unknown = sorted(set(data) - set(SECTIONS))
+    unknown = sorted(set(data) - set(SECTIONS) - set(PART_SECTIONS))
     if unknown:
         raise InputError(path, f"[{unknown[0]}]: unknown section",
-                         expected="sections " + ", ".join(SECTIONS))
+                         expected="sections " + ", ".join(SECTIONS) + "".join(
+                             f", [{name}] (optional)" for name in PART_SECTIONS))
     for s in SECTIONS:
         if s not in data:
             raise InputError(path, f"[{s}]: missing section",
@@ -52,12 +55,15 @@ def system_from_dict(data: dict, path: str = "<system>", text: str = "") -> Syst
     then the whole system's plausibility."""
     _check_sections(data, path)
     read = {name: read_section(cls, data[name], path, name) for name, cls in SECTIONS.items()}
+    parts = tuple(read_section(cls, data[name], path, name)
+                  for name, cls in PART_SECTIONS.items() if name in data)
     _check_tension_range(path, read["tether"], read["bounds"])
     canonical = json.dumps(data, sort_keys=True, separators=(",", ":"))
     head = read["system"]
     system = System(head.name, head.description, read["kite"], read["aero"], read["tether"],
                     read["winch"], read["drive"], read["wind"], read["bounds"], path, text,
-                    hashlib.sha256(canonical.encode("utf-8")).hexdigest(), head.paper_system)
+                    hashlib.sha256(canonical.encode("utf-8")).hexdigest(), head.paper_system,
+                    parts)
     check_system(system)  # well-formed is not enough: refuse what cannot fly, before any solve
     return system
 
