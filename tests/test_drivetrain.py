@@ -237,3 +237,26 @@ def test_a_reel_jerk_limit_holds_and_is_reported_in_every_kind():
 def test_a_non_positive_jerk_limit_names_the_key(value):
     with pytest.raises(InputError, match="max_reel_jerk_m_s3"):
         system_from_dict(_system(winch__max_reel_jerk_m_s3=value), "bad.toml")
+
+
+def test_the_drive_model_protocol_says_everything_optimize_uses():
+    """Every attribute optimize reads of a ``drive_model`` (a name or an attribute of that
+    name) is declared by :class:`optimize.model.drivetrain.DriveModel`, and the power
+    model has each."""
+    import ast
+    from pathlib import Path
+
+    from optimize.model.drivetrain import DriveModel
+
+    declared = {n for n in vars(DriveModel) if not n.startswith("_")}
+    declared |= set(DriveModel.__annotations__)
+    used = set()
+    for path in (Path(__file__).resolve().parent.parent / "optimize").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Attribute) and (
+                    (isinstance(node.value, ast.Name) and node.value.id == "drive_model")
+                    or (isinstance(node.value, ast.Attribute)
+                        and node.value.attr == "drive_model")):
+                used.add(node.attr)
+    assert used and used <= declared, sorted(used - declared)
+    assert all(hasattr(paper_model(), name) for name in declared)

@@ -20,7 +20,35 @@ from kernel.units import RPM_PER_RAD_S
 
 
 class DriveModel(Protocol):
-    """What the OCP needs from a drive power model (``fitting.power_model.PowerModel``)."""
+    """Everything optimize uses of a drive power model (``fitting.power_model.PowerModel``).
+
+    Attributes
+    ----------
+    name : str
+        What the model is (printed, recorded in the manifest).
+    sha256 : str
+        Its identity: part of the NLP cache key and of a stored solve's.
+    nominal_power_w : float
+        The drive's nominal power [W], where the system states none.
+    drive : dict or None
+        Its own rating (``max_speed_rpm``, ``max_torque_nm``, ...: docs/schemas.md §3),
+        where the system states none.
+    thermal : dict or None
+        Its winding's thermal model (docs/schemas.md §3 ``thermal``), or None.
+    domain : dict or None
+        ``quadrant -> polygon``: where its points were measured, or None.
+    coefficients : dict
+        Term ``(i, j)`` (speed ``rpm**i``, torque ``(N m)**j``) -> coefficient [W per
+        rpm**i (N m)**j]: the copper loss of the thermal model is its ``(0, 2)`` term.
+    """
+
+    name: str
+    sha256: str
+    nominal_power_w: float
+    drive: dict | None
+    thermal: dict | None
+    domain: dict | None
+    coefficients: dict
 
     def casadi_p_elec_w(self, speed_rpm: Any, torque_nm: Any) -> Any:
         """Electrical power drawn from the grid [W] (CasADi expression)."""

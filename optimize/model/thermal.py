@@ -32,6 +32,8 @@ from typing import Any
 import numpy as np
 from scipy.linalg import expm
 
+from optimize.model.drivetrain import DriveModel
+
 #: the winding temperature's state (the unit in the name, :mod:`optimize.model.variables`)
 STATE = "theta_winding_c"
 #: the states of a ladder's nodes from the winding outwards (beyond them ``theta_node_<k>_c``)
@@ -92,14 +94,12 @@ class WindingThermal:
                              f"{self.ambient_c} degC")
 
     @classmethod
-    def of(cls, drive_model: Any, max_c: float, ambient_c: float | None = None
+    def of(cls, drive_model: DriveModel, max_c: float, ambient_c: float | None = None
            ) -> WindingThermal:
         """The thermal model of a power model (its ``thermal`` block and ``T^2`` term),
         with the winding limit [degC] and the ambient [degC] (default: the fitted one)."""
         th = drive_model.thermal
-        terms = [tuple(t) for t in drive_model.terms]
-        copper = (drive_model.coefficients_rpm[terms.index(COPPER_TERM)]
-                  if COPPER_TERM in terms else 0.0)
+        copper = drive_model.coefficients.get(COPPER_TERM, 0.0)
         if th.get("nodes", 1) == 1:
             ladder = ((float(th["r_th_k_per_w"]), float(th["tau_th_s"])),)
         else:
