@@ -133,6 +133,15 @@ def _add_solver_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="start every chain by the homotopy, not from the shipped initial guess",
     )
+    parser.add_argument(
+        "--start",
+        type=Path,
+        default=None,
+        metavar="PATH",
+        help="start the sweep from an earlier sweep of the same system file: its folder "
+        "or its start.npz (refused, exit 2, for another system), instead of the shipped "
+        "initial guess or the homotopy",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -146,7 +155,8 @@ def run(args: argparse.Namespace) -> int:
     request = make_request(
         WindGrid.parse(args.wind_grid, args.scenarios),
         SolverChoice(args.intervals, args.degree, args.solver, args.linear_solver,
-                     not args.no_stored_guess, args.transcription, args.codegen),
+                     not args.no_stored_guess, args.transcription, args.codegen,
+                     args.start),
         drive_model=args.drive_model, system=args.system, fit_default=FIT_MODEL_PATH, out=args.out,
         execution=execution, claims=not args.no_claims, trust=args.trust,
         period_scan=args.period_scan)

@@ -26,13 +26,17 @@ from optimize.problem.ocp import model_parts
 from optimize.problem.part import trajectory_columns
 from optimize.resolve import Setup, resolve
 from optimize.service import Problem, make_tasks, run_sweep
+from optimize.service.builder import OcpBackend
 from optimize.service.executors import open_executor
 from optimize.service.plan import plan_graph
+from optimize.solve.starts.stored_guess import check_start_file
+from optimize.solve.starts.stored_guess import write as write_start
 from optimize.sweep import outputs
 from optimize.sweep.trust import run_trust_checks
 from optimize.sweep_folder import (
     FINER_MESH_HEAD,
     MARKERS,
+    START_FILE,
     bound_lines,
     domain_lines,
     remesh_lines,
@@ -147,16 +151,19 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
 
     _check_ranges(solver, trust, period_scan)
     check_output_dir(out)
+    start = start_file(solver.start)
     try:
         options = OcpOptions(Discretization(n_intervals=solver.n_intervals,
                                             degree=solver.degree),
                              solver=solver_options(solver.solver, solver.linear_solver,
                                                    solver.stored_guess, solver.transcription,
-                                                   solver.codegen))
+                                                   solver.codegen, start))
     except ValueError as exc:
         raise InputError(None, f"OCP options: {exc}") from exc
     setup = resolve(system, drive_model, fit_default=fit_default, options=options)
     loaded, drive, limits = setup.system, setup.drive, setup.options.limits
+    if start:
+        check_start_file(start, loaded.sha256)
     # an impossible model "converges" to a wrong cycle: refuse it before any solve,
     # checked also where the optimizer may take it (the drive limits in force), with a
     # drive that cannot hold the kite and bounds of two parts that contradict each other
@@ -166,6 +173,24 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
     return SweepRequest(grid.wind_speeds_m_s, grid.kinds, setup, note, execution.workers,
                         execution.scheduler, Path(out), claims, trust,
                         period_scan=period_scan)
+
+
+def start_file(path: Path | None) -> str:
+    """The start file of ``--start`` (a file, or an optimize folder's ``start.npz``);
+    ``""`` without one.
+
+    Raises
+    ------
+    InputError
+        Neither such a file nor a folder holding one.
+    """
+    if path is None:
+        return ""
+    file = Path(path) / START_FILE if Path(path).is_dir() else Path(path)
+    if not file.is_file():
+        raise InputError(path, "no start file here", column="--start",
+                         expected=f"a {START_FILE} bench optimize wrote, or its output folder")
+    return str(file)
 
 
 def _check_ranges(solver: SolverChoice, trust: bool, period_scan: int) -> None:
@@ -260,9 +285,9 @@ def run_optimize(
     cut_in_kinds = (tuple(k for k in request.kinds if KINDS[k].drive_limits)
                     if request.claims else ())
     trust: dict = {"mesh": [], "simulation": []}
+    plan = plan_graph(request.wind_speeds_m_s, request.kinds)
     with open_executor(request.workers, request.scheduler) as handle:
-        tasks = make_tasks(plan_graph(request.wind_speeds_m_s, request.kinds), problem,
-                           cut_in_kinds, request.cut_in_tol_m_s, backend,
+        tasks = make_tasks(plan, problem, cut_in_kinds, request.cut_in_tol_m_s, backend,
                            request.period_scan)
         result = run_sweep(tasks, handle, show_progress)
         outcomes = list(result.outcomes)
@@ -280,9 +305,32 @@ def run_optimize(
         trajectories=outputs.trajectories_frame(outcomes, trajectory_columns(parts)),
         carried_model=drive.model if drive.carried or not drive.model_path.is_file() else None,
         manifest=sweep_manifest(request, system, drive, options, result, summary, trust,
-                                outcomes))
+                                outcomes),
+        start=start_writer(problem, [o for o in outcomes if o.name == plan[0].name],
+                           backend))
     return OptimizeOutcome(summary, claims, cut_ins, trust, tuple(trust.get("lines", ())),
                            result.wall_time_s, result.executor, files, result.iterations())
+
+
+def start_writer(problem: Problem, seed: list, backend: Any = None) -> Any:
+    """The writer of the sweep's ``start.npz`` (the seed's optimum in the stored guess's
+    format, :func:`optimize.solve.starts.stored_guess.write`), or None when there is
+    nothing to keep: the seed failed, its optimum stands on another mesh (the last retry's)
+    or another layout than IPOPT's general one, or the solves ran on another backend."""
+    ok = [o for o in seed if o.success and o.result is not None]
+    o = problem.options
+    if (backend is not None or not ok or o.solver.solver != "ipopt"
+            or o.solver.transcription != "collocation"
+            or ok[0].result.warm.n_intervals != problem.n_intervals):
+        return None
+    result = ok[0].result
+
+    def write(path: Path) -> Path:
+        ocp = OcpBackend().build(problem)
+        p = ocp.params(result.scenario.parameters, result.scenario.weights)
+        return write_start(path, ocp, result, p)
+
+    return write
 
 
 def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, options: Any,
@@ -321,9 +369,9 @@ def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, o
 
 def solver_options(solver: str = "ipopt", linear_solver: str | None = None,
                    stored_guess: bool = True, transcription: str = "collocation",
-                   codegen: bool = False) -> Any:
+                   codegen: bool = False, start_file: str = "") -> Any:
     """``SolverOptions`` of ``--solver``, ``--linear-solver``, ``--no-stored-guess``,
-    ``--transcription`` and ``--codegen``.
+    ``--transcription``, ``--codegen`` and ``--start`` (the file, :func:`start_file`).
 
     Raises
     ------
@@ -341,7 +389,7 @@ def solver_options(solver: str = "ipopt", linear_solver: str | None = None,
         check_linear_solver(linear_solver)
     return SolverOptions(solver=solver, linear_solver=linear_solver or "mumps",
                          stored_guess=stored_guess, transcription=transcription,
-                         codegen=codegen)
+                         codegen=codegen, start_file=start_file)
 
 
 def domain_scales(model: Any, options: Any) -> tuple[float, float]:

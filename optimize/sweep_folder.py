@@ -19,6 +19,7 @@ kernel: the readers of later stages take it without the optimizer.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +43,8 @@ SCHEMA_NAME = "drivebench.optimize"
 SCHEMA_VERSION = 1
 SUMMARY_FILE, TRAJECTORIES_FILE = "summary.parquet", "trajectories.parquet"
 MANIFEST_FILE, CLAIMS_FILE, MODEL_FILE = "manifest.json", "claims.csv", "power_model.json"
+#: the seed's optimum, the start of a later sweep of the same system (``--start``)
+START_FILE = "start.npz"
 #: files by which an optimize output folder written before run ids is known
 MARKERS = (SUMMARY_FILE, MANIFEST_FILE)
 
@@ -148,7 +151,8 @@ def system_metadata(system: dict | None) -> dict[str, str]:
 def write_sweep_folder(out: Path, provenance: Provenance, *, summary: pd.DataFrame,
                        trajectories: pd.DataFrame, manifest: dict, system: dict | None,
                        claims: pd.DataFrame | None = None,
-                       carried_model: Any = None) -> dict[str, Path]:
+                       carried_model: Any = None,
+                       start: Callable[[Path], Path] | None = None) -> dict[str, Path]:
     """Write the sweep's files into ``out``, all or none (:mod:`kernel.output_folder`).
 
     Parameters
@@ -169,12 +173,14 @@ def write_sweep_folder(out: Path, provenance: Provenance, *, summary: pd.DataFra
         The losses the sweep flew with, when no power-model file named them (for ``bench
         aep``); written as ``power_model.json``, whose final path and file hash the
         manifest's ``drive_model`` then names.
+    start : callable, optional
+        ``start(path)`` writes the sweep's start file there (:data:`START_FILE`).
 
     Returns
     -------
     dict
         File name key (``summary``, ``trajectories``, ``power_model``, ``claims``,
-        ``manifest``) -> its path in ``out``.
+        ``start``, ``manifest``) -> its path in ``out``.
     """
     with output_folder(out, "optimize", MARKERS, provenance=provenance) as stage:
         meta = system_metadata(system)
@@ -190,6 +196,8 @@ def write_sweep_folder(out: Path, provenance: Provenance, *, summary: pd.DataFra
                 "file_sha256": file_sha256(files["power_model"])}}
         if claims is not None:
             files["claims"] = write_csv(stage / CLAIMS_FILE, claims)
+        if start is not None:
+            files["start"] = start(stage / START_FILE)
         doc = {"schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION,
                "provenance": provenance.header(), **manifest,
                "files": {k: Path(v).name for k, v in files.items()}}

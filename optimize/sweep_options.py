@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from pathlib import Path
 
 from kernel.errors import InputError
 from optimize.kinds import KINDS
@@ -78,6 +79,9 @@ class SolverChoice:
     codegen : bool
         Compile the NLP's repeated functions to C (``--codegen``,
         :attr:`optimize.problem.options.SolverOptions.codegen`).
+    start : Path or None
+        The start of the sweep's cold start in place of the shipped initial guess
+        (``--start``): an earlier sweep's ``start.npz`` of the same system, or its folder.
     """
 
     n_intervals: int = 40
@@ -87,6 +91,7 @@ class SolverChoice:
     stored_guess: bool = True
     transcription: str = "collocation"
     codegen: bool = False
+    start: Path | None = None
 
 
 #: why a sweep runs on as many workers as it does (:attr:`Execution.workers_reason`)

@@ -37,7 +37,7 @@ def solve(
 
     A start that solved this very problem (the same NLP parameters and drive limits,
     the period free: :func:`at_optimum`) is first checked: when it is an optimum to the
-    tolerance, the check (stage ``"check"``, no iteration) is the solve.
+    tolerance, the check (stage ``"check"``, at most two iterations) is the solve.
     The warm start passes the primal vector and both multiplier vectors with
     IPOPT's ``warm_start_init_point`` and a small ``mu_init`` (fatrop takes the
     primal vector and the small ``mu_init``; it starts no multipliers). A start that
@@ -116,11 +116,11 @@ def solve(
     return make_result(ocp, scenario, raw, p, bounds, stages, intermediates=intermediates)
 
 
-#: the check of a start that may be an optimum already: IPOPT evaluates it with the
-#: barrier and the bound pushes below the tolerance, and takes no step (from the
-#: scenario's own optimum it converges at iteration 0; with the warm options' barrier
-#: of 1e-4 it climbs back down in 18-19 iterations)
-AT_OPTIMUM, AT_OPTIMUM_PUSH = backend.Setting(mu_init=1e-7, max_iter=0), 1e-9
+#: the check of a start that may be an optimum already: IPOPT with the barrier and the
+#: bound pushes below the tolerance and at most two iterations (from the scenario's own
+#: optimum it converges at iteration 0 or 1; with the warm options' barrier of 1e-4 it
+#: climbs back down in 18-19 iterations)
+AT_OPTIMUM, AT_OPTIMUM_PUSH = backend.Setting(mu_init=1e-7, max_iter=2), 1e-9
 
 
 def solves(warm: Solution, p: np.ndarray, drive_limits: bool) -> bool:
@@ -131,8 +131,8 @@ def solves(warm: Solution, p: np.ndarray, drive_limits: bool) -> bool:
 
 
 def at_optimum(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds) -> backend.RawSolve:
-    """The convergence check of ``warm`` on the problem ``(p, bounds)``: a solve of no
-    iteration that succeeds when ``warm`` is an optimum there to the tolerance."""
+    """The convergence check of ``warm`` on the problem ``(p, bounds)``: a solve of at
+    most two iterations that succeeds when ``warm`` is an optimum there to the tolerance."""
     return backend.run(ocp, warm.w, p, bounds, warm=True, lam_x0=warm.lam_x,
                        lam_g0=warm.lam_g, bound_push=AT_OPTIMUM_PUSH, setting=AT_OPTIMUM)
 

@@ -26,14 +26,16 @@ COARSE_INTERVALS = 10
 def start(ocp: Ocp, scenario: Scenario) -> OcpResult:
     """Solve ``scenario`` with no neighbouring solution at hand.
 
-    Warm-started from the shipped initial guess (:mod:`optimize.solve.starts.stored_guess`)
-    when ``ocp.options.solver.stored_guess`` is set and the guess fits this OCP;
+    Warm-started from the shipped initial guess (:mod:`optimize.solve.starts.stored_guess`),
+    or the start file of ``ocp.options.solver.start_file`` (a sweep's ``start.npz``),
+    when ``ocp.options.solver.stored_guess`` is set and it fits this OCP;
     otherwise, or when that solve fails, by the homotopy (:func:`homotopy_start`). A
     failed stored-guess solve stays in ``stages`` and counts in the iterations and wall
     time.
     """
-    guess, why = (stored_guess.load(ocp) if ocp.options.solver.stored_guess
-                  else (None, "stored initial guess switched off"))
+    o = ocp.options.solver
+    guess, why = (stored_guess.load(ocp, o.start_file or stored_guess.GUESS_PATH)
+                  if o.stored_guess else (None, "stored initial guess switched off"))
     log.info("%s: %s", scenario.name, why)
     if guess is None:
         return homotopy_start(ocp, scenario)

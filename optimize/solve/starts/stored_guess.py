@@ -209,8 +209,34 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
                f"{stored_mesh.coll.degree} onto N={ref.n_intervals}, degree {ref.coll.degree}")
     if ref is ocp:
         return solution, why
-    return (carry_over(ref, solution, ocp, GUESS_SCENARIO.parameters),
+    return (carry_over(ref, solution, ocp, recorded_scenario(data).parameters),
             f"{why}; carried over to this OCP's {ocp.layout.kind} layout and parts")
+
+
+def recorded_scenario(data: dict) -> Scenario:
+    """The scenario a start file holds the solution of (its ``scenario`` name, e.g.
+    ``"elec-lim-7.0"``)."""
+    kind, wind = str(data["scenario"]).rsplit("-", 1)
+    return Scenario.of_kind(kind, float(wind))
+
+
+def check_start_file(path: str | Path, system_sha256: str) -> None:
+    """Refuse a start file (``--start``) that cannot be read, is damaged, or holds the
+    solution of another system than the one of hash ``system_sha256``.
+
+    Raises
+    ------
+    InputError
+        Naming the file and why.
+    """
+    data, why = _read(path)
+    if data is None:
+        raise InputError(path, why, expected="a start file bench optimize wrote (start.npz)")
+    if data["system_sha256"] != system_sha256:
+        stored = data["system_sha256"][:12] or "not recorded"
+        raise InputError(path, f"{OTHER_SYSTEM} (sha256 {stored}); the sweep's system has "
+                         f"{system_sha256[:12]}",
+                         expected="the start file of a sweep of this very system file")
 
 
 def _warn(why: str) -> str:
@@ -286,7 +312,8 @@ def _check(ocp: Ocp, data: dict) -> tuple[Solution | None, str]:
                       "python -m optimize.solve.starts.stored_guess")
     lam_g = np.concatenate([data["lam_g"], np.zeros(n_rms)])
     solution = Solution(w=data["w"], lam_x=data["lam_x"], lam_g=lam_g, n_intervals=n,
-                        degree=d, p=data["p"], drive_limits=GUESS_SCENARIO.drive_limits)
+                        degree=d, p=data["p"],
+                        drive_limits=recorded_scenario(data).drive_limits)
     return solution, f"stored initial guess {data['scenario']} fits (deviation {dev:.1e})"
 
 
