@@ -175,9 +175,9 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
                         period_scan=period_scan)
 
 
-def start_file(path: Path | None) -> str:
+def start_file(path: Path | None) -> str | None:
     """The start file of ``--start`` (a file, or an optimize folder's ``start.npz``);
-    ``""`` without one.
+    None without one.
 
     Raises
     ------
@@ -185,7 +185,7 @@ def start_file(path: Path | None) -> str:
         Neither such a file nor a folder holding one.
     """
     if path is None:
-        return ""
+        return None
     file = Path(path) / START_FILE if Path(path).is_dir() else Path(path)
     if not file.is_file():
         raise InputError(path, "no start file here", column="--start",
@@ -369,7 +369,7 @@ def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, o
 
 def solver_options(solver: str = "ipopt", linear_solver: str | None = None,
                    stored_guess: bool = True, transcription: str = "collocation",
-                   codegen: bool = False, start_file: str = "") -> Any:
+                   codegen: bool = False, start_file: str | None = None) -> Any:
     """``SolverOptions`` of ``--solver``, ``--linear-solver``, ``--no-stored-guess``,
     ``--transcription``, ``--codegen`` and ``--start`` (the file, :func:`start_file`).
 

@@ -187,6 +187,13 @@ def run_rows(manifest: dict, fit_model_sha256: str | None) -> list[tuple[str, st
         if key in manifest:
             value = manifest[key]
             rows.append((key, fmt(value, 1) if isinstance(value, float) else value_text(value)))
+    its = manifest.get("iterations")
+    if isinstance(its, dict):  # docs/schemas.md §5, manifest "iterations"
+        rows.append(("IPOPT iterations",
+                     f"{its.get('reported', 0)} in the scenarios' final solves; "
+                     f"{its.get('intermediate_points', 0)} intermediate points on the way to "
+                     f"them ({its.get('intermediate_iterations', 0)} iterations, not results); "
+                     f"{its.get('all', 0)} in all (retries, re-solves, cut-in probes included)"))
     drive = manifest.get("drive_model")
     if isinstance(drive, dict):
         rows.append(("drive model", f"{drive.get('name', '?')} ({drive.get('path', '?')})"))

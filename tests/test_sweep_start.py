@@ -9,6 +9,8 @@ seed came from the homotopy (AP2 has no shipped start).
 
 from __future__ import annotations
 
+import json
+
 import pytest
 
 from kernel.errors import InputError
@@ -52,3 +54,17 @@ def test_a_start_of_another_system_is_refused_before_any_solve(first, tmp_path):
     assert START_FILE in str(err.value)
     with pytest.raises(InputError, match="no start file"):
         _request(tmp_path / "none", start=tmp_path)
+
+
+def test_the_sweep_says_what_its_solves_cost(first):
+    out, done = first
+    # one scenario, solved once: its final solve is all the sweep ran
+    its = done.iterations
+    assert its["reported"] == int(done.summary["iterations"].sum()) == its["all"] > 0
+    assert its["intermediate_points"] == its["intermediate_iterations"] == 0
+    from reports.optimization_section import run_rows
+
+    manifest = json.loads((out / "manifest.json").read_text())
+    rows = dict(run_rows(manifest, None))
+    assert rows["IPOPT iterations"].startswith(f"{its['reported']} in the scenarios' final")
+    assert rows["option start_file"] == "not set"

@@ -242,9 +242,9 @@ class SolverOptions:
     stored_guess : bool
         Start a scenario with no neighbouring solution from the shipped initial
         guess (:mod:`optimize.solve.starts.stored_guess`) when it fits, instead of the homotopy.
-    start_file : str
+    start_file : str or None
         A start file of the stored guess's format to use instead of the shipped one
-        (a sweep's ``start.npz``); ``""``: the shipped file.
+        (a sweep's ``start.npz``); None: the shipped file.
     linear_solver : str
         IPOPT linear solver: ``"mumps"`` (default), ``"spral"``, or one IPOPT loads
         at run time from the user's library (HSL ``"ma27"``, ``"ma57"``, ``"ma77"``,
@@ -284,7 +284,7 @@ class SolverOptions:
     warm_mu_init: float = 1e-4
     warm_bound_push: float = 1e-2
     stored_guess: bool = True
-    start_file: str = ""
+    start_file: str | None = None
     linear_solver: str = "mumps"
     mumps_pivot_order: int = 0
     transcription: str = "collocation"
