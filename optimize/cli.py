@@ -187,8 +187,9 @@ def iterations_line(iterations: dict) -> str:
     way = (f"; {iterations['intermediate_points']} intermediate points on the way to them "
            f"({iterations['intermediate_iterations']} iterations, not results)"
            if iterations["intermediate_iterations"] else "")
+    roles = ", ".join(f"{role} {n}" for role, n in iterations.get("by_role", {}).items())
     return (f"IPOPT iterations: {iterations['reported']} in the scenarios' final solves{way}; "
-            f"{iterations['all']} in all (retries, re-solves and cut-in probes included)")
+            f"{iterations['all']} in all" + (f" ({roles})" if roles else ""))
 
 
 def exit_code(success: list[bool]) -> int:

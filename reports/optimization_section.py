@@ -193,7 +193,8 @@ def run_rows(manifest: dict, fit_model_sha256: str | None) -> list[tuple[str, st
                      f"{its.get('reported', 0)} in the scenarios' final solves; "
                      f"{its.get('intermediate_points', 0)} intermediate points on the way to "
                      f"them ({its.get('intermediate_iterations', 0)} iterations, not results); "
-                     f"{its.get('all', 0)} in all (retries, re-solves, cut-in probes included)"))
+                     f"{its.get('all', 0)} in all"
+                     + "".join(f"; {role} {n}" for role, n in its.get("by_role", {}).items())))
     drive = manifest.get("drive_model")
     if isinstance(drive, dict):
         rows.append(("drive model", f"{drive.get('name', '?')} ({drive.get('path', '?')})"))

@@ -231,5 +231,5 @@ def run_chain(task: ChainTask, progress: Any = None) -> ChainOutcome:
         tuple(cut_ins),
         solver.build_time_s,
         f"{socket.gethostname()}:{os.getpid()}",
-        iterations=solver.iterations,
+        iterations=dict(solver.iterations),
     )

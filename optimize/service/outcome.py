@@ -8,7 +8,7 @@ speed of its chain; a solver that ran and did not converge gives its own status.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from optimize.kinds import KINDS
@@ -231,10 +231,10 @@ class ChainOutcome:
     error : str
         ``"worker error: ..."`` when the chain's task raised (then every planned
         speed failed with it), else ``""``.
-    iterations : int
+    iterations : dict of int
         Every solver iteration the chain ran (:attr:`Attempt.all_iterations` of its
-        every solver run: the grid's, retries, re-solves, the period scan, cut-in
-        probes, refinements).
+        every solver run), by the run's role (``"grid"``, ``"retry"``, ``"local
+        optimum"``, ``"period scan"``, ``"cut-in"``, ...).
     """
 
     chain: int
@@ -244,4 +244,4 @@ class ChainOutcome:
     build_time_s: float = 0.0
     worker: str = ""
     error: str = ""
-    iterations: int = 0
+    iterations: dict[str, int] = field(default_factory=dict)

@@ -121,6 +121,6 @@ def _remesh_attempt(solver: Any, outcome: ScenarioOutcome, coarse_ocp: Any, fine
         check = solver.backend.check(fine_ocp, res, outcome.name) if res.success else None
         attempt = Attempt(source, str(res.status), bool(res.success) and (
             check is None or check.passed), int(res.iterations), float(res.wall_time_s), check)
-    solver.count(attempt)
+    solver.count(attempt, RETRY)
     solver.tell("done", outcome.kind, outcome.wind_speed_m_s, RETRY, source, attempt.status)
     return attempt, res, fine_ocp

@@ -199,14 +199,18 @@ class SweepResult:
         """What the sweep's solves cost in solver iterations: ``reported`` (the final
         solve of each scenario, the summary's ``iterations``), ``intermediate_points`` and
         ``intermediate_iterations`` (on the way to those final solves,
-        :mod:`optimize.solve.starts.continuation`) and ``all`` (every solver run of the
+        :mod:`optimize.solve.starts.continuation`), ``all`` (every solver run of the
         sweep: failed attempts, retries, re-solves, the period scan and the cut-in
-        probes, with their ways)."""
+        probes, with their ways) and ``by_role``: ``all`` by why the runs ran."""
         finals = [o.attempts[-1] for o in self.outcomes if o.attempts]
+        roles: dict[str, int] = {}
+        for c in self.chains:
+            for role, n in c.iterations.items():
+                roles[role] = roles.get(role, 0) + n
         return {"reported": sum(a.iterations for a in finals),
                 "intermediate_points": sum(a.intermediate_points for a in finals),
                 "intermediate_iterations": sum(a.intermediate_iterations for a in finals),
-                "all": sum(c.iterations for c in self.chains)}
+                "all": sum(roles.values()), "by_role": roles}
 
     def record(self) -> dict:
         """The sweep's part of the optimize manifest (docs/schemas.md §5): where it ran, how

@@ -89,8 +89,8 @@ class Solver:
         self.records: dict[Key, dict] = {}
         self.outcomes: dict[Key, ScenarioOutcome] = {}
         self.build_time_s = 0.0
-        #: every solver iteration this solver ran (:meth:`count`)
-        self.iterations = 0
+        #: every solver iteration this solver ran, by role (:meth:`count`)
+        self.iterations: dict[str, int] = {}
         #: starts from other problems' solutions, tried first (:mod:`optimize.service.foreign`)
         self.foreign: dict[Key, Start] = {}
         self._warm: dict[Key, Any] = {}
@@ -141,13 +141,14 @@ class Solver:
                               float(result.wall_time_s), check,
                               int(getattr(result, "intermediate_points", 0)),
                               int(getattr(result, "intermediate_iterations", 0)))
-        self.count(attempt)
+        self.count(attempt, role)
         self.tell("done", kind, wind_speed_m_s, role, name, attempt.status)
         return attempt, result
 
-    def count(self, attempt: Attempt) -> None:
-        """Add a solver run's iterations, its way included, to :attr:`iterations`."""
-        self.iterations += attempt.all_iterations
+    def count(self, attempt: Attempt, role: str) -> None:
+        """Add a solver run's iterations, its way included, to :attr:`iterations` of
+        ``role`` (why it ran)."""
+        self.iterations[role] = self.iterations.get(role, 0) + attempt.all_iterations
 
     def tell(self, when: str, kind: str, wind_speed_m_s: float, role: str, source: str | None,
              status: str) -> None:

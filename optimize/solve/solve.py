@@ -96,24 +96,36 @@ def solve(
         if raw.success:
             log.info("%s: its start is an optimum of its problem", scenario.name)
             return make_result(ocp, scenario, raw, p, bounds, stages)
-    if period_s is None and warm_start.p is not None and ocp.options.solver.predictor_step <= 0:
-        stepped = step_towards(ocp, warm_start, p, bounds, scenario.name)
-        raw, intermediates = stepped.last, stepped.intermediates
-        stages.append(_stage("warm", raw))
-    else:
-        stage, w0, lam_x0, lam_g0, predict_s = _predicted(ocp, warm_start, p, bounds)
-        raw, intermediates = backend.run(ocp, w0, p, bounds, warm=True, lam_x0=lam_x0,
-                                         lam_g0=lam_g0), ()
-        stages.append(_stage(stage, raw, predict_s))
-    log.info("%s %-22s %4d it %6.1f s (cpu %.1f s), %d solves on the way (%d it)",
-             scenario.name, raw.status, raw.iterations, raw.wall_time_s, raw.cpu_time_s,
-             len(intermediates), sum(s["iterations"] for s in intermediates))
+    raw, stage, intermediates = _warm(ocp, warm_start, p, bounds, period_s, scenario.name)
+    stages += [stage] if stage else []
     if not raw.success and retry_cold:
         raw = backend.run(ocp, warm_start.w, p, bounds, warm=False)
         stages.append(_stage("retry-cold", raw))
         log.info("%s retry %-22s %4d it %6.1f s (cpu %.1f s)", scenario.name, raw.status,
                  raw.iterations, raw.wall_time_s, raw.cpu_time_s)
     return make_result(ocp, scenario, raw, p, bounds, stages, intermediates=intermediates)
+
+
+def _warm(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds, period_s: float | None,
+          name: str) -> tuple[backend.RawSolve, dict | None, tuple[dict, ...]]:
+    """The warm solve of ``(p, bounds)`` from ``warm``: with step control when ``warm``
+    knows its problem and the period is free (no stage of its own when no step reached
+    the scenario: every try is then on the way), else one solve (predicted along the
+    tangent with the options' ``predictor_step``). Returns the last solver call, its
+    stage and the solves on the way."""
+    if period_s is None and warm.p is not None and ocp.options.solver.predictor_step <= 0:
+        stepped = step_towards(ocp, warm, p, bounds, name)
+        raw, way = stepped.last, stepped.intermediates
+        stage = _stage("warm", raw) if stepped.final is not None else None
+    else:
+        kind, w0, lam_x0, lam_g0, predict_s = _predicted(ocp, warm, p, bounds)
+        raw, way = backend.run(ocp, w0, p, bounds, warm=True, lam_x0=lam_x0,
+                               lam_g0=lam_g0), ()
+        stage = _stage(kind, raw, predict_s)
+    log.info("%s %-22s %4d it %6.1f s (cpu %.1f s), %d solves on the way (%d it)",
+             name, raw.status, raw.iterations, raw.wall_time_s, raw.cpu_time_s,
+             len(way), sum(s["iterations"] for s in way))
+    return raw, stage, way
 
 
 #: the check of a start that may be an optimum already: IPOPT with the barrier and the
