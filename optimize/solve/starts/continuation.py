@@ -14,9 +14,9 @@ scenario to solve lies a straight path in ``s`` from 0 to 1 (:class:`Path`):
 :func:`step_towards` solves the scenario directly, capped at :data:`STEP_ITERATIONS`;
 when that fails or runs into the cap it halves the step, solving intermediate points of
 the path (each warm from the last converged one, each capped) and doubling the step again
-after each success, down to :data:`MIN_STEP` of the path. The intermediate points are not
-results: they come back with what they cost (``intermediates``), apart from the final
-solve at the scenario.
+after each success, down to :data:`MIN_STEP` of the path and within :data:`STEP_BUDGET`
+iterations on the way. The intermediate points are not results: they come back with what
+they cost (``intermediates``), apart from the final solve at the scenario.
 """
 
 from __future__ import annotations
@@ -32,11 +32,17 @@ from optimize.solve.result import Solution
 
 log = logging.getLogger(__name__)
 
-#: iterations a solve on the path may take before its step is halved: above the warm
-#: solves of the shipped systems' sweeps (paper kite 19-43, AP2 23-47, MegAWES 35-64)
-STEP_ITERATIONS = 75
+#: iterations a solve on the path may take before its step is halved: well above the
+#: warm solves of the shipped systems' sweeps (paper kite 19-47, AP2 19-73, MegAWES
+#: 22-121 on 4:14:2; benchmarks/README.md, foreign kites). At 75 the AP2 sweep stepped
+#: where a direct solve needed 76-150, and spent 54 % more iterations in all
+STEP_ITERATIONS = 150
 #: the smallest step tried, as a fraction of the path
 MIN_STEP = 1.0 / 16.0
+#: iterations on the way (the capped tries and the intermediate points) after which the
+#: stepping gives up: a scenario that far is not a neighbour's (the caller's fallbacks,
+#: its other sources and the cold retry, take over)
+STEP_BUDGET = 3 * STEP_ITERATIONS
 
 
 @dataclass(frozen=True)
@@ -84,7 +90,7 @@ class Stepped:
     ----------
     final : RawSolve or None
         The converged solve at the scenario (``s = 1``); None when no step size
-        down to :data:`MIN_STEP` got there.
+        down to :data:`MIN_STEP` got there within :data:`STEP_BUDGET`.
     last : RawSolve
         The last solver call (``final`` when it converged).
     intermediates : tuple of dict
@@ -131,7 +137,7 @@ def step_towards(ocp: Ocp, start: Solution, p1: np.ndarray, bounds1: Bounds,
     path = Path.between(ocp, start, p1, bounds1)
     current: Solution | backend.RawSolve = start
     done, step, tried = 0.0, 1.0, []
-    while step >= MIN_STEP:
+    while step >= MIN_STEP and sum(t["iterations"] for t in tried) < STEP_BUDGET:
         s = min(1.0, done + step)
         p, bounds = path.at(s)
         raw = _call(ocp, current, p, bounds)
