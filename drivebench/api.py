@@ -223,31 +223,31 @@ class Sweep:
                  ("system and drive", self.note)]
         return rows
 
+    @cached_property
+    def cycle_of(self) -> dict:
+        """The converged scenarios' cycles by scenario name
+        (:class:`optimize.cycles.Cycle`: ``.points``, ``.period_s``, ``.average(column)``,
+        ``.energy_j(column)``, ``.metrics()``, ``.closed()``, ``.plot(ax)``), read from
+        ``trajectories.parquet`` on first use."""
+        from optimize.door import sweep_cycles
+        from optimize.sweep_folder import read_trajectories
+
+        return sweep_cycles(self.summary, read_trajectories(self.folder))
+
     def cycles(self, wind_speed_m_s: float) -> dict[str, pd.DataFrame]:
         """The converged cycles at one wind speed: scenario kind -> the closed cycle
         (``time_s`` from 0 to the period [s], ``speed_rpm``, ``torque_nm``, ``p_elec_w``,
         ``p_mech_w``, ...: ``trajectories.parquet``'s columns, docs/schemas.md §5)."""
-        from optimize.door import closed_cycle
-
-        traj = pd.read_parquet(self.folder / "trajectories.parquet")
-        rows = self.summary[self.summary["success"].astype(bool)
-                            & (self.summary["wind_speed_m_s"].astype(float) - wind_speed_m_s).abs()
-                            .lt(1e-9)]
-        return {str(r.kind): closed_cycle(traj[traj["scenario"] == r.scenario])
-                for r in rows.itertuples(index=False)}
+        return {c.kind: c.closed() for c in self.cycle_of.values()
+                if abs(c.wind_speed_m_s - wind_speed_m_s) < 1e-9}
 
     def plot_cycle(self, scenario: str, ax: Any = None) -> Any:
         """Shaft and grid power over one cycle of ``scenario`` (:func:`plot_cycle`)."""
-        from optimize.door import closed_cycle, plot_cycle
-
-        traj = pd.read_parquet(self.folder / "trajectories.parquet")
-        rows = traj[traj["scenario"] == scenario]
-        if rows.empty:
+        if scenario not in self.cycle_of:
             raise InputError(self.folder / "trajectories.parquet",
                              f"no cycle of scenario {scenario!r}",
                              expected="a converged scenario of .summary")
-        kind = str(self.summary.set_index("scenario").loc[scenario, "kind"])
-        return plot_cycle(closed_cycle(rows), ax, title=scenario, kind=kind)
+        return self.cycle_of[scenario].plot(ax)
 
     def __repr__(self) -> str:
         return text_view("Sweep (.summary, .curves, .claims)", self._view_rows())

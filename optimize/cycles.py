@@ -1,6 +1,9 @@
 """One optimal cycle: a scenario's collocation points (its rows of ``trajectories.parquet``,
 docs/schemas.md §5) and the figures derived from them, each computed here once.
 
+* :class:`Cycle`: a converged scenario's cycle, the one home of its figures (averages,
+  energy over the cycle, metrics, the closed cycle) and its plot; :func:`sweep_cycles`
+  makes them of a sweep's summary and trajectories;
 * :func:`cycle_quadrature`: the collocation quadrature over the ``weight`` column (each
   point's share of the period, summing to 1 over a cycle): a cycle average, or its
   running sum (the energy over the cycle);
@@ -15,6 +18,7 @@ use it through :mod:`optimize.door`.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -93,3 +97,71 @@ def closed_cycle(rows: pd.DataFrame) -> pd.DataFrame:
     first["time_s"] = 0.0
     first["weight"] = 0.0
     return pd.concat([first, rows], ignore_index=True)
+
+
+@dataclass(frozen=True, eq=False)
+class Cycle:
+    """One converged scenario's optimal cycle and the figures derived from it.
+
+    Attributes
+    ----------
+    scenario, kind : str
+        The scenario's name and kind (a key of :data:`optimize.kinds.KINDS`).
+    points : pandas.DataFrame
+        Its collocation points sorted by time: ``time_s`` in ``(0, T]`` (the last point at
+        the period's end), ``weight`` and the other columns of ``trajectories.parquet``.
+    """
+
+    scenario: str
+    kind: str
+    points: pd.DataFrame
+
+    @classmethod
+    def of(cls, rows: pd.DataFrame) -> Cycle:
+        """The cycle of one scenario's rows of ``trajectories.parquet``."""
+        rows = rows.sort_values("time_s")
+        return cls(str(rows["scenario"].iloc[0]), str(rows["kind"].iloc[0]), rows)
+
+    @property
+    def wind_speed_m_s(self) -> float:
+        """Its wind speed at the reference height [m/s]."""
+        return float(self.points["wind_speed_m_s"].iloc[0])
+
+    @property
+    def period_s(self) -> float:
+        """Its period [s]: the time of the last point."""
+        return float(self.points["time_s"].iloc[-1])
+
+    def average(self, column: str) -> float:
+        """The cycle average of a column (its unit) by :func:`cycle_quadrature`."""
+        return cycle_quadrature(self.points["weight"], self.points[column])
+
+    def metrics(self) -> dict[str, float | None]:
+        """Its figures (:func:`cycle_metrics`)."""
+        return cycle_metrics(self.points)
+
+    def closed(self) -> pd.DataFrame:
+        """Its points closed at ``t = 0`` (:func:`closed_cycle`), as figures draw them."""
+        return closed_cycle(self.points)
+
+    def energy_j(self, column: str) -> np.ndarray:
+        """The energy [J] of a power column [W] from the cycle's start to each point of
+        :meth:`closed` (0 at ``t = 0``; the last value is the net energy per cycle)."""
+        closed = self.closed()
+        return self.period_s * cycle_quadrature(closed["weight"], closed[column],
+                                                cumulative=True)
+
+    def plot(self, ax: Any = None, *, title: str | None = None) -> Any:
+        """Shaft and grid power over the cycle (:func:`optimize.plots.plot_cycle`)."""
+        from optimize.plots import plot_cycle
+
+        return plot_cycle(self.closed(), ax, title=self.scenario if title is None else title,
+                          kind=self.kind)
+
+
+def sweep_cycles(summary: pd.DataFrame, trajectories: pd.DataFrame) -> dict[str, Cycle]:
+    """The cycles of a sweep's converged scenarios that have points, by scenario name, in
+    the summary's order (``summary.parquet``'s and ``trajectories.parquet``'s frames)."""
+    groups = dict(tuple(trajectories.groupby("scenario", sort=False)))
+    ok = summary[summary["success"].astype(bool)]
+    return {str(name): Cycle.of(groups[name]) for name in ok["scenario"] if name in groups}

@@ -9,7 +9,7 @@ that imports the door at the top loads the solver only when it solves.
 home module                             what the other stages use
 ======================================= ==========================================================
 :mod:`optimize.kinds`                   the scenario kinds and their objectives
-:mod:`optimize.cycles`                  a cycle's quadrature, figures and closed form
+:mod:`optimize.cycles`                  a cycle: its quadrature, figures, closed form, plot
 :mod:`optimize.plots`                   the figures of cycles (and of the map they run on)
 :mod:`optimize.sweep_options`           a sweep's grouped options (grid, solver, execution)
 :mod:`optimize.service.plan`            the wind grid's parser and its plausible range
@@ -33,7 +33,8 @@ from kernel.lazy import lazy_names
 #: home module -> the names the other stages use of it
 LAZY_IMPORTS = {
     "optimize.kinds": ("KINDS", "LABELS", "OBJECTIVES", "kind_of"),
-    "optimize.cycles": ("closed_cycle", "cycle_metrics", "cycle_quadrature"),
+    "optimize.cycles": ("Cycle", "closed_cycle", "cycle_metrics", "cycle_quadrature",
+                        "sweep_cycles"),
     "optimize.plots": ("MARKER_STEP_S", "SCENARIO_COLORS", "equal_time_samples", "plot_cycle",
                        "plot_efficiency_map"),
     "optimize.sweep_options": ("DEFAULT_SOLVER", "LOCAL_POOL", "PAPER_GRID", "PAPER_WINDS_M_S",

@@ -19,7 +19,7 @@ from optimize.door import (
     LABELS,
     MARKER_STEP_S,
     SCENARIO_COLORS,
-    cycle_quadrature,
+    Cycle,
     equal_time_samples,
     plot_cycle,
     plot_efficiency_map,
@@ -153,24 +153,21 @@ def power_flow_figure(cycles: dict[str, pd.DataFrame], wind_speed_m_s: float) ->
     return to_svg(fig, "power-flows")
 
 
-def cycle_figure(traj: pd.DataFrame, period_s: float, label: str,
-                 winding_limit_c: float | None = None) -> Markup:
+def cycle_figure(cycle: Cycle, label: str, winding_limit_c: float | None = None) -> Markup:
     """Tether length, power and energy over one cycle (paper Fig. 3), and the winding
     temperature when the cycle carries it.
 
     Parameters
     ----------
-    traj : DataFrame
-        Closed cycle (first row at t = 0) with ``time_s`` [s], ``weight`` [-],
-        ``l_m`` [m], ``p_elec_w``, ``p_mech_w`` [W] and, when the OCP carried it,
-        ``theta_winding_c`` [degC].
-    period_s : float
-        Cycle period [s].
+    cycle : optimize.cycles.Cycle
+        The cycle: its points have ``l_m`` [m], ``p_elec_w``, ``p_mech_w`` [W] and, when the
+        OCP carried it, ``theta_winding_c`` [degC]; drawn closed, from t = 0.
     label : str
         What the cycle is (our constant text, e.g. "elec. optimized, constrained, 5.5 m/s").
     winding_limit_c : float, optional
         The drive's winding limit [degC], drawn with the temperature.
     """
+    traj = cycle.closed()
     t = traj["time_s"].to_numpy(float)
     hot = WINDING_TEMPERATURE in traj
     fig = new_figure(7.0, 7.6 if hot else 6.0)
@@ -182,7 +179,7 @@ def cycle_figure(traj: pd.DataFrame, period_s: float, label: str,
     ax_p.set_xlabel("")
     for col, color, name in (("p_elec_w", "tab:blue", "electrical"),
                              ("p_mech_w", "0.3", "mechanical")):
-        e = period_s * cycle_quadrature(traj["weight"], traj[col], cumulative=True)  # [J]
+        e = cycle.energy_j(col)
         ax_e.plot(t, e, color=color, label=f"E {name}: net {e[-1]:+.0f} J")
     ax_e.set_ylabel("energy [J]\n(+ = consumed)")
     ax_e.set_xlabel("" if hot else "time [s]")

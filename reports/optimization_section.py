@@ -16,7 +16,7 @@ import pandas as pd
 
 from kernel.errors import InputError
 from kernel.units import power_words
-from optimize.door import KINDS, LABELS, closed_cycle, envelope_curve
+from optimize.door import KINDS, LABELS, Cycle, envelope_curve
 from optimize.sweep_folder import (
     CLAIMS_FILE,
     FINER_MESH_HEAD,
@@ -158,10 +158,10 @@ def table_ii(summary: pd.DataFrame) -> dict:
     return {"kinds": kinds, "labels": labels, "rows": rows}
 
 
-def _trajectory(traj: pd.DataFrame | None, summary: pd.DataFrame, kind: str,
-                wind: float) -> tuple[pd.DataFrame | None, str | None]:
-    """The closed cycle of a converged scenario (:func:`optimize.cycles.closed_cycle`), or
-    (None, why not)."""
+def _cycle(traj: pd.DataFrame | None, summary: pd.DataFrame, kind: str,
+           wind: float) -> tuple[Cycle | None, str | None]:
+    """The cycle of a converged scenario (:class:`optimize.cycles.Cycle`), or (None, why
+    not)."""
     hit = summary[(summary["kind"] == kind) & np.isclose(summary["wind_speed_m_s"], wind)]
     if hit.empty:
         return None, f"scenario {kind} at {wind:g} m/s was not run"
@@ -173,7 +173,7 @@ def _trajectory(traj: pd.DataFrame | None, summary: pd.DataFrame, kind: str,
     rows = traj[traj["scenario"] == row["scenario"]]
     if rows.empty:
         return None, f"no trajectory rows for scenario {row['scenario']}"
-    return closed_cycle(rows), None
+    return Cycle.of(rows), None
 
 
 def run_rows(manifest: dict, fit_model_sha256: str | None) -> list[tuple[str, str]]:
@@ -445,23 +445,25 @@ def cycle_figures_at_paper_wind(traj: pd.DataFrame | None, summary: pd.DataFrame
     limited, free, missing = {}, {}, []
     # the paper's order: Fig. 9 (b) mechanical, (c) electrical
     for kind in ("mech-lim", "elec-lim", "mech-free", "elec-free"):
-        t, why = _trajectory(traj, summary, kind, wind)
-        if t is None:
+        cycle, why = _cycle(traj, summary, kind, wind)
+        if cycle is None:
             missing.append(why)
         else:
-            (limited if KINDS[kind].drive_limits else free)[kind] = t
+            (limited if KINDS[kind].drive_limits else free)[kind] = cycle
     applies = paper and bool(np.isclose(wind, PAPER_FIG9_WIND_M_S))
     out = {"wind": fmt(wind, sig=3), "fig9": None, "fig10": None, "missing": missing,
            "paper_applies": applies, "paper": paper,
            "on_map": bool(limited) and drawn_map is not None
            and drawn_map.get("map_frame") is not None,
-           "periods": [{"label": LABELS[k], "period_s": fmt(t["time_s"].max(), 2)}
-                       for k, t in free.items()],
+           "periods": [{"label": LABELS[k], "period_s": fmt(c.period_s, 2)}
+                       for k, c in free.items()],
            "not_paper": None if applies or not paper else (
                f"The paper's periods (mechanical 2.14 s, electrical 3.89 s) are for "
                f"{PAPER_FIG9_WIND_M_S:g} m/s; this sweep's grid has no "
                f"{PAPER_FIG9_WIND_M_S:g} m/s, so its cycles at {wind:g} m/s, the nearest "
                "speed, are not compared with them.")}
+    limited = {k: c.closed() for k, c in limited.items()}
+    free = {k: c.closed() for k, c in free.items()}
     if limited or free:
         out["fig9"] = cycle_figures.torque_speed_figure(limited, free, wind, drawn_map,
                                                         envelope, paper)
@@ -483,10 +485,9 @@ def fig3(traj: pd.DataFrame | None, summary: pd.DataFrame,
          wind: float = FIG3_WIND_M_S) -> tuple[object, str | None]:
     """The Fig. 3 analogue (:data:`FIG3_KIND` at ``wind``, the paper's
     :data:`FIG3_WIND_M_S` for the paper's system), or (None, why not)."""
-    t, why = _trajectory(traj, summary, FIG3_KIND, wind)
-    if t is None:
+    cycle, why = _cycle(traj, summary, FIG3_KIND, wind)
+    if cycle is None:
         return None, why
-    period = float(t["time_s"].max())
     return cycle_figures.cycle_figure(
-        t, period, f"electrically optimized, constrained, {wind:g} m/s, "
-                   f"period {period:.2f} s", winding_limit_c), None
+        cycle, f"electrically optimized, constrained, {wind:g} m/s, "
+               f"period {cycle.period_s:.2f} s", winding_limit_c), None

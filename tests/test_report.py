@@ -29,7 +29,7 @@ from fitting.power_model import PowerModel
 from kernel.files import write_text_atomic
 from kernel.output_folder import output_folder
 from kernel.provenance import Provenance
-from optimize.cycles import cycle_quadrature
+from optimize.cycles import Cycle, cycle_quadrature
 from optimize.paper_model import paper_model
 from optimize.sweep_folder import (
     SUMMARY_FILE,
@@ -327,6 +327,15 @@ def test_cycle_energy_matches_the_analytic_net_energy(full_inputs):
     assert e[-1] == pytest.approx(-827.0, abs=1e-9)
     assert CYCLE_PERIOD_S * cycle_quadrature(cyc["weight"], cyc["p_elec_w"]) == pytest.approx(
         -827.0, abs=1e-9)
+    # the cycle object (shuffled rows: it sorts them) says the same, and closes at t = 0
+    cycle = Cycle.of(cyc.sample(frac=1.0, random_state=1))
+    assert (cycle.scenario, cycle.kind, cycle.wind_speed_m_s) == ("x", "elec-lim", 5.5)
+    assert cycle.period_s == pytest.approx(CYCLE_PERIOD_S, rel=1e-12)
+    assert cycle.average("p_elec_w") * cycle.period_s == pytest.approx(-827.0, abs=1e-9)
+    energy = cycle.energy_j("p_elec_w")
+    assert energy[0] == 0.0 and energy[-1] == pytest.approx(-827.0, abs=1e-9)
+    assert len(energy) == len(cycle.closed()) == len(cyc) + 1
+    assert cycle.closed()["time_s"].iloc[0] == 0.0
     ctx = full_inputs["context"]
     assert "net -827 J" in str(ctx["optimization"]["fig3"])
 
