@@ -52,9 +52,8 @@ import numpy as np
 
 from optimize.model.aero import force_coefficients
 from optimize.problem.kite_part import POSITION_STATES
+from optimize.problem.options import MIN_COLLOCATION_POINTS
 
-#: documented minimum mesh: collocation points per cycle (intervals x degree)
-MIN_COLLOCATION_POINTS = 40
 #: largest accepted interval defect and periodicity error, in state scales [-]
 MAX_DEFECT_SCALED = 0.05
 #: re-integration: Runge-Kutta steps per collocation point, at least

@@ -29,6 +29,9 @@ SOLVER_REEL_SPEED_M_S, SOLVER_BODY_RATE_RAD_S = 100.0, 6 * math.pi
 #: most collocation intervals per period: the default is 40 and the trust check's mesh
 #: refinement doubles it; 400 already means ~10^5 NLP variables and minutes per solve
 MAX_INTERVALS = 400
+#: documented minimum mesh: collocation points per cycle (intervals x degree); coarser
+#: optima the result check flags (:mod:`optimize.analysis.result_check`)
+MIN_COLLOCATION_POINTS = 40
 
 
 @dataclass(frozen=True)

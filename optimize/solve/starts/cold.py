@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 
 from optimize.problem.ocp import Ocp, on_mesh
+from optimize.problem.options import MIN_COLLOCATION_POINTS
 from optimize.problem.scenario import Scenario
 from optimize.solve.result import OcpResult
 from optimize.solve.solve import solve
@@ -16,11 +18,18 @@ from optimize.solve.starts.remesh import solve_interpolated
 
 log = logging.getLogger(__name__)
 
-#: collocation intervals of the homotopy's coarse mesh. On the shipped AP2 file (40 x 4)
-#: the homotopy on 10 intervals and the solve carried onto 40 took 95-101 iterations at
-#: 8 and 9 m/s (the homotopy on 40: 87-103) in 3.6-8.7 s of CPU instead of 11.9-17.6 s
-#: (benchmarks/README.md, foreign kites)
-COARSE_INTERVALS = 10
+#: collocation points of the homotopy's coarse mesh, over the fewest the result check
+#: trusts (:data:`optimize.problem.options.MIN_COLLOCATION_POINTS`): 13 intervals of
+#: degree 4. On the shipped AP2 file (40 x 4) the homotopy there and the solve carried
+#: onto 40 took 96, 104 and 129 iterations at 8 (mech-free), 9 (elec-lim) and 12 m/s
+#: (mech-free), in 5.3-11.7 s of CPU; on 40 intervals directly 87, 103 and 116 in
+#: 11.9-17.6 s; on 10 intervals 95, 101 and 166 (benchmarks/README.md, foreign kites)
+COARSE_POINTS_FACTOR = 1.25
+
+
+def coarse_intervals(degree: int) -> int:
+    """Intervals of the homotopy's coarse mesh of ``degree`` (:data:`COARSE_POINTS_FACTOR`)."""
+    return math.ceil(COARSE_POINTS_FACTOR * MIN_COLLOCATION_POINTS / degree)
 
 
 def start(ocp: Ocp, scenario: Scenario) -> OcpResult:
@@ -49,15 +58,16 @@ def start(ocp: Ocp, scenario: Scenario) -> OcpResult:
 
 
 def homotopy_start(ocp: Ocp, scenario: Scenario) -> OcpResult:
-    """The homotopy (:func:`optimize.solve.starts.homotopy.cold_start`) on
-    :data:`COARSE_INTERVALS` intervals of the OCP's degree, its optimum carried onto the
+    """The homotopy (:func:`optimize.solve.starts.homotopy.cold_start`) on the coarse
+    mesh of the OCP's degree (:func:`coarse_intervals`), its optimum carried onto the
     OCP's mesh and solved there (:func:`optimize.solve.starts.remesh.solve_interpolated`);
     on the OCP's own mesh when that has fewer than twice as many intervals, or when the
     coarse way fails (its solves then stay in ``stages``). Every stage counts in the
     iterations; those on the coarse mesh are named ``coarse <stage>``."""
-    if ocp.n_intervals < 2 * COARSE_INTERVALS:
+    n_coarse = coarse_intervals(ocp.coll.degree)
+    if ocp.n_intervals < 2 * n_coarse:
         return cold_start(ocp, scenario)
-    coarse = on_mesh(ocp, COARSE_INTERVALS, ocp.coll.degree)
+    coarse = on_mesh(ocp, n_coarse, ocp.coll.degree)
     first = cold_start(coarse, scenario)
     stages = tuple({**s, "stage": f"coarse {s['stage']}"} for s in first.stages)
     status = first.status
@@ -67,7 +77,7 @@ def homotopy_start(ocp: Ocp, scenario: Scenario) -> OcpResult:
             return _after(dataclasses.replace(fine, start="homotopy"), stages)
         stages, status = stages + fine.stages, f"on {ocp.n_intervals} intervals {fine.status}"
     log.info("%s: the homotopy on %d intervals ended %s; running it on %d", scenario.name,
-             COARSE_INTERVALS, status, ocp.n_intervals)
+             n_coarse, status, ocp.n_intervals)
     return _after(cold_start(ocp, scenario), stages)
 
 
