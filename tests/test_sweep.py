@@ -850,6 +850,11 @@ def test_a_smooth_power_curve_is_not_resolved():
     bumped = list(power)
     bumped[8] *= 0.95  # 5 % less generated at 12 m/s: the AP2 case (-5673 W for -5974 W)
     assert 8 in off_curve(winds, bumped, period)
+    better = list(power)
+    better[8] *= 1.05  # 5 % more generated: no local optimum there (its neighbours may be)
+    assert 8 not in off_curve(winds, better, period)
+    # AP2's elec-lim over 6:12:3: a concave curve whose middle the chord underestimates
+    assert 1 not in off_curve([6.0, 9.0, 12.0], [-705.0, -2672.0, -3815.0], [20.0, 28.9, 38.1])
     jumped = list(period)
     jumped[7] *= 1.3  # a period jump alone
     assert 7 in off_curve(winds, power, jumped)
