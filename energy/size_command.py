@@ -171,6 +171,35 @@ def earlier_is_better(out: Path, sizing: Any) -> str | None:
             f"{first['wind_speed_m_s']:g} m/s: {first['status']}); a re-run solves them again")
 
 
+def _checked_candidates(drive: Any, grid: SizingGrid, rating: RatingOverrides,
+                        solver: SolverChoice, system: Any
+                        ) -> Callable[[tuple[float, ...]], tuple[list, list[str]]]:
+    """``candidates(scales)``: the candidates of ``scales`` and the models, and what was
+    said of them, each checked once as bench optimize checks the system's drive before
+    its first solve (InputError: refused)."""
+    checked: set[str] = set()
+
+    def candidates(scales: tuple[float, ...]) -> tuple[list, list[str]]:
+        made, said = build_candidates(drive, scales, grid.models, rating.continuous_torque_nm,
+                                      rating.max_speed_rpm, rating.max_torque_nm)
+        for c in made:
+            if c.name not in checked:
+                c.check(solver.n_intervals, solver.degree, system)
+                checked.add(c.name)
+        return made, said
+
+    return candidates
+
+
+def _sizing_speeds(grid: SizingGrid, site: Any) -> tuple[tuple[float, ...], list[str]]:
+    """The sizing's wind speeds [m/s]: the grid's, else one that covers the site (said)."""
+    if grid.wind_speeds_m_s is not None:
+        return grid.wind_speeds_m_s, []
+    speeds = covering_sizing_grid(site)
+    return speeds, [f"sizing grid {grid_spec(speeds)} m/s: it covers the site (no "
+                    "--wind-grid given)"]
+
+
 def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
              fit_default: str | Path | None = None, grid: SizingGrid = DEFAULT_SIZING,
              rating: RatingOverrides = SYSTEM_RATING, solver: SolverChoice = DEFAULT_SOLVER,
@@ -212,28 +241,13 @@ def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
     setup = resolve(system, drive_model, fit_default=fit_default)
     system, drive = setup.system, setup.drive
 
-    checked: set[str] = set()
-
-    def candidates(scales: tuple[float, ...]) -> tuple[list, list[str]]:
-        """The candidates of ``scales`` and the models, each checked as bench optimize
-        checks the system's drive before its first solve (InputError: refused)."""
-        made, said = build_candidates(drive, scales, grid.models, rating.continuous_torque_nm,
-                                      rating.max_speed_rpm, rating.max_torque_nm)
-        for c in made:
-            if c.name not in checked:
-                c.check(solver.n_intervals, solver.degree, system)
-                checked.add(c.name)
-        return made, said
-
+    candidates = _checked_candidates(drive, grid, rating, solver, system)
     first, notes = candidates(grid.scales)
     notes = [setup.thermal_line(),
              *(f"{c.name} flies {limits_text(candidate_row(c))}" for c in first
                if c.scale == 1.0), *notes]
-    wind_speeds_m_s = grid.wind_speeds_m_s
-    if wind_speeds_m_s is None:
-        wind_speeds_m_s = covering_sizing_grid(site)
-        notes.append(f"sizing grid {grid_spec(wind_speeds_m_s)} m/s: it covers the site (no "
-                     "--wind-grid given)")
+    wind_speeds_m_s, grid_note = _sizing_speeds(grid, site)
+    notes += grid_note
     if before_solving is not None:
         before_solving(drive, len(first), wind_speeds_m_s)
     refused: list[str] = []
