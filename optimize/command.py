@@ -306,29 +306,26 @@ def run_optimize(
         carried_model=drive.model if drive.carried or not drive.model_path.is_file() else None,
         manifest=sweep_manifest(request, system, drive, options, result, summary, trust,
                                 outcomes),
-        start=start_writer(problem, [o for o in outcomes if o.name == plan[0].name],
-                           backend))
+        start=start_writer(problem, next((o for o in outcomes if o.name == plan[0].name),
+                                         None), backend))
     return OptimizeOutcome(summary, claims, cut_ins, trust, tuple(trust.get("lines", ())),
                            result.wall_time_s, result.executor, files, result.iterations())
 
 
-def start_writer(problem: Problem, seed: list, backend: Any = None) -> Any:
+def start_writer(problem: Problem, seed: Any, backend: Any = None) -> Any:
     """The writer of the sweep's ``start.npz`` (the seed's optimum in the stored guess's
     format, :func:`optimize.solve.starts.stored_guess.write`), or None when there is
     nothing to keep: the seed failed, its optimum stands on another mesh (the last retry's)
     or another layout than IPOPT's general one, or the solves ran on another backend."""
-    ok = [o for o in seed if o.success and o.result is not None]
     o = problem.options
-    if (backend is not None or not ok or o.solver.solver != "ipopt"
-            or o.solver.transcription != "collocation"
-            or ok[0].result.warm.n_intervals != problem.n_intervals):
+    if (backend is not None or seed is None or not seed.success or seed.result is None
+            or o.solver.solver != "ipopt" or o.solver.transcription != "collocation"
+            or seed.result.warm.n_intervals != problem.n_intervals):
         return None
-    result = ok[0].result
+    result = seed.result
 
     def write(path: Path) -> Path:
-        ocp = OcpBackend().build(problem)
-        p = ocp.params(result.scenario.parameters, result.scenario.weights)
-        return write_start(path, ocp, result, p)
+        return write_start(path, OcpBackend().build(problem), result, result.warm.p)
 
     return write
 

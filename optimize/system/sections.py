@@ -227,8 +227,8 @@ class DriveSection:
         "peak included. Every stage flies it: `bench optimize`'s constrained kinds and `bench "
         "size`'s reference drive x1 (its candidates fly it scaled). A drive allowed a "
         "short-time overload states that torque here, with `continuous_torque_nm` as its RMS "
-        "rating (e.g. `max_torque_nm = 390.0`, `continuous_torque_nm = 78.0`: peaks up to 390 "
-        "N m, RMS at most 78 N m)", lo=0, default=None)
+        "rating (e.g. `max_torque_nm = 500.0`, `continuous_torque_nm = 200.0`: peaks up to "
+        "500 N m, RMS at most 200 N m)", lo=0, default=None)
     nominal_power_w: float | None = number(
         "nominal power: the capacity factor's rating (`bench aep`) and the scale of the "
         "objective", lo=0, default=None)

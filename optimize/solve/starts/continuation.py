@@ -3,7 +3,7 @@ optimum of another, through intermediate problems when the direct warm solve is 
 
 A warm start carries the NLP parameters it solved (:attr:`Solution.p`: the wind speed
 and the objective's weights) and whether the drive limits bounded it. Between it and the
-scenario to solve lies a straight path in ``s`` from 0 to 1 (:class:`Path`):
+scenario to solve lies a straight path in ``s`` from 0 to 1 (:class:`StepPath`):
 
 * the NLP parameters move linearly (the wind speed; the objective's weights, so a switch
   of objective passes through blends of the electrical and mechanical average powers);
@@ -46,7 +46,7 @@ STEP_BUDGET = 3 * STEP_ITERATIONS
 
 
 @dataclass(frozen=True)
-class Path:
+class StepPath:
     """The straight way from a start's problem to a scenario's.
 
     Attributes
@@ -66,7 +66,7 @@ class Path:
     relax: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
     @classmethod
-    def between(cls, ocp: Ocp, start: Solution, p1: np.ndarray, bounds1: Bounds) -> Path:
+    def between(cls, ocp: Ocp, start: Solution, p1: np.ndarray, bounds1: Bounds) -> StepPath:
         """The path from ``start`` (which knows its parameters) to ``(p1, bounds1)``."""
         w0, g0 = start.w, ocp.constraint_values(start.w, start.p)
         lbw, ubw, lbg, ubg = bounds1
@@ -134,7 +134,7 @@ def step_towards(ocp: Ocp, start: Solution, p1: np.ndarray, bounds1: Bounds,
     name : str
         The scenario's name, for the log.
     """
-    path = Path.between(ocp, start, p1, bounds1)
+    path = StepPath.between(ocp, start, p1, bounds1)
     current: Solution | backend.RawSolve = start
     done, step, tried = 0.0, 1.0, []
     while step >= MIN_STEP and sum(t["iterations"] for t in tried) < STEP_BUDGET:
