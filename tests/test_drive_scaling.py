@@ -91,13 +91,46 @@ def test_carried_shipped_drives_generate_less_than_the_shaft_and_motor_more():
         n, t = _box(r.max_speed_rpm, r.max_torque_nm)
         p_mech, p_elec = _p_mech_w(n, t), drive.model.p_elec_w(n, t)
         assert np.all(p_elec - p_mech > 0), name  # losses > 0 over the rated box
-        # efficiency at corresponding points: the paper drive's
+        # losses at corresponding points: the paper drive's, times k_n k_T and the loss
+        # ratio of the file's law (AP2 "similarity": 1, its efficiency kept; MegAWES
+        # "similarity-ie3": the IE3 class's, below 1)
         base = paper_model()
         k_n, k_t = drive.speed_ratio, drive.torque_ratio
-        np.testing.assert_allclose(p_elec / p_mech,
-                                   base.p_elec_w(n / k_n, t / k_t) / _p_mech_w(n / k_n, t / k_t),
+        base_loss = base.p_elec_w(n / k_n, t / k_t) - _p_mech_w(n / k_n, t / k_t)
+        np.testing.assert_allclose(p_elec - p_mech, drive.loss_ratio * k_n * k_t * base_loss,
                                    rtol=1e-9)
+        assert (drive.loss_ratio == 1.0) == (name == "ap2")
         assert k_n * k_t * base.nominal_power_w == pytest.approx(r.nominal_power_w)
+
+
+@pytest.mark.parametrize("lam", [0.429, 1.0, 1.7])
+def test_a_loss_ratio_scales_the_losses_and_keeps_the_shaft_power(lam):
+    from dataclasses import replace
+
+    cov = np.diag([1.0, 2e-8, 1e-4, 1e-6])
+    base = replace(paper_model(), covariance_rpm=tuple(map(tuple, cov)))
+    k_n, k_t = 0.0859, 4260.0
+    plain = carry_power_model(base, k_n, k_t)
+    carried = carry_power_model(base, k_n, k_t, loss_ratio=lam)
+    n, t = _box(k_n * 1500.0, k_t * 78.0)
+    p_mech = _p_mech_w(n, t)
+    # P_elec = P_mech + lam (the law's loss), the law's loss through the base model
+    law_loss = k_n * k_t * (base.p_elec_w(n / k_n, t / k_t) - _p_mech_w(n / k_n, t / k_t))
+    np.testing.assert_allclose(carried.p_elec_w(n, t) - p_mech, lam * law_loss, rtol=1e-9)
+    np.testing.assert_allclose(np.array(carried.covariance_rpm),
+                               lam**2 * np.array(plain.covariance_rpm), rtol=1e-12)
+    assert carried.provenance["loss_ratio"] == lam
+
+
+def test_a_loss_ratio_needs_the_shaft_power_term():
+    from dataclasses import replace
+
+    base = paper_model()
+    keep = [i for i, term in enumerate(base.terms) if tuple(term) != (1, 1)]
+    no_nt = replace(base, terms=tuple(base.terms[i] for i in keep),
+                    coefficients_rpm=tuple(base.coefficients_rpm[i] for i in keep))
+    with pytest.raises(ValueError, match="speed x torque term"):
+        carry_power_model(no_nt, 1.0, 2.0, loss_ratio=0.5)
 
 
 def _ap2_data() -> dict:

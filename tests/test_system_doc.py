@@ -65,7 +65,7 @@ def _error(section: str, key: str, value: object) -> str:
     ("bounds", "max_line_angle_deg", 95.0, "a number > 0 and < 90 deg"),
     ("bounds", "max_body_rate_deg_s", 0.0, "a number > 0 deg/s"),
     ("tether", "drag_elements", 0, "an integer from 1 to 100"),
-    ("drive", "scaling", "linear", "one of similarity, none"),
+    ("drive", "scaling", "linear", "one of similarity, similarity-ie3, none"),
 ])
 def test_an_error_names_file_section_key_and_range(section, key, value, words):
     text_ = _error(section, key, value)

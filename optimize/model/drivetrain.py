@@ -179,7 +179,8 @@ _THERMAL_SCALING = {"r_th_k_per_w": -1, "c_th_j_per_k": 1, "r_k_per_w": -1, "c_j
 
 
 def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
-                      drive: dict | None = None, name: str | None = None) -> Any:
+                      drive: dict | None = None, name: str | None = None,
+                      loss_ratio: float = 1.0) -> Any:
     """The power model of a drive of the same design as ``base``, rated ``speed_ratio``
     times its speed and ``torque_ratio`` times its torque (the similarity law).
 
@@ -201,6 +202,15 @@ def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
     Power Applications 10(7), 2016); a speed ratio adds a rewound (or re-geared)
     machine whose losses grow with its power.
 
+    With ``loss_ratio = lam`` other than 1 the losses at corresponding points are ``lam``
+    times the law's, ``P_elec = P_mech + lam k_n k_T L_base(n / k_n, T / k_T)``: a drive
+    that is more (``lam < 1``) efficient than its base in proportion at every operating
+    point (:func:`optimize.system.drive_power_check.rating_loss_ratio` gives ``lam`` of an
+    efficiency class). In the polynomial the mechanical term ``(pi / 30) n T`` (rpm) stays
+    and every coefficient's loss part scales by ``lam``: ``c_ij -> k_n^(1-i) k_T^(1-j)
+    (lam c_ij + (1 - lam) m_ij)`` with ``m`` the mechanical power's coefficients; the
+    covariance by ``lam^2`` more.
+
     A thermal model (``base.thermal``, :mod:`fitting.thermal`) is carried so that the
     winding reaches the base drive's temperature at corresponding points: the losses
     grow by ``k_n k_T``, so every thermal resistance falls by it and every heat capacity
@@ -221,18 +231,33 @@ def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
         rating times the ratios (nominal power times ``k_n k_T``).
     name : str, optional
         Model name (default: the base name and the ratios).
+    loss_ratio : float, optional
+        ``lam`` > 0: the losses at corresponding points over the law's (default 1).
 
     Returns
     -------
     fitting.power_model.PowerModel
+
+    Raises
+    ------
+    ValueError
+        A ratio not > 0, or ``loss_ratio`` other than 1 for a model without the ``n T``
+        term that holds the mechanical power.
     """
-    k_n, k_t = float(speed_ratio), float(torque_ratio)
-    if not (math.isfinite(k_n) and k_n > 0 and math.isfinite(k_t) and k_t > 0):
-        raise ValueError(f"speed and torque ratios must be > 0, got {speed_ratio}, {torque_ratio}")
-    f = np.array([k_n ** (1 - i) * k_t ** (1 - j) for i, j in base.terms])
+    k_n, k_t, lam = float(speed_ratio), float(torque_ratio), float(loss_ratio)
+    if not all(math.isfinite(k) and k > 0 for k in (k_n, k_t, lam)):
+        raise ValueError(f"speed, torque and loss ratios must be > 0, got {speed_ratio}, "
+                         f"{torque_ratio}, {loss_ratio}")
+    terms = [tuple(term) for term in base.terms]
+    if lam != 1.0 and (1, 1) not in terms:
+        raise ValueError(f"{base.name}: no speed x torque term holds the mechanical power, "
+                         "so its losses cannot be scaled apart from it")
+    f = np.array([k_n ** (1 - i) * k_t ** (1 - j) for i, j in terms])
+    mech = np.array([1.0 / RPM_PER_RAD_S if term == (1, 1) else 0.0 for term in terms])
+    coefficients = f * (lam * np.array(base.coefficients_rpm) + (1.0 - lam) * mech)
     cov = None
     if base.covariance_rpm is not None:
-        cov = tuple(map(tuple, np.array(base.covariance_rpm) * np.outer(f, f)))
+        cov = tuple(map(tuple, np.array(base.covariance_rpm) * np.outer(lam * f, lam * f)))
     if drive is None and base.drive is not None:
         drive = {**base.drive, "max_speed_rpm": base.drive["max_speed_rpm"] * k_n,
                  "max_torque_nm": base.drive["max_torque_nm"] * k_t,
@@ -248,12 +273,13 @@ def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
         domain = {q: [[n * k_n, t * k_t] for n, t in poly] for q, poly in base.domain.items()}
     provenance = {"carried_from": {"name": base.name, "model_sha256": base.sha256,
                                    "provenance": base.provenance},
-                  "speed_ratio": k_n, "torque_ratio": k_t, "law": SIMILARITY_LAW}
+                  "speed_ratio": k_n, "torque_ratio": k_t, "loss_ratio": lam,
+                  "law": SIMILARITY_LAW}
     return dataclasses.replace(
-        base, coefficients_rpm=tuple(np.array(base.coefficients_rpm) * f), covariance_rpm=cov,
+        base, coefficients_rpm=tuple(coefficients), covariance_rpm=cov,
         nominal_power_w=nominal, domain=domain, statistics=None, provenance=provenance,
         drive=drive, name=name or f"{base.name} carried x{k_n:.4g} speed, x{k_t:.4g} torque",
-        thermal=carry_thermal(getattr(base, "thermal", None), k_n * k_t),
+        thermal=carry_thermal(getattr(base, "thermal", None), lam * k_n * k_t),
     )
 
 

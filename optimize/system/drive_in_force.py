@@ -14,7 +14,9 @@ where its losses come from. :func:`drive_in_force` resolves both:
   the speed ratings, the corners of their constant-torque regions (the base speed of a
   system drive with a constant-power envelope, else its speed limit), and the torque
   ratio ``k_T`` of the nominal torques, nominal power over that speed, so ``k_n k_T`` is
-  the ratio of nominal powers) or
+  the ratio of nominal powers), ``"similarity-ie3"`` (the same, the losses per unit of
+  rating moved as the IEC 60034-30-1 IE3 class moves between the two nominal powers:
+  :func:`optimize.system.drive_power_check.rating_loss_ratio`) or
   ``"none"`` (the model as it is). Without the key a model whose rating differs
   from the system's by more than :data:`RATING_RATIO_LIMIT` in speed, torque or
   nominal power is refused (exit 2) naming the key.
@@ -30,12 +32,20 @@ from kernel.drive_envelope import ENVELOPE_KEYS
 from kernel.drive_rating import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS, DriveRating
 from kernel.errors import InputError
 from optimize.model.envelope import has_envelope
-from optimize.system.drive_power_check import efficiency_assumption, power_check
+from optimize.system.drive_power_check import (
+    efficiency_assumption,
+    efficiency_law,
+    power_check,
+    rating_loss_ratio,
+)
 
 #: ``[drive] losses`` value naming the shipped paper model
 LOSSES_PAPER = "paper"
-#: ``[drive] scaling`` values: carry the losses by the similarity law, or use them as they are
-SCALING_CHOICES = ("similarity", "none")
+#: ``[drive] scaling`` values: carry the losses by the similarity law (efficiency kept, or
+#: moved with rating as the IE3 class moves), or use them as they are
+SCALING_CHOICES = ("similarity", "similarity-ie3", "none")
+#: the ``[drive] scaling`` value whose carried losses follow the IE3 class with rating
+SCALING_IE3 = "similarity-ie3"
 #: a power model whose speed or torque rating differs from the system's by more than this
 #: factor is not used without a ``[drive] scaling`` key
 RATING_RATIO_LIMIT = 1.5
@@ -57,6 +67,9 @@ class DriveInForce:
         Why that file.
     speed_ratio, torque_ratio : float or None
         The similarity law's ratios when carried, else None.
+    loss_ratio : float
+        The carried losses over the similarity law's at corresponding points (1: the base
+        drive's efficiency kept; ``scaling = "similarity-ie3"``: the IE3 class's ratio).
     envelope_note : str
         Said when the power model's rating states a torque-speed envelope that the
         system file does not (the OCP flies the system file's), else empty.
@@ -73,6 +86,7 @@ class DriveInForce:
     torque_ratio: float | None = None
     envelope_note: str = ""
     checks: tuple[str, ...] = ()
+    loss_ratio: float = 1.0
 
     @property
     def carried(self) -> bool:
@@ -84,9 +98,11 @@ class DriveInForce:
         out = [f"drive in force: {self.rating.line().removeprefix('drive: ')}",
                f"drive losses: {self.model_path} ({self.losses_note})"]
         if self.carried:
+            losses = (f", losses x{self.loss_ratio:.3g} by the IE3 class"
+                      if self.loss_ratio != 1.0 else "")
             out.append(f"drive losses carried to this rating by the similarity law "
-                       f"(speed x{self.speed_ratio:.4g}, torque x{self.torque_ratio:.4g}; "
-                       "docs/system_file.md)")
+                       f"(speed x{self.speed_ratio:.4g}, torque x{self.torque_ratio:.4g}"
+                       f"{losses}; docs/system_file.md)")
         return (out + ([self.envelope_note] if self.envelope_note else [])
                 + [f"note: {c}" for c in self.checks])
 
@@ -94,7 +110,8 @@ class DriveInForce:
         """The manifest's ``drive`` record."""
         return {"rating": self.rating.to_dict(), "losses_path": str(self.model_path),
                 "losses_note": self.losses_note, "speed_ratio": self.speed_ratio,
-                "torque_ratio": self.torque_ratio, "model_sha256": self.model.sha256,
+                "torque_ratio": self.torque_ratio, "loss_ratio": self.loss_ratio,
+                "model_sha256": self.model.sha256,
                 "checks": list(self.checks)}
 
 
@@ -197,8 +214,8 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
     if scaling == "none":
         return DriveInForce(rating, model, path, note, envelope_note=env, checks=checks)
     if base is None:
-        if scaling == "similarity":
-            raise InputError(system.path, f'[drive] scaling = "similarity": the power model '
+        if scaling is not None:
+            raise InputError(system.path, f'[drive] scaling = "{scaling}": the power model '
                              f"{path} states no rating to carry its losses from",
                              expected='a power model with a "drive" rating, or scaling = "none"')
         return DriveInForce(rating, model, path, note, envelope_note=env, checks=checks)
@@ -232,12 +249,16 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
     # speed, else the speed limit) and of nominal torques (nominal power / that speed)
     k_n = _corner_rpm(system.drive, rating) / _corner_rpm(_Table(base), rating_of(base))
     k_t = ratios["nominal_power_w"] / k_n
-    checks = (*checks, *(c for c in (efficiency_assumption(ratios["nominal_power_w"]),) if c))
+    lam, size_line = 1.0, efficiency_assumption(ratios["nominal_power_w"])
+    if scaling == SCALING_IE3:
+        lam = rating_loss_ratio(base_rating[2], rating.nominal_power_w)
+        size_line = efficiency_law(base_rating[2], rating.nominal_power_w)
+    checks = (*checks, *(c for c in (size_line,) if c))
     carried = carry_power_model(model, k_n, k_t, drive=rating.to_dict(),
                                 name=f"{model.name} carried to {rating.max_speed_rpm:g} rpm, "
-                                     f"{rating.max_torque_nm:g} N m")
+                                     f"{rating.max_torque_nm:g} N m", loss_ratio=lam)
     return DriveInForce(rating, carried, path, note, k_n, k_t, envelope_note=env,
-                        checks=checks)
+                        checks=checks, loss_ratio=lam)
 
 
 class _Table:

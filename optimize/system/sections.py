@@ -249,8 +249,11 @@ class DriveSection:
         "`optimize/data/paper_drive_model.json`, with its source) or a `power_model.json` of "
         "`bench fit`, the path relative to this file", default=None)
     scaling: str | None = text(
-        "how the losses are carried to this rating: `\"similarity\"` (the law below) or "
-        "`\"none\"` (used as they are)", choices=SCALING_CHOICES, default=None)
+        "how the losses are carried to this rating: `\"similarity\"` (the law below, the "
+        "base drive's efficiency kept), `\"similarity-ie3\"` (the same law, the losses per "
+        "unit of rating moved as the IEC 60034-30-1 IE3 class's `1 - eta` moves between the "
+        "two nominal powers) or `\"none\"` (used as they are)", choices=SCALING_CHOICES,
+        default=None)
     source: str | None = text("where the rating comes from (printed with it)", default=None)
     rotor_inertia_kg_m2: float | None = number(
         "inertia turning at motor speed (rotor, gearbox input side); referred to the drum "
