@@ -19,6 +19,7 @@ kernel: the readers of later stages take it without the optimizer.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -116,6 +117,9 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "outside_domain_time_frac": "share of the cycle time outside the drive model's validity "
                                 "domain (its measured envelope per quadrant) [-]; NaN when "
                                 "the model has no domain",
+    "outside_domain_loss_frac": "share of the cycle's drive loss energy (P_elec - P_mech) "
+                                "at points outside that domain, where the model extrapolates "
+                                "[-]; NaN when the model has no domain",
     "outside_worst_speed_rpm": "drum speed of the cycle point farthest outside the domain",
     "outside_worst_torque_nm": "drum torque of the cycle point farthest outside the domain",
     "outside_worst_distance": "its distance to the domain in (speed / max_speed_rpm, "
@@ -285,8 +289,11 @@ def on_bounds(summary: pd.DataFrame) -> pd.DataFrame:
 
 def domain_line(r: Any) -> str:
     """One scenario (a summary row) outside the validity domain, in words."""
-    return (f"{r.scenario}: {100 * r.outside_domain_time_frac:.1f} % of the cycle time outside "
-            f"the drive model's validity domain; worst at {r.outside_worst_speed_rpm:.0f} rpm, "
+    lost = getattr(r, "outside_domain_loss_frac", math.nan)  # absent before it existed
+    losses = f", {100 * lost:.1f} % of its drive losses" if math.isfinite(lost) else ""
+    return (f"{r.scenario}: {100 * r.outside_domain_time_frac:.1f} % of the cycle time{losses} "
+            f"outside the drive model's validity domain; worst at "
+            f"{r.outside_worst_speed_rpm:.0f} rpm, "
             f"{r.outside_worst_torque_nm:.1f} N m (distance {r.outside_worst_distance:.3f} of "
             "the drive rating)")
 

@@ -88,8 +88,20 @@ def key_warnings(summary: pd.DataFrame) -> list[tuple[str, str]]:
             f"{len(losing)} converged cycles draw net power from the grid while the drum "
             f"generates (the drive's losses exceed the drum's power): {_scenario_list(losing)};"
             f" largest {w['scenario']}: {power_words(float(w['avg_p_elec_w']))} drawn, "
-            f"{power_words(-float(w['avg_p_mech_w']))} generated at the drum")))
+            f"{power_words(-float(w['avg_p_mech_w']))} generated at the drum, the drive's "
+            f"losses {power_words(float(w['avg_p_elec_w'] - w['avg_p_mech_w']))} over the "
+            f"cycle{_extrapolated(w)}")))
     return rows
+
+
+def _extrapolated(row: pd.Series) -> str:
+    """``, 89 % of them outside ...`` for a summary row that states the share of its drive
+    losses outside the model's domain, else ``""``."""
+    share = float(row.get("outside_domain_loss_frac", float("nan")))
+    if not share > 0:
+        return ""
+    return (f", {100 * share:.0f} % of them at points outside the drive model's domain, "
+            "where it extrapolates")
 
 
 def drive_checks(manifest: dict | None) -> list[tuple[str, str]]:

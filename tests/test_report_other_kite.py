@@ -151,14 +151,21 @@ def test_key_results_say_when_cycles_leave_the_model_or_lose_more_than_they_make
         "kind": ["mech-lim", "mech-lim", "elec-lim"], "wind_speed_m_s": [6.0, 9.0, 9.0],
         "success": [True, True, True], "avg_p_elec_w": [492923.0, -356894.0, -662985.0],
         "avg_p_mech_w": [-255605.0, -1105231.0, -981911.0],
-        "outside_domain_time_frac": [0.632, 0.558, 0.278]})
+        "outside_domain_time_frac": [0.632, 0.558, 0.278],
+        "outside_domain_loss_frac": [0.887, 0.844, 0.5]})
     rows = dict(key_warnings(summary))
     assert rows["outside the drive model's domain"].startswith(
         "2 of 3 converged cycles spend most of their time outside")
     assert "mech-lim at 6, 9 m/s; worst mech-lim-6.0, 63 % of its cycle" in rows[
         "outside the drive model's domain"]
     assert rows["drawing from the grid while generating"].endswith(
-        "mech-lim at 6 m/s; largest mech-lim-6.0: 493 kW drawn, 256 kW generated at the drum")
+        "mech-lim at 6 m/s; largest mech-lim-6.0: 493 kW drawn, 256 kW generated at the drum,"
+        " the drive's losses 749 kW over the cycle, 89 % of them at points outside the drive"
+        " model's domain, where it extrapolates")
+    # a summary of before the loss share: the losses alone
+    older = dict(key_warnings(summary.drop(columns="outside_domain_loss_frac")))
+    assert older["drawing from the grid while generating"].endswith(
+        "the drive's losses 749 kW over the cycle")
     quiet = summary.assign(avg_p_elec_w=-1.0, outside_domain_time_frac=0.1)
     assert key_warnings(quiet) == []
 

@@ -44,6 +44,7 @@ def hand_trajectory() -> pd.DataFrame:
             "speed_rpm": [-1200.0, -800.0, 900.0, 300.0],
             "torque_nm": [60.0, 78.0, 10.0, 20.0],
             "p_elec_w": [-6000.0, -5000.0, 1500.0, 900.0],
+            "p_mech_w": [-7500.0, -6500.0, 900.0, 600.0],
             "altitude_m": [80.0, 95.0, 120.0, 70.0],
             "weight": [0.25, 0.25, 0.25, 0.25],
         }
@@ -105,12 +106,15 @@ def test_summary_marks_cycle_points_outside_the_validity_domain():
     assert row["outside_domain_time_frac"] == pytest.approx(0.5, rel=1e-12)
     assert (row["outside_worst_speed_rpm"], row["outside_worst_torque_nm"]) == (-1200.0, 60.0)
     assert row["outside_worst_distance"] == pytest.approx(1250 / 1500, rel=1e-12)
+    # the drive's losses P_elec - P_mech: 1500, 1500, 600, 300 W; the first two outside
+    assert row["outside_domain_loss_frac"] == pytest.approx(3000 / 3900, rel=1e-12)
     # a two-quadrant domain holding the whole cycle: nothing outside
     gen = [[-1500.0, 1.0], [-40.0, 1.0], [-40.0, 78.0], [-1500.0, 78.0]]
     inside = summary_frame(outcomes(), {"motor": box, "generator": gen}, (1500.0, 78.0))
     assert inside.set_index("scenario").loc["elec-lim-5.5", "outside_domain_time_frac"] == 0.0
     from optimize.command import format_summary
-    assert "50.0 % of the cycle time outside" in format_summary(s.reset_index())
+    assert ("50.0 % of the cycle time, 76.9 % of its drive losses outside"
+            in format_summary(s.reset_index()))
 
 
 def test_summary_round_trip_keeps_values_and_units(tmp_path):

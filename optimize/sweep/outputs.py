@@ -48,7 +48,12 @@ def _excursion_metrics(traj: pd.DataFrame, domain: dict | None,
                        scales: tuple[float, float]) -> dict[str, float]:
     weight = traj["weight"] if domain else 1.0  # quadrature weights: shares of the cycle time
     e = domain_excursion(traj["speed_rpm"], traj["torque_nm"], weight, domain, scales)
+    # the drive's loss energy: P_elec - P_mech (>= 0 where the model is a drive's) per point
+    loss = (traj["p_elec_w"] - traj["p_mech_w"]).clip(lower=0.0) if domain else 1.0
+    lost = domain_excursion(traj["speed_rpm"], traj["torque_nm"], weight * loss, domain,
+                            scales)
     return {"outside_domain_time_frac": e["time_fraction_outside"],
+            "outside_domain_loss_frac": lost["time_fraction_outside"],
             "outside_worst_speed_rpm": e["worst_speed_rpm"],
             "outside_worst_torque_nm": e["worst_torque_nm"],
             "outside_worst_distance": e["worst_distance"]}
