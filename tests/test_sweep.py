@@ -446,6 +446,7 @@ class CycleBackend(NewtonBackend):
                 "speed_rpm": [-100.0 * w, 50.0, 80.0 * w],
                 "torque_nm": [10.0 * w, 5.0, 1.0],
                 "p_elec_w": [r.avg_p_elec_w - 100.0, r.avg_p_elec_w, r.avg_p_elec_w + 100.0],
+                "p_mech_w": [r.avg_p_elec_w - 150.0, r.avg_p_elec_w - 50.0, r.avg_p_elec_w],
                 "altitude_m": [30.0, 60.0, 45.0],
             }
         )
