@@ -261,6 +261,16 @@ BOUND_MEANINGS = {
                      "min_airspeed_m_s", "m/s"),
     "airspeed_max": ("the kite at its largest airspeed (the kite's limit, every kind)",
                      "max_airspeed_m_s", "m/s"),
+    "alpha_min": ("the kite at the lowest angle of attack of its range, below which its "
+                  "aero coefficients are not valid (every kind)", "alpha_bounds_deg", "deg"),
+    "alpha_max": ("the kite at the highest angle of attack of its range, above which its "
+                  "aero coefficients are not valid (every kind)", "alpha_bounds_deg", "deg"),
+    "beta_min": ("the kite at the lowest sideslip of its range (every kind)",
+                 "beta_bounds_deg", "deg"),
+    "beta_max": ("the kite at the highest sideslip of its range (every kind)",
+                 "beta_bounds_deg", "deg"),
+    "line_angle_limit": ("the tether at its largest angle to the kite's body z axis (every kind)",
+                         "max_line_angle_deg", "deg"),
     "tether_force_limit": ("the tether at its largest force (the kite's limit, every kind)",
                            "max_tether_force_n", "N"),
     "tension_min": ("the tether at its least tension: a line that must stay taut (every "

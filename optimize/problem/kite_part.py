@@ -174,11 +174,15 @@ class KitePart(Part):
         }
 
     def active_bounds(self, traj: Any, drive_limits: bool) -> list[str]:
-        """Tether length, ground clearance, airspeed, the winch's acceleration, jerk and
-        reel-speed limits, the body rates, the tension floor, the line angle and the
-        control-surface deflections (the kite's own, in every kind)."""
+        """Tether length, ground clearance, airspeed, angle of attack, sideslip, the
+        winch's acceleration, jerk and reel-speed limits, the body rates, the tension floor,
+        the line angle and the control-surface deflections (the kite's own, in every kind).
+        An angle is on its bound within :data:`~optimize.problem.part.ACTIVE_RTOL` of its
+        range (a bound of 0 deg has no relative tolerance of its own)."""
         lim = self.limits
         l_lo, l_hi = lim.tether_length_bounds_m
+        a_lo, a_hi = lim.alpha_bounds_deg
+        b_lo, b_hi = lim.beta_bounds_deg
         rates = np.degrees(np.abs(traj[["omega_x_rad_s", "omega_y_rad_s",
                                         "omega_z_rad_s"]].to_numpy()))
         surfaces = np.degrees(np.abs(traj[[f"{s}_rad" for s in SURFACES]].to_numpy()))
@@ -187,6 +191,10 @@ class KitePart(Part):
                   ("ground_clearance", traj["altitude_m"], lim.min_altitude_m),
                   ("airspeed_min", traj["airspeed_m_s"], lim.min_airspeed_m_s),
                   ("airspeed_max", traj["airspeed_m_s"], lim.max_airspeed_m_s),
+                  ("alpha_min", (a_hi - traj["alpha_deg"]) / (a_hi - a_lo), 1.0),
+                  ("alpha_max", (traj["alpha_deg"] - a_lo) / (a_hi - a_lo), 1.0),
+                  ("beta_min", (b_hi - traj["beta_deg"]) / (b_hi - b_lo), 1.0),
+                  ("beta_max", (traj["beta_deg"] - b_lo) / (b_hi - b_lo), 1.0),
                   ("reel_acceleration_limit", np.abs(traj["ddl_m_s2"]),
                    lim.max_reel_acceleration_m_s2),
                   ("reel_jerk_limit", np.abs(traj["dddl_m_s3"]), lim.max_reel_jerk_m_s3),

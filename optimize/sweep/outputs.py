@@ -29,7 +29,8 @@ TRAJECTORY_METRICS = ("peak_speed_rpm", "peak_torque_nm", "peak_reel_acceleratio
 DRIVE_BOUNDS = ("speed_limit", "torque_limit", "envelope_limit", "p_elec_limit",
                 "winding_temperature_limit")
 #: the kite's and the winch's own limits, in force in every kind
-KITE_BOUNDS = ("airspeed_min", "airspeed_max", "tether_force_limit", "reel_acceleration_limit",
+KITE_BOUNDS = ("airspeed_min", "airspeed_max", "alpha_min", "alpha_max", "beta_min",
+               "beta_max", "tether_force_limit", "reel_acceleration_limit",
                "reel_jerk_limit", "reel_out_speed_limit", "reel_in_speed_limit",
                "body_rate_limit", "tension_min", "line_angle_limit", "surface_limit")
 #: bounds an optimum may sit on as physics: the drive and kite limits and the ground (a

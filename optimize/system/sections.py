@@ -78,14 +78,15 @@ class AeroSection:
         AeroCoefficients, kind="coefficient", optional=OPTIONAL_COEFFICIENTS,
         doc="the coefficients of the model above: each a number or a polynomial in alpha")
     alpha_min_deg: float = number("lowest angle of attack the coefficients are valid at; the "
-                                  "OCP's bound", lo=-90, hi=90, hi_strict=True)
-    alpha_max_deg: float = number("highest angle of attack the coefficients are valid at "
-                                  "(above `alpha_min_deg`); the OCP's bound", lo=-90, hi=90,
+                                  "OCP's bound; reported as `alpha_min`", lo=-90, hi=90,
                                   hi_strict=True)
-    beta_min_deg: float = number("lowest sideslip; the OCP's bound", lo=-90, hi=90,
-                                 hi_strict=True)
-    beta_max_deg: float = number("highest sideslip (above `beta_min_deg`); the OCP's bound",
+    alpha_max_deg: float = number("highest angle of attack the coefficients are valid at "
+                                  "(above `alpha_min_deg`); the OCP's bound; reported as "
+                                  "`alpha_max`", lo=-90, hi=90, hi_strict=True)
+    beta_min_deg: float = number("lowest sideslip; the OCP's bound; reported as `beta_min`",
                                  lo=-90, hi=90, hi_strict=True)
+    beta_max_deg: float = number("highest sideslip (above `beta_min_deg`); the OCP's bound; "
+                                 "reported as `beta_max`", lo=-90, hi=90, hi_strict=True)
 
     def problems(self) -> _Problems:
         """The angle ranges rising; the lift slope positive over alpha's."""
@@ -355,7 +356,8 @@ class BoundsSection:
                                            "span is enforced whatever the file says", lo=0,
                                            lo_strict=False)
     min_airspeed_m_s: float = number("lower airspeed bound", lo=0, lo_strict=False)
-    max_line_angle_deg: float = number("largest angle between the body z axis and the tether",
+    max_line_angle_deg: float = number("largest angle between the body z axis and the tether; "
+                                       "reported as `line_angle_limit`",
                                        lo=0, hi=90, hi_strict=True)
     surface_max_deg: float = number("deflection bound of the three control surfaces (< 90)",
                                     lo=0)
