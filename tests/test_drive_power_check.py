@@ -74,7 +74,8 @@ def test_megawes_drive_is_rated_and_carried_at_its_corner():
     assert r.continuous_torque_nm == pytest.approx(r.nominal_power_w / (d.base_speed_rpm * W),
                                                    rel=1e-3)
     # the paper drive's corner (1500 rpm; nominal torque 8200 W / 1500 rpm) on its base
-    # speed: the torque limit maps to 556 kN m / k_T = 1.67 x 78 N m, not 7.8 x as before
+    # speed: the torque limit maps to 2.5 x the nominal torque = 1.67 x 78 N m (7.8 x in the
+    # file before issue 49)
     assert drive.speed_ratio == pytest.approx(d.base_speed_rpm / 1500.0)
     assert drive.speed_ratio * drive.torque_ratio == pytest.approx(3e6 / 8200.0)
     assert r.max_torque_nm / drive.torque_ratio / 78.0 == pytest.approx(1.67, abs=0.01)
@@ -94,6 +95,25 @@ def test_megawes_drive_is_rated_and_carried_at_its_corner():
     # and the output says how the law moves efficiency with size, and its source
     assert any("IE3 class" in c and "2019/1781" in c for c in drive.checks)
     assert any("losses x0.429 by the IE3 class" in line for line in drive.lines())
+
+
+def test_megawes_drive_rests_on_its_public_figures():
+    # truths, from the sources the file cites: MegAWES's later winch (branch newVersion,
+    # Lib/circle_simInput.yaml: radius 1.5 m, inertia 1e4 kg m^2, +-25 m/s, +-5 m/s^2;
+    # branch DevTetherForceControl: winch_Ft_max 1.390e6 N) and the reference system's
+    # rated 3 MW (Eijkelhof, Rossi, Schmehl, Wind Energ. Sci. 11, 1287, 2026)
+    system = load_system("optimize/data/systems/megawes.toml")
+    w, d = system.winch, system.drive
+    assert (w.drum_radius_m, w.drum_inertia_kg_m2, w.gear_ratio) == (1.5, 1.0e4, 1.0)
+    assert (w.max_reel_out_speed_m_s, w.max_reel_in_speed_m_s) == (25.0, 25.0)
+    assert w.max_reel_acceleration_m_s2 == 5.0
+    assert d.max_speed_rpm * W * w.drum_radius_m == pytest.approx(25.0, rel=1e-12)
+    assert d.max_torque_nm / w.drum_radius_m == pytest.approx(1.39e6, rel=1e-12)
+    assert d.nominal_power_w == 3.0e6
+    assert "no public source" not in d.source and "2026" in d.source
+    # what is ours stays derived from them: base speed and continuous torque from 2.5 x 3 MW
+    assert d.max_torque_nm * d.base_speed_rpm * W == pytest.approx(7.5e6, rel=1e-6)
+    assert d.continuous_torque_nm == pytest.approx(d.max_torque_nm / 2.5, rel=1e-12)
 
 
 def test_the_ie3_class_as_the_regulation_tabulates_it():
