@@ -799,11 +799,12 @@ def test_a_local_optimum_off_the_curve_is_resolved_from_its_neighbour():
     by_name = {o.name: o for o in done.outcomes}
     mid = by_name["elec-free-7.0"]  # the cold start: on the local branch, 300 W worse
     assert mid.result.avg_p_elec_w == pytest.approx(-4900.0)  # the better optimum kept
-    assert mid.result.warm == "good" and mid.attempts[-1].source == "elec-free-5.5"
+    # from the neighbour nearer its own curve (8.5 m/s: 5.5 sits nearer the local branch)
+    assert mid.result.warm == "good" and mid.attempts[-1].source == "elec-free-8.5"
     assert [r.kept for r in mid.resolves] == [True]
     assert mid.resolves[0].before_w == pytest.approx(-4600.0)
     row = resolve_fields(mid)  # the summary's columns
-    assert row["resolved_from"] == "elec-free-5.5"
+    assert row["resolved_from"] == "elec-free-8.5"
     assert row["resolve_gain_w"] == pytest.approx(300.0)
     assert "better optimum, kept" in resolve_lines([mid])[0]  # the manifest's local_optima
     import pandas as pd
@@ -812,17 +813,17 @@ def test_a_local_optimum_off_the_curve_is_resolved_from_its_neighbour():
     from optimize.sweep_folder import resolve_lines_of
 
     frame = pd.DataFrame([{"scenario": mid.name, **row}])
-    line = "elec-free-7.0: re-solved from elec-free-5.5: better by 300.0 W, kept"
+    line = "elec-free-7.0: re-solved from elec-free-8.5: better by 300.0 W, kept"
     assert resolve_lines_of(frame) == [line]
     assert line in format_summary(frame.assign(
         status="Solve_Succeeded", iterations=3, total_wall_time_s=0.0, avg_p_elec_w=-4900.0,
         avg_p_mech_w=0.0, period_s=5.0, e_elec_j=0.0, peak_speed_rpm=0.0, peak_torque_nm=0.0,
         p_elec_max_w=0.0, slack_fraction=0.0, success=True, active_bounds="",
         bound_limited=False, outside_domain_time_frac=float("nan")))
-    # the neighbours disagreed with the curve too while 7.0 was off it: re-solved from
-    # 7.0's local optimum, which does not exist there, so they kept their own
+    # 7.0's better optimum is carried on to both neighbours (the good branch they are on
+    # already: the same optimum, not kept); nothing else is re-solved
     for name in ("elec-free-5.5", "elec-free-8.5"):
-        assert not any(r.kept for r in by_name[name].resolves)
+        assert [(r.carried, r.kept) for r in by_name[name].resolves] == [(True, False)]
         assert by_name[name].result.avg_p_elec_w == pytest.approx(-100.0 * float(name[-3:])**2)
     assert all(o.result.warm == "good" for o in done.outcomes)
 
@@ -839,6 +840,44 @@ def test_a_seed_on_a_local_optimum_is_caught_and_resolved_in_the_graph():
     assert mid.attempts[-1].source in ("elec-free-5.5", "elec-free-8.5")
     assert mid.depth == by_name[mid.attempts[-1].source].depth + 1 == 2
     assert all(o.result.warm == "good" for o in result.outcomes)
+
+
+@dataclass(frozen=True)
+class LadderBackend(BranchBackend):
+    """Branch "good" everywhere and a branch "poor", 1500 W worse with a period of 8 s,
+    that exists up to 8.5 m/s: the cold start (7 m/s) and the chain from it land on
+    "poor" up to 8.5 m/s, and only the last speed, 10 m/s, finds "good"."""
+
+    @staticmethod
+    def _on(branch: str, w: float) -> BranchResult:
+        poor = branch != "good" and w <= 8.5
+        return BranchResult("Solve_Succeeded", True, 3, 1e-3, -100.0 * w**2 + 1500.0 * poor,
+                            "poor" if poor else "good", period_s=8.0 if poor else 5.0)
+
+
+def test_a_better_branch_found_at_one_end_is_carried_along_the_kind():
+    done = run_chain(ChainTask(PROBLEM, chain_steps(("elec-free",), WINDS),
+                               backend=LadderBackend(), resolve=True))
+    by_name = {o.name: o for o in done.outcomes}
+    # every speed ends on the good branch, at its exact power
+    for name, o in by_name.items():
+        assert o.result.warm == "good", name
+        assert o.result.avg_p_elec_w == pytest.approx(-100.0 * o.wind_speed_m_s**2)
+    # 8.5 m/s, off the curve, finds it from 10 m/s; the better optimum is carried on down
+    # the kind, each speed from the one above, each kept
+    hop = by_name["elec-free-8.5"].resolves
+    assert [(r.attempt.source, r.carried, r.kept) for r in hop] == [
+        ("elec-free-10.0", False, True)]
+    for w, above in ((7.0, 8.5), (5.5, 7.0), (4.0, 5.5)):
+        rs = by_name[f"elec-free-{w}"].resolves
+        assert [(r.attempt.source, r.carried, r.kept) for r in rs] == [
+            (f"elec-free-{above}", True, True)]
+        assert rs[0].before_w - rs[0].objective_w == pytest.approx(1500.0)
+    # and back up: 10 m/s from 8.5 m/s's new optimum, the one it had (not kept); nothing
+    # else is solved again
+    top = by_name["elec-free-10.0"].resolves
+    assert [(r.attempt.source, r.carried, r.kept) for r in top] == [
+        ("elec-free-8.5", True, False)]
 
 
 def test_a_smooth_power_curve_is_not_resolved():
@@ -875,8 +914,11 @@ def test_every_solver_run_says_what_it_is_doing():
     assert {e["role"] for e in runs} == {"grid", "local optimum"}
     lines = [attempt_line(e) for e in runs if e["role"] == "local optimum"]
     # the re-solve that finds the better optimum of 7 m/s (see the test above)
-    assert "local optimum: elec-free-7.0 from elec-free-5.5 ..." in lines
-    assert "local optimum: elec-free-7.0 from elec-free-5.5 Solve_Succeeded" in lines
+    assert "local optimum: elec-free-7.0 from elec-free-8.5 ..." in lines
+    assert "local optimum: elec-free-7.0 from elec-free-8.5 Solve_Succeeded" in lines
+    # and carries it on (to 5.5 m/s) and back (8.5 m/s)
+    assert "local optimum: elec-free-5.5 from elec-free-7.0 Solve_Succeeded" in lines
+    assert "local optimum: elec-free-8.5 from elec-free-7.0 Solve_Succeeded" in lines
 
 
 def test_workers_default_to_the_affinity_mask_and_the_header_says_why(monkeypatch):

@@ -4,7 +4,8 @@ A cold start or a chain can land on a local optimum: one wind speed of a kind th
 disagrees with the curve through its neighbours (a jump in average power or
 period, :func:`off_curve`). :func:`resolve_local_optima` solves each such
 scenario again, warm-started from each converged neighbouring wind speed of its
-kind other than the one its result came from, and keeps the better optimum.
+kind other than the one its result came from, and keeps the better optimum, which
+is then carried along the kind while it keeps improving its neighbours.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ JUMP_PERIOD_RTOL = 0.15
 #: neighbours on each side of the smooth curve's local fit
 CURVE_NEIGHBOURS = 2
 #: rounds of detection and re-solve per kind (a kept re-solve can reveal the next one)
-MAX_RESOLVE_ROUNDS = 3
+MAX_RESOLVE_ROUNDS = 6
 
 
 #: the role of a re-solve in the progress events (:meth:`Solver.attempt`)
@@ -72,9 +73,10 @@ def _curve_prediction(wind_speeds_m_s: list[float], values: list[float], i: int)
     return float(coef[-1])
 
 
-def off_curve(wind_speeds_m_s: list[float], power_w: list[float],
-              period_s: list[float]) -> list[int]:
-    """Indices of the points of one kind that sit off the smooth curve of the others.
+def curve_residuals(wind_speeds_m_s: list[float], power_w: list[float],
+                    period_s: list[float]) -> list[float]:
+    """How far each point of one kind sits off the smooth curve of the others, in units
+    of the flag's threshold: above 1 is off the curve (:func:`off_curve`).
 
     Parameters
     ----------
@@ -87,29 +89,128 @@ def off_curve(wind_speeds_m_s: list[float], power_w: list[float],
 
     Returns
     -------
-    list of int
-        Points whose power is above the local fit of their neighbours (less generated,
-        more drawn: a local optimum is only ever poorer) by more than
-        :data:`JUMP_POWER_RTOL` of the kind's largest ``|P|``, or whose period departs
-        by more than :data:`JUMP_PERIOD_RTOL` of its own. A point that does better than
-        its neighbours' curve is not one: on a coarse grid the curve through two
-        neighbours cuts a concave power curve below its middle (AP2 over 6:12:3: the
-        chord predicts -2260 W at 9 m/s for the optimum's -2672 W), and it is the
-        neighbours that sit below the point's curve then.
+    list of float
+        Per point, the larger of its power above the local fit of its neighbours (less
+        generated, more drawn: a local optimum is only ever poorer) over
+        :data:`JUMP_POWER_RTOL` of the kind's largest ``|P|``, and its period's departure
+        over :data:`JUMP_PERIOD_RTOL` of its own. All zero with fewer than
+        :data:`MIN_CURVE_SPEEDS` points. A point that does better than its neighbours'
+        curve has no power residual: on a coarse grid the curve through two neighbours
+        cuts a concave power curve below its middle (AP2 over 6:12:3: the chord predicts
+        -2260 W at 9 m/s for the optimum's -2672 W), and it is the neighbours that sit
+        below the point's curve then.
     """
     if len(wind_speeds_m_s) < MIN_CURVE_SPEEDS:
-        return []
+        return [0.0] * len(wind_speeds_m_s)
     scale = max(abs(p) for p in power_w)
-    flagged = []
+    residuals = []
     for i in range(len(wind_speeds_m_s)):
         p_fit = _curve_prediction(wind_speeds_m_s, power_w, i)
-        jump = power_w[i] - p_fit > JUMP_POWER_RTOL * scale
+        r = max(0.0, (power_w[i] - p_fit) / (JUMP_POWER_RTOL * scale))
         if math.isfinite(period_s[i]):
             t_fit = _curve_prediction(wind_speeds_m_s, period_s, i)
-            jump = jump or abs(period_s[i] - t_fit) > JUMP_PERIOD_RTOL * period_s[i]
-        if jump:
-            flagged.append(i)
-    return flagged
+            r = max(r, abs(period_s[i] - t_fit) / (JUMP_PERIOD_RTOL * period_s[i]))
+        residuals.append(r if math.isfinite(r) else 0.0)
+    return residuals
+
+
+def off_curve(wind_speeds_m_s: list[float], power_w: list[float],
+              period_s: list[float]) -> list[int]:
+    """Indices of the points of one kind that sit off the smooth curve of the others
+    (see :func:`curve_residuals`), the likeliest local optimum first.
+
+    One point off the curve pulls its neighbours' fits off too, so the points are
+    ordered by how many of the other flagged points return to the curve without it
+    (the culprit clears them), then by how far off they are.
+    """
+    r = curve_residuals(wind_speeds_m_s, power_w, period_s)
+    flagged = [i for i in range(len(r)) if r[i] > 1.0]
+
+    def cleared(i: int) -> int:
+        keep = [j for j in range(len(r)) if j != i]
+        rest = curve_residuals(*([v[j] for j in keep]
+                                 for v in (wind_speeds_m_s, power_w, period_s)))
+        return sum(rest[keep.index(j)] <= 1.0 for j in flagged if j != i)
+
+    return sorted(flagged, key=lambda i: (-cleared(i), -r[i]))
+
+
+@dataclasses.dataclass
+class _Search:
+    """The re-solves of one kind: which starts were tried and which optimum each came from.
+
+    ``version[k]`` counts the optima ``k`` has had (bumped when a re-solve replaces its
+    result), so a start is tried again only once its optimum has changed; ``origin[k]``
+    is the ``(source, version)`` its present optimum came from, never tried again.
+    """
+
+    solver: Any
+    kind: str
+    version: dict
+    origin: dict
+    tried: set = dataclasses.field(default_factory=set)
+
+    def curve(self) -> tuple[list, list[float], list[int]]:
+        """The kind's converged scenarios by wind speed, their curve residuals and the
+        off-curve ones (:func:`off_curve`); all empty when a power is not finite."""
+        ks = sorted((k for k in self.version if self.solver.outcomes[k].success),
+                    key=lambda k: k[1])
+        outs = [self.solver.outcomes[k] for k in ks]
+        power = [objective_power_w(self.kind, o.result) for o in outs]
+        period = [float(getattr(o.result, "period_s", math.nan)) for o in outs]
+        if not all(math.isfinite(p) for p in power):
+            return [], [], []
+        speeds = [k[1] for k in ks]
+        return (ks, curve_residuals(speeds, power, period),
+                off_curve(speeds, power, period))
+
+    def worth_trying(self, key: tuple, source: tuple) -> bool:
+        """Whether ``key`` from ``source``'s present optimum is a start not yet solved."""
+        start = (source, self.version[source])
+        return (key, *start) not in self.tried and self.origin.get(key) != start
+
+    def resolve(self, key: tuple, source: tuple, carried: bool = False) -> bool:
+        """Solve ``key`` again from ``source``'s optimum; keep it when better. Whether kept."""
+        self.tried.add((key, source, self.version[source]))
+        o = self.solver.outcomes[key]
+        before = objective_power_w(self.kind, o.result)
+        attempt, result = self.solver.attempt(self.kind, key[1], source, LOCAL_OPTIMUM)
+        after = objective_power_w(self.kind, result) if attempt.success else math.nan
+        kept = bool(attempt.success and after < before - better_margin_w(before))
+        record = Resolve(attempt, after, before, kept, carried=carried)
+        if not kept:
+            self.solver.outcomes[key] = dataclasses.replace(o, resolves=(*o.resolves, record))
+            return False
+        self.solver.replace(dataclasses.replace(
+            o, attempts=(*o.attempts, attempt), result=result,
+            resolves=(*o.resolves, record)), source)
+        self.origin[key] = (source, self.version[source])
+        self.version[key] += 1
+        return True
+
+    def carry_on(self, ks: list, i: int, step: int) -> None:
+        """Carry ``ks[i]``'s new optimum along the kind by ``step`` (+1 up the wind
+        speeds, -1 down) while each neighbour's re-solve from it is kept."""
+        j = i + step
+        while 0 <= j < len(ks) and self.worth_trying(ks[j], ks[j - step]):
+            if not self.resolve(ks[j], ks[j - step], carried=True):
+                return
+            j += step
+
+    def round(self) -> bool:
+        """One round: the off-curve scenarios, likeliest first, each re-solved from its
+        neighbours (the one nearer its own curve first) until one is kept, which is
+        then carried on away from its source and back past it. Whether one was kept."""
+        ks, residual, order = self.curve()
+        for i in order:
+            near = sorted((n for n in (i - 1, i + 1) if 0 <= n < len(ks)),
+                          key=lambda n: residual[n])
+            for n in near:
+                if self.worth_trying(ks[i], ks[n]) and self.resolve(ks[i], ks[n]):
+                    self.carry_on(ks, i, i - n)
+                    self.carry_on(ks, i, n - i)
+                    return True  # the curve has changed: the next round looks again
+        return False
 
 
 def resolve_local_optima(solver: Any, keys: Sequence[tuple[str, float]]) -> None:
@@ -125,48 +226,22 @@ def resolve_local_optima(solver: Any, keys: Sequence[tuple[str, float]]) -> None
 
     Notes
     -----
-    Each off-curve scenario is solved again warm-started from each converged
-    neighbouring wind speed of its kind other than the one its result came from,
-    and the better optimum (lower objective power by more than
-    :func:`better_margin_w`) is kept. Every re-solve is recorded in the outcome's
-    ``resolves``.
+    Per kind, in rounds of at most :data:`MAX_RESOLVE_ROUNDS`: each off-curve scenario,
+    the likeliest local optimum first (:func:`off_curve`), is solved again from a
+    converged neighbouring wind speed (the one nearer its own curve first; never the
+    optimum its result came from) and the better optimum (lower objective power by
+    more than :func:`better_margin_w`) is kept. A kept optimum is carried on: the next
+    wind speed away from its source is solved again from it, and so on while each is
+    kept, then the same back past its source, so a better branch found at one point
+    reaches the whole kind. No start is solved twice. Every re-solve is recorded in the
+    outcome's ``resolves``.
     """
-    version = dict.fromkeys(keys, 0)  # bumped when a result is replaced
-    tried: set[tuple] = set()
     for kind in dict.fromkeys(k for k, _ in keys):
+        own = [k for k in keys if k[0] == kind]
+        by_name = {solver.outcomes[k].name: k for k in own}
+        search = _Search(solver, kind, dict.fromkeys(own, 0),
+                         {k: (by_name.get(solver.outcomes[k].attempts[-1].source), 0)
+                          for k in own})
         for _ in range(MAX_RESOLVE_ROUNDS):
-            ks = sorted((k for k in keys if k[0] == kind and solver.outcomes[k].success),
-                        key=lambda k: k[1])
-            outs = [solver.outcomes[k] for k in ks]
-            power = [objective_power_w(kind, o.result) for o in outs]
-            period = [float(getattr(o.result, "period_s", math.nan)) for o in outs]
-            if not all(math.isfinite(p) for p in power):
-                break
-            replaced = False
-            for i in off_curve([k[1] for k in ks], power, period):
-                for n in (i - 1, i + 1):
-                    if not 0 <= n < len(ks):
-                        continue
-                    o, src = solver.outcomes[ks[i]], solver.outcomes[ks[n]]
-                    tag = (ks[i], ks[n], version[ks[n]])
-                    if tag in tried or (o.attempts[-1].source == src.name
-                                        and version[ks[n]] == 0):
-                        continue
-                    tried.add(tag)
-                    before = objective_power_w(kind, o.result)
-                    attempt, result = solver.attempt(kind, o.wind_speed_m_s, ks[n],
-                                                     LOCAL_OPTIMUM)
-                    after = objective_power_w(kind, result) if attempt.success else math.nan
-                    kept = bool(attempt.success and after < before - better_margin_w(before))
-                    record = Resolve(attempt, after, before, kept)
-                    if kept:
-                        solver.replace(dataclasses.replace(
-                            o, attempts=(*o.attempts, attempt), result=result,
-                            resolves=(*o.resolves, record)), ks[n])
-                        version[ks[i]] += 1
-                        replaced = True
-                        break  # the next round checks the curve again with it
-                    solver.outcomes[ks[i]] = dataclasses.replace(
-                        o, resolves=(*o.resolves, record))
-            if not replaced:
+            if not search.round():
                 break

@@ -90,6 +90,9 @@ class Resolve:
         scenario's result.
     held_period_s : float or None
         The period scan's held period [s]; None for a re-solve from a neighbour.
+    carried : bool
+        It carried a neighbour's better optimum on along the kind (the neighbour was not
+        off the curve itself, but had just been re-solved to a better optimum).
     """
 
     attempt: Attempt
@@ -97,6 +100,7 @@ class Resolve:
     before_w: float
     kept: bool
     held_period_s: float | None = None
+    carried: bool = False
 
 
 @dataclass(frozen=True)

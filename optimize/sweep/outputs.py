@@ -80,9 +80,11 @@ def resolve_lines(outcomes: Iterable[ScenarioOutcome]) -> list[str]:
         for r in o.resolves:
             found = (f"{r.objective_w:.1f} W" if r.attempt.success
                      else f"failed ({r.attempt.status})")
-            why = ("off its kind's smooth curve; re-solved" if r.held_period_s is None
-                   else "period scan; solved")
-            lines.append(f"{o.name}: {why} from {r.attempt.source}: {found} against "
+            why = ("period scan; solved" if r.held_period_s is not None
+                   else "a neighbour's better optimum carried on; re-solved" if r.carried
+                   else "off its kind's smooth curve; re-solved")
+            lines.append(f"{o.name}: {why} from {r.attempt.source} in "
+                         f"{r.attempt.iterations} iterations: {found} against "
                          f"{r.before_w:.1f} W: {_verdict(r)}")
     return lines
 
