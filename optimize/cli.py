@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import sys
 from pathlib import Path
 
 from optimize.kinds import DEFAULT_KINDS
@@ -21,11 +22,14 @@ log = logging.getLogger(__name__)
 #: where ``bench fit`` writes its model (docs/schemas.md §4)
 FIT_MODEL_PATH = Path("fit_out") / "power_model.json"
 #: exit codes of ``bench optimize`` (2, bad input, is every stage's: :mod:`drivebench.cli`)
-EXIT_ALL_CONVERGED, EXIT_ALL_FAILED, EXIT_SOME_FAILED = 0, 1, 3
+EXIT_ALL_CONVERGED, EXIT_ALL_FAILED, EXIT_SOME_FAILED, EXIT_CLUSTER_LOST = 0, 1, 3, 4
 EXIT_CODES = (f"exit codes: {EXIT_ALL_CONVERGED} every scenario converged; {EXIT_SOME_FAILED} "
               f"some failed (listed after FAILED, their status in summary.parquet; the files "
-              f"are written); {EXIT_ALL_FAILED} all failed; 2 bad input (nothing solved, "
-              "nothing written)")
+              f"are written); {EXIT_ALL_FAILED} all failed; {EXIT_CLUSTER_LOST} the Dask "
+              "cluster was lost during the run (the scenarios that finished are written, "
+              "the others listed as not run; an earlier output with scenarios this run lost "
+              "is kept, this one written beside it as <out>.partial); 2 bad input (nothing "
+              "solved, nothing written)")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -146,8 +150,9 @@ def _add_solver_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the sweep (:func:`optimize.command.run_optimize`); the exit code says how many
-    scenarios converged (:data:`EXIT_CODES`)."""
+    scenarios converged, or that the Dask cluster was lost (:data:`EXIT_CODES`)."""
     from optimize.command import format_summary, make_request, run_optimize
+    from optimize.service.outcome import NOT_RUN
     from optimize.sweep_options import Execution, SolverChoice, WindGrid
 
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
@@ -175,11 +180,20 @@ def run(args: argparse.Namespace) -> int:
     n_ok = int(sweep.summary["success"].sum())
     print(f"\n{iterations_line(sweep.iterations)}")
     print(f"{n_ok}/{len(sweep.summary)} scenarios converged in {sweep.wall_time_s:.1f} s "
-          f"({sweep.executor}); files in {args.out}")
-    failed = sweep.summary.loc[~sweep.summary["success"], "scenario"].tolist()
+          f"({sweep.executor}); files in {sweep.out or args.out}")
+    not_run = sweep.summary["status"].str.startswith(NOT_RUN)
+    failed = sweep.summary.loc[~sweep.summary["success"] & ~not_run, "scenario"].tolist()
     if failed:
         print(f"FAILED (status in summary.parquet, never averaged): {', '.join(failed)}")
-    return exit_code(sweep.summary["success"].tolist())
+    if sweep.lost is None:
+        return exit_code(sweep.summary["success"].tolist())
+    print(f"CLUSTER LOST: {sweep.lost}", file=sys.stderr)
+    print("NOT RUN (cluster lost; a re-run solves them): "
+          f"{', '.join(sweep.summary.loc[not_run, 'scenario']) or 'none of the scenarios'}",
+          file=sys.stderr)
+    if sweep.kept:
+        print(sweep.kept, file=sys.stderr)
+    return EXIT_CLUSTER_LOST
 
 
 def iterations_line(iterations: dict) -> str:

@@ -249,6 +249,14 @@ class OptimizeOutcome:
         Name -> written path.
     iterations : dict of int
         The sweep's solver iterations (:meth:`optimize.service.run.SweepResult.iterations`).
+    lost : str or None
+        Why the Dask cluster was lost before the sweep ended (the scenarios it did not run
+        failed ``"not run: ..."``); None when the sweep ran to its end.
+    out : Path or None
+        The folder written: ``request.out``, or beside it :func:`partial_folder` when the
+        cluster was lost and the earlier output there converged scenarios this run lost.
+    kept : str or None
+        Why the earlier output in ``request.out`` was kept (:func:`earlier_is_better`).
     """
 
     summary: Any
@@ -260,6 +268,9 @@ class OptimizeOutcome:
     executor: str
     files: dict
     iterations: dict = dataclasses.field(default_factory=dict)
+    lost: str | None = None
+    out: Path | None = None
+    kept: str | None = None
 
 
 def run_optimize(
@@ -291,7 +302,7 @@ def run_optimize(
                            request.period_scan)
         result = run_sweep(tasks, handle, show_progress)
         outcomes = list(result.outcomes)
-        if request.trust:
+        if request.trust and result.lost is None:
             trust = run_trust_checks(problem, outcomes, request.wind_speeds_m_s, handle,
                                      show_progress)
     summary = outputs.summary_frame(outcomes, drive.model.domain,
@@ -300,8 +311,10 @@ def run_optimize(
     cut_ins = cut_in_frame(result.cut_ins)
     claims = (evaluate_claims(summary, cut_ins, paper_system=system.paper_system,
                               system_name=system.name) if request.claims else None)
+    kept = earlier_is_better(request.out, summary) if result.lost else None
+    out = partial_folder(request.out) if kept else request.out
     files = write_sweep_folder(
-        request.out, run, summary=summary, claims=claims, system=system.record(),
+        out, run, summary=summary, claims=claims, system=system.record(),
         trajectories=outputs.trajectories_frame(outcomes, trajectory_columns(parts)),
         carried_model=drive.model if drive.carried or not drive.model_path.is_file() else None,
         manifest=sweep_manifest(request, system, drive, options, result, summary, trust,
@@ -309,7 +322,36 @@ def run_optimize(
         start=start_writer(problem, next((o for o in outcomes if o.name == plan[0].name),
                                          None), backend))
     return OptimizeOutcome(summary, claims, cut_ins, trust, tuple(trust.get("lines", ())),
-                           result.wall_time_s, result.executor, files, result.iterations())
+                           result.wall_time_s, result.executor, files, result.iterations(),
+                           result.lost, Path(out), kept)
+
+
+def partial_folder(out: Path) -> Path:
+    """Where a sweep cut short by a lost cluster writes when ``out`` holds a better one:
+    beside it, ``<out>.partial`` (replaced by the next such run)."""
+    return Path(out).with_name(Path(out).name + ".partial")
+
+
+def earlier_is_better(out: Path, summary: Any) -> str | None:
+    """Why the optimize output already in ``out`` must not be replaced by this sweep's
+    ``summary`` (cut short by a lost cluster): it converged scenarios this one did not.
+    None when there is none, it cannot be read, or this run lost nothing it has."""
+    from kernel.output_folder import check_output_folder
+    from optimize.sweep_folder import SUMMARY_FILE, read_summary
+
+    try:
+        check_output_folder(Path(out))
+        earlier = read_summary(Path(out) / SUMMARY_FILE)
+    except (InputError, OSError):
+        return None  # no readable earlier output: nothing better to keep
+    had = set(earlier.loc[earlier["success"].astype(bool), "scenario"])
+    lost = sorted(had - set(summary.loc[summary["success"], "scenario"]))
+    if not lost:
+        return None
+    return (f"the output already in {out} is kept: it has {len(lost)} converged scenario"
+            f"{'s' * (len(lost) > 1)} this run has not ({', '.join(lost[:6])}"
+            f"{', ...' if len(lost) > 6 else ''}); this run's is written to "
+            f"{partial_folder(out)}")
 
 
 def start_writer(problem: Problem, seed: Any, backend: Any = None) -> Any:

@@ -14,9 +14,12 @@ start graph is one task (:func:`run_tasks`, :func:`run_graph`).
   that is none, or where no scheduler answers within 20 s, is refused; a cluster
   without a worker is waited for :data:`WORKER_WAIT_S` seconds, at the start and
   whenever its last worker leaves during the run, and then the run stops with an
-  :class:`~kernel.errors.InputError` that says so (:class:`WatchedExecutor`), as when
-  the scheduler stops answering. The solves already stored are kept (``bench size``
-  and ``bench aep --refine`` store each as it finishes; a re-run takes them up).
+  :class:`ClusterLost` (an :class:`~kernel.errors.InputError`) that says so
+  (:class:`WatchedExecutor`), as when the scheduler stops answering. What finished is
+  kept: the client's executor fetches each task's outcome as soon as it is done, and
+  :func:`run_graph` hands the finished ones on with the error (``bench optimize`` writes
+  its finished scenarios); the solves already stored are kept (``bench size`` and
+  ``bench aep --refine`` store each as it finishes; a re-run takes them up).
 
 Workers report progress through a *channel*: an object with ``put(dict)`` that
 is shipped with the task, and ``drain()`` on the driver side. A
@@ -131,6 +134,26 @@ HEALTH_EVERY_S = 2.0
 ANSWER_TIMEOUT_S = 10.0
 
 
+class ClusterLost(InputError):
+    """The Dask cluster can run nothing more: its scheduler stopped answering, or it has
+    had no worker for :data:`WORKER_WAIT_S` seconds (:meth:`WatchedExecutor.check`).
+
+    Attributes
+    ----------
+    why : str
+        The loss in a few words (``--scheduler ADDRESS: it has had no worker for 61 s``),
+        for the status of what it left unsolved.
+    finished : dict of int to Future
+        The tasks that had finished when the cluster was lost, by index, each holding its
+        result or exception on this machine (set by :func:`run_graph`; empty elsewhere).
+    """
+
+    def __init__(self, why: str, problem: str, expected: str) -> None:
+        super().__init__(None, problem, expected=expected)
+        self.why = why
+        self.finished: dict[int, Future] = {}
+
+
 class WatchedExecutor(Executor):
     """A Dask client's executor that can tell when it can no longer run anything.
 
@@ -146,6 +169,7 @@ class WatchedExecutor(Executor):
         self._inner = client.get_executor(pure=False)
         self._asked = self._seen = time.monotonic()
         self.n_slots = 0
+        self.lost: ClusterLost | None = None
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
         """Submit ``fn(*args, **kwargs)`` to the cluster."""
@@ -170,21 +194,29 @@ class WatchedExecutor(Executor):
         """Raise :class:`~kernel.errors.InputError` when the cluster cannot run the tasks:
         the scheduler does not answer, or it has had no worker for :attr:`wait_s`
         seconds. Asks the scheduler at most every :data:`HEALTH_EVERY_S` seconds unless
-        ``force``."""
+        ``force``; once lost, raises at once on every later call (nothing is waited for
+        twice)."""
+        if self.lost is not None:
+            raise self.lost
         now = time.monotonic()
         if not force and now - self._asked < HEALTH_EVERY_S:
             return
         self._asked = now
         if self.slots() == 0 and (force or now - self._seen > self.wait_s):
-            raise self._stopped(f"it has had no worker for {now - self._seen:.0f} s (the "
-                                f"last left during the run; waited up to {self.wait_s:g} s)")
+            raise self._stopped(f"it has had no worker for {now - self._seen:.0f} s",
+                                f" (the last left during the run; waited up to "
+                                f"{self.wait_s:g} s)")
 
-    def _stopped(self, why: str) -> InputError:
-        return InputError(None, f"--scheduler {self.address}: {why}; the run stops, nothing "
-                          "more is solved: the solves already stored are kept (bench size and "
-                          "bench aep --refine store each as it finishes; a re-run takes them "
-                          "up)", expected=f"a scheduler with workers: dask worker "
-                          f"{self.address} --nthreads 1")
+    def _stopped(self, why: str, more: str = "") -> ClusterLost:
+        """The loss, remembered: ``why`` in a few words, ``more`` said after it."""
+        self.lost = ClusterLost(
+            f"cluster lost: --scheduler {self.address}: {why}",
+            f"--scheduler {self.address}: {why}{more}; the run stops, nothing more is solved: what "
+            "finished is kept (bench optimize writes the scenarios that finished; bench size "
+            "and bench aep --refine keep the solves already stored, and a re-run takes them "
+            "up)", expected=f"a scheduler with workers: dask worker {self.address} "
+            "--nthreads 1")
+        return self.lost
 
 
 def _address_problem(address: str) -> str | None:
@@ -372,11 +404,28 @@ def run_graph(
 
     Raises
     ------
-    InputError
+    ClusterLost
         The executor can no longer run the tasks (:meth:`WatchedExecutor.check`: a Dask
-        cluster without workers or scheduler), or it cancelled some.
+        cluster without workers or scheduler); its ``finished`` holds the tasks done by
+        then.
+    InputError
+        The executor cancelled some tasks.
     """
     futures: dict[int, Future] = {}
+    try:
+        _run_graph(executor, fn, n, needs, make_task, channel, on_event, poll_s, futures)
+    except ClusterLost as exc:
+        exc.finished = {i: f for i, f in futures.items() if f.done() and not f.cancelled()}
+        raise
+    return futures
+
+
+def _run_graph(executor: Executor, fn: Callable[..., Any], n: int,
+               needs: Callable[[int], Sequence[int]],
+               make_task: Callable[[int, dict[int, Future]], Any], channel: Any,
+               on_event: Callable[[dict], None] | None, poll_s: float,
+               futures: dict[int, Future]) -> None:
+    """:func:`run_graph`'s loop, filling ``futures``."""
     waiting = list(range(n))
     check = getattr(executor, "check", None)  # a cluster that can stop running (Dask)
     while waiting or any(not f.done() for f in futures.values()):
@@ -404,4 +453,3 @@ def run_graph(
             check(force=True)
         raise InputError(None, f"{len(cancelled)} of {n} tasks were cancelled: the executor "
                          "stopped during the run; nothing more is solved")
-    return futures

@@ -15,6 +15,8 @@ from optimize.kinds import KINDS
 
 #: failure status prefixes (:func:`failure_status`)
 CRASH, WORKER_ERROR = "exception", "worker error"
+#: the status prefix of a solve never run: its executor was lost first (a Dask cluster)
+NOT_RUN = "not run"
 
 
 def failure_status(prefix: str, exc: BaseException) -> str:
@@ -23,9 +25,10 @@ def failure_status(prefix: str, exc: BaseException) -> str:
 
 
 def transient(record: dict) -> bool:
-    """Whether a solve record failed by a crash of the solver or its worker (not stored,
-    so a re-run tries it again), not by the solver's own verdict."""
-    return not record["success"] and str(record["status"]).startswith((CRASH, WORKER_ERROR))
+    """Whether a solve record failed by a crash of the solver or its worker, or was never
+    run (not stored, so a re-run tries it again), not by the solver's own verdict."""
+    return not record["success"] and str(record["status"]).startswith((CRASH, WORKER_ERROR,
+                                                                       NOT_RUN))
 
 
 def failure_reason(record: dict) -> str:

@@ -11,7 +11,10 @@
   submitted once its sources are solved, with their optima as its warm starts; then
   one task per kind retries its failed scenarios from the other starts there are,
   re-solves its local optima and searches its cut-in speed; returns a
-  :class:`SweepResult`.
+  :class:`SweepResult`. A Dask cluster lost on the way
+  (:class:`optimize.service.executors.ClusterLost`) ends the sweep with what finished: the
+  steps not run fail with status ``"not run: ..."``, the follow-up tasks not run leave
+  their kind's grid as solved, and :attr:`SweepResult.lost` says why.
 """
 
 from __future__ import annotations
@@ -27,9 +30,11 @@ from typing import Any
 from optimize.kinds import KINDS
 from optimize.service.builder import Problem
 from optimize.service.chain import ChainTask, Refinement, run_chain
+from optimize.service.executors import ClusterLost
 from optimize.service.foreign import ForeignStart
 from optimize.service.local_optima import LOCAL_OPTIMUM
 from optimize.service.outcome import (
+    NOT_RUN,
     WORKER_ERROR,
     Attempt,
     ChainOutcome,
@@ -48,10 +53,13 @@ RE_SOLVES = (LOCAL_OPTIMUM, PERIOD_SCAN, RETRY)
 
 
 def failed_chain(task: ChainTask, exc: BaseException) -> ChainOutcome:
-    """The outcome of a chain whose task raised: every planned speed failed, with the
-    one failure format (:func:`optimize.service.outcome.failure_status`); the scenarios
-    handed to it as solved stay as they were."""
-    status = failure_status(WORKER_ERROR, exc)
+    """The outcome of a chain whose task raised (or never ran, ``exc`` the
+    :class:`~optimize.service.executors.ClusterLost` that stopped it): every planned speed
+    failed, with the one failure format (:func:`optimize.service.outcome.failure_status`;
+    ``"not run: cluster lost: ..."`` for one never run); the scenarios handed to it as
+    solved stay as they were."""
+    status = (f"{NOT_RUN}: {exc.why}" if isinstance(exc, ClusterLost)
+              else failure_status(WORKER_ERROR, exc))
     outcomes = tuple(o for o, _ in task.solved) + tuple(
         ScenarioOutcome(s.name, s.kind, s.wind_speed_m_s, task.index,
                         (Attempt(s.warm_from, status, False, 0, 0.0),), None)
@@ -187,6 +195,9 @@ class SweepResult:
         Wall time of the whole sweep, cold starts included [s].
     executor : str
         Description of the executor it ran on.
+    lost : str or None
+        Why the executor was lost before the sweep ended (a Dask cluster,
+        :class:`optimize.service.executors.ClusterLost`); None when it ran to its end.
     """
 
     outcomes: tuple[ScenarioOutcome, ...]
@@ -194,6 +205,7 @@ class SweepResult:
     chains: tuple[ChainOutcome, ...]
     wall_time_s: float
     executor: str
+    lost: str | None = None
 
     def iterations(self) -> dict[str, int]:
         """What the sweep's solves cost in solver iterations: ``reported`` (the final
@@ -230,6 +242,7 @@ class SweepResult:
             "workers": [{"worker": w, "build_time_s": sum(b), "tasks": len(b)}
                         for w, b in workers.items()],
             "cut_in": [dataclasses.asdict(c) for c in self.cut_ins],
+            "cluster_lost": self.lost,
         }
 
 
@@ -284,10 +297,11 @@ def _own(out: ChainOutcome, step: Step) -> ChainOutcome:
         records=tuple(r for r in out.records if (r["kind"], r["wind_speed_m_s"]) == key))
 
 
-def _solve_graph(tasks: SweepTasks, handle: Any,
-                 on_event: Callable[[dict], None]) -> list[ChainOutcome]:
+def _solve_graph(tasks: SweepTasks, handle: Any, on_event: Callable[[dict], None]
+                 ) -> tuple[list[ChainOutcome], ClusterLost | None]:
     """Solve every step of the start graph, each as one task once its sources are done;
-    one outcome per step, in step order."""
+    one outcome per step, in step order, and the loss of the cluster that ended it early
+    (the steps it did not finish failed ``"not run"``), or None."""
     from optimize.service.executors import run_graph
 
     steps = tasks.steps
@@ -312,16 +326,26 @@ def _solve_graph(tasks: SweepTasks, handle: Any,
         made[i] = ChainTask(tasks.problem, (steps[i],), i, backend=tasks.backend, solved=solved)
         return made[i]
 
-    futures = run_graph(handle.executor, run_chain, len(steps), needs, make_task,
-                        handle.channel, on_event)
-    return [outcome(i, futures[i]) for i in range(len(steps))]
+    lost = None
+    try:
+        futures = run_graph(handle.executor, run_chain, len(steps), needs, make_task,
+                            handle.channel, on_event)
+    except ClusterLost as exc:
+        futures, lost = exc.finished, exc
+    return [outcome(i, futures[i]) if i in futures else
+            _own(failed_chain(ChainTask(tasks.problem, (steps[i],), i), lost), steps[i])
+            for i in range(len(steps))], lost
 
 
 def _follow_up(tasks: SweepTasks, grid: list[ChainOutcome], handle: Any,
-               on_event: Callable[[dict], None]) -> list[ChainOutcome]:
+               on_event: Callable[[dict], None], lost: ClusterLost | None
+               ) -> tuple[list[ChainOutcome], ClusterLost | None]:
     """Per kind, one task: its failed scenarios retried from the other starts (with the
     other objective's optima at their speeds), its local optima re-solved, its periods
-    scanned (when asked), its cut-in speed searched."""
+    scanned (when asked), its cut-in speed searched. With the cluster ``lost`` (before or
+    during them) a task not run leaves its kind's grid as solved."""
+    from optimize.service.executors import run_tasks
+
     first = len(tasks.steps)
     solved = [(o, r) for out in grid for o, r in zip(out.outcomes, out.records, strict=True)]
     failed = {(o.kind, o.wind_speed_m_s) for o, _ in solved if not o.success}
@@ -338,8 +362,16 @@ def _follow_up(tasks: SweepTasks, grid: list[ChainOutcome], handle: Any,
                         solved=tuple((o, r) for o, r in solved if o.kind == kind),
                         starts=starts(kind), retry=True)
               for n, kind in enumerate(tasks.kinds)]
-    outs, _ = run_chains(follow, handle, on_event=on_event)
-    return outs
+    finished: dict = {}
+    if lost is None:
+        try:
+            finished = dict(enumerate(run_tasks(handle.executor, run_chain, follow,
+                                                handle.channel, on_event)))
+        except ClusterLost as exc:
+            finished, lost = exc.finished, exc
+    return [failed_chain(t, lost) if n not in finished else
+            failed_chain(t, finished[n].exception()) if finished[n].exception() is not None
+            else finished[n].result() for n, t in enumerate(follow)], lost
 
 
 def run_sweep(tasks: SweepTasks, handle: Any, show_progress: bool = True) -> SweepResult:
@@ -386,8 +418,8 @@ def run_sweep(tasks: SweepTasks, handle: Any, show_progress: bool = True) -> Swe
         bar.update(1)
 
     t0 = time.perf_counter()
-    grid = _solve_graph(tasks, handle, on_event)
-    follow = _follow_up(tasks, grid, handle, on_event)
+    grid, lost = _solve_graph(tasks, handle, on_event)
+    follow, lost = _follow_up(tasks, grid, handle, on_event, lost)
     wall = time.perf_counter() - t0
     bar.update(bar.total - bar.n)  # the total grew by the probes and re-solves
     bar.close()
@@ -395,4 +427,5 @@ def run_sweep(tasks: SweepTasks, handle: Any, show_progress: bool = True) -> Swe
     outcomes = sorted((o for c in follow for o in c.outcomes),
                       key=lambda o: (order[o.kind], o.wind_speed_m_s))
     cut_ins = tuple(ci for c in follow for ci in c.cut_ins)
-    return SweepResult(tuple(outcomes), cut_ins, (*grid, *follow), wall, handle.description)
+    return SweepResult(tuple(outcomes), cut_ins, (*grid, *follow), wall, handle.description,
+                       None if lost is None else lost.problem)
