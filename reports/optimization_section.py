@@ -68,7 +68,8 @@ def key_warnings(summary: pd.DataFrame) -> list[tuple[str, str]]:
     """What Key results must say about the cycles themselves: those that run most of their
     time outside the drive model's validity domain (there the model extrapolates), and
     those that draw net power from the grid while the drum generates (their drive's
-    losses exceed what the drum delivers)."""
+    losses exceed what the drum delivers), each with the losses that explain its draw and
+    whether those inside the domain alone would."""
     ok = summary[summary["success"].astype(bool)]
     rows = []
     if "outside_domain_time_frac" in ok.columns:
@@ -83,25 +84,37 @@ def key_warnings(summary: pd.DataFrame) -> list[tuple[str, str]]:
                 f"{100 * float(worst['outside_domain_time_frac']):.0f} % of its cycle")))
     losing = ok[(ok["avg_p_elec_w"].astype(float) > 0) & (ok["avg_p_mech_w"].astype(float) < 0)]
     if len(losing):
-        w = losing.loc[(losing["avg_p_elec_w"] - losing["avg_p_mech_w"]).idxmax()]
+        order = (losing["avg_p_elec_w"] - losing["avg_p_mech_w"]).sort_values(ascending=False)
         rows.append(("drawing from the grid while generating", (
             f"{len(losing)} converged cycles draw net power from the grid while the drum "
-            f"generates (the drive's losses exceed the drum's power): {_scenario_list(losing)};"
-            f" largest {w['scenario']}: {power_words(float(w['avg_p_elec_w']))} drawn, "
-            f"{power_words(-float(w['avg_p_mech_w']))} generated at the drum, the drive's "
-            f"losses {power_words(float(w['avg_p_elec_w'] - w['avg_p_mech_w']))} over the "
-            f"cycle{_extrapolated(w)}")))
+            f"generates (the drive's losses exceed the drum's power): {_scenario_list(losing)}; "
+            + "; ".join(_draw_words(losing.loc[i]) for i in order.index))))
     return rows
+
+
+def _draw_words(row: pd.Series) -> str:
+    """One cycle that draws while the drum generates: what it draws, what the drum
+    generates, the drive's losses that explain the difference and, where the summary
+    states it, their share outside the model's domain."""
+    p_elec, p_mech = float(row["avg_p_elec_w"]), float(row["avg_p_mech_w"])
+    return (f"{row['scenario']}: {power_words(p_elec)} drawn, {power_words(-p_mech)} generated "
+            f"at the drum, the drive's losses {power_words(p_elec - p_mech)} over the "
+            f"cycle{_extrapolated(row)}")
 
 
 def _extrapolated(row: pd.Series) -> str:
     """``, 89 % of them outside ...`` for a summary row that states the share of its drive
-    losses outside the model's domain, else ``""``."""
+    losses outside the model's domain, with whether the losses inside it alone would make
+    the cycle draw; else ``""``."""
     share = float(row.get("outside_domain_loss_frac", float("nan")))
     if not share > 0:
         return ""
+    generated = -float(row["avg_p_mech_w"])
+    inside = (1.0 - share) * (float(row["avg_p_elec_w"]) + generated)
+    verdict = ("would not make it draw: the draw rests on the extrapolation"
+               if inside < generated else "would make it draw too")
     return (f", {100 * share:.0f} % of them at points outside the drive model's domain, "
-            "where it extrapolates")
+            f"where it extrapolates (the {power_words(inside)} inside it alone {verdict})")
 
 
 def drive_checks(manifest: dict | None) -> list[tuple[str, str]]:
