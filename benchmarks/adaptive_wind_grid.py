@@ -29,6 +29,7 @@ from optimize.paper_model import PAPER_MODEL_PATH
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
+from optimize.resolve import resolve
 from optimize.service.plan import parse_wind_grid
 from optimize.solve.solve import solve
 from optimize.solve.starts.cold import start
@@ -38,7 +39,8 @@ class Solver:
     """``power(wind)`` for one kind, warm-started from the nearest solved speed; cached."""
 
     def __init__(self, model, kind: str, intervals: int) -> None:
-        self.ocp = build_ocp(kite_dae(), model, OcpOptions(Discretization(n_intervals=intervals)))
+        self.ocp = build_ocp(kite_dae(), model, OcpOptions(Discretization(n_intervals=intervals)),
+        system=resolve(None, model).system)
         self.objective, self.limits = KINDS[kind].objective, KINDS[kind].drive_limits
         self.warm: dict[float, object] = {}
         self.cache: dict[float, float | None] = {}

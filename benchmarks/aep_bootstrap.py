@@ -33,6 +33,7 @@ from energy.bands import basis_averages, sigma
 from fitting.model_file import load_power_model
 from fitting.points import load_points
 from fitting.power_fit import fit_power_model, quadrant_weights
+from optimize.resolve import resolve
 
 
 def _setup(model, winds, intervals):
@@ -45,7 +46,8 @@ def _setup(model, winds, intervals):
     from optimize.solve.starts.cold import start
 
     dae, options = kite_dae(), OcpOptions(Discretization(n_intervals=intervals))
-    ocp = build_ocp(dae, model, options)
+    ocp = build_ocp(dae, model, options,
+        system=resolve(None, model).system)
     first = start(ocp, Scenario(7.0, "electrical", True))
     base = {}
     warm = first.warm
@@ -79,7 +81,8 @@ def _worker(args):
                               nominal_power_w=model.nominal_power_w)
         m = dataclasses.replace(model, coefficients_rpm=tuple(fit.coefficients_rpm),
                                 covariance_rpm=None)
-        ocp = build_ocp(dae, m, options)
+        ocp = build_ocp(dae, m, options,
+        system=resolve(None, m).system)
         row = {"seed": seed}
         for v in winds:
             r = solve(ocp, Scenario(v, "electrical", True), base[v].warm)

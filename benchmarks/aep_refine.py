@@ -24,7 +24,7 @@ import numpy as np
 from drivebench.cli import main as bench_main
 from energy.aep import aep_mwh
 from energy.curve import read_optimize_run
-from energy.refine import options_from_manifest
+from energy.refine import options_from_manifest, system_from_manifest
 from energy.site import Weibull
 from fitting.model_file import load_power_model
 from optimize.kinds import KINDS
@@ -80,7 +80,8 @@ def main(argv=None) -> int:
         doc = json.loads((out / "aep.json").read_text())["refine"]
 
     model = load_power_model(run.drive_model_path)
-    ocp = build_ocp(kite_dae(), model, options_from_manifest(run.manifest, args.optimize))
+    ocp = build_ocp(kite_dae(), model, options_from_manifest(run.manifest, args.optimize),
+                    system=system_from_manifest(run.manifest, args.optimize))
     lo, hi = run.manifest["wind_speeds_m_s"][0], run.manifest["wind_speeds_m_s"][-1]
     fine = np.round(np.arange(lo, hi + 1e-9, args.fine_step), 6)
     rows = []

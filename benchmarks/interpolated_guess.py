@@ -24,6 +24,7 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
+from optimize.resolve import resolve
 from optimize.solve.starts.cold import start
 from optimize.solve.starts.homotopy import cold_start
 
@@ -45,7 +46,8 @@ def main() -> None:
         mesh, kind, wind = case.split(":")
         n, degree = (int(v) for v in mesh.split("x"))
         ocp = build_ocp(kite_dae(), paper_model(),
-                        OcpOptions(Discretization(n_intervals=n, degree=degree)))
+                        OcpOptions(Discretization(n_intervals=n, degree=degree)),
+        system=resolve(None, paper_model()).system)
         scenario = Scenario.of_kind(kind, float(wind))
         print(f"{n} x {degree}, {scenario.name}:", flush=True)
         for name, how in (("  interpolated guess:", start), ("  homotopy:          ", cold_start)):

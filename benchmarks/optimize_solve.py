@@ -24,6 +24,7 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
+from optimize.resolve import resolve
 from optimize.solve import backend
 from optimize.solve.solve import cold_start, solve
 from optimize.solve.starts.homotopy import HOMOTOPY_BOUND_PUSH
@@ -50,7 +51,8 @@ def run_once(intervals: int, degree: int, reference_sigma: bool) -> list[dict]:
     options = OcpOptions(Discretization(n_intervals=intervals, degree=degree))
     if reference_sigma:
         options = options.replace(discretization={"control_sigma": REFERENCE_SIGMA})
-    ocp = build_ocp(kite_dae(), paper_model(), options)
+    ocp = build_ocp(kite_dae(), paper_model(), options,
+        system=resolve(None, paper_model()).system)
     backend.solver(ocp, False)
     backend.solver(ocp, True)
     backend.solver(ocp, True, HOMOTOPY_BOUND_PUSH)

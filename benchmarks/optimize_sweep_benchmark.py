@@ -39,6 +39,7 @@ from kernel.files import write_text_atomic
 from optimize.kinds import DEFAULT_KINDS
 from optimize.paper_model import PAPER_MODEL_PATH
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
+from optimize.resolve import resolve
 from optimize.service import OcpBackend, Problem, make_tasks, run_sweep
 from optimize.service.executors import open_executor
 from optimize.service.plan import (
@@ -165,7 +166,7 @@ def main() -> None:
     options = OcpOptions(Discretization(n_intervals=args.intervals),
                          solver=SolverOptions(tol=args.tol, warm_bound_push=args.warm_bound_push,
                                               stored_guess=not args.no_stored_guess))
-    problem = Problem.for_system(None, model, options)
+    problem = Problem.for_system(resolve(None, model).system, model, options)
     report = {
         "machine_before": machine_state(),
         "options": repr(options),

@@ -186,7 +186,7 @@ CHANGES = (
 def run_change(change: Change, out: Path, workers: int, fitted: Path | None) -> dict:
     """Solve the change's scenarios into ``out/<name>``; return its run record."""
     system = load_system()
-    if change.period_bounds_s is not None:  # the system's bounds win over OcpOptions' limits
+    if change.period_bounds_s is not None:  # a change of the system's bounds
         lo, hi = change.period_bounds_s
         system = replace(system, bounds=replace(system.bounds, period_min_s=lo, period_max_s=hi))
     path = fitted if change.fitted_model else PAPER_MODEL_PATH
@@ -214,13 +214,15 @@ def run_change(change: Change, out: Path, workers: int, fitted: Path | None) -> 
 
 def check_in_force(change: Change, manifest: dict) -> None:
     """Stop if the sweep did not run with the change (e.g. a system value overrode it)."""
-    wanted = {(g, k): v for g, fields in change.options.items() for k, v in fields.items()}
+    wanted = {("options", g, k): v for g, fields in change.options.items()
+              for k, v in fields.items()}
     if change.period_bounds_s is not None:
-        wanted["limits", "period_bounds_s"] = change.period_bounds_s
-    for (group, key), value in wanted.items():
-        got = manifest["options"][group][key]
+        wanted["bound_values", None, "period_min"] = change.period_bounds_s[0]
+        wanted["bound_values", None, "period_max"] = change.period_bounds_s[1]
+    for (record, group, key), value in wanted.items():
+        got = manifest[record][group][key] if group else manifest[record][key]
         if not np.allclose(np.asarray(got, dtype=float), np.asarray(value, dtype=float)):
-            raise RuntimeError(f"{change.name}: {group}.{key} in force is {got}, not {value}")
+            raise RuntimeError(f"{change.name}: {record} {key} in force is {got}, not {value}")
 
 
 def tabulate(changes: tuple[Change, ...], out: Path) -> dict:

@@ -110,10 +110,9 @@ def paper_sweep(solver: str, winds, kinds, workers: int, intervals: int, max_ite
     """The paper scenarios' sweep with one solver."""
     system = load_system()
     drive = drive_in_force(system)
-    options = system.ocp_options(OcpOptions(Discretization(n_intervals=intervals),
-                                            solver=solver_options(solver, max_iter)),
-                                 drive.rating)
-    problem = Problem.for_system(system, drive.model, options)
+    options = OcpOptions(Discretization(n_intervals=intervals),
+                         solver=solver_options(solver, max_iter))
+    problem = Problem.for_system(system.in_force(drive.rating), drive.model, options)
     load_before = load()
     t0 = time.perf_counter()
     with open_executor(workers) as handle:
@@ -144,11 +143,11 @@ def system_runs(solver: str, systems: list[str], winds: list[float], intervals: 
     for name in systems:
         system = load_system(shipped_system_path(name))
         drive = drive_in_force(system)
-        options = system.ocp_options(
-            OcpOptions(Discretization(n_intervals=intervals),
-                       solver=solver_options(solver, max_iter)), drive.rating)
+        options = OcpOptions(Discretization(n_intervals=intervals),
+                             solver=solver_options(solver, max_iter))
         t0, c0 = time.perf_counter(), time.process_time()
-        ocp = build_ocp(kite_dae(*system.model_params()), drive.model, options, system=system)
+        ocp = build_ocp(kite_dae(*system.model_params()), drive.model, options,
+                        system=system.in_force(drive.rating))
         res = start(ocp, Scenario(winds[0], "electrical", True))
         rows.append({**record(f"{name}-elec-lim-{winds[0]:g}", res), "start": res.start,
                      "wall_s": time.perf_counter() - t0,
@@ -224,10 +223,10 @@ def profile(solver: str, max_iter: int) -> dict:
 
     system = load_system()
     drive = drive_in_force(system)
-    options = system.ocp_options(
-        OcpOptions(solver=solver_options(solver, max_iter)), drive.rating)
+    options = OcpOptions(solver=solver_options(solver, max_iter))
     t0, c0 = time.perf_counter(), time.process_time()
-    ocp = build_ocp(kite_dae(*system.model_params()), drive.model, options, system=system)
+    ocp = build_ocp(kite_dae(*system.model_params()), drive.model, options,
+                    system=system.in_force(drive.rating))
     build = (time.perf_counter() - t0, time.process_time() - c0)
     guess, why = stored_guess.load(ocp)
     deriv = derivative_build_cpu_s(ocp) if solver == "ipopt" else {}

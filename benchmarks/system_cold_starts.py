@@ -54,10 +54,10 @@ def main() -> None:
         system = load_system(shipped_system_path(name))
         drive = drive_in_force(system)
         model = drive.model
-        options = system.ocp_options(
-            OcpOptions(Discretization(n_intervals=args.intervals, degree=args.degree),
-                       solver=SolverOptions(stored_guess=False)), drive.rating)
-        ocp = build_ocp(kite_dae(*system.model_params()), model, options, system=system)
+        options = OcpOptions(Discretization(n_intervals=args.intervals, degree=args.degree),
+                             solver=SolverOptions(stored_guess=False))
+        ocp = build_ocp(kite_dae(*system.model_params()), model, options,
+                        system=system.in_force(drive.rating))
         print(f"{name}: start loop {ocp.loop}", flush=True)
         for wind in (float(w) for w in args.winds.split(",")):
             load = os.getloadavg()[0]

@@ -49,10 +49,9 @@ def ocps(tol: float, intervals: int) -> dict[str, Ocp]:
     out = {}
     for tr in TRANSCRIPTIONS:
         solver = SolverOptions(transcription=tr, tol=tol, acceptable_tol=100 * tol)
-        options = system.ocp_options(OcpOptions(Discretization(n_intervals=intervals),
-                                                solver=solver), drive.rating)
+        options = OcpOptions(Discretization(n_intervals=intervals), solver=solver)
         out[tr] = build_ocp(kite_dae(*system.model_params()), drive.model, options,
-                            system=system)
+                            system=system.in_force(drive.rating))
     return out
 
 

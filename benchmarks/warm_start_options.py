@@ -51,6 +51,7 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
+from optimize.resolve import resolve
 from optimize.service.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
 from optimize.solve import backend
 from optimize.solve.solve import solve
@@ -98,7 +99,8 @@ def main() -> None:
     backend.ca.nlpsol = wrapper
     steps = plan_graph(parse_wind_grid(DEFAULT_WIND_GRID), parse_kinds(DEFAULT_KINDS))
     model = paper_model()
-    base = build_ocp(kite_dae(), model, OcpOptions())
+    base = build_ocp(kite_dae(), model, OcpOptions(),
+        system=resolve(None, model).system)
     solved = {}
     for s in steps:  # the sources, with today's settings
         sc = Scenario.of_kind(s.kind, s.wind_speed_m_s)
@@ -110,7 +112,8 @@ def main() -> None:
         extra, mu, push = VARIANTS[name]
         wrapper.extra = extra
         ocp = build_ocp(kite_dae(), model, OcpOptions(
-            solver=SolverOptions(warm_mu_init=mu, warm_bound_push=push)))
+            solver=SolverOptions(warm_mu_init=mu, warm_bound_push=push)),
+        system=resolve(None, model).system)
         rows = []
         for s in steps:
             if s.warm_from is None:

@@ -44,6 +44,7 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
+from optimize.resolve import resolve
 from optimize.service.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
 from optimize.solve.solve import solve
 from optimize.solve.starts.cold import start
@@ -60,7 +61,8 @@ ACCURACY_STEPS = (0.1, 0.25, 0.5, 1.0, 1.5, -1.5)
 def accuracy(n_intervals: int) -> dict:
     """The prediction's relative distance to the true optimum per wind step (see the
     module docstring)."""
-    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(Discretization(n_intervals)))
+    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(Discretization(n_intervals)),
+        system=resolve(None, paper_model()).system)
     s0 = Scenario.of_kind("mech-free", 7.0)
     near = start(ocp, s0)
     if near.scenario != s0:  # the stored guess is elec-lim's: one warm step more
@@ -108,7 +110,8 @@ def sweep_starts(wind_grid: str, scenarios: str) -> dict:
     steps = plan_graph(parse_wind_grid(wind_grid), parse_kinds(scenarios))
     model = paper_model()
     ocps = {name: build_ocp(kite_dae(), model,
-                            OcpOptions(solver=SolverOptions(predictor_step=step)))
+                            OcpOptions(solver=SolverOptions(predictor_step=step)),
+        system=resolve(None, model).system)
             for name, step in VARIANTS.items()}
     solved, rows = {}, []
     for s in steps:

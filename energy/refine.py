@@ -46,9 +46,23 @@ DEFAULT_TOL = 0.002
 
 
 def options_from_manifest(manifest: dict, path: Path) -> Any:
-    """The sweep's ``OcpOptions`` from its manifest's ``options`` (lists back to tuples)."""
-    from optimize.door import OcpOptions
+    """The sweep's ``OcpOptions`` from its manifest's ``options`` (lists back to tuples).
 
+    Raises
+    ------
+    InputError
+        A manifest of another schema version (an older ``bench optimize``: its layout is
+        not this one's), or options that do not read.
+    """
+    from optimize.door import OcpOptions
+    from optimize.sweep_folder import SCHEMA_VERSION
+
+    version = manifest.get("schema_version")
+    if version != SCHEMA_VERSION:
+        raise InputError(path, f"a manifest of schema version {version}, written by another "
+                         "version of bench optimize", column="schema_version",
+                         expected=f"version {SCHEMA_VERSION}: re-run `bench optimize` with "
+                                  "this version (--refine solves the sweep's own problem)")
     raw = manifest.get("options")
     if not isinstance(raw, dict):
         raise InputError(path, "no OCP options", column="options",
@@ -63,7 +77,8 @@ def options_from_manifest(manifest: dict, path: Path) -> Any:
 
 def system_from_manifest(manifest: dict, path: Path) -> Any:
     """The sweep's ``System`` from its manifest's ``system`` record (its own text, so the
-    file may have moved), or None for a sweep made before system files (package defaults).
+    file may have moved), with the drive it flew in force where the manifest records it
+    (the ``[drive]`` of ``sections``), or None for a sweep made before system files.
 
     Raises
     ------
@@ -82,7 +97,11 @@ def system_from_manifest(manifest: dict, path: Path) -> Any:
                               str(rec.get("path")), rec["text"])
     if rec.get("sha256") and system.sha256 != rec["sha256"]:
         raise InputError(path, "system text does not match its recorded sha256", column="system")
-    return system
+    drive = (manifest.get("sections") or {}).get("drive")
+    if not isinstance(drive, dict):
+        return system
+    flown = {k: tuple(v) if isinstance(v, list) else v for k, v in drive.items()}
+    return replace(system, drive=replace(system.drive, **flown))
 
 
 def basis_figures(terms: Any, trajectory: Any) -> dict:
@@ -108,8 +127,8 @@ class KindTask:
         Folder of the stored solves.
     tol : float
     max_points : int
-    system : optimize.system.system.System or None
-        The sweep's system (kite, tether, winch, wind); None for the package defaults.
+    system : optimize.system.system.System
+        The sweep's system (kite, tether, winch, wind) with the drive it flew in force.
     starts : tuple of optimize.service.foreign.CycleStart
         The sweep's converged cycles of the kind (:func:`sweep_starts`): the starts of
         the check re-solve and of the added speeds nearest them.

@@ -184,7 +184,7 @@ def _checked_candidates(drive: Any, grid: SizingGrid, rating: RatingOverrides,
                                       rating.max_speed_rpm, rating.max_torque_nm)
         for c in made:
             if c.name not in checked:
-                c.check(solver.n_intervals, solver.degree, system)
+                c.check(system)
                 checked.add(c.name)
         return made, said
 

@@ -2,8 +2,8 @@
 
 A candidate is a power model with its rating (:class:`kernel.drive_rating.DriveRating`):
 the short-time peak torque and speed limits, and the continuous rating: the RMS drum
-torque over the cycle at most the continuous torque
-(:class:`optimize.problem.options.Limits` ``max_rms_torque_nm``), or, when the system
+torque over the cycle at most the continuous torque (the RMS-torque row of the
+``[drive]`` in force), or, when the system
 states a winding limit and the power model has a thermal model, the winding
 temperature of the cycle within that limit (sizing by heat, :mod:`optimize.model.thermal`). It is a
 ``power_model.json`` of its own, or the reference drive scaled by a
@@ -99,45 +99,33 @@ class Candidate:
         """Nominal power [W]."""
         return self.rating.nominal_power_w
 
-    def ocp_options(self, n_intervals: int, degree: int, system: Any) -> Any:
-        """The OCP options of ``system`` (bounds) with this drive's limits and rating, as
-        ``bench optimize`` builds them for the system's drive: x1 flies its limits exactly.
+    def flown_in(self, system: Any) -> Any:
+        """``system`` (kite, tether, winch, wind and bounds) with this drive in force, as
+        ``bench optimize`` flies the system's drive: x1 flies its limits exactly; a scaled
+        candidate's envelope table scaled with it (a base speed scales with
+        ``max_torque_nm``)."""
+        table = system.drive.envelope_torque_nm
+        scaled = (None if self.scale is None or table is None
+                  else tuple(self.scale * t for t in table))
+        return system.in_force(self.rating, envelope_torque_nm=scaled)
 
-        Parameters
-        ----------
-        n_intervals, degree : int
-            Collocation intervals and Radau degree.
-        system : optimize.system.system.System
-            The kite, tether, winch, wind and bounds the candidate is sized for.
-        """
-        from optimize.door import Discretization, OcpOptions
-
-        options = system.ocp_options(OcpOptions(Discretization(n_intervals, degree)),
-                                     self.rating)
-        table = options.limits.envelope_torque_nm
-        if self.scale is None or table is None:  # a base speed scales with max_torque_nm
-            return options
-        return options.replace(limits={"envelope_torque_nm": tuple(self.scale * t
-                                                                   for t in table)})
-
-    def check(self, n_intervals: int, degree: int, system: Any) -> None:
+    def check(self, system: Any) -> None:
         """Refuse, before any solve, a candidate ``bench optimize`` would refuse as the
         system's drive (:func:`optimize.system.contradictions.check_drive`): its messages
         begin with the candidate's name."""
         from optimize.door import check_drive
 
         how = f"--models {self.path}" if self.path is not None else f"--scales {self.scale:g}"
-        check_drive(system, self.model, self.path,
-                    self.ocp_options(n_intervals, degree, system).limits, (SIZING_KIND,),
+        check_drive(self.flown_in(system), self.model, self.path, (SIZING_KIND,),
                     source=f"candidate {self.name} ({how})", rating_source=self.rating.source)
 
     def problem(self, n_intervals: int, degree: int, system: Any) -> Any:
         """The OCP problem (:class:`optimize.service.builder.Problem`) of this drive in
-        ``system``."""
-        from optimize.door import Problem
+        ``system`` on ``n_intervals`` x ``degree``."""
+        from optimize.door import Discretization, OcpOptions, Problem
 
-        return Problem.for_system(system, self.model, self.ocp_options(n_intervals, degree,
-                                                                        system))
+        return Problem.for_system(self.flown_in(system), self.model,
+                                  OcpOptions(Discretization(n_intervals, degree)))
 
 
 def scaled_candidates(base: Any, rating: Any, scales: tuple[float, ...]) -> list[Candidate]:

@@ -67,6 +67,9 @@ class Key:
         Where the range or the default comes from (a public source), when not obvious.
     absent : str
         What an optional key's absence means, when more than "not stated".
+    bound : str
+        The name the summary's ``active_bounds`` reports an optimum on this key's bound
+        by (docs/schemas.md §5), when the key is one bound of the OCP; else empty.
     """
 
     doc: str
@@ -78,6 +81,7 @@ class Key:
     choices: tuple[str, ...] = ()
     source: str = ""
     absent: str = ""
+    bound: str = ""
 
     def range_text(self) -> str:
         """The range in words: ``> 0``, ``>= 0``, ``1 to 100``, ``-273.15 < x <= 300``."""
@@ -122,10 +126,11 @@ def _field(key: Key, default: Any) -> Any:
 
 def number(doc: str, *, lo: float | None = None, hi: float | None = None,
            lo_strict: bool = True, hi_strict: bool = False, default: Any = MISSING,
-           source: str = "", absent: str = "") -> Any:
-    """A finite number in a range (a float field)."""
+           source: str = "", absent: str = "", bound: str = "") -> Any:
+    """A finite number in a range (a float field); ``bound``: the name of the OCP's bound it
+    is (:attr:`Key.bound`)."""
     return _field(Key(doc, "number", lo, hi, lo_strict, hi_strict, source=source,
-                      absent=absent), default)
+                      absent=absent, bound=bound), default)
 
 
 def integer(doc: str, *, lo: int, hi: int, default: Any = MISSING, source: str = "",
@@ -187,6 +192,19 @@ def keys(section: type) -> Iterator[tuple[str, Key]]:
         elif isinstance(meta, Group):
             for g in dataclasses.fields(meta.cls):
                 yield g.name, Key(meta.doc, meta.kind)
+
+
+def bound_keys(section: Any) -> dict[str, str]:
+    """``{bound: key}`` of the keys of ``section`` (a section or its class) that are one
+    bound of the OCP each (:attr:`Key.bound`)."""
+    return {meta.bound: name for name, meta in keys(type(section) if not isinstance(
+        section, type) else section) if meta.bound}
+
+
+def bound_values(section: Any) -> dict[str, Any]:
+    """``{bound: value}`` of a section's keys that are one bound of the OCP each (the value
+    as read, ``None`` when not stated)."""
+    return {bound: getattr(section, name) for bound, name in bound_keys(section).items()}
 
 
 class _Table:

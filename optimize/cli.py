@@ -169,7 +169,8 @@ def run(args: argparse.Namespace) -> int:
     print(execution.line())
     sweep = run_optimize(request, list(args.command_line), show_progress=not args.no_progress)
     print(format_summary(sweep.summary, args.period_scan,
-                         request.setup.options.limits.period_bounds_s))
+                         (request.setup.system.bounds.period_min_s,
+                          request.setup.system.bounds.period_max_s)))
     if sweep.claims is not None:
         from optimize.analysis.claims import format_claims
 

@@ -161,13 +161,13 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
     except ValueError as exc:
         raise InputError(None, f"OCP options: {exc}") from exc
     setup = resolve(system, drive_model, fit_default=fit_default, options=options)
-    loaded, drive, limits = setup.system, setup.drive, setup.options.limits
+    loaded, drive = setup.system, setup.drive
     if start:
         check_start_file(start, loaded.sha256)
     # an impossible model "converges" to a wrong cycle: refuse it before any solve,
     # checked also where the optimizer may take it (the drive limits in force), with a
     # drive that cannot hold the kite and bounds of two parts that contradict each other
-    check_drive(loaded, drive.model, drive.model_path, limits, grid.kinds,
+    check_drive(loaded, drive.model, drive.model_path, grid.kinds,
                 rating_source=drive.rating.source)
     note = _setup_note(setup, system is None, solver)
     return SweepRequest(grid.wind_speeds_m_s, grid.kinds, setup, note, execution.workers,
@@ -216,7 +216,7 @@ def _setup_note(setup: Setup, shipped: bool, solver: SolverChoice) -> str:
     note = f"system: {loaded.name} ({loaded.path}" + (", the shipped default)" if shipped
                                                       else ")")
     note += "\n" + "\n".join(setup.drive.lines())
-    note += "\n" + loaded.kite_limits().describe()
+    note += "\n" + loaded.kite_limits_line()
     note += "\n" + loaded.drivetrain_line()
     note += "\n" + loaded.tether_air_line()
     note += "\n" + setup.thermal_line()
@@ -306,7 +306,7 @@ def run_optimize(
             trust = run_trust_checks(problem, outcomes, request.wind_speeds_m_s, handle,
                                      show_progress)
     summary = outputs.summary_frame(outcomes, drive.model.domain,
-                                    domain_scales(drive.model, options))
+                                    domain_scales(drive.model, system))
     parts = model_parts(problem.model.build(), drive.model, options, system)
     cut_ins = cut_in_frame(result.cut_ins)
     claims = (evaluate_claims(summary, cut_ins, paper_system=system.paper_system,
@@ -396,6 +396,8 @@ def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, o
         "drive": drive.record(),
         "kite_limits": dataclasses.asdict(system.kite_limits()),
         "options": options.as_dict(),
+        "sections": system.sections_record(),
+        "bound_values": system.bound_values(),
         "converged": int(summary["success"].sum()),
         **result.record(),
         "failed": [o.name for o in outcomes if not o.success],
@@ -431,14 +433,15 @@ def solver_options(solver: str = "ipopt", linear_solver: str | None = None,
                          codegen=codegen, start_file=start_file)
 
 
-def domain_scales(model: Any, options: Any) -> tuple[float, float]:
+def domain_scales(model: Any, system: Any) -> tuple[float, float]:
     """Speed [rpm] and torque [N m] of distance 1 outside the validity domain.
 
-    The drive's rating when the model states one, else the OCP's drive limits.
+    The drive's rating when the model states one, else the drive in force's limits
+    (``system.drive``).
     """
     drive = getattr(model, "drive", None) or {}
-    return (float(drive.get("max_speed_rpm", options.limits.max_speed_rpm)),
-            float(drive.get("max_torque_nm", options.limits.max_torque_nm)))
+    return (float(drive.get("max_speed_rpm", system.drive.max_speed_rpm)),
+            float(drive.get("max_torque_nm", system.drive.max_torque_nm)))
 
 
 def check_lines(summary: Any) -> list[str]:

@@ -1,5 +1,5 @@
-"""The one resolution of what a solve flies: the system, the drive in force in it and the
-OCP options with the system's bounds and the drive's limits.
+"""The one resolution of what a solve flies: the system with the drive in force in it
+(its ``[drive]`` with the rating in force) and the OCP options.
 
 ``bench optimize`` (:func:`optimize.command.make_request`), ``bench size``
 (:func:`energy.size_command.run_size`) and the Python API resolve their inputs here,
@@ -26,11 +26,12 @@ class Setup:
     Attributes
     ----------
     system : optimize.system.system.System
-        Kite, tether, winch, wind and bounds.
+        Kite, tether, winch, wind and bounds, with the drive in force
+        (:meth:`optimize.system.system.System.in_force`): the OCP's bounds.
     drive : optimize.system.drive_in_force.DriveInForce
         The drive's rating and its losses at that rating.
     options : optimize.problem.options.OcpOptions
-        With the system's bounds and the drive's limits in force.
+        Discretization and solver.
     """
 
     system: System
@@ -40,7 +41,7 @@ class Setup:
     def thermal_line(self) -> str:
         """How the drive's continuous rating enters the OCP (winding temperature or RMS
         torque), and why (:func:`optimize.problem.ocp.thermal_line`)."""
-        return thermal_line(self.drive.model, self.options.limits, self.system.path)
+        return thermal_line(self.drive.model, self.system.drive, self.system.path)
 
 
 def resolve(system: Path | str | System | None = None, drive_model: Any = None, *,
@@ -59,8 +60,7 @@ def resolve(system: Path | str | System | None = None, drive_model: Any = None, 
         ``bench fit``'s model, used when it exists and neither ``drive_model`` nor the system
         file names the losses.
     options : OcpOptions, optional
-        Discretization and solver (default :class:`OcpOptions`); the system's bounds and
-        the drive's limits replace its limits.
+        Discretization and solver (default :class:`OcpOptions`).
     model_path : Path, optional
         Where a drive model object was read from (recorded with it).
 
@@ -76,4 +76,4 @@ def resolve(system: Path | str | System | None = None, drive_model: Any = None, 
                                None if fit_default is None else Path(fit_default))
     else:
         drive = drive_in_force(loaded, model_path, drive_model=drive_model)
-    return Setup(loaded, drive, loaded.ocp_options(options or OcpOptions(), drive.rating))
+    return Setup(loaded.in_force(drive.rating), drive, options or OcpOptions())

@@ -41,7 +41,9 @@ from kernel.output_folder import check_output_folder, output_folder
 from kernel.provenance import Provenance
 
 SCHEMA_NAME = "drivebench.optimize"
-SCHEMA_VERSION = 1
+#: the manifest's layout: 2 records the bounds flown as the system's ``sections`` (the
+#: ``[drive]`` in force) and their ``bound_values``, no ``options.limits``
+SCHEMA_VERSION = 2
 SUMMARY_FILE, TRAJECTORIES_FILE = "summary.parquet", "trajectories.parquet"
 MANIFEST_FILE, CLAIMS_FILE, MODEL_FILE = "manifest.json", "claims.csv", "power_model.json"
 #: the seed's optimum, the start of a later sweep of the same system (``--start``)

@@ -258,72 +258,59 @@ def claims_rows(claims: pd.DataFrame) -> list[dict]:
     return [{c: str(r.get(c, "")) for c in columns} for r in claims.to_dict(orient="records")]
 
 
-#: what each name of ``active_bounds`` (docs/schemas.md §5) means, and the manifest's
-#: ``options.limits`` key holding its value with the value's unit (None: no single value)
+#: what each name of ``active_bounds`` (docs/schemas.md §5) means, and the unit of its
+#: value (the manifest's ``bound_values`` holds the value by the same name)
 BOUND_MEANINGS = {
-    "period_min": ("the cycle period at the shortest of its search range",
-                   "period_bounds_s", "s"),
-    "period_max": ("the cycle period at the longest of its search range", "period_bounds_s",
-                   "s"),
-    "tether_length_min": ("the tether at the shortest of its search range",
-                          "tether_length_bounds_m", "m"),
-    "tether_length_max": ("the tether at the longest of its search range",
-                          "tether_length_bounds_m", "m"),
-    "ground_clearance": ("the kite at its lowest allowed altitude", "min_altitude_m", "m"),
-    "airspeed_min": ("the kite at its least airspeed (the kite's limit, every kind)",
-                     "min_airspeed_m_s", "m/s"),
+    "period_min": ("the cycle period at the shortest of its search range", "s"),
+    "period_max": ("the cycle period at the longest of its search range", "s"),
+    "tether_length_min": ("the tether at the shortest of its search range", "m"),
+    "tether_length_max": ("the tether at the longest of its search range", "m"),
+    "ground_clearance": ("the kite at its lowest allowed altitude", "m"),
+    "airspeed_min": ("the kite at its least airspeed (the kite's limit, every kind)", "m/s"),
     "airspeed_max": ("the kite at its largest airspeed (the kite's limit, every kind)",
-                     "max_airspeed_m_s", "m/s"),
+                     "m/s"),
     "alpha_min": ("the kite at the lowest angle of attack of its range, below which its "
-                  "aero coefficients are not valid (every kind)", "alpha_bounds_deg", "deg"),
+                  "aero coefficients are not valid (every kind)", "deg"),
     "alpha_max": ("the kite at the highest angle of attack of its range, above which its "
-                  "aero coefficients are not valid (every kind)", "alpha_bounds_deg", "deg"),
-    "beta_min": ("the kite at the lowest sideslip of its range (every kind)",
-                 "beta_bounds_deg", "deg"),
-    "beta_max": ("the kite at the highest sideslip of its range (every kind)",
-                 "beta_bounds_deg", "deg"),
+                  "aero coefficients are not valid (every kind)", "deg"),
+    "beta_min": ("the kite at the lowest sideslip of its range (every kind)", "deg"),
+    "beta_max": ("the kite at the highest sideslip of its range (every kind)", "deg"),
     "line_angle_limit": ("the tether at its largest angle to the kite's body z axis (every kind)",
-                         "max_line_angle_deg", "deg"),
+                         "deg"),
     "tether_force_limit": ("the tether at its largest force (the kite's limit, every kind)",
-                           "max_tether_force_n", "N"),
+                           "N"),
     "tension_min": ("the tether at its least tension: a line that must stay taut (every "
-                    "kind)", "min_tension_n", "N"),
+                    "kind)", "N"),
     "reel_acceleration_limit": ("the winch at its largest reel acceleration (every kind)",
-                                "max_reel_acceleration_m_s2", "m/s^2"),
-    "reel_jerk_limit": ("the winch at its largest reel jerk (every kind)",
-                        "max_reel_jerk_m_s3", "m/s^3"),
-    "reel_out_speed_limit": ("the winch at its largest reel-out speed (every kind)",
-                             "max_reel_out_speed_m_s", "m/s"),
-    "reel_in_speed_limit": ("the winch at its largest reel-in speed (every kind)",
-                            "max_reel_in_speed_m_s", "m/s"),
+                                "m/s^2"),
+    "reel_jerk_limit": ("the winch at its largest reel jerk (every kind)", "m/s^3"),
+    "reel_out_speed_limit": ("the winch at its largest reel-out speed (every kind)", "m/s"),
+    "reel_in_speed_limit": ("the winch at its largest reel-in speed (every kind)", "m/s"),
     "body_rate_limit": ("a body rate of the kite (roll, pitch or yaw) at its bound (every "
-                        "kind)", "max_body_rate_deg_s", "deg/s"),
+                        "kind)", "deg/s"),
     "surface_limit": ("a control surface (aileron, elevator, rudder) at its largest "
                       "deflection: the kite's own actuator limit, in force in every kind, "
                       "the unconstrained ones included (the kind's 'free' frees the drive, "
-                      "not the kite)", "surface_bounds_deg", "deg"),
-    "speed_limit": ("the drive at its speed limit (constrained kinds)", "max_speed_rpm", "rpm"),
-    "torque_limit": ("the drive at its torque limit (constrained kinds)", "max_torque_nm",
-                     "N m"),
+                      "not the kite)", "deg"),
+    "speed_limit": ("the drive at its speed limit (constrained kinds)", "rpm"),
+    "torque_limit": ("the drive at its torque limit (constrained kinds)", "N m"),
     "envelope_limit": ("the drive on its torque-speed envelope above base speed (constrained "
-                       "kinds)", "base_speed_rpm", "rpm base speed"),
-    "p_elec_limit": ("the grid connection at its largest power (constrained kinds)",
-                     "max_p_elec_w", "W"),
+                       "kinds)", "rpm base speed"),
+    "p_elec_limit": ("the grid connection at its largest power (constrained kinds)", "W"),
     "winding_temperature_limit": ("the drive's winding at its largest temperature "
-                                  "(constrained kinds)", "max_winding_temperature_c", "degC"),
+                                  "(constrained kinds)", "degC"),
 }
 
 
-def bound_legend(rows: list[dict], limits: dict) -> list[str]:
+def bound_legend(rows: list[dict], values: dict) -> list[str]:
     """What each bound name in the table ``rows`` (:func:`bound_rows`) means, once each, with
-    its value from the sweep's limits (``options.limits`` of the manifest)."""
+    its value as flown (``bound_values`` of the manifest, by the same names)."""
     names = dict.fromkeys(n.strip() for r in rows for n in r["active_bounds"].split(",")
                           if n.strip() and n.strip() != "none")
     out = []
     for name in names:
-        meaning, key, unit = BOUND_MEANINGS.get(name, ("see docs/schemas.md section 5", None,
-                                                       None))
-        value = limits.get(key) if key else None
+        meaning, unit = BOUND_MEANINGS.get(name, ("see docs/schemas.md section 5", None))
+        value = values.get(name) if unit else None
         shown = (f" ({value_text(value)} {unit})" if value is not None else "")
         out.append(f"{name}: {meaning}{shown}")
     return out
@@ -408,7 +395,7 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
                     "failed": failed_rows(summary),
                     "n_scenarios": len(s), "scenarios": frame_table(summary),
                     "bounds": bound_rows(summary), "domain": domain_rows(summary),
-                    "bound_legend": bound_legend(bound_rows(summary), flown_limits(manifest)),
+                    "bound_legend": bound_legend(bound_rows(summary), flown_bounds(manifest)),
                     "finer_mesh": remesh_lines(summary),
                     "unchecked": unchecked_lines(summary),
                     "key_warnings": drive_checks(manifest) + key_warnings(summary)})
@@ -436,21 +423,22 @@ def manifest_context(manifest: dict, fit_model_sha256: str | None) -> dict:
             "local_optima": [str(n) for n in manifest.get("local_optima") or []]}
 
 
-def flown_limits(manifest: dict | None) -> dict:
-    """The limits the sweep flew with (its manifest's ``options.limits``; empty when the
-    manifest records none)."""
-    limits = ((manifest or {}).get("options") or {}).get("limits")
-    return limits if isinstance(limits, dict) else {}
+def flown_bounds(manifest: dict | None) -> dict:
+    """The bounds the sweep flew with by their ``active_bounds`` names (its manifest's
+    ``bound_values``; empty when the manifest records none: one of schema version 1)."""
+    values = (manifest or {}).get("bound_values")
+    return values if isinstance(values, dict) else {}
 
 
 def flown_envelope(manifest: dict | None) -> tuple[np.ndarray, np.ndarray] | None:
-    """The torque-speed envelope the sweep flew with, or None when its drive stated none."""
-    limits = flown_limits(manifest)
-    if not limits:
+    """The torque-speed envelope the sweep flew with (its manifest's ``[drive]`` in force,
+    ``sections``), or None when its drive stated none."""
+    drive = ((manifest or {}).get("sections") or {}).get("drive")
+    if not isinstance(drive, dict):
         return None
     keys = ("base_speed_rpm", "envelope_speed_rpm", "envelope_torque_nm", "max_speed_rpm",
             "max_torque_nm")
-    return envelope_curve(SimpleNamespace(**{k: limits.get(k) for k in keys}))
+    return envelope_curve(SimpleNamespace(**{k: drive.get(k) for k in keys}))
 
 
 def nearest_speed(summary: pd.DataFrame, kind: str, wind: float) -> float:
@@ -510,8 +498,8 @@ def cycle_figures_at_paper_wind(traj: pd.DataFrame | None, summary: pd.DataFrame
 
 
 def winding_limit(manifest: dict | None) -> float | None:
-    """The drive's winding limit [degC] the sweep flew with (its manifest's limits)."""
-    value = flown_limits(manifest).get("max_winding_temperature_c")
+    """The drive's winding limit [degC] the sweep flew with (its manifest's bound values)."""
+    value = flown_bounds(manifest).get("winding_temperature_limit")
     return float(value) if value is not None else None
 
 

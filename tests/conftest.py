@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 from ingest_fixtures import make_timeseries_session
+from system_fixtures import system_for
 
 from drivebench.cli import main
 
@@ -40,7 +41,7 @@ def paper_ocp():
     from optimize.problem.ocp import build_ocp
     from optimize.problem.options import OcpOptions
 
-    return build_ocp(kite_dae(), paper_model(), OcpOptions())
+    return build_ocp(kite_dae(), paper_model(), OcpOptions(), system=system_for())
 
 
 @pytest.fixture(scope="session")
@@ -60,7 +61,8 @@ def coarse_ocp():
     from optimize.problem.ocp import build_ocp
     from optimize.problem.options import Discretization, OcpOptions
 
-    return build_ocp(kite_dae(), paper_model(), OcpOptions(Discretization(n_intervals=N_COARSE)))
+    return build_ocp(kite_dae(), paper_model(), OcpOptions(Discretization(n_intervals=N_COARSE)),
+        system=system_for())
 
 
 @pytest.fixture(scope="session")

@@ -38,8 +38,9 @@ def _solve_with(tmp_path: Path, coarse, line: str, tightened: str):
     path.write_text(text.replace(line, tightened))
     system = load_system(path)
     drive = drive_in_force(system, drive_model=paper_model())
-    options = system.ocp_options(OcpOptions(coarse_ocp.options.discretization), drive.rating)
-    ocp = build_ocp(kite_dae(*system.model_params()), paper_model(), options, system=system)
+    options = OcpOptions(coarse_ocp.options.discretization)
+    ocp = build_ocp(kite_dae(*system.model_params()), paper_model(), options,
+                    system=system.in_force(drive.rating))
     res = solve(ocp, Scenario(7.0, "electrical", True), coarse_res.warm)
     assert res.success, res.status
     return res

@@ -14,6 +14,7 @@ import casadi as ca
 import numpy as np
 import pytest
 from point_mass_model import Pendulum, pendulum_formulation, small_angle_guess
+from system_fixtures import system_for
 
 from drivebench.cli import main
 from optimize.model.kite_model import kite_dae
@@ -106,7 +107,7 @@ def test_condensed_kite_warm_solve_has_the_full_optimum(coarse_mechanical, coars
     n = coarse_mechanical.warm.n_intervals
     ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(
         Discretization(n_intervals=n),
-        solver=SolverOptions(transcription="condensed", codegen=False)))
+        solver=SolverOptions(transcription="condensed", codegen=False)), system=system_for())
     res = solve(ocp, Scenario(7.0, "electrical", True), coarse_mechanical.warm)
     assert res.success, res.status
     assert res.avg_p_elec_w == pytest.approx(coarse_elec_lim.avg_p_elec_w, abs=0.05)

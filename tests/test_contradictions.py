@@ -10,6 +10,7 @@ import tomllib
 from pathlib import Path
 
 import pytest
+from system_fixtures import system_for
 
 from drivebench.cli import main
 from kernel.errors import InputError
@@ -39,8 +40,7 @@ def _system(**changes):
 def _check(system, model=None, kinds=("elec-lim",), model_path=None):
     model = model or paper_model()
     rating = drive_in_force(system, drive_model=model).rating
-    limits = system.ocp_options(OcpOptions(), rating).limits
-    check_contradictions(system, model, limits, kinds, model_path)
+    check_contradictions(system.in_force(rating), model, kinds, model_path)
 
 
 def _thermal_model(tmp_path, r_th):
@@ -60,8 +60,8 @@ def test_the_shipped_systems_hold_together():
 
         system = load_system(shipped_system_path(name))
         drive = drive_in_force(system)
-        limits = system.ocp_options(OcpOptions(), drive.rating).limits
-        check_contradictions(system, drive.model, limits, ("elec-lim", "mech-free"))
+        check_contradictions(system.in_force(drive.rating), drive.model,
+                             ("elec-lim", "mech-free"))
 
 
 def test_a_tension_floor_the_drive_cannot_pull_is_refused_naming_both_keys():
@@ -164,9 +164,9 @@ def test_crossed_bounds_are_named_with_their_inputs_not_an_assertion():
     from optimize.model.kite_model import kite_dae
     from optimize.problem.ocp import build_ocp
 
-    options = OcpOptions(Discretization(n_intervals=3, degree=2)).replace(
-        limits={"min_tension_n": 5000.0, "max_torque_nm": 78.0})
-    ocp = build_ocp(kite_dae(), paper_model(), options)
+    options = OcpOptions(Discretization(n_intervals=3, degree=2))
+    ocp = build_ocp(kite_dae(), paper_model(), options,
+                    system=system_for(bounds={"min_tension_n": 5000.0}))
     ocp.bounds(False, True, None)  # no drive limits: nothing crosses
     with pytest.raises(ValueError) as err:
         ocp.bounds(True, True, None)
@@ -183,9 +183,9 @@ def test_an_optimum_on_the_line_angle_bound_is_listed(coarse_ocp, coarse_elec_li
     assert coarse_elec_lim.success
     assert coarse_elec_lim.trajectory["line_angle_deg"].max() == pytest.approx(65.0, abs=1e-3)
     assert "line_angle_limit" in coarse_elec_lim.active_bounds
-    options = coarse_ocp.options.replace(limits={"max_line_angle_deg": 20.0})
-    res = solve(build_ocp(kite_dae(), paper_model(), options), Scenario(7.0, "electrical", True),
-                coarse_elec_lim.warm)
+    res = solve(build_ocp(kite_dae(), paper_model(), coarse_ocp.options,
+                          system=system_for(bounds={"max_line_angle_deg": 20.0})),
+                Scenario(7.0, "electrical", True), coarse_elec_lim.warm)
     assert res.success, res.status
     assert res.trajectory["line_angle_deg"].max() == pytest.approx(20.0, abs=1e-3)
     assert "line_angle_limit" in res.active_bounds

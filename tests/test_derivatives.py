@@ -25,10 +25,11 @@ def _ocp(solver: str):
     cycle sum), transcribed for ``solver``."""
     system = load_system()
     drive = drive_in_force(system)
-    options = system.ocp_options(OcpOptions(Discretization(n_intervals=N)), drive.rating)
-    options = options.replace(limits={"max_rms_torque_nm": 0.5 * options.limits.max_torque_nm},
-                              solver={"solver": solver})
-    return build_ocp(kite_dae(*system.model_params()), drive.model, options, system=system)
+    flown = system.in_force(drive.rating)
+    flown = dataclasses.replace(flown, drive=dataclasses.replace(
+        flown.drive, continuous_torque_nm=0.5 * flown.drive.max_torque_nm))
+    options = OcpOptions(Discretization(n_intervals=N)).replace(solver={"solver": solver})
+    return build_ocp(kite_dae(*system.model_params()), drive.model, options, system=flown)
 
 
 @pytest.fixture(scope="module")

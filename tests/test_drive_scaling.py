@@ -184,21 +184,3 @@ def test_losses_path_is_relative_to_the_system_file(tmp_path):
     # --drive-model overrides the file's losses
     other = drive_in_force(system, Path(folder / "my_drive.json"))
     assert other.losses_note == "--drive-model"
-
-
-def test_ocp_options_leave_the_drive_limits_to_the_power_models_rating():
-    from dataclasses import replace
-
-    from optimize.problem.options import OcpOptions, with_drive_rating
-
-    base = OcpOptions()
-    assert base.limits.max_torque_nm is None  # no drive constant in code
-    model = paper_model()
-    lim = with_drive_rating(base, model).limits
-    assert (lim.max_speed_rpm, lim.max_torque_nm, lim.nominal_power_w) == (
-        model.drive["max_speed_rpm"], model.drive["max_torque_nm"], model.drive["nominal_power_w"])
-    # limits given are kept; a model without a rating cannot fill open ones
-    given = base.replace(limits={"max_torque_nm": 60.0})
-    assert with_drive_rating(given, model).limits.max_torque_nm == 60.0
-    with pytest.raises(ValueError, match="max_speed_rpm, max_torque_nm"):
-        with_drive_rating(base, replace(model, drive=None))

@@ -13,6 +13,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from system_fixtures import system_for
 
 from kernel.errors import InputError
 from kernel.units import RPM_PER_RAD_S
@@ -22,7 +23,7 @@ from optimize.model.kite_model import ALGEBRAIC, STATES, kite_dae
 from optimize.model.params import KiteParams
 from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
-from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions
+from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.starts.cold import start
 from optimize.solve.starts.homotopy import cold_start
@@ -57,7 +58,8 @@ def test_kinetic_energy_integrates_to_zero_over_a_cycle():
 def test_power_model_is_evaluated_at_the_shaft_torque():
     kite = KiteParams(r_winch_m=R_M, gear_ratio=GEAR, drum_inertia_kg_m2=J_DRUM,
                       rotor_inertia_kg_m2=J_ROTOR)
-    ocp = build_ocp(kite_dae(kite), paper_model(), OcpOptions(Discretization(4, 2)))
+    ocp = build_ocp(kite_dae(kite), paper_model(), OcpOptions(Discretization(4, 2)),
+        system=system_for())
     t, dl, ddl = _prescribed(16)
     x = np.zeros((STATES.size, t.size))
     x[STATES.index("l_m")], x[STATES.index("dl_m_s")], x[STATES.index("ddl_m_s2")] = 200, dl, ddl
@@ -80,13 +82,15 @@ def test_a_massless_drivetrain_is_the_massless_ocp():
     # it: benchmarks/drivetrain_effect.py, paper-0)
     massless = KiteParams(drum_inertia_kg_m2=0.0, rotor_inertia_kg_m2=0.0)
     ocp = build_ocp(kite_dae(massless), paper_model(),
-                    OcpOptions(Discretization(4, 2), Limits(max_tether_force_n=2000.0)))
+                    OcpOptions(Discretization(4, 2)),
+                    system=system_for(tether={"max_force_n": 2000.0}))
     lay, tr = ocp.layout, ocp.transcription
     assert "tether_force" not in lay.rows
     rows = lay.rows_of("torque")
     assert np.all(np.isneginf(tr.limited[2][rows])) and np.all(np.isneginf(tr.lbg[rows]))
     heavy = build_ocp(kite_dae(KiteParams(drum_inertia_kg_m2=0.1)), paper_model(),
-                      OcpOptions(Discretization(4, 2), Limits(max_tether_force_n=2000.0)))
+                      OcpOptions(Discretization(4, 2)),
+                    system=system_for(tether={"max_force_n": 2000.0}))
     rows = heavy.layout.rows_of("torque")
     assert "tether_force" in heavy.layout.rows
     assert np.allclose(heavy.transcription.limited[2][rows] * heavy.scales.torque_nm, -78.0)
@@ -151,11 +155,6 @@ def test_cli_refuses_a_negative_inertia_before_any_solve(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
-def test_limits_refuse_a_non_positive_acceleration_limit():
-    with pytest.raises(ValueError, match="max_reel_acceleration_m_s2"):
-        Limits(max_reel_acceleration_m_s2=0.0)
-
-
 @pytest.fixture(scope="module")
 def heavy_cycle():
     """elec-lim at 10 m/s of the paper's kite with a drivetrain: inertia, an acceleration
@@ -164,10 +163,9 @@ def heavy_cycle():
                    winch__max_reel_acceleration_m_s2=30.0, drive__base_speed_rpm=1000.0)
     system = system_from_dict(data, "heavy.toml")
     model = paper_model()
-    options = system.ocp_options(OcpOptions(Discretization(20, 3),
-                                            solver=SolverOptions(stored_guess=False)),
-                                 drive_in_force(system, drive_model=model).rating)
-    ocp = build_ocp(kite_dae(*system.model_params()), model, options, system=system)
+    options = OcpOptions(Discretization(20, 3), solver=SolverOptions(stored_guess=False))
+    ocp = build_ocp(kite_dae(*system.model_params()), model, options,
+                    system=system.in_force(drive_in_force(system, drive_model=model).rating))
     return system, ocp, cold_start(ocp, Scenario(10.0, "electrical", True))
 
 
@@ -223,9 +221,9 @@ def test_a_reel_jerk_limit_holds_and_is_reported_in_every_kind():
     system = system_from_dict(_system(winch__max_reel_jerk_m_s3=50.0), "jerk.toml")
     assert "reel jerk <= 50 m/s^3 (all kinds)" in system.drivetrain_line()
     model = paper_model()
-    options = system.ocp_options(OcpOptions(), drive_in_force(system, drive_model=model).rating)
-    assert options.limits.max_reel_jerk_m_s3 == 50.0
-    res = start(build_ocp(kite_dae(*system.model_params()), model, options),
+    flown = system.in_force(drive_in_force(system, drive_model=model).rating)
+    assert flown.winch.max_reel_jerk_m_s3 == 50.0
+    res = start(build_ocp(kite_dae(*system.model_params()), model, OcpOptions(), system=flown),
                 Scenario.of_kind("elec-lim", 7.0))
     assert res.success, res.status
     jerk = res.trajectory["dddl_m_s3"].abs()

@@ -40,7 +40,8 @@ def test_sigma_equals_finite_difference_re_solve(coarse_ocp, coarse_elec_lim):
     for sign in (1, -1):
         perturbed = dataclasses.replace(model, coefficients_rpm=tuple(c + sign * h * d),
                                         covariance_rpm=None)
-        res = solve(build_ocp(dae, perturbed, options), scenario, base.warm)
+        ocp = build_ocp(dae, perturbed, options, system=coarse_ocp.system)
+        res = solve(ocp, scenario, base.warm)
         assert res.success, res.status
         p[sign] = res.avg_p_elec_w
     assert (p[1] - p[-1]) / (2 * h) == pytest.approx(sig, rel=0.01)

@@ -260,3 +260,18 @@ def test_refine_progress_never_sits_at_100_percent_while_solves_run():
         assert "%" not in out.getvalue()
     bar.close()
     assert "3solve" in out.getvalue().replace(" ", "") and "%" not in out.getvalue()
+
+
+def test_a_manifest_of_the_older_layout_is_refused_naming_it_and_the_remedy(tmp_path):
+    # schema version 1 carried the bounds as options.limits; --refine must not guess them
+    from energy.refine import options_from_manifest
+    from kernel.errors import InputError
+
+    path = tmp_path / "manifest.json"
+    old = {"schema_version": 1, "options": {"discretization": {}, "solver": {},
+                                            "limits": {"max_torque_nm": 78.0}}}
+    with pytest.raises(InputError) as err:
+        options_from_manifest(old, path)
+    text = err.value.describe()
+    assert str(path) in text and "schema version 1" in text
+    assert "re-run `bench optimize`" in text

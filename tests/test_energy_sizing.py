@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from concurrent.futures import ThreadPoolExecutor
 
@@ -51,16 +52,17 @@ def test_scaled_candidates_are_s_drives_sharing_the_torque():
 def test_x1_is_the_drive_bench_optimize_flies():
     # issue 42: x1 flew the paper drive at 5 x 78 N m while bench optimize holds it to 78
     from energy.candidates import build_candidates
-    from optimize.problem.options import Discretization, OcpOptions
 
     system = load_system()
     drive = drive_in_force(system, drive_model=paper_model())
     (x1, x2), notes = build_candidates(drive, (1.0, 2.0))
     assert (x1.peak_torque_nm, x1.rated_torque_nm, x1.max_speed_rpm) == (78.0, 78.0, 1500.0)
-    optimize_limits = system.ocp_options(OcpOptions(Discretization(20, 3)), drive.rating).limits
-    assert x1.ocp_options(20, 3, system).limits == optimize_limits
-    assert x1.ocp_options(20, 3, system).limits.max_rms_torque_nm is None  # 78 <= 78: implied
-    assert x2.ocp_options(20, 3, system).limits.max_torque_nm == 156.0
+    optimize_drive = system.in_force(drive.rating).drive
+    flown = x1.flown_in(system).drive
+    assert dataclasses.replace(flown, overload=None, source=None) == dataclasses.replace(
+        optimize_drive, overload=None, source=None)
+    assert flown.rms_torque_limit_nm is None  # 78 <= 78: implied
+    assert x2.flown_in(system).drive.max_torque_nm == 156.0
     # highwind.toml states the paper's overload 5 for the record: said, not flown
     assert [n for n in notes if "overload" in n] == [
         "the system's [drive] states overload 5 (a short-time 390 N m): not flown; the drive's "
@@ -103,13 +105,11 @@ def test_candidate_options_take_the_system_bounds_and_the_candidate_limits():
     base = paper_model()
     c = _candidates((2.0,))[0]
     highwind, ap2 = load_system(), load_system(shipped_system_path("ap2"))
-    opts = c.ocp_options(20, 3, ap2)
-    lim = opts.limits
+    flown = c.flown_in(ap2)
     # the system file's bounds (ap2's tether range), the candidate's drive
-    assert lim.tether_length_bounds_m == (ap2.bounds.tether_length_min_m,
-                                           ap2.bounds.tether_length_max_m)
-    assert (lim.max_torque_nm, lim.max_rms_torque_nm) == (780.0, 156.0)
-    assert lim.nominal_power_w == pytest.approx(2.0 * base.nominal_power_w)
+    assert flown.bounds == ap2.bounds
+    assert (flown.drive.max_torque_nm, flown.drive.rms_torque_limit_nm) == (780.0, 156.0)
+    assert flown.drive.nominal_power_w == pytest.approx(2.0 * base.nominal_power_w)
     # a stored solve of one system is never taken for another's
     assert (solve_key(c.problem(20, 3, highwind), SIZING_KIND, 7.0)
             != solve_key(c.problem(20, 3, ap2), SIZING_KIND, 7.0))
@@ -201,7 +201,7 @@ class CrashingBackend:
         self.crash_at = crash_at
 
     def build(self, problem):
-        return problem.options.limits.max_rms_torque_nm
+        return problem.system.drive.rms_torque_limit_nm
 
     def _result(self, ocp, wind):
         from types import SimpleNamespace

@@ -202,7 +202,8 @@ def test_envelope_limit_is_active_only_where_the_envelope_bounds():
     def envelope_active(base, speed, torque):
         limits = SimpleNamespace(base_speed_rpm=base, envelope_speed_rpm=None,
                                  envelope_torque_nm=None, max_torque_nm=78.0)
-        ratio = DrivePart(None, None, limits, None).envelope_ratio(speed, torque)
+        ratio = DrivePart(None, None, SimpleNamespace(drive=limits), None).envelope_ratio(
+            speed, torque)
         return ratio is not None and near(ratio, 1.0)
 
     speed, torque = np.array([500.0, 1400.0]), np.array([78.0, 78.0])

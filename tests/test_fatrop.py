@@ -5,27 +5,27 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 import pytest
+from system_fixtures import system_for
 
 from optimize.model.kite_model import kite_dae
 from optimize.paper_model import paper_model
 from optimize.problem.guess import circular_loop
 from optimize.problem.ocp import build_ocp, grid_times, twin
-from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions
+from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.solve import backend
 from optimize.solve.result import carry_over
 from optimize.solve.solve import solve
 from optimize.solve.starts import stored_guess
 
 
-def _pair(n: int, d: int, limits: Limits | None = None):
-    opts = OcpOptions(Discretization(n, d), limits or Limits(),
-                      SolverOptions(solver="fatrop"))
-    staged = build_ocp(kite_dae(), paper_model(), opts)
+def _pair(n: int, d: int, drive: dict | None = None):
+    opts = OcpOptions(Discretization(n, d), SolverOptions(solver="fatrop"))
+    staged = build_ocp(kite_dae(), paper_model(), opts, system=system_for(drive=drive or {}))
     return twin(staged, "ipopt"), staged
 
 
 def test_stagewise_layout_evaluates_the_same_objective_and_rows():
-    general, staged = _pair(3, 3, Limits(max_rms_torque_nm=60.0, max_p_elec_w=9000.0))
+    general, staged = _pair(3, 3, {"continuous_torque_nm": 60.0, "max_p_elec_w": 9000.0})
     assert general.layout.kind == "general" and staged.layout.kind == "stagewise"
     x, z, fict = circular_loop(general.dae, general.loop,
                                grid_times(general, general.loop.period_s), 7.0)
@@ -56,7 +56,8 @@ def test_stagewise_layout_evaluates_the_same_objective_and_rows():
 @pytest.fixture(scope="module")
 def staged():
     """The paper's OCP at the default options, stage-wise for fatrop."""
-    return build_ocp(kite_dae(), paper_model(), OcpOptions(solver=SolverOptions(solver="fatrop")))
+    return build_ocp(kite_dae(), paper_model(), OcpOptions(solver=SolverOptions(solver="fatrop")),
+        system=system_for())
 
 
 def test_fatrop_confirms_the_stored_optimum_on_the_stage_layout(staged, paper_ocp,

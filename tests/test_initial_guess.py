@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from system_fixtures import system_for
 
 from optimize.model.kite_model import kite_dae
 from optimize.model.params import KiteParams
@@ -45,7 +46,7 @@ def test_guess_is_interpolated_onto_another_mesh():
     interpolated in time: the primal point and bound multipliers in the coarse layout, the
     constraint multipliers zero."""
     coarse = build_ocp(kite_dae(), paper_model(),
-                       OcpOptions(Discretization(n_intervals=20, degree=3)))
+                       OcpOptions(Discretization(n_intervals=20, degree=3)), system=system_for())
     solution, why = stored_guess.load(coarse)
     assert solution is not None, why
     assert "interpolated from N=40, degree 4 onto N=20, degree 3" in why
@@ -73,7 +74,7 @@ def test_a_coarse_mesh_starts_from_the_interpolated_guess_at_the_homotopys_optim
 def test_guess_is_refused_for_another_kite():
     # 1 kg more mass changes the dynamics residuals at the stored point
     heavier = build_ocp(kite_dae(KiteParams(mass_kg=KiteParams().mass_kg + 1.0)), paper_model(),
-                        OcpOptions())
+                        OcpOptions(), system=system_for())
     solution, why = stored_guess.load(heavier)
     assert solution is None and "does not fit" in why
 
@@ -83,8 +84,8 @@ def test_guess_is_accepted_for_its_system_and_refused_for_another():
     # same constraints g, so only the system hash tells them apart
     system, model = load_system(), paper_model()
     rating = drive_in_force(system, drive_model=model).rating
-    own = build_ocp(kite_dae(*system.model_params()), model,
-                    system.ocp_options(OcpOptions(), rating), system=system)
+    own = build_ocp(kite_dae(*system.model_params()), model, OcpOptions(),
+                    system=system.in_force(rating))
     solution, why = stored_guess.load(own)
     assert solution is not None, why
     import tomllib
@@ -92,8 +93,8 @@ def test_guess_is_accepted_for_its_system_and_refused_for_another():
     data = tomllib.loads(system.text)
     data["bounds"]["period_max_s"] = 30.0
     wider = system_from_dict(data, "wider.toml")
-    other = build_ocp(kite_dae(*wider.model_params()), model,
-                      wider.ocp_options(OcpOptions(), rating), system=wider)
+    other = build_ocp(kite_dae(*wider.model_params()), model, OcpOptions(),
+                      system=wider.in_force(rating))
     solution, why = stored_guess.load(other)
     assert solution is None and "another system" in why
 
@@ -154,7 +155,7 @@ SMALL = OcpOptions(Discretization(n_intervals=3, degree=2))
 
 
 def _small(*parts: Part):
-    return build_ocp(kite_dae(), paper_model(), SMALL, parts=parts)
+    return build_ocp(kite_dae(), paper_model(), SMALL, parts=parts, system=system_for())
 
 
 def _written(ocp, path):
@@ -193,7 +194,7 @@ def test_a_part_the_stored_guess_lacks_fills_its_variables_on_another_mesh(tmp_p
     plain = _small()
     arrays = _written(plain, tmp_path / "guess.npz")
     lagged = build_ocp(kite_dae(), paper_model(), OcpOptions(Discretization(5, 2)),
-                       parts=(Lag(),))
+                       parts=(Lag(),), system=system_for())
     solution, why = stored_guess.load(lagged, tmp_path / "guess.npz")
     assert solution is not None, why
     assert "interpolated from N=3, degree 2 onto N=5, degree 2" in why and "carried over" in why

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
+from system_fixtures import system_for
 
 from drivebench.cli import main
 from kernel.files import write_parquet
@@ -128,7 +129,7 @@ def filtered(paper_ocp):
     bound = paper_ocp.formulation.limited_state_bounds()[
         paper_ocp.dae.states.index("dl_m_s")][1]
     ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(),
-                    parts=(ReelFilter(TAU_S, bound),))
+                    parts=(ReelFilter(TAU_S, bound),), system=system_for())
     return ocp, start(ocp, stored_guess.GUESS_SCENARIO), bound
 
 
@@ -195,8 +196,9 @@ def test_a_force_from_another_part_enters_the_kites_newton_euler_rows():
     (``m a + ... - F_aero - m g - F_ext``), the tether row not at all; at a random point."""
     opts = OcpOptions(Discretization(n_intervals=2, degree=1))
     force, moment = (3.0, -2.0, 40.0), (0.5, 0.0, -1.5)
-    plain = build_ocp(kite_dae(), paper_model(), opts)
-    pushed = build_ocp(kite_dae(), paper_model(), opts, parts=(Push(force, moment),))
+    plain = build_ocp(kite_dae(), paper_model(), opts, system=system_for())
+    pushed = build_ocp(kite_dae(), paper_model(), opts, parts=(Push(force, moment),),
+        system=system_for())
     dae, rng = plain.dae, np.random.default_rng(3)
     x, u = rng.normal(size=dae.states.size), rng.normal(size=dae.controls.size)
     z, fict = rng.normal(size=dae.algebraic.size), rng.normal(size=dae.fictitious.size)
@@ -223,7 +225,7 @@ class Undeclared(ReelFilter):
 def test_a_part_s_columns_are_its_declared_ones_each_with_a_unit():
     opts = OcpOptions(Discretization(n_intervals=2, degree=1))
     part = Undeclared(TAU_S, 10.0)
-    ocp = build_ocp(kite_dae(), paper_model(), opts, parts=(part,))
+    ocp = build_ocp(kite_dae(), paper_model(), opts, parts=(part,), system=system_for())
     with pytest.raises(ValueError, match="part 'reel_filter': outputs.. gives"):
         dae = ocp.dae
         ocp.formulation.trajectory_outputs(

@@ -9,6 +9,7 @@ from pathlib import Path
 import casadi
 import numpy as np
 import pytest
+from system_fixtures import system_for
 
 from optimize.model.drivetrain import (
     drum_speed_rpm,
@@ -21,7 +22,7 @@ from optimize.model.params import KiteParams
 from optimize.paper_model import paper_model
 from optimize.problem.collocation import radau
 from optimize.problem.ocp import build_ocp
-from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions
+from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.result import carry_over
 from optimize.solve.solve import solve
@@ -181,8 +182,8 @@ def test_kite_limits_bind_in_a_kind_without_drive_limits(solved):
     # tether-force limit is a row of its own: tests/test_drivetrain.py)
     massless = KiteParams(drum_inertia_kg_m2=0.0, rotor_inertia_kg_m2=0.0)
     limited = build_ocp(kite_dae(massless), paper_model(), OcpOptions(
-        Discretization(n_intervals=N_COARSE),
-        limits=Limits(max_tether_force_n=f_max, max_airspeed_m_s=v_max)))
+        Discretization(n_intervals=N_COARSE)), system=system_for(
+            tether={"max_force_n": f_max}, bounds={"max_airspeed_m_s": v_max}))
     res = solve(limited, Scenario(7.0, "electrical", False), carry_over(ocp, elec.warm, limited))
     assert res.success, res.status
     # rows solved to IPOPT's 1e-6 (scaled); 1e-3 is the active-bound tolerance

@@ -6,25 +6,28 @@ import json
 
 import numpy as np
 import pytest
+from system_fixtures import system_for
 
 from optimize.model import kite_model as km
 from optimize.model.kite_model import kite_dae
 from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
-from optimize.problem.options import Discretization, Limits, OcpOptions, SolverOptions
+from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 
 
 def test_options_round_trip_through_json():
-    opts = OcpOptions(Discretization(n_intervals=12, degree=3),
-                      Limits(max_p_elec_w=9000.0, period_bounds_s=(2.0, 9.0)),
+    opts = OcpOptions(Discretization(n_intervals=12, degree=3, control_sigma=(5, 1, 1, 1)),
                       SolverOptions(tol=1e-8, stored_guess=False))
     back = OcpOptions.from_dict(json.loads(json.dumps(opts.as_dict())))
-    assert back == opts and back.limits.period_bounds_s == (2.0, 9.0)
+    assert back == opts and back.discretization.control_sigma == (5, 1, 1, 1)
+    # the bounds are the system's, not options (an older manifest's group is refused)
+    with pytest.raises(TypeError, match="unknown option groups: limits"):
+        OcpOptions.from_dict({**opts.as_dict(), "limits": {"max_torque_nm": 60.0}})
 
 
 def test_replace_changes_one_group_field_and_rejects_unknown_groups():
-    opts = OcpOptions().replace(limits={"max_torque_nm": 60.0})
-    assert opts.limits.max_torque_nm == 60.0 and opts.discretization == Discretization()
+    opts = OcpOptions().replace(solver={"tol": 1e-8})
+    assert opts.solver.tol == 1e-8 and opts.discretization == Discretization()
     with pytest.raises(TypeError, match="unknown option groups"):
         OcpOptions().replace(mesh={"n_intervals": 3})
     with pytest.raises(TypeError):
@@ -40,8 +43,9 @@ def test_discretization_rejects_out_of_range(bad):
 
 def test_rows_are_found_by_name_and_the_drive_limits_bound_only_their_rows():
     n, d = 4, 3
-    lim = Limits(max_torque_nm=78.0, max_p_elec_w=5000.0, max_rms_torque_nm=50.0)
-    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(Discretization(n, d), lim))
+    drive = {"max_torque_nm": 78.0, "max_p_elec_w": 5000.0, "continuous_torque_nm": 50.0}
+    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(Discretization(n, d)),
+                    system=system_for(drive=drive))
     lay = ocp.layout
     per_point = {"dynamics": km.STATES.size, "algebraic": km.ALGEBRAIC.size, "airspeed": 1,
                  "alpha": 1, "beta": 1, "line_angle": 1, "torque": 1, "p_elec": 1}
@@ -55,6 +59,6 @@ def test_rows_are_found_by_name_and_the_drive_limits_bound_only_their_rows():
     want = np.concatenate([lay.rows_of(k) for k in ("torque", "p_elec", "rms_torque")])
     assert np.array_equal(changed, np.sort(want))
     sc = ocp.scales
-    assert limited[3][lay.rows_of("torque")] == pytest.approx(lim.max_torque_nm / sc.torque_nm)
+    assert limited[3][lay.rows_of("torque")] == pytest.approx(78.0 / sc.torque_nm)
     changed_w = np.flatnonzero((free[0] != limited[0]) | (free[1] != limited[1]))
     assert np.array_equal(changed_w, np.sort(lay.i_x[km.STATES.index("dl_m_s")]))

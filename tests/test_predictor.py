@@ -7,6 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from system_fixtures import system_for
 
 from optimize.problem.scenario import Scenario
 from optimize.solve.solve import solve
@@ -53,7 +54,8 @@ def predicting_ocp(coarse_ocp):
     from optimize.problem.ocp import build_ocp
 
     return build_ocp(kite_dae(), paper_model(),
-                     coarse_ocp.options.replace(solver={"predictor_step": 1.0}))
+                     coarse_ocp.options.replace(solver={"predictor_step": 1.0}),
+                         system=system_for())
 
 
 def test_predicted_start_solves_to_the_same_optimum(predicting_ocp, neighbours):

@@ -9,6 +9,7 @@ covariance, and analytic pumping cycles whose net energy is known exactly.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
@@ -29,6 +30,7 @@ from fitting.power_model import PowerModel
 from kernel.files import write_text_atomic
 from kernel.output_folder import output_folder
 from kernel.provenance import Provenance
+from kernel.sections import bound_values
 from optimize.cycles import Cycle, cycle_quadrature
 from optimize.paper_model import paper_model
 from optimize.sweep_folder import (
@@ -39,6 +41,7 @@ from optimize.sweep_folder import (
     read_trajectories,
     write_sweep_folder,
 )
+from optimize.system.sections import DriveSection
 from reports.render import build_context, build_report, render
 from reports.svg import new_figure, to_svg
 
@@ -213,18 +216,23 @@ def write_optimize(opt: Path, model_sha256: str = "",
 
 
 def rewrite_optimize(src: Path, dst: Path, *, summary: pd.DataFrame | None = None,
-                     trust: dict | None = None, options: dict | None = None,
+                     trust: dict | None = None, drive: dict | None = None,
                      trajectories: pd.DataFrame | None = None) -> Path:
     """A copy of the optimize folder ``src`` in ``dst``, written whole by the sweep's writer
     (a new run of the same command line), with ``summary`` or the manifest's ``trust``
-    checks or ``options`` replaced."""
+    checks replaced, or keys of its ``[drive]`` in force (``sections``, and the bound values
+    they are) changed."""
     manifest = read_manifest(src)
     body = {k: v for k, v in manifest.items()
             if k not in ("schema", "schema_version", "provenance", "files")}
     if trust is not None:
         body["trust"] = trust
-    if options is not None:
-        body["options"] = options
+    if drive is not None:
+        given = {**((body.get("sections") or {}).get("drive") or {}), **drive}
+        flown = dataclasses.replace(DriveSection(), **{
+            k: tuple(v) if isinstance(v, list) else v for k, v in given.items()})
+        body["sections"] = {**(body.get("sections") or {}), "drive": dataclasses.asdict(flown)}
+        body["bound_values"] = {**(body.get("bound_values") or {}), **bound_values(flown)}
     write_sweep_folder(dst, Provenance.start(manifest["provenance"]["command_line"]),
                        summary=read_summary(src / SUMMARY_FILE) if summary is None else summary,
                        trajectories=(read_trajectories(src) if trajectories is None
@@ -560,7 +568,7 @@ def test_fig9_draws_the_drive_envelope_the_sweep_flew_with(full_inputs, tmp_path
     store, fit, opt = full_inputs["dirs"]
     limits = {"max_speed_rpm": 1500.0, "max_torque_nm": 78.0, "base_speed_rpm": 1000.0,
               "envelope_speed_rpm": None, "envelope_torque_nm": None}
-    other = rewrite_optimize(opt, tmp_path / "opt", options={"limits": limits})
+    other = rewrite_optimize(opt, tmp_path / "opt", drive=limits)
     speed, torque = flown_envelope(read_manifest(other))
     assert np.interp([-1500.0, -500.0, 0.0, 1200.0], speed, torque) == pytest.approx(
         [52.0, 78.0, 78.0, 65.0], abs=1e-9)
@@ -582,7 +590,7 @@ def test_fig3_shows_the_winding_temperature_over_the_cycle_and_its_margin(full_i
     phase = 2 * np.pi * traj["time_s"] / CYCLE_PERIOD_S
     traj["theta_winding_c"] = 44.0 + 0.5 * np.sin(phase)  # peak 44.5 degC
     other = rewrite_optimize(opt, tmp_path / "opt", trajectories=traj,
-                             options={"limits": {"max_winding_temperature_c": 45.0}})
+                             drive={"max_winding_temperature_c": 45.0})
     html = render(build_context(store, fit, other, ["bench", "report"]))
     assert 'id="winding-temperature"' in html
     assert "limit 45 degC (margin 0.50 K)" in html

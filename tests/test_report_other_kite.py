@@ -50,8 +50,7 @@ def write_other_kite(opt):
         summary=pd.DataFrame(rows), trajectories=pd.concat(trajs, ignore_index=True),
         system=system.record(), claims=claims, carried_model=None, manifest={
             "wind_speeds_m_s": list(WINDS), "system": system.record(),
-            "options": {"limits": {"surface_bounds_deg": [20.0, 30.0, 30.0],
-                                   "min_altitude_m": 100.0}},
+            "bound_values": {"surface_limit": [20.0, 30.0, 30.0], "ground_clearance": 100.0},
             "drive_model": {"path": "", "model_sha256": "", "name": "none"},
             "cut_in": [{"kind": "elec-lim", "cut_in_m_s": None, "bracket_lo_m_s": None,
                         "bracket_hi_m_s": None, "status": "no bracket: every grid speed "

@@ -18,6 +18,7 @@ from optimize.model.params import AeroCoefficients
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.service.builder import Problem
 from optimize.service.outcome import Attempt, ScenarioOutcome
+from optimize.system.system_file import load_system
 
 
 def test_power_bound_is_the_largest_aerodynamic_power():
@@ -36,8 +37,7 @@ def test_force_ratio_of_a_constant_polar():
     """A polar with C_L = cl0 and C_D = cd0 only: the largest ratio is (cl0^2+cd0^2)^1.5/cd0^2."""
     zero = {f.name: 0.0 for f in dataclasses.fields(AeroCoefficients)}
     coeffs = AeroCoefficients(**{**zero, "cl0": 0.8, "cd0": 0.05})
-    limits = OcpOptions().limits
-    assert rc.max_force_ratio(coeffs, limits) == pytest.approx((0.8**2 + 0.05**2) ** 1.5
+    assert rc.max_force_ratio(coeffs, load_system()) == pytest.approx((0.8**2 + 0.05**2) ** 1.5
                                                                / 0.05**2, rel=1e-12)
 
 
@@ -98,7 +98,7 @@ def test_trust_simulation_that_cannot_finish_is_a_finding(coarse_ocp, coarse_ele
                            "CVODES returned \"CV_TOO_MUCH_WORK\"")
 
     monkeypatch.setattr(trust, "simulation_check", give_up)
-    problem = Problem.for_system(None, paper_model(),
+    problem = Problem.for_system(coarse_ocp.system, paper_model(),
                                  OcpOptions(Discretization(n_intervals=coarse_ocp.n_intervals)))
     outcome = ScenarioOutcome("elec-lim-7.0", "elec-lim", 7.0, 0,
                               (Attempt(None, "Solve_Succeeded", True, 5, 0.1),),

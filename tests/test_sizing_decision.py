@@ -152,14 +152,14 @@ def test_how_the_sweep_ran_says_no_none_nor_true_false():
     from reports.optimization_section import run_rows
 
     rows = run_rows({"executor": "process pool", "wall_time_s": 80.4, "failed": [],
-                     "options": {"limits": {"max_p_elec_w": None, "max_speed_rpm": 1500.0,
-                                            "surface_bounds_deg": [10.0, 10.0, 10.0]},
+                     "options": {"discretization": {"control_sigma": [10.0, 1.0, 1.0, 1.0]},
                                  "solver": {"codegen": False, "stored_guess": True,
-                                            "max_iter": 1000, "tol": 1e-06}}}, None)
+                                            "max_iter": 1000, "tol": 1e-06,
+                                            "start_file": None}}}, None)
     text = dict(rows)
-    assert text["option max_p_elec_w"] == "not set"
+    assert text["option start_file"] == "not set"
     assert text["option codegen"] == "no" and text["option stored_guess"] == "yes"
-    assert text["option surface_bounds_deg"] == "10, 10, 10"
+    assert text["option control_sigma"] == "10, 1, 1, 1"
     assert text["option max_iter"] == "1000" and text["option tol"] == "1e-06"
     assert text["failed"] == "none"
     assert not any(v in ("None", "True", "False") for v in text.values())

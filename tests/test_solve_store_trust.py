@@ -37,7 +37,7 @@ class LinearBackend:
         self.solves = 0
 
     def build(self, problem):
-        return problem.options.limits.max_torque_nm / 78.0
+        return problem.system.drive.max_torque_nm / 78.0
 
     def _result(self, scale, wind):
         self.solves += 1

@@ -11,6 +11,7 @@ import shutil
 
 import numpy as np
 import pytest
+from system_fixtures import system_for
 
 from optimize.solve.starts import stored_guess
 
@@ -109,7 +110,7 @@ def test_an_intact_guess_that_no_longer_fits_is_named_as_stale(tmp_path, caplog)
     from optimize.solve.starts.fill import part_start
 
     small = OcpOptions(Discretization(n_intervals=3, degree=2))
-    ocp = build_ocp(kite_dae(), paper_model(), small)
+    ocp = build_ocp(kite_dae(), paper_model(), small, system=system_for())
     scenario = stored_guess.GUESS_SCENARIO
     period = float(np.mean(ocp.formulation.period_bounds()))
     a = part_start(ocp, period, scenario.parameters)
@@ -119,7 +120,7 @@ def test_an_intact_guess_that_no_longer_fits_is_named_as_stale(tmp_path, caplog)
                        ocp.params(scenario.parameters, scenario.weights))
     assert stored_guess.load(ocp, tmp_path / "g.npz")[0] is not None
     heavier = build_ocp(kite_dae(KiteParams(mass_kg=KiteParams().mass_kg + 1.0)),
-                        paper_model(), small)
+                        paper_model(), small, system=system_for())
     caplog.set_level(logging.WARNING, logger=LOGGER)
     solution, why = stored_guess.load(heavier, tmp_path / "g.npz")
     assert solution is None and "does not fit this OCP's constraints" in why

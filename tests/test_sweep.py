@@ -612,7 +612,8 @@ def test_a_sweep_in_which_nothing_converged_writes_every_column_of_its_parts(tmp
                         backend=DeadWorkerBackend())
     assert not done.summary["success"].any()
     units = field_units(out / "trajectories.parquet")
-    ocp = build_ocp(kite_dae(*setup.system.model_params()), paper_model(), setup.options)
+    ocp = build_ocp(kite_dae(*setup.system.model_params()), paper_model(), setup.options,
+                    system=setup.system)
     columns = trajectory_columns(ocp.formulation.parts)
     assert list(units) == ["scenario", "kind", "wind_speed_m_s", *columns]
     assert {c: units[c] for c in columns} == columns

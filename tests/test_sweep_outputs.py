@@ -8,6 +8,7 @@ from dataclasses import dataclass, field, replace
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
+from system_fixtures import system_for
 
 from kernel.errors import InputError
 from kernel.files import write_parquet
@@ -165,7 +166,7 @@ def test_the_paper_parts_give_each_trajectory_column_its_unit():
         "altitude_m": "m", "airspeed_m_s": "m/s", "alpha_deg": "deg", "beta_deg": "deg",
         "wind_m_s": "m/s", "line_angle_deg": "deg", "c_m2": "m^2", "cdot_m2_s": "m^2/s",
     }
-    columns = trajectory_columns(model_parts(km.kite_dae(), paper_model()))
+    columns = trajectory_columns(model_parts(km.kite_dae(), paper_model(), system=system_for()))
     variables = (*km.STATES.names, *km.CONTROLS.names, *km.ALGEBRAIC.names)
     assert list(columns) == [*outputs][:3] + [*variables] + [
         c for c in columns if c in outputs and c not in FRAME_COLUMNS]

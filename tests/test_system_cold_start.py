@@ -32,10 +32,10 @@ def solved():
     system = load_system(shipped_system_path("ap2"))
     drive = drive_in_force(system)  # the paper's drive carried to the AP2 rating
     model = drive.model
-    options = system.ocp_options(OcpOptions(Discretization(n_intervals=20, degree=3),
-                                            solver=SolverOptions(stored_guess=False)),
-                                 drive.rating)
-    ocp = build_ocp(kite_dae(*system.model_params()), model, options, system=system)
+    options = OcpOptions(Discretization(n_intervals=20, degree=3),
+                         solver=SolverOptions(stored_guess=False))
+    ocp = build_ocp(kite_dae(*system.model_params()), model, options,
+                    system=system.in_force(drive.rating))
     return system, ocp, cold_start(ocp, Scenario(WIND_M_S, "mechanical", True))
 
 

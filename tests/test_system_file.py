@@ -11,7 +11,6 @@ import pytest
 from kernel.errors import InputError
 from optimize.model.params import AeroCoefficients, KiteParams, WindModel
 from optimize.paper_model import paper_model
-from optimize.problem.options import OcpOptions, with_drive_rating
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import load_system, system_from_dict
@@ -47,9 +46,11 @@ def test_highwind_file_is_the_package_defaults():
     assert system.aero_coefficients() == AeroCoefficients()
     assert system.wind_model() == WindModel()
     rating = drive_in_force(system, drive_model=paper_model()).rating
-    # the drive limits OcpOptions leaves open are the paper model's rating, the file's
-    assert system.ocp_options(OcpOptions(), rating) == with_drive_rating(OcpOptions(),
-                                                                         paper_model())
+    # the file's drive is the paper model's rating
+    flown = system.in_force(rating).drive
+    assert {k: getattr(flown, k) for k in ("max_speed_rpm", "max_torque_nm",
+                                           "nominal_power_w")} == {
+        k: paper_model().drive[k] for k in ("max_speed_rpm", "max_torque_nm", "nominal_power_w")}
 
 
 def test_only_the_paper_system_says_it_is_the_papers():

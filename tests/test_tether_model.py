@@ -15,6 +15,7 @@ import casadi as ca
 import numpy as np
 import pytest
 from scipy.integrate import quad
+from system_fixtures import system_for
 
 from optimize.model.atmosphere import ISA_LAPSE_K_M, air_density
 from optimize.model.kite_model import kite_dae
@@ -141,10 +142,10 @@ def test_the_tether_part_joins_only_a_line_with_mass_or_element_drag():
     from optimize.problem.options import Discretization, OcpOptions
 
     options = OcpOptions(Discretization(4, 2))
-    plain = build_ocp(kite_dae(), paper_model(), options)
+    plain = build_ocp(kite_dae(), paper_model(), options, system=system_for())
     assert "tether" not in [p.name for p in plain.formulation.parts]
     heavy = build_ocp(kite_dae(KiteParams(), None, WindModel(), TetherModel(mass_kg_m=0.01)),
-                      paper_model(), options)
+                      paper_model(), options, system=system_for())
     part = [p for p in heavy.formulation.parts if p.name == "tether"]
     assert len(part) == 1 and part[0].algebraic.names == LINE_FORCE
     dae = heavy.dae

@@ -15,6 +15,7 @@ import math
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
+from system_fixtures import system_for
 
 from energy.site import Weibull
 from energy.sizing import candidate_table, scaled_candidates
@@ -64,19 +65,19 @@ def test_periodic_temperature_matches_the_closed_form():
 def test_without_a_thermal_rating_the_ocp_is_unchanged():
     """No winding limit, or no thermal model: no temperature state, the RMS row stays."""
     opts = OcpOptions(Discretization(n_intervals=8))
-    plain = build_ocp(kite_dae(), _model(), opts)
+    plain = build_ocp(kite_dae(), _model(), opts, system=system_for(_model()))
     assert STATE not in plain.dae.states.names
-    assert winding_thermal(paper_model(), dataclasses.replace(
-        opts.limits, max_winding_temperature_c=LIMIT_C)) is None
-    line = thermal_line(paper_model(), dataclasses.replace(opts.limits,
-                                                           max_winding_temperature_c=LIMIT_C))
+    hot = system_for(drive={"max_winding_temperature_c": LIMIT_C}).drive
+    assert winding_thermal(paper_model(), hot) is None
+    line = thermal_line(paper_model(), hot)
     assert "not applied" in line and "no thermal model" in line
 
 
-#: elec-lim options of the cycles below: 10 intervals, the winding limited to LIMIT_C
-HOT_OPTIONS = OcpOptions(Discretization(n_intervals=10)).replace(limits={
-    "max_winding_temperature_c": LIMIT_C, "max_speed_rpm": 1500.0,
-    "max_torque_nm": 78.0, "nominal_power_w": 8200.0, "max_rms_torque_nm": 60.0})
+#: elec-lim options of the cycles below: 10 intervals
+HOT_OPTIONS = OcpOptions(Discretization(n_intervals=10))
+#: their drive: the paper's, the winding limited to LIMIT_C, an RMS rating of 60 N m
+HOT_DRIVE = {"max_winding_temperature_c": LIMIT_C, "max_speed_rpm": 1500.0,
+             "max_torque_nm": 78.0, "nominal_power_w": 8200.0, "continuous_torque_nm": 60.0}
 
 
 @pytest.fixture(scope="module")
@@ -86,9 +87,9 @@ def hot_cycle():
     interpolated onto 10 intervals, and the winding limited to 40 degC, started from
     that optimum with the thermal part's own start (its cyclic steady temperature)."""
     dae = kite_dae(*load_system().model_params())
-    ocp = build_ocp(dae, _model(), HOT_OPTIONS)
+    ocp = build_ocp(dae, _model(), HOT_OPTIONS, system=system_for(_model(), drive=HOT_DRIVE))
     scenario = Scenario.of_kind("elec-lim", 10.0)
-    plain = build_ocp(dae, paper_model(), HOT_OPTIONS)
+    plain = build_ocp(dae, paper_model(), HOT_OPTIONS, system=system_for(drive=HOT_DRIVE))
     base = start(plain, scenario)
     hot = solve(ocp, scenario, carry_over(plain, base.warm, ocp, scenario.parameters))
     return ocp, hot, base, plain
@@ -175,7 +176,8 @@ def test_a_two_node_network_is_periodic_in_the_cycle_and_its_winding_limited(hot
                                                   {"node": "housing", "c_j_per_k": c_h,
                                                    "r_k_per_w": r_ha}]}
     model = dataclasses.replace(paper_model(), thermal=thermal)
-    ocp = build_ocp(kite_dae(*load_system().model_params()), model, HOT_OPTIONS)
+    ocp = build_ocp(kite_dae(*load_system().model_params()), model, HOT_OPTIONS,
+        system=system_for(model, drive=HOT_DRIVE))
     assert ocp.dae.states.names[-2:] == (STATE, "theta_housing_c")
     warm = carry_over(one_node, one.warm, ocp, Scenario.of_kind("elec-lim", 10.0).parameters)
     hot = solve(ocp, Scenario.of_kind("elec-lim", 10.0), warm)

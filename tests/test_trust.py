@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
+from system_fixtures import system_for
 
 from optimize.model import kite_model as km
 from optimize.paper_model import paper_model
@@ -38,7 +39,8 @@ class FakeResult:
 @pytest.fixture(scope="module")
 def ocp():
     dae = km.kite_dae()
-    return build_ocp(dae, paper_model(), OcpOptions(Discretization(n_intervals=N, degree=DEGREE)))
+    return build_ocp(dae, paper_model(), OcpOptions(Discretization(n_intervals=N, degree=DEGREE)),
+        system=system_for())
 
 
 def controls() -> np.ndarray:
@@ -113,7 +115,8 @@ def test_simulation_check_finds_a_planted_defect(ocp):
 
 def test_mesh_interpolation_is_exact_on_linear_states_and_interval_controls(ocp):
     fine = build_ocp(ocp.dae, paper_model(),
-                     OcpOptions(Discretization(n_intervals=2 * N, degree=DEGREE)))
+                     OcpOptions(Discretization(n_intervals=2 * N, degree=DEGREE)),
+                         system=system_for())
     t_c = grid_times(ocp, PERIOD_S)
     slope = np.linspace(-2.0, 3.0, km.STATES.size)[:, None]
     x = 1.0 + slope * t_c[None, :]

@@ -121,16 +121,16 @@ def mesh_label(n_intervals: int, degree: int) -> str:
     return label
 
 
-def max_force_ratio(coeffs: Any, limits: Any) -> float:
+def max_force_ratio(coeffs: Any, system: Any) -> float:
     """Largest ``C_R^3 / C_D^2`` of the wing within the OCP's bounds [-].
 
-    Grid over angle of attack, sideslip and the three surface deflections
-    (``limits.alpha_bounds_deg``, ``beta_bounds_deg``, ``surface_bounds_deg``); the
-    wing's drag alone, no tether drag.
+    Grid over angle of attack, sideslip and the three surface deflections (the ranges of
+    ``system``'s ``[aero]`` and ``[bounds]``); the wing's drag alone, no tether drag.
     """
-    a_lo, a_hi = np.radians(limits.alpha_bounds_deg)
-    b_lo, b_hi = np.radians(limits.beta_bounds_deg)
-    s_a, s_e, s_r = np.radians(limits.surface_bounds_deg)
+    aero = system.aero
+    a_lo, a_hi = np.radians((aero.alpha_min_deg, aero.alpha_max_deg))
+    b_lo, b_hi = np.radians((aero.beta_min_deg, aero.beta_max_deg))
+    s_a, s_e, s_r = np.radians(system.bounds.surface_bounds_deg())
     axes = [np.linspace(lo, hi, n) for (lo, hi), n in
             zip(((a_lo, a_hi), (b_lo, b_hi), (-s_a, s_a), (-s_e, s_e), (-s_r, s_r)), _GRID,
                 strict=True)]
@@ -211,7 +211,7 @@ def check_result(ocp: Any, result: Any, name: str) -> ResultCheck:
     kite, traj = ocp.dae.kite, result.trajectory
     wind_max = float(np.max(traj["wind_m_s"]))
     bound = power_bound_w(kite.rho_kg_m3, kite.sref_m2, wind_max,
-                          max_force_ratio(ocp.dae.coeffs, ocp.options.limits))
+                          max_force_ratio(ocp.dae.coeffs, ocp.system))
     generated = -float(result.avg_p_mech_w)
     defect, defect_pos, periodicity = reintegrate(ocp, result)
     mesh = mesh_label(ocp.n_intervals, ocp.coll.degree)

@@ -92,7 +92,8 @@ def has_envelope(limits: Any) -> bool:
 def envelope_torque_nm(limits: Any, speed_rpm: np.ndarray) -> np.ndarray:
     """The drive's largest torque [N m] at each speed as the OCP bounds it: its
     torque-speed envelope (a table's smooth lower bound), else its torque limit.
-    ``limits``: :class:`optimize.problem.options.Limits` (or the same fields)."""
+    ``limits``: a drive's ``[drive]`` in force (:class:`optimize.system.sections.DriveSection`)
+    or the same fields."""
     if limits.base_speed_rpm is not None:
         return largest_torque_nm(speed_rpm, limits.max_torque_nm, limits.base_speed_rpm)
     if limits.envelope_speed_rpm is not None:

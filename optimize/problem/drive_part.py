@@ -25,7 +25,7 @@ from optimize.model.envelope import (
     has_envelope,
 )
 from optimize.problem.interface import Row
-from optimize.problem.options import Limits
+from optimize.problem.kite_part import reel_speed_range_m_s
 from optimize.problem.part import ACTIVE_RTOL, Part, near
 from optimize.problem.scaling import Scales
 
@@ -45,7 +45,10 @@ class DrivePart(Part):
     drivetrain : Drivetrain
     drive_model : DriveModel
         Electrical power model of the drive.
-    limits : Limits
+    system : optimize.system.system.System
+        Its inputs: the ``[drive]`` in force (:meth:`optimize.system.system.System.in_force`:
+        the rating, the envelope), and the kite's tether-force limit and tension floor it
+        holds at the drum, the winch's reel speeds within the drive's.
     scales_of : Scales
         Its ``power_w`` and ``torque_nm``.
     rms_torque_nm : float or None
@@ -55,7 +58,7 @@ class DrivePart(Part):
 
     drivetrain: Drivetrain
     drive_model: DriveModel
-    limits: Limits
+    system: Any
     scales_of: Scales
     rms_torque_nm: float | None = None
     name: str = "drive"
@@ -75,14 +78,25 @@ class DrivePart(Part):
                 "p_mech_w": dt.shaft_power_w(tension, dl, ddl),
                 "p_elec_w": self.drive_model.casadi_p_elec_w(speed, torque)}
 
+    @property
+    def limits(self) -> dict[str, Any]:
+        """The system's bounds by the names ``active_bounds`` reports them by
+        (:meth:`optimize.system.system.System.bound_values`)."""
+        return self.system.bound_values()
+
+    @property
+    def drive(self) -> Any:
+        """The ``[drive]`` in force (:class:`optimize.system.sections.DriveSection`)."""
+        return self.system.drive
+
     def tether_torque_limit_nm(self) -> float:
         """The kite's tether-force limit as a torque at the motor [N m] (inf: none)."""
-        force = self.limits.max_tether_force_n
+        force = self.limits["tether_force_limit"]
         return np.inf if force is None else float(self.drivetrain.tether_torque_nm(force))
 
     def tether_torque_floor_nm(self) -> float:
         """The kite's tension floor as a torque at the motor [N m] (-inf: none)."""
-        force = self.limits.min_tension_n
+        force = self.limits["tension_min"]
         return -np.inf if force is None else float(self.drivetrain.tether_torque_nm(force))
 
     def torque_rows(self, q: Mapping[str, Any]) -> list[Row]:
@@ -95,7 +109,7 @@ class DrivePart(Part):
         tension floor and the tether-force limit have a row of their own on the tether
         torque.
         """
-        sc, lim, torque = self.scales_of, self.limits, q["torque_nm"]
+        sc, lim, torque = self.scales_of, self.drive, q["torque_nm"]
         torque_top = self.tether_torque_limit_nm()
         floor = self.tether_torque_floor_nm() / sc.torque_nm
         if self.drivetrain.inertia_kg_m2 == 0:
@@ -111,7 +125,7 @@ class DrivePart(Part):
     def envelope_rows(self, q: Mapping[str, Any]) -> list[Row]:
         """The drive's torque-speed envelope in the ``*-lim`` kinds (none without one):
         ``|T w| <= T_max w_base`` above a base speed, or the table's largest torque."""
-        lim, sc = self.limits, self.scales_of
+        lim, sc = self.drive, self.scales_of
         speed_rpm, torque = q["speed_rpm"], q["torque_nm"]
         if lim.base_speed_rpm is not None:
             power = constant_power_w(lim.max_torque_nm, lim.base_speed_rpm)
@@ -127,8 +141,8 @@ class DrivePart(Part):
     def rows(self, q: Mapping[str, Any]) -> list[Row]:
         """Torque, envelope and electrical-power rows."""
         rows = [*self.torque_rows(q), *self.envelope_rows(q)]
-        if self.limits.max_p_elec_w is not None:
-            p_lim = self.limits.max_p_elec_w / self.scales_of.power_w
+        if self.drive.max_p_elec_w is not None:
+            p_lim = self.drive.max_p_elec_w / self.scales_of.power_w
             rows.append(Row("p_elec", q["p_elec_w"] / self.scales_of.power_w, -np.inf, np.inf,
                             limited=(-p_lim, p_lim)))
         return rows
@@ -157,14 +171,14 @@ class DrivePart(Part):
         """The kite's tether-force limit (every kind); the drive's speed, torque, envelope
         and electrical-power limits (the ``*-lim`` kinds)."""
         lim = self.limits
-        out = ["tether_force_limit"] if near(traj["tension_n"], lim.max_tether_force_n) else []
+        out = ["tether_force_limit"] if near(traj["tension_n"], lim["tether_force_limit"]) else []
         if not drive_limits:
             return out
         speed, torque = np.abs(np.asarray(traj["speed_rpm"])), np.abs(np.asarray(traj["torque_nm"]))
-        checks = (("speed_limit", speed, lim.max_speed_rpm),
-                  ("torque_limit", torque, lim.max_torque_nm),
+        checks = (("speed_limit", speed, lim["speed_limit"]),
+                  ("torque_limit", torque, lim["torque_limit"]),
                   ("envelope_limit", self.envelope_ratio(speed, torque), 1.0),
-                  ("p_elec_limit", np.abs(traj["p_elec_w"]), lim.max_p_elec_w))
+                  ("p_elec_limit", np.abs(traj["p_elec_w"]), lim["p_elec_limit"]))
         return out + [name for name, value, bound in checks
                       if value is not None and near(value, bound)]
 
@@ -173,7 +187,7 @@ class DrivePart(Part):
         """|Torque| over the envelope's torque where the envelope, not the torque limit,
         is the bound (above the base speed; a base speed beyond every speed flown never
         binds); None without an envelope."""
-        lim = self.limits
+        lim = self.drive
         if not has_envelope(lim):
             return None
         env = envelope_torque_nm(lim, speed_rpm)
@@ -183,6 +197,6 @@ class DrivePart(Part):
     def limited_bounds(self) -> dict[str, tuple[float, float]]:
         """The reel speed of the drive's speed limit (within the winch's range)."""
         dt = self.drivetrain
-        dl_max = max_reel_speed_m_s(self.limits.max_speed_rpm / dt.gear_ratio, dt.r_winch_m)
-        lo, hi = self.limits.reel_speed_range_m_s()
+        dl_max = max_reel_speed_m_s(self.drive.max_speed_rpm / dt.gear_ratio, dt.r_winch_m)
+        lo, hi = reel_speed_range_m_s(self.system.winch)
         return {"dl_m_s": (max(-dl_max, lo), min(dl_max, hi))}

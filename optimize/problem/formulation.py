@@ -317,4 +317,4 @@ class Formulation:
 
     def period_bounds(self) -> tuple[float, float]:
         """Bounds of the free period [s] (the kite's)."""
-        return self.parts[0].limits.period_bounds_s
+        return self.parts[0].period_bounds_s()

@@ -10,6 +10,7 @@ and jerk limits; its start the circular loop (:func:`optimize.problem.guess.circ
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -17,11 +18,12 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from kernel.sections import bound_values
 from optimize.model.aero import SURFACES
 from optimize.model.kite_model import KiteDae
 from optimize.problem.guess import LoopGuess, circular_loop
 from optimize.problem.interface import Row
-from optimize.problem.options import Limits
+from optimize.problem.options import SOLVER_BODY_RATE_RAD_S, SOLVER_REEL_SPEED_M_S
 from optimize.problem.part import Part, StartPoint, near
 from optimize.problem.scaling import Scales
 
@@ -45,6 +47,20 @@ def _vector(q: Mapping[str, Any], names: tuple[str, ...]) -> Any:
     return ca.vertcat(*[q[n] for n in names])
 
 
+def body_rate_limit_rad_s(bounds: Any) -> float | None:
+    """The system's bound of each body rate [rad/s] (its ``[bounds]`` section), or None."""
+    top = bound_values(bounds)["body_rate_limit"]
+    return None if top is None else top * math.pi / 180
+
+
+def reel_speed_range_m_s(winch: Any) -> tuple[float, float]:
+    """The reel speed ``l'`` range of every kind [m/s]: the winch's limits (its ``[winch]``
+    section), the solver's range of :data:`SOLVER_REEL_SPEED_M_S` where unstated."""
+    values = bound_values(winch)
+    return (-(values["reel_in_speed_limit"] or SOLVER_REEL_SPEED_M_S),
+            values["reel_out_speed_limit"] or SOLVER_REEL_SPEED_M_S)
+
+
 @dataclass(frozen=True)
 class KitePart(Part):
     """The kite (a :class:`optimize.problem.part.Part`).
@@ -52,15 +68,17 @@ class KitePart(Part):
     Parameters
     ----------
     dae : KiteDae
-    limits : Limits
-    scales : Scales
+    system : optimize.system.system.System
+        Its inputs: the system's ``[aero]``, ``[winch]`` and ``[bounds]`` sections (the
+        angle ranges, the reel limits, the flight envelope and the search ranges).
+    scales_of : Scales
         The system's magnitudes (:func:`optimize.problem.scaling.system_scales`).
     loop : LoopGuess
         The start loop.
     """
 
     dae: KiteDae
-    limits: Limits
+    system: Any
     scales_of: Scales
     loop: LoopGuess
     name: str = "kite"
@@ -97,19 +115,36 @@ class KitePart(Part):
             fict = fict + ca.vertcat(*[q.get(name, 0) for name in EXTERNAL])
         return [self.dae.alg(x, u, z, q[WIND], fict) * ca.DM(1.0 / self.scales_of.residual)]
 
+    @property
+    def limits(self) -> dict[str, Any]:
+        """The system's bounds by the names ``active_bounds`` reports them by
+        (:meth:`optimize.system.system.System.bound_values`)."""
+        return self.system.bound_values()
+
+    def period_bounds_s(self) -> tuple[float, float]:
+        """The free period's search range [s]."""
+        lim = self.limits
+        return lim["period_min"], lim["period_max"]
+
+    def body_rate_bound_rad_s(self) -> float:
+        """The bound of each body rate of every kind [rad/s]: the system's, the solver's
+        range of :data:`SOLVER_BODY_RATE_RAD_S` where unstated."""
+        top = body_rate_limit_rad_s(self.system.bounds)
+        return SOLVER_BODY_RATE_RAD_S if top is None else top
+
     def rows(self, q: Mapping[str, Any]) -> list[Row]:
         """Airspeed (the kite's limit in every kind), angle of attack, sideslip and line
         angle."""
-        lim, v_sc = self.limits, self.scales_of.airspeed_m_s
-        v_top = np.inf if lim.max_airspeed_m_s is None else lim.max_airspeed_m_s
+        lim, aero, v_sc = self.limits, self.system.aero, self.scales_of.airspeed_m_s
+        v_top = np.inf if lim["airspeed_max"] is None else lim["airspeed_max"]
         return [
-            Row("airspeed", q["airspeed_m_s"] / v_sc, lim.min_airspeed_m_s / v_sc,
+            Row("airspeed", q["airspeed_m_s"] / v_sc, lim["airspeed_min"] / v_sc,
                 v_top / v_sc),
-            Row("alpha", q["alpha_rad"] / (10 * DEG), lim.alpha_bounds_deg[0] / 10,
-                lim.alpha_bounds_deg[1] / 10),
-            Row("beta", q["beta_rad"] / (10 * DEG), lim.beta_bounds_deg[0] / 10,
-                lim.beta_bounds_deg[1] / 10),
-            Row("line_angle", q["cos_line_angle"], np.cos(lim.max_line_angle_deg * DEG),
+            Row("alpha", q["alpha_rad"] / (10 * DEG), aero.alpha_min_deg / 10,
+                aero.alpha_max_deg / 10),
+            Row("beta", q["beta_rad"] / (10 * DEG), aero.beta_min_deg / 10,
+                aero.beta_max_deg / 10),
+            Row("line_angle", q["cos_line_angle"], np.cos(lim["line_angle_limit"] * DEG),
                 np.inf),
         ]
 
@@ -130,29 +165,30 @@ class KitePart(Part):
         limits are the system's; the tension ``l nu >= 0``; the control-surface
         deflections and rates."""
         lim = self.limits
-        l_lo, l_hi = lim.tether_length_bounds_m
+        l_lo, l_hi = lim["tether_length_min"], lim["tether_length_max"]
         reach = 4.0 * l_hi
-        z_top = lim.min_altitude_m - self.dae.wind.origin_altitude_m  # r_z <= -(clearance)
-        rate = lim.surface_rate_bound_rad_s
-        spin = lim.body_rate_bound_rad_s()
-        ddl = lim.max_reel_acceleration_m_s2 or SOLVER_REEL_ACCELERATION_M_S2
-        jerk = lim.max_reel_jerk_m_s3 or SOLVER_REEL_JERK_M_S3
+        z_top = lim["ground_clearance"] - self.dae.wind.origin_altitude_m  # r_z <= -(clearance)
+        rate = self.system.bounds.surface_rate_max_rad_s
+        spin = self.body_rate_bound_rad_s()
+        ddl = lim["reel_acceleration_limit"] or SOLVER_REEL_ACCELERATION_M_S2
+        jerk = lim["reel_jerk_limit"] or SOLVER_REEL_JERK_M_S3
         sym = {"r_x_m": reach, "r_y_m": reach, "v_x_m_s": 200, "v_y_m_s": 200,
                "v_z_m_s": 200, "omega_x_rad_s": spin, "omega_y_rad_s": spin,
                "omega_z_rad_s": spin, "ddl_m_s2": ddl, "dddl_m_s3": jerk,
                **{f"{s}_rad": bound * DEG
-                  for s, bound in zip(SURFACES, lim.surface_bounds_deg, strict=True)},
+                  for s, bound in zip(SURFACES, lim["surface_limit"], strict=True)},
                "daileron_rad_s": rate, "delevator_rad_s": rate, "drudder_rad_s": rate}
         out = {name: (-top, top) for name, top in sym.items()}
         out.update({n: (-1.1, 1.1) for n in self.states.names if n.startswith("dcm_")})
         out.update(r_z_m=(-reach, -z_top), l_m=(l_lo, l_hi), nu_n_per_m=(0.0, np.inf),
-                   dl_m_s=lim.reel_speed_range_m_s())
+                   dl_m_s=reel_speed_range_m_s(self.system.winch))
         return out
 
     def scales(self) -> dict[str, float]:
         """Magnitudes from the start loop's length, speed and rate, the weight, the
         surface bounds (:func:`optimize.problem.scaling.system_scales`)."""
         sc, lim = self.scales_of, self.limits
+        rate_bound = self.system.bounds.surface_rate_max_rad_s
         length, speed, rate = sc.length_m, sc.speed_m_s, sc.rate_rad_s
         kite = self.dae.kite
         return {
@@ -162,10 +198,9 @@ class KitePart(Part):
             **{f"omega_{a}_rad_s": 2.4 * rate for a in "xyz"},
             "l_m": 1.25 * length, "dl_m_s": 0.4 * speed, "ddl_m_s2": 0.9 * speed * rate,
             **{f"{s}_rad": 1.15 * (bound * DEG)
-               for s, bound in zip(SURFACES, lim.surface_bounds_deg, strict=True)},
+               for s, bound in zip(SURFACES, lim["surface_limit"], strict=True)},
             "dddl_m_s3": 2.4 * speed * rate**2,
-            **{f"d{s}_rad_s": lim.surface_rate_bound_rad_s
-               for s in SURFACES},
+            **{f"d{s}_rad_s": rate_bound for s in SURFACES},
             **{f"a_{a}_m_s2": 1.5 * speed * rate for a in "xyz"},
             **{f"domega_{a}_rad_s2": 6.3 * rate**2 for a in "xyz"},
             "nu_n_per_m": 11.0 * kite.mass_kg * kite.g_m_s2 / length,
@@ -180,30 +215,29 @@ class KitePart(Part):
         An angle is on its bound within :data:`~optimize.problem.part.ACTIVE_RTOL` of its
         range (a bound of 0 deg has no relative tolerance of its own)."""
         lim = self.limits
-        l_lo, l_hi = lim.tether_length_bounds_m
-        a_lo, a_hi = lim.alpha_bounds_deg
-        b_lo, b_hi = lim.beta_bounds_deg
+        a_lo, a_hi = lim["alpha_min"], lim["alpha_max"]
+        b_lo, b_hi = lim["beta_min"], lim["beta_max"]
         rates = np.degrees(np.abs(traj[["omega_x_rad_s", "omega_y_rad_s",
                                         "omega_z_rad_s"]].to_numpy()))
         surfaces = np.degrees(np.abs(traj[[f"{s}_rad" for s in SURFACES]].to_numpy()))
-        checks = (("tether_length_min", traj["l_m"], l_lo),
-                  ("tether_length_max", traj["l_m"], l_hi),
-                  ("ground_clearance", traj["altitude_m"], lim.min_altitude_m),
-                  ("airspeed_min", traj["airspeed_m_s"], lim.min_airspeed_m_s),
-                  ("airspeed_max", traj["airspeed_m_s"], lim.max_airspeed_m_s),
+        checks = (("tether_length_min", traj["l_m"], lim["tether_length_min"]),
+                  ("tether_length_max", traj["l_m"], lim["tether_length_max"]),
+                  ("ground_clearance", traj["altitude_m"], lim["ground_clearance"]),
+                  ("airspeed_min", traj["airspeed_m_s"], lim["airspeed_min"]),
+                  ("airspeed_max", traj["airspeed_m_s"], lim["airspeed_max"]),
                   ("alpha_min", (a_hi - traj["alpha_deg"]) / (a_hi - a_lo), 1.0),
                   ("alpha_max", (traj["alpha_deg"] - a_lo) / (a_hi - a_lo), 1.0),
                   ("beta_min", (b_hi - traj["beta_deg"]) / (b_hi - b_lo), 1.0),
                   ("beta_max", (traj["beta_deg"] - b_lo) / (b_hi - b_lo), 1.0),
                   ("reel_acceleration_limit", np.abs(traj["ddl_m_s2"]),
-                   lim.max_reel_acceleration_m_s2),
-                  ("reel_jerk_limit", np.abs(traj["dddl_m_s3"]), lim.max_reel_jerk_m_s3),
-                  ("reel_out_speed_limit", traj["dl_m_s"], lim.max_reel_out_speed_m_s),
-                  ("reel_in_speed_limit", -traj["dl_m_s"], lim.max_reel_in_speed_m_s),
-                  ("body_rate_limit", rates, lim.max_body_rate_deg_s),
-                  ("tension_min", traj["tension_n"], lim.min_tension_n),
-                  ("line_angle_limit", traj["line_angle_deg"], lim.max_line_angle_deg),
-                  ("surface_limit", surfaces / np.asarray(lim.surface_bounds_deg), 1.0))
+                   lim["reel_acceleration_limit"]),
+                  ("reel_jerk_limit", np.abs(traj["dddl_m_s3"]), lim["reel_jerk_limit"]),
+                  ("reel_out_speed_limit", traj["dl_m_s"], lim["reel_out_speed_limit"]),
+                  ("reel_in_speed_limit", -traj["dl_m_s"], lim["reel_in_speed_limit"]),
+                  ("body_rate_limit", rates, lim["body_rate_limit"]),
+                  ("tension_min", traj["tension_n"], lim["tension_min"]),
+                  ("line_angle_limit", traj["line_angle_deg"], lim["line_angle_limit"]),
+                  ("surface_limit", surfaces / np.asarray(lim["surface_limit"]), 1.0))
         return [name for name, value, bound in checks if near(value, bound)]
 
     def start_rows(self, q0: Mapping[str, Any]) -> list[Row]:

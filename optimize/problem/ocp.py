@@ -24,6 +24,7 @@ import casadi as ca
 import numpy as np
 
 from kernel.errors import InputError
+from kernel.sections import bound_keys
 from optimize.model.dae import Dae
 from optimize.model.drivetrain import DriveModel
 from optimize.model.kite_model import KiteDae
@@ -32,7 +33,8 @@ from optimize.problem.collocation import Collocation, radau
 from optimize.problem.formulation import Formulation
 from optimize.problem.guess import LoopBounds, LoopGuess, start_loop
 from optimize.problem.interface import CycleFormulation, weight_param
-from optimize.problem.options import OcpOptions, with_drive_rating
+from optimize.problem.kite_part import body_rate_limit_rad_s
+from optimize.problem.options import OcpOptions
 from optimize.problem.part import Part
 from optimize.problem.part_sections import section_parts
 from optimize.problem.parts import kite_parts
@@ -43,15 +45,16 @@ from optimize.problem.transcriptions.structure import Layout, Transcription
 log = logging.getLogger(__name__)
 
 #: the inputs whose values bound each NLP row or variable, named when its lower bound is
-#: above its upper one (:func:`crossed_bounds`); others are named by the row or variable
+#: above its upper one (:func:`crossed_bounds`); others are named by the row or variable.
+#: ``{bound}``: the ``[bounds]`` key of that bound (:func:`kernel.sections.bound_keys`)
 BOUND_INPUTS = {
-    "torque": "[drive] max_torque_nm against [bounds] min_tension_n (the tension floor's "
+    "torque": "[drive] max_torque_nm against {tension_min} (the tension floor's "
               "torque on the drum)",
     "airspeed": "[bounds] min_airspeed_m_s, max_airspeed_m_s",
     "alpha": "[aero] alpha_min_deg, alpha_max_deg",
     "beta": "[aero] beta_min_deg, beta_max_deg",
-    "line_angle": "[bounds] max_line_angle_deg",
-    "tether_force": "the tether-force limit against [bounds] min_tension_n",
+    "line_angle": "{line_angle_limit}",
+    "tether_force": "the tether-force limit against {tension_min}",
     "rms_torque": "[drive] continuous_torque_nm",
     "p_elec": "[drive] max_p_elec_w",
     "envelope": "[drive] base_speed_rpm or envelope_speed_rpm, envelope_torque_nm",
@@ -61,10 +64,19 @@ BOUND_INPUTS = {
 }
 
 
-def crossed_bounds(layout: Layout, bounds: tuple[np.ndarray, ...]) -> str | None:
+class _BoundKeys(dict):
+    """``[bounds] key`` by bound name (a name without a key: itself)."""
+
+    def __missing__(self, bound: str) -> str:
+        return bound
+
+
+def crossed_bounds(layout: Layout, bounds: tuple[np.ndarray, ...], system: Any = None
+                   ) -> str | None:
     """Which rows and variables of the NLP have a lower bound above their upper one
-    (``bounds``: ``lbw, ubw, lbg, ubg``), and the inputs those bounds come from; None when
-    none does (the solver would stop on an assertion without naming them)."""
+    (``bounds``: ``lbw, ubw, lbg, ubg``), and the inputs those bounds come from (the keys of
+    ``system``'s ``[bounds]``); None when none does (the solver would stop on an assertion
+    without naming them)."""
     lbw, ubw, lbg, ubg = bounds
     names = []
     for where, lo, hi in ((layout.variables, lbw, ubw), (layout.rows, lbg, ubg)):
@@ -74,7 +86,10 @@ def crossed_bounds(layout: Layout, bounds: tuple[np.ndarray, ...]) -> str | None
                       if np.intersect1d(np.ravel(idx), crossed).size]
     if not names:
         return None
-    said = "; ".join(f"{n} ({BOUND_INPUTS[n]})" if n in BOUND_INPUTS else n for n in names)
+    keys = _BoundKeys() if system is None else _BoundKeys(
+        {b: f"[bounds] {k}" for b, k in bound_keys(system.bounds).items()})
+    said = "; ".join(f"{n} ({BOUND_INPUTS[n].format_map(keys)})" if n in BOUND_INPUTS else n
+                     for n in names)
     return (f"the NLP's bounds cross (lower above upper), so no point satisfies them: {said}; "
             "those inputs contradict each other")
 
@@ -220,7 +235,7 @@ class Ocp:
             # fix the first copy only: the copies follow through their equality rows
             # (fixing all would leave those rows with an empty Jacobian)
             lbw[lay.i_period[0]] = ubw[lay.i_period[0]] = period_s / self.scales.period_s
-        why = crossed_bounds(lay, (lbw, ubw, lbg, ubg))
+        why = crossed_bounds(lay, (lbw, ubw, lbg, ubg), self.system)
         if why is not None:
             raise ValueError(why)
         return lbw, ubw, lbg, ubg
@@ -266,12 +281,12 @@ def build_ocp(
     drive_model : DriveModel
         Electrical power model of the drive (``fitting.power_model.PowerModel``).
     options : OcpOptions, optional
-        Discretization, limits and solver; defaults to :class:`OcpOptions`. Drive
-        limits it leaves open are the power model's rating (``drive_model.drive``).
-    system : optimize.system.system.System, optional
-        The system ``dae`` and ``options.limits`` come from (recorded on the OCP;
-        the stored initial guess is accepted only for its own system); the parts of its
-        part sections (``system.part_inputs``,
+        Discretization and solver; defaults to :class:`OcpOptions`.
+    system : optimize.system.system.System
+        The system ``dae`` comes from, with the drive in force
+        (:meth:`optimize.system.system.System.in_force`): the parts read their bounds from
+        its sections; recorded on the OCP (the stored initial guess is accepted only for
+        its own system). The parts of its part sections (``system.part_inputs``,
         :data:`optimize.problem.part_sections.PART_SECTIONS`) follow the kite's own.
     parts : tuple of Part
         Parts added after those.
@@ -282,7 +297,7 @@ def build_ocp(
         The NLP with its layout and base bounds; solvers are created lazily.
     """
     t0 = time.perf_counter()
-    o = with_drive_rating(options or OcpOptions(), drive_model)
+    o = options or OcpOptions()
     loop, scales, own = _model(dae, drive_model, o, system)
     form = Formulation((*own, *parts), o.discretization, scales)
     return assemble(form, o, loop=loop, system=system, started=t0)
@@ -292,27 +307,35 @@ def model_parts(dae: KiteDae, drive_model: DriveModel, options: OcpOptions | Non
                 system: Any = None, parts: tuple[Part, ...] = ()) -> tuple[Part, ...]:
     """The parts :func:`build_ocp` builds its OCP of, without the NLP (what a sweep's
     tables hold, :func:`optimize.problem.part.trajectory_columns`); same arguments."""
-    o = with_drive_rating(options or OcpOptions(), drive_model)
-    return (*_model(dae, drive_model, o, system)[2], *parts)
+    return (*_model(dae, drive_model, options or OcpOptions(), system)[2], *parts)
 
 
 def _model(dae: KiteDae, drive_model: DriveModel, o: OcpOptions, system: Any
            ) -> tuple[LoopGuess, Scales, tuple[Part, ...]]:
-    """The start loop, the scales and the parts under the options ``o`` (with the drive's
-    rating): the kite's (:func:`kite_parts`), then those of the system's part sections
-    (:func:`section_parts`)."""
-    lim = o.limits
-    spin = None if lim.max_body_rate_deg_s is None else lim.body_rate_bound_rad_s()
-    loop = start_loop(dae.kite, dae.coeffs, dae.wind, lim.alpha_bounds_deg[1],
-                      LoopBounds(lim.min_airspeed_m_s, lim.period_bounds_s,
-                                 lim.tether_length_bounds_m, lim.min_altitude_m,
-                                 lim.max_airspeed_m_s, spin))
-    scales = system_scales(dae.kite, loop, lim.nominal_power_w, lim.max_torque_nm)
-    own = kite_parts(dae, drive_model, lim, scales, loop, winding_thermal(drive_model, lim))
-    return loop, scales, (*own, *section_parts(getattr(system, "part_inputs", ()), dae, scales))
+    """The start loop, the scales and the parts of ``system`` (with the drive in force):
+    the kite's (:func:`kite_parts`), then those of the system's part sections
+    (:func:`section_parts`).
+
+    Raises
+    ------
+    TypeError
+        No system: the parts' bounds are its sections'.
+    """
+    if system is None:
+        raise TypeError("build_ocp needs the system whose sections bound the OCP (a System "
+                        "with the drive in force: optimize.resolve.resolve(...).system)")
+    lim, drive = system.bound_values(), system.drive
+    loop = start_loop(dae.kite, dae.coeffs, dae.wind, system.aero.alpha_max_deg,
+                      LoopBounds(lim["airspeed_min"], (lim["period_min"], lim["period_max"]),
+                                 (lim["tether_length_min"], lim["tether_length_max"]),
+                                 lim["ground_clearance"], lim["airspeed_max"],
+                                 body_rate_limit_rad_s(system.bounds)))
+    scales = system_scales(dae.kite, loop, drive.nominal_power_w, drive.max_torque_nm)
+    own = kite_parts(dae, drive_model, system, scales, loop, winding_thermal(drive_model, drive))
+    return loop, scales, (*own, *section_parts(system.part_inputs, dae, scales))
 
 
-def thermal_line(drive_model: DriveModel, limits: Any, source: Any = None) -> str:
+def thermal_line(drive_model: DriveModel, drive: Any, source: Any = None) -> str:
     """One line: how the drive's continuous rating enters the OCP (winding temperature or
     RMS torque), and why.
 
@@ -323,21 +346,21 @@ def thermal_line(drive_model: DriveModel, limits: Any, source: Any = None) -> st
         ``source``, the system file, and the key).
     """
     try:
-        thermal = winding_thermal(drive_model, limits)
+        thermal = winding_thermal(drive_model, drive)
     except ValueError as exc:
         raise InputError(source, str(exc), column="max_winding_temperature_c",
                          expected="a winding limit above the ambient temperature "
                                   "([drive] ambient_temperature_c, else the one the "
                                   "thermal model was fitted with)") from exc
-    limit = limits.max_winding_temperature_c
+    limit = drive.max_winding_temperature_c
     if thermal is not None:
         return (f"continuous rating: winding temperature <= {thermal.max_c:g} degC at "
                 f"{thermal.ambient_c:.4g} degC ambient, a periodic state of the cycle "
                 f"(thermal model of {len(thermal.ladder)} node{'s' * (len(thermal.ladder) > 1)}: "
                 f"r_th {thermal.r_th_k_per_w:.4g} K/W, tau_th {thermal.tau_th_s:.4g} s), "
                 "in place of the RMS-torque row")
-    rms = ("RMS torque <= " + f"{limits.max_rms_torque_nm:g} N m"
-           if limits.max_rms_torque_nm is not None else "none stated")
+    rms = ("RMS torque <= " + f"{drive.rms_torque_limit_nm:g} N m"
+           if drive.rms_torque_limit_nm is not None else "none stated")
     if limit is not None:
         return (f"continuous rating: {rms}; the winding limit {limit:g} degC is not applied: "
                 "the power model has no thermal model (bench fit fits one from sessions "
@@ -349,15 +372,15 @@ def thermal_line(drive_model: DriveModel, limits: Any, source: Any = None) -> st
     return f"continuous rating: {rms}"
 
 
-def winding_thermal(drive_model: DriveModel, limits: Any) -> WindingThermal | None:
-    """The winding's thermal model in the OCP: when the drive has a thermal rating
-    (``limits.max_winding_temperature_c``) and its power model a thermal model; else
-    None (the RMS-torque row stands for the continuous rating)."""
+def winding_thermal(drive_model: DriveModel, drive: Any) -> WindingThermal | None:
+    """The winding's thermal model in the OCP: when the drive (its ``[drive]`` in force)
+    has a thermal rating (``max_winding_temperature_c``) and its power model a thermal
+    model; else None (the RMS-torque row stands for the continuous rating)."""
     thermal = getattr(drive_model, "thermal", None)
-    if limits.max_winding_temperature_c is None or thermal is None:
+    if drive.max_winding_temperature_c is None or thermal is None:
         return None
-    return WindingThermal.of(drive_model, limits.max_winding_temperature_c,
-                             limits.ambient_temperature_c)
+    return WindingThermal.of(drive_model, drive.max_winding_temperature_c,
+                             drive.ambient_temperature_c)
 
 
 def assemble(form: CycleFormulation, options: OcpOptions, loop: LoopGuess | None = None,

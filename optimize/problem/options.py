@@ -1,18 +1,17 @@
-"""Options of the cycle OCP in three groups: discretization, limits, solver.
+"""Options of the cycle OCP in two groups: discretization and solver.
 
 * :class:`Discretization`: how the cycle is transcribed (intervals, collocation
   degree, the control regularization that keeps the discretized controls smooth).
-* :class:`Limits`: the physical bounds of one system and its drive. They come from
-  the system file (:meth:`optimize.system.system.System.ocp_options`); the defaults
-  here are the shipped ``highwind.toml`` system's kite bounds, and the drive's limits
-  default to the power model's own rating (:func:`with_drive_rating`).
 * :class:`SolverOptions`: which NLP solver runs and how (tolerances, warm starts,
   linear solver, the stored initial guess).
 
-:class:`OcpOptions` holds one of each; ``OcpOptions()`` is the default problem::
+:class:`OcpOptions` holds one of each; ``OcpOptions()`` is the default::
 
     options = OcpOptions(Discretization(n_intervals=20), solver=SolverOptions(tol=1e-8))
-    options.discretization.n_intervals, options.limits.max_torque_nm, options.solver.tol
+    options.discretization.n_intervals, options.solver.tol
+
+The physical bounds are not options: the OCP's parts read them from the system's
+sections (:mod:`optimize.system.sections`, the drive's from the ``[drive]`` in force).
 """
 
 from __future__ import annotations
@@ -70,140 +69,6 @@ class Discretization:
             raise ValueError(f"degree must be 1 to 9, got {self.degree}")
         if len(self.control_sigma) != 4 or min(self.control_sigma) <= 0:
             raise ValueError(f"control_sigma must be 4 positive scales, got {self.control_sigma}")
-
-
-@dataclass(frozen=True)
-class Limits:
-    """Physical bounds of the system and its drive (from the system file).
-
-    Parameters
-    ----------
-    period_bounds_s : (float, float)
-        Bounds on the free period [s].
-    tether_length_bounds_m : (float, float)
-        Bounds on the tether length [m].
-    min_altitude_m : float
-        Lowest CG altitude above ground [m] (the system's ground clearance).
-    max_speed_rpm, max_torque_nm : float or None
-        Drive limits of the constrained scenarios at the motor shaft [rpm], [N m];
-        ``None``: the power model's rating (:func:`with_drive_rating`).
-    max_p_elec_w : float or None
-        Limit of the electrical power drawn or fed [W] in the constrained
-        scenarios (rows only when set).
-    nominal_power_w : float or None
-        The drive's nominal power [W]: the objective's scale; ``None``: the power
-        model's.
-    max_rms_torque_nm : float or None
-        Continuous rating of the drive: the RMS motor torque over the cycle,
-        ``sqrt(mean_t T^2)``, at most this in the constrained scenarios [N m]
-        (``max_torque_nm`` is then the short-time peak). ``None`` (default)
-        leaves the row out of the NLP; it is the last constraint row, so a
-        stored initial guess of the NLP without it still fits.
-    min_airspeed_m_s : float
-        Lower airspeed bound [m/s].
-    max_airspeed_m_s : float or None
-        Upper airspeed bound [m/s] of every scenario kind (the kite's limit);
-        ``None`` leaves the airspeed unbounded above.
-    max_tether_force_n : float or None
-        Largest tether tension [N] of every scenario kind (the kite's and the
-        line's limit, drive limits on or off); ``None``: no limit.
-    alpha_bounds_deg, beta_bounds_deg : (float, float)
-        Angle-of-attack and sideslip bounds [deg].
-    max_line_angle_deg : float
-        Largest angle between body z axis and tether [deg].
-    surface_bounds_deg : (float, float, float)
-        Deflection bounds of the aileron, elevator and rudder [deg].
-    surface_rate_bound_rad_s : float
-        Control-surface rate bound [rad/s].
-    max_reel_acceleration_m_s2 : float or None
-        Largest tether (reel) acceleration ``|l''|`` [m/s^2] of every scenario kind (the
-        winch's limit); ``None``: only the solver's range (500 m/s^2).
-    max_reel_jerk_m_s3 : float or None
-        Largest tether (reel) jerk ``|dddl|`` [m/s^3], the OCP's control, of every
-        scenario kind; ``None``: only the solver's range (5000 m/s^3).
-    max_reel_out_speed_m_s, max_reel_in_speed_m_s : float or None
-        Largest reel-out speed ``l'`` and reel-in speed ``-l'`` [m/s] of every scenario
-        kind (the winch's limits; the drive's speed limit of the constrained kinds
-        comes on top, the smaller wins); ``None``: only the solver's range (100 m/s).
-    max_body_rate_deg_s : float or None
-        Largest magnitude of each body rate p, q, r [deg/s] of every kind; ``None``:
-        only the solver's range (1080 deg/s).
-    min_tension_n : float or None
-        Smallest tether tension [N] of every kind; ``None``: tension >= 0.
-    base_speed_rpm : float or None
-        The drive's base speed at the motor shaft [rpm]: above it the largest torque
-        falls as ``max_torque_nm * base / |n|`` (constant power), in the constrained
-        scenarios. ``None``: no constant-power region.
-    envelope_speed_rpm, envelope_torque_nm : tuple of float or None
-        A datasheet's torque-speed envelope instead: the largest torque [N m] at each
-        motor speed [rpm] (speeds rising from 0, torques not rising), linear between
-        the points and flat beyond the last, in both quadrants, in the constrained
-        scenarios.
-    max_winding_temperature_c : float or None
-        The drive's thermal rating: the largest winding temperature [degC] in the
-        constrained scenarios. With a power model that has a thermal model, the
-        winding temperature is a periodic state of the OCP and this bound replaces
-        the RMS-torque row; ``None``: no thermal state.
-    ambient_temperature_c : float or None
-        Ambient (or coolant) temperature of the thermal model [degC]; ``None``: the
-        one the thermal model was fitted with.
-    """
-
-    period_bounds_s: tuple[float, float] = (1.0, 20.0)
-    tether_length_bounds_m: tuple[float, float] = (1.0, 500.0)
-    min_altitude_m: float = 2.0
-    max_speed_rpm: float | None = None
-    max_torque_nm: float | None = None
-    max_p_elec_w: float | None = None
-    nominal_power_w: float | None = None
-    max_rms_torque_nm: float | None = None
-    min_airspeed_m_s: float = 10.0
-    max_airspeed_m_s: float | None = None
-    max_tether_force_n: float | None = None
-    alpha_bounds_deg: tuple[float, float] = (-4.5, 8.5)
-    beta_bounds_deg: tuple[float, float] = (-9.0, 9.0)
-    max_line_angle_deg: float = 65.0
-    surface_bounds_deg: tuple[float, float, float] = (10.0, 10.0, 10.0)
-    surface_rate_bound_rad_s: float = 2.0
-    max_reel_acceleration_m_s2: float | None = None
-    max_reel_jerk_m_s3: float | None = None
-    max_reel_out_speed_m_s: float | None = None
-    max_reel_in_speed_m_s: float | None = None
-    max_body_rate_deg_s: float | None = None
-    min_tension_n: float | None = None
-    base_speed_rpm: float | None = None
-    envelope_speed_rpm: tuple[float, ...] | None = None
-    envelope_torque_nm: tuple[float, ...] | None = None
-    max_winding_temperature_c: float | None = None
-    ambient_temperature_c: float | None = None
-
-    def __post_init__(self) -> None:
-        lo, hi = self.period_bounds_s
-        if not 0 < lo < hi:
-            raise ValueError(
-                f"period_bounds_s must satisfy 0 < lo < hi, got {self.period_bounds_s}"
-            )
-        for name in ("max_rms_torque_nm", "max_airspeed_m_s", "max_tether_force_n",
-                     "max_reel_acceleration_m_s2", "max_reel_jerk_m_s3", "base_speed_rpm",
-                     "max_reel_out_speed_m_s", "max_reel_in_speed_m_s", "max_body_rate_deg_s"):
-            value = getattr(self, name)
-            if value is not None and not value > 0:
-                raise ValueError(f"{name} must be > 0, got {value}")
-        if self.min_tension_n is not None and not self.min_tension_n >= 0:
-            raise ValueError(f"min_tension_n must be >= 0, got {self.min_tension_n}")
-
-    def reel_speed_range_m_s(self) -> tuple[float, float]:
-        """The reel speed ``l'`` range of every kind [m/s]: the winch's limits, the
-        solver's range of :data:`SOLVER_REEL_SPEED_M_S` where unstated."""
-        return (-(self.max_reel_in_speed_m_s or SOLVER_REEL_SPEED_M_S),
-                self.max_reel_out_speed_m_s or SOLVER_REEL_SPEED_M_S)
-
-    def body_rate_bound_rad_s(self) -> float:
-        """The bound of each body rate of every kind [rad/s]: the system's, the solver's
-        range of :data:`SOLVER_BODY_RATE_RAD_S` where unstated."""
-        if self.max_body_rate_deg_s is None:
-            return SOLVER_BODY_RATE_RAD_S
-        return self.max_body_rate_deg_s * math.pi / 180
 
 
 #: NLP solvers the OCP can be handed to
@@ -313,16 +178,15 @@ class SolverOptions:
 
 @dataclass(frozen=True)
 class OcpOptions:
-    """All options of the OCP: one :class:`Discretization`, :class:`Limits` and
-    :class:`SolverOptions` each (defaults: the default of each group)."""
+    """All options of the OCP: one :class:`Discretization` and :class:`SolverOptions`
+    each (defaults: the default of each group)."""
 
     discretization: Discretization = field(default_factory=Discretization)
-    limits: Limits = field(default_factory=Limits)
     solver: SolverOptions = field(default_factory=SolverOptions)
 
     def replace(self, **groups: dict[str, Any]) -> OcpOptions:
         """These options with fields of groups replaced, e.g.
-        ``options.replace(limits={"max_torque_nm": 60.0})``."""
+        ``options.replace(solver={"tol": 1e-8})``."""
         unknown = set(groups) - {f.name for f in dataclasses.fields(self)}
         if unknown:
             raise TypeError(f"unknown option groups: {', '.join(sorted(unknown))}")
@@ -356,29 +220,3 @@ class OcpOptions:
             groups[name] = types[name](**{k: tuple(v) if isinstance(v, list) else v
                                           for k, v in values.items()})
         return cls(**groups)
-
-
-#: the drive limits :class:`Limits` may leave to the power model's rating
-DRIVE_LIMITS = ("max_speed_rpm", "max_torque_nm", "nominal_power_w")
-
-
-def with_drive_rating(options: OcpOptions, drive_model: Any) -> OcpOptions:
-    """``options`` with the drive limits it leaves open (``None``) from the power model's
-    rating (``drive_model.drive``; the nominal power also from ``nominal_power_w``).
-
-    Raises
-    ------
-    ValueError
-        A limit left open that the power model does not state either.
-    """
-    lim = options.limits
-    open_keys = [k for k in DRIVE_LIMITS if getattr(lim, k) is None]
-    if not open_keys:
-        return options
-    rating = dict(getattr(drive_model, "drive", None) or {})
-    rating.setdefault("nominal_power_w", getattr(drive_model, "nominal_power_w", None))
-    missing = [k for k in open_keys if rating.get(k) is None]
-    if missing:
-        raise ValueError(f"drive limits {', '.join(missing)}: not in the OCP options and not "
-                         "in the power model's rating (give the system's drive)")
-    return options.replace(limits={k: float(rating[k]) for k in open_keys})

@@ -11,20 +11,21 @@ its section of the system file registered in
 
 from __future__ import annotations
 
+from typing import Any
+
 from optimize.model.drivetrain import DriveModel, Drivetrain
 from optimize.model.kite_model import KiteDae
 from optimize.model.thermal import WindingThermal
 from optimize.problem.drive_part import DrivePart
 from optimize.problem.guess import LoopGuess
 from optimize.problem.kite_part import KitePart
-from optimize.problem.options import Limits
 from optimize.problem.part import Part
 from optimize.problem.scaling import Scales
 from optimize.problem.tether_part import TetherPart
 from optimize.problem.thermal_part import ThermalPart
 
 
-def kite_parts(dae: KiteDae, drive_model: DriveModel, limits: Limits, scales: Scales,
+def kite_parts(dae: KiteDae, drive_model: DriveModel, system: Any, scales: Scales,
                loop: LoopGuess, thermal: WindingThermal | None = None) -> tuple[Part, ...]:
     """The kite, its drive and (with ``thermal``) the winding temperature.
 
@@ -33,8 +34,9 @@ def kite_parts(dae: KiteDae, drive_model: DriveModel, limits: Limits, scales: Sc
     dae : KiteDae
     drive_model : DriveModel
         Electrical power model of the drive.
-    limits : Limits
-        Bounds of the system and its drive.
+    system : optimize.system.system.System
+        The system with the drive in force (:meth:`optimize.system.system.System.in_force`):
+        the parts' inputs, their bounds.
     scales : Scales
         The system's magnitudes (:func:`optimize.problem.scaling.system_scales`).
     loop : LoopGuess
@@ -42,10 +44,10 @@ def kite_parts(dae: KiteDae, drive_model: DriveModel, limits: Limits, scales: Sc
     thermal : WindingThermal, optional
         The winding's thermal model and limit; it replaces the RMS-torque row.
     """
-    rms = limits.max_rms_torque_nm if thermal is None else None
+    rms = system.drive.rms_torque_limit_nm if thermal is None else None
     parts: tuple[Part, ...] = (
-        KitePart(dae, limits, scales, loop),
-        DrivePart(Drivetrain.of(dae.kite), drive_model, limits, scales, rms_torque_nm=rms),
+        KitePart(dae, system, scales, loop),
+        DrivePart(Drivetrain.of(dae.kite), drive_model, system, scales, rms_torque_nm=rms),
     )
     if dae.tether.mass_kg_m > 0 or dae.tether.drag_elements > 0:
         parts = (*parts, TetherPart(dae, scales.force_n))

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from kernel.errors import InputError
+from kernel.sections import bound_keys, bound_values
 from kernel.units import RPM_PER_RAD_S
 
 #: the envelope must leave the drive at least this share of its nominal power (a drive
@@ -41,69 +42,68 @@ def _where(source: str | None) -> str:
     return "" if not source else f"{source}: "
 
 
-def check_tension_floor(system: Any, limits: Any, constrained: bool,
-                        source: str | None = None) -> None:
-    """Refuse a tension floor above what the drive can pull on its drum in the kinds that
-    fly its limits (``constrained``), or above what its continuous (RMS) torque carries on
-    average: the torque at the drum over the cycle is at least the floor's at every
-    instant, so its peak and its RMS are too."""
-    floor = system.bounds.min_tension_n
-    if not constrained or floor is None or floor <= 0 or limits.max_torque_nm is None:
+def check_tension_floor(system: Any, constrained: bool, source: str | None = None) -> None:
+    """Refuse a tension floor above what the drive in force (``system.drive``) can pull on
+    its drum in the kinds that fly its limits (``constrained``), or above what its
+    continuous (RMS) torque carries on average: the torque at the drum over the cycle is
+    at least the floor's at every instant, so its peak and its RMS are too."""
+    floor, drive = bound_values(system.bounds)["tension_min"], system.drive
+    if not constrained or floor is None or floor <= 0 or drive.max_torque_nm is None:
         return
-    w = system.winch
+    w, key_of_floor = system.winch, bound_keys(system.bounds)["tension_min"]
     torque_nm = floor * w.drum_radius_m / w.gear_ratio
-    for key, limit, what in (("max_torque_nm", limits.max_torque_nm, "torque limit"),
-                             ("continuous_torque_nm", limits.max_rms_torque_nm,
+    for key, limit, what in (("max_torque_nm", drive.max_torque_nm, "torque limit"),
+                             ("continuous_torque_nm", drive.rms_torque_limit_nm,
                               "continuous (RMS) torque rating")):
         if limit is None or torque_nm <= limit:
             continue
         pull_n = limit * w.gear_ratio / w.drum_radius_m
-        raise InputError(system.path, f"{_where(source)}[bounds] min_tension_n: the tension "
+        raise InputError(system.path, f"{_where(source)}[bounds] {key_of_floor}: the tension "
                          f"floor {floor:g} N needs {torque_nm:.4g} N m on the "
                          f"{w.drum_radius_m:g} m drum (gear ratio {w.gear_ratio:g}), above "
                          f"the drive's {what} [drive] {key} {limit:g} N m, which pulls at "
                          f"most {pull_n:.4g} N: the kinds with drive limits (*-lim) hold no "
-                         "cycle", expected=f"min_tension_n below {pull_n:.4g} N, or a "
+                         "cycle", expected=f"{key_of_floor} below {pull_n:.4g} N, or a "
                          f"{key} of at least {torque_nm:.4g} N m")
 
 
-def envelope_power_w(limits: Any) -> float | None:
+def envelope_power_w(drive: Any) -> float | None:
     """The largest power [W] the drive's torque-speed envelope leaves it up to its speed
     limit (``T(n) w``), None when it states no envelope."""
     from optimize.model.envelope import constant_power_w
 
-    if limits.base_speed_rpm is not None:
-        top = limits.max_speed_rpm if limits.max_speed_rpm is not None else np.inf
-        return constant_power_w(limits.max_torque_nm, min(limits.base_speed_rpm, top))
-    if limits.envelope_speed_rpm is None:
+    if drive.base_speed_rpm is not None:
+        top = drive.max_speed_rpm if drive.max_speed_rpm is not None else np.inf
+        return constant_power_w(drive.max_torque_nm, min(drive.base_speed_rpm, top))
+    if drive.envelope_speed_rpm is None:
         return None
-    speed, torque = _table_samples(limits)
+    speed, torque = _table_samples(drive)
     return float(np.max(torque * speed / RPM_PER_RAD_S))
 
 
-def _table_samples(limits: Any) -> tuple[np.ndarray, np.ndarray]:
+def _table_samples(drive: Any) -> tuple[np.ndarray, np.ndarray]:
     """Speeds [rpm] up to the speed limit (else the table's last speed) and the table's
     largest torque there [N m] (capped by the torque limit)."""
     from kernel.drive_envelope import largest_torque_nm
 
-    speeds = np.asarray(limits.envelope_speed_rpm, dtype=float)
-    top = limits.max_speed_rpm if limits.max_speed_rpm is not None else float(speeds[-1])
+    speeds = np.asarray(drive.envelope_speed_rpm, dtype=float)
+    top = drive.max_speed_rpm if drive.max_speed_rpm is not None else float(speeds[-1])
     speed = np.unique(np.concatenate([np.linspace(0.0, top, _SAMPLES), speeds[speeds <= top]]))
-    cap = limits.max_torque_nm if limits.max_torque_nm is not None else np.inf
-    return speed, largest_torque_nm(speed, cap, speeds_rpm=limits.envelope_speed_rpm,
-                                    torques_nm=limits.envelope_torque_nm)
+    cap = drive.max_torque_nm if drive.max_torque_nm is not None else np.inf
+    return speed, largest_torque_nm(speed, cap, speeds_rpm=drive.envelope_speed_rpm,
+                                    torques_nm=drive.envelope_torque_nm)
 
 
-def check_envelope(limits: Any, path: str | Path | None, source: str | None = None) -> None:
+def check_envelope(drive: Any, path: str | Path | None, source: str | None = None) -> None:
     """Refuse an envelope that leaves the drive less than half its nominal power, and a
     table whose smooth bound (the one the OCP enforces) keeps less than half the table's
     torque somewhere up to the speed limit (a table too steep for its rounding)."""
     from optimize.model.envelope import EnvelopeTable
 
-    power = envelope_power_w(limits)
-    nominal = limits.nominal_power_w
+    power = envelope_power_w(drive)
+    nominal = drive.nominal_power_w
     if power is not None and nominal and power < MIN_ENVELOPE_POWER_SHARE * nominal:
-        keys = ("base_speed_rpm" if limits.base_speed_rpm is not None
+        keys = ("base_speed_rpm" if drive.base_speed_rpm is not None
                 else "envelope_speed_rpm, envelope_torque_nm")
         raise InputError(path, f"{_where(source)}[drive] {keys}: the torque-speed envelope "
                          f"leaves the drive at most {power:.4g} W up to its speed limit, "
@@ -112,12 +112,12 @@ def check_envelope(limits: Any, path: str | Path | None, source: str | None = No
                          expected="a base speed (or table) at which max_torque_nm times the "
                                   "speed is about the nominal power "
                                   f"(base_speed_rpm about "
-                                  f"{nominal / limits.max_torque_nm * RPM_PER_RAD_S:.4g} rpm)")
-    if limits.envelope_speed_rpm is None:
+                                  f"{nominal / drive.max_torque_nm * RPM_PER_RAD_S:.4g} rpm)")
+    if drive.envelope_speed_rpm is None:
         return
-    speed, torque = _table_samples(limits)
-    smooth = EnvelopeTable(tuple(limits.envelope_speed_rpm),
-                           tuple(limits.envelope_torque_nm)).smooth_values_nm(speed)
+    speed, torque = _table_samples(drive)
+    smooth = EnvelopeTable(tuple(drive.envelope_speed_rpm),
+                           tuple(drive.envelope_torque_nm)).smooth_values_nm(speed)
     share = smooth / torque
     i = int(np.argmin(share))
     if share[i] < MIN_SMOOTH_ENVELOPE_SHARE:
@@ -130,26 +130,26 @@ def check_envelope(limits: Any, path: str | Path | None, source: str | None = No
                                   "a less abrupt fall)")
 
 
-def check_thermal(drive_model: Any, limits: Any, model_path: str | Path | None,
+def check_thermal(drive_model: Any, drive: Any, model_path: str | Path | None,
                   source: str | None = None) -> None:
     """Refuse a thermal model by which the drive's continuous rating (its RMS torque
     rating, else its torque limit, at the speed of its nominal power) heats the winding
     more than :data:`MAX_THERMAL_RISE_RATIO` times as far as its limit allows."""
     from optimize.model.thermal import WindingThermal
 
-    limit = limits.max_winding_temperature_c
+    limit = drive.max_winding_temperature_c
     if limit is None or getattr(drive_model, "thermal", None) is None:
         return
     try:
-        thermal = WindingThermal.of(drive_model, limit, limits.ambient_temperature_c)
+        thermal = WindingThermal.of(drive_model, limit, drive.ambient_temperature_c)
     except (ValueError, KeyError, TypeError):
         return  # said with its key where the thermal line is made (a limit below ambient)
-    torque = limits.max_rms_torque_nm or limits.max_torque_nm
-    if not torque or not limits.nominal_power_w:
+    torque = drive.rms_torque_limit_nm or drive.max_torque_nm
+    if not torque or not drive.nominal_power_w:
         return
-    speed = limits.nominal_power_w / torque * RPM_PER_RAD_S
-    if limits.max_speed_rpm is not None:
-        speed = min(speed, limits.max_speed_rpm)
+    speed = drive.nominal_power_w / torque * RPM_PER_RAD_S
+    if drive.max_speed_rpm is not None:
+        speed = min(speed, drive.max_speed_rpm)
     loss_w = float(drive_model.p_elec_w(np.array([speed]), np.array([torque]))[0]
                    - speed / RPM_PER_RAD_S * torque)
     allowed_k = limit - thermal.ambient_c
@@ -168,7 +168,7 @@ def check_thermal(drive_model: Any, limits: Any, model_path: str | Path | None,
                               "the thermal block bench fit fits with this drive's losses")
 
 
-def check_contradictions(system: Any, drive_model: Any, limits: Any, kinds: tuple[str, ...],
+def check_contradictions(system: Any, drive_model: Any, kinds: tuple[str, ...],
                          model_path: str | Path | None = None,
                          source: str | None = None) -> None:
     """Refuse bounds of different parts that cannot hold together (module docstring).
@@ -176,11 +176,10 @@ def check_contradictions(system: Any, drive_model: Any, limits: Any, kinds: tupl
     Parameters
     ----------
     system : optimize.system.system.System
-        The kite, tether, winch and bounds.
+        The kite, tether, winch and bounds, with the drive in force
+        (:meth:`optimize.system.system.System.in_force`).
     drive_model : fitting.power_model.PowerModel
         The drive's losses (and thermal model) in force.
-    limits : optimize.problem.options.Limits
-        The OCP's limits (the system's bounds with the drive's limits in force).
     kinds : tuple of str
         The scenario kinds solved (the drive's limits apply in the ``*-lim`` ones).
     model_path : path, optional
@@ -196,13 +195,13 @@ def check_contradictions(system: Any, drive_model: Any, limits: Any, kinds: tupl
     from optimize.kinds import KINDS
 
     constrained = any(KINDS[k].drive_limits for k in kinds)
-    check_tension_floor(system, limits, constrained, source)
+    check_tension_floor(system, constrained, source)
     if constrained:
-        check_envelope(limits, system.path, source)
-        check_thermal(drive_model, limits, model_path, source)
+        check_envelope(system.drive, system.path, source)
+        check_thermal(drive_model, system.drive, model_path, source)
 
 
-def check_drive(system: Any, drive_model: Any, model_path: str | Path | None, limits: Any,
+def check_drive(system: Any, drive_model: Any, model_path: str | Path | None,
                 kinds: tuple[str, ...], source: str | None = None,
                 rating_source: str | None = None) -> None:
     """Every check of a drive in a system before any solve, as ``bench optimize`` makes
@@ -220,11 +219,10 @@ def check_drive(system: Any, drive_model: Any, model_path: str | Path | None, li
     from optimize.system.plausibility import check_drive_holds_kite
 
     try:
-        check_physics(drive_model, model_path,
-                      limits=(limits.max_speed_rpm, limits.max_torque_nm))
-        check_drive_holds_kite(system, limits.max_torque_nm,
-                               rating_source or "the drive in force")
-        check_contradictions(system, drive_model, limits, kinds, model_path)
+        drive = system.drive
+        check_physics(drive_model, model_path, limits=(drive.max_speed_rpm, drive.max_torque_nm))
+        check_drive_holds_kite(system, drive.max_torque_nm, rating_source or "the drive in force")
+        check_contradictions(system, drive_model, kinds, model_path)
     except InputError as exc:
         if not source:
             raise

@@ -79,14 +79,15 @@ class AeroSection:
         doc="the coefficients of the model above: each a number or a polynomial in alpha")
     alpha_min_deg: float = number("lowest angle of attack the coefficients are valid at; the "
                                   "OCP's bound; reported as `alpha_min`", lo=-90, hi=90,
-                                  hi_strict=True)
+                                  hi_strict=True, bound="alpha_min")
     alpha_max_deg: float = number("highest angle of attack the coefficients are valid at "
                                   "(above `alpha_min_deg`); the OCP's bound; reported as "
-                                  "`alpha_max`", lo=-90, hi=90, hi_strict=True)
+                                  "`alpha_max`", lo=-90, hi=90, hi_strict=True, bound="alpha_max")
     beta_min_deg: float = number("lowest sideslip; the OCP's bound; reported as `beta_min`",
-                                 lo=-90, hi=90, hi_strict=True)
+                                 lo=-90, hi=90, hi_strict=True, bound="beta_min")
     beta_max_deg: float = number("highest sideslip (above `beta_min_deg`); the OCP's bound; "
-                                 "reported as `beta_max`", lo=-90, hi=90, hi_strict=True)
+                                 "reported as `beta_max`", lo=-90, hi=90, hi_strict=True,
+                                 bound="beta_max")
 
     def problems(self) -> _Problems:
         """The angle ranges rising; the lift slope positive over alpha's."""
@@ -199,19 +200,21 @@ class WinchSection:
     max_reel_acceleration_m_s2: float | None = number(
         "largest tether acceleration |l''| of every scenario kind (the winch's limit, like "
         "the tether force); reported as `reel_acceleration_limit` when the optimum sits on it",
-        lo=0, default=None, absent="only the solver's range of 500 m/s^2")
+        lo=0, default=None, bound="reel_acceleration_limit",
+        absent="only the solver's range of 500 m/s^2")
     max_reel_jerk_m_s3: float | None = number(
         "largest tether jerk |l'''| (the OCP's control, the rate of the reel acceleration) of "
         "every scenario kind: how fast the winch can change its torque; reported as "
-        "`reel_jerk_limit`", lo=0, default=None, absent="only the solver's range of 5000 m/s^3")
+        "`reel_jerk_limit`", lo=0, default=None, bound="reel_jerk_limit",
+        absent="only the solver's range of 5000 m/s^3")
     max_reel_out_speed_m_s: float | None = number(
         "the winch's largest reel-out speed `l'` in every scenario kind (the drive's speed "
         "limit of the `*-lim` kinds comes on top, the smaller wins); reported as "
-        "`reel_out_speed_limit`", lo=0, default=None, absent="only the solver's range of "
-        "100 m/s")
+        "`reel_out_speed_limit`", lo=0, default=None, bound="reel_out_speed_limit",
+        absent="only the solver's range of 100 m/s")
     max_reel_in_speed_m_s: float | None = number(
         "the winch's largest reel-in speed `-l'` in every scenario kind; reported as "
-        "`reel_in_speed_limit`", lo=0, default=None,
+        "`reel_in_speed_limit`", lo=0, default=None, bound="reel_in_speed_limit",
         absent="only the solver's range of 100 m/s")
 
 
@@ -222,19 +225,20 @@ class DriveSection:
     stated."""
 
     max_speed_rpm: float | None = number("speed limit of the constrained scenarios (`*-lim`)",
-                                         lo=0, default=None)
+                                         lo=0, default=None, bound="speed_limit")
     max_torque_nm: float | None = number(
         "torque limit of the constrained scenarios: the drive's largest torque, short-time "
         "peak included. Every stage flies it: `bench optimize`'s constrained kinds and `bench "
         "size`'s reference drive x1 (its candidates fly it scaled). A drive allowed a "
         "short-time overload states that torque here, with `continuous_torque_nm` as its RMS "
         "rating (e.g. `max_torque_nm = 500.0`, `continuous_torque_nm = 200.0`: peaks up to "
-        "500 N m, RMS at most 200 N m)", lo=0, default=None)
+        "500 N m, RMS at most 200 N m)", lo=0, default=None, bound="torque_limit")
     nominal_power_w: float | None = number(
         "nominal power: the capacity factor's rating (`bench aep`) and the scale of the "
         "objective", lo=0, default=None)
     max_p_elec_w: float | None = number("limit on |P_elec| (grid connection) in the "
-                                        "constrained scenarios", lo=0, default=None)
+                                        "constrained scenarios", lo=0, default=None,
+                                        bound="p_elec_limit")
     continuous_torque_nm: float | None = number(
         "continuous (thermal) torque rating: the RMS torque over the cycle at most this in the "
         "constrained scenarios (applied when below `max_torque_nm`; `bench size`'s rated "
@@ -263,7 +267,7 @@ class DriveSection:
         "the torque-speed envelope by a base speed: above it the largest torque falls as "
         "`max_torque_nm * base_speed_rpm / |n|` (constant power, field weakening), in both "
         "quadrants, in the constrained scenarios: the smooth rows `|T w| <= max_torque_nm * "
-        "w_base`; reported as `envelope_limit`", lo=0, default=None)
+        "w_base`; reported as `envelope_limit`", lo=0, default=None, bound="envelope_limit")
     envelope_speed_rpm: tuple[float, ...] | None = numbers(
         "instead of `base_speed_rpm`, with `envelope_torque_nm`: a datasheet's envelope, "
         "motor speeds rising strictly from 0", default=None)
@@ -281,11 +285,19 @@ class DriveSection:
         "RMS-torque row of `continuous_torque_nm` in the constrained scenarios; reported as "
         "`winding_temperature_limit`. Without a thermal model the RMS-torque row stands and "
         "`bench optimize` says the limit is not applied", lo=-273.15, hi=300, default=None,
+        bound="winding_temperature_limit",
         source="IEC 60085 thermal class H is 180 degC")
     ambient_temperature_c: float | None = number(
         "the ambient or coolant temperature of the thermal model in the cycle, below the "
         "winding limit", lo=-60, hi=80, lo_strict=False, default=None,
         absent="the one the thermal model was fitted with")
+
+    @property
+    def rms_torque_limit_nm(self) -> float | None:
+        """The RMS torque bound the continuous rating sets [N m]: ``continuous_torque_nm``
+        when below ``max_torque_nm`` (else the torque limit already implies it), else None."""
+        c, top = self.continuous_torque_nm, self.max_torque_nm
+        return c if c is not None and top is not None and c < top else None
 
     def problems(self) -> _Problems:
         """The envelope's keys (:func:`kernel.drive_envelope.envelope_problem`); the winding
@@ -346,31 +358,35 @@ class BoundsSection:
     ``elevator_max_deg`` and ``rudder_max_deg`` (optional) bound one surface each instead.
     """
 
-    tether_length_min_m: float = number("shortest tether", lo=0)
-    tether_length_max_m: float = number("longest tether (above `tether_length_min_m`)", lo=0)
+    tether_length_min_m: float = number("shortest tether", lo=0, bound="tether_length_min")
+    tether_length_max_m: float = number("longest tether (above `tether_length_min_m`)", lo=0,
+                                        bound="tether_length_max")
     period_min_s: float = number("shortest cycle period (a search range: an optimum on it is "
                                  "`bound_limited`; `bench optimize --period-scan` holds the "
-                                 "period within it)", lo=0)
-    period_max_s: float = number("longest cycle period (above `period_min_s`)", lo=0)
+                                 "period within it)", lo=0, bound="period_min")
+    period_max_s: float = number("longest cycle period (above `period_min_s`)", lo=0,
+                                 bound="period_max")
     min_ground_clearance_m: float = number("lowest CG altitude above ground; at least half the "
                                            "span is enforced whatever the file says", lo=0,
                                            lo_strict=False)
-    min_airspeed_m_s: float = number("lower airspeed bound", lo=0, lo_strict=False)
+    min_airspeed_m_s: float = number("lower airspeed bound", lo=0, lo_strict=False,
+                                     bound="airspeed_min")
     max_line_angle_deg: float = number("largest angle between the body z axis and the tether; "
                                        "reported as `line_angle_limit`",
-                                       lo=0, hi=90, hi_strict=True)
+                                       lo=0, hi=90, hi_strict=True, bound="line_angle_limit")
     surface_max_deg: float = number("deflection bound of the three control surfaces (< 90)",
                                     lo=0)
     surface_rate_max_rad_s: float = number("rate bound of the three control surfaces", lo=0)
     max_airspeed_m_s: float | None = number("upper airspeed bound (above `min_airspeed_m_s`)",
-                                            lo=0, default=None, absent="none")
+                                            lo=0, default=None, absent="none",
+                                            bound="airspeed_max")
     max_body_rate_deg_s: float | None = number(
         "each body rate p, q, r within +-this in every kind; reported as `body_rate_limit`",
-        lo=0, default=None, absent="the solver's range of 1080 deg/s")
+        lo=0, default=None, absent="the solver's range of 1080 deg/s", bound="body_rate_limit")
     min_tension_n: float | None = number(
         "the tether tension at least this in every kind (a line that must stay taut), below "
         "the tether-force limit; reported as `tension_min`", lo=0, lo_strict=False,
-        default=None, absent="tension >= 0")
+        default=None, absent="tension >= 0", bound="tension_min")
     aileron_max_deg: float | None = number(
         "the aileron's deflection bound alone (< 90), in place of `surface_max_deg` "
         "(awebox's `delta_max` is one value per surface)", lo=0, default=None)

@@ -9,18 +9,21 @@ paper's kite and the default.
 Its sections, each key declared once with its unit, range and meaning, are
 :mod:`optimize.system.sections`. A :class:`System` turns into the model's parameter sets
 (:meth:`System.kite_params`, :meth:`System.aero_coefficients`,
-:meth:`System.wind_model`), into the drive limits (:meth:`System.drive_limits`)
-and into the OCP's options with the file's bounds (:meth:`System.ocp_options`). It
-is hashed on its parsed content (:attr:`System.sha256`, comments and key order do
-not count), which is part of the NLP cache key and of the stored-guess acceptance.
+:meth:`System.wind_model`). The OCP's parts read their bounds from its sections; the
+drive they fly is :meth:`System.in_force`'s ``[drive]``, the file's with the rating in
+force. It is hashed on its parsed content (:attr:`System.sha256`, comments and key order
+do not count), which is part of the NLP cache key and of the stored-guess acceptance.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from kernel.drive_rating import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS
+from kernel.sections import bound_keys, bound_values
 from optimize.model.atmosphere import ISA_LAPSE_K_M
 from optimize.model.dae import DaeSpec
 from optimize.model.kite_model import kite_dae
@@ -47,7 +50,8 @@ def shipped_system_path(name: str = DEFAULT_SYSTEM) -> Path:
 
 @dataclass(frozen=True)
 class KiteLimits:
-    """The kite's own limits in force in every scenario kind (``None``: none given).
+    """The kite's tether-force and airspeed limits in force in every scenario kind
+    (``None``: none given).
 
     Attributes
     ----------
@@ -63,23 +67,12 @@ class KiteLimits:
     min_airspeed_m_s: float
     max_airspeed_m_s: float | None
     sources: dict
-    min_tension_n: float | None = None
-    max_body_rate_deg_s: float | None = None
 
-    def describe(self) -> str:
-        """One line: the kite limits in force and where they came from."""
-        force = (f"tether force <= {self.max_tether_force_n:g} N "
-                 f"({self.sources['max_tether_force_n']})" if self.max_tether_force_n
-                 else "no tether-force limit (the system file gives none)")
-        if self.min_tension_n is not None:
-            force += f", tension >= {self.min_tension_n:g} N ([bounds] min_tension_n)"
-        top = (f"{self.max_airspeed_m_s:g} m/s" if self.max_airspeed_m_s is not None
-               else "no upper limit (the system file gives none)")
-        rates = ("" if self.max_body_rate_deg_s is None else
-                 f", body rates within {self.max_body_rate_deg_s:g} deg/s "
-                 "([bounds] max_body_rate_deg_s)")
-        return (f"kite limits (all scenario kinds): {force}, airspeed from "
-                f"{self.min_airspeed_m_s:g} m/s to {top}{rates}")
+
+#: the ``[bounds]`` limits of every kind said after the tether force (the first) and after
+#: the airspeed (the second), with how each is said
+_KITE_LINE_BOUNDS = (("tension_min", ", tension >= {:g} N"),
+                     ("body_rate_limit", ", body rates within {:g} deg/s"))
 
 
 @dataclass(frozen=True)
@@ -119,6 +112,36 @@ class System:
     sha256: str
     paper_system: bool = False
     part_inputs: tuple[Any, ...] = ()
+
+    def in_force(self, rating: Any, envelope_torque_nm: tuple[float, ...] | None = None
+                 ) -> System:
+        """This system with the drive in force: its ``[drive]`` with the rating's keys
+        (``rating``: a :class:`kernel.drive_rating.DriveRating`, whose keys the file leaves
+        out come from the power model, :func:`optimize.system.drive_in_force.drive_in_force`;
+        a continuous rating or grid limit it states none of is none) and, for a scaled
+        drive, its envelope table's torques. The same file (hash): the
+        drive in force follows from it and the power model, both in every cache key."""
+        given = {k: getattr(rating, k) for k in (*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS)}
+        if envelope_torque_nm is not None:
+            given["envelope_torque_nm"] = tuple(envelope_torque_nm)
+        return dataclasses.replace(self, drive=dataclasses.replace(self.drive, **given))
+
+    def sections_record(self) -> dict[str, dict]:
+        """Every section as flown (the drive in force), by section name, each key by its
+        name in the file: what a sweep's manifest records (``sections``)."""
+        return {name: dataclasses.asdict(getattr(self, name))
+                for name in ("kite", "aero", "tether", "winch", "drive", "wind", "bounds")}
+
+    def bound_values(self) -> dict[str, Any]:
+        """The value of each bound of the OCP by the name the summary's ``active_bounds``
+        reports it by (docs/schemas.md §5), as flown: the sections' bound keys
+        (:func:`kernel.sections.bound_values`), the ground clearance in force, the
+        tether-force limit and the surfaces' deflection bounds; ``None``: not stated."""
+        out = {name: value for section in (self.aero, self.bounds, self.winch, self.drive)
+               for name, value in bound_values(section).items()}
+        return {**out, "ground_clearance": self.ground_clearance_m(),
+                "tether_force_limit": self.kite_limits().max_tether_force_n,
+                "surface_limit": list(self.bounds.surface_bounds_deg())}
 
     # -------------------------------------------------------------- model parameters
     def kite_params(self) -> KiteParams:
@@ -177,50 +200,21 @@ class System:
                           {"max_tether_force_n": source,
                            "min_airspeed_m_s": "[bounds] min_airspeed_m_s",
                            "max_airspeed_m_s": "[bounds] max_airspeed_m_s"
-                           if self.bounds.max_airspeed_m_s is not None else "none"},
-                          self.bounds.min_tension_n, self.bounds.max_body_rate_deg_s)
+                           if self.bounds.max_airspeed_m_s is not None else "none"})
 
-    def ocp_options(self, options: Any, rating: Any) -> Any:
-        """``options`` (an ``OcpOptions``) with this system's bounds and a drive's limits.
-
-        Parameters
-        ----------
-        options : optimize.problem.options.OcpOptions
-        rating : kernel.drive_rating.DriveRating
-            The drive in force (:func:`optimize.system.drive_in_force.drive_in_force`): speed and
-            torque limits, nominal power, the RMS torque bound of its continuous
-            rating (when below the torque limit) and the grid power limit.
-        """
-        b, a = self.bounds, self.aero
-        return options.replace(limits=dict(
-            period_bounds_s=(b.period_min_s, b.period_max_s),
-            tether_length_bounds_m=(b.tether_length_min_m, b.tether_length_max_m),
-            min_altitude_m=self.ground_clearance_m(),
-            max_speed_rpm=rating.max_speed_rpm,
-            max_torque_nm=rating.max_torque_nm,
-            max_p_elec_w=rating.max_p_elec_w,
-            nominal_power_w=rating.nominal_power_w,
-            max_rms_torque_nm=rating.rms_torque_limit_nm,
-            min_airspeed_m_s=b.min_airspeed_m_s,
-            max_airspeed_m_s=b.max_airspeed_m_s,
-            max_tether_force_n=self.kite_limits().max_tether_force_n,
-            alpha_bounds_deg=(a.alpha_min_deg, a.alpha_max_deg),
-            beta_bounds_deg=(a.beta_min_deg, a.beta_max_deg),
-            max_line_angle_deg=b.max_line_angle_deg,
-            surface_bounds_deg=b.surface_bounds_deg(),
-            surface_rate_bound_rad_s=b.surface_rate_max_rad_s,
-            max_reel_acceleration_m_s2=self.winch.max_reel_acceleration_m_s2,
-            max_reel_jerk_m_s3=self.winch.max_reel_jerk_m_s3,
-            max_reel_out_speed_m_s=self.winch.max_reel_out_speed_m_s,
-            max_reel_in_speed_m_s=self.winch.max_reel_in_speed_m_s,
-            max_body_rate_deg_s=b.max_body_rate_deg_s,
-            min_tension_n=b.min_tension_n,
-            base_speed_rpm=self.drive.base_speed_rpm,
-            envelope_speed_rpm=self.drive.envelope_speed_rpm,
-            envelope_torque_nm=self.drive.envelope_torque_nm,
-            max_winding_temperature_c=self.drive.max_winding_temperature_c,
-            ambient_temperature_c=self.drive.ambient_temperature_c,
-        ))
+    def kite_limits_line(self) -> str:
+        """One line: the kite limits in force in every kind and where they came from."""
+        k = self.kite_limits()
+        values, keys = bound_values(self.bounds), bound_keys(self.bounds)
+        said = [f"{how.format(values[b])} ([bounds] {keys[b]})" if values[b] is not None
+                else "" for b, how in _KITE_LINE_BOUNDS]
+        force = (f"tether force <= {k.max_tether_force_n:g} N "
+                 f"({k.sources['max_tether_force_n']})" if k.max_tether_force_n
+                 else "no tether-force limit (the system file gives none)")
+        top = (f"{k.max_airspeed_m_s:g} m/s" if k.max_airspeed_m_s is not None
+               else "no upper limit (the system file gives none)")
+        return (f"kite limits (all scenario kinds): {force}{said[0]}, airspeed from "
+                f"{k.min_airspeed_m_s:g} m/s to {top}{said[1]}")
 
     def model_params(self) -> tuple[KiteParams, AeroCoefficients, WindModel, TetherModel]:
         """Arguments of ``optimize.model.kite_model.kite_dae``."""

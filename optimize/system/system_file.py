@@ -18,7 +18,7 @@ from typing import Any
 
 from kernel.errors import InputError
 from kernel.files import parse_toml, read_text
-from kernel.sections import read_section
+from kernel.sections import bound_keys, bound_values, read_section
 from optimize.problem.part_sections import PART_SECTIONS
 from optimize.system.plausibility import check_system
 from optimize.system.sections import SECTIONS, BoundsSection, TetherSection
@@ -43,9 +43,10 @@ def _check_sections(data: Any, path: str) -> None:
 def _check_tension_range(path: str, tether: TetherSection, bounds: BoundsSection) -> None:
     """The tension floor below the tether-force limit (when both are given)."""
     top = [v for v in (tether.max_force_n, tether.working_load_n()) if v is not None]
-    if bounds.min_tension_n is not None and top and bounds.min_tension_n >= min(top):
-        raise InputError(path, f"[bounds] min_tension_n: {bounds.min_tension_n:g} N is not "
-                         f"below the tether-force limit {min(top):g} N",
+    floor = bound_values(bounds)["tension_min"]
+    if floor is not None and top and floor >= min(top):
+        raise InputError(path, f"[bounds] {bound_keys(bounds)['tension_min']}: {floor:g} N is "
+                         f"not below the tether-force limit {min(top):g} N",
                          expected="a tension floor below [tether] max_force_n (or the "
                          "line's working load)")
 

@@ -299,7 +299,7 @@ def _check(ocp: Ocp, data: dict) -> tuple[Solution | None, str]:
         return None, (f"the stored initial guess is for N={n}, degree {d}; this OCP has "
                       f"N={ocp.n_intervals}, degree {ocp.coll.degree}")
     lay = ocp.layout
-    # an RMS torque row (Limits.max_rms_torque_nm) is appended after the guess's rows
+    # an RMS torque row ([drive] continuous_torque_nm) is appended after the guess's rows
     n_rms = lay.rows_of("rms_torque").size
     n_g = lay.n_g - n_rms
     if (data["w"].size, data["g"].size, data["p"].size) != (lay.n_w, n_g, lay.n_p):
@@ -379,8 +379,8 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     system, model = load_system(), paper_model()
     rating = drive_in_force(system, drive_model=model).rating
-    ocp = build_ocp(kite_dae(*system.model_params()), model,
-                    system.ocp_options(OcpOptions(), rating), system=system)
+    ocp = build_ocp(kite_dae(*system.model_params()), model, OcpOptions(),
+                    system=system.in_force(rating))
     try:
         if args.record_parts is not None:
             names = _part_names(args.record_parts, ocp)
