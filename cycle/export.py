@@ -149,11 +149,30 @@ def periodic_interpolants(points: pd.DataFrame, period_s: float) -> dict[str, Pc
     return out
 
 
-def bench_limits(manifest: dict, session_dir: Path | None) -> list[Limit]:
-    """The limits of the sweep's drive and, given a bench session folder, of its drive
-    rating (``drive.toml``, ``session.toml``) and its stated sensor ranges (drum frame)."""
+def flown_drive(manifest: dict, folder: Path) -> dict:
+    """The ``[drive]`` in force the sweep in ``folder`` flew (its manifest's
+    ``sections.drive``).
+
+    Raises
+    ------
+    InputError
+        A manifest that records none (an older ``bench optimize``'s: its limits unknown
+        here, no cycle is exported unchecked).
+    """
+    drive = (manifest.get("sections") or {}).get("drive")
+    if not isinstance(drive, dict):
+        raise InputError(Path(folder) / "manifest.json", "no record of the drive the sweep "
+                         "flew (sections.drive): a folder of an older bench optimize",
+                         column="sections", expected="re-run `bench optimize` with this "
+                                                     "version")
+    return drive
+
+
+def bench_limits(rating: dict, session_dir: Path | None) -> list[Limit]:
+    """The limits of the sweep's drive (``rating``, its ``[drive]`` in force,
+    :func:`flown_drive`) and, given a bench session folder, of its drive rating
+    (``drive.toml``, ``session.toml``) and its stated sensor ranges (drum frame)."""
     limits = []
-    rating = manifest.get("drive_limits") or {}
     for q, key in (("speed", "max_speed_rpm"), ("torque", "max_torque_nm")):
         if rating.get(key):
             limits.append(Limit(q, float(rating[key]), f"the sweep's drive limits ({key})"))
@@ -298,20 +317,21 @@ def export_cycle(folder: str | Path, scenario: str, out: str | Path,
     check_tables_replaceable(out)
     provenance = Provenance.start(command_line)
     row, points, manifest = scenario_cycle(folder, scenario)
+    drive = flown_drive(manifest, folder)
     period = float(row["period_s"])
     f = periodic_interpolants(points, period)
     phase = np.concatenate([points["time_s"].to_numpy(float),
                             np.arange(0.0, period, 1.0 / options.rate_hz)])
     check_limits(phase, f["speed_rpm"](phase), f["torque_nm"](phase),
-                 bench_limits(manifest, Path(bench_session) if bench_session else None),
+                 bench_limits(drive, Path(bench_session) if bench_session else None),
                  scenario, folder / "trajectories.parquet")
     model = model if model is not None else sweep_power_model(folder, manifest)
     cols, t_start = build_columns(f, period, options, model.p_elec_w)
     energies = cycle_integrals(cols["time_s"], cols["p_mech_w"], t_start, period,
                                options.n_cycles)
     speed_b, torque_b = options.frame.to_bench(cols["speed_rpm"], cols["torque_nm"])
-    header = _header(row, manifest, folder, options, t_start, energies, bench_session,
-                     provenance, trajectory_sha256(points))
+    header = _header(row, manifest, drive, folder, options, t_start, energies,
+                     bench_session, provenance, trajectory_sha256(points))
     profile = DriveProfile(header, {"time_s": cols["time_s"], "speed_set_rpm": speed_b,
                                     "torque_set_nm": torque_b, "p_elec_pred_w": cols["p_elec_w"],
                                     "p_mech_pred_w": cols["p_mech_w"], "cycle": cols["cycle"]})
@@ -323,10 +343,9 @@ def export_cycle(folder: str | Path, scenario: str, out: str | Path,
     return Exported(files, profile, energies)
 
 
-def _header(row, manifest: dict, folder: Path, opts: ExportOptions, t_start: float,
-            energies: np.ndarray, bench_session, provenance: Provenance,
-            trajectory: str) -> dict:
-    rating = manifest.get("drive_limits") or {}
+def _header(row, manifest: dict, rating: dict, folder: Path, opts: ExportOptions,
+             t_start: float, energies: np.ndarray, bench_session, provenance: Provenance,
+             trajectory: str) -> dict:
     return {
         "scenario": str(row["scenario"]), "optimize_folder": str(folder.resolve()),
         **sweep_ids(manifest), "trajectory_sha256": trajectory,

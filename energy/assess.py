@@ -34,7 +34,7 @@ CYCLE_COLUMNS = ("scenario", "kind", "wind_speed_m_s", "weight", "speed_rpm", "t
 
 #: where the nominal power (the capacity factor's rating) is taken from, in this order
 NOMINAL_SOURCES = ("--nominal-power-w",
-                   "the drive in force (optimize manifest drive_limits.nominal_power_w)",
+                   "the drive in force (optimize manifest sections.drive.nominal_power_w)",
                    "power_model.json drive.nominal_power_w", "power_model.json nominal_power_w")
 
 
@@ -64,7 +64,7 @@ def nominal_power(model_json: dict | None, override_w: float | None, path: Path 
     """The drive's nominal power [W] and where it came from.
 
     Order: the user's ``override_w``; the rating in force that the optimize
-    manifest names (``drive_limits.nominal_power_w``: the system's drive);
+    manifest names (``sections.drive.nominal_power_w``: the system's drive);
     ``drive.nominal_power_w`` of the power model file; its top-level
     ``nominal_power_w`` (schema version 1).
     """
@@ -72,7 +72,8 @@ def nominal_power(model_json: dict | None, override_w: float | None, path: Path 
         if not (math.isfinite(override_w) and override_w > 0):
             raise InputError(None, f"--nominal-power-w {override_w}", expected="a power > 0 W")
         return float(override_w), NOMINAL_SOURCES[0]
-    in_force = ((manifest or {}).get("drive_limits") or {}).get("nominal_power_w")
+    in_force = (((manifest or {}).get("sections") or {}).get("drive") or {}).get(
+        "nominal_power_w")
     if _positive_number(in_force):
         return float(in_force), NOMINAL_SOURCES[1]
     model_json = model_json or {}

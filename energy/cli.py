@@ -50,7 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "manifest)")
     parser.add_argument("--nominal-power-w", type=float, default=None,
                         help="drive rating for the capacity factor [W] (default: the drive in "
-                             "force of the sweep, its manifest's drive_limits.nominal_power_w; "
+                             "force of the sweep, its manifest's sections.drive.nominal_power_w; "
                              "else the power model's)")
     parser.add_argument("--out", type=Path, default=Path("aep_out"),
                         help="output folder (default ./aep_out)")

@@ -392,7 +392,6 @@ def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, o
             "note": request.model_note,
         },
         "system": system.record(),
-        "drive_limits": drive.rating.to_dict(),
         "drive": drive.record(),
         "kite_limits": dataclasses.asdict(system.kite_limits()),
         "options": options.as_dict(),

@@ -42,8 +42,9 @@ from kernel.provenance import Provenance
 
 SCHEMA_NAME = "drivebench.optimize"
 #: the manifest's layout: 2 records the bounds flown as the system's ``sections`` (the
-#: ``[drive]`` in force) and their ``bound_values``, no ``options.limits``
-SCHEMA_VERSION = 2
+#: ``[drive]`` in force) and their ``bound_values``, no ``options.limits``; 3 the drive in
+#: force once, as ``sections.drive`` (no ``drive_limits``, no ``drive.rating``)
+SCHEMA_VERSION = 3
 SUMMARY_FILE, TRAJECTORIES_FILE = "summary.parquet", "trajectories.parquet"
 MANIFEST_FILE, CLAIMS_FILE, MODEL_FILE = "manifest.json", "claims.csv", "power_model.json"
 #: the seed's optimum, the start of a later sweep of the same system (``--start``)
@@ -56,7 +57,7 @@ SUMMARY_COLUMNS: dict[str, str] = {
     "scenario": "scenario name, kind and wind speed",
     "kind": "elec-lim | elec-free | mech-lim | mech-free",
     "objective": "electrical | mechanical (the average power maximized)",
-    "drive_limits": "the drive's speed and torque limits applied (manifest drive_limits)",
+    "drive_limits": "the drive's speed and torque limits applied (manifest sections.drive)",
     "wind_speed_m_s": "wind speed at 100 m",
     "success": "final solve converged",
     "status": "IPOPT return status of the final solve",

@@ -68,7 +68,7 @@ def write_cycle_sweep(folder, edit=None) -> object:
                 "scenarios": list(CYCLES),
                 "drive_model": {"path": "", "file_sha256": "", "model_sha256": model.sha256,
                                 "name": model.name, "note": "analytic test cycles"},
-                "drive_limits": dict(LIMITS)}
+                "sections": {"drive": dict(LIMITS)}}
     write_sweep_folder(folder, Provenance.start(("tests",)), summary=pd.DataFrame(rows),
                        trajectories=trajectories, manifest=manifest,
                        system=None, carried_model=model)

@@ -189,3 +189,17 @@ def test_two_exports_to_one_profile_serialize(sweep, tmp_path):
         assert header[f"{q}_table_sha256"] == file_sha256(path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["p.csv", "p.speed.csv",
                                                          "p.torque.csv"]
+
+
+def test_a_folder_without_the_drive_in_force_is_refused_naming_its_manifest(tmp_path):
+    # an older bench optimize recorded the drive as drive_limits: its limits are not read
+    # as none (a cycle exported unchecked), the folder is refused with the remedy
+    from cycle.export import flown_drive
+    from kernel.errors import InputError
+
+    with pytest.raises(InputError) as err:
+        flown_drive({"drive_limits": {"max_torque_nm": 78.0}}, tmp_path)
+    text = err.value.describe()
+    assert str(tmp_path / "manifest.json") in text and "re-run `bench optimize`" in text
+    assert flown_drive({"sections": {"drive": {"max_torque_nm": 78.0}}}, tmp_path) == {
+        "max_torque_nm": 78.0}

@@ -177,7 +177,7 @@ def test_capacity_factor_rating_is_the_drive_in_force_of_the_sweep():
     from energy.assess import NOMINAL_SOURCES, nominal_power
 
     model = {"nominal_power_w": 18923.0, "drive": {"nominal_power_w": 18923.0}}
-    manifest = {"drive_limits": {"nominal_power_w": 18920.0}}
+    manifest = {"sections": {"drive": {"nominal_power_w": 18920.0}}}
     # the rating the optimize manifest names wins over the power model's own
     assert nominal_power(model, None, None, manifest) == (18920.0, NOMINAL_SOURCES[1])
     # the user's value wins over both; a sweep without the record falls back to the model

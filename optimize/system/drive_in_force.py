@@ -108,7 +108,7 @@ class DriveInForce:
 
     def record(self) -> dict:
         """The manifest's ``drive`` record."""
-        return {"rating": self.rating.to_dict(), "losses_path": str(self.model_path),
+        return {"losses_path": str(self.model_path),
                 "losses_note": self.losses_note, "speed_ratio": self.speed_ratio,
                 "torque_ratio": self.torque_ratio, "loss_ratio": self.loss_ratio,
                 "model_sha256": self.model.sha256,
