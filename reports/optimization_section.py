@@ -68,8 +68,9 @@ def key_warnings(summary: pd.DataFrame) -> list[tuple[str, str]]:
     """What Key results must say about the cycles themselves: those that run most of their
     time outside the drive model's validity domain (there the model extrapolates), and
     those that draw net power from the grid while the drum generates (their drive's
-    losses exceed what the drum delivers), each with the losses that explain its draw and
-    whether those inside the domain alone would."""
+    losses exceed what the drum delivers): the largest with the losses that explain its
+    draw, and those whose losses inside the domain alone would not make them draw (section
+    4 itemizes each, :func:`draw_rows`)."""
     ok = summary[summary["success"].astype(bool)]
     rows = []
     if "outside_domain_time_frac" in ok.columns:
@@ -82,14 +83,48 @@ def key_warnings(summary: pd.DataFrame) -> list[tuple[str, str]]:
                 f"drive model's validity domain (its measured envelope, where it extrapolates): "
                 f"{_scenario_list(most)}; worst {worst['scenario']}, "
                 f"{100 * float(worst['outside_domain_time_frac']):.0f} % of its cycle")))
-    losing = ok[(ok["avg_p_elec_w"].astype(float) > 0) & (ok["avg_p_mech_w"].astype(float) < 0)]
+    losing = _drawing(ok)
     if len(losing):
-        order = (losing["avg_p_elec_w"] - losing["avg_p_mech_w"]).sort_values(ascending=False)
+        resting = losing[[_rests_on_extrapolation(r) for _, r in losing.iterrows()]]
+        rest = (f"; the draws of {_scenario_list(resting)} rest on losses the model "
+                "extrapolates (those inside its domain alone would not make them draw)"
+                if len(resting) and len(losing) > 1 else "")
         rows.append(("drawing from the grid while generating", (
             f"{len(losing)} converged cycles draw net power from the grid while the drum "
             f"generates (the drive's losses exceed the drum's power): {_scenario_list(losing)}; "
-            + "; ".join(_draw_words(losing.loc[i]) for i in order.index))))
+            f"largest {_draw_words(losing.iloc[0])}{rest}"
+            + (f"; {section_name('optimization')} gives each cycle's losses"
+               if len(losing) > 1 else ""))))
     return rows
+
+
+def draw_rows(summary: pd.DataFrame) -> list[str]:
+    """Per converged cycle that draws net power while the drum generates, the largest
+    losses first: what it draws, what the drum generates, the drive's losses that explain
+    the difference and how much of them the model extrapolates (:func:`_draw_words`)."""
+    ok = summary[summary["success"].astype(bool)]
+    return [_draw_words(r) for _, r in _drawing(ok).iterrows()]
+
+
+def _drawing(ok: pd.DataFrame) -> pd.DataFrame:
+    """The rows of ``ok`` that draw from the grid while the drum generates, the largest
+    drive losses (P_elec - P_mech) first."""
+    p_elec, p_mech = ok["avg_p_elec_w"].astype(float), ok["avg_p_mech_w"].astype(float)
+    losing = ok[(p_elec > 0) & (p_mech < 0)]
+    return losing.loc[(p_elec - p_mech)[losing.index].sort_values(ascending=False).index]
+
+
+def _inside_loss_w(row: pd.Series) -> float:
+    """The drive losses [W] of a summary row at points inside the model's domain; NaN
+    where the summary states no loss share."""
+    share = float(row.get("outside_domain_loss_frac", float("nan")))
+    return (1.0 - share) * (float(row["avg_p_elec_w"]) - float(row["avg_p_mech_w"]))
+
+
+def _rests_on_extrapolation(row: pd.Series) -> bool:
+    """Whether a cycle drawing while the drum generates would not draw on the losses
+    inside the model's domain alone."""
+    return bool(_inside_loss_w(row) < -float(row["avg_p_mech_w"]))
 
 
 def _draw_words(row: pd.Series) -> str:
@@ -109,12 +144,11 @@ def _extrapolated(row: pd.Series) -> str:
     share = float(row.get("outside_domain_loss_frac", float("nan")))
     if not share > 0:
         return ""
-    generated = -float(row["avg_p_mech_w"])
-    inside = (1.0 - share) * (float(row["avg_p_elec_w"]) + generated)
     verdict = ("would not make it draw: the draw rests on the extrapolation"
-               if inside < generated else "would make it draw too")
+               if _rests_on_extrapolation(row) else "would make it draw too")
     return (f", {100 * share:.0f} % of them at points outside the drive model's domain, "
-            f"where it extrapolates (the {power_words(inside)} inside it alone {verdict})")
+            f"where it extrapolates (the {power_words(_inside_loss_w(row))} inside it alone "
+            f"{verdict})")
 
 
 def drive_checks(manifest: dict | None) -> list[tuple[str, str]]:
@@ -363,6 +397,7 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
         ``table_ii``, ``n_failed``, ``scenarios`` (full summary table), ``fig8a``,
         ``fig8b`` (markup or None), ``cycles`` (:func:`cycle_figures_at_paper_wind`),
         ``fig3``, ``notes`` (why Fig. 3 is absent), ``domain`` (:func:`domain_rows`),
+        ``draws`` (:func:`draw_rows`),
         ``claims``, ``run``, ``cut_in``, ``trust`` (:func:`reports.trust_checks.trust_checks`),
         ``manifest``, ``missing``, ``bounds`` (:func:`bound_rows`), ``system`` (name, hash
         and file text from the manifest, or None), ``kite_limits``
@@ -387,7 +422,7 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
                 "fig3": None, "notes": {"fig3": None}, "bounds": [], "failed": [],
                 "finer_mesh": [], "finer_mesh_head": FINER_MESH_HEAD,
                 "unchecked": [], "unchecked_head": UNCHECKED_HEAD,
-                "domain": None,
+                "domain": None, "draws": [],
                 "claims": claims_rows(claims) if claims is not None else None})
     if summary is not None and len(summary):
         s = normalized_summary(summary, optimize / "summary.parquet")
@@ -395,6 +430,7 @@ def optimization_section(log: InputLog, optimize: Path, drawn_map: dict | None,
                     "failed": failed_rows(summary),
                     "n_scenarios": len(s), "scenarios": frame_table(summary),
                     "bounds": bound_rows(summary), "domain": domain_rows(summary),
+                    "draws": draw_rows(summary),
                     "bound_legend": bound_legend(bound_rows(summary), flown_bounds(manifest)),
                     "finer_mesh": remesh_lines(summary),
                     "unchecked": unchecked_lines(summary),
