@@ -153,3 +153,31 @@ def test_the_writer_refuses_an_output_it_cannot_write_before_solving(tmp_path, c
     assert stored_guess.main(["--out", str(tmp_path / "none.npz"), "--record-parts",
                               "kite,drive"]) == 2
     assert "no guess file to record the parts of" in capsys.readouterr().err
+
+
+def test_a_damaged_start_is_named_once_per_run_not_once_per_worker(tmp_path, caplog):
+    # was: every worker process that started a chain said it again; now the problem the
+    # service ships to the workers is made with the stored guess switched off, said once
+    import dataclasses
+
+    from optimize.paper_model import paper_model
+    from optimize.problem.options import OcpOptions
+    from optimize.service import Problem
+
+    model = paper_model()
+    path = tmp_path / "damaged.npz"
+    path.write_bytes(stored_guess.GUESS_PATH.read_bytes()[:200])
+    options = OcpOptions()
+    options = dataclasses.replace(options, solver=dataclasses.replace(
+        options.solver, start_file=str(path)))
+    caplog.set_level(logging.WARNING, logger=LOGGER)
+    first = Problem.for_system(None, model, options)
+    again = Problem.for_system(None, model, options)
+    assert not first.options.solver.stored_guess and not again.options.solver.stored_guess
+    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert len(warnings) == 1 and str(path) in warnings[0], warnings
+    assert "cannot read the stored initial guess" in warnings[0]
+    # an intact file leaves the options as they were, without a word
+    caplog.clear()
+    assert Problem.for_system(None, model, OcpOptions()).options == OcpOptions()
+    assert not caplog.records

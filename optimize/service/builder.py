@@ -86,10 +86,15 @@ class Problem:
 
     @classmethod
     def for_system(cls, system: Any, drive_model: Any, options: Any) -> Problem:
-        """The problem of a system with its options (already holding the system's limits);
-        ``system`` None is the package defaults."""
+        """The problem of a system with its options (already holding the system's limits;
+        the stored guess switched off, said once here, when its file is damaged:
+        :func:`optimize.solve.starts.stored_guess.checked_options`); ``system`` None is the
+        package defaults."""
         from optimize.model.dae import DaeSpec
         from optimize.model.kite_model import kite_dae
+        from optimize.solve.starts.stored_guess import checked_options
+
+        options = checked_options(options)
 
         model = DaeSpec(kite_dae) if system is None else system.dae_spec()
         return cls(model, drive_model, options, problem_key(options, drive_model, system),

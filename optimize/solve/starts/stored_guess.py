@@ -27,8 +27,9 @@ makes it stale, and :func:`optimize.solve.starts.cold.start` falls back to the h
     .venv/bin/python -m optimize.solve.starts.stored_guess
 
 The file records the SHA-256 of its content (:data:`HASH_KEY`): an edited, truncated or
-damaged file, or one without its parts record or hash, is not used, and :func:`load` says
-so as a warning (once per process) before the cold start runs the homotopy. A file
+damaged file, or one without its parts record or hash, is not used, and the run says so
+as a warning, once, before any solve (:func:`checked_options`: the service's problems are
+made with it) and the cold starts run the homotopy. A file
 written before it recorded its parts or hash gets them, checked on the OCP of the parts
 named, with ``--record-parts kite,drive`` (its arrays unchanged); names that are no part
 of the OCP, or none, are refused (exit 2) and the file is left as it was.
@@ -237,6 +238,22 @@ def check_start_file(path: str | Path, system_sha256: str) -> None:
         raise InputError(path, f"{OTHER_SYSTEM} (sha256 {stored}); the sweep's system has "
                          f"{system_sha256[:12]}",
                          expected="the start file of a sweep of this very system file")
+
+
+def checked_options(options: OcpOptions) -> OcpOptions:
+    """``options`` with the stored guess switched off when the file it would start from
+    (``--start``'s, or the shipped one) is missing, unreadable, edited or damaged: said
+    here, once per run, as a warning (:func:`load` would say it again in every worker
+    process that starts a chain); the solves then start as with ``--no-stored-guess``.
+    An intact file that does not fit an OCP is found by :func:`load`, per OCP."""
+    o = options.solver
+    if not o.stored_guess:
+        return options
+    data, why = _read(o.start_file or GUESS_PATH)
+    if data is not None:
+        return options
+    _warn(why)
+    return dataclasses.replace(options, solver=dataclasses.replace(o, stored_guess=False))
 
 
 def _warn(why: str) -> str:
