@@ -10,7 +10,9 @@ derivatives, and how a start and a solution cross to it, is the transcription me
 
 from __future__ import annotations
 
+import dataclasses
 import logging
+import math
 import os
 import time
 from dataclasses import dataclass
@@ -18,6 +20,13 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from optimize.problem.deadline import (
+    CALL_WALL_LIMIT_S,
+    SOLVE_WALL_LIMIT_S,
+    WALL_STATUS,
+    deadline,
+    passed,
+)
 from optimize.problem.ocp import Bounds, Ocp
 from optimize.problem.transcriptions import method_of
 
@@ -146,6 +155,7 @@ def _ipopt(ocp: Ocp, warm: bool, push: float, setting: Setting) -> ca.Function:
         "acceptable_tol": o.acceptable_tol,
         "acceptable_iter": 5,
         "max_iter": o.max_iter if setting.max_iter is None else setting.max_iter,
+        "max_wall_time": CALL_WALL_LIMIT_S,
         "print_level": 0,
         "sb": "yes",
         # the NLP is scaled by construction; MUMPS' own scaling cost time and
@@ -228,16 +238,45 @@ def run(
 
     ``bound_push`` overrides the solver options' ``warm_bound_push`` of a warm solve;
     ``setting`` sets the barrier parameter and the iteration cap (:class:`Setting`).
+
+    The call runs at most :data:`~optimize.problem.deadline.CALL_WALL_LIMIT_S` seconds,
+    and none is made past this thread's deadline (:mod:`optimize.problem.deadline`): a
+    call stopped so, or not made, fails with the status
+    :data:`~optimize.problem.deadline.WALL_STATUS` and what the solver said.
     """
+    if passed():
+        return _unsolved(ocp, w0, f"{WALL_STATUS}: not run, the solve's "
+                         f"{SOLVE_WALL_LIMIT_S:g} s were spent", 0.0)
     nlpsol = solver(ocp, warm, bound_push, setting)
 
     def call(w: np.ndarray, p_: np.ndarray, b: Bounds, lam_x: np.ndarray | None,
              lam_g: np.ndarray | None) -> RawSolve:
         return _call(nlpsol, w, p_, b, lam_x, lam_g)
 
-    return method_of(ocp.options.solver).solve(ocp, call, w0, p, bounds,
-                                               lam_x0 if warm else None,
-                                               lam_g0 if warm else None)
+    t0 = time.perf_counter()
+    with deadline(CALL_WALL_LIMIT_S):
+        try:
+            raw = method_of(ocp.options.solver).solve(ocp, call, w0, p, bounds,
+                                                      lam_x0 if warm else None,
+                                                      lam_g0 if warm else None)
+        except RuntimeError as exc:  # an evaluation that raised at the deadline (fatrop)
+            if not passed():
+                raise
+            raw = _unsolved(ocp, w0, f"{type(exc).__name__} at the deadline",
+                            time.perf_counter() - t0)
+        late = passed()
+    if raw.success or not (late or raw.status.startswith("Maximum_WallTime_Exceeded")):
+        return raw
+    return dataclasses.replace(raw, status=(
+        f"{WALL_STATUS}: stopped after {raw.wall_time_s:.0f} s (at most "
+        f"{CALL_WALL_LIMIT_S:g} s a call, {SOLVE_WALL_LIMIT_S:g} s a cold start), "
+        f"{raw.iterations} iterations; the solver said {raw.status}"))
+
+
+def _unsolved(ocp: Ocp, w0: np.ndarray, status: str, wall_time_s: float) -> RawSolve:
+    """A call that gave no iterate: the start, no multipliers, ``status``."""
+    return RawSolve(np.asarray(w0, dtype=float), np.zeros(len(w0)), np.zeros(ocp.layout.n_g),
+                    math.nan, status, False, 0, wall_time_s, 0.0)
 
 
 def _call(nlpsol: ca.Function, w0: np.ndarray, p: np.ndarray, bounds: Bounds,

@@ -43,6 +43,7 @@ def condensed(ocp: Any) -> CondensedNlp:
         ocp.solvers["condensed_derivatives"] = derivs
         # the callbacks into the interval cache live as long as the solvers that call them
         ocp.solvers["condensed_callbacks"] = callbacks
+        ocp.solvers["condensed_cache"] = callbacks[0].owner
         log.info("built the condensed NLP (%s%s): %d variables, %d constraints in %.1f s",
                  rootfinder, ", compiled" if compile_with else "", c.n_w, c.n_g,
                  time.perf_counter() - t0)
@@ -96,7 +97,15 @@ class CondensedMethod:
         if lam_x0 is not None and lam_g0 is not None:
             lam_c = to_condensed(c, (funcs["grad_f"], funcs["jac_g"]),
                                                        w0_c, p_c, lam_x0, lam_g0)
+        cache = ocp.solvers["condensed_cache"]
+        points, unsolved = cache.points, cache.unsolved
         raw = call(w0_c, p_c, c.bounds(bounds), *lam_c)
+        unsolved, points = cache.unsolved - unsolved, cache.points - points
+        if unsolved and not raw.success:  # the cause of a slow or failed call, said
+            raw = dataclasses.replace(raw, status=(
+                f"{raw.status} ({unsolved} of the {points} points it evaluated had an "
+                "interval whose Newton solve did not converge: evaluation errors, on which "
+                "the solver cut its steps back)"))
         w = c.expand(raw.w, p_c)
         full = full_derivatives(ocp, "ipopt")
         lam_x, lam_g = to_full(c, (full["grad_f"], full["jac_g"]), w, p,

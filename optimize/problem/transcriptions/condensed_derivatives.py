@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from optimize.problem.deadline import passed
 from optimize.problem.transcriptions.condensed_nlp import CondensedNlp, Interval
 from optimize.problem.transcriptions.derivatives import (
     Derivatives,
@@ -102,7 +103,10 @@ class IntervalCache:
     matrices: a conversion to NumPy costs more than the rest of a call); the Newton
     solves at a point run at the first call there, the sensitivities ``dv/dq`` at the
     first call of ``jacobian`` or ``hessian`` there, and both are kept for the
-    :data:`KEEP_POINTS` points last asked for.
+    :data:`KEEP_POINTS` points last asked for. Past the thread's deadline
+    (:mod:`optimize.problem.deadline`) every evaluation raises, which ends the solver's
+    call. ``points`` and ``unsolved`` count the points solved and those where an
+    interval's Newton solve did not converge (its outputs NaN: an evaluation error).
     """
 
     def __init__(self, c: CondensedNlp, fns: IntervalFunctions) -> None:
@@ -119,14 +123,19 @@ class IntervalCache:
         self._second = ca.Function("intervals_second", [w, p, vs, v_qs, nu], [
             fns.second.map(n)(vs, q, a, v_qs, nu)])
         self._points: OrderedDict[bytes, dict[str, ca.DM]] = OrderedDict()
+        self.points = self.unsolved = 0
 
     def _point(self, w: ca.DM, p: ca.DM) -> dict[str, ca.DM]:
+        if passed():  # IPOPT takes it for an evaluation error, fatrop's call raises
+            raise TimeoutError("the solve's wall-time deadline passed")
         key = hashlib.blake2b(struct.pack(f"{w.nnz() + p.nnz()}d", *w.nonzeros(),
                                           *p.nonzeros()), digest_size=16).digest()
         entry = self._points.get(key)
         if entry is None:
             y, v = self._solve(w, p)
             entry = {"y": y, "v": v}
+            self.points += 1
+            self.unsolved += bool(np.isnan(np.asarray(y.nonzeros())).any())
             self._points[key] = entry
             if len(self._points) > KEEP_POINTS:
                 self._points.popitem(last=False)
@@ -161,6 +170,7 @@ class _Call(ca.Callback):
                  shapes_in: list[tuple[int, int]], shape_out: tuple[int, int]) -> None:
         ca.Callback.__init__(self)
         self._fn, self._in, self._out = fn, shapes_in, shape_out
+        self.owner = getattr(fn, "__self__", None)  # the cache of a bound method
         self.construct(name, {})
 
     def get_n_in(self) -> int:

@@ -7,6 +7,7 @@ import dataclasses
 import logging
 import math
 
+from optimize.problem.deadline import SOLVE_WALL_LIMIT_S, deadline
 from optimize.problem.ocp import Ocp, on_mesh
 from optimize.problem.options import MIN_COLLOCATION_POINTS
 from optimize.problem.scenario import Scenario
@@ -33,6 +34,14 @@ def coarse_intervals(degree: int) -> int:
 
 
 def start(ocp: Ocp, scenario: Scenario) -> OcpResult:
+    """:func:`_start` within :data:`~optimize.problem.deadline.SOLVE_WALL_LIMIT_S` seconds
+    (its solver calls past them are not made: the start fails with the status
+    :data:`~optimize.problem.deadline.WALL_STATUS`)."""
+    with deadline(SOLVE_WALL_LIMIT_S):
+        return _start(ocp, scenario)
+
+
+def _start(ocp: Ocp, scenario: Scenario) -> OcpResult:
     """Solve ``scenario`` with no neighbouring solution at hand.
 
     Warm-started from the shipped initial guess (:mod:`optimize.solve.starts.stored_guess`),

@@ -1,0 +1,48 @@
+"""How long a solve may run: a wall-time deadline of the calling thread.
+
+One NLP solver call may run :data:`CALL_WALL_LIMIT_S` seconds, and a cold start (the
+stored guess, the homotopy and its fallbacks together) :data:`SOLVE_WALL_LIMIT_S`
+(:func:`optimize.solve.starts.cold.start`). IPOPT stops itself there (its
+``max_wall_time``); the condensed NLP's interval solves raise past the deadline
+(:class:`optimize.problem.transcriptions.condensed_derivatives.IntervalCache`), which
+ends any solver's call (fatrop has no time limit of its own); a call asked for after it
+is not made (:func:`optimize.solve.backend.run`). The collocation with fatrop has no
+such hook: its calls are bounded by their iteration cap only. A solve stopped so fails
+with the status :data:`WALL_STATUS` and what its last call said.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+#: the longest one solver call may run [s] (successful cold starts measured at most 62 s
+#: in all with IPOPT, AP2 condensed, and 181 s with fatrop, MegAWES condensed, each in
+#: several calls: benchmarks/README.md)
+CALL_WALL_LIMIT_S = 150.0
+#: the longest a cold start may run, all its calls together [s]
+SOLVE_WALL_LIMIT_S = 600.0
+#: how the status of a solve stopped at its deadline begins
+WALL_STATUS = "Wall_Time_Limit"
+
+_local = threading.local()
+
+
+@contextmanager
+def deadline(seconds: float) -> Iterator[None]:
+    """While open, this thread's deadline is ``seconds`` from now, or the one already set
+    when that comes first."""
+    before = getattr(_local, "at", math.inf)
+    _local.at = min(before, time.monotonic() + seconds)
+    try:
+        yield
+    finally:
+        _local.at = before
+
+
+def passed() -> bool:
+    """Whether this thread's deadline has passed (never without one)."""
+    return time.monotonic() > getattr(_local, "at", math.inf)

@@ -1,0 +1,75 @@
+"""A solve ends within a stated time, its status naming why (optimize/problem/deadline.py):
+one solver call runs at most CALL_WALL_LIMIT_S (IPOPT's max_wall_time; the condensed
+NLP's evaluations give NaN past it, which ends fatrop's call too), a cold start at most
+SOLVE_WALL_LIMIT_S, and no call is made past the deadline.
+
+Was: a condensed homotopy stage whose trial points failed the intervals' Newton solves
+(evaluation errors) ran IPOPT to its 1000 iterations at 0.5 s each, and a 90 degC winding
+limit with the condensed formulation neither finished nor failed within 900 s. The
+problem here is the exact pendulum of test_condensed_transcription, which each solver
+solves in well under the limits; a limit of a few milliseconds stops every one of them."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+from point_mass_model import Pendulum, pendulum_formulation, small_angle_guess
+
+from optimize.problem import deadline
+from optimize.problem.ocp import assemble, grid_times
+from optimize.problem.options import Discretization, OcpOptions, SolverOptions
+from optimize.solve import backend
+
+N, DEGREE = 20, 3
+
+
+def _run(solver: str, transcription: str):
+    pendulum = Pendulum()
+    form = pendulum_formulation(pendulum)
+    ocp = assemble(form, OcpOptions(Discretization(N, DEGREE), solver=SolverOptions(
+        solver=solver, transcription=transcription, codegen=False)))
+    period = form.scales.period_s
+    x, z = small_angle_guess(pendulum, grid_times(ocp, period), period)
+    w0 = ocp.pack(x, z[:, 1:], np.zeros((1, N)), np.zeros((2, N * DEGREE)), period)
+    p = ocp.params(None, {"p_ctrl_w": 0.0})
+    bounds = ocp.bounds(drive_limits=False, fix_fictitious=True, period_s=None)
+    return backend.run(ocp, w0, p, bounds, warm=False)
+
+
+def test_the_deadline_nests_and_passes():
+    assert not deadline.passed()
+    with deadline.deadline(60.0):
+        assert not deadline.passed()
+        with deadline.deadline(1e-6):  # the earlier of the two holds inside
+            time.sleep(1e-3)
+            assert deadline.passed()
+        assert not deadline.passed()
+        with deadline.deadline(1e6):  # a later one does not extend it
+            assert not deadline.passed()
+    assert not deadline.passed()
+
+
+def test_no_call_is_made_past_the_deadline():
+    with deadline.deadline(1e-6):
+        time.sleep(1e-3)
+        t0 = time.perf_counter()
+        raw = _run("ipopt", "collocation")
+    assert time.perf_counter() - t0 < 1.0  # the NLP's assembly, no solve
+    assert not raw.success and raw.iterations == 0
+    assert raw.status.startswith(f"{deadline.WALL_STATUS}: not run")
+
+
+@pytest.mark.parametrize(("solver", "transcription"), [
+    ("ipopt", "collocation"), ("ipopt", "condensed"), ("fatrop", "condensed")])
+def test_a_call_past_its_limit_ends_with_a_status_that_says_so(solver, transcription,
+                                                                monkeypatch):
+    assert _run(solver, transcription).success  # within the stated limits: solved
+    monkeypatch.setattr(backend, "CALL_WALL_LIMIT_S", 1e-3)
+    t0 = time.perf_counter()
+    raw = _run(solver, transcription)
+    assert time.perf_counter() - t0 < 30.0
+    assert not raw.success
+    assert raw.status.startswith(f"{deadline.WALL_STATUS}: stopped after "), raw.status
+    assert "the solver said" in raw.status
