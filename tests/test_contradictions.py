@@ -189,3 +189,15 @@ def test_an_optimum_on_the_line_angle_bound_is_listed(coarse_ocp, coarse_elec_li
     assert res.success, res.status
     assert res.trajectory["line_angle_deg"].max() == pytest.approx(20.0, abs=1e-3)
     assert "line_angle_limit" in res.active_bounds
+
+
+@pytest.mark.parametrize("clearance_m", [502.0, 1000.0])
+def test_a_ground_clearance_above_the_longest_tether_is_refused(clearance_m):
+    # the kite flies at most winch height (2 m) + tether_length_max_m (500 m) high; was a
+    # 16 s solve that ended FAILED without naming either key
+    with pytest.raises(InputError) as err:
+        _check(_system(bounds__min_ground_clearance_m=clearance_m))
+    text = err.value.describe()
+    assert "[bounds] min_ground_clearance_m" in text and "tether_length_max_m 500 m" in text
+    assert "winch_height_m 2 m" in text and "at most 502 m high" in text
+    _check(_system(bounds__min_ground_clearance_m=400.0))  # within reach: no contradiction

@@ -1,7 +1,8 @@
 """Bounds of different parts that cannot hold together, refused before any solve.
 
 Each part of a system may be plausible on its own (:mod:`optimize.system.plausibility`)
-and still contradict another: a tension floor the drive cannot pull on its drum, a base
+and still contradict another: a ground clearance above what the longest tether reaches,
+a tension floor the drive cannot pull on its drum, a base
 speed or envelope table that leaves the drive far less power than its nominal power, a
 table so steep that the smooth bound the OCP enforces in its place falls to nothing, a
 thermal model by which the drive's continuous rating would heat its winding to thousands
@@ -65,6 +66,22 @@ def check_tension_floor(system: Any, constrained: bool, source: str | None = Non
                          f"most {pull_n:.4g} N: the kinds with drive limits (*-lim) hold no "
                          "cycle", expected=f"{key_of_floor} below {pull_n:.4g} N, or a "
                          f"{key} of at least {torque_nm:.4g} N m")
+
+
+def check_clearance(system: Any) -> None:
+    """Refuse a ground clearance the kite cannot reach on the longest tether: its altitude
+    is at most the winch's height plus the tether's length (straight up), so a clearance
+    at or above that leaves no cycle in any kind."""
+    b, w = system.bounds, system.wind
+    top_m = w.winch_height_m + b.tether_length_max_m
+    if b.min_ground_clearance_m < top_m:
+        return
+    raise InputError(system.path, f"[bounds] min_ground_clearance_m: {b.min_ground_clearance_m:g} "
+                     f"m, while the kite flies at most {top_m:g} m high ([wind] "
+                     f"winch_height_m {w.winch_height_m:g} m plus [bounds] tether_length_max_m "
+                     f"{b.tether_length_max_m:g} m, the tether straight up): no kind holds a "
+                     "cycle", expected=f"min_ground_clearance_m well below {top_m:g} m, or a "
+                     "longer tether_length_max_m")
 
 
 def envelope_power_w(drive: Any) -> float | None:
@@ -195,6 +212,7 @@ def check_contradictions(system: Any, drive_model: Any, kinds: tuple[str, ...],
     from optimize.kinds import KINDS
 
     constrained = any(KINDS[k].drive_limits for k in kinds)
+    check_clearance(system)
     check_tension_floor(system, constrained, source)
     if constrained:
         check_envelope(system.drive, system.path, source)

@@ -1,0 +1,316 @@
+"""Hostile cases against what drivebench keeps between runs (issue 51's classes, cases
+nobody listed): a poisoned record of another kind, a store file from another problem, a
+damaged or forged file of an output folder read by a later stage, contradictory bounds
+of another pair of parts. Each case runs the real ``bench`` commands in a fresh folder
+and prints one line: its verdict and what happened::
+
+    .venv/bin/python benchmarks/hostile_kept_files.py [--work DIR] [--only NAME,...]
+
+Verdicts: ``clean`` (a correct result, or a refusal that names the file or the keys, exit
+non-zero, no traceback, nothing kept lost), ``unclear`` (a traceback, or a refusal that
+does not say what is wrong), ``wrong`` (exit 0 with a result that is not the
+undamaged run's), ``damage`` (a good output replaced or removed).
+The sweeps are coarse (10 intervals, one or two wind speeds): about 5 minutes in all.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+BENCH = [sys.executable, "-m", "drivebench.cli"]
+SITE = ["--weibull-k", "2", "--mean-speed", "6", "--height-m", "100"]
+COARSE = ["--intervals", "10", "--no-progress"]
+
+
+def bench(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    """One ``bench`` command in ``cwd``: its exit code, stdout and stderr."""
+    return subprocess.run([*BENCH, *args], cwd=cwd, capture_output=True, text=True,
+                          check=False)
+
+
+def said(run: subprocess.CompletedProcess) -> str:
+    """The last line the command wrote on stderr (else stdout), for the case's line."""
+    lines = (run.stderr.strip() or run.stdout.strip()).splitlines()
+    return lines[-1][:220] if lines else ""
+
+
+def refused(run: subprocess.CompletedProcess, *names: str) -> tuple[str, str]:
+    """Clean when the command stopped non-zero, without a traceback, naming ``names``."""
+    text = run.stdout + run.stderr
+    if "Traceback" in text:
+        return "unclear", f"traceback: {said(run)}"
+    if run.returncode == 0:
+        return "wrong", f"exit 0: {said(run)}"
+    missing = [n for n in names if n not in text]
+    if missing:
+        return "unclear", f"exit {run.returncode}, not naming {missing}: {said(run)}"
+    return "clean", f"exit {run.returncode}: {said(run)}"
+
+
+class Work:
+    """The runs every case starts from, made once: a coarse sweep, its AEP, a sizing."""
+
+    def __init__(self, root: Path) -> None:
+        self.root = root
+        base = root / "base"
+        base.mkdir(parents=True, exist_ok=True)
+        self.base = base
+        runs = [
+            ("optimize", "--wind-grid", "7,8.5", "--scenarios", "elec-lim,mech-lim",
+             "--no-claims", "--out", "optimize_out", *COARSE),
+            ("aep", "--optimize", "optimize_out", "--out", "aep_out", *SITE),
+            ("size", "--scales", "1,1.5", "--wind-grid", "7,8.5", "--extend", "0",
+             "--out", "size_out", *COARSE, *SITE),
+        ]
+        for args in runs:
+            if not (base / args[args.index("--out") + 1]).is_dir():
+                run = bench(*args, cwd=base)
+                if run.returncode not in (0, 3):
+                    raise SystemExit(f"bench {' '.join(args)} failed: {said(run)}")
+
+    def copy(self, name: str) -> Path:
+        """A fresh copy of the base runs for the case ``name``."""
+        folder = self.root / name
+        shutil.rmtree(folder, ignore_errors=True)
+        shutil.copytree(self.base, folder)
+        return folder
+
+
+def _sizing_aep(folder: Path) -> dict:
+    data = json.loads((folder / "size_out" / "sizing.json").read_text())
+    return {c["candidate"]: c.get("aep_elec_mwh") for c in data["candidates"]}
+
+
+def _solve_files(folder: Path) -> list[Path]:
+    return sorted((folder / "size_out" / "solves").glob("*.json"))
+
+
+def case_record_of_another_candidate(work: Work) -> tuple[str, str]:
+    """A stored solve of candidate x1.5, intact, copied over x1's file of the same speed
+    (a record of another kind: its own hashes hold, its key is not the file's)."""
+    d = work.copy("record_of_another_candidate")
+    before = _sizing_aep(d)
+    recs = {json.loads(p.read_text()).get("candidate"): p for p in _solve_files(d)}
+    if not {"x1", "x1.5"} <= set(recs):
+        return "unclear", f"no x1 and x1.5 records to swap: {sorted(map(str, recs))}"
+    src, dst = recs["x1.5"], recs["x1"]
+    shutil.copy(src, dst)
+    shutil.copy(src.with_suffix(".npz"), dst.with_suffix(".npz"))
+    run = bench("size", "--scales", "1,1.5", "--wind-grid", "7,8.5", "--extend", "0",
+                "--out", "size_out", *COARSE, *SITE, cwd=d)
+    after = _sizing_aep(d) if run.returncode == 0 else {}
+    if "Traceback" in run.stdout + run.stderr:
+        return "unclear", f"traceback: {said(run)}"
+    if run.returncode != 0:
+        return "unclear", f"exit {run.returncode}: {said(run)}"
+    if any(abs((after.get(k) or 0) - (v or 0)) > 1e-6 * max(1.0, abs(v or 0))
+           for k, v in before.items()):
+        return "wrong", f"AEP {after} against {before}"
+    named = dst.name in run.stdout + run.stderr
+    return ("clean" if named else "unclear",
+            f"AEP unchanged {after}; the file {'named' if named else 'not named'}")
+
+
+def case_npz_swapped(work: Work) -> tuple[str, str]:
+    """Two stored solves' .npz swapped (each intact, each another solve's)."""
+    d = work.copy("npz_swapped")
+    before = _sizing_aep(d)
+    files = [p.with_suffix(".npz") for p in _solve_files(d)]
+    if len(files) < 2:
+        return "unclear", "fewer than two stored solves"
+    a, b = files[0], files[1]
+    tmp = a.with_suffix(".tmp")
+    a.rename(tmp)
+    b.rename(a)
+    tmp.rename(b)
+    run = bench("size", "--scales", "1,1.5", "--wind-grid", "7,8.5", "--extend", "0",
+                "--out", "size_out", *COARSE, *SITE, cwd=d)
+    if "Traceback" in run.stdout + run.stderr or run.returncode != 0:
+        return "unclear", f"exit {run.returncode}: {said(run)}"
+    after = _sizing_aep(d)
+    if after != before and any(abs((after[k] or 0) - (before[k] or 0)) > 1e-6
+                               for k in before):
+        return "wrong", f"AEP {after} against {before}"
+    return "clean", f"re-solved, AEP unchanged {after}"
+
+
+def case_summary_truncated_for_aep(work: Work) -> tuple[str, str]:
+    """optimize_out/summary.parquet cut to half, then bench aep of it."""
+    d = work.copy("summary_truncated")
+    f = d / "optimize_out" / "summary.parquet"
+    f.write_bytes(f.read_bytes()[: f.stat().st_size // 2])
+    aep_before = (d / "aep_out" / "aep.json").read_bytes()
+    run = bench("aep", "--optimize", "optimize_out", "--out", "aep_out", *SITE, cwd=d)
+    verdict = refused(run, "summary.parquet")
+    if (d / "aep_out" / "aep.json").read_bytes() != aep_before:
+        return "damage", f"aep_out replaced: {said(run)}"
+    return verdict
+
+
+def case_run_json_removed_and_summary_forged(work: Work) -> tuple[str, str]:
+    """run.json removed from optimize_out and summary.parquet rewritten with every
+    scenario's power doubled (a folder that looks as if written before run ids)."""
+    d = work.copy("run_json_removed")
+    out = d / "optimize_out"
+    (out / "run.json").unlink()
+    s = pd.read_parquet(out / "summary.parquet")
+    s["avg_p_elec_w"] = 2 * s["avg_p_elec_w"]
+    s.to_parquet(out / "summary.parquet")
+    run = bench("aep", "--optimize", "optimize_out", "--out", "aep_out", *SITE, cwd=d)
+    return refused(run, "run.json")
+
+
+def case_trajectories_from_another_run(work: Work) -> tuple[str, str]:
+    """trajectories.parquet of another sweep (another wind grid) put in optimize_out,
+    then bench cycle export of a scenario both have."""
+    d = work.copy("trajectories_of_another_run")
+    other = bench("optimize", "--wind-grid", "7", "--scenarios", "elec-lim", "--no-claims",
+                  "--out", "other_out", *COARSE, cwd=d)
+    if other.returncode != 0:
+        return "unclear", f"the other sweep failed: {said(other)}"
+    shutil.copy(d / "other_out" / "trajectories.parquet",
+                d / "optimize_out" / "trajectories.parquet")
+    run = bench("cycle", "export", "--optimize", "optimize_out", "--scenario", "elec-lim-7.0",
+                "--out", "profile.csv", cwd=d)
+    return refused(run, "trajectories.parquet")
+
+
+def case_fit_model_edited(work: Work) -> tuple[str, str]:
+    """A power model in a fit_out/ folder whose run.json records it, one coefficient
+    edited, then bench optimize --drive-model of it."""
+    from kernel.output_folder import output_folder
+
+    d = work.copy("fit_model_edited")
+    model = json.loads((ROOT / "optimize/data/paper_drive_model.json").read_text())
+    with output_folder(d / "fit_out", "fit") as stage:  # as bench fit writes its folder
+        (stage / "power_model.json").write_text(json.dumps(model))
+    model["coefficients"] = {k: [2 * c for c in v] for k, v in model["coefficients"].items()}
+    (d / "fit_out" / "power_model.json").write_text(json.dumps(model))
+    run = bench("optimize", "--drive-model", "fit_out/power_model.json", "--wind-grid", "7",
+                "--scenarios", "elec-lim", "--no-claims", "--out", "o2", *COARSE, cwd=d)
+    return refused(run, "power_model.json")
+
+
+def _system_with(d: Path, section: str, line: str) -> Path:
+    """highwind.toml with the key of ``line`` set so in ``[section]`` (its line replaced,
+    or added at the section's top)."""
+    import re
+
+    text = (ROOT / "optimize/data/systems/highwind.toml").read_text()
+    key = line.split("=")[0].strip()
+    head = text.index(f"[{section}]\n")
+    end = text.find("\n[", head + 1)
+    body = text[head:end if end > 0 else len(text)]
+    new = (re.sub(rf"^{key}\s*=.*$", line, body, count=1, flags=re.M)
+           if re.search(rf"^{key}\s*=", body, flags=re.M)
+           else body.replace(f"[{section}]\n", f"[{section}]\n{line}\n", 1))
+    path = d / "my_kite.toml"
+    path.write_text(text.replace(body, new, 1))
+    return path
+
+
+def _contradiction(name: str, section: str, line: str, *keys: str) -> Callable:
+    def case(work: Work) -> tuple[str, str]:
+        d = work.copy(name)
+        system = _system_with(d, section, line)
+        t0 = time.perf_counter()
+        run = bench("optimize", "--system", str(system), "--wind-grid", "7", "--scenarios",
+                    "elec-lim", "--no-claims", "--out", "o3", *COARSE, cwd=d)
+        verdict, text = refused(run, *keys)
+        return verdict, f"{text} ({time.perf_counter() - t0:.0f} s)"
+    case.__doc__ = f"[{section}] {line}: bounds of two parts that cannot hold together"
+    return case
+
+
+def case_start_of_another_mesh(work: Work) -> tuple[str, str]:
+    """bench optimize --start of a sweep of the same system on another mesh (10
+    intervals, this one 12): carried over or refused, never a wrong start believed."""
+    d = work.copy("start_of_another_mesh")
+    run = bench("optimize", "--start", "optimize_out", "--wind-grid", "7", "--scenarios",
+                "elec-lim", "--no-claims", "--out", "o4", "--intervals", "12",
+                "--no-progress", cwd=d)
+    if "Traceback" in run.stdout + run.stderr:
+        return "unclear", f"traceback: {said(run)}"
+    if run.returncode != 0:
+        return refused(run, "start")
+    plain = bench("optimize", "--wind-grid", "7", "--scenarios", "elec-lim", "--no-claims",
+                  "--out", "o5", "--intervals", "12", "--no-progress", cwd=d)
+    got, want = (pd.read_parquet(d / o / "summary.parquet")["avg_p_elec_w"].iloc[0]
+                 for o in ("o4", "o5"))
+    if plain.returncode != 0 or abs(got - want) > 0.5:
+        return "wrong", f"{got:.2f} W from it, {want:.2f} W without (exit {plain.returncode})"
+    return "clean", f"solved from it: {got:.2f} W, as without it ({want:.2f} W)"
+
+
+def case_aep_json_edited_for_report(work: Work) -> tuple[str, str]:
+    """aep_out/aep.json edited (an AEP tripled), then bench report."""
+    d = work.copy("aep_json_edited")
+    f = d / "aep_out" / "aep.json"
+    doc = json.loads(f.read_text())
+
+    def triple(node):  # the first AEP figure found, tripled
+        if isinstance(node, dict):
+            for k, v in node.items():
+                if k.startswith("aep_elec") and isinstance(v, float):
+                    node[k] = 3 * v
+                    return True
+                if triple(v):
+                    return True
+        if isinstance(node, list):
+            return any(triple(v) for v in node)
+        return False
+
+    if not triple(doc):
+        return "unclear", "no AEP figure in aep.json to edit"
+    f.write_text(json.dumps(doc))
+    run = bench("report", "--optimize", "optimize_out", "--aep", "aep_out",
+                "--size", "size_out", "--out", "report.html", cwd=d)
+    return refused(run, "aep.json")
+
+
+CASES = {
+    "record_of_another_candidate": case_record_of_another_candidate,
+    "npz_swapped": case_npz_swapped,
+    "summary_truncated": case_summary_truncated_for_aep,
+    "run_json_removed": case_run_json_removed_and_summary_forged,
+    "trajectories_of_another_run": case_trajectories_from_another_run,
+    "fit_model_edited": case_fit_model_edited,
+    "start_of_another_mesh": case_start_of_another_mesh,
+    "aep_json_edited": case_aep_json_edited_for_report,
+    "clearance_above_tether": _contradiction(
+        "clearance_above_tether", "bounds", "min_ground_clearance_m = 1000.0",
+        "min_ground_clearance_m"),
+    "tension_floor_above_tether_force": _contradiction(
+        "tension_floor_above_tether_force", "bounds", "min_tension_n = 1.0e6",
+        "min_tension_n"),
+}
+
+
+def main() -> None:
+    """Run the cases (all, or those of ``--only``) and print one line each."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--work", type=Path, default=None, help="folder for the runs (kept)")
+    ap.add_argument("--only", default="", help="comma list of case names")
+    args = ap.parse_args()
+    root = args.work or Path(tempfile.mkdtemp(prefix="hostile_kept_"))
+    work = Work(root)
+    names = [n for n in args.only.split(",") if n] or list(CASES)
+    for name in names:
+        t0 = time.perf_counter()
+        verdict, text = CASES[name](work)
+        print(f"{verdict:8s} {name}: {text} [{time.perf_counter() - t0:.0f} s]", flush=True)
+
+
+if __name__ == "__main__":
+    main()
