@@ -19,9 +19,10 @@ continuous torque ``s T_cont``, peak torque ``s T_peak``, the same speed limit,
 nominal power ``s P_nom``, a torque-speed envelope's torques ``s T(n)``; the system's other
 limits are kept. The reference drive x1 is the system's drive as ``bench optimize`` flies
 it: peak torque its ``max_torque_nm``, the RMS torque bound of its continuous rating only
-when below that (:attr:`kernel.drive_rating.DriveRating.rms_torque_limit_nm`). A thermal model is
-carried with the losses: ``r_th / s``, ``c_th s``, the time constant, the copper
-coefficient and the temperatures kept (``s`` reference drives side by side, each with
+when below that (``rms_torque_limit_nm`` of its ``[drive]`` in force,
+:meth:`optimize.system.system.System.in_force`). A thermal model is carried with the
+losses: ``r_th / s``, ``c_th s``, the time constant, the copper coefficient and the
+temperatures kept (``s`` reference drives side by side, each with
 its own cooling), so every candidate reaches the reference's temperature at
 corresponding points and the winding limit stays the system's.
 

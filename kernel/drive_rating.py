@@ -113,13 +113,6 @@ class DriveRating:
         return {**{k: getattr(self, k) for k in DRIVE_KEYS}, **optional, **self.envelope,
                 "source": self.source}
 
-    @property
-    def rms_torque_limit_nm(self) -> float | None:
-        """The RMS torque bound it implies [N m]: the continuous rating when below the
-        torque limit (else the torque limit already implies it), else None."""
-        c = self.continuous_torque_nm
-        return c if c is not None and c < self.max_torque_nm else None
-
     def line(self) -> str:
         """One line for summaries and reports."""
         extra = "".join(

@@ -80,7 +80,9 @@ def test_a_stated_overload_is_not_flown_and_said():
     assert any("overload 5" in n and "not flown" in n for n in notes)
     # an explicit torque limit is flown, and said to depart from the system's drive
     rating, notes = reference_rating(PAPER_RATING, max_torque_nm=390.0)
-    assert (rating.max_torque_nm, rating.rms_torque_limit_nm) == (390.0, 78.0)
+    assert (rating.max_torque_nm, rating.continuous_torque_nm) == (390.0, 78.0)
+    flown = load_system().in_force(rating).drive
+    assert flown.rms_torque_limit_nm == 78.0  # below the torque limit: a row of its own
     assert any("--max-torque-nm 390" in n for n in notes)
 
 
