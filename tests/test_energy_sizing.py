@@ -117,6 +117,27 @@ def test_candidate_options_take_the_system_bounds_and_the_candidate_limits():
             != solve_key(c.problem(20, 3, ap2), SIZING_KIND, 7.0))
 
 
+def test_a_drive_in_force_is_in_every_cache_key_of_the_same_system_file():
+    import dataclasses
+
+    from optimize.service.builder import Problem
+    from optimize.system.system_file import load_system
+
+    c = _candidates((1.0,))[0]
+    problem = c.problem(20, 3, load_system())
+    # the same file (hash), another drive in force (made in memory, as a sizing
+    # candidate's rating makes it): neither its NLP nor its stored solves are shared
+    other = dataclasses.replace(problem.system, drive=dataclasses.replace(
+        problem.system.drive, max_torque_nm=2.0 * problem.system.drive.max_torque_nm))
+    assert other.sha256 == problem.system.sha256
+    twin = Problem.for_system(other, problem.drive_model, problem.options)
+    assert twin.key != problem.key
+    assert solve_key(twin, SIZING_KIND, 7.0) != solve_key(problem, SIZING_KIND, 7.0)
+    same = Problem.for_system(problem.system, problem.drive_model, problem.options)
+    assert (same.key, solve_key(same, SIZING_KIND, 7.0)) == (
+        problem.key, solve_key(problem, SIZING_KIND, 7.0))
+
+
 def test_choice_is_the_smallest_within_tolerance_of_the_best():
     cands = _candidates((0.5, 1.0, 2.0))
     site = Weibull(2.0, 6.2)

@@ -86,10 +86,10 @@ class Problem:
 
     @classmethod
     def for_system(cls, system: Any, drive_model: Any, options: Any) -> Problem:
-        """The problem of a system with its options (already holding the system's limits;
-        the stored guess switched off, said once here, when its file is damaged:
-        :func:`optimize.solve.starts.stored_guess.checked_options`); ``system`` None is the
-        package defaults."""
+        """The problem of a system (its drive in force, :meth:`System.in_force`) with its
+        options (the stored guess switched off, said once here, when its file is damaged:
+        :func:`optimize.solve.starts.stored_guess.checked_options`); ``system`` None serves
+        stand-in backends only (a real build needs a system)."""
         from optimize.model.dae import DaeSpec
         from optimize.model.kite_model import kite_dae
         from optimize.solve.starts.stored_guess import checked_options
@@ -124,8 +124,10 @@ class Problem:
 
 
 def problem_key(options: Any, drive_model: Any, system: Any) -> str:
-    """NLP cache key: options, drive-model hash and system hash."""
-    return f"{options!r}|{drive_model.sha256}|{getattr(system, 'sha256', 'defaults')}"
+    """NLP cache key: options, drive-model hash, system hash and the drive in force."""
+    if system is None:
+        return f"{options!r}|{drive_model.sha256}|defaults"
+    return f"{options!r}|{drive_model.sha256}|{system.sha256}|{system.drive_key()}"
 
 
 #: per-process NLP cache: (Problem.key, thread id) -> built OCP. Per thread, because

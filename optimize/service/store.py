@@ -41,8 +41,8 @@ WARM_ARRAYS = ("w", "lam_x", "lam_g")
 
 def solve_key(problem: Any, kind: str, wind_speed_m_s: float) -> str:
     """SHA-256 (hex) of everything one solve depends on: the drive model's hash, the OCP
-    options, the wind speed, the kind's objective and limits, the system's hash (when
-    the problem has a system).
+    options, the wind speed, the kind's objective and limits, the system's hash and its
+    drive in force (when the problem has a system).
 
     ``problem`` is an :class:`optimize.service.builder.Problem`.
     """
@@ -52,6 +52,7 @@ def solve_key(problem: Any, kind: str, wind_speed_m_s: float) -> str:
             "objective": k.objective, "drive_limits": bool(k.drive_limits)}
     if problem.system is not None:
         data["system"] = problem.system.sha256
+        data["drive_in_force"] = problem.system.drive_key()
     text = json.dumps(data, sort_keys=True, separators=(",", ":"), default=str)
     return hashlib.sha256(text.encode()).hexdigest()
 

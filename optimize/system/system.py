@@ -18,6 +18,7 @@ do not count), which is part of the NLP cache key and of the stored-guess accept
 from __future__ import annotations
 
 import dataclasses
+import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -125,6 +126,12 @@ class System:
         if envelope_torque_nm is not None:
             given["envelope_torque_nm"] = tuple(envelope_torque_nm)
         return dataclasses.replace(self, drive=dataclasses.replace(self.drive, **given))
+
+    def drive_key(self) -> str:
+        """The drive in force as canonical JSON: beside :attr:`sha256` (the file's), what a
+        cache key of a problem of this system holds, since :meth:`in_force` changes the
+        drive and not the file's hash."""
+        return json.dumps(dataclasses.asdict(self.drive), sort_keys=True, default=str)
 
     def sections_record(self) -> dict[str, dict]:
         """Every section as flown (the drive in force), by section name, each key by its
