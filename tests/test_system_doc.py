@@ -107,3 +107,18 @@ def test_a_declared_section_is_read_checked_and_documented():
 def test_a_page_without_a_sections_markers_is_refused():
     with pytest.raises(ValueError, match=r"\[reel\]"):
         system_doc.render("# a page\n", {"reel": _Reel})
+
+
+def test_the_generator_rewrites_the_checkouts_page_by_default_and_refuses_a_missing_one(
+        tmp_path, capsys):
+    from optimize.system import system_doc
+
+    assert system_doc.PAGE.is_file()  # the command the page's markers name works as written
+    page = tmp_path / "system_file.md"
+    page.write_text(system_doc.PAGE.read_text())
+    assert system_doc.main([str(page)]) == 0
+    assert page.read_text() == system_doc.PAGE.read_text()  # the shipped page is current
+    with pytest.raises(SystemExit) as exit_info:
+        system_doc.main([str(tmp_path / "missing.md")])
+    assert exit_info.value.code == 2
+    assert "missing.md: no such page" in capsys.readouterr().err

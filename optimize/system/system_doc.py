@@ -11,6 +11,7 @@ optimize.system.system_doc docs/system_file.md`` rewrites them in place, and
 
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
 
@@ -63,9 +64,22 @@ def _between(page: str, begin: str, body: str) -> str:
     return page[:start] + begin + "\n" + body + "\n" + page[stop:]
 
 
+#: the page the generated blocks live in, in a checkout of the project
+PAGE = Path(__file__).resolve().parents[2] / "docs" / "system_file.md"
+
+
 def main(argv: list[str]) -> int:
-    """Rewrite the key tables of the page ``argv[0]`` in place."""
-    path = Path(argv[0])
+    """Rewrite the key tables of the page ``argv[0]`` (default :data:`PAGE`) in place;
+    exit 2 with a usage line when there is no such page."""
+    parser = argparse.ArgumentParser(
+        prog="python -m optimize.system.system_doc",
+        description="Rewrite the generated key tables of the system-file documentation.")
+    parser.add_argument("page", nargs="?", type=Path, default=PAGE,
+                        help="the page to rewrite (default: docs/system_file.md of this "
+                             "checkout)")
+    path = parser.parse_args(argv).page
+    if not path.is_file():
+        parser.error(f"{path}: no such page (give the path of docs/system_file.md)")
     write_text_atomic(path, render(read_text(path, what="system file documentation")))
     return 0
 
