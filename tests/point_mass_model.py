@@ -180,3 +180,24 @@ def small_angle_guess(p: Pendulum, times_s: np.ndarray, period_s: float
     a_z = length * (-ddth * np.sin(th) - dth**2 * np.cos(th))
     nu = p.mass_kg * (p.g_m_s2 * np.cos(th) + length * dth**2) / length
     return x, np.vstack([a_x, a_z, nu])
+
+
+def solved_pendulum(solver: str, transcription: str, codegen: bool = False,
+                    n_intervals: int = 20, degree: int = 3) -> tuple:
+    """The exact pendulum solved once by ``solver`` on ``transcription`` from its
+    small-angle guess, no control power: ``(pendulum, ocp, raw result, parameters)``."""
+    from optimize.problem.ocp import assemble, grid_times
+    from optimize.problem.options import Discretization, OcpOptions, SolverOptions
+    from optimize.solve import backend
+
+    pendulum = Pendulum()
+    form = pendulum_formulation(pendulum)
+    ocp = assemble(form, OcpOptions(Discretization(n_intervals, degree), solver=SolverOptions(
+        solver=solver, transcription=transcription, codegen=codegen)))
+    period = form.scales.period_s
+    x, z = small_angle_guess(pendulum, grid_times(ocp, period), period)
+    w0 = ocp.pack(x, z[:, 1:], np.zeros((1, n_intervals)),
+                  np.zeros((2, n_intervals * degree)), period)
+    p = ocp.params(None, {"p_ctrl_w": 0.0})
+    bounds = ocp.bounds(drive_limits=False, fix_fictitious=True, period_s=None)
+    return pendulum, ocp, backend.run(ocp, w0, p, bounds, warm=False), p

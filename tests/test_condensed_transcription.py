@@ -13,7 +13,7 @@ import logging
 import casadi as ca
 import numpy as np
 import pytest
-from point_mass_model import Pendulum, pendulum_formulation, small_angle_guess
+from point_mass_model import Pendulum, pendulum_formulation, small_angle_guess, solved_pendulum
 from system_fixtures import system_for
 
 from drivebench.cli import main
@@ -26,28 +26,12 @@ from optimize.problem.transcriptions import codegen
 from optimize.problem.transcriptions.collocation import full_derivatives
 from optimize.problem.transcriptions.condensed import condensed
 from optimize.problem.transcriptions.condensed_multipliers import csc
-from optimize.solve import backend
 from optimize.solve.solve import solve
-
-N, DEGREE = 20, 3
-
-
-def _pendulum(solver: str, transcription: str, codegen: bool = False):
-    pendulum = Pendulum()
-    form = pendulum_formulation(pendulum)
-    ocp = assemble(form, OcpOptions(Discretization(N, DEGREE), solver=SolverOptions(
-        solver=solver, transcription=transcription, codegen=codegen)))
-    period = form.scales.period_s
-    x, z = small_angle_guess(pendulum, grid_times(ocp, period), period)
-    w0 = ocp.pack(x, z[:, 1:], np.zeros((1, N)), np.zeros((2, N * DEGREE)), period)
-    p = ocp.params(None, {"p_ctrl_w": 0.0})
-    bounds = ocp.bounds(drive_limits=False, fix_fictitious=True, period_s=None)
-    return pendulum, ocp, backend.run(ocp, w0, p, bounds, warm=False), p
 
 
 @pytest.fixture(scope="module")
 def pendulums():
-    return {tr: _pendulum("ipopt", tr) for tr in ("collocation", "condensed")}
+    return {tr: solved_pendulum("ipopt", tr) for tr in ("collocation", "condensed")}
 
 
 def test_condensed_pendulum_has_the_exact_period_and_the_full_optimum(pendulums):
@@ -95,7 +79,7 @@ def test_condense_and_expand_are_inverse(pendulums):
 
 def test_fatrop_on_the_condensed_nlp_has_the_same_optimum(pendulums):
     _, _, full, _ = pendulums["collocation"]
-    pendulum, ocp, raw, _ = _pendulum("fatrop", "condensed")
+    pendulum, ocp, raw, _ = solved_pendulum("fatrop", "condensed")
     assert raw.success, raw.status
     assert ocp.unpack(raw.w)["period_s"] == pytest.approx(pendulum.period_s(), rel=1e-5)
     assert raw.objective == pytest.approx(full.objective, abs=1e-8)
@@ -128,7 +112,7 @@ def test_compiled_functions_give_the_same_iterations_and_optimum(pendulums, tmp_
                                                                  libraries):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     _, _, plain, _ = pendulums[transcription]
-    _, ocp, raw, _ = _pendulum("ipopt", transcription, codegen=True)
+    _, ocp, raw, _ = solved_pendulum("ipopt", transcription, codegen=True)
     assert raw.success, raw.status
     assert raw.iterations == plain.iterations
     assert raw.objective == pytest.approx(plain.objective, rel=1e-9, abs=1e-12)

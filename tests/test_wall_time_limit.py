@@ -13,29 +13,15 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
 import pytest
-from point_mass_model import Pendulum, pendulum_formulation, small_angle_guess
+from point_mass_model import solved_pendulum
 
 from optimize.problem import deadline
-from optimize.problem.ocp import assemble, grid_times
-from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.solve import backend
-
-N, DEGREE = 20, 3
 
 
 def _run(solver: str, transcription: str):
-    pendulum = Pendulum()
-    form = pendulum_formulation(pendulum)
-    ocp = assemble(form, OcpOptions(Discretization(N, DEGREE), solver=SolverOptions(
-        solver=solver, transcription=transcription, codegen=False)))
-    period = form.scales.period_s
-    x, z = small_angle_guess(pendulum, grid_times(ocp, period), period)
-    w0 = ocp.pack(x, z[:, 1:], np.zeros((1, N)), np.zeros((2, N * DEGREE)), period)
-    p = ocp.params(None, {"p_ctrl_w": 0.0})
-    bounds = ocp.bounds(drive_limits=False, fix_fictitious=True, period_s=None)
-    return backend.run(ocp, w0, p, bounds, warm=False)
+    return solved_pendulum(solver, transcription)[2]
 
 
 def test_the_deadline_nests_and_passes():
