@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from optimize.kinds import DEFAULT_KINDS
+from optimize.problem.deadline import CALL_WALL_LIMIT_S, COLD_START_CALLS
 from optimize.problem.options import SOLVERS, TRANSCRIPTIONS
 from optimize.service.plan import DEFAULT_WIND_GRID
 
@@ -133,6 +134,16 @@ def _add_solver_arguments(parser: argparse.ArgumentParser) -> None:
         "(libpardiso.so); checked before any solve (exit 2 when IPOPT cannot load it)",
     )
     parser.add_argument(
+        "--call-time-limit",
+        type=float,
+        default=CALL_WALL_LIMIT_S,
+        metavar="SECONDS",
+        help=f"the longest one solver call may run, wall clock (default {CALL_WALL_LIMIT_S:g}); "
+        f"a cold start may run {COLD_START_CALLS} times as long; a solve stopped there fails "
+        "with the status Wall_Time_Limit: raise it for a large mesh or a slow or loaded "
+        "machine",
+    )
+    parser.add_argument(
         "--no-stored-guess",
         action="store_true",
         help="start every chain by the homotopy, not from the shipped initial guess",
@@ -161,7 +172,7 @@ def run(args: argparse.Namespace) -> int:
         WindGrid.parse(args.wind_grid, args.scenarios),
         SolverChoice(args.intervals, args.degree, args.solver, args.linear_solver,
                      not args.no_stored_guess, args.transcription, args.codegen,
-                     args.start),
+                     args.start, args.call_time_limit),
         drive_model=args.drive_model, system=args.system, fit_default=FIT_MODEL_PATH, out=args.out,
         execution=execution, claims=not args.no_claims, trust=args.trust,
         period_scan=args.period_scan)

@@ -22,6 +22,7 @@ from kernel.provenance import Provenance
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
 from optimize.analysis.result_check import MIN_COLLOCATION_POINTS, mesh_label
 from optimize.kinds import KINDS
+from optimize.problem.deadline import CALL_WALL_LIMIT_S
 from optimize.problem.ocp import model_parts
 from optimize.problem.part import trajectory_columns
 from optimize.resolve import Setup, resolve
@@ -157,7 +158,8 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
                                             degree=solver.degree),
                              solver=solver_options(solver.solver, solver.linear_solver,
                                                    solver.stored_guess, solver.transcription,
-                                                   solver.codegen, start))
+                                                   solver.codegen, start,
+                                                   solver.call_time_limit_s))
     except ValueError as exc:
         raise InputError(None, f"OCP options: {exc}") from exc
     setup = resolve(system, drive_model, fit_default=fit_default, options=options)
@@ -409,9 +411,11 @@ def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, o
 
 def solver_options(solver: str = "ipopt", linear_solver: str | None = None,
                    stored_guess: bool = True, transcription: str = "collocation",
-                   codegen: bool = False, start_file: str | None = None) -> Any:
+                   codegen: bool = False, start_file: str | None = None,
+                   call_time_limit_s: float = CALL_WALL_LIMIT_S) -> Any:
     """``SolverOptions`` of ``--solver``, ``--linear-solver``, ``--no-stored-guess``,
-    ``--transcription``, ``--codegen`` and ``--start`` (the file, :func:`start_file`).
+    ``--transcription``, ``--codegen``, ``--start`` (the file, :func:`start_file`) and
+    ``--call-time-limit``.
 
     Raises
     ------
@@ -429,7 +433,8 @@ def solver_options(solver: str = "ipopt", linear_solver: str | None = None,
         check_linear_solver(linear_solver)
     return SolverOptions(solver=solver, linear_solver=linear_solver or "mumps",
                          stored_guess=stored_guess, transcription=transcription,
-                         codegen=codegen, start_file=start_file)
+                         codegen=codegen, start_file=start_file,
+                         call_time_limit_s=call_time_limit_s)
 
 
 def domain_scales(model: Any, system: Any) -> tuple[float, float]:

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from kernel.errors import InputError
 from optimize.kinds import KINDS
+from optimize.problem.deadline import CALL_WALL_LIMIT_S
 
 #: the paper's wind grid [m/s] at the reference height (``bench optimize``'s default)
 PAPER_WINDS_M_S = (4.0, 5.5, 7.0, 8.5, 10.0)
@@ -82,6 +83,9 @@ class SolverChoice:
     start : Path or None
         The start of the sweep's cold start in place of the shipped initial guess
         (``--start``): an earlier sweep's ``start.npz`` of the same system, or its folder.
+    call_time_limit_s : float
+        The longest one solver call may run [s] (``--call-time-limit``,
+        :attr:`optimize.problem.options.SolverOptions.call_time_limit_s`).
     """
 
     n_intervals: int = 40
@@ -92,6 +96,7 @@ class SolverChoice:
     transcription: str = "collocation"
     codegen: bool = False
     start: Path | None = None
+    call_time_limit_s: float = CALL_WALL_LIMIT_S
 
 
 #: why a sweep runs on as many workers as it does (:attr:`Execution.workers_reason`)

@@ -183,9 +183,10 @@ def small_angle_guess(p: Pendulum, times_s: np.ndarray, period_s: float
 
 
 def solved_pendulum(solver: str, transcription: str, codegen: bool = False,
-                    n_intervals: int = 20, degree: int = 3) -> tuple:
-    """The exact pendulum solved once by ``solver`` on ``transcription`` from its
-    small-angle guess, no control power: ``(pendulum, ocp, raw result, parameters)``."""
+                    n_intervals: int = 20, degree: int = 3, **solver_options: Any) -> tuple:
+    """The exact pendulum solved once by ``solver`` on ``transcription`` (with further
+    ``SolverOptions`` fields) from its small-angle guess, no control power:
+    ``(pendulum, ocp, raw result, parameters)``."""
     from optimize.problem.ocp import assemble, grid_times
     from optimize.problem.options import Discretization, OcpOptions, SolverOptions
     from optimize.solve import backend
@@ -193,7 +194,7 @@ def solved_pendulum(solver: str, transcription: str, codegen: bool = False,
     pendulum = Pendulum()
     form = pendulum_formulation(pendulum)
     ocp = assemble(form, OcpOptions(Discretization(n_intervals, degree), solver=SolverOptions(
-        solver=solver, transcription=transcription, codegen=codegen)))
+        solver=solver, transcription=transcription, codegen=codegen, **solver_options)))
     period = form.scales.period_s
     x, z = small_angle_guess(pendulum, grid_times(ocp, period), period)
     w0 = ocp.pack(x, z[:, 1:], np.zeros((1, n_intervals)),

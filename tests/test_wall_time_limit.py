@@ -1,7 +1,8 @@
 """A solve ends within a stated time, its status naming why (optimize/problem/deadline.py):
-one solver call runs at most CALL_WALL_LIMIT_S (IPOPT's max_wall_time; the condensed
-NLP's evaluations give NaN past it, which ends fatrop's call too), a cold start at most
-SOLVE_WALL_LIMIT_S, and no call is made past the deadline.
+one solver call runs at most SolverOptions.call_time_limit_s (`--call-time-limit`, default
+CALL_WALL_LIMIT_S; IPOPT's max_wall_time; the condensed NLP's evaluations raise past it,
+which ends fatrop's call too), a cold start COLD_START_CALLS times as long, and no call is
+made past the deadline.
 
 Was: a condensed homotopy stage whose trial points failed the intervals' Newton solves
 (evaluation errors) ran IPOPT to its 1000 iterations at 0.5 s each, and a 90 degC winding
@@ -17,11 +18,10 @@ import pytest
 from point_mass_model import solved_pendulum
 
 from optimize.problem import deadline
-from optimize.solve import backend
 
 
-def _run(solver: str, transcription: str):
-    return solved_pendulum(solver, transcription)[2]
+def _run(solver: str, transcription: str, **options):
+    return solved_pendulum(solver, transcription, **options)[2]
 
 
 def test_the_deadline_nests_and_passes():
@@ -49,13 +49,20 @@ def test_no_call_is_made_past_the_deadline():
 
 @pytest.mark.parametrize(("solver", "transcription"), [
     ("ipopt", "collocation"), ("ipopt", "condensed"), ("fatrop", "condensed")])
-def test_a_call_past_its_limit_ends_with_a_status_that_says_so(solver, transcription,
-                                                                monkeypatch):
+def test_a_call_past_its_limit_ends_with_a_status_that_says_so(solver, transcription):
     assert _run(solver, transcription).success  # within the stated limits: solved
-    monkeypatch.setattr(backend, "CALL_WALL_LIMIT_S", 1e-3)
     t0 = time.perf_counter()
-    raw = _run(solver, transcription)
+    raw = _run(solver, transcription, call_time_limit_s=1e-3)
     assert time.perf_counter() - t0 < 30.0
     assert not raw.success
     assert raw.status.startswith(f"{deadline.WALL_STATUS}: stopped after "), raw.status
     assert "the solver said" in raw.status
+
+
+def test_the_call_limit_is_an_option_and_a_cold_start_takes_four_of_them():
+    from optimize.problem.options import SolverOptions
+
+    assert SolverOptions().call_time_limit_s == deadline.CALL_WALL_LIMIT_S == 150.0
+    assert deadline.COLD_START_CALLS == 4
+    with pytest.raises(ValueError, match="--call-time-limit"):
+        SolverOptions(call_time_limit_s=0.0)

@@ -1,8 +1,9 @@
 """How long a solve may run: a wall-time deadline of the calling thread.
 
-One NLP solver call may run :data:`CALL_WALL_LIMIT_S` seconds, and a cold start (the
-stored guess, the homotopy and its fallbacks together) :data:`SOLVE_WALL_LIMIT_S`
-(:func:`optimize.solve.starts.cold.start`). IPOPT stops itself there (its
+One NLP solver call may run ``SolverOptions.call_time_limit_s`` seconds
+(:data:`CALL_WALL_LIMIT_S` unless ``--call-time-limit`` says otherwise), and a cold start
+(the stored guess, the homotopy and its fallbacks together) :data:`COLD_START_CALLS` times
+as long (:func:`optimize.solve.starts.cold.start`). IPOPT stops itself there (its
 ``max_wall_time``); the condensed NLP's interval solves raise past the deadline
 (:class:`optimize.problem.transcriptions.condensed_derivatives.IntervalCache`), which
 ends any solver's call (fatrop has no time limit of its own); a call asked for after it
@@ -19,12 +20,12 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-#: the longest one solver call may run [s] (successful cold starts measured at most 62 s
-#: in all with IPOPT, AP2 condensed, and 181 s with fatrop, MegAWES condensed, each in
-#: several calls: benchmarks/README.md)
+#: the default of the longest one solver call may run [s] (successful cold starts measured
+#: at most 62 s in all with IPOPT, AP2 condensed, and 181 s with fatrop, MegAWES condensed,
+#: each in several calls: benchmarks/README.md)
 CALL_WALL_LIMIT_S = 150.0
-#: the longest a cold start may run, all its calls together [s]
-SOLVE_WALL_LIMIT_S = 600.0
+#: how many calls' limits a cold start may run, all its calls together
+COLD_START_CALLS = 4
 #: how the status of a solve stopped at its deadline begins
 WALL_STATUS = "Wall_Time_Limit"
 

@@ -21,6 +21,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from optimize.problem.deadline import CALL_WALL_LIMIT_S
+
 #: the reel speed's and the body rates' bounds when the system states none: the solver's
 #: range [m/s], [rad/s] (three turns a second)
 SOLVER_REEL_SPEED_M_S, SOLVER_BODY_RATE_RAD_S = 100.0, 6 * math.pi
@@ -143,6 +145,13 @@ class SolverOptions:
         new optimum. Off by default: on the paper sweep it saved no iterations at these
         warm-start settings and costs a KKT factorization per start
         (``benchmarks/warm_start_predictor.py``, figures in benchmarks/README.md).
+    call_time_limit_s : float
+        The longest one solver call may run [s, wall clock] (``--call-time-limit``):
+        IPOPT's ``max_wall_time`` and the condensed NLP's deadline; a cold start, all its
+        calls together, may run :data:`~optimize.problem.deadline.COLD_START_CALLS` times
+        as long (:mod:`optimize.problem.deadline`). A call stopped there fails with the
+        status ``Wall_Time_Limit``; raise it for a large mesh, a slow machine or a
+        loaded one.
     """
 
     solver: str = "ipopt"
@@ -158,8 +167,12 @@ class SolverOptions:
     transcription: str = "collocation"
     codegen: bool = False
     predictor_step: float = 0.0
+    call_time_limit_s: float = CALL_WALL_LIMIT_S
 
     def __post_init__(self) -> None:
+        if not self.call_time_limit_s > 0:
+            raise ValueError(f"call_time_limit_s (--call-time-limit) must be positive [s], "
+                             f"got {self.call_time_limit_s}")
         if self.solver not in SOLVERS:
             raise ValueError(f"solver must be one of {', '.join(SOLVERS)}, got {self.solver!r}")
         if self.transcription not in TRANSCRIPTIONS:

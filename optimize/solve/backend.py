@@ -20,13 +20,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from optimize.problem.deadline import (
-    CALL_WALL_LIMIT_S,
-    SOLVE_WALL_LIMIT_S,
-    WALL_STATUS,
-    deadline,
-    passed,
-)
+from optimize.problem.deadline import COLD_START_CALLS, WALL_STATUS, deadline, passed
 from optimize.problem.ocp import Bounds, Ocp
 from optimize.problem.transcriptions import method_of
 
@@ -155,7 +149,7 @@ def _ipopt(ocp: Ocp, warm: bool, push: float, setting: Setting) -> ca.Function:
         "acceptable_tol": o.acceptable_tol,
         "acceptable_iter": 5,
         "max_iter": o.max_iter if setting.max_iter is None else setting.max_iter,
-        "max_wall_time": CALL_WALL_LIMIT_S,
+        "max_wall_time": o.call_time_limit_s,
         "print_level": 0,
         "sb": "yes",
         # the NLP is scaled by construction; MUMPS' own scaling cost time and
@@ -239,14 +233,15 @@ def run(
     ``bound_push`` overrides the solver options' ``warm_bound_push`` of a warm solve;
     ``setting`` sets the barrier parameter and the iteration cap (:class:`Setting`).
 
-    The call runs at most :data:`~optimize.problem.deadline.CALL_WALL_LIMIT_S` seconds,
+    The call runs at most ``ocp.options.solver.call_time_limit_s`` seconds,
     and none is made past this thread's deadline (:mod:`optimize.problem.deadline`): a
     call stopped so, or not made, fails with the status
     :data:`~optimize.problem.deadline.WALL_STATUS` and what the solver said.
     """
+    limit_s = ocp.options.solver.call_time_limit_s
     if passed():
         return _unsolved(ocp, w0, f"{WALL_STATUS}: not run, the solve's "
-                         f"{SOLVE_WALL_LIMIT_S:g} s were spent", 0.0)
+                         f"{COLD_START_CALLS * limit_s:g} s were spent", 0.0)
     nlpsol = solver(ocp, warm, bound_push, setting)
 
     def call(w: np.ndarray, p_: np.ndarray, b: Bounds, lam_x: np.ndarray | None,
@@ -254,7 +249,7 @@ def run(
         return _call(nlpsol, w, p_, b, lam_x, lam_g)
 
     t0 = time.perf_counter()
-    with deadline(CALL_WALL_LIMIT_S):
+    with deadline(limit_s):
         try:
             raw = method_of(ocp.options.solver).solve(ocp, call, w0, p, bounds,
                                                       lam_x0 if warm else None,
@@ -268,8 +263,8 @@ def run(
     if raw.success or not (late or raw.status.startswith("Maximum_WallTime_Exceeded")):
         return raw
     return dataclasses.replace(raw, status=(
-        f"{WALL_STATUS}: stopped after {raw.wall_time_s:.0f} s (at most "
-        f"{CALL_WALL_LIMIT_S:g} s a call, {SOLVE_WALL_LIMIT_S:g} s a cold start), "
+        f"{WALL_STATUS}: stopped after {raw.wall_time_s:.0f} s (at most {limit_s:g} s a "
+        f"call, {COLD_START_CALLS * limit_s:g} s a cold start: --call-time-limit), "
         f"{raw.iterations} iterations; the solver said {raw.status}"))
 
 

@@ -7,7 +7,7 @@ import dataclasses
 import logging
 import math
 
-from optimize.problem.deadline import SOLVE_WALL_LIMIT_S, deadline
+from optimize.problem.deadline import COLD_START_CALLS, deadline
 from optimize.problem.ocp import Ocp, on_mesh
 from optimize.problem.options import MIN_COLLOCATION_POINTS
 from optimize.problem.scenario import Scenario
@@ -34,10 +34,10 @@ def coarse_intervals(degree: int) -> int:
 
 
 def start(ocp: Ocp, scenario: Scenario) -> OcpResult:
-    """:func:`_start` within :data:`~optimize.problem.deadline.SOLVE_WALL_LIMIT_S` seconds
-    (its solver calls past them are not made: the start fails with the status
-    :data:`~optimize.problem.deadline.WALL_STATUS`)."""
-    with deadline(SOLVE_WALL_LIMIT_S):
+    """:func:`_start` within :data:`~optimize.problem.deadline.COLD_START_CALLS` times a
+    solver call's limit (``call_time_limit_s``; its solver calls past them are not made:
+    the start fails with the status :data:`~optimize.problem.deadline.WALL_STATUS`)."""
+    with deadline(COLD_START_CALLS * ocp.options.solver.call_time_limit_s):
         return _start(ocp, scenario)
 
 
