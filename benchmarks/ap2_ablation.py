@@ -217,13 +217,13 @@ class StagedBackend(OcpBackend):
         ocp.bounds = bounds
         return ocp
 
-    def cold_start(self, ocp, kind, wind_speed_m_s):  # noqa: D102 (OcpBackend.cold_start)
+    def cold_start(self, ocp, scenario):  # noqa: D102 (OcpBackend.cold_start)
         self.stage = 1
-        first = super().cold_start(ocp, kind, wind_speed_m_s)
+        first = super().cold_start(ocp, scenario)
         if not first.success:
             return first
         self.stage = 2
-        return self.solve(ocp, kind, wind_speed_m_s, first.warm)
+        return self.solve(ocp, scenario, first.warm)
 
 
 def run_staged(name: str, data: dict, out: Path, backend: StagedBackend) -> dict:

@@ -100,7 +100,7 @@ def bench_sweep(problem: Problem, winds, kinds, workers: int, trust: bool) -> di
     iters = [a.iterations for a in ok_warm] or [0]
     out = {
         "workers": workers,
-        "start_graph": [(s.name, s.warm_from, s.depth) for s in steps],
+        "start_graph": [(s.name, s.warm_from and s.warm_from.name, s.depth) for s in steps],
         "wall_s": result.wall_time_s,
         "converged": sum(o.success for o in result.outcomes),
         "scenarios": len(result.outcomes),

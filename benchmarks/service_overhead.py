@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from optimize.kinds import KINDS
+from optimize.problem.scenario import Scenario
 from optimize.service import ChainTask, Problem, run_chain
 from optimize.service.plan import chain_steps, parse_wind_grid
 
@@ -51,10 +52,11 @@ class FreeBackend:
     def build(self, problem: Problem) -> str:  # noqa: D102 (Backend.build)
         return "ocp"
 
-    def solve(self, ocp: str, kind: str, wind: float, warm: object) -> Result:  # noqa: D102
-        return self.cold_start(ocp, kind, wind)
+    def solve(self, ocp: str, scenario: Scenario, warm: object) -> Result:  # noqa: D102
+        return self.cold_start(ocp, scenario)
 
-    def cold_start(self, ocp: str, kind: str, wind: float) -> Result:  # noqa: D102
+    def cold_start(self, ocp: str, scenario: Scenario) -> Result:  # noqa: D102
+        wind = scenario.wind_speed_m_s
         return Result("Solve_Succeeded", True, 20, 0.0, -100.0 * wind**2, -120.0 * wind**2,
                       5.0, TRAJECTORY, wind)
 

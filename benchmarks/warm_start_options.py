@@ -50,7 +50,6 @@ from optimize.model.kite_model import kite_dae
 from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import OcpOptions, SolverOptions
-from optimize.problem.scenario import Scenario
 from optimize.resolve import resolve
 from optimize.service.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
 from optimize.solve import backend
@@ -103,9 +102,9 @@ def main() -> None:
         system=resolve(None, model).system)
     solved = {}
     for s in steps:  # the sources, with today's settings
-        sc = Scenario.of_kind(s.kind, s.wind_speed_m_s)
-        solved[s.name] = (start(base, sc) if s.warm_from is None
-                          else solve(base, sc, solved[s.warm_from].warm, retry_cold=False))
+        solved[s.scenario] = (start(base, s.scenario) if s.warm_from is None
+                              else solve(base, s.scenario, solved[s.warm_from].warm,
+                                         retry_cold=False))
     load = os.getloadavg()
     out = {"wind_grid": DEFAULT_WIND_GRID, "load_before": load, "variants": {}}
     for name in names:
@@ -118,11 +117,10 @@ def main() -> None:
         for s in steps:
             if s.warm_from is None:
                 continue
-            r = solve(ocp, Scenario.of_kind(s.kind, s.wind_speed_m_s),
-                      solved[s.warm_from].warm, retry_cold=False)
+            r = solve(ocp, s.scenario, solved[s.warm_from].warm, retry_cold=False)
             rows.append({"scenario": s.name, "iterations": r.iterations, "success": r.success,
                          "wall_time_s": r.wall_time_s,
-                         "d_objective_w": abs(r.objective - solved[s.name].objective)
+                         "d_objective_w": abs(r.objective - solved[s.scenario].objective)
                          * base.formulation.objective_scale})
         its = [r["iterations"] for r in rows]
         out["variants"][name] = {

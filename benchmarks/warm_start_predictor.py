@@ -115,23 +115,23 @@ def sweep_starts(wind_grid: str, scenarios: str) -> dict:
             for name, step in VARIANTS.items()}
     solved, rows = {}, []
     for s in steps:
-        sc = Scenario.of_kind(s.kind, s.wind_speed_m_s)
+        sc = s.scenario
         if s.warm_from is None:
-            solved[s.name] = start(ocps["neighbour"], sc)
+            solved[sc] = start(ocps["neighbour"], sc)
             continue
         source = solved[s.warm_from].warm
-        row = {"scenario": s.name, "from": s.warm_from}
+        row = {"scenario": s.name, "from": s.warm_from.name}
         for name, ocp in ocps.items():
             res = solve(ocp, sc, source, retry_cold=False)
             row[name] = {"iterations": res.iterations, "success": res.success,
                          "objective": res.objective, "wall_time_s": res.wall_time_s}
             if name == "neighbour":
-                solved[s.name] = res
-        own = solve(ocps["neighbour"], sc, solved[s.name].warm, retry_cold=False)
+                solved[sc] = res
+        own = solve(ocps["neighbour"], sc, solved[sc].warm, retry_cold=False)
         row["own optimum"] = {"iterations": own.iterations, "success": own.success,
                               "objective": own.objective, "wall_time_s": own.wall_time_s}
         rows.append(row)
-        print(s.name, "from", s.warm_from, " ".join(
+        print(s.name, "from", s.warm_from.name, " ".join(
             f"{k} {row[k]['iterations']}" for k in (*VARIANTS, "own optimum")), flush=True)
     summary = {k: {"median_iterations": statistics.median(r[k]["iterations"] for r in rows),
                    "total_iterations": sum(r[k]["iterations"] for r in rows),

@@ -170,14 +170,14 @@ def sweep_starts(run: OptimizeRun, points: int) -> dict[str, tuple]:
     ``trajectories.parquet``; none when the folder has no such file. Only the cycles of
     ``points`` collocation points, the sweep's mesh (a cycle the last retry solved on a
     finer mesh, :mod:`optimize.service.retry`, starts nothing on this one)."""
-    from optimize.door import CycleStart
+    from optimize.door import CycleStart, Scenario
     from optimize.sweep_folder import TRAJECTORIES_FILE, read_trajectories
 
     if not (run.folder / TRAJECTORIES_FILE).is_file():
         return {}
     frames = {name: frame for name, frame in read_trajectories(run.folder).groupby(
         "scenario", sort=False) if len(frame) == points}
-    return {kind: tuple(CycleStart(kind, float(w), "sweep", trajectory=frames[name])
+    return {kind: tuple(CycleStart(Scenario.of_kind(kind, w), "sweep", trajectory=frames[name])
                         for w, name in zip(c.wind_speed_m_s, c.scenarios, strict=True)
                         if name in frames)
             for kind, c in run.curves.items()}

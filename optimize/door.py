@@ -19,7 +19,7 @@ home module                             what the other stages use
 :mod:`optimize.service`                 the one solve service: problems, chains, their records
 :mod:`optimize.service.foreign`         starts it did not find itself (a sweep's stored cycles)
 :mod:`optimize.service.store`           the stored solves it did not believe, in words
-:mod:`optimize.problem.options`         the OCP's options; :mod:`~optimize.problem.scenario` names
+:mod:`optimize.problem.options`         the OCP's options; :mod:`~optimize.problem.scenario` cases
 :mod:`optimize.system.system_file`      system files (and a manifest's system record)
 :mod:`optimize.system.contradictions`   every check of a drive in a system before any solve
 :mod:`optimize.model.drivetrain`        the similarity law that carries a drive's losses
@@ -51,7 +51,7 @@ LAZY_IMPORTS = {
     "optimize.service.executors": ("open_executor",),
     "optimize.service.store": ("rejected_lines",),
     "optimize.problem.options": ("Discretization", "OcpOptions"),
-    "optimize.problem.scenario": ("scenario_name",),
+    "optimize.problem.scenario": ("Scenario", "scenario_name"),
     "optimize.system.system_file": ("load_system", "system_from_dict"),
     "optimize.system.contradictions": ("check_drive",),
     "optimize.model.drivetrain": ("carry_power_model",),

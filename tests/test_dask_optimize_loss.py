@@ -35,11 +35,12 @@ class BlockingBackend(CycleBackend):
 
     block_at: tuple[float, ...] = (4.0, 7.0)
 
-    def solve(self, ocp, kind, w, warm):
+    def solve(self, ocp, scenario, warm):
+        w = scenario.wind_speed_m_s
         if w in self.block_at:
             STARTED.set()
             RELEASE.wait(60)
-        return super().solve(ocp, kind, w, warm)
+        return super().solve(ocp, scenario, warm)
 
 
 @pytest.fixture(autouse=True)

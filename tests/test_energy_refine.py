@@ -15,6 +15,7 @@ from energy.refine import KindTask, merged_curve, refine_kind
 from energy.site import Weibull
 from optimize.paper_model import paper_model
 from optimize.problem.options import OcpOptions
+from optimize.problem.scenario import Scenario
 from optimize.solve.result import Solution
 
 V_IN, CAP_W = 4.3, 2000.0  # cut-in [m/s]; a drive limit caps the delivered power [W]
@@ -61,11 +62,13 @@ class KinkBackend:
                                period_s=10.0, trajectory=traj,
                                warm=Solution(np.array([wind]), np.zeros(1), np.zeros(1), 1, 1))
 
-    def solve(self, ocp, kind, wind, warm):
+    def solve(self, ocp, scenario, warm):
+        wind = scenario.wind_speed_m_s
         assert isinstance(warm, Solution)  # from memory or from the store's npz
         return self._result(wind, "warm start")
 
-    def cold_start(self, ocp, kind, wind):
+    def cold_start(self, ocp, scenario):
+        wind = scenario.wind_speed_m_s
         if wind in self.crash_at:
             raise RuntimeError("solver crashed")
         return self._result(wind, "stored guess")
@@ -123,9 +126,10 @@ class CycleBackend(KinkBackend):
     def from_trajectory(self, ocp, trajectory):
         return Solution(trajectory["wind"].to_numpy(), np.zeros(1), np.zeros(1), 1, 1)
 
-    def cold_start(self, ocp, kind, wind):
+    def cold_start(self, ocp, scenario):
+        wind = scenario.wind_speed_m_s
         self.cold.append(wind)
-        return super().cold_start(ocp, kind, wind)
+        return super().cold_start(ocp, scenario)
 
 
 def test_each_added_speed_starts_from_the_nearest_solved_speed_the_sweeps_included(tmp_path):
@@ -135,8 +139,8 @@ def test_each_added_speed_starts_from_the_nearest_solved_speed_the_sweeps_includ
     from energy.refine import sweep_starts
     from optimize.service.foreign import CycleStart
 
-    starts = tuple(CycleStart("elec-lim", v, "sweep", trajectory=pd.DataFrame({"wind": [v]}))
-                   for v in COARSE)
+    starts = tuple(CycleStart(Scenario.of_kind("elec-lim", v), "sweep",
+                              trajectory=pd.DataFrame({"wind": [v]})) for v in COARSE)
     backend = CycleBackend()
     task = _task(tmp_path, backend)
     records = refine_kind(KindTask(**{**task.__dict__, "starts": starts}))
@@ -161,7 +165,7 @@ def test_each_added_speed_starts_from_the_nearest_solved_speed_the_sweeps_includ
     pd.DataFrame(rows).to_parquet(tmp_path / "trajectories.parquet")
     curve = SimpleNamespace(wind_speed_m_s=[7.0, 8.5], scenarios=["elec-lim-7", "elec-lim-8.5"])
     offered = sweep_starts(SimpleNamespace(folder=tmp_path, curves={"elec-lim": curve}), 3)
-    assert [s.wind_speed_m_s for s in offered["elec-lim"]] == [7.0]
+    assert [s.scenario.wind_speed_m_s for s in offered["elec-lim"]] == [7.0]
 
 
 def test_a_stored_cycle_is_the_optimum_it_was_stored_from():
@@ -179,11 +183,12 @@ def test_a_stored_cycle_is_the_optimum_it_was_stored_from():
                            (1.0,))[0]
     backend = OcpBackend()
     ocp = backend.build(x1.problem(10, 4, system))
-    first = backend.cold_start(ocp, "elec-lim", 7.0)
+    scenario = Scenario.of_kind("elec-lim", 7.0)
+    first = backend.cold_start(ocp, scenario)
     assert first.success, first.status
     start = backend.from_trajectory(ocp, trajectory_frame(ocp, first.warm.w, 7.0))
     assert np.abs(start.w - first.warm.w).max() < 1e-3  # scaled units: O(1) entries
-    again = backend.solve(ocp, "elec-lim", 7.0, start)
+    again = backend.solve(ocp, scenario, start)
     assert again.success and again.avg_p_elec_w == pytest.approx(first.avg_p_elec_w, abs=0.01)
 
 

@@ -19,6 +19,7 @@ from energy.sizing import (
     starts_note,
 )
 from optimize.paper_model import paper_model
+from optimize.problem.scenario import Scenario
 from optimize.service import solve_key
 from optimize.service.executors import ExecutorHandle, QueueChannel
 from optimize.system.drive_in_force import drive_in_force
@@ -113,8 +114,8 @@ def test_candidate_options_take_the_system_bounds_and_the_candidate_limits():
     assert (flown.drive.max_torque_nm, flown.drive.rms_torque_limit_nm) == (780.0, 156.0)
     assert flown.drive.nominal_power_w == pytest.approx(2.0 * base.nominal_power_w)
     # a stored solve of one system is never taken for another's
-    assert (solve_key(c.problem(20, 3, highwind), SIZING_KIND, 7.0)
-            != solve_key(c.problem(20, 3, ap2), SIZING_KIND, 7.0))
+    assert (solve_key(c.problem(20, 3, highwind), Scenario.of_kind(SIZING_KIND, 7.0))
+            != solve_key(c.problem(20, 3, ap2), Scenario.of_kind(SIZING_KIND, 7.0)))
 
 
 def test_a_drive_in_force_is_in_every_cache_key_of_the_same_system_file():
@@ -132,10 +133,11 @@ def test_a_drive_in_force_is_in_every_cache_key_of_the_same_system_file():
     assert other.sha256 == problem.system.sha256
     twin = Problem.for_system(other, problem.drive_model, problem.options)
     assert twin.key != problem.key
-    assert solve_key(twin, SIZING_KIND, 7.0) != solve_key(problem, SIZING_KIND, 7.0)
+    at_7 = Scenario.of_kind(SIZING_KIND, 7.0)
+    assert solve_key(twin, at_7) != solve_key(problem, at_7)
     same = Problem.for_system(problem.system, problem.drive_model, problem.options)
-    assert (same.key, solve_key(same, SIZING_KIND, 7.0)) == (
-        problem.key, solve_key(problem, SIZING_KIND, 7.0))
+    assert (same.key, solve_key(same, Scenario.of_kind(SIZING_KIND, 7.0))) == (
+        problem.key, solve_key(problem, Scenario.of_kind(SIZING_KIND, 7.0)))
 
 
 def test_choice_is_the_smallest_within_tolerance_of_the_best():
@@ -243,10 +245,12 @@ class CrashingBackend:
                                period_s=8.0, trajectory=traj,
                                warm=Solution(np.array([wind]), np.zeros(1), np.zeros(1), 1, 1))
 
-    def solve(self, ocp, kind, wind, warm):
+    def solve(self, ocp, scenario, warm):
+        wind = scenario.wind_speed_m_s
         return self._result(ocp, wind)
 
-    def cold_start(self, ocp, kind, wind):
+    def cold_start(self, ocp, scenario):
+        wind = scenario.wind_speed_m_s
         return self._result(ocp, wind)
 
     def check(self, ocp, result, name):
@@ -303,7 +307,7 @@ def test_a_candidate_starts_from_the_reference_drive_and_reaches_its_cold_optimu
     backend = OcpBackend()
     ocp = backend.build(small.problem(10, 4, load_system()))
     for w in winds:
-        own = backend.cold_start(ocp, SIZING_KIND, w)
+        own = backend.cold_start(ocp, Scenario.of_kind(SIZING_KIND, w))
         assert own.success, own.status
         carried = next(r for r in res.records if (r["candidate"], r["wind_speed_m_s"])
                        == ("x0.6", w))

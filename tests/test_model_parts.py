@@ -145,7 +145,7 @@ def test_the_part_changes_nothing_of_the_kites_optimum(filtered, stored_guess_so
 
 def test_the_filter_state_is_in_the_trajectories_with_its_unit(filtered, tmp_path):
     _, res, bound = filtered
-    outcome = ScenarioOutcome(res.scenario.name, "elec-lim", 7.0, 0,
+    outcome = ScenarioOutcome(res.scenario, 0,
                               (Attempt(None, res.status, True, res.iterations, 1.0),), res)
     columns = trajectory_columns(filtered[0].formulation.parts)
     assert list(res.trajectory.columns) == list(columns)  # the parts' columns, in order

@@ -17,6 +17,7 @@ import pytest
 from scipy.optimize import minimize
 from service_fixtures import Result
 
+from optimize.problem.scenario import Scenario
 from optimize.service.builder import Problem
 from optimize.service.outcome import ScenarioOutcome
 from optimize.service.period_scan import SCAN_GAP, held_periods, scan_periods
@@ -57,10 +58,10 @@ class PeriodBackend:
     def build(self, problem):
         return problem.key
 
-    def cold_start(self, ocp, kind, wind):
-        return self.solve(ocp, kind, wind, 15.0)
+    def cold_start(self, ocp, scenario):
+        return self.solve(ocp, scenario, 15.0)
 
-    def solve(self, ocp, kind, wind, warm, period_s=None):
+    def solve(self, ocp, scenario, warm, period_s=None):
         if period_s is not None:
             return _result(period_s)
         best = minimize(lambda t: power_w(float(t[0])), [warm], bounds=[BOUNDS_S],
@@ -75,11 +76,12 @@ class PeriodBackend:
 
 
 PROBLEM = Problem(model=None, drive_model=None, options=None, key="period stand-in")
+MECH_FREE_10 = Scenario.of_kind("mech-free", 10.0)
 
 
-def _solved(key=("mech-free", 10.0)) -> Solver:
+def _solved(key=MECH_FREE_10) -> Solver:
     solver = Solver(PROBLEM, backend=PeriodBackend())
-    assert solver.solve(*key)["success"]
+    assert solver.solve(key)["success"]
     return solver
 
 
@@ -96,7 +98,7 @@ def test_held_periods_span_half_to_twice_within_the_bounds():
 
 
 def test_the_scan_finds_and_keeps_the_better_optimum():
-    key = ("mech-free", 10.0)
+    key = MECH_FREE_10
     solver = _solved(key)
     first = solver.outcomes[key].result
     assert first.period_s == pytest.approx(20.0, abs=1.0)  # the poorer well
@@ -127,12 +129,12 @@ def test_the_scan_finds_and_keeps_the_better_optimum():
 
 def test_a_scan_that_finds_nothing_better_keeps_the_first():
     class Better(PeriodBackend):  # the cold start lands in the better well
-        def cold_start(self, ocp, kind, wind):
-            return self.solve(ocp, kind, wind, 60.0)
+        def cold_start(self, ocp, scenario):
+            return self.solve(ocp, scenario, 60.0)
 
-    key = ("mech-free", 10.0)
+    key = MECH_FREE_10
     solver = Solver(PROBLEM, backend=Better())
-    solver.solve(*key)
+    solver.solve(key)
     first = solver.outcomes[key].result
     scan_periods(solver, [key], 4)  # 80 (the bound), 40 and 28 s: 40 s falls back into it
     o = solver.outcomes[key]
@@ -145,15 +147,15 @@ def test_a_scan_that_finds_nothing_better_keeps_the_first():
 
 def test_a_failed_held_solve_is_recorded_and_the_first_kept():
     class Failing(PeriodBackend):
-        def solve(self, ocp, kind, wind, warm, period_s=None):
+        def solve(self, ocp, scenario, warm, period_s=None):
             if period_s is not None:
                 return PeriodResult("Infeasible_Problem_Detected", False, 9, 1e-3, math.nan,
                                     warm, math.nan, period_s)
-            return super().solve(ocp, kind, wind, warm)
+            return super().solve(ocp, scenario, warm)
 
-    key = ("mech-free", 10.0)
+    key = MECH_FREE_10
     solver = Solver(PROBLEM, backend=Failing())
-    solver.solve(*key)
+    solver.solve(key)
     scan_periods(solver, [key], 2)
     o = solver.outcomes[key]
     assert o.result.period_s == pytest.approx(20.0, abs=1.0)
@@ -173,16 +175,15 @@ def test_scanned_kinds_are_not_said_unchecked():
 
 
 def test_a_scenario_that_failed_is_not_scanned():
-    key = ("mech-free", 10.0)
+    key = MECH_FREE_10
     solver = Solver(PROBLEM, backend=PeriodBackend())
-    solver.outcomes[key] = ScenarioOutcome("mech-free-10.0", "mech-free", 10.0, 0, (), None)
+    solver.outcomes[key] = ScenarioOutcome(key, 0, (), None)
     scan_periods(solver, [key], 4)
     assert solver.outcomes[key].resolves == ()
 
 
 # ----------------------------------------------------------------- a real held solve
 def test_a_held_period_is_held_and_freeing_it_finds_an_optimum(coarse_ocp, coarse_mechanical):
-    from optimize.problem.scenario import Scenario
     from optimize.solve.solve import solve
 
     scenario = Scenario(7.0, "mechanical", False)

@@ -16,6 +16,7 @@ from drivebench.cli import main
 from optimize.analysis import result_check as rc
 from optimize.model.params import AeroCoefficients
 from optimize.problem.options import Discretization, OcpOptions
+from optimize.problem.scenario import Scenario
 from optimize.service.builder import Problem
 from optimize.service.outcome import Attempt, ScenarioOutcome
 from optimize.system.system_file import load_system
@@ -56,7 +57,7 @@ def test_an_optimum_above_the_power_bound_is_rejected(coarse_ocp, coarse_elec_li
     check = rc.check_result(coarse_ocp, fake, "elec-lim-7.0")
     assert not check.passed
     assert "Loyd-type bound" in check.verdict() and "mesh 10 intervals" in check.verdict()
-    out = ScenarioOutcome("elec-lim-7.0", "elec-lim", 7.0, 0,
+    out = ScenarioOutcome(Scenario.of_kind("elec-lim", 7.0), 0,
                           (Attempt(None, "Solve_Succeeded", False, 5, 0.1, check),), fake)
     assert not out.success and out.status == "Solve_Succeeded"
 
@@ -100,7 +101,7 @@ def test_trust_simulation_that_cannot_finish_is_a_finding(coarse_ocp, coarse_ele
     monkeypatch.setattr(trust, "simulation_check", give_up)
     problem = Problem.for_system(coarse_ocp.system, paper_model(),
                                  OcpOptions(Discretization(n_intervals=coarse_ocp.n_intervals)))
-    outcome = ScenarioOutcome("elec-lim-7.0", "elec-lim", 7.0, 0,
+    outcome = ScenarioOutcome(Scenario.of_kind("elec-lim", 7.0), 0,
                               (Attempt(None, "Solve_Succeeded", True, 5, 0.1),),
                               coarse_elec_lim)
     with ThreadPoolExecutor(1) as pool:  # no mesh check: 7 m/s is not the middle speed

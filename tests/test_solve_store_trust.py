@@ -19,6 +19,7 @@ import pytest
 from energy.site import Weibull
 from energy.sizing import run_sizing, scaled_candidates
 from optimize.paper_model import paper_model
+from optimize.problem.scenario import Scenario
 from optimize.service.executors import ExecutorHandle, QueueChannel
 from optimize.service.store import read_solve, rejected_lines, store_solve
 from optimize.solve.result import Solution
@@ -49,10 +50,12 @@ class LinearBackend:
                                period_s=8.0, trajectory=traj,
                                warm=Solution(np.full(4, wind), np.zeros(4), np.zeros(2), 1, 1))
 
-    def solve(self, ocp, kind, wind, warm):
+    def solve(self, ocp, scenario, warm):
+        wind = scenario.wind_speed_m_s
         return self._result(ocp, wind)
 
-    def cold_start(self, ocp, kind, wind):
+    def cold_start(self, ocp, scenario):
+        wind = scenario.wind_speed_m_s
         return self._result(ocp, wind)
 
     def check(self, ocp, result, name):
@@ -159,7 +162,7 @@ def test_the_figures_of_a_record_must_agree(tmp_path):
     base = {"key": key, "kind": "elec-lim", "wind_speed_m_s": 7.0, "success": True,
             "status": "Solve_Succeeded", "avg_p_elec_w": -500.0, "period_s": 8.0}
     store_solve(tmp_path, key, base, warm)
-    stored = read_solve(tmp_path, key, "elec-lim", 7.0)
+    stored = read_solve(tmp_path, key, Scenario.of_kind("elec-lim", 7.0))
     assert stored.rejected is None and stored.record["avg_p_elec_w"] == -500.0
     np.testing.assert_array_equal(stored.warm.w, np.ones(3))
     cases = {
@@ -170,11 +173,12 @@ def test_the_figures_of_a_record_must_agree(tmp_path):
     }
     for why, change in cases.items():
         store_solve(tmp_path, key, {**base, **change}, warm)
-        assert why in read_solve(tmp_path, key, "elec-lim", 7.0).rejected
+        assert why in read_solve(tmp_path, key, Scenario.of_kind("elec-lim", 7.0)).rejected
     store_solve(tmp_path, key, base, warm)
-    assert "holds wind speed 7.0, not 8 m/s" in read_solve(tmp_path, key, "elec-lim", 8.0).rejected
-    assert "holds kind 'elec-lim', not 'mech-lim'" in read_solve(tmp_path, key, "mech-lim",
-                                                                   7.0).rejected
+    at_8 = Scenario.of_kind("elec-lim", 8.0)
+    assert "holds wind speed 7.0, not 8 m/s" in read_solve(tmp_path, key, at_8).rejected
+    mech = Scenario.of_kind("mech-lim", 7.0)
+    assert "holds kind 'elec-lim', not 'mech-lim'" in read_solve(tmp_path, key, mech).rejected
     # a .npz of non-finite numbers with its right hash: not a warm start
     store_solve(tmp_path, key, base, replace(warm, w=np.array([1.0, np.inf, 0.0])))
     assert "not finite vectors" in read_solve(tmp_path, key).rejected

@@ -22,7 +22,7 @@ import pytest
 from service_fixtures import Result
 
 from kernel.errors import InputError
-from optimize.problem.scenario import scenario_name
+from optimize.problem.scenario import Scenario, scenario_name
 from optimize.service import ChainTask, Problem, Solver, make_tasks, run_chain, run_sweep
 from optimize.service.cut_in import find_cut_in
 from optimize.service.executors import ExecutorHandle, QueueChannel, open_executor, run_tasks
@@ -70,12 +70,14 @@ class NewtonBackend:
                 return Result("Solve_Succeeded", True, it, 1e-3, p, x)
         return Result("Maximum_Iterations_Exceeded", False, self.max_iter, 1e-3, math.nan, x)
 
-    def solve(self, ocp: str, kind: str, w: float, warm: float) -> Result:
+    def solve(self, ocp: str, scenario: Scenario, warm: float) -> Result:
+        kind, w = scenario.kind, scenario.wind_speed_m_s
         if scenario_name(kind, w) in self.fail_warm:
             return Result("Infeasible_Problem_Detected", False, 7, 1e-3, math.nan, warm)
         return self._newton(kind, w, warm)
 
-    def cold_start(self, ocp: str, kind: str, w: float) -> Result:
+    def cold_start(self, ocp: str, scenario: Scenario) -> Result:
+        kind, w = scenario.kind, scenario.wind_speed_m_s
         return self._newton(kind, w, 0.0)
 
     def check(self, ocp, result, name):
@@ -150,20 +152,21 @@ def _check_graph(steps, winds, kinds):
     speeds, else one more per further wind step each way from the middle."""
     assert sorted(s.name for s in steps) == sorted(scenario_name(k, w) for k in kinds
                                                    for w in winds)
-    depth, by_name = {}, {}
+    depth, by_scenario = {}, {}
     for step in steps:
-        sources = [n for n in (step.warm_from, *step.fallbacks) if n is not None]
-        assert all(depth[n] < step.depth for n in sources)  # KeyError: planned later
+        sources = [s for s in (step.warm_from, *step.fallbacks) if s is not None]
+        assert all(depth[s] < step.depth for s in sources)  # KeyError: planned later
         assert (step.depth == 0) == (step.warm_from is None)
         assert step.warm_from not in step.fallbacks
         if step.warm_from is not None:
-            src = by_name[step.warm_from]
-            cost = start_cost((step.kind, winds.index(step.wind_speed_m_s)),
+            src, own = by_scenario[step.warm_from].scenario, step.scenario
+            cost = start_cost((own.kind, winds.index(own.wind_speed_m_s)),
                               (src.kind, winds.index(src.wind_speed_m_s)))
-            switch = src.depth == 0 and src.wind_speed_m_s == step.wind_speed_m_s
+            switch = (by_scenario[src].depth == 0
+                      and src.wind_speed_m_s == own.wind_speed_m_s)
             assert cost <= (OBJECTIVE_SWITCH_COST if switch else NEAR_START_COST)
-        depth[step.name] = step.depth
-        by_name[step.name] = step
+        depth[step.scenario] = step.depth
+        by_scenario[step.scenario] = step
     objectives = len({k[:4] for k in kinds})
     assert [s.depth for s in steps].count(0) == 1
     assert max(depth.values()) <= max(2, len(winds) - middle_index(winds) - 1) + objectives - 1
@@ -176,16 +179,16 @@ def test_the_paper_sweep_is_a_graph_with_one_cold_start():
     assert [s.name for s in steps if s.depth == 0] == ["elec-lim-7.0"]
     # depth 1: one wind step or one limit switch from the seed, and the other objective
     # at the seed's speed (a switch of objective, no cold start of its own)
-    assert {s.name: s.warm_from for s in steps if s.depth == 1} == {
+    assert {s.name: s.warm_from.name for s in steps if s.depth == 1} == {
         "elec-lim-5.5": "elec-lim-7.0", "elec-lim-8.5": "elec-lim-7.0",
         "elec-free-7.0": "elec-lim-7.0", "mech-lim-7.0": "elec-lim-7.0"}
     by_name = {s.name: s for s in steps}
     # then from the nearest: a wind step of the same kind, else a limit switch
-    assert by_name["elec-lim-4.0"].warm_from == "elec-lim-5.5"
-    assert by_name["elec-free-5.5"].warm_from == "elec-lim-5.5"
-    assert by_name["mech-lim-8.5"].warm_from == "mech-lim-7.0"
-    assert by_name["mech-free-7.0"].warm_from == "mech-lim-7.0"
-    assert by_name["mech-free-10.0"].warm_from == "mech-free-8.5"
+    assert by_name["elec-lim-4.0"].warm_from.name == "elec-lim-5.5"
+    assert by_name["elec-free-5.5"].warm_from.name == "elec-lim-5.5"
+    assert by_name["mech-lim-8.5"].warm_from.name == "mech-lim-7.0"
+    assert by_name["mech-free-7.0"].warm_from.name == "mech-lim-7.0"
+    assert by_name["mech-free-10.0"].warm_from.name == "mech-free-8.5"
     assert sum(d == 3 for d in depth.values()) == 4
     # any grid and selection: near starts, one cold start
     for winds, kinds in (((4.0, 5.0, 6.0, 7.0), ("mech-free",)), ((7.0,), KINDS),
@@ -198,11 +201,11 @@ def test_a_long_grid_starts_each_scenario_from_a_near_one():
     # make demo's grid: 8 speeds, seeds at 8.5 m/s; 14.5 m/s starts from 13, not from 10
     winds = tuple(4.0 + 1.5 * i for i in range(8))
     by_name = {s.name: s for s in plan_graph(winds, KINDS)}
-    assert by_name["elec-lim-14.5"].warm_from == "elec-lim-13.0"
-    assert by_name["mech-free-13.0"].warm_from == "mech-free-11.5"
-    assert by_name["elec-free-4.0"].warm_from == "elec-free-5.5"
+    assert by_name["elec-lim-14.5"].warm_from.name == "elec-lim-13.0"
+    assert by_name["mech-free-13.0"].warm_from.name == "mech-free-11.5"
+    assert by_name["elec-free-4.0"].warm_from.name == "elec-free-5.5"
     # 8.5 -> 10 -> 11.5 -> 13 -> 14.5, one more after the switch of objective
-    assert max(s.depth for s in by_name.values() if s.kind.startswith("elec")) == 4
+    assert max(s.depth for s in by_name.values() if s.scenario.objective == "electrical") == 4
     assert max(s.depth for s in by_name.values()) == 5
 
 
@@ -269,7 +272,8 @@ class StoredGuessResult(Result):
 
 
 class StoredGuessBackend(NewtonBackend):
-    def cold_start(self, ocp: str, kind: str, w: float) -> Result:
+    def cold_start(self, ocp: str, scenario: Scenario) -> Result:
+        kind, w = scenario.kind, scenario.wind_speed_m_s
         return StoredGuessResult(*dataclasses.astuple(self._newton(kind, w, 0.0)))
 
 
@@ -277,9 +281,10 @@ def _solve_one(backend, sources=(), solved=()):
     """The outcome of mech-free at 10 m/s from ``sources`` after solving ``solved`` cold."""
     solver = Solver(PROBLEM, backend=backend)
     for kind, wind in solved:
-        solver.solve(kind, wind, sources=[])
-    solver.solve("mech-free", 10.0, sources=list(sources))
-    return solver.outcomes["mech-free", 10.0]
+        solver.solve(Scenario.of_kind(kind, wind), sources=[])
+    scenario = Scenario.of_kind("mech-free", 10.0)
+    solver.solve(scenario, sources=[Scenario.of_kind(k, w) for k, w in sources])
+    return solver.outcomes[scenario]
 
 
 def test_warm_source_tells_a_stored_guess_start_from_a_homotopy():
@@ -655,8 +660,9 @@ def test_an_optimum_failing_its_result_check_is_failed_in_every_service_path():
             assert r["avg_p_elec_w"] == pytest.approx(truth[r["wind_speed_m_s"]], abs=1e-6)
     assert sum(not r["success"] for r in records) == 2  # 8.5 and 10 m/s: above 300 W
     solver = Solver(PROBLEM, backend=backend)
-    solver.solve("elec-lim", 10.0)
-    outcome = solver.outcomes["elec-lim", 10.0]
+    scenario = Scenario.of_kind("elec-lim", 10.0)
+    solver.solve(scenario)
+    outcome = solver.outcomes[scenario]
     assert not outcome.success and outcome.check.startswith("failed: ")
     assert solver.converged("elec-lim") == []  # a failed optimum starts nothing
 
@@ -676,10 +682,12 @@ class ArtifactBackend(BoundedBackend):
         return dataclasses.replace(r, warm=(r.warm, kind),
                                    avg_p_elec_w=r.avg_p_elec_w - 1e6 * artifact)
 
-    def solve(self, ocp: str, kind: str, w: float, warm: tuple) -> Result:
+    def solve(self, ocp: str, scenario: Scenario, warm: tuple) -> Result:
+        kind, w = scenario.kind, scenario.wind_speed_m_s
         return self._from(kind, w, warm[0], warm[1])
 
-    def cold_start(self, ocp: str, kind: str, w: float) -> Result:
+    def cold_start(self, ocp: str, scenario: Scenario) -> Result:
+        kind, w = scenario.kind, scenario.wind_speed_m_s
         return self._from(kind, w, 0.0, None)
 
 
@@ -719,8 +727,9 @@ class CoarseMeshBackend(ArtifactBackend):
     def build(self, problem: Problem) -> Problem:
         return problem
 
-    def remesh(self, coarse: Problem, fine: Problem, kind: str, w: float, result: Result
+    def remesh(self, coarse: Problem, fine: Problem, scenario: Scenario, result: Result
                ) -> Result:
+        kind, w = scenario.kind, scenario.wind_speed_m_s
         assert fine.n_intervals == 2 * coarse.n_intervals
         r = self._newton(kind, w, result.warm[0])
         artifact = fine.n_intervals < self.fine_enough
@@ -782,10 +791,12 @@ class BranchBackend:
         return BranchResult("Solve_Succeeded", True, 3, 1e-3, -100.0 * w**2 + 300.0 * local,
                             branch, period_s=8.0 if local else 5.0)
 
-    def solve(self, ocp: str, kind: str, w: float, warm: str) -> BranchResult:
+    def solve(self, ocp: str, scenario: Scenario, warm: str) -> BranchResult:
+        w = scenario.wind_speed_m_s
         return self._on(warm, w)
 
-    def cold_start(self, ocp: str, kind: str, w: float) -> BranchResult:
+    def cold_start(self, ocp: str, scenario: Scenario) -> BranchResult:
+        w = scenario.wind_speed_m_s
         return self._on("local", w)
 
     def check(self, ocp, result, name):

@@ -17,6 +17,7 @@ from optimize.model import kite_model as km
 from optimize.paper_model import paper_model
 from optimize.problem.ocp import model_parts
 from optimize.problem.part import FRAME_COLUMNS, trajectory_columns
+from optimize.problem.scenario import Scenario
 from optimize.service.outcome import Attempt, ScenarioOutcome
 from optimize.sweep.outputs import summary_frame, trajectories_frame
 from optimize.sweep_folder import SUMMARY_COLUMNS, field_units, read_summary
@@ -54,17 +55,13 @@ def hand_trajectory() -> pd.DataFrame:
 
 def outcomes() -> list[ScenarioOutcome]:
     ok = ScenarioOutcome(
-        "elec-lim-5.5",
-        "elec-lim",
-        5.5,
+        Scenario.of_kind("elec-lim", 5.5),
         0,
         (Attempt("elec-lim-7.0", "Solve_Succeeded", True, 14, 2.5),),
         FakeResult(6.0, -137.8, -900.0, 1e-9, 2e-8, hand_trajectory()),
     )
     failed = ScenarioOutcome(
-        "mech-free-10.0",
-        "mech-free",
-        10.0,
+        Scenario.of_kind("mech-free", 10.0),
         1,
         (
             Attempt("mech-free-8.5", "Infeasible_Problem_Detected", False, 40, 6.0),

@@ -35,12 +35,17 @@ class Scenario:
         kind_of(self.objective, self.drive_limits)  # raises on an unknown objective
         if not self.wind_speed_m_s > 0:
             raise ValueError(f"wind_speed_m_s must be positive, got {self.wind_speed_m_s}")
+        object.__setattr__(self, "wind_speed_m_s", float(self.wind_speed_m_s))
 
     @classmethod
     def of_kind(cls, kind: str | Kind, wind_speed_m_s: float) -> Scenario:
         """The scenario of a kind (key or :class:`optimize.kinds.Kind`) at a wind speed."""
         k = KINDS[kind] if isinstance(kind, str) else kind
         return cls(wind_speed_m_s, k.objective, k.drive_limits)
+
+    def at(self, wind_speed_m_s: float) -> Scenario:
+        """The scenario of the same kind at another wind speed [m/s]."""
+        return Scenario(wind_speed_m_s, self.objective, self.drive_limits)
 
     @property
     def kind_spec(self) -> Kind:

@@ -13,6 +13,8 @@ import threading
 from dataclasses import dataclass
 from typing import Any, Protocol
 
+from optimize.problem.scenario import Scenario
+
 
 class SolveResult(Protocol):
     """What the service reads from a solve result (see ``optimize.solve.result.OcpResult``).
@@ -35,19 +37,19 @@ class Backend(Protocol):
     def build(self, problem: Problem) -> Any:
         """Build (or fetch from the per-process cache) the NLP for ``problem``."""
 
-    def solve(self, ocp: Any, kind: str, wind_speed_m_s: float, warm: Any,
+    def solve(self, ocp: Any, scenario: Scenario, warm: Any,
               period_s: float | None = None) -> SolveResult:
-        """Solve one scenario warm-started from ``warm`` (a previous result's ``warm``);
+        """Solve ``scenario`` warm-started from ``warm`` (a previous result's ``warm``);
         with ``period_s`` [s], the period held there (only the period scan passes it,
         :mod:`optimize.service.period_scan`)."""
 
-    def cold_start(self, ocp: Any, kind: str, wind_speed_m_s: float) -> SolveResult:
-        """Solve one scenario with no neighbouring solution (stored guess or homotopy)."""
+    def cold_start(self, ocp: Any, scenario: Scenario) -> SolveResult:
+        """Solve ``scenario`` with no neighbouring solution (stored guess or homotopy)."""
 
-    def remesh(self, coarse: Any, fine: Any, kind: str, wind_speed_m_s: float,
+    def remesh(self, coarse: Any, fine: Any, scenario: Scenario,
                result: SolveResult) -> SolveResult:
-        """``kind`` at ``wind_speed_m_s`` solved on the ``fine`` mesh from ``result``, a
-        converged solve on ``coarse``."""
+        """``scenario`` solved on the ``fine`` mesh from ``result``, a converged solve
+        on ``coarse``."""
 
     def period_bounds(self, ocp: Any) -> tuple[float, float]:
         """Bounds [s] of the free period (only the period scan asks)."""
@@ -149,35 +151,27 @@ class OcpBackend:
                                         problem.options, system=problem.system)
         return _OCP_CACHE[key]
 
-    @staticmethod
-    def scenario(kind: str, wind_speed_m_s: float) -> Any:
-        """The OCP's ``Scenario`` for a kind and wind speed [m/s]."""
-        from optimize.problem.scenario import Scenario
-
-        return Scenario.of_kind(kind, wind_speed_m_s)
-
-    def solve(self, ocp: Any, kind: str, wind_speed_m_s: float, warm: Any,
+    def solve(self, ocp: Any, scenario: Scenario, warm: Any,
               period_s: float | None = None) -> SolveResult:
         """Warm-started solve (primal and dual start; on failure ``solve`` retries the same
         primal point once with cold barrier settings, before the service's own fallbacks),
         with the period held at ``period_s`` [s] when given."""
         from optimize.solve.solve import solve
 
-        return solve(ocp, self.scenario(kind, wind_speed_m_s), warm, period_s=period_s)
+        return solve(ocp, scenario, warm, period_s=period_s)
 
-    def cold_start(self, ocp: Any, kind: str, wind_speed_m_s: float) -> SolveResult:
+    def cold_start(self, ocp: Any, scenario: Scenario) -> SolveResult:
         """From the stored initial guess when it fits, else the homotopy."""
         from optimize.solve.starts.cold import start
 
-        return start(ocp, self.scenario(kind, wind_speed_m_s))
+        return start(ocp, scenario)
 
-    def carry(self, src: Any, warm: Any, dst: Any, kind: str, wind_speed_m_s: float) -> Any:
-        """``warm``, a solution of the NLP ``src`` (of ``kind`` at ``wind_speed_m_s``), in
-        the layout of another problem's NLP ``dst``
-        (:func:`optimize.solve.result.carry_over`)."""
+    def carry(self, src: Any, warm: Any, dst: Any, scenario: Scenario) -> Any:
+        """``warm``, a solution of the NLP ``src`` (of ``scenario``), in the layout of
+        another problem's NLP ``dst`` (:func:`optimize.solve.result.carry_over`)."""
         from optimize.solve.result import carry_over
 
-        return carry_over(src, warm, dst, self.scenario(kind, wind_speed_m_s).parameters)
+        return carry_over(src, warm, dst, scenario.parameters)
 
     def from_trajectory(self, ocp: Any, trajectory: Any) -> Any:
         """A converged cycle of ``ocp`` kept as its trajectory, as its start
@@ -186,13 +180,13 @@ class OcpBackend:
 
         return solution_of_trajectory(ocp, trajectory)
 
-    def remesh(self, coarse: Any, fine: Any, kind: str, wind_speed_m_s: float,
+    def remesh(self, coarse: Any, fine: Any, scenario: Scenario,
                result: SolveResult) -> SolveResult:
         """From ``result`` interpolated onto the finer mesh
         (:func:`optimize.solve.starts.remesh.solve_interpolated`)."""
         from optimize.solve.starts.remesh import solve_interpolated
 
-        return solve_interpolated(coarse, fine, self.scenario(kind, wind_speed_m_s), result)
+        return solve_interpolated(coarse, fine, scenario, result)
 
     def period_bounds(self, ocp: Any) -> tuple[float, float]:
         """Bounds [s] of the free period of ``ocp`` (the system's)."""

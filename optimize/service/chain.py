@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from optimize.problem.scenario import scenario_name
+from optimize.problem.scenario import Scenario
 from optimize.service.builder import Problem
 from optimize.service.cut_in import find_cut_in
 from optimize.service.foreign import CycleStart, ForeignStart
@@ -149,29 +149,28 @@ class ChainTask:
     foreign: tuple[ForeignStart, ...] = ()
 
 
-def _nearest(solver: Solver, r: Refinement, wind_speed_m_s: float) -> list:
+def _nearest(solver: Solver, r: Refinement, scenario: Scenario) -> list:
     """The starts of an added speed: the nearest solved speeds of the refined kind, its
     own solves before the known cycles at equal distance, at most two."""
-    own = [(r.kind, w) for w in solver.converged(r.kind)]
-    cycles = [s for s in r.starts if s.key not in own]
+    own = [scenario.at(w) for w in solver.converged(r.kind)]
+    cycles = [s for s in r.starts if s.scenario not in own]
     ranked = sorted([*own, *cycles], key=lambda s: (
-        abs((s.wind_speed_m_s if isinstance(s, CycleStart) else s[1]) - wind_speed_m_s),
-        isinstance(s, CycleStart)))
+        abs((s.scenario if isinstance(s, CycleStart) else s).wind_speed_m_s
+            - scenario.wind_speed_m_s), isinstance(s, CycleStart)))
     return ranked[:2]
 
 
 def _refine(solver: Solver, r: Refinement, start: tuple[float, ...]) -> None:
     known = {float(w): (p[0] if len(p) == 1 else tuple(p)) for w, *p in r.known}
-    cycles = {s.wind_speed_m_s: s for s in r.starts}
+    cycles = {s.scenario.wind_speed_m_s: s for s in r.starts}
 
     def power(wind_speed_m_s: float) -> Any:
-        wind_speed_m_s = round(float(wind_speed_m_s), 6)
+        added = Scenario.of_kind(r.kind, round(float(wind_speed_m_s), 6))
         if r.check and known and not any(rec["role"] == "check"
                                          for rec in solver.records.values()):
-            near = min(known, key=lambda w: abs(w - wind_speed_m_s))
-            solver.solve(r.kind, near, "check", [cycles[near]] if near in cycles else None)
-        rec = solver.solve(r.kind, wind_speed_m_s, "added",
-                           _nearest(solver, r, wind_speed_m_s) or None)
+            near = min(known, key=lambda w: abs(w - added.wind_speed_m_s))
+            solver.solve(added.at(near), "check", [cycles[near]] if near in cycles else None)
+        rec = solver.solve(added, "added", _nearest(solver, r, added) or None)
         if not rec["success"]:
             return None
         values = tuple(rec[c] for c in r.curves)
@@ -200,34 +199,32 @@ def run_chain(task: ChainTask, progress: Any = None) -> ChainOutcome:
                     task.extras, task.index)
     for outcome, record in (*task.solved, *task.starts):
         solver.adopt(outcome, record)
-    solver.foreign.update((f.key, f) for f in task.foreign)
-    planned = [(s.kind, s.wind_speed_m_s) for s in task.steps]
-    keys = [(o.kind, o.wind_speed_m_s) for o, _ in task.solved] + planned
-    by_name = {scenario_name(*k): k for k in keys}
-    for step, key in zip(task.steps, planned, strict=True):
-        sources = [by_name[n] for n in (step.warm_from, *step.fallbacks) if n in by_name]
-        solver.solve(*key, "grid", sources)
+    solver.foreign.update((f.scenario, f) for f in task.foreign)
+    grid = [o.scenario for o, _ in task.solved] + [s.scenario for s in task.steps]
+    for step in task.steps:
+        sources = [s for s in (step.warm_from, *step.fallbacks) if s in grid]
+        solver.solve(step.scenario, "grid", sources)
     if task.retry:
-        retry_failed(solver, keys)
+        retry_failed(solver, grid)
     if task.resolve:
-        resolve_local_optima(solver, [k for k in keys if k in solver.outcomes])
-    scan_periods(solver, [k for k in keys if k in solver.outcomes], task.period_scan)
+        resolve_local_optima(solver, [s for s in grid if s in solver.outcomes])
+    scan_periods(solver, [s for s in grid if s in solver.outcomes], task.period_scan)
     cut_ins = []
     for kind in task.cut_in_kinds:
-        grid = {w: solver.records[k, w]["avg_p_elec_w"] for k, w in keys
-                if k == kind and solver.records[k, w]["success"]}
-        cut_ins.append(find_cut_in(solver, kind, grid, task.cut_in_tol_m_s))
+        powers = {s.wind_speed_m_s: solver.records[s]["avg_p_elec_w"] for s in grid
+                  if s.kind == kind and solver.records[s]["success"]}
+        cut_ins.append(find_cut_in(solver, kind, powers, task.cut_in_tol_m_s))
         if progress is not None:
             progress.put({"chain": task.index, "cut_in": kind})
     if task.refine is not None:
-        start = tuple(sorted(w for k, w in keys if k == task.refine.kind))
+        start = tuple(sorted(s.wind_speed_m_s for s in grid if s.kind == task.refine.kind))
         _refine(solver, task.refine, start)
-    only_starts = {(o.kind, o.wind_speed_m_s) for o, _ in task.starts}
+    only_starts = {o.scenario for o, _ in task.starts}
     return ChainOutcome(
         task.index,
-        tuple(solver.outcomes[k] for k in keys if k in solver.outcomes),
-        tuple(solver.records[k] for k in sorted(solver.records, key=lambda k: k[1])
-              if k not in only_starts),
+        tuple(solver.outcomes[s] for s in grid if s in solver.outcomes),
+        tuple(solver.records[s] for s in sorted(solver.records, key=lambda s: s.wind_speed_m_s)
+              if s not in only_starts),
         tuple(cut_ins),
         solver.build_time_s,
         f"{socket.gethostname()}:{os.getpid()}",

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from optimize.problem.scenario import Scenario
 from optimize.service.outcome import CutIn
 
 
@@ -47,7 +48,8 @@ def find_cut_in(solver: Any, kind: str, grid: dict[float, float],
     while hi - lo > tol_m_s:
         mid = 0.5 * (lo + hi)
         ends = [lo, hi] if mid - lo < hi - mid else [hi, lo]
-        rec = solver.solve(kind, mid, "cut-in", sources=[(kind, w) for w in ends], cold=False)
+        probe = Scenario.of_kind(kind, mid)
+        rec = solver.solve(probe, "cut-in", sources=[probe.at(w) for w in ends], cold=False)
         p_mid = rec["avg_p_elec_w"] if rec["avg_p_elec_w"] is not None else math.nan
         probes.append((mid, p_mid, rec["success"], rec["status"]))
         if not rec["success"]:

@@ -31,7 +31,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from optimize.problem.scenario import scenario_name
+from optimize.problem.scenario import Scenario
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,35 +41,28 @@ class Start:
 
     Attributes
     ----------
-    kind : str
-        The scenario kind of the solution.
-    wind_speed_m_s : float
-        Its wind speed [m/s].
+    scenario : Scenario
+        The scenario it is the solution of.
     label : str
         How records name where it comes from (``"x1"``, ``"sweep"``).
     depth : int
         Its start-graph depth (0: a cold start).
     """
 
-    kind: str
-    wind_speed_m_s: float
+    scenario: Scenario
     label: str
     depth: int = 0
 
     @property
-    def key(self) -> tuple[str, float]:
-        """The scenario it is the solution of: (kind, wind speed [m/s])."""
-        return self.kind, float(self.wind_speed_m_s)
-
-    @property
     def name(self) -> str:
         """``"x1 elec-lim-7.0"``: the attempts' and progress events' source."""
-        return f"{self.label} {scenario_name(self.kind, self.wind_speed_m_s)}"
+        return f"{self.label} {self.scenario.name}"
 
     def warm_from(self, kind: str) -> str:
         """The record's ``warm_from`` of a solve of ``kind`` started here: ``"x1 7 m/s"``
         (same kind) or :attr:`name`."""
-        return f"{self.label} {self.wind_speed_m_s:g} m/s" if kind == self.kind else self.name
+        return (f"{self.label} {self.scenario.wind_speed_m_s:g} m/s"
+                if kind == self.scenario.kind else self.name)
 
     def carried(self, backend: Any, ocp: Any) -> Any:
         """The start in the layout of ``ocp``, the NLP the solver solves."""
@@ -99,8 +92,7 @@ class ForeignStart(Start):
         carry = getattr(backend, "carry", None)
         if carry is None:
             return self.warm
-        return carry(backend.build(self.problem), self.warm, ocp, self.kind,
-                     self.wind_speed_m_s)
+        return carry(backend.build(self.problem), self.warm, ocp, self.scenario)
 
 
 @dataclass(frozen=True, eq=False)
@@ -142,11 +134,11 @@ class HeldStart(Start):
     @property
     def name(self) -> str:
         """``"mech-free-10.0 held at 45 s"``: the attempts' and progress events' source."""
-        return f"{scenario_name(self.kind, self.wind_speed_m_s)} held at {self.period_s:g} s"
+        return f"{self.scenario.name} held at {self.period_s:g} s"
 
     def warm_from(self, kind: str) -> str:
         """The record's ``warm_from``: ``"10 m/s held at 45 s"``."""
-        return f"{self.wind_speed_m_s:g} m/s held at {self.period_s:g} s"
+        return f"{self.scenario.wind_speed_m_s:g} m/s held at {self.period_s:g} s"
 
     def carried(self, backend: Any, ocp: Any) -> Any:
         """The held optimum as it is (the same NLP)."""

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from optimize.kinds import KINDS
+from optimize.problem.scenario import Scenario
 from optimize.service.outcome import Resolve
 from optimize.sweep_folder import MIN_CURVE_SPEEDS
 
@@ -154,27 +155,27 @@ class _Search:
         """The kind's converged scenarios by wind speed, their curve residuals and the
         off-curve ones (:func:`off_curve`); all empty when a power is not finite."""
         ks = sorted((k for k in self.version if self.solver.outcomes[k].success),
-                    key=lambda k: k[1])
+                    key=lambda k: k.wind_speed_m_s)
         outs = [self.solver.outcomes[k] for k in ks]
         power = [objective_power_w(self.kind, o.result) for o in outs]
         period = [float(getattr(o.result, "period_s", math.nan)) for o in outs]
         if not all(math.isfinite(p) for p in power):
             return [], [], []
-        speeds = [k[1] for k in ks]
+        speeds = [k.wind_speed_m_s for k in ks]
         return (ks, curve_residuals(speeds, power, period),
                 off_curve(speeds, power, period))
 
-    def worth_trying(self, key: tuple, source: tuple) -> bool:
+    def worth_trying(self, key: Scenario, source: Scenario) -> bool:
         """Whether ``key`` from ``source``'s present optimum is a start not yet solved."""
         start = (source, self.version[source])
         return (key, *start) not in self.tried and self.origin.get(key) != start
 
-    def resolve(self, key: tuple, source: tuple, carried: bool = False) -> bool:
+    def resolve(self, key: Scenario, source: Scenario, carried: bool = False) -> bool:
         """Solve ``key`` again from ``source``'s optimum; keep it when better. Whether kept."""
         self.tried.add((key, source, self.version[source]))
         o = self.solver.outcomes[key]
         before = objective_power_w(self.kind, o.result)
-        attempt, result = self.solver.attempt(self.kind, key[1], source, LOCAL_OPTIMUM)
+        attempt, result = self.solver.attempt(key, source, LOCAL_OPTIMUM)
         after = objective_power_w(self.kind, result) if attempt.success else math.nan
         kept = bool(attempt.success and after < before - better_margin_w(before))
         record = Resolve(attempt, after, before, kept, carried=carried)
@@ -213,15 +214,15 @@ class _Search:
         return False
 
 
-def resolve_local_optima(solver: Any, keys: Sequence[tuple[str, float]]) -> None:
-    """Re-solve the scenarios of ``keys`` that sit off their kind's smooth curve.
+def resolve_local_optima(solver: Any, scenarios: Sequence[Scenario]) -> None:
+    """Re-solve those of ``scenarios`` that sit off their kind's smooth curve.
 
     Parameters
     ----------
     solver : optimize.service.solver.Solver
-        Has solved every ``(kind, wind_speed_m_s)`` of ``keys``; a kept re-solve replaces the
-        scenario's outcome, record and warm start there (:meth:`Solver.replace`).
-    keys : sequence of (kind, wind_speed_m_s)
+        Has solved every one of ``scenarios``; a kept re-solve replaces the scenario's
+        outcome, record and warm start there (:meth:`Solver.replace`).
+    scenarios : sequence of Scenario
         The scenarios to check (the planned grid), kinds checked in their order here.
 
     Notes
@@ -236,8 +237,8 @@ def resolve_local_optima(solver: Any, keys: Sequence[tuple[str, float]]) -> None
     reaches the whole kind. No start is solved twice. Every re-solve is recorded in the
     outcome's ``resolves``.
     """
-    for kind in dict.fromkeys(k for k, _ in keys):
-        own = [k for k in keys if k[0] == kind]
+    for kind in dict.fromkeys(s.kind for s in scenarios):
+        own = [s for s in scenarios if s.kind == kind]
         by_name = {solver.outcomes[k].name: k for k in own}
         search = _Search(solver, kind, dict.fromkeys(own, 0),
                          {k: (by_name.get(solver.outcomes[k].attempts[-1].source), 0)

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from optimize.kinds import KINDS
+from optimize.problem.scenario import Scenario
 
 #: failure status prefixes (:func:`failure_status`)
 CRASH, WORKER_ERROR = "exception", "worker error"
@@ -112,10 +112,8 @@ class ScenarioOutcome:
 
     Attributes
     ----------
-    name, kind : str
-        Scenario name (``"elec-lim-7.0"``) and kind (``"elec-lim"``).
-    wind_speed_m_s : float
-        Wind speed at 100 m [m/s].
+    scenario : Scenario
+        The scenario (kind and wind speed at 100 m).
     chain : int
         Index of the chain (worker task) that solved it.
     attempts : tuple of Attempt
@@ -132,9 +130,7 @@ class ScenarioOutcome:
         when it started this one (:class:`optimize.service.solver.Solver`).
     """
 
-    name: str
-    kind: str
-    wind_speed_m_s: float
+    scenario: Scenario
     chain: int
     attempts: tuple[Attempt, ...]
     result: Any | None
@@ -149,14 +145,29 @@ class ScenarioOutcome:
         return self.attempts[-1].verdict if self.attempts else ""
 
     @property
+    def name(self) -> str:
+        """The scenario's name (``"elec-lim-7.0"``)."""
+        return self.scenario.name
+
+    @property
+    def kind(self) -> str:
+        """The scenario's kind (``"elec-lim"``)."""
+        return self.scenario.kind
+
+    @property
+    def wind_speed_m_s(self) -> float:
+        """The scenario's wind speed at 100 m [m/s]."""
+        return self.scenario.wind_speed_m_s
+
+    @property
     def objective(self) -> str:
         """``"electrical"`` or ``"mechanical"``."""
-        return KINDS[self.kind].objective
+        return self.scenario.objective
 
     @property
     def drive_limits(self) -> bool:
         """Whether the drive limits applied."""
-        return KINDS[self.kind].drive_limits
+        return self.scenario.drive_limits
 
     @property
     def success(self) -> bool:

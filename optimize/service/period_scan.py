@@ -23,6 +23,7 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+from optimize.problem.scenario import Scenario
 from optimize.service.foreign import HeldStart
 from optimize.service.local_optima import better_margin_w, objective_power_w
 from optimize.service.outcome import Resolve
@@ -67,49 +68,48 @@ def held_periods(period_s: float, bounds_s: tuple[float, float], n: int) -> list
     return out
 
 
-def _held_run(solver: Any, key: tuple[str, float], period_s: float
+def _held_run(solver: Any, scenario: Scenario, period_s: float
               ) -> tuple[Any, Any, HeldStart | None]:
-    """Hold ``key``'s period at ``period_s`` from its own optimum, then free it: the last
-    attempt (named after the held start), its result and the held start (None when the
-    held solve failed)."""
-    kind, wind = key
-    held_attempt, held = solver.attempt(kind, wind, key, PERIOD_SCAN, period_s=period_s)
-    depth = solver.outcomes[key].depth
-    start = HeldStart(kind, wind, "held", depth + 1, warm=getattr(held, "warm", None),
+    """Hold ``scenario``'s period at ``period_s`` from its own optimum, then free it: the
+    last attempt (named after the held start), its result and the held start (None when
+    the held solve failed)."""
+    held_attempt, held = solver.attempt(scenario, scenario, PERIOD_SCAN, period_s=period_s)
+    depth = solver.outcomes[scenario].depth
+    start = HeldStart(scenario, "held", depth + 1, warm=getattr(held, "warm", None),
                       period_s=period_s)
     if not held_attempt.success:
         return dataclasses.replace(held_attempt, source=start.name), None, None
-    attempt, result = solver.attempt(kind, wind, start, PERIOD_SCAN)
+    attempt, result = solver.attempt(scenario, start, PERIOD_SCAN)
     return attempt, result, start
 
 
-def scan_periods(solver: Any, keys: Sequence[tuple[str, float]], n: int) -> None:
-    """Scan the period of each converged scenario of ``keys`` (see the module docstring).
+def scan_periods(solver: Any, scenarios: Sequence[Scenario], n: int) -> None:
+    """Scan the period of each converged one of ``scenarios`` (see the module docstring).
 
     Parameters
     ----------
     solver : optimize.service.solver.Solver
-        Has solved every ``(kind, wind_speed_m_s)`` of ``keys``; a kept optimum replaces
-        the scenario's outcome, record and warm start there (:meth:`Solver.replace`).
-    keys : sequence of (kind, wind_speed_m_s)
+        Has solved every one of ``scenarios``; a kept optimum replaces the scenario's
+        outcome, record and warm start there (:meth:`Solver.replace`).
+    scenarios : sequence of Scenario
     n : int
         Held periods per scenario (:func:`held_periods`); 0 scans nothing.
     """
     if n <= 0:
         return
     bounds = solver.backend.period_bounds(solver.ocp)
-    for key in keys:
-        o = solver.outcomes.get(key)
+    for scenario in scenarios:
+        o = solver.outcomes.get(scenario)
         if o is not None and o.success and getattr(o.result, "period_s", None) is not None:
-            _scan_one(solver, key, held_periods(float(o.result.period_s), bounds, n))
+            _scan_one(solver, scenario, held_periods(float(o.result.period_s), bounds, n))
 
 
-def _scan_one(solver: Any, key: tuple[str, float], periods: list[float]) -> None:
-    """Hold ``key``'s period at each of ``periods`` and free it; record every run and keep
-    the best optimum when it is better than the first by the local-optimum margin."""
-    o, kind = solver.outcomes[key], key[0]
+def _scan_one(solver: Any, scenario: Scenario, periods: list[float]) -> None:
+    """Hold ``scenario``'s period at each of ``periods`` and free it; record every run and
+    keep the best optimum when it is better than the first by the local-optimum margin."""
+    o, kind = solver.outcomes[scenario], scenario.kind
     before = objective_power_w(kind, o.result)
-    runs = [(p, *_held_run(solver, key, p)) for p in periods]
+    runs = [(p, *_held_run(solver, scenario, p)) for p in periods]
     found = [objective_power_w(kind, result) if attempt.success else math.nan
              for _, attempt, result, _ in runs]
     best = min((i for i, run in enumerate(runs) if run[1].success), key=found.__getitem__,
@@ -119,7 +119,7 @@ def _scan_one(solver: Any, key: tuple[str, float], periods: list[float]) -> None
         Resolve(attempt, f, before, keep and i == best, p)
         for i, ((p, attempt, _, _), f) in enumerate(zip(runs, found, strict=True)))))
     if not keep:
-        solver.outcomes[key] = o
+        solver.outcomes[scenario] = o
         return
     _, attempt, result, start = runs[best]
     solver.replace(dataclasses.replace(o, attempts=(*o.attempts, attempt), result=result), start)

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 from kernel.errors import InputError
 from optimize.kinds import KINDS
-from optimize.problem.scenario import scenario_name
+from optimize.problem.scenario import Scenario
 
 DEFAULT_WIND_GRID = "4:10:1.5"
 #: a generous bound on the number of wind speeds (each is one solve per kind)
@@ -184,30 +184,27 @@ class Step:
 
     Attributes
     ----------
-    kind : str
-        Scenario kind (key of :data:`KINDS`).
-    wind_speed_m_s : float
-        Wind speed at 100 m [m/s].
-    warm_from : str or None
-        Name of the scenario (solved before this one) whose primal and dual solution
+    scenario : Scenario
+        The scenario it solves (kind and wind speed at 100 m).
+    warm_from : Scenario or None
+        The scenario (solved before this one) whose primal and dual solution
         warm-starts this one; ``None`` means a cold start (stored guess or homotopy).
-    fallbacks : tuple of str
+    fallbacks : tuple of Scenario
         Other earlier scenarios to warm-start from, in order, when the primary
         source failed or its solve fails. A cold start is the last resort.
     depth : int
         Planned solves before this one along its starts (0: a cold start).
     """
 
-    kind: str
-    wind_speed_m_s: float
-    warm_from: str | None
-    fallbacks: tuple[str, ...] = ()
+    scenario: Scenario
+    warm_from: Scenario | None
+    fallbacks: tuple[Scenario, ...] = ()
     depth: int = 0
 
     @property
     def name(self) -> str:
         """Scenario name, e.g. ``"elec-lim-7.0"``."""
-        return scenario_name(self.kind, self.wind_speed_m_s)
+        return self.scenario.name
 
 
 def chain_steps(kinds: tuple[str, ...], wind_speeds_m_s: tuple[float, ...]) -> tuple[Step, ...]:
@@ -217,25 +214,25 @@ def chain_steps(kinds: tuple[str, ...], wind_speeds_m_s: tuple[float, ...]) -> t
     order = continuation_order(wind_speeds_m_s)
     mid_wind = order[0][0]
     steps: list[Step] = []
-    solved: list[tuple[str, float]] = []  # (kind, wind_speed_m_s) solved earlier in this chain
+    solved: list[Scenario] = []  # solved earlier in this chain
 
-    def fallbacks(kind: str, wind_speed_m_s: float, primary: str | None) -> tuple[str, ...]:
+    def fallbacks(scenario: Scenario, primary: Scenario | None) -> tuple[Scenario, ...]:
         # nearest wind speed first; at equal distance the same kind first
-        ranked = sorted(solved, key=lambda kw: (abs(kw[1] - wind_speed_m_s), kw[0] != kind))
-        names = [scenario_name(k, w) for k, w in ranked]
-        return tuple(n for n in names if n != primary)[:2]
+        ranked = sorted(solved, key=lambda s: (abs(s.wind_speed_m_s - scenario.wind_speed_m_s),
+                                               s.kind != scenario.kind))
+        return tuple(s for s in ranked if s != primary)[:2]
 
     for i, kind in enumerate(kinds):
         for wind_speed_m_s, source_wind in order:
+            scenario = Scenario.of_kind(kind, wind_speed_m_s)
             if source_wind is not None:
-                primary = scenario_name(kind, source_wind)
+                primary = scenario.at(source_wind)
             elif i > 0:
-                primary = scenario_name(kinds[i - 1], mid_wind)
+                primary = Scenario.of_kind(kinds[i - 1], mid_wind)
             else:
                 primary = None
-            steps.append(Step(kind, wind_speed_m_s, primary,
-                              fallbacks(kind, wind_speed_m_s, primary), len(steps)))
-            solved.append((kind, wind_speed_m_s))
+            steps.append(Step(scenario, primary, fallbacks(scenario, primary), len(steps)))
+            solved.append(scenario)
     return tuple(steps)
 
 
@@ -272,7 +269,7 @@ def plan_graph(wind_speeds_m_s: tuple[float, ...], kinds: tuple[str, ...]) -> tu
     Returns
     -------
     tuple of Step
-        Every (kind, wind_speed_m_s) exactly once, by depth (the seed first); each step's
+        Every scenario (kind at a wind speed) exactly once, by depth (the seed first); each step's
         sources come before it and are at most ``depth - 1`` deep; ``depth`` at most 3
         on a grid of up to five wind speeds.
     """
@@ -283,13 +280,15 @@ def plan_graph(wind_speeds_m_s: tuple[float, ...], kinds: tuple[str, ...]) -> tu
                 if obj != KINDS[kinds[0]].objective]
     rest = [(k, i) for k in kinds for i in range(len(wind_speeds_m_s)) if (k, i) != seed]
 
-    def step(node: tuple[str, int], sources: list[tuple[str, int]], depth: int) -> Step:
-        ranked = sorted(sources, key=lambda s: start_cost(node, s))[:2]  # stable: plan order
-        names = [scenario_name(k, wind_speeds_m_s[i]) for k, i in ranked]
-        return Step(node[0], wind_speeds_m_s[node[1]], names[0] if names else None,
-                    tuple(names[1:]), depth)
+    def scenario(node: tuple[str, int]) -> Scenario:
+        return Scenario.of_kind(node[0], wind_speeds_m_s[node[1]])
 
-    steps = [Step(seed[0], wind_speeds_m_s[mid], None)]
+    def step(node: tuple[str, int], sources: list[tuple[str, int]], depth: int) -> Step:
+        nearest = sorted(sources, key=lambda s: start_cost(node, s))[:2]  # stable: plan order
+        ranked = [scenario(s) for s in nearest]
+        return Step(scenario(node), ranked[0] if ranked else None, tuple(ranked[1:]), depth)
+
+    steps = [Step(scenario(seed), None)]
     planned, layer = [seed], [seed]
     near = dict.fromkeys(rest, math.inf)  # start cost from the nearest planned scenario
     while rest:

@@ -22,8 +22,8 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
-from optimize.kinds import KINDS
-from optimize.problem.scenario import scenario_name
+from optimize.kinds import OBJECTIVES
+from optimize.problem.scenario import Scenario
 from optimize.service.outcome import CRASH, Attempt, ScenarioOutcome, failure_status
 
 #: role of a retry in the progress events (:meth:`optimize.service.solver.Solver.attempt`)
@@ -35,40 +35,38 @@ MAX_SAME_KIND = 2
 MAX_REFINEMENTS = 2
 
 
-def other_starts(solver: Any, kind: str, wind_speed_m_s: float,
-                 tried: set) -> list[tuple[str, float]]:
-    """The starts to retry ``kind`` at ``wind_speed_m_s`` [m/s] from: up to :data:`MAX_SAME_KIND`
-    converged speeds of the kind (nearest first), then the other objective's optimum at
-    the same speed with the same drive limits; those in ``tried`` (names) left out."""
-    near = sorted(solver.converged(kind), key=lambda w: abs(w - wind_speed_m_s))
-    same = [(kind, w) for w in near if scenario_name(kind, w) not in tried][:MAX_SAME_KIND]
-    mine = KINDS[kind]
-    other = [(k, wind_speed_m_s) for k, v in KINDS.items()
-             if v.objective != mine.objective and v.drive_limits == mine.drive_limits
-             and wind_speed_m_s in solver.converged(k)
-             and scenario_name(k, wind_speed_m_s) not in tried]
-    return same + other
+def other_starts(solver: Any, scenario: Scenario, tried: set) -> list[Scenario]:
+    """The starts to retry ``scenario`` from: up to :data:`MAX_SAME_KIND` converged speeds
+    of its kind (nearest first), then the other objective's optimum at the same speed
+    with the same drive limits; those in ``tried`` (names) left out."""
+    wind_speed_m_s = scenario.wind_speed_m_s
+    near = sorted(solver.converged(scenario.kind), key=lambda w: abs(w - wind_speed_m_s))
+    same = [s for s in map(scenario.at, near) if s.name not in tried][:MAX_SAME_KIND]
+    other = [Scenario(wind_speed_m_s, o, scenario.drive_limits) for o in OBJECTIVES
+             if o != scenario.objective]
+    return same + [s for s in other if wind_speed_m_s in solver.converged(s.kind)
+                   and s.name not in tried]
 
 
-def retry_failed(solver: Any, keys: Sequence[tuple[str, float]]) -> None:
-    """Solve each failed scenario of ``keys`` again from :func:`other_starts` until one
+def retry_failed(solver: Any, scenarios: Sequence[Scenario]) -> None:
+    """Solve each failed one of ``scenarios`` again from :func:`other_starts` until one
     converges and passes its result check; the tries are added to its attempts either
     way (:meth:`optimize.service.solver.Solver.replace`).
 
     Parameters
     ----------
     solver : optimize.service.solver.Solver
-        Has solved (or adopted) every ``(kind, wind_speed_m_s)`` of ``keys``.
-    keys : sequence of (kind, wind_speed_m_s)
+        Has solved (or adopted) every one of ``scenarios``.
+    scenarios : sequence of Scenario
         The grid scenarios to look at.
     """
-    for k in keys:
-        outcome = solver.outcomes.get(k)
+    for scenario in scenarios:
+        outcome = solver.outcomes.get(scenario)
         if outcome is None or outcome.success:
             continue
         tried = {a.source for a in outcome.attempts}
-        for source in other_starts(solver, *k, tried):
-            attempt, result = solver.attempt(*k, source, RETRY)
+        for source in other_starts(solver, scenario, tried):
+            attempt, result = solver.attempt(scenario, source, RETRY)
             outcome = dataclasses.replace(outcome, attempts=(*outcome.attempts, attempt),
                                           result=result)
             solver.replace(outcome, source)
@@ -108,12 +106,11 @@ def _remesh_attempt(solver: Any, outcome: ScenarioOutcome, coarse_ocp: Any, fine
     """One solve of ``outcome``'s scenario on the ``fine`` problem from its last result
     (on ``coarse_ocp``): the attempt, its result (None if it raised) and the fine OCP."""
     source = f"{outcome.name} on {fine.n_intervals} intervals"
-    solver.tell("start", outcome.kind, outcome.wind_speed_m_s, RETRY, source, "")
+    solver.tell("start", outcome.scenario, RETRY, source, "")
     t0, fine_ocp = time.perf_counter(), None
     try:
         fine_ocp = solver.backend.build(fine)
-        res = solver.backend.remesh(coarse_ocp, fine_ocp, outcome.kind,
-                                    outcome.wind_speed_m_s, outcome.result)
+        res = solver.backend.remesh(coarse_ocp, fine_ocp, outcome.scenario, outcome.result)
     except Exception as exc:  # noqa: BLE001 - a crash is this attempt's failure, reported
         attempt, res = Attempt(source, failure_status(CRASH, exc), False, 0,
                                time.perf_counter() - t0), None
@@ -122,5 +119,5 @@ def _remesh_attempt(solver: Any, outcome: ScenarioOutcome, coarse_ocp: Any, fine
         attempt = Attempt(source, str(res.status), bool(res.success) and (
             check is None or check.passed), int(res.iterations), float(res.wall_time_s), check)
     solver.count(attempt, RETRY)
-    solver.tell("done", outcome.kind, outcome.wind_speed_m_s, RETRY, source, attempt.status)
+    solver.tell("done", outcome.scenario, RETRY, source, attempt.status)
     return attempt, res, fine_ocp

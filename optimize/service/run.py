@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from optimize.kinds import KINDS
+from optimize.problem.scenario import Scenario
 from optimize.service.builder import Problem
 from optimize.service.chain import ChainTask, Refinement, run_chain
 from optimize.service.executors import ClusterLost
@@ -61,15 +62,15 @@ def failed_chain(task: ChainTask, exc: BaseException) -> ChainOutcome:
     status = (f"{NOT_RUN}: {exc.why}" if isinstance(exc, ClusterLost)
               else failure_status(WORKER_ERROR, exc))
     outcomes = tuple(o for o, _ in task.solved) + tuple(
-        ScenarioOutcome(s.name, s.kind, s.wind_speed_m_s, task.index,
-                        (Attempt(s.warm_from, status, False, 0, 0.0),), None)
+        ScenarioOutcome(s.scenario, task.index, (Attempt(
+            None if s.warm_from is None else s.warm_from.name, status, False, 0, 0.0),), None)
         for s in task.steps)
     records = tuple(r for _, r in task.solved) + tuple({**dict(task.tag),
-                     "key": (solve_key(task.problem, s.kind, s.wind_speed_m_s)
+                     "key": (solve_key(task.problem, s.scenario)
                              if task.store is not None else None),
-                     "kind": s.kind, "wind_speed_m_s": s.wind_speed_m_s, "role": "grid",
-                     "success": False, "status": status, "cached": False}
-                    for s in sorted(task.steps, key=lambda s: s.wind_speed_m_s))
+                     "kind": s.scenario.kind, "wind_speed_m_s": s.scenario.wind_speed_m_s,
+                     "role": "grid", "success": False, "status": status, "cached": False}
+                    for s in sorted(task.steps, key=lambda s: s.scenario.wind_speed_m_s))
     cut_ins = tuple(CutIn(k, math.nan, math.nan, math.nan, status) for k in task.cut_in_kinds)
     return ChainOutcome(task.index, outcomes, records, cut_ins, error=status)
 
@@ -162,20 +163,19 @@ def reference_starts(task: ChainTask, out: ChainOutcome) -> tuple[ForeignStart, 
     from optimize.service.store import load_solve
 
     label = " ".join(str(v) for _, v in task.tag) or "reference"
-    solved = {(o.kind, o.wind_speed_m_s): o for o in out.outcomes
-              if o.success and o.result is not None}
+    solved = {o.scenario: o for o in out.outcomes if o.success and o.result is not None}
     starts = []
     for rec in out.records:
         if not rec["success"]:
             continue
-        key = (rec["kind"], float(rec["wind_speed_m_s"]))
-        if key in solved:
-            warm, depth = solved[key].result.warm, solved[key].depth
+        scenario = Scenario.of_kind(rec["kind"], rec["wind_speed_m_s"])  # the stored form
+        if scenario in solved:
+            warm, depth = solved[scenario].result.warm, solved[scenario].depth
         else:  # loaded from the store (or solved after the planned steps): its stored warm start
             stored = load_solve(task.store, rec["key"]) if rec.get("key") else None
             warm, depth = (None, 0) if stored is None else (stored[1], 0)
         if warm is not None:
-            starts.append(ForeignStart(*key, label, depth, problem=task.problem, warm=warm))
+            starts.append(ForeignStart(scenario, label, depth, problem=task.problem, warm=warm))
     return tuple(starts)
 
 
@@ -276,7 +276,7 @@ class SweepTasks:
     @property
     def kinds(self) -> tuple[str, ...]:
         """The scenario kinds, in the order of the steps."""
-        return tuple(dict.fromkeys(s.kind for s in self.steps))
+        return tuple(dict.fromkeys(s.scenario.kind for s in self.steps))
 
 
 def make_tasks(steps: tuple[Step, ...], problem: Problem, cut_in_kinds: tuple[str, ...] = (),
@@ -291,10 +291,11 @@ def make_tasks(steps: tuple[Step, ...], problem: Problem, cut_in_kinds: tuple[st
 
 def _own(out: ChainOutcome, step: Step) -> ChainOutcome:
     """A step task's outcome with only its own scenario (not the starts handed to it)."""
-    key = (step.kind, step.wind_speed_m_s)
+    own = step.scenario
     return dataclasses.replace(
-        out, outcomes=tuple(o for o in out.outcomes if (o.kind, o.wind_speed_m_s) == key),
-        records=tuple(r for r in out.records if (r["kind"], r["wind_speed_m_s"]) == key))
+        out, outcomes=tuple(o for o in out.outcomes if o.scenario == own),
+        records=tuple(r for r in out.records
+                      if (r["kind"], r["wind_speed_m_s"]) == (own.kind, own.wind_speed_m_s)))
 
 
 def _solve_graph(tasks: SweepTasks, handle: Any, on_event: Callable[[dict], None]
@@ -305,7 +306,7 @@ def _solve_graph(tasks: SweepTasks, handle: Any, on_event: Callable[[dict], None
     from optimize.service.executors import run_graph
 
     steps = tasks.steps
-    index = {s.name: i for i, s in enumerate(steps)}
+    index = {s.scenario: i for i, s in enumerate(steps)}
     outs: dict[int, ChainOutcome] = {}
     made: dict[int, ChainTask] = {}
 
@@ -348,10 +349,10 @@ def _follow_up(tasks: SweepTasks, grid: list[ChainOutcome], handle: Any,
 
     first = len(tasks.steps)
     solved = [(o, r) for out in grid for o, r in zip(out.outcomes, out.records, strict=True)]
-    failed = {(o.kind, o.wind_speed_m_s) for o, _ in solved if not o.success}
+    failed = [o.scenario for o, _ in solved if not o.success]
 
     def starts(kind: str) -> tuple:
-        wind_speeds_m_s = {w for k, w in failed if k == kind}
+        wind_speeds_m_s = {s.wind_speed_m_s for s in failed if s.kind == kind}
         return tuple((o, r) for o, r in solved if o.success and o.wind_speed_m_s in wind_speeds_m_s
                      and KINDS[o.kind].objective != KINDS[kind].objective)
 

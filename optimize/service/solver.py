@@ -1,7 +1,7 @@
 """The solves of one problem on one worker: warm starts, fallbacks, records, the store.
 
 A :class:`Solver` holds one problem (system, drive model, OCP options) on one
-worker. It builds the NLP once (cached per process) and solves each (kind, wind_speed_m_s):
+worker. It builds the NLP once (cached per process) and solves each scenario:
 
 * warm-started from the given sources in order (scenarios solved earlier by this
   solver, of any kind; at most :data:`MAX_WARM_ATTEMPTS` of those that converged),
@@ -30,7 +30,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from optimize.problem.scenario import scenario_name
+from optimize.problem.scenario import Scenario
 from optimize.service.builder import OcpBackend, Problem
 from optimize.service.foreign import Start
 from optimize.service.outcome import CRASH, Attempt, ScenarioOutcome, failure_status
@@ -42,9 +42,6 @@ MAX_WARM_ATTEMPTS = 2
 #: the cycle figures of a record, None when the solve failed (:func:`cycle_metrics`); the
 #: parts' own figures follow when it converged (``OcpResult.figures``)
 METRICS = ("peak_speed_rpm", "peak_torque_nm", "rms_torque_nm")
-
-Key = tuple[str, float]  # (kind, wind speed [m/s])
-
 
 def _figure(result: Any, name: str) -> float | None:
     value = getattr(result, name, None)
@@ -86,15 +83,15 @@ class Solver:
         self.tag = dict(tag or {})
         self.extras = extras
         self.chain = chain
-        self.records: dict[Key, dict] = {}
-        self.outcomes: dict[Key, ScenarioOutcome] = {}
+        self.records: dict[Scenario, dict] = {}
+        self.outcomes: dict[Scenario, ScenarioOutcome] = {}
         self.build_time_s = 0.0
         #: every solver iteration this solver ran, by role (:meth:`count`)
         self.iterations: dict[str, int] = {}
         #: starts from other problems' solutions, tried first (:mod:`optimize.service.foreign`)
-        self.foreign: dict[Key, Start] = {}
-        self._warm: dict[Key, Any] = {}
-        self._depth: dict[Key, int] = {}
+        self.foreign: dict[Scenario, Start] = {}
+        self._warm: dict[Scenario, Any] = {}
+        self._depth: dict[Scenario, int] = {}
         self._ocp = None
 
     @property
@@ -108,41 +105,40 @@ class Solver:
 
     def converged(self, kind: str) -> list[float]:
         """Wind speeds [m/s] of ``kind`` with a converged solution to warm-start from."""
-        return sorted(w for k, w in self._warm if k == kind)
+        return sorted(s.wind_speed_m_s for s in self._warm if s.kind == kind)
 
-    def attempt(self, kind: str, wind_speed_m_s: float, source: Key | Start | None,
+    def attempt(self, scenario: Scenario, source: Scenario | Start | None,
                 role: str = "grid", period_s: float | None = None) -> tuple[Attempt, Any]:
-        """One solver run of ``kind`` at ``wind_speed_m_s`` [m/s] from the converged ``source``
-        (None: a cold start; a :class:`optimize.service.foreign.Start`: one it did not
-        find itself, another problem's solution or a stored cycle) for ``role`` (why it
-        runs, for the progress events), with the period held at ``period_s`` [s] when
-        given (a warm start only); a crash is a failed attempt with no result."""
+        """One solver run of ``scenario`` from the converged ``source`` (None: a cold
+        start; a :class:`optimize.service.foreign.Start`: one it did not find itself,
+        another problem's solution or a stored cycle) for ``role`` (why it runs, for the
+        progress events), with the period held at ``period_s`` [s] when given (a warm
+        start only); a crash is a failed attempt with no result."""
         ocp = self.ocp
         given = isinstance(source, Start)
-        name = source.name if given else None if source is None else scenario_name(*source)
-        self.tell("start", kind, wind_speed_m_s, role, name, "")
+        name = None if source is None else source.name
+        self.tell("start", scenario, role, name, "")
         t0 = time.perf_counter()
         try:
             if source is None:
-                result = self.backend.cold_start(ocp, kind, wind_speed_m_s)
+                result = self.backend.cold_start(ocp, scenario)
             else:
                 warm = source.carried(self.backend, ocp) if given else self._warm[source]
                 held = {} if period_s is None else {"period_s": period_s}
-                result = self.backend.solve(ocp, kind, wind_speed_m_s, warm, **held)
+                result = self.backend.solve(ocp, scenario, warm, **held)
         except Exception as exc:  # noqa: BLE001 - a crash is this speed's failure, reported
             attempt, result = Attempt(name, failure_status(CRASH, exc), False, 0,
                                       time.perf_counter() - t0), None
         else:
             ok = bool(result.success) and math.isfinite(float(result.avg_p_elec_w))
-            check = (self.backend.check(ocp, result, scenario_name(kind, wind_speed_m_s))
-                     if ok else None)
+            check = self.backend.check(ocp, result, scenario.name) if ok else None
             passed = ok and (check is None or check.passed)
             attempt = Attempt(name, str(result.status), passed, int(result.iterations),
                               float(result.wall_time_s), check,
                               int(getattr(result, "intermediate_points", 0)),
                               int(getattr(result, "intermediate_iterations", 0)))
         self.count(attempt, role)
-        self.tell("done", kind, wind_speed_m_s, role, name, attempt.status)
+        self.tell("done", scenario, role, name, attempt.status)
         return attempt, result
 
     def count(self, attempt: Attempt, role: str) -> None:
@@ -150,30 +146,28 @@ class Solver:
         ``role`` (why it ran)."""
         self.iterations[role] = self.iterations.get(role, 0) + attempt.all_iterations
 
-    def tell(self, when: str, kind: str, wind_speed_m_s: float, role: str, source: str | None,
+    def tell(self, when: str, scenario: Scenario, role: str, source: str | None,
              status: str) -> None:
         """Say a solver run starts (``when="start"``) or is done, to the progress
         channel (see the class docstring)."""
         if self.progress is not None:
             self.progress.put({**self.tag, "attempt": when, "chain": self.chain,
-                               "name": scenario_name(kind, wind_speed_m_s), "role": role,
+                               "name": scenario.name, "role": role,
                                "from": source, "status": status})
 
-    def solve(self, kind: str, wind_speed_m_s: float, role: str = "grid",
-              sources: Sequence[Key] | None = None, cold: bool = True) -> dict:
-        """The record of ``kind`` at ``wind_speed_m_s`` [m/s]: loaded, solved earlier, or
-        solved now.
+    def solve(self, scenario: Scenario, role: str = "grid",
+              sources: Sequence[Scenario | Start] | None = None, cold: bool = True) -> dict:
+        """The record of ``scenario``: loaded, solved earlier, or solved now.
 
         Parameters
         ----------
-        kind : str
-        wind_speed_m_s : float
+        scenario : Scenario
         role : str
             Why it is solved (``"grid"``, ``"added"``, ``"check"``, ``"cut-in"``), recorded.
-        sources : sequence of (kind, wind_speed_m_s) or Start, optional
+        sources : sequence of Scenario or Start, optional
             Warm sources in order of preference; those not converged are skipped and at
             most :data:`MAX_WARM_ATTEMPTS` are tried. Default: the nearest converged
-            speed of ``kind``. A start from another problem's solution of this scenario
+            speed of its kind. A start from another problem's solution of this scenario
             (:attr:`foreign`) is tried before them.
         cold : bool
             Fall back to a cold start when no warm start converged.
@@ -189,36 +183,36 @@ class Solver:
             ``wall_time_s, cached``, and ``store_rejected`` when its stored files were not
             believed (the file and why; solved again).
         """
-        wind_speed_m_s = float(wind_speed_m_s)
-        k = (kind, wind_speed_m_s)
-        if k in self.records:
-            return self.records[k]
-        key = solve_key(self.problem, kind, wind_speed_m_s) if self.store is not None else None
-        stored = read_solve(self.store, key, kind, wind_speed_m_s) if key is not None else None
+        if scenario in self.records:
+            return self.records[scenario]
+        key = solve_key(self.problem, scenario) if self.store is not None else None
+        stored = read_solve(self.store, key, scenario) if key is not None else None
         if stored is not None and stored.record is not None:
             rec, warm = stored.record, stored.warm
             rec = {**rec, **self.tag, "role": role, "cached": True}
         else:
             if sources is None:
-                near = self.converged(kind)
-                sources = [(kind, min(near, key=lambda w: abs(w - wind_speed_m_s)))] if near else []
+                near = self.converged(scenario.kind)
+                wind_speed_m_s = scenario.wind_speed_m_s
+                sources = ([scenario.at(min(near, key=lambda w: abs(w - wind_speed_m_s)))]
+                           if near else [])
             tried = [s for s in sources
                      if isinstance(s, Start) or s in self._warm][:MAX_WARM_ATTEMPTS]
-            if (kind, wind_speed_m_s) in self.foreign:
-                tried.insert(0, self.foreign[kind, wind_speed_m_s])
+            if scenario in self.foreign:
+                tried.insert(0, self.foreign[scenario])
             attempts, result, src = [], None, None
             for src in tried:
-                attempt, result = self.attempt(kind, wind_speed_m_s, src, role)
+                attempt, result = self.attempt(scenario, src, role)
                 attempts.append(attempt)
                 if attempt.success:
                     break
             if cold and not (attempts and attempts[-1].success):
                 src = None
-                attempt, result = self.attempt(kind, wind_speed_m_s, None, role)
+                attempt, result = self.attempt(scenario, None, role)
                 attempts.append(attempt)
-            outcome = ScenarioOutcome(scenario_name(*k), kind, wind_speed_m_s, self.chain,
-                                      tuple(attempts), result, depth=self._depth_from(src))
-            self.outcomes[k] = outcome
+            outcome = ScenarioOutcome(scenario, self.chain, tuple(attempts), result,
+                                      depth=self._depth_from(src))
+            self.outcomes[scenario] = outcome
             rec = self.record(key, outcome, role, src)
             warm = result.warm if outcome.success else None
             if key is not None and result is not None:  # a crash is not stored
@@ -226,36 +220,36 @@ class Solver:
             rec = {**rec, "cached": False}
             if stored is not None:  # its stored files were not believed: say which and why
                 rec["store_rejected"] = stored.rejected
-        self.records[k] = rec
+        self.records[scenario] = rec
         if rec["success"] and warm is not None:
-            self._warm[k] = warm
-            self._depth[k] = self.outcomes[k].depth if not rec["cached"] else 0
+            self._warm[scenario] = warm
+            self._depth[scenario] = self.outcomes[scenario].depth if not rec["cached"] else 0
         if self.progress is not None:
-            self.progress.put({**self.tag, "chain": self.chain, "name": scenario_name(*k),
-                               "kind": kind, "wind_speed_m_s": wind_speed_m_s, "role": role,
-                               "success": rec["success"], "status": rec["status"],
+            self.progress.put({**self.tag, "chain": self.chain, "name": scenario.name,
+                               "kind": scenario.kind, "wind_speed_m_s": scenario.wind_speed_m_s,
+                               "role": role, "success": rec["success"], "status": rec["status"],
                                "cached": rec["cached"], "wall_time_s": rec["wall_time_s"]})
         return rec
 
     def adopt(self, outcome: ScenarioOutcome, record: dict) -> None:
         """Take in a scenario another worker solved: its outcome and record, and its
         optimum as a warm start when it converged."""
-        k = (outcome.kind, outcome.wind_speed_m_s)
+        k = outcome.scenario
         self.outcomes[k], self.records[k] = outcome, record
         if outcome.success and outcome.result is not None:
             self._warm[k], self._depth[k] = outcome.result.warm, outcome.depth
 
-    def _depth_from(self, source: Key | Start | None) -> int:
+    def _depth_from(self, source: Scenario | Start | None) -> int:
         """The start-graph depth of a solve started from ``source`` (None: cold, 0)."""
         if isinstance(source, Start):
             return source.depth + 1
         return 0 if source is None else self._depth.get(source, 0) + 1
 
-    def replace(self, outcome: ScenarioOutcome, source: Key) -> None:
+    def replace(self, outcome: ScenarioOutcome, source: Scenario | Start) -> None:
         """Make ``outcome`` (a new result of a solved scenario, its last attempt started
         from ``source``) its result: its record and, when it succeeded (a better optimum,
         a failure retried), its warm start and its stored solve."""
-        k = (outcome.kind, outcome.wind_speed_m_s)
+        k = outcome.scenario
         key = self.records[k]["key"]
         outcome = dataclasses.replace(outcome, depth=self._depth_from(source))
         self.outcomes[k] = outcome
@@ -271,7 +265,7 @@ class Solver:
         :func:`optimize.service.retry.retry_on_finer_mesh`) its result: its record, and
         its stored solve without a warm start (another mesh's solution starts no solve
         of this solver's)."""
-        k = (outcome.kind, outcome.wind_speed_m_s)
+        k = outcome.scenario
         key = self.records[k]["key"]
         self.outcomes[k] = outcome
         rec = self.record(key, outcome, self.records[k]["role"], None)
@@ -280,7 +274,7 @@ class Solver:
         self.records[k] = {**rec, "cached": False}
 
     def record(self, key: str | None, outcome: ScenarioOutcome, role: str,
-               source: Key | Start | None) -> dict:
+               source: Scenario | Start | None) -> dict:
         """The flat record of an outcome whose final attempt started from ``source`` (see
         :meth:`solve`; the stored form)."""
         res, ok = outcome.result, outcome.success
@@ -288,10 +282,10 @@ class Solver:
             warm_from = getattr(res, "start", "cold start")
         elif isinstance(source, Start):
             warm_from = source.warm_from(outcome.kind)
-        elif source[0] == outcome.kind:
-            warm_from = f"{source[1]:g} m/s"
+        elif source.kind == outcome.kind:
+            warm_from = f"{source.wind_speed_m_s:g} m/s"
         else:
-            warm_from = scenario_name(*source)
+            warm_from = source.name
         trajectory = getattr(res, "trajectory", None) if ok else None
         metrics = dict.fromkeys(METRICS)
         if trajectory is not None:

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from kernel.files import atomic_path, dumps_json, file_sha256, recorded_mismatch, write_json
-from optimize.kinds import KINDS
+from optimize.problem.scenario import Scenario
 
 #: bump when the meaning of a stored solve changes (invalidates every stored solve)
 STORE_VERSION = 1
@@ -39,17 +39,17 @@ MAX_RECORD_BYTES = 1 << 20
 WARM_ARRAYS = ("w", "lam_x", "lam_g")
 
 
-def solve_key(problem: Any, kind: str, wind_speed_m_s: float) -> str:
+def solve_key(problem: Any, scenario: Scenario) -> str:
     """SHA-256 (hex) of everything one solve depends on: the drive model's hash, the OCP
-    options, the wind speed, the kind's objective and limits, the system's hash and its
+    options, the scenario's wind speed, objective and limits, the system's hash and its
     drive in force (when the problem has a system).
 
     ``problem`` is an :class:`optimize.service.builder.Problem`.
     """
-    k = KINDS[kind]
     data = {"version": STORE_VERSION, "model": problem.drive_model.sha256,
-            "options": dataclasses.asdict(problem.options), "wind_speed_m_s": float(wind_speed_m_s),
-            "objective": k.objective, "drive_limits": bool(k.drive_limits)}
+            "options": dataclasses.asdict(problem.options),
+            "wind_speed_m_s": float(scenario.wind_speed_m_s),
+            "objective": scenario.objective, "drive_limits": bool(scenario.drive_limits)}
     if problem.system is not None:
         data["system"] = problem.system.sha256
         data["drive_in_force"] = problem.system.drive_key()
@@ -90,8 +90,8 @@ def record_sha256(record: dict) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def read_solve(store: Path, key: str, kind: str | None = None,
-               wind_speed_m_s: float | None = None) -> StoredSolve | None:
+def read_solve(store: Path, key: str, scenario: Scenario | None = None
+               ) -> StoredSolve | None:
     """The stored solve of ``key`` (checked, see the module docstring), or None when the
     store holds none.
 
@@ -101,7 +101,7 @@ def read_solve(store: Path, key: str, kind: str | None = None,
         Folder of the stored solves.
     key : str
         The solve's key (:func:`solve_key`).
-    kind, wind_speed_m_s : optional
+    scenario : Scenario, optional
         The scenario the key stands for: a record of another is not believed.
 
     Returns
@@ -115,7 +115,7 @@ def read_solve(store: Path, key: str, kind: str | None = None,
         return None
     try:
         rec, npz_record = _read_record(js, key)
-        _check_figures(js, rec, kind, wind_speed_m_s)
+        _check_figures(js, rec, scenario)
         warm = None if npz_record is None else _read_warm(npz, npz_record)
     except _Damage as damage:
         return StoredSolve(None, None, str(damage))
@@ -181,15 +181,15 @@ def _finite(value: Any) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
-def _check_figures(js: Path, rec: dict, kind: str | None, wind_speed_m_s: float | None) -> None:
+def _check_figures(js: Path, rec: dict, scenario: Scenario | None) -> None:
     """Refuse a record of another scenario, or whose figures contradict each other."""
-    if kind is not None and rec.get("kind") != kind:
-        raise _Damage(js, f"holds kind {rec.get('kind')!r}, not {kind!r}")
-    if wind_speed_m_s is not None and not (
+    if scenario is not None and rec.get("kind") != scenario.kind:
+        raise _Damage(js, f"holds kind {rec.get('kind')!r}, not {scenario.kind!r}")
+    if scenario is not None and not (
             _finite(rec.get("wind_speed_m_s"))
-            and float(rec["wind_speed_m_s"]) == float(wind_speed_m_s)):
+            and float(rec["wind_speed_m_s"]) == scenario.wind_speed_m_s):
         raise _Damage(js, f"holds wind speed {rec.get('wind_speed_m_s')!r}, not "
-                          f"{wind_speed_m_s:g} m/s")
+                          f"{scenario.wind_speed_m_s:g} m/s")
     if not isinstance(rec.get("success"), bool) or not isinstance(rec.get("status"), str):
         raise _Damage(js, "its success or status is missing or not a boolean and a text")
     power = rec.get("avg_p_elec_w")
