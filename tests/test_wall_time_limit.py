@@ -1,8 +1,8 @@
 """A solve ends within a stated time, its status naming why (optimize/problem/deadline.py):
 one solver call runs at most SolverOptions.call_time_limit_s (`--call-time-limit`, default
-CALL_WALL_LIMIT_S; IPOPT's max_wall_time; the condensed NLP's evaluations raise past it,
-which ends fatrop's call too), a cold start COLD_START_CALLS times as long, and no call is
-made past the deadline.
+CALL_WALL_LIMIT_S; IPOPT's max_wall_time; the condensed NLP's evaluations fail quietly
+past it, which ends fatrop's call too), a cold start COLD_START_CALLS times as long, and
+no call is made past the deadline.
 
 Was: a condensed homotopy stage whose trial points failed the intervals' Newton solves
 (evaluation errors) ran IPOPT to its 1000 iterations at 0.5 s each, and a 90 degC winding
@@ -49,7 +49,7 @@ def test_no_call_is_made_past_the_deadline():
 
 @pytest.mark.parametrize(("solver", "transcription"), [
     ("ipopt", "collocation"), ("ipopt", "condensed"), ("fatrop", "condensed")])
-def test_a_call_past_its_limit_ends_with_a_status_that_says_so(solver, transcription):
+def test_a_call_past_its_limit_ends_with_a_status_that_says_so(solver, transcription, capfd):
     assert _run(solver, transcription).success  # within the stated limits: solved
     t0 = time.perf_counter()
     raw = _run(solver, transcription, call_time_limit_s=1e-3)
@@ -57,6 +57,35 @@ def test_a_call_past_its_limit_ends_with_a_status_that_says_so(solver, transcrip
     assert not raw.success
     assert raw.status.startswith(f"{deadline.WALL_STATUS}: stopped after "), raw.status
     assert "the solver said" in raw.status
+    # was: CasADi printed the condensed callback's TimeoutError traceback and every input
+    # of every enclosing function (60 kB here), or a warning that it could not evaluate
+    # the point fatrop returned
+    err = capfd.readouterr().err
+    assert "Traceback" not in err and err == "", err[:2000]
+
+
+def test_a_condensed_call_stopped_mid_solve_is_quiet_and_keeps_its_iterate(capfd):
+    """The deadline passes after the first Newton solves: the points asked for later
+    are refused (no interval solved), the iterate is still answered."""
+    from optimize.problem.transcriptions import condensed_derivatives as cd
+
+    solve = cd.IntervalCache._point
+    seen = []
+
+    def slow_after_two(self, w, p):  # the deadline passes at the third point
+        seen.append(1)
+        if len(seen) == 3:
+            time.sleep(0.05)
+        return solve(self, w, p)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(cd.IntervalCache, "_point", slow_after_two)
+        for solver in ("ipopt", "fatrop"):
+            seen.clear()
+            raw = _run(solver, "condensed", call_time_limit_s=0.04)
+            assert len(seen) > 3  # asked for after the deadline, refused
+            assert not raw.success and raw.status.startswith(deadline.WALL_STATUS), raw.status
+    assert capfd.readouterr().err == ""
 
 
 def test_the_call_limit_is_an_option_and_a_cold_start_takes_four_of_them():

@@ -4,7 +4,8 @@ One NLP solver call may run ``SolverOptions.call_time_limit_s`` seconds
 (:data:`CALL_WALL_LIMIT_S` unless ``--call-time-limit`` says otherwise), and a cold start
 (the stored guess, the homotopy and its fallbacks together) :data:`COLD_START_CALLS` times
 as long (:func:`optimize.solve.starts.cold.start`). IPOPT stops itself there (its
-``max_wall_time``); the condensed NLP's interval solves raise past the deadline
+``max_wall_time``); past the deadline the condensed NLP solves no new point: its
+evaluations there fail quietly
 (:class:`optimize.problem.transcriptions.condensed_derivatives.IntervalCache`), which
 ends any solver's call (fatrop has no time limit of its own); a call asked for after it
 is not made (:func:`optimize.solve.backend.run`). The collocation with fatrop has no

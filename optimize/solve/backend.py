@@ -254,7 +254,7 @@ def run(
             raw = method_of(ocp.options.solver).solve(ocp, call, w0, p, bounds,
                                                       lam_x0 if warm else None,
                                                       lam_g0 if warm else None)
-        except RuntimeError as exc:  # an evaluation that raised at the deadline (fatrop)
+        except RuntimeError as exc:  # fatrop's call, ended by a refused evaluation
             if not passed():
                 raise
             raw = _unsolved(ocp, w0, f"{type(exc).__name__} at the deadline",

@@ -19,7 +19,11 @@ from optimize.problem.interface import CycleFormulation
 from optimize.problem.options import Discretization, SolverOptions
 from optimize.problem.transcriptions.codegen import compiler
 from optimize.problem.transcriptions.collocation import full_derivatives
-from optimize.problem.transcriptions.condensed_derivatives import condensed_derivatives
+from optimize.problem.transcriptions.condensed_derivatives import (
+    Answered,
+    IntervalCache,
+    condensed_derivatives,
+)
 from optimize.problem.transcriptions.condensed_multipliers import to_condensed, to_full
 from optimize.problem.transcriptions.condensed_nlp import CondensedNlp, condensed_nlp
 from optimize.problem.transcriptions.layouts import general_layout
@@ -44,10 +48,22 @@ def condensed(ocp: Any) -> CondensedNlp:
         # the callbacks into the interval cache live as long as the solvers that call them
         ocp.solvers["condensed_callbacks"] = callbacks
         ocp.solvers["condensed_cache"] = callbacks[0].owner
+        ocp.solvers["condensed_nlp_grad"] = _nlp_grad(derivs, callbacks[0].owner)
         log.info("built the condensed NLP (%s%s): %d variables, %d constraints in %.1f s",
                  rootfinder, ", compiled" if compile_with else "", c.n_w, c.n_g,
                  time.perf_counter() - t0)
     return ocp.solvers["condensed"]
+
+
+def _nlp_grad(d: Any, cache: IntervalCache) -> Answered:
+    """The NLP's objective, rows and Lagrangian gradient (in the parameters structurally
+    zero: their multipliers are not computed), as CasADi evaluates them at a solver's
+    solution: every point answered, past the deadline too."""
+    grad_x = d.lam_f * d.grad + ca.mtimes(d.jac.T, d.lam_g)
+    return Answered(ca.Function("nlp_grad", [d.x, d.p, d.lam_f, d.lam_g],
+                                [d.f, d.g, grad_x, ca.MX(d.p.shape[0], 1)],
+                                ["x", "p", "lam_f", "lam_g"],
+                                ["f", "g", "grad_gamma_x", "grad_gamma_p"]), cache)
 
 
 class CondensedMethod:
@@ -76,13 +92,9 @@ class CondensedMethod:
         """
         c = condensed(ocp)
         d = ocp.solvers["condensed_derivatives"]
-        grad_x = d.lam_f * d.grad + ca.mtimes(d.jac.T, d.lam_g)
-        nlp_grad = ca.Function("nlp_grad", [d.x, d.p, d.lam_f, d.lam_g],
-                               [d.f, d.g, grad_x, ca.MX(d.p.shape[0], 1)],
-                               ["x", "p", "lam_f", "lam_g"],
-                               ["f", "g", "grad_gamma_x", "grad_gamma_p"])
         return SolverNlp({"x": d.x, "p": d.p, "f": d.f, "g": d.g}, d.functions(solver),
-                         [bool(e) for e in c.equality()], cache={"nlp_grad": nlp_grad},
+                         [bool(e) for e in c.equality()],
+                         cache={"nlp_grad": ocp.solvers["condensed_nlp_grad"]},
                          options={"show_eval_warnings": False, "calc_lam_p": False})
 
     def solve(self, ocp: Any, call: Call, w0: np.ndarray, p: np.ndarray, bounds: tuple,
@@ -99,6 +111,7 @@ class CondensedMethod:
                                                        w0_c, p_c, lam_x0, lam_g0)
         cache = ocp.solvers["condensed_cache"]
         points, unsolved = cache.points, cache.unsolved
+        cache.begin_call()
         raw = call(w0_c, p_c, c.bounds(bounds), *lam_c)
         unsolved, points = cache.unsolved - unsolved, cache.points - points
         if unsolved and not raw.success:  # the cause of a slow or failed call, said

@@ -23,10 +23,10 @@ from __future__ import annotations
 
 import hashlib
 import logging
-import struct
 import time
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import casadi as ca
@@ -96,17 +96,47 @@ def interval_functions(it: Interval) -> IntervalFunctions:
     return IntervalFunctions(it.solve, first, second)
 
 
+class Late(Exception):
+    """A point not solved yet, asked for past the thread's deadline."""
+
+
+class _Buffered:
+    """A CasADi function called on NumPy arrays of its inputs' nonzeros, copy-free (a
+    conversion between CasADi and NumPy matrices costs more than the rest of a call);
+    each call's outputs are new arrays of their nonzeros."""
+
+    def __init__(self, fn: ca.Function) -> None:
+        self._buf, self._eval = fn.buffer()
+        self._n_out = [fn.nnz_out(i) for i in range(fn.n_out())]
+        self._name = fn.name()
+
+    def __call__(self, *args: np.ndarray) -> list[np.ndarray]:
+        for i, a in enumerate(args):
+            self._buf.set_arg(i, memoryview(a))
+        out = [np.empty(n) for n in self._n_out]
+        for i, o in enumerate(out):
+            self._buf.set_res(i, memoryview(o))
+        self._eval()
+        if self._buf.ret():
+            raise RuntimeError(f"{self._name} failed (return flag {self._buf.ret()})")
+        return out
+
+
 class IntervalCache:
     """The intervals' Newton solutions and sensitivities at the last few points.
 
-    ``outputs``, ``jacobian`` and ``hessian`` take the condensed NLP's ``(w, p)`` (CasADi
-    matrices: a conversion to NumPy costs more than the rest of a call); the Newton
+    ``outputs``, ``jacobian`` and ``hessian`` take the condensed NLP's ``(w, p)`` and
+    give their results as the nonzeros of dense matrices, all NumPy arrays; the Newton
     solves at a point run at the first call there, the sensitivities ``dv/dq`` at the
     first call of ``jacobian`` or ``hessian`` there, and both are kept for the
-    :data:`KEEP_POINTS` points last asked for. Past the thread's deadline
-    (:mod:`optimize.problem.deadline`) every evaluation raises, which ends the solver's
-    call. ``points`` and ``unsolved`` count the points solved and those where an
-    interval's Newton solve did not converge (its outputs NaN: an evaluation error).
+    :data:`KEEP_POINTS` points last asked for and for the last point whose sensitivities
+    were asked for (the solver's iterate, which a line search's trial points must not
+    push out). Past the thread's deadline (:mod:`optimize.problem.deadline`) a point not
+    solved yet raises :class:`Late`, nothing computed, once the solver's call has an
+    iterate (:meth:`begin_call` starts a call); a solved point is still answered: the
+    solver returns its iterate and evaluates it once more when its call ends there.
+    ``points`` and ``unsolved`` count the points solved and those where an interval's
+    Newton solve did not converge (its outputs NaN: an evaluation error).
     """
 
     def __init__(self, c: CondensedNlp, fns: IntervalFunctions) -> None:
@@ -118,55 +148,82 @@ class IntervalCache:
         vs = ca.MX.sym("v", v.shape)
         y_q, v_q = fns.first.map(n)(vs, q, a)
         v_qs, nu = ca.MX.sym("v_q", v_q.shape), ca.MX.sym("nu", y.shape)
-        self._solve = ca.Function("intervals_solve", [w, p], [y, v])
-        self._first = ca.Function("intervals_first", [w, p, vs], [y_q, v_q])
-        self._second = ca.Function("intervals_second", [w, p, vs, v_qs, nu], [
-            fns.second.map(n)(vs, q, a, v_qs, nu)])
-        self._points: OrderedDict[bytes, dict[str, ca.DM]] = OrderedDict()
+        self._solve = _Buffered(ca.Function("intervals_solve", [w, p], [
+            ca.densify(y), ca.densify(v)]))
+        self._first = _Buffered(ca.Function("intervals_first", [w, p, vs], [
+            ca.densify(y_q), ca.densify(v_q)]))
+        self._second = _Buffered(ca.Function("intervals_second", [w, p, vs, v_qs, nu], [
+            ca.densify(fns.second.map(n)(vs, q, a, v_qs, nu))]))
+        self._points: OrderedDict[bytes, dict[str, np.ndarray]] = OrderedDict()
+        self._iterate = b""
+        self._answering = False
         self.points = self.unsolved = 0
 
-    def _point(self, w: ca.DM, p: ca.DM) -> dict[str, ca.DM]:
-        if passed():  # IPOPT takes it for an evaluation error, fatrop's call raises
-            raise TimeoutError("the solve's wall-time deadline passed")
-        key = hashlib.blake2b(struct.pack(f"{w.nnz() + p.nnz()}d", *w.nonzeros(),
-                                          *p.nonzeros()), digest_size=16).digest()
+    def _point(self, w: np.ndarray, p: np.ndarray) -> tuple[bytes, dict[str, np.ndarray]]:
+        h = hashlib.blake2b(digest_size=16)
+        h.update(w)
+        h.update(p)
+        key = h.digest()
         entry = self._points.get(key)
-        if entry is None:
-            y, v = self._solve(w, p)
-            entry = {"y": y, "v": v}
-            self.points += 1
-            self.unsolved += bool(np.isnan(np.asarray(y.nonzeros())).any())
-            self._points[key] = entry
-            if len(self._points) > KEEP_POINTS:
-                self._points.popitem(last=False)
-        else:
+        if entry is not None:
             self._points.move_to_end(key)
-        return entry
+            return key, entry
+        if self._iterate and not self._answering and passed():
+            raise Late
+        y, v = self._solve(w, p)
+        entry = {"y": y, "v": v}
+        self.points += 1
+        self.unsolved += bool(np.isnan(y).any())
+        self._points[key] = entry
+        if len(self._points) > KEEP_POINTS:
+            del self._points[next(k for k in self._points if k != self._iterate)]
+        return key, entry
 
-    def outputs(self, w: ca.DM, p: ca.DM) -> ca.DM:
+    def begin_call(self) -> None:
+        """A solver's call begins: it has no iterate yet."""
+        self._iterate = b""
+
+    @contextmanager
+    def answering(self) -> Iterator[None]:
+        """While open, every point is solved, whatever the time (:class:`Answered`)."""
+        before, self._answering = self._answering, True
+        try:
+            yield
+        finally:
+            self._answering = before
+
+    def outputs(self, w: np.ndarray, p: np.ndarray) -> np.ndarray:
         """The intervals' outputs ``y`` (one column per interval)."""
-        return self._point(w, p)["y"]
+        return self._point(w, p)[1]["y"]
 
-    def _sensitivities(self, w: ca.DM, p: ca.DM) -> dict[str, ca.DM]:
-        e = self._point(w, p)
+    def _sensitivities(self, w: np.ndarray, p: np.ndarray) -> dict[str, np.ndarray]:
+        self._iterate, e = self._point(w, p)
         if "y_q" not in e:
             e["y_q"], e["v_q"] = self._first(w, p, e["v"])
         return e
 
-    def jacobian(self, w: ca.DM, p: ca.DM) -> ca.DM:
+    def jacobian(self, w: np.ndarray, p: np.ndarray) -> np.ndarray:
         """The intervals' ``dy/dq`` (column-major nonzeros, one column per interval)."""
         return self._sensitivities(w, p)["y_q"]
 
-    def hessian(self, w: ca.DM, p: ca.DM, nu: ca.DM) -> ca.DM:
+    def hessian(self, w: np.ndarray, p: np.ndarray, nu: np.ndarray) -> np.ndarray:
         """The intervals' ``d2(nu' y)/dq2`` for output multipliers ``nu`` (columns)."""
         e = self._sensitivities(w, p)
-        return self._second(w, p, e["v"], e["v_q"], nu)
+        return self._second(w, p, e["v"], e["v_q"], nu)[0]
 
 
 class _Call(ca.Callback):
-    """A Python function of CasADi matrices as a CasADi function (no derivatives)."""
+    """A Python function of NumPy arrays (the nonzeros of dense matrices) as a CasADi
+    function (no derivatives).
 
-    def __init__(self, name: str, fn: Callable[..., ca.DM],
+    An evaluation the function refuses with :class:`Late` fails with a return flag,
+    which ends the solver's call in silence: IPOPT takes it for an evaluation error and
+    stops at its own time limit, fatrop returns. An exception would not do: CasADi
+    prints one raised in a callback, with its traceback and every input of every
+    enclosing function, and NaN outputs make fatrop hang.
+    """
+
+    def __init__(self, name: str, fn: Callable[..., np.ndarray],
                  shapes_in: list[tuple[int, int]], shape_out: tuple[int, int]) -> None:
         ca.Callback.__init__(self)
         self._fn, self._in, self._out = fn, shapes_in, shape_out
@@ -185,8 +242,50 @@ class _Call(ca.Callback):
     def get_sparsity_out(self, i: int) -> ca.Sparsity:
         return ca.Sparsity.dense(*self._out)
 
+    def has_eval_buffer(self) -> bool:
+        return True
+
+    def eval_buffer(self, args: tuple, res: tuple) -> int:
+        try:
+            out = self._fn(*(np.frombuffer(a, dtype=float) for a in args))
+        except Late:
+            return 1
+        np.frombuffer(res[0], dtype=float)[:] = out
+        return 0
+
+
+class Answered(ca.Callback):
+    """``fn``, a function of the NLP that reaches ``cache``, evaluated with every point
+    solved whatever the time: CasADi evaluates the point a solver's call returned once
+    more after the call (the objective, rows and multipliers, ``nlp_grad``), and a
+    refusal there would print a warning."""
+
+    def __init__(self, fn: ca.Function, cache: IntervalCache) -> None:
+        ca.Callback.__init__(self)
+        self._fn, self._cache = fn, cache
+        self.construct(fn.name(), {})
+
+    def get_n_in(self) -> int:
+        return self._fn.n_in()
+
+    def get_n_out(self) -> int:
+        return self._fn.n_out()
+
+    def get_name_in(self, i: int) -> str:
+        return self._fn.name_in(i)
+
+    def get_name_out(self, i: int) -> str:
+        return self._fn.name_out(i)
+
+    def get_sparsity_in(self, i: int) -> ca.Sparsity:
+        return self._fn.sparsity_in(i)
+
+    def get_sparsity_out(self, i: int) -> ca.Sparsity:
+        return self._fn.sparsity_out(i)
+
     def eval(self, args: list) -> list:
-        return [self._fn(*args)]
+        with self._cache.answering():
+            return self._fn.call(args)
 
 
 def _triplets(matrix: ca.DM) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
