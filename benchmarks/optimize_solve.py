@@ -25,7 +25,7 @@ from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.resolve import resolve
-from optimize.solve import backend
+from optimize.solve import nlp_solver
 from optimize.solve.solve import cold_start, solve
 from optimize.solve.starts.homotopy import HOMOTOPY_BOUND_PUSH
 
@@ -53,9 +53,9 @@ def run_once(intervals: int, degree: int, reference_sigma: bool) -> list[dict]:
         options = options.replace(discretization={"control_sigma": REFERENCE_SIGMA})
     ocp = build_ocp(kite_dae(), paper_model(), options,
         system=resolve(None, paper_model()).system)
-    backend.solver(ocp, False)
-    backend.solver(ocp, True)
-    backend.solver(ocp, True, HOMOTOPY_BOUND_PUSH)
+    nlp_solver.solver(ocp, False)
+    nlp_solver.solver(ocp, True)
+    nlp_solver.solver(ocp, True, HOMOTOPY_BOUND_PUSH)
     setup = time.perf_counter() - t0
     logging.info("build + solver creation %.1f s", setup)
     results, rows = [], []

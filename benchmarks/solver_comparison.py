@@ -218,7 +218,7 @@ def derivative_build_cpu_s(ocp) -> dict[str, float]:
 def profile(solver: str, max_iter: int) -> dict:
     """Where one solve's time goes: the warm solve of the stored guess's own scenario
     (elec-lim-7.0, N = 40) from the stored guess, with the solver's own statistics."""
-    from optimize.solve import backend
+    from optimize.solve import nlp_solver
     from optimize.solve.starts import stored_guess
 
     system = load_system()
@@ -232,11 +232,11 @@ def profile(solver: str, max_iter: int) -> dict:
     deriv = derivative_build_cpu_s(ocp) if solver == "ipopt" else {}
     with ipopt_timing() as split:
         t0, c0 = time.perf_counter(), time.process_time()
-        backend.solver(ocp, True)
+        nlp_solver.solver(ocp, True)
         create = (time.perf_counter() - t0, time.process_time() - c0)
         res = solve(ocp, stored_guess.GUESS_SCENARIO, guess, retry_cold=False)
-    stats = backend.solver(ocp, True).stats()
-    out = {"solver": solver, "layout": ocp.layout.kind, "variables": ocp.layout.n_w,
+    stats = nlp_solver.solver(ocp, True).stats()
+    out = {"solver": solver, "layout": ocp.layout.name, "variables": ocp.layout.n_w,
            "rows": ocp.layout.n_g, "build_wall_cpu_s": build, "create_wall_cpu_s": create,
            "guess": why, **record(stored_guess.GUESS_SCENARIO.name, res),
            "derivative_build_cpu_s": deriv, "ipopt_timing_cpu_s": split,

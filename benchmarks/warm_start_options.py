@@ -52,7 +52,7 @@ from optimize.problem.ocp import build_ocp
 from optimize.problem.options import OcpOptions, SolverOptions
 from optimize.resolve import resolve
 from optimize.service.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
-from optimize.solve import backend
+from optimize.solve import nlp_solver
 from optimize.solve.solve import solve
 from optimize.solve.starts.cold import start
 
@@ -76,7 +76,7 @@ VARIANTS = {
 
 
 class _WarmOptions:
-    """Wraps ``casadi.nlpsol`` as the backend calls it: a warm IPOPT solver gets
+    """Wraps ``casadi.nlpsol`` as nlp_solver calls it: a warm IPOPT solver gets
     :attr:`extra` added to its options."""
 
     def __init__(self) -> None:
@@ -95,7 +95,7 @@ def main() -> None:
     args = ap.parse_args()
     names = [v for v in args.variants.split(",") if v]
     wrapper = _WarmOptions()
-    backend.ca.nlpsol = wrapper
+    nlp_solver.ca.nlpsol = wrapper
     steps = plan_graph(parse_wind_grid(DEFAULT_WIND_GRID), parse_kinds(DEFAULT_KINDS))
     model = paper_model()
     base = build_ocp(kite_dae(), model, OcpOptions(),

@@ -113,6 +113,18 @@ TERMS: tuple[Term, ...] = (
          "column", "`optimize.kinds.Objective` (a dataclass)"),
     Term("ObjectiveName", "the name of an objective, `\"electrical\"` or `\"mechanical\"`",
          "`optimize.problem.scenario.ObjectiveName` (a `Literal`)"),
+    Term("scenario", "one optimization case: a kind at a wind speed; what a sweep's plan, "
+         "the solve service and the backend pass on, named `\"elec-lim-7.0\"`",
+         "`optimize.problem.scenario.Scenario`"),
+    Term("kind", "a scenario kind: the objective maximized and whether the drive limits "
+         "apply (`\"elec-lim\"`); the OCP's layout has a `name`, a model's variables come "
+         "in `vectors` (states, controls, ...)",
+         "`optimize.kinds.Kind`, `KINDS`, `Scenario.kind`, `--scenarios`"),
+    Term("backend", "the numerical side of the solve service: builds a problem's NLP and "
+         "solves a scenario on it (a test's stand-in is one too)",
+         "`optimize.service.builder.Backend` (a protocol), `OcpBackend`"),
+    Term("NLP solver", "what solves one NLP: IPOPT or fatrop, created once per setting",
+         "`--solver`, `SolverOptions.solver`, `optimize.solve.nlp_solver`"),
 )
 
 

@@ -42,7 +42,7 @@ def ipopt_version() -> str:
     (``GetIpoptVersion``), or ``"not found (...)"``.
 
     Asked in a child process: loading IPOPT here would load its BLAS before the solve
-    code sets its thread count (:mod:`optimize.solve.backend`), which it reads once; asked
+    code sets its thread count (:mod:`optimize.solve.nlp_solver`), which it reads once; asked
     once per process.
     """
     import subprocess

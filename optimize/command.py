@@ -421,10 +421,10 @@ def solver_options(solver: str = "ipopt", linear_solver: str | None = None,
     ------
     ValueError
         ``--linear-solver`` with fatrop, or a linear solver IPOPT cannot load here
-        (:func:`optimize.solve.backend.check_linear_solver`), or an unknown transcription.
+        (:func:`optimize.solve.nlp_solver.check_linear_solver`), or an unknown transcription.
     """
     from optimize.problem.options import SolverOptions
-    from optimize.solve.backend import check_linear_solver
+    from optimize.solve.nlp_solver import check_linear_solver
 
     if linear_solver is not None and solver != "ipopt":
         raise ValueError(f"--linear-solver {linear_solver}: only IPOPT takes a linear solver, "

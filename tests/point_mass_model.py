@@ -189,7 +189,7 @@ def solved_pendulum(solver: str, transcription: str, codegen: bool = False,
     ``(pendulum, ocp, raw result, parameters)``."""
     from optimize.problem.ocp import assemble, grid_times
     from optimize.problem.options import Discretization, OcpOptions, SolverOptions
-    from optimize.solve import backend
+    from optimize.solve import nlp_solver
 
     pendulum = Pendulum()
     form = pendulum_formulation(pendulum)
@@ -201,4 +201,4 @@ def solved_pendulum(solver: str, transcription: str, codegen: bool = False,
                   np.zeros((2, n_intervals * degree)), period)
     p = ocp.params(None, {"p_ctrl_w": 0.0})
     bounds = ocp.bounds(drive_limits=False, fix_fictitious=True, period_s=None)
-    return pendulum, ocp, backend.run(ocp, w0, p, bounds, warm=False), p
+    return pendulum, ocp, nlp_solver.run(ocp, w0, p, bounds, warm=False), p

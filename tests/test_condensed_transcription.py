@@ -38,7 +38,7 @@ def test_condensed_pendulum_has_the_exact_period_and_the_full_optimum(pendulums)
     pendulum, full_ocp, full, _ = pendulums["collocation"]
     _, ocp, raw, p = pendulums["condensed"]
     assert raw.success, raw.status
-    assert ocp.layout.kind == "general"  # results stay in the full layout
+    assert ocp.layout.name == "general"  # results stay in the full layout
     period = ocp.unpack(raw.w)["period_s"]
     # Radau collocation of degree 3 on 20 intervals: the period to 1e-5 relative, and
     # the same NLP's optimum as the full transcription to the solver's tolerance

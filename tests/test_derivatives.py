@@ -78,7 +78,7 @@ def test_fatrop_format_on_the_stage_layout_equals_the_full_hessian():
     """On the stage-wise layout (running torque integral as a state), the fatrop format
     point by point against CasADi's full Hessian and Lagrangian gradient of the whole NLP."""
     ocp = _ocp("fatrop")
-    assert ocp.layout.kind == "stagewise" and ocp.transcription.blocks is not None
+    assert ocp.layout.name == "stagewise" and ocp.transcription.blocks is not None
     x, p, lam_g = _point(ocp, seed=5)
     nlp = ocp.nlp
     lf, lg = ca.SX.sym("lf"), ca.SX.sym("lg", nlp["g"].numel())

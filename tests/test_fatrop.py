@@ -12,7 +12,7 @@ from optimize.paper_model import paper_model
 from optimize.problem.guess import circular_loop
 from optimize.problem.ocp import build_ocp, grid_times, twin
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
-from optimize.solve import backend
+from optimize.solve import nlp_solver
 from optimize.solve.result import carry_over
 from optimize.solve.solve import solve
 from optimize.solve.starts import stored_guess
@@ -26,7 +26,7 @@ def _pair(n: int, d: int, drive: dict | None = None):
 
 def test_stagewise_layout_evaluates_the_same_objective_and_rows():
     general, staged = _pair(3, 3, {"continuous_torque_nm": 60.0, "max_p_elec_w": 9000.0})
-    assert general.layout.kind == "general" and staged.layout.kind == "stagewise"
+    assert general.layout.name == "general" and staged.layout.name == "stagewise"
     x, z, fict = circular_loop(general.dae, general.loop,
                                grid_times(general, general.loop.period_s), 7.0)
     rng = np.random.default_rng(1)
@@ -75,7 +75,7 @@ def test_fatrop_confirms_the_stored_optimum_on_the_stage_layout(staged, paper_oc
     assert abs(res.avg_p_elec_w - ref.avg_p_elec_w) < 0.05
     assert abs(res.avg_p_mech_w - ref.avg_p_mech_w) < 0.05
     assert abs(res.period_s - ref.period_s) < 0.01
-    stats = backend.solver(staged, True).stats()
+    stats = nlp_solver.solver(staged, True).stats()
     assert stats["N"] == staged.n_intervals and set(stats["nx"]) == {49}  # X, T, start copy
     assert res.warm.w.size == staged.layout.n_w
 
@@ -94,10 +94,10 @@ def test_stored_guess_is_carried_over_to_the_stage_layout(staged):
 
 
 def test_linear_solver_check_names_the_missing_library():
-    backend.check_linear_solver("mumps")
+    nlp_solver.check_linear_solver("mumps")
     with pytest.raises(ValueError, match="unknown IPOPT linear solver"):
-        backend.check_linear_solver("ma99")
+        nlp_solver.check_linear_solver("ma99")
     try:
-        backend.check_linear_solver("ma57")
+        nlp_solver.check_linear_solver("ma57")
     except ValueError as exc:  # no HSL here: the message says what IPOPT looked for
         assert "libhsl.so" in str(exc) and "LD_LIBRARY_PATH" in str(exc)

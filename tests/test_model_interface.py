@@ -15,7 +15,7 @@ from point_mass_model import Pendulum, pendulum_formulation, small_angle_guess
 
 from optimize.problem.ocp import assemble, grid_times
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
-from optimize.solve.backend import run
+from optimize.solve.nlp_solver import run
 from optimize.solve.result import trajectory_frame
 
 N, DEGREE = 20, 3
@@ -26,7 +26,7 @@ def test_pendulum_cycle_has_the_exact_period(solver):
     pendulum = Pendulum()
     form = pendulum_formulation(pendulum)
     ocp = assemble(form, OcpOptions(Discretization(N, DEGREE), solver=SolverOptions(solver=solver)))
-    assert ocp.layout.kind == ("stagewise" if solver == "fatrop" else "general")
+    assert ocp.layout.name == ("stagewise" if solver == "fatrop" else "general")
     assert ocp.layout.i_x.shape[0] == 4 and ocp.layout.i_z.shape[0] == 3
     assert form.dae.states.units == ("m", "m", "m/s", "m/s")  # read from the names
     guess_period = form.scales.period_s

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 
+from kernel.names import WIND_SPEED
 from optimize.model.aero import aero_forces_moments, altitude_above_ground, wind_speed
 from optimize.model.atmosphere import air_density
 from optimize.model.params import AeroCoefficients, KiteParams, TetherModel, WindModel
@@ -172,7 +173,7 @@ def kite_dae(
     x = ca.SX.sym("x", STATES.size)
     u = ca.SX.sym("u", CONTROLS.size)
     z = ca.SX.sym("z", ALGEBRAIC.size)
-    w_ref = ca.SX.sym("wind_speed_m_s")
+    wind_speed_m_s = ca.SX.sym(WIND_SPEED)
     fict = ca.SX.sym("fict", FICTITIOUS.size)
     r, v, dcm, omega, l, dl, ddl, surf = _split_state(x)
     acc, domega, nu = z[0:3], z[3:6], z[6]
@@ -184,7 +185,7 @@ def kite_dae(
     c, cdot, cddot, r_bridle = _tether_constraint(r, v, acc, dcm, omega, domega, l, dl, ddl,
                                                   kite)
     altitude = altitude_above_ground(r, wind)
-    w_local = wind_speed(altitude, w_ref, wind)
+    w_local = wind_speed(altitude, wind_speed_m_s, wind)
     v_air = v - ca.vertcat(w_local, 0, 0)
     rho = air_density(altitude, kite.rho_kg_m3, kite.g_m_s2, wind.temperature_lapse_k_m)
     aero = aero_forces_moments(dcm, v_air, omega, surf, l, kite, coeffs, rho)
@@ -220,13 +221,13 @@ def kite_dae(
         coeffs=coeffs,
         wind=wind,
         ode=ca.Function("kite_ode", [x, u, z], [xdot], ["x", "u", "z"], ["xdot"]),
-        alg=ca.Function("kite_alg", [x, u, z, w_ref, fict], [residual]),
+        alg=ca.Function("kite_alg", [x, u, z, wind_speed_m_s, fict], [residual]),
         outputs=ca.Function(
-            "kite_outputs", [x, u, z, w_ref], list(outputs.values()),
-            ["x", "u", "z", "wind"], list(outputs.keys()),
+            "kite_outputs", [x, u, z, wind_speed_m_s], list(outputs.values()),
+            ["x", "u", "z", WIND_SPEED], list(outputs.keys()),
         ),
         invariants=ca.Function("kite_invariants", [x], [c, cdot, orth]),
-        explicit_ode=ca.Function("kite_explicit_ode", [x, u, w_ref], [xdot_phys]),
-        solve_z=ca.Function("kite_solve_z", [x, u, w_ref], [z_phys]),
+        explicit_ode=ca.Function("kite_explicit_ode", [x, u, wind_speed_m_s], [xdot_phys]),
+        solve_z=ca.Function("kite_solve_z", [x, u, wind_speed_m_s], [z_phys]),
         tether=tether,
     )

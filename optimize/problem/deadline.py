@@ -8,7 +8,7 @@ as long (:func:`optimize.solve.starts.cold.start`). IPOPT stops itself there (it
 evaluations there fail quietly
 (:class:`optimize.problem.transcriptions.condensed_derivatives.IntervalCache`), which
 ends any solver's call (fatrop has no time limit of its own); a call asked for after it
-is not made (:func:`optimize.solve.backend.run`). The collocation with fatrop has no
+is not made (:func:`optimize.solve.nlp_solver.run`). The collocation with fatrop has no
 such hook: its calls are bounded by their iteration cap only. A solve stopped so fails
 with the status :data:`WALL_STATUS` and what its last call said.
 """

@@ -30,9 +30,9 @@ from optimize.problem.part import Part, variables_of
 from optimize.problem.scaling import Scales
 
 #: the vectors of a model's variables, in the order of the point's arguments
-KINDS = ("states", "controls", "algebraic", "fictitious")
+VARIABLE_VECTORS = ("states", "controls", "algebraic", "fictitious")
 #: the vectors of a point: the variables, then the model's parameters
-VECTORS = (*KINDS, "parameters")
+VECTORS = (*VARIABLE_VECTORS, "parameters")
 
 
 def _named(variables: Variables, vector: Any) -> dict[str, Any]:
@@ -106,8 +106,8 @@ def point_quantities(parts: tuple[Part, ...], x: Any, u: Any, z: Any, fict: Any,
     """The named quantities at a point: every variable and parameter, then each part's
     :meth:`optimize.problem.part.Part.quantities` in order (of ``parts[:upto]``)."""
     q: dict[str, Any] = {}
-    for kind, vector in zip(VECTORS, (x, u, z, fict, params), strict=True):
-        q.update(_named(variables_of(parts, kind), vector))
+    for group, vector in zip(VECTORS, (x, u, z, fict, params), strict=True):
+        q.update(_named(variables_of(parts, group), vector))
     for part in parts[:upto]:
         q.update(part.quantities(q))
     return q
@@ -139,12 +139,12 @@ class Formulation:
             raise ValueError(f"two parts name the same variable: {sorted(names)}")
         object.__setattr__(self, "dae", parts_model(self.parts))
         values = {n: v for p in self.parts for n, v in p.scales().items()}
-        per_kind = {kind: np.array([float(values.get(n, 1.0))
-                                    for n in getattr(self.dae, kind).names])
-                    for kind in KINDS}
+        per_vector = {group: np.array([float(values.get(n, 1.0))
+                                       for n in getattr(self.dae, group).names])
+                      for group in VARIABLE_VECTORS}
         object.__setattr__(self, "scales", dataclasses.replace(
-            self.scales, state=per_kind["states"], control=per_kind["controls"],
-            algebraic=per_kind["algebraic"], fictitious=per_kind["fictitious"]))
+            self.scales, state=per_vector["states"], control=per_vector["controls"],
+            algebraic=per_vector["algebraic"], fictitious=per_vector["fictitious"]))
 
     def part(self, name: str) -> Part | None:
         """The part called ``name`` (None when the formulation has none)."""

@@ -18,6 +18,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from kernel.names import WIND_SPEED
 from kernel.sections import bound_values
 from optimize.model.aero import SURFACES
 from optimize.model.kite_model import KiteDae
@@ -31,8 +32,6 @@ from optimize.problem.scaling import Scales
 SOLVER_REEL_ACCELERATION_M_S2 = 500.0
 #: the reel jerk's bound (the control's) when the winch states none: the solver's range
 SOLVER_REEL_JERK_M_S3 = 5000.0
-#: the kite's parameter: the wind speed at the reference height [m/s]
-WIND = "wind_speed_m_s"
 #: forces [N] (world NED frame, on the CG) and moments [N m] (body frame) other parts put
 #: on the kite: quantities of these names enter its Newton-Euler rows as the homotopy's
 #: fictitious forces do (a part adds its own to what the parts before it put there)
@@ -99,7 +98,7 @@ class KitePart(Part):
     def quantities(self, q: Mapping[str, Any]) -> dict[str, Any]:
         """The DAE's outputs (``airspeed_m_s``, ``alpha_rad``, ``tension_n``, ...)."""
         x, u, z = self._xuz(q)
-        out = self.dae.outputs(x, u, z, q[WIND])
+        out = self.dae.outputs(x, u, z, q[WIND_SPEED])
         return dict(zip(self.dae.outputs.name_out(), out, strict=True))
 
     def rates(self, q: Mapping[str, Any]) -> list[Any]:
@@ -113,7 +112,7 @@ class KitePart(Part):
         fict = _vector(q, self.fictitious.names)
         if any(name in q for name in EXTERNAL):
             fict = fict + ca.vertcat(*[q.get(name, 0) for name in EXTERNAL])
-        return [self.dae.alg(x, u, z, q[WIND], fict) * ca.DM(1.0 / self.scales_of.residual)]
+        return [self.dae.alg(x, u, z, q[WIND_SPEED], fict) * ca.DM(1.0 / self.scales_of.residual)]
 
     @property
     def limits(self) -> dict[str, Any]:
@@ -265,7 +264,7 @@ class KitePart(Part):
         """The circular loop (:func:`optimize.problem.guess.circular_loop`) at its own
         period, with the fictitious forces that make it a solution."""
         x, z, fict = circular_loop(self.dae, self.loop, start.grid_times_s,
-                                   start.parameters[WIND])
+                                   start.parameters[WIND_SPEED])
         out = dict(zip(self.states.names, x, strict=True))
         out.update(zip(self.algebraic.names, z[:, 1:], strict=True))
         out.update(zip(self.fictitious.names, fict[:, 1:], strict=True))

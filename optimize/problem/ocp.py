@@ -102,8 +102,8 @@ class Ocp:
 
     Build the kite's with :func:`build_ocp` (any formulation's with :func:`assemble`);
     solve it with :func:`optimize.solve.solve.solve` or :func:`optimize.solve.starts.cold.start`
-    (the kite's) or :func:`optimize.solve.backend.run` (any). Solvers created for it are
-    cached in ``solvers`` (:mod:`optimize.solve.backend`).
+    (the kite's) or :func:`optimize.solve.nlp_solver.run` (any). Solvers created for it are
+    cached in ``solvers`` (:mod:`optimize.solve.nlp_solver`).
     """
 
     options: OcpOptions
@@ -408,7 +408,7 @@ def assemble(form: CycleFormulation, options: OcpOptions, loop: LoopGuess | None
               build_time_s=0.0, loop=loop, system=system)
     ocp.build_time_s = time.perf_counter() - t0
     log.info("built OCP (%s layout): %d variables, %d constraints, N=%d, degree %d in %.1f s",
-             tr.layout.kind, tr.layout.n_w, tr.layout.n_g, disc.n_intervals, disc.degree,
+             tr.layout.name, tr.layout.n_w, tr.layout.n_g, disc.n_intervals, disc.degree,
              ocp.build_time_s)
     return ocp
 

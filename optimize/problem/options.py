@@ -119,7 +119,7 @@ class SolverOptions:
         IPOPT linear solver: ``"mumps"`` (default), ``"spral"``, or one IPOPT loads
         at run time from the user's library (HSL ``"ma27"``, ``"ma57"``, ``"ma77"``,
         ``"ma86"``, ``"ma97"`` from ``libhsl.so``; ``"pardiso"``); checked by
-        :func:`optimize.solve.backend.check_linear_solver`.
+        :func:`optimize.solve.nlp_solver.check_linear_solver`.
     mumps_pivot_order : int
         MUMPS fill-reducing ordering (0 AMD, 2 AMF, 4 PORD, 6 QAMD, 7 automatic).
         AMD makes an iteration on this NLP cheaper than the automatic choice

@@ -254,7 +254,7 @@ FRAME_COLUMNS = ("time_s", "interval", "weight")
 def trajectory_columns(parts: tuple[Part, ...]) -> dict[str, str]:
     """The columns of the trajectory table of an OCP of ``parts``, in order, with their
     units: :data:`FRAME_COLUMNS`, then every part's states, controls and algebraic
-    variables (the parts' order within each kind), then every part's
+    variables (the parts' order within each vector), then every part's
     ``output_columns``.
 
     Raises
@@ -263,8 +263,8 @@ def trajectory_columns(parts: tuple[Part, ...]) -> dict[str, str]:
         A part's variable or output column whose name carries no unit suffix
         (:func:`kernel.units.unit_of`), or a name two parts give.
     """
-    own = [(p.name, n) for kind in ("states", "controls", "algebraic") for p in parts
-           for n in getattr(p, kind).names]
+    own = [(p.name, n) for group in ("states", "controls", "algebraic") for p in parts
+           for n in getattr(p, group).names]
     own += [(p.name, n) for p in parts for n in p.output_columns]
     out = {name: unit_of(name) for name in FRAME_COLUMNS}
     for part, name in own:
@@ -277,7 +277,7 @@ def trajectory_columns(parts: tuple[Part, ...]) -> dict[str, str]:
     return out
 
 
-def variables_of(parts: tuple[Part, ...], kind: str) -> Variables:
-    """All parts' variables of one kind (``"states"``, ``"controls"``, ``"algebraic"``,
+def variables_of(parts: tuple[Part, ...], vector: str) -> Variables:
+    """All parts' variables of one vector (``"states"``, ``"controls"``, ``"algebraic"``,
     ``"fictitious"``, ``"parameters"``), in the order of the parts."""
-    return Variables(tuple(n for p in parts for n in getattr(p, kind).names))
+    return Variables(tuple(n for p in parts for n in getattr(p, vector).names))

@@ -21,10 +21,11 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from kernel.names import WIND_SPEED
 from optimize.model.kite_model import KiteDae
 from optimize.model.tether import LINE_FORCE, line_force
 from optimize.model.variables import Variables
-from optimize.problem.kite_part import EXTERNAL, WIND
+from optimize.problem.kite_part import EXTERNAL
 from optimize.problem.part import Part, StartPoint
 
 #: the kite's position, velocity and acceleration, NED
@@ -65,7 +66,7 @@ class TetherPart(Part):
         def vec(names):
             return ca.vertcat(*[q[n] for n in names])
 
-        force = self._force(vec(_R), vec(_V), vec(_A), q[WIND])
+        force = self._force(vec(_R), vec(_V), vec(_A), q[WIND_SPEED])
         return [(vec(LINE_FORCE) - force) / self.force_scale_n]
 
     def scales(self) -> dict[str, float]:
@@ -75,7 +76,8 @@ class TetherPart(Part):
     def guess(self, start: StartPoint) -> dict[str, np.ndarray]:
         """The line's force along the start trajectory (at its Radau points)."""
         r, v, a = (ca.SX.sym(n, 3) for n in "rva")
-        fn = ca.Function("line_force", [r, v, a], [self._force(r, v, a, start.parameters[WIND])])
+        force = self._force(r, v, a, start.parameters[WIND_SPEED])
+        fn = ca.Function("line_force", [r, v, a], [force])
         q = start.quantities
 
         def rows(names):

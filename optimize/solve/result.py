@@ -12,7 +12,7 @@ from optimize.cycles import cycle_metrics, cycle_quadrature
 from optimize.problem.ocp import Ocp
 from optimize.problem.part import FRAME_COLUMNS, near
 from optimize.problem.scenario import Scenario
-from optimize.solve.backend import RawSolve
+from optimize.solve.nlp_solver import RawSolve
 from optimize.solve.starts.fill import KEYS, fill
 
 #: the layout's indices of each start array (:data:`optimize.solve.starts.fill.KEYS`)
@@ -171,8 +171,8 @@ def carry_over(src: Ocp, solution: Solution, dst: Ocp,
     period = float(sol["period_s"])
     arrays, known = {}, set()
     lam_x = np.zeros(dst.layout.n_w)
-    for kind, key in KEYS.items():
-        ours, theirs = getattr(src.dae, kind), getattr(dst.dae, kind)
+    for group, key in KEYS.items():
+        ours, theirs = getattr(src.dae, group), getattr(dst.dae, group)
         i_src, i_dst = getattr(src.layout, LAYOUT[key]), getattr(dst.layout, LAYOUT[key])
         arrays[key] = np.zeros((theirs.size, sol[key].shape[1]))
         for i, name in enumerate(theirs.names):
@@ -181,7 +181,7 @@ def carry_over(src: Ocp, solution: Solution, dst: Ocp,
                 arrays[key][i] = sol[key][j]
                 lam_x[i_dst[i]] = solution.lam_x[i_src[j]]
                 known.add(name)
-    if len(known) < sum(getattr(dst.dae, kind).size for kind in KEYS):
+    if len(known) < sum(getattr(dst.dae, group).size for group in KEYS):
         if parameters is None:
             raise ValueError("the destination has variables the solution has not: their "
                              "parts fill them at the model's parameters (parameters)")

@@ -18,7 +18,7 @@ import numpy as np
 
 from optimize.problem.ocp import Bounds, Ocp
 from optimize.problem.scenario import Scenario
-from optimize.solve import backend
+from optimize.solve import nlp_solver
 from optimize.solve.result import OcpResult, Solution, make_result
 from optimize.solve.starts.continuation import step_towards
 from optimize.solve.starts.homotopy import cold_start
@@ -79,7 +79,7 @@ def solve(
         )
     if warm_start.w.size != ocp.layout.n_w:
         raise ValueError(f"warm start has {warm_start.w.size} variables; the OCP's "
-                         f"{ocp.layout.kind} layout has {ocp.layout.n_w} (carry it over with "
+                         f"{ocp.layout.name} layout has {ocp.layout.n_w} (carry it over with "
                          "optimize.solve.result.carry_over)")
     if warm_start.lam_g.size != ocp.layout.n_g:
         raise ValueError(f"warm start has {warm_start.lam_g.size} constraint multipliers; the "
@@ -99,7 +99,7 @@ def solve(
     raw, stage, intermediates = _warm(ocp, warm_start, p, bounds, period_s, scenario.name)
     stages += [stage] if stage else []
     if not raw.success and retry_cold:
-        raw = backend.run(ocp, warm_start.w, p, bounds, warm=False)
+        raw = nlp_solver.run(ocp, warm_start.w, p, bounds, warm=False)
         stages.append(_stage("retry-cold", raw))
         log.info("%s retry %-22s %4d it %6.1f s (cpu %.1f s)", scenario.name, raw.status,
                  raw.iterations, raw.wall_time_s, raw.cpu_time_s)
@@ -107,7 +107,7 @@ def solve(
 
 
 def _warm(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds, period_s: float | None,
-          name: str) -> tuple[backend.RawSolve, dict | None, tuple[dict, ...]]:
+          name: str) -> tuple[nlp_solver.RawSolve, dict | None, tuple[dict, ...]]:
     """The warm solve of ``(p, bounds)`` from ``warm``: with step control when ``warm``
     knows its problem and the period is free (no stage of its own when no step reached
     the scenario: every try is then on the way), else one solve (predicted along the
@@ -118,10 +118,10 @@ def _warm(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds, period_s: flo
         raw, way = stepped.last, stepped.intermediates
         stage = _stage("warm", raw) if stepped.final is not None else None
     else:
-        kind, w0, lam_x0, lam_g0, predict_s = _predicted(ocp, warm, p, bounds)
-        raw, way = backend.run(ocp, w0, p, bounds, warm=True, lam_x0=lam_x0,
+        name, w0, lam_x0, lam_g0, predict_s = _predicted(ocp, warm, p, bounds)
+        raw, way = nlp_solver.run(ocp, w0, p, bounds, warm=True, lam_x0=lam_x0,
                                lam_g0=lam_g0), ()
-        stage = _stage(kind, raw, predict_s)
+        stage = _stage(name, raw, predict_s)
     log.info("%s %-22s %4d it %6.1f s (cpu %.1f s), %d solves on the way (%d it)",
              name, raw.status, raw.iterations, raw.wall_time_s, raw.cpu_time_s,
              len(way), sum(s["iterations"] for s in way))
@@ -132,7 +132,7 @@ def _warm(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds, period_s: flo
 #: bound pushes below the tolerance and at most two iterations (from the scenario's own
 #: optimum it converges at iteration 0 or 1; with the warm options' barrier of 1e-4 it
 #: climbs back down in 18-19 iterations)
-AT_OPTIMUM, AT_OPTIMUM_PUSH = backend.Setting(mu_init=1e-7, max_iter=2), 1e-9
+AT_OPTIMUM, AT_OPTIMUM_PUSH = nlp_solver.Setting(mu_init=1e-7, max_iter=2), 1e-9
 
 
 def solves(warm: Solution, p: np.ndarray, drive_limits: bool) -> bool:
@@ -142,14 +142,14 @@ def solves(warm: Solution, p: np.ndarray, drive_limits: bool) -> bool:
             and warm.p.shape == p.shape and bool(np.array_equal(warm.p, p)))
 
 
-def at_optimum(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds) -> backend.RawSolve:
+def at_optimum(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds) -> nlp_solver.RawSolve:
     """The convergence check of ``warm`` on the problem ``(p, bounds)``: a solve of at
     most two iterations that succeeds when ``warm`` is an optimum there to the tolerance."""
-    return backend.run(ocp, warm.w, p, bounds, warm=True, lam_x0=warm.lam_x,
+    return nlp_solver.run(ocp, warm.w, p, bounds, warm=True, lam_x0=warm.lam_x,
                        lam_g0=warm.lam_g, bound_push=AT_OPTIMUM_PUSH, setting=AT_OPTIMUM)
 
 
-def _stage(name: str, raw: backend.RawSolve, extra_wall_s: float = 0.0) -> dict:
+def _stage(name: str, raw: nlp_solver.RawSolve, extra_wall_s: float = 0.0) -> dict:
     """The record of one solver call of a solve's ``stages``."""
     return {"stage": name, "status": raw.status, "success": raw.success,
             "iterations": raw.iterations, "wall_time_s": raw.wall_time_s + extra_wall_s,

@@ -28,6 +28,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from kernel.names import WIND_SPEED
 from optimize.analysis.result_check import MAX_DEFECT_SCALED
 from optimize.problem.kite_part import POSITION_STATES
 from optimize.problem.ocp import Ocp, grid_times
@@ -178,7 +179,7 @@ def mesh_check(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult) ->
 def _interval_integrator(ocp: Ocp, period_s: float) -> ca.Function:
     x = ca.SX.sym("x", ocp.dae.states.size)
     u = ca.SX.sym("u", ocp.dae.controls.size)
-    wind_speed_m_s = ca.SX.sym("wind")
+    wind_speed_m_s = ca.SX.sym(WIND_SPEED)
     ode = ocp.dae.explicit_ode(x, u, wind_speed_m_s)
     h = period_s / ocp.n_intervals
     tgrid = [float(h * t) for t in ocp.coll.tau[1:]]

@@ -14,7 +14,7 @@ the copies), so they have the same optima. Every size comes from the formulation
 model (``form.dae``), the scalar parameters from their names
 (:func:`optimize.problem.interface.param_names`):
 
-* :func:`general_layout` (``Layout.kind`` ``"general"``), for a general sparse solver.
+* :func:`general_layout` (``Layout.name`` ``"general"``), for a general sparse solver.
   Decision vector, in this order: one copy of the period ``T`` per interval (tied
   by equality rows, so no variable couples every interval); states at the
   ``N d + 1`` grid points (interval starts and the Radau points; the last Radau
@@ -481,7 +481,7 @@ def stagewise_layout(form: CycleFormulation, disc: Discretization, coll: Colloca
         i_u=st.i_u, i_f=st.i_f, scale_w=scale_w, n_w=st.n_w, n_g=rows.n, n_p=n_p,
         i_p_ref=i_p_ref, params=i_par,
         rows={name: np.array(idx, dtype=int) for name, idx in rows.index.items()},
-        kind="stagewise", complete=_stage_completion(st, w, running, d),
+        name="stagewise", complete=_stage_completion(st, w, running, d),
         variables=named_variables(form, st.i_period, st.i_x, st.i_z, st.i_u, st.i_f),
     )
     lbw, ubw, lbw_lim, ubw_lim = _variable_bounds(form, st.n_w, st.i_period[:1], st.i_x,

@@ -23,8 +23,8 @@ from optimize.problem.options import Discretization, SolverOptions
 from optimize.problem.transcriptions.codegen import compiled
 from optimize.problem.transcriptions.structure import Transcription
 
-#: ``call(w0, p, bounds, lam_x0, lam_g0) -> RawSolve``: one call of the solver the
-#: backend created on :meth:`Method.solver_nlp`'s problem
+#: ``call(w0, p, bounds, lam_x0, lam_g0) -> RawSolve``: one call of the NLP solver
+#: :mod:`optimize.solve.nlp_solver` created on :meth:`Method.solver_nlp`'s problem
 Call = Callable[..., Any]
 
 

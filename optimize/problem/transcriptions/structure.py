@@ -33,7 +33,7 @@ class Layout:
     i_p_ref: np.ndarray  # (NX, n_points) reference trajectory in p
     params: dict[str, int] = field(default_factory=dict)  # scalar parameter -> index in p
     rows: dict[str, np.ndarray] = field(default_factory=dict)  # name -> indices into g
-    kind: str = "general"  # which layout: "general" or "stagewise"
+    name: str = "general"  # which layout: "general" or "stagewise"
     #: a function of the scaled ``w`` that sets the variables derived from others
     #: (copies, running integrals); ``None`` when there are none but the period copies
     complete: ca.Function | None = None

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from optimize.problem.ocp import Bounds, Ocp
-from optimize.solve import backend
+from optimize.solve import nlp_solver
 from optimize.solve.result import Solution
 
 log = logging.getLogger(__name__)
@@ -99,19 +99,19 @@ class Stepped:
         converged ones at ``s < 1`` are the intermediate points.
     """
 
-    final: backend.RawSolve | None
-    last: backend.RawSolve
+    final: nlp_solver.RawSolve | None
+    last: nlp_solver.RawSolve
     intermediates: tuple[dict, ...]
 
 
-def _call(ocp: Ocp, start: Solution | backend.RawSolve, p: np.ndarray, bounds: Bounds
-          ) -> backend.RawSolve:
+def _call(ocp: Ocp, start: Solution | nlp_solver.RawSolve, p: np.ndarray, bounds: Bounds
+          ) -> nlp_solver.RawSolve:
     """One capped warm solve of ``(p, bounds)`` from ``start``."""
-    return backend.run(ocp, start.w, p, bounds, warm=True, lam_x0=start.lam_x,
-                       lam_g0=start.lam_g, setting=backend.Setting(max_iter=STEP_ITERATIONS))
+    return nlp_solver.run(ocp, start.w, p, bounds, warm=True, lam_x0=start.lam_x,
+                       lam_g0=start.lam_g, setting=nlp_solver.Setting(max_iter=STEP_ITERATIONS))
 
 
-def _entry(s: float, raw: backend.RawSolve) -> dict:
+def _entry(s: float, raw: nlp_solver.RawSolve) -> dict:
     return {"step": s, "status": raw.status, "success": raw.success,
             "iterations": raw.iterations, "wall_time_s": raw.wall_time_s,
             "cpu_time_s": raw.cpu_time_s}
@@ -135,7 +135,7 @@ def step_towards(ocp: Ocp, start: Solution, p1: np.ndarray, bounds1: Bounds,
         The scenario's name, for the log.
     """
     path = StepPath.between(ocp, start, p1, bounds1)
-    current: Solution | backend.RawSolve = start
+    current: Solution | nlp_solver.RawSolve = start
     done, step, tried = 0.0, 1.0, []
     while step >= MIN_STEP and sum(t["iterations"] for t in tried) < STEP_BUDGET:
         s = min(1.0, done + step)

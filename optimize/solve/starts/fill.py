@@ -14,11 +14,11 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from optimize.problem.formulation import KINDS
+from optimize.problem.formulation import VARIABLE_VECTORS
 from optimize.problem.ocp import Ocp, grid_times
 from optimize.problem.part import StartPoint
 
-#: the key of each kind of variable in a start's arrays (:meth:`optimize.problem.ocp.Ocp.pack`)
+#: the key of each vector of variables in a start's arrays (:meth:`optimize.problem.ocp.Ocp.pack`)
 KEYS = {"states": "x", "controls": "u", "algebraic": "z", "fictitious": "fict"}
 
 
@@ -44,7 +44,7 @@ def fill(ocp: Ocp, arrays: dict[str, np.ndarray], period_s: float,
     known = set(known)
     times, d = grid_times(ocp, period_s), ocp.coll.degree
     for k, part in enumerate(getattr(form, "parts", ())):
-        own = {n for kind in KINDS for n in getattr(part, kind).names}
+        own = {n for group in VARIABLE_VECTORS for n in getattr(part, group).names}
         if own <= known:
             continue
         fn, names = form.prefix_quantities(k)
@@ -54,9 +54,9 @@ def fill(ocp: Ocp, arrays: dict[str, np.ndarray], period_s: float,
         start = StartPoint(times, period_s, ocp.n_intervals, parameters,
                            dict(zip(names, values, strict=True)))
         guess = part.guess(start)
-        for kind, key in KEYS.items():
-            variables = getattr(ocp.dae, kind)
-            for name in getattr(part, kind).names:
+        for group, key in KEYS.items():
+            variables = getattr(ocp.dae, group)
+            for name in getattr(part, group).names:
                 out[key][variables.index(name)] = guess.get(name, 0.0)
         known |= own
     return out

@@ -16,7 +16,7 @@ Stages (each one IPOPT call, logged with status, iterations and wall time):
 
 Every stage but the last is only the start of the next: it ends on IPOPT's central
 path at the barrier parameter :data:`HOMOTOPY_BARRIER`, solved to that tolerance, and
-the next warm-starts at the same barrier (:class:`optimize.solve.backend.Setting`),
+the next warm-starts at the same barrier (:class:`optimize.solve.nlp_solver.Setting`),
 instead of each stage descending to an optimum and the next climbing back. The
 last-but-one stage changes the objective with the fictitious forces still free, so
 fixing them is a small step. On the shipped AP2 file (N = 40) the cold starts at 8, 9
@@ -37,7 +37,7 @@ import numpy as np
 
 from optimize.problem.ocp import Ocp
 from optimize.problem.scenario import Scenario
-from optimize.solve.backend import RawSolve, Setting, run
+from optimize.solve.nlp_solver import RawSolve, Setting, run
 from optimize.solve.result import OcpResult, make_result
 from optimize.solve.starts.fill import part_start
 
@@ -112,14 +112,14 @@ def cold_start(ocp: Ocp, scenario: Scenario) -> OcpResult:
         Result of the final (power) stage; ``stages`` lists every stage and
         ``iterations``/``wall_time_s`` are the totals.
     """
-    wind, period = scenario.parameters, ocp.loop.period_s
-    guess = part_start(ocp, period, wind)
+    parameters, period = scenario.parameters, ocp.loop.period_s
+    guess = part_start(ocp, period, parameters)
     x = guess["x"]
     w0 = ocp.pack(x, guess["z"], guess["u"], guess["fict"], period)
     stages: list[dict] = []
 
     track_bounds = ocp.bounds(drive_limits=False, fix_fictitious=False, period_s=None)
-    p = ocp.params(wind, w_track=1.0, w_fict=TRACK_FICT_WEIGHT, x_ref=x)
+    p = ocp.params(parameters, w_track=1.0, w_fict=TRACK_FICT_WEIGHT, x_ref=x)
     raw = run(ocp, w0, p, track_bounds, warm=False,
               setting=Setting(mu_target=HOMOTOPY_BARRIER.mu_target))
     _record(stages, "track", raw, scenario)
@@ -127,7 +127,7 @@ def cold_start(ocp: Ocp, scenario: Scenario) -> OcpResult:
         return _failed(ocp, scenario, raw, p, track_bounds, stages, "track")
 
     def penalize(start: RawSolve, weight: float) -> tuple[RawSolve, np.ndarray]:
-        p_w = ocp.params(wind, w_track=1.0, w_fict=weight, x_ref=x)
+        p_w = ocp.params(parameters, w_track=1.0, w_fict=weight, x_ref=x)
         out = run(ocp, start.w, p_w, track_bounds, warm=True, lam_x0=start.lam_x,
                   lam_g0=start.lam_g, bound_push=HOMOTOPY_BOUND_PUSH, setting=HOMOTOPY_BARRIER)
         _record(stages, f"penalize-{weight:g}", out, scenario)
@@ -163,16 +163,15 @@ def _power(ocp: Ocp, scenario: Scenario, raw: RawSolve, weight: float, stages: l
     """The homotopy's power stages from the penalized tracking point ``raw``: the power
     objective with the fictitious forces still free at ``weight`` (``power-penalized``),
     then fixed at zero (``power``)."""
-    wind = scenario.parameters
     free = ocp.bounds(drive_limits=scenario.drive_limits, fix_fictitious=False, period_s=None)
-    p = ocp.params(wind, scenario.weights, w_fict=weight)
+    p = ocp.params(scenario.parameters, scenario.weights, w_fict=weight)
     raw = run(ocp, raw.w, p, free, warm=True, lam_x0=raw.lam_x, lam_g0=raw.lam_g,
               bound_push=POWER_BOUND_PUSH, setting=HOMOTOPY_BARRIER)
     _record(stages, "power-penalized", raw, scenario)
     if not raw.success:
         return _failed(ocp, scenario, raw, p, free, stages, "power-penalized")
     bounds = ocp.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
-    p = ocp.params(wind, scenario.weights)
+    p = ocp.params(scenario.parameters, scenario.weights)
     raw = run(ocp, raw.w, p, bounds, warm=True, lam_x0=raw.lam_x, lam_g0=raw.lam_g,
               bound_push=POWER_BOUND_PUSH, setting=Setting(mu_init=HOMOTOPY_BARRIER.mu_init))
     _record(stages, "power", raw, scenario)

@@ -20,7 +20,7 @@ barrier's complementarity, ``dlam_x = Sx dw``.
 
 The start is ``w* + dw`` clipped into the target's bounds and ``lam* + dlam`` with
 each multiplier keeping its sign (a flip to the other bound is set to zero); IPOPT's
-warm-start options (:func:`optimize.solve.backend.solver`) take it from there.
+warm-start options (:func:`optimize.solve.nlp_solver.solver`) take it from there.
 
 The derivatives are the NLP's own
 (:func:`optimize.problem.transcriptions.collocation.full_derivatives`): the Hessian and

@@ -14,7 +14,7 @@ import numpy as np
 
 from optimize.problem.ocp import Ocp, grid_times
 from optimize.problem.scenario import Scenario
-from optimize.solve import backend
+from optimize.solve import nlp_solver
 from optimize.solve.result import OcpResult, Solution, make_result
 
 
@@ -68,7 +68,7 @@ def solve_interpolated(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpRe
     lam_x0 = interpolate_multipliers(coarse, result.warm, fine)
     bounds = fine.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
     p = fine.params(scenario.parameters, scenario.weights)
-    raw = backend.run(fine, w0, p, bounds, warm=True, lam_x0=lam_x0,
+    raw = nlp_solver.run(fine, w0, p, bounds, warm=True, lam_x0=lam_x0,
                       lam_g0=np.zeros(len(bounds[2])))
     stage = {"stage": "interpolated", "status": raw.status, "success": raw.success,
              "iterations": raw.iterations, "wall_time_s": raw.wall_time_s,

@@ -211,7 +211,7 @@ def load(ocp: Ocp, path: str | Path = GUESS_PATH) -> tuple[Solution | None, str]
     if ref is ocp:
         return solution, why
     return (carry_over(ref, solution, ocp, recorded_scenario(data).parameters),
-            f"{why}; carried over to this OCP's {ocp.layout.kind} layout and parts")
+            f"{why}; carried over to this OCP's {ocp.layout.name} layout and parts")
 
 
 def recorded_scenario(data: dict) -> Scenario:
