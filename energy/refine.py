@@ -186,7 +186,7 @@ def sweep_starts(run: OptimizeRun, points: int) -> dict[str, tuple]:
 def refine_kind(task: KindTask, progress: Any = None) -> list[dict]:
     """Solve the speeds the refinement asks for; returns every solve record (worker side).
 
-    Records: those of :class:`optimize.service.solver.Solver` (stored, resumable, a
+    Records: those of :class:`optimize.service.solves.Solves` (stored, resumable, a
     crash reported in the record's status) with ``role`` ``"check"`` (a sweep speed
     solved again, to check the sweep's figure) or ``"added"``, plus ``basis_averages``
     (:func:`basis_figures`).

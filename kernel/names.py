@@ -123,8 +123,11 @@ TERMS: tuple[Term, ...] = (
     Term("backend", "the numerical side of the solve service: builds a problem's NLP and "
          "solves a scenario on it (a test's stand-in is one too)",
          "`optimize.service.builder.Backend` (a protocol), `OcpBackend`"),
-    Term("NLP solver", "what solves one NLP: IPOPT or fatrop, created once per setting",
-         "`--solver`, `SolverOptions.solver`, `optimize.solve.nlp_solver`"),
+    Term("solver", "the NLP solver: what solves one NLP, IPOPT or fatrop, created once "
+         "per setting", "`--solver`, `SolverOptions.solver`, `optimize.solve.nlp_solver`"),
+    Term("solves", "one problem's solves on one worker: their records, outcomes and warm "
+         "starts (what the solve service's chains, retries and re-solves work on)",
+         "`optimize.service.solves.Solves`"),
 )
 
 

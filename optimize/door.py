@@ -45,7 +45,7 @@ LAZY_IMPORTS = {
     "optimize.cli": ("EXIT_SOME_FAILED",),
     "optimize.service": ("ChainTask", "Problem", "Refinement", "SolveTask", "run_chain",
                          "run_chains", "solve_tasks"),
-    "optimize.service.solver": ("attempt_line",),
+    "optimize.service.solves": ("attempt_line",),
     "optimize.service.foreign": ("CycleStart",),
     "optimize.service.outcome": ("failure_reason", "transient"),
     "optimize.service.executors": ("open_executor",),

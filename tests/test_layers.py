@@ -203,7 +203,7 @@ def test_the_checks_see_a_violation():
 
 @pytest.mark.parametrize("source, target, why", [
     ("bench.ingest.pipeline", "optimize.door", "upward"),  # a function-level import too
-    ("energy.sizing", "optimize.service.solver", "not by optimize's front door"),
+    ("energy.sizing", "optimize.service.solves", "not by optimize's front door"),
     ("optimize.model.aero", "optimize.system.system", "upward inside optimize"),
     ("optimize.service.run", "optimize.sweep.outputs", "upward inside optimize"),
 ])

@@ -21,7 +21,7 @@ from optimize.problem.scenario import Scenario
 from optimize.service.builder import Problem
 from optimize.service.outcome import ScenarioOutcome
 from optimize.service.period_scan import SCAN_GAP, held_periods, scan_periods
-from optimize.service.solver import Solver
+from optimize.service.solves import Solves
 from optimize.sweep.outputs import resolve_fields, resolve_lines
 from optimize.sweep_folder import unchecked_lines
 
@@ -79,10 +79,10 @@ PROBLEM = Problem(model=None, drive_model=None, options=None, key="period stand-
 MECH_FREE_10 = Scenario.of_kind("mech-free", 10.0)
 
 
-def _solved(key=MECH_FREE_10) -> Solver:
-    solver = Solver(PROBLEM, backend=PeriodBackend())
-    assert solver.solve(key)["success"]
-    return solver
+def _solved(key=MECH_FREE_10) -> Solves:
+    solves = Solves(PROBLEM, backend=PeriodBackend())
+    assert solves.solve(key)["success"]
+    return solves
 
 
 def test_held_periods_span_half_to_twice_within_the_bounds():
@@ -99,15 +99,15 @@ def test_held_periods_span_half_to_twice_within_the_bounds():
 
 def test_the_scan_finds_and_keeps_the_better_optimum():
     key = MECH_FREE_10
-    solver = _solved(key)
-    first = solver.outcomes[key].result
+    solves = _solved(key)
+    first = solves.outcomes[key].result
     assert first.period_s == pytest.approx(20.0, abs=1.0)  # the poorer well
     held = held_periods(first.period_s, BOUNDS_S, 4)
     # T* 2^(1/2), 2^(-1/2), 2, 1/2: only 2 T* (41 s) lies past the ridge at 38 s
     beyond = [p for p in held if p > 20.0 + WAVE_S / 2]
     assert len(beyond) == 1
-    scan_periods(solver, [key], 4)
-    o = solver.outcomes[key]
+    scan_periods(solves, [key], 4)
+    o = solves.outcomes[key]
     assert o.result.period_s == pytest.approx(56.0, abs=1.0)  # the better well
     assert [r.held_period_s for r in o.resolves] == pytest.approx(held)
     assert sum(r.kept for r in o.resolves) == 1
@@ -123,8 +123,8 @@ def test_the_scan_finds_and_keeps_the_better_optimum():
     assert all(line.startswith("mech-free-10.0: period scan; solved from") for line in lines)
     # the kept run is the outcome's last attempt; the record and warm start follow it
     assert o.attempts[-1].source == source
-    assert solver.records[key]["period_s"] == pytest.approx(o.result.period_s)
-    assert solver.records[key]["warm_from"] == f"10 m/s held at {beyond[0]:g} s"
+    assert solves.records[key]["period_s"] == pytest.approx(o.result.period_s)
+    assert solves.records[key]["warm_from"] == f"10 m/s held at {beyond[0]:g} s"
 
 
 def test_a_scan_that_finds_nothing_better_keeps_the_first():
@@ -133,11 +133,11 @@ def test_a_scan_that_finds_nothing_better_keeps_the_first():
             return self.solve(ocp, scenario, 60.0)
 
     key = MECH_FREE_10
-    solver = Solver(PROBLEM, backend=Better())
-    solver.solve(key)
-    first = solver.outcomes[key].result
-    scan_periods(solver, [key], 4)  # 80 (the bound), 40 and 28 s: 40 s falls back into it
-    o = solver.outcomes[key]
+    solves = Solves(PROBLEM, backend=Better())
+    solves.solve(key)
+    first = solves.outcomes[key].result
+    scan_periods(solves, [key], 4)  # 80 (the bound), 40 and 28 s: 40 s falls back into it
+    o = solves.outcomes[key]
     assert o.result is first and len(o.attempts) == 1
     assert len(o.resolves) == 3 and not any(r.kept for r in o.resolves)
     assert resolve_fields(o)["resolve_gain_w"] == 0.0
@@ -154,10 +154,10 @@ def test_a_failed_held_solve_is_recorded_and_the_first_kept():
             return super().solve(ocp, scenario, warm)
 
     key = MECH_FREE_10
-    solver = Solver(PROBLEM, backend=Failing())
-    solver.solve(key)
-    scan_periods(solver, [key], 2)
-    o = solver.outcomes[key]
+    solves = Solves(PROBLEM, backend=Failing())
+    solves.solve(key)
+    scan_periods(solves, [key], 2)
+    o = solves.outcomes[key]
     assert o.result.period_s == pytest.approx(20.0, abs=1.0)
     assert [r.attempt.source for r in o.resolves] == [
         f"mech-free-10.0 held at {p:g} s" for p in held_periods(o.result.period_s, BOUNDS_S, 2)]
@@ -176,10 +176,10 @@ def test_scanned_kinds_are_not_said_unchecked():
 
 def test_a_scenario_that_failed_is_not_scanned():
     key = MECH_FREE_10
-    solver = Solver(PROBLEM, backend=PeriodBackend())
-    solver.outcomes[key] = ScenarioOutcome(key, 0, (), None)
-    scan_periods(solver, [key], 4)
-    assert solver.outcomes[key].resolves == ()
+    solves = Solves(PROBLEM, backend=PeriodBackend())
+    solves.outcomes[key] = ScenarioOutcome(key, 0, (), None)
+    scan_periods(solves, [key], 4)
+    assert solves.outcomes[key].resolves == ()
 
 
 # ----------------------------------------------------------------- a real held solve

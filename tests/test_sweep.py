@@ -23,7 +23,7 @@ from service_fixtures import Result
 
 from kernel.errors import InputError
 from optimize.problem.scenario import Scenario, scenario_name
-from optimize.service import ChainTask, Problem, Solver, make_tasks, run_chain, run_sweep
+from optimize.service import ChainTask, Problem, Solves, make_tasks, run_chain, run_sweep
 from optimize.service.cut_in import find_cut_in
 from optimize.service.executors import ExecutorHandle, QueueChannel, open_executor, run_tasks
 from optimize.service.plan import (
@@ -37,7 +37,7 @@ from optimize.service.plan import (
     plan_graph,
     start_cost,
 )
-from optimize.service.solver import MAX_WARM_ATTEMPTS
+from optimize.service.solves import MAX_WARM_ATTEMPTS
 
 CUT_IN_M_S = {"elec-lim": 4.8, "mech-lim": 5.5, "elec-free": 4.6, "mech-free": 20.0}
 SCALE_W = 1000.0
@@ -255,15 +255,15 @@ def test_cut_in_bisection_finds_the_known_crossing():
 
 
 def test_cut_in_edge_cases():
-    solver = Solver(PROBLEM, backend=NewtonBackend())
+    solves = Solves(PROBLEM, backend=NewtonBackend())
     grid = {w: SCALE_W * (exact_root(3.0) - exact_root(w)) for w in WINDS}
-    assert find_cut_in(solver, "elec-lim", grid).status == (
+    assert find_cut_in(solves, "elec-lim", grid).status == (
         "generates at every converged grid speed"
     )
-    assert find_cut_in(solver, "elec-lim", {4.0: grid[4.0]}).status == (
+    assert find_cut_in(solves, "elec-lim", {4.0: grid[4.0]}).status == (
         "too few converged grid speeds"
     )
-    assert not solver.records  # decided from the grid alone, nothing solved
+    assert not solves.records  # decided from the grid alone, nothing solved
 
 
 @dataclass(frozen=True)
@@ -279,12 +279,12 @@ class StoredGuessBackend(NewtonBackend):
 
 def _solve_one(backend, sources=(), solved=()):
     """The outcome of mech-free at 10 m/s from ``sources`` after solving ``solved`` cold."""
-    solver = Solver(PROBLEM, backend=backend)
+    solves = Solves(PROBLEM, backend=backend)
     for kind, wind in solved:
-        solver.solve(Scenario.of_kind(kind, wind), sources=[])
+        solves.solve(Scenario.of_kind(kind, wind), sources=[])
     scenario = Scenario.of_kind("mech-free", 10.0)
-    solver.solve(scenario, sources=[Scenario.of_kind(k, w) for k, w in sources])
-    return solver.outcomes[scenario]
+    solves.solve(scenario, sources=[Scenario.of_kind(k, w) for k, w in sources])
+    return solves.outcomes[scenario]
 
 
 def test_warm_source_tells_a_stored_guess_start_from_a_homotopy():
@@ -659,12 +659,12 @@ def test_an_optimum_failing_its_result_check_is_failed_in_every_service_path():
         if not impossible:
             assert r["avg_p_elec_w"] == pytest.approx(truth[r["wind_speed_m_s"]], abs=1e-6)
     assert sum(not r["success"] for r in records) == 2  # 8.5 and 10 m/s: above 300 W
-    solver = Solver(PROBLEM, backend=backend)
+    solves = Solves(PROBLEM, backend=backend)
     scenario = Scenario.of_kind("elec-lim", 10.0)
-    solver.solve(scenario)
-    outcome = solver.outcomes[scenario]
+    solves.solve(scenario)
+    outcome = solves.outcomes[scenario]
     assert not outcome.success and outcome.check.startswith("failed: ")
-    assert solver.converged("elec-lim") == []  # a failed optimum starts nothing
+    assert solves.converged("elec-lim") == []  # a failed optimum starts nothing
 
 
 @dataclass(frozen=True)
@@ -916,7 +916,7 @@ def test_every_solver_run_says_what_it_is_doing():
     """Each solver run, the local-optimum re-solves included, is announced before it runs
     and reported after, so the progress bar names the phase it is in."""
     from optimize.service.executors import QueueChannel
-    from optimize.service.solver import attempt_line
+    from optimize.service.solves import attempt_line
 
     channel = QueueChannel()
     run_chain(ChainTask(PROBLEM, chain_steps(("elec-free",), WINDS), backend=BranchBackend(),

@@ -12,7 +12,7 @@ module                                          concept
 :mod:`optimize.service.plan`                    the wind grid, the kinds, warm-start chains
 :mod:`optimize.service.executors`               a process pool or Dask, progress channels
 :mod:`optimize.service.builder`                 what a worker builds: ``Problem``, backends
-:mod:`optimize.service.solver`                  one problem's solves: warm starts, fallbacks,
+:mod:`optimize.service.solves`                  one problem's solves: warm starts, fallbacks,
                                                 records, the store
 :mod:`optimize.service.foreign`                 starts it did not find itself: another
                                                 problem's solution, a stored cycle
@@ -30,9 +30,9 @@ from optimize.service.builder import OcpBackend, Problem, problem_key
 from optimize.service.chain import ChainTask, Refinement, run_chain
 from optimize.service.outcome import failure_status
 from optimize.service.run import SolveTask, make_tasks, run_chains, run_sweep, solve_tasks
-from optimize.service.solver import Solver, cycle_metrics
+from optimize.service.solves import Solves, cycle_metrics
 from optimize.service.store import solve_key
 
-__all__ = ["ChainTask", "OcpBackend", "Problem", "Refinement", "SolveTask", "Solver",
+__all__ = ["ChainTask", "OcpBackend", "Problem", "Refinement", "SolveTask", "Solves",
            "cycle_metrics", "failure_status", "make_tasks", "problem_key", "run_chain",
            "run_chains", "run_sweep", "solve_key", "solve_tasks"]

@@ -1,7 +1,7 @@
 """The one chain loop: the solves of one problem, in order, on one worker.
 
 A chain (:class:`ChainTask`) is shipped to a worker as one task
-(:func:`run_chain`). The worker's :class:`optimize.service.solver.Solver` takes in
+(:func:`run_chain`). The worker's :class:`optimize.service.solves.Solves` takes in
 the scenarios solved elsewhere that the task hands it (``solved``: warm starts, and
 a grid to check), solves the chain's planned steps in order (one step of the start
 graph, :func:`optimize.service.plan.plan_graph`, or a chain of
@@ -44,7 +44,7 @@ from optimize.service.outcome import ChainOutcome, ScenarioOutcome
 from optimize.service.period_scan import scan_periods
 from optimize.service.plan import Step
 from optimize.service.retry import retry_failed
-from optimize.service.solver import Solver
+from optimize.service.solves import Solves
 
 
 @dataclass(frozen=True)
@@ -149,10 +149,10 @@ class ChainTask:
     foreign: tuple[ForeignStart, ...] = ()
 
 
-def _nearest(solver: Solver, r: Refinement, scenario: Scenario) -> list:
+def _nearest(solves: Solves, r: Refinement, scenario: Scenario) -> list:
     """The starts of an added speed: the nearest solved speeds of the refined kind, its
     own solves before the known cycles at equal distance, at most two."""
-    own = [scenario.at(w) for w in solver.converged(r.kind)]
+    own = [scenario.at(w) for w in solves.converged(r.kind)]
     cycles = [s for s in r.starts if s.scenario not in own]
     ranked = sorted([*own, *cycles], key=lambda s: (
         abs((s.scenario if isinstance(s, CycleStart) else s).wind_speed_m_s
@@ -160,17 +160,17 @@ def _nearest(solver: Solver, r: Refinement, scenario: Scenario) -> list:
     return ranked[:2]
 
 
-def _refine(solver: Solver, r: Refinement, start: tuple[float, ...]) -> None:
+def _refine(solves: Solves, r: Refinement, start: tuple[float, ...]) -> None:
     known = {float(w): (p[0] if len(p) == 1 else tuple(p)) for w, *p in r.known}
     cycles = {s.scenario.wind_speed_m_s: s for s in r.starts}
 
     def power(wind_speed_m_s: float) -> Any:
         added = Scenario.of_kind(r.kind, round(float(wind_speed_m_s), 6))
         if r.check and known and not any(rec["role"] == "check"
-                                         for rec in solver.records.values()):
+                                         for rec in solves.records.values()):
             near = min(known, key=lambda w: abs(w - added.wind_speed_m_s))
-            solver.solve(added.at(near), "check", [cycles[near]] if near in cycles else None)
-        rec = solver.solve(added, "added", _nearest(solver, r, added) or None)
+            solves.solve(added.at(near), "check", [cycles[near]] if near in cycles else None)
+        rec = solves.solve(added, "added", _nearest(solves, r, added) or None)
         if not rec["success"]:
             return None
         values = tuple(rec[c] for c in r.curves)
@@ -187,46 +187,46 @@ def run_chain(task: ChainTask, progress: Any = None) -> ChainOutcome:
     ----------
     task : ChainTask
     progress : object with ``put(dict)``, optional
-        Receives the solver's event after every solve
-        (:class:`optimize.service.solver.Solver`) and ``{"chain", "cut_in": kind}``
+        Receives the solves' event after every solve
+        (:class:`optimize.service.solves.Solves`) and ``{"chain", "cut_in": kind}``
         after each cut-in search.
 
     Returns
     -------
     ChainOutcome
     """
-    solver = Solver(task.problem, task.store, task.backend, progress, dict(task.tag),
+    solves = Solves(task.problem, task.store, task.backend, progress, dict(task.tag),
                     task.extras, task.index)
     for outcome, record in (*task.solved, *task.starts):
-        solver.adopt(outcome, record)
-    solver.foreign.update((f.scenario, f) for f in task.foreign)
+        solves.adopt(outcome, record)
+    solves.foreign.update((f.scenario, f) for f in task.foreign)
     grid = [o.scenario for o, _ in task.solved] + [s.scenario for s in task.steps]
     for step in task.steps:
         sources = [s for s in (step.warm_from, *step.fallbacks) if s in grid]
-        solver.solve(step.scenario, "grid", sources)
+        solves.solve(step.scenario, "grid", sources)
     if task.retry:
-        retry_failed(solver, grid)
+        retry_failed(solves, grid)
     if task.resolve:
-        resolve_local_optima(solver, [s for s in grid if s in solver.outcomes])
-    scan_periods(solver, [s for s in grid if s in solver.outcomes], task.period_scan)
+        resolve_local_optima(solves, [s for s in grid if s in solves.outcomes])
+    scan_periods(solves, [s for s in grid if s in solves.outcomes], task.period_scan)
     cut_ins = []
     for kind in task.cut_in_kinds:
-        powers = {s.wind_speed_m_s: solver.records[s]["avg_p_elec_w"] for s in grid
-                  if s.kind == kind and solver.records[s]["success"]}
-        cut_ins.append(find_cut_in(solver, kind, powers, task.cut_in_tol_m_s))
+        powers = {s.wind_speed_m_s: solves.records[s]["avg_p_elec_w"] for s in grid
+                  if s.kind == kind and solves.records[s]["success"]}
+        cut_ins.append(find_cut_in(solves, kind, powers, task.cut_in_tol_m_s))
         if progress is not None:
             progress.put({"chain": task.index, "cut_in": kind})
     if task.refine is not None:
         start = tuple(sorted(s.wind_speed_m_s for s in grid if s.kind == task.refine.kind))
-        _refine(solver, task.refine, start)
+        _refine(solves, task.refine, start)
     only_starts = {o.scenario for o, _ in task.starts}
     return ChainOutcome(
         task.index,
-        tuple(solver.outcomes[s] for s in grid if s in solver.outcomes),
-        tuple(solver.records[s] for s in sorted(solver.records, key=lambda s: s.wind_speed_m_s)
+        tuple(solves.outcomes[s] for s in grid if s in solves.outcomes),
+        tuple(solves.records[s] for s in sorted(solves.records, key=lambda s: s.wind_speed_m_s)
               if s not in only_starts),
         tuple(cut_ins),
-        solver.build_time_s,
+        solves.build_time_s,
         f"{socket.gethostname()}:{os.getpid()}",
-        iterations=dict(solver.iterations),
+        iterations=dict(solves.iterations),
     )

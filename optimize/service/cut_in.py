@@ -9,13 +9,13 @@ from optimize.problem.scenario import Scenario
 from optimize.service.outcome import CutIn
 
 
-def find_cut_in(solver: Any, kind: str, grid: dict[float, float],
+def find_cut_in(solves: Any, kind: str, grid: dict[float, float],
                 tol_m_s: float = 0.05) -> CutIn:
     """Bisection on the wind speed for zero average electrical power.
 
     Parameters
     ----------
-    solver : optimize.service.solver.Solver
+    solves : optimize.service.solves.Solves
         Has solved the grid speeds (their solutions warm-start the probes); each probe
         is one of its solves (role ``"cut-in"``, no cold start).
     kind : str
@@ -49,7 +49,7 @@ def find_cut_in(solver: Any, kind: str, grid: dict[float, float],
         mid = 0.5 * (lo + hi)
         ends = [lo, hi] if mid - lo < hi - mid else [hi, lo]
         probe = Scenario.of_kind(kind, mid)
-        rec = solver.solve(probe, "cut-in", sources=[probe.at(w) for w in ends], cold=False)
+        rec = solves.solve(probe, "cut-in", sources=[probe.at(w) for w in ends], cold=False)
         p_mid = rec["avg_p_elec_w"] if rec["avg_p_elec_w"] is not None else math.nan
         probes.append((mid, p_mid, rec["success"], rec["status"]))
         if not rec["success"]:

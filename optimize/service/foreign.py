@@ -1,4 +1,4 @@
-"""Starts the solver did not find itself: another problem's solution, a stored cycle, an
+"""Starts the solves did not find themselves: another problem's solution, a stored cycle, an
 optimum with the period held.
 
 A :class:`ForeignStart` is a converged solution of one problem (system, drive model,
@@ -36,7 +36,7 @@ from optimize.problem.scenario import Scenario
 
 @dataclass(frozen=True, eq=False)
 class Start:
-    """A start the solver did not find itself (:class:`ForeignStart`, :class:`CycleStart`,
+    """A start the solves did not find themselves (:class:`ForeignStart`, :class:`CycleStart`,
     :class:`HeldStart`).
 
     Attributes
@@ -65,7 +65,7 @@ class Start:
                 if kind == self.scenario.kind else self.name)
 
     def carried(self, backend: Any, ocp: Any) -> Any:
-        """The start in the layout of ``ocp``, the NLP the solver solves."""
+        """The start in the layout of ``ocp``, the NLP the solves run on."""
         raise NotImplementedError
 
 

@@ -36,7 +36,7 @@ CURVE_NEIGHBOURS = 2
 MAX_RESOLVE_ROUNDS = 6
 
 
-#: the role of a re-solve in the progress events (:meth:`Solver.attempt`)
+#: the role of a re-solve in the progress events (:meth:`Solves.attempt`)
 LOCAL_OPTIMUM = "local optimum"
 
 
@@ -145,7 +145,7 @@ class _Search:
     is the ``(source, version)`` its present optimum came from, never tried again.
     """
 
-    solver: Any
+    solves: Any
     kind: str
     version: dict
     origin: dict
@@ -154,9 +154,9 @@ class _Search:
     def curve(self) -> tuple[list, list[float], list[int]]:
         """The kind's converged scenarios by wind speed, their curve residuals and the
         off-curve ones (:func:`off_curve`); all empty when a power is not finite."""
-        ks = sorted((k for k in self.version if self.solver.outcomes[k].success),
+        ks = sorted((k for k in self.version if self.solves.outcomes[k].success),
                     key=lambda k: k.wind_speed_m_s)
-        outs = [self.solver.outcomes[k] for k in ks]
+        outs = [self.solves.outcomes[k] for k in ks]
         power = [objective_power_w(self.kind, o.result) for o in outs]
         period = [float(getattr(o.result, "period_s", math.nan)) for o in outs]
         if not all(math.isfinite(p) for p in power):
@@ -173,16 +173,16 @@ class _Search:
     def resolve(self, key: Scenario, source: Scenario, carried: bool = False) -> bool:
         """Solve ``key`` again from ``source``'s optimum; keep it when better. Whether kept."""
         self.tried.add((key, source, self.version[source]))
-        o = self.solver.outcomes[key]
+        o = self.solves.outcomes[key]
         before = objective_power_w(self.kind, o.result)
-        attempt, result = self.solver.attempt(key, source, LOCAL_OPTIMUM)
+        attempt, result = self.solves.attempt(key, source, LOCAL_OPTIMUM)
         after = objective_power_w(self.kind, result) if attempt.success else math.nan
         kept = bool(attempt.success and after < before - better_margin_w(before))
         record = Resolve(attempt, after, before, kept, carried=carried)
         if not kept:
-            self.solver.outcomes[key] = dataclasses.replace(o, resolves=(*o.resolves, record))
+            self.solves.outcomes[key] = dataclasses.replace(o, resolves=(*o.resolves, record))
             return False
-        self.solver.replace(dataclasses.replace(
+        self.solves.replace(dataclasses.replace(
             o, attempts=(*o.attempts, attempt), result=result,
             resolves=(*o.resolves, record)), source)
         self.origin[key] = (source, self.version[source])
@@ -214,14 +214,14 @@ class _Search:
         return False
 
 
-def resolve_local_optima(solver: Any, scenarios: Sequence[Scenario]) -> None:
+def resolve_local_optima(solves: Any, scenarios: Sequence[Scenario]) -> None:
     """Re-solve those of ``scenarios`` that sit off their kind's smooth curve.
 
     Parameters
     ----------
-    solver : optimize.service.solver.Solver
+    solves : optimize.service.solves.Solves
         Has solved every one of ``scenarios``; a kept re-solve replaces the scenario's
-        outcome, record and warm start there (:meth:`Solver.replace`).
+        outcome, record and warm start there (:meth:`Solves.replace`).
     scenarios : sequence of Scenario
         The scenarios to check (the planned grid), kinds checked in their order here.
 
@@ -239,9 +239,9 @@ def resolve_local_optima(solver: Any, scenarios: Sequence[Scenario]) -> None:
     """
     for kind in dict.fromkeys(s.kind for s in scenarios):
         own = [s for s in scenarios if s.kind == kind]
-        by_name = {solver.outcomes[k].name: k for k in own}
-        search = _Search(solver, kind, dict.fromkeys(own, 0),
-                         {k: (by_name.get(solver.outcomes[k].attempts[-1].source), 0)
+        by_name = {solves.outcomes[k].name: k for k in own}
+        search = _Search(solves, kind, dict.fromkeys(own, 0),
+                         {k: (by_name.get(solves.outcomes[k].attempts[-1].source), 0)
                           for k in own})
         for _ in range(MAX_RESOLVE_ROUNDS):
             if not search.round():

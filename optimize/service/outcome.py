@@ -127,7 +127,7 @@ class ScenarioOutcome:
     depth : int
         Solves before this one along its starts: 0 for a cold start (stored guess or
         homotopy), else one more than the depth the scenario of :attr:`warm_source` had
-        when it started this one (:class:`optimize.service.solver.Solver`).
+        when it started this one (:class:`optimize.service.solves.Solves`).
     """
 
     scenario: Scenario
@@ -239,7 +239,7 @@ class ChainOutcome:
     outcomes : tuple of ScenarioOutcome
         One per planned step, in solve order (the grid of ``bench optimize``).
     records : tuple of dict
-        Every solve's record (:meth:`optimize.service.solver.Solver.solve`), sorted by
+        Every solve's record (:meth:`optimize.service.solves.Solves.solve`), sorted by
         wind speed: planned, added by a refinement, cut-in probes.
     cut_ins : tuple of CutIn
     build_time_s : float

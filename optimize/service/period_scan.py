@@ -28,7 +28,7 @@ from optimize.service.foreign import HeldStart
 from optimize.service.local_optima import better_margin_w, objective_power_w
 from optimize.service.outcome import Resolve
 
-#: the role of the scan's solver runs in the progress events (:meth:`Solver.attempt`)
+#: the role of the scan's solver runs in the progress events (:meth:`Solves.attempt`)
 PERIOD_SCAN = "period scan"
 #: the held periods span this factor each way from the optimum's own (within the bounds)
 SCAN_SPAN = 2.0
@@ -68,48 +68,48 @@ def held_periods(period_s: float, bounds_s: tuple[float, float], n: int) -> list
     return out
 
 
-def _held_run(solver: Any, scenario: Scenario, period_s: float
+def _held_run(solves: Any, scenario: Scenario, period_s: float
               ) -> tuple[Any, Any, HeldStart | None]:
     """Hold ``scenario``'s period at ``period_s`` from its own optimum, then free it: the
     last attempt (named after the held start), its result and the held start (None when
     the held solve failed)."""
-    held_attempt, held = solver.attempt(scenario, scenario, PERIOD_SCAN, period_s=period_s)
-    depth = solver.outcomes[scenario].depth
+    held_attempt, held = solves.attempt(scenario, scenario, PERIOD_SCAN, period_s=period_s)
+    depth = solves.outcomes[scenario].depth
     start = HeldStart(scenario, "held", depth + 1, warm=getattr(held, "warm", None),
                       period_s=period_s)
     if not held_attempt.success:
         return dataclasses.replace(held_attempt, source=start.name), None, None
-    attempt, result = solver.attempt(scenario, start, PERIOD_SCAN)
+    attempt, result = solves.attempt(scenario, start, PERIOD_SCAN)
     return attempt, result, start
 
 
-def scan_periods(solver: Any, scenarios: Sequence[Scenario], n: int) -> None:
+def scan_periods(solves: Any, scenarios: Sequence[Scenario], n: int) -> None:
     """Scan the period of each converged one of ``scenarios`` (see the module docstring).
 
     Parameters
     ----------
-    solver : optimize.service.solver.Solver
+    solves : optimize.service.solves.Solves
         Has solved every one of ``scenarios``; a kept optimum replaces the scenario's
-        outcome, record and warm start there (:meth:`Solver.replace`).
+        outcome, record and warm start there (:meth:`Solves.replace`).
     scenarios : sequence of Scenario
     n : int
         Held periods per scenario (:func:`held_periods`); 0 scans nothing.
     """
     if n <= 0:
         return
-    bounds = solver.backend.period_bounds(solver.ocp)
+    bounds = solves.backend.period_bounds(solves.ocp)
     for scenario in scenarios:
-        o = solver.outcomes.get(scenario)
+        o = solves.outcomes.get(scenario)
         if o is not None and o.success and getattr(o.result, "period_s", None) is not None:
-            _scan_one(solver, scenario, held_periods(float(o.result.period_s), bounds, n))
+            _scan_one(solves, scenario, held_periods(float(o.result.period_s), bounds, n))
 
 
-def _scan_one(solver: Any, scenario: Scenario, periods: list[float]) -> None:
+def _scan_one(solves: Any, scenario: Scenario, periods: list[float]) -> None:
     """Hold ``scenario``'s period at each of ``periods`` and free it; record every run and
     keep the best optimum when it is better than the first by the local-optimum margin."""
-    o, kind = solver.outcomes[scenario], scenario.kind
+    o, kind = solves.outcomes[scenario], scenario.kind
     before = objective_power_w(kind, o.result)
-    runs = [(p, *_held_run(solver, scenario, p)) for p in periods]
+    runs = [(p, *_held_run(solves, scenario, p)) for p in periods]
     found = [objective_power_w(kind, result) if attempt.success else math.nan
              for _, attempt, result, _ in runs]
     best = min((i for i, run in enumerate(runs) if run[1].success), key=found.__getitem__,
@@ -119,7 +119,7 @@ def _scan_one(solver: Any, scenario: Scenario, periods: list[float]) -> None:
         Resolve(attempt, f, before, keep and i == best, p)
         for i, ((p, attempt, _, _), f) in enumerate(zip(runs, found, strict=True)))))
     if not keep:
-        solver.outcomes[scenario] = o
+        solves.outcomes[scenario] = o
         return
     _, attempt, result, start = runs[best]
-    solver.replace(dataclasses.replace(o, attempts=(*o.attempts, attempt), result=result), start)
+    solves.replace(dataclasses.replace(o, attempts=(*o.attempts, attempt), result=result), start)

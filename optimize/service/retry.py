@@ -26,7 +26,7 @@ from optimize.kinds import OBJECTIVES
 from optimize.problem.scenario import Scenario
 from optimize.service.outcome import CRASH, Attempt, ScenarioOutcome, failure_status
 
-#: role of a retry in the progress events (:meth:`optimize.service.solver.Solver.attempt`)
+#: role of a retry in the progress events (:meth:`optimize.service.solves.Solves.attempt`)
 RETRY = "retry"
 #: converged speeds of the same kind tried per failed scenario (nearest first)
 MAX_SAME_KIND = 2
@@ -35,89 +35,89 @@ MAX_SAME_KIND = 2
 MAX_REFINEMENTS = 2
 
 
-def other_starts(solver: Any, scenario: Scenario, tried: set) -> list[Scenario]:
+def other_starts(solves: Any, scenario: Scenario, tried: set) -> list[Scenario]:
     """The starts to retry ``scenario`` from: up to :data:`MAX_SAME_KIND` converged speeds
     of its kind (nearest first), then the other objective's optimum at the same speed
     with the same drive limits; those in ``tried`` (names) left out."""
     wind_speed_m_s = scenario.wind_speed_m_s
-    near = sorted(solver.converged(scenario.kind), key=lambda w: abs(w - wind_speed_m_s))
+    near = sorted(solves.converged(scenario.kind), key=lambda w: abs(w - wind_speed_m_s))
     same = [s for s in map(scenario.at, near) if s.name not in tried][:MAX_SAME_KIND]
     other = [Scenario(wind_speed_m_s, o, scenario.drive_limits) for o in OBJECTIVES
              if o != scenario.objective]
-    return same + [s for s in other if wind_speed_m_s in solver.converged(s.kind)
+    return same + [s for s in other if wind_speed_m_s in solves.converged(s.kind)
                    and s.name not in tried]
 
 
-def retry_failed(solver: Any, scenarios: Sequence[Scenario]) -> None:
+def retry_failed(solves: Any, scenarios: Sequence[Scenario]) -> None:
     """Solve each failed one of ``scenarios`` again from :func:`other_starts` until one
     converges and passes its result check; the tries are added to its attempts either
-    way (:meth:`optimize.service.solver.Solver.replace`).
+    way (:meth:`optimize.service.solves.Solves.replace`).
 
     Parameters
     ----------
-    solver : optimize.service.solver.Solver
+    solves : optimize.service.solves.Solves
         Has solved (or adopted) every one of ``scenarios``.
     scenarios : sequence of Scenario
         The grid scenarios to look at.
     """
     for scenario in scenarios:
-        outcome = solver.outcomes.get(scenario)
+        outcome = solves.outcomes.get(scenario)
         if outcome is None or outcome.success:
             continue
         tried = {a.source for a in outcome.attempts}
-        for source in other_starts(solver, scenario, tried):
-            attempt, result = solver.attempt(scenario, source, RETRY)
+        for source in other_starts(solves, scenario, tried):
+            attempt, result = solves.attempt(scenario, source, RETRY)
             outcome = dataclasses.replace(outcome, attempts=(*outcome.attempts, attempt),
                                           result=result)
-            solver.replace(outcome, source)
+            solves.replace(outcome, source)
             if attempt.success:
                 break
         if not outcome.success:
-            finer = retry_on_finer_mesh(solver, outcome)
+            finer = retry_on_finer_mesh(solves, outcome)
             if finer is not outcome:
-                solver.replace_remeshed(finer)
+                solves.replace_remeshed(finer)
 
 
-def retry_on_finer_mesh(solver: Any, outcome: ScenarioOutcome) -> ScenarioOutcome:
+def retry_on_finer_mesh(solves: Any, outcome: ScenarioOutcome) -> ScenarioOutcome:
     """``outcome`` with its last result, when it converged (and its result check
     rejected it), interpolated onto twice the intervals and solved there
     (:meth:`optimize.service.builder.OcpBackend.remesh`) and checked on that mesh; again
     from that result on twice those, up to :data:`MAX_REFINEMENTS` meshes, until one
     passes. Each is an attempt whose source names the scenario and the mesh. ``outcome``
     itself when its last result did not converge or the backend has no other mesh."""
-    coarse, ocp = solver.problem, None
+    coarse, ocp = solves.problem, None
     for _ in range(MAX_REFINEMENTS):
         result = outcome.result
         if (outcome.success or result is None or not getattr(result, "success", False)
-                or not hasattr(solver.backend, "remesh")):
+                or not hasattr(solves.backend, "remesh")):
             break
         fine = coarse.refined()
         if fine is None:
             break
-        attempt, res, ocp = _remesh_attempt(solver, outcome, ocp or solver.ocp, fine)
+        attempt, res, ocp = _remesh_attempt(solves, outcome, ocp or solves.ocp, fine)
         outcome = dataclasses.replace(outcome, attempts=(*outcome.attempts, attempt),
                                       result=res if res is not None else result)
         coarse = fine
     return outcome
 
 
-def _remesh_attempt(solver: Any, outcome: ScenarioOutcome, coarse_ocp: Any, fine: Any
+def _remesh_attempt(solves: Any, outcome: ScenarioOutcome, coarse_ocp: Any, fine: Any
                     ) -> tuple[Attempt, Any, Any]:
     """One solve of ``outcome``'s scenario on the ``fine`` problem from its last result
     (on ``coarse_ocp``): the attempt, its result (None if it raised) and the fine OCP."""
     source = f"{outcome.name} on {fine.n_intervals} intervals"
-    solver.tell("start", outcome.scenario, RETRY, source, "")
+    solves.tell("start", outcome.scenario, RETRY, source, "")
     t0, fine_ocp = time.perf_counter(), None
     try:
-        fine_ocp = solver.backend.build(fine)
-        res = solver.backend.remesh(coarse_ocp, fine_ocp, outcome.scenario, outcome.result)
+        fine_ocp = solves.backend.build(fine)
+        res = solves.backend.remesh(coarse_ocp, fine_ocp, outcome.scenario, outcome.result)
     except Exception as exc:  # noqa: BLE001 - a crash is this attempt's failure, reported
         attempt, res = Attempt(source, failure_status(CRASH, exc), False, 0,
                                time.perf_counter() - t0), None
     else:
-        check = solver.backend.check(fine_ocp, res, outcome.name) if res.success else None
+        check = solves.backend.check(fine_ocp, res, outcome.name) if res.success else None
         attempt = Attempt(source, str(res.status), bool(res.success) and (
             check is None or check.passed), int(res.iterations), float(res.wall_time_s), check)
-    solver.count(attempt, RETRY)
-    solver.tell("done", outcome.scenario, RETRY, source, attempt.status)
+    solves.count(attempt, RETRY)
+    solves.tell("done", outcome.scenario, RETRY, source, attempt.status)
     return attempt, res, fine_ocp

@@ -46,7 +46,7 @@ from optimize.service.outcome import (
 from optimize.service.period_scan import PERIOD_SCAN
 from optimize.service.plan import Step, chain_steps
 from optimize.service.retry import RETRY
-from optimize.service.solver import attempt_line
+from optimize.service.solves import attempt_line
 from optimize.service.store import solve_key
 
 #: the roles of the solver runs that add a tick to the progress bar as they come

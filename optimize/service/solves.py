@@ -1,10 +1,10 @@
 """The solves of one problem on one worker: warm starts, fallbacks, records, the store.
 
-A :class:`Solver` holds one problem (system, drive model, OCP options) on one
+A :class:`Solves` holds one problem (system, drive model, OCP options) on one
 worker. It builds the NLP once (cached per process) and solves each scenario:
 
-* warm-started from the given sources in order (scenarios solved earlier by this
-  solver, of any kind; at most :data:`MAX_WARM_ATTEMPTS` of those that converged),
+* warm-started from the given sources in order (scenarios solved earlier here, of
+  any kind; at most :data:`MAX_WARM_ATTEMPTS` of those that converged),
   by default from the nearest converged speed of the same kind; then, when none
   converged, a cold start (the stored initial guess or the homotopy);
 * a solver crash is a failed attempt of that speed (status
@@ -48,7 +48,7 @@ def _figure(result: Any, name: str) -> float | None:
     return None if value is None else float(value)
 
 
-class Solver:
+class Solves:
     """The solves of one problem on one worker (see the module docstring).
 
     Parameters
@@ -70,7 +70,7 @@ class Solver:
         ``extras(trajectory) -> dict`` of further figures of a converged cycle,
         added to its record (``extras(None)``'s keys with None values when it failed).
     chain : int
-        Index of the chain this solver runs, recorded in outcomes and events.
+        Index of the chain these solves belong to, recorded in outcomes and events.
     """
 
     def __init__(self, problem: Problem, store: Path | None = None, backend: Any = None,
@@ -86,7 +86,7 @@ class Solver:
         self.records: dict[Scenario, dict] = {}
         self.outcomes: dict[Scenario, ScenarioOutcome] = {}
         self.build_time_s = 0.0
-        #: every solver iteration this solver ran, by role (:meth:`count`)
+        #: every NLP solver iteration run here, by role (:meth:`count`)
         self.iterations: dict[str, int] = {}
         #: starts from other problems' solutions, tried first (:mod:`optimize.service.foreign`)
         self.foreign: dict[Scenario, Start] = {}
@@ -264,7 +264,7 @@ class Solver:
         """Make ``outcome`` (its last attempt solved on a finer mesh,
         :func:`optimize.service.retry.retry_on_finer_mesh`) its result: its record, and
         its stored solve without a warm start (another mesh's solution starts no solve
-        of this solver's)."""
+        of these)."""
         k = outcome.scenario
         key = self.records[k]["key"]
         self.outcomes[k] = outcome
@@ -308,7 +308,7 @@ class Solver:
 
 
 def attempt_line(event: dict) -> str:
-    """What a solver run of a progress event (:meth:`Solver.attempt`) is doing, in a few
+    """What a solver run of a progress event (:meth:`Solves.attempt`) is doing, in a few
     words: ``"local optimum: elec-lim-7.0 from elec-lim-8.5"``."""
     start = f"from {event['from']}" if event["from"] else "cold start"
     tail = "..." if event["attempt"] == "start" else event["status"]
