@@ -47,9 +47,9 @@ import numpy as np
 import pandas as pd
 
 from bench.synth.writers import toml_document
+from kernel.drive import Drive
 from optimize.model.envelope import envelope_torque_nm
 from optimize.sweep_folder import CLAIMS_FILE, read_claims
-from optimize.system.sections import DriveSection
 
 ROOT = Path(__file__).resolve().parent.parent
 SYSTEMS = ROOT / "optimize" / "data" / "systems"
@@ -136,13 +136,9 @@ def run_case(name: str, data: dict, grid: str | None, kinds: str, folder: Path,
     return {"exit": proc.returncode, "wall_s": round(wall, 1)}
 
 
-def limits_of(data: dict) -> DriveSection:
+def limits_of(data: dict) -> Drive:
     """The drive limits the envelope check needs, from a system file's ``[drive]``."""
-    d = data["drive"]
-    table = d.get("envelope_speed_rpm")
-    return DriveSection(max_torque_nm=d["max_torque_nm"], base_speed_rpm=d.get("base_speed_rpm"),
-                  envelope_speed_rpm=tuple(table) if table else None,
-                  envelope_torque_nm=tuple(d["envelope_torque_nm"]) if table else None)
+    return Drive.from_dict(data["drive"])
 
 
 def rows_of(name: str, data: dict, folder: Path) -> list[dict]:

@@ -30,7 +30,7 @@ from bench.cycle_profile import (
 )
 from bench.ingest.session import load_session
 from cycle.provenance import HASHED_COLUMNS, sweep_ids, trajectory_sha256
-from kernel.drive_rating import find_drive_file, session_drive
+from kernel.drive_file import find_drive_file, session_drive
 from kernel.errors import InputError
 from kernel.output_folder import check_replaceable_file, output_file
 from kernel.provenance import Provenance

@@ -80,7 +80,7 @@ def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
     power-model file of ``models``; and notes on what was assumed."""
     from energy.sizing import Candidate, scaled_candidates
     from fitting.model_file import load_power_model
-    from kernel.drive_rating import DriveRating
+    from kernel.drive import Drive
 
     rating, notes = reference_rating(drive.rating, continuous_torque_nm, max_speed_rpm,
                                      max_torque_nm)
@@ -94,10 +94,10 @@ def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
             cont = peak * rating.continuous_torque_nm / rating.max_torque_nm
             notes.append(f"{p}: its drive states no continuous_torque_nm: {cont:g} N m, the "
                          "reference drive's continuous share of its torque limit")
-        own = DriveRating(_drive_value(p, "nominal_power_w") or m.nominal_power_w,
-                          _drive_value(p, "max_speed_rpm") or rating.max_speed_rpm,
-                          peak, source=str(p), continuous_torque_nm=cont,
-                          max_p_elec_w=rating.max_p_elec_w)
+        own = Drive.rating(_drive_value(p, "nominal_power_w") or m.nominal_power_w,
+                           _drive_value(p, "max_speed_rpm") or rating.max_speed_rpm,
+                           peak, source=str(p), continuous_torque_nm=cont,
+                           max_p_elec_w=rating.max_p_elec_w)
         candidates.append(Candidate(names[Path(p)], m, own, path=Path(p)))
     return candidates, notes
 

@@ -1,6 +1,6 @@
 """Drive sizing: electrical AEP against drive rating over candidate drives (``bench size``).
 
-A candidate is a power model with its rating (:class:`kernel.drive_rating.DriveRating`):
+A candidate is a power model with its rating (:class:`kernel.drive.Drive`):
 the short-time peak torque and speed limits, and the continuous rating: the RMS drum
 torque over the cycle at most the continuous torque (the RMS-torque row of the
 ``[drive]`` in force), or, when the system
@@ -64,7 +64,7 @@ class Candidate:
     ----------
     name : str
     model : fitting.power_model.PowerModel
-    rating : kernel.drive_rating.DriveRating
+    rating : kernel.drive.Drive
         Its limits: ``continuous_torque_nm`` (RMS drum torque over the cycle at most
         this), ``max_torque_nm`` (short-time peak), ``max_speed_rpm``, and
         ``nominal_power_w`` (the capacity factor's and the sizing axis' rating).
@@ -136,7 +136,7 @@ def scaled_candidates(base: Any, rating: Any, scales: tuple[float, ...]) -> list
     ----------
     base : fitting.power_model.PowerModel
         The reference drive's losses (at ``rating``).
-    rating : kernel.drive_rating.DriveRating
+    rating : kernel.drive.Drive
         The reference drive's rating, ``continuous_torque_nm`` stated.
     scales : tuple of float
         Torque-rating scales ``s`` > 0.

@@ -1,7 +1,7 @@
 """The measured points against the torque-speed envelope the campaign's drive states.
 
 A campaign's ``drive.toml`` may state the drive's envelope (a base speed or a datasheet
-table, :mod:`kernel.drive_envelope`). A point measured above it means the rating, the
+table, :class:`kernel.drive.Drive`). A point measured above it means the rating, the
 log (a torque scale, a gear ratio) or the drive's operation is not what the campaign
 says: ``bench fit`` counts such points and names the worst, and keeps them.
 """
@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-
-from kernel.drive_envelope import largest_torque_nm
 
 #: a point counts as above the envelope beyond this share of the torque limit (a bench
 #: torque flange of accuracy class 0.1-0.5 % plus its zero offset)
@@ -25,7 +23,7 @@ def envelope_check(frame: pd.DataFrame, rating) -> dict | None:
     ----------
     frame : pandas.DataFrame
         Fitted points: ``session_id``, ``point_id``, ``speed_rpm``, ``torque_nm``.
-    rating : kernel.drive_rating.DriveRating
+    rating : kernel.drive.Drive
         The fit's rating; None is returned when it states no envelope.
 
     Returns
@@ -35,11 +33,11 @@ def envelope_check(frame: pd.DataFrame, rating) -> dict | None:
         (session, point, speed [rpm], torque [N m], the envelope's torque [N m]; None
         when no point is above) and ``note``.
     """
-    if not rating.envelope:
+    if not rating.has_envelope():
         return None
     speed = frame["speed_rpm"].to_numpy(float)
     torque = np.abs(frame["torque_nm"].to_numpy(float))
-    top = largest_torque_nm(speed, rating.max_torque_nm, **rating.envelope)
+    top = rating.largest_torque_nm(speed)
     tolerance = TOLERANCE_FRAC * rating.max_torque_nm
     excess = torque - top
     above = excess > tolerance

@@ -27,8 +27,7 @@ import numpy as np
 
 from fitting.terms import Term, powers
 from kernel.display import html_view, text_view
-from kernel.drive_envelope import ENVELOPE_KEYS, envelope_problem
-from kernel.drive_rating import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS
+from kernel.drive import dict_problem
 from kernel.units import RPM_PER_RAD_S
 
 SCHEMA_NAME = "drivebench.power_model"
@@ -81,7 +80,7 @@ class PowerModel:
         Where the model comes from (input hash, command line, source).
     drive : dict or None
         The drive's rating ``{nominal_power_w, max_speed_rpm, max_torque_nm, source}``
-        (:class:`kernel.drive_rating.DriveRating`); its nominal power equals
+        (:meth:`kernel.drive.Drive.to_dict`); its nominal power equals
         ``nominal_power_w``. None for a version-1 file.
     thermal : dict or None
         The winding's fitted thermal model (:func:`fitting.thermal.fit_thermal`);
@@ -317,19 +316,9 @@ def model_problem(model: PowerModel) -> str | None:
         if value is not None and not isinstance(value, dict):
             return f"{field}: an object or null expected"
     if model.drive is not None:
-        for key in (*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS):
-            v = model.drive.get(key)
-            if (v is not None or key in DRIVE_KEYS) and not (is_finite_number(v) and v > 0):
-                return f"drive.{key}: a finite positive number expected, got {v!r}"
-        if not isinstance(model.drive.get("source", ""), str):
-            return "drive.source: a string expected"
-        problem = envelope_problem(*(model.drive.get(k) for k in ENVELOPE_KEYS))
+        problem = dict_problem(model.drive)
         if problem is not None:
-            return "drive.{}: {} ({} expected)".format(*problem)
-        unknown = set(model.drive) - {*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS, *ENVELOPE_KEYS,
-                                      "source"}
-        if unknown:
-            return f"drive: unknown key {sorted(unknown)[0]!r}"
+            return problem
         if not math.isclose(model.drive["nominal_power_w"], model.nominal_power_w, rel_tol=1e-12):
             return (f"drive.nominal_power_w {model.drive['nominal_power_w']!r} differs from "
                     f"nominal_power_w {model.nominal_power_w!r}")

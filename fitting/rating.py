@@ -19,8 +19,7 @@ import numpy as np
 import pandas as pd
 
 from bench.store.manifest import read_manifest
-from kernel.drive_envelope import ENVELOPE_KEYS
-from kernel.drive_rating import DRIVE_KEYS, DriveRating
+from kernel.drive import DRIVE_KEYS, ENVELOPE_KEYS, Drive
 from kernel.errors import InputError
 
 
@@ -57,7 +56,7 @@ def measured_maxima(frame: pd.DataFrame) -> dict[str, float]:
 
 
 def resolve_drive(store: str | Path, frame: pd.DataFrame,
-                  overrides: dict[str, float] | None = None) -> tuple[DriveRating, list[str]]:
+                  overrides: dict[str, float] | None = None) -> tuple[Drive, list[str]]:
     """The rating the fit uses (see the module docstring) and notes for the summary.
 
     Parameters
@@ -71,7 +70,7 @@ def resolve_drive(store: str | Path, frame: pd.DataFrame,
 
     Returns
     -------
-    rating : DriveRating
+    rating : kernel.drive.Drive
         With ``source`` saying where each key came from.
     notes : list of str
         A line for each key that is a measured stand-in.
@@ -103,9 +102,9 @@ def resolve_drive(store: str | Path, frame: pd.DataFrame,
     parts = [f"{', '.join(keys)} from {where}" for where, keys in by_origin.items()]
     source = "; ".join(parts + info["notes"])
     try:
-        rating = DriveRating(**{k: values[k] for k in DRIVE_KEYS},
-                             **{k: values[k] for k in ENVELOPE_KEYS if k in values},
-                             source=source)
+        rating = Drive.rating(**{k: values[k] for k in DRIVE_KEYS},
+                              **{k: values[k] for k in ENVELOPE_KEYS if k in values},
+                              source=source)
     except ValueError as exc:
         raise InputError(None, f"drive rating: {exc}") from None
     return rating, notes

@@ -9,11 +9,11 @@ converge is shown as failed with its status and is never plotted or compared.
 from __future__ import annotations
 
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
 
+from kernel.drive import Drive
 from kernel.errors import InputError
 from kernel.units import power_words
 from optimize.door import KINDS, LABELS, Cycle, envelope_curve
@@ -472,9 +472,7 @@ def flown_envelope(manifest: dict | None) -> tuple[np.ndarray, np.ndarray] | Non
     drive = ((manifest or {}).get("sections") or {}).get("drive")
     if not isinstance(drive, dict):
         return None
-    keys = ("base_speed_rpm", "envelope_speed_rpm", "envelope_torque_nm", "max_speed_rpm",
-            "max_torque_nm")
-    return envelope_curve(SimpleNamespace(**{k: drive.get(k) for k in keys}))
+    return envelope_curve(Drive.from_dict(drive, where="sections.drive"))
 
 
 def nearest_speed(summary: pd.DataFrame, kind: str, wind: float) -> float:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
-from kernel.drive_rating import DriveRating
+from kernel.drive import Drive
 from optimize.paper_model import paper_model
 from optimize.system.system_file import load_system
 
@@ -18,7 +18,7 @@ def system_for(model: Any = None, **sections: dict[str, Any]) -> Any:
     ``sections`` (``bounds={"max_line_angle_deg": 20.0}``, ``drive={...}``)."""
     model = paper_model() if model is None else model
     rating = dict(model.drive or {})
-    system = load_system().in_force(DriveRating(
+    system = load_system().in_force(Drive.rating(
         nominal_power_w=rating.get("nominal_power_w", model.nominal_power_w),
         max_speed_rpm=rating["max_speed_rpm"], max_torque_nm=rating["max_torque_nm"]))
     return dataclasses.replace(system, **{

@@ -14,7 +14,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from kernel.drive_rating import DriveRating
+from kernel.drive import Drive
 from optimize.paper_model import paper_model
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.drive_power_check import (
@@ -33,7 +33,7 @@ NONE = SimpleNamespace(base_speed_rpm=None, envelope_speed_rpm=None, envelope_to
 
 
 def test_peak_shaft_power_of_each_kind_of_envelope():
-    r = DriveRating(3e6, 600.0, 556000.0)
+    r = Drive.rating(3e6, 600.0, 556000.0)
     assert peak_shaft_power_w(r, NONE) == pytest.approx(556000.0 * 600.0 * W)
     base = SimpleNamespace(base_speed_rpm=130.0, envelope_speed_rpm=None)
     assert peak_shaft_power_w(r, base) == pytest.approx(556000.0 * 130.0 * W)
@@ -44,16 +44,16 @@ def test_peak_shaft_power_of_each_kind_of_envelope():
 
 
 def test_the_old_megawes_rating_is_said_not_to_be_a_machine():
-    old = DriveRating(3e6, 596.8310365946075, 556000.0)  # the file before issue 49
+    old = Drive.rating(3e6, 596.8310365946075, 556000.0)  # the file before issue 49
     line = power_check(old, NONE)
     assert line.startswith("drive rating not that of a real machine")
     assert "let a cycle draw 34.8 MW at the shaft, 11.6 times its nominal 3 MW" in line
     # the paper's drive: 78 N m x 1500 rpm = 12.3 kW, 1.49 x 8.2 kW, within its overload 5
-    assert power_check(DriveRating(8200.0, 1500.0, 78.0, overload=5.0), NONE) is None
+    assert power_check(Drive.rating(8200.0, 1500.0, 78.0, overload=5.0), NONE) is None
     # without a stated overload, AWE-Power's 2.5 is the limit
-    at = DriveRating(1000.0, 1000.0, PEAK_TO_RATED * 1000.0 / (1000.0 * W))
+    at = Drive.rating(1000.0, 1000.0, PEAK_TO_RATED * 1000.0 / (1000.0 * W))
     assert power_check(at, NONE) is None
-    assert power_check(DriveRating(999.0, at.max_speed_rpm, at.max_torque_nm), NONE)
+    assert power_check(Drive.rating(999.0, at.max_speed_rpm, at.max_torque_nm), NONE)
 
 
 @pytest.mark.parametrize("name", ["highwind", "ap2", "megawes", "highwind_drivetrain"])

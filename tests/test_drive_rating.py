@@ -8,8 +8,8 @@ import pandas as pd
 import pytest
 
 from fitting.rating import resolve_drive
-from kernel.drive_rating import (
-    DriveRating,
+from kernel.drive import Drive
+from kernel.drive_file import (
     drive_toml,
     find_drive_file,
     load_drive_file,
@@ -19,7 +19,7 @@ from kernel.errors import InputError
 
 
 def test_drive_toml_round_trip_and_bad_values(tmp_path):
-    rating = DriveRating(150_000.0, 12_000.0, 358.1, source='EV "class" datasheet')
+    rating = Drive.rating(150_000.0, 12_000.0, 358.1, source='EV "class" datasheet')
     path = tmp_path / "drive.toml"
     path.write_text(drive_toml(rating))
     assert load_drive_file(path) == rating.to_dict()
@@ -38,7 +38,8 @@ def test_lookup_stops_at_the_campaign_root_and_session_keys_win(tmp_path):
     session.mkdir(parents=True)
     (tmp_path / "lab" / "drive.toml").write_text("max_speed_rpm = 1.0\n")  # above the root
     assert find_drive_file(session, [campaign]) is None
-    (campaign / "drive.toml").write_text(drive_toml(DriveRating(8200.0, 1500.0, 78.0, "paper")))
+    paper = Drive.rating(8200.0, 1500.0, 78.0, source="paper")
+    (campaign / "drive.toml").write_text(drive_toml(paper))
     found = find_drive_file(session, [campaign])
     assert found == (campaign / "drive.toml").resolve()
     drive = session_drive({"max_torque_nm": 90.0}, session / "session.toml", found, "drive.toml")

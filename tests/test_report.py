@@ -27,6 +27,7 @@ from drivebench.cli import main
 from fitting.figures import efficiency_grid
 from fitting.fit_folder import FitContents, write_fit_files
 from fitting.power_model import PowerModel
+from kernel.drive import Drive
 from kernel.files import write_text_atomic
 from kernel.output_folder import output_folder
 from kernel.provenance import Provenance
@@ -41,7 +42,6 @@ from optimize.sweep_folder import (
     read_trajectories,
     write_sweep_folder,
 )
-from optimize.system.sections import DriveSection
 from reports.render import build_context, build_report, render
 from reports.svg import new_figure, to_svg
 
@@ -229,7 +229,7 @@ def rewrite_optimize(src: Path, dst: Path, *, summary: pd.DataFrame | None = Non
         body["trust"] = trust
     if drive is not None:
         given = {**((body.get("sections") or {}).get("drive") or {}), **drive}
-        flown = dataclasses.replace(DriveSection(), **{
+        flown = dataclasses.replace(Drive(), **{
             k: tuple(v) if isinstance(v, list) else v for k, v in given.items()})
         body["sections"] = {**(body.get("sections") or {}), "drive": dataclasses.asdict(flown)}
         body["bound_values"] = {**(body.get("bound_values") or {}), **bound_values(flown)}
@@ -577,7 +577,7 @@ def test_fig9_draws_the_drive_envelope_the_sweep_flew_with(full_inputs, tmp_path
     assert 'id="drive-envelope"' not in full_inputs["report"].read_text(encoding="utf-8")
     table = {"max_speed_rpm": 1500.0, "max_torque_nm": 78.0, "base_speed_rpm": None,
              "envelope_speed_rpm": (0.0, 1000.0, 1500.0), "envelope_torque_nm": (78.0, 78.0, 40.0)}
-    speed, torque = envelope_curve(type("L", (), table))
+    speed, torque = envelope_curve(Drive(**table))
     assert np.interp([1250.0, -1250.0], speed, torque) == pytest.approx([59.0, 59.0])
 
 

@@ -33,7 +33,7 @@ from bench.ingest.table import process_table
 from bench.ingest.timeseries import process_timeseries
 from bench.store.manifest import read_manifest
 from bench.store.writer import StoreWriter
-from kernel.drive_rating import find_drive_file, session_drive
+from kernel.drive_file import find_drive_file, session_drive
 from kernel.errors import InputError
 from kernel.files import WRITE_ERRNOS, file_sha256
 from kernel.output_place import check_place

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kernel.drive_rating import DriveRating
+from kernel.drive import Drive
 from kernel.units import RPM_PER_RAD_S
 
 MOTOR_SPEED_RPM = (50.0, 1500.0)
@@ -23,7 +23,7 @@ TORQUE_MAX_NM = 78.0
 GENERATOR_POWER_MAX_W = 10_000.0
 
 #: The campaign's drive (written as drive.toml): the paper's drive and its constraints.
-DRIVE = DriveRating(
+DRIVE = Drive.rating(
     nominal_power_w=8200.0,
     max_speed_rpm=MOTOR_SPEED_RPM[1],
     max_torque_nm=TORQUE_MAX_NM,

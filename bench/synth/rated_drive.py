@@ -144,13 +144,14 @@ def write_table_campaign(folder, drive: TruthDrive, points: pd.DataFrame,
     """
     from pathlib import Path
 
-    from kernel.drive_rating import DRIVE_FILE, DriveRating, drive_toml
+    from kernel.drive import Drive
+    from kernel.drive_file import DRIVE_FILE, drive_toml
     from kernel.files import write_text_atomic
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    rating = DriveRating(drive.nominal_power_w, drive.max_speed_rpm, drive.max_torque_nm,
-                         source=source, base_speed_rpm=base_speed_rpm)
+    rating = Drive.rating(drive.nominal_power_w, drive.max_speed_rpm, drive.max_torque_nm,
+                          source=source, base_speed_rpm=base_speed_rpm)
     write_text_atomic(folder / DRIVE_FILE, drive_toml(rating))
     for sid, sub in points.groupby("session_id"):
         session = folder / str(sid)

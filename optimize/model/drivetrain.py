@@ -226,7 +226,7 @@ def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
     speed_ratio, torque_ratio : float
         ``k_n``, ``k_T`` > 0 [-].
     drive : dict, optional
-        The carried drive's rating (``DriveRating.to_dict()``); its
+        The carried drive's rating (:meth:`kernel.drive.Drive.to_dict`); its
         ``nominal_power_w`` becomes the model's nominal power. Default: the base
         rating times the ratios (nominal power times ``k_n k_T``).
     name : str, optional

@@ -17,17 +17,11 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from kernel.drive_envelope import envelope_problem, largest_torque_nm
-from kernel.units import RPM_PER_RAD_S
+from kernel.drive import envelope_problem, largest_torque_nm
 
 #: the table's kinks are rounded over this fraction of its last speed (the envelope
 #: stays below the table, and within ln 2 * this * |slope change| of it)
 ROUNDING_FRACTION = 0.005
-
-
-def constant_power_w(max_torque_nm: float, base_speed_rpm: float) -> float:
-    """The power [W] of the constant-power region above the base speed: ``T_max w_base``."""
-    return max_torque_nm * base_speed_rpm / RPM_PER_RAD_S
 
 
 @dataclass(frozen=True)
@@ -84,30 +78,21 @@ class EnvelopeTable:
         return np.asarray(fn.map(speeds.size)(speeds)).ravel().reshape(np.shape(speed_rpm))
 
 
-def has_envelope(limits: Any) -> bool:
-    """Whether the drive states a torque-speed envelope (a base speed or a table)."""
-    return limits.base_speed_rpm is not None or limits.envelope_speed_rpm is not None
-
-
-def envelope_torque_nm(limits: Any, speed_rpm: np.ndarray) -> np.ndarray:
-    """The drive's largest torque [N m] at each speed as the OCP bounds it: its
-    torque-speed envelope (a table's smooth lower bound), else its torque limit.
-    ``limits``: a drive's ``[drive]`` in force (:class:`optimize.system.sections.DriveSection`)
-    or the same fields."""
-    if limits.base_speed_rpm is not None:
-        return largest_torque_nm(speed_rpm, limits.max_torque_nm, limits.base_speed_rpm)
-    if limits.envelope_speed_rpm is not None:
-        return EnvelopeTable(limits.envelope_speed_rpm, limits.envelope_torque_nm
+def envelope_torque_nm(drive: Any, speed_rpm: np.ndarray) -> np.ndarray:
+    """The drive's largest torque [N m] at each speed as the OCP bounds it: a table's smooth
+    lower bound, else :meth:`kernel.drive.Drive.largest_torque_nm` (its base-speed
+    envelope, or its torque limit). ``drive``: a :class:`kernel.drive.Drive`."""
+    if drive.envelope_speed_rpm is not None:
+        return EnvelopeTable(drive.envelope_speed_rpm, drive.envelope_torque_nm
                              ).smooth_values_nm(speed_rpm)
-    return np.full(np.shape(speed_rpm), float(limits.max_torque_nm))
+    return drive.largest_torque_nm(speed_rpm)
 
 
-def envelope_curve(limits: Any, points: int = 241) -> tuple[np.ndarray, np.ndarray] | None:
-    """The envelope over both quadrants, ``-max_speed_rpm`` to ``max_speed_rpm``: speeds
-    [rpm] and largest torques [N m] (the table itself, not its smooth bound); None when
-    the drive states none. ``limits`` as :func:`envelope_torque_nm`."""
-    if not has_envelope(limits) or limits.max_speed_rpm is None:
+def envelope_curve(drive: Any, points: int = 241) -> tuple[np.ndarray, np.ndarray] | None:
+    """The envelope over both quadrants, minus to plus the speed limit: speeds [rpm] and
+    largest torques [N m] (the table itself, not its smooth bound); None when the drive
+    (a :class:`kernel.drive.Drive`) states none."""
+    if not drive.has_envelope() or drive.max_speed_rpm is None:
         return None
-    speed = np.linspace(-limits.max_speed_rpm, limits.max_speed_rpm, points)
-    return speed, largest_torque_nm(speed, limits.max_torque_nm, limits.base_speed_rpm,
-                                    limits.envelope_speed_rpm, limits.envelope_torque_nm)
+    speed = np.linspace(-drive.max_speed_rpm, drive.max_speed_rpm, points)
+    return speed, drive.largest_torque_nm(speed)

@@ -20,9 +20,7 @@ from kernel.units import RPM_PER_RAD_S
 from optimize.model.drivetrain import DriveModel, Drivetrain, max_reel_speed_m_s
 from optimize.model.envelope import (
     EnvelopeTable,
-    constant_power_w,
     envelope_torque_nm,
-    has_envelope,
 )
 from optimize.problem.interface import Row
 from optimize.problem.kite_part import reel_speed_range_m_s
@@ -86,7 +84,7 @@ class DrivePart(Part):
 
     @property
     def drive(self) -> Any:
-        """The ``[drive]`` in force (:class:`optimize.system.sections.DriveSection`)."""
+        """The ``[drive]`` in force (:class:`kernel.drive.Drive`)."""
         return self.system.drive
 
     def tether_torque_limit_nm(self) -> float:
@@ -128,7 +126,7 @@ class DrivePart(Part):
         lim, sc = self.drive, self.scales_of
         speed_rpm, torque = q["speed_rpm"], q["torque_nm"]
         if lim.base_speed_rpm is not None:
-            power = constant_power_w(lim.max_torque_nm, lim.base_speed_rpm)
+            power = lim.constant_power_w()
             return [Row("envelope", torque * speed_rpm / RPM_PER_RAD_S / power, -np.inf,
                         np.inf, limited=(-1.0, 1.0))]
         if lim.envelope_speed_rpm is None:
@@ -188,7 +186,7 @@ class DrivePart(Part):
         is the bound (above the base speed; a base speed beyond every speed flown never
         binds); None without an envelope."""
         lim = self.drive
-        if not has_envelope(lim):
+        if not lim.has_envelope():
             return None
         env = envelope_torque_nm(lim, speed_rpm)
         below = env < lim.max_torque_nm * (1.0 - ACTIVE_RTOL)

@@ -87,11 +87,9 @@ def check_clearance(system: Any) -> None:
 def envelope_power_w(drive: Any) -> float | None:
     """The largest power [W] the drive's torque-speed envelope leaves it up to its speed
     limit (``T(n) w``), None when it states no envelope."""
-    from optimize.model.envelope import constant_power_w
-
     if drive.base_speed_rpm is not None:
         top = drive.max_speed_rpm if drive.max_speed_rpm is not None else np.inf
-        return constant_power_w(drive.max_torque_nm, min(drive.base_speed_rpm, top))
+        return drive.constant_power_w(top)
     if drive.envelope_speed_rpm is None:
         return None
     speed, torque = _table_samples(drive)
@@ -101,7 +99,7 @@ def envelope_power_w(drive: Any) -> float | None:
 def _table_samples(drive: Any) -> tuple[np.ndarray, np.ndarray]:
     """Speeds [rpm] up to the speed limit (else the table's last speed) and the table's
     largest torque there [N m] (capped by the torque limit)."""
-    from kernel.drive_envelope import largest_torque_nm
+    from kernel.drive import largest_torque_nm
 
     speeds = np.asarray(drive.envelope_speed_rpm, dtype=float)
     top = drive.max_speed_rpm if drive.max_speed_rpm is not None else float(speeds[-1])

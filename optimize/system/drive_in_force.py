@@ -7,7 +7,7 @@ where its losses come from. :func:`drive_in_force` resolves both:
   file's ``losses`` key (``"paper"`` or a ``power_model.json`` path relative to
   the system file), else ``fit_out/power_model.json`` of ``bench fit`` when it
   exists, else the shipped paper model;
-- the **rating** (:class:`kernel.drive_rating.DriveRating`): each key of ``[drive]``; a
+- the **rating** (:class:`kernel.drive.Drive`): each key of ``[drive]``; a
   key the file leaves out comes from the power model's own rating (said so);
 - how the losses are **carried** to the rating: ``scaling = "similarity"``
   (:func:`optimize.model.drivetrain.carry_power_model` with the speed ratio ``k_n`` of
@@ -28,10 +28,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from kernel.drive_envelope import ENVELOPE_KEYS
-from kernel.drive_rating import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS, DriveRating
+from kernel.drive import DRIVE_KEYS, ENVELOPE_KEYS, OPTIONAL_DRIVE_KEYS, Drive
 from kernel.errors import InputError
-from optimize.model.envelope import has_envelope
 from optimize.system.drive_power_check import (
     efficiency_assumption,
     efficiency_law,
@@ -41,9 +39,6 @@ from optimize.system.drive_power_check import (
 
 #: ``[drive] losses`` value naming the shipped paper model
 LOSSES_PAPER = "paper"
-#: ``[drive] scaling`` values: carry the losses by the similarity law (efficiency kept, or
-#: moved with rating as the IE3 class moves), or use them as they are
-SCALING_CHOICES = ("similarity", "similarity-ie3", "none")
 #: the ``[drive] scaling`` value whose carried losses follow the IE3 class with rating
 SCALING_IE3 = "similarity-ie3"
 #: a power model whose speed or torque rating differs from the system's by more than this
@@ -57,7 +52,7 @@ class DriveInForce:
 
     Attributes
     ----------
-    rating : DriveRating
+    rating : kernel.drive.Drive
         The limits and nominal power in force.
     model : fitting.power_model.PowerModel
         The losses at this rating (the OCP's power model; carried when scaled).
@@ -78,7 +73,7 @@ class DriveInForce:
         (:mod:`optimize.system.drive_power_check`): printed, recorded, reported.
     """
 
-    rating: DriveRating
+    rating: Drive
     model: Any
     model_path: Path
     losses_note: str
@@ -137,7 +132,7 @@ def loss_model_path(system: Any, override: Path | None = None,
                               if fit_default is not None else "the shipped paper model")
 
 
-def rating_in_force(system: Any, model: Any, model_path: Path | str) -> DriveRating:
+def rating_in_force(system: Any, model: Any, model_path: Path | str) -> Drive:
     """The system's ``[drive]`` rating; a key it leaves out from the power model's rating.
 
     Raises
@@ -167,7 +162,7 @@ def rating_in_force(system: Any, model: Any, model_path: Path | str) -> DriveRat
         source += f"; {', '.join(borrowed)} from {model_path}"
     optional = {k: getattr(d, k) for k in OPTIONAL_DRIVE_KEYS}
     try:
-        return DriveRating(**values, source=source, **optional)
+        return Drive.rating(**values, source=source, **optional)
     except ValueError as exc:
         raise InputError(system.path, f"[drive]: {exc}") from None
 
@@ -286,7 +281,7 @@ def unflown_envelope(system: Any, model_drive: dict | None, path: Path) -> str:
     """A line when the power model's rating (its campaign's ``drive.toml``) states a
     torque-speed envelope and the system file's ``[drive]`` states none, else ``""``."""
     stated = [k for k in ENVELOPE_KEYS if (model_drive or {}).get(k) is not None]
-    if not stated or has_envelope(system.drive):
+    if not stated or system.drive.has_envelope():
         return ""
     return (f"the power model's drive rating ({path}) states a torque-speed envelope "
             f"({', '.join(stated)}) that the system file's [drive] does not: not flown; state "

@@ -12,11 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kernel.drive_envelope import envelope_problem
-from kernel.sections import flag, group, integer, number, numbers, text
+from kernel.drive import Drive
+from kernel.sections import flag, group, integer, number, text
 from optimize.model.aero import SURFACES, force_coefficients
 from optimize.model.params import AeroCoefficients
-from optimize.system.drive_in_force import SCALING_CHOICES
 
 #: coefficients a system file may leave out (0: the paper's kite has none of them)
 OPTIONAL_COEFFICIENTS = ("cl_q", "cd_q", "cy_p", "cy_r", "cy_ail", "cl_rud", "cn_ail")
@@ -219,101 +218,6 @@ class WinchSection:
 
 
 @section
-class DriveSection:
-    """``[drive]``: the drive's rating at the motor shaft and where its losses come from
-    (resolved by :func:`optimize.system.drive_in_force.drive_in_force`); ``None`` = not
-    stated."""
-
-    max_speed_rpm: float | None = number("speed limit of the constrained scenarios (`*-lim`)",
-                                         lo=0, default=None, bound="speed_limit")
-    max_torque_nm: float | None = number(
-        "torque limit of the constrained scenarios: the drive's largest torque, short-time "
-        "peak included. Every stage flies it: `bench optimize`'s constrained kinds and `bench "
-        "size`'s reference drive x1 (its candidates fly it scaled). A drive allowed a "
-        "short-time overload states that torque here, with `continuous_torque_nm` as its RMS "
-        "rating (e.g. `max_torque_nm = 500.0`, `continuous_torque_nm = 200.0`: peaks up to "
-        "500 N m, RMS at most 200 N m)", lo=0, default=None, bound="torque_limit")
-    nominal_power_w: float | None = number(
-        "nominal power: the capacity factor's rating (`bench aep`) and the scale of the "
-        "objective", lo=0, default=None)
-    max_p_elec_w: float | None = number("limit on |P_elec| (grid connection) in the "
-                                        "constrained scenarios", lo=0, default=None,
-                                        bound="p_elec_limit")
-    continuous_torque_nm: float | None = number(
-        "continuous (thermal) torque rating: the RMS torque over the cycle at most this in the "
-        "constrained scenarios (applied when below `max_torque_nm`; `bench size`'s rated "
-        "torque, scaled with its candidates)", lo=0, default=None)
-    overload: float | None = number(
-        "the datasheet's short-time torque over the continuous rating, for the record only: "
-        "no stage flies it (`bench size` says so when it is above `max_torque_nm`); to fly it, "
-        "state the short-time torque as `max_torque_nm`. The shipped `highwind.toml` states "
-        "the paper's 5 (section II) and flies 78 N m, as the paper's optimization does",
-        lo=1, lo_strict=False, default=None)
-    losses: str | None = text(
-        "the drive's losses: `\"paper\"` (the shipped paper Table I model, "
-        "`optimize/data/paper_drive_model.json`, with its source) or a `power_model.json` of "
-        "`bench fit`, the path relative to this file", default=None)
-    scaling: str | None = text(
-        "how the losses are carried to this rating: `\"similarity\"` (the law below, the "
-        "base drive's efficiency kept), `\"similarity-ie3\"` (the same law, the losses per "
-        "unit of rating moved as the IEC 60034-30-1 IE3 class's `1 - eta` moves between the "
-        "two nominal powers) or `\"none\"` (used as they are)", choices=SCALING_CHOICES,
-        default=None)
-    source: str | None = text("where the rating comes from (printed with it)", default=None)
-    rotor_inertia_kg_m2: float | None = number(
-        "inertia turning at motor speed (rotor, gearbox input side); referred to the drum "
-        "through `gear_ratio^2` (see `[winch]`)", lo=0, lo_strict=False, default=None)
-    base_speed_rpm: float | None = number(
-        "the torque-speed envelope by a base speed: above it the largest torque falls as "
-        "`max_torque_nm * base_speed_rpm / |n|` (constant power, field weakening), in both "
-        "quadrants, in the constrained scenarios: the smooth rows `|T w| <= max_torque_nm * "
-        "w_base`; reported as `envelope_limit`", lo=0, default=None, bound="envelope_limit")
-    envelope_speed_rpm: tuple[float, ...] | None = numbers(
-        "instead of `base_speed_rpm`, with `envelope_torque_nm`: a datasheet's envelope, "
-        "motor speeds rising strictly from 0", default=None)
-    envelope_torque_nm: tuple[float, ...] | None = numbers(
-        "the largest torque at each speed of `envelope_speed_rpm` (positive, not rising), "
-        "linear between the points and flat beyond the last; enforced through a smooth lower "
-        "bound within `w (ln 2 sum |slope changes| + max |slope|)` of the table, `w` = 0.5 % "
-        "of its last speed", default=None)
-    max_winding_temperature_c: float | None = number(
-        "the drive's thermal rating, the largest winding temperature. With a power model that "
-        "has a thermal model (`bench fit` of sessions that log the winding temperature, "
-        "docs/schemas.md §3 `thermal`), the winding temperature is a state of the cycle with a "
-        "periodic boundary condition (its cyclic steady state: the cycle flown for hours, IEC "
-        "60034-1 duty type S6), the copper loss follows it, and this bound replaces the "
-        "RMS-torque row of `continuous_torque_nm` in the constrained scenarios; reported as "
-        "`winding_temperature_limit`. Without a thermal model the RMS-torque row stands and "
-        "`bench optimize` says the limit is not applied", lo=-273.15, hi=300, default=None,
-        bound="winding_temperature_limit",
-        source="IEC 60085 thermal class H is 180 degC")
-    ambient_temperature_c: float | None = number(
-        "the ambient or coolant temperature of the thermal model in the cycle, below the "
-        "winding limit", lo=-60, hi=80, lo_strict=False, default=None,
-        absent="the one the thermal model was fitted with")
-
-    @property
-    def rms_torque_limit_nm(self) -> float | None:
-        """The RMS torque bound the continuous rating sets [N m]: ``continuous_torque_nm``
-        when below ``max_torque_nm`` (else the torque limit already implies it), else None."""
-        c, top = self.continuous_torque_nm, self.max_torque_nm
-        return c if c is not None and top is not None and c < top else None
-
-    def problems(self) -> _Problems:
-        """The envelope's keys (:func:`kernel.drive_envelope.envelope_problem`); the winding
-        limit above the ambient."""
-        problem = envelope_problem(self.base_speed_rpm, self.envelope_speed_rpm,
-                                   self.envelope_torque_nm)
-        if problem is not None:
-            return [problem]
-        limit, ambient = self.max_winding_temperature_c, self.ambient_temperature_c
-        if limit is not None and ambient is not None and not limit > ambient:
-            return [("max_winding_temperature_c", f"{limit:g} degC, not above the ambient "
-                     f"{ambient:g} degC", "a winding limit above ambient_temperature_c")]
-        return []
-
-
-@section
 class WindSection:
     """``[wind]``: profile ``"log"`` (roughness length) or ``"power"`` (exponent); the
     atmosphere ``"constant"`` (the density everywhere) or ``"isa"`` (the density at the
@@ -424,6 +328,6 @@ class BoundsSection:
 #: the sections of a system file, in the file's order
 SECTIONS: dict[str, type] = {
     "system": HeaderSection, "kite": KiteSection, "aero": AeroSection,
-    "tether": TetherSection, "winch": WinchSection, "drive": DriveSection,
+    "tether": TetherSection, "winch": WinchSection, "drive": Drive,
     "wind": WindSection, "bounds": BoundsSection,
 }

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from kernel.drive_rating import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS
+from kernel.drive import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS, Drive
 from kernel.sections import bound_keys, bound_values
 from optimize.model.atmosphere import ISA_LAPSE_K_M
 from optimize.model.dae import DaeSpec
@@ -32,7 +32,6 @@ from optimize.model.params import AeroCoefficients, KiteParams, TetherModel, Win
 from optimize.system.sections import (
     AeroSection,
     BoundsSection,
-    DriveSection,
     KiteSection,
     TetherSection,
     WinchSection,
@@ -105,7 +104,7 @@ class System:
     aero: AeroSection
     tether: TetherSection
     winch: WinchSection
-    drive: DriveSection
+    drive: Drive
     wind: WindSection
     bounds: BoundsSection
     path: str
@@ -117,7 +116,7 @@ class System:
     def in_force(self, rating: Any, envelope_torque_nm: tuple[float, ...] | None = None
                  ) -> System:
         """This system with the drive in force: its ``[drive]`` with the rating's keys
-        (``rating``: a :class:`kernel.drive_rating.DriveRating`, whose keys the file leaves
+        (``rating``: a :class:`kernel.drive.Drive`, whose keys the file leaves
         out come from the power model, :func:`optimize.system.drive_in_force.drive_in_force`;
         a continuous rating or grid limit it states none of is none) and, for a scaled
         drive, its envelope table's torques. The same file (hash): the

@@ -81,7 +81,7 @@ def test_bench_fit_checks_the_points_against_the_envelope_drive_toml_states(tmp_
     speed none is above."""
     from bench.store.read import read_points as stored_points
     from fitting.envelope_check import envelope_check
-    from kernel.drive_rating import DriveRating
+    from kernel.drive import Drive
 
     drive = EV_DRIVE
     pts = grid_points(drive, ("motor", "generator"), noise_w=300.0, seed=7)
@@ -99,7 +99,7 @@ def test_bench_fit_checks_the_points_against_the_envelope_drive_toml_states(tmp_
     assert check["worst"]["speed_rpm"] != 0 and any("lie above the drive's stated" in n
                                                      for n in summary["notes"])
     assert model.statistics["n_points"] == len(stored)  # kept in the fit
-    true = DriveRating(drive.nominal_power_w, drive.max_speed_rpm, drive.max_torque_nm,
+    true = Drive.rating(drive.nominal_power_w, drive.max_speed_rpm, drive.max_torque_nm,
                        base_speed_rpm=drive.base_speed_rpm)
     assert envelope_check(stored, true)["n_above"] == 0
 
