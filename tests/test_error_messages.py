@@ -196,12 +196,12 @@ def test_envelope_limit_is_active_only_where_the_envelope_bounds():
     is not on its envelope; with 1000 rpm, 55.7 N m at 1400 rpm is (78 x 1000 / 1400)."""
     from types import SimpleNamespace
 
+    from kernel.drive import Drive
     from optimize.problem.drive_part import DrivePart
     from optimize.problem.part import near
 
     def envelope_active(base, speed, torque):
-        limits = SimpleNamespace(base_speed_rpm=base, envelope_speed_rpm=None,
-                                 envelope_torque_nm=None, max_torque_nm=78.0)
+        limits = Drive(base_speed_rpm=base, max_torque_nm=78.0)
         ratio = DrivePart(None, None, SimpleNamespace(drive=limits), None).envelope_ratio(
             speed, torque)
         return ratio is not None and near(ratio, 1.0)
