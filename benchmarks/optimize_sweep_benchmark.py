@@ -40,7 +40,7 @@ from optimize.kinds import DEFAULT_KINDS
 from optimize.paper_model import PAPER_MODEL_PATH
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.resolve import resolve
-from optimize.service import OcpBackend, Problem, make_tasks, run_sweep
+from optimize.service import OcpBackend, Problem, SweepTasks, run_sweep
 from optimize.service.executors import open_executor
 from optimize.service.plan import (
     DEFAULT_WIND_GRID,
@@ -91,7 +91,7 @@ def bench_sweep(problem: Problem, winds, kinds, workers: int, trust: bool) -> di
     (after the timed sweep, on the same workers)."""
     with open_executor(workers) as handle:
         steps = plan_graph(winds, kinds)
-        result = run_sweep(make_tasks(steps, problem), handle)
+        result = run_sweep(SweepTasks(problem, steps), handle)
         checks = run_trust_checks(problem, result.outcomes, winds, handle) if trust else None
     warm = [a for o in result.outcomes for a in o.attempts if a.source is not None]
     starts = [(o, a) for o in result.outcomes for a in o.attempts if a.source is None]

@@ -76,6 +76,7 @@ from optimize.problem.ocp import OcpOptions
 from optimize.resolve import resolve
 from optimize.service.builder import OcpBackend
 from optimize.sweep_folder import read_summary
+from optimize.sweep_options import WindGrid
 from optimize.system.system_file import load_system
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -192,7 +193,7 @@ def run_change(change: Change, out: Path, workers: int, fitted: Path | None) -> 
     path = fitted if change.fitted_model else PAPER_MODEL_PATH
     model = load_power_model(path) if change.fitted_model else paper_model()
     options = OcpOptions().replace(**change.options)
-    request = SweepRequest(change.winds, change.kinds,
+    request = SweepRequest(WindGrid(change.winds, change.kinds),
                            resolve(system, model, options=options, model_path=path),
                            f"paper ablation: {change.name}", workers=workers,
                            out=out / change.name, claims=False)

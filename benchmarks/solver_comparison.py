@@ -56,7 +56,7 @@ from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.problem.transcriptions.derivatives import nlp_derivatives, whole_derivatives
-from optimize.service import Problem, make_tasks, run_sweep
+from optimize.service import Problem, SweepTasks, run_sweep
 from optimize.service.executors import open_executor
 from optimize.service.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
 from optimize.solve.solve import cold_start, solve
@@ -116,7 +116,7 @@ def paper_sweep(solver: str, winds, kinds, workers: int, intervals: int, max_ite
     load_before = load()
     t0 = time.perf_counter()
     with open_executor(workers) as handle:
-        result = run_sweep(make_tasks(plan_graph(winds, kinds), problem), handle)
+        result = run_sweep(SweepTasks(problem, plan_graph(winds, kinds)), handle)
     wall = time.perf_counter() - t0
     rows = []
     for o in result.outcomes:

@@ -28,7 +28,7 @@ from pathlib import Path
 from kernel.files import write_text_atomic
 from optimize.kinds import DEFAULT_KINDS
 from optimize.problem.options import OcpOptions
-from optimize.service import Problem, make_tasks, run_sweep
+from optimize.service import Problem, SweepTasks, run_sweep
 from optimize.service.executors import open_executor
 from optimize.service.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
 from optimize.system.drive_in_force import drive_in_force
@@ -58,7 +58,7 @@ def run(problem: Problem, winds, kinds, workers: int) -> dict:
     """One sweep on ``workers`` processes: wall, total and critical-path times."""
     load_before = list(os.getloadavg())
     with open_executor(workers) as handle:
-        result = run_sweep(make_tasks(plan_graph(winds, kinds), problem), handle)
+        result = run_sweep(SweepTasks(problem, plan_graph(winds, kinds)), handle)
     outcomes = result.outcomes
     warm = [o.attempts[-1].iterations for o in outcomes if o.depth > 0]
     record = result.record()

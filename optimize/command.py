@@ -26,7 +26,7 @@ from optimize.problem.deadline import CALL_WALL_LIMIT_S
 from optimize.problem.ocp import model_parts
 from optimize.problem.part import trajectory_columns
 from optimize.resolve import Setup, resolve
-from optimize.service import Problem, make_tasks, run_sweep
+from optimize.service import Problem, SweepTasks, run_sweep
 from optimize.service.builder import OcpBackend
 from optimize.service.executors import open_executor
 from optimize.service.plan import plan_graph
@@ -65,10 +65,8 @@ class SweepRequest:
 
     Attributes
     ----------
-    wind_speeds_m_s : tuple of float
-        Wind speeds [m/s].
-    kinds : tuple of str
-        Scenario kinds.
+    grid : WindGrid
+        Wind speeds [m/s] and scenario kinds.
     setup : optimize.resolve.Setup
         The system, the drive in force (rating, losses) and the OCP options
         (:func:`optimize.resolve.resolve`).
@@ -91,8 +89,7 @@ class SweepRequest:
         :mod:`optimize.service.period_scan`).
     """
 
-    wind_speeds_m_s: tuple[float, ...]
-    kinds: tuple[str, ...]
+    grid: WindGrid
     setup: Setup
     model_note: str
     workers: int = 2
@@ -172,7 +169,7 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
     check_drive(loaded, drive.model, drive.model_path, grid.kinds,
                 rating_source=drive.rating.source)
     note = _setup_note(setup, system is None, solver)
-    return SweepRequest(grid.wind_speeds_m_s, grid.kinds, setup, note, execution.workers,
+    return SweepRequest(grid, setup, note, execution.workers,
                         execution.scheduler, Path(out), claims, trust,
                         period_scan=period_scan)
 
@@ -295,17 +292,17 @@ def run_optimize(
     run = Provenance.start(command_line if command_line is not None else sys.argv)
     system, drive, options = request.setup.system, request.setup.drive, request.setup.options
     problem = Problem.for_system(system, drive.model, options)
-    cut_in_kinds = (tuple(k for k in request.kinds if KINDS[k].drive_limits)
+    cut_in_kinds = (tuple(k for k in request.grid.kinds if KINDS[k].drive_limits)
                     if request.claims else ())
     trust: dict = {"mesh": [], "simulation": []}
-    plan = plan_graph(request.wind_speeds_m_s, request.kinds)
+    plan = plan_graph(request.grid.wind_speeds_m_s, request.grid.kinds)
     with open_executor(request.workers, request.scheduler) as handle:
-        tasks = make_tasks(plan, problem, cut_in_kinds, request.cut_in_tol_m_s, backend,
+        tasks = SweepTasks(problem, plan, cut_in_kinds, request.cut_in_tol_m_s, backend,
                            request.period_scan)
         result = run_sweep(tasks, handle, show_progress)
         outcomes = list(result.outcomes)
         if request.trust and result.lost is None:
-            trust = run_trust_checks(problem, outcomes, request.wind_speeds_m_s, handle,
+            trust = run_trust_checks(problem, outcomes, request.grid.wind_speeds_m_s, handle,
                                      show_progress)
     summary = outputs.summary_frame(outcomes, drive.model.domain,
                                     domain_scales(drive.model, system))
@@ -382,8 +379,8 @@ def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, o
     check of each scenario's final optimum (a scenario that failed its check is failed)."""
     model = drive.model
     return {
-        "wind_speeds_m_s": list(request.wind_speeds_m_s),
-        "kinds": list(request.kinds),
+        "wind_speeds_m_s": list(request.grid.wind_speeds_m_s),
+        "kinds": list(request.grid.kinds),
         "scenarios": [o.name for o in result.outcomes],
         "drive_model": {  # a carried model's path and file hash: write_sweep_folder's
             "path": str(drive.model_path),

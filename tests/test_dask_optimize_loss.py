@@ -21,6 +21,7 @@ from optimize.paper_model import PAPER_MODEL_PATH, paper_model
 from optimize.resolve import resolve
 from optimize.service import executors
 from optimize.sweep_folder import read_manifest, read_summary
+from optimize.sweep_options import WindGrid
 
 distributed = pytest.importorskip("distributed")
 
@@ -79,7 +80,7 @@ def _kill_workers_when_blocked(cluster):
 
 
 def _request(out, scheduler, claims=False):
-    return SweepRequest(wind_speeds_m_s=(4.0, 5.5, 7.0), kinds=("elec-lim",),
+    return SweepRequest(grid=WindGrid((4.0, 5.5, 7.0), ("elec-lim",)),
                         setup=resolve(drive_model=paper_model(), model_path=PAPER_MODEL_PATH),
                         model_note="paper model", scheduler=scheduler, out=out, claims=claims)
 

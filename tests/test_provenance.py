@@ -78,9 +78,10 @@ def test_optimize_writes_the_header_into_the_manifest_and_run_json(tmp_path):
     from optimize.command import SweepRequest, run_optimize
     from optimize.paper_model import PAPER_MODEL_PATH, paper_model
     from optimize.resolve import resolve
+    from optimize.sweep_options import WindGrid
 
     out = tmp_path / "optimize_out"
-    request = SweepRequest(wind_speeds_m_s=(5.5, 7.0), kinds=("elec-lim",),
+    request = SweepRequest(grid=WindGrid((5.5, 7.0), ("elec-lim",)),
                            setup=resolve(drive_model=paper_model(),
                                          model_path=PAPER_MODEL_PATH),
                            model_note="paper model", workers=1, out=out, claims=False)

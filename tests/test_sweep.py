@@ -23,7 +23,7 @@ from service_fixtures import Result
 
 from kernel.errors import InputError
 from optimize.problem.scenario import Scenario, scenario_name
-from optimize.service import ChainTask, Problem, Solves, make_tasks, run_chain, run_sweep
+from optimize.service import ChainTask, Problem, Solves, SweepTasks, run_chain, run_sweep
 from optimize.service.cut_in import find_cut_in
 from optimize.service.executors import ExecutorHandle, QueueChannel, open_executor, run_tasks
 from optimize.service.plan import (
@@ -38,6 +38,7 @@ from optimize.service.plan import (
     start_cost,
 )
 from optimize.service.solves import MAX_WARM_ATTEMPTS
+from optimize.sweep_options import WindGrid
 
 CUT_IN_M_S = {"elec-lim": 4.8, "mech-lim": 5.5, "elec-free": 4.6, "mech-free": 20.0}
 SCALE_W = 1000.0
@@ -212,7 +213,7 @@ def test_a_long_grid_starts_each_scenario_from_a_near_one():
 # ----------------------------------------------------------------- running the sweep
 def _sweep(kinds=KINDS, cut_in_kinds=(), backend=None, workers=2, problem=PROBLEM):
     """The sweep of ``kinds`` on WINDS on a thread pool (the stand-in solver by default)."""
-    tasks = make_tasks(plan_graph(WINDS, kinds), problem, cut_in_kinds=cut_in_kinds,
+    tasks = SweepTasks(problem, plan_graph(WINDS, kinds), cut_in_kinds=cut_in_kinds,
                        backend=backend or NewtonBackend())
     with ThreadPoolExecutor(workers) as ex:
         return run_sweep(tasks, ExecutorHandle(ex, QueueChannel(), "threads", workers),
@@ -343,7 +344,7 @@ def test_sweep_on_a_local_dask_cluster():
     # as bench optimize --scheduler does; in-process workers see this test module
     distributed = pytest.importorskip("distributed")
 
-    tasks = make_tasks(plan_graph(WINDS, KINDS), PROBLEM, cut_in_kinds=("elec-lim", "mech-lim"),
+    tasks = SweepTasks(PROBLEM, plan_graph(WINDS, KINDS), cut_in_kinds=("elec-lim", "mech-lim"),
                        backend=NewtonBackend())
     with (
         distributed.LocalCluster(
@@ -406,7 +407,6 @@ def test_request_falls_back_to_the_paper_model(tmp_path):
     from fitting.model_file import save_power_model
     from optimize.command import make_request
     from optimize.paper_model import PAPER_MODEL_PATH, paper_model
-    from optimize.sweep_options import WindGrid
 
     def request(fit):
         return make_request(WindGrid.parse("5:6:0.5", "mech-free"),
@@ -415,7 +415,7 @@ def test_request_falls_back_to_the_paper_model(tmp_path):
     req = request(tmp_path / "fit_out" / "power_model.json")
     assert req.setup.drive.model_path == PAPER_MODEL_PATH
     assert "shipped paper model" in req.model_note
-    assert req.wind_speeds_m_s == (5.0, 5.5, 6.0) and req.kinds == ("mech-free",)
+    assert req.grid == WindGrid((5.0, 5.5, 6.0), ("mech-free",))
     assert req.setup.options.discretization.n_intervals == 40
     assert req.setup.options.discretization.degree == 4 and req.claims
     # a fit in fit_out/ takes precedence when it exists
@@ -473,8 +473,7 @@ def test_run_optimize_writes_every_file(tmp_path):
 
     out = tmp_path / "optimize_out"
     request = SweepRequest(
-        wind_speeds_m_s=(4.0, 5.5, 7.0),
-        kinds=("elec-lim", "mech-lim"),
+        grid=WindGrid((4.0, 5.5, 7.0), ("elec-lim", "mech-lim")),
         setup=resolve(drive_model=paper_model(), model_path=PAPER_MODEL_PATH),
         model_note="paper model",
         workers=2,
@@ -525,7 +524,7 @@ def test_run_optimize_writes_every_file(tmp_path):
     }
     # without claims the old comparison is removed, not left beside new results
     run_optimize(
-        dataclasses.replace(request, claims=False, wind_speeds_m_s=(7.0,)),
+        dataclasses.replace(request, claims=False, grid=WindGrid((7.0,), request.grid.kinds)),
         show_progress=False,
         backend=CycleBackend(),
     )
@@ -554,7 +553,7 @@ def test_a_solver_crash_in_an_optimize_sweep_is_reported_as_sizing_and_refine_re
     from optimize.service import failure_status
 
     out = tmp_path / "optimize_out"
-    request = SweepRequest(wind_speeds_m_s=(4.0, 5.5, 7.0), kinds=("elec-lim",),
+    request = SweepRequest(grid=WindGrid((4.0, 5.5, 7.0), ("elec-lim",)),
                            setup=resolve(drive_model=paper_model(),
                                          model_path=PAPER_MODEL_PATH),
                            model_note="paper model", workers=1, out=out, claims=False)
@@ -583,7 +582,7 @@ def test_a_dead_worker_fails_its_chain_the_same_way_in_a_sweep_and_in_solve_task
     from optimize.service import SolveTask, solve_tasks
 
     status = "worker error: RuntimeError: worker died"
-    tasks = make_tasks(plan_graph(WINDS, ("elec-lim", "mech-lim")), PROBLEM,
+    tasks = SweepTasks(PROBLEM, plan_graph(WINDS, ("elec-lim", "mech-lim")),
                        cut_in_kinds=("elec-lim",), backend=DeadWorkerBackend())
     with ThreadPoolExecutor(2) as ex:
         handle = ExecutorHandle(ex, QueueChannel(), "threads", 2)
@@ -611,7 +610,7 @@ def test_a_sweep_in_which_nothing_converged_writes_every_column_of_its_parts(tmp
 
     out = tmp_path / "optimize_out"
     setup = resolve(drive_model=paper_model(), model_path=PAPER_MODEL_PATH)
-    request = SweepRequest(wind_speeds_m_s=(5.5, 7.0), kinds=("elec-lim",), setup=setup,
+    request = SweepRequest(grid=WindGrid((5.5, 7.0), ("elec-lim",)), setup=setup,
                            model_note="paper model", workers=1, out=out, claims=False)
     done = run_optimize(request, ["bench", "optimize"], show_progress=False,
                         backend=DeadWorkerBackend())

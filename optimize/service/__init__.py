@@ -29,10 +29,10 @@ module                                          concept
 from optimize.service.builder import OcpBackend, Problem, problem_key
 from optimize.service.chain import ChainTask, Refinement, run_chain
 from optimize.service.outcome import failure_status
-from optimize.service.run import SolveTask, make_tasks, run_chains, run_sweep, solve_tasks
+from optimize.service.run import SolveTask, SweepTasks, run_chains, run_sweep, solve_tasks
 from optimize.service.solves import Solves, cycle_metrics
 from optimize.service.store import solve_key
 
 __all__ = ["ChainTask", "OcpBackend", "Problem", "Refinement", "SolveTask", "Solves",
-           "cycle_metrics", "failure_status", "make_tasks", "problem_key", "run_chain",
+           "SweepTasks", "cycle_metrics", "failure_status", "problem_key", "run_chain",
            "run_chains", "run_sweep", "solve_key", "solve_tasks"]

@@ -6,7 +6,7 @@
 * :func:`solve_tasks` solves a list of :class:`SolveTask` (``bench size``,
   ``bench aep --refine``): one chain per (problem, kind, tag), along the
   continuation order of its wind speeds; returns the solve records;
-* :func:`run_sweep` runs ``bench optimize``'s start graph (:func:`make_tasks`,
+* :func:`run_sweep` runs ``bench optimize``'s start graph (:class:`SweepTasks`,
   :func:`optimize.service.plan.plan_graph`) with a progress bar: each step is one task,
   submitted once its sources are solved, with their optima as its warm starts; then
   one task per kind retries its failed scenarios from the other starts there are,
@@ -279,16 +279,6 @@ class SweepTasks:
         return tuple(dict.fromkeys(s.scenario.kind for s in self.steps))
 
 
-def make_tasks(steps: tuple[Step, ...], problem: Problem, cut_in_kinds: tuple[str, ...] = (),
-               cut_in_tol_m_s: float = 0.05, backend: Any = None,
-               period_scan: int = 0) -> SweepTasks:
-    """The sweep of ``bench optimize``'s start graph: local optima re-solved (and, with
-    ``period_scan``, each optimum's period scanned) and cut-in speeds searched after it,
-    per kind."""
-    return SweepTasks(problem, tuple(steps), tuple(cut_in_kinds), cut_in_tol_m_s, backend,
-                      period_scan)
-
-
 def _own(out: ChainOutcome, step: Step) -> ChainOutcome:
     """A step task's outcome with only its own scenario (not the starts handed to it)."""
     own = step.scenario
@@ -381,7 +371,7 @@ def run_sweep(tasks: SweepTasks, handle: Any, show_progress: bool = True) -> Swe
     Parameters
     ----------
     tasks : SweepTasks
-        From :func:`make_tasks`.
+        The start graph and what follows it per kind.
     handle : optimize.service.executors.ExecutorHandle
         The open executor and its progress channel.
     show_progress : bool
