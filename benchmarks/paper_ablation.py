@@ -285,12 +285,10 @@ def paper_notes(table: dict) -> dict[str, list[str]]:
 def paper_checks() -> list[str]:
     """The paper against its own numbers: Table I at the drive limits, its two 10 m/s periods."""
     model = paper_model()
-    drive = model.drive or {}
-    torque = float(drive.get("max_torque_nm", 78.0))  # the paper's nominal torque
+    speed_limit, torque = model.drive.box()  # the paper's nominal torque
     lines = []
     for what, p_mech in (("full load", model.nominal_power_w),
-                         ("the limits' corner", drive.get("max_speed_rpm", 1500.0) * torque
-                          * 2.0 * np.pi / 60.0)):
+                         ("the limits' corner", speed_limit * torque * 2.0 * np.pi / 60.0)):
         speed = p_mech / torque * 60.0 / (2.0 * np.pi)
         eta_mot = p_mech / float(model.p_elec_w(speed, torque))
         eta_gen = -float(model.p_elec_w(-speed, torque)) / p_mech

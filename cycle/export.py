@@ -30,6 +30,7 @@ from bench.cycle_profile import (
 )
 from bench.ingest.session import load_session
 from cycle.provenance import HASHED_COLUMNS, sweep_ids, trajectory_sha256
+from kernel.drive import BOX_KEYS, Drive
 from kernel.drive_file import find_drive_file, session_drive
 from kernel.errors import InputError
 from kernel.output_folder import check_replaceable_file, output_file
@@ -149,7 +150,7 @@ def periodic_interpolants(points: pd.DataFrame, period_s: float) -> dict[str, Pc
     return out
 
 
-def flown_drive(manifest: dict, folder: Path) -> dict:
+def flown_drive(manifest: dict, folder: Path) -> Drive:
     """The ``[drive]`` in force the sweep in ``folder`` flew (its manifest's
     ``sections.drive``).
 
@@ -157,7 +158,7 @@ def flown_drive(manifest: dict, folder: Path) -> dict:
     ------
     InputError
         A manifest that records none (an older ``bench optimize``'s: its limits unknown
-        here, no cycle is exported unchecked).
+        here, no cycle is exported unchecked), or one that is not a drive.
     """
     drive = (manifest.get("sections") or {}).get("drive")
     if not isinstance(drive, dict):
@@ -165,23 +166,23 @@ def flown_drive(manifest: dict, folder: Path) -> dict:
                          "flew (sections.drive): a folder of an older bench optimize",
                          column="sections", expected="re-run `bench optimize` with this "
                                                      "version")
-    return drive
+    return Drive.from_dict(drive, Path(folder) / "manifest.json", "sections.drive")
 
 
-def bench_limits(rating: dict, session_dir: Path | None) -> list[Limit]:
+def bench_limits(rating: Drive, session_dir: Path | None) -> list[Limit]:
     """The limits of the sweep's drive (``rating``, its ``[drive]`` in force,
     :func:`flown_drive`) and, given a bench session folder, of its drive rating
     (``drive.toml``, ``session.toml``) and its stated sensor ranges (drum frame)."""
     limits = []
-    for q, key in (("speed", "max_speed_rpm"), ("torque", "max_torque_nm")):
-        if rating.get(key):
-            limits.append(Limit(q, float(rating[key]), f"the sweep's drive limits ({key})"))
+    for q, key, value in zip(("speed", "torque"), BOX_KEYS, rating.box(), strict=True):
+        if value:
+            limits.append(Limit(q, float(value), f"the sweep's drive limits ({key})"))
     if session_dir is None:
         return limits
     s = load_session(session_dir)
     drive_file = find_drive_file(s.folder, [s.folder.parent])
     drive = session_drive(s.raw, s.path, drive_file, str(drive_file)) or {}
-    for q, key in (("speed", "max_speed_rpm"), ("torque", "max_torque_nm")):
+    for q, key in zip(("speed", "torque"), BOX_KEYS, strict=True):
         if drive.get(key):
             limits.append(Limit(q, float(drive[key]), f"{drive['sources'][key]} {key}"))
     gear = s.gear_ratio if s.measured_side == "motor" else 1.0
@@ -343,7 +344,7 @@ def export_cycle(folder: str | Path, scenario: str, out: str | Path,
     return Exported(files, profile, energies)
 
 
-def _header(row, manifest: dict, rating: dict, folder: Path, opts: ExportOptions,
+def _header(row, manifest: dict, rating: Drive, folder: Path, opts: ExportOptions,
              t_start: float, energies: np.ndarray, bench_session, provenance: Provenance,
              trajectory: str) -> dict:
     return {
@@ -358,7 +359,7 @@ def _header(row, manifest: dict, rating: dict, folder: Path, opts: ExportOptions
         "cycle_start_s": round(t_start, 9),
         "e_elec_pred_j": float(row["e_elec_j"]), "e_mech_pred_j": float(row["e_mech_j"]),
         "e_mech_profile_j": float(np.mean(energies)),
-        "max_speed_rpm": float(rating.get("max_speed_rpm", 0.0)),
-        "max_torque_nm": float(rating.get("max_torque_nm", 0.0)),
+        **{key: float(value or 0.0) for key, value in zip(BOX_KEYS, rating.box(),
+                                                           strict=True)},
         "provenance": provenance.header(),
     }

@@ -9,22 +9,11 @@ torque-rating law of :mod:`energy.sizing`, plus one per power-model file.
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 from pathlib import Path
 from typing import Any
 
 from kernel.errors import InputError
-
-
-def _drive_value(path: Path, key: str) -> float | None:
-    try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError, UnicodeDecodeError):
-        return None
-    drive = data.get("drive") if isinstance(data, dict) else None
-    value = drive.get(key) if isinstance(drive, dict) else None
-    return float(value) if isinstance(value, int | float) and value > 0 else None
 
 
 def reference_rating(rating: Any, continuous_torque_nm: float | None = None,
@@ -88,17 +77,18 @@ def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
     names = _model_names(tuple(models), {c.name for c in candidates})
     for p in models:
         m = load_power_model(p)
-        peak = _drive_value(p, "max_torque_nm") or rating.max_torque_nm
-        cont = _drive_value(p, "continuous_torque_nm")
+        own = m.drive or Drive()
+        peak = own.max_torque_nm or rating.max_torque_nm
+        cont = own.continuous_torque_nm
         if cont is None:
             cont = peak * rating.continuous_torque_nm / rating.max_torque_nm
             notes.append(f"{p}: its drive states no continuous_torque_nm: {cont:g} N m, the "
                          "reference drive's continuous share of its torque limit")
-        own = Drive.rating(_drive_value(p, "nominal_power_w") or m.nominal_power_w,
-                           _drive_value(p, "max_speed_rpm") or rating.max_speed_rpm,
-                           peak, source=str(p), continuous_torque_nm=cont,
-                           max_p_elec_w=rating.max_p_elec_w)
-        candidates.append(Candidate(names[Path(p)], m, own, path=Path(p)))
+        flown = Drive.rating(own.nominal_power_w or m.nominal_power_w,
+                             own.max_speed_rpm or rating.max_speed_rpm,
+                             peak, source=str(p), continuous_torque_nm=cont,
+                             max_p_elec_w=rating.max_p_elec_w)
+        candidates.append(Candidate(names[Path(p)], m, flown, path=Path(p)))
     return candidates, notes
 
 

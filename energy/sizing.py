@@ -145,12 +145,9 @@ def scaled_candidates(base: Any, rating: Any, scales: tuple[float, ...]) -> list
 
     out = []
     for s in scales:
-        scaled = dataclasses.replace(
-            rating, nominal_power_w=s * rating.nominal_power_w,
-            max_torque_nm=s * rating.max_torque_nm,
-            continuous_torque_nm=s * rating.continuous_torque_nm,
-            source=f"{rating.source}; x{s:g} torque rating (bench size)")
-        model = carry_power_model(base, 1.0, s, drive=scaled.to_dict(),
+        scaled = rating.scaled(1.0, s, f"{rating.source}; x{s:g} torque rating (bench size)",
+                               keep=("max_p_elec_w",))
+        model = carry_power_model(base, 1.0, s, drive=scaled,
                                   name=f"{base.name} x{s:g} torque rating")
         out.append(Candidate(f"x{s:g}", model, scaled, s))
     return out

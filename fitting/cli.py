@@ -10,6 +10,7 @@ import argparse
 
 from fitting.domain import BAND_FRAC
 from fitting.pipeline import WEIGHTINGS, FitOptions
+from kernel.drive import DRIVE_KEYS, Drive
 from kernel.errors import InputError
 
 
@@ -58,8 +59,7 @@ def run(args: argparse.Namespace) -> int:
     from fitting.pipeline import FitOptions, run_fit
 
     order = _order(args.order, args.select)
-    drive = {k: getattr(args, k) for k in ("nominal_power_w", "max_speed_rpm", "max_torque_nm")
-             if getattr(args, k) is not None}
+    drive = {k: getattr(args, k) for k in DRIVE_KEYS if getattr(args, k) is not None}
     rating_args = [a for k, v in drive.items() for a in (f"--{k.replace('_', '-')}", repr(v))]
     command_line = (
         "bench", "fit", "--store", str(args.store), "--out", str(args.out),
@@ -89,11 +89,10 @@ def format_summary(summary: dict, out) -> str:
 def _model_lines(summary: dict) -> list[str]:
     """The model, the points, the drive, the notes, the coefficients and the residuals."""
     st = summary["statistics"]
-    d = summary["drive"]
+    drive = Drive.from_dict(summary["drive"], where="fit summary drive", rating=True)
     lines = [f"model: {summary['model']['name']}  (sha256 {summary['model']['sha256'][:12]})",
              f"points: {st['n_points']} {st['points_per_quadrant']}  fit: {st['method']}",
-             f"drive: {d['nominal_power_w']:g} W nominal, |speed| <= {d['max_speed_rpm']:g} rpm, "
-             f"torque <= {d['max_torque_nm']:g} N m ({d['source']})",
+             drive.line(),
              *(f"note: {n}" for n in summary["notes"]),
              "",
              f"{'term':>10} {'coef [rpm, N m, W]':>20} {'std error':>12} {'95 % interval':>29}"]

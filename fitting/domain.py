@@ -202,8 +202,8 @@ def domain_excursion(speed_rpm, torque_nm, weight, domain: dict | None,
     domain : dict or None
         ``quadrant -> polygon`` of ``power_model.json``; None means no domain is known.
     scales : (float, float)
-        Speed [rpm] and torque [N m] that count as distance 1 (e.g. the drive's
-        ``max_speed_rpm`` and ``max_torque_nm``).
+        Speed [rpm] and torque [N m] that count as distance 1 (e.g. the drive's limits,
+        :meth:`kernel.drive.Drive.box`).
 
     Returns
     -------

@@ -54,8 +54,8 @@ def default_breakpoints(model: PowerModel, speed_step_rpm: float = 100.0,
         pts = np.array([p for poly in model.domain.values() for p in poly])
         s_lo, s_hi = pts[:, 0].min(), pts[:, 0].max()
         t_lo, t_hi = max(0.0, pts[:, 1].min()), pts[:, 1].max()
-    elif model.drive:
-        s_hi, t_hi = model.drive["max_speed_rpm"], model.drive["max_torque_nm"]
+    elif model.drive is not None:
+        s_hi, t_hi = model.drive.box()
         s_lo, t_lo = -s_hi, 0.0
     else:
         raise ValueError("the model has no domain and no drive rating: give the breakpoints")

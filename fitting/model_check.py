@@ -49,8 +49,9 @@ def check_regions(model: PowerModel, limits: tuple[float, float] | None = None
     Parameters
     ----------
     model : PowerModel
-    limits : (max_speed_rpm, max_torque_nm), optional
-        The drive limits in force: the optimizer may use the motor quadrant
+    limits : (float, float), optional
+        The drive limits in force, speed [rpm] and torque [N m]
+        (:meth:`kernel.drive.Drive.box`): the optimizer may use the motor quadrant
         ``[0, max_speed] x [0, max_torque]`` and its mirror in speed (generator),
         measured or not.
 
@@ -90,7 +91,7 @@ def physics_problems(model: PowerModel, limits: tuple[float, float] | None = Non
     Parameters
     ----------
     model : PowerModel
-    limits : (max_speed_rpm, max_torque_nm), optional
+    limits : (float, float), optional
         The drive limits in force (see :func:`check_regions`).
 
     Returns

@@ -69,8 +69,8 @@ class FitOptions:
     mask_mech_frac, mask_elec_frac, envelope_band_frac : float
         Masking settings (:class:`fitting.efficiency.MaskingRules`) [-].
     drive : dict
-        Drive rating keys given on the command line (``nominal_power_w``,
-        ``max_speed_rpm``, ``max_torque_nm``); the others come from the store
+        Drive rating keys given on the command line (:data:`kernel.drive.DRIVE_KEYS`);
+        the others come from the store
         manifest or the data (:func:`fitting.rating.resolve_drive`).
     command_line : tuple of str
         The command line, recorded in the provenance (:mod:`kernel.provenance`).
@@ -262,10 +262,11 @@ def fit_model(frame: pd.DataFrame, drive, options: FitOptions, source: Path,
     if fit is None:
         fit = fit_power_model(speed, torque, p_elec, chosen.terms, weights=weights,
                               nominal_power_w=nominal, source=source)
+    rated_speed_rpm, rated_torque_nm = drive.box()
     try:
         extra = extra_terms_check(speed, torque, p_elec, weights,
-                                  rated_speed_rpm=drive.max_speed_rpm,
-                                  rated_torque_nm=drive.max_torque_nm,
+                                  rated_speed_rpm=rated_speed_rpm,
+                                  rated_torque_nm=rated_torque_nm,
                                   nominal_power_w=nominal, source=source)
     except InputError as exc:
         extra = {"space": paper_space_candidate().name, "skipped": exc.problem}
@@ -350,7 +351,7 @@ def run_fit(store: str | Path, out: str | Path, options: FitOptions,
     provenance = pts.provenance(options.command_line)
     model = fitted.power_model(pts.measured, envelopes, masking=masking.to_dict(),
                                statistics=statistics, provenance=provenance,
-                               drive=drive.to_dict())
+                               drive=drive)
     thermal, thermal_note = fit_thermal(read_points(store),
                                         lambda sid: read_samples(store, sid))
     model = replace(model, thermal=thermal)

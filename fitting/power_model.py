@@ -27,7 +27,7 @@ import numpy as np
 
 from fitting.terms import Term, powers
 from kernel.display import html_view, text_view
-from kernel.drive import dict_problem
+from kernel.drive import Drive, dict_problem
 from kernel.units import RPM_PER_RAD_S
 
 SCHEMA_NAME = "drivebench.power_model"
@@ -78,10 +78,10 @@ class PowerModel:
         Fit statistics (R^2, residuals, ...).
     provenance : dict or None
         Where the model comes from (input hash, command line, source).
-    drive : dict or None
-        The drive's rating ``{nominal_power_w, max_speed_rpm, max_torque_nm, source}``
-        (:meth:`kernel.drive.Drive.to_dict`); its nominal power equals
-        ``nominal_power_w``. None for a version-1 file.
+    drive : kernel.drive.Drive or None
+        The drive's rating (given as a :class:`kernel.drive.Drive` or its dict form,
+        :meth:`kernel.drive.Drive.to_dict`); its nominal power equals ``nominal_power_w``.
+        None for a version-1 file.
     thermal : dict or None
         The winding's fitted thermal model (:func:`fitting.thermal.fit_thermal`);
         None when the bench logged no winding temperature (or before version 3).
@@ -96,7 +96,7 @@ class PowerModel:
     masking: dict | None = None
     statistics: dict | None = None
     provenance: dict | None = None
-    drive: dict | None = None
+    drive: Drive | None = None
     thermal: dict | None = None
 
     def __post_init__(self) -> None:
@@ -108,6 +108,11 @@ class PowerModel:
             cov = tuple(tuple(float(v) for v in row) for row in self.covariance_rpm)
             object.__setattr__(self, "covariance_rpm", cov)
         object.__setattr__(self, "nominal_power_w", float(self.nominal_power_w))
+        if isinstance(self.drive, dict):
+            problem = dict_problem(self.drive)
+            if problem is not None:
+                raise ValueError(f"invalid PowerModel: {problem}")
+            object.__setattr__(self, "drive", Drive.from_dict(self.drive, rating=True))
         problem = model_problem(self)
         if problem is not None:
             raise ValueError(f"invalid PowerModel: {problem}")
@@ -119,7 +124,6 @@ class PowerModel:
         return dict(zip(self.terms, self.coefficients_rpm, strict=True))
 
     def _view_rows(self) -> list[tuple[str, object]]:
-        rating = self.drive or {}
         quadrants = ", ".join(self.domain) if self.domain else "none recorded"
         resid = ((self.statistics or {}).get("residuals") or {}).get("all") or {}
         rows = [("terms (rpm, N m -> W)", ", ".join(f"{t!r}: {c:.5g}"
@@ -127,9 +131,8 @@ class PowerModel:
                 ("nominal power", f"{self.nominal_power_w:g} W"),
                 ("covariance", "yes" if self.covariance_rpm is not None else "none"),
                 ("validity domain", quadrants)]
-        if rating:
-            rows.append(("drive", f"|speed| <= {rating.get('max_speed_rpm')} rpm, torque <= "
-                                  f"{rating.get('max_torque_nm')} N m"))
+        if self.drive is not None:
+            rows.append(("drive", self.drive.box_text()))
         if resid.get("std_w") is not None:
             rows.append(("residual std", f"{resid['std_w']:.1f} W"))
         return rows
@@ -210,7 +213,7 @@ class PowerModel:
             "masking": self.masking,
             "statistics": self.statistics,
             "provenance": self.provenance,
-            "drive": self.drive,
+            "drive": None if self.drive is None else self.drive.to_dict(),
             "thermal": self.thermal,
         }
 
@@ -311,16 +314,17 @@ def model_problem(model: PowerModel) -> str | None:
         return "nominal_power_w: a finite positive power [W] expected"
     if not isinstance(model.name, str):
         return "name: a string expected"
-    for field in ("domain", "masking", "statistics", "provenance", "drive"):
+    for field in ("domain", "masking", "statistics", "provenance"):
         value = getattr(model, field)
         if value is not None and not isinstance(value, dict):
             return f"{field}: an object or null expected"
     if model.drive is not None:
-        problem = dict_problem(model.drive)
+        problem = (dict_problem(model.drive.to_dict()) if isinstance(model.drive, Drive)
+                   else "drive: an object or null expected")
         if problem is not None:
             return problem
-        if not math.isclose(model.drive["nominal_power_w"], model.nominal_power_w, rel_tol=1e-12):
-            return (f"drive.nominal_power_w {model.drive['nominal_power_w']!r} differs from "
+        if not math.isclose(model.drive.nominal_power_w, model.nominal_power_w, rel_tol=1e-12):
+            return (f"drive.nominal_power_w {model.drive.nominal_power_w!r} differs from "
                     f"nominal_power_w {model.nominal_power_w!r}")
     if model.domain is not None:
         for key, poly in model.domain.items():

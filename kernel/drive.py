@@ -41,6 +41,8 @@ DRIVE_KEYS = ("nominal_power_w", "max_speed_rpm", "max_torque_nm")
 OPTIONAL_DRIVE_KEYS = ("continuous_torque_nm", "overload", "max_p_elec_w")
 #: The envelope's keys (each optional; a base speed or a table, not both).
 ENVELOPE_KEYS = ("base_speed_rpm", "envelope_speed_rpm", "envelope_torque_nm")
+#: The drive's speed and torque limits: the box it may run in (:meth:`Drive.box`).
+BOX_KEYS = ("max_speed_rpm", "max_torque_nm")
 #: The keys of the rating's dict form (:meth:`Drive.to_dict`), ``source`` besides.
 RATING_KEYS = (*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS, *ENVELOPE_KEYS)
 #: ``scaling`` values: carry the losses by the similarity law (efficiency kept, or moved
@@ -251,10 +253,23 @@ class Drive:
 
     def largest_torque_nm(self, speed_rpm: Any) -> np.ndarray:
         """The largest torque [N m] at ``speed_rpm`` (either sign): the envelope (a table
-        linear between its points and flat beyond the last) capped by the torque limit;
-        the torque limit alone without an envelope (:func:`largest_torque_nm`)."""
-        return largest_torque_nm(speed_rpm, self.max_torque_nm, self.base_speed_rpm,
+        linear between its points and flat beyond the last) capped by the torque limit
+        (none when not stated); the torque limit alone without an envelope
+        (:func:`largest_torque_nm`)."""
+        top = np.inf if self.max_torque_nm is None else self.max_torque_nm
+        return largest_torque_nm(speed_rpm, top, self.base_speed_rpm,
                                  self.envelope_speed_rpm, self.envelope_torque_nm)
+
+    def thermal_torque_nm(self) -> float | None:
+        """The torque [N m] it carries continuously: the RMS bound of its continuous rating
+        (:attr:`rms_torque_limit_nm`), else its torque limit."""
+        return self.rms_torque_limit_nm or self.max_torque_nm
+
+    def corner_speed_rpm(self, torque_nm: float | None = None) -> float:
+        """The speed [rpm] at which a torque (default: the torque limit) gives the nominal
+        power, ``P_nom / T``."""
+        torque = self.max_torque_nm if torque_nm is None else torque_nm
+        return self.nominal_power_w / torque * RPM_PER_RAD_S
 
     def constant_power_w(self, up_to_rpm: float | None = None) -> float:
         """The power [W] of the constant-power region above the base speed, ``T_max
@@ -287,6 +302,42 @@ class Drive:
             t = np.minimum(np.interp(n, speeds, env.envelope_torque_nm), self.max_torque_nm)
             return float(np.max(n * t)) * w
         return self.max_torque_nm * self.max_speed_rpm * w
+
+    def box(self) -> tuple[float | None, float | None]:
+        """The speed [rpm] and torque [N m] limits: the box ``|n| <= max_speed_rpm``, ``0 <=
+        T <= max_torque_nm`` the drive may run in (``None``: not stated)."""
+        return self.max_speed_rpm, self.max_torque_nm
+
+    def box_text(self) -> str:
+        """:meth:`box` in words: ``"torque <= 78 N m and speed <= 1500 rpm"``."""
+        return f"torque <= {self.max_torque_nm:g} N m and speed <= {self.max_speed_rpm:g} rpm"
+
+    def rating_text(self, power: bool = True) -> str:
+        """``"1500 rpm, 78 N m, 8200 W"``: the speed and torque limits and (``power``) the
+        nominal power."""
+        text = f"{self.max_speed_rpm:g} rpm, {self.max_torque_nm:g} N m"
+        return text + (f", {self.nominal_power_w:g} W" if power else "")
+
+    def held_tension_n(self, drum_radius_m: float, gear_ratio: float,
+                       torque_nm: float | None = None) -> float:
+        """The tether tension [N] a torque at the motor shaft holds on the drum (default: the
+        torque limit): ``T i / r``."""
+        torque = self.max_torque_nm if torque_nm is None else torque_nm
+        return torque * gear_ratio / drum_radius_m
+
+    def scaled(self, speed_ratio: float, torque_ratio: float, source: str,
+               keep: tuple[str, ...] = ()) -> Drive:
+        """This rating carried to a drive ``speed_ratio`` (``k_n``) times its speed rating
+        and ``torque_ratio`` (``k_T``) times its torque rating (the similarity law,
+        :func:`optimize.model.drivetrain.carry_power_model`): the speed limit times ``k_n``,
+        the torque limit and the continuous torque times ``k_T``, the nominal power and the
+        grid limit times ``k_n k_T``; the keys in ``keep`` and the envelope as they are."""
+        k_n, k_t = float(speed_ratio), float(torque_ratio)
+        factors = {"nominal_power_w": k_n * k_t, "max_speed_rpm": k_n, "max_torque_nm": k_t,
+                   "continuous_torque_nm": k_t, "max_p_elec_w": k_n * k_t}
+        return dataclasses.replace(self, source=source, **{
+            k: f * getattr(self, k) for k, f in factors.items()
+            if getattr(self, k) is not None and k not in keep})
 
     def line(self) -> str:
         """One line for summaries and reports."""

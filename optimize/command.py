@@ -440,9 +440,8 @@ def domain_scales(model: Any, system: Any) -> tuple[float, float]:
     The drive's rating when the model states one, else the drive in force's limits
     (``system.drive``).
     """
-    drive = getattr(model, "drive", None) or {}
-    return (float(drive.get("max_speed_rpm", system.drive.max_speed_rpm)),
-            float(drive.get("max_torque_nm", system.drive.max_torque_nm)))
+    own = getattr(model, "drive", None)
+    return tuple(float(v) for v in (own or system.drive).box())
 
 
 def check_lines(summary: Any) -> list[str]:

@@ -17,6 +17,7 @@ from bench.store.damage import check_store
 from bench.store.manifest import kind_files as store_files
 from bench.store.manifest import read_manifest
 from bench.store.read import STORE_REPAIR, read_points, read_rejected
+from kernel.drive import BOX_KEYS
 from kernel.errors import InputError
 from kernel.files import check_columns
 from reports import drive_figures
@@ -127,13 +128,14 @@ BEYOND_SHARE = 0.01
 
 def beyond_rating(points: pd.DataFrame | None, manifest: dict | None) -> list[str]:
     """Sentences on operating points beyond the drive rating their sessions state
-    (``drive.toml``/``session.toml``: ``max_speed_rpm``, ``max_torque_nm``, drum side):
+    (``drive.toml``/``session.toml``: the speed and torque limits,
+    :data:`kernel.drive.BOX_KEYS`, drum side):
     how many, how far, under which rating."""
     if points is None or not len(points) or manifest is None:
         return []
     out = []
-    for key, column, unit in (("max_speed_rpm", "speed_rpm", "rpm"),
-                              ("max_torque_nm", "torque_nm", "N m")):
+    for key, column, unit in zip(BOX_KEYS, ("speed_rpm", "torque_nm"), ("rpm", "N m"),
+                                 strict=True):
         limit = {str(sid): float(e["drive"][key]) for sid, e in manifest["sessions"].items()
                  if isinstance(e, dict) and isinstance(e.get("drive"), dict)
                  and isinstance(e["drive"].get(key), int | float)}

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from fitting.fit_folder import MAP_FILE, read_efficiency_map
 from fitting.power_model import PowerModel
+from kernel.drive import Drive, dict_problem
 from reports import drive_figures
 from reports.inputs import InputLog
 from reports.tables import flatten, fmt, missing_since
@@ -54,15 +55,26 @@ def efficiency_section(log: InputLog, fit: Path, model: PowerModel | None,
     }
 
 
+def fit_drive(model: PowerModel | None, summary: dict | None) -> Drive | None:
+    """The fit's drive rating: the model's, else its summary's (``drive``); None when neither
+    states a complete one."""
+    if model is not None and model.drive is not None:
+        return model.drive
+    data = (summary or {}).get("drive")
+    if not isinstance(data, dict) or dict_problem(data) is not None:
+        return None
+    return Drive.from_dict(data, rating=True)
+
+
 def efficiency_notes(model: PowerModel | None, summary: dict | None) -> list[str]:
     """Lines about what the map and model stand on: drive rating, quadrants, ceilings."""
     notes = []
-    drive = (model.drive if model is not None else None) or (summary or {}).get("drive")
-    if isinstance(drive, dict) and {"nominal_power_w", "max_speed_rpm",
-                                    "max_torque_nm"} <= set(drive):
-        notes.append(f"Drive rating: {fmt(drive['nominal_power_w'], 0)} W nominal, |speed| <= "
-                     f"{fmt(drive['max_speed_rpm'], 0)} rpm, torque <= "
-                     f"{fmt(drive['max_torque_nm'], 1)} N m ({drive.get('source', '')}).")
+    drive = fit_drive(model, summary)
+    if drive is not None:
+        speed, torque = drive.box()
+        notes.append(f"Drive rating: {fmt(drive.nominal_power_w, 0)} W nominal, |speed| <= "
+                     f"{fmt(speed, 0)} rpm, torque <= {fmt(torque, 1)} N m "
+                     f"({drive.source or ''}).")
     notes += [str(n) for n in (summary or {}).get("notes") or []]
     for q, entry in (((summary or {}).get("efficiency") or {}).get("peak") or {}).items():
         c = (entry or {}).get("ceiling")

@@ -17,7 +17,7 @@ def system_for(model: Any = None, **sections: dict[str, Any]) -> Any:
     power; no continuous rating, no grid limit), keys of its sections changed by
     ``sections`` (``bounds={"max_line_angle_deg": 20.0}``, ``drive={...}``)."""
     model = paper_model() if model is None else model
-    rating = dict(model.drive or {})
+    rating = model.drive.to_dict() if model.drive is not None else {}
     system = load_system().in_force(Drive.rating(
         nominal_power_w=rating.get("nominal_power_w", model.nominal_power_w),
         max_speed_rpm=rating["max_speed_rpm"], max_torque_nm=rating["max_torque_nm"]))

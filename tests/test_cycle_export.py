@@ -201,5 +201,7 @@ def test_a_folder_without_the_drive_in_force_is_refused_naming_its_manifest(tmp_
         flown_drive({"drive_limits": {"max_torque_nm": 78.0}}, tmp_path)
     text = err.value.describe()
     assert str(tmp_path / "manifest.json") in text and "re-run `bench optimize`" in text
-    assert flown_drive({"sections": {"drive": {"max_torque_nm": 78.0}}}, tmp_path) == {
-        "max_torque_nm": 78.0}
+    assert flown_drive({"sections": {"drive": {"max_torque_nm": 78.0}}}, tmp_path).box() == (
+        None, 78.0)
+    with pytest.raises(InputError, match="sections.drive: unknown key 'torque_nm'"):
+        flown_drive({"sections": {"drive": {"torque_nm": 78.0}}}, tmp_path)

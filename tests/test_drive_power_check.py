@@ -22,7 +22,6 @@ from optimize.system.drive_power_check import (
     efficiency_assumption,
     efficiency_law,
     ie3_efficiency,
-    peak_shaft_power_w,
     power_check,
     rating_loss_ratio,
 )
@@ -34,13 +33,13 @@ NONE = SimpleNamespace(base_speed_rpm=None, envelope_speed_rpm=None, envelope_to
 
 def test_peak_shaft_power_of_each_kind_of_envelope():
     r = Drive.rating(3e6, 600.0, 556000.0)
-    assert peak_shaft_power_w(r, NONE) == pytest.approx(556000.0 * 600.0 * W)
+    assert r.peak_power_w(NONE) == pytest.approx(556000.0 * 600.0 * W)
     base = SimpleNamespace(base_speed_rpm=130.0, envelope_speed_rpm=None)
-    assert peak_shaft_power_w(r, base) == pytest.approx(556000.0 * 130.0 * W)
+    assert r.peak_power_w(base) == pytest.approx(556000.0 * 130.0 * W)
     # a table: 556 kN m to 100 rpm, 200 kN m at 400 rpm, flat beyond (held to 600 rpm)
     table = SimpleNamespace(base_speed_rpm=None, envelope_speed_rpm=(0.0, 100.0, 400.0),
                             envelope_torque_nm=(556000.0, 556000.0, 200000.0))
-    assert peak_shaft_power_w(r, table) == pytest.approx(200000.0 * 600.0 * W)
+    assert r.peak_power_w(table) == pytest.approx(200000.0 * 600.0 * W)
 
 
 def test_the_old_megawes_rating_is_said_not_to_be_a_machine():

@@ -51,8 +51,8 @@ def test_carried_efficiency_at_corresponding_points_is_the_base_machines(k_n, k_
     loss = carried.p_elec_w(k_n * n, k_t * t) - _p_mech_w(k_n * n, k_t * t)
     np.testing.assert_allclose(loss, k_n * k_t * loss_base, rtol=1e-9)
     assert carried.nominal_power_w == pytest.approx(k_n * k_t * base.nominal_power_w)
-    assert carried.drive["max_speed_rpm"] == pytest.approx(k_n * 1500.0)
-    assert carried.drive["max_torque_nm"] == pytest.approx(k_t * 78.0)
+    assert carried.drive.max_speed_rpm == pytest.approx(k_n * 1500.0)
+    assert carried.drive.max_torque_nm == pytest.approx(k_t * 78.0)
 
 
 def test_carried_model_keeps_the_sign_convention_and_scales_domain_and_covariance():

@@ -28,8 +28,8 @@ def _model_file(path, torque_ratio):
     """The paper drive carried to ``torque_ratio`` times its torque rating (a drive of the
     same design, consistent in itself), as a power-model file."""
     base = paper_model()
-    drive = {**base.drive, "max_torque_nm": 78.0 * torque_ratio,
-             "nominal_power_w": base.nominal_power_w * torque_ratio}
+    drive = dataclasses.replace(base.drive, max_torque_nm=78.0 * torque_ratio,
+                                nominal_power_w=base.nominal_power_w * torque_ratio)
     model = carry_power_model(base, 1.0, torque_ratio, drive=drive)
     path.parent.mkdir(parents=True, exist_ok=True)
     save_power_model(model, path)

@@ -50,7 +50,8 @@ def test_highwind_file_is_the_package_defaults():
     flown = system.in_force(rating).drive
     assert {k: getattr(flown, k) for k in ("max_speed_rpm", "max_torque_nm",
                                            "nominal_power_w")} == {
-        k: paper_model().drive[k] for k in ("max_speed_rpm", "max_torque_nm", "nominal_power_w")}
+        k: getattr(paper_model().drive, k) for k in ("max_speed_rpm", "max_torque_nm",
+                                                     "nominal_power_w")}
 
 
 def test_only_the_paper_system_says_it_is_the_papers():
@@ -135,7 +136,7 @@ def test_power_law_profile_and_optional_drive_keys():
     # a key the file leaves out comes from the power model's rating, and the source says so
     model = paper_model()
     rating = drive_in_force(system, Path("paper.json"), drive_model=model).rating
-    assert rating.max_torque_nm == model.drive["max_torque_nm"]
+    assert rating.max_torque_nm == model.drive.max_torque_nm
     assert "max_torque_nm from paper.json" in rating.source
     # the file's own keys are in force, not the power model's
     data = _data()

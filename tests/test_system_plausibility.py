@@ -10,6 +10,7 @@ import tomllib
 
 import pytest
 
+from kernel.drive import Drive
 from kernel.errors import InputError
 from optimize.system.plausibility import check_drive_holds_kite
 from optimize.system.system import shipped_system_path
@@ -56,7 +57,7 @@ def soft_kite() -> dict:
 def test_every_shipped_kite_from_7_5_kg_to_6_9_t_is_plausible(name):
     system = load_system(shipped_system_path(name))
     assert 7.5 <= system.kite.mass_kg <= 6900
-    check_drive_holds_kite(system, system.drive.max_torque_nm, "system file")
+    check_drive_holds_kite(system, system.drive, "system file")
 
 
 @pytest.mark.parametrize("make", [glider, soft_kite])
@@ -123,9 +124,9 @@ def test_megawes_at_1000_t_is_refused():
 
 def test_a_drive_that_cannot_hold_the_weight_is_refused():
     system = load_system()  # 7.5 kg on a 0.1 m drum: 7.4 N m hold the weight
-    check_drive_holds_kite(system, 7.5, "system file")
+    check_drive_holds_kite(system, Drive(max_torque_nm=7.5), "system file")
     with pytest.raises(InputError, match=r"\[drive\] max_torque_nm: 7 N m"):
-        check_drive_holds_kite(system, 7.0, "system file")
+        check_drive_holds_kite(system, Drive(max_torque_nm=7.0), "system file")
 
 
 def _value(v: object) -> str:

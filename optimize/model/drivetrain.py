@@ -16,6 +16,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from kernel.drive import Drive
 from kernel.units import RPM_PER_RAD_S
 
 
@@ -30,9 +31,8 @@ class DriveModel(Protocol):
         Its identity: part of the NLP cache key and of a stored solve's.
     nominal_power_w : float
         The drive's nominal power [W], where the system states none.
-    drive : dict or None
-        Its own rating (``max_speed_rpm``, ``max_torque_nm``, ...: docs/schemas.md §3),
-        where the system states none.
+    drive : kernel.drive.Drive or None
+        Its own rating (docs/schemas.md §3), where the system states none.
     thermal : dict or None
         Its winding's thermal model (docs/schemas.md §3 ``thermal``), or None.
     domain : dict or None
@@ -45,7 +45,7 @@ class DriveModel(Protocol):
     name: str
     sha256: str
     nominal_power_w: float
-    drive: dict | None
+    drive: Drive | None
     thermal: dict | None
     domain: dict | None
     coefficients: dict
@@ -225,10 +225,9 @@ def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
     base : fitting.power_model.PowerModel
     speed_ratio, torque_ratio : float
         ``k_n``, ``k_T`` > 0 [-].
-    drive : dict, optional
-        The carried drive's rating (:meth:`kernel.drive.Drive.to_dict`); its
-        ``nominal_power_w`` becomes the model's nominal power. Default: the base
-        rating times the ratios (nominal power times ``k_n k_T``).
+    drive : kernel.drive.Drive, optional
+        The carried drive's rating; its ``nominal_power_w`` becomes the model's nominal
+        power. Default: the base rating carried (:meth:`kernel.drive.Drive.scaled`).
     name : str, optional
         Model name (default: the base name and the ratios).
     loss_ratio : float, optional
@@ -259,15 +258,9 @@ def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
     if base.covariance_rpm is not None:
         cov = tuple(map(tuple, np.array(base.covariance_rpm) * np.outer(lam * f, lam * f)))
     if drive is None and base.drive is not None:
-        drive = {**base.drive, "max_speed_rpm": base.drive["max_speed_rpm"] * k_n,
-                 "max_torque_nm": base.drive["max_torque_nm"] * k_t,
-                 "nominal_power_w": base.drive["nominal_power_w"] * k_n * k_t,
-                 "source": f"{base.drive.get('source', '')}; carried x{k_n:g} in speed, "
-                           f"x{k_t:g} in torque"}
-        for key in ("continuous_torque_nm", "max_p_elec_w"):
-            if drive.get(key) is not None:
-                drive[key] *= k_t if key == "continuous_torque_nm" else k_n * k_t
-    nominal = drive["nominal_power_w"] if drive is not None else base.nominal_power_w * k_n * k_t
+        drive = base.drive.scaled(k_n, k_t, f"{base.drive.source or ''}; carried x{k_n:g} in "
+                                            f"speed, x{k_t:g} in torque")
+    nominal = drive.nominal_power_w if drive is not None else base.nominal_power_w * k_n * k_t
     domain = None
     if base.domain is not None:
         domain = {q: [[n * k_n, t * k_t] for n, t in poly] for q, poly in base.domain.items()}

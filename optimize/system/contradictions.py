@@ -49,16 +49,17 @@ def check_tension_floor(system: Any, constrained: bool, source: str | None = Non
     continuous (RMS) torque carries on average: the torque at the drum over the cycle is
     at least the floor's at every instant, so its peak and its RMS are too."""
     floor, drive = bound_values(system.bounds)["tension_min"], system.drive
-    if not constrained or floor is None or floor <= 0 or drive.max_torque_nm is None:
+    torque_key = bound_keys(drive)["torque_limit"]
+    if not constrained or floor is None or floor <= 0 or getattr(drive, torque_key) is None:
         return
     w, key_of_floor = system.winch, bound_keys(system.bounds)["tension_min"]
     torque_nm = floor * w.drum_radius_m / w.gear_ratio
-    for key, limit, what in (("max_torque_nm", drive.max_torque_nm, "torque limit"),
+    for key, limit, what in ((torque_key, getattr(drive, torque_key), "torque limit"),
                              ("continuous_torque_nm", drive.rms_torque_limit_nm,
                               "continuous (RMS) torque rating")):
         if limit is None or torque_nm <= limit:
             continue
-        pull_n = limit * w.gear_ratio / w.drum_radius_m
+        pull_n = drive.held_tension_n(w.drum_radius_m, w.gear_ratio, limit)
         raise InputError(system.path, f"{_where(source)}[bounds] {key_of_floor}: the tension "
                          f"floor {floor:g} N needs {torque_nm:.4g} N m on the "
                          f"{w.drum_radius_m:g} m drum (gear ratio {w.gear_ratio:g}), above "
@@ -99,14 +100,10 @@ def envelope_power_w(drive: Any) -> float | None:
 def _table_samples(drive: Any) -> tuple[np.ndarray, np.ndarray]:
     """Speeds [rpm] up to the speed limit (else the table's last speed) and the table's
     largest torque there [N m] (capped by the torque limit)."""
-    from kernel.drive import largest_torque_nm
-
     speeds = np.asarray(drive.envelope_speed_rpm, dtype=float)
     top = drive.max_speed_rpm if drive.max_speed_rpm is not None else float(speeds[-1])
     speed = np.unique(np.concatenate([np.linspace(0.0, top, _SAMPLES), speeds[speeds <= top]]))
-    cap = drive.max_torque_nm if drive.max_torque_nm is not None else np.inf
-    return speed, largest_torque_nm(speed, cap, speeds_rpm=drive.envelope_speed_rpm,
-                                    torques_nm=drive.envelope_torque_nm)
+    return speed, drive.largest_torque_nm(speed)
 
 
 def check_envelope(drive: Any, path: str | Path | None, source: str | None = None) -> None:
@@ -124,10 +121,10 @@ def check_envelope(drive: Any, path: str | Path | None, source: str | None = Non
                          f"leaves the drive at most {power:.4g} W up to its speed limit, "
                          f"less than {MIN_ENVELOPE_POWER_SHARE:.0%} of its nominal_power_w "
                          f"{nominal:g} W: no envelope of that drive",
-                         expected="a base speed (or table) at which max_torque_nm times the "
-                                  "speed is about the nominal power "
-                                  f"(base_speed_rpm about "
-                                  f"{nominal / drive.max_torque_nm * RPM_PER_RAD_S:.4g} rpm)")
+                         expected=f"a base speed (or table) at which "
+                                  f"{bound_keys(drive)['torque_limit']} times the speed is "
+                                  "about the nominal power (base_speed_rpm about "
+                                  f"{drive.corner_speed_rpm():.4g} rpm)")
     if drive.envelope_speed_rpm is None:
         return
     speed, torque = _table_samples(drive)
@@ -159,10 +156,10 @@ def check_thermal(drive_model: Any, drive: Any, model_path: str | Path | None,
         thermal = WindingThermal.of(drive_model, limit, drive.ambient_temperature_c)
     except (ValueError, KeyError, TypeError):
         return  # said with its key where the thermal line is made (a limit below ambient)
-    torque = drive.rms_torque_limit_nm or drive.max_torque_nm
+    torque = drive.thermal_torque_nm()
     if not torque or not drive.nominal_power_w:
         return
-    speed = drive.nominal_power_w / torque * RPM_PER_RAD_S
+    speed = drive.corner_speed_rpm(torque)
     if drive.max_speed_rpm is not None:
         speed = min(speed, drive.max_speed_rpm)
     loss_w = float(drive_model.p_elec_w(np.array([speed]), np.array([torque]))[0]
@@ -236,8 +233,8 @@ def check_drive(system: Any, drive_model: Any, model_path: str | Path | None,
 
     try:
         drive = system.drive
-        check_physics(drive_model, model_path, limits=(drive.max_speed_rpm, drive.max_torque_nm))
-        check_drive_holds_kite(system, drive.max_torque_nm, rating_source or "the drive in force")
+        check_physics(drive_model, model_path, limits=drive.box())
+        check_drive_holds_kite(system, drive, rating_source or "the drive in force")
         check_contradictions(system, drive_model, kinds, model_path)
     except InputError as exc:
         if not source:

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from kernel.drive import DRIVE_KEYS, ENVELOPE_KEYS, OPTIONAL_DRIVE_KEYS, Drive
+from kernel.drive import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS, Drive
 from kernel.errors import InputError
 from optimize.system.drive_power_check import (
     efficiency_assumption,
@@ -141,14 +141,14 @@ def rating_in_force(system: Any, model: Any, model_path: Path | str) -> Drive:
         When a rating key is in neither.
     """
     d = system.drive
-    given = getattr(model, "drive", None) or {}
+    given = getattr(model, "drive", None)
     values, borrowed = {}, []
     for key in DRIVE_KEYS:
         own = getattr(d, key)
         if own is not None:
             values[key] = own
-        elif given.get(key) is not None:
-            values[key] = float(given[key])
+        elif given is not None and getattr(given, key) is not None:
+            values[key] = float(getattr(given, key))
             borrowed.append(key)
         elif key == "nominal_power_w":
             values[key] = float(model.nominal_power_w)
@@ -214,60 +214,40 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
                              f"{path} states no rating to carry its losses from",
                              expected='a power model with a "drive" rating, or scaling = "none"')
         return DriveInForce(rating, model, path, note, envelope_note=env, checks=checks)
-    base_rating = (float(base["max_speed_rpm"]), float(base["max_torque_nm"]),
-                   float(base["nominal_power_w"]))
-    ratios = {"max_speed_rpm": rating.max_speed_rpm / base_rating[0],
-              "max_torque_nm": rating.max_torque_nm / base_rating[1],
-              "nominal_power_w": rating.nominal_power_w / base_rating[2]}
+    ratios = {k: getattr(rating, k) / float(getattr(base, k)) for k in DRIVE_KEYS}
     if scaling is None:
         if max(_factor(r) for r in ratios.values()) > RATING_RATIO_LIMIT and override is not None:
             raise InputError(  # the user's --drive-model is the file to look at
                 path,
-                f"its drive rating ({base_rating[0]:g} rpm, {base_rating[1]:g} N m, "
-                f"{base_rating[2]:g} W) differs from the drive of the system {system.path} "
-                f"({rating.max_speed_rpm:g} rpm, {rating.max_torque_nm:g} N m, "
-                f"{rating.nominal_power_w:g} W) by more than x{RATING_RATIO_LIMIT:g}",
+                f"its drive rating ({base.rating_text()}) differs from the drive of the "
+                f"system {system.path} ({rating.rating_text()}) by more than "
+                f"x{RATING_RATIO_LIMIT:g}",
                 column="drive", expected="--drive-model: a power model of the system's drive, "
                 'or [drive] scaling = "similarity" or "none" in the system file')
         if max(_factor(r) for r in ratios.values()) > RATING_RATIO_LIMIT:
             raise InputError(
                 system.path,
-                f"[drive]: this drive ({rating.max_speed_rpm:g} rpm, {rating.max_torque_nm:g} "
-                f"N m, {rating.nominal_power_w:g} W) differs from the rating of its power model "
-                f"{path} ({base_rating[0]:g} rpm, {base_rating[1]:g} N m, {base_rating[2]:g} W) "
-                f"by more than x{RATING_RATIO_LIMIT:g}, and the file does not say how to carry "
-                "the losses over",
+                f"[drive]: this drive ({rating.rating_text()}) differs from the rating of its "
+                f"power model {path} ({base.rating_text()}) by more than "
+                f"x{RATING_RATIO_LIMIT:g}, and the file does not say how to carry the losses "
+                "over",
                 expected='[drive] scaling = "similarity" (carry the losses to this rating, '
                          'docs/system_file.md) or scaling = "none" (use them as they are)')
         return DriveInForce(rating, model, path, note, envelope_note=env, checks=checks)
     # the machine's size: the ratio of the corners of the constant-torque regions (a base
     # speed, else the speed limit) and of nominal torques (nominal power / that speed)
-    k_n = _corner_rpm(system.drive, rating) / _corner_rpm(_Table(base), rating_of(base))
+    k_n = _corner_rpm(system.drive, rating) / base.corner_rpm()
     k_t = ratios["nominal_power_w"] / k_n
     lam, size_line = 1.0, efficiency_assumption(ratios["nominal_power_w"])
     if scaling == SCALING_IE3:
-        lam = rating_loss_ratio(base_rating[2], rating.nominal_power_w)
-        size_line = efficiency_law(base_rating[2], rating.nominal_power_w)
+        lam = rating_loss_ratio(base.nominal_power_w, rating.nominal_power_w)
+        size_line = efficiency_law(base.nominal_power_w, rating.nominal_power_w)
     checks = (*checks, *(c for c in (size_line,) if c))
-    carried = carry_power_model(model, k_n, k_t, drive=rating.to_dict(),
-                                name=f"{model.name} carried to {rating.max_speed_rpm:g} rpm, "
-                                     f"{rating.max_torque_nm:g} N m", loss_ratio=lam)
+    carried = carry_power_model(model, k_n, k_t, drive=rating,
+                                name=f"{model.name} carried to "
+                                     f"{rating.rating_text(power=False)}", loss_ratio=lam)
     return DriveInForce(rating, carried, path, note, k_n, k_t, envelope_note=env,
                         checks=checks, loss_ratio=lam)
-
-
-class _Table:
-    """A power model's ``drive`` mapping read as a ``[drive]`` section (its envelope)."""
-
-    def __init__(self, drive: dict) -> None:
-        self.base_speed_rpm = drive.get("base_speed_rpm")
-
-
-def rating_of(drive: dict) -> Any:
-    """A power model's ``drive`` mapping's speed limit, as a rating."""
-    from types import SimpleNamespace
-
-    return SimpleNamespace(max_speed_rpm=float(drive["max_speed_rpm"]))
 
 
 def _corner_rpm(envelope: Any, rating: Any) -> float:
@@ -277,10 +257,10 @@ def _corner_rpm(envelope: Any, rating: Any) -> float:
     return float(base) if base is not None else float(rating.max_speed_rpm)
 
 
-def unflown_envelope(system: Any, model_drive: dict | None, path: Path) -> str:
+def unflown_envelope(system: Any, model_drive: Drive | None, path: Path) -> str:
     """A line when the power model's rating (its campaign's ``drive.toml``) states a
     torque-speed envelope and the system file's ``[drive]`` states none, else ``""``."""
-    stated = [k for k in ENVELOPE_KEYS if (model_drive or {}).get(k) is not None]
+    stated = list(model_drive.envelope) if model_drive is not None else []
     if not stated or system.drive.has_envelope():
         return ""
     return (f"the power model's drive rating ({path}) states a torque-speed envelope "

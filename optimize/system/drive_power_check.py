@@ -8,7 +8,7 @@ sized for the peak mechanical power of the reel-out phase, 2.5 times the rated e
 modelling and scaling of fixed-wing ground-generation airborne wind energy systems",
 Wind Energ. Sci. 9, 2195-2215, 2024; its input ``peakM2E_F``, awegroup/AWE-Power):
 :data:`PEAK_TO_RATED` is that factor, the limit where the rating states no overload. The
-most shaft power a cycle can draw within the limits (:func:`peak_shaft_power_w`) is the
+most shaft power a cycle can draw within the limits (:meth:`kernel.drive.Drive.peak_power_w`) is the
 torque limit times the speed limit without an envelope, times the base speed with a
 constant-power envelope, the largest torque times speed of a datasheet table (its last
 torque held to the speed limit) otherwise. A rating whose peak exceeds that many times its
@@ -34,8 +34,6 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import numpy as np
-
 from kernel.units import power_words
 
 #: the largest peak shaft power a rating may allow per unit of its nominal power when it
@@ -60,37 +58,19 @@ IE_SCOPE_W = 1000e3
 EFFICIENCY_NOTE_RATIO = 1.5
 
 
-def peak_shaft_power_w(rating: Any, envelope: Any = None) -> float:
-    """The most shaft power [W] a cycle can draw within a rating's limits (see the module
-    text); ``envelope`` has ``base_speed_rpm``, ``envelope_speed_rpm``,
-    ``envelope_torque_nm`` (a system file's ``[drive]``; None or unset: no envelope)."""
-    w = math.pi / 30.0
-    base = getattr(envelope, "base_speed_rpm", None)
-    speeds = getattr(envelope, "envelope_speed_rpm", None)
-    if base is not None:
-        return rating.max_torque_nm * min(base, rating.max_speed_rpm) * w
-    if speeds is not None:
-        n = np.append(np.asarray(speeds, float), rating.max_speed_rpm)
-        n = n[n <= rating.max_speed_rpm]
-        t = np.minimum(np.interp(n, speeds, envelope.envelope_torque_nm),
-                       rating.max_torque_nm)
-        return float(np.max(n * t)) * w
-    return rating.max_torque_nm * rating.max_speed_rpm * w
-
-
 def power_check(rating: Any, envelope: Any = None) -> str | None:
     """A sentence when the rating lets the drive deliver more shaft power than its nominal
     power times its overload (the stated ``overload``, else :data:`PEAK_TO_RATED`), else
     None."""
-    peak = peak_shaft_power_w(rating, envelope)
+    peak = rating.peak_power_w(envelope)
     factor = rating.overload if rating.overload is not None else PEAK_TO_RATED
     if peak <= factor * rating.nominal_power_w * (1 + 1e-9):
         return None
     why = (f"its datasheet overload {factor:g}" if rating.overload is not None else
            f"{PEAK_TO_RATED:g}, AWE-Power's peak mechanical power of a ground station's "
            "generator per rated electrical power (Joshi et al. 2024)")
-    return (f"drive rating not that of a real machine: torque <= {rating.max_torque_nm:g} N m "
-            f"and speed <= {rating.max_speed_rpm:g} rpm let a cycle draw {power_words(peak)} "
+    return (f"drive rating not that of a real machine: {rating.box_text()} let a cycle draw "
+            f"{power_words(peak)} "
             f"at the shaft, {peak / rating.nominal_power_w:.3g} times its nominal "
             f"{power_words(rating.nominal_power_w)}, above {why}: state a constant-power "
             "envelope ([drive] base_speed_rpm) or the datasheet's overload, or a nominal "

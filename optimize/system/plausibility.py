@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from kernel.errors import InputError
+from kernel.sections import bound_keys
 from optimize.model.aero import force_coefficients
 
 #: largest mass [kg]: the An-225's 640 t maximum take-off mass, the heaviest aircraft flown
@@ -186,29 +187,31 @@ def check_system(system: Any) -> None:
     _check_weight_carried(system)
 
 
-def check_drive_holds_kite(system: Any, max_torque_nm: float, source: str) -> None:
+def check_drive_holds_kite(system: Any, drive: Any, source: str) -> None:
     """Refuse a drive whose torque limit cannot hold the kite's weight on the drum.
 
     Parameters
     ----------
     system : optimize.system.system.System
-    max_torque_nm : float
-        The drive's torque limit in force at the motor shaft [N m].
+    drive : kernel.drive.Drive
+        The drive in force (its torque limit at the motor shaft).
     source : str
         Where that limit came from (``"system file"`` or ``"power model"``).
 
     Raises
     ------
     InputError
-        When ``max_torque_nm * gear_ratio / drum_radius_m`` is below the weight.
+        When the tension its torque limit holds on the drum
+        (:meth:`kernel.drive.Drive.held_tension_n`) is below the weight.
     """
     k, w = system.kite, system.winch
     weight_n = k.mass_kg * system.wind.gravity_m_s2
-    held_n = max_torque_nm * w.gear_ratio / w.drum_radius_m
+    held_n = drive.held_tension_n(w.drum_radius_m, w.gear_ratio)
     if held_n < weight_n:
-        raise _error(system.path, "drive", "max_torque_nm",
-                     f"{max_torque_nm:g} N m ({source}) on the {w.drum_radius_m:g} m drum with "
-                     f"gear ratio {w.gear_ratio:g} holds {held_n:.4g} N, less than the kite's "
+        key = bound_keys(drive)["torque_limit"]
+        raise _error(system.path, "drive", key,
+                     f"{getattr(drive, key):g} N m ({source}) on the {w.drum_radius_m:g} m drum "
+                     f"with gear ratio {w.gear_ratio:g} holds {held_n:.4g} N, less than the kite's "
                      f"weight {weight_n:.4g} N",
                      f"a torque limit of at least {weight_n * w.drum_radius_m / w.gear_ratio:.4g}"
                      " N m, or a smaller drum or larger gear ratio in [winch]")

@@ -87,7 +87,7 @@ LIMITS = (1500.0, 78.0)  # the drive limits in force in these cases (rating of t
 
 def _nominal(model, nominal_w):
     """``model`` claiming ``nominal_w`` (in its drive rating too)."""
-    drive = {**(model.drive or {}), "nominal_power_w": nominal_w}
+    drive = {**(model.drive.to_dict() if model.drive else {}), "nominal_power_w": nominal_w}
     return dataclasses.replace(model, nominal_power_w=nominal_w, drive=drive)
 
 

@@ -225,9 +225,9 @@ def test_thermal_block_versions_and_physics(tmp_path):
 def test_paper_model_states_its_drive():
     # docs/paper_figures.md §1: 8.2 kW, drive constraints |speed| <= 1500 rpm, torque <= 78 N m
     drive = paper_model().drive
-    assert (drive["nominal_power_w"], drive["max_speed_rpm"], drive["max_torque_nm"]) == (
+    assert (drive.nominal_power_w, drive.max_speed_rpm, drive.max_torque_nm) == (
         8200.0, 1500.0, 78.0)
-    assert "Stuyts" in drive["source"]
+    assert "Stuyts" in drive.source
 
 
 def test_non_finite_refused(tmp_path):

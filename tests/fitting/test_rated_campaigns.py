@@ -41,8 +41,8 @@ def test_rated_campaign(tmp_path, case):
 
     summary = run_fit(tmp_path / "store", tmp_path / "fit", FitOptions(), progress=False)
     model = load_power_model(tmp_path / "fit" / "power_model.json")
-    assert model.drive["nominal_power_w"] == drive.nominal_power_w
-    assert model.drive["max_speed_rpm"] == drive.max_speed_rpm
+    assert model.drive.nominal_power_w == drive.nominal_power_w
+    assert model.drive.max_speed_rpm == drive.max_speed_rpm
     assert set(model.domain) == set(quadrants)
     # residual std recovers the noise: the eq. 4 model misses part of this loss shape, so
     # only a bound (noise <= std <= 2 x noise)
@@ -89,7 +89,7 @@ def test_bench_fit_checks_the_points_against_the_envelope_drive_toml_states(tmp_
     ingest([tmp_path / "campaign"], tmp_path / "store", progress=False)
     summary = run_fit(tmp_path / "store", tmp_path / "fit", FitOptions(), progress=False)
     model = load_power_model(tmp_path / "fit" / "power_model.json")
-    assert model.drive["base_speed_rpm"] == 3000.0
+    assert model.drive.base_speed_rpm == 3000.0
     check = summary["statistics"]["envelope_check"]
     stored = stored_points(tmp_path / "store")
     top = np.minimum(drive.max_torque_nm,
