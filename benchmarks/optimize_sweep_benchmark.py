@@ -91,7 +91,7 @@ def bench_sweep(problem: Problem, winds, kinds, workers: int, trust: bool) -> di
     (after the timed sweep, on the same workers)."""
     with open_executor(workers) as handle:
         steps = plan_graph(winds, kinds)
-        result = run_sweep(SweepTasks(problem, steps), handle)
+        result = run_sweep(SweepTasks(problem, steps, selected=kinds), handle)
         checks = run_trust_checks(problem, result.outcomes, winds, handle) if trust else None
     warm = [a for o in result.outcomes for a in o.attempts if a.source is not None]
     starts = [(o, a) for o in result.outcomes for a in o.attempts if a.source is None]

@@ -116,7 +116,7 @@ def paper_sweep(solver: str, winds, kinds, workers: int, intervals: int, max_ite
     load_before = load()
     t0 = time.perf_counter()
     with open_executor(workers) as handle:
-        result = run_sweep(SweepTasks(problem, plan_graph(winds, kinds)), handle)
+        result = run_sweep(SweepTasks(problem, plan_graph(winds, kinds), selected=kinds), handle)
     wall = time.perf_counter() - t0
     rows = []
     for o in result.outcomes:

@@ -58,7 +58,7 @@ def run(problem: Problem, winds, kinds, workers: int) -> dict:
     """One sweep on ``workers`` processes: wall, total and critical-path times."""
     load_before = list(os.getloadavg())
     with open_executor(workers) as handle:
-        result = run_sweep(SweepTasks(problem, plan_graph(winds, kinds)), handle)
+        result = run_sweep(SweepTasks(problem, plan_graph(winds, kinds), selected=kinds), handle)
     outcomes = result.outcomes
     warm = [o.attempts[-1].iterations for o in outcomes if o.depth > 0]
     record = result.record()

@@ -298,7 +298,7 @@ def run_optimize(
     plan = plan_graph(request.grid.wind_speeds_m_s, request.grid.kinds)
     with open_executor(request.workers, request.scheduler) as handle:
         tasks = SweepTasks(problem, plan, cut_in_kinds, request.cut_in_tol_m_s, backend,
-                           request.period_scan)
+                           request.period_scan, request.grid.kinds)
         result = run_sweep(tasks, handle, show_progress)
         outcomes = list(result.outcomes)
         if request.trust and result.lost is None:

@@ -31,6 +31,7 @@ from optimize.service.plan import (
     OBJECTIVE_SWITCH_COST,
     chain_steps,
     continuation_order,
+    lead_kinds,
     middle_index,
     parse_kinds,
     parse_wind_grid,
@@ -150,17 +151,33 @@ def _check_graph(steps, winds, kinds):
     """Every scenario once; one cold start; sources planned earlier and shallower; no
     start farther than a wind step and a limit switch but the switch of objective at the
     seed's speed; at most 2 deep after the first solve of each objective on up to five
-    speeds, else one more per further wind step each way from the middle."""
+    speeds, else one more per further wind step each way from the middle. Stage 1: every
+    kind that is not its objective's lead, each speed from the lead at the same speed
+    (one deeper), the lead at the neighbouring speeds as fallbacks."""
     assert sorted(s.name for s in steps) == sorted(scenario_name(k, w) for k in kinds
                                                    for w in winds)
+    leads = lead_kinds(kinds)
+    assert [s.stage for s in steps] == sorted(s.stage for s in steps)
+    assert {s.scenario.kind for s in steps if s.stage == 0} == set(leads)
     depth, by_scenario = {}, {}
     for step in steps:
         sources = [s for s in (step.warm_from, *step.fallbacks) if s is not None]
-        assert all(depth[s] < step.depth for s in sources)  # KeyError: planned later
-        assert (step.depth == 0) == (step.warm_from is None)
+        assert all(s in depth for s in sources)  # planned earlier
         assert step.warm_from not in step.fallbacks
-        if step.warm_from is not None:
-            src, own = by_scenario[step.warm_from].scenario, step.scenario
+        own = step.scenario
+        if step.stage == 1:
+            src = by_scenario[step.warm_from]
+            assert src.scenario.kind in leads and src.stage == 0
+            assert src.scenario.wind_speed_m_s == own.wind_speed_m_s
+            assert src.scenario.objective == own.objective and step.depth == src.depth + 1
+            assert all(f.kind == src.scenario.kind for f in step.fallbacks)
+            assert all(abs(winds.index(f.wind_speed_m_s) - winds.index(own.wind_speed_m_s))
+                       == 1 for f in step.fallbacks)
+        else:
+            assert all(depth[s] < step.depth for s in sources)
+            assert (step.depth == 0) == (step.warm_from is None)
+        if step.warm_from is not None and step.stage == 0:
+            src = by_scenario[step.warm_from].scenario
             cost = start_cost((own.kind, winds.index(own.wind_speed_m_s)),
                               (src.kind, winds.index(src.wind_speed_m_s)))
             switch = (by_scenario[src].depth == 0
@@ -170,27 +187,32 @@ def _check_graph(steps, winds, kinds):
         by_scenario[step.scenario] = step
     objectives = len({k[:4] for k in kinds})
     assert [s.depth for s in steps].count(0) == 1
-    assert max(depth.values()) <= max(2, len(winds) - middle_index(winds) - 1) + objectives - 1
+    lead_depth = max(s.depth for s in steps if s.stage == 0)
+    assert lead_depth <= max(2, len(winds) - middle_index(winds) - 1) + objectives - 1
+    assert max(depth.values()) <= lead_depth + 1
     return depth
 
 
 def test_the_paper_sweep_is_a_graph_with_one_cold_start():
     steps = plan_graph(WINDS, KINDS)
     depth = _check_graph(steps, WINDS, KINDS)
-    assert [s.name for s in steps if s.depth == 0] == ["elec-lim-7.0"]
+    assert [s.name for s in steps if s.depth == 0] == ["elec-free-7.0"]
     # depth 1: one wind step or one limit switch from the seed, and the other objective
     # at the seed's speed (a switch of objective, no cold start of its own)
-    assert {s.name: s.warm_from.name for s in steps if s.depth == 1} == {
-        "elec-lim-5.5": "elec-lim-7.0", "elec-lim-8.5": "elec-lim-7.0",
-        "elec-free-7.0": "elec-lim-7.0", "mech-lim-7.0": "elec-lim-7.0"}
+    assert {s.name: s.warm_from.name for s in steps if s.depth == 1 and s.stage == 0} == {
+        "elec-free-5.5": "elec-free-7.0", "elec-free-8.5": "elec-free-7.0",
+        "mech-free-7.0": "elec-free-7.0"}
     by_name = {s.name: s for s in steps}
-    # then from the nearest: a wind step of the same kind, else a limit switch
-    assert by_name["elec-lim-4.0"].warm_from.name == "elec-lim-5.5"
-    assert by_name["elec-free-5.5"].warm_from.name == "elec-lim-5.5"
-    assert by_name["mech-lim-8.5"].warm_from.name == "mech-lim-7.0"
-    assert by_name["mech-free-7.0"].warm_from.name == "mech-lim-7.0"
-    assert by_name["mech-free-10.0"].warm_from.name == "mech-free-8.5"
-    assert sum(d == 3 for d in depth.values()) == 4
+    # then from the nearest: a wind step of the same kind
+    assert by_name["elec-free-4.0"].warm_from.name == "elec-free-5.5"
+    assert by_name["mech-free-8.5"].warm_from.name == "mech-free-7.0"
+    # stage 1, after the lead kinds' re-solves: the drive limits tightened at the same speed
+    assert by_name["elec-lim-7.0"].warm_from.name == "elec-free-7.0"
+    assert [f.name for f in by_name["elec-lim-5.5"].fallbacks] == ["elec-free-4.0",
+                                                                   "elec-free-7.0"]
+    assert by_name["mech-lim-10.0"].warm_from.name == "mech-free-10.0"
+    assert [s.stage for s in steps].count(1) == 10
+    assert sum(d == 3 for d in depth.values()) == 6 and max(depth.values()) == 4
     # any grid and selection: near starts, one cold start
     for winds, kinds in (((4.0, 5.0, 6.0, 7.0), ("mech-free",)), ((7.0,), KINDS),
                          (tuple(4.0 + i for i in range(13)), ("elec-free", "mech-lim"))):
@@ -202,19 +224,22 @@ def test_a_long_grid_starts_each_scenario_from_a_near_one():
     # make demo's grid: 8 speeds, seeds at 8.5 m/s; 14.5 m/s starts from 13, not from 10
     winds = tuple(4.0 + 1.5 * i for i in range(8))
     by_name = {s.name: s for s in plan_graph(winds, KINDS)}
-    assert by_name["elec-lim-14.5"].warm_from.name == "elec-lim-13.0"
+    assert by_name["elec-free-14.5"].warm_from.name == "elec-free-13.0"
     assert by_name["mech-free-13.0"].warm_from.name == "mech-free-11.5"
-    assert by_name["elec-free-4.0"].warm_from.name == "elec-free-5.5"
-    # 8.5 -> 10 -> 11.5 -> 13 -> 14.5, one more after the switch of objective
-    assert max(s.depth for s in by_name.values() if s.scenario.objective == "electrical") == 4
-    assert max(s.depth for s in by_name.values()) == 5
+    assert by_name["mech-lim-13.0"].warm_from.name == "mech-free-13.0"
+    assert by_name["elec-lim-4.0"].warm_from.name == "elec-free-4.0"
+    # 8.5 -> 10 -> 11.5 -> 13 -> 14.5, one more after the switch of objective, and
+    # one more for the limit switch of stage 1
+    assert max(s.depth for s in by_name.values() if s.scenario.kind == "elec-free") == 4
+    assert max(s.depth for s in by_name.values() if s.scenario.kind == "elec-lim") == 5
+    assert max(s.depth for s in by_name.values()) == 6
 
 
 # ----------------------------------------------------------------- running the sweep
 def _sweep(kinds=KINDS, cut_in_kinds=(), backend=None, workers=2, problem=PROBLEM):
     """The sweep of ``kinds`` on WINDS on a thread pool (the stand-in solver by default)."""
     tasks = SweepTasks(problem, plan_graph(WINDS, kinds), cut_in_kinds=cut_in_kinds,
-                       backend=backend or NewtonBackend())
+                       backend=backend or NewtonBackend(), selected=kinds)
     with ThreadPoolExecutor(workers) as ex:
         return run_sweep(tasks, ExecutorHandle(ex, QueueChannel(), "threads", workers),
                          show_progress=False)
@@ -228,7 +253,7 @@ def test_sweep_solves_every_scenario_exactly_with_cheap_warm_starts():
         want = SCALE_W * (exact_root(CUT_IN_M_S[o.kind]) - exact_root(o.wind_speed_m_s))
         assert o.result.avg_p_elec_w == pytest.approx(want, rel=1e-9, abs=1e-9)
     cold = [o for o in result.outcomes if o.warm_source == "cold start"]
-    assert [o.name for o in cold] == ["elec-lim-7.0"]  # one per sweep
+    assert [o.name for o in cold] == ["elec-free-7.0"]  # one per sweep
     # the depth column says where each start came from: the plan's, as every start converged
     planned = {s.name: s.depth for s in plan_graph(WINDS, KINDS)}
     assert {o.name: o.depth for o in result.outcomes} == planned
@@ -345,7 +370,7 @@ def test_sweep_on_a_local_dask_cluster():
     distributed = pytest.importorskip("distributed")
 
     tasks = SweepTasks(PROBLEM, plan_graph(WINDS, KINDS), cut_in_kinds=("elec-lim", "mech-lim"),
-                       backend=NewtonBackend())
+                       backend=NewtonBackend(), selected=KINDS)
     with (
         distributed.LocalCluster(
             n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None
@@ -889,6 +914,22 @@ def test_a_better_branch_found_at_one_end_is_carried_along_the_kind():
     top = by_name["elec-free-10.0"].resolves
     assert [(r.attempt.source, r.carried, r.kept) for r in top] == [
         ("elec-free-8.5", True, False)]
+
+
+def test_the_limited_kind_starts_on_the_branch_its_lead_settled():
+    # the lead (elec-free) lands on the poor branch up to 8.5 m/s and its re-solves carry
+    # the good one down from 10 m/s; only then does elec-lim start, each speed from the
+    # lead's final optimum there: on the good branch at once, with nothing to re-solve
+    result = _sweep(("elec-lim", "elec-free"), backend=LadderBackend())
+    assert [o.kind for o in result.outcomes] == ["elec-lim"] * 5 + ["elec-free"] * 5
+    by_name = {o.name: o for o in result.outcomes}
+    for w in WINDS:
+        lead = by_name[scenario_name("elec-free", w)]
+        limited = by_name[scenario_name("elec-lim", w)]
+        assert lead.result.warm == limited.result.warm == "good"
+        assert limited.attempts == (limited.attempts[0],)
+        assert limited.attempts[0].source == lead.name and limited.resolves == ()
+    assert sum(len(o.resolves) for o in result.outcomes) == 5  # the lead's four kept, one not
 
 
 def test_a_smooth_power_curve_is_not_resolved():

@@ -106,6 +106,9 @@ class ChainTask:
         The numerical side (:class:`optimize.service.builder.OcpBackend` by default).
     resolve : bool
         Re-solve planned scenarios off their kind's smooth curve.
+    resolve_by_period : bool
+        That check looks at the period as well as the power
+        (:func:`optimize.service.local_optima.resolve_local_optima`'s ``by_period``).
     period_scan : int
         Held periods per converged scenario of the period scan, after the re-solves
         (:func:`optimize.service.period_scan.scan_periods`); 0 scans nothing.
@@ -138,6 +141,7 @@ class ChainTask:
     store: Path | None = None
     backend: Any = None
     resolve: bool = False
+    resolve_by_period: bool = True
     period_scan: int = 0
     cut_in_kinds: tuple[str, ...] = ()
     cut_in_tol_m_s: float = 0.05
@@ -207,7 +211,8 @@ def run_chain(task: ChainTask, progress: Any = None) -> ChainOutcome:
     if task.retry:
         retry_failed(solves, grid)
     if task.resolve:
-        resolve_local_optima(solves, [s for s in grid if s in solves.outcomes])
+        resolve_local_optima(solves, [s for s in grid if s in solves.outcomes],
+                             task.resolve_by_period)
     scan_periods(solves, [s for s in grid if s in solves.outcomes], task.period_scan)
     cut_ins = []
     for kind in task.cut_in_kinds:

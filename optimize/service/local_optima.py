@@ -149,6 +149,7 @@ class _Search:
     kind: str
     version: dict
     origin: dict
+    by_period: bool = True
     tried: set = dataclasses.field(default_factory=set)
 
     def curve(self) -> tuple[list, list[float], list[int]]:
@@ -158,7 +159,8 @@ class _Search:
                     key=lambda k: k.wind_speed_m_s)
         outs = [self.solves.outcomes[k] for k in ks]
         power = [objective_power_w(self.kind, o.result) for o in outs]
-        period = [float(getattr(o.result, "period_s", math.nan)) for o in outs]
+        period = [float(getattr(o.result, "period_s", math.nan)) if self.by_period else math.nan
+                  for o in outs]
         if not all(math.isfinite(p) for p in power):
             return [], [], []
         speeds = [k.wind_speed_m_s for k in ks]
@@ -214,7 +216,8 @@ class _Search:
         return False
 
 
-def resolve_local_optima(solves: Any, scenarios: Sequence[Scenario]) -> None:
+def resolve_local_optima(solves: Any, scenarios: Sequence[Scenario],
+                         by_period: bool = True) -> None:
     """Re-solve those of ``scenarios`` that sit off their kind's smooth curve.
 
     Parameters
@@ -224,6 +227,12 @@ def resolve_local_optima(solves: Any, scenarios: Sequence[Scenario]) -> None:
         outcome, record and warm start there (:meth:`Solves.replace`).
     scenarios : sequence of Scenario
         The scenarios to check (the planned grid), kinds checked in their order here.
+    by_period : bool
+        Check the period as well as the power (:func:`curve_residuals`). False for
+        kinds that started at each speed from their lead kind's optimum
+        (:func:`optimize.service.plan.plan_graph`, stage 1): they are on the lead's
+        checked branch, and their period moves where their own limits start to bind
+        (the paper's drive-limited kinds: a U-shaped period over the wind speed).
 
     Notes
     -----
@@ -242,7 +251,7 @@ def resolve_local_optima(solves: Any, scenarios: Sequence[Scenario]) -> None:
         by_name = {solves.outcomes[k].name: k for k in own}
         search = _Search(solves, kind, dict.fromkeys(own, 0),
                          {k: (by_name.get(solves.outcomes[k].attempts[-1].source), 0)
-                          for k in own})
+                          for k in own}, by_period)
         for _ in range(MAX_RESOLVE_ROUNDS):
             if not search.round():
                 break

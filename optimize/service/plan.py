@@ -3,23 +3,33 @@
 A sweep is every selected scenario *kind* (objective x drive limits, e.g.
 ``elec-lim``) at every wind speed of a grid. Solving each of them cold (homotopy)
 would be slow, so each solve starts from a solved neighbour; :func:`plan_graph`
-plans those starts as a graph, not as chains, so that every core has work:
+plans those starts as a graph, not as chains, so that every core has work.
+
+It runs in two stages. Stage 0 sweeps each objective's *lead* kind
+(:func:`lead_kinds`: the one without the drive limits, the relaxation of the
+others); its local optima are re-solved before stage 1, in which every other kind
+starts at each wind speed from its lead's final optimum there, the drive limits
+tightened (a limit switch). A cycle optimization is multimodal: chains of each kind
+from their own neighbours land on branches of their own and cost a re-solve each where
+those are poor, while a kind started from its settled lead inherits the lead's branch.
+On AP2 over 4:14:2 this cut the sweep from 3021 to about 2200 IPOPT iterations in all,
+with 8 optima better and none poorer than each kind's own chain (benchmarks/README.md,
+foreign_kites). Stage 0's graph:
 
 * the *seed* (depth 0) is the sweep's one cold start (the system's stored start where
-  it fits, else the homotopy), the first kind at the middle wind speed;
+  it fits, else the homotopy), the first lead kind at the middle wind speed;
 * depth 1: the scenarios one step from the seed (:func:`start_cost` at most
-  :data:`SEED_STEP_COST`: the seed's kind at the neighbouring wind speeds, the other
-  kinds of its objective at the seed's speed) and the first kind of each other
-  objective at the seed's speed (a switch of objective) start from it;
+  :data:`SEED_STEP_COST`: the seed's kind at the neighbouring wind speeds) and the lead
+  of each other objective at the seed's speed (a switch of objective) start from it;
 * each further depth: every scenario within :data:`NEAR_START_COST` (a wind step and a
   limit switch) of one planned before starts from the nearest of those;
 * every step also lists one fallback source (the next nearest of those); when
   neither converges the solve falls back to a fresh cold start.
 
-So on a grid of up to five wind speeds every scenario is at most three solves deep after
-the seed, two after the first solve of its objective; a longer grid adds one
-depth per further wind step each way from the middle, so that no start jumps farther
-than one wind step and a limit switch. Farther starts cost iterations and land on
+So on a grid of up to five wind speeds every lead scenario is at most three solves deep
+after the seed, two after the first solve of its objective (stage 1 one more); a longer
+grid adds one depth per further wind step each way from the middle, so that no start
+jumps farther than one wind step. Farther starts cost iterations and land on
 poorer optima: on ``make demo``'s 4:14.5:1.5, depth 2 everywhere started 13 and 14.5 m/s
 from 10 m/s, took 1025 IPOPT iterations against 820 for neighbour starts, and found
 optima up to 18 W poorer (benchmarks/README.md, sweep_scaling). The steps run on the
@@ -194,12 +204,16 @@ class Step:
         source failed or its solve fails. A cold start is the last resort.
     depth : int
         Planned solves before this one along its starts (0: a cold start).
+    stage : int
+        The sweep's round the step runs in (:func:`plan_graph`): 0, the lead kinds'
+        grid; 1, the other kinds, once the lead kinds' local optima are re-solved.
     """
 
     scenario: Scenario
     warm_from: Scenario | None
     fallbacks: tuple[Scenario, ...] = ()
     depth: int = 0
+    stage: int = 0
 
     @property
     def name(self) -> str:
@@ -256,8 +270,24 @@ def start_cost(a: tuple[str, int], b: tuple[str, int]) -> float:
     return cost
 
 
+def lead_kinds(kinds: tuple[str, ...]) -> tuple[str, ...]:
+    """The kind that leads each objective of ``kinds`` (in their order): its first kind
+    with the drive limits, else its first. The other kinds of the objective relax the
+    lead's limits, so the lead's optimum is a feasible start of theirs."""
+    objectives = dict.fromkeys(KINDS[k].objective for k in kinds)
+    return tuple(next((k for k in kinds if KINDS[k].objective == obj and not KINDS[k].drive_limits),
+                      next(k for k in kinds if KINDS[k].objective == obj))
+                 for obj in objectives)
+
+
 def plan_graph(wind_speeds_m_s: tuple[float, ...], kinds: tuple[str, ...]) -> tuple[Step, ...]:
-    """Plan the sweep as a start graph (see the module docstring).
+    """Plan the sweep as a start graph in two stages (see the module docstring).
+
+    Stage 0 is the start graph of the lead kinds (:func:`lead_kinds`). Stage 1 runs once
+    the lead kinds' local optima are re-solved: every other kind at each wind speed starts
+    from its objective's lead at the same speed (a limit switch: the lead's optimum is
+    feasible there), so it starts on the branch the lead's re-solves settled, with the
+    lead at the neighbouring speeds as fallbacks.
 
     Parameters
     ----------
@@ -269,10 +299,30 @@ def plan_graph(wind_speeds_m_s: tuple[float, ...], kinds: tuple[str, ...]) -> tu
     Returns
     -------
     tuple of Step
-        Every scenario (kind at a wind speed) exactly once, by depth (the seed first); each step's
-        sources come before it and are at most ``depth - 1`` deep; ``depth`` at most 3
-        on a grid of up to five wind speeds.
+        Every scenario (kind at a wind speed) exactly once, by stage, then by depth (the
+        seed first); each step's sources come before it and are at most ``depth - 1``
+        deep; in stage 0 ``depth`` is at most 3 on a grid of up to five wind speeds.
     """
+    leads = lead_kinds(kinds)
+    graph = _lead_graph(wind_speeds_m_s, tuple(k for k in kinds if k in leads))
+    depth = {s.scenario: s.depth for s in graph}
+    lead_of = {KINDS[k].objective: k for k in leads}
+    derived = []
+    for kind in (k for k in kinds if k not in leads):
+        lead = lead_of[KINDS[kind].objective]
+        for i, w in enumerate(wind_speeds_m_s):
+            near = sorted((j for j in (i - 1, i + 1) if 0 <= j < len(wind_speeds_m_s)),
+                          key=lambda j: abs(wind_speeds_m_s[j] - w))
+            source = Scenario.of_kind(lead, w)
+            derived.append(Step(Scenario.of_kind(kind, w), source,
+                                tuple(Scenario.of_kind(lead, wind_speeds_m_s[j]) for j in near),
+                                depth[source] + 1, stage=1))
+    return (*graph, *derived)
+
+
+def _lead_graph(wind_speeds_m_s: tuple[float, ...], kinds: tuple[str, ...]) -> tuple[Step, ...]:
+    """The start graph of stage 0 (:func:`plan_graph`): the module docstring's seed and
+    depths."""
     mid = middle_index(wind_speeds_m_s)
     objectives = dict.fromkeys(KINDS[k].objective for k in kinds)
     seed = (kinds[0], mid)

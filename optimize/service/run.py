@@ -27,7 +27,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from optimize.kinds import KINDS
 from optimize.problem.scenario import Scenario
 from optimize.service.builder import Problem
 from optimize.service.chain import ChainTask, Refinement, run_chain
@@ -264,6 +263,9 @@ class SweepTasks:
     period_scan : int
         Held periods per converged scenario of the period scan (0: none;
         :mod:`optimize.service.period_scan`).
+    selected : tuple of str
+        The scenario kinds as selected, the order of the outcomes; empty: in the order
+        of the steps.
     """
 
     problem: Problem
@@ -272,11 +274,12 @@ class SweepTasks:
     cut_in_tol_m_s: float = 0.05
     backend: Any = None
     period_scan: int = 0
+    selected: tuple[str, ...] = ()
 
     @property
     def kinds(self) -> tuple[str, ...]:
-        """The scenario kinds, in the order of the steps."""
-        return tuple(dict.fromkeys(s.scenario.kind for s in self.steps))
+        """The scenario kinds, as selected (else in the order of the steps)."""
+        return self.selected or tuple(dict.fromkeys(s.scenario.kind for s in self.steps))
 
 
 def _own(out: ChainOutcome, step: Step) -> ChainOutcome:
@@ -288,20 +291,24 @@ def _own(out: ChainOutcome, step: Step) -> ChainOutcome:
                       if (r["kind"], r["wind_speed_m_s"]) == (own.kind, own.wind_speed_m_s)))
 
 
-def _solve_graph(tasks: SweepTasks, handle: Any, on_event: Callable[[dict], None]
-                 ) -> tuple[list[ChainOutcome], ClusterLost | None]:
-    """Solve every step of the start graph, each as one task once its sources are done;
-    one outcome per step, in step order, and the loss of the cluster that ended it early
-    (the steps it did not finish failed ``"not run"``), or None."""
+def _solve_graph(tasks: SweepTasks, stage: int, prior: dict[Scenario, tuple], handle: Any,
+                 on_event: Callable[[dict], None]
+                 ) -> tuple[dict[int, ChainOutcome], ClusterLost | None]:
+    """Solve every step of one stage of the start graph, each as one task once its
+    sources are done, the scenarios of ``prior`` (scenario -> (outcome, record), the
+    earlier stages' results) among its warm starts; one outcome per step, by its index
+    in ``tasks.steps``, and the loss of the cluster that ended it early (the steps it did
+    not finish failed ``"not run"``), or None."""
     from optimize.service.executors import run_graph
 
-    steps = tasks.steps
-    index = {s.scenario: i for i, s in enumerate(steps)}
+    at = [i for i, s in enumerate(tasks.steps) if s.stage == stage]
+    steps = [tasks.steps[i] for i in at]
+    index = {s.scenario: n for n, s in enumerate(steps)}
     outs: dict[int, ChainOutcome] = {}
     made: dict[int, ChainTask] = {}
 
-    def needs(i: int) -> list[int]:
-        return [index[n] for n in (steps[i].warm_from, *steps[i].fallbacks) if n in index]
+    def needs(n: int) -> list[int]:
+        return [index[m] for m in (steps[n].warm_from, *steps[n].fallbacks) if m in index]
 
     def outcome(j: int, future: Any) -> ChainOutcome:
         if j not in outs:
@@ -310,12 +317,15 @@ def _solve_graph(tasks: SweepTasks, handle: Any, on_event: Callable[[dict], None
                            steps[j])
         return outs[j]
 
-    def make_task(i: int, done: dict) -> ChainTask:
-        solved = tuple((o, r) for j in needs(i)
+    def make_task(n: int, done: dict) -> ChainTask:
+        solved = tuple((o, r) for j in needs(n)
                        for o, r in zip(outcome(j, done[j]).outcomes, outcome(j, done[j]).records,
                                        strict=True) if o.success)
-        made[i] = ChainTask(tasks.problem, (steps[i],), i, backend=tasks.backend, solved=solved)
-        return made[i]
+        earlier = tuple(prior[m] for m in (steps[n].warm_from, *steps[n].fallbacks)
+                        if m in prior and prior[m][0].success)
+        made[n] = ChainTask(tasks.problem, (steps[n],), at[n], backend=tasks.backend,
+                            solved=(*earlier, *solved))
+        return made[n]
 
     lost = None
     try:
@@ -323,36 +333,36 @@ def _solve_graph(tasks: SweepTasks, handle: Any, on_event: Callable[[dict], None
                             handle.channel, on_event)
     except ClusterLost as exc:
         futures, lost = exc.finished, exc
-    return [outcome(i, futures[i]) if i in futures else
-            _own(failed_chain(ChainTask(tasks.problem, (steps[i],), i), lost), steps[i])
-            for i in range(len(steps))], lost
+    return {at[n]: outcome(n, futures[n]) if n in futures else
+            _own(failed_chain(ChainTask(tasks.problem, (steps[n],), at[n]), lost), steps[n])
+            for n in range(len(steps))}, lost
 
 
-def _follow_up(tasks: SweepTasks, grid: list[ChainOutcome], handle: Any,
-               on_event: Callable[[dict], None], lost: ClusterLost | None
+def _follow_up(tasks: SweepTasks, stage: int, solved: list[tuple],
+               handle: Any, on_event: Callable[[dict], None], lost: ClusterLost | None
                ) -> tuple[list[ChainOutcome], ClusterLost | None]:
-    """Per kind, one task: its failed scenarios retried from the other starts (with the
-    other objective's optima at their speeds), its local optima re-solved, its periods
-    scanned (when asked), its cut-in speed searched. With the cluster ``lost`` (before or
-    during them) a task not run leaves its kind's grid as solved."""
+    """Per kind of the ``stage``, one task: its failed scenarios retried from the other
+    starts (the other kinds' optima at their speeds), its local optima re-solved (on
+    their power alone after stage 0), its periods scanned (when asked), its cut-in speed
+    searched. ``solved``: every (outcome, record) solved so far. With the cluster
+    ``lost`` (before or during them) a task not run leaves its kind's grid as solved."""
     from optimize.service.executors import run_tasks
 
-    first = len(tasks.steps)
-    solved = [(o, r) for out in grid for o, r in zip(out.outcomes, out.records, strict=True)]
     failed = [o.scenario for o, _ in solved if not o.success]
 
     def starts(kind: str) -> tuple:
         wind_speeds_m_s = {s.wind_speed_m_s for s in failed if s.kind == kind}
         return tuple((o, r) for o, r in solved if o.success and o.wind_speed_m_s in wind_speeds_m_s
-                     and KINDS[o.kind].objective != KINDS[kind].objective)
+                     and o.kind != kind)
 
-    follow = [ChainTask(tasks.problem, (), first + n, backend=tasks.backend, resolve=True,
+    follow = [ChainTask(tasks.problem, (), len(tasks.steps) + tasks.kinds.index(kind),
+                        backend=tasks.backend, resolve=True, resolve_by_period=stage == 0,
                         period_scan=tasks.period_scan,
                         cut_in_kinds=(kind,) if kind in tasks.cut_in_kinds else (),
                         cut_in_tol_m_s=tasks.cut_in_tol_m_s,
                         solved=tuple((o, r) for o, r in solved if o.kind == kind),
                         starts=starts(kind), retry=True)
-              for n, kind in enumerate(tasks.kinds)]
+              for kind in dict.fromkeys(s.scenario.kind for s in tasks.steps if s.stage == stage)]
     finished: dict = {}
     if lost is None:
         try:
@@ -363,6 +373,41 @@ def _follow_up(tasks: SweepTasks, grid: list[ChainOutcome], handle: Any,
     return [failed_chain(t, lost) if n not in finished else
             failed_chain(t, finished[n].exception()) if finished[n].exception() is not None
             else finished[n].result() for n, t in enumerate(follow)], lost
+
+
+def _run_stages(tasks: SweepTasks, handle: Any, on_event: Callable[[dict], None]
+                ) -> tuple[list[ChainOutcome], list[ChainOutcome], ClusterLost | None]:
+    """Each stage of the start graph, then its kinds' follow-up tasks, the later stages
+    starting from the earlier ones' final optima (:func:`optimize.service.plan.plan_graph`):
+    the step tasks' outcomes in step order, the follow-up tasks' and the cluster loss."""
+    grid: dict[int, ChainOutcome] = {}
+    follow: list[ChainOutcome] = []
+    lost = None
+    final: list[tuple] = []  # (outcome, record) of every kind followed up so far
+    for stage in sorted({s.stage for s in tasks.steps}):
+        prior = {o.scenario: (o, r) for o, r in final}
+        outs, lost = (_solve_graph(tasks, stage, prior, handle, on_event) if lost is None
+                      else _not_run(tasks, stage, lost))
+        grid.update(outs)
+        solved = [(o, r) for out in outs.values()
+                  for o, r in zip(out.outcomes, out.records, strict=True)]
+        done, lost = _follow_up(tasks, stage, [*final, *solved], handle, on_event, lost)
+        follow += done
+        final += [_with_record(c, o) for c in done for o in c.outcomes]
+    return [grid[i] for i in sorted(grid)], follow, lost
+
+
+def _with_record(out: ChainOutcome, o: ScenarioOutcome) -> tuple[ScenarioOutcome, dict]:
+    """A scenario of a follow-up task's outcome with its record (the task's records also
+    hold its cut-in probes and added speeds)."""
+    return o, next(r for r in out.records
+                   if (r["kind"], r["wind_speed_m_s"]) == (o.kind, o.wind_speed_m_s))
+
+
+def _not_run(tasks: SweepTasks, stage: int, lost: ClusterLost) -> tuple[dict, ClusterLost]:
+    """The steps of a stage that never ran: the cluster was lost before it."""
+    return {i: _own(failed_chain(ChainTask(tasks.problem, (s,), i), lost), s)
+            for i, s in enumerate(tasks.steps) if s.stage == stage}, lost
 
 
 def run_sweep(tasks: SweepTasks, handle: Any, show_progress: bool = True) -> SweepResult:
@@ -409,8 +454,7 @@ def run_sweep(tasks: SweepTasks, handle: Any, show_progress: bool = True) -> Swe
         bar.update(1)
 
     t0 = time.perf_counter()
-    grid, lost = _solve_graph(tasks, handle, on_event)
-    follow, lost = _follow_up(tasks, grid, handle, on_event, lost)
+    grid, follow, lost = _run_stages(tasks, handle, on_event)
     wall = time.perf_counter() - t0
     bar.update(bar.total - bar.n)  # the total grew by the probes and re-solves
     bar.close()
