@@ -30,6 +30,7 @@ FORWARDED = {
     "size_scales": (("size",), "--scales"),
     "size_wind_grid": (("size",), "--wind-grid"),
     "system": (("optimize", "size"), "--system"),
+    "call_time_limit": (("optimize", "aep", "size"), "--call-time-limit"),
 }
 
 

@@ -31,7 +31,7 @@ from fitting.model_schema import power_model_from_dict
 from kernel.errors import InputError
 from kernel.output_folder import check_replaceable
 from kernel.provenance import Provenance
-from optimize.door import LOCAL_POOL, Execution
+from optimize.door import CALL_WALL_LIMIT_S, LOCAL_POOL, Execution, check_call_time_limit
 
 
 @dataclass(frozen=True)
@@ -66,17 +66,22 @@ class RefineOptions:
         Stop when every interval's estimated error is below this share of the AEP.
     max_points : int
         Largest grid per kind, failed solves included.
+    call_time_limit_s : float
+        The longest one solver call may run [s] (``--call-time-limit``; it replaces the
+        sweep's, :attr:`optimize.problem.options.SolverOptions.call_time_limit_s`).
 
     Raises
     ------
     InputError
-        ``tol`` not in (0, 1) or ``max_points`` < 2.
+        ``tol`` not in (0, 1), ``max_points`` < 2 or ``call_time_limit_s`` not positive.
     """
 
     tol: float = DEFAULT_TOL
     max_points: int = 25
+    call_time_limit_s: float = CALL_WALL_LIMIT_S
 
     def __post_init__(self) -> None:
+        check_call_time_limit(self.call_time_limit_s)
         if not (math.isfinite(self.tol) and 0 < self.tol < 1):
             raise InputError(None, f"--refine-tol {self.tol}", expected="a share in (0, 1)")
         if self.max_points < 2:
@@ -168,5 +173,6 @@ def _refined(run: Any, drive_model: str | Path | None, distribution: Any,
                          expected="the sweep's power model, or --drive-model FILE")
     return refine_run(run, power_model_from_dict(model_json, path), distribution,
                       out / "solves", tol=refine.tol, max_points=refine.max_points,
+                      call_time_limit_s=refine.call_time_limit_s,
                       workers=execution.workers, scheduler=execution.scheduler,
                       show_progress=execution.progress)

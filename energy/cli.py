@@ -43,6 +43,8 @@ def add_site_arguments(parser: argparse.ArgumentParser) -> None:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``bench aep``."""
+    from optimize.door import add_call_time_limit
+
     parser.add_argument("--optimize", type=Path, default=Path("optimize_out"),
                         help="output folder of `bench optimize` (default ./optimize_out)")
     parser.add_argument("--drive-model", type=Path, default=None,
@@ -70,6 +72,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="Dask scheduler address for --refine instead of the local pool")
     g.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_call_time_limit(g)
     add_site_arguments(parser)
 
 
@@ -194,12 +197,13 @@ def run(args: argparse.Namespace) -> int:
 
     if args.out.exists() and not args.out.is_dir():
         raise InputError(args.out, "exists and is not a folder", expected="an output folder")
+    refine = (RefineOptions(DEFAULT_TOL if args.refine_tol is None else args.refine_tol,
+                            args.refine_max_points, args.call_time_limit)
+              if args.refine else None)
     manifest = read_manifest(Path(args.optimize))
     shear = shear_from_args(args, system_from_manifest(manifest,
                                                        Path(args.optimize) / "manifest.json"))
     site, note, unc = site_from_args(args, shear)
-    refine = (RefineOptions(DEFAULT_TOL if args.refine_tol is None else args.refine_tol,
-                            args.refine_max_points) if args.refine else None)
     execution = Execution(args.workers, args.scheduler, not args.no_progress)
     if refine is not None:
         print(execution.line())

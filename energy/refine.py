@@ -282,8 +282,13 @@ def solve_counter(desc: str, show: bool, file: Any = None) -> Any:
 
 def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: float = DEFAULT_TOL,
                max_points: int = 25, workers: int = 2, scheduler: str | None = None,
-               show_progress: bool = True, backend: Any = None) -> RefinedRun:
+               show_progress: bool = True, backend: Any = None,
+               call_time_limit_s: float | None = None) -> RefinedRun:
     """Refine every kind's curve of ``run`` for ``site`` (one executor task per kind).
+
+    The solves run on the sweep's OCP options (its manifest), a solver call stopped
+    after ``call_time_limit_s`` [s] when given (``--call-time-limit``), else the sweep's
+    limit.
 
     ``backend`` replaces the CasADi OCP (see :class:`KindTask`; picklable for a process pool).
 
@@ -300,6 +305,9 @@ def refine_run(run: OptimizeRun, model: Any, site: Any, store: Path, *, tol: flo
                          "differs from the manifest's drive_model.model_sha256)",
                          expected="--drive-model omitted or the sweep's own model file")
     options = options_from_manifest(run.manifest, manifest_path)
+    if call_time_limit_s is not None:
+        options = replace(options, solver=replace(options.solver,
+                                                  call_time_limit_s=call_time_limit_s))
     system = system_from_manifest(run.manifest, manifest_path)
     mesh = options.discretization
     starts = sweep_starts(run, mesh.n_intervals * mesh.degree)

@@ -24,6 +24,8 @@ DEFAULT_SCALES = "0.5,0.75,1,1.5,2"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Register the options of ``bench size``."""
+    from optimize.door import add_call_time_limit
+
     parser.add_argument("--drive-model", type=Path, default=None,
                         help="reference drive's losses (power model JSON); default the system "
                              f"file's [drive] losses, else {FIT_MODEL_PATH} if it exists, else "
@@ -65,6 +67,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="choose the smallest drive within this share of the best AEP")
     parser.add_argument("--intervals", type=int, default=40, help="collocation intervals")
     parser.add_argument("--degree", type=int, default=4, help="Radau collocation degree")
+    add_call_time_limit(parser)
     parser.add_argument("--workers", type=int, default=None,
                         help="local worker processes (default: the cores this process may use)")
     parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -103,7 +106,8 @@ def run(args: argparse.Namespace) -> int:
                     grid=grid, out=args.out, site_note=site_note,
                     rating=RatingOverrides(args.continuous_torque_nm, args.max_speed_rpm,
                                            args.max_torque_nm),
-                    solver=SolverChoice(args.intervals, args.degree),
+                    solver=SolverChoice(args.intervals, args.degree,
+                                        call_time_limit_s=args.call_time_limit),
                     execution=execution,
                     command_line=args.command_line,
                     before_solving=lambda d, n, w: _announce(d, n, w, args.out,

@@ -29,7 +29,13 @@ from energy.sizing_files import SIZE_KEEP, SIZE_MARKERS, edge_note, write_sizing
 from kernel.errors import InputError
 from kernel.output_folder import check_replaceable
 from kernel.provenance import Provenance
-from optimize.door import DEFAULT_SOLVER, LOCAL_POOL, Execution, SolverChoice
+from optimize.door import (
+    DEFAULT_SOLVER,
+    LOCAL_POOL,
+    Execution,
+    SolverChoice,
+    check_call_time_limit,
+)
 
 
 @dataclass(frozen=True)
@@ -223,7 +229,8 @@ def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
     grid, rating : SizingGrid, RatingOverrides
         The candidates, wind speeds and choice rule; the reference rating's overrides.
     solver, execution : SolverChoice, Execution
-        The collocation grid of each solve (``n_intervals``, ``degree``); where they run.
+        The collocation grid of each solve (``n_intervals``, ``degree``) and the longest
+        one solver call may run (``call_time_limit_s``); where they run.
     out : path
         Output folder (``sizing.json``, ``sizing.csv``, the resumable ``solves/``).
     site_note : str, optional
@@ -237,6 +244,7 @@ def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
     from optimize.door import rejected_lines, resolve
 
     run_record = Provenance.start(command_line)
+    check_call_time_limit(solver.call_time_limit_s)
     check_replaceable(out, "size", SIZE_MARKERS, keep=SIZE_KEEP)  # before the work
     setup = resolve(system, drive_model, fit_default=fit_default)
     system, drive = setup.system, setup.drive
@@ -254,7 +262,8 @@ def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
     result, edge, added = size_extending(
         lambda scales: candidates(scales)[0], grid.scales, grid.extend,
         lambda cands: run_sizing(cands, wind_speeds_m_s, site, Path(out), solver.n_intervals,
-                                 solver.degree, workers=execution.workers,
+                                 solver.degree, call_time_limit_s=solver.call_time_limit_s,
+                                 workers=execution.workers,
                                  scheduler=execution.scheduler,
                                  show_progress=execution.progress, tolerance=grid.tolerance,
                                  adaptive=grid.adaptive, system=system), refused)

@@ -52,6 +52,8 @@ from typing import Any
 
 import numpy as np
 
+from optimize.door import CALL_WALL_LIMIT_S
+
 #: the scenario kind a sizing solves: the electrical objective within the drive's limits
 SIZING_KIND = "elec-lim"
 
@@ -120,13 +122,16 @@ class Candidate:
         check_drive(self.flown_in(system), self.model, self.path, (SIZING_KIND,),
                     source=f"candidate {self.name} ({how})", rating_source=self.rating.source)
 
-    def problem(self, n_intervals: int, degree: int, system: Any) -> Any:
+    def problem(self, n_intervals: int, degree: int, system: Any,
+                call_time_limit_s: float = CALL_WALL_LIMIT_S) -> Any:
         """The OCP problem (:class:`optimize.service.builder.Problem`) of this drive in
-        ``system`` on ``n_intervals`` x ``degree``."""
-        from optimize.door import Discretization, OcpOptions, Problem
+        ``system`` on ``n_intervals`` x ``degree``, a solver call stopped after
+        ``call_time_limit_s`` [s] (``--call-time-limit``)."""
+        from optimize.door import Discretization, OcpOptions, Problem, SolverOptions
 
-        return Problem.for_system(self.flown_in(system), self.model,
-                                  OcpOptions(Discretization(n_intervals, degree)))
+        return Problem.for_system(self.flown_in(system), self.model, OcpOptions(
+            Discretization(n_intervals, degree),
+            solver=SolverOptions(call_time_limit_s=call_time_limit_s)))
 
 
 def scaled_candidates(base: Any, rating: Any, scales: tuple[float, ...]) -> list[Candidate]:
@@ -434,7 +439,8 @@ def start_lines(records: list[dict]) -> list[str]:
 
 
 def run_sizing(candidates: list[Candidate], wind_speeds_m_s: tuple[float, ...], site: Any,
-               out: Path, n_intervals: int = 40, degree: int = 4, handle: Any = None,
+               out: Path, n_intervals: int = 40, degree: int = 4,
+               call_time_limit_s: float = CALL_WALL_LIMIT_S, handle: Any = None,
                workers: int = 2, scheduler: str | None = None, show_progress: bool = True,
                tolerance: float = 0.02, adaptive: bool = False,
                system: Any = None, backend: Any = None) -> SizingResult:
@@ -466,7 +472,8 @@ def run_sizing(candidates: list[Candidate], wind_speeds_m_s: tuple[float, ...], 
     from optimize.door import Refinement, SolveTask, attempt_line, load_system, solve_tasks
 
     system = system if system is not None else load_system()
-    tasks = [SolveTask(c.problem(n_intervals, degree, system), SIZING_KIND, float(w),
+    tasks = [SolveTask(c.problem(n_intervals, degree, system, call_time_limit_s), SIZING_KIND,
+                       float(w),
                        (("candidate", c.name),))
              for c in candidates for w in wind_speeds_m_s]
     refinement = partial(Refinement, site=site, grid=refine_grid) if adaptive else None

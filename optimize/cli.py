@@ -12,7 +12,9 @@ import argparse
 import logging
 import sys
 from pathlib import Path
+from typing import Any
 
+from kernel.errors import InputError
 from optimize.kinds import DEFAULT_KINDS
 from optimize.problem.deadline import CALL_WALL_LIMIT_S, COLD_START_CALLS
 from optimize.problem.options import SOLVERS, TRANSCRIPTIONS
@@ -133,16 +135,7 @@ def _add_solver_arguments(parser: argparse.ArgumentParser) -> None:
         "(libhsl.so on LD_LIBRARY_PATH) ma27, ma57, ma77, ma86, ma97, or pardiso "
         "(libpardiso.so); checked before any solve (exit 2 when IPOPT cannot load it)",
     )
-    parser.add_argument(
-        "--call-time-limit",
-        type=float,
-        default=CALL_WALL_LIMIT_S,
-        metavar="SECONDS",
-        help=f"the longest one solver call may run, wall clock (default {CALL_WALL_LIMIT_S:g}); "
-        f"a cold start may run {COLD_START_CALLS} times as long; a solve stopped there fails "
-        "with the status Wall_Time_Limit: raise it for a large mesh or a slow or loaded "
-        "machine",
-    )
+    add_call_time_limit(parser)
     parser.add_argument(
         "--no-stored-guess",
         action="store_true",
@@ -157,6 +150,35 @@ def _add_solver_arguments(parser: argparse.ArgumentParser) -> None:
         "or its start.npz (refused, exit 2, for another system), instead of the shipped "
         "initial guess or the homotopy",
     )
+
+
+def add_call_time_limit(parser: Any) -> None:
+    """Register ``--call-time-limit SECONDS`` on ``parser`` (an argument parser or group):
+    the one definition of the option of every command that solves (``bench optimize``,
+    ``bench size``, ``bench aep --refine``),
+    :attr:`optimize.problem.options.SolverOptions.call_time_limit_s`, which refuses a
+    value that is not positive (:func:`check_call_time_limit`)."""
+    parser.add_argument(
+        "--call-time-limit",
+        type=float,
+        default=CALL_WALL_LIMIT_S,
+        metavar="SECONDS",
+        help=f"the longest one solver call may run, wall clock (default {CALL_WALL_LIMIT_S:g}); "
+        f"a cold start may run {COLD_START_CALLS} times as long; a solve stopped there fails "
+        "with the status Wall_Time_Limit: raise it for a large mesh or a slow or loaded "
+        "machine",
+    )
+
+
+def check_call_time_limit(seconds: float) -> None:
+    """Refuse a ``--call-time-limit`` that ``SolverOptions`` refuses, as ``bench optimize``
+    does (:class:`kernel.errors.InputError`, exit 2, before any work)."""
+    from optimize.problem.options import SolverOptions
+
+    try:
+        SolverOptions(call_time_limit_s=seconds)
+    except ValueError as exc:
+        raise InputError(None, f"OCP options: {exc}") from exc
 
 
 def run(args: argparse.Namespace) -> int:

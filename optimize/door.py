@@ -15,7 +15,8 @@ home module                             what the other stages use
 :mod:`optimize.service.plan`            the wind grid's parser and its plausible range
 :mod:`optimize.resolve`                 the one resolution of system, drive and OCP options
 :mod:`optimize.command`                 ``bench optimize`` as a library call
-:mod:`optimize.cli`                     its exit codes
+:mod:`optimize.cli`                     its exit codes, ``--call-time-limit``
+:mod:`optimize.problem.deadline`        the default wall-time limit of a solver call
 :mod:`optimize.service`                 the one solve service: problems, chains, their records
 :mod:`optimize.service.foreign`         starts it did not find itself (a sweep's stored cycles)
 :mod:`optimize.service.store`           the stored solves it did not believe, in words
@@ -42,7 +43,8 @@ LAZY_IMPORTS = {
     "optimize.service.plan": ("WIND_RANGE_M_S", "parse_wind_grid"),
     "optimize.resolve": ("Setup", "resolve"),
     "optimize.command": ("OptimizeOutcome", "SweepRequest", "make_request", "run_optimize"),
-    "optimize.cli": ("EXIT_SOME_FAILED",),
+    "optimize.cli": ("EXIT_SOME_FAILED", "add_call_time_limit", "check_call_time_limit"),
+    "optimize.problem.deadline": ("CALL_WALL_LIMIT_S",),
     "optimize.service": ("ChainTask", "Problem", "Refinement", "SolveTask", "run_chain",
                          "run_chains", "solve_tasks"),
     "optimize.service.solves": ("attempt_line",),
@@ -50,7 +52,7 @@ LAZY_IMPORTS = {
     "optimize.service.outcome": ("failure_reason", "transient"),
     "optimize.service.executors": ("open_executor",),
     "optimize.service.store": ("rejected_lines",),
-    "optimize.problem.options": ("Discretization", "OcpOptions"),
+    "optimize.problem.options": ("Discretization", "OcpOptions", "SolverOptions"),
     "optimize.problem.scenario": ("Scenario", "scenario_name"),
     "optimize.system.system_file": ("load_system", "system_from_dict"),
     "optimize.system.contradictions": ("check_drive",),

@@ -62,7 +62,8 @@ def test_bench_run_leaves_every_other_option_at_the_stages_default():
 def test_an_option_given_to_bench_run_reaches_its_stages(dest):
     stages, option = FORWARDED[dest]
     value = {"order": "3", "workers": "1", "size_scales": "1,2",
-             "size_wind_grid": "6,8", "system": "optimize/data/systems/ap2.toml"}[dest]
+             "size_wind_grid": "6,8", "system": "optimize/data/systems/ap2.toml",
+             "call_time_limit": "400"}[dest]
     flag = "--" + dest.replace("_", "-")
     run_args = build_parser(["run", "logs"]).parse_args(["run", "logs", flag, value])
     commands = {c[0]: c for c in stage_commands(run_args)}

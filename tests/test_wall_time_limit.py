@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import time
 
+import numpy as np
 import pytest
 from point_mass_model import solved_pendulum
 
@@ -48,7 +49,8 @@ def test_no_call_is_made_past_the_deadline():
 
 
 @pytest.mark.parametrize(("solver", "transcription"), [
-    ("ipopt", "collocation"), ("ipopt", "condensed"), ("fatrop", "condensed")])
+    ("ipopt", "collocation"), ("ipopt", "condensed"), ("fatrop", "condensed"),
+    ("fatrop", "collocation")])
 def test_a_call_past_its_limit_ends_with_a_status_that_says_so(solver, transcription, capfd):
     assert _run(solver, transcription).success  # within the stated limits: solved
     t0 = time.perf_counter()
@@ -59,7 +61,7 @@ def test_a_call_past_its_limit_ends_with_a_status_that_says_so(solver, transcrip
     assert "the solver said" in raw.status
     # was: CasADi printed the condensed callback's TimeoutError traceback and every input
     # of every enclosing function (60 kB here), or a warning that it could not evaluate
-    # the point fatrop returned
+    # the point fatrop returned; fatrop on the collocation had no limit at all
     err = capfd.readouterr().err
     assert "Traceback" not in err and err == "", err[:2000]
 
@@ -95,3 +97,76 @@ def test_the_call_limit_is_an_option_and_a_cold_start_takes_four_of_them():
     assert deadline.COLD_START_CALLS == 4
     with pytest.raises(ValueError, match="--call-time-limit"):
         SolverOptions(call_time_limit_s=0.0)
+
+
+@pytest.mark.parametrize("argv", [
+    ["optimize", "--wind-grid", "7", "--scenarios", "elec-lim"],
+    ["size", "--scales", "1", "--wind-grid", "7,8", "--weibull-k", "2", "--mean-speed", "6"],
+    ["aep", "--refine", "--weibull-k", "2", "--mean-speed", "6"],
+])
+@pytest.mark.parametrize("limit", ["0", "-5", "nan"])
+def test_every_command_that_solves_refuses_a_limit_that_is_not_positive(
+        argv, limit, tmp_path, capsys, monkeypatch):
+    # bench size and bench aep --refine ran every solve at the 150 s default: they take
+    # the option now, the one definition of bench optimize's, refused the same way
+    from drivebench.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main([*argv, "--call-time-limit", limit, "--out", "o", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "--call-time-limit" in err and "Traceback" not in err, err
+    assert not (tmp_path / "o").exists()
+
+
+def test_the_limit_reaches_the_solves_of_size_and_aep_refine(tmp_path, monkeypatch):
+    from types import SimpleNamespace
+
+    import energy.refine as refine
+    import energy.size_command as size_command
+    from energy.site import Weibull
+    from optimize.problem.options import OcpOptions
+    from optimize.sweep_options import SolverChoice
+    from optimize.system.system_file import load_system
+
+    # bench size: each candidate's problem, so the stored solves' keys differ
+    system = load_system()
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def run_sizing(cands, *args, call_time_limit_s, **kwargs):
+        seen["size"] = call_time_limit_s
+        seen["problem"] = cands[0].problem(10, 4, system, call_time_limit_s)
+        seen["default"] = cands[0].problem(10, 4, system)
+        raise Stop
+
+    monkeypatch.setattr(size_command, "run_sizing", run_sizing)
+    with pytest.raises(Stop):
+        size_command.run_size(Weibull.from_mean(2.0, 6.0), grid=size_command.SizingGrid(
+            (1.0,), (), (7.0, 8.0), 0.02, 0, False), solver=SolverChoice(10, 4,
+                                                                    call_time_limit_s=400.0),
+            out=tmp_path / "size_out")
+    assert seen["size"] == 400.0
+    assert seen["problem"].options.solver.call_time_limit_s == 400.0
+    assert seen["default"].options.solver.call_time_limit_s == deadline.CALL_WALL_LIMIT_S
+    assert seen["default"].key != seen["problem"].key  # a stored solve is another's
+
+    # bench aep --refine: the sweep's options, the limit replaced
+    def kind_task(kind, model, options, *args):
+        seen["refine"] = options.solver.call_time_limit_s
+        raise Stop
+
+    monkeypatch.setattr(refine, "options_from_manifest", lambda m, p: OcpOptions())
+    monkeypatch.setattr(refine, "system_from_manifest", lambda m, p: None)
+    monkeypatch.setattr(refine, "sweep_starts", lambda run, n: {})
+    monkeypatch.setattr(refine, "KindTask", kind_task)
+    curve = SimpleNamespace(wind_speed_m_s=np.array([6.0, 8.0]), p_elec_w=np.zeros(2),
+                            p_mech_w=np.zeros(2))
+    run = SimpleNamespace(folder=tmp_path, manifest={}, drive_model_sha256=None,
+                          curves={"elec-lim": curve})
+    model = SimpleNamespace(sha256="")
+    with pytest.raises(Stop):
+        refine.refine_run(run, model, Weibull.from_mean(2.0, 6.0), tmp_path / "s",
+                          call_time_limit_s=500.0)
+    assert seen["refine"] == 500.0

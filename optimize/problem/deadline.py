@@ -7,10 +7,11 @@ as long (:func:`optimize.solve.starts.cold.start`). IPOPT stops itself there (it
 ``max_wall_time``); past the deadline the condensed NLP solves no new point: its
 evaluations there fail quietly
 (:class:`optimize.problem.transcriptions.condensed_derivatives.IntervalCache`), which
-ends any solver's call (fatrop has no time limit of its own); a call asked for after it
-is not made (:func:`optimize.solve.nlp_solver.run`). The collocation with fatrop has no
-such hook: its calls are bounded by their iteration cap only. A solve stopped so fails
-with the status :data:`WALL_STATUS` and what its last call said.
+ends any solver's call (fatrop has no time limit of its own); on the collocation
+fatrop's constraint Jacobian does the same
+(:class:`optimize.problem.transcriptions.gate.Gated`); a call asked for after it is not
+made (:func:`optimize.solve.nlp_solver.run`). A solve stopped so fails with the status
+:data:`WALL_STATUS` and what its last call said.
 """
 
 from __future__ import annotations

@@ -15,6 +15,7 @@ from optimize.problem.collocation import Collocation
 from optimize.problem.interface import CycleFormulation
 from optimize.problem.options import Discretization, SolverOptions
 from optimize.problem.transcriptions.derivatives import nlp_derivatives
+from optimize.problem.transcriptions.gate import Gated
 from optimize.problem.transcriptions.layouts import general_layout, stagewise_layout
 from optimize.problem.transcriptions.method import Call, SolverNlp, compile_fn
 from optimize.problem.transcriptions.structure import Transcription
@@ -43,9 +44,15 @@ class CollocationMethod:
         return layout(form, disc, coll)
 
     def solver_nlp(self, ocp: Any, solver: str) -> SolverNlp:
-        """The OCP's own NLP with its point-by-point derivatives."""
-        return SolverNlp(ocp.nlp, full_derivatives(ocp, solver),
-                         [bool(e) for e in ocp.layout.equality])
+        """The OCP's own NLP with its point-by-point derivatives; fatrop's constraint
+        Jacobian refused past the thread's deadline (:class:`Gated`: fatrop has no time
+        limit of its own, IPOPT its ``max_wall_time``)."""
+        functions = full_derivatives(ocp, solver)
+        if solver == "fatrop":
+            if "fatrop_gate" not in ocp.solvers:  # lives as long as the solvers calling it
+                ocp.solvers["fatrop_gate"] = Gated(functions["nlp_jac_g"])
+            functions = {**functions, "nlp_jac_g": ocp.solvers["fatrop_gate"]}
+        return SolverNlp(ocp.nlp, functions, [bool(e) for e in ocp.layout.equality])
 
     def solve(self, ocp: Any, call: Call, w0: np.ndarray, p: np.ndarray, bounds: tuple,
               lam_x0: np.ndarray | None, lam_g0: np.ndarray | None) -> Any:
