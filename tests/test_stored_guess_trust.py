@@ -181,3 +181,26 @@ def test_a_damaged_start_is_named_once_per_run_not_once_per_worker(tmp_path, cap
     caplog.clear()
     assert Problem.for_system(None, model, OcpOptions()).options == OcpOptions()
     assert not caplog.records
+
+
+def test_a_stale_guess_is_named_once_per_run_not_once_per_worker(tmp_path):
+    # was: each local worker process that started a chain said it again; the processes
+    # of a run (one process group) now say a reason once, whoever finds it first
+    import subprocess
+    import sys
+
+    code = ("import logging, sys, time\n"
+            "logging.basicConfig(level=logging.WARNING, format='%(message)s')\n"
+            "from optimize.solve.starts import stored_guess\n"
+            "stored_guess._warn(sys.argv[1])\n"
+            "time.sleep(3)\n")
+    why = f"{tmp_path}/g.npz: the stored initial guess does not fit this OCP's constraints"
+    workers = [subprocess.Popen([sys.executable, "-c", code, why], stderr=subprocess.PIPE,
+                                text=True) for _ in range(3)]
+    err = "".join(p.communicate(timeout=60)[1] for p in workers)
+    assert err.count("stored initial guess not used") == 1, err
+    assert why in err
+    # another run (the processes above gone) says it again
+    again = subprocess.run([sys.executable, "-c", code, why], stderr=subprocess.PIPE,
+                           text=True, timeout=60, check=True)
+    assert again.stderr.count("stored initial guess not used") == 1

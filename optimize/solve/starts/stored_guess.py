@@ -22,7 +22,7 @@ The constraints do not depend on the drive model, so the guess serves any fitted
 a part the OCP has beyond the file's fills its own variables along it; a part the
 file records and the OCP has not, a changed kite model, scaling, collocation or layout
 makes it stale, and :func:`optimize.solve.starts.cold.start` falls back to the homotopy
-(saying why). Regenerate the file with::
+(saying why, once per run however many worker processes find it). Regenerate the file with::
 
     .venv/bin/python -m optimize.solve.starts.stored_guess
 
@@ -39,8 +39,11 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import errno
 import hashlib
 import logging
+import os
+import socket
 import sys
 import zipfile
 from pathlib import Path
@@ -81,6 +84,8 @@ OTHER_SYSTEM = "the stored initial guess is for another system"
 HASH_KEY = "content_sha256"
 #: the reasons already said as warnings in this process (each once)
 _SAID: set[str] = set()
+#: the names this process holds, one per reason it said first in its run (:func:`_first_in_run`)
+_HELD: list[socket.socket] = []
 
 
 def content_sha256(arrays: dict[str, np.ndarray]) -> str:
@@ -257,12 +262,34 @@ def checked_options(options: OcpOptions) -> OcpOptions:
 
 
 def _warn(why: str) -> str:
-    """Say (once per process, as a warning) why the stored initial guess is not used,
-    before the cold start falls back to the homotopy; return ``why``."""
+    """Say (once per run, as a warning) why the stored initial guess is not used, before
+    the cold start falls back to the homotopy; return ``why``. A file that cannot be
+    used at all is said in the command's own process (:func:`checked_options`); one that
+    does not fit the OCP is found where the OCP is, in every worker process that starts
+    a chain, and said by the first of them only (:func:`_first_in_run`)."""
     if why not in _SAID:
         _SAID.add(why)
-        log.warning("stored initial guess not used: %s; the cold start runs the homotopy", why)
+        if _first_in_run(why):
+            log.warning("stored initial guess not used: %s; the cold start runs the homotopy",
+                        why)
     return why
+
+
+def _first_in_run(why: str) -> bool:
+    """Whether no other process of this run has said ``why``: the command and the local
+    worker processes it starts share a process group, and the first of them to say a
+    reason holds a name for it (a Linux abstract socket of the group and the reason,
+    gone with the process) for as long as it lives. Where there are no such names, or
+    for a Dask worker (a group of its own, its own log), each process says it."""
+    digest = hashlib.sha256(f"{os.getpgid(0)} {why}".encode()).hexdigest()[:40]
+    sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    try:
+        sock.bind(f"\0drivebench-stored-guess-{digest}")
+    except OSError as exc:
+        sock.close()
+        return exc.errno != errno.EADDRINUSE
+    _HELD.append(sock)
+    return True
 
 
 def interpolated(src: Ocp, solution: Solution, dst: Ocp) -> Solution:
