@@ -10,7 +10,10 @@ Verdicts: ``clean`` (a correct result, or a refusal that names the file or the k
 non-zero, no traceback, nothing kept lost), ``unclear`` (a traceback, or a refusal that
 does not say what is wrong), ``wrong`` (exit 0 with a result that is not the
 undamaged run's), ``damage`` (a good output replaced or removed).
-The sweeps are coarse (10 intervals, one or two wind speeds): about 5 minutes in all.
+The sweeps are coarse (10 intervals, one or two wind speeds); the base runs are a sweep,
+its AEP (also refined, at most 4 points a kind) and a sizing, and one sweep of another
+system for the cases that need one. ``scheduler_killed_mid_size`` starts a Dask scheduler
+and worker on port 8798 (drivebench[dask]).
 """
 
 from __future__ import annotations
@@ -70,6 +73,8 @@ class Work:
             ("optimize", "--wind-grid", "7,8.5", "--scenarios", "elec-lim,mech-lim",
              "--no-claims", "--out", "optimize_out", *COARSE),
             ("aep", "--optimize", "optimize_out", "--out", "aep_out", *SITE),
+            ("aep", "--optimize", "optimize_out", "--out", "aep_refine", "--refine",
+             "--refine-max-points", "4", "--no-progress", *SITE),
             ("size", "--scales", "1,1.5", "--wind-grid", "7,8.5", "--extend", "0",
              "--out", "size_out", *COARSE, *SITE),
         ]
@@ -78,6 +83,20 @@ class Work:
                 run = bench(*args, cwd=base)
                 if run.returncode not in (0, 3):
                     raise SystemExit(f"bench {' '.join(args)} failed: {said(run)}")
+
+    def other_system_sweep(self) -> Path:
+        """A folder with a sweep of another system (highwind.toml, its period bound moved),
+        made once: its own start.npz and summary.parquet."""
+        other = self.root / "other_system"
+        if not (other / "o_other" / "start.npz").is_file():
+            other.mkdir(exist_ok=True)
+            system = _system_with(other, "bounds", "period_max_s = 19.0")
+            run = bench("optimize", "--system", str(system), "--wind-grid", "7,8.5",
+                        "--scenarios", "elec-lim,mech-lim", "--no-claims", "--out", "o_other",
+                        *COARSE, cwd=other)
+            if run.returncode not in (0, 3):
+                raise SystemExit(f"the other system's sweep failed: {said(run)}")
+        return other / "o_other"
 
     def copy(self, name: str) -> Path:
         """A fresh copy of the base runs for the case ``name``."""
@@ -279,6 +298,159 @@ def case_aep_json_edited_for_report(work: Work) -> tuple[str, str]:
     return refused(run, "aep.json")
 
 
+def _refine_solve_files(folder: Path) -> list[Path]:
+    return sorted((folder / "aep_refine" / "solves").glob("*.json"))
+
+
+def _refine_again(d: Path) -> subprocess.CompletedProcess:
+    return bench("aep", "--optimize", "optimize_out", "--out", "aep_refine", "--refine",
+                 "--refine-max-points", "4", "--no-progress", *SITE, cwd=d)
+
+
+def _refine_store_case(name: str, damage: Callable[[Path], None]) -> Callable:
+    def case(work: Work) -> tuple[str, str]:
+        d = work.copy(name)
+        files = _refine_solve_files(d)
+        if not files:
+            return "unclear", "bench aep --refine stored no solve to damage"
+        before = (d / "aep_refine" / "aep.json").read_text()
+        damage(files[0])
+        run = _refine_again(d)
+        text = run.stdout + run.stderr
+        if "Traceback" in text or run.returncode != 0:
+            return "unclear", f"exit {run.returncode}: {said(run)}"
+        after = (d / "aep_refine" / "aep.json").read_text()
+        a, b = _aep_numbers(after), _aep_numbers(before)
+        if len(a) != len(b) or any(abs(x - y) > 1e-4 * max(1.0, abs(y))
+                                   for x, y in zip(a, b, strict=True)):
+            return "wrong", f"AEP {a} against {b}"
+        named = files[0].stem in text
+        return ("clean" if named else "unclear",
+                f"AEP unchanged; the record {'named' if named else 'not named'}: "
+                f"{[ln for ln in text.splitlines() if files[0].stem in ln][:1]}")
+    case.__doc__ = f"bench aep --refine's stored solve: {name}"
+    return case
+
+
+def _aep_numbers(text: str) -> list:
+    """Every AEP figure of an aep.json, rounded to 1e-6 MWh/yr."""
+    found = []
+
+    def walk(node):
+        if isinstance(node, dict):
+            for k, v in node.items():
+                if k.startswith("aep_elec") and isinstance(v, float):
+                    found.append(round(v, 6))
+                else:
+                    walk(v)
+        elif isinstance(node, list):
+            for v in node:
+                walk(v)
+    walk(json.loads(text))
+    return found
+
+
+def _edit_json(path: Path, edit: Callable[[dict], None]) -> None:
+    doc = json.loads(path.read_text())
+    edit(doc)
+    path.write_text(json.dumps(doc))
+
+
+def case_start_of_another_system(work: Work) -> tuple[str, str]:
+    """bench optimize --start of another system's start.npz (the shipped system's sweep
+    started from a sweep of highwind.toml with its period bound moved)."""
+    other = work.other_system_sweep()
+    d = work.copy("start_of_another_system")
+    run = bench("optimize", "--start", str(other / "start.npz"), "--wind-grid", "7",
+                "--scenarios", "elec-lim", "--no-claims", "--out", "o6", *COARSE, cwd=d)
+    return refused(run, "start.npz", "another system")
+
+
+def case_summary_of_another_system(work: Work) -> tuple[str, str]:
+    """summary.parquet of another system's sweep copied into optimize_out, then bench aep."""
+    other = work.other_system_sweep()
+    d = work.copy("summary_of_another_system")
+    shutil.copy(other / "summary.parquet", d / "optimize_out" / "summary.parquet")
+    aep_before = (d / "aep_out" / "aep.json").read_bytes()
+    run = bench("aep", "--optimize", "optimize_out", "--out", "aep_out", *SITE, cwd=d)
+    verdict = refused(run, "summary.parquet")
+    if (d / "aep_out" / "aep.json").read_bytes() != aep_before:
+        return "damage", f"aep_out replaced: {said(run)}"
+    return verdict
+
+
+def case_sizing_json_edited_for_report(work: Work) -> tuple[str, str]:
+    """size_out/sizing.json with a candidate's AEP tripled, then bench report."""
+    d = work.copy("sizing_json_edited")
+    f = d / "size_out" / "sizing.json"
+    _edit_json(f, lambda doc: doc["candidates"][0].update(
+        aep_elec_mwh=3 * (doc["candidates"][0].get("aep_elec_mwh") or 1.0)))
+    run = bench("report", "--optimize", "optimize_out", "--aep", "aep_out",
+                "--size", "size_out", "--out", "report.html", cwd=d)
+    return refused(run, "sizing.json")
+
+
+def case_scheduler_killed_mid_size(work: Work) -> tuple[str, str]:
+    """The Dask scheduler killed (SIGKILL) 25 s into a bench size on it: a clear end in a
+    stated time, the earlier sizing and the stored solves kept."""
+    import os
+    import signal
+
+    d = work.copy("scheduler_killed_mid_size")
+    dask = str(Path(sys.executable).parent / "dask")
+    port = "8798"
+    procs = []
+    try:
+        procs.append(subprocess.Popen([dask, "scheduler", "--port", port, "--no-dashboard"],
+                                      cwd=d, stdout=subprocess.DEVNULL,
+                                      stderr=subprocess.DEVNULL))
+        time.sleep(5)
+        procs.append(subprocess.Popen([dask, "worker", f"tcp://127.0.0.1:{port}",
+                                       "--nthreads", "1", "--no-dashboard"], cwd=ROOT,
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        time.sleep(8)
+        before = (d / "size_out" / "sizing.json").read_bytes()
+        t0 = time.perf_counter()
+        size = subprocess.Popen([*BENCH, "size", "--scales", "1,1.5,2", "--wind-grid",
+                                 "7,8.5,10", "--extend", "0", "--out", "size_out",
+                                 "--scheduler", f"tcp://127.0.0.1:{port}", *COARSE, *SITE],
+                                cwd=d, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                text=True)
+        time.sleep(25)
+        os.kill(procs[0].pid, signal.SIGKILL)
+        out, err = size.communicate(timeout=600)
+        run = subprocess.CompletedProcess(size.args, size.returncode, out, err)
+        verdict, text = refused(run, "scheduler")
+        if (d / "size_out" / "sizing.json").read_bytes() != before:
+            return "damage", f"the earlier sizing replaced: {said(run)}"
+        return verdict, (f"{text}; {time.perf_counter() - t0:.0f} s; the earlier sizing kept, "
+                         f"{len(_solve_files(d))} stored solves")
+    finally:
+        for p in procs:
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+
+
+def case_thermal_block_absurd(work: Work) -> tuple[str, str]:
+    """A power model whose thermal block has r_th 1e6 K/W, flown with a 120 degC winding
+    limit: refused before any solve, naming the block and the limit."""
+    d = work.copy("thermal_block_absurd")
+    model = json.loads((ROOT / "optimize/data/paper_drive_model.json").read_text())
+    model["schema_version"] = 3
+    model["thermal"] = {"nodes": 1, "r_th_k_per_w": 1e6, "tau_th_s": 900.0,
+                        "c_th_j_per_k": 900.0 / 1e6, "copper_temp_coeff_per_k": 0.00393,
+                        "theta_ref_c": 20.0, "ambient_c": 25.0}
+    (d / "hot.json").write_text(json.dumps(model))
+    system = _system_with(d, "drive", "max_winding_temperature_c = 120.0")
+    t0 = time.perf_counter()
+    run = bench("optimize", "--system", str(system), "--drive-model", "hot.json",
+                "--wind-grid", "7", "--scenarios", "elec-lim", "--no-claims", "--out", "o7",
+                *COARSE, cwd=d)
+    verdict, text = refused(run, "thermal", "max_winding_temperature_c")
+    return verdict, f"{text} ({time.perf_counter() - t0:.0f} s)"
+
+
 CASES = {
     "record_of_another_candidate": case_record_of_another_candidate,
     "npz_swapped": case_npz_swapped,
@@ -294,6 +466,20 @@ CASES = {
     "tension_floor_above_tether_force": _contradiction(
         "tension_floor_above_tether_force", "bounds", "min_tension_n = 1.0e6",
         "min_tension_n"),
+    # helper-10, issue 51's last session: more of the same classes
+    "aep_refine_record_poisoned": _refine_store_case(
+        "aep_refine_record_poisoned", lambda p: _edit_json(
+            p, lambda d: d.update(avg_p_elec_w=3 * d["avg_p_elec_w"]))),
+    "aep_refine_npz_truncated": _refine_store_case(
+        "aep_refine_npz_truncated", lambda p: p.with_suffix(".npz").write_bytes(
+            p.with_suffix(".npz").read_bytes()[:200])),
+    "start_of_another_system": case_start_of_another_system,
+    "summary_of_another_system": case_summary_of_another_system,
+    "sizing_json_edited": case_sizing_json_edited_for_report,
+    "scheduler_killed_mid_size": case_scheduler_killed_mid_size,
+    "thermal_block_absurd": case_thermal_block_absurd,
+    "base_speed_leaves_no_envelope": _contradiction(
+        "base_speed_leaves_no_envelope", "drive", "base_speed_rpm = 0.001", "base_speed_rpm"),
 }
 
 
