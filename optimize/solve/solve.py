@@ -90,7 +90,7 @@ def solve(
     p = ocp.params(scenario.parameters, scenario.weights)
     stages = []
     if (period_s is None and ocp.options.solver.solver == "ipopt"
-            and solves(warm_start, p, scenario.drive_limits)):
+            and may_solve(ocp, warm_start, p, bounds, scenario.drive_limits)):
         raw = at_optimum(ocp, warm_start, p, bounds)
         stages.append(_stage("check", raw))
         if raw.success:
@@ -135,11 +135,30 @@ def _warm(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds, period_s: flo
 AT_OPTIMUM, AT_OPTIMUM_PUSH = nlp_solver.Setting(mu_init=1e-7, max_iter=2), 1e-9
 
 
-def solves(warm: Solution, p: np.ndarray, drive_limits: bool) -> bool:
-    """Whether ``warm`` is a solution of the problem with the NLP parameters ``p`` and
-    ``drive_limits`` (those it knows it solved, :attr:`Solution.p`)."""
-    return (warm.p is not None and warm.drive_limits == drive_limits
-            and warm.p.shape == p.shape and bool(np.array_equal(warm.p, p)))
+#: how far [scaled units] a start may sit outside a bound and still count as within it
+#: (:func:`within_bounds`): the solver's own bound and constraint tolerances are 1e-8
+WITHIN_TOL = 1e-6
+
+
+def may_solve(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds,
+              drive_limits: bool) -> bool:
+    """Whether ``warm`` may be an optimum of the problem ``(p, bounds)`` with or without
+    ``drive_limits``: it solved the same NLP parameters (those it knows it solved,
+    :attr:`Solution.p`), under the same drive limits, or under others where its point
+    lies within ``bounds`` (limits that do not bind it: the paper kite's drive limits at
+    4 m/s, where the free kind's optimum is the limited kind's). Only then is the
+    convergence check (:func:`at_optimum`) worth its two iterations."""
+    if warm.p is None or warm.p.shape != p.shape or not np.array_equal(warm.p, p):
+        return False
+    return warm.drive_limits == drive_limits or within_bounds(ocp, warm, p, bounds)
+
+
+def within_bounds(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds) -> bool:
+    """Whether ``warm``'s point satisfies ``bounds`` (scaled) at ``p``, to :data:`WITHIN_TOL`."""
+    lbw, ubw, lbg, ubg = bounds
+    g = ocp.constraint_values(warm.w, p)
+    return bool(np.all(warm.w >= lbw - WITHIN_TOL) and np.all(warm.w <= ubw + WITHIN_TOL)
+                and np.all(g >= lbg - WITHIN_TOL) and np.all(g <= ubg + WITHIN_TOL))
 
 
 def at_optimum(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds) -> nlp_solver.RawSolve:
