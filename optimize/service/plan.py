@@ -12,7 +12,7 @@ starts at each wind speed from its lead's final optimum there, the drive limits
 tightened (a limit switch). A cycle optimization is multimodal: chains of each kind
 from their own neighbours land on branches of their own and cost a re-solve each where
 those are poor, while a kind started from its settled lead inherits the lead's branch.
-On AP2 over 4:14:2 this cut the sweep from 3021 to 1792 IPOPT iterations in all and
+On AP2 over 4:14:2 this cut the sweep from 3021 to 1753 IPOPT iterations in all and
 made 4 of its optima better (benchmarks/README.md, foreign_kites). Stage 0's graph:
 
 * the *seed* (depth 0) is the sweep's one cold start (the system's stored start where
