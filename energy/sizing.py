@@ -469,11 +469,18 @@ def run_sizing(candidates: list[Candidate], wind_speeds_m_s: tuple[float, ...], 
 
     from energy.adaptive import refine_grid
     from energy.refine import solve_counter
-    from optimize.door import Refinement, SolveTask, attempt_line, load_system, solve_tasks
+    from optimize.door import (
+        Refinement,
+        Scenario,
+        SolveTask,
+        attempt_line,
+        load_system,
+        solve_tasks,
+    )
 
     system = system if system is not None else load_system()
-    tasks = [SolveTask(c.problem(n_intervals, degree, system, call_time_limit_s), SIZING_KIND,
-                       float(w),
+    tasks = [SolveTask(c.problem(n_intervals, degree, system, call_time_limit_s),
+                       Scenario.of_kind(SIZING_KIND, w),
                        (("candidate", c.name),))
              for c in candidates for w in wind_speeds_m_s]
     refinement = partial(Refinement, site=site, grid=refine_grid) if adaptive else None

@@ -612,8 +612,8 @@ def test_a_dead_worker_fails_its_chain_the_same_way_in_a_sweep_and_in_solve_task
     with ThreadPoolExecutor(2) as ex:
         handle = ExecutorHandle(ex, QueueChannel(), "threads", 2)
         result = run_sweep(tasks, handle, show_progress=False)
-        records = solve_tasks([SolveTask(PROBLEM, "elec-lim", w) for w in WINDS], handle=handle,
-                              backend=DeadWorkerBackend())
+        records = solve_tasks([SolveTask(PROBLEM, Scenario.of_kind("elec-lim", w)) for w in WINDS],
+                              handle=handle, backend=DeadWorkerBackend())
     # nothing dropped: every planned scenario reports its task's death, and the cut-in
     # search (which needs no NLP with nothing converged) says why it found nothing
     assert len(result.outcomes) == 10 and {o.status for o in result.outcomes} == {status}
@@ -674,8 +674,8 @@ def test_an_optimum_failing_its_result_check_is_failed_in_every_service_path():
 
     backend = BoundedBackend()
     truth = {w: SCALE_W * (exact_root(CUT_IN_M_S["elec-lim"]) - exact_root(w)) for w in WINDS}
-    records = solve_tasks([SolveTask(PROBLEM, "elec-lim", w) for w in WINDS], workers=1,
-                          backend=backend)
+    records = solve_tasks([SolveTask(PROBLEM, Scenario.of_kind("elec-lim", w)) for w in WINDS],
+                          workers=1, backend=backend)
     for r in records:
         impossible = -truth[r["wind_speed_m_s"]] > backend.bound_w
         assert r["success"] is not impossible and r["status"] == "Solve_Succeeded"

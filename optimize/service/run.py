@@ -96,14 +96,13 @@ def run_chains(tasks: Sequence[ChainTask], handle: Any = None, *, workers: int =
 
 @dataclass(frozen=True)
 class SolveTask:
-    """One solve: a problem (system, drive model, options), a scenario kind, a wind speed.
+    """One solve: a problem (system, drive model, options) and a scenario.
 
     ``tag`` (e.g. ``(("candidate", "x1"),)``) is copied into the record and progress events.
     """
 
     problem: Problem
-    kind: str
-    wind_speed_m_s: float
+    scenario: Scenario
     tag: tuple[tuple[str, Any], ...] = ()
 
 
@@ -136,13 +135,14 @@ def solve_tasks(tasks: Sequence[SolveTask], store: Path | None = None, *, worker
                                on_event=on_event, reference=reference)
     groups: dict[tuple, list[SolveTask]] = {}
     for t in tasks:
-        groups.setdefault((t.problem.key, t.kind, t.tag), []).append(t)
+        groups.setdefault((t.problem.key, t.scenario.kind, t.tag), []).append(t)
     chains = []
     for i, g in enumerate(groups.values()):
-        wind_speeds_m_s = tuple(sorted({float(t.wind_speed_m_s) for t in g}))
-        chains.append(ChainTask(g[0].problem, chain_steps((g[0].kind,), wind_speeds_m_s), i,
+        kind = g[0].scenario.kind
+        wind_speeds_m_s = tuple(sorted({t.scenario.wind_speed_m_s for t in g}))
+        chains.append(ChainTask(g[0].problem, chain_steps((kind,), wind_speeds_m_s), i,
                                 g[0].tag, store, backend,
-                                refine=refine(g[0].kind) if refine else None))
+                                refine=refine(kind) if refine else None))
     first = [c for c in chains if reference is not None and c.tag == tuple(reference)]
     rest = [c for c in chains if reference is None or c.tag != tuple(reference)]
     outs = dict(zip((c.index for c in first), run_chains(first, handle, on_event=on_event)[0],
