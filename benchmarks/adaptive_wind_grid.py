@@ -30,9 +30,9 @@ from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.resolve import resolve
-from optimize.service.plan import parse_wind_grid
 from optimize.solve.solve import solve
 from optimize.solve.starts.cold import start
+from optimize.sweep_options import parse_wind_grid
 
 
 class Solver:

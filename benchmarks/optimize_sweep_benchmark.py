@@ -42,15 +42,10 @@ from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.resolve import resolve
 from optimize.service import OcpBackend, Problem, SweepTasks, run_sweep
 from optimize.service.executors import open_executor
-from optimize.service.plan import (
-    DEFAULT_WIND_GRID,
-    middle_index,
-    parse_kinds,
-    parse_wind_grid,
-    plan_graph,
-)
+from optimize.service.plan import middle_index, plan_graph
 from optimize.solve.starts.homotopy import cold_start
 from optimize.sweep.trust import run_trust_checks
+from optimize.sweep_options import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid
 
 OUT = Path(__file__).resolve().parent / "out"
 GOALS = {"cold_start_s": 45.0, "median_warm_solve_s": 3.0, "sweep_2_workers_s": 120.0}

@@ -23,7 +23,8 @@ import pandas as pd
 from optimize.kinds import KINDS
 from optimize.problem.scenario import Scenario
 from optimize.service import ChainTask, Problem, run_chain
-from optimize.service.plan import chain_steps, parse_wind_grid
+from optimize.service.plan import chain_steps
+from optimize.sweep_options import parse_wind_grid
 
 TRAJECTORY = pd.DataFrame({"weight": np.full(161, 1 / 161),
                            "speed_rpm": np.linspace(-900.0, 900.0, 161),

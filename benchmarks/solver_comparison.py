@@ -58,9 +58,10 @@ from optimize.problem.scenario import Scenario
 from optimize.problem.transcriptions.derivatives import nlp_derivatives, whole_derivatives
 from optimize.service import Problem, SweepTasks, run_sweep
 from optimize.service.executors import open_executor
-from optimize.service.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
+from optimize.service.plan import plan_graph
 from optimize.solve.solve import cold_start, solve
 from optimize.solve.starts.cold import start
+from optimize.sweep_options import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import load_system

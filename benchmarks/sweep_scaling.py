@@ -30,7 +30,8 @@ from optimize.kinds import DEFAULT_KINDS
 from optimize.problem.options import OcpOptions
 from optimize.service import Problem, SweepTasks, run_sweep
 from optimize.service.executors import open_executor
-from optimize.service.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
+from optimize.service.plan import plan_graph
+from optimize.sweep_options import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system_file import load_system
 

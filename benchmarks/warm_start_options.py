@@ -51,10 +51,11 @@ from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import OcpOptions, SolverOptions
 from optimize.resolve import resolve
-from optimize.service.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
+from optimize.service.plan import plan_graph
 from optimize.solve import nlp_solver
 from optimize.solve.solve import solve
 from optimize.solve.starts.cold import start
+from optimize.sweep_options import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid
 
 OUT = Path(__file__).resolve().parent / "out"
 #: name -> (extra IPOPT options of a warm solve, warm_mu_init, warm_bound_push)

@@ -45,10 +45,11 @@ from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.resolve import resolve
-from optimize.service.plan import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid, plan_graph
+from optimize.service.plan import plan_graph
 from optimize.solve.solve import solve
 from optimize.solve.starts.cold import start
 from optimize.solve.starts.predictor import tangent
+from optimize.sweep_options import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid
 
 OUT = Path(__file__).resolve().parent / "out"
 VARIANTS = {"neighbour": 0.0, "predicted": 1.0, "half": 0.5}

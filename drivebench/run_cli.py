@@ -103,7 +103,7 @@ def site_wind_grid(site_argv: list[str], system: Path | None = None) -> str:
     ``START:STOP:STEP`` from the start of ``bench optimize``'s default grid in its steps,
     up to the speed below which 99 % of the site's available wind energy lies
     (:func:`energy.site.covering_stop`), at most to the 25 m/s cut-out of
-    :data:`optimize.service.plan.WIND_RANGE_M_S` (system files state no cut-out); the
+    :data:`optimize.sweep_options.WIND_RANGE_M_S` (system files state no cut-out); the
     site moved to the reference height by ``system``'s wind profile (default the
     shipped system's)."""
     from energy.cli import shear_from_args, site_from_args

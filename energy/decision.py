@@ -33,7 +33,7 @@ from energy.site import (
 #: the first speed and the step [m/s] of the sizing grid that covers the site: bench
 #: optimize's default grid starts at 4 m/s in 1.5 m/s steps; sizing solves twice the step
 SIZING_GRID_START_M_S, SIZING_GRID_STEP_M_S = 4.0, 3.0
-#: the cut-out of the wind range the solves accept [m/s] (optimize.service.plan.WIND_RANGE_M_S)
+#: the cut-out of the wind range the solves accept [m/s] (optimize.sweep_options.WIND_RANGE_M_S)
 CUT_OUT_M_S = 25.0
 #: below a grid's first speed at most this share of the wind energy may lie where a
 #: candidate already delivers there (:func:`wider_grid`)

@@ -18,7 +18,7 @@ from kernel.errors import InputError
 from optimize.kinds import DEFAULT_KINDS
 from optimize.problem.deadline import CALL_WALL_LIMIT_S, COLD_START_CALLS
 from optimize.problem.options import SOLVERS, TRANSCRIPTIONS
-from optimize.service.plan import DEFAULT_WIND_GRID
+from optimize.sweep_options import DEFAULT_WIND_GRID
 
 log = logging.getLogger(__name__)
 

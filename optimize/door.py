@@ -11,8 +11,7 @@ home module                             what the other stages use
 :mod:`optimize.kinds`                   the scenario kinds and their objectives
 :mod:`optimize.cycles`                  a cycle: its quadrature, figures, closed form, plot
 :mod:`optimize.plots`                   the figures of cycles (and of the map they run on)
-:mod:`optimize.sweep_options`           a sweep's grouped options (grid, solver, execution)
-:mod:`optimize.service.plan`            the wind grid's parser and its plausible range
+:mod:`optimize.sweep_options`           a sweep's grouped options; the wind grid's parser, its range
 :mod:`optimize.resolve`                 the one resolution of system, drive and OCP options
 :mod:`optimize.command`                 ``bench optimize`` as a library call
 :mod:`optimize.cli`                     its exit codes, ``--call-time-limit``
@@ -39,8 +38,8 @@ LAZY_IMPORTS = {
     "optimize.plots": ("MARKER_STEP_S", "SCENARIO_COLORS", "equal_time_samples", "plot_cycle",
                        "plot_efficiency_map"),
     "optimize.sweep_options": ("DEFAULT_SOLVER", "LOCAL_POOL", "PAPER_GRID", "PAPER_WINDS_M_S",
-                               "Execution", "SolverChoice", "WindGrid"),
-    "optimize.service.plan": ("WIND_RANGE_M_S", "parse_wind_grid"),
+                               "WIND_RANGE_M_S", "Execution", "SolverChoice", "WindGrid",
+                               "parse_wind_grid"),
     "optimize.resolve": ("Setup", "resolve"),
     "optimize.command": ("OptimizeOutcome", "SweepRequest", "make_request", "run_optimize"),
     "optimize.cli": ("EXIT_SOME_FAILED", "add_call_time_limit", "check_call_time_limit"),

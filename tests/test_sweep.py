@@ -33,13 +33,11 @@ from optimize.service.plan import (
     continuation_order,
     lead_kinds,
     middle_index,
-    parse_kinds,
-    parse_wind_grid,
     plan_graph,
     start_cost,
 )
 from optimize.service.solves import MAX_WARM_ATTEMPTS
-from optimize.sweep_options import WindGrid
+from optimize.sweep_options import WindGrid, parse_kinds, parse_wind_grid
 
 CUT_IN_M_S = {"elec-lim": 4.8, "mech-lim": 5.5, "elec-free": 4.6, "mech-free": 20.0}
 SCALE_W = 1000.0

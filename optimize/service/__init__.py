@@ -9,7 +9,7 @@ speeds where a sweep's curve bends, each started from the nearest solved speed).
 =============================================== ==========================================
 module                                          concept
 =============================================== ==========================================
-:mod:`optimize.service.plan`                    the wind grid, the kinds, warm-start chains
+:mod:`optimize.service.plan`                    the start graph and the warm-start chains
 :mod:`optimize.service.executors`               a process pool or Dask, progress channels
 :mod:`optimize.service.builder`                 what a worker builds: ``Problem``, backends
 :mod:`optimize.service.solves`                  one problem's solves: warm starts, fallbacks,

@@ -1,4 +1,4 @@
-"""The scenario sweep: wind grid, scenario kinds, continuation order and the start graph.
+"""The scenario sweep's plan: continuation order and the start graph.
 
 A sweep is every selected scenario *kind* (objective x drive limits, e.g.
 ``elec-lim``) at every wind speed of a grid. Solving each of them cold (homotopy)
@@ -43,120 +43,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from kernel.errors import InputError
 from optimize.kinds import KINDS
 from optimize.problem.scenario import Scenario
-
-DEFAULT_WIND_GRID = "4:10:1.5"
-#: a generous bound on the number of wind speeds (each is one solve per kind)
-MAX_WIND_SPEEDS = 200
-#: plausible wind speeds at 100 m [m/s], checked before any solve: from a light air in
-#: which no kite flies to the 25 m/s cut-out wind of IEC 61400-1 that ends wind-energy
-#: operation (the paper sweeps 4 to 10 m/s); a speed outside is a typo
-#: (200 for 20) that would cost minutes of failing solves
-WIND_RANGE_M_S = (1.0, 25.0)
-
-
-def _bad_grid(spec: str, problem: str) -> InputError:
-    return InputError(
-        None,
-        f"--wind-grid {spec!r}: {problem}",
-        expected="START:STOP:STEP (endpoints included, e.g. 4:10:1.5), "
-        "a comma list (4,5.5,7) or one speed, in m/s, all > 0",
-    )
-
-
-def _number(spec: str, text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise _bad_grid(spec, f"{text.strip()!r} is not a number") from None
-    if not math.isfinite(value):
-        raise _bad_grid(spec, f"{text.strip()!r} is not finite")
-    return value
-
-
-def parse_wind_grid(spec: str) -> tuple[float, ...]:
-    """Parse a wind grid specification into sorted wind speeds [m/s].
-
-    Parameters
-    ----------
-    spec : str
-        ``START:STOP:STEP`` with both endpoints included (``4:10:1.5`` ->
-        4, 5.5, 7, 8.5, 10); ``STOP - START`` must be a whole multiple of
-        ``STEP``. Or a comma-separated list (``4,5.5,7``), or one speed.
-
-    Returns
-    -------
-    tuple of float
-        Strictly increasing wind speeds at 100 m altitude [m/s].
-
-    Raises
-    ------
-    InputError
-        On anything else: non-numbers, speeds <= 0 or outside
-        :data:`WIND_RANGE_M_S`, a step <= 0, a stop below the start, a stop that
-        is not on the grid, duplicates, or more than :data:`MAX_WIND_SPEEDS` speeds.
-    """
-    text = spec.strip()
-    if not text:
-        raise _bad_grid(spec, "empty")
-    if ":" in text:
-        parts = text.split(":")
-        if len(parts) != 3:
-            raise _bad_grid(spec, f"{len(parts)} fields separated by ':'")
-        start, stop, step = (_number(spec, p) for p in parts)
-        if step <= 0:
-            raise _bad_grid(spec, f"step {step:g} is not > 0")
-        if stop < start:
-            raise _bad_grid(spec, f"stop {stop:g} is below start {start:g}")
-        n_steps = (stop - start) / step
-        if n_steps + 1 > MAX_WIND_SPEEDS:
-            raise _bad_grid(spec, f"{math.floor(n_steps) + 1} speeds, more than {MAX_WIND_SPEEDS}")
-        n_whole = round(n_steps)
-        if abs(n_steps - n_whole) > 1e-9 * max(1.0, n_steps):
-            raise _bad_grid(
-                spec, f"stop {stop:g} is not start {start:g} plus a whole number of steps {step:g}"
-            )
-        wind_speeds_m_s = [round(start + i * step, 9) for i in range(n_whole + 1)]
-        wind_speeds_m_s[-1] = stop
-    else:
-        wind_speeds_m_s = [_number(spec, p) for p in text.split(",")]
-        if len(wind_speeds_m_s) > MAX_WIND_SPEEDS:
-            raise _bad_grid(spec, f"{len(wind_speeds_m_s)} speeds, more than {MAX_WIND_SPEEDS}")
-    bad = [w for w in wind_speeds_m_s if w <= 0]
-    if bad:
-        raise _bad_grid(spec, f"wind speed {bad[0]:g} is not > 0")
-    lo, hi = WIND_RANGE_M_S
-    bad = [w for w in wind_speeds_m_s if not lo <= w <= hi]
-    if bad:
-        raise _bad_grid(spec, f"wind speed {bad[0]:g} m/s is outside the plausible "
-                              f"{lo:g} to {hi:g} m/s")
-    ordered = sorted(wind_speeds_m_s)
-    dupes = [a for a, b in zip(ordered, ordered[1:], strict=False) if a == b]
-    if dupes:
-        raise _bad_grid(spec, f"wind speed {dupes[0]:g} appears twice")
-    return tuple(ordered)
-
-
-def parse_kinds(spec: str) -> tuple[str, ...]:
-    """Parse ``--scenarios`` (comma list of kinds of :data:`KINDS`) into kinds, in given order.
-
-    Raises
-    ------
-    InputError
-        On an unknown or repeated kind, or an empty list.
-    """
-    kinds = tuple(k.strip() for k in spec.split(",") if k.strip())
-    expected = "a comma list of " + ", ".join(KINDS)
-    if not kinds:
-        raise InputError(None, f"--scenarios {spec!r}: no scenario kind given", expected=expected)
-    for k in kinds:
-        if k not in KINDS:
-            raise InputError(None, f"--scenarios {spec!r}: unknown kind {k!r}", expected=expected)
-    if len(set(kinds)) != len(kinds):
-        raise InputError(None, f"--scenarios {spec!r}: a kind appears twice", expected=expected)
-    return kinds
 
 
 def middle_index(wind_speeds_m_s: tuple[float, ...]) -> int:
@@ -291,9 +179,9 @@ def plan_graph(wind_speeds_m_s: tuple[float, ...], kinds: tuple[str, ...]) -> tu
     Parameters
     ----------
     wind_speeds_m_s : tuple of float
-        Wind speeds [m/s], increasing (from :func:`parse_wind_grid`).
+        Wind speeds [m/s], increasing (from :func:`optimize.sweep_options.parse_wind_grid`).
     kinds : tuple of str
-        Scenario kinds (from :func:`parse_kinds`).
+        Scenario kinds (from :func:`optimize.sweep_options.parse_kinds`).
 
     Returns
     -------
