@@ -47,7 +47,7 @@ def run_class(name: str, drive, quadrants, noise_w: float, work: Path) -> list[d
     for q in quadrants:
         shown = emap[(emap["quadrant"] == q) & emap["status"].isin(("ok", "clipped"))]
         truth_eta = drive.eta(shown["speed_rpm"], shown["torque_nm"])
-        above = shown["torque_nm"] > drive.torque_limit_nm(shown["speed_rpm"]) + 1e-9
+        above = shown["torque_nm"] > drive.rating.largest_torque_nm(shown["speed_rpm"]) + 1e-9
         peak = summary["efficiency"]["peak"][q]
         rows.append({
             "class": name, "quadrant": q,

@@ -125,8 +125,8 @@ SUMMARY_COLUMNS: dict[str, str] = {
                                 "[-]; NaN when the model has no domain",
     "outside_worst_speed_rpm": "drum speed of the cycle point farthest outside the domain",
     "outside_worst_torque_nm": "drum torque of the cycle point farthest outside the domain",
-    "outside_worst_distance": "its distance to the domain in (speed / max_speed_rpm, "
-                              "torque / max_torque_nm) [-]; 0 when the cycle stays inside",
+    "outside_worst_distance": "its distance to the domain in units of the drive's speed "
+                              "and torque limits [-]; 0 when the cycle stays inside",
 }
 #: the columns every reader of ``summary.parquet`` relies on (``bench aep``, ``bench size``,
 #: ``bench report``); the others are read where present

@@ -13,52 +13,51 @@ The drum frame of docs/schemas.md holds: torque >= 0, generating is negative spe
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
+from kernel.drive import Drive
 from kernel.units import RPM_PER_RAD_S
 
 
 @dataclass(frozen=True)
 class TruthDrive:
-    """A drive rating plus its true loss coefficients (fractions of nominal power).
+    """A drive with known losses: its rating and its true loss coefficients (fractions of
+    nominal power).
 
     Parameters
     ----------
-    nominal_power_w : float
-        Rated (and constant-power) power [W].
-    max_speed_rpm : float
-        Largest drum speed [rpm].
-    max_torque_nm : float
-        Largest drum torque [N m] (up to the base speed).
+    rating : kernel.drive.Drive
+        Nominal (and constant-power) power, drum speed and torque limits, and the
+        envelope: full torque up to the base speed ``P_nom / T_max``, constant power above
+        it (:meth:`rated`).
     loss_fracs : tuple of float
         ``(a0, a1, a2, a3)`` of the loss model [-].
     """
 
-    nominal_power_w: float
-    max_speed_rpm: float
-    max_torque_nm: float
+    rating: Drive
     loss_fracs: tuple[float, float, float, float] = (0.004, 0.006, 0.010, 0.030)
 
-    @property
-    def base_speed_rpm(self) -> float:
-        """Speed above which the drive is power limited [rpm]."""
-        return self.nominal_power_w / self.max_torque_nm * RPM_PER_RAD_S
-
-    def torque_limit_nm(self, speed_rpm) -> np.ndarray:
-        """The envelope: ``min(T_max, P_nom / |omega|)`` [N m]."""
-        w = np.abs(np.asarray(speed_rpm, dtype=float)) / RPM_PER_RAD_S
-        with np.errstate(divide="ignore"):
-            return np.minimum(self.max_torque_nm, self.nominal_power_w / w)
+    @classmethod
+    def rated(cls, nominal_power_w: float, max_speed_rpm: float, torque_nm: float
+              ) -> TruthDrive:
+        """The drive of nominal power [W], speed limit [rpm] and torque limit [N m], its
+        torque constant up to the base speed ``P_nom / T_max`` and falling as ``P_nom / w``
+        above it."""
+        return cls(Drive.rating(nominal_power_w, max_speed_rpm, torque_nm,
+                                base_speed_rpm=nominal_power_w / torque_nm * RPM_PER_RAD_S,
+                                source="bench.synth.rated_drive"))
 
     def loss_w(self, speed_rpm, torque_nm) -> np.ndarray:
         """True loss [W]."""
         a0, a1, a2, a3 = self.loss_fracs
-        x = np.abs(np.asarray(speed_rpm, dtype=float)) / self.max_speed_rpm
-        y = np.asarray(torque_nm, dtype=float) / self.max_torque_nm
-        return self.nominal_power_w * (a0 + a1 * x + a2 * x**2 + a3 * y**2)
+        speed_top, torque_top = self.rating.box()
+        x = np.abs(np.asarray(speed_rpm, dtype=float)) / speed_top
+        y = np.asarray(torque_nm, dtype=float) / torque_top
+        return self.rating.nominal_power_w * (a0 + a1 * x + a2 * x**2 + a3 * y**2)
 
     def p_elec_w(self, speed_rpm, torque_nm) -> np.ndarray:
         """True electrical power [W] (positive drawn from the grid)."""
@@ -74,9 +73,9 @@ class TruthDrive:
 
 
 #: The 150 kW, 12000 rpm class of the EV export (base speed 4000 rpm).
-EV_DRIVE = TruthDrive(150_000.0, 12_000.0, 150_000.0 / (4000.0 / RPM_PER_RAD_S))
+EV_DRIVE = TruthDrive.rated(150_000.0, 12_000.0, 150_000.0 / (4000.0 / RPM_PER_RAD_S))
 #: The paper's 8.2 kW drive rating with the same loss shape.
-PAPER_DRIVE = TruthDrive(8200.0, 1500.0, 78.0)
+PAPER_DRIVE = TruthDrive.rated(8200.0, 1500.0, 78.0)
 
 
 def grid_points(drive: TruthDrive, quadrants=("motor", "generator"), *, n_speeds: int = 24,
@@ -97,16 +96,17 @@ def grid_points(drive: TruthDrive, quadrants=("motor", "generator"), *, n_speeds
     """
     rng = np.random.default_rng(seed)
     frames = []
+    speed_top, torque_top = drive.rating.box()
     for q in quadrants:
-        step = (1.0 - min_speed_frac) * drive.max_speed_rpm / (n_speeds - 1)
-        levels = min_speed_frac * drive.max_speed_rpm + step * np.arange(n_speeds)
+        step = (1.0 - min_speed_frac) * speed_top / (n_speeds - 1)
+        levels = min_speed_frac * speed_top + step * np.arange(n_speeds)
         levels = np.clip(levels + rng.uniform(-0.1, 0.1, n_speeds) * step,
-                         min_speed_frac * drive.max_speed_rpm, drive.max_speed_rpm)
+                         min_speed_frac * speed_top, speed_top)
         s, t = [], []
         for n in levels:
-            top = float(drive.torque_limit_nm(n))
+            top = float(drive.rating.largest_torque_nm(n))
             s.append(np.full(n_torques, n))
-            t.append(np.linspace(min_torque_frac * drive.max_torque_nm, top, n_torques))
+            t.append(np.linspace(min_torque_frac * torque_top, top, n_torques))
         speed = np.concatenate(s) * (1.0 if q == "motor" else -1.0)
         torque = np.concatenate(t)
         p_mech = speed / RPM_PER_RAD_S * torque
@@ -144,14 +144,13 @@ def write_table_campaign(folder, drive: TruthDrive, points: pd.DataFrame,
     """
     from pathlib import Path
 
-    from kernel.drive import Drive
     from kernel.drive_file import DRIVE_FILE, drive_toml
     from kernel.files import write_text_atomic
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    rating = Drive.rating(drive.nominal_power_w, drive.max_speed_rpm, drive.max_torque_nm,
-                          source=source, base_speed_rpm=base_speed_rpm)
+    rating = dataclasses.replace(drive.rating, source=source, base_speed_rpm=base_speed_rpm)
+    speed_top, torque_top = rating.box()
     write_text_atomic(folder / DRIVE_FILE, drive_toml(rating))
     for sid, sub in points.groupby("session_id"):
         session = folder / str(sid)
@@ -162,9 +161,9 @@ def write_table_campaign(folder, drive: TruthDrive, points: pd.DataFrame,
             'operator = "bench.synth.rated_drive"', 'date = "2026-01-01"', "gear_ratio = 1.0",
             'measured_side = "drum"', "speed_sign = 1", "torque_sign = 1", "",
             "[points]", 'file = "points.csv"', 'mapping = "mapping.toml"', "",
-            "[sensors]", f"torque_range_nm = {1.25 * drive.max_torque_nm!r}",
-            f"speed_range_rpm = {1.25 * drive.max_speed_rpm!r}",
-            f"power_range_w = {1.25 * drive.nominal_power_w!r}", ""]))
+            "[sensors]", f"torque_range_nm = {1.25 * torque_top!r}",
+            f"speed_range_rpm = {1.25 * speed_top!r}",
+            f"power_range_w = {1.25 * rating.nominal_power_w!r}", ""]))
         write_text_atomic(session / "mapping.toml", "\n".join([
             "[columns.speed]", 'column = "n"', 'unit = "1/min"', "",
             "[columns.torque]", 'column = "M"', 'unit = "Nm"', "",

@@ -40,6 +40,13 @@ class DriveModel(Protocol):
     coefficients : dict
         Term ``(i, j)`` (speed ``rpm**i``, torque ``(N m)**j``) -> coefficient [W per
         rpm**i (N m)**j]: the copper loss of the thermal model is its ``(0, 2)`` term.
+    terms, coefficients_rpm : tuple
+        The same terms and coefficients in order, and
+    covariance_rpm : tuple of tuple of float or None
+        their covariance, and
+    provenance : dict or None
+        where the model comes from: what :func:`carry_power_model` carries to another
+        rating (a frozen dataclass, copied with :func:`dataclasses.replace`).
     """
 
     name: str
@@ -49,6 +56,10 @@ class DriveModel(Protocol):
     thermal: dict | None
     domain: dict | None
     coefficients: dict
+    terms: tuple
+    coefficients_rpm: tuple
+    covariance_rpm: tuple | None
+    provenance: dict | None
 
     def casadi_p_elec_w(self, speed_rpm: Any, torque_nm: Any) -> Any:
         """Electrical power drawn from the grid [W] (CasADi expression)."""
@@ -85,11 +96,6 @@ def mechanical_power_w(tension_n: Any, dl_m_s: Any) -> Any:
 def max_reel_speed_m_s(max_speed_rpm: float, r_winch_m: float) -> float:
     """Tether speed [m/s] that corresponds to a drum speed limit [rpm]."""
     return max_speed_rpm / RPM_PER_RAD_S * r_winch_m
-
-
-def max_tension_n(max_torque_nm: float, r_winch_m: float) -> float:
-    """Tether tension [N] that corresponds to a drum torque limit [N m]."""
-    return max_torque_nm / r_winch_m
 
 
 def motor_acceleration_rad_s2(ddl_m_s2: Any, r_winch_m: float, gear_ratio: float) -> Any:

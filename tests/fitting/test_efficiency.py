@@ -159,21 +159,21 @@ def test_non_convex_power_limited_envelope_is_never_filled():
     drive = EV_DRIVE
     noise_w = 300.0
     pts = grid_points(drive, n_speeds=24, n_torques=12, noise_w=noise_w, seed=1)
-    rules = MaskingRules(drive.nominal_power_w)
+    rules = MaskingRules(drive.rating.nominal_power_w)
     m = gridded_map(pts, rules)
     shown = m["status"].isin((OK, CLIPPED)).to_numpy()
     speed, torque = m["speed_rpm"].to_numpy(), m["torque_nm"].to_numpy()
     # Tolerance: the envelope's upper edge is the chord between neighbouring speed
     # levels' top points, which lies below the true limit one level spacing slower.
-    level_step = 0.96 * drive.max_speed_rpm / 23 * 1.2  # spacing incl. +-10 % jitter
-    limit = drive.torque_limit_nm(np.maximum(np.abs(speed) - level_step, 1.0))
+    level_step = 0.96 * drive.rating.max_speed_rpm / 23 * 1.2  # spacing incl. +-10 % jitter
+    limit = drive.rating.largest_torque_nm(np.maximum(np.abs(speed) - level_step, 1.0))
     assert not np.any(shown & (torque > limit + 1e-9))
     # the convex hull would have drawn a large unmeasured region (the test can fail)
     for q, sign in (("motor", 1), ("generator", -1)):
         sub = pts[pts["quadrant"] == q]
         xy = np.column_stack([sub["speed_rpm"] / 1e4, sub["torque_nm"] / 1e2])
         hull = _hull_contains(xy, np.column_stack([speed / 1e4, torque / 1e2]))
-        above = hull & (torque > drive.torque_limit_nm(speed) + 5.0) & (sign * speed > 0)
+        above = hull & (torque > drive.rating.largest_torque_nm(speed) + 5.0) & (sign * speed > 0)
         assert above.sum() > 0.1 * ((m["quadrant"] == q) & shown).sum()
     # peak: within 0.005 of the truth's peak over the measured region (noise of the
     # maximum: 300 W / 100 kW = 0.003), and never above measured max + its noise
@@ -195,7 +195,7 @@ def test_non_convex_power_limited_envelope_is_never_filled():
         # standard deviations (in eta: 300 W / |P_mech|) plus 0.003 (interpolation of
         # the smooth loss between set points) of the truth
         p_mech = np.abs(m["p_mech_w"].to_numpy())
-        big = sel & (p_mech > 0.1 * drive.nominal_power_w)
+        big = sel & (p_mech > 0.1 * drive.rating.nominal_power_w)
         err = np.abs(m["eta"].to_numpy()[big] - drive.eta(speed[big], torque[big]))
         assert np.all(err <= 4 * noise_w / p_mech[big] + 0.003)
 
@@ -222,7 +222,7 @@ def test_coarse_grid_never_invents_efficiency():
     assert m["eta"].to_numpy()[shown].max() <= measured_max + 1e-12
     # with the loss interpolated, nodes with |P_mech| > 10 % of nominal are within
     # 0.02 of the truth (loss curvature over a 650 rpm x 35 N m cell)
-    big = shown & (m["p_mech_w"].to_numpy() > 0.1 * drive.nominal_power_w)
+    big = shown & (m["p_mech_w"].to_numpy() > 0.1 * drive.rating.nominal_power_w)
     err = np.abs(m["eta"].to_numpy()[big] - drive.eta(m["speed_rpm"][big], m["torque_nm"][big]))
     assert err.max() < 0.02
 

@@ -41,8 +41,8 @@ def test_rated_campaign(tmp_path, case):
 
     summary = run_fit(tmp_path / "store", tmp_path / "fit", FitOptions(), progress=False)
     model = load_power_model(tmp_path / "fit" / "power_model.json")
-    assert model.drive.nominal_power_w == drive.nominal_power_w
-    assert model.drive.max_speed_rpm == drive.max_speed_rpm
+    assert model.drive.nominal_power_w == drive.rating.nominal_power_w
+    assert model.drive.max_speed_rpm == drive.rating.max_speed_rpm
     assert set(model.domain) == set(quadrants)
     # residual std recovers the noise: the eq. 4 model misses part of this loss shape, so
     # only a bound (noise <= std <= 2 x noise)
@@ -54,7 +54,8 @@ def test_rated_campaign(tmp_path, case):
         shown = emap[(emap["quadrant"] == q) & emap["status"].isin(("ok", "clipped"))]
         assert len(shown) > 1000
         # no node above the true envelope (chords between measured tops lie below it)
-        assert not (shown["torque_nm"] > drive.torque_limit_nm(shown["speed_rpm"]) + 1e-9).any()
+        top = drive.rating.largest_torque_nm(shown["speed_rpm"])
+        assert not (shown["torque_nm"] > top + 1e-9).any()
         peak = summary["efficiency"]["peak"][q]
         truth = float(np.nanmax(drive.eta(shown["speed_rpm"], shown["torque_nm"])))
         # the map keeps the true peak (within the interpolation between set points) ...
@@ -62,7 +63,7 @@ def test_rated_campaign(tmp_path, case):
         # ... and shows what was measured: the highest efficiency of the written points
         # (noisy: a part-load point's noise in eta is large, and the table states no std),
         # within that point's uncertainty (0.2 % of each power: sqrt(2) * 0.2 % of eta)
-        floor = 0.02 * drive.nominal_power_w  # the masking rules' near-axis limit
+        floor = 0.02 * drive.rating.nominal_power_w  # the masking rules' near-axis limit
         mine = ((pts["quadrant"] == q) & (pts["p_mech_w"].abs() >= floor)
                 & (pts["p_elec_w"].abs() >= floor)).to_numpy()
         eta_w = np.where(pts["p_mech_w"] > 0, pts["p_mech_w"] / pts["p_elec_w"],
@@ -81,7 +82,6 @@ def test_bench_fit_checks_the_points_against_the_envelope_drive_toml_states(tmp_
     speed none is above."""
     from bench.store.read import read_points as stored_points
     from fitting.envelope_check import envelope_check
-    from kernel.drive import Drive
 
     drive = EV_DRIVE
     pts = grid_points(drive, ("motor", "generator"), noise_w=300.0, seed=7)
@@ -92,15 +92,14 @@ def test_bench_fit_checks_the_points_against_the_envelope_drive_toml_states(tmp_
     assert model.drive.base_speed_rpm == 3000.0
     check = summary["statistics"]["envelope_check"]
     stored = stored_points(tmp_path / "store")
-    top = np.minimum(drive.max_torque_nm,
-                     drive.max_torque_nm * 3000.0 / stored["speed_rpm"].abs())
-    expected = int((stored["torque_nm"].abs() > top + 0.01 * drive.max_torque_nm).sum())
+    top = np.minimum(drive.rating.max_torque_nm,
+                     drive.rating.max_torque_nm * 3000.0 / stored["speed_rpm"].abs())
+    expected = int((stored["torque_nm"].abs() > top + 0.01 * drive.rating.max_torque_nm).sum())
     assert expected > 10 and check["n_above"] == expected
     assert check["worst"]["speed_rpm"] != 0 and any("lie above the drive's stated" in n
                                                      for n in summary["notes"])
     assert model.statistics["n_points"] == len(stored)  # kept in the fit
-    true = Drive.rating(drive.nominal_power_w, drive.max_speed_rpm, drive.max_torque_nm,
-                       base_speed_rpm=drive.base_speed_rpm)
+    true = drive.rating  # its own base speed, 4000 rpm
     assert envelope_check(stored, true)["n_above"] == 0
 
 
