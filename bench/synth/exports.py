@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from kernel.drive import Drive
 from kernel.units import RPM_PER_RAD_S
 
 
@@ -82,11 +83,9 @@ def make_dyno_table(root: Path, sid: str = "dyno_01", seed: int = 11) -> dict[st
             "loss": (15.0, 2e-6, 0.8)}
 
 
-def ev_envelope_nm(speed_rpm, max_torque_nm: float = 300.0, max_power_w: float = 150e3):
-    """Torque envelope [N m]: constant torque to the base speed, constant power above it."""
-    w = np.abs(np.asarray(speed_rpm)) / RPM_PER_RAD_S
-    with np.errstate(divide="ignore"):
-        return np.minimum(max_torque_nm, max_power_w / w)
+#: The EV motor of :func:`make_ev_table`: 300 N m to its base speed, 150 kW above it.
+EV_MOTOR = Drive.rating(150e3, 12_000.0, 300.0, base_speed_rpm=150e3 / 300.0 * RPM_PER_RAD_S,
+                        source="bench.synth.exports")
 
 
 def make_ev_table(root: Path, sid: str = "ev_01", p_elec_by: str = "expr", n_columns: int = 500,
@@ -104,7 +103,7 @@ def make_ev_table(root: Path, sid: str = "ev_01", p_elec_by: str = "expr", n_col
     grid = [(s * n, f) for s in (1.0, -1.0) for n in np.arange(1000.0, 12001.0, 1000.0)
             for f in (0.15, 0.4, 0.7, 0.95)]
     speed = np.array([n for n, _ in grid])
-    torque = np.array([f for _, f in grid]) * ev_envelope_nm(speed)
+    torque = np.array([f for _, f in grid]) * EV_MOTOR.largest_torque_nm(speed)
     p_mech = speed * torque / RPM_PER_RAD_S
     p_elec = p_mech + loss_w(speed, torque, 400.0, 2e-5, 0.04)
     u_dc = 400.0 + rng.normal(0.0, 2.0, speed.size)
