@@ -13,15 +13,23 @@ import math
 from pathlib import Path
 from typing import Any
 
+from kernel.drive import Drive
 from kernel.errors import InputError
 
+#: no override: the reference rating is the system's drive in force
+NO_OVERRIDES = Drive()
 
-def reference_rating(rating: Any, continuous_torque_nm: float | None = None,
-                     max_speed_rpm: float | None = None,
-                     max_torque_nm: float | None = None) -> tuple[Any, list[str]]:
+
+#: the keys of the reference rating ``bench size`` overrides (``--continuous-torque-nm``,
+#: ``--max-speed-rpm``, ``--max-torque-nm``), in the order they are checked
+OVERRIDE_KEYS = ("continuous_torque_nm", "max_speed_rpm", "max_torque_nm")
+
+
+def reference_rating(rating: Any, overrides: Drive = NO_OVERRIDES) -> tuple[Any, list[str]]:
     """The reference drive's rating (x1): the system's drive in force, the limits
     ``bench optimize``'s constrained kinds fly, with the given overrides
-    (``--continuous-torque-nm``, ``--max-speed-rpm``, ``--max-torque-nm``).
+    ``overrides`` (a :class:`kernel.drive.Drive` stating keys of :data:`OVERRIDE_KEYS` only:
+    ``--continuous-torque-nm``, ``--max-speed-rpm``, ``--max-torque-nm``).
 
     The peak torque is the system's ``max_torque_nm``: a short-time torque above it is
     flown only where the system file (or ``--max-torque-nm``) states it as the drive's
@@ -29,10 +37,18 @@ def reference_rating(rating: Any, continuous_torque_nm: float | None = None,
     stage flies, and an override that departs from the system's limits are said.
     """
     notes = []
-    for name, v in (("--continuous-torque-nm", continuous_torque_nm),
-                    ("--max-speed-rpm", max_speed_rpm), ("--max-torque-nm", max_torque_nm)):
+    stated = sorted(f.name for f in dataclasses.fields(overrides)
+                    if getattr(overrides, f.name) is not None and f.name not in OVERRIDE_KEYS)
+    if stated:
+        raise InputError(None, f"rating override {stated[0]}: not one bench size overrides",
+                         expected=", ".join(OVERRIDE_KEYS))
+    continuous_torque_nm, max_speed_rpm, max_torque_nm = (getattr(overrides, k)
+                                                          for k in OVERRIDE_KEYS)
+    for key in OVERRIDE_KEYS:
+        v = getattr(overrides, key)
         if v is not None and not (math.isfinite(v) and v > 0):
-            raise InputError(None, f"option {name} {v}", expected="a value > 0")
+            raise InputError(None, f"option --{key.replace('_', '-')} {v}",
+                             expected="a value > 0")
     peak = max_torque_nm or rating.max_torque_nm
     continuous = continuous_torque_nm or rating.continuous_torque_nm
     if continuous is None:
@@ -61,18 +77,14 @@ def reference_rating(rating: Any, continuous_torque_nm: float | None = None,
 
 
 def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
-                     continuous_torque_nm: float | None = None,
-                     max_speed_rpm: float | None = None,
-                     max_torque_nm: float | None = None) -> tuple[list, list[str]]:
+                     overrides: Drive = NO_OVERRIDES) -> tuple[list, list[str]]:
     """The candidate drives of the reference drive in force (``drive``,
     :func:`optimize.system.drive_in_force.drive_in_force`) scaled by ``scales``, plus one per
-    power-model file of ``models``; and notes on what was assumed."""
+    power-model file of ``models`` (the reference's rating with ``overrides``,
+    :func:`reference_rating`); and notes on what was assumed."""
     from energy.sizing import Candidate, scaled_candidates
     from fitting.model_file import load_power_model
-    from kernel.drive import Drive
-
-    rating, notes = reference_rating(drive.rating, continuous_torque_nm, max_speed_rpm,
-                                     max_torque_nm)
+    rating, notes = reference_rating(drive.rating, overrides)
     candidates = scaled_candidates(drive.model, rating, tuple(scales))
     names = _model_names(tuple(models), {c.name for c in candidates})
     for p in models:

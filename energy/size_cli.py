@@ -104,8 +104,9 @@ def run(args: argparse.Namespace) -> int:
     print(execution.line())
     done = run_size(site, args.drive_model, system=system, fit_default=FIT_MODEL_PATH,
                     grid=grid, out=args.out, site_note=site_note,
-                    rating=RatingOverrides(args.continuous_torque_nm, args.max_speed_rpm,
-                                           args.max_torque_nm),
+                    rating=RatingOverrides(continuous_torque_nm=args.continuous_torque_nm,
+                                           max_speed_rpm=args.max_speed_rpm,
+                                           max_torque_nm=args.max_torque_nm),
                     solver=SolverChoice(args.intervals, args.degree,
                                         call_time_limit_s=args.call_time_limit),
                     execution=execution,

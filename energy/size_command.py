@@ -26,6 +26,7 @@ from energy.sizing import (
     starts_note,
 )
 from energy.sizing_files import SIZE_KEEP, SIZE_MARKERS, edge_note, write_sizing
+from kernel.drive import Drive
 from kernel.errors import InputError
 from kernel.output_folder import check_replaceable
 from kernel.provenance import Provenance
@@ -93,29 +94,14 @@ class SizingGrid:
                              expected="distinct scales > 0")
 
 
-@dataclass(frozen=True)
-class RatingOverrides:
-    """Overrides of the reference drive's rating (None: the system's ``[drive]``, the
-    limits ``bench optimize`` flies).
-
-    Attributes
-    ----------
-    continuous_torque_nm : float or None
-        Continuous (RMS) torque rating [N m].
-    max_speed_rpm : float or None
-        Speed limit [rpm].
-    max_torque_nm : float or None
-        Torque limit (the short-time peak torque) [N m].
-    """
-
-    continuous_torque_nm: float | None = None
-    max_speed_rpm: float | None = None
-    max_torque_nm: float | None = None
-
+#: Overrides of the reference drive's rating: a :class:`kernel.drive.Drive` that states
+#: only the keys it overrides, of :data:`energy.candidates.OVERRIDE_KEYS` (None: the
+#: system's ``[drive]``, the limits ``bench optimize`` flies).
+RatingOverrides = Drive
 
 #: the defaults as objects, for signatures (frozen, so shared safely)
 DEFAULT_SIZING = SizingGrid()
-SYSTEM_RATING = RatingOverrides()
+SYSTEM_RATING = Drive()
 
 
 @dataclass(frozen=True)
@@ -177,7 +163,7 @@ def earlier_is_better(out: Path, sizing: Any) -> str | None:
             f"{first['wind_speed_m_s']:g} m/s: {first['status']}); a re-run solves them again")
 
 
-def _checked_candidates(drive: Any, grid: SizingGrid, rating: RatingOverrides,
+def _checked_candidates(drive: Any, grid: SizingGrid, rating: Drive,
                         solver: SolverChoice, system: Any
                         ) -> Callable[[tuple[float, ...]], tuple[list, list[str]]]:
     """``candidates(scales)``: the candidates of ``scales`` and the models, and what was
@@ -186,8 +172,7 @@ def _checked_candidates(drive: Any, grid: SizingGrid, rating: RatingOverrides,
     checked: set[str] = set()
 
     def candidates(scales: tuple[float, ...]) -> tuple[list, list[str]]:
-        made, said = build_candidates(drive, scales, grid.models, rating.continuous_torque_nm,
-                                      rating.max_speed_rpm, rating.max_torque_nm)
+        made, said = build_candidates(drive, scales, grid.models, rating)
         for c in made:
             if c.name not in checked:
                 c.check(system)
@@ -208,7 +193,7 @@ def _sizing_speeds(grid: SizingGrid, site: Any) -> tuple[tuple[float, ...], list
 
 def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
              fit_default: str | Path | None = None, grid: SizingGrid = DEFAULT_SIZING,
-             rating: RatingOverrides = SYSTEM_RATING, solver: SolverChoice = DEFAULT_SOLVER,
+             rating: Drive = SYSTEM_RATING, solver: SolverChoice = DEFAULT_SOLVER,
              execution: Execution = LOCAL_POOL, out: str | Path = "size_out",
              site_note: str | None = None, command_line: Sequence[str] = ("drivebench.size",),
              before_solving: Callable[[Any, int, tuple], None] | None = None) -> SizeRun:
@@ -226,7 +211,7 @@ def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
         The system file (its ``[drive]`` is the reference rating); default the shipped one.
     fit_default : path, optional
         ``bench fit``'s model, used when the system file names no losses.
-    grid, rating : SizingGrid, RatingOverrides
+    grid, rating : SizingGrid, kernel.drive.Drive
         The candidates, wind speeds and choice rule; the reference rating's overrides.
     solver, execution : SolverChoice, Execution
         The collocation grid of each solve (``n_intervals``, ``degree``) and the longest

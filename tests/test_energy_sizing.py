@@ -18,6 +18,7 @@ from energy.sizing import (
     start_lines,
     starts_note,
 )
+from kernel.drive import Drive
 from optimize.paper_model import paper_model
 from optimize.problem.scenario import Scenario
 from optimize.service import solve_key
@@ -80,7 +81,7 @@ def test_a_stated_overload_is_not_flown_and_said():
     assert rating.max_torque_nm == 78.0 and rating.overload is None
     assert any("overload 5" in n and "not flown" in n for n in notes)
     # an explicit torque limit is flown, and said to depart from the system's drive
-    rating, notes = reference_rating(PAPER_RATING, max_torque_nm=390.0)
+    rating, notes = reference_rating(PAPER_RATING, Drive(max_torque_nm=390.0))
     assert (rating.max_torque_nm, rating.continuous_torque_nm) == (390.0, 78.0)
     flown = load_system().in_force(rating).drive
     assert flown.rms_torque_limit_nm == 78.0  # below the torque limit: a row of its own
