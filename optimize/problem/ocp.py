@@ -48,7 +48,7 @@ log = logging.getLogger(__name__)
 #: above its upper one (:func:`crossed_bounds`); others are named by the row or variable.
 #: ``{bound}``: the ``[bounds]`` key of that bound (:func:`kernel.sections.bound_keys`)
 BOUND_INPUTS = {
-    "torque": "[drive] max_torque_nm against {tension_min} (the tension floor's "
+    "torque": "{torque_limit} against {tension_min} (the tension floor's "
               "torque on the drum)",
     "airspeed": "[bounds] min_airspeed_m_s, max_airspeed_m_s",
     "alpha": "[aero] alpha_min_deg, alpha_max_deg",
@@ -87,7 +87,8 @@ def crossed_bounds(layout: Layout, bounds: tuple[np.ndarray, ...], system: Any =
     if not names:
         return None
     keys = _BoundKeys() if system is None else _BoundKeys(
-        {b: f"[bounds] {k}" for b, k in bound_keys(system.bounds).items()})
+        {b: f"[{name}] {k}" for name in ("bounds", "drive")
+         for b, k in bound_keys(getattr(system, name)).items()})
     said = "; ".join(f"{n} ({BOUND_INPUTS[n].format_map(keys)})" if n in BOUND_INPUTS else n
                      for n in names)
     return (f"the NLP's bounds cross (lower above upper), so no point satisfies them: {said}; "
@@ -330,7 +331,7 @@ def _model(dae: KiteDae, drive_model: DriveModel, o: OcpOptions, system: Any
                                  (lim["tether_length_min"], lim["tether_length_max"]),
                                  lim["ground_clearance"], lim["airspeed_max"],
                                  body_rate_limit_rad_s(system.bounds)))
-    scales = system_scales(dae.kite, loop, drive.nominal_power_w, drive.max_torque_nm)
+    scales = system_scales(dae.kite, loop, drive)
     own = kite_parts(dae, drive_model, system, scales, loop, winding_thermal(drive_model, drive))
     return loop, scales, (*own, *section_parts(system.part_inputs, dae, scales))
 

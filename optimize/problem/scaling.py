@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -62,8 +63,7 @@ class Scales:
 def system_scales(
     kite: KiteParams,
     loop: LoopGuess,
-    nominal_power_w: float,
-    max_torque_nm: float,
+    drive: Any,
 ) -> Scales:
     """Scales of a system flying its start loop ``loop`` (the per-variable ones come
     from the parts, :meth:`optimize.problem.part.Part.scales`).
@@ -74,10 +74,9 @@ def system_scales(
         The kite's parameters.
     loop : LoopGuess
         The start loop (tether length ``L`` [m], period ``T`` [s], cone angle).
-    nominal_power_w : float
-        The drive's nominal power [W].
-    max_torque_nm : float
-        The drive's torque limit [N m] (motor shaft).
+    drive : kernel.drive.Drive
+        The drive in force: its nominal power [W] scales the powers, its torque limit
+        [N m] (motor shaft) the torques.
     """
     length = loop.tether_length_m
     period = loop.period_s
@@ -87,8 +86,8 @@ def system_scales(
     moment = 0.4 * force * kite.cref_m
     residual = np.array([force] * 3 + [moment] * 3 + [1.5 * speed**2])
     return Scales(
-        residual=residual, period_s=period, power_w=nominal_power_w / 8.0,
-        torque_nm=1.3 * max_torque_nm, airspeed_m_s=1.15 * speed, c_m2=0.016 * length**2,
+        residual=residual, period_s=period, power_w=drive.nominal_power_w / 8.0,
+        torque_nm=1.3 * drive.max_torque_nm, airspeed_m_s=1.15 * speed, c_m2=0.016 * length**2,
         cdot_m2_s=0.5 * length * speed, length_m=length, speed_m_s=speed, rate_rad_s=rate,
         force_n=force, moment_nm=moment,
     )
