@@ -118,3 +118,38 @@ def test_a_scheduler_that_stops_answering_ends_the_run():
     finally:
         with contextlib.suppress(Exception):  # closed already, as it should be
             cluster.close()
+
+
+def test_a_scheduler_lost_while_its_progress_queue_is_read_ends_the_run(monkeypatch):
+    # was: bench size on a scheduler killed mid-run ended in distributed's OSError
+    # traceback ("Timed out trying to connect") from reading the progress queue, between
+    # two checks of the cluster; now that failure is the cluster's loss, said as such
+    monkeypatch.setattr(executors, "HEALTH_EVERY_S", 1e6)  # no check but the forced one
+    cluster = _cluster(1)
+    try:
+        with open_executor(scheduler=cluster.scheduler_address) as handle:
+            handle.channel.put({"event": 1})
+            events = []
+
+            closed = threading.Event()
+
+            def close():
+                closed.set()
+                cluster.close()
+
+            def lost_queue():  # as distributed's Queue once the scheduler is gone
+                if not closed.is_set():
+                    return []
+                raise OSError("Timed out trying to connect to the scheduler after 20 s")
+
+            _later(0.5, close)
+            monkeypatch.setattr(handle.channel, "drain", lost_queue)
+            t0 = time.monotonic()
+            with pytest.raises(executors.ClusterLost, match="--scheduler .*: (the scheduler "
+                                                            "no longer answers|it has had no "
+                                                            "worker)"):
+                run_tasks(handle.executor, held, [1, 2], handle.channel, events.append)
+            assert time.monotonic() - t0 < 40
+    finally:
+        with contextlib.suppress(Exception):
+            cluster.close()

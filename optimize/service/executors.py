@@ -30,6 +30,7 @@ is shipped with the task, and ``drain()`` on the driver side. A
 from __future__ import annotations
 
 import gc
+import logging
 import multiprocessing
 import os
 import queue
@@ -324,6 +325,11 @@ def open_executor(workers: int = 2, scheduler: str | None = None) -> Iterator[Ex
     """
     if scheduler:
         client = _dask_client(scheduler)
+        # a lost scheduler is said once, as ClusterLost; the client's own reconnect errors
+        # (tracebacks of cancelled tasks) would say it again
+        client_log = logging.getLogger("distributed.client")
+        level = client_log.level
+        client_log.setLevel(logging.CRITICAL)
         try:
             _wait_for_workers(client, scheduler, WORKER_WAIT_S)
             executor = WatchedExecutor(client, scheduler)
@@ -333,6 +339,7 @@ def open_executor(workers: int = 2, scheduler: str | None = None) -> Iterator[Ex
             yield ExecutorHandle(executor, channel, description, n)
         finally:
             client.close()
+            client_log.setLevel(level)
         return
     if workers < 1:
         raise InputError(None, f"--workers {workers}: not >= 1", expected="a positive integer")
@@ -420,6 +427,22 @@ def run_graph(
     return futures
 
 
+def _drain(channel: Any, on_event: Callable[[dict], None] | None,
+           check: Callable[..., None] | None) -> None:
+    """Hand the channel's events to ``on_event``; a channel that fails (a Dask queue whose
+    scheduler is gone) is the cluster's loss, said as such by ``check``."""
+    if channel is None or on_event is None:
+        return
+    try:
+        events = channel.drain()
+    except OSError:
+        if check is not None:
+            check(force=True)
+        raise
+    for event in events:
+        on_event(event)
+
+
 def _run_graph(executor: Executor, fn: Callable[..., Any], n: int,
                needs: Callable[[int], Sequence[int]],
                make_task: Callable[[int, dict[int, Future]], Any], channel: Any,
@@ -441,12 +464,8 @@ def _run_graph(executor: Executor, fn: Callable[..., Any], n: int,
             raise ValueError(f"tasks {waiting} need tasks that come after them")
         if pending:
             wait(pending, timeout=poll_s, return_when=FIRST_COMPLETED)
-        if channel is not None and on_event is not None:
-            for event in channel.drain():
-                on_event(event)
-    if channel is not None and on_event is not None:
-        for event in channel.drain():
-            on_event(event)
+        _drain(channel, on_event, check)
+    _drain(channel, on_event, check)
     cancelled = sorted(i for i, f in futures.items() if f.cancelled())
     if cancelled:  # the executor shut down under them (a Dask client closed)
         if check is not None:
