@@ -406,8 +406,9 @@ def case_scheduler_killed_mid_size(work: Work) -> tuple[str, str]:
                                       cwd=d, stdout=subprocess.DEVNULL,
                                       stderr=subprocess.DEVNULL))
         time.sleep(5)
+        # the worker in the case's folder: it stores the solves at the relative --out
         procs.append(subprocess.Popen([dask, "worker", f"tcp://127.0.0.1:{port}",
-                                       "--nthreads", "1", "--no-dashboard"], cwd=ROOT,
+                                       "--nthreads", "1", "--no-dashboard"], cwd=d,
                                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
         time.sleep(8)
         before = (d / "size_out" / "sizing.json").read_bytes()
