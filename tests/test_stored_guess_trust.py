@@ -124,6 +124,9 @@ def test_an_intact_guess_that_no_longer_fits_is_named_as_stale(tmp_path, caplog)
     caplog.set_level(logging.WARNING, logger=LOGGER)
     solution, why = stored_guess.load(heavier, tmp_path / "g.npz")
     assert solution is None and "does not fit this OCP's constraints" in why
+    # both causes named: another drive (a sizing candidate: nothing to regenerate) or
+    # changed equations (as here: regenerate)
+    assert "sizing candidate" in why and "regenerate it" in why
     assert any("g.npz" in r.getMessage() and "does not fit" in r.getMessage()
                for r in caplog.records if r.levelno == logging.WARNING)
 

@@ -352,8 +352,11 @@ def _check(ocp: Ocp, data: dict) -> tuple[Solution | None, str]:
     dev = float(np.max(np.abs(g_now - data["g"])))
     if not dev <= MATCH_TOL:
         return None, (f"the stored initial guess does not fit this OCP's constraints (largest "
-                      f"deviation {dev:.1e}); regenerate it: "
-                      "python -m optimize.solve.starts.stored_guess")
+                      f"deviation {dev:.1e}): it was solved with another drive model or "
+                      "rating than this OCP's (a sizing candidate, a fitted or carried "
+                      "model: expected, the homotopy starts it), or the system's equations "
+                      "changed since it was written (then regenerate it: "
+                      "python -m optimize.solve.starts.stored_guess)")
     lam_g = np.concatenate([data["lam_g"], np.zeros(n_rms)])
     solution = Solution(w=data["w"], lam_x=data["lam_x"], lam_g=lam_g, n_intervals=n,
                         degree=d, p=data["p"],
