@@ -40,6 +40,7 @@ from optimize.problem.transcriptions.derivatives import (
     local_entries,
     sum_into,
 )
+from optimize.problem.transcriptions.gate import Wrapped
 
 log = logging.getLogger(__name__)
 
@@ -254,34 +255,16 @@ class _Call(ca.Callback):
         return 0
 
 
-class Answered(ca.Callback):
+class Answered(Wrapped):
     """``fn``, a function of the NLP that reaches ``cache``, evaluated with every point
     solved whatever the time: CasADi evaluates the point a solver's call returned once
     more after the call (the objective, rows and multipliers, ``nlp_grad``), and a
     refusal there would print a warning."""
 
     def __init__(self, fn: ca.Function, cache: IntervalCache) -> None:
-        ca.Callback.__init__(self)
-        self._fn, self._cache = fn, cache
+        super().__init__(fn)
+        self._cache = cache
         self.construct(fn.name(), {})
-
-    def get_n_in(self) -> int:
-        return self._fn.n_in()
-
-    def get_n_out(self) -> int:
-        return self._fn.n_out()
-
-    def get_name_in(self, i: int) -> str:
-        return self._fn.name_in(i)
-
-    def get_name_out(self, i: int) -> str:
-        return self._fn.name_out(i)
-
-    def get_sparsity_in(self, i: int) -> ca.Sparsity:
-        return self._fn.sparsity_in(i)
-
-    def get_sparsity_out(self, i: int) -> ca.Sparsity:
-        return self._fn.sparsity_out(i)
 
     def eval(self, args: list) -> list:
         with self._cache.answering():

@@ -14,14 +14,14 @@ import casadi as ca
 from optimize.problem.deadline import passed
 
 
-class Gated(ca.Callback):
-    """``fn`` (a CasADi function), refused past the thread's deadline."""
+class Wrapped(ca.Callback):
+    """A CasADi callback with the signature of a CasADi function ``fn`` (its inputs' and
+    outputs' number, names and sparsities); a subclass says how it evaluates and calls
+    ``self.construct(fn.name(), {})`` once its own attributes are set."""
 
     def __init__(self, fn: ca.Function) -> None:
         ca.Callback.__init__(self)
         self._fn = fn
-        self._buf, self._eval = fn.buffer()
-        self.construct(fn.name(), {})
 
     def get_n_in(self) -> int:
         return self._fn.n_in()
@@ -40,6 +40,15 @@ class Gated(ca.Callback):
 
     def get_sparsity_out(self, i: int) -> ca.Sparsity:
         return self._fn.sparsity_out(i)
+
+
+class Gated(Wrapped):
+    """``fn`` (a CasADi function), refused past the thread's deadline."""
+
+    def __init__(self, fn: ca.Function) -> None:
+        super().__init__(fn)
+        self._buf, self._eval = fn.buffer()
+        self.construct(fn.name(), {})
 
     def has_eval_buffer(self) -> bool:
         return True
