@@ -133,9 +133,9 @@ def test_a_scheduler_lost_while_its_progress_queue_is_read_ends_the_run(monkeypa
 
             closed = threading.Event()
 
-            def close():
-                closed.set()
+            def close():  # the queue fails once the scheduler is gone, not before
                 cluster.close()
+                closed.set()
 
             def lost_queue():  # as distributed's Queue once the scheduler is gone
                 if not closed.is_set():
