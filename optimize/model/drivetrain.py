@@ -253,16 +253,7 @@ def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
     if not all(math.isfinite(k) and k > 0 for k in (k_n, k_t, lam)):
         raise ValueError(f"speed, torque and loss ratios must be > 0, got {speed_ratio}, "
                          f"{torque_ratio}, {loss_ratio}")
-    terms = [tuple(term) for term in base.terms]
-    if lam != 1.0 and (1, 1) not in terms:
-        raise ValueError(f"{base.name}: no speed x torque term holds the mechanical power, "
-                         "so its losses cannot be scaled apart from it")
-    f = np.array([k_n ** (1 - i) * k_t ** (1 - j) for i, j in terms])
-    mech = np.array([1.0 / RPM_PER_RAD_S if term == (1, 1) else 0.0 for term in terms])
-    coefficients = f * (lam * np.array(base.coefficients_rpm) + (1.0 - lam) * mech)
-    cov = None
-    if base.covariance_rpm is not None:
-        cov = tuple(map(tuple, np.array(base.covariance_rpm) * np.outer(lam * f, lam * f)))
+    coefficients, cov = _carried_coefficients(base, k_n, k_t, lam)
     if drive is None and base.drive is not None:
         drive = base.drive.scaled(k_n, k_t, f"{base.drive.source or ''}; carried x{k_n:g} in "
                                             f"speed, x{k_t:g} in torque")
@@ -275,11 +266,28 @@ def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
                   "speed_ratio": k_n, "torque_ratio": k_t, "loss_ratio": lam,
                   "law": SIMILARITY_LAW}
     return dataclasses.replace(
-        base, coefficients_rpm=tuple(coefficients), covariance_rpm=cov,
+        base, coefficients_rpm=coefficients, covariance_rpm=cov,
         nominal_power_w=nominal, domain=domain, statistics=None, provenance=provenance,
         drive=drive, name=name or f"{base.name} carried x{k_n:.4g} speed, x{k_t:.4g} torque",
         thermal=carry_thermal(getattr(base, "thermal", None), lam * k_n * k_t),
     )
+
+
+def _carried_coefficients(base: Any, k_n: float, k_t: float, lam: float
+                          ) -> tuple[tuple, tuple | None]:
+    """The polynomial coefficients [W per rpm**i (N m)**j] and their covariance of
+    :func:`carry_power_model`: ``c_ij -> k_n^(1-i) k_T^(1-j) (lam c_ij + (1 - lam) m_ij)``."""
+    terms = [tuple(term) for term in base.terms]
+    if lam != 1.0 and (1, 1) not in terms:
+        raise ValueError(f"{base.name}: no speed x torque term holds the mechanical power, "
+                         "so its losses cannot be scaled apart from it")
+    f = np.array([k_n ** (1 - i) * k_t ** (1 - j) for i, j in terms])
+    mech = np.array([1.0 / RPM_PER_RAD_S if term == (1, 1) else 0.0 for term in terms])
+    coefficients = tuple(f * (lam * np.array(base.coefficients_rpm) + (1.0 - lam) * mech))
+    cov = None
+    if base.covariance_rpm is not None:
+        cov = tuple(map(tuple, np.array(base.covariance_rpm) * np.outer(lam * f, lam * f)))
+    return coefficients, cov
 
 
 def carry_thermal(thermal: dict | None, power_ratio: float) -> dict | None:

@@ -333,8 +333,7 @@ def _solve_graph(tasks: SweepTasks, stage: int, prior: dict[Scenario, tuple], ha
                             handle.channel, on_event)
     except ClusterLost as exc:
         futures, lost = exc.finished, exc
-    return {at[n]: outcome(n, futures[n]) if n in futures else
-            _own(failed_chain(ChainTask(tasks.problem, (steps[n],), at[n]), lost), steps[n])
+    return {at[n]: outcome(n, futures[n]) if n in futures else _never_ran(tasks, at[n], lost)
             for n in range(len(steps))}, lost
 
 
@@ -406,8 +405,14 @@ def _with_record(out: ChainOutcome, o: ScenarioOutcome) -> tuple[ScenarioOutcome
 
 def _not_run(tasks: SweepTasks, stage: int, lost: ClusterLost) -> tuple[dict, ClusterLost]:
     """The steps of a stage that never ran: the cluster was lost before it."""
-    return {i: _own(failed_chain(ChainTask(tasks.problem, (s,), i), lost), s)
+    return {i: _never_ran(tasks, i, lost)
             for i, s in enumerate(tasks.steps) if s.stage == stage}, lost
+
+
+def _never_ran(tasks: SweepTasks, i: int, lost: ClusterLost) -> ChainOutcome:
+    """The outcome of step ``i``, never run: the cluster was lost before it."""
+    step = tasks.steps[i]
+    return _own(failed_chain(ChainTask(tasks.problem, (step,), i), lost), step)
 
 
 def run_sweep(tasks: SweepTasks, handle: Any, show_progress: bool = True) -> SweepResult:
