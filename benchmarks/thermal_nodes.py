@@ -68,8 +68,8 @@ def store_case(store: Path) -> dict:
     from fitting.thermal import fit_thermal
 
     thermal, note = fit_thermal(read_points(store), lambda s: read_samples(store, s))
-    return {"note": note, "nodes": None if thermal is None else thermal["nodes"],
-            "selection": None if thermal is None else thermal["selection"]}
+    return {"note": note, "nodes": None if thermal is None else thermal.nodes,
+            "selection": None if thermal is None else thermal.selection}
 
 
 def main() -> None:

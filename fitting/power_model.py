@@ -28,6 +28,7 @@ import numpy as np
 from fitting.terms import Term, powers
 from kernel.display import html_view, text_view
 from kernel.drive import Drive, dict_problem
+from kernel.thermal_model import ThermalModel
 from kernel.units import RPM_PER_RAD_S
 
 SCHEMA_NAME = "drivebench.power_model"
@@ -51,6 +52,8 @@ SIGN_CONVENTION = (
 )
 
 _QUADRANTS = ("motor", "generator")
+#: the copper loss's term: torque squared (speed power 0, torque power 2)
+COPPER_TERM = (0, 2)
 
 
 @dataclass(frozen=True)
@@ -82,8 +85,9 @@ class PowerModel:
         The drive's rating (given as a :class:`kernel.drive.Drive` or its dict form,
         :meth:`kernel.drive.Drive.to_dict`); its nominal power equals ``nominal_power_w``.
         None for a version-1 file.
-    thermal : dict or None
-        The winding's fitted thermal model (:func:`fitting.thermal.fit_thermal`);
+    thermal : kernel.thermal_model.ThermalModel or None
+        The winding's fitted thermal model (:func:`fitting.thermal.fit_thermal`; given as
+        a :class:`kernel.thermal_model.ThermalModel` or its dict form, docs/schemas.md §3);
         None when the bench logged no winding temperature (or before version 3).
     """
 
@@ -97,7 +101,7 @@ class PowerModel:
     statistics: dict | None = None
     provenance: dict | None = None
     drive: Drive | None = None
-    thermal: dict | None = None
+    thermal: ThermalModel | None = None
 
     def __post_init__(self) -> None:
         terms = tuple(Term(t) for t in self.terms)
@@ -113,6 +117,11 @@ class PowerModel:
             if problem is not None:
                 raise ValueError(f"invalid PowerModel: {problem}")
             object.__setattr__(self, "drive", Drive.from_dict(self.drive, rating=True))
+        if self.thermal is not None and not isinstance(self.thermal, ThermalModel):
+            try:
+                object.__setattr__(self, "thermal", ThermalModel.from_dict(self.thermal))
+            except ValueError as exc:
+                raise ValueError(f"invalid PowerModel: {exc}") from None
         problem = model_problem(self)
         if problem is not None:
             raise ValueError(f"invalid PowerModel: {problem}")
@@ -122,6 +131,12 @@ class PowerModel:
     def coefficients(self) -> dict[Term, float]:
         """Term -> coefficient [W per rpm**i (N m)**j] (``{1: 288.2, w^2: ...}``)."""
         return dict(zip(self.terms, self.coefficients_rpm, strict=True))
+
+    @property
+    def copper_w_per_nm2(self) -> float:
+        """The copper loss's coefficient, the ``T^2`` term's [W/(N m)^2] (0 without it): the
+        part of the losses that follows the winding's temperature (its thermal model)."""
+        return self.coefficients.get(COPPER_TERM, 0.0)
 
     def _view_rows(self) -> list[tuple[str, object]]:
         quadrants = ", ".join(self.domain) if self.domain else "none recorded"
@@ -214,7 +229,7 @@ class PowerModel:
             "statistics": self.statistics,
             "provenance": self.provenance,
             "drive": None if self.drive is None else self.drive.to_dict(),
-            "thermal": self.thermal,
+            "thermal": None if self.thermal is None else self.thermal.to_dict(),
         }
 
     @property

@@ -38,6 +38,7 @@ from fitting.thermal_network import (
     mean_time_constant_s,
 )
 from fitting.thermal_selection import predict, select_nodes
+from kernel.thermal_model import ThermalModel
 
 #: reference temperature of the copper coefficient [degC] (IEC 60034-2-1 reference 20 degC
 #: for the resistance before correction)
@@ -207,7 +208,7 @@ def fit_thermal(points: pd.DataFrame, samples_of) -> tuple[dict | None, str]:
 
     Returns
     -------
-    thermal : dict or None
+    thermal : kernel.thermal_model.ThermalModel or None
         The ``thermal`` block of power_model.json (docs/schemas.md section 3): the
         network the selection chooses (:mod:`fitting.thermal_selection`), with 95 %
         intervals; None without a winding temperature, or when even one node is not
@@ -229,9 +230,9 @@ def fit_thermal(points: pd.DataFrame, samples_of) -> tuple[dict | None, str]:
                       f"or time constant (r_th {r:.3g} K/W, tau_th {tau:.3g} s, an interval "
                       f"reaching zero) from the winding temperatures (t_winding_c) of "
                       f"{sessions}")
-    block = _block(fit, copper, pts, selection, sorted(series))
-    note = (f"thermal model ({block['nodes']} node{'s' * (block['nodes'] > 1)}, {sessions}): "
-            f"r_th {block['r_th_k_per_w']:.4g} K/W, tau_th {block['tau_th_s']:.4g} s, "
+    block = ThermalModel.from_dict(_block(fit, copper, pts, selection, sorted(series)))
+    note = (f"thermal model ({block.nodes} node{'s' * (block.nodes > 1)}, {sessions}): "
+            f"r_th {block.r_th_k_per_w:.4g} K/W, tau_th {block.tau_th_s:.4g} s, "
             f"copper {copper['copper_temp_coeff_per_k']:.4g} /K")
     return block, note
 
@@ -263,15 +264,7 @@ def _block(fit: dict, copper: dict, pts: pd.DataFrame, selection: dict,
     }
 
 
-def modes_of(thermal: dict) -> np.ndarray:
-    """A thermal block's modes ``(n, 2)`` (resistance [K/W], time constant [s]); a
-    block written before networks had more than one node is its one mode."""
-    if "modes" in thermal:
-        return np.array([[m["r_k_per_w"], m["tau_s"]] for m in thermal["modes"]])
-    return np.array([[thermal["r_th_k_per_w"], thermal["tau_th_s"]]])
-
-
-def predict_session(thermal: dict, samples: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+def predict_session(thermal: ThermalModel, samples: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     """The fitted model's winding temperature over a session, from its first reading.
 
     The heat is the session's logged losses less the model's auxiliary load; the
@@ -282,5 +275,5 @@ def predict_session(thermal: dict, samples: pd.DataFrame) -> tuple[np.ndarray, n
     predicted_c, measured_c : numpy.ndarray
         Bin means [degC] (measured NaN where the sensor gave none).
     """
-    d = binned_series(samples, thermal["aux_load"])
-    return predict(modes_of(thermal), thermal["ambient_c"], d), d["theta_c"]
+    d = binned_series(samples, thermal.aux_load)
+    return predict(np.array(thermal.mode_figures()), thermal.ambient_c, d), d["theta_c"]

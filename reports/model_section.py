@@ -12,6 +12,7 @@ import pandas as pd
 
 from fitting.fit_folder import MODEL_FILE, SELECTION_FILE, read_power_model, read_selection
 from fitting.power_model import PowerModel
+from kernel.thermal_model import ThermalModel
 from optimize.door import paper_model
 from reports import drive_figures
 from reports.inputs import InputLog
@@ -83,34 +84,35 @@ def power_model_section(log: InputLog, fit: Path, model: PowerModel | None,
     return out
 
 
-def thermal_tables(thermal: dict | None) -> dict | None:
+def thermal_tables(thermal: ThermalModel | None) -> dict | None:
     """The winding's thermal model (power_model.json ``thermal``) as two tables: its
     parameters with 95 % intervals, and the held-out check of each candidate network;
     None without a thermal model."""
-    if not isinstance(thermal, dict):
+    if thermal is None:
         return None
 
-    def row(name, block, key, unit):
-        lo, hi = block.get(f"{key}_ci95") or (math.nan, math.nan)
-        return [name, fmt(block.get(key), sig=4), f"[{fmt(lo, sig=4)}, {fmt(hi, sig=4)}]", unit]
+    def row(name, item, key, unit):
+        lo, hi = item.ci95.get(key) or (math.nan, math.nan)
+        return [name, fmt(getattr(item, key), sig=4), f"[{fmt(lo, sig=4)}, {fmt(hi, sig=4)}]",
+                unit]
     rows = [row("steady resistance winding to ambient", thermal, "r_th_k_per_w", "K/W"),
             row("time constant (mean, with more nodes)", thermal, "tau_th_s", "s"),
             row("copper temperature coefficient", thermal, "copper_temp_coeff_per_k", "1/K")]
-    for node in thermal.get("ladder", []):
-        rows += [row(f"{node['node']}: heat capacity", node, "c_j_per_k", "J/K"),
-                 row(f"{node['node']}: resistance outwards", node, "r_k_per_w", "K/W")]
+    for node in thermal.ladder or ():
+        rows += [row(f"{node.node}: heat capacity", node, "c_j_per_k", "J/K"),
+                 row(f"{node.node}: resistance outwards", node, "r_k_per_w", "K/W")]
     params = {"columns": ["parameter", "value", "95 % interval", "unit"], "rows": rows,
               "truncated": 0, "notes": []}
-    selection = thermal.get("selection") or {}
+    selection = thermal.selection or {}
     check = {"columns": ["nodes", "held-out RMS [K]", "standard error [K]", "per part [K]"],
              "rows": [[str(c["nodes"]), fmt(c["cv_rms_k"], sig=3), fmt(c["cv_rms_k_se"], sig=3),
                        ", ".join(f"{k} {fmt(v, sig=3)}" for k, v in c["held_out_rms_k"].items())]
                       for c in selection.get("candidates", [])],
              "truncated": 0,
-             "notes": [f"chosen: {thermal.get('nodes', 1)} node(s); rule: "
+             "notes": [f"chosen: {thermal.node_count} node(s); rule: "
                        f"{selection.get('rule', 'none recorded (a model fitted with one node)')}"]
              + ([selection["note"]] if selection.get("note") else [])}
-    return {"nodes": thermal.get("nodes", 1), "parameters": params, "check": check}
+    return {"nodes": thermal.node_count, "parameters": params, "check": check}
 
 
 def extra_terms_rows(check) -> dict | None:

@@ -600,11 +600,12 @@ def test_fig3_shows_the_winding_temperature_over_the_cycle_and_its_margin(full_i
 def test_the_thermal_tables_show_the_ladder_and_the_held_out_check():
     """A two-node thermal block as bench fit writes it: every node's capacity and
     resistance with its interval, each candidate's held-out RMS, the choice."""
+    from kernel.thermal_model import ThermalModel
     from reports.model_section import thermal_tables
     node = {"c_j_per_k": 1500.0, "c_j_per_k_ci95": [1400.0, 1600.0], "r_k_per_w": 0.015,
             "r_k_per_w_ci95": [0.014, 0.016]}
     thermal = {"nodes": 2, "r_th_k_per_w": 0.05, "r_th_k_per_w_ci95": [0.048, 0.052],
-               "tau_th_s": 400.0, "tau_th_s_ci95": [380.0, 420.0],
+               "tau_th_s": 400.0, "tau_th_s_ci95": [380.0, 420.0], "c_th_j_per_k": 8000.0,
                "copper_temp_coeff_per_k": 0.0039, "copper_temp_coeff_per_k_ci95": [0.0035, 0.0043],
                "ladder": [{"node": "winding", **node}, {"node": "housing", **node}],
                "selection": {"rule": "one-SE", "candidates": [
@@ -612,7 +613,7 @@ def test_the_thermal_tables_show_the_ladder_and_the_held_out_check():
                     "held_out_rms_k": {"a": 2.3, "b": 2.7}},
                    {"nodes": 2, "cv_rms_k": 0.4, "cv_rms_k_se": 0.05,
                     "held_out_rms_k": {"a": 0.35, "b": 0.45}}]}}
-    tables = thermal_tables(thermal)
+    tables = thermal_tables(ThermalModel.from_dict(thermal))
     rows = {r[0]: r[1:] for r in tables["parameters"]["rows"]}
     assert rows["housing: heat capacity"] == ["1500", "[1400, 1600]", "J/K"]
     assert rows["winding: resistance outwards"][0] == "0.015"

@@ -286,10 +286,10 @@ def test_the_carried_two_node_network_scales_every_node():
     base = dataclasses.replace(paper_model(), thermal=thermal)
     s = 2.5
     carried = carry_power_model(base, 1.0, s).thermal
-    for a, b in zip(carried["ladder"], thermal["ladder"], strict=True):
-        assert a["r_k_per_w"] == pytest.approx(b["r_k_per_w"] / s, rel=1e-12)
-        assert a["c_j_per_k"] == pytest.approx(b["c_j_per_k"] * s, rel=1e-12)
-    assert [m["tau_s"] for m in carried["modes"]] == [20.0, 600.0]
+    for a, b in zip(carried.ladder, thermal["ladder"], strict=True):
+        assert a.r_k_per_w == pytest.approx(b["r_k_per_w"] / s, rel=1e-12)
+        assert a.c_j_per_k == pytest.approx(b["c_j_per_k"] * s, rel=1e-12)
+    assert [m.tau_s for m in carried.modes] == [20.0, 600.0]
     th_b = WindingThermal.of(base, max_c=150.0)
     th_s = WindingThermal.of(dataclasses.replace(base, thermal=carried), max_c=150.0)
     assert [t for _, t in th_s.ladder] == pytest.approx([t for _, t in th_b.ladder], rel=1e-12)

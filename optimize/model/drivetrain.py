@@ -17,6 +17,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from kernel.drive import Drive
+from kernel.thermal_model import ThermalModel
 from kernel.units import RPM_PER_RAD_S
 
 
@@ -33,15 +34,16 @@ class DriveModel(Protocol):
         The drive's nominal power [W], where the system states none.
     drive : kernel.drive.Drive or None
         Its own rating (docs/schemas.md §3), where the system states none.
-    thermal : dict or None
+    thermal : kernel.thermal_model.ThermalModel or None
         Its winding's thermal model (docs/schemas.md §3 ``thermal``), or None.
+    copper_w_per_nm2 : float
+        Its copper loss's coefficient [W/(N m)^2], the part of its losses that follows the
+        winding's temperature (:class:`optimize.model.thermal.WindingThermal`).
     domain : dict or None
         ``quadrant -> polygon``: where its points were measured, or None.
-    coefficients : dict
-        Term ``(i, j)`` (speed ``rpm**i``, torque ``(N m)**j``) -> coefficient [W per
-        rpm**i (N m)**j]: the copper loss of the thermal model is its ``(0, 2)`` term.
     terms, coefficients_rpm : tuple
-        The same terms and coefficients in order, and
+        Its terms ``(i, j)`` (speed ``rpm**i``, torque ``(N m)**j``) and their
+        coefficients [W per rpm**i (N m)**j] in order, and
     covariance_rpm : tuple of tuple of float or None
         their covariance, and
     provenance : dict or None
@@ -53,9 +55,9 @@ class DriveModel(Protocol):
     sha256: str
     nominal_power_w: float
     drive: Drive | None
-    thermal: dict | None
+    thermal: ThermalModel | None
+    copper_w_per_nm2: float
     domain: dict | None
-    coefficients: dict
     terms: tuple
     coefficients_rpm: tuple
     covariance_rpm: tuple | None
@@ -179,9 +181,6 @@ SIMILARITY_LAW = ("P_elec(n, T) = P_mech(n, T) + k_n k_T L_base(n / k_n, T / k_T
                   "L_base = P_elec_base - P_mech_base: c_ij -> k_n^(1-i) k_T^(1-j) c_ij; "
                   "thermal: every resistance r -> r / (k_n k_T), every capacity c -> "
                   "k_n k_T c, time constants, copper coefficient and temperatures kept")
-#: the thermal block's keys the law scales, and by which power of ``k_n k_T`` (in the
-#: block and in each of its ``modes`` and ``ladder`` nodes)
-_THERMAL_SCALING = {"r_th_k_per_w": -1, "c_th_j_per_k": 1, "r_k_per_w": -1, "c_j_per_k": 1}
 
 
 def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
@@ -217,7 +216,8 @@ def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
     (lam c_ij + (1 - lam) m_ij)`` with ``m`` the mechanical power's coefficients; the
     covariance by ``lam^2`` more.
 
-    A thermal model (``base.thermal``, :mod:`fitting.thermal`) is carried so that the
+    A thermal model (``base.thermal``, :meth:`kernel.thermal_model.ThermalModel.carried`)
+    is carried so that the
     winding reaches the base drive's temperature at corresponding points: the losses
     grow by ``k_n k_T``, so every thermal resistance falls by it and every heat capacity
     grows by it, node by node (``k_n k_T`` base drives side by side, each with its own
@@ -269,7 +269,8 @@ def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
         base, coefficients_rpm=coefficients, covariance_rpm=cov,
         nominal_power_w=nominal, domain=domain, statistics=None, provenance=provenance,
         drive=drive, name=name or f"{base.name} carried x{k_n:.4g} speed, x{k_t:.4g} torque",
-        thermal=carry_thermal(getattr(base, "thermal", None), lam * k_n * k_t),
+        thermal=None if base.thermal is None else base.thermal.carried(lam * k_n * k_t,
+                                                                       SIMILARITY_LAW),
     )
 
 
@@ -288,28 +289,3 @@ def _carried_coefficients(base: Any, k_n: float, k_t: float, lam: float
     if base.covariance_rpm is not None:
         cov = tuple(map(tuple, np.array(base.covariance_rpm) * np.outer(lam * f, lam * f)))
     return coefficients, cov
-
-
-def carry_thermal(thermal: dict | None, power_ratio: float) -> dict | None:
-    """A thermal block (:mod:`fitting.thermal`) carried to a drive with ``power_ratio``
-    times the losses at corresponding points (see :func:`carry_power_model`)."""
-    if thermal is None:
-        return None
-    out = _scaled(thermal, power_ratio)
-    for key in ("modes", "ladder"):
-        if key in out:
-            out[key] = [_scaled(node, power_ratio) for node in out[key]]
-    out["carried"] = {"power_ratio": power_ratio, "law": SIMILARITY_LAW}
-    return out
-
-
-def _scaled(block: dict, power_ratio: float) -> dict:
-    """``block`` with the keys of :data:`_THERMAL_SCALING` (and their intervals) scaled."""
-    out = dict(block)
-    for key, power in _THERMAL_SCALING.items():
-        factor = power_ratio**power
-        if key in out:
-            out[key] = out[key] * factor
-        if f"{key}_ci95" in out:
-            out[f"{key}_ci95"] = [v * factor for v in out[f"{key}_ci95"]]
-    return out

@@ -44,8 +44,6 @@ SCALE_K = 50.0
 #: constrained kinds is the drive's); an optimum on it would overheat the winding beyond
 #: what the model describes, reported as the bound ``winding_temperature_range``
 RANGE_C = (-100.0, 400.0)
-#: the power model's copper-loss term: torque squared (speed power 0, torque power 2)
-COPPER_TERM = (0, 2)
 
 
 def node_states(n: int) -> tuple[str, ...]:
@@ -96,21 +94,17 @@ class WindingThermal:
     @classmethod
     def of(cls, drive_model: DriveModel, max_c: float, ambient_c: float | None = None
            ) -> WindingThermal:
-        """The thermal model of a power model (its ``thermal`` block and ``T^2`` term),
-        with the winding limit [degC] and the ambient [degC] (default: the fitted one)."""
+        """The thermal model of a power model (its ``thermal``, a
+        :class:`kernel.thermal_model.ThermalModel`, and its copper loss), with the winding
+        limit [degC] and the ambient [degC] (default: the fitted one)."""
         th = drive_model.thermal
-        copper = drive_model.coefficients.get(COPPER_TERM, 0.0)
-        if th.get("nodes", 1) == 1:
-            ladder = ((float(th["r_th_k_per_w"]), float(th["tau_th_s"])),)
-        else:
-            ladder = tuple((float(n["r_k_per_w"]), float(n["r_k_per_w"] * n["c_j_per_k"]))
-                           for n in th["ladder"])
-        return cls(ladder=ladder,
-                   ambient_c=float(th["ambient_c"] if ambient_c is None else ambient_c),
-                   copper_temp_coeff_per_k=float(th["copper_temp_coeff_per_k"]),
-                   theta_ref_c=float(th["theta_ref_c"]),
-                   theta_model_c=float(th.get("theta_points_c", th["theta_ref_c"])),
-                   copper_w_per_nm2=float(copper), max_c=float(max_c))
+        return cls(ladder=th.network(),
+                   ambient_c=float(th.ambient_c if ambient_c is None else ambient_c),
+                   copper_temp_coeff_per_k=float(th.copper_temp_coeff_per_k),
+                   theta_ref_c=float(th.theta_ref_c),
+                   theta_model_c=float(th.theta_ref_c if th.theta_points_c is None
+                                       else th.theta_points_c),
+                   copper_w_per_nm2=float(drive_model.copper_w_per_nm2), max_c=float(max_c))
 
     @property
     def states(self) -> tuple[str, ...]:

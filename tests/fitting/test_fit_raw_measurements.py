@@ -68,23 +68,23 @@ def test_thermal_model_recovers_the_truth(thermal_fit):
     truth = json.loads((RAW / "truth.json").read_text())["thermal"]
     thermal, note = thermal_fit[1]
     assert note.startswith("thermal model (1 node")
-    assert thermal["sessions"] == ["generator_01", "generator_02", "motor_01", "motor_02"]
+    assert thermal.sessions == ["generator_01", "generator_02", "motor_01", "motor_02"]
     # the truth is one node: the held-out check keeps one, and predicts every session
     # left out of the fit within 3 K RMS (with either network)
-    selection = thermal["selection"]
-    assert selection["unit"] == "session" and selection["chosen_nodes"] == thermal["nodes"] == 1
+    selection = thermal.selection
+    assert selection["unit"] == "session" and selection["chosen_nodes"] == thermal.nodes == 1
     for candidate in selection["candidates"]:
-        assert set(candidate["held_out_rms_k"]) == set(thermal["sessions"])
+        assert set(candidate["held_out_rms_k"]) == set(thermal.sessions)
         assert max(candidate["held_out_rms_k"].values()) < 3.0, candidate
     for key, tol in (("r_th_k_per_w", 0.10), ("tau_th_s", 0.10),
                      ("copper_temp_coeff_per_k", 0.20)):
-        assert thermal[key] == pytest.approx(truth[key], rel=tol), key
-        lo, hi = thermal[f"{key}_ci95"]
+        assert getattr(thermal, key) == pytest.approx(truth[key], rel=tol), key
+        lo, hi = thermal.ci95[key]
         assert lo <= truth[key] <= hi, (key, lo, hi)
-    assert thermal["c_th_j_per_k"] == pytest.approx(truth["c_th_j_per_k"], rel=0.15)
+    assert thermal.c_th_j_per_k == pytest.approx(truth["c_th_j_per_k"], rel=0.15)
     # every session's ambient (the bench room) within 1 K of the truth
     sessions = json.loads((RAW / "truth.json").read_text())["sessions"]
-    for sid, amb in thermal["session_ambient_c"].items():
+    for sid, amb in thermal.session_ambient_c.items():
         assert amb == pytest.approx(sessions[sid]["ambient_c"], abs=1.0), sid
 
 
@@ -93,7 +93,7 @@ def test_thermal_model_predicts_a_held_out_session(raw_store, thermal_fit):
     held_out = "generator_02"  # the hottest session (24 -> 97 degC)
     thermal, _ = fit_thermal(points[points.session_id != held_out],
                              lambda sid: read_samples(raw_store, sid))
-    assert held_out not in thermal["sessions"]
+    assert held_out not in thermal.sessions
     predicted, measured = predict_session(thermal, read_samples(raw_store, held_out))
     ok = np.isfinite(measured)
     assert np.ptp(measured[ok]) > 50.0  # a real test: the winding heats by > 50 K

@@ -216,7 +216,7 @@ def test_thermal_block_versions_and_physics(tmp_path):
         load_power_model(path)
     thermal = {"r_th_k_per_w": 0.05, "tau_th_s": 600.0, "c_th_j_per_k": 12000.0}
     path.write_text(json.dumps({**d, "thermal": thermal}))
-    assert load_power_model(path).thermal == thermal
+    assert load_power_model(path).thermal.to_dict() == thermal
     path.write_text(json.dumps({**d, "thermal": {**thermal, "r_th_k_per_w": -0.05}}))
     with pytest.raises(InputError, match=r"thermal\.r_th_k_per_w.*positive resistance"):
         load_power_model(path)
