@@ -17,6 +17,7 @@ writing), docs/schemas.md §3.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
@@ -54,6 +55,8 @@ SIGN_CONVENTION = (
 _QUADRANTS = ("motor", "generator")
 #: the copper loss's term: torque squared (speed power 0, torque power 2)
 COPPER_TERM = (0, 2)
+#: the term that holds the mechanical power ``(pi / 30) n T`` (speed in rpm)
+MECHANICAL_TERM = (1, 1)
 
 
 @dataclass(frozen=True)
@@ -201,6 +204,44 @@ class PowerModel:
         from fitting.power_model_casadi import evaluate
 
         return evaluate(self.terms, self.coefficients_si, speed_rad_s, torque_nm)
+
+    # ------------------------------------------------------- another rating
+    def carried(self, speed_ratio: float, torque_ratio: float, loss_ratio: float = 1.0,
+                **changes: Any) -> PowerModel:
+        """This model at the corresponding points of a drive ``speed_ratio`` (``k_n``) times
+        its speed and ``torque_ratio`` (``k_T``) times its torque, its losses ``loss_ratio``
+        (``lam``) times the similarity law's (the law and its reasons:
+        :func:`optimize.model.drivetrain.carry_power_model`).
+
+        Each coefficient ``c_ij -> k_n^(1-i) k_T^(1-j) (lam c_ij + (1 - lam) m_ij)``, ``m``
+        the mechanical power's (``pi / 30`` in the ``n T`` term, rpm); the covariance by
+        ``lam^2`` and those factors; the validity domain by ``k_n`` in speed and ``k_T`` in
+        torque; ``changes`` (name, rating, nominal power, provenance, thermal model, ...)
+        as given.
+
+        Raises
+        ------
+        ValueError
+            ``loss_ratio`` other than 1 for a model without the ``n T`` term that holds the
+            mechanical power.
+        """
+        k_n, k_t, lam = float(speed_ratio), float(torque_ratio), float(loss_ratio)
+        terms = [tuple(term) for term in self.terms]
+        if lam != 1.0 and MECHANICAL_TERM not in terms:
+            raise ValueError(f"{self.name}: no speed x torque term holds the mechanical power, "
+                             "so its losses cannot be scaled apart from it")
+        f = np.array([k_n ** (1 - i) * k_t ** (1 - j) for i, j in terms])
+        mech = np.array([1.0 / RPM_PER_RAD_S if term == MECHANICAL_TERM else 0.0
+                         for term in terms])
+        coefficients = tuple(f * (lam * np.array(self.coefficients_rpm) + (1.0 - lam) * mech))
+        cov = None
+        if self.covariance_rpm is not None:
+            cov = tuple(map(tuple, np.array(self.covariance_rpm) * np.outer(lam * f, lam * f)))
+        domain = None
+        if self.domain is not None:
+            domain = {q: [[n * k_n, t * k_t] for n, t in poly] for q, poly in self.domain.items()}
+        return dataclasses.replace(self, coefficients_rpm=coefficients, covariance_rpm=cov,
+                                   domain=domain, **changes)
 
     # --------------------------------------------------------------- the file
     def to_dict(self) -> dict:

@@ -9,7 +9,6 @@ the drum, so a generating cycle has negative mechanical and electrical power.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -41,14 +40,8 @@ class DriveModel(Protocol):
         winding's temperature (:class:`optimize.model.thermal.WindingThermal`).
     domain : dict or None
         ``quadrant -> polygon``: where its points were measured, or None.
-    terms, coefficients_rpm : tuple
-        Its terms ``(i, j)`` (speed ``rpm**i``, torque ``(N m)**j``) and their
-        coefficients [W per rpm**i (N m)**j] in order, and
-    covariance_rpm : tuple of tuple of float or None
-        their covariance, and
     provenance : dict or None
-        where the model comes from: what :func:`carry_power_model` carries to another
-        rating (a frozen dataclass, copied with :func:`dataclasses.replace`).
+        Where the model comes from (a carried model records it as its origin's).
     """
 
     name: str
@@ -58,9 +51,6 @@ class DriveModel(Protocol):
     thermal: ThermalModel | None
     copper_w_per_nm2: float
     domain: dict | None
-    terms: tuple
-    coefficients_rpm: tuple
-    covariance_rpm: tuple | None
     provenance: dict | None
 
     def casadi_p_elec_w(self, speed_rpm: Any, torque_nm: Any) -> Any:
@@ -68,6 +58,16 @@ class DriveModel(Protocol):
 
     def p_elec_w(self, speed_rpm: Any, torque_nm: Any) -> np.ndarray:
         """Electrical power drawn from the grid [W] (numpy)."""
+
+    def to_dict(self) -> dict:
+        """Its file's content (docs/schemas.md §3): a sweep keeps a carried model's."""
+
+    def carried(self, speed_ratio: float, torque_ratio: float, loss_ratio: float = 1.0,
+                **changes: Any) -> DriveModel:
+        """The model at the corresponding points of a drive ``speed_ratio`` times its speed
+        and ``torque_ratio`` times its torque, its losses ``loss_ratio`` times the similarity
+        law's, with ``changes`` (:meth:`fitting.power_model.PowerModel.carried`): all that
+        :func:`carry_power_model` asks of the polynomial."""
 
 
 def drum_speed_rpm(dl_m_s: Any, r_winch_m: float) -> Any:
@@ -184,7 +184,7 @@ SIMILARITY_LAW = ("P_elec(n, T) = P_mech(n, T) + k_n k_T L_base(n / k_n, T / k_T
 
 
 def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
-                      drive: dict | None = None, name: str | None = None,
+                      drive: Drive | None = None, name: str | None = None,
                       loss_ratio: float = 1.0) -> Any:
     """The power model of a drive of the same design as ``base``, rated ``speed_ratio``
     times its speed and ``torque_ratio`` times its torque (the similarity law).
@@ -253,39 +253,17 @@ def carry_power_model(base: Any, speed_ratio: float, torque_ratio: float,
     if not all(math.isfinite(k) and k > 0 for k in (k_n, k_t, lam)):
         raise ValueError(f"speed, torque and loss ratios must be > 0, got {speed_ratio}, "
                          f"{torque_ratio}, {loss_ratio}")
-    coefficients, cov = _carried_coefficients(base, k_n, k_t, lam)
     if drive is None and base.drive is not None:
         drive = base.drive.scaled(k_n, k_t, f"{base.drive.source or ''}; carried x{k_n:g} in "
                                             f"speed, x{k_t:g} in torque")
     nominal = drive.nominal_power_w if drive is not None else base.nominal_power_w * k_n * k_t
-    domain = None
-    if base.domain is not None:
-        domain = {q: [[n * k_n, t * k_t] for n, t in poly] for q, poly in base.domain.items()}
     provenance = {"carried_from": {"name": base.name, "model_sha256": base.sha256,
                                    "provenance": base.provenance},
                   "speed_ratio": k_n, "torque_ratio": k_t, "loss_ratio": lam,
                   "law": SIMILARITY_LAW}
-    return dataclasses.replace(
-        base, coefficients_rpm=coefficients, covariance_rpm=cov,
-        nominal_power_w=nominal, domain=domain, statistics=None, provenance=provenance,
+    thermal = None if base.thermal is None else base.thermal.carried(lam * k_n * k_t,
+                                                                     SIMILARITY_LAW)
+    return base.carried(
+        k_n, k_t, lam, nominal_power_w=nominal, statistics=None, provenance=provenance,
         drive=drive, name=name or f"{base.name} carried x{k_n:.4g} speed, x{k_t:.4g} torque",
-        thermal=None if base.thermal is None else base.thermal.carried(lam * k_n * k_t,
-                                                                       SIMILARITY_LAW),
-    )
-
-
-def _carried_coefficients(base: Any, k_n: float, k_t: float, lam: float
-                          ) -> tuple[tuple, tuple | None]:
-    """The polynomial coefficients [W per rpm**i (N m)**j] and their covariance of
-    :func:`carry_power_model`: ``c_ij -> k_n^(1-i) k_T^(1-j) (lam c_ij + (1 - lam) m_ij)``."""
-    terms = [tuple(term) for term in base.terms]
-    if lam != 1.0 and (1, 1) not in terms:
-        raise ValueError(f"{base.name}: no speed x torque term holds the mechanical power, "
-                         "so its losses cannot be scaled apart from it")
-    f = np.array([k_n ** (1 - i) * k_t ** (1 - j) for i, j in terms])
-    mech = np.array([1.0 / RPM_PER_RAD_S if term == (1, 1) else 0.0 for term in terms])
-    coefficients = tuple(f * (lam * np.array(base.coefficients_rpm) + (1.0 - lam) * mech))
-    cov = None
-    if base.covariance_rpm is not None:
-        cov = tuple(map(tuple, np.array(base.covariance_rpm) * np.outer(lam * f, lam * f)))
-    return coefficients, cov
+        thermal=thermal)
