@@ -130,13 +130,20 @@ def solver(ocp: Ocp, warm: bool, bound_push: float | None = None,
     """
     o = ocp.options.solver
     push = o.warm_bound_push if bound_push is None else bound_push
-    key = (o.solver, o.transcription, warm, push if warm else None, setting)
+    key = _key(ocp, warm, bound_push, setting)
     if key not in ocp.solvers:
         t0 = time.perf_counter()
         ocp.solvers[key] = MAKERS[o.solver](ocp, warm, push, setting)
         log.debug("created %s %s solver (%s) in %.1f s", "warm" if warm else "cold", o.solver,
                   o.transcription, time.perf_counter() - t0)
     return ocp.solvers[key]
+
+
+def _key(ocp: Ocp, warm: bool, bound_push: float | None, setting: Setting) -> tuple:
+    """The key of :func:`solver`'s solver in ``ocp.solvers``."""
+    o = ocp.options.solver
+    push = o.warm_bound_push if bound_push is None else bound_push
+    return (o.solver, o.transcription, warm, push if warm else None, setting)
 
 
 def _ipopt(ocp: Ocp, warm: bool, push: float, setting: Setting) -> ca.Function:
@@ -260,6 +267,10 @@ def run(
             raw = _unsolved(ocp, w0, f"{type(exc).__name__} at the deadline",
                             time.perf_counter() - t0)
         late = passed()
+    if not raw.success and ocp.options.solver.solver == "fatrop":
+        # a fatrop solver keeps a failed call's state: on the condensed NLP the next call
+        # through it failed at once (return flag 5, 0 iterations) where a new one converged
+        ocp.solvers.pop(_key(ocp, warm, bound_push, setting), None)
     if raw.success or not (late or raw.status.startswith("Maximum_WallTime_Exceeded")):
         return raw
     return dataclasses.replace(raw, status=(

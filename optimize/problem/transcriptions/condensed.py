@@ -119,10 +119,25 @@ class CondensedMethod:
                 f"{raw.status} ({unsolved} of the {points} points it evaluated had an "
                 "interval whose Newton solve did not converge: evaluation errors, on which "
                 "the solver cut its steps back)"))
-        w = c.expand(raw.w, p_c)
-        full = full_derivatives(ocp, "ipopt")
-        lam_x, lam_g = to_full(c, (full["grad_f"], full["jac_g"]), w, p,
-                                                     raw.lam_x, raw.lam_g)
-        return dataclasses.replace(raw, w=w, lam_x=lam_x, lam_g=lam_g,
-                                   wall_time_s=time.perf_counter() - t0,
+        raw = _expanded(ocp, c, raw, p_c, p)
+        return dataclasses.replace(raw, wall_time_s=time.perf_counter() - t0,
                                    cpu_time_s=time.process_time() - c0)
+
+
+def _expanded(ocp: Any, c: CondensedNlp, raw: Any, p_c: np.ndarray, p: np.ndarray) -> Any:
+    """``raw``, a condensed call's outcome, in the full layout: its point expanded, its
+    multipliers carried across. A failed call may end where no multipliers follow from
+    stationarity (the NLP's derivatives not finite there, an interval's Newton solve
+    diverged): it stays a failed call, its multipliers zero, its status saying why (the
+    starts fall back on a failed call; they never warm-start from one)."""
+    w = c.expand(raw.w, p_c)
+    full = full_derivatives(ocp, "ipopt")
+    try:
+        lam_x, lam_g = to_full(c, (full["grad_f"], full["jac_g"]), w, p, raw.lam_x, raw.lam_g)
+    except FloatingPointError as exc:
+        if raw.success:
+            raise
+        lay = c.full.layout
+        return dataclasses.replace(raw, w=w, lam_x=np.zeros(lay.n_w), lam_g=np.zeros(lay.n_g),
+                                   status=f"{raw.status} (at its last point {exc})")
+    return dataclasses.replace(raw, w=w, lam_x=lam_x, lam_g=lam_g)

@@ -14,6 +14,8 @@ sparse solve. At a KKT point of one NLP this gives the other's KKT multipliers e
 
 from __future__ import annotations
 
+import warnings
+
 import casadi as ca
 import numpy as np
 import scipy.sparse as sp
@@ -33,11 +35,16 @@ def _complete(grad: np.ndarray, jac: sp.csc_matrix, lam_x: np.ndarray, lam_g: np
     gradient vanishes at the variables ``cols`` (as many as ``rows``)."""
     residual = grad + jac.T @ lam_g + lam_x
     block = jac[rows][:, cols].T.tocsc()
+    if not (np.all(np.isfinite(residual[cols])) and np.all(np.isfinite(block.data))):
+        raise FloatingPointError("the multipliers of the rows only one transcription has "
+                                 "did not follow from stationarity: its terms are not finite")
     out = lam_g.copy()
-    out[rows] = spla.spsolve(block, -residual[cols])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", spla.MatrixRankWarning)  # said below instead
+        out[rows] = spla.spsolve(block, -residual[cols])
     if not np.all(np.isfinite(out[rows])):
         raise FloatingPointError("the multipliers of the rows only one transcription has "
-                                 "did not follow from stationarity (singular block)")
+                                 "did not follow from stationarity: singular block")
     return out
 
 
