@@ -113,7 +113,7 @@ def paper_sweep(solver: str, winds, kinds, workers: int, intervals: int, max_ite
     drive = drive_in_force(system)
     options = OcpOptions(Discretization(n_intervals=intervals),
                          solver=solver_options(solver, max_iter))
-    problem = Problem.for_system(system.in_force(drive.rating), drive.model, options)
+    problem = Problem.for_system(system.in_force(drive.drive), drive.model, options)
     load_before = load()
     t0 = time.perf_counter()
     with open_executor(workers) as handle:
@@ -148,7 +148,7 @@ def system_runs(solver: str, systems: list[str], winds: list[float], intervals: 
                              solver=solver_options(solver, max_iter))
         t0, c0 = time.perf_counter(), time.process_time()
         ocp = build_ocp(kite_dae(*system.model_params()), drive.model, options,
-                        system=system.in_force(drive.rating))
+                        system=system.in_force(drive.drive))
         res = start(ocp, Scenario(winds[0], "electrical", True))
         rows.append({**record(f"{name}-elec-lim-{winds[0]:g}", res), "start": res.start,
                      "wall_s": time.perf_counter() - t0,
@@ -227,7 +227,7 @@ def profile(solver: str, max_iter: int) -> dict:
     options = OcpOptions(solver=solver_options(solver, max_iter))
     t0, c0 = time.perf_counter(), time.process_time()
     ocp = build_ocp(kite_dae(*system.model_params()), drive.model, options,
-                    system=system.in_force(drive.rating))
+                    system=system.in_force(drive.drive))
     build = (time.perf_counter() - t0, time.process_time() - c0)
     guess, why = stored_guess.load(ocp)
     deriv = derivative_build_cpu_s(ocp) if solver == "ipopt" else {}

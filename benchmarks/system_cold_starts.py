@@ -57,7 +57,7 @@ def main() -> None:
         options = OcpOptions(Discretization(n_intervals=args.intervals, degree=args.degree),
                              solver=SolverOptions(stored_guess=False))
         ocp = build_ocp(kite_dae(*system.model_params()), model, options,
-                        system=system.in_force(drive.rating))
+                        system=system.in_force(drive.drive))
         print(f"{name}: start loop {ocp.loop}", flush=True)
         for wind in (float(w) for w in args.winds.split(",")):
             load = os.getloadavg()[0]

@@ -51,7 +51,7 @@ def ocps(tol: float, intervals: int) -> dict[str, Ocp]:
         solver = SolverOptions(transcription=tr, tol=tol, acceptable_tol=100 * tol)
         options = OcpOptions(Discretization(n_intervals=intervals), solver=solver)
         out[tr] = build_ocp(kite_dae(*system.model_params()), drive.model, options,
-                            system=system.in_force(drive.rating))
+                            system=system.in_force(drive.drive))
     return out
 
 

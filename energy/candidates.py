@@ -84,7 +84,7 @@ def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
     :func:`reference_rating`); and notes on what was assumed."""
     from energy.sizing import Candidate, scaled_candidates
     from fitting.model_file import load_power_model
-    rating, notes = reference_rating(drive.rating, overrides)
+    rating, notes = reference_rating(drive.drive.rating_part(), overrides)
     candidates = scaled_candidates(drive.model, rating, tuple(scales))
     names = _model_names(tuple(models), {c.name for c in candidates})
     for p in models:

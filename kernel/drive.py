@@ -201,6 +201,13 @@ class Drive:
         out.update(self.envelope)
         return {**out, "source": self.source or ""}
 
+    def rating_part(self) -> Drive:
+        """The rating alone: the :data:`DRIVE_KEYS`, the :data:`OPTIONAL_DRIVE_KEYS` it
+        states and ``source``, no envelope or other key: the rating a power model carried to
+        this drive records as its ``drive`` (and a sizing candidate scales)."""
+        return Drive(**{k: getattr(self, k) for k in (*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS)},
+                     source=self.source)
+
     # ------------------------------------------------------------------------ checks
     def rating_problem(self) -> tuple[str, str, str] | None:
         """What keeps this from being a complete rating, or None: ``(key, what is wrong,

@@ -167,7 +167,7 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
     # checked also where the optimizer may take it (the drive limits in force), with a
     # drive that cannot hold the kite and bounds of two parts that contradict each other
     check_drive(loaded, drive.model, drive.model_path, grid.kinds,
-                rating_source=drive.rating.source)
+                rating_source=drive.drive.source)
     note = _setup_note(setup, system is None, solver)
     return SweepRequest(grid, setup, note, execution.workers,
                         execution.scheduler, Path(out), claims, trust,

@@ -76,4 +76,4 @@ def resolve(system: Path | str | System | None = None, drive_model: Any = None, 
                                None if fit_default is None else Path(fit_default))
     else:
         drive = drive_in_force(loaded, model_path, drive_model=drive_model)
-    return Setup(loaded.in_force(drive.rating), drive, options or OcpOptions())
+    return Setup(loaded.in_force(drive.drive), drive, options or OcpOptions())

@@ -39,7 +39,7 @@ def _system(**changes):
 
 def _check(system, model=None, kinds=("elec-lim",), model_path=None):
     model = model or paper_model()
-    rating = drive_in_force(system, drive_model=model).rating
+    rating = drive_in_force(system, drive_model=model).drive
     check_contradictions(system.in_force(rating), model, kinds, model_path)
 
 
@@ -60,7 +60,7 @@ def test_the_shipped_systems_hold_together():
 
         system = load_system(shipped_system_path(name))
         drive = drive_in_force(system)
-        check_contradictions(system.in_force(drive.rating), drive.model,
+        check_contradictions(system.in_force(drive.drive), drive.model,
                              ("elec-lim", "mech-free"))
 
 

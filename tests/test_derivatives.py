@@ -25,7 +25,7 @@ def _ocp(solver: str):
     cycle sum), transcribed for ``solver``."""
     system = load_system()
     drive = drive_in_force(system)
-    flown = system.in_force(drive.rating)
+    flown = system.in_force(drive.drive)
     flown = dataclasses.replace(flown, drive=dataclasses.replace(
         flown.drive, continuous_torque_nm=0.5 * flown.drive.max_torque_nm))
     options = OcpOptions(Discretization(n_intervals=N)).replace(solver={"solver": solver})

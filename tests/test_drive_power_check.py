@@ -65,7 +65,7 @@ def test_every_shipped_drive_is_a_machine(name):
 def test_megawes_drive_is_rated_and_carried_at_its_corner():
     system = load_system("optimize/data/systems/megawes.toml")
     drive = drive_in_force(system)
-    r, d = drive.rating, system.drive
+    r, d = drive.drive, system.drive
     # peak 2.5 x 3 MW at the torque limit at base speed; continuous torque = nominal power
     # at base speed; the torque limit 2.5 times it
     assert r.max_torque_nm * d.base_speed_rpm * W == pytest.approx(2.5 * r.nominal_power_w,

@@ -9,6 +9,7 @@ when generating).
 
 from __future__ import annotations
 
+import dataclasses
 import tomllib
 from pathlib import Path
 
@@ -16,6 +17,7 @@ import numpy as np
 import pytest
 
 from drivebench.cli import main
+from kernel.drive import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS
 from kernel.errors import InputError
 from optimize.model.drivetrain import RPM_PER_RAD_S, carry_power_model
 from optimize.paper_model import paper_model
@@ -87,7 +89,7 @@ def test_carried_shipped_drives_generate_less_than_the_shaft_and_motor_more():
     for name in ("ap2", "megawes"):
         drive = drive_in_force(load_system(shipped_system_path(name)))
         assert drive.carried
-        r = drive.rating
+        r = drive.drive
         n, t = _box(r.max_speed_rpm, r.max_torque_nm)
         p_mech, p_elec = _p_mech_w(n, t), drive.model.p_elec_w(n, t)
         assert np.all(p_elec - p_mech > 0), name  # losses > 0 over the rated box
@@ -122,6 +124,29 @@ def test_a_loss_ratio_scales_the_losses_and_keeps_the_shaft_power(lam):
     assert carried.provenance["loss_ratio"] == lam
 
 
+@pytest.mark.parametrize("name", ["highwind", "highwind_drivetrain", "ap2", "megawes"])
+def test_the_drive_in_force_is_the_systems_drive_with_its_rating(name):
+    """One drive in force: the system's [drive] every key kept (envelope, inertia, losses,
+    scaling), the rating keys stated, what the OCP flies but for the source, which says
+    where each came from; a carried model records its rating part alone (the rating keys
+    and that source: the model's file and hash as before)."""
+    system = load_system(shipped_system_path(name))
+    force = drive_in_force(system)
+    d, own = force.drive, system.drive
+    for key in ("base_speed_rpm", "rotor_inertia_kg_m2", "losses", "scaling",
+                "continuous_torque_nm", "overload"):
+        assert getattr(d, key) == getattr(own, key), key
+    assert d.source.startswith(f"{system.path} [drive]: {own.source}")
+    flown = system.in_force(d).drive
+    assert dataclasses.replace(flown, source=None) == dataclasses.replace(d, source=None)
+    assert flown.source == own.source
+    part = d.rating_part()
+    stated = {f.name for f in dataclasses.fields(part) if getattr(part, f.name) is not None}
+    assert stated <= {*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS, "source"} and part.source == d.source
+    if force.carried:
+        assert force.model.drive == part
+
+
 def test_a_loss_ratio_needs_the_shaft_power_term():
     from dataclasses import replace
 
@@ -148,7 +173,7 @@ def test_a_drive_far_from_its_power_model_needs_a_scaling_key():
     data["drive"]["scaling"] = "none"
     drive = drive_in_force(system_from_dict(data, "my_kite.toml"))
     assert not drive.carried and drive.model.sha256 == paper_model().sha256
-    assert drive.rating.max_torque_nm == 360.0
+    assert drive.drive.max_torque_nm == 360.0
     # within x1.5 of the model's rating: used as it is, no key needed
     data = _ap2_data()
     del data["drive"]["scaling"]

@@ -165,7 +165,7 @@ def heavy_cycle():
     model = paper_model()
     options = OcpOptions(Discretization(20, 3), solver=SolverOptions(stored_guess=False))
     ocp = build_ocp(kite_dae(*system.model_params()), model, options,
-                    system=system.in_force(drive_in_force(system, drive_model=model).rating))
+                    system=system.in_force(drive_in_force(system, drive_model=model).drive))
     return system, ocp, cold_start(ocp, Scenario(10.0, "electrical", True))
 
 
@@ -221,7 +221,7 @@ def test_a_reel_jerk_limit_holds_and_is_reported_in_every_kind():
     system = system_from_dict(_system(winch__max_reel_jerk_m_s3=50.0), "jerk.toml")
     assert "reel jerk <= 50 m/s^3 (all kinds)" in system.drivetrain_line()
     model = paper_model()
-    flown = system.in_force(drive_in_force(system, drive_model=model).rating)
+    flown = system.in_force(drive_in_force(system, drive_model=model).drive)
     assert flown.winch.max_reel_jerk_m_s3 == 50.0
     res = start(build_ocp(kite_dae(*system.model_params()), model, OcpOptions(), system=flown),
                 Scenario.of_kind("elec-lim", 7.0))

@@ -35,7 +35,7 @@ def solved():
     options = OcpOptions(Discretization(n_intervals=20, degree=3),
                          solver=SolverOptions(stored_guess=False))
     ocp = build_ocp(kite_dae(*system.model_params()), model, options,
-                    system=system.in_force(drive.rating))
+                    system=system.in_force(drive.drive))
     return system, ocp, cold_start(ocp, Scenario(WIND_M_S, "mechanical", True))
 
 

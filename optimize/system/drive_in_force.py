@@ -7,8 +7,8 @@ where its losses come from. :func:`drive_in_force` resolves both:
   file's ``losses`` key (``"paper"`` or a ``power_model.json`` path relative to
   the system file), else ``fit_out/power_model.json`` of ``bench fit`` when it
   exists, else the shipped paper model;
-- the **rating** (:class:`kernel.drive.Drive`): each key of ``[drive]``; a
-  key the file leaves out comes from the power model's own rating (said so);
+- the **drive** (:class:`kernel.drive.Drive`): the file's ``[drive]``, a rating key
+  it leaves out from the power model's own rating (said so, in its ``source``);
 - how the losses are **carried** to the rating: ``scaling = "similarity"``
   (:func:`optimize.model.drivetrain.carry_power_model` with the speed ratio ``k_n`` of
   the speed ratings, the corners of their constant-torque regions (the base speed of a
@@ -24,11 +24,12 @@ where its losses come from. :func:`drive_in_force` resolves both:
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from kernel.drive import DRIVE_KEYS, OPTIONAL_DRIVE_KEYS, Drive
+from kernel.drive import DRIVE_KEYS, Drive
 from kernel.errors import InputError
 from optimize.system.drive_power_check import (
     efficiency_assumption,
@@ -48,14 +49,17 @@ RATING_RATIO_LIMIT = 1.5
 
 @dataclass(frozen=True)
 class DriveInForce:
-    """The drive a system flies with.
+    """The drive a system flies with: the drive and its losses.
 
     Attributes
     ----------
-    rating : kernel.drive.Drive
-        The limits and nominal power in force.
+    drive : kernel.drive.Drive
+        The ``[drive]`` in force: the system file's, every rating key stated (a key the
+        file leaves out from the power model's rating), its ``source`` saying where they
+        come from (:func:`complete_drive`).
     model : fitting.power_model.PowerModel
-        The losses at this rating (the OCP's power model; carried when scaled).
+        The losses at this drive's rating (the OCP's power model; carried when scaled),
+        with the winding's thermal model when it has one.
     model_path : Path
         The power model file the losses were read from.
     losses_note : str
@@ -73,7 +77,7 @@ class DriveInForce:
         (:mod:`optimize.system.drive_power_check`): printed, recorded, reported.
     """
 
-    rating: Drive
+    drive: Drive
     model: Any
     model_path: Path
     losses_note: str
@@ -90,7 +94,7 @@ class DriveInForce:
 
     def lines(self) -> list[str]:
         """What ``bench optimize`` prints about the drive in force."""
-        out = [f"drive in force: {self.rating.line().removeprefix('drive: ')}",
+        out = [f"drive in force: {self.drive.line().removeprefix('drive: ')}",
                f"drive losses: {self.model_path} ({self.losses_note})"]
         if self.carried:
             losses = (f", losses x{self.loss_ratio:.3g} by the IE3 class"
@@ -132,13 +136,14 @@ def loss_model_path(system: Any, override: Path | None = None,
                               if fit_default is not None else "the shipped paper model")
 
 
-def rating_in_force(system: Any, model: Any, model_path: Path | str) -> Drive:
-    """The system's ``[drive]`` rating; a key it leaves out from the power model's rating.
+def complete_drive(system: Any, model: Any, model_path: Path | str) -> Drive:
+    """The system's ``[drive]`` in force: a rating key it leaves out from the power model's
+    rating (its nominal power from the model's own), ``source`` saying which.
 
     Raises
     ------
     InputError
-        When a rating key is in neither.
+        When a rating key is in neither, or the rating is not one (naming the key).
     """
     d = system.drive
     given = getattr(model, "drive", None)
@@ -160,11 +165,11 @@ def rating_in_force(system: Any, model: Any, model_path: Path | str) -> Drive:
     source = f"{system.path} [drive]" + (f": {d.source}" if d.source else "")
     if borrowed:
         source += f"; {', '.join(borrowed)} from {model_path}"
-    optional = {k: getattr(d, k) for k in OPTIONAL_DRIVE_KEYS}
-    try:
-        return Drive.rating(**values, source=source, **optional)
-    except ValueError as exc:
-        raise InputError(system.path, f"[drive]: {exc}") from None
+    drive = dataclasses.replace(d, **values, source=source)
+    problem = drive.rating_problem()
+    if problem is not None:
+        raise InputError(system.path, "[drive]: {} = {}: {} expected".format(*problem))
+    return drive.floats()
 
 
 def _factor(ratio: float) -> float:
@@ -201,60 +206,53 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
     else:
         path, note = loss_model_path(system, override, fit_default)
         model = load_power_model(path)
-    rating = rating_in_force(system, model, path)
+    drive = complete_drive(system, model, path)
     base = getattr(model, "drive", None)
     env = unflown_envelope(system, base, path)
-    checks = tuple(c for c in (power_check(rating, system.drive),) if c)
-    scaling = system.drive.scaling
+    checks = tuple(c for c in (power_check(drive),) if c)
+    scaling = drive.scaling
     if scaling == "none":
-        return DriveInForce(rating, model, path, note, envelope_note=env, checks=checks)
+        return DriveInForce(drive, model, path, note, envelope_note=env, checks=checks)
     if base is None:
         if scaling is not None:
             raise InputError(system.path, f'[drive] scaling = "{scaling}": the power model '
                              f"{path} states no rating to carry its losses from",
                              expected='a power model with a "drive" rating, or scaling = "none"')
-        return DriveInForce(rating, model, path, note, envelope_note=env, checks=checks)
-    ratios = {k: getattr(rating, k) / float(getattr(base, k)) for k in DRIVE_KEYS}
+        return DriveInForce(drive, model, path, note, envelope_note=env, checks=checks)
+    ratios = {k: getattr(drive, k) / float(getattr(base, k)) for k in DRIVE_KEYS}
     if scaling is None:
         if max(_factor(r) for r in ratios.values()) > RATING_RATIO_LIMIT and override is not None:
             raise InputError(  # the user's --drive-model is the file to look at
                 path,
                 f"its drive rating ({base.rating_text()}) differs from the drive of the "
-                f"system {system.path} ({rating.rating_text()}) by more than "
+                f"system {system.path} ({drive.rating_text()}) by more than "
                 f"x{RATING_RATIO_LIMIT:g}",
                 column="drive", expected="--drive-model: a power model of the system's drive, "
                 'or [drive] scaling = "similarity" or "none" in the system file')
         if max(_factor(r) for r in ratios.values()) > RATING_RATIO_LIMIT:
             raise InputError(
                 system.path,
-                f"[drive]: this drive ({rating.rating_text()}) differs from the rating of its "
+                f"[drive]: this drive ({drive.rating_text()}) differs from the rating of its "
                 f"power model {path} ({base.rating_text()}) by more than "
                 f"x{RATING_RATIO_LIMIT:g}, and the file does not say how to carry the losses "
                 "over",
                 expected='[drive] scaling = "similarity" (carry the losses to this rating, '
                          'docs/system_file.md) or scaling = "none" (use them as they are)')
-        return DriveInForce(rating, model, path, note, envelope_note=env, checks=checks)
+        return DriveInForce(drive, model, path, note, envelope_note=env, checks=checks)
     # the machine's size: the ratio of the corners of the constant-torque regions (a base
     # speed, else the speed limit) and of nominal torques (nominal power / that speed)
-    k_n = _corner_rpm(system.drive, rating) / base.corner_rpm()
+    k_n = drive.corner_rpm() / base.corner_rpm()
     k_t = ratios["nominal_power_w"] / k_n
     lam, size_line = 1.0, efficiency_assumption(ratios["nominal_power_w"])
     if scaling == SCALING_IE3:
-        lam = rating_loss_ratio(base.nominal_power_w, rating.nominal_power_w)
-        size_line = efficiency_law(base.nominal_power_w, rating.nominal_power_w)
+        lam = rating_loss_ratio(base.nominal_power_w, drive.nominal_power_w)
+        size_line = efficiency_law(base.nominal_power_w, drive.nominal_power_w)
     checks = (*checks, *(c for c in (size_line,) if c))
-    carried = carry_power_model(model, k_n, k_t, drive=rating,
+    carried = carry_power_model(model, k_n, k_t, drive=drive.rating_part(),
                                 name=f"{model.name} carried to "
-                                     f"{rating.rating_text(power=False)}", loss_ratio=lam)
-    return DriveInForce(rating, carried, path, note, k_n, k_t, envelope_note=env,
+                                     f"{drive.rating_text(power=False)}", loss_ratio=lam)
+    return DriveInForce(drive, carried, path, note, k_n, k_t, envelope_note=env,
                         checks=checks, loss_ratio=lam)
-
-
-def _corner_rpm(envelope: Any, rating: Any) -> float:
-    """The corner of a drive's constant-torque region [rpm]: its base speed when it states a
-    constant-power envelope, else its speed limit."""
-    base = getattr(envelope, "base_speed_rpm", None)
-    return float(base) if base is not None else float(rating.max_speed_rpm)
 
 
 def unflown_envelope(system: Any, model_drive: Drive | None, path: Path) -> str:

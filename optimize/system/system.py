@@ -113,15 +113,16 @@ class System:
     paper_system: bool = False
     part_inputs: tuple[Any, ...] = ()
 
-    def in_force(self, rating: Any, envelope_torque_nm: tuple[float, ...] | None = None
+    def in_force(self, drive: Any, envelope_torque_nm: tuple[float, ...] | None = None
                  ) -> System:
-        """This system with the drive in force: its ``[drive]`` with the rating's keys
-        (``rating``: a :class:`kernel.drive.Drive`, whose keys the file leaves
-        out come from the power model, :func:`optimize.system.drive_in_force.drive_in_force`;
-        a continuous rating or grid limit it states none of is none) and, for a scaled
-        drive, its envelope table's torques. The same file (hash): the
-        drive in force follows from it and the power model, both in every cache key."""
-        given = {k: getattr(rating, k) for k in (*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS)}
+        """This system with a drive in force: its ``[drive]`` with the rating keys of
+        ``drive`` (a :class:`kernel.drive.Drive`: the drive in force,
+        :func:`optimize.system.drive_in_force.drive_in_force`, or a sizing candidate's
+        rating; a continuous rating or grid limit it states none of is none) and, for a
+        scaled drive, its envelope table's torques; every other key (and ``source``) the
+        file's. The same file (hash): the drive in force follows from it and the power
+        model, both in every cache key."""
+        given = {k: getattr(drive, k) for k in (*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS)}
         if envelope_torque_nm is not None:
             given["envelope_torque_nm"] = tuple(envelope_torque_nm)
         return dataclasses.replace(self, drive=dataclasses.replace(self.drive, **given))

@@ -425,9 +425,9 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     system, model = load_system(), paper_model()
-    rating = drive_in_force(system, drive_model=model).rating
+    drive = drive_in_force(system, drive_model=model).drive
     ocp = build_ocp(kite_dae(*system.model_params()), model, OcpOptions(),
-                    system=system.in_force(rating))
+                    system=system.in_force(drive))
     try:
         if args.record_parts is not None:
             names = _part_names(args.record_parts, ocp)
