@@ -900,18 +900,58 @@ def test_a_better_branch_found_at_one_end_is_carried_along_the_kind():
     # 8.5 m/s, off the curve, finds it from 10 m/s; the better optimum is carried on down
     # the kind, each speed from the one above, each kept
     hop = by_name["elec-free-8.5"].resolves
-    assert [(r.attempt.source, r.carried, r.kept) for r in hop] == [
-        ("elec-free-10.0", False, True)]
+    assert [(r.attempt.source, r.carried, r.kept) for r in hop][0] == (
+        "elec-free-10.0", False, True)
     for w, above in ((7.0, 8.5), (5.5, 7.0), (4.0, 5.5)):
         rs = by_name[f"elec-free-{w}"].resolves
-        assert [(r.attempt.source, r.carried, r.kept) for r in rs] == [
-            (f"elec-free-{above}", True, True)]
+        assert [(r.attempt.source, r.carried, r.kept) for r in rs][0] == (
+            f"elec-free-{above}", True, True)
         assert rs[0].before_w - rs[0].objective_w == pytest.approx(1500.0)
-    # and back up: 10 m/s from 8.5 m/s's new optimum, the one it had (not kept); nothing
-    # else is solved again
+    # and back up: 10 m/s from 8.5 m/s's new optimum, the one it had (not kept); then each
+    # speed the better branch was carried from is checked once from the speed below it
+    # (the same branch: not kept); nothing else is solved again
     top = by_name["elec-free-10.0"].resolves
     assert [(r.attempt.source, r.carried, r.kept) for r in top] == [
         ("elec-free-8.5", True, False)]
+    for w, below in ((8.5, 7.0), (7.0, 5.5), (5.5, 4.0)):
+        rs = by_name[f"elec-free-{w}"].resolves
+        assert [(r.attempt.source, r.back, r.kept) for r in rs][1:] == [
+            (f"elec-free-{below}", True, False)]
+    assert len(by_name["elec-free-4.0"].resolves) == 1
+
+
+@dataclass(frozen=True)
+class HiddenBranchBackend(LadderBackend):
+    """The ladder, and a branch "best", 100 W better than "good" (too little to put a speed
+    off the curve), that exists up to 8.5 m/s but that only a start on "good" at 7 m/s or
+    below finds: the good branch carried down from 10 m/s finds it at 7 m/s, below the
+    speed (8.5) that carried it there."""
+
+    @staticmethod
+    def _on(branch: str, w: float) -> BranchResult:
+        if branch == "best" and w <= 8.5 or branch == "good" and w <= 7.0:
+            return BranchResult("Solve_Succeeded", True, 3, 1e-3, -100.0 * w**2 - 100.0,
+                                "best", period_s=5.0)
+        return LadderBackend._on(branch, w)
+
+
+def test_a_branch_found_below_the_speed_that_carried_it_is_brought_back():
+    done = run_chain(ChainTask(PROBLEM, chain_steps(("elec-free",), WINDS),
+                               backend=HiddenBranchBackend(), resolve=True))
+    by_name = {o.name: o for o in done.outcomes}
+    # 7 m/s, re-solved from 8.5 m/s's good optimum, finds "best"; 8.5 m/s (whose re-solve
+    # from 10 m/s carried the good branch down) is solved again from it and keeps it too
+    mid = by_name["elec-free-8.5"]
+    assert [(r.attempt.source, r.carried, r.back, r.kept) for r in mid.resolves] == [
+        ("elec-free-10.0", False, False, True), ("elec-free-7.0", False, True, True)]
+    for w in WINDS[:-1]:
+        o = by_name[scenario_name("elec-free", w)]
+        assert o.result.warm == "best", w
+        assert o.result.avg_p_elec_w == pytest.approx(-100.0 * w**2 - 100.0)
+    # 10 m/s, where "best" does not exist, is tried from it and stays on "good"
+    top = by_name["elec-free-10.0"]
+    assert top.result.warm == "good" and not any(r.kept for r in top.resolves)
+    assert [r.attempt.source for r in top.resolves][-1] == "elec-free-8.5"
 
 
 def test_the_limited_kind_starts_on_the_branch_its_lead_settled():
@@ -927,7 +967,8 @@ def test_the_limited_kind_starts_on_the_branch_its_lead_settled():
         assert lead.result.warm == limited.result.warm == "good"
         assert limited.attempts == (limited.attempts[0],)
         assert limited.attempts[0].source == lead.name and limited.resolves == ()
-    assert sum(len(o.resolves) for o in result.outcomes) == 5  # the lead's four kept, one not
+    # the lead's four kept, one not, and three checks back from the speed below (not kept)
+    assert sum(len(o.resolves) for o in result.outcomes) == 8
 
 
 def test_a_smooth_power_curve_is_not_resolved():

@@ -96,6 +96,9 @@ class Resolve:
     carried : bool
         It carried a neighbour's better optimum on along the kind (the neighbour was not
         off the curve itself, but had just been re-solved to a better optimum).
+    back : bool
+        It offered back a neighbour's better optimum that a carried re-solve from this
+        scenario's had found.
     """
 
     attempt: Attempt
@@ -104,6 +107,7 @@ class Resolve:
     kept: bool
     held_period_s: float | None = None
     carried: bool = False
+    back: bool = False
 
 
 @dataclass(frozen=True)

@@ -82,6 +82,8 @@ def resolve_lines(outcomes: Iterable[ScenarioOutcome]) -> list[str]:
                      else f"failed ({r.attempt.status})")
             why = ("period scan; solved" if r.held_period_s is not None
                    else "a neighbour's better optimum carried on; re-solved" if r.carried
+                   else "a better optimum found from this one, offered back; re-solved"
+                   if r.back
                    else "off its kind's smooth curve; re-solved")
             lines.append(f"{o.name}: {why} from {r.attempt.source} in "
                          f"{r.attempt.iterations} iterations: {found} against "
