@@ -36,7 +36,7 @@ from kernel.errors import InputError
 from kernel.output_folder import check_replaceable_file, output_file
 from kernel.provenance import Provenance
 from kernel.units import RPM_PER_RAD_S
-from optimize.sweep_folder import read_sweep_folder, read_trajectories
+from optimize.sweep_folder import read_sweep_folder, read_trajectories, sweep_drive
 
 #: a set-point may exceed a limit by this share (an optimum sits on its bound to the
 #: solver's tolerance)
@@ -152,7 +152,7 @@ def periodic_interpolants(points: pd.DataFrame, period_s: float) -> dict[str, Pc
 
 def flown_drive(manifest: dict, folder: Path) -> Drive:
     """The ``[drive]`` in force the sweep in ``folder`` flew (its manifest's
-    ``sections.drive``).
+    ``sections.drive``, :func:`optimize.sweep_folder.sweep_drive`).
 
     Raises
     ------
@@ -160,13 +160,13 @@ def flown_drive(manifest: dict, folder: Path) -> Drive:
         A manifest that records none (an older ``bench optimize``'s: its limits unknown
         here, no cycle is exported unchecked), or one that is not a drive.
     """
-    drive = (manifest.get("sections") or {}).get("drive")
-    if not isinstance(drive, dict):
+    drive = sweep_drive(manifest, folder)
+    if drive is None:
         raise InputError(Path(folder) / "manifest.json", "no record of the drive the sweep "
                          "flew (sections.drive): a folder of an older bench optimize",
                          column="sections", expected="re-run `bench optimize` with this "
                                                      "version")
-    return Drive.from_dict(drive, Path(folder) / "manifest.json", "sections.drive")
+    return drive
 
 
 def bench_limits(rating: Drive, session_dir: Path | None) -> list[Limit]:

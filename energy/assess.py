@@ -23,6 +23,7 @@ from energy import aep as aep_mod
 from energy import bands
 from energy.curve import OptimizeRun, PowerCurve
 from energy.site import Distribution, Histogram, Weibull
+from kernel.drive import Drive
 from kernel.errors import InputError
 from kernel.files import read_json
 from kernel.output_folder import check_output_file
@@ -60,22 +61,20 @@ def _positive_number(value: object) -> bool:
 
 
 def nominal_power(model_json: dict | None, override_w: float | None, path: Path | None,
-                  manifest: dict | None = None) -> tuple[float, str]:
+                  in_force: Drive | None = None) -> tuple[float, str]:
     """The drive's nominal power [W] and where it came from.
 
-    Order: the user's ``override_w``; the rating in force that the optimize
-    manifest names (``sections.drive.nominal_power_w``: the system's drive);
-    ``drive.nominal_power_w`` of the power model file; its top-level
-    ``nominal_power_w`` (schema version 1).
+    Order: the user's ``override_w``; the nominal power of the drive in force
+    ``in_force`` (the optimize manifest's ``sections.drive``: the system's drive,
+    :attr:`energy.curve.OptimizeRun.drive`); ``drive.nominal_power_w`` of the power model
+    file; its top-level ``nominal_power_w`` (schema version 1).
     """
     if override_w is not None:
         if not (math.isfinite(override_w) and override_w > 0):
             raise InputError(None, f"--nominal-power-w {override_w}", expected="a power > 0 W")
         return float(override_w), NOMINAL_SOURCES[0]
-    in_force = (((manifest or {}).get("sections") or {}).get("drive") or {}).get(
-        "nominal_power_w")
-    if _positive_number(in_force):
-        return float(in_force), NOMINAL_SOURCES[1]
+    if in_force is not None and _positive_number(in_force.nominal_power_w):
+        return float(in_force.nominal_power_w), NOMINAL_SOURCES[1]
     model_json = model_json or {}
     drive = model_json.get("drive")
     if isinstance(drive, dict) and _positive_number(drive.get("nominal_power_w")):
@@ -221,7 +220,7 @@ def assess(run: OptimizeRun, site: Distribution, site_note: str, *,
     """
     notes: list[str] = []
     path, model_json = model_for_run(run, drive_model)
-    nominal, source = nominal_power(model_json, nominal_power_w, path, run.manifest)
+    nominal, source = nominal_power(model_json, nominal_power_w, path, run.drive)
     model = _band_model(run, path, model_json, notes)
     if site_uncertainty and (site_uncertainty.mean_m_s > 0 or site_uncertainty.k > 0) and \
             isinstance(site, Histogram):

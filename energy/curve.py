@@ -15,8 +15,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from kernel.drive import Drive
 from kernel.errors import InputError
-from optimize.sweep_folder import read_sweep_folder
+from optimize.sweep_folder import read_sweep_folder, sweep_drive
 
 
 @dataclass(frozen=True)
@@ -86,6 +87,13 @@ class OptimizeRun:
         """The power model file the sweep used (manifest ``drive_model.path``)."""
         path = (self.manifest.get("drive_model") or {}).get("path")
         return Path(path) if path else None
+
+    @property
+    def drive(self) -> Drive | None:
+        """The ``[drive]`` in force the sweep flew (manifest ``sections.drive``), or None
+        for an older sweep that records none
+        (:func:`optimize.sweep_folder.sweep_drive`)."""
+        return sweep_drive(self.manifest, self.folder)
 
     @property
     def drive_model_sha256(self) -> str | None:

@@ -35,6 +35,7 @@ from energy.curve import OptimizeRun, PowerCurve
 from kernel.errors import InputError
 from kernel.files import parse_toml
 from optimize.door import failure_reason, rejected_lines
+from optimize.sweep_folder import sweep_drive
 
 #: the check re-solve must give the sweep's average electrical power within this share
 #: of the curve's largest |P_elec|: IPOPT's tolerance (1e-6 scaled) reproduces the same
@@ -83,7 +84,8 @@ def system_from_manifest(manifest: dict, path: Path) -> Any:
     Raises
     ------
     InputError
-        The record's text does not parse or its hash differs from the record's.
+        The record's text does not parse or its hash differs from the record's, or its
+        ``sections.drive`` is not a drive (:func:`optimize.sweep_folder.sweep_drive`).
     """
     from optimize.door import system_from_dict
 
@@ -97,11 +99,12 @@ def system_from_manifest(manifest: dict, path: Path) -> Any:
                               str(rec.get("path")), rec["text"])
     if rec.get("sha256") and system.sha256 != rec["sha256"]:
         raise InputError(path, "system text does not match its recorded sha256", column="system")
-    drive = (manifest.get("sections") or {}).get("drive")
-    if not isinstance(drive, dict):
+    flown = sweep_drive(manifest, Path(path).parent)
+    if flown is None:
         return system
-    flown = {k: tuple(v) if isinstance(v, list) else v for k, v in drive.items()}
-    return replace(system, drive=replace(system.drive, **flown))
+    recorded = manifest["sections"]["drive"]
+    return replace(system, drive=replace(system.drive, **{k: getattr(flown, k)
+                                                           for k in recorded}))
 
 
 def basis_figures(terms: Any, trajectory: Any) -> dict:

@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 
+from kernel.drive import Drive
 from kernel.files import (
     file_sha256,
     read_csv,
@@ -234,6 +235,23 @@ def read_trajectories(folder: Path, columns: tuple[str, ...] | None = None) -> p
 def read_manifest(folder: Path) -> dict:
     """The sweep's ``manifest.json``, its schema checked."""
     return read_document(Path(folder) / MANIFEST_FILE, SCHEMA_NAME, expected=_EXPECTED)
+
+
+def sweep_drive(manifest: dict, folder: Path | None = None) -> Drive | None:
+    """The ``[drive]`` in force a sweep flew, its manifest's ``sections.drive`` read by
+    :meth:`kernel.drive.Drive.from_dict` (the one reader of the drive's dict form); None
+    when the manifest records none (an older ``bench optimize``'s).
+
+    Raises
+    ------
+    InputError
+        A ``sections.drive`` that is not a drive (naming the manifest and the key).
+    """
+    drive = (manifest.get("sections") or {}).get("drive")
+    if drive is None:
+        return None
+    where = None if folder is None else Path(folder) / MANIFEST_FILE
+    return Drive.from_dict(drive, where, "sections.drive")
 
 
 def read_claims(folder: Path) -> pd.DataFrame:

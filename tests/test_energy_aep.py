@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -175,11 +176,16 @@ def test_site_height_moves_by_the_systems_wind_profile(tmp_path):
 
 def test_capacity_factor_rating_is_the_drive_in_force_of_the_sweep():
     from energy.assess import NOMINAL_SOURCES, nominal_power
+    from optimize.sweep_folder import sweep_drive
 
     model = {"nominal_power_w": 18923.0, "drive": {"nominal_power_w": 18923.0}}
-    manifest = {"sections": {"drive": {"nominal_power_w": 18920.0}}}
+    in_force = sweep_drive({"sections": {"drive": {"nominal_power_w": 18920.0}}})
     # the rating the optimize manifest names wins over the power model's own
-    assert nominal_power(model, None, None, manifest) == (18920.0, NOMINAL_SOURCES[1])
+    assert nominal_power(model, None, None, in_force) == (18920.0, NOMINAL_SOURCES[1])
     # the user's value wins over both; a sweep without the record falls back to the model
-    assert nominal_power(model, 5000.0, None, manifest) == (5000.0, NOMINAL_SOURCES[0])
-    assert nominal_power(model, None, None, {}) == (18923.0, NOMINAL_SOURCES[2])
+    assert nominal_power(model, 5000.0, None, in_force) == (5000.0, NOMINAL_SOURCES[0])
+    assert sweep_drive({}) is None
+    assert nominal_power(model, None, None, None) == (18923.0, NOMINAL_SOURCES[2])
+    # a record that is not a drive is refused, naming the manifest and the key
+    with pytest.raises(InputError, match=r"manifest.json.*sections\.drive\.nominal_power_w"):
+        sweep_drive({"sections": {"drive": {"nominal_power_w": "18 kW"}}}, Path("opt"))

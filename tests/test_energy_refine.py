@@ -250,6 +250,18 @@ def test_the_sweeps_system_is_rebuilt_from_its_manifest_record(tmp_path):
                 + "\n# edited\n", "sha256": "0" * 64}
     with pytest.raises(InputError, match="sha256"):
         system_from_manifest({"system": tampered}, tmp_path / "manifest.json")
+    # the drive it flew, as the manifest records it (read as a drive: the envelope's table a
+    # tuple of floats), a key it does not record the file's; a record not a drive refused
+    flown = {"max_torque_nm": 70.0, "envelope_speed_rpm": [0, 1000, 1500],
+             "envelope_torque_nm": [70, 70, 50]}
+    rebuilt = system_from_manifest({"system": system.record(), "sections": {"drive": flown}},
+                                   tmp_path / "manifest.json")
+    assert rebuilt.drive.max_torque_nm == 70.0
+    assert rebuilt.drive.envelope_torque_nm == (70.0, 70.0, 50.0)
+    assert rebuilt.drive.max_speed_rpm == system.drive.max_speed_rpm == 1500.0
+    with pytest.raises(InputError, match=r"manifest.json.*sections\.drive: unknown key"):
+        system_from_manifest({"system": system.record(), "sections": {"drive": {"torque": 1}}},
+                             tmp_path / "manifest.json")
 
 
 def test_refine_progress_never_sits_at_100_percent_while_solves_run():
