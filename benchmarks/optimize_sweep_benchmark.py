@@ -39,6 +39,7 @@ from kernel.files import write_text_atomic
 from optimize.kinds import DEFAULT_KINDS
 from optimize.paper_model import PAPER_MODEL_PATH
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
+from optimize.problem.scenario import Scenario
 from optimize.resolve import resolve
 from optimize.service import OcpBackend, Problem, SweepTasks, run_sweep
 from optimize.service.executors import open_executor
@@ -66,7 +67,7 @@ def bench_cold_start(problem: Problem, wind: float, repeats: int) -> list[dict]:
     runs = []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        res = cold_start(ocp, backend.scenario("elec-lim", wind))
+        res = cold_start(ocp, Scenario.of_kind("elec-lim", wind))
         runs.append(
             {
                 "build_s": build_s,

@@ -106,7 +106,7 @@ def _remesh_attempt(solves: Any, outcome: ScenarioOutcome, coarse_ocp: Any, fine
     """One solve of ``outcome``'s scenario on the ``fine`` problem from its last result
     (on ``coarse_ocp``): the attempt, its result (None if it raised) and the fine OCP."""
     source = f"{outcome.name} on {fine.n_intervals} intervals"
-    solves.tell("start", outcome.scenario, RETRY, source, "")
+    solves.tell("start", outcome.name, RETRY, source, "")
     t0, fine_ocp = time.perf_counter(), None
     try:
         fine_ocp = solves.backend.build(fine)
@@ -119,5 +119,5 @@ def _remesh_attempt(solves: Any, outcome: ScenarioOutcome, coarse_ocp: Any, fine
         attempt = Attempt(source, str(res.status), bool(res.success) and (
             check is None or check.passed), int(res.iterations), float(res.wall_time_s), check)
     solves.count(attempt, RETRY)
-    solves.tell("done", outcome.scenario, RETRY, source, attempt.status)
+    solves.tell("done", outcome.name, RETRY, source, attempt.status)
     return attempt, res, fine_ocp

@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from optimize.problem.scenario import Scenario
-from optimize.service.builder import OcpBackend, Problem
+from optimize.service.builder import Backend, OcpBackend, Problem
 from optimize.service.foreign import Start
 from optimize.service.outcome import CRASH, Attempt, ScenarioOutcome, failure_status
 from optimize.service.store import read_solve, solve_key, store_solve
@@ -73,12 +73,13 @@ class Solves:
         Index of the chain these solves belong to, recorded in outcomes and events.
     """
 
-    def __init__(self, problem: Problem, store: Path | None = None, backend: Any = None,
+    def __init__(self, problem: Problem, store: Path | None = None,
+                 backend: Backend | None = None,
                  progress: Any = None, tag: dict | None = None,
                  extras: Callable[[Any], dict] | None = None, chain: int = 0) -> None:
         self.problem = problem
         self.store = store
-        self.backend = backend or OcpBackend()
+        self.backend: Backend = backend or OcpBackend()
         self.progress = progress
         self.tag = dict(tag or {})
         self.extras = extras
@@ -117,7 +118,7 @@ class Solves:
         ocp = self.ocp
         given = isinstance(source, Start)
         name = None if source is None else source.name
-        self.tell("start", scenario, role, name, "")
+        self.tell("start", scenario.name, role, name, "")
         t0 = time.perf_counter()
         try:
             if source is None:
@@ -138,7 +139,7 @@ class Solves:
                               int(getattr(result, "intermediate_points", 0)),
                               int(getattr(result, "intermediate_iterations", 0)))
         self.count(attempt, role)
-        self.tell("done", scenario, role, name, attempt.status)
+        self.tell("done", scenario.name, role, name, attempt.status)
         return attempt, result
 
     def count(self, attempt: Attempt, role: str) -> None:
@@ -146,13 +147,13 @@ class Solves:
         ``role`` (why it ran)."""
         self.iterations[role] = self.iterations.get(role, 0) + attempt.all_iterations
 
-    def tell(self, when: str, scenario: Scenario, role: str, source: str | None,
+    def tell(self, when: str, name: str, role: str, source: str | None,
              status: str) -> None:
-        """Say a solver run starts (``when="start"``) or is done, to the progress
-        channel (see the class docstring)."""
+        """Say a solver run of the scenario ``name`` starts (``when="start"``) or is done,
+        to the progress channel (see the class docstring)."""
         if self.progress is not None:
             self.progress.put({**self.tag, "attempt": when, "chain": self.chain,
-                               "name": scenario.name, "role": role,
+                               "name": name, "role": role,
                                "from": source, "status": status})
 
     def solve(self, scenario: Scenario, role: str = "grid",

@@ -41,6 +41,14 @@ class RawSolve:
     wall_time_s: float
     cpu_time_s: float  # CPU time of this process during the call [s]
 
+    def stage(self, name: str, extra_wall_s: float = 0.0) -> dict:
+        """The record of this call as one of a solve's ``stages`` (``name``: what it was,
+        e.g. ``"warm"``; ``extra_wall_s`` [s]: time spent on its start, added to its wall
+        time)."""
+        return {"stage": name, "status": self.status, "success": self.success,
+                "iterations": self.iterations, "wall_time_s": self.wall_time_s + extra_wall_s,
+                "cpu_time_s": self.cpu_time_s}
+
 
 def _single_threaded_blas() -> None:
     """Let casadi's bundled OpenBLAS (MUMPS' BLAS) run one thread, unless the user chose.

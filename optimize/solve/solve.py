@@ -92,7 +92,7 @@ def solve(
     if (period_s is None and ocp.options.solver.solver == "ipopt"
             and may_solve(ocp, warm_start, p, bounds, scenario.drive_limits)):
         raw = at_optimum(ocp, warm_start, p, bounds)
-        stages.append(_stage("check", raw))
+        stages.append(raw.stage("check"))
         if raw.success:
             log.info("%s: its start is an optimum of its problem", scenario.name)
             return make_result(ocp, scenario, raw, p, bounds, stages)
@@ -100,7 +100,7 @@ def solve(
     stages += [stage] if stage else []
     if not raw.success and retry_cold:
         raw = nlp_solver.run(ocp, warm_start.w, p, bounds, warm=False)
-        stages.append(_stage("retry-cold", raw))
+        stages.append(raw.stage("retry-cold"))
         log.info("%s retry %-22s %4d it %6.1f s (cpu %.1f s)", scenario.name, raw.status,
                  raw.iterations, raw.wall_time_s, raw.cpu_time_s)
     return make_result(ocp, scenario, raw, p, bounds, stages, intermediates=intermediates)
@@ -116,12 +116,12 @@ def _warm(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds, period_s: flo
     if period_s is None and warm.p is not None and ocp.options.solver.predictor_step <= 0:
         stepped = step_towards(ocp, warm, p, bounds, name)
         raw, way = stepped.last, stepped.intermediates
-        stage = _stage("warm", raw) if stepped.final is not None else None
+        stage = raw.stage("warm") if stepped.final is not None else None
     else:
         name, w0, lam_x0, lam_g0, predict_s = _predicted(ocp, warm, p, bounds)
         raw, way = nlp_solver.run(ocp, w0, p, bounds, warm=True, lam_x0=lam_x0,
                                lam_g0=lam_g0), ()
-        stage = _stage(name, raw, predict_s)
+        stage = raw.stage(name, predict_s)
     log.info("%s %-22s %4d it %6.1f s (cpu %.1f s), %d solves on the way (%d it)",
              name, raw.status, raw.iterations, raw.wall_time_s, raw.cpu_time_s,
              len(way), sum(s["iterations"] for s in way))
@@ -166,13 +166,6 @@ def at_optimum(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds) -> nlp_s
     most two iterations that succeeds when ``warm`` is an optimum there to the tolerance."""
     return nlp_solver.run(ocp, warm.w, p, bounds, warm=True, lam_x0=warm.lam_x,
                        lam_g0=warm.lam_g, bound_push=AT_OPTIMUM_PUSH, setting=AT_OPTIMUM)
-
-
-def _stage(name: str, raw: nlp_solver.RawSolve, extra_wall_s: float = 0.0) -> dict:
-    """The record of one solver call of a solve's ``stages``."""
-    return {"stage": name, "status": raw.status, "success": raw.success,
-            "iterations": raw.iterations, "wall_time_s": raw.wall_time_s + extra_wall_s,
-            "cpu_time_s": raw.cpu_time_s}
 
 
 def _predicted(ocp: Ocp, warm: Solution, p: np.ndarray, bounds: Bounds

@@ -65,11 +65,11 @@ FICT_RMS_MAX = 0.05
 MAX_PENALTY_WEIGHT = 1e4
 
 
-def _record(stages: list[dict], name: str, raw: RawSolve, scenario: Scenario) -> None:
-    stages.append({"stage": name, "status": raw.status, "success": raw.success,
-                   "iterations": raw.iterations, "wall_time_s": raw.wall_time_s,
-                   "cpu_time_s": raw.cpu_time_s})
-    log.info("%s homotopy %-12s %-22s %4d it %6.1f s (cpu %.1f s)", scenario.name, name,
+def _record(stages: list[dict], name: str, raw: RawSolve, label: str) -> None:
+    """Add the solver call ``raw`` as the stage ``name`` to ``stages``, and log it under
+    ``label`` (the scenario's name)."""
+    stages.append(raw.stage(name))
+    log.info("%s homotopy %-12s %-22s %4d it %6.1f s (cpu %.1f s)", label, name,
              raw.status, raw.iterations, raw.wall_time_s, raw.cpu_time_s)
 
 
@@ -122,7 +122,7 @@ def cold_start(ocp: Ocp, scenario: Scenario) -> OcpResult:
     p = ocp.params(parameters, w_track=1.0, w_fict=TRACK_FICT_WEIGHT, x_ref=x)
     raw = run(ocp, w0, p, track_bounds, warm=False,
               setting=Setting(mu_target=HOMOTOPY_BARRIER.mu_target))
-    _record(stages, "track", raw, scenario)
+    _record(stages, "track", raw, scenario.name)
     if not raw.success:
         return _failed(ocp, scenario, raw, p, track_bounds, stages, "track")
 
@@ -130,7 +130,7 @@ def cold_start(ocp: Ocp, scenario: Scenario) -> OcpResult:
         p_w = ocp.params(parameters, w_track=1.0, w_fict=weight, x_ref=x)
         out = run(ocp, start.w, p_w, track_bounds, warm=True, lam_x0=start.lam_x,
                   lam_g0=start.lam_g, bound_push=HOMOTOPY_BOUND_PUSH, setting=HOMOTOPY_BARRIER)
-        _record(stages, f"penalize-{weight:g}", out, scenario)
+        _record(stages, f"penalize-{weight:g}", out, scenario.name)
         return out, p_w
 
     weights = list(PENALTY_WEIGHTS)
@@ -167,14 +167,14 @@ def _power(ocp: Ocp, scenario: Scenario, raw: RawSolve, weight: float, stages: l
     p = ocp.params(scenario.parameters, scenario.weights, w_fict=weight)
     raw = run(ocp, raw.w, p, free, warm=True, lam_x0=raw.lam_x, lam_g0=raw.lam_g,
               bound_push=POWER_BOUND_PUSH, setting=HOMOTOPY_BARRIER)
-    _record(stages, "power-penalized", raw, scenario)
+    _record(stages, "power-penalized", raw, scenario.name)
     if not raw.success:
         return _failed(ocp, scenario, raw, p, free, stages, "power-penalized")
     bounds = ocp.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True, period_s=None)
     p = ocp.params(scenario.parameters, scenario.weights)
     raw = run(ocp, raw.w, p, bounds, warm=True, lam_x0=raw.lam_x, lam_g0=raw.lam_g,
               bound_push=POWER_BOUND_PUSH, setting=Setting(mu_init=HOMOTOPY_BARRIER.mu_init))
-    _record(stages, "power", raw, scenario)
+    _record(stages, "power", raw, scenario.name)
     if not raw.success:
         return _failed(ocp, scenario, raw, p, bounds, stages, "power")
     return make_result(ocp, scenario, raw, p, bounds, stages, start="homotopy")

@@ -70,8 +70,5 @@ def solve_interpolated(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpRe
     p = fine.params(scenario.parameters, scenario.weights)
     raw = nlp_solver.run(fine, w0, p, bounds, warm=True, lam_x0=lam_x0,
                       lam_g0=np.zeros(len(bounds[2])))
-    stage = {"stage": "interpolated", "status": raw.status, "success": raw.success,
-             "iterations": raw.iterations, "wall_time_s": raw.wall_time_s,
-             "cpu_time_s": raw.cpu_time_s}
-    return make_result(fine, scenario, raw, p, bounds, [stage],
+    return make_result(fine, scenario, raw, p, bounds, [raw.stage("interpolated")],
                        start=f"interpolated from {coarse.n_intervals} x {coarse.coll.degree}")
