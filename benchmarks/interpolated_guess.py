@@ -5,7 +5,7 @@ For each case (intervals, degree, scenario kind, wind speed) on the paper's kite
 drive model, solves the scenario with :func:`optimize.solve.starts.cold.start` (the
 stored guess, checked on its own 40 x 4 mesh and interpolated onto the case's,
 :func:`optimize.solve.starts.stored_guess.interpolated`) and with the homotopy
-(:func:`optimize.solve.starts.homotopy.cold_start`), and prints both: status,
+(:func:`optimize.solve.starts.homotopy.solve_by_homotopy`), and prints both: status,
 iterations, wall time, P_elec, P_mech and the period.
 
 Run::
@@ -26,7 +26,7 @@ from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.resolve import resolve
 from optimize.solve.starts.cold import start
-from optimize.solve.starts.homotopy import cold_start
+from optimize.solve.starts.homotopy import solve_by_homotopy
 
 CASES = ("20x4:elec-lim:10,10x4:mech-free:7,10x4:elec-lim:7,14x3:elec-free:10,"
          "80x4:elec-lim:7,8x4:mech-lim:7")
@@ -50,7 +50,8 @@ def main() -> None:
         system=resolve(None, paper_model()).system)
         scenario = Scenario.of_kind(kind, float(wind))
         print(f"{n} x {degree}, {scenario.name}:", flush=True)
-        for name, how in (("  interpolated guess:", start), ("  homotopy:          ", cold_start)):
+        for name, how in (("  interpolated guess:", start),
+                          ("  homotopy:          ", solve_by_homotopy)):
             t0 = time.perf_counter()
             res = how(ocp, scenario)
             print(_line(name, res, time.perf_counter() - t0), flush=True)

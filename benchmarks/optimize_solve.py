@@ -26,8 +26,8 @@ from optimize.problem.options import Discretization, OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.resolve import resolve
 from optimize.solve import nlp_solver
-from optimize.solve.solve import cold_start, solve
-from optimize.solve.starts.homotopy import HOMOTOPY_BOUND_PUSH
+from optimize.solve.solve import solve
+from optimize.solve.starts.homotopy import HOMOTOPY_BOUND_PUSH, solve_by_homotopy
 
 #: (label, scenario, index of the warm-start source in this list or None = cold start)
 PLAN = [
@@ -60,7 +60,7 @@ def run_once(intervals: int, degree: int, reference_sigma: bool) -> list[dict]:
     logging.info("build + solver creation %.1f s", setup)
     results, rows = [], []
     for label, scenario, source in PLAN:
-        res = (cold_start(ocp, scenario) if source is None
+        res = (solve_by_homotopy(ocp, scenario) if source is None
                else solve(ocp, scenario, results[source].warm))
         results.append(res)
         rows.append({

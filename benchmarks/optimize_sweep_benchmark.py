@@ -44,7 +44,7 @@ from optimize.resolve import resolve
 from optimize.service import OcpBackend, Problem, SweepTasks, run_sweep
 from optimize.service.executors import open_executor
 from optimize.service.plan import middle_index, plan_graph
-from optimize.solve.starts.homotopy import cold_start
+from optimize.solve.starts.homotopy import solve_by_homotopy
 from optimize.sweep.trust import run_trust_checks
 from optimize.sweep_options import DEFAULT_WIND_GRID, parse_kinds, parse_wind_grid
 
@@ -67,7 +67,7 @@ def bench_cold_start(problem: Problem, wind: float, repeats: int) -> list[dict]:
     runs = []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        res = cold_start(ocp, Scenario.of_kind("elec-lim", wind))
+        res = solve_by_homotopy(ocp, Scenario.of_kind("elec-lim", wind))
         runs.append(
             {
                 "build_s": build_s,

@@ -32,7 +32,7 @@ from optimize.model.kite_model import kite_dae
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
-from optimize.solve.starts.homotopy import cold_start
+from optimize.solve.starts.homotopy import solve_by_homotopy
 from optimize.sweep.outputs import MEANT_BOUNDS
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path
@@ -62,7 +62,7 @@ def main() -> None:
         for wind in (float(w) for w in args.winds.split(",")):
             load = os.getloadavg()[0]
             t0 = time.perf_counter()
-            res = cold_start(ocp, Scenario(wind, objective, limits))
+            res = solve_by_homotopy(ocp, Scenario(wind, objective, limits))
             wall = time.perf_counter() - t0
             unmeant = [b for b in res.active_bounds if b not in MEANT_BOUNDS]
             runs.append({

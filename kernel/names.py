@@ -128,6 +128,15 @@ TERMS: tuple[Term, ...] = (
     Term("solves", "one problem's solves on one worker: their records, outcomes and warm "
          "starts (what the solve service's chains, retries and re-solves work on)",
          "`optimize.service.solves.Solves`"),
+    Term("warm start", "a solve from another solve's optimum (a neighbouring wind speed, "
+         "another kind, another problem's carried over)",
+         "`optimize.solve.solve.solve`, `Backend.solve`"),
+    Term("cold start", "a problem's first solve, with no optimum at hand: from the stored "
+         "guess where it fits, else by the homotopy",
+         "`optimize.solve.starts.cold.start`, `Backend.cold_start`"),
+    Term("homotopy", "the cold start's way from the parts' own guesses: tracking, "
+         "penalized, then the power stages",
+         "`optimize.solve.starts.homotopy.solve_by_homotopy`"),
 )
 
 

@@ -69,9 +69,9 @@ def coarse_ocp():
 def coarse_mechanical(coarse_ocp):
     """The homotopy's cold start of the coarse OCP: mechanical power, no drive limits, 7 m/s."""
     from optimize.problem.scenario import Scenario
-    from optimize.solve.solve import cold_start
+    from optimize.solve.starts.homotopy import solve_by_homotopy
 
-    return cold_start(coarse_ocp, Scenario(7.0, "mechanical", False))
+    return solve_by_homotopy(coarse_ocp, Scenario(7.0, "mechanical", False))
 
 
 @pytest.fixture(scope="session")

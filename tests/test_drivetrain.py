@@ -26,7 +26,7 @@ from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.starts.cold import start
-from optimize.solve.starts.homotopy import cold_start
+from optimize.solve.starts.homotopy import solve_by_homotopy
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path
 from optimize.system.system_file import system_from_dict
@@ -166,7 +166,7 @@ def heavy_cycle():
     options = OcpOptions(Discretization(20, 3), solver=SolverOptions(stored_guess=False))
     ocp = build_ocp(kite_dae(*system.model_params()), model, options,
                     system=system.in_force(drive_in_force(system, drive_model=model).drive))
-    return system, ocp, cold_start(ocp, Scenario(10.0, "electrical", True))
+    return system, ocp, solve_by_homotopy(ocp, Scenario(10.0, "electrical", True))
 
 
 def test_the_optimal_cycle_stays_within_the_drive(heavy_cycle):

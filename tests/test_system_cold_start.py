@@ -18,7 +18,7 @@ from optimize.model.kite_model import kite_dae
 from optimize.problem.ocp import build_ocp
 from optimize.problem.options import Discretization, OcpOptions, SolverOptions
 from optimize.problem.scenario import Scenario
-from optimize.solve.starts.homotopy import cold_start
+from optimize.solve.starts.homotopy import solve_by_homotopy
 from optimize.sweep.outputs import MEANT_BOUNDS
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system import shipped_system_path
@@ -36,7 +36,7 @@ def solved():
                          solver=SolverOptions(stored_guess=False))
     ocp = build_ocp(kite_dae(*system.model_params()), model, options,
                     system=system.in_force(drive.drive))
-    return system, ocp, cold_start(ocp, Scenario(WIND_M_S, "mechanical", True))
+    return system, ocp, solve_by_homotopy(ocp, Scenario(WIND_M_S, "mechanical", True))
 
 
 def test_cold_start_of_the_ap2_system_converges_off_unmeant_bounds(solved):

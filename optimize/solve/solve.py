@@ -1,5 +1,6 @@
-"""Solve one scenario warm-started from a neighbouring solution (or, given none, by the
-homotopy).
+"""Solve one scenario warm-started from a neighbouring solution (a *warm start*; a
+problem's first solve, with no solution at hand, is a *cold start*:
+:func:`optimize.solve.starts.cold.start`).
 
 Typical use (the sweep builds the OCP once and chains warm starts; every other start is
 in :mod:`optimize.solve.starts`)::
@@ -21,19 +22,15 @@ from optimize.problem.scenario import Scenario
 from optimize.solve import nlp_solver
 from optimize.solve.result import OcpResult, Solution, make_result
 from optimize.solve.starts.continuation import step_towards
-from optimize.solve.starts.homotopy import cold_start
 from optimize.solve.starts.predictor import predict
 
 log = logging.getLogger(__name__)
 
-__all__ = ["cold_start", "solve"]
-
-
 def solve(
-    ocp: Ocp, scenario: Scenario, warm_start: Solution | None, retry_cold: bool = True,
+    ocp: Ocp, scenario: Scenario, warm_start: Solution, retry_cold: bool = True,
     period_s: float | None = None,
 ) -> OcpResult:
-    """Solve ``scenario``; warm-started from ``warm_start`` or by :func:`cold_start`.
+    """Solve ``scenario`` warm-started from ``warm_start``.
 
     A start that solved this very problem (the same NLP parameters and drive limits,
     the period free: :func:`at_optimum`) is first checked: when it is an optimum to the
@@ -56,9 +53,9 @@ def solve(
         Built by :func:`optimize.problem.ocp.build_ocp`.
     scenario : Scenario
         Wind speed, objective and drive limits.
-    warm_start : Solution or None
-        ``OcpResult.warm`` of a previous solve of the same ``ocp`` layout;
-        ``None`` runs the homotopy.
+    warm_start : Solution
+        ``OcpResult.warm`` of a previous solve of the same ``ocp`` layout (a problem's
+        first solve is :func:`optimize.solve.starts.cold.start`'s).
     retry_cold : bool
         Retry a failed warm solve with cold barrier settings.
     period_s : float, optional
@@ -70,8 +67,6 @@ def solve(
     ValueError
         If ``warm_start`` comes from a different discretization.
     """
-    if warm_start is None:
-        return cold_start(ocp, scenario)
     if (warm_start.n_intervals, warm_start.degree) != (ocp.n_intervals, ocp.coll.degree):
         raise ValueError(
             f"warm start has N={warm_start.n_intervals}, degree {warm_start.degree}; "

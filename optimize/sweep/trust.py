@@ -37,7 +37,7 @@ from optimize.service.builder import OcpBackend
 from optimize.service.executors import run_tasks
 from optimize.service.plan import middle_index
 from optimize.solve.result import OcpResult
-from optimize.solve.solve import solve
+from optimize.solve.starts.homotopy import solve_by_homotopy
 from optimize.solve.starts.remesh import solve_interpolated
 
 
@@ -154,7 +154,7 @@ def mesh_check(coarse: Ocp, fine: Ocp, scenario: Scenario, result: OcpResult) ->
     route = "interpolated warm start"
     if not res.success:
         route = "cold start"
-        res = solve(fine, scenario, None)
+        res = solve_by_homotopy(fine, scenario)
     nan = math.nan
     return MeshCheck(
         scenario=scenario.name,

@@ -14,7 +14,7 @@ from optimize.problem.scenario import Scenario
 from optimize.solve.result import OcpResult
 from optimize.solve.solve import solve
 from optimize.solve.starts import stored_guess
-from optimize.solve.starts.homotopy import cold_start
+from optimize.solve.starts.homotopy import solve_by_homotopy
 from optimize.solve.starts.remesh import solve_interpolated
 
 log = logging.getLogger(__name__)
@@ -67,7 +67,7 @@ def _start(ocp: Ocp, scenario: Scenario) -> OcpResult:
 
 
 def homotopy_start(ocp: Ocp, scenario: Scenario) -> OcpResult:
-    """The homotopy (:func:`optimize.solve.starts.homotopy.cold_start`) on the coarse
+    """The homotopy (:func:`optimize.solve.starts.homotopy.solve_by_homotopy`) on the coarse
     mesh of the OCP's degree (:func:`coarse_intervals`), its optimum carried onto the
     OCP's mesh and solved there (:func:`optimize.solve.starts.remesh.solve_interpolated`);
     on the OCP's own mesh when that has fewer than twice as many intervals, or when the
@@ -75,9 +75,9 @@ def homotopy_start(ocp: Ocp, scenario: Scenario) -> OcpResult:
     iterations; those on the coarse mesh are named ``coarse <stage>``."""
     n_coarse = coarse_intervals(ocp.coll.degree)
     if ocp.n_intervals < 2 * n_coarse:
-        return cold_start(ocp, scenario)
+        return solve_by_homotopy(ocp, scenario)
     coarse = on_mesh(ocp, n_coarse, ocp.coll.degree)
-    first = cold_start(coarse, scenario)
+    first = solve_by_homotopy(coarse, scenario)
     stages = tuple({**s, "stage": f"coarse {s['stage']}"} for s in first.stages)
     status = first.status
     if first.success:
@@ -87,7 +87,7 @@ def homotopy_start(ocp: Ocp, scenario: Scenario) -> OcpResult:
         stages, status = stages + fine.stages, f"on {ocp.n_intervals} intervals {fine.status}"
     log.info("%s: the homotopy on %d intervals ended %s; running it on %d", scenario.name,
              n_coarse, status, ocp.n_intervals)
-    return _after(cold_start(ocp, scenario), stages)
+    return _after(solve_by_homotopy(ocp, scenario), stages)
 
 
 def _after(result: OcpResult, stages: tuple[dict, ...]) -> OcpResult:

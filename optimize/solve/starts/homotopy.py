@@ -86,7 +86,7 @@ def fictitious_rms(ocp: Ocp, w_scaled: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.asarray(w_scaled)[ocp.layout.i_f] ** 2)))
 
 
-def cold_start(ocp: Ocp, scenario: Scenario) -> OcpResult:
+def solve_by_homotopy(ocp: Ocp, scenario: Scenario) -> OcpResult:
     """Solve ``scenario`` from the parts' own start (the kite's circular loop,
     :func:`optimize.solve.starts.fill.part_start`) through the homotopy.
 

@@ -59,7 +59,7 @@ from optimize.problem.options import OcpOptions
 from optimize.problem.scenario import Scenario
 from optimize.solve.result import OcpResult, Solution, carry_over
 from optimize.solve.starts.fill import KEYS
-from optimize.solve.starts.homotopy import cold_start
+from optimize.solve.starts.homotopy import solve_by_homotopy
 from optimize.solve.starts.remesh import interpolate_multipliers, interpolate_solution
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system_file import load_system
@@ -443,7 +443,7 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as exc:
         print(f"stored_guess: error: {exc.describe()}", file=sys.stderr)
         return 2
-    result = cold_start(ocp, GUESS_SCENARIO)
+    result = solve_by_homotopy(ocp, GUESS_SCENARIO)
     if not result.success:
         log.error("%s: %s, no guess written", GUESS_SCENARIO.name, result.status)
         return 1
