@@ -156,7 +156,7 @@ class ChainTask:
 def _nearest(solves: Solves, r: Refinement, scenario: Scenario) -> list:
     """The starts of an added speed: the nearest solved speeds of the refined kind, its
     own solves before the known cycles at equal distance, at most two."""
-    own = [scenario.at(w) for w in solves.converged(r.kind)]
+    own = solves.converged(r.kind)
     cycles = [s for s in r.starts if s.scenario not in own]
     ranked = sorted([*own, *cycles], key=lambda s: (
         abs((s.scenario if isinstance(s, CycleStart) else s).wind_speed_m_s

@@ -39,13 +39,10 @@ def other_starts(solves: Any, scenario: Scenario, tried: set) -> list[Scenario]:
     """The starts to retry ``scenario`` from: up to :data:`MAX_SAME_KIND` converged speeds
     of its kind (nearest first), then the other objective's optimum at the same speed
     with the same drive limits; those in ``tried`` (names) left out."""
-    wind_speed_m_s = scenario.wind_speed_m_s
-    near = sorted(solves.converged(scenario.kind), key=lambda w: abs(w - wind_speed_m_s))
-    same = [s for s in map(scenario.at, near) if s.name not in tried][:MAX_SAME_KIND]
-    other = [Scenario(wind_speed_m_s, o, scenario.drive_limits) for o in OBJECTIVES
+    same = [s for s in solves.nearest(scenario) if s.name not in tried][:MAX_SAME_KIND]
+    other = [Scenario(scenario.wind_speed_m_s, o, scenario.drive_limits) for o in OBJECTIVES
              if o != scenario.objective]
-    return same + [s for s in other if wind_speed_m_s in solves.converged(s.kind)
-                   and s.name not in tried]
+    return same + [s for s in other if s in solves.converged(s.kind) and s.name not in tried]
 
 
 def retry_failed(solves: Any, scenarios: Sequence[Scenario]) -> None:

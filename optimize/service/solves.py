@@ -104,9 +104,16 @@ class Solves:
             self.build_time_s = time.perf_counter() - t0
         return self._ocp
 
-    def converged(self, kind: str) -> list[float]:
-        """Wind speeds [m/s] of ``kind`` with a converged solution to warm-start from."""
-        return sorted(s.wind_speed_m_s for s in self._warm if s.kind == kind)
+    def converged(self, kind: str) -> list[Scenario]:
+        """The scenarios of ``kind`` with a converged solution to warm-start from, by wind
+        speed."""
+        return sorted((s for s in self._warm if s.kind == kind), key=lambda s: s.wind_speed_m_s)
+
+    def nearest(self, scenario: Scenario) -> list[Scenario]:
+        """The converged scenarios of ``scenario``'s kind (:meth:`converged`), the nearest
+        wind speed first (the lower one at equal distance)."""
+        return sorted(self.converged(scenario.kind),
+                      key=lambda s: abs(s.wind_speed_m_s - scenario.wind_speed_m_s))
 
     def attempt(self, scenario: Scenario, source: Scenario | Start | None,
                 role: str = "grid", period_s: float | None = None) -> tuple[Attempt, Any]:
@@ -193,10 +200,7 @@ class Solves:
             rec = {**rec, **self.tag, "role": role, "cached": True}
         else:
             if sources is None:
-                near = self.converged(scenario.kind)
-                wind_speed_m_s = scenario.wind_speed_m_s
-                sources = ([scenario.at(min(near, key=lambda w: abs(w - wind_speed_m_s)))]
-                           if near else [])
+                sources = self.nearest(scenario)[:1]
             tried = [s for s in sources
                      if isinstance(s, Start) or s in self._warm][:MAX_WARM_ATTEMPTS]
             if scenario in self.foreign:
