@@ -44,7 +44,7 @@ CONTROLS = Variables(("dddl_m_s3", "daileron_rad_s", "delevator_rad_s", "drudder
 ALGEBRAIC = Variables(("a_x_m_s2", "a_y_m_s2", "a_z_m_s2", "domega_x_rad_s2",
                        "domega_y_rad_s2", "domega_z_rad_s2", "nu_n_per_m"))
 #: the model's parameter: the wind speed at the reference height
-PARAMETERS = Variables(("wind_speed_m_s",))
+PARAMETERS = Variables((WIND_SPEED,))
 #: fictitious forces and moments of the initialization homotopy
 FICTITIOUS = Variables(("f_fict_x_n", "f_fict_y_n", "f_fict_z_n", "m_fict_x_nm",
                         "m_fict_y_nm", "m_fict_z_nm"))

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from kernel.names import WIND_SPEED
 from optimize.kinds import KINDS, Kind, kind_of
 
 #: the name of an objective (:class:`optimize.kinds.Objective` is the objective itself)
@@ -65,8 +66,8 @@ class Scenario:
     @property
     def parameters(self) -> dict[str, float]:
         """The model's parameters of the scenario by name: the wind speed at the
-        reference height ``wind_speed_m_s`` [m/s]."""
-        return {"wind_speed_m_s": self.wind_speed_m_s}
+        reference height (:data:`kernel.names.WIND_SPEED`) [m/s]."""
+        return {WIND_SPEED: self.wind_speed_m_s}
 
     @property
     def name(self) -> str:
