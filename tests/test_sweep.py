@@ -176,8 +176,8 @@ def _check_graph(steps, winds, kinds):
             assert (step.depth == 0) == (step.warm_from is None)
         if step.warm_from is not None and step.stage == 0:
             src = by_scenario[step.warm_from].scenario
-            cost = start_cost((own.kind, winds.index(own.wind_speed_m_s)),
-                              (src.kind, winds.index(src.wind_speed_m_s)))
+            cost = start_cost(own, src, abs(winds.index(own.wind_speed_m_s)
+                                            - winds.index(src.wind_speed_m_s)))
             switch = (by_scenario[src].depth == 0
                       and src.wind_speed_m_s == own.wind_speed_m_s)
             assert cost <= (OBJECTIVE_SWITCH_COST if switch else NEAR_START_COST)

@@ -146,14 +146,13 @@ LIMIT_SWITCH_COST, OBJECTIVE_SWITCH_COST = 0.5, 2.0
 SEED_STEP_COST, NEAR_START_COST = 1.0, 1.5
 
 
-def start_cost(a: tuple[str, int], b: tuple[str, int]) -> float:
-    """How far apart two scenarios ``(kind, wind index)`` are as warm starts: the wind-grid
-    steps between them plus :data:`LIMIT_SWITCH_COST` or :data:`OBJECTIVE_SWITCH_COST`
-    when the kinds differ."""
-    cost = float(abs(a[1] - b[1]))
-    if a[0] != b[0]:
-        same = KINDS[a[0]].objective == KINDS[b[0]].objective
-        cost += LIMIT_SWITCH_COST if same else OBJECTIVE_SWITCH_COST
+def start_cost(a: Scenario, b: Scenario, wind_steps: int) -> float:
+    """How far apart two scenarios ``wind_steps`` wind-grid steps apart are as warm starts:
+    those steps plus :data:`LIMIT_SWITCH_COST` or :data:`OBJECTIVE_SWITCH_COST` when
+    their kinds differ."""
+    cost = float(wind_steps)
+    if a.kind != b.kind:
+        cost += LIMIT_SWITCH_COST if a.objective == b.objective else OBJECTIVE_SWITCH_COST
     return cost
 
 
@@ -210,26 +209,27 @@ def plan_graph(wind_speeds_m_s: tuple[float, ...], kinds: tuple[str, ...]) -> tu
 def _lead_graph(wind_speeds_m_s: tuple[float, ...], kinds: tuple[str, ...]) -> tuple[Step, ...]:
     """The start graph of stage 0 (:func:`plan_graph`): the module docstring's seed and
     depths."""
-    mid = middle_index(wind_speeds_m_s)
+    mid_wind = wind_speeds_m_s[middle_index(wind_speeds_m_s)]
+    index = {w: i for i, w in enumerate(wind_speeds_m_s)}
     objectives = dict.fromkeys(KINDS[k].objective for k in kinds)
-    seed = (kinds[0], mid)
-    switches = [(next(k for k in kinds if KINDS[k].objective == obj), mid) for obj in objectives
-                if obj != KINDS[kinds[0]].objective]
-    rest = [(k, i) for k in kinds for i in range(len(wind_speeds_m_s)) if (k, i) != seed]
+    seed = Scenario.of_kind(kinds[0], mid_wind)
+    switches = [Scenario.of_kind(next(k for k in kinds if KINDS[k].objective == obj), mid_wind)
+                for obj in objectives if obj != seed.objective]
+    rest = [s for s in (Scenario.of_kind(k, w) for k in kinds for w in wind_speeds_m_s)
+            if s != seed]
 
-    def scenario(node: tuple[str, int]) -> Scenario:
-        return Scenario.of_kind(node[0], wind_speeds_m_s[node[1]])
+    def cost(a: Scenario, b: Scenario) -> float:
+        return start_cost(a, b, abs(index[a.wind_speed_m_s] - index[b.wind_speed_m_s]))
 
-    def step(node: tuple[str, int], sources: list[tuple[str, int]], depth: int) -> Step:
-        nearest = sorted(sources, key=lambda s: start_cost(node, s))[:2]  # stable: plan order
-        ranked = [scenario(s) for s in nearest]
-        return Step(scenario(node), ranked[0] if ranked else None, tuple(ranked[1:]), depth)
+    def step(scenario: Scenario, sources: list[Scenario], depth: int) -> Step:
+        ranked = sorted(sources, key=lambda s: cost(scenario, s))[:2]  # stable: plan order
+        return Step(scenario, ranked[0] if ranked else None, tuple(ranked[1:]), depth)
 
-    steps = [Step(scenario(seed), None)]
+    steps = [Step(seed, None)]
     planned, layer = [seed], [seed]
     near = dict.fromkeys(rest, math.inf)  # start cost from the nearest planned scenario
     while rest:
-        near = {n: min(near[n], *(start_cost(n, s) for s in layer)) for n in rest}
+        near = {n: min(near[n], *(cost(n, s) for s in layer)) for n in rest}
         first = planned == [seed]
         limit = max(SEED_STEP_COST if first else NEAR_START_COST, min(near.values()))
         layer = [n for n in rest if near[n] <= limit or (first and n in switches)]
