@@ -32,7 +32,14 @@ class SolveResult(Protocol):
 
 
 class Backend(Protocol):
-    """The numerical side of the service: build once, then solve warm or cold."""
+    """The numerical side of the service: build once, then solve warm or cold.
+
+    These are every method the service calls. One more is optional:
+    ``carry(src, warm, dst, scenario)``, a solution of the NLP ``src`` (of ``scenario``) in
+    the layout of another problem's NLP ``dst`` (:meth:`OcpBackend.carry`); a backend
+    without it starts a solve from another problem's solution as it is
+    (:meth:`optimize.service.foreign.ForeignStart.carried`).
+    """
 
     def build(self, problem: Problem) -> Any:
         """Build (or fetch from the per-process cache) the NLP for ``problem``."""
@@ -58,6 +65,10 @@ class Backend(Protocol):
         """The result check of a converged ``result`` (``passed``: whether the optimum
         stands; ``verdict()``: the summary's text), or None when the backend has nothing
         to check."""
+
+    def from_trajectory(self, ocp: Any, trajectory: Any) -> Any:
+        """A converged cycle kept as its trajectory, as a warm start of ``ocp`` (only a
+        start from a known cycle asks, :class:`optimize.service.foreign.CycleStart`)."""
 
 
 @dataclass(frozen=True)
