@@ -258,3 +258,26 @@ def test_the_drive_model_protocol_says_everything_optimize_uses():
                 used.add(node.attr)
     assert used and used <= declared, sorted(used - declared)
     assert all(hasattr(paper_model(), name) for name in declared)
+
+
+def test_the_power_model_is_the_drive_model_optimize_reads():
+    """Every attribute and method the DriveModel protocol declares is the power model's, and
+    no module of optimize reads the polynomial's arrays or picks a term by its exponents
+    (the copper term, the mechanical term: the loss model's own, fitting.power_model)."""
+    import inspect
+    import re
+    from pathlib import Path
+
+    from optimize.model.drivetrain import DriveModel
+
+    model = paper_model()
+    declared = [*DriveModel.__annotations__,
+                *(n for n, v in vars(DriveModel).items()
+                  if inspect.isfunction(v) and not n.startswith("_"))]
+    assert {"thermal", "copper_w_per_nm2", "carried", "to_dict", "sha256"} <= set(declared)
+    assert [n for n in declared if not hasattr(model, n)] == []
+    root = Path(__file__).resolve().parent.parent / "optimize"
+    reach = re.compile(r"coefficients_rpm|covariance_rpm|\.terms\b|\(0, 2\)|\(1, 1\)")
+    found = [f"{p.relative_to(root)}:{m.group()}" for p in sorted(root.rglob("*.py"))
+             for m in reach.finditer(p.read_text(encoding="utf-8"))]
+    assert found == []
