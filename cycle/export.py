@@ -33,7 +33,7 @@ from cycle.provenance import HASHED_COLUMNS, sweep_ids, trajectory_sha256
 from kernel.drive import BOX_KEYS, Drive
 from kernel.drive_file import find_drive_file, session_drive
 from kernel.errors import InputError
-from kernel.output_folder import check_replaceable_file, output_file
+from kernel.output_folder import output_file
 from kernel.provenance import Provenance
 from kernel.units import RPM_PER_RAD_S
 from optimize.sweep_folder import read_sweep_folder, read_trajectories, sweep_drive
@@ -314,8 +314,10 @@ def export_cycle(folder: str | Path, scenario: str, out: str | Path,
     from cycle.models import sweep_power_model
 
     folder, out = Path(folder), Path(out)
-    check_replaceable_file(out, "cycle export", is_profile)  # before the work
-    check_tables_replaceable(out)
+    # before the work, under the profile's lock: another export in mid-write (its tables
+    # written, the profile naming them not yet) is waited for, not taken for a user's files
+    with output_file(out, "cycle export", is_profile):
+        check_tables_replaceable(out)
     provenance = Provenance.start(command_line)
     row, points, manifest = scenario_cycle(folder, scenario)
     drive = flown_drive(manifest, folder)

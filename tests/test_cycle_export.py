@@ -191,6 +191,35 @@ def test_two_exports_to_one_profile_serialize(sweep, tmp_path):
                                                          "p.torque.csv"]
 
 
+def test_an_export_waits_for_one_in_mid_write_before_it_checks_the_tables(sweep, tmp_path):
+    """An export that starts while another has replaced the tables but not yet the profile
+    naming them waits for that one to finish (it does not refuse the tables as a user's
+    own), then replaces all three."""
+    from bench.cycle_profile import write_profile
+    from kernel.files import file_sha256
+    from kernel.locking import output_lock
+
+    out = tmp_path / "p.csv"
+    first = export_cycle(sweep, "elec-lim-7.0", out, ExportOptions(n_cycles=3))
+    speed = plain_paths(out)["speed"]
+    code = ("import sys; from pathlib import Path; from cycle.export import ExportOptions, "
+            "export_cycle\nexport_cycle(Path(sys.argv[1]), 'elec-lim-5.5', Path(sys.argv[2]), "
+            "ExportOptions(n_cycles=3))\n")
+    with output_lock(out, "cycle export"):  # the other export, in mid-write
+        speed.write_text(speed.read_text() + "0.0,0.0\n")  # no profile names it yet
+        proc = subprocess.Popen([sys.executable, "-c", code, str(sweep), str(out)],
+                                cwd=Path(__file__).resolve().parents[1],
+                                stderr=subprocess.PIPE, text=True)
+        line = proc.stderr.readline()  # it waits for the lock before any check
+        assert "waiting for another process" in line, line + proc.stderr.read()
+        write_profile(out, first.profile)  # the other export's tables and profile
+    assert proc.wait(timeout=300) == 0, proc.stderr.read()
+    header = read_profile(out).header
+    assert header["scenario"] == "elec-lim-5.5"
+    for q, path in plain_paths(out).items():
+        assert header[f"{q}_table_sha256"] == file_sha256(path)
+
+
 def test_a_folder_without_the_drive_in_force_is_refused_naming_its_manifest(tmp_path):
     # an older bench optimize recorded the drive as drive_limits: its limits are not read
     # as none (a cycle exported unchecked), the folder is refused with the remedy
