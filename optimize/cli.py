@@ -164,7 +164,8 @@ def add_call_time_limit(parser: Any) -> None:
         default=CALL_WALL_LIMIT_S,
         metavar="SECONDS",
         help=f"the longest one solver call may run, wall clock (default {CALL_WALL_LIMIT_S:g}); "
-        f"a cold start may run {COLD_START_CALLS} times as long; a solve stopped there fails "
+        f"a solve (a cold start, or a warm one with its steps and retry) may run "
+        f"{COLD_START_CALLS} times as long; a solve stopped there fails "
         "with the status Wall_Time_Limit: raise it for a large mesh or a slow or loaded "
         "machine",
     )

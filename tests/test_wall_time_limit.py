@@ -170,3 +170,50 @@ def test_the_limit_reaches_the_solves_of_size_and_aep_refine(tmp_path, monkeypat
         refine.refine_run(run, model, Weibull.from_mean(2.0, 6.0), tmp_path / "s",
                           call_time_limit_s=500.0)
     assert seen["refine"] == 500.0
+
+
+def test_a_warm_solve_with_its_steps_and_retry_ends_within_four_limits(monkeypatch):
+    """Every call fails just inside the call's limit: the warm solve's steps towards the
+    scenario and its cold retry stop at four limits, as a cold start does. Was: no bound
+    but each call's (fatrop on the condensed NLP, whose calls failed at the limit, ran a
+    4-scenario sweep for more than 13 minutes at a 30 s limit)."""
+    from system_fixtures import system_for
+
+    from optimize.model.kite_model import kite_dae
+    from optimize.paper_model import paper_model
+    from optimize.problem.ocp import build_ocp
+    from optimize.problem.options import Discretization, OcpOptions, SolverOptions
+    from optimize.problem.scenario import Scenario
+    from optimize.solve import nlp_solver
+    from optimize.solve.result import Solution
+    from optimize.solve.solve import solve
+    from optimize.solve.starts.fill import part_start
+
+    limit_s, call_s = 0.5, 0.4
+    ocp = build_ocp(kite_dae(), paper_model(), OcpOptions(
+        Discretization(n_intervals=4), solver=SolverOptions(call_time_limit_s=limit_s)),
+        system=system_for())
+    mech = Scenario(7.0, "mechanical", False)
+    g = part_start(ocp, ocp.loop.period_s, mech.parameters)
+    w0 = ocp.pack(g["x"], g["z"], g["u"], g["fict"], ocp.loop.period_s)
+    warm = Solution(w0, np.zeros(ocp.layout.n_w), np.zeros(ocp.layout.n_g), 4,
+                    ocp.coll.degree, p=ocp.params(mech.parameters, mech.weights),
+                    drive_limits=False)
+    calls = []
+
+    def failing(nlpsol, w, *_args):  # a call that fails just inside its limit
+        calls.append(time.perf_counter())
+        time.sleep(call_s)
+        return nlp_solver.RawSolve(np.asarray(w, dtype=float), np.zeros(ocp.layout.n_w),
+                                   np.zeros(ocp.layout.n_g), np.nan,
+                                   "Restoration_Failed", False, 5, call_s, 0.0)
+
+    monkeypatch.setattr(nlp_solver, "solver", lambda *args, **kwargs: None)
+    monkeypatch.setattr(nlp_solver, "_call", failing)
+    t0 = time.perf_counter()
+    res = solve(ocp, Scenario(7.0, "electrical", True), warm)
+    assert not res.success
+    assert res.status.startswith(f"{deadline.WALL_STATUS}: not run"), res.status
+    # no call starts past the solve's four limits (the last one ends at most a call later)
+    assert calls[-1] - t0 < deadline.COLD_START_CALLS * limit_s
+    assert time.perf_counter() - t0 < deadline.COLD_START_CALLS * limit_s + call_s + 1.0

@@ -2,10 +2,11 @@
 
 One NLP solver call may run ``SolverOptions.call_time_limit_s`` seconds
 (:data:`CALL_WALL_LIMIT_S` unless ``--call-time-limit`` says otherwise), and a cold start
-(the stored guess, the homotopy and its fallbacks together) :data:`COLD_START_CALLS` times
-as long (:func:`optimize.solve.starts.cold.start`). IPOPT stops itself there (its
-``max_wall_time``); past the deadline the condensed NLP solves no new point: its
-evaluations there fail quietly
+(the stored guess, the homotopy and its fallbacks together) or a warm solve (its steps and
+its cold retry) :data:`COLD_START_CALLS` times as long
+(:func:`optimize.solve.starts.cold.start`, :func:`optimize.solve.solve.solve`). IPOPT
+stops itself there (its ``max_wall_time``); past the deadline the condensed NLP solves no
+new point: its evaluations there fail quietly
 (:class:`optimize.problem.transcriptions.condensed_derivatives.IntervalCache`), which
 ends any solver's call (fatrop has no time limit of its own); on the collocation
 fatrop's constraint Jacobian does the same
@@ -26,7 +27,7 @@ from contextlib import contextmanager
 #: at most 62 s in all with IPOPT, AP2 condensed, and 181 s with fatrop, MegAWES condensed,
 #: each in several calls: benchmarks/README.md)
 CALL_WALL_LIMIT_S = 150.0
-#: how many calls' limits a cold start may run, all its calls together
+#: how many calls' limits a cold start or a warm solve may run, all its calls together
 COLD_START_CALLS = 4
 #: how the status of a solve stopped at its deadline begins
 WALL_STATUS = "Wall_Time_Limit"

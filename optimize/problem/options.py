@@ -147,11 +147,11 @@ class SolverOptions:
         (``benchmarks/warm_start_predictor.py``, figures in benchmarks/README.md).
     call_time_limit_s : float
         The longest one solver call may run [s, wall clock] (``--call-time-limit``):
-        IPOPT's ``max_wall_time`` and the condensed NLP's deadline; a cold start, all its
-        calls together, may run :data:`~optimize.problem.deadline.COLD_START_CALLS` times
-        as long (:mod:`optimize.problem.deadline`). A call stopped there fails with the
-        status ``Wall_Time_Limit``; raise it for a large mesh, a slow machine or a
-        loaded one.
+        IPOPT's ``max_wall_time`` and the condensed NLP's deadline; a cold start or a warm
+        solve, all its calls together, may run
+        :data:`~optimize.problem.deadline.COLD_START_CALLS` times as long
+        (:mod:`optimize.problem.deadline`). A call stopped there fails with the status
+        ``Wall_Time_Limit``; raise it for a large mesh, a slow machine or a loaded one.
     """
 
     solver: str = "ipopt"

@@ -283,7 +283,7 @@ def run(
         return raw
     return dataclasses.replace(raw, status=(
         f"{WALL_STATUS}: stopped after {raw.wall_time_s:.0f} s (at most {limit_s:g} s a "
-        f"call, {COLD_START_CALLS * limit_s:g} s a cold start: --call-time-limit), "
+        f"call, {COLD_START_CALLS * limit_s:g} s a solve: --call-time-limit), "
         f"{raw.iterations} iterations; the solver said {raw.status}"))
 
 

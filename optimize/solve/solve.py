@@ -17,6 +17,7 @@ import logging
 
 import numpy as np
 
+from optimize.problem.deadline import COLD_START_CALLS, deadline
 from optimize.problem.ocp import Bounds, Ocp
 from optimize.problem.scenario import Scenario
 from optimize.solve import nlp_solver
@@ -45,7 +46,10 @@ def solve(
     scenario's parameters (:mod:`optimize.solve.starts.predictor`; stage
     ``"predicted"``). If that fails and ``retry_cold`` is set, the same primal point
     is tried once more with the default (cold) barrier settings; both calls count in
-    the result.
+    the result. A warm solve, its steps and its cold retry together, runs at most
+    :data:`~optimize.problem.deadline.COLD_START_CALLS` times a call's limit, as a cold
+    start does (its calls past that are not made: the solve fails with the status
+    :data:`~optimize.problem.deadline.WALL_STATUS`).
 
     Parameters
     ----------
@@ -80,6 +84,13 @@ def solve(
         raise ValueError(f"warm start has {warm_start.lam_g.size} constraint multipliers; the "
                          f"OCP has {ocp.layout.n_g} rows (another OCP's solution: carry it over "
                          "with optimize.solve.result.carry_over)")
+    with deadline(COLD_START_CALLS * ocp.options.solver.call_time_limit_s):
+        return _solve_warm(ocp, scenario, warm_start, retry_cold, period_s)
+
+
+def _solve_warm(ocp: Ocp, scenario: Scenario, warm_start: Solution, retry_cold: bool,
+                period_s: float | None) -> OcpResult:
+    """:func:`solve` from ``warm_start``, checked to be of this OCP's layout."""
     bounds = ocp.bounds(drive_limits=scenario.drive_limits, fix_fictitious=True,
                         period_s=period_s)
     p = ocp.params(scenario.parameters, scenario.weights)
