@@ -460,6 +460,99 @@ def case_thermal_block_absurd(work: Work) -> tuple[str, str]:
     return verdict, f"{text} ({time.perf_counter() - t0:.0f} s)"
 
 
+
+def _fatrop_verdict(run: subprocess.CompletedProcess, out: Path, reference: Path | None,
+                    seconds: float) -> tuple[str, str]:
+    """A fatrop sweep: clean when it ends without a traceback and either converges (to
+    IPOPT's optima of ``reference`` within 1 % where given) or names the failures and
+    ``--solver ipopt``."""
+    text = run.stdout + run.stderr
+    took = f"({seconds:.0f} s)"
+    if "Traceback" in text:
+        return "unclear", f"traceback: {said(run)} {took}"
+    summary = pd.read_parquet(out / "summary.parquet").set_index("scenario")
+    failed = summary.index[~summary["success"]].tolist()
+    if failed and "--solver ipopt" not in run.stdout:
+        return "unclear", f"exit {run.returncode}, {failed} failed, no option named {took}"
+    if reference is not None:
+        ref = pd.read_parquet(reference / "summary.parquet").set_index("scenario")
+        for name in summary.index[summary["success"]]:
+            got, want = (summary.loc[name, "avg_p_elec_w"], ref.loc[name, "avg_p_elec_w"])
+            if abs(got - want) > 0.01 * abs(want):
+                return "wrong", f"{name} P_elec {got:.2f} W, IPOPT {want:.2f} W {took}"
+    return "clean", (f"exit {run.returncode}, {len(summary) - len(failed)}/{len(summary)} "
+                     f"converged, failed {failed or 'none'}: {said(run)} {took}")
+
+
+def case_fatrop_condensed_sweep(work: Work) -> tuple[str, str]:
+    """The base sweep's grid (coarse) by fatrop on the condensed NLP: converged to IPOPT's
+    optima, or its failures named with --solver ipopt, within the stated call limits."""
+    d = work.copy("fatrop_condensed_sweep")
+    t0 = time.perf_counter()
+    run = bench("optimize", "--wind-grid", "7,8.5", "--scenarios", "elec-lim,mech-lim",
+                "--no-claims", "--out", "o_fatrop", "--solver", "fatrop", "--transcription",
+                "condensed", "--call-time-limit", "30", *COARSE, cwd=d)
+    return _fatrop_verdict(run, d / "o_fatrop", d / "optimize_out", time.perf_counter() - t0)
+
+
+def case_fatrop_condensed_winding_limit(work: Work) -> tuple[str, str]:
+    """A 90 degC winding limit (a thermal block of r_th 0.05 K/W) by fatrop on the
+    condensed NLP at 8 m/s: converged, or failed within the stated call limits naming
+    --solver ipopt (was: exception: FloatingPointError ... singular block)."""
+    d = work.copy("fatrop_condensed_winding_limit")
+    model = json.loads((ROOT / "optimize/data/paper_drive_model.json").read_text())
+    model["schema_version"] = 3
+    model["thermal"] = {"nodes": 1, "r_th_k_per_w": 0.05, "tau_th_s": 900.0,
+                        "c_th_j_per_k": 900.0 / 0.05, "copper_temp_coeff_per_k": 0.00393,
+                        "theta_ref_c": 20.0, "ambient_c": 25.0}
+    (d / "warm.json").write_text(json.dumps(model))
+    system = _system_with(d, "drive", "max_winding_temperature_c = 90.0")
+    t0 = time.perf_counter()
+    run = bench("optimize", "--system", str(system), "--drive-model", "warm.json",
+                "--wind-grid", "8", "--scenarios", "elec-lim", "--no-claims", "--out", "o8",
+                "--solver", "fatrop", "--transcription", "condensed", "--call-time-limit", "20",
+                *COARSE, cwd=d)
+    return _fatrop_verdict(run, d / "o8", None, time.perf_counter() - t0)
+
+
+
+def _bad_input(name: str, args: tuple[str, ...], *keys: str,
+               prepare: Callable[[Path], None] | None = None) -> Callable:
+    """``bench *args`` in a copy of the base runs (after ``prepare`` of the folder): refused
+    naming ``keys``, no traceback, within seconds."""
+    def case(work: Work) -> tuple[str, str]:
+        d = work.copy(name)
+        if prepare is not None:
+            prepare(d)
+        t0 = time.perf_counter()
+        verdict, text = refused(bench(*args, cwd=d), *keys)
+        return verdict, f"{text} ({time.perf_counter() - t0:.0f} s)"
+    case.__doc__ = f"bench {' '.join(args)}: refused naming {', '.join(keys)}"
+    return case
+
+
+def _cut(path: str, size: int) -> Callable[[Path], None]:
+    def prepare(d: Path) -> None:
+        (d / path).write_bytes((d / path).read_bytes()[:size])
+    return prepare
+
+
+def _nan_coefficient(d: Path) -> None:
+    model = json.loads((ROOT / "optimize/data/paper_drive_model.json").read_text())
+    model["coefficients"]["rpm"][2] = float("nan")
+    (d / "nan.json").write_text(json.dumps(model))
+
+
+def _toml_syntax_error(d: Path) -> None:
+    text = (ROOT / "optimize/data/systems/highwind.toml").read_text()
+    (d / "broken.toml").write_text(text.replace("mass_kg = 7.5", "mass_kg = = 7.5", 1))
+
+
+_OPT = ("optimize", "--wind-grid", "7", "--scenarios", "elec-lim", "--no-claims", "--out",
+        "o_bad", *COARSE)
+_AEP = ("aep", "--optimize", "optimize_out", "--out", "aep_bad", *SITE)
+
+
 CASES = {
     "record_of_another_candidate": case_record_of_another_candidate,
     "npz_swapped": case_npz_swapped,
@@ -489,6 +582,48 @@ CASES = {
     "thermal_block_absurd": case_thermal_block_absurd,
     "base_speed_leaves_no_envelope": _contradiction(
         "base_speed_leaves_no_envelope", "drive", "base_speed_rpm = 0.001", "base_speed_rpm"),
+    # helper-13: fatrop on the condensed NLP, the issue's last unmet case
+    "fatrop_condensed_sweep": case_fatrop_condensed_sweep,
+    "fatrop_condensed_winding_limit": case_fatrop_condensed_winding_limit,
+    # helper-13: more of the classes (other contradictions, other damaged files, bad options)
+    "alpha_bounds_crossed": _contradiction(
+        "alpha_bounds_crossed", "aero", "alpha_min_deg = 9.0", "alpha_max_deg", "[9, 8.5]"),
+    "period_bounds_crossed": _contradiction(
+        "period_bounds_crossed", "bounds", "period_min_s = 30.0", "period_min_s"),
+    "tether_bounds_crossed": _contradiction(
+        "tether_bounds_crossed", "bounds", "tether_length_min_m = 600.0",
+        "tether_length_min_m"),
+    "drum_radius_zero": _contradiction(
+        "drum_radius_zero", "winch", "drum_radius_m = 0.0", "drum_radius_m"),
+    "max_speed_zero": _contradiction(
+        "max_speed_zero", "drive", "max_speed_rpm = 0.0", "max_speed_rpm"),
+    "start_npz_truncated": _bad_input(
+        "start_npz_truncated", (*_OPT, "--start", "optimize_out/start.npz"), "start.npz",
+        prepare=_cut("optimize_out/start.npz", 300)),
+    "drive_model_nan": _bad_input(
+        "drive_model_nan", (*_OPT, "--drive-model", "nan.json"), "nan.json",
+        prepare=_nan_coefficient),
+    "system_toml_syntax": _bad_input(
+        "system_toml_syntax", (*_OPT, "--system", "broken.toml"), "broken.toml",
+        prepare=_toml_syntax_error),
+    "run_json_truncated_for_aep": _bad_input(
+        "run_json_truncated_for_aep", _AEP, "run.json",
+        prepare=_cut("optimize_out/run.json", 40)),
+    "intervals_zero": _bad_input("intervals_zero", (*_OPT, "--intervals", "0"), "--intervals"),
+    "call_time_limit_nan": _bad_input(
+        "call_time_limit_nan", (*_OPT, "--call-time-limit", "nan"), "--call-time-limit"),
+    "period_scan_too_many": _bad_input(
+        "period_scan_too_many", (*_OPT, "--period-scan", "100"), "--period-scan"),
+    "linear_solver_with_fatrop": _bad_input(
+        "linear_solver_with_fatrop", (*_OPT, "--solver", "fatrop", "--linear-solver", "ma27"),
+        "--linear-solver"),
+    "aep_mean_speed_negative": _bad_input(
+        "aep_mean_speed_negative", ("aep", "--optimize", "optimize_out", "--out", "aep_bad",
+                                    "--weibull-k", "2", "--mean-speed", "-1",
+                                    "--height-m", "100"), "--mean-speed"),
+    "size_scales_nan": _bad_input(
+        "size_scales_nan", ("size", "--scales", "1,nan", "--wind-grid", "7,8.5", "--out", "s_bad",
+                            *COARSE, *SITE), "--scales"),
 }
 
 
