@@ -441,16 +441,23 @@ def case_scheduler_killed_mid_size(work: Work) -> tuple[str, str]:
                 p.wait()
 
 
+def _thermal_model_file(path: Path, r_th_k_per_w: float) -> None:
+    """The shipped paper model with a one-node thermal block of ``r_th_k_per_w`` [K/W]
+    (tau 900 s), written to ``path``."""
+    model = json.loads((ROOT / "optimize/data/paper_drive_model.json").read_text())
+    model["schema_version"] = 3
+    model["thermal"] = {"nodes": 1, "r_th_k_per_w": r_th_k_per_w, "tau_th_s": 900.0,
+                        "c_th_j_per_k": 900.0 / r_th_k_per_w,
+                        "copper_temp_coeff_per_k": 0.00393, "theta_ref_c": 20.0,
+                        "ambient_c": 25.0}
+    path.write_text(json.dumps(model))
+
+
 def case_thermal_block_absurd(work: Work) -> tuple[str, str]:
     """A power model whose thermal block has r_th 1e6 K/W, flown with a 120 degC winding
     limit: refused before any solve, naming the block and the limit."""
     d = work.copy("thermal_block_absurd")
-    model = json.loads((ROOT / "optimize/data/paper_drive_model.json").read_text())
-    model["schema_version"] = 3
-    model["thermal"] = {"nodes": 1, "r_th_k_per_w": 1e6, "tau_th_s": 900.0,
-                        "c_th_j_per_k": 900.0 / 1e6, "copper_temp_coeff_per_k": 0.00393,
-                        "theta_ref_c": 20.0, "ambient_c": 25.0}
-    (d / "hot.json").write_text(json.dumps(model))
+    _thermal_model_file(d / "hot.json", 1e6)
     system = _system_with(d, "drive", "max_winding_temperature_c = 120.0")
     t0 = time.perf_counter()
     run = bench("optimize", "--system", str(system), "--drive-model", "hot.json",
@@ -500,12 +507,7 @@ def case_fatrop_condensed_winding_limit(work: Work) -> tuple[str, str]:
     condensed NLP at 8 m/s: converged, or failed within the stated call limits naming
     --solver ipopt (was: exception: FloatingPointError ... singular block)."""
     d = work.copy("fatrop_condensed_winding_limit")
-    model = json.loads((ROOT / "optimize/data/paper_drive_model.json").read_text())
-    model["schema_version"] = 3
-    model["thermal"] = {"nodes": 1, "r_th_k_per_w": 0.05, "tau_th_s": 900.0,
-                        "c_th_j_per_k": 900.0 / 0.05, "copper_temp_coeff_per_k": 0.00393,
-                        "theta_ref_c": 20.0, "ambient_c": 25.0}
-    (d / "warm.json").write_text(json.dumps(model))
+    _thermal_model_file(d / "warm.json", 0.05)
     system = _system_with(d, "drive", "max_winding_temperature_c = 90.0")
     t0 = time.perf_counter()
     run = bench("optimize", "--system", str(system), "--drive-model", "warm.json",
