@@ -193,7 +193,10 @@ class _Search:
             resolves=(*o.resolves, record)), source)
         self.origin[key] = (source, self.version[source])
         self.version[key] += 1
-        (self.carried.add if carried else self.carried.discard)(key)
+        if carried:
+            self.carried.add(key)
+        else:
+            self.carried.discard(key)
         return True
 
     def carry_on(self, ks: list, i: int, step: int) -> None:
