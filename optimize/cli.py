@@ -16,7 +16,13 @@ from typing import Any
 
 from kernel.errors import InputError
 from optimize.kinds import DEFAULT_KINDS
-from optimize.problem.deadline import CALL_WALL_LIMIT_S, COLD_START_CALLS
+from optimize.problem.deadline import (
+    CALL_WALL_LIMIT_S,
+    COLD_START_CALLS,
+    HARD_STOP_CALLS,
+    HARD_STOP_GRACE_S,
+    SCENARIO_CALLS,
+)
 from optimize.problem.options import SOLVERS, TRANSCRIPTIONS
 from optimize.sweep_options import DEFAULT_WIND_GRID
 
@@ -28,7 +34,9 @@ FIT_MODEL_PATH = Path("fit_out") / "power_model.json"
 EXIT_ALL_CONVERGED, EXIT_ALL_FAILED, EXIT_SOME_FAILED, EXIT_CLUSTER_LOST = 0, 1, 3, 4
 EXIT_CODES = (f"exit codes: {EXIT_ALL_CONVERGED} every scenario converged; {EXIT_SOME_FAILED} "
               f"some failed (listed after FAILED, their status in summary.parquet; the files "
-              f"are written); {EXIT_ALL_FAILED} all failed; {EXIT_CLUSTER_LOST} the Dask "
+              f"are written); {EXIT_ALL_FAILED} all failed ({EXIT_SOME_FAILED} or "
+              f"{EXIT_ALL_FAILED} also when a solver call hung and stopped the run: WORKER "
+              f"LOST, the scenarios not run listed); {EXIT_CLUSTER_LOST} the Dask "
               "cluster was lost during the run (the scenarios that finished are written, "
               "the others listed as not run; an earlier output with scenarios this run lost "
               "is kept, this one written beside it as <out>.partial); 2 bad input (nothing "
@@ -165,9 +173,13 @@ def add_call_time_limit(parser: Any) -> None:
         metavar="SECONDS",
         help=f"the longest one solver call may run, wall clock (default {CALL_WALL_LIMIT_S:g}); "
         f"a solve (a cold start, or a warm one with its steps and retry) may run "
-        f"{COLD_START_CALLS} times as long; a solve stopped there fails "
-        "with the status Wall_Time_Limit: raise it for a large mesh or a slow or loaded "
-        "machine",
+        f"{COLD_START_CALLS} times as long, and a scenario's solver runs all together "
+        f"(warm, cold, retries, re-solves) start within {SCENARIO_CALLS} times as long, the "
+        "last ending within one more (bench optimize states the bound this sets before it "
+        "starts); a solve stopped so fails with the status Wall_Time_Limit; a call still "
+        f"running {HARD_STOP_CALLS} times as long and {HARD_STOP_GRACE_S:g} s more is taken "
+        "to hang and stops the run, what finished kept. Raise it for a large mesh or a slow "
+        "or loaded machine; inf: no limit (and no bound)",
     )
 
 
@@ -201,6 +213,7 @@ def run(args: argparse.Namespace) -> int:
         period_scan=args.period_scan)
     print(request.model_note)
     print(execution.line())
+    print(request.time_bound())
     sweep = run_optimize(request, list(args.command_line), show_progress=not args.no_progress)
     print(format_summary(sweep.summary, args.period_scan,
                          (request.setup.system.bounds.period_min_s,
@@ -213,7 +226,7 @@ def run(args: argparse.Namespace) -> int:
     for line in sweep.trust_lines:
         print(line)
     n_ok = int(sweep.summary["success"].sum())
-    print(f"\n{iterations_line(sweep.iterations)}")
+    print(f"\n{iterations_line(sweep.iterations, args.solver)}")
     print(f"{n_ok}/{len(sweep.summary)} scenarios converged in {sweep.wall_time_s:.1f} s "
           f"({sweep.executor}); files in {sweep.out or args.out}")
     not_run = sweep.summary["status"].str.startswith(NOT_RUN)
@@ -224,6 +237,14 @@ def run(args: argparse.Namespace) -> int:
         if advice:
             print(advice)
     if sweep.lost is None:
+        return exit_code(sweep.summary["success"].tolist())
+    if sweep.lost_worker:  # a re-run may hang the same way: the scenarios' own exit code
+        print(f"WORKER LOST: {sweep.lost}", file=sys.stderr)
+        print("NOT RUN (the run stopped): "
+              f"{', '.join(sweep.summary.loc[not_run, 'scenario']) or 'none of the scenarios'}",
+              file=sys.stderr)
+        if sweep.kept:
+            print(sweep.kept, file=sys.stderr)
         return exit_code(sweep.summary["success"].tolist())
     print(f"CLUSTER LOST: {sweep.lost}", file=sys.stderr)
     print("NOT RUN (cluster lost; a re-run solves them): "
@@ -246,13 +267,19 @@ def solver_advice(solver: str, transcription: str) -> str | None:
             "default): the paper sweep converges 20/20 with it, on either transcription")
 
 
-def iterations_line(iterations: dict) -> str:
-    """What the sweep's solves cost in IPOPT iterations, in one line."""
+#: the solvers' names as their authors write them (``--solver``)
+SOLVER_NAMES = {"ipopt": "IPOPT", "fatrop": "fatrop"}
+
+
+def iterations_line(iterations: dict, solver: str = "ipopt") -> str:
+    """What the sweep's solves cost in iterations of ``solver`` (``--solver``), in one
+    line."""
     way = (f"; {iterations['intermediate_points']} intermediate points on the way to them "
            f"({iterations['intermediate_iterations']} iterations, not results)"
            if iterations["intermediate_iterations"] else "")
     roles = ", ".join(f"{role} {n}" for role, n in iterations.get("by_role", {}).items())
-    return (f"IPOPT iterations: {iterations['reported']} in the scenarios' final solves{way}; "
+    return (f"{SOLVER_NAMES.get(solver, solver)} iterations: {iterations['reported']} in the "
+            f"scenarios' final solves{way}; "
             f"{iterations['all']} in all" + (f" ({roles})" if roles else ""))
 
 

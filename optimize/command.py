@@ -10,6 +10,7 @@ This module sits above the solver and the analysis; nothing in them imports it.
 from __future__ import annotations
 
 import dataclasses
+import math
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,12 +23,13 @@ from kernel.provenance import Provenance
 from optimize.analysis.claims import cut_in_frame, evaluate_claims
 from optimize.analysis.result_check import MIN_COLLOCATION_POINTS, mesh_label
 from optimize.kinds import KINDS
-from optimize.problem.deadline import CALL_WALL_LIMIT_S
+from optimize.problem.deadline import CALL_WALL_LIMIT_S, SCENARIO_CALLS, hard_stop_s
 from optimize.problem.ocp import model_parts
 from optimize.problem.part import trajectory_columns
 from optimize.resolve import Setup, resolve
 from optimize.service import Problem, SweepTasks, run_sweep
 from optimize.service.builder import OcpBackend
+from optimize.service.cut_in import max_probes
 from optimize.service.executors import open_executor
 from optimize.service.plan import plan_graph
 from optimize.solve.starts.stored_guess import check_start_file
@@ -99,6 +101,39 @@ class SweepRequest:
     trust: bool = False
     cut_in_tol_m_s: float = 0.05
     period_scan: int = 0
+
+    @property
+    def cut_in_kinds(self) -> tuple[str, ...]:
+        """The kinds whose cut-in speed is searched: the drive-limited ones, with claims."""
+        return (tuple(k for k in self.grid.kinds if KINDS[k].drive_limits)
+                if self.claims else ())
+
+    def time_bound(self) -> str:
+        """The most the sweep's solver runs take, in one line, said before it starts: each
+        scenario's runs (the grid's and the cut-in probes') start within
+        :data:`~optimize.problem.deadline.SCENARIO_CALLS` call limits and the last ends
+        within one more (:class:`optimize.service.solves.Solves`); a call that hangs ends
+        the run at its hard stop (:func:`optimize.problem.deadline.hard_stop_s`)."""
+        limit_s = self.setup.options.solver.call_time_limit_s
+        if not math.isfinite(limit_s):
+            return "time bound: none (--call-time-limit inf: no solver run is stopped)"
+        n_grid = len(self.grid.wind_speeds_m_s) * len(self.grid.kinds)
+        n_probes = len(self.cut_in_kinds) * max_probes(self.grid.wind_speeds_m_s,
+                                                       self.cut_in_tol_m_s)
+        per_s = (SCENARIO_CALLS + 1) * limit_s
+        probes = f" and up to {n_probes} cut-in probes" if n_probes else ""
+        return (f"time bound: {n_grid} scenarios{probes}, each at most {per_s:g} s of solver "
+                f"runs ({SCENARIO_CALLS} + 1 times --call-time-limit {limit_s:g}), "
+                f"{_minutes((n_grid + n_probes) * per_s)} in all (NLP builds and --trust "
+                f"aside); a call that hangs stops the run {hard_stop_s(limit_s):g} s after "
+                "it began")
+
+
+def _minutes(seconds: float) -> str:
+    """``seconds`` [s] in words: ``"270 s"``, ``"18 min"``, ``"2.5 h"``."""
+    if seconds < 600:
+        return f"{seconds:.0f} s"
+    return f"{seconds / 60:.0f} min" if seconds < 3 * 3600 else f"{seconds / 3600:.1f} h"
 
 
 #: the most held periods ``--period-scan`` takes (each costs two warm solves per scenario)
@@ -249,13 +284,17 @@ class OptimizeOutcome:
     iterations : dict of int
         The sweep's solver iterations (:meth:`optimize.service.run.SweepResult.iterations`).
     lost : str or None
-        Why the Dask cluster was lost before the sweep ended (the scenarios it did not run
-        failed ``"not run: ..."``); None when the sweep ran to its end.
+        Why the Dask cluster (or a worker of the local pool) was lost before the sweep
+        ended (the scenarios it did not run failed ``"not run: ..."``); None when the sweep
+        ran to its end.
     out : Path or None
         The folder written: ``request.out``, or beside it :func:`partial_folder` when the
         cluster was lost and the earlier output there converged scenarios this run lost.
     kept : str or None
         Why the earlier output in ``request.out`` was kept (:func:`earlier_is_better`).
+    lost_worker : bool
+        ``lost`` was a worker of the local pool that ended abruptly (a solver call that
+        hung past its hard stop), not a Dask cluster.
     """
 
     summary: Any
@@ -270,6 +309,7 @@ class OptimizeOutcome:
     lost: str | None = None
     out: Path | None = None
     kept: str | None = None
+    lost_worker: bool = False
 
 
 def run_optimize(
@@ -292,8 +332,7 @@ def run_optimize(
     run = Provenance.start(command_line if command_line is not None else sys.argv)
     system, drive, options = request.setup.system, request.setup.drive, request.setup.options
     problem = Problem.for_system(system, drive.model, options)
-    cut_in_kinds = (tuple(k for k in request.grid.kinds if KINDS[k].drive_limits)
-                    if request.claims else ())
+    cut_in_kinds = request.cut_in_kinds
     trust: dict = {"mesh": [], "simulation": []}
     plan = plan_graph(request.grid.wind_speeds_m_s, request.grid.kinds)
     with open_executor(request.workers, request.scheduler) as handle:
@@ -322,7 +361,7 @@ def run_optimize(
                                          None), backend))
     return OptimizeOutcome(summary, claims, cut_ins, trust, tuple(trust.get("lines", ())),
                            result.wall_time_s, result.executor, files, result.iterations(),
-                           result.lost, Path(out), kept)
+                           result.lost, Path(out), kept, result.lost_worker)
 
 
 def partial_folder(out: Path) -> Path:

@@ -13,11 +13,20 @@ fatrop's constraint Jacobian does the same
 (:class:`optimize.problem.transcriptions.gate.Gated`); a call asked for after it is not
 made (:func:`optimize.solve.nlp_solver.run`). A solve stopped so fails with the status
 :data:`WALL_STATUS` and what its last call said.
+
+A call that does not return at all is ended with its process, in a worker of the local
+process pool (:func:`pool_worker`; :func:`hard_stop`): fatrop can loop for good inside one
+iteration, where no evaluation asks for the time (its inertia correction has no cap: the
+paper kite's condensed NLP at 10 intervals, ``--call-time-limit 30``, ran 4 minutes in one
+call before it was stopped). The driver then stops the run with what finished
+(:class:`optimize.service.executors.WorkerLost`).
 """
 
 from __future__ import annotations
 
+import faulthandler
 import math
+import os
 import threading
 import time
 from collections.abc import Iterator
@@ -29,10 +38,21 @@ from contextlib import contextmanager
 CALL_WALL_LIMIT_S = 150.0
 #: how many calls' limits a cold start or a warm solve may run, all its calls together
 COLD_START_CALLS = 4
+#: how many calls' limits one scenario's solver runs may take in all (its warm attempts and
+#: cold start, its retries, its re-solves; :class:`optimize.service.solves.Solves`): no run
+#: starts past them, so a sweep of S scenarios solves at most S times as long
+SCENARIO_CALLS = 8
 #: how the status of a solve stopped at its deadline begins
 WALL_STATUS = "Wall_Time_Limit"
+#: a solver call still running :data:`HARD_STOP_CALLS` times its limit and
+#: :data:`HARD_STOP_GRACE_S` after it began is taken to hang, and its worker process ends
+#: (:func:`hard_stop`): a call ends at its limit, give or take one iteration
+HARD_STOP_CALLS = 2
+HARD_STOP_GRACE_S = 60.0
 
 _local = threading.local()
+#: whether this process may end itself at a hung call's hard stop (:func:`pool_worker`)
+_may_stop = {"armed": False, "sink": None}
 
 
 @contextmanager
@@ -50,3 +70,43 @@ def deadline(seconds: float) -> Iterator[None]:
 def passed() -> bool:
     """Whether this thread's deadline has passed (never without one)."""
     return time.monotonic() > getattr(_local, "at", math.inf)
+
+
+def hard_stop_s(limit_s: float, grace_s: float = HARD_STOP_GRACE_S) -> float:
+    """When a solver call of limit ``limit_s`` [s] is taken to hang [s after it began]."""
+    return HARD_STOP_CALLS * limit_s + grace_s
+
+
+def pool_worker(parent_pid: int) -> None:
+    """Process initializer of the local pool's workers: the process ends with
+    ``parent_pid`` (:func:`kernel.lifetime.die_with_parent`) and at a hung solver call's
+    hard stop (:func:`hard_stop`). Light to import: a spawned worker imports the module of
+    its initializer first."""
+    from kernel.lifetime import die_with_parent
+
+    die_with_parent(parent_pid)
+    _may_stop["armed"] = True
+
+
+@contextmanager
+def hard_stop(limit_s: float, grace_s: float = HARD_STOP_GRACE_S) -> Iterator[None]:
+    """While open, a solver call of limit ``limit_s`` [s] runs: in a worker of the local
+    pool (:func:`pool_worker`, its main thread), the process exits (status 1, from a
+    watchdog thread that needs no lock of the interpreter,
+    :func:`faulthandler.dump_traceback_later`) when the call is still running
+    :func:`hard_stop_s` after it began (``grace_s`` in place of
+    :data:`HARD_STOP_GRACE_S`: the tests' stand-in solvers). Elsewhere (the
+    command's own process, a Dask worker's threads, the tests) and with no limit
+    (``--call-time-limit inf``) nothing is armed."""
+    armed = (_may_stop["armed"] and math.isfinite(limit_s)
+             and threading.current_thread() is threading.main_thread())
+    if armed:
+        if _may_stop["sink"] is None:  # the watchdog's traceback is nobody's to read
+            _may_stop["sink"] = open(os.devnull, "w")  # noqa: SIM115 - open for good
+        faulthandler.dump_traceback_later(hard_stop_s(limit_s, grace_s), exit=True,
+                                          file=_may_stop["sink"])
+    try:
+        yield
+    finally:
+        if armed:
+            faulthandler.cancel_dump_traceback_later()

@@ -9,6 +9,7 @@ drive the solve service with a cheap exact solver.
 
 from __future__ import annotations
 
+import math
 import threading
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -125,6 +126,17 @@ class Problem:
         options = self.options.replace(discretization={"n_intervals": n_intervals})
         return Problem(self.model, self.drive_model, options,
                        problem_key(options, self.drive_model, self.system), self.system)
+
+    @property
+    def scenario_budget_s(self) -> float:
+        """How long one scenario's solver runs may take in all [s]:
+        :data:`~optimize.problem.deadline.SCENARIO_CALLS` times a call's limit
+        (``--call-time-limit``); no limit for the stand-in problems of the tests, which
+        have no solver options."""
+        from optimize.problem.deadline import SCENARIO_CALLS
+
+        solver = getattr(self.options, "solver", None)
+        return math.inf if solver is None else SCENARIO_CALLS * solver.call_time_limit_s
 
     def refined(self) -> Problem | None:
         """The same problem on twice the collocation intervals (the mesh check's and the

@@ -9,6 +9,14 @@ from optimize.problem.scenario import Scenario
 from optimize.service.outcome import CutIn
 
 
+def max_probes(wind_speeds_m_s: tuple[float, ...], tol_m_s: float) -> int:
+    """The most probes one kind's search (:func:`find_cut_in`) solves on this grid: the
+    bisection of its widest step [m/s] down to ``tol_m_s``."""
+    widest = max((b - a for a, b in zip(wind_speeds_m_s, wind_speeds_m_s[1:], strict=False)),
+                 default=0.0)
+    return math.ceil(math.log2(widest / tol_m_s)) if widest > tol_m_s else 0
+
+
 def find_cut_in(solves: Any, kind: str, grid: dict[float, float],
                 tol_m_s: float = 0.05) -> CutIn:
     """Bisection on the wind speed for zero average electrical power.

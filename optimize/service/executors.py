@@ -7,7 +7,10 @@ start graph is one task (:func:`run_tasks`, :func:`run_graph`).
 * a :class:`~concurrent.futures.ProcessPoolExecutor` with ``workers`` processes
   (``spawn`` start method: CasADi/IPOPT and the tqdm thread of the parent are
   not fork-safe), its workers and the progress queue's manager each ended when
-  the process that started them dies (:func:`kernel.lifetime.die_with_parent`);
+  the process that started them dies (:func:`kernel.lifetime.die_with_parent`); a
+  worker whose solver call hangs ends itself at the call's hard stop
+  (:func:`optimize.problem.deadline.hard_stop`), which breaks the pool: the run then
+  stops with a :class:`WorkerLost` (a :class:`ClusterLost`), what finished kept as below;
 * with ``scheduler`` given, the executor of a ``distributed.Client`` connected to
   that Dask scheduler address (optional extra ``drivebench[dask]``). Start the
   Dask workers with ``--nthreads 1``: one solve at a time per process. An address
@@ -39,6 +42,7 @@ import time
 import uuid
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import dataclass
 from multiprocessing.managers import SyncManager
@@ -47,6 +51,7 @@ from typing import Any
 
 from kernel.errors import InputError
 from kernel.lifetime import die_with_parent
+from optimize.problem.deadline import HARD_STOP_CALLS, HARD_STOP_GRACE_S, pool_worker
 
 
 class QueueChannel:
@@ -153,6 +158,33 @@ class ClusterLost(InputError):
         super().__init__(None, problem, expected=expected)
         self.why = why
         self.finished: dict[int, Future] = {}
+
+
+class WorkerLost(ClusterLost):
+    """A worker process of the local pool ended abruptly, which breaks the pool: a solver
+    call that hung past its hard stop (:func:`optimize.problem.deadline.hard_stop`) ends
+    its worker so, as does a worker killed from outside (out of memory, a signal). The
+    run stops with what finished, as for a lost cluster; a re-run may hang the same way,
+    so the scenarios it left are not said to be solved by one."""
+
+    def __init__(self, exc: BaseException) -> None:
+        super().__init__(
+            "worker lost: a process of the local pool ended abruptly",
+            f"a worker process ended abruptly ({type(exc).__name__}): a solver call still "
+            f"running {HARD_STOP_CALLS} times --call-time-limit and {HARD_STOP_GRACE_S:g} s "
+            "after it began is taken to hang, and its worker is ended so (a worker killed "
+            "from outside, out of memory or by a signal, ends the same way); the run stops, "
+            "nothing more is solved: what finished is kept",
+            expected="solver calls that end at their --call-time-limit")
+
+
+def _lost_worker(futures: dict[int, Future]) -> WorkerLost | None:
+    """The loss of a local pool whose worker ended abruptly (a future that holds a
+    :class:`~concurrent.futures.process.BrokenProcessPool`), or None."""
+    for f in futures.values():
+        if f.done() and not f.cancelled() and isinstance(f.exception(), BrokenProcessPool):
+            return WorkerLost(f.exception())
+    return None
 
 
 class WatchedExecutor(Executor):
@@ -348,7 +380,7 @@ def open_executor(workers: int = 2, scheduler: str | None = None) -> Iterator[Ex
     with _main_not_reimported():
         manager.start(die_with_parent, (os.getpid(),))
         with manager, ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                                          initializer=die_with_parent,
+                                          initializer=pool_worker,
                                           initargs=(os.getpid(),)) as ex:
             plural = "s" if workers > 1 else ""
             yield ExecutorHandle(ex, QueueChannel(manager.Queue()),
@@ -413,8 +445,8 @@ def run_graph(
     ------
     ClusterLost
         The executor can no longer run the tasks (:meth:`WatchedExecutor.check`: a Dask
-        cluster without workers or scheduler); its ``finished`` holds the tasks done by
-        then.
+        cluster without workers or scheduler; :class:`WorkerLost`: a local pool whose
+        worker ended abruptly); its ``finished`` holds the tasks done by then.
     InputError
         The executor cancelled some tasks.
     """
@@ -455,9 +487,16 @@ def _run_graph(executor: Executor, fn: Callable[..., Any], n: int,
         if check is not None:
             check()
         done = {i: f for i, f in futures.items() if f.done()}
+        lost = _lost_worker(done)
+        if lost is not None:
+            _drain(channel, on_event, check)
+            raise lost
         ready = [i for i in waiting if all(j in done for j in needs(i))]
         for i in ready:
-            futures[i] = executor.submit(fn, make_task(i, done), progress=channel)
+            try:
+                futures[i] = executor.submit(fn, make_task(i, done), progress=channel)
+            except BrokenProcessPool as exc:  # broken between the look and the submit
+                raise WorkerLost(exc) from None
         waiting = [i for i in waiting if i not in ready]
         pending = [f for f in futures.values() if not f.done()]
         if waiting and not pending and not ready:
@@ -466,6 +505,9 @@ def _run_graph(executor: Executor, fn: Callable[..., Any], n: int,
             wait(pending, timeout=poll_s, return_when=FIRST_COMPLETED)
         _drain(channel, on_event, check)
     _drain(channel, on_event, check)
+    lost = _lost_worker(futures)
+    if lost is not None:
+        raise lost
     cancelled = sorted(i for i, f in futures.items() if f.cancelled())
     if cancelled:  # the executor shut down under them (a Dask client closed)
         if check is not None:

@@ -25,6 +25,7 @@ from typing import Any
 from optimize.kinds import OBJECTIVES
 from optimize.problem.scenario import Scenario
 from optimize.service.outcome import CRASH, Attempt, ScenarioOutcome, failure_status
+from optimize.service.solves import spent_status
 
 #: role of a retry in the progress events (:meth:`optimize.service.solves.Solves.attempt`)
 RETRY = "retry"
@@ -98,6 +99,10 @@ def retry_on_finer_mesh(solves: Any, outcome: ScenarioOutcome) -> ScenarioOutcom
     return outcome
 
 
+class _Spent(Exception):
+    """The scenario's budget is spent: the finer mesh is not solved."""
+
+
 def _remesh_attempt(solves: Any, outcome: ScenarioOutcome, coarse_ocp: Any, fine: Any
                     ) -> tuple[Attempt, Any, Any]:
     """One solve of ``outcome``'s scenario on the ``fine`` problem from its last result
@@ -105,16 +110,23 @@ def _remesh_attempt(solves: Any, outcome: ScenarioOutcome, coarse_ocp: Any, fine
     source = f"{outcome.name} on {fine.n_intervals} intervals"
     solves.tell("start", outcome.name, RETRY, source, "")
     t0, fine_ocp = time.perf_counter(), None
-    try:
-        fine_ocp = solves.backend.build(fine)
-        res = solves.backend.remesh(coarse_ocp, fine_ocp, outcome.scenario, outcome.result)
-    except Exception as exc:  # noqa: BLE001 - a crash is this attempt's failure, reported
-        attempt, res = Attempt(source, failure_status(CRASH, exc), False, 0,
-                               time.perf_counter() - t0), None
-    else:
-        check = solves.backend.check(fine_ocp, res, outcome.name) if res.success else None
-        attempt = Attempt(source, str(res.status), bool(res.success) and (
-            check is None or check.passed), int(res.iterations), float(res.wall_time_s), check)
+    with solves.budget(outcome.scenario) as left:
+        try:
+            if not left:
+                raise _Spent
+            fine_ocp = solves.backend.build(fine)
+            res = solves.backend.remesh(coarse_ocp, fine_ocp, outcome.scenario, outcome.result)
+        except _Spent:
+            attempt, res = Attempt(source, spent_status(solves.problem.scenario_budget_s),
+                                   False, 0, 0.0), None
+        except Exception as exc:  # noqa: BLE001 - a crash is this attempt's failure, reported
+            attempt, res = Attempt(source, failure_status(CRASH, exc), False, 0,
+                                   time.perf_counter() - t0), None
+        else:
+            check = solves.backend.check(fine_ocp, res, outcome.name) if res.success else None
+            attempt = Attempt(source, str(res.status), bool(res.success) and (
+                check is None or check.passed), int(res.iterations), float(res.wall_time_s),
+                check)
     solves.count(attempt, RETRY)
     solves.tell("done", outcome.name, RETRY, source, attempt.status)
     return attempt, res, fine_ocp

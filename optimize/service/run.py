@@ -30,7 +30,7 @@ from typing import Any
 from optimize.problem.scenario import Scenario
 from optimize.service.builder import Problem
 from optimize.service.chain import ChainTask, Refinement, run_chain
-from optimize.service.executors import ClusterLost
+from optimize.service.executors import ClusterLost, WorkerLost
 from optimize.service.foreign import ForeignStart
 from optimize.service.local_optima import LOCAL_OPTIMUM
 from optimize.service.outcome import (
@@ -196,7 +196,11 @@ class SweepResult:
         Description of the executor it ran on.
     lost : str or None
         Why the executor was lost before the sweep ended (a Dask cluster,
-        :class:`optimize.service.executors.ClusterLost`); None when it ran to its end.
+        :class:`optimize.service.executors.ClusterLost`; a worker of the local pool,
+        :class:`optimize.service.executors.WorkerLost`); None when it ran to its end.
+    lost_worker : bool
+        The loss was a worker of the local pool that ended abruptly (a solver call that
+        hung past its hard stop ends it so), not a Dask cluster.
     """
 
     outcomes: tuple[ScenarioOutcome, ...]
@@ -205,6 +209,7 @@ class SweepResult:
     wall_time_s: float
     executor: str
     lost: str | None = None
+    lost_worker: bool = False
 
     def iterations(self) -> dict[str, int]:
         """What the sweep's solves cost in solver iterations: ``reported`` (the final
@@ -440,11 +445,15 @@ def run_sweep(tasks: SweepTasks, handle: Any, show_progress: bool = True) -> Swe
     bar = tqdm(total=len(tasks.steps) + len(tasks.cut_in_kinds), desc="optimize",
                unit="solve", disable=not show_progress)
     n_failed = 0
+    running: dict[int, tuple[str, float]] = {}  # chain -> its solver run now, since when
 
     def on_event(event: dict) -> None:
         nonlocal n_failed
         if "attempt" in event:  # every solver run says what it is; re-solves also count
             bar.set_postfix_str(attempt_line(event))
+            running[event["chain"]] = (attempt_line(event), time.monotonic())
+            if event["attempt"] == "done":
+                del running[event["chain"]]
             if event["attempt"] == "done" and event["role"] in RE_SOLVES:
                 bar.total += 1
                 bar.update(1)
@@ -460,12 +469,16 @@ def run_sweep(tasks: SweepTasks, handle: Any, show_progress: bool = True) -> Swe
 
     t0 = time.perf_counter()
     grid, follow, lost = _run_stages(tasks, handle, on_event)
-    wall = time.perf_counter() - t0
+    wall, t_end = time.perf_counter() - t0, time.monotonic()
     bar.update(bar.total - bar.n)  # the total grew by the probes and re-solves
     bar.close()
     order = {k: i for i, k in enumerate(tasks.kinds)}
     outcomes = sorted((o for c in follow for o in c.outcomes),
                       key=lambda o: (order[o.kind], o.wind_speed_m_s))
     cut_ins = tuple(ci for c in follow for ci in c.cut_ins)
+    why = None if lost is None else lost.problem
+    if isinstance(lost, WorkerLost) and running:  # the run that had gone on longest
+        line, since = min(running.values(), key=lambda r: r[1])
+        why += f"; the solver run going on longest then: {line[:-4]} for {t_end - since:.0f} s"
     return SweepResult(tuple(outcomes), cut_ins, (*grid, *follow), wall, handle.description,
-                       None if lost is None else lost.problem)
+                       why, isinstance(lost, WorkerLost))

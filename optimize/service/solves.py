@@ -10,6 +10,11 @@ worker. It builds the NLP once (cached per process) and solves each scenario:
 * a solver crash is a failed attempt of that speed (status
   ``"exception: <type>: <message>"``, :func:`optimize.service.outcome.failure_status`),
   never a failed sweep;
+* a scenario's solver runs here and in earlier tasks (its outcome's attempts and
+  re-solves), all together, take at most :attr:`Problem.scenario_budget_s`
+  (:data:`~optimize.problem.deadline.SCENARIO_CALLS` call limits): each runs within what is
+  left of it (:func:`~optimize.problem.deadline.deadline`), and none starts once it is
+  spent (the run fails at once with the status :func:`spent_status`);
 * with a store, each finished solve is kept under the hash of its inputs
   (:func:`optimize.service.store.solve_key`) and a re-run loads it instead of
   solving it, once its files pass their checks (:func:`optimize.service.store.read_solve`);
@@ -26,10 +31,12 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from optimize.problem.deadline import SCENARIO_CALLS, WALL_STATUS, deadline
 from optimize.problem.scenario import Scenario
 from optimize.service.builder import Backend, OcpBackend, Problem
 from optimize.service.foreign import Start
@@ -42,6 +49,12 @@ MAX_WARM_ATTEMPTS = 2
 #: the cycle figures of a record, None when the solve failed (:func:`cycle_metrics`); the
 #: parts' own figures follow when it converged (``OcpResult.figures``)
 METRICS = ("peak_speed_rpm", "peak_torque_nm", "rms_torque_nm")
+
+def spent_status(budget_s: float) -> str:
+    """The status of a solver run not started: its scenario's ``budget_s`` [s] was spent."""
+    return (f"{WALL_STATUS}: not run, the scenario's {budget_s:g} s were spent (its solver "
+            f"runs take at most {SCENARIO_CALLS} times --call-time-limit in all)")
+
 
 def _figure(result: Any, name: str) -> float | None:
     value = getattr(result, name, None)
@@ -94,6 +107,8 @@ class Solves:
         self._warm: dict[Scenario, Any] = {}
         self._depth: dict[Scenario, int] = {}
         self._ocp = None
+        #: wall time of each scenario's solver runs so far [s], those of earlier tasks too
+        self.spent_s: dict[Scenario, float] = {}
 
     @property
     def ocp(self) -> Any:
@@ -121,11 +136,37 @@ class Solves:
         start; a :class:`optimize.service.foreign.Start`: one it did not find itself,
         another problem's solution or a stored cycle) for ``role`` (why it runs, for the
         progress events), with the period held at ``period_s`` [s] when given (a warm
-        start only); a crash is a failed attempt with no result."""
+        start only), within what is left of the scenario's budget (not run when nothing
+        is: :func:`spent_status`); a crash is a failed attempt with no result."""
         ocp = self.ocp
-        given = isinstance(source, Start)
         name = None if source is None else source.name
         self.tell("start", scenario.name, role, name, "")
+        with self.budget(scenario) as left:
+            attempt, result = (self._run(ocp, scenario, source, period_s) if left else (
+                Attempt(name, spent_status(self.problem.scenario_budget_s), False, 0, 0.0),
+                None))
+        self.count(attempt, role)
+        self.tell("done", scenario.name, role, name, attempt.status)
+        return attempt, result
+
+    @contextmanager
+    def budget(self, scenario: Scenario) -> Iterator[bool]:
+        """While open, a solver run of ``scenario`` goes on within what is left of its
+        budget (:attr:`Problem.scenario_budget_s`, :func:`deadline`), and its time counts
+        in :attr:`spent_s`; yields whether anything is left (when not, run nothing)."""
+        t0 = time.perf_counter()
+        left_s = self.problem.scenario_budget_s - self.spent_s.get(scenario, 0.0)
+        try:
+            with deadline(max(left_s, 0.0)):
+                yield left_s > 0
+        finally:
+            self.spent_s[scenario] = self.spent_s.get(scenario, 0.0) + time.perf_counter() - t0
+
+    def _run(self, ocp: Any, scenario: Scenario, source: Scenario | Start | None,
+             period_s: float | None) -> tuple[Attempt, Any]:
+        """:meth:`attempt`'s solver run and its check."""
+        given = isinstance(source, Start)
+        name = None if source is None else source.name
         t0 = time.perf_counter()
         try:
             if source is None:
@@ -145,8 +186,6 @@ class Solves:
                               float(result.wall_time_s), check,
                               int(getattr(result, "intermediate_points", 0)),
                               int(getattr(result, "intermediate_iterations", 0)))
-        self.count(attempt, role)
-        self.tell("done", scenario.name, role, name, attempt.status)
         return attempt, result
 
     def count(self, attempt: Attempt, role: str) -> None:
@@ -241,6 +280,7 @@ class Solves:
         optimum as a warm start when it converged."""
         k = outcome.scenario
         self.outcomes[k], self.records[k] = outcome, record
+        self.spent_s[k] = outcome.total_wall_time_s
         if outcome.success and outcome.result is not None:
             self._warm[k], self._depth[k] = outcome.result.warm, outcome.depth
 

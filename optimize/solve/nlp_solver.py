@@ -14,13 +14,23 @@ import dataclasses
 import logging
 import math
 import os
+import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as ca
 import numpy as np
 
-from optimize.problem.deadline import COLD_START_CALLS, WALL_STATUS, deadline, passed
+from optimize.problem.deadline import (
+    COLD_START_CALLS,
+    WALL_STATUS,
+    deadline,
+    hard_stop,
+    passed,
+)
 from optimize.problem.ocp import Bounds, Ocp
 from optimize.problem.transcriptions import method_of
 
@@ -251,7 +261,9 @@ def run(
     The call runs at most ``ocp.options.solver.call_time_limit_s`` seconds,
     and none is made past this thread's deadline (:mod:`optimize.problem.deadline`): a
     call stopped so, or not made, fails with the status
-    :data:`~optimize.problem.deadline.WALL_STATUS` and what the solver said.
+    :data:`~optimize.problem.deadline.WALL_STATUS` and what the solver said. A call that
+    does not return ends its worker process at its hard stop
+    (:func:`~optimize.problem.deadline.hard_stop`).
     """
     limit_s = ocp.options.solver.call_time_limit_s
     if passed():
@@ -264,7 +276,7 @@ def run(
         return _call(nlpsol, w, p_, b, lam_x, lam_g)
 
     t0 = time.perf_counter()
-    with deadline(limit_s):
+    with deadline(limit_s), hard_stop(limit_s):
         try:
             raw = method_of(ocp.options.solver).solve(ocp, call, w0, p, bounds,
                                                       lam_x0 if warm else None,
@@ -293,6 +305,41 @@ def _unsolved(ocp: Ocp, w0: np.ndarray, status: str, wall_time_s: float) -> RawS
                     math.nan, status, False, 0, wall_time_s, 0.0)
 
 
+#: CasADi's warnings a call's own status already says, kept off the user's screen: after a
+#: failed fatrop call CasADi evaluates the NLP once more at the call's last point to compute
+#: its multipliers, and where an interval's Newton solve does not converge there (the
+#: condensed NLP) it warns, once per such call, beside the status that says the call failed
+QUIET_WARNINGS = ("Failed to calculate multipliers",)
+
+
+class _Dropping:
+    """A text stream that passes on what is written to ``stream``, but the writes that
+    hold one of ``texts`` and a line end written alone right after one."""
+
+    def __init__(self, stream: Any, texts: tuple[str, ...]) -> None:
+        self._stream, self._texts, self._dropped = stream, texts, False
+
+    def write(self, text: str) -> int:
+        drop = any(t in text for t in self._texts) or (self._dropped and text == "\n")
+        self._dropped = drop and text != "\n"
+        return len(text) if drop else self._stream.write(text)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
+@contextmanager
+def _quiet_stderr(texts: tuple[str, ...]) -> Iterator[None]:
+    """While open, what is written to ``sys.stderr`` holding one of ``texts`` is dropped
+    (CasADi writes its warnings there, through the interpreter)."""
+    before = sys.stderr
+    sys.stderr = _Dropping(before, texts)
+    try:
+        yield
+    finally:
+        sys.stderr = before
+
+
 def _call(nlpsol: ca.Function, w0: np.ndarray, p: np.ndarray, bounds: Bounds,
           lam_x0: np.ndarray | None, lam_g0: np.ndarray | None) -> RawSolve:
     """One call of ``nlpsol``, with the multipliers when both are given."""
@@ -301,7 +348,8 @@ def _call(nlpsol: ca.Function, w0: np.ndarray, p: np.ndarray, bounds: Bounds,
     if lam_x0 is not None and lam_g0 is not None:
         args.update(lam_x0=lam_x0, lam_g0=lam_g0)
     t0, c0 = time.perf_counter(), time.process_time()
-    sol = nlpsol(**args)
+    with _quiet_stderr(QUIET_WARNINGS):
+        sol = nlpsol(**args)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     stats = nlpsol.stats()
     return RawSolve(

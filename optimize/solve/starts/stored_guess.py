@@ -142,6 +142,11 @@ def reference(ocp: Ocp, names: tuple[str, ...]) -> Ocp:
     key = ("stored parts", names)
     if key not in general.solvers:
         form = dataclasses.replace(general.formulation, parts=kept)
+        if not form.objective_averages:  # nothing to optimize: no OCP, no optimum to check
+            givers = [p.name for p in parts if p.objective_averages]
+            raise ValueError(f"without the part{'s' * (len(givers) > 1)} "
+                             f"{', '.join(givers)} the cycle has no objective: the average "
+                             "powers it weighs come from there")
         general.solvers[key] = assemble(form, general.options, loop=general.loop,
                                         system=general.system)
     return general.solvers[key]
@@ -385,9 +390,10 @@ def record_parts(path: str | Path, ocp: Ocp, names: tuple[str, ...]) -> tuple[bo
         data = {**old, "system_sha256": str(old.get("system_sha256", ""))}
         solution, why = _check(ref, data)
     except (KeyError, TypeError, ValueError, RuntimeError) as exc:
+        said = str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"
         return False, (f"the parts {', '.join(names)} make no OCP to check the file on "
-                       f"({type(exc).__name__}: {exc}); name every part it was written with "
-                       "(the shipped file: kite,drive)")
+                       f"({said}); name every part it was written with (the shipped file: "
+                       "kite,drive)")
     if solution is None:
         return False, why
     with atomic_path(path) as tmp, tmp.open("wb") as fh:
