@@ -23,6 +23,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from optimize.kinds import OBJECTIVES
+from optimize.problem.deadline import deadline
 from optimize.problem.scenario import Scenario
 from optimize.service.outcome import CRASH, Attempt, ScenarioOutcome, failure_status
 from optimize.service.solves import spent_status
@@ -110,12 +111,14 @@ def _remesh_attempt(solves: Any, outcome: ScenarioOutcome, coarse_ocp: Any, fine
     source = f"{outcome.name} on {fine.n_intervals} intervals"
     solves.tell("start", outcome.name, RETRY, source, "")
     t0, fine_ocp = time.perf_counter(), None
-    with solves.budget(outcome.scenario) as left:
+    with solves.budget(outcome.scenario) as left_s:
         try:
-            if not left:
+            if left_s <= 0:
                 raise _Spent
             fine_ocp = solves.backend.build(fine)
-            res = solves.backend.remesh(coarse_ocp, fine_ocp, outcome.scenario, outcome.result)
+            with deadline(left_s):
+                res = solves.backend.remesh(coarse_ocp, fine_ocp, outcome.scenario,
+                                            outcome.result)
         except _Spent:
             attempt, res = Attempt(source, spent_status(solves.problem.scenario_budget_s),
                                    False, 0, 0.0), None

@@ -50,6 +50,7 @@ MAX_WARM_ATTEMPTS = 2
 #: parts' own figures follow when it converged (``OcpResult.figures``)
 METRICS = ("peak_speed_rpm", "peak_torque_nm", "rms_torque_nm")
 
+
 def spent_status(budget_s: float) -> str:
     """The status of a solver run not started: its scenario's ``budget_s`` [s] was spent."""
     return (f"{WALL_STATUS}: not run, the scenario's {budget_s:g} s were spent (its solver "
@@ -141,40 +142,40 @@ class Solves:
         ocp = self.ocp
         name = None if source is None else source.name
         self.tell("start", scenario.name, role, name, "")
-        with self.budget(scenario) as left:
-            attempt, result = (self._run(ocp, scenario, source, period_s) if left else (
-                Attempt(name, spent_status(self.problem.scenario_budget_s), False, 0, 0.0),
-                None))
+        with self.budget(scenario) as left_s:
+            attempt, result = (self._run(ocp, scenario, source, period_s, left_s) if left_s > 0
+                               else (Attempt(name, spent_status(self.problem.scenario_budget_s),
+                                             False, 0, 0.0), None))
         self.count(attempt, role)
         self.tell("done", scenario.name, role, name, attempt.status)
         return attempt, result
 
     @contextmanager
-    def budget(self, scenario: Scenario) -> Iterator[bool]:
-        """While open, a solver run of ``scenario`` goes on within what is left of its
-        budget (:attr:`Problem.scenario_budget_s`, :func:`deadline`), and its time counts
-        in :attr:`spent_s`; yields whether anything is left (when not, run nothing)."""
+    def budget(self, scenario: Scenario) -> Iterator[float]:
+        """While open, a solver run of ``scenario`` goes on, its time counted in
+        :attr:`spent_s`; yields what is left of its budget [s]
+        (:attr:`Problem.scenario_budget_s`; when nothing is, run nothing; else the run's
+        solver calls go on within it, :func:`deadline`)."""
         t0 = time.perf_counter()
-        left_s = self.problem.scenario_budget_s - self.spent_s.get(scenario, 0.0)
         try:
-            with deadline(max(left_s, 0.0)):
-                yield left_s > 0
+            yield self.problem.scenario_budget_s - self.spent_s.get(scenario, 0.0)
         finally:
             self.spent_s[scenario] = self.spent_s.get(scenario, 0.0) + time.perf_counter() - t0
 
     def _run(self, ocp: Any, scenario: Scenario, source: Scenario | Start | None,
-             period_s: float | None) -> tuple[Attempt, Any]:
-        """:meth:`attempt`'s solver run and its check."""
+             period_s: float | None, left_s: float) -> tuple[Attempt, Any]:
+        """:meth:`attempt`'s solver run, its calls within ``left_s`` [s], and its check."""
         given = isinstance(source, Start)
         name = None if source is None else source.name
         t0 = time.perf_counter()
         try:
-            if source is None:
-                result = self.backend.cold_start(ocp, scenario)
-            else:
-                warm = source.carried(self.backend, ocp) if given else self._warm[source]
-                held = {} if period_s is None else {"period_s": period_s}
-                result = self.backend.solve(ocp, scenario, warm, **held)
+            with deadline(left_s):
+                if source is None:
+                    result = self.backend.cold_start(ocp, scenario)
+                else:
+                    warm = source.carried(self.backend, ocp) if given else self._warm[source]
+                    held = {} if period_s is None else {"period_s": period_s}
+                    result = self.backend.solve(ocp, scenario, warm, **held)
         except Exception as exc:  # noqa: BLE001 - a crash is this speed's failure, reported
             attempt, result = Attempt(name, failure_status(CRASH, exc), False, 0,
                                       time.perf_counter() - t0), None
