@@ -136,7 +136,7 @@ def test_the_drive_in_force_is_the_systems_drive_with_its_rating(name):
     for key in ("base_speed_rpm", "rotor_inertia_kg_m2", "losses", "scaling",
                 "continuous_torque_nm", "overload"):
         assert getattr(d, key) == getattr(own, key), key
-    assert d.source.startswith(f"{system.path} [drive]: {own.source}")
+    assert d.source.startswith(f"{name}.toml [drive]: {own.source}")
     flown = system.in_force(d).drive
     assert dataclasses.replace(flown, source=None) == dataclasses.replace(d, source=None)
     assert flown.source == own.source
@@ -145,6 +145,31 @@ def test_the_drive_in_force_is_the_systems_drive_with_its_rating(name):
     assert stated <= {*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS, "source"} and part.source == d.source
     if force.carried:
         assert force.model.drive == part
+
+
+def test_a_carried_model_is_the_same_wherever_its_system_file_lies(tmp_path):
+    """The carried model's SHA-256 (in every stored solve's key) does not hold where the
+    checkout lies: AP2's file (the shipped paper losses) and one whose losses and nominal
+    power come from a power model beside it, each copied to two folders."""
+    from fitting.model_file import save_power_model
+
+    text = shipped_system_path("ap2").read_text()
+    own = text.replace('losses = "paper"', 'losses = "losses/base.json"').replace(
+        "nominal_power_w = 20000.0", "")
+    assert own != text and "nominal_power_w" not in tomllib.loads(own)["drive"]
+    for i, body in enumerate((text, own)):
+        forces = []
+        for where in ("a", "deep/er/b"):
+            folder = tmp_path / str(i) / where
+            save_power_model(paper_model(), folder / "losses" / "base.json")
+            (folder / "kite.toml").write_text(body)
+            forces.append(drive_in_force(load_system(folder / "kite.toml")))
+        first, second = forces
+        assert first.carried and first.model.sha256 == second.model.sha256
+        assert first.drive.source == second.drive.source
+        assert str(tmp_path) not in first.drive.source
+    assert first.drive.source.startswith("kite.toml [drive]: ")
+    assert first.drive.source.endswith("; nominal_power_w from losses/base.json")
 
 
 def test_a_loss_ratio_needs_the_shaft_power_term():

@@ -138,7 +138,9 @@ def loss_model_path(system: Any, override: Path | None = None,
 
 def complete_drive(system: Any, model: Any, model_path: Path | str) -> Drive:
     """The system's ``[drive]`` in force: a rating key it leaves out from the power model's
-    rating (its nominal power from the model's own), ``source`` saying which.
+    rating (its nominal power from the model's own), ``source`` saying which: the system
+    file's name, ``[drive]``, the file's own ``source`` and where a borrowed key came from
+    (:func:`portable_name`).
 
     Raises
     ------
@@ -162,14 +164,27 @@ def complete_drive(system: Any, model: Any, model_path: Path | str) -> Drive:
             raise InputError(system.path, f"[drive] {key}: not in the system file and not in "
                              f"the power model's rating ({model_path})",
                              expected=f"{key} in [drive] of the system file")
-    source = f"{system.path} [drive]" + (f": {d.source}" if d.source else "")
+    folder = Path(system.path).parent
+    source = f"{Path(system.path).name} [drive]" + (f": {d.source}" if d.source else "")
     if borrowed:
-        source += f"; {', '.join(borrowed)} from {model_path}"
+        source += f"; {', '.join(borrowed)} from {portable_name(model_path, folder)}"
     drive = dataclasses.replace(d, **values, source=source)
     problem = drive.rating_problem()
     if problem is not None:
         raise InputError(system.path, "[drive]: {} = {}: {} expected".format(*problem))
     return drive.floats()
+
+
+def portable_name(path: Path | str, folder: Path | str) -> str:
+    """How a drive's ``source`` names a file: its path relative to ``folder`` (the system
+    file's) when it lies within it, else its name; never where the checkout or the user's
+    folder lies, so that a carried model's SHA-256 (and every stored solve's key that holds
+    it) stays when the files move together."""
+    path = Path(path)
+    try:
+        return path.resolve().relative_to(Path(folder).resolve()).as_posix()
+    except ValueError:
+        return path.name
 
 
 def _factor(ratio: float) -> float:
