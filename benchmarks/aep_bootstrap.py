@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from energy.bands import basis_averages, sigma
+from energy.bands import basis_averages
 from fitting.model_file import load_power_model
 from fitting.points import load_points
 from fitting.power_fit import fit_power_model, quadrant_weights
@@ -89,7 +89,7 @@ def _worker(args):
             row[v] = r.avg_p_elec_w if r.success else np.nan
             row[f"status_{v}"] = r.status
         rows.append(row)
-    analytic = {v: (base[v].avg_p_elec_w, basis_averages(base[v].trajectory, model.terms))
+    analytic = {v: (base[v].avg_p_elec_w, basis_averages(base[v].trajectory, model))
                 for v in winds}
     return rows, analytic
 
@@ -119,13 +119,12 @@ def main(argv=None) -> int:
     wall = time.perf_counter() - t0
     rows = [r for rs, _ in results for r in rs]
     analytic = results[0][1]
-    cov = np.array(model.covariance_rpm)
     print(f"model {args.model} ({model.name}), {len(rows)} resamples, N = {args.intervals}, "
           f"{args.workers} workers, {wall:.0f} s")
     ok = True
     for v in winds:
         p0, g = analytic[v]
-        s_an = sigma(g, cov)
+        s_an = model.sigma_of_basis(g)
         vals = np.array([r[v] for r in rows], dtype=float)
         failed = int(np.sum(~np.isfinite(vals)))
         vals = vals[np.isfinite(vals)]

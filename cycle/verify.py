@@ -145,11 +145,10 @@ def model_energy(cycles: pd.DataFrame, samples: pd.DataFrame,
     speed, torque = samples["speed_rpm"].to_numpy(float), samples["torque_nm"].to_numpy(float)
     ok = np.isfinite(speed) & np.isfinite(torque)
     t, speed, torque = t[ok], speed[ok], torque[ok]
-    basis = [speed**i * torque**j for i, j in model.terms]  # the terms, rpm convention
-    cov = np.asarray(model.covariance_rpm, float) if model.covariance_rpm else None
+    basis = model.basis(speed, torque)
     pred, unc = [], []
     for r in cycles.itertuples(index=False):
         g = np.array([window_integral(t, b, r.t_start_s, r.t_end_s) for b in basis])
-        pred.append(float(g @ np.asarray(model.coefficients_rpm, float)))
-        unc.append(float(math.sqrt(max(g @ cov @ g, 0.0))) if cov is not None else 0.0)
+        pred.append(float(model.of_basis(g)))
+        unc.append(model.sigma_of_basis(g))
     return np.array(pred), np.array(unc)

@@ -308,12 +308,11 @@ def _kind_energy(curve: PowerCurve, site: Distribution, nominal: float, model: A
     sigma_p = np.full(len(curve.wind_speed_m_s), np.nan)
     sigma_model = None
     if model is not None:
-        grads = bands.curve_gradients(trajectories, curve.scenarios, model.terms, gradients)
-        cov = np.array(model.covariance_rpm)
+        grads = bands.curve_gradients(trajectories, curve.scenarios, model, gradients)
         _check_consistent(curve, grads, model, notes)
-        sigma_p = np.array([bands.sigma(g, cov) for g in grads])
+        sigma_p = np.array([model.sigma_of_basis(g) for g in grads])
         dA = aep_mod.aep_sensitivity(curve.wind_speed_m_s, curve.p_elec_w, site, curve.cut_in_m_s)
-        sigma_model = bands.sigma(dA @ grads, cov)
+        sigma_model = model.sigma_of_basis(dA @ grads)
     sigma_site = 0.0
     if site_uncertainty is not None and isinstance(site, Weibull):
         sigma_site = _weibull_site_sigma(
@@ -335,7 +334,7 @@ def _kind_energy(curve: PowerCurve, site: Distribution, nominal: float, model: A
 
 def _check_consistent(curve: PowerCurve, grads: np.ndarray, model, notes: list[str]) -> None:
     """The model applied to the basis averages must give the summary's average power."""
-    p = grads @ np.array(model.coefficients_rpm)
+    p = model.of_basis(grads)
     err = np.max(np.abs(p - curve.p_elec_w))
     if err > 1e-3 * max(1.0, float(np.max(np.abs(curve.p_elec_w)))):
         notes.append(f"{curve.kind}: the model on the stored trajectories differs from the "

@@ -9,7 +9,9 @@ the gradient
 
 along the optimal trajectory: the cycle's own change does not contribute to
 first order. So ``sigma_P^2 = g^T Sigma g`` with ``g`` the cycle-time averages
-of the basis terms, no re-solve needed. For a cycle optimized for the
+of the basis terms (:func:`basis_averages`), no re-solve needed; the model gives its
+value and uncertainty there (:meth:`fitting.power_model.PowerModel.of_basis`,
+:meth:`~fitting.power_model.PowerModel.sigma_of_basis`). For a cycle optimized for the
 *mechanical* objective the trajectory does not depend on ``a`` at all, and the
 same formula is exact. (The OCP also carries a control regularization of about
 0.1 W; its derivative is neglected.)
@@ -22,6 +24,7 @@ and ``sigma_AEP^2 = G^T Sigma G``.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -32,16 +35,17 @@ from optimize.door import cycle_quadrature
 Z95 = 1.959963984540054
 
 
-def basis_averages(trajectory: pd.DataFrame, terms: Sequence[tuple[int, int]]) -> np.ndarray:
-    """Cycle-time averages of ``speed_rpm^i * torque_nm^j`` for each term ``(i, j)``.
+def basis_averages(trajectory: pd.DataFrame, model: Any) -> np.ndarray:
+    """Cycle-time averages of the power model's basis functions
+    (:meth:`fitting.power_model.PowerModel.basis`).
 
     Parameters
     ----------
     trajectory : DataFrame
         One scenario's rows of ``trajectories.parquet``: ``weight`` (quadrature
         weights summing to 1), ``speed_rpm``, ``torque_nm``.
-    terms : sequence of (int, int)
-        The power model's terms.
+    model : fitting.power_model.PowerModel
+        The power model.
 
     Returns
     -------
@@ -53,18 +57,10 @@ def basis_averages(trajectory: pd.DataFrame, terms: Sequence[tuple[int, int]]) -
         raise ValueError(f"quadrature weights sum to {w.sum():.8f}, not 1")
     n = trajectory["speed_rpm"].to_numpy(float)
     t = trajectory["torque_nm"].to_numpy(float)
-    return np.array([cycle_quadrature(w, n**i * t**j) for i, j in terms])
+    return np.array([cycle_quadrature(w, b) for b in model.basis(n, t)])
 
 
-def sigma(gradient: np.ndarray, covariance: np.ndarray) -> float:
-    """``sqrt(g^T Sigma g)``: the standard deviation of a linear function of the coefficients."""
-    g = np.asarray(gradient, dtype=float)
-    var = float(g @ np.asarray(covariance, dtype=float) @ g)
-    return float(np.sqrt(max(var, 0.0)))
-
-
-def curve_gradients(trajectories: pd.DataFrame, scenarios: Sequence[str],
-                    terms: Sequence[tuple[int, int]],
+def curve_gradients(trajectories: pd.DataFrame, scenarios: Sequence[str], model: Any,
                     known: Mapping[str, np.ndarray] | None = None) -> np.ndarray:
     """``g`` for each scenario of a curve, shape ``(n_scenarios, n_terms)``.
 
@@ -77,4 +73,4 @@ def curve_gradients(trajectories: pd.DataFrame, scenarios: Sequence[str],
     if missing:
         raise KeyError(f"no trajectory for scenarios {missing}")
     return np.array([np.asarray(known[s], float) if s in known
-                     else basis_averages(groups[s], terms) for s in scenarios])
+                     else basis_averages(groups[s], model) for s in scenarios])

@@ -107,10 +107,11 @@ def system_from_manifest(manifest: dict, path: Path) -> Any:
                                                            for k in recorded}))
 
 
-def basis_figures(terms: Any, trajectory: Any) -> dict:
-    """``{"basis_averages": [...]}`` of a converged cycle (:func:`energy.bands.basis_averages`,
-    the band's gradient), None for a failed one: the refine solves' extra record figure."""
-    averages = None if trajectory is None else bands.basis_averages(trajectory, terms).tolist()
+def basis_figures(model: Any, trajectory: Any) -> dict:
+    """``{"basis_averages": [...]}`` of a converged cycle (:func:`energy.bands.basis_averages`
+    of the power model, the band's gradient), None for a failed one: the refine solves'
+    extra record figure."""
+    averages = None if trajectory is None else bands.basis_averages(trajectory, model).tolist()
     return {"basis_averages": averages}
 
 
@@ -164,7 +165,7 @@ class KindTask:
                             starts=self.starts)
         return ChainTask(Problem.for_system(self.system, self.model, self.options),
                          index=index, store=self.store, backend=self.backend, refine=refine,
-                         extras=partial(basis_figures, self.model.terms))
+                         extras=partial(basis_figures, self.model))
 
 
 def sweep_starts(run: OptimizeRun, points: int) -> dict[str, tuple]:

@@ -205,6 +205,30 @@ class PowerModel:
 
         return evaluate(self.terms, self.coefficients_si, speed_rad_s, torque_nm)
 
+    # ------------------------------------------------------------- its bands
+    def basis(self, speed_rpm: Any, torque_nm: Any) -> np.ndarray:
+        """The model's basis functions at drum speed [rpm] and torque [N m], one row per
+        term (``speed**i * torque**j``) [rpm^i N m^j]: the power is linear in them,
+        ``P_elec = coefficients . basis`` (:meth:`of_basis`), so a cycle's average or a
+        window's energy is the model applied to the basis's average or integral."""
+        speed, torque = np.asarray(speed_rpm, float), np.asarray(torque_nm, float)
+        return np.array([speed**i * torque**j for i, j in self.terms])
+
+    def of_basis(self, basis: Any) -> Any:
+        """The model's value at basis values ``basis`` (the last axis one per term, e.g. a
+        cycle's averages of :meth:`basis` [W], or their integrals over a window [J])."""
+        return np.asarray(basis, float) @ np.asarray(self.coefficients_rpm, float)
+
+    def sigma_of_basis(self, basis: Any) -> float:
+        """The standard uncertainty of :meth:`of_basis` at one vector of basis values from the
+        coefficient covariance, ``sqrt(g^T Sigma g)`` (in the unit of :meth:`of_basis`); 0
+        without a covariance. Also of any linear function ``g . coefficients`` (an AEP's
+        gradient along a power curve)."""
+        if self.covariance_rpm is None:
+            return 0.0
+        g = np.asarray(basis, float)
+        return float(math.sqrt(max(float(g @ np.asarray(self.covariance_rpm, float) @ g), 0.0)))
+
     # ------------------------------------------------------- another rating
     def carried(self, speed_ratio: float, torque_ratio: float, loss_ratio: float = 1.0,
                 **changes: Any) -> PowerModel:

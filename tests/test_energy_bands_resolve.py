@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from energy.bands import basis_averages, sigma
+from energy.bands import basis_averages
 from optimize.paper_model import paper_model
 from optimize.problem.ocp import build_ocp
 from optimize.problem.scenario import Scenario
@@ -31,9 +31,11 @@ def test_sigma_equals_finite_difference_re_solve(coarse_ocp, coarse_elec_lim):
     assert coarse_ocp.drive_model.coefficients_rpm == model.coefficients_rpm
     scenario = Scenario(7.0, "electrical", True)
     assert base.success, base.status
-    g = basis_averages(base.trajectory, model.terms)
+    g = basis_averages(base.trajectory, model)
     assert float(g @ c) == pytest.approx(base.avg_p_elec_w, rel=1e-9)  # the model on the cycle
-    sig = sigma(g, cov)
+    assert model.of_basis(g) == float(g @ c)
+    sig = dataclasses.replace(model, covariance_rpm=tuple(map(tuple, cov))).sigma_of_basis(g)
+    assert sig == pytest.approx(float(np.sqrt(g @ cov @ g)), rel=1e-12)
     d = cov @ g / sig
     h = 3.0  # three sigmas each way
     p = {}

@@ -51,6 +51,24 @@ def test_reference_sanity_values():
     assert PAPER_MODEL_PATH.name == "paper_drive_model.json"
 
 
+def test_the_model_gives_its_own_band_on_basis_averages():
+    """A cycle's average power and its uncertainty from the model's own methods: the average
+    of the basis is the average of p_elec_w (the model is linear in it), and the sigma is
+    the delta method written out term by term here (rtol 1e-12: rounding)."""
+    m = _odd_model()
+    rpm, t = np.linspace(-3000, 1500, 9), np.linspace(1, 78, 9)
+    basis = m.basis(rpm, t)
+    assert basis.shape == (len(m.terms), rpm.size)
+    np.testing.assert_allclose(basis[3], rpm**3 * t, rtol=1e-12)  # the term (3, 1)
+    g = basis.mean(axis=1)
+    assert m.of_basis(g) == pytest.approx(float(np.mean(m.p_elec_w(rpm, t))), rel=1e-12)
+    cov = np.array(m.covariance_rpm)
+    by_hand = math.sqrt(sum(g[a] * cov[a][b] * g[b] for a in range(len(g))
+                            for b in range(len(g))))
+    assert m.sigma_of_basis(g) == pytest.approx(by_hand, rel=1e-12)
+    assert paper_model().sigma_of_basis(paper_model().basis(-1500.0, 78.0)) == 0.0  # no cov
+
+
 def test_si_evaluation_equals_rpm_evaluation():
     # Same physical point in both unit systems: must agree to rounding (rtol 1e-12).
     m = _odd_model()
