@@ -111,10 +111,10 @@ def totals(rows: list[dict], wall_s: float) -> dict:
 def paper_sweep(solver: str, winds, kinds, workers: int, intervals: int, max_iter: int) -> dict:
     """The paper scenarios' sweep with one solver."""
     system = load_system()
-    drive = drive_in_force(system)
+    drive, _ = drive_in_force(system)
     options = OcpOptions(Discretization(n_intervals=intervals),
                          solver=solver_options(solver, max_iter))
-    problem = Problem.for_system(system.in_force(drive.drive), drive.model, options)
+    problem = Problem.for_system(system.in_force(drive), drive.power_model, options)
     load_before = load()
     t0 = time.perf_counter()
     with open_executor(workers) as handle:
@@ -144,12 +144,12 @@ def system_runs(solver: str, systems: list[str], winds: list[float], intervals: 
     rows, t_all = [], time.perf_counter()
     for name in systems:
         system = load_system(shipped_system_path(name))
-        drive = drive_in_force(system)
+        drive, _ = drive_in_force(system)
         options = OcpOptions(Discretization(n_intervals=intervals),
                              solver=solver_options(solver, max_iter))
         t0, c0 = time.perf_counter(), time.process_time()
-        ocp = build_ocp(kite_dae(*system.model_params()), drive.model, options,
-                        system=system.in_force(drive.drive))
+        ocp = build_ocp(kite_dae(*system.model_params()), drive.power_model, options,
+                        system=system.in_force(drive))
         res = start(ocp, Scenario(winds[0], "electrical", True))
         rows.append({**record(f"{name}-elec-lim-{winds[0]:g}", res), "start": res.start,
                      "wall_s": time.perf_counter() - t0,
@@ -224,11 +224,11 @@ def profile(solver: str, max_iter: int) -> dict:
     from optimize.solve.starts import stored_guess
 
     system = load_system()
-    drive = drive_in_force(system)
+    drive, _ = drive_in_force(system)
     options = OcpOptions(solver=solver_options(solver, max_iter))
     t0, c0 = time.perf_counter(), time.process_time()
-    ocp = build_ocp(kite_dae(*system.model_params()), drive.model, options,
-                    system=system.in_force(drive.drive))
+    ocp = build_ocp(kite_dae(*system.model_params()), drive.power_model, options,
+                    system=system.in_force(drive))
     build = (time.perf_counter() - t0, time.process_time() - c0)
     guess, why = stored_guess.load(ocp)
     deriv = derivative_build_cpu_s(ocp) if solver == "ipopt" else {}

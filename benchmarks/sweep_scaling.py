@@ -88,8 +88,8 @@ def main() -> None:
     args = ap.parse_args()
     winds, kinds = parse_wind_grid(args.wind_grid), parse_kinds(args.scenarios)
     system = load_system()
-    drive = drive_in_force(system)
-    problem = Problem.for_system(system.in_force(drive.drive), drive.model, OcpOptions())
+    drive, _ = drive_in_force(system)
+    problem = Problem.for_system(system.in_force(drive), drive.power_model, OcpOptions())
     runs = []
     for n in (int(x) for x in args.workers.split(",")):
         runs.append(run(problem, winds, kinds, n))

@@ -52,12 +52,12 @@ def main() -> None:
     runs = []
     for name in args.systems.split(","):
         system = load_system(shipped_system_path(name))
-        drive = drive_in_force(system)
-        model = drive.model
+        drive, _ = drive_in_force(system)
+        model = drive.power_model
         options = OcpOptions(Discretization(n_intervals=args.intervals, degree=args.degree),
                              solver=SolverOptions(stored_guess=False))
         ocp = build_ocp(kite_dae(*system.model_params()), model, options,
-                        system=system.in_force(drive.drive))
+                        system=system.in_force(drive))
         print(f"{name}: start loop {ocp.loop}", flush=True)
         for wind in (float(w) for w in args.winds.split(",")):
             load = os.getloadavg()[0]

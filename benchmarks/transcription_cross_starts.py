@@ -45,13 +45,13 @@ TRANSCRIPTIONS = ("collocation", "condensed")
 def ocps(tol: float, intervals: int) -> dict[str, Ocp]:
     """The paper system's OCP with each transcription at IPOPT tolerance ``tol``."""
     system = load_system()
-    drive = drive_in_force(system)
+    drive, _ = drive_in_force(system)
     out = {}
     for tr in TRANSCRIPTIONS:
         solver = SolverOptions(transcription=tr, tol=tol, acceptable_tol=100 * tol)
         options = OcpOptions(Discretization(n_intervals=intervals), solver=solver)
-        out[tr] = build_ocp(kite_dae(*system.model_params()), drive.model, options,
-                            system=system.in_force(drive.drive))
+        out[tr] = build_ocp(kite_dae(*system.model_params()), drive.power_model, options,
+                            system=system.in_force(drive))
     return out
 
 

@@ -424,8 +424,9 @@ class SizeResult:
     ----------
     sizing : energy.sizing.SizingResult
         The candidate table, every solve record, the best and the chosen candidate.
-    drive : optimize.system.drive_in_force.DriveInForce
-        The reference drive (rating and losses) the candidates are scaled from.
+    drive : kernel.drive.Drive
+        The reference drive (rating, envelope and losses: its ``power_model``) the
+        candidates are scaled from.
     notes : tuple of str
         What was assumed (a rating the system file does not state).
     files : dict
@@ -509,8 +510,9 @@ def size(site: Any, drive_model: Any = None, *, system: Any = None,
     out : path
         Output folder (``sizing.json``, ``sizing.csv``, the resumable ``solves/``).
     before_solving : callable, optional
-        ``before_solving(drive, n_candidates, wind_speeds_m_s)``, called once the
-        candidates and the wind grid are made.
+        ``before_solving(setup, n_candidates, wind_speeds_m_s)`` (``setup``: the system,
+        the reference drive and how it was resolved), called once the candidates and the
+        wind grid are made.
     """
     from energy.size_command import run_size
 

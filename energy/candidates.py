@@ -78,14 +78,15 @@ def reference_rating(rating: Any, overrides: Drive = NO_OVERRIDES) -> tuple[Any,
 
 def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
                      overrides: Drive = NO_OVERRIDES) -> tuple[list, list[str]]:
-    """The candidate drives of the reference drive in force (``drive``,
+    """The candidate drives of the reference drive in force (``drive``, a
+    :class:`kernel.drive.Drive` with its losses,
     :func:`optimize.system.drive_in_force.drive_in_force`) scaled by ``scales``, plus one per
     power-model file of ``models`` (the reference's rating with ``overrides``,
     :func:`reference_rating`); and notes on what was assumed."""
     from energy.sizing import Candidate, scaled_candidates
     from fitting.model_file import load_power_model
-    rating, notes = reference_rating(drive.drive.rating_part(), overrides)
-    candidates = scaled_candidates(drive.model, rating, tuple(scales))
+    rating, notes = reference_rating(drive.rating_part(), overrides)
+    candidates = scaled_candidates(drive.power_model, rating, tuple(scales))
     names = _model_names(tuple(models), {c.name for c in candidates})
     for p in models:
         m = load_power_model(p)

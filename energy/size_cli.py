@@ -131,13 +131,13 @@ def run(args: argparse.Namespace) -> int:
     return 0 if res.chosen is not None else 1
 
 
-def _announce(drive: Any, n_candidates: int, wind_speeds_m_s: tuple[float, ...], out: Path,
+def _announce(setup: Any, n_candidates: int, wind_speeds_m_s: tuple[float, ...], out: Path,
               winding_limit_c: float | None) -> None:
     from energy.decision import grid_spec
 
-    for line in drive.lines():
+    for line in setup.resolution.lines(setup.drive):
         print(line)
-    heat = winding_limit_c is not None and getattr(drive.model, "thermal", None) is not None
+    heat = winding_limit_c is not None and setup.drive.thermal_model is not None
     rating = (f"winding temperature <= {winding_limit_c:g} degC" if heat
               else "RMS torque <= the continuous rating where below the torque limit")
     print(f"{n_candidates} candidates x {len(wind_speeds_m_s)} wind speeds "

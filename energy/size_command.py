@@ -112,8 +112,8 @@ class SizeRun:
     ----------
     sizing : energy.sizing.SizingResult
         The candidate table, every solve record, the best and the chosen candidate.
-    drive : optimize.system.drive_in_force.DriveInForce
-        The reference drive (rating and losses) the candidates are scaled from.
+    drive : kernel.drive.Drive
+        The reference drive (rating, envelope and losses) the candidates are scaled from.
     notes : tuple of str
         What was assumed (a rating the system file does not state, the grid's hours).
     files : dict
@@ -223,8 +223,9 @@ def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
     command_line : sequence of str
         Recorded in the provenance header.
     before_solving : callable, optional
-        ``before_solving(drive, n_candidates, wind_speeds_m_s)``, called once the
-        candidates and the wind grid are made.
+        ``before_solving(setup, n_candidates, wind_speeds_m_s)`` (``setup``: the system,
+        the reference drive and how it was resolved, :class:`optimize.resolve.Setup`),
+        called once the candidates and the wind grid are made.
     """
     from optimize.door import rejected_lines, resolve
 
@@ -242,7 +243,7 @@ def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
     wind_speeds_m_s, grid_note = _sizing_speeds(grid, site)
     notes += grid_note
     if before_solving is not None:
-        before_solving(drive, len(first), wind_speeds_m_s)
+        before_solving(setup, len(first), wind_speeds_m_s)
     refused: list[str] = []
     result, edge, added = size_extending(
         lambda scales: candidates(scales)[0], grid.scales, grid.extend,
@@ -264,7 +265,8 @@ def run_size(site: Any, drive_model: Any = None, *, system: Any = None,
     if kept is not None:
         return SizeRun(result, drive, (*notes, kept), {}, kept, choice, wind_speeds_m_s)
     files = write_sizing(Path(out), result, site=site, site_note=site_note or site.describe(),
-                         drive=drive, system=system, wind_speeds_m_s=wind_speeds_m_s,
+                         drive=drive, resolution=setup.resolution, system=system,
+                         wind_speeds_m_s=wind_speeds_m_s,
                          adaptive=grid.adaptive, tolerance=grid.tolerance, notes=notes,
                          provenance=run_record, edge=edge_doc, coverage=coverage,
                          decision=choice)

@@ -46,12 +46,14 @@ def write_sizing(out: Path, res: Any, **kw: Any) -> dict[str, Path]:
 
 
 def write_sizing_files(out: Path, res: Any, *, site: Any, site_note: str, drive: Any,
-                       system: Any, wind_speeds_m_s: tuple[float, ...], adaptive: bool,
-                       tolerance: float, notes: list[str], provenance: Provenance,
+                       resolution: Any, system: Any, wind_speeds_m_s: tuple[float, ...],
+                       adaptive: bool, tolerance: float, notes: list[str], provenance: Provenance,
                        coverage: dict | None = None, decision: dict | None = None,
                        edge: dict | None = None) -> dict[str, Path]:
     """Write ``sizing.csv`` and ``sizing.json`` (docs/schemas.md §8) of a sizing result
-    (:class:`energy.sizing.SizingResult`) into ``out``; returns name -> path."""
+    (:class:`energy.sizing.SizingResult`) into ``out``, of the reference drive ``drive``
+    resolved as ``resolution`` (:func:`optimize.system.drive_in_force.drive_in_force`);
+    returns name -> path."""
     from energy import decision as choice
     from kernel.files import write_json, write_text_atomic
 
@@ -66,8 +68,9 @@ def write_sizing_files(out: Path, res: Any, *, site: Any, site_note: str, drive:
         "schema": SCHEMA_NAME, "schema_version": SCHEMA_VERSION,
         HEADER_KEY: provenance.header(),
         "site": {**site.to_dict(), "note": site_note},
-        "reference_model": {"path": str(drive.model_path), "note": drive.losses_note},
-        "reference_drive": drive.record(),
+        "reference_model": {"path": str(resolution.model_path),
+                            "note": resolution.losses_note},
+        "reference_drive": resolution.record(drive),
         "system": system.record(),
         "law": "P_s(n, T) = s P_1(n, T/s): c_ij -> s^(1-j) c_ij (the similarity law at the same "
                "speed); continuous torque s T_cont, peak s T_peak, same speed limit, nominal "

@@ -1,5 +1,6 @@
-"""A drive, declared once: its rating, torque-speed envelope, where its losses come from
-and its thermal rating, each quantity with one name (:class:`Drive`).
+"""A drive, declared once: its rating, torque-speed envelope, where its losses come from,
+its thermal rating and, in force, its losses, each quantity with one name (:class:`Drive`;
+its losses' protocol, :class:`DriveModel`).
 
 Every stage reads the drive from this type: a campaign's ``drive.toml``
 (:mod:`kernel.drive_file`), a power model's ``drive`` (docs/schemas.md §3), a system
@@ -27,12 +28,13 @@ import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from kernel.errors import InputError
 from kernel.sections import number, numbers, text
+from kernel.thermal_model import ThermalModel
 from kernel.units import RPM_PER_RAD_S, unit_of
 
 #: The rating keys every complete rating states (drive.toml, power_model.json's ``drive``).
@@ -52,13 +54,68 @@ SCALING_CHOICES = ("similarity", "similarity-ie3", "none")
 _Problems = list[tuple[str, str, str]]
 
 
+class DriveModel(Protocol):
+    """A drive's losses (:attr:`Drive.power_model`): everything optimize uses of a power
+    model (``fitting.power_model.PowerModel``), declared here so that the drive can hold
+    them without the kernel importing fitting.
+
+    Attributes
+    ----------
+    name : str
+        What the model is (printed, recorded in the manifest).
+    sha256 : str
+        Its identity: part of the NLP cache key and of a stored solve's.
+    nominal_power_w : float
+        The drive's nominal power [W], where the system states none.
+    drive : Drive or None
+        The rating its file records (docs/schemas.md §3), where the system states none.
+    thermal : kernel.thermal_model.ThermalModel or None
+        Its winding's thermal model (docs/schemas.md §3 ``thermal``), or None.
+    copper_w_per_nm2 : float
+        Its copper loss's coefficient [W/(N m)^2], the part of its losses that follows the
+        winding's temperature (:class:`optimize.model.thermal.WindingThermal`).
+    domain : dict or None
+        ``quadrant -> polygon``: where its points were measured, or None.
+    provenance : dict or None
+        Where the model comes from (a carried model records it as its origin's).
+    """
+
+    name: str
+    sha256: str
+    nominal_power_w: float
+    drive: Drive | None
+    thermal: ThermalModel | None
+    copper_w_per_nm2: float
+    domain: dict | None
+    provenance: dict | None
+
+    def casadi_p_elec_w(self, speed_rpm: Any, torque_nm: Any) -> Any:
+        """Electrical power drawn from the grid [W] (CasADi expression)."""
+
+    def p_elec_w(self, speed_rpm: Any, torque_nm: Any) -> np.ndarray:
+        """Electrical power drawn from the grid [W] (numpy)."""
+
+    def to_dict(self) -> dict:
+        """Its file's content (docs/schemas.md §3): a sweep keeps a carried model's."""
+
+    def carried(self, speed_ratio: float, torque_ratio: float, loss_ratio: float = 1.0,
+                **changes: Any) -> DriveModel:
+        """The model at the corresponding points of a drive ``speed_ratio`` times its speed
+        and ``torque_ratio`` times its torque, its losses ``loss_ratio`` times the similarity
+        law's, with ``changes`` (:meth:`fitting.power_model.PowerModel.carried`): all that
+        :func:`optimize.model.drivetrain.carry_power_model` asks of the polynomial."""
+
+
 @dataclass(frozen=True, kw_only=True)
 class Drive:
     """A drive: rating, envelope, losses and thermal rating (``None``: not stated).
 
     A system file's ``[drive]`` section is this class (its keys' docs below are the
     docs/system_file.md table); a complete rating states the three :data:`DRIVE_KEYS`
-    (:meth:`rating`, :meth:`from_dict`).
+    (:meth:`rating`, :meth:`from_dict`). The drive in force
+    (:func:`optimize.system.drive_in_force.drive_in_force`) and a sizing candidate carry
+    their losses, :attr:`power_model`: no key of the file, of the dict form or of a record
+    (:meth:`keys`), and not compared.
     """
 
     max_speed_rpm: float | None = number("speed limit of the constrained scenarios (`*-lim`)",
@@ -128,6 +185,11 @@ class Drive:
         "the ambient or coolant temperature of the thermal model in the cycle, below the "
         "winding limit", lo=-60, hi=80, lo_strict=False, default=None,
         absent="the one the thermal model was fitted with")
+
+    #: the losses at this rating (a :class:`DriveModel`, with the winding's thermal model
+    #: when it has one); None for a section as read or a rating alone
+    power_model: DriveModel | None = dataclasses.field(default=None, compare=False,
+                                                        repr=False)
 
     def __post_init__(self) -> None:
         for key in ENVELOPE_KEYS[1:]:
@@ -207,6 +269,21 @@ class Drive:
         this drive records as its ``drive`` (and a sizing candidate scales)."""
         return Drive(**{k: getattr(self, k) for k in (*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS)},
                      source=self.source)
+
+    def keys(self) -> dict[str, Any]:
+        """Every key of the section by its name (``None``: not stated), the losses aside: what
+        a sweep's manifest records (``sections.drive``) and a stored solve's key holds."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
+                if f.name != "power_model"}
+
+    def with_losses(self, power_model: DriveModel | None) -> Drive:
+        """This drive with its losses (:attr:`power_model`)."""
+        return dataclasses.replace(self, power_model=power_model)
+
+    @property
+    def thermal_model(self) -> ThermalModel | None:
+        """Its winding's thermal model: its losses' (None without losses or without one)."""
+        return None if self.power_model is None else self.power_model.thermal
 
     # ------------------------------------------------------------------------ checks
     def rating_problem(self) -> tuple[str, str, str] | None:
@@ -367,8 +444,7 @@ def dict_problem(data: dict, where: str = "drive", rating: bool = True) -> str |
     """What keeps ``data`` from being a drive's dict form, or None: an unknown key, a value
     of the wrong kind, and (``rating``) what keeps it from being a complete rating
     (:meth:`Drive.rating_problem`; only :meth:`Drive.to_dict`'s keys)."""
-    known = ({*RATING_KEYS, "source"} if rating
-             else {f.name for f in dataclasses.fields(Drive)})
+    known = {*RATING_KEYS, "source"} if rating else set(Drive().keys())
     unknown = sorted(set(data) - known)
     if unknown:
         return f"{where}: unknown key {unknown[0]!r}"

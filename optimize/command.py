@@ -57,7 +57,6 @@ from optimize.sweep_options import (
     WindGrid,
 )
 from optimize.system.contradictions import check_drive
-from optimize.system.drive_in_force import DriveInForce
 from optimize.system.system import System
 
 
@@ -201,8 +200,8 @@ def make_request(grid: WindGrid = PAPER_GRID, solver: SolverChoice = DEFAULT_SOL
     # an impossible model "converges" to a wrong cycle: refuse it before any solve,
     # checked also where the optimizer may take it (the drive limits in force), with a
     # drive that cannot hold the kite and bounds of two parts that contradict each other
-    check_drive(loaded, drive.model, drive.model_path, grid.kinds,
-                rating_source=drive.drive.source)
+    check_drive(loaded, drive.power_model, setup.resolution.model_path, grid.kinds,
+                rating_source=drive.source)
     note = _setup_note(setup, system is None, solver)
     return SweepRequest(grid, setup, note, execution.workers,
                         execution.scheduler, Path(out), claims, trust,
@@ -249,7 +248,7 @@ def _setup_note(setup: Setup, shipped: bool, solver: SolverChoice) -> str:
     loaded = setup.system
     note = f"system: {loaded.name} ({loaded.path}" + (", the shipped default)" if shipped
                                                       else ")")
-    note += "\n" + "\n".join(setup.drive.lines())
+    note += "\n" + "\n".join(setup.resolution.lines(setup.drive))
     note += "\n" + loaded.kite_limits_line()
     note += "\n" + loaded.drivetrain_line()
     note += "\n" + loaded.tether_air_line()
@@ -331,7 +330,8 @@ def run_optimize(
     check_replaceable(request.out, "optimize", MARKERS)  # before the solves
     run = Provenance.start(command_line if command_line is not None else sys.argv)
     system, drive, options = request.setup.system, request.setup.drive, request.setup.options
-    problem = Problem.for_system(system, drive.model, options)
+    model, how = drive.power_model, request.setup.resolution
+    problem = Problem.for_system(system, model, options)
     cut_in_kinds = request.cut_in_kinds
     trust: dict = {"mesh": [], "simulation": []}
     plan = plan_graph(request.grid.wind_speeds_m_s, request.grid.kinds)
@@ -343,9 +343,8 @@ def run_optimize(
         if request.trust and result.lost is None:
             trust = run_trust_checks(problem, outcomes, request.grid.wind_speeds_m_s, handle,
                                      show_progress)
-    summary = outputs.summary_frame(outcomes, drive.model.domain,
-                                    domain_scales(drive.model, system))
-    parts = model_parts(problem.model.build(), drive.model, options, system)
+    summary = outputs.summary_frame(outcomes, model.domain, domain_scales(model, system))
+    parts = model_parts(problem.model.build(), model, options, system)
     cut_ins = cut_in_frame(result.cut_ins)
     claims = (evaluate_claims(summary, cut_ins, paper_system=system.paper_system,
                               system_name=system.name) if request.claims else None)
@@ -354,9 +353,8 @@ def run_optimize(
     files = write_sweep_folder(
         out, run, summary=summary, claims=claims, system=system.record(),
         trajectories=outputs.trajectories_frame(outcomes, trajectory_columns(parts)),
-        carried_model=drive.model if drive.carried or not drive.model_path.is_file() else None,
-        manifest=sweep_manifest(request, system, drive, options, result, summary, trust,
-                                outcomes),
+        carried_model=model if how.carried or not how.model_path.is_file() else None,
+        manifest=sweep_manifest(request, system, options, result, summary, trust, outcomes),
         start=start_writer(problem, next((o for o in outcomes if o.name == plan[0].name),
                                          None), backend))
     return OptimizeOutcome(summary, claims, cut_ins, trust, tuple(trust.get("lines", ())),
@@ -410,27 +408,29 @@ def start_writer(problem: Problem, seed: Any, backend: Any = None) -> Any:
     return write
 
 
-def sweep_manifest(request: SweepRequest, system: System, drive: DriveInForce, options: Any,
-                   result: Any, summary: Any, trust: dict, outcomes: list) -> dict:
+def sweep_manifest(request: SweepRequest, system: System, options: Any, result: Any,
+                   summary: Any, trust: dict, outcomes: list) -> dict:
     """The optimize manifest's content after its schema and provenance header
-    (docs/schemas.md §5): the request, the system and drive in force, the options, the
-    sweep's own record (:meth:`optimize.service.run.SweepResult.record`) and the result
-    check of each scenario's final optimum (a scenario that failed its check is failed)."""
-    model = drive.model
+    (docs/schemas.md §5): the request, the system and drive in force (``request.setup``),
+    the options, the sweep's own record (:meth:`optimize.service.run.SweepResult.record`)
+    and the result check of each scenario's final optimum (a scenario that failed its
+    check is failed)."""
+    drive, how = request.setup.drive, request.setup.resolution
+    model = drive.power_model
     return {
         "wind_speeds_m_s": list(request.grid.wind_speeds_m_s),
         "kinds": list(request.grid.kinds),
         "scenarios": [o.name for o in result.outcomes],
         "drive_model": {  # a carried model's path and file hash: write_sweep_folder's
-            "path": str(drive.model_path),
-            "file_sha256": (file_sha256(drive.model_path)
-                            if Path(drive.model_path).is_file() else None),
+            "path": str(how.model_path),
+            "file_sha256": (file_sha256(how.model_path)
+                            if Path(how.model_path).is_file() else None),
             "model_sha256": model.sha256,
             "name": model.name,
             "note": request.model_note,
         },
         "system": system.record(),
-        "drive": drive.record(),
+        "drive": how.record(drive),
         "kite_limits": dataclasses.asdict(system.kite_limits()),
         "options": options.as_dict(),
         "sections": system.sections_record(),

@@ -12,9 +12,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from kernel.drive import Drive
 from optimize.problem.ocp import thermal_line
 from optimize.problem.options import OcpOptions
-from optimize.system.drive_in_force import DriveInForce, drive_in_force
+from optimize.system.drive_in_force import DriveResolution, drive_in_force
 from optimize.system.system import System
 from optimize.system.system_file import load_system
 
@@ -28,20 +29,24 @@ class Setup:
     system : optimize.system.system.System
         Kite, tether, winch, wind and bounds, with the drive in force
         (:meth:`optimize.system.system.System.in_force`): the OCP's bounds.
-    drive : optimize.system.drive_in_force.DriveInForce
-        The drive's rating and its losses at that rating.
+    drive : kernel.drive.Drive
+        The drive in force: its rating, envelope and its losses at that rating
+        (:attr:`kernel.drive.Drive.power_model`, with the winding's thermal model).
+    resolution : optimize.system.drive_in_force.DriveResolution
+        Where the losses come from and how they were carried to the rating.
     options : optimize.problem.options.OcpOptions
         Discretization and solver.
     """
 
     system: System
-    drive: DriveInForce
+    drive: Drive
+    resolution: DriveResolution
     options: OcpOptions
 
     def thermal_line(self) -> str:
         """How the drive's continuous rating enters the OCP (winding temperature or RMS
         torque), and why (:func:`optimize.problem.ocp.thermal_line`)."""
-        return thermal_line(self.drive.model, self.system.drive, self.system.path)
+        return thermal_line(self.drive.power_model, self.system.drive, self.system.path)
 
 
 def resolve(system: Path | str | System | None = None, drive_model: Any = None, *,
@@ -72,8 +77,8 @@ def resolve(system: Path | str | System | None = None, drive_model: Any = None, 
     """
     loaded = system if isinstance(system, System) else load_system(system)
     if drive_model is None or isinstance(drive_model, str | Path):
-        drive = drive_in_force(loaded, None if drive_model is None else Path(drive_model),
-                               None if fit_default is None else Path(fit_default))
+        drive, how = drive_in_force(loaded, None if drive_model is None else Path(drive_model),
+                                    None if fit_default is None else Path(fit_default))
     else:
-        drive = drive_in_force(loaded, model_path, drive_model=drive_model)
-    return Setup(loaded.in_force(drive.drive), drive, options or OcpOptions())
+        drive, how = drive_in_force(loaded, model_path, drive_model=drive_model)
+    return Setup(loaded.in_force(drive), drive, how, options or OcpOptions())

@@ -37,10 +37,10 @@ def _solve_with(tmp_path: Path, coarse, line: str, tightened: str):
     path = tmp_path / "tight.toml"
     path.write_text(text.replace(line, tightened))
     system = load_system(path)
-    drive = drive_in_force(system, drive_model=paper_model())
+    drive, _ = drive_in_force(system, drive_model=paper_model())
     options = OcpOptions(coarse_ocp.options.discretization)
     ocp = build_ocp(kite_dae(*system.model_params()), paper_model(), options,
-                    system=system.in_force(drive.drive))
+                    system=system.in_force(drive))
     res = solve(ocp, Scenario(7.0, "electrical", True), coarse_res.warm)
     assert res.success, res.status
     return res

@@ -39,7 +39,7 @@ def _system(**changes):
 
 def _check(system, model=None, kinds=("elec-lim",), model_path=None):
     model = model or paper_model()
-    rating = drive_in_force(system, drive_model=model).drive
+    rating = drive_in_force(system, drive_model=model)[0]
     check_contradictions(system.in_force(rating), model, kinds, model_path)
 
 
@@ -59,8 +59,8 @@ def test_the_shipped_systems_hold_together():
         from optimize.system.system_file import load_system
 
         system = load_system(shipped_system_path(name))
-        drive = drive_in_force(system)
-        check_contradictions(system.in_force(drive.drive), drive.model,
+        drive, _ = drive_in_force(system)
+        check_contradictions(system.in_force(drive), drive.power_model,
                              ("elec-lim", "mech-free"))
 
 

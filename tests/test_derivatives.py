@@ -24,12 +24,12 @@ def _ocp(solver: str):
     """The shipped system with its drive's limits and an RMS-torque rating (a row on a
     cycle sum), transcribed for ``solver``."""
     system = load_system()
-    drive = drive_in_force(system)
-    flown = system.in_force(drive.drive)
+    drive, _ = drive_in_force(system)
+    flown = system.in_force(drive)
     flown = dataclasses.replace(flown, drive=dataclasses.replace(
         flown.drive, continuous_torque_nm=0.5 * flown.drive.max_torque_nm))
     options = OcpOptions(Discretization(n_intervals=N)).replace(solver={"solver": solver})
-    return build_ocp(kite_dae(*system.model_params()), drive.model, options, system=flown)
+    return build_ocp(kite_dae(*system.model_params()), drive.power_model, options, system=flown)
 
 
 @pytest.fixture(scope="module")

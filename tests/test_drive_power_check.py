@@ -58,14 +58,14 @@ def test_the_old_megawes_rating_is_said_not_to_be_a_machine():
 @pytest.mark.parametrize("name", ["highwind", "ap2", "megawes", "highwind_drivetrain"])
 def test_every_shipped_drive_is_a_machine(name):
     system = load_system(f"optimize/data/systems/{name}.toml")
-    drive = drive_in_force(system)
-    assert not [c for c in drive.checks if c.startswith("drive rating")], drive.checks
+    _, how = drive_in_force(system)
+    assert not [c for c in how.checks if c.startswith("drive rating")], how.checks
 
 
 def test_megawes_drive_is_rated_and_carried_at_its_corner():
     system = load_system("optimize/data/systems/megawes.toml")
-    drive = drive_in_force(system)
-    r, d = drive.drive, system.drive
+    r, drive = drive_in_force(system)
+    d = system.drive
     # peak 2.5 x 3 MW at the torque limit at base speed; continuous torque = nominal power
     # at base speed; the torque limit 2.5 times it
     assert r.max_torque_nm * d.base_speed_rpm * W == pytest.approx(2.5 * r.nominal_power_w,
@@ -82,7 +82,7 @@ def test_megawes_drive_is_rated_and_carried_at_its_corner():
     # point (1500 rpm, 130.5 N m) converts 91.7 %; its losses per unit x0.429 (IE3: 4 % at
     # 3 MW over 9.32 % at 8.2 kW): 1 - 0.429 x 8.3 % = 96.4 %
     n, t = np.array([-d.base_speed_rpm]), np.array([r.max_torque_nm])
-    eta = drive.model.p_elec_w(n, t) / (n * W * t)
+    eta = r.power_model.p_elec_w(n, t) / (n * W * t)
     base = paper_model()
     eta_base = base.p_elec_w(n / drive.speed_ratio, t / drive.torque_ratio) / (
         n / drive.speed_ratio * W * t / drive.torque_ratio)
@@ -93,7 +93,7 @@ def test_megawes_drive_is_rated_and_carried_at_its_corner():
     assert float(eta[0]) == pytest.approx(0.964, abs=5e-4)
     # and the output says how the law moves efficiency with size, and its source
     assert any("IE3 class" in c and "2019/1781" in c for c in drive.checks)
-    assert any("losses x0.429 by the IE3 class" in line for line in drive.lines())
+    assert any("losses x0.429 by the IE3 class" in line for line in drive.lines(r))
 
 
 def test_megawes_drive_rests_on_its_public_figures():

@@ -87,11 +87,10 @@ def test_carried_model_keeps_the_sign_convention_and_scales_domain_and_covarianc
 
 def test_carried_shipped_drives_generate_less_than_the_shaft_and_motor_more():
     for name in ("ap2", "megawes"):
-        drive = drive_in_force(load_system(shipped_system_path(name)))
+        r, drive = drive_in_force(load_system(shipped_system_path(name)))
         assert drive.carried
-        r = drive.drive
         n, t = _box(r.max_speed_rpm, r.max_torque_nm)
-        p_mech, p_elec = _p_mech_w(n, t), drive.model.p_elec_w(n, t)
+        p_mech, p_elec = _p_mech_w(n, t), r.power_model.p_elec_w(n, t)
         assert np.all(p_elec - p_mech > 0), name  # losses > 0 over the rated box
         # losses at corresponding points: the paper drive's, times k_n k_T and the loss
         # ratio of the file's law (AP2 "similarity": 1, its efficiency kept; MegAWES
@@ -128,11 +127,11 @@ def test_a_loss_ratio_scales_the_losses_and_keeps_the_shaft_power(lam):
 def test_the_drive_in_force_is_the_systems_drive_with_its_rating(name):
     """One drive in force: the system's [drive] every key kept (envelope, inertia, losses,
     scaling), the rating keys stated, what the OCP flies but for the source, which says
-    where each came from; a carried model records its rating part alone (the rating keys
-    and that source: the model's file and hash as before)."""
+    where each came from, and its losses; a carried model records its rating part alone
+    (the rating keys and that source: the model's file and hash as before)."""
     system = load_system(shipped_system_path(name))
-    force = drive_in_force(system)
-    d, own = force.drive, system.drive
+    d, how = drive_in_force(system)
+    own = system.drive
     for key in ("base_speed_rpm", "rotor_inertia_kg_m2", "losses", "scaling",
                 "continuous_torque_nm", "overload"):
         assert getattr(d, key) == getattr(own, key), key
@@ -143,8 +142,13 @@ def test_the_drive_in_force_is_the_systems_drive_with_its_rating(name):
     part = d.rating_part()
     stated = {f.name for f in dataclasses.fields(part) if getattr(part, f.name) is not None}
     assert stated <= {*DRIVE_KEYS, *OPTIONAL_DRIVE_KEYS, "source"} and part.source == d.source
-    if force.carried:
-        assert force.model.drive == part
+    assert d.power_model is not None and part.power_model is None
+    assert d.thermal_model is d.power_model.thermal and d.keys() == {
+        f.name: getattr(d, f.name) for f in dataclasses.fields(d) if f.name != "power_model"}
+    if how.carried:
+        assert d.power_model.drive == part
+    else:
+        assert d.power_model.sha256 == paper_model().sha256
 
 
 def test_a_carried_model_is_the_same_wherever_its_system_file_lies(tmp_path):
@@ -164,12 +168,12 @@ def test_a_carried_model_is_the_same_wherever_its_system_file_lies(tmp_path):
             save_power_model(paper_model(), folder / "losses" / "base.json")
             (folder / "kite.toml").write_text(body)
             forces.append(drive_in_force(load_system(folder / "kite.toml")))
-        first, second = forces
-        assert first.carried and first.model.sha256 == second.model.sha256
-        assert first.drive.source == second.drive.source
-        assert str(tmp_path) not in first.drive.source
-    assert first.drive.source.startswith("kite.toml [drive]: ")
-    assert first.drive.source.endswith("; nominal_power_w from losses/base.json")
+        (first, how), (second, _) = forces
+        assert how.carried and first.power_model.sha256 == second.power_model.sha256
+        assert first.source == second.source
+        assert str(tmp_path) not in first.source
+    assert first.source.startswith("kite.toml [drive]: ")
+    assert first.source.endswith("; nominal_power_w from losses/base.json")
 
 
 def test_a_loss_ratio_needs_the_shaft_power_term():
@@ -196,14 +200,14 @@ def test_a_drive_far_from_its_power_model_needs_a_scaling_key():
     assert "my_kite.toml" in str(err.value)
     # "none": the losses as they are, the rating the system's
     data["drive"]["scaling"] = "none"
-    drive = drive_in_force(system_from_dict(data, "my_kite.toml"))
-    assert not drive.carried and drive.model.sha256 == paper_model().sha256
-    assert drive.drive.max_torque_nm == 360.0
+    drive, how = drive_in_force(system_from_dict(data, "my_kite.toml"))
+    assert not how.carried and drive.power_model.sha256 == paper_model().sha256
+    assert drive.max_torque_nm == 360.0
     # within x1.5 of the model's rating: used as it is, no key needed
     data = _ap2_data()
     del data["drive"]["scaling"]
     data["drive"].update(max_speed_rpm=1400.0, max_torque_nm=100.0, nominal_power_w=9000.0)
-    assert not drive_in_force(system_from_dict(data, "my_kite.toml")).carried
+    assert not drive_in_force(system_from_dict(data, "my_kite.toml"))[1].carried
 
 
 def test_bench_optimize_stops_with_exit_2_naming_the_key(tmp_path, capsys):
@@ -229,8 +233,8 @@ def test_losses_path_is_relative_to_the_system_file(tmp_path):
     data = _ap2_data()
     data["drive"]["losses"] = "my_drive.json"
     system = system_from_dict(data, str(folder / "kite.toml"))
-    drive = drive_in_force(system)
+    _, drive = drive_in_force(system)
     assert drive.model_path == Path(folder / "my_drive.json") and drive.carried
     # --drive-model overrides the file's losses
-    other = drive_in_force(system, Path(folder / "my_drive.json"))
+    _, other = drive_in_force(system, Path(folder / "my_drive.json"))
     assert other.losses_note == "--drive-model"

@@ -165,7 +165,7 @@ def heavy_cycle():
     model = paper_model()
     options = OcpOptions(Discretization(20, 3), solver=SolverOptions(stored_guess=False))
     ocp = build_ocp(kite_dae(*system.model_params()), model, options,
-                    system=system.in_force(drive_in_force(system, drive_model=model).drive))
+                    system=system.in_force(drive_in_force(system, drive_model=model)[0]))
     return system, ocp, solve_by_homotopy(ocp, Scenario(10.0, "electrical", True))
 
 
@@ -206,11 +206,12 @@ def test_an_envelope_the_power_model_states_and_the_system_does_not_is_said():
         "nominal_power_w": 8200.0, "max_speed_rpm": 1500.0, "max_torque_nm": 78.0,
         "base_speed_rpm": 1000.0, "source": "test drive.toml"})
     plain = system_from_dict(_system(), "plain.toml")
-    lines = drive_in_force(plain, drive_model=model).lines()
+    drive, how = drive_in_force(plain, drive_model=model)
+    lines = how.lines(drive)
     assert any("states a torque-speed envelope (base_speed_rpm)" in line and "not flown" in line
                for line in lines), lines
     own = system_from_dict(_system(drive__base_speed_rpm=1200.0), "own.toml")
-    assert drive_in_force(own, drive_model=model).envelope_note == ""
+    assert drive_in_force(own, drive_model=model)[1].envelope_note == ""
 
 
 def test_a_reel_jerk_limit_holds_and_is_reported_in_every_kind():
@@ -221,7 +222,7 @@ def test_a_reel_jerk_limit_holds_and_is_reported_in_every_kind():
     system = system_from_dict(_system(winch__max_reel_jerk_m_s3=50.0), "jerk.toml")
     assert "reel jerk <= 50 m/s^3 (all kinds)" in system.drivetrain_line()
     model = paper_model()
-    flown = system.in_force(drive_in_force(system, drive_model=model).drive)
+    flown = system.in_force(drive_in_force(system, drive_model=model)[0])
     assert flown.winch.max_reel_jerk_m_s3 == 50.0
     res = start(build_ocp(kite_dae(*system.model_params()), model, OcpOptions(), system=flown),
                 Scenario.of_kind("elec-lim", 7.0))
@@ -239,12 +240,12 @@ def test_a_non_positive_jerk_limit_names_the_key(value):
 
 def test_the_drive_model_protocol_says_everything_optimize_uses():
     """Every attribute optimize reads of a ``drive_model`` (a name or an attribute of that
-    name) is declared by :class:`optimize.model.drivetrain.DriveModel`, and the power
+    name) is declared by :class:`kernel.drive.DriveModel`, and the power
     model has each."""
     import ast
     from pathlib import Path
 
-    from optimize.model.drivetrain import DriveModel
+    from kernel.drive import DriveModel
 
     declared = {n for n in vars(DriveModel) if not n.startswith("_")}
     declared |= set(DriveModel.__annotations__)
@@ -268,7 +269,7 @@ def test_the_power_model_is_the_drive_model_optimize_reads():
     import re
     from pathlib import Path
 
-    from optimize.model.drivetrain import DriveModel
+    from kernel.drive import DriveModel
 
     model = paper_model()
     declared = [*DriveModel.__annotations__,

@@ -28,7 +28,7 @@ from optimize.system.system_file import load_system
 
 #: the paper drive's rating as highwind.toml states it (torque limit and continuous 78 N m,
 #: a datasheet overload of 5 that no stage flies)
-PAPER_RATING = drive_in_force(load_system(), drive_model=paper_model()).drive.rating_part()
+PAPER_RATING = drive_in_force(load_system(), drive_model=paper_model())[0].rating_part()
 
 
 def _candidates(scales):
@@ -56,10 +56,10 @@ def test_x1_is_the_drive_bench_optimize_flies():
     from energy.candidates import build_candidates
 
     system = load_system()
-    drive = drive_in_force(system, drive_model=paper_model())
+    drive, _ = drive_in_force(system, drive_model=paper_model())
     (x1, x2), notes = build_candidates(drive, (1.0, 2.0))
     assert (x1.peak_torque_nm, x1.rated_torque_nm, x1.max_speed_rpm) == (78.0, 78.0, 1500.0)
-    optimize_drive = system.in_force(drive.drive).drive
+    optimize_drive = system.in_force(drive).drive
     flown = x1.flown_in(system).drive
     assert dataclasses.replace(flown, overload=None, source=None) == dataclasses.replace(
         optimize_drive, overload=None, source=None)
@@ -93,7 +93,7 @@ def test_x1_solve_stays_within_the_systems_torque_limit(tmp_path):
     from energy.candidates import build_candidates
 
     system = load_system()
-    cands, _ = build_candidates(drive_in_force(system, drive_model=paper_model()), (1.0,))
+    cands, _ = build_candidates(drive_in_force(system, drive_model=paper_model())[0], (1.0,))
     res = run_sizing(cands, (10.0, 11.0), Weibull(2.0, 6.2), tmp_path, n_intervals=10,
                      handle=_handle(), show_progress=False, system=system)
     assert all(r["success"] for r in res.records), [r["status"] for r in res.records]

@@ -83,7 +83,7 @@ def test_guess_is_accepted_for_its_system_and_refused_for_another():
     # highwind.toml is the guess's system; a copy with only a wider period range has the
     # same constraints g, so only the system hash tells them apart
     system, model = load_system(), paper_model()
-    rating = drive_in_force(system, drive_model=model).drive
+    rating = drive_in_force(system, drive_model=model)[0]
     own = build_ocp(kite_dae(*system.model_params()), model, OcpOptions(),
                     system=system.in_force(rating))
     solution, why = stored_guess.load(own)

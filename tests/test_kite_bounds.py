@@ -142,7 +142,7 @@ def test_reel_speed_body_rate_tension_and_surface_bounds_hold_and_are_reported(
         bounds__max_body_rate_deg_s=120.0, bounds__min_tension_n=250.0,
         bounds__elevator_max_deg=5.0, bounds__rudder_max_deg=12.0), "bounds.toml")
     model = paper_model()
-    flown = system.in_force(drive_in_force(system, drive_model=model).drive)
+    flown = system.in_force(drive_in_force(system, drive_model=model)[0])
     res = solve(build_ocp(kite_dae(*system.model_params()), model, OcpOptions(), system=flown),
                 Scenario.of_kind("elec-lim", 7.0), stored_guess_solve.warm)
     assert res.success, res.status

@@ -64,8 +64,9 @@ def test_size_writes_the_header_into_sizing_json_and_run_json(tmp_path):
     system = load_system()
     run = Provenance.start(["drivebench.size"])
     coverage = grid_coverage(site, winds, res.records)
+    drive, how = drive_in_force(system, drive_model=paper_model())
     write_sizing(tmp_path / "size", res, site=site, site_note="test", system=system,
-                 drive=drive_in_force(system, drive_model=paper_model()), wind_speeds_m_s=winds,
+                 drive=drive, resolution=how, wind_speeds_m_s=winds,
                  adaptive=False, tolerance=0.02, notes=[], provenance=run, coverage=coverage,
                  decision=decision(res.table, res.records, site, coverage, 0.02))
     doc = json.loads((tmp_path / "size" / "sizing.json").read_text(encoding="utf-8"))

@@ -231,7 +231,7 @@ def rewrite_optimize(src: Path, dst: Path, *, summary: pd.DataFrame | None = Non
         given = {**((body.get("sections") or {}).get("drive") or {}), **drive}
         flown = dataclasses.replace(Drive(), **{
             k: tuple(v) if isinstance(v, list) else v for k, v in given.items()})
-        body["sections"] = {**(body.get("sections") or {}), "drive": dataclasses.asdict(flown)}
+        body["sections"] = {**(body.get("sections") or {}), "drive": flown.keys()}
         body["bound_values"] = {**(body.get("bound_values") or {}), **bound_values(flown)}
     write_sweep_folder(dst, Provenance.start(manifest["provenance"]["command_line"]),
                        summary=read_summary(src / SUMMARY_FILE) if summary is None else summary,

@@ -23,7 +23,7 @@ SITE = Weibull(2.0, 6.2)
 
 def _candidates(scales):
     system = load_system()
-    rating = drive_in_force(system, drive_model=paper_model()).drive.rating_part()
+    rating = drive_in_force(system, drive_model=paper_model())[0].rating_part()
     return scaled_candidates(paper_model(), rating, scales)
 
 

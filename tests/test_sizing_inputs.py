@@ -62,7 +62,7 @@ def test_a_scale_beyond_the_edge_that_cannot_fly_ends_the_extension(tmp_path):
     # --extend halves the smallest scale while it is the best: a candidate refused there
     # ends the extension with a note instead of failing the sizing after its solves
     system = load_system()
-    drive = drive_in_force(system, drive_model=paper_model())
+    drive, _ = drive_in_force(system, drive_model=paper_model())
 
     def make(scales):
         made, _ = build_candidates(drive, scales)
@@ -94,7 +94,7 @@ def test_models_of_one_file_name_are_told_apart_and_one_file_twice_is_refused(tm
     b = _model_file(tmp_path / "b" / "power_model.json", 2.0)
     x2 = _model_file(tmp_path / "x2.json", 2.0)  # the name of the scale x2
     own = _model_file(tmp_path / "own.json", 1.5)
-    drive = drive_in_force(load_system(), drive_model=paper_model())
+    drive, _ = drive_in_force(load_system(), drive_model=paper_model())
     cands, _ = build_candidates(drive, (1.0, 2.0), (a, b, x2, own))
     assert [c.name for c in cands] == ["x1", "x2", str(a), str(b), str(x2), "own"]
     with pytest.raises(InputError, match="given twice to --models"):
@@ -103,7 +103,7 @@ def test_models_of_one_file_name_are_told_apart_and_one_file_twice_is_refused(tm
 
 def test_a_candidate_that_delivers_nothing_is_never_the_best():
     # was: --scales 1e6 gave every candidate an AEP of 0 and named one "best"
-    rating = drive_in_force(load_system(), drive_model=paper_model()).drive.rating_part()
+    rating = drive_in_force(load_system(), drive_model=paper_model())[0].rating_part()
     cands = scaled_candidates(paper_model(), rating, (1e6, 2e6))
     recs = [{"candidate": c.name, "wind_speed_m_s": w, "success": True,
              "avg_p_elec_w": 2.9e8 * c.scale / 1e6, "rms_torque_nm": 1.0}

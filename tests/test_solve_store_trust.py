@@ -26,7 +26,7 @@ from optimize.solve.result import Solution
 from optimize.system.drive_in_force import drive_in_force
 from optimize.system.system_file import load_system
 
-RATING = drive_in_force(load_system(), drive_model=paper_model()).drive.rating_part()
+RATING = drive_in_force(load_system(), drive_model=paper_model())[0].rating_part()
 SITE, WINDS = Weibull(2.0, 6.2), (6.0, 7.0)
 
 

@@ -436,7 +436,7 @@ def test_request_falls_back_to_the_paper_model(tmp_path):
                             fit_default=fit, out=tmp_path / "out")
 
     req = request(tmp_path / "fit_out" / "power_model.json")
-    assert req.setup.drive.model_path == PAPER_MODEL_PATH
+    assert req.setup.resolution.model_path == PAPER_MODEL_PATH
     assert "shipped paper model" in req.model_note
     assert req.grid == WindGrid((5.0, 5.5, 6.0), ("mech-free",))
     assert req.setup.options.discretization.n_intervals == 40
@@ -445,7 +445,7 @@ def test_request_falls_back_to_the_paper_model(tmp_path):
     fit = tmp_path / "fit_out" / "power_model.json"
     fit.parent.mkdir()
     save_power_model(paper_model(), fit)
-    assert request(fit).setup.drive.model_path == fit
+    assert request(fit).setup.resolution.model_path == fit
 
 
 @dataclass(frozen=True)

@@ -30,12 +30,12 @@ WIND_M_S = 7.0
 @pytest.fixture(scope="module")
 def solved():
     system = load_system(shipped_system_path("ap2"))
-    drive = drive_in_force(system)  # the paper's drive carried to the AP2 rating
-    model = drive.model
+    drive, _ = drive_in_force(system)  # the paper's drive carried to the AP2 rating
+    model = drive.power_model
     options = OcpOptions(Discretization(n_intervals=20, degree=3),
                          solver=SolverOptions(stored_guess=False))
     ocp = build_ocp(kite_dae(*system.model_params()), model, options,
-                    system=system.in_force(drive.drive))
+                    system=system.in_force(drive))
     return system, ocp, solve_by_homotopy(ocp, Scenario(WIND_M_S, "mechanical", True))
 
 

@@ -45,7 +45,7 @@ def test_highwind_file_is_the_package_defaults():
     assert system.kite_params() == KiteParams()
     assert system.aero_coefficients() == AeroCoefficients()
     assert system.wind_model() == WindModel()
-    rating = drive_in_force(system, drive_model=paper_model()).drive
+    rating = drive_in_force(system, drive_model=paper_model())[0]
     # the file's drive is the paper model's rating
     flown = system.in_force(rating).drive
     assert {k: getattr(flown, k) for k in ("max_speed_rpm", "max_torque_nm",
@@ -135,13 +135,13 @@ def test_power_law_profile_and_optional_drive_keys():
         drive_in_force(system, drive_model=NoRating())
     # a key the file leaves out comes from the power model's rating, and the source says so
     model = paper_model()
-    rating = drive_in_force(system, Path("paper.json"), drive_model=model).drive
+    rating = drive_in_force(system, Path("paper.json"), drive_model=model)[0]
     assert rating.max_torque_nm == model.drive.max_torque_nm
     assert "max_torque_nm from paper.json" in rating.source
     # the file's own keys are in force, not the power model's
     data = _data()
     data["drive"].update(max_speed_rpm=1200.0, max_torque_nm=70.0)
-    rating = drive_in_force(system_from_dict(data, "x.toml"), drive_model=model).drive
+    rating = drive_in_force(system_from_dict(data, "x.toml"), drive_model=model)[0]
     assert (rating.max_speed_rpm, rating.max_torque_nm) == (1200.0, 70.0)
 
 

@@ -235,7 +235,7 @@ def test_sizing_by_heat_lists_where_the_winding_limit_binds():
     """candidate_table with the winding limit: the speeds whose cycle reached it, the
     hottest peak, and no RMS column (the RMS row was not in those cycles)."""
     system = load_system()
-    rating = drive_in_force(system, drive_model=_model()).drive.rating_part()
+    rating = drive_in_force(system, drive_model=_model())[0].rating_part()
     cands = scaled_candidates(_model(), rating, (1.0, 2.0))
     peaks = {("x1", 5.0): 31.0, ("x1", 9.0): LIMIT_C, ("x2", 5.0): 28.0, ("x2", 9.0): 37.5}
     recs = [{"candidate": c.name, "wind_speed_m_s": w, "success": True,

@@ -11,63 +11,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Protocol
-
-import numpy as np
+from typing import Any
 
 from kernel.drive import Drive
-from kernel.thermal_model import ThermalModel
 from kernel.units import RPM_PER_RAD_S
-
-
-class DriveModel(Protocol):
-    """Everything optimize uses of a drive power model (``fitting.power_model.PowerModel``).
-
-    Attributes
-    ----------
-    name : str
-        What the model is (printed, recorded in the manifest).
-    sha256 : str
-        Its identity: part of the NLP cache key and of a stored solve's.
-    nominal_power_w : float
-        The drive's nominal power [W], where the system states none.
-    drive : kernel.drive.Drive or None
-        Its own rating (docs/schemas.md §3), where the system states none.
-    thermal : kernel.thermal_model.ThermalModel or None
-        Its winding's thermal model (docs/schemas.md §3 ``thermal``), or None.
-    copper_w_per_nm2 : float
-        Its copper loss's coefficient [W/(N m)^2], the part of its losses that follows the
-        winding's temperature (:class:`optimize.model.thermal.WindingThermal`).
-    domain : dict or None
-        ``quadrant -> polygon``: where its points were measured, or None.
-    provenance : dict or None
-        Where the model comes from (a carried model records it as its origin's).
-    """
-
-    name: str
-    sha256: str
-    nominal_power_w: float
-    drive: Drive | None
-    thermal: ThermalModel | None
-    copper_w_per_nm2: float
-    domain: dict | None
-    provenance: dict | None
-
-    def casadi_p_elec_w(self, speed_rpm: Any, torque_nm: Any) -> Any:
-        """Electrical power drawn from the grid [W] (CasADi expression)."""
-
-    def p_elec_w(self, speed_rpm: Any, torque_nm: Any) -> np.ndarray:
-        """Electrical power drawn from the grid [W] (numpy)."""
-
-    def to_dict(self) -> dict:
-        """Its file's content (docs/schemas.md §3): a sweep keeps a carried model's."""
-
-    def carried(self, speed_ratio: float, torque_ratio: float, loss_ratio: float = 1.0,
-                **changes: Any) -> DriveModel:
-        """The model at the corresponding points of a drive ``speed_ratio`` times its speed
-        and ``torque_ratio`` times its torque, its losses ``loss_ratio`` times the similarity
-        law's, with ``changes`` (:meth:`fitting.power_model.PowerModel.carried`): all that
-        :func:`carry_power_model` asks of the polynomial."""
 
 
 def drum_speed_rpm(dl_m_s: Any, r_winch_m: float) -> Any:

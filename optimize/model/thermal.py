@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 from scipy.linalg import expm
 
-from optimize.model.drivetrain import DriveModel
+from kernel.drive import DriveModel
 
 #: the winding temperature's state (the unit in the name, :mod:`optimize.model.variables`)
 STATE = "theta_winding_c"

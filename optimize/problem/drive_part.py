@@ -16,8 +16,9 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from kernel.drive import DriveModel
 from kernel.units import RPM_PER_RAD_S
-from optimize.model.drivetrain import DriveModel, Drivetrain, max_reel_speed_m_s
+from optimize.model.drivetrain import Drivetrain, max_reel_speed_m_s
 from optimize.model.envelope import (
     EnvelopeTable,
     envelope_torque_nm,

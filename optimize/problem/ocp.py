@@ -23,10 +23,10 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from kernel.drive import DriveModel
 from kernel.errors import InputError
 from kernel.sections import bound_keys
 from optimize.model.dae import Dae
-from optimize.model.drivetrain import DriveModel
 from optimize.model.kite_model import KiteDae
 from optimize.model.thermal import WindingThermal
 from optimize.problem.collocation import Collocation, radau

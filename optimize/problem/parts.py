@@ -13,7 +13,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from optimize.model.drivetrain import DriveModel, Drivetrain
+from kernel.drive import DriveModel
+from optimize.model.drivetrain import Drivetrain
 from optimize.model.kite_model import KiteDae
 from optimize.model.thermal import WindingThermal
 from optimize.problem.drive_part import DrivePart

@@ -48,18 +48,13 @@ RATING_RATIO_LIMIT = 1.5
 
 
 @dataclass(frozen=True)
-class DriveInForce:
-    """The drive a system flies with: the drive and its losses.
+class DriveResolution:
+    """How the drive in force was resolved (:func:`drive_in_force`): where its losses come
+    from and how they were carried to its rating. The drive itself, its rating, envelope
+    and losses, is the :class:`kernel.drive.Drive` beside it.
 
     Attributes
     ----------
-    drive : kernel.drive.Drive
-        The ``[drive]`` in force: the system file's, every rating key stated (a key the
-        file leaves out from the power model's rating), its ``source`` saying where they
-        come from (:func:`complete_drive`).
-    model : fitting.power_model.PowerModel
-        The losses at this drive's rating (the OCP's power model; carried when scaled),
-        with the winding's thermal model when it has one.
     model_path : Path
         The power model file the losses were read from.
     losses_note : str
@@ -77,8 +72,6 @@ class DriveInForce:
         (:mod:`optimize.system.drive_power_check`): printed, recorded, reported.
     """
 
-    drive: Drive
-    model: Any
     model_path: Path
     losses_note: str
     speed_ratio: float | None = None
@@ -92,9 +85,9 @@ class DriveInForce:
         """Whether the losses were carried to the rating by the similarity law."""
         return self.speed_ratio is not None
 
-    def lines(self) -> list[str]:
-        """What ``bench optimize`` prints about the drive in force."""
-        out = [f"drive in force: {self.drive.line().removeprefix('drive: ')}",
+    def lines(self, drive: Drive) -> list[str]:
+        """What ``bench optimize`` prints about the drive in force ``drive``."""
+        out = [f"drive in force: {drive.line().removeprefix('drive: ')}",
                f"drive losses: {self.model_path} ({self.losses_note})"]
         if self.carried:
             losses = (f", losses x{self.loss_ratio:.3g} by the IE3 class"
@@ -105,12 +98,12 @@ class DriveInForce:
         return (out + ([self.envelope_note] if self.envelope_note else [])
                 + [f"note: {c}" for c in self.checks])
 
-    def record(self) -> dict:
-        """The manifest's ``drive`` record."""
+    def record(self, drive: Drive) -> dict:
+        """The manifest's ``drive`` record of the drive in force ``drive``."""
         return {"losses_path": str(self.model_path),
                 "losses_note": self.losses_note, "speed_ratio": self.speed_ratio,
                 "torque_ratio": self.torque_ratio, "loss_ratio": self.loss_ratio,
-                "model_sha256": self.model.sha256,
+                "model_sha256": drive.power_model.sha256,
                 "checks": list(self.checks)}
 
 
@@ -193,7 +186,7 @@ def _factor(ratio: float) -> float:
 
 
 def drive_in_force(system: Any, override: Path | None = None, fit_default: Path | None = None,
-                   drive_model: Any = None) -> DriveInForce:
+                   drive_model: Any = None) -> tuple[Drive, DriveResolution]:
     """Resolve the drive a system flies with (see the module docstring).
 
     Parameters
@@ -206,6 +199,17 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
     drive_model : fitting.power_model.PowerModel, optional
         The losses already loaded (from ``override``; for library callers).
 
+    Returns
+    -------
+    drive : kernel.drive.Drive
+        The system's ``[drive]`` in force, every rating key stated (a key the file leaves
+        out from the power model's rating), its ``source`` saying where they come from
+        (:func:`complete_drive`), with its losses (:attr:`kernel.drive.Drive.power_model`:
+        the power model at this rating, carried when scaled, with the winding's thermal
+        model when it has one).
+    resolution : DriveResolution
+        Where the losses come from and how they were carried.
+
     Raises
     ------
     InputError
@@ -213,7 +217,6 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
         differ by more than :data:`RATING_RATIO_LIMIT` without ``[drive] scaling``.
     """
     from fitting.model_file import load_power_model
-    from optimize.model.drivetrain import carry_power_model
 
     model = drive_model
     if model is not None:
@@ -223,51 +226,68 @@ def drive_in_force(system: Any, override: Path | None = None, fit_default: Path 
         model = load_power_model(path)
     drive = complete_drive(system, model, path)
     base = getattr(model, "drive", None)
-    env = unflown_envelope(system, base, path)
-    checks = tuple(c for c in (power_check(drive),) if c)
+    found = DriveResolution(path, note, envelope_note=unflown_envelope(system, base, path),
+                            checks=tuple(c for c in (power_check(drive),) if c))
     scaling = drive.scaling
     if scaling == "none":
-        return DriveInForce(drive, model, path, note, envelope_note=env, checks=checks)
+        return drive.with_losses(model), found
     if base is None:
         if scaling is not None:
             raise InputError(system.path, f'[drive] scaling = "{scaling}": the power model '
                              f"{path} states no rating to carry its losses from",
                              expected='a power model with a "drive" rating, or scaling = "none"')
-        return DriveInForce(drive, model, path, note, envelope_note=env, checks=checks)
+        return drive.with_losses(model), found
     ratios = {k: getattr(drive, k) / float(getattr(base, k)) for k in DRIVE_KEYS}
     if scaling is None:
-        if max(_factor(r) for r in ratios.values()) > RATING_RATIO_LIMIT and override is not None:
-            raise InputError(  # the user's --drive-model is the file to look at
-                path,
-                f"its drive rating ({base.rating_text()}) differs from the drive of the "
-                f"system {system.path} ({drive.rating_text()}) by more than "
-                f"x{RATING_RATIO_LIMIT:g}",
-                column="drive", expected="--drive-model: a power model of the system's drive, "
-                'or [drive] scaling = "similarity" or "none" in the system file')
-        if max(_factor(r) for r in ratios.values()) > RATING_RATIO_LIMIT:
-            raise InputError(
-                system.path,
-                f"[drive]: this drive ({drive.rating_text()}) differs from the rating of its "
-                f"power model {path} ({base.rating_text()}) by more than "
-                f"x{RATING_RATIO_LIMIT:g}, and the file does not say how to carry the losses "
-                "over",
-                expected='[drive] scaling = "similarity" (carry the losses to this rating, '
-                         'docs/system_file.md) or scaling = "none" (use them as they are)')
-        return DriveInForce(drive, model, path, note, envelope_note=env, checks=checks)
+        _check_ratios(system, drive, base, path, ratios, override)
+        return drive.with_losses(model), found
+    return _carried(drive, model, base, ratios, found)
+
+
+def _check_ratios(system: Any, drive: Drive, base: Drive, path: Path, ratios: dict,
+                  override: Path | None) -> None:
+    """Refuse a power model whose rating differs from the drive's by more than
+    :data:`RATING_RATIO_LIMIT` when the system file says not how to carry its losses."""
+    if max(_factor(r) for r in ratios.values()) <= RATING_RATIO_LIMIT:
+        return
+    if override is not None:
+        raise InputError(  # the user's --drive-model is the file to look at
+            path,
+            f"its drive rating ({base.rating_text()}) differs from the drive of the "
+            f"system {system.path} ({drive.rating_text()}) by more than "
+            f"x{RATING_RATIO_LIMIT:g}",
+            column="drive", expected="--drive-model: a power model of the system's drive, "
+            'or [drive] scaling = "similarity" or "none" in the system file')
+    raise InputError(
+        system.path,
+        f"[drive]: this drive ({drive.rating_text()}) differs from the rating of its "
+        f"power model {path} ({base.rating_text()}) by more than "
+        f"x{RATING_RATIO_LIMIT:g}, and the file does not say how to carry the losses "
+        "over",
+        expected='[drive] scaling = "similarity" (carry the losses to this rating, '
+                 'docs/system_file.md) or scaling = "none" (use them as they are)')
+
+
+def _carried(drive: Drive, model: Any, base: Drive, ratios: dict,
+             found: DriveResolution) -> tuple[Drive, DriveResolution]:
+    """The drive with the losses of ``model`` (rated ``base``) carried to its rating by the
+    similarity law of its ``scaling``, and the resolution saying so."""
+    from optimize.model.drivetrain import carry_power_model
+
     # the machine's size: the ratio of the corners of the constant-torque regions (a base
     # speed, else the speed limit) and of nominal torques (nominal power / that speed)
     k_n = drive.corner_rpm() / base.corner_rpm()
     k_t = ratios["nominal_power_w"] / k_n
     lam, size_line = 1.0, efficiency_assumption(ratios["nominal_power_w"])
-    if scaling == SCALING_IE3:
+    if drive.scaling == SCALING_IE3:
         lam = rating_loss_ratio(base.nominal_power_w, drive.nominal_power_w)
         size_line = efficiency_law(base.nominal_power_w, drive.nominal_power_w)
-    checks = (*checks, *(c for c in (size_line,) if c))
     carried = carry_power_model(model, k_n, k_t, drive=drive.rating_part(),
                                 name=f"{model.name} carried to "
                                      f"{drive.rating_text(power=False)}", loss_ratio=lam)
-    return DriveInForce(drive, carried, path, note, k_n, k_t, envelope_note=env,
-                        checks=checks, loss_ratio=lam)
+    return drive.with_losses(carried), dataclasses.replace(
+        found, speed_ratio=k_n, torque_ratio=k_t, loss_ratio=lam,
+        checks=(*found.checks, *(c for c in (size_line,) if c)))
 
 
 def unflown_envelope(system: Any, model_drive: Drive | None, path: Path) -> str:

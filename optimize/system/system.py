@@ -131,12 +131,13 @@ class System:
         """The drive in force as canonical JSON: beside :attr:`sha256` (the file's), what a
         cache key of a problem of this system holds, since :meth:`in_force` changes the
         drive and not the file's hash."""
-        return json.dumps(dataclasses.asdict(self.drive), sort_keys=True, default=str)
+        return json.dumps(self.drive.keys(), sort_keys=True, default=str)
 
     def sections_record(self) -> dict[str, dict]:
         """Every section as flown (the drive in force), by section name, each key by its
         name in the file: what a sweep's manifest records (``sections``)."""
-        return {name: dataclasses.asdict(getattr(self, name))
+        return {name: (self.drive.keys() if name == "drive"
+                       else dataclasses.asdict(getattr(self, name)))
                 for name in ("kite", "aero", "tether", "winch", "drive", "wind", "bounds")}
 
     def bound_values(self) -> dict[str, Any]:

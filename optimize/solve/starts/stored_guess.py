@@ -431,7 +431,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     system, model = load_system(), paper_model()
-    drive = drive_in_force(system, drive_model=model).drive
+    drive, _ = drive_in_force(system, drive_model=model)
     ocp = build_ocp(kite_dae(*system.model_params()), model, OcpOptions(),
                     system=system.in_force(drive))
     try:
