@@ -97,7 +97,7 @@ def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
             cont = peak * rating.continuous_torque_nm / rating.max_torque_nm
             notes.append(f"{p}: its drive states no continuous_torque_nm: {cont:g} N m, the "
                          "reference drive's continuous share of its torque limit")
-        flown = Drive.rating(own.nominal_power_w or m.nominal_power_w,
+        flown = Drive.rating(m.nominal_power_w,
                              own.max_speed_rpm or rating.max_speed_rpm,
                              peak, source=str(p), continuous_torque_nm=cont,
                              max_p_elec_w=rating.max_p_elec_w)

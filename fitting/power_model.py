@@ -72,7 +72,10 @@ class PowerModel:
     covariance_rpm : tuple of tuple of float or None
         Covariance of ``coefficients_rpm`` (n_terms x n_terms), or None.
     nominal_power_w : float
-        Nominal power of the drive [W], the scale of the fit statistics.
+        Nominal power of the drive [W], the scale of the fit statistics: with a ``drive``,
+        its rating's (the file states it twice, ``nominal_power_w`` and
+        ``drive.nominal_power_w``, one value: they may differ by rounding alone, and the
+        rating's is kept). Read it here.
     name : str
         Human-readable model name.
     domain : dict or None
@@ -86,7 +89,7 @@ class PowerModel:
         Where the model comes from (input hash, command line, source).
     drive : kernel.drive.Drive or None
         The drive's rating (given as a :class:`kernel.drive.Drive` or its dict form,
-        :meth:`kernel.drive.Drive.to_dict`); its nominal power equals ``nominal_power_w``.
+        :meth:`kernel.drive.Drive.to_dict`); its nominal power is ``nominal_power_w``.
         None for a version-1 file.
     thermal : kernel.thermal_model.ThermalModel or None
         The winding's fitted thermal model (:func:`fitting.thermal.fit_thermal`; given as
@@ -128,6 +131,8 @@ class PowerModel:
         problem = model_problem(self)
         if problem is not None:
             raise ValueError(f"invalid PowerModel: {problem}")
+        if self.drive is not None:  # one value: the rating's (equal to 1e-12, checked)
+            object.__setattr__(self, "nominal_power_w", float(self.drive.nominal_power_w))
 
     # ------------------------------------------------------------------- views
     @property

@@ -145,13 +145,12 @@ def complete_drive(system: Any, model: Any, model_path: Path | str) -> Drive:
     values, borrowed = {}, []
     for key in DRIVE_KEYS:
         own = getattr(d, key)
+        # the model's nominal power is its rating's where it states one (one value)
+        theirs = model.nominal_power_w if key == "nominal_power_w" else getattr(given, key, None)
         if own is not None:
             values[key] = own
-        elif given is not None and getattr(given, key) is not None:
-            values[key] = float(getattr(given, key))
-            borrowed.append(key)
-        elif key == "nominal_power_w":
-            values[key] = float(model.nominal_power_w)
+        elif theirs is not None:
+            values[key] = float(theirs)
             borrowed.append(key)
         else:
             raise InputError(system.path, f"[drive] {key}: not in the system file and not in "

@@ -69,6 +69,19 @@ def test_the_model_gives_its_own_band_on_basis_averages():
     assert paper_model().sigma_of_basis(paper_model().basis(-1500.0, 78.0)) == 0.0  # no cov
 
 
+def test_the_nominal_power_is_one_value_the_ratings():
+    """The file states the nominal power twice (top level and the drive's rating): read as
+    one value, the rating's, when they differ by rounding; refused when by more (1e-12)."""
+    import dataclasses
+
+    m = _odd_model()
+    assert m.nominal_power_w == m.drive.nominal_power_w == 8200.0
+    rounded = dataclasses.replace(m, nominal_power_w=8200.0 * (1 + 4e-16))
+    assert rounded.nominal_power_w == 8200.0 and rounded.to_dict()["nominal_power_w"] == 8200.0
+    with pytest.raises(ValueError, match="differs from nominal_power_w"):
+        dataclasses.replace(m, nominal_power_w=8200.5)
+
+
 def test_si_evaluation_equals_rpm_evaluation():
     # Same physical point in both unit systems: must agree to rounding (rtol 1e-12).
     m = _odd_model()
