@@ -86,7 +86,7 @@ def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
     from energy.sizing import Candidate, scaled_candidates
     from fitting.model_file import load_power_model
     rating, notes = reference_rating(drive.rating_part(), overrides)
-    candidates = scaled_candidates(drive.power_model, rating, tuple(scales))
+    candidates = scaled_candidates(rating.with_losses(drive.power_model), tuple(scales))
     names = _model_names(tuple(models), {c.name for c in candidates})
     for p in models:
         m = load_power_model(p)
@@ -101,7 +101,7 @@ def build_candidates(drive: Any, scales: tuple[float, ...], models: tuple = (),
                              own.max_speed_rpm or rating.max_speed_rpm,
                              peak, source=str(p), continuous_torque_nm=cont,
                              max_p_elec_w=rating.max_p_elec_w)
-        candidates.append(Candidate(names[Path(p)], m, flown, path=Path(p)))
+        candidates.append(Candidate(names[Path(p)], flown.with_losses(m), path=Path(p)))
     return candidates, notes
 
 

@@ -60,16 +60,16 @@ SIZING_KIND = "elec-lim"
 
 @dataclass(frozen=True)
 class Candidate:
-    """A drive to size: power model and rating.
+    """A drive to size.
 
     Attributes
     ----------
     name : str
-    model : fitting.power_model.PowerModel
-    rating : kernel.drive.Drive
-        Its limits: ``continuous_torque_nm`` (RMS drum torque over the cycle at most
+    drive : kernel.drive.Drive
+        Its rating: ``continuous_torque_nm`` (RMS drum torque over the cycle at most
         this), ``max_torque_nm`` (short-time peak), ``max_speed_rpm``, and
-        ``nominal_power_w`` (the capacity factor's and the sizing axis' rating).
+        ``nominal_power_w`` (the capacity factor's and the sizing axis' rating); and its
+        losses, ``drive.power_model``.
     scale : float or None
         Torque-rating scale when made by :func:`scaled_candidates`.
     path : Path or None
@@ -77,30 +77,29 @@ class Candidate:
     """
 
     name: str
-    model: Any
-    rating: Any
+    drive: Any
     scale: float | None = None
     path: Path | None = None
 
     @property
     def rated_torque_nm(self) -> float:
         """Continuous rating [N m]."""
-        return self.rating.continuous_torque_nm
+        return self.drive.continuous_torque_nm
 
     @property
     def peak_torque_nm(self) -> float:
         """Short-time torque limit [N m]."""
-        return self.rating.max_torque_nm
+        return self.drive.max_torque_nm
 
     @property
     def max_speed_rpm(self) -> float:
         """Speed limit [rpm]."""
-        return self.rating.max_speed_rpm
+        return self.drive.max_speed_rpm
 
     @property
     def nominal_power_w(self) -> float:
         """Nominal power [W]."""
-        return self.rating.nominal_power_w
+        return self.drive.nominal_power_w
 
     def flown_in(self, system: Any) -> Any:
         """``system`` (kite, tether, winch, wind and bounds) with this drive in force, as
@@ -110,7 +109,7 @@ class Candidate:
         table = system.drive.envelope_torque_nm
         scaled = (None if self.scale is None or table is None
                   else tuple(self.scale * t for t in table))
-        return system.in_force(self.rating, envelope_torque_nm=scaled)
+        return system.in_force(self.drive, envelope_torque_nm=scaled)
 
     def check(self, system: Any) -> None:
         """Refuse, before any solve, a candidate ``bench optimize`` would refuse as the
@@ -119,8 +118,8 @@ class Candidate:
         from optimize.door import check_drive
 
         how = f"--models {self.path}" if self.path is not None else f"--scales {self.scale:g}"
-        check_drive(self.flown_in(system), self.model, self.path, (SIZING_KIND,),
-                    source=f"candidate {self.name} ({how})", rating_source=self.rating.source)
+        check_drive(self.flown_in(system), self.drive.power_model, self.path, (SIZING_KIND,),
+                    source=f"candidate {self.name} ({how})", rating_source=self.drive.source)
 
     def problem(self, n_intervals: int, degree: int, system: Any,
                 call_time_limit_s: float = CALL_WALL_LIMIT_S) -> Any:
@@ -129,32 +128,32 @@ class Candidate:
         ``call_time_limit_s`` [s] (``--call-time-limit``)."""
         from optimize.door import Discretization, OcpOptions, Problem, SolverOptions
 
-        return Problem.for_system(self.flown_in(system), self.model, OcpOptions(
+        return Problem.for_system(self.flown_in(system), self.drive.power_model, OcpOptions(
             Discretization(n_intervals, degree),
             solver=SolverOptions(call_time_limit_s=call_time_limit_s)))
 
 
-def scaled_candidates(base: Any, rating: Any, scales: tuple[float, ...]) -> list[Candidate]:
+def scaled_candidates(reference: Any, scales: tuple[float, ...]) -> list[Candidate]:
     """Candidates of the reference drive scaled by each ``s`` (see the module's law).
 
     Parameters
     ----------
-    base : fitting.power_model.PowerModel
-        The reference drive's losses (at ``rating``).
-    rating : kernel.drive.Drive
-        The reference drive's rating, ``continuous_torque_nm`` stated.
+    reference : kernel.drive.Drive
+        The reference drive: its rating, ``continuous_torque_nm`` stated, and its losses
+        (``power_model``).
     scales : tuple of float
         Torque-rating scales ``s`` > 0.
     """
     from optimize.door import carry_power_model
 
-    out = []
+    base, out = reference.power_model, []
     for s in scales:
-        scaled = rating.scaled(1.0, s, f"{rating.source}; x{s:g} torque rating (bench size)",
-                               keep=("max_p_elec_w",))
+        scaled = reference.with_losses(None).scaled(
+            1.0, s, f"{reference.source}; x{s:g} torque rating (bench size)",
+            keep=("max_p_elec_w",))
         model = carry_power_model(base, 1.0, s, drive=scaled,
                                   name=f"{base.name} x{s:g} torque rating")
-        out.append(Candidate(f"x{s:g}", model, scaled, s))
+        out.append(Candidate(f"x{s:g}", scaled.with_losses(model), s))
     return out
 
 

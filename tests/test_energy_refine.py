@@ -180,7 +180,7 @@ def test_a_stored_cycle_is_the_optimum_it_was_stored_from():
 
     system = load_system()
     rating = drive_in_force(system, drive_model=paper_model())[0].rating_part()
-    x1 = scaled_candidates(paper_model(), rating, (1.0,))[0]
+    x1 = scaled_candidates(rating.with_losses(paper_model()), (1.0,))[0]
     backend = OcpBackend()
     ocp = backend.build(x1.problem(10, 4, system))
     scenario = Scenario.of_kind("elec-lim", 7.0)

@@ -34,7 +34,8 @@ PAPER_RATING = drive_in_force(load_system(), drive_model=paper_model())[0].ratin
 def _candidates(scales):
     from dataclasses import replace
 
-    return scaled_candidates(paper_model(), replace(PAPER_RATING, max_torque_nm=390.0), scales)
+    rating = replace(PAPER_RATING, max_torque_nm=390.0)
+    return scaled_candidates(rating.with_losses(paper_model()), scales)
 
 
 def test_scaled_candidates_are_s_drives_sharing_the_torque():
@@ -43,9 +44,11 @@ def test_scaled_candidates_are_s_drives_sharing_the_torque():
     scales = (0.5, 2.0, 3.7)
     for s, c in zip(scales, _candidates(scales), strict=True):
         n, t = np.array([-1500.0, 300.0, 900.0]), np.array([10.0, 78.0, 150.0])
-        np.testing.assert_allclose(c.model.p_elec_w(n, t), s * base.p_elec_w(n, t / s),
+        model = c.drive.power_model
+        np.testing.assert_allclose(model.p_elec_w(n, t), s * base.p_elec_w(n, t / s),
                                    rtol=1e-12)
-        assert c.model.nominal_power_w == pytest.approx(s * base.nominal_power_w)
+        assert model.nominal_power_w == c.drive.nominal_power_w == pytest.approx(
+            s * base.nominal_power_w)
         assert c.max_speed_rpm == PAPER_RATING.max_speed_rpm
     c = _candidates((0.5, 2.0))
     assert [(x.rated_torque_nm, x.peak_torque_nm) for x in c] == [(39.0, 195.0), (156.0, 780.0)]

@@ -24,7 +24,7 @@ SITE = Weibull(2.0, 6.2)
 def _candidates(scales):
     system = load_system()
     rating = drive_in_force(system, drive_model=paper_model())[0].rating_part()
-    return scaled_candidates(paper_model(), rating, scales)
+    return scaled_candidates(rating.with_losses(paper_model()), scales)
 
 
 def _records(cands, power_of_scale, winds=(5.0, 9.0)):

@@ -104,7 +104,7 @@ def test_models_of_one_file_name_are_told_apart_and_one_file_twice_is_refused(tm
 def test_a_candidate_that_delivers_nothing_is_never_the_best():
     # was: --scales 1e6 gave every candidate an AEP of 0 and named one "best"
     rating = drive_in_force(load_system(), drive_model=paper_model())[0].rating_part()
-    cands = scaled_candidates(paper_model(), rating, (1e6, 2e6))
+    cands = scaled_candidates(rating.with_losses(paper_model()), (1e6, 2e6))
     recs = [{"candidate": c.name, "wind_speed_m_s": w, "success": True,
              "avg_p_elec_w": 2.9e8 * c.scale / 1e6, "rms_torque_nm": 1.0}
             for c in cands for w in (7.0, 8.0)]

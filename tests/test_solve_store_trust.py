@@ -63,7 +63,7 @@ class LinearBackend:
 
 
 def _size(tmp_path, backend):
-    cands = scaled_candidates(paper_model(), RATING, (1.0, 2.0))
+    cands = scaled_candidates(RATING.with_losses(paper_model()), (1.0, 2.0))
     handle = ExecutorHandle(ThreadPoolExecutor(1), QueueChannel(), "1 thread", 1)
     return run_sizing(cands, WINDS, SITE, tmp_path, n_intervals=10, handle=handle,
                       show_progress=False, backend=backend)

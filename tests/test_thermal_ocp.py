@@ -236,7 +236,7 @@ def test_sizing_by_heat_lists_where_the_winding_limit_binds():
     hottest peak, and no RMS column (the RMS row was not in those cycles)."""
     system = load_system()
     rating = drive_in_force(system, drive_model=_model())[0].rating_part()
-    cands = scaled_candidates(_model(), rating, (1.0, 2.0))
+    cands = scaled_candidates(rating.with_losses(_model()), (1.0, 2.0))
     peaks = {("x1", 5.0): 31.0, ("x1", 9.0): LIMIT_C, ("x2", 5.0): 28.0, ("x2", 9.0): 37.5}
     recs = [{"candidate": c.name, "wind_speed_m_s": w, "success": True,
              "avg_p_elec_w": -500.0 * w, "rms_torque_nm": 1e3,
