@@ -66,7 +66,8 @@ class DriveModel(Protocol):
     sha256 : str
         Its identity: part of the NLP cache key and of a stored solve's.
     nominal_power_w : float
-        The drive's nominal power [W], where the system states none.
+        The drive's nominal power [W] (its rating's, where it records one), where the system
+        states none.
     drive : Drive or None
         The rating its file records (docs/schemas.md §3), where the system states none.
     thermal : kernel.thermal_model.ThermalModel or None

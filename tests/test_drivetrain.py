@@ -282,3 +282,10 @@ def test_the_power_model_is_the_drive_model_optimize_reads():
     found = [f"{p.relative_to(root)}:{m.group()}" for p in sorted(root.rglob("*.py"))
              for m in reach.finditer(p.read_text(encoding="utf-8"))]
     assert found == []
+    # the AEP's and the cycle verdict's bands are the loss model's own (basis, of_basis,
+    # sigma_of_basis): neither picks the polynomial apart
+    terms = re.compile(r"coefficients_rpm|\.terms\b")
+    for place in ("energy", "cycle"):
+        found = [f"{p.name}:{m.group()}" for p in sorted((root.parent / place).rglob("*.py"))
+                 for m in terms.finditer(p.read_text(encoding="utf-8"))]
+        assert found == [], place

@@ -1,7 +1,9 @@
 """The drive in force: which drive flies a system, its rating and its losses.
 
 A system file's ``[drive]`` (docs/system_file.md) states the drive's rating and
-where its losses come from. :func:`drive_in_force` resolves both:
+where its losses come from. :func:`drive_in_force` resolves both into one
+:class:`kernel.drive.Drive` that carries its losses (``Drive.power_model``), and says how in
+a :class:`DriveResolution`:
 
 - the **losses** (a power model file): ``--drive-model`` when given, else the
   file's ``losses`` key (``"paper"`` or a ``power_model.json`` path relative to
