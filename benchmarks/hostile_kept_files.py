@@ -30,6 +30,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from optimize.problem.deadline import SCENARIO_CALLS
+
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = [sys.executable, "-m", "drivebench.cli"]
 SITE = ["--weibull-k", "2", "--mean-speed", "6", "--height-m", "100"]
@@ -469,14 +471,17 @@ def case_thermal_block_absurd(work: Work) -> tuple[str, str]:
 
 
 def _fatrop_verdict(run: subprocess.CompletedProcess, out: Path, reference: Path | None,
-                    seconds: float) -> tuple[str, str]:
-    """A fatrop sweep: clean when it ends without a traceback and either converges (to
-    IPOPT's optima of ``reference`` within 1 % where given) or names the failures and
-    ``--solver ipopt``."""
+                    seconds: float, bound_s: float) -> tuple[str, str]:
+    """A fatrop sweep: clean when it ends without a traceback within ``bound_s`` (its
+    scenarios' budgets, :data:`optimize.problem.deadline.SCENARIO_CALLS` + 1 call limits
+    each, and a minute for the NLP builds) and either converges (to IPOPT's optima of
+    ``reference`` within 1 % where given) or names the failures and ``--solver ipopt``."""
     text = run.stdout + run.stderr
     took = f"({seconds:.0f} s)"
     if "Traceback" in text:
         return "unclear", f"traceback: {said(run)} {took}"
+    if seconds > bound_s + 60:
+        return "unclear", f"ran past its bound of {bound_s:.0f} s: {said(run)} {took}"
     summary = pd.read_parquet(out / "summary.parquet").set_index("scenario")
     failed = summary.index[~summary["success"]].tolist()
     if failed and "--solver ipopt" not in run.stdout:
@@ -499,7 +504,8 @@ def case_fatrop_condensed_sweep(work: Work) -> tuple[str, str]:
     run = bench("optimize", "--wind-grid", "7,8.5", "--scenarios", "elec-lim,mech-lim",
                 "--no-claims", "--out", "o_fatrop", "--solver", "fatrop", "--transcription",
                 "condensed", "--call-time-limit", "30", *COARSE, cwd=d)
-    return _fatrop_verdict(run, d / "o_fatrop", d / "optimize_out", time.perf_counter() - t0)
+    return _fatrop_verdict(run, d / "o_fatrop", d / "optimize_out", time.perf_counter() - t0,
+                           4 * (SCENARIO_CALLS + 1) * 30)
 
 
 def case_fatrop_condensed_winding_limit(work: Work) -> tuple[str, str]:
@@ -514,7 +520,8 @@ def case_fatrop_condensed_winding_limit(work: Work) -> tuple[str, str]:
                 "--wind-grid", "8", "--scenarios", "elec-lim", "--no-claims", "--out", "o8",
                 "--solver", "fatrop", "--transcription", "condensed", "--call-time-limit", "20",
                 *COARSE, cwd=d)
-    return _fatrop_verdict(run, d / "o8", None, time.perf_counter() - t0)
+    return _fatrop_verdict(run, d / "o8", None, time.perf_counter() - t0,
+                           (SCENARIO_CALLS + 1) * 20)
 
 
 

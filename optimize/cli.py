@@ -24,7 +24,7 @@ from optimize.problem.deadline import (
     SCENARIO_CALLS,
 )
 from optimize.problem.options import SOLVERS, TRANSCRIPTIONS
-from optimize.sweep_options import DEFAULT_WIND_GRID
+from optimize.sweep_options import DEFAULT_WIND_GRID, GIVE_UP_AFTER
 
 log = logging.getLogger(__name__)
 
@@ -35,8 +35,9 @@ EXIT_ALL_CONVERGED, EXIT_ALL_FAILED, EXIT_SOME_FAILED, EXIT_CLUSTER_LOST = 0, 1,
 EXIT_CODES = (f"exit codes: {EXIT_ALL_CONVERGED} every scenario converged; {EXIT_SOME_FAILED} "
               f"some failed (listed after FAILED, their status in summary.parquet; the files "
               f"are written); {EXIT_ALL_FAILED} all failed ({EXIT_SOME_FAILED} or "
-              f"{EXIT_ALL_FAILED} also when a solver call hung and stopped the run: WORKER "
-              f"LOST, the scenarios not run listed); {EXIT_CLUSTER_LOST} the Dask "
+              f"{EXIT_ALL_FAILED} also when the run stopped itself, the scenarios not run "
+              "listed: WORKER LOST, a solver call hung; STOPPED, a solver other than IPOPT "
+              f"failed {GIVE_UP_AFTER} scenarios and converged none); {EXIT_CLUSTER_LOST} the Dask "
               "cluster was lost during the run (the scenarios that finished are written, "
               "the others listed as not run; an earlier output with scenarios this run lost "
               "is kept, this one written beside it as <out>.partial); 2 bad input (nothing "
@@ -238,8 +239,8 @@ def run(args: argparse.Namespace) -> int:
             print(advice)
     if sweep.lost is None:
         return exit_code(sweep.summary["success"].tolist())
-    if sweep.lost_worker:  # a re-run may hang the same way: the scenarios' own exit code
-        print(f"WORKER LOST: {sweep.lost}", file=sys.stderr)
+    if sweep.stopped:  # a re-run may meet it again: the scenarios' own exit code
+        print(f"{sweep.stopped}: {sweep.lost}", file=sys.stderr)
         print("NOT RUN (the run stopped): "
               f"{', '.join(sweep.summary.loc[not_run, 'scenario']) or 'none of the scenarios'}",
               file=sys.stderr)

@@ -50,6 +50,7 @@ from optimize.sweep_folder import (
 )
 from optimize.sweep_options import (
     DEFAULT_SOLVER,
+    GIVE_UP_AFTER,
     LOCAL_POOL,
     PAPER_GRID,
     Execution,
@@ -291,9 +292,10 @@ class OptimizeOutcome:
         cluster was lost and the earlier output there converged scenarios this run lost.
     kept : str or None
         Why the earlier output in ``request.out`` was kept (:func:`earlier_is_better`).
-    lost_worker : bool
-        ``lost`` was a worker of the local pool that ended abruptly (a solver call that
-        hung past its hard stop), not a Dask cluster.
+    stopped : str
+        The label of a loss the run decided itself (``"WORKER LOST"``: a solver call
+        hung; ``"STOPPED"``: it gave its solver up), ``""`` for none or a lost cluster
+        (:attr:`optimize.service.run.SweepResult.stopped`).
     """
 
     summary: Any
@@ -308,7 +310,7 @@ class OptimizeOutcome:
     lost: str | None = None
     out: Path | None = None
     kept: str | None = None
-    lost_worker: bool = False
+    stopped: str = ""
 
 
 def run_optimize(
@@ -337,7 +339,8 @@ def run_optimize(
     plan = plan_graph(request.grid.wind_speeds_m_s, request.grid.kinds)
     with open_executor(request.workers, request.scheduler) as handle:
         tasks = SweepTasks(problem, plan, cut_in_kinds, request.cut_in_tol_m_s, backend,
-                           request.period_scan, request.grid.kinds)
+                           request.period_scan, request.grid.kinds,
+                           0 if options.solver.solver == "ipopt" else GIVE_UP_AFTER)
         result = run_sweep(tasks, handle, show_progress)
         outcomes = list(result.outcomes)
         if request.trust and result.lost is None:
@@ -359,7 +362,7 @@ def run_optimize(
                                          None), backend))
     return OptimizeOutcome(summary, claims, cut_ins, trust, tuple(trust.get("lines", ())),
                            result.wall_time_s, result.executor, files, result.iterations(),
-                           result.lost, Path(out), kept, result.lost_worker)
+                           result.lost, Path(out), kept, result.stopped)
 
 
 def partial_folder(out: Path) -> Path:

@@ -22,6 +22,10 @@ from optimize.problem.deadline import CALL_WALL_LIMIT_S
 DEFAULT_WIND_GRID = "4:10:1.5"
 #: a generous bound on the number of wind speeds (each is one solve per kind)
 MAX_WIND_SPEEDS = 200
+#: a sweep by a solver other than IPOPT is given up once this many of its scenarios failed
+#: and none converged (:class:`optimize.service.run.GaveUp`; the command then names
+#: --solver ipopt): the seed's cold start and the two cold starts after it on two workers
+GIVE_UP_AFTER = 3
 #: plausible wind speeds at 100 m [m/s], checked before any solve: from a light air in
 #: which no kite flies to the 25 m/s cut-out wind of IEC 61400-1 that ends wind-energy
 #: operation (the paper sweeps 4 to 10 m/s); a speed outside is a typo

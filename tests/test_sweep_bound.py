@@ -162,7 +162,7 @@ def test_a_sweep_whose_solver_hangs_stops_with_what_finished():
     with open_executor(workers=2) as handle:
         result = run_sweep(tasks, handle, show_progress=False)
     assert time.monotonic() - t0 < 60  # without the hard stop it never ends
-    assert result.lost_worker and "taken to hang" in result.lost
+    assert result.stopped == "WORKER LOST" and "taken to hang" in result.lost
     assert "going on longest then: grid: elec-lim-10.0" in result.lost
     by_name = {o.name: o for o in result.outcomes}
     assert len(by_name) == 10
@@ -221,3 +221,67 @@ def test_the_iterations_line_names_the_solver_that_ran():
            "by_role": {"grid": 30}}
     assert iterations_line(its, "fatrop").startswith("fatrop iterations: 12 in the scenarios'")
     assert iterations_line(its).startswith("IPOPT iterations: 12")
+
+
+@dataclass(frozen=True)
+class FailingBackend(NewtonBackend):
+    """The Newton stand-in, but every solve fails except those of the scenarios ``ok``."""
+
+    ok: tuple[str, ...] = ()
+
+    def _newton(self, kind, w, x):
+        result = super()._newton(kind, w, x)
+        if Scenario.of_kind(kind, w).name in self.ok:
+            return result
+        return Result("fatrop return flag 2: failed", False, 5, 1e-3, math.nan, x)
+
+
+def _give_up_sweep(backend, give_up_after=3):
+    kinds = ("elec-lim",)
+    tasks = SweepTasks(BOUNDED, plan_graph(WINDS, kinds), backend=backend, selected=kinds,
+                       give_up_after=give_up_after)
+    with ThreadPoolExecutor(2) as ex:
+        return run_sweep(tasks, ExecutorHandle(ex, QueueChannel(), "threads", 2),
+                         show_progress=False)
+
+
+def test_a_sweep_gives_its_solver_up_after_failures_with_none_converged():
+    result = _give_up_sweep(FailingBackend())
+    assert result.stopped == "STOPPED" and "3 scenarios failed and none converged" in result.lost
+    status = {o.name: o.status for o in result.outcomes}
+    # the seed (7 m/s) and the two speeds it starts (5.5, 8.5) failed; the outer two not
+    # run, or one of them when its source failed and handed it on before the third failure
+    assert status["elec-lim-7.0"] == status["elec-lim-5.5"] == status["elec-lim-8.5"] \
+        == "fatrop return flag 2: failed"
+    not_run = {n for n, s in status.items() if s.startswith("not run")}
+    assert not_run and not_run <= {"elec-lim-4.0", "elec-lim-10.0"}
+    assert {status[n] for n in not_run} == {
+        "not run: gave up: 3 scenarios failed and none converged"}
+    # never without the rule, nor once one converged: every scenario is tried
+    for kept in (_give_up_sweep(FailingBackend(), give_up_after=0),
+                 _give_up_sweep(FailingBackend(ok=("elec-lim-7.0",)))):
+        assert kept.stopped == "" and kept.lost is None
+        assert not any(o.status.startswith("not run") for o in kept.outcomes)
+
+
+def test_bench_optimize_with_fatrop_stops_and_names_ipopt(tmp_path, monkeypatch, capsys):
+    import optimize.command
+    from drivebench.cli import main
+
+    real = optimize.command.run_optimize
+    monkeypatch.setattr(optimize.command, "run_optimize", lambda request, line, show_progress:
+                        real(request, line, show_progress, backend=CycleBackend(max_iter=1)))
+    code = main(["optimize", "--wind-grid", "4:10:1.5", "--scenarios", "elec-lim",
+                 "--no-claims", "--solver", "fatrop", "--workers", "1",
+                 "--out", str(tmp_path / "o"), "--no-progress"])
+    out, err = capsys.readouterr()
+    assert code == 1 and "Traceback" not in out + err
+    assert "STOPPED: 3 scenarios failed and none converged" in err
+    # 4 and 10 m/s, or one of them when it was handed to the worker before the third failure
+    not_run = err.split("NOT RUN (the run stopped): ")[1].splitlines()[0].split(", ")
+    assert not_run and set(not_run) <= {"elec-lim-4.0", "elec-lim-10.0"}
+    assert "Use --solver ipopt" in out and "fatrop iterations:" in out
+    import pandas as pd
+
+    summary = pd.read_parquet(tmp_path / "o" / "summary.parquet")
+    assert len(summary) == 5 and not summary["success"].any()

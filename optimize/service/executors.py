@@ -154,6 +154,10 @@ class ClusterLost(InputError):
         result or exception on this machine (set by :func:`run_graph`; empty elsewhere).
     """
 
+    #: how the command says the loss; a loss the run decides itself (:class:`WorkerLost`,
+    #: :class:`optimize.service.run.GaveUp`) has another, and a re-run may meet it again
+    label = "CLUSTER LOST"
+
     def __init__(self, why: str, problem: str, expected: str) -> None:
         super().__init__(None, problem, expected=expected)
         self.why = why
@@ -166,6 +170,8 @@ class WorkerLost(ClusterLost):
     its worker so, as does a worker killed from outside (out of memory, a signal). The
     run stops with what finished, as for a lost cluster; a re-run may hang the same way,
     so the scenarios it left are not said to be solved by one."""
+
+    label = "WORKER LOST"
 
     def __init__(self, exc: BaseException) -> None:
         super().__init__(
@@ -432,6 +438,7 @@ def run_graph(
     channel: Any = None,
     on_event: Callable[[dict], None] | None = None,
     poll_s: float = 0.25,
+    stop: Callable[[dict[int, Future]], ClusterLost | None] | None = None,
 ) -> dict[int, Future]:
     """Run ``n`` dependent tasks: task ``i`` is submitted as ``fn(make_task(i, done),
     progress=channel)`` once every task of ``needs(i)`` has finished (``done``: their
@@ -439,7 +446,9 @@ def run_graph(
 
     ``needs`` must only name lower indices (the tasks in a topological order). The
     other parameters are those of :func:`run_tasks`. Returns every future by index, all
-    done; a task's exception stays in its future (its dependents still run).
+    done; a task's exception stays in its future (its dependents still run). ``stop``
+    (the finished tasks' futures -> a reason to submit no more, or None) is asked as
+    tasks finish; once it gives one, the tasks running then finish and it is raised.
 
     Raises
     ------
@@ -452,7 +461,8 @@ def run_graph(
     """
     futures: dict[int, Future] = {}
     try:
-        _run_graph(executor, fn, n, needs, make_task, channel, on_event, poll_s, futures)
+        _run_graph(executor, fn, n, needs, make_task, channel, on_event, poll_s, futures,
+                   stop)
     except ClusterLost as exc:
         exc.finished = {i: f for i, f in futures.items() if f.done() and not f.cancelled()}
         raise
@@ -479,10 +489,12 @@ def _run_graph(executor: Executor, fn: Callable[..., Any], n: int,
                needs: Callable[[int], Sequence[int]],
                make_task: Callable[[int, dict[int, Future]], Any], channel: Any,
                on_event: Callable[[dict], None] | None, poll_s: float,
-               futures: dict[int, Future]) -> None:
+               futures: dict[int, Future],
+               stop: Callable[[dict[int, Future]], ClusterLost | None] | None) -> None:
     """:func:`run_graph`'s loop, filling ``futures``."""
     waiting = list(range(n))
     check = getattr(executor, "check", None)  # a cluster that can stop running (Dask)
+    stopped = None
     while waiting or any(not f.done() for f in futures.values()):
         if check is not None:
             check()
@@ -491,6 +503,9 @@ def _run_graph(executor: Executor, fn: Callable[..., Any], n: int,
         if lost is not None:
             _drain(channel, on_event, check)
             raise lost
+        if stop is not None and stopped is None:
+            stopped = stop(done)
+            waiting = [] if stopped is not None else waiting
         ready = [i for i in waiting if all(j in done for j in needs(i))]
         for i in ready:
             try:
@@ -505,7 +520,7 @@ def _run_graph(executor: Executor, fn: Callable[..., Any], n: int,
             wait(pending, timeout=poll_s, return_when=FIRST_COMPLETED)
         _drain(channel, on_event, check)
     _drain(channel, on_event, check)
-    lost = _lost_worker(futures)
+    lost = _lost_worker(futures) or stopped
     if lost is not None:
         raise lost
     cancelled = sorted(i for i, f in futures.items() if f.cancelled())

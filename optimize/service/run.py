@@ -195,12 +195,13 @@ class SweepResult:
     executor : str
         Description of the executor it ran on.
     lost : str or None
-        Why the executor was lost before the sweep ended (a Dask cluster,
-        :class:`optimize.service.executors.ClusterLost`; a worker of the local pool,
-        :class:`optimize.service.executors.WorkerLost`); None when it ran to its end.
-    lost_worker : bool
-        The loss was a worker of the local pool that ended abruptly (a solver call that
-        hung past its hard stop ends it so), not a Dask cluster.
+        Why the sweep ended before its end: its Dask cluster was lost
+        (:class:`optimize.service.executors.ClusterLost`), a worker of the local pool
+        ended abruptly (:class:`optimize.service.executors.WorkerLost`: a solver call that
+        hung), or it gave up on its solver (:class:`GaveUp`); None when it ran to its end.
+    stopped : str
+        The label of a loss the run decided itself (``"WORKER LOST"``, ``"STOPPED"``:
+        a re-run may meet it again), ``""`` for none or a lost cluster.
     """
 
     outcomes: tuple[ScenarioOutcome, ...]
@@ -209,7 +210,7 @@ class SweepResult:
     wall_time_s: float
     executor: str
     lost: str | None = None
-    lost_worker: bool = False
+    stopped: str = ""
 
     def iterations(self) -> dict[str, int]:
         """What the sweep's solves cost in solver iterations: ``reported`` (the final
@@ -271,6 +272,10 @@ class SweepTasks:
     selected : tuple of str
         The scenario kinds as selected, the order of the outcomes; empty: in the order
         of the steps.
+    give_up_after : int
+        Give the sweep up once this many of its scenarios failed and none converged
+        (:class:`GaveUp`; 0: never): ``bench optimize`` with a solver other than the
+        default, which has one to name instead.
     """
 
     problem: Problem
@@ -280,11 +285,27 @@ class SweepTasks:
     backend: Any = None
     period_scan: int = 0
     selected: tuple[str, ...] = ()
+    give_up_after: int = 0
 
     @property
     def kinds(self) -> tuple[str, ...]:
         """The scenario kinds, as selected (else in the order of the steps)."""
         return self.selected or tuple(dict.fromkeys(s.scenario.kind for s in self.steps))
+
+
+class GaveUp(ClusterLost):
+    """The sweep gave its solver up: ``n`` of its scenarios failed and none converged
+    (:attr:`SweepTasks.give_up_after`). The tasks running then finish; the rest are not
+    run, as after a lost cluster (what finished is kept)."""
+
+    label = "STOPPED"
+
+    def __init__(self, n: int) -> None:
+        super().__init__(
+            f"gave up: {n} scenarios failed and none converged",
+            f"{n} scenarios failed and none converged: the sweep gives its solver up there, "
+            "nothing more is solved: what finished is kept",
+            expected="a solver that converges some of the scenarios")
 
 
 def _own(out: ChainOutcome, step: Step) -> ChainOutcome:
@@ -332,10 +353,18 @@ def _solve_graph(tasks: SweepTasks, stage: int, prior: dict[Scenario, tuple], ha
                             solved=(*earlier, *solved))
         return made[n]
 
+    def give_up(done: dict) -> GaveUp | None:
+        if not tasks.give_up_after or any(o.success for o, _ in prior.values()):
+            return None
+        own = [o for j in done for o in outcome(j, done[j]).outcomes]
+        if any(o.success for o in own) or len(own) < tasks.give_up_after:
+            return None
+        return GaveUp(len(own))
+
     lost = None
     try:
         futures = run_graph(handle.executor, run_chain, len(steps), needs, make_task,
-                            handle.channel, on_event)
+                            handle.channel, on_event, stop=give_up)
     except ClusterLost as exc:
         futures, lost = exc.finished, exc
     return {at[n]: outcome(n, futures[n]) if n in futures else _never_ran(tasks, at[n], lost)
@@ -480,5 +509,6 @@ def run_sweep(tasks: SweepTasks, handle: Any, show_progress: bool = True) -> Swe
     if isinstance(lost, WorkerLost) and running:  # the run that had gone on longest
         line, since = min(running.values(), key=lambda r: r[1])
         why += f"; the solver run going on longest then: {line[:-4]} for {t_end - since:.0f} s"
+    stopped = "" if lost is None or lost.label == ClusterLost.label else lost.label
     return SweepResult(tuple(outcomes), cut_ins, (*grid, *follow), wall, handle.description,
-                       why, isinstance(lost, WorkerLost))
+                       why, stopped)
