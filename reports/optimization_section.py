@@ -247,8 +247,11 @@ def run_rows(manifest: dict, fit_model_sha256: str | None) -> list[tuple[str, st
             value = manifest[key]
             rows.append((key, fmt(value, 1) if isinstance(value, float) else value_text(value)))
     its = manifest.get("iterations")
+    options = manifest.get("options")
+    solver = options.get("solver") if isinstance(options, dict) else None
+    name = "fatrop" if isinstance(solver, dict) and solver.get("solver") == "fatrop" else "IPOPT"
     if isinstance(its, dict):  # docs/schemas.md §5, manifest "iterations"
-        rows.append(("IPOPT iterations",
+        rows.append((f"{name} iterations",
                      f"{its.get('reported', 0)} in the scenarios' final solves; "
                      f"{its.get('intermediate_points', 0)} intermediate points on the way to "
                      f"them ({its.get('intermediate_iterations', 0)} iterations, not results); "

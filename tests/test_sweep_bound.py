@@ -221,6 +221,13 @@ def test_the_iterations_line_names_the_solver_that_ran():
            "by_role": {"grid": 30}}
     assert iterations_line(its, "fatrop").startswith("fatrop iterations: 12 in the scenarios'")
     assert iterations_line(its).startswith("IPOPT iterations: 12")
+    # and the report's row of the sweep's manifest
+    from reports.optimization_section import run_rows
+
+    for solver, row in (("fatrop", "fatrop iterations"), ("ipopt", "IPOPT iterations")):
+        rows = dict(run_rows({"iterations": its, "options": {"solver": {"solver": solver}}},
+                             None))
+        assert rows[row].startswith("12 in the scenarios' final solves")
 
 
 @dataclass(frozen=True)
