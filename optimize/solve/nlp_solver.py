@@ -313,16 +313,25 @@ QUIET_WARNINGS = ("Failed to calculate multipliers",)
 
 
 class _Dropping:
-    """A text stream that passes on what is written to ``stream``, but the writes that
-    hold one of ``texts`` and a line end written alone right after one."""
+    """A text stream that passes on to ``stream`` the lines written to it, but those that
+    hold one of ``texts``: whole lines, as CasADi writes a warning in pieces (its prefix,
+    its text, its source); :meth:`flush_rest` passes on an unfinished last line."""
 
     def __init__(self, stream: Any, texts: tuple[str, ...]) -> None:
-        self._stream, self._texts, self._dropped = stream, texts, False
+        self._stream, self._texts, self._line = stream, texts, ""
 
     def write(self, text: str) -> int:
-        drop = any(t in text for t in self._texts) or (self._dropped and text == "\n")
-        self._dropped = drop and text != "\n"
-        return len(text) if drop else self._stream.write(text)
+        *lines, self._line = (self._line + text).split("\n")
+        kept = "".join(f"{line}\n" for line in lines
+                       if not any(t in line for t in self._texts))
+        if kept:
+            self._stream.write(kept)
+        return len(text)
+
+    def flush_rest(self) -> None:
+        if self._line and not any(t in self._line for t in self._texts):
+            self._stream.write(self._line)
+        self._line = ""
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._stream, name)
@@ -330,14 +339,15 @@ class _Dropping:
 
 @contextmanager
 def _quiet_stderr(texts: tuple[str, ...]) -> Iterator[None]:
-    """While open, what is written to ``sys.stderr`` holding one of ``texts`` is dropped
-    (CasADi writes its warnings there, through the interpreter)."""
+    """While open, the lines written to ``sys.stderr`` that hold one of ``texts`` are
+    dropped (CasADi writes its warnings there, through the interpreter)."""
     before = sys.stderr
-    sys.stderr = _Dropping(before, texts)
+    sys.stderr = dropping = _Dropping(before, texts)
     try:
         yield
     finally:
         sys.stderr = before
+        dropping.flush_rest()
 
 
 def _call(nlpsol: ca.Function, w0: np.ndarray, p: np.ndarray, bounds: Bounds,
