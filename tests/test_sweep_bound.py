@@ -295,3 +295,24 @@ def test_bench_optimize_with_fatrop_stops_and_names_ipopt(tmp_path, monkeypatch,
 
     summary = pd.read_parquet(tmp_path / "o" / "summary.parquet")
     assert len(summary) == 5 and not summary["success"].any()
+
+
+def test_every_solver_call_runs_under_its_hard_stop(monkeypatch):
+    # the wiring: nlp_solver.run arms the hard stop of its own call limit around the call
+    import contextlib
+
+    from test_failed_call import _pendulum
+
+    from optimize.solve import nlp_solver
+
+    armed = []
+
+    @contextlib.contextmanager
+    def recording(limit_s, grace_s=None):
+        armed.append(limit_s)
+        yield
+
+    monkeypatch.setattr(nlp_solver, "hard_stop", recording)
+    _, ocp, w0, p, bounds = _pendulum("ipopt", "collocation")
+    assert nlp_solver.run(ocp, w0, p, bounds, warm=False).success
+    assert armed == [ocp.options.solver.call_time_limit_s]
