@@ -316,3 +316,16 @@ def test_every_solver_call_runs_under_its_hard_stop(monkeypatch):
     _, ocp, w0, p, bounds = _pendulum("ipopt", "collocation")
     assert nlp_solver.run(ocp, w0, p, bounds, warm=False).success
     assert armed == [ocp.options.solver.call_time_limit_s]
+
+
+def test_a_hung_call_in_bench_size_s_solves_stops_them_naming_it():
+    # solve_tasks (bench size, bench aep --refine): the loss is an InputError (exit 2),
+    # its stored solves kept for a re-run
+    from optimize.service import SolveTask, solve_tasks
+    from optimize.service.executors import WorkerLost
+
+    tasks = [SolveTask(BOUNDED, Scenario.of_kind("elec-lim", w)) for w in (7.0, 10.0)]
+    t0 = time.monotonic()
+    with pytest.raises(WorkerLost, match="taken to hang") as err:
+        solve_tasks(tasks, workers=1, backend=HangingBackend())
+    assert time.monotonic() - t0 < 60 and err.value.label == "WORKER LOST"
