@@ -329,3 +329,28 @@ def test_a_hung_call_in_bench_size_s_solves_stops_them_naming_it():
     with pytest.raises(WorkerLost, match="taken to hang") as err:
         solve_tasks(tasks, workers=1, backend=HangingBackend())
     assert time.monotonic() - t0 < 60 and err.value.label == "WORKER LOST"
+
+
+def test_a_hung_call_on_a_dask_worker_of_its_own_fails_its_scenario():
+    # a worker process of one thread ends itself at the hard stop; its nanny starts it
+    # again and the scheduler fails the task once past its allowed failures (0 here)
+    distributed = pytest.importorskip("distributed")
+    kinds = ("elec-free", "elec-lim")
+    tasks = SweepTasks(BOUNDED, plan_graph(WINDS, kinds), backend=HangingBackend(),
+                       selected=kinds)
+    dask = pytest.importorskip("dask")
+    with (dask.config.set({"distributed.scheduler.allowed-failures": 0}),
+          distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                   dashboard_address=None) as cluster,
+          open_executor(scheduler=cluster.scheduler_address) as handle):
+        t0 = time.monotonic()
+        result = run_sweep(tasks, handle, show_progress=False)
+    assert time.monotonic() - t0 < 120 and result.lost is None
+    by_name = {o.name: o for o in result.outcomes}
+    assert by_name["elec-lim-10.0"].status.startswith("worker error: KilledWorker")
+    # the sweep went on: every other scenario converged, exact
+    for o in result.outcomes:
+        if o.name != "elec-lim-10.0":
+            cut_in = CUT_IN_M_S[o.kind]
+            assert o.success and o.result.avg_p_elec_w == pytest.approx(
+                SCALE_W * (exact_root(cut_in) - exact_root(o.wind_speed_m_s)), rel=1e-9)

@@ -85,21 +85,27 @@ def pool_worker(parent_pid: int) -> None:
     from kernel.lifetime import die_with_parent
 
     die_with_parent(parent_pid)
+    arm_hard_stop()
+
+
+def arm_hard_stop() -> None:
+    """Let this process end itself at a hung solver call's hard stop (:func:`hard_stop`):
+    a worker process of its own that runs one task at a time (the local pool's, a Dask
+    worker's of one thread), never the command's."""
     _may_stop["armed"] = True
 
 
 @contextmanager
 def hard_stop(limit_s: float, grace_s: float = HARD_STOP_GRACE_S) -> Iterator[None]:
-    """While open, a solver call of limit ``limit_s`` [s] runs: in a worker of the local
-    pool (:func:`pool_worker`, its main thread), the process exits (status 1, from a
+    """While open, a solver call of limit ``limit_s`` [s] runs: in a worker process that
+    runs one task at a time (:func:`arm_hard_stop`), the process exits (status 1, from a
     watchdog thread that needs no lock of the interpreter,
     :func:`faulthandler.dump_traceback_later`) when the call is still running
     :func:`hard_stop_s` after it began (``grace_s`` in place of
     :data:`HARD_STOP_GRACE_S`: the tests' stand-in solvers). Elsewhere (the
-    command's own process, a Dask worker's threads, the tests) and with no limit
+    command's own process, an in-process cluster, the tests) and with no limit
     (``--call-time-limit inf``) nothing is armed."""
-    armed = (_may_stop["armed"] and math.isfinite(limit_s)
-             and threading.current_thread() is threading.main_thread())
+    armed = _may_stop["armed"] and math.isfinite(limit_s)
     if armed:
         if _may_stop["sink"] is None:  # the watchdog's traceback is nobody's to read
             _may_stop["sink"] = open(os.devnull, "w")  # noqa: SIM115 - open for good

@@ -13,7 +13,8 @@ start graph is one task (:func:`run_tasks`, :func:`run_graph`).
   stops with a :class:`WorkerLost` (a :class:`ClusterLost`), what finished kept as below;
 * with ``scheduler`` given, the executor of a ``distributed.Client`` connected to
   that Dask scheduler address (optional extra ``drivebench[dask]``). Start the
-  Dask workers with ``--nthreads 1``: one solve at a time per process. An address
+  Dask workers with ``--nthreads 1``: one solve at a time per process (and then a worker
+  whose solver call hangs ends itself at the call's hard stop, :func:`_on_worker`). An address
   that is none, or where no scheduler answers within 20 s, is refused; a cluster
   without a worker is waited for :data:`WORKER_WAIT_S` seconds, at the start and
   whenever its last worker leaves during the run, and then the run stops with an
@@ -51,7 +52,12 @@ from typing import Any
 
 from kernel.errors import InputError
 from kernel.lifetime import die_with_parent
-from optimize.problem.deadline import HARD_STOP_CALLS, HARD_STOP_GRACE_S, pool_worker
+from optimize.problem.deadline import (
+    HARD_STOP_CALLS,
+    HARD_STOP_GRACE_S,
+    arm_hard_stop,
+    pool_worker,
+)
 
 
 class QueueChannel:
@@ -184,6 +190,20 @@ class WorkerLost(ClusterLost):
             expected="solver calls that end at their --call-time-limit")
 
 
+def _on_worker(driver_pid: int, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Any:
+    """``fn(*args, **kwargs)`` on a Dask worker; one that is a process of its own (not the
+    driver's, ``driver_pid``: an in-process cluster) and runs one task at a time
+    (``--nthreads 1``) ends itself at a hung solver call's hard stop
+    (:func:`optimize.problem.deadline.arm_hard_stop`): its nanny starts it again and the
+    scheduler gives the task to a worker again, up to its allowed failures (3 by default),
+    then fails it (``worker error: KilledWorker``)."""
+    from distributed import get_worker
+
+    if os.getpid() != driver_pid and get_worker().state.nthreads == 1:
+        arm_hard_stop()
+    return fn(*args, **kwargs)
+
+
 def _lost_worker(futures: dict[int, Future]) -> WorkerLost | None:
     """The loss of a local pool whose worker ended abruptly (a future that holds a
     :class:`~concurrent.futures.process.BrokenProcessPool`), or None."""
@@ -211,8 +231,9 @@ class WatchedExecutor(Executor):
         self.lost: ClusterLost | None = None
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future:
-        """Submit ``fn(*args, **kwargs)`` to the cluster."""
-        return self._inner.submit(fn, *args, **kwargs)
+        """Submit ``fn(*args, **kwargs)`` to the cluster, its hung solver calls ended on a
+        worker of its own (:func:`_on_worker`)."""
+        return self._inner.submit(_on_worker, os.getpid(), fn, *args, **kwargs)
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
         """Shut the client's executor down (the client is closed by :func:`open_executor`)."""
