@@ -14,7 +14,10 @@
   :class:`SweepResult`. A Dask cluster lost on the way
   (:class:`optimize.service.executors.ClusterLost`) ends the sweep with what finished: the
   steps not run fail with status ``"not run: ..."``, the follow-up tasks not run leave
-  their kind's grid as solved, and :attr:`SweepResult.lost` says why.
+  their kind's grid as solved, and :attr:`SweepResult.lost` says why. So does a worker
+  of the local pool that ended abruptly (a solver call that hung past its hard stop,
+  :class:`optimize.service.executors.WorkerLost`), and a sweep that gave its solver up
+  (:attr:`SweepTasks.give_up_after` scenarios failed and none converged, :class:`GaveUp`).
 """
 
 from __future__ import annotations
