@@ -26,6 +26,7 @@ import dataclasses
 import math
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -55,13 +56,21 @@ from optimize.service.store import solve_key
 RE_SOLVES = (LOCAL_OPTIMUM, PERIOD_SCAN, RETRY)
 
 
+#: the status of a chain that was running when a worker of the local pool ended abruptly:
+#: its own call, or one beside it, hung (the run's WORKER LOST line names the one that had
+#: been going on longest, :class:`~optimize.service.executors.WorkerLost`)
+POOL_BROKE = ("worker lost: the local pool broke while this ran (its solver call, or one "
+              "running beside it, hung past its hard stop: see the run's WORKER LOST line)")
+
+
 def failed_chain(task: ChainTask, exc: BaseException) -> ChainOutcome:
     """The outcome of a chain whose task raised (or never ran, ``exc`` the
     :class:`~optimize.service.executors.ClusterLost` that stopped it): every planned speed
     failed, with the one failure format (:func:`optimize.service.outcome.failure_status`;
-    ``"not run: cluster lost: ..."`` for one never run); the scenarios handed to it as
-    solved stay as they were."""
+    ``"not run: cluster lost: ..."`` for one never run, :data:`POOL_BROKE` for one running
+    when the local pool broke); the scenarios handed to it as solved stay as they were."""
     status = (f"{NOT_RUN}: {exc.why}" if isinstance(exc, ClusterLost)
+              else f"{WORKER_ERROR}: {POOL_BROKE}" if isinstance(exc, BrokenProcessPool)
               else failure_status(WORKER_ERROR, exc))
     outcomes = tuple(o for o, _ in task.solved) + tuple(
         ScenarioOutcome(s.scenario, task.index, (Attempt(
