@@ -239,21 +239,17 @@ def run(args: argparse.Namespace) -> int:
             print(advice)
     if sweep.lost is None:
         return exit_code(sweep.summary["success"].tolist())
-    if sweep.stopped:  # a re-run may meet it again: the scenarios' own exit code
-        print(f"{sweep.stopped}: {sweep.lost}", file=sys.stderr)
-        print("NOT RUN (the run stopped): "
-              f"{', '.join(sweep.summary.loc[not_run, 'scenario']) or 'none of the scenarios'}",
-              file=sys.stderr)
-        if sweep.kept:
-            print(sweep.kept, file=sys.stderr)
-        return exit_code(sweep.summary["success"].tolist())
-    print(f"CLUSTER LOST: {sweep.lost}", file=sys.stderr)
-    print("NOT RUN (cluster lost; a re-run solves them): "
+    # a stop the run decided (a hung call, a solver given up) may come again on a re-run:
+    # the scenarios' own exit code; a lost cluster's scenarios a re-run solves
+    label, again = ((sweep.stopped, "the run stopped") if sweep.stopped else
+                    ("CLUSTER LOST", "cluster lost; a re-run solves them"))
+    print(f"{label}: {sweep.lost}", file=sys.stderr)
+    print(f"NOT RUN ({again}): "
           f"{', '.join(sweep.summary.loc[not_run, 'scenario']) or 'none of the scenarios'}",
           file=sys.stderr)
     if sweep.kept:
         print(sweep.kept, file=sys.stderr)
-    return EXIT_CLUSTER_LOST
+    return exit_code(sweep.summary["success"].tolist()) if sweep.stopped else EXIT_CLUSTER_LOST
 
 
 def solver_advice(solver: str, transcription: str) -> str | None:
