@@ -122,8 +122,9 @@ class SweepRequest:
                                                        self.cut_in_tol_m_s)
         per_s = (SCENARIO_CALLS + 1) * limit_s
         probes = f" and up to {n_probes} cut-in probes" if n_probes else ""
-        return (f"time bound: {n_grid} scenarios{probes}, each at most {per_s:g} s of solver "
-                f"runs ({SCENARIO_CALLS} + 1 times --call-time-limit {limit_s:g}), "
+        scenarios = f"{n_grid} scenario{'s' * (n_grid != 1)}"
+        return (f"time bound: {scenarios}{probes}, each at most {per_s:g} s of solver runs "
+                f"({SCENARIO_CALLS} + 1 times --call-time-limit {limit_s:g}), "
                 f"{_minutes((n_grid + n_probes) * per_s)} in all (NLP builds and --trust "
                 f"aside); a call that hangs stops the run {hard_stop_s(limit_s):g} s after "
                 "it began")
