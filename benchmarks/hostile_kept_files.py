@@ -469,7 +469,6 @@ def case_thermal_block_absurd(work: Work) -> tuple[str, str]:
     return verdict, f"{text} ({time.perf_counter() - t0:.0f} s)"
 
 
-
 def _fatrop_verdict(run: subprocess.CompletedProcess, out: Path, reference: Path | None,
                     seconds: float, bound_s: float) -> tuple[str, str]:
     """A fatrop sweep: clean when it ends without a traceback within ``bound_s`` (its

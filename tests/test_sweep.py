@@ -790,6 +790,34 @@ def test_an_optimum_the_mesh_is_too_coarse_for_is_solved_on_a_finer_one_before_i
     bad = {o.name: o for o in short.outcomes}["mech-free-10.0"]
     assert not bad.success and len(bad.attempts) == 7 and bad.check.startswith("failed: ")
 
+
+def test_a_finer_mesh_is_not_solved_once_the_scenario_s_budget_is_spent():
+    from types import SimpleNamespace
+
+    from optimize.problem.options import Discretization, OcpOptions, SolverOptions
+    from optimize.service.outcome import Attempt, ScenarioOutcome
+    from optimize.service.retry import retry_on_finer_mesh
+    from optimize.service.solves import Solves, spent_status
+
+    options = OcpOptions(Discretization(n_intervals=10),
+                         solver=SolverOptions(call_time_limit_s=0.05))
+    problem = Problem(None, SimpleNamespace(sha256="stand-in"), options, "stand-in 10")
+    backend = CoarseMeshBackend()
+    bad = Scenario.of_kind("mech-free", 10.0)
+    artifact = backend.cold_start(problem, bad)  # converged, its check failed
+    outcome = ScenarioOutcome(bad, 0, (Attempt(None, "Solve_Succeeded", False, 3, 0.1),),
+                              artifact)
+    solves = Solves(problem, backend=backend)
+    solves.spent_s[bad] = problem.scenario_budget_s  # 8 call limits: 0.4 s, all spent
+    done = retry_on_finer_mesh(solves, outcome)
+    # each finer mesh asked for is not run, says why, and the result stays the coarse one
+    tried = done.attempts[1:]
+    assert [a.source for a in tried] == ["mech-free-10.0 on 20 intervals",
+                                         "mech-free-10.0 on 40 intervals"]
+    assert all(a.status == spent_status(0.4) and not a.success and a.wall_time_s == 0.0
+               for a in tried)
+    assert done.result is artifact and not done.success
+
 # ----------------------------------------------------------------- local optima
 @dataclass(frozen=True)
 class BranchResult(Result):

@@ -100,36 +100,37 @@ def retry_on_finer_mesh(solves: Any, outcome: ScenarioOutcome) -> ScenarioOutcom
     return outcome
 
 
-class _Spent(Exception):
-    """The scenario's budget is spent: the finer mesh is not solved."""
-
-
 def _remesh_attempt(solves: Any, outcome: ScenarioOutcome, coarse_ocp: Any, fine: Any
                     ) -> tuple[Attempt, Any, Any]:
     """One solve of ``outcome``'s scenario on the ``fine`` problem from its last result
-    (on ``coarse_ocp``): the attempt, its result (None if it raised) and the fine OCP."""
+    (on ``coarse_ocp``), within what is left of the scenario's budget (not run when nothing
+    is: :func:`~optimize.service.solves.spent_status`): the attempt, its result (None if it
+    raised or did not run) and the fine OCP."""
     source = f"{outcome.name} on {fine.n_intervals} intervals"
     solves.tell("start", outcome.name, RETRY, source, "")
-    t0, fine_ocp = time.perf_counter(), None
     with solves.budget(outcome.scenario) as left_s:
-        try:
-            if left_s <= 0:
-                raise _Spent
-            fine_ocp = solves.backend.build(fine)
-            with deadline(left_s):
-                res = solves.backend.remesh(coarse_ocp, fine_ocp, outcome.scenario,
-                                            outcome.result)
-        except _Spent:
-            attempt, res = Attempt(source, spent_status(solves.problem.scenario_budget_s),
-                                   False, 0, 0.0), None
-        except Exception as exc:  # noqa: BLE001 - a crash is this attempt's failure, reported
-            attempt, res = Attempt(source, failure_status(CRASH, exc), False, 0,
-                                   time.perf_counter() - t0), None
-        else:
-            check = solves.backend.check(fine_ocp, res, outcome.name) if res.success else None
-            attempt = Attempt(source, str(res.status), bool(res.success) and (
-                check is None or check.passed), int(res.iterations), float(res.wall_time_s),
-                check)
+        attempt, res, fine_ocp = (
+            _remesh_run(solves, outcome, coarse_ocp, fine, source, left_s) if left_s > 0
+            else (Attempt(source, spent_status(solves.problem.scenario_budget_s), False, 0,
+                          0.0), None, None))
     solves.count(attempt, RETRY)
     solves.tell("done", outcome.name, RETRY, source, attempt.status)
     return attempt, res, fine_ocp
+
+
+def _remesh_run(solves: Any, outcome: ScenarioOutcome, coarse_ocp: Any, fine: Any,
+                source: str, left_s: float) -> tuple[Attempt, Any, Any]:
+    """:func:`_remesh_attempt`'s solver run, its calls within ``left_s`` [s], and its
+    check."""
+    t0, fine_ocp = time.perf_counter(), None
+    try:
+        fine_ocp = solves.backend.build(fine)
+        with deadline(left_s):
+            res = solves.backend.remesh(coarse_ocp, fine_ocp, outcome.scenario, outcome.result)
+    except Exception as exc:  # noqa: BLE001 - a crash is this attempt's failure, reported
+        return (Attempt(source, failure_status(CRASH, exc), False, 0, time.perf_counter() - t0),
+                None, fine_ocp)
+    check = solves.backend.check(fine_ocp, res, outcome.name) if res.success else None
+    return Attempt(source, str(res.status), bool(res.success) and (
+        check is None or check.passed), int(res.iterations), float(res.wall_time_s),
+        check), res, fine_ocp

@@ -520,7 +520,8 @@ def run_sweep(tasks: SweepTasks, handle: Any, show_progress: bool = True) -> Swe
     why = None if lost is None else lost.problem
     if isinstance(lost, WorkerLost) and running:  # the run that had gone on longest
         line, since = min(running.values(), key=lambda r: r[1])
-        why += f"; the solver run going on longest then: {line[:-4]} for {t_end - since:.0f} s"
+        why += (f"; the solver run going on longest then: {line.removesuffix(' ...')} for "
+                f"{t_end - since:.0f} s")
     stopped = "" if lost is None or lost.label == ClusterLost.label else lost.label
     return SweepResult(tuple(outcomes), cut_ins, (*grid, *follow), wall, handle.description,
                        why, stopped)
